@@ -1,0 +1,322 @@
+"""Equations of one bar: the acceleration field (1), the Galerkin equations (16)-(17) and
+the three rigid-body equations, in the bar's own dimensionless form.
+
+Everything here is local to one bar: its angle theta, amplitudes f (axial, zeta = phi^T f)
+and g (transverse, eta = psi^T g), their rates and accelerations, and the acceleration of
+its origin A in its own axes divided by l_i omega^2 (the paper's [r_A'']_i, given by (10)).
+The inner products come from an ``IPTable``: numbers for the model, or named symbols for
+display in LaTeX, so the same code writes both.
+
+Normalisation (per bar, forces in m_i l_i omega^2 per unit length):
+
+* ``force``  : rigid-body force balance in bar axes, divided by nu alpha^2
+* ``moment`` : moment balance about A, divided by nu alpha^3
+* ``eq16``, ``eq17`` : the weak (symmetric) forms of (16), (17), divided by nu alpha^3
+
+and ``generalized`` multiplies back to common units (m_ref l0^3 omega^2 per unit coordinate)
+with the force rotated to ground axes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations_with_replacement
+from math import factorial
+
+import numpy as np
+import sympy as sp
+
+from .shapes import Basis, InnerProducts
+
+ZERO_TOL = 1e-13
+
+
+def rot(th: sp.Expr) -> sp.Matrix:
+    """R(theta) of the formulation: bar axes -> ground axes."""
+    c, s = sp.cos(th), sp.sin(th)
+    return sp.Matrix([[c, -s], [s, c]])
+
+
+@dataclass(frozen=True)
+class BarSymbols:
+    """Symbols of one bar (coordinates, rates, accelerations, parameters)."""
+
+    name: str
+    th: sp.Symbol
+    dth: sp.Symbol
+    ddth: sp.Symbol
+    f: tuple
+    df: tuple
+    ddf: tuple
+    g: tuple
+    dg: tuple
+    ddg: tuple
+    xa_dd: sp.Symbol        # [x_A'']_i : acceleration of A along the bar / (l_i omega^2)
+    ya_dd: sp.Symbol
+    alpha: sp.Symbol
+    nu: sp.Symbol
+    lam: sp.Symbol | None
+    mu: sp.Symbol | None
+
+    @staticmethod
+    def make(name: str, na: int, nt: int, elastic: bool) -> "BarSymbols":
+        def vec(prefix: str, n: int) -> tuple:
+            return tuple(sp.Symbol(f"{prefix}_{name}_{k + 1}", real=True) for k in range(n))
+
+        S = lambda s: sp.Symbol(s, real=True)  # noqa: E731
+        return BarSymbols(
+            name=name, th=S(f"theta_{name}"), dth=S(f"dtheta_{name}"), ddth=S(f"ddtheta_{name}"),
+            f=vec("f", na), df=vec("df", na), ddf=vec("ddf", na),
+            g=vec("g", nt), dg=vec("dg", nt), ddg=vec("ddg", nt),
+            xa_dd=S(f"xAdd_{name}"), ya_dd=S(f"yAdd_{name}"),
+            alpha=sp.Symbol(f"alpha_{name}", positive=True), nu=sp.Symbol(f"nu_{name}", positive=True),
+            lam=sp.Symbol(f"lambda_{name}", positive=True) if elastic and na else None,
+            mu=sp.Symbol(f"mu_{name}", positive=True) if elastic and nt else None)
+
+
+class IPTable:
+    """Inner products of one bar, as numbers (``symbolic=False``) or display symbols.
+
+    Index convention of the Gram matrix: b = [1, xi, phi_1..phi_na, psi_1..psi_nt].
+    """
+
+    def __init__(self, ip: InnerProducts, symbolic: bool = False) -> None:
+        self.ip, self.na, self.nt, self.symbolic = ip, ip.na, ip.nt, symbolic
+        self._labels = (["1", r"\xi"] + [rf"\phi_{{{k + 1}}}" for k in range(ip.na)]
+                        + [rf"\psi_{{{k + 1}}}" for k in range(ip.nt)])
+
+    def _num(self, x: float) -> sp.Expr:
+        return sp.Integer(0) if abs(x) < ZERO_TOL else sp.Float(float(x), 17)
+
+    def gram(self, i: int, j: int) -> sp.Expr:
+        value = self.ip.gram[i, j]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        i, j = min(i, j), max(i, j)
+        return sp.Symbol(rf"\left({self._labels[i]},{self._labels[j]}\right)")
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        value = getattr(self.ip, name)[i, j]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        return sp.Symbol(latex.format(i=i + 1, j=j + 1))
+
+    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
+        value = getattr(self.ip, name)[i]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        return sp.Symbol(latex.format(i=i + 1)) if self.symbolic else self._num(value)
+
+    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
+        value = getattr(self.ip, name)[idx]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        return sp.Symbol(latex.format(*[k + 1 for k in idx]))
+
+
+def _ip(t: IPTable, u: list, w: list) -> sp.Expr:
+    """(u, w) = integral of (u . b)(w . b) over [0, 1] for coefficient lists over b."""
+    out = []
+    for i, ui in enumerate(u):
+        if ui == 0:
+            continue
+        for j, wj in enumerate(w):
+            if wj == 0:
+                continue
+            gij = t.gram(i, j)
+            if gij != 0:
+                out.append(gij * ui * wj)
+    return sp.Add(*out)
+
+
+@dataclass(frozen=True)
+class PointForce:
+    """A concentrated force on the bar at xi.
+
+    ``ground``: (Fx, Fy) in ground axes and common units m_ref l0^2 omega^2 (reactions, lumped
+    masses), or ``bar``: (B, Gamma) groups F/(m_i l_i^2 omega^2) in bar axes (point loads).
+    """
+
+    xi: float
+    ground: tuple | None = None
+    bar: tuple | None = None
+
+
+@dataclass(frozen=True)
+class BarEquations:
+    sym: BarSymbols
+    force: tuple            # (2,) bar axes, / nu alpha^2
+    moment: sp.Expr         # / nu alpha^3
+    eq16: tuple             # (na,) / nu alpha^3
+    eq17: tuple             # (nt,) / nu alpha^3
+    kinetic: sp.Expr        # / nu alpha^3, needs xa_d, ya_d symbols
+    elastic: sp.Expr        # strain energy / nu alpha^3
+    xa_d: sp.Symbol
+    ya_d: sp.Symbol
+
+    def generalized(self) -> dict:
+        """Generalized forces in common units: 'XY' (ground axes), 'th', 'f', 'g'."""
+        s = self.sym
+        k2, k3 = s.nu * s.alpha ** 2, s.nu * s.alpha ** 3
+        fxy = rot(s.th) * sp.Matrix(self.force) * k2
+        return {"XY": (fxy[0], fxy[1]), "th": k3 * self.moment,
+                "f": tuple(k3 * e for e in self.eq16), "g": tuple(k3 * e for e in self.eq17)}
+
+
+def bar_equations(
+    s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, *,
+    loads: tuple = (), points: tuple = (), gravity: tuple | None = None,
+    damping: sp.Expr | None = None,
+) -> BarEquations:
+    """Derive one bar's equations.
+
+    Parameters
+    ----------
+    loads : ((beta, gamma), ...) uniform distributed load groups in bar axes (/ m_i l_i w^2)
+    points : PointForce, ...
+    gravity : (Gx, Gy) symbols (g / l0 w^2, ground axes) or None when off
+    damping : Kelvin-Voigt ratio symbol or None when off
+    """
+    na, nt = len(s.f), len(s.g)
+    th, dth, ddth = s.th, s.dth, s.ddth
+    f, df, ddf = list(s.f), list(s.df), list(s.ddf)
+    g, dg, ddg = list(s.g), list(s.dg), list(s.ddg)
+    zf, zg = [0] * na, [0] * nt
+    cor = 2 * dth if effects.coriolis else 0
+
+    # eq. (1) divided by l_i w^2, as coefficients over b = [1, xi, phi, psi]
+    ax = [s.xa_dd, -dth ** 2] + [ddf[k] - dth ** 2 * f[k] for k in range(na)] \
+        + [-cor * dg[k] - ddth * g[k] for k in range(nt)]
+    ay = [s.ya_dd, ddth] + [cor * df[k] + ddth * f[k] for k in range(na)] \
+        + [ddg[k] - dth ** 2 * g[k] for k in range(nt)]
+    pos_x = [0, 1] + f + zg          # xi + zeta
+    pos_y = [0, 0] + zf + g          # eta
+    one = [1, 0] + zf + zg
+
+    def unit(k: int) -> list:
+        e = [0] * (2 + na + nt)
+        e[k] = 1
+        return e
+
+    # distributed loads (uniform in xi) in bar axes, gravity included
+    beta = sp.Add(*[b for b, _ in loads])
+    gamma = sp.Add(*[c for _, c in loads])
+    if gravity is not None:
+        gx, gy = gravity
+        beta += (sp.cos(th) * gx + sp.sin(th) * gy) / s.alpha
+        gamma += (-sp.sin(th) * gx + sp.cos(th) * gy) / s.alpha
+
+    # point forces -> groups (B, Gamma) in bar axes
+    pts = []
+    for p in points:
+        if p.ground is not None:
+            Fx, Fy = p.ground
+            B = (sp.cos(th) * Fx + sp.sin(th) * Fy) / (s.nu * s.alpha ** 2)
+            G = (-sp.sin(th) * Fx + sp.cos(th) * Fy) / (s.nu * s.alpha ** 2)
+        else:
+            B, G = p.bar
+        phi_k = basis_a.values(p.xi) if na else np.zeros(0)
+        psi_k = basis_t.values(p.xi) if nt else np.zeros(0)
+        pts.append((p.xi, B, G, [_num(v) for v in phi_k], [_num(v) for v in psi_k]))
+
+    # rigid-body force balance (bar axes) / nu alpha^2
+    fx = _ip(t, one, ax) - beta - sp.Add(*[B for _, B, _, _, _ in pts])
+    fy = _ip(t, one, ay) - gamma - sp.Add(*[G for _, _, G, _, _ in pts])
+    # moment about A / nu alpha^3
+    mom = _ip(t, pos_x, ay) - _ip(t, pos_y, ax)
+    mom -= gamma * _ip(t, one, pos_x) - beta * _ip(t, one, pos_y)
+    for xi, B, G, ph, ps in pts:
+        zeta = sp.Add(*[ph[k] * f[k] for k in range(na)])
+        eta = sp.Add(*[ps[k] * g[k] for k in range(nt)])
+        mom -= (sp.Float(xi) + zeta) * G - eta * B
+
+    # elastic and damping generalized forces (weak, symmetric form)
+    lam, mu = s.lam, s.mu
+    Ka = [[t.mat("Ka", i, j, r"\left(\phi'_{{{i}}},\phi'_{{{j}}}\right)") for j in range(na)] for i in range(na)]
+    Kt = [[t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
+    quad_a = sp.Add(*[Ka[i][j] * f[i] * f[j] for i in range(na) for j in range(na)]) / 2
+    quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
+    coupling = sp.Integer(0)   # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
+    quartic = sp.Integer(0)    # (1/8) sum D4 g g g g = (1/8) int eta'^4
+    if effects.geometric_stiffening and na and nt:
+        for k in range(na):
+            for a, b in combinations_with_replacement(range(nt), 2):
+                c3 = t.tensor("C3", (k, a, b), r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)")
+                mult = 1 if a == b else 2
+                coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
+        if effects.strain == "von_karman":
+            for idx in combinations_with_replacement(range(nt), 4):
+                d4 = t.tensor("D4", idx, r"\left(\psi'_{{{0}}}\psi'_{{{1}}},\psi'_{{{2}}}\psi'_{{{3}}}\right)")
+                mult = _multinomial(idx)
+                term = d4 * mult / 8
+                for i in idx:
+                    term *= g[i]
+                quartic += term
+    if na and lam is not None:
+        strain_energy = lam * (quad_a + (coupling + quartic if effects.strain == "von_karman" else 0))
+    else:
+        strain_energy = sp.Integer(0)
+    if nt and mu is not None:
+        strain_energy += mu * quad_t
+    el_f = [sp.diff(strain_energy, fk) for fk in f]
+    el_g = [sp.diff(strain_energy, gk) for gk in g]
+    if effects.strain == "linear" and lam is not None and coupling != 0:
+        # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
+        el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
+    if damping is not None:
+        if lam is not None:
+            el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
+        if mu is not None:
+            el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
+
+    eq16 = []
+    for k in range(na):
+        e = unit(2 + k)
+        r = _ip(t, e, ax) + el_f[k] - beta * _ip(t, e, one) - sp.Add(*[B * ph[k] for _, B, _, ph, _ in pts])
+        eq16.append(r)
+    eq17 = []
+    for k in range(nt):
+        e = unit(2 + na + k)
+        r = _ip(t, e, ay) + el_g[k] - gamma * _ip(t, e, one) - sp.Add(*[G * ps[k] for _, _, G, _, ps in pts])
+        eq17.append(r)
+
+    # kinetic energy / nu alpha^3 (bar-axis velocity of A over l_i w: xa_d, ya_d)
+    xa_d, ya_d = sp.Symbol(f"xAd_{s.name}", real=True), sp.Symbol(f"yAd_{s.name}", real=True)
+    vx = [xa_d, 0] + df + [-dth * g[k] for k in range(nt)]
+    vy = [ya_d, dth] + [dth * f[k] for k in range(na)] + dg
+    kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2
+
+    if effects.rotary_inertia and nt and lam is not None and mu is not None:
+        rho = mu / lam
+        psid1 = [t.vec("psid1", k, r"\left(\psi'_{{{i}}},1\right)") for k in range(nt)]
+        Pd = [[t.mat("Pd", i, j, r"\left(\psi'_{{{i}}},\psi'_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
+        mom += rho * (ddth + sp.Add(*[psid1[k] * ddg[k] for k in range(nt)]))
+        eq17 = [eq17[i] + rho * (psid1[i] * ddth + sp.Add(*[Pd[i][j] * ddg[j] for j in range(nt)]))
+                for i in range(nt)]
+        kinetic += rho * (dth ** 2 + 2 * dth * sp.Add(*[psid1[k] * dg[k] for k in range(nt)])
+                          + sp.Add(*[Pd[i][j] * dg[i] * dg[j] for i in range(nt) for j in range(nt)])) / 2
+    if effects.strain == "linear" or not effects.geometric_stiffening:
+        elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
+    else:
+        elastic = strain_energy
+    return BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
+                        kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d)
+
+
+def _num(v: float) -> sp.Expr:
+    return sp.Integer(0) if abs(v) < ZERO_TOL else sp.Float(float(v), 17)
+
+
+def _multinomial(idx: tuple) -> int:
+    counts: dict[int, int] = {}
+    for i in idx:
+        counts[i] = counts.get(i, 0) + 1
+    out = factorial(len(idx))
+    for c in counts.values():
+        out //= factorial(c)
+    return out

@@ -1,0 +1,188 @@
+"""The ``symgen`` command line (thin: every command calls one stage function)."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .errors import SceneError, SimulationError, SymgenError
+
+
+def _scene(args):
+    from .scene import load_scene
+    return load_scene(args.scene, args.set or [])
+
+
+def _check_out(path: str, suffixes: tuple, key: str) -> Path:
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise SceneError("command line", key, f"{path!r} should end in {' or '.join(suffixes)}",
+                         f"give a file name like out/result{suffixes[0]}")
+    return p
+
+
+def cmd_simulate(args) -> int:
+    import numpy as np
+
+    from .pipeline import compile_scene
+    from .run.mechanism import Mechanism
+    from .run.results import write_results
+    from .run.simulate import simulate
+
+    out = _check_out(args.output, (".csv",), "-o")
+    if args.plot:
+        _check_out(args.plot, (".png",), "--plot")
+    scene = _scene(args)
+    compiled = compile_scene(scene, use_cache=not args.no_cache)
+    t0 = time.perf_counter()
+    mech = Mechanism(compiled, scene)
+    build_s = compiled.build_s + (time.perf_counter() - t0)
+    failure, result = None, None
+    try:
+        result = simulate(mech)
+    except SimulationError as err:
+        failure = err
+        result = getattr(err, "partial", None)
+    meta = _sidecar(scene, compiled, build_s, result, failure)
+    if result is None or len(result.tau) == 0:
+        if failure is not None:
+            raise failure
+        raise SimulationError(None, "the run produced no output")
+    written = write_results(out, result.tau, result.outputs, result.output_names, meta,
+                            complete=failure is None)
+    if args.plot:
+        from .plot import plot_outputs
+        kinds = [o.kind for o in scene.outputs]
+        turn = None
+        if scene.driver is not None and scene.driver.kind == "angle" and scene.driver.rate:
+            turn = 2 * math.pi / abs(scene.driver.rate)
+        plot_path = Path(args.plot)
+        if failure is not None:
+            plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
+        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, kinds,
+                     f"{scene.name}: {Path(scene.path).name}", partial=failure is not None, turn=turn)
+    if failure is not None:
+        print(f"symgen: partial result kept in {written}", file=sys.stderr)
+        raise failure
+    print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
+          f"{result.closure_max:.2e}; IDAS steps {result.steps}; "
+          f"derive {compiled.derive_s:.2f}s{' (cached)' if compiled.cached else ''}, "
+          f"simulate {result.simulate_s:.2f}s)")
+    del np
+    return 0
+
+
+def _sidecar(scene, compiled, build_s, result, failure) -> dict:
+    sim = scene.simulation
+    meta = compiled.meta
+    return {
+        "scene": str(scene.path),
+        "scene_hash": scene.hash,
+        "symgen_version": __version__,
+        "status": "complete" if failure is None else "partial",
+        "failure": None if failure is None else str(failure),
+        "groups": scene.groups,
+        "effects": {
+            "axial": scene.effects.axial, "transverse": scene.effects.transverse,
+            "geometric_stiffening": scene.effects.geometric_stiffening,
+            "coriolis": scene.effects.coriolis, "rotary_inertia": scene.effects.rotary_inertia,
+            "strain": scene.effects.strain, "gravity": list(scene.effects.gravity),
+            "damping": scene.effects.damping,
+        },
+        "modes": meta["modes"],
+        "model_key": meta["key"],
+        "coordinates": [c["name"] for c in meta["coords"]],
+        "partition": None if result is None else {
+            "independent": [meta["coords"][i]["name"] for i in result.partition.ind],
+            "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
+        "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
+                   "steps": None if result is None else result.steps},
+        "timings": {"derive_s": compiled.derive_s, "derive_cached": compiled.cached,
+                    "build_s": build_s, "simulate_s": None if result is None else result.simulate_s},
+        "closure_residual_max": None if result is None else result.closure_max,
+        "outputs": [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "at": o.xi,
+                     "component": o.component} for o in scene.outputs],
+        "t_end": sim.t_end, "output_step": sim.output_step,
+    }
+
+
+def cmd_latex(args) -> int:
+    from .dae import derive
+    from .emit.latex import latex_document
+    from .run.results import atomic_write
+
+    out = _check_out(args.output, (".tex",), "-o")
+    scene = _scene(args)
+    model = derive(scene)
+    atomic_write(out, latex_document(scene, model))
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_derive(args) -> int:
+    from .golden import write_generated
+    from .scene import load_scene
+
+    for path in args.scenes:
+        scene = load_scene(path, args.set or [])
+        target = write_generated(scene, Path(args.output))
+        print(f"wrote {target}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="symgen", description="Planar mechanisms with elastic bars: "
+                                 "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.")
+    ap.add_argument("--version", action="version", version=f"symgen {__version__}")
+    ap.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = ap.add_subparsers(dest="command", required=True)
+
+    def scene_cmd(name: str, help_: str):
+        p = sub.add_parser(name, help=help_)
+        p.add_argument("scene", help="scene file (TOML)")
+        p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                       help="override a scene value by dotted path (repeatable)")
+        return p
+
+    p = scene_cmd("simulate", "simulate a scene with IDAS; write CSV + JSON sidecar")
+    p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("--plot", help="PNG file: outputs against tau")
+    p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.set_defaults(func=cmd_simulate)
+
+    p = scene_cmd("latex", "write the derived equations as a LaTeX document")
+    p.add_argument("-o", "--output", required=True, help=".tex file to write")
+    p.set_defaults(func=cmd_latex)
+
+    p = sub.add_parser("derive", help="write the derived artefacts of scenes (the generated/ folder)")
+    p.add_argument("scenes", nargs="+")
+    p.add_argument("-o", "--output", default="generated", help="folder (default: generated)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE")
+    p.set_defaults(func=cmd_derive)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    try:
+        return args.func(args)
+    except SymgenError as err:
+        print(f"symgen: error: {err}", file=sys.stderr)
+        return err.exit_code
+    except KeyboardInterrupt:
+        print("symgen: interrupted", file=sys.stderr)
+        return 130
+    except Exception as err:  # an internal error: say so plainly
+        if args.debug:
+            raise
+        print(f"symgen: internal error: {type(err).__name__}: {err} (rerun with --debug for the traceback; "
+              f"please report it)", file=sys.stderr)
+        return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

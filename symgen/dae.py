@@ -1,0 +1,500 @@
+"""Assemble the mechanism's equations: closure (11) at position, velocity and acceleration
+level, joint reactions, and the generalized-force residual of every coordinate.
+
+The model is a ``Program``: an ordered list of assignments (intermediate symbol = expression
+of earlier symbols) and named output vectors, over the inputs
+
+    t (tau), q (coordinates), v = q', a = q'', lam (multipliers), p (parameters).
+
+Equations of motion (index-3 form, reduced to index 1 by the runner):
+
+    res(t, q, v, a, lam, p) = 0      (one row per coordinate)
+    phi(t, q, p) = 0, phid = 0, phidd = 0   (closure (11) of each loop, the angle driver)
+
+Reactions of cut joints (and the driver torque) are the multipliers ``lam``; those of tree
+joints are the subtree resultants ``S`` (route 2 of the seed: global equilibrium of the bars
+beyond the joint), which never enter the motion: only reactions that do work are unknowns.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from . import __version__
+from .bars import BarEquations, BarSymbols, IPTable, PointForce, bar_equations, rot
+from .errors import SceneError
+from .kinematics import BarKinematics
+from .scene.model import GROUND, Scene
+from .shapes import Basis, axial_basis, inner_products, transverse_basis
+from .topology import Topology, build_topology
+
+DERIVE_VERSION = "1"
+TAU = sp.Symbol("tau", real=True)
+_EXPR_LOCALS = {"tau": TAU, "pi": sp.pi, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp,
+                "log": sp.log, "sqrt": sp.sqrt, "Abs": sp.Abs, "Heaviside": sp.Heaviside,
+                "Piecewise": sp.Piecewise}
+
+
+def parse_tau_expr(text: str) -> sp.Expr:
+    from sympy.parsing.sympy_parser import parse_expr
+    return parse_expr(text, local_dict=dict(_EXPR_LOCALS), global_dict={"__builtins__": {}, **_sympy_globals()})
+
+
+def _sympy_globals() -> dict:
+    return {"Integer": sp.Integer, "Float": sp.Float, "Rational": sp.Rational, "Symbol": sp.Symbol}
+
+
+@dataclass
+class Program:
+    inputs: dict                                   # name -> tuple of symbols
+    assignments: list = field(default_factory=list)   # [(symbol, expr)]
+    outputs: dict = field(default_factory=dict)        # name -> list of expr
+
+    def assign(self, name: str, expr: sp.Expr) -> sp.Symbol:
+        sym = sp.Symbol(name, real=True)
+        self.assignments.append((sym, sp.sympify(expr)))
+        return sym
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    name: str
+    kind: str          # "theta" | "s" | "f" | "g"
+    body: str
+    index: int = 0     # amplitude index (0-based) for f, g
+
+
+@dataclass(frozen=True)
+class ConstraintRow:
+    joint: str         # cut joint or "driver"
+    kind: str          # "pin-x" | "pin-y" | "slider" | "driver"
+    loop: tuple        # bars around the loop
+
+
+@dataclass
+class BarModel:
+    body: str
+    sym: BarSymbols
+    basis_a: Basis
+    basis_t: Basis
+    kin: BarKinematics
+    ipt: IPTable
+    equations: BarEquations | None = None
+    inputs: dict = field(default_factory=dict)    # keyword arguments given to bar_equations
+
+
+@dataclass
+class DerivedModel:
+    key: str
+    scene_name: str
+    structure: dict
+    topology: Topology
+    bars: dict                    # body -> BarModel
+    coords: list                  # Coordinate per q entry
+    q: tuple
+    v: tuple
+    a: tuple
+    lam: tuple
+    lam_rows: list                # ConstraintRow per lam entry
+    params: tuple                 # parameter symbols
+    program: Program
+    output_names: list
+    driver_row: int | None        # index of the angle driver in lam, if any
+    timings: dict
+
+    @property
+    def param_names(self) -> list:
+        return [str(p) for p in self.params]
+
+
+def effective_modes(scene: Scene, body) -> tuple[int, int]:
+    if body.rigid:
+        return 0, 0
+    na = body.axial_modes if scene.effects.axial else 0
+    nt = body.transverse_modes if scene.effects.transverse else 0
+    return na, nt
+
+
+def _tip_joint(scene: Scene, name: str) -> bool:
+    return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12
+               for j in scene.joints for e in j.ends)
+
+
+def structure_of(scene: Scene) -> dict:
+    """Everything that shapes the derived equations (and nothing that is only a value)."""
+    eff = scene.effects
+    bodies = []
+    for b in scene.bodies:
+        na, nt = effective_modes(scene, b)
+        bodies.append({"name": b.name, "rigid": b.rigid, "frame": b.frame, "na": na, "nt": nt,
+                       "axial_shapes": b.axial_shapes if na else "", "transverse_shapes": b.transverse_shapes if nt else "",
+                       "tip_joint": _tip_joint(scene, b.name) if nt else False})
+    joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
+               "mass": j.mass > 0} for j in scene.joints]
+    drv = None
+    if scene.driver is not None:
+        d = scene.driver
+        drv = {"kind": d.kind, "body": d.body,
+               "torque": d.torque if isinstance(d.torque, str) else "const"}
+    loads = [{"body": ld.body, "kind": ld.kind, "xi": ld.xi,
+              "axial": ld.axial if isinstance(ld.axial, str) else "const",
+              "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]
+    outputs = [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "xi": o.xi,
+                "component": o.component} for o in scene.outputs]
+    return {"version": [__version__, DERIVE_VERSION], "bodies": bodies, "joints": joints, "driver": drv,
+            "effects": {"coriolis": eff.coriolis, "geometric_stiffening": eff.geometric_stiffening,
+                        "rotary_inertia": eff.rotary_inertia, "strain": eff.strain,
+                        "gravity": any(x != 0 for x in eff.gravity), "damping": eff.damping > 0},
+            "loads": loads, "outputs": outputs}
+
+
+def structure_key(structure: dict) -> str:
+    return hashlib.sha256(json.dumps(structure, sort_keys=True).encode()).hexdigest()[:20]
+
+
+# --------------------------------------------------------------------------- derivation
+def derive(scene: Scene) -> DerivedModel:
+    """Derive the mechanism's equations symbolically (parameters stay symbols)."""
+    t0 = time.perf_counter()
+    structure = structure_of(scene)
+    topo = build_topology(scene)
+    eff = scene.effects
+    P: dict[str, sp.Symbol] = {}
+
+    def param(name: str, **kw) -> sp.Symbol:
+        if name not in P:
+            P[name] = sp.Symbol(name, real=True, **kw)
+        return P[name]
+
+    # ---- bars, shapes, inner products
+    bars: dict[str, BarModel] = {}
+    for b in scene.bodies:
+        na, nt = effective_modes(scene, b)
+        sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid)
+        P[str(sym.alpha)] = sym.alpha
+        P[str(sym.nu)] = sym.nu
+        if sym.lam is not None:
+            P[str(sym.lam)] = sym.lam
+        if sym.mu is not None:
+            P[str(sym.mu)] = sym.mu
+        ba = axial_basis(b.axial_shapes or "complete", na)
+        bt = transverse_basis(b.frame or "pinned-pinned", b.transverse_shapes or "modes", nt,
+                              tip_joint=_tip_joint(scene, b.name))
+        ipt = IPTable(inner_products(ba, bt))
+        bars[b.name] = BarModel(b.name, sym, ba, bt, BarKinematics(sym, ba, bt), ipt)
+
+    # ---- coordinates in tree order
+    coords: list[Coordinate] = []
+    q, v, a = [], [], []
+    slider_s: dict[str, tuple] = {}
+    for name in topo.order:
+        e = topo.edges[name]
+        if e.slider:
+            s_ = tuple(sp.Symbol(f"{p}s_{e.joint}", real=True) for p in ("", "d", "dd"))
+            slider_s[e.joint] = s_
+            coords.append(Coordinate(str(s_[0]), "s", name))
+            q.append(s_[0]), v.append(s_[1]), a.append(s_[2])
+        sym = bars[name].sym
+        coords.append(Coordinate(str(sym.th), "theta", name))
+        q.append(sym.th), v.append(sym.dth), a.append(sym.ddth)
+        for k in range(len(sym.f)):
+            coords.append(Coordinate(str(sym.f[k]), "f", name, k))
+            q.append(sym.f[k]), v.append(sym.df[k]), a.append(sym.ddf[k])
+        for k in range(len(sym.g)):
+            coords.append(Coordinate(str(sym.g[k]), "g", name, k))
+            q.append(sym.g[k]), v.append(sym.dg[k]), a.append(sym.ddg[k])
+
+    joints = {j.name: j for j in scene.joints}
+
+    def ground_point(jname: str, end) -> sp.Matrix:
+        return sp.Matrix([param(f"px_{jname}"), param(f"py_{jname}")])
+
+    def slider_dir(jname: str) -> sp.Matrix:
+        return sp.Matrix([param(f"dx_{jname}"), param(f"dy_{jname}")])
+
+    # ---- explicit kinematics along the tree (10): origin of each bar, and any bar point
+    path_memo: dict[str, list] = {}
+
+    def path(name: str) -> list:
+        """Contributions to r_A of bar ``name``: (sign, body, xi) bar terms and ground/slider ends."""
+        if name in path_memo:
+            return path_memo[name]
+        e = topo.edges[name]
+        if e.parent == GROUND:
+            terms = [("slider" if e.slider else "ground", e.joint)]
+        else:
+            terms = path(e.parent) + [(1, e.parent, e.parent_xi)]
+        terms = terms + [(-1, name, e.body_xi)]
+        path_memo[name] = terms
+        return terms
+
+    def ground_end(term) -> tuple:
+        kind, jname = term
+        j = joints[jname]
+        end = next(x for x in j.ends if x.body == GROUND)
+        p0 = ground_point(jname, end)
+        if kind == "slider":
+            s_, ds_, dds_ = slider_s[jname]
+            d = slider_dir(jname)
+            return p0 + s_ * d, ds_ * d, dds_ * d
+        z = sp.zeros(2, 1)
+        return p0, z, z
+
+    def origin(name: str) -> tuple:
+        """(r_A, r_A', r_A'') of bar ``name``, ground axes, explicit in q, v, a."""
+        r, rd, rdd = sp.zeros(2, 1), sp.zeros(2, 1), sp.zeros(2, 1)
+        for term in path(name):
+            if isinstance(term[0], str):
+                g0, g1, g2 = ground_end(term)
+                r, rd, rdd = r + g0, rd + g1, rdd + g2
+            else:
+                sign, body, xi = term
+                kin = bars[body].kin
+                r, rd, rdd = r + sign * kin.rho(xi), rd + sign * kin.rho_d(xi), rdd + sign * kin.rho_dd(xi)
+        return r, rd, rdd
+
+    def origin_acc_local(name: str) -> sp.Matrix:
+        """[r_A'']_i of (10): the origin's acceleration in bar ``name``'s axes / alpha_i."""
+        th_i = bars[name].sym.th
+        out = sp.zeros(2, 1)
+        for term in path(name):
+            if isinstance(term[0], str):
+                out += rot(-th_i) * ground_end(term)[2]
+            else:
+                sign, body, xi = term
+                rel = rot(bars[body].sym.th - th_i) if body != name else sp.eye(2)
+                out += sign * rel * bars[body].kin.bracket_dd(xi)
+        return out / bars[name].sym.alpha
+
+    def point(name: str, xi: float) -> tuple:
+        rA, vA, aA = origin(name)
+        kin = bars[name].kin
+        return rA + kin.rho(xi), vA + kin.rho_d(xi), aA + kin.rho_dd(xi)
+
+    def end_point(jname: str, end) -> tuple:
+        if end.body == GROUND:
+            z = sp.zeros(2, 1)
+            return ground_point(jname, end), z, z
+        return point(end.body, end.xi)
+
+    # ---- constraints: cut joints (11) and the angle driver
+    lam, lam_rows, point_forces = [], [], {n: [] for n in bars}
+    phi, phid, phidd = [], [], []
+    for cut in topo.cuts:
+        j = joints[cut.joint]
+        (ra, va, aa), (rb, vb, ab) = end_point(j.name, j.ends[0]), end_point(j.name, j.ends[1])
+        if j.kind == "pin":
+            L = (sp.Symbol(f"Lx_{j.name}", real=True), sp.Symbol(f"Ly_{j.name}", real=True))
+            for k, comp in enumerate("xy"):
+                phi.append(ra[k] - rb[k]), phid.append(va[k] - vb[k]), phidd.append(aa[k] - ab[k])
+                lam.append(L[k]), lam_rows.append(ConstraintRow(j.name, f"pin-{comp}", cut.loop))
+            for idx, sign in ((0, 1), (1, -1)):
+                end = j.ends[idx]
+                if end.body != GROUND:
+                    point_forces[end.body].append(PointForce(end.xi, ground=(sign * L[0], sign * L[1])))
+        else:  # slider: the bar point stays on the ground line
+            bar_idx = 0 if j.ends[0].body != GROUND else 1
+            sign = 1 if bar_idx == 0 else -1
+            d = slider_dir(j.name)
+            n = sp.Matrix([-d[1], d[0]])
+            p0 = ground_point(j.name, j.ends[1 - bar_idx])
+            rb_, vb_, ab_ = (ra, va, aa) if bar_idx == 0 else (rb, vb, ab)
+            phi.append(sign * (n.dot(rb_ - p0))), phid.append(sign * n.dot(vb_)), phidd.append(sign * n.dot(ab_))
+            L = sp.Symbol(f"L_{j.name}", real=True)
+            lam.append(L), lam_rows.append(ConstraintRow(j.name, "slider", cut.loop))
+            end = j.ends[bar_idx]
+            point_forces[end.body].append(PointForce(end.xi, ground=(sign * L * n[0], sign * L * n[1])))
+    n_loop_rows = len(phi)
+    driver_row = None
+    drv = scene.driver
+    torque_expr = None
+    if drv is not None:
+        th = bars[drv.body].sym
+        if drv.kind == "angle":
+            th0, rate = param("theta0"), param("rate")
+            phi.append(th.th - th0 - rate * TAU), phid.append(th.dth - rate), phidd.append(th.ddth)
+            L = sp.Symbol("L_driver", real=True)
+            driver_row = len(lam)
+            lam.append(L), lam_rows.append(ConstraintRow("driver", "driver", (GROUND, drv.body)))
+        else:
+            torque_expr = parse_tau_expr(drv.torque) if isinstance(drv.torque, str) else param("torque")
+
+    # ---- lumped masses (carried by the first bar of their joint) and loads
+    grav = (param("gx"), param("gy")) if structure["effects"]["gravity"] else None
+    G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
+    lumped = []
+    for j in scene.joints:
+        if j.mass > 0:
+            end = next(x for x in j.ends if x.body != GROUND)
+            m = param(f"m_{j.name}")
+            lumped.append((j.name, end.body, end.xi, m))
+            bm = bars[end.body]
+            s = bm.sym
+            aA = s.alpha * rot(s.th) * sp.Matrix([s.xa_dd, s.ya_dd])
+            acc = aA + bm.kin.rho_dd(end.xi) - G
+            point_forces[end.body].append(PointForce(end.xi, ground=(-m * acc[0], -m * acc[1])))
+    dist = {n: [] for n in bars}
+    for i, ld in enumerate(scene.loads):
+        vals = []
+        for comp in ("axial", "transverse"):
+            val = getattr(ld, comp)
+            vals.append(parse_tau_expr(val) if isinstance(val, str) else param(f"load{i + 1}_{comp}"))
+        if ld.kind == "distributed":
+            dist[ld.body].append(tuple(vals))
+        else:
+            point_forces[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
+    damping = param("damping") if structure["effects"]["damping"] else None
+
+    prog = Program(inputs={})
+    # ---- bar equations (16)-(17) + rigid-body equations, then (10) for [r_A'']_i
+    E: dict[str, dict] = {}
+    for name in topo.order:
+        bm = bars[name]
+        s = bm.sym
+        acc = origin_acc_local(name)
+        prog.assignments.append((s.xa_dd, acc[0]))
+        prog.assignments.append((s.ya_dd, acc[1]))
+        bm.inputs = {"loads": tuple(dist[name]), "points": tuple(point_forces[name]),
+                     "gravity": grav, "damping": damping}
+        bm.equations = bar_equations(s, bm.basis_a, bm.basis_t, bm.ipt, eff, **bm.inputs)
+        gen = bm.equations.generalized()
+        E[name] = {
+            "XY": (prog.assign(f"EX_{name}", gen["XY"][0]), prog.assign(f"EY_{name}", gen["XY"][1])),
+            "th": prog.assign(f"Eth_{name}", gen["th"]),
+            "f": [prog.assign(f"Ef_{name}_{k + 1}", e) for k, e in enumerate(gen["f"])],
+            "g": [prog.assign(f"Eg_{name}_{k + 1}", e) for k, e in enumerate(gen["g"])],
+        }
+    # ---- subtree resultants S (reactions of tree joints), leaves first
+    S: dict[str, sp.Matrix] = {}
+    for name in reversed(topo.order):
+        tot = sp.Matrix(E[name]["XY"])
+        for ch in topo.children[name]:
+            tot += S[ch.body]
+        S[name] = sp.Matrix([prog.assign(f"SX_{name}", tot[0]), prog.assign(f"SY_{name}", tot[1])])
+    # ---- residual of every coordinate (virtual work through the tree)
+    res = []
+    for c in coords:
+        if c.kind == "s":
+            e = topo.edges[c.body]
+            res.append(slider_dir(e.joint).dot(S[c.body]))
+            continue
+        bm = bars[c.body]
+        s = bm.sym
+        e = topo.edges[c.body]
+        var = sp.Symbol(c.name, real=True)
+        own = {"theta": E[c.body]["th"]}.get(c.kind)
+        if c.kind == "f":
+            own = E[c.body]["f"][c.index]
+        elif c.kind == "g":
+            own = E[c.body]["g"][c.index]
+        r = own - bm.kin.partials(e.body_xi)[var].dot(S[c.body])
+        for ch in topo.children[c.body]:
+            r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
+        if c.kind == "theta" and drv is not None and drv.body == c.body:
+            r -= torque_expr if torque_expr is not None else lam[driver_row]   # applied moment
+        res.append(r)
+
+    # ---- outputs
+    q_t, v_t, a_t = tuple(q), tuple(v), tuple(a)
+    prog.inputs = {"t": (TAU,), "q": q_t, "v": v_t, "a": a_t, "lam": tuple(lam)}
+    prog.outputs["phi"] = phi
+    prog.outputs["phid"] = phid
+    prog.outputs["phidd"] = phidd
+    prog.outputs["res"] = res
+    prog.outputs["energy"] = [_energy(bars, topo, origin, point, lumped, G)]
+    out_names, out_exprs = [], []
+    for o in scene.outputs:
+        out_names.append(o.name)
+        out_exprs.append(_output(o, scene, bars, topo, joints, point, S, lam, lam_rows, driver_row,
+                                 prog.outputs["energy"][0], phi[:n_loop_rows], slider_dir))
+    prog.outputs["out"] = out_exprs
+    prog.outputs["closure"] = phi[:n_loop_rows]
+    params = tuple(sorted(P.values(), key=lambda x: str(x)))
+    prog.inputs["p"] = params
+    timings = {"derive_s": time.perf_counter() - t0}
+    return DerivedModel(key=structure_key(structure), scene_name=scene.name, structure=structure,
+                        topology=topo, bars=bars, coords=coords, q=q_t, v=v_t, a=a_t, lam=tuple(lam),
+                        lam_rows=lam_rows, params=params, program=prog, output_names=out_names,
+                        driver_row=driver_row, timings=timings)
+
+
+def _energy(bars, topo, origin, point, lumped, G) -> sp.Expr:
+    """Kinetic + elastic + gravity potential energy, common units m_ref l0^3 omega^2."""
+    total = sp.Integer(0)
+    for name in topo.order:
+        bm = bars[name]
+        s, eq = bm.sym, bm.equations
+        rA, vA, _ = origin(name)
+        R = rot(s.th)
+        vb = R.T * vA / s.alpha
+        k3 = s.nu * s.alpha ** 3
+        total += k3 * (eq.kinetic.xreplace({eq.xa_d: vb[0], eq.ya_d: vb[1]}) + eq.elastic)
+        if G != sp.zeros(2, 1):
+            t = bm.ipt
+            na, nt = len(s.f), len(s.g)
+            mean_x = sp.Rational(1, 2) + sp.Add(*[t.gram(0, 2 + k) * s.f[k] for k in range(na)])
+            mean_y = sp.Add(*[t.gram(0, 2 + na + k) * s.g[k] for k in range(nt)])
+            centroid = rA + s.alpha * R * sp.Matrix([mean_x, mean_y])
+            total -= s.nu * s.alpha * G.dot(centroid)
+    for _, body, xi, m in lumped:
+        r, vv, _ = point(body, xi)
+        total += m * vv.dot(vv) / 2 - m * G.dot(r)
+    return total
+
+
+def _output(o, scene, bars, topo, joints, point, S, lam, lam_rows, driver_row, energy, loop_phi, slider_dir):
+    k = o.kind
+    if k in ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement"):
+        kin = bars[o.body].kin
+        if k == "deflection":
+            return kin.eta(o.xi)
+        if k == "axial":
+            return kin.zeta(o.xi)
+        if k == "slope":
+            return kin.eta(o.xi, 1)
+        if k == "elastic_displacement":
+            s = kin.sym
+            d = s.alpha * rot(s.th) * sp.Matrix([kin.zeta(o.xi), kin.eta(o.xi)])
+            return d[0 if o.component == "x" else 1]
+        l0x, l0y = kin.local(0.0)
+        l1x, l1y = kin.local(1.0)
+        cx, cy = l1x - l0x, l1y - l0y
+        chord = sp.sqrt(cx ** 2 + cy ** 2)
+        if k == "chord_elongation":
+            return chord - 1
+        px, py = kin.local(o.xi)
+        return (cx * (py - l0y) - cy * (px - l0x)) / chord
+    if k == "position":
+        r = point(o.body, o.xi)[0]
+        return r[0 if o.component == "x" else 1]
+    if k == "angle":
+        return bars[o.body].sym.th
+    if k == "driver_torque":
+        return lam[driver_row]
+    if k == "energy":
+        return energy
+    if k == "closure_residual":
+        if not loop_phi:
+            return sp.Integer(0)
+        return sp.Max(*[sp.Abs(x) for x in loop_phi]) if len(loop_phi) > 1 else sp.Abs(loop_phi[0])
+    if k == "reaction":
+        j = joints[o.joint]
+        comp = 0 if o.component == "x" else 1
+        # force exerted by bodies[0] on bodies[1], ground axes
+        for name, e in topo.edges.items():
+            if e.joint == j.name:
+                on_child = S[name][comp]
+                return on_child if j.ends[1].body == name else -on_child
+        rows = [i for i, r in enumerate(lam_rows) if r.joint == j.name]
+        if j.kind == "pin":
+            return -lam[rows[comp]]        # lam is the force on ends[0] from ends[1]
+        d = slider_dir(j.name)
+        n = (-d[1], d[0])
+        bar_idx = 0 if j.ends[0].body != GROUND else 1
+        on_bar = lam[rows[0]] * n[comp] * (1 if bar_idx == 0 else -1)   # force on the bar
+        return on_bar if bar_idx == 1 else -on_bar
+    raise SceneError(scene.path, f"outputs.{o.name}.kind", f"unknown output kind {k!r}")

@@ -1,0 +1,39 @@
+"""Errors that reach the user as one clear message and exit code 2."""
+from __future__ import annotations
+
+
+class SymgenError(Exception):
+    """Base class of every error symgen reports to a user (no traceback, exit code 2)."""
+
+    exit_code = 2
+
+
+class SceneError(SymgenError):
+    """A scene file (or a ``--set`` override) is malformed or inconsistent.
+
+    Parameters
+    ----------
+    file : path of the scene file
+    key : dotted key where the problem is (``bodies.rod.lambda``), or "" for the whole file
+    message : what is wrong
+    hint : what to do about it
+    """
+
+    def __init__(self, file: str, key: str, message: str, hint: str = "") -> None:
+        self.file, self.key, self.message, self.hint = str(file), key, message, hint
+        where = f"{self.file}: {key}" if key else self.file
+        text = f"{where}: {message}"
+        if hint:
+            text += f" ({hint})"
+        super().__init__(text)
+
+
+class SimulationError(SymgenError):
+    """A run failed at a known tau (solver failure, singular position, ...)."""
+
+    def __init__(self, tau: float | None, cause: str, hint: str = "") -> None:
+        self.tau, self.cause, self.hint = tau, cause, hint
+        text = cause if tau is None else f"at tau = {tau:.6g}: {cause}"
+        if hint:
+            text += f" ({hint})"
+        super().__init__(text)

@@ -1,0 +1,204 @@
+"""Numerics around a compiled model: partition of the coordinates, assembly, consistent
+initial values, and the algebraic solve that keeps position closure at machine precision.
+
+Index-1 form. The rigid coordinates split into *dependent* ones q_D (one per closure row,
+chosen where the closure Jacobian is best conditioned) and independent ones; all deformation
+amplitudes are independent. With x = [q_I, v_I] differential and z = [q_D, v_D, a, lam]
+algebraic, the DAE is
+
+    x' = [v_I, a_I]
+    0  = [phi(q), phid(q, v), res(q, v, a, lam), phidd(q, v, a)]
+
+whose Jacobian in z is block-triangular with blocks phi_qD, phi_qD, [[M, -phi_q^T], [phi_q, 0]]:
+index 1 as long as the rigid mechanism is not at a singular position (phi_qD regular).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SimulationError
+from ..pipeline import CompiledModel, parameter_values
+from ..scene.model import Scene
+
+SINGULAR_RATIO = 1e-7
+
+
+@dataclass(frozen=True)
+class Partition:
+    ind: tuple      # indices of independent coordinates (differential)
+    dep: tuple      # indices of dependent rigid coordinates (algebraic)
+
+
+class Mechanism:
+    def __init__(self, compiled: CompiledModel, scene: Scene) -> None:
+        self.scene = scene
+        self.f = compiled.funcs
+        self.meta = compiled.meta
+        self.coords = self.meta["coords"]
+        self.n = len(self.coords)
+        self.m = len(self.meta["lam_rows"])
+        self.p = parameter_values(scene, self.meta["params"])
+        t, q, v, a, lam, p = (ca.SX.sym(k, s) for k, s in
+                              (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m),
+                               ("p", len(self.p))))
+        args = [t, q, v, a, lam, p]
+        phi = self.f["phi"](*args)
+        self.phi_q = ca.Function("phi_q", args, [ca.jacobian(phi, q)])
+        res = self.f["res"](*args)
+        phidd = self.f["phidd"](*args)
+        self.kkt = ca.Function("kkt", args, [ca.jacobian(ca.vertcat(res, phidd), ca.vertcat(a, lam)),
+                                             ca.vertcat(res, phidd)])
+        self.rigid = [i for i, c in enumerate(self.coords) if c["kind"] in ("theta", "s")]
+
+    # ---------------------------------------------------------------- helpers
+    def call(self, name: str, t: float, q, v=None, a=None, lam=None) -> np.ndarray:
+        v = np.zeros(self.n) if v is None else v
+        a = np.zeros(self.n) if a is None else a
+        lam = np.zeros(self.m) if lam is None else lam
+        return np.array(self.f[name](t, q, v, a, lam, self.p)).ravel()
+
+    def jac_q(self, t: float, q) -> np.ndarray:
+        z = np.zeros
+        return np.array(self.phi_q(t, q, z(self.n), z(self.n), z(self.m), self.p))
+
+    def loop_name(self, row: int) -> str:
+        r = self.meta["lam_rows"][row]
+        if r["joint"] == "driver":
+            return f"the driver of '{r['loop'][-1]}'"
+        return f"loop closed by joint '{r['joint']}' ({' - '.join(r['loop'])})"
+
+    # ---------------------------------------------------------------- partition + assembly
+    def choose_partition(self, t: float, q) -> Partition:
+        """Greedy choice of dependent rigid coordinates with a well-conditioned closure Jacobian."""
+        if self.m == 0:
+            return Partition(tuple(range(self.n)), ())
+        J = self.jac_q(t, q)
+        drv = self.scene.driver
+        order = list(reversed(self.rigid))
+        if drv is not None:
+            name = f"theta_{drv.body}"
+            idx = next(i for i in self.rigid if self.coords[i]["name"] == name)
+            order.remove(idx)
+            order = [idx] + order if drv.kind == "angle" else order + [idx]
+        chosen: list[int] = []
+        scale = max(np.abs(J).max(), 1e-300)
+        for i in order:
+            trial = chosen + [i]
+            sv = np.linalg.svd(J[:, trial] / scale, compute_uv=False)
+            if sv[-1] > 1e-6 * sv[0]:
+                chosen = trial
+            if len(chosen) == self.m:
+                break
+        if len(chosen) < self.m:
+            bad = self._worst_row(J[:, chosen] if chosen else J[:, []])
+            raise SimulationError(t, f"the mechanism cannot be assembled or is over-constrained: the closure "
+                                     f"equations of the {self.loop_name(bad)} are not independent",
+                                  "check the joints, the driver and initial.guess")
+        ind = tuple(i for i in range(self.n) if i not in chosen)
+        return Partition(ind, tuple(chosen))
+
+    def _worst_row(self, Jd: np.ndarray) -> int:
+        if Jd.shape[1] == 0:
+            return 0
+        u, s, _ = np.linalg.svd(Jd)
+        return int(np.argmax(np.abs(u[:, -1])))
+
+    def singular_ratio(self, t: float, q, part: Partition) -> tuple[float, int]:
+        if not part.dep:
+            return 1.0, 0
+        Jd = self.jac_q(t, q)[:, list(part.dep)]
+        u, s, _ = np.linalg.svd(Jd)
+        return float(s[-1] / max(s[0], 1e-300)), int(np.argmax(np.abs(u[:, -1])))
+
+    def assemble(self, t: float, q_guess, part: Partition, tol: float = 1e-13, maxit: int = 60):
+        """Solve phi(q) = 0 for the dependent coordinates by damped Newton from q_guess."""
+        q = np.array(q_guess, dtype=float)
+        dep = list(part.dep)
+        if not dep:
+            return q
+        r = self.call("phi", t, q)
+        for _ in range(maxit):
+            if np.abs(r).max() < tol:
+                return q
+            J = self.jac_q(t, q)[:, dep]
+            try:
+                dq = np.linalg.solve(J, -r)
+            except np.linalg.LinAlgError:
+                break
+            step = 1.0
+            while step > 1e-4:
+                trial = q.copy()
+                trial[dep] += step * dq
+                rt = self.call("phi", t, trial)
+                if np.abs(rt).max() < np.abs(r).max() * (1 - 0.5 * step) or np.abs(rt).max() < tol:
+                    q, r = trial, rt
+                    break
+                step /= 2
+            else:
+                break
+        if np.abs(r).max() < 1e-10:
+            return q
+        worst = int(np.argmax(np.abs(r)))
+        raise SimulationError(t, f"the mechanism cannot be assembled near initial.guess: the closure of the "
+                                 f"{self.loop_name(worst)} keeps a residual of {np.abs(r).max():.3g}",
+                              "give initial.guess angles (rad) near a real assembly, and check lengths and ground points")
+
+    def velocities(self, t: float, q, v, part: Partition) -> np.ndarray:
+        """Dependent velocities from the velocity-level closure."""
+        v = np.array(v, dtype=float)
+        if not part.dep:
+            return v
+        dep = list(part.dep)
+        v[dep] = 0.0
+        r = self.call("phid", t, q, v)
+        J = self.jac_q(t, q)[:, dep]
+        v[dep] = np.linalg.solve(J, -r)
+        return v
+
+    def accelerations(self, t: float, q, v) -> tuple[np.ndarray, np.ndarray]:
+        """Accelerations and multipliers from the dynamics and the acceleration-level closure."""
+        z0n, z0m = np.zeros(self.n), np.zeros(self.m)
+        K, r = self.kkt(t, q, v, z0n, z0m, self.p)
+        sol = np.linalg.solve(np.array(K), -np.array(r).ravel())
+        return sol[: self.n], sol[self.n:]
+
+    def initial_state(self, t0: float = 0.0):
+        """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
+        sc = self.scene
+        q = np.zeros(self.n)
+        v = np.zeros(self.n)
+        guess = dict(sc.initial.guess)
+        deform = dict(sc.initial.deformation)
+        drv = sc.driver
+        for i, c in enumerate(self.coords):
+            if c["kind"] == "theta":
+                q[i] = guess.get(c["body"], 0.0)
+                if drv is not None and drv.body == c["body"]:
+                    if drv.kind == "angle":
+                        q[i] = drv.initial + drv.rate * t0
+                        v[i] = drv.rate
+                    else:
+                        if drv.initial is not None:
+                            q[i] = drv.initial
+                        v[i] = drv.rate
+            elif c["kind"] in ("f", "g") and c["body"] in deform:
+                d = deform[c["body"]]
+                vals, rates = (d.f, d.fdot) if c["kind"] == "f" else (d.g, d.gdot)
+                if c["index"] < len(vals):
+                    q[i] = vals[c["index"]]
+                if c["index"] < len(rates):
+                    v[i] = rates[c["index"]]
+        part = self.choose_partition(t0, q)
+        q = self.assemble(t0, q, part)
+        part = self.choose_partition(t0, q)     # re-choose at the assembled position
+        ratio, row = self.singular_ratio(t0, q, part)
+        if ratio < SINGULAR_RATIO:
+            raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
+                                      f"of the {self.loop_name(row)} loses rank (ratio {ratio:.2e})",
+                                  "start the driver at another angle or change initial.guess")
+        v = self.velocities(t0, q, v, part)
+        a, lam = self.accelerations(t0, q, v)
+        return q, v, a, lam, part

@@ -1,0 +1,161 @@
+"""The validated scene: frozen dataclasses, all quantities dimensionless.
+
+This is the contract between ``symgen.scene.loader`` (TOML -> Scene) and every later
+stage. Units after loading (whatever the file's ``units``):
+
+* lengths / positions: divided by the reference length l0 (``alpha = l_i / l0``);
+* time: tau = omega t;
+* mass per length: relative to m_ref (``nu = m_i / m_ref``); lumped masses relative to m_ref l0;
+* lambda, mu: each bar's OWN groups EA/(m_i l_i^2 omega^2), EI/(m_i l_i^4 omega^2);
+* distributed loads: groups q/(m_i l_i omega^2) of that bar, in the bar's axes;
+* point loads: F/(m_i l_i^2 omega^2) of that bar, in the bar's axes;
+* gravity: g/(l0 omega^2) in ground axes;
+* torque: M/(m_ref l0^3 omega^2); forces (reactions) in m_ref l0^2 omega^2.
+
+A load or torque value is either a float or a string expression of ``tau`` (validated by the
+loader: parsable by SymPy, no symbol other than ``tau``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+GROUND = "ground"
+
+
+@dataclass(frozen=True)
+class Body:
+    """One bar. ``rigid`` bars have lam = mu = rho = None, frame = "", no modes."""
+
+    name: str
+    alpha: float                # l_i / l0
+    rigid: bool
+    nu: float                   # m_i / m_ref
+    lam: float | None           # lambda_i = EA/(m_i l_i^2 w^2)
+    mu: float | None            # mu_i = EI/(m_i l_i^4 w^2)
+    rho: float | None           # rotary-inertia group (r_g / l_i)^2 = mu/lam
+    frame: str                  # "pinned-pinned" ("pinned-sliding" normalised to it) | "cantilever" | "" (rigid)
+    axial_modes: int            # as written in the file (effects are applied by the derivation)
+    transverse_modes: int
+    axial_shapes: str           # "complete" | "stress-free"
+    transverse_shapes: str      # "modes" | "eigen" | "polynomial"
+
+
+@dataclass(frozen=True)
+class JointEnd:
+    """One side of a joint: a bar at position xi in [0, 1], or a ground point."""
+
+    body: str                                   # body name or GROUND
+    xi: float | None = None                     # bars only
+    point: tuple[float, float] | None = None    # ground only (dimensionless, / l0)
+
+
+@dataclass(frozen=True)
+class Joint:
+    name: str
+    kind: str                                   # "pin" | "slider"
+    ends: tuple[JointEnd, JointEnd]             # in the file's order of ``bodies``
+    direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
+    mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
+
+
+@dataclass(frozen=True)
+class Driver:
+    kind: str                   # "angle" | "torque"
+    body: str
+    initial: float | None       # angle at tau = 0 [rad]; torque driver: None = from the assembly
+    rate: float                 # angle: d theta/d tau; torque: initial angular rate (default 0)
+    torque: float | str = 0.0   # torque driver only: constant or expression of tau
+
+
+@dataclass(frozen=True)
+class BodyDeformation:
+    f: tuple[float, ...] = ()
+    g: tuple[float, ...] = ()
+    fdot: tuple[float, ...] = ()
+    gdot: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class Initial:
+    guess: tuple[tuple[str, float], ...] = ()                    # (body, angle) pairs
+    deformation: tuple[tuple[str, BodyDeformation], ...] = ()    # (body, amplitudes) pairs
+    quasi_static: bool = False    # project key: initial.deformation = "quasi-static"
+
+
+@dataclass(frozen=True)
+class Effects:
+    axial: bool = True
+    transverse: bool = True
+    geometric_stiffening: bool = True
+    coriolis: bool = True
+    rotary_inertia: bool = False
+    strain: str = "von_karman"              # "von_karman" | "linear"
+    gravity: tuple[float, float] = (0.0, 0.0)
+    damping: float = 0.0                    # Kelvin-Voigt ratio (in units of 1/omega)
+
+
+@dataclass(frozen=True)
+class Load:
+    body: str
+    kind: str                   # "distributed" | "point"
+    xi: float | None            # point loads only
+    axial: float | str = 0.0
+    transverse: float | str = 0.0
+
+
+@dataclass(frozen=True)
+class Output:
+    name: str
+    kind: str                   # see OUTPUT_KINDS
+    body: str | None = None
+    joint: str | None = None
+    xi: float | None = None     # "at"
+    component: str | None = None   # "x" | "y"
+
+
+OUTPUT_KINDS = (
+    "chord_deflection", "chord_elongation", "deflection", "axial", "slope",
+    "elastic_displacement", "position", "angle", "reaction", "driver_torque",
+    "energy", "closure_residual",
+)
+
+
+@dataclass(frozen=True)
+class Simulation:
+    t_end: float
+    output_step: float
+    rtol: float = 1e-8
+    atol: float = 1e-10
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    path: str
+    hash: str                   # sha256 hex of the canonical scene after overrides
+    units: str                  # "dimensionless" | "SI"
+    l0: float                   # reference length (m for SI, else the dimensionless value used)
+    omega: float                # rad/s (SI) or 1.0
+    m_ref: float                # kg/m (SI) or 1.0
+    bodies: tuple[Body, ...]
+    joints: tuple[Joint, ...]
+    driver: Driver | None
+    initial: Initial
+    effects: Effects
+    loads: tuple[Load, ...]
+    outputs: tuple[Output, ...]
+    simulation: Simulation
+    groups: dict = field(default_factory=dict, compare=False, hash=False)
+    # groups: {body: {"alpha":..,"nu":..,"lambda":..,"mu":..,"rho":..}, "_scene": {"gravity": [..], ...}}
+
+    def body(self, name: str) -> Body:
+        for b in self.bodies:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(name)
