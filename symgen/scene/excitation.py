@@ -1,0 +1,197 @@
+"""``[driver]``, ``[[loads]]``, ``[effects]`` and ``[initial]``: what moves and loads the bars."""
+from __future__ import annotations
+
+from symgen.scene.expressions import EXPRESSION_HINT, parse_tau_expression
+from symgen.scene.mechanism import BarSpec
+from symgen.scene.model import GROUND, Body, BodyDeformation, Driver, Effects, Initial, Joint, Load
+from symgen.scene.reader import REQUIRED, Reader, describe, is_number, join
+from symgen.scene.units import Scales
+
+DRIVER_KINDS = ("angle", "torque")
+DRIVER_KEYS = ("kind", "body", "initial", "rate", "value")
+LOAD_KINDS = ("distributed", "point")
+LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
+EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
+EFFECT_KEYS = EFFECT_SWITCHES + ("strain", "gravity", "damping")
+STRAINS = ("von_karman", "linear")
+INITIAL_KEYS = ("guess", "deformation")
+DEFORMATION_KEYS = ("f", "g", "fdot", "gdot")
+
+
+def bar_name(r: Reader, value: object, key: str, bodies: dict[str, Body], hint: str = "") -> str:
+    """A reference to a bar (not ground) that exists."""
+    known = ", ".join(bodies)
+    if not isinstance(value, str):
+        r.fail(key, f"must be a body name, got {describe(value)}", f"known bodies: {known}")
+    if value == GROUND:
+        r.fail(key, "\"ground\" is not a bar here", hint or f"name a bar: {known}")
+    if value not in bodies:
+        r.fail(key, f"unknown body {value!r}", f"known bodies: {known}")
+    return value
+
+
+def value_or_expression(r: Reader, table: dict, path: str, key: str, default: object,
+                        si: bool, what: str) -> float | str:
+    """A number, or (dimensionless input only) a SymPy expression of tau."""
+    if key not in table:
+        if default is REQUIRED:
+            r.missing(path, key, f"give a number or an expression of tau ({what})")
+        return default  # type: ignore[return-value]
+    value = table[key]
+    if isinstance(value, str):
+        if si:
+            r.fail(join(path, key), f"SI {what}s must be numbers, got expression {value!r}",
+                   "write a number in SI units, or use a dimensionless scene for expressions of tau")
+        try:
+            parse_tau_expression(value)
+        except ValueError as exc:
+            r.fail(join(path, key), f"invalid expression {value!r}: {exc}", EXPRESSION_HINT)
+        return value
+    if not is_number(value):
+        r.fail(join(path, key), f"must be a number or an expression of tau, got {describe(value)}",
+               EXPRESSION_HINT)
+    return r.as_number(value, join(path, key))
+
+
+# -- driver -------------------------------------------------------------------------------------
+def _check_pinned_to_ground(r: Reader, body: str, joints: tuple[Joint, ...]) -> None:
+    """A driver turns its bar about a ground pin."""
+    for joint in joints:
+        names = {end.body for end in joint.ends}
+        if joint.kind == "pin" and names == {GROUND, body}:
+            return
+    r.fail("driver.body", f"bar {body!r} has no pin joint with \"ground\"; a driver prescribes the "
+           "angle of (or applies a moment to) a bar turning about a ground pin",
+           "drive a bar that is pinned to ground, e.g. the crank")
+
+
+def read_driver(r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joint, ...],
+                scales: Scales) -> Driver | None:
+    """The optional ``[driver]``: kinematic (angle) or dynamic (torque) guidance."""
+    if "driver" not in raw:
+        return None
+    table = r.table(raw["driver"], "driver")
+    r.check_keys(table, "driver", DRIVER_KEYS, "[driver]")
+    kind = r.choice(table, "driver", "kind", DRIVER_KINDS)
+    body = bar_name(r, r.require(table, "driver", "body", "name the driven bar"), "driver.body",
+                    bodies, "the driver acts on a bar pinned to ground, not on ground itself")
+    _check_pinned_to_ground(r, body, joints)
+    if kind == "angle":
+        if "value" in table:
+            r.fail("driver.value", "an angle driver has no value (torque)",
+                   "remove it, or use kind = \"torque\" to apply a moment")
+        rate = r.number(table, "driver", "rate", hint="the angular rate d theta/d tau, or rad/s in SI")
+        initial = r.number(table, "driver", "initial", 0.0)
+        return Driver("angle", body, initial, scales.rate(rate))
+    torque = value_or_expression(r, table, "driver", "value", REQUIRED, scales.si, "torque")
+    initial = r.number(table, "driver", "initial", None)
+    rate = r.number(table, "driver", "rate", 0.0)
+    if isinstance(torque, float):
+        torque = scales.torque(torque)
+    return Driver("torque", body, initial, scales.rate(rate), torque)
+
+
+# -- loads --------------------------------------------------------------------------------------
+def read_load(r: Reader, table: dict, path: str, bodies: dict[str, Body],
+              bars: dict[str, BarSpec], scales: Scales) -> Load:
+    """One ``[[loads]]`` entry, scaled by the loaded bar's m_i l_i omega^2 (SI)."""
+    r.check_keys(table, path, LOAD_KEYS, "a load")
+    body = bar_name(r, r.require(table, path, "body", "name the loaded bar"), join(path, "body"),
+                    bodies, "loads act on bars")
+    kind = r.choice(table, path, "kind", LOAD_KINDS)
+    xi = None
+    if kind == "point":
+        xi = r.number(table, path, "at", ge=0.0, le=1.0,
+                      hint="a point load needs its position at = xi in [0, 1] along the bar")
+    elif "at" in table:
+        r.fail(join(path, "at"), "a distributed load has no 'at'",
+               "remove it, or use kind = \"point\"")
+    values = [value_or_expression(r, table, path, key, 0.0, scales.si, "load")
+              for key in ("axial", "transverse")]
+    bar = bars[body]
+    scale = scales.point if kind == "point" else scales.distributed
+    axial, transverse = (scale(v, bar.mass_per_length, bar.length) if isinstance(v, float) else v
+                         for v in values)
+    return Load(body=body, kind=kind, xi=xi, axial=axial, transverse=transverse)
+
+
+def read_loads(r: Reader, raw: dict, bodies: dict[str, Body], bars: dict[str, BarSpec],
+               scales: Scales) -> tuple[Load, ...]:
+    """Every ``[[loads]]`` entry (optional)."""
+    tables = r.table_array(raw.get("loads", []), "loads")
+    return tuple(read_load(r, t, join("loads", i), bodies, bars, scales)
+                 for i, t in enumerate(tables))
+
+
+# -- effects ------------------------------------------------------------------------------------
+def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
+    """``[effects]`` with the contract's defaults (those of :class:`Effects`)."""
+    defaults = Effects()
+    table = r.table(raw.get("effects", {}), "effects")
+    r.check_keys(table, "effects", EFFECT_KEYS, "[effects]")
+    switches = {k: r.boolean(table, "effects", k, getattr(defaults, k)) for k in EFFECT_SWITCHES}
+    strain = r.choice(table, "effects", "strain", STRAINS, defaults.strain)
+    gx, gy = defaults.gravity
+    if "gravity" in table:
+        gx, gy = r.pair(table["gravity"], "effects.gravity",
+                        "gravity = [gx, gy] in ground axes, m/s^2 in SI")
+    damping = r.number(table, "effects", "damping", defaults.damping, ge=0.0,
+                       hint="the Kelvin-Voigt ratio must be >= 0")
+    return Effects(**switches, strain=strain, gravity=(scales.gravity(gx), scales.gravity(gy)),
+                   damping=damping)
+
+
+# -- initial ------------------------------------------------------------------------------------
+def _guess(r: Reader, value: object, bodies: dict[str, Body]) -> tuple[tuple[str, float], ...]:
+    """``initial.guess = {body = angle}``."""
+    table = r.table(value, "initial.guess", "write guess = { bar = angle_in_rad, ... }")
+    for name in table:
+        bar_name(r, name, join("initial.guess", name), bodies)
+    return tuple((name, r.number(table, "initial.guess", name)) for name in table)
+
+
+def _body_deformation(r: Reader, value: object, path: str, body: Body,
+                      scales: Scales) -> BodyDeformation:
+    """Modal amplitudes of one bar; lists must match its mode counts, missing ones are zeros."""
+    table = r.table(value, path, "write { f = [...], g = [...], fdot = [...], gdot = [...] }")
+    r.check_keys(table, path, DEFORMATION_KEYS, "a deformation")
+    if body.rigid:
+        r.fail(path, f"{body.name!r} is a rigid bar: it has no deformation",
+               "remove it, or make the bar elastic")
+    counts = {"f": ("axial_modes", body.axial_modes), "fdot": ("axial_modes", body.axial_modes),
+              "g": ("transverse_modes", body.transverse_modes),
+              "gdot": ("transverse_modes", body.transverse_modes)}
+    values = {}
+    for key, (count_name, count) in counts.items():
+        if key not in table:
+            values[key] = (0.0,) * count
+            continue
+        amplitudes = r.numbers(table[key], join(path, key))
+        if len(amplitudes) != count:
+            r.fail(join(path, key), f"has {len(amplitudes)} entries but bar {body.name!r} has "
+                   f"{count_name} = {count}", "give one amplitude per mode")
+        if key.endswith("dot"):
+            amplitudes = tuple(scales.rate(a) for a in amplitudes)
+        values[key] = amplitudes
+    return BodyDeformation(**values)
+
+
+def read_initial(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -> Initial:
+    """The optional ``[initial]``: assembly guess and initial deformation."""
+    table = r.table(raw.get("initial", {}), "initial")
+    r.check_keys(table, "initial", INITIAL_KEYS, "[initial]")
+    guess = _guess(r, table["guess"], bodies) if "guess" in table else ()
+    value = table.get("deformation", {})
+    if isinstance(value, str):
+        if value != "quasi-static":
+            r.fail("initial.deformation", f"unknown value {value!r}",
+                   "use \"quasi-static\" or a table { bar = { f = [...], g = [...] } }")
+        return Initial(guess=guess, quasi_static=True)
+    table = r.table(value, "initial.deformation",
+                    "use \"quasi-static\" or a table { bar = { f = [...], g = [...] } }")
+    deformation = []
+    for name, entry in table.items():
+        key = join("initial.deformation", name)
+        bar_name(r, name, key, bodies)
+        deformation.append((name, _body_deformation(r, entry, key, bodies[name], scales)))
+    return Initial(guess=guess, deformation=tuple(deformation))

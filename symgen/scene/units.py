@@ -1,0 +1,64 @@
+"""Scaling of scene quantities to the dimensionless units of :mod:`symgen.scene.model`.
+
+SI input (``units = "SI"``) is divided by the reference scales; dimensionless input is
+already in model units except for lengths/positions, which are divided by ``l0`` in both cases.
+
+Examples
+--------
+>>> s = Scales(si=True, l0=0.5, omega=10.0, m_ref=2.0)
+>>> s.gravity(9.81)   # g / (l0 omega^2)
+0.1962
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Scales:
+    """Reference scales of one scene.
+
+    Parameters
+    ----------
+    si : True when the file is in SI units
+    l0 : reference length (m for SI, else the dimensionless value used)
+    omega : rad/s for SI, 1.0 otherwise
+    m_ref : mass per length of the reference bar (kg/m for SI, else that bar's relative value)
+    """
+
+    si: bool
+    l0: float
+    omega: float
+    m_ref: float
+
+    def length(self, x: float) -> float:
+        """A length or position: x / l0 (both unit systems)."""
+        return x / self.l0
+
+    def time(self, t: float) -> float:
+        """A time: SI seconds -> tau = omega t."""
+        return t * self.omega if self.si else t
+
+    def rate(self, r: float) -> float:
+        """A rate (per second in SI) -> per tau."""
+        return r / self.omega if self.si else r
+
+    def joint_mass(self, m: float) -> float:
+        """A lumped mass: SI kg -> m / (m_ref l0)."""
+        return m / (self.m_ref * self.l0) if self.si else m
+
+    def gravity(self, g: float) -> float:
+        """A gravity component: SI m/s^2 -> g / (l0 omega^2)."""
+        return g / (self.l0 * self.omega ** 2) if self.si else g
+
+    def torque(self, torque: float) -> float:
+        """A moment: SI N m -> M / (m_ref l0^3 omega^2)."""
+        return torque / (self.m_ref * self.l0 ** 3 * self.omega ** 2) if self.si else torque
+
+    def distributed(self, q: float, m_i: float, l_i: float) -> float:
+        """A distributed load on bar i: SI N/m -> q / (m_i l_i omega^2)."""
+        return q / (m_i * l_i * self.omega ** 2) if self.si else q
+
+    def point(self, force: float, m_i: float, l_i: float) -> float:
+        """A point load on bar i: SI N -> F / (m_i l_i^2 omega^2)."""
+        return force / (m_i * l_i ** 2 * self.omega ** 2) if self.si else force
