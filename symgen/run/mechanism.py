@@ -199,6 +199,79 @@ class Mechanism:
             raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
                                       f"of the {self.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "start the driver at another angle or change initial.guess")
+        if sc.initial.quasi_static:
+            q, v = self.quasi_static_start(t0, q, v, part)
         v = self.velocities(t0, q, v, part)
         a, lam = self.accelerations(t0, q, v)
         return q, v, a, lam, part
+
+    # ---------------------------------------------------------------- quasi-static states
+    def _static_system(self, part: Partition):
+        """Newton system of the quasi-static state (18)-(19): deformation rates and
+        accelerations zero, rigid kinematics consistent with closure at all three levels."""
+        key = part
+        if getattr(self, "_static_key", None) == key:
+            return self._static_fun
+        E = [i for i, c in enumerate(self.coords) if c["kind"] in ("f", "g")]
+        D = list(part.dep)
+        nE, nD, nR = len(E), len(D), len(self.rigid)
+        u = ca.SX.sym("u", nE + 2 * nD + nR + self.m)
+        t = ca.SX.sym("t")
+        q0 = ca.SX.sym("q0", self.n)
+        v0 = ca.SX.sym("v0", self.n)
+        q, v, a = ca.SX(q0), ca.SX(v0), ca.SX.zeros(self.n)
+        for k, i in enumerate(E):
+            q[i] = u[k]
+            v[i] = 0
+        for k, i in enumerate(D):
+            q[i] = u[nE + k]
+            v[i] = u[nE + nD + k]
+        for k, i in enumerate(self.rigid):
+            a[i] = u[nE + 2 * nD + k]
+        lam = u[nE + 2 * nD + nR:]
+        args = [t, q, v, a, lam, self.p]
+        F = ca.vertcat(self.f["phi"](*args), self.f["phid"](*args), self.f["res"](*args), self.f["phidd"](*args))
+        self._static_fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
+        self._static_key = key
+        self._static_E = E
+        return self._static_fun
+
+    def quasi_static(self, t: float, q, v, part: Partition, tol: float = 1e-12, maxit: int = 50):
+        """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
+        fun = self._static_system(part)
+        E, D = self._static_E, list(part.dep)
+        u = np.concatenate([q[E], q[D], v[D], np.zeros(len(self.rigid)), np.zeros(self.m)])
+        for it in range(1, maxit + 1):
+            F, J, _, _ = fun(t, q, v, u)
+            F = np.array(F).ravel()
+            if np.abs(F).max() < tol:
+                break
+            u = u - np.linalg.solve(np.array(J), F)
+        else:
+            F = np.array(fun(t, q, v, u)[0]).ravel()
+            if np.abs(F).max() > 1e-8:
+                raise SimulationError(t, f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
+                                      "the mechanism may be near buckling or a singular position")
+        _, _, qn, vn = fun(t, q, v, u)
+        return np.array(qn).ravel(), np.array(vn).ravel(), it
+
+    def quasi_static_start(self, t0: float, q, v, part: Partition):
+        """Initial deformation = quasi-static state; under an angle driver the deformation
+        rates are the quasi-static ones too (central difference), so the start rings little."""
+        qs, vs, _ = self.quasi_static(t0, q, v, part)
+        drv = self.scene.driver
+        if drv is None or drv.kind != "angle" or drv.rate == 0:
+            return qs, vs
+        E = self._static_E
+        h = 1e-4 / abs(drv.rate)
+        ends = []
+        for dt in (-h, h):
+            qq = qs.copy()
+            i = next(i for i, c in enumerate(self.coords) if c["name"] == f"theta_{drv.body}")
+            qq[i] = drv.initial + drv.rate * (t0 + dt)
+            qq = self.assemble(t0 + dt, qq, part)
+            vv = self.velocities(t0 + dt, qq, vs, part)
+            ends.append(self.quasi_static(t0 + dt, qq, vv, part)[0])
+        vs = vs.copy()
+        vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
+        return qs, vs

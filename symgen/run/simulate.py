@@ -19,6 +19,7 @@ from ..errors import SimulationError
 from .mechanism import SINGULAR_RATIO, Mechanism, Partition
 
 CHUNK = 64          # output steps per integrator call
+CALC_IC = False     # z0 is always consistent (our own Newton); IDACalcIC only fails on it
 
 
 @dataclass
@@ -69,7 +70,7 @@ class DaeRunner:
         self.split = ca.Function("split", [x, z], [q, v, a, lam])
         self.opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
                      "suppress_algebraic": True, "disable_internal_warnings": True,
-                     "calc_ic": False}
+                     "calc_ic": CALC_IC}
         self._integrators: dict = {}
 
     def pack(self, q, v, a, lam) -> tuple[np.ndarray, np.ndarray]:

@@ -36,12 +36,14 @@ class Scales:
         return x / self.l0
 
     def time(self, t: float) -> float:
-        """A time: SI seconds -> tau = omega t."""
-        return t * self.omega if self.si else t
+        """A simulation time. The contract gives [simulation] times in tau = omega t in
+        both unit systems (``t_end = ...  # in tau``), so nothing to convert."""
+        return t
 
     def rate(self, r: float) -> float:
-        """A rate (per second in SI) -> per tau."""
-        return r / self.omega if self.si else r
+        """A driver rate or deformation rate: per tau in both unit systems (the contract's
+        ``theta = initial + rate * tau``; in SI the crank turns at rate * omega rad/s)."""
+        return r
 
     def joint_mass(self, m: float) -> float:
         """A lumped mass: SI kg -> m / (m_ref l0)."""

@@ -120,7 +120,7 @@ def test_si_scene_groups(si_path):
     slider B ground point 0.06 m / 0.3 = 0.2;  lumped mass 0.05 kg / (0.78 * 0.3) = 0.213675
     gravity -9.81 / (0.3 * 1e4) = -3.27e-3
     distributed 2 N/m / (0.78 * 0.3 * 1e4) = 8.547e-4;  point 10 N / (0.78 * 0.09 * 1e4) = 0.0142450
-    driver rate 100 rad/s / omega = 1;  t_end 0.1 s * 100 = 10;  output_step 0.001 s * 100 = 0.1
+    driver rate, t_end, output_step are in tau in both unit systems: 1, 10, 0.1
     """
     scene = load_scene(si_path)
     assert (scene.units, scene.l0, scene.omega, scene.m_ref) == ("SI", 0.3, 100.0, pytest.approx(0.78))
@@ -146,12 +146,12 @@ def test_si_scene_groups(si_path):
 
 def test_si_torque_driver_and_cycles(si_path, write_scene):
     # torque 3 N m / (m_ref l0^3 w^2) = 3 / (0.78 * 0.027 * 1e4) = 3 / 210.6
-    text = si_path.read_text().replace("t_end = 0.1                   # s", "cycles = 3")
+    text = si_path.read_text().replace("t_end = 10.0                  # in tau, as the contract says, also for SI", "cycles = 3")
     scene = load_scene(write_scene(text),
                        ['driver={kind = "torque", body = "crank", value = 3.0, rate = 50.0}'])
     assert scene.driver.kind == "torque" and scene.driver.initial is None
     assert scene.driver.torque == pytest.approx(3.0 / 210.6)
-    assert scene.driver.rate == pytest.approx(0.5)            # 50 rad/s / omega
+    assert scene.driver.rate == pytest.approx(50.0)           # per tau, as written
     # no angle driver: t_end = cycles * 2 pi (in tau)
     assert scene.simulation.t_end == pytest.approx(6.0 * math.pi)
 
@@ -163,12 +163,12 @@ def test_si_mass_per_length_instead_of_density(si_path, write_scene):
     assert scene.groups == load_scene(si_path).groups
 
 
-def test_si_initial_rates_are_per_second(si_path):
-    # gdot = 5 /s -> 5 / omega = 0.05 per tau; amplitudes are dimensionless already
+def test_si_initial_rates_are_per_tau(si_path):
+    # amplitudes are dimensionless and their rates per tau, in SI files too
     scene = load_scene(si_path, ["initial.deformation.rod={f = [0.001], gdot = [5.0]}"])
     (name, deformation), = scene.initial.deformation
     assert name == "rod"
-    assert deformation == BodyDeformation(f=(0.001,), g=(0.0,), fdot=(0.0,), gdot=(0.05,))
+    assert deformation == BodyDeformation(f=(0.001,), g=(0.0,), fdot=(0.0,), gdot=(5.0,))
 
 
 def test_defaults_of_a_minimal_scene(write_scene):

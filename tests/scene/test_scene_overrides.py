@@ -21,7 +21,7 @@ def test_by_name_and_table_paths(si_path):
     assert scene.effects.coriolis is False
     assert scene.simulation.rtol == 1e-6
     assert scene.outputs[0].xi == 0.25
-    assert scene.driver.rate == pytest.approx(2.0)
+    assert scene.driver.rate == pytest.approx(200.0)
 
 
 def test_string_fallback_and_toml_values(dimless_path):
