@@ -38,6 +38,10 @@ class SimResult:
     failure: str = ""
     stats: dict = field(default_factory=dict)
 
+    def column(self, name: str) -> np.ndarray:
+        """The output called ``name`` (as in the scene's [outputs])."""
+        return self.outputs[:, self.output_names.index(name)]
+
 
 class DaeRunner:
     def __init__(self, mech: Mechanism, part: Partition, rtol: float, atol: float) -> None:
