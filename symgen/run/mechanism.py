@@ -67,7 +67,7 @@ class Mechanism:
     def loop_name(self, row: int) -> str:
         r = self.meta["lam_rows"][row]
         if r["joint"] == "driver":
-            return f"the driver of '{r['loop'][-1]}'"
+            return f"driver of '{r['loop'][-1]}'"
         return f"loop closed by joint '{r['joint']}' ({' - '.join(r['loop'])})"
 
     # ---------------------------------------------------------------- partition + assembly
@@ -104,14 +104,22 @@ class Mechanism:
         if Jd.shape[1] == 0:
             return 0
         u, s, _ = np.linalg.svd(Jd)
-        return int(np.argmax(np.abs(u[:, -1])))
+        return self._loop_row(u[:, -1])
 
     def singular_ratio(self, t: float, q, part: Partition) -> tuple[float, int]:
         if not part.dep:
             return 1.0, 0
         Jd = self.jac_q(t, q)[:, list(part.dep)]
         u, s, _ = np.linalg.svd(Jd)
-        return float(s[-1] / max(s[0], 1e-300)), int(np.argmax(np.abs(u[:, -1])))
+        return float(s[-1] / max(s[0], 1e-300)), self._loop_row(u[:, -1])
+
+    def _loop_row(self, weights) -> int:
+        """The closure row (a loop, not the driver) that weighs most in a singular direction."""
+        w = np.abs(np.asarray(weights, dtype=float))
+        for i, r in enumerate(self.meta["lam_rows"]):
+            if r["joint"] == "driver" and len(w) > 1:
+                w[i] = -1.0
+        return int(np.argmax(w))
 
     def assemble(self, t: float, q_guess, part: Partition, tol: float = 1e-13, maxit: int = 60):
         """Solve phi(q) = 0 for the dependent coordinates by damped Newton from q_guess."""

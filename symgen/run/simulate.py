@@ -96,12 +96,15 @@ class DaeRunner:
 
     def polish(self, t: float, x, z, p, tol: float = 1e-13) -> np.ndarray:
         z = np.array(z, dtype=float).ravel()
-        for _ in range(8):
+        for _ in range(8 if tol < 1e-12 else 30):
             g, J = self.g(t, x, z, p)
             g = np.array(g).ravel()
             if np.abs(g).max() < tol:
                 break
-            z = z - np.linalg.solve(np.array(J), g)
+            try:
+                z = z - np.linalg.solve(np.array(J), g)
+            except np.linalg.LinAlgError:
+                break
         return z
 
 
@@ -145,6 +148,22 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     try:
         record(t0, x, z)
         done = 0
+        if run.nI == 0:
+            # no differential state (a rigid, fully driven mechanism): the motion is the
+            # algebraic solution at each output time; Newton from the previous solution
+            z_prev = None
+            for i in range(1, n_out_total + 1):
+                ti = t0 + i * h
+                pfull[-1] = ti
+                guess = z if z_prev is None else 2 * z - z_prev
+                z_new = run.polish(0.0, x, guess, pfull, tol=1e-12)
+                g = np.array(run.g(0.0, x, z_new, pfull)[0]).ravel()
+                if not np.all(np.isfinite(g)) or np.abs(g).max() > 1e-9:
+                    raise _lost(mech, part, ti, qs[-1], taus[-1], "the closure has no solution near the last one",
+                                limit=True)
+                z_prev, z = z, z_new
+                record(ti, x, z)
+            done = n_out_total
         while done < n_out_total:
             k = min(CHUNK, n_out_total - done)
             t_start = t0 + done * h
@@ -161,9 +180,8 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
                     try:
                         sol = F1(x0=x, z0=z, p=pfull)
                     except RuntimeError as err1:
-                        raise SimulationError(_fail_tau(err1, t_start + i * h),
-                                              f"IDAS failed: {_idas_cause(err1)}",
-                                              "tighten or loosen simulation.rtol/atol, check the scene near this tau") from None
+                        raise _lost(mech, part, t_start + i * h, qs[-1], taus[-1],
+                                    f"IDAS failed: {_idas_cause(err1)}") from None
                     steps += int(F1.stats()["nsteps"])
                     x = np.array(sol["xf"]).ravel()
                     z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
@@ -191,8 +209,23 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     return result
 
 
-def _fail_tau(err: Exception, fallback: float) -> float:
-    return fallback
+NEAR_SINGULAR = 5e-2
+
+
+def _lost(mech: Mechanism, part: Partition, tau: float, q_last, tau_last: float, cause: str,
+          limit: bool = False) -> SimulationError:
+    """The error for a step that failed: a singular position of the rigid mechanism when the
+    closure Jacobian was already near rank loss at the last good output (or, ``limit``, when
+    the driven closure itself lost its solution, which a smooth mechanism does only at a
+    singular position), else the solver cause."""
+    ratio, row = mech.singular_ratio(tau_last, q_last, part)
+    if ratio < NEAR_SINGULAR or limit:
+        return SimulationError(tau, f"the rigid mechanism reached a singular position (change point / toggle): "
+                                    f"the closure Jacobian of the {mech.loop_name(row)} loses rank "
+                                    f"(ratio {ratio:.1e} at tau = {tau_last:.6g}); {cause}",
+                               "the mechanism cannot be driven through this position; shorten the run or "
+                               "change the geometry or the driver")
+    return SimulationError(tau, cause, "tighten or loosen simulation.rtol/atol, or check the scene near this tau")
 
 
 def _idas_cause(err: Exception) -> str:
