@@ -825,7 +825,7 @@ def latex_document(scene, model) -> str:
         residuals.append(_row(pr, lhs, r, f"EoM.{k + 1}"))
 
     ctx = {
-        "version": __version__, "scene_path": str(scene.path), "scene_path_tex": tex_escape(scene.path),
+        "version": __version__, "scene_path": Path(scene.path).name, "scene_path_tex": tex_escape(Path(scene.path).name),
         "hash": scene.hash[:12], "name": tex_escape(scene.name), "units": tex_escape(scene.units),
         "bodies": bodies, "scene_groups": scene_groups, "effects": effects, "joints": joints,
         "driver": driver, "coords": coords, "multipliers": mult, "params": params, "bars": bars,
