@@ -1,9 +1,5 @@
-"""symgen benchmarks: prints a table and writes benchmarks/RESULTS.md.
+"""Benchmark sections on the example scenes (run through benchmarks/run.py).
 
-    python benchmarks/run.py            # all sections, 3 repeats (medians)
-    python benchmarks/run.py --repeats 5
-
-Sections
 1. The example scenes: derivation (fresh, no cache), CasADi build, integration (IDAS) time,
    steps, closure residual.
 2. Seed model vs the accurate default on the seed's slider-crank (midspan deflection against
@@ -116,10 +112,7 @@ def bench_seed_vs_accurate() -> list[dict]:
 
 
 def render(examples, seed) -> str:
-    out = ["# symgen benchmark results", "",
-           f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-           f"written by `python benchmarks/run.py` on {time.strftime('%Y-%m-%d')}.", "",
-           "## Example scenes (medians of repeats; derivation in a fresh process with empty caches)", "",
+    out = ["## Example scenes (medians of repeats; derivation in a fresh process with empty caches)", "",
            "| scene | turns | coordinates | derive s | build s | simulate s | s per turn | IDAS steps | closure max |",
            "|---|---|---|---|---|---|---|---|---|"]
     for r in examples:
@@ -133,16 +126,8 @@ def render(examples, seed) -> str:
     return "\n".join(out) + "\n"
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--repeats", type=int, default=3)
-    args = ap.parse_args()
-    examples = bench_examples(args.repeats)
-    seed = bench_seed_vs_accurate()
-    text = render(examples, seed)
-    print(text)
-    (ROOT / "benchmarks" / "RESULTS.md").write_text(text)
+def run(repeats: int) -> str:
+    """Markdown of this section."""
+    return render(bench_examples(repeats), bench_seed_vs_accurate())
 
 
-if __name__ == "__main__":
-    main()
