@@ -10,8 +10,8 @@ Energy scale: the rigid potential range of the swing, m g (L/2) (1 - cos 1) = 0.
 largest kinetic energy too); the energy drift is max|E - E0| over the run divided by it.
 E0 itself is checked against the closed form -m g (L/2) cos(1) (undeformed start at rest).
 
-atol. The runs use atol = 1e-10, not 1e-12: with atol <= 1e-12 symgen's IDAS run fails at
-tau = 0 (``test_tight_atol_starts``, strict xfail, see its reason). Measured (atol 1e-10):
+atol. The runs use atol = 1e-10 (``test_tight_atol_starts`` checks that tighter ones start:
+IDAS is given the exact initial state derivatives). Measured (atol 1e-10):
 
 * von Karman strain: drift 8.8e-9 over 20 tau (2.4e-8 over 60 tau), a slow monotone loss that
   follows the integrator (BDF) error; asserted < 1e-7.
@@ -173,14 +173,10 @@ def test_rigid_period(tmp_path, amp):
         assert np.abs(periods - small).max() / small < 1e-3
 
 
-@pytest.mark.xfail(strict=True, raises=SimulationError, reason=(
-    "symgen bug: DaeRunner (symgen/run/simulate.py) builds the IDAS integrator without "
-    "'init_xdot', so CasADi starts IDAS (calc_ic off) with xdot0 = 0, i.e. dv/dtau = 0 for "
-    "the independent coordinates although their accelerations a0 are not 0; the first step's "
-    "error test then needs h ~ atol/|a0| and IDAS gives up (IDA_ERR_FAIL at tau = 0) once "
-    "atol <= 1e-12 here (cantilever frame: already at atol = 1e-10, its a0 is ~12). "
-    "Same on a 2-state toy DAE q'' = -0.6 in CasADi 3.8.2; init_xdot = [v0, a0] fixes it."))
 @pytest.mark.parametrize("frame, atol", [("pinned-pinned", 1e-12), ("cantilever", 1e-10)])
 def test_tight_atol_starts(tmp_path, frame, atol):
+    """Regression: IDAS must be started with the exact state derivatives (init_xdot =
+    [v_I, a_I]); with x' = 0 assumed, nonzero initial accelerations made the first error
+    test fail at tight atol (IDA_ERR_FAIL at tau = 0)."""
     res, _ = run(tmp_path, frame=frame, atol=atol, t_end=1.0)
     assert energy_drift(res) < 1e-7
