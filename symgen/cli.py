@@ -133,6 +133,32 @@ def cmd_derive(args) -> int:
     return 0
 
 
+def cmd_study(args) -> int:
+    from .run.study import run_study, write_study
+
+    levels = None
+    if args.levels:
+        try:
+            levels = [tuple(int(x) for x in lev.split("+")) for lev in args.levels.split(",")]
+            assert all(len(lev) == 2 and min(lev) >= 0 for lev in levels)
+        except (ValueError, AssertionError):
+            raise SceneError("command line", "--levels", f"{args.levels!r} is not a list like 1+1,3+4,6+8",
+                             "give axial+transverse mode counts, poorest first, separated by commas") from None
+    tols = None
+    if args.tolerances:
+        try:
+            tols = [float(x) for x in args.tolerances.split(",")]
+        except ValueError:
+            raise SceneError("command line", "--tolerances", f"{args.tolerances!r} is not a list like 1e-4,1e-6",
+                             "give rtol values separated by commas") from None
+    study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
+                      window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
+                      ref_rtol=args.ref_rtol, progress=None if args.silent else print)
+    for path in write_study(study, args.output):
+        print(f"wrote {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="symgen", description="Planar mechanisms with elastic bars: "
                                  "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.")
@@ -162,6 +188,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="generated", help="folder (default: generated)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
     p.set_defaults(func=cmd_derive)
+
+    p = scene_cmd("study", "accuracy vs time: sweep modes, tolerances and effects against a converged reference")
+    p.add_argument("-o", "--output", required=True, help="folder for study.csv, study.md, study.png")
+    p.add_argument("--quick", action="store_true", help="fewer mode levels and tolerances, no per-bar rows")
+    p.add_argument("--repeats", type=int, default=3, help="timed repeats, medians reported (default 3)")
+    p.add_argument("--window", type=float, default=1.0, help="early window of the pointwise error, crank turns")
+    p.add_argument("--cutoff", type=float, default=50.0, help="low-pass cutoff of compared outputs, cycles per turn")
+    p.add_argument("--levels", help="mode levels axial+transverse per elastic bar, e.g. 1+1,3+4,6+8 "
+                                    "(the last is the reference's)")
+    p.add_argument("--tolerances", help="rtol values of the sweep, e.g. 1e-4,1e-6,1e-8 (atol = rtol/100)")
+    p.add_argument("--ref-rtol", type=float, default=1e-9, help="rtol of the reference (default 1e-9)")
+    p.add_argument("--silent", action="store_true", help="no progress lines")
+    p.set_defaults(func=cmd_study)
     return ap
 
 
