@@ -56,9 +56,12 @@ class BarSymbols:
     nu: sp.Symbol
     lam: sp.Symbol | None
     mu: sp.Symbol | None
+    beta: tuple = ()        # guide of a slot: (beta, beta', beta'') of the moving support
 
     @staticmethod
-    def make(name: str, na: int, nt: int, elastic: bool) -> "BarSymbols":
+    def make(name: str, na: int, nt: int, elastic: bool, lam: bool = True) -> "BarSymbols":
+        """``lam = False``: no lambda symbol even with axial functions (an inextensible bar
+        without rotary inertia: its axial force is a multiplier, not lambda times a strain)."""
         def vec(prefix: str, n: int) -> tuple:
             return tuple(sp.Symbol(f"{prefix}_{name}_{k + 1}", real=True) for k in range(n))
 
@@ -69,7 +72,7 @@ class BarSymbols:
             g=vec("g", nt), dg=vec("dg", nt), ddg=vec("ddg", nt),
             xa_dd=S(f"xAdd_{name}"), ya_dd=S(f"yAdd_{name}"),
             alpha=sp.Symbol(f"alpha_{name}", positive=True), nu=sp.Symbol(f"nu_{name}", positive=True),
-            lam=sp.Symbol(f"lambda_{name}", positive=True) if elastic and na else None,
+            lam=sp.Symbol(f"lambda_{name}", positive=True) if elastic and na and lam else None,
             mu=sp.Symbol(f"mu_{name}", positive=True) if elastic and nt else None)
 
 
@@ -158,6 +161,8 @@ class BarEquations:
     elastic: sp.Expr        # strain energy / nu alpha^3
     xa_d: sp.Symbol
     ya_d: sp.Symbol
+    constraint: tuple = ()  # inextensible bar: (phi'_k, eps) = 0, k = 1..na (multipliers N_k)
+    eqbeta: sp.Expr | None = None   # guide of a slot: the equation of its support distance beta
 
     def generalized(self) -> dict:
         """Generalized forces in common units: 'XY' (ground axes), 'th', 'f', 'g'."""
@@ -165,13 +170,14 @@ class BarEquations:
         k2, k3 = s.nu * s.alpha ** 2, s.nu * s.alpha ** 3
         fxy = rot(s.th) * sp.Matrix(self.force) * k2
         return {"XY": (fxy[0], fxy[1]), "th": k3 * self.moment,
-                "f": tuple(k3 * e for e in self.eq16), "g": tuple(k3 * e for e in self.eq17)}
+                "f": tuple(k3 * e for e in self.eq16), "g": tuple(k3 * e for e in self.eq17),
+                "beta": None if self.eqbeta is None else k3 * self.eqbeta}
 
 
 def bar_equations(
     s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, *,
     loads: tuple = (), points: tuple = (), gravity: tuple | None = None,
-    damping: sp.Expr | None = None,
+    damping: sp.Expr | None = None, axial_force: tuple | None = None,
 ) -> BarEquations:
     """Derive one bar's equations.
 
@@ -181,6 +187,14 @@ def bar_equations(
     points : PointForce, ...
     gravity : (Gx, Gy) symbols (g / l0 w^2, ground axes) or None when off
     damping : Kelvin-Voigt ratio symbol or None when off
+    axial_force : (N_1..N_na) multiplier symbols of an *inextensible* bar
+        (``effects.axial = "inextensible"``), else None. The bar's strain is then constrained,
+        in Galerkin form, to (phi'_k, eps) = 0 (returned as ``constraint``): the lambda -> oo
+        limit of the weak form. The axial force N = sum_k N_k phi'_k (units of lambda eps) does
+        virtual work sum_k N_k d(phi'_k, eps): it enters (16) as Ka N and, with geometric
+        stiffening, (17) as (N eta', psi'), the same term for both strains (the seed's
+        lambda (zeta' eta')' is (N eta')' with N = lambda zeta'). No strain energy, no axial
+        damping: the constraint does no work.
     """
     na, nt = len(s.f), len(s.g)
     th, dth, ddth = s.th, s.dth, s.ddth
@@ -188,6 +202,7 @@ def bar_equations(
     g, dg, ddg = list(s.g), list(s.dg), list(s.ddg)
     zf, zg = [0] * na, [0] * nt
     cor = 2 * dth if effects.coriolis else 0
+    inext = axial_force is not None
 
     # eq. (1) divided by l_i w^2, as coefficients over b = [1, xi, phi, psi]
     ax = [s.xa_dd, -dth ** 2] + [ddf[k] - dth ** 2 * f[k] for k in range(na)] \
@@ -197,9 +212,16 @@ def bar_equations(
     pos_x = [0, 1] + f + zg          # xi + zeta
     pos_y = [0, 0] + zf + g          # eta
     one = [1, 0] + zf + zg
+    var = bool(s.beta)               # variable span psi(xi, beta): blocks psi_beta, psi_betabeta
+    nb = 2 * nt if var else 0
+    if var:
+        b, db, ddb = s.beta
+        ax += [-cor * g[k] * db for k in range(nt)] + [0] * nt
+        ay += [2 * dg[k] * db + g[k] * ddb for k in range(nt)] + [g[k] * db ** 2 for k in range(nt)]
+        pos_x, pos_y, one = pos_x + [0] * nb, pos_y + [0] * nb, one + [0] * nb
 
     def unit(k: int) -> list:
-        e = [0] * (2 + na + nt)
+        e = [0] * (2 + na + nt + nb)
         e[k] = 1
         return e
 
@@ -222,7 +244,7 @@ def bar_equations(
             B, G = p.bar
         phi_k = basis_a.values(p.xi) if na else np.zeros(0)
         psi_k = basis_t.values(p.xi) if nt else np.zeros(0)
-        pts.append((p.xi, B, G, [_num(v) for v in phi_k], [_num(v) for v in psi_k]))
+        pts.append((p.xi, B, G, [_val(v) for v in phi_k], [_val(v) for v in psi_k]))
 
     # rigid-body force balance (bar axes) / nu alpha^2
     fx = _ip(t, one, ax) - beta - sp.Add(*[B for _, B, _, _, _ in pts])
@@ -249,7 +271,7 @@ def bar_equations(
                 c3 = t.tensor("C3", (k, a, b), r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)")
                 mult = 1 if a == b else 2
                 coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
-        if effects.strain == "von_karman":
+        if effects.strain == "von_karman" and not inext:
             for idx in combinations_with_replacement(range(nt), 4):
                 d4 = t.tensor("D4", idx, r"\left(\psi'_{{{0}}}\psi'_{{{1}}},\psi'_{{{2}}}\psi'_{{{3}}}\right)")
                 mult = _multinomial(idx)
@@ -257,7 +279,9 @@ def bar_equations(
                 for i in idx:
                     term *= g[i]
                 quartic += term
-    if na and lam is not None:
+    if inext:
+        strain_energy = sp.Integer(0)     # the axial part is a constraint (no energy)
+    elif na and lam is not None:
         strain_energy = lam * (quad_a + (coupling + quartic if effects.strain == "von_karman" else 0))
     else:
         strain_energy = sp.Integer(0)
@@ -265,11 +289,21 @@ def bar_equations(
         strain_energy += mu * quad_t
     el_f = [sp.diff(strain_energy, fk) for fk in f]
     el_g = [sp.diff(strain_energy, gk) for gk in g]
-    if effects.strain == "linear" and lam is not None and coupling != 0:
+    constraint = ()
+    if inext:
+        # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
+        constraint = tuple(sp.Add(*[Ka[k][j] * f[j] for j in range(na)])
+                           + (sp.diff(coupling, f[k]) if effects.strain == "von_karman" else 0)
+                           for k in range(na))
+        el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
+        # (N eta', psi'_a) = sum_k N_k d(coupling)/d(f_k g_a): the coupling is (1/2) sum C3 f g g
+        el_g = [el_g[a] + sp.Add(*[axial_force[k] * sp.diff(coupling, f[k], g[a]) for k in range(na)])
+                for a in range(nt)]
+    if effects.strain == "linear" and lam is not None and coupling != 0 and not inext:
         # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
         el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
     if damping is not None:
-        if lam is not None:
+        if lam is not None and not inext:
             el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
         if mu is not None:
             el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
@@ -289,6 +323,15 @@ def bar_equations(
     xa_d, ya_d = sp.Symbol(f"xAd_{s.name}", real=True), sp.Symbol(f"yAd_{s.name}", real=True)
     vx = [xa_d, 0] + df + [-dth * g[k] for k in range(nt)]
     vy = [ya_d, dth] + [dth * f[k] for k in range(na)] + dg
+    eqbeta = None
+    if var:
+        vx += [0] * nb
+        vy += [g[k] * db for k in range(nt)] + [0] * nt
+        # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
+        w = [0] * (2 + na + nt) + g + [0] * nt
+        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy, b) - gamma * _ip(t, w, one)
+        for xi, B, G, ph, ps in pts:
+            eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
     kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2
 
     if effects.rotary_inertia and nt and lam is not None and mu is not None:
@@ -300,12 +343,20 @@ def bar_equations(
                 for i in range(nt)]
         kinetic += rho * (dth ** 2 + 2 * dth * sp.Add(*[psid1[k] * dg[k] for k in range(nt)])
                           + sp.Add(*[Pd[i][j] * dg[i] * dg[j] for i in range(nt) for j in range(nt)])) / 2
-    if effects.strain == "linear" or not effects.geometric_stiffening:
+    if inext:
+        elastic = mu * quad_t if (nt and mu is not None) else 0
+    elif effects.strain == "linear" or not effects.geometric_stiffening:
         elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
     else:
         elastic = strain_energy
     return BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
-                        kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d)
+                        kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d,
+                        constraint=constraint, eqbeta=eqbeta)
+
+
+def _val(v) -> sp.Expr:
+    """A shape-function value: a number, or an expression (variable span psi(xi, beta))."""
+    return v if isinstance(v, sp.Basic) else _num(v)
 
 
 def _num(v: float) -> sp.Expr:

@@ -20,7 +20,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
@@ -30,6 +30,7 @@ from .errors import SceneError
 from .kinematics import BarKinematics
 from .scene.model import GROUND, Scene
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
+from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from .topology import Topology, build_topology
 
 DERIVE_VERSION = "1"
@@ -70,9 +71,9 @@ class Coordinate:
 
 @dataclass(frozen=True)
 class ConstraintRow:
-    joint: str         # cut joint or "driver"
-    kind: str          # "pin-x" | "pin-y" | "slider" | "driver"
-    loop: tuple        # bars around the loop
+    joint: str         # cut joint, "driver", or the bar of an "inextensible" row
+    kind: str          # "pin-x" | "pin-y" | "slider" | "driver" | "inextensible"
+    loop: tuple        # bars around the loop (the bar itself for "inextensible")
 
 
 @dataclass
@@ -119,6 +120,15 @@ def effective_modes(scene: Scene, body) -> tuple[int, int]:
     return na, nt
 
 
+INEXTENSIBLE = "inextensible"
+
+
+def inextensible(scene: Scene) -> bool:
+    """``effects.axial = "inextensible"``: every elastic bar's axial functions carry the
+    constraint (phi'_k, eps) = 0 and its multipliers (the axial force), not lambda eps."""
+    return scene.effects.axial == INEXTENSIBLE
+
+
 def _tip_joint(scene: Scene, name: str) -> bool:
     return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12
                for j in scene.joints for e in j.ends)
@@ -145,11 +155,13 @@ def structure_of(scene: Scene) -> dict:
               "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]
     outputs = [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "xi": o.xi,
                 "component": o.component} for o in scene.outputs]
+    effects = {"coriolis": eff.coriolis, "geometric_stiffening": eff.geometric_stiffening,
+               "rotary_inertia": eff.rotary_inertia, "strain": eff.strain,
+               "gravity": any(x != 0 for x in eff.gravity), "damping": eff.damping > 0}
+    if inextensible(scene):
+        effects["axial"] = INEXTENSIBLE     # only then: the keys of every other scene are unchanged
     return {"version": [__version__, DERIVE_VERSION], "bodies": bodies, "joints": joints, "driver": drv,
-            "effects": {"coriolis": eff.coriolis, "geometric_stiffening": eff.geometric_stiffening,
-                        "rotary_inertia": eff.rotary_inertia, "strain": eff.strain,
-                        "gravity": any(x != 0 for x in eff.gravity), "damping": eff.damping > 0},
-            "loads": loads, "outputs": outputs}
+            "effects": effects, "loads": loads, "outputs": outputs}
 
 
 def structure_key(structure: dict) -> str:
@@ -172,9 +184,21 @@ def derive(scene: Scene) -> DerivedModel:
 
     # ---- bars, shapes, inner products
     bars: dict[str, BarModel] = {}
+    slot_of = _slot_guides(scene)          # guide bar -> its slot joint (variable span psi(xi, beta))
     for b in scene.bodies:
         na, nt = effective_modes(scene, b)
-        sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid)
+        sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid,
+                              lam=not inextensible(scene) or eff.rotary_inertia)   # rho = mu / lambda
+        if b.name in slot_of:
+            beta = tuple(sp.Symbol(f"{p}beta_{slot_of[b.name]}", real=True) for p in ("", "d", "dd"))
+            sym = replace(sym, beta=beta)
+            basis = SlotBasis(nt, beta[0])
+            P[str(sym.alpha)], P[str(sym.nu)] = sym.alpha, sym.nu
+            if sym.mu is not None:
+                P[str(sym.mu)] = sym.mu
+            ba = axial_basis("complete", 0)
+            bars[b.name] = BarModel(b.name, sym, ba, basis, SlotBarKinematics(sym, basis, beta), SlotIPTable(basis))
+            continue
         P[str(sym.alpha)] = sym.alpha
         P[str(sym.nu)] = sym.nu
         if sym.lam is not None:
@@ -207,6 +231,9 @@ def derive(scene: Scene) -> DerivedModel:
         for k in range(len(sym.g)):
             coords.append(Coordinate(str(sym.g[k]), "g", name, k))
             q.append(sym.g[k]), v.append(sym.dg[k]), a.append(sym.ddg[k])
+        if sym.beta:
+            coords.append(Coordinate(str(sym.beta[0]), "beta", name))
+            q.append(sym.beta[0]), v.append(sym.beta[1]), a.append(sym.beta[2])
 
     joints = {j.name: j for j in scene.joints}
 
@@ -283,10 +310,12 @@ def derive(scene: Scene) -> DerivedModel:
 
     # ---- constraints: cut joints (11) and the angle driver
     lam, lam_rows, point_forces = [], [], {n: [] for n in bars}
+    slot_force: dict[str, tuple] = {}
     phi, phid, phidd = [], [], []
     for cut in topo.cuts:
         j = joints[cut.joint]
-        (ra, va, aa), (rb, vb, ab) = end_point(j.name, j.ends[0]), end_point(j.name, j.ends[1])
+        ra, va, aa = end_point(j.name, j.ends[0])
+        rb, vb, ab = end_point(j.name, j.ends[1]) if j.kind != "slot" else (None, None, None)
         if j.kind == "pin":
             L = (sp.Symbol(f"Lx_{j.name}", real=True), sp.Symbol(f"Ly_{j.name}", real=True))
             for k, comp in enumerate("xy"):
@@ -296,6 +325,17 @@ def derive(scene: Scene) -> DerivedModel:
                 end = j.ends[idx]
                 if end.body != GROUND:
                     point_forces[end.body].append(PointForce(end.xi, ground=(sign * L[0], sign * L[1])))
+        elif j.kind == "slot":  # the point of ends[0] stays on the guide at its support distance beta
+            guide = bars[j.ends[1].body]
+            rA, vA, aA = origin(guide.body)
+            c0, c1, c2 = guide.kin.contact()
+            rb, vb, ab = rA + c0, vA + c1, aA + c2
+            L = (sp.Symbol(f"Lx_{j.name}", real=True), sp.Symbol(f"Ly_{j.name}", real=True))
+            for k, comp in enumerate("xy"):
+                phi.append(ra[k] - rb[k]), phid.append(va[k] - vb[k]), phidd.append(aa[k] - ab[k])
+                lam.append(L[k]), lam_rows.append(ConstraintRow(j.name, f"slot-{comp}", cut.loop))
+            point_forces[j.ends[0].body].append(PointForce(j.ends[0].xi, ground=(L[0], L[1])))
+            slot_force[guide.body] = (-L[0], -L[1])      # on the guide, at the moving contact
         else:  # slider: the bar point stays on the ground line
             bar_idx = 0 if j.ends[0].body != GROUND else 1
             sign = 1 if bar_idx == 0 else -1
@@ -348,6 +388,9 @@ def derive(scene: Scene) -> DerivedModel:
         else:
             point_forces[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
     damping = param("damping") if structure["effects"]["damping"] else None
+    # inextensible bars: multipliers N_k of (phi'_k, eps) = 0 (the axial force, in lambda eps units)
+    axial_force = {name: tuple(sp.Symbol(f"N_{name}_{k + 1}", real=True) for k in range(len(bm.sym.f)))
+                   for name, bm in bars.items() if inextensible(scene) and len(bm.sym.f)}
 
     prog = Program(inputs={})
     # ---- bar equations (16)-(17) + rigid-body equations, then (10) for [r_A'']_i
@@ -360,14 +403,33 @@ def derive(scene: Scene) -> DerivedModel:
         prog.assignments.append((s.ya_dd, acc[1]))
         bm.inputs = {"loads": tuple(dist[name]), "points": tuple(point_forces[name]),
                      "gravity": grav, "damping": damping}
+        if name in axial_force:
+            bm.inputs["axial_force"] = axial_force[name]
         bm.equations = bar_equations(s, bm.basis_a, bm.basis_t, bm.ipt, eff, **bm.inputs)
         gen = bm.equations.generalized()
+        if name in slot_force:
+            gen = _add_contact_force(gen, bm.kin, slot_force[name])
         E[name] = {
             "XY": (prog.assign(f"EX_{name}", gen["XY"][0]), prog.assign(f"EY_{name}", gen["XY"][1])),
             "th": prog.assign(f"Eth_{name}", gen["th"]),
             "f": [prog.assign(f"Ef_{name}_{k + 1}", e) for k, e in enumerate(gen["f"])],
             "g": [prog.assign(f"Eg_{name}_{k + 1}", e) for k, e in enumerate(gen["g"])],
         }
+        if gen.get("beta") is not None:
+            E[name]["beta"] = prog.assign(f"Ebeta_{name}", gen["beta"])
+    # ---- inextensibility rows (after the loops and the driver): position, velocity, acceleration
+    for name in topo.order:
+        if name not in axial_force:
+            continue
+        s = bars[name].sym
+        amp = [(x, dx, ddx) for x, dx, ddx in zip(s.f + s.g, s.df + s.dg, s.ddf + s.ddg)]
+        for k, c in enumerate(bars[name].equations.constraint):
+            grad = [sp.diff(c, x) for x, _, _ in amp]
+            cd = sp.Add(*[gi * dx for gi, (_, dx, _) in zip(grad, amp)])
+            cdd = sp.Add(*[gi * ddx for gi, (_, _, ddx) in zip(grad, amp)])
+            cdd += sp.Add(*[sp.diff(gi, y) * dx * dy for gi, (_, dx, _) in zip(grad, amp) for y, dy, _ in amp])
+            phi.append(c), phid.append(cd), phidd.append(cdd)
+            lam.append(axial_force[name][k]), lam_rows.append(ConstraintRow(name, INEXTENSIBLE, (name,)))
     # ---- subtree resultants S (reactions of tree joints), leaves first
     S: dict[str, sp.Matrix] = {}
     for name in reversed(topo.order):
@@ -391,6 +453,8 @@ def derive(scene: Scene) -> DerivedModel:
             own = E[c.body]["f"][c.index]
         elif c.kind == "g":
             own = E[c.body]["g"][c.index]
+        elif c.kind == "beta":
+            own = E[c.body]["beta"]
         r = own - bm.kin.partials(e.body_xi)[var].dot(S[c.body])
         for ch in topo.children[c.body]:
             r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
@@ -420,6 +484,34 @@ def derive(scene: Scene) -> DerivedModel:
                         topology=topo, bars=bars, coords=coords, q=q_t, v=v_t, a=a_t, lam=tuple(lam),
                         lam_rows=lam_rows, params=params, program=prog, output_names=out_names,
                         driver_row=driver_row, timings=timings)
+
+
+def _slot_guides(scene: Scene) -> dict:
+    """guide bar -> slot joint name (one slot per guide)."""
+    out: dict[str, str] = {}
+    for j in scene.joints:
+        if j.kind == "slot":
+            guide = j.ends[1].body
+            if guide in out:
+                raise SceneError(scene.path, f"joints.{j.name}", f"bar {guide!r} already guides slot "
+                                 f"{out[guide]!r}; symgen supports one slot per guide bar",
+                                 "split the guide into two bars joined by a pin")
+            out[guide] = j.name
+    return out
+
+
+def _add_contact_force(gen: dict, kin, force: tuple) -> dict:
+    """Generalized forces of a force applied at the guide's moving contact (xi = beta):
+    E -= (d r_contact / d coordinate) . F for the translation, theta and beta (the
+    amplitudes do no work there: eta(beta) = 0 in the guide's frame)."""
+    F = sp.Matrix(force)
+    arms = kin.contact_partials()
+    s = kin.sym
+    out = dict(gen)
+    out["XY"] = (gen["XY"][0] - F[0], gen["XY"][1] - F[1])
+    out["th"] = gen["th"] - arms[s.th].dot(F)
+    out["beta"] = gen["beta"] - arms[s.beta[0]].dot(F)
+    return out
 
 
 def _energy(bars, topo, origin, point, lumped, G) -> sp.Expr:

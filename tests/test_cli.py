@@ -69,7 +69,8 @@ def test_real_process_exit_code_and_stderr(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", str(bad), "-o", str(tmp_path / "x.csv")],
                           capture_output=True, text=True, cwd=ROOT)
     assert proc.returncode == 2
-    assert "slot joints are not yet supported" in proc.stderr and "Traceback" not in proc.stderr
+    assert "a slot joins a point of one bar to a second (guide) bar" in proc.stderr
+    assert "Traceback" not in proc.stderr
     assert not (tmp_path / "x.csv").exists()
 
 

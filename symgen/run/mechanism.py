@@ -51,7 +51,12 @@ class Mechanism:
         phidd = self.f["phidd"](*args)
         self.kkt = ca.Function("kkt", args, [ca.jacobian(ca.vertcat(res, phidd), ca.vertcat(a, lam)),
                                              ca.vertcat(res, phidd)])
-        self.rigid = [i for i, c in enumerate(self.coords) if c["kind"] in ("theta", "s")]
+        self.rigid = [i for i, c in enumerate(self.coords) if c["kind"] in ("theta", "s", "beta")]
+        # effects.axial = "inextensible": the axial amplitudes of those bars are dependent
+        # coordinates of their inextensibility rows (kept apart from the loop rows)
+        self.inext_rows = [i for i, r in enumerate(self.meta["lam_rows"]) if r["kind"] == "inextensible"]
+        inext_bars = {self.meta["lam_rows"][i]["joint"] for i in self.inext_rows}
+        self.inext_f = [i for i, c in enumerate(self.coords) if c["kind"] == "f" and c["body"] in inext_bars]
 
     # ---------------------------------------------------------------- helpers
     def call(self, name: str, t: float, q, v=None, a=None, lam=None) -> np.ndarray:
@@ -68,6 +73,8 @@ class Mechanism:
         r = self.meta["lam_rows"][row]
         if r["joint"] == "driver":
             return f"driver of '{r['loop'][-1]}'"
+        if r["kind"] == "inextensible":
+            return f"inextensibility of bar '{r['joint']}'"
         return f"loop closed by joint '{r['joint']}' ({' - '.join(r['loop'])})"
 
     # ---------------------------------------------------------------- partition + assembly
@@ -83,6 +90,7 @@ class Mechanism:
             idx = next(i for i in self.rigid if self.coords[i]["name"] == name)
             order.remove(idx)
             order = [idx] + order if drv.kind == "angle" else order + [idx]
+        order = self.inext_f + order
         chosen: list[int] = []
         scale = max(np.abs(J).max(), 1e-300)
         for i in order:
@@ -107,17 +115,24 @@ class Mechanism:
         return self._loop_row(u[:, -1])
 
     def singular_ratio(self, t: float, q, part: Partition) -> tuple[float, int]:
-        if not part.dep:
+        """Smallest / largest singular value of the loop and driver rows' Jacobian in the
+        dependent rigid coordinates (inextensibility rows and their axial amplitudes, a
+        regular block Ka, are left out: the rigid mechanism alone decides singularity)."""
+        rows = [i for i in range(self.m) if i not in self.inext_rows]
+        cols = [i for i in part.dep if i not in self.inext_f]
+        if not cols:
             return 1.0, 0
-        Jd = self.jac_q(t, q)[:, list(part.dep)]
+        Jd = self.jac_q(t, q)[np.ix_(rows, cols)]
         u, s, _ = np.linalg.svd(Jd)
-        return float(s[-1] / max(s[0], 1e-300)), self._loop_row(u[:, -1])
+        weights = np.zeros(self.m)
+        weights[rows] = u[:, -1]
+        return float(s[-1] / max(s[0], 1e-300)), self._loop_row(weights)
 
     def _loop_row(self, weights) -> int:
         """The closure row (a loop, not the driver) that weighs most in a singular direction."""
         w = np.abs(np.asarray(weights, dtype=float))
         for i, r in enumerate(self.meta["lam_rows"]):
-            if r["joint"] == "driver" and len(w) > 1:
+            if (r["joint"] == "driver" or r["kind"] == "inextensible") and len(w) > 1:
                 w[i] = -1.0
         return int(np.argmax(w))
 
@@ -192,6 +207,8 @@ class Mechanism:
                         if drv.initial is not None:
                             q[i] = drv.initial
                         v[i] = drv.rate
+            elif c["kind"] == "beta":      # a slot's support distance: guess by the slot joint's name
+                q[i] = guess.get(c["name"][len("beta_"):], 0.5)
             elif c["kind"] in ("f", "g") and c["body"] in deform:
                 d = deform[c["body"]]
                 vals, rates = (d.f, d.fdot) if c["kind"] == "f" else (d.g, d.gdot)
@@ -220,9 +237,10 @@ class Mechanism:
         key = part
         if getattr(self, "_static_key", None) == key:
             return self._static_fun
-        E = [i for i, c in enumerate(self.coords) if c["kind"] in ("f", "g")]
         D = list(part.dep)
-        nE, nD, nR = len(E), len(D), len(self.rigid)
+        E = [i for i, c in enumerate(self.coords) if c["kind"] in ("f", "g") and i not in D]
+        R = sorted(set(self.rigid) | set(D))        # unknown accelerations
+        nE, nD, nR = len(E), len(D), len(R)
         u = ca.SX.sym("u", nE + 2 * nD + nR + self.m)
         t = ca.SX.sym("t")
         q0 = ca.SX.sym("q0", self.n)
@@ -234,7 +252,7 @@ class Mechanism:
         for k, i in enumerate(D):
             q[i] = u[nE + k]
             v[i] = u[nE + nD + k]
-        for k, i in enumerate(self.rigid):
+        for k, i in enumerate(R):
             a[i] = u[nE + 2 * nD + k]
         lam = u[nE + 2 * nD + nR:]
         args = [t, q, v, a, lam, self.p]
@@ -242,13 +260,14 @@ class Mechanism:
         self._static_fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
         self._static_key = key
         self._static_E = E
+        self._static_nR = nR
         return self._static_fun
 
     def quasi_static(self, t: float, q, v, part: Partition, tol: float = 1e-12, maxit: int = 50):
         """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
         fun = self._static_system(part)
         E, D = self._static_E, list(part.dep)
-        u = np.concatenate([q[E], q[D], v[D], np.zeros(len(self.rigid)), np.zeros(self.m)])
+        u = np.concatenate([q[E], q[D], v[D], np.zeros(self._static_nR), np.zeros(self.m)])
         for it in range(1, maxit + 1):
             F, J, _, _ = fun(t, q, v, u)
             F = np.array(F).ravel()

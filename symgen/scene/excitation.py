@@ -12,6 +12,7 @@ DRIVER_KEYS = ("kind", "body", "initial", "rate", "value")
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
 EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
+AXIAL_MODELS = ("inextensible",)      # project addition: effects.axial = "inextensible"
 EFFECT_KEYS = EFFECT_SWITCHES + ("strain", "gravity", "damping")
 STRAINS = ("von_karman", "linear")
 INITIAL_KEYS = ("guess", "deformation")
@@ -129,7 +130,14 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
     defaults = Effects()
     table = r.table(raw.get("effects", {}), "effects")
     r.check_keys(table, "effects", EFFECT_KEYS, "[effects]")
-    switches = {k: r.boolean(table, "effects", k, getattr(defaults, k)) for k in EFFECT_SWITCHES}
+    switches = {k: r.boolean(table, "effects", k, getattr(defaults, k)) for k in EFFECT_SWITCHES
+                if k != "axial"}
+    axial_hint = ('write true, false or "inextensible" (the lambda -> infinity limit: the axial '
+                  'force from equilibrium, no axial vibration)')
+    if isinstance(table.get("axial"), str):
+        switches["axial"] = r.choice(table, "effects", "axial", AXIAL_MODELS, hint=axial_hint)
+    else:
+        switches["axial"] = r.boolean(table, "effects", "axial", defaults.axial, hint=axial_hint)
     strain = r.choice(table, "effects", "strain", STRAINS, defaults.strain)
     gx, gy = defaults.gravity
     if "gravity" in table:
@@ -142,11 +150,13 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
 
 
 # -- initial ------------------------------------------------------------------------------------
-def _guess(r: Reader, value: object, bodies: dict[str, Body]) -> tuple[tuple[str, float], ...]:
-    """``initial.guess = {body = angle}``."""
+def _guess(r: Reader, value: object, bodies: dict[str, Body],
+           slots: tuple[str, ...] = ()) -> tuple[tuple[str, float], ...]:
+    """``initial.guess = {body = angle, slot_joint = beta}``."""
     table = r.table(value, "initial.guess", "write guess = { bar = angle_in_rad, ... }")
     for name in table:
-        bar_name(r, name, join("initial.guess", name), bodies)
+        if name not in slots:
+            bar_name(r, name, join("initial.guess", name), bodies)
     return tuple((name, r.number(table, "initial.guess", name)) for name in table)
 
 
@@ -176,11 +186,12 @@ def _body_deformation(r: Reader, value: object, path: str, body: Body,
     return BodyDeformation(**values)
 
 
-def read_initial(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -> Initial:
+def read_initial(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales,
+                 slots: tuple[str, ...] = ()) -> Initial:
     """The optional ``[initial]``: assembly guess and initial deformation."""
     table = r.table(raw.get("initial", {}), "initial")
     r.check_keys(table, "initial", INITIAL_KEYS, "[initial]")
-    guess = _guess(r, table["guess"], bodies) if "guess" in table else ()
+    guess = _guess(r, table["guess"], bodies, slots) if "guess" in table else ()
     value = table.get("deformation", {})
     if isinstance(value, str):
         if value != "quasi-static":

@@ -151,7 +151,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     joints = read_joints(r, raw, by_name, scales)
     check_connected(r, bodies, joints)
     driver = read_driver(r, raw, by_name, joints, scales)
-    initial = read_initial(r, raw, by_name, scales)
+    initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
     effects = read_effects(r, raw, scales)
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
     outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, driver)

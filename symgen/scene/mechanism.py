@@ -212,6 +212,9 @@ def _joint_bodies(r: Reader, table: dict, path: str, kind: str, bodies: dict[str
             r.fail(key, f"unknown body {name!r}", f"known bodies: {known}")
     if kind == "pin" and value[0] == value[1]:
         r.fail(key, f"a pin cannot join {value[0]!r} to itself", "name two different bodies")
+    if kind == "slot" and (GROUND in value or value[0] == value[1]):
+        r.fail(key, f"a slot joins a point of one bar to a second (guide) bar, got {value}",
+               'e.g. bodies = ["crank", "guide"]; a point sliding on ground is a "slider"')
     if kind == "slider" and (value.count(GROUND) != 1):
         r.fail(key, f"a slider joins exactly one bar and \"ground\", got {value}",
                "a slider puts a bar point on a fixed ground line; join two bars with a pin")
@@ -241,6 +244,30 @@ def _joint_ends(r: Reader, table: dict, path: str, names: list[str],
     return first, second
 
 
+def _slot_ends(r: Reader, table: dict, path: str, names: list[str],
+               bodies: dict[str, Body]) -> tuple[JointEnd, JointEnd]:
+    """A slot: ``at = [xi, "variable"]``: the first bar's point xi slides along the second
+    bar (the guide), whose support distance beta(tau) becomes an unknown."""
+    key = join(path, "at")
+    hint = 'a slot is written at = [xi, "variable"]: the point xi of the first bar slides along the second'
+    at = r.require(table, path, "at", hint)
+    if not isinstance(at, list) or len(at) != 2 or at[1] != "variable":
+        r.fail(key, f"must be [xi, \"variable\"] for a slot, got {describe(at)}", hint)
+    xi = r.as_number(at[0], key, ge=0.0, le=1.0, label=f"at[0] (bar {names[0]!r})", hint=hint)
+    guide = bodies[names[1]]
+    if guide.rigid:
+        r.fail(key, f"the guide {guide.name!r} of a slot is rigid; symgen models slots on elastic bars",
+               "make the guide elastic (it may have transverse_modes = 0), or use a pin elsewhere")
+    if guide.frame != "pinned-pinned":
+        r.fail(f"bodies.{guide.name}.frame", f"the guide of slot {path.split('.')[-1]!r} must use the "
+               f"\"pinned-pinned\" frame (pinned at xi = 0, supported at the slot), got {guide.frame!r}",
+               'set frame = "pinned-pinned"')
+    if guide.axial_modes != 0:
+        r.fail(f"bodies.{guide.name}.axial_modes", "a bar carrying a slot is axially rigid in symgen "
+               "(a frictionless slot transmits no axial force to it)", "set axial_modes = 0")
+    return JointEnd(names[0], xi=xi), JointEnd(names[1], variable=True)
+
+
 def _direction(r: Reader, table: dict, path: str, kind: str) -> tuple[float, float] | None:
     """Unit direction of a slider's ground line (required for sliders only)."""
     if kind != "slider":
@@ -262,11 +289,11 @@ def read_joint(r: Reader, name: str, path: str, table: dict, bodies: dict[str, B
     """Validate one ``[[joints]]`` entry."""
     r.check_keys(table, path, JOINT_KEYS, "a joint")
     kind = r.choice(table, path, "kind", JOINT_KINDS)
-    if kind == "slot":
-        r.fail(join(path, "kind"), "slot joints are not yet supported",
-               "they are planned; use a pin or a slider for now")
     names = _joint_bodies(r, table, path, kind, bodies)
-    ends = _joint_ends(r, table, path, names, scales)
+    if kind == "slot":
+        ends = _slot_ends(r, table, path, names, bodies)
+    else:
+        ends = _joint_ends(r, table, path, names, scales)
     direction = _direction(r, table, path, kind)
     mass = r.number(table, path, "mass", 0.0, ge=0.0,
                     hint="the lumped mass at the joint must be >= 0")

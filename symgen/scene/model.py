@@ -45,14 +45,15 @@ class JointEnd:
     """One side of a joint: a bar at position xi in [0, 1], or a ground point."""
 
     body: str                                   # body name or GROUND
-    xi: float | None = None                     # bars only
+    xi: float | None = None                     # bars only (None for the guide of a slot)
     point: tuple[float, float] | None = None    # ground only (dimensionless, / l0)
+    variable: bool = False                      # slot guide: the support distance beta(tau) is unknown
 
 
 @dataclass(frozen=True)
 class Joint:
     name: str
-    kind: str                                   # "pin" | "slider"
+    kind: str                                   # "pin" | "slider" | "slot"
     ends: tuple[JointEnd, JointEnd]             # in the file's order of ``bodies``
     direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
     mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
@@ -77,14 +78,14 @@ class BodyDeformation:
 
 @dataclass(frozen=True)
 class Initial:
-    guess: tuple[tuple[str, float], ...] = ()                    # (body, angle) pairs
+    guess: tuple[tuple[str, float], ...] = ()                    # (body, angle) or (slot joint, beta) pairs
     deformation: tuple[tuple[str, BodyDeformation], ...] = ()    # (body, amplitudes) pairs
     quasi_static: bool = False    # project key: initial.deformation = "quasi-static"
 
 
 @dataclass(frozen=True)
 class Effects:
-    axial: bool = True
+    axial: bool | str = True                # project addition: "inextensible" (lambda -> oo limit)
     transverse: bool = True
     geometric_stiffening: bool = True
     coriolis: bool = True
