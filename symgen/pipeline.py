@@ -31,19 +31,20 @@ class CompiledModel:
 
 def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
     """Derived model of ``scene`` as CasADi Functions (from the cache when possible)."""
-    from .dae import structure_key, structure_of
-    from .emit import casadi_emit
+    from .emit import casadi_io
+    from .structure import structure_key, structure_of
 
     key = structure_key(structure_of(scene))
     where = cache_dir() / "models" / key
     if use_cache and (where / "model.json").exists():
         t0 = time.perf_counter()
         try:
-            funcs, meta = casadi_emit.load(where)
+            funcs, meta = casadi_io.load(where)
             return CompiledModel(funcs, meta, meta["timings"]["derive_s"], time.perf_counter() - t0, True)
         except Exception:  # corrupt cache entry: derive again
             pass
     from .dae import derive
+    from .emit import casadi_emit
     model = derive(scene)
     t0 = time.perf_counter()
     funcs = casadi_emit.build_functions(model)

@@ -14,16 +14,10 @@ Every function has the signature ``F(t, q, v, a, lam, p)`` (unused inputs are ig
 """
 from __future__ import annotations
 
-import json
-import os
-import tempfile
-from pathlib import Path
-
 import casadi as ca
 import sympy as sp
 
-FUNCTION_NAMES = ("phi", "phid", "phidd", "res", "out", "energy", "closure")
-INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
+from .casadi_io import FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (re-exported)
 
 _UNARY = {
     sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp, sp.log: ca.log,
@@ -166,24 +160,3 @@ def model_meta(model) -> dict:
                   for name, b in model.bars.items()},
         "timings": model.timings,
     }
-
-
-def save(funcs: dict, meta: dict, directory: str | os.PathLike) -> None:
-    """Write ``<fname>.casadi`` and ``model.json`` atomically into ``directory``."""
-    directory = Path(directory)
-    directory.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".tmp-", dir=directory.parent))
-    for name, f in funcs.items():
-        f.save(str(tmp / f"{name}.casadi"))
-    (tmp / "model.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
-    if directory.exists():
-        import shutil
-        shutil.rmtree(directory, ignore_errors=True)
-    os.replace(tmp, directory)
-
-
-def load(directory: str | os.PathLike) -> tuple[dict, dict]:
-    directory = Path(directory)
-    meta = json.loads((directory / "model.json").read_text())
-    funcs = {name: ca.Function.load(str(directory / f"{name}.casadi")) for name in FUNCTION_NAMES}
-    return funcs, meta
