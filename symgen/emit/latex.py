@@ -87,6 +87,7 @@ class Namer:
             (re.compile(rf"Eth_({b})$"), lambda m: rf"E_{{\theta,{_rm(m[1])}}}"),
             (re.compile(rf"E([fg])_({b})_(\d+)$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])},{m[3]}}}"),
             (re.compile(rf"S(X|Y)_({b})$"), lambda m: rf"S_{{{m[1]},{_rm(m[2])}}}"),
+            (re.compile(rf"N_({b})_(\d+)$"), lambda m: rf"N_{{{_rm(m[1])},{m[2]}}}"),
             (re.compile(rf"L([xy])_({j})$"), lambda m: rf"\Lambda_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(r"L_driver$"), lambda m: r"\Lambda_{\mathrm{drv}}"),
             (re.compile(rf"L_({j})$"), lambda m: rf"\Lambda_{{{_rm(m[1])}}}"),
@@ -537,9 +538,13 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     pt_a = [rf"+ {b}\,\delta(\xi - {x})" for b, _, x in pts_tex]
     pt_t = [rf"+ {g}\,\delta(\xi - {x})" for _, g, x in pts_tex]
     strong = []
+    inext = "axial_force" in bm.inputs
+    ctx["inext"] = inext
     if na and not body.rigid:
         left = [rf"\lambda_{{{B}}}\varepsilon_{{{B}}}'" if vk else rf"\lambda_{{{B}}}\zeta_{{{B}}}''"]
-        if damp:
+        if inext:
+            left = [rf"N_{{{B}}}'"]
+        if damp and not inext:
             left.append(rf"+ {c}\,\lambda_{{{B}}}\dot\zeta_{{{B}}}''")
         if has_dist:
             left.append(rf"+ \bar\beta_{{{B}}}")
@@ -550,7 +555,9 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
         if damp:
             left.append(rf"- {c}\,\mu_{{{B}}}\dot\eta_{{{B}}}''''")
-        if gs_on:
+        if gs_on and inext:
+            left.append(rf"+ \bigl(N_{{{B}}}\eta_{{{B}}}'\bigr)'")
+        elif gs_on:
             left.append(rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}\eta_{{{B}}}'\bigr)'" if vk
                         else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'")
         if eff.rotary_inertia and na:
@@ -572,7 +579,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     inputs["loads"] = disp_loads
     inputs["gravity"] = None
     eqs = bar_equations(s, bm.basis_a, bm.basis_t, ipt, eff, **inputs)
-    elastic = {x for x in (s.lam, s.mu) if x is not None}
+    elastic = {x for x in (s.lam, s.mu) if x is not None} | set(bm.inputs.get("axial_force", ()))
     if damp:
         elastic.add(bm.inputs["damping"])
     rho_pair = (s.mu, s.lam, sp.Symbol(f"rho_{name}", positive=True)) if ctx["rotary"] else None
@@ -628,7 +635,13 @@ def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
     zp, ep, e3 = kin.zeta(xi, 1), kin.eta(xi, 1), kin.eta(xi, 3)
     p1, p3 = "'", "'''"
     rows = []
-    if na:
+    if na and "axial_force" in bm.inputs:
+        rows.append(Row(Nn, [rf"\sum_k N_{{{B},k}}\,\phi'_k({xs})"
+                             r"\text{ (the multiplier of the inextensibility rows)}"]))
+        rows.append(Row("", pr.lines(sp.Add(*[c * n for c, n in zip(kin._vals(bm.basis_a, xi, 1),
+                                                                        bm.inputs["axial_force"])]),
+                                     LINE_WIDTH - 10)))
+    elif na:
         n_sym = (rf"\lambda_{{{B}}}\bigl(\zeta_{{{B}}}{p1}({xs}) + \tfrac12\eta_{{{B}}}{p1}({xs})^{{2}}\bigr)" if vk
                  else rf"\lambda_{{{B}}}\zeta_{{{B}}}{p1}({xs})")
         N = s.lam * (zp + ep ** 2 / 2) if vk else s.lam * zp
@@ -764,7 +777,7 @@ def latex_document(scene, model) -> str:
     mult = []
     for L, row in zip(model.lam, model.lam_rows):
         what = {"pin-x": "x force of pin", "pin-y": "y force of pin", "slider": "normal force of slider",
-                "driver": "driver torque"}[row.kind]
+                "driver": "driver torque", "inextensible": "axial force amplitude of inextensible bar"}[row.kind]
         mult.append({"tex": pr(L), "text": f"{what} {tex_escape(row.joint) if row.kind != 'driver' else ''}".strip()})
     try:
         from ..pipeline import parameter_values
@@ -797,7 +810,11 @@ def latex_document(scene, model) -> str:
     closure = []
     phi = prog.outputs["phi"]
     for k, (expr, row) in enumerate(zip(phi, model.lam_rows)):
-        if row.kind == "driver":
+        if row.kind == "inextensible":
+            tag = f"IN, {tex_escape(row.joint)}"
+            text = (f"Inextensibility of {tex_escape(row.joint)} (effects.axial = inextensible): "
+                    "$(\\phi'_k, \\varepsilon) = 0$, multiplier $N_k$ = axial force amplitude")
+        elif row.kind == "driver":
             tag = f"KG, {tex_escape(drv.body)}"
             text = ("Kinematic guidance: the input bar's prescribed angle (added to the closure "
                     "system, multiplier $\\Lambda_{\\mathrm{drv}}$ = driver torque)")
