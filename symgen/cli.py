@@ -159,6 +159,81 @@ def cmd_study(args) -> int:
     return 0
 
 
+def cmd_quasistatic(args) -> int:
+    from .pipeline import compile_scene
+    from .run.mechanism import Mechanism
+    from .run.quasistatic import quasi_static
+    from .run.results import write_results
+
+    out = _check_out(args.output, (".csv",), "-o")
+    if args.plot:
+        _check_out(args.plot, (".png",), "--plot")
+    scene = _scene(args)
+    compiled = compile_scene(scene, use_cache=not args.no_cache)
+    t0 = time.perf_counter()
+    mech = Mechanism(compiled, scene)
+    build_s = compiled.build_s + (time.perf_counter() - t0)
+    failure, result = None, None
+    try:
+        result = quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles)
+    except SimulationError as err:
+        failure = err
+        result = getattr(err, "partial", None)
+    if result is None or len(result.tau) == 0:
+        raise failure if failure is not None else SimulationError(None, "no input position was solved")
+    meta = _sidecar(scene, compiled, build_s, result, failure)
+    meta["analysis"] = "quasi-static response (18)-(20)"
+    meta["solver"] = result.solver_info()
+    meta["timings"]["solve_s"] = result.solve_s
+    meta["t_end"] = float(result.tau[-1])
+    written = write_results(out, result.tau, result.outputs, result.output_names, meta, complete=failure is None)
+    if args.plot:
+        from .plot import plot_outputs
+        drv = scene.driver
+        turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
+        plot_path = Path(args.plot)
+        if failure is not None:
+            plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
+        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, [o.kind for o in scene.outputs],
+                     f"{scene.name}: quasi-static response, {Path(scene.path).name}", partial=failure is not None,
+                     turn=turn)
+    if failure is not None:
+        print(f"symgen: partial result kept in {written}", file=sys.stderr)
+        raise failure
+    info = meta["solver"]
+    print(f"wrote {written} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
+          f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
+          f"{info['residual_max']:.2e}; closure max {result.closure_max:.2e}; {result.solve_s:.2f}s)")
+    return 0
+
+
+def cmd_modes(args) -> int:
+    import json
+
+    from .pipeline import compile_scene
+    from .run.mechanism import Mechanism
+    from .run.modes import modes, modes_json, modes_table
+    from .run.results import atomic_write
+
+    out = _check_out(args.output, (".json",), "-o") if args.output else None
+    scene = _scene(args)
+    compiled = compile_scene(scene, use_cache=not args.no_cache)
+    result = modes(Mechanism(compiled, scene), tau=args.at)
+    print(modes_table(result, scene))
+    if out is not None:
+        atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
+        print(f"wrote {out}")
+    return 0
+
+
+def cmd_reproduce(args) -> int:
+    from .run.reproduce import reproduce
+
+    for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print):
+        print(f"wrote {path}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="symgen", description="Planar mechanisms with elastic bars: "
                                  "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.")
@@ -201,6 +276,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ref-rtol", type=float, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_study)
+    p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
+    p.add_argument("-o", "--output", required=True, help="CSV file to write")
+    p.add_argument("--plot", help="PNG file: outputs against tau")
+    p.add_argument("--cycles", type=float, default=None, help="crank turns to cover (default 1)")
+    p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
+                   help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
+    p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.set_defaults(func=cmd_quasistatic)
+
+    p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
+    p.add_argument("--at", type=float, default=0.0, metavar="TAU", help="input position tau (default 0)")
+    p.add_argument("-o", "--output", help="JSON file to write")
+    p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.set_defaults(func=cmd_modes)
+
+    p = sub.add_parser("reproduce", help="the paper's figures G.1-G.12 as PNGs, with a README")
+    p.add_argument("-o", "--output", required=True, help="folder to write")
+    p.add_argument("--quick", action="store_true", help="coarse output step (a smoke run)")
+    p.add_argument("--examples", default=None, help="folder of the example scenes (default: examples/)")
+    p.set_defaults(func=cmd_reproduce)
+
     return ap
 
 

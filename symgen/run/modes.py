@@ -1,0 +1,254 @@
+"""Natural frequencies and mode shapes of the deformation about the quasi-static state.
+
+At an input position tau the mechanism sits on its quasi-static state (18)-(20) (deformation
+rates and accelerations zero, closure exact): for a kinematically guided mechanism that is an
+equilibrium of the equations frozen at tau. Small motions about it obey the linearisation of
+the same index-1 system the dynamic runner integrates: with x = [q_I, v_I] (independent
+coordinates: the amplitudes) and z = [q_D, v_D, a, lam] (dependent rigid coordinates, their
+rates, accelerations, multipliers) solved from
+
+    0 = G(x, z) = [phi, phid, res, phidd]
+
+the motion is x' = [v_I, a_I(z(x))], and its Jacobian
+
+    dx'/dx = [[0, I], [S_a dz/dx]],   dz/dx = -G_z^-1 G_x
+
+is the state matrix on the tangent space of the closure (every perturbation keeps (11) at all
+three levels; the dependent coordinates follow). Its eigenvalues s = sigma +- i omega_d give
+the frequencies (in units of omega: per unit tau), natural frequency |s| and damping ratio
+-sigma/|s|. Everything the residual contains is in it: centrifugal and geometric stiffening
+through the axial force of the quasi-static state, spin softening -theta'^2 eta, Coriolis
+coupling, lumped masses, Kelvin-Voigt damping (modal ratio c omega_n / 2).
+
+A mechanism whose driver does work is not a conservative system even when frozen: the
+velocity-level closure of a moving loop makes the dependent rates depend on the deformation, so
+a linkage such as the four-bar shows small damping ratios of either sign (|zeta| ~ 1e-3..1e-2)
+without any damping. They describe the energy exchange with the driver at that position; a
+single bar spinning at constant speed (no loop) has none.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..errors import SimulationError
+from .mechanism import Mechanism
+from .quasistatic import QuasiStaticSystem
+
+SHAPE_POINTS = 21
+
+
+@dataclass
+class Mode:
+    index: int
+    eigenvalue: complex
+    natural_frequency: float        # |s|, units of omega
+    frequency: float                # damped: Im s
+    damping_ratio: float
+    dominant: str                   # "<body> transverse" | "<body> axial": largest deformation share
+    energy_fractions: dict          # group -> share of the modal kinetic energy (diagonal blocks)
+    amplitudes: dict                # coordinate -> real part of the normalised shape
+    complexity: float               # |imaginary part| / |real part| of the normalised shape
+    shape: dict = field(default_factory=dict)   # body -> {"xi", "zeta", "eta"}
+
+    def as_dict(self, hz_per_unit: float | None = None) -> dict:
+        d = {"index": self.index, "natural_frequency": self.natural_frequency, "frequency": self.frequency,
+             "damping_ratio": self.damping_ratio, "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+             "dominant": self.dominant, "energy_fractions": self.energy_fractions,
+             "amplitudes": self.amplitudes, "complexity": self.complexity, "shape": self.shape}
+        if hz_per_unit is not None:
+            d["natural_frequency_hz"] = self.natural_frequency * hz_per_unit
+        return d
+
+
+@dataclass
+class ModesResult:
+    tau: float
+    modes: list
+    real_eigenvalues: list          # overdamped (negative) or divergent (positive) eigenvalues
+    state: dict                     # coordinate -> value at the quasi-static state
+    independent: list
+    dependent: list
+    quasi_static: dict              # the (20) solve's report at tau
+
+    @property
+    def stable(self) -> bool:
+        return all(s <= 1e-9 for s in self.real_eigenvalues) and all(m.eigenvalue.real <= 1e-9 for m in self.modes)
+
+    def frequencies(self, kind: str | None = None, body: str | None = None) -> np.ndarray:
+        """Natural frequencies, ascending; ``kind`` ("transverse"/"axial") and ``body`` filter by
+        the dominant group."""
+        out = []
+        for m in self.modes:
+            b, k = m.dominant.rsplit(" ", 1)
+            if (kind is None or k == kind) and (body is None or b == body):
+                out.append(m.natural_frequency)
+        return np.array(out)
+
+
+def _rigid_march(qs: QuasiStaticSystem, tau: float):
+    """Rigid state at tau, followed from tau = 0 in small steps of the driver (stays on the
+    assembly branch of initial.guess)."""
+    mech = qs.mech
+    q, _, _, _, _ = mech.initial_state(0.0)
+    drv = mech.scene.driver
+    steps = 1
+    if drv is not None and drv.kind == "angle" and drv.rate != 0 and tau != 0:
+        steps = max(1, int(math.ceil(abs(drv.rate * tau) / 0.05)))
+    for k in range(1, steps + 1):
+        q, v, a = qs.rigid_state(tau * k / steps, q)
+    return q, v, a
+
+
+def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult:
+    """Linearised modes of the deformation about the quasi-static state at input position ``tau``."""
+    _, _, _, _, part0 = mech.initial_state(0.0)
+    qs = QuasiStaticSystem(mech, part0, "deformed")
+    qr, vr, ar = _rigid_march(qs, tau)
+    y, rep = qs.solve(tau, qr, vr, ar)
+    q, v, a, lam = qs.state(tau, qr, vr, ar, y)
+    part = mech.choose_partition(tau, q)
+    I, D = list(part.ind), list(part.dep)
+    n, m = mech.n, mech.m
+    nI, nD = len(I), len(D)
+    if nI == 0:
+        raise SimulationError(tau, "the mechanism has no deformation amplitudes: it has no modes",
+                              "give an elastic bar axial_modes or transverse_modes")
+    # index-1 system G(x, z) = 0 and its Jacobians
+    x = ca.SX.sym("x", 2 * nI)
+    z = ca.SX.sym("z", 2 * nD + n + m)
+    qq, vv = ca.SX.zeros(n), ca.SX.zeros(n)
+    for k, i in enumerate(I):
+        qq[i], vv[i] = x[k], x[nI + k]
+    for k, i in enumerate(D):
+        qq[i], vv[i] = z[k], z[nD + k]
+    aa = z[2 * nD: 2 * nD + n]
+    ll = z[2 * nD + n:]
+    args = [tau, qq, vv, aa, ll, mech.p]
+    f = mech.f
+    G = ca.vertcat(f["phi"](*args), f["phid"](*args), f["res"](*args), f["phidd"](*args))
+    jac = ca.Function("modes_jac", [x, z], [G, ca.jacobian(G, x), ca.jacobian(G, z), ca.jacobian(f["res"](*args), aa)])
+    x0 = np.concatenate([q[I], v[I]])
+    z0 = np.concatenate([q[D], v[D], a, lam])
+    G0, Gx, Gz, M = (np.array(w) for w in jac(x0, z0))
+    if np.abs(G0).max() > 1e-8:
+        raise SimulationError(tau, f"the quasi-static state does not satisfy the equations (residual "
+                                   f"{np.abs(G0).max():.3g})", "report this: it is an internal inconsistency")
+    dzdx = -np.linalg.solve(Gz, Gx)
+    rows_aI = [2 * nD + i for i in I]
+    Ax = np.zeros((2 * nI, 2 * nI))
+    Ax[:nI, nI:] = np.eye(nI)
+    Ax[nI:, :] = dzdx[rows_aI, :]
+    s, W = np.linalg.eig(Ax)
+
+    coords = mech.coords
+    groups = {}
+    for i, c in enumerate(coords):
+        kind = {"f": "axial", "g": "transverse"}.get(c["kind"], "rigid")
+        groups.setdefault(f"{c['body']} {kind}", []).append(i)
+    bases = _bases(mech) if shapes else {}
+    scale = max(1.0, float(np.abs(s).max()))
+    real_eigs, found = [], []
+    for k in range(len(s)):
+        sk = s[k]
+        if abs(sk.imag) <= 1e-9 * scale:
+            real_eigs.append(float(sk.real))
+            continue
+        if sk.imag < 0:
+            continue
+        w = W[:nI, k]
+        dq = np.zeros(n, dtype=complex)
+        dq[I] = w
+        dq[D] = dzdx[:nD, :nI] @ w          # dependent coordinates follow the closure
+        amp = [i for i in I]
+        j = amp[int(np.argmax(np.abs(dq[amp])))]
+        dq = dq / dq[j]
+        re, im = dq.real, dq.imag
+        energy = {g: float(np.real(np.conj(dq[idx]) @ M[np.ix_(idx, idx)] @ dq[idx])) for g, idx in groups.items()}
+        tot = sum(abs(e) for e in energy.values()) or 1.0
+        fractions = {g: abs(e) / tot for g, e in energy.items() if abs(e) / tot > 1e-12}
+        deform = {g: e for g, e in fractions.items() if not g.endswith(" rigid")}
+        dominant = max(deform, key=deform.get) if deform else (max(fractions, key=fractions.get) if fractions else "?")
+        mode = Mode(index=0, eigenvalue=complex(sk), natural_frequency=float(abs(sk)), frequency=float(sk.imag),
+                    damping_ratio=float(-sk.real / abs(sk)), dominant=dominant, energy_fractions=fractions,
+                    amplitudes={coords[i]["name"]: float(re[i]) for i in range(n)},
+                    complexity=float(np.linalg.norm(im) / max(np.linalg.norm(re), 1e-300)))
+        if shapes:
+            mode.shape = _shape(coords, re, bases)
+        found.append(mode)
+    found.sort(key=lambda md: md.natural_frequency)
+    for k, md in enumerate(found):
+        md.index = k + 1
+    return ModesResult(tau=float(tau), modes=found, real_eigenvalues=sorted(real_eigs),
+                       state={c["name"]: float(q[i]) for i, c in enumerate(coords)},
+                       independent=[coords[i]["name"] for i in I], dependent=[coords[i]["name"] for i in D],
+                       quasi_static=rep.as_dict())
+
+
+def _bases(mech: Mechanism) -> dict:
+    from ..shapes import axial_basis, transverse_basis
+
+    out = {}
+    structure = {b["name"]: b for b in mech.meta["structure"]["bodies"]}
+    for b in mech.scene.bodies:
+        st = structure[b.name]
+        if b.rigid or (st["na"] == 0 and st["nt"] == 0):
+            continue
+        ba = axial_basis(st["axial_shapes"] or "complete", st["na"]) if st["na"] else None
+        bt = (transverse_basis(st["frame"] or "pinned-pinned", st["transverse_shapes"] or "modes", st["nt"],
+                               tip_joint=st["tip_joint"]) if st["nt"] else None)
+        out[b.name] = (ba, bt)
+    return out
+
+
+def _shape(coords, dq, bases) -> dict:
+    xi = np.linspace(0.0, 1.0, SHAPE_POINTS)
+    out = {}
+    for body, (ba, bt) in bases.items():
+        f = [dq[i] for i, c in enumerate(coords) if c["body"] == body and c["kind"] == "f"]
+        g = [dq[i] for i, c in enumerate(coords) if c["body"] == body and c["kind"] == "g"]
+        zeta = [float(np.dot(ba.values(x), f)) if ba is not None else 0.0 for x in xi]
+        eta = [float(np.dot(bt.values(x), g)) if bt is not None else 0.0 for x in xi]
+        out[body] = {"xi": [float(x) for x in xi], "zeta": zeta, "eta": eta}
+    return out
+
+
+def modes_json(result: ModesResult, scene, meta: dict) -> dict:
+    """The ``symgen modes -o OUT.json`` document."""
+    hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
+    return {
+        "scene": str(scene.path), "scene_hash": scene.hash, "tau": result.tau,
+        "units": ("frequencies in units of omega (per unit tau = omega t)"
+                  + (f"; *_hz: Hz with omega = {scene.omega:g} rad/s" if hz else "")),
+        "about": "quasi-static state at tau (closure exact on the deformed bars), linearised on the "
+                 "independent coordinates (tangent space of the closure)",
+        "groups": scene.groups,
+        "effects": {"geometric_stiffening": scene.effects.geometric_stiffening, "coriolis": scene.effects.coriolis,
+                    "strain": scene.effects.strain, "damping": scene.effects.damping,
+                    "rotary_inertia": scene.effects.rotary_inertia},
+        "modes_per_body": meta.get("modes"),
+        "independent": result.independent, "dependent": result.dependent,
+        "state": result.state, "quasi_static": result.quasi_static,
+        "stable": result.stable, "real_eigenvalues": result.real_eigenvalues,
+        "modes": [m.as_dict(hz) for m in result.modes],
+    }
+
+
+def modes_table(result: ModesResult, scene, limit: int = 12) -> str:
+    """A short text table of the lowest modes."""
+    hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
+    head = f"{'mode':>4}  {'omega_n (x omega)':>17}  {'zeta':>9}  " + (f"{'Hz':>10}  " if hz else "") + "dominant"
+    lines = [f"modes at tau = {result.tau:g} (quasi-static state, {result.quasi_static['method']})", head]
+    for m in result.modes[:limit]:
+        lines.append(f"{m.index:>4}  {m.natural_frequency:>17.6g}  {m.damping_ratio:>9.2g}  "
+                     + (f"{m.natural_frequency * hz:>10.5g}  " if hz else "") + m.dominant)
+    if len(result.modes) > limit:
+        lines.append(f"... {len(result.modes) - limit} more in the JSON")
+    if result.real_eigenvalues:
+        pos = [s for s in result.real_eigenvalues if s > 1e-9]
+        lines.append(f"{len(result.real_eigenvalues)} real eigenvalue(s) (overdamped)"
+                     + (f"; {len(pos)} POSITIVE: the quasi-static state is unstable (buckled)" if pos else ""))
+    return "\n".join(lines)
