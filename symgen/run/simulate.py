@@ -72,6 +72,11 @@ class DaeRunner:
         self.dae = {"x": x, "z": z, "p": p, "t": t, "ode": ode, "alg": alg}
         self.g = ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)])
         self.split = ca.Function("split", [x, z], [q, v, a, lam])
+        # everything recorded at an output, in one call (mapped over a chunk's outputs)
+        phi_q = ca.jacobian(f["phi"](*args), q)
+        self.rec = ca.Function("rec", [t, x, z, p], [q, v, lam, f["out"](*args), f["closure"](*args),
+                                                     phi_q[:, D] if D else ca.SX(phi_q.size1(), 0)])
+        self._maps: dict = {}
         self.opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
                      "suppress_algebraic": True, "disable_internal_warnings": True,
                      "calc_ic": CALC_IC}
@@ -101,6 +106,34 @@ class DaeRunner:
         z = np.asarray(z, dtype=float).ravel()
         a = z[2 * self.nD: 2 * self.nD + self.mech.n]
         return np.concatenate([x[self.nI:], a[list(self.part.ind)]])
+
+    def _map(self, name: str, k: int):
+        key = (name, k)
+        if key not in self._maps:
+            self._maps[key] = getattr(self, name).map(k)
+        return self._maps[key]
+
+    def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p, tol: float = 1e-13) -> np.ndarray:
+        """``polish`` of every column of Z at once (one mapped call per Newton iteration, the
+        same iteration per column: columns stop when their residual is below ``tol``)."""
+        k = X.shape[1]
+        Z = np.array(Z, dtype=float)
+        nz = Z.shape[0]
+        todo = np.ones(k, dtype=bool)
+        gmap = self._map("g", k)
+        for _ in range(8):
+            G, J = gmap(t.reshape(1, -1), X, Z, p)
+            G = np.array(G)
+            todo &= np.abs(G).max(axis=0) >= tol
+            if not todo.any():
+                break
+            J = np.array(J).reshape(nz, k, nz).transpose(1, 0, 2)
+            try:
+                dz = np.linalg.solve(J[todo], G.T[todo][..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                break
+            Z[:, todo] -= dz.T
+        return Z
 
     def polish(self, t: float, x, z, p, tol: float = 1e-13) -> np.ndarray:
         z = np.array(z, dtype=float).ravel()
@@ -137,19 +170,40 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     steps = 0
     pfull = np.concatenate([mech.p, [t0]])
 
-    def record(t, x_, z_):
+    def record(t, x_, z_, append=True):
         nonlocal closure_max
         qq, vv, aa, ll = run.unpack(x_, z_)
-        out = mech.call("out", t, qq, vv, aa, ll)
-        clo = mech.call("closure", t, qq)
-        if clo.size:
-            closure_max = max(closure_max, float(np.abs(clo).max()))
-        taus.append(t), outs.append(out), qs.append(qq), vs.append(vv), lams.append(ll)
+        if append:
+            out = mech.call("out", t, qq, vv, aa, ll)
+            clo = mech.call("closure", t, qq)
+            if clo.size:
+                closure_max = max(closure_max, float(np.abs(clo).max()))
+            taus.append(t), outs.append(out), qs.append(qq), vs.append(vv), lams.append(ll)
         ratio, row = mech.singular_ratio(t, qq, part)
         if ratio < SINGULAR_RATIO:
             raise SimulationError(t, f"the rigid mechanism reached a singular position: the closure Jacobian "
                                      f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "the mechanism cannot pass this position as driven; shorten t_end or change the geometry")
+
+    def record_many(ts, rel, X, Z, p):
+        """``record`` of a chunk's outputs with one mapped call (same values, same stop at the
+        first singular position)."""
+        nonlocal closure_max
+        k = len(ts)
+        Q, V, L, O, C, Jd = (np.array(w) for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
+        stop = k
+        if part.dep:
+            nd = len(part.dep)
+            sv = np.linalg.svd(Jd.reshape(-1, k, nd).transpose(1, 0, 2), compute_uv=False)
+            bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < SINGULAR_RATIO)[0]
+            if len(bad):
+                stop = int(bad[0]) + 1
+        if C.size:
+            closure_max = max(closure_max, float(np.abs(C[:, :stop]).max()))
+        for i in range(stop):
+            taus.append(ts[i]), outs.append(O[:, i]), qs.append(Q[:, i]), vs.append(V[:, i]), lams.append(L[:, i])
+        if stop < k:
+            record(ts[stop - 1], X[:, stop - 1], Z[:, stop - 1], append=False)   # raises, naming the loop
 
     failure = ""
     tic = time.perf_counter()
@@ -196,11 +250,10 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
                     record(t_start + (i + 1) * h, x, z)
                 raise SimulationError(t_start, f"IDAS failed in a chunk but not step by step: {_idas_cause(err)}") from None
             X, Z = np.array(sol["xf"]), np.array(sol["zf"])
-            for i in range(k):
-                ti = t_start + (i + 1) * h
-                zi = run.polish(ti - t_start, X[:, i], Z[:, i], pfull)
-                record(ti, X[:, i], zi)
-            x, z = X[:, -1], run.polish(k * h, X[:, -1], Z[:, -1], pfull)
+            rel = h * np.arange(1, k + 1)
+            Z = run.polish_many(rel, X, Z, pfull)
+            record_many(t_start + rel, rel, X, Z, pfull)
+            x, z = X[:, -1], Z[:, -1]
             done += k
     except SimulationError as err:
         failure = str(err)
