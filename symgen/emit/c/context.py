@@ -1,0 +1,146 @@
+"""The plain-data context the C templates are rendered from (the contract between the
+symbolic stages and the templates: strings, numbers and lists only).
+
+What the C solver needs beyond the equations is taken from the Python runner so that both
+handle the closure the same way (``symgen.run.mechanism``): the partition of the coordinates
+into independent and dependent ones (chosen by ``Mechanism.initial_state`` at the start and
+baked in), the raw initial guess the assembly Newton starts from (the scene's
+``[initial]`` guess and deformation, the driver's angle and rate), which coordinates are
+elastic / rigid for the quasi-static start, and the rows and columns of the closure
+Jacobian that decide a singular position.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ... import __version__
+from . import radau
+from .codegen import model_functions
+from .names import c_comment, c_prefix, c_string
+from .printer import c_double
+
+
+def initial_guess(mech, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The (q, v) that ``Mechanism.initial_state`` starts its assembly from."""
+    sc = mech.scene
+    q = np.zeros(mech.n)
+    v = np.zeros(mech.n)
+    guess = dict(sc.initial.guess)
+    deform = dict(sc.initial.deformation)
+    drv = sc.driver
+    for i, c in enumerate(mech.coords):
+        if c["kind"] == "theta":
+            q[i] = guess.get(c["body"], 0.0)
+            if drv is not None and drv.body == c["body"]:
+                if drv.kind == "angle":
+                    q[i] = drv.initial + drv.rate * t0
+                    v[i] = drv.rate
+                else:
+                    if drv.initial is not None:
+                        q[i] = drv.initial
+                    v[i] = drv.rate
+        elif c["kind"] == "beta":
+            q[i] = guess.get(c["name"][len("beta_"):], 0.5)
+        elif c["kind"] in ("f", "g") and c["body"] in deform:
+            d = deform[c["body"]]
+            vals, rates = (d.f, d.fdot) if c["kind"] == "f" else (d.g, d.gdot)
+            if c["index"] < len(vals):
+                q[i] = vals[c["index"]]
+            if c["index"] < len(rates):
+                v[i] = rates[c["index"]]
+    return q, v
+
+
+def _ops_table(prefix: str, funcs) -> list[str]:
+    return [f"{prefix}_{f.name}: {f.ops} operations, {f.temporaries} temporaries"
+            + (f", {f.nnz} nonzeros of {f.rows}x{f.cols}" if f.kind == "jacobian" else "")
+            for f in funcs]
+
+
+def c_context(scene, model, mech) -> dict:
+    """Everything the templates under ``templates/c/`` need, as plain data."""
+    import sympy
+
+    prefix = c_prefix(scene)
+    meta = mech.meta
+    n, m = mech.n, mech.m
+    funcs = model_functions(model.program)
+    _, _, _, _, part = mech.initial_state(0.0)
+    ind, dep = list(part.ind), list(part.dep)
+    nI, nD = len(ind), len(dep)
+    nx, nz = 2 * nI, 2 * nD + n + m
+    ny = nx + nz
+    ypos_q, ypos_v = [0] * n, [0] * n
+    for k, i in enumerate(ind):
+        ypos_q[i], ypos_v[i] = k, nI + k
+    for k, i in enumerate(dep):
+        ypos_q[i], ypos_v[i] = nx + k, nx + nD + k
+    a0 = nx + 2 * nD
+    ycol = ypos_q + ypos_v + [a0 + i for i in range(n)] + [a0 + n + j for j in range(m)]
+    elastic = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g") and i not in dep]
+    accel = sorted(set(mech.rigid) | set(dep))
+    inext_rows = list(getattr(mech, "inext_rows", []))
+    inext_f = list(getattr(mech, "inext_f", []))
+    sing_rows = [i for i in range(m) if i not in inext_rows]
+    sing_cols = [i for i in dep if i not in inext_f]
+    q0, v0 = initial_guess(mech)
+    assembly_dep = list(mech.choose_partition(0.0, q0).dep)
+    drv = scene.driver
+    params = list(meta["params"])
+    driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1}
+    if drv is not None:
+        name = f"theta_{drv.body}"
+        driver["kind"] = drv.kind
+        driver["coord"] = next(i for i, c in enumerate(mech.coords) if c["name"] == name)
+        if drv.kind == "angle":
+            driver["theta0"] = params.index("theta0")
+            driver["rate"] = params.index("rate")
+    sim = scene.simulation
+    by_name = {f.name: f for f in funcs}
+    return {
+        "prefix": prefix,
+        "guard": f"SYMGEN_{prefix}_H",
+        "version": __version__,
+        "sympy_version": sympy.__version__,
+        "scene_name": c_comment(scene.name),
+        "scene_file": c_comment(Path(str(scene.path)).name),
+        "scene_hash": scene.hash,
+        "ops": _ops_table(prefix, funcs),
+        "n": n, "m": m, "np": len(params), "nout": len(meta["outputs"]),
+        "nclosure": meta["n_loop_rows"], "nw": 3 * n + m,
+        "ni": nI, "nd": nD, "nx": nx, "nz": nz, "ny": ny,
+        "nalg": 3 * m + n,
+        "coordinate_names": [c_string(c["name"]) for c in mech.coords],
+        "coordinate_comments": [c_comment(c["name"]) for c in mech.coords],
+        "parameter_names": [c_string(x) for x in params],
+        "parameter_comments": [c_comment(x) for x in params],
+        "parameter_defaults": [c_double(x) for x in mech.p],
+        "parameter_plain": params,
+        "parameter_values": [float(x) for x in mech.p],
+        "output_names": [c_string(x) for x in meta["outputs"]],
+        "csv_header": c_string(",".join(["tau", *meta["outputs"]])),
+        "functions": [{"name": f.name, "kind": f.kind, "rows": f.rows, "cols": f.cols, "body": list(f.body),
+                       "unused": [x for x in ("t", "q", "v", "a", "lam", "p") if x not in f.used],
+                       "ops": f.ops, "nnz": f.nnz, "temporaries": f.temporaries,
+                       "loop": f.kind == "jacobian" and f.nnz < f.rows * f.cols}
+                      for f in funcs],
+        "jac_rows": {k: by_name[k].rows for k in ("phi", "phid", "phidd", "res")},
+        "independent": ind, "dependent": dep, "assembly_dependent": assembly_dep,
+        "ypos_q": ypos_q, "ypos_v": ypos_v, "ycol": ycol,
+        "elastic": elastic, "accel": accel,
+        "sing_rows": sing_rows, "sing_cols": sing_cols,
+        "q_guess": [c_double(x) for x in q0], "v_guess": [c_double(x) for x in v0],
+        "driver": driver,
+        "quasi_static": bool(scene.initial.quasi_static),
+        "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
+        "rtol": c_double(sim.rtol), "atol": c_double(sim.atol),
+        "singular_ratio": c_double(_singular_ratio()),
+        "radau": radau.constants(),
+    }
+
+
+def _singular_ratio() -> float:
+    from ...run.mechanism import SINGULAR_RATIO
+    return SINGULAR_RATIO

@@ -1,0 +1,31 @@
+"""Constants of the 3-stage Radau IIA method (order 5, stiffly accurate, L-stable) used by the
+emitted C solver, as decimal strings (21 digits: every literal rounds to the nearest double).
+
+The stage equations are solved by simplified Newton in transformed variables, as in Hairer &
+Wanner's RADAU5: with ``A`` the Butcher matrix, ``TI @ inv(A) @ T`` is block-diagonal
+``[[GAMMA, 0, 0], [0, ALPHA, -BETA], [0, BETA, ALPHA]]``, which splits the 3N x 3N Newton
+matrix into one real and one complex N x N matrix. ``DD`` are the weights of the embedded
+error estimate: ``sum(DD * C) = -1``, ``sum(DD * C**2) = sum(DD * C**3) = 0``.
+``tests/test_emit_c.py`` checks all of these identities.
+"""
+from __future__ import annotations
+
+C = ("0.15505102572168219018", "0.64494897427831780982", "1.0")
+A = (("0.196815477223660425868", "-0.0655354258501983881085", "0.0237709743482201524204"),
+     ("0.394424314739087276997", "0.292073411665228463021", "-0.0415487521259979301982"),
+     ("0.37640306270046727505", "0.512485826188421613839", "0.111111111111111111111"))
+GAMMA = "3.63783425274449573221"
+ALPHA = "2.6810828736277521339"
+BETA = "3.05043019924741056943"
+T = (("0.0944387624889752414875", "-0.141255295020954208428", "-0.0300291941051474244919"),
+     ("0.250213122965333311377", "0.204129352293799931996", "0.382942112757261937795"),
+     ("1.0", "1.0", "0.0"))
+TI = (("4.17871859155190472735", "0.327682820761062387083", "0.52337644549944954804"),
+      ("-4.17871859155190472735", "-0.327682820761062387083", "0.47662355450055045196"),
+      ("-0.502872634945786875951", "2.57192694985560542919", "-0.596039204828224924969"))
+DD = ("-10.0488093998274155625", "1.38214273316074889579", "-0.333333333333333333333")
+
+
+def constants() -> dict:
+    """The constants for the template context."""
+    return {"c": C, "A": A, "gamma": GAMMA, "alpha": ALPHA, "beta": BETA, "T": T, "TI": TI, "dd": DD}
