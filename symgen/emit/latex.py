@@ -851,4 +851,6 @@ def latex_document(scene, model) -> str:
         "loops": len(topo.cuts),
         "vk": eff.strain == "von_karman",
     }
+    from .latex_quasistatic import quasi_static_context
+    ctx["qs"] = quasi_static_context(scene, model, pr)
     return _env().get_template("document.tex.jinja").render(**ctx)
