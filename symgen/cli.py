@@ -234,6 +234,24 @@ def cmd_reproduce(args) -> int:
     return 0
 
 
+def cmd_emit_c(args) -> int:
+    from .emit.c import write_c
+
+    scene = _scene(args)
+    out = write_c(scene, args.output)
+    print(f"wrote {out} (build: cmake -S {out} -B {out}/build && cmake --build {out}/build)")
+    return 0
+
+
+def cmd_emit_fmu(args) -> int:
+    from .emit.c import write_fmu
+
+    out = _check_out(args.output, (".fmu",), "-o")
+    scene = _scene(args)
+    print(f"wrote {write_fmu(scene, out)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="symgen", description="Planar mechanisms with elastic bars: "
                                  "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.")
@@ -296,6 +314,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="coarse output step (a smoke run)")
     p.add_argument("--examples", default=None, help="folder of the example scenes (default: examples/)")
     p.set_defaults(func=cmd_reproduce)
+
+    p = scene_cmd("emit-c", "write standalone C99 (model, Jacobians, solver, CSV driver, CMakeLists.txt)")
+    p.add_argument("-o", "--output", required=True, help="folder to write")
+    p.set_defaults(func=cmd_emit_c)
+
+    p = scene_cmd("emit-fmu", "pack an FMI 2.0 Co-Simulation FMU (sources + linux64 binary)")
+    p.add_argument("-o", "--output", required=True, help=".fmu file to write")
+    p.set_defaults(func=cmd_emit_fmu)
 
     return ap
 

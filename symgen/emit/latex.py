@@ -86,6 +86,8 @@ class Namer:
             (re.compile(rf"E(X|Y)_({b})$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(rf"Eth_({b})$"), lambda m: rf"E_{{\theta,{_rm(m[1])}}}"),
             (re.compile(rf"E([fg])_({b})_(\d+)$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])},{m[3]}}}"),
+            (re.compile(rf"Ebeta_({b})$"), lambda m: rf"E_{{\beta,{_rm(m[1])}}}"),
+            (re.compile(rf"(|d|dd)beta_({j})$"), lambda m: rf"{dots[m[1]]}\beta_{{{_rm(m[2])}}}"),
             (re.compile(rf"S(X|Y)_({b})$"), lambda m: rf"S_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(rf"N_({b})_(\d+)$"), lambda m: rf"N_{{{_rm(m[1])},{m[2]}}}"),
             (re.compile(rf"L([xy])_({j})$"), lambda m: rf"\Lambda_{{{m[1]},{_rm(m[2])}}}"),
@@ -183,17 +185,21 @@ def _width(s: str) -> float:
 class Printer:
     """LaTeX of expressions with the scene's symbol names and rounded floats."""
 
-    def __init__(self, namer: Namer, width: float = LINE_WIDTH) -> None:
-        self.namer, self.width = namer, width
+    def __init__(self, namer: Namer, width: float = LINE_WIDTH, subs: dict | None = None) -> None:
+        self.namer, self.width, self.subs = namer, width, subs or {}
+
+    def _tidy(self, expr):
+        """``subs`` applied (e.g. a slot's beta as a positive symbol: Piecewise branches decided)."""
+        return sp.sympify(expr).xreplace(self.subs) if self.subs else expr
 
     def __call__(self, expr) -> str:
-        expr = _round_floats(expr)
+        expr = _round_floats(self._tidy(expr))
         names = {s: self.namer(s.name) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
         return sp.latex(expr, symbol_names=names, fold_func_brackets=True)
 
     def lines(self, expr, width: float | None = None) -> list[str]:
         """``expr`` split over several lines at top-level sums (see :func:`tex_lines`)."""
-        return tex_lines(_round_floats(expr), self, self.width if width is None else width)
+        return tex_lines(_round_floats(self._tidy(expr)), self, self.width if width is None else width)
 
 
 _DELIMS = [(r"\Bigl(", r"\Bigr)"), (r"\bigl[", r"\bigr]"), (r"\bigl\{", r"\bigr\}"), ("(", ")")]
@@ -722,7 +728,8 @@ def latex_document(scene, model) -> str:
     """
     namer = Namer([b.name for b in scene.bodies], [j.name for j in scene.joints],
                   tuple(i + 1 for i, ld in enumerate(scene.loads) if ld.kind == "point"))
-    pr = Printer(namer)
+    from . import latex_slot
+    pr = Printer(namer, subs=latex_slot.beta_positive(model))
     prog = model.program
     assigned = dict(prog.assignments)
     topo = model.topology
@@ -761,6 +768,8 @@ def latex_document(scene, model) -> str:
         for e in j.ends:
             if e.body == GROUND:
                 ends.append(f"ground $({e.point[0]:.6g}, {e.point[1]:.6g})$")
+            elif e.variable:
+                ends.append(f"{tex_escape(e.body)} at $\\xi = \\beta_{{{_rm(j.name)}}}(\\tau)$ (variable support)")
             else:
                 ends.append(f"{tex_escape(e.body)} at $\\xi = {e.xi:.6g}$")
         role = "tree" if any(e.joint == j.name for e in topo.edges.values()) else "cut"
@@ -777,7 +786,8 @@ def latex_document(scene, model) -> str:
     mult = []
     for L, row in zip(model.lam, model.lam_rows):
         what = {"pin-x": "x force of pin", "pin-y": "y force of pin", "slider": "normal force of slider",
-                "driver": "driver torque", "inextensible": "axial force amplitude of inextensible bar"}[row.kind]
+                "driver": "driver torque", "inextensible": "axial force amplitude of inextensible bar",
+                "slot-x": "x force of slot", "slot-y": "y force of slot"}[row.kind]
         mult.append({"tex": pr(L), "text": f"{what} {tex_escape(row.joint) if row.kind != 'driver' else ''}".strip()})
     try:
         from ..pipeline import parameter_values
@@ -787,7 +797,8 @@ def latex_document(scene, model) -> str:
     params = [{"tex": pr(p), "value": _num_text(v)} for p, v in zip(model.params, values)]
 
     # ---- bars
-    bars = [_bar_context(scene, model, name, pr) for name in topo.order]
+    bars = [latex_slot.guide_context(scene, model, name, pr) if latex_slot.is_guide(model.bars[name])
+            else _bar_context(scene, model, name, pr) for name in topo.order]
 
     # ---- (10)
     chain = {}
@@ -809,7 +820,16 @@ def latex_document(scene, model) -> str:
     # ---- (11) and the driver
     closure = []
     phi = prog.outputs["phi"]
+    slot_rows = {(row.joint, row.kind): expr for expr, row in zip(phi, model.lam_rows) if row.kind.startswith("slot-")}
     for k, (expr, row) in enumerate(zip(phi, model.lam_rows)):
+        if row.kind == "slot-y":
+            continue                # shown with its slot-x row
+        if row.kind == "slot-x":
+            sc = latex_slot.slot_closure(scene, model, row.joint)
+            jn = tex_escape(row.joint)
+            rows = [_row(pr, r"0", slot_rows[(row.joint, c)], f"11.{c[-1]}, {jn}") for c in ("slot-x", "slot-y")]
+            closure.append({"text": sc["text"], "sym": sc["sym"], "star": sc["star"], "eq": _block(rows)})
+            continue
         if row.kind == "inextensible":
             tag = f"IN, {tex_escape(row.joint)}"
             text = (f"Inextensibility of {tex_escape(row.joint)} (effects.axial = inextensible): "
@@ -832,7 +852,7 @@ def latex_document(scene, model) -> str:
     defs_e, defs_s = [], []
     for sym, expr in prog.assignments:
         n = sym.name
-        if re.match(r"E(X|Y|th|f|g)_", n):
+        if re.match(r"E(X|Y|th|f|g|beta)_", n):
             defs_e.append(_row(pr, pr(sym), expr))
         elif re.match(r"S(X|Y)_", n):
             defs_s.append(_row(pr, pr(sym), expr))
@@ -850,7 +870,6 @@ def latex_document(scene, model) -> str:
         "defs_e": _block(defs_e), "defs_s": _block(defs_s), "residuals": _block(residuals),
         "loops": len(topo.cuts),
         "vk": eff.strain == "von_karman",
+        "slot_notes": latex_slot.slot_notes(scene, model),
     }
-    from .latex_quasistatic import quasi_static_context
-    ctx["qs"] = quasi_static_context(scene, model, pr)
     return _env().get_template("document.tex.jinja").render(**ctx)
