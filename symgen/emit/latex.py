@@ -872,4 +872,6 @@ def latex_document(scene, model) -> str:
         "vk": eff.strain == "von_karman",
         "slot_notes": latex_slot.slot_notes(scene, model),
     }
+    from .latex_quasistatic import quasi_static_context
+    ctx["qs"] = quasi_static_context(scene, model, pr)
     return _env().get_template("document.tex.jinja").render(**ctx)
