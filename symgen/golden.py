@@ -5,12 +5,13 @@
 * ``model.json``: coordinates, closure rows, parameters, outputs, modes, operation counts of
   every CasADi function, and a numeric *fingerprint*: every function evaluated at three seeded
   random points with the scene's parameter values;
-* ``equations.tex``: the LaTeX document of the derived equations (``symgen latex``).
+* ``equations.tex``: the LaTeX document of the derived equations (``symgen latex``);
+* ``c/``: the standalone C of ``symgen emit-c`` (model, Jacobians, solver, driver, CMake).
 
 The golden test regenerates them into a temporary folder and compares: the metadata exactly,
 the fingerprint numerically (1e-9 relative: robust to CAS versions, sensitive to any change of
-the equations), and the LaTeX text only when the SymPy version matches the one recorded
-(its printing changes between releases).
+the equations), and the LaTeX and C text only when the SymPy version matches the one recorded
+(its printing and CSE change between releases).
 """
 from __future__ import annotations
 
@@ -60,8 +61,21 @@ def generated_payload(scene: Scene) -> dict:
     meta["fingerprint"] = fingerprint(funcs, meta, p)
     meta["versions"] = {"symgen": __version__, "sympy": sympy.__version__, "casadi": casadi.__version__}
     meta["scene_file"] = Path(scene.path).name
-    return {"model.json": json.dumps(meta, indent=1, sort_keys=True) + "\n",
-            "equations.tex": latex_document(scene, model)}
+    payload = {"model.json": json.dumps(meta, indent=1, sort_keys=True) + "\n",
+               "equations.tex": latex_document(scene, model)}
+    payload.update({f"c/{name}": text for name, text in _c_payload(scene, model, funcs).items()})
+    return payload
+
+
+def _c_payload(scene: Scene, model, funcs: dict) -> dict:
+    """The files of ``symgen emit-c`` (the solver's partition from the CasADi Functions)."""
+    from .emit import casadi_emit
+    from .emit.c import c_sources
+    from .pipeline import CompiledModel
+    from .run.mechanism import Mechanism
+
+    mech = Mechanism(CompiledModel(funcs, casadi_emit.model_meta(model), 0.0, 0.0, False), scene)
+    return c_sources(scene, model, mech)
 
 
 def write_generated(scene: Scene, root: Path) -> Path:

@@ -37,6 +37,13 @@ def test_generated_matches_code(scene_path):
             np.testing.assert_allclose(b, a, rtol=1e-9, atol=1e-12, err_msg=f"{fname}: {HINT}")
     if stored["versions"]["sympy"] == sympy.__version__:
         assert (folder / "equations.tex").read_text() == fresh["equations.tex"], f"equations.tex: {HINT}"
+    # the emitted C (symgen emit-c): the same files, and the same text under the same SymPy
+    c_fresh = {name[2:] for name in fresh if name.startswith("c/")}
+    c_stored = {p.name for p in (folder / "c").iterdir()} if (folder / "c").is_dir() else set()
+    assert c_fresh and c_stored == c_fresh, f"c/ files {sorted(c_stored)} != {sorted(c_fresh)}: {HINT}"
+    if stored["versions"]["sympy"] == sympy.__version__:
+        for name in sorted(c_fresh):
+            assert (folder / "c" / name).read_text() == fresh["c/" + name], f"c/{name}: {HINT}"
 
 
 def test_every_example_has_generated_artefacts():

@@ -148,6 +148,7 @@ class _Emitter:
         self.temps = 0
         self.printer = CPrinter(self.names)
         self._pow_bases: dict = {}
+        self._order: dict = {}
 
     def _new_local(self, sym, expr) -> None:
         expr = self._hoist_pow_bases(expr)
@@ -179,8 +180,14 @@ class _Emitter:
         return expr.func(*args, evaluate=False) if expr.is_Add or expr.is_Mul else expr.func(*args)
 
     def ensure(self, expr, repl: dict) -> None:
-        """Emit, in dependency order, every CSE temporary that ``expr`` needs."""
-        stack = [(s, False) for s in expr.free_symbols if s not in self.defined]
+        """Emit, in dependency order, every CSE temporary that ``expr`` needs (in the order
+        CSE created them: deterministic, whatever the hash seed)."""
+        order = self._order
+
+        def missing(e):
+            return sorted((y for y in e.free_symbols if y not in self.defined), key=lambda y: -order.get(y, -1))
+
+        stack = [(s, False) for s in missing(expr)]
         while stack:
             s, expanded = stack.pop()
             if s in self.defined:
@@ -191,7 +198,7 @@ class _Emitter:
                 self._new_local(s, repl[s])
                 continue
             stack.append((s, True))
-            stack.extend((y, False) for y in repl[s].free_symbols if y not in self.defined)
+            stack.extend((y, False) for y in missing(repl[s]))
 
     def statement(self, sym, expr, repl: dict) -> None:
         self.ensure(expr, repl)
@@ -213,6 +220,7 @@ def lower(stmts: list, targets: list, names: dict) -> _Emitter:
         repl_list, reduced = [], []
     repl = dict(repl_list)
     em = _Emitter(names)
+    em._order = {sym: k for k, (sym, _) in enumerate(repl_list)}
     for (sym, _), e in zip(stmts, reduced[: len(stmts)]):
         em.statement(sym, e, repl)
     for (target, _), e in zip(targets, reduced[len(stmts):]):
