@@ -29,3 +29,16 @@ def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
 def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), **kwargs) -> SimResult:
     """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``."""
     return simulate(mechanism(scene, overrides), **kwargs)
+
+
+def quasi_static_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), **kwargs):
+    """The quasi-static response (18)-(20) over a cycle; kwargs go to
+    ``symgen.run.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus)."""
+    from .run.quasistatic import quasi_static
+    return quasi_static(mechanism(scene, overrides), **kwargs)
+
+
+def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), tau: float = 0.0, **kwargs):
+    """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
+    from .run.modes import modes
+    return modes(mechanism(scene, overrides), tau=tau, **kwargs)

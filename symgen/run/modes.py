@@ -24,7 +24,8 @@ A mechanism whose driver does work is not a conservative system even when frozen
 velocity-level closure of a moving loop makes the dependent rates depend on the deformation, so
 a linkage such as the four-bar shows small damping ratios of either sign (|zeta| ~ 1e-3..1e-2)
 without any damping. They describe the energy exchange with the driver at that position; a
-single bar spinning at constant speed (no loop) has none.
+single bar spinning at constant speed (no loop) has none. A bar with a moving support (a slot's
+variable span) shows larger ones: its support does work on the vibration.
 """
 from __future__ import annotations
 
