@@ -823,3 +823,8 @@ void four_bar_solver_outputs(const four_bar_solver *s, double *out)
     four_bar_x_unpack(s->y, q, v);
     four_bar_out(s->t, q, v, s->y + four_bar_x_A0, s->y + four_bar_x_A0 + four_bar_x_NQ, s->p, out);
 }
+
+unsigned long four_bar_solver_sizeof(void)
+{
+    return (unsigned long)sizeof(four_bar_solver);
+}

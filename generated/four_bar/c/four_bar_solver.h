@@ -103,6 +103,9 @@ void four_bar_solver_state(const four_bar_solver *s, double *q, double *v, doubl
 /* The scene's outputs at the current state. */
 void four_bar_solver_outputs(const four_bar_solver *s, double *out);
 
+/* sizeof(four_bar_solver), for callers that allocate it through a foreign-function interface. */
+unsigned long four_bar_solver_sizeof(void);
+
 #ifdef __cplusplus
 }
 #endif

@@ -823,3 +823,8 @@ void slider_crank_solver_outputs(const slider_crank_solver *s, double *out)
     slider_crank_x_unpack(s->y, q, v);
     slider_crank_out(s->t, q, v, s->y + slider_crank_x_A0, s->y + slider_crank_x_A0 + slider_crank_x_NQ, s->p, out);
 }
+
+unsigned long slider_crank_solver_sizeof(void)
+{
+    return (unsigned long)sizeof(slider_crank_solver);
+}

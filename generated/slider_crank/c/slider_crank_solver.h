@@ -103,6 +103,9 @@ void slider_crank_solver_state(const slider_crank_solver *s, double *q, double *
 /* The scene's outputs at the current state. */
 void slider_crank_solver_outputs(const slider_crank_solver *s, double *out);
 
+/* sizeof(slider_crank_solver), for callers that allocate it through a foreign-function interface. */
+unsigned long slider_crank_solver_sizeof(void);
+
 #ifdef __cplusplus
 }
 #endif
