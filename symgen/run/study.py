@@ -261,18 +261,20 @@ def _median(xs):
 class _Runner:
     """Derive each model structure once per repeat (timed), run each configuration."""
 
-    def __init__(self, path: str, overrides: Sequence[str], repeats: int, t_end: float | None, step: float | None):
+    def __init__(self, path: str, overrides: Sequence[str], repeats: int, t_end: float | None, step: float | None,
+                 turn: float = 2 * math.pi):
         self.path, self.overrides, self.repeats = path, tuple(overrides), repeats
-        self.t_end, self.step = t_end, step
+        self.t_end, self.step, self.turn = t_end, step, turn
         self.models: dict = {}
 
     def scene(self, cfg: Config):
         sets = list(self.overrides) + cfg.sets()
-        if self.t_end is not None:
-            sets.append(f"simulation.t_end={self.t_end!r}")
-        if self.step is not None:
-            sets.append(f"simulation.output_step={self.step!r}")
-        return load_scene(self.path, sets)
+        if self.t_end is None:
+            return load_scene(self.path, sets)
+        try:
+            return load_scene(self.path, sets + [f"simulation.t_end={self.t_end!r}"])
+        except SceneError:      # the file gives cycles (crank turns), not t_end
+            return load_scene(self.path, sets + [f"simulation.cycles={self.t_end / self.turn!r}"])
 
     def compiled(self, scene):
         from ..dae import structure_key, structure_of
@@ -328,14 +330,20 @@ class _Runner:
         return row
 
 
-def oversampling(scene, turn: float) -> int:
-    """Output-step divisor for the accuracy runs: sample fast enough that the first axial mode
-    of every elastic bar ((pi/2) sqrt(lambda) per unit tau, the start-up ringing) and its next
-    two overtones are not aliased below the comparison cutoff."""
-    fmax = max([0.5 * math.pi * math.sqrt(b.lam) / (2 * math.pi) for b in scene.bodies
-                if not b.rigid and b.lam] or [0.0])          # cycles per unit tau
-    fs = 1.0 / scene.simulation.output_step
-    return int(min(16, max(1, math.ceil(2 * 3 * fmax / fs))))
+def oversampling(scene, n_axial: int, cutoff: float) -> int:
+    """Output-step divisor for the accuracy runs: the smallest (up to 16) that keeps every
+    axial mode of every elastic bar from aliasing below twice the comparison cutoff. The
+    start-up ringing of those modes is real but far above the response the study compares;
+    sampled at the scene's step it would fold down onto it. Frequencies: (2k - 1)(pi/2)
+    sqrt(lambda) per unit tau, k = 1..n_axial (a free-ended bar's axial modes)."""
+    freqs = [(2 * k - 1) * 0.25 * math.sqrt(b.lam) for b in scene.bodies if not b.rigid and b.lam
+             for k in range(1, max(1, n_axial) + 1)]           # cycles per unit tau
+    step = scene.simulation.output_step
+    for K in range(1, 17):
+        fs = K / step
+        if all(abs(f - round(f / fs) * fs) > 2 * cutoff for f in freqs):
+            return K
+    return 16
 
 
 def _compare(row: Row, ref: Row, names: list, compared: list, dt: float, cutoff: float, n_window: int) -> None:
@@ -384,8 +392,9 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
     per_bar = (not quick) if per_bar is None else per_bar
     drv = scene.driver
     turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else 2 * math.pi
-    k = oversampling(scene, turn) if oversample is None else max(1, int(oversample))
-    runner = _Runner(scene_path, overrides, max(1, repeats), t_end, scene.simulation.output_step / k)
+    k = (oversampling(scene, max(lev[0] for lev in levels), cutoff_per_turn / turn) if oversample is None
+         else max(1, int(oversample)))
+    runner = _Runner(scene_path, overrides, max(1, repeats), t_end, scene.simulation.output_step / k, turn)
     ref_cfg, configs = plan(scene, elastic, levels, tolerances, ref_rtol, per_bar, effects)
     notes = []
     say(f"reference: {ref_cfg.label}")
@@ -557,13 +566,11 @@ def plot(study: Study, path: str | Path) -> None:
         if pts:
             ax.scatter([r.integrate_s / turns for r in pts], [max(r.error, floor) for r in pts], c=color,
                        marker=marker, s=40, label=group, zorder=3)
-    front = pareto(rows)
+    front = pareto([r for r in rows if r.config.group != "reference check"])
     if front:
         ax.step([r.integrate_s / turns for r in front], [max(r.error, floor) for r in front], where="post",
-                color="gray", lw=1, ls="--", label="Pareto front", zorder=2)
-    for r in rows:
-        ax.annotate(r.config.label, (r.integrate_s / turns, max(r.error, floor)), fontsize=6.5,
-                    xytext=(4, 2), textcoords="offset points", zorder=4)
+                color="gray", lw=1, ls="--", label="Pareto front (reference checks left out)", zorder=2)
+    _labels(ax, fig, [(r.integrate_s / turns, max(r.error, floor), r.config.label) for r in rows])
     for target in TARGETS:
         ax.axhline(target, color="gray", lw=0.6, ls=":")
         ax.text(0.0, target, f" {_pct(target)}", transform=ax.get_yaxis_transform(),
@@ -575,12 +582,37 @@ def plot(study: Study, path: str | Path) -> None:
     ax.set_yscale("log")
     ax.set_xlabel("integration CPU time per crank turn [s] (IDAS, median of repeats)")
     ax.set_ylabel(f"error: max over outputs of max|y − y_ref| / max|y_ref|, first {study.window / study.turn:.3g} turn(s)")
-    ax.set_title(f"{study.scene_name}: accuracy vs time (reference {study.reference.config.label})", fontsize=10)
+    ax.set_title(f"{study.scene_name}: accuracy vs time ({study.reference.config.label})", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
+
+
+def _labels(ax, fig, points) -> None:
+    """Label every point, moving a label up or down a line where it would overlap one
+    already placed (a greedy placement in display coordinates)."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    if not points:
+        return
+    ax.set_xlim(min(xs) / 1.25, max(xs) * 2.2)
+    ax.set_ylim(min(ys) / 3, max(ys) * 3)
+    fig.canvas.draw()
+    placed: list = []
+    char_w, line_h = 3.7, 8.5          # points, at fontsize 6.5
+    for x, y, text in sorted(points, key=lambda p: (p[0], p[1])):
+        px, py = ax.transData.transform((x, y)) * 72.0 / fig.dpi     # points
+        w = char_w * len(text)
+        for dy in (2, -10, 11, -19, 20, -28, 29, -37, 38, -46, 47):
+            box = (px + 4, py + dy, px + 4 + w, py + dy + line_h)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+                break
+        placed.append(box)
+        ax.annotate(text, (x, y), xytext=(4, dy), textcoords="offset points", fontsize=6.5, zorder=4,
+                    arrowprops=None if abs(dy) < 5 else {"arrowstyle": "-", "lw": 0.4, "color": "gray"})
 
 
 def write_study(study: Study, directory: str | Path) -> list[Path]:
