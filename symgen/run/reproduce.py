@@ -287,7 +287,10 @@ def _slider_crank(path: Path, figs: Figures, quick: bool, notes: list, progress)
             f"of amplitude up to {_peak(d_acc.values['eps_ax'] - np.interp(d_acc.angle_deg() % 360, s_acc.angle_deg(), s_acc.values['eps_ax'])):.2g} (accurate model).",
             f"Quasi-static solves: seed {s_seed.info['iterations_mean']:.1f} fixed-point iterations per position on "
             f"average (Newton at {s_seed.info['newton_positions']} positions), accurate "
-            f"{s_acc.info['iterations_mean']:.1f} (Newton at {s_acc.info['newton_positions']}).",
+            f"{s_acc.info['iterations_mean']:.1f} (Newton at {s_acc.info['newton_positions']} of "
+            f"{s_acc.info['positions']}: with von Karman strain the axial-bending coupling goes both ways and the "
+            "fixed-point iteration of (20) diverges where the rod bends most; with the seed's one-way linear "
+            "coupling it contracts everywhere).",
             f"Linearised about the quasi-static state at tau = 0 (`symgen modes`): first bending frequency of the rod "
             f"{w_ax['seed'][1]:.3f} (seed) / {w_ax['acc'][1]:.3f} (accurate), first axial {w_ax['seed'][0]:.1f} / "
             f"{w_ax['acc'][0]:.1f}, in units of the crank speed.",
