@@ -1,0 +1,173 @@
+"""Benchmark section: the emitted C (symgen emit-c) against CasADi's own C.
+
+1. Time per evaluation of the residual ``res(t, q, v, a, lam, p)`` (and of its Jacobian) in
+   the emitted C, against ``Function.generate()`` C of the same CasADi Function, both compiled
+   with ``gcc -O2`` and timed in one C harness (interleaved repeats, medians).
+2. Compile times of the emitted files and of CasADi's C; emission time (derive excluded).
+3. The C driver (Radau IIA) against the Python path (IDAS) over the scene's two crank turns.
+
+Times are medians of repeats in one run on this machine (shared, noisy: compare ratios).
+"""
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+EXAMPLES = ["examples/slider_crank.toml", "examples/four_bar.toml"]
+CFLAGS = ["-O2"]
+
+HARNESS = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <time.h>
+#include "{P}.h"
+#include "cas_res.h"
+
+static double now(void)
+{{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}}
+
+int main(void)
+{{
+    static double q[{n}], v[{n}], a[{n}], lam[{mm}], p[{npp}], out[{n}], jac[{n} * {nw}];
+    static casadi_real w[100000];
+    static casadi_int iw[10000];
+    const casadi_real *arg[6];
+    casadi_real *res[1];
+    double t = 0.3, acc = 0.0, t0, best_c = 1e30, best_cas = 1e30, best_j = 1e30;
+    long k, r, N = {N};
+    casadi_int sz_arg, sz_res, sz_iw, sz_w;
+    cas_res_work(&sz_arg, &sz_res, &sz_iw, &sz_w);
+    if (sz_w > 100000 || sz_iw > 10000) return 3;
+    for (k = 0; k < {n}; ++k) {{ q[k] = 0.1 + 0.01 * k; v[k] = 0.2 - 0.01 * k; a[k] = 0.05 * k; }}
+    for (k = 0; k < {mm}; ++k) lam[k] = 0.3 + k;
+    for (k = 0; k < {npp}; ++k) p[k] = {P}_parameter_defaults[k] + 0.01;
+    arg[0] = &t; arg[1] = q; arg[2] = v; arg[3] = a; arg[4] = lam; arg[5] = p;
+    res[0] = out;
+    for (r = 0; r < {R}; ++r) {{
+        t0 = now();
+        for (k = 0; k < N; ++k) {{ q[0] += 1e-12; {P}_res(t, q, v, a, lam, p, out); acc += out[0]; }}
+        t0 = (now() - t0) / N; if (t0 < best_c) best_c = t0;
+        t0 = now();
+        for (k = 0; k < N; ++k) {{ q[0] += 1e-12; cas_res(arg, res, iw, w, 0); acc += out[0]; }}
+        t0 = (now() - t0) / N; if (t0 < best_cas) best_cas = t0;
+        t0 = now();
+        for (k = 0; k < N / 4; ++k) {{ q[0] += 1e-12; {P}_res_jac(t, q, v, a, lam, p, jac); acc += jac[0]; }}
+        t0 = (now() - t0) / (N / 4); if (t0 < best_j) best_j = t0;
+    }}
+    printf("%.6g %.6g %.6g %g\n", best_c * 1e9, best_cas * 1e9, best_j * 1e9, acc);
+    return 0;
+}}
+"""
+
+
+def _timed(cmd, cwd=None) -> float:
+    t0 = time.perf_counter()
+    subprocess.run(cmd, cwd=cwd, check=True, capture_output=True, text=True)
+    return time.perf_counter() - t0
+
+
+def _one(path: str, repeats: int) -> dict:
+    from symgen.api import mechanism
+    from symgen.dae import derive
+    from symgen.emit.c import c_context, write_tree
+    from symgen.emit.c.render import render_files
+    from symgen.run.simulate import simulate
+
+    mech = mechanism(ROOT / path)
+    scene = mech.scene
+    name = scene.name
+    model = derive(scene)
+    t0 = time.perf_counter()
+    ctx = c_context(scene, model, mech)
+    files = render_files(ctx)
+    emit_s = time.perf_counter() - t0
+    work = Path(tempfile.mkdtemp(prefix=f"bench-c-{name}-"))
+    src = write_tree(files, work / "c")
+    # CasADi's own C of the same Function
+    import casadi as ca
+    f = mech.f["res"]
+    sx = [ca.SX.sym(k, s) for k, s in (("t", 1), ("q", mech.n), ("v", mech.n), ("a", mech.n), ("lam", mech.m),
+                                       ("p", len(mech.p)))]
+    cas = ca.Function("cas_res", sx, [f(*sx)], {"cse": True})
+    t0 = time.perf_counter()
+    cas.generate("cas_res.c", {"with_header": True})
+    gen_s = time.perf_counter() - t0
+    for suffix in (".c", ".h"):
+        Path(f"cas_res{suffix}").replace(work / f"cas_res{suffix}")
+    comp = {}
+    for key, file in (("model", src / f"{name}.c"), ("solver", src / f"{name}_solver.c"),
+                      ("casadi_res", work / "cas_res.c")):
+        comp[key] = statistics.median(
+            _timed(["gcc", *CFLAGS, "-c", str(file), "-o", str(work / (key + ".o")), f"-I{src}", f"-I{work}"])
+            for _ in range(repeats))
+    (work / "bench.c").write_text(HARNESS.format(P=name, n=mech.n, mm=max(mech.m, 1), npp=max(len(mech.p), 1),
+                                                 nw=3 * mech.n + mech.m, N=200000 if mech.n < 10 else 40000,
+                                                 R=max(3, repeats)))
+    subprocess.run(["gcc", *CFLAGS, f"-I{src}", f"-I{work}", str(work / "bench.c"), str(work / "model.o"),
+                    str(work / "casadi_res.o"), "-o", str(work / "bench"), "-lm"], check=True)
+    runs = [list(map(float, subprocess.run([str(work / "bench")], capture_output=True, text=True,
+                                           check=True).stdout.split()[:3])) for _ in range(repeats)]
+    c_ns, cas_ns, jac_ns = (statistics.median(r[i] for r in runs) for i in range(3))
+    # driver vs IDAS over the scene's run
+    sim_exe = work / "sim"
+    subprocess.run(["gcc", *CFLAGS, f"-I{src}", str(src / f"{name}.c"), str(src / f"{name}_solver.c"),
+                    str(src / f"{name}_sim.c"), "-o", str(sim_exe), "-lm"], check=True)
+    c_sim, idas_sim, stats = [], [], ""
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        proc = subprocess.run([str(sim_exe), "--stats"], capture_output=True, text=True, check=True)
+        c_sim.append(time.perf_counter() - t0)
+        stats = proc.stderr.strip()
+        r = simulate(mech)
+        idas_sim.append(r.simulate_s)
+    steps = int(stats.split(" steps")[0].split()[-1]) if " steps" in stats else -1
+    by = {fn["name"]: fn for fn in ctx["functions"]}
+    return {"name": name, "n": mech.n, "res_ops": by["res"]["ops"], "jac_ops": by["res_jac"]["ops"],
+            "cas_instr": int(cas.n_instructions()), "c_ns": c_ns, "cas_ns": cas_ns, "jac_ns": jac_ns,
+            "emit_s": emit_s, "gen_s": gen_s, "comp": comp, "c_sim": statistics.median(c_sim),
+            "idas_sim": statistics.median(idas_sim), "c_steps": steps, "idas_steps": r.steps}
+
+
+def run(repeats: int) -> str:
+    rows = [_one(p, repeats) for p in EXAMPLES]
+    out = ["## Emitted C vs CasADi's generated C", "",
+           "Residual `res(t, q, v, a, lam, p)` of each example: the emitted C (SymPy CSE) against "
+           "`casadi.Function.generate()` of the same Function (SX, `cse`), both `gcc -O2`, one harness, "
+           "best of interleaved repeats (ns per call).", "",
+           "| scene | n | emitted res ops | CasADi instructions | emitted C ns | CasADi C ns | ratio | "
+           "emitted res_jac ns |",
+           "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['name']} | {r['n']} | {r['res_ops']} | {r['cas_instr']} | {r['c_ns']:.0f} | "
+                   f"{r['cas_ns']:.0f} | {r['c_ns'] / r['cas_ns']:.2f}x | {r['jac_ns']:.0f} |")
+    out += ["", "Compile times (`gcc -O2 -c`, s) and generation times (s):", "",
+            "| scene | emit-c (Python, derive excluded) | model .c | solver .c | CasADi generate | CasADi res .c |",
+            "|---|---|---|---|---|---|"]
+    for r in rows:
+        c = r["comp"]
+        out.append(f"| {r['name']} | {r['emit_s']:.2f} | {c['model']:.2f} | {c['solver']:.2f} | {r['gen_s']:.3f} | "
+                   f"{c['casadi_res']:.2f} |")
+    out += ["", "The scene's run (two crank turns at the scene's tolerances): C driver (Radau IIA, process "
+            "wall time incl. start-up) vs the Python path (IDAS, integration time):", "",
+            "| scene | C driver s | C steps | IDAS s | IDAS steps |", "|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['name']} | {r['c_sim']:.2f} | {r['c_steps']} | {r['idas_sim']:.2f} | {r['idas_steps']} |")
+    out.append("")
+    return "\n".join(out)
+
+
+if __name__ == "__main__":
+    print(run(3))
