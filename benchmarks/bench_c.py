@@ -103,10 +103,10 @@ def _one(path: str, repeats: int) -> dict:
                                        ("p", len(mech.p)))]
     cas = ca.Function("cas_res", sx, [f(*sx)], {"cse": True})
     t0 = time.perf_counter()
-    cas.generate("cas_res.c", {"with_header": True})
+    cg = ca.CodeGenerator("cas_res.c", {"with_header": True})
+    cg.add(cas)
+    cg.generate(str(work) + "/")            # = cas.generate(), written into `work`, not the cwd
     gen_s = time.perf_counter() - t0
-    for suffix in (".c", ".h"):
-        Path(f"cas_res{suffix}").replace(work / f"cas_res{suffix}")
     comp = {}
     for key, file in (("model", src / f"{name}.c"), ("solver", src / f"{name}_solver.c"),
                       ("casadi_res", work / "cas_res.c")):
