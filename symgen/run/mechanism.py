@@ -24,6 +24,11 @@ from ..pipeline import CompiledModel, parameter_values
 from ..scene.model import Scene
 
 SINGULAR_RATIO = 1e-7
+#: Deformation beyond which a run stops: the bar models (von Karman or linear strain, assumed
+#: modes in a floating frame) hold for moderate rotations and small strains. Sums of the
+#: absolute amplitudes of a bar (its shape functions are O(1) at their largest):
+DEFLECTION_LIMIT = 0.25     # transverse, fraction of the bar's length (end slopes ~ 45 deg)
+STRETCH_LIMIT = 0.1         # axial, fraction of the bar's length (10 % strain)
 
 
 @dataclass(frozen=True)
@@ -57,6 +62,10 @@ class Mechanism:
         self.inext_rows = [i for i, r in enumerate(self.meta["lam_rows"]) if r["kind"] == "inextensible"]
         inext_bars = {self.meta["lam_rows"][i]["joint"] for i in self.inext_rows}
         self.inext_f = [i for i, c in enumerate(self.coords) if c["kind"] == "f" and c["body"] in inext_bars]
+        self.amplitudes: dict = {}        # body -> (axial indices, transverse indices)
+        for i, c in enumerate(self.coords):
+            if c["kind"] in ("f", "g"):
+                self.amplitudes.setdefault(c["body"], ([], []))[c["kind"] == "g"].append(i)
 
     # ---------------------------------------------------------------- helpers
     def call(self, name: str, t: float, q, v=None, a=None, lam=None) -> np.ndarray:
@@ -282,10 +291,77 @@ class Mechanism:
         _, _, qn, vn = fun(t, q, v, u)
         return np.array(qn).ravel(), np.array(vn).ravel(), it
 
+    def beyond_range(self, Q) -> tuple[int, str] | None:
+        """First column of Q (coordinates x outputs) where a bar is deformed beyond the range
+        of the model (``DEFLECTION_LIMIT``, ``STRETCH_LIMIT``), with the reason; None if none."""
+        Q = np.asarray(Q, dtype=float).reshape(self.n, -1)
+        first = None
+        for body, (fi, gi) in self.amplitudes.items():
+            for idx, limit, what in ((gi, DEFLECTION_LIMIT, "transverse deflection"),
+                                     (fi, STRETCH_LIMIT, "axial displacement")):
+                if not idx:
+                    continue
+                size = np.abs(Q[idx]).sum(axis=0)
+                bad = np.nonzero(~(size <= limit))[0]        # NaN counts as beyond
+                if len(bad) and (first is None or bad[0] < first[0]):
+                    first = (int(bad[0]), body, what, float(size[bad[0]]), limit)
+        if first is None:
+            return None
+        k, body, what, size, limit = first
+        return k, (f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes "
+                   f"sum to {size:.3g} of its length (limit {limit:g}; the bar equations hold for moderate "
+                   f"rotations and small strains): a load beyond a buckling load, or forces the bar "
+                   f"cannot carry")
+
+    def divergent_deformation(self, t: float, q, v, part: Partition) -> tuple[float, str]:
+        """Largest real, positive eigenvalue of the linearised motion of the independent
+        deformation amplitudes about (q, v) (rigid independent coordinates held; dependent
+        ones follow the closure), and the amplitude dominating its eigenvector. Positive:
+        the state is statically unstable (beyond a buckling load). (0.0, "") if none."""
+        E = [i for i in part.ind if self.coords[i]["kind"] in ("f", "g")]
+        if not E:
+            return 0.0, ""
+        I, D, n, m = list(part.ind), list(part.dep), self.n, self.m
+        nI, nD = len(I), len(D)
+        x = ca.SX.sym("x", 2 * nI)
+        z = ca.SX.sym("z", 2 * nD + n + m)
+        qq, vv = ca.SX.zeros(n), ca.SX.zeros(n)
+        for k, i in enumerate(I):
+            qq[i], vv[i] = x[k], x[nI + k]
+        for k, i in enumerate(D):
+            qq[i], vv[i] = z[k], z[nD + k]
+        args = [t, qq, vv, z[2 * nD: 2 * nD + n], z[2 * nD + n:], self.p]
+        G = ca.vertcat(*(self.f[k](*args) for k in ("phi", "phid", "res", "phidd")))
+        jac = ca.Function("lin", [x, z], [ca.jacobian(G, x), ca.jacobian(G, z)])
+        a, lam = self.accelerations(t, q, v)
+        Gx, Gz = (np.array(w) for w in jac(np.concatenate([q[I], v[I]]),
+                                           np.concatenate([q[D], v[D], a, lam])))
+        dzdx = -np.linalg.solve(Gz, Gx)
+        e = [I.index(i) for i in E]
+        cols = e + [nI + k for k in e]
+        A = np.zeros((2 * len(E), 2 * len(E)))
+        A[:len(E), len(E):] = np.eye(len(E))
+        A[len(E):, :] = dzdx[[2 * nD + i for i in E]][:, cols]
+        s, W = np.linalg.eig(A)
+        scale = max(1.0, float(np.abs(s).max()))
+        real = [k for k in range(len(s)) if abs(s[k].imag) <= 1e-9 * scale and s[k].real > 1e-9 * scale]
+        if not real:
+            return 0.0, ""
+        k = max(real, key=lambda j: s[j].real)
+        return float(s[k].real), self.coords[E[int(np.argmax(np.abs(W[:len(E), k])))]]["name"]
+
     def quasi_static_start(self, t0: float, q, v, part: Partition):
         """Initial deformation = quasi-static state; under an angle driver the deformation
-        rates are the quasi-static ones too (central difference), so the start rings little."""
+        rates are the quasi-static ones too (central difference), so the start rings little.
+        An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
+        an equilibrium the bar leaves at the first disturbance."""
         qs, vs, _ = self.quasi_static(t0, q, v, part)
+        rate, coord = self.divergent_deformation(t0, qs, vs, part)
+        if rate > 0:
+            raise SimulationError(t0, f"the quasi-static state is unstable: the deformation grows at rate "
+                                      f"{rate:.3g} (per unit tau) along {coord}, a load beyond a buckling load",
+                                  "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
+                                  "= \"quasi-static\") to follow the bar into its buckled state")
         drv = self.scene.driver
         if drv is None or drv.kind != "angle" or drv.rate == 0:
             return qs, vs

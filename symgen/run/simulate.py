@@ -75,8 +75,13 @@ class DaeRunner:
         self.split = ca.Function("split", [x, z], [q, v, a, lam])
         # everything recorded at an output, in one call (mapped over a chunk's outputs)
         phi_q = ca.jacobian(f["phi"](*args), q)
+        # singular-position check on the loop and driver rows and the dependent rigid
+        # coordinates only, as Mechanism.singular_ratio (inextensibility rows left out)
+        rows = [i for i in range(m) if i not in mech.inext_rows]
+        Ds = [i for i in D if i not in mech.inext_f]
+        self.n_sing = len(Ds)
         self.rec = ca.Function("rec", [t, x, z, p], [q, v, lam, f["out"](*args), f["closure"](*args),
-                                                     phi_q[:, D] if D else ca.SX(phi_q.size1(), 0)])
+                                                     phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)])
         self._maps: dict = {}
         self.opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
                      "suppress_algebraic": True, "disable_internal_warnings": True,
@@ -189,6 +194,9 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             if clo.size:
                 closure_max = max(closure_max, float(np.abs(clo).max()))
             taus.append(t), outs.append(out), qs.append(qq), vs.append(vv), lams.append(ll)
+        beyond = mech.beyond_range(qq)
+        if beyond is not None:
+            raise SimulationError(t, beyond[1], "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
         ratio, row = mech.singular_ratio(t, qq, part)
         if ratio < SINGULAR_RATIO:
             raise SimulationError(t, f"the rigid mechanism reached a singular position: the closure Jacobian "
@@ -202,12 +210,15 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         k = len(ts)
         Q, V, L, O, C, Jd = (np.array(w) for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
         stop = k
-        if part.dep:
-            nd = len(part.dep)
+        if run.n_sing:
+            nd = run.n_sing
             sv = np.linalg.svd(Jd.reshape(-1, k, nd).transpose(1, 0, 2), compute_uv=False)
             bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < SINGULAR_RATIO)[0]
             if len(bad):
                 stop = int(bad[0]) + 1
+        beyond = mech.beyond_range(Q)
+        if beyond is not None and beyond[0] < stop:
+            stop = beyond[0] + 1
         if C.size:
             closure_max = max(closure_max, float(np.abs(C[:, :stop]).max()))
         for i in range(stop):
