@@ -356,6 +356,10 @@ class Mechanism:
         An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
         an equilibrium the bar leaves at the first disturbance."""
         qs, vs, _ = self.quasi_static(t0, q, v, part)
+        beyond = self.beyond_range(qs)
+        if beyond is not None:
+            raise SimulationError(t0, f"in the quasi-static state, {beyond[1]}",
+                                  "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
         rate, coord = self.divergent_deformation(t0, qs, vs, part)
         if rate > 0:
             raise SimulationError(t0, f"the quasi-static state is unstable: the deformation grows at rate "
