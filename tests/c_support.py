@@ -2,6 +2,7 @@
 converged IDAS references the C solver is compared with (computed once per test session)."""
 from __future__ import annotations
 
+import atexit
 import ctypes
 import functools
 import io
@@ -21,6 +22,7 @@ EXAMPLES = {"slider_crank": ROOT / "examples" / "slider_crank.toml",
 # four-bar's IDAS fails below atol 1e-12
 IDAS_TOL = {"slider_crank": (1e-12, 1e-14), "four_bar": (1e-10, 1e-12)}
 WORK = Path(tempfile.mkdtemp(prefix="symgen-c-tests-"))
+atexit.register(shutil.rmtree, WORK, ignore_errors=True)
 
 needs_cc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
 needs_cxx = pytest.mark.skipif(shutil.which("g++") is None, reason="g++ is not installed")

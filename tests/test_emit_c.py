@@ -224,6 +224,21 @@ def test_driver_set_and_bad_usage():
 
 
 @needs_cc
+def test_bar_beyond_range_stops_like_python():
+    """A rod too soft for its load buckles: C and Python stop at the same output, same reason."""
+    from symgen.api import simulate_scene
+    from symgen.errors import SimulationError
+    with pytest.raises(SimulationError, match="beyond the range") as err:
+        simulate_scene(EXAMPLES["slider_crank"], ["bodies.rod.mu=0.01"])
+    partial = err.value.partial
+    proc = subprocess.run([str(simulator("slider_crank")), "--set", "mu_rod=0.01"], capture_output=True, text=True)
+    assert proc.returncode == 1 and "beyond the range of the model" in proc.stderr and "'rod'" in proc.stderr
+    rows = proc.stdout.strip().splitlines()[1:]
+    assert len(rows) == len(partial.tau)
+    assert float(rows[-1].split(",")[0]) == pytest.approx(partial.tau[-1], abs=1e-12)
+
+
+@needs_cc
 def test_changed_stiffness_run_matches_python():
     """--set lambda_rod in the C driver = the scene overridden in Python (half a turn)."""
     from symgen.api import simulate_scene

@@ -728,6 +728,44 @@ static void four_bar_x_polish(four_bar_solver *s)
     }
 }
 
+/* bars deformed beyond the range of the model (Mechanism.beyond_range): 0, or fail */
+static int four_bar_x_beyond_range(four_bar_solver *s)
+{
+    double size;
+    (void)size;
+    size = fabs(s->q[3]) + fabs(s->q[4]) + fabs(s->q[5]);
+    if (!(size <= 0.25)) {
+        return four_bar_x_fail(s, s->t, "bar 'crank' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[1]) + fabs(s->q[2]);
+    if (!(size <= 0.1)) {
+        return four_bar_x_fail(s, s->t, "bar 'crank' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[9]) + fabs(s->q[10]) + fabs(s->q[11]);
+    if (!(size <= 0.25)) {
+        return four_bar_x_fail(s, s->t, "bar 'rocker' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[7]) + fabs(s->q[8]);
+    if (!(size <= 0.1)) {
+        return four_bar_x_fail(s, s->t, "bar 'rocker' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[15]) + fabs(s->q[16]) + fabs(s->q[17]);
+    if (!(size <= 0.25)) {
+        return four_bar_x_fail(s, s->t, "bar 'coupler' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[13]) + fabs(s->q[14]);
+    if (!(size <= 0.1)) {
+        return four_bar_x_fail(s, s->t, "bar 'coupler' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    return 0;
+}
+
 static void four_bar_x_record_closure(four_bar_solver *s)
 {
     double clo[2];
@@ -795,6 +833,7 @@ int four_bar_solver_advance(four_bar_solver *s, double t_out)
     four_bar_x_polish(s);
     four_bar_x_rhs(s, s->t, s->y, s->f0);
     four_bar_x_unpack(s->y, s->q, s->v);
+    if (four_bar_x_beyond_range(s)) return s->status;
     ratio = four_bar_x_singular_ratio(s, s->t, s->q);
     if (ratio < four_bar_x_SINGULAR_RATIO) {
         return four_bar_x_fail(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (pivot ratio)",

@@ -728,6 +728,29 @@ static void inverted_slider_crank_x_polish(inverted_slider_crank_solver *s)
     }
 }
 
+/* bars deformed beyond the range of the model (Mechanism.beyond_range): 0, or fail */
+static int inverted_slider_crank_x_beyond_range(inverted_slider_crank_solver *s)
+{
+    double size;
+    (void)size;
+    size = fabs(s->q[2]) + fabs(s->q[3]) + fabs(s->q[4]);
+    if (!(size <= 0.25)) {
+        return inverted_slider_crank_x_fail(s, s->t, "bar 'crank' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[1]);
+    if (!(size <= 0.1)) {
+        return inverted_slider_crank_x_fail(s, s->t, "bar 'crank' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[6]) + fabs(s->q[7]);
+    if (!(size <= 0.25)) {
+        return inverted_slider_crank_x_fail(s, s->t, "bar 'guide' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    return 0;
+}
+
 static void inverted_slider_crank_x_record_closure(inverted_slider_crank_solver *s)
 {
     double clo[2];
@@ -795,6 +818,7 @@ int inverted_slider_crank_solver_advance(inverted_slider_crank_solver *s, double
     inverted_slider_crank_x_polish(s);
     inverted_slider_crank_x_rhs(s, s->t, s->y, s->f0);
     inverted_slider_crank_x_unpack(s->y, s->q, s->v);
+    if (inverted_slider_crank_x_beyond_range(s)) return s->status;
     ratio = inverted_slider_crank_x_singular_ratio(s, s->t, s->q);
     if (ratio < inverted_slider_crank_x_SINGULAR_RATIO) {
         return inverted_slider_crank_x_fail(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (pivot ratio)",

@@ -728,6 +728,24 @@ static void slider_crank_x_polish(slider_crank_solver *s)
     }
 }
 
+/* bars deformed beyond the range of the model (Mechanism.beyond_range): 0, or fail */
+static int slider_crank_x_beyond_range(slider_crank_solver *s)
+{
+    double size;
+    (void)size;
+    size = fabs(s->q[3]);
+    if (!(size <= 0.25)) {
+        return slider_crank_x_fail(s, s->t, "bar 'rod' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    size = fabs(s->q[2]);
+    if (!(size <= 0.1)) {
+        return slider_crank_x_fail(s, s->t, "bar 'rod' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
+                           "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+    }
+    return 0;
+}
+
 static void slider_crank_x_record_closure(slider_crank_solver *s)
 {
     double clo[1];
@@ -795,6 +813,7 @@ int slider_crank_solver_advance(slider_crank_solver *s, double t_out)
     slider_crank_x_polish(s);
     slider_crank_x_rhs(s, s->t, s->y, s->f0);
     slider_crank_x_unpack(s->y, s->q, s->v);
+    if (slider_crank_x_beyond_range(s)) return s->status;
     ratio = slider_crank_x_singular_ratio(s, s->t, s->q);
     if (ratio < slider_crank_x_SINGULAR_RATIO) {
         return slider_crank_x_fail(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (pivot ratio)",

@@ -68,7 +68,7 @@ typedef struct slider_crank_solver {
     long n_steps, n_accepted, n_rejected, n_jacobians, n_factorizations, n_residuals;
     double closure_max;         /* max |loop closure| seen at the output times */
     int status;                 /* 0 ok, else an error (see message) */
-    char message[320];
+    char message[640];
     /* work */
     double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
     int first, reject, jac_current, need_jac, have_cont;

@@ -99,6 +99,7 @@ def c_context(scene, model, mech) -> dict:
             driver["rate"] = params.index("rate")
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}
+    amplitude_checks = _amplitude_checks(mech)
     return {
         "prefix": prefix,
         "guard": f"SYMGEN_{prefix}_H",
@@ -137,6 +138,7 @@ def c_context(scene, model, mech) -> dict:
         "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
         "rtol": c_double(sim.rtol), "atol": c_double(sim.atol),
         "singular_ratio": c_double(_singular_ratio()),
+        "amplitude_checks": amplitude_checks,
         "radau": radau.constants(),
     }
 
@@ -144,3 +146,25 @@ def c_context(scene, model, mech) -> dict:
 def _singular_ratio() -> float:
     from ...run.mechanism import SINGULAR_RATIO
     return SINGULAR_RATIO
+
+
+def _amplitude_checks(mech) -> list[dict]:
+    """The range of the bar models (``Mechanism.beyond_range``): per bar, the sum of the absolute
+    transverse (axial) amplitudes may not exceed DEFLECTION_LIMIT (STRETCH_LIMIT)."""
+    from ...run import mechanism as rm
+    deflection = getattr(rm, "DEFLECTION_LIMIT", None)
+    stretch = getattr(rm, "STRETCH_LIMIT", None)
+    groups: dict = {}
+    for i, c in enumerate(mech.coords):
+        if c["kind"] in ("f", "g"):
+            groups.setdefault(c["body"], ([], []))[c["kind"] == "g"].append(i)
+    checks = []
+    for body, (fi, gi) in groups.items():
+        for idx, limit, what in ((gi, deflection, "transverse deflection"), (fi, stretch, "axial displacement")):
+            if not idx or limit is None:
+                continue
+            checks.append({"indices": idx, "limit": c_double(limit), "message": c_string(
+                f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "
+                f"fraction of its length (limit {limit:g}; the bar equations hold for moderate rotations and "
+                f"small strains): a load beyond a buckling load, or forces the bar cannot carry")})
+    return checks
