@@ -732,6 +732,7 @@ static void four_bar_x_polish(four_bar_solver *s)
 static int four_bar_x_beyond_range(four_bar_solver *s)
 {
     double size;
+    (void)s;
     (void)size;
     size = fabs(s->q[3]) + fabs(s->q[4]) + fabs(s->q[5]);
     if (!(size <= 0.25)) {

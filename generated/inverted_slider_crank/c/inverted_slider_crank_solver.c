@@ -732,6 +732,7 @@ static void inverted_slider_crank_x_polish(inverted_slider_crank_solver *s)
 static int inverted_slider_crank_x_beyond_range(inverted_slider_crank_solver *s)
 {
     double size;
+    (void)s;
     (void)size;
     size = fabs(s->q[2]) + fabs(s->q[3]) + fabs(s->q[4]);
     if (!(size <= 0.25)) {

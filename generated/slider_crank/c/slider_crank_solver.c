@@ -732,6 +732,7 @@ static void slider_crank_x_polish(slider_crank_solver *s)
 static int slider_crank_x_beyond_range(slider_crank_solver *s)
 {
     double size;
+    (void)s;
     (void)size;
     size = fabs(s->q[3]);
     if (!(size <= 0.25)) {
