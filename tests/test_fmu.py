@@ -91,3 +91,21 @@ def test_cli_emit_fmu(tmp_path):
     from fmpy.validation import validate_fmu
     assert validate_fmu(str(out)) == []
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sc.fmu"]     # no temporary left
+
+
+def test_fmu_variable_names_stay_unique_when_an_output_is_named_like_a_parameter():
+    import dataclasses
+    import xml.etree.ElementTree as ET
+
+    from symgen.emit.c.fmu import fmu_files
+    scene = mechanism("slider_crank").scene
+    outputs = list(scene.outputs)
+    outputs[0] = dataclasses.replace(outputs[0], name="rate")          # "rate" is also a parameter
+    renamed = dataclasses.replace(scene, outputs=tuple(outputs))
+    xml = fmu_files(renamed, context("slider_crank"))["modelDescription.xml"]
+    root = ET.fromstring(xml.encode())
+    names = [v.get("name") for v in root.iter("ScalarVariable")]
+    assert len(names) == len(set(names)) and "rate" in names and "parameter_rate" in names
+    exp = root.find("DefaultExperiment")
+    assert float(exp.get("stopTime")) == pytest.approx(scene.simulation.t_end)
+    assert float(exp.get("tolerance")) == scene.simulation.rtol
