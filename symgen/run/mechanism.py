@@ -111,9 +111,10 @@ class Mechanism:
                 break
         if len(chosen) < self.m:
             bad = self._worst_row(J[:, chosen] if chosen else J[:, []])
-            raise SimulationError(t, f"the mechanism cannot be assembled or is over-constrained: the closure "
-                                     f"equations of the {self.loop_name(bad)} are not independent",
-                                  "check the joints, the driver and initial.guess")
+            raise SimulationError(t, f"the closure equations of the {self.loop_name(bad)} are not independent: "
+                                     f"the mechanism is at a singular position (a toggle or change point) "
+                                     f"or over-constrained",
+                                  "start the driver at another angle, check the joints, the driver and initial.guess")
         ind = tuple(i for i in range(self.n) if i not in chosen)
         return Partition(ind, tuple(chosen))
 
