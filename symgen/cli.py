@@ -159,6 +159,29 @@ def cmd_study(args) -> int:
     return 0
 
 
+def cmd_effects(args) -> int:
+    from .run.effects import DEFAULT_TOL, auto_effects, estimate_effects, measure_effects, table
+
+    outputs = [x.strip() for x in args.outputs.split(",") if x.strip()] if args.outputs else None
+    if args.auto is not None:
+        if not args.auto > 0:
+            raise SceneError("command line", "--auto", f"the tolerance must be > 0, got {args.auto!r}",
+                             "give a relative tolerance such as 1e-3")
+        if not args.output:
+            raise SceneError("command line", "-o", "--auto writes the resulting scene: give -o FILE.toml",
+                             "e.g. symgen effects SCENE --auto 1e-3 -o out/pruned.toml")
+        _check_out(args.output, (".toml",), "-o")
+        report = auto_effects(args.scene, args.set or [], tol=args.auto, output=args.output, cycles=args.cycles,
+                              outputs=outputs)
+    elif args.measure:
+        report = measure_effects(args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles,
+                                 outputs=outputs)
+    else:
+        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL)
+    print(table(report))
+    return 0
+
+
 def cmd_quasistatic(args) -> int:
     from .pipeline import compile_scene
     from .run.mechanism import Mechanism
@@ -294,6 +317,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ref-rtol", type=float, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_study)
+    p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
+                             "the smallest verified effect set with --auto TOL")
+    p.add_argument("--measure", action="store_true", help="short runs with and without each effect")
+    p.add_argument("--auto", type=float, metavar="TOL", help="prune effects while outputs stay within TOL "
+                   "of the full model (verified by a run); write the scene with -o")
+    p.add_argument("-o", "--output", help="TOML file for the scene written by --auto")
+    p.add_argument("--tol", type=float, default=None, help="tolerance of the recommendations (default 1e-3)")
+    p.add_argument("--cycles", type=float, default=None, help="crank turns of the measuring runs (default 1)")
+    p.add_argument("--outputs", help="compare only these outputs (comma-separated names; default all but "
+                                     "closure residuals)")
+    p.set_defaults(func=cmd_effects)
+
     p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
