@@ -206,14 +206,14 @@ def _periods(res) -> int:
 
 @pytest.mark.slow
 def test_von_karman_free_motion_conserves_energy_over_1000_periods(tmp_path):
-    """The spinning, vibrating bar over 1000 bending periods (180 tau): the energy drift follows
-    the solver's tolerance (it is the integrator's, not the model's): < 1e-6 of the vibration
-    energy per... measured drift / E: 3.4e-7 at rtol 1e-8, 3.0e-8 at rtol 1e-10; the
+    """The spinning, vibrating bar over 1000 bending periods (185 tau, about 20 s): the energy
+    drift follows the solver's tolerance, so it is the integrator's, not the model's (measured
+    max |E - E0| / E0 = 2.0e-6 at rtol 1e-8, 1.7e-7 at rtol 1e-10, over 990 periods); the
     vibration keeps its amplitude."""
     drift = {}
     for rtol in (1e-8, 1e-10):
-        res = simulate_scene(write_spinning_bar(tmp_path, t_end=180.0, rtol=rtol))
-        assert res.complete and _periods(res) >= 990
+        res = simulate_scene(write_spinning_bar(tmp_path, t_end=185.0, rtol=rtol))
+        assert res.complete and _periods(res) >= 1000
         E = res.column("energy")
         drift[rtol] = float(np.abs(E - E[0]).max() / E[0])
         eta = res.column("eta")
