@@ -22,7 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-SECTIONS = ["examples", "derivation", "tolerances", "faster", "exudyn", "c"]
+SECTIONS = ["examples", "derivation", "tolerances", "faster", "exudyn", "c", "hard"]
 
 
 def main() -> None:
