@@ -49,6 +49,7 @@ EXUDYN_ELEMENTS = (2, 4, 8, 16)
 EXUDYN_STEPS = (90, 180, 360, 720, 1440, 2880, 5760)      # per turn
 SYMGEN_LEVELS = ((3, 2), (3, 3), (3, 4), (4, 4), (4, 6))
 SYMGEN_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6)
+INEXTENSIBLE = (2, 3, 4, 6)            # transverse functions of the inextensible-bar model
 
 
 # --------------------------------------------------------------------------- Exudyn
@@ -108,8 +109,11 @@ def exudyn_run(elements: int, steps_per_turn: int, turns: float = TURNS) -> tupl
 
 
 # --------------------------------------------------------------------------- symgen
-def symgen_mech(na: int, nt: int, rtol: float):
-    return mechanism(SCENE, [*ACCURATE, f"bodies.rod.axial_modes={na}", f"bodies.rod.transverse_modes={nt}",
+def symgen_mech(na: int | str, nt: int, rtol: float):
+    """The accurate model with na axial + nt transverse functions (na = "inextensible": the
+    inextensible-bar model, ``effects.axial = "inextensible"``, no axial amplitudes)."""
+    axial = ['effects.axial="inextensible"'] if na == "inextensible" else [f"bodies.rod.axial_modes={na}"]
+    return mechanism(SCENE, [*ACCURATE, *axial, f"bodies.rod.transverse_modes={nt}",
                              f"simulation.rtol={rtol:g}", f"simulation.atol={rtol / 100:g}", f"simulation.cycles={TURNS}"])
 
 
@@ -156,14 +160,15 @@ def run(repeats: int) -> str:
                             "cpu": statistics.median(r[2] for r in runs), "coords": 4 * (ne + 1),
                             "error": error(tau, y, ref_tau, ref), "own": error(tau, y, ref_tau, ex_ref_y)})
     sg_rows = []
-    for na, nt in SYMGEN_LEVELS:
+    for na, nt in [*SYMGEN_LEVELS, *[("inextensible", nt) for nt in INEXTENSIBLE]]:
         for rtol in SYMGEN_RTOLS:
             mech = symgen_mech(na, nt, rtol)
-            for axial in (False, True):
+            for axial in ((False, True) if na != "inextensible" else (False,)):
                 kw = {"axial_atol": 1e3} if axial else {}
-                label = f"{na}+{nt}, rtol {rtol:g}{', axial error control off' if axial else ''}"
+                name = f"inextensible, {nt} transverse" if na == "inextensible" else f"{na}+{nt}"
+                label = f"{name}, rtol {rtol:g}{', axial error control off' if axial else ''}"
                 row = {"id": (na, nt, rtol, axial), "finer": (na, nt, rtol / 10, axial), "config": label,
-                       "coords": 3 + na + nt}
+                       "coords": 3 + (0 if na == "inextensible" else na) + nt}
                 try:
                     runs = [symgen_run(mech, **kw) for _ in range(repeats)]
                 except Exception as err:  # noqa: BLE001 -- a failed configuration is a row, not a crash

@@ -77,7 +77,7 @@ def _timed(mech, repeats, kw, extra, chunk):
 
 def run(repeats: int) -> str:
     out = ["## Faster paths of the integration", "",
-           "rtol 1e-4 and 1e-6 (atol = rtol/100), two turns, CPU s of `simulate`, medians of {repeats}; error against "
+           "rtol 1e-4 and 1e-6 (atol = rtol/100), two turns, CPU s of `simulate`, medians of " f"{repeats}; error against "
            "the default path at rtol 1e-10 (low-passed below 50 cycles/turn, whole run, worst output).", "",
            "| scene | rtol | path | CPU s | vs default | IDAS steps | error | worst output |",
            "|---|---|---|---|---|---|---|---|"]

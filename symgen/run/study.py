@@ -605,8 +605,8 @@ def plot(study: Study, path: str | Path) -> None:
     _labels(ax, fig, [(r.integrate_s / turns, max(r.error, floor), r.config.label) for r in rows])
     for target in TARGETS:
         ax.axhline(target, color="gray", lw=0.6, ls=":")
-        ax.text(0.0, target, f" {_pct(target)}", transform=ax.get_yaxis_transform(),
-                fontsize=7, va="bottom", color="gray")
+        ax.text(1.0, target, f"{_pct(target)} ", transform=ax.get_yaxis_transform(),
+                fontsize=7, va="bottom", ha="right", color="gray")
     unc = reference_uncertainty(study)
     if np.isfinite(unc) and unc > 0:
         ax.axhspan(floor, unc, color="tab:purple", alpha=0.07, label="within the reference's own uncertainty")
@@ -616,7 +616,7 @@ def plot(study: Study, path: str | Path) -> None:
     ax.set_ylabel(f"error: max over outputs of max|y − y_ref| / max|y_ref|, first {study.window / study.turn:.3g} turn(s)")
     ax.set_title(f"{study.scene_name}: accuracy vs time ({study.reference.config.label})", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="lower left")
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -635,15 +635,24 @@ def _labels(ax, fig, points) -> None:
     fig.canvas.draw()
     placed: list = []
     char_w, line_h = 3.7, 8.5          # points, at fontsize 6.5
+    dys = [2, -10, 11, -19, 20, -28, 29, -37, 38, -46, 47, -55, 56, -64, 65, -73, 74]
     for x, y, text in sorted(points, key=lambda p: (p[0], p[1])):
         px, py = ax.transData.transform((x, y)) * 72.0 / fig.dpi     # points
         w = char_w * len(text)
-        for dy in (2, -10, 11, -19, 20, -28, 29, -37, 38, -46, 47):
-            box = (px + 4, py + dy, px + 4 + w, py + dy + line_h)
-            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+        choice = None
+        for side in (1, -1):            # right of the point, then left of it
+            for dy in dys:
+                x0 = px + 4 if side > 0 else px - 4 - w
+                box = (x0, py + dy, x0 + w, py + dy + line_h)
+                if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+                    choice = (side, dy, box)
+                    break
+            if choice:
                 break
+        side, dy, box = choice or (1, 2, (px + 4, py + 2, px + 4 + w, py + 2 + line_h))
         placed.append(box)
-        ax.annotate(text, (x, y), xytext=(4, dy), textcoords="offset points", fontsize=6.5, zorder=4,
+        ax.annotate(text, (x, y), xytext=(4 * side, dy), textcoords="offset points", fontsize=6.5, zorder=4,
+                    ha="left" if side > 0 else "right",
                     arrowprops=None if abs(dy) < 5 else {"arrowstyle": "-", "lw": 0.4, "color": "gray"})
 
 
