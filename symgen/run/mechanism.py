@@ -198,8 +198,9 @@ class Mechanism:
         sol = np.linalg.solve(np.array(K), -np.array(r).ravel())
         return sol[: self.n], sol[self.n:]
 
-    def initial_state(self, t0: float = 0.0):
-        """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
+    def initial_guess(self, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) the assembly starts from: the driver's angle and rate, initial.guess angles
+        (and slot distances, by joint name), the given deformation and its rates, else zeros."""
         sc = self.scene
         q = np.zeros(self.n)
         v = np.zeros(self.n)
@@ -226,6 +227,12 @@ class Mechanism:
                     q[i] = vals[c["index"]]
                 if c["index"] < len(rates):
                     v[i] = rates[c["index"]]
+        return q, v
+
+    def initial_state(self, t0: float = 0.0):
+        """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
+        sc = self.scene
+        q, v = self.initial_guess(t0)
         part = self.choose_partition(t0, q)
         q = self.assemble(t0, q, part)
         part = self.choose_partition(t0, q)     # re-choose at the assembled position

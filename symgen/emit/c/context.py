@@ -13,44 +13,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 
 from ... import __version__
 from . import radau
 from .codegen import model_functions
 from .names import c_comment, c_prefix, c_string
 from .printer import c_double
-
-
-def initial_guess(mech, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """The (q, v) that ``Mechanism.initial_state`` starts its assembly from."""
-    sc = mech.scene
-    q = np.zeros(mech.n)
-    v = np.zeros(mech.n)
-    guess = dict(sc.initial.guess)
-    deform = dict(sc.initial.deformation)
-    drv = sc.driver
-    for i, c in enumerate(mech.coords):
-        if c["kind"] == "theta":
-            q[i] = guess.get(c["body"], 0.0)
-            if drv is not None and drv.body == c["body"]:
-                if drv.kind == "angle":
-                    q[i] = drv.initial + drv.rate * t0
-                    v[i] = drv.rate
-                else:
-                    if drv.initial is not None:
-                        q[i] = drv.initial
-                    v[i] = drv.rate
-        elif c["kind"] == "beta":
-            q[i] = guess.get(c["name"][len("beta_"):], 0.5)
-        elif c["kind"] in ("f", "g") and c["body"] in deform:
-            d = deform[c["body"]]
-            vals, rates = (d.f, d.fdot) if c["kind"] == "f" else (d.g, d.gdot)
-            if c["index"] < len(vals):
-                q[i] = vals[c["index"]]
-            if c["index"] < len(rates):
-                v[i] = rates[c["index"]]
-    return q, v
 
 
 def _ops_table(prefix: str, funcs) -> list[str]:
@@ -85,7 +53,7 @@ def c_context(scene, model, mech) -> dict:
     inext_f = list(getattr(mech, "inext_f", []))
     sing_rows = [i for i in range(m) if i not in inext_rows]
     sing_cols = [i for i in dep if i not in inext_f]
-    q0, v0 = initial_guess(mech)
+    q0, v0 = mech.initial_guess()
     assembly_dep = list(mech.choose_partition(0.0, q0).dep)
     drv = scene.driver
     params = list(meta["params"])
