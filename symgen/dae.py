@@ -28,8 +28,8 @@ from .kinematics import BarKinematics
 from .scene.model import GROUND, Scene
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
-from .structure import (DERIVE_VERSION, INEXTENSIBLE, _tip_joint, effective_modes,  # noqa: F401
-                        inextensible, structure_key, structure_of)
+from .structure import (INEXTENSIBLE, _tip_joint, effective_modes, inextensible,  # noqa: F401
+                        structure_key, structure_of)
 from .topology import Topology, build_topology
 
 TAU = sp.Symbol("tau", real=True)

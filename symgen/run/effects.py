@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path

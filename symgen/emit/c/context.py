@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-
 from ... import __version__
 from . import radau
 from .codegen import model_functions
