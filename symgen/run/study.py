@@ -63,7 +63,8 @@ EFFECT_SETS = (
     ("linear strain (seed)", ("effects.strain=linear",)),
     ("no geometric stiffening", ("effects.geometric_stiffening=false",)),
     ("no Coriolis", ("effects.coriolis=false",)),
-    ("axially rigid", ("effects.axial=false",)),
+    ("inextensible bars", ('effects.axial="inextensible"',)),
+    ("axial off", ("effects.axial=false",)),
     ("rotary inertia off", ("effects.rotary_inertia=false",)),
 )
 
