@@ -12,7 +12,7 @@ import json
 from . import __version__
 from .scene.model import Scene
 
-DERIVE_VERSION = "2"
+DERIVE_VERSION = "3"
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:
