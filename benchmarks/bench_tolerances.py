@@ -31,7 +31,7 @@ CASES = (
     ("slider-crank (accurate, 3+4)", "examples/slider_crank.toml",
      ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete", "bodies.rod.axial_modes=3",
       "bodies.rod.transverse_modes=4"]),
-    ("four-bar (3 bars x 2+3, quasi-static start)", "examples/four_bar.toml", []),
+    ("four-bar (examples/four_bar.toml: 3 bars x 4+4, quasi-static start)", "examples/four_bar.toml", []),
 )
 
 
