@@ -24,13 +24,10 @@ def _check_out(path: str, suffixes: tuple, key: str) -> Path:
     return p
 
 
-def cmd_simulate(args) -> int:
-    import numpy as np
-
+def _prepare_run(args):
+    """Check the output paths, load the scene, compile it: (out, scene, compiled, mech, build_s)."""
     from .pipeline import compile_scene
     from .run.mechanism import Mechanism
-    from .run.results import write_results
-    from .run.simulate import simulate
 
     out = _check_out(args.output, (".csv",), "-o")
     if args.plot:
@@ -39,39 +36,51 @@ def cmd_simulate(args) -> int:
     compiled = compile_scene(scene, use_cache=not args.no_cache)
     t0 = time.perf_counter()
     mech = Mechanism(compiled, scene)
-    build_s = compiled.build_s + (time.perf_counter() - t0)
-    failure, result = None, None
+    return out, scene, compiled, mech, compiled.build_s + (time.perf_counter() - t0)
+
+
+def _attempt(run):
+    """(result, failure): a run that stopped early keeps its partial result."""
     try:
-        result = simulate(mech)
+        return run(), None
     except SimulationError as err:
-        failure = err
-        result = getattr(err, "partial", None)
-    meta = _sidecar(scene, compiled, build_s, result, failure)
-    if result is None or len(result.tau) == 0:
-        if failure is not None:
-            raise failure
-        raise SimulationError(None, "the run produced no output")
+        return getattr(err, "partial", None), err
+
+
+def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
+    """CSV + JSON (partial when the run stopped), the plot if asked; re-raise a failure."""
+    from .run.results import write_results
+
     written = write_results(out, result.tau, result.outputs, result.output_names, meta,
                             complete=failure is None)
     if args.plot:
         from .plot import plot_outputs
-        kinds = [o.kind for o in scene.outputs]
-        turn = None
-        if scene.driver is not None and scene.driver.kind == "angle" and scene.driver.rate:
-            turn = 2 * math.pi / abs(scene.driver.rate)
+        drv = scene.driver
+        turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
         plot_path = Path(args.plot)
         if failure is not None:
             plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
-        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, kinds,
-                     f"{scene.name}: {Path(scene.path).name}", partial=failure is not None, turn=turn)
+        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, [o.kind for o in scene.outputs],
+                     title, partial=failure is not None, turn=turn)
     if failure is not None:
         print(f"symgen: partial result kept in {written}", file=sys.stderr)
         raise failure
+    return written
+
+
+def cmd_simulate(args) -> int:
+    from .run.simulate import simulate
+
+    out, scene, compiled, mech, build_s = _prepare_run(args)
+    result, failure = _attempt(lambda: simulate(mech))
+    meta = _sidecar(scene, compiled, build_s, result, failure)
+    if result is None or len(result.tau) == 0:
+        raise failure if failure is not None else SimulationError(None, "the run produced no output")
+    written = _write_run(args, out, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
     print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; IDAS steps {result.steps}; "
           f"derive {compiled.derive_s:.2f}s{' (cached)' if compiled.cached else ''}, "
           f"simulate {result.simulate_s:.2f}s)")
-    del np
     return 0
 
 
@@ -183,25 +192,10 @@ def cmd_effects(args) -> int:
 
 
 def cmd_quasistatic(args) -> int:
-    from .pipeline import compile_scene
-    from .run.mechanism import Mechanism
     from .run.quasistatic import quasi_static
-    from .run.results import write_results
 
-    out = _check_out(args.output, (".csv",), "-o")
-    if args.plot:
-        _check_out(args.plot, (".png",), "--plot")
-    scene = _scene(args)
-    compiled = compile_scene(scene, use_cache=not args.no_cache)
-    t0 = time.perf_counter()
-    mech = Mechanism(compiled, scene)
-    build_s = compiled.build_s + (time.perf_counter() - t0)
-    failure, result = None, None
-    try:
-        result = quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles)
-    except SimulationError as err:
-        failure = err
-        result = getattr(err, "partial", None)
+    out, scene, compiled, mech, build_s = _prepare_run(args)
+    result, failure = _attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles))
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "no input position was solved")
     meta = _sidecar(scene, compiled, build_s, result, failure)
@@ -209,20 +203,8 @@ def cmd_quasistatic(args) -> int:
     meta["solver"] = result.solver_info()
     meta["timings"]["solve_s"] = result.solve_s
     meta["t_end"] = float(result.tau[-1])
-    written = write_results(out, result.tau, result.outputs, result.output_names, meta, complete=failure is None)
-    if args.plot:
-        from .plot import plot_outputs
-        drv = scene.driver
-        turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
-        plot_path = Path(args.plot)
-        if failure is not None:
-            plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
-        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, [o.kind for o in scene.outputs],
-                     f"{scene.name}: quasi-static response, {Path(scene.path).name}", partial=failure is not None,
-                     turn=turn)
-    if failure is not None:
-        print(f"symgen: partial result kept in {written}", file=sys.stderr)
-        raise failure
+    written = _write_run(args, out, scene, result, meta, failure,
+                         f"{scene.name}: quasi-static response, {Path(scene.path).name}")
     info = meta["solver"]
     print(f"wrote {written} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
           f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
