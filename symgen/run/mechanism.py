@@ -37,6 +37,37 @@ class Partition:
     dep: tuple      # indices of dependent rigid coordinates (algebraic)
 
 
+@dataclass(frozen=True)
+class Index1:
+    """Symbols of the index-1 DAE of a partition: x = [q_I, v_I], z = [q_D, v_D, a, lam]."""
+
+    x: ca.SX
+    z: ca.SX
+    q: ca.SX
+    v: ca.SX
+    a: ca.SX
+    lam: ca.SX
+
+    def alg(self, f: dict, t, p) -> ca.SX:
+        """The algebraic equations [phi; phid; res; phidd] at time t with parameters p."""
+        args = [t, self.q, self.v, self.a, self.lam, p]
+        return ca.vertcat(*(f[k](*args) for k in ("phi", "phid", "res", "phidd")))
+
+
+def index1(n: int, m: int, part: Partition) -> Index1:
+    """The split of (x, z) into coordinates, rates, accelerations and multipliers."""
+    I, D = list(part.ind), list(part.dep)
+    nI, nD = len(I), len(D)
+    x = ca.SX.sym("x", 2 * nI)
+    z = ca.SX.sym("z", 2 * nD + n + m)
+    q, v = ca.SX.zeros(n), ca.SX.zeros(n)
+    for k, i in enumerate(I):
+        q[i], v[i] = x[k], x[nI + k]
+    for k, i in enumerate(D):
+        q[i], v[i] = z[k], z[nD + k]
+    return Index1(x, z, q, v, z[2 * nD: 2 * nD + n], z[2 * nD + n:])
+
+
 class Mechanism:
     def __init__(self, compiled: CompiledModel, scene: Scene) -> None:
         self.scene = scene
@@ -329,18 +360,11 @@ class Mechanism:
         E = [i for i in part.ind if self.coords[i]["kind"] in ("f", "g")]
         if not E:
             return 0.0, ""
-        I, D, n, m = list(part.ind), list(part.dep), self.n, self.m
+        I, D = list(part.ind), list(part.dep)
         nI, nD = len(I), len(D)
-        x = ca.SX.sym("x", 2 * nI)
-        z = ca.SX.sym("z", 2 * nD + n + m)
-        qq, vv = ca.SX.zeros(n), ca.SX.zeros(n)
-        for k, i in enumerate(I):
-            qq[i], vv[i] = x[k], x[nI + k]
-        for k, i in enumerate(D):
-            qq[i], vv[i] = z[k], z[nD + k]
-        args = [t, qq, vv, z[2 * nD: 2 * nD + n], z[2 * nD + n:], self.p]
-        G = ca.vertcat(*(self.f[k](*args) for k in ("phi", "phid", "res", "phidd")))
-        jac = ca.Function("lin", [x, z], [ca.jacobian(G, x), ca.jacobian(G, z)])
+        sys_ = index1(self.n, self.m, part)
+        G = sys_.alg(self.f, t, self.p)
+        jac = ca.Function("lin", [sys_.x, sys_.z], [ca.jacobian(G, sys_.x), ca.jacobian(G, sys_.z)])
         a, lam = self.accelerations(t, q, v)
         Gx, Gz = (np.array(w) for w in jac(np.concatenate([q[I], v[I]]),
                                            np.concatenate([q[D], v[D], a, lam])))

@@ -36,7 +36,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import SimulationError
-from .mechanism import Mechanism
+from .mechanism import Mechanism, index1
 from .quasistatic import QuasiStaticSystem
 
 SHAPE_POINTS = 21
@@ -119,18 +119,11 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         raise SimulationError(tau, "the mechanism has no deformation amplitudes: it has no modes",
                               "give an elastic bar axial_modes or transverse_modes")
     # index-1 system G(x, z) = 0 and its Jacobians
-    x = ca.SX.sym("x", 2 * nI)
-    z = ca.SX.sym("z", 2 * nD + n + m)
-    qq, vv = ca.SX.zeros(n), ca.SX.zeros(n)
-    for k, i in enumerate(I):
-        qq[i], vv[i] = x[k], x[nI + k]
-    for k, i in enumerate(D):
-        qq[i], vv[i] = z[k], z[nD + k]
-    aa = z[2 * nD: 2 * nD + n]
-    ll = z[2 * nD + n:]
-    args = [tau, qq, vv, aa, ll, mech.p]
+    sys_ = index1(n, m, part)
+    x, z, aa = sys_.x, sys_.z, sys_.a
+    args = [tau, sys_.q, sys_.v, aa, sys_.lam, mech.p]
     f = mech.f
-    G = ca.vertcat(f["phi"](*args), f["phid"](*args), f["res"](*args), f["phidd"](*args))
+    G = sys_.alg(f, tau, mech.p)
     jac = ca.Function("modes_jac", [x, z], [G, ca.jacobian(G, x), ca.jacobian(G, z), ca.jacobian(f["res"](*args), aa)])
     x0 = np.concatenate([q[I], v[I]])
     z0 = np.concatenate([q[D], v[D], a, lam])

@@ -16,7 +16,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import SimulationError
-from .mechanism import SINGULAR_RATIO, Mechanism, Partition
+from .mechanism import SINGULAR_RATIO, Mechanism, Partition, index1
 
 CHUNK = 128         # output steps per integrator call
 CALC_IC = False     # z0 is always consistent (our own Newton); IDACalcIC only fails on it
@@ -51,24 +51,14 @@ class DaeRunner:
         I, D = list(part.ind), list(part.dep)
         nI, nD = len(I), len(D)
         self.nI, self.nD = nI, nD
-        x = ca.SX.sym("x", 2 * nI)
-        z = ca.SX.sym("z", 2 * nD + n + m)
+        sys_ = index1(n, m, part)
+        x, z, q, v, a, lam = sys_.x, sys_.z, sys_.q, sys_.v, sys_.a, sys_.lam
         p = ca.SX.sym("p", len(mech.p) + 1)
         t = ca.SX.sym("t")
-        q = ca.SX.zeros(n)
-        v = ca.SX.zeros(n)
-        for k, i in enumerate(I):
-            q[i] = x[k]
-            v[i] = x[nI + k]
-        for k, i in enumerate(D):
-            q[i] = z[k]
-            v[i] = z[nD + k]
-        a = z[2 * nD: 2 * nD + n]
-        lam = z[2 * nD + n:]
-        tt = t + p[-1]
+        tt = t + p[-1]                      # time offset: one integrator serves every chunk
         args = [tt, q, v, a, lam, p[:-1]]
         f = mech.f
-        alg = ca.vertcat(f["phi"](*args), f["phid"](*args), f["res"](*args), f["phidd"](*args))
+        alg = sys_.alg(f, tt, p[:-1])
         ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
         self.dae = {"x": x, "z": z, "p": p, "t": t, "ode": ode, "alg": alg}
         self.g = ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)])
