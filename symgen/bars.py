@@ -226,12 +226,7 @@ def bar_equations(
         return e
 
     # distributed loads (uniform in xi) in bar axes, gravity included
-    beta = sp.Add(*[b for b, _ in loads])
-    gamma = sp.Add(*[c for _, c in loads])
-    if gravity is not None:
-        gx, gy = gravity
-        beta += (sp.cos(th) * gx + sp.sin(th) * gy) / s.alpha
-        gamma += (-sp.sin(th) * gx + sp.cos(th) * gy) / s.alpha
+    beta, gamma = distributed_groups(s, loads, gravity)
 
     # point forces -> groups (B, Gamma) in bar axes
     pts = []
@@ -352,6 +347,18 @@ def bar_equations(
     return BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
                         kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d,
                         constraint=constraint, eqbeta=eqbeta)
+
+
+def distributed_groups(s: BarSymbols, loads: tuple, gravity: tuple | None) -> tuple:
+    """(beta, gamma): the uniform distributed load groups of a bar in its own axes,
+    / (m_i l_i omega^2): the scene's loads plus gravity (g / l0 omega^2, ground axes) / alpha."""
+    beta = sp.Add(*[b for b, _ in loads])
+    gamma = sp.Add(*[c for _, c in loads])
+    if gravity is not None:
+        gx, gy = gravity
+        beta += (sp.cos(s.th) * gx + sp.sin(s.th) * gy) / s.alpha
+        gamma += (-sp.sin(s.th) * gx + sp.cos(s.th) * gy) / s.alpha
+    return beta, gamma
 
 
 def _val(v) -> sp.Expr:

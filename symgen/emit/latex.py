@@ -28,7 +28,7 @@ import jinja2
 import sympy as sp
 
 from .. import __version__
-from ..bars import IPTable, PointForce, bar_equations
+from ..bars import IPTable, PointForce, bar_equations, distributed_groups
 from ..scene.model import GROUND
 
 TEMPLATES = Path(__file__).resolve().parents[2] / "templates" / "latex"
@@ -290,6 +290,17 @@ def _block(rows: list[Row]) -> str:
     return " \\\\\n".join(r.tex() for r in rows)
 
 
+def distributed_load_display(pr, bm, B: str, ext: set) -> tuple:
+    """Display symbols (beta_bar, gamma_bar) of a bar's distributed loads and their
+    definitions (scene loads plus gravity); adds the symbols to ``ext``. ((), []) if none."""
+    if not bm.inputs["loads"] and bm.inputs["gravity"] is None:
+        return (), []
+    beta_s, gamma_s = sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")
+    beta, gamma = distributed_groups(bm.sym, bm.inputs["loads"], bm.inputs["gravity"])
+    ext |= {beta_s, gamma_s}
+    return ((beta_s, gamma_s),), [_row(pr, pr(beta_s), beta), _row(pr, pr(gamma_s), gamma)]
+
+
 def _row(pr: "Printer", lhs, rhs, tag: str | None = None) -> Row:
     """``lhs = rhs`` with the right side broken to fit beside the left side and the tag.
 
@@ -516,20 +527,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
             pf_syms |= sp.sympify(bsym).free_symbols | sp.sympify(gsym).free_symbols
             pts_tex.append((pr(bsym), pr(gsym), _num_text(p.xi)))
     ext = set(pf_syms)
-    disp_loads = ()
-    load_defs = []
-    has_dist = bool(bm.inputs["loads"]) or bm.inputs["gravity"] is not None
-    if has_dist:
-        beta_s, gamma_s = sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")
-        beta = sp.Add(*[b for b, _ in bm.inputs["loads"]])
-        gamma = sp.Add(*[c for _, c in bm.inputs["loads"]])
-        if bm.inputs["gravity"] is not None:
-            gx, gy = bm.inputs["gravity"]
-            beta += (sp.cos(s.th) * gx + sp.sin(s.th) * gy) / s.alpha
-            gamma += (-sp.sin(s.th) * gx + sp.cos(s.th) * gy) / s.alpha
-        load_defs = [_row(pr, pr(beta_s), beta), _row(pr, pr(gamma_s), gamma)]
-        disp_loads = ((beta_s, gamma_s),)
-        ext |= {beta_s, gamma_s}
+    disp_loads, load_defs = distributed_load_display(pr, bm, B, ext)
     ctx["point_defs"] = _block(point_defs) if point_defs else ""
     ctx["load_defs"] = _block(load_defs) if load_defs else ""
     ctx["points"] = [{"B": b, "G": g, "xi": x} for b, g, x in pts_tex]
@@ -552,7 +550,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
             left = [rf"N_{{{B}}}'"]
         if damp and not inext:
             left.append(rf"+ {c}\,\lambda_{{{B}}}\dot\zeta_{{{B}}}''")
-        if has_dist:
+        if disp_loads:
             left.append(rf"+ \bar\beta_{{{B}}}")
         if pt_a:
             left.extend(pt_a)
@@ -568,7 +566,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
                         else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'")
         if eff.rotary_inertia and na:
             left.append(rf"+ \rho_{{{B}}}\ddot\eta_{{{B}}}''")
-        if has_dist:
+        if disp_loads:
             left.append(rf"+ \bar\gamma_{{{B}}}")
         if pt_t:
             left.extend(pt_t)

@@ -250,7 +250,7 @@ def guide_display_equations(scene, model, name: str, disp_points: tuple = (), di
 
 def guide_context(scene, model, name: str, pr) -> dict:
     """Context of ``guide.tex.jinja`` for the guide bar ``name``."""
-    from .latex import (_block, _kin_terms, _num_text, _point_label, _rm, _row, _split_sides, _term_row,
+    from .latex import (_block, _kin_terms, distributed_load_display, _num_text, _point_label, _rm, _row, _split_sides, _term_row,
                         tex_escape)
     eff = scene.effects
     body = scene.body(name)
@@ -312,19 +312,7 @@ def guide_context(scene, model, name: str, pr) -> dict:
     point_defs = [_row(pr, pr(Bc), Bdef), _row(pr, pr(Gc), Gdef)] + point_defs
     ext |= {Bc, Gc}
     pts_tex.insert(0, (pr(Gc), bt))
-    disp_loads, load_defs = (), []
-    has_dist = bool(bm.inputs["loads"]) or bm.inputs["gravity"] is not None
-    if has_dist:
-        beta_s, gamma_s = sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")
-        lb = sp.Add(*[x for x, _ in bm.inputs["loads"]])
-        lg = sp.Add(*[y for _, y in bm.inputs["loads"]])
-        if bm.inputs["gravity"] is not None:
-            gx, gy = bm.inputs["gravity"]
-            lb += (sp.cos(s.th) * gx + sp.sin(s.th) * gy) / s.alpha
-            lg += (-sp.sin(s.th) * gx + sp.cos(s.th) * gy) / s.alpha
-        load_defs = [_row(pr, pr(beta_s), lb), _row(pr, pr(gamma_s), lg)]
-        disp_loads = ((beta_s, gamma_s),)
-        ext |= {beta_s, gamma_s}
+    disp_loads, load_defs = distributed_load_display(pr, bm, B, ext)
     ctx["point_defs"] = _block(point_defs)
     ctx["load_defs"] = _block(load_defs) if load_defs else ""
 
@@ -334,7 +322,7 @@ def guide_context(scene, model, name: str, pr) -> dict:
     left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
     if damp:
         left.append(rf"- {c}\,\mu_{{{B}}}\dot\eta_{{{B}}}''''")
-    if has_dist:
+    if disp_loads:
         left.append(rf"+ \bar\gamma_{{{B}}}")
     left += [rf"+ {G}\,\delta(\xi - {x})" for G, x in pts_tex]
     sk = r"\sum_k"
