@@ -189,7 +189,7 @@ def cmd_effects(args) -> int:
         report = measure_effects(args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles,
                                  outputs=outputs)
     else:
-        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL)
+        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL, outputs)
     print(table(report))
     return 0
 

@@ -177,7 +177,7 @@ def _loop_stretch_share(scene, body) -> tuple[float, str]:
     return ca / (ca + cb), f"loop: stretch of {body.name} vs bending of {soft.name} {ca / (ca + cb):.2g}; "
 
 
-def _bar_estimates(scene, body) -> dict:
+def _bar_estimates(scene, body, outputs: Sequence[str] | None = None) -> dict:
     W = _rate(scene)
     lam, mu, alpha = body.lam, body.mu, body.alpha
     cantilever = body.frame == "cantilever"
@@ -192,7 +192,7 @@ def _bar_estimates(scene, body) -> dict:
     else:
         eta0 = sigma = w_b = 0.0
     has_axial = body.axial_modes > 0 and lam
-    outs = [o for o in scene.outputs if o.body == body.name]
+    outs = [o for o in scene.outputs if o.body == body.name and (outputs is None or o.name in outputs)]
     reads_stretch = [o.name for o in outs if o.kind in STRETCH_OUTPUTS]
     reads_displacement = [o.name for o in outs if o.kind == "elastic_displacement"]
     detail = f"{body.name}: lambda {lam:.3g}, " if lam else f"{body.name}: "
@@ -243,11 +243,17 @@ def _bar_estimates(scene, body) -> dict:
     return out
 
 
-def estimate_effects(scene, tol: float = DEFAULT_TOL) -> EffectsReport:
-    """Estimated contribution of every applicable change (largest over the elastic bars)."""
+def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | None = None) -> EffectsReport:
+    """Estimated contribution of every applicable change (largest over the elastic bars) to the
+    scene's outputs (or to ``outputs``, names, when given)."""
+    if outputs is not None:
+        unknown = [n for n in outputs if n not in {o.name for o in scene.outputs}]
+        if unknown:
+            raise SceneError(str(scene.path), "--outputs", f"no output named {', '.join(unknown)}",
+                             f"the scene's outputs: {', '.join(o.name for o in scene.outputs)}")
     rows = []
     bars = [b for b in scene.bodies if not b.rigid and (b.axial_modes or b.transverse_modes)]
-    per_bar = [_bar_estimates(scene, b) for b in bars]
+    per_bar = [_bar_estimates(scene, b, outputs) for b in bars]
     for change in applicable(scene):
         if change.group == "gravity" and not per_bar:
             g = math.hypot(*scene.effects.gravity)
@@ -346,7 +352,7 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
     """The estimates plus short runs with and without each effect (errors over ``outputs``,
     default every output but closure residuals)."""
     runs = runs or _Runs(str(path), overrides, cycles, outputs)
-    report = estimate_effects(load_scene(path, overrides), tol)
+    report = estimate_effects(load_scene(path, overrides), tol, runs.compared)
     for row in report.rows:
         r = runs.run([row.change.override])
         row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
