@@ -33,6 +33,8 @@ def _prepare_run(args):
     if args.plot:
         _check_out(args.plot, (".png",), "--plot")
     scene = _scene(args)
+    from .run.units import choose_system
+    choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
     compiled = compile_scene(scene, use_cache=not args.no_cache)
     t0 = time.perf_counter()
     mech = Mechanism(compiled, scene)
@@ -50,9 +52,13 @@ def _attempt(run):
 def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
     """CSV + JSON (partial when the run stopped), the plot if asked; re-raise a failure."""
     from .run.results import write_results
+    from .run.units import result_units
 
-    written = write_results(out, result.tau, result.outputs, result.output_names, meta,
-                            complete=failure is None)
+    units = result_units(scene, args.units)
+    time, values = units.convert(result.tau, result.outputs)
+    meta["units"] = units.as_dict()
+    written = write_results(out, time, values, result.output_names, meta,
+                            complete=failure is None, time_name=units.time.name)
     if args.plot:
         from .plot import plot_outputs
         drv = scene.driver
@@ -60,8 +66,9 @@ def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
         plot_path = Path(args.plot)
         if failure is not None:
             plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
-        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, [o.kind for o in scene.outputs],
-                     title, partial=failure is not None, turn=turn)
+        plot_outputs(plot_path, time, values, result.output_names, [o.kind for o in scene.outputs],
+                     title, partial=failure is not None, turn=None if turn is None else turn * units.time.factor,
+                     units=units)
     if failure is not None:
         print(f"symgen: partial result kept in {written}", file=sys.stderr)
         raise failure
@@ -278,6 +285,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
+                   help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
+                        "dimensionless keeps tau and the model's units)")
     p.set_defaults(func=cmd_simulate)
 
     p = scene_cmd("latex", "write the derived equations as a LaTeX document")
@@ -318,6 +328,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
     p.add_argument("--cycles", type=float, default=None, help="crank turns to cover (default 1)")
+    p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
+                   help="units of the results (default: SI for an SI scene; dimensionless keeps tau)")
     p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
                    help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
