@@ -241,6 +241,26 @@ def cmd_modes(args) -> int:
     return 0
 
 
+def cmd_schema(args) -> int:
+    import json
+
+    from .run.results import atomic_write
+    from .scene.schema import json_schema, markdown
+
+    if args.markdown:
+        out = _check_out(args.markdown, (".md",), "--markdown")
+        atomic_write(out, markdown())
+        print(f"wrote {out}")
+    text = json.dumps(json_schema(), indent=1) + "\n"
+    if args.output:
+        out = _check_out(args.output, (".json",), "-o")
+        atomic_write(out, text)
+        print(f"wrote {out}")
+    elif not args.markdown:
+        sys.stdout.write(text)
+    return 0
+
+
 def cmd_reproduce(args) -> int:
     from .run.reproduce import reproduce
 
@@ -340,6 +360,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="JSON file to write")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_modes)
+
+    p = sub.add_parser("schema", help="the scene-file schema: JSON Schema for editors, or the Markdown reference")
+    p.add_argument("-o", "--output", help="JSON file to write (default: print the JSON Schema)")
+    p.add_argument("--markdown", metavar="FILE.md", help="write the scene reference (docs/scene-format.md)")
+    p.set_defaults(func=cmd_schema)
 
     p = sub.add_parser("reproduce", help="the paper's figures G.1-G.12 as PNGs, with a README")
     p.add_argument("-o", "--output", required=True, help="folder to write")
