@@ -42,3 +42,32 @@ def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
     """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
     from .run.modes import modes
     return modes(mechanism(scene, overrides), tau=tau, **kwargs)
+
+
+def results_table(result, scene: Scene, units: str | None = None) -> dict:
+    """The columns of a run (``simulate_scene``/``quasi_static_scene``) as numpy arrays, time
+    first, in the units of the command line: SI (``t`` in s, m, rad, N, N m, J) for an SI scene,
+    the model's dimensionless units (``tau``) otherwise or with ``units="dimensionless"``. The
+    units and factors are in ``symgen.run.units.result_units(scene, units)``.
+
+    >>> scene = load_scene("examples/four_bar.toml")                           # doctest: +SKIP
+    >>> cols = results_table(simulate_scene(scene), scene)                      # doctest: +SKIP
+    >>> cols["t"][-1], cols["torque"].max()                                     # doctest: +SKIP
+    """
+    from .run.units import result_units
+
+    u = result_units(scene, units)
+    time, values = u.convert(result.tau, result.outputs)
+    table = {u.time.name: time}
+    table.update({name: values[:, k] for k, name in enumerate(result.output_names)})
+    return table
+
+
+def results_frame(result, scene: Scene, units: str | None = None):
+    """:func:`results_table` as a pandas DataFrame (pandas is optional: ``pip install pandas``)."""
+    try:
+        import pandas as pd
+    except ImportError:
+        raise ImportError("results_frame needs pandas (pip install pandas); results_table gives "
+                          "the same columns as numpy arrays") from None
+    return pd.DataFrame(results_table(result, scene, units))

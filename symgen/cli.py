@@ -33,6 +33,8 @@ def _prepare_run(args):
     if args.plot:
         _check_out(args.plot, (".png",), "--plot")
     scene = _scene(args)
+    from .run.units import choose_system
+    choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
     compiled = compile_scene(scene, use_cache=not args.no_cache)
     t0 = time.perf_counter()
     mech = Mechanism(compiled, scene)
@@ -50,9 +52,13 @@ def _attempt(run):
 def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
     """CSV + JSON (partial when the run stopped), the plot if asked; re-raise a failure."""
     from .run.results import write_results
+    from .run.units import result_units
 
-    written = write_results(out, result.tau, result.outputs, result.output_names, meta,
-                            complete=failure is None)
+    units = result_units(scene, args.units)
+    time, values = units.convert(result.tau, result.outputs)
+    meta["units"] = units.as_dict()
+    written = write_results(out, time, values, result.output_names, meta,
+                            complete=failure is None, time_name=units.time.name)
     if args.plot:
         from .plot import plot_outputs
         drv = scene.driver
@@ -60,8 +66,9 @@ def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
         plot_path = Path(args.plot)
         if failure is not None:
             plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
-        plot_outputs(plot_path, result.tau, result.outputs, result.output_names, [o.kind for o in scene.outputs],
-                     title, partial=failure is not None, turn=turn)
+        plot_outputs(plot_path, time, values, result.output_names, [o.kind for o in scene.outputs],
+                     title, partial=failure is not None, turn=None if turn is None else turn * units.time.factor,
+                     units=units)
     if failure is not None:
         print(f"symgen: partial result kept in {written}", file=sys.stderr)
         raise failure
@@ -79,8 +86,8 @@ def cmd_simulate(args) -> int:
     written = _write_run(args, out, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
     print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; IDAS steps {result.steps}; "
-          f"derive {compiled.derive_s:.2f}s{' (cached)' if compiled.cached else ''}, "
-          f"simulate {result.simulate_s:.2f}s)")
+          + (f"model loaded from cache {build_s:.2f}s, " if compiled.cached else f"derived {compiled.derive_s:.2f}s, ")
+          + f"simulate {result.simulate_s:.2f}s)")
     return 0
 
 
@@ -109,7 +116,10 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
             "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
         "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
                    "steps": None if result is None else result.steps},
-        "timings": {"derive_s": compiled.derive_s, "derive_cached": compiled.cached,
+        # derive_s is this process's derivation (0 when the model came from the cache); the
+        # cached entry's own derivation time is kept apart so that it is never read as this run's
+        "timings": {"derive_s": 0.0 if compiled.cached else compiled.derive_s, "derive_cached": compiled.cached,
+                    "cached_model_derive_s": compiled.derive_s if compiled.cached else None,
                     "build_s": build_s, "simulate_s": None if result is None else result.simulate_s},
         "closure_residual_max": None if result is None else result.closure_max,
         "outputs": [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "at": o.xi,
@@ -186,7 +196,7 @@ def cmd_effects(args) -> int:
         report = measure_effects(args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles,
                                  outputs=outputs)
     else:
-        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL)
+        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL, outputs)
     print(table(report))
     return 0
 
@@ -228,6 +238,26 @@ def cmd_modes(args) -> int:
     if out is not None:
         atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
         print(f"wrote {out}")
+    return 0
+
+
+def cmd_schema(args) -> int:
+    import json
+
+    from .run.results import atomic_write
+    from .scene.schema import json_schema, markdown
+
+    if args.markdown:
+        out = _check_out(args.markdown, (".md",), "--markdown")
+        atomic_write(out, markdown())
+        print(f"wrote {out}")
+    text = json.dumps(json_schema(), indent=1) + "\n"
+    if args.output:
+        out = _check_out(args.output, (".json",), "-o")
+        atomic_write(out, text)
+        print(f"wrote {out}")
+    elif not args.markdown:
+        sys.stdout.write(text)
     return 0
 
 
@@ -275,6 +305,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
+                   help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
+                        "dimensionless keeps tau and the model's units)")
     p.set_defaults(func=cmd_simulate)
 
     p = scene_cmd("latex", "write the derived equations as a LaTeX document")
@@ -315,6 +348,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
     p.add_argument("--cycles", type=float, default=None, help="crank turns to cover (default 1)")
+    p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
+                   help="units of the results (default: SI for an SI scene; dimensionless keeps tau)")
     p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
                    help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
@@ -325,6 +360,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", help="JSON file to write")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_modes)
+
+    p = sub.add_parser("schema", help="the scene-file schema: JSON Schema for editors, or the Markdown reference")
+    p.add_argument("-o", "--output", help="JSON file to write (default: print the JSON Schema)")
+    p.add_argument("--markdown", metavar="FILE.md", help="write the scene reference (docs/scene-format.md)")
+    p.set_defaults(func=cmd_schema)
 
     p = sub.add_parser("reproduce", help="the paper's figures G.1-G.12 as PNGs, with a README")
     p.add_argument("-o", "--output", required=True, help="folder to write")

@@ -20,11 +20,29 @@ LABELS = {
     "energy": r"energy / $m l_0^3\omega^2$",
     "closure_residual": "closure residual",
 }
+#: The same quantities in SI results (the unit is given with the name).
+SI_LABELS = {
+    "chord_deflection": "deflection from chord",
+    "chord_elongation": "chord elongation |c| - l",
+    "deflection": r"$\eta$ (bar frame)",
+    "axial": r"$\zeta$",
+    "slope": r"$\eta'$",
+    "elastic_displacement": "elastic displacement",
+    "position": "position",
+    "angle": r"$\theta$",
+    "reaction": "force",
+    "driver_torque": "torque",
+    "energy": "energy",
+    "closure_residual": "closure residual",
+}
 
 
 def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, names: list[str],
-                 kinds: list[str], title: str, partial: bool = False, turn: float | None = None) -> None:
-    """One panel per output, shared tau axis (in crank turns when ``turn`` is given)."""
+                 kinds: list[str], title: str, partial: bool = False, turn: float | None = None,
+                 units=None) -> None:
+    """One panel per output, shared time axis (in crank turns when ``turn`` is given, in the
+    time unit of ``turn`` and ``tau``); ``units`` (``symgen.run.units.ResultUnits``) labels the
+    columns with their units."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -35,12 +53,15 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
     for k, ax in enumerate(axes[:, 0]):
         y = values[:, k]
         ax.plot(x, y, lw=0.9, color="C0")
-        ax.set_ylabel(f"{names[k]}\n{LABELS.get(kinds[k], '')}", fontsize=8)
+        si = units is not None and units.system == "SI"
+        unit = f" [{units.outputs[k].unit}]" if si else ""
+        ax.set_ylabel(f"{names[k]}{unit}\n{(SI_LABELS if si else LABELS).get(kinds[k], '')}", fontsize=8)
         ax.grid(True, lw=0.3, alpha=0.6)
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
         if kinds[k] == "closure_residual":
             ax.set_yscale("symlog", linthresh=1e-16)
-    axes[-1, 0].set_xlabel("crank turns" if turn else r"$\tau = \omega t$")
+    si_time = units is not None and units.system == "SI"
+    axes[-1, 0].set_xlabel("crank turns" if turn else ("t [s]" if si_time else r"$\tau = \omega t$"))
     if turn:
         for ax in axes[:, 0]:
             for c in range(1, int(math.floor(x[-1])) + 1):

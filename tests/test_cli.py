@@ -145,3 +145,19 @@ def test_singular_position_stops_with_tau_and_loop_and_keeps_partial(tmp_path, c
     assert tau_stop == pytest.approx(math.acos(0.375) - 0.5, abs=0.02)
     rows = np.loadtxt(partial, delimiter=",", skiprows=1)
     assert rows[-1, 0] <= tau_stop + 1e-9 and len(rows) > 50
+
+
+def test_sidecar_derive_time_is_this_runs_not_the_caches(tmp_path, monkeypatch, capsys):
+    """A model from the cache reports derive_s = 0 for this run and the cached derivation's own
+    time apart (it used to report the old derivation time as if it had just happened)."""
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    metas = []
+    for k in range(2):
+        out = tmp_path / f"run{k}.csv"
+        assert main(["simulate", SLIDER, "-o", str(out), "--set", "simulation.cycles=0.05"]) == 0
+        metas.append(json.loads(out.with_suffix(".json").read_text())["timings"])
+    first, second = metas
+    assert first["derive_cached"] is False and first["derive_s"] > 0 and first["cached_model_derive_s"] is None
+    assert second["derive_cached"] is True and second["derive_s"] == 0.0
+    assert second["cached_model_derive_s"] == pytest.approx(first["derive_s"])
+    assert "model loaded from cache" in capsys.readouterr().out

@@ -151,3 +151,30 @@ def test_cli_modes_json(tmp_path, capsys):
     # the coupler (mu = 0.50) rings lowest, near its pinned-pinned pi^2 sqrt(mu) = 7.0 (the
     # joints are not rigid supports and its axial load shifts it)
     assert first["dominant"] == "coupler transverse" and 5.0 < first["natural_frequency"] < 8.0
+    # undamped moving loop: the console says it is unstable in the frozen sense and why, as the JSON
+    assert doc["stable"] is False and doc["stability"]["kind"] == "growth"
+    assert "UNSTABLE" in text and "no damping" in text and "zeta*" in text
+    grows = [m for m in doc["modes"] if m["eigenvalue"][0] > 0]
+    assert grows and f"{len(grows)} vibration mode(s) grow" in text
+
+
+def test_console_verdicts_stable_and_damped(spinning, tmp_path, capsys):
+    """A bar spinning without a loop is stable (said on the console); a damped pinned bar prints
+    plain zeta without the undamped footnote."""
+    assert main(["modes", str(spinning), "--at", "0.7"]) == 0
+    text = capsys.readouterr().out
+    assert "stable: every eigenvalue" in text and "UNSTABLE" not in text
+    path = write_scene(tmp_path / "bar.toml", PINNED)
+    assert main(["modes", str(path), "--set", "effects.damping=0.002"]) == 0
+    text = capsys.readouterr().out
+    assert "zeta*" not in text and "no damping" not in text and "stable:" in text
+
+
+def test_divergence_verdict_names_buckling():
+    """A real positive eigenvalue is a divergence (beyond buckling), whatever the damping."""
+    from symgen.run.modes import ModesResult
+
+    res = ModesResult(tau=0.0, modes=[], real_eigenvalues=[-0.5, 0.312], state={}, independent=[],
+                      dependent=[], quasi_static={"method": "newton"})
+    v = res.stability(0.01)
+    assert (v["stable"], v["kind"]) == (False, "divergence") and "buckling" in v["reason"] and "0.312" in v["reason"]

@@ -23,3 +23,19 @@ def test_reproduce_quick_writes_every_figure(tmp_path):
     for section in ("6.1 Slider-crank", "6.2 Four-bar"):
         assert section in readme
     assert "Measured in this run" in readme and "--quick" in readme
+    # the README states the function counts of the scenes it ran (they were once hard-coded, stale)
+    assert "crank 4 axial + 4 transverse, coupler 4 axial + 4 transverse, rocker 4 axial + 4 transverse" in readme
+    assert "rod 3 axial + 4 transverse functions" in readme
+
+
+def test_figure_texts_state_the_scenes_function_counts():
+    from symgen.run.reproduce import ACCURATE_SC, FIGURE_TEXT, _functions
+    from symgen.scene import load_scene
+
+    fb = load_scene(str(ROOT / "examples" / "four_bar.toml"))
+    text = FIGURE_TEXT["four_bar"].format(functions=_functions(fb))
+    counts = {b.name: (b.axial_modes, b.transverse_modes) for b in fb.bodies}
+    for name, (na, nt) in counts.items():
+        assert f"{name} {na} axial + {nt} transverse" in text
+    sc = load_scene(str(ROOT / "examples" / "slider_crank.toml"), ACCURATE_SC)
+    assert "rod 3 axial + 4 transverse functions" in FIGURE_TEXT["slider_crank"].format(functions=_functions(sc))

@@ -12,13 +12,19 @@ scene that does not need an effect runs faster without it. This module says whic
   change                 estimate                                     why
   =====================  ==========================================  ==========================
   axial -> inextensible  max((2 Omega / pi)^2, N0) / lambda           dynamic axial amplification
-                                                                      and static strain dropped
+                         1 if an output reads the bar's stretch       and static strain dropped;
+                         share of the stretch in an elastic           stretch outputs are lost
+                         displacement output; in a loop, the bar's
+                         axial compliance against the most compliant
+                         bending of the other bars
   axial off              max(sigma, inextensible estimate)            also drops the axial force
   transverse off         1 (every deflection output is lost)          eta0 = c Omega^2 / mu shown
   geometric stiffening   sigma = N0 / N_Euler                         axial force / Euler load
   Coriolis off           max(2 N0 / lambda, 4 sigma eta0)             2 theta' zeta', 2 theta' eta'
   rotary inertia off     pi^2 mu / lambda                             (r_g / l)^2 of mode 1
   strain -> linear       sigma min(1, lambda pi^2 eta0^2 / (4 N0))    chord shortening of bending
+                         (without sigma when an output reads the      (the stretch output carries
+                         stretch; geometric stiffening likewise)      the foreshortening)
   gravity off            |g| / (Omega^2 alpha)                        weight / inertial load
   damping off            1 - exp(-c w_b^2 T / 2)                      bending decay over the run
   =====================  ==========================================  ==========================
@@ -136,7 +142,42 @@ def _rate(scene) -> float:
     return rate if rate > 0 else 1.0
 
 
-def _bar_estimates(scene, body) -> dict:
+#: Output kinds that read a bar's stretch (lost without axial deformation).
+STRETCH_OUTPUTS = ("chord_elongation", "axial")
+
+
+def _loops(scene) -> int:
+    """Independent loops of the joint graph (each joint joins two bodies; ground is one body)."""
+    return max(0, len(scene.joints) - len(scene.bodies))
+
+
+def _axial_compliance(body) -> float:
+    """End-to-end axial compliance of a bar, in l0 per unit force (m_ref l0^2 omega^2):
+    l / EA with EA = lambda nu alpha^2 in those units."""
+    return 1.0 / (body.lam * body.nu * body.alpha)
+
+
+def _bending_compliance(body) -> float:
+    """Compliance of a bar to a transverse point load where a joint can act on it (the tip of a
+    cantilever, l^3/(3 EI); mid-span of a pinned bar, l^3/(48 EI)), EI = mu nu alpha^4."""
+    return (1 / 3 if body.frame == "cantilever" else 1 / 48) / (body.mu * body.nu * body.alpha)
+
+
+def _loop_stretch_share(scene, body) -> tuple[float, str]:
+    """In a closed loop the stretch of ``body`` under the joint forces moves the other bars as
+    much as their bending does under the same forces: the share of the axial compliance of this
+    bar against the most compliant bending of another elastic bar of the mechanism."""
+    if not _loops(scene) or not body.lam:
+        return 0.0, ""
+    others = [b for b in scene.bodies if b is not body and not b.rigid and b.mu and b.transverse_modes]
+    if not others:
+        return 0.0, ""
+    soft = max(others, key=_bending_compliance)
+    ca, cb = _axial_compliance(body), _bending_compliance(soft)
+    return ca / (ca + cb), f"loop: stretch of {body.name} vs bending of {soft.name} {ca / (ca + cb):.2g}; "
+
+
+def _bar_estimates(scene, body, outputs: Sequence[str] | None = None) -> dict:
     W = _rate(scene)
     lam, mu, alpha = body.lam, body.mu, body.alpha
     cantilever = body.frame == "cantilever"
@@ -151,20 +192,48 @@ def _bar_estimates(scene, body) -> dict:
     else:
         eta0 = sigma = w_b = 0.0
     has_axial = body.axial_modes > 0 and lam
-    inext = max((2 * W / math.pi) ** 2, n0) / lam if has_axial else 0.0
+    outs = [o for o in scene.outputs if o.body == body.name and (outputs is None or o.name in outputs)]
+    reads_stretch = [o.name for o in outs if o.kind in STRETCH_OUTPUTS]
+    reads_displacement = [o.name for o in outs if o.kind == "elastic_displacement"]
     detail = f"{body.name}: lambda {lam:.3g}, " if lam else f"{body.name}: "
     detail += f"mu {mu:.3g}, " if mu else ""
-    out["axial -> inextensible"] = (inext, detail + f"(2 Omega/pi)^2/lambda, N0/lambda = {inext:.2g}")
-    out["axial off"] = (max(sigma, inext) if has_axial else 0.0, detail + f"sigma = N0/N_Euler = {sigma:.2g}")
+    # foreshortening 1/2 int eta'^2 ~ pi^2 eta0^2 / 4 against the stretch N0 / lambda
+    foreshortening = min(1.0, lam * math.pi ** 2 * eta0 ** 2 / (4 * n0)) if (has_axial and mu) else 0.0
+    if has_axial and reads_stretch:
+        # an output that reads the stretch is the stretch: without axial deformation it is lost
+        inext = 1.0
+        inext_detail = detail + f"output {reads_stretch[0]} reads the stretch, which the inextensible model lacks"
+    else:
+        inext = max((2 * W / math.pi) ** 2, n0) / lam if has_axial else 0.0
+        inext_detail = detail + f"(2 Omega/pi)^2/lambda, N0/lambda = {inext:.2g}"
+        if has_axial and reads_displacement:
+            share = (n0 / lam) / (n0 / lam + eta0)
+            if share > inext:
+                inext = share
+                inext_detail = detail + f"stretch share of {reads_displacement[0]}: {share:.2g}"
+        loop, loop_detail = _loop_stretch_share(scene, body) if has_axial else (0.0, "")
+        if loop > inext:
+            inext, inext_detail = loop, detail + loop_detail.rstrip("; ")
+    out["axial -> inextensible"] = (inext, inext_detail)
+    out["axial off"] = (max(sigma, inext) if has_axial else 0.0,
+                        (inext_detail if inext >= sigma else detail + f"sigma = N0/N_Euler = {sigma:.2g}"))
     out["transverse off"] = (1.0 if mu and body.transverse_modes else 0.0,
                              detail + f"static deflection eta0 = {eta0:.2g} of its length")
-    out["geometric stiffening off"] = (sigma if has_axial else 0.0, detail + f"sigma = {sigma:.2g}")
+    if has_axial and reads_stretch:
+        # the stretch output carries the foreshortening that the axial-transverse coupling makes
+        stiff = max(sigma, foreshortening)
+        out["geometric stiffening off"] = (stiff, detail + f"foreshortening in {reads_stretch[0]}: "
+                                                           f"lambda pi^2 eta0^2/(4 N0) = {foreshortening:.2g}")
+        out["strain -> linear"] = (foreshortening, detail + f"foreshortening in {reads_stretch[0]}: "
+                                                            f"lambda pi^2 eta0^2/(4 N0) = {foreshortening:.2g}")
+    else:
+        out["geometric stiffening off"] = (sigma if has_axial else 0.0, detail + f"sigma = {sigma:.2g}")
+        lin = sigma * foreshortening
+        out["strain -> linear"] = (lin, detail + f"sigma x min(1, lambda pi^2 eta0^2/(4 N0)) = {lin:.2g}")
     cor = max(2 * n0 / lam if has_axial else 0.0, 4 * sigma * eta0)
     out["Coriolis off"] = (cor, detail + f"2 N0/lambda, 4 sigma eta0 = {cor:.2g}")
     rot = math.pi ** 2 * mu / lam if (mu and lam) else 0.0
     out["rotary inertia off"] = (rot, detail + f"pi^2 mu/lambda = {rot:.2g}")
-    lin = sigma * min(1.0, lam * math.pi ** 2 * eta0 ** 2 / (4 * n0)) if (has_axial and mu) else 0.0
-    out["strain -> linear"] = (lin, detail + f"sigma x min(1, lambda pi^2 eta0^2/(4 N0)) = {lin:.2g}")
     g = math.hypot(*eff.gravity)
     grav = g / (W ** 2 * alpha)
     out["gravity off"] = (grav, f"{body.name}: |g| {g:.3g}, alpha {alpha:.3g}: {grav:.2g}")
@@ -174,11 +243,17 @@ def _bar_estimates(scene, body) -> dict:
     return out
 
 
-def estimate_effects(scene, tol: float = DEFAULT_TOL) -> EffectsReport:
-    """Estimated contribution of every applicable change (largest over the elastic bars)."""
+def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | None = None) -> EffectsReport:
+    """Estimated contribution of every applicable change (largest over the elastic bars) to the
+    scene's outputs (or to ``outputs``, names, when given)."""
+    if outputs is not None:
+        unknown = [n for n in outputs if n not in {o.name for o in scene.outputs}]
+        if unknown:
+            raise SceneError(str(scene.path), "--outputs", f"no output named {', '.join(unknown)}",
+                             f"the scene's outputs: {', '.join(o.name for o in scene.outputs)}")
     rows = []
     bars = [b for b in scene.bodies if not b.rigid and (b.axial_modes or b.transverse_modes)]
-    per_bar = [_bar_estimates(scene, b) for b in bars]
+    per_bar = [_bar_estimates(scene, b, outputs) for b in bars]
     for change in applicable(scene):
         if change.group == "gravity" and not per_bar:
             g = math.hypot(*scene.effects.gravity)
@@ -277,7 +352,7 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
     """The estimates plus short runs with and without each effect (errors over ``outputs``,
     default every output but closure residuals)."""
     runs = runs or _Runs(str(path), overrides, cycles, outputs)
-    report = estimate_effects(load_scene(path, overrides), tol)
+    report = estimate_effects(load_scene(path, overrides), tol, runs.compared)
     for row in report.rows:
         r = runs.run([row.change.override])
         row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]

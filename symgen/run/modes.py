@@ -40,6 +40,8 @@ from .mechanism import Mechanism, index1
 from .quasistatic import QuasiStaticSystem
 
 SHAPE_POINTS = 21
+#: Real parts above this (per unit tau) count as growth; below it they are round-off.
+GROWTH_TOL = 1e-9
 
 
 @dataclass
@@ -77,7 +79,34 @@ class ModesResult:
 
     @property
     def stable(self) -> bool:
-        return all(s <= 1e-9 for s in self.real_eigenvalues) and all(m.eigenvalue.real <= 1e-9 for m in self.modes)
+        return all(s <= GROWTH_TOL for s in self.real_eigenvalues) and all(
+            m.eigenvalue.real <= GROWTH_TOL for m in self.modes)
+
+    def stability(self, damping: float = 0.0) -> dict:
+        """The verdict and its reason: ``{"stable", "kind", "reason"}`` with ``kind`` one of
+        ``stable``, ``divergence`` (a real positive eigenvalue: beyond buckling) or ``growth``
+        (a vibration mode whose amplitude grows in the frozen system)."""
+        pos = [s for s in self.real_eigenvalues if s > GROWTH_TOL]
+        if pos:
+            return {"stable": False, "kind": "divergence",
+                    "reason": f"{len(pos)} real positive eigenvalue(s) (largest {max(pos):.3g}): the "
+                              "quasi-static state is unstable, beyond buckling; a deformation grows without "
+                              "oscillating"}
+        growing = [m for m in self.modes if m.eigenvalue.real > GROWTH_TOL]
+        if growing:
+            worst = max(growing, key=lambda m: m.eigenvalue.real)
+            what = (f"{len(growing)} vibration mode(s) grow in the frozen system (fastest: mode {worst.index}, "
+                    f"growth rate {worst.eigenvalue.real:.3g} per unit tau, zeta {worst.damping_ratio:.2g})")
+            if damping == 0:
+                why = ("the model has no damping: this is the energy the driver exchanges with the vibration "
+                       "at this position of the moving loop (the frozen linearisation is not conservative); "
+                       "it changes sign along the cycle. Not a buckling; set effects.damping to see whether "
+                       "damping outweighs it")
+            else:
+                why = "the driver feeds the vibration faster than effects.damping removes it at this position"
+            return {"stable": False, "kind": "growth", "reason": f"{what}: {why}"}
+        return {"stable": True, "kind": "stable",
+                "reason": "every eigenvalue has a non-positive real part"}
 
     def frequencies(self, kind: str | None = None, body: str | None = None) -> np.ndarray:
         """Natural frequencies, ascending; ``kind`` ("transverse"/"axial") and ``body`` filter by
@@ -226,23 +255,31 @@ def modes_json(result: ModesResult, scene, meta: dict) -> dict:
         "modes_per_body": meta.get("modes"),
         "independent": result.independent, "dependent": result.dependent,
         "state": result.state, "quasi_static": result.quasi_static,
-        "stable": result.stable, "real_eigenvalues": result.real_eigenvalues,
+        "stable": result.stable, "stability": result.stability(scene.effects.damping),
+        "real_eigenvalues": result.real_eigenvalues,
         "modes": [m.as_dict(hz) for m in result.modes],
     }
 
 
 def modes_table(result: ModesResult, scene, limit: int = 12) -> str:
-    """A short text table of the lowest modes."""
+    """A short text table of the lowest modes, with the stability verdict and its reason."""
     hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
-    head = f"{'mode':>4}  {'omega_n (x omega)':>17}  {'zeta':>9}  " + (f"{'Hz':>10}  " if hz else "") + "dominant"
+    undamped = scene.effects.damping == 0
+    zeta_head = "zeta*" if undamped else "zeta"
+    head = f"{'mode':>4}  {'omega_n (x omega)':>17}  {zeta_head:>9}  " + (f"{'Hz':>10}  " if hz else "") + "dominant"
     lines = [f"modes at tau = {result.tau:g} (quasi-static state, {result.quasi_static['method']})", head]
     for m in result.modes[:limit]:
         lines.append(f"{m.index:>4}  {m.natural_frequency:>17.6g}  {m.damping_ratio:>9.2g}  "
                      + (f"{m.natural_frequency * hz:>10.5g}  " if hz else "") + m.dominant)
     if len(result.modes) > limit:
         lines.append(f"... {len(result.modes) - limit} more in the JSON")
+    if undamped and result.modes:
+        lines.append("* no damping in the model (effects.damping = 0): zeta is the frozen-time energy exchange "
+                     "with the driver at this position, of either sign, not dissipation")
     if result.real_eigenvalues:
-        pos = [s for s in result.real_eigenvalues if s > 1e-9]
-        lines.append(f"{len(result.real_eigenvalues)} real eigenvalue(s) (overdamped)"
-                     + (f"; {len(pos)} POSITIVE: the quasi-static state is unstable (buckled)" if pos else ""))
+        neg = [s for s in result.real_eigenvalues if s <= GROWTH_TOL]
+        if neg:
+            lines.append(f"{len(neg)} real negative eigenvalue(s) (overdamped)")
+    verdict = result.stability(scene.effects.damping)
+    lines.append(("stable: " if verdict["stable"] else "UNSTABLE: ") + verdict["reason"])
     return "\n".join(lines)

@@ -190,6 +190,13 @@ def _lowest_mode(scene: Scene, tau: float = 0.0) -> tuple[float, str]:
     return md.natural_frequency, md.dominant
 
 
+def _functions(scene: Scene) -> str:
+    """The shape-function counts of the scene's elastic bars, as the README states them."""
+    parts = [f"{b.name} {b.axial_modes} axial + {b.transverse_modes} transverse"
+             for b in scene.bodies if not b.rigid and (b.axial_modes or b.transverse_modes)]
+    return ", ".join(parts) + " functions" if parts else "no elastic bars"
+
+
 def _peak(y) -> float:
     return float(np.abs(np.asarray(y)).max())
 
@@ -283,7 +290,7 @@ def _slider_crank(path: Path, figs: Figures, quick: bool, notes: list, progress)
         return float(np.abs(y2 - ys).max() / _peak(st.values[key]))
 
     notes.append({
-        "example": "slider_crank",
+        "example": "slider_crank", "functions": _functions(acc),
         "lines": [
             f"Seed model (the paper's): peak |eta_mid| {_peak(d_seed.values['eta_mid']):.4g} dynamic over two turns, "
             f"{_peak(s_seed.values['eta_mid']):.4g} quasi-static; second turn differs from the quasi-static curve by up to "
@@ -348,7 +355,7 @@ def _four_bar(path: Path, figs: Figures, quick: bool, notes: list, progress) -> 
               xmax=360.0, note=params)
     unit = "mm" if l0_mm else "l0"
     notes.append({
-        "example": "four_bar",
+        "example": "four_bar", "functions": _functions(base),
         "lines": [
             f"Crank-tip horizontal deflection: peak {_peak(dyn.values['dx']) * k_dx:.3g} {unit} dynamic, "
             f"{_peak(st.values['dx']) * k_dx:.3g} {unit} quasi-static; rotation: peak "
@@ -411,7 +418,7 @@ def _inverted(path: Path, figs: Figures, quick: bool, notes: list, progress) -> 
               note=params)
     st_al, st_pe = split(st.values)
     notes.append({
-        "example": "inverted_slider_crank",
+        "example": "inverted_slider_crank", "functions": _functions(base),
         "lines": [
             f"Crank-tip deflection along the output bar: peak {_peak(d_al):.3g} dynamic, {_peak(st_al):.3g} "
             f"quasi-static; across it: {_peak(d_pe):.3g} dynamic, {_peak(st_pe):.3g} quasi-static (units of l0).",
@@ -432,7 +439,7 @@ FIGURE_TEXT = {
         "`examples/slider_crank.toml`: rigid crank (alpha = 0.5), elastic connecting rod, massless slider, crank "
         "at constant speed, no damping, started from rest undeformed. Blue: the paper's model (linear strain, "
         "one axial function sin(pi xi/2), one transverse sin(pi xi)); red: the accurate default model "
-        "(von Karman strain, complete axial basis, 3 axial + 4 transverse functions). Dashed: the quasi-static "
+        "(von Karman strain, complete axial basis, {functions}). Dashed: the quasi-static "
         "response (18)-(20) (`symgen quasistatic`), the state reached after many turns with internal damping "
         "if the bar's inertia were negligible.\n\n"
         "* G.1 midspan deflection of the rod from its chord over the first two turns; G.2 the second turn with "
@@ -442,14 +449,14 @@ FIGURE_TEXT = {
     "four_bar": (
         "## 6.2 Four-bar (G.7-G.10)\n\n"
         "`examples/four_bar.toml`: aluminium crank-rocker (crank 100 mm as a cantilever, coupler 300 mm and "
-        "rocker 250 mm pinned-pinned, 2 axial + 3 transverse functions each), 2196 rpm, started on the "
+        "rocker 250 mm pinned-pinned; {functions}), 2196 rpm, started on the "
         "quasi-static state, no damping. G.7 / G.9: horizontal elastic deflection and elastic rotation eta'(1) "
         "of the crank tip A over two turns, dynamic (solid) against quasi-static (dashed); G.8 / G.10: the "
         "quasi-static response alone.\n"),
     "inverted_slider_crank": (
         "## 6.3 Inverted slider-crank (G.11-G.12)\n\n"
         "`examples/inverted_slider_crank.toml`: elastic crank (cantilever) whose tip slider (lumped mass) runs "
-        "along an elastic output bar with a variable support distance. G.11 / G.12: the crank tip's elastic "
+        "along an elastic output bar with a variable support distance ({functions}). G.11 / G.12: the crank tip's elastic "
         "deflection resolved along and across the output bar, dynamic against quasi-static.\n"),
 }
 
@@ -463,7 +470,7 @@ def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float) 
              + f" in {total_s:.0f} s. The x axis is the crank angle; all quantities are dimensionless "
              "(lengths / bar length or / l0, tau = omega t) unless a unit is given.", ""]
     for note in notes:
-        lines.append(FIGURE_TEXT[note["example"]])
+        lines.append(FIGURE_TEXT[note["example"]].format(functions=note["functions"]))
         lines.append("Measured in this run:\n")
         lines.extend(f"* {x}" for x in note["lines"])
         lines.append("")

@@ -30,8 +30,8 @@ def atomic_write(path: str | os.PathLike, text: str) -> None:
         raise
 
 
-def csv_text(tau: np.ndarray, values: np.ndarray, names: list[str]) -> str:
-    lines = [",".join(["tau", *names])]
+def csv_text(tau: np.ndarray, values: np.ndarray, names: list[str], time_name: str = "tau") -> str:
+    lines = [",".join([time_name, *names])]
     for t, row in zip(tau, values):
         lines.append(",".join(repr(float(x)) for x in (t, *row)))
     return "\n".join(lines) + "\n"
@@ -41,8 +41,10 @@ def partial_paths(out: Path) -> tuple[Path, Path]:
     return out.with_name(out.stem + ".partial.csv"), out.with_name(out.stem + ".partial.json")
 
 
-def write_results(out: str | os.PathLike, tau, values, names, meta: dict, complete: bool = True) -> Path:
-    """Write the CSV and its JSON sidecar; return the CSV path actually written."""
+def write_results(out: str | os.PathLike, tau, values, names, meta: dict, complete: bool = True,
+                  time_name: str = "tau") -> Path:
+    """Write the CSV and its JSON sidecar; return the CSV path actually written. The first column
+    is ``time_name`` (``tau``, or ``t`` in seconds for SI results)."""
     out = Path(out)
     pcsv, pjson = partial_paths(out)
     if complete:
@@ -54,7 +56,8 @@ def write_results(out: str | os.PathLike, tau, values, names, meta: dict, comple
         for stale in (out, out.with_suffix(".json")):
             stale.unlink(missing_ok=True)
     atomic_write(json_path, json.dumps(meta, indent=1, default=_jsonable) + "\n")
-    atomic_write(csv_path, csv_text(np.asarray(tau), np.asarray(values).reshape(len(tau), -1), names))
+    atomic_write(csv_path, csv_text(np.asarray(tau), np.asarray(values).reshape(len(tau), -1), names,
+                                        time_name))
     return csv_path
 
 

@@ -100,7 +100,7 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
     if ("t_end" in table) == ("cycles" in table):
         which = "both" if "t_end" in table else "neither"
         r.fail("simulation", f"give exactly one of t_end and cycles ({which} given)",
-               "t_end is the end time, in tau or seconds for SI; cycles is the number of crank turns")
+               "t_end is the end time in tau = omega t (in both unit systems); cycles is the number of crank turns")
     if "t_end" in table:
         t_end = scales.time(r.number(table, "simulation", "t_end", gt=0.0))
     else:
