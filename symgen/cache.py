@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Iterator
 
 __all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "cache_root", "models_dir", "shapes_dir",
-           "sha256_hex", "read_bytes", "pack", "unpack", "report_invalid", "temp_dir", "install_dir",
+           "sha256_hex", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",
            "sweep_stale", "info", "clear"]
 
 CACHE_ENV = "SYMGEN_CACHE_DIR"
@@ -129,6 +129,12 @@ def unpack(kind: str, data: bytes) -> bytes:
 def report_invalid(entry: os.PathLike | str, reason: str) -> None:
     """The one stderr line for an entry that did not verify (it is re-derived and overwritten)."""
     print(f"symgen: warning: cache entry {os.fspath(entry)} {reason}; re-deriving it", file=sys.stderr)
+
+
+def report_unwritable(entry: os.PathLike | str, exc: BaseException) -> None:
+    """The one stderr line for an entry that could not be written (the run goes on)."""
+    print(f"symgen: warning: could not write the cache entry {os.fspath(entry)} ({exc}); the results are "
+          f"correct, only not cached (set ${CACHE_ENV} to a writable folder)", file=sys.stderr)
 
 
 # ----------------------------------------------------------------------------- writing
@@ -260,6 +266,10 @@ def _human(n: int) -> str:
     return f"{n} B"  # pragma: no cover
 
 
+def _count(n: int) -> str:
+    return f"{n:4d} {'entry  ' if n == 1 else 'entries'}"
+
+
 def info() -> str:
     """Text of ``symgen cache info``: location, entries and sizes."""
     root = cache_root()
@@ -272,9 +282,9 @@ def info() -> str:
         sel = [i for i in items if i.kind == kind]
         if not sel and kind in ("temp", "old"):
             continue
-        lines.append(f"  {label:<10} {len(sel):4d} entries {_human(sum(i.size for i in sel)):>10}  ({what})")
+        lines.append(f"  {label:<10} {_count(len(sel))} {_human(sum(i.size for i in sel)):>10}  ({what})")
     total = sum(i.size for i in items)
-    lines.append(f"  {'total':<10} {len(items):4d} entries {_human(total):>10}")
+    lines.append(f"  {'total':<10} {_count(len(items))} {_human(total):>10}")
     if not root.exists():
         lines.append("  (the folder does not exist yet: it is made on the first derivation)")
     return "\n".join(lines)

@@ -7,7 +7,6 @@ when they do not verify (:mod:`symgen.cache`, :mod:`symgen.emit.casadi_io`).
 """
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,8 +64,7 @@ def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
         try:
             casadi_emit.save(funcs, meta, where, replace=replace)
         except (OSError, ValueError) as exc:
-            print(f"symgen: warning: could not write the model cache entry {where} ({exc}); the results "
-                  f"are correct, only not cached (set ${cache.CACHE_ENV} to a writable folder)", file=sys.stderr)
+            cache.report_unwritable(where, exc)
     return CompiledModel(funcs, meta, model.timings["derive_s"], build_s, False)
 
 

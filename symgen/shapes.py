@@ -42,7 +42,6 @@ import math
 import os
 import tempfile
 import threading
-import warnings
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -1069,7 +1068,7 @@ def _store(path: Path, name: str, ip: InnerProducts) -> None:
     try:
         data = _encode_entry(name, ip)
     except ValueError as exc:  # pragma: no cover - a value the encoding does not know: a bug
-        warnings.warn(f"shape cache entry {name} not written: {exc}", stacklevel=3)
+        cache.report_unwritable(path, exc)
         return
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -1086,8 +1085,7 @@ def _store(path: Path, name: str, ip: InnerProducts) -> None:
                 pass
             raise
     except OSError as exc:
-        warnings.warn(f"could not write the shape cache {path}: {exc} (results are still correct; "
-                      "set SYMGEN_CACHE_DIR to a writable directory to cache them)", stacklevel=3)
+        cache.report_unwritable(path, exc)
 
 
 @functools.lru_cache(maxsize=128)

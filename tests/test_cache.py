@@ -355,7 +355,7 @@ def test_cache_info_and_clear(root, capsys, tmp_path):
     assert main(["cache", "info"]) == 0
     out = capsys.readouterr().out
     assert str(root) in out and "$SYMGEN_CACHE_DIR" in out
-    assert "models        1 entries" in out and "old           1 entries" in out and "temporary" in out
+    assert "models        1 entry" in out and "old           1 entry" in out and "temporary" in out
 
     assert main(["cache", "clear"]) == 0
     out = capsys.readouterr().out
