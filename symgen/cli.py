@@ -287,6 +287,17 @@ def cmd_emit_fmu(args) -> int:
     return 0
 
 
+def cmd_cache(args) -> int:
+    from . import cache
+
+    if args.action == "info":
+        print(cache.info())
+        return 0
+    n, size = cache.clear()
+    print(f"removed {n} cache entr{'y' if n == 1 else 'ies'} ({size / 1e6:.1f} MB) from {cache.cache_root()}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="symgen", description="Planar mechanisms with elastic bars: "
                                  "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.")
@@ -379,6 +390,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("emit-fmu", "pack an FMI 2.0 Co-Simulation FMU (sources + linux64 binary)")
     p.add_argument("-o", "--output", required=True, help=".fmu file to write")
     p.set_defaults(func=cmd_emit_fmu)
+
+    p = sub.add_parser("cache", help="the derived-model and shape caches ($SYMGEN_CACHE_DIR, default "
+                                     "~/.cache/symgen): info shows location, entries, sizes; clear removes them")
+    p.add_argument("action", choices=("info", "clear"))
+    p.set_defaults(func=cmd_cache)
 
     return ap
 

@@ -2,22 +2,24 @@
 
 The cache is keyed by the *structure* of a scene (topology, effects, mode counts, shape
 families, outputs): a change of parameter values (lambda, mu, lengths, rates, loads...) reuses
-the cached Functions; nothing is re-derived.
+the cached Functions; nothing is re-derived. Entries are verified before use and re-derived
+when they do not verify (:mod:`symgen.cache`, :mod:`symgen.emit.casadi_io`).
 """
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from . import cache
 from .scene.model import GROUND, Scene
 
 
 def cache_dir() -> Path:
-    return Path(os.environ.get("SYMGEN_CACHE_DIR", Path.home() / ".cache" / "symgen"))
+    """Root of the on-disk caches (``$SYMGEN_CACHE_DIR``, default ``~/.cache/symgen``)."""
+    return cache.cache_root()
 
 
 @dataclass
@@ -35,14 +37,21 @@ def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
     from .structure import structure_key, structure_of
 
     key = structure_key(structure_of(scene))
-    where = cache_dir() / "models" / key
-    if use_cache and (where / "model.json").exists():
+    where = cache.models_dir() / key
+    replace = False
+    if use_cache and (where.exists() or where.is_symlink()):
         t0 = time.perf_counter()
         try:
-            funcs, meta = casadi_io.load(where)
+            funcs, meta = casadi_io.load(where, key)
             return CompiledModel(funcs, meta, meta["timings"]["derive_s"], time.perf_counter() - t0, True)
-        except Exception:  # corrupt cache entry: derive again
+        except cache.InvalidEntry as exc:
+            cache.report_invalid(where, exc.reason)
+            replace = True
+        except FileNotFoundError:  # removed meanwhile (symgen cache clear): derive it
             pass
+        except Exception as exc:  # unreadable: never trusted, never fatal
+            cache.report_invalid(where, f"cannot be read ({type(exc).__name__}: {exc})")
+            replace = True
     from .dae import derive
     from .emit import casadi_emit
     model = derive(scene)
@@ -53,9 +62,9 @@ def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
     meta["timings"]["build_s"] = build_s
     if use_cache:
         try:
-            casadi_emit.save(funcs, meta, where)
-        except OSError:
-            pass
+            casadi_emit.save(funcs, meta, where, replace=replace)
+        except (OSError, ValueError) as exc:
+            cache.report_unwritable(where, exc)
     return CompiledModel(funcs, meta, model.timings["derive_s"], build_s, False)
 
 

@@ -37,11 +37,11 @@ from __future__ import annotations
 
 import functools
 import itertools
+import json
+import math
 import os
-import pickle
 import tempfile
 import threading
-import warnings
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -69,7 +69,7 @@ __all__ = [
 ]
 
 #: Bump whenever a change here changes any cached number (invalidates disk caches).
-SHAPES_VERSION = "2"
+SHAPES_VERSION = "3"
 
 #: The dimensionless abscissa along a bar, ``xi = x / l``.
 XI = sympy.Symbol("xi", real=True)
@@ -967,8 +967,8 @@ def _compute_locked(phi: list[_Terms], psi: list[_Terms]) -> InnerProducts:
 def cache_dir() -> Path:
     """Directory of the on-disk inner-product cache: ``$SYMGEN_CACHE_DIR/shapes``
     (default ``~/.cache/symgen/shapes``)."""
-    root = os.environ.get("SYMGEN_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "symgen")
-    return Path(root) / "shapes"
+    from . import cache
+    return cache.shapes_dir()
 
 
 def _cache_name(akey: tuple, tkey: tuple) -> str:
@@ -985,26 +985,98 @@ def _freeze(ip: InnerProducts) -> InnerProducts:
     return ip
 
 
-def _load(path: Path, name: str) -> InnerProducts | None:
+# On disk an entry is one file made by symgen.cache.pack: a header line with the sha256 of the
+# JSON payload that follows. The payload holds the float arrays as lists (repr round-trips
+# exactly) and the exact values as symgen.exprdata trees. Never pickle.
+_CACHE_KIND = "shapes"
+_ARRAYS = ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4")
+_MAX_ENTRY_BYTES = 1 << 28
+
+
+def _shapes_of(na: int, nt: int) -> dict[str, tuple[int, ...]]:
+    nb = 2 + na + nt
+    return {"gram": (nb, nb), "Ka": (na, na), "Kt": (nt, nt), "Pd": (nt, nt), "psid1": (nt,),
+            "C3": (na, nt, nt), "D4": (nt, nt, nt, nt)}
+
+
+def _encode_entry(name: str, ip: InnerProducts) -> bytes:
+    from . import cache, exprdata
+    doc = {"key": name, "version": SHAPES_VERSION, "na": ip.na, "nt": ip.nt,
+           "floats": {a: [float(x) for x in getattr(ip, a).ravel()] for a in _ARRAYS},
+           "exact": {a: exprdata.encode_tensor(ip.exact[a]) for a in _ARRAYS}}
+    return cache.pack(_CACHE_KIND, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
+
+
+def _decode_entry(data: bytes, name: str) -> InnerProducts:
+    """The inner products of a verified entry; ``cache.InvalidEntry`` for anything else."""
+    from . import cache, exprdata
+    payload = cache.unpack(_CACHE_KIND, data)   # sha256 checked before any parsing
+
+    def bad(what: str) -> Exception:
+        return cache.InvalidEntry(f"is not a valid shape entry ({what})")
+
+    def no_constant(c):
+        raise ValueError(f"non-finite number {c}")
     try:
-        with open(path, "rb") as fh:
-            obj = pickle.load(fh)
-        if isinstance(obj, dict) and obj.get("key") == name and isinstance(obj.get("value"), InnerProducts):
-            return _freeze(obj["value"])
+        doc = json.loads(payload.decode("utf-8"), parse_constant=no_constant)
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise bad(f"JSON: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != SHAPES_VERSION:
+        raise bad(f"written for {doc.get('key') if isinstance(doc, dict) else None!r}")
+    na, nt = doc.get("na"), doc.get("nt")
+    if not all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= 1000 for n in (na, nt)):
+        raise bad("mode counts")
+    floats, exact = doc.get("floats"), doc.get("exact")
+    if not isinstance(floats, dict) or not isinstance(exact, dict) or \
+            set(floats) != set(_ARRAYS) or set(exact) != set(_ARRAYS):
+        raise bad(f"it must hold exactly {', '.join(_ARRAYS)}")
+    arrays, values = {}, {}
+    for a, shape in _shapes_of(na, nt).items():
+        flat = floats[a]
+        if not isinstance(flat, list) or len(flat) != math.prod(shape) or not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in flat):
+            raise bad(f"{a}: not {math.prod(shape)} finite numbers")
+        arrays[a] = np.array(flat, dtype=float).reshape(shape)
+        try:
+            values[a] = exprdata.decode_tensor(exact[a])
+        except (ValueError, TypeError, RecursionError) as exc:
+            raise bad(f"{a}: {exc}") from None
+        want = shape if a != "psid1" else (nt, 1)
+        if tuple(values[a].shape) != want:
+            raise bad(f"{a}: exact values of shape {tuple(values[a].shape)}, not {want}")
+    return _freeze(InnerProducts(na=na, nt=nt, exact=values, **arrays))
+
+
+def _load(path: Path, name: str) -> InnerProducts | None:
+    """The verified entry at ``path``; None when there is none or it does not verify (then said
+    in one line on stderr: it is recomputed and overwritten)."""
+    from . import cache
+    try:
+        data = cache.read_bytes(path, _MAX_ENTRY_BYTES)
+        return _decode_entry(data, name)
     except FileNotFoundError:
         return None
-    except Exception:  # corrupt, truncated, from an incompatible version: recompute
-        return None
+    except cache.InvalidEntry as exc:
+        cache.report_invalid(path, exc.reason)
+    except OSError as exc:
+        cache.report_invalid(path, f"cannot be read ({exc})")
     return None
 
 
 def _store(path: Path, name: str, ip: InnerProducts) -> None:
+    from . import cache
+    try:
+        data = _encode_entry(name, ip)
+    except ValueError as exc:  # pragma: no cover - a value the encoding does not know: a bug
+        cache.report_unwritable(path, exc)
+        return
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+        cache.sweep_stale(path.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f"{cache.TEMP_PREFIX}{path.name}-", dir=path.parent)
         try:
             with os.fdopen(fd, "wb") as fh:
-                pickle.dump({"key": name, "value": ip}, fh, protocol=pickle.HIGHEST_PROTOCOL)
+                fh.write(data)
             os.replace(tmp, path)
         except BaseException:
             try:
@@ -1013,14 +1085,13 @@ def _store(path: Path, name: str, ip: InnerProducts) -> None:
                 pass
             raise
     except OSError as exc:
-        warnings.warn(f"could not write the shape cache {path}: {exc} (results are still correct; "
-                      "set SYMGEN_CACHE_DIR to a writable directory to cache them)", stacklevel=3)
+        cache.report_unwritable(path, exc)
 
 
 @functools.lru_cache(maxsize=128)
 def _cached(akey: tuple, tkey: tuple) -> InnerProducts:
     name = _cache_name(akey, tkey)
-    path = cache_dir() / (name + ".pkl")
+    path = cache_dir() / (name + ".json")
     ip = _load(path, name)
     if ip is None:
         ip = _compute(_rebuild(akey), _rebuild(tkey))
@@ -1037,8 +1108,9 @@ def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
     """Closed-form inner products of one bar's axial and transverse bases (cached).
 
     Results are cached in memory per ``(family, frame, n, tip_joint)`` of both bases, and
-    on disk as a pickle in :func:`cache_dir` (written atomically; a corrupt file is
-    ignored and rewritten).
+    on disk as JSON in :func:`cache_dir` (written atomically with the sha256 of its content,
+    checked before it is parsed; an entry that does not verify is said on stderr, recomputed
+    and rewritten; pickles of older versions are never read).
 
     Parameters
     ----------

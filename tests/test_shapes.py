@@ -372,7 +372,7 @@ def test_bases_pickle():
 
 
 # ----------------------------------------------------------------------------- caching
-def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch):
+def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path))
     a, t = S.axial_basis("complete", 2), S.transverse_basis("cantilever", "modes", 3, tip_joint=True)
     calls = []
@@ -388,7 +388,7 @@ def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch):
     assert len(calls) == 1
     assert S.inner_products(a, t) is ip1  # memory cache
     files = list((tmp_path / "shapes").iterdir())
-    assert len(files) == 1 and files[0].suffix == ".pkl"
+    assert len(files) == 1 and files[0].suffix == ".json"
     assert S.SHAPES_VERSION in files[0].name and "cantilever" in files[0].name
 
     S.clear_memory_cache()
@@ -397,22 +397,26 @@ def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch):
     for name in ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4"):
         assert np.array_equal(getattr(ip1, name), getattr(ip2, name))
         assert not getattr(ip2, name).flags.writeable
-    assert ip2.exact["gram"] == ip1.exact["gram"]
+        assert ip2.exact[name] == ip1.exact[name]
+    assert capsys.readouterr().err == ""
 
-    files[0].write_bytes(b"not a pickle \x00\x01")
+    files[0].write_bytes(b"not a cache entry \x00\x01")
     S.clear_memory_cache()
     ip3 = S.inner_products(a, t)
-    assert len(calls) == 2  # corrupt file ignored, recomputed
+    assert len(calls) == 2  # corrupt file ignored (said on stderr), recomputed
+    assert "symgen: warning: cache entry" in capsys.readouterr().err
     assert np.array_equal(ip3.D4, ip1.D4)
-    with open(files[0], "rb") as fh:  # and rewritten
-        obj = pickle.load(fh)
-    assert np.array_equal(obj["value"].Kt, ip1.Kt)
+    again = S._decode_entry(files[0].read_bytes(), files[0].stem)  # and rewritten
+    assert np.array_equal(again.Kt, ip1.Kt)
     assert sorted(p.name for p in (tmp_path / "shapes").iterdir()) == [files[0].name]  # no temp files left
 
-    files[0].write_bytes(pickle.dumps({"key": "someone else", "value": 3}))
+    from symgen import cache  # a verified entry written for another key is not used
+    files[0].write_bytes(cache.pack("shapes", files[0].read_bytes().split(b"\n", 1)[1].replace(
+        files[0].stem.encode(), b"someone else")))
     S.clear_memory_cache()
     S.inner_products(a, t)
     assert len(calls) == 3
+    assert "someone else" in capsys.readouterr().err
     S.clear_memory_cache()
 
 

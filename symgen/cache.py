@@ -1,0 +1,303 @@
+"""The on-disk caches: where they live, how an entry is verified, written and removed.
+
+Two caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.cache/symgen``):
+
+``models/<structure key>/``
+    derived models: one ``<function>.casadi`` per CasADi Function (CasADi's serialized text),
+    ``model.json`` and ``manifest.json`` (format version, symgen and CasADi versions, the
+    structure key and the sha256 of every other file); see :mod:`symgen.emit.casadi_io`.
+``shapes/v<version>__<bases>.json``
+    closed-form inner products of one bar's shape bases: one file, a header line with the sha256
+    of the JSON payload that follows; see :mod:`symgen.shapes`.
+
+The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
+unpickled or evaluated, and every entry is checked against the hashes recorded when it was
+written *before* any of its bytes reach a parser or CasADi's deserializer. An entry that does
+not verify is reported in one line on stderr (which entry, why) and re-derived.
+
+Writers build an entry under a temporary name next to its final place and rename it there in
+one step, so a reader sees a whole entry or none; a writer that loses a race, fails or is
+interrupted removes its temporary files, and temporaries older than :data:`STALE_TEMP_S`
+(left by a killed process) are swept on every write and by ``symgen cache clear``.
+
+Kept free of SymPy and CasADi.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import hmac
+import os
+import re
+import shutil
+import stat
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator
+
+__all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "cache_root", "models_dir", "shapes_dir",
+           "sha256_hex", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",
+           "sweep_stale", "info", "clear"]
+
+CACHE_ENV = "SYMGEN_CACHE_DIR"
+#: A temporary entry older than this (seconds) belongs to a writer that died: swept away.
+STALE_TEMP_S = 15 * 60
+#: Prefix of every temporary file or folder a writer makes.
+TEMP_PREFIX = ".tmp-"
+
+_MODEL_ENTRY = re.compile(r"[0-9a-f]{20}")
+_SHAPE_ENTRY = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json")
+_SHAPE_OLD = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?")
+_HEADER = re.compile(rb"symgen-cache ([a-z-]+) sha256=([0-9a-f]{64})\n")
+
+
+class InvalidEntry(Exception):
+    """A cache entry that does not verify; ``reason`` says why (one line)."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+# ----------------------------------------------------------------------------- location
+def cache_root() -> Path:
+    """``$SYMGEN_CACHE_DIR``, or ``~/.cache/symgen`` when it is unset or empty."""
+    root = os.environ.get(CACHE_ENV)
+    return Path(root) if root else Path.home() / ".cache" / "symgen"
+
+
+def models_dir() -> Path:
+    return cache_root() / "models"
+
+
+def shapes_dir() -> Path:
+    return cache_root() / "shapes"
+
+
+# ----------------------------------------------------------------------------- verifying
+def sha256_hex(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes (else :class:`InvalidEntry`).
+
+    ``dir_fd``: read ``name`` relative to that open folder (a reader that opened an entry's
+    folder keeps reading that folder even if a writer renames another one into its place).
+    """
+    flags = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NOFOLLOW", 0)
+    try:
+        fd = os.open(name, flags, dir_fd=dir_fd) if dir_fd is not None else os.open(name, flags)
+    except OSError as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
+        raise InvalidEntry(f"{os.fspath(name)} cannot be opened ({exc.strerror or exc})") from None
+    with os.fdopen(fd, "rb") as fh:
+        st = os.fstat(fh.fileno())
+        if not stat.S_ISREG(st.st_mode):
+            raise InvalidEntry(f"{os.fspath(name)} is not a regular file")
+        if st.st_size > limit:
+            raise InvalidEntry(f"{os.fspath(name)} is {st.st_size} bytes, more than the {limit} an entry may have")
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise InvalidEntry(f"{os.fspath(name)} grew beyond {limit} bytes while read")
+    return data
+
+
+def pack(kind: str, payload: bytes) -> bytes:
+    """One self-verifying file: ``symgen-cache <kind> sha256=<hex of payload>\\n<payload>``."""
+    return b"symgen-cache %s sha256=%s\n" % (kind.encode(), sha256_hex(payload).encode()) + payload
+
+
+def unpack(kind: str, data: bytes) -> bytes:
+    """The payload of a :func:`pack` file, after checking its kind and sha256."""
+    end = data.find(b"\n")
+    m = _HEADER.fullmatch(data[:end + 1]) if end >= 0 else None
+    if m is None:
+        raise InvalidEntry("has no valid symgen-cache header (not written by this symgen, or damaged)")
+    if m.group(1).decode() != kind:
+        raise InvalidEntry(f"is a {m.group(1).decode()!r} entry, not {kind!r}")
+    payload = data[end + 1:]
+    if not hmac.compare_digest(sha256_hex(payload).encode(), m.group(2)):
+        raise InvalidEntry("does not match the sha256 recorded when it was written (changed or damaged)")
+    return payload
+
+
+def report_invalid(entry: os.PathLike | str, reason: str) -> None:
+    """The one stderr line for an entry that did not verify (it is re-derived and overwritten)."""
+    print(f"symgen: warning: cache entry {os.fspath(entry)} {reason}; re-deriving it", file=sys.stderr)
+
+
+def report_unwritable(entry: os.PathLike | str, exc: BaseException) -> None:
+    """The one stderr line for an entry that could not be written (the run goes on)."""
+    print(f"symgen: warning: could not write the cache entry {os.fspath(entry)} ({exc}); the results are "
+          f"correct, only not cached (set ${CACHE_ENV} to a writable folder)", file=sys.stderr)
+
+
+# ----------------------------------------------------------------------------- writing
+@contextlib.contextmanager
+def temp_dir(parent: Path, name: str) -> Iterator[Path]:
+    """A fresh temporary folder in ``parent`` for building entry ``name``; removed on exit
+    unless :func:`install_dir` moved it into place (also on errors and KeyboardInterrupt)."""
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}{name}-", dir=parent))
+    try:
+        yield tmp
+    finally:
+        _remove(tmp)
+
+
+def install_dir(tmp: Path, target: Path, replace: bool) -> bool:
+    """Rename the finished folder ``tmp`` to ``target`` in one step.
+
+    When ``target`` exists: with ``replace`` (it failed to verify) it is moved aside and
+    removed; without, another writer got there first and ``tmp`` is left for the caller's
+    :func:`temp_dir` to remove. Returns whether ``tmp`` was installed.
+    """
+    try:
+        os.rename(tmp, target)
+        return True
+    except OSError:
+        if not os.path.lexists(target):
+            raise
+    if not replace:
+        return False
+    trash = Path(tempfile.mkdtemp(prefix=f"{TEMP_PREFIX}old-{target.name}-", dir=target.parent))
+    try:
+        try:
+            os.rename(target, trash / "entry")
+        except FileNotFoundError:
+            pass
+        try:
+            os.rename(tmp, target)
+            return True
+        except OSError:
+            if os.path.lexists(target):  # a concurrent writer installed its entry meanwhile
+                return False
+            raise
+    finally:
+        _remove(trash)
+
+
+def _remove(path: Path) -> None:
+    try:
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path, ignore_errors=True)
+        else:
+            path.unlink()
+    except FileNotFoundError:
+        pass
+    except OSError:
+        pass
+
+
+def _is_temp(name: str) -> bool:
+    return name.startswith(TEMP_PREFIX) or (name.endswith(".tmp") and _SHAPE_OLD.fullmatch(name) is not None)
+
+
+def sweep_stale(parent: Path, max_age: float = STALE_TEMP_S) -> int:
+    """Remove temporaries in ``parent`` older than ``max_age`` seconds; returns how many."""
+    now = time.time()
+    removed = 0
+    try:
+        entries = list(os.scandir(parent))
+    except OSError:
+        return 0
+    for e in entries:
+        if not _is_temp(e.name):
+            continue
+        try:
+            age = now - e.stat(follow_symlinks=False).st_mtime
+        except OSError:
+            continue
+        if age >= max_age:
+            _remove(Path(e.path))
+            removed += 1
+    return removed
+
+
+# ----------------------------------------------------------------------------- info / clear
+@dataclass
+class _Item:
+    path: Path
+    kind: str       # "model", "shapes", "temp", "old"
+    size: int
+
+
+def _size(path: Path) -> int:
+    try:
+        if path.is_symlink() or not path.is_dir():
+            return path.lstat().st_size
+        return sum(_size(p) for p in path.iterdir())
+    except OSError:
+        return 0
+
+
+def _owned() -> list[_Item]:
+    """Everything under the cache folder that symgen wrote (and nothing else)."""
+    items = []
+    for sub, entry in ((models_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
+        try:
+            names = sorted(os.listdir(sub))
+        except OSError:
+            continue
+        for name in names:
+            path = sub / name
+            if _is_temp(name):
+                kind = "temp"
+            elif entry.fullmatch(name):
+                kind = "model" if sub.name == "models" else "shapes"
+            elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
+                kind = "old"   # a pickle from an older symgen: never loaded
+            else:
+                continue
+            items.append(_Item(path, kind, _size(path)))
+    return items
+
+
+def _human(n: int) -> str:
+    for unit in ("B", "kB", "MB", "GB"):
+        if n < 1000 or unit == "GB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return f"{n} B"  # pragma: no cover
+
+
+def _count(n: int) -> str:
+    return f"{n:4d} {'entry  ' if n == 1 else 'entries'}"
+
+
+def info() -> str:
+    """Text of ``symgen cache info``: location, entries and sizes."""
+    root = cache_root()
+    source = f"${CACHE_ENV}" if os.environ.get(CACHE_ENV) else f"default; set ${CACHE_ENV} to move it"
+    lines = [f"cache: {root} ({source})"]
+    items = _owned()
+    labels = {"model": ("models", "derived models"), "shapes": ("shapes", "shape inner products"),
+              "temp": ("temporary", "unfinished writes"), "old": ("old", "pickles of an older symgen, never loaded")}
+    for kind, (label, what) in labels.items():
+        sel = [i for i in items if i.kind == kind]
+        if not sel and kind in ("temp", "old"):
+            continue
+        lines.append(f"  {label:<10} {_count(len(sel))} {_human(sum(i.size for i in sel)):>10}  ({what})")
+    total = sum(i.size for i in items)
+    lines.append(f"  {'total':<10} {_count(len(items))} {_human(total):>10}")
+    if not root.exists():
+        lines.append("  (the folder does not exist yet: it is made on the first derivation)")
+    return "\n".join(lines)
+
+
+def clear() -> tuple[int, int]:
+    """Remove every entry, temporary and old-format file symgen wrote under the cache folder
+    (nothing else: a cache folder pointed at a folder of other files keeps those).
+    Returns (entries removed, bytes freed)."""
+    items = _owned()
+    for it in items:
+        _remove(it.path)
+    for sub in (models_dir(), shapes_dir()):
+        with contextlib.suppress(OSError):
+            sub.rmdir()   # only when empty
+    return len(items), sum(i.size for i in items)
