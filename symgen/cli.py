@@ -85,6 +85,7 @@ def cmd_simulate(args) -> int:
 
 
 def _sidecar(scene, compiled, build_s, result, failure) -> dict:
+    from .scene.motion import driver_record
     sim = scene.simulation
     meta = compiled.meta
     return {
@@ -102,6 +103,7 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
             "damping": scene.effects.damping,
         },
         "modes": meta["modes"],
+        "driver": driver_record(scene.driver),
         "model_key": meta["key"],
         "coordinates": [c["name"] for c in meta["coords"]],
         "partition": None if result is None else {

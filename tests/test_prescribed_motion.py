@@ -194,3 +194,133 @@ def test_spin_up_without_stiffening_diverges(spin_scene, reference):
     tip = np.asarray(part.column("tip")) * L_BEAM
     assert info.value.tau < T_S
     assert np.abs(tip).max() > 4 * peak
+
+
+# ------------------------------------------------------------------ laws of tau: exactness, rigid oracle
+PENDULUM = """
+[scene]
+name = "driven_pendulum"
+[[bodies]]
+name = "bar"
+length = 1.0
+rigid = true
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "bar"]
+at = [[0.0, 0.0], 0.0]
+[driver]
+kind = "angle"
+body = "bar"
+{driver}
+[effects]
+gravity = [0.0, -2.0]
+[outputs]
+theta = {{ kind = "angle", body = "bar" }}
+torque = {{ kind = "driver_torque" }}
+[simulation]
+t_end = {t_end}
+output_step = 0.05
+"""
+
+LAW = "0.3*sin(2*tau) + 0.1*tau**2 + exp(-tau)*cos(3*tau)"
+
+
+def _pendulum(tmp_path, driver: str, t_end: float = 3.0, name: str = "pendulum.toml"):
+    return write_scene(tmp_path / name, PENDULUM.format(driver=driver, t_end=t_end))
+
+
+def test_law_derivatives_in_the_driver_rows_are_exact(tmp_path):
+    """theta, theta', theta'' read from the model's phi, phid, phidd driver rows equal the law
+    and sympy.diff of it at random tau (to rounding), and the initial angle adds."""
+    mech = mechanism(_pendulum(tmp_path, f'initial = 0.25\nlaw = "{LAW}"'))
+    tau = sp.Symbol("tau")
+    law = 0.25 + 0.3 * sp.sin(2 * tau) + sp.Rational(1, 10) * tau ** 2 + sp.exp(-tau) * sp.cos(3 * tau)
+    rng = np.random.default_rng(11)
+    for t in rng.uniform(0.0, 3.0, 8):
+        got = mech.driver_motion(float(t))
+        want = [float(sp.diff(law, tau, k).subs(tau, t)) for k in range(3)]
+        np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-13)
+
+
+def test_ramp_derivatives_are_the_kane_ryan_banerjee_law(spin_scene):
+    mech = mechanism(spin_scene)
+    for t in (0.0, 3.3, 7.5, 14.9, 15.0, 18.2):
+        th, thd, thdd = mech.driver_motion(t)
+        assert thd == pytest.approx(_theta_dot(t), rel=1e-12, abs=1e-12)
+        assert thdd == pytest.approx(_theta_ddot(t), rel=1e-12, abs=1e-12)
+    assert mech.driver_motion(15.0)[0] == pytest.approx(OMEGA_S * T_S / 2, rel=1e-14)
+
+
+def test_driven_pendulum_torque_is_the_closed_form(tmp_path):
+    """Rigid bar (m = 1, l = 1, I_O = 1/3), theta = 0.5 sin(tau), gravity 2 down:
+    M = I theta'' + m g (l/2) cos(theta)."""
+    res = simulate(mechanism(_pendulum(tmp_path, 'law = "0.5*sin(tau)"')))
+    t = res.tau
+    theta = 0.5 * np.sin(t)
+    np.testing.assert_allclose(res.column("theta"), theta, atol=1e-12)
+    expected = -0.5 * np.sin(t) / 3 + 2.0 * 0.5 * np.cos(theta)
+    np.testing.assert_allclose(res.column("torque"), expected, atol=1e-9)
+
+
+def test_law_is_part_of_the_model_key(tmp_path):
+    """Another law is another derivation; another initial angle is only a value."""
+    from symgen.scene import load_scene
+    from symgen.structure import structure_key, structure_of
+
+    def key(driver, name):
+        return structure_key(structure_of(load_scene(_pendulum(tmp_path, driver, name=name))))
+
+    a = key('law = "0.5*sin(tau)"', "a.toml")
+    assert a == key('initial = 1.0\nlaw = "0.5*sin(tau)"', "b.toml")
+    assert a != key('law = "0.5*cos(tau)"', "c.toml")
+    assert key("rate = 1.0", "d.toml") != key("rate = 1.0\nramp = 2.0", "e.toml")
+    assert key("rate = 1.0\nramp = 2.0", "e.toml") == key("rate = 3.0\nramp = 5.0", "f.toml")
+
+
+def test_sidecar_and_latex_carry_the_law(tmp_path):
+    import json
+    scene = _pendulum(tmp_path, f'law = "{LAW}"')
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "out.csv")]) == 0
+    side = json.loads((tmp_path / "out.json").read_text())
+    assert side["driver"]["law"] == LAW and side["driver"]["kind"] == "angle"
+    assert main(["latex", str(scene), "-o", str(tmp_path / "eq.tex")]) == 0
+    tex = (tmp_path / "eq.tex").read_text()
+    assert r"\theta_{\mathrm{bar}} = 0.1 \tau^{2} + \theta_{\mathrm{drv}}^{0} + 0.3 \sin {2 \tau}" in tex
+    assert r"e^{- \tau} \cos {3 \tau} \tag{KG, bar}" in tex         # the guidance row (phi) itself
+
+
+def test_ramp_latex_is_piecewise(spin_scene, tmp_path):
+    assert main(["latex", str(spin_scene), "-o", str(tmp_path / "spin.tex")]) == 0
+    tex = (tmp_path / "spin.tex").read_text()
+    assert r"\begin{cases}" in tex and r"T_{\mathrm{drv}}" in tex and r"\Omega_{\mathrm{drv}}" in tex
+
+
+@pytest.mark.parametrize("driver, key, words", [
+    ('law = "sin(tau"', "driver.law", "invalid expression"),
+    ('law = "omega*tau"', "driver.law", "omega"),
+    ('law = "__import__(1)"', "driver.law", "invalid expression"),
+    ('law = "log(tau)"', "driver.law", "not a finite real number at tau = 0"),
+    ('law = "sqrt(tau - 1)"', "driver.law", "not a finite real number"),
+    ('law = 3.0', "driver.law", "string expression"),
+    ('rate = 1.0\nlaw = "tau"', "driver.rate", "has no rate"),
+    ('rate = 1.0\nramp = -2.0', "driver.ramp", "ramp"),
+    ('ramp = 2.0\nlaw = "tau"', "driver.ramp", "has no ramp"),
+])
+def test_bad_laws_exit_2_naming_the_key(tmp_path, capsys, driver, key, words):
+    scene = _pendulum(tmp_path, driver)
+    out = tmp_path / "out.csv"
+    assert main(["simulate", str(scene), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert key in err and words in err and "pendulum.toml" in err
+    assert not out.exists()
+
+
+def test_law_rejects_cycles_and_torque_drivers_reject_laws(tmp_path, capsys):
+    text = PENDULUM.format(driver='law = "tau"', t_end=1.0).replace("t_end = 1.0", "cycles = 1")
+    assert main(["simulate", str(write_scene(tmp_path / "c.toml", text)), "-o", str(tmp_path / "o.csv")]) == 2
+    assert "simulation.cycles" in capsys.readouterr().err
+    text = PENDULUM.format(driver='law = "tau"', t_end=1.0).replace('kind = "angle"\nbody', 'kind = "torque"\nvalue = 0.0\nbody')
+    text = text.replace('torque = { kind = "driver_torque" }', "")
+    assert main(["simulate", str(write_scene(tmp_path / "t.toml", text)), "-o", str(tmp_path / "o.csv")]) == 2
+    assert "driver.law" in capsys.readouterr().err

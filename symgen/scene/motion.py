@@ -69,6 +69,29 @@ def law_structure(driver: Any) -> dict:
     return {}
 
 
+def driver_record(driver: Any) -> dict | None:
+    """The driver as plain data for a run's JSON sidecar (the law as written; angles in rad,
+    times in tau)."""
+    if driver is None:
+        return None
+    out = {"kind": driver.kind, "body": driver.body, "initial": driver.initial}
+    if driver.kind == "torque":
+        out["torque"] = driver.torque
+        return out
+    if driver.law is not None:
+        out["law"] = driver.law
+        out["theta"] = f"initial + ({driver.law})"
+    else:
+        out["rate"] = driver.rate
+        if driver.ramp is not None:
+            out["ramp"] = driver.ramp
+            out["theta"] = ("initial + (rate/ramp) (tau^2/2 + (ramp/(2 pi))^2 (cos(2 pi tau/ramp) - 1)) "
+                            "for tau < ramp, else initial + rate (tau - ramp/2)")
+        else:
+            out["theta"] = "initial + rate tau"
+    return out
+
+
 def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, str] | None:
     """First (tau, what) in [0, t_end] where theta, theta' or theta'' is not a finite real
     number, else None. ``driver`` has numeric ``initial``, ``rate``, ``ramp``."""
