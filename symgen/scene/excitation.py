@@ -95,7 +95,7 @@ def read_driver(r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joi
     for key in ("law", "ramp"):
         if key in table:
             r.fail(f"driver.{key}", f"a torque driver has no {key} (it prescribes a moment, not the angle)",
-                   f"remove it, or use kind = \"angle\" to prescribe the angle")
+                   "remove it, or use kind = \"angle\" to prescribe the angle")
     torque = value_or_expression(r, table, "driver", "value", REQUIRED, scales.si, "torque")
     initial = r.number(table, "driver", "initial", None)
     rate = r.number(table, "driver", "rate", 0.0)
