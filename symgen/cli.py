@@ -62,7 +62,8 @@ def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
     if args.plot:
         from .plot import plot_outputs
         drv = scene.driver
-        turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
+        steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
+        turn = 2 * math.pi / abs(drv.rate) if steady else None      # a law or a ramp: plotted against tau
         plot_path = Path(args.plot)
         if failure is not None:
             plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
@@ -92,6 +93,7 @@ def cmd_simulate(args) -> int:
 
 
 def _sidecar(scene, compiled, build_s, result, failure) -> dict:
+    from .scene.motion import driver_record
     sim = scene.simulation
     meta = compiled.meta
     return {
@@ -109,6 +111,7 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
             "damping": scene.effects.damping,
         },
         "modes": meta["modes"],
+        "driver": driver_record(scene.driver),
         "model_key": meta["key"],
         "coordinates": [c["name"] for c in meta["coords"]],
         "partition": None if result is None else {

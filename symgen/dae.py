@@ -26,6 +26,7 @@ from .bars import BarEquations, BarSymbols, IPTable, PointForce, bar_equations, 
 from .errors import SceneError
 from .kinematics import BarKinematics
 from .scene.model import GROUND, Scene
+from .scene.motion import driver_angle
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from .structure import (INEXTENSIBLE, _tip_joint, effective_modes, inextensible,  # noqa: F401
@@ -297,8 +298,16 @@ def derive(scene: Scene) -> DerivedModel:
     if drv is not None:
         th = bars[drv.body].sym
         if drv.kind == "angle":
-            th0, rate = param("theta0"), param("rate")
-            phi.append(th.th - th0 - rate * TAU), phid.append(th.dth - rate), phidd.append(th.ddth)
+            th0 = param("theta0")
+            if drv.law is None and drv.ramp is None:      # the contract's theta0 + rate tau
+                rate = param("rate")
+                phi.append(th.th - th0 - rate * TAU), phid.append(th.dth - rate), phidd.append(th.ddth)
+            else:                                          # law(tau) or the spin-up ramp: exact derivatives
+                rate = param("rate") if drv.law is None else None
+                ramp = param("ramp") if drv.ramp is not None else None
+                angle = driver_angle(drv, TAU, th0, rate, ramp)
+                phi.append(th.th - angle), phid.append(th.dth - sp.diff(angle, TAU))
+                phidd.append(th.ddth - sp.diff(angle, TAU, 2))
             L = sp.Symbol("L_driver", real=True)
             driver_row = len(lam)
             lam.append(L), lam_rows.append(ConstraintRow("driver", "driver", (GROUND, drv.body)))

@@ -92,6 +92,8 @@ def parameter_values(scene: Scene, names: list[str]) -> np.ndarray:
     if d is not None:
         if d.kind == "angle":
             vals["theta0"], vals["rate"] = d.initial, d.rate
+            if d.ramp is not None:
+                vals["ramp"] = d.ramp
         elif not isinstance(d.torque, str):
             vals["torque"] = float(d.torque)
     for i, ld in enumerate(scene.loads):

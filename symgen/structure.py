@@ -53,6 +53,10 @@ def structure_of(scene: Scene) -> dict:
         d = scene.driver
         drv = {"kind": d.kind, "body": d.body,
                "torque": d.torque if isinstance(d.torque, str) else "const"}
+        if d.law is not None:          # only then: the keys of constant-speed scenes are unchanged
+            drv["law"] = d.law
+        if d.ramp is not None:
+            drv["ramp"] = True
     loads = [{"body": ld.body, "kind": ld.kind, "xi": ld.xi,
               "axial": ld.axial if isinstance(ld.axial, str) else "const",
               "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]

@@ -30,6 +30,7 @@ import sympy as sp
 from .. import __version__
 from ..bars import IPTable, PointForce, bar_equations, distributed_groups
 from ..scene.model import GROUND
+from ..scene.motion import driver_angle
 
 TEMPLATES = Path(__file__).resolve().parents[2] / "templates" / "latex"
 LINE_WIDTH = 82          # estimated printed width of a full display line (units of _width)
@@ -104,6 +105,7 @@ class Namer:
             (re.compile(r"g([xy])$"), lambda m: rf"g_{{{m[1]}}}"),
             (re.compile(r"theta0$"), lambda m: r"\theta_{\mathrm{drv}}^{0}"),
             (re.compile(r"rate$"), lambda m: r"\Omega_{\mathrm{drv}}"),
+            (re.compile(r"ramp$"), lambda m: r"T_{\mathrm{drv}}"),
             (re.compile(r"torque$"), lambda m: r"M_{0}"),
             (re.compile(r"damping$"), lambda m: r"c_{\mathrm{KV}}"),
             (re.compile(r"tau$"), lambda m: r"\tau"),
@@ -180,6 +182,24 @@ def _width(s: str) -> float:
             width += (3.0 if c in "+-=" and cur == 1.0 else 1.0) * cur
         i += 1
     return width
+
+
+def _driver_angle_tex(drv, pr) -> str:
+    """theta(tau) of an angle driver with its parameters as symbols (the law's numbers as written)."""
+    if drv.law is None and drv.ramp is None:
+        return r"\theta^0_{\mathrm{drv}} + \Omega_{\mathrm{drv}}\tau"
+    from ..dae import TAU
+    sym = {k: sp.Symbol(k, real=True) for k in ("theta0", "rate", "ramp")}
+    return pr(driver_angle(drv, TAU, sym["theta0"], sym["rate"], sym["ramp"]))
+
+
+def _driver_law_note(drv) -> str:
+    if drv.law is not None:
+        return f" (driver.law = \\texttt{{{tex_escape(drv.law)}}}; its derivatives taken exactly)"
+    if drv.ramp is not None:
+        return (" (the smooth spin-up of Kane, Ryan \\& Banerjee 1987 from rest to the rate "
+                "$\\Omega_{\\mathrm{drv}}$ over $T_{\\mathrm{drv}}$)")
+    return ""
 
 
 class Printer:
@@ -777,8 +797,8 @@ def latex_document(scene, model) -> str:
     driver = None
     if drv is not None:
         driver = {"kind": drv.kind, "body": tex_escape(drv.body),
-                  "text": (f"kinematic guidance: $\\theta_{{{_rm(drv.body)}}} = \\theta^0_{{\\mathrm{{drv}}}} + "
-                           f"\\Omega_{{\\mathrm{{drv}}}}\\tau$" if drv.kind == "angle" else
+                  "text": (f"kinematic guidance: $\\theta_{{{_rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
+                           + _driver_law_note(drv) if drv.kind == "angle" else
                            f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")}
     coords = [{"tex": pr(sp.Symbol(c.name)), "kind": c.kind, "body": tex_escape(c.body)} for c in model.coords]
     mult = []

@@ -117,6 +117,21 @@ class Mechanism:
             return f"inextensibility of bar '{r['joint']}'"
         return f"loop closed by joint '{r['joint']}' ({' - '.join(r['loop'])})"
 
+    def driver_motion(self, t: float) -> tuple[float, float, float]:
+        """(theta, theta', theta'') an angle driver prescribes at t, read from the model's own
+        driver rows (phi = theta - theta(t), and its two derivatives): whatever the law
+        (constant speed, ``law``, ``ramp``), the numbers the equations use."""
+        row = self.meta["driver_row"]
+        z = np.zeros(self.n)
+        return (-float(self.call("phi", t, z)[row]), -float(self.call("phid", t, z, z)[row]),
+                -float(self.call("phidd", t, z, z, z)[row]))
+
+    def driver_step(self, t: float) -> float:
+        """Time step of the central differences of the quasi-static start: 1e-4 rad of the
+        driver at its rate at t (1e-4 when it is at rest)."""
+        rate = abs(self.driver_motion(t)[1])
+        return 1e-4 / rate if rate > 0 else 1e-4
+
     # ---------------------------------------------------------------- partition + assembly
     def choose_partition(self, t: float, q) -> Partition:
         """Greedy choice of dependent rigid coordinates with a well-conditioned closure Jacobian."""
@@ -243,8 +258,7 @@ class Mechanism:
                 q[i] = guess.get(c["body"], 0.0)
                 if drv is not None and drv.body == c["body"]:
                     if drv.kind == "angle":
-                        q[i] = drv.initial + drv.rate * t0
-                        v[i] = drv.rate
+                        q[i], v[i], _ = self.driver_motion(t0)
                     else:
                         if drv.initial is not None:
                             q[i] = drv.initial
@@ -399,15 +413,15 @@ class Mechanism:
                                   "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
                                   "= \"quasi-static\") to follow the bar into its buckled state")
         drv = self.scene.driver
-        if drv is None or drv.kind != "angle" or drv.rate == 0:
-            return qs, vs
+        if drv is None or drv.kind != "angle" or not any(self.driver_motion(t0)[1:]):
+            return qs, vs       # a driver at rest (constant angle): the quasi-static rates are zero
         E = self._static_E
-        h = 1e-4 / abs(drv.rate)
+        h = self.driver_step(t0)
         ends = []
         for dt in (-h, h):
             qq = qs.copy()
             i = next(i for i, c in enumerate(self.coords) if c["name"] == f"theta_{drv.body}")
-            qq[i] = drv.initial + drv.rate * (t0 + dt)
+            qq[i] = self.driver_motion(t0 + dt)[0]
             qq = self.assemble(t0 + dt, qq, part)
             vv = self.velocities(t0 + dt, qq, vs, part)
             ends.append(self.quasi_static(t0 + dt, qq, vv, part)[0])

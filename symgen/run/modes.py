@@ -126,8 +126,11 @@ def _rigid_march(qs: QuasiStaticSystem, tau: float):
     q, _, _, _, _ = mech.initial_state(0.0)
     drv = mech.scene.driver
     steps = 1
-    if drv is not None and drv.kind == "angle" and drv.rate != 0 and tau != 0:
-        steps = max(1, int(math.ceil(abs(drv.rate * tau) / 0.05)))
+    if drv is not None and drv.kind == "angle" and tau != 0:
+        turned = abs(mech.driver_motion(tau)[0] - mech.driver_motion(0.0)[0])
+        steps = max(1, int(math.ceil(turned / 0.05)))
+        if drv.law is not None or drv.ramp is not None:   # a law may swing back: follow it in tau too
+            steps = max(steps, int(math.ceil(abs(tau) / 0.05)))
     for k in range(1, steps + 1):
         q, v, a = qs.rigid_state(tau * k / steps, q)
     return q, v, a

@@ -186,7 +186,7 @@ class QuasiStaticSystem:
         drv = mech.scene.driver
         if drv is not None and drv.kind == "angle":
             i = next(i for i, c in enumerate(mech.coords) if c["name"] == f"theta_{drv.body}")
-            q[i] = drv.initial + drv.rate * t
+            q[i] = mech.driver_motion(t)[0]
         q = mech.assemble(t, q, part)
         ratio, row = mech.singular_ratio(t, q, part)
         if ratio < SINGULAR_RATIO:

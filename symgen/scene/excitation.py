@@ -8,7 +8,9 @@ from symgen.scene.reader import REQUIRED, Reader, describe, is_number, join
 from symgen.scene.units import Scales
 
 DRIVER_KINDS = ("angle", "torque")
-DRIVER_KEYS = ("kind", "body", "initial", "rate", "value")
+DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp")
+LAW_HINT = ("law is the prescribed angle theta - initial in rad as an expression of tau, e.g. "
+            "law = \"0.5*sin(tau)\"; ")
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
 EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
@@ -81,15 +83,56 @@ def read_driver(r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joi
         if "value" in table:
             r.fail("driver.value", "an angle driver has no value (torque)",
                    "remove it, or use kind = \"torque\" to apply a moment")
-        rate = r.number(table, "driver", "rate", hint="the angular rate d theta/d tau, or rad/s in SI")
         initial = r.number(table, "driver", "initial", 0.0)
-        return Driver("angle", body, initial, scales.rate(rate))
+        if "law" in table:
+            return Driver("angle", body, initial, 0.0, law=_law(r, table))
+        rate = r.number(table, "driver", "rate", hint="the angular rate d theta/d tau, or rad/s in SI; "
+                        "or give law = \"<expression of tau>\" for a prescribed angle")
+        ramp = r.number(table, "driver", "ramp", None, gt=0.0,
+                        hint="ramp is the spin-up time T (in tau) over which the rate rises smoothly "
+                        "from 0 to 'rate'; it must be > 0")
+        return Driver("angle", body, initial, scales.rate(rate), ramp=ramp)
+    for key in ("law", "ramp"):
+        if key in table:
+            r.fail(f"driver.{key}", f"a torque driver has no {key} (it prescribes a moment, not the angle)",
+                   "remove it, or use kind = \"angle\" to prescribe the angle")
     torque = value_or_expression(r, table, "driver", "value", REQUIRED, scales.si, "torque")
     initial = r.number(table, "driver", "initial", None)
     rate = r.number(table, "driver", "rate", 0.0)
     if isinstance(torque, float):
         torque = scales.torque(torque)
     return Driver("torque", body, initial, scales.rate(rate), torque)
+
+
+def _law(r: Reader, table: dict) -> str:
+    """``driver.law``: theta - initial as an expression of tau (exclusive with rate and ramp)."""
+    for key in ("rate", "ramp"):
+        if key in table:
+            r.fail(f"driver.{key}", f"an angle driver with a law has no {key} (the law gives the whole motion)",
+                   f"remove {key}, or remove law for the constant-speed drive"
+                   + (" with its spin-up ramp" if key == "ramp" else ""))
+    value = table["law"]
+    if not isinstance(value, str):
+        r.fail("driver.law", f"must be a string expression of tau, got {describe(value)}",
+               LAW_HINT + EXPRESSION_HINT)
+    try:
+        parse_tau_expression(value)
+    except ValueError as exc:
+        r.fail("driver.law", f"invalid expression {value!r}: {exc}", LAW_HINT + EXPRESSION_HINT)
+    return value
+
+
+def check_driver_motion(r: Reader, driver: Driver | None, t_end: float) -> None:
+    """The prescribed angle and its two derivatives are finite over [0, t_end]."""
+    if driver is None or driver.kind != "angle" or driver.law is None:
+        return          # the constant-speed drive and its ramp (T > 0) are finite by construction
+    from symgen.scene.motion import check_finite
+
+    bad = check_finite(driver, t_end)
+    if bad is not None:
+        r.fail("driver.law", f"the prescribed angle's {bad[1]} is not a finite real number at tau = {bad[0]:.6g} "
+               f"(the run goes from 0 to {t_end:.6g})",
+               "give a law that is smooth (twice differentiable) and finite on the whole run")
 
 
 # -- loads --------------------------------------------------------------------------------------

@@ -21,7 +21,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from symgen.errors import SceneError
-from symgen.scene.excitation import read_driver, read_effects, read_initial, read_loads
+from symgen.scene.excitation import (check_driver_motion, read_driver, read_effects, read_initial,
+                                     read_loads)
 from symgen.scene.mechanism import (check_connected, check_name, make_body, read_bars, read_joints,
                                     reference_bar)
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
@@ -105,6 +106,9 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
         t_end = scales.time(r.number(table, "simulation", "t_end", gt=0.0))
     else:
         cycles = r.number(table, "simulation", "cycles", gt=0.0)
+        if driver is not None and driver.law is not None:
+            r.fail("simulation.cycles", "an angle driver with a law has no constant rate to count turns by",
+                   "give t_end (in tau) instead of cycles")
         rate = abs(driver.rate) if driver is not None and driver.kind == "angle" else 0.0
         t_end = cycles * 2.0 * math.pi / (rate if rate != 0.0 else 1.0)
     if "output_step" in table:
@@ -156,6 +160,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
     outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, driver)
     simulation = read_simulation(r, raw, driver, scales)
+    check_driver_motion(r, driver, simulation.t_end)
     return Scene(name=header.name, path=file, hash=digest or scene_hash(raw), units=header.units,
                  l0=scales.l0, omega=scales.omega, m_ref=scales.m_ref, bodies=bodies,
                  joints=joints, driver=driver, initial=initial, effects=effects, loads=loads,

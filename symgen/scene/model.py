@@ -66,6 +66,8 @@ class Driver:
     initial: float | None       # angle at tau = 0 [rad]; torque driver: None = from the assembly
     rate: float                 # angle: d theta/d tau; torque: initial angular rate (default 0)
     torque: float | str = 0.0   # torque driver only: constant or expression of tau
+    law: str | None = None      # angle driver only: theta = initial + law(tau), expression of tau
+    ramp: float | None = None   # angle driver only: spin-up time T (tau) to reach ``rate`` smoothly
 
 
 @dataclass(frozen=True)

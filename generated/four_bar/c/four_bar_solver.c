@@ -29,7 +29,7 @@
 /* ------------------------------------------------------------------ baked-in data */
 const int four_bar_independent[24] = { 1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16, 17, 19, 20, 21, 22, 23, 24, 25, 26 };
 const int four_bar_dependent[3] = { 0, 18, 9 };
-const double four_bar_q_guess[27] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
+const double four_bar_q_guess[27] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 const double four_bar_v_guess[27] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
@@ -51,7 +51,8 @@ enum {
     four_bar_x_NY = 84, four_bar_x_NALG = 36, four_bar_x_A0 = 54,
     four_bar_x_NE = 24, four_bar_x_NR = 3,
     four_bar_x_NS = 3, four_bar_x_NCLO = 2,
-    four_bar_x_DRIVER = 0, four_bar_x_THETA0 = 17, four_bar_x_RATE = 16,
+    four_bar_x_DRIVER = 0,
+    four_bar_x_DRIVER_ROW = 2,
     four_bar_x_ANGLE_DRIVER = 1, four_bar_x_QUASI_STATIC = 1,
     four_bar_x_NIT = 7
 };
@@ -307,6 +308,24 @@ static double four_bar_x_singular_ratio(four_bar_solver *s, double t, const doub
     return hi > 0.0 ? lo / hi : 0.0;
 }
 
+/* theta, theta', theta'' an angle driver prescribes at t, from the driver rows of phi, phid,
+   phidd (Mechanism.driver_motion): the same law the equations use, whatever its form */
+static void four_bar_x_driver_motion(four_bar_solver *s, double t, double *m3)
+{
+    double r[3];
+    const int row = four_bar_x_DRIVER_ROW >= 0 ? four_bar_x_DRIVER_ROW : 0;
+    if (four_bar_x_NL == 0 || four_bar_x_DRIVER_ROW < 0) {
+        m3[0] = m3[1] = m3[2] = 0.0;
+        return;
+    }
+    four_bar_phi(t, four_bar_x_zeros, four_bar_x_zeros, four_bar_x_zeros, four_bar_x_zeros, s->p, r);
+    m3[0] = -r[row];
+    four_bar_phid(t, four_bar_x_zeros, four_bar_x_zeros, four_bar_x_zeros, four_bar_x_zeros, s->p, r);
+    m3[1] = -r[row];
+    four_bar_phidd(t, four_bar_x_zeros, four_bar_x_zeros, four_bar_x_zeros, four_bar_x_zeros, s->p, r);
+    m3[2] = -r[row];
+}
+
 /* damped Newton on phi(t, q) = 0 in the coordinates `dep` (Mechanism.assemble) */
 static int four_bar_x_assemble(four_bar_solver *s, double t, double *q, const int *dep)
 {
@@ -443,18 +462,19 @@ static int four_bar_x_quasi_static(four_bar_solver *s, double t, double *q, doub
    rates are the quasi-static ones too, by central differences */
 static int four_bar_x_quasi_static_start(four_bar_solver *s, double t0, double *q, double *v)
 {
-    double rate, h, dt;
+    double m3[3], h, dt;
     int k, side;
     if (four_bar_x_quasi_static(s, t0, q, v)) return 1;
     if (!four_bar_x_ANGLE_DRIVER) return 0;
-    rate = s->p[four_bar_x_RATE >= 0 ? four_bar_x_RATE : 0];
-    if (rate == 0.0) return 0;
-    h = 1e-4 / fabs(rate);
+    four_bar_x_driver_motion(s, t0, m3);
+    if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */
+    h = m3[1] != 0.0 ? 1e-4 / fabs(m3[1]) : 1e-4;  /* Mechanism.driver_step */
     for (side = 0; side < 2; ++side) {
         dt = side == 0 ? -h : h;
         memcpy(s->qs, q, sizeof(s->qs));
         memcpy(s->vs, v, sizeof(s->vs));
-        s->qs[four_bar_x_DRIVER >= 0 ? four_bar_x_DRIVER : 0] = s->p[four_bar_x_THETA0 >= 0 ? four_bar_x_THETA0 : 0] + rate * (t0 + dt);
+        four_bar_x_driver_motion(s, t0 + dt, m3);
+        s->qs[four_bar_x_DRIVER >= 0 ? four_bar_x_DRIVER : 0] = m3[0];
         if (four_bar_x_assemble(s, t0 + dt, s->qs, four_bar_dependent)) return 1;
         if (four_bar_x_velocities(s, t0 + dt, s->qs, s->vs)) return 1;
         if (four_bar_x_quasi_static(s, t0 + dt, s->qs, s->vs)) return 1;
@@ -793,8 +813,10 @@ int four_bar_solver_init(four_bar_solver *s, const double *p, double t0, double 
     memcpy(q, four_bar_q_guess, sizeof(s->qs));
     memcpy(v, four_bar_v_guess, sizeof(s->vs));
     if (four_bar_x_ANGLE_DRIVER) {
-        q[four_bar_x_DRIVER >= 0 ? four_bar_x_DRIVER : 0] = s->p[four_bar_x_THETA0 >= 0 ? four_bar_x_THETA0 : 0] + s->p[four_bar_x_RATE >= 0 ? four_bar_x_RATE : 0] * t0;
-        v[four_bar_x_DRIVER >= 0 ? four_bar_x_DRIVER : 0] = s->p[four_bar_x_RATE >= 0 ? four_bar_x_RATE : 0];
+        double m3[3];
+        four_bar_x_driver_motion(s, t0, m3);
+        q[four_bar_x_DRIVER >= 0 ? four_bar_x_DRIVER : 0] = m3[0];
+        v[four_bar_x_DRIVER >= 0 ? four_bar_x_DRIVER : 0] = m3[1];
     }
     if (four_bar_x_assemble(s, t0, q, four_bar_x_assembly_dep)) return s->status;
     if (four_bar_x_singular_ratio(s, t0, q) < four_bar_x_SINGULAR_RATIO) {

@@ -29,7 +29,7 @@
 /* ------------------------------------------------------------------ baked-in data */
 const int inverted_slider_crank_independent[8] = { 1, 2, 3, 4, 5, 6, 8, 9 };
 const int inverted_slider_crank_dependent[3] = { 0, 10, 7 };
-const double inverted_slider_crank_q_guess[11] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.75 };
+const double inverted_slider_crank_q_guess[11] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.75 };
 const double inverted_slider_crank_v_guess[11] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
@@ -51,7 +51,8 @@ enum {
     inverted_slider_crank_x_NY = 36, inverted_slider_crank_x_NALG = 20, inverted_slider_crank_x_A0 = 22,
     inverted_slider_crank_x_NE = 8, inverted_slider_crank_x_NR = 3,
     inverted_slider_crank_x_NS = 3, inverted_slider_crank_x_NCLO = 2,
-    inverted_slider_crank_x_DRIVER = 0, inverted_slider_crank_x_THETA0 = 13, inverted_slider_crank_x_RATE = 12,
+    inverted_slider_crank_x_DRIVER = 0,
+    inverted_slider_crank_x_DRIVER_ROW = 2,
     inverted_slider_crank_x_ANGLE_DRIVER = 1, inverted_slider_crank_x_QUASI_STATIC = 1,
     inverted_slider_crank_x_NIT = 7
 };
@@ -307,6 +308,24 @@ static double inverted_slider_crank_x_singular_ratio(inverted_slider_crank_solve
     return hi > 0.0 ? lo / hi : 0.0;
 }
 
+/* theta, theta', theta'' an angle driver prescribes at t, from the driver rows of phi, phid,
+   phidd (Mechanism.driver_motion): the same law the equations use, whatever its form */
+static void inverted_slider_crank_x_driver_motion(inverted_slider_crank_solver *s, double t, double *m3)
+{
+    double r[3];
+    const int row = inverted_slider_crank_x_DRIVER_ROW >= 0 ? inverted_slider_crank_x_DRIVER_ROW : 0;
+    if (inverted_slider_crank_x_NL == 0 || inverted_slider_crank_x_DRIVER_ROW < 0) {
+        m3[0] = m3[1] = m3[2] = 0.0;
+        return;
+    }
+    inverted_slider_crank_phi(t, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, s->p, r);
+    m3[0] = -r[row];
+    inverted_slider_crank_phid(t, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, s->p, r);
+    m3[1] = -r[row];
+    inverted_slider_crank_phidd(t, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, s->p, r);
+    m3[2] = -r[row];
+}
+
 /* damped Newton on phi(t, q) = 0 in the coordinates `dep` (Mechanism.assemble) */
 static int inverted_slider_crank_x_assemble(inverted_slider_crank_solver *s, double t, double *q, const int *dep)
 {
@@ -443,18 +462,19 @@ static int inverted_slider_crank_x_quasi_static(inverted_slider_crank_solver *s,
    rates are the quasi-static ones too, by central differences */
 static int inverted_slider_crank_x_quasi_static_start(inverted_slider_crank_solver *s, double t0, double *q, double *v)
 {
-    double rate, h, dt;
+    double m3[3], h, dt;
     int k, side;
     if (inverted_slider_crank_x_quasi_static(s, t0, q, v)) return 1;
     if (!inverted_slider_crank_x_ANGLE_DRIVER) return 0;
-    rate = s->p[inverted_slider_crank_x_RATE >= 0 ? inverted_slider_crank_x_RATE : 0];
-    if (rate == 0.0) return 0;
-    h = 1e-4 / fabs(rate);
+    inverted_slider_crank_x_driver_motion(s, t0, m3);
+    if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */
+    h = m3[1] != 0.0 ? 1e-4 / fabs(m3[1]) : 1e-4;  /* Mechanism.driver_step */
     for (side = 0; side < 2; ++side) {
         dt = side == 0 ? -h : h;
         memcpy(s->qs, q, sizeof(s->qs));
         memcpy(s->vs, v, sizeof(s->vs));
-        s->qs[inverted_slider_crank_x_DRIVER >= 0 ? inverted_slider_crank_x_DRIVER : 0] = s->p[inverted_slider_crank_x_THETA0 >= 0 ? inverted_slider_crank_x_THETA0 : 0] + rate * (t0 + dt);
+        inverted_slider_crank_x_driver_motion(s, t0 + dt, m3);
+        s->qs[inverted_slider_crank_x_DRIVER >= 0 ? inverted_slider_crank_x_DRIVER : 0] = m3[0];
         if (inverted_slider_crank_x_assemble(s, t0 + dt, s->qs, inverted_slider_crank_dependent)) return 1;
         if (inverted_slider_crank_x_velocities(s, t0 + dt, s->qs, s->vs)) return 1;
         if (inverted_slider_crank_x_quasi_static(s, t0 + dt, s->qs, s->vs)) return 1;
@@ -778,8 +798,10 @@ int inverted_slider_crank_solver_init(inverted_slider_crank_solver *s, const dou
     memcpy(q, inverted_slider_crank_q_guess, sizeof(s->qs));
     memcpy(v, inverted_slider_crank_v_guess, sizeof(s->vs));
     if (inverted_slider_crank_x_ANGLE_DRIVER) {
-        q[inverted_slider_crank_x_DRIVER >= 0 ? inverted_slider_crank_x_DRIVER : 0] = s->p[inverted_slider_crank_x_THETA0 >= 0 ? inverted_slider_crank_x_THETA0 : 0] + s->p[inverted_slider_crank_x_RATE >= 0 ? inverted_slider_crank_x_RATE : 0] * t0;
-        v[inverted_slider_crank_x_DRIVER >= 0 ? inverted_slider_crank_x_DRIVER : 0] = s->p[inverted_slider_crank_x_RATE >= 0 ? inverted_slider_crank_x_RATE : 0];
+        double m3[3];
+        inverted_slider_crank_x_driver_motion(s, t0, m3);
+        q[inverted_slider_crank_x_DRIVER >= 0 ? inverted_slider_crank_x_DRIVER : 0] = m3[0];
+        v[inverted_slider_crank_x_DRIVER >= 0 ? inverted_slider_crank_x_DRIVER : 0] = m3[1];
     }
     if (inverted_slider_crank_x_assemble(s, t0, q, inverted_slider_crank_x_assembly_dep)) return s->status;
     if (inverted_slider_crank_x_singular_ratio(s, t0, q) < inverted_slider_crank_x_SINGULAR_RATIO) {

@@ -29,7 +29,7 @@
 /* ------------------------------------------------------------------ baked-in data */
 const int slider_crank_independent[2] = { 2, 3 };
 const int slider_crank_dependent[2] = { 0, 1 };
-const double slider_crank_q_guess[4] = { 0.0, 0.0, 0.0, 0.0 };
+const double slider_crank_q_guess[4] = { -0.0, 0.0, 0.0, 0.0 };
 const double slider_crank_v_guess[4] = { 1.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
@@ -51,7 +51,8 @@ enum {
     slider_crank_x_NY = 14, slider_crank_x_NALG = 10, slider_crank_x_A0 = 8,
     slider_crank_x_NE = 2, slider_crank_x_NR = 2,
     slider_crank_x_NS = 2, slider_crank_x_NCLO = 1,
-    slider_crank_x_DRIVER = 0, slider_crank_x_THETA0 = 13, slider_crank_x_RATE = 12,
+    slider_crank_x_DRIVER = 0,
+    slider_crank_x_DRIVER_ROW = 1,
     slider_crank_x_ANGLE_DRIVER = 1, slider_crank_x_QUASI_STATIC = 0,
     slider_crank_x_NIT = 7
 };
@@ -307,6 +308,24 @@ static double slider_crank_x_singular_ratio(slider_crank_solver *s, double t, co
     return hi > 0.0 ? lo / hi : 0.0;
 }
 
+/* theta, theta', theta'' an angle driver prescribes at t, from the driver rows of phi, phid,
+   phidd (Mechanism.driver_motion): the same law the equations use, whatever its form */
+static void slider_crank_x_driver_motion(slider_crank_solver *s, double t, double *m3)
+{
+    double r[2];
+    const int row = slider_crank_x_DRIVER_ROW >= 0 ? slider_crank_x_DRIVER_ROW : 0;
+    if (slider_crank_x_NL == 0 || slider_crank_x_DRIVER_ROW < 0) {
+        m3[0] = m3[1] = m3[2] = 0.0;
+        return;
+    }
+    slider_crank_phi(t, slider_crank_x_zeros, slider_crank_x_zeros, slider_crank_x_zeros, slider_crank_x_zeros, s->p, r);
+    m3[0] = -r[row];
+    slider_crank_phid(t, slider_crank_x_zeros, slider_crank_x_zeros, slider_crank_x_zeros, slider_crank_x_zeros, s->p, r);
+    m3[1] = -r[row];
+    slider_crank_phidd(t, slider_crank_x_zeros, slider_crank_x_zeros, slider_crank_x_zeros, slider_crank_x_zeros, s->p, r);
+    m3[2] = -r[row];
+}
+
 /* damped Newton on phi(t, q) = 0 in the coordinates `dep` (Mechanism.assemble) */
 static int slider_crank_x_assemble(slider_crank_solver *s, double t, double *q, const int *dep)
 {
@@ -443,18 +462,19 @@ static int slider_crank_x_quasi_static(slider_crank_solver *s, double t, double 
    rates are the quasi-static ones too, by central differences */
 static int slider_crank_x_quasi_static_start(slider_crank_solver *s, double t0, double *q, double *v)
 {
-    double rate, h, dt;
+    double m3[3], h, dt;
     int k, side;
     if (slider_crank_x_quasi_static(s, t0, q, v)) return 1;
     if (!slider_crank_x_ANGLE_DRIVER) return 0;
-    rate = s->p[slider_crank_x_RATE >= 0 ? slider_crank_x_RATE : 0];
-    if (rate == 0.0) return 0;
-    h = 1e-4 / fabs(rate);
+    slider_crank_x_driver_motion(s, t0, m3);
+    if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */
+    h = m3[1] != 0.0 ? 1e-4 / fabs(m3[1]) : 1e-4;  /* Mechanism.driver_step */
     for (side = 0; side < 2; ++side) {
         dt = side == 0 ? -h : h;
         memcpy(s->qs, q, sizeof(s->qs));
         memcpy(s->vs, v, sizeof(s->vs));
-        s->qs[slider_crank_x_DRIVER >= 0 ? slider_crank_x_DRIVER : 0] = s->p[slider_crank_x_THETA0 >= 0 ? slider_crank_x_THETA0 : 0] + rate * (t0 + dt);
+        slider_crank_x_driver_motion(s, t0 + dt, m3);
+        s->qs[slider_crank_x_DRIVER >= 0 ? slider_crank_x_DRIVER : 0] = m3[0];
         if (slider_crank_x_assemble(s, t0 + dt, s->qs, slider_crank_dependent)) return 1;
         if (slider_crank_x_velocities(s, t0 + dt, s->qs, s->vs)) return 1;
         if (slider_crank_x_quasi_static(s, t0 + dt, s->qs, s->vs)) return 1;
@@ -773,8 +793,10 @@ int slider_crank_solver_init(slider_crank_solver *s, const double *p, double t0,
     memcpy(q, slider_crank_q_guess, sizeof(s->qs));
     memcpy(v, slider_crank_v_guess, sizeof(s->vs));
     if (slider_crank_x_ANGLE_DRIVER) {
-        q[slider_crank_x_DRIVER >= 0 ? slider_crank_x_DRIVER : 0] = s->p[slider_crank_x_THETA0 >= 0 ? slider_crank_x_THETA0 : 0] + s->p[slider_crank_x_RATE >= 0 ? slider_crank_x_RATE : 0] * t0;
-        v[slider_crank_x_DRIVER >= 0 ? slider_crank_x_DRIVER : 0] = s->p[slider_crank_x_RATE >= 0 ? slider_crank_x_RATE : 0];
+        double m3[3];
+        slider_crank_x_driver_motion(s, t0, m3);
+        q[slider_crank_x_DRIVER >= 0 ? slider_crank_x_DRIVER : 0] = m3[0];
+        v[slider_crank_x_DRIVER >= 0 ? slider_crank_x_DRIVER : 0] = m3[1];
     }
     if (slider_crank_x_assemble(s, t0, q, slider_crank_x_assembly_dep)) return s->status;
     if (slider_crank_x_singular_ratio(s, t0, q) < slider_crank_x_SINGULAR_RATIO) {

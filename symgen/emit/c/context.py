@@ -56,14 +56,15 @@ def c_context(scene, model, mech) -> dict:
     assembly_dep = list(mech.choose_partition(0.0, q0).dep)
     drv = scene.driver
     params = list(meta["params"])
-    driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1}
+    driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1, "row": -1}
     if drv is not None:
         name = f"theta_{drv.body}"
         driver["kind"] = drv.kind
         driver["coord"] = next(i for i, c in enumerate(mech.coords) if c["name"] == name)
         if drv.kind == "angle":
             driver["theta0"] = params.index("theta0")
-            driver["rate"] = params.index("rate")
+            driver["rate"] = params.index("rate") if "rate" in params else -1   # a law has no rate
+            driver["row"] = meta["driver_row"]
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}
     amplitude_checks = _amplitude_checks(mech)
