@@ -165,6 +165,13 @@ DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: 
     Key("rate", "number", "d theta / d tau (angle drivers; torque drivers: the initial angular velocity). "
         "In an SI scene the crank turns at rate x omega rad/s.", _num(),
         required="for an angle driver", default="0.0 (torque driver)", unit="per tau", example="1.0"),
+    Key("law", "string (expression)", "Prescribed angle theta - initial as an expression of tau (angle "
+        "drivers, instead of rate; the run needs t_end): " + EXPRESSION_TEXT + ". theta' and theta'' are its exact "
+        "derivatives.", {"type": "string", "minLength": 1}, unit="rad; tau in both unit systems",
+        example='"0.5*sin(tau)"'),
+    Key("ramp", "number > 0", "Spin-up time T of a constant-speed drive (with rate): theta = (rate/T)(tau^2/2 + "
+        "(T/2 pi)^2 (cos(2 pi tau/T) - 1)) for tau < T, rate (tau - T/2) after (Kane, Ryan & Banerjee 1987).",
+        _num(exclusiveMinimum=0), unit="tau", example="15.0"),
     Key("value", "number or expression", "The applied moment (torque drivers): " + EXPRESSION_TEXT + ".",
         NUMBER_OR_EXPRESSION, required="for a torque driver", unit="N m (SI), else m_ref l0^3 omega^2",
         example='"0.5*Heaviside(tau - 1)"'),
