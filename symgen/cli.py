@@ -76,7 +76,7 @@ def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
     written = files.write(result.tau, result.outputs, result.output_names, meta, complete)
     if failure is not None:
         print(f"symgen: partial result kept in {written} ({meta['status']})", file=sys.stderr)
-    if files.plot is not None:
+    if files.plot is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
         from .plot import plot_outputs
         drv = scene.driver
         turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
@@ -194,7 +194,7 @@ def cmd_study(args) -> int:
     except BaseException as err:
         partial = getattr(err, "partial", None)
         if partial is not None:       # interrupted after the reference: the rows done, marked partial
-            paths = write_study(partial, args.output)
+            paths = write_study(partial, args.output, with_plot=False)
             print(f"symgen: partial study kept in {paths[1]} ({partial.status})", file=sys.stderr)
         else:
             discard_study(args.output)

@@ -290,15 +290,21 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
             r = runs.run([row.change.override])
             row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
             row.worst = r["worst"]
-    except Interrupted as err:
-        # the rows measured so far: a partial report, its other rows marked not measured
+    except BaseException as err:
+        # the rows measured so far: a partial report, its other rows marked not measured (any
+        # failure while a signal is pending is the interrupt: CasADi reports it as its own error)
+        stop = interrupt.interrupted(err)
+        if not isinstance(stop, Interrupted):
+            raise
         for row in report.rows:
             if not row.status:
                 row.status = "not measured (interrupted)"
-        report.stopped = str(err)
+        report.stopped = str(stop)
         recommend(report)
-        err.partial = report
-        raise
+        stop.partial = report
+        if stop is err:
+            raise
+        raise stop from None
     recommend(report)
     return report
 

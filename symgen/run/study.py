@@ -440,10 +440,16 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
             _compare(row, ref, names, compared, dt, cutoff, n_window)
             rows.append(row)
             say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
-    except Interrupted as err:
-        # the rows done so far are a partial study (written marked "interrupted")
-        err.partial = study("interrupted", str(err))
-        raise
+    except BaseException as err:
+        # the rows done so far are a partial study (written marked "interrupted"); any failure
+        # while a signal is pending is the interrupt (CasADi reports it as its own error)
+        stop = interrupt.interrupted(err)
+        if not isinstance(stop, Interrupted):
+            raise
+        stop.partial = study("interrupted", str(stop))
+        if stop is err:
+            raise
+        raise stop from None
     return study()
 
 
@@ -532,7 +538,7 @@ def _pct(x: float) -> str:
     return f"{100 * x:.3g} %"
 
 
-def markdown(study: Study, png_name: str = "study.png") -> str:
+def markdown(study: Study, png_name: str | None = "study.png") -> str:
     ref = study.reference
     turns = study.t_end / study.turn
     unc = reference_uncertainty(study)
@@ -582,8 +588,8 @@ def markdown(study: Study, png_name: str = "study.png") -> str:
             cells.append("—" if r is None else f"{r.config.label}{'' if certified else ' †'} "
                                                f"({_pct(r.errors[name])}, {r.integrate_s / turns:.3g} s/turn)")
         lines.append(f"| {name} | {_pct(output_uncertainty(study, name))} | " + " | ".join(cells) + " |")
-    lines += ["", f"![error vs integration time]({png_name})", "",
-              "## Every configuration", "",
+    lines += [""] + ([f"![error vs integration time]({png_name})", ""] if png_name else [])
+    lines += ["## Every configuration", "",
               "| configuration | group | coords | res ops | derive s | build s | integrate s / turn | IDAS steps | "
               "error | worst output | spectral | speed-up |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in study.rows:
@@ -686,19 +692,23 @@ def study_paths(directory: str | Path, complete: bool = True) -> list[Path]:
     return [Path(directory) / f"{stem}.{ext}" for ext in ("csv", "md", "png")]
 
 
-def write_study(study: Study, directory: str | Path) -> list[Path]:
+def write_study(study: Study, directory: str | Path, with_plot: bool = True) -> list[Path]:
     """Write study.csv, study.md and study.png into ``directory`` (CSV first, the plot last);
     a partial study writes ``study.partial.*`` and removes the files of an earlier complete
-    study, a complete one removes stale ``study.partial.*``. Return the paths written."""
+    study, a complete one removes stale ``study.partial.*``. Return the paths written
+    (``with_plot=False``: no PNG, e.g. when stopping on a signal, where time counts)."""
     d = Path(directory)
     complete = study.status == "complete"
     paths = study_paths(d, complete)
     remove(study_paths(d, not complete) + paths[1:])
+    if not with_plot:
+        paths = paths[:2]
     d.mkdir(parents=True, exist_ok=True)
     try:
         atomic_write(paths[0], csv_text(study))
-        atomic_write(paths[1], markdown(study, paths[2].name))
-        plot(study, paths[2])
+        atomic_write(paths[1], markdown(study, paths[2].name if with_plot else None))
+        if with_plot:
+            plot(study, paths[2])
     except BaseException:
         remove(paths)
         raise
