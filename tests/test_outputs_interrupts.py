@@ -309,3 +309,31 @@ def test_study_stops_at_once_on_sigint(warm, tmp_path):
     assert "interrupted by SIGINT" in err and "Traceback" not in err
     assert not (folder / "study.csv").exists() and not (folder / "study.md").exists()
     assert list(folder.iterdir()) == []            # stopped during the reference: nothing to keep
+
+
+def test_reproduce_stopped_leaves_no_complete_readme(tmp_path, capsys, monkeypatch):
+    """``reproduce`` interrupted after its first figures: the README of an earlier complete
+    run and its figures not redrawn go; README.partial.md says what was drawn and why."""
+    from symgen.run import reproduce as rep
+
+    out = tmp_path / "figs"
+    out.mkdir()
+    (out / "README.md").write_text("complete, from an earlier run")
+    (out / "G12_old_figure.png").write_bytes(b"\x89PNG old")
+
+    def first(path, figs, quick, notes, progress):
+        p = figs.out / "G01_new.png"
+        atomic_write(p, b"\x89PNG new")
+        figs.written.append(p)
+        notes.append({"example": "slider_crank", "lines": ["peak 1e-3"]})
+
+    def second(path, figs, quick, notes, progress):
+        raise Interrupted(signal.SIGTERM, tau=2.5)
+
+    monkeypatch.setattr(rep, "_slider_crank", first)
+    monkeypatch.setattr(rep, "_four_bar", second)
+    assert main(["reproduce", "-o", str(out)]) == 143
+    assert "interrupted by SIGTERM at tau = 2.5" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == ["G01_new.png", "README.partial.md"]
+    text = (out / "README.partial.md").read_text()
+    assert "status: interrupted" in text and "`G01_new.png`" in text and "peak 1e-3" in text
