@@ -63,3 +63,6 @@ class Interrupted(KeyboardInterrupt):
         if tau is not None:
             text += f" at tau = {tau:.6g}"
         super().__init__(text)
+
+    def __reduce__(self):          # picklable (worker processes), without the partial result
+        return (type(self), (self.signum, self.tau))

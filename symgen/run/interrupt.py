@@ -32,7 +32,9 @@ One mechanism for every long loop (``simulate``, ``quasistatic``, ``study``, ``r
 from __future__ import annotations
 
 import contextlib
+import re
 import signal
+import sys
 import threading
 from typing import Iterator
 
@@ -67,6 +69,30 @@ def interrupted(err: BaseException | None = None, tau: float | None = None) -> B
     return err
 
 
+class _SolverNoiseFilter:
+    """``sys.stderr`` inside ``handling()``: once a signal is pending, CasADi's own report of
+    the interrupt inside a solver ("res failed: KeyboardInterrupt", IDAS's "At t = ..., the
+    residual function failed unrecoverably", written in pieces) is dropped -- symgen says
+    "interrupted by SIGINT at tau = ..." instead. Everything else passes unchanged."""
+
+    _NOISE = re.compile(r"^(res failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
+                        r"|At t = [^,]*, the \w+ function failed unrecoverably\.)$")
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+        self._dropped = False
+
+    def write(self, text: str) -> int:
+        if _pending and (self._NOISE.match(text) or (self._dropped and text == "\n")):
+            self._dropped = text != "\n"
+            return len(text)
+        self._dropped = False
+        return self._stream.write(text)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
 def _handler(signum, frame):
     _pending.append(signum)
     raise Interrupted(signum)
@@ -82,12 +108,16 @@ def handling(signals=SIGNALS) -> Iterator[None]:
     previous = {s: signal.getsignal(s) for s in signals}
     _pending.clear()
     _depth += 1
+    stderr = sys.stderr
     try:
+        sys.stderr = _SolverNoiseFilter(stderr)
         for s in signals:
             signal.signal(s, _handler)
         yield
     finally:
         for s, h in previous.items():
             signal.signal(s, h if h is not None else signal.SIG_DFL)
+        if isinstance(sys.stderr, _SolverNoiseFilter):
+            sys.stderr = stderr
         _depth -= 1
         _pending.clear()
