@@ -8,7 +8,9 @@ import time
 from pathlib import Path
 
 from . import __version__
-from .errors import SceneError, SimulationError, SymgenError
+from .errors import Interrupted, SceneError, SimulationError, SymgenError
+from .outputs import check_file, check_folder
+from .run import interrupt
 
 
 def _scene(args):
@@ -16,75 +18,99 @@ def _scene(args):
     return load_scene(args.scene, args.set or [])
 
 
-def _check_out(path: str, suffixes: tuple, key: str) -> Path:
-    p = Path(path)
-    if p.suffix.lower() not in suffixes:
-        raise SceneError("command line", key, f"{path!r} should end in {' or '.join(suffixes)}",
-                         f"give a file name like out/result{suffixes[0]}")
-    return p
+def _check_out(path: str, suffixes: tuple, key: str, also=()) -> Path:
+    """An output file checked before any work (suffix, not a folder, its folder writable)."""
+    return check_file(path, suffixes, key, also)
+
+
+def _say(args, text: str) -> None:
+    if getattr(args, "verbose", False):
+        print(f"symgen: {text}", file=sys.stderr, flush=True)
+
+
+def _run_files(args):
+    """The files of simulate/quasistatic, checked before any work (nothing is created)."""
+    from .run.results import ResultFiles, partial_paths, partial_plot
+
+    out = _check_out(args.output, (".csv",), "-o", also=[Path(args.output).with_suffix(".json"),
+                                                         *partial_paths(Path(args.output))])
+    plot = _check_out(args.plot, (".png",), "--plot", also=[partial_plot(Path(args.plot))]) if args.plot else None
+    return ResultFiles(out, plot)
 
 
 def _prepare_run(args):
-    """Check the output paths, load the scene, compile it: (out, scene, compiled, mech, build_s)."""
+    """Load the scene, compile it: (scene, compiled, mech, build_s)."""
     from .pipeline import compile_scene
     from .run.mechanism import Mechanism
 
-    out = _check_out(args.output, (".csv",), "-o")
-    if args.plot:
-        _check_out(args.plot, (".png",), "--plot")
     scene = _scene(args)
     from .run.units import choose_system
     choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
+    _say(args, f"deriving {scene.name}")
     compiled = compile_scene(scene, use_cache=not args.no_cache)
     t0 = time.perf_counter()
     mech = Mechanism(compiled, scene)
-    return out, scene, compiled, mech, compiled.build_s + (time.perf_counter() - t0)
+    return scene, compiled, mech, compiled.build_s + (time.perf_counter() - t0)
 
 
 def _attempt(run):
-    """(result, failure): a run that stopped early keeps its partial result."""
+    """(result, failure): a run that stopped early (a failure, SIGINT/SIGTERM) keeps its partial result."""
     try:
         return run(), None
-    except SimulationError as err:
+    except (SimulationError, Interrupted) as err:
         return getattr(err, "partial", None), err
 
 
-def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
-    """CSV + JSON (partial when the run stopped), the plot if asked; re-raise a failure."""
-    from .run.results import write_results
+def _results_run(args, body) -> int:
+    """Run ``body(files)``; if it fails or is interrupted, no result of this name from an
+    earlier run is left looking complete (``ResultFiles.discard``)."""
+    files = _run_files(args)
+    try:
+        return body(files)
+    except BaseException:
+        files.discard()
+        raise
+
+
+def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
+    """CSV, JSON (partial when the run stopped), then the plot if asked; re-raise a failure.
+    Columns in the scene's units (SI for an SI scene unless --units dimensionless)."""
     from .run.units import result_units
 
     units = result_units(scene, args.units)
-    time, values = units.convert(result.tau, result.outputs)
+    t_col, values = units.convert(result.tau, result.outputs)
     meta["units"] = units.as_dict()
-    written = write_results(out, time, values, result.output_names, meta,
-                            complete=failure is None, time_name=units.time.name)
-    if args.plot:
+    complete = failure is None
+    written = files.write(t_col, values, result.output_names, meta, complete, time_name=units.time.name)
+    if failure is not None:
+        print(f"symgen: partial result kept in {written} ({meta['status']})", file=sys.stderr)
+    if files.plot is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
         from .plot import plot_outputs
         drv = scene.driver
         steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
         turn = 2 * math.pi / abs(drv.rate) if steady else None      # a law or a ramp: plotted against tau
-        plot_path = Path(args.plot)
-        if failure is not None:
-            plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
-        plot_outputs(plot_path, time, values, result.output_names, [o.kind for o in scene.outputs],
-                     title, partial=failure is not None, turn=None if turn is None else turn * units.time.factor,
-                     units=units)
+        plot_outputs(files.plot_path(complete), t_col, values, result.output_names,
+                     [o.kind for o in scene.outputs], title, partial=not complete,
+                     turn=None if turn is None else turn * units.time.factor, units=units)
     if failure is not None:
-        print(f"symgen: partial result kept in {written}", file=sys.stderr)
         raise failure
     return written
 
 
 def cmd_simulate(args) -> int:
+    return _results_run(args, lambda files: _simulate(args, files))
+
+
+def _simulate(args, files) -> int:
     from .run.simulate import simulate
 
-    out, scene, compiled, mech, build_s = _prepare_run(args)
+    scene, compiled, mech, build_s = _prepare_run(args)
+    _say(args, f"integrating tau 0 -> {scene.simulation.t_end:.6g}")
     result, failure = _attempt(lambda: simulate(mech))
     meta = _sidecar(scene, compiled, build_s, result, failure)
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "the run produced no output")
-    written = _write_run(args, out, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
+    written = _write_run(args, files, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
     print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; IDAS steps {result.steps}; "
           + (f"model loaded from cache {build_s:.2f}s, " if compiled.cached else f"derived {compiled.derive_s:.2f}s, ")
@@ -100,7 +126,8 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
         "scene": str(scene.path),
         "scene_hash": scene.hash,
         "symgen_version": __version__,
-        "status": "complete" if failure is None else "partial",
+        "status": ("complete" if failure is None else
+                   "interrupted" if isinstance(failure, Interrupted) else "partial"),
         "failure": None if failure is None else str(failure),
         "groups": scene.groups,
         "effects": {
@@ -134,7 +161,7 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
 def cmd_latex(args) -> int:
     from .dae import derive
     from .emit.latex import latex_document
-    from .run.results import atomic_write
+    from .outputs import atomic_write
 
     out = _check_out(args.output, (".tex",), "-o")
     scene = _scene(args)
@@ -148,6 +175,7 @@ def cmd_derive(args) -> int:
     from .golden import write_generated
     from .scene import load_scene
 
+    check_folder(args.output, "-o")
     for path in args.scenes:
         scene = load_scene(path, args.set or [])
         target = write_generated(scene, Path(args.output))
@@ -156,8 +184,9 @@ def cmd_derive(args) -> int:
 
 
 def cmd_study(args) -> int:
-    from .run.study import run_study, write_study
+    from .run.study import discard_study, run_study, write_study
 
+    check_folder(args.output, "-o")
     levels = None
     if args.levels:
         try:
@@ -173,12 +202,25 @@ def cmd_study(args) -> int:
         except ValueError:
             raise SceneError("command line", "--tolerances", f"{args.tolerances!r} is not a list like 1e-4,1e-6",
                              "give rtol values separated by commas") from None
-    study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
-                      window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
-                      ref_rtol=args.ref_rtol, progress=None if args.silent else print)
+    try:
+        study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
+                          window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
+                          ref_rtol=args.ref_rtol, progress=None if args.silent else _flush_print)
+    except BaseException as err:
+        partial = getattr(err, "partial", None)
+        if partial is not None:       # interrupted after the reference: the rows done, marked partial
+            paths = write_study(partial, args.output, with_plot=False)
+            print(f"symgen: partial study kept in {paths[1]} ({partial.status})", file=sys.stderr)
+        else:
+            discard_study(args.output)
+        raise
     for path in write_study(study, args.output):
         print(f"wrote {path}")
     return 0
+
+
+def _flush_print(text: str) -> None:
+    print(text, flush=True)
 
 
 def cmd_effects(args) -> int:
@@ -196,8 +238,13 @@ def cmd_effects(args) -> int:
         report = auto_effects(args.scene, args.set or [], tol=args.auto, output=args.output, cycles=args.cycles,
                               outputs=outputs)
     elif args.measure:
-        report = measure_effects(args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles,
-                                 outputs=outputs)
+        try:
+            report = measure_effects(args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles,
+                                     outputs=outputs)
+        except Interrupted as err:
+            if err.partial is not None:     # the rows measured before the signal
+                print(table(err.partial), flush=True)
+            raise
     else:
         report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL, outputs)
     print(table(report))
@@ -205,9 +252,14 @@ def cmd_effects(args) -> int:
 
 
 def cmd_quasistatic(args) -> int:
+    return _results_run(args, lambda files: _quasistatic(args, files))
+
+
+def _quasistatic(args, files) -> int:
     from .run.quasistatic import quasi_static
 
-    out, scene, compiled, mech, build_s = _prepare_run(args)
+    scene, compiled, mech, build_s = _prepare_run(args)
+    _say(args, "solving the quasi-static positions")
     result, failure = _attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles))
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "no input position was solved")
@@ -216,7 +268,7 @@ def cmd_quasistatic(args) -> int:
     meta["solver"] = result.solver_info()
     meta["timings"]["solve_s"] = result.solve_s
     meta["t_end"] = float(result.tau[-1])
-    written = _write_run(args, out, scene, result, meta, failure,
+    written = _write_run(args, files, scene, result, meta, failure,
                          f"{scene.name}: quasi-static response, {Path(scene.path).name}")
     info = meta["solver"]
     print(f"wrote {written} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
@@ -231,16 +283,21 @@ def cmd_modes(args) -> int:
     from .pipeline import compile_scene
     from .run.mechanism import Mechanism
     from .run.modes import modes, modes_json, modes_table
-    from .run.results import atomic_write
+    from .outputs import atomic_write, remove
 
     out = _check_out(args.output, (".json",), "-o") if args.output else None
-    scene = _scene(args)
-    compiled = compile_scene(scene, use_cache=not args.no_cache)
-    result = modes(Mechanism(compiled, scene), tau=args.at)
-    print(modes_table(result, scene))
-    if out is not None:
-        atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
-        print(f"wrote {out}")
+    try:
+        scene = _scene(args)
+        compiled = compile_scene(scene, use_cache=not args.no_cache)
+        result = modes(Mechanism(compiled, scene), tau=args.at)
+        print(modes_table(result, scene))
+        if out is not None:
+            atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
+            print(f"wrote {out}")
+    except BaseException:
+        if out is not None:
+            remove([out])         # no result of an earlier run left behind looking like this one's
+        raise
     return 0
 
 
@@ -267,6 +324,7 @@ def cmd_schema(args) -> int:
 def cmd_reproduce(args) -> int:
     from .run.reproduce import reproduce
 
+    check_folder(args.output, "-o")
     for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print):
         print(f"wrote {path}")
     return 0
@@ -275,6 +333,7 @@ def cmd_reproduce(args) -> int:
 def cmd_emit_c(args) -> int:
     from .emit.c import write_c
 
+    check_folder(args.output, "-o")
     scene = _scene(args)
     out = write_c(scene, args.output)
     print(f"wrote {out} (build: cmake -S {out} -B {out}/build && cmake --build {out}/build)")
@@ -322,6 +381,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
                    help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
                         "dimensionless keeps tau and the model's units)")
+    p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_simulate)
 
     p = scene_cmd("latex", "write the derived equations as a LaTeX document")
@@ -367,6 +427,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
                    help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_quasistatic)
 
     p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
@@ -403,22 +464,38 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run one command. Exit codes: 0 done, 2 a user-facing error (bad input, a run that
+    failed: message names the file/key or tau), 3 an internal error, 130 / 143 stopped by
+    SIGINT / SIGTERM (a partial result kept, marked "interrupted")."""
     ap = build_parser()
     args = ap.parse_args(argv)
     try:
-        return args.func(args)
-    except SymgenError as err:
+        with interrupt.handling():
+            try:
+                return args.func(args)
+            except BaseException as err:
+                return _report(err, args)
+    except KeyboardInterrupt as err:      # a second signal while reporting the first
+        return getattr(err, "exit_code", 130)
+
+
+def _report(err: BaseException, args) -> int:
+    if isinstance(err, SystemExit):
+        raise err
+    stop = interrupt.interrupted(err)     # any failure while a signal is pending is the interrupt
+    if isinstance(stop, KeyboardInterrupt):
+        print(f"symgen: {stop if isinstance(stop, Interrupted) else 'interrupted'}", file=sys.stderr)
+        return getattr(stop, "exit_code", 130)
+    if isinstance(err, SymgenError):
         print(f"symgen: error: {err}", file=sys.stderr)
         return err.exit_code
-    except KeyboardInterrupt:
-        print("symgen: interrupted", file=sys.stderr)
-        return 130
-    except Exception as err:  # an internal error: say so plainly
+    if isinstance(err, Exception):        # an internal error: say so plainly
         if args.debug:
-            raise
+            raise err
         print(f"symgen: internal error: {type(err).__name__}: {err} (rerun with --debug for the traceback; "
               f"please report it)", file=sys.stderr)
         return 3
+    raise err
 
 
 if __name__ == "__main__":

@@ -37,3 +37,32 @@ class SimulationError(SymgenError):
         if hint:
             text += f" ({hint})"
         super().__init__(text)
+
+
+class Interrupted(KeyboardInterrupt):
+    """The run was stopped by SIGINT (Ctrl-C) or SIGTERM: exit code 130 or 143.
+
+    A ``KeyboardInterrupt`` (not a ``SymgenError``), so that no ``except SymgenError`` or
+    ``except Exception`` of a loop that tolerates failed items swallows it. Raised by the
+    handlers of ``symgen.run.interrupt.handling``; a run that stops keeps what it computed
+    in ``partial`` (as ``SimulationError`` does), to be written marked ``"interrupted"``.
+    """
+
+    def __init__(self, signum: int | None = None, tau: float | None = None) -> None:
+        import signal
+
+        self.signum = signal.SIGINT if signum is None else signum
+        try:
+            self.signal_name = signal.Signals(self.signum).name
+        except ValueError:
+            self.signal_name = f"signal {self.signum}"
+        self.exit_code = 128 + int(self.signum)
+        self.tau = tau
+        self.partial = None
+        text = f"interrupted by {self.signal_name}"
+        if tau is not None:
+            text += f" at tau = {tau:.6g}"
+        super().__init__(text)
+
+    def __reduce__(self):          # picklable (worker processes), without the partial result
+        return (type(self), (self.signum, self.tau))

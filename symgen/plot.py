@@ -68,5 +68,9 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
                 ax.axvline(c, color="0.7", lw=0.5)
     fig.suptitle(title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    from .outputs import atomic_path
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=120, format="png")
+    finally:
+        plt.close(fig)

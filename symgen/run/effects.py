@@ -61,7 +61,9 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import SceneError, SymgenError
+from ..errors import Interrupted, SceneError, SymgenError
+from ..outputs import atomic_write
+from . import interrupt
 from ..scene import load_scene
 from ..scene.loader import read_toml
 from ..scene.overrides import apply_overrides
@@ -133,6 +135,7 @@ class EffectsReport:
     rows: list
     reference: dict = field(default_factory=dict)      # steps, simulate_s, window of the measure runs
     auto: dict = field(default_factory=dict)           # chosen overrides, verified error, file
+    stopped: str = ""                                  # "interrupted by SIGINT ..." of a partial report
 
 
 # --------------------------------------------------------------------------- estimates
@@ -322,6 +325,7 @@ class _Runs:
             mech = mechanism(self.path, [*self.overrides, *extra])
             res = simulate(mech, t_end=self.t_end, output_step=self.step)
         except SymgenError as err:
+            interrupt.check()        # a failure while SIGINT/SIGTERM is pending is the interrupt
             out["status"] = f"failed: {err}"
             return out
         out.update(steps=res.steps, simulate_s=res.simulate_s, res=res)
@@ -353,12 +357,29 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
     default every output but closure residuals)."""
     runs = runs or _Runs(str(path), overrides, cycles, outputs)
     report = estimate_effects(load_scene(path, overrides), tol, runs.compared)
-    for row in report.rows:
-        r = runs.run([row.change.override])
-        row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
-        row.worst = r["worst"]
     report.reference = {"steps": runs.ref["steps"], "simulate_s": runs.ref["simulate_s"], "t_end": runs.t_end,
                         "output_step": runs.step, "outputs": list(runs.compared)}
+    try:
+        for row in report.rows:
+            interrupt.check()
+            r = runs.run([row.change.override])
+            row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
+            row.worst = r["worst"]
+    except BaseException as err:
+        # the rows measured so far: a partial report, its other rows marked not measured (any
+        # failure while a signal is pending is the interrupt: CasADi reports it as its own error)
+        stop = interrupt.interrupted(err)
+        if not isinstance(stop, Interrupted):
+            raise
+        for row in report.rows:
+            if not row.status:
+                row.status = "not measured (interrupted)"
+        report.stopped = str(stop)
+        recommend(report)
+        stop.partial = report
+        if stop is err:
+            raise
+        raise stop from None
     recommend(report)
     return report
 
@@ -395,8 +416,7 @@ def auto_effects(path: str, overrides: Sequence[str] = (), *, tol: float, output
     text = toml_text(raw, header)
     load_scene_text_check(text, str(output))
     out = Path(output)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
+    atomic_write(out, text)
     report.auto = {"chosen": [c.key for c in chosen], "overrides": [c.override for c in chosen],
                    "verified_error": verified["error"], "steps": verified["steps"],
                    "simulate_s": verified["simulate_s"], "file": str(out), "tried": tried}
@@ -491,8 +511,8 @@ def table(report: EffectsReport) -> str:
     for r in report.rows:
         cells = [r.change.key, f"{r.estimate:.1e}", r.detail]
         if measured:
-            if r.status.startswith("failed"):
-                cells += [r.status[:60], "-", "-", "-", "-"]
+            if r.status != "ok" or r.error is None:
+                cells += [r.status[:60] or "-", "-", "-", "-", "-"]
             else:
                 speed = f"{ref_s / r.simulate_s:.2f}x" if (ref_s and r.simulate_s) else "-"
                 cells += [f"{r.error:.1e}", r.worst, str(r.steps), f"{r.simulate_s:.2f}", speed]
@@ -501,6 +521,8 @@ def table(report: EffectsReport) -> str:
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
     fmt = "  ".join("{:<%d}" % w for w in widths)
     lines = [f"effects of {report.scene} (tol {report.tol:g})"]
+    if report.stopped:
+        lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:
         ref = report.reference
         lines.append(f"measured over tau in [0, {ref['t_end']:.4g}], output step {ref['output_step']:.3g}, outputs "

@@ -46,7 +46,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import SceneError, SimulationError
+from ..errors import Interrupted, SceneError, SimulationError
+from . import interrupt
 from .mechanism import SINGULAR_RATIO, Mechanism, Partition
 
 KINEMATICS = ("deformed", "rigid")
@@ -339,6 +340,7 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
     try:
         for t in taus:
             t = float(t)
+            interrupt.check(rows["tau"][-1] if rows["tau"] else None)
             qr, vr, ar = sys_.rigid_state(t, q_guess)
             y, rep = sys_.solve(t, qr, vr, ar, y)
             qq, vv, aa, ll = sys_.state(t, qr, vr, ar, y)
@@ -350,10 +352,17 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
                 rows[k].append(val)
             reports.append(rep)
             q_guess = qr
-    except SimulationError as err:
-        exc = err
+    except (SimulationError, Interrupted, RuntimeError) as err:
+        # a failure while SIGINT/SIGTERM is pending is the interrupt (CasADi swallows it)
+        exc = interrupt.interrupted(err, rows["tau"][-1] if rows["tau"] else None)
+        if not isinstance(exc, (SimulationError, Interrupted)):
+            raise
     solve_s = time.perf_counter() - tic
     n_out = len(mech.meta["outputs"])
+    # an interrupt may land between the appends of one position: keep the positions recorded whole
+    n = min(len(reports), *(len(v) for v in rows.values()))
+    rows = {k: v[:n] for k, v in rows.items()}
+    reports = reports[:n]
     result = QuasiStaticResult(
         tau=np.array(rows["tau"]), outputs=np.array(rows["out"]).reshape(-1, n_out),
         output_names=list(mech.meta["outputs"]), q=np.array(rows["q"]), v=np.array(rows["v"]),

@@ -27,6 +27,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..outputs import atomic_path, atomic_write, remove
 from ..scene import load_scene
 from ..scene.model import GROUND, Output, Scene
 
@@ -138,8 +139,11 @@ class Figures:
             fig.text(0.012, (0.05 + 0.17 * (len(note_lines) - 1 - k)) / height, line, fontsize=7.5,
                      color="0.3", ha="left", va="bottom")
         path = self.out / f"{name}.png"
-        fig.savefig(path, dpi=140)
-        plt.close(fig)
+        try:
+            with atomic_path(path) as tmp:
+                fig.savefig(tmp, dpi=140, format="png")
+        finally:
+            plt.close(fig)
         self.written.append(path)
         return path
 
@@ -462,8 +466,6 @@ FIGURE_TEXT = {
 
 
 def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float) -> Path:
-    from .results import atomic_write
-
     lines = ["# Figures of the seed paper, reproduced by symgen", "",
              "Analogues of figures G.1-G.12 of Riesco, Garcia-Lomas & Dominguez (section 6), written by "
              "`symgen reproduce`" + (" --quick (coarse output step: a smoke run, not for reading)" if quick else "")
@@ -493,13 +495,42 @@ def reproduce(out_dir, quick: bool = False, examples=None,
     figs = Figures(out)
     notes: list = []
     missing: list = []
-    _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
-    _four_bar(ex / "four_bar.toml", figs, quick, notes, progress)
-    inv = ex / "inverted_slider_crank.toml"
-    if inv.exists():
-        _inverted(inv, figs, quick, notes, progress)
-    else:
-        missing.append("G.11-G.12 (inverted slider-crank) are not drawn: `examples/inverted_slider_crank.toml` "
-                       "does not exist.")
+    try:
+        _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
+        _four_bar(ex / "four_bar.toml", figs, quick, notes, progress)
+        inv = ex / "inverted_slider_crank.toml"
+        if inv.exists():
+            _inverted(inv, figs, quick, notes, progress)
+        else:
+            missing.append("G.11-G.12 (inverted slider-crank) are not drawn: `examples/inverted_slider_crank.toml` "
+                           "does not exist.")
+    except BaseException as err:
+        _stopped(out, figs, notes, err, time.perf_counter() - tic)
+        raise
     readme = _readme(out, notes, quick, missing, time.perf_counter() - tic)
+    remove([out / PARTIAL_README])
     return figs.written + [readme]
+
+
+PARTIAL_README = "README.partial.md"
+
+
+def _stopped(out: Path, figs: Figures, notes: list, err: BaseException, total_s: float) -> Path:
+    """A run that failed or was interrupted: the README of a complete run and figures of an
+    earlier run that this one did not redraw go; ``README.partial.md`` says what was drawn."""
+    from ..errors import Interrupted
+    from . import interrupt
+
+    err = interrupt.interrupted(err)
+    status = "interrupted" if isinstance(err, Interrupted) else "failed"
+    written = {p.name for p in figs.written}
+    remove([out / "README.md", *(p for p in out.glob("G[0-9][0-9]_*.png") if p.name not in written)])
+    lines = ["# Figures of the seed paper: PARTIAL run of `symgen reproduce`", "",
+             f"status: {status}", f"cause: {err}", f"after: {total_s:.0f} s", "",
+             "Only these figures were drawn by this run (the others are missing):", ""]
+    lines += [f"* `{name}`" for name in sorted(written)] or ["* none"]
+    for note in notes:
+        lines += ["", f"Measured ({note['example']}):", *(f"* {x}" for x in note["lines"])]
+    path = out / PARTIAL_README
+    atomic_write(path, "\n".join(lines) + "\n")
+    return path

@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..errors import SimulationError
+from ..errors import Interrupted, SimulationError
+from . import interrupt
 from .mechanism import SINGULAR_RATIO, Mechanism, Partition, index1
 
 CHUNK = 128         # output steps per integrator call
@@ -243,11 +244,17 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             k = min(CHUNK, n_out_total - done)
             t_start = t0 + done * h
             pfull[-1] = t_start
+            interrupt.check(taus[-1])
             try:
                 F = run.integrator(h, k, x, z)
                 sol = F(x0=x, z0=z, p=pfull)
                 steps += int(F.stats()["nsteps"])
             except RuntimeError as err:
+                # SIGINT/SIGTERM inside IDAS comes back as a residual failure: it is the
+                # interrupt, reported at once (no step-by-step retry)
+                stop = interrupt.interrupted(err, taus[-1])
+                if isinstance(stop, Interrupted):
+                    raise stop from None
                 # locate the failure within one output step, keeping what was computed
                 for i in range(k):
                     pfull[-1] = t_start + i * h
@@ -255,12 +262,16 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
                         F1 = run.integrator(h, 1, x, z)
                         sol = F1(x0=x, z0=z, p=pfull)
                     except RuntimeError as err1:
+                        stop = interrupt.interrupted(err1, taus[-1])
+                        if isinstance(stop, Interrupted):
+                            raise stop from None
                         raise _lost(mech, part, t_start + i * h, qs[-1], taus[-1],
                                     f"IDAS failed: {_idas_cause(err1)}") from None
                     steps += int(F1.stats()["nsteps"])
                     x = np.array(sol["xf"]).ravel()
                     z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
                     record(t_start + (i + 1) * h, x, z)
+                    interrupt.check(taus[-1])
                 raise SimulationError(t_start, f"IDAS failed in a chunk but not step by step: {_idas_cause(err)}") from None
             X, Z = np.array(sol["xf"]), np.array(sol["zf"])
             rel = h * np.arange(1, k + 1)
@@ -268,14 +279,19 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             record_many(t_start + rel, rel, X, Z, pfull)
             x, z = X[:, -1], Z[:, -1]
             done += k
-    except SimulationError as err:
-        failure = str(err)
-        exc = err
+    except (SimulationError, Interrupted, RuntimeError) as err:
+        exc = interrupt.interrupted(err, taus[-1] if taus else t0)
+        if not isinstance(exc, (SimulationError, Interrupted)):
+            raise
+        failure = str(exc)
     else:
         exc = None
     elapsed = time.perf_counter() - tic
-    result = SimResult(tau=np.array(taus), outputs=np.array(outs), output_names=list(mech.meta["outputs"]),
-                       q=np.array(qs), v=np.array(vs), lam=np.array(lams), closure_max=closure_max,
+    # an interrupt may land between the appends of one output: keep the outputs recorded whole
+    n_rec = min(len(taus), len(outs), len(qs), len(vs), len(lams))
+    result = SimResult(tau=np.array(taus[:n_rec]), outputs=np.array(outs[:n_rec]),
+                       output_names=list(mech.meta["outputs"]), q=np.array(qs[:n_rec]), v=np.array(vs[:n_rec]),
+                       lam=np.array(lams[:n_rec]), closure_max=closure_max,
                        steps=steps, simulate_s=elapsed, partition=part, complete=exc is None, failure=failure)
     if exc is not None:
         exc.partial = result

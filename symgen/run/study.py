@@ -45,8 +45,10 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import SceneError, SymgenError
+from ..errors import Interrupted, SceneError, SymgenError
+from ..outputs import atomic_path, atomic_write, remove
 from ..scene import load_scene
+from . import interrupt
 
 #: mode levels (axial, transverse) per elastic bar, poorest to richest
 LEVELS = ((1, 1), (2, 2), (3, 3), (3, 4), (4, 6), (6, 8))
@@ -122,6 +124,9 @@ class Study:
     compared: list
     notes: list = field(default_factory=list)
     oversample: int = 1
+    status: str = "complete"     # or "interrupted" (rows: the configurations run before the signal)
+    stopped: str = ""            # the cause when not complete
+    planned: int = 0             # configurations planned
 
 
 # --------------------------------------------------------------------------- errors
@@ -329,6 +334,7 @@ class _Runner:
         except SceneError:
             raise
         except SymgenError as err:
+            interrupt.check()        # a failure while SIGINT/SIGTERM is pending is the interrupt
             row.status = f"failed: {err}"
         return row
 
@@ -418,16 +424,33 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
     cutoff = cutoff_per_turn / turn
     n_window = int(round(window_turns * turn / dt)) + 1
     rows = []
-    for i, cfg in enumerate(configs):
-        say(f"[{i + 1}/{len(configs)}] {cfg.label}")
-        row = runner.run(cfg)
-        _compare(row, ref, names, compared, dt, cutoff, n_window)
-        rows.append(row)
-        say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
-    return Study(scene_path=str(scene_path), scene_name=scene.name, overrides=tuple(overrides), elastic=elastic,
-                 turn=turn, t_end=float(ref.tau[-1]), window=min(window_turns * turn, float(ref.tau[-1])),
-                 cutoff=cutoff, repeats=max(1, repeats), reference=ref, rows=rows, output_names=names,
-                 compared=compared, notes=notes, oversample=k)
+
+    def study(status: str = "complete", stopped: str = "") -> Study:
+        return Study(scene_path=str(scene_path), scene_name=scene.name, overrides=tuple(overrides),
+                     elastic=elastic, turn=turn, t_end=float(ref.tau[-1]),
+                     window=min(window_turns * turn, float(ref.tau[-1])), cutoff=cutoff, repeats=max(1, repeats),
+                     reference=ref, rows=list(rows), output_names=names, compared=compared, notes=notes,
+                     oversample=k, status=status, stopped=stopped, planned=len(configs))
+
+    try:
+        for i, cfg in enumerate(configs):
+            interrupt.check()
+            say(f"[{i + 1}/{len(configs)}] {cfg.label}")
+            row = runner.run(cfg)
+            _compare(row, ref, names, compared, dt, cutoff, n_window)
+            rows.append(row)
+            say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
+    except BaseException as err:
+        # the rows done so far are a partial study (written marked "interrupted"); any failure
+        # while a signal is pending is the interrupt (CasADi reports it as its own error)
+        stop = interrupt.interrupted(err)
+        if not isinstance(stop, Interrupted):
+            raise
+        stop.partial = study("interrupted", str(stop))
+        if stop is err:
+            raise
+        raise stop from None
+    return study()
 
 
 # --------------------------------------------------------------------------- choosing and writing
@@ -515,11 +538,14 @@ def _pct(x: float) -> str:
     return f"{100 * x:.3g} %"
 
 
-def markdown(study: Study, png_name: str = "study.png") -> str:
+def markdown(study: Study, png_name: str | None = "study.png") -> str:
     ref = study.reference
     turns = study.t_end / study.turn
     unc = reference_uncertainty(study)
     lines = [f"# Accuracy vs time: `{study.scene_path}`", ""]
+    if study.status != "complete":
+        lines += [f"**PARTIAL STUDY ({study.status}: {study.stopped}): {len(study.rows)} of {study.planned} "
+                  f"configurations were run; the picks below are among those only.**", ""]
     if study.overrides:
         lines += [f"Scene overrides: `{' '.join('--set ' + o for o in study.overrides)}`", ""]
     lines += [
@@ -562,8 +588,8 @@ def markdown(study: Study, png_name: str = "study.png") -> str:
             cells.append("—" if r is None else f"{r.config.label}{'' if certified else ' †'} "
                                                f"({_pct(r.errors[name])}, {r.integrate_s / turns:.3g} s/turn)")
         lines.append(f"| {name} | {_pct(output_uncertainty(study, name))} | " + " | ".join(cells) + " |")
-    lines += ["", f"![error vs integration time]({png_name})", "",
-              "## Every configuration", "",
+    lines += [""] + ([f"![error vs integration time]({png_name})", ""] if png_name else [])
+    lines += ["## Every configuration", "",
               "| configuration | group | coords | res ops | derive s | build s | integrate s / turn | IDAS steps | "
               "error | worst output | spectral | speed-up |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in study.rows:
@@ -619,8 +645,11 @@ def plot(study: Study, path: str | Path) -> None:
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, loc="lower left")
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130, format="png")
+    finally:
+        plt.close(fig)
 
 
 def _labels(ax, fig, points) -> None:
@@ -657,14 +686,35 @@ def _labels(ax, fig, points) -> None:
                     arrowprops=None if abs(dy) < 5 else {"arrowstyle": "-", "lw": 0.4, "color": "gray"})
 
 
-def write_study(study: Study, directory: str | Path) -> list[Path]:
-    """Write study.csv, study.md and study.png into ``directory``; return their paths."""
-    from .results import atomic_write
+def study_paths(directory: str | Path, complete: bool = True) -> list[Path]:
+    """study.csv, study.md, study.png (or their ``study.partial.*`` twins) in ``directory``."""
+    stem = "study" if complete else "study.partial"
+    return [Path(directory) / f"{stem}.{ext}" for ext in ("csv", "md", "png")]
 
+
+def write_study(study: Study, directory: str | Path, with_plot: bool = True) -> list[Path]:
+    """Write study.csv, study.md and study.png into ``directory`` (CSV first, the plot last);
+    a partial study writes ``study.partial.*`` and removes the files of an earlier complete
+    study, a complete one removes stale ``study.partial.*``. Return the paths written
+    (``with_plot=False``: no PNG, e.g. when stopping on a signal, where time counts)."""
     d = Path(directory)
+    complete = study.status == "complete"
+    paths = study_paths(d, complete)
+    remove(study_paths(d, not complete) + paths[1:])
+    if not with_plot:
+        paths = paths[:2]
     d.mkdir(parents=True, exist_ok=True)
-    paths = [d / "study.csv", d / "study.md", d / "study.png"]
-    atomic_write(paths[0], csv_text(study))
-    atomic_write(paths[1], markdown(study, paths[2].name))
-    plot(study, paths[2])
+    try:
+        atomic_write(paths[0], csv_text(study))
+        atomic_write(paths[1], markdown(study, paths[2].name if with_plot else None))
+        if with_plot:
+            plot(study, paths[2])
+    except BaseException:
+        remove(paths)
+        raise
     return paths
+
+
+def discard_study(directory: str | Path) -> None:
+    """A study that failed before any result: remove the files of earlier studies there."""
+    remove(study_paths(directory, True) + study_paths(directory, False))
