@@ -2,9 +2,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from . import __version__
@@ -14,6 +16,50 @@ from .errors import SceneError, SimulationError, SymgenError
 def _scene(args):
     from .scene import load_scene
     return load_scene(args.scene, args.set or [])
+
+
+@contextlib.contextmanager
+def _scene_warnings():
+    """Print scene warnings (loose tolerances, ...) as one plain line on stderr."""
+    from .scene.limits import SceneWarning
+
+    with warnings.catch_warnings():
+        previous = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, SceneWarning):
+                print(f"symgen: warning: {message}", file=sys.stderr)
+            else:
+                previous(message, category, filename, lineno, file, line)
+        warnings.showwarning = show
+        yield
+
+
+def _bounded(kind=float, *, gt=None, ge=None, lt=None, le=None):
+    """An argparse type: a finite ``kind`` (float or int) within the given bounds."""
+    bounds = " and ".join(f"{op} {b:g}" for op, b in ((">", gt), (">=", ge), ("<", lt), ("<=", le)) if b is not None)
+    wanted = f"{'an integer' if kind is int else 'a finite number'}{' ' + bounds if bounds else ''}"
+
+    def parse(text: str):
+        try:
+            x = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}") from None
+        if not (math.isfinite(x) and (gt is None or x > gt) and (ge is None or x >= ge)
+                and (lt is None or x < lt) and (le is None or x <= le)):
+            raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}")
+        return x
+    return parse
+
+
+_RTOL = _bounded(ge=1e-14, lt=1.0)      # the scene loader's range of simulation.rtol
+
+
+def cmd_check(args) -> int:
+    from .scene.summary import summary
+
+    print(summary(_scene(args)))
+    return 0
 
 
 def _check_out(path: str, suffixes: tuple, key: str) -> Path:
@@ -156,10 +202,10 @@ def cmd_study(args) -> int:
     tols = None
     if args.tolerances:
         try:
-            tols = [float(x) for x in args.tolerances.split(",")]
-        except ValueError:
+            tols = [_RTOL(x) for x in args.tolerances.split(",")]
+        except (ValueError, argparse.ArgumentTypeError):
             raise SceneError("command line", "--tolerances", f"{args.tolerances!r} is not a list like 1e-4,1e-6",
-                             "give rtol values separated by commas") from None
+                             "give rtol values in [1e-14, 1) separated by commas") from None
     study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
                       window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
                       ref_rtol=args.ref_rtol, progress=None if args.silent else print)
@@ -271,6 +317,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="override a scene value by dotted path (repeatable)")
         return p
 
+    p = scene_cmd("check", "validate a scene (and --set overrides) without deriving; print a summary")
+    p.set_defaults(func=cmd_check)
+
     p = scene_cmd("simulate", "simulate a scene with IDAS; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
@@ -290,23 +339,23 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("study", "accuracy vs time: sweep modes, tolerances and effects against a converged reference")
     p.add_argument("-o", "--output", required=True, help="folder for study.csv, study.md, study.png")
     p.add_argument("--quick", action="store_true", help="fewer mode levels and tolerances, no per-bar rows")
-    p.add_argument("--repeats", type=int, default=3, help="timed repeats, medians reported (default 3)")
-    p.add_argument("--window", type=float, default=1.0, help="early window of the pointwise error, crank turns")
-    p.add_argument("--cutoff", type=float, default=50.0, help="low-pass cutoff of compared outputs, cycles per turn")
+    p.add_argument("--repeats", type=_bounded(int, ge=1), default=3, help="timed repeats, medians reported (default 3)")
+    p.add_argument("--window", type=_bounded(gt=0.0), default=1.0, help="early window of the pointwise error, crank turns")
+    p.add_argument("--cutoff", type=_bounded(gt=0.0), default=50.0, help="low-pass cutoff of compared outputs, cycles per turn")
     p.add_argument("--levels", help="mode levels axial+transverse per elastic bar, e.g. 1+1,3+4,6+8 "
                                     "(the last is the reference's)")
     p.add_argument("--tolerances", help="rtol values of the sweep, e.g. 1e-4,1e-6,1e-8 (atol = rtol/100)")
-    p.add_argument("--ref-rtol", type=float, default=1e-9, help="rtol of the reference (default 1e-9)")
+    p.add_argument("--ref-rtol", type=_RTOL, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_study)
     p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
                              "the smallest verified effect set with --auto TOL")
     p.add_argument("--measure", action="store_true", help="short runs with and without each effect")
-    p.add_argument("--auto", type=float, metavar="TOL", help="prune effects while outputs stay within TOL "
+    p.add_argument("--auto", type=_bounded(gt=0.0, lt=1.0), metavar="TOL", help="prune effects while outputs stay within TOL "
                    "of the full model (verified by a run); write the scene with -o")
     p.add_argument("-o", "--output", help="TOML file for the scene written by --auto")
-    p.add_argument("--tol", type=float, default=None, help="tolerance of the recommendations (default 1e-3)")
-    p.add_argument("--cycles", type=float, default=None, help="crank turns of the measuring runs (default 1)")
+    p.add_argument("--tol", type=_bounded(gt=0.0, lt=1.0), default=None, help="tolerance of the recommendations (default 1e-3)")
+    p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns of the measuring runs (default 1)")
     p.add_argument("--outputs", help="compare only these outputs (comma-separated names; default all but "
                                      "closure residuals)")
     p.set_defaults(func=cmd_effects)
@@ -314,14 +363,15 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
-    p.add_argument("--cycles", type=float, default=None, help="crank turns to cover (default 1)")
+    p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns to cover (default 1)")
     p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
                    help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_quasistatic)
 
     p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
-    p.add_argument("--at", type=float, default=0.0, metavar="TAU", help="input position tau (default 0)")
+    p.add_argument("--at", type=_bounded(ge=-1e3, le=1e3), default=0.0, metavar="TAU",
+                   help="input position tau, |TAU| <= 1000 (default 0)")
     p.add_argument("-o", "--output", help="JSON file to write")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_modes)
@@ -347,7 +397,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = build_parser()
     args = ap.parse_args(argv)
     try:
-        return args.func(args)
+        with _scene_warnings():
+            return args.func(args)
     except SymgenError as err:
         print(f"symgen: error: {err}", file=sys.stderr)
         return err.exit_code
