@@ -133,10 +133,19 @@ def structure_problem(node: object, path: str = "", limit: int = MAX_DEPTH) -> t
         if isinstance(value, dict):
             stack.extend((v, f"{where}.{k}" if where else str(k), depth + 1) for k, v in value.items())
         elif isinstance(value, list):
-            stack.extend((v, f"{where}[{i}]", depth + 1) for i, v in enumerate(value))
+            stack.extend((v, _entry_key(where, i, v), depth + 1) for i, v in enumerate(value))
         elif isinstance(value, int) and not INT64[0] <= value <= INT64[1]:
             return where, f"an integer of {value.bit_length()} bits, beyond TOML's 64-bit integers"
     return None
+
+
+def _entry_key(where: str, i: int, entry: object) -> str:
+    """``bodies.rod`` for a named entry of [[bodies]] or [[joints]] (as messages address them),
+    else ``where[i]``."""
+    name = entry.get("name") if isinstance(entry, dict) else None
+    if where in ("bodies", "joints") and isinstance(name, str) and name.isidentifier():
+        return f"{where}.{name}"
+    return f"{where}[{i}]"
 
 
 def short_key(key: str, width: int = 80) -> str:

@@ -83,10 +83,40 @@ def read_toml(file: str) -> dict:
         raise SceneError(file, "", f"cannot read a value: {str(exc).split(';')[0]}",
                          "fix the value") from None
     except RecursionError:
-        raise SceneError(file, "", f"arrays or inline tables nested too deeply (at most {MAX_DEPTH} "
-                         "levels)", "a scene needs a few levels; check the brackets") from None
+        line = nesting_line(text)
+        raise SceneError(file, "", f"arrays or inline tables nested too deeply{f' at line {line}' if line else ''} "
+                         f"(at most {MAX_DEPTH} levels)", "a scene needs a few levels; check the brackets") from None
     check_structure(raw, file)
     return raw
+
+
+def nesting_line(text: str) -> int | None:
+    """The line where brackets/braces first nest deeper than MAX_DEPTH (strings and comments
+    skipped, roughly: enough to point at the place), or None."""
+    depth, line, quote, comment, escaped = 0, 1, "", False, False
+    for ch in text:
+        if ch == "\n":
+            line, comment = line + 1, False
+        elif comment:
+            continue
+        elif quote:
+            if escaped:
+                escaped = False
+            elif ch == "\\" and quote == '"':
+                escaped = True
+            elif ch == quote:
+                quote = ""
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            comment = True
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_DEPTH:
+                return line
+        elif ch in "]}":
+            depth = max(0, depth - 1)
+    return None
 
 
 def check_structure(raw: dict, file: str, key: str = "", levels: int = MAX_DEPTH) -> None:
