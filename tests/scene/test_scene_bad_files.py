@@ -110,7 +110,7 @@ BAD_CASES = [
     ('joint_named_ground', 'joints[0].name', "joint name 'ground' is not allowed: it is reserved"),
     ('output_named_ground', 'outputs.ground', "output name 'ground' is not allowed: it is reserved"),
     ('joint_named_like_body', 'joints.rod.name', "joint name 'rod' is also the name of a body"),
-    ('deep_nesting', '', 'nested too deeply (at most 16 levels)'),
+    ('deep_nesting', '', 'nested too deeply at line 92 (at most 16 levels)'),
     ('deep_dotted_key', 'simulation.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a.a', 'nested more than 16 levels deep'),
     ('bigint_mass', 'joints.B.mass', "an integer of 16000 bits, beyond TOML's 64-bit integers"),
 ]
