@@ -317,8 +317,8 @@ def read_joints(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -
     for name, path, _ in entries:
         if name in bodies:
             r.fail(join(path, "name"), f"joint name {name!r} is also the name of a body",
-                   "bodies and joints share one namespace (initial.guess, coordinates, messages): "
-                   "rename the joint")
+                   "bodies and joints share one namespace (initial.guess names bars and slot joints "
+                   "in one table): rename the joint")
     return tuple(read_joint(r, name, path, table, bodies, scales) for name, path, table in entries)
 
 
