@@ -219,8 +219,8 @@ def cmd_effects(args) -> int:
 
     outputs = [x.strip() for x in args.outputs.split(",") if x.strip()] if args.outputs else None
     if args.auto is not None:
-        if not args.auto > 0:
-            raise SceneError("command line", "--auto", f"the tolerance must be > 0, got {args.auto!r}",
+        if not 0 < args.auto < 1:
+            raise SceneError("command line", "--auto", f"the tolerance must be > 0 and < 1, got {args.auto!r}",
                              "give a relative tolerance such as 1e-3")
         if not args.output:
             raise SceneError("command line", "-o", "--auto writes the resulting scene: give -o FILE.toml",
@@ -351,7 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
                              "the smallest verified effect set with --auto TOL")
     p.add_argument("--measure", action="store_true", help="short runs with and without each effect")
-    p.add_argument("--auto", type=_bounded(gt=0.0, lt=1.0), metavar="TOL", help="prune effects while outputs stay within TOL "
+    p.add_argument("--auto", type=float, metavar="TOL", help="prune effects while outputs stay within TOL "
                    "of the full model (verified by a run); write the scene with -o")
     p.add_argument("-o", "--output", help="TOML file for the scene written by --auto")
     p.add_argument("--tol", type=_bounded(gt=0.0, lt=1.0), default=None, help="tolerance of the recommendations (default 1e-3)")

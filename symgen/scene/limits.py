@@ -8,14 +8,10 @@ later stage. Every limit here says what it bounds, its value, and how to lift it
 Liftable limits (a larger value in the environment variable lifts them; the value is read when
 a scene is loaded):
 
-=====================================================  ============  =====================
-limit                                                  default       lift with
-=====================================================  ============  =====================
-shape functions per family (axial, transverse) of a bar  24          ``SYMGEN_MAX_MODES``
-output rows of a run (t_end / output_step + 1)         2 000 000     ``SYMGEN_MAX_ROWS``
-run length t_end (in tau)                              1e6           ``SYMGEN_MAX_T_END``
-entries of [[bodies]], [[joints]], [[loads]], [outputs]  256         ``SYMGEN_MAX_ENTRIES``
-=====================================================  ============  =====================
+* shape functions per family (axial, transverse) of a bar: 24 (``SYMGEN_MAX_MODES``);
+* output rows of a run, t_end / output_step + 1: 2 000 000 (``SYMGEN_MAX_ROWS``);
+* run length t_end, in tau: 1e6 (``SYMGEN_MAX_T_END``);
+* entries of [[bodies]], [[joints]], [[loads]] or [outputs]: 256 (``SYMGEN_MAX_ENTRIES``).
 
 Fixed bounds (no physical scene comes near them):
 
@@ -25,7 +21,8 @@ Fixed bounds (no physical scene comes near them):
   has magnitude <= 1e30 (:data:`GROUP_RANGE`), so no later product overflows;
 * 1e-14 <= rtol < 1 (a warning above 1e-3: such runs can be tens of per cent off) and
   0 < atol < 1 (coordinates are O(1) in model units);
-* the file is UTF-8 text of at most 16 MiB, nested at most 16 levels deep.
+* the file is UTF-8 text (a byte-order mark is accepted) of at most 16 MiB, nested at most
+  16 levels deep, its integers within TOML's 64 bits.
 
 Examples
 --------

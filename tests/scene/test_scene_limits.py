@@ -149,6 +149,7 @@ def test_overrides_are_limited_like_the_file(item, key, fragment):
     (["quasistatic", str(SLIDER), "-o", "{out}/q.csv", "--cycles", "inf"], "--cycles"),
     (["quasistatic", str(SLIDER), "-o", "{out}/q.csv", "--cycles", "-1"], "--cycles"),
     (["effects", str(SLIDER), "--tol", "nan"], "--tol"),
+    (["effects", str(SLIDER), "--auto", "nan", "-o", "{out}/x.toml"], "--auto"),
     (["effects", str(SLIDER), "--measure", "--cycles", "nan"], "--cycles"),
     (["study", str(SLIDER), "-o", "{out}/st", "--repeats", "0"], "--repeats"),
     (["study", str(SLIDER), "-o", "{out}/st", "--window", "nan"], "--window"),
