@@ -2,9 +2,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import sys
 import time
+import warnings
 from pathlib import Path
 
 from . import __version__
@@ -36,6 +38,50 @@ def _run_files(args):
                                                          *partial_paths(Path(args.output))])
     plot = _check_out(args.plot, (".png",), "--plot", also=[partial_plot(Path(args.plot))]) if args.plot else None
     return ResultFiles(out, plot)
+
+
+@contextlib.contextmanager
+def _scene_warnings():
+    """Print scene warnings (loose tolerances, ...) as one plain line on stderr."""
+    from .scene.limits import SceneWarning
+
+    with warnings.catch_warnings():
+        previous = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, SceneWarning):
+                print(f"symgen: warning: {message}", file=sys.stderr)
+            else:
+                previous(message, category, filename, lineno, file, line)
+        warnings.showwarning = show
+        yield
+
+
+def _bounded(kind=float, *, gt=None, ge=None, lt=None, le=None):
+    """An argparse type: a finite ``kind`` (float or int) within the given bounds."""
+    bounds = " and ".join(f"{op} {b:g}" for op, b in ((">", gt), (">=", ge), ("<", lt), ("<=", le)) if b is not None)
+    wanted = f"{'an integer' if kind is int else 'a finite number'}{' ' + bounds if bounds else ''}"
+
+    def parse(text: str):
+        try:
+            x = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}") from None
+        if not (math.isfinite(x) and (gt is None or x > gt) and (ge is None or x >= ge)
+                and (lt is None or x < lt) and (le is None or x <= le)):
+            raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}")
+        return x
+    return parse
+
+
+_RTOL = _bounded(ge=1e-14, lt=1.0)      # the scene loader's range of simulation.rtol
+
+
+def cmd_check(args) -> int:
+    from .scene.summary import summary
+
+    print(summary(_scene(args)))
+    return 0
 
 
 def _prepare_run(args):
@@ -198,10 +244,10 @@ def cmd_study(args) -> int:
     tols = None
     if args.tolerances:
         try:
-            tols = [float(x) for x in args.tolerances.split(",")]
-        except ValueError:
+            tols = [_RTOL(x) for x in args.tolerances.split(",")]
+        except (ValueError, argparse.ArgumentTypeError):
             raise SceneError("command line", "--tolerances", f"{args.tolerances!r} is not a list like 1e-4,1e-6",
-                             "give rtol values separated by commas") from None
+                             "give rtol values in [1e-14, 1) separated by commas") from None
     try:
         study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
                           window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
@@ -228,8 +274,8 @@ def cmd_effects(args) -> int:
 
     outputs = [x.strip() for x in args.outputs.split(",") if x.strip()] if args.outputs else None
     if args.auto is not None:
-        if not args.auto > 0:
-            raise SceneError("command line", "--auto", f"the tolerance must be > 0, got {args.auto!r}",
+        if not 0 < args.auto < 1:
+            raise SceneError("command line", "--auto", f"the tolerance must be > 0 and < 1, got {args.auto!r}",
                              "give a relative tolerance such as 1e-3")
         if not args.output:
             raise SceneError("command line", "-o", "--auto writes the resulting scene: give -o FILE.toml",
@@ -374,6 +420,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="override a scene value by dotted path (repeatable)")
         return p
 
+    p = scene_cmd("check", "validate a scene (and --set overrides) without deriving; print a summary")
+    p.set_defaults(func=cmd_check)
+
     p = scene_cmd("simulate", "simulate a scene with IDAS; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
@@ -397,13 +446,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("study", "accuracy vs time: sweep modes, tolerances and effects against a converged reference")
     p.add_argument("-o", "--output", required=True, help="folder for study.csv, study.md, study.png")
     p.add_argument("--quick", action="store_true", help="fewer mode levels and tolerances, no per-bar rows")
-    p.add_argument("--repeats", type=int, default=3, help="timed repeats, medians reported (default 3)")
-    p.add_argument("--window", type=float, default=1.0, help="early window of the pointwise error, crank turns")
-    p.add_argument("--cutoff", type=float, default=50.0, help="low-pass cutoff of compared outputs, cycles per turn")
+    p.add_argument("--repeats", type=_bounded(int, ge=1), default=3, help="timed repeats, medians reported (default 3)")
+    p.add_argument("--window", type=_bounded(gt=0.0), default=1.0, help="early window of the pointwise error, crank turns")
+    p.add_argument("--cutoff", type=_bounded(gt=0.0), default=50.0, help="low-pass cutoff of compared outputs, cycles per turn")
     p.add_argument("--levels", help="mode levels axial+transverse per elastic bar, e.g. 1+1,3+4,6+8 "
                                     "(the last is the reference's)")
     p.add_argument("--tolerances", help="rtol values of the sweep, e.g. 1e-4,1e-6,1e-8 (atol = rtol/100)")
-    p.add_argument("--ref-rtol", type=float, default=1e-9, help="rtol of the reference (default 1e-9)")
+    p.add_argument("--ref-rtol", type=_RTOL, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.set_defaults(func=cmd_study)
     p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
@@ -412,8 +461,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--auto", type=float, metavar="TOL", help="prune effects while outputs stay within TOL "
                    "of the full model (verified by a run); write the scene with -o")
     p.add_argument("-o", "--output", help="TOML file for the scene written by --auto")
-    p.add_argument("--tol", type=float, default=None, help="tolerance of the recommendations (default 1e-3)")
-    p.add_argument("--cycles", type=float, default=None, help="crank turns of the measuring runs (default 1)")
+    p.add_argument("--tol", type=_bounded(gt=0.0, lt=1.0), default=None, help="tolerance of the recommendations (default 1e-3)")
+    p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns of the measuring runs (default 1)")
     p.add_argument("--outputs", help="compare only these outputs (comma-separated names; default all but "
                                      "closure residuals)")
     p.set_defaults(func=cmd_effects)
@@ -421,7 +470,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="PNG file: outputs against tau")
-    p.add_argument("--cycles", type=float, default=None, help="crank turns to cover (default 1)")
+    p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns to cover (default 1)")
     p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
                    help="units of the results (default: SI for an SI scene; dimensionless keeps tau)")
     p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
@@ -431,7 +480,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_quasistatic)
 
     p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
-    p.add_argument("--at", type=float, default=0.0, metavar="TAU", help="input position tau (default 0)")
+    p.add_argument("--at", type=_bounded(ge=-1e3, le=1e3), default=0.0, metavar="TAU",
+                   help="input position tau, |TAU| <= 1000 (default 0)")
     p.add_argument("-o", "--output", help="JSON file to write")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_modes)
@@ -472,7 +522,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with interrupt.handling():
             try:
-                return args.func(args)
+                with _scene_warnings():
+                    return args.func(args)
             except BaseException as err:
                 return _report(err, args)
     except KeyboardInterrupt as err:      # a second signal while reporting the first

@@ -47,6 +47,7 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Interrupted, SceneError, SimulationError
+from ..scene.limits import lift_hint, limit_value, over_limit
 from . import interrupt
 from .mechanism import SINGULAR_RATIO, Mechanism, Partition
 
@@ -317,6 +318,12 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
         t_end = (1.0 if cycles is None else cycles) * 2 * math.pi / abs(drv.rate)
     else:
         t_end = sim.t_end if cycles is None else cycles * 2 * math.pi
+    rows = t_end / h + 1
+    if not math.isfinite(rows) or over_limit("rows", rows):
+        file, key = ("command line", "--cycles") if cycles is not None else (mech.scene.path, "driver.rate")
+        raise SceneError(file, key, f"the cycle would have {rows:.4g} input positions (t_end / output_step + 1 = "
+                         f"{t_end:g} / {h:g} + 1), more than the limit {limit_value('rows'):g}",
+                         lift_hint("rows", "use fewer cycles or a larger simulation.output_step"))
     n = int(math.floor(t_end / h + 1e-9))
     return np.arange(n + 1) * h
 

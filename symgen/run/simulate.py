@@ -164,12 +164,18 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     h = sim.output_step if output_step is None else output_step
     rtol = sim.rtol if rtol is None else rtol
     atol = sim.atol if atol is None else atol
-    if initial is None:
-        q, v, a, lam, part = mech.initial_state(t0)
-    else:
-        q, v, a, lam, part = initial
-    run = DaeRunner(mech, part, rtol, atol, axial_atol)
-    x, z = run.pack(q, v, a, lam)
+    try:           # a signal during the start (assembly, consistent state) stops the run at t0
+        if initial is None:
+            q, v, a, lam, part = mech.initial_state(t0)
+        else:
+            q, v, a, lam, part = initial
+        run = DaeRunner(mech, part, rtol, atol, axial_atol)
+        x, z = run.pack(q, v, a, lam)
+    except BaseException as err:
+        stop = interrupt.interrupted(err, t0)
+        if stop is err:
+            raise
+        raise stop from None
     n_out_total = int(np.floor((t_end - t0) / h + 1e-9))
     taus, outs, qs, vs, lams = [], [], [], [], []
     closure_max = 0.0

@@ -17,17 +17,22 @@ import json
 import math
 import os
 import tomllib
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 from symgen.errors import SceneError
 from symgen.scene.excitation import (check_driver_motion, read_driver, read_effects, read_initial,
                                      read_loads)
+from symgen.scene.limits import (ATOL_MAX, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN,
+                                 SceneWarning, structure_problem, lift_hint, limit_value, over_limit,
+                                 short_key)
 from symgen.scene.mechanism import (check_connected, check_name, make_body, read_bars, read_joints,
                                     reference_bar)
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
+from symgen.scene.ranges import merge_inputs, check_body_groups, check_scaled_values, reference_inputs
 from symgen.scene.reader import Reader
 from symgen.scene.units import Scales
 
@@ -52,15 +57,77 @@ class Header:
 
 
 def read_toml(file: str) -> dict:
-    """Parse the file with ``tomllib``; unreadable files and syntax errors become SceneError."""
+    """Parse the file with ``tomllib``: unreadable, oversized, non-UTF-8, malformed or too
+    deeply nested files become SceneError naming the file."""
     try:
         with open(file, "rb") as handle:
-            return tomllib.load(handle)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(file, "", f"TOML syntax error: {exc}", "fix the TOML syntax") from None
+            data = handle.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
         raise SceneError(file, "", f"cannot read the scene file: {exc.strerror or exc}",
                          "check the path") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise SceneError(file, "", f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB; "
+                         "a scene file is a short text", "check that this is the scene file")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise SceneError(file, "", f"not UTF-8 text (byte {exc.start}, line {line}: "
+                         f"{data[exc.start:exc.start + 1]!r})",
+                         "a scene file is TOML text in UTF-8; save it as UTF-8, "
+                         "or check that this is the scene file") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(file, "", f"TOML syntax error: {exc}", "fix the TOML syntax") from None
+    except ValueError as exc:   # e.g. an integer of more than 4300 digits
+        raise SceneError(file, "", f"cannot read a value: {str(exc).split(';')[0]}",
+                         "fix the value") from None
+    except RecursionError:
+        line = nesting_line(text)
+        raise SceneError(file, "", f"arrays or inline tables nested too deeply{f' at line {line}' if line else ''} "
+                         f"(at most {MAX_DEPTH} levels)", "a scene needs a few levels; check the brackets") from None
+    check_structure(raw, file)
+    return raw
+
+
+def nesting_line(text: str) -> int | None:
+    """The line where brackets/braces first nest deeper than MAX_DEPTH (strings and comments
+    skipped, roughly: enough to point at the place), or None."""
+    depth, line, quote, comment, escaped = 0, 1, "", False, False
+    for ch in text:
+        if ch == "\n":
+            line, comment = line + 1, False
+        elif comment:
+            continue
+        elif quote:
+            if escaped:
+                escaped = False
+            elif ch == "\\" and quote == '"':
+                escaped = True
+            elif ch == quote:
+                quote = ""
+        elif ch in "\"'":
+            quote = ch
+        elif ch == "#":
+            comment = True
+        elif ch in "[{":
+            depth += 1
+            if depth > MAX_DEPTH:
+                return line
+        elif ch in "]}":
+            depth = max(0, depth - 1)
+    return None
+
+
+def check_structure(raw: dict, file: str, key: str = "", levels: int = MAX_DEPTH) -> None:
+    """Tables and arrays nested at most ``levels`` deep (a scene needs 5), integers in 64 bits."""
+    problem = structure_problem(raw, key, levels)
+    if problem is not None:
+        where, what = problem
+        raise SceneError(file, short_key(where), what,
+                         "a scene needs a few levels of tables and arrays and modest numbers; "
+                         "check the keys, brackets and values")
 
 
 def scene_hash(raw: dict) -> str:
@@ -104,6 +171,7 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
                "t_end is the end time in tau = omega t (in both unit systems); cycles is the number of crank turns")
     if "t_end" in table:
         t_end = scales.time(r.number(table, "simulation", "t_end", gt=0.0))
+        check_t_end(r, t_end, "simulation.t_end", "")
     else:
         cycles = r.number(table, "simulation", "cycles", gt=0.0)
         if driver is not None and driver.law is not None:
@@ -111,6 +179,8 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
                    "give t_end (in tau) instead of cycles")
         rate = abs(driver.rate) if driver is not None and driver.kind == "angle" else 0.0
         t_end = cycles * 2.0 * math.pi / (rate if rate != 0.0 else 1.0)
+        check_t_end(r, t_end, "simulation.cycles",
+                    f" ({cycles:g} turns at driver.rate {rate:g})" if rate else f" ({cycles:g} x 2 pi)")
     if "output_step" in table:
         step = scales.time(r.number(table, "simulation", "output_step", gt=0.0))
     else:
@@ -118,9 +188,44 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
     if step > t_end:
         r.fail("simulation.output_step", f"the output step ({step:g}) is longer than the run "
                f"(t_end = {t_end:g}, in tau)", "use an output_step <= t_end")
+    rows = math.floor(t_end / step + 1e-9) + 1
+    if over_limit("rows", rows):
+        key = "simulation.output_step" if "output_step" in table else \
+            ("simulation.t_end" if "t_end" in table else "simulation.cycles")
+        r.fail(key, f"the run would write {rows:.4g} output rows (t_end / output_step + 1 = "
+               f"{t_end:g} / {step:g} + 1), more than the limit {limit_value('rows'):g}",
+               lift_hint("rows", "use a larger output_step or a shorter run"))
     rtol = r.number(table, "simulation", "rtol", 1e-8, gt=0.0)
+    if not RTOL_MIN <= rtol < RTOL_MAX:
+        r.fail("simulation.rtol", f"the relative tolerance must be in [{RTOL_MIN:g}, {RTOL_MAX:g}), "
+               f"got {rtol:g}", "1e-6 to 1e-8 are usual; below 1e-14 is beyond double precision, "
+               "1 or more controls nothing")
+    if rtol > RTOL_WARN:
+        warnings.warn(SceneWarning(
+            f"{r.file}: simulation.rtol = {rtol:g} is loose: results can be tens of per cent off "
+            f"(use rtol <= {RTOL_WARN:g}; 1e-6 to 1e-8 are usual)"), stacklevel=2)
     atol = r.number(table, "simulation", "atol", 1e-10, gt=0.0)
+    if not atol < ATOL_MAX:
+        r.fail("simulation.atol", f"the absolute tolerance must be < {ATOL_MAX:g}, got {atol:g}: the "
+               "coordinates are O(1) in model units, so it would control nothing",
+               "use about rtol / 100, e.g. 1e-10")
     return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol)
+
+
+def check_sizes(r: Reader, raw: dict) -> None:
+    """At most SYMGEN_MAX_ENTRIES bodies, joints, loads and outputs (before any work on them)."""
+    for section in ("bodies", "joints", "loads", "outputs"):
+        value = raw.get(section)
+        if isinstance(value, (list, dict)) and over_limit("entries", len(value)):
+            r.fail(section, f"{len(value)} entries, more than the limit {limit_value('entries'):g}",
+                   lift_hint("entries", "split the model, or check that the file was generated correctly"))
+
+
+def check_t_end(r: Reader, t_end: float, key: str, how: str) -> None:
+    """t_end (in tau) finite and within the run-length limit."""
+    if not math.isfinite(t_end) or over_limit("t_end", t_end):
+        r.fail(key, f"the run would last t_end = {t_end:g} in tau{how}, more than the limit "
+               f"{limit_value('t_end'):g}", lift_hint("t_end", "shorten the run"))
 
 
 def build_groups(bodies: tuple[Body, ...], scales: Scales, units: str, effects: Effects) -> dict:
@@ -144,6 +249,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     r = Reader(file)
     r.table(raw, "")
     r.check_keys(raw, "", TOP_KEYS, "the scene file")
+    check_sizes(r, raw)
     header = read_header(r, raw)
     si = header.units == "SI"
     bars = read_bars(r, raw, si, header.omega)
@@ -151,6 +257,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     scales = Scales(si=si, l0=header.reference_length or ref.length, omega=header.omega,
                     m_ref=ref.mass_per_length)
     bodies = tuple(make_body(bar, scales) for bar in bars)
+    check_body_groups(r, raw, bodies, si, ref.name, (scales.l0, scales.m_ref, scales.omega))
     by_name = {b.name: b for b in bodies}
     joints = read_joints(r, raw, by_name, scales)
     check_connected(r, bodies, joints)
@@ -159,6 +266,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     effects = read_effects(r, raw, scales)
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
     outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, driver)
+    check_scaled_values(r, merge_inputs(*reference_inputs(raw, si, ref.name)), joints, effects, loads, driver)
     simulation = read_simulation(r, raw, driver, scales)
     check_driver_motion(r, driver, simulation.t_end)
     return Scene(name=header.name, path=file, hash=digest or scene_hash(raw), units=header.units,

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from symgen.scene.limits import lift_hint, limit_value, over_limit
 from symgen.scene.model import GROUND, Body, Joint, JointEnd
 from symgen.scene.names import NAME_RULE, name_problem
 from symgen.scene.reader import REQUIRED, Reader, describe, join
@@ -25,6 +26,7 @@ JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass")
 
 RESERVED_BODY_NAMES = {GROUND: "it is reserved for the fixed frame",
                        "_scene": "it is reserved for the scene entry of the groups"}
+RESERVED_JOINT_NAMES = {GROUND: "it is reserved for the fixed frame"}
 
 
 @dataclass(frozen=True)
@@ -55,7 +57,8 @@ def check_name(r: Reader, value: object, key: str, what: str,
     if problem is None and reserved and value in reserved:
         problem = reserved[value]
     if problem is not None:
-        rule = NAME_RULE + (f"; {' and '.join(map(repr, reserved))} are reserved" if reserved else "")
+        words = (" and ".join(map(repr, reserved)) + (" are" if len(reserved) > 1 else " is")) if reserved else ""
+        rule = NAME_RULE + (f"; {words} reserved" if reserved else "")
         r.fail(key, f"{what} name {value!r} is not allowed: {problem} ({rule})",
                "rename it and every reference to it")
     return value
@@ -164,6 +167,13 @@ def read_bar(r: Reader, name: str, path: str, table: dict, si: bool, omega: floa
                       hint="the number of axial shape functions, 0 = axially rigid")
     transverse = r.integer(table, path, "transverse_modes", ge=0,
                            hint="the number of transverse shape functions, 0 = no bending")
+    for key, count in (("axial_modes", axial), ("transverse_modes", transverse)):
+        if over_limit("modes", count):
+            r.fail(join(path, key), f"{count} shape functions is more than the limit of "
+                   f"{limit_value('modes'):g} per family (derivation time and memory grow steeply: "
+                   "24 axial + 24 transverse on one bar take about half a minute)",
+                   lift_hint("modes", "a few (3 to 8) converge for most bars; `symgen study` shows "
+                             "how many yours needs"))
     axial_shapes = r.choice(table, path, "axial_shapes", AXIAL_SHAPES, "complete")
     transverse_shapes = r.choice(table, path, "transverse_shapes", TRANSVERSE_SHAPES, "modes")
     if si:
@@ -303,7 +313,12 @@ def read_joint(r: Reader, name: str, path: str, table: dict, bodies: dict[str, B
 
 def read_joints(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -> tuple[Joint, ...]:
     """Every ``[[joints]]`` entry, in file order."""
-    entries = named_entries(r, raw, "joints", "joint")
+    entries = named_entries(r, raw, "joints", "joint", RESERVED_JOINT_NAMES)
+    for name, path, _ in entries:
+        if name in bodies:
+            r.fail(join(path, "name"), f"joint name {name!r} is also the name of a body",
+                   "bodies and joints share one namespace (initial.guess names bars and slot joints "
+                   "in one table): rename the joint")
     return tuple(read_joint(r, name, path, table, bodies, scales) for name, path, table in entries)
 
 

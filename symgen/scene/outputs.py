@@ -25,7 +25,8 @@ KIND_KEYS: dict[str, tuple[str, ...]] = {
 ELASTIC_KINDS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope",
                  "elastic_displacement")
 COMPONENTS = ("x", "y")
-RESERVED_OUTPUT_NAMES = {"tau": "it is the time column of the results"}
+RESERVED_OUTPUT_NAMES = {"tau": "it is the time column of the results",
+                         "ground": "it is reserved for the fixed frame"}
 
 
 def _output_keys(r: Reader, table: dict, path: str, kind: str) -> None:

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from symgen.errors import SceneError
+from symgen.scene.limits import MAX_DEPTH, short_key, structure_problem
 
 NAMED_ARRAYS = {"bodies": "body", "joints": "joint"}
 SEGMENT = re.compile(r"([A-Za-z0-9_\-]+)((?:\[\d+\])*)")
@@ -56,7 +57,21 @@ def parse_override(item: str, file: str) -> tuple[str, list[str | int], Any]:
     if not sep or not key:
         raise SceneError(file, key or item, f"malformed --set override {item!r}: expected KEY=VALUE",
                          EXAMPLE)
-    return key, _split_key(key, file, item), parse_value(text)
+    steps = _split_key(key, file, item)
+    if len(steps) > MAX_DEPTH:
+        raise SceneError(file, short_key(key), f"--set {short_key(key)}: nested more than {MAX_DEPTH} "
+                         "levels deep", f"use a dotted path of keys, {EXAMPLE}")
+    try:
+        value = parse_value(text)
+    except (ValueError, RecursionError) as exc:   # e.g. 5000 digits or 1000 nested brackets
+        what = "nested too deeply" if isinstance(exc, RecursionError) else str(exc).split(";")[0]
+        raise SceneError(file, short_key(key), f"--set {short_key(key)}: cannot read the value: {what}",
+                         "give a TOML value: a number, true/false, a \"string\", [array] or { table }") from None
+    problem = structure_problem(value, key, MAX_DEPTH - len(steps))
+    if problem is not None:
+        raise SceneError(file, short_key(problem[0]), f"--set {short_key(key)}: {problem[1]}",
+                         "give a TOML value: a number, true/false, a \"string\", [array] or { table }")
+    return key, steps, value
 
 
 def _array_entry(node: list, step: str | int, path: list[str | int], key: str, file: str) -> Any:

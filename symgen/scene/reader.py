@@ -17,6 +17,7 @@ from datetime import date, datetime, time
 from typing import Any, NoReturn
 
 from symgen.errors import SceneError
+from symgen.scene.limits import MAX_MAGNITUDE
 
 #: Sentinel meaning "this key is required" (no default).
 REQUIRED: Any = object()
@@ -56,6 +57,12 @@ def describe(value: object) -> str:
     if len(text) > 60:
         text = text[:57] + "..."
     return f"{toml_type(value)} {text}"
+
+
+def _short(value: object) -> str:
+    """repr of a value, cut to 60 characters."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def is_number(value: object) -> bool:
@@ -135,11 +142,17 @@ class Reader:
         if not is_number(value):
             self.fail(key, f"{prefix}must be a number, got {describe(value)}",
                       hint or "write a number without quotes, e.g. 1.0")
-        x = float(value)
+        try:
+            x = float(value)
+        except OverflowError:   # an integer beyond the float range
+            x = math.copysign(math.inf, value)
         bounds = [f"{op} {b:g}" for op, b in ((">", gt), (">=", ge), ("<=", le)) if b is not None]
         hint = hint or f"use a finite number{' ' + ' and '.join(bounds) if bounds else ''}"
         if not math.isfinite(x):
-            self.fail(key, f"{prefix}must be a finite number, got {value!r}", hint)
+            self.fail(key, f"{prefix}must be a finite number, got {_short(value)}", hint)
+        if abs(x) > MAX_MAGNITUDE:
+            self.fail(key, f"{prefix}is {x:g}: beyond {MAX_MAGNITUDE:g}, larger than any quantity "
+                      "of a scene", "check the units and the exponent")
         if gt is not None and not x > gt:
             self.fail(key, f"{prefix}must be > {gt:g}, got {value!r}", hint)
         if ge is not None and not x >= ge:

@@ -1,0 +1,61 @@
+"""A short text summary of a validated scene (``symgen check``).
+
+Examples
+--------
+>>> from symgen.scene import load_scene
+>>> print(summary(load_scene("examples/slider_crank.toml")))   # doctest: +SKIP
+slider_crank (examples/slider_crank.toml): valid, dimensionless, l0 = 1, omega = 1
+  bars     crank: rigid, alpha 0.5, nu 1
+  ...
+"""
+from __future__ import annotations
+
+import math
+
+from symgen.scene.model import Scene
+
+
+def _bar(body) -> str:
+    head = f"{body.name}: "
+    if body.rigid:
+        return head + f"rigid, alpha {body.alpha:.6g}, nu {body.nu:.6g}"
+    groups = ", ".join(f"{k} {v:.6g}" for k, v in (("alpha", body.alpha), ("nu", body.nu),
+                                                    ("lambda", body.lam), ("mu", body.mu)) if v is not None)
+    families = " + ".join(f"{n} {what}" + (f" ({shapes})" if n else "") for n, what, shapes in (
+        (body.axial_modes, "axial", body.axial_shapes), (body.transverse_modes, "transverse", body.transverse_shapes)))
+    return head + f"{body.frame}, {families} shape functions; {groups}"
+
+
+def _joint(joint) -> str:
+    ends = " - ".join(end.body for end in joint.ends)
+    mass = f", mass {joint.mass:.6g}" if joint.mass else ""
+    return f"{joint.name}: {joint.kind} {ends}{mass}"
+
+
+def summary(scene: Scene) -> str:
+    """Bars (frames, shape functions, groups), joints, driver, loads, outputs and the run."""
+    lines = [f"{scene.name} ({scene.path}): valid, {scene.units}, l0 = {scene.l0:.6g}, "
+             f"omega = {scene.omega:.6g}"]
+    lines += [f"  {'bars' if i == 0 else '':8} {_bar(b)}" for i, b in enumerate(scene.bodies)]
+    lines += [f"  {'joints' if i == 0 else '':8} {_joint(j)}" for i, j in enumerate(scene.joints)]
+    modes = sum(b.axial_modes + b.transverse_modes for b in scene.bodies)
+    elastic = sum(not b.rigid for b in scene.bodies)
+    lines.append(f"  {'modes':8} {modes} shape functions on {elastic} elastic bar(s)")
+    drv = scene.driver
+    if drv is None:
+        lines.append(f"  {'driver':8} none")
+    elif drv.kind == "angle":
+        lines.append(f"  {'driver':8} angle of {drv.body}: {drv.initial:.6g} + {drv.rate:.6g} tau")
+    else:
+        lines.append(f"  {'driver':8} torque on {drv.body}: {drv.torque}")
+    if scene.loads:
+        lines.append(f"  {'loads':8} {len(scene.loads)} on " + ", ".join(sorted({ld.body for ld in scene.loads})))
+    gx, gy = scene.effects.gravity
+    if gx or gy:
+        lines.append(f"  {'gravity':8} [{gx:.6g}, {gy:.6g}] (g / (l0 omega^2))")
+    lines.append(f"  {'outputs':8} " + ", ".join(f"{o.name} ({o.kind})" for o in scene.outputs))
+    sim = scene.simulation
+    rows = math.floor(sim.t_end / sim.output_step + 1e-9) + 1
+    lines.append(f"  {'run':8} t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g} "
+                 f"({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}")
+    return "\n".join(lines)

@@ -1,0 +1,366 @@
+"""Fuzz the scene loader through the command line, as an attacker or a careless user would.
+
+A few hundred scenes are derived from examples/*.toml by seeded mutations (deleted keys and
+tables, wrong types, negative/zero/huge/non-finite numbers, random strings, bad, reserved and
+duplicate names, huge mode counts, tiny output steps, loose tolerances, deep nesting, --set
+overrides, truncated files, random bytes, non-UTF-8 text). Each runs ``symgen check`` in-process
+under a per-case time limit and must end with exit 0 (the mutation happened to be valid) or
+exit 2 with one message naming the file (and, for a file that is valid TOML, the dotted key),
+never a traceback or an internal error. A sample of the failing cases also runs
+``python -m symgen.cli simulate BAD.toml -o out.csv`` in a subprocess: exit 2 and nothing
+written.
+"""
+from __future__ import annotations
+
+import contextlib
+import copy
+import functools
+import io
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import tomllib
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from symgen.cli import main
+from symgen.errors import SceneError
+from symgen.scene import load_scene
+from symgen.scene.limits import SceneWarning
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
+SEED = 20261123
+CASES = 360
+CASE_SECONDS = 10            # generous: the loader takes milliseconds, the machine is shared
+SUBPROCESS_SAMPLE = 12
+
+
+class CaseTimeout(BaseException):
+    """Raised by the alarm: a BaseException, so that main()'s `except Exception` cannot hide it."""
+
+
+# -- a small TOML writer (the mutated trees are written back as files) --------------------------
+def _key(k) -> str:
+    return json.dumps(str(k), ensure_ascii=False)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(type(v))
+
+
+def dump_toml(raw: dict) -> str:
+    """TOML text of a parsed scene: scalars first, then [table] and [[array]] sections."""
+    lines = [f"{_key(k)} = {_value(v)}" for k, v in raw.items()
+             if not isinstance(v, dict) and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))]
+    for k, v in raw.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{_key(k)}]"] + [f"{_key(kk)} = {_value(vv)}" for kk, vv in v.items()]
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            for entry in v:
+                lines += ["", f"[[{_key(k)}]]"] + [f"{_key(kk)} = {_value(vv)}" for kk, vv in entry.items()]
+    return "\n".join(lines) + "\n"
+
+
+# -- mutations ----------------------------------------------------------------------------------
+@dataclass
+class Case:
+    label: str
+    data: bytes
+    sets: list[str] = field(default_factory=list)
+    structured: bool = True          # the file is valid TOML: an error must name a key
+
+
+def _paths(node, prefix=()):
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for k, v in items:
+        yield prefix + (k,), v
+        yield from _paths(v, prefix + (k,))
+
+
+def _parent(raw, path):
+    node = raw
+    for step in path[:-1]:
+        node = node[step]
+    return node
+
+
+NUMBERS = [-1, 0, -0.0, 0.5, 1e300, -1e300, 1e-300, 1e30, 1e31, float("nan"), float("inf"), float("-inf"),
+           2 ** 63 - 1, -2 ** 63, 10 ** 18, 1e-320, 3]
+STRINGS = ["", " ", "x" * 70, "ground", "tau", "_scene", "int", "namespace", "1abc", "a b", "η", "rod",
+           "__import__('os').system('touch PWNED')", "0*sin('__import__(\"os\")')", "${HOME}", "\u0000",
+           "'; DROP TABLE", "../../etc/passwd", "\\", '"', "sin(tau)**2", "9**9**9", "nan", "inf"]
+OTHERS = [True, False, [], {}, [1, 2, 3], ["ground", "ground"], [[0.0, 0.0], 0.0], {"a": 1}, [0]]
+NAMES = ["ground", "tau", "_scene", "int", "1x", "a-b", "", "x" * 64, "namespace", "η", "crank", "rod", "A", "O"]
+
+
+def _leaves(raw):
+    return [(p, v) for p, v in _paths(raw) if not isinstance(v, (dict, list))]
+
+
+def _nest(value, depth: int, rng: random.Random):
+    for _ in range(depth):
+        value = [value] if rng.random() < 0.5 else {"k": value}
+    return value
+
+
+def mutate_tree(raw: dict, rng: random.Random) -> tuple[str, dict, list[str]]:
+    """One structured mutation of a parsed scene: (label, new tree, --set overrides)."""
+    while True:
+        try:
+            return _mutate_tree(copy.deepcopy(raw), rng)
+        except (KeyError, IndexError, TypeError, AttributeError):
+            continue          # the tree lacks what this mutation needs (a first one removed it)
+
+
+def _mutate_tree(raw: dict, rng: random.Random) -> tuple[str, dict, list[str]]:
+    kind = rng.choice(["delete", "type", "number", "string", "name", "duplicate", "modes", "step",
+                       "tolerance", "nest", "set", "set", "double"])
+    paths = [p for p, _ in _paths(raw)]
+    leaves = _leaves(raw)
+    if kind == "delete":
+        path = rng.choice(paths)
+        del _parent(raw, path)[path[-1]]
+        return f"delete {path}", raw, []
+    if kind == "type":
+        path, _ = rng.choice(leaves)
+        _parent(raw, path)[path[-1]] = rng.choice(OTHERS + STRINGS[:6] + NUMBERS[:4])
+        return f"type {path}", raw, []
+    if kind == "number":
+        numeric = [p for p, v in leaves if isinstance(v, (int, float)) and not isinstance(v, bool)]
+        path = rng.choice(numeric)
+        value = rng.choice(NUMBERS)
+        _parent(raw, path)[path[-1]] = value
+        return f"number {path}={value!r}", raw, []
+    if kind == "string":
+        strings = [p for p, v in leaves if isinstance(v, str)]
+        path = rng.choice(strings)
+        value = rng.choice(STRINGS + ["".join(chr(rng.randrange(32, 0x2FF)) for _ in range(rng.randrange(1, 20)))])
+        _parent(raw, path)[path[-1]] = value
+        return f"string {path}={value!r}", raw, []
+    if kind == "name":
+        named = [p for p, _ in _paths(raw) if p[-1] == "name"]
+        value = rng.choice(NAMES)
+        if rng.random() < 0.3 and isinstance(raw.get("outputs"), dict):
+            raw["outputs"][value] = {"kind": "energy"}
+            return f"output named {value!r}", raw, []
+        path = rng.choice(named)
+        _parent(raw, path)[path[-1]] = value
+        return f"name {path}={value!r}", raw, []
+    if kind == "duplicate":
+        section = rng.choice(["bodies", "joints"])
+        raw[section].append(copy.deepcopy(rng.choice(raw[section])))
+        return f"duplicate entry of {section}", raw, []
+    if kind == "modes":
+        elastic = [b for b in raw["bodies"] if isinstance(b, dict) and not b.get("rigid")]
+        body = rng.choice(elastic)
+        key = rng.choice(["axial_modes", "transverse_modes"])
+        body[key] = rng.choice([25, 100, 10 ** 9, 2 ** 63 - 1, -1, 1.5])
+        return f"modes {body['name']}.{key}={body[key]}", raw, []
+    if kind == "step":
+        sim = raw["simulation"]
+        key = rng.choice(["output_step", "t_end", "cycles"])
+        if key == "t_end":
+            sim.pop("cycles", None)
+        elif key == "cycles":
+            sim.pop("t_end", None)
+        sim[key] = rng.choice([1e-9, 1e-6, 1e-300, 0.0, 1e7, 1e300, 5e6, -1.0])
+        return f"simulation.{key}={sim[key]!r}", raw, []
+    if kind == "tolerance":
+        key = rng.choice(["rtol", "atol"])
+        raw["simulation"][key] = rng.choice([1e300, 1.0, 0.5, 1e-2, 1e-20, 0.0, -1e-8, float("nan"), 2.0])
+        return f"simulation.{key}={raw['simulation'][key]!r}", raw, []
+    if kind == "nest":
+        path, value = rng.choice(leaves)
+        _parent(raw, path)[path[-1]] = _nest(value, rng.choice([3, 20, 60]), rng)
+        return f"nest {path}", raw, []
+    if kind == "set":
+        path, value = rng.choice(leaves)
+        key = ".".join(str(s) for s in path)
+        # name-addressed bodies/joints, as users write them
+        for section in ("bodies", "joints"):
+            if path[0] == section and isinstance(path[1], int):
+                key = ".".join([section, str(raw[section][path[1]].get("name", path[1])), *map(str, path[2:])])
+        text = rng.choice(["nan", "inf", "-1", "0", "1e300", "1e-300", '"ground"', "[[[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]]",
+                           "{", "x" * 50, "1" * 5000, "true", "9**9**9", "{a = 1}", "25", "1000000000"])
+        return f"--set {key}={text[:30]}", raw, [f"{key}={text}"]
+    # two mutations at once
+    label1, raw, sets1 = mutate_tree(raw, rng)
+    label2, raw, sets2 = mutate_tree(raw, rng)
+    return f"{label1} + {label2}", raw, sets1 + sets2
+
+
+def mutate_bytes(text: str, rng: random.Random) -> tuple[str, bytes]:
+    """One mutation of the file's bytes (the result is usually not valid TOML or not UTF-8)."""
+    data = text.encode("utf-8")
+    kind = rng.choice(["truncate", "random", "latin1", "flip", "deep", "nul", "garbage_line"])
+    if kind == "truncate":
+        cut = rng.randrange(1, len(data))
+        return f"truncated at {cut}", data[:cut]
+    if kind == "random":
+        return "random bytes", bytes(rng.randrange(256) for _ in range(rng.randrange(1, 4000)))
+    if kind == "latin1":
+        return "latin-1 comment", data + "# crank length in µm, déjà vu\n".encode("latin-1")
+    if kind == "flip":
+        out = bytearray(data)
+        for _ in range(rng.randrange(1, 8)):
+            i = rng.randrange(len(out))
+            out[i] ^= 1 << rng.randrange(8)
+        return "bit flips", bytes(out)
+    if kind == "deep":
+        n = rng.choice([100, 1000, 5000])
+        return f"nesting {n}", data + b"x = " + b"[" * n + b"]" * n + b"\n"
+    if kind == "nul":
+        i = rng.randrange(len(data))
+        return "NUL byte", data[:i] + b"\x00" + data[i:]
+    line = "".join(chr(rng.randrange(32, 127)) for _ in range(rng.randrange(1, 60)))
+    return f"garbage line {line!r}", data + b"\n" + line.encode() + b"\n"
+
+
+@functools.lru_cache(maxsize=1)
+def make_cases() -> tuple[Case, ...]:
+    rng = random.Random(SEED)
+    sources = [(p, p.read_text(encoding="utf-8")) for p in EXAMPLES]
+    parsed = [(p, text, tomllib.loads(text)) for p, text in sources]
+    cases = []
+    for i in range(CASES):
+        path, text, raw = parsed[i % len(parsed)]
+        if rng.random() < 0.75:
+            label, tree, sets = mutate_tree(raw, rng)
+            cases.append(Case(f"{path.stem}: {label}", dump_toml(tree).encode("utf-8"), sets))
+        else:
+            label, data = mutate_bytes(text, rng)
+            cases.append(Case(f"{path.stem}: {label}", data, structured=False))
+    return tuple(cases)
+
+
+# -- running a case -----------------------------------------------------------------------------
+def _alarm(signum, frame):
+    raise CaseTimeout()
+
+
+def run_check(file: Path, sets: list[str]) -> tuple[int, str]:
+    """``symgen check FILE --set ...`` in-process: (exit code, stderr), within CASE_SECONDS."""
+    err, out = io.StringIO(), io.StringIO()
+    timed = threading.current_thread() is threading.main_thread()     # signals need the main thread
+    if timed:
+        previous = signal.signal(signal.SIGALRM, _alarm)
+        signal.alarm(CASE_SECONDS)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+            try:
+                code = main(["check", str(file), *[a for s in sets for a in ("--set", s)]])
+            except SystemExit as exc:     # argparse
+                code = exc.code
+    except CaseTimeout:
+        code = "timeout"
+    finally:
+        if timed:
+            signal.alarm(0)
+            signal.signal(signal.SIGALRM, previous)
+    return code, err.getvalue()
+
+
+def test_fuzzed_scenes_fail_cleanly(tmp_path):
+    cases = make_cases()
+    failures, outcomes, failing = [], {0: 0, 2: 0}, []
+    for i, case in enumerate(cases):
+        file = tmp_path / f"case{i:03d}.toml"
+        file.write_bytes(case.data)
+        code, err = run_check(file, case.sets)
+        problem = None
+        if code not in (0, 2):
+            problem = f"exit {code}"
+        elif "Traceback" in err or "internal error" in err:
+            problem = "traceback or internal error"
+        elif code == 2:
+            if f"symgen: error: {file}: " not in err:
+                problem = "the message does not name the file"
+            elif case.structured:
+                try:
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore", SceneWarning)
+                        load_scene(file, case.sets)
+                    problem = "exit 2 from the CLI but load_scene accepts it"
+                except SceneError as exc:
+                    if not exc.key or f"{file}: {exc.key}: " not in err or not exc.hint:
+                        problem = f"the message does not name a key or lacks a hint (key {exc.key!r})"
+            failing.append((case, file))
+        if problem:
+            failures.append(f"{case.label}: {problem}\n    {err.strip()[:300]}")
+        else:
+            outcomes[code] += 1
+    assert not failures, f"{len(failures)} of {len(cases)} cases:\n" + "\n".join(failures[:20])
+    # the mutations must mostly hit: a fuzzer whose scenes all pass tests nothing
+    assert outcomes[2] > 0.6 * len(cases), outcomes
+    assert outcomes[0] > 0, "some mutations are harmless (e.g. a loose-but-valid value); none was"
+
+
+def test_fuzz_sample_through_simulate_subprocess(tmp_path):
+    """A sample of failing mutations through a real process: exit 2, nothing written."""
+    rng = random.Random(SEED + 1)
+    cases = list(make_cases())
+    rng.shuffle(cases)
+    bad_dir = tmp_path / "bad"
+    bad_dir.mkdir()
+    picked = []
+    for case in cases:
+        if len(picked) == SUBPROCESS_SAMPLE:
+            break
+        file = bad_dir / f"bad{len(picked):02d}.toml"
+        file.write_bytes(case.data)
+        code, _ = run_check(file, case.sets)
+        if code == 2:
+            picked.append((case, file))
+        else:
+            file.unlink()
+    assert len(picked) == SUBPROCESS_SAMPLE
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+    for case, file in picked:
+        out_dir = tmp_path / f"out_{file.stem}"
+        out_dir.mkdir()
+        proc = subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", str(file), "-o", "out.csv",
+                               "--plot", "out.png", *[a for s in case.sets for a in ("--set", s)]],
+                              capture_output=True, text=True, cwd=out_dir, timeout=120, env=env)
+        assert proc.returncode == 2, (case.label, proc.stderr[-500:])
+        assert str(file) in proc.stderr and "Traceback" not in proc.stderr, (case.label, proc.stderr[-500:])
+        assert list(out_dir.iterdir()) == [], (case.label, list(out_dir.iterdir()))
+
+
+def test_dump_toml_round_trips_the_examples():
+    """The fuzzer's writer is faithful: an unmutated example survives the round trip."""
+    for path in EXAMPLES:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+        assert tomllib.loads(dump_toml(raw)) == raw
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=[p.stem for p in EXAMPLES])
+def test_unmutated_examples_pass_check(tmp_path, path):
+    file = tmp_path / path.name
+    file.write_bytes(dump_toml(tomllib.loads(path.read_text(encoding="utf-8"))).encode("utf-8"))
+    code, err = run_check(file, [])
+    assert code == 0 and err == ""
