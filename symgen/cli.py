@@ -16,6 +16,9 @@ def _scene(args):
     return load_scene(args.scene, args.set or [])
 
 
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
+
 def _check_out(path: str, suffixes: tuple, key: str) -> Path:
     p = Path(path)
     if p.suffix.lower() not in suffixes:
@@ -31,7 +34,7 @@ def _prepare_run(args):
 
     out = _check_out(args.output, (".csv",), "-o")
     if args.plot:
-        _check_out(args.plot, (".png",), "--plot")
+        _check_out(args.plot, PLOT_SUFFIXES, "--plot")
     scene = _scene(args)
     compiled = compile_scene(scene, use_cache=not args.no_cache)
     t0 = time.perf_counter()
@@ -51,15 +54,26 @@ def _write_run(args, out, scene, result, meta, failure, title: str) -> Path:
     """CSV + JSON (partial when the run stopped), the plot if asked; re-raise a failure."""
     from .run.results import write_results
 
-    written = write_results(out, result.tau, result.outputs, result.output_names, meta,
-                            complete=failure is None)
+    tau, values, names = result.tau, result.outputs, list(result.output_names)
+    if getattr(args, "states", False):
+        import numpy as np
+
+        from .run.animate import states_meta
+        meta["states"] = states_meta(scene, meta["coordinates"], meta["model_key"])
+        clash = sorted(set(names) & set(meta["states"]["columns"]))
+        if clash:
+            raise SceneError(scene.path, f"outputs.{clash[0]}", "an output has the name of a state column",
+                             "rename the output, or leave out --states")
+        values = np.hstack([np.asarray(values).reshape(len(tau), -1), np.asarray(result.q)[:len(tau)]])
+        names += meta["states"]["columns"]
+    written = write_results(out, tau, values, names, meta, complete=failure is None)
     if args.plot:
         from .plot import plot_outputs
         drv = scene.driver
         turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
         plot_path = Path(args.plot)
         if failure is not None:
-            plot_path = plot_path.with_name(plot_path.stem + ".partial.png")
+            plot_path = plot_path.with_name(plot_path.stem + ".partial" + plot_path.suffix)
         plot_outputs(plot_path, result.tau, result.outputs, result.output_names, [o.kind for o in scene.outputs],
                      title, partial=failure is not None, turn=turn)
     if failure is not None:
@@ -212,6 +226,44 @@ def cmd_quasistatic(args) -> int:
     return 0
 
 
+def cmd_animate(args) -> int:
+    from .pipeline import compile_scene
+    from .run.animate import animate, check_target, fresh_run, read_states
+    from .run.mechanism import Mechanism
+
+    out = check_target(args.output)
+    for key, val in (("--fps", args.fps), ("--frames", args.frames), ("--stride", args.stride),
+                     ("--turns", args.turns), ("--t-end", args.t_end)):
+        if val is not None and not (val > 0 and math.isfinite(val)):
+            raise SceneError("command line", key, f"must be a positive number, got {val!r}", "e.g. --fps 20")
+    if args.magnify is not None and not (args.magnify >= 0 and math.isfinite(args.magnify)):
+        raise SceneError("command line", "--magnify", f"must be >= 0, got {args.magnify!r}",
+                         "e.g. --magnify 50 (0: the rigid mechanism, 1: to scale)")
+    scene = _scene(args)
+    t_end = args.t_end
+    if args.turns is not None:
+        drv = scene.driver
+        if drv is None or drv.kind != "angle" or not drv.rate:
+            raise SceneError(scene.path, "driver", "--turns needs an angle driver with a nonzero rate",
+                             "give the end time with --t-end TAU instead")
+        t_end = args.turns * 2 * math.pi / abs(drv.rate)
+    compiled = compile_scene(scene, use_cache=not args.no_cache)
+    mech = Mechanism(compiled, scene)
+    if args.from_csv:
+        motion = read_states(args.from_csv, scene, compiled.meta)
+        if t_end is not None:
+            keep = motion.tau <= motion.tau[0] + t_end + 1e-12
+            motion.tau, motion.q = motion.tau[keep], motion.q[keep]
+    else:
+        motion = fresh_run(mech, t_end)
+    info = animate(out, scene, compiled, mech, motion, factor=args.magnify, fps=args.fps or 20.0,
+                   frames=args.frames, stride=args.stride)
+    chosen = "chosen: peak elastic displacement at 10 % of l0" if args.magnify is None else "given"
+    print(f"wrote {info['path']} ({info['frames']} frames, tau {info['tau'][0]:.4g} to {info['tau'][1]:.4g}; "
+          f"deformation x {info['factor']:g} ({chosen}; peak elastic displacement {info['peak']:.3g} l0))")
+    return 0
+
+
 def cmd_modes(args) -> int:
     import json
 
@@ -273,7 +325,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = scene_cmd("simulate", "simulate a scene with IDAS; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
-    p.add_argument("--plot", help="PNG file: outputs against tau")
+    p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
+    p.add_argument("--states", action="store_true", help="also write the coordinates (q.NAME columns) "
+                   "for symgen animate --from")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_simulate)
 
@@ -313,12 +367,32 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
-    p.add_argument("--plot", help="PNG file: outputs against tau")
+    p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
+    p.add_argument("--states", action="store_true", help="also write the coordinates (q.NAME columns) "
+                   "for symgen animate --from")
     p.add_argument("--cycles", type=float, default=None, help="crank turns to cover (default 1)")
     p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
                    help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_quasistatic)
+
+    p = scene_cmd("animate", "the mechanism moving, deformation magnified: a GIF or MP4 from a fresh run "
+                             "or a run's CSV")
+    p.add_argument("-o", "--output", required=True, help=".gif (Pillow) or .mp4 (needs ffmpeg) file to write")
+    p.add_argument("--from", dest="from_csv", metavar="RUN.csv", help="animate a run written by "
+                   "symgen simulate ... --states (default: run the scene now)")
+    p.add_argument("--magnify", type=float, default=None, metavar="F", help="deformation scale factor "
+                   "(default: peak elastic displacement drawn at 10 %% of the reference length)")
+    p.add_argument("--fps", type=float, default=None, help="frames per second (default 20)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--frames", type=int, default=None, help="number of frames, evenly spaced over the run "
+                   "(default: every output row, at most 150)")
+    g.add_argument("--stride", type=int, default=None, help="use every STRIDE-th output row")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--turns", type=float, default=None, help="crank turns to show (angle driver)")
+    g.add_argument("--t-end", dest="t_end", type=float, default=None, help="end time in tau")
+    p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.set_defaults(func=cmd_animate)
 
     p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
     p.add_argument("--at", type=float, default=0.0, metavar="TAU", help="input position tau (default 0)")
