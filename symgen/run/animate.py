@@ -39,7 +39,29 @@ def states_meta(scene, coordinates: list, model_key: str) -> dict:
                         "transverse_shapes": b.transverse_shapes if nt else ""}
     coords = list(coordinates)
     return {"columns": [STATE_PREFIX + c for c in coords], "coordinates": coords, "model_key": model_key,
-            "lengths_in": "reference lengths l0", "bars": bars}
+            "lengths_in": "reference lengths l0", "bars": bars, "ground": _ground(scene)}
+
+
+def _ground(scene) -> dict:
+    """Ground points (and slider directions) of the joints to ground, dimensionless."""
+    from ..scene.model import GROUND
+    out = {}
+    for j in scene.joints:
+        for e in j.ends:
+            if e.body == GROUND:
+                out[j.name] = {"point": list(e.point), "direction": None if j.direction is None else list(j.direction)}
+    return out
+
+
+def _same(a, b, tol: float = 1e-12) -> bool:
+    """Equal plain data, floats to a relative tolerance (JSON round trip of the sidecar)."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k], tol) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y, tol) for x, y in zip(a, b))
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) and not isinstance(a, bool):
+        return abs(a - b) <= tol * max(1.0, abs(a), abs(b))
+    return a == b
 
 
 @dataclass
@@ -74,10 +96,11 @@ def read_states(path: str | os.PathLike, scene, meta: dict) -> Motion:
     if st.get("model_key") != meta["key"] or st.get("coordinates") != [c["name"] for c in meta["coords"]]:
         raise SceneError(str(path), "--from", f"the run was made with another model (key {st.get('model_key')!r}, "
                          f"here {meta['key']!r}): its coordinates do not fit this scene", hint)
-    if info.get("scene_hash") != scene.hash:
-        raise SceneError(str(path), "--from", f"the run was made from another scene or other values "
-                         f"({info.get('scene')!r}, hash {str(info.get('scene_hash'))[:12]}; here "
-                         f"{scene.hash[:12]}): lengths and ground points may differ", hint)
+    here = states_meta(scene, st["coordinates"], meta["key"])
+    for key, what in (("bars", "bar lengths or shape functions"), ("ground", "ground points or slider lines")):
+        if not _same(st.get(key), here[key]):
+            raise SceneError(str(path), "--from", f"the run was made from another scene ({info.get('scene')!r}): "
+                             f"its {what} differ from this scene's", hint)
     try:
         with path.open(newline="") as fh:
             rows = list(csv.reader(fh))
