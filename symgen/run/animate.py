@@ -147,10 +147,11 @@ class Animator:
         self.ax = ax
         allx = np.concatenate([self.D[:, 0, :].ravel(), P_rigid[:, 0, :].ravel()])
         ally = np.concatenate([self.D[:, 1, :].ravel(), P_rigid[:, 1, :].ravel()])
-        for m in geom.markers:
-            if m.ground is not None:
-                allx, ally = np.append(allx, m.ground[0]), np.append(ally, m.ground[1])
         span = max(np.ptp(allx), np.ptp(ally), 1e-9)
+        for m in geom.markers:        # room for the ground triangles below the pins
+            if m.ground is not None:
+                allx = np.append(allx, m.ground[0])
+                ally = np.append(ally, [m.ground[1], m.ground[1] - 0.06 * span])
         pad = 0.08 * span
         x0, x1, y0, y1 = allx.min() - pad, allx.max() + pad, ally.min() - pad, ally.max() + pad
         ax.set_xlim(x0, x1), ax.set_ylim(y0, y1)
