@@ -166,3 +166,53 @@ def test_plots_as_svg_and_pdf(run):
     assert (d / "plain.pdf").read_bytes().startswith(b"%PDF")
     header = (d / "run.csv").read_text().splitlines()[0].split(",")
     assert header == ["tau", "tip", "q.theta_beam", "q.f_beam_1", "q.g_beam_1", "q.g_beam_2"]
+
+
+TIP = BEAM.replace('[driver]', '''[[joints]]
+name = "B"
+kind = "slider"
+bodies = ["beam", "ground"]
+at = [1.0, [1.0, 0.0]]
+direction = [0.0, 1.0]
+[driver]''').replace("transverse_modes = 2", "transverse_modes = 3").replace("g = [0.04, 0.005]", "g = [0.0, 0.0, 0.0]")
+
+
+def test_tip_load_shape_printed_factored(tmp_path):
+    """The cantilever's orthogonalised tip-load shape is printed as (P - sum c_k X_k)/t with
+    its coefficients on their own lines (was one 800 pt line); the printed c_k, t agree with
+    projections computed here by quadrature and rebuild psi_1."""
+    import shutil
+    import subprocess
+
+    from symgen.shapes import tip_load_coefficients
+
+    basis = transverse_basis("cantilever", "modes", 3, tip_joint=True)
+    eig = list(basis.functions[1:])
+    c, t = tip_load_coefficients(eig)
+    xi = np.linspace(0, 1, 20001)
+    P = xi ** 2 * (3 - xi) / 2
+    X = [np.array([f.value(s) for s in xi[::20]]) for f in eig]       # 1001 points, Simpson
+    Pc = P[::20]
+    w = np.ones(1001)
+    w[1:-1:2], w[2:-1:2] = 4, 2
+    w /= 3 * 1000
+    for ck, Xk in zip(c, X):
+        assert ck == pytest.approx((w * Pc * Xk).sum() / (w * Xk * Xk).sum(), rel=1e-9)
+    assert t == pytest.approx(1 - sum(c), rel=1e-9)
+    for s in (0.25, 0.6, 1.0):
+        rebuilt = (s * s * (3 - s) / 2 - sum(ck * f.value(s) for ck, f in zip(c, eig))) / t
+        assert rebuilt == pytest.approx(basis.functions[0].value(s), abs=1e-9)
+
+    scene = tmp_path / "tip.toml"
+    scene.write_text(TIP)
+    assert main(["latex", str(scene), "-o", str(tmp_path / "tip.tex")]) == 0
+    tex = (tmp_path / "tip.tex").read_text()
+    block = tex[tex.index(r"\psi_{1}(\xi)"):tex.index(r"\psi_{2}(\xi)")]
+    assert r"\sum_{k=1}^{2} c_k X_k(\xi)" in block and "e^{" not in block
+    assert f"c_{{1}} = {c[0]:.10g}" in block
+    assert max(len(line) for line in block.splitlines()) < 200
+    if shutil.which("pdflatex"):
+        subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "tip.tex"], cwd=tmp_path,
+                       capture_output=True, timeout=120, check=True)
+        log = (tmp_path / "tip.log").read_text(errors="replace")
+        assert "Overfull \\hbox" not in log
