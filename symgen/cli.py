@@ -177,7 +177,7 @@ def cmd_study(args) -> int:
     study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
                       window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
                       ref_rtol=args.ref_rtol, progress=None if args.silent else print)
-    for path in write_study(study, args.output):
+    for path in write_study(study, args.output, args.format):
         print(f"wrote {path}")
     return 0
 
@@ -286,7 +286,7 @@ def cmd_modes(args) -> int:
 def cmd_reproduce(args) -> int:
     from .run.reproduce import reproduce
 
-    for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print):
+    for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print, fmt=args.format):
         print(f"wrote {path}")
     return 0
 
@@ -352,6 +352,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerances", help="rtol values of the sweep, e.g. 1e-4,1e-6,1e-8 (atol = rtol/100)")
     p.add_argument("--ref-rtol", type=float, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
+    p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the Pareto plot")
     p.set_defaults(func=cmd_study)
     p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
                              "the smallest verified effect set with --auto TOL")
@@ -404,6 +405,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="folder to write")
     p.add_argument("--quick", action="store_true", help="coarse output step (a smoke run)")
     p.add_argument("--examples", default=None, help="folder of the example scenes (default: examples/)")
+    p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the figures")
     p.set_defaults(func=cmd_reproduce)
 
     p = scene_cmd("emit-c", "write standalone C99 (model, Jacobians, solver, CSV driver, CMakeLists.txt)")

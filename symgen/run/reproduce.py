@@ -87,9 +87,10 @@ def _static(scene: Scene, step: float, label: str) -> Run:
 
 # --------------------------------------------------------------------------- plotting
 class Figures:
-    """Consistent report-style figures: one PNG per paper figure."""
+    """Consistent report-style figures: one file (PNG, SVG or PDF) per paper figure."""
 
-    def __init__(self, out: Path) -> None:
+    def __init__(self, out: Path, fmt: str = "png") -> None:
+        self.fmt = fmt
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -137,7 +138,7 @@ class Figures:
         for k, line in enumerate(note_lines):
             fig.text(0.012, (0.05 + 0.17 * (len(note_lines) - 1 - k)) / height, line, fontsize=7.5,
                      color="0.3", ha="left", va="bottom")
-        path = self.out / f"{name}.png"
+        path = self.out / f"{name}.{self.fmt}"
         fig.savefig(path, dpi=140)
         plt.close(fig)
         self.written.append(path)
@@ -454,7 +455,7 @@ FIGURE_TEXT = {
 }
 
 
-def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float) -> Path:
+def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float, fmt: str = "png") -> Path:
     from .results import atomic_write
 
     lines = ["# Figures of the seed paper, reproduced by symgen", "",
@@ -470,20 +471,20 @@ def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float) 
     for m in missing:
         lines.append(m)
         lines.append("")
-    lines.append("Files: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob("G*.png"))) + ".")
+    lines.append("Files: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob(f"G*.{fmt}"))) + ".")
     path = out / "README.md"
     atomic_write(path, "\n".join(lines) + "\n")
     return path
 
 
 def reproduce(out_dir, quick: bool = False, examples=None,
-              progress: Callable[[str], object] | None = None) -> list[Path]:
-    """Write the figures and ``README.md`` to ``out_dir``; return the paths written."""
+              progress: Callable[[str], object] | None = None, fmt: str = "png") -> list[Path]:
+    """Write the figures (``fmt``: png, svg or pdf) and ``README.md`` to ``out_dir``; return the paths written."""
     tic = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ex = Path(examples) if examples else default_examples()
-    figs = Figures(out)
+    figs = Figures(out, fmt)
     notes: list = []
     missing: list = []
     _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
@@ -494,5 +495,5 @@ def reproduce(out_dir, quick: bool = False, examples=None,
     else:
         missing.append("G.11-G.12 (inverted slider-crank) are not drawn: `examples/inverted_slider_crank.toml` "
                        "does not exist.")
-    readme = _readme(out, notes, quick, missing, time.perf_counter() - tic)
+    readme = _readme(out, notes, quick, missing, time.perf_counter() - tic, fmt)
     return figs.written + [readme]

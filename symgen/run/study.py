@@ -683,13 +683,13 @@ def _labels(ax, fig, points) -> None:
                                                         "shrinkA": 0, "shrinkB": 3})
 
 
-def write_study(study: Study, directory: str | Path) -> list[Path]:
-    """Write study.csv, study.md and study.png into ``directory``; return their paths."""
+def write_study(study: Study, directory: str | Path, fmt: str = "png") -> list[Path]:
+    """Write study.csv, study.md and study.png (or .svg / .pdf) into ``directory``; return their paths."""
     from .results import atomic_write
 
     d = Path(directory)
     d.mkdir(parents=True, exist_ok=True)
-    paths = [d / "study.csv", d / "study.md", d / "study.png"]
+    paths = [d / "study.csv", d / "study.md", d / f"study.{fmt}"]
     atomic_write(paths[0], csv_text(study))
     atomic_write(paths[1], markdown(study, paths[2].name))
     plot(study, paths[2])
