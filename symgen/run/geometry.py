@@ -29,7 +29,7 @@ from ..emit.casadi_emit import SympyToCasadi
 from ..kinematics import BarKinematics
 from ..scene.model import GROUND, Scene
 from ..shapes import axial_basis, transverse_basis
-from ..slot import SlotBarKinematics, SlotBasis
+from ..slot import XI, SlotBarKinematics, SlotBasis
 from ..structure import _tip_joint, effective_modes
 from ..topology import build_topology
 
@@ -88,13 +88,21 @@ class Geometry:
                 r = origin(e.parent) + kins[e.parent].rho(e.parent_xi)
             return r - kins[name].rho(e.body_xi)
 
+        def along(name: str, xis) -> list:
+            """rho at each xi (a guide's piecewise span built once in xi, then evaluated)."""
+            kin = kins[name]
+            if isinstance(kin, SlotBarKinematics):
+                general = kin.rho(XI)
+                return [general.xreplace({XI: sp.Float(float(x))}) for x in xis]
+            return [kin.rho(float(x)) for x in xis]
+
         pts: list[sp.Matrix] = []
         self.bars: dict[str, range] = {}
         xis = np.linspace(0.0, 1.0, samples)
         for b in scene.bodies:
             rA = origin(b.name)
             start = len(pts)
-            pts += [rA + kins[b.name].rho(float(x)) for x in xis]
+            pts += [rA + r for r in along(b.name, xis)]
             self.bars[b.name] = range(start, len(pts))
         self.markers: list[Marker] = []
         for j in scene.joints:
