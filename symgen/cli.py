@@ -20,6 +20,9 @@ def _scene(args):
     return load_scene(args.scene, args.set or [])
 
 
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+
+
 def _check_out(path: str, suffixes: tuple, key: str, also=()) -> Path:
     """An output file checked before any work (suffix, not a folder, its folder writable)."""
     return check_file(path, suffixes, key, also)
@@ -36,7 +39,8 @@ def _run_files(args):
 
     out = _check_out(args.output, (".csv",), "-o", also=[Path(args.output).with_suffix(".json"),
                                                          *partial_paths(Path(args.output))])
-    plot = _check_out(args.plot, (".png",), "--plot", also=[partial_plot(Path(args.plot))]) if args.plot else None
+    plot = (_check_out(args.plot, PLOT_SUFFIXES, "--plot", also=[partial_plot(Path(args.plot))])
+            if args.plot else None)
     return ResultFiles(out, plot)
 
 
@@ -126,8 +130,21 @@ def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
     units = result_units(scene, args.units)
     t_col, values = units.convert(result.tau, result.outputs)
     meta["units"] = units.as_dict()
+    names = list(result.output_names)
+    columns = values
+    if getattr(args, "states", False):           # the coordinates, for symgen animate --from
+        import numpy as np
+
+        from .run.animate import states_meta
+        meta["states"] = states_meta(scene, meta["coordinates"], meta["model_key"])
+        clash = sorted(set(names) & set(meta["states"]["columns"]))
+        if clash:
+            raise SceneError(scene.path, f"outputs.{clash[0]}", "an output has the name of a state column",
+                             "rename the output, or leave out --states")
+        columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[:len(t_col)]])
+        names += meta["states"]["columns"]
     complete = failure is None
-    written = files.write(t_col, values, result.output_names, meta, complete, time_name=units.time.name)
+    written = files.write(t_col, columns, names, meta, complete, time_name=units.time.name)
     if failure is not None:
         print(f"symgen: partial result kept in {written} ({meta['status']})", file=sys.stderr)
     if files.plot is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
@@ -260,7 +277,7 @@ def cmd_study(args) -> int:
         else:
             discard_study(args.output)
         raise
-    for path in write_study(study, args.output):
+    for path in write_study(study, args.output, fmt=args.format):
         print(f"wrote {path}")
     return 0
 
@@ -323,6 +340,44 @@ def _quasistatic(args, files) -> int:
     return 0
 
 
+def cmd_animate(args) -> int:
+    from .pipeline import compile_scene
+    from .run.animate import animate, check_target, fresh_run, read_states
+    from .run.mechanism import Mechanism
+
+    out = check_target(args.output)
+    for key, val in (("--fps", args.fps), ("--frames", args.frames), ("--stride", args.stride),
+                     ("--turns", args.turns), ("--t-end", args.t_end)):
+        if val is not None and not (val > 0 and math.isfinite(val)):
+            raise SceneError("command line", key, f"must be a positive number, got {val!r}", "e.g. --fps 20")
+    if args.magnify is not None and not (args.magnify >= 0 and math.isfinite(args.magnify)):
+        raise SceneError("command line", "--magnify", f"must be >= 0, got {args.magnify!r}",
+                         "e.g. --magnify 50 (0: the rigid mechanism, 1: to scale)")
+    scene = _scene(args)
+    t_end = args.t_end
+    if args.turns is not None:
+        drv = scene.driver
+        if drv is None or drv.kind != "angle" or not drv.rate:
+            raise SceneError(scene.path, "driver", "--turns needs an angle driver with a nonzero rate",
+                             "give the end time with --t-end TAU instead")
+        t_end = args.turns * 2 * math.pi / abs(drv.rate)
+    compiled = compile_scene(scene, use_cache=not args.no_cache)
+    mech = Mechanism(compiled, scene)
+    if args.from_csv:
+        motion = read_states(args.from_csv, scene, compiled.meta)
+        if t_end is not None:
+            keep = motion.tau <= motion.tau[0] + t_end + 1e-12
+            motion.tau, motion.q = motion.tau[keep], motion.q[keep]
+    else:
+        motion = fresh_run(mech, t_end)
+    info = animate(out, scene, compiled, mech, motion, factor=args.magnify, fps=args.fps or 20.0,
+                   frames=args.frames, stride=args.stride)
+    chosen = "chosen: peak elastic displacement at 10 % of l0" if args.magnify is None else "given"
+    print(f"wrote {info['path']} ({info['frames']} frames, tau {info['tau'][0]:.4g} to {info['tau'][1]:.4g}; "
+          f"deformation x {info['factor']:g} ({chosen}; peak elastic displacement {info['peak']:.3g} l0))")
+    return 0
+
+
 def cmd_modes(args) -> int:
     import json
 
@@ -371,7 +426,7 @@ def cmd_reproduce(args) -> int:
     from .run.reproduce import reproduce
 
     check_folder(args.output, "-o")
-    for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print):
+    for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print, fmt=args.format):
         print(f"wrote {path}")
     return 0
 
@@ -425,7 +480,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = scene_cmd("simulate", "simulate a scene with IDAS; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
-    p.add_argument("--plot", help="PNG file: outputs against tau")
+    p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
+    p.add_argument("--states", action="store_true", help="also write the coordinates (q.NAME columns) "
+                   "for symgen animate --from")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
                    help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
@@ -454,6 +511,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerances", help="rtol values of the sweep, e.g. 1e-4,1e-6,1e-8 (atol = rtol/100)")
     p.add_argument("--ref-rtol", type=_RTOL, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
+    p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the Pareto plot")
     p.set_defaults(func=cmd_study)
     p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
                              "the smallest verified effect set with --auto TOL")
@@ -469,7 +527,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
-    p.add_argument("--plot", help="PNG file: outputs against tau")
+    p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
+    p.add_argument("--states", action="store_true", help="also write the coordinates (q.NAME columns) "
+                   "for symgen animate --from")
     p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns to cover (default 1)")
     p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
                    help="units of the results (default: SI for an SI scene; dimensionless keeps tau)")
@@ -478,6 +538,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_quasistatic)
+
+    p = scene_cmd("animate", "the mechanism moving, deformation magnified: a GIF or MP4 from a fresh run "
+                             "or a run's CSV")
+    p.add_argument("-o", "--output", required=True, help=".gif (Pillow) or .mp4 (needs ffmpeg) file to write")
+    p.add_argument("--from", dest="from_csv", metavar="RUN.csv", help="animate a run written by "
+                   "symgen simulate ... --states (default: run the scene now)")
+    p.add_argument("--magnify", type=float, default=None, metavar="F", help="deformation scale factor "
+                   "(default: peak elastic displacement drawn at 10 %% of the reference length)")
+    p.add_argument("--fps", type=float, default=None, help="frames per second (default 20)")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--frames", type=int, default=None, help="number of frames, evenly spaced over the run "
+                   "(default: every output row, at most 150)")
+    g.add_argument("--stride", type=int, default=None, help="use every STRIDE-th output row")
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--turns", type=float, default=None, help="crank turns to show (angle driver)")
+    g.add_argument("--t-end", dest="t_end", type=float, default=None, help="end time in tau")
+    p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.set_defaults(func=cmd_animate)
 
     p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
     p.add_argument("--at", type=_bounded(ge=-1e3, le=1e3), default=0.0, metavar="TAU",
@@ -495,6 +573,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="folder to write")
     p.add_argument("--quick", action="store_true", help="coarse output step (a smoke run)")
     p.add_argument("--examples", default=None, help="folder of the example scenes (default: examples/)")
+    p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the figures")
     p.set_defaults(func=cmd_reproduce)
 
     p = scene_cmd("emit-c", "write standalone C99 (model, Jacobians, solver, CSV driver, CMakeLists.txt)")

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 
@@ -48,18 +49,26 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
     import matplotlib.pyplot as plt
 
     n = len(names)
-    fig, axes = plt.subplots(n, 1, figsize=(8, 1.9 * n + 0.8), sharex=True, squeeze=False)
+    # constrained layout keeps the figure title (suptitle) above the panels and the stacked
+    # y labels apart, whatever the number of outputs
+    fig, axes = plt.subplots(n, 1, figsize=(8, 1.7 * n + 1.1), sharex=True, squeeze=False, layout="constrained")
     x = tau / turn if turn else tau
     for k, ax in enumerate(axes[:, 0]):
         y = values[:, k]
-        ax.plot(x, y, lw=0.9, color="C0")
         si = units is not None and units.system == "SI"
         unit = f" [{units.outputs[k].unit}]" if si else ""
-        ax.set_ylabel(f"{names[k]}{unit}\n{(SI_LABELS if si else LABELS).get(kinds[k], '')}", fontsize=8)
-        ax.grid(True, lw=0.3, alpha=0.6)
-        ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+        label = (SI_LABELS if si else LABELS).get(kinds[k], '')
         if kinds[k] == "closure_residual":
-            ax.set_yscale("symlog", linthresh=1e-16)
+            # its size is what matters: |r| on a log axis, a few decades labelled
+            from matplotlib.ticker import LogLocator
+            ax.semilogy(x, np.maximum(np.abs(y), 1e-18), lw=0.9, color="C0")
+            ax.yaxis.set_major_locator(LogLocator(numticks=5))
+            label = "|" + label + "|"
+        else:
+            ax.plot(x, y, lw=0.9, color="C0")
+            ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
+        ax.set_ylabel(f"{names[k]}{unit}\n{label}", fontsize=8)
+        ax.grid(True, lw=0.3, alpha=0.6)
     si_time = units is not None and units.system == "SI"
     axes[-1, 0].set_xlabel("crank turns" if turn else ("t [s]" if si_time else r"$\tau = \omega t$"))
     if turn:
@@ -67,10 +76,10 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
             for c in range(1, int(math.floor(x[-1])) + 1):
                 ax.axvline(c, color="0.7", lw=0.5)
     fig.suptitle(title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10)
-    fig.tight_layout()
+    fig.align_ylabels(axes[:, 0])
     from .outputs import atomic_path
     try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=120, format="png")
+        with atomic_path(path) as tmp:       # format from the suffix: .png, .svg or .pdf
+            fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
     finally:
         plt.close(fig)

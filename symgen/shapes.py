@@ -764,6 +764,32 @@ def _transverse_basis(frame: str, shapes: str, n: int, tip: bool) -> Basis:
     return Basis("transverse", shapes, frame, tuple(funcs), tip)
 
 
+def _tip_load_projection(eig: list[ShapeFunction]) -> tuple:
+    """(c_k, t, terms): xi^2 (3 - xi)/2 - sum_k c_k X_k (mass inner product projections c_k) has
+    the value t at xi = 1; ``terms`` is that difference (not yet divided by t)."""
+    base = _poly_terms({2: Fraction(3, 2), 3: Fraction(-1, 2)}).as_mp()
+    d = dict(base.d)
+    coeffs = []
+    for f in eig:
+        t = f._terms.as_mp()
+        c = _integrate_product(base, t) / _integrate_product(t, t)
+        c = _MP.mpf(c.real)
+        coeffs.append(c)
+        for key, val in t.d.items():
+            d[key] = d.get(key, _MP.mpc(0)) - c * val
+    rest = _Terms(d, exact=False)
+    tip = _MP.mpf(sum((c * (_MP.exp(_s_value(sid)) if sid else 1) for (_, sid), c in rest.d.items()),
+                      _MP.mpc(0)).real)
+    return coeffs, tip, d
+
+
+def tip_load_coefficients(eig: list[ShapeFunction]) -> tuple[list[float], float]:
+    """(c_1..c_m, t) of the orthogonalised tip-load shape
+    psi = (xi^2 (3 - xi)/2 - sum_k c_k X_k(xi)) / t, for printing it factored."""
+    coeffs, tip, _ = _tip_load_projection(eig)
+    return [float(c) for c in coeffs], float(tip)
+
+
 def _tip_load_function(eig: list[ShapeFunction]) -> ShapeFunction:
     """The static tip-load shape xi^2 (3 - xi)/2, orthogonalised (mass inner product) against
     the eigenfunctions that follow it and scaled to psi(1) = 1.
@@ -778,19 +804,7 @@ def _tip_load_function(eig: list[ShapeFunction]) -> ShapeFunction:
     expr = XI ** 2 * (3 - XI) / 2
     if not eig:
         return ShapeFunction(r"\xi^2(3-\xi)/2", expr, _terms=static)
-    base = static.as_mp()
-    d = dict(base.d)
-    coeffs = []
-    for f in eig:
-        t = f._terms.as_mp()
-        c = _integrate_product(base, t) / _integrate_product(t, t)
-        c = _MP.mpf(c.real)
-        coeffs.append(c)
-        for key, val in t.d.items():
-            d[key] = d.get(key, _MP.mpc(0)) - c * val
-    rest = _Terms(d, exact=False)
-    tip = _MP.mpf(sum((c * (_MP.exp(_s_value(sid)) if sid else 1) for (_, sid), c in rest.d.items()),
-                      _MP.mpc(0)).real)
+    coeffs, tip, d = _tip_load_projection(eig)
     scaled = _Terms({k: v / tip for k, v in d.items()}, exact=False)
     expr = (expr - sum((_sf(c) * f.expr for c, f in zip(coeffs, eig)), sympy.Integer(0))) / _sf(tip)
     m = len(eig)

@@ -501,7 +501,23 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
                  "frame": body.frame, "text": tex_escape(name)}
     # ---- shape functions
     ctx["phi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr)} for k, fn in enumerate(bm.basis_a.functions)]
-    ctx["psi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr)} for k, fn in enumerate(bm.basis_t.functions)]
+    ctx["psi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""}
+                  for k, fn in enumerate(bm.basis_t.functions)]
+    tfun = bm.basis_t.functions
+    if getattr(bm.basis_t, "tip_joint", False) and len(tfun) > 1 and tfun[0].beta is None \
+            and all(fn.beta is not None for fn in tfun[1:]):
+        # the orthogonalised tip-load shape: printed factored (its expanded form is a line of
+        # ~13 exponential and trigonometric terms), the coefficients on the next line
+        from ..shapes import tip_load_coefficients
+        c, t = tip_load_coefficients(list(tfun[1:]))
+        m = len(c)
+        ctx["psi"][0]["expr"] = (rf"\frac{{1}}{{t}}\Bigl(\frac{{\xi^2(3-\xi)}}{{2}} - "
+                                 rf"\sum_{{k=1}}^{{{m}}} c_k X_k(\xi)\Bigr)")
+        # t = 1 - sum c_k is a small difference: the c_k to 10 digits keep psi_1 to ~1e-6
+        nums = [rf"c_{{{k + 1}}} = {_g6(ck, 10)}" for k, ck in enumerate(c)] + [rf"t = {_g6(t, 10)}"]
+        rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
+        ctx["psi"][0]["extra"] = (r"\text{with } " + r", \\ &\qquad ".join(rows) + r", \\ &\qquad "
+                                  r"c_k = (P, X_k)/(X_k, X_k),\ P(\xi) = \xi^2(3-\xi)/2,\ t = 1 - \textstyle\sum_k c_k")
     ctx["axial_family"] = bm.basis_a.family if na else ""
     ctx["transverse_family"] = bm.basis_t.family if nt else ""
     ctx["tip_joint"] = bm.basis_t.tip_joint
@@ -734,6 +750,15 @@ def _env() -> jinja2.Environment:
         keep_trailing_newline=True, autoescape=False)
     env.filters["e"] = tex_escape
     return env
+
+
+def _g6(x: float, digits: int = 6) -> str:
+    """A number to ``digits`` significant digits in LaTeX (powers of ten as \\cdot 10^{n})."""
+    text = f"{x:.{digits}g}"
+    if "e" in text:
+        mant, exp = text.split("e")
+        return rf"{mant}\cdot 10^{{{int(exp)}}}"
+    return text
 
 
 def latex_document(scene, model) -> str:

@@ -88,9 +88,10 @@ def _static(scene: Scene, step: float, label: str) -> Run:
 
 # --------------------------------------------------------------------------- plotting
 class Figures:
-    """Consistent report-style figures: one PNG per paper figure."""
+    """Consistent report-style figures: one file (PNG, SVG or PDF) per paper figure."""
 
-    def __init__(self, out: Path) -> None:
+    def __init__(self, out: Path, fmt: str = "png") -> None:
+        self.fmt = fmt
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
@@ -138,10 +139,10 @@ class Figures:
         for k, line in enumerate(note_lines):
             fig.text(0.012, (0.05 + 0.17 * (len(note_lines) - 1 - k)) / height, line, fontsize=7.5,
                      color="0.3", ha="left", va="bottom")
-        path = self.out / f"{name}.png"
+        path = self.out / f"{name}.{self.fmt}"
         try:
             with atomic_path(path) as tmp:
-                fig.savefig(tmp, dpi=140, format="png")
+                fig.savefig(tmp, dpi=140, format=self.fmt)
         finally:
             plt.close(fig)
         self.written.append(path)
@@ -465,7 +466,7 @@ FIGURE_TEXT = {
 }
 
 
-def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float) -> Path:
+def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float, fmt: str = "png") -> Path:
     lines = ["# Figures of the seed paper, reproduced by symgen", "",
              "Analogues of figures G.1-G.12 of Riesco, Garcia-Lomas & Dominguez (section 6), written by "
              "`symgen reproduce`" + (" --quick (coarse output step: a smoke run, not for reading)" if quick else "")
@@ -479,20 +480,20 @@ def _readme(out: Path, notes: list, quick: bool, missing: list, total_s: float) 
     for m in missing:
         lines.append(m)
         lines.append("")
-    lines.append("Files: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob("G*.png"))) + ".")
+    lines.append("Files: " + ", ".join(f"`{p.name}`" for p in sorted(out.glob(f"G*.{fmt}"))) + ".")
     path = out / "README.md"
     atomic_write(path, "\n".join(lines) + "\n")
     return path
 
 
 def reproduce(out_dir, quick: bool = False, examples=None,
-              progress: Callable[[str], object] | None = None) -> list[Path]:
-    """Write the figures and ``README.md`` to ``out_dir``; return the paths written."""
+              progress: Callable[[str], object] | None = None, fmt: str = "png") -> list[Path]:
+    """Write the figures (``fmt``: png, svg or pdf) and ``README.md`` to ``out_dir``; return the paths written."""
     tic = time.perf_counter()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     ex = Path(examples) if examples else default_examples()
-    figs = Figures(out)
+    figs = Figures(out, fmt)
     notes: list = []
     missing: list = []
     try:
@@ -507,7 +508,7 @@ def reproduce(out_dir, quick: bool = False, examples=None,
     except BaseException as err:
         _stopped(out, figs, notes, err, time.perf_counter() - tic)
         raise
-    readme = _readme(out, notes, quick, missing, time.perf_counter() - tic)
+    readme = _readme(out, notes, quick, missing, time.perf_counter() - tic, fmt)
     remove([out / PARTIAL_README])
     return figs.written + [readme]
 
@@ -524,7 +525,8 @@ def _stopped(out: Path, figs: Figures, notes: list, err: BaseException, total_s:
     err = interrupt.interrupted(err)
     status = "interrupted" if isinstance(err, Interrupted) else "failed"
     written = {p.name for p in figs.written}
-    remove([out / "README.md", *(p for p in out.glob("G[0-9][0-9]_*.png") if p.name not in written)])
+    remove([out / "README.md", *(p for ext in ("png", "svg", "pdf") for p in out.glob(f"G[0-9][0-9]_*.{ext}")
+                                 if p.name not in written)])
     lines = ["# Figures of the seed paper: PARTIAL run of `symgen reproduce`", "",
              f"status: {status}", f"cause: {err}", f"after: {total_s:.0f} s", "",
              "Only these figures were drawn by this run (the others are missing):", ""]

@@ -7,7 +7,7 @@ and the CPU time of derivation, CasADi build and integration (medians of repeats
 * ``DIR/study.csv``  one row per configuration (every output's error in its own columns),
 * ``DIR/study.md``   the same as a Markdown table, the reference's own convergence, and the
   cheapest configuration for 1 %, 0.1 % and 0.01 % accuracy,
-* ``DIR/study.png``  the Pareto plot: error against integration time, every point labelled.
+* ``DIR/study.png``  the Pareto plot: error against integration time, every point numbered (key beside it).
 
 The reference is the richest model (every elastic bar at the richest mode level, von Karman
 strain with the complete axial family, every effect on, rotary inertia included) at the
@@ -611,14 +611,18 @@ GROUP_STYLE = {"modes": ("tab:blue", "o"), "per-bar": ("tab:green", "s"), "effec
 
 
 def plot(study: Study, path: str | Path) -> None:
-    """Pareto plot: error (log) against integration CPU time per turn (log), points labelled."""
+    """Pareto plot: error (log) against integration CPU time per turn (log). Every point carries
+    a number, placed clear of the other numbers and of the markers; the key beside the plot
+    lists the numbers with their configurations (long labels never cross the data)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     turns = study.t_end / study.turn
     rows = [r for r in study.rows if r.status == "ok" and np.isfinite(r.error)]
-    fig, ax = plt.subplots(figsize=(11, 7.5))
+    fig = plt.figure(figsize=(13, 7.5), layout="constrained")
+    gs = fig.add_gridspec(1, 2, width_ratios=[2.5, 1])
+    ax, key = fig.add_subplot(gs[0]), fig.add_subplot(gs[1])
     floor = 1e-7
     for group, (color, marker) in GROUP_STYLE.items():
         pts = [r for r in rows if r.config.group == group]
@@ -629,7 +633,6 @@ def plot(study: Study, path: str | Path) -> None:
     if front:
         ax.step([r.integrate_s / turns for r in front], [max(r.error, floor) for r in front], where="post",
                 color="gray", lw=1, ls="--", label="Pareto front (reference checks left out)", zorder=2)
-    _labels(ax, fig, [(r.integrate_s / turns, max(r.error, floor), r.config.label) for r in rows])
     for target in TARGETS:
         ax.axhline(target, color="gray", lw=0.6, ls=":")
         ax.text(1.0, target, f"{_pct(target)} ", transform=ax.get_yaxis_transform(),
@@ -637,70 +640,93 @@ def plot(study: Study, path: str | Path) -> None:
     unc = reference_uncertainty(study)
     if np.isfinite(unc) and unc > 0:
         ax.axhspan(floor, unc, color="tab:purple", alpha=0.07, label="within the reference's own uncertainty")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
     ax.set_xlabel("integration CPU time per crank turn [s] (IDAS, median of repeats)")
     ax.set_ylabel(f"error: max over outputs of max|y − y_ref| / max|y_ref|, first {study.window / study.turn:.3g} turn(s)")
     ax.set_title(f"{study.scene_name}: accuracy vs time ({study.reference.config.label})", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, loc="lower left")
-    fig.tight_layout()
+    _key(key, rows)
+    _labels(ax, fig, [(r.integrate_s / turns, max(r.error, floor), str(k + 1)) for k, r in enumerate(rows)])
     try:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=130, format="png")
+            fig.savefig(tmp, dpi=130, format=Path(path).suffix.lstrip(".") or "png")
     finally:
         plt.close(fig)
 
 
+def _key(ax, rows) -> None:
+    """The numbers of the points and their configurations, in columns, coloured by group."""
+    ax.axis("off")
+    n = len(rows)
+    if not n:
+        return
+    ncol = 1 if n <= 42 else 2
+    per = -(-n // ncol)
+    size = min(8.0, 430.0 / per)
+    ax.set_title("key: point number, configuration", fontsize=9, loc="left")
+    for k, r in enumerate(rows):
+        col, line = divmod(k, per)
+        ax.text(col / ncol, 1 - (line + 0.5) / max(per, 24), f"{k + 1:>2}  {r.config.label}",
+                transform=ax.transAxes, fontsize=size * (0.85 if ncol > 1 else 1), va="center", ha="left",
+                family="monospace", color=GROUP_STYLE.get(r.config.group, ("black",))[0])
+
+
 def _labels(ax, fig, points) -> None:
-    """Label every point, moving a label up or down a line where it would overlap one
-    already placed (a greedy placement in display coordinates)."""
+    """Place every point's (short) label where it overlaps no marker and no label already
+    placed (a greedy search over offsets around the point, in display coordinates); a label
+    moved away from its point gets a leader line."""
     ax.set_xscale("log")
     ax.set_yscale("log")
     xs, ys = [p[0] for p in points], [p[1] for p in points]
     if not points:
         return
-    ax.set_xlim(min(xs) / 1.25, max(xs) * 2.2)
+    ax.set_xlim(min(xs) / 1.25, max(xs) * 1.6)
     ax.set_ylim(min(ys) / 3, max(ys) * 3)
-    fig.canvas.draw()
-    placed: list = []
-    char_w, line_h = 3.7, 8.5          # points, at fontsize 6.5
-    dys = [2, -10, 11, -19, 20, -28, 29, -37, 38, -46, 47, -55, 56, -64, 65, -73, 74]
-    for x, y, text in sorted(points, key=lambda p: (p[0], p[1])):
-        px, py = ax.transData.transform((x, y)) * 72.0 / fig.dpi     # points
+    fig.canvas.draw()                   # final layout, then freeze it: the labels are placed in points
+    fig.set_layout_engine("none")
+    scale = 72.0 / fig.dpi
+    disp = [ax.transData.transform((x, y)) * scale for x, y, _ in points]
+    placed: list = [(px - 4, py - 4, px + 4, py + 4) for px, py in disp]      # the markers
+    char_w, line_h = 4.2, 8.5          # points, at fontsize 7
+    offsets = [(dx, dy) for r in (5, 11, 18, 26, 35) for dx, dy in
+               ((r, -line_h / 2), (-r, -line_h / 2), (0, r - 3), (0, -r - line_h + 3),
+                (r, r - 3), (-r, r - 3), (r, -r - line_h + 3), (-r, -r - line_h + 3))]
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
+    for i in order:
+        x, y, text = points[i]
+        px, py = disp[i]
         w = char_w * len(text)
         choice = None
-        for side in (1, -1):            # right of the point, then left of it
-            for dy in dys:
-                x0 = px + 4 if side > 0 else px - 4 - w
-                box = (x0, py + dy, x0 + w, py + dy + line_h)
-                if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
-                    choice = (side, dy, box)
-                    break
-            if choice:
+        for dx, dy in offsets:
+            x0 = px + dx if dx > 0 else px + dx - w if dx < 0 else px - w / 2
+            box = (x0, py + dy, x0 + w, py + dy + line_h)
+            if not any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed):
+                choice = (box, np.hypot(dx, dy))
                 break
-        side, dy, box = choice or (1, 2, (px + 4, py + 2, px + 4 + w, py + 2 + line_h))
+        box, dist = choice or ((px + 5, py, px + 5 + w, py + line_h), 5.0)
         placed.append(box)
-        ax.annotate(text, (x, y), xytext=(4 * side, dy), textcoords="offset points", fontsize=6.5, zorder=4,
-                    ha="left" if side > 0 else "right",
-                    arrowprops=None if abs(dy) < 5 else {"arrowstyle": "-", "lw": 0.4, "color": "gray"})
+        cx, cy = (box[0] + box[2]) / 2 - px, (box[1] + box[3]) / 2 - py
+        ax.annotate(text, (x, y), xytext=(cx, cy), textcoords="offset points", fontsize=7, zorder=4,
+                    ha="center", va="center",
+                    arrowprops=None if dist < 12 else {"arrowstyle": "-", "lw": 0.4, "color": "gray",
+                                                        "shrinkA": 0, "shrinkB": 3})
 
 
-def study_paths(directory: str | Path, complete: bool = True) -> list[Path]:
-    """study.csv, study.md, study.png (or their ``study.partial.*`` twins) in ``directory``."""
+def study_paths(directory: str | Path, complete: bool = True, fmt: str = "png") -> list[Path]:
+    """study.csv, study.md, study.png|svg|pdf (or their ``study.partial.*`` twins) in ``directory``."""
     stem = "study" if complete else "study.partial"
-    return [Path(directory) / f"{stem}.{ext}" for ext in ("csv", "md", "png")]
+    return [Path(directory) / f"{stem}.{ext}" for ext in ("csv", "md", fmt)]
 
 
-def write_study(study: Study, directory: str | Path, with_plot: bool = True) -> list[Path]:
-    """Write study.csv, study.md and study.png into ``directory`` (CSV first, the plot last);
+def write_study(study: Study, directory: str | Path, with_plot: bool = True, fmt: str = "png") -> list[Path]:
+    """Write study.csv, study.md and study.png (or .svg / .pdf: ``fmt``) into ``directory`` (CSV first, the plot last);
     a partial study writes ``study.partial.*`` and removes the files of an earlier complete
     study, a complete one removes stale ``study.partial.*``. Return the paths written
     (``with_plot=False``: no PNG, e.g. when stopping on a signal, where time counts)."""
     d = Path(directory)
     complete = study.status == "complete"
-    paths = study_paths(d, complete)
-    remove(study_paths(d, not complete) + paths[1:])
+    paths = study_paths(d, complete, fmt)
+    remove(study_paths(d, not complete, fmt) + paths[1:])
     if not with_plot:
         paths = paths[:2]
     d.mkdir(parents=True, exist_ok=True)
@@ -717,4 +743,4 @@ def write_study(study: Study, directory: str | Path, with_plot: bool = True) -> 
 
 def discard_study(directory: str | Path) -> None:
     """A study that failed before any result: remove the files of earlier studies there."""
-    remove(study_paths(directory, True) + study_paths(directory, False))
+    remove([p for fmt in ("png", "svg", "pdf") for done in (True, False) for p in study_paths(directory, done, fmt)])
