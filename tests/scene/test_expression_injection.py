@@ -150,3 +150,15 @@ def test_names_are_identifiers_not_code(sandbox, capsys, where, key):
     code = main(["simulate", str(DATA / "slider_crank.toml"), "-o", str(sandbox / "out" / "r.csv"),
                  "--set", f"outputs.{payload}={{kind = \"energy\"}}"])
     _assert_refused(code, capsys.readouterr().err, sandbox, str(DATA / "slider_crank.toml"), "outputs.")
+
+
+def test_effects_auto_header_cannot_add_toml():
+    """``symgen effects --auto`` writes the scene's file name in a comment: a name with a newline
+    (or another control character) stays inside the comment."""
+    import tomllib
+
+    from symgen.run.effects import toml_text
+
+    raw = {"scene": {"name": "s"}, "effects": {"coriolis": True}}
+    text = toml_text(raw, "from evil\n[effects]\ncoriolis = false\r\x7f.toml")
+    assert tomllib.loads(text) == raw and text.splitlines()[0].startswith("# from evil?[effects]")
