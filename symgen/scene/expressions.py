@@ -21,7 +21,10 @@ Bounds: at most :data:`MAX_LENGTH` characters, :data:`MAX_TOKENS` tokens and :da
 levels of nesting; every constant must be a finite real double: literals (``1e400``), powers
 (``9^9^9^9`` is refused from the magnitude of its logarithm before anything is computed;
 constant exponents are bounded by :data:`MAX_EXPONENT`), function values (``sqrt(-1)``,
-``log(0)``, ``exp(1000)``) and quotients (``1/0``).
+``log(0)``, ``exp(1000)``) and quotients (``1/0``). ``tau`` is the real symbol of the derivation
+(:func:`tau_symbol`). A function or power of something that holds a function value
+(``exp(log(tau))``) is built unevaluated: SymPy's automatic rewriting of such nests costs time
+growing steeply with the nesting; everything else is exactly what SymPy's own parser built.
 
 Examples
 --------

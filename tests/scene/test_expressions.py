@@ -248,8 +248,8 @@ def test_every_function_prints_as_c(tmp_path):
     from symgen.emit.c.printer import CPrinter
 
     printer = CPrinter({TAU: "t"})
-    body = "".join(f'    for (int i = 0; i < 2; ++i) {{ double t = pts[i]; printf("%.17g\\n", {printer.doprint(P(x))}); }}\n'
-                   for x in ORACLE)
+    body = "".join(f'    for (int i = 0; i < 2; ++i) {{ double t = pts[i]; '
+                   f'printf("%.17g\\n", {printer.doprint(P(x))}); }}\n' for x in ORACLE)
     src = tmp_path / "e.c"
     src.write_text("#include <math.h>\n#include <stdio.h>\nint main(void) {\n"
                    f"    const double pts[2] = {{{POINTS[0]!r}, {POINTS[1]!r}}};\n{body}    return 0;\n}}\n")
