@@ -25,6 +25,7 @@ import sympy as sp
 from .bars import BarEquations, BarSymbols, IPTable, PointForce, bar_equations, rot
 from .errors import SceneError
 from .kinematics import BarKinematics
+from .scene.expressions import parse_tau_expression, tau_symbol
 from .scene.model import GROUND, Scene
 from .scene.motion import driver_angle
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
@@ -33,19 +34,7 @@ from .structure import (INEXTENSIBLE, _tip_joint, effective_modes, inextensible,
                         structure_key, structure_of)
 from .topology import Topology, build_topology
 
-TAU = sp.Symbol("tau", real=True)
-_EXPR_LOCALS = {"tau": TAU, "pi": sp.pi, "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp,
-                "log": sp.log, "sqrt": sp.sqrt, "Abs": sp.Abs, "Heaviside": sp.Heaviside,
-                "Piecewise": sp.Piecewise}
-
-
-def parse_tau_expr(text: str) -> sp.Expr:
-    from sympy.parsing.sympy_parser import parse_expr
-    return parse_expr(text, local_dict=dict(_EXPR_LOCALS), global_dict={"__builtins__": {}, **_sympy_globals()})
-
-
-def _sympy_globals() -> dict:
-    return {"Integer": sp.Integer, "Float": sp.Float, "Rational": sp.Rational, "Symbol": sp.Symbol}
+TAU = tau_symbol()
 
 
 @dataclass
@@ -312,7 +301,7 @@ def derive(scene: Scene) -> DerivedModel:
             driver_row = len(lam)
             lam.append(L), lam_rows.append(ConstraintRow("driver", "driver", (GROUND, drv.body)))
         else:
-            torque_expr = parse_tau_expr(drv.torque) if isinstance(drv.torque, str) else param("torque")
+            torque_expr = parse_tau_expression(drv.torque) if isinstance(drv.torque, str) else param("torque")
 
     # ---- lumped masses (carried by the first bar of their joint) and loads
     grav = (param("gx"), param("gy")) if structure["effects"]["gravity"] else None
@@ -333,7 +322,7 @@ def derive(scene: Scene) -> DerivedModel:
         vals = []
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
-            vals.append(parse_tau_expr(val) if isinstance(val, str) else param(f"load{i + 1}_{comp}"))
+            vals.append(parse_tau_expression(val) if isinstance(val, str) else param(f"load{i + 1}_{comp}"))
         if ld.kind == "distributed":
             dist[ld.body].append(tuple(vals))
         else:

@@ -22,7 +22,7 @@ from .casadi_io import FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (r
 _UNARY = {
     sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp, sp.log: ca.log,
     sp.Abs: ca.fabs, sp.sinh: ca.sinh, sp.cosh: ca.cosh, sp.tanh: ca.tanh,
-    sp.asin: ca.asin, sp.acos: ca.acos, sp.atan: ca.atan,
+    sp.asin: ca.asin, sp.acos: ca.acos, sp.atan: ca.atan, sp.sign: ca.sign,
 }
 
 
@@ -92,6 +92,8 @@ class SympyToCasadi:
             for x in vals[1:]:
                 out = ca.fmin(out, x)
             return out
+        if fn is sp.atan2:
+            return ca.atan2(self(e.args[0]), self(e.args[1]))
         if fn is sp.Heaviside:
             x = self(e.args[0])
             return ca.if_else(x > 0, 1, ca.if_else(x < 0, 0, 0.5))

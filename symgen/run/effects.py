@@ -466,6 +466,7 @@ def _value(v) -> str:
 def toml_text(raw: dict, header: str = "") -> str:
     """A scene dict as TOML: top-level tables as [table], arrays of tables as [[array]], nested
     tables inline. Checked to read back to the same dict."""
+    header = "".join(c if " " <= c != "\x7f" else "?" for c in header)   # e.g. a file name with a newline
     lines = [f"# {header}"] if header else []
     plain = {k: v for k, v in raw.items() if not isinstance(v, (dict, list)) or
              (isinstance(v, list) and not (v and all(isinstance(x, dict) for x in v)))}

@@ -35,7 +35,7 @@ def bar_name(r: Reader, value: object, key: str, bodies: dict[str, Body], hint: 
 
 def value_or_expression(r: Reader, table: dict, path: str, key: str, default: object,
                         si: bool, what: str) -> float | str:
-    """A number, or (dimensionless input only) a SymPy expression of tau."""
+    """A number, or (dimensionless input only) an expression of tau (symgen.scene.expressions)."""
     if key not in table:
         if default is REQUIRED:
             r.missing(path, key, f"give a number or an expression of tau ({what})")
@@ -48,7 +48,8 @@ def value_or_expression(r: Reader, table: dict, path: str, key: str, default: ob
         try:
             parse_tau_expression(value)
         except ValueError as exc:
-            r.fail(join(path, key), f"invalid expression {value!r}: {exc}", EXPRESSION_HINT)
+            shown = value if len(value) <= 80 else value[:60] + f"... ({len(value)} characters)"
+            r.fail(join(path, key), f"invalid expression {shown!r}: {exc}", EXPRESSION_HINT)
         return value
     if not is_number(value):
         r.fail(join(path, key), f"must be a number or an expression of tau, got {describe(value)}",

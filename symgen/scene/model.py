@@ -13,7 +13,7 @@ stage. Units after loading (whatever the file's ``units``):
 * torque: M/(m_ref l0^3 omega^2); forces (reactions) in m_ref l0^2 omega^2.
 
 A load or torque value is either a float or a string expression of ``tau`` (validated by the
-loader: parsable by SymPy, no symbol other than ``tau``).
+loader with :func:`symgen.scene.expressions.parse_tau_expression`, which every later stage uses).
 """
 from __future__ import annotations
 
