@@ -111,8 +111,9 @@ class Parameter:
     key: str
 
 
-def parameter_records(scene: Scene, names: list[str]) -> list[Parameter]:
-    """The parameters ``names`` of a model, for this scene (value, valid range, scene key)."""
+def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Parameter]:
+    """The parameters ``names`` of a model, for this scene (value, valid range, scene key);
+    ``None``: every parameter the scene defines a value for."""
     recs: dict[str, Parameter] = {}
 
     def put(name: str, value: float, valid: ParameterRange, key: str) -> None:
@@ -152,6 +153,8 @@ def parameter_records(scene: Scene, names: list[str]) -> list[Parameter]:
             val = getattr(ld, comp)
             if not isinstance(val, str):
                 put(f"load{i + 1}_{comp}", val, FINITE, f"loads.{i}.{comp}")
+    if names is None:
+        return list(recs.values())
     missing = [n for n in names if n not in recs]
     if missing:
         raise KeyError(f"no value for parameters {missing}")
