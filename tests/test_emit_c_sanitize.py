@@ -240,6 +240,7 @@ int main(void)
     }
     printf("valid|-1|%d\n", PFX_parameter_valid(-1, 1.0));
     printf("valid|%d|%d\n", PFX_N_P, PFX_parameter_valid(PFX_N_P, 1.0));
+    printf("null|%d|%d\n", PFX_solver_init(NULL, NULL, 0.0, 0.0, 0.0), PFX_solver_advance(NULL, 1.0));
     show("t0 nan", PFX_solver_init(&s, NULL, NAN, 0.0, 0.0));
     show("rtol nan", PFX_solver_init(&s, NULL, 0.0, NAN, 0.0));
     show("rtol inf", PFX_solver_init(&s, NULL, 0.0, INFINITY, 0.0));
@@ -263,8 +264,8 @@ int main(void)
 def test_library_rejects_what_the_python_policy_rejects(tmp_path):
     """_parameter_valid agrees with ParameterRange.contains at and around every bound of every
     parameter; _solver_init / _solver_advance return _SOLVER_BAD_ARGUMENT with a message for
-    non-finite or out-of-range times, tolerances and parameters (a bad t_out leaves the run
-    usable); all of it clean under the sanitizers."""
+    non-finite or out-of-range times, tolerances and parameters, and a NULL solver (a bad t_out
+    leaves the run usable); all of it clean under the sanitizers."""
     _need_sanitizers()
     from symgen.pipeline import parameter_records
     name = DEFAULT
@@ -294,6 +295,7 @@ def test_library_rejects_what_the_python_policy_rejects(tmp_path):
                        ("parameter nan", f"{params[par]} = nan is not valid")):
         rc, status, message = calls[what]
         assert (rc, status) == (bad, bad) and message.startswith(text), (what, message)
+    assert next(x[1:] for x in lines if x[0] == "null") == [str(bad), str(bad)]
     assert calls["defaults"][:2] == (0, 0)
     for what, text in (("advance inf", "t_out = inf"), ("advance nan", "t_out = nan")):
         rc, status, message = calls[what]

@@ -790,6 +790,7 @@ int four_bar_solver_init(four_bar_solver *s, const double *p, double t0, double 
 {
     double *q, *v;
     int k;
+    if (!s) return four_bar_SOLVER_BAD_ARGUMENT;
     memset(s, 0, sizeof(*s));
     if (!(fabs(t0) <= DBL_MAX)) return s->status = four_bar_x_bad_argument(s, "t0", t0, "finite");
     if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < four_bar_RTOL_MAX))) {
@@ -847,6 +848,7 @@ int four_bar_solver_init(four_bar_solver *s, const double *p, double t0, double 
 int four_bar_solver_advance(four_bar_solver *s, double t_out)
 {
     double ratio;
+    if (!s) return four_bar_SOLVER_BAD_ARGUMENT;
     if (s->status) return s->status;
     if (!(fabs(t_out) <= DBL_MAX)) return four_bar_x_bad_argument(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;

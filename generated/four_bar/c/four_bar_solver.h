@@ -103,8 +103,8 @@ typedef struct four_bar_solver {
  * rtol, atol (<= 0: the scene's): assemble the mechanism by Newton from _q_guess (the angle
  * driver's angle and rate from the parameters theta0 and rate), start on the quasi-static
  * deformation if the scene asks for it, then consistent velocities, accelerations and
- * multipliers. Returns 0, or nonzero with s->message set: _BAD_ARGUMENT for a t0 that is not
- * finite, an rtol or atol that is NaN, infinite or (rtol) not below _RTOL_MAX, or a parameter
+ * multipliers. Returns 0, or nonzero with s->message set: _BAD_ARGUMENT for s == NULL (no
+ * message), a t0 that is not finite, an rtol or atol that is NaN, infinite or (rtol) not below _RTOL_MAX, or a parameter
  * that is not valid (_parameter_valid); _FAILED when the start fails.
  */
 int four_bar_solver_init(four_bar_solver *s, const double *p, double t0, double rtol, double atol);

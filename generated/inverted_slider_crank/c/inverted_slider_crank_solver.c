@@ -775,6 +775,7 @@ int inverted_slider_crank_solver_init(inverted_slider_crank_solver *s, const dou
 {
     double *q, *v;
     int k;
+    if (!s) return inverted_slider_crank_SOLVER_BAD_ARGUMENT;
     memset(s, 0, sizeof(*s));
     if (!(fabs(t0) <= DBL_MAX)) return s->status = inverted_slider_crank_x_bad_argument(s, "t0", t0, "finite");
     if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < inverted_slider_crank_RTOL_MAX))) {
@@ -832,6 +833,7 @@ int inverted_slider_crank_solver_init(inverted_slider_crank_solver *s, const dou
 int inverted_slider_crank_solver_advance(inverted_slider_crank_solver *s, double t_out)
 {
     double ratio;
+    if (!s) return inverted_slider_crank_SOLVER_BAD_ARGUMENT;
     if (s->status) return s->status;
     if (!(fabs(t_out) <= DBL_MAX)) return inverted_slider_crank_x_bad_argument(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;

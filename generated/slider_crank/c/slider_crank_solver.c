@@ -770,6 +770,7 @@ int slider_crank_solver_init(slider_crank_solver *s, const double *p, double t0,
 {
     double *q, *v;
     int k;
+    if (!s) return slider_crank_SOLVER_BAD_ARGUMENT;
     memset(s, 0, sizeof(*s));
     if (!(fabs(t0) <= DBL_MAX)) return s->status = slider_crank_x_bad_argument(s, "t0", t0, "finite");
     if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < slider_crank_RTOL_MAX))) {
@@ -827,6 +828,7 @@ int slider_crank_solver_init(slider_crank_solver *s, const double *p, double t0,
 int slider_crank_solver_advance(slider_crank_solver *s, double t_out)
 {
     double ratio;
+    if (!s) return slider_crank_SOLVER_BAD_ARGUMENT;
     if (s->status) return s->status;
     if (!(fabs(t_out) <= DBL_MAX)) return slider_crank_x_bad_argument(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;
