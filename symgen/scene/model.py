@@ -129,8 +129,8 @@ class Simulation:
     atol: float = 1e-10
 
 
-# Limits of the [simulation] settings: one statement for the Python runs and the emitted C
-# driver (NAME_sim renders them from here; symgen.emit.c.context).
+# Limits of the [simulation] settings, stated once: the emitted C driver renders them from here
+# (symgen.emit.c.context); the Python runs' checks of [simulation] are to use the same names.
 MAX_OUTPUT_ROWS = 1_000_000     # rows of one run, floor(t_end / output_step + 1e-9) + 1
 RTOL_MAX = 1.0                  # rtol must be < RTOL_MAX (and > 0); atol > 0
 LOOSE_RTOL = 1e-3               # an rtol above this gets a warning: results may be far off

@@ -49,8 +49,7 @@ def _parameter_ranges(scene, params: list[str]) -> list[dict]:
 
 def _run_limits() -> dict:
     from ...scene.model import LOOSE_RTOL, MAX_OUTPUT_ROWS, RTOL_MAX
-    return {"max_rows": f"{int(MAX_OUTPUT_ROWS)}L", "max_rows_value": int(MAX_OUTPUT_ROWS),
-            "rtol_max": c_double(RTOL_MAX), "loose_rtol": c_double(LOOSE_RTOL)}
+    return {"max_rows": f"{int(MAX_OUTPUT_ROWS)}L", "rtol_max": c_double(RTOL_MAX), "loose_rtol": c_double(LOOSE_RTOL)}
 
 
 def c_context(scene, model, mech) -> dict:
