@@ -119,14 +119,15 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
     def put(name: str, value: float, valid: ParameterRange, key: str) -> None:
         recs[name] = Parameter(name, float(value), valid, key)
 
+    si = scene.units == "SI"           # lambda, mu from E, area, inertia and the mass per length
     for b in scene.bodies:
         key = f"bodies.{b.name}"
         put(f"alpha_{b.name}", b.alpha, POSITIVE, f"{key}.length")        # length / l0
-        put(f"nu_{b.name}", b.nu, POSITIVE, f"{key}.mass_per_length")     # mass per length / m_ref
+        put(f"nu_{b.name}", b.nu, POSITIVE, key if si else f"{key}.mass_per_length")   # mass / m_ref
         if b.lam is not None:
-            put(f"lambda_{b.name}", b.lam, POSITIVE, f"{key}.lambda")
+            put(f"lambda_{b.name}", b.lam, POSITIVE, f"{key}.E" if si else f"{key}.lambda")
         if b.mu is not None:
-            put(f"mu_{b.name}", b.mu, POSITIVE, f"{key}.mu")
+            put(f"mu_{b.name}", b.mu, POSITIVE, f"{key}.E" if si else f"{key}.mu")
     eff = scene.effects
     put("gx", eff.gravity[0], FINITE, "effects.gravity")
     put("gy", eff.gravity[1], FINITE, "effects.gravity")
