@@ -72,15 +72,15 @@ const char *const four_bar_parameter_range[18] = {
     "> 0",    /* alpha_coupler: from bodies.coupler.length */
     "> 0",    /* alpha_crank: from bodies.crank.length */
     "> 0",    /* alpha_rocker: from bodies.rocker.length */
-    "> 0",    /* lambda_coupler: from bodies.coupler.lambda */
-    "> 0",    /* lambda_crank: from bodies.crank.lambda */
-    "> 0",    /* lambda_rocker: from bodies.rocker.lambda */
-    "> 0",    /* mu_coupler: from bodies.coupler.mu */
-    "> 0",    /* mu_crank: from bodies.crank.mu */
-    "> 0",    /* mu_rocker: from bodies.rocker.mu */
-    "> 0",    /* nu_coupler: from bodies.coupler.mass_per_length */
-    "> 0",    /* nu_crank: from bodies.crank.mass_per_length */
-    "> 0",    /* nu_rocker: from bodies.rocker.mass_per_length */
+    "> 0",    /* lambda_coupler: from bodies.coupler.E */
+    "> 0",    /* lambda_crank: from bodies.crank.E */
+    "> 0",    /* lambda_rocker: from bodies.rocker.E */
+    "> 0",    /* mu_coupler: from bodies.coupler.E */
+    "> 0",    /* mu_crank: from bodies.crank.E */
+    "> 0",    /* mu_rocker: from bodies.rocker.E */
+    "> 0",    /* nu_coupler: from bodies.coupler */
+    "> 0",    /* nu_crank: from bodies.crank */
+    "> 0",    /* nu_rocker: from bodies.rocker */
     "finite",    /* px_O2: from joints.O2.at */
     "finite",    /* px_O4: from joints.O4.at */
     "finite",    /* py_O2: from joints.O2.at */
