@@ -7,6 +7,8 @@ when they do not verify (:mod:`symgen.cache`, :mod:`symgen.emit.casadi_io`).
 """
 from __future__ import annotations
 
+import math
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,40 +70,121 @@ def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
     return CompiledModel(funcs, meta, model.timings["derive_s"], build_s, False)
 
 
-def parameter_values(scene: Scene, names: list[str]) -> np.ndarray:
-    """Numeric values, in ``names`` order, of a model's parameters for this scene."""
-    vals: dict[str, float] = {}
+@dataclass(frozen=True)
+class ParameterRange:
+    """The valid values of a model parameter: finite, above ``lower`` (strictly when
+    ``lower_open``) and below ``upper`` (strictly when ``upper_open``).
+
+    The one statement of what a parameter may be: the scene loader's checks of the keys the
+    parameter comes from imply it, ``parameter_values`` verifies it, and the emitted C (``--set``
+    of the driver, ``_solver_init``, ``fmi2SetReal``) is rendered from it.
+    """
+
+    lower: float = -math.inf
+    upper: float = math.inf
+    lower_open: bool = False
+    upper_open: bool = False
+
+    def contains(self, x: float) -> bool:
+        if not math.isfinite(x):
+            return False
+        above = x > self.lower if self.lower_open else x >= self.lower
+        below = x < self.upper if self.upper_open else x <= self.upper
+        return above and below
+
+    def text(self) -> str:
+        """``"> 0"``, ``">= 0"``, ``"in [-1, 1]"`` or ``"finite"``."""
+        lo, hi = math.isfinite(self.lower), math.isfinite(self.upper)
+        if lo and hi:
+            return (f"in {'(' if self.lower_open else '['}{self.lower:g}, "
+                    f"{self.upper:g}{')' if self.upper_open else ']'}")
+        if lo:
+            return f"{'>' if self.lower_open else '>='} {self.lower:g}"
+        if hi:
+            return f"{'<' if self.upper_open else '<='} {self.upper:g}"
+        return "finite"
+
+
+FINITE = ParameterRange()
+POSITIVE = ParameterRange(lower=0.0, lower_open=True)
+NON_NEGATIVE = ParameterRange(lower=0.0)
+UNIT_COMPONENT = ParameterRange(lower=-1.0, upper=1.0)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One model parameter of a scene: its value, valid range and the scene key it comes from."""
+
+    name: str
+    value: float
+    valid: ParameterRange
+    key: str
+
+
+def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Parameter]:
+    """The parameters ``names`` of a model, for this scene (value, valid range, scene key);
+    ``None``: every parameter the scene defines a value for."""
+    recs: dict[str, Parameter] = {}
+
+    def put(name: str, value: float, valid: ParameterRange, key: str) -> None:
+        recs[name] = Parameter(name, float(value), valid, key)
+
+    si = scene.units == "SI"           # lambda, mu from E, area, inertia and the mass per length
     for b in scene.bodies:
-        vals[f"alpha_{b.name}"] = b.alpha
-        vals[f"nu_{b.name}"] = b.nu
+        key = f"bodies.{b.name}"
+        put(f"alpha_{b.name}", b.alpha, POSITIVE, f"{key}.length")        # length / l0
+        put(f"nu_{b.name}", b.nu, POSITIVE, key if si else f"{key}.mass_per_length")   # mass / m_ref
         if b.lam is not None:
-            vals[f"lambda_{b.name}"] = b.lam
+            put(f"lambda_{b.name}", b.lam, POSITIVE, f"{key}.E" if si else f"{key}.lambda")
         if b.mu is not None:
-            vals[f"mu_{b.name}"] = b.mu
+            put(f"mu_{b.name}", b.mu, POSITIVE, f"{key}.E" if si else f"{key}.mu")
     eff = scene.effects
-    vals["gx"], vals["gy"] = eff.gravity
-    vals["damping"] = eff.damping
+    put("gx", eff.gravity[0], FINITE, "effects.gravity")
+    put("gy", eff.gravity[1], FINITE, "effects.gravity")
+    put("damping", eff.damping, NON_NEGATIVE, "effects.damping")
     for j in scene.joints:
+        key = f"joints.{j.name}"
         for e in j.ends:
             if e.body == GROUND:
-                vals[f"px_{j.name}"], vals[f"py_{j.name}"] = e.point
-        if j.direction is not None:
-            vals[f"dx_{j.name}"], vals[f"dy_{j.name}"] = j.direction
-        vals[f"m_{j.name}"] = j.mass
+                put(f"px_{j.name}", e.point[0], FINITE, f"{key}.at")
+                put(f"py_{j.name}", e.point[1], FINITE, f"{key}.at")
+        if j.direction is not None:                                          # a unit vector
+            put(f"dx_{j.name}", j.direction[0], UNIT_COMPONENT, f"{key}.direction")
+            put(f"dy_{j.name}", j.direction[1], UNIT_COMPONENT, f"{key}.direction")
+        put(f"m_{j.name}", j.mass, NON_NEGATIVE, f"{key}.mass")
     d = scene.driver
     if d is not None:
         if d.kind == "angle":
-            vals["theta0"], vals["rate"] = d.initial, d.rate
+            put("theta0", d.initial, FINITE, "driver.initial")
+            put("rate", d.rate, FINITE, "driver.rate")
             if d.ramp is not None:
-                vals["ramp"] = d.ramp
+                put("ramp", d.ramp, POSITIVE, "driver.ramp")
         elif not isinstance(d.torque, str):
-            vals["torque"] = float(d.torque)
+            put("torque", d.torque, FINITE, "driver.value")
     for i, ld in enumerate(scene.loads):
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
             if not isinstance(val, str):
-                vals[f"load{i + 1}_{comp}"] = float(val)
-    missing = [n for n in names if n not in vals]
+                put(f"load{i + 1}_{comp}", val, FINITE, f"loads.{i}.{comp}")
+    if names is None:
+        return list(recs.values())
+    missing = [n for n in names if n not in recs]
     if missing:
         raise KeyError(f"no value for parameters {missing}")
-    return np.array([vals[n] for n in names], dtype=float)
+    return [recs[n] for n in names]
+
+
+def parameter_values(scene: Scene, names: list[str]) -> np.ndarray:
+    """Numeric values, in ``names`` order, of a model's parameters for this scene.
+
+    Raises SceneError when a value (a dimensionless group computed from the file's numbers, e.g.
+    lambda from E, area, density and omega) is not finite or outside its valid range.
+    """
+    from .errors import SceneError
+    recs = parameter_records(scene, names)
+    for r in recs:
+        if not r.valid.contains(r.value):
+            raise SceneError(scene.path, r.key, f"the model parameter {r.name} computed from it is "
+                             f"{r.value!r}; it must be {r.valid.text()}",
+                             "check the magnitudes and units of the numbers this key depends on")
+    return np.array([r.value for r in recs], dtype=float)

@@ -423,6 +423,21 @@ def test_cli_emit_c_and_errors(tmp_path, capsys):
     assert not list(tmp_path.glob("x*")) and not list(tmp_path.glob(".*"))
 
 
+def test_emitted_folder_has_the_mode_of_any_output(tmp_path):
+    """write_tree renders into a temporary sibling and renames it: the folder gets the mode
+    mkdir gives (0777 & ~umask), not mkdtemp's 0700."""
+    import os
+    from symgen.emit.c import write_tree
+    old = os.umask(0o027)
+    try:
+        out = write_tree({"a.c": "int a;\n", "sub/b.h": "int b;\n"}, tmp_path / "out_c")
+    finally:
+        os.umask(old)
+    assert os.stat(out).st_mode & 0o777 == 0o750
+    assert os.stat(out / "a.c").st_mode & 0o777 == 0o640
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out_c"]
+
+
 def test_generated_c_is_what_emit_c_writes():
     """generated/<scene>/c/ is the output of emit-c (staleness itself: tests/test_generated.py)."""
     for name in NAMES:

@@ -109,3 +109,32 @@ def test_fmu_variable_names_stay_unique_when_an_output_is_named_like_a_parameter
     exp = root.find("DefaultExperiment")
     assert float(exp.get("stopTime")) == pytest.approx(scene.simulation.t_end)
     assert float(exp.get("tolerance")) == scene.simulation.rtol
+
+
+def _umask() -> int:
+    import os
+    old = os.umask(0)
+    os.umask(old)
+    return old
+
+
+def test_fmu_rejects_invalid_parameters_and_has_the_mode_of_any_output():
+    """fmi2SetReal refuses a non-finite or out-of-range parameter (fmi2Error, a logged message
+    naming the parameter and its range from symgen.pipeline.parameter_records); the .fmu file
+    has the mode open() gives (0666 & ~umask), not mkstemp's 0600."""
+    import os
+    import xml.etree.ElementTree as ET
+    path = _fmu("slider_crank")
+    assert os.stat(path).st_mode & 0o777 == 0o666 & ~_umask()
+    messages = []
+    for value in (-1.0, 0.0, float("nan"), float("inf")):
+        with pytest.raises(Exception, match="fmi2SetReal"):
+            fmpy.simulate_fmu(str(path), stop_time=0.1, start_values={"lambda_rod": value},
+                              logger=lambda *args: messages.append(args[-1].decode()))
+    assert len(messages) == 4
+    assert all("not a valid value of the parameter lambda_rod: it must be > 0" in m for m in messages), messages
+    with zipfile.ZipFile(path) as zf:
+        root = ET.fromstring(zf.read("modelDescription.xml"))
+    real = {v.get("name"): v.find("Real") for v in root.iter("ScalarVariable")}
+    assert (real["dx_B"].get("min"), real["dx_B"].get("max")) == ("-1.0", "1.0")     # closed range
+    assert real["lambda_rod"].get("min") is None                                     # > 0: not expressible

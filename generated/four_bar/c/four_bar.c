@@ -19,6 +19,7 @@
  *   four_bar_res_jac: 3180 operations, 826 temporaries, 690 nonzeros of 27x84
  */
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -54,6 +55,40 @@ const double four_bar_parameter_defaults[18] = {
     0.0    /* theta0 */
 };
 
+/* valid ranges (symgen.pipeline.parameter_records) */
+const double four_bar_parameter_lower[18] = {
+    0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
+};
+const double four_bar_parameter_upper[18] = {
+    HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL
+};
+const int four_bar_parameter_lower_open[18] = {
+    1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0
+};
+const int four_bar_parameter_upper_open[18] = {
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
+};
+const char *const four_bar_parameter_range[18] = {
+    "> 0",    /* alpha_coupler: from bodies.coupler.length */
+    "> 0",    /* alpha_crank: from bodies.crank.length */
+    "> 0",    /* alpha_rocker: from bodies.rocker.length */
+    "> 0",    /* lambda_coupler: from bodies.coupler.E */
+    "> 0",    /* lambda_crank: from bodies.crank.E */
+    "> 0",    /* lambda_rocker: from bodies.rocker.E */
+    "> 0",    /* mu_coupler: from bodies.coupler.E */
+    "> 0",    /* mu_crank: from bodies.crank.E */
+    "> 0",    /* mu_rocker: from bodies.rocker.E */
+    "> 0",    /* nu_coupler: from bodies.coupler */
+    "> 0",    /* nu_crank: from bodies.crank */
+    "> 0",    /* nu_rocker: from bodies.rocker */
+    "finite",    /* px_O2: from joints.O2.at */
+    "finite",    /* px_O4: from joints.O4.at */
+    "finite",    /* py_O2: from joints.O2.at */
+    "finite",    /* py_O4: from joints.O4.at */
+    "finite",    /* rate: from driver.rate */
+    "finite"    /* theta0: from driver.initial */
+};
+
 int four_bar_parameter_index(const char *name)
 {
     int k;
@@ -61,6 +96,17 @@ int four_bar_parameter_index(const char *name)
         if (strcmp(name, four_bar_parameter_names[k]) == 0) return k;
     }
     return -1;
+}
+
+int four_bar_parameter_valid(int k, double value)
+{
+    double lo, hi;
+    if (k < 0 || k >= 18 || !(fabs(value) <= DBL_MAX)) return 0;     /* NaN, +-inf */
+    lo = four_bar_parameter_lower[k];
+    hi = four_bar_parameter_upper[k];
+    if (four_bar_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
+    if (four_bar_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
+    return 1;
 }
 
 /* four_bar_phi: 44 operations, 6 temporaries */

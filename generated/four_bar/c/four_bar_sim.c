@@ -20,32 +20,100 @@
  */
 
 /*
- * usage: four_bar_sim [--t-end TAU] [--step TAU] [--rtol R] [--atol A] [--set NAME=VALUE]... [--stats]
+ * usage: four_bar_sim [--t-end TAU] [--step TAU] [--rtol R] [--atol A] [--set NAME=VALUE]... [--max-rows N] [--stats]
  *   prints "tau,<outputs>" and one row per output time (every --step from 0 to --t-end) on
  *   stdout; --set changes a parameter (see four_bar_parameter_names, e.g. --set lambda_rod=20000);
  *   --stats prints step counts and the closure residual on stderr.
- * Exit status: 0 complete, 1 the run stopped early (the rows so far are printed), 2 bad usage.
+ * Every value is a finite number: --t-end > 0, 0 < --step <= --t-end, --rtol in
+ * (0, four_bar_RTOL_MAX) (a warning above four_bar_LOOSE_RTOL), --atol > 0, a --set value in the
+ * parameter's range (four_bar_parameter_range), and the run gives at most --max-rows rows
+ * (default four_bar_MAX_OUTPUT_ROWS). Defaults: the scene's [simulation] section.
+ * Exit status: 0 complete, 1 the run stopped early (the rows so far are printed), 2 bad usage
+ * (a message naming the option on stderr, nothing on stdout).
  */
+#include <errno.h>
+#include <float.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "four_bar_solver.h"
 
+#define four_bar_SIM_USAGE "usage: four_bar_sim [--t-end TAU] [--step TAU] [--rtol R] [--atol A] [--set NAME=VALUE]... " \
+    "[--max-rows N] [--stats]\n"
+
 static four_bar_solver four_bar_sim_solver;
 
-static int four_bar_sim_usage(const char *why)
+/* a usage error: the message and the usage on stderr; exit status 2 */
+static int four_bar_sim_bad(const char *format, ...)
 {
-    fprintf(stderr, "four_bar_sim: %s\n"
-            "usage: four_bar_sim [--t-end TAU] [--step TAU] [--rtol R] [--atol A] [--set NAME=VALUE]... [--stats]\n", why);
+    va_list args;
+    fprintf(stderr, "four_bar_sim: ");
+    va_start(args, format);
+    vfprintf(stderr, format, args);
+    va_end(args);
+    fprintf(stderr, "\n%s", four_bar_SIM_USAGE);
     return 2;
 }
 
-static int four_bar_sim_number(const char *text, double *out)
+/* the whole of `text` as a finite double; else a message about `option` and 0 */
+static int four_bar_sim_number(const char *option, const char *text, double *out)
 {
     char *end = NULL;
-    *out = strtod(text, &end);
-    return end != text && *end == '\0';
+    double x;
+    errno = 0;
+    x = strtod(text, &end);
+    if (end == text || *end != '\0') {
+        four_bar_sim_bad("%s: '%s' is not a number", option, text);
+        return 0;
+    }
+    if (errno == ERANGE) {
+        four_bar_sim_bad("%s: '%s' is out of the range of a double (%s)", option, text,
+                        fabs(x) > 1.0 ? "overflow" : "underflow");
+        return 0;
+    }
+    if (!(fabs(x) <= DBL_MAX)) {          /* nan, inf */
+        four_bar_sim_bad("%s: '%s' is not a finite number", option, text);
+        return 0;
+    }
+    *out = x;
+    return 1;
+}
+
+/* --set NAME=VALUE into p; 0 (after a message) if NAME is no parameter or VALUE is not valid */
+static int four_bar_sim_set(const char *item, double *p)
+{
+    char name[128], option[160];
+    const char *eq = strchr(item, '=');
+    size_t len = eq ? (size_t)(eq - item) : 0;
+    double value;
+    int k = -1;
+    if (!eq || len == 0) {
+        four_bar_sim_bad("--set '%s': expected NAME=VALUE, e.g. --set %s=1.0", item, four_bar_N_P > 0 ? four_bar_parameter_names[0] : "NAME");
+        return 0;
+    }
+    if (len < sizeof(name)) {
+        memcpy(name, item, len);
+        name[len] = '\0';
+        k = four_bar_parameter_index(name);
+    }
+    if (k < 0) {
+        fprintf(stderr, "four_bar_sim: --set: no parameter named '%.*s'; the parameters are", (int)(len < 100 ? len : 100), item);
+        for (k = 0; k < four_bar_N_P; ++k) fprintf(stderr, "%s %s", k ? "," : ":", four_bar_parameter_names[k]);
+        fprintf(stderr, "%s\n%s", four_bar_N_P ? "" : " none", four_bar_SIM_USAGE);
+        return 0;
+    }
+    snprintf(option, sizeof(option), "--set %s", name);
+    if (!four_bar_sim_number(option, eq + 1, &value)) return 0;
+    if (!four_bar_parameter_valid(k, value)) {
+        four_bar_sim_bad("--set %s=%s: %s must be %s", name, eq + 1, name, four_bar_parameter_range[k]);
+        return 0;
+    }
+    p[k] = value;
+    return 1;
 }
 
 int main(int argc, char **argv)
@@ -54,49 +122,66 @@ int main(int argc, char **argv)
     double p[18];
     double out[7];
     double t_end = four_bar_T_END, step = four_bar_OUTPUT_STEP, rtol = four_bar_RTOL, atol = four_bar_ATOL;
-    int stats = 0, i, k;
-    long n_out;
+    double max_rows = (double)four_bar_MAX_OUTPUT_ROWS, rows;
+    /* rows are counted in long and their times are i * step: whole numbers exact in both */
+    const double rows_cap = (double)LONG_MAX < 9007199254740992.0 ? (double)LONG_MAX : 9007199254740992.0;
+    int stats = 0, a, k, rc;
+    long i, n_out;
     memcpy(p, four_bar_parameter_defaults, sizeof(p));
-    for (i = 1; i < argc; ++i) {
-        const char *arg = argv[i];
+    for (a = 1; a < argc; ++a) {
+        const char *arg = argv[a];
+        const char *value = a + 1 < argc ? argv[a + 1] : NULL;
         double *target = NULL;
         if (strcmp(arg, "--stats") == 0) { stats = 1; continue; }
-        if (strcmp(arg, "--help") == 0 || strcmp(arg, "-h") == 0) { four_bar_sim_usage("help"); return 0; }
-        if (i + 1 >= argc) return four_bar_sim_usage("an option is missing its value");
+        if (strcmp(arg, "--help") == 0 || strcmp(arg, "-h") == 0) { fputs(four_bar_SIM_USAGE, stdout); return 0; }
         if (strcmp(arg, "--t-end") == 0) target = &t_end;
         else if (strcmp(arg, "--step") == 0) target = &step;
         else if (strcmp(arg, "--rtol") == 0) target = &rtol;
         else if (strcmp(arg, "--atol") == 0) target = &atol;
-        else if (strcmp(arg, "--set") == 0) {
-            char name[128];
-            const char *eq = strchr(argv[i + 1], '=');
-            size_t len = eq ? (size_t)(eq - argv[i + 1]) : 0;
-            double value;
-            if (!eq || len == 0 || len >= sizeof(name)) return four_bar_sim_usage("--set needs NAME=VALUE");
-            memcpy(name, argv[i + 1], len);
-            name[len] = '\0';
-            k = four_bar_parameter_index(name);
-            if (k < 0) return four_bar_sim_usage("--set: no parameter of that name");
-            if (!four_bar_sim_number(eq + 1, &value)) return four_bar_sim_usage("--set: the value is not a number");
-            p[k] = value;
-            ++i;
-            continue;
-        } else return four_bar_sim_usage("unknown option");
-        if (!four_bar_sim_number(argv[i + 1], target)) return four_bar_sim_usage("the value is not a number");
-        ++i;
+        else if (strcmp(arg, "--max-rows") == 0) target = &max_rows;
+        else if (strcmp(arg, "--set") != 0) {
+            return arg[0] == '-' ? four_bar_sim_bad("unknown option '%s'", arg)
+                                 : four_bar_sim_bad("unexpected argument '%s' (values follow their option)", arg);
+        }
+        if (!value) return four_bar_sim_bad("option '%s' is missing its value", arg);
+        ++a;
+        if (target ? !four_bar_sim_number(arg, value, target) : !four_bar_sim_set(value, p)) return 2;
     }
-    if (!(step > 0.0) || !(t_end >= 0.0) || !(rtol > 0.0) || !(atol > 0.0)) {
-        return four_bar_sim_usage("--step, --rtol and --atol must be positive, --t-end not negative");
+    /* every value is finite here; the ranges (also of the scene's defaults) */
+    if (!(t_end > 0.0)) return four_bar_sim_bad("--t-end %g: the end time must be > 0", t_end);
+    if (!(step > 0.0)) return four_bar_sim_bad("--step %g: the output step must be > 0", step);
+    if (step > t_end) {
+        return four_bar_sim_bad("--step %g is longer than the run (--t-end %g): use a step <= the end time", step, t_end);
     }
-    n_out = (long)(t_end / step + 1e-9);
+    if (!(rtol > 0.0 && rtol < four_bar_RTOL_MAX)) {
+        return four_bar_sim_bad("--rtol %g: the relative tolerance must be in (0, %g)", rtol, four_bar_RTOL_MAX);
+    }
+    if (!(atol > 0.0)) return four_bar_sim_bad("--atol %g: the absolute tolerance must be > 0", atol);
+    if (!(max_rows >= 1.0 && max_rows <= rows_cap && max_rows == floor(max_rows))) {
+        return four_bar_sim_bad("--max-rows %g: give a whole number from 1 to %.0f", max_rows, rows_cap);
+    }
+    /* the number of rows in double, checked before it becomes an integer */
+    rows = floor(t_end / step + 1e-9) + 1.0;
+    if (!(rows <= max_rows)) {
+        return four_bar_sim_bad("--t-end %g with --step %g gives %.4g output rows, more than the limit of %.0f: use a "
+                               "larger --step or a shorter --t-end, or raise the limit with --max-rows N",
+                               t_end, step, rows, max_rows);
+    }
+    n_out = (long)rows - 1;
+    if (rtol > four_bar_LOOSE_RTOL) {
+        fprintf(stderr, "four_bar_sim: warning: --rtol %g is above %g: the results may be far off (use 1e-6 or "
+                "tighter)\n", rtol, four_bar_LOOSE_RTOL);
+    }
     printf("%s\n", "tau,crank_tip_dx,crank_tip_slope,coupler_mid,rocker_mid,rocker_angle,torque,closure");
-    if (four_bar_solver_init(s, p, 0.0, rtol, atol)) {
+    rc = four_bar_solver_init(s, p, 0.0, rtol, atol);
+    if (rc) {
         fprintf(stderr, "four_bar_sim: %s\n", s->message);
-        return 1;
+        return rc == four_bar_SOLVER_BAD_ARGUMENT ? 2 : 1;
     }
     for (i = 0; i <= n_out; ++i) {
-        int failed = i > 0 && four_bar_solver_advance(s, i * step);
-        if (failed && s->t != i * step) {          /* the integration stopped short of the output */
+        const double t = (double)i * step;
+        int failed = i > 0 && four_bar_solver_advance(s, t);
+        if (failed && s->t != t) {                 /* the integration stopped short of the output */
             fprintf(stderr, "four_bar_sim: %s\n", s->message);
             return 1;
         }
@@ -108,6 +193,10 @@ int main(int argc, char **argv)
             fprintf(stderr, "four_bar_sim: %s\n", s->message);
             return 1;
         }
+    }
+    if (fflush(stdout) != 0 || ferror(stdout)) {
+        fprintf(stderr, "four_bar_sim: writing the rows to stdout failed\n");
+        return 1;
     }
     if (stats) {
         fprintf(stderr, "four_bar_sim: %ld steps (%ld accepted, %ld rejected), %ld Jacobians, %ld LU, "

@@ -268,13 +268,13 @@ static void four_bar_x_rhs_jac(four_bar_solver *s, double t, const double *y)
 /* ------------------------------------------------------------------ consistent start */
 static int four_bar_x_fail(four_bar_solver *s, double t, const char *what, double value, const char *hint)
 {
-    s->status = 1;
+    s->status = four_bar_SOLVER_FAILED;
     if (value == value && value != 0.0) {
         snprintf(s->message, sizeof(s->message), "at tau = %.6g: %s (%.3g); %s", t, what, value, hint);
     } else {
         snprintf(s->message, sizeof(s->message), "at tau = %.6g: %s; %s", t, what, hint);
     }
-    return 1;
+    return four_bar_SOLVER_FAILED;
 }
 
 /* phi_q restricted to the columns `cols` (NL x NL) into s->sq, factored; 0 if regular */
@@ -799,12 +799,32 @@ static void four_bar_x_record_closure(four_bar_solver *s)
 }
 
 /* ------------------------------------------------------------------ public */
+/* a call with an invalid argument: the message, nothing else changed */
+static int four_bar_x_bad_argument(four_bar_solver *s, const char *what, double value, const char *rule)
+{
+    snprintf(s->message, sizeof(s->message), "%s = %.17g is not valid: it must be %s", what, value, rule);
+    return four_bar_SOLVER_BAD_ARGUMENT;
+}
+
 int four_bar_solver_init(four_bar_solver *s, const double *p, double t0, double rtol, double atol)
 {
     double *q, *v;
     int k;
+    if (!s) return four_bar_SOLVER_BAD_ARGUMENT;
     memset(s, 0, sizeof(*s));
+    if (!(fabs(t0) <= DBL_MAX)) return s->status = four_bar_x_bad_argument(s, "t0", t0, "finite");
+    if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < four_bar_RTOL_MAX))) {
+        return s->status = four_bar_x_bad_argument(s, "rtol", rtol, "in (0, 1.0), or <= 0 for the scene's");
+    }
+    if (!(fabs(atol) <= DBL_MAX)) {
+        return s->status = four_bar_x_bad_argument(s, "atol", atol, "finite and > 0, or <= 0 for the scene's");
+    }
     memcpy(s->p, p ? p : four_bar_parameter_defaults, sizeof(double) * four_bar_x_NP);
+    for (k = 0; k < four_bar_x_NP; ++k) {
+        if (!four_bar_parameter_valid(k, s->p[k])) {
+            return s->status = four_bar_x_bad_argument(s, four_bar_parameter_names[k], s->p[k], four_bar_parameter_range[k]);
+        }
+    }
     s->t = t0;
     s->rtol = rtol > 0 ? rtol : four_bar_RTOL;
     s->atol = atol > 0 ? atol : four_bar_ATOL;
@@ -850,7 +870,9 @@ int four_bar_solver_init(four_bar_solver *s, const double *p, double t0, double 
 int four_bar_solver_advance(four_bar_solver *s, double t_out)
 {
     double ratio;
+    if (!s) return four_bar_SOLVER_BAD_ARGUMENT;
     if (s->status) return s->status;
+    if (!(fabs(t_out) <= DBL_MAX)) return four_bar_x_bad_argument(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;
     if (four_bar_x_integrate(s, t_out)) return s->status;
     four_bar_x_polish(s);

@@ -19,6 +19,7 @@
  *   inverted_slider_crank_res_jac: 2274 operations, 571 temporaries, 172 nonzeros of 11x36
  */
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -50,6 +51,36 @@ const double inverted_slider_crank_parameter_defaults[14] = {
     0.0    /* theta0 */
 };
 
+/* valid ranges (symgen.pipeline.parameter_records) */
+const double inverted_slider_crank_parameter_lower[14] = {
+    0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
+};
+const double inverted_slider_crank_parameter_upper[14] = {
+    HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL
+};
+const int inverted_slider_crank_parameter_lower_open[14] = {
+    1, 1, 1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0
+};
+const int inverted_slider_crank_parameter_upper_open[14] = {
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
+};
+const char *const inverted_slider_crank_parameter_range[14] = {
+    "> 0",    /* alpha_crank: from bodies.crank.length */
+    "> 0",    /* alpha_guide: from bodies.guide.length */
+    "> 0",    /* lambda_crank: from bodies.crank.lambda */
+    ">= 0",    /* m_A: from joints.A.mass */
+    "> 0",    /* mu_crank: from bodies.crank.mu */
+    "> 0",    /* mu_guide: from bodies.guide.mu */
+    "> 0",    /* nu_crank: from bodies.crank.mass_per_length */
+    "> 0",    /* nu_guide: from bodies.guide.mass_per_length */
+    "finite",    /* px_O: from joints.O.at */
+    "finite",    /* px_P: from joints.P.at */
+    "finite",    /* py_O: from joints.O.at */
+    "finite",    /* py_P: from joints.P.at */
+    "finite",    /* rate: from driver.rate */
+    "finite"    /* theta0: from driver.initial */
+};
+
 int inverted_slider_crank_parameter_index(const char *name)
 {
     int k;
@@ -57,6 +88,17 @@ int inverted_slider_crank_parameter_index(const char *name)
         if (strcmp(name, inverted_slider_crank_parameter_names[k]) == 0) return k;
     }
     return -1;
+}
+
+int inverted_slider_crank_parameter_valid(int k, double value)
+{
+    double lo, hi;
+    if (k < 0 || k >= 14 || !(fabs(value) <= DBL_MAX)) return 0;     /* NaN, +-inf */
+    lo = inverted_slider_crank_parameter_lower[k];
+    hi = inverted_slider_crank_parameter_upper[k];
+    if (inverted_slider_crank_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
+    if (inverted_slider_crank_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
+    return 1;
 }
 
 /* inverted_slider_crank_phi: 45 operations, 8 temporaries */

@@ -58,6 +58,19 @@ extern const double inverted_slider_crank_v_guess[11];
 #define inverted_slider_crank_RTOL 1e-08
 #define inverted_slider_crank_ATOL 1e-10
 
+/* Limits of the run settings (symgen.scene.model, the same as the Python runs'): rtol in
+   (0, _RTOL_MAX), atol > 0; an rtol above _LOOSE_RTOL may give results far off (the driver
+   warns); a run of the driver prints at most _MAX_OUTPUT_ROWS rows unless told otherwise. */
+#define inverted_slider_crank_RTOL_MAX 1.0
+#define inverted_slider_crank_LOOSE_RTOL 0.001
+#define inverted_slider_crank_MAX_OUTPUT_ROWS 2000000L
+
+/* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
+   call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or
+   out-of-range tolerance, time or parameter; s->message says which): nothing was done. */
+#define inverted_slider_crank_SOLVER_FAILED 1
+#define inverted_slider_crank_SOLVER_BAD_ARGUMENT 2
+
 /* Allocate statically or with malloc: the struct holds every work array (no allocation). */
 typedef struct inverted_slider_crank_solver {
     /* public, read-only between calls */
@@ -90,11 +103,14 @@ typedef struct inverted_slider_crank_solver {
  * rtol, atol (<= 0: the scene's): assemble the mechanism by Newton from _q_guess (the angle
  * driver's angle and rate from the parameters theta0 and rate), start on the quasi-static
  * deformation if the scene asks for it, then consistent velocities, accelerations and
- * multipliers. Returns 0, or nonzero with s->message set.
+ * multipliers. Returns 0, or nonzero with s->message set: _BAD_ARGUMENT for s == NULL (no
+ * message), a t0 that is not finite, an rtol or atol that is NaN, infinite or (rtol) not below _RTOL_MAX, or a parameter
+ * that is not valid (_parameter_valid); _FAILED when the start fails.
  */
 int inverted_slider_crank_solver_init(inverted_slider_crank_solver *s, const double *p, double t0, double rtol, double atol);
 
-/* Integrate to tau = t_out (> s->t), landing exactly on it, and polish z. 0 or an error. */
+/* Integrate to tau = t_out (> s->t), landing exactly on it, and polish z. 0 or an error;
+   _BAD_ARGUMENT (s->status unchanged) for a t_out that is not finite. */
 int inverted_slider_crank_solver_advance(inverted_slider_crank_solver *s, double t_out);
 
 /* The current q, v, a, lam (any pointer may be NULL). */

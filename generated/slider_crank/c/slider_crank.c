@@ -19,6 +19,7 @@
  *   slider_crank_res_jac: 391 operations, 130 temporaries, 48 nonzeros of 4x14
  */
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -50,6 +51,36 @@ const double slider_crank_parameter_defaults[14] = {
     0.0    /* theta0 */
 };
 
+/* valid ranges (symgen.pipeline.parameter_records) */
+const double slider_crank_parameter_lower[14] = {
+    0.0, 0.0, -1.0, -1.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
+};
+const double slider_crank_parameter_upper[14] = {
+    HUGE_VAL, HUGE_VAL, 1.0, 1.0, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL
+};
+const int slider_crank_parameter_lower_open[14] = {
+    1, 1, 0, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0
+};
+const int slider_crank_parameter_upper_open[14] = {
+    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
+};
+const char *const slider_crank_parameter_range[14] = {
+    "> 0",    /* alpha_crank: from bodies.crank.length */
+    "> 0",    /* alpha_rod: from bodies.rod.length */
+    "in [-1, 1]",    /* dx_B: from joints.B.direction */
+    "in [-1, 1]",    /* dy_B: from joints.B.direction */
+    "> 0",    /* lambda_rod: from bodies.rod.lambda */
+    "> 0",    /* mu_rod: from bodies.rod.mu */
+    "> 0",    /* nu_crank: from bodies.crank.mass_per_length */
+    "> 0",    /* nu_rod: from bodies.rod.mass_per_length */
+    "finite",    /* px_B: from joints.B.at */
+    "finite",    /* px_O: from joints.O.at */
+    "finite",    /* py_B: from joints.B.at */
+    "finite",    /* py_O: from joints.O.at */
+    "finite",    /* rate: from driver.rate */
+    "finite"    /* theta0: from driver.initial */
+};
+
 int slider_crank_parameter_index(const char *name)
 {
     int k;
@@ -57,6 +88,17 @@ int slider_crank_parameter_index(const char *name)
         if (strcmp(name, slider_crank_parameter_names[k]) == 0) return k;
     }
     return -1;
+}
+
+int slider_crank_parameter_valid(int k, double value)
+{
+    double lo, hi;
+    if (k < 0 || k >= 14 || !(fabs(value) <= DBL_MAX)) return 0;     /* NaN, +-inf */
+    lo = slider_crank_parameter_lower[k];
+    hi = slider_crank_parameter_upper[k];
+    if (slider_crank_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
+    if (slider_crank_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
+    return 1;
 }
 
 /* slider_crank_phi: 24 operations, 2 temporaries */

@@ -40,8 +40,24 @@ extern const char *const slider_crank_output_names[4];
 /* The scene's parameter values (dimensionless groups), in the order of _parameter_names. */
 extern const double slider_crank_parameter_defaults[14];
 
+/*
+ * The valid values of every parameter (the Python loader's rules for the scene keys they come
+ * from; symgen.pipeline.parameter_records): finite, above _parameter_lower[k] (strictly if
+ * _parameter_lower_open[k]) and below _parameter_upper[k] (strictly if _parameter_upper_open[k]);
+ * -HUGE_VAL / HUGE_VAL: no bound. _parameter_range[k] says the same in words ("> 0", "finite").
+ */
+extern const double slider_crank_parameter_lower[14];
+extern const double slider_crank_parameter_upper[14];
+extern const int slider_crank_parameter_lower_open[14];
+extern const int slider_crank_parameter_upper_open[14];
+extern const char *const slider_crank_parameter_range[14];
+
 /* Index of the parameter called `name`, or -1. */
 int slider_crank_parameter_index(const char *name);
+
+/* 1 if `value` is a valid value of parameter k (finite and in its range), else 0 (also for a k
+   that is not a parameter index). */
+int slider_crank_parameter_valid(int k, double value);
 
 /*
  * Every function below has the signature of the CasADi Functions F(t, q, v, a, lam, p) of the

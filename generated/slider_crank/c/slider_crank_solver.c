@@ -268,13 +268,13 @@ static void slider_crank_x_rhs_jac(slider_crank_solver *s, double t, const doubl
 /* ------------------------------------------------------------------ consistent start */
 static int slider_crank_x_fail(slider_crank_solver *s, double t, const char *what, double value, const char *hint)
 {
-    s->status = 1;
+    s->status = slider_crank_SOLVER_FAILED;
     if (value == value && value != 0.0) {
         snprintf(s->message, sizeof(s->message), "at tau = %.6g: %s (%.3g); %s", t, what, value, hint);
     } else {
         snprintf(s->message, sizeof(s->message), "at tau = %.6g: %s; %s", t, what, hint);
     }
-    return 1;
+    return slider_crank_SOLVER_FAILED;
 }
 
 /* phi_q restricted to the columns `cols` (NL x NL) into s->sq, factored; 0 if regular */
@@ -779,12 +779,32 @@ static void slider_crank_x_record_closure(slider_crank_solver *s)
 }
 
 /* ------------------------------------------------------------------ public */
+/* a call with an invalid argument: the message, nothing else changed */
+static int slider_crank_x_bad_argument(slider_crank_solver *s, const char *what, double value, const char *rule)
+{
+    snprintf(s->message, sizeof(s->message), "%s = %.17g is not valid: it must be %s", what, value, rule);
+    return slider_crank_SOLVER_BAD_ARGUMENT;
+}
+
 int slider_crank_solver_init(slider_crank_solver *s, const double *p, double t0, double rtol, double atol)
 {
     double *q, *v;
     int k;
+    if (!s) return slider_crank_SOLVER_BAD_ARGUMENT;
     memset(s, 0, sizeof(*s));
+    if (!(fabs(t0) <= DBL_MAX)) return s->status = slider_crank_x_bad_argument(s, "t0", t0, "finite");
+    if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < slider_crank_RTOL_MAX))) {
+        return s->status = slider_crank_x_bad_argument(s, "rtol", rtol, "in (0, 1.0), or <= 0 for the scene's");
+    }
+    if (!(fabs(atol) <= DBL_MAX)) {
+        return s->status = slider_crank_x_bad_argument(s, "atol", atol, "finite and > 0, or <= 0 for the scene's");
+    }
     memcpy(s->p, p ? p : slider_crank_parameter_defaults, sizeof(double) * slider_crank_x_NP);
+    for (k = 0; k < slider_crank_x_NP; ++k) {
+        if (!slider_crank_parameter_valid(k, s->p[k])) {
+            return s->status = slider_crank_x_bad_argument(s, slider_crank_parameter_names[k], s->p[k], slider_crank_parameter_range[k]);
+        }
+    }
     s->t = t0;
     s->rtol = rtol > 0 ? rtol : slider_crank_RTOL;
     s->atol = atol > 0 ? atol : slider_crank_ATOL;
@@ -830,7 +850,9 @@ int slider_crank_solver_init(slider_crank_solver *s, const double *p, double t0,
 int slider_crank_solver_advance(slider_crank_solver *s, double t_out)
 {
     double ratio;
+    if (!s) return slider_crank_SOLVER_BAD_ARGUMENT;
     if (s->status) return s->status;
+    if (!(fabs(t_out) <= DBL_MAX)) return slider_crank_x_bad_argument(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;
     if (slider_crank_x_integrate(s, t_out)) return s->status;
     slider_crank_x_polish(s);

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import os
 import shutil
-import tempfile
 from pathlib import Path
 
+from .files import new_dir
 from .names import c_prefix
 
 __all__ = ["c_sources", "write_c", "write_fmu", "c_prefix"]
@@ -63,7 +63,7 @@ def write_tree(files: dict, out_dir: str | os.PathLike) -> Path:
         raise SceneError("command line", "-o", f"{str(out)!r} exists and is not a folder",
                          "give a folder name, e.g. out/model_c")
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    tmp = new_dir(out.parent, f".{out.name}.")         # mode 0777 & ~umask, like any output folder
     try:
         for name, text in files.items():
             path = tmp / name
@@ -91,5 +91,6 @@ def write_c(scene, out_dir: str | os.PathLike, model=None, mech=None) -> Path:
 
 def write_fmu(scene, path: str | os.PathLike, model=None, mech=None, cc: str | None = None) -> Path:
     """Pack the FMI 2.0 Co-Simulation FMU of ``scene`` (sources + linux64 binary) into ``path``."""
-    from .fmu import write_fmu as write
+    from .fmu import check_fmu_path, write_fmu as write
+    check_fmu_path(Path(path))                         # before the derivation
     return write(scene, Path(path), c_context(scene, model, mech), cc=cc)

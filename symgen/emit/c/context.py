@@ -8,6 +8,10 @@ baked in), the raw initial guess the assembly Newton starts from (the scene's
 ``[initial]`` guess and deformation, the driver's angle and rate), which coordinates are
 elastic / rigid for the quasi-static start, and the rows and columns of the closure
 Jacobian that decide a singular position.
+
+The valid range of every parameter (``symgen.pipeline.parameter_records``) and the limits of
+the run settings (``symgen.scene.model``: output rows, rtol) are rendered from Python, never
+retyped in the templates.
 """
 from __future__ import annotations
 
@@ -24,6 +28,32 @@ def _ops_table(prefix: str, funcs) -> list[str]:
     return [f"{prefix}_{f.name}: {f.ops} operations, {f.temporaries} temporaries"
             + (f", {f.nnz} nonzeros of {f.rows}x{f.cols}" if f.kind == "jacobian" else "")
             for f in funcs]
+
+
+def _c_bound(x: float) -> str:
+    """A range bound as C: a double literal, or +-HUGE_VAL for no bound."""
+    if x == float("inf"):
+        return "HUGE_VAL"
+    if x == float("-inf"):
+        return "-HUGE_VAL"
+    return c_double(x)
+
+
+def _parameter_ranges(scene, params: list[str]) -> list[dict]:
+    from ...pipeline import parameter_records
+    return [{"lower": _c_bound(r.valid.lower), "upper": _c_bound(r.valid.upper),
+             "lower_open": int(r.valid.lower_open), "upper_open": int(r.valid.upper_open),
+             "text": c_string(r.valid.text()), "key": c_comment(r.key)}
+            for r in parameter_records(scene, params)]
+
+
+def _run_limits() -> dict:
+    """The run limits of the Python loader (symgen.scene.limits), rendered into the C: the
+    default row limit (the C driver lifts it with --max-rows, Python with SYMGEN_MAX_ROWS), the
+    rtol bound and the rtol above which both warn."""
+    from ...scene.limits import LIMITS, RTOL_MAX, RTOL_WARN
+    return {"max_rows": f"{int(LIMITS['rows'].default)}L", "rtol_max": c_double(RTOL_MAX),
+            "loose_rtol": c_double(RTOL_WARN)}
 
 
 def c_context(scene, model, mech) -> dict:
@@ -88,6 +118,8 @@ def c_context(scene, model, mech) -> dict:
         "parameter_defaults": [c_double(x) for x in mech.p],
         "parameter_plain": params,
         "parameter_values": [float(x) for x in mech.p],
+        "parameter_ranges": _parameter_ranges(scene, params),
+        "limits": _run_limits(),
         "output_names": [c_string(x) for x in meta["outputs"]],
         "csv_header": c_string(",".join(["tau", *meta["outputs"]])),
         "functions": [{"name": f.name, "kind": f.kind, "rows": f.rows, "cols": f.cols, "body": list(f.body),

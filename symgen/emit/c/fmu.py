@@ -9,6 +9,7 @@ Radau IIA solver to the next communication point; the tolerance comes from
 """
 from __future__ import annotations
 
+import math
 import os
 import platform
 import tempfile
@@ -17,7 +18,9 @@ import zipfile
 from pathlib import Path
 
 from ...errors import SceneError
+from ...pipeline import parameter_records
 from .build import BuildError, compile_shared
+from .files import new_file
 from .names import c_string, xml_attr
 from .printer import c_double
 from .render import TEMPLATES, environment
@@ -40,13 +43,18 @@ def fmu_context(scene, ctx: dict) -> dict:
         where = o.body or o.joint or ""
         desc = f"{o.kind}" + (f" of {where}" if where else "") + (f" at {o.xi:g}" if getattr(o, "xi", None) is not None else "")
         variables.append({"name": xml_attr(o.name), "vr": k, "causality": "output", "description": xml_attr(desc)})
-    for k, (name, value) in enumerate(zip(params, ctx["parameter_values"])):
+    records = parameter_records(scene, params)
+    for k, (name, value, rec) in enumerate(zip(params, ctx["parameter_values"], records)):
         fmu_name = name
         while fmu_name in taken:                   # a parameter named like an output
             fmu_name = "parameter_" + fmu_name
         taken.add(fmu_name)
+        valid = rec.valid                          # FMI min / max are inclusive: closed bounds only
         variables.append({"name": xml_attr(fmu_name), "vr": len(outputs) + k, "causality": "parameter",
-                          "start": c_double(value), "description": xml_attr(f"model parameter {name} (dimensionless)")})
+                          "start": c_double(value),
+                          "min": c_double(valid.lower) if math.isfinite(valid.lower) and not valid.lower_open else None,
+                          "max": c_double(valid.upper) if math.isfinite(valid.upper) and not valid.upper_open else None,
+                          "description": xml_attr(f"model parameter {name} (dimensionless, {valid.text()})")})
     sim = scene.simulation
     guid = fmu_guid(ctx)
     prefix = ctx["prefix"]
@@ -91,14 +99,22 @@ def _documentation(scene, ctx: dict, prefix: str) -> str:
             f"communication point.</p><ul>{rows}</ul></body></html>\n")
 
 
-def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
-    """Render, compile and zip the FMU; ``path`` appears only when complete."""
-    path = Path(path)
+def check_fmu_path(path: Path) -> None:
+    """Reject an FMU path that cannot be written (before any work)."""
     if path.suffix.lower() != ".fmu":
         raise SceneError("command line", "-o", f"{str(path)!r} should end in .fmu", "give a file name like out/model.fmu")
+    if path.is_dir():
+        raise SceneError("command line", "-o", f"{str(path)!r} is a folder", "give a file name like out/model.fmu")
     if platform.system() != "Linux" or platform.machine() not in ("x86_64", "AMD64"):
         raise BuildError(f"emit-fmu builds a linux64 binary; this machine is {platform.system()} "
                          f"{platform.machine()} (use emit-c and build the sources there)")
+
+
+def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
+    """Render, compile and zip the FMU; ``path`` appears only when complete, written atomically
+    (a temporary sibling renamed onto it) with the mode of any other output (0666 & ~umask)."""
+    path = Path(path)
+    check_fmu_path(path)
     files = fmu_files(scene, ctx)
     prefix = ctx["prefix"]
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -111,8 +127,7 @@ def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
         binary = tmp / "binaries" / "linux64" / f"{prefix}.so"
         compile_shared([src / f for f in ctx_sources(prefix)], binary, include=[src], cc=cc,
                        extra=("-fvisibility=hidden",))
-        fd, zpath = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        os.close(fd)
+        zpath = new_file(path.parent, f".{path.name}.")    # mode 0666 & ~umask, like any output
         try:
             with zipfile.ZipFile(zpath, "w", zipfile.ZIP_DEFLATED) as zf:
                 for name in sorted(files):
@@ -120,7 +135,7 @@ def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
                 zf.write(binary, f"binaries/linux64/{prefix}.so")
             os.replace(zpath, path)
         except BaseException:
-            Path(zpath).unlink(missing_ok=True)
+            zpath.unlink(missing_ok=True)
             raise
     return path
 
