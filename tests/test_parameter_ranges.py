@@ -51,15 +51,23 @@ def test_every_parameter_of_a_valid_scene_is_in_range_and_names_a_scene_key(path
 
 
 def test_a_group_out_of_range_is_a_scene_error_naming_file_and_key(tmp_path):
-    """E * area overflowing to inf gives lambda = inf: a SceneError (exit 2) naming the file and
-    the key, not NaN results."""
+    """E * area overflowing to inf would give lambda = inf: the loader refuses the number itself
+    (naming the file and key); and parameter_values, the last gate before the numerics and the
+    emitted C, refuses an out-of-range group in a scene built some other way."""
+    import dataclasses
+
     text = SI_SCENE.read_text()
     assert "area = 1.0e-4" in text and "E = 2.0e11" in text
     bad = tmp_path / "huge.toml"
-    bad.write_text(text.replace("E = 2.0e11", "E = 1.0e308", 1).replace("area = 1.0e-4", "area = 1.0e10", 1))
-    scene = load_scene(bad)
-    names = [r.name for r in parameter_records(scene)]
+    bad.write_text(text.replace("E = 2.0e11", "E = 1.0e308", 1))
+    with pytest.raises(SceneError) as err:
+        load_scene(bad)
+    assert err.value.file == str(bad) and err.value.key == "bodies.rod.E"
+    scene = load_scene(SI_SCENE)
+    rod = dataclasses.replace(scene.body("rod"), lam=float("inf"))
+    scene = dataclasses.replace(scene, bodies=tuple(rod if b.name == "rod" else b for b in scene.bodies))
+    names = [r.name for r in parameter_records(load_scene(SI_SCENE))]
     with pytest.raises(SceneError) as err:
         parameter_values(scene, names)
-    assert err.value.file == str(bad) and err.value.key == "bodies.rod.E"
+    assert err.value.file == str(SI_SCENE) and err.value.key == "bodies.rod.E"
     assert "lambda_rod" in err.value.message and "inf" in err.value.message and "> 0" in err.value.message
