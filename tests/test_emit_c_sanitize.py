@@ -134,8 +134,12 @@ def _bad_arguments(name: str) -> list:
         (["--t-end", "nan"], "--t-end: 'nan' is not a finite number"),
         (["--t-end", "1e400"], "--t-end: '1e400' is out of the range of a double"),
         (["--atol", "1e-400"], "--atol: '1e-400' is out of the range of a double"),
-        (["--t-end", "1e300"], rows),                       # was: (long) of 6e301, undefined
-        (["--t-end", "1.7976931348623157e308", "--step", "1e-300"], rows),
+        (["--t-end", "1e300"], "longer than the limit of 1e+06"),  # was: (long) of 6e301, undefined
+        (["--t-end", "1e300", "--step", "1e300"], "longer than the limit"),   # two rows, 1e300 of tau
+        (["--t-end", "1e300", "--max-t-end", "1e301"], rows),
+        (["--max-t-end", "0"], "the limit must be > 0"),
+        (["--t-end", "1.7976931348623157e308", "--step", "1e-300"], "longer than the limit"),
+        (["--t-end", "1.7976931348623157e308", "--step", "1e-300", "--max-t-end", "1e308"], rows),
         (["--t-end", "1000", "--step", "1e-6"], rows),
         (["--t-end", "2x"], "--t-end: '2x' is not a number"),
         (["--t-end", ""], "--t-end: '' is not a number"),

@@ -43,7 +43,7 @@
 #include "four_bar_solver.h"
 
 #define four_bar_SIM_USAGE "usage: four_bar_sim [--t-end TAU] [--step TAU] [--rtol R] [--atol A] [--set NAME=VALUE]... " \
-    "[--max-rows N] [--stats]\n"
+    "[--max-rows N] [--max-t-end TAU] [--stats]\n"
 
 static four_bar_solver four_bar_sim_solver;
 
@@ -122,7 +122,7 @@ int main(int argc, char **argv)
     double p[18];
     double out[7];
     double t_end = four_bar_T_END, step = four_bar_OUTPUT_STEP, rtol = four_bar_RTOL, atol = four_bar_ATOL;
-    double max_rows = (double)four_bar_MAX_OUTPUT_ROWS, rows;
+    double max_rows = (double)four_bar_MAX_OUTPUT_ROWS, rows, max_t_end = four_bar_MAX_T_END;
     /* rows are counted in long and their times are i * step: whole numbers exact in both */
     const double rows_cap = (double)LONG_MAX < 9007199254740992.0 ? (double)LONG_MAX : 9007199254740992.0;
     int stats = 0, a, k, rc;
@@ -139,6 +139,7 @@ int main(int argc, char **argv)
         else if (strcmp(arg, "--rtol") == 0) target = &rtol;
         else if (strcmp(arg, "--atol") == 0) target = &atol;
         else if (strcmp(arg, "--max-rows") == 0) target = &max_rows;
+        else if (strcmp(arg, "--max-t-end") == 0) target = &max_t_end;
         else if (strcmp(arg, "--set") != 0) {
             return arg[0] == '-' ? four_bar_sim_bad("unknown option '%s'", arg)
                                  : four_bar_sim_bad("unexpected argument '%s' (values follow their option)", arg);
@@ -149,6 +150,11 @@ int main(int argc, char **argv)
     }
     /* every value is finite here; the ranges (also of the scene's defaults) */
     if (!(t_end > 0.0)) return four_bar_sim_bad("--t-end %g: the end time must be > 0", t_end);
+    if (!(max_t_end > 0.0)) return four_bar_sim_bad("--max-t-end %g: the limit must be > 0", max_t_end);
+    if (!(t_end <= max_t_end)) {   /* the same limit as the Python loader's (SYMGEN_MAX_T_END) */
+        return four_bar_sim_bad("--t-end %g is longer than the limit of %g (in tau): use a shorter run, or raise "
+                               "the limit with --max-t-end TAU", t_end, max_t_end);
+    }
     if (!(step > 0.0)) return four_bar_sim_bad("--step %g: the output step must be > 0", step);
     if (step > t_end) {
         return four_bar_sim_bad("--step %g is longer than the run (--t-end %g): use a step <= the end time", step, t_end);

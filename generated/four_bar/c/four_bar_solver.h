@@ -64,6 +64,7 @@ extern const double four_bar_v_guess[27];
 #define four_bar_RTOL_MAX 1.0
 #define four_bar_LOOSE_RTOL 0.001
 #define four_bar_MAX_OUTPUT_ROWS 2000000L
+#define four_bar_MAX_T_END 1000000.0
 
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or

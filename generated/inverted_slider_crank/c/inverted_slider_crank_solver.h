@@ -64,6 +64,7 @@ extern const double inverted_slider_crank_v_guess[11];
 #define inverted_slider_crank_RTOL_MAX 1.0
 #define inverted_slider_crank_LOOSE_RTOL 0.001
 #define inverted_slider_crank_MAX_OUTPUT_ROWS 2000000L
+#define inverted_slider_crank_MAX_T_END 1000000.0
 
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or

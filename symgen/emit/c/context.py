@@ -53,7 +53,7 @@ def _run_limits() -> dict:
     rtol bound and the rtol above which both warn."""
     from ...scene.limits import LIMITS, RTOL_MAX, RTOL_WARN
     return {"max_rows": f"{int(LIMITS['rows'].default)}L", "rtol_max": c_double(RTOL_MAX),
-            "loose_rtol": c_double(RTOL_WARN)}
+            "loose_rtol": c_double(RTOL_WARN), "max_t_end": c_double(float(LIMITS["t_end"].default))}
 
 
 def c_context(scene, model, mech) -> dict:
