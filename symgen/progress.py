@@ -13,5 +13,7 @@ def progress_bar(total: int, desc: str, unit: str = "run", enabled: bool | None 
     from tqdm import tqdm
 
     disable = (not sys.stderr.isatty()) if enabled is None else not enabled
+    # no monitor thread: a sweep forks its worker processes, which wants a single-threaded parent
+    tqdm.monitor_interval = 0
     return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, disable=disable, leave=False,
                 dynamic_ncols=True)

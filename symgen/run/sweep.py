@@ -322,7 +322,12 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context("spawn"),
+    # fork where it is safe (Linux, no other Python thread): fast, and scripts need no
+    # ``if __name__ == "__main__"`` guard; else spawn
+    import sys
+    import threading
+    method = "fork" if sys.platform.startswith("linux") and threading.active_count() == 1 else "spawn"
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context(method),
                                initializer=_init_worker, initargs=(blobs,))
     try:
         pending = {pool.submit(_run_local, t) for t in tasks}
@@ -589,9 +594,21 @@ def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence
         x, xlabel = result.columns[varies[0].key], varies[0].key
     order = np.argsort(x, kind="stable")
     fig, ax = plt.subplots(figsize=(7.5, 5.2))
+    if not F.size:
+        F = np.full((len(x), 1), np.nan)
+    # the window: the order lines and the lowest mode; higher modes (axial ones of stiff bars
+    # sit far above any excitation order) are listed, not drawn off scale
+    top = np.nanmax(speed) * s * orders * 1.1 if np.isfinite(speed).any() else 1.0
+    if F.size and np.isfinite(F[:, 0]).any():
+        top = max(top, np.nanmax(F[:, 0]) * s * 1.1)
+    above = [k for k in range(F.shape[1]) if np.isfinite(F[:, k]).any() and np.nanmin(F[:, k]) * s > top]
+    if above:
+        text = ", ".join(f"f{k + 1} = {np.nanmin(F[:, k]) * s:.4g}..{np.nanmax(F[:, k]) * s:.4g}" for k in above[:4])
+        ax.text(0.99, 0.98, f"above the frame: {text}" + (" ..." if len(above) > 4 else ""),
+                transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.25")
     for k in range(F.shape[1]):
-        ax.plot(x[order], F[order, k] * s, "o-", ms=3, lw=1.1, color="C0", label="natural frequencies" if k == 0 else None)
-    top = np.nanmax(F) * s * 1.08 if F.size and np.isfinite(F).any() else 1.0
+        if k not in above:
+            ax.plot(x[order], F[order, k] * s, "o-", ms=3, lw=1.1, color=f"C{k % 10}", label=f"f{k + 1}")
     for n in range(1, orders + 1):
         ax.plot(x[order], n * speed[order] * s, "--", lw=0.8, color="0.45")
         i = order[-1]
@@ -602,7 +619,9 @@ def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence
     ax.set_xlabel(xlabel)
     ax.set_ylabel(f"natural frequency ({unit})")
     ax.grid(True, lw=0.3, alpha=0.6)
-    ax.legend(fontsize=8, loc="upper left")
+    handles = ax.get_legend_handles_labels()[0]
+    if 0 < len(handles) <= 12:
+        ax.legend(fontsize=8, loc="upper left")
     fig.suptitle(title + ("  [PARTIAL]" if not result.complete else ""), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
