@@ -42,3 +42,30 @@ def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
     """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
     from .run.modes import modes
     return modes(mechanism(scene, overrides), tau=tau, **kwargs)
+
+
+def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *, frame: bool = False,
+          **kwargs):
+    """A parameter sweep: one row per point of the grid of ``vary``, as a dict of numpy arrays
+    (a pandas DataFrame with ``frame=True``; pandas is optional).
+
+    ``vary`` maps scene keys (as for ``--set``) to a grid spec string (``"0.5:3:20"``,
+    ``"1e4:1e8:9:log"``, ``"1,2,4"``) or a sequence of numbers; several keys give the full grid.
+    kwargs go to ``symgen.run.sweep.sweep`` (workers, scheduler, window, campbell, campbell_at,
+    progress). Columns: the varied keys, status, steps, cpu_s, peak_<output>, and with
+    ``campbell=True`` speed and f1..fk (natural frequencies from ``modes``).
+
+    >>> table = sweep("examples/slider_crank.toml", {"driver.rate": "0.5:2:4"},
+    ...               ["simulation.cycles=0.5"], workers=1)        # doctest: +SKIP
+    >>> table["peak_eta_mid"]                                      # doctest: +SKIP
+    """
+    from .run.sweep import sweep as run_sweep, vary_from
+
+    if frame:
+        try:
+            import pandas  # noqa: F401
+        except ImportError:
+            raise ImportError("sweep(..., frame=True) needs pandas: pip install pandas "
+                              "(without it, sweep returns a dict of numpy arrays)") from None
+    result = run_sweep(scene, [vary_from(k, v) for k, v in vary.items()], overrides, **kwargs)
+    return result.frame() if frame else result.columns

@@ -95,6 +95,22 @@ def parse_vary(item: str) -> Vary:
     return Vary(key, texts)
 
 
+def vary_from(key: str, values) -> Vary:
+    """A Vary from the Python API: a SPEC string or a sequence of numbers."""
+    if isinstance(values, str):
+        return parse_vary(f"{key}={values}")
+    vals = list(np.atleast_1d(np.asarray(values)))
+    if not vals:
+        raise _bad(f"{key}=[]", "no values")
+    texts = []
+    for v in vals:
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(float(v)):
+            raise _bad(f"{key}={values!r}", f"{v!r} is not a finite number")
+        texts.append(str(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v)))
+    return parse_vary(f"{key}={','.join(texts)}")
+
+
 def grid(varies: Sequence[Vary]) -> list[tuple]:
     """Points of the full grid, row-major in the order of ``varies`` (each a tuple of texts)."""
     keys = [v.key for v in varies]
