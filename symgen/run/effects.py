@@ -278,10 +278,13 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
     default every output but closure residuals)."""
     runs = runs or _Runs(str(path), overrides, cycles, outputs)
     report = estimate_effects(load_scene(path, overrides), tol)
-    for row in report.rows:
-        r = runs.run([row.change.override])
-        row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
-        row.worst = r["worst"]
+    from ..progress import progress_bar
+    with progress_bar(len(report.rows), "effects --measure") as bar:
+        for row in report.rows:
+            r = runs.run([row.change.override])
+            row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
+            row.worst = r["worst"]
+            bar.update(1)
     report.reference = {"steps": runs.ref["steps"], "simulate_s": runs.ref["simulate_s"], "t_end": runs.t_end,
                         "output_step": runs.step, "outputs": list(runs.compared)}
     recommend(report)

@@ -486,12 +486,17 @@ def reproduce(out_dir, quick: bool = False, examples=None,
     figs = Figures(out)
     notes: list = []
     missing: list = []
-    _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
-    _four_bar(ex / "four_bar.toml", figs, quick, notes, progress)
+    from ..progress import progress_bar
     inv = ex / "inverted_slider_crank.toml"
-    if inv.exists():
-        _inverted(inv, figs, quick, notes, progress)
-    else:
+    with progress_bar(3 if inv.exists() else 2, "reproduce", unit="example") as bar:
+        _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
+        bar.update(1)
+        _four_bar(ex / "four_bar.toml", figs, quick, notes, progress)
+        bar.update(1)
+        if inv.exists():
+            _inverted(inv, figs, quick, notes, progress)
+            bar.update(1)
+    if not inv.exists():
         missing.append("G.11-G.12 (inverted slider-crank) are not drawn: `examples/inverted_slider_crank.toml` "
                        "does not exist.")
     readme = _readme(out, notes, quick, missing, time.perf_counter() - tic)

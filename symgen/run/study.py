@@ -418,12 +418,15 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
     cutoff = cutoff_per_turn / turn
     n_window = int(round(window_turns * turn / dt)) + 1
     rows = []
-    for i, cfg in enumerate(configs):
-        say(f"[{i + 1}/{len(configs)}] {cfg.label}")
-        row = runner.run(cfg)
-        _compare(row, ref, names, compared, dt, cutoff, n_window)
-        rows.append(row)
-        say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
+    from ..progress import progress_bar
+    with progress_bar(len(configs), f"study {scene.name}", unit="config") as bar:
+        for i, cfg in enumerate(configs):
+            say(f"[{i + 1}/{len(configs)}] {cfg.label}")
+            row = runner.run(cfg)
+            _compare(row, ref, names, compared, dt, cutoff, n_window)
+            rows.append(row)
+            say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
+            bar.update(1)
     return Study(scene_path=str(scene_path), scene_name=scene.name, overrides=tuple(overrides), elastic=elastic,
                  turn=turn, t_end=float(ref.tau[-1]), window=min(window_turns * turn, float(ref.tau[-1])),
                  cutoff=cutoff, repeats=max(1, repeats), reference=ref, rows=rows, output_names=names,
