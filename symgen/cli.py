@@ -191,8 +191,9 @@ def cmd_sweep(args) -> int:
     except BaseException as err:
         partial = getattr(err, "partial", None)
         if partial is not None and any(s != "not run" for s in partial.columns["status"]):
+            stopped = "partial" if isinstance(err, Exception) else "interrupted"
             written = write_table(out, partial, sweep_meta(partial, args.scene, varies, overrides, args.window,
-                                                           campbell_at, scene))
+                                                           campbell_at, scene, stopped))
             print(f"symgen: partial sweep kept in {written}", file=sys.stderr)
         raise
     written = write_table(out, result, sweep_meta(result, args.scene, varies, overrides, args.window,

@@ -199,6 +199,7 @@ def run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
 def _init_worker(blobs: Mapping[str, dict]) -> None:
     """Local worker processes: the parent handles Ctrl-C (and stops them); keep the models."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # a forked worker drops the parent's handler
     global _BLOBS
     _BLOBS = blobs
 
@@ -513,12 +514,12 @@ def _write_parquet(path: Path, result: SweepResult) -> None:
 
 
 def sweep_meta(result: SweepResult, scene_path: str, varies: Sequence[Vary], overrides: Sequence[str],
-               window: float | None, campbell_at: float | None, scene) -> dict:
+               window: float | None, campbell_at: float | None, scene, stopped: str = "interrupted") -> dict:
     from .. import __version__
     done = int(sum(s != "not run" for s in result.columns["status"]))
     return {
         "scene": str(scene_path), "symgen_version": __version__,
-        "status": "complete" if result.complete else "interrupted",
+        "status": "complete" if result.complete else stopped,
         "points": len(result), "points_done": done,
         "vary": [{"key": v.key, "values": [float(t) for t in v.texts], "log": v.log} for v in varies],
         "set": list(overrides), "executor": result.executor, "structures": result.structures,
@@ -622,9 +623,16 @@ def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence
         text = ", ".join(f"f{k + 1} = {np.nanmin(F[:, k]) * s:.4g}..{np.nanmax(F[:, k]) * s:.4g}" for k in above[:4])
         ax.text(0.99, 0.98, f"above the frame: {text}" + (" ..." if len(above) > 4 else ""),
                 transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.25")
-    for k in range(F.shape[1]):
-        if k not in above:
-            ax.plot(x[order], F[order, k] * s, "o-", ms=3, lw=1.1, color=f"C{k % 10}", label=f"f{k + 1}")
+    # one line per mode and per value of the other varied keys (not the x axis's)
+    xkey = None if varies_speed else varies[0].key
+    others = [v.key for v in varies if v.key != xkey and not (varies_speed and v.key == "driver.rate")]
+    styles = ("o-", "s--", "^-.", "d:")
+    for g, (label, idx) in enumerate(_groups(result, others)):
+        sel = order[idx[order]]
+        for k in range(F.shape[1]):
+            if k not in above:
+                ax.plot(x[sel], F[sel, k] * s, styles[g % len(styles)], ms=3, lw=1.1, color=f"C{k % 10}",
+                        label=f"f{k + 1}" + (f" ({label})" if label else ""))
     for n in range(1, orders + 1):
         ax.plot(x[order], n * speed[order] * s, "--", lw=0.8, color="0.45")
         i = order[-1]
