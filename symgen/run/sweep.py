@@ -128,8 +128,7 @@ def grid(varies: Sequence[Vary]) -> list[tuple]:
 @dataclass(frozen=True)
 class Task:
     index: int
-    scene_path: str
-    overrides: tuple            # base --set + this point's values
+    scene: Any                  # the point's validated Scene (shipped: workers need no scene file)
     key: str                    # structure key of its model
     window: float | None        # last crank turns over which peaks are taken (None: the whole run)
     campbell: bool
@@ -159,11 +158,10 @@ def _model(key: str, blobs: Mapping[str, dict]):
 
 def run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
     """Simulate one point; peaks of |output| and, with ``campbell``, the natural frequencies."""
-    from ..scene import load_scene
     from .mechanism import Mechanism
     from .simulate import simulate
 
-    scene = load_scene(task.scene_path, list(task.overrides))
+    scene = task.scene
     mech = Mechanism(_model(task.key, blobs), scene)
     names = list(mech.meta["outputs"])
     row: dict[str, Any] = {"status": "ok", "failure": "", "steps": 0, "cpu_s": 0.0,
@@ -190,7 +188,7 @@ def run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
         try:
             md = modes(mech, tau=task.campbell_at, shapes=False)
             row["freqs"] = [m.natural_frequency for m in md.modes]
-        except SimulationError as err:
+        except (SimulationError, ArithmeticError, ValueError, np.linalg.LinAlgError) as err:
             row["status"] = "failed" if row["status"] == "failed" else "modes failed"
             row["failure"] = (row["failure"] + "; " if row["failure"] else "") + f"modes: {err}"
     return {"index": task.index, **row}
@@ -245,12 +243,12 @@ class SweepResult:
 def prepare(scene_path: str, varies: Sequence[Vary], overrides: Sequence[str] = ()):
     """Load every point's scene (validating it) and group the points by structure key.
 
-    Returns (points, tasks-without-options, keys, scenes by key)."""
+    Returns (points, the scene of each point, structure key of each point, first scene by key)."""
     from ..scene import load_scene
     from ..structure import structure_key, structure_of
 
     points = grid(varies)
-    keys, first = [], {}
+    keys, first, scenes = [], {}, []
     for pt in points:
         ov = list(overrides) + [f"{v.key}={t}" for v, t in zip(varies, pt)]
         try:
@@ -260,8 +258,9 @@ def prepare(scene_path: str, varies: Sequence[Vary], overrides: Sequence[str] = 
                              f"{', '.join(f'{v.key}={t}' for v, t in zip(varies, pt))})", err.hint) from None
         k = structure_key(structure_of(scene))
         keys.append(k)
+        scenes.append(scene)
         first.setdefault(k, scene)
-    return points, keys, first
+    return points, scenes, keys, first
 
 
 def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequence[str] = (), *,
@@ -287,7 +286,7 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
     if window is not None and not window > 0:
         raise SceneError("command line", "--window", f"the window must be > 0 crank turns, got {window!r}",
                          "e.g. --window 1 (the last turn)")
-    points, keys, first = prepare(scene_path, varies, overrides)
+    points, scenes, keys, first = prepare(scene_path, varies, overrides)
     counts = {k: keys.count(k) for k in first}
     if campbell:
         for sc in first.values():
@@ -302,8 +301,7 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
     if len(first) > 1:
         say(f"{len(first)} distinct model structures in the grid (the varied keys change the structure): "
             f"each derived once")
-    tasks = [Task(i, scene_path, tuple(overrides) + tuple(f"{v.key}={t}" for v, t in zip(varies, pt)),
-                  keys[i], window, campbell, campbell_at) for i, pt in enumerate(points)]
+    tasks = [Task(i, scenes[i], keys[i], window, campbell, campbell_at) for i in range(len(points))]
     sc0 = next(iter(first.values()))
     names = [o.name for o in sc0.outputs]
     rows: dict[int, dict] = {}
