@@ -23,6 +23,7 @@ import math
 import os
 import re
 import signal
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -136,6 +137,10 @@ class Task:
 
 
 _MODELS: dict = {}              # structure key -> CompiledModel, per worker process
+# One point at a time per process: CasADi is not safe to drive from several threads (plugin
+# loading, Function memory), and holds the GIL anyway; a Dask worker with several threads thus
+# runs its points in turn (give workers --nthreads 1 and more processes for parallel runs).
+_LOCK = threading.Lock()
 
 
 def model_blob(compiled) -> dict:
@@ -158,6 +163,11 @@ def _model(key: str, blobs: Mapping[str, dict]):
 
 def run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
     """Simulate one point; peaks of |output| and, with ``campbell``, the natural frequencies."""
+    with _LOCK:
+        return _run_point(task, blobs)
+
+
+def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
     from .mechanism import Mechanism
     from .simulate import simulate
 
@@ -288,6 +298,10 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
                          "e.g. --window 1 (the last turn)")
     points, scenes, keys, first = prepare(scene_path, varies, overrides)
     counts = {k: keys.count(k) for k in first}
+    if window is not None and any(sc.driver is None or sc.driver.kind != "angle" or sc.driver.rate == 0
+                                  for sc in first.values()):
+        raise SceneError("command line", "--window", "a window in crank turns needs an angle driver with a rate",
+                         "leave out --window: the peaks are then taken over the whole run")
     if campbell:
         for sc in first.values():
             if sc.driver is None or sc.driver.kind != "angle":
@@ -340,8 +354,8 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
     # fork where it is safe (Linux, no other Python thread): fast, and scripts need no
     # ``if __name__ == "__main__"`` guard; else spawn
     import sys
-    import threading
     method = "fork" if sys.platform.startswith("linux") and threading.active_count() == 1 else "spawn"
+    before = set(mp.active_children())
     pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context(method),
                                initializer=_init_worker, initargs=(blobs,))
     try:
@@ -354,15 +368,23 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
                 bar.update(1)
     except BaseException:
         # stop at once: drop the queue, end the worker processes (they ignore SIGINT)
-        procs = list(getattr(pool, "_processes", {}).values())
         pool.shutdown(wait=False, cancel_futures=True)
-        for p in procs:
-            if p.is_alive():
-                p.terminate()
-        for p in procs:
-            p.join(timeout=5)
+        _stop(set(mp.active_children()) - before)          # this pool's workers, however started
+        pool.shutdown(wait=True)                            # the pool's manager thread ends (pool broken)
+        _stop(set(mp.active_children()) - before)          # any worker it started meanwhile
         raise
     pool.shutdown(wait=True)
+
+
+def _stop(procs) -> None:
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    for p in procs:
+        p.join(timeout=10)
+        if p.is_alive():
+            p.kill()
+            p.join()
 
 
 def _run_dask(tasks, blobs, scheduler, rows, bar) -> None:
