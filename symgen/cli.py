@@ -362,7 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="peaks over the last TURNS crank turns only (skip start-up transients)")
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask distributed scheduler "
-                                                          "(e.g. tcp://10.0.0.5:8786) instead of local processes")
+                                                          "(e.g. tcp://scheduler-host:8786) instead of local processes")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_sweep)
 
