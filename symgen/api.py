@@ -71,3 +71,32 @@ def results_frame(result, scene: Scene, units: str | None = None):
         raise ImportError("results_frame needs pandas (pip install pandas); results_table gives "
                           "the same columns as numpy arrays") from None
     return pd.DataFrame(results_table(result, scene, units))
+
+
+def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *, frame: bool = False,
+          **kwargs):
+    """A parameter sweep: one row per point of the grid of ``vary``, as a dict of numpy arrays
+    (a pandas DataFrame with ``frame=True``; pandas is optional).
+
+    ``vary`` maps scene keys (as for ``--set``) to a grid spec string (``"0.5:3:20"``,
+    ``"1e4:1e8:9:log"``, ``"1,2,4"``) or a sequence of numbers; several keys give the full grid.
+    kwargs go to ``symgen.run.sweep.sweep`` (workers, scheduler, window, campbell, campbell_at,
+    progress; ``workers=1`` runs in this process). Local worker processes are forked on Linux;
+    where they are spawned instead (macOS, Windows, or a parent with threads) a script must guard
+    its entry point with ``if __name__ == "__main__":``. Columns: the varied keys, status, steps, cpu_s, peak_<output>, and with
+    ``campbell=True`` speed and f1..fk (natural frequencies from ``modes``).
+
+    >>> table = sweep("examples/slider_crank.toml", {"driver.rate": "0.5:2:4"},
+    ...               ["simulation.cycles=0.5"], workers=1)        # doctest: +SKIP
+    >>> table["peak_eta_mid"]                                      # doctest: +SKIP
+    """
+    from .run.sweep import sweep as run_sweep, vary_from
+
+    if frame:
+        try:
+            import pandas  # noqa: F401
+        except ImportError:
+            raise ImportError("sweep(..., frame=True) needs pandas: pip install pandas "
+                              "(without it, sweep returns a dict of numpy arrays)") from None
+    result = run_sweep(scene, [vary_from(k, v) for k, v in vary.items()], overrides, **kwargs)
+    return result.frame() if frame else result.columns

@@ -286,6 +286,53 @@ def _flush_print(text: str) -> None:
     print(text, flush=True)
 
 
+def cmd_sweep(args) -> int:
+    from .run.sweep import (check_table_path, parse_vary, plot_campbell, plot_resonance, sweep, sweep_meta,
+                            write_table)
+
+    out = check_table_path(args.output)
+    for path, key in ((args.plot, "--plot"), (args.campbell, "--campbell")):
+        if path:
+            _check_out(path, (".png", ".svg", ".pdf"), key)
+    if args.workers is not None and args.workers < 1:
+        raise SceneError("command line", "--workers", f"must be >= 1, got {args.workers}", "e.g. --workers 4")
+    if args.orders < 1:
+        raise SceneError("command line", "--orders", f"must be >= 1, got {args.orders}", "e.g. --orders 6")
+    varies = [parse_vary(v) for v in args.vary]
+    overrides = args.set or []
+    scene = _scene(args)
+    campbell_at = args.campbell_at if args.campbell else None
+    try:
+        result = sweep(args.scene, varies, overrides, workers=args.workers, scheduler=args.scheduler,
+                       window=args.window, campbell=bool(args.campbell), campbell_at=args.campbell_at,
+                       use_cache=not args.no_cache, say=print)
+    except BaseException as err:
+        partial = getattr(err, "partial", None)
+        if partial is not None and any(s != "not run" for s in partial.columns["status"]):
+            stopped = "partial" if isinstance(err, Exception) else "interrupted"
+            written = write_table(out, partial, sweep_meta(partial, args.scene, varies, overrides, args.window,
+                                                           campbell_at, scene, stopped))
+            print(f"symgen: partial sweep kept in {written}", file=sys.stderr)
+        raise
+    written = write_table(out, result, sweep_meta(result, args.scene, varies, overrides, args.window,
+                                                  campbell_at, scene))
+    title = f"{scene.name}: {Path(scene.path).name}"
+    if args.plot:
+        plot_resonance(args.plot, result, varies, [o.kind for o in scene.outputs], title)
+    if args.campbell:
+        hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
+        plot_campbell(args.campbell, result, varies, f"{title}: Campbell diagram at tau = {args.campbell_at:g}",
+                      orders=args.orders, hz_per_unit=hz)
+    failed = int(sum(s != "ok" for s in result.columns["status"]))
+    cpu = float(result.columns["cpu_s"].sum())
+    print(f"wrote {written} ({len(result)} points on {result.executor}; {failed} not ok; "
+          f"CPU {cpu:.1f} s in the runs)")
+    for path in (args.plot, args.campbell):
+        if path:
+            print(f"wrote {path}")
+    return 0
+
+
 def cmd_effects(args) -> int:
     from .run.effects import DEFAULT_TOL, auto_effects, estimate_effects, measure_effects, table
 
@@ -513,6 +560,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the Pareto plot")
     p.set_defaults(func=cmd_study)
+    p = scene_cmd("sweep", "run a grid of parameter values (one derivation, parallel runs): peaks table, "
+                           "resonance plot, Campbell diagram")
+    p.add_argument("--vary", action="append", required=True, metavar="KEY=SPEC",
+                   help="scene key (as for --set) and values: start:stop:n, start:stop:n:log or v1,v2,... "
+                        "(repeatable: full grid)")
+    p.add_argument("-o", "--output", required=True, help="table to write: .csv or .parquet (+ .json sidecar)")
+    p.add_argument("--plot", help="resonance plot (PNG/SVG/PDF): peak of each output against the first varied key")
+    p.add_argument("--campbell", help="Campbell diagram (PNG/SVG/PDF): natural frequencies from modes against "
+                                      "the crank speed, with the excitation orders; frequencies go into the table")
+    p.add_argument("--campbell-at", type=float, default=0.0, metavar="TAU",
+                   help="input position of the modes (default 0)")
+    p.add_argument("--orders", type=int, default=6, help="excitation order lines 1x..Nx (default 6)")
+    p.add_argument("--window", type=float, default=None, metavar="TURNS",
+                   help="peaks over the last TURNS crank turns only (skip start-up transients)")
+    p.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask distributed scheduler "
+                                                          "(e.g. tcp://scheduler-host:8786) instead of local processes")
+    p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.set_defaults(func=cmd_sweep)
+
     p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
                              "the smallest verified effect set with --auto TOL")
     p.add_argument("--measure", action="store_true", help="short runs with and without each effect")

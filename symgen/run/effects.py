@@ -359,12 +359,15 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
     report = estimate_effects(load_scene(path, overrides), tol, runs.compared)
     report.reference = {"steps": runs.ref["steps"], "simulate_s": runs.ref["simulate_s"], "t_end": runs.t_end,
                         "output_step": runs.step, "outputs": list(runs.compared)}
+    from ..progress import progress_bar
     try:
-        for row in report.rows:
-            interrupt.check()
-            r = runs.run([row.change.override])
-            row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
-            row.worst = r["worst"]
+        with progress_bar(len(report.rows), "effects --measure") as bar:
+            for row in report.rows:
+                interrupt.check()
+                r = runs.run([row.change.override])
+                row.error, row.steps, row.simulate_s, row.status = r["error"], r["steps"], r["simulate_s"], r["status"]
+                row.worst = r["worst"]
+                bar.update(1)
     except BaseException as err:
         # the rows measured so far: a partial report, its other rows marked not measured (any
         # failure while a signal is pending is the interrupt: CasADi reports it as its own error)

@@ -496,18 +496,23 @@ def reproduce(out_dir, quick: bool = False, examples=None,
     figs = Figures(out, fmt)
     notes: list = []
     missing: list = []
+    from ..progress import progress_bar
+    inv = ex / "inverted_slider_crank.toml"
     try:
-        _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
-        _four_bar(ex / "four_bar.toml", figs, quick, notes, progress)
-        inv = ex / "inverted_slider_crank.toml"
-        if inv.exists():
-            _inverted(inv, figs, quick, notes, progress)
-        else:
-            missing.append("G.11-G.12 (inverted slider-crank) are not drawn: `examples/inverted_slider_crank.toml` "
-                           "does not exist.")
+        with progress_bar(3 if inv.exists() else 2, "reproduce", unit="example") as bar:
+            _slider_crank(ex / "slider_crank.toml", figs, quick, notes, progress)
+            bar.update(1)
+            _four_bar(ex / "four_bar.toml", figs, quick, notes, progress)
+            bar.update(1)
+            if inv.exists():
+                _inverted(inv, figs, quick, notes, progress)
+                bar.update(1)
     except BaseException as err:
         _stopped(out, figs, notes, err, time.perf_counter() - tic)
         raise
+    if not inv.exists():
+        missing.append("G.11-G.12 (inverted slider-crank) are not drawn: `examples/inverted_slider_crank.toml` "
+                       "does not exist.")
     readme = _readme(out, notes, quick, missing, time.perf_counter() - tic, fmt)
     remove([out / PARTIAL_README])
     return figs.written + [readme]

@@ -432,14 +432,17 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
                      reference=ref, rows=list(rows), output_names=names, compared=compared, notes=notes,
                      oversample=k, status=status, stopped=stopped, planned=len(configs))
 
+    from ..progress import progress_bar
     try:
-        for i, cfg in enumerate(configs):
-            interrupt.check()
-            say(f"[{i + 1}/{len(configs)}] {cfg.label}")
-            row = runner.run(cfg)
-            _compare(row, ref, names, compared, dt, cutoff, n_window)
-            rows.append(row)
-            say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
+        with progress_bar(len(configs), f"study {scene.name}", unit="config") as bar:
+            for i, cfg in enumerate(configs):
+                interrupt.check()
+                say(f"[{i + 1}/{len(configs)}] {cfg.label}")
+                row = runner.run(cfg)
+                _compare(row, ref, names, compared, dt, cutoff, n_window)
+                rows.append(row)
+                say(f"    error {row.error:.2e} ({row.worst}), integrate {row.integrate_s:.2f} s, {row.status}")
+                bar.update(1)
     except BaseException as err:
         # the rows done so far are a partial study (written marked "interrupted"); any failure
         # while a signal is pending is the interrupt (CasADi reports it as its own error)
