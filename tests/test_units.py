@@ -91,3 +91,16 @@ def test_units_errors(tmp_path, capsys):
     assert out.read_text().startswith("tau,")
     assert json.loads(out.with_suffix(".json").read_text())["units"]["system"] == "dimensionless"
     assert math.isfinite(np.loadtxt(out, delimiter=",", skiprows=1)[-1, 0])
+
+
+def test_sweep_sidecar_gives_the_si_factors_of_the_peaks():
+    from symgen.run.sweep import _si_factors
+    from symgen.scene import load_scene
+
+    fb = load_scene(str(FOUR_BAR))
+    raw = tomllib.loads(FOUR_BAR.read_text())
+    m_ref = raw["bodies"][0]["density"] * raw["bodies"][0]["area"]
+    f = _si_factors(fb)
+    assert f["peak_torque"] == {"unit": "N m", "factor": pytest.approx(m_ref * 0.1 ** 3 * 230.0 ** 2)}
+    assert f["peak_coupler_mid"] == {"unit": "m", "factor": pytest.approx(0.3)}
+    assert _si_factors(load_scene(str(ROOT / "examples" / "slider_crank.toml"))) is None

@@ -554,8 +554,20 @@ def sweep_meta(result: SweepResult, scene_path: str, varies: Sequence[Vary], ove
             if campbell_at is not None else "",
         },
         "units": "dimensionless (tau = omega t)" + (f"; omega = {scene.omega:g} rad/s" if scene.units == "SI" else ""),
+        "si_factors": _si_factors(scene),
         "window_turns": window,
     }
+
+
+def _si_factors(scene) -> dict | None:
+    """For an SI scene: the unit and factor that turn each peak column into SI (the factors of
+    ``symgen simulate``'s SI columns, symgen.run.units); None for a dimensionless scene. (The
+    swept points share the scene's scales unless a varied key changes them: the factors are
+    those of the scene as given.)"""
+    if scene.units != "SI":
+        return None
+    from .units import result_units
+    return {f"peak_{c.name}": {"unit": c.unit, "factor": c.factor} for c in result_units(scene, "SI").outputs}
 
 
 # --------------------------------------------------------------------------- plots
