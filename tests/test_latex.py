@@ -37,8 +37,9 @@ def _tags(doc: str) -> list[str]:
     return re.findall(r"\\tag\{([^}]*)\}", doc)
 
 
-def test_templates_folder_is_beside_the_package():
-    assert TEMPLATES == ROOT / "templates" / "latex"
+def test_templates_are_package_data():
+    """Inside the package (a plain install carries them: tests/test_packaging.py)."""
+    assert Path(str(TEMPLATES)) == ROOT / "symgen" / "templates" / "latex"
     assert (TEMPLATES / "document.tex.jinja").is_file()
 
 

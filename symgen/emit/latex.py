@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path
 
 import jinja2
@@ -32,7 +33,7 @@ from ..bars import IPTable, PointForce, bar_equations, distributed_groups
 from ..scene.model import GROUND
 from ..scene.motion import driver_angle
 
-TEMPLATES = Path(__file__).resolve().parents[2] / "templates" / "latex"
+TEMPLATES = resources.files("symgen") / "templates" / "latex"   # package data (pyproject: package-data)
 LINE_WIDTH = 82          # estimated printed width of a full display line (units of _width)
 TAG_WIDTH = 12           # room kept for an equation tag
 LHS_MAX = 34             # a longer left side gets a line of its own
@@ -742,7 +743,7 @@ def _joints_context(scene, model, pr: Printer) -> list[dict]:
 # --------------------------------------------------------------------------- document
 def _env() -> jinja2.Environment:
     env = jinja2.Environment(
-        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        loader=jinja2.PackageLoader("symgen", "templates/latex"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
         block_start_string="<%", block_end_string="%>",
         variable_start_string="<<", variable_end_string=">>",

@@ -1,11 +1,11 @@
-"""Render the C templates (``templates/c/``) from a context built by ``context.c_context``."""
+"""Render the C templates (``symgen/templates/c/``, package data) from a context built by ``context.c_context``."""
 from __future__ import annotations
 
-from pathlib import Path
+from importlib import resources
 
 import jinja2
 
-TEMPLATES = Path(__file__).resolve().parents[3] / "templates" / "c"
+TEMPLATES = resources.files("symgen") / "templates" / "c"     # package data (pyproject: package-data)
 
 # output file name (after the prefix) -> template
 C_FILES = {
@@ -19,7 +19,7 @@ C_FILES = {
 
 
 def environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), undefined=jinja2.StrictUndefined,
+    return jinja2.Environment(loader=jinja2.PackageLoader("symgen", "templates/c"), undefined=jinja2.StrictUndefined,
                               trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
                               autoescape=False)
 
