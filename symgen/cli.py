@@ -169,16 +169,25 @@ def _simulate(args, files) -> int:
 
     scene, compiled, mech, build_s = _prepare_run(args)
     _say(args, f"integrating tau 0 -> {scene.simulation.t_end:.6g}")
-    result, failure = _attempt(lambda: simulate(mech))
+    result, failure = _attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
     meta = _sidecar(scene, compiled, build_s, result, failure)
+    if result is not None:
+        meta["solver"]["backend"] = result.stats.get("backend")
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "the run produced no output")
     written = _write_run(args, files, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
     print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; IDAS steps {result.steps}; "
           + (f"model loaded from cache {build_s:.2f}s, " if compiled.cached else f"derived {compiled.derive_s:.2f}s, ")
-          + f"simulate {result.simulate_s:.2f}s)")
+          + _backend_text(result.stats) + f"simulate {result.simulate_s:.2f}s)")
     return 0
+
+
+def _backend_text(stats: dict) -> str:
+    if stats.get("backend") != "compiled":
+        return "virtual machine, "
+    how = "built" if stats.get("library") == "built" else "loaded"
+    return f"compiled library {how} {stats.get('setup_s', 0.0):.2f}s, "
 
 
 def _sidecar(scene, compiled, build_s, result, failure) -> dict:
@@ -534,6 +543,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
                    help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
                         "dimensionless keeps tau and the model's units)")
+    p.add_argument("--backend", choices=("auto", "compiled", "vm"), default=None,
+                   help="how the model's functions run: compiled (C compiled once by the system compiler, "
+                        "cached; $SYMGEN_CC, $SYMGEN_CFLAGS), vm (CasADi's virtual machine, slower, same numbers) "
+                        "or auto (default, or $SYMGEN_BACKEND: compiled when a C compiler works, else vm, "
+                        "said in one line)")
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_simulate)
 
