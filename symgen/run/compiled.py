@@ -141,9 +141,9 @@ def library(funcs: list, model_key: str, variant: str, store: bool = True) -> tu
     replace = False
     if store and (where.exists() or where.is_symlink()):
         try:
-            return _load(_read_verified(where, key), funcs), False
+            return _load(read_verified(where, key), funcs), False
         except cache.InvalidEntry as exc:
-            print(f"symgen: warning: compiled library {where} {exc.reason}; rebuilding it", file=sys.stderr)
+            report_rebuild(where, exc.reason)
             replace = True
         except FileNotFoundError:
             pass
@@ -154,7 +154,13 @@ def library(funcs: list, model_key: str, variant: str, store: bool = True) -> tu
         raise Unavailable(f"the library just built {exc.reason}") from None
 
 
-def _read_verified(where: Path, key: dict) -> bytes:
+def report_rebuild(where: Path, reason: str) -> None:
+    print(f"symgen: warning: compiled entry {where} {reason}; rebuilding it", file=sys.stderr)
+
+
+def read_verified(where: Path, key: dict, name: str = LIBRARY) -> bytes:
+    """The bytes of the file ``name`` of the entry ``where``, after checking that its manifest
+    holds every field of ``key`` and the file's sha256 (else :class:`symgen.cache.InvalidEntry`)."""
     try:
         manifest = json.loads(cache.read_bytes(where / MANIFEST, _MAX_MANIFEST).decode("utf-8"))
     except FileNotFoundError:
@@ -163,14 +169,24 @@ def _read_verified(where: Path, key: dict) -> bytes:
         raise cache.InvalidEntry(f"{MANIFEST} is not valid JSON ({exc})") from None
     if not isinstance(manifest, dict) or {k: manifest.get(k) for k in key} != key:
         raise cache.InvalidEntry(f"{MANIFEST} is not for this model, symgen, CasADi, compiler and flags")
-    sha = (manifest.get("files") or {}).get(LIBRARY) if isinstance(manifest.get("files"), dict) else None
+    sha = manifest["files"].get(name) if isinstance(manifest.get("files"), dict) else None
     try:
-        blob = cache.read_bytes(where / LIBRARY, _MAX_LIBRARY)
+        blob = cache.read_bytes(where / name, _MAX_LIBRARY)
     except FileNotFoundError:
-        raise cache.InvalidEntry(f"has no {LIBRARY}") from None
+        raise cache.InvalidEntry(f"has no {name}") from None
     if not isinstance(sha, str) or cache.sha256_hex(blob) != sha:
-        raise cache.InvalidEntry(f"{LIBRARY} does not match the sha256 recorded when it was built (changed or damaged)")
+        raise cache.InvalidEntry(f"{name} does not match the sha256 recorded when it was built (changed or damaged)")
     return blob
+
+
+def install(tmp: Path, where: Path, key: dict, name: str, blob: bytes, replace: bool) -> None:
+    """Write the manifest of the built file ``name`` into ``tmp`` and rename ``tmp`` to ``where``."""
+    manifest = dict(key, files={name: cache.sha256_hex(blob)})
+    (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True))
+    try:
+        cache.install_dir(tmp, where, replace=replace)
+    except OSError as exc:
+        cache.report_unwritable(where, exc)
 
 
 def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, replace: bool) -> bytes:
@@ -195,12 +211,7 @@ def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, rep
         blob = (tmp / LIBRARY).read_bytes()
         if store:
             (tmp / "model.c").unlink()
-            manifest = dict(key, files={LIBRARY: cache.sha256_hex(blob)})
-            (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True))
-            try:
-                cache.install_dir(tmp, where, replace=replace)
-            except OSError as exc:
-                cache.report_unwritable(where, exc)
+            install(tmp, where, key, LIBRARY, blob, replace)
     return blob
 
 
