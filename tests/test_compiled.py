@@ -202,6 +202,11 @@ def test_solver_c_writes_the_idas_columns_within_the_tolerance(tmp_path):
     assert meta["status"] == "complete" and meta["solver"]["backend"] == "c"
     assert meta["solver"]["name"].startswith("radau-iia") and meta["solver"]["steps"] > 0
     assert json.loads((tmp_path / "idas.json").read_text())["solver"]["name"] == "idas"
+    # another run length or tolerance reuses the cached executable (they are its arguments)
+    f = _cli(["simulate", str(SLIDER), "--set", "simulation.cycles=0.1", "--set", "simulation.rtol=1e-7",
+              "--solver", "c", "-o", str(tmp_path / "f.csv")], {}, tmp_path)
+    assert f.returncode == 0 and "C solver loaded" in f.stdout, f.stdout + f.stderr
+    assert len((tmp_path / "f.csv").read_text().splitlines()) == 1 + 37
     # no compiler, or --states (the C driver writes no coordinates): exit 2, nothing written
     d = _cli([*common, "--solver", "c", "-o", str(tmp_path / "d.csv")], {compiled.CC_ENV: "/nonexistent"}, tmp_path)
     e = _cli([*common, "--solver", "c", "--states", "-o", str(tmp_path / "e.csv")], {}, tmp_path)

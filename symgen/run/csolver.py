@@ -3,7 +3,7 @@ CSV driver) compiled once into a cached executable and run for the scene.
 
 The executable is cached under ``<cache root>/compiled/<entry>/`` (``sim`` and ``manifest.json``)
 like the compiled libraries of :mod:`symgen.run.compiled`: the entry's name hashes the scene
-(its sha256 after overrides: the emitted C holds its initial guess and defaults), the symgen
+(without its [simulation] table: the emitted C holds the rest, e.g. the initial guess), the symgen
 version, the compiler's path and ``--version`` and the flags; the executable's sha256 is checked
 before every run, and the verified bytes are run from a private copy. The model parameters are
 passed with ``--set`` at full precision, the times and tolerances with ``--t-end``, ``--step``,
@@ -12,6 +12,7 @@ written like those of the IDAS path.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import math
@@ -37,9 +38,18 @@ EXECUTABLE = "sim"
 _STATS = re.compile(r"(\d+) steps \(.*closure residual max (\S+)")
 
 
+def scene_key(scene) -> str:
+    """sha256 of the scene without its [simulation] table (times, tolerances: given to the
+    executable on its command line) and its file's path: what the emitted C is made from."""
+    data = dataclasses.asdict(scene)
+    for name in ("hash", "path", "simulation"):
+        data.pop(name, None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=repr).encode()).hexdigest()
+
+
 def _key(scene, comp: compiled.Compiler) -> dict:
     from ..emit.c.build import STRICT_C
-    return {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "scene": scene.hash,
+    return {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "scene": scene_key(scene),
             "compiler": comp.identity(), "strict": list(STRICT_C)}
 
 
