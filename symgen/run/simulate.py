@@ -1,8 +1,11 @@
 """Dynamic simulation with SUNDIALS IDAS (through CasADi) of the index-1 DAE of ``Mechanism``.
 
-Integration runs in chunks with one integrator object (time enters through an offset
-parameter), so that a failure can be located within one output step, the partial result kept,
-and the rigid mechanism's distance to a singular position checked at every output.
+Integration runs in chunks of growing length (128 outputs, doubling up to 2048) with one
+integrator object per chunk length, reused (time enters through an offset parameter), so that
+a failure can be located within one output step, the partial result kept, and the rigid
+mechanism's distance to a singular position checked at every output. The model's functions
+run compiled (a cached shared library, :mod:`symgen.run.compiled`) or in CasADi's virtual
+machine, with the same numbers.
 At each output the algebraic variables are polished by Newton on the algebraic equations
 (position closure to ~1e-14), then the outputs are evaluated.
 """
@@ -74,18 +77,6 @@ class DaeRunner:
         ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
         dae_in, dae_out = [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)]
         self.dae = ca.Function("dae", dae_in, dae_out, ca.dyn_in(), ca.dyn_out())
-        # the Jacobian blocks IDAS uses, as CasADi's factory builds them for the SX oracle (the
-        # compiled library then computes them in the same order: bit-identical Jacobians)
-        fac = self.dae.factory("jac_blocks", ca.dyn_in(), ["jac:ode:x", "jac:alg:x", "jac:ode:z", "jac:alg:z"])
-        blocks = dict(zip(("ode_x", "alg_x", "ode_z", "alg_z"), fac(*dae_in)))
-        nominal = [ca.SX.sym(f"out_{k}", e.shape) for k, e in zip(ca.dyn_out(), dae_out)]
-        jac, jac_names = [], []
-        for ko, e in zip(ca.dyn_out(), dae_out):
-            for ki, w in zip(ca.dyn_in(), dae_in):
-                jac.append(blocks.get(f"{ko}_{ki}", ca.jacobian(e, w)))
-                jac_names.append(f"jac_{ko}_{ki}")
-        jac_dae = ca.Function("jac_dae", dae_in + nominal, jac, ca.dyn_in() + [f"out_{k}" for k in ca.dyn_out()],
-                              jac_names)
         self.g = ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)])
         self.split = ca.Function("split", [x, z], [q, v, a, lam])
         # everything recorded at an output, in one call (mapped over a chunk's outputs)
@@ -100,7 +91,7 @@ class DaeRunner:
         self.backend, self.library = "vm", None
         choice = compiled.backend_choice(backend)
         if choice != "vm":
-            funcs = [self.dae, jac_dae, self.g, self.split, self.rec]
+            funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
             try:
                 ext, built = compiled.library(funcs, mech.meta["key"], f"ind={list(part.ind)} dep={list(part.dep)}",
                                               store=use_cache)
@@ -358,6 +349,22 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         exc.partial = result
         raise exc
     return result
+
+
+def _dae_jacobian(dae: ca.Function, dae_in: list, dae_out: list) -> ca.Function:
+    """``jac_dae``: the Jacobian CasADi's ``external`` gives IDAS for a compiled ``dae``. The
+    blocks IDAS uses are built by the factory that builds them for the SX oracle of the virtual
+    machine, so the compiled library computes them with the same operations in the same order
+    (bit-identical Jacobians, hence the same Newton iterates and steps); the others are exact too."""
+    fac = dae.factory("jac_blocks", ca.dyn_in(), ["jac:ode:x", "jac:alg:x", "jac:ode:z", "jac:alg:z"])
+    blocks = dict(zip(("ode_x", "alg_x", "ode_z", "alg_z"), fac(*dae_in)))
+    nominal = [ca.SX.sym(f"out_{k}", e.shape) for k, e in zip(ca.dyn_out(), dae_out)]
+    jac, names = [], []
+    for ko, e in zip(ca.dyn_out(), dae_out):
+        for ki, w in zip(ca.dyn_in(), dae_in):
+            jac.append(blocks.get(f"{ko}_{ki}", ca.jacobian(e, w)))
+            names.append(f"jac_{ko}_{ki}")
+    return ca.Function("jac_dae", dae_in + nominal, jac, ca.dyn_in() + [f"out_{k}" for k in ca.dyn_out()], names)
 
 
 _noticed: set = set()
