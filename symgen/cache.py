@@ -1,11 +1,14 @@
 """The on-disk caches: where they live, how an entry is verified, written and removed.
 
-Two caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.cache/symgen``):
+Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.cache/symgen``):
 
 ``models/<structure key>/``
     derived models: one ``<function>.casadi`` per CasADi Function (CasADi's serialized text),
     ``model.json`` and ``manifest.json`` (format version, symgen and CasADi versions, the
     structure key and the sha256 of every other file); see :mod:`symgen.emit.casadi_io`.
+``compiled/<entry>/``
+    shared libraries of a model's run-time Functions (``model.so`` and ``manifest.json``), one
+    per model, coordinate partition, compiler and flags; see :mod:`symgen.run.compiled`.
 ``shapes/v<version>__<bases>.json``
     closed-form inner products of one bar's shape bases: one file, a header line with the sha256
     of the JSON payload that follows; see :mod:`symgen.shapes`.
@@ -38,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "cache_root", "models_dir", "shapes_dir",
+__all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "cache_root", "models_dir", "compiled_dir", "shapes_dir",
            "sha256_hex", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",
            "sweep_stale", "info", "clear"]
 
@@ -75,6 +78,10 @@ def models_dir() -> Path:
 
 def shapes_dir() -> Path:
     return cache_root() / "shapes"
+
+
+def compiled_dir() -> Path:
+    return cache_root() / "compiled"
 
 
 # ----------------------------------------------------------------------------- verifying
@@ -223,7 +230,7 @@ def sweep_stale(parent: Path, max_age: float = STALE_TEMP_S) -> int:
 @dataclass
 class _Item:
     path: Path
-    kind: str       # "model", "shapes", "temp", "old"
+    kind: str       # "model", "compiled", "shapes", "temp", "old"
     size: int
 
 
@@ -239,7 +246,7 @@ def _size(path: Path) -> int:
 def _owned() -> list[_Item]:
     """Everything under the cache folder that symgen wrote (and nothing else)."""
     items = []
-    for sub, entry in ((models_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
+    for sub, entry in ((models_dir(), _MODEL_ENTRY), (compiled_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
         try:
             names = sorted(os.listdir(sub))
         except OSError:
@@ -249,7 +256,7 @@ def _owned() -> list[_Item]:
             if _is_temp(name):
                 kind = "temp"
             elif entry.fullmatch(name):
-                kind = "model" if sub.name == "models" else "shapes"
+                kind = {"models": "model", "compiled": "compiled"}.get(sub.name, "shapes")
             elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
                 kind = "old"   # a pickle from an older symgen: never loaded
             else:
@@ -276,11 +283,12 @@ def info() -> str:
     source = f"${CACHE_ENV}" if os.environ.get(CACHE_ENV) else f"default; set ${CACHE_ENV} to move it"
     lines = [f"cache: {root} ({source})"]
     items = _owned()
-    labels = {"model": ("models", "derived models"), "shapes": ("shapes", "shape inner products"),
+    labels = {"model": ("models", "derived models"), "compiled": ("compiled", "compiled model libraries"),
+              "shapes": ("shapes", "shape inner products"),
               "temp": ("temporary", "unfinished writes"), "old": ("old", "pickles of an older symgen, never loaded")}
     for kind, (label, what) in labels.items():
         sel = [i for i in items if i.kind == kind]
-        if not sel and kind in ("temp", "old"):
+        if not sel and kind in ("temp", "old", "compiled"):
             continue
         lines.append(f"  {label:<10} {_count(len(sel))} {_human(sum(i.size for i in sel)):>10}  ({what})")
     total = sum(i.size for i in items)
@@ -297,7 +305,7 @@ def clear() -> tuple[int, int]:
     items = _owned()
     for it in items:
         _remove(it.path)
-    for sub in (models_dir(), shapes_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir()):
         with contextlib.suppress(OSError):
             sub.rmdir()   # only when empty
     return len(items), sum(i.size for i in items)

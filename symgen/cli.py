@@ -167,18 +167,39 @@ def cmd_simulate(args) -> int:
 def _simulate(args, files) -> int:
     from .run.simulate import simulate
 
+    if args.solver == "c" and args.states:
+        raise SceneError("command line", "--states", "the C solver writes the outputs only, not the coordinates",
+                         "leave out --states, or --solver c")
     scene, compiled, mech, build_s = _prepare_run(args)
     _say(args, f"integrating tau 0 -> {scene.simulation.t_end:.6g}")
-    result, failure = _attempt(lambda: simulate(mech))
+    if args.solver == "c":
+        from .run.csolver import simulate_c
+        result, failure = _attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
+    else:
+        result, failure = _attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
     meta = _sidecar(scene, compiled, build_s, result, failure)
+    if args.solver == "c":
+        meta["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
+    elif result is not None:
+        meta["solver"]["backend"] = result.stats.get("backend")
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "the run produced no output")
     written = _write_run(args, files, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
     print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
-          f"{result.closure_max:.2e}; IDAS steps {result.steps}; "
+          f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
           + (f"model loaded from cache {build_s:.2f}s, " if compiled.cached else f"derived {compiled.derive_s:.2f}s, ")
-          + f"simulate {result.simulate_s:.2f}s)")
+          + _backend_text(result.stats) + f"simulate {result.simulate_s:.2f}s)")
     return 0
+
+
+def _backend_text(stats: dict) -> str:
+    if stats.get("backend") == "c":
+        how = "built" if stats.get("library") == "built" else "loaded"
+        return f"C solver {how} {stats.get('setup_s', 0.0):.2f}s, "
+    if stats.get("backend") != "compiled":
+        return "virtual machine, "
+    how = "built" if stats.get("library") == "built" else "loaded"
+    return f"compiled library {how} {stats.get('setup_s', 0.0):.2f}s, "
 
 
 def _sidecar(scene, compiled, build_s, result, failure) -> dict:
@@ -204,7 +225,7 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
         "driver": driver_record(scene.driver),
         "model_key": meta["key"],
         "coordinates": [c["name"] for c in meta["coords"]],
-        "partition": None if result is None else {
+        "partition": None if result is None or result.partition is None else {
             "independent": [meta["coords"][i]["name"] for i in result.partition.ind],
             "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
         "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
@@ -370,7 +391,8 @@ def _quasistatic(args, files) -> int:
 
     scene, compiled, mech, build_s = _prepare_run(args)
     _say(args, "solving the quasi-static positions")
-    result, failure = _attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles))
+    result, failure = _attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles,
+                                                    say=lambda line: _say(args, line)))
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "no input position was solved")
     meta = _sidecar(scene, compiled, build_s, result, failure)
@@ -534,6 +556,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
                    help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
                         "dimensionless keeps tau and the model's units)")
+    p.add_argument("--backend", choices=("auto", "compiled", "vm"), default=None,
+                   help="how the model's functions run: compiled (C compiled once by the system compiler, "
+                        "cached; $SYMGEN_CC, $SYMGEN_CFLAGS), vm (CasADi's virtual machine, slower, same numbers) "
+                        "or auto (default, or $SYMGEN_BACKEND: compiled when a C compiler works, else vm, "
+                        "said in one line)")
+    p.add_argument("--solver", choices=("idas", "c"), default="idas",
+                   help="idas (default: SUNDIALS IDAS through CasADi) or c (the emitted C Radau IIA solver of "
+                        "symgen emit-c, compiled once and cached; same CSV/JSON, outputs only)")
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_simulate)
 

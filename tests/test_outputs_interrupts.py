@@ -282,7 +282,7 @@ def test_signal_stops_a_run_at_once_with_a_partial_result_marked_interrupted(war
     _complete(out)
     long = ["--set", "simulation.cycles=500"] if command == "simulate" else ["--cycles", "5000"]
     rc, dt, _, err = _interrupt([command, SLIDER, "-o", str(out), "-v", *long], env,
-                                "integrating" if command == "simulate" else "solving", "stderr", sig)
+                                "integrating" if command == "simulate" else "first position solved", "stderr", sig)
     assert rc == code, err
     assert dt < 2.0, f"took {dt:.2f} s to stop"
     name = signal.Signals(sig).name

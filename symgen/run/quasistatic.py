@@ -329,8 +329,10 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
 
 
 def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycles: float | None = None,
-                 output_step: float | None = None) -> QuasiStaticResult:
+                 output_step: float | None = None, say=None) -> QuasiStaticResult:
     """The quasi-static response (20) at each input position (default: one cycle).
+
+    ``say``: an optional callable given one progress line once the first position is solved.
 
     Raises ``SimulationError`` (with ``.partial``, the positions solved so far) when a position
     has no quasi-static state (a singular position, or a bar at its buckling load)."""
@@ -359,6 +361,8 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
                 rows[k].append(val)
             reports.append(rep)
             q_guess = qr
+            if say is not None and len(reports) == 1:
+                say(f"first position solved (tau = {t:g}); {len(taus)} positions in all")
     except (SimulationError, Interrupted, RuntimeError) as err:
         # a failure while SIGINT/SIGTERM is pending is the interrupt (CasADi swallows it)
         exc = interrupt.interrupted(err, rows["tau"][-1] if rows["tau"] else None)

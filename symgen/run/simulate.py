@@ -1,25 +1,31 @@
 """Dynamic simulation with SUNDIALS IDAS (through CasADi) of the index-1 DAE of ``Mechanism``.
 
-Integration runs in chunks with one integrator object (time enters through an offset
-parameter), so that a failure can be located within one output step, the partial result kept,
-and the rigid mechanism's distance to a singular position checked at every output.
+Integration runs in chunks of growing length (128 outputs, doubling up to 2048) with one
+integrator object per chunk length, reused (time enters through an offset parameter), so that
+a failure can be located within one output step, the partial result kept, and the rigid
+mechanism's distance to a singular position checked at every output. The model's functions
+run compiled (a cached shared library, :mod:`symgen.run.compiled`) or in CasADi's virtual
+machine, with the same numbers.
 At each output the algebraic variables are polished by Newton on the algebraic equations
 (position closure to ~1e-14), then the outputs are evaluated.
 """
 from __future__ import annotations
 
 import re
+import sys
 import time
 from dataclasses import dataclass, field
 
 import casadi as ca
 import numpy as np
 
-from ..errors import Interrupted, SimulationError
-from . import interrupt
+from ..errors import Interrupted, SceneError, SimulationError
+from . import compiled, interrupt
 from .mechanism import SINGULAR_RATIO, Mechanism, Partition, index1
 
-CHUNK = 128         # output steps per integrator call
+CHUNK = 128         # output steps of the first integrator call; each next one covers twice as
+CHUNK_MAX = 2048    # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
+                    # (the same chunks whatever the backend: the same steps, the same numbers)
 CALC_IC = False     # z0 is always consistent (our own Newton); IDACalcIC only fails on it
 
 
@@ -45,8 +51,15 @@ class SimResult:
 
 
 class DaeRunner:
+    """The index-1 DAE of a partition as CasADi Functions, and IDAS over it.
+
+    ``backend``: "compiled" (the Functions compiled to a cached shared library, see
+    :mod:`symgen.run.compiled`), "vm" (CasADi's virtual machine) or "auto" (compiled when a C
+    compiler is at hand, else the virtual machine, said in one line on stderr). Both evaluate
+    the same operations in the same order: their results agree to the last bit."""
+
     def __init__(self, mech: Mechanism, part: Partition, rtol: float, atol: float,
-                 axial_atol: float | None = None) -> None:
+                 axial_atol: float | None = None, backend: str | None = None, use_cache: bool = True) -> None:
         self.mech, self.part = mech, part
         n, m = mech.n, mech.m
         I, D = list(part.ind), list(part.dep)
@@ -56,12 +69,14 @@ class DaeRunner:
         x, z, q, v, a, lam = sys_.x, sys_.z, sys_.q, sys_.v, sys_.a, sys_.lam
         p = ca.SX.sym("p", len(mech.p) + 1)
         t = ca.SX.sym("t")
+        u = ca.SX.sym("u", 0)
         tt = t + p[-1]                      # time offset: one integrator serves every chunk
         args = [tt, q, v, a, lam, p[:-1]]
         f = mech.f
         alg = sys_.alg(f, tt, p[:-1])
         ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
-        self.dae = {"x": x, "z": z, "p": p, "t": t, "ode": ode, "alg": alg}
+        dae_in, dae_out = [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)]
+        self.dae = ca.Function("dae", dae_in, dae_out, ca.dyn_in(), ca.dyn_out())
         self.g = ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)])
         self.split = ca.Function("split", [x, z], [q, v, a, lam])
         # everything recorded at an output, in one call (mapped over a chunk's outputs)
@@ -73,7 +88,25 @@ class DaeRunner:
         self.n_sing = len(Ds)
         self.rec = ca.Function("rec", [t, x, z, p], [q, v, lam, f["out"](*args), f["closure"](*args),
                                                      phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)])
+        self.backend, self.library = "vm", None
+        choice = compiled.backend_choice(backend)
+        if choice != "vm":
+            funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
+            try:
+                ext, built = compiled.library(funcs, mech.meta["key"], f"ind={list(part.ind)} dep={list(part.dep)}",
+                                              store=use_cache)
+            except compiled.Unavailable as exc:
+                if choice == "compiled":
+                    raise SceneError("command line", "--backend", f"compiled: {exc.reason}",
+                                     f"install a C compiler or set ${compiled.CC_ENV} to one; "
+                                     "or run with --backend vm") from None
+                _notice(f"{exc.reason}: running the model in CasADi's virtual machine (slower; "
+                        f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)")
+            else:
+                self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
+                self.backend, self.library = "compiled", "built" if built else "cached"
         self._maps: dict = {}
+        self._integrators: dict = {}
         self.opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
                      "suppress_algebraic": True, "disable_internal_warnings": True,
                      "calc_ic": CALC_IC}
@@ -93,14 +126,17 @@ class DaeRunner:
         return (np.array(q).ravel(), np.array(v).ravel(), np.array(a).ravel(), np.array(lam).ravel())
 
     def integrator(self, h: float, k: int, x, z):
-        """IDAS over k output steps of h from (x, z). The state derivatives at the start are
-        given exactly (x' = [v_I, a_I], read from z): CasADi would otherwise start IDAS with
-        x' = 0, and a nonzero initial acceleration then forces steps of order atol/|a|.
-        (Creating the integrator costs ~10 ms, small beside a chunk's integration.)"""
-        opts = dict(self.opts)
-        opts["init_xdot"] = [float(w) for w in self.xdot(x, z)]
-        grid = [h * (i + 1) for i in range(k)]
-        return ca.integrator("F", "idas", self.dae, 0.0, grid, opts)
+        """IDAS over k output steps of h (time offset in the last parameter), made once per k
+        and reused. The state derivatives at the start are those at (x, z) of its first use
+        (x' = [v_I, a_I], read from z): CasADi would otherwise start IDAS with x' = 0, and a
+        nonzero initial acceleration then forces steps of order atol/|a|; at later starts they
+        are close enough."""
+        if (h, k) not in self._integrators:
+            opts = dict(self.opts)
+            opts["init_xdot"] = [float(w) for w in self.xdot(x, z)]
+            grid = [h * (i + 1) for i in range(k)]
+            self._integrators[(h, k)] = ca.integrator("F", "idas", self.dae, 0.0, grid, opts)
+        return self._integrators[(h, k)]
 
     def xdot(self, x, z) -> np.ndarray:
         x = np.asarray(x, dtype=float).ravel()
@@ -152,13 +188,17 @@ class DaeRunner:
 
 def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | None = None,
              rtol: float | None = None, atol: float | None = None, t0: float = 0.0,
-             initial: tuple | None = None, axial_atol: float | None = None) -> SimResult:
+             initial: tuple | None = None, axial_atol: float | None = None, backend: str | None = None,
+             use_cache: bool = True) -> SimResult:
     """Integrate the scene's DAE from t0 to t_end, output every output_step (in tau).
 
     ``axial_atol``: absolute tolerance of the axial amplitudes and their rates instead of
     ``atol`` (e.g. 1e3: no error control on them, so IDAS's BDF steps over the start-up
     ringing of the stiff axial modes and damps it numerically; bending and rigid motion keep
-    rtol/atol; see benchmarks/RESULTS.md for what it costs in accuracy)."""
+    rtol/atol; see benchmarks/RESULTS.md for what it costs in accuracy).
+
+    ``backend``: "auto" (default, or ``$SYMGEN_BACKEND``), "compiled" or "vm" (see ``DaeRunner``);
+    ``use_cache=False``: a compiled library is built for this run only."""
     sim = mech.scene.simulation
     t_end = sim.t_end if t_end is None else t_end
     h = sim.output_step if output_step is None else output_step
@@ -169,7 +209,9 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             q, v, a, lam, part = mech.initial_state(t0)
         else:
             q, v, a, lam, part = initial
-        run = DaeRunner(mech, part, rtol, atol, axial_atol)
+        t_setup = time.perf_counter()
+        run = DaeRunner(mech, part, rtol, atol, axial_atol, backend, use_cache)
+        setup_s = time.perf_counter() - t_setup
         x, z = run.pack(q, v, a, lam)
     except BaseException as err:
         stop = interrupt.interrupted(err, t0)
@@ -246,8 +288,10 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
                 z_prev, z = z, z_new
                 record(ti, x, z)
             done = n_out_total
+        size = CHUNK
         while done < n_out_total:
-            k = min(CHUNK, n_out_total - done)
+            remaining = n_out_total - done
+            k = remaining if remaining <= 2 * size else size
             t_start = t0 + done * h
             pfull[-1] = t_start
             interrupt.check(taus[-1])
@@ -285,7 +329,8 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             record_many(t_start + rel, rel, X, Z, pfull)
             x, z = X[:, -1], Z[:, -1]
             done += k
-    except (SimulationError, Interrupted, RuntimeError) as err:
+            size = min(2 * size, CHUNK_MAX)
+    except (SimulationError, KeyboardInterrupt, RuntimeError) as err:   # Interrupted is a KeyboardInterrupt
         exc = interrupt.interrupted(err, taus[-1] if taus else t0)
         if not isinstance(exc, (SimulationError, Interrupted)):
             raise
@@ -298,11 +343,38 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     result = SimResult(tau=np.array(taus[:n_rec]), outputs=np.array(outs[:n_rec]),
                        output_names=list(mech.meta["outputs"]), q=np.array(qs[:n_rec]), v=np.array(vs[:n_rec]),
                        lam=np.array(lams[:n_rec]), closure_max=closure_max,
-                       steps=steps, simulate_s=elapsed, partition=part, complete=exc is None, failure=failure)
+                       steps=steps, simulate_s=elapsed, partition=part, complete=exc is None, failure=failure,
+                       stats={"backend": run.backend, "library": run.library, "setup_s": setup_s})
     if exc is not None:
         exc.partial = result
         raise exc
     return result
+
+
+def _dae_jacobian(dae: ca.Function, dae_in: list, dae_out: list) -> ca.Function:
+    """``jac_dae``: the Jacobian CasADi's ``external`` gives IDAS for a compiled ``dae``. The
+    blocks IDAS uses are built by the factory that builds them for the SX oracle of the virtual
+    machine, so the compiled library computes them with the same operations in the same order
+    (bit-identical Jacobians, hence the same Newton iterates and steps); the others are exact too."""
+    fac = dae.factory("jac_blocks", ca.dyn_in(), ["jac:ode:x", "jac:alg:x", "jac:ode:z", "jac:alg:z"])
+    blocks = dict(zip(("ode_x", "alg_x", "ode_z", "alg_z"), fac(*dae_in)))
+    nominal = [ca.SX.sym(f"out_{k}", e.shape) for k, e in zip(ca.dyn_out(), dae_out)]
+    jac, names = [], []
+    for ko, e in zip(ca.dyn_out(), dae_out):
+        for ki, w in zip(ca.dyn_in(), dae_in):
+            jac.append(blocks.get(f"{ko}_{ki}", ca.jacobian(e, w)))
+            names.append(f"jac_{ko}_{ki}")
+    return ca.Function("jac_dae", dae_in + nominal, jac, ca.dyn_in() + [f"out_{k}" for k in ca.dyn_out()], names)
+
+
+_noticed: set = set()
+
+
+def _notice(text: str) -> None:
+    """One line on stderr, once per process for the same text."""
+    if text not in _noticed:
+        _noticed.add(text)
+        print(f"symgen: {text}", file=sys.stderr)
 
 
 NEAR_SINGULAR = 5e-2
