@@ -7,7 +7,12 @@ rigid mechanism's assembly and velocities, undeformed):
   rod lambda ~ 1.1e6, mu ~ 36; output: the rod's midspan deflection from its chord;
 * ``four_bar_steel``: crank 50 mm clamped to the shaft, coupler 150 mm, rocker 125 mm, all three
   elastic, 30 rad/s: lambda ~ 1.2e7 / 1.3e6 / 1.9e6; outputs: the crank's tip deflection in the
-  clamped frame, the coupler's and the rocker's midspan deflections from their chords.
+  clamped frame, the coupler's and the rocker's midspan deflections from their chords. Light
+  Kelvin-Voigt material damping (``effects.damping = 1e-4``, the same time constant in Exudyn's
+  ``bendingDamping``/``axialDamping``): without it the clamped crank's undamped bending ringing
+  (hundreds of cycles per turn, excited by the undeformed start) dominates the peaks and
+  neither tool converges in affordable runs (Exudyn 32 elements: 17 % between 11520 and 23040
+  steps/turn; symgen 2, 4, 6 functions 50-55 % from it).
 
 Exudyn (``benchmarks/exudyn_models.py``): ANCF cable elements, ``SolveDynamic`` (generalized-
 alpha, spectral radius 0.9, fixed step). symgen: the scene through the public API with
@@ -20,7 +25,10 @@ whole run, on the common output grid (one degree of crank), against ONE referenc
 fine mesh and small steps, whose convergence (elements x steps) is tabulated; a fine symgen
 model is compared with it as a cross-check. For each tool and target (1 %, 0.1 %) the cheapest
 configuration is picked whose error is within the target and whose next refinement (2x steps /
-10x tighter rtol) is within it too (no lucky cancellations).
+10x tighter rtol) is within it too (no lucky cancellations). Where the two converged solutions
+differ by more than 0.1 % (the formulations differ: geometrically exact ANCF cable vs assumed
+modes), the 0.1 % pick is also made with each tool against its own converged solution (Exudyn:
+the reference; symgen: its fine model of the cross-check).
 
 Times (medians of repeats in this run): integration CPU (Exudyn ``SolveDynamic`` after
 ``Assemble``; symgen ``simulate`` on a model derived before, its one-off derivation cached on
@@ -88,10 +96,11 @@ def run_error(t: np.ndarray, outs: dict, ref: dict, dt: float, names) -> float:
     return max(peak_error(np.asarray(outs[k])[idx], ref[k]) for k in names)
 
 
-def cheapest(rows: list[dict], target: float) -> dict | None:
-    """The cheapest row within ``target`` whose next refinement (row["finer"]), if run, is too."""
+def cheapest(rows: list[dict], target: float, key: str = "error") -> dict | None:
+    """The cheapest row within ``target`` (``row[key]``) whose next refinement (row["finer"]), if
+    run, is too."""
     by = {r["id"]: r for r in rows}
-    ok = [r for r in rows if r["error"] <= target and (r["finer"] not in by or by[r["finer"]]["error"] <= target)]
+    ok = [r for r in rows if r[key] <= target and (r["finer"] not in by or by[r["finer"]][key] <= target)]
     return min(ok, key=lambda r: r["cpu"]) if ok else None
 
 
@@ -109,7 +118,7 @@ class Problem:
     rtols: tuple
     default_modes: tuple = (2, 3)     # with the scene's own (default) axial treatment
     default_rtols: tuple = (1e-4, 1e-5, 1e-6)
-    check: tuple = (6, 1e-9)          # the fine symgen model of the cross-check (inextensible)
+    check: tuple = ("inextensible", 6, 1e-9)   # symgen's own converged model: the cross-check
     turns: float = 2.0
     max_work: int = 10 ** 9           # Exudyn configurations up to elements x steps/turn (besides the reference)
 
@@ -124,15 +133,15 @@ def problems(quick: bool) -> list[Problem]:
     fb_bars = ("crank", "coupler", "rocker")
     if quick:
         return [Problem("slider_crank_steel", sc_out, ("rod",), slider_crank, (4, 8), (720, 1440, 2880), (16, 11520),
-                        (1, 2), (1e-4, 1e-5, 1e-6), (2,), (1e-4, 1e-5), (4, 1e-8), turns=1.0, max_work=8 * 2880),
+                        (1, 2), (1e-4, 1e-5, 1e-6), (2,), (1e-4, 1e-5), ("inextensible", 4, 1e-8), turns=1.0, max_work=8 * 2880),
                 Problem("four_bar_steel", fb_out, fb_bars, four_bar, (4, 8), (1440, 2880, 5760), (16, 11520),
-                        (1, 2), (1e-4, 1e-5, 1e-6), (1, 2), (1e-4, 1e-5), (3, 1e-8), turns=0.5, max_work=8 * 5760)]
+                        (1, 2), (1e-4, 1e-5, 1e-6), (1, 2), (1e-4, 1e-5), ("default", 3, 1e-8), turns=0.5, max_work=8 * 5760)]
     return [Problem("slider_crank_steel", sc_out, ("rod",), slider_crank, (2, 4, 8, 16, 32),
                     (360, 720, 1440, 2880, 5760, 11520, 23040), (32, 46080), (1, 2, 3, 4), (1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
-                    (2, 3), (1e-3, 1e-4, 1e-5, 1e-6), (6, 1e-9), turns=2.0, max_work=32 * 23040),
+                    (2, 3), (1e-3, 1e-4, 1e-5, 1e-6), ("inextensible", 6, 1e-9), turns=2.0, max_work=32 * 23040),
             Problem("four_bar_steel", fb_out, fb_bars, four_bar, (4, 8, 16, 32), (1440, 2880, 5760, 11520, 23040),
                     (32, 23040), (1, 2, 3, 4), (1e-3, 1e-4, 1e-5, 1e-6), (1, 2, 3), (1e-3, 1e-4, 1e-5, 1e-6),
-                    (4, 1e-8), turns=1.0, max_work=16 * 23040)]
+                    ("default", 4, 1e-8), turns=1.0, max_work=16 * 23040)]
 
 
 def output_step(p: Problem) -> float:
@@ -199,16 +208,37 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         for spt in p.steps:
             if ne * spt > p.max_work and (ne, spt) != p.reference:
                 continue
-            if (ne, spt) == p.reference:
-                runs = [(t, ref_out, ref_cpu)]
-            else:
-                runs = [p.exudyn(ne, spt, p.turns)]
-            if runs[0][2] < SLOW_RUN_S / 10:          # time the cheap ones again (the picks are among them)
-                runs += [p.exudyn(ne, spt, p.turns) for _ in range(repeats - 1)]
-            per = {k: peak_error(np.asarray(runs[0][1][k])[on_grid(runs[0][0], dt, n)], ref[k]) for k in p.outputs}
-            ex_rows.append({"id": (ne, spt), "finer": (ne, 2 * spt), "ne": ne, "spt": spt,
+            row = {"id": (ne, spt), "finer": (ne, 2 * spt), "ne": ne, "spt": spt,
+                   "config": f"{ne} elements/bar, {spt} steps/turn"}
+            try:
+                if (ne, spt) == p.reference:
+                    runs = [(t, ref_out, ref_cpu)]
+                else:
+                    runs = [p.exudyn(ne, spt, p.turns)]
+                if runs[0][2] < SLOW_RUN_S / 10:          # time the cheap ones again (the picks are among them)
+                    runs += [p.exudyn(ne, spt, p.turns) for _ in range(repeats - 1)]
+                per = {k: peak_error(np.asarray(runs[0][1][k])[on_grid(runs[0][0], dt, n)], ref[k])
+                       for k in p.outputs}
+            except Exception as err:  # noqa: BLE001 -- a failed configuration is a row, not a crash
+                row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0, per={},
+                           failed=str(err).splitlines()[0][:90])
+                ex_rows.append(row)
+                continue
+            ex_rows.append({**row,
+                            "steps": len(runs[0][0]) - 1,         # sensors write every step (adaptive halvings too)
                             "config": f"{ne} elements/bar, {spt} steps/turn", "per": per,
-                            "error": max(per.values()), "cpu": statistics.median(r[2] for r in runs)})
+                            "error": max(per.values()), "own": max(per.values()),
+                            "cpu": statistics.median(r[2] for r in runs)})
+
+    # symgen's own converged model, cross-checked against the Exudyn reference
+    cax, cnt, crtol = p.check
+    try:
+        tt, cols, ccpu, csteps = symgen_run(p, symgen_overrides(p, cax, cnt, crtol))
+        cidx = on_grid(tt, dt, n)
+        own_ref = {k: np.asarray(cols[k])[cidx] for k in p.outputs}
+        check = {k: peak_error(own_ref[k], ref[k]) for k in p.outputs}
+    except Exception as err:  # noqa: BLE001
+        own_ref, check, ccpu, csteps = None, {"failed": str(err)[:90]}, math.nan, 0
 
     sg_rows = []
     configs = [("inextensible", nt, rtol) for nt in p.modes for rtol in p.rtols]
@@ -219,7 +249,8 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         row = {"id": (axial, nt, rtol), "finer": (axial, nt, rtol / 10), "config": label, "axial": axial,
                "nt": nt, "rtol": rtol}
         if (axial, nt) in slow:
-            row.update(cpu=math.inf, error=math.inf, steps=0, failed=f"not run: a looser rtol took > {SLOW_RUN_S:g} s")
+            row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0,
+                       failed=f"not run: a looser rtol took > {SLOW_RUN_S:g} s")
             sg_rows.append(row)
             continue
         over = symgen_overrides(p, axial, nt, rtol)
@@ -230,21 +261,15 @@ def bench_problem(p: Problem, repeats: int) -> dict:
             else:
                 runs += [symgen_run(p, over) for _ in range(repeats - 1)]
         except Exception as err:  # noqa: BLE001 -- a failed configuration is a row, not a crash
-            row.update(cpu=math.inf, error=math.inf, steps=0, failed=str(err).splitlines()[0][:90])
+            row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0, failed=str(err).splitlines()[0][:90])
         else:
             tt, cols, _, steps = runs[0]
             row["per"] = {k: peak_error(np.asarray(cols[k])[on_grid(tt, dt, n)], ref[k]) for k in p.outputs}
             row.update(cpu=statistics.median(r[2] for r in runs), steps=steps, error=max(row["per"].values()),
                        repeats=len(runs))
+            row["own"] = (max(peak_error(np.asarray(cols[k])[on_grid(tt, dt, n)], own_ref[k]) for k in p.outputs)
+                          if own_ref is not None else math.inf)
         sg_rows.append(row)
-
-    # cross-check: a fine symgen model against the Exudyn reference
-    cnt, crtol = p.check
-    try:
-        tt, cols, ccpu, csteps = symgen_run(p, symgen_overrides(p, "inextensible", cnt, crtol))
-        check = {k: peak_error(np.asarray(cols[k])[on_grid(tt, dt, n)], ref[k]) for k in p.outputs}
-    except Exception as err:  # noqa: BLE001
-        check, ccpu, csteps = {"failed": str(err)[:90]}, math.nan, 0
 
     # whole process, at the 1 % picks (the model cache is warm: every configuration ran above)
     procs = {}
@@ -266,7 +291,23 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         for f in out_csv.parent.iterdir():
             f.unlink()
         out_csv.parent.rmdir()
-    return {"problem": p, "ref_cpu": ref_cpu, "peaks": peaks, "ex": ex_rows, "sg": sg_rows, "check": check,
+    # what a symgen run costs besides its steps: the same configuration over one output step
+    why = {}
+    s1 = cheapest(sg_rows, 1e-2)
+    if s1:
+        from symgen.api import mechanism
+        from symgen.run.simulate import simulate
+        mech = mechanism(p.scene, symgen_overrides(p, s1["axial"], s1["nt"], s1["rtol"]))
+        fixed = []
+        for _ in range(max(3, repeats)):
+            t0 = time.process_time()
+            simulate(mech, t_end=dt * _omega(p))
+            fixed.append(time.process_time() - t0)
+        why["fixed"] = statistics.median(fixed)
+        why["imports"] = {tool: statistics.median(process_time([sys.executable, "-c", f"import {mod}"])[0]
+                                                  for _ in range(repeats))
+                          for tool, mod in (("exudyn", "exudyn"), ("symgen", "symgen.cli"))}
+    return {"problem": p, "ref_cpu": ref_cpu, "why": why, "peaks": peaks, "ex": ex_rows, "sg": sg_rows, "check": check,
             "check_cpu": ccpu, "check_steps": csteps, "procs": procs}
 
 
@@ -282,17 +323,19 @@ def report(r: dict, repeats: int) -> list[str]:
     out = [f"### {p.name} ({p.turns:g} turns; outputs {', '.join(p.outputs)})", "",
            "Reference: Exudyn, " f"{ne_ref} elements/bar, {spt_ref} steps/turn ({r['ref_cpu']:.1f} s); peaks "
            + ", ".join(f"{k} {v:.4g} m" for k, v in r["peaks"].items()) + ".", ""]
+    cax, cnt, crtol = p.check
+    cname = "inextensible" if cax == "inextensible" else "scene default axial"
     if "failed" in r["check"]:
-        out.append(f"Cross-check: symgen {p.check[0]} transverse/bar at rtol {p.check[1]:g} failed: {r['check']['failed']}")
+        out.append(f"Cross-check: symgen {cname}, {cnt} transverse/bar at rtol {crtol:g} failed: {r['check']['failed']}")
     else:
-        out.append(f"Cross-check: symgen (inextensible, {p.check[0]} transverse functions/bar, rtol {p.check[1]:g}, "
+        out.append(f"Cross-check: symgen's own converged model ({cname}, {cnt} transverse functions/bar, rtol {crtol:g}, "
                    f"{r['check_steps']} IDAS steps, {r['check_cpu']:.2f} s) differs from the reference by "
                    + ", ".join(f"{k} {_pct(v)}" for k, v in r["check"].items()) + ".")
     # convergence table of Exudyn
     out += ["", "Exudyn's convergence (error against the reference, max over the outputs):", "",
             "| elements/bar \\ steps/turn | " + " | ".join(str(s) for s in p.steps) + " |",
             "|---|" + "---|" * len(p.steps)]
-    by = {r_["id"]: r_ for r_ in ex}
+    by = {r_["id"]: r_ for r_ in ex if "failed" not in r_}
     for ne in p.elements:
         out.append(f"| {ne} | " + " | ".join(_pct(by[(ne, s)]["error"]) if (ne, s) in by else "" for s in p.steps)
                    + " |")
@@ -300,15 +343,16 @@ def report(r: dict, repeats: int) -> list[str]:
     tgt_int, tgt_proc = TARGET_SPEEDUP.get(p.name, (None, None))
     out += ["", "| target | Exudyn: cheapest | error | CPU s | symgen: cheapest | error | CPU s | IDAS steps | "
             "integration Exudyn/symgen | whole process Exudyn/symgen (CPU s) |", "|---|---|---|---|---|---|---|---|---|---|"]
-    for target in TARGETS:
-        e, s_ = cheapest(ex, target), cheapest(sg, target)
+    for target, key in ((TARGETS[0], "error"), (TARGETS[1], "error"), (TARGETS[1], "own")):
+        e, s_ = cheapest(ex, target, key), cheapest(sg, target, key)
         ratio = f"**{e['cpu'] / s_['cpu']:.2f}x**" if e and s_ else "—"
-        pr = r["procs"].get(target)
+        pr = r["procs"].get(target) if key == "error" else None
         pcol = (f"**{pr['exudyn'] / pr['symgen']:.2f}x** ({pr['exudyn']:.2f} / {pr['symgen']:.2f})" if pr else "—")
-        ecol = f"{e['config']} | {_pct(e['error'])} | {e['cpu']:.3f}" if e else "none reached it | | "
-        scol = (f"{s_['config']} | {_pct(s_['error'])} | {s_['cpu']:.3f} | {s_['steps']}" if s_
+        ecol = f"{e['config']} | {_pct(e[key])} | {e['cpu']:.3f}" if e else "none reached it | | "
+        scol = (f"{s_['config']} | {_pct(s_[key])} | {s_['cpu']:.3f} | {s_['steps']}" if s_
                 else "none reached it | | | ")
-        out.append(f"| {100 * target:g} % | {ecol} | {scol} | {ratio} | {pcol} |")
+        against = "" if key == "error" else " (each tool against its own converged solution)"
+        out.append(f"| {100 * target:g} %{against} | {ecol} | {scol} | {ratio} | {pcol} |")
     e1, s1 = cheapest(ex, 1e-2), cheapest(sg, 1e-2)
     if tgt_int and e1 and s1:
         got = e1["cpu"] / s1["cpu"]
@@ -320,19 +364,36 @@ def report(r: dict, repeats: int) -> list[str]:
             verdict = "met" if gp >= tgt_proc else f"**not met**: {tgt_proc / gp:.1f}x short"
             out.append(f"Target at 1 %: whole process >= {tgt_proc:g}x: {gp:.2f}x, {verdict} "
                        f"(wall s: Exudyn {pr['exudyn_wall']:.2f}, symgen {pr['symgen_wall']:.2f}).")
+    why = r["why"]
+    if e1 and s1 and why:
+        per_ex = e1["cpu"] / max(e1["steps"], 1)
+        per_sg = (s1["cpu"] - why["fixed"]) / max(s1["steps"], 1)
+        imp = why["imports"]
+        out += ["", f"Where the time goes at 1 %: Exudyn {e1['steps']} steps x {1e6 * per_ex:.1f} µs; symgen "
+                f"{s1['steps']} IDAS steps x {1e6 * per_sg:.1f} µs + {why['fixed']:.3f} s per run (the same "
+                f"configuration over one output step: integrator set-up, consistent start, outputs; "
+                f"{100 * why['fixed'] / s1['cpu']:.0f} % of its integration CPU). Steps: symgen/Exudyn "
+                f"{s1['steps'] / max(e1['steps'], 1):.2f}; cost per step symgen/Exudyn {per_sg / per_ex:.2f}. "
+                f"Whole process: importing alone costs {imp['exudyn']:.2f} s (`import exudyn`) and "
+                f"{imp['symgen']:.2f} s (`import symgen.cli`) CPU."]
     out += ["", "<details><summary>every configuration</summary>", "",
-            "| tool | configuration | CPU s | IDAS steps | error | " + " | ".join(p.outputs) + " |",
-            "|---|---|---|---|---|" + "---|" * len(p.outputs)]
+            "| tool | configuration | CPU s | steps | error | error vs own converged | " + " | ".join(p.outputs) + " |",
+            "|---|---|---|---|---|---|" + "---|" * len(p.outputs)]
+    for tool, rows in (("Exudyn", ex), ("symgen", sg)):
+        for row in rows:
+            if "failed" in row:
+                out.append(f"| {tool} | {row['config']} | | | {row['failed']} | |" + " |" * len(p.outputs))
     for row in ex:
-        out.append(f"| Exudyn | {row['config']} | {row['cpu']:.3f} | | {_pct(row['error'])} | "
+        if "failed" in row:
+            continue
+        out.append(f"| Exudyn | {row['config']} | {row['cpu']:.3f} | {row['steps']} | {_pct(row['error'])} | (same) | "
                    + " | ".join(_pct(row["per"][k]) for k in p.outputs) + " |")
     for row in sg:
         if "failed" in row:
-            out.append(f"| symgen | {row['config']} | | | {row['failed']} |" + " |" * len(p.outputs))
-        else:
-            note = "" if row.get("repeats", repeats) == repeats else f" (1 run: > {SLOW_RUN_S:g} s)"
-            out.append(f"| symgen | {row['config']} | {row['cpu']:.3f}{note} | {row['steps']} | {_pct(row['error'])} | "
-                       + " | ".join(_pct(row["per"][k]) for k in p.outputs) + " |")
+            continue
+        note = "" if row.get("repeats", repeats) == repeats else f" (1 run: > {SLOW_RUN_S:g} s)"
+        out.append(f"| symgen | {row['config']} | {row['cpu']:.3f}{note} | {row['steps']} | {_pct(row['error'])} | "
+                   f"{_pct(row['own'])} | " + " | ".join(_pct(row["per"][k]) for k in p.outputs) + " |")
     out += ["", "</details>", ""]
     return out
 
