@@ -13,6 +13,8 @@ from the same TOML files symgen runs, so both tools solve the same problem:
 * pins are ``RevoluteJoint2D`` between node positions, the slider a coordinate constraint;
 * start: the rigid mechanism's assembly and velocities at t = 0, undeformed (symgen's default
   start, ``[initial]`` without deformation);
+* Kelvin-Voigt material damping, the scene's ``effects.damping`` (a ratio in units of 1/omega):
+  ``bendingDamping = EI c``, ``axialDamping = EA c`` with c = damping / omega seconds;
 * outputs (SI, m), the symgen output kinds of the scenes: ``chord_deflection`` at midspan
   (deflection of the midspan node from the chord between the bar's end nodes, + to the left of
   start -> end) and, for the cantilever crank, ``deflection`` at the tip (in the frame clamped
@@ -151,7 +153,8 @@ def slider_crank(elements: int, steps_per_turn: int, turns: float, name: str = "
     _, body, m_ground = _flywheel(mbs, omega, 1e8 * mass * a ** 2)
     m_tip = mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[a, 0, 0]))
     # crank along +x at t = 0: A = (a, 0) moves at (0, a w); B on the x axis: the rod turns at -a w / l
-    nodes, _ = _ancf_bar(mbs, rod, (a, 0.0), 0.0, (0.0, a * omega), -a * omega / rod["length"], elements)
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    nodes, _ = _ancf_bar(mbs, rod, (a, 0.0), 0.0, (0.0, a * omega), -a * omega / rod["length"], elements, kv)
     mbs.AddObject(RevoluteJoint2D(markerNumbers=[m_tip, mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[0]))]))
     mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[-1],
                                                                                                    coordinate=1))]))
