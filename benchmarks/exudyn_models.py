@@ -1,0 +1,245 @@
+"""The benchmark scenes of ``benchmarks/scenes/`` as Exudyn models (ANCF cable elements).
+
+Exudyn (https://github.com/jgerstmayr/EXUDYN, PyPI ``exudyn``, the ``bench`` extra): each elastic
+bar is ``ObjectANCFCable2D`` elements (geometrically exact planar Bernoulli-Euler cable: mass per
+length rho A, EA, EI from the scene), solved by ``SolveDynamic`` (generalized-alpha, Exudyn's
+default spectral radius 0.9, fixed step). The data (lengths, sections, material, speed) are read
+from the same TOML files symgen runs, so both tools solve the same problem:
+
+* the driven crank is a rigid flywheel (inertia 1e8 x the mechanism's: its speed stays omega to
+  ~1e-9) pinned at the ground pivot; the slider-crank's rigid crank is that flywheel itself; the
+  four-bar's elastic crank is clamped to it at its root (position by a revolute joint, slope by a
+  ``GenericJoint`` on the rigid markers of flywheel and cable);
+* pins are ``RevoluteJoint2D`` between node positions, the slider a coordinate constraint;
+* start: the rigid mechanism's assembly and velocities at t = 0, undeformed (symgen's default
+  start, ``[initial]`` without deformation);
+* Kelvin-Voigt material damping, the scene's ``effects.damping`` (a ratio in units of 1/omega):
+  ``bendingDamping = EI c``, ``axialDamping = EA c`` with c = damping / omega seconds;
+* outputs (SI, m), the symgen output kinds of the scenes: ``chord_deflection`` at midspan
+  (deflection of the midspan node from the chord between the bar's end nodes, + to the left of
+  start -> end) and, for the cantilever crank, ``deflection`` at the tip (in the frame clamped
+  to the shaft).
+
+Run one model in a fresh process (the whole-process timing of ``bench_exudyn``)::
+
+    python benchmarks/exudyn_models.py four_bar_steel 8 2000 2
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+import tomllib
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ADAPTIVE = True          # Exudyn's default: halve the step when Newton fails
+# Newton's relative tolerance: Exudyn's default 1e-8 lies below the round-off of the residual of
+# steel bars in SI (EA ~ 1e7 N): Newton stalls at ~1e-8, the adaptive step halves down to the
+# minimum step and the run fails or crawls (16 elements: 60 s for a quarter turn instead of
+# 0.1 s); 1e-6 converges, and moves the outputs by ~1e-7 of their peak (1e-5 vs 1e-6 measured).
+NEWTON: dict = {"relativeTolerance": 1e-6}
+SCENES = Path(__file__).resolve().parent / "scenes"
+
+
+def _scene(name: str) -> dict:
+    with open(SCENES / f"{name}.toml", "rb") as f:
+        return tomllib.load(f)
+
+
+def _bars(raw: dict) -> dict:
+    return {b["name"]: b for b in raw["bodies"]}
+
+
+def _ancf_bar(mbs, bar: dict, start, angle: float, vel0, omega_bar: float, elements: int, kv: float = 0.0):
+    """Nodes and elements of one bar from ``start`` along ``angle``, moving rigidly: start point
+    velocity ``vel0``, angular velocity ``omega_bar``; ``kv``: Kelvin-Voigt time constant (s) of
+    the material (bending moment EI (kappa + kv kappa'), axial force EA (eps + kv eps')).
+    Returns the node and element numbers."""
+    from exudyn.itemInterface import NodePoint2DSlope1, ObjectANCFCable2D
+    length = bar["length"]
+    ex, ey = math.cos(angle), math.sin(angle)
+    nodes = []
+    for i in range(elements + 1):
+        s = length * i / elements
+        x, y = start[0] + s * ex, start[1] + s * ey
+        # v = v0 + w x (p - p0); slope rate = w x slope
+        v = [vel0[0] - omega_bar * s * ey, vel0[1] + omega_bar * s * ex, -omega_bar * ey, omega_bar * ex]
+        nodes.append(mbs.AddNode(NodePoint2DSlope1(referenceCoordinates=[x, y, ex, ey], initialVelocities=v)))
+    rho_a = bar["density"] * bar["area"]
+    objects = []
+    for i in range(elements):
+        objects.append(mbs.AddObject(ObjectANCFCable2D(nodeNumbers=[nodes[i], nodes[i + 1]], length=length / elements,
+                                        massPerLength=rho_a, bendingStiffness=bar["E"] * bar["inertia"],
+                                        axialStiffness=bar["E"] * bar["area"],
+                                        bendingDamping=kv * bar["E"] * bar["inertia"],
+                                        axialDamping=kv * bar["E"] * bar["area"])))
+    return nodes, objects
+
+
+def _pin_nodes(mbs, a: int, b: int) -> None:
+    from exudyn.itemInterface import MarkerNodePosition, RevoluteJoint2D
+    mbs.AddObject(RevoluteJoint2D(markerNumbers=[mbs.AddMarker(MarkerNodePosition(nodeNumber=a)),
+                                                 mbs.AddMarker(MarkerNodePosition(nodeNumber=b))]))
+
+
+def _chord_deflection(P0: np.ndarray, Pm: np.ndarray, P1: np.ndarray) -> np.ndarray:
+    """Deflection of Pm from the chord P0 -> P1, + to the left (rows: x, y)."""
+    c = P1 - P0
+    return (c[:, 0] * (Pm[:, 1] - P0[:, 1]) - c[:, 1] * (Pm[:, 0] - P0[:, 0])) / np.hypot(c[:, 0], c[:, 1])
+
+
+def _solve(SC, mbs, omega: float, steps_per_turn: int, turns: float) -> float:
+    import exudyn as exu
+    mbs.Assemble()
+    ss = exu.SimulationSettings()
+    end = turns * 2 * math.pi / omega
+    n = int(round(steps_per_turn * turns))
+    ss.timeIntegration.numberOfSteps = n
+    ss.timeIntegration.endTime = end
+    ss.timeIntegration.verboseMode = 0
+    ss.timeIntegration.adaptiveStep = ADAPTIVE
+    for k, v in NEWTON.items():
+        setattr(ss.timeIntegration.newton, k, v)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        ss.solutionSettings.writeSolutionToFile = False
+        # sensors at every step (a write period drifts off the output grid); the caller keeps the
+        # samples on its grid (steps per turn: multiples of the outputs per turn)
+        ss.solutionSettings.sensorsWritePeriod = 0.5 * end / n
+        ss.displayStatistics = False
+        ss.displayComputationTime = False
+    t0 = time.process_time()
+    exu.SolveDynamic(mbs, ss)
+    return time.process_time() - t0
+
+
+def _flywheel(mbs, omega: float, inertia: float):
+    """A rigid flywheel at the origin turning at omega, pinned to the ground: (node, body, ground marker)."""
+    from exudyn.itemInterface import (CoordinateConstraint, MarkerNodeCoordinate, NodePointGround, NodeRigidBody2D,
+                                      ObjectRigidBody2D)
+    ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
+    m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
+    node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0], initialVelocities=[0, 0, omega]))
+    body = mbs.AddObject(ObjectRigidBody2D(mass=1.0, inertia=inertia, nodeNumber=node))
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node,
+                                                                                                         coordinate=c))]))
+    return node, body, m_ground
+
+
+def _sensor(mbs, node: int) -> int:
+    import exudyn as exu
+    from exudyn.itemInterface import SensorNode
+    return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True,
+                                    outputVariableType=exu.OutputVariableType.Position))
+
+
+def slider_crank(elements: int, steps_per_turn: int, turns: float, name: str = "slider_crank_steel"):
+    """(t s, {"rod_mid": m}, CPU s of SolveDynamic) of the slider-crank scene ``name``."""
+    import exudyn as exu
+    from exudyn.itemInterface import CoordinateConstraint, MarkerBodyPosition, MarkerNodeCoordinate, MarkerNodePosition
+    from exudyn.itemInterface import RevoluteJoint2D
+    assert elements % 2 == 0, "the midspan must be a node"
+    raw = _scene(name)
+    bars = _bars(raw)
+    omega = raw["scene"]["omega"]
+    a, rod = bars["crank"]["length"], bars["rod"]
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    mass = rod["density"] * rod["area"] * rod["length"]
+    _, body, m_ground = _flywheel(mbs, omega, 1e8 * mass * a ** 2)
+    m_tip = mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[a, 0, 0]))
+    # crank along +x at t = 0: A = (a, 0) moves at (0, a w); B on the x axis: the rod turns at -a w / l
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    nodes, _ = _ancf_bar(mbs, rod, (a, 0.0), 0.0, (0.0, a * omega), -a * omega / rod["length"], elements, kv)
+    mbs.AddObject(RevoluteJoint2D(markerNumbers=[m_tip, mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[0]))]))
+    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[-1],
+                                                                                                   coordinate=1))]))
+    sensors = [_sensor(mbs, nodes[k]) for k in (0, elements // 2, elements)]
+    cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
+    A, M, B = (mbs.GetSensorStoredData(s) for s in sensors)
+    return A[:, 0], {"rod_mid": _chord_deflection(A[:, 1:3], M[:, 1:3], B[:, 1:3])}, cpu
+
+
+def four_bar_geometry(raw: dict):
+    """Assembly and rigid velocities at t = 0 (crank along +x): A, B, bar angles, angular velocities."""
+    bars = _bars(raw)
+    omega = raw["scene"]["omega"]
+    a, c, r = (bars[k]["length"] for k in ("crank", "coupler", "rocker"))
+    o4 = next(j for j in raw["joints"] if j["name"] == "O4")["at"][0]
+    A = np.array([a, 0.0])
+    O4 = np.array(o4, dtype=float)
+    d = np.linalg.norm(O4 - A)
+    # B: the upper intersection of |B - A| = c and |B - O4| = r (the open assembly)
+    x = (d * d + c * c - r * r) / (2 * d)
+    h = math.sqrt(c * c - x * x)
+    u = (O4 - A) / d
+    B = A + x * u + h * np.array([-u[1], u[0]])
+    th3 = math.atan2(*(B - A)[::-1])
+    th4 = math.atan2(*(B - O4)[::-1])
+    # velocity closure: vA + w3 k x (B - A) = w4 k x (B - O4), vA = w k x A
+    vA = omega * np.array([-A[1], A[0]])
+    ca, cb = B - A, B - O4
+    M = np.array([[-ca[1], cb[1]], [ca[0], -cb[0]]])
+    w3, w4 = np.linalg.solve(M, -vA)
+    return A, B, O4, th3, th4, vA, w3, w4
+
+
+def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four_bar_steel"):
+    """(t s, {"crank_tip", "coupler_mid", "rocker_mid": m}, CPU s of SolveDynamic) of the four-bar
+    scene ``name``; ``elements`` per bar (the crank gets max(2, elements // 2): it is a third of the
+    coupler's length and far stiffer)."""
+    import exudyn as exu
+    from exudyn.itemInterface import CoordinateConstraint, GenericJoint, MarkerBodyRigid, MarkerNodeCoordinate
+    assert elements % 2 == 0, "the midspan must be a node"
+    raw = _scene(name)
+    bars = _bars(raw)
+    omega = raw["scene"]["omega"]
+    A, B, O4, th3, th4, vA, w3, w4 = four_bar_geometry(raw)
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    mass = sum(b["density"] * b["area"] * b["length"] for b in bars.values())
+    _, fly, m_ground = _flywheel(mbs, omega, 1e8 * mass * bars["coupler"]["length"] ** 2)
+    n_crank = max(2, elements // 2)
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    crank, crank_elements = _ancf_bar(mbs, bars["crank"], (0.0, 0.0), 0.0, (0.0, 0.0), omega, n_crank, kv)
+    coupler, _ = _ancf_bar(mbs, bars["coupler"], A, th3, vA, w3, elements, kv)
+    rocker, _ = _ancf_bar(mbs, bars["rocker"], O4, th4, (0.0, 0.0), w4, elements, kv)
+    # crank root clamped to the flywheel: position and slope direction
+    m_fly = mbs.AddMarker(MarkerBodyRigid(bodyNumber=fly, localPosition=[0, 0, 0]))
+    m_root = mbs.AddMarker(MarkerBodyRigid(bodyNumber=crank_elements[0], localPosition=[0, 0, 0]))
+    mbs.AddObject(GenericJoint(markerNumbers=[m_fly, m_root], constrainedAxes=[1, 1, 0, 0, 0, 1]))
+    _pin_nodes(mbs, crank[-1], coupler[0])
+    _pin_nodes(mbs, coupler[-1], rocker[-1])
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[
+            m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=rocker[0], coordinate=c))]))
+    sensors = {k: [_sensor(mbs, n[i]) for i in (0, len(n) // 2, len(n) - 1)]
+               for k, n in (("crank", crank), ("coupler", coupler), ("rocker", rocker))}
+    cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
+    data = {k: [mbs.GetSensorStoredData(s) for s in v] for k, v in sensors.items()}
+    t = data["crank"][0][:, 0]
+    P0, _, P1 = (d[:, 1:3] for d in data["crank"])
+    th = omega * t               # the shaft's angle: the crank's clamped frame
+    tip = -np.sin(th) * (P1[:, 0] - P0[:, 0]) + np.cos(th) * (P1[:, 1] - P0[:, 1])
+    out = {"crank_tip": tip}
+    for k in ("coupler", "rocker"):
+        out[f"{k}_mid"] = _chord_deflection(*(d[:, 1:3] for d in data[k]))
+    return t, out, cpu
+
+
+MODELS = {"slider_crank_steel": slider_crank, "four_bar_steel": four_bar}
+
+
+def main(argv: list[str]) -> None:
+    """``NAME ELEMENTS STEPS_PER_TURN TURNS``: build, solve, print the peak of each output."""
+    name, elements, steps, turns = argv[0], int(argv[1]), int(argv[2]), float(argv[3])
+    t, out, cpu = MODELS[name](elements, steps, turns, name)
+    print(" ".join(f"{k}={np.abs(v).max():.6e}" for k, v in out.items()), f"cpu={cpu:.4f}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

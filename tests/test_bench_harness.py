@@ -1,0 +1,99 @@
+"""The symgen-vs-Exudyn benchmark harness (benchmarks/bench_exudyn.py, exudyn_models.py, run.py):
+its error measure, configuration pick, RESULTS.md section merge and the four-bar's rigid start.
+No timing here (speed targets live in benchmarks/), and no Exudyn needed."""
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
+sys.path.insert(0, str(BENCH))
+
+import bench_exudyn as B  # noqa: E402
+import exudyn_models as E  # noqa: E402
+import run as R  # noqa: E402
+
+
+def test_on_grid_picks_the_grid_samples_and_skips_the_others():
+    dt = 0.01
+    t = np.array([0.0, 0.005, 0.01, 0.0125, 0.02, 0.03])           # steps of dt/2 and dt/4
+    assert B.on_grid(t, dt, 4).tolist() == [0, 2, 4, 5]
+
+
+def test_on_grid_refuses_a_missing_grid_point():
+    with pytest.raises(ValueError, match="1 of 4 grid points missing"):
+        B.on_grid(np.array([0.0, 0.01, 0.03]), 0.01, 4)
+    with pytest.raises(ValueError, match="grid points missing"):     # drifted samples are not on the grid
+        B.on_grid(np.array([0.0, 0.0101, 0.0201]), 0.01, 3)
+
+
+def test_peak_error_is_relative_to_the_reference_peak():
+    ref = np.array([0.0, 2.0, -4.0, 1.0])
+    y = np.array([0.1, 2.0, -3.8, 1.0])
+    assert B.peak_error(y, ref) == pytest.approx(0.2 / 4.0)
+    assert B.peak_error(np.array([0.0, np.nan, 0.0, 0.0]), ref) == math.inf
+    with pytest.raises(ValueError, match="shapes differ"):
+        B.peak_error(y[:3], ref)
+
+
+def test_run_error_is_the_worst_output_on_the_grid():
+    dt = 0.5
+    t = np.arange(0.0, 2.01, 0.25)                                   # twice the grid's rate
+    a, b = np.sin(t), np.cos(t)
+    ref = {"a": np.sin(np.arange(5) * dt), "b": np.cos(np.arange(5) * dt) * 1.01}
+    expect = max(0.0, np.abs(np.cos(np.arange(5) * dt) * 0.01).max() / np.abs(ref["b"]).max())
+    assert B.run_error(t, {"a": a, "b": b}, ref, dt, ("a", "b")) == pytest.approx(expect)
+    assert B.run_error(t, {"a": a, "b": b}, ref, dt, ("a",)) == pytest.approx(0.0, abs=1e-15)
+
+
+def test_cheapest_needs_the_next_refinement_within_the_target_too():
+    rows = [{"id": 1, "finer": 2, "error": 0.009, "cpu": 1.0},        # lucky: its refinement is off
+            {"id": 2, "finer": 3, "error": 0.02, "cpu": 2.0},
+            {"id": 3, "finer": 4, "error": 0.005, "cpu": 4.0},       # 4 not run: counts on its own
+            {"id": 5, "finer": 6, "error": 0.001, "cpu": 9.0}]
+    assert B.cheapest(rows, 0.01)["id"] == 3
+    assert B.cheapest(rows, 0.002)["id"] == 5
+    assert B.cheapest(rows, 1e-4) is None
+
+
+def test_results_sections_round_trip_and_replace_one():
+    text = ("# title\n\nMachine: x.\n\n## A\n\nalpha\n\n_(section `examples` took 3 s)_\n\n"
+            "## B one\n\n## B two\n\n_(section `c` took 10 s)_\n")
+    header, sections = R.split_sections(text)
+    assert header == "# title\n\nMachine: x.\n\n"
+    assert list(sections) == ["examples", "c"]
+    assert R.merge(text, header, {}) == text
+    merged = R.merge(text, "# new\n\n", {"exudyn": "## E\n\n_(section `exudyn` took 1 s)_"})
+    assert merged.index("## A") < merged.index("## E") < merged.index("## B one")   # in SECTIONS order
+    assert merged.startswith("# new\n\n## A")
+    again = R.merge(merged, "# new\n\n", {"exudyn": "## E2\n\n_(section `exudyn` took 2 s)_"})
+    assert "## E2" in again and "## E\n" not in again
+
+
+def test_four_bar_rigid_start_closes_the_loop_and_its_velocities():
+    raw = E._scene("four_bar_steel")
+    bars = E._bars(raw)
+    A, Bp, O4, th3, th4, vA, w3, w4 = E.four_bar_geometry(raw)
+    a, c, r = (bars[k]["length"] for k in ("crank", "coupler", "rocker"))
+    assert np.linalg.norm(A) == pytest.approx(a)
+    assert np.linalg.norm(Bp - A) == pytest.approx(c)
+    assert np.linalg.norm(Bp - O4) == pytest.approx(r)
+    assert Bp[1] > 0                                                  # the open (upper) assembly
+    # the velocities: differentiate the assembly numerically (closed form of two circles' crossing)
+    omega, h = raw["scene"]["omega"], 1e-7
+
+    def joint_b(theta):
+        Ap = a * np.array([math.cos(theta), math.sin(theta)])
+        d = np.linalg.norm(O4 - Ap)
+        x = (d * d + c * c - r * r) / (2 * d)
+        u = (O4 - Ap) / d
+        return Ap + x * u + math.sqrt(c * c - x * x) * np.array([-u[1], u[0]])
+
+    vB = (joint_b(h) - joint_b(-h)) / (2 * h) * omega
+    assert vB == pytest.approx(w4 * np.array([-(Bp - O4)[1], (Bp - O4)[0]]), rel=1e-6)
+    assert vB == pytest.approx(vA + w3 * np.array([-(Bp - A)[1], (Bp - A)[0]]), rel=1e-6)
+    assert math.atan2(*(Bp - A)[::-1]) == pytest.approx(th3)
