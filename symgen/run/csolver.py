@@ -35,7 +35,7 @@ from .simulate import SimResult
 FORMAT = "symgen-c-solver-cache"
 FORMAT_VERSION = 1
 EXECUTABLE = "sim"
-_STATS = re.compile(r"(\d+) steps \(.*closure residual max (\S+)")
+_STATS = re.compile(r"(\d+) steps \(.*closure residual max ([^;\s]+)(?:; solver CPU (\S+) s)?")
 
 
 def scene_key(scene) -> str:
@@ -47,10 +47,20 @@ def scene_key(scene) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=repr).encode()).hexdigest()
 
 
+def templates_digest() -> str:
+    """sha256 over the C templates (names and bytes): an edited template is another executable."""
+    from ..emit.c.render import TEMPLATES
+    h = hashlib.sha256()
+    for item in sorted(TEMPLATES.iterdir(), key=lambda e: e.name):
+        if item.is_file():
+            h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
 def _key(scene, comp: compiled.Compiler) -> dict:
     from ..emit.c.build import STRICT_C
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "scene": scene_key(scene),
-            "compiler": comp.identity(), "strict": list(STRICT_C)}
+            "templates": templates_digest(), "compiler": comp.identity(), "strict": list(STRICT_C)}
 
 
 def executable(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
@@ -156,15 +166,17 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
         msg = err.strip().splitlines()[0] if err.strip() else f"exit code {proc.returncode}"
         raise SimulationError(None, f"the C solver refused the run: {msg}")
     rows = np.array([[float(w) for w in ln.split(",")] for ln in lines[1:]], dtype=float).reshape(-1, 1 + len(names))
-    steps, closure = 0, float("nan")
+    steps, closure, solve_cpu = 0, float("nan"), float("nan")
     m = _STATS.search(err)
     if m:
         steps, closure = int(m.group(1)), float(m.group(2))
+        solve_cpu = float(m.group(3)) if m.group(3) else float("nan")
     n = len(rows)
     result = SimResult(tau=rows[:, 0], outputs=rows[:, 1:], output_names=names, q=np.zeros((n, 0)),
                        v=np.zeros((n, 0)), lam=np.zeros((n, 0)), closure_max=closure, steps=steps,
                        simulate_s=elapsed, partition=None, complete=proc.returncode == 0,
-                       stats={"backend": "c", "library": "built" if built else "cached", "setup_s": setup_s})
+                       stats={"backend": "c", "library": "built" if built else "cached", "setup_s": setup_s,
+                              "solve_cpu_s": solve_cpu})
     if proc.returncode != 0:
         msg = next((ln for ln in reversed(err.strip().splitlines()) if "steps (" not in ln), "the C solver stopped")
         msg = msg.split(": ", 1)[-1]

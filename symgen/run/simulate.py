@@ -105,6 +105,11 @@ class DaeRunner:
             else:
                 self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
                 self.backend, self.library = "compiled", "built" if built else "cached"
+        # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
+        # the new Z and each column's residual norm cross into Python (not the k Jacobians)
+        tm, xm, zm, pm = (ca.MX.sym(nm, w.size1()) for nm, w in (("t", t), ("x", x), ("z", z), ("p", p)))
+        gm, jm = self.g(tm, xm, zm, pm)
+        self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
         self._maps: dict = {}
         self._integrators: dict = {}
         self.opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
@@ -151,25 +156,21 @@ class DaeRunner:
         return self._maps[key]
 
     def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p, tol: float = 1e-13) -> np.ndarray:
-        """``polish`` of every column of Z at once (one mapped call per Newton iteration, the
-        same iteration per column: columns stop when their residual is below ``tol``)."""
+        """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
+        same iteration per column: columns stop when their residual is below ``tol``; a column
+        whose step is not finite (singular Jacobian) keeps its last value)."""
         k = X.shape[1]
         Z = np.array(Z, dtype=float)
-        nz = Z.shape[0]
         todo = np.ones(k, dtype=bool)
-        gmap = self._map("g", k)
+        step = self._map("gstep", k)
         for _ in range(8):
-            G, J = gmap(t.reshape(1, -1), X, Z, p)
-            G = np.array(G)
-            todo &= np.abs(G).max(axis=0) >= tol
+            Znew, res = step(t.reshape(1, -1), X, Z, p)
+            todo &= np.array(res).ravel() >= tol
             if not todo.any():
                 break
-            J = np.array(J).reshape(nz, k, nz).transpose(1, 0, 2)
-            try:
-                dz = np.linalg.solve(J[todo], G.T[todo][..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                break
-            Z[:, todo] -= dz.T
+            Znew = np.array(Znew)
+            todo &= np.isfinite(Znew).all(axis=0)
+            Z[:, todo] = Znew[:, todo]
         return Z
 
     def polish(self, t: float, x, z, p, tol: float = 1e-13) -> np.ndarray:
