@@ -20,7 +20,8 @@ Exudyn (``benchmarks/exudyn_models.py``): ANCF cable elements, ``SolveDynamic`` 
 alpha, spectral radius 0.9, fixed step). symgen: the scene through the public API with
 ``bodies.*.transverse_modes``, ``simulation.rtol``/``atol`` and, per configuration, either the
 scene's effects as they are (today's default axial treatment, whatever a release makes it) or
-``effects.axial = "inextensible"``.
+``effects.axial = "inextensible"``; each configuration both through IDAS (``symgen simulate``, the
+compiled model) and through the emitted C Radau IIA solver (``symgen simulate --solver c``).
 
 Error of every run, both tools: ``max over outputs of max_t |y - y_ref| / max_t |y_ref|`` over the
 whole run, on the common output grid (one degree of crank), against ONE reference: Exudyn with a
@@ -166,15 +167,25 @@ def symgen_overrides(p: Problem, axial: str, nt: int, rtol: float) -> list[str]:
     return over + [f"simulation.rtol={rtol:g}", f"simulation.atol={rtol * 1e-3:g}", f"simulation.cycles={p.turns:g}"]
 
 
-def symgen_run(p: Problem, overrides: list[str]):
-    """(t s, {output: SI values}, CPU s of simulate, IDAS steps); the model derived (or loaded
-    from the cache) before the clock starts."""
+SOLVERS = ("idas", "c")       # symgen simulate (IDAS, compiled model) and symgen simulate --solver c
+
+
+def symgen_run(p: Problem, overrides: list[str], solver: str = "idas"):
+    """(t s, {output: SI values}, integration CPU s, steps); the model derived (or loaded
+    from the cache) before the clock starts. IDAS: CPU of ``simulate`` in this process (set-up,
+    consistent start, integration, outputs). ``--solver c``: the emitted C solver's own CPU time
+    of ``init`` + ``advance`` (its ``--stats``; the executable is built and cached before)."""
     from symgen.api import mechanism, results_table
     from symgen.run.simulate import simulate
     mech = mechanism(p.scene, overrides)
-    t0 = time.process_time()
-    res = simulate(mech)
-    cpu = time.process_time() - t0
+    if solver == "c":
+        from symgen.run.csolver import simulate_c
+        res = simulate_c(mech)
+        cpu = res.stats["solve_cpu_s"]
+    else:
+        t0 = time.process_time()
+        res = simulate(mech)
+        cpu = time.process_time() - t0
     if not res.complete:
         raise RuntimeError(res.failure or "incomplete run")
     cols = results_table(res, mech.scene)
@@ -187,12 +198,23 @@ def _child_cpu() -> float:
 
 
 def process_time(cmd: list[str]) -> tuple[float, float]:
-    """(CPU s user + sys, wall s) of a fresh process running ``cmd`` (must succeed)."""
+    """(CPU s user + sys, wall s) of a fresh process running ``cmd`` (must succeed). Python may
+    write and use bytecode caches, as after a ``pip install`` (``compile_sources`` compiled
+    symgen's): a machine-wide PYTHONDONTWRITEBYTECODE would otherwise make every symgen process
+    compile its sources again (~0.06 s), which no installed copy does."""
     env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     c0, w0 = _child_cpu(), time.perf_counter()
     subprocess.run(cmd, check=True, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     return _child_cpu() - c0, time.perf_counter() - w0
+
+
+def compile_sources() -> None:
+    """Byte-compile symgen (and this folder) once, as pip does on install."""
+    import compileall
+    for folder in (ROOT / "symgen", HERE):
+        compileall.compile_dir(str(folder), quiet=1)
 
 
 # --------------------------------------------------------------------------- one problem
@@ -243,25 +265,26 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         own_ref, check, ccpu, csteps = None, {"failed": str(err)[:90]}, math.nan, 0
 
     sg_rows = []
-    configs = [("inextensible", nt, rtol) for nt in p.modes for rtol in p.rtols]
-    configs += [("default", nt, rtol) for nt in p.default_modes for rtol in p.default_rtols]
+    configs = [("inextensible", nt, rtol, sv) for sv in SOLVERS for nt in p.modes for rtol in p.rtols]
+    configs += [("default", nt, rtol, sv) for sv in SOLVERS for nt in p.default_modes for rtol in p.default_rtols]
     slow: set = set()
-    for axial, nt, rtol in configs:
-        label = f"{'inextensible' if axial != 'default' else 'scene default axial'}, {nt} transverse, rtol {rtol:g}"
-        row = {"id": (axial, nt, rtol), "finer": (axial, nt, rtol / 10), "config": label, "axial": axial,
-               "nt": nt, "rtol": rtol}
-        if (axial, nt) in slow:
+    for axial, nt, rtol, solver in configs:
+        label = (f"{'inextensible' if axial != 'default' else 'scene default axial'}, {nt} transverse, rtol {rtol:g}"
+                 + (", --solver c" if solver == "c" else ""))
+        row = {"id": (axial, nt, rtol, solver), "finer": (axial, nt, rtol / 10, solver), "config": label,
+               "axial": axial, "nt": nt, "rtol": rtol, "solver": solver}
+        if (axial, nt, solver) in slow:
             row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0,
                        failed=f"not run: a looser rtol took > {SLOW_RUN_S:g} s")
             sg_rows.append(row)
             continue
         over = symgen_overrides(p, axial, nt, rtol)
         try:
-            runs = [symgen_run(p, over)]
+            runs = [symgen_run(p, over, solver)]
             if runs[0][2] > SLOW_RUN_S:
-                slow.add((axial, nt))
+                slow.add((axial, nt, solver))
             else:
-                runs += [symgen_run(p, over) for _ in range(repeats - 1)]
+                runs += [symgen_run(p, over, solver) for _ in range(repeats - 1)]
         except Exception as err:  # noqa: BLE001 -- a failed configuration is a row, not a crash
             row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0, failed=str(err).splitlines()[0][:90])
         else:
@@ -275,8 +298,8 @@ def bench_problem(p: Problem, repeats: int) -> dict:
 
     # whole process, at the 1 % picks (the model cache is warm: every configuration ran above)
     procs = {}
-    for target in TARGETS:
-        e, s_ = cheapest(ex_rows, target), cheapest(sg_rows, target)
+    for target, solver in ((t_, sv) for t_ in TARGETS for sv in SOLVERS):
+        e, s_ = cheapest(ex_rows, target), cheapest(_solver_rows(sg_rows, solver), target)
         if not (e and s_):
             continue
         out_csv = Path(tempfile.mkdtemp(prefix="symgen-bench-")) / "out.csv"
@@ -284,10 +307,12 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         sg_cmd = [sys.executable, "-m", "symgen.cli", "simulate", p.scene, "-o", str(out_csv)]
         for o in symgen_overrides(p, s_["axial"], s_["nt"], s_["rtol"]):
             sg_cmd += ["--set", o]
+        if solver == "c":
+            sg_cmd += ["--solver", "c"]
         process_time(sg_cmd)                                   # warm the cache (and the OS file cache)
         ex_t = [process_time(ex_cmd) for _ in range(repeats)]
         sg_t = [process_time(sg_cmd) for _ in range(repeats)]
-        procs[target] = {"exudyn": statistics.median(c for c, _ in ex_t), "symgen": statistics.median(c for c, _ in sg_t),
+        procs[(target, solver)] = {"exudyn": statistics.median(c for c, _ in ex_t), "symgen": statistics.median(c for c, _ in sg_t),
                          "exudyn_wall": statistics.median(w for _, w in ex_t),
                          "symgen_wall": statistics.median(w for _, w in sg_t)}
         for f in out_csv.parent.iterdir():
@@ -295,7 +320,7 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         out_csv.parent.rmdir()
     # what a symgen run costs besides its steps: the same configuration over one output step
     why = {}
-    s1 = cheapest(sg_rows, 1e-2)
+    s1 = cheapest(_solver_rows(sg_rows, "idas"), 1e-2)
     if s1:
         from symgen.api import mechanism
         from symgen.run.simulate import simulate
@@ -311,6 +336,10 @@ def bench_problem(p: Problem, repeats: int) -> dict:
                           for tool, mod in (("exudyn", "exudyn"), ("symgen", "symgen.cli"))}
     return {"problem": p, "ref_cpu": ref_cpu, "why": why, "peaks": peaks, "ex": ex_rows, "sg": sg_rows, "check": check,
             "check_cpu": ccpu, "check_steps": csteps, "procs": procs}
+
+
+def _solver_rows(rows: list[dict], solver: str) -> list[dict]:
+    return [r for r in rows if r.get("solver", "idas") == solver]
 
 
 # --------------------------------------------------------------------------- report
@@ -343,30 +372,39 @@ def report(r: dict, repeats: int) -> list[str]:
                    + " |")
     # the picks
     tgt_int, tgt_proc = TARGET_SPEEDUP.get(p.name, (None, None))
-    out += ["", "| target | Exudyn: cheapest | error | CPU s | symgen: cheapest | error | CPU s | IDAS steps | "
+    out += ["", "| target | Exudyn: cheapest | error | CPU s | symgen: cheapest | error | CPU s | steps | "
             "integration Exudyn/symgen | whole process Exudyn/symgen (CPU s) |", "|---|---|---|---|---|---|---|---|---|---|"]
-    for target, key in ((TARGETS[0], "error"), (TARGETS[1], "error"), (TARGETS[1], "own")):
-        e, s_ = cheapest(ex, target, key), cheapest(sg, target, key)
+    for target, key, solver in ((t_, k_, sv) for t_, k_ in ((TARGETS[0], "error"), (TARGETS[1], "error"),
+                                                           (TARGETS[1], "own")) for sv in SOLVERS):
+        e, s_ = cheapest(ex, target, key), cheapest(_solver_rows(sg, solver), target, key)
         ratio = f"**{e['cpu'] / s_['cpu']:.2f}x**" if e and s_ else "—"
-        pr = r["procs"].get(target) if key == "error" else None
+        pr = r["procs"].get((target, solver)) if key == "error" else None
         pcol = (f"**{pr['exudyn'] / pr['symgen']:.2f}x** ({pr['exudyn']:.2f} / {pr['symgen']:.2f})" if pr else "—")
         ecol = f"{e['config']} | {_pct(e[key])} | {e['cpu']:.3f}" if e else "none reached it | | "
         scol = (f"{s_['config']} | {_pct(s_[key])} | {s_['cpu']:.3f} | {s_['steps']}" if s_
                 else "none reached it | | | ")
         against = "" if key == "error" else " (each tool against its own converged solution)"
         out.append(f"| {100 * target:g} %{against} | {ecol} | {scol} | {ratio} | {pcol} |")
-    e1, s1 = cheapest(ex, 1e-2), cheapest(sg, 1e-2)
-    if tgt_int and e1 and s1:
+    e1 = cheapest(ex, 1e-2)
+    if tgt_int and e1:
+        out.append("")
+    for solver in SOLVERS:
+        s1 = cheapest(_solver_rows(sg, solver), 1e-2)
+        if not (tgt_int and e1 and s1):
+            continue
+        how = "symgen simulate" + (" --solver c" if solver == "c" else " (IDAS)")
         got = e1["cpu"] / s1["cpu"]
         verdict = "met" if got >= tgt_int else f"**not met**: {tgt_int / got:.1f}x short"
-        out += ["", f"Target at 1 %: symgen >= {tgt_int:g}x Exudyn's integration CPU: {got:.2f}x, {verdict}."]
-        pr = r["procs"].get(1e-2)
+        out += [f"Target at 1 %, {how}: >= {tgt_int:g}x Exudyn's integration CPU: {got:.2f}x, {verdict}."]
+        pr = r["procs"].get((1e-2, solver))
         if tgt_proc and pr:
             gp = pr["exudyn"] / pr["symgen"]
             verdict = "met" if gp >= tgt_proc else f"**not met**: {tgt_proc / gp:.1f}x short"
-            out.append(f"Target at 1 %: whole process >= {tgt_proc:g}x: {gp:.2f}x, {verdict} "
+            out.append(f"Target at 1 %, {how}: whole process >= {tgt_proc:g}x: {gp:.2f}x, {verdict} "
                        f"(wall s: Exudyn {pr['exudyn_wall']:.2f}, symgen {pr['symgen_wall']:.2f}).")
+        out.append("")
     why = r["why"]
+    s1 = cheapest(_solver_rows(sg, "idas"), 1e-2)
     if e1 and s1 and why:
         per_ex = e1["cpu"] / max(e1["steps"], 1)
         per_sg = (s1["cpu"] - why["fixed"]) / max(s1["steps"], 1)
@@ -409,15 +447,17 @@ def run(repeats: int, quick: bool = False) -> str:
     import symgen
     out = ["## symgen vs Exudyn on steel mechanisms", "",
            f"Exudyn {exudyn.__version__} (ANCF cable elements, `SolveDynamic`: generalized-alpha, spectral radius 0.9, "
-           f"fixed step) vs symgen {getattr(symgen, '__version__', '')} (IDAS; configurations: the scene's default "
-           "effects, and `effects.axial=\"inextensible\"`). Scenes `benchmarks/scenes/*_steel.toml`; problem, error "
+           f"fixed step) vs symgen {getattr(symgen, '__version__', '')} (IDAS on the compiled model, and the emitted C "
+           "Radau IIA solver of `--solver c`; configurations: the scene's default effects, and "
+           "`effects.axial=\"inextensible\"`). Scenes `benchmarks/scenes/*_steel.toml`; problem, error "
            "measure and timing rules in the docstring of `benchmarks/bench_exudyn.py`. Error: max over the outputs of "
            "max |y − y_ref| / max |y_ref| over the whole run on a one-degree grid, against one Exudyn fine-mesh, "
            "small-step reference. A configuration counts only when its next refinement (2x steps, 10x tighter rtol) "
            "is within the target too. CPU s: integration (Exudyn `SolveDynamic`, symgen `simulate` on a cached "
-           "model) and whole process (a fresh Python process per tool: `python benchmarks/exudyn_models.py ...`, "
+           "model; for `--solver c` the C solver's own CPU time) and whole process (a fresh Python process per tool: `python benchmarks/exudyn_models.py ...`, "
            f"`python -m symgen.cli simulate ...` with the model cache warm), medians of {repeats}"
            + (" (--quick: one turn, small grids)" if quick else "") + ".", ""]
+    compile_sources()
     for p in problems(quick):
         out += report(bench_problem(p, repeats), repeats)
     return "\n".join(out)
