@@ -41,7 +41,9 @@ def installed(tmp_path_factory):
     venv = tmp / "venv"
     _run([sys.executable, "-m", "venv", "--system-site-packages", venv])
     bindir = venv / ("Scripts" if os.name == "nt" else "bin")
-    _run([bindir / "python", "-m", "pip", "install", "-q", "--no-deps", "--no-index", wheel])
+    # --ignore-installed: a symgen seen through the system site-packages (an editable install,
+    # possibly of another checkout) must not make pip skip the wheel
+    _run([bindir / "python", "-m", "pip", "install", "-q", "--no-deps", "--no-index", "--ignore-installed", wheel])
     return wheel, bindir, tmp
 
 
