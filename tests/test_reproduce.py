@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from symgen.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
+@pytest.mark.slow      # ~14 s: every figure's runs; the figures' physics is tested elsewhere
 def test_reproduce_quick_writes_every_figure(tmp_path):
     out = tmp_path / "figures"
     assert main(["reproduce", "-o", str(out), "--quick"]) == 0
