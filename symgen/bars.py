@@ -20,7 +20,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import combinations_with_replacement
-from math import factorial
 
 import numpy as np
 import sympy as sp
@@ -112,6 +111,18 @@ class IPTable:
         if abs(value) < ZERO_TOL:
             return sp.Integer(0)
         return sp.Symbol(latex.format(i=i + 1)) if self.symbolic else self._num(value)
+
+    def ka_inv(self, i: int, j: int) -> sp.Expr:
+        """``(Ka^{-1})_ij``, the inverse of the Gram matrix of the axial strains phi'_k (the
+        projection onto their span, see ``bar_equations``)."""
+        if not hasattr(self, "_ka_inv"):
+            self._ka_inv = np.linalg.inv(np.asarray(self.ip.Ka, dtype=float))
+        value = self._ka_inv[i, j]
+        if abs(value) < ZERO_TOL * max(1.0, float(np.abs(self._ka_inv).max())):
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        return sp.Symbol(rf"\left(K_a^{{-1}}\right)_{{{i + 1}{j + 1}}}")
 
     def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
         value = getattr(self.ip, name)[idx]
@@ -259,7 +270,7 @@ def bar_equations(
     quad_a = sp.Add(*[Ka[i][j] * f[i] * f[j] for i in range(na) for j in range(na)]) / 2
     quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
     coupling = sp.Integer(0)   # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
-    quartic = sp.Integer(0)    # (1/8) sum D4 g g g g = (1/8) int eta'^4
+    quartic = sp.Integer(0)    # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
     if effects.geometric_stiffening and na and nt:
         for k in range(na):
             for a, b in combinations_with_replacement(range(nt), 2):
@@ -267,13 +278,13 @@ def bar_equations(
                 mult = 1 if a == b else 2
                 coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
         if effects.strain == "von_karman" and not inext:
-            for idx in combinations_with_replacement(range(nt), 4):
-                d4 = t.tensor("D4", idx, r"\left(\psi'_{{{0}}}\psi'_{{{1}}},\psi'_{{{2}}}\psi'_{{{3}}}\right)")
-                mult = _multinomial(idx)
-                term = d4 * mult / 8
-                for i in idx:
-                    term *= g[i]
-                quartic += term
+            # the strain energy of the axial strain the basis can carry: lambda/2 ||P eps||^2 with P
+            # the projection onto span{phi'_k}, = lambda (f^T Ka f / 2 + f^T c + c^T Ka^-1 c / 2),
+            # c_k = (phi'_k, eta'^2 / 2). The full lambda/8 int eta'^4 adds lambda/2 ||(1-P) eta'^2/2||^2,
+            # a bending stiffness growing with lambda that no axial amplitude can relax: locking.
+            # Projected, raising lambda can only approach the inextensible limit (P eps = 0).
+            c = [sp.diff(coupling, f[k]) for k in range(na)]
+            quartic = sp.Add(*[t.ka_inv(k, j) * c[k] * c[j] for k in range(na) for j in range(na)]) / 2
     if inext:
         strain_energy = sp.Integer(0)     # the axial part is a constraint (no energy)
     elif na and lam is not None:
@@ -368,13 +379,3 @@ def _val(v) -> sp.Expr:
 
 def _num(v: float) -> sp.Expr:
     return sp.Integer(0) if abs(v) < ZERO_TOL else sp.Float(float(v), 17)
-
-
-def _multinomial(idx: tuple) -> int:
-    counts: dict[int, int] = {}
-    for i in idx:
-        counts[i] = counts.get(i, 0) + 1
-    out = factorial(len(idx))
-    for c in counts.values():
-        out //= factorial(c)
-    return out

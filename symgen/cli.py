@@ -204,6 +204,7 @@ def _backend_text(stats: dict) -> str:
 
 def _sidecar(scene, compiled, build_s, result, failure) -> dict:
     from .scene.motion import driver_record
+    from .structure import axial_treatments
     sim = scene.simulation
     meta = compiled.meta
     return {
@@ -221,6 +222,8 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
             "strain": scene.effects.strain, "gravity": list(scene.effects.gravity),
             "damping": scene.effects.damping,
         },
+        "axial_treatment": {name: {"treatment": t.treatment, "reason": t.reason}
+                            for name, t in axial_treatments(scene).items()},
         "modes": meta["modes"],
         "driver": driver_record(scene.driver),
         "model_key": meta["key"],

@@ -30,7 +30,8 @@ from .scene.model import GROUND, Scene
 from .scene.motion import driver_angle
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
-from .structure import (INEXTENSIBLE, _tip_joint, effective_modes, inextensible,  # noqa: F401
+from .structure import (INEXTENSIBLE, QUASI_STATIC, _tip_joint, axial_treatments,  # noqa: F401
+                        effective_modes, inextensible,
                         structure_key, structure_of)
 from .topology import Topology, build_topology
 
@@ -117,10 +118,12 @@ def derive(scene: Scene) -> DerivedModel:
     # ---- bars, shapes, inner products
     bars: dict[str, BarModel] = {}
     slot_of = _slot_guides(scene)          # guide bar -> its slot joint (variable span psi(xi, beta))
+    treatment = {name: t.treatment for name, t in axial_treatments(scene).items()}
     for b in scene.bodies:
         na, nt = effective_modes(scene, b)
+        # lambda: the strain energy (dynamic), the stretch N / lambda (quasi-static), rho = mu / lambda
         sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid,
-                              lam=not inextensible(scene) or eff.rotary_inertia)   # rho = mu / lambda
+                              lam=treatment.get(b.name) != INEXTENSIBLE or eff.rotary_inertia)
         if b.name in slot_of:
             beta = tuple(sp.Symbol(f"{p}beta_{slot_of[b.name]}", real=True) for p in ("", "d", "dd"))
             sym = replace(sym, beta=beta)
@@ -328,9 +331,12 @@ def derive(scene: Scene) -> DerivedModel:
         else:
             point_forces[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
     damping = param("damping") if structure["effects"]["damping"] else None
-    # inextensible bars: multipliers N_k of (phi'_k, eps) = 0 (the axial force, in lambda eps units)
+    # inextensible and quasi-static bars: multipliers N_k of (phi'_k, eps) = 0 (the axial force,
+    # in lambda eps units); a quasi-static bar's stretch is P eps = N / lambda: amplitudes f + N / lambda
     axial_force = {name: tuple(sp.Symbol(f"N_{name}_{k + 1}", real=True) for k in range(len(bm.sym.f)))
-                   for name, bm in bars.items() if inextensible(scene) and len(bm.sym.f)}
+                   for name, bm in bars.items()
+                   if treatment.get(name) in (INEXTENSIBLE, QUASI_STATIC) and len(bm.sym.f)}
+    stretch = {name: axial_force[name] for name in axial_force if treatment[name] == QUASI_STATIC}
 
     prog = Program(inputs={})
     # ---- bar equations (16)-(17) + rigid-body equations, then (10) for [r_A'']_i
@@ -413,8 +419,13 @@ def derive(scene: Scene) -> DerivedModel:
     out_names, out_exprs = [], []
     for o in scene.outputs:
         out_names.append(o.name)
-        out_exprs.append(_output(o, scene, bars, topo, joints, point, S, lam, lam_rows, driver_row,
-                                 prog.outputs["energy"][0], phi[:n_loop_rows], slider_dir))
+        expr = _output(o, scene, bars, topo, joints, point, S, lam, lam_rows, driver_row,
+                       prog.outputs["energy"][0], phi[:n_loop_rows], slider_dir)
+        if o.kind in BAR_SHAPE_OUTPUTS and o.body in stretch:
+            # what the bar's shape reads: the quasi-static stretch on top of the inextensible amplitudes
+            s = bars[o.body].sym
+            expr = expr.xreplace({fk: fk + nk / s.lam for fk, nk in zip(s.f, stretch[o.body])})
+        out_exprs.append(expr)
     prog.outputs["out"] = out_exprs
     prog.outputs["closure"] = phi[:n_loop_rows]
     params = tuple(sorted(P.values(), key=lambda x: str(x)))
@@ -454,8 +465,14 @@ def _add_contact_force(gen: dict, kin, force: tuple) -> dict:
     return out
 
 
+#: outputs read from a bar's own shape (its amplitudes): a quasi-static bar adds its stretch
+BAR_SHAPE_OUTPUTS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement")
+
+
 def _energy(bars, topo, origin, point, lumped, G) -> sp.Expr:
-    """Kinetic + elastic + gravity potential energy, common units m_ref l0^3 omega^2."""
+    """Kinetic + elastic + gravity potential energy, common units m_ref l0^3 omega^2. A
+    quasi-static bar counts as the inextensible bar its dynamics are (the energy those
+    conserve); its stretch energy N^T Ka N / (2 lambda) is of order 1/lambda and left out."""
     total = sp.Integer(0)
     for name in topo.order:
         bm = bars[name]
@@ -480,7 +497,7 @@ def _energy(bars, topo, origin, point, lumped, G) -> sp.Expr:
 
 def _output(o, scene, bars, topo, joints, point, S, lam, lam_rows, driver_row, energy, loop_phi, slider_dir):
     k = o.kind
-    if k in ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement"):
+    if k in BAR_SHAPE_OUTPUTS:
         kin = bars[o.body].kin
         if k == "deflection":
             return kin.eta(o.xi)

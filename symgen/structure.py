@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from dataclasses import dataclass
 
 from . import __version__
 from .scene.model import Scene
@@ -24,12 +25,94 @@ def effective_modes(scene: Scene, body) -> tuple[int, int]:
 
 
 INEXTENSIBLE = "inextensible"
+QUASI_STATIC = "quasi_static"
+DYNAMIC = "dynamic"
+AUTO = "auto"
+
+#: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
+#: frequency is at least this many times the fastest motion the run must resolve: the quasi-static
+#: axial response then misses the dynamic amplification 1 / (1 - r^2) - 1 ~ r^2 of the forcing at
+#: a frequency ratio r <= 1/10, i.e. <= 1 % of the axial response, and far less of the bending
+#: (tests/test_axial_default.py measures it against converged full-dynamics models).
+AXIAL_SEPARATION = 10.0
+#: harmonics of the driver rate in the inertia loads of a mechanism (a slider-crank's piston
+#: force has its 2nd and 4th harmonics): the run must resolve up to this multiple of the rate.
+DRIVER_HARMONICS = 4.0
+#: first natural frequency / sqrt(group) of the standard bases: axial, any frame (phi(0) = 0, the
+#: far end free along the bar: (pi/2) sqrt(lambda)); bending, by frame (pinned-pinned
+#: pi^2 sqrt(mu), clamped-free 1.8751^2 sqrt(mu)); tau units (omega = 1).
+AXIAL_FIRST = 1.5707963267948966
+BENDING_FIRST = {"pinned-pinned": 9.869604401089358, "cantilever": 3.5160152028161017}
+
+
+@dataclass(frozen=True)
+class AxialTreatment:
+    """How one elastic bar's axial deformation is modelled, and why.
+
+    ``treatment``: "dynamic" (axial amplitudes with inertia and the strain energy of the strain
+    the basis can carry), "quasi_static" (no axial inertia: the inextensible constraint form
+    with the axial force N as multiplier, plus the stretch N/lambda where outputs read it),
+    "inextensible" (lambda -> oo: no stretch) or "off" (no axial functions)."""
+
+    bar: str
+    treatment: str
+    reason: str
+    omega_axial: float | None = None
+    omega_run: float | None = None
+
+
+def axial_treatments(scene: Scene) -> dict[str, AxialTreatment]:
+    """The treatment of every elastic bar (rigid bars are not listed)."""
+    return {b.name: axial_treatment(scene, b) for b in scene.bodies if not b.rigid}
+
+
+def axial_treatment(scene: Scene, body) -> AxialTreatment:
+    eff = scene.effects
+    na, _ = effective_modes(scene, body)
+    if not na:
+        why = "effects.axial = false" if eff.axial is False else "no axial functions (axial_modes = 0)"
+        return AxialTreatment(body.name, "off", why)
+    if eff.axial == INEXTENSIBLE:
+        return AxialTreatment(body.name, INEXTENSIBLE, 'effects.axial = "inextensible"')
+    if eff.axial == QUASI_STATIC:
+        return AxialTreatment(body.name, QUASI_STATIC, 'effects.axial = "quasi_static"')
+    if eff.axial is True or eff.axial == DYNAMIC:
+        written = "true" if eff.axial is True else '"dynamic"'
+        return AxialTreatment(body.name, DYNAMIC, f"effects.axial = {written}")
+    if eff.strain != "von_karman":
+        return AxialTreatment(body.name, DYNAMIC, "auto: the seed's linear strain keeps its axial dynamics "
+                              "(the paper's model)")
+    if slot_guide(scene, body.name):
+        return AxialTreatment(body.name, DYNAMIC, "auto: slot guide")
+    w_axial = AXIAL_FIRST * body.lam ** 0.5
+    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu ** 0.5 if body.mu else 0.0
+    rate = abs(scene.driver.rate) if scene.driver is not None else 0.0
+    w_run = max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0))
+    ratio = w_axial / w_run
+    detail = (f"first axial frequency {w_axial:.4g} = {ratio:.3g} x the fastest motion to resolve {w_run:.4g} "
+              f"(max of 2 x first bending {w_bend:.4g}, {DRIVER_HARMONICS:g} x driver rate), per unit tau")
+    if ratio >= AXIAL_SEPARATION:
+        return AxialTreatment(body.name, QUASI_STATIC, f"auto: {detail} >= {AXIAL_SEPARATION:g}: axial dynamics "
+                              "eliminated", w_axial, w_run)
+    return AxialTreatment(body.name, DYNAMIC, f"auto: {detail} < {AXIAL_SEPARATION:g}: axial dynamics kept",
+                          w_axial, w_run)
+
+
+def slot_guide(scene: Scene, name: str) -> bool:
+    return any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
+
+
+def axial_force_bars(scene: Scene) -> set[str]:
+    """Bars whose axial force is a multiplier of (phi'_k, eps) = 0 (quasi-static or inextensible)."""
+    return {name for name, t in axial_treatments(scene).items() if t.treatment in (QUASI_STATIC, INEXTENSIBLE)}
 
 
 def inextensible(scene: Scene) -> bool:
-    """``effects.axial = "inextensible"``: every elastic bar's axial functions carry the
-    constraint (phi'_k, eps) = 0 and its multipliers (the axial force), not lambda eps."""
-    return scene.effects.axial == INEXTENSIBLE
+    """Every elastic bar with axial functions carries the constraint (phi'_k, eps) = 0 and its
+    multipliers (the axial force), not lambda eps (``effects.axial = "inextensible"``, or
+    "auto"/"quasi_static" with every such bar eliminated)."""
+    ts = [t for t in axial_treatments(scene).values() if t.treatment != "off"]
+    return bool(ts) and all(t.treatment in (QUASI_STATIC, INEXTENSIBLE) for t in ts)
 
 
 def _tip_joint(scene: Scene, name: str) -> bool:
@@ -65,8 +148,10 @@ def structure_of(scene: Scene) -> dict:
     effects = {"coriolis": eff.coriolis, "geometric_stiffening": eff.geometric_stiffening,
                "rotary_inertia": eff.rotary_inertia, "strain": eff.strain,
                "gravity": any(x != 0 for x in eff.gravity), "damping": eff.damping > 0}
-    if inextensible(scene):
-        effects["axial"] = INEXTENSIBLE     # only then: the keys of every other scene are unchanged
+    treat = axial_treatments(scene)
+    if any(t.treatment in (QUASI_STATIC, INEXTENSIBLE) for t in treat.values()):
+        # only then: the keys of every other scene are unchanged
+        effects["axial"] = {name: t.treatment for name, t in sorted(treat.items())}
     return {"version": [__version__, DERIVE_VERSION], "bodies": bodies, "joints": joints, "driver": drv,
             "effects": effects, "loads": loads, "outputs": outputs}
 

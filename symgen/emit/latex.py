@@ -402,8 +402,22 @@ class _RecordingIPT(IPTable):
             self.used.setdefault(out, (name, tuple(idx)))
         return out
 
+    def ka_inv(self, i, j):
+        i, j = min(i, j), max(i, j)          # symmetric
+        out = super().ka_inv(i, j)
+        if isinstance(out, sp.Symbol):
+            self.used.setdefault(out, ("KaInv", (i, j)))
+        return out
 
-_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "Kt": 4, "C3": 5, "D4": 6}
+    def exact(self, name: str):
+        if name != "KaInv":
+            return self.ip.exact[name]
+        if not hasattr(self, "_exact_ka_inv"):
+            self._exact_ka_inv = sp.ImmutableMatrix(self.ip.exact["Ka"]).inv()
+        return self._exact_ka_inv
+
+
+_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7}
 
 
 def _ip_table(ipt: _RecordingIPT, used: set, pr: Printer) -> list[dict]:
@@ -411,7 +425,7 @@ def _ip_table(ipt: _RecordingIPT, used: set, pr: Printer) -> list[dict]:
     for sym, (name, idx) in ipt.used.items():
         if sym not in used:
             continue
-        exact = ipt.ip.exact[name][idx]
+        exact = ipt.exact(name)[idx]
         value = float(exact)
         if exact.atoms(sp.Float):
             ex = sp.latex(sp.Float(value, 15))

@@ -63,6 +63,7 @@ import numpy as np
 
 from ..errors import Interrupted, SceneError, SymgenError
 from ..outputs import atomic_write
+from ..structure import axial_treatments
 from . import interrupt
 from ..scene import load_scene
 from ..scene.loader import read_toml
@@ -106,7 +107,8 @@ CHANGES = (
 def applicable(scene) -> list[Change]:
     """The changes that remove something this scene has."""
     e = scene.effects
-    on = {"axial -> inextensible": e.axial is True, "axial off": e.axial is not False,
+    dynamic = any(t.treatment == "dynamic" for t in axial_treatments(scene).values())
+    on = {"axial -> inextensible": dynamic, "axial off": e.axial is not False,
           "transverse off": e.transverse, "geometric stiffening off": e.geometric_stiffening,
           "Coriolis off": e.coriolis, "rotary inertia off": e.rotary_inertia,
           "strain -> linear": e.strain == "von_karman", "gravity off": any(g != 0 for g in e.gravity),
@@ -136,6 +138,7 @@ class EffectsReport:
     reference: dict = field(default_factory=dict)      # steps, simulate_s, window of the measure runs
     auto: dict = field(default_factory=dict)           # chosen overrides, verified error, file
     stopped: str = ""                                  # "interrupted by SIGINT ..." of a partial report
+    axial: dict = field(default_factory=dict)          # bar -> (treatment, reason) of effects.axial
 
 
 # --------------------------------------------------------------------------- estimates
@@ -264,7 +267,8 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
             continue
         value, detail = max((pb[change.key] for pb in per_bar), key=lambda x: x[0])
         rows.append(EffectRow(change, value, detail))
-    report = EffectsReport(scene=str(scene.path), tol=tol, rows=rows)
+    report = EffectsReport(scene=str(scene.path), tol=tol, rows=rows,
+                           axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()})
     recommend(report)
     return report
 
@@ -525,6 +529,8 @@ def table(report: EffectsReport) -> str:
     widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
     fmt = "  ".join("{:<%d}" % w for w in widths)
     lines = [f"effects of {report.scene} (tol {report.tol:g})"]
+    for name, (treatment, reason) in report.axial.items():
+        lines.append(f"axial treatment of {name}: {treatment} ({reason})")
     if report.stopped:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:

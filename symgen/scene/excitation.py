@@ -14,7 +14,9 @@ LAW_HINT = ("law is the prescribed angle theta - initial in rad as an expression
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
 EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
-AXIAL_MODELS = ("inextensible",)      # project addition: effects.axial = "inextensible"
+# project additions to effects.axial (true / false keep the contract's meaning): the per-bar
+# choice "auto" (the default), "dynamic" (= true), "quasi_static" and "inextensible"
+AXIAL_MODELS = ("auto", "dynamic", "quasi_static", "inextensible")
 EFFECT_KEYS = EFFECT_SWITCHES + ("strain", "gravity", "damping")
 STRAINS = ("von_karman", "linear")
 INITIAL_KEYS = ("guess", "deformation")
@@ -176,8 +178,9 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
     r.check_keys(table, "effects", EFFECT_KEYS, "[effects]")
     switches = {k: r.boolean(table, "effects", k, getattr(defaults, k)) for k in EFFECT_SWITCHES
                 if k != "axial"}
-    axial_hint = ('write true, false or "inextensible" (the lambda -> infinity limit: the axial '
-                  'force from equilibrium, no axial vibration)')
+    axial_hint = ('write "auto" (the default: per bar, the axial dynamics eliminated when they are far '
+                  'faster than the run), true (= "dynamic"), "quasi_static", "inextensible" (the lambda -> '
+                  'infinity limit: no stretch) or false (no axial deformation)')
     if isinstance(table.get("axial"), str):
         switches["axial"] = r.choice(table, "effects", "axial", AXIAL_MODELS, hint=axial_hint)
     else:

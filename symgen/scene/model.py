@@ -87,7 +87,8 @@ class Initial:
 
 @dataclass(frozen=True)
 class Effects:
-    axial: bool | str = True                # project addition: "inextensible" (lambda -> oo limit)
+    axial: bool | str = "auto"              # true | false | project additions "auto" (default, per bar),
+                                            # "dynamic" (= true), "quasi_static", "inextensible" (lambda -> oo)
     transverse: bool = True
     geometric_stiffening: bool = True
     coriolis: bool = True

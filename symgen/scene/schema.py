@@ -188,10 +188,19 @@ INITIAL = Table("initial", "table", "Optional start: default the rigid assembly 
 ))
 
 EFFECTS = Table("effects", "table", "Which physics is generated: a switched-off effect is never derived.", keys=(
-    Key("axial", 'boolean or "inextensible"', 'Axial deformation; "inextensible" is the lambda -> infinity '
-        "limit (axial force as a multiplier, no axial vibration).",
-        {"oneOf": [{"type": "boolean"}, {"enum": list(_ex.AXIAL_MODELS)}]}, default="true",
-        allowed=(True, False) + _ex.AXIAL_MODELS, example='"inextensible"'),
+    Key("axial", 'boolean or string', 'Axial deformation, chosen per elastic bar. "auto" (the default): '
+        "with von Karman strain, a bar whose first axial frequency (pi/2) sqrt(lambda) is at least 10 times "
+        "the fastest motion the run must resolve (twice its first bending frequency, 4 times the driver "
+        "rate) is quasi-static, else dynamic; with the seed's linear strain, dynamic. \"dynamic\" (= true): "
+        "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
+        "basis can carry (no locking at any lambda). \"quasi_static\": no axial inertia; the axial force N "
+        "is the multiplier of (phi'_k, eps) = 0 and outputs that read the bar's shape (axial, "
+        "chord_elongation, ...) add the stretch N/lambda; costs what the inextensible model costs. "
+        "\"inextensible\": the lambda -> infinity limit (no stretch). false: no axial deformation (drops the "
+        "axial force too). The JSON sidecar (axial_treatment) and `symgen effects` say what each bar got "
+        "and why.",
+        {"oneOf": [{"type": "boolean"}, {"enum": list(_ex.AXIAL_MODELS)}]}, default='"auto"',
+        allowed=(True, False) + _ex.AXIAL_MODELS, example='"quasi_static"'),
     Key("transverse", "boolean", "Bending.", {"type": "boolean"}, default="true", example="true"),
     Key("geometric_stiffening", "boolean", "The axial force's stiffening of bending, lambda (zeta' eta')'.",
         {"type": "boolean"}, default="true", example="true"),
