@@ -50,8 +50,9 @@ class AxialTreatment:
     """How one elastic bar's axial deformation is modelled, and why.
 
     ``treatment``: "dynamic" (axial amplitudes with inertia and the strain energy of the strain
-    the basis can carry), "quasi_static" (no axial inertia: the inextensible constraint form
-    with the axial force N as multiplier, plus the stretch N/lambda where outputs read it),
+    the basis can carry), "quasi_static" (no axial vibration: the inextensible constraint form,
+    the amplitudes following the bending, the axial force N its multiplier, plus the stretch
+    N/lambda where outputs read the bar's shape),
     "inextensible" (lambda -> oo: no stretch) or "off" (no axial functions)."""
 
     bar: str

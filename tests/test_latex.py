@@ -153,7 +153,7 @@ def test_tabulated_inner_products_give_back_the_model(name):
     for bm in model.bars.values():
         ipt = _RecordingIPT(bm.ipt.ip)
         shown = bar_equations(bm.sym, bm.basis_a, bm.basis_t, ipt, scene.effects, **bm.inputs)
-        values = {sym: sp.Float(float(ipt.ip.exact[k][idx])) for sym, (k, idx) in ipt.used.items()}
+        values = {sym: sp.Float(float(ipt.exact(k)[idx])) for sym, (k, idx) in ipt.used.items()}
         eqs = bm.equations
         for a, b in zip([*shown.force, shown.moment, *shown.eq16, *shown.eq17],
                         [*eqs.force, eqs.moment, *eqs.eq16, *eqs.eq17]):

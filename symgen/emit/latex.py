@@ -31,6 +31,7 @@ import sympy as sp
 from .. import __version__
 from ..bars import IPTable, PointForce, bar_equations, distributed_groups
 from ..scene.model import GROUND
+from ..structure import QUASI_STATIC, axial_treatments
 from ..scene.motion import driver_angle
 
 TEMPLATES = resources.files("symgen") / "templates" / "latex"   # package data (pyproject: package-data)
@@ -791,6 +792,7 @@ def latex_document(scene, model) -> str:
     prog = model.program
     assigned = dict(prog.assignments)
     topo = model.topology
+    treatments = axial_treatments(scene)          # effects.axial per bar, with the reason
 
     # ---- scene tables
     bodies = []
@@ -810,7 +812,9 @@ def latex_document(scene, model) -> str:
                                                            else tex_escape(v))} for k, v in sg.items()]
     eff = scene.effects
     effects = [
-        ("axial deformation", "on" if eff.axial else "off"),
+        ("axial deformation", "off" if not eff.axial else ", ".join(
+            f"{tex_escape(n)}: {tex_escape(t.treatment.replace('_', '-'))}" for n, t in treatments.items()
+            if t.treatment != "off") or "on"),
         ("transverse deformation", "on" if eff.transverse else "off"),
         ("geometric stiffening", "on" if eff.geometric_stiffening else "off"),
         ("Coriolis terms", "on" if eff.coriolis else "off"),
@@ -879,6 +883,7 @@ def latex_document(scene, model) -> str:
     closure = []
     phi = prog.outputs["phi"]
     slot_rows = {(row.joint, row.kind): expr for expr, row in zip(phi, model.lam_rows) if row.kind.startswith("slot-")}
+    explained: set = set()
     for k, (expr, row) in enumerate(zip(phi, model.lam_rows)):
         if row.kind == "slot-y":
             continue                # shown with its slot-x row
@@ -890,8 +895,20 @@ def latex_document(scene, model) -> str:
             continue
         if row.kind == "inextensible":
             tag = f"IN, {tex_escape(row.joint)}"
-            text = (f"Inextensibility of {tex_escape(row.joint)} (effects.axial = inextensible): "
-                    "$(\\phi'_k, \\varepsilon) = 0$, multiplier $N_k$ = axial force amplitude")
+            how = treatments[row.joint]
+            first = row.joint not in explained
+            explained.add(row.joint)
+            if how.treatment == QUASI_STATIC:
+                text = (f"Quasi-static axial response of {tex_escape(row.joint)}"
+                        + (f" ({tex_escape(how.reason)}): no axial vibration: the axial amplitudes follow the "
+                           "bending through $(\\phi'_k, \\varepsilon) = 0$ (their inertia kept), the multiplier "
+                           "$N_k$ is the axial force amplitude, and outputs of the bar's shape read the "
+                           "amplitudes $f_k + N_k/\\lambda$ (the stretch $P\\varepsilon = N/\\lambda$)"
+                           if first else ", next row"))
+            else:
+                text = (f"Inextensibility of {tex_escape(row.joint)}"
+                        + (f" ({tex_escape(how.reason)}): $(\\phi'_k, \\varepsilon) = 0$, multiplier $N_k$ = "
+                           "axial force amplitude" if first else ", next row"))
         elif row.kind == "driver":
             tag = f"KG, {tex_escape(drv.body)}"
             text = ("Kinematic guidance: the input bar's prescribed angle (added to the closure "

@@ -193,9 +193,10 @@ EFFECTS = Table("effects", "table", "Which physics is generated: a switched-off 
         "the fastest motion the run must resolve (twice its first bending frequency, 4 times the driver "
         "rate) is quasi-static, else dynamic; with the seed's linear strain, dynamic. \"dynamic\" (= true): "
         "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
-        "basis can carry (no locking at any lambda). \"quasi_static\": no axial inertia; the axial force N "
-        "is the multiplier of (phi'_k, eps) = 0 and outputs that read the bar's shape (axial, "
-        "chord_elongation, ...) add the stretch N/lambda; costs what the inextensible model costs. "
+        "basis can carry (no locking at any lambda). \"quasi_static\": no axial vibration: the axial "
+        "amplitudes follow the bending through (phi'_k, eps) = 0, the axial force N is its multiplier, and "
+        "outputs that read the bar's shape (axial, chord_elongation, ...) add the stretch N/lambda; costs "
+        "what the inextensible model costs. "
         "\"inextensible\": the lambda -> infinity limit (no stretch). false: no axial deformation (drops the "
         "axial force too). The JSON sidecar (axial_treatment) and `symgen effects` say what each bar got "
         "and why.",
