@@ -1,4 +1,5 @@
-"""``effects.axial``: the contract's true / false plus the project's "inextensible" model."""
+"""``effects.axial``: the contract's true / false plus the project's "auto" (the default),
+"dynamic", "quasi_static" and "inextensible"."""
 from __future__ import annotations
 
 import pytest
@@ -15,15 +16,18 @@ def _with_axial(path, value: str, write_scene):
 
 
 @pytest.mark.parametrize("value, expected", [("true", True), ("false", False),
-                                             ('"inextensible"', "inextensible")])
+                                             ('"inextensible"', "inextensible"), ('"auto"', "auto"),
+                                             ('"dynamic"', "dynamic"), ('"quasi_static"', "quasi_static")])
 def test_axial_values(dimless_path, write_scene, value, expected):
     scene = load_scene(_with_axial(dimless_path, value, write_scene))
     assert scene.effects.axial == expected
     assert scene.effects.coriolis is False          # the rest of [effects] read as before
 
 
-def test_axial_default_and_override(dimless_path):
-    assert Effects().axial is True
+def test_axial_default_and_override(dimless_path, write_scene):
+    assert Effects().axial == "auto"
+    text = dimless_path.read_text().replace("\naxial = true\n", "\n")
+    assert load_scene(write_scene(text)).effects.axial == "auto"          # absent: the default
     assert load_scene(dimless_path).effects.axial is True
     assert load_scene(dimless_path, ["effects.axial=inextensible"]).effects.axial == "inextensible"
     assert load_scene(dimless_path, ["effects.axial=false"]).effects.axial is False
@@ -41,16 +45,17 @@ def test_bad_axial_values(dimless_path, write_scene, value, fragment):
     err = info.value
     assert err.key == "effects.axial"
     assert fragment in err.message
-    assert "inextensible" in err.hint and "true, false" in err.hint
+    assert "inextensible" in err.hint and "auto" in err.hint and "quasi_static" in err.hint
 
 
 def test_structure_key_unchanged_unless_inextensible(dimless_path):
-    """Scenes with axial = true/false keep their cache keys (and generated/ fingerprints):
-    the structure names the axial model only when it is "inextensible"."""
+    """Scenes whose bars are all dynamic or rigid keep their cache keys (and generated/
+    fingerprints): the structure names the axial model of each bar only when one is
+    inextensible or quasi-static."""
     base = structure_of(load_scene(dimless_path))
     assert "axial" not in base["effects"]
     inext = structure_of(load_scene(dimless_path, ["effects.axial=inextensible"]))
-    assert inext["effects"]["axial"] == "inextensible"
+    assert set(inext["effects"]["axial"].values()) == {"inextensible"}
     assert inext["bodies"] == base["bodies"]                     # same mode counts
     assert structure_key(inext) != structure_key(base)
     off = structure_of(load_scene(dimless_path, ["effects.axial=false"]))
