@@ -268,6 +268,24 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
         others = sp.Mul(*rest)
         prefix = "" if others == 1 else ("-" if others == -1 else printer(others))
         op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
+        if _width(prefix) > width / 2 and len(adds) > 1:
+            # a product of several long sums (e.g. the projected strain energy's c^T Ka^-1 c):
+            # each sum in its own brackets, broken inside, one after the other
+            scalar = sp.Mul(*[a for a in expr.args if not isinstance(a, sp.Add)])
+            head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
+            lines = [head]
+            for a in sorted(adds, key=lambda a: len(printer(a))):
+                inner = tex_lines(a, printer, width - 12, depth + 1)     # indented and bracketed
+                if len(inner) == 1:
+                    if _width(lines[-1]) + _width(inner[0]) + 4 <= width:
+                        lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
+                    else:
+                        lines.append(rf"\quad {op} {inner[0]} {cl}")
+                    continue
+                lines[-1] = f"{lines[-1]} {op} {inner[0]}".strip()
+                lines += [r"\quad " + x for x in inner[1:]]
+                lines[-1] += f" {cl}"
+            return lines
         inner = tex_lines(big, printer, width - 2, depth + 1)
         if len(inner) == 1:
             return [f"{prefix} {op} {inner[0]} {cl}".strip()]

@@ -75,7 +75,7 @@ def test_dimensionless_slider_crank(dimless_path):
     assert scene.initial.deformation == (
         ("rod", BodyDeformation(f=(0.0,), g=(0.01, 0.0), fdot=(0.0,), gdot=(0.0, 0.0))),)
     assert not scene.initial.quasi_static
-    assert scene.effects == Effects(coriolis=False, gravity=(0.0, -0.5), damping=0.01)
+    assert scene.effects == Effects(axial=True, coriolis=False, gravity=(0.0, -0.5), damping=0.01)
     dist, point = scene.loads
     assert (dist.kind, dist.xi, dist.axial, dist.transverse) == (
         "distributed", None, 0.0, "0.1*sin(tau)")
