@@ -686,8 +686,8 @@ def axial_basis(shapes: str, n: int) -> Basis:
     Parameters
     ----------
     shapes : "complete" -> ``{xi, sin(k pi xi), k = 1..n-1}``;
-        "stress-free" -> ``sin((2k-1) pi xi / 2), k = 1..n`` (the seed's; locks with von
-        Karman strain)
+        "stress-free" -> ``sin((2k-1) pi xi / 2), k = 1..n`` (the seed's; zero slope at the
+        free end: with von Karman strain it converges more slowly than "complete")
     n : number of functions (0: axially rigid, empty basis)
     """
     n = _check_n(n, "axial_basis")

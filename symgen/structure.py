@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from . import __version__
 from .scene.model import Scene
 
-DERIVE_VERSION = "3"
+DERIVE_VERSION = "4"   # 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:
