@@ -63,7 +63,7 @@ import numpy as np
 
 from ..errors import Interrupted, SceneError, SymgenError
 from ..outputs import atomic_write
-from ..structure import axial_treatments
+from ..structure import axial_treatments, loop_stretch_share
 from . import interrupt
 from ..scene import load_scene
 from ..scene.loader import read_toml
@@ -152,35 +152,15 @@ def _rate(scene) -> float:
 STRETCH_OUTPUTS = ("chord_elongation", "axial")
 
 
-def _loops(scene) -> int:
-    """Independent loops of the joint graph (each joint joins two bodies; ground is one body)."""
-    return max(0, len(scene.joints) - len(scene.bodies))
-
-
-def _axial_compliance(body) -> float:
-    """End-to-end axial compliance of a bar, in l0 per unit force (m_ref l0^2 omega^2):
-    l / EA with EA = lambda nu alpha^2 in those units."""
-    return 1.0 / (body.lam * body.nu * body.alpha)
-
-
-def _bending_compliance(body) -> float:
-    """Compliance of a bar to a transverse point load where a joint can act on it (the tip of a
-    cantilever, l^3/(3 EI); mid-span of a pinned bar, l^3/(48 EI)), EI = mu nu alpha^4."""
-    return (1 / 3 if body.frame == "cantilever" else 1 / 48) / (body.mu * body.nu * body.alpha)
-
-
 def _loop_stretch_share(scene, body) -> tuple[float, str]:
     """In a closed loop the stretch of ``body`` under the joint forces moves the other bars as
     much as their bending does under the same forces: the share of the axial compliance of this
-    bar against the most compliant bending of another elastic bar of the mechanism."""
-    if not _loops(scene) or not body.lam:
+    bar against the most compliant bending of another elastic bar of the mechanism
+    (:func:`symgen.structure.loop_stretch_share`, which "auto" uses too)."""
+    share, soft = loop_stretch_share(scene, body)
+    if not soft:
         return 0.0, ""
-    others = [b for b in scene.bodies if b is not body and not b.rigid and b.mu and b.transverse_modes]
-    if not others:
-        return 0.0, ""
-    soft = max(others, key=_bending_compliance)
-    ca, cb = _axial_compliance(body), _bending_compliance(soft)
-    return ca / (ca + cb), f"loop: stretch of {body.name} vs bending of {soft.name} {ca / (ca + cb):.2g}; "
+    return share, f"loop: stretch of {body.name} vs bending of {soft} {share:.2g}; "
 
 
 def _bar_estimates(scene, body, outputs: Sequence[str] | None = None) -> dict:

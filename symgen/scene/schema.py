@@ -201,7 +201,9 @@ EFFECTS = Table("effects", "table", "Which physics is generated: a switched-off 
     Key("axial", 'boolean or string', 'Axial deformation, chosen per elastic bar. "auto" (the default): '
         "with von Karman strain, a bar whose first axial frequency (pi/2) sqrt(lambda) is at least 10 times "
         "the fastest motion the run must resolve (twice its first bending frequency, 4 times the driver "
-        "rate) is quasi-static, else dynamic; with the seed's linear strain, dynamic. \"dynamic\" (= true): "
+        "rate), and whose stretch is at most 1e-4 of a closed loop's compliance (against the bending of "
+        "the softest other bar: the quasi-static stretch is not fed back into the loop), is quasi-static, "
+        "else dynamic; with the seed's linear strain, dynamic. \"dynamic\" (= true): "
         "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
         "basis can carry (no locking at any lambda). \"quasi_static\": no axial vibration: the axial "
         "amplitudes follow the bending through (phi'_k, eps) = 0, the axial force N is its multiplier, and "
