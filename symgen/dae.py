@@ -31,7 +31,7 @@ from .scene.motion import driver_angle
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from .structure import (INEXTENSIBLE, QUASI_STATIC, _tip_joint, axial_treatments,  # noqa: F401
-                        effective_modes, inextensible,
+                        effective_modes,
                         structure_key, structure_of)
 from .topology import Topology, build_topology
 

@@ -27,7 +27,6 @@ def effective_modes(scene: Scene, body) -> tuple[int, int]:
 INEXTENSIBLE = "inextensible"
 QUASI_STATIC = "quasi_static"
 DYNAMIC = "dynamic"
-AUTO = "auto"
 
 #: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
 #: frequency is at least this many times the fastest motion the run must resolve: the quasi-static
@@ -132,19 +131,6 @@ def loop_stretch_share(scene: Scene, body) -> tuple[float, str]:
 
 def slot_guide(scene: Scene, name: str) -> bool:
     return any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
-
-
-def axial_force_bars(scene: Scene) -> set[str]:
-    """Bars whose axial force is a multiplier of (phi'_k, eps) = 0 (quasi-static or inextensible)."""
-    return {name for name, t in axial_treatments(scene).items() if t.treatment in (QUASI_STATIC, INEXTENSIBLE)}
-
-
-def inextensible(scene: Scene) -> bool:
-    """Every elastic bar with axial functions carries the constraint (phi'_k, eps) = 0 and its
-    multipliers (the axial force), not lambda eps (``effects.axial = "inextensible"``, or
-    "auto"/"quasi_static" with every such bar eliminated)."""
-    ts = [t for t in axial_treatments(scene).values() if t.treatment != "off"]
-    return bool(ts) and all(t.treatment in (QUASI_STATIC, INEXTENSIBLE) for t in ts)
 
 
 def _tip_joint(scene: Scene, name: str) -> bool:
