@@ -305,22 +305,12 @@ def derive(scene: Scene) -> DerivedModel:
             lam.append(L), lam_rows.append(ConstraintRow("driver", "driver", (GROUND, drv.body)))
         else:
             torque_expr = parse_tau_expression(drv.torque) if isinstance(drv.torque, str) else param("torque")
-    # rotor, gear or flywheel on the driven shaft: turns with the driven bar's theta
-    rotor = param("J_rotor") if structure["driver"] and structure["driver"].get("rotor") else None
 
     # ---- lumped masses (carried by the first bar of their joint) and loads
     grav = (param("gx"), param("gy")) if structure["effects"]["gravity"] else None
     G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
     lumped = []
-    rotary: dict[str, list] = {n: [] for n in bars}     # bar -> [(xi, I)]: lumped rotary inertias
     for j in scene.joints:
-        if j.inertia > 0:
-            end = next(x for x in j.ends if x.body != GROUND)
-            if end.body in slot_of:
-                raise SceneError(scene.path, f"joints.{j.name}.inertia", "a slot guide cannot carry a lumped "
-                                 "rotary inertia (its slope depends on the moving contact)",
-                                 "list the other bar first in the joint's bodies, or drop the inertia")
-            rotary[end.body].append((end.xi, param(f"I_{j.name}")))
         if j.mass > 0:
             end = next(x for x in j.ends if x.body != GROUND)
             m = param(f"m_{j.name}")
@@ -416,10 +406,6 @@ def derive(scene: Scene) -> DerivedModel:
             r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
         if c.kind == "theta" and drv is not None and drv.body == c.body:
             r -= torque_expr if torque_expr is not None else lam[driver_row]   # applied moment
-            if rotor is not None:
-                r += rotor * bm.sym.ddth                                        # the rotor's inertia
-        if c.kind in ("theta", "g"):
-            r += _rotary_inertia_force(bm.kin, rotary[c.body], c.kind, c.index)
         res.append(r)
 
     # ---- outputs
@@ -429,10 +415,7 @@ def derive(scene: Scene) -> DerivedModel:
     prog.outputs["phid"] = phid
     prog.outputs["phidd"] = phidd
     prog.outputs["res"] = res
-    spin = [(rotor, bars[drv.body].sym.dth)] if rotor is not None else []
-    spin += [(inertia, bars[name].sym.dth + bars[name].kin.eta(xi, 1, amp=bars[name].sym.dg))
-             for name, items in rotary.items() for xi, inertia in items]
-    prog.outputs["energy"] = [_energy(bars, topo, origin, point, lumped, G, spin)]
+    prog.outputs["energy"] = [_energy(bars, topo, origin, point, lumped, G)]
     out_names, out_exprs = [], []
     for o in scene.outputs:
         out_names.append(o.name)
@@ -486,22 +469,7 @@ def _add_contact_force(gen: dict, kin, force: tuple) -> dict:
 BAR_SHAPE_OUTPUTS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement")
 
 
-def _rotary_inertia_force(kin, items, kind: str, index: int | None) -> sp.Expr:
-    """Generalized inertia force of lumped rotary inertias ``items`` = [(xi, I)] of a bar on its
-    coordinate theta or g_k (common units). The section at xi turns by theta + g^T psi'(xi); the
-    kinetic energy I (its rate)^2 / 2 gives I (its acceleration) times d(angle)/d(theta) = 1,
-    d(angle)/d(g_k) = psi_k'(xi)."""
-    s = kin.sym
-    nt = len(s.g)
-    out = sp.Integer(0)
-    for xi, inertia in items:
-        slope = [kin.eta(xi, 1, amp=tuple(1 if j == k else 0 for j in range(nt))) for k in range(nt)]
-        acc = s.ddth + sp.Add(*[c * a for c, a in zip(slope, s.ddg)])
-        out += inertia * acc * (1 if kind == "theta" else slope[index])
-    return out
-
-
-def _energy(bars, topo, origin, point, lumped, G, spin=()) -> sp.Expr:
+def _energy(bars, topo, origin, point, lumped, G) -> sp.Expr:
     """Kinetic + elastic + gravity potential energy, common units m_ref l0^3 omega^2. A
     quasi-static bar counts as the inextensible bar its dynamics are (the energy those
     conserve); its stretch energy N^T Ka N / (2 lambda) is of order 1/lambda and left out."""
@@ -524,8 +492,6 @@ def _energy(bars, topo, origin, point, lumped, G, spin=()) -> sp.Expr:
     for _, body, xi, m in lumped:
         r, vv, _ = point(body, xi)
         total += m * vv.dot(vv) / 2 - m * G.dot(r)
-    for inertia, rate in spin:            # rotor and lumped rotary inertias: I omega^2 / 2
-        total += inertia * rate ** 2 / 2
     return total
 
 

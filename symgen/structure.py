@@ -148,7 +148,7 @@ def structure_of(scene: Scene) -> dict:
                        "axial_shapes": b.axial_shapes if na else "", "transverse_shapes": b.transverse_shapes if nt else "",
                        "tip_joint": _tip_joint(scene, b.name) if nt else False})
     joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
-               "mass": j.mass > 0, **({"inertia": True} if j.inertia > 0 else {})} for j in scene.joints]
+               "mass": j.mass > 0} for j in scene.joints]
     drv = None
     if scene.driver is not None:
         d = scene.driver
@@ -158,8 +158,6 @@ def structure_of(scene: Scene) -> dict:
             drv["law"] = d.law
         if d.ramp is not None:
             drv["ramp"] = True
-        if d.rotor_inertia > 0:        # only then: the keys of scenes without it are unchanged
-            drv["rotor"] = True
     loads = [{"body": ld.body, "kind": ld.kind, "xi": ld.xi,
               "axial": ld.axial if isinstance(ld.axial, str) else "const",
               "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]

@@ -100,8 +100,6 @@ class Namer:
             (re.compile(rf"p([xy])_({j})$"), lambda m: rf"p_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(rf"d([xy])_({j})$"), lambda m: rf"d_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(rf"m_({j})$"), lambda m: rf"m_{{{_rm(m[1])}}}"),
-            (re.compile(rf"I_({j})$"), lambda m: rf"I_{{{_rm(m[1])}}}"),
-            (re.compile(r"J_rotor$"), lambda m: r"J_{\mathrm{rotor}}"),
             (re.compile(r"load(\d+)_axial$"),
              lambda m: rf"B_{{\mathrm{{P}}{m[1]}}}" if int(m[1]) in point_loads else rf"\bar\beta_{{{m[1]}}}"),
             (re.compile(r"load(\d+)_transverse$"),

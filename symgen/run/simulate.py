@@ -248,9 +248,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         first singular position)."""
         nonlocal closure_max
         k = len(ts)
-        # (rows, k) each; CasADi hands an empty block (no multipliers: a tree) back as shape (0,)
-        Q, V, L, O, C, Jd = (np.array(w).reshape(-1, k) if w.numel() else np.zeros((0, k))
-                             for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
+        Q, V, L, O, C, Jd = (np.array(w) for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
         stop = k
         if run.n_sing:
             nd = run.n_sing

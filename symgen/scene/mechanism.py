@@ -22,7 +22,7 @@ BODY_SI = ("E", "area", "inertia", "density")
 BODY_KEYS_DIMLESS = BODY_COMMON + BODY_DIMLESS + BODY_ELASTIC
 BODY_KEYS_SI = BODY_COMMON + BODY_SI + BODY_ELASTIC
 RIGID_FORBIDDEN = BODY_DIMLESS + ("E", "inertia") + BODY_ELASTIC
-JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass", "inertia")
+JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass")
 
 RESERVED_BODY_NAMES = {GROUND: "it is reserved for the fixed frame",
                        "_scene": "it is reserved for the scene entry of the groups"}
@@ -307,13 +307,8 @@ def read_joint(r: Reader, name: str, path: str, table: dict, bodies: dict[str, B
     direction = _direction(r, table, path, kind)
     mass = r.number(table, path, "mass", 0.0, ge=0.0,
                     hint="the lumped mass at the joint must be >= 0")
-    inertia = r.number(table, path, "inertia", 0.0, ge=0.0,
-                       hint="the lumped body's rotary inertia about the joint must be >= 0 (kg m^2 in SI)")
-    if inertia > 0 and kind == "slot":
-        r.fail(join(path, "inertia"), "a slot's contact point carries no rotary inertia",
-               "put the lumped body on a pin joint of the bar instead")
     return Joint(name=name, kind=kind, ends=ends, direction=direction,
-                 mass=scales.joint_mass(mass), inertia=scales.inertia(inertia))
+                 mass=scales.joint_mass(mass))
 
 
 def read_joints(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -> tuple[Joint, ...]:

@@ -57,7 +57,6 @@ class Joint:
     ends: tuple[JointEnd, JointEnd]             # in the file's order of ``bodies``
     direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
     mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
-    inertia: float = 0.0                        # its rotary inertia / (m_ref l0^3) (project key)
 
 
 @dataclass(frozen=True)
@@ -67,8 +66,6 @@ class Driver:
     initial: float | None       # angle at tau = 0 [rad]; torque driver: None = from the assembly
     rate: float                 # angle: d theta/d tau; torque: initial angular rate (default 0)
     torque: float | str = 0.0   # torque driver only: constant or expression of tau
-    rotor_inertia: float = 0.0  # project key: the motor rotor / gear / flywheel on the driven shaft,
-                                # / (m_ref l0^3); it turns with the driven bar's angle theta
     law: str | None = None      # angle driver only: theta = initial + law(tau), expression of tau
     ramp: float | None = None   # angle driver only: spin-up time T (tau) to reach ``rate`` smoothly
 

@@ -153,11 +153,6 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         required="for a slider", example="[1.0, 0.0]"),
     Key("mass", "number >= 0", "Lumped mass at the joint, carried by the first bar listed.",
         _num(minimum=0), default="0.0", unit="kg (SI), else relative to m_ref l0", example="0.25"),
-    Key("inertia", "number >= 0", "Rotary inertia of the lumped body at the joint, about the joint (project "
-        "key; pin and slider joints). It turns with the first bar's section there, theta + slope eta'(xi): "
-        "it adds inertia times that rotation's acceleration to the bar's equations and inertia times its "
-        "rate squared over 2 to the kinetic energy.", _num(minimum=0), default="0.0",
-        unit="kg m^2 (SI), else relative to m_ref l0^3", example="0.002"),
 ))
 
 DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: a prescribed angle or an "
@@ -180,11 +175,6 @@ DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: 
     Key("value", "number or expression", "The applied moment (torque drivers): " + EXPRESSION_TEXT + ".",
         NUMBER_OR_EXPRESSION, required="for a torque driver", unit="N m (SI), else m_ref l0^3 omega^2",
         example='"0.5*Heaviside(tau - 1)"'),
-    Key("rotor_inertia", "number >= 0", "Rotary inertia on the driven shaft (project key): motor rotor, "
-        "gear or flywheel, turning with the driven bar's angle theta. It adds rotor_inertia times the angular "
-        "acceleration to that bar's moment equation (a torque driver accelerates it; an angle driver's torque "
-        "includes it) and rotor_inertia times the angular rate squared over 2 to the kinetic energy.",
-        _num(minimum=0), default="0.0", unit="kg m^2 (SI), else m_ref l0^3", example="0.05"),
 ), example='[driver]\nkind = "angle"\nbody = "crank"\ninitial = 0.0\nrate = 1.0')
 
 INITIAL = Table("initial", "table", "Optional start: default the rigid assembly at tau = 0, undeformed.", keys=(
