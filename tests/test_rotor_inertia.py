@@ -268,3 +268,33 @@ def test_emitted_c_with_rotary_inertias_matches_python(tmp_path):
     tau_c = data[:, 0]
     ref = _rigid_gravity_reference(tau_c, 0.8, I_BAR + J + 0.1)
     assert np.abs(theta_c - ref).max() < 1e-5 * np.abs(ref).max()
+
+
+def test_latex_shows_the_rotary_inertias_and_compiles(tmp_path):
+    from symgen.dae import derive
+    from symgen.emit.latex import latex_document
+
+    path = _scene(tmp_path, "tex_rotor", ELASTIC, """
+[[bodies]]
+name = "link"
+length = 0.6
+rigid = true
+
+[[joints]]
+name = "A"
+kind = "pin"
+bodies = ["crank", "link"]
+at = [1.0, 0.0]
+inertia = 0.05
+""")
+    scene = load_scene(path)
+    tex = latex_document(scene, derive(scene))
+    assert r"J_{\mathrm{rot}} \ddot \theta_{\mathrm{crank}}" in tex          # in the crank's residual
+    assert r"\varphi_{\mathrm{A}} = \theta_{\mathrm{crank}} + \eta_{\mathrm{crank}}'(1)" in tex
+    eth = next(line for line in tex.splitlines() if line.startswith(r"E_{\theta,\mathrm{crank}} &="))
+    assert r"I_{\mathrm{A}}" in eth
+    if shutil.which("pdflatex"):
+        (tmp_path / "doc.tex").write_text(tex)
+        run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"],
+                             cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stdout[-2000:]
