@@ -364,3 +364,17 @@ output_step = 0.5
     got = modes(mechanism(path), 0.0, shapes=False).frequencies("transverse", "beam")[:3]
     rel = got / exact - 1
     assert np.abs(rel[:2]).max() < 1e-6 and 0 <= rel[2] < 5e-4, (got, exact)   # Ritz: from above
+
+
+def test_angle_driver_reports_the_motor_torque_rotor_included(tmp_path):
+    """theta = 0.5 sin(tau) prescribed: the motor supplies (I + J) theta'' (no gravity)."""
+    path = _scene(tmp_path, "angle_rotor")
+    text = path.read_text().replace('kind = "torque"', 'kind = "angle"').replace(f"value = {T}\n", "")
+    text = text.replace("initial = 0.0\nrotor_inertia", 'law = "0.5*sin(tau)"\nrotor_inertia')
+    text = text.replace('energy = { kind = "energy" }', 'energy = { kind = "energy" }\ntorque = { kind = "driver_torque" }')
+    path.write_text(text)
+    res = simulate_scene(path)
+    exact = -(I_BAR + J) * 0.5 * np.sin(res.tau)
+    assert np.abs(res.column("torque") - exact).max() < 1e-8
+    theta_d = 0.5 * np.cos(res.tau)
+    assert np.abs(res.column("energy") - (I_BAR + J) * theta_d ** 2 / 2).max() < 1e-10
