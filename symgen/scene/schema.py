@@ -243,7 +243,7 @@ OUTPUT_KIND_TEXT = {
     "angle": "theta of a bar",
     "reaction": "force of the joint's first body on the second, ground axes",
     "driver_torque": "the moment the angle driver applies",
-    "energy": "kinetic + elastic + potential energy",
+    "energy": "kinetic (rotary inertias included) + elastic + potential energy",
     "closure_residual": "max |position closure| (a solver check)",
 }
 OUTPUTS = Table("outputs", "map", "Named signals written as columns, in this order after the time column. "
