@@ -376,7 +376,8 @@ def test_angle_driver_reports_the_motor_torque_rotor_included(tmp_path):
     path = _scene(tmp_path, "angle_rotor")
     text = path.read_text().replace('kind = "torque"', 'kind = "angle"').replace(f"value = {T}\n", "")
     text = text.replace("initial = 0.0\nrotor_inertia", 'law = "0.5*sin(tau)"\nrotor_inertia')
-    text = text.replace('energy = { kind = "energy" }', 'energy = { kind = "energy" }\ntorque = { kind = "driver_torque" }')
+    text = text.replace('energy = { kind = "energy" }',
+                        'energy = { kind = "energy" }\ntorque = { kind = "driver_torque" }')
     path.write_text(text)
     res = simulate_scene(path)
     exact = -(I_BAR + J) * 0.5 * np.sin(res.tau)
