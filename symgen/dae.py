@@ -28,6 +28,7 @@ from .kinematics import BarKinematics
 from .scene.expressions import parse_tau_expression, tau_symbol
 from .scene.model import GROUND, Scene
 from .scene.motion import driver_angle
+from .rotary import LumpedRotary, add_lumped_rotary, rotary_energy
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from .structure import (INEXTENSIBLE, QUASI_STATIC, _tip_joint, axial_treatments,  # noqa: F401
@@ -287,6 +288,9 @@ def derive(scene: Scene) -> DerivedModel:
     driver_row = None
     drv = scene.driver
     torque_expr = None
+    rotor = None                     # (driven bar, J) when the driver carries a rotor inertia
+    if drv is not None and drv.rotor_inertia > 0:
+        rotor = (drv.body, param("J_rotor"))
     if drv is not None:
         th = bars[drv.body].sym
         if drv.kind == "angle":
@@ -310,7 +314,11 @@ def derive(scene: Scene) -> DerivedModel:
     grav = (param("gx"), param("gy")) if structure["effects"]["gravity"] else None
     G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
     lumped = []
+    rotary = {n: [] for n in bars}          # lumped rotary inertias, by the bar carrying them
     for j in scene.joints:
+        if j.inertia > 0:
+            end = next(x for x in j.ends if x.body != GROUND)
+            rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(f"I_{j.name}")))
         if j.mass > 0:
             end = next(x for x in j.ends if x.body != GROUND)
             m = param(f"m_{j.name}")
@@ -355,6 +363,7 @@ def derive(scene: Scene) -> DerivedModel:
         gen = bm.equations.generalized()
         if name in slot_force:
             gen = _add_contact_force(gen, bm.kin, slot_force[name])
+        gen = add_lumped_rotary(gen, s, bm.kin, rotary[name])
         E[name] = {
             "XY": (prog.assign(f"EX_{name}", gen["XY"][0]), prog.assign(f"EY_{name}", gen["XY"][1])),
             "th": prog.assign(f"Eth_{name}", gen["th"]),
@@ -406,6 +415,8 @@ def derive(scene: Scene) -> DerivedModel:
             r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
         if c.kind == "theta" and drv is not None and drv.body == c.body:
             r -= torque_expr if torque_expr is not None else lam[driver_row]   # applied moment
+            if rotor is not None:
+                r += rotor[1] * s.ddth           # the rotor's inertial moment J theta''
         res.append(r)
 
     # ---- outputs
@@ -415,7 +426,8 @@ def derive(scene: Scene) -> DerivedModel:
     prog.outputs["phid"] = phid
     prog.outputs["phidd"] = phidd
     prog.outputs["res"] = res
-    prog.outputs["energy"] = [_energy(bars, topo, origin, point, lumped, G)]
+    prog.outputs["energy"] = [_energy(bars, topo, origin, point, lumped, G)
+                              + rotary_energy(bars, [x for n in topo.order for x in rotary[n]], rotor)]
     out_names, out_exprs = [], []
     for o in scene.outputs:
         out_names.append(o.name)

@@ -152,8 +152,10 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
             put(f"dx_{j.name}", j.direction[0], UNIT_COMPONENT, f"{key}.direction")
             put(f"dy_{j.name}", j.direction[1], UNIT_COMPONENT, f"{key}.direction")
         put(f"m_{j.name}", j.mass, NON_NEGATIVE, f"{key}.mass")
+        put(f"I_{j.name}", j.inertia, NON_NEGATIVE, f"{key}.inertia")
     d = scene.driver
     if d is not None:
+        put("J_rotor", d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")
         if d.kind == "angle":
             put("theta0", d.initial, FINITE, "driver.initial")
             put("rate", d.rate, FINITE, "driver.rate")

@@ -149,6 +149,9 @@ def structure_of(scene: Scene) -> dict:
                        "tip_joint": _tip_joint(scene, b.name) if nt else False})
     joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
                "mass": j.mass > 0} for j in scene.joints]
+    for rec, j in zip(joints, scene.joints):
+        if j.inertia > 0:              # only then: the keys of scenes without it are unchanged
+            rec["inertia"] = True
     drv = None
     if scene.driver is not None:
         d = scene.driver
@@ -158,6 +161,8 @@ def structure_of(scene: Scene) -> dict:
             drv["law"] = d.law
         if d.ramp is not None:
             drv["ramp"] = True
+        if d.rotor_inertia > 0:
+            drv["rotor_inertia"] = True
     loads = [{"body": ld.body, "kind": ld.kind, "xi": ld.xi,
               "axial": ld.axial if isinstance(ld.axial, str) else "const",
               "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]

@@ -100,6 +100,8 @@ class Namer:
             (re.compile(rf"p([xy])_({j})$"), lambda m: rf"p_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(rf"d([xy])_({j})$"), lambda m: rf"d_{{{m[1]},{_rm(m[2])}}}"),
             (re.compile(rf"m_({j})$"), lambda m: rf"m_{{{_rm(m[1])}}}"),
+            (re.compile(rf"I_({j})$"), lambda m: rf"I_{{{_rm(m[1])}}}"),
+            (re.compile(r"J_rotor$"), lambda m: r"J_{\mathrm{rot}}"),
             (re.compile(r"load(\d+)_axial$"),
              lambda m: rf"B_{{\mathrm{{P}}{m[1]}}}" if int(m[1]) in point_loads else rf"\bar\beta_{{{m[1]}}}"),
             (re.compile(r"load(\d+)_transverse$"),
@@ -193,6 +195,36 @@ def _driver_angle_tex(drv, pr) -> str:
     from ..dae import TAU
     sym = {k: sp.Symbol(k, real=True) for k in ("theta0", "rate", "ramp")}
     return pr(driver_angle(drv, TAU, sym["theta0"], sym["rate"], sym["ramp"]))
+
+
+def _rotor_note(drv, pr) -> str:
+    """The driver's rotor inertia (empty without one): where it enters the equations."""
+    if not drv.rotor_inertia:
+        return ""
+    th = pr(sp.Symbol(f"theta_{drv.body}"))
+    return (rf"; with the rotor inertia $J_{{\mathrm{{rot}}}} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
+            rf"reflected to the shaft), which adds $J_{{\mathrm{{rot}}}}\,\ddot{{{th}}}$ to the residual of "
+            rf"${th}$ and $\tfrac12 J_{{\mathrm{{rot}}}}\dot{{{th}}}^2$ to the kinetic energy"
+            + (r" (the reported driver torque is the motor's, rotor included)" if drv.kind == "angle" else ""))
+
+
+def rotary_notes(scene, pr) -> list[str]:
+    """One sentence per joint with a lumped rotary inertia: the section rotation it turns with."""
+    out = []
+    for j in scene.joints:
+        if not j.inertia:
+            continue
+        end = next(x for x in j.ends if x.body != GROUND)
+        b = scene.body(end.body)
+        th = pr(sp.Symbol(f"theta_{b.name}"))
+        J = rf"I_{{{_rm(j.name)}}}"
+        rot_ = th if b.rigid else rf"{th} + \eta_{{{_rm(b.name)}}}'({_num_text(end.xi)})"
+        out.append(rf"Joint {tex_escape(j.name)}: a lumped rotary inertia ${J}$ on {tex_escape(b.name)} at "
+                   rf"$\xi = {_num_text(end.xi)}$ turning with $\varphi_{{{_rm(j.name)}}} = {rot_}$; it adds "
+                   rf"${J}\,\ddot\varphi_{{{_rm(j.name)}}}\,\partial\varphi_{{{_rm(j.name)}}}/\partial q$ to "
+                   rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{_rm(j.name)}}}^2$ "
+                   "to the kinetic energy.")
+    return out
 
 
 def _driver_law_note(drv) -> str:
@@ -854,14 +886,16 @@ def latex_document(scene, model) -> str:
                 ends.append(f"{tex_escape(e.body)} at $\\xi = {e.xi:.6g}$")
         role = "tree" if any(e.joint == j.name for e in topo.edges.values()) else "cut"
         joints.append({"name": tex_escape(j.name), "kind": j.kind, "ends": ", ".join(ends), "role": role,
-                       "mass": f"{j.mass:.6g}" if j.mass else ""})
+                       "mass": (f"{j.mass:.6g}" if j.mass else "")
+                       + (f"; rotary inertia $I_{{{_rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else "")})
     drv = scene.driver
     driver = None
     if drv is not None:
         driver = {"kind": drv.kind, "body": tex_escape(drv.body),
                   "text": (f"kinematic guidance: $\\theta_{{{_rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
                            + _driver_law_note(drv) if drv.kind == "angle" else
-                           f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")}
+                           f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")
+                  + _rotor_note(drv, pr)}
     coords = [{"tex": pr(sp.Symbol(c.name)), "kind": c.kind, "body": tex_escape(c.body)} for c in model.coords]
     mult = []
     for L, row in zip(model.lam, model.lam_rows):
@@ -964,6 +998,7 @@ def latex_document(scene, model) -> str:
         "loops": len(topo.cuts),
         "vk": eff.strain == "von_karman",
         "slot_notes": latex_slot.slot_notes(scene, model),
+        "rotary_notes": rotary_notes(scene, pr),
     }
     from .latex_quasistatic import quasi_static_context
     ctx["qs"] = quasi_static_context(scene, model, pr)

@@ -249,6 +249,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         nonlocal closure_max
         k = len(ts)
         Q, V, L, O, C, Jd = (np.array(w) for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
+        L, O, C = (w.reshape(-1, k) for w in (L, O, C))     # no multipliers (an open chain): (0, k)
         stop = k
         if run.n_sing:
             nd = run.n_sing

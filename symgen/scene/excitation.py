@@ -8,7 +8,7 @@ from symgen.scene.reader import REQUIRED, Reader, describe, is_number, join
 from symgen.scene.units import Scales
 
 DRIVER_KINDS = ("angle", "torque")
-DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp")
+DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp", "rotor_inertia")
 LAW_HINT = ("law is the prescribed angle theta - initial in rad as an expression of tau, e.g. "
             "law = \"0.5*sin(tau)\"; ")
 LOAD_KINDS = ("distributed", "point")
@@ -82,19 +82,23 @@ def read_driver(r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joi
     body = bar_name(r, r.require(table, "driver", "body", "name the driven bar"), "driver.body",
                     bodies, "the driver acts on a bar pinned to ground, not on ground itself")
     _check_pinned_to_ground(r, body, joints)
+    rotor = scales.rotary_inertia(r.number(
+        table, "driver", "rotor_inertia", 0.0, ge=0.0,
+        hint="the rotor inertia (motor rotor + gears reflected to the driven bar's shaft; kg m^2 in SI, "
+        "else relative to m_ref l0^3) must be >= 0"))
     if kind == "angle":
         if "value" in table:
             r.fail("driver.value", "an angle driver has no value (torque)",
                    "remove it, or use kind = \"torque\" to apply a moment")
         initial = r.number(table, "driver", "initial", 0.0)
         if "law" in table:
-            return Driver("angle", body, initial, 0.0, law=_law(r, table))
+            return Driver("angle", body, initial, 0.0, law=_law(r, table), rotor_inertia=rotor)
         rate = r.number(table, "driver", "rate", hint="the angular rate d theta/d tau, or rad/s in SI; "
                         "or give law = \"<expression of tau>\" for a prescribed angle")
         ramp = r.number(table, "driver", "ramp", None, gt=0.0,
                         hint="ramp is the spin-up time T (in tau) over which the rate rises smoothly "
                         "from 0 to 'rate'; it must be > 0")
-        return Driver("angle", body, initial, scales.rate(rate), ramp=ramp)
+        return Driver("angle", body, initial, scales.rate(rate), ramp=ramp, rotor_inertia=rotor)
     for key in ("law", "ramp"):
         if key in table:
             r.fail(f"driver.{key}", f"a torque driver has no {key} (it prescribes a moment, not the angle)",
@@ -104,7 +108,7 @@ def read_driver(r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joi
     rate = r.number(table, "driver", "rate", 0.0)
     if isinstance(torque, float):
         torque = scales.torque(torque)
-    return Driver("torque", body, initial, scales.rate(rate), torque)
+    return Driver("torque", body, initial, scales.rate(rate), torque, rotor_inertia=rotor)
 
 
 def _law(r: Reader, table: dict) -> str:

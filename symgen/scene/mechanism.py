@@ -22,7 +22,7 @@ BODY_SI = ("E", "area", "inertia", "density")
 BODY_KEYS_DIMLESS = BODY_COMMON + BODY_DIMLESS + BODY_ELASTIC
 BODY_KEYS_SI = BODY_COMMON + BODY_SI + BODY_ELASTIC
 RIGID_FORBIDDEN = BODY_DIMLESS + ("E", "inertia") + BODY_ELASTIC
-JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass")
+JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass", "inertia")
 
 RESERVED_BODY_NAMES = {GROUND: "it is reserved for the fixed frame",
                        "_scene": "it is reserved for the scene entry of the groups"}
@@ -307,8 +307,11 @@ def read_joint(r: Reader, name: str, path: str, table: dict, bodies: dict[str, B
     direction = _direction(r, table, path, kind)
     mass = r.number(table, path, "mass", 0.0, ge=0.0,
                     hint="the lumped mass at the joint must be >= 0")
+    inertia = r.number(table, path, "inertia", 0.0, ge=0.0,
+                       hint="the lumped rotary inertia at the joint (kg m^2 in SI, else relative to "
+                       "m_ref l0^3) must be >= 0")
     return Joint(name=name, kind=kind, ends=ends, direction=direction,
-                 mass=scales.joint_mass(mass))
+                 mass=scales.joint_mass(mass), inertia=scales.rotary_inertia(inertia))
 
 
 def read_joints(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -> tuple[Joint, ...]:

@@ -10,6 +10,7 @@ stage. Units after loading (whatever the file's ``units``):
 * distributed loads: groups q/(m_i l_i omega^2) of that bar, in the bar's axes;
 * point loads: F/(m_i l_i^2 omega^2) of that bar, in the bar's axes;
 * gravity: g/(l0 omega^2) in ground axes;
+* rotary inertias (driver rotor, lumped at joints): J/(m_ref l0^3);
 * torque: M/(m_ref l0^3 omega^2); forces (reactions) in m_ref l0^2 omega^2.
 
 A load or torque value is either a float or a string expression of ``tau`` (validated by the
@@ -57,6 +58,7 @@ class Joint:
     ends: tuple[JointEnd, JointEnd]             # in the file's order of ``bodies``
     direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
     mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
+    inertia: float = 0.0                        # lumped rotary inertia at the joint / (m_ref l0^3)
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,7 @@ class Driver:
     torque: float | str = 0.0   # torque driver only: constant or expression of tau
     law: str | None = None      # angle driver only: theta = initial + law(tau), expression of tau
     ramp: float | None = None   # angle driver only: spin-up time T (tau) to reach ``rate`` smoothly
+    rotor_inertia: float = 0.0  # rotor + gear reflected to the driven bar's shaft / (m_ref l0^3)
 
 
 @dataclass(frozen=True)

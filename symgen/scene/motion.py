@@ -75,6 +75,8 @@ def driver_record(driver: Any) -> dict | None:
     if driver is None:
         return None
     out = {"kind": driver.kind, "body": driver.body, "initial": driver.initial}
+    if getattr(driver, "rotor_inertia", 0.0):
+        out["rotor_inertia"] = driver.rotor_inertia       # / (m_ref l0^3)
     if driver.kind == "torque":
         out["torque"] = driver.torque
         return out

@@ -122,6 +122,8 @@ def check_scaled_values(r: Reader, scales_inputs: Inputs, joints: Sequence[Joint
         path = f"joints.{joint.name}"
         check_scaled(r, join(path, "mass"), f"the lumped mass of joint {joint.name!r}", joint.mass,
                      scales_inputs)
+        check_scaled(r, join(path, "inertia"), f"the lumped rotary inertia of joint {joint.name!r}",
+                     joint.inertia, scales_inputs)
         for end in joint.ends:
             for x in end.point or ():
                 check_scaled(r, join(path, "at"), f"a ground point of joint {joint.name!r}", x,
@@ -134,5 +136,8 @@ def check_scaled_values(r: Reader, scales_inputs: Inputs, joints: Sequence[Joint
             if isinstance(value, float):
                 check_scaled(r, join(join("loads", i), key), f"the {key} load on {load.body!r}", value,
                              scales_inputs)
+    if driver is not None:
+        check_scaled(r, "driver.rotor_inertia", "the driver's rotor inertia", driver.rotor_inertia,
+                     scales_inputs)
     if driver is not None and isinstance(driver.torque, float):
         check_scaled(r, "driver.value", "the driver torque", driver.torque, scales_inputs)

@@ -153,6 +153,10 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         required="for a slider", example="[1.0, 0.0]"),
     Key("mass", "number >= 0", "Lumped mass at the joint, carried by the first bar listed.",
         _num(minimum=0), default="0.0", unit="kg (SI), else relative to m_ref l0", example="0.25"),
+    Key("inertia", "number >= 0", "Lumped rotary inertia at the joint (a hub, pulley or gear about its own "
+        "centre of mass), carried by the first bar listed with the mass: it turns with that bar's cross-section, "
+        "theta + eta'(xi) on an elastic bar, theta on a rigid one; in the equations, energy, modes, LaTeX and C.",
+        _num(minimum=0), default="0.0", unit="kg m^2 (SI), else relative to m_ref l0^3", example="0.01"),
 ))
 
 DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: a prescribed angle or an "
@@ -175,6 +179,11 @@ DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: 
     Key("value", "number or expression", "The applied moment (torque drivers): " + EXPRESSION_TEXT + ".",
         NUMBER_OR_EXPRESSION, required="for a torque driver", unit="N m (SI), else m_ref l0^3 omega^2",
         example='"0.5*Heaviside(tau - 1)"'),
+    Key("rotor_inertia", "number >= 0", "Inertia of the motor rotor, gears or flywheel reflected to the driven "
+        "bar's shaft; turns with the bar's angle theta. Adds J theta'' to the driven bar's moment equation and "
+        "J theta'^2 / 2 to the kinetic energy; for an angle driver the reported driver torque is the motor's "
+        "(rotor inertia included).", _num(minimum=0), default="0.0",
+        unit="kg m^2 (SI), else relative to m_ref l0^3", example="0.02"),
 ), example='[driver]\nkind = "angle"\nbody = "crank"\ninitial = 0.0\nrate = 1.0')
 
 INITIAL = Table("initial", "table", "Optional start: default the rigid assembly at tau = 0, undeformed.", keys=(
@@ -246,7 +255,7 @@ OUTPUT_KIND_TEXT = {
     "angle": "theta of a bar",
     "reaction": "force of the joint's first body on the second, ground axes",
     "driver_torque": "the moment the angle driver applies",
-    "energy": "kinetic + elastic + potential energy",
+    "energy": "kinetic (rotary inertias included) + elastic + potential energy",
     "closure_residual": "max |position closure| (a solver check)",
 }
 OUTPUTS = Table("outputs", "map", "Named signals written as columns, in this order after the time column. "

@@ -29,6 +29,8 @@ def _bar(body) -> str:
 def _joint(joint) -> str:
     ends = " - ".join(end.body for end in joint.ends)
     mass = f", mass {joint.mass:.6g}" if joint.mass else ""
+    if joint.inertia:
+        mass += f", rotary inertia {joint.inertia:.6g}"
     return f"{joint.name}: {joint.kind} {ends}{mass}"
 
 
@@ -48,6 +50,8 @@ def summary(scene: Scene) -> str:
         lines.append(f"  {'driver':8} angle of {drv.body}: {drv.initial:.6g} + {drv.rate:.6g} tau")
     else:
         lines.append(f"  {'driver':8} torque on {drv.body}: {drv.torque}")
+    if drv is not None and drv.rotor_inertia:
+        lines.append(f"  {'':8} rotor inertia {drv.rotor_inertia:.6g} (/ m_ref l0^3)")
     if scene.loads:
         lines.append(f"  {'loads':8} {len(scene.loads)} on " + ", ".join(sorted({ld.body for ld in scene.loads})))
     gx, gy = scene.effects.gravity

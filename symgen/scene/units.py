@@ -49,6 +49,10 @@ class Scales:
         """A lumped mass: SI kg -> m / (m_ref l0)."""
         return m / (self.m_ref * self.l0) if self.si else m
 
+    def rotary_inertia(self, j: float) -> float:
+        """A rotary inertia (driver rotor, lumped at a joint): SI kg m^2 -> J / (m_ref l0^3)."""
+        return j / (self.m_ref * self.l0 ** 3) if self.si else j
+
     def gravity(self, g: float) -> float:
         """A gravity component: SI m/s^2 -> g / (l0 omega^2)."""
         return g / (self.l0 * self.omega ** 2) if self.si else g

@@ -1,0 +1,99 @@
+"""Lumped rotary inertias: a driver's rotor and hubs at joints (issue 12, Deliver 3).
+
+A lumped body of rotary inertia I (about its own centre of mass, which sits at the joint and
+carries the joint's lumped mass) turns with the cross-section of the bar it is carried by:
+
+    phi = theta + eta'(xi)          (elastic bar: the chord angle plus the small bending slope,
+                                     eta' = d eta / d xi, both in the bar's own axes)
+    phi = theta                     (rigid bar, or a bar without transverse functions)
+
+The axial functions do not turn the section (linear small-rotation kinematics, like the
+bar's own rotary-inertia effect). Its inertial moment I phi'' does virtual work I phi'' d phi,
+so it adds I phi'' d phi / d q to the generalized force of every coordinate q of that bar
+(theta, the g_k, and a slot guide's beta when the shapes depend on it), and I phi'^2 / 2 to the
+kinetic energy. The moment is a couple: it adds nothing to the bar's resultant force, so the
+reactions of the tree joints are unchanged.
+
+A driver's rotor (motor rotor + gears reflected to the crank shaft) turns with the driven bar's
+angle theta: it adds J theta'' to that bar's moment equation and J theta'^2 / 2 to the energy.
+
+Units: I and J are / (m_ref l0^3), the common unit of the generalized forces (m_ref l0^3 omega^2).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+
+@dataclass(frozen=True)
+class LumpedRotary:
+    """A rotary inertia ``inertia`` (a symbol) at ``xi`` of bar ``body``, from joint ``joint``."""
+
+    joint: str
+    body: str
+    xi: float
+    inertia: sp.Symbol
+
+
+def coordinates(sym) -> list:
+    """(q, q', q'') of every coordinate of one bar that can turn a cross-section."""
+    out = [(sym.th, sym.dth, sym.ddth)]
+    out += list(zip(sym.g, sym.dg, sym.ddg))
+    if getattr(sym, "beta", None):
+        out.append(tuple(sym.beta))
+    return out
+
+
+def section_rotation(sym, kin, xi: float) -> sp.Expr:
+    """phi = theta + eta'(xi) of the cross-section at xi (theta for a bar without bending)."""
+    if not sym.g:
+        return sym.th
+    return sym.th + kin.eta(xi, 1)
+
+
+def rotation_rates(phi: sp.Expr, coords: list) -> tuple:
+    """(phi', phi'', {q: d phi / d q}) by the chain rule over ``coords`` [(q, q', q''), ...]."""
+    grads = {q: sp.diff(phi, q) for q, _, _ in coords}
+    phid = sp.Add(*[grads[q] * dq for q, dq, _ in coords])
+    phidd = sp.Add(*[grads[q] * ddq for q, _, ddq in coords])
+    phidd += sp.Add(*[sp.diff(grads[q], p) * dq * dp for q, dq, _ in coords for p, dp, _ in coords])
+    return phid, phidd, grads
+
+
+def add_lumped_rotary(gen: dict, sym, kin, items: list) -> dict:
+    """``gen`` (a bar's generalized forces, common units) plus the inertial moments of ``items``
+    (:class:`LumpedRotary` on this bar): I phi'' d phi / d q on theta, every g_k and beta."""
+    if not items:
+        return gen
+    coords = coordinates(sym)
+    th = gen["th"]
+    g = list(gen["g"])
+    beta = gen.get("beta")
+    for it in items:
+        _, phidd, grads = rotation_rates(section_rotation(sym, kin, it.xi), coords)
+        moment = it.inertia * phidd
+        th += moment * grads[sym.th]
+        for k, gk in enumerate(sym.g):
+            g[k] += moment * grads[gk]
+        if beta is not None and getattr(sym, "beta", None):
+            beta += moment * grads[sym.beta[0]]
+    out = dict(gen)
+    out["th"], out["g"] = th, tuple(g)
+    if beta is not None:
+        out["beta"] = beta
+    return out
+
+
+def rotary_energy(bars: dict, items: list, rotor: tuple | None) -> sp.Expr:
+    """Kinetic energy I phi'^2 / 2 of the lumped rotary inertias and J theta'^2 / 2 of the
+    driver's rotor ``rotor`` = (body, J) or None."""
+    total = sp.Integer(0)
+    for it in items:
+        bm = bars[it.body]
+        phid, _, _ = rotation_rates(section_rotation(bm.sym, bm.kin, it.xi), coordinates(bm.sym))
+        total += it.inertia * phid ** 2 / 2
+    if rotor is not None:
+        body, J = rotor
+        total += J * bars[body].sym.dth ** 2 / 2
+    return total
