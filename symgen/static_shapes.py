@@ -27,7 +27,7 @@ from typing import Any, Sequence
 from .shapes import _DPS, _MP, ShapeFunction, _s_value, _sadd, _Terms, _tnew
 
 __all__ = ["STATIC_KINDS", "Piecewise", "StaticCorrection", "static_correction",
-           "piecewise_inner", "static_polynomials"]
+           "piecewise_inner", "piecewise_inner_products", "static_polynomials"]
 
 #: (direction, frame) pairs that have a static correction function.
 STATIC_KINDS = ("pinned-pinned", "cantilever", "axial")
@@ -56,12 +56,20 @@ def _j01(p: int, z: Any) -> Any:
     return r
 
 
+_J_UPTO: dict[tuple[int, int, Any], Any] = {}
+
+
 def _j_upto(p: int, s: int, x: Any) -> Any:
-    """``int_0^x t^p exp(s t) dt = x^(p+1) int_0^1 u^p exp(s x u) du``."""
+    """``int_0^x t^p exp(s t) dt = x^(p+1) int_0^1 u^p exp(s x u) du`` (memoised; exponent
+    ids are only ever created, never recycled, for the exponents of our functions)."""
     if x == 0:
         return _MP.mpc(0)
-    sv = _s_value(s) if s else 0
-    return x ** (p + 1) * _j01(p, sv * x)
+    key = (p, s, x)
+    r = _J_UPTO.get(key)
+    if r is None:
+        sv = _s_value(s) if s else 0
+        r = _J_UPTO[key] = x ** (p + 1) * _j01(p, sv * x)
+    return r
 
 
 def _integrate_product_on(a: _Terms, b: _Terms, lo: Any, hi: Any) -> Any:
@@ -255,3 +263,73 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
     label = r"\chi_{%s}" % format(float(xi_k), "g")
     return StaticCorrection(kind, float(xi_k), a, tuple(left), tuple(right),
                             tuple(float(c) for c in coeffs), float(t), label, scaled)
+
+
+# --------------------------------------------------------------------------------------
+# Every inner product of a bar whose bases hold correction functions
+# --------------------------------------------------------------------------------------
+def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]):
+    """The :class:`symgen.shapes.InnerProducts` of a bar whose axial functions ``axial`` and
+    transverse functions ``transverse`` may include piecewise (static correction) functions.
+
+    Same tables and conventions as :func:`symgen.shapes.inner_products`; every integral is
+    split at the union of the functions' break points and done in closed form on each piece
+    (50 digits; the ``exact`` tables hold 50-digit Floats).
+    """
+    import itertools
+
+    from .shapes import InnerProducts, _poly_terms, _Table, _tmul
+
+    phi = [Piecewise.of(f) for f in axial]
+    psi = [Piecewise.of(f) for f in transverse]
+    na, nt = len(phi), len(psi)
+    cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in phi + psi)))
+    ivals = [(lo, hi, (lo + hi) / 2) for lo, hi in zip(cuts[:-1], cuts[1:])]
+    lims = [(_mpq(lo), _mpq(hi)) for lo, hi, _ in ivals]
+    one, xi = _poly_terms({0: Fraction(1)}).as_mp(), _poly_terms({1: Fraction(1)}).as_mp()
+
+    def at(fs: list[Piecewise], d: int) -> list[list[_Terms]]:   # [function][interval]
+        return [[f.piece_at(mid).as_mp().deriv(d) for _, _, mid in ivals] for f in fs]
+
+    b = [[one] * len(ivals), [xi] * len(ivals)] + at(phi, 0) + at(psi, 0)
+    dphi, dpsi, ddpsi = at(phi, 1), at(psi, 1), at(psi, 2)
+
+    def ip(u: list[_Terms], v: list[_Terms]) -> Any:
+        return sum((_integrate_product_on(x, y, lo, hi) for x, y, (lo, hi) in zip(u, v, lims)),
+                   _MP.mpf(0))
+
+    N = len(b)
+    gram = _Table((N, N))
+    for i in range(N):
+        for j in range(i, N):
+            gram.set({(i, j), (j, i)}, _MP.mpc(ip(b[i], b[j])))
+    Ka = _Table((na, na))
+    for i in range(na):
+        for j in range(i, na):
+            Ka.set({(i, j), (j, i)}, _MP.mpc(ip(dphi[i], dphi[j])))
+    Kt, Pd = _Table((nt, nt)), _Table((nt, nt))
+    for i in range(nt):
+        for j in range(i, nt):
+            Kt.set({(i, j), (j, i)}, _MP.mpc(ip(ddpsi[i], ddpsi[j])))
+            Pd.set({(i, j), (j, i)}, _MP.mpc(ip(dpsi[i], dpsi[j])))
+    psid1 = _Table((nt,))
+    for a in range(nt):
+        psid1.set({(a,)}, _MP.mpc(ip(dpsi[a], [one] * len(ivals))))
+    pairs = [(a, c) for a in range(nt) for c in range(a, nt)]
+    P = {(a, c): [_tmul(x, y) for x, y in zip(dpsi[a], dpsi[c])] for a, c in pairs}
+    C3 = _Table((na, nt, nt))
+    for k in range(na):
+        for a, c in pairs:
+            C3.set({(k, a, c), (k, c, a)}, _MP.mpc(ip(dphi[k], P[(a, c)])))
+    D4 = _Table((nt, nt, nt, nt))
+    for idx in itertools.combinations_with_replacement(range(nt), 4):
+        a, c, d, e = idx
+        D4.set(set(itertools.permutations(idx)), _MP.mpc(ip(P[(a, c)], P[(d, e)])))
+    _J_UPTO.clear()
+    import sympy
+    exact = {"gram": gram.matrix(), "Ka": Ka.matrix(), "Kt": Kt.matrix(), "Pd": Pd.matrix(),
+             "psid1": sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)]),
+             "C3": C3.array(), "D4": D4.array()}
+    return InnerProducts(na=na, nt=nt, gram=gram.frozen(), Ka=Ka.frozen(), Kt=Kt.frozen(),
+                         Pd=Pd.frozen(), psid1=psid1.frozen(), C3=C3.frozen(), D4=D4.frozen(),
+                         exact=exact)

@@ -150,3 +150,36 @@ def test_point_must_be_inside(xi):
 def test_unknown_kind():
     with pytest.raises(ValueError, match="unknown static correction kind"):
         static_correction("free-free", 0.5, [])
+
+
+@pytest.mark.parametrize("frame,family", [("pinned-pinned", "modes"), ("cantilever", "eigen")])
+def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
+    from symgen.shapes import inner_products
+    from symgen.static_shapes import piecewise_inner_products
+    ba, bt = axial_basis("stress-free", 2), transverse_basis(frame, family, 3)
+    ref = inner_products(ba, bt)
+    pw = piecewise_inner_products(ba.functions, bt.functions)
+    for name in ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4"):
+        np.testing.assert_allclose(getattr(pw, name), getattr(ref, name), rtol=1e-12, atol=1e-12)
+
+
+def test_piecewise_inner_products_with_corrections_match_quadrature():
+    from symgen.static_shapes import piecewise_inner_products
+    ba, bt = axial_basis("stress-free", 2), transverse_basis("pinned-pinned", "modes", 3)
+    cha = static_correction("axial", A, ba.functions)
+    chi = static_correction("pinned-pinned", A, bt.functions)
+    phi, psi = list(ba.functions) + [cha], list(bt.functions) + [chi]
+    ip = piecewise_inner_products(phi, psi)
+
+    def quad(fn):
+        return sum(si.quad(fn, lo, hi, epsabs=1e-13, epsrel=1e-12)[0] for lo, hi in ((0, A), (A, 1)))
+
+    d1 = psi[3].value
+    assert ip.D4[3, 3, 3, 3] == pytest.approx(quad(lambda x: d1(x, 1) ** 4), rel=1e-9)
+    assert ip.D4[0, 3, 3, 1] == pytest.approx(
+        quad(lambda x: psi[0].value(x, 1) * d1(x, 1) ** 2 * psi[1].value(x, 1)), rel=1e-9, abs=1e-11)
+    assert ip.C3[2, 3, 0] == pytest.approx(
+        quad(lambda x: cha.value(x, 1) * d1(x, 1) * psi[0].value(x, 1)), rel=1e-9, abs=1e-11)
+    assert ip.Ka[2, 2] == pytest.approx(quad(lambda x: cha.value(x, 1) ** 2), rel=1e-9)
+    assert ip.gram[1, 2 + 2] == pytest.approx(quad(lambda x: x * cha.value(x)), rel=1e-9)
+    assert ip.psid1[3] == pytest.approx(chi.value(1) - chi.value(0), abs=1e-12)
