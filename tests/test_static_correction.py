@@ -1,0 +1,185 @@
+"""Static correction functions at interior points of elastic bars (issue 12, Deliver 1).
+
+Oracles: Euler-Bernoulli closed forms for point-load deflections, and an independent numpy
+Hermite finite-element model for the natural frequencies of a beam with an interior pin.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.integrate as si
+import scipy.linalg as sl
+
+from symgen.shapes import axial_basis, transverse_basis
+from symgen.static_shapes import Piecewise, piecewise_inner, static_correction
+
+A = 0.3  # load / support point (a float, as a scene gives it)
+
+
+def _ritz_static(fs, a, xs):
+    """Rayleigh-Ritz static deflection (EI = 1, l = 1) under a unit transverse force at a."""
+    K = np.array([[piecewise_inner(f, g, 2) for g in fs] for f in fs])
+    F = np.array([f.value(a) for f in fs])
+    q = np.linalg.solve(K, F)
+    return np.array([q @ np.array([f.value(x) for f in fs]) for x in xs])
+
+
+def _pp_deflection(x, a):
+    """Pinned-pinned beam, unit force at a: P b x (l^2 - b^2 - x^2) / (6 EI l) left of a."""
+    b = 1 - a
+    return np.where(x <= a, b * x * (1 - b * b - x * x) / 6,
+                    a * (1 - x) * (1 - a * a - (1 - x) ** 2) / 6)
+
+
+def _cantilever_deflection(x, a):
+    return np.where(x <= a, x * x * (3 * a - x) / 6, a * a * (3 * x - a) / 6)
+
+
+XS = np.linspace(0.05, 0.95, 10)
+
+
+@pytest.mark.parametrize("n", [2, 3])
+def test_pinned_pinned_point_load_deflection(n):
+    basis = list(transverse_basis("pinned-pinned", "modes", n).functions)
+    chi = static_correction("pinned-pinned", A, basis)
+    exact_a = A * A * (1 - A) ** 2 / 3  # P a^2 b^2 / (3 EI l)
+    w = _ritz_static(basis + [chi], A, [A, *XS])
+    assert w[0] == pytest.approx(exact_a, rel=5e-3)
+    assert np.max(np.abs(w[1:] - _pp_deflection(XS, A))) < 5e-3 * exact_a
+    # without the correction the error at the load point is larger than the tolerance
+    w0 = _ritz_static(basis, A, [A])
+    assert abs(w0[0] / exact_a - 1) > 5e-3
+
+
+def test_cantilever_point_load_deflection():
+    basis = list(transverse_basis("cantilever", "eigen", 3).functions)
+    chi = static_correction("cantilever", A, basis)
+    w = _ritz_static(basis + [chi], A, [A, *XS])
+    assert w[0] == pytest.approx(A ** 3 / 3, rel=5e-3)
+    assert np.max(np.abs(w[1:] - _cantilever_deflection(XS, A))) < 5e-3 * A ** 3 / 3
+    w0 = _ritz_static(basis, A, [A])
+    assert abs(w0[0] / (A ** 3 / 3) - 1) > 5e-3
+
+
+def test_axial_point_force():
+    """u(0) = 0, free end, unit axial force at a: u = min(xi, a) (EA = 1)."""
+    basis = list(axial_basis("stress-free", 2).functions)
+    chi = static_correction("axial", A, basis)
+    fs = basis + [chi]
+    K = np.array([[piecewise_inner(f, g, 1) for g in fs] for f in fs])
+    F = np.array([f.value(A) for f in fs])
+    q = np.linalg.solve(K, F)
+    u = np.array([q @ np.array([f.value(x) for f in fs]) for x in XS])
+    assert np.max(np.abs(u - np.minimum(XS, A))) < 1e-9
+    q0 = np.linalg.solve(K[:2, :2], F[:2])
+    assert abs(q0 @ F[:2] / A - 1) > 5e-3
+
+
+def _fe_pinned_with_interior_pin(a, ne=120):
+    """First three circular frequencies (EI = rho A = l = 1) of a pinned-pinned beam with a
+    pin at a: Hermite cubic elements, a node at a."""
+    n1 = int(round(ne * a))
+    x = np.concatenate([np.linspace(0, a, n1 + 1), np.linspace(a, 1, ne - n1 + 1)[1:]])
+    N = len(x)
+    K = np.zeros((2 * N, 2 * N))
+    M = np.zeros_like(K)
+    for e in range(N - 1):
+        h = x[e + 1] - x[e]
+        k = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                      [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h ** 3
+        m = h / 420 * np.array([[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+                                [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]])
+        d = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
+        K[np.ix_(d, d)] += k
+        M[np.ix_(d, d)] += m
+    free = [i for i in range(2 * N) if i not in (0, 2 * (N - 1), 2 * n1)]
+    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True,
+                 subset_by_index=[0, 2])
+    return np.sqrt(w2)
+
+
+def _ritz_frequencies(fs, a):
+    K = np.array([[piecewise_inner(f, g, 2) for g in fs] for f in fs])
+    M = np.array([[piecewise_inner(f, g, 0) for g in fs] for f in fs])
+    Z = sl.null_space(np.array([[f.value(a) for f in fs]]))  # the pin: w(a) = 0
+    return np.sqrt(sl.eigh(Z.T @ K @ Z, Z.T @ M @ Z, eigvals_only=True)[:3])
+
+
+def test_interior_pin_frequencies():
+    ref = _fe_pinned_with_interior_pin(A)
+    basis = list(transverse_basis("pinned-pinned", "modes", 4).functions)
+    chi = static_correction("pinned-pinned", A, basis)
+    w = _ritz_frequencies(basis + [chi], A)
+    assert np.max(np.abs(w / ref - 1)) < 5e-3
+    w0 = _ritz_frequencies(list(transverse_basis("pinned-pinned", "modes", 5).functions), A)
+    assert np.max(np.abs(w0 / ref - 1)) > 5e-3
+
+
+def test_closed_form_integrals_match_quadrature():
+    """The piecewise closed-form inner products against adaptive quadrature, for products with
+    sin terms (pinned) and exp/sin terms (clamped-free eigenfunctions)."""
+    for frame, fam in (("pinned-pinned", "modes"), ("cantilever", "eigen")):
+        basis = list(transverse_basis(frame, fam, 3).functions)
+        chi = static_correction(frame, A, basis)
+        for f in basis + [chi]:
+            for d in (0, 2):
+                num = sum(si.quad(lambda x: chi.value(x, d) * f.value(x, d), lo, hi,
+                                  epsabs=1e-13, epsrel=1e-12)[0] for lo, hi in ((0, A), (A, 1)))
+                assert piecewise_inner(chi, f, d) == pytest.approx(num, rel=1e-9, abs=1e-11)
+        # orthogonal (mass) to the others, value 1 at the point
+        assert max(abs(piecewise_inner(chi, f)) for f in basis) < 1e-12
+        assert chi.value(A) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_static_shape_kink_and_continuity():
+    chi = static_correction("pinned-pinned", A, [])
+    pw = Piecewise.of(chi)
+    for d in (0, 1, 2):
+        assert pw.value(A, d, right=False) == pytest.approx(pw.value(A, d, right=True), abs=1e-12)
+    # unit jump of the shear force w''' at the point (scaled by 1/t)
+    jump = pw.value(A, 3, right=True) - pw.value(A, 3, right=False)
+    assert jump * chi.scale == pytest.approx(1.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("xi", [0.0, 1.0, -0.2, 1.5])
+def test_point_must_be_inside(xi):
+    with pytest.raises(ValueError, match="inside the bar"):
+        static_correction("pinned-pinned", xi, [])
+
+
+def test_unknown_kind():
+    with pytest.raises(ValueError, match="unknown static correction kind"):
+        static_correction("free-free", 0.5, [])
+
+
+@pytest.mark.parametrize("frame,family", [("pinned-pinned", "modes"), ("cantilever", "eigen")])
+def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
+    from symgen.shapes import inner_products
+    from symgen.static_shapes import piecewise_inner_products
+    ba, bt = axial_basis("stress-free", 2), transverse_basis(frame, family, 3)
+    ref = inner_products(ba, bt)
+    pw = piecewise_inner_products(ba.functions, bt.functions)
+    for name in ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4"):
+        np.testing.assert_allclose(getattr(pw, name), getattr(ref, name), rtol=1e-12, atol=1e-12)
+
+
+def test_piecewise_inner_products_with_corrections_match_quadrature():
+    from symgen.static_shapes import piecewise_inner_products
+    ba, bt = axial_basis("stress-free", 2), transverse_basis("pinned-pinned", "modes", 3)
+    cha = static_correction("axial", A, ba.functions)
+    chi = static_correction("pinned-pinned", A, bt.functions)
+    phi, psi = list(ba.functions) + [cha], list(bt.functions) + [chi]
+    ip = piecewise_inner_products(phi, psi)
+
+    def quad(fn):
+        return sum(si.quad(fn, lo, hi, epsabs=1e-13, epsrel=1e-12)[0] for lo, hi in ((0, A), (A, 1)))
+
+    d1 = psi[3].value
+    assert ip.D4[3, 3, 3, 3] == pytest.approx(quad(lambda x: d1(x, 1) ** 4), rel=1e-9)
+    assert ip.D4[0, 3, 3, 1] == pytest.approx(
+        quad(lambda x: psi[0].value(x, 1) * d1(x, 1) ** 2 * psi[1].value(x, 1)), rel=1e-9, abs=1e-11)
+    assert ip.C3[2, 3, 0] == pytest.approx(
+        quad(lambda x: cha.value(x, 1) * d1(x, 1) * psi[0].value(x, 1)), rel=1e-9, abs=1e-11)
+    assert ip.Ka[2, 2] == pytest.approx(quad(lambda x: cha.value(x, 1) ** 2), rel=1e-9)
+    assert ip.gram[1, 2 + 2] == pytest.approx(quad(lambda x: x * cha.value(x)), rel=1e-9)
+    assert ip.psid1[3] == pytest.approx(chi.value(1) - chi.value(0), abs=1e-12)
