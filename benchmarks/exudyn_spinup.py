@@ -11,12 +11,14 @@ EI = mu of the rod):
   the crank tip (``RevoluteJoint2D``), gravity on each element;
 * slider: ``MassPoint2D`` of the joint's mass at the rod's end, pinned to it, y = 0;
 * start at rest, undeformed, crank along +x; ``SolveDynamic`` (generalized-alpha, spectral radius
-  ``rho_inf``: Exudyn's default 0.9 damps the high frequencies a little; 1.0: none).
+  ``rho_inf``: Exudyn's default 0.9 damps the high frequencies a little; 1.0 failed here
+  ("SolveDynamic terminated" at 200 steps per tau); 0.8 and 0.95 run).
 
 Outputs (t, dict): theta (crank angle), theta_dot, rod_mid (chord deflection at midspan, + to the
 left of A -> B, / l), xB, and the energy E = kinetic + elastic + potential of the ANCF model
-(``energy``: crank and slider in closed form, the cable's kinetic energy from its consistent
-mass matrix and node velocities, its strain energy by Gauss quadrature of
+(``energy``: crank and slider in closed form, the cable's kinetic and potential energy by
+Gauss quadrature of its Hermite interpolation of the node coordinates and velocities (the element's
+own shape functions), its strain energy likewise of
 1/2 EA eps^2 + 1/2 EI kappa^2 with Exudyn's cable strain eps = |r'| - 1, kappa = (r' x r'') / |r'|^2).
 
     python benchmarks/exudyn_spinup.py ELEMENTS STEPS_PER_TAU T_END [MU] [RHO_INF]

@@ -20,7 +20,6 @@ What holds, pinned here (benchmarks/RESULTS.md "Torque-driven spin-up" has the s
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
