@@ -26,7 +26,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-SECTIONS = ["examples", "derivation", "tolerances", "faster", "backends", "integrators", "exudyn", "exudyn_seed", "c", "hard"]
+SECTIONS = ["examples", "derivation", "tolerances", "faster", "backends", "integrators", "exudyn", "exudyn_seed", "c", "hard",
+            "spinup"]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 
 
