@@ -30,7 +30,7 @@ from .scene.model import GROUND, Scene
 from .scene.motion import driver_angle
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
-from .structure import (INEXTENSIBLE, _tip_joint, effective_modes, inextensible,  # noqa: F401
+from .structure import (INEXTENSIBLE, _tip_joint, effective_modes, inextensible, overhang_modes,  # noqa: F401
                         structure_key, structure_of)
 from .topology import Topology, build_topology
 
@@ -124,7 +124,7 @@ def derive(scene: Scene) -> DerivedModel:
         if b.name in slot_of:
             beta = tuple(sp.Symbol(f"{p}beta_{slot_of[b.name]}", real=True) for p in ("", "d", "dd"))
             sym = replace(sym, beta=beta)
-            basis = SlotBasis(nt, beta[0])
+            basis = SlotBasis(nt, beta[0], overhang_modes(scene, b))
             P[str(sym.alpha)], P[str(sym.nu)] = sym.alpha, sym.nu
             if sym.mu is not None:
                 P[str(sym.mu)] = sym.mu

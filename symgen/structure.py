@@ -16,11 +16,21 @@ DERIVE_VERSION = "3"
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:
+    """(axial, transverse) function counts of a bar; a slot guide's transverse count includes
+    its overhang's own functions (``overhang_modes``, appended after the span's)."""
     if body.rigid:
         return 0, 0
     na = body.axial_modes if scene.effects.axial else 0
     nt = body.transverse_modes if scene.effects.transverse else 0
-    return na, nt
+    return na, nt + (overhang_modes(scene, body) if nt else 0)
+
+
+def overhang_modes(scene: Scene, body) -> int:
+    """Number of the overhang's own bending functions of a slot guide (0: rigid overhang, the
+    seed's form, no bending, or not a guide)."""
+    if body.rigid or not (scene.effects.transverse and body.transverse_modes):
+        return 0
+    return sum(j.overhang_modes for j in scene.joints if j.kind == "slot" and j.ends[1].body == body.name)
 
 
 INEXTENSIBLE = "inextensible"
@@ -48,6 +58,9 @@ def structure_of(scene: Scene) -> dict:
                        "tip_joint": _tip_joint(scene, b.name) if nt else False})
     joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
                "mass": j.mass > 0} for j in scene.joints]
+    for j, entry in zip(scene.joints, joints):
+        if j.kind == "slot":
+            entry["overhang"] = [j.overhang, j.overhang_modes]
     drv = None
     if scene.driver is not None:
         d = scene.driver

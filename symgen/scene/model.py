@@ -57,6 +57,8 @@ class Joint:
     ends: tuple[JointEnd, JointEnd]             # in the file's order of ``bodies``
     direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
     mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
+    overhang: str = ""                          # slot: "elastic" (the guide's overhang bends) | "rigid"
+    overhang_modes: int = 0                     # slot, elastic overhang: its own bending functions
 
 
 @dataclass(frozen=True)

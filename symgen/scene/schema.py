@@ -153,6 +153,16 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         required="for a slider", example="[1.0, 0.0]"),
     Key("mass", "number >= 0", "Lumped mass at the joint, carried by the first bar listed.",
         _num(minimum=0), default="0.0", unit="kg (SI), else relative to m_ref l0", example="0.25"),
+    Key("overhang", "string", 'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it bends '
+        "with overhang_modes functions of its own, (xi - beta)^(m+1) (the first with the span's end-moment "
+        "shape), value and slope continuous at the moving contact, stiffness over span and overhang. "
+        '"rigid": it moves with the span\'s end slope (the seed\'s form, for its reproduction).',
+        {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
+    Key("overhang_modes", "integer >= 1", "Slots with an elastic overhang: number of the overhang's own bending "
+        "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
+        "span's; the overhang's start at zero). 3 give the first two frequencies of a guide whose overhang is "
+        "up to its span within 0.5 %, 4 the third.", {"type": "integer", "minimum": 1},
+        default=str(_me.OVERHANG_MODES_DEFAULT), example="4"),
 ))
 
 DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: a prescribed angle or an "
