@@ -23,11 +23,16 @@ transmits no axial force to it).
 Bending overhang (the default when the guide overhangs): the tangent continuation carries no
 bending of its own, so the basis is extended by ``no`` overhang functions
 
-    chi_m = 0  on [0, beta],   chi_m = (xi - beta)^(m+1)  on [beta, 1]       (m = 1..no)
+    chi_m = 0  on [0, beta],   chi_m = (2 (xi - beta))^(m+1)  on [beta, 1]        (m = 2..no)
 
-(zero value and slope at the contact, so eta stays C1 there and eta(beta) = 0 still holds).
+and chi_1 = the exact static deflection under a far-end load: on the span the end-moment shape
+xi (xi^2 - beta^2) / beta, on the overhang its tangent continuation plus 3 (xi - beta)^2 (the
+factors keep the functions of order 1 at the far end for overhangs near half the guide, so the
+amplitudes measure the deflection). Zero value and continuous slope at the contact: eta stays
+C1 there, eta(beta) = 0 still holds.
 They are appended to psi (psi_{nt+m} = chi_m), so their beta derivatives enter eta' and eta''
-exactly as above, and every inner product stays a polynomial in beta on the overhang. The
+exactly as above, and every inner product stays a closed form in beta (polynomial on the overhang; beta < 1: with no
+overhang left its functions vanish). The
 bending stiffness (psi'', psi'') covers the span and the overhang (the tangent continuation
 contributes nothing there, so the seed's rigid-overhang form, ``no = 0``, is unchanged).
 """
@@ -42,18 +47,19 @@ from .bars import ZERO_TOL, rot
 
 XI = sp.Symbol("xi", real=True)
 _U = sp.Symbol("u", real=True)
+_V = sp.Symbol("v", real=True)
 
 
 def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None) -> tuple:
     """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi; k > nspan:
-    the overhang function chi_{k - nspan} = (xi - beta)^(k - nspan + 1) beyond the contact."""
+    the overhang function chi_{k - nspan} (zero value and slope at the contact)."""
     if nspan is not None and k > nspan:
         m = k - nspan
         if m == 1:      # with the span's end-moment shape: the exact static tip-load deflection
-            span = XI * (XI ** 2 - beta ** 2) / (3 * beta)
-            over = 2 * beta / 3 * (XI - beta) + (XI - beta) ** 2
+            span = XI * (XI ** 2 - beta ** 2) / beta
+            over = 2 * beta * (XI - beta) + 3 * (XI - beta) ** 2
         else:
-            span, over = sp.Integer(0), (XI - beta) ** (m + 1)
+            span, over = sp.Integer(0), (2 * (XI - beta)) ** (m + 1)
         return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)),
                 (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
     span = sp.sin(k * sp.pi * XI / beta)
@@ -97,7 +103,13 @@ def _int_pow_exp(m: int, a: sp.Expr) -> sp.Expr:
 
 
 def _overhang_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
-    return sp.factor(sp.integrate(sp.expand(expr), (XI, beta, 1)))
+    """int_beta^1 expr d xi in closed form, by xi = beta + (1 - beta) v: a polynomial in v
+    whose coefficients are rational in beta, integrated term by term over [0, 1]."""
+    if expr == 0:
+        return sp.Integer(0)
+    poly = sp.Poly(sp.expand(expr.xreplace({XI: beta + (1 - beta) * _V}) * (1 - beta)), _V)
+    total = sp.Add(*[c / (m[0] + 1) for m, c in poly.terms()])
+    return sp.factor(sp.cancel(total))
 
 
 @lru_cache(maxsize=None)
@@ -139,7 +151,7 @@ class SlotFunction:
 @dataclass
 class SlotBasis:
     """Transverse basis of a guide bar: nt functions of (xi, beta), the last ``nover`` of them
-    the overhang's own bending functions chi_m = (xi - beta)^(m+1) (zero on the span)."""
+    the overhang's own bending functions chi_m (see the module's docstring)."""
 
     nt: int
     beta: sp.Symbol
@@ -156,7 +168,7 @@ class SlotBasis:
         for k in range(1, self.nt + 1):
             (s, _, _), (o, _, _) = _pieces(k, self.beta, self.nspan)
             label = (rf"\sin({k}\pi\xi/\beta)" if k <= self.nspan
-                     else rf"(\xi-\beta)^{{{k - self.nspan + 1}}}")
+                     else rf"\chi_{{{k - self.nspan}}}")
             fs.append(SlotFunction(label, s, o))
         self.functions = tuple(fs)
 

@@ -1,0 +1,137 @@
+"""Slot guides whose overhang bends (issue 12, Deliver 2).
+
+With the contact held at a fixed beta the guide is a beam pinned at 0, simply supported at
+beta, overhanging to 1 (dimensionless: mass per length 1, bending group mu = 1). Its static
+deflections under a tip load and a uniform load have closed forms; its natural frequencies
+come from a fine Hermite-cubic finite-element model written here (no symgen code). The
+guide's Galerkin matrices are the closed-form inner products of ``slot.SlotIPTable``
+evaluated at that beta.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+import sympy as sp
+
+from symgen.errors import SceneError
+from symgen.scene.loader import load_scene
+from symgen.slot import XI, SlotBasis, SlotIPTable
+from symgen.structure import effective_modes, overhang_modes, structure_of
+
+BETA = sp.Symbol("beta_A", real=True)
+SCENE = "examples/inverted_slider_crank.toml"
+
+
+def _matrices(nspan: int, nover: int, beta: float):
+    basis = SlotBasis(nspan + nover, BETA, nover)
+    ipt = SlotIPTable(basis)
+    nt = basis.nt
+    at = {BETA: beta}
+    K = np.array(ipt.Kt.xreplace(at).evalf(), dtype=float)
+    M = np.array(ipt.G[2:2 + nt, 2:2 + nt].xreplace(at).evalf(), dtype=float)
+    load = np.array(ipt.G[0, 2:2 + nt].xreplace(at).evalf(), dtype=float).ravel()      # (psi_k, 1)
+    tip = np.array([float(basis.expr(k, 1.0).xreplace(at)) for k in range(nt)])         # psi_k(1)
+    return K, M, load, tip
+
+
+def _tip_deflections(nspan: int, nover: int, beta: float) -> tuple[float, float]:
+    """Far-end deflection under a unit tip load and under a unit uniform load (mu = 1)."""
+    K, _, load, tip = _matrices(nspan, nover, beta)
+    return float(tip @ np.linalg.solve(K, tip)), float(tip @ np.linalg.solve(K, load))
+
+
+def _fe_frequencies(beta: float, n: int = 240) -> np.ndarray:
+    """First three frequencies of the pinned / supported-at-beta / free beam (EI = m = 1)."""
+    xs = np.unique(np.concatenate([np.linspace(0.0, beta, round(n * beta) + 1),
+                                   np.linspace(beta, 1.0, round(n * (1 - beta)) + 1)]))
+    N = len(xs)
+    K, M = np.zeros((2 * N, 2 * N)), np.zeros((2 * N, 2 * N))
+    for e in range(N - 1):
+        L = xs[e + 1] - xs[e]
+        k = np.array([[12, 6 * L, -12, 6 * L], [6 * L, 4 * L * L, -6 * L, 2 * L * L],
+                      [-12, -6 * L, 12, -6 * L], [6 * L, 2 * L * L, -6 * L, 4 * L * L]]) / L ** 3
+        m = L / 420 * np.array([[156, 22 * L, 54, -13 * L], [22 * L, 4 * L * L, 13 * L, -3 * L * L],
+                                [54, 13 * L, 156, -22 * L], [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+        idx = np.arange(2 * e, 2 * e + 4)
+        K[np.ix_(idx, idx)] += k
+        M[np.ix_(idx, idx)] += m
+    support = int(np.argmin(abs(xs - beta)))
+    free = [i for i in range(2 * N) if i not in (0, 2 * support)]
+    return np.sqrt(sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)[:3])
+
+
+def _frequencies(nspan: int, nover: int, beta: float) -> np.ndarray:
+    K, M, _, _ = _matrices(nspan, nover, beta)
+    return np.sqrt(sl.eigh(K, M, eigvals_only=True)[:3])
+
+
+def test_fe_oracle_is_converged():
+    assert np.allclose(_fe_frequencies(0.5, 120), _fe_frequencies(0.5, 240), rtol=1e-6)
+
+
+@pytest.mark.parametrize("beta", [0.5, 0.6, 0.75])
+def test_static_overhang_tip_deflection_matches_closed_forms(beta):
+    span, over = beta, 1.0 - beta
+    tip_load = over ** 2 * (span + over) / 3                                  # P c^2 (l + c) / 3EI
+    uniform = over * (4 * over ** 2 * span + 3 * over ** 3 - span ** 3) / 24  # w c (4c^2 l + 3c^3 - l^3) / 24EI
+    d_tip, d_uni = _tip_deflections(2, 3, beta)                               # the defaults
+    assert d_tip == pytest.approx(tip_load, rel=5e-3)
+    assert d_uni == pytest.approx(uniform, rel=5e-3)
+    r_tip, _ = _tip_deflections(2, 0, beta)                                   # the seed's rigid overhang
+    assert abs(r_tip / tip_load - 1) > 0.2       # it misses the overhang's own bending
+
+
+@pytest.mark.parametrize("beta", [0.5, 0.6, 0.75])
+def test_frequencies_match_finite_elements(beta):
+    ref = _fe_frequencies(beta)
+    assert _frequencies(2, 3, beta)[:2] == pytest.approx(ref[:2], rel=5e-3)    # defaults: first two
+    assert _frequencies(2, 4, beta) == pytest.approx(ref, rel=5e-3)           # four: first three
+    if beta <= 0.6:                               # overhang >= 2/3 span: the rigid one is far off
+        assert abs(_frequencies(2, 0, beta)[0] / ref[0] - 1) > 0.1
+
+
+def test_functions_are_admissible_at_the_moving_contact():
+    """Every function (span and overhang) is 0 at the contact; it and its beta derivatives
+    have continuous value and slope there, so eta, eta' and eta'' stay C1 in xi."""
+    basis = SlotBasis(5, BETA, 3)
+    assert [f.label for f in basis.functions][2:] == [r"\chi_{1}", r"\chi_{2}", r"\chi_{3}"]
+    for fn in basis.functions:
+        assert sp.simplify(fn.span.xreplace({XI: BETA})) == 0
+        for order in range(3):
+            s, o = sp.diff(fn.span, BETA, order), sp.diff(fn.overhang, BETA, order)
+            for d in range(2):
+                assert sp.simplify((sp.diff(s, XI, d) - sp.diff(o, XI, d)).xreplace({XI: BETA})) == 0
+
+
+def test_rigid_overhang_keeps_the_seed_matrices():
+    """overhang = "rigid" (no overhang functions) gives the seed's inner products: the
+    stiffness over the overhang adds nothing for the tangent continuation."""
+    ipt = SlotIPTable(SlotBasis(2, BETA, 0))
+    span_only = sp.Matrix(2, 2, lambda i, j: sp.integrate(
+        sp.diff(sp.sin((i + 1) * sp.pi * XI / BETA), XI, 2) * sp.diff(sp.sin((j + 1) * sp.pi * XI / BETA), XI, 2),
+        (XI, 0, BETA)))
+    assert sp.simplify(ipt.Kt - span_only) == sp.zeros(2, 2)
+
+
+def test_scene_keys_default_and_rigid():
+    scene = load_scene(SCENE)
+    guide = scene.body("guide")
+    assert overhang_modes(scene, guide) == 3
+    assert effective_modes(scene, guide) == (0, guide.transverse_modes + 3)
+    rigid = load_scene(SCENE, ["joints.A.overhang=rigid"])
+    assert effective_modes(rigid, rigid.body("guide")) == (0, guide.transverse_modes)
+    assert structure_of(rigid) != structure_of(scene)
+    assert overhang_modes(load_scene(SCENE, ["joints.A.overhang_modes=5"]), guide) == 5
+
+
+@pytest.mark.parametrize("override, key", [
+    (["joints.A.overhang=bent"], "joints.A.overhang"),
+    (["joints.A.overhang_modes=0"], "joints.A.overhang_modes"),
+    (["joints.A.overhang=rigid", "joints.A.overhang_modes=2"], "joints.A.overhang_modes"),
+    (["joints.O.overhang=rigid"], "joints.O.overhang"),
+])
+def test_bad_overhang_keys_are_scene_errors(override, key):
+    with pytest.raises(SceneError) as err:
+        load_scene(SCENE, override)
+    assert err.value.key == key
