@@ -24,7 +24,7 @@ BODY_KEYS_SI = BODY_COMMON + BODY_SI + BODY_ELASTIC
 RIGID_FORBIDDEN = BODY_DIMLESS + ("E", "inertia") + BODY_ELASTIC
 JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass", "overhang", "overhang_modes")
 OVERHANG_FORMS = ("elastic", "rigid")     # slot guides: the overhang bends, or moves with the span's end slope
-OVERHANG_MODES_DEFAULT = 3
+OVERHANG_MODES_DEFAULT = 4
 
 RESERVED_BODY_NAMES = {GROUND: "it is reserved for the fixed frame",
                        "_scene": "it is reserved for the scene entry of the groups"}

@@ -160,8 +160,8 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
     Key("overhang_modes", "integer >= 1", "Slots with an elastic overhang: number of the overhang's own bending "
         "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
-        "span's; the overhang's start at zero). 3 give the first two frequencies of a guide whose overhang is "
-        "up to its span within 0.5 %, 4 the third.", {"type": "integer", "minimum": 1},
+        "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
+        "is up to its span within 0.5 %.", {"type": "integer", "minimum": 1},
         default=str(_me.OVERHANG_MODES_DEFAULT), example="4"),
 ))
 
