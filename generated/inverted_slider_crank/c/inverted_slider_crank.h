@@ -6,17 +6,17 @@
  * DO NOT EDIT: regenerate with  symgen emit-c inverted_slider_crank.toml -o DIR
  *
  * Operation counts of the model functions (after common-subexpression elimination):
- *   inverted_slider_crank_phi: 60 operations, 8 temporaries
- *   inverted_slider_crank_phid: 97 operations, 18 temporaries
- *   inverted_slider_crank_phidd: 157 operations, 29 temporaries
- *   inverted_slider_crank_res: 2079 operations, 395 temporaries
- *   inverted_slider_crank_out: 130 operations, 25 temporaries
- *   inverted_slider_crank_energy: 1008 operations, 183 temporaries
- *   inverted_slider_crank_closure: 57 operations, 8 temporaries
- *   inverted_slider_crank_phi_jac: 87 operations, 19 temporaries, 25 nonzeros of 3x45
- *   inverted_slider_crank_phid_jac: 193 operations, 38 temporaries, 49 nonzeros of 3x45
- *   inverted_slider_crank_phidd_jac: 413 operations, 97 temporaries, 73 nonzeros of 3x45
- *   inverted_slider_crank_res_jac: 6492 operations, 1315 temporaries, 277 nonzeros of 14x45
+ *   inverted_slider_crank_phi: 66 operations, 8 temporaries
+ *   inverted_slider_crank_phid: 110 operations, 20 temporaries
+ *   inverted_slider_crank_phidd: 180 operations, 32 temporaries
+ *   inverted_slider_crank_res: 2483 operations, 458 temporaries
+ *   inverted_slider_crank_out: 144 operations, 25 temporaries
+ *   inverted_slider_crank_energy: 1191 operations, 215 temporaries
+ *   inverted_slider_crank_closure: 63 operations, 8 temporaries
+ *   inverted_slider_crank_phi_jac: 101 operations, 21 temporaries, 27 nonzeros of 3x48
+ *   inverted_slider_crank_phid_jac: 223 operations, 41 temporaries, 53 nonzeros of 3x48
+ *   inverted_slider_crank_phidd_jac: 476 operations, 108 temporaries, 79 nonzeros of 3x48
+ *   inverted_slider_crank_res_jac: 8254 operations, 1626 temporaries, 324 nonzeros of 15x48
  */
 
 #ifndef SYMGEN_inverted_slider_crank_H
@@ -27,14 +27,14 @@ extern "C" {
 #endif
 
 /* Sizes. Arrays with a size of 0 are declared with one unused element. */
-#define inverted_slider_crank_N_Q 14              /* coordinates q (v = q', a = q'') */
+#define inverted_slider_crank_N_Q 15              /* coordinates q (v = q', a = q'') */
 #define inverted_slider_crank_N_LAM 3            /* multipliers = closure rows (loops, then the angle driver) */
 #define inverted_slider_crank_N_P 14              /* parameters */
 #define inverted_slider_crank_N_OUT 8            /* scene outputs */
 #define inverted_slider_crank_N_CLOSURE 2        /* loop rows of phi */
-#define inverted_slider_crank_N_W 45             /* Jacobian columns: w = [q; v; a; lam] */
+#define inverted_slider_crank_N_W 48             /* Jacobian columns: w = [q; v; a; lam] */
 
-extern const char *const inverted_slider_crank_coordinate_names[14];
+extern const char *const inverted_slider_crank_coordinate_names[15];
 extern const char *const inverted_slider_crank_parameter_names[14];
 extern const char *const inverted_slider_crank_output_names[8];
 /* The scene's parameter values (dimensionless groups), in the order of _parameter_names. */

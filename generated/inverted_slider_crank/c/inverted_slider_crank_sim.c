@@ -6,17 +6,17 @@
  * DO NOT EDIT: regenerate with  symgen emit-c inverted_slider_crank.toml -o DIR
  *
  * Operation counts of the model functions (after common-subexpression elimination):
- *   inverted_slider_crank_phi: 60 operations, 8 temporaries
- *   inverted_slider_crank_phid: 97 operations, 18 temporaries
- *   inverted_slider_crank_phidd: 157 operations, 29 temporaries
- *   inverted_slider_crank_res: 2079 operations, 395 temporaries
- *   inverted_slider_crank_out: 130 operations, 25 temporaries
- *   inverted_slider_crank_energy: 1008 operations, 183 temporaries
- *   inverted_slider_crank_closure: 57 operations, 8 temporaries
- *   inverted_slider_crank_phi_jac: 87 operations, 19 temporaries, 25 nonzeros of 3x45
- *   inverted_slider_crank_phid_jac: 193 operations, 38 temporaries, 49 nonzeros of 3x45
- *   inverted_slider_crank_phidd_jac: 413 operations, 97 temporaries, 73 nonzeros of 3x45
- *   inverted_slider_crank_res_jac: 6492 operations, 1315 temporaries, 277 nonzeros of 14x45
+ *   inverted_slider_crank_phi: 66 operations, 8 temporaries
+ *   inverted_slider_crank_phid: 110 operations, 20 temporaries
+ *   inverted_slider_crank_phidd: 180 operations, 32 temporaries
+ *   inverted_slider_crank_res: 2483 operations, 458 temporaries
+ *   inverted_slider_crank_out: 144 operations, 25 temporaries
+ *   inverted_slider_crank_energy: 1191 operations, 215 temporaries
+ *   inverted_slider_crank_closure: 63 operations, 8 temporaries
+ *   inverted_slider_crank_phi_jac: 101 operations, 21 temporaries, 27 nonzeros of 3x48
+ *   inverted_slider_crank_phid_jac: 223 operations, 41 temporaries, 53 nonzeros of 3x48
+ *   inverted_slider_crank_phidd_jac: 476 operations, 108 temporaries, 79 nonzeros of 3x48
+ *   inverted_slider_crank_res_jac: 8254 operations, 1626 temporaries, 324 nonzeros of 15x48
  */
 
 /*

@@ -6,17 +6,17 @@
  * DO NOT EDIT: regenerate with  symgen emit-c inverted_slider_crank.toml -o DIR
  *
  * Operation counts of the model functions (after common-subexpression elimination):
- *   inverted_slider_crank_phi: 60 operations, 8 temporaries
- *   inverted_slider_crank_phid: 97 operations, 18 temporaries
- *   inverted_slider_crank_phidd: 157 operations, 29 temporaries
- *   inverted_slider_crank_res: 2079 operations, 395 temporaries
- *   inverted_slider_crank_out: 130 operations, 25 temporaries
- *   inverted_slider_crank_energy: 1008 operations, 183 temporaries
- *   inverted_slider_crank_closure: 57 operations, 8 temporaries
- *   inverted_slider_crank_phi_jac: 87 operations, 19 temporaries, 25 nonzeros of 3x45
- *   inverted_slider_crank_phid_jac: 193 operations, 38 temporaries, 49 nonzeros of 3x45
- *   inverted_slider_crank_phidd_jac: 413 operations, 97 temporaries, 73 nonzeros of 3x45
- *   inverted_slider_crank_res_jac: 6492 operations, 1315 temporaries, 277 nonzeros of 14x45
+ *   inverted_slider_crank_phi: 66 operations, 8 temporaries
+ *   inverted_slider_crank_phid: 110 operations, 20 temporaries
+ *   inverted_slider_crank_phidd: 180 operations, 32 temporaries
+ *   inverted_slider_crank_res: 2483 operations, 458 temporaries
+ *   inverted_slider_crank_out: 144 operations, 25 temporaries
+ *   inverted_slider_crank_energy: 1191 operations, 215 temporaries
+ *   inverted_slider_crank_closure: 63 operations, 8 temporaries
+ *   inverted_slider_crank_phi_jac: 101 operations, 21 temporaries, 27 nonzeros of 3x48
+ *   inverted_slider_crank_phid_jac: 223 operations, 41 temporaries, 53 nonzeros of 3x48
+ *   inverted_slider_crank_phidd_jac: 476 operations, 108 temporaries, 79 nonzeros of 3x48
+ *   inverted_slider_crank_res_jac: 8254 operations, 1626 temporaries, 324 nonzeros of 15x48
  */
 
 #include <float.h>
@@ -27,29 +27,29 @@
 #include "inverted_slider_crank_solver.h"
 
 /* ------------------------------------------------------------------ baked-in data */
-const int inverted_slider_crank_independent[11] = { 1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12 };
-const int inverted_slider_crank_dependent[3] = { 0, 13, 7 };
-const double inverted_slider_crank_q_guess[14] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.75 };
-const double inverted_slider_crank_v_guess[14] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
+const int inverted_slider_crank_independent[12] = { 1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12, 13 };
+const int inverted_slider_crank_dependent[3] = { 0, 14, 7 };
+const double inverted_slider_crank_q_guess[15] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.75 };
+const double inverted_slider_crank_v_guess[15] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
-static const int inverted_slider_crank_x_assembly_dep[3] = { 0, 13, 7 };
+static const int inverted_slider_crank_x_assembly_dep[3] = { 0, 14, 7 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
-static const int inverted_slider_crank_x_ypos_q[14] = { 22, 0, 1, 2, 3, 4, 5, 24, 6, 7, 8, 9, 10, 23 };
-static const int inverted_slider_crank_x_ypos_v[14] = { 25, 11, 12, 13, 14, 15, 16, 27, 17, 18, 19, 20, 21, 26 };
-static const int inverted_slider_crank_x_ycol[45] = { 22, 0, 1, 2, 3, 4, 5, 24, 6, 7, 8, 9, 10, 23, 25, 11, 12, 13, 14, 15, 16, 27, 17, 18, 19, 20, 21, 26, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44 };
+static const int inverted_slider_crank_x_ypos_q[15] = { 24, 0, 1, 2, 3, 4, 5, 26, 6, 7, 8, 9, 10, 11, 25 };
+static const int inverted_slider_crank_x_ypos_v[15] = { 27, 12, 13, 14, 15, 16, 17, 29, 18, 19, 20, 21, 22, 23, 28 };
+static const int inverted_slider_crank_x_ycol[48] = { 24, 0, 1, 2, 3, 4, 5, 26, 6, 7, 8, 9, 10, 11, 25, 27, 12, 13, 14, 15, 16, 17, 29, 18, 19, 20, 21, 22, 23, 28, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46, 47 };
 /* quasi-static start: unknown deformations (elastic, not dependent) and accelerations */
-static const int inverted_slider_crank_x_elastic[11] = { 1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12 };
-static const int inverted_slider_crank_x_accel[3] = { 0, 7, 13 };
+static const int inverted_slider_crank_x_elastic[12] = { 1, 2, 3, 4, 5, 6, 8, 9, 10, 11, 12, 13 };
+static const int inverted_slider_crank_x_accel[3] = { 0, 7, 14 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int inverted_slider_crank_x_sing_rows[3] = { 0, 1, 2 };
-static const int inverted_slider_crank_x_sing_cols[3] = { 0, 13, 7 };
+static const int inverted_slider_crank_x_sing_cols[3] = { 0, 14, 7 };
 
 enum {
-    inverted_slider_crank_x_NQ = 14, inverted_slider_crank_x_NL = 3, inverted_slider_crank_x_NP = 14, inverted_slider_crank_x_NW = 45,
-    inverted_slider_crank_x_NI = 11, inverted_slider_crank_x_ND = 3, inverted_slider_crank_x_NX = 22, inverted_slider_crank_x_NZ = 23,
-    inverted_slider_crank_x_NY = 45, inverted_slider_crank_x_NALG = 23, inverted_slider_crank_x_A0 = 28,
-    inverted_slider_crank_x_NE = 11, inverted_slider_crank_x_NR = 3,
+    inverted_slider_crank_x_NQ = 15, inverted_slider_crank_x_NL = 3, inverted_slider_crank_x_NP = 14, inverted_slider_crank_x_NW = 48,
+    inverted_slider_crank_x_NI = 12, inverted_slider_crank_x_ND = 3, inverted_slider_crank_x_NX = 24, inverted_slider_crank_x_NZ = 24,
+    inverted_slider_crank_x_NY = 48, inverted_slider_crank_x_NALG = 24, inverted_slider_crank_x_A0 = 30,
+    inverted_slider_crank_x_NE = 12, inverted_slider_crank_x_NR = 3,
     inverted_slider_crank_x_NS = 3, inverted_slider_crank_x_NCLO = 2,
     inverted_slider_crank_x_DRIVER = 0,
     inverted_slider_crank_x_DRIVER_ROW = 2,
@@ -75,7 +75,7 @@ static const double inverted_slider_crank_x_ALPHA = 2.6810828736277521339;
 static const double inverted_slider_crank_x_BETA = 3.05043019924741056943;
 static const double inverted_slider_crank_x_SINGULAR_RATIO = 1e-07;
 /* stands for inputs a model function does not read */
-static const double inverted_slider_crank_x_zeros[14] = { 0.0 };
+static const double inverted_slider_crank_x_zeros[15] = { 0.0 };
 
 /* ------------------------------------------------------------------ dense linear algebra */
 /* LU with partial pivoting of the row-major n x n matrix A; 0, or k + 1 at a zero pivot k */
@@ -330,7 +330,7 @@ static void inverted_slider_crank_x_driver_motion(inverted_slider_crank_solver *
 static int inverted_slider_crank_x_assemble(inverted_slider_crank_solver *s, double t, double *q, const int *dep)
 {
     const double tol = 1e-13;
-    double r[3], rt[3], dq[3], trial[14];
+    double r[3], rt[3], dq[3], trial[15];
     double rn, step;
     int it, k;
     if (inverted_slider_crank_x_NL == 0) return 0;
@@ -409,9 +409,9 @@ static int inverted_slider_crank_x_accelerations(inverted_slider_crank_solver *s
 static int inverted_slider_crank_x_quasi_static(inverted_slider_crank_solver *s, double t, double *q, double *v)
 {
     const int nu = inverted_slider_crank_x_NALG;
-    double u[23], a[14], lam[3];
+    double u[24], a[15], lam[3];
     double Fmax = 0.0;
-    int it, k, r, col[23], converged = 0;
+    int it, k, r, col[24], converged = 0;
     int off = 0;
     for (k = 0; k < inverted_slider_crank_x_NE; ++k) { u[off + k] = q[inverted_slider_crank_x_elastic[k]]; col[off + k] = inverted_slider_crank_x_elastic[k]; }
     off += inverted_slider_crank_x_NE;
@@ -764,7 +764,7 @@ static int inverted_slider_crank_x_beyond_range(inverted_slider_crank_solver *s)
         return inverted_slider_crank_x_fail(s, s->t, "bar 'crank' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
                            "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
     }
-    size = fabs(s->q[8]) + fabs(s->q[9]) + fabs(s->q[10]) + fabs(s->q[11]) + fabs(s->q[12]);
+    size = fabs(s->q[8]) + fabs(s->q[9]) + fabs(s->q[10]) + fabs(s->q[11]) + fabs(s->q[12]) + fabs(s->q[13]);
     if (!(size <= 0.25)) {
         return inverted_slider_crank_x_fail(s, s->t, "bar 'guide' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry", size,
                            "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
@@ -829,7 +829,7 @@ int inverted_slider_crank_solver_init(inverted_slider_crank_solver *s, const dou
                            "start the driver at another angle or change initial.guess");
     }
     {
-        double q0[14], v0[14], a[14], lam[3];
+        double q0[15], v0[15], a[15], lam[3];
         memcpy(q0, q, sizeof(q0));
         memcpy(v0, v, sizeof(v0));
         if (inverted_slider_crank_x_QUASI_STATIC && inverted_slider_crank_x_quasi_static_start(s, t0, q0, v0)) return s->status;
@@ -888,7 +888,7 @@ void inverted_slider_crank_solver_state(const inverted_slider_crank_solver *s, d
 
 void inverted_slider_crank_solver_outputs(const inverted_slider_crank_solver *s, double *out)
 {
-    double q[14], v[14];
+    double q[15], v[15];
     inverted_slider_crank_x_unpack(s->y, q, v);
     inverted_slider_crank_out(s->t, q, v, s->y + inverted_slider_crank_x_A0, s->y + inverted_slider_crank_x_A0 + inverted_slider_crank_x_NQ, s->p, out);
 }

@@ -6,17 +6,17 @@
  * DO NOT EDIT: regenerate with  symgen emit-c inverted_slider_crank.toml -o DIR
  *
  * Operation counts of the model functions (after common-subexpression elimination):
- *   inverted_slider_crank_phi: 60 operations, 8 temporaries
- *   inverted_slider_crank_phid: 97 operations, 18 temporaries
- *   inverted_slider_crank_phidd: 157 operations, 29 temporaries
- *   inverted_slider_crank_res: 2079 operations, 395 temporaries
- *   inverted_slider_crank_out: 130 operations, 25 temporaries
- *   inverted_slider_crank_energy: 1008 operations, 183 temporaries
- *   inverted_slider_crank_closure: 57 operations, 8 temporaries
- *   inverted_slider_crank_phi_jac: 87 operations, 19 temporaries, 25 nonzeros of 3x45
- *   inverted_slider_crank_phid_jac: 193 operations, 38 temporaries, 49 nonzeros of 3x45
- *   inverted_slider_crank_phidd_jac: 413 operations, 97 temporaries, 73 nonzeros of 3x45
- *   inverted_slider_crank_res_jac: 6492 operations, 1315 temporaries, 277 nonzeros of 14x45
+ *   inverted_slider_crank_phi: 66 operations, 8 temporaries
+ *   inverted_slider_crank_phid: 110 operations, 20 temporaries
+ *   inverted_slider_crank_phidd: 180 operations, 32 temporaries
+ *   inverted_slider_crank_res: 2483 operations, 458 temporaries
+ *   inverted_slider_crank_out: 144 operations, 25 temporaries
+ *   inverted_slider_crank_energy: 1191 operations, 215 temporaries
+ *   inverted_slider_crank_closure: 63 operations, 8 temporaries
+ *   inverted_slider_crank_phi_jac: 101 operations, 21 temporaries, 27 nonzeros of 3x48
+ *   inverted_slider_crank_phid_jac: 223 operations, 41 temporaries, 53 nonzeros of 3x48
+ *   inverted_slider_crank_phidd_jac: 476 operations, 108 temporaries, 79 nonzeros of 3x48
+ *   inverted_slider_crank_res_jac: 8254 operations, 1626 temporaries, 324 nonzeros of 15x48
  */
 
 #ifndef SYMGEN_inverted_slider_crank_SOLVER_H
@@ -42,15 +42,15 @@ extern "C" {
  * every output time and polishes z there by Newton on the algebraic equations (position
  * closure to round-off).
  */
-#define inverted_slider_crank_N_I 11        /* independent coordinates */
+#define inverted_slider_crank_N_I 12        /* independent coordinates */
 #define inverted_slider_crank_N_D 3        /* dependent coordinates (= closure rows) */
-#define inverted_slider_crank_N_Y 45       /* solver unknowns y = [q_I, v_I, q_D, v_D, a, lam] */
+#define inverted_slider_crank_N_Y 48       /* solver unknowns y = [q_I, v_I, q_D, v_D, a, lam] */
 
-extern const int inverted_slider_crank_independent[11];   /* indices into q */
+extern const int inverted_slider_crank_independent[12];   /* indices into q */
 extern const int inverted_slider_crank_dependent[3];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
-extern const double inverted_slider_crank_q_guess[14];
-extern const double inverted_slider_crank_v_guess[14];
+extern const double inverted_slider_crank_q_guess[15];
+extern const double inverted_slider_crank_v_guess[15];
 
 /* Defaults of the scene's [simulation] section (tau). */
 #define inverted_slider_crank_T_END 12.566370614359172
@@ -77,7 +77,7 @@ typedef struct inverted_slider_crank_solver {
     /* public, read-only between calls */
     double p[14];         /* parameter values used by this run */
     double t;                   /* current tau */
-    double y[45];               /* [q_I, v_I, q_D, v_D, a, lam] */
+    double y[48];               /* [q_I, v_I, q_D, v_D, a, lam] */
     double rtol, atol;          /* tolerances asked for */
     long n_steps, n_accepted, n_rejected, n_jacobians, n_factorizations, n_residuals;
     double closure_max;         /* max |loop closure| seen at the output times */
@@ -86,17 +86,17 @@ typedef struct inverted_slider_crank_solver {
     /* work */
     double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
     int first, reject, jac_current, need_jac, have_cont;
-    double y0[45], f0[45], scal[45], ymax[45];
-    double z[135], w[135], f[135], dw[135], cont[135];
-    double jac[2025], e1[2025], e2r[2025], e2i[2025];
-    int piv1[45], piv2[45];
-    double galg[1035];
-    double tmp[45], tmp2[45], tmp3[45];
-    double sq[529];
-    double sv[23], sr[23];
-    int sp[23];
-    double q[14], v[14], a[14], lam[3];
-    double qs[14], vs[14], qe[14];
+    double y0[48], f0[48], scal[48], ymax[48];
+    double z[144], w[144], f[144], dw[144], cont[144];
+    double jac[2304], e1[2304], e2r[2304], e2i[2304];
+    int piv1[48], piv2[48];
+    double galg[1152];
+    double tmp[48], tmp2[48], tmp3[48];
+    double sq[576];
+    double sv[24], sr[24];
+    int sp[24];
+    double q[15], v[15], a[15], lam[3];
+    double qs[15], vs[15], qe[15];
 } inverted_slider_crank_solver;
 
 /*
