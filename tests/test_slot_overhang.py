@@ -18,6 +18,7 @@ from symgen.errors import SceneError
 from symgen.scene.loader import load_scene
 from symgen.slot import XI, SlotBasis, SlotIPTable
 from symgen.structure import effective_modes, overhang_modes, structure_of
+from tests.test_slot import frozen_frequencies
 
 BETA = sp.Symbol("beta_A", real=True)
 SCENE = "examples/inverted_slider_crank.toml"
@@ -136,3 +137,17 @@ def test_bad_overhang_keys_are_scene_errors(override, key):
     with pytest.raises(SceneError) as err:
         load_scene(SCENE, override)
     assert err.value.key == key
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("d", [1.2, 1.5])
+def test_frozen_slot_scene_with_elastic_overhang_matches_finite_elements(tmp_path, d):
+    """The whole generated model (default elastic overhang) with the contact held at distance
+    d on a guide 2 long: the guide's first three frequencies against the FE model (x sqrt(mu));
+    the seed's rigid overhang misses the first by more than 1 %."""
+    mu = 0.8
+    beta, w = frozen_frequencies(tmp_path, L=2.0, d=d, mu=mu, overhang="elastic")
+    ref = _fe_frequencies(beta) * np.sqrt(mu)
+    assert w[:3] == pytest.approx(ref, rel=5e-3)
+    _, rigid = frozen_frequencies(tmp_path, L=2.0, d=d, mu=mu)
+    assert abs(rigid[0] / ref[0] - 1) > 0.01
