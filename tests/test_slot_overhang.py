@@ -18,7 +18,8 @@ from symgen.errors import SceneError
 from symgen.scene.loader import load_scene
 from symgen.slot import XI, SlotBasis, SlotIPTable
 from symgen.structure import effective_modes, overhang_modes, structure_of
-from tests.test_slot import frozen_frequencies
+from tests.oracles import write_scene
+from tests.test_slot import FROZEN, frozen_frequencies
 
 BETA = sp.Symbol("beta_A", real=True)
 SCENE = "examples/inverted_slider_crank.toml"
@@ -116,21 +117,30 @@ def test_rigid_overhang_keeps_the_seed_matrices():
     assert sp.simplify(ipt.Kt - span_only) == sp.zeros(2, 2)
 
 
+def test_elastic_overhang_is_the_default(tmp_path):
+    text = FROZEN.format(L=2.0, d=1.2, mu=0.8, beta=0.6, overhang="elastic").replace('overhang = "elastic"\n', "")
+    assert "overhang" not in text
+    scene = load_scene(str(write_scene(tmp_path / "s.toml", text)))
+    slot = next(j for j in scene.joints if j.kind == "slot")
+    assert (slot.overhang, slot.overhang_modes) == ("elastic", 4)
+    assert effective_modes(scene, scene.body("guide")) == (0, 3 + 4)
+
+
 def test_scene_keys_default_and_rigid():
-    scene = load_scene(SCENE)
+    scene = load_scene(SCENE, ["joints.A.overhang=elastic"])      # the example sets the seed's form
     guide = scene.body("guide")
     assert overhang_modes(scene, guide) == 4
     assert effective_modes(scene, guide) == (0, guide.transverse_modes + 4)
-    rigid = load_scene(SCENE, ["joints.A.overhang=rigid"])
+    rigid = load_scene(SCENE)
     assert effective_modes(rigid, rigid.body("guide")) == (0, guide.transverse_modes)
     assert structure_of(rigid) != structure_of(scene)
-    assert overhang_modes(load_scene(SCENE, ["joints.A.overhang_modes=5"]), guide) == 5
+    assert overhang_modes(load_scene(SCENE, ["joints.A.overhang=elastic", "joints.A.overhang_modes=5"]), guide) == 5
 
 
 @pytest.mark.parametrize("override, key", [
     (["joints.A.overhang=bent"], "joints.A.overhang"),
-    (["joints.A.overhang_modes=0"], "joints.A.overhang_modes"),
-    (["joints.A.overhang=rigid", "joints.A.overhang_modes=2"], "joints.A.overhang_modes"),
+    (["joints.A.overhang=elastic", "joints.A.overhang_modes=0"], "joints.A.overhang_modes"),
+    (["joints.A.overhang_modes=2"], "joints.A.overhang_modes"),               # the file's overhang is rigid
     (["joints.O.overhang=rigid"], "joints.O.overhang"),
 ])
 def test_bad_overhang_keys_are_scene_errors(override, key):
