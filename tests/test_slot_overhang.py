@@ -161,3 +161,28 @@ def test_frozen_slot_scene_with_elastic_overhang_matches_finite_elements(tmp_pat
     assert w[:3] == pytest.approx(ref, rel=5e-3)
     _, rigid = frozen_frequencies(tmp_path, L=2.0, d=d, mu=mu)
     assert abs(rigid[0] / ref[0] - 1) > 0.01
+
+
+@pytest.mark.slow
+def test_latex_of_the_elastic_overhang_shows_and_gives_back_the_model(tmp_path):
+    """`symgen latex` of the inverted slider-crank with the elastic overhang: the chi functions
+    are shown, the displayed guide equations (closed-form inner products in beta) give back the
+    model's generalized forces, and the document builds."""
+    import shutil
+    import subprocess
+
+    from symgen.dae import derive
+    from symgen.emit.latex import latex_document
+    from tests.test_latex import test_guide_equations_give_back_the_model
+
+    scene = load_scene(SCENE, ["joints.A.overhang=elastic"])
+    model = derive(scene)
+    doc = latex_document(scene, model)
+    assert r"($\chi_1, \dots, \chi_{4}$" in doc and r"\psi_{6}(\xi, \beta)" in doc
+    assert "does not bend" not in doc
+    test_guide_equations_give_back_the_model((scene, model, doc))
+    if shutil.which("pdflatex"):
+        (tmp_path / "isc.tex").write_text(doc)
+        run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "isc.tex"],
+                             cwd=tmp_path, capture_output=True, timeout=300)
+        assert run.returncode == 0
