@@ -154,8 +154,9 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
     Key("mass", "number >= 0", "Lumped mass at the joint, carried by the first bar listed.",
         _num(minimum=0), default="0.0", unit="kg (SI), else relative to m_ref l0", example="0.25"),
     Key("overhang", "string", 'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it bends '
-        "with overhang_modes functions of its own, (xi - beta)^(m+1) (the first with the span's end-moment "
-        "shape), value and slope continuous at the moving contact, stiffness over span and overhang. "
+        "with overhang_modes functions of its own (the static deflection under a far-end load, then "
+        "(2 (xi - beta))^(m+1)), zero value and slope at the moving contact, stiffness over span and "
+        "overhang; the contact must stay short of the far end (beta < 1). "
         '"rigid": it moves with the span\'s end slope (the seed\'s form, for its reproduction).',
         {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
     Key("overhang_modes", "integer >= 1", "Slots with an elastic overhang: number of the overhang's own bending "
