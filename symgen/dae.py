@@ -32,7 +32,7 @@ from .rotary import LumpedRotary, add_lumped_rotary, rotary_energy
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from .structure import (INEXTENSIBLE, QUASI_STATIC, _tip_joint, axial_treatments,  # noqa: F401
-                        effective_modes,
+                        effective_modes, overhang_modes,
                         structure_key, structure_of)
 from .topology import Topology, build_topology
 
@@ -128,7 +128,7 @@ def derive(scene: Scene) -> DerivedModel:
         if b.name in slot_of:
             beta = tuple(sp.Symbol(f"{p}beta_{slot_of[b.name]}", real=True) for p in ("", "d", "dd"))
             sym = replace(sym, beta=beta)
-            basis = SlotBasis(nt, beta[0])
+            basis = SlotBasis(nt, beta[0], overhang_modes(scene, b))
             P[str(sym.alpha)], P[str(sym.nu)] = sym.alpha, sym.nu
             if sym.mu is not None:
                 P[str(sym.mu)] = sym.mu

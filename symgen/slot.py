@@ -19,6 +19,22 @@ so the Galerkin basis of the guide is b = [1, xi, psi, psi_beta, psi_betabeta] a
 product is a closed-form function of beta (the span integrals scale as beta times a pure number,
 the overhang integrals are polynomials). The guide is axially rigid (a frictionless slot
 transmits no axial force to it).
+
+Bending overhang (the default when the guide overhangs): the tangent continuation carries no
+bending of its own, so the basis is extended by ``no`` overhang functions
+
+    chi_m = 0  on [0, beta],   chi_m = (2 (xi - beta))^(m+1)  on [beta, 1]        (m = 2..no)
+
+and chi_1 = the exact static deflection under a far-end load: on the span the end-moment shape
+xi (xi^2 - beta^2) / beta, on the overhang its tangent continuation plus 3 (xi - beta)^2 (the
+factors keep the functions of order 1 at the far end for overhangs near half the guide, so the
+amplitudes measure the deflection). Zero value and continuous slope at the contact: eta stays
+C1 there, eta(beta) = 0 still holds.
+They are appended to psi (psi_{nt+m} = chi_m), so their beta derivatives enter eta' and eta''
+exactly as above, and every inner product stays a closed form in beta (polynomial on the overhang; beta < 1: with no
+overhang left its functions vanish). The
+bending stiffness (psi'', psi'') covers the span and the overhang (the tangent continuation
+contributes nothing there, so the seed's rigid-overhang form, ``no = 0``, is unchanged).
 """
 from __future__ import annotations
 
@@ -31,10 +47,21 @@ from .bars import ZERO_TOL, rot
 
 XI = sp.Symbol("xi", real=True)
 _U = sp.Symbol("u", real=True)
+_V = sp.Symbol("v", real=True)
 
 
-def _pieces(k: int, beta: sp.Symbol) -> tuple:
-    """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi."""
+def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None) -> tuple:
+    """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi; k > nspan:
+    the overhang function chi_{k - nspan} (zero value and slope at the contact)."""
+    if nspan is not None and k > nspan:
+        m = k - nspan
+        if m == 1:      # with the span's end-moment shape: the exact static tip-load deflection
+            span = XI * (XI ** 2 - beta ** 2) / beta
+            over = 2 * beta * (XI - beta) + 3 * (XI - beta) ** 2
+        else:
+            span, over = sp.Integer(0), (2 * (XI - beta)) ** (m + 1)
+        return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)),
+                (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
     span = sp.sin(k * sp.pi * XI / beta)
     slope = (-1) ** k * k * sp.pi / beta                 # d psi_k / d xi at xi = beta
     over = slope * (XI - beta)
@@ -76,18 +103,25 @@ def _int_pow_exp(m: int, a: sp.Expr) -> sp.Expr:
 
 
 def _overhang_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
-    return sp.factor(sp.integrate(sp.expand(expr), (XI, beta, 1)))
+    """int_beta^1 expr d xi in closed form, by xi = beta + (1 - beta) v: a polynomial in v
+    whose coefficients are rational in beta, integrated term by term over [0, 1]."""
+    if expr == 0:
+        return sp.Integer(0)
+    poly = sp.Poly(sp.expand(expr.xreplace({XI: beta + (1 - beta) * _V}) * (1 - beta)), _V)
+    total = sp.Add(*[c / (m[0] + 1) for m, c in poly.terms()])
+    return sp.factor(sp.cancel(total))
 
 
 @lru_cache(maxsize=None)
-def _gram(nt: int, beta_name: str) -> tuple:
-    """Closed-form Gram matrix of [1, xi, psi, psi_b, psi_bb] and (psi'', psi'') as functions of beta."""
+def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """Closed-form Gram matrix of [1, xi, psi, psi_b, psi_bb] and (psi'', psi'') (span and
+    overhang) as functions of beta; the last ``nover`` of the nt functions are overhang functions."""
     beta = sp.Symbol(beta_name, positive=True)
     span, over = [sp.Integer(1), XI], [sp.Integer(1), XI]
     blocks_s: list = [[], [], []]
     blocks_o: list = [[], [], []]
     for k in range(1, nt + 1):
-        s, o = _pieces(k, beta)
+        s, o = _pieces(k, beta, nt - nover)
         for b in range(3):
             blocks_s[b].append(s[b])
             blocks_o[b].append(o[b])
@@ -102,7 +136,8 @@ def _gram(nt: int, beta_name: str) -> tuple:
     Kt = sp.zeros(nt, nt)
     for i in range(nt):
         for j in range(nt):
-            Kt[i, j] = _span_integral(sp.diff(blocks_s[0][i], XI, 2) * sp.diff(blocks_s[0][j], XI, 2), beta)
+            Kt[i, j] = (_span_integral(sp.diff(blocks_s[0][i], XI, 2) * sp.diff(blocks_s[0][j], XI, 2), beta)
+                        + _overhang_integral(sp.diff(blocks_o[0][i], XI, 2) * sp.diff(blocks_o[0][j], XI, 2), beta))
     return beta, G, Kt
 
 
@@ -115,28 +150,39 @@ class SlotFunction:
 
 @dataclass
 class SlotBasis:
-    """Transverse basis of a guide bar: nt functions of (xi, beta)."""
+    """Transverse basis of a guide bar: nt functions of (xi, beta), the last ``nover`` of them
+    the overhang's own bending functions chi_m (see the module's docstring)."""
 
     nt: int
     beta: sp.Symbol
+    nover: int = 0
     family: str = "slot"
     direction: str = "transverse"
     frame: str = "pinned-pinned"
     functions: tuple = field(default_factory=tuple)
 
     def __post_init__(self) -> None:
+        if not 0 <= self.nover <= self.nt:
+            raise ValueError(f"nover = {self.nover} overhang functions of nt = {self.nt}")
         fs = []
         for k in range(1, self.nt + 1):
-            (s, _, _), (o, _, _) = _pieces(k, self.beta)
-            fs.append(SlotFunction(rf"\sin({k}\pi\xi/\beta)", s, o))
+            (s, _, _), (o, _, _) = _pieces(k, self.beta, self.nspan)
+            label = (rf"\sin({k}\pi\xi/\beta)" if k <= self.nspan
+                     else rf"\chi_{{{k - self.nspan}}}")
+            fs.append(SlotFunction(label, s, o))
         self.functions = tuple(fs)
+
+    @property
+    def nspan(self) -> int:
+        """Number of span (sine) functions."""
+        return self.nt - self.nover
 
     def __len__(self) -> int:
         return self.nt
 
     def expr(self, k: int, xi, deriv: int = 0, dbeta: int = 0) -> sp.Expr:
         """d^deriv/dxi^deriv d^dbeta/dbeta^dbeta psi_k at xi (a number or a symbol)."""
-        (s, _, _), (o, _, _) = _pieces(k + 1, self.beta)
+        (s, _, _), (o, _, _) = _pieces(k + 1, self.beta, self.nspan)
         s = sp.diff(s, XI, deriv) if deriv else s
         o = sp.diff(o, XI, deriv) if deriv else o
         if dbeta:
@@ -157,7 +203,7 @@ class SlotIPTable:
 
     def __init__(self, basis: SlotBasis, symbolic: bool = False) -> None:
         self.basis, self.na, self.nt, self.symbolic = basis, 0, basis.nt, symbolic
-        beta0, G, Kt = _gram(basis.nt, str(basis.beta))
+        beta0, G, Kt = _gram(basis.nt, str(basis.beta), basis.nover)
         sub = {beta0: basis.beta}
         self.G = G.xreplace(sub)
         self.Kt = Kt.xreplace(sub)

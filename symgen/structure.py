@@ -17,11 +17,21 @@ DERIVE_VERSION = "4"   # 4: projected von Karman strain energy, per-bar axial tr
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:
+    """(axial, transverse) function counts of a bar; a slot guide's transverse count includes
+    its overhang's own functions (``overhang_modes``, appended after the span's)."""
     if body.rigid:
         return 0, 0
     na = body.axial_modes if scene.effects.axial else 0
     nt = body.transverse_modes if scene.effects.transverse else 0
-    return na, nt
+    return na, nt + (overhang_modes(scene, body) if nt else 0)
+
+
+def overhang_modes(scene: Scene, body) -> int:
+    """Number of the overhang's own bending functions of a slot guide (0: rigid overhang, the
+    seed's form, no bending, or not a guide)."""
+    if body.rigid or not (scene.effects.transverse and body.transverse_modes):
+        return 0
+    return sum(j.overhang_modes for j in scene.joints if j.kind == "slot" and j.ends[1].body == body.name)
 
 
 INEXTENSIBLE = "inextensible"
@@ -152,6 +162,8 @@ def structure_of(scene: Scene) -> dict:
     for rec, j in zip(joints, scene.joints):
         if j.inertia > 0:              # only then: the keys of scenes without it are unchanged
             rec["inertia"] = True
+        if j.kind == "slot":
+            rec["overhang"] = [j.overhang, j.overhang_modes]
     drv = None
     if scene.driver is not None:
         d = scene.driver

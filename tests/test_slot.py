@@ -44,6 +44,7 @@ name = "S"
 kind = "slot"
 bodies = ["post", "guide"]
 at = [1.0, "variable"]
+overhang = "{overhang}"
 [driver]
 kind = "angle"
 body = "post"
@@ -59,9 +60,10 @@ output_step = 0.05
 """
 
 
-def frozen_frequencies(tmp_path, L, d, mu):
-    """Linear frequencies of the guide's amplitudes with the contact held at distance d."""
-    path = write_scene(tmp_path / "frozen.toml", FROZEN.format(L=L, d=d, mu=mu, beta=d / L))
+def frozen_frequencies(tmp_path, L, d, mu, overhang="rigid"):
+    """Linear frequencies of the guide's amplitudes with the contact held at distance d
+    (the seed's rigid overhang unless told: the tests below check that form)."""
+    path = write_scene(tmp_path / "frozen.toml", FROZEN.format(L=L, d=d, mu=mu, beta=d / L, overhang=overhang))
     mech = mechanism(path)
     q, v, a, lam, part = mech.initial_state()
     beta = q[[c["kind"] for c in mech.coords].index("beta")]

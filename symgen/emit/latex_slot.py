@@ -186,22 +186,24 @@ def _shape_rows(basis, b: sp.Symbol, pr) -> tuple[list[dict], bool]:
     and derivative, printed from the basis' own expressions."""
     xi = next((x for fn in basis.functions for x in fn.span.free_symbols if x.name == "xi"),
               sp.Symbol("xi", real=True))
-    ok = bool(basis.functions)
-    for k, fn in enumerate(basis.functions, start=1):
+    nspan = getattr(basis, "nspan", len(basis.functions))
+    sines, own = basis.functions[:nspan], basis.functions[nspan:]      # own: the overhang's chi_m
+    ok = bool(sines)
+    for k, fn in enumerate(sines, start=1):
         want = _family_exprs(k, xi, b)
         for order in range(3):
             got = (sp.diff(fn.span, b, order), sp.diff(fn.overhang, b, order))
             if any(sp.simplify(g - w) != 0 for g, w in zip(got, want[order])):
                 ok = False
-    if ok:
-        return [{"k": "k", "sub": sub, "span": span, "over": over} for sub, span, over in _FAMILY], True
     bb = sp.Symbol(r"\beta")
     rows = []
-    for k, fn in enumerate(basis.functions, start=1):
+    if ok:
+        rows = [{"k": "k", "sub": sub, "span": span, "over": over} for sub, span, over in _FAMILY]
+    for k, fn in enumerate(basis.functions if not ok else own, start=1 if not ok else nspan + 1):
         for order, (sub, _, _) in enumerate(_FAMILY):
             span, over = sp.diff(fn.span, b, order), sp.diff(fn.overhang, b, order)
             rows.append({"k": k, "sub": sub, "span": pr(span.xreplace({b: bb})), "over": pr(over.xreplace({b: bb}))})
-    return rows, False
+    return rows, ok
 
 
 # --------------------------------------------------------------------------- the guide's equations
@@ -272,6 +274,10 @@ def guide_context(scene, model, name: str, pr) -> dict:
 
     # ---- shape functions: span and overhang, and their beta derivatives
     ctx["psi"], ctx["psi_family"] = _shape_rows(bm.basis_t, b, pr)
+    ctx["nover"] = getattr(bm.basis_t, "nover", 0)
+    ctx["nspan"] = nt - ctx["nover"]
+    ns = ctx["nspan"]
+    ctx["k_range_span"] = ", ".join(str(k) for k in range(1, ns + 1)) if ns <= 3 else rf"1, \dots, {ns}"
     ctx["k_range"] = ", ".join(str(k) for k in range(1, nt + 1)) if nt <= 3 else rf"1, \dots, {nt}"
     g = [pr(x) for x in s.g]
     ctx["amplitudes"] = ", ".join(g)

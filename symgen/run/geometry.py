@@ -30,7 +30,7 @@ from ..kinematics import BarKinematics
 from ..scene.model import GROUND, Scene
 from ..shapes import axial_basis, transverse_basis
 from ..slot import XI, SlotBarKinematics, SlotBasis
-from ..structure import _tip_joint, effective_modes
+from ..structure import _tip_joint, effective_modes, overhang_modes
 from ..topology import build_topology
 
 SAMPLES = 41        # points per bar (shape functions up to ~8 half-waves drawn smoothly)
@@ -65,7 +65,7 @@ class Geometry:
             env[sym.alpha] = ca.SX(b.alpha)
             if b.name in slot_of:
                 beta = sp.Symbol(f"beta_{slot_of[b.name]}", real=True)
-                kins[b.name] = SlotBarKinematics(sym, SlotBasis(nt, beta), (beta, None, None))
+                kins[b.name] = SlotBarKinematics(sym, SlotBasis(nt, beta, overhang_modes(scene, b)), (beta, None, None))
             else:
                 kins[b.name] = BarKinematics(
                     sym, axial_basis(b.axial_shapes or "complete", na),

@@ -22,7 +22,9 @@ BODY_SI = ("E", "area", "inertia", "density")
 BODY_KEYS_DIMLESS = BODY_COMMON + BODY_DIMLESS + BODY_ELASTIC
 BODY_KEYS_SI = BODY_COMMON + BODY_SI + BODY_ELASTIC
 RIGID_FORBIDDEN = BODY_DIMLESS + ("E", "inertia") + BODY_ELASTIC
-JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass", "inertia")
+JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass", "inertia", "overhang", "overhang_modes")
+OVERHANG_FORMS = ("elastic", "rigid")     # slot guides: the overhang bends, or moves with the span's end slope
+OVERHANG_MODES_DEFAULT = 4
 
 RESERVED_BODY_NAMES = {GROUND: "it is reserved for the fixed frame",
                        "_scene": "it is reserved for the scene entry of the groups"}
@@ -310,8 +312,33 @@ def read_joint(r: Reader, name: str, path: str, table: dict, bodies: dict[str, B
     inertia = r.number(table, path, "inertia", 0.0, ge=0.0,
                        hint="the lumped rotary inertia at the joint (kg m^2 in SI, else relative to "
                        "m_ref l0^3) must be >= 0")
+    overhang, overhang_modes = _overhang(r, table, path, kind)
     return Joint(name=name, kind=kind, ends=ends, direction=direction,
-                 mass=scales.joint_mass(mass), inertia=scales.rotary_inertia(inertia))
+                 mass=scales.joint_mass(mass), inertia=scales.rotary_inertia(inertia),
+                 overhang=overhang, overhang_modes=overhang_modes)
+
+
+def _overhang(r: Reader, table: dict, path: str, kind: str) -> tuple[str, int]:
+    """A slot's overhang model: ("elastic", n) bends with n functions of its own (default),
+    ("rigid", 0) moves with the span's end slope (the seed's form). ("", 0) for other joints."""
+    if kind != "slot":
+        for key in ("overhang", "overhang_modes"):
+            if key in table:
+                r.fail(join(path, key), f"a {kind} joint has no {key}",
+                       "remove it; only slot joints model the guide's overhang")
+        return "", 0
+    form = r.choice(table, path, "overhang", OVERHANG_FORMS, "elastic")
+    if form == "rigid":
+        if "overhang_modes" in table:
+            r.fail(join(path, "overhang_modes"), "a rigid overhang has no functions of its own",
+                   'remove overhang_modes, or set overhang = "elastic"')
+        return form, 0
+    count = r.integer(table, path, "overhang_modes", OVERHANG_MODES_DEFAULT, ge=1,
+                      hint='the number of the overhang\'s own bending functions, >= 1 (or overhang = "rigid")')
+    if over_limit("modes", count):
+        r.fail(join(path, "overhang_modes"), f"{count} overhang functions is more than the limit of "
+               f"{limit_value('modes'):g}", lift_hint("modes", "3 to 5 converge for overhangs up to the span"))
+    return form, count
 
 
 def read_joints(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -> tuple[Joint, ...]:

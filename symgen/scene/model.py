@@ -59,6 +59,8 @@ class Joint:
     direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
     mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
     inertia: float = 0.0                        # lumped rotary inertia at the joint / (m_ref l0^3)
+    overhang: str = ""                          # slot: "elastic" (the guide's overhang bends) | "rigid"
+    overhang_modes: int = 0                     # slot, elastic overhang: its own bending functions
 
 
 @dataclass(frozen=True)

@@ -157,6 +157,17 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         "centre of mass), carried by the first bar listed with the mass: it turns with that bar's cross-section, "
         "theta + eta'(xi) on an elastic bar, theta on a rigid one; in the equations, energy, modes, LaTeX and C.",
         _num(minimum=0), default="0.0", unit="kg m^2 (SI), else relative to m_ref l0^3", example="0.01"),
+    Key("overhang", "string", 'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it bends '
+        "with overhang_modes functions of its own (the static deflection under a far-end load, then "
+        "(2 (xi - beta))^(m+1)), zero value and slope at the moving contact, stiffness over span and "
+        "overhang; the contact must stay short of the far end (beta < 1). "
+        '"rigid": it moves with the span\'s end slope (the seed\'s form, for its reproduction).',
+        {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
+    Key("overhang_modes", "integer >= 1", "Slots with an elastic overhang: number of the overhang's own bending "
+        "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
+        "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
+        "is up to its span within 0.5 %.", {"type": "integer", "minimum": 1},
+        default=str(_me.OVERHANG_MODES_DEFAULT), example="4"),
 ))
 
 DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: a prescribed angle or an "
