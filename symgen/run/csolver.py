@@ -3,8 +3,9 @@ CSV driver) compiled once into a cached executable and run for the scene.
 
 The executable is cached under ``<cache root>/compiled/<entry>/`` (``sim`` and ``manifest.json``)
 like the compiled libraries of :mod:`symgen.run.compiled`: the entry's name hashes the scene
-(without its [simulation] table: the emitted C holds the rest, e.g. the initial guess), the symgen
-version, the compiler's path and ``--version`` and the flags; the executable's sha256 is checked
+(without its [simulation] table: the emitted C holds the rest, e.g. the initial guess), the
+derived model's structure key, the C templates, the symgen version, the compiler's path and
+``--version`` and the flags; the executable's sha256 is checked
 before every run, and the verified bytes are run from a private copy. The model parameters are
 passed with ``--set`` at full precision, the times and tolerances with ``--t-end``, ``--step``,
 ``--rtol`` and ``--atol``: the run is the scene's, in the model's units, and its rows are
@@ -22,6 +23,7 @@ import shutil
 import subprocess
 import tempfile
 import time
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -49,9 +51,9 @@ def scene_key(scene) -> str:
 
 def templates_digest() -> str:
     """sha256 over the C templates (names and bytes): an edited template is another executable."""
-    from ..emit.c.render import TEMPLATES
+    templates = resources.files("symgen") / "templates" / "c"     # emit.c.render.TEMPLATES, without jinja2
     h = hashlib.sha256()
-    for item in sorted(TEMPLATES.iterdir(), key=lambda e: e.name):
+    for item in sorted(templates.iterdir(), key=lambda e: e.name):
         if item.is_file():
             h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
     return h.hexdigest()
