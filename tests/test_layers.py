@@ -1,0 +1,94 @@
+"""symgen's modules import one way: scene -> model -> IR/emitters -> numerics -> apps
+(``docs/architecture.md``). Every module belongs to exactly one layer; an import of a higher
+layer (also a lazy one inside a function) fails this test unless it is one of the known
+exceptions listed below, which are debts to pay (issue 10), not a licence: the list may only
+shrink (a paid debt that is still listed fails too)."""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+PKG = Path(__file__).resolve().parent.parent / "symgen"
+
+#: layer of each module (the longest matching prefix wins); lower layers never import higher ones
+LAYERS = {
+    0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata"),
+    1: ("symgen.scene",),
+    2: ("symgen.shapes", "symgen.static_shapes", "symgen.bars", "symgen.slot", "symgen.rotary",
+        "symgen.kinematics", "symgen.topology", "symgen.structure", "symgen.dae", "symgen.outputs"),
+    3: ("symgen.pipeline", "symgen.emit"),
+    4: ("symgen.run.compiled", "symgen.run.csolver", "symgen.run.mechanism", "symgen.run.simulate",
+        "symgen.run.quasistatic", "symgen.run.modes", "symgen.run.interrupt", "symgen.run.geometry",
+        "symgen.run.units", "symgen.run.results", "symgen.run"),
+    5: ("symgen.api", "symgen.cli", "symgen.golden", "symgen.plot", "symgen.run.effects",
+        "symgen.run.reproduce", "symgen.run.study", "symgen.run.sweep", "symgen.run.animate"),
+}
+NAMES = {0: "base", 1: "scene", 2: "model", 3: "IR and emitters", 4: "numerics", 5: "apps"}
+
+#: known upward imports (importer, imported): the C emitter asks the Python assembly for the
+#: coordinate partition (issue 10: the partition belongs below both)
+KNOWN = {("symgen.emit.c", "symgen.run.mechanism"), ("symgen.emit.c.context", "symgen.run.mechanism")}
+
+
+def _module(path: Path, root: Path = PKG) -> str:
+    parts = list(path.relative_to(root.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def layer(module: str) -> int:
+    best, found = -1, None
+    for lay, prefixes in LAYERS.items():
+        for p in prefixes:
+            if (module == p or module.startswith(p + ".")) and len(p) > best:
+                best, found = len(p), lay
+    assert found is not None, f"{module} belongs to no layer: add it to LAYERS (and docs/architecture.md)"
+    return found
+
+
+def imports(path: Path, root: Path = PKG) -> set[str]:
+    """symgen modules imported anywhere in ``path`` (top level or inside functions)."""
+    mod = _module(path, root)
+    pkg = mod.split(".") if path.name == "__init__.py" else mod.split(".")[:-1]
+    known = {_module(p, root) for p in root.rglob("*.py")}
+    out: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom):
+            base = ".".join(pkg[:len(pkg) - node.level + 1] + ([node.module] if node.module else [])) \
+                if node.level else (node.module or "")
+            for a in node.names:           # "from . import x" imports the module x when it is one
+                out.add(f"{base}.{a.name}" if f"{base}.{a.name}" in known else base)
+        elif isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+    return {m for m in out if m in known and m != mod}
+
+
+def _edges() -> set[tuple[str, str]]:
+    return {(_module(p), m) for p in PKG.rglob("*.py") for m in imports(p)}
+
+
+def test_every_module_has_a_layer():
+    for p in PKG.rglob("*.py"):
+        layer(_module(p))
+
+
+def test_no_layer_imports_a_higher_one():
+    upward = {(a, b) for a, b in _edges() if layer(b) > layer(a)}
+    new = sorted(upward - KNOWN)
+    assert not new, "upward imports: " + "; ".join(
+        f"{a} ({NAMES[layer(a)]}) imports {b} ({NAMES[layer(b)]})" for a, b in new)
+    paid = sorted(KNOWN - upward)
+    assert not paid, f"no longer imported, remove from KNOWN: {paid}"
+
+
+def test_the_checker_sees_lazy_and_relative_imports(tmp_path):
+    """The test can fail: in a package laid out like symgen, a scene module importing the
+    numerics lazily and relatively (``from ..run.mechanism import``) is an upward edge."""
+    root = tmp_path / "symgen"
+    for name in ("__init__.py", "errors.py", "scene/__init__.py", "run/__init__.py", "run/mechanism.py"):
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text("")
+    bad = root / "scene" / "bad.py"
+    bad.write_text("from ..errors import SceneError\n\ndef f():\n    from ..run.mechanism import Mechanism\n")
+    found = imports(bad, root)
+    assert found == {"symgen.errors", "symgen.run.mechanism"}
+    assert [m for m in found if layer(m) > layer("symgen.scene.bad")] == ["symgen.run.mechanism"]
