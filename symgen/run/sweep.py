@@ -355,7 +355,7 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
     # ``if __name__ == "__main__"`` guard; else spawn
     import sys
     method = "fork" if sys.platform.startswith("linux") and threading.active_count() == 1 else "spawn"
-    before = set(mp.active_children())
+    before, threads = set(mp.active_children()), set(threading.enumerate())
     pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context(method),
                                initializer=_init_worker, initargs=(blobs,))
     try:
@@ -370,8 +370,14 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
         # stop at once: drop the queue, end the worker processes (they ignore SIGINT)
         pool.shutdown(wait=False, cancel_futures=True)
         _stop(set(mp.active_children()) - before)          # this pool's workers, however started
-        pool.shutdown(wait=True)                            # the pool's manager thread ends (pool broken)
-        _stop(set(mp.active_children()) - before)          # any worker it started meanwhile
+        # the pool's manager thread ends (pool broken); shutdown(wait=True) after a first
+        # shutdown no longer joins it, so join the threads the pool started, then end any
+        # worker process started meanwhile
+        pool.shutdown(wait=True)
+        for t in set(threading.enumerate()) - threads:
+            if type(t).__module__.startswith("concurrent.futures"):
+                t.join(timeout=10)
+        _stop(set(mp.active_children()) - before)
         raise
     pool.shutdown(wait=True)
 
