@@ -12,7 +12,8 @@ PKG = Path(__file__).resolve().parent.parent / "symgen"
 
 #: layer of each module (the longest matching prefix wins); lower layers never import higher ones
 LAYERS = {
-    0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata"),
+    0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata",
+        "symgen.policy"),
     1: ("symgen.scene",),
     2: ("symgen.shapes", "symgen.static_shapes", "symgen.bars", "symgen.slot", "symgen.rotary",
         "symgen.kinematics", "symgen.topology", "symgen.structure", "symgen.dae", "symgen.outputs"),
@@ -27,7 +28,7 @@ NAMES = {0: "base", 1: "scene", 2: "model", 3: "IR and emitters", 4: "numerics",
 
 #: known upward imports (importer, imported): the C emitter asks the Python assembly for the
 #: coordinate partition (issue 10: the partition belongs below both)
-KNOWN = {("symgen.emit.c", "symgen.run.mechanism"), ("symgen.emit.c.context", "symgen.run.mechanism")}
+KNOWN = {("symgen.emit.c", "symgen.run.mechanism")}
 
 
 def _module(path: Path, root: Path = PKG) -> str:

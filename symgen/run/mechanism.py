@@ -21,14 +21,8 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..pipeline import CompiledModel, parameter_values
+from ..policy import POLICY
 from ..scene.model import Scene
-
-SINGULAR_RATIO = 1e-7
-#: Deformation beyond which a run stops: the bar models (von Karman or linear strain, assumed
-#: modes in a floating frame) hold for moderate rotations and small strains. Sums of the
-#: absolute amplitudes of a bar (its shape functions are O(1) at their largest):
-DEFLECTION_LIMIT = 0.25     # transverse, fraction of the bar's length (end slopes ~ 45 deg)
-STRETCH_LIMIT = 0.1         # axial, fraction of the bar's length (10 % strain)
 
 
 @dataclass(frozen=True)
@@ -127,10 +121,10 @@ class Mechanism:
                 -float(self.call("phidd", t, z, z, z)[row]))
 
     def driver_step(self, t: float) -> float:
-        """Time step of the central differences of the quasi-static start: 1e-4 rad of the
-        driver at its rate at t (1e-4 when it is at rest)."""
+        """Time step of the central differences of the quasi-static start: POLICY.driver_step
+        rad of the driver at its rate at t (that many tau when it is at rest)."""
         rate = abs(self.driver_motion(t)[1])
-        return 1e-4 / rate if rate > 0 else 1e-4
+        return POLICY.driver_step / rate if rate > 0 else POLICY.driver_step
 
     # ---------------------------------------------------------------- partition + assembly
     def choose_partition(self, t: float, q) -> Partition:
@@ -151,7 +145,7 @@ class Mechanism:
         for i in order:
             trial = chosen + [i]
             sv = np.linalg.svd(J[:, trial] / scale, compute_uv=False)
-            if sv[-1] > 1e-6 * sv[0]:
+            if sv[-1] > POLICY.partition_ratio * sv[0]:
                 chosen = trial
             if len(chosen) == self.m:
                 break
@@ -192,7 +186,8 @@ class Mechanism:
                 w[i] = -1.0
         return int(np.argmax(w))
 
-    def assemble(self, t: float, q_guess, part: Partition, tol: float = 1e-13, maxit: int = 60):
+    def assemble(self, t: float, q_guess, part: Partition, tol: float = POLICY.assembly_tol,
+                 maxit: int = POLICY.assembly_maxit):
         """Solve phi(q) = 0 for the dependent coordinates by damped Newton from q_guess."""
         q = np.array(q_guess, dtype=float)
         dep = list(part.dep)
@@ -208,17 +203,17 @@ class Mechanism:
             except np.linalg.LinAlgError:
                 break
             step = 1.0
-            while step > 1e-4:
+            while step > POLICY.assembly_min_step:
                 trial = q.copy()
                 trial[dep] += step * dq
                 rt = self.call("phi", t, trial)
-                if np.abs(rt).max() < np.abs(r).max() * (1 - 0.5 * step) or np.abs(rt).max() < tol:
+                if np.abs(rt).max() < np.abs(r).max() * (1 - POLICY.armijo * step) or np.abs(rt).max() < tol:
                     q, r = trial, rt
                     break
                 step /= 2
             else:
                 break
-        if np.abs(r).max() < 1e-10:
+        if np.abs(r).max() < POLICY.assembly_accept:
             return q
         worst = int(np.argmax(np.abs(r)))
         raise SimulationError(t, f"the mechanism cannot be assembled near initial.guess: the closure of the "
@@ -282,7 +277,7 @@ class Mechanism:
         q = self.assemble(t0, q, part)
         part = self.choose_partition(t0, q)     # re-choose at the assembled position
         ratio, row = self.singular_ratio(t0, q, part)
-        if ratio < SINGULAR_RATIO:
+        if ratio < POLICY.singular_ratio:
             raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
                                       f"of the {self.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "start the driver at another angle or change initial.guess")
@@ -325,7 +320,8 @@ class Mechanism:
         self._static_nR = nR
         return self._static_fun
 
-    def quasi_static(self, t: float, q, v, part: Partition, tol: float = 1e-12, maxit: int = 50):
+    def quasi_static(self, t: float, q, v, part: Partition, tol: float = POLICY.quasi_static_tol,
+                     maxit: int = POLICY.quasi_static_maxit):
         """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
         fun = self._static_system(part)
         E, D = self._static_E, list(part.dep)
@@ -338,7 +334,7 @@ class Mechanism:
             u = u - np.linalg.solve(np.array(J), F)
         else:
             F = np.array(fun(t, q, v, u)[0]).ravel()
-            if np.abs(F).max() > 1e-8:
+            if np.abs(F).max() > POLICY.quasi_static_accept:
                 raise SimulationError(t, f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
                                       "the mechanism may be near buckling or a singular position")
         _, _, qn, vn = fun(t, q, v, u)
@@ -346,12 +342,12 @@ class Mechanism:
 
     def beyond_range(self, Q) -> tuple[int, str] | None:
         """First column of Q (coordinates x outputs) where a bar is deformed beyond the range
-        of the model (``DEFLECTION_LIMIT``, ``STRETCH_LIMIT``), with the reason; None if none."""
+        of the model (``POLICY.deflection_limit``, ``POLICY.stretch_limit``), with the reason; None if none."""
         Q = np.asarray(Q, dtype=float).reshape(self.n, -1)
         first = None
         for body, (fi, gi) in self.amplitudes.items():
-            for idx, limit, what in ((gi, DEFLECTION_LIMIT, "transverse deflection"),
-                                     (fi, STRETCH_LIMIT, "axial displacement")):
+            for idx, limit, what in ((gi, POLICY.deflection_limit, "transverse deflection"),
+                                     (fi, POLICY.stretch_limit, "axial displacement")):
                 if not idx:
                     continue
                 size = np.abs(Q[idx]).sum(axis=0)

@@ -47,9 +47,10 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Interrupted, SceneError, SimulationError
+from ..policy import POLICY
 from ..scene.limits import lift_hint, limit_value, over_limit
 from . import interrupt
-from .mechanism import SINGULAR_RATIO, Mechanism, Partition
+from .mechanism import Mechanism, Partition
 
 KINEMATICS = ("deformed", "rigid")
 RHO_MAX = 0.95          # a fixed-point iteration contracting slower than this goes to Newton
@@ -191,7 +192,7 @@ class QuasiStaticSystem:
             q[i] = mech.driver_motion(t)[0]
         q = mech.assemble(t, q, part)
         ratio, row = mech.singular_ratio(t, q, part)
-        if ratio < SINGULAR_RATIO:
+        if ratio < POLICY.singular_ratio:
             raise SimulationError(t, f"the rigid mechanism is at a singular position: the closure Jacobian of "
                                      f"the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "the quasi-static response is not defined here; change the geometry or the driver")

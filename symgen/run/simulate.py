@@ -20,8 +20,9 @@ import casadi as ca
 import numpy as np
 
 from ..errors import Interrupted, SceneError, SimulationError
+from ..policy import POLICY
 from . import compiled, interrupt
-from .mechanism import SINGULAR_RATIO, Mechanism, Partition, index1
+from .mechanism import Mechanism, Partition, index1
 
 CHUNK = 128         # output steps of the first integrator call; each next one covers twice as
 CHUNK_MAX = 2048    # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
@@ -155,7 +156,7 @@ class DaeRunner:
             self._maps[key] = getattr(self, name).map(k)
         return self._maps[key]
 
-    def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p, tol: float = 1e-13) -> np.ndarray:
+    def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p, tol: float = POLICY.polish_tol) -> np.ndarray:
         """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
         same iteration per column: columns stop when their residual is below ``tol``; a column
         whose step is not finite (singular Jacobian) keeps its last value)."""
@@ -163,7 +164,7 @@ class DaeRunner:
         Z = np.array(Z, dtype=float)
         todo = np.ones(k, dtype=bool)
         step = self._map("gstep", k)
-        for _ in range(8):
+        for _ in range(POLICY.polish_maxit):
             Znew, res = step(t.reshape(1, -1), X, Z, p)
             todo &= np.array(res).ravel() >= tol
             if not todo.any():
@@ -173,9 +174,9 @@ class DaeRunner:
             Z[:, todo] = Znew[:, todo]
         return Z
 
-    def polish(self, t: float, x, z, p, tol: float = 1e-13) -> np.ndarray:
+    def polish(self, t: float, x, z, p, tol: float = POLICY.polish_tol) -> np.ndarray:
         z = np.array(z, dtype=float).ravel()
-        for _ in range(8 if tol < 1e-12 else 30):
+        for _ in range(POLICY.polish_maxit if tol <= POLICY.polish_tol else 30):
             g, J = self.g(t, x, z, p)
             g = np.array(g).ravel()
             if np.abs(g).max() < tol:
@@ -238,7 +239,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         if beyond is not None:
             raise SimulationError(t, beyond[1], "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
         ratio, row = mech.singular_ratio(t, qq, part)
-        if ratio < SINGULAR_RATIO:
+        if ratio < POLICY.singular_ratio:
             raise SimulationError(t, f"the rigid mechanism reached a singular position: the closure Jacobian "
                                      f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "the mechanism cannot pass this position as driven; shorten t_end or change the geometry")
@@ -254,7 +255,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         if run.n_sing:
             nd = run.n_sing
             sv = np.linalg.svd(Jd.reshape(-1, k, nd).transpose(1, 0, 2), compute_uv=False)
-            bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < SINGULAR_RATIO)[0]
+            bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < POLICY.singular_ratio)[0]
             if len(bad):
                 stop = int(bad[0]) + 1
         beyond = mech.beyond_range(Q)

@@ -326,7 +326,8 @@ static void motor_arm_x_driver_motion(motor_arm_solver *s, double t, double *m3)
     m3[2] = -r[row];
 }
 
-/* damped Newton on phi(t, q) = 0 in the coordinates `dep` (Mechanism.assemble) */
+/* damped Newton on phi(t, q) = 0 in the coordinates `dep` (Mechanism.assemble; tolerances
+   and limits of symgen.policy, as in Python) */
 static int motor_arm_x_assemble(motor_arm_solver *s, double t, double *q, const int *dep)
 {
     const double tol = 1e-13;
@@ -342,7 +343,7 @@ static int motor_arm_x_assemble(motor_arm_solver *s, double t, double *q, const 
         if (motor_arm_x_closure_matrix(s, t, q, dep)) break;
         for (k = 0; k < motor_arm_x_NL; ++k) dq[k] = -r[k];
         motor_arm_x_lu_solve(s->sq, motor_arm_x_NL, s->sp, dq);
-        for (step = 1.0; step > 1e-4; step /= 2) {
+        for (step = 1.0; step > 0.0001; step /= 2) {
             double rtn;
             memcpy(trial, q, sizeof(trial));
             for (k = 0; k < motor_arm_x_NL; ++k) trial[dep[k]] += step * dq[k];
@@ -422,7 +423,7 @@ static int motor_arm_x_quasi_static(motor_arm_solver *s, double t, double *q, do
     for (k = 0; k < motor_arm_x_NR; ++k) { u[off + k] = 0.0; col[off + k] = 2 * motor_arm_x_NQ + motor_arm_x_accel[k]; }
     off += motor_arm_x_NR;
     for (k = 0; k < motor_arm_x_NL; ++k) { u[off + k] = 0.0; col[off + k] = 3 * motor_arm_x_NQ + k; }
-    for (it = 1; it <= 51; ++it) {
+    for (it = 1; it <= 50 + 1; ++it) {
         /* state of u */
         off = 0;
         memset(a, 0, sizeof(a));
@@ -435,7 +436,7 @@ static int motor_arm_x_quasi_static(motor_arm_solver *s, double t, double *q, do
         for (k = 0; k < motor_arm_x_NR; ++k) a[motor_arm_x_accel[k]] = u[off + k];
         off += motor_arm_x_NR;
         for (k = 0; k < motor_arm_x_NL; ++k) lam[k] = u[off + k];
-        if (it == 51) break;
+        if (it == 50 + 1) break;
         motor_arm_x_alg(s, t, q, v, a, lam, s->sr);
         Fmax = motor_arm_x_max_abs(s->sr, nu);
         if (Fmax < 1e-12) { converged = 1; break; }
@@ -450,7 +451,7 @@ static int motor_arm_x_quasi_static(motor_arm_solver *s, double t, double *q, do
     if (!converged) {
         motor_arm_x_alg(s, t, q, v, a, lam, s->sr);
         Fmax = motor_arm_x_max_abs(s->sr, nu);
-        if (!(Fmax <= 1e-8)) {
+        if (!(Fmax <= 1e-08)) {
             return motor_arm_x_fail(s, t, "the quasi-static state did not converge (residual)", Fmax,
                                "the mechanism may be near buckling or a singular position");
         }
@@ -468,7 +469,7 @@ static int motor_arm_x_quasi_static_start(motor_arm_solver *s, double t0, double
     if (!motor_arm_x_ANGLE_DRIVER) return 0;
     motor_arm_x_driver_motion(s, t0, m3);
     if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */
-    h = m3[1] != 0.0 ? 1e-4 / fabs(m3[1]) : 1e-4;  /* Mechanism.driver_step */
+    h = m3[1] != 0.0 ? 0.0001 / fabs(m3[1]) : 0.0001;  /* Mechanism.driver_step */
     for (side = 0; side < 2; ++side) {
         dt = side == 0 ? -h : h;
         memcpy(s->qs, q, sizeof(s->qs));

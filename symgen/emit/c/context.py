@@ -18,6 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ... import __version__
+from ...policy import POLICY
 from . import radau
 from .codegen import model_functions
 from .names import c_comment, c_prefix, c_string
@@ -137,23 +138,23 @@ def c_context(scene, model, mech) -> dict:
         "quasi_static": bool(scene.initial.quasi_static),
         "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
         "rtol": c_double(sim.rtol), "atol": c_double(sim.atol),
-        "singular_ratio": c_double(_singular_ratio()),
+        "singular_ratio": c_double(POLICY.singular_ratio),
+        "policy": _policy(),
         "amplitude_checks": amplitude_checks,
         "radau": radau.constants(),
     }
 
 
-def _singular_ratio() -> float:
-    from ...run.mechanism import SINGULAR_RATIO
-    return SINGULAR_RATIO
+def _policy() -> dict:
+    """The solver policy (``symgen.policy``) as C literals: the emitted solver's tolerances and
+    limits are the Python runners' (doubles to the last bit, integers as written)."""
+    return {k: (str(v) if isinstance(v, int) else c_double(v)) for k, v in POLICY.as_dict().items()}
 
 
 def _amplitude_checks(mech) -> list[dict]:
     """The range of the bar models (``Mechanism.beyond_range``): per bar, the sum of the absolute
-    transverse (axial) amplitudes may not exceed DEFLECTION_LIMIT (STRETCH_LIMIT)."""
-    from ...run import mechanism as rm
-    deflection = getattr(rm, "DEFLECTION_LIMIT", None)
-    stretch = getattr(rm, "STRETCH_LIMIT", None)
+    transverse (axial) amplitudes may not exceed ``POLICY.deflection_limit`` (``stretch_limit``)."""
+    deflection, stretch = POLICY.deflection_limit, POLICY.stretch_limit
     groups: dict = {}
     for i, c in enumerate(mech.coords):
         if c["kind"] in ("f", "g"):
@@ -161,7 +162,7 @@ def _amplitude_checks(mech) -> list[dict]:
     checks = []
     for body, (fi, gi) in groups.items():
         for idx, limit, what in ((gi, deflection, "transverse deflection"), (fi, stretch, "axial displacement")):
-            if not idx or limit is None:
+            if not idx:
                 continue
             checks.append({"indices": idx, "limit": c_double(limit), "message": c_string(
                 f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "

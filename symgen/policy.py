@@ -1,0 +1,72 @@
+"""One solver policy for the Python runners (``symgen.run``) and the emitted C solver.
+
+The consistent start, the assembly, the closure polish, the singular-position test and the
+range of the bar models are done twice: in Python (``run/mechanism.py``, ``run/simulate.py``)
+and in the emitted C (``templates/c/solver.c.jinja``). Their tolerances and limits live here
+only: the Python code reads :data:`POLICY`, and the C context (``emit/c/context.py``) writes
+the same values into the emitted solver, so the two cannot drift apart. Each value states
+where it comes from.
+
+Integrator internals with no Python twin (Radau IIA step control, ``emit/c/radau.py``) and the
+Python-only quasi-static solver of (18)-(20) (``run/quasistatic.py``) keep their own constants.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+__all__ = ["SolverPolicy", "POLICY"]
+
+
+@dataclass(frozen=True)
+class SolverPolicy:
+    #: Newton on the position closure phi(q) = 0 stops at this |phi|_inf: coordinates are O(1)
+    #: (lengths / l0, angles in rad), so this is a few hundred ulps, the round-off floor of phi.
+    assembly_tol: float = 1e-13
+    #: ... and when it stalls (no damped step decreases |phi|), a residual below this is still
+    #: an assembly (round-off near a singular position); above it the scene cannot be assembled.
+    assembly_accept: float = 1e-10
+    #: Newton iterations of the assembly (quadratic convergence needs < 10 from a fair guess;
+    #: the rest are for damped steps from a poor initial.guess).
+    assembly_maxit: int = 60
+    #: Smallest damping factor of a Newton step (halved from 1) before the assembly gives up.
+    assembly_min_step: float = 1e-4
+    #: Newton acceptance of a damped step: |phi(trial)| < (1 - ARMIJO * step) |phi(q)| (the
+    #: classical sufficient-decrease constant 1/2).
+    armijo: float = 0.5
+    #: A position is singular (a toggle, a change point) when the closure Jacobian in the
+    #: dependent rigid coordinates has smallest / largest singular value below this: its
+    #: condition number then exceeds 1e7, so a closure solve loses about 7 of 16 digits and
+    #: velocities and multipliers are no longer trustworthy to the integrator's tolerances.
+    singular_ratio: float = 1e-7
+    #: A rigid coordinate joins the dependent set while the closure Jacobian's columns chosen so
+    #: far keep smallest / largest singular value above this (greedy partition choice).
+    partition_ratio: float = 1e-6
+    #: Newton on the quasi-static deformation at the start: |F|_inf at which it stops ...
+    quasi_static_tol: float = 1e-12
+    #: ... the residual still accepted after quasi_static_maxit iterations (else: near buckling) ...
+    quasi_static_accept: float = 1e-8
+    #: ... and its iteration limit.
+    quasi_static_maxit: int = 50
+    #: Newton on the algebraic variables at fixed differential ones (the polish of every output
+    #: row): stops at this |residual|_inf ...
+    polish_tol: float = 1e-13
+    #: ... or after this many iterations (it converges quadratically from the integrator's value).
+    polish_maxit: int = 8
+    #: Driver angle step (rad) of the central differences that give the quasi-static deformation
+    #: rates at the start: truncation error O(h^2) = 1e-8 against round-off O(eps / h) = 2e-12.
+    driver_step: float = 1e-4
+    #: Range of the bar models: the run stops when a bar's transverse amplitudes sum to more than
+    #: this fraction of its length. The shape functions are O(1) at their largest, so the sum
+    #: bounds the deflection; at 0.25 l the end slopes of a sine-shaped bar reach about 45 deg,
+    #: where the moderate-rotation (von Karman) strain is no longer a model of the bar.
+    deflection_limit: float = 0.25
+    #: ... and when its axial amplitudes sum to more than this fraction of its length: 10 % strain
+    #: is beyond any elastic metal (steel yields near 0.2 %); only a buckled or overloaded bar
+    #: gets there, and the linear elastic law does not hold.
+    stretch_limit: float = 0.1
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+POLICY = SolverPolicy()

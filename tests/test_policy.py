@@ -1,0 +1,69 @@
+"""One solver policy (``symgen.policy``) for the Python runners and the emitted C: every value
+reaches the C solver through the context (no constant retyped in the template), and the Python
+runners read it at call time."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from c_support import mechanism, model
+from symgen import policy
+from symgen.emit.c import context as ctx_mod
+from symgen.emit.c.printer import c_double
+from symgen.emit.c.render import render_files
+from symgen.errors import SimulationError
+from symgen.run import mechanism as mech_mod
+
+
+def _odd(value):
+    """A value of the same type that no template could contain by chance."""
+    return value + 7 if isinstance(value, int) else value * 1.2345678901234567
+
+
+def test_every_policy_value_reaches_the_emitted_solver(monkeypatch):
+    """Render the slider-crank's C with every policy value changed: each new value appears in
+    the emitted sources (the C solver would not see a value retyped in its template)."""
+    mech = mechanism("slider_crank")
+    base = render_files(ctx_mod.c_context(mech.scene, model("slider_crank"), mech))
+    odd = policy.SolverPolicy(**{k: _odd(v) for k, v in policy.POLICY.as_dict().items()})
+    monkeypatch.setattr(ctx_mod, "POLICY", odd)
+    files = render_files(ctx_mod.c_context(mech.scene, model("slider_crank"), mech))
+    missing = []
+    for field in dataclasses.fields(odd):
+        new = getattr(odd, field.name)
+        literal = str(new) if isinstance(new, int) else c_double(new)
+        if field.name in ("partition_ratio",):       # Python-only: the C solver gets the partition
+            continue
+        if not any(literal in text for text in files.values()):
+            missing.append(f"{field.name} ({literal})")
+    assert not missing, "policy values not in the emitted C: " + ", ".join(missing)
+    assert files != base
+
+
+def test_python_runners_read_the_policy_at_call_time(monkeypatch):
+    """The range limit and the assembly's acceptance come from POLICY when the call is made."""
+    mech = mechanism("slider_crank")
+    q0, _ = mech.initial_guess()
+    Q = np.tile(np.asarray(q0, dtype=float).reshape(-1, 1), (1, 3))
+    body, (fi, gi) = next((b, ix) for b, ix in mech.amplitudes.items() if ix[1])
+    Q[gi[0], 2] = 0.5 * policy.POLICY.deflection_limit
+    assert mech.beyond_range(Q) is None
+    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, deflection_limit=0.25 * policy.POLICY.deflection_limit))
+    column, reason = mech.beyond_range(Q)
+    assert column == 2 and body in reason
+    part = mech.choose_partition(0.0, q0)
+    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, assembly_maxit=0, assembly_accept=0.0))
+    with pytest.raises(SimulationError, match="cannot be assembled"):
+        mech.assemble(0.0, np.asarray(q0, dtype=float) + 0.05, part, maxit=0)
+
+
+def test_limits_state_their_source():
+    """Every policy value is documented where it is defined (the source of the number)."""
+    import inspect
+    src = inspect.getsource(policy.SolverPolicy)
+    for field in dataclasses.fields(policy.SolverPolicy):
+        line = next(ln for ln in src.splitlines() if ln.strip().startswith(f"{field.name}:"))
+        above = src[:src.index(line)].rstrip().splitlines()[-1].strip()
+        assert above.startswith("#:") or "..." in above, f"{field.name} has no stated source"
