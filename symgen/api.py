@@ -26,6 +26,28 @@ def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
     return Mechanism(compile_scene(scene, use_cache=use_cache), scene)
 
 
+def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overrides: Sequence[str] = ()):
+    """``symgen emit-c``: the scene's standalone C (model, solver, driver, CMakeLists.txt) written
+    into ``out_dir`` all or nothing; its folder. A bad scene name fails before any work."""
+    from .emit.c import c_prefix, write_c as emit
+    scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
+    c_prefix(scene)
+    return emit(scene, out_dir, mech=mechanism(scene))
+
+
+def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrides: Sequence[str] = (),
+              cc: str | None = None):
+    """``symgen emit-fmu``: the scene's FMI 2.0 Co-Simulation FMU at ``path``; its path."""
+    from pathlib import Path
+
+    from .emit.c import c_prefix, write_fmu as emit
+    from .emit.c.fmu import check_fmu_path
+    scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
+    check_fmu_path(Path(path))
+    c_prefix(scene)
+    return emit(scene, path, mech=mechanism(scene), cc=cc)
+
+
 def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), **kwargs) -> SimResult:
     """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``."""
     return simulate(mechanism(scene, overrides), **kwargs)

@@ -504,7 +504,7 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_emit_c(args) -> int:
-    from .emit.c import write_c
+    from .api import write_c
 
     check_folder(args.output, "-o")
     scene = _scene(args)
@@ -514,7 +514,7 @@ def cmd_emit_c(args) -> int:
 
 
 def cmd_emit_fmu(args) -> int:
-    from .emit.c import write_fmu
+    from .api import write_fmu
 
     out = _check_out(args.output, (".fmu",), "-o")
     scene = _scene(args)

@@ -277,7 +277,7 @@ def test_edge_scenes_compile_and_match_python(build, tmp_path):
     """No differential state (a rigid driven slider-crank) and no closure at all (a free elastic
     pendulum under a torque driver, quasi-static start): zero-size arrays compile, runs agree."""
     from symgen.api import mechanism as python_mechanism
-    from symgen.emit.c import write_c
+    from symgen.api import write_c
     from symgen.run.simulate import simulate
     from symgen.scene import load_scene
     path, overrides = build(tmp_path)
@@ -372,7 +372,7 @@ ODD_NAMES = ["slider crank", "int", "class", "a;b", "x); system(\"rm\"", "ünïc
 
 @pytest.mark.parametrize("bad", ODD_NAMES)
 def test_odd_scene_names_are_rejected(bad, tmp_path):
-    from symgen.emit.c import write_c
+    from symgen.api import write_c
     from symgen.errors import SceneError
     scene = dataclasses.replace(mechanism("slider_crank").scene, name=bad)
     with pytest.raises(SceneError, match="scene.name"):

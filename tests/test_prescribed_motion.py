@@ -371,7 +371,7 @@ def test_emitted_c_follows_the_law(case, tmp_path):
     import shutil
     import subprocess
 
-    from symgen.emit.c import write_c
+    from symgen.api import write_c
     from symgen.scene import load_scene
     from tests.c_support import run_sim
 

@@ -30,13 +30,15 @@ __all__ = ["c_sources", "write_c", "write_fmu", "c_prefix"]
 
 
 def _model_and_mechanism(scene, model=None, mech=None):
+    """The derived model (derived here if not given) and the scene's ``Mechanism``, which the
+    caller gives: the coordinate partition and the start come from the numerics, a layer above
+    the emitters (``symgen.api.write_c`` / ``write_fmu`` build it)."""
+    if mech is None:
+        raise TypeError("the C emitter needs the scene's Mechanism (mech=): use symgen.api.write_c or "
+                        "symgen.api.write_fmu, which build it")
     if model is None:
         from ...dae import derive
         model = derive(scene)
-    if mech is None:
-        from ...pipeline import compile_scene
-        from ...run.mechanism import Mechanism
-        mech = Mechanism(compile_scene(scene), scene)
     return model, mech
 
 
