@@ -38,6 +38,11 @@ class SolverPolicy:
     #: condition number then exceeds 1e7, so a closure solve loses about 7 of 16 digits and
     #: velocities and multipliers are no longer trustworthy to the integrator's tolerances.
     singular_ratio: float = 1e-7
+    #: A step that fails (the integrator's step size collapses, the closure loses its solution)
+    #: is reported as a singular position when this ratio was already below 5e-2 at the last
+    #: good output: a condition number above 20, rising towards the rank loss the failing step
+    #: met; else the integrator's own cause is reported.
+    near_singular_ratio: float = 5e-2
     #: A rigid coordinate joins the dependent set while the closure Jacobian's columns chosen so
     #: far keep smallest / largest singular value above this (greedy partition choice).
     partition_ratio: float = 1e-6

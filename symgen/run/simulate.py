@@ -380,9 +380,6 @@ def _notice(text: str) -> None:
         print(f"symgen: {text}", file=sys.stderr)
 
 
-NEAR_SINGULAR = 5e-2
-
-
 def _lost(mech: Mechanism, part: Partition, tau: float, q_last, tau_last: float, cause: str,
           limit: bool = False) -> SimulationError:
     """The error for a step that failed: a singular position of the rigid mechanism when the
@@ -390,7 +387,7 @@ def _lost(mech: Mechanism, part: Partition, tau: float, q_last, tau_last: float,
     the driven closure itself lost its solution, which a smooth mechanism does only at a
     singular position), else the solver cause."""
     ratio, row = mech.singular_ratio(tau_last, q_last, part)
-    if ratio < NEAR_SINGULAR or limit:
+    if ratio < POLICY.near_singular_ratio or limit:
         return SimulationError(tau, f"the rigid mechanism reached a singular position (change point / toggle): "
                                     f"the closure Jacobian of the {mech.loop_name(row)} loses rank "
                                     f"(ratio {ratio:.1e} at tau = {tau_last:.6g}); {cause}",

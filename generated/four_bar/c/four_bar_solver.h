@@ -97,6 +97,7 @@ typedef struct four_bar_solver {
     int sp[36];
     double q[27], v[27], a[27], lam[3];
     double qs[27], vs[27], qe[27];
+    double q_last[27], t_last;   /* coordinates at the last good output */
 } four_bar_solver;
 
 /*

@@ -74,6 +74,7 @@ static const double inverted_slider_crank_x_GAMMA = 3.63783425274449573221;
 static const double inverted_slider_crank_x_ALPHA = 2.6810828736277521339;
 static const double inverted_slider_crank_x_BETA = 3.05043019924741056943;
 static const double inverted_slider_crank_x_SINGULAR_RATIO = 1e-07;
+static const double inverted_slider_crank_x_NEAR_SINGULAR_RATIO = 0.05;
 /* stands for inputs a model function does not read */
 static const double inverted_slider_crank_x_zeros[11] = { 0.0 };
 
@@ -288,20 +289,51 @@ static int inverted_slider_crank_x_closure_matrix(inverted_slider_crank_solver *
     return inverted_slider_crank_x_lu(s->sq, inverted_slider_crank_x_NL, s->sp);
 }
 
-/* smallest / largest pivot of the LU of the loop rows of phi_q in the dependent rigid
-   coordinates: an estimate of the distance to a singular position */
+/* smallest / largest singular value of the loop rows of phi_q in the dependent rigid
+   coordinates, the distance to a singular position (Mechanism.singular_ratio: the same
+   measure), by one-sided Jacobi rotations of the columns (Hestenes; NS is small) */
 static double inverted_slider_crank_x_singular_ratio(inverted_slider_crank_solver *s, double t, const double *q)
 {
-    int r, k;
+    const int n = inverted_slider_crank_x_NS;
+    double *a = s->sq;
     double lo = HUGE_VAL, hi = 0.0;
-    if (inverted_slider_crank_x_NS == 0) return 1.0;
+    int r, j, k, sweep;
+    if (n == 0) return 1.0;
     inverted_slider_crank_phi_jac(t, q, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, s->p, s->galg);
-    for (r = 0; r < inverted_slider_crank_x_NS; ++r) {
-        for (k = 0; k < inverted_slider_crank_x_NS; ++k) s->sq[r * inverted_slider_crank_x_NS + k] = s->galg[inverted_slider_crank_x_sing_rows[r] * inverted_slider_crank_x_NW + inverted_slider_crank_x_sing_cols[k]];
+    for (r = 0; r < n; ++r) {
+        for (k = 0; k < n; ++k) a[r * n + k] = s->galg[inverted_slider_crank_x_sing_rows[r] * inverted_slider_crank_x_NW + inverted_slider_crank_x_sing_cols[k]];
     }
-    if (inverted_slider_crank_x_lu(s->sq, inverted_slider_crank_x_NS, s->sp)) return 0.0;
-    for (k = 0; k < inverted_slider_crank_x_NS; ++k) {
-        double d = fabs(s->sq[k * inverted_slider_crank_x_NS + k]);
+    for (sweep = 0; sweep < 60; ++sweep) {
+        int rotated = 0;
+        for (j = 0; j < n - 1; ++j) {
+            for (k = j + 1; k < n; ++k) {
+                double alpha = 0.0, beta = 0.0, gamma = 0.0, zeta, tn, c, sn;
+                for (r = 0; r < n; ++r) {
+                    const double x = a[r * n + j], y = a[r * n + k];
+                    alpha += x * x;
+                    beta += y * y;
+                    gamma += x * y;
+                }
+                if (!(fabs(gamma) > DBL_EPSILON * sqrt(alpha * beta))) continue;
+                rotated = 1;
+                zeta = (beta - alpha) / (2.0 * gamma);
+                tn = fabs(zeta) > 1e150 ? 0.5 / zeta
+                     : (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta * zeta));
+                c = 1.0 / sqrt(1.0 + tn * tn);
+                sn = c * tn;
+                for (r = 0; r < n; ++r) {
+                    const double x = a[r * n + j], y = a[r * n + k];
+                    a[r * n + j] = c * x - sn * y;
+                    a[r * n + k] = sn * x + c * y;
+                }
+            }
+        }
+        if (!rotated) break;
+    }
+    for (k = 0; k < n; ++k) {
+        double d = 0.0;
+        for (r = 0; r < n; ++r) d += a[r * n + k] * a[r * n + k];
+        d = sqrt(d);
         if (d < lo) lo = d;
         if (d > hi) hi = d;
     }
@@ -459,6 +491,8 @@ static int inverted_slider_crank_x_quasi_static(inverted_slider_crank_solver *s,
     return 0;
 }
 
+static int inverted_slider_crank_x_beyond_range(inverted_slider_crank_solver *s);
+
 /* quasi-static start (Mechanism.quasi_static_start): under an angle driver the deformation
    rates are the quasi-static ones too, by central differences */
 static int inverted_slider_crank_x_quasi_static_start(inverted_slider_crank_solver *s, double t0, double *q, double *v)
@@ -466,6 +500,10 @@ static int inverted_slider_crank_x_quasi_static_start(inverted_slider_crank_solv
     double m3[3], h, dt;
     int k, side;
     if (inverted_slider_crank_x_quasi_static(s, t0, q, v)) return 1;
+    /* the quasi-static state within the range of the bar models (Mechanism.quasi_static_start) */
+    memcpy(s->q, q, sizeof(s->q));
+    s->t = t0;
+    if (inverted_slider_crank_x_beyond_range(s)) return 1;
     if (!inverted_slider_crank_x_ANGLE_DRIVER) return 0;
     inverted_slider_crank_x_driver_motion(s, t0, m3);
     if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */
@@ -773,12 +811,16 @@ static int inverted_slider_crank_x_beyond_range(inverted_slider_crank_solver *s)
     return 0;
 }
 
+/* at a good output (the start, each advance): the largest closure residual seen, and the
+   coordinates there (a failing step's diagnosis looks back at them) */
 static void inverted_slider_crank_x_record_closure(inverted_slider_crank_solver *s)
 {
     double clo[2];
     double m;
-    if (inverted_slider_crank_x_NCLO == 0) return;
     inverted_slider_crank_x_unpack(s->y, s->q, s->v);
+    memcpy(s->q_last, s->q, sizeof(s->q_last));
+    s->t_last = s->t;
+    if (inverted_slider_crank_x_NCLO == 0) return;
     inverted_slider_crank_closure(s->t, s->q, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, inverted_slider_crank_x_zeros, s->p, clo);
     m = inverted_slider_crank_x_max_abs(clo, inverted_slider_crank_x_NCLO);
     if (m > s->closure_max) s->closure_max = m;
@@ -860,14 +902,26 @@ int inverted_slider_crank_solver_advance(inverted_slider_crank_solver *s, double
     if (s->status) return s->status;
     if (!(fabs(t_out) <= DBL_MAX)) return inverted_slider_crank_x_bad_argument(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;
-    if (inverted_slider_crank_x_integrate(s, t_out)) return s->status;
+    if (inverted_slider_crank_x_integrate(s, t_out)) {
+        /* a step that failed where the closure was already near rank loss at the last good
+           output met a singular position (as simulate._lost reports it in Python) */
+        const double t_fail = s->t;
+        ratio = inverted_slider_crank_x_singular_ratio(s, s->t_last, s->q_last);
+        if (ratio < inverted_slider_crank_x_NEAR_SINGULAR_RATIO) {
+            return inverted_slider_crank_x_fail(s, t_fail, "the rigid mechanism reached a singular position (change point / toggle): "
+                               "the closure Jacobian loses rank (singular value ratio at the last output)", ratio,
+                               "the mechanism cannot be driven through this position; shorten the run or change "
+                               "the geometry or the driver");
+        }
+        return s->status;
+    }
     inverted_slider_crank_x_polish(s);
     inverted_slider_crank_x_rhs(s, s->t, s->y, s->f0);
     inverted_slider_crank_x_unpack(s->y, s->q, s->v);
     if (inverted_slider_crank_x_beyond_range(s)) return s->status;
     ratio = inverted_slider_crank_x_singular_ratio(s, s->t, s->q);
     if (ratio < inverted_slider_crank_x_SINGULAR_RATIO) {
-        return inverted_slider_crank_x_fail(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (pivot ratio)",
+        return inverted_slider_crank_x_fail(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (singular value ratio)",
                            ratio, "the mechanism cannot pass this position as driven; shorten t_end or change the geometry");
     }
     inverted_slider_crank_x_record_closure(s);

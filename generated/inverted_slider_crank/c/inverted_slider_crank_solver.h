@@ -97,6 +97,7 @@ typedef struct inverted_slider_crank_solver {
     int sp[20];
     double q[11], v[11], a[11], lam[3];
     double qs[11], vs[11], qe[11];
+    double q_last[11], t_last;   /* coordinates at the last good output */
 } inverted_slider_crank_solver;
 
 /*

@@ -97,6 +97,7 @@ typedef struct motor_arm_solver {
     int sp[6];
     double q[6], v[6], a[6], lam[1];
     double qs[6], vs[6], qe[6];
+    double q_last[6], t_last;   /* coordinates at the last good output */
 } motor_arm_solver;
 
 /*

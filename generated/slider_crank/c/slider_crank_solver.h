@@ -97,6 +97,7 @@ typedef struct slider_crank_solver {
     int sp[10];
     double q[4], v[4], a[4], lam[2];
     double qs[4], vs[4], qe[4];
+    double q_last[4], t_last;   /* coordinates at the last good output */
 } slider_crank_solver;
 
 /*

@@ -138,7 +138,6 @@ def c_context(scene, model, mech) -> dict:
         "quasi_static": bool(scene.initial.quasi_static),
         "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
         "rtol": c_double(sim.rtol), "atol": c_double(sim.atol),
-        "singular_ratio": c_double(POLICY.singular_ratio),
         "policy": _policy(),
         "amplitude_checks": amplitude_checks,
         "radau": radau.constants(),
