@@ -17,11 +17,14 @@ seed's rigid overhang (``joints.A.overhang = "rigid"``), and variations (overhan
 span functions, rtol) to show what the error is made of. Measured (Exudyn 1.13.6): the default is
 0.57 % (guide end) and 0.24 % (crank tip) off the reference, and stays there with more span,
 overhang or crank functions and a 100x tighter rtol: symgen's own converged solution, the rest a
-difference of formulation (its largest at the quick return, where the guide turns fastest and
-overhangs most; the guide's centrifugal tension, whose geometric stiffening ANCF keeps and
-symgen's axially rigid slot guide drops, is of that size: (phi'/omega)^2 / (2 pi^2 mu) ~ 0.6 %).
+difference of formulation, not pinned down (its largest at the quick return, ~210 deg, where the
+guide turns fastest and overhangs most; the guide's centrifugal tension, whose geometric
+stiffening the ANCF cable keeps and symgen's axially rigid slot guide drops, explains ~0.2 % of
+it in a frozen-contact quasi-static beam estimate there; damping is not it: effects.damping 0.005 and
+0.02 give 0.63 and 0.66 % against Exudyn 16 elements x 5760 steps/turn with the same damping).
 The rigid overhang is 66 % / 14 % off, one overhang function 25 % / 6 %. Six overhang functions
-(degree-7 monomials on the overhang) make IDAS fail at the first output step: ill-conditioned.
+(degree-7 monomials on the overhang) make IDAS fail within the first output step
+(IDA_CONV_FAIL; presumably the near-dependent monomials' ill-conditioned mass matrix).
 
 Error (as ``bench_exudyn``): per output max_t |y - y_ref| / max_t |y_ref| over two turns on the
 one-degree grid; acceptance (issue 12): guide far-end and crank-tip deflections within 2 % of
