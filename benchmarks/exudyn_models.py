@@ -11,6 +11,9 @@ from the same TOML files symgen runs, so both tools solve the same problem:
   four-bar's elastic crank is clamped to it at its root (position by a revolute joint, slope by a
   ``GenericJoint`` on the rigid markers of flywheel and cable);
 * pins are ``RevoluteJoint2D`` between node positions, the slider a coordinate constraint;
+* the inverted slider-crank's slot (``inverted_slider_crank``): an ``ObjectJointSliding2D``
+  (classical formulation) between the slider block (a point mass pinned to the crank's tip node)
+  and the guide's chain of cable elements, which is pinned to the ground at its pivot;
 * start: the rigid mechanism's assembly and velocities at t = 0, undeformed (symgen's default
   start, ``[initial]`` without deformation);
 * Kelvin-Voigt material damping, the scene's ``effects.damping`` (a ratio in units of 1/omega):
