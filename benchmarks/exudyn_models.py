@@ -11,6 +11,9 @@ from the same TOML files symgen runs, so both tools solve the same problem:
   four-bar's elastic crank is clamped to it at its root (position by a revolute joint, slope by a
   ``GenericJoint`` on the rigid markers of flywheel and cable);
 * pins are ``RevoluteJoint2D`` between node positions, the slider a coordinate constraint;
+* the inverted slider-crank's slot (``inverted_slider_crank``): an ``ObjectJointSliding2D``
+  (classical formulation) between the slider block (a point mass pinned to the crank's tip node)
+  and the guide's chain of cable elements, which is pinned to the ground at its pivot;
 * start: the rigid mechanism's assembly and velocities at t = 0, undeformed (symgen's default
   start, ``[initial]`` without deformation);
 * Kelvin-Voigt material damping, the scene's ``effects.damping`` (a ratio in units of 1/omega):
@@ -231,7 +234,81 @@ def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four
     return t, out, cpu
 
 
-MODELS = {"slider_crank_steel": slider_crank, "four_bar_steel": four_bar}
+def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
+                          name: str = "inverted_slider_crank_overhang", crank_elements: int | None = None):
+    """(t s, {"guide_end", "crank_tip", "guide_slope"}, CPU s of SolveDynamic) of the inverted
+    slider-crank scene ``name``: the guide (``elements`` cable elements) pinned to the ground at
+    its pivot P, the crank (``crank_elements``, default max(2, elements // 4)) clamped to the driven
+    flywheel, the slider block a point mass pinned to the crank's tip node, and the slot an
+    ``ObjectJointSliding2D`` (classical formulation) between the block and the guide's chain of
+    elements (``MarkerBodyCable2DCoordinates`` per element, a data node holding the current element
+    and the sliding coordinate). Outputs as symgen's: ``guide_end`` the far end's deflection from
+    the line pivot -> slider (+ to the left), ``crank_tip`` the crank tip's deflection in the
+    frame clamped to the shaft, ``guide_slope`` the angle of the guide's slope at the pivot from
+    that line (rad)."""
+    import exudyn as exu
+    from exudyn.itemInterface import (CoordinateConstraint, GenericJoint, MarkerBodyCable2DCoordinates,
+                                      MarkerBodyRigid, MarkerNodeCoordinate, MarkerNodePosition, NodeGenericData,
+                                      NodePoint2D, ObjectJointSliding2D, ObjectMassPoint2D, SensorNode)
+    raw = _scene(name)
+    bars = _bars(raw)
+    omega = raw["scene"]["omega"]
+    crank, guide = bars["crank"], bars["guide"]
+    joints = {j["name"]: j for j in raw["joints"]}
+    a, L = crank["length"], guide["length"]
+    P = np.array(joints["P"]["at"][0], dtype=float)
+    slider_mass = joints["A"].get("mass", 0.0)
+    # crank along +x at t = 0: the slider at A = (a, 0) moving at (0, a w); the guide along +x
+    # (P on the negative x axis), turning at w a / (a - P_x), the slider not sliding yet
+    assert abs(P[1]) < 1e-15 and P[0] < -a, "the guide's pivot on the negative x axis"
+    s0 = a - P[0]
+    w_guide = omega * a / s0
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    mass = sum(b["density"] * b["area"] * b["length"] for b in bars.values()) + slider_mass
+    _, fly, m_ground = _flywheel(mbs, omega, 1e8 * mass * L ** 2)
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    nc = crank_elements or max(2, elements // 4)
+    cnodes, celems = _ancf_bar(mbs, crank, (0.0, 0.0), 0.0, (0.0, 0.0), omega, nc, kv)
+    gnodes, gelems = _ancf_bar(mbs, guide, tuple(P), 0.0, (0.0, 0.0), w_guide, elements, kv)
+    m_fly = mbs.AddMarker(MarkerBodyRigid(bodyNumber=fly, localPosition=[0, 0, 0]))
+    m_root = mbs.AddMarker(MarkerBodyRigid(bodyNumber=celems[0], localPosition=[0, 0, 0]))
+    mbs.AddObject(GenericJoint(markerNumbers=[m_fly, m_root], constrainedAxes=[1, 1, 0, 0, 0, 1]))
+    for c in (0, 1):
+        mbs.AddObject(CoordinateConstraint(markerNumbers=[
+            m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnodes[0], coordinate=c))]))
+    # the slider block: a point mass pinned to the crank's tip node
+    block = mbs.AddNode(NodePoint2D(referenceCoordinates=[a, 0.0], initialVelocities=[0.0, a * omega]))
+    mbs.AddObject(ObjectMassPoint2D(mass=slider_mass, nodeNumber=block))
+    m_block = mbs.AddMarker(MarkerNodePosition(nodeNumber=block))
+    _pin_nodes(mbs, cnodes[-1], block)
+    # the slot
+    le = L / elements
+    cable_markers = [mbs.AddMarker(MarkerBodyCable2DCoordinates(bodyNumber=e)) for e in gelems]
+    first = min(int(s0 // le), elements - 1)
+    data = mbs.AddNode(NodeGenericData(initialCoordinates=[first, s0], numberOfDataCoordinates=2))
+    mbs.AddObject(ObjectJointSliding2D(markerNumbers=[m_block, cable_markers[first]], slidingMarkerNumbers=cable_markers,
+                                       slidingMarkerOffsets=[i * le for i in range(elements)], nodeNumber=data,
+                                       useClassicalFormulation=True))
+    sensors = {"root": _sensor(mbs, cnodes[0]), "tip": _sensor(mbs, cnodes[-1]), "block": _sensor(mbs, block),
+               "pivot": _sensor(mbs, gnodes[0]), "end": _sensor(mbs, gnodes[-1]),
+               "pivot_q": mbs.AddSensor(SensorNode(nodeNumber=gnodes[0], storeInternal=True,
+                                                   outputVariableType=exu.OutputVariableType.CoordinatesTotal))}
+    cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
+    d = {k: mbs.GetSensorStoredData(v) for k, v in sensors.items()}
+    t = d["root"][:, 0]
+    th = omega * t
+    R, T = d["root"][:, 1:3], d["tip"][:, 1:3]
+    tip = -np.sin(th) * (T[:, 0] - R[:, 0]) + np.cos(th) * (T[:, 1] - R[:, 1])
+    P0, C, E = d["pivot"][:, 1:3], d["block"][:, 1:3], d["end"][:, 1:3]
+    chord = np.arctan2(C[:, 1] - P0[:, 1], C[:, 0] - P0[:, 0])
+    slope = np.arctan2(d["pivot_q"][:, 4], d["pivot_q"][:, 3]) - chord
+    slope = (slope + np.pi) % (2 * np.pi) - np.pi
+    return t, {"guide_end": _chord_deflection(P0, E, C), "crank_tip": tip, "guide_slope": slope}, cpu
+
+
+MODELS = {"slider_crank_steel": slider_crank, "four_bar_steel": four_bar,
+          "inverted_slider_crank_overhang": inverted_slider_crank}
 
 
 def main(argv: list[str]) -> None:
