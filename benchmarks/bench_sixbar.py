@@ -189,7 +189,7 @@ def bench_variant(label: str, stiffness: float, base: list[str], stored: Path, r
         d = max(error({k: cols[k] for k in OUTPUTS}, ref).values())
         out.append(f"Stored reference `{stored.relative_to(ROOT)}` vs this run: {_pct(d)}.")
     # Exudyn's convergence
-    out += ["", "Exudyn's convergence (max over the outputs of the error against the reference; CPU s):", "",
+    out += ["", "Exudyn's convergence (max over the outputs of the error against the reference; CPU s of one run):", "",
             "| elements (coupler) \\ steps/turn | " + " | ".join(str(s) for s in STEPS) + " |",
             "|---|" + "---|" * len(STEPS)]
     ex_rows = []

@@ -43,7 +43,7 @@ def load_reference(path: pathlib.Path) -> tuple[dict, dict]:
     return meta, {n: data[:, i] for i, n in enumerate(names)}
 
 
-def _scene_outputs() -> list[str]:
+def _scene_outputs() -> tuple[list[str], float]:
     import tomllib
     with open(SCENE, "rb") as f:
         raw = tomllib.load(f)
