@@ -10,6 +10,13 @@ symgen with more functions, CPU times) is the ``sixbar`` section of benchmarks/R
 Acceptance (issue 12): symgen's default model (the scene's function counts and shape families)
 within 1 % of peak over two turns, at the scene's bending stiffness and at ten times it. The
 error: max over the outputs of max |y - y_ref| / max |y_ref| on the one-degree output grid.
+
+Measured (symgen with sines only, before the interior static corrections; 4 transverse
+functions per bar, rtol 1e-6, the scene's defaults): 0.68 % at the scene's stiffness, 0.40 % at
+ten times it; both pass, no xfail. More sines converge on symgen's own limit, which sits 0.16 %
+(0.05 % at 10x EI) from the reference (8 functions: 0.17 % / 0.08 %; 12: 0.16 % / 0.05 %): the
+formulations' difference (von Karman assumed modes vs geometrically exact ANCF cable), well below
+the 1 % target. The references' own convergence: 0.015 % and 0.039 % (header).
 """
 from __future__ import annotations
 
@@ -93,14 +100,10 @@ def _symgen_error(variant: str) -> float:
     return max(errs.values()), errs
 
 
-XFAIL = {}
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("variant", sorted(VARIANTS))
-def test_default_model_within_one_percent(variant, request):
-    """symgen's default model within 1 % of peak over two turns of the stored reference."""
-    if variant in XFAIL:
-        request.applymarker(pytest.mark.xfail(strict=True, reason=XFAIL[variant]))
+def test_default_model_within_one_percent(variant):
+    """symgen's default model within 1 % of peak over two turns of the stored reference
+    (measured before the static corrections: 0.68 % and 0.40 % at 10x EI)."""
     worst, errs = _symgen_error(variant)
     assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
