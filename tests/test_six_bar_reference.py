@@ -17,6 +17,9 @@ ten times it; both pass, no xfail. More sines converge on symgen's own limit, wh
 (0.05 % at 10x EI) from the reference (8 functions: 0.17 % / 0.08 %; 12: 0.16 % / 0.05 %): the
 formulations' difference (von Karman assumed modes vs geometrically exact ANCF cable), well below
 the 1 % target. The references' own convergence: 0.015 % and 0.039 % (header).
+With 2 transverse functions per bar (the count of the other steel benchmark scenes) sines alone
+are 4.1 % and 2.4 % off (3 functions: 0.69 % / 0.41 %): ``test_two_functions_within_one_percent``
+is a strict xfail that flips when the static correction functions at interior joints land.
 """
 from __future__ import annotations
 
@@ -79,10 +82,11 @@ def test_stored_reference_is_sound(variant):
     assert figure < 2e-3, f"the reference's own convergence {figure:.2e} is not below 0.2 %"
 
 
-def _symgen_error(variant: str) -> float:
+def _symgen_error(variant: str, extra: tuple = ()) -> tuple[float, dict]:
     from symgen.api import mechanism, results_table
     from symgen.run.simulate import simulate
     over, path, _ = VARIANTS[variant]
+    over = list(over) + list(extra)
     _, ref = load_reference(path)
     outputs, omega = _scene_outputs()
     mech = mechanism(SCENE, over)
@@ -96,6 +100,7 @@ def _symgen_error(variant: str) -> float:
     errs = {}
     for k in outputs:
         y = np.asarray(cols[k])[keep]
+        assert len(y) == len(ref[k])
         errs[k] = np.abs(y - ref[k]).max() / np.abs(ref[k]).max()
     return max(errs.values()), errs
 
@@ -106,4 +111,25 @@ def test_default_model_within_one_percent(variant):
     """symgen's default model within 1 % of peak over two turns of the stored reference
     (measured before the static corrections: 0.68 % and 0.40 % at 10x EI)."""
     worst, errs = _symgen_error(variant)
+    assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
+
+
+# Measured with sines only (before the interior static corrections): 2 transverse functions per
+# bar miss the mid-span pin's kink (sin(2 pi xi) vanishes at the pin; the next shape that carries
+# it is sin(3 pi xi)).
+TWO_FUNCTIONS = {"scene": 4.1e-2, "stiff10": 2.4e-2}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", [
+    pytest.param(v, marks=pytest.mark.xfail(
+        strict=True, reason=f"2 sines per bar miss the mid-span kink: {100 * e:.1f} % of peak (measured, "
+                            "sines only); flips when the static correction functions at interior joints land"))
+    for v, e in sorted(TWO_FUNCTIONS.items())])
+def test_two_functions_within_one_percent(variant):
+    """The same acceptance with 2 transverse functions per elastic bar (the function count of the
+    other steel benchmark scenes): sines alone are 4.1 % (2.4 % at 10x EI) off; with a static
+    correction at the mid-span pin the kink is carried by the basis and the error should fall
+    within 1 % (the xfail is strict: it flips)."""
+    worst, errs = _symgen_error(variant, [f"bodies.{b}.transverse_modes=2" for b in ELASTIC])
     assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
