@@ -21,11 +21,13 @@ from the same TOML files symgen runs, so both tools solve the same problem:
 * outputs (SI, m), the symgen output kinds of the scenes: ``chord_deflection`` at midspan
   (deflection of the midspan node from the chord between the bar's end nodes, + to the left of
   start -> end) and, for the cantilever crank, ``deflection`` at the tip (in the frame clamped
-  to the shaft).
+  to the shaft); the six-bar's coupler also at its quarter points (``chord_deflection`` at 0.25,
+  0.75; its ``deflection`` at 0.5 in symgen's pinned-pinned chord frame is the chord deflection).
 
 Run one model in a fresh process (the whole-process timing of ``bench_exudyn``)::
 
     python benchmarks/exudyn_models.py four_bar_steel 8 2000 2
+    python benchmarks/exudyn_models.py six_bar_steel 32 23040 2 10     # six-bar, 10x bending stiffness
 """
 from __future__ import annotations
 
