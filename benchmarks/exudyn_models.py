@@ -10,7 +10,10 @@ from the same TOML files symgen runs, so both tools solve the same problem:
   ~1e-9) pinned at the ground pivot; the slider-crank's rigid crank is that flywheel itself; the
   four-bar's elastic crank is clamped to it at its root (position by a revolute joint, slope by a
   ``GenericJoint`` on the rigid markers of flywheel and cable);
-* pins are ``RevoluteJoint2D`` between node positions, the slider a coordinate constraint;
+* pins are ``RevoluteJoint2D`` between node positions, the slider a coordinate constraint; the
+  six-bar's rigid rocker and rocker2 are ``ObjectRigidBody2D`` uniform bars (m l^2 / 12) pinned
+  at their end points, and its fifth bar is pinned to the ternary coupler's middle node (an
+  element count divisible by 4: quarter points and midspan are nodes);
 * the inverted slider-crank's slot (``inverted_slider_crank``): an ``ObjectJointSliding2D``
   (classical formulation) between the slider block (a point mass pinned to the crank's tip node)
   and the guide's chain of cable elements, which is pinned to the ground at its pivot;
@@ -21,11 +24,13 @@ from the same TOML files symgen runs, so both tools solve the same problem:
 * outputs (SI, m), the symgen output kinds of the scenes: ``chord_deflection`` at midspan
   (deflection of the midspan node from the chord between the bar's end nodes, + to the left of
   start -> end) and, for the cantilever crank, ``deflection`` at the tip (in the frame clamped
-  to the shaft).
+  to the shaft); the six-bar's coupler also at its quarter points (``chord_deflection`` at 0.25,
+  0.75; its ``deflection`` at 0.5 in symgen's pinned-pinned chord frame is the chord deflection).
 
 Run one model in a fresh process (the whole-process timing of ``bench_exudyn``)::
 
     python benchmarks/exudyn_models.py four_bar_steel 8 2000 2
+    python benchmarks/exudyn_models.py six_bar_steel 32 23040 2 10     # six-bar, 10x bending stiffness
 """
 from __future__ import annotations
 
@@ -307,14 +312,138 @@ def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
     return t, {"guide_end": _chord_deflection(P0, E, C), "crank_tip": tip, "guide_slope": slope}, cpu
 
 
-MODELS = {"slider_crank_steel": slider_crank, "four_bar_steel": four_bar,
+def _circle_intersection(P: np.ndarray, rp: float, Q: np.ndarray, rq: float, side: float) -> np.ndarray:
+    """The point X with |X - P| = rp, |X - Q| = rq, to the left of P -> Q (side = 1) or right (-1)."""
+    d = float(np.linalg.norm(Q - P))
+    x = (d * d + rp * rp - rq * rq) / (2 * d)
+    h = math.sqrt(rp * rp - x * x)
+    u = (Q - P) / d
+    return P + x * u + side * h * np.array([-u[1], u[0]])
+
+
+def _angle(v: np.ndarray) -> float:
+    return math.atan2(v[1], v[0])
+
+
+def _cross_solve(r1: np.ndarray, r2: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+    """(w1, w2) with w1 k x r1 - w2 k x r2 = v."""
+    M = np.array([[-r1[1], r2[1]], [r1[0], -r2[0]]])
+    return tuple(np.linalg.solve(M, v))
+
+
+def six_bar_geometry(raw: dict, crank_angle: float = 0.0) -> dict:
+    """Rigid assembly and velocities of the six-bar scene (``six_bar_steel``) at a crank angle:
+    points A, B, C (coupler midspan), D, pivots O4, O6, bar angles and angular velocities (crank
+    at omega). The branch: B to the left of A -> O4 (the open four-bar), D on the side of the line
+    C -> O6 that the scene's ``[initial] guess`` gives."""
+    bars = _bars(raw)
+    omega = raw["scene"]["omega"]
+    a, c, r, l5, r6 = (bars[k]["length"] for k in ("crank", "coupler", "rocker", "link", "rocker2"))
+    joints = {j["name"]: j for j in raw["joints"]}
+    xc = joints["C"]["at"][0]
+    O4 = np.array(joints["O4"]["at"][0], dtype=float)
+    O6 = np.array(joints["O6"]["at"][0], dtype=float)
+    A = a * np.array([math.cos(crank_angle), math.sin(crank_angle)])
+    B = _circle_intersection(A, c, O4, r, 1.0)
+    C = A + xc * (B - A)
+    g = raw["initial"]["guess"]
+    Dg = C + l5 * np.array([math.cos(g["link"]), math.sin(g["link"])])
+    u, v = O6 - C, Dg - C
+    side = 1.0 if u[0] * v[1] - u[1] * v[0] > 0 else -1.0
+    D = _circle_intersection(C, l5, O6, r6, side)
+    vA = omega * np.array([-A[1], A[0]])
+    w3, w4 = _cross_solve(B - A, B - O4, -vA)
+    vC = vA + w3 * np.array([-(C - A)[1], (C - A)[0]])
+    w5, w6 = _cross_solve(D - C, D - O6, -vC)
+    return {"A": A, "B": B, "C": C, "D": D, "O4": O4, "O6": O6, "vA": vA, "vC": vC,
+            "theta": {"coupler": _angle(B - A), "rocker": _angle(B - O4), "link": _angle(D - C), "rocker2": _angle(D - O6)},
+            "w": {"coupler": w3, "rocker": w4, "link": w5, "rocker2": w6}}
+
+
+def _rigid_bar(mbs, bar: dict, pivot: np.ndarray, angle: float, w: float):
+    """A rigid uniform bar from ``pivot`` (at rest) along ``angle`` turning at w: (body, marker at
+    the pivot end, marker at the far end)."""
+    from exudyn.itemInterface import MarkerBodyPosition, NodeRigidBody2D, ObjectRigidBody2D
+    length = bar["length"]
+    m = bar["mass_per_length"] * length
+    e = np.array([math.cos(angle), math.sin(angle)])
+    G = pivot + 0.5 * length * e
+    vG = w * 0.5 * length * np.array([-e[1], e[0]])
+    node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[G[0], G[1], angle], initialVelocities=[vG[0], vG[1], w]))
+    body = mbs.AddObject(ObjectRigidBody2D(mass=m, inertia=m * length ** 2 / 12, nodeNumber=node))
+    return (body, mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[-0.5 * length, 0, 0])),
+            mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[0.5 * length, 0, 0])))
+
+
+SIX_BAR_ELASTIC = ("coupler", "link")
+
+
+def six_bar(elements: int, steps_per_turn: int, turns: float, name: str = "six_bar_steel", stiffness: float = 1.0):
+    """(t s, {"coupler_q1", "coupler_mid", "coupler_q3", "link_mid": m}, CPU s of SolveDynamic) of
+    the six-bar scene ``name`` (rigid crank, rocker and rocker2; elastic coupler, the ternary link,
+    and link, pinned at the coupler's midspan). ``elements`` on the coupler (a multiple of 4: its
+    quarter points and midspan are nodes), ``elements // 2`` on the link (at least 2); the fifth
+    bar's first node is pinned to the coupler's middle node. ``stiffness`` multiplies both elastic
+    bars' second moment (the ten-times-stiffer variant: 10)."""
+    import exudyn as exu
+    from exudyn.itemInterface import MarkerBodyPosition, MarkerNodePosition, ObjectGround, RevoluteJoint2D
+    assert elements % 4 == 0, "the coupler's quarter points must be nodes"
+    raw = _scene(name)
+    bars = _bars(raw)
+    for k in SIX_BAR_ELASTIC:
+        bars[k] = {**bars[k], "inertia": bars[k]["inertia"] * stiffness}
+    omega = raw["scene"]["omega"]
+    geo = six_bar_geometry(raw)
+    th, w = geo["theta"], geo["w"]
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    mass = sum(b.get("mass_per_length", b.get("density", 0.0) * b.get("area", 0.0)) * b["length"] for b in bars.values())
+    _, fly, _ = _flywheel(mbs, omega, 1e8 * mass * bars["coupler"]["length"] ** 2)
+    m_crank_tip = mbs.AddMarker(MarkerBodyPosition(bodyNumber=fly, localPosition=[bars["crank"]["length"], 0, 0]))
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    coupler, _ = _ancf_bar(mbs, bars["coupler"], geo["A"], th["coupler"], geo["vA"], w["coupler"], elements, kv)
+    n_link = max(2, elements // 2)
+    n_link += n_link % 2
+    link, _ = _ancf_bar(mbs, bars["link"], geo["C"], th["link"], geo["vC"], w["link"], n_link, kv)
+    _, m_r0, m_r1 = _rigid_bar(mbs, bars["rocker"], geo["O4"], th["rocker"], w["rocker"])
+    _, m_s0, m_s1 = _rigid_bar(mbs, bars["rocker2"], geo["O6"], th["rocker2"], w["rocker2"])
+    ground = mbs.AddObject(ObjectGround())
+
+    def node_marker(n):
+        return mbs.AddMarker(MarkerNodePosition(nodeNumber=n))
+
+    def ground_marker(P):
+        return mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=[P[0], P[1], 0]))
+
+    for m0, m1 in ((m_crank_tip, node_marker(coupler[0])),               # A
+                   (node_marker(coupler[-1]), m_r1),                      # B
+                   (ground_marker(geo["O4"]), m_r0),                      # O4
+                   (node_marker(coupler[elements // 2]), node_marker(link[0])),   # C: the coupler's middle node
+                   (node_marker(link[-1]), m_s1),                         # D
+                   (ground_marker(geo["O6"]), m_s0)):                     # O6
+        mbs.AddObject(RevoluteJoint2D(markerNumbers=[m0, m1]))
+    q = elements // 4
+    sensors = {"coupler": [_sensor(mbs, coupler[i]) for i in (0, q, 2 * q, 3 * q, 4 * q)],
+               "link": [_sensor(mbs, link[i]) for i in (0, n_link // 2, n_link)]}
+    cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
+    cp = [mbs.GetSensorStoredData(s) for s in sensors["coupler"]]
+    lk = [mbs.GetSensorStoredData(s)[:, 1:3] for s in sensors["link"]]
+    t = cp[0][:, 0]
+    P = [d[:, 1:3] for d in cp]
+    out = {"coupler_q1": _chord_deflection(P[0], P[1], P[4]), "coupler_mid": _chord_deflection(P[0], P[2], P[4]),
+           "coupler_q3": _chord_deflection(P[0], P[3], P[4]), "link_mid": _chord_deflection(*lk)}
+    return t, out, cpu
+
+
+MODELS = {"slider_crank_steel": slider_crank, "four_bar_steel": four_bar, "six_bar_steel": six_bar,
           "inverted_slider_crank_overhang": inverted_slider_crank}
 
 
 def main(argv: list[str]) -> None:
     """``NAME ELEMENTS STEPS_PER_TURN TURNS``: build, solve, print the peak of each output."""
     name, elements, steps, turns = argv[0], int(argv[1]), int(argv[2]), float(argv[3])
-    t, out, cpu = MODELS[name](elements, steps, turns, name)
+    kw = {"stiffness": float(argv[4])} if len(argv) > 4 else {}      # six_bar: the bending-stiffness factor
+    t, out, cpu = MODELS[name](elements, steps, turns, name, **kw)
     print(" ".join(f"{k}={np.abs(v).max():.6e}" for k, v in out.items()), f"cpu={cpu:.4f}")
 
 

@@ -27,7 +27,7 @@ sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
 SECTIONS = ["examples", "derivation", "tolerances", "faster", "backends", "integrators", "exudyn", "exudyn_seed", "c", "hard",
-            "spinup", "overhang"]
+            "spinup", "overhang", "sixbar"]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 
 

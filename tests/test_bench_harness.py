@@ -97,3 +97,26 @@ def test_four_bar_rigid_start_closes_the_loop_and_its_velocities():
     assert vB == pytest.approx(w4 * np.array([-(Bp - O4)[1], (Bp - O4)[0]]), rel=1e-6)
     assert vB == pytest.approx(vA + w3 * np.array([-(Bp - A)[1], (Bp - A)[0]]), rel=1e-6)
     assert math.atan2(*(Bp - A)[::-1]) == pytest.approx(th3)
+
+
+def test_six_bar_rigid_start_closes_both_loops_and_its_velocities():
+    """The Exudyn six-bar's start (benchmarks/exudyn_models.six_bar_geometry): both loops closed,
+    the branch of the scene's [initial] guess, velocities the assembly's time derivative."""
+    raw = E._scene("six_bar_steel")
+    bars = E._bars(raw)
+    g = E.six_bar_geometry(raw)
+    length = {k: bars[k]["length"] for k in bars}
+    A, Bp, C, D, O4, O6 = (g[k] for k in ("A", "B", "C", "D", "O4", "O6"))
+    assert np.linalg.norm(A) == pytest.approx(length["crank"])
+    assert np.linalg.norm(Bp - A) == pytest.approx(length["coupler"])
+    assert np.linalg.norm(Bp - O4) == pytest.approx(length["rocker"])
+    assert C == pytest.approx((A + Bp) / 2)                               # the ternary link's midspan
+    assert np.linalg.norm(D - C) == pytest.approx(length["link"])
+    assert np.linalg.norm(D - O6) == pytest.approx(length["rocker2"])
+    for k, guess in raw["initial"]["guess"].items():                     # the scene's branch
+        assert abs(g["theta"][k] - guess) < 0.05, k
+    omega, h = raw["scene"]["omega"], 1e-7
+    plus, minus = E.six_bar_geometry(raw, h), E.six_bar_geometry(raw, -h)
+    for k in ("coupler", "rocker", "link", "rocker2"):
+        assert (plus["theta"][k] - minus["theta"][k]) / (2 * h) * omega == pytest.approx(g["w"][k], rel=1e-6)
+    assert (plus["C"] - minus["C"]) / (2 * h) * omega == pytest.approx(g["vC"], rel=1e-6)

@@ -1,0 +1,135 @@
+"""Issue 12, Deliver 4: the six-bar with an elastic ternary link pinned at mid-span
+(``benchmarks/scenes/six_bar_steel.toml``) against an independent converged reference.
+
+The references are Exudyn runs (ANCF cable elements, ``benchmarks/exudyn_models.six_bar``)
+stored as CSV in ``tests/data/`` (header: elements, steps, Exudyn version, date and the
+reference's own convergence figure), written by ``python benchmarks/bench_sixbar.py
+--write-reference``; Exudyn is not needed to run these tests. The study (Exudyn's convergence,
+symgen with more functions, CPU times) is the ``sixbar`` section of benchmarks/RESULTS.md.
+
+Acceptance (issue 12): symgen's default model (the scene's function counts and shape families)
+within 1 % of peak over two turns, at the scene's bending stiffness and at ten times it. The
+error: max over the outputs of max |y - y_ref| / max |y_ref| on the one-degree output grid.
+
+Measured (symgen with sines only, before the interior static corrections; 4 transverse
+functions per bar, rtol 1e-6, the scene's defaults): 0.68 % at the scene's stiffness, 0.40 % at
+ten times it; both pass, no xfail. More sines converge on symgen's own limit, which sits 0.16 %
+(0.05 % at 10x EI) from the reference (8 functions: 0.17 % / 0.08 %; 12: 0.16 % / 0.05 %): the
+formulations' difference (von Karman assumed modes vs geometrically exact ANCF cable), well below
+the 1 % target. The references' own convergence: 0.015 % and 0.039 % (header).
+With 2 transverse functions per bar (the count of the other steel benchmark scenes) sines alone
+are 4.1 % and 2.4 % off (3 functions: 0.69 % / 0.41 %): ``test_two_functions_within_one_percent``
+is a strict xfail that flips when the static correction functions at interior joints land.
+"""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCENE = ROOT / "benchmarks" / "scenes" / "six_bar_steel.toml"
+DATA = ROOT / "tests" / "data"
+ELASTIC = ("coupler", "link")
+INERTIA = 2.25e-11
+VARIANTS = {"scene": ([], DATA / "six_bar_reference.csv", 1.0),
+            "stiff10": ([f"bodies.{b}.inertia={10 * INERTIA:g}" for b in ELASTIC],
+                        DATA / "six_bar_reference_stiff10.csv", 10.0)}
+
+
+def load_reference(path: pathlib.Path) -> tuple[dict, dict]:
+    """({key: value} of the '# key = value' header lines, {column: array})."""
+    lines = path.read_text().splitlines()
+    meta = {}
+    for line in lines:
+        if line.startswith("#") and "=" in line:
+            k, v = line[1:].split("#")[0].split("=", 1)
+            meta[k.strip()] = v.strip()
+    first = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[first].split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=first + 1, ndmin=2)
+    return meta, {n: data[:, i] for i, n in enumerate(names)}
+
+
+def _scene_outputs() -> tuple[list[str], float]:
+    import tomllib
+    with open(SCENE, "rb") as f:
+        raw = tomllib.load(f)
+    return list(raw["outputs"]), float(raw["scene"]["omega"])
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_stored_reference_is_sound(variant):
+    """The stored reference loads, has the scene's output columns on the one-degree grid over
+    two turns, and its own convergence (half the elements, half the steps) is below 0.2 %."""
+    _, path, factor = VARIANTS[variant]
+    meta, cols = load_reference(path)
+    outputs, omega = _scene_outputs()
+    assert list(cols) == ["t"] + outputs
+    n = 721
+    assert all(len(v) == n for v in cols.values())
+    np.testing.assert_allclose(cols["t"] * omega, np.arange(n) * math.pi / 180, rtol=0, atol=1e-9)
+    for k in outputs:
+        assert np.all(np.isfinite(cols[k])) and np.abs(cols[k]).max() > 0
+    for key in ("exudyn_version", "date", "elements_coupler", "elements_link", "steps_per_turn"):
+        assert key in meta, key
+    assert float(meta["stiffness_factor"]) == factor
+    assert int(meta["elements_coupler"]) % 4 == 0        # quarter points and midspan are nodes
+    figure = float(meta["convergence"])
+    assert figure == max(float(meta["convergence_elements"]), float(meta["convergence_steps"]))
+    assert figure < 2e-3, f"the reference's own convergence {figure:.2e} is not below 0.2 %"
+
+
+def _symgen_error(variant: str, extra: tuple = ()) -> tuple[float, dict]:
+    from symgen.api import mechanism, results_table
+    from symgen.run.simulate import simulate
+    over, path, _ = VARIANTS[variant]
+    over = list(over) + list(extra)
+    _, ref = load_reference(path)
+    outputs, omega = _scene_outputs()
+    mech = mechanism(SCENE, over)
+    res = simulate(mech)
+    assert res.complete, res.failure
+    cols = results_table(res, mech.scene)                 # SI: t in s, deflections in m
+    deg = np.asarray(cols["t"]) * omega / (math.pi / 180)
+    idx = np.rint(deg).astype(int)
+    keep = np.abs(deg - idx) < 1e-6
+    assert np.array_equal(idx[keep], np.arange(721))
+    errs = {}
+    for k in outputs:
+        y = np.asarray(cols[k])[keep]
+        assert len(y) == len(ref[k])
+        errs[k] = np.abs(y - ref[k]).max() / np.abs(ref[k]).max()
+    return max(errs.values()), errs
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_default_model_within_one_percent(variant):
+    """symgen's default model within 1 % of peak over two turns of the stored reference
+    (measured before the static corrections: 0.68 % and 0.40 % at 10x EI)."""
+    worst, errs = _symgen_error(variant)
+    assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
+
+
+# Measured with sines only (before the interior static corrections): 2 transverse functions per
+# bar miss the mid-span pin's kink (sin(2 pi xi) vanishes at the pin; the next shape that carries
+# it is sin(3 pi xi)).
+TWO_FUNCTIONS = {"scene": 4.1e-2, "stiff10": 2.4e-2}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant", [
+    pytest.param(v, marks=pytest.mark.xfail(
+        strict=True, reason=f"2 sines per bar miss the mid-span kink: {100 * e:.1f} % of peak (measured, "
+                            "sines only); flips when the static correction functions at interior joints land"))
+    for v, e in sorted(TWO_FUNCTIONS.items())])
+def test_two_functions_within_one_percent(variant):
+    """The same acceptance with 2 transverse functions per elastic bar (the function count of the
+    other steel benchmark scenes): sines alone are 4.1 % (2.4 % at 10x EI) off; with a static
+    correction at the mid-span pin the kink is carried by the basis and the error should fall
+    within 1 % (the xfail is strict: it flips)."""
+    worst, errs = _symgen_error(variant, [f"bodies.{b}.transverse_modes=2" for b in ELASTIC])
+    assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
