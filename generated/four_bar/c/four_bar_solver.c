@@ -488,28 +488,112 @@ static int four_bar_x_quasi_static_start(four_bar_solver *s, double t0, double *
 }
 
 /* ------------------------------------------------------------------ Radau IIA */
-static int four_bar_x_factor(four_bar_solver *s, double h)
+/* The Newton matrices E = c M - dF/dy (M = diag(I, 0); c = GAMMA / h real, (ALPHA + i BETA) / h
+   complex) are solved by block elimination on y = [x; z]: with g_z the algebraic block of dF/dy
+   (regular: the DAE has index 1), K = g_z^-1 g_x and jred = f_x - f_z K (the Jacobian of the
+   reduced ODE x' = f(x, z(x))),
+       (c I - jred) dx = r_x - f_z g_z^-1 r_z,    dz = -g_z^-1 r_z - K dx.
+   g_z is factored once per Jacobian and is real for both matrices; a new step size costs only
+   the NX x NX LU of c I - jred (real and complex). */
+static void four_bar_x_reduce(four_bar_solver *s)
 {
-    const int ny = four_bar_x_NY;
-    const double fac1 = four_bar_x_GAMMA / h, alphn = four_bar_x_ALPHA / h, betan = four_bar_x_BETA / h;
-    int i, j;
-    for (i = 0; i < ny; ++i) {
-        for (j = 0; j < ny; ++j) {
-            s->e1[i * ny + j] = -s->jac[i * ny + j];
-            s->e2r[i * ny + j] = -s->jac[i * ny + j];
-            s->e2i[i * ny + j] = 0.0;
+    const int ny = four_bar_x_NY, nx = four_bar_x_NX, nz = four_bar_x_NZ;
+    int i, j, k;
+    for (i = 0; i < nz; ++i) {
+        for (j = 0; j < nz; ++j) s->gzz[i * nz + j] = s->jac[(nx + i) * ny + nx + j];
+    }
+    s->gzz_singular = four_bar_x_lu(s->gzz, nz, s->pivz) != 0;
+    if (s->gzz_singular) return;
+    for (j = 0; j < nx; ++j) {
+        for (i = 0; i < nz; ++i) s->uz[i] = s->jac[(nx + i) * ny + j];
+        four_bar_x_lu_solve(s->gzz, nz, s->pivz, s->uz);
+        for (i = 0; i < nz; ++i) s->kzx[i * nx + j] = s->uz[i];
+    }
+    for (i = 0; i < nx; ++i) {
+        for (j = 0; j < nx; ++j) s->jred[i * nx + j] = s->jac[i * ny + j];
+        for (k = 0; k < nz; ++k) {
+            const double fz = s->jac[i * ny + nx + k];
+            if (fz != 0.0) {
+                for (j = 0; j < nx; ++j) s->jred[i * nx + j] -= fz * s->kzx[k * nx + j];
+            }
         }
     }
-    for (i = 0; i < four_bar_x_NX; ++i) {
-        s->e1[i * ny + i] += fac1;
-        s->e2r[i * ny + i] += alphn;
-        s->e2i[i * ny + i] += betan;
+}
+
+static int four_bar_x_factor(four_bar_solver *s, double h)
+{
+    const int nx = four_bar_x_NX;
+    const double fac1 = four_bar_x_GAMMA / h, alphn = four_bar_x_ALPHA / h, betan = four_bar_x_BETA / h;
+    int i, j;
+    if (s->gzz_singular) return 1;
+    for (i = 0; i < nx; ++i) {
+        for (j = 0; j < nx; ++j) {
+            s->e1[i * nx + j] = -s->jred[i * nx + j];
+            s->e2r[i * nx + j] = -s->jred[i * nx + j];
+            s->e2i[i * nx + j] = 0.0;
+        }
+        s->e1[i * nx + i] += fac1;
+        s->e2r[i * nx + i] += alphn;
+        s->e2i[i * nx + i] += betan;
     }
     s->n_factorizations++;
     s->h_lu = h;
-    if (four_bar_x_lu(s->e1, ny, s->piv1)) return 1;
-    if (four_bar_x_clu(s->e2r, s->e2i, ny, s->piv2)) return 1;
+    if (four_bar_x_lu(s->e1, nx, s->piv1)) return 1;
+    if (four_bar_x_clu(s->e2r, s->e2i, nx, s->piv2)) return 1;
     return 0;
+}
+
+/* d := E1^-1 d (real Newton matrix) */
+static void four_bar_x_solve1(four_bar_solver *s, double *d)
+{
+    const int ny = four_bar_x_NY, nx = four_bar_x_NX, nz = four_bar_x_NZ;
+    double *x = d, *z = d + nx, *u = s->uz;
+    int i, k;
+    memcpy(u, z, sizeof(s->uz));
+    four_bar_x_lu_solve(s->gzz, nz, s->pivz, u);
+    for (i = 0; i < nx; ++i) {
+        double sum = x[i];
+        for (k = 0; k < nz; ++k) sum -= s->jac[i * ny + nx + k] * u[k];
+        x[i] = sum;
+    }
+    four_bar_x_lu_solve(s->e1, nx, s->piv1, x);
+    for (k = 0; k < nz; ++k) {
+        double sum = -u[k];
+        for (i = 0; i < nx; ++i) sum -= s->kzx[k * nx + i] * x[i];
+        z[k] = sum;
+    }
+}
+
+/* (dr + i di) := E2^-1 (dr + i di) (complex Newton matrix) */
+static void four_bar_x_solve2(four_bar_solver *s, double *dr, double *di)
+{
+    const int ny = four_bar_x_NY, nx = four_bar_x_NX, nz = four_bar_x_NZ;
+    double *ur = s->uz, *ui = s->uzi;
+    int i, k;
+    memcpy(ur, dr + nx, sizeof(s->uz));
+    memcpy(ui, di + nx, sizeof(s->uzi));
+    four_bar_x_lu_solve(s->gzz, nz, s->pivz, ur);
+    four_bar_x_lu_solve(s->gzz, nz, s->pivz, ui);
+    for (i = 0; i < nx; ++i) {
+        double sr = dr[i], si = di[i];
+        for (k = 0; k < nz; ++k) {
+            const double fz = s->jac[i * ny + nx + k];
+            sr -= fz * ur[k];
+            si -= fz * ui[k];
+        }
+        dr[i] = sr;
+        di[i] = si;
+    }
+    four_bar_x_clu_solve(s->e2r, s->e2i, nx, s->piv2, dr, di);
+    for (k = 0; k < nz; ++k) {
+        double sr = -ur[k], si = -ui[k];
+        for (i = 0; i < nx; ++i) {
+            sr -= s->kzx[k * nx + i] * dr[i];
+            si -= s->kzx[k * nx + i] * di[i];
+        }
+        dr[nx + k] = sr;
+        di[nx + k] = si;
+    }
 }
 
 static double four_bar_x_rms(const double *x, const double *scal, int n, int reps)
@@ -549,6 +633,7 @@ static int four_bar_x_integrate(four_bar_solver *s, double t_out)
         }
         if (s->need_jac) {
             four_bar_x_rhs_jac(s, s->t, s->y);
+            four_bar_x_reduce(s);
             s->need_jac = 0;
             s->jac_current = 1;
             s->h_lu = -1.0;
@@ -618,8 +703,8 @@ static int four_bar_x_integrate(four_bar_solver *s, double t_out)
                     s->dw[2 * ny + j] = g3;
                 }
             }
-            four_bar_x_lu_solve(s->e1, ny, s->piv1, s->dw);
-            four_bar_x_clu_solve(s->e2r, s->e2i, ny, s->piv2, s->dw + ny, s->dw + 2 * ny);
+            four_bar_x_solve1(s, s->dw);
+            four_bar_x_solve2(s, s->dw + ny, s->dw + 2 * ny);
             newt++;
             dyno = four_bar_x_rms(s->dw, s->scal, ny, 3);
             if (!(dyno <= DBL_MAX)) { outcome = 2; break; }
@@ -668,13 +753,13 @@ static int four_bar_x_integrate(four_bar_solver *s, double t_out)
         }
         /* the local error test covers the differential components only (like the Python
            path's IDAS with suppress_algebraic): z follows x through the algebraic equations */
-        four_bar_x_lu_solve(s->e1, ny, s->piv1, s->tmp);
+        four_bar_x_solve1(s, s->tmp);
         err = fmax(four_bar_x_rms(s->tmp, s->scal, four_bar_x_NX > 0 ? four_bar_x_NX : ny, 1), 1e-10);
         if (err >= 1.0 && (s->first || s->reject)) {
             for (j = 0; j < ny; ++j) s->tmp[j] += s->y0[j];
             four_bar_x_rhs(s, s->t, s->tmp, s->tmp3);
             for (j = 0; j < ny; ++j) s->tmp[j] = s->tmp3[j] + s->tmp2[j];
-            four_bar_x_lu_solve(s->e1, ny, s->piv1, s->tmp);
+            four_bar_x_solve1(s, s->tmp);
             err = fmax(four_bar_x_rms(s->tmp, s->scal, four_bar_x_NX > 0 ? four_bar_x_NX : ny, 1), 1e-10);
         }
         if (!(err <= DBL_MAX)) err = 1e6;

@@ -88,8 +88,13 @@ typedef struct four_bar_solver {
     int first, reject, jac_current, need_jac, have_cont;
     double y0[84], f0[84], scal[84], ymax[84];
     double z[252], w[252], f[252], dw[252], cont[252];
-    double jac[7056], e1[7056], e2r[7056], e2i[7056];
-    int piv1[84], piv2[84];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NX x NX Schur complements of the Newton matrices (once per step size) */
+    double jac[7056], gzz[1296], kzx[1728], jred[2304];
+    double e1[2304], e2r[2304], e2i[2304];
+    int pivz[36], piv1[48], piv2[48], gzz_singular;
+    double uz[36], uzi[36];
     double galg[3024];
     double tmp[84], tmp2[84], tmp3[84];
     double sq[1296];

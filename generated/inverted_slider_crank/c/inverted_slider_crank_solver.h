@@ -88,8 +88,13 @@ typedef struct inverted_slider_crank_solver {
     int first, reject, jac_current, need_jac, have_cont;
     double y0[36], f0[36], scal[36], ymax[36];
     double z[108], w[108], f[108], dw[108], cont[108];
-    double jac[1296], e1[1296], e2r[1296], e2i[1296];
-    int piv1[36], piv2[36];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NX x NX Schur complements of the Newton matrices (once per step size) */
+    double jac[1296], gzz[400], kzx[320], jred[256];
+    double e1[256], e2r[256], e2i[256];
+    int pivz[20], piv1[16], piv2[16], gzz_singular;
+    double uz[20], uzi[20];
     double galg[720];
     double tmp[36], tmp2[36], tmp3[36];
     double sq[400];

@@ -88,8 +88,13 @@ typedef struct motor_arm_solver {
     int first, reject, jac_current, need_jac, have_cont;
     double y0[18], f0[18], scal[18], ymax[18];
     double z[54], w[54], f[54], dw[54], cont[54];
-    double jac[324], e1[324], e2r[324], e2i[324];
-    int piv1[18], piv2[18];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NX x NX Schur complements of the Newton matrices (once per step size) */
+    double jac[324], gzz[36], kzx[72], jred[144];
+    double e1[144], e2r[144], e2i[144];
+    int pivz[6], piv1[12], piv2[12], gzz_singular;
+    double uz[6], uzi[6];
     double galg[108];
     double tmp[18], tmp2[18], tmp3[18];
     double sq[36];

@@ -88,8 +88,13 @@ typedef struct slider_crank_solver {
     int first, reject, jac_current, need_jac, have_cont;
     double y0[14], f0[14], scal[14], ymax[14];
     double z[42], w[42], f[42], dw[42], cont[42];
-    double jac[196], e1[196], e2r[196], e2i[196];
-    int piv1[14], piv2[14];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NX x NX Schur complements of the Newton matrices (once per step size) */
+    double jac[196], gzz[100], kzx[40], jred[16];
+    double e1[16], e2r[16], e2i[16];
+    int pivz[10], piv1[4], piv2[4], gzz_singular;
+    double uz[10], uzi[10];
     double galg[140];
     double tmp[14], tmp2[14], tmp3[14];
     double sq[100];
