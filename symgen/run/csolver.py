@@ -58,13 +58,16 @@ def templates_digest() -> str:
 
 
 def _key(scene, comp: compiled.Compiler) -> dict:
-    """What the executable is made from. ``model``: the derived model's structure key (derivation
+    """What the executable is made from (``radau``: the method's and the step control's constants,
+    rendered into the C from symgen/emit/c/radau.py). ``model``: the derived model's structure key (derivation
     version, per-bar axial treatment, ...): the same scene file derives another model when
     symgen's rules change, and an executable of the old model must not be loaded for it."""
+    from ..emit.c import radau
     from ..emit.c.build import STRICT_C
     from ..structure import structure_key, structure_of
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "scene": scene_key(scene),
             "model": structure_key(structure_of(scene)), "templates": templates_digest(),
+            "radau": json.loads(json.dumps(radau.constants())),   # as the manifest holds it (lists)
             "compiler": comp.identity(), "strict": list(STRICT_C)}
 
 
