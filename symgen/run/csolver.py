@@ -30,6 +30,7 @@ import numpy as np
 
 from .. import __version__, cache
 from ..errors import Interrupted, SceneError, SimulationError
+from ..policy import POLICY
 from . import compiled, interrupt
 from .mechanism import Mechanism
 from .simulate import SimResult
@@ -60,13 +61,18 @@ def templates_digest() -> str:
 
 
 def _key(scene, comp: compiled.Compiler) -> dict:
-    """What the executable is made from. ``model``: the derived model's structure key (derivation
+    """What the executable is made from (``radau``: the method's and the step control's constants,
+    rendered into the C from symgen/emit/c/radau.py; ``policy``: the solver policy's tolerances
+    and limits, from symgen/policy.py). ``model``: the derived model's structure key (derivation
     version, per-bar axial treatment, ...): the same scene file derives another model when
     symgen's rules change, and an executable of the old model must not be loaded for it."""
+    from ..emit.c import radau
     from ..emit.c.build import STRICT_C
     from ..structure import structure_key, structure_of
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "scene": scene_key(scene),
             "model": structure_key(structure_of(scene)), "templates": templates_digest(),
+            "radau": json.loads(json.dumps(radau.constants())),   # as the manifest holds it (lists)
+            "policy": POLICY.as_dict(),
             "compiler": comp.identity(), "strict": list(STRICT_C)}
 
 

@@ -85,11 +85,18 @@ typedef struct four_bar_solver {
     char message[640];
     /* work */
     double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont;
+    int first, reject, jac_current, need_jac, have_cont, have_jac;
     double y0[84], f0[84], scal[84], ymax[84];
     double z[252], w[252], f[252], dw[252], cont[252];
-    double jac[7056], e1[7056], e2r[7056], e2i[7056];
-    int piv1[84], piv2[84];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
+    double jac[7056], gzz[1296], kzx[1728], jred[2304];
+    double e1[576], e2r[576], e2i[576];
+    int pivz[36], piv1[24], piv2[24], gzz_singular;
+    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
+    int zrow[37], zmid[36], zcol[1296];
+    double uz[36], uzi[36];
     double galg[3024];
     double tmp[84], tmp2[84], tmp3[84];
     double sq[1296];

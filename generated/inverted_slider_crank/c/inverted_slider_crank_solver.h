@@ -85,11 +85,18 @@ typedef struct inverted_slider_crank_solver {
     char message[640];
     /* work */
     double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont;
+    int first, reject, jac_current, need_jac, have_cont, have_jac;
     double y0[36], f0[36], scal[36], ymax[36];
     double z[108], w[108], f[108], dw[108], cont[108];
-    double jac[1296], e1[1296], e2r[1296], e2i[1296];
-    int piv1[36], piv2[36];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
+    double jac[1296], gzz[400], kzx[320], jred[256];
+    double e1[64], e2r[64], e2i[64];
+    int pivz[20], piv1[8], piv2[8], gzz_singular;
+    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
+    int zrow[21], zmid[20], zcol[400];
+    double uz[20], uzi[20];
     double galg[720];
     double tmp[36], tmp2[36], tmp3[36];
     double sq[400];

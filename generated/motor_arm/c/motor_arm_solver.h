@@ -85,11 +85,18 @@ typedef struct motor_arm_solver {
     char message[640];
     /* work */
     double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont;
+    int first, reject, jac_current, need_jac, have_cont, have_jac;
     double y0[18], f0[18], scal[18], ymax[18];
     double z[54], w[54], f[54], dw[54], cont[54];
-    double jac[324], e1[324], e2r[324], e2i[324];
-    int piv1[18], piv2[18];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
+    double jac[324], gzz[36], kzx[72], jred[144];
+    double e1[36], e2r[36], e2i[36];
+    int pivz[6], piv1[6], piv2[6], gzz_singular;
+    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
+    int zrow[7], zmid[6], zcol[36];
+    double uz[6], uzi[6];
     double galg[108];
     double tmp[18], tmp2[18], tmp3[18];
     double sq[36];

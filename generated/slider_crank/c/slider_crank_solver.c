@@ -527,28 +527,181 @@ static int slider_crank_x_quasi_static_start(slider_crank_solver *s, double t0, 
 }
 
 /* ------------------------------------------------------------------ Radau IIA */
-static int slider_crank_x_factor(slider_crank_solver *s, double h)
+/* The Newton matrices E = c M - dF/dy (M = diag(I, 0); c = GAMMA / h real, (ALPHA + i BETA) / h
+   complex) are solved by block elimination on y = [x; z]: with g_z the algebraic block of dF/dy
+   (regular: the DAE has index 1), K = g_z^-1 g_x and jred = f_x - f_z K (the Jacobian of the
+   reduced ODE x' = f(x, z(x))),
+       (c I - jred) dx = r_x - f_z g_z^-1 r_z,    dz = -g_z^-1 r_z - K dx.
+   x = [q_I, v_I] is of second order: jred = [[0, I], [A_q, A_v]], so that (as RADAU5 does for
+   second-order systems) dq = (c^2 I - c A_v - A_q)^-1 (r_v + (c I - A_v) r_q), dv = c dq - r_q.
+   g_z is factored once per Jacobian and is real for both matrices; a new step size costs only
+   the NI x NI LU of c^2 I - c A_v - A_q (real and complex). */
+/* b := g_z^-1 b with the factors of g_z (lu_solve visiting their nonzeros only) */
+static void slider_crank_x_zsolve(const slider_crank_solver *s, double *b)
 {
-    const int ny = slider_crank_x_NY;
-    const double fac1 = slider_crank_x_GAMMA / h, alphn = slider_crank_x_ALPHA / h, betan = slider_crank_x_BETA / h;
-    int i, j;
-    for (i = 0; i < ny; ++i) {
-        for (j = 0; j < ny; ++j) {
-            s->e1[i * ny + j] = -s->jac[i * ny + j];
-            s->e2r[i * ny + j] = -s->jac[i * ny + j];
-            s->e2i[i * ny + j] = 0.0;
+    const int nz = slider_crank_x_NZ;
+    const double *A = s->gzz;
+    int i, k;
+    for (i = 0; i < nz; ++i) {
+        const int pi = s->pivz[i];
+        if (pi != i) { double tmp = b[i]; b[i] = b[pi]; b[pi] = tmp; }
+    }
+    for (i = 1; i < nz; ++i) {
+        double sum = b[i];
+        for (k = s->zrow[i]; k < s->zmid[i]; ++k) sum -= A[i * nz + s->zcol[k]] * b[s->zcol[k]];
+        b[i] = sum;
+    }
+    for (i = nz - 1; i >= 0; --i) {
+        double sum = b[i];
+        for (k = s->zmid[i]; k < s->zrow[i + 1]; ++k) sum -= A[i * nz + s->zcol[k]] * b[s->zcol[k]];
+        b[i] = sum / A[i * nz + i];
+    }
+}
+
+static void slider_crank_x_reduce(slider_crank_solver *s)
+{
+    const int ny = slider_crank_x_NY, nx = slider_crank_x_NX, nz = slider_crank_x_NZ;
+    int i, j, k;
+    for (i = 0; i < nz; ++i) {
+        for (j = 0; j < nz; ++j) s->gzz[i * nz + j] = s->jac[(nx + i) * ny + nx + j];
+    }
+    s->gzz_singular = slider_crank_x_lu(s->gzz, nz, s->pivz) != 0;
+    if (s->gzz_singular) return;
+    /* g_z is sparse (block lower triangular in [q_D, v_D, (a, lam)]) and so are its factors:
+       the solves visit their nonzeros only (in the dense order: the same sums) */
+    k = 0;
+    for (i = 0; i < nz; ++i) {
+        s->zrow[i] = k;
+        for (j = 0; j < i; ++j) {
+            if (s->gzz[i * nz + j] != 0.0) s->zcol[k++] = j;
+        }
+        s->zmid[i] = k;
+        for (j = i + 1; j < nz; ++j) {
+            if (s->gzz[i * nz + j] != 0.0) s->zcol[k++] = j;
         }
     }
-    for (i = 0; i < slider_crank_x_NX; ++i) {
-        s->e1[i * ny + i] += fac1;
-        s->e2r[i * ny + i] += alphn;
-        s->e2i[i * ny + i] += betan;
+    s->zrow[nz] = k;
+    for (j = 0; j < nx; ++j) {
+        for (i = 0; i < nz; ++i) s->uz[i] = s->jac[(nx + i) * ny + j];
+        slider_crank_x_zsolve(s, s->uz);
+        for (i = 0; i < nz; ++i) s->kzx[i * nx + j] = s->uz[i];
+    }
+    for (i = 0; i < nx; ++i) {
+        for (j = 0; j < nx; ++j) s->jred[i * nx + j] = s->jac[i * ny + j];
+        for (k = 0; k < nz; ++k) {
+            const double fz = s->jac[i * ny + nx + k];
+            if (fz != 0.0) {
+                for (j = 0; j < nx; ++j) s->jred[i * nx + j] -= fz * s->kzx[k * nx + j];
+            }
+        }
+    }
+}
+
+static int slider_crank_x_factor(slider_crank_solver *s, double h)
+{
+    const int ni = slider_crank_x_NI, nx = slider_crank_x_NX;
+    const double fac1 = slider_crank_x_GAMMA / h, alphn = slider_crank_x_ALPHA / h, betan = slider_crank_x_BETA / h;
+    int i, j;
+    if (s->gzz_singular) return 1;
+    for (i = 0; i < ni; ++i) {
+        for (j = 0; j < ni; ++j) {
+            const double aq = s->jred[(ni + i) * nx + j], av = s->jred[(ni + i) * nx + ni + j];
+            s->e1[i * ni + j] = -aq - fac1 * av;
+            s->e2r[i * ni + j] = -aq - alphn * av;
+            s->e2i[i * ni + j] = -betan * av;
+        }
+        s->e1[i * ni + i] += fac1 * fac1;
+        s->e2r[i * ni + i] += alphn * alphn - betan * betan;
+        s->e2i[i * ni + i] += 2.0 * alphn * betan;
     }
     s->n_factorizations++;
     s->h_lu = h;
-    if (slider_crank_x_lu(s->e1, ny, s->piv1)) return 1;
-    if (slider_crank_x_clu(s->e2r, s->e2i, ny, s->piv2)) return 1;
+    if (slider_crank_x_lu(s->e1, ni, s->piv1)) return 1;
+    if (slider_crank_x_clu(s->e2r, s->e2i, ni, s->piv2)) return 1;
     return 0;
+}
+
+/* d := E1^-1 d (real Newton matrix; c = GAMMA / h) */
+static void slider_crank_x_solve1(slider_crank_solver *s, double *d)
+{
+    const int ny = slider_crank_x_NY, ni = slider_crank_x_NI, nx = slider_crank_x_NX, nz = slider_crank_x_NZ;
+    const double fac1 = slider_crank_x_GAMMA / s->h_lu;
+    double *x = d, *z = d + nx, *u = s->uz;
+    int i, k;
+    memcpy(u, z, sizeof(s->uz));
+    slider_crank_x_zsolve(s, u);
+    for (i = ni; i < nx; ++i) {          /* the rows of q_I do not depend on z */
+        double sum = x[i];
+        for (k = 0; k < nz; ++k) sum -= s->jac[i * ny + nx + k] * u[k];
+        x[i] = sum;
+    }
+    for (i = 0; i < ni; ++i) {           /* r_v + (c I - A_v) r_q */
+        double sum = x[ni + i] + fac1 * x[i];
+        for (k = 0; k < ni; ++k) sum -= s->jred[(ni + i) * nx + ni + k] * x[k];
+        x[ni + i] = sum;
+    }
+    slider_crank_x_lu_solve(s->e1, ni, s->piv1, x + ni);
+    for (i = 0; i < ni; ++i) {
+        const double dq = x[ni + i];
+        x[ni + i] = fac1 * dq - x[i];
+        x[i] = dq;
+    }
+    for (k = 0; k < nz; ++k) {
+        double sum = -u[k];
+        for (i = 0; i < nx; ++i) sum -= s->kzx[k * nx + i] * x[i];
+        z[k] = sum;
+    }
+}
+
+/* (dr + i di) := E2^-1 (dr + i di) (complex Newton matrix; c = (ALPHA + i BETA) / h) */
+static void slider_crank_x_solve2(slider_crank_solver *s, double *dr, double *di)
+{
+    const int ny = slider_crank_x_NY, ni = slider_crank_x_NI, nx = slider_crank_x_NX, nz = slider_crank_x_NZ;
+    const double alphn = slider_crank_x_ALPHA / s->h_lu, betan = slider_crank_x_BETA / s->h_lu;
+    double *ur = s->uz, *ui = s->uzi;
+    int i, k;
+    memcpy(ur, dr + nx, sizeof(s->uz));
+    memcpy(ui, di + nx, sizeof(s->uzi));
+    slider_crank_x_zsolve(s, ur);
+    slider_crank_x_zsolve(s, ui);
+    for (i = ni; i < nx; ++i) {
+        double sr = dr[i], si = di[i];
+        for (k = 0; k < nz; ++k) {
+            const double fz = s->jac[i * ny + nx + k];
+            sr -= fz * ur[k];
+            si -= fz * ui[k];
+        }
+        dr[i] = sr;
+        di[i] = si;
+    }
+    for (i = 0; i < ni; ++i) {
+        double sr = dr[ni + i] + alphn * dr[i] - betan * di[i];
+        double si = di[ni + i] + alphn * di[i] + betan * dr[i];
+        for (k = 0; k < ni; ++k) {
+            const double av = s->jred[(ni + i) * nx + ni + k];
+            sr -= av * dr[k];
+            si -= av * di[k];
+        }
+        dr[ni + i] = sr;
+        di[ni + i] = si;
+    }
+    slider_crank_x_clu_solve(s->e2r, s->e2i, ni, s->piv2, dr + ni, di + ni);
+    for (i = 0; i < ni; ++i) {
+        const double qr = dr[ni + i], qi = di[ni + i];
+        dr[ni + i] = alphn * qr - betan * qi - dr[i];
+        di[ni + i] = alphn * qi + betan * qr - di[i];
+        dr[i] = qr;
+        di[i] = qi;
+    }
+    for (k = 0; k < nz; ++k) {
+        double sr = -ur[k], si = -ui[k];
+        for (i = 0; i < nx; ++i) {
+            sr -= s->kzx[k * nx + i] * dr[i];
+            si -= s->kzx[k * nx + i] * di[i];
+        }
+        dr[nx + k] = sr;
+        di[nx + k] = si;
+    }
 }
 
 static double slider_crank_x_rms(const double *x, const double *scal, int n, int reps)
@@ -566,7 +719,8 @@ static int slider_crank_x_integrate(slider_crank_solver *s, double t_out)
 {
     const int ny = slider_crank_x_NY;
     const double uround = DBL_EPSILON;
-    const double safe = 0.9, facl = 5.0, facr = 0.125, thet = 0.001, quot1 = 1.0, quot2 = 1.2;
+    const double safe = 0.9, facl = 5.0, facr = 0.125, thet = 0.001;
+    const double quot1 = 1.0, quot2 = 1.2;
     const double c1 = slider_crank_x_C[0], c2 = slider_crank_x_C[1], c1m1 = c1 - 1.0, c2m1 = c2 - 1.0, c1mc2 = c1 - c2;
     const double cfac = safe * (1 + 2 * slider_crank_x_NIT);
     /* the error estimate is of order 3: tolerances transformed as in RADAU5 */
@@ -588,6 +742,8 @@ static int slider_crank_x_integrate(slider_crank_solver *s, double t_out)
         }
         if (s->need_jac) {
             slider_crank_x_rhs_jac(s, s->t, s->y);
+            slider_crank_x_reduce(s);
+            s->have_jac = 1;
             s->need_jac = 0;
             s->jac_current = 1;
             s->h_lu = -1.0;
@@ -657,8 +813,8 @@ static int slider_crank_x_integrate(slider_crank_solver *s, double t_out)
                     s->dw[2 * ny + j] = g3;
                 }
             }
-            slider_crank_x_lu_solve(s->e1, ny, s->piv1, s->dw);
-            slider_crank_x_clu_solve(s->e2r, s->e2i, ny, s->piv2, s->dw + ny, s->dw + 2 * ny);
+            slider_crank_x_solve1(s, s->dw);
+            slider_crank_x_solve2(s, s->dw + ny, s->dw + 2 * ny);
             newt++;
             dyno = slider_crank_x_rms(s->dw, s->scal, ny, 3);
             if (!(dyno <= DBL_MAX)) { outcome = 2; break; }
@@ -707,13 +863,13 @@ static int slider_crank_x_integrate(slider_crank_solver *s, double t_out)
         }
         /* the local error test covers the differential components only (like the Python
            path's IDAS with suppress_algebraic): z follows x through the algebraic equations */
-        slider_crank_x_lu_solve(s->e1, ny, s->piv1, s->tmp);
+        slider_crank_x_solve1(s, s->tmp);
         err = fmax(slider_crank_x_rms(s->tmp, s->scal, slider_crank_x_NX > 0 ? slider_crank_x_NX : ny, 1), 1e-10);
         if (err >= 1.0 && (s->first || s->reject)) {
             for (j = 0; j < ny; ++j) s->tmp[j] += s->y0[j];
             slider_crank_x_rhs(s, s->t, s->tmp, s->tmp3);
             for (j = 0; j < ny; ++j) s->tmp[j] = s->tmp3[j] + s->tmp2[j];
-            slider_crank_x_lu_solve(s->e1, ny, s->piv1, s->tmp);
+            slider_crank_x_solve1(s, s->tmp);
             err = fmax(slider_crank_x_rms(s->tmp, s->scal, slider_crank_x_NX > 0 ? slider_crank_x_NX : ny, 1), 1e-10);
         }
         if (!(err <= DBL_MAX)) err = 1e6;
@@ -764,16 +920,36 @@ static int slider_crank_x_integrate(slider_crank_solver *s, double t_out)
     return 0;
 }
 
-/* Newton on the algebraic equations in z at fixed x (DaeRunner.polish) */
+/* Newton on the algebraic equations in z at fixed x (DaeRunner.polish). The first iterations
+   use the factored g_z of the integrator's last Jacobian (a chord step costs one solve, no
+   Jacobian and no LU), kept while each contracts the residual at least tenfold; then Newton with
+   a fresh g_z. Both stop at the same residual. */
 static void slider_crank_x_polish(slider_crank_solver *s)
 {
     const int nz = slider_crank_x_NZ;
-    int it, r, c;
-    double *y = s->y;
+    int it, r, c, chord = s->have_jac && !s->gzz_singular;
+    double *y = s->y, rn, rn_old = HUGE_VAL;
     for (it = 0; it < 8; ++it) {
         slider_crank_x_unpack(y, s->q, s->v);
         slider_crank_x_alg(s, s->t, s->q, s->v, y + slider_crank_x_A0, y + slider_crank_x_A0 + slider_crank_x_NQ, s->sr);
-        if (slider_crank_x_max_abs(s->sr, nz) < 1e-13) break;
+        rn = slider_crank_x_max_abs(s->sr, nz);
+        if (rn < 1e-13) break;
+        if (chord && !(rn <= 0.1 * rn_old)) {
+            chord = 0;
+            if (rn_old < rn) {       /* the last chord step made it worse: undo it */
+                for (r = 0; r < nz; ++r) y[slider_crank_x_NX + r] += s->uz[r];
+                it--;
+                continue;
+            }
+        }
+        rn_old = rn;
+        if (chord) {
+            memcpy(s->uz, s->sr, sizeof(s->uz));
+            slider_crank_x_zsolve(s, s->uz);
+            for (r = 0; r < nz; ++r) y[slider_crank_x_NX + r] -= s->uz[r];
+            it--;                    /* chord steps are not counted against the Newton iterations */
+            continue;
+        }
         slider_crank_x_alg_jac(s, s->t, s->q, s->v, y + slider_crank_x_A0, y + slider_crank_x_A0 + slider_crank_x_NQ);
         for (r = 0; r < nz; ++r) {
             for (c = 0; c < slider_crank_x_NW; ++c) {

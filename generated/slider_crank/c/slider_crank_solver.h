@@ -85,11 +85,18 @@ typedef struct slider_crank_solver {
     char message[640];
     /* work */
     double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont;
+    int first, reject, jac_current, need_jac, have_cont, have_jac;
     double y0[14], f0[14], scal[14], ymax[14];
     double z[42], w[42], f[42], dw[42], cont[42];
-    double jac[196], e1[196], e2r[196], e2i[196];
-    int piv1[14], piv2[14];
+    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
+       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
+       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
+    double jac[196], gzz[100], kzx[40], jred[16];
+    double e1[4], e2r[4], e2i[4];
+    int pivz[10], piv1[2], piv2[2], gzz_singular;
+    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
+    int zrow[11], zmid[10], zcol[100];
+    double uz[10], uzi[10];
     double galg[140];
     double tmp[14], tmp2[14], tmp3[14];
     double sq[100];
