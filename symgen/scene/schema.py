@@ -163,10 +163,11 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         "overhang; the contact must stay short of the far end (beta < 1). "
         '"rigid": it moves with the span\'s end slope (the seed\'s form, for its reproduction).',
         {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
-    Key("overhang_modes", "integer >= 1", "Slots with an elastic overhang: number of the overhang's own bending "
+    Key("overhang_modes", "integer 1 to 5", "Slots with an elastic overhang: number of the overhang's own bending "
         "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
         "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
-        "is up to its span within 0.5 %.", {"type": "integer", "minimum": 1},
+        "is up to its span within 0.5 %; at most 5 (beyond, the polynomial functions are nearly dependent).",
+        {"type": "integer", "minimum": 1, "maximum": _me.OVERHANG_MODES_MAX},
         default=str(_me.OVERHANG_MODES_DEFAULT), example="4"),
 ))
 
