@@ -673,8 +673,10 @@ class Basis:
 
     @property
     def key(self) -> tuple[str, str, str, int, bool]:
-        """``(direction, family, frame, n, tip_joint)``: what determines the functions."""
-        return (self.direction, self.family, self.frame, len(self.functions), self.tip_joint)
+        """``(direction, family, frame, n, tip_joint)``: what determines the functions (with
+        ``points``: the standard functions before the static corrections, ``n`` counting those)."""
+        return (self.direction, self.family, self.frame, len(self.functions) - len(self.points),
+                self.tip_joint)
 
 
 def _check_n(n: int, what: str) -> int:
