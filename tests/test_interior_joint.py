@@ -207,3 +207,18 @@ def test_six_bar_default_model_matches_a_converged_model_without_corrections():
     assert max(default[n] for n in forces) < 2e-2, default
     assert all(default[n] < plain[n] for n in shape + forces), (default, plain)
     assert plain["coupler_slope_D"] > 0.1            # the sines alone: 17 % on the slope at the pin
+
+
+def test_latex_prints_the_correction_factored(tmp_path):
+    """`symgen latex`: the correction function as (w_K - sum c_k psi_k)/t with its piecewise
+    static shape and coefficients on their own line, no expanded sum."""
+    from symgen.dae import derive
+    from symgen.emit.latex import latex_document
+
+    path = _point_load_scene(tmp_path, "latex")
+    scene = load_scene(path)
+    doc = latex_document(scene, derive(scene))
+    line = next(x for x in doc.splitlines() if r"\psi_{5}(\xi)" in x)
+    assert r"\chi_{0.25} = \frac{1}{t}\Bigl(w_{K}(\xi) - \sum_{k=1}^{4} c_k\,\psi_k(\xi)\Bigr)" in line
+    shape = doc[doc.index(line):].splitlines()[1]
+    assert r"\begin{cases}" in shape and "t = " in shape and len(shape) < 600
