@@ -75,13 +75,21 @@ def _j_upto(p: int, s: int, x: Any) -> Any:
 
 
 def _integrate_product_on(a: _Terms, b: _Terms, lo: Any, hi: Any) -> Any:
-    """``int_lo^hi a b dxi`` (real part), term by term in closed form."""
+    """``int_lo^hi a b dxi`` of two real functions, term by term in closed form: the conjugate
+    exponent pairs of ``a`` folded (the real part of the sum over one of each pair, doubled, is
+    the sum) and the products' coefficients gathered per exponent before each integral is taken."""
     a, b = a.as_mp(), b.as_mp()
+    acc: dict[tuple[int, int], Any] = {}
+    B = list(b.d.items())
+    for p1, s1, c1 in a.half_items():
+        for (p2, s2), c2 in B:
+            key = (p1 + p2, _sadd(s1, s2))
+            c = c1 * c2
+            prev = acc.get(key)
+            acc[key] = c if prev is None else prev + c
     tot = _MP.mpc(0)
-    for (p1, s1), c1 in a.d.items():
-        for (p2, s2), c2 in b.d.items():
-            p, s = p1 + p2, _sadd(s1, s2)
-            tot += c1 * c2 * (_j_upto(p, s, hi) - _j_upto(p, s, lo))
+    for (p, s), c in acc.items():
+        tot += c * (_j_upto(p, s, hi) - _j_upto(p, s, lo))
     return _MP.mpf(tot.real)
 
 
