@@ -16,7 +16,8 @@ TRANSVERSE_SHAPES = ("modes", "eigen", "polynomial")
 JOINT_KINDS = ("pin", "slider", "slot")
 
 BODY_COMMON = ("name", "length", "rigid", "mass_per_length")
-BODY_ELASTIC = ("frame", "axial_modes", "transverse_modes", "axial_shapes", "transverse_shapes")
+BODY_ELASTIC = ("frame", "axial_modes", "transverse_modes", "axial_shapes", "transverse_shapes",
+                "static_correction")
 BODY_DIMLESS = ("lambda", "mu")
 BODY_SI = ("E", "area", "inertia", "density")
 BODY_KEYS_DIMLESS = BODY_COMMON + BODY_DIMLESS + BODY_ELASTIC
@@ -50,6 +51,7 @@ class BarSpec:
     transverse_modes: int
     axial_shapes: str
     transverse_shapes: str
+    static_correction: bool | None = None
 
 
 # -- names --------------------------------------------------------------------------------------
@@ -182,13 +184,14 @@ def read_bar(r: Reader, name: str, path: str, table: dict, si: bool, omega: floa
                              "how many yours needs"))
     axial_shapes = r.choice(table, path, "axial_shapes", AXIAL_SHAPES, "complete")
     transverse_shapes = r.choice(table, path, "transverse_shapes", TRANSVERSE_SHAPES, "modes")
+    static_correction = r.boolean(table, path, "static_correction", None) if "static_correction" in table else None
     if si:
         lam, mu = _elastic_groups_si(r, table, path, axial, transverse, length, mass, omega)
     else:
         lam, mu = _elastic_groups_dimless(r, table, path, axial, transverse)
     frame = "pinned-pinned" if frame == "pinned-sliding" else frame
     return BarSpec(name, length, mass, False, lam, mu, frame, axial, transverse,
-                   axial_shapes, transverse_shapes)
+                   axial_shapes, transverse_shapes, static_correction)
 
 
 def read_bars(r: Reader, raw: dict, si: bool, omega: float) -> list[BarSpec]:
@@ -211,7 +214,7 @@ def make_body(bar: BarSpec, scales: Scales) -> Body:
                 nu=bar.mass_per_length / scales.m_ref, lam=bar.lam, mu=bar.mu, rho=rho,
                 frame=bar.frame, axial_modes=bar.axial_modes,
                 transverse_modes=bar.transverse_modes, axial_shapes=bar.axial_shapes,
-                transverse_shapes=bar.transverse_shapes)
+                transverse_shapes=bar.transverse_shapes, static_correction=bar.static_correction)
 
 
 # -- joints -------------------------------------------------------------------------------------

@@ -131,6 +131,13 @@ BODIES = Table("bodies", "array", "The bars, in any order; each is rigid or elas
         "eigenfunctions, preceded by the static tip-load shape when a joint acts at the tip. \"eigen\": "
         'eigenfunctions only (the seed). "polynomial".', {"enum": list(_me.TRANSVERSE_SHAPES)},
         default='"modes"', allowed=_me.TRANSVERSE_SHAPES, example='"modes"'),
+    Key("static_correction", "boolean", "Static correction functions at interior points: for each joint "
+        "end, point load or lumped mass at 0 < xi_K < 1 of this bar, its static deflection under a unit "
+        "force at xi_K (piecewise cubic transverse, piecewise linear axial when the bar keeps its axial "
+        "dynamics), mass-orthogonalised against the bar's other functions, is added after its "
+        "transverse_modes (axial_modes) functions: the sines alone converge slowly on the kink a point "
+        "force makes. false: the standard functions only (the seed).", {"type": "boolean"},
+        default="true (adds nothing without interior points)", example="false"),
 ), example='[[bodies]]\nname = "rod"\nlength = 1.0\nlambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\n'
            'axial_modes = 3\ntransverse_modes = 4',
     notes=("SI scenes give E, area, inertia, density (or mass_per_length); dimensionless scenes give lambda "
