@@ -83,8 +83,10 @@ _RTOL = _bounded(ge=1e-14, lt=1.0)      # the scene loader's range of simulation
 
 def cmd_check(args) -> int:
     from .scene.summary import summary
+    from .structure import static_points
 
-    print(summary(_scene(args)))
+    scene = _scene(args)
+    print(summary(scene, {b.name: static_points(scene, b) for b in scene.bodies}))
     return 0
 
 

@@ -31,8 +31,9 @@ from .scene.motion import driver_angle
 from .rotary import LumpedRotary, add_lumped_rotary, rotary_energy
 from .shapes import Basis, axial_basis, inner_products, transverse_basis
 from .slot import SlotBarKinematics, SlotBasis, SlotIPTable
+from .static_shapes import bar_bases
 from .structure import (INEXTENSIBLE, QUASI_STATIC, _tip_joint, axial_treatments,  # noqa: F401
-                        effective_modes, overhang_modes,
+                        basis_sizes, effective_modes, overhang_modes,
                         structure_key, structure_of)
 from .topology import Topology, build_topology
 
@@ -120,8 +121,9 @@ def derive(scene: Scene) -> DerivedModel:
     bars: dict[str, BarModel] = {}
     slot_of = _slot_guides(scene)          # guide bar -> its slot joint (variable span psi(xi, beta))
     treatment = {name: t.treatment for name, t in axial_treatments(scene).items()}
+    records = {rec["name"]: rec for rec in structure["bodies"]}
     for b in scene.bodies:
-        na, nt = effective_modes(scene, b)
+        na, nt = basis_sizes(scene, b)       # the bar's functions and its static corrections
         # lambda: the strain energy (dynamic), the stretch N / lambda (quasi-static), rho = mu / lambda
         sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid,
                               lam=treatment.get(b.name) != INEXTENSIBLE or eff.rotary_inertia)
@@ -141,9 +143,8 @@ def derive(scene: Scene) -> DerivedModel:
             P[str(sym.lam)] = sym.lam
         if sym.mu is not None:
             P[str(sym.mu)] = sym.mu
-        ba = axial_basis(b.axial_shapes or "complete", na)
-        bt = transverse_basis(b.frame or "pinned-pinned", b.transverse_shapes or "modes", nt,
-                              tip_joint=_tip_joint(scene, b.name))
+        ba, bt = bar_bases(records[b.name])
+        assert (len(ba), len(bt)) == (na, nt), (b.name, len(ba), len(bt), na, nt)
         ipt = IPTable(inner_products(ba, bt))
         bars[b.name] = BarModel(b.name, sym, ba, bt, BarKinematics(sym, ba, bt), ipt)
 

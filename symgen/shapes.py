@@ -653,6 +653,8 @@ class Basis:
     functions : the functions, in order
     tip_joint : True when the basis starts with the static tip-load shape (cantilever "modes"
         with a joint at the free end)
+    points : interior points ``0 < xi_K < 1`` whose static correction functions
+        (:mod:`symgen.static_shapes`) close the basis, one per point, after the ``key``'s functions
     """
 
     direction: str
@@ -660,6 +662,7 @@ class Basis:
     frame: str
     functions: tuple[ShapeFunction, ...]
     tip_joint: bool = False
+    points: tuple[float, ...] = ()   # interior points whose static correction functions end the basis
 
     def __len__(self) -> int:
         return len(self.functions)
@@ -670,8 +673,10 @@ class Basis:
 
     @property
     def key(self) -> tuple[str, str, str, int, bool]:
-        """``(direction, family, frame, n, tip_joint)``: what determines the functions."""
-        return (self.direction, self.family, self.frame, len(self.functions), self.tip_joint)
+        """``(direction, family, frame, n, tip_joint)``: what determines the functions (with
+        ``points``: the standard functions before the static corrections, ``n`` counting those)."""
+        return (self.direction, self.family, self.frame, len(self.functions) - len(self.points),
+                self.tip_joint)
 
 
 def _check_n(n: int, what: str) -> int:
@@ -1116,6 +1121,8 @@ def _cached(akey: tuple, tkey: tuple) -> InnerProducts:
 def clear_memory_cache() -> None:
     """Forget the in-memory inner products (the disk cache is kept)."""
     _cached.cache_clear()
+    from . import static_shapes
+    static_shapes._cached_corrected.cache_clear()
 
 
 def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
@@ -1135,6 +1142,9 @@ def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
         raise ValueError("inner_products(axial, transverse): got bases with directions "
                          f"{axial.direction!r}, {transverse.direction!r}")
     akey, tkey = axial.key, transverse.key
+    if axial.points or transverse.points:   # static correction functions: piecewise inner products
+        from .static_shapes import corrected_inner_products
+        return corrected_inner_products(axial, transverse)
     try:
         same = all(r is b or r == b for r, b in ((_rebuild(akey), axial), (_rebuild(tkey), transverse)))
     except ValueError:

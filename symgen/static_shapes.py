@@ -20,14 +20,16 @@ enters as the exact rational of the scene's float).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import functools
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any, Sequence
 
 from .shapes import _DPS, _MP, ShapeFunction, _s_value, _sadd, _Terms, _tnew
 
 __all__ = ["STATIC_KINDS", "Piecewise", "StaticCorrection", "static_correction",
-           "piecewise_inner", "piecewise_inner_products", "static_polynomials"]
+           "piecewise_inner", "piecewise_inner_products", "static_polynomials",
+           "corrected_basis", "corrected_inner_products", "bar_bases"]
 
 #: (direction, frame) pairs that have a static correction function.
 STATIC_KINDS = ("pinned-pinned", "cantilever", "axial")
@@ -73,13 +75,21 @@ def _j_upto(p: int, s: int, x: Any) -> Any:
 
 
 def _integrate_product_on(a: _Terms, b: _Terms, lo: Any, hi: Any) -> Any:
-    """``int_lo^hi a b dxi`` (real part), term by term in closed form."""
+    """``int_lo^hi a b dxi`` of two real functions, term by term in closed form: the conjugate
+    exponent pairs of ``a`` folded (the real part of the sum over one of each pair, doubled, is
+    the sum) and the products' coefficients gathered per exponent before each integral is taken."""
     a, b = a.as_mp(), b.as_mp()
+    acc: dict[tuple[int, int], Any] = {}
+    B = list(b.d.items())
+    for p1, s1, c1 in a.half_items():
+        for (p2, s2), c2 in B:
+            key = (p1 + p2, _sadd(s1, s2))
+            c = c1 * c2
+            prev = acc.get(key)
+            acc[key] = c if prev is None else prev + c
     tot = _MP.mpc(0)
-    for (p1, s1), c1 in a.d.items():
-        for (p2, s2), c2 in b.d.items():
-            p, s = p1 + p2, _sadd(s1, s2)
-            tot += c1 * c2 * (_j_upto(p, s, hi) - _j_upto(p, s, lo))
+    for (p, s), c in acc.items():
+        tot += c * (_j_upto(p, s, hi) - _j_upto(p, s, lo))
     return _MP.mpf(tot.real)
 
 
@@ -209,6 +219,13 @@ class StaticCorrection:
     scale: float
     label: str
     function: Piecewise = field(compare=False, repr=False)
+    expr: Any = field(default=None, compare=False, repr=False)   # sympy, in XI (set by corrected_basis)
+
+    # what the emitters ask of every shape function (ShapeFunction's attributes)
+    beta = None
+    sigma = None
+    tip_value = None
+    _terms = None
 
     def value(self, xi: float, deriv: int = 0) -> float:
         return self.function.value(xi, deriv)
@@ -333,3 +350,99 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]):
     return InnerProducts(na=na, nt=nt, gram=gram.frozen(), Ka=Ka.frozen(), Kt=Kt.frozen(),
                          Pd=Pd.frozen(), psid1=psid1.frozen(), C3=C3.frozen(), D4=D4.frozen(),
                          exact=exact)
+
+
+# --------------------------------------------------------------------------------------
+# Bases that end with correction functions, their cached inner products
+# --------------------------------------------------------------------------------------
+def _poly_expr(coeffs: Sequence[Fraction]) -> Any:
+    import sympy
+
+    from .shapes import XI
+    return sympy.Add(*[sympy.Rational(c.numerator, c.denominator) * XI ** p
+                       for p, c in enumerate(coeffs) if c])
+
+
+def _correction_expr(sc: StaticCorrection, others: Sequence[Any]) -> Any:
+    """``(w_K - sum_k c_k f_k) / t`` as a sympy expression in XI (w_K a sympy Piecewise)."""
+    import sympy
+
+    from .shapes import XI
+    a = sympy.Rational(sc.a.numerator, sc.a.denominator)
+    w = sympy.Piecewise((_poly_expr(sc.left), XI <= a), (_poly_expr(sc.right), True))
+    rest = sympy.Add(*[sympy.Float(c, 17) * f.expr for c, f in zip(sc.coeffs, others)])
+    return (w - rest) / sympy.Float(sc.scale, 17)
+
+
+def corrected_basis(basis: Any, points: Sequence[float]) -> Any:
+    """``basis`` followed by one static correction function per interior point (in order; each
+    mass-orthogonal to every function before it). ``basis`` must be a standard basis of
+    :func:`symgen.shapes.axial_basis` / :func:`symgen.shapes.transverse_basis`; no points: itself."""
+    pts = tuple(float(x) for x in points)
+    if not pts:
+        return basis
+    return _corrected_basis(basis.key, pts)
+
+
+@functools.lru_cache(maxsize=256)
+def _corrected_basis(key: tuple, pts: tuple[float, ...]) -> Any:
+    from .shapes import Basis, _rebuild
+    base = _rebuild(key)
+    kind = "axial" if base.direction == "axial" else base.frame
+    funcs: list[Any] = list(base.functions)
+    for x in pts:
+        sc = static_correction(kind, x, funcs)
+        funcs.append(replace(sc, expr=_correction_expr(sc, funcs)))
+    return Basis(base.direction, base.family, base.frame, tuple(funcs), base.tip_joint, pts)
+
+
+def bar_bases(record: dict) -> tuple[Any, Any]:
+    """(axial, transverse) bases of a bar from its record in ``structure_of(scene)["bodies"]``
+    (``na``/``nt`` count the standard functions; ``static_points`` adds the corrections)."""
+    from .shapes import axial_basis, transverse_basis
+    pts = record.get("static_points") or {}
+    ba = axial_basis(record["axial_shapes"] or "complete", record["na"])
+    bt = transverse_basis(record["frame"] or "pinned-pinned", record["transverse_shapes"] or "modes",
+                          record["nt"], tip_joint=record["tip_joint"])
+    return corrected_basis(ba, pts.get("axial", ())), corrected_basis(bt, pts.get("transverse", ()))
+
+
+def _static_cache_name(axial: Any, transverse: Any) -> str:
+    import hashlib
+
+    from .shapes import SHAPES_VERSION
+
+    def part(b: Any) -> str:
+        direction, family, frame, n, tip = b.key
+        head = f"{direction}-{family}-{frame}-n{n}-tip{int(tip)}"
+        if not b.points:
+            return head
+        pts = hashlib.sha256(repr([float(x).hex() for x in b.points]).encode()).hexdigest()[:12]
+        return f"{head}-s{len(b.points)}-{pts}"
+
+    return f"v{SHAPES_VERSION}s{STATIC_VERSION}__{part(axial)}__{part(transverse)}"
+
+
+#: bump when a change here changes a cached number of the corrected bases
+STATIC_VERSION = "1"
+
+
+def corrected_inner_products(axial: Any, transverse: Any) -> Any:
+    """:func:`piecewise_inner_products` of two bases made by :func:`corrected_basis`, cached in
+    memory and on disk beside :func:`symgen.shapes.inner_products`' entries (same format and
+    checks; the name holds the interior points)."""
+    return _cached_corrected(axial.key, tuple(axial.points), transverse.key, tuple(transverse.points))
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_corrected(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple) -> Any:
+    from .shapes import _load, _rebuild, _store, cache_dir
+    ba = corrected_basis(_rebuild(akey), apts)
+    bt = corrected_basis(_rebuild(tkey), tpts)
+    name = _static_cache_name(ba, bt)
+    path = cache_dir() / (name + ".json")
+    ip = _load(path, name)
+    if ip is None:
+        ip = piecewise_inner_products(ba.functions, bt.functions)
+        _store(path, name, ip)
+    return ip

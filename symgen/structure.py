@@ -148,6 +148,52 @@ def _tip_joint(scene: Scene, name: str) -> bool:
                for j in scene.joints for e in j.ends)
 
 
+#: points closer than this (in xi) share one static correction function; nearer the ends than this
+#: they are not interior
+POINT_TOL = 1e-9
+
+
+def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
+    """The interior points 0 < xi < 1 of bar ``name`` where a point force acts: joint ends (pins,
+    sliders, a slot's sliding point; lumped masses sit on joints) and point loads; sorted, merged
+    within POINT_TOL."""
+    xs = [e.xi for j in scene.joints for e in j.ends
+          if e.body == name and e.xi is not None and not e.variable]
+    xs += [ld.xi for ld in scene.loads if ld.body == name and ld.kind == "point" and ld.xi is not None]
+    out: list[float] = []
+    for x in sorted(float(x) for x in xs):
+        if POINT_TOL < x < 1 - POINT_TOL and not (out and x - out[-1] < POINT_TOL):
+            out.append(x)
+    return tuple(out)
+
+
+def static_points(scene: Scene, body) -> dict:
+    """``{"transverse": (...), "axial": (...)}``: where the bar gets static correction functions
+    (``bodies.<name>.static_correction``, default on): at its interior points, transverse when it
+    bends, axial when it keeps its axial dynamics (a quasi-static or inextensible bar's axial
+    amplitudes are constrained by the bending, they carry no point force of their own). Empty
+    dict when none."""
+    if body.rigid or body.static_correction is False or slot_guide(scene, body.name):
+        return {}
+    pts = interior_points(scene, body.name)
+    if not pts:
+        return {}
+    na, nt = effective_modes(scene, body)
+    out = {}
+    if nt:
+        out["transverse"] = pts
+    if na and axial_treatment(scene, body).treatment == DYNAMIC:
+        out["axial"] = pts
+    return out
+
+
+def basis_sizes(scene: Scene, body) -> tuple[int, int]:
+    """(axial, transverse) numbers of amplitudes of a bar: its functions and its static corrections."""
+    na, nt = effective_modes(scene, body)
+    pts = static_points(scene, body)
+    return na + len(pts.get("axial", ())), nt + len(pts.get("transverse", ()))
+
+
 def structure_of(scene: Scene) -> dict:
     """Everything that shapes the derived equations (and nothing that is only a value)."""
     eff = scene.effects
@@ -157,6 +203,9 @@ def structure_of(scene: Scene) -> dict:
         bodies.append({"name": b.name, "rigid": b.rigid, "frame": b.frame, "na": na, "nt": nt,
                        "axial_shapes": b.axial_shapes if na else "", "transverse_shapes": b.transverse_shapes if nt else "",
                        "tip_joint": _tip_joint(scene, b.name) if nt else False})
+        pts = static_points(scene, b)
+        if pts:                        # only then: the keys of scenes without them are unchanged
+            bodies[-1]["static_points"] = {k: list(v) for k, v in pts.items()}
     joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
                "mass": j.mass > 0} for j in scene.joints]
     for rec, j in zip(joints, scene.joints):

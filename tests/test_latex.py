@@ -1,6 +1,7 @@
 """The LaTeX emitter: every paper equation labelled, closed-form inner products, compiles."""
 from __future__ import annotations
 
+import functools
 import random
 import re
 import shutil
@@ -22,6 +23,7 @@ EXAMPLES = {name: ROOT / "examples" / f"{name}.toml" for name in ("slider_crank"
 PAPER_NUMBERS = (1, 8, 9, 10, 11, 13, 16, 17)
 
 
+@functools.lru_cache(maxsize=None)   # each document is derived and written once per session (read-only)
 def _document(path: Path, overrides: tuple = ()) -> tuple:
     scene = load_scene(str(path), list(overrides))
     return scene, latex_document(scene, derive(scene))

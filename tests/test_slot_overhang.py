@@ -140,6 +140,7 @@ def test_scene_keys_default_and_rigid():
 @pytest.mark.parametrize("override, key", [
     (["joints.A.overhang=bent"], "joints.A.overhang"),
     (["joints.A.overhang=elastic", "joints.A.overhang_modes=0"], "joints.A.overhang_modes"),
+    (["joints.A.overhang=elastic", "joints.A.overhang_modes=6"], "joints.A.overhang_modes"),   # nearly dependent
     (["joints.A.overhang_modes=2"], "joints.A.overhang_modes"),               # the file's overhang is rigid
     (["joints.O.overhang=rigid"], "joints.O.overhang"),
 ])

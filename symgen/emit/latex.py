@@ -566,10 +566,11 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     ctx: dict = {"name": name, "tex": B, "rigid": body.rigid, "na": na, "nt": nt,
                  "frame": body.frame, "text": tex_escape(name)}
     # ---- shape functions
-    ctx["phi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr)} for k, fn in enumerate(bm.basis_a.functions)]
+    ctx["phi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""} for k, fn in enumerate(bm.basis_a.functions)]
     ctx["psi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""}
                   for k, fn in enumerate(bm.basis_t.functions)]
     tfun = bm.basis_t.functions
+    tfun = tfun[:len(tfun) - len(getattr(bm.basis_t, "points", ()))]   # static corrections: below
     if getattr(bm.basis_t, "tip_joint", False) and len(tfun) > 1 and tfun[0].beta is None \
             and all(fn.beta is not None for fn in tfun[1:]):
         # the orthogonalised tip-load shape: printed factored (its expanded form is a line of
@@ -584,6 +585,10 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
         ctx["psi"][0]["extra"] = (r"\text{with } " + r", \\ &\qquad ".join(rows) + r", \\ &\qquad "
                                   r"c_k = (P, X_k)/(X_k, X_k),\ P(\xi) = \xi^2(3-\xi)/2,\ t = 1 - \textstyle\sum_k c_k")
+    for key, basis, sym_ in (("phi", bm.basis_a, r"\phi"), ("psi", bm.basis_t, r"\psi")):
+        for row, fn in zip(ctx[key], basis.functions):
+            if getattr(fn, "xi_k", None) is not None and getattr(fn, "left", None) is not None:
+                row["expr"], row["extra"] = _static_correction_tex(fn, sym_, pr)
     ctx["axial_family"] = bm.basis_a.family if na else ""
     ctx["transverse_family"] = bm.basis_t.family if nt else ""
     ctx["tip_joint"] = bm.basis_t.tip_joint
@@ -816,6 +821,33 @@ def _env() -> jinja2.Environment:
         keep_trailing_newline=True, autoescape=False)
     env.filters["e"] = tex_escape
     return env
+
+
+def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
+    """A static correction function printed factored: (w_K - sum_k c_k f_k) / t, then the
+    piecewise static shape w_K and the coefficients (10 digits: t can be a small difference)."""
+    import sympy as sp
+
+    from ..shapes import XI
+
+    def poly(cs) -> str:
+        return pr(sp.Add(*[sp.Rational(c.numerator, c.denominator) * XI ** p for p, c in enumerate(cs) if c]))
+
+    a = sp.Rational(fn.a.numerator, fn.a.denominator)
+    m = len(fn.coeffs)
+    k = "K"
+    expr = (rf"\frac{{1}}{{t}}\Bigl(w_{{{k}}}(\xi)"
+            + (rf" - \sum_{{k=1}}^{{{m}}} c_k\,{sym_}_k(\xi)" if m else "") + r"\Bigr)")
+    what = {"axial": "unit axial force", "pinned-pinned": "unit transverse force, pinned-pinned",
+            "cantilever": "unit transverse force, cantilever"}[fn.kind]
+    w = (rf"w_{{{k}}}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
+         rf"\end{{cases}}\ \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}")
+    nums = [rf"c_{{{i + 1}}} = {_g6(c, 10)}" for i, c in enumerate(fn.coeffs) if abs(c) > 1e-14] + \
+        [rf"t = {_g6(fn.scale, 10)}"]
+    rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
+    extra = (w + r", \\ &\qquad \text{with } " + r", \\ &\qquad ".join(rows)
+             + rf" \ (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)")
+    return expr, extra
 
 
 def _g6(x: float, digits: int = 6) -> str:

@@ -30,10 +30,10 @@ MAX_FRAMES = 150             # default: every output row up to this many frames,
 
 def states_meta(scene, coordinates: list, model_key: str) -> dict:
     """The sidecar's ``states`` block: what ``animate --from`` needs to rebuild the geometry."""
-    from ..structure import effective_modes
+    from ..structure import basis_sizes
     bars = {}
     for b in scene.bodies:
-        na, nt = effective_modes(scene, b)
+        na, nt = basis_sizes(scene, b)
         bars[b.name] = {"length": b.alpha, "rigid": b.rigid, "frame": b.frame, "axial": na, "transverse": nt,
                         "axial_shapes": b.axial_shapes if na else "",
                         "transverse_shapes": b.transverse_shapes if nt else ""}

@@ -28,9 +28,9 @@ from ..bars import BarSymbols
 from ..emit.casadi_emit import SympyToCasadi
 from ..kinematics import BarKinematics
 from ..scene.model import GROUND, Scene
-from ..shapes import axial_basis, transverse_basis
+from ..static_shapes import bar_bases
 from ..slot import XI, SlotBarKinematics, SlotBasis
-from ..structure import _tip_joint, effective_modes, overhang_modes
+from ..structure import basis_sizes, overhang_modes, structure_of
 from ..topology import build_topology
 
 SAMPLES = 41        # points per bar (shape functions up to ~8 half-waves drawn smoothly)
@@ -59,18 +59,16 @@ class Geometry:
         topo = build_topology(scene)
         slot_of = {j.ends[1].body: j.name for j in scene.joints if j.kind == "slot"}
         kins = {}
+        records = {rec["name"]: rec for rec in structure_of(scene)["bodies"]}
         for b in scene.bodies:
-            na, nt = effective_modes(scene, b)
+            na, nt = basis_sizes(scene, b)
             sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid)
             env[sym.alpha] = ca.SX(b.alpha)
             if b.name in slot_of:
                 beta = sp.Symbol(f"beta_{slot_of[b.name]}", real=True)
                 kins[b.name] = SlotBarKinematics(sym, SlotBasis(nt, beta, overhang_modes(scene, b)), (beta, None, None))
             else:
-                kins[b.name] = BarKinematics(
-                    sym, axial_basis(b.axial_shapes or "complete", na),
-                    transverse_basis(b.frame or "pinned-pinned", b.transverse_shapes or "modes", nt,
-                                     tip_joint=_tip_joint(scene, b.name)))
+                kins[b.name] = BarKinematics(sym, *bar_bases(records[b.name]))
         missing = [str(s) for k in kins.values() for s in (k.sym.th, *k.sym.f, *k.sym.g) if s not in env]
         if missing:
             raise ValueError(f"the model has no coordinate {missing[0]} (scene and model differ)")

@@ -215,7 +215,7 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
 
 
 def _bases(mech: Mechanism) -> dict:
-    from ..shapes import axial_basis, transverse_basis
+    from ..static_shapes import bar_bases
 
     out = {}
     structure = {b["name"]: b for b in mech.meta["structure"]["bodies"]}
@@ -223,10 +223,8 @@ def _bases(mech: Mechanism) -> dict:
         st = structure[b.name]
         if b.rigid or (st["na"] == 0 and st["nt"] == 0):
             continue
-        ba = axial_basis(st["axial_shapes"] or "complete", st["na"]) if st["na"] else None
-        bt = (transverse_basis(st["frame"] or "pinned-pinned", st["transverse_shapes"] or "modes", st["nt"],
-                               tip_joint=st["tip_joint"]) if st["nt"] else None)
-        out[b.name] = (ba, bt)
+        ba, bt = bar_bases(st)          # with the static correction functions of its interior points
+        out[b.name] = (ba if len(ba) else None, bt if len(bt) else None)
     return out
 
 

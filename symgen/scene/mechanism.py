@@ -16,7 +16,8 @@ TRANSVERSE_SHAPES = ("modes", "eigen", "polynomial")
 JOINT_KINDS = ("pin", "slider", "slot")
 
 BODY_COMMON = ("name", "length", "rigid", "mass_per_length")
-BODY_ELASTIC = ("frame", "axial_modes", "transverse_modes", "axial_shapes", "transverse_shapes")
+BODY_ELASTIC = ("frame", "axial_modes", "transverse_modes", "axial_shapes", "transverse_shapes",
+                "static_correction")
 BODY_DIMLESS = ("lambda", "mu")
 BODY_SI = ("E", "area", "inertia", "density")
 BODY_KEYS_DIMLESS = BODY_COMMON + BODY_DIMLESS + BODY_ELASTIC
@@ -25,6 +26,10 @@ RIGID_FORBIDDEN = BODY_DIMLESS + ("E", "inertia") + BODY_ELASTIC
 JOINT_KEYS = ("name", "kind", "bodies", "at", "direction", "mass", "inertia", "overhang", "overhang_modes")
 OVERHANG_FORMS = ("elastic", "rigid")     # slot guides: the overhang bends, or moves with the span's end slope
 OVERHANG_MODES_DEFAULT = 4
+#: the overhang's functions (2 (xi - beta))^(m+1) grow nearly dependent: the condition number of
+#: their mass matrix rises about 40x per function (2.9e10 with 5 at beta = 0.75, 3.4e12 with 6,
+#: where IDAS fails in the first step of benchmarks/scenes/inverted_slider_crank_overhang.toml)
+OVERHANG_MODES_MAX = 5
 
 RESERVED_BODY_NAMES = {GROUND: "it is reserved for the fixed frame",
                        "_scene": "it is reserved for the scene entry of the groups"}
@@ -46,6 +51,7 @@ class BarSpec:
     transverse_modes: int
     axial_shapes: str
     transverse_shapes: str
+    static_correction: bool | None = None
 
 
 # -- names --------------------------------------------------------------------------------------
@@ -178,13 +184,14 @@ def read_bar(r: Reader, name: str, path: str, table: dict, si: bool, omega: floa
                              "how many yours needs"))
     axial_shapes = r.choice(table, path, "axial_shapes", AXIAL_SHAPES, "complete")
     transverse_shapes = r.choice(table, path, "transverse_shapes", TRANSVERSE_SHAPES, "modes")
+    static_correction = r.boolean(table, path, "static_correction", None) if "static_correction" in table else None
     if si:
         lam, mu = _elastic_groups_si(r, table, path, axial, transverse, length, mass, omega)
     else:
         lam, mu = _elastic_groups_dimless(r, table, path, axial, transverse)
     frame = "pinned-pinned" if frame == "pinned-sliding" else frame
     return BarSpec(name, length, mass, False, lam, mu, frame, axial, transverse,
-                   axial_shapes, transverse_shapes)
+                   axial_shapes, transverse_shapes, static_correction)
 
 
 def read_bars(r: Reader, raw: dict, si: bool, omega: float) -> list[BarSpec]:
@@ -207,7 +214,7 @@ def make_body(bar: BarSpec, scales: Scales) -> Body:
                 nu=bar.mass_per_length / scales.m_ref, lam=bar.lam, mu=bar.mu, rho=rho,
                 frame=bar.frame, axial_modes=bar.axial_modes,
                 transverse_modes=bar.transverse_modes, axial_shapes=bar.axial_shapes,
-                transverse_shapes=bar.transverse_shapes)
+                transverse_shapes=bar.transverse_shapes, static_correction=bar.static_correction)
 
 
 # -- joints -------------------------------------------------------------------------------------
@@ -335,9 +342,12 @@ def _overhang(r: Reader, table: dict, path: str, kind: str) -> tuple[str, int]:
         return form, 0
     count = r.integer(table, path, "overhang_modes", OVERHANG_MODES_DEFAULT, ge=1,
                       hint='the number of the overhang\'s own bending functions, >= 1 (or overhang = "rigid")')
-    if over_limit("modes", count):
-        r.fail(join(path, "overhang_modes"), f"{count} overhang functions is more than the limit of "
-               f"{limit_value('modes'):g}", lift_hint("modes", "3 to 5 converge for overhangs up to the span"))
+    if count > OVERHANG_MODES_MAX:
+        r.fail(join(path, "overhang_modes"), f"{count} overhang functions is more than {OVERHANG_MODES_MAX}: "
+               "the overhang's polynomial functions grow nearly dependent (their mass matrix's condition "
+               "number rises about 40x per function) and the integrator fails",
+               "use 3 to 5: they converge for overhangs up to the span (3, 4 and 5 agree to 0.01 % of "
+               "peak in benchmarks/RESULTS.md, section overhang)")
     return form, count
 
 

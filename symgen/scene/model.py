@@ -39,6 +39,7 @@ class Body:
     transverse_modes: int
     axial_shapes: str           # "complete" | "stress-free"
     transverse_shapes: str      # "modes" | "eigen" | "polynomial"
+    static_correction: bool | None = None   # None: static correction functions at interior points (default)
 
 
 @dataclass(frozen=True)

@@ -131,6 +131,13 @@ BODIES = Table("bodies", "array", "The bars, in any order; each is rigid or elas
         "eigenfunctions, preceded by the static tip-load shape when a joint acts at the tip. \"eigen\": "
         'eigenfunctions only (the seed). "polynomial".', {"enum": list(_me.TRANSVERSE_SHAPES)},
         default='"modes"', allowed=_me.TRANSVERSE_SHAPES, example='"modes"'),
+    Key("static_correction", "boolean", "Static correction functions at interior points: for each joint "
+        "end, point load or lumped mass at 0 < xi_K < 1 of this bar, its static deflection under a unit "
+        "force at xi_K (piecewise cubic transverse, piecewise linear axial when the bar keeps its axial "
+        "dynamics), mass-orthogonalised against the bar's other functions, is added after its "
+        "transverse_modes (axial_modes) functions: the sines alone converge slowly on the kink a point "
+        "force makes. false: the standard functions only (the seed).", {"type": "boolean"},
+        default="true (adds nothing without interior points)", example="false"),
 ), example='[[bodies]]\nname = "rod"\nlength = 1.0\nlambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\n'
            'axial_modes = 3\ntransverse_modes = 4',
     notes=("SI scenes give E, area, inertia, density (or mass_per_length); dimensionless scenes give lambda "
@@ -163,10 +170,11 @@ JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joini
         "overhang; the contact must stay short of the far end (beta < 1). "
         '"rigid": it moves with the span\'s end slope (the seed\'s form, for its reproduction).',
         {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
-    Key("overhang_modes", "integer >= 1", "Slots with an elastic overhang: number of the overhang's own bending "
+    Key("overhang_modes", "integer 1 to 5", "Slots with an elastic overhang: number of the overhang's own bending "
         "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
         "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
-        "is up to its span within 0.5 %.", {"type": "integer", "minimum": 1},
+        "is up to its span within 0.5 %; at most 5 (beyond, the polynomial functions are nearly dependent).",
+        {"type": "integer", "minimum": 1, "maximum": _me.OVERHANG_MODES_MAX},
         default=str(_me.OVERHANG_MODES_DEFAULT), example="4"),
 ))
 

@@ -15,7 +15,7 @@ import math
 from symgen.scene.model import Scene
 
 
-def _bar(body) -> str:
+def _bar(body, corrections: dict | None = None) -> str:
     head = f"{body.name}: "
     if body.rigid:
         return head + f"rigid, alpha {body.alpha:.6g}, nu {body.nu:.6g}"
@@ -23,7 +23,13 @@ def _bar(body) -> str:
                                                     ("lambda", body.lam), ("mu", body.mu)) if v is not None)
     families = " + ".join(f"{n} {what}" + (f" ({shapes})" if n else "") for n, what, shapes in (
         (body.axial_modes, "axial", body.axial_shapes), (body.transverse_modes, "transverse", body.transverse_shapes)))
-    return head + f"{body.frame}, {families} shape functions; {groups}"
+    extra = ""
+    pts = (corrections or {}).get(body.name)
+    if pts:
+        where = ", ".join(f"{x:.6g}" for x in next(iter(pts.values())))
+        extra = (f" + static corrections at xi = {where} ({' and '.join(pts)}; "
+                 "static_correction = false: none)")
+    return head + f"{body.frame}, {families} shape functions{extra}; {groups}"
 
 
 def _joint(joint) -> str:
@@ -34,11 +40,13 @@ def _joint(joint) -> str:
     return f"{joint.name}: {joint.kind} {ends}{mass}"
 
 
-def summary(scene: Scene) -> str:
-    """Bars (frames, shape functions, groups), joints, driver, loads, outputs and the run."""
+def summary(scene: Scene, corrections: dict | None = None) -> str:
+    """Bars (frames, shape functions, groups), joints, driver, loads, outputs and the run;
+    ``corrections``: {bar: its static correction points by direction} (``structure.static_points``,
+    which the caller gives: the model layer is above the scene's)."""
     lines = [f"{scene.name} ({scene.path}): valid, {scene.units}, l0 = {scene.l0:.6g}, "
              f"omega = {scene.omega:.6g}"]
-    lines += [f"  {'bars' if i == 0 else '':8} {_bar(b)}" for i, b in enumerate(scene.bodies)]
+    lines += [f"  {'bars' if i == 0 else '':8} {_bar(b, corrections)}" for i, b in enumerate(scene.bodies)]
     lines += [f"  {'joints' if i == 0 else '':8} {_joint(j)}" for i, j in enumerate(scene.joints)]
     modes = sum(b.axial_modes + b.transverse_modes for b in scene.bodies)
     elastic = sum(not b.rigid for b in scene.bodies)
