@@ -11,15 +11,16 @@ Acceptance (issue 12): symgen's default model (the scene's function counts and s
 within 1 % of peak over two turns, at the scene's bending stiffness and at ten times it. The
 error: max over the outputs of max |y - y_ref| / max |y_ref| on the one-degree output grid.
 
-Measured (symgen with sines only, before the interior static corrections; 4 transverse
-functions per bar, rtol 1e-6, the scene's defaults): 0.68 % at the scene's stiffness, 0.40 % at
-ten times it; both pass, no xfail. More sines converge on symgen's own limit, which sits 0.16 %
+Measured with the static correction function at the mid-span pin (symgen's default since
+issue 12's Deliver 1; 4 transverse functions per bar, rtol 1e-6, the scene's defaults): 0.17 %
+at the scene's stiffness, 0.03 % at ten times it; with sines only
+(``bodies.coupler.static_correction = false``) 0.68 % and 0.40 %. More sines converge on symgen's own limit, which sits 0.16 %
 (0.05 % at 10x EI) from the reference (8 functions: 0.17 % / 0.08 %; 12: 0.16 % / 0.05 %): the
 formulations' difference (von Karman assumed modes vs geometrically exact ANCF cable), well below
 the 1 % target. The references' own convergence: 0.015 % and 0.039 % (header).
-With 2 transverse functions per bar (the count of the other steel benchmark scenes) sines alone
-are 4.1 % and 2.4 % off (3 functions: 0.69 % / 0.41 %): ``test_two_functions_within_one_percent``
-is a strict xfail that flips when the static correction functions at interior joints land.
+With 2 transverse functions per bar (the count of the other steel benchmark scenes) the default
+model is 0.34 % and 0.33 % off; sines alone 4.1 % and 2.4 % (3 functions: 0.69 % / 0.41 %):
+``test_two_functions_within_one_percent`` checks both.
 """
 from __future__ import annotations
 
@@ -114,22 +115,21 @@ def test_default_model_within_one_percent(variant):
     assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
 
 
-# Measured with sines only (before the interior static corrections): 2 transverse functions per
+# Measured with sines only (`static_correction = false`): 2 transverse functions per
 # bar miss the mid-span pin's kink (sin(2 pi xi) vanishes at the pin; the next shape that carries
 # it is sin(3 pi xi)).
 TWO_FUNCTIONS = {"scene": 4.1e-2, "stiff10": 2.4e-2}
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("variant", [
-    pytest.param(v, marks=pytest.mark.xfail(
-        strict=True, reason=f"2 sines per bar miss the mid-span kink: {100 * e:.1f} % of peak (measured, "
-                            "sines only); flips when the static correction functions at interior joints land"))
-    for v, e in sorted(TWO_FUNCTIONS.items())])
+@pytest.mark.parametrize("variant", sorted(TWO_FUNCTIONS))
 def test_two_functions_within_one_percent(variant):
     """The same acceptance with 2 transverse functions per elastic bar (the function count of the
-    other steel benchmark scenes): sines alone are 4.1 % (2.4 % at 10x EI) off; with a static
-    correction at the mid-span pin the kink is carried by the basis and the error should fall
-    within 1 % (the xfail is strict: it flips)."""
-    worst, errs = _symgen_error(variant, [f"bodies.{b}.transverse_modes=2" for b in ELASTIC])
+    other steel benchmark scenes): the static correction at the mid-span pin carries the kink
+    (measured 0.34 %, 0.33 % at 10x EI); without it the sines alone miss it by more than 1 %
+    (measured 4.1 %, 2.4 %: ``TWO_FUNCTIONS``)."""
+    two = [f"bodies.{b}.transverse_modes=2" for b in ELASTIC]
+    worst, errs = _symgen_error(variant, two)
     assert worst <= 1e-2, {k: f"{100 * v:.2f} %" for k, v in errs.items()}
+    sines, _ = _symgen_error(variant, two + ["bodies.coupler.static_correction=false"])
+    assert sines > 1e-2 and sines == pytest.approx(TWO_FUNCTIONS[variant], rel=0.05)
