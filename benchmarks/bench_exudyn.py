@@ -171,13 +171,19 @@ SOLVERS = ("idas", "c")       # symgen simulate (IDAS, compiled model) and symge
 
 
 def symgen_run(p: Problem, overrides: list[str], solver: str = "idas"):
-    """(t s, {output: SI values}, integration CPU s, steps); the model derived (or loaded
-    from the cache) before the clock starts. IDAS: CPU of ``simulate`` in this process (set-up,
-    consistent start, integration, outputs). ``--solver c``: the emitted C solver's own CPU time
-    of ``init`` + ``advance`` (its ``--stats``; the executable is built and cached before)."""
+    """(t s, {output: SI values}, integration CPU s, steps); see ``symgen_timed``."""
+    cols, cpu, steps = symgen_timed(p.scene, overrides, solver)
+    return cols["t"], cols, cpu, steps
+
+
+def symgen_timed(scene, overrides: list[str], solver: str = "idas"):
+    """({"t" and every output: SI values}, integration CPU s, steps) of a scene; the model derived
+    (or loaded from the cache) before the clock starts. IDAS: CPU of ``simulate`` in this process
+    (set-up, consistent start, integration, outputs). ``--solver c``: the emitted C solver's own
+    CPU time of ``init`` + ``advance`` (its ``--stats``; the executable is built and cached before)."""
     from symgen.api import mechanism, results_table
     from symgen.run.simulate import simulate
-    mech = mechanism(p.scene, overrides)
+    mech = mechanism(scene, overrides)
     if solver == "c":
         from symgen.run.csolver import simulate_c
         res = simulate_c(mech)
@@ -188,8 +194,7 @@ def symgen_run(p: Problem, overrides: list[str], solver: str = "idas"):
         cpu = time.process_time() - t0
     if not res.complete:
         raise RuntimeError(res.failure or "incomplete run")
-    cols = results_table(res, mech.scene)
-    return cols["t"], cols, cpu, res.steps
+    return results_table(res, mech.scene), cpu, res.steps
 
 
 def _child_cpu() -> float:

@@ -40,7 +40,6 @@ from __future__ import annotations
 import math
 import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -98,19 +97,11 @@ def exudyn_curves(elements: int, steps: int, turns: float = TURNS) -> tuple[dict
 
 def symgen_curves(overrides: list[str], turns: float = TURNS) -> tuple[dict, float, int]:
     """({"t", outputs (SI) on the grid}, CPU s of ``simulate``, IDAS steps), the model derived first."""
-    from bench_exudyn import on_grid
-    from symgen.api import mechanism, results_table
-    from symgen.run.simulate import simulate
-    mech = mechanism(SCENE, list(overrides) + [f"simulation.cycles={turns:g}"])
-    t0 = time.process_time()
-    res = simulate(mech)
-    cpu = time.process_time() - t0
-    if not res.complete:
-        raise RuntimeError(res.failure or "incomplete run")
-    cols = results_table(res, mech.scene)
+    from bench_exudyn import on_grid, symgen_timed
+    cols, cpu, steps = symgen_timed(SCENE, list(overrides) + [f"simulation.cycles={turns:g}"])
     dt, n = grid(turns)
     idx = on_grid(cols["t"], dt, n)
-    return {"t": np.asarray(cols["t"])[idx], **{k: np.asarray(cols[k])[idx] for k in OUTPUTS}}, cpu, res.steps
+    return {"t": np.asarray(cols["t"])[idx], **{k: np.asarray(cols[k])[idx] for k in OUTPUTS}}, cpu, steps
 
 
 def errors(y: dict, ref: dict) -> dict:

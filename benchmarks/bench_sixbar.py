@@ -94,17 +94,10 @@ def exudyn_run(elements: int, steps_per_turn: int, stiffness: float) -> tuple[di
 
 def symgen_run(overrides: list[str]) -> tuple[dict, float, int]:
     """({output: m on the grid}, CPU s of simulate, IDAS steps); the model derived before."""
-    from symgen.api import mechanism, results_table
-    from symgen.run.simulate import simulate
-    mech = mechanism(SCENE, overrides)
-    t0 = time.process_time()
-    res = simulate(mech)
-    cpu = time.process_time() - t0
-    if not res.complete:
-        raise RuntimeError(res.failure or "incomplete run")
-    cols = results_table(res, mech.scene)
+    from bench_exudyn import symgen_timed
+    cols, cpu, steps = symgen_timed(SCENE, overrides)
     idx = _grid_index(np.asarray(cols["t"]) * _omega())
-    return {k: np.asarray(cols[k])[idx] for k in OUTPUTS}, cpu, res.steps
+    return {k: np.asarray(cols[k])[idx] for k in OUTPUTS}, cpu, steps
 
 
 def symgen_overrides(base: list[str], nt: int | None = None, rtol: float | None = None) -> list[str]:

@@ -26,11 +26,14 @@ from __future__ import annotations
 
 import math
 import pathlib
+import sys
 
 import numpy as np
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from bench_sixbar import load_reference  # noqa: E402  (one reader of the stored references)
 SCENE = ROOT / "benchmarks" / "scenes" / "six_bar_steel.toml"
 DATA = ROOT / "tests" / "data"
 ELASTIC = ("coupler", "link")
@@ -38,20 +41,6 @@ INERTIA = 2.25e-11
 VARIANTS = {"scene": ([], DATA / "six_bar_reference.csv", 1.0),
             "stiff10": ([f"bodies.{b}.inertia={10 * INERTIA:g}" for b in ELASTIC],
                         DATA / "six_bar_reference_stiff10.csv", 10.0)}
-
-
-def load_reference(path: pathlib.Path) -> tuple[dict, dict]:
-    """({key: value} of the '# key = value' header lines, {column: array})."""
-    lines = path.read_text().splitlines()
-    meta = {}
-    for line in lines:
-        if line.startswith("#") and "=" in line:
-            k, v = line[1:].split("#")[0].split("=", 1)
-            meta[k.strip()] = v.strip()
-    first = next(i for i, line in enumerate(lines) if not line.startswith("#"))
-    names = lines[first].split(",")
-    data = np.loadtxt(path, delimiter=",", skiprows=first + 1, ndmin=2)
-    return meta, {n: data[:, i] for i, n in enumerate(names)}
 
 
 def _scene_outputs() -> tuple[list[str], float]:
