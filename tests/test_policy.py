@@ -19,7 +19,7 @@ from symgen.run import mechanism as mech_mod
 
 def _odd(value):
     """A value of the same type that no template could contain by chance."""
-    return value + 7 if isinstance(value, int) else value * 1.2345678901234567
+    return value + 7919 if isinstance(value, int) else value * 1.2345678901234567
 
 
 def test_every_policy_value_reaches_the_emitted_solver(monkeypatch):
