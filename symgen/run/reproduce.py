@@ -250,25 +250,31 @@ def _slider_crank(path: Path, figs: Figures, quick: bool, notes: list, progress)
               [(s_seed.angle_deg(), s_seed.values["eta_mid"], "seed model (paper)", {**SEED_STYLE, "lw": 3.0, "alpha": 0.55}),
                (s_acc.angle_deg(), s_acc.values["eta_mid"], "accurate model", {**ACC_STYLE, "lw": 1.2})],
               xmax=360.0, note=params + "; (18)-(20) at each crank angle")
-    # the rod's axial ringing: drawn as a light band, with its mean over one axial period
+    # the rod's axial ringing: drawn as a light band, with its mean over one axial period (none
+    # when the rod's axial response is quasi-static, effects.axial = "auto" on a stiff rod)
     w_ax = {}
     for key, sc in (("seed", seed), ("acc", acc)):
         from ..api import mechanism
         from .modes import modes
         fr = modes(mechanism(sc), 0.0, shapes=False)
-        w_ax[key] = (fr.frequencies("axial", "rod")[0], fr.frequencies("transverse", "rod")[0])
+        axial = fr.frequencies("axial", "rod")
+        w_ax[key] = (float(axial[0]) if len(axial) else None, fr.frequencies("transverse", "rod")[0])
 
     def band(run: Run, key: str, style: dict, label: str, which: str, x0: float = 0.0) -> list:
         x, y = run.angle_deg(), run.values[key]
         sel = x >= x0 - 1e-9
+        if w_ax[which][0] is None:          # a quasi-static rod does not ring: the curve itself
+            return [(x[sel] - x0, y[sel], label, {**style, "lw": 1.4})]
         out = [(x[sel] - x0, y[sel], label, {**style, "lw": 0.4, "alpha": 0.45})]
         mean = _running_mean(run.tau, y, 2 * math.pi / w_ax[which][0])
         if mean is not None:
             out.append((x[sel] - x0, mean[sel], label + ", mean over an axial period", {**style, "lw": 1.4}))
         return out
 
-    ring = (f"axial ringing at {w_ax['seed'][0]:.0f} (seed) / {w_ax['acc'][0]:.0f} (accurate) per unit $\\tau$, "
-            "rung by the start from rest")
+    ring = "axial ringing at " + " / ".join(
+        f"{w:.0f} ({name})" if w is not None else f"none ({name}: quasi-static rod)"
+        for name, w in (("seed", w_ax["seed"][0]), ("accurate", w_ax["acc"][0]))) + \
+        " per unit $\\tau$, rung by the start from rest"
     figs.plot("G04_slider_crank_elongation_two_cycles",
               "G.4  Slider-crank: dimensionless elongation of the rod (A.A.), first two crank turns",
               aa_label,
@@ -313,8 +319,9 @@ def _slider_crank(path: Path, figs: Figures, quick: bool, notes: list, progress)
             "fixed-point iteration of (20) diverges where the rod bends most; with the seed's one-way linear "
             "coupling it contracts everywhere).",
             f"Linearised about the quasi-static state at tau = 0 (`symgen modes`): first bending frequency of the rod "
-            f"{w_ax['seed'][1]:.3f} (seed) / {w_ax['acc'][1]:.3f} (accurate), first axial {w_ax['seed'][0]:.1f} / "
-            f"{w_ax['acc'][0]:.1f}, in units of the crank speed.",
+            f"{w_ax['seed'][1]:.3f} (seed) / {w_ax['acc'][1]:.3f} (accurate), first axial "
+            + " / ".join(f"{w:.1f}" if w is not None else "none (quasi-static rod)" for w in (w_ax["seed"][0], w_ax["acc"][0]))
+            + ", in units of the crank speed.",
             f"Run times: dynamic {d_seed.seconds:.1f} s + {d_acc.seconds:.1f} s, quasi-static "
             f"{s_seed.seconds:.1f} s + {s_acc.seconds:.1f} s.",
         ]})
