@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.linalg as sl
 
 from symgen.api import mechanism
 from symgen.run.modes import modes
 from symgen.run.quasistatic import quasi_static
 from symgen.scene import load_scene
 from symgen.structure import structure_key, structure_of
+from tests.oracles import hermite_beam_frequencies
 
 HEAD = """[scene]
 name = "{name}"
@@ -110,25 +110,8 @@ A_SUPPORT = 0.7
 
 
 def _fe_overhang(a, ne=240):
-    """First three circular frequencies (EI = m = l = 1) of a beam pinned at 0 and at a, free at
-    1: Hermite cubic elements with a node at a."""
-    n1 = int(round(ne * a))
-    x = np.concatenate([np.linspace(0, a, n1 + 1), np.linspace(a, 1, ne - n1 + 1)[1:]])
-    N = len(x)
-    K = np.zeros((2 * N, 2 * N))
-    M = np.zeros_like(K)
-    for e in range(N - 1):
-        h = x[e + 1] - x[e]
-        k = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-                      [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h ** 3
-        m = h / 420 * np.array([[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-                                [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]])
-        d = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
-        K[np.ix_(d, d)] += k
-        M[np.ix_(d, d)] += m
-    free = [i for i in range(2 * N) if i not in (0, 2 * n1)]
-    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True, subset_by_index=[0, 2])
-    return np.sqrt(w2)
+    """First three circular frequencies (EI = m = l = 1) of a beam pinned at 0 and at a, free at 1."""
+    return hermite_beam_frequencies(a, ne, far_end_pinned=False)
 
 
 def _support_scene(tmp_path, name, a=A_SUPPORT, **kw):

@@ -12,6 +12,7 @@ import scipy.linalg as sl
 
 from symgen.shapes import axial_basis, transverse_basis
 from symgen.static_shapes import Piecewise, piecewise_inner, static_correction
+from tests.oracles import hermite_beam_frequencies
 
 A = 0.3  # load / support point (a float, as a scene gives it)
 
@@ -76,26 +77,8 @@ def test_axial_point_force():
 
 
 def _fe_pinned_with_interior_pin(a, ne=120):
-    """First three circular frequencies (EI = rho A = l = 1) of a pinned-pinned beam with a
-    pin at a: Hermite cubic elements, a node at a."""
-    n1 = int(round(ne * a))
-    x = np.concatenate([np.linspace(0, a, n1 + 1), np.linspace(a, 1, ne - n1 + 1)[1:]])
-    N = len(x)
-    K = np.zeros((2 * N, 2 * N))
-    M = np.zeros_like(K)
-    for e in range(N - 1):
-        h = x[e + 1] - x[e]
-        k = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-                      [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h ** 3
-        m = h / 420 * np.array([[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-                                [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]])
-        d = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
-        K[np.ix_(d, d)] += k
-        M[np.ix_(d, d)] += m
-    free = [i for i in range(2 * N) if i not in (0, 2 * (N - 1), 2 * n1)]
-    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True,
-                 subset_by_index=[0, 2])
-    return np.sqrt(w2)
+    """First three circular frequencies (EI = rho A = l = 1) of a pinned-pinned beam with a pin at a."""
+    return hermite_beam_frequencies(a, ne, far_end_pinned=True)
 
 
 def _ritz_frequencies(fs, a):
