@@ -64,8 +64,8 @@ def _gap(a, b) -> float:
 
 def bench_case(scene: str, over: list[str], repeats: int) -> dict:
     from symgen.api import mechanism
-    from symgen.run.csolver import simulate_c
-    from symgen.run.simulate import simulate
+    from symgen.numerics.csolver import simulate_c
+    from symgen.numerics.simulate import simulate
     mech = mechanism(str(ROOT / scene), over + TURNS)
     row: dict = {}
     runs = {}

@@ -81,10 +81,10 @@ def _timed(cmd, cwd=None) -> float:
 
 def _one(path: str, repeats: int) -> dict:
     from symgen.api import mechanism
-    from symgen.dae import derive
-    from symgen.emit.c import c_context, write_tree
-    from symgen.emit.c.render import render_files
-    from symgen.run.simulate import simulate
+    from symgen.model.derive import derive
+    from symgen.backends.c import c_context, write_tree
+    from symgen.backends.c.render import render_files
+    from symgen.numerics.simulate import simulate
 
     mech = mechanism(ROOT / path)
     scene = mech.scene

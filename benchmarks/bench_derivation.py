@@ -2,7 +2,7 @@
 (open chains and closed loops of 2-6 bars) and the modes per bar (1-8).
 
 Every measurement runs in a fresh process with an empty symgen cache (SymPy's caches and the
-closed-form inner products cold): ``derive`` is the SymPy derivation (``symgen.dae.derive``),
+closed-form inner products cold): ``derive`` is the SymPy derivation (``symgen.model.derive.derive``),
 ``build`` the conversion to CasADi SX Functions, ``ops`` the instruction count of the
 residual function after CasADi's CSE (``res``) and of all seven functions (``all``).
 Growth rates are least-squares slopes of log(cost) against log(bars) or log(modes).
@@ -32,8 +32,8 @@ MEASURE = """
 import json, sys, time
 sys.path.insert(0, {root!r})
 from symgen.scene import load_scene
-from symgen.dae import derive
-from symgen.emit import casadi_emit
+from symgen.model.derive import derive
+from symgen.backends import casadi_emit
 scene = load_scene({path!r}, {sets!r})
 t0 = time.perf_counter()
 model = derive(scene)

@@ -26,9 +26,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from symgen.pipeline import compile_scene  # noqa: E402
-from symgen.run.mechanism import Mechanism  # noqa: E402
-from symgen.run.simulate import simulate  # noqa: E402
+from symgen.backends.casadi.pipeline import compile_scene  # noqa: E402
+from symgen.numerics.mechanism import Mechanism  # noqa: E402
+from symgen.numerics.simulate import simulate  # noqa: E402
 from symgen.scene import load_scene  # noqa: E402
 
 EXAMPLES = ["examples/slider_crank.toml", "examples/four_bar.toml"]
@@ -43,7 +43,7 @@ FRESH_DERIVE = """
 import json, sys, time
 sys.path.insert(0, {root!r})
 from symgen.scene import load_scene
-from symgen.dae import derive
+from symgen.model.derive import derive
 scene = load_scene({path!r})
 t0 = time.perf_counter()
 derive(scene)

@@ -182,10 +182,10 @@ def symgen_timed(scene, overrides: list[str], solver: str = "idas"):
     (set-up, consistent start, integration, outputs). ``--solver c``: the emitted C solver's own
     CPU time of ``init`` + ``advance`` (its ``--stats``; the executable is built and cached before)."""
     from symgen.api import mechanism, results_table
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
     mech = mechanism(scene, overrides)
     if solver == "c":
-        from symgen.run.csolver import simulate_c
+        from symgen.numerics.csolver import simulate_c
         res = simulate_c(mech)
         cpu = res.stats["solve_cpu_s"]
     else:
@@ -328,7 +328,7 @@ def bench_problem(p: Problem, repeats: int) -> dict:
     s1 = cheapest(_solver_rows(sg_rows, "idas"), 1e-2)
     if s1:
         from symgen.api import mechanism
-        from symgen.run.simulate import simulate
+        from symgen.numerics.simulate import simulate
         mech = mechanism(p.scene, symgen_overrides(p, s1["axial"], s1["nt"], s1["rtol"]))
         fixed = []
         for _ in range(max(3, repeats)):

@@ -34,8 +34,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from symgen.api import mechanism  # noqa: E402
-from symgen.run.simulate import simulate  # noqa: E402
-from symgen.run.study import window_error  # noqa: E402
+from symgen.numerics.simulate import simulate  # noqa: E402
+from symgen.apps.study import window_error  # noqa: E402
 
 SCENE = str(ROOT / "examples" / "slider_crank.toml")
 LAMBDA, MU, ALPHA = 18246.0, 0.495, 0.5

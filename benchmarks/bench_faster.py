@@ -28,9 +28,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-import symgen.run.simulate as S  # noqa: E402
+import symgen.numerics.simulate as S  # noqa: E402
 from symgen.api import mechanism  # noqa: E402
-from symgen.run.study import window_error  # noqa: E402
+from symgen.apps.study import window_error  # noqa: E402
 
 RTOLS = (1e-4, 1e-6)
 CASES = (

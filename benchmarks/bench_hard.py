@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from symgen.api import mechanism  # noqa: E402
-from symgen.run import simulate as sim  # noqa: E402
+from symgen.numerics import simulate as sim  # noqa: E402
 
 SLIDER = str(ROOT / "examples" / "slider_crank.toml")
 ACCURATE = ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete", "initial.deformation=quasi-static",
@@ -71,7 +71,7 @@ def stiffness(na: int, nt: int) -> str:
 
 
 def pruning() -> str:
-    from symgen.run.effects import auto_effects, table
+    from symgen.apps.effects import auto_effects, table
 
     overrides = ACCURATE + ["bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"]
     with tempfile.TemporaryDirectory() as d:

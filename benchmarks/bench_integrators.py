@@ -59,7 +59,7 @@ class ExplicitODE:
     """x' = f(t, x) with z(t, x) from Newton on g (one compiled CasADi call per evaluation)."""
 
     def __init__(self, mech, run) -> None:
-        from symgen.run.compiled import library
+        from symgen.numerics.compiled import library
         nx, nz, npar = run.dae.size1_in(1), run.dae.size1_in(2), run.dae.size1_in(3)
         t, x, z, p = ca.SX.sym("t"), ca.SX.sym("x", nx), ca.SX.sym("z", nz), ca.SX.sym("p", npar)
         res = run.dae(t=t, x=x, z=z, p=p)
@@ -126,8 +126,8 @@ class ExplicitODE:
 
 
 def bench_problem(name: str, over: list[str], repeats: int) -> list[str]:
-    from symgen.run.csolver import simulate_c
-    from symgen.run.simulate import DaeRunner, simulate
+    from symgen.numerics.csolver import simulate_c
+    from symgen.numerics.simulate import DaeRunner, simulate
     ref_mech = _mech(name, over, 1e-10)
     ref = simulate(ref_mech)
     rows = []

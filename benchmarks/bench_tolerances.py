@@ -21,8 +21,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from symgen.api import mechanism  # noqa: E402
-from symgen.run.simulate import simulate  # noqa: E402
-from symgen.run.study import window_error  # noqa: E402
+from symgen.numerics.simulate import simulate  # noqa: E402
+from symgen.apps.study import window_error  # noqa: E402
 
 RTOLS = (1e-4, 1e-6, 1e-8)
 REF_RTOL = 1e-10

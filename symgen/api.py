@@ -9,11 +9,11 @@ from __future__ import annotations
 import os
 from typing import Sequence
 
-from .pipeline import compile_scene
-from .run.mechanism import Mechanism
-from .run.simulate import SimResult, simulate
-from .scene import load_scene
-from .scene.model import Scene
+from symgen.backends.casadi.pipeline import compile_scene
+from symgen.numerics.mechanism import Mechanism
+from symgen.numerics.simulate import SimResult, simulate
+from symgen.scene import load_scene
+from symgen.scene.model import Scene
 
 
 def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
@@ -29,7 +29,7 @@ def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
 def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overrides: Sequence[str] = ()):
     """``symgen emit-c``: the scene's standalone C (model, solver, driver, CMakeLists.txt) written
     into ``out_dir`` all or nothing; its folder. A bad scene name fails before any work."""
-    from .emit.c import c_prefix, write_c as emit
+    from symgen.backends.c import c_prefix, write_c as emit
     scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     c_prefix(scene)
     return emit(scene, out_dir, mech=mechanism(scene))
@@ -40,8 +40,8 @@ def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrid
     """``symgen emit-fmu``: the scene's FMI 2.0 Co-Simulation FMU at ``path``; its path."""
     from pathlib import Path
 
-    from .emit.c import c_prefix, write_fmu as emit
-    from .emit.c.fmu import check_fmu_path
+    from symgen.backends.c import c_prefix, write_fmu as emit
+    from symgen.backends.fmu import check_fmu_path
     scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     check_fmu_path(Path(path))
     c_prefix(scene)
@@ -55,14 +55,14 @@ def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = 
 
 def quasi_static_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), **kwargs):
     """The quasi-static response (18)-(20) over a cycle; kwargs go to
-    ``symgen.run.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus)."""
-    from .run.quasistatic import quasi_static
+    ``symgen.numerics.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus)."""
+    from symgen.numerics.quasistatic import quasi_static
     return quasi_static(mechanism(scene, overrides), **kwargs)
 
 
 def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), tau: float = 0.0, **kwargs):
     """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
-    from .run.modes import modes
+    from symgen.numerics.modes import modes
     return modes(mechanism(scene, overrides), tau=tau, **kwargs)
 
 
@@ -70,13 +70,13 @@ def results_table(result, scene: Scene, units: str | None = None) -> dict:
     """The columns of a run (``simulate_scene``/``quasi_static_scene``) as numpy arrays, time
     first, in the units of the command line: SI (``t`` in s, m, rad, N, N m, J) for an SI scene,
     the model's dimensionless units (``tau``) otherwise or with ``units="dimensionless"``. The
-    units and factors are in ``symgen.run.units.result_units(scene, units)``.
+    units and factors are in ``symgen.numerics.units.result_units(scene, units)``.
 
     >>> scene = load_scene("examples/four_bar.toml")                           # doctest: +SKIP
     >>> cols = results_table(simulate_scene(scene), scene)                      # doctest: +SKIP
     >>> cols["t"][-1], cols["torque"].max()                                     # doctest: +SKIP
     """
-    from .run.units import result_units
+    from symgen.numerics.units import result_units
 
     u = result_units(scene, units)
     time, values = u.convert(result.tau, result.outputs)
@@ -102,7 +102,7 @@ def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *
 
     ``vary`` maps scene keys (as for ``--set``) to a grid spec string (``"0.5:3:20"``,
     ``"1e4:1e8:9:log"``, ``"1,2,4"``) or a sequence of numbers; several keys give the full grid.
-    kwargs go to ``symgen.run.sweep.sweep`` (workers, scheduler, window, campbell, campbell_at,
+    kwargs go to ``symgen.apps.sweep.sweep`` (workers, scheduler, window, campbell, campbell_at,
     progress; ``workers=1`` runs in this process). Local worker processes are forked on Linux;
     where they are spawned instead (macOS, Windows, or a parent with threads) a script must guard
     its entry point with ``if __name__ == "__main__":``. Columns: the varied keys, status, steps, cpu_s, peak_<output>, and with
@@ -112,7 +112,7 @@ def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *
     ...               ["simulation.cycles=0.5"], workers=1)        # doctest: +SKIP
     >>> table["peak_eta_mid"]                                      # doctest: +SKIP
     """
-    from .run.sweep import sweep as run_sweep, vary_from
+    from symgen.apps.sweep import sweep as run_sweep, vary_from
 
     if frame:
         try:

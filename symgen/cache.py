@@ -5,13 +5,13 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
 ``models/<structure key>/``
     derived models: one ``<function>.casadi`` per CasADi Function (CasADi's serialized text),
     ``model.json`` and ``manifest.json`` (format version, symgen and CasADi versions, the
-    structure key and the sha256 of every other file); see :mod:`symgen.emit.casadi_io`.
+    structure key and the sha256 of every other file); see :mod:`symgen.backends.casadi.store`.
 ``compiled/<entry>/``
     shared libraries of a model's run-time Functions (``model.so`` and ``manifest.json``), one
-    per model, coordinate partition, compiler and flags; see :mod:`symgen.run.compiled`.
+    per model, coordinate partition, compiler and flags; see :mod:`symgen.numerics.compiled`.
 ``shapes/v<version>__<bases>.json``
     closed-form inner products of one bar's shape bases: one file, a header line with the sha256
-    of the JSON payload that follows; see :mod:`symgen.shapes`.
+    of the JSON payload that follows; see :mod:`symgen.model.shapes`.
 
 The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
 unpickled or evaluated, and every entry is checked against the hashes recorded when it was

@@ -9,14 +9,14 @@ import time
 import warnings
 from pathlib import Path
 
-from . import __version__
-from .errors import Interrupted, SceneError, SimulationError, SymgenError
-from .outputs import check_file, check_folder
-from .run import interrupt
+from symgen import __version__
+from symgen.errors import Interrupted, SceneError, SimulationError, SymgenError
+from symgen.model.outputs import check_file, check_folder
+from symgen.numerics import interrupt
 
 
 def _scene(args):
-    from .scene import load_scene
+    from symgen.scene import load_scene
     return load_scene(args.scene, args.set or [])
 
 
@@ -35,7 +35,7 @@ def _say(args, text: str) -> None:
 
 def _run_files(args):
     """The files of simulate/quasistatic, checked before any work (nothing is created)."""
-    from .run.results import ResultFiles, partial_paths, partial_plot
+    from symgen.numerics.results import ResultFiles, partial_paths, partial_plot
 
     out = _check_out(args.output, (".csv",), "-o", also=[Path(args.output).with_suffix(".json"),
                                                          *partial_paths(Path(args.output))])
@@ -47,7 +47,7 @@ def _run_files(args):
 @contextlib.contextmanager
 def _scene_warnings():
     """Print scene warnings (loose tolerances, ...) as one plain line on stderr."""
-    from .scene.limits import SceneWarning
+    from symgen.scene.limits import SceneWarning
 
     with warnings.catch_warnings():
         previous = warnings.showwarning
@@ -82,8 +82,8 @@ _RTOL = _bounded(ge=1e-14, lt=1.0)      # the scene loader's range of simulation
 
 
 def cmd_check(args) -> int:
-    from .scene.summary import summary
-    from .structure import static_points
+    from symgen.scene.summary import summary
+    from symgen.model.structure import static_points
 
     scene = _scene(args)
     print(summary(scene, {b.name: static_points(scene, b) for b in scene.bodies}))
@@ -92,11 +92,11 @@ def cmd_check(args) -> int:
 
 def _prepare_run(args):
     """Load the scene, compile it: (scene, compiled, mech, build_s)."""
-    from .pipeline import compile_scene
-    from .run.mechanism import Mechanism
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.numerics.mechanism import Mechanism
 
     scene = _scene(args)
-    from .run.units import choose_system
+    from symgen.numerics.units import choose_system
     choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
     _say(args, f"deriving {scene.name}")
     compiled = compile_scene(scene, use_cache=not args.no_cache)
@@ -127,7 +127,7 @@ def _results_run(args, body) -> int:
 def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
     """CSV, JSON (partial when the run stopped), then the plot if asked; re-raise a failure.
     Columns in the scene's units (SI for an SI scene unless --units dimensionless)."""
-    from .run.units import result_units
+    from symgen.numerics.units import result_units
 
     units = result_units(scene, args.units)
     t_col, values = units.convert(result.tau, result.outputs)
@@ -137,7 +137,7 @@ def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
     if getattr(args, "states", False):           # the coordinates, for symgen animate --from
         import numpy as np
 
-        from .run.animate import states_meta
+        from symgen.apps.animate import states_meta
         meta["states"] = states_meta(scene, meta["coordinates"], meta["model_key"])
         clash = sorted(set(names) & set(meta["states"]["columns"]))
         if clash:
@@ -150,7 +150,7 @@ def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
     if failure is not None:
         print(f"symgen: partial result kept in {written} ({meta['status']})", file=sys.stderr)
     if files.plot is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
-        from .plot import plot_outputs
+        from symgen.apps.plot import plot_outputs
         drv = scene.driver
         steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
         turn = 2 * math.pi / abs(drv.rate) if steady else None      # a law or a ramp: plotted against tau
@@ -167,7 +167,7 @@ def cmd_simulate(args) -> int:
 
 
 def _simulate(args, files) -> int:
-    from .run.simulate import simulate
+    from symgen.numerics.simulate import simulate
 
     if args.solver == "c" and args.states:
         raise SceneError("command line", "--states", "the C solver writes the outputs only, not the coordinates",
@@ -175,7 +175,7 @@ def _simulate(args, files) -> int:
     scene, compiled, mech, build_s = _prepare_run(args)
     _say(args, f"integrating tau 0 -> {scene.simulation.t_end:.6g}")
     if args.solver == "c":
-        from .run.csolver import simulate_c
+        from symgen.numerics.csolver import simulate_c
         result, failure = _attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
     else:
         result, failure = _attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
@@ -205,8 +205,8 @@ def _backend_text(stats: dict) -> str:
 
 
 def _sidecar(scene, compiled, build_s, result, failure) -> dict:
-    from .scene.motion import driver_record
-    from .structure import axial_treatments
+    from symgen.scene.motion import driver_record
+    from symgen.model.structure import axial_treatments
     sim = scene.simulation
     meta = compiled.meta
     return {
@@ -248,9 +248,9 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
 
 
 def cmd_latex(args) -> int:
-    from .dae import derive
-    from .emit.latex import latex_document
-    from .outputs import atomic_write
+    from symgen.model.derive import derive
+    from symgen.backends.latex.document import latex_document
+    from symgen.model.outputs import atomic_write
 
     out = _check_out(args.output, (".tex",), "-o")
     scene = _scene(args)
@@ -261,8 +261,8 @@ def cmd_latex(args) -> int:
 
 
 def cmd_derive(args) -> int:
-    from .golden import write_generated
-    from .scene import load_scene
+    from symgen.apps.golden import write_generated
+    from symgen.scene import load_scene
 
     check_folder(args.output, "-o")
     for path in args.scenes:
@@ -273,7 +273,7 @@ def cmd_derive(args) -> int:
 
 
 def cmd_study(args) -> int:
-    from .run.study import discard_study, run_study, write_study
+    from symgen.apps.study import discard_study, run_study, write_study
 
     check_folder(args.output, "-o")
     levels = None
@@ -313,8 +313,7 @@ def _flush_print(text: str) -> None:
 
 
 def cmd_sweep(args) -> int:
-    from .run.sweep import (check_table_path, parse_vary, plot_campbell, plot_resonance, sweep, sweep_meta,
-                            write_table)
+    from symgen.apps.sweep import check_table_path, parse_vary, plot_campbell, plot_resonance, sweep, sweep_meta, write_table
 
     out = check_table_path(args.output)
     for path, key in ((args.plot, "--plot"), (args.campbell, "--campbell")):
@@ -360,7 +359,7 @@ def cmd_sweep(args) -> int:
 
 
 def cmd_effects(args) -> int:
-    from .run.effects import DEFAULT_TOL, auto_effects, estimate_effects, measure_effects, table
+    from symgen.apps.effects import DEFAULT_TOL, auto_effects, estimate_effects, measure_effects, table
 
     outputs = [x.strip() for x in args.outputs.split(",") if x.strip()] if args.outputs else None
     if args.auto is not None:
@@ -392,7 +391,7 @@ def cmd_quasistatic(args) -> int:
 
 
 def _quasistatic(args, files) -> int:
-    from .run.quasistatic import quasi_static
+    from symgen.numerics.quasistatic import quasi_static
 
     scene, compiled, mech, build_s = _prepare_run(args)
     _say(args, "solving the quasi-static positions")
@@ -415,9 +414,9 @@ def _quasistatic(args, files) -> int:
 
 
 def cmd_animate(args) -> int:
-    from .pipeline import compile_scene
-    from .run.animate import animate, check_target, fresh_run, read_states
-    from .run.mechanism import Mechanism
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.apps.animate import animate, check_target, fresh_run, read_states
+    from symgen.numerics.mechanism import Mechanism
 
     out = check_target(args.output)
     for key, val in (("--fps", args.fps), ("--frames", args.frames), ("--stride", args.stride),
@@ -455,10 +454,10 @@ def cmd_animate(args) -> int:
 def cmd_modes(args) -> int:
     import json
 
-    from .pipeline import compile_scene
-    from .run.mechanism import Mechanism
-    from .run.modes import modes, modes_json, modes_table
-    from .outputs import atomic_write, remove
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.modes import modes, modes_json, modes_table
+    from symgen.model.outputs import atomic_write, remove
 
     out = _check_out(args.output, (".json",), "-o") if args.output else None
     try:
@@ -479,8 +478,8 @@ def cmd_modes(args) -> int:
 def cmd_schema(args) -> int:
     import json
 
-    from .run.results import atomic_write
-    from .scene.schema import json_schema, markdown
+    from symgen.numerics.results import atomic_write
+    from symgen.scene.schema import json_schema, markdown
 
     if args.markdown:
         out = _check_out(args.markdown, (".md",), "--markdown")
@@ -497,7 +496,7 @@ def cmd_schema(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
-    from .run.reproduce import reproduce
+    from symgen.apps.reproduce import reproduce
 
     check_folder(args.output, "-o")
     for path in reproduce(args.output, quick=args.quick, examples=args.examples, progress=print, fmt=args.format):
@@ -506,7 +505,7 @@ def cmd_reproduce(args) -> int:
 
 
 def cmd_emit_c(args) -> int:
-    from .api import write_c
+    from symgen.api import write_c
 
     check_folder(args.output, "-o")
     scene = _scene(args)
@@ -516,7 +515,7 @@ def cmd_emit_c(args) -> int:
 
 
 def cmd_emit_fmu(args) -> int:
-    from .api import write_fmu
+    from symgen.api import write_fmu
 
     out = _check_out(args.output, (".fmu",), "-o")
     scene = _scene(args)
@@ -525,7 +524,7 @@ def cmd_emit_fmu(args) -> int:
 
 
 def cmd_cache(args) -> int:
-    from . import cache
+    from symgen import cache
 
     if args.action == "info":
         print(cache.info())

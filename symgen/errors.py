@@ -44,7 +44,7 @@ class Interrupted(KeyboardInterrupt):
 
     A ``KeyboardInterrupt`` (not a ``SymgenError``), so that no ``except SymgenError`` or
     ``except Exception`` of a loop that tolerates failed items swallows it. Raised by the
-    handlers of ``symgen.run.interrupt.handling``; a run that stops keeps what it computed
+    handlers of ``symgen.numerics.interrupt.handling``; a run that stops keeps what it computed
     in ``partial`` (as ``SimulationError`` does), to be written marked ``"interrupted"``.
     """
 

@@ -1,8 +1,8 @@
-"""One solver policy for the Python runners (``symgen.run``) and the emitted C solver.
+"""One solver policy for the Python runners (``symgen.numerics``) and the emitted C solver.
 
 The consistent start, the assembly, the closure polish, the singular-position test and the
 range of the bar models are done twice: in Python (``run/mechanism.py``, ``run/simulate.py``)
-and in the emitted C (``templates/c/solver.c.jinja``). Their tolerances and limits live here
+and in the emitted C (``symgen/backends/c/templates/solver.c.jinja``). Their tolerances and limits live here
 only: the Python code reads :data:`POLICY`, and the C context (``emit/c/context.py``) writes
 the same values into the emitted solver, so the two cannot drift apart. Each value states
 where it comes from.

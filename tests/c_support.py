@@ -38,13 +38,13 @@ def mechanism(name: str):
 
 @functools.lru_cache(maxsize=None)
 def model(name: str):
-    from symgen.dae import derive
+    from symgen.model.derive import derive
     return derive(mechanism(name).scene)
 
 
 @functools.lru_cache(maxsize=None)
 def context(name: str) -> dict:
-    from symgen.emit.c import c_context
+    from symgen.backends.c import c_context
     mech = mechanism(name)
     return c_context(mech.scene, model(name), mech)
 
@@ -52,15 +52,15 @@ def context(name: str) -> dict:
 @functools.lru_cache(maxsize=None)
 def sources(name: str) -> Path:
     """The folder of ``symgen emit-c`` for an example."""
-    from symgen.emit.c import write_tree
-    from symgen.emit.c.render import render_files
+    from symgen.backends.c import write_tree
+    from symgen.backends.c.render import render_files
     return write_tree(render_files(context(name)), WORK / f"{name}_c")
 
 
 @functools.lru_cache(maxsize=None)
 def library(name: str) -> ctypes.CDLL:
     """Model + solver as a shared library (strict flags)."""
-    from symgen.emit.c.build import compile_shared
+    from symgen.backends.c.build import compile_shared
     src = sources(name)
     so = compile_shared([src / f"{name}.c", src / f"{name}_solver.c"], WORK / f"lib{name}.so", include=[src])
     return ctypes.CDLL(str(so))
@@ -68,7 +68,7 @@ def library(name: str) -> ctypes.CDLL:
 
 @functools.lru_cache(maxsize=None)
 def simulator(name: str) -> Path:
-    from symgen.emit.c.build import compile_executable
+    from symgen.backends.c.build import compile_executable
     src = sources(name)
     return compile_executable([src / f"{name}.c", src / f"{name}_solver.c", src / f"{name}_sim.c"],
                               WORK / f"{name}_sim", include=[src])
@@ -85,7 +85,7 @@ def run_sim(exe: Path, *args: str) -> tuple[list[str], np.ndarray, str]:
 @functools.lru_cache(maxsize=None)
 def idas_reference(name: str):
     """(tau, outputs) of the Python path (IDAS) at converged tolerances."""
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
     rtol, atol = IDAS_TOL[name]
     res = simulate(mechanism(name), rtol=rtol, atol=atol)
     return res.tau, res.outputs

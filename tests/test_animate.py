@@ -3,7 +3,7 @@
 Oracle of the drawn bars: for one driven cantilever (no loop: the rigid reference is the bar at
 the same angle, straight) the drawn point at xi is alpha R(theta) [xi + F zeta(xi), F eta(xi)],
 with zeta, eta evaluated here from the amplitudes in the run's state columns and the shape
-functions of ``symgen.shapes`` (the cantilever's clamped-free eigenfunctions), independently of
+functions of ``symgen.model.shapes`` (the cantilever's clamped-free eigenfunctions), independently of
 the animation's own geometry (CasADi function of the tree kinematics).
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ import pytest
 from PIL import Image, ImageChops
 
 from symgen.cli import main
-from symgen.shapes import axial_basis, transverse_basis
+from symgen.model.shapes import axial_basis, transverse_basis
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
 
@@ -88,10 +88,10 @@ def test_gif_frames_move_and_show_the_magnified_deformation(run):
 
 
 def test_drawn_bar_is_rigid_line_plus_factor_times_shape_functions(run):
-    from symgen.pipeline import compile_scene
-    from symgen.run.animate import Animator, read_states
-    from symgen.run.geometry import Geometry, rigid_reference
-    from symgen.run.mechanism import Mechanism
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.apps.animate import Animator, read_states
+    from symgen.numerics.geometry import Geometry, rigid_reference
+    from symgen.numerics.mechanism import Mechanism
     from symgen.scene import load_scene
 
     d, scene_path = run
@@ -186,7 +186,7 @@ def test_tip_load_shape_printed_factored(tmp_path):
     import shutil
     import subprocess
 
-    from symgen.shapes import tip_load_coefficients
+    from symgen.model.shapes import tip_load_coefficients
 
     basis = transverse_basis("cantilever", "modes", 3, tip_joint=True)
     eig = list(basis.functions[1:])
@@ -224,10 +224,10 @@ def test_magnified_slider_crank_stays_joined():
     """In a closed loop the drawn bars meet at every joint for any factor: the computed and the
     rigid positions both close the loop (crank tip = rod start; the rod's end on the slider line),
     while the rod's midpoint moves F times its elastic displacement off the rigid rod."""
-    from symgen.pipeline import compile_scene
-    from symgen.run.geometry import Geometry, magnified, rigid_reference
-    from symgen.run.mechanism import Mechanism
-    from symgen.run.simulate import simulate
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.numerics.geometry import Geometry, magnified, rigid_reference
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.simulate import simulate
     from symgen.scene import load_scene
 
     scene = load_scene(ROOT / "examples" / "slider_crank.toml", ["simulation.cycles=0.25"])

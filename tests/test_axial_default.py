@@ -26,7 +26,7 @@ import pytest
 from symgen.api import simulate_scene
 from symgen.cli import main
 from symgen.scene import load_scene
-from symgen.structure import AXIAL_SEPARATION, axial_treatments
+from symgen.model.structure import AXIAL_SEPARATION, axial_treatments
 from tests.oracles import write_scene
 
 SLIDER = "examples/slider_crank.toml"

@@ -20,10 +20,11 @@ import pytest
 import sympy
 
 from symgen import cache, exprdata
-from symgen import shapes as S
+from symgen.model import shapes as S
 from symgen.cli import main
-from symgen.emit import casadi_io
-from symgen.pipeline import compile_scene, parameter_values
+from symgen.backends.casadi import store as casadi_io
+from symgen.backends.casadi.pipeline import compile_scene
+from symgen.ir.parameters import parameter_values
 from symgen.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -155,7 +156,7 @@ def test_planted_pickles_are_never_loaded(root, capsys, reference, tmp_path):
 
 
 def _fill_key() -> str:
-    from symgen.structure import structure_key, structure_of
+    from symgen.model.structure import structure_key, structure_of
     return structure_key(structure_of(load_scene(SCENE)))
 
 

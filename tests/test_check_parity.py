@@ -13,8 +13,8 @@ import pytest
 
 from symgen.api import mechanism
 from symgen.errors import SimulationError
-from symgen.run.csolver import executable
-from symgen.run.simulate import simulate
+from symgen.numerics.csolver import executable
+from symgen.numerics.simulate import simulate
 from test_cli import FOUR_BAR_TOGGLE
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,

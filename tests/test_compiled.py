@@ -1,4 +1,4 @@
-"""The compiled backend (symgen.run.compiled): the model's run-time Functions as a cached shared
+"""The compiled backend (symgen.numerics.compiled): the model's run-time Functions as a cached shared
 library, run by IDAS through CasADi.
 
 * Its results equal those of CasADi's virtual machine to 1e-12 of each quantity's peak (in
@@ -21,8 +21,8 @@ import pytest
 
 from symgen import cache
 from symgen.api import mechanism
-from symgen.run import compiled, simulate as simulate_mod
-from symgen.run.simulate import simulate
+from symgen.numerics import compiled, simulate as simulate_mod
+from symgen.numerics.simulate import simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 SLIDER = ROOT / "examples" / "slider_crank.toml"
@@ -223,8 +223,8 @@ def test_solver_c_executable_follows_the_derived_model_not_only_the_scene(tmp_pa
     with the rule loosened gets quasi-static bars; with the rule as it is, all three dynamic, and
     ``--solver c`` then agrees with IDAS (rtol 1e-9) to 1e-3 of every deflection's peak. An
     executable keyed by the scene alone once ran the quasi-static model here: 4-7 % off."""
-    from symgen import structure
-    from symgen.run.csolver import simulate_c
+    from symgen.model import structure
+    from symgen.numerics.csolver import simulate_c
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     scene = ROOT / "benchmarks" / "scenes" / "four_bar_steel.toml"
     run = ["simulation.cycles=1", "simulation.rtol=1e-5", "simulation.atol=1e-8"]
@@ -244,12 +244,12 @@ def test_solver_c_executable_follows_the_derived_model_not_only_the_scene(tmp_pa
 
 
 def test_solver_c_executable_follows_the_solver_constants(tmp_path, monkeypatch):
-    """The Radau and step-control constants live in symgen/emit/c/radau.py and are rendered into
+    """The Radau and step-control constants live in symgen/backends/c/radau.py and are rendered into
     the C: a changed constant builds a new executable (the key once hashed only the templates, and
     a changed THET reused the old one), an unchanged one is the cached one (its key compares
     equal after the manifest's JSON round trip)."""
-    from symgen.emit.c import radau
-    from symgen.run.csolver import simulate_c
+    from symgen.backends.c import radau
+    from symgen.numerics.csolver import simulate_c
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     mech = mechanism(SLIDER, ["simulation.cycles=0.05"])
     first = simulate_c(mech)

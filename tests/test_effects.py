@@ -18,9 +18,9 @@ import sympy as sp
 
 from symgen.api import simulate_scene
 from symgen.cli import main
-from symgen.dae import derive
-from symgen.emit import casadi_emit
-from symgen.run.effects import estimate_effects, toml_text
+from symgen.model.derive import derive
+from symgen.backends.casadi import functions as casadi_emit
+from symgen.apps.effects import estimate_effects, toml_text
 from symgen.scene import load_scene
 
 SLIDER = "examples/slider_crank.toml"
@@ -134,7 +134,7 @@ def test_every_effects_key_is_covered():
 
 # --------------------------------------------------------------------------- symgen effects
 def test_estimates_from_the_groups():
-    """The estimates are the formulas of symgen/run/effects.py evaluated on the scene's groups
+    """The estimates are the formulas of symgen/apps/effects.py evaluated on the scene's groups
     (rod: lambda = 18246, mu = 0.495, crank rate 1)."""
     scene = load_scene(SLIDER, ["effects.rotary_inertia=true", "effects.strain=von_karman", "effects.axial=true"])
     rows = {r.change.key: r for r in estimate_effects(scene, 1e-3).rows}
@@ -221,7 +221,7 @@ def test_estimate_agrees_with_measure_on_the_examples(example):
     change by change, on every example, and is within a factor 30 of the measured error where
     both matter. (It once recommended 'axial -> inextensible' for a scene whose chord-elongation
     output that model loses entirely: 100 % measured.)"""
-    from symgen.run.effects import estimate_effects, measure_effects
+    from symgen.apps.effects import estimate_effects, measure_effects
     from symgen.scene import load_scene
 
     path = str(ROOT / "examples" / f"{example}.toml")

@@ -27,7 +27,7 @@ def _ptr(x: np.ndarray):
 # ---------------------------------------------------------------------------- generation
 def test_radau_constants():
     """The Radau IIA constants baked into the solver satisfy their defining identities."""
-    from symgen.emit.c import radau
+    from symgen.backends.c import radau
     A = np.array(radau.A, dtype=float)
     c = np.array(radau.C, dtype=float)
     T, TI = np.array(radau.T, dtype=float), np.array(radau.TI, dtype=float)
@@ -278,7 +278,7 @@ def test_edge_scenes_compile_and_match_python(build, tmp_path):
     pendulum under a torque driver, quasi-static start): zero-size arrays compile, runs agree."""
     from symgen.api import mechanism as python_mechanism
     from symgen.api import write_c
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
     from symgen.scene import load_scene
     path, overrides = build(tmp_path)
     scene = load_scene(path, overrides)
@@ -381,7 +381,7 @@ def test_odd_scene_names_are_rejected(bad, tmp_path):
 
 
 def test_strings_are_escaped_in_c_and_xml():
-    from symgen.emit.c.names import c_comment, c_string, xml_attr
+    from symgen.backends.c.names import c_comment, c_string, xml_attr
     for text in ODD_NAMES + ['quote " back \\ ??= trigraph', "*/ end", "é\u2028"]:
         lit = c_string(text)
         assert lit.isascii() and "\n" not in lit and "??" not in lit[1:-1].replace("\\?", "")
@@ -392,7 +392,7 @@ def test_strings_are_escaped_in_c_and_xml():
 
 @needs_cc
 def test_escaped_strings_compile_and_round_trip(tmp_path):
-    from symgen.emit.c.names import c_string
+    from symgen.backends.c.names import c_string
     texts = ["a;b", 'q"uote', "back\\slash", "ünï", "??=", "tab\there"]
     src = tmp_path / "s.c"
     src.write_text("#include <stdio.h>\nint main(void)\n{\n"
@@ -427,7 +427,7 @@ def test_emitted_folder_has_the_mode_of_any_output(tmp_path):
     """write_tree renders into a temporary sibling and renames it: the folder gets the mode
     mkdir gives (0777 & ~umask), not mkdtemp's 0700."""
     import os
-    from symgen.emit.c import write_tree
+    from symgen.backends.c import write_tree
     old = os.umask(0o027)
     try:
         out = write_tree({"a.c": "int a;\n", "sub/b.h": "int b;\n"}, tmp_path / "out_c")

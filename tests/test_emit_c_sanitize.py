@@ -1,7 +1,7 @@
 """The emitted C under AddressSanitizer and UndefinedBehaviorSanitizer (with float-cast-overflow,
 every report fatal): every example runs a short simulation clean, and the driver rejects bad
 arguments by name (exit 2, nothing on stdout) without undefined behaviour; the solver API and
-``_parameter_valid`` reject what the Python policy rejects (symgen.pipeline.parameter_records,
+``_parameter_valid`` reject what the Python policy rejects (symgen.ir.parameters.parameter_records,
 symgen.scene.model limits), probed from a sanitized C harness.
 
 The slider-crank runs in the default suite; the other examples (larger C, slower to compile
@@ -91,7 +91,7 @@ def _run(exe, *args: str) -> subprocess.CompletedProcess:
 
 
 def _rows(t_end: float, step: float) -> int:
-    """Output rows of a run, the formula of symgen.run.simulate."""
+    """Output rows of a run, the formula of symgen.numerics.simulate."""
     return int(math.floor(t_end / step + 1e-9)) + 1
 
 
@@ -118,7 +118,7 @@ def test_short_run_is_clean_under_sanitizers(name):
 
 def _bad_arguments(name: str) -> list:
     """(arguments, text the message must contain) of usages the driver rejects."""
-    from symgen.pipeline import POSITIVE
+    from symgen.ir.parameters import POSITIVE
     from symgen.scene.limits import LIMITS
     MAX_OUTPUT_ROWS = LIMITS["rows"].default
     par = _positive_parameter(name)
@@ -272,7 +272,7 @@ def test_library_rejects_what_the_python_policy_rejects(tmp_path):
     non-finite or out-of-range times, tolerances and parameters, and a NULL solver (a bad t_out
     leaves the run usable); all of it clean under the sanitizers."""
     _need_sanitizers()
-    from symgen.pipeline import parameter_records
+    from symgen.ir.parameters import parameter_records
     name = DEFAULT
     mech = mechanism(name)
     params = list(mech.meta["params"])

@@ -20,7 +20,7 @@ pytestmark = needs_cc
 def _fmu(name: str):
     path = WORK / f"{name}.fmu"
     if not path.exists():
-        from symgen.emit.c.fmu import write_fmu
+        from symgen.backends.fmu import write_fmu
         mech = mechanism(name)
         write_fmu(mech.scene, path, context(name))
     return path
@@ -97,7 +97,7 @@ def test_fmu_variable_names_stay_unique_when_an_output_is_named_like_a_parameter
     import dataclasses
     import xml.etree.ElementTree as ET
 
-    from symgen.emit.c.fmu import fmu_files
+    from symgen.backends.fmu import fmu_files
     scene = mechanism("slider_crank").scene
     outputs = list(scene.outputs)
     outputs[0] = dataclasses.replace(outputs[0], name="rate")          # "rate" is also a parameter
@@ -120,7 +120,7 @@ def _umask() -> int:
 
 def test_fmu_rejects_invalid_parameters_and_has_the_mode_of_any_output():
     """fmi2SetReal refuses a non-finite or out-of-range parameter (fmi2Error, a logged message
-    naming the parameter and its range from symgen.pipeline.parameter_records); the .fmu file
+    naming the parameter and its range from symgen.ir.parameters.parameter_records); the .fmu file
     has the mode open() gives (0666 & ~umask), not mkstemp's 0600."""
     import os
     import xml.etree.ElementTree as ET

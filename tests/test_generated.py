@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import sympy
 
-from symgen.golden import generated_payload
+from symgen.apps.golden import generated_payload
 from symgen.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -119,7 +119,7 @@ def test_inextensible_model_has_no_lambda_and_holds_the_chord_shortening():
     mech = mechanism(SLIDER, ACCURATE + basis(3, 4) + QS + INEXT + ["simulation.cycles=0.25"])
     assert not any(p.startswith("lambda_") for p in mech.meta["params"])
     assert [r["kind"] for r in mech.meta["lam_rows"]].count("inextensible") == 3
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
 
     res = simulate(mech)
     g = res.q[:, [i for i, c in enumerate(mech.coords) if c["kind"] == "g"]]

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from symgen.api import mechanism
-from symgen.run.modes import modes
-from symgen.run.quasistatic import quasi_static
+from symgen.numerics.modes import modes
+from symgen.numerics.quasistatic import quasi_static
 from symgen.scene import load_scene
-from symgen.structure import structure_key, structure_of
+from symgen.model.structure import structure_key, structure_of
 from tests.oracles import hermite_beam_frequencies
 
 HEAD = """[scene]
@@ -176,7 +176,7 @@ def test_six_bar_default_model_matches_a_converged_model_without_corrections():
     deflections, 0.6 % on the reaction and torque): the deflections within 1 % of the peak (measured
     0.006-0.013 %), the reaction at D and the driver torque within 2 % (1.1-1.7 %: the truncation of
     the bending dynamics), and every one better than the same model without the corrections."""
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
 
     def run(overrides):
         return simulate(mechanism("examples/six_bar.toml", overrides), t_end=np.pi, rtol=1e-8)
@@ -195,8 +195,8 @@ def test_six_bar_default_model_matches_a_converged_model_without_corrections():
 def test_latex_prints_the_correction_factored(tmp_path):
     """`symgen latex`: the correction function as (w_K - sum c_k psi_k)/t with its piecewise
     static shape and coefficients on their own line, no expanded sum."""
-    from symgen.dae import derive
-    from symgen.emit.latex import latex_document
+    from symgen.model.derive import derive
+    from symgen.backends.latex.document import latex_document
 
     path = _point_load_scene(tmp_path, "latex")
     scene = load_scene(path)

@@ -12,10 +12,9 @@ import pytest
 import sympy as sp
 
 from symgen import __version__
-from symgen.dae import derive
-from symgen.bars import bar_equations
-from symgen.emit.latex import (TEMPLATES, Namer, Printer, _RecordingIPT, _split_sides, _width, latex_document,
-                               tex_lines)
+from symgen.model.derive import derive
+from symgen.model.bars import bar_equations
+from symgen.backends.latex.document import TEMPLATES, Namer, Printer, _RecordingIPT, _split_sides, _width, latex_document, tex_lines
 from symgen.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -240,8 +239,8 @@ def test_inverted_slider_crank_shows_the_variable_span(inverted):
 def test_guide_equations_give_back_the_model(inverted):
     """The guide's displayed rigid-body, (17) and beta equations, with the tabulated closed forms
     and the slot force's (B, Gamma), scaled back, are the model's generalized forces."""
-    from symgen.bars import rot
-    from symgen.emit.latex_slot import _contact_definitions, _contact_symbols, guide_display_equations
+    from symgen.model.bars import rot
+    from symgen.backends.latex.slot import _contact_definitions, _contact_symbols, guide_display_equations
 
     scene, model, _ = inverted
     bm = model.bars["guide"]

@@ -27,8 +27,8 @@ import numpy as np
 import pytest
 
 from symgen.api import mechanism
-from symgen.run.modes import modes
-from symgen.run.quasistatic import quasi_static
+from symgen.numerics.modes import modes
+from symgen.numerics.quasistatic import quasi_static
 
 SC = "examples/slider_crank.toml"
 ALPHA, LAMBDA = 0.5, 18246.0

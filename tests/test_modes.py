@@ -27,7 +27,7 @@ import pytest
 
 from symgen.api import mechanism
 from symgen.cli import main
-from symgen.run.modes import modes
+from symgen.numerics.modes import modes
 from tests.oracles import write_scene
 
 # Hodges & Rutkowski (1981) Table 1 / Wright et al. (1982) Table 1: uniform cantilever, hub
@@ -172,7 +172,7 @@ def test_console_verdicts_stable_and_damped(spinning, tmp_path, capsys):
 
 def test_divergence_verdict_names_buckling():
     """A real positive eigenvalue is a divergence (beyond buckling), whatever the damping."""
-    from symgen.run.modes import ModesResult
+    from symgen.numerics.modes import ModesResult
 
     res = ModesResult(tau=0.0, modes=[], real_eigenvalues=[-0.5, 0.312], state={}, independent=[],
                       dependent=[], quasi_static={"method": "newton"})

@@ -14,14 +14,14 @@ from pathlib import Path
 
 import pytest
 
-import symgen.run.effects  # noqa: F401  (imported before ``no_work`` patches load_scene)
-import symgen.run.reproduce  # noqa: F401
-import symgen.run.study  # noqa: F401
+import symgen.apps.effects  # noqa: F401  (imported before ``no_work`` patches load_scene)
+import symgen.apps.reproduce  # noqa: F401
+import symgen.apps.study  # noqa: F401
 import symgen.scene
 from symgen.cli import main
 from symgen.errors import Interrupted
-from symgen.outputs import OutputError, atomic_path, atomic_write
-from symgen.run import interrupt
+from symgen.model.outputs import OutputError, atomic_path, atomic_write
+from symgen.numerics import interrupt
 from tests.test_cli import FOUR_BAR_TOGGLE
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -72,7 +72,7 @@ def test_successful_run_removes_stale_partials(tmp_path, capsys):
 def test_csv_write_failure_leaves_no_complete_json(tmp_path, capsys, monkeypatch):
     """The disk fills while the CSV is written: exit 2 naming the file, no JSON that says
     "complete" (neither a new one nor the earlier run's), no CSV, no temporary file."""
-    import symgen.run.results as results
+    import symgen.numerics.results as results
 
     real = results.atomic_write
 
@@ -115,9 +115,9 @@ def no_work(monkeypatch):
     def boom(*a, **k):
         raise AssertionError("the scene was loaded before the output path was checked")
     monkeypatch.setattr(symgen.scene, "load_scene", boom)
-    monkeypatch.setattr("symgen.run.study.load_scene", boom)
-    monkeypatch.setattr("symgen.run.effects.load_scene", boom)
-    monkeypatch.setattr("symgen.run.reproduce.load_scene", boom)
+    monkeypatch.setattr("symgen.apps.study.load_scene", boom)
+    monkeypatch.setattr("symgen.apps.effects.load_scene", boom)
+    monkeypatch.setattr("symgen.apps.reproduce.load_scene", boom)
 
 
 def test_plot_onto_a_folder_exits_2_up_front(tmp_path, capsys, no_work):
@@ -201,7 +201,7 @@ def test_handler_raises_interrupted_and_is_restored():
 
 
 def test_effects_measure_interrupted_keeps_the_rows_measured(monkeypatch):
-    from symgen.run import effects
+    from symgen.apps import effects
 
     calls = []
 
@@ -321,7 +321,7 @@ def test_study_stops_at_once_on_sigint(warm, tmp_path):
 def test_reproduce_stopped_leaves_no_complete_readme(tmp_path, capsys, monkeypatch):
     """``reproduce`` interrupted after its first figures: the README of an earlier complete
     run and its figures not redrawn go; README.partial.md says what was drawn and why."""
-    from symgen.run import reproduce as rep
+    from symgen.apps import reproduce as rep
 
     out = tmp_path / "figs"
     out.mkdir()

@@ -38,7 +38,7 @@ def _reference(degrees: int) -> dict:
 def _symgen(overrides: list[str], degrees: int) -> dict:
     """symgen's outputs (SI) on the one-degree grid over ``degrees`` of crank."""
     from symgen.api import mechanism, results_table
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
     mech = mechanism(SCENE, overrides + [f"simulation.cycles={degrees / 360}"])
     res = simulate(mech)
     assert res.complete, res.failure

@@ -50,8 +50,8 @@ def installed(tmp_path_factory):
 def test_wheel_carries_the_templates(installed):
     wheel, _, _ = installed
     names = set(zipfile.ZipFile(wheel).namelist())
-    for t in ("symgen/templates/c/model.c.jinja", "symgen/templates/c/sim.c.jinja",
-              "symgen/templates/c/fmi2/fmi2Functions.h", "symgen/templates/latex/document.tex.jinja"):
+    for t in ("symgen/backends/c/templates/model.c.jinja", "symgen/backends/c/templates/sim.c.jinja",
+              "symgen/backends/c/templates/fmi2/fmi2Functions.h", "symgen/backends/latex/templates/document.tex.jinja"):
         assert t in names, f"{t} missing from {wheel.name}"
 
 

@@ -1,4 +1,4 @@
-"""The valid ranges of the model parameters (symgen.pipeline.parameter_records), the one policy
+"""The valid ranges of the model parameters (symgen.ir.parameters.parameter_records), the one policy
 the Python runs verify and the emitted C renders (tests/test_emit_c_sanitize.py checks the C
 side against it)."""
 from __future__ import annotations
@@ -8,8 +8,7 @@ import math
 import pytest
 
 from symgen.errors import SceneError
-from symgen.pipeline import (FINITE, NON_NEGATIVE, POSITIVE, UNIT_COMPONENT, ParameterRange, parameter_records,
-                             parameter_values)
+from symgen.ir.parameters import FINITE, NON_NEGATIVE, POSITIVE, UNIT_COMPONENT, ParameterRange, parameter_records, parameter_values
 from symgen.scene import load_scene
 
 from c_support import ALL_EXAMPLES, ROOT

@@ -10,11 +10,11 @@ import pytest
 
 from c_support import mechanism, model
 from symgen import policy
-from symgen.emit.c import context as ctx_mod
-from symgen.emit.c.printer import c_double
-from symgen.emit.c.render import render_files
+from symgen.backends.c import context as ctx_mod
+from symgen.backends.c.printer import c_double
+from symgen.backends.c.render import render_files
 from symgen.errors import SimulationError
-from symgen.run import mechanism as mech_mod
+from symgen.numerics import mechanism as mech_mod
 
 
 def _odd(value):

@@ -37,7 +37,7 @@ import sympy as sp
 from symgen.api import mechanism
 from symgen.cli import main
 from symgen.errors import SimulationError
-from symgen.run.simulate import simulate
+from symgen.numerics.simulate import simulate
 from tests.oracles import write_scene
 
 # ------------------------------------------------------------------ Kane, Ryan & Banerjee (1987)
@@ -293,7 +293,7 @@ def test_driven_pendulum_torque_is_the_closed_form(tmp_path):
 def test_law_is_part_of_the_model_key(tmp_path):
     """Another law is another derivation; another initial angle is only a value."""
     from symgen.scene import load_scene
-    from symgen.structure import structure_key, structure_of
+    from symgen.model.structure import structure_key, structure_of
 
     def key(driver, name):
         return structure_key(structure_of(load_scene(_pendulum(tmp_path, driver, name=name))))

@@ -28,10 +28,10 @@ import pytest
 
 from symgen.api import mechanism
 from symgen.cli import main
-from symgen.dae import derive
-from symgen.emit.latex import latex_document
-from symgen.run.quasistatic import FP_MAXIT, RES_TOL, RHO_MAX, QuasiStaticSystem, quasi_static
-from symgen.run.simulate import simulate
+from symgen.model.derive import derive
+from symgen.backends.latex.document import latex_document
+from symgen.numerics.quasistatic import FP_MAXIT, RES_TOL, RHO_MAX, QuasiStaticSystem, quasi_static
+from symgen.numerics.simulate import simulate
 from symgen.scene import load_scene
 from tests.oracles import write_scene
 

@@ -32,7 +32,7 @@ def test_reproduce_quick_writes_every_figure(tmp_path):
 
 
 def test_figure_texts_state_the_scenes_function_counts():
-    from symgen.run.reproduce import ACCURATE_SC, FIGURE_TEXT, _functions
+    from symgen.apps.reproduce import ACCURATE_SC, FIGURE_TEXT, _functions
     from symgen.scene import load_scene
 
     fb = load_scene(str(ROOT / "examples" / "four_bar.toml"))

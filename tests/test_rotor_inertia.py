@@ -255,10 +255,10 @@ def test_zero_inertias_are_allowed_and_change_nothing(tmp_path):
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
 def test_emitted_c_with_rotary_inertias_matches_python(tmp_path):
-    from symgen.dae import derive
-    from symgen.emit.c import c_context, write_tree
-    from symgen.emit.c.build import compile_executable
-    from symgen.emit.c.render import render_files
+    from symgen.model.derive import derive
+    from symgen.backends.c import c_context, write_tree
+    from symgen.backends.c.build import compile_executable
+    from symgen.backends.c.render import render_files
 
     path = _scene(tmp_path, "c_rotor", g=-0.8, pivot=0.1, t_end=4.0, step=0.5)
     mech = mechanism(path)
@@ -276,8 +276,8 @@ def test_emitted_c_with_rotary_inertias_matches_python(tmp_path):
 
 
 def test_latex_shows_the_rotary_inertias_and_compiles(tmp_path):
-    from symgen.dae import derive
-    from symgen.emit.latex import latex_document
+    from symgen.model.derive import derive
+    from symgen.backends.latex.document import latex_document
 
     path = _scene(tmp_path, "tex_rotor", ELASTIC, """
 [[bodies]]
@@ -323,7 +323,7 @@ def test_end_rotary_inertias_lower_the_pinned_beams_frequencies_as_the_closed_fo
     beam's frequency equation; J = 0 would give pi^2 n^2."""
     from scipy.optimize import brentq
 
-    from symgen.run.modes import modes
+    from symgen.numerics.modes import modes
 
     inertia, mu = 0.01, 1.0
     path = tmp_path / "pinned_rotary.toml"

@@ -1,4 +1,4 @@
-"""Tests of symgen.shapes against independent oracles.
+"""Tests of symgen.model.shapes against independent oracles.
 
 The oracle functions below are written directly in numpy (the eigenfunctions in the
 cancellation-free form ``A e^{b x} + B e^{-b x} - cos(b x) + sigma sin(b x)`` with
@@ -19,7 +19,7 @@ import pytest
 import sympy
 from scipy import integrate, optimize
 
-from symgen import shapes as S
+from symgen.model import shapes as S
 
 Fn = Callable[[float, int], float]  # f(x, derivative order)
 TOL = 1e-10

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from symgen.api import mechanism
-from symgen.run.simulate import DaeRunner, simulate
+from symgen.numerics.simulate import DaeRunner, simulate
 
 ROOT = Path(__file__).resolve().parent.parent
 ACCURATE = ["effects.axial=true", "effects.strain=von_karman", "bodies.rod.axial_shapes=complete",

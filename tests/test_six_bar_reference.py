@@ -74,7 +74,7 @@ def test_stored_reference_is_sound(variant):
 
 def _symgen_error(variant: str, extra: tuple = ()) -> tuple[float, dict]:
     from symgen.api import mechanism, results_table
-    from symgen.run.simulate import simulate
+    from symgen.numerics.simulate import simulate
     over, path, _ = VARIANTS[variant]
     over = list(over) + list(extra)
     _, ref = load_reference(path)

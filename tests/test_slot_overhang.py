@@ -16,8 +16,8 @@ import sympy as sp
 
 from symgen.errors import SceneError
 from symgen.scene.loader import load_scene
-from symgen.slot import XI, SlotBasis, SlotIPTable
-from symgen.structure import effective_modes, overhang_modes, structure_of
+from symgen.model.slot import XI, SlotBasis, SlotIPTable
+from symgen.model.structure import effective_modes, overhang_modes, structure_of
 from tests.oracles import write_scene
 from tests.test_slot import FROZEN, frozen_frequencies
 
@@ -172,8 +172,8 @@ def test_latex_of_the_elastic_overhang_shows_and_gives_back_the_model(tmp_path):
     import shutil
     import subprocess
 
-    from symgen.dae import derive
-    from symgen.emit.latex import latex_document
+    from symgen.model.derive import derive
+    from symgen.backends.latex.document import latex_document
     from tests.test_latex import test_guide_equations_give_back_the_model
 
     scene = load_scene(SCENE, ["joints.A.overhang=elastic"])

@@ -10,8 +10,8 @@ import pytest
 import scipy.integrate as si
 import scipy.linalg as sl
 
-from symgen.shapes import axial_basis, transverse_basis
-from symgen.static_shapes import Piecewise, piecewise_inner, static_correction
+from symgen.model.shapes import axial_basis, transverse_basis
+from symgen.model.static_shapes import Piecewise, piecewise_inner, static_correction
 from tests.oracles import hermite_beam_frequencies
 
 A = 0.3  # load / support point (a float, as a scene gives it)
@@ -137,8 +137,8 @@ def test_unknown_kind():
 
 @pytest.mark.parametrize("frame,family", [("pinned-pinned", "modes"), ("cantilever", "eigen")])
 def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
-    from symgen.shapes import inner_products
-    from symgen.static_shapes import piecewise_inner_products
+    from symgen.model.shapes import inner_products
+    from symgen.model.static_shapes import piecewise_inner_products
     ba, bt = axial_basis("stress-free", 2), transverse_basis(frame, family, 3)
     ref = inner_products(ba, bt)
     pw = piecewise_inner_products(ba.functions, bt.functions)
@@ -147,7 +147,7 @@ def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
 
 
 def test_piecewise_inner_products_with_corrections_match_quadrature():
-    from symgen.static_shapes import piecewise_inner_products
+    from symgen.model.static_shapes import piecewise_inner_products
     ba, bt = axial_basis("stress-free", 2), transverse_basis("pinned-pinned", "modes", 3)
     cha = static_correction("axial", A, ba.functions)
     chi = static_correction("pinned-pinned", A, bt.functions)

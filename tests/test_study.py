@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from symgen.cli import main
-from symgen.run.study import lowpass, pareto, spectral_error, window_error
+from symgen.apps.study import lowpass, pareto, spectral_error, window_error
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parent.parent
 
@@ -68,7 +68,7 @@ def test_study_files_and_reference(tiny_study):
 
 
 def test_pareto_front_is_monotone():
-    from symgen.run.study import Config, Row
+    from symgen.apps.study import Config, Row
     rows = []
     for t, e in [(1.0, 0.1), (2.0, 0.2), (3.0, 0.01), (0.5, 0.5), (4.0, 0.02)]:
         r = Row(Config(f"{t}", "modes", (), 1e-6, 1e-8))

@@ -16,8 +16,8 @@ from symgen.api import mechanism, quasi_static_scene
 from symgen.api import sweep as api_sweep
 from symgen.cli import main
 from symgen.errors import SceneError
-from symgen.run import sweep as sw
-from symgen.run.modes import modes
+from symgen.apps import sweep as sw
+from symgen.numerics.modes import modes
 
 ROOT = Path(__file__).resolve().parent.parent
 SLIDER = str(ROOT / "examples" / "slider_crank.toml")

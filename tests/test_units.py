@@ -94,7 +94,7 @@ def test_units_errors(tmp_path, capsys):
 
 
 def test_sweep_sidecar_gives_the_si_factors_of_the_peaks():
-    from symgen.run.sweep import _si_factors
+    from symgen.apps.sweep import _si_factors
     from symgen.scene import load_scene
 
     fb = load_scene(str(FOUR_BAR))

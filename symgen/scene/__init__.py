@@ -7,8 +7,7 @@ from __future__ import annotations
 
 from symgen.scene.expressions import parse_tau_expression, tau_symbol
 from symgen.scene.loader import load_scene, parse_scene, scene_hash
-from symgen.scene.model import (GROUND, OUTPUT_KINDS, Body, BodyDeformation, Driver, Effects,
-                                Initial, Joint, JointEnd, Load, Output, Scene, Simulation)
+from symgen.scene.model import GROUND, OUTPUT_KINDS, Body, BodyDeformation, Driver, Effects, Initial, Joint, JointEnd, Load, Output, Scene, Simulation
 from symgen.scene.overrides import apply_overrides
 
 __all__ = [

@@ -22,13 +22,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from symgen.errors import SceneError
-from symgen.scene.excitation import (check_driver_motion, read_driver, read_effects, read_initial,
-                                     read_loads)
-from symgen.scene.limits import (ATOL_MAX, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN,
-                                 SceneWarning, structure_problem, lift_hint, limit_value, over_limit,
-                                 short_key)
-from symgen.scene.mechanism import (check_connected, check_name, make_body, read_bars, read_joints,
-                                    reference_bar)
+from symgen.scene.excitation import check_driver_motion, read_driver, read_effects, read_initial, read_loads
+from symgen.scene.limits import ATOL_MAX, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN, SceneWarning, structure_problem, lift_hint, limit_value, over_limit, short_key
+from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides

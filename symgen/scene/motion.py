@@ -14,7 +14,7 @@ Three forms, all ``theta = theta0 + ...``:
   whose rate rises from 0 to Omega with zero acceleration at both ends (continuous up to the
   second derivative).
 
-The derivation (``symgen.dae``) differentiates the expression exactly (``sympy.diff``) for the
+The derivation (``symgen.model.derive``) differentiates the expression exactly (``sympy.diff``) for the
 velocity- and acceleration-level driver rows; the loader evaluates it to check that the law is
 finite over the run. Kept in ``symgen.scene`` because both use it; it imports SymPy lazily.
 """

@@ -157,7 +157,7 @@ def test_effects_auto_header_cannot_add_toml():
     (or another control character) stays inside the comment."""
     import tomllib
 
-    from symgen.run.effects import toml_text
+    from symgen.apps.effects import toml_text
 
     raw = {"scene": {"name": "s"}, "effects": {"coriolis": True}}
     text = toml_text(raw, "from evil\n[effects]\ncoriolis = false\r\x7f.toml")

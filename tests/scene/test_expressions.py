@@ -10,15 +10,14 @@ import time
 import pytest
 import sympy as sp
 
-from symgen.scene.expressions import (ALLOWED_FUNCTIONS, ALLOWED_NAMES, EXPRESSION_HINT, MAX_DEPTH,
-                                      MAX_LENGTH, parse_tau_expression, tau_symbol)
+from symgen.scene.expressions import ALLOWED_FUNCTIONS, ALLOWED_NAMES, EXPRESSION_HINT, MAX_DEPTH, MAX_LENGTH, parse_tau_expression, tau_symbol
 
 TAU = tau_symbol()
 P = parse_tau_expression
 
 
 def test_tau_is_the_real_symbol_of_the_derivation():
-    from symgen.dae import TAU as DAE_TAU
+    from symgen.model.derive import TAU as DAE_TAU
     assert TAU == DAE_TAU and TAU.is_real
     assert P("tau") == DAE_TAU and P("τ") == DAE_TAU and P("π") == sp.pi
 
@@ -233,7 +232,7 @@ POINTS = (0.3, 1.7)
 def test_every_function_converts_to_casadi():
     import casadi as ca
 
-    from symgen.emit.casadi_emit import SympyToCasadi
+    from symgen.backends.casadi.functions import SympyToCasadi
 
     t = ca.SX.sym("t")
     for text, oracle in ORACLE.items():
@@ -245,7 +244,7 @@ def test_every_function_converts_to_casadi():
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed")
 def test_every_function_prints_as_c(tmp_path):
-    from symgen.emit.c.printer import CPrinter
+    from symgen.backends.c.printer import CPrinter
 
     printer = CPrinter({TAU: "t"})
     body = "".join(f'    for (int i = 0; i < 2; ++i) {{ double t = pts[i]; '

@@ -6,7 +6,7 @@ import pytest
 
 from symgen.errors import SceneError
 from symgen.scene import Effects, load_scene
-from symgen.structure import structure_key, structure_of
+from symgen.model.structure import structure_key, structure_of
 
 
 def _with_axial(path, value: str, write_scene):

@@ -12,7 +12,7 @@ import pytest
 
 from symgen.cli import main
 from symgen.errors import SceneError
-from symgen.run.quasistatic import cycle_times
+from symgen.numerics.quasistatic import cycle_times
 from symgen.scene import load_scene
 from symgen.scene.limits import LIMITS, MAX_FILE_BYTES, limit_value
 

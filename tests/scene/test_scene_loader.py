@@ -9,7 +9,7 @@ import tomllib
 import pytest
 
 from symgen.errors import SceneError
-from symgen.scene import (GROUND, OUTPUT_KINDS, BodyDeformation, Effects, JointEnd, load_scene)
+from symgen.scene import GROUND, OUTPUT_KINDS, BodyDeformation, Effects, JointEnd, load_scene
 from symgen.scene.outputs import KIND_KEYS
 
 MINIMAL = """

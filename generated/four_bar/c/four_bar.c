@@ -55,7 +55,7 @@ const double four_bar_parameter_defaults[18] = {
     0.0    /* theta0 */
 };
 
-/* valid ranges (symgen.pipeline.parameter_records) */
+/* valid ranges (symgen.ir.parameters.parameter_records) */
 const double four_bar_parameter_lower[18] = {
     0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
 };

@@ -42,7 +42,7 @@ extern const double four_bar_parameter_defaults[18];
 
 /*
  * The valid values of every parameter (the Python loader's rules for the scene keys they come
- * from; symgen.pipeline.parameter_records): finite, above _parameter_lower[k] (strictly if
+ * from; symgen.ir.parameters.parameter_records): finite, above _parameter_lower[k] (strictly if
  * _parameter_lower_open[k]) and below _parameter_upper[k] (strictly if _parameter_upper_open[k]);
  * -HUGE_VAL / HUGE_VAL: no bound. _parameter_range[k] says the same in words ("> 0", "finite").
  */

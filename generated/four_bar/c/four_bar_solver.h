@@ -29,7 +29,7 @@ extern "C" {
 #endif
 
 /*
- * Index-1 DAE of the mechanism, as in the Python path (symgen/run/mechanism.py, simulate.py):
+ * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
  * the rigid coordinates are split into independent ones and dependent ones q_D (one per
  * closure row; the partition below was chosen by symgen where the closure Jacobian is best
  * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and

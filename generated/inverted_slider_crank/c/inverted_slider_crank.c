@@ -51,7 +51,7 @@ const double inverted_slider_crank_parameter_defaults[14] = {
     0.0    /* theta0 */
 };
 
-/* valid ranges (symgen.pipeline.parameter_records) */
+/* valid ranges (symgen.ir.parameters.parameter_records) */
 const double inverted_slider_crank_parameter_lower[14] = {
     0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
 };

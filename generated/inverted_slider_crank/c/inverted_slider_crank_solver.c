@@ -57,7 +57,7 @@ enum {
     inverted_slider_crank_x_NIT = 7
 };
 
-/* Radau IIA, 3 stages (symgen/emit/c/radau.py) */
+/* Radau IIA, 3 stages (symgen/backends/c/radau.py) */
 static const double inverted_slider_crank_x_C[3] = { 0.15505102572168219018, 0.64494897427831780982, 1.0 };
 static const double inverted_slider_crank_x_T[3][3] = {
     { 0.0944387624889752414875, -0.141255295020954208428, -0.0300291941051474244919 },

@@ -51,7 +51,7 @@ const double motor_arm_parameter_defaults[14] = {
     0.32267947390840696    /* torque */
 };
 
-/* valid ranges (symgen.pipeline.parameter_records) */
+/* valid ranges (symgen.ir.parameters.parameter_records) */
 const double motor_arm_parameter_lower[14] = {
     0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, 0.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
 };

@@ -57,7 +57,7 @@ const double six_bar_parameter_defaults[20] = {
     0.0    /* theta0 */
 };
 
-/* valid ranges (symgen.pipeline.parameter_records) */
+/* valid ranges (symgen.ir.parameters.parameter_records) */
 const double six_bar_parameter_lower[20] = {
     0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL, -HUGE_VAL
 };

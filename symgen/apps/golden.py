@@ -1,0 +1,87 @@
+"""The checked-in derived artefacts of the example scenes (``generated/<scene>/``).
+
+``symgen derive examples/*.toml -o generated`` writes, per scene:
+
+* ``model.json``: coordinates, closure rows, parameters, outputs, modes, operation counts of
+  every CasADi function, and a numeric *fingerprint*: every function evaluated at three seeded
+  random points with the scene's parameter values;
+* ``equations.tex``: the LaTeX document of the derived equations (``symgen latex``);
+* ``c/``: the standalone C of ``symgen emit-c`` (model, Jacobians, solver, driver, CMake).
+
+The golden test regenerates them into a temporary folder and compares: the metadata exactly,
+the fingerprint numerically (1e-9 relative: robust to CAS versions, sensitive to any change of
+the equations), and the LaTeX and C text only when the SymPy version matches the one recorded
+(its printing and CSE change between releases).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from symgen.scene.model import Scene
+
+FINGERPRINT_POINTS = 3
+
+
+def fingerprint(funcs: dict, meta: dict, p: np.ndarray) -> dict:
+    rng = np.random.default_rng(20261122)
+    n, m = len(meta["coords"]), len(meta["lam_rows"])
+    out: dict[str, list] = {}
+    for k in range(FINGERPRINT_POINTS):
+        t = float(rng.uniform(0, 2 * np.pi))
+        q, v, a = (rng.uniform(-0.5, 0.5, n) for _ in range(3))
+        lam = rng.uniform(-0.5, 0.5, m)
+        for name, f in sorted(funcs.items()):
+            val = np.array(f(t, q, v, a, lam, p)).ravel()
+            out.setdefault(name, []).append([float(f"{x:.14g}") for x in val])
+    return out
+
+
+def generated_payload(scene: Scene) -> dict:
+    """Everything ``write_generated`` writes, as data (used by the golden test too)."""
+    import casadi
+    import sympy
+
+    from symgen import __version__
+    from symgen.model.derive import derive
+    from symgen.backends.casadi import functions as casadi_emit
+    from symgen.backends.latex.document import latex_document
+    from symgen.ir.parameters import parameter_values
+
+    model = derive(scene)
+    funcs = casadi_emit.build_functions(model)
+    meta = casadi_emit.model_meta(model)
+    meta.pop("timings", None)
+    p = parameter_values(scene, meta["params"])
+    meta["parameter_values"] = [float(x) for x in p]
+    meta["operations"] = {name: {"instructions": int(f.n_instructions()), "nodes": int(f.n_nodes())}
+                          for name, f in sorted(funcs.items())}
+    meta["fingerprint"] = fingerprint(funcs, meta, p)
+    meta["versions"] = {"symgen": __version__, "sympy": sympy.__version__, "casadi": casadi.__version__}
+    meta["scene_file"] = Path(scene.path).name
+    payload = {"model.json": json.dumps(meta, indent=1, sort_keys=True) + "\n",
+               "equations.tex": latex_document(scene, model)}
+    payload.update({f"c/{name}": text for name, text in _c_payload(scene, model, funcs).items()})
+    return payload
+
+
+def _c_payload(scene: Scene, model, funcs: dict) -> dict:
+    """The files of ``symgen emit-c`` (the solver's partition from the CasADi Functions)."""
+    from symgen.backends.casadi import functions as casadi_emit
+    from symgen.backends.c import c_sources
+    from symgen.backends.casadi.pipeline import CompiledModel
+    from symgen.numerics.mechanism import Mechanism
+
+    mech = Mechanism(CompiledModel(funcs, casadi_emit.model_meta(model), 0.0, 0.0, False), scene)
+    return c_sources(scene, model, mech)
+
+
+def write_generated(scene: Scene, root: Path) -> Path:
+    from symgen.numerics.results import atomic_write
+
+    target = Path(root) / scene.name
+    for name, text in generated_payload(scene).items():
+        atomic_write(target / name, text)
+    return target

@@ -1,0 +1,170 @@
+"""The plain-data context the C templates are rendered from (the contract between the
+symbolic stages and the templates: strings, numbers and lists only).
+
+What the C solver needs beyond the equations is taken from the Python runner so that both
+handle the closure the same way (``symgen.numerics.mechanism``): the partition of the coordinates
+into independent and dependent ones (chosen by ``Mechanism.initial_state`` at the start and
+baked in), the raw initial guess the assembly Newton starts from (the scene's
+``[initial]`` guess and deformation, the driver's angle and rate), which coordinates are
+elastic / rigid for the quasi-static start, and the rows and columns of the closure
+Jacobian that decide a singular position.
+
+The valid range of every parameter (``symgen.ir.parameters.parameter_records``) and the limits of
+the run settings (``symgen.scene.model``: output rows, rtol) are rendered from Python, never
+retyped in the templates.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from symgen import __version__
+from symgen.policy import POLICY
+from symgen.backends.c import radau
+from symgen.backends.c.codegen import model_functions
+from symgen.backends.c.names import c_comment, c_prefix, c_string
+from symgen.backends.c.printer import c_double
+
+
+def _ops_table(prefix: str, funcs) -> list[str]:
+    return [f"{prefix}_{f.name}: {f.ops} operations, {f.temporaries} temporaries"
+            + (f", {f.nnz} nonzeros of {f.rows}x{f.cols}" if f.kind == "jacobian" else "")
+            for f in funcs]
+
+
+def _c_bound(x: float) -> str:
+    """A range bound as C: a double literal, or +-HUGE_VAL for no bound."""
+    if x == float("inf"):
+        return "HUGE_VAL"
+    if x == float("-inf"):
+        return "-HUGE_VAL"
+    return c_double(x)
+
+
+def _parameter_ranges(scene, params: list[str]) -> list[dict]:
+    from symgen.ir.parameters import parameter_records
+    return [{"lower": _c_bound(r.valid.lower), "upper": _c_bound(r.valid.upper),
+             "lower_open": int(r.valid.lower_open), "upper_open": int(r.valid.upper_open),
+             "text": c_string(r.valid.text()), "key": c_comment(r.key)}
+            for r in parameter_records(scene, params)]
+
+
+def _run_limits() -> dict:
+    """The run limits of the Python loader (symgen.scene.limits), rendered into the C: the
+    default row limit (the C driver lifts it with --max-rows, Python with SYMGEN_MAX_ROWS), the
+    rtol bound and the rtol above which both warn."""
+    from symgen.scene.limits import LIMITS, RTOL_MAX, RTOL_WARN
+    return {"max_rows": f"{int(LIMITS['rows'].default)}L", "rtol_max": c_double(RTOL_MAX),
+            "loose_rtol": c_double(RTOL_WARN), "max_t_end": c_double(float(LIMITS["t_end"].default))}
+
+
+def c_context(scene, model, mech) -> dict:
+    """Everything the templates under ``symgen/backends/c/templates/`` need, as plain data."""
+    import sympy
+
+    prefix = c_prefix(scene)
+    meta = mech.meta
+    n, m = mech.n, mech.m
+    funcs = model_functions(model.program)
+    _, _, _, _, part = mech.initial_state(0.0)
+    ind, dep = list(part.ind), list(part.dep)
+    nI, nD = len(ind), len(dep)
+    nx, nz = 2 * nI, 2 * nD + n + m
+    ny = nx + nz
+    ypos_q, ypos_v = [0] * n, [0] * n
+    for k, i in enumerate(ind):
+        ypos_q[i], ypos_v[i] = k, nI + k
+    for k, i in enumerate(dep):
+        ypos_q[i], ypos_v[i] = nx + k, nx + nD + k
+    a0 = nx + 2 * nD
+    ycol = ypos_q + ypos_v + [a0 + i for i in range(n)] + [a0 + n + j for j in range(m)]
+    elastic = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g") and i not in dep]
+    accel = sorted(set(mech.rigid) | set(dep))
+    inext_rows = list(getattr(mech, "inext_rows", []))
+    inext_f = list(getattr(mech, "inext_f", []))
+    sing_rows = [i for i in range(m) if i not in inext_rows]
+    sing_cols = [i for i in dep if i not in inext_f]
+    q0, v0 = mech.initial_guess()
+    assembly_dep = list(mech.choose_partition(0.0, q0).dep)
+    drv = scene.driver
+    params = list(meta["params"])
+    driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1, "row": -1}
+    if drv is not None:
+        name = f"theta_{drv.body}"
+        driver["kind"] = drv.kind
+        driver["coord"] = next(i for i, c in enumerate(mech.coords) if c["name"] == name)
+        if drv.kind == "angle":
+            driver["theta0"] = params.index("theta0")
+            driver["rate"] = params.index("rate") if "rate" in params else -1   # a law has no rate
+            driver["row"] = meta["driver_row"]
+    sim = scene.simulation
+    by_name = {f.name: f for f in funcs}
+    amplitude_checks = _amplitude_checks(mech)
+    return {
+        "prefix": prefix,
+        "guard": f"SYMGEN_{prefix}_H",
+        "version": __version__,
+        "sympy_version": sympy.__version__,
+        "scene_name": c_comment(scene.name),
+        "scene_file": c_comment(Path(str(scene.path)).name),
+        "scene_hash": scene.hash,
+        "ops": _ops_table(prefix, funcs),
+        "n": n, "m": m, "np": len(params), "nout": len(meta["outputs"]),
+        "nclosure": meta["n_loop_rows"], "nw": 3 * n + m,
+        "ni": nI, "nd": nD, "nx": nx, "nz": nz, "ny": ny,
+        "nalg": 3 * m + n,
+        "coordinate_names": [c_string(c["name"]) for c in mech.coords],
+        "coordinate_comments": [c_comment(c["name"]) for c in mech.coords],
+        "parameter_names": [c_string(x) for x in params],
+        "parameter_comments": [c_comment(x) for x in params],
+        "parameter_defaults": [c_double(x) for x in mech.p],
+        "parameter_plain": params,
+        "parameter_values": [float(x) for x in mech.p],
+        "parameter_ranges": _parameter_ranges(scene, params),
+        "limits": _run_limits(),
+        "output_names": [c_string(x) for x in meta["outputs"]],
+        "csv_header": c_string(",".join(["tau", *meta["outputs"]])),
+        "functions": [{"name": f.name, "kind": f.kind, "rows": f.rows, "cols": f.cols, "body": list(f.body),
+                       "unused": [x for x in ("t", "q", "v", "a", "lam", "p") if x not in f.used],
+                       "ops": f.ops, "nnz": f.nnz, "temporaries": f.temporaries,
+                       "loop": f.kind == "jacobian" and f.nnz < f.rows * f.cols}
+                      for f in funcs],
+        "jac_rows": {k: by_name[k].rows for k in ("phi", "phid", "phidd", "res")},
+        "independent": ind, "dependent": dep, "assembly_dependent": assembly_dep,
+        "ypos_q": ypos_q, "ypos_v": ypos_v, "ycol": ycol,
+        "elastic": elastic, "accel": accel,
+        "sing_rows": sing_rows, "sing_cols": sing_cols,
+        "q_guess": [c_double(x) for x in q0], "v_guess": [c_double(x) for x in v0],
+        "driver": driver,
+        "quasi_static": bool(scene.initial.quasi_static),
+        "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
+        "rtol": c_double(sim.rtol), "atol": c_double(sim.atol),
+        "policy": _policy(),
+        "amplitude_checks": amplitude_checks,
+        "radau": radau.constants(),
+    }
+
+
+def _policy() -> dict:
+    """The solver policy (``symgen.policy``) as C literals: the emitted solver's tolerances and
+    limits are the Python runners' (doubles to the last bit, integers as written)."""
+    return {k: (str(v) if isinstance(v, int) else c_double(v)) for k, v in POLICY.as_dict().items()}
+
+
+def _amplitude_checks(mech) -> list[dict]:
+    """The range of the bar models (``Mechanism.beyond_range``): per bar, the sum of the absolute
+    transverse (axial) amplitudes may not exceed ``POLICY.deflection_limit`` (``stretch_limit``)."""
+    deflection, stretch = POLICY.deflection_limit, POLICY.stretch_limit
+    groups: dict = {}
+    for i, c in enumerate(mech.coords):
+        if c["kind"] in ("f", "g"):
+            groups.setdefault(c["body"], ([], []))[c["kind"] == "g"].append(i)
+    checks = []
+    for body, (fi, gi) in groups.items():
+        for idx, limit, what in ((gi, deflection, "transverse deflection"), (fi, stretch, "axial displacement")):
+            if not idx:
+                continue
+            checks.append({"indices": idx, "limit": c_double(limit), "message": c_string(
+                f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "
+                f"fraction of its length (limit {limit:g}; the bar equations hold for moderate rotations and "
+                f"small strains): a load beyond a buckling load, or forces the bar cannot carry")})
+    return checks

@@ -1,0 +1,73 @@
+"""The C prefix of a scene and safe spellings of names inside C text, comments and XML.
+
+The scene loader already validates every name as a C identifier; these checks are repeated
+here (a ``Scene`` can be built or altered in code) so that nothing raw reaches the C text:
+a prefix that is not a plain ASCII identifier, a C/C++ keyword, or a reserved identifier
+(``_`` + capital, or ``__``) is rejected with a ``SceneError``. Other strings (parameter,
+output, coordinate names, file names) only ever appear inside string literals, comments or
+XML attributes, escaped by the functions below.
+
+>>> c_prefix_problem("slider crank")
+"it contains characters other than ASCII letters, digits and '_' (' ')"
+>>> c_string('say "hi"\\n')
+'"say \\\\"hi\\\\"\\\\n"'
+"""
+from __future__ import annotations
+
+from symgen.errors import SceneError
+from symgen.scene.names import name_problem
+
+
+def c_prefix_problem(name: str) -> str | None:
+    """Why ``name`` cannot prefix the emitted C symbols, or ``None``."""
+    if not isinstance(name, str):
+        return "it is not a string"
+    problem = name_problem(name)
+    if problem:
+        return problem
+    if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
+        return "identifiers that begin with '__' or '_' and a capital letter are reserved in C"
+    return None
+
+
+def c_prefix(scene) -> str:
+    """The prefix of every exported C symbol: the scene name, validated (never mangled)."""
+    problem = c_prefix_problem(scene.name)
+    if problem:
+        raise SceneError(getattr(scene, "path", "scene"), "scene.name",
+                         f"{scene.name!r} cannot prefix the emitted C symbols: {problem}",
+                         "rename the scene with [scene] name = \"a_c_identifier\"")
+    return scene.name
+
+
+def c_string(text: str) -> str:
+    """A C string literal for ``text`` (ASCII only: other characters as octal escapes of UTF-8)."""
+    out = ['"']
+    for byte in str(text).encode("utf-8"):
+        ch = chr(byte)
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "?":
+            out.append("\\?")            # no trigraphs
+        elif 32 <= byte < 127:
+            out.append(ch)
+        else:
+            out.append(f"\\{byte:03o}")
+    out.append('"')
+    return "".join(out)
+
+
+def c_comment(text: str) -> str:
+    """``text`` made safe inside a /* */ comment: printable ASCII, no comment delimiters."""
+    safe = "".join(c if 32 <= ord(c) < 127 else f"\\u{ord(c):04x}" for c in str(text))
+    return safe.replace("*/", "*\\/").replace("/*", "/\\*")
+
+
+def xml_attr(text: str) -> str:
+    """``text`` escaped for a double-quoted XML attribute."""
+    return (str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+            .replace('"', "&quot;").replace("\n", "&#10;"))

@@ -1,0 +1,199 @@
+"""Saved CasADi Functions of a derived model: write and read them without SymPy.
+
+An entry is a folder (see :mod:`symgen.cache`)::
+
+    <fname>.casadi    one per name in FUNCTION_NAMES: CasADi's serialized text
+                      (``Function.serialize()``; read back with ``casadi.Function.deserialize``)
+    model.json        plain-data description of the model (``casadi_emit.model_meta``)
+    manifest.json     format, format_version, symgen and casadi versions, the structure key,
+                      and the sha256 of every file above
+
+:func:`load` checks the manifest and every hash before a byte reaches ``json`` or CasADi's
+deserializer (which can crash the process on a damaged file), then that ``model.json``
+belongs to the folder's structure key and that each Function has the name, inputs and sizes
+that ``model.json`` states. Anything else raises :class:`symgen.cache.InvalidEntry`.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import casadi as ca
+
+from symgen import __version__
+from symgen import cache
+
+FUNCTION_NAMES = ("phi", "phid", "phidd", "res", "out", "energy", "closure")
+INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
+
+FORMAT = "symgen-model-cache"
+#: Bump when the layout of an entry changes (older entries are then re-derived).
+FORMAT_VERSION = 2
+MANIFEST = "manifest.json"
+META = "model.json"
+_MAX_MANIFEST = 1 << 16
+_MAX_FILE = 1 << 30
+
+
+def _file_names() -> tuple[str, ...]:
+    return tuple(f"{n}.casadi" for n in FUNCTION_NAMES) + (META,)
+
+
+def save(funcs: dict, meta: dict, directory: str | os.PathLike, replace: bool = False) -> bool:
+    """Write the entry ``directory`` (its name is the structure key, ``meta["key"]``) atomically.
+
+    The files are built in a temporary folder next to ``directory`` and renamed into place in
+    one step. If ``directory`` exists meanwhile, another writer was first: its entry is kept
+    (or, with ``replace``, given when the existing entry failed to verify, moved aside and
+    removed). The temporary folder never outlives the call. Returns whether this call's entry
+    was installed.
+    """
+    directory = Path(directory)
+    if meta.get("key") != directory.name:
+        raise ValueError(f"model cache entry {directory} for a model with key {meta.get('key')!r}")
+    files = {f"{name}.casadi": funcs[name].serialize().encode("ascii") for name in FUNCTION_NAMES}
+    files[META] = json.dumps(meta, indent=1, sort_keys=True, allow_nan=False).encode()
+    manifest = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
+                "casadi": ca.__version__, "key": directory.name,
+                "files": {name: cache.sha256_hex(data) for name, data in files.items()}}
+    directory.parent.mkdir(parents=True, exist_ok=True)
+    cache.sweep_stale(directory.parent)
+    with cache.temp_dir(directory.parent, directory.name) as tmp:
+        for name, data in files.items():
+            (tmp / name).write_bytes(data)
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True))
+        return cache.install_dir(tmp, directory, replace=replace)
+
+
+def load(directory: str | os.PathLike, key: str | None = None) -> tuple[dict, dict]:
+    """The Functions and ``model.json`` of a verified entry (``key``: the structure key the
+    caller expects, default the folder's name); :class:`symgen.cache.InvalidEntry` otherwise."""
+    directory = Path(directory)
+    key = directory.name if key is None else key
+    if directory.name != key:
+        raise cache.InvalidEntry(f"is in a folder not named after its structure key {key}")
+    data = _read_verified(directory, key)
+    meta = _parse_json(data[META], META)
+    _check_meta(meta, key)
+    funcs = {}
+    for name in FUNCTION_NAMES:
+        try:
+            f = ca.Function.deserialize(data[f"{name}.casadi"].decode("ascii"))
+        except (UnicodeDecodeError, RuntimeError) as exc:
+            raise cache.InvalidEntry(f"{name}.casadi cannot be deserialized by this CasADi ({exc})") from None
+        _check_function(f, name, meta)
+        funcs[name] = f
+    return funcs, meta
+
+
+def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
+    """Every file of the entry, each checked against the manifest's sha256."""
+    use_fd = os.open in os.supports_dir_fd and hasattr(os, "O_DIRECTORY")
+    dfd = os.open(directory, os.O_RDONLY | os.O_DIRECTORY) if use_fd else None
+    try:
+        def read(name: str, limit: int) -> bytes:
+            if dfd is not None:
+                return cache.read_bytes(name, limit, dir_fd=dfd)
+            return cache.read_bytes(directory / name, limit)
+
+        try:
+            manifest = _parse_json(read(MANIFEST, _MAX_MANIFEST), MANIFEST)
+        except FileNotFoundError:
+            raise cache.InvalidEntry(f"has no {MANIFEST} (written by an older symgen, or incomplete)") from None
+        _check_manifest(manifest, key)
+        data = {}
+        for name in _file_names():
+            try:
+                blob = read(name, _MAX_FILE)
+            except FileNotFoundError:
+                raise cache.InvalidEntry(f"has no {name}") from None
+            if cache.sha256_hex(blob) != manifest["files"][name]:
+                raise cache.InvalidEntry(f"{name} does not match the sha256 recorded when it was written "
+                                         "(changed or damaged)")
+            data[name] = blob
+        return data
+    finally:
+        if dfd is not None:
+            os.close(dfd)
+
+
+def _parse_json(blob: bytes, name: str):
+    def no_constant(c):
+        raise ValueError(f"non-finite number {c}")
+    try:
+        return json.loads(blob.decode("utf-8"), parse_constant=no_constant)
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise cache.InvalidEntry(f"{name} is not valid JSON ({exc})") from None
+
+
+def _check_manifest(m, key: str) -> None:
+    if not isinstance(m, dict) or m.get("format") != FORMAT:
+        raise cache.InvalidEntry(f"{MANIFEST} is not a symgen model-cache manifest")
+    if m.get("format_version") != FORMAT_VERSION:
+        raise cache.InvalidEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
+    if m.get("symgen") != __version__:
+        raise cache.InvalidEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
+    if m.get("casadi") != ca.__version__:
+        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {ca.__version__}")
+    if m.get("key") != key:
+        raise cache.InvalidEntry(f"{MANIFEST} is for structure key {m.get('key')!r}, not {key}")
+    files = m.get("files")
+    if not isinstance(files, dict) or set(files) != set(_file_names()) or not all(
+            isinstance(h, str) and len(h) == 64 for h in files.values()):
+        raise cache.InvalidEntry(f"{MANIFEST} does not list the sha256 of exactly {', '.join(_file_names())}")
+
+
+def _check_meta(meta, key: str) -> None:
+    from symgen.model.structure import structure_key
+
+    def bad(what: str):
+        return cache.InvalidEntry(f"{META}: {what}")
+
+    if not isinstance(meta, dict):
+        raise bad("not an object")
+    if meta.get("key") != key:
+        raise bad(f"is for structure key {meta.get('key')!r}, not {key}")
+    try:
+        ok = structure_key(meta["structure"]) == key
+    except (KeyError, TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise bad(f"its structure does not hash to the key {key}")
+    for name in ("coords", "lam_rows", "params", "outputs"):
+        if not isinstance(meta.get(name), list):
+            raise bad(f"{name!r} is not a list")
+    for name in ("params", "outputs"):
+        if not all(isinstance(s, str) for s in meta[name]) or len(set(meta[name])) != len(meta[name]):
+            raise bad(f"{name!r} are not distinct names")
+    n = meta.get("n_loop_rows")
+    if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n <= len(meta["lam_rows"]):
+        raise bad("'n_loop_rows' is not a row count")
+    d = (meta.get("timings") or {}).get("derive_s") if isinstance(meta.get("timings"), dict) else None
+    if not isinstance(d, (int, float)) or isinstance(d, bool) or not math.isfinite(d):
+        raise bad("'timings.derive_s' is not a number")
+
+
+def _expected_sizes(meta: dict) -> tuple[dict, dict]:
+    nq, nlam = len(meta["coords"]), len(meta["lam_rows"])
+    ins = {"t": 1, "q": nq, "v": nq, "a": nq, "lam": nlam, "p": len(meta["params"])}
+    outs = {"phi": nlam, "phid": nlam, "phidd": nlam, "res": nq, "out": len(meta["outputs"]),
+            "energy": 1, "closure": meta["n_loop_rows"]}
+    return ins, outs
+
+
+def _check_function(f: ca.Function, name: str, meta: dict) -> None:
+    ins, outs = _expected_sizes(meta)
+    if f.name() != name:
+        raise cache.InvalidEntry(f"{name}.casadi holds the function {f.name()!r}")
+    if f.n_in() != len(INPUT_NAMES) or f.n_out() != 1 or tuple(f.name_in()) != INPUT_NAMES \
+            or f.name_out() != [name]:
+        raise cache.InvalidEntry(f"{name}.casadi has the signature {f.name_in()} -> {f.name_out()}, "
+                                 f"not {list(INPUT_NAMES)} -> [{name!r}]")
+    got_in = [tuple(f.size_in(i)) for i in range(f.n_in())]
+    want_in = [(ins[n], 1) for n in INPUT_NAMES]
+    got_out, want_out = tuple(f.size_out(0)), (outs[name], 1)
+    if got_in != want_in or got_out != want_out:
+        raise cache.InvalidEntry(f"{name}.casadi has sizes {got_in} -> {got_out}, model.json states "
+                                 f"{want_in} -> {want_out}")

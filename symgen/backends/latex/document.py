@@ -1,0 +1,1037 @@
+"""Emit a derived model as a LaTeX document: every equation labelled with the paper's number.
+
+``latex_document(scene, model)`` renders ``symgen/backends/latex/templates/document.tex.jinja`` from a plain
+context (strings and lists) built here. The document shows, per bar, the acceleration field
+(1), the strong forms (8)-(9) with only the scene's effects, the origin acceleration (10) and
+the Galerkin equations (16)-(17) and rigid-body equations with *symbolic* inner products, then
+the closed-form values of those inner products; per loop the closure rows (11); per pin between
+two bars the joint equilibrium (13); and the assembled residual of every coordinate.
+
+Display rules: expressions are never simplified; top-level sums are broken over several lines
+(``tex_lines``); floats are shown with 6 significant digits (integral ones as integers); symbol
+names map to LaTeX through ``Namer`` (``theta_rod`` -> ``\\theta_{\\mathrm{rod}}``).
+
+Examples
+--------
+>>> from symgen.scene import load_scene          # doctest: +SKIP
+>>> from symgen.model.derive import derive                 # doctest: +SKIP
+>>> scene = load_scene("examples/slider_crank.toml")   # doctest: +SKIP
+>>> tex = latex_document(scene, derive(scene))    # doctest: +SKIP
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import jinja2
+import sympy as sp
+
+from symgen import __version__
+from symgen.model.bars import IPTable, PointForce, bar_equations, distributed_groups
+from symgen.scene.model import GROUND
+from symgen.model.structure import QUASI_STATIC, axial_treatments
+from symgen.scene.motion import driver_angle
+
+TEMPLATES = resources.files("symgen.backends.latex") / "templates"   # package data (pyproject: package-data)
+LINE_WIDTH = 82          # estimated printed width of a full display line (units of _width)
+TAG_WIDTH = 12           # room kept for an equation tag
+LHS_MAX = 34             # a longer left side gets a line of its own
+SIG_DIGITS = 6
+
+__all__ = ["latex_document", "tex_lines", "Namer", "TEMPLATES"]
+
+
+# --------------------------------------------------------------------------- text helpers
+_TEXT_ESCAPES = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#",
+                 "$": r"\$", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\^{}"}
+
+
+def tex_escape(text: object) -> str:
+    """Escape a string for LaTeX text mode."""
+    return "".join(_TEXT_ESCAPES.get(c, c) for c in str(text))
+
+
+def _rm(name: str) -> str:
+    """An identifier as upright math text (underscores escaped)."""
+    return r"\mathrm{" + name.replace("_", r"\_") + "}"
+
+
+def _num_text(x: float | None) -> str:
+    """A number for a table cell (math mode), 6 significant digits."""
+    if x is None:
+        return r"\text{--}"
+    return sp.latex(_round_floats(sp.Float(float(x))))
+
+
+# --------------------------------------------------------------------------- symbol names
+class Namer:
+    """Maps the model's symbol names to LaTeX.
+
+    Built from the scene's body and joint names, so that ``f_rod_1_2`` of a body ``rod_1`` is
+    read unambiguously. Symbols whose name already is LaTeX (inner products such as
+    ``\\left(\\phi_{1},\\psi_{1}\\right)``, display symbols such as ``B_{\\mathrm{B}}``) are
+    printed as they are.
+    """
+
+    def __init__(self, bodies: list[str], joints: list[str], point_loads: tuple = ()) -> None:
+        b = "|".join(re.escape(n) for n in sorted(bodies, key=len, reverse=True)) or "(?!)"
+        j = "|".join(re.escape(n) for n in sorted(joints, key=len, reverse=True)) or "(?!)"
+        dots = {"": "", "d": r"\dot ", "dd": r"\ddot "}
+        self._rules: list[tuple[re.Pattern, object]] = [
+            (re.compile(rf"(|d|dd)theta_({b})$"), lambda m: rf"{dots[m[1]]}\theta_{{{_rm(m[2])}}}"),
+            (re.compile(rf"(|d|dd)([fg])_({b})_(\d+)$"),
+             lambda m: rf"{dots[m[1]]}{m[2]}_{{{_rm(m[3])},{m[4]}}}"),
+            (re.compile(rf"([xy])Add_({b})$"), lambda m: rf"[\ddot {m[1]}_A]_{{{_rm(m[2])}}}"),
+            (re.compile(rf"([xy])Ad_({b})$"), lambda m: rf"[\dot {m[1]}_A]_{{{_rm(m[2])}}}"),
+            (re.compile(rf"(alpha|nu|lambda|mu|rho)_({b})$"), lambda m: rf"\{m[1]}_{{{_rm(m[2])}}}"),
+            (re.compile(rf"E(X|Y)_({b})$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])}}}"),
+            (re.compile(rf"Eth_({b})$"), lambda m: rf"E_{{\theta,{_rm(m[1])}}}"),
+            (re.compile(rf"E([fg])_({b})_(\d+)$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])},{m[3]}}}"),
+            (re.compile(rf"Ebeta_({b})$"), lambda m: rf"E_{{\beta,{_rm(m[1])}}}"),
+            (re.compile(rf"(|d|dd)beta_({j})$"), lambda m: rf"{dots[m[1]]}\beta_{{{_rm(m[2])}}}"),
+            (re.compile(rf"S(X|Y)_({b})$"), lambda m: rf"S_{{{m[1]},{_rm(m[2])}}}"),
+            (re.compile(rf"N_({b})_(\d+)$"), lambda m: rf"N_{{{_rm(m[1])},{m[2]}}}"),
+            (re.compile(rf"L([xy])_({j})$"), lambda m: rf"\Lambda_{{{m[1]},{_rm(m[2])}}}"),
+            (re.compile(r"L_driver$"), lambda m: r"\Lambda_{\mathrm{drv}}"),
+            (re.compile(rf"L_({j})$"), lambda m: rf"\Lambda_{{{_rm(m[1])}}}"),
+            (re.compile(rf"(|d|dd)s_({j})$"), lambda m: rf"{dots[m[1]]}s_{{{_rm(m[2])}}}"),
+            (re.compile(rf"p([xy])_({j})$"), lambda m: rf"p_{{{m[1]},{_rm(m[2])}}}"),
+            (re.compile(rf"d([xy])_({j})$"), lambda m: rf"d_{{{m[1]},{_rm(m[2])}}}"),
+            (re.compile(rf"m_({j})$"), lambda m: rf"m_{{{_rm(m[1])}}}"),
+            (re.compile(rf"I_({j})$"), lambda m: rf"I_{{{_rm(m[1])}}}"),
+            (re.compile(r"J_rotor$"), lambda m: r"J_{\mathrm{rot}}"),
+            (re.compile(r"load(\d+)_axial$"),
+             lambda m: rf"B_{{\mathrm{{P}}{m[1]}}}" if int(m[1]) in point_loads else rf"\bar\beta_{{{m[1]}}}"),
+            (re.compile(r"load(\d+)_transverse$"),
+             lambda m: rf"\Gamma_{{\mathrm{{P}}{m[1]}}}" if int(m[1]) in point_loads else rf"\bar\gamma_{{{m[1]}}}"),
+            (re.compile(r"g([xy])$"), lambda m: rf"g_{{{m[1]}}}"),
+            (re.compile(r"theta0$"), lambda m: r"\theta_{\mathrm{drv}}^{0}"),
+            (re.compile(r"rate$"), lambda m: r"\Omega_{\mathrm{drv}}"),
+            (re.compile(r"ramp$"), lambda m: r"T_{\mathrm{drv}}"),
+            (re.compile(r"torque$"), lambda m: r"M_{0}"),
+            (re.compile(r"damping$"), lambda m: r"c_{\mathrm{KV}}"),
+            (re.compile(r"tau$"), lambda m: r"\tau"),
+            (re.compile(r"xi$"), lambda m: r"\xi"),
+        ]
+        self._memo: dict[str, str] = {}
+
+    def __call__(self, name: str) -> str:
+        hit = self._memo.get(name)
+        if hit is not None:
+            return hit
+        if name.startswith("\\") or "{" in name:
+            out = name
+        else:
+            out = None
+            for pat, fmt in self._rules:
+                m = pat.match(name)
+                if m:
+                    out = fmt(m)
+                    break
+            if out is None:
+                out = _rm(name)
+        self._memo[name] = out
+        return out
+
+
+# --------------------------------------------------------------------------- expressions
+def _round_floats(expr: sp.Expr, digits: int = SIG_DIGITS) -> sp.Expr:
+    """Floats to ``digits`` significant digits; integral floats (1.0, -2.0) to integers."""
+    expr = sp.sympify(expr)
+    floats = expr.atoms(sp.Float)
+    if not floats:
+        return expr
+    rep = {}
+    for f in floats:
+        v = float(f)
+        if abs(v - round(v)) <= 1e-12 * max(1.0, abs(v)):
+            rep[f] = sp.Integer(int(round(v)))
+        else:
+            rep[f] = sp.Float(v, digits)
+    return expr.xreplace(rep)
+
+
+_STRIP = re.compile(r"\\(mathrm|operatorname|left|right|Bigl|Bigr|bigl|bigr|dot|ddot|bar|hat|"
+                    r"frac|tfrac|,|;|!|mathbf)(?![A-Za-z])")
+_CMD = re.compile(r"\\[A-Za-z]+")
+_FUNCS = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "max", "min", "mathcal"}
+
+
+def _width(s: str) -> float:
+    """Rough printed width of a LaTeX math string, in units of about one digit (5 pt at 10 pt).
+
+    Commands count as one glyph (a few, like ``\\mathrm`` or ``\\left``, as none), sub- and
+    superscripts at 0.7, binary operators with their spacing as 3.
+    """
+    s = _STRIP.sub("", s)
+    s = s.replace(r"\quad", "QQ")
+    s = _CMD.sub(lambda m: "xxx" if m[0][1:] in _FUNCS else "x", s)
+    width, stack, i, pending = 0.0, [1.0], 0, None
+    while i < len(s):
+        c = s[i]
+        scale = stack[-1]
+        if c in "_^":
+            pending = scale * 0.7
+        elif c == "{":
+            stack.append(pending if pending is not None else scale)
+            pending = None
+        elif c == "}":
+            if len(stack) > 1:
+                stack.pop()
+        elif not c.isspace():
+            cur = pending if pending is not None else scale
+            pending = None
+            width += (3.0 if c in "+-=" and cur == 1.0 else 1.0) * cur
+        i += 1
+    return width
+
+
+def _driver_angle_tex(drv, pr) -> str:
+    """theta(tau) of an angle driver with its parameters as symbols (the law's numbers as written)."""
+    if drv.law is None and drv.ramp is None:
+        return r"\theta^0_{\mathrm{drv}} + \Omega_{\mathrm{drv}}\tau"
+    from symgen.model.derive import TAU
+    sym = {k: sp.Symbol(k, real=True) for k in ("theta0", "rate", "ramp")}
+    return pr(driver_angle(drv, TAU, sym["theta0"], sym["rate"], sym["ramp"]))
+
+
+def _rotor_note(drv, pr) -> str:
+    """The driver's rotor inertia (empty without one): where it enters the equations."""
+    if not drv.rotor_inertia:
+        return ""
+    th = pr(sp.Symbol(f"theta_{drv.body}"))
+    return (rf"; with the rotor inertia $J_{{\mathrm{{rot}}}} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
+            rf"reflected to the shaft), which adds $J_{{\mathrm{{rot}}}}\,\ddot{{{th}}}$ to the residual of "
+            rf"${th}$ and $\tfrac12 J_{{\mathrm{{rot}}}}\dot{{{th}}}^2$ to the kinetic energy"
+            + (r" (the reported driver torque is the motor's, rotor included)" if drv.kind == "angle" else ""))
+
+
+def rotary_notes(scene, pr) -> list[str]:
+    """One sentence per joint with a lumped rotary inertia: the section rotation it turns with."""
+    out = []
+    for j in scene.joints:
+        if not j.inertia:
+            continue
+        end = next(x for x in j.ends if x.body != GROUND)
+        b = scene.body(end.body)
+        th = pr(sp.Symbol(f"theta_{b.name}"))
+        J = rf"I_{{{_rm(j.name)}}}"
+        rot_ = th if b.rigid else rf"{th} + \eta_{{{_rm(b.name)}}}'({_num_text(end.xi)})"
+        out.append(rf"Joint {tex_escape(j.name)}: a lumped rotary inertia ${J}$ on {tex_escape(b.name)} at "
+                   rf"$\xi = {_num_text(end.xi)}$ turning with $\varphi_{{{_rm(j.name)}}} = {rot_}$; it adds "
+                   rf"${J}\,\ddot\varphi_{{{_rm(j.name)}}}\,\partial\varphi_{{{_rm(j.name)}}}/\partial q$ to "
+                   rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{_rm(j.name)}}}^2$ "
+                   "to the kinetic energy.")
+    return out
+
+
+def _driver_law_note(drv) -> str:
+    if drv.law is not None:
+        return f" (driver.law = \\texttt{{{tex_escape(drv.law)}}}; its derivatives taken exactly)"
+    if drv.ramp is not None:
+        return (" (the smooth spin-up of Kane, Ryan \\& Banerjee 1987 from rest to the rate "
+                "$\\Omega_{\\mathrm{drv}}$ over $T_{\\mathrm{drv}}$)")
+    return ""
+
+
+class Printer:
+    """LaTeX of expressions with the scene's symbol names and rounded floats."""
+
+    def __init__(self, namer: Namer, width: float = LINE_WIDTH, subs: dict | None = None) -> None:
+        self.namer, self.width, self.subs = namer, width, subs or {}
+
+    def _tidy(self, expr):
+        """``subs`` applied (e.g. a slot's beta as a positive symbol: Piecewise branches decided)."""
+        return sp.sympify(expr).xreplace(self.subs) if self.subs else expr
+
+    def __call__(self, expr) -> str:
+        expr = _round_floats(self._tidy(expr))
+        names = {s: self.namer(s.name) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
+        return sp.latex(expr, symbol_names=names, fold_func_brackets=True)
+
+    def lines(self, expr, width: float | None = None) -> list[str]:
+        """``expr`` split over several lines at top-level sums (see :func:`tex_lines`)."""
+        return tex_lines(_round_floats(self._tidy(expr)), self, self.width if width is None else width)
+
+
+_DELIMS = [(r"\Bigl(", r"\Bigr)"), (r"\bigl[", r"\bigr]"), (r"\bigl\{", r"\bigr\}"), ("(", ")")]
+
+
+def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0) -> list[str]:
+    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters.
+
+    Sums are broken between terms (continuation lines start with their sign); a product
+    with a long sum as a factor becomes ``prefix \\Bigl( ... \\Bigr)`` with the sum broken
+    inside. Nothing is simplified or expanded. Lines after the first are indented by the
+    caller (one ``\\quad`` per nesting level is added here).
+    """
+    s = printer(expr)
+    if _width(s) <= width:
+        return [s]
+    if isinstance(expr, sp.Add):
+        out: list[str] = []
+        cur = ""
+        for i, term in enumerate(expr.as_ordered_terms()):
+            neg = term.could_extract_minus_sign()
+            body = -term if neg else term
+            sign = "- " if neg else ("+ " if i else "")
+            sub = tex_lines(body, printer, width - 2, depth)
+            piece = sign + sub[0]
+            if cur and _width(cur) + _width(piece) > width:
+                out.append(cur)
+                cur = piece
+            else:
+                cur = f"{cur} {piece}" if cur else piece
+            if len(sub) > 1:
+                out.append(cur)
+                out.extend(sub[1:-1])
+                cur = sub[-1]
+        out.append(cur)
+        return out
+    if isinstance(expr, sp.Mul):
+        adds = [a for a in expr.args if isinstance(a, sp.Add)]
+        if not adds:
+            return [s]
+        big = max(adds, key=lambda a: len(printer(a)))
+        rest = list(expr.args)
+        rest.remove(big)
+        others = sp.Mul(*rest)
+        prefix = "" if others == 1 else ("-" if others == -1 else printer(others))
+        op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
+        if _width(prefix) > width / 2 and len(adds) > 1:
+            # a product of several long sums (e.g. the projected strain energy's c^T Ka^-1 c):
+            # each sum in its own brackets, broken inside, one after the other
+            scalar = sp.Mul(*[a for a in expr.args if not isinstance(a, sp.Add)])
+            head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
+            lines = [head]
+            for a in sorted(adds, key=lambda a: len(printer(a))):
+                inner = tex_lines(a, printer, width - 12, depth + 1)     # indented and bracketed
+                if len(inner) == 1:
+                    if _width(lines[-1]) + _width(inner[0]) + 4 <= width:
+                        lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
+                    else:
+                        lines.append(rf"\quad {op} {inner[0]} {cl}")
+                    continue
+                lines[-1] = f"{lines[-1]} {op} {inner[0]}".strip()
+                lines += [r"\quad " + x for x in inner[1:]]
+                lines[-1] += f" {cl}"
+            return lines
+        inner = tex_lines(big, printer, width - 2, depth + 1)
+        if len(inner) == 1:
+            return [f"{prefix} {op} {inner[0]} {cl}".strip()]
+        pad = r"\quad "
+        return ([f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]]
+                + [f"{pad}{inner[-1]} {cl}"])
+    return [s]
+
+
+@dataclass
+class Row:
+    """One displayed equation: ``lhs = lines`` (rhs broken over lines), optional tag."""
+
+    lhs: str
+    lines: list
+    tag: str | None = None
+    rel: str = "="
+
+    def tex(self) -> str:
+        out = []
+        for k, line in enumerate(self.lines):
+            if k == 0:
+                t = f"{self.lhs} &{self.rel} {line}"
+                t += rf" \tag{{{self.tag}}}" if self.tag else ""
+            else:
+                t = rf"&\quad {line}"
+            out.append(t)
+        return " \\\\\n".join(out)
+
+
+class _RawRow(Row):
+    """Rows already laid out (a long left side on lines of its own)."""
+
+    def __init__(self, lines: list[str]) -> None:
+        super().__init__("", lines)
+
+    def tex(self) -> str:
+        return " \\\\\n".join(self.lines)
+
+
+def _block(rows: list[Row]) -> str:
+    return " \\\\\n".join(r.tex() for r in rows)
+
+
+def distributed_load_display(pr, bm, B: str, ext: set) -> tuple:
+    """Display symbols (beta_bar, gamma_bar) of a bar's distributed loads and their
+    definitions (scene loads plus gravity); adds the symbols to ``ext``. ((), []) if none."""
+    if not bm.inputs["loads"] and bm.inputs["gravity"] is None:
+        return (), []
+    beta_s, gamma_s = sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")
+    beta, gamma = distributed_groups(bm.sym, bm.inputs["loads"], bm.inputs["gravity"])
+    ext |= {beta_s, gamma_s}
+    return ((beta_s, gamma_s),), [_row(pr, pr(beta_s), beta), _row(pr, pr(gamma_s), gamma)]
+
+
+def _row(pr: "Printer", lhs, rhs, tag: str | None = None) -> Row:
+    """``lhs = rhs`` with the right side broken to fit beside the left side and the tag.
+
+    ``lhs`` is LaTeX or an expression; a left side too long to share a line becomes a
+    left-aligned block of its own lines followed by ``= rhs``.
+    """
+    avail = LINE_WIDTH - (TAG_WIDTH if tag else 0)
+    if isinstance(lhs, str):
+        lhs_lines = [lhs]
+    else:
+        lhs_lines = pr.lines(lhs, avail - 4) if lhs != 0 else ["0"]
+    if len(lhs_lines) == 1 and _width(lhs_lines[0]) <= LHS_MAX:
+        return Row(lhs_lines[0], pr.lines(rhs, max(avail - _width(lhs_lines[0]) - 3, 40)), tag)
+    rr = pr.lines(rhs, avail - 8)
+    lines = [f"&{lhs_lines[0]}" + (rf" \tag{{{tag}}}" if tag else "")]
+    lines += [rf"&\quad {x}" for x in lhs_lines[1:]]
+    lines += [rf"&\quad = {rr[0]}"] + [rf"&\qquad {x}" for x in rr[1:]]
+    return _RawRow(lines)
+
+
+def _pack(terms: list[str], width: float) -> list[str]:
+    """Join LaTeX terms (each with its leading sign) into lines of about ``width``."""
+    out, cur = [], ""
+    for t in terms:
+        if cur and _width(cur) + _width(t) > width:
+            out.append(cur)
+            cur = t
+        else:
+            cur = f"{cur} {t}" if cur else t
+    out.append(cur)
+    return out
+
+
+def _term_row(lhs: list[str], rhs: list[str], tag: str | None = None) -> Row:
+    """Like :func:`_row` for sides given as lists of LaTeX terms."""
+    avail = LINE_WIDTH - (TAG_WIDTH if tag else 0)
+    lhs_lines = _pack(lhs, avail - 4)
+    if len(lhs_lines) == 1 and _width(lhs_lines[0]) <= LHS_MAX:
+        return Row(lhs_lines[0], _pack(rhs, max(avail - _width(lhs_lines[0]) - 3, 40)), tag)
+    rr = _pack(rhs, avail - 8)
+    lines = [f"&{lhs_lines[0]}" + (rf" \tag{{{tag}}}" if tag else "")]
+    lines += [rf"&\quad {x}" for x in lhs_lines[1:]]
+    lines += [rf"&\quad = {rr[0]}"] + [rf"&\qquad {x}" for x in rr[1:]]
+    return _RawRow(lines)
+
+
+# --------------------------------------------------------------------------- inner products
+class _RecordingIPT(IPTable):
+    """A symbolic IPTable that remembers which inner-product symbols it handed out."""
+
+    def __init__(self, ip) -> None:
+        super().__init__(ip, symbolic=True)
+        self.used: dict[sp.Symbol, tuple] = {}
+
+    def gram(self, i, j):
+        out = super().gram(i, j)
+        if isinstance(out, sp.Symbol):
+            self.used.setdefault(out, ("gram", (min(i, j), max(i, j))))
+        return out
+
+    def mat(self, name, i, j, latex):
+        if name in ("Ka", "Kt", "Pd"):      # symmetric: one symbol for (a, b) and (b, a)
+            i, j = min(i, j), max(i, j)
+        out = super().mat(name, i, j, latex)
+        if isinstance(out, sp.Symbol):
+            self.used.setdefault(out, (name, (i, j)))
+        return out
+
+    def vec(self, name, i, latex):
+        out = super().vec(name, i, latex)
+        if isinstance(out, sp.Symbol):
+            self.used.setdefault(out, (name, (i, 0)))
+        return out
+
+    def tensor(self, name, idx, latex):
+        out = super().tensor(name, idx, latex)
+        if isinstance(out, sp.Symbol):
+            self.used.setdefault(out, (name, tuple(idx)))
+        return out
+
+    def ka_inv(self, i, j):
+        i, j = min(i, j), max(i, j)          # symmetric
+        out = super().ka_inv(i, j)
+        if isinstance(out, sp.Symbol):
+            self.used.setdefault(out, ("KaInv", (i, j)))
+        return out
+
+    def exact(self, name: str):
+        if name != "KaInv":
+            return self.ip.exact[name]
+        if not hasattr(self, "_exact_ka_inv"):
+            self._exact_ka_inv = sp.ImmutableMatrix(self.ip.exact["Ka"]).inv()
+        return self._exact_ka_inv
+
+
+_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7}
+
+
+def _ip_table(ipt: _RecordingIPT, used: set, pr: Printer) -> list[dict]:
+    rows = []
+    for sym, (name, idx) in ipt.used.items():
+        if sym not in used:
+            continue
+        exact = ipt.exact(name)[idx]
+        value = float(exact)
+        if exact.atoms(sp.Float):
+            ex = sp.latex(sp.Float(value, 15))
+            kind = "numeric (50 digits)"
+        else:
+            ex = sp.latex(exact)
+            kind = "closed form"
+        rows.append({"symbol": sym.name, "exact": ex, "decimal": _num_text(value), "kind": kind,
+                     "key": (_IP_ORDER[name], idx)})
+    rows.sort(key=lambda r: r["key"])
+    for r in rows:
+        del r["key"]
+    return rows
+
+
+# --------------------------------------------------------------------------- bar equations
+def _split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
+    """Split a residual ``inertia + internal - external`` into (paper left side, right side).
+
+    The paper writes loads and elastic forces on the left and inertia on the right:
+    ``left = -(internal + external terms)``, ``right = inertia terms``. A rotary-inertia term
+    (mu/lambda) is inertia.
+    """
+    left, right = [], []
+    for term in sp.Add.make_args(sp.sympify(expr)):
+        free = term.free_symbols
+        if rho_pair is not None and {rho_pair[0], rho_pair[1]} <= free:
+            mu, lam, rho = rho_pair
+            right.append(term.subs(mu / lam, rho))
+        elif free & elastic or free & external:
+            left.append(-term)
+        else:
+            right.append(term)
+    return sp.Add(*left), sp.Add(*right)
+
+
+def _point_label(p: PointForce, scene, used: set) -> str:
+    names = {s.name for part in (p.ground or p.bar or ()) for s in sp.sympify(part).free_symbols}
+    label = None
+    for j in scene.joints:
+        if {f"Lx_{j.name}", f"Ly_{j.name}", f"L_{j.name}"} & names:
+            label = _rm(j.name)
+            break
+        if f"m_{j.name}" in names:
+            label = _rm(j.name) + r",m"
+            break
+    if label is None:
+        label = rf"\xi={_num_text(p.xi)}"
+    base, k = label, 2
+    while label in used:
+        label, k = f"{base},{k}", k + 1
+    used.add(label)
+    return label
+
+
+def _kin_terms(s: dict, na: int, nt: int, coriolis: bool) -> tuple[list, list]:
+    """Right sides of (1) / (8)-(9): the acceleration field in bar axes over l_i w^2."""
+    B = s["B"]
+    ax = [rf"[\ddot x_A]_{{{B}}}"]
+    ay = [rf"[\ddot y_A]_{{{B}}}"]
+    pos = rf"(\xi + \zeta_{{{B}}})" if na else r"\xi"
+    if na:
+        ax.append(rf"+ \ddot\zeta_{{{B}}}")
+    if nt and coriolis:
+        ax.append(rf"- 2\dot\theta_{{{B}}}\dot\eta_{{{B}}}")
+    if nt:
+        ax.append(rf"- \ddot\theta_{{{B}}}\eta_{{{B}}}")
+    ax.append(rf"- \dot\theta_{{{B}}}^{{2}}{pos}")
+    if nt:
+        ay.append(rf"+ \ddot\eta_{{{B}}}")
+    if na and coriolis:
+        ay.append(rf"+ 2\dot\theta_{{{B}}}\dot\zeta_{{{B}}}")
+    ay.append(rf"+ \ddot\theta_{{{B}}}{pos}")
+    if nt:
+        ay.append(rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}")
+    return ax, ay
+
+
+def _bar_context(scene, model, name: str, pr: Printer) -> dict:
+    eff = scene.effects
+    body = scene.body(name)
+    bm = model.bars[name]
+    s = bm.sym
+    na, nt = len(s.f), len(s.g)
+    B = _rm(name)
+    names = {"B": B}
+    ctx: dict = {"name": name, "tex": B, "rigid": body.rigid, "na": na, "nt": nt,
+                 "frame": body.frame, "text": tex_escape(name)}
+    # ---- shape functions
+    ctx["phi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""} for k, fn in enumerate(bm.basis_a.functions)]
+    ctx["psi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""}
+                  for k, fn in enumerate(bm.basis_t.functions)]
+    tfun = bm.basis_t.functions
+    tfun = tfun[:len(tfun) - len(getattr(bm.basis_t, "points", ()))]   # static corrections: below
+    if getattr(bm.basis_t, "tip_joint", False) and len(tfun) > 1 and tfun[0].beta is None \
+            and all(fn.beta is not None for fn in tfun[1:]):
+        # the orthogonalised tip-load shape: printed factored (its expanded form is a line of
+        # ~13 exponential and trigonometric terms), the coefficients on the next line
+        from symgen.model.shapes import tip_load_coefficients
+        c, t = tip_load_coefficients(list(tfun[1:]))
+        m = len(c)
+        ctx["psi"][0]["expr"] = (rf"\frac{{1}}{{t}}\Bigl(\frac{{\xi^2(3-\xi)}}{{2}} - "
+                                 rf"\sum_{{k=1}}^{{{m}}} c_k X_k(\xi)\Bigr)")
+        # t = 1 - sum c_k is a small difference: the c_k to 10 digits keep psi_1 to ~1e-6
+        nums = [rf"c_{{{k + 1}}} = {_g6(ck, 10)}" for k, ck in enumerate(c)] + [rf"t = {_g6(t, 10)}"]
+        rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
+        ctx["psi"][0]["extra"] = (r"\text{with } " + r", \\ &\qquad ".join(rows) + r", \\ &\qquad "
+                                  r"c_k = (P, X_k)/(X_k, X_k),\ P(\xi) = \xi^2(3-\xi)/2,\ t = 1 - \textstyle\sum_k c_k")
+    for key, basis, sym_ in (("phi", bm.basis_a, r"\phi"), ("psi", bm.basis_t, r"\psi")):
+        for row, fn in zip(ctx[key], basis.functions):
+            if getattr(fn, "xi_k", None) is not None and getattr(fn, "left", None) is not None:
+                row["expr"], row["extra"] = _static_correction_tex(fn, sym_, pr)
+    ctx["axial_family"] = bm.basis_a.family if na else ""
+    ctx["transverse_family"] = bm.basis_t.family if nt else ""
+    ctx["tip_joint"] = bm.basis_t.tip_joint
+    ctx["eigen"] = any(fn.beta is not None for fn in bm.basis_t.functions)
+    topo = model.topology
+    tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
+    ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
+    drv = scene.driver
+    ctx["driven"] = ("" if drv is None or drv.body != name else
+                     (r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle" else r"the applied moment $M_0$ (12)"))
+    fs = ", ".join(pr(x) for x in s.f)
+    gs = ", ".join(pr(x) for x in s.g)
+    ctx["expansion"] = []
+    if na:
+        ctx["expansion"].append(rf"\zeta_{{{B}}}(\xi,\tau) = \sum_{{k=1}}^{{{na}}} \phi_k(\xi)\, f_{{{B},k}}(\tau)")
+    if nt:
+        ctx["expansion"].append(rf"\eta_{{{B}}}(\xi,\tau) = \sum_{{k=1}}^{{{nt}}} \psi_k(\xi)\, g_{{{B},k}}(\tau)")
+    ctx["amplitudes"] = ", ".join(x for x in (fs, gs) if x)
+
+    # ---- (1)
+    ax, ay = _kin_terms(names, na, nt, eff.coriolis)
+    ctx["eq1"] = _block([_term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tex_escape(name)}"),
+                         _term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tex_escape(name)}")])
+
+    # ---- point forces and distributed loads, for display
+    used_labels: set = set()
+    disp_points, point_defs, pf_syms, pts_tex = [], [], set(), []
+    for p in bm.inputs["points"]:
+        label = _point_label(p, scene, used_labels)
+        if p.ground is not None:
+            Bs, Gs = sp.Symbol(rf"B_{{{label}}}"), sp.Symbol(rf"\Gamma_{{{label}}}")
+            Fx, Fy = p.ground
+            bdef = (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)
+            gdef = (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)
+            point_defs.append(_row(pr, pr(Bs), bdef))
+            point_defs.append(_row(pr, pr(Gs), gdef))
+            disp_points.append(PointForce(p.xi, bar=(Bs, Gs)))
+            pf_syms |= {Bs, Gs}
+            pts_tex.append((pr(Bs), pr(Gs), _num_text(p.xi)))
+        else:
+            disp_points.append(p)
+            bsym, gsym = p.bar
+            pf_syms |= sp.sympify(bsym).free_symbols | sp.sympify(gsym).free_symbols
+            pts_tex.append((pr(bsym), pr(gsym), _num_text(p.xi)))
+    ext = set(pf_syms)
+    disp_loads, load_defs = distributed_load_display(pr, bm, B, ext)
+    ctx["point_defs"] = _block(point_defs) if point_defs else ""
+    ctx["load_defs"] = _block(load_defs) if load_defs else ""
+    ctx["points"] = [{"B": b, "G": g, "xi": x} for b, g, x in pts_tex]
+
+    # ---- (8), (9): strong forms with the switched-on effects
+    gs_on = eff.geometric_stiffening and na and nt
+    vk = gs_on and eff.strain == "von_karman"
+    damp = bm.inputs["damping"] is not None
+    c = r"c_{\mathrm{KV}}"
+    ctx["vk"] = bool(vk)
+    ctx["strain_def"] = rf"\varepsilon_{{{B}}} = \zeta_{{{B}}}' + \tfrac{{1}}{{2}}\,\eta_{{{B}}}'^{{2}}" if vk else ""
+    pt_a = [rf"+ {b}\,\delta(\xi - {x})" for b, _, x in pts_tex]
+    pt_t = [rf"+ {g}\,\delta(\xi - {x})" for _, g, x in pts_tex]
+    strong = []
+    inext = "axial_force" in bm.inputs
+    ctx["inext"] = inext
+    if na and not body.rigid:
+        left = [rf"\lambda_{{{B}}}\varepsilon_{{{B}}}'" if vk else rf"\lambda_{{{B}}}\zeta_{{{B}}}''"]
+        if inext:
+            left = [rf"N_{{{B}}}'"]
+        if damp and not inext:
+            left.append(rf"+ {c}\,\lambda_{{{B}}}\dot\zeta_{{{B}}}''")
+        if disp_loads:
+            left.append(rf"+ \bar\beta_{{{B}}}")
+        if pt_a:
+            left.extend(pt_a)
+        strong.append(_term_row(left, ax, f"8, {tex_escape(name)}"))
+    if nt and not body.rigid:
+        left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
+        if damp:
+            left.append(rf"- {c}\,\mu_{{{B}}}\dot\eta_{{{B}}}''''")
+        if gs_on and inext:
+            left.append(rf"+ \bigl(N_{{{B}}}\eta_{{{B}}}'\bigr)'")
+        elif gs_on:
+            left.append(rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}\eta_{{{B}}}'\bigr)'" if vk
+                        else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'")
+        if eff.rotary_inertia and na:
+            left.append(rf"+ \rho_{{{B}}}\ddot\eta_{{{B}}}''")
+        if disp_loads:
+            left.append(rf"+ \bar\gamma_{{{B}}}")
+        if pt_t:
+            left.extend(pt_t)
+        strong.append(_term_row(left, ay, f"9, {tex_escape(name)}"))
+    ctx["strong"] = _block(strong) if strong else ""
+    ctx["rotary"] = bool(eff.rotary_inertia and na and nt and not body.rigid)
+    ctx["bc"] = {"pinned-pinned": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}(1) = 0",
+                 "cantilever": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}'(0) = 0"}.get(body.frame, "")
+
+    # ---- (16), (17), rigid-body equations with symbolic inner products
+    ipt = _RecordingIPT(bm.ipt.ip)
+    inputs = dict(bm.inputs)
+    inputs["points"] = tuple(disp_points)
+    inputs["loads"] = disp_loads
+    inputs["gravity"] = None
+    eqs = bar_equations(s, bm.basis_a, bm.basis_t, ipt, eff, **inputs)
+    elastic = {x for x in (s.lam, s.mu) if x is not None} | set(bm.inputs.get("axial_force", ()))
+    if damp:
+        elastic.add(bm.inputs["damping"])
+    rho_pair = (s.mu, s.lam, sp.Symbol(f"rho_{name}", positive=True)) if ctx["rotary"] else None
+    used_ip: set = set()
+
+    def rows(exprs, tags):
+        out = []
+        for e, tag in zip(exprs, tags):
+            used_ip.update(e.free_symbols)
+            left, right = _split_sides(e, elastic, ext, rho_pair)
+            out.append(_row(pr, left, right, tag))
+        return out
+
+    tn = tex_escape(name)
+    ctx["rb"] = _block(rows([eqs.force[0], eqs.force[1], eqs.moment],
+                            [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
+    ctx["eq16"] = _block(rows(eqs.eq16, [f"16.{k + 1}, {tn}" for k in range(na)])) if na else ""
+    ctx["eq17"] = _block(rows(eqs.eq17, [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
+    ctx["ip_table"] = _ip_table(ipt, used_ip, pr)
+    return ctx
+
+
+# --------------------------------------------------------------------------- (13)
+def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
+    """Section force of bar ``body`` at its end ``xi`` (common units, ground axes).
+
+    Returns the sign with which it enters the pin balance (+1 at xi = 1, -1 at xi = 0: the
+    force the pin exerts on the bar is +F at the far end, -F at the origin), the LaTeX
+    name of F and the rows defining N, Q (symbolic, then in the bar's amplitudes) and F.
+    """
+    eff = scene.effects
+    bm = model.bars[body]
+    s = bm.sym
+    B = _rm(body)
+    na, nt = len(s.f), len(s.g)
+    at_one, at_zero = abs(xi - 1.0) < 1e-12, abs(xi) < 1e-12
+    xs = "1" if at_one else ("0" if at_zero else _num_text(xi))
+    F = rf"\mathbf F_{{{B}}}({xs})"
+    out = {"sign": 1 if at_one else -1, "F": F, "rows": [], "rigid": False, "end": at_one or at_zero}
+    if not out["end"]:
+        out["F"] = rf"\bigl(\mathbf F_{{{B}}}({xs}^-) - \mathbf F_{{{B}}}({xs}^+)\bigr)"
+        out["sign"] = 1
+    Nn, Qn = rf"N_{{{B}}}({xs})", rf"Q_{{{B}}}({xs})"
+    frow = Row(F, [rf"\nu_{{{B}}}\alpha_{{{B}}}^{{2}} R(\theta_{{{B}}})"
+                   rf"\begin{{bmatrix}} {Nn} \\ {Qn} \end{{bmatrix}}"])
+    if scene.body(body).rigid or (na == 0 and nt == 0) or not out["end"]:
+        out["rigid"] = scene.body(body).rigid or (na == 0 and nt == 0)
+        out["rows"] = [frow] if out["end"] else []
+        return out
+    gs_on = eff.geometric_stiffening and na and nt
+    vk = gs_on and eff.strain == "von_karman"
+    kin = bm.kin
+    zp, ep, e3 = kin.zeta(xi, 1), kin.eta(xi, 1), kin.eta(xi, 3)
+    p1, p3 = "'", "'''"
+    rows = []
+    if na and "axial_force" in bm.inputs:
+        rows.append(Row(Nn, [rf"\sum_k N_{{{B},k}}\,\phi'_k({xs})"
+                             r"\text{ (the multiplier of the inextensibility rows)}"]))
+        rows.append(Row("", pr.lines(sp.Add(*[c * n for c, n in zip(kin._vals(bm.basis_a, xi, 1),
+                                                                        bm.inputs["axial_force"])]),
+                                     LINE_WIDTH - 10)))
+    elif na:
+        n_sym = (rf"\lambda_{{{B}}}\bigl(\zeta_{{{B}}}{p1}({xs}) + \tfrac12\eta_{{{B}}}{p1}({xs})^{{2}}\bigr)" if vk
+                 else rf"\lambda_{{{B}}}\zeta_{{{B}}}{p1}({xs})")
+        N = s.lam * (zp + ep ** 2 / 2) if vk else s.lam * zp
+        rows.append(Row(Nn, [n_sym]))
+        rows.append(Row("", pr.lines(N, LINE_WIDTH - 10)))
+    else:
+        rows.append(Row(Nn, [r"\text{a reaction of the axially rigid bar (no constitutive law)}"]))
+    q_sym, Q = [], sp.Integer(0)
+    if nt:
+        q_sym.append(rf"-\mu_{{{B}}}\eta_{{{B}}}{p3}({xs})")
+        Q += -s.mu * e3
+    if gs_on:
+        q_sym.append(rf"+ {Nn}\,\eta_{{{B}}}{p1}({xs})")
+        Q += sp.Symbol(Nn) * ep
+    if q_sym:
+        rows.append(Row(Qn, [" ".join(q_sym)]))
+        rows.append(Row("", pr.lines(Q, LINE_WIDTH - 10)))
+    else:
+        rows.append(Row(Qn, ["0"]))
+    out["rows"] = rows + [frow]
+    return out
+
+
+def _joints_context(scene, model, pr: Printer) -> list[dict]:
+    out = []
+    tree = {e.joint: e for e in model.topology.edges.values()}
+    cut = {c.joint for c in model.topology.cuts}
+    for j in scene.joints:
+        if j.kind != "pin" or any(e.body == GROUND for e in j.ends):
+            continue
+        (a, b) = j.ends
+        fa = _section_force(scene, model, a.body, a.xi, pr)
+        fb = _section_force(scene, model, b.body, b.xi, pr)
+        lhs = fa["F"] if fa["sign"] == 1 else "-" + fa["F"]
+        rhs = "-" + fb["F"] if fb["sign"] == 1 else fb["F"]
+        if j.mass > 0:
+            rhs += rf" - m_{{{_rm(j.name)}}}\bigl(\ddot{{\mathbf r}}_{{{_rm(j.name)}}} - \mathbf g\bigr)"
+        rows = [Row(lhs, [rhs], f"13, {tex_escape(j.name)}")]
+        defs = fa["rows"] + fb["rows"]
+        if j.name in tree:
+            body = _rm(tree[j.name].body)
+            how = (rf"{tex_escape(j.name)} is a tree joint: its force is the resultant "
+                   rf"$\mathbf S_{{{body}}} = (S_{{X,{body}}}, S_{{Y,{body}}})$ of the subtree hanging "
+                   rf"from it (route 2 of the seed)")
+        elif j.name in cut:
+            how = (rf"{tex_escape(j.name)} is a cut joint: its force is carried by the multipliers "
+                   rf"$\Lambda_{{x,{_rm(j.name)}}}$, $\Lambda_{{y,{_rm(j.name)}}}$")
+        else:
+            how = ""
+        out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "b": tex_escape(b.body),
+                    "xa": _num_text(a.xi), "xb": _num_text(b.xi), "eq": _block(rows),
+                    "defs": _block(defs) if defs else "", "how": how,
+                    "rigid": [tex_escape(x) for x, d in ((a.body, fa), (b.body, fb)) if d["rigid"]],
+                    "interior": not (fa["end"] and fb["end"]), "mass": j.mass > 0})
+    return out
+
+
+# --------------------------------------------------------------------------- document
+def _env() -> jinja2.Environment:
+    env = jinja2.Environment(
+        loader=jinja2.PackageLoader("symgen.backends.latex", "templates"),
+        undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+        block_start_string="<%", block_end_string="%>",
+        variable_start_string="<<", variable_end_string=">>",
+        comment_start_string="<#", comment_end_string="#>",
+        keep_trailing_newline=True, autoescape=False)
+    env.filters["e"] = tex_escape
+    return env
+
+
+def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
+    """A static correction function printed factored: (w_K - sum_k c_k f_k) / t, then the
+    piecewise static shape w_K and the coefficients (10 digits: t can be a small difference)."""
+    import sympy as sp
+
+    from symgen.model.shapes import XI
+
+    def poly(cs) -> str:
+        return pr(sp.Add(*[sp.Rational(c.numerator, c.denominator) * XI ** p for p, c in enumerate(cs) if c]))
+
+    a = sp.Rational(fn.a.numerator, fn.a.denominator)
+    m = len(fn.coeffs)
+    k = "K"
+    expr = (rf"\frac{{1}}{{t}}\Bigl(w_{{{k}}}(\xi)"
+            + (rf" - \sum_{{k=1}}^{{{m}}} c_k\,{sym_}_k(\xi)" if m else "") + r"\Bigr)")
+    what = {"axial": "unit axial force", "pinned-pinned": "unit transverse force, pinned-pinned",
+            "cantilever": "unit transverse force, cantilever"}[fn.kind]
+    w = (rf"w_{{{k}}}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
+         rf"\end{{cases}}\ \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}")
+    nums = [rf"c_{{{i + 1}}} = {_g6(c, 10)}" for i, c in enumerate(fn.coeffs) if abs(c) > 1e-14] + \
+        [rf"t = {_g6(fn.scale, 10)}"]
+    rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
+    extra = (w + r", \\ &\qquad \text{with } " + r", \\ &\qquad ".join(rows)
+             + rf" \ (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)")
+    return expr, extra
+
+
+def _g6(x: float, digits: int = 6) -> str:
+    """A number to ``digits`` significant digits in LaTeX (powers of ten as \\cdot 10^{n})."""
+    text = f"{x:.{digits}g}"
+    if "e" in text:
+        mant, exp = text.split("e")
+        return rf"{mant}\cdot 10^{{{int(exp)}}}"
+    return text
+
+
+def latex_document(scene, model) -> str:
+    """The derived equations of ``scene`` as a complete LaTeX document (pdflatex, amsmath).
+
+    Parameters
+    ----------
+    scene : the loaded :class:`~symgen.scene.model.Scene`
+    model : ``symgen.model.derive.derive(scene)``
+    """
+    namer = Namer([b.name for b in scene.bodies], [j.name for j in scene.joints],
+                  tuple(i + 1 for i, ld in enumerate(scene.loads) if ld.kind == "point"))
+    from symgen.backends.latex import slot as latex_slot
+    pr = Printer(namer, subs=latex_slot.beta_positive(model))
+    prog = model.program
+    assigned = dict(prog.assignments)
+    topo = model.topology
+    treatments = axial_treatments(scene)          # effects.axial per bar, with the reason
+
+    # ---- scene tables
+    bodies = []
+    for b in scene.bodies:
+        bm = model.bars[b.name]
+        g = scene.groups.get(b.name, {})
+        bodies.append({"name": tex_escape(b.name), "tex": _rm(b.name),
+                       "kind": "rigid" if b.rigid else "elastic",
+                       "frame": tex_escape(b.frame or "--"),
+                       "na": len(bm.sym.f), "nt": len(bm.sym.g),
+                       "alpha": _num_text(g.get("alpha")), "nu": _num_text(g.get("nu")),
+                       "lam": _num_text(g.get("lambda")), "mu": _num_text(g.get("mu")),
+                       "rho": _num_text(g.get("rho"))})
+    sg = scene.groups.get("_scene", {})
+    scene_groups = [{"key": tex_escape(k), "value": tex_escape(", ".join(f"{x:.6g}" for x in v))
+                     if isinstance(v, (list, tuple)) else (_num_text(v) if isinstance(v, (int, float))
+                                                           else tex_escape(v))} for k, v in sg.items()]
+    eff = scene.effects
+    effects = [
+        ("axial deformation", "off" if not eff.axial else ", ".join(
+            f"{tex_escape(n)}: {tex_escape(t.treatment.replace('_', '-'))}" for n, t in treatments.items()
+            if t.treatment != "off") or "on"),
+        ("transverse deformation", "on" if eff.transverse else "off"),
+        ("geometric stiffening", "on" if eff.geometric_stiffening else "off"),
+        ("Coriolis terms", "on" if eff.coriolis else "off"),
+        ("rotary inertia", "on" if eff.rotary_inertia else "off"),
+        ("axial strain", "von K\\'arm\\'an" if eff.strain == "von_karman" else "linear (the seed's)"),
+        ("gravity $(g_x, g_y)$", "off" if not any(eff.gravity) else
+         f"$({eff.gravity[0]:.6g}, {eff.gravity[1]:.6g})$"),
+        ("Kelvin--Voigt damping", "off" if not eff.damping else f"${eff.damping:.6g}$"),
+    ]
+    joints = []
+    for j in scene.joints:
+        ends = []
+        for e in j.ends:
+            if e.body == GROUND:
+                ends.append(f"ground $({e.point[0]:.6g}, {e.point[1]:.6g})$")
+            elif e.variable:
+                ends.append(f"{tex_escape(e.body)} at $\\xi = \\beta_{{{_rm(j.name)}}}(\\tau)$ (variable support)")
+            else:
+                ends.append(f"{tex_escape(e.body)} at $\\xi = {e.xi:.6g}$")
+        role = "tree" if any(e.joint == j.name for e in topo.edges.values()) else "cut"
+        joints.append({"name": tex_escape(j.name), "kind": j.kind, "ends": ", ".join(ends), "role": role,
+                       "mass": (f"{j.mass:.6g}" if j.mass else "")
+                       + (f"; rotary inertia $I_{{{_rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else "")})
+    drv = scene.driver
+    driver = None
+    if drv is not None:
+        driver = {"kind": drv.kind, "body": tex_escape(drv.body),
+                  "text": (f"kinematic guidance: $\\theta_{{{_rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
+                           + _driver_law_note(drv) if drv.kind == "angle" else
+                           f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")
+                  + _rotor_note(drv, pr)}
+    coords = [{"tex": pr(sp.Symbol(c.name)), "kind": c.kind, "body": tex_escape(c.body)} for c in model.coords]
+    mult = []
+    for L, row in zip(model.lam, model.lam_rows):
+        what = {"pin-x": "x force of pin", "pin-y": "y force of pin", "slider": "normal force of slider",
+                "driver": "driver torque", "inextensible": "axial force amplitude of inextensible bar",
+                "slot-x": "x force of slot", "slot-y": "y force of slot"}[row.kind]
+        mult.append({"tex": pr(L), "text": f"{what} {tex_escape(row.joint) if row.kind != 'driver' else ''}".strip()})
+    try:
+        from symgen.ir.parameters import parameter_values
+        values = parameter_values(scene, model.param_names)
+    except KeyError:
+        values = [None] * len(model.params)
+    params = [{"tex": pr(p), "value": _num_text(v)} for p, v in zip(model.params, values)]
+
+    # ---- bars
+    bars = [latex_slot.guide_context(scene, model, name, pr) if latex_slot.is_guide(model.bars[name])
+            else _bar_context(scene, model, name, pr) for name in topo.order]
+
+    # ---- (10)
+    chain = {}
+    for name in topo.order:
+        path, n = [], name
+        while n != GROUND:
+            path.append(n)
+            n = topo.edges[n].parent
+        chain[name] = " $\\to$ ".join(["ground"] + [tex_escape(x) for x in reversed(path)])
+    eq10 = []
+    for name in topo.order:
+        s = model.bars[name].sym
+        e = topo.edges[name]
+        rows = [_row(pr, pr(s.xa_dd), assigned[s.xa_dd], f"10.x, {tex_escape(name)}"),
+                _row(pr, pr(s.ya_dd), assigned[s.ya_dd], f"10.y, {tex_escape(name)}")]
+        eq10.append({"name": tex_escape(name), "chain": chain[name], "joint": tex_escape(e.joint),
+                     "root": e.parent == GROUND, "slider": e.slider, "eq": _block(rows)})
+
+    # ---- (11) and the driver
+    closure = []
+    phi = prog.outputs["phi"]
+    slot_rows = {(row.joint, row.kind): expr for expr, row in zip(phi, model.lam_rows) if row.kind.startswith("slot-")}
+    explained: set = set()
+    for k, (expr, row) in enumerate(zip(phi, model.lam_rows)):
+        if row.kind == "slot-y":
+            continue                # shown with its slot-x row
+        if row.kind == "slot-x":
+            sc = latex_slot.slot_closure(scene, model, row.joint)
+            jn = tex_escape(row.joint)
+            rows = [_row(pr, r"0", slot_rows[(row.joint, c)], f"11.{c[-1]}, {jn}") for c in ("slot-x", "slot-y")]
+            closure.append({"text": sc["text"], "sym": sc["sym"], "star": sc["star"], "eq": _block(rows)})
+            continue
+        if row.kind == "inextensible":
+            tag = f"IN, {tex_escape(row.joint)}"
+            how = treatments[row.joint]
+            first = row.joint not in explained
+            explained.add(row.joint)
+            if how.treatment == QUASI_STATIC:
+                text = (f"Quasi-static axial response of {tex_escape(row.joint)}"
+                        + (f" ({tex_escape(how.reason)}): no axial vibration: the axial amplitudes follow the "
+                           "bending through $(\\phi'_k, \\varepsilon) = 0$ (their inertia kept), the multiplier "
+                           "$N_k$ is the axial force amplitude, and outputs of the bar's shape read the "
+                           "amplitudes $f_k + N_k/\\lambda$ (the stretch $P\\varepsilon = N/\\lambda$)"
+                           if first else ", next row"))
+            else:
+                text = (f"Inextensibility of {tex_escape(row.joint)}"
+                        + (f" ({tex_escape(how.reason)}): $(\\phi'_k, \\varepsilon) = 0$, multiplier $N_k$ = "
+                           "axial force amplitude" if first else ", next row"))
+        elif row.kind == "driver":
+            tag = f"KG, {tex_escape(drv.body)}"
+            text = ("Kinematic guidance: the input bar's prescribed angle (added to the closure "
+                    "system, multiplier $\\Lambda_{\\mathrm{drv}}$ = driver torque)")
+        else:
+            comp = {"pin-x": ".x", "pin-y": ".y", "slider": ""}[row.kind]
+            tag = f"11{comp}, {tex_escape(row.joint)}"
+            loop = " -- ".join(tex_escape(x) for x in row.loop)
+            text = f"Cut {'pin' if row.kind.startswith('pin') else 'slider'} {tex_escape(row.joint)}, loop {loop}"
+        closure.append({"text": text, "eq": _block([_row(pr, r"0", expr, tag)])})
+
+    # ---- (13)
+    joint_eqs = _joints_context(scene, model, pr)
+
+    # ---- assembled
+    defs_e, defs_s = [], []
+    for sym, expr in prog.assignments:
+        n = sym.name
+        if re.match(r"E(X|Y|th|f|g|beta)_", n):
+            defs_e.append(_row(pr, pr(sym), expr))
+        elif re.match(r"S(X|Y)_", n):
+            defs_s.append(_row(pr, pr(sym), expr))
+    residuals = []
+    for k, (c, r) in enumerate(zip(model.coords, prog.outputs["res"])):
+        lhs = rf"\mathcal R_{{{pr(sp.Symbol(c.name))}}}"
+        residuals.append(_row(pr, lhs, r, f"EoM.{k + 1}"))
+
+    ctx = {
+        "version": __version__, "scene_path": Path(scene.path).name, "scene_path_tex": tex_escape(Path(scene.path).name),
+        "hash": scene.hash[:12], "name": tex_escape(scene.name), "units": tex_escape(scene.units),
+        "bodies": bodies, "scene_groups": scene_groups, "effects": effects, "joints": joints,
+        "driver": driver, "coords": coords, "multipliers": mult, "params": params, "bars": bars,
+        "eq10": eq10, "closure": closure, "joint_eqs": joint_eqs,
+        "defs_e": _block(defs_e), "defs_s": _block(defs_s), "residuals": _block(residuals),
+        "loops": len(topo.cuts),
+        "vk": eff.strain == "von_karman",
+        "slot_notes": latex_slot.slot_notes(scene, model),
+        "rotary_notes": rotary_notes(scene, pr),
+    }
+    from symgen.backends.latex.quasistatic import quasi_static_context
+    ctx["qs"] = quasi_static_context(scene, model, pr)
+    return _env().get_template("document.tex.jinja").render(**ctx)

@@ -1,0 +1,479 @@
+"""LaTeX of slot joints: the guide bar with variable span psi(xi, beta) (seed 6.3).
+
+Used by :mod:`symgen.backends.latex.document` for scenes with ``kind = "slot"`` joints (see
+:mod:`symgen.model.slot`). The guide of a slot gets its own section (template
+``guide.tex.jinja``): its shape functions on the span and the overhang, eta and its time
+derivatives with the psi_beta / psi_betabeta terms of the formulation's "Variable span"
+paragraph, (1), the strong form (9) with those terms, the rigid-body equations, (17) and the
+equation of the support distance beta (tagged ``17.beta``) with symbolic inner products, and
+the inner products in closed form as functions of beta. The slot's closure rows are shown in
+the form of (11) with the guide's term [beta + zeta*, eta*].
+
+The slot force acts on the guide at its moving support xi = beta (``dae._add_contact_force``
+adds it to the guide's generalized forces, not to ``bar_equations``); it is written here into
+the guide's rigid-body and beta equations as the point force (B, Gamma) at xi = beta, where it
+does no work on the amplitudes (psi(beta, beta) = 0).
+"""
+from __future__ import annotations
+
+import sympy as sp
+
+from symgen.model.bars import PointForce, bar_equations
+from symgen.scene.model import GROUND
+
+__all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes",
+           "beta_positive"]
+
+
+def is_guide(bm) -> bool:
+    """A bar carrying a slot (variable span): its symbols have (beta, beta', beta'')."""
+    return bool(getattr(bm.sym, "beta", ()))
+
+
+def beta_positive(model) -> dict:
+    """beta -> the same-named positive symbol, for display only: the guide's shape functions
+    are written with Piecewise branches (span / overhang) whose conditions, at the pin
+    xi = 0, are decided by beta >= 0 (always true: beta is a distance along the guide)."""
+    out = {}
+    for bm in model.bars.values():
+        if is_guide(bm):
+            b = bm.sym.beta[0]
+            out[b] = sp.Symbol(b.name, positive=True)
+    return out
+
+
+def _slot_of(scene, guide: str):
+    for j in scene.joints:
+        if j.kind == "slot" and j.ends[1].body == guide:
+            return j
+    raise KeyError(f"{guide!r} guides no slot")
+
+
+def _beta0(scene, joint: str) -> float | None:
+    return dict(scene.initial.guess).get(joint) if scene.initial is not None else None
+
+
+# --------------------------------------------------------------------------- inner products
+class SlotDisplayIPT:
+    """The guide's inner products as named symbols for display, recording which it handed out.
+
+    Same interface as ``slot.SlotIPTable`` (blocks [1, xi, psi, psi_beta, psi_betabeta]).
+    (psi''_i, psi''_j) are returned as functions of beta, so that the beta equation's
+    d/dbeta of the strain energy keeps its term; :meth:`finish` turns them into symbols.
+    """
+
+    def __init__(self, ipt, beta: sp.Symbol) -> None:
+        self.base, self.beta, self.na, self.nt, self.symbolic = ipt, beta, 0, ipt.nt, True
+        nt = ipt.nt
+        self.labels = (["1", r"\xi"] + [rf"\psi_{{{k + 1}}}" for k in range(nt)]
+                       + [rf"\psi_{{{k + 1},\beta}}" for k in range(nt)]
+                       + [rf"\psi_{{{k + 1},\beta\beta}}" for k in range(nt)])
+        self.used: dict[sp.Symbol, tuple] = {}      # display symbol -> (kind, (i, j))
+        self._funcs: dict = {}                       # F(beta) -> (i, j)
+
+    def gram(self, i: int, j: int) -> sp.Expr:
+        if self.base.G[i, j] == 0:
+            return sp.Integer(0)
+        i, j = min(i, j), max(i, j)
+        sym = sp.Symbol(rf"\left({self.labels[i]},{self.labels[j]}\right)")
+        self.used.setdefault(sym, ("gram", (i, j)))
+        return sym
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        if name != "Kt":
+            raise KeyError(f"a guide bar has no {name} inner products")
+        i, j = min(i, j), max(i, j)
+        if self.base.Kt[i, j] == 0:
+            return sp.Integer(0)
+        f = sp.Function(latex.format(i=i + 1, j=j + 1))(self.beta)
+        self._funcs[f] = (i, j)
+        return f
+
+    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
+        return self.base.vec(name, i, latex)
+
+    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
+        return sp.Integer(0)
+
+    def finish(self, expr: sp.Expr) -> sp.Expr:
+        """(psi''_i, psi''_j)(beta) -> a symbol, its beta derivative -> a symbol of its own."""
+        rep = {}
+        for f, idx in self._funcs.items():
+            name = f.func.__name__
+            d = sp.Derivative(f, self.beta)
+            dsym = sp.Symbol(r"\partial_{\beta}" + name)
+            sym = sp.Symbol(name)
+            rep[d] = dsym
+            rep[f] = sym
+        expr = sp.sympify(expr).xreplace({k: v for k, v in rep.items() if isinstance(k, sp.Derivative)})
+        expr = expr.xreplace({k: v for k, v in rep.items() if not isinstance(k, sp.Derivative)})
+        for f, idx in self._funcs.items():
+            name = f.func.__name__
+            for sym, kind in ((sp.Symbol(name), "Kt"), (sp.Symbol(r"\partial_{\beta}" + name), "dKt")):
+                if expr.has(sym):
+                    self.used.setdefault(sym, (kind, idx))
+        return expr
+
+    def value(self, sym: sp.Symbol) -> sp.Expr:
+        """Closed form (in the model's beta symbol) of a display symbol."""
+        kind, (i, j) = self.used[sym]
+        if kind == "gram":
+            return self.base.G[i, j]
+        if kind == "Kt":
+            return self.base.Kt[i, j]
+        return sp.diff(self.base.Kt[i, j], self.beta)
+
+
+def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
+    """The shortest printed of a few equivalent forms (beta taken positive)."""
+    e = sp.sympify(expr).xreplace(pos)
+    forms = [e]
+    for fn in (sp.factor, sp.cancel, sp.simplify):
+        try:
+            forms.append(fn(e))
+        except Exception:       # pragma: no cover - a form sympy cannot produce
+            pass
+    return min(forms, key=lambda x: (len(sp.latex(x)), forms.index(x)))
+
+
+_KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2}
+
+
+def _ip_rows(ipt: SlotDisplayIPT, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
+    from symgen.backends.latex.document import _num_text
+    rows = []
+    for sym, (kind, idx) in ipt.used.items():
+        if sym not in used:
+            continue
+        exact = ipt.value(sym)
+        form = _shortest(exact, pos)
+        const = not form.has(ipt.beta) and not form.has(pos.get(ipt.beta, ipt.beta))
+        val = None
+        if beta0 is not None or const:
+            val = float(exact.subs(ipt.beta, beta0 if beta0 is not None else 0))
+        rows.append({"symbol": sym.name, "exact": pr(form), "decimal": _num_text(val),
+                     "kind": "constant" if const else ("derivative in $\\beta$" if kind == "dKt"
+                                                        else "function of $\\beta$"),
+                     "key": (_KIND_ORDER[kind], idx)})
+    rows.sort(key=lambda r: r["key"])
+    for r in rows:
+        del r["key"]
+    return rows
+
+
+# --------------------------------------------------------------------------- shape functions
+_FAMILY = [  # psi_k, psi_k,beta, psi_k,betabeta of slot.SlotBasis: (LaTeX span, overhang)
+    ("", r"\sin(k\pi\xi/\beta)", r"(-1)^{k}\,\frac{k\pi}{\beta}\,(\xi - \beta)"),
+    (r",\beta", r"-\frac{k\pi\xi}{\beta^{2}}\cos(k\pi\xi/\beta)", r"(-1)^{k+1}\,\frac{k\pi\xi}{\beta^{2}}"),
+    (r",\beta\beta",
+     r"\frac{2k\pi\xi}{\beta^{3}}\cos(k\pi\xi/\beta) - \Bigl(\frac{k\pi\xi}{\beta^{2}}\Bigr)^{2}\sin(k\pi\xi/\beta)",
+     r"(-1)^{k}\,\frac{2k\pi\xi}{\beta^{3}}"),
+]
+
+
+def _family_exprs(k: int, xi: sp.Symbol, b: sp.Symbol) -> list[tuple]:
+    """The expressions that ``_FAMILY`` writes, for mode k (to check them against the basis)."""
+    a = k * sp.pi * xi / b
+    return [(sp.sin(a), (-1) ** k * k * sp.pi / b * (xi - b)),
+            (-k * sp.pi * xi / b ** 2 * sp.cos(a), (-1) ** (k + 1) * k * sp.pi * xi / b ** 2),
+            (2 * k * sp.pi * xi / b ** 3 * sp.cos(a) - (k * sp.pi * xi / b ** 2) ** 2 * sp.sin(a),
+             (-1) ** k * 2 * k * sp.pi * xi / b ** 3)]
+
+
+def _shape_rows(basis, b: sp.Symbol, pr) -> tuple[list[dict], bool]:
+    """Rows (k, sub, span, overhang) of the guide's functions: the family's formulas in k when
+    every function of ``basis`` is that family (checked symbolically), else one row per mode
+    and derivative, printed from the basis' own expressions."""
+    xi = next((x for fn in basis.functions for x in fn.span.free_symbols if x.name == "xi"),
+              sp.Symbol("xi", real=True))
+    nspan = getattr(basis, "nspan", len(basis.functions))
+    sines, own = basis.functions[:nspan], basis.functions[nspan:]      # own: the overhang's chi_m
+    ok = bool(sines)
+    for k, fn in enumerate(sines, start=1):
+        want = _family_exprs(k, xi, b)
+        for order in range(3):
+            got = (sp.diff(fn.span, b, order), sp.diff(fn.overhang, b, order))
+            if any(sp.simplify(g - w) != 0 for g, w in zip(got, want[order])):
+                ok = False
+    bb = sp.Symbol(r"\beta")
+    rows = []
+    if ok:
+        rows = [{"k": "k", "sub": sub, "span": span, "over": over} for sub, span, over in _FAMILY]
+    for k, fn in enumerate(basis.functions if not ok else own, start=1 if not ok else nspan + 1):
+        for order, (sub, _, _) in enumerate(_FAMILY):
+            span, over = sp.diff(fn.span, b, order), sp.diff(fn.overhang, b, order)
+            rows.append({"k": k, "sub": sub, "span": pr(span.xreplace({b: bb})), "over": pr(over.xreplace({b: bb}))})
+    return rows, ok
+
+
+# --------------------------------------------------------------------------- the guide's equations
+def _contact_symbols(joint: str) -> tuple:
+    from symgen.backends.latex.document import _rm
+    return sp.Symbol(rf"B_{{{_rm(joint)}}}"), sp.Symbol(rf"\Gamma_{{{_rm(joint)}}}")
+
+
+def _contact_definitions(model, guide: str, joint: str) -> tuple:
+    """(B, Gamma) of the slot force on the guide, bar axes / nu alpha^2: the force is
+    -(Lx, Ly) in ground axes (the crank's point receives +(Lx, Ly))."""
+    s = model.bars[guide].sym
+    Fx, Fy = -sp.Symbol(f"Lx_{joint}", real=True), -sp.Symbol(f"Ly_{joint}", real=True)
+    B = (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)
+    G = (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)
+    return B, G
+
+
+def guide_display_equations(scene, model, name: str, disp_points: tuple = (), disp_loads: tuple = ()):
+    """The guide's rigid-body equations, (17) and the beta equation, with symbolic inner
+    products and the slot force as (B, Gamma) at xi = beta.
+
+    Returns ``(equations, ipt)``: ``equations`` is a dict with keys "fx", "fy", "mom", "eq17",
+    "eqbeta" (residuals, inertia minus forces, divided by nu alpha^2 / nu alpha^3 as in
+    ``bars.bar_equations``); ``ipt.value(symbol)`` gives each inner product's closed form.
+    """
+    bm = model.bars[name]
+    s = bm.sym
+    joint = _slot_of(scene, name).name
+    ipt = SlotDisplayIPT(bm.ipt, s.beta[0])
+    inputs = dict(bm.inputs)
+    inputs["points"] = tuple(disp_points)
+    inputs["loads"] = tuple(disp_loads)
+    inputs["gravity"] = None
+    inputs.pop("axial_force", None)
+    eqs = bar_equations(s, bm.basis_a, bm.basis_t, ipt, scene.effects, **inputs)
+    Bc, Gc = _contact_symbols(joint)
+    b = s.beta[0]
+    out = {"fx": eqs.force[0] - Bc, "fy": eqs.force[1] - Gc,
+           "mom": eqs.moment - b * Gc,                      # arm: the contact is at (beta, 0)
+           "eq17": list(eqs.eq17),                          # psi_k(beta) = 0: no work on g
+           "eqbeta": eqs.eqbeta - Bc}                       # d r_contact / d beta = alpha R e_x
+    out = {k: ([ipt.finish(e) for e in v] if isinstance(v, list) else ipt.finish(v)) for k, v in out.items()}
+    return out, ipt
+
+
+def guide_context(scene, model, name: str, pr) -> dict:
+    """Context of ``guide.tex.jinja`` for the guide bar ``name``."""
+    from symgen.backends.latex.document import _block, _kin_terms, distributed_load_display, _num_text, _point_label, _rm, _row, _split_sides, _term_row, tex_escape
+    eff = scene.effects
+    body = scene.body(name)
+    bm = model.bars[name]
+    s = bm.sym
+    nt = len(s.g)
+    B = _rm(name)
+    j = _slot_of(scene, name)
+    J = _rm(j.name)
+    b, db, ddb = s.beta
+    bt, dbt, ddbt = pr(b), pr(db), pr(ddb)
+    pos = beta_positive(model)
+    tn = tex_escape(name)
+    ctx: dict = {"name": name, "tex": B, "text": tn, "rigid": False, "na": 0, "nt": nt, "slot": True,
+                 "frame": body.frame, "joint": tex_escape(j.name), "joint_tex": J, "beta": bt,
+                 "follower": tex_escape(j.ends[0].body), "follower_xi": _num_text(j.ends[0].xi)}
+    beta0 = _beta0(scene, j.name)
+    ctx["beta0"] = _num_text(beta0) if beta0 is not None else ""
+
+    # ---- shape functions: span and overhang, and their beta derivatives
+    ctx["psi"], ctx["psi_family"] = _shape_rows(bm.basis_t, b, pr)
+    ctx["nover"] = getattr(bm.basis_t, "nover", 0)
+    ctx["nspan"] = nt - ctx["nover"]
+    ns = ctx["nspan"]
+    ctx["k_range_span"] = ", ".join(str(k) for k in range(1, ns + 1)) if ns <= 3 else rf"1, \dots, {ns}"
+    ctx["k_range"] = ", ".join(str(k) for k in range(1, nt + 1)) if nt <= 3 else rf"1, \dots, {nt}"
+    g = [pr(x) for x in s.g]
+    ctx["amplitudes"] = ", ".join(g)
+    gk, dgk, ddgk = rf"g_{{{B},k}}", rf"\dot g_{{{B},k}}", rf"\ddot g_{{{B},k}}"
+    sm = rf"\sum_{{k=1}}^{{{nt}}}"
+    ctx["expansion"] = [
+        rf"\eta_{{{B}}}(\xi,\tau) = {sm} \psi_k\bigl(\xi,{bt}(\tau)\bigr)\, {gk}(\tau)",
+        rf"\dot\eta_{{{B}}} = {sm} \bigl({dgk}\,\psi_k + {gk}\,\psi_{{k,\beta}}\,{dbt}\bigr)",
+        rf"\ddot\eta_{{{B}}} = {sm} \Bigl({ddgk}\,\psi_k + 2{dgk}\,\psi_{{k,\beta}}\,{dbt}"
+        rf" + {gk}\bigl(\psi_{{k,\beta\beta}}\,{dbt}^{{2}} + \psi_{{k,\beta}}\,{ddbt}\bigr)\Bigr)",
+    ]
+    ctx["bc"] = (rf"\zeta_{{{B}}} \equiv 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}({bt}) = 0")
+
+    # ---- (1)
+    ax, ay = _kin_terms({"B": B}, 0, nt, eff.coriolis)
+    ctx["eq1"] = _block([_term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tn}"),
+                         _term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tn}")])
+
+    # ---- applied forces: the guide's own point forces and loads, then the slot force at xi = beta
+    used_labels = {J}
+    disp_points, point_defs, ext, pts_tex = [], [], set(), []
+    for p in bm.inputs["points"]:
+        label = _point_label(p, scene, used_labels)
+        if p.ground is not None:
+            Bs, Gs = sp.Symbol(rf"B_{{{label}}}"), sp.Symbol(rf"\Gamma_{{{label}}}")
+            Fx, Fy = p.ground
+            point_defs.append(_row(pr, pr(Bs), (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)))
+            point_defs.append(_row(pr, pr(Gs), (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)))
+            disp_points.append(PointForce(p.xi, bar=(Bs, Gs)))
+            ext |= {Bs, Gs}
+            pts_tex.append((pr(Gs), _num_text(p.xi)))
+        else:
+            disp_points.append(p)
+            ext |= sp.sympify(p.bar[0]).free_symbols | sp.sympify(p.bar[1]).free_symbols
+            pts_tex.append((pr(p.bar[1]), _num_text(p.xi)))
+    Bc, Gc = _contact_symbols(j.name)
+    Bdef, Gdef = _contact_definitions(model, name, j.name)
+    point_defs = [_row(pr, pr(Bc), Bdef), _row(pr, pr(Gc), Gdef)] + point_defs
+    ext |= {Bc, Gc}
+    pts_tex.insert(0, (pr(Gc), bt))
+    disp_loads, load_defs = distributed_load_display(pr, bm, B, ext)
+    ctx["point_defs"] = _block(point_defs)
+    ctx["load_defs"] = _block(load_defs) if load_defs else ""
+
+    # ---- (9) with the variable-span terms of eta''
+    damp = bm.inputs["damping"] is not None
+    c = r"c_{\mathrm{KV}}"
+    left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
+    if damp:
+        left.append(rf"- {c}\,\mu_{{{B}}}\dot\eta_{{{B}}}''''")
+    if disp_loads:
+        left.append(rf"+ \bar\gamma_{{{B}}}")
+    left += [rf"+ {G}\,\delta(\xi - {x})" for G, x in pts_tex]
+    sk = r"\sum_k"
+    right = [rf"[\ddot y_A]_{{{B}}}", rf"+ {sk}\ddot g_{{{B},k}}\psi_k",
+             rf"+ 2{dbt}{sk}\dot g_{{{B},k}}\psi_{{k,\beta}}",
+             rf"+ {sk} g_{{{B},k}}\bigl(\psi_{{k,\beta\beta}}\,{dbt}^{{2}} + \psi_{{k,\beta}}\,{ddbt}\bigr)",
+             rf"+ \ddot\theta_{{{B}}}\,\xi", rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}"]
+    ctx["strong"] = _block([_term_row(left, right, f"9, {tn}")])
+    ctx["damped"] = damp
+
+    # ---- rigid-body equations, (17), (17.beta)
+    eqs, ipt = guide_display_equations(scene, model, name, tuple(disp_points), disp_loads)
+    elastic = {s.mu} if s.mu is not None else set()
+    if damp:
+        elastic.add(bm.inputs["damping"])
+    used: set = set()
+
+    def rows(exprs, tags):
+        out = []
+        for e, tag in zip(exprs, tags):
+            used.update(e.free_symbols)
+            lft, rgt = _split_sides(e, elastic, ext, None)
+            out.append(_row(pr, lft, rgt, tag))
+        return out
+
+    ctx["rb"] = _block(rows([eqs["fx"], eqs["fy"], eqs["mom"]], [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
+    ctx["eq17"] = _block(rows(eqs["eq17"], [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
+    ctx["eqbeta"] = _block(rows([eqs["eqbeta"]], [rf"17.$\beta$, {tn}"]))
+    ctx["ip_table"] = _ip_rows(ipt, used, pr, beta0, pos)
+    topo = model.topology
+    tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
+    ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
+    drv = scene.driver
+    ctx["driven"] = ("" if drv is None or drv.body != name else
+                     (r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle"
+                      else r"the applied moment $M_0$ (12)"))
+    return ctx
+
+
+# --------------------------------------------------------------------------- (11) and (13)
+def _chain(model, body: str) -> list[str]:
+    topo = model.topology
+    path, n = [], body
+    while n != GROUND:
+        path.append(n)
+        n = topo.edges[n].parent
+    return list(reversed(path))
+
+
+def _vec(top: str, bottom: str) -> str:
+    return rf"\begin{{bmatrix}} {top} \\ {bottom} \end{{bmatrix}}"
+
+
+def _at(model, bar: str, xi: float) -> tuple[str, str, str]:
+    """(xi, zeta(xi), eta(xi)) of a bar point as LaTeX (hats at xi = 1, zeros where the
+    frame or the basis makes them vanish)."""
+    from symgen.backends.latex.document import _num_text, _rm
+    B = _rm(bar)
+    s = model.bars[bar].sym
+    one = abs(xi - 1.0) < 1e-12
+    zero = abs(xi) < 1e-12
+    x = "1" if one else _num_text(xi)
+    z = "" if (not s.f or zero) else (rf"\hat\zeta_{{{B}}}" if one else rf"\zeta_{{{B}}}({x})")
+    e = "0" if (not s.g or zero) else (rf"\hat\eta_{{{B}}}" if one else rf"\eta_{{{B}}}({x})")
+    return x, z, e
+
+
+def _chain_terms(model, body: str, end) -> tuple[str, list[str]]:
+    """(root point, terms alpha_j R(theta_j) [...]) from ground to the end ``end`` of ``body``."""
+    from symgen.backends.latex.document import _rm
+    topo = model.topology
+    path = _chain(model, body)
+    root = topo.edges[path[0]]
+    start = (rf"\mathbf r_{{A,{_rm(path[0])}}}" if root.slider or root.ground_point is None
+             else rf"\mathbf p_{{{_rm(root.joint)}}}")
+    terms = []
+    for k, bar in enumerate(path):
+        B = _rm(bar)
+        edge = topo.edges[bar]
+        rb = rf"\alpha_{{{B}}} R(\theta_{{{B}}})"
+        if k + 1 < len(path):
+            out_xi = topo.edges[path[k + 1]].parent_xi
+            x, z, e = _at(model, bar, out_xi)
+            top = f"{x} + {z}" if z else x
+        elif end.variable:
+            bt = pr_beta(model, bar)
+            top, e = rf"{bt} + \zeta^*_{{{B}}}", rf"\eta^*_{{{B}}}"
+        else:
+            x, z, e = _at(model, bar, end.xi)
+            top = f"{x} + {z}" if z else x
+        term = rb + _vec(top, e)
+        in_xi = edge.body_xi or 0.0
+        if abs(in_xi) > 1e-12:
+            x, z, e0 = _at(model, bar, in_xi)
+            term = rb + r"\Bigl(" + _vec(top, e) + " - " + _vec(f"{x} + {z}" if z else x, e0) + r"\Bigr)"
+        terms.append(term)
+    return start, terms
+
+
+def pr_beta(model, bar: str) -> str:
+    from symgen.backends.latex.document import _rm
+    name = model.bars[bar].sym.beta[0].name          # beta_<joint>
+    return rf"\beta_{{{_rm(name[len('beta_'):])}}}"
+
+
+def slot_closure(scene, model, joint: str) -> dict:
+    """The text and the symbolic (11) of a slot: sum of the follower's chain minus the
+    guide's chain, with [beta + zeta*, eta*] for the guide, equal to the ground vector K."""
+    from symgen.backends.latex.document import _num_text, _rm, tex_escape
+    j = next(x for x in scene.joints if x.name == joint)
+    a, g = j.ends
+    J = _rm(joint)
+    sa, ta = _chain_terms(model, a.body, a)
+    sb, tb = _chain_terms(model, g.body, g)
+    G = _rm(g.body)
+    bt = pr_beta(model, g.body)
+    lhs = " + ".join(ta) + " - " + " - ".join(tb)
+    K = rf"\mathbf K_{{{J}}} = {sb} - {sa}"
+    star = rf"\zeta^*_{{{G}}} = 0,\quad \eta^*_{{{G}}} = \eta_{{{G}}}({bt}) = 0"
+    text = (rf"Slot {tex_escape(joint)} (cut joint, multipliers $\Lambda_{{x,{J}}}$, $\Lambda_{{y,{J}}}$ = the slot "
+            rf"force on {tex_escape(a.body)}), loop " + " -- ".join(tex_escape(x) for x in _loop(model, joint))
+            + rf": the point $\xi = {_num_text(a.xi)}$ of {tex_escape(a.body)} stays on {tex_escape(g.body)} at "
+            rf"its support distance ${bt}(\tau)$. In (11) the guide's $[1 + \hat\zeta, \hat\eta]$ is replaced "
+            rf"by $[{bt} + \zeta^*, \eta^*]$ with $\zeta^* = \zeta({bt})$, $\eta^* = \eta({bt})$; here "
+            rf"$\zeta^* = 0$ (axially rigid guide) and $\eta^* = 0$ (the guide's frame is the chord from its "
+            rf"pin to the slot)")
+    return {"text": text, "sym": rf"{lhs} = {K}", "star": star}
+
+
+def _loop(model, joint: str) -> tuple:
+    for c in model.topology.cuts:
+        if c.joint == joint:
+            return c.loop
+    return ()
+
+
+def slot_notes(scene, model) -> list[dict]:
+    """(13) has no slot counterpart: what carries the slot force instead."""
+    from symgen.backends.latex.document import _num_text, _rm, tex_escape
+    out = []
+    for j in scene.joints:
+        if j.kind != "slot":
+            continue
+        a, g = j.ends
+        J = _rm(j.name)
+        out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "xa": _num_text(a.xi),
+                    "b": tex_escape(g.body), "beta": pr_beta(model, g.body), "tex": J,
+                    "mass": j.mass > 0})
+    return out

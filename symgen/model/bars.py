@@ -1,0 +1,381 @@
+"""Equations of one bar: the acceleration field (1), the Galerkin equations (16)-(17) and
+the three rigid-body equations, in the bar's own dimensionless form.
+
+Everything here is local to one bar: its angle theta, amplitudes f (axial, zeta = phi^T f)
+and g (transverse, eta = psi^T g), their rates and accelerations, and the acceleration of
+its origin A in its own axes divided by l_i omega^2 (the paper's [r_A'']_i, given by (10)).
+The inner products come from an ``IPTable``: numbers for the model, or named symbols for
+display in LaTeX, so the same code writes both.
+
+Normalisation (per bar, forces in m_i l_i omega^2 per unit length):
+
+* ``force``  : rigid-body force balance in bar axes, divided by nu alpha^2
+* ``moment`` : moment balance about A, divided by nu alpha^3
+* ``eq16``, ``eq17`` : the weak (symmetric) forms of (16), (17), divided by nu alpha^3
+
+and ``generalized`` multiplies back to common units (m_ref l0^3 omega^2 per unit coordinate)
+with the force rotated to ground axes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations_with_replacement
+
+import numpy as np
+import sympy as sp
+
+from symgen.model.shapes import Basis, InnerProducts
+
+ZERO_TOL = 1e-13
+
+
+def rot(th: sp.Expr) -> sp.Matrix:
+    """R(theta) of the formulation: bar axes -> ground axes."""
+    c, s = sp.cos(th), sp.sin(th)
+    return sp.Matrix([[c, -s], [s, c]])
+
+
+@dataclass(frozen=True)
+class BarSymbols:
+    """Symbols of one bar (coordinates, rates, accelerations, parameters)."""
+
+    name: str
+    th: sp.Symbol
+    dth: sp.Symbol
+    ddth: sp.Symbol
+    f: tuple
+    df: tuple
+    ddf: tuple
+    g: tuple
+    dg: tuple
+    ddg: tuple
+    xa_dd: sp.Symbol        # [x_A'']_i : acceleration of A along the bar / (l_i omega^2)
+    ya_dd: sp.Symbol
+    alpha: sp.Symbol
+    nu: sp.Symbol
+    lam: sp.Symbol | None
+    mu: sp.Symbol | None
+    beta: tuple = ()        # guide of a slot: (beta, beta', beta'') of the moving support
+
+    @staticmethod
+    def make(name: str, na: int, nt: int, elastic: bool, lam: bool = True) -> "BarSymbols":
+        """``lam = False``: no lambda symbol even with axial functions (an inextensible bar
+        without rotary inertia: its axial force is a multiplier, not lambda times a strain)."""
+        def vec(prefix: str, n: int) -> tuple:
+            return tuple(sp.Symbol(f"{prefix}_{name}_{k + 1}", real=True) for k in range(n))
+
+        S = lambda s: sp.Symbol(s, real=True)  # noqa: E731
+        return BarSymbols(
+            name=name, th=S(f"theta_{name}"), dth=S(f"dtheta_{name}"), ddth=S(f"ddtheta_{name}"),
+            f=vec("f", na), df=vec("df", na), ddf=vec("ddf", na),
+            g=vec("g", nt), dg=vec("dg", nt), ddg=vec("ddg", nt),
+            xa_dd=S(f"xAdd_{name}"), ya_dd=S(f"yAdd_{name}"),
+            alpha=sp.Symbol(f"alpha_{name}", positive=True), nu=sp.Symbol(f"nu_{name}", positive=True),
+            lam=sp.Symbol(f"lambda_{name}", positive=True) if elastic and na and lam else None,
+            mu=sp.Symbol(f"mu_{name}", positive=True) if elastic and nt else None)
+
+
+class IPTable:
+    """Inner products of one bar, as numbers (``symbolic=False``) or display symbols.
+
+    Index convention of the Gram matrix: b = [1, xi, phi_1..phi_na, psi_1..psi_nt].
+    """
+
+    def __init__(self, ip: InnerProducts, symbolic: bool = False) -> None:
+        self.ip, self.na, self.nt, self.symbolic = ip, ip.na, ip.nt, symbolic
+        self._labels = (["1", r"\xi"] + [rf"\phi_{{{k + 1}}}" for k in range(ip.na)]
+                        + [rf"\psi_{{{k + 1}}}" for k in range(ip.nt)])
+
+    def _num(self, x: float) -> sp.Expr:
+        return sp.Integer(0) if abs(x) < ZERO_TOL else sp.Float(float(x), 17)
+
+    def gram(self, i: int, j: int) -> sp.Expr:
+        value = self.ip.gram[i, j]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        i, j = min(i, j), max(i, j)
+        return sp.Symbol(rf"\left({self._labels[i]},{self._labels[j]}\right)")
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        value = getattr(self.ip, name)[i, j]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        return sp.Symbol(latex.format(i=i + 1, j=j + 1))
+
+    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
+        value = getattr(self.ip, name)[i]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        return sp.Symbol(latex.format(i=i + 1)) if self.symbolic else self._num(value)
+
+    def ka_inv(self, i: int, j: int) -> sp.Expr:
+        """``(Ka^{-1})_ij``, the inverse of the Gram matrix of the axial strains phi'_k (the
+        projection onto their span, see ``bar_equations``)."""
+        if not hasattr(self, "_ka_inv"):
+            self._ka_inv = np.linalg.inv(np.asarray(self.ip.Ka, dtype=float))
+        value = self._ka_inv[i, j]
+        if abs(value) < ZERO_TOL * max(1.0, float(np.abs(self._ka_inv).max())):
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        return sp.Symbol(rf"\left(K_a^{{-1}}\right)_{{{i + 1}{j + 1}}}")
+
+    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
+        value = getattr(self.ip, name)[idx]
+        if abs(value) < ZERO_TOL:
+            return sp.Integer(0)
+        if not self.symbolic:
+            return self._num(value)
+        return sp.Symbol(latex.format(*[k + 1 for k in idx]))
+
+
+def _ip(t: IPTable, u: list, w: list) -> sp.Expr:
+    """(u, w) = integral of (u . b)(w . b) over [0, 1] for coefficient lists over b."""
+    out = []
+    for i, ui in enumerate(u):
+        if ui == 0:
+            continue
+        for j, wj in enumerate(w):
+            if wj == 0:
+                continue
+            gij = t.gram(i, j)
+            if gij != 0:
+                out.append(gij * ui * wj)
+    return sp.Add(*out)
+
+
+@dataclass(frozen=True)
+class PointForce:
+    """A concentrated force on the bar at xi.
+
+    ``ground``: (Fx, Fy) in ground axes and common units m_ref l0^2 omega^2 (reactions, lumped
+    masses), or ``bar``: (B, Gamma) groups F/(m_i l_i^2 omega^2) in bar axes (point loads).
+    """
+
+    xi: float
+    ground: tuple | None = None
+    bar: tuple | None = None
+
+
+@dataclass(frozen=True)
+class BarEquations:
+    sym: BarSymbols
+    force: tuple            # (2,) bar axes, / nu alpha^2
+    moment: sp.Expr         # / nu alpha^3
+    eq16: tuple             # (na,) / nu alpha^3
+    eq17: tuple             # (nt,) / nu alpha^3
+    kinetic: sp.Expr        # / nu alpha^3, needs xa_d, ya_d symbols
+    elastic: sp.Expr        # strain energy / nu alpha^3
+    xa_d: sp.Symbol
+    ya_d: sp.Symbol
+    constraint: tuple = ()  # inextensible bar: (phi'_k, eps) = 0, k = 1..na (multipliers N_k)
+    eqbeta: sp.Expr | None = None   # guide of a slot: the equation of its support distance beta
+
+    def generalized(self) -> dict:
+        """Generalized forces in common units: 'XY' (ground axes), 'th', 'f', 'g'."""
+        s = self.sym
+        k2, k3 = s.nu * s.alpha ** 2, s.nu * s.alpha ** 3
+        fxy = rot(s.th) * sp.Matrix(self.force) * k2
+        return {"XY": (fxy[0], fxy[1]), "th": k3 * self.moment,
+                "f": tuple(k3 * e for e in self.eq16), "g": tuple(k3 * e for e in self.eq17),
+                "beta": None if self.eqbeta is None else k3 * self.eqbeta}
+
+
+def bar_equations(
+    s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, *,
+    loads: tuple = (), points: tuple = (), gravity: tuple | None = None,
+    damping: sp.Expr | None = None, axial_force: tuple | None = None,
+) -> BarEquations:
+    """Derive one bar's equations.
+
+    Parameters
+    ----------
+    loads : ((beta, gamma), ...) uniform distributed load groups in bar axes (/ m_i l_i w^2)
+    points : PointForce, ...
+    gravity : (Gx, Gy) symbols (g / l0 w^2, ground axes) or None when off
+    damping : Kelvin-Voigt ratio symbol or None when off
+    axial_force : (N_1..N_na) multiplier symbols of an *inextensible* bar
+        (``effects.axial = "inextensible"``), else None. The bar's strain is then constrained,
+        in Galerkin form, to (phi'_k, eps) = 0 (returned as ``constraint``): the lambda -> oo
+        limit of the weak form. The axial force N = sum_k N_k phi'_k (units of lambda eps) does
+        virtual work sum_k N_k d(phi'_k, eps): it enters (16) as Ka N and, with geometric
+        stiffening, (17) as (N eta', psi'), the same term for both strains (the seed's
+        lambda (zeta' eta')' is (N eta')' with N = lambda zeta'). No strain energy, no axial
+        damping: the constraint does no work.
+    """
+    na, nt = len(s.f), len(s.g)
+    th, dth, ddth = s.th, s.dth, s.ddth
+    f, df, ddf = list(s.f), list(s.df), list(s.ddf)
+    g, dg, ddg = list(s.g), list(s.dg), list(s.ddg)
+    zf, zg = [0] * na, [0] * nt
+    cor = 2 * dth if effects.coriolis else 0
+    inext = axial_force is not None
+
+    # eq. (1) divided by l_i w^2, as coefficients over b = [1, xi, phi, psi]
+    ax = [s.xa_dd, -dth ** 2] + [ddf[k] - dth ** 2 * f[k] for k in range(na)] \
+        + [-cor * dg[k] - ddth * g[k] for k in range(nt)]
+    ay = [s.ya_dd, ddth] + [cor * df[k] + ddth * f[k] for k in range(na)] \
+        + [ddg[k] - dth ** 2 * g[k] for k in range(nt)]
+    pos_x = [0, 1] + f + zg          # xi + zeta
+    pos_y = [0, 0] + zf + g          # eta
+    one = [1, 0] + zf + zg
+    var = bool(s.beta)               # variable span psi(xi, beta): blocks psi_beta, psi_betabeta
+    nb = 2 * nt if var else 0
+    if var:
+        b, db, ddb = s.beta
+        ax += [-cor * g[k] * db for k in range(nt)] + [0] * nt
+        ay += [2 * dg[k] * db + g[k] * ddb for k in range(nt)] + [g[k] * db ** 2 for k in range(nt)]
+        pos_x, pos_y, one = pos_x + [0] * nb, pos_y + [0] * nb, one + [0] * nb
+
+    def unit(k: int) -> list:
+        e = [0] * (2 + na + nt + nb)
+        e[k] = 1
+        return e
+
+    # distributed loads (uniform in xi) in bar axes, gravity included
+    beta, gamma = distributed_groups(s, loads, gravity)
+
+    # point forces -> groups (B, Gamma) in bar axes
+    pts = []
+    for p in points:
+        if p.ground is not None:
+            Fx, Fy = p.ground
+            B = (sp.cos(th) * Fx + sp.sin(th) * Fy) / (s.nu * s.alpha ** 2)
+            G = (-sp.sin(th) * Fx + sp.cos(th) * Fy) / (s.nu * s.alpha ** 2)
+        else:
+            B, G = p.bar
+        phi_k = basis_a.values(p.xi) if na else np.zeros(0)
+        psi_k = basis_t.values(p.xi) if nt else np.zeros(0)
+        pts.append((p.xi, B, G, [_val(v) for v in phi_k], [_val(v) for v in psi_k]))
+
+    # rigid-body force balance (bar axes) / nu alpha^2
+    fx = _ip(t, one, ax) - beta - sp.Add(*[B for _, B, _, _, _ in pts])
+    fy = _ip(t, one, ay) - gamma - sp.Add(*[G for _, _, G, _, _ in pts])
+    # moment about A / nu alpha^3
+    mom = _ip(t, pos_x, ay) - _ip(t, pos_y, ax)
+    mom -= gamma * _ip(t, one, pos_x) - beta * _ip(t, one, pos_y)
+    for xi, B, G, ph, ps in pts:
+        zeta = sp.Add(*[ph[k] * f[k] for k in range(na)])
+        eta = sp.Add(*[ps[k] * g[k] for k in range(nt)])
+        mom -= (sp.Float(xi) + zeta) * G - eta * B
+
+    # elastic and damping generalized forces (weak, symmetric form)
+    lam, mu = s.lam, s.mu
+    Ka = [[t.mat("Ka", i, j, r"\left(\phi'_{{{i}}},\phi'_{{{j}}}\right)") for j in range(na)] for i in range(na)]
+    Kt = [[t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
+    quad_a = sp.Add(*[Ka[i][j] * f[i] * f[j] for i in range(na) for j in range(na)]) / 2
+    quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
+    coupling = sp.Integer(0)   # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
+    quartic = sp.Integer(0)    # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
+    if effects.geometric_stiffening and na and nt:
+        for k in range(na):
+            for a, b in combinations_with_replacement(range(nt), 2):
+                c3 = t.tensor("C3", (k, a, b), r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)")
+                mult = 1 if a == b else 2
+                coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
+        if effects.strain == "von_karman" and not inext:
+            # the strain energy of the axial strain the basis can carry: lambda/2 ||P eps||^2 with P
+            # the projection onto span{phi'_k}, = lambda (f^T Ka f / 2 + f^T c + c^T Ka^-1 c / 2),
+            # c_k = (phi'_k, eta'^2 / 2). The full lambda/8 int eta'^4 adds lambda/2 ||(1-P) eta'^2/2||^2,
+            # a bending stiffness growing with lambda that no axial amplitude can relax: locking.
+            # Projected, raising lambda can only approach the inextensible limit (P eps = 0).
+            c = [sp.diff(coupling, f[k]) for k in range(na)]
+            quartic = sp.Add(*[t.ka_inv(k, j) * c[k] * c[j] for k in range(na) for j in range(na)]) / 2
+    if inext:
+        strain_energy = sp.Integer(0)     # the axial part is a constraint (no energy)
+    elif na and lam is not None:
+        strain_energy = lam * (quad_a + (coupling + quartic if effects.strain == "von_karman" else 0))
+    else:
+        strain_energy = sp.Integer(0)
+    if nt and mu is not None:
+        strain_energy += mu * quad_t
+    el_f = [sp.diff(strain_energy, fk) for fk in f]
+    el_g = [sp.diff(strain_energy, gk) for gk in g]
+    constraint = ()
+    if inext:
+        # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
+        constraint = tuple(sp.Add(*[Ka[k][j] * f[j] for j in range(na)])
+                           + (sp.diff(coupling, f[k]) if effects.strain == "von_karman" else 0)
+                           for k in range(na))
+        el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
+        # (N eta', psi'_a) = sum_k N_k d(coupling)/d(f_k g_a): the coupling is (1/2) sum C3 f g g
+        el_g = [el_g[a] + sp.Add(*[axial_force[k] * sp.diff(coupling, f[k], g[a]) for k in range(na)])
+                for a in range(nt)]
+    if effects.strain == "linear" and lam is not None and coupling != 0 and not inext:
+        # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
+        el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
+    if damping is not None:
+        if lam is not None and not inext:
+            el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
+        if mu is not None:
+            el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
+
+    eq16 = []
+    for k in range(na):
+        e = unit(2 + k)
+        r = _ip(t, e, ax) + el_f[k] - beta * _ip(t, e, one) - sp.Add(*[B * ph[k] for _, B, _, ph, _ in pts])
+        eq16.append(r)
+    eq17 = []
+    for k in range(nt):
+        e = unit(2 + na + k)
+        r = _ip(t, e, ay) + el_g[k] - gamma * _ip(t, e, one) - sp.Add(*[G * ps[k] for _, _, G, _, ps in pts])
+        eq17.append(r)
+
+    # kinetic energy / nu alpha^3 (bar-axis velocity of A over l_i w: xa_d, ya_d)
+    xa_d, ya_d = sp.Symbol(f"xAd_{s.name}", real=True), sp.Symbol(f"yAd_{s.name}", real=True)
+    vx = [xa_d, 0] + df + [-dth * g[k] for k in range(nt)]
+    vy = [ya_d, dth] + [dth * f[k] for k in range(na)] + dg
+    eqbeta = None
+    if var:
+        vx += [0] * nb
+        vy += [g[k] * db for k in range(nt)] + [0] * nt
+        # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
+        w = [0] * (2 + na + nt) + g + [0] * nt
+        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy, b) - gamma * _ip(t, w, one)
+        for xi, B, G, ph, ps in pts:
+            eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
+    kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2
+
+    if effects.rotary_inertia and nt and lam is not None and mu is not None:
+        rho = mu / lam
+        psid1 = [t.vec("psid1", k, r"\left(\psi'_{{{i}}},1\right)") for k in range(nt)]
+        Pd = [[t.mat("Pd", i, j, r"\left(\psi'_{{{i}}},\psi'_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
+        mom += rho * (ddth + sp.Add(*[psid1[k] * ddg[k] for k in range(nt)]))
+        eq17 = [eq17[i] + rho * (psid1[i] * ddth + sp.Add(*[Pd[i][j] * ddg[j] for j in range(nt)]))
+                for i in range(nt)]
+        kinetic += rho * (dth ** 2 + 2 * dth * sp.Add(*[psid1[k] * dg[k] for k in range(nt)])
+                          + sp.Add(*[Pd[i][j] * dg[i] * dg[j] for i in range(nt) for j in range(nt)])) / 2
+    if inext:
+        elastic = mu * quad_t if (nt and mu is not None) else 0
+    elif effects.strain == "linear" or not effects.geometric_stiffening:
+        elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
+    else:
+        elastic = strain_energy
+    return BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
+                        kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d,
+                        constraint=constraint, eqbeta=eqbeta)
+
+
+def distributed_groups(s: BarSymbols, loads: tuple, gravity: tuple | None) -> tuple:
+    """(beta, gamma): the uniform distributed load groups of a bar in its own axes,
+    / (m_i l_i omega^2): the scene's loads plus gravity (g / l0 omega^2, ground axes) / alpha."""
+    beta = sp.Add(*[b for b, _ in loads])
+    gamma = sp.Add(*[c for _, c in loads])
+    if gravity is not None:
+        gx, gy = gravity
+        beta += (sp.cos(s.th) * gx + sp.sin(s.th) * gy) / s.alpha
+        gamma += (-sp.sin(s.th) * gx + sp.cos(s.th) * gy) / s.alpha
+    return beta, gamma
+
+
+def _val(v) -> sp.Expr:
+    """A shape-function value: a number, or an expression (variable span psi(xi, beta))."""
+    return v if isinstance(v, sp.Basic) else _num(v)
+
+
+def _num(v: float) -> sp.Expr:
+    return sp.Integer(0) if abs(v) < ZERO_TOL else sp.Float(float(v), 17)

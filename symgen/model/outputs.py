@@ -1,0 +1,123 @@
+"""Output files: checked before any work, written atomically.
+
+* ``check_file`` / ``check_folder``: what a command will write is checked up front (the
+  suffix, the target not a folder (a file), the nearest existing ancestor a writable folder),
+  without creating anything: a bad path is exit 2 before minutes of work, with nothing written.
+* ``atomic_write`` / ``atomic_path``: every file appears complete or not at all: written to a
+  temporary file in the same folder, then renamed over the target (``os.replace``); the
+  temporary file is removed when anything fails (or the run is interrupted). Files get the
+  usual mode (0666 less the umask), not ``mkstemp``'s 0600.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterable, Iterator
+
+from symgen.errors import SceneError, SymgenError
+
+
+class OutputError(SymgenError):
+    """An output file could not be written (disk full, permissions changed during the run, ...)."""
+
+    def __init__(self, path: Path, err: OSError) -> None:
+        self.path = Path(path)
+        super().__init__(f"cannot write {str(path)!r}: {err.strerror or err}")
+
+
+def _writable_ancestor(path: Path, key: str, what: str) -> None:
+    """The nearest existing ancestor of ``path`` must be a folder we may create files in."""
+    parent = path.parent
+    while not parent.exists():
+        if parent.is_symlink():           # a dangling link: cannot be created through
+            break
+        parent = parent.parent
+    if not parent.is_dir():
+        raise SceneError("command line", key, f"cannot write {str(path)!r}: {str(parent)!r} is not a folder",
+                         f"choose {what} in an existing folder (or one that can be created)")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise SceneError("command line", key, f"cannot write {str(path)!r}: the folder {str(parent)!r} is not "
+                         "writable", f"choose {what} in a folder you can write to")
+
+
+def check_file(path: str | os.PathLike, suffixes: tuple, key: str,
+               also: Iterable[str | os.PathLike] = ()) -> Path:
+    """Check an output file before any work (``also``: companion files written beside it,
+    e.g. the JSON sidecar, which must not be folders either). Creates nothing."""
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise SceneError("command line", key, f"{str(path)!r} should end in {' or '.join(suffixes)}",
+                         f"give a file name like out/result{suffixes[0]}")
+    for q in (p, *map(Path, also)):
+        if q.is_dir():
+            raise SceneError("command line", key, f"{str(q)!r} is a folder, not a file",
+                             f"give a file name like {q / ('result' + suffixes[0])}")
+    _writable_ancestor(p, key, "a file")
+    if p.exists() and not os.access(p.parent, os.W_OK | os.X_OK):
+        raise SceneError("command line", key, f"cannot replace {str(p)!r}: its folder is not writable",
+                         "choose a file in a folder you can write to")
+    return p
+
+
+def check_folder(path: str | os.PathLike, key: str) -> Path:
+    """Check an output folder before any work: a folder (existing, writable) or creatable."""
+    p = Path(path)
+    if p.exists():
+        if not p.is_dir():
+            raise SceneError("command line", key, f"{str(path)!r} exists and is not a folder",
+                             "give a folder name, e.g. out/results")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise SceneError("command line", key, f"the folder {str(path)!r} is not writable",
+                             "choose a folder you can write to")
+        return p
+    _writable_ancestor(p, key, "a folder")
+    return p
+
+
+def _mode() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
+    """Yield a temporary path beside ``path`` (same suffix) to write to; on success it is
+    renamed over ``path``, on any failure (or interrupt) it is removed. For writers that want
+    a file name (``savefig``, ``zipfile``)."""
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".tmp{path.suffix}", dir=path.parent)
+    except OSError as err:
+        raise OutputError(path, err) from None
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.chmod(tmp, _mode())
+        os.replace(tmp, path)
+    except BaseException as err:
+        Path(tmp).unlink(missing_ok=True)
+        if isinstance(err, OSError):
+            raise OutputError(path, err) from None
+        raise
+
+
+def atomic_write(path: str | os.PathLike, data: str | bytes) -> Path:
+    """Write ``data`` (text: UTF-8) to ``path`` atomically; return ``path``."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data.encode("utf-8") if isinstance(data, str) else data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    return Path(path)
+
+
+def remove(paths: Iterable[str | os.PathLike]) -> None:
+    """Remove files that are there (stale results); folders are left alone."""
+    for p in paths:
+        p = Path(p)
+        if p.is_file() or p.is_symlink():
+            p.unlink(missing_ok=True)

@@ -1,0 +1,323 @@
+"""Bars carrying a slot: variable span psi(xi, beta) (seed 6.3).
+
+A slot joint lets a point of one bar slide along a second bar, the *guide*. The guide is
+pinned at xi = 0 and supported at the moving contact xi = beta(tau): its deformation frame
+is the chord from the pin to the contact (eta(0) = eta(beta) = 0), so
+
+    eta = g^T psi(xi, beta),   psi_k = sin(k pi xi / beta)                  on [0, beta]
+                               psi_k = psi_k'(beta) (xi - beta)              on [beta, 1]
+
+on the span a simply supported beam's modes, on the overhang beyond the contact the tangent
+continuation (value and slope continuous, so the functions are admissible for bending: the
+overhang's mass moves with the span's end slope; it carries no bending of its own). The time
+derivatives of eta carry the extra terms of the formulation,
+
+    eta'  = g'^T psi + beta' g^T psi_beta
+    eta'' = g''^T psi + 2 beta' g'^T psi_beta + g^T (psi_betabeta beta'^2 + psi_beta beta''),
+
+so the Galerkin basis of the guide is b = [1, xi, psi, psi_beta, psi_betabeta] and every inner
+product is a closed-form function of beta (the span integrals scale as beta times a pure number,
+the overhang integrals are polynomials). The guide is axially rigid (a frictionless slot
+transmits no axial force to it).
+
+Bending overhang (the default when the guide overhangs): the tangent continuation carries no
+bending of its own, so the basis is extended by ``no`` overhang functions
+
+    chi_m = 0  on [0, beta],   chi_m = (2 (xi - beta))^(m+1)  on [beta, 1]        (m = 2..no)
+
+and chi_1 = the exact static deflection under a far-end load: on the span the end-moment shape
+xi (xi^2 - beta^2) / beta, on the overhang its tangent continuation plus 3 (xi - beta)^2 (the
+factors keep the functions of order 1 at the far end for overhangs near half the guide, so the
+amplitudes measure the deflection). Zero value and continuous slope at the contact: eta stays
+C1 there, eta(beta) = 0 still holds.
+They are appended to psi (psi_{nt+m} = chi_m), so their beta derivatives enter eta' and eta''
+exactly as above, and every inner product stays a closed form in beta (polynomial on the overhang; beta < 1: with no
+overhang left its functions vanish). The
+bending stiffness (psi'', psi'') covers the span and the overhang (the tangent continuation
+contributes nothing there, so the seed's rigid-overhang form, ``no = 0``, is unchanged).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import sympy as sp
+
+from symgen.model.bars import ZERO_TOL, rot
+
+XI = sp.Symbol("xi", real=True)
+_U = sp.Symbol("u", real=True)
+_V = sp.Symbol("v", real=True)
+
+
+def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None) -> tuple:
+    """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi; k > nspan:
+    the overhang function chi_{k - nspan} (zero value and slope at the contact)."""
+    if nspan is not None and k > nspan:
+        m = k - nspan
+        if m == 1:      # with the span's end-moment shape: the exact static tip-load deflection
+            span = XI * (XI ** 2 - beta ** 2) / beta
+            over = 2 * beta * (XI - beta) + 3 * (XI - beta) ** 2
+        else:
+            span, over = sp.Integer(0), (2 * (XI - beta)) ** (m + 1)
+        return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)),
+                (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+    span = sp.sin(k * sp.pi * XI / beta)
+    slope = (-1) ** k * k * sp.pi / beta                 # d psi_k / d xi at xi = beta
+    over = slope * (XI - beta)
+    return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)),
+            (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+
+
+def _span_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
+    """int_0^beta expr d xi in closed form, by xi = beta u (trig arguments become k pi u),
+    then term by term: c u^m exp(i k pi u) integrates exactly over [0, 1]."""
+    integrand = sp.expand((expr.xreplace({XI: beta * _U}) * beta).rewrite(sp.exp))
+    total = sp.Integer(0)
+    for term in sp.Add.make_args(integrand):
+        coeff, m, rate = sp.Integer(1), 0, sp.Integer(0)
+        for f in sp.Mul.make_args(term):
+            if f == _U:
+                m += 1
+            elif f.is_Pow and f.base == _U:
+                m += int(f.exp)
+            elif isinstance(f, sp.exp) or (f.is_Pow and isinstance(f.base, sp.exp)):
+                arg = f.args[0] if isinstance(f, sp.exp) else f.base.args[0] * f.exp
+                rate += sp.expand(arg / _U)
+            else:
+                coeff *= f
+        total += coeff * _int_pow_exp(m, sp.expand(rate))
+    return sp.expand(sp.expand_complex(total))
+
+
+@lru_cache(maxsize=None)
+def _int_pow_exp(m: int, a: sp.Expr) -> sp.Expr:
+    """int_0^1 u^m exp(a u) du, exact (a = i k pi here)."""
+    if a == 0:
+        return sp.Rational(1, m + 1)
+    ea = sp.exp(a)
+    val = (ea - 1) / a
+    for j in range(1, m + 1):
+        val = ea / a - j * val / a
+    return sp.expand(val)
+
+
+def _overhang_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
+    """int_beta^1 expr d xi in closed form, by xi = beta + (1 - beta) v: a polynomial in v
+    whose coefficients are rational in beta, integrated term by term over [0, 1]."""
+    if expr == 0:
+        return sp.Integer(0)
+    poly = sp.Poly(sp.expand(expr.xreplace({XI: beta + (1 - beta) * _V}) * (1 - beta)), _V)
+    total = sp.Add(*[c / (m[0] + 1) for m, c in poly.terms()])
+    return sp.factor(sp.cancel(total))
+
+
+@lru_cache(maxsize=None)
+def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """Closed-form Gram matrix of [1, xi, psi, psi_b, psi_bb] and (psi'', psi'') (span and
+    overhang) as functions of beta; the last ``nover`` of the nt functions are overhang functions."""
+    beta = sp.Symbol(beta_name, positive=True)
+    span, over = [sp.Integer(1), XI], [sp.Integer(1), XI]
+    blocks_s: list = [[], [], []]
+    blocks_o: list = [[], [], []]
+    for k in range(1, nt + 1):
+        s, o = _pieces(k, beta, nt - nover)
+        for b in range(3):
+            blocks_s[b].append(s[b])
+            blocks_o[b].append(o[b])
+    span += blocks_s[0] + blocks_s[1] + blocks_s[2]
+    over += blocks_o[0] + blocks_o[1] + blocks_o[2]
+    n = len(span)
+    G = sp.zeros(n, n)
+    for i in range(n):
+        for j in range(i, n):
+            val = _span_integral(span[i] * span[j], beta) + _overhang_integral(over[i] * over[j], beta)
+            G[i, j] = G[j, i] = val
+    Kt = sp.zeros(nt, nt)
+    for i in range(nt):
+        for j in range(nt):
+            Kt[i, j] = (_span_integral(sp.diff(blocks_s[0][i], XI, 2) * sp.diff(blocks_s[0][j], XI, 2), beta)
+                        + _overhang_integral(sp.diff(blocks_o[0][i], XI, 2) * sp.diff(blocks_o[0][j], XI, 2), beta))
+    return beta, G, Kt
+
+
+@dataclass(frozen=True)
+class SlotFunction:
+    label: str
+    span: sp.Expr
+    overhang: sp.Expr
+
+
+@dataclass
+class SlotBasis:
+    """Transverse basis of a guide bar: nt functions of (xi, beta), the last ``nover`` of them
+    the overhang's own bending functions chi_m (see the module's docstring)."""
+
+    nt: int
+    beta: sp.Symbol
+    nover: int = 0
+    family: str = "slot"
+    direction: str = "transverse"
+    frame: str = "pinned-pinned"
+    functions: tuple = field(default_factory=tuple)
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.nover <= self.nt:
+            raise ValueError(f"nover = {self.nover} overhang functions of nt = {self.nt}")
+        fs = []
+        for k in range(1, self.nt + 1):
+            (s, _, _), (o, _, _) = _pieces(k, self.beta, self.nspan)
+            label = (rf"\sin({k}\pi\xi/\beta)" if k <= self.nspan
+                     else rf"\chi_{{{k - self.nspan}}}")
+            fs.append(SlotFunction(label, s, o))
+        self.functions = tuple(fs)
+
+    @property
+    def nspan(self) -> int:
+        """Number of span (sine) functions."""
+        return self.nt - self.nover
+
+    def __len__(self) -> int:
+        return self.nt
+
+    def expr(self, k: int, xi, deriv: int = 0, dbeta: int = 0) -> sp.Expr:
+        """d^deriv/dxi^deriv d^dbeta/dbeta^dbeta psi_k at xi (a number or a symbol)."""
+        (s, _, _), (o, _, _) = _pieces(k + 1, self.beta, self.nspan)
+        s = sp.diff(s, XI, deriv) if deriv else s
+        o = sp.diff(o, XI, deriv) if deriv else o
+        if dbeta:
+            s, o = sp.diff(s, self.beta, dbeta), sp.diff(o, self.beta, dbeta)
+        xi = sp.sympify(xi)
+        s, o = s.xreplace({XI: xi}), o.xreplace({XI: xi})
+        if xi.is_Symbol and xi == self.beta:
+            return s
+        return sp.Piecewise((s, xi <= self.beta), (o, True))
+
+    def values(self, xi, deriv: int = 0) -> list:
+        return [self.expr(k, xi, deriv) for k in range(self.nt)]
+
+
+class SlotIPTable:
+    """Inner products of a guide bar (closed-form functions of beta), same interface as
+    ``bars.IPTable`` for the blocks [1, xi, psi, psi_beta, psi_betabeta] (na = 0)."""
+
+    def __init__(self, basis: SlotBasis, symbolic: bool = False) -> None:
+        self.basis, self.na, self.nt, self.symbolic = basis, 0, basis.nt, symbolic
+        beta0, G, Kt = _gram(basis.nt, str(basis.beta), basis.nover)
+        sub = {beta0: basis.beta}
+        self.G = G.xreplace(sub)
+        self.Kt = Kt.xreplace(sub)
+        nt = basis.nt
+        self._labels = (["1", r"\xi"] + [rf"\psi_{{{k + 1}}}" for k in range(nt)]
+                        + [rf"\psi_{{{k + 1},\beta}}" for k in range(nt)]
+                        + [rf"\psi_{{{k + 1},\beta\beta}}" for k in range(nt)])
+
+    def gram(self, i: int, j: int) -> sp.Expr:
+        value = self.G[i, j]
+        if value == 0:
+            return sp.Integer(0)
+        if self.symbolic:
+            i, j = min(i, j), max(i, j)
+            return sp.Symbol(rf"\left({self._labels[i]},{self._labels[j]}\right)")
+        return value
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        if name != "Kt":
+            raise KeyError(f"a guide bar has no {name} inner products")
+        value = self.Kt[i, j]
+        if value == 0:
+            return sp.Integer(0)
+        return sp.Symbol(latex.format(i=i + 1, j=j + 1)) if self.symbolic else value
+
+    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
+        raise KeyError(f"a guide bar has no {name} inner products (rotary inertia is not modelled on slots)")
+
+    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
+        return sp.Integer(0)      # axially rigid: no stretching couplings
+
+
+class SlotBarKinematics:
+    """Points of a guide bar: the same interface as ``kinematics.BarKinematics``, with the
+    time derivatives taken through beta(tau) as well (generic chain rule on the local point)."""
+
+    def __init__(self, sym, basis: SlotBasis, beta: tuple) -> None:
+        self.sym, self.basis_t, self.beta = sym, basis, beta     # beta = (b, db, ddb)
+        self.basis_a = None
+
+    def zeta(self, xi, deriv: int = 0, amp=None) -> sp.Expr:
+        return sp.Integer(0)
+
+    def eta(self, xi, deriv: int = 0, amp=None) -> sp.Expr:
+        amp = self.sym.g if amp is None else amp
+        return sp.Add(*[self.basis_t.expr(k, xi, deriv) * a for k, a in enumerate(amp)])
+
+    def local(self, xi) -> tuple:
+        return sp.sympify(xi), self.eta(xi)
+
+    def _coords(self) -> tuple:
+        s, (b, db, ddb) = self.sym, self.beta
+        return (list(s.g) + [b], list(s.dg) + [db], list(s.ddg) + [ddb])
+
+    def _local_derivs(self, xi) -> tuple:
+        """l, l', l'' of the local point (xi + zeta, eta) by the chain rule over (g, beta)."""
+        c, dc, ddc = self._coords()
+        l = sp.Matrix(self.local(xi))
+        J = l.jacobian(c)
+        ld = J * sp.Matrix(dc)
+        ldd = J * sp.Matrix(ddc)
+        for i, ci in enumerate(c):
+            for j, cj in enumerate(c):
+                h = sp.diff(l, ci, cj)
+                if h != sp.zeros(2, 1):
+                    ldd += h * dc[i] * dc[j]
+        return l, ld, ldd
+
+    def rho(self, xi) -> sp.Matrix:
+        s = self.sym
+        return s.alpha * rot(s.th) * sp.Matrix(self.local(xi))
+
+    def rho_d(self, xi) -> sp.Matrix:
+        s = self.sym
+        l, ld, _ = self._local_derivs(xi)
+        return s.alpha * rot(s.th) * (ld + s.dth * sp.Matrix([-l[1], l[0]]))
+
+    def bracket_dd(self, xi) -> sp.Matrix:
+        s = self.sym
+        l, ld, ldd = self._local_derivs(xi)
+        Jl, Jld = sp.Matrix([-l[1], l[0]]), sp.Matrix([-ld[1], ld[0]])
+        return s.alpha * (ldd + 2 * s.dth * Jld + s.ddth * Jl - s.dth ** 2 * l)
+
+    def rho_dd(self, xi) -> sp.Matrix:
+        return rot(self.sym.th) * self.bracket_dd(xi)
+
+    def partials(self, xi) -> dict:
+        s = self.sym
+        R = rot(s.th)
+        l = sp.Matrix(self.local(xi))
+        out = {s.th: s.alpha * R * sp.Matrix([-l[1], l[0]])}
+        c, _, _ = self._coords()
+        for ci in c:
+            out[ci] = s.alpha * R * sp.diff(l, ci)
+        return out
+
+    def contact(self) -> tuple:
+        """(rho, rho', rho'') of the contact point xi = beta (where eta = 0), ground axes."""
+        s, (b, db, ddb) = self.sym, self.beta
+        R = rot(s.th)
+        l, ld, ldd = sp.Matrix([b, 0]), sp.Matrix([db, 0]), sp.Matrix([ddb, 0])
+        J = lambda v: sp.Matrix([-v[1], v[0]])  # noqa: E731
+        return (s.alpha * R * l, s.alpha * R * (ld + s.dth * J(l)),
+                s.alpha * R * (ldd + 2 * s.dth * J(ld) + s.ddth * J(l) - s.dth ** 2 * l))
+
+    def contact_partials(self) -> dict:
+        """d rho(contact) / d coordinate: the slot force's lever arms (theta, beta)."""
+        s, (b, _, _) = self.sym, self.beta
+        R = rot(s.th)
+        return {s.th: s.alpha * R * sp.Matrix([0, b]), b: s.alpha * R * sp.Matrix([1, 0])}
+
+
+def is_zero(value) -> bool:
+    try:
+        return abs(float(value)) < ZERO_TOL
+    except TypeError:
+        return value == 0

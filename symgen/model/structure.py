@@ -1,0 +1,244 @@
+"""What shapes a derived model: the scene's *structure* (topology, effects, mode counts, shape
+families, outputs), and the cache key made from it. Values (lambda, mu, lengths, rates, loads)
+are not part of it: changing them reuses the cached model.
+
+Kept free of SymPy so that a cached run never imports it.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+
+from symgen import __version__
+from symgen.scene.model import Scene
+
+DERIVE_VERSION = "4"   # 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
+
+
+def effective_modes(scene: Scene, body) -> tuple[int, int]:
+    """(axial, transverse) function counts of a bar; a slot guide's transverse count includes
+    its overhang's own functions (``overhang_modes``, appended after the span's)."""
+    if body.rigid:
+        return 0, 0
+    na = body.axial_modes if scene.effects.axial else 0
+    nt = body.transverse_modes if scene.effects.transverse else 0
+    return na, nt + (overhang_modes(scene, body) if nt else 0)
+
+
+def overhang_modes(scene: Scene, body) -> int:
+    """Number of the overhang's own bending functions of a slot guide (0: rigid overhang, the
+    seed's form, no bending, or not a guide)."""
+    if body.rigid or not (scene.effects.transverse and body.transverse_modes):
+        return 0
+    return sum(j.overhang_modes for j in scene.joints if j.kind == "slot" and j.ends[1].body == body.name)
+
+
+INEXTENSIBLE = "inextensible"
+QUASI_STATIC = "quasi_static"
+DYNAMIC = "dynamic"
+
+#: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
+#: frequency is at least this many times the fastest motion the run must resolve: the quasi-static
+#: axial response then misses the dynamic amplification 1 / (1 - r^2) - 1 ~ r^2 of the forcing at
+#: a frequency ratio r <= 1/10, i.e. <= 1 % of the axial response, and far less of the bending
+#: (tests/test_axial_default.py measures it against converged full-dynamics models).
+AXIAL_SEPARATION = 10.0
+#: ... and only when its stretch cannot strain a closed loop: the quasi-static treatment adds the
+#: stretch N/lambda to the outputs but not to the loop's kinematics, so in a loop whose other
+#: bars bend, the share of this bar's axial compliance in the loop's (its end-to-end l/EA against
+#: the softest other bar's bending compliance under a joint force) must be negligible. Measured:
+#: the steel four-bar (shares 0.13-0.28 %) is 3-7 % off its full dynamics when quasi-static;
+#: the aluminium four-bar with 100x stiffer bars (shares <= 7.7e-5) 0.04 %.
+LOOP_SHARE_MAX = 1e-4
+#: harmonics of the driver rate in the inertia loads of a mechanism (a slider-crank's piston
+#: force has its 2nd and 4th harmonics): the run must resolve up to this multiple of the rate.
+DRIVER_HARMONICS = 4.0
+#: first natural frequency / sqrt(group) of the standard bases: axial, any frame (phi(0) = 0, the
+#: far end free along the bar: (pi/2) sqrt(lambda)); bending, by frame (pinned-pinned
+#: pi^2 sqrt(mu), clamped-free 1.8751^2 sqrt(mu)); tau units (omega = 1).
+AXIAL_FIRST = 1.5707963267948966
+BENDING_FIRST = {"pinned-pinned": 9.869604401089358, "cantilever": 3.5160152028161017}
+
+
+@dataclass(frozen=True)
+class AxialTreatment:
+    """How one elastic bar's axial deformation is modelled, and why.
+
+    ``treatment``: "dynamic" (axial amplitudes with inertia and the strain energy of the strain
+    the basis can carry), "quasi_static" (no axial vibration: the inextensible constraint form,
+    the amplitudes following the bending, the axial force N its multiplier, plus the stretch
+    N/lambda where outputs read the bar's shape),
+    "inextensible" (lambda -> oo: no stretch) or "off" (no axial functions)."""
+
+    bar: str
+    treatment: str
+    reason: str
+    omega_axial: float | None = None
+    omega_run: float | None = None
+
+
+def axial_treatments(scene: Scene) -> dict[str, AxialTreatment]:
+    """The treatment of every elastic bar (rigid bars are not listed)."""
+    return {b.name: axial_treatment(scene, b) for b in scene.bodies if not b.rigid}
+
+
+def axial_treatment(scene: Scene, body) -> AxialTreatment:
+    eff = scene.effects
+    na, _ = effective_modes(scene, body)
+    if not na:
+        why = "effects.axial = false" if eff.axial is False else "no axial functions (axial_modes = 0)"
+        return AxialTreatment(body.name, "off", why)
+    if eff.axial == INEXTENSIBLE:
+        return AxialTreatment(body.name, INEXTENSIBLE, 'effects.axial = "inextensible"')
+    if eff.axial == QUASI_STATIC:
+        return AxialTreatment(body.name, QUASI_STATIC, 'effects.axial = "quasi_static"')
+    if eff.axial is True or eff.axial == DYNAMIC:
+        written = "true" if eff.axial is True else '"dynamic"'
+        return AxialTreatment(body.name, DYNAMIC, f"effects.axial = {written}")
+    if eff.strain != "von_karman":
+        return AxialTreatment(body.name, DYNAMIC, "auto: the seed's linear strain keeps its axial dynamics "
+                              "(the paper's model)")
+    if slot_guide(scene, body.name):
+        return AxialTreatment(body.name, DYNAMIC, "auto: slot guide")
+    w_axial = AXIAL_FIRST * body.lam ** 0.5
+    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu ** 0.5 if body.mu else 0.0
+    rate = abs(scene.driver.rate) if scene.driver is not None else 0.0
+    w_run = max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0))
+    ratio = w_axial / w_run
+    detail = (f"first axial frequency {w_axial:.4g} = {ratio:.3g} x the fastest motion to resolve {w_run:.4g} "
+              f"(max of 2 x first bending {w_bend:.4g}, {DRIVER_HARMONICS:g} x driver rate), per unit tau")
+    share, softest = loop_stretch_share(scene, body)
+    if ratio >= AXIAL_SEPARATION and share > LOOP_SHARE_MAX:
+        return AxialTreatment(body.name, DYNAMIC, f"auto: {detail}, but in a closed loop its stretch is "
+                              f"{share:.2g} of the compliance against the bending of {softest} (> {LOOP_SHARE_MAX:g}): "
+                              "axial dynamics kept", w_axial, w_run)
+    if ratio >= AXIAL_SEPARATION:
+        return AxialTreatment(body.name, QUASI_STATIC, f"auto: {detail} >= {AXIAL_SEPARATION:g}: axial dynamics "
+                              "eliminated", w_axial, w_run)
+    return AxialTreatment(body.name, DYNAMIC, f"auto: {detail} < {AXIAL_SEPARATION:g}: axial dynamics kept",
+                          w_axial, w_run)
+
+
+def loop_stretch_share(scene: Scene, body) -> tuple[float, str]:
+    """(share, softest other bar): in a closed loop, the end-to-end axial compliance of ``body``
+    (l/EA = 1/(lambda nu alpha) in l0 per m_ref l0^2 omega^2) against the bending compliance of
+    the softest other elastic bar under a joint force (cantilever tip l^3/3EI, pinned mid-span
+    l^3/48EI, EI = mu nu alpha^4). 0 without loops or without other bending bars."""
+    if len(scene.joints) <= len(scene.bodies) or not body.lam:
+        return 0.0, ""
+    others = [b for b in scene.bodies if b is not body and not b.rigid and b.mu and b.transverse_modes]
+    if not others:
+        return 0.0, ""
+
+    def bending(b) -> float:
+        return (1 / 3 if b.frame == "cantilever" else 1 / 48) / (b.mu * b.nu * b.alpha)
+
+    soft = max(others, key=bending)
+    ca = 1.0 / (body.lam * body.nu * body.alpha)
+    return ca / (ca + bending(soft)), soft.name
+
+
+def slot_guide(scene: Scene, name: str) -> bool:
+    return any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
+
+
+def _tip_joint(scene: Scene, name: str) -> bool:
+    return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12
+               for j in scene.joints for e in j.ends)
+
+
+#: points closer than this (in xi) share one static correction function; nearer the ends than this
+#: they are not interior
+POINT_TOL = 1e-9
+
+
+def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
+    """The interior points 0 < xi < 1 of bar ``name`` where a point force acts: joint ends (pins,
+    sliders, a slot's sliding point; lumped masses sit on joints) and point loads; sorted, merged
+    within POINT_TOL."""
+    xs = [e.xi for j in scene.joints for e in j.ends
+          if e.body == name and e.xi is not None and not e.variable]
+    xs += [ld.xi for ld in scene.loads if ld.body == name and ld.kind == "point" and ld.xi is not None]
+    out: list[float] = []
+    for x in sorted(float(x) for x in xs):
+        if POINT_TOL < x < 1 - POINT_TOL and not (out and x - out[-1] < POINT_TOL):
+            out.append(x)
+    return tuple(out)
+
+
+def static_points(scene: Scene, body) -> dict:
+    """``{"transverse": (...), "axial": (...)}``: where the bar gets static correction functions
+    (``bodies.<name>.static_correction``, default on): at its interior points, transverse when it
+    bends, axial when it keeps its axial dynamics (a quasi-static or inextensible bar's axial
+    amplitudes are constrained by the bending, they carry no point force of their own). Empty
+    dict when none."""
+    if body.rigid or body.static_correction is False or slot_guide(scene, body.name):
+        return {}
+    pts = interior_points(scene, body.name)
+    if not pts:
+        return {}
+    na, nt = effective_modes(scene, body)
+    out = {}
+    if nt:
+        out["transverse"] = pts
+    if na and axial_treatment(scene, body).treatment == DYNAMIC:
+        out["axial"] = pts
+    return out
+
+
+def basis_sizes(scene: Scene, body) -> tuple[int, int]:
+    """(axial, transverse) numbers of amplitudes of a bar: its functions and its static corrections."""
+    na, nt = effective_modes(scene, body)
+    pts = static_points(scene, body)
+    return na + len(pts.get("axial", ())), nt + len(pts.get("transverse", ()))
+
+
+def structure_of(scene: Scene) -> dict:
+    """Everything that shapes the derived equations (and nothing that is only a value)."""
+    eff = scene.effects
+    bodies = []
+    for b in scene.bodies:
+        na, nt = effective_modes(scene, b)
+        bodies.append({"name": b.name, "rigid": b.rigid, "frame": b.frame, "na": na, "nt": nt,
+                       "axial_shapes": b.axial_shapes if na else "", "transverse_shapes": b.transverse_shapes if nt else "",
+                       "tip_joint": _tip_joint(scene, b.name) if nt else False})
+        pts = static_points(scene, b)
+        if pts:                        # only then: the keys of scenes without them are unchanged
+            bodies[-1]["static_points"] = {k: list(v) for k, v in pts.items()}
+    joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
+               "mass": j.mass > 0} for j in scene.joints]
+    for rec, j in zip(joints, scene.joints):
+        if j.inertia > 0:              # only then: the keys of scenes without it are unchanged
+            rec["inertia"] = True
+        if j.kind == "slot":
+            rec["overhang"] = [j.overhang, j.overhang_modes]
+    drv = None
+    if scene.driver is not None:
+        d = scene.driver
+        drv = {"kind": d.kind, "body": d.body,
+               "torque": d.torque if isinstance(d.torque, str) else "const"}
+        if d.law is not None:          # only then: the keys of constant-speed scenes are unchanged
+            drv["law"] = d.law
+        if d.ramp is not None:
+            drv["ramp"] = True
+        if d.rotor_inertia > 0:
+            drv["rotor_inertia"] = True
+    loads = [{"body": ld.body, "kind": ld.kind, "xi": ld.xi,
+              "axial": ld.axial if isinstance(ld.axial, str) else "const",
+              "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]
+    outputs = [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "xi": o.xi,
+                "component": o.component} for o in scene.outputs]
+    effects = {"coriolis": eff.coriolis, "geometric_stiffening": eff.geometric_stiffening,
+               "rotary_inertia": eff.rotary_inertia, "strain": eff.strain,
+               "gravity": any(x != 0 for x in eff.gravity), "damping": eff.damping > 0}
+    treat = axial_treatments(scene)
+    if any(t.treatment in (QUASI_STATIC, INEXTENSIBLE) for t in treat.values()):
+        # only then: the keys of every other scene are unchanged
+        effects["axial"] = {name: t.treatment for name, t in sorted(treat.items())}
+    return {"version": [__version__, DERIVE_VERSION], "bodies": bodies, "joints": joints, "driver": drv,
+            "effects": effects, "loads": loads, "outputs": outputs}
+
+
+def structure_key(structure: dict) -> str:
+    return hashlib.sha256(json.dumps(structure, sort_keys=True).encode()).hexdigest()[:20]

@@ -1,0 +1,245 @@
+"""The model's run-time CasADi Functions compiled to a shared library, cached and verified.
+
+A run's Functions (the DAE residual and its Jacobian for IDAS, the algebraic polish, the
+record of an output) are written as C by CasADi's code generator, compiled once by the system
+C compiler into a shared library and loaded with ``casadi.external``; IDAS (``ca.integrator``)
+then evaluates them as machine code instead of in CasADi's virtual machine. The C performs the
+very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
+multiply-adds), so both give the same numbers to the last bit.
+
+Cache: ``<cache root>/compiled/<entry>/`` with ``model.so`` and ``manifest.json`` (format,
+symgen and CasADi versions, the model's structure key and coordinate partition, the compiler's
+path and ``--version`` text, the flags, the Function names and the sha256 of ``model.so``). The
+entry's name hashes all of these, so a change of compiler or flags builds a new library. An
+entry is verified before use (manifest fields, then the sha256 of the library's bytes, which
+are then loaded from a private copy, never from the shared folder); one that does not verify is
+reported in one line and rebuilt, never loaded.
+
+Environment: ``SYMGEN_CC`` (the compiler; default the first of cc, gcc, clang on PATH),
+``SYMGEN_CFLAGS`` (default :data:`DEFAULT_CFLAGS`), ``SYMGEN_BACKEND`` (auto, compiled, vm).
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import casadi as ca
+
+from symgen import __version__, cache
+
+CC_ENV = "SYMGEN_CC"
+CFLAGS_ENV = "SYMGEN_CFLAGS"
+BACKEND_ENV = "SYMGEN_BACKEND"
+#: -O1: most of -O2's speed on CasADi's straight-line code at half its compile time;
+#: -ffp-contract=off: the same rounding as the virtual machine (no fused multiply-add)
+DEFAULT_CFLAGS = "-O1 -ffp-contract=off"
+BACKENDS = ("auto", "compiled", "vm")
+FORMAT = "symgen-compiled-cache"
+FORMAT_VERSION = 1
+LIBRARY = "model.so"
+MANIFEST = "manifest.json"
+_MAX_MANIFEST = 1 << 16
+_MAX_LIBRARY = 1 << 30
+COMPILE_TIMEOUT_S = 600
+
+
+class Unavailable(Exception):
+    """No compiled library can be had (no compiler, a failed compile); ``reason`` says why."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def backend_choice(backend: str | None = None) -> str:
+    """``backend``, else ``$SYMGEN_BACKEND``, else "auto" (checked against :data:`BACKENDS`)."""
+    from symgen.errors import SceneError
+    if backend is None:
+        env = os.environ.get(BACKEND_ENV, "").strip()
+        if env and env not in BACKENDS:
+            raise SceneError("environment", BACKEND_ENV, f"is {env!r}; it must be one of {', '.join(BACKENDS)}",
+                             f"unset {BACKEND_ENV} or set it to auto, compiled or vm")
+        return env or "auto"
+    if backend not in BACKENDS:
+        raise SceneError("command line", "--backend", f"is {backend!r}; it must be one of {', '.join(BACKENDS)}",
+                         "e.g. --backend vm")
+    return backend
+
+
+@dataclass(frozen=True)
+class Compiler:
+    path: str                 # resolved path of the executable
+    version: str              # its --version output
+    flags: tuple              # SYMGEN_CFLAGS, split like a shell
+
+    def identity(self) -> dict:
+        return {"path": self.path, "version": self.version, "flags": list(self.flags)}
+
+
+@functools.lru_cache(maxsize=None)
+def _probe(path: str) -> str:
+    try:
+        proc = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=60,
+                              stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise Unavailable(f"the C compiler {path} cannot be run ({exc})") from None
+    if proc.returncode != 0:
+        raise Unavailable(f"'{path} --version' exited with code {proc.returncode}")
+    return proc.stdout.strip()
+
+
+def compiler() -> Compiler:
+    """The C compiler to use (``$SYMGEN_CC``, else cc, gcc or clang on PATH) and the flags."""
+    wanted = os.environ.get(CC_ENV, "").strip()
+    if wanted:
+        found = shutil.which(wanted)
+        if found is None:
+            raise Unavailable(f"${CC_ENV} = {wanted!r} is not an executable")
+    else:
+        found = next((p for p in map(shutil.which, ("cc", "gcc", "clang")) if p), None)
+        if found is None:
+            raise Unavailable("no C compiler (cc, gcc or clang) on PATH")
+    path = os.path.realpath(found)
+    try:
+        flags = tuple(shlex.split(os.environ.get(CFLAGS_ENV, DEFAULT_CFLAGS)))
+    except ValueError as exc:
+        raise Unavailable(f"${CFLAGS_ENV} cannot be split into flags ({exc})") from None
+    return Compiler(path, _probe(path), flags)
+
+
+def _entry_name(key: dict) -> str:
+    return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def _signature(f: ca.Function) -> list:
+    return [f.name(), [list(f.size_in(i)) for i in range(f.n_in())],
+            [list(f.size_out(i)) for i in range(f.n_out())]]
+
+
+def library(funcs: list, model_key: str, variant: str, store: bool = True) -> tuple[dict, bool]:
+    """Compiled twins of ``funcs`` (SX Functions; a Function named ``jac_NAME`` becomes the
+    Jacobian of ``NAME``): ``({name: external Function}, built_now)``.
+
+    ``model_key``: the structure key of the derived model; ``variant``: what else the Functions
+    depend on (the coordinate partition). ``store=False``: build without using the cache.
+    Raises :class:`Unavailable` when there is no compiler or the compile fails.
+    """
+    comp = compiler()
+    key = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "casadi": ca.__version__,
+           "model": model_key, "variant": variant, "compiler": comp.identity(),
+           "functions": [_signature(f) for f in funcs]}
+    where = cache.compiled_dir() / _entry_name(key)
+    replace = False
+    if store and (where.exists() or where.is_symlink()):
+        try:
+            return _load(read_verified(where, key), funcs), False
+        except cache.InvalidEntry as exc:
+            report_rebuild(where, exc.reason)
+            replace = True
+        except FileNotFoundError:
+            pass
+    blob = _build(funcs, comp, where, key, store, replace)
+    try:
+        return _load(blob, funcs), True
+    except cache.InvalidEntry as exc:
+        raise Unavailable(f"the library just built {exc.reason}") from None
+
+
+def report_rebuild(where: Path, reason: str) -> None:
+    print(f"symgen: warning: compiled entry {where} {reason}; rebuilding it", file=sys.stderr)
+
+
+def read_verified(where: Path, key: dict, name: str = LIBRARY) -> bytes:
+    """The bytes of the file ``name`` of the entry ``where``, after checking that its manifest
+    holds every field of ``key`` and the file's sha256 (else :class:`symgen.cache.InvalidEntry`)."""
+    try:
+        manifest = json.loads(cache.read_bytes(where / MANIFEST, _MAX_MANIFEST).decode("utf-8"))
+    except FileNotFoundError:
+        raise cache.InvalidEntry(f"has no {MANIFEST}") from None
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise cache.InvalidEntry(f"{MANIFEST} is not valid JSON ({exc})") from None
+    if not isinstance(manifest, dict) or {k: manifest.get(k) for k in key} != key:
+        raise cache.InvalidEntry(f"{MANIFEST} is not for this model, symgen, CasADi, compiler and flags")
+    sha = manifest["files"].get(name) if isinstance(manifest.get("files"), dict) else None
+    try:
+        blob = cache.read_bytes(where / name, _MAX_LIBRARY)
+    except FileNotFoundError:
+        raise cache.InvalidEntry(f"has no {name}") from None
+    if not isinstance(sha, str) or cache.sha256_hex(blob) != sha:
+        raise cache.InvalidEntry(f"{name} does not match the sha256 recorded when it was built (changed or damaged)")
+    return blob
+
+
+def install(tmp: Path, where: Path, key: dict, name: str, blob: bytes, replace: bool) -> None:
+    """Write the manifest of the built file ``name`` into ``tmp`` and rename ``tmp`` to ``where``."""
+    manifest = dict(key, files={name: cache.sha256_hex(blob)})
+    (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True))
+    try:
+        cache.install_dir(tmp, where, replace=replace)
+    except OSError as exc:
+        cache.report_unwritable(where, exc)
+
+
+def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, replace: bool) -> bytes:
+    parent = where.parent if store else Path(tempfile.gettempdir())
+    if store:
+        parent.mkdir(parents=True, exist_ok=True)
+        cache.sweep_stale(parent)
+    with cache.temp_dir(parent, where.name) as tmp:
+        gen = ca.CodeGenerator("model.c", {"with_header": False})
+        for f in funcs:
+            gen.add(f)
+        gen.generate(str(tmp) + os.sep)
+        cmd = [comp.path, *comp.flags, "-fPIC", "-shared", str(tmp / "model.c"), "-o", str(tmp / LIBRARY), "-lm"]
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=COMPILE_TIMEOUT_S,
+                                  stdin=subprocess.DEVNULL)
+        except (OSError, subprocess.SubprocessError) as exc:
+            raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
+        if proc.returncode != 0:
+            first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
+            raise Unavailable(f"the C compiler {comp.path} failed (exit {proc.returncode}: {first[:200]})")
+        blob = (tmp / LIBRARY).read_bytes()
+        if store:
+            (tmp / "model.c").unlink()
+            install(tmp, where, key, LIBRARY, blob, replace)
+    return blob
+
+
+def _load(blob: bytes, funcs: list) -> dict:
+    """Externals of ``funcs`` from verified library bytes: written to a private folder, loaded
+    (the importer keeps the library mapped), the copy removed; signatures checked."""
+    private = Path(tempfile.mkdtemp(prefix="symgen-lib-"))
+    try:
+        path = private / LIBRARY
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o500)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(blob)
+        try:
+            importer = ca.Importer(str(path), "dll")
+        except RuntimeError as exc:
+            raise cache.InvalidEntry(f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})") from None
+        out = {}
+        for f in funcs:
+            if f.name().startswith("jac_"):
+                continue                            # loaded by its function's external on demand
+            try:
+                ext = ca.external(f.name(), importer, {"enable_fd": False})
+            except RuntimeError:
+                raise cache.InvalidEntry(f"{LIBRARY} has no function {f.name()!r}") from None
+            if _signature(ext) != _signature(f):
+                raise cache.InvalidEntry(f"{LIBRARY}: {f.name()} has the signature {_signature(ext)}, "
+                                         f"not {_signature(f)}")
+            out[f.name()] = ext
+        return out
+    finally:
+        shutil.rmtree(private, ignore_errors=True)

@@ -1,0 +1,286 @@
+"""Natural frequencies and mode shapes of the deformation about the quasi-static state.
+
+At an input position tau the mechanism sits on its quasi-static state (18)-(20) (deformation
+rates and accelerations zero, closure exact): for a kinematically guided mechanism that is an
+equilibrium of the equations frozen at tau. Small motions about it obey the linearisation of
+the same index-1 system the dynamic runner integrates: with x = [q_I, v_I] (independent
+coordinates: the amplitudes) and z = [q_D, v_D, a, lam] (dependent rigid coordinates, their
+rates, accelerations, multipliers) solved from
+
+    0 = G(x, z) = [phi, phid, res, phidd]
+
+the motion is x' = [v_I, a_I(z(x))], and its Jacobian
+
+    dx'/dx = [[0, I], [S_a dz/dx]],   dz/dx = -G_z^-1 G_x
+
+is the state matrix on the tangent space of the closure (every perturbation keeps (11) at all
+three levels; the dependent coordinates follow). Its eigenvalues s = sigma +- i omega_d give
+the frequencies (in units of omega: per unit tau), natural frequency |s| and damping ratio
+-sigma/|s|. Everything the residual contains is in it: centrifugal and geometric stiffening
+through the axial force of the quasi-static state, spin softening -theta'^2 eta, Coriolis
+coupling, lumped masses, Kelvin-Voigt damping (modal ratio c omega_n / 2).
+
+A mechanism whose driver does work is not a conservative system even when frozen: the
+velocity-level closure of a moving loop makes the dependent rates depend on the deformation, so
+a linkage such as the four-bar shows small damping ratios of either sign (|zeta| ~ 1e-3..1e-2)
+without any damping. They describe the energy exchange with the driver at that position; a
+single bar spinning at constant speed (no loop) has none. A bar with a moving support (a slot's
+variable span) shows larger ones: its support does work on the vibration.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from symgen.errors import SimulationError
+from symgen.numerics.mechanism import Mechanism, index1
+from symgen.numerics.quasistatic import QuasiStaticSystem
+
+SHAPE_POINTS = 21
+#: Real parts above this (per unit tau) count as growth; below it they are round-off.
+GROWTH_TOL = 1e-9
+
+
+@dataclass
+class Mode:
+    index: int
+    eigenvalue: complex
+    natural_frequency: float        # |s|, units of omega
+    frequency: float                # damped: Im s
+    damping_ratio: float
+    dominant: str                   # "<body> transverse" | "<body> axial": largest deformation share
+    energy_fractions: dict          # group -> share of the modal kinetic energy (diagonal blocks)
+    amplitudes: dict                # coordinate -> real part of the normalised shape
+    complexity: float               # |imaginary part| / |real part| of the normalised shape
+    shape: dict = field(default_factory=dict)   # body -> {"xi", "zeta", "eta"}
+
+    def as_dict(self, hz_per_unit: float | None = None) -> dict:
+        d = {"index": self.index, "natural_frequency": self.natural_frequency, "frequency": self.frequency,
+             "damping_ratio": self.damping_ratio, "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+             "dominant": self.dominant, "energy_fractions": self.energy_fractions,
+             "amplitudes": self.amplitudes, "complexity": self.complexity, "shape": self.shape}
+        if hz_per_unit is not None:
+            d["natural_frequency_hz"] = self.natural_frequency * hz_per_unit
+        return d
+
+
+@dataclass
+class ModesResult:
+    tau: float
+    modes: list
+    real_eigenvalues: list          # overdamped (negative) or divergent (positive) eigenvalues
+    state: dict                     # coordinate -> value at the quasi-static state
+    independent: list
+    dependent: list
+    quasi_static: dict              # the (20) solve's report at tau
+
+    @property
+    def stable(self) -> bool:
+        return all(s <= GROWTH_TOL for s in self.real_eigenvalues) and all(
+            m.eigenvalue.real <= GROWTH_TOL for m in self.modes)
+
+    def stability(self, damping: float = 0.0) -> dict:
+        """The verdict and its reason: ``{"stable", "kind", "reason"}`` with ``kind`` one of
+        ``stable``, ``divergence`` (a real positive eigenvalue: beyond buckling) or ``growth``
+        (a vibration mode whose amplitude grows in the frozen system)."""
+        pos = [s for s in self.real_eigenvalues if s > GROWTH_TOL]
+        if pos:
+            return {"stable": False, "kind": "divergence",
+                    "reason": f"{len(pos)} real positive eigenvalue(s) (largest {max(pos):.3g}): the "
+                              "quasi-static state is unstable, beyond buckling; a deformation grows without "
+                              "oscillating"}
+        growing = [m for m in self.modes if m.eigenvalue.real > GROWTH_TOL]
+        if growing:
+            worst = max(growing, key=lambda m: m.eigenvalue.real)
+            what = (f"{len(growing)} vibration mode(s) grow in the frozen system (fastest: mode {worst.index}, "
+                    f"growth rate {worst.eigenvalue.real:.3g} per unit tau, zeta {worst.damping_ratio:.2g})")
+            if damping == 0:
+                why = ("the model has no damping: this is the energy the driver exchanges with the vibration "
+                       "at this position of the moving loop (the frozen linearisation is not conservative); "
+                       "it changes sign along the cycle. Not a buckling; set effects.damping to see whether "
+                       "damping outweighs it")
+            else:
+                why = "the driver feeds the vibration faster than effects.damping removes it at this position"
+            return {"stable": False, "kind": "growth", "reason": f"{what}: {why}"}
+        return {"stable": True, "kind": "stable",
+                "reason": "every eigenvalue has a non-positive real part"}
+
+    def frequencies(self, kind: str | None = None, body: str | None = None) -> np.ndarray:
+        """Natural frequencies, ascending; ``kind`` ("transverse"/"axial") and ``body`` filter by
+        the dominant group."""
+        out = []
+        for m in self.modes:
+            b, k = m.dominant.rsplit(" ", 1)
+            if (kind is None or k == kind) and (body is None or b == body):
+                out.append(m.natural_frequency)
+        return np.array(out)
+
+
+def _rigid_march(qs: QuasiStaticSystem, tau: float):
+    """Rigid state at tau, followed from tau = 0 in small steps of the driver (stays on the
+    assembly branch of initial.guess)."""
+    mech = qs.mech
+    q, _, _, _, _ = mech.initial_state(0.0)
+    drv = mech.scene.driver
+    steps = 1
+    if drv is not None and drv.kind == "angle" and tau != 0:
+        turned = abs(mech.driver_motion(tau)[0] - mech.driver_motion(0.0)[0])
+        steps = max(1, int(math.ceil(turned / 0.05)))
+        if drv.law is not None or drv.ramp is not None:   # a law may swing back: follow it in tau too
+            steps = max(steps, int(math.ceil(abs(tau) / 0.05)))
+    for k in range(1, steps + 1):
+        q, v, a = qs.rigid_state(tau * k / steps, q)
+    return q, v, a
+
+
+def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult:
+    """Linearised modes of the deformation about the quasi-static state at input position ``tau``."""
+    _, _, _, _, part0 = mech.initial_state(0.0)
+    qs = QuasiStaticSystem(mech, part0, "deformed")
+    qr, vr, ar = _rigid_march(qs, tau)
+    y, rep = qs.solve(tau, qr, vr, ar)
+    q, v, a, lam = qs.state(tau, qr, vr, ar, y)
+    part = mech.choose_partition(tau, q)
+    I, D = list(part.ind), list(part.dep)
+    n, m = mech.n, mech.m
+    nI, nD = len(I), len(D)
+    if nI == 0:
+        raise SimulationError(tau, "the mechanism has no deformation amplitudes: it has no modes",
+                              "give an elastic bar axial_modes or transverse_modes")
+    # index-1 system G(x, z) = 0 and its Jacobians
+    sys_ = index1(n, m, part)
+    x, z, aa = sys_.x, sys_.z, sys_.a
+    args = [tau, sys_.q, sys_.v, aa, sys_.lam, mech.p]
+    f = mech.f
+    G = sys_.alg(f, tau, mech.p)
+    jac = ca.Function("modes_jac", [x, z], [G, ca.jacobian(G, x), ca.jacobian(G, z), ca.jacobian(f["res"](*args), aa)])
+    x0 = np.concatenate([q[I], v[I]])
+    z0 = np.concatenate([q[D], v[D], a, lam])
+    G0, Gx, Gz, M = (np.array(w) for w in jac(x0, z0))
+    if np.abs(G0).max() > 1e-8:
+        raise SimulationError(tau, f"the quasi-static state does not satisfy the equations (residual "
+                                   f"{np.abs(G0).max():.3g})", "report this: it is an internal inconsistency")
+    dzdx = -np.linalg.solve(Gz, Gx)
+    rows_aI = [2 * nD + i for i in I]
+    Ax = np.zeros((2 * nI, 2 * nI))
+    Ax[:nI, nI:] = np.eye(nI)
+    Ax[nI:, :] = dzdx[rows_aI, :]
+    s, W = np.linalg.eig(Ax)
+
+    coords = mech.coords
+    groups = {}
+    for i, c in enumerate(coords):
+        kind = {"f": "axial", "g": "transverse"}.get(c["kind"], "rigid")
+        groups.setdefault(f"{c['body']} {kind}", []).append(i)
+    bases = _bases(mech) if shapes else {}
+    scale = max(1.0, float(np.abs(s).max()))
+    real_eigs, found = [], []
+    for k in range(len(s)):
+        sk = s[k]
+        if abs(sk.imag) <= 1e-9 * scale:
+            real_eigs.append(float(sk.real))
+            continue
+        if sk.imag < 0:
+            continue
+        w = W[:nI, k]
+        dq = np.zeros(n, dtype=complex)
+        dq[I] = w
+        dq[D] = dzdx[:nD, :nI] @ w          # dependent coordinates follow the closure
+        amp = [i for i in I]
+        j = amp[int(np.argmax(np.abs(dq[amp])))]
+        dq = dq / dq[j]
+        re, im = dq.real, dq.imag
+        energy = {g: float(np.real(np.conj(dq[idx]) @ M[np.ix_(idx, idx)] @ dq[idx])) for g, idx in groups.items()}
+        tot = sum(abs(e) for e in energy.values()) or 1.0
+        fractions = {g: abs(e) / tot for g, e in energy.items() if abs(e) / tot > 1e-12}
+        deform = {g: e for g, e in fractions.items() if not g.endswith(" rigid")}
+        dominant = max(deform, key=deform.get) if deform else (max(fractions, key=fractions.get) if fractions else "?")
+        mode = Mode(index=0, eigenvalue=complex(sk), natural_frequency=float(abs(sk)), frequency=float(sk.imag),
+                    damping_ratio=float(-sk.real / abs(sk)), dominant=dominant, energy_fractions=fractions,
+                    amplitudes={coords[i]["name"]: float(re[i]) for i in range(n)},
+                    complexity=float(np.linalg.norm(im) / max(np.linalg.norm(re), 1e-300)))
+        if shapes:
+            mode.shape = _shape(coords, re, bases)
+        found.append(mode)
+    found.sort(key=lambda md: md.natural_frequency)
+    for k, md in enumerate(found):
+        md.index = k + 1
+    return ModesResult(tau=float(tau), modes=found, real_eigenvalues=sorted(real_eigs),
+                       state={c["name"]: float(q[i]) for i, c in enumerate(coords)},
+                       independent=[coords[i]["name"] for i in I], dependent=[coords[i]["name"] for i in D],
+                       quasi_static=rep.as_dict())
+
+
+def _bases(mech: Mechanism) -> dict:
+    from symgen.model.static_shapes import bar_bases
+
+    out = {}
+    structure = {b["name"]: b for b in mech.meta["structure"]["bodies"]}
+    for b in mech.scene.bodies:
+        st = structure[b.name]
+        if b.rigid or (st["na"] == 0 and st["nt"] == 0):
+            continue
+        ba, bt = bar_bases(st)          # with the static correction functions of its interior points
+        out[b.name] = (ba if len(ba) else None, bt if len(bt) else None)
+    return out
+
+
+def _shape(coords, dq, bases) -> dict:
+    xi = np.linspace(0.0, 1.0, SHAPE_POINTS)
+    out = {}
+    for body, (ba, bt) in bases.items():
+        f = [dq[i] for i, c in enumerate(coords) if c["body"] == body and c["kind"] == "f"]
+        g = [dq[i] for i, c in enumerate(coords) if c["body"] == body and c["kind"] == "g"]
+        zeta = [float(np.dot(ba.values(x), f)) if ba is not None else 0.0 for x in xi]
+        eta = [float(np.dot(bt.values(x), g)) if bt is not None else 0.0 for x in xi]
+        out[body] = {"xi": [float(x) for x in xi], "zeta": zeta, "eta": eta}
+    return out
+
+
+def modes_json(result: ModesResult, scene, meta: dict) -> dict:
+    """The ``symgen modes -o OUT.json`` document."""
+    hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
+    return {
+        "scene": str(scene.path), "scene_hash": scene.hash, "tau": result.tau,
+        "units": ("frequencies in units of omega (per unit tau = omega t)"
+                  + (f"; *_hz: Hz with omega = {scene.omega:g} rad/s" if hz else "")),
+        "about": "quasi-static state at tau (closure exact on the deformed bars), linearised on the "
+                 "independent coordinates (tangent space of the closure)",
+        "groups": scene.groups,
+        "effects": {"geometric_stiffening": scene.effects.geometric_stiffening, "coriolis": scene.effects.coriolis,
+                    "strain": scene.effects.strain, "damping": scene.effects.damping,
+                    "rotary_inertia": scene.effects.rotary_inertia},
+        "modes_per_body": meta.get("modes"),
+        "independent": result.independent, "dependent": result.dependent,
+        "state": result.state, "quasi_static": result.quasi_static,
+        "stable": result.stable, "stability": result.stability(scene.effects.damping),
+        "real_eigenvalues": result.real_eigenvalues,
+        "modes": [m.as_dict(hz) for m in result.modes],
+    }
+
+
+def modes_table(result: ModesResult, scene, limit: int = 12) -> str:
+    """A short text table of the lowest modes, with the stability verdict and its reason."""
+    hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
+    undamped = scene.effects.damping == 0
+    zeta_head = "zeta*" if undamped else "zeta"
+    head = f"{'mode':>4}  {'omega_n (x omega)':>17}  {zeta_head:>9}  " + (f"{'Hz':>10}  " if hz else "") + "dominant"
+    lines = [f"modes at tau = {result.tau:g} (quasi-static state, {result.quasi_static['method']})", head]
+    for m in result.modes[:limit]:
+        lines.append(f"{m.index:>4}  {m.natural_frequency:>17.6g}  {m.damping_ratio:>9.2g}  "
+                     + (f"{m.natural_frequency * hz:>10.5g}  " if hz else "") + m.dominant)
+    if len(result.modes) > limit:
+        lines.append(f"... {len(result.modes) - limit} more in the JSON")
+    if undamped and result.modes:
+        lines.append("* no damping in the model (effects.damping = 0): zeta is the frozen-time energy exchange "
+                     "with the driver at this position, of either sign, not dissipation")
+    if result.real_eigenvalues:
+        neg = [s for s in result.real_eigenvalues if s <= GROWTH_TOL]
+        if neg:
+            lines.append(f"{len(neg)} real negative eigenvalue(s) (overdamped)")
+    verdict = result.stability(scene.effects.damping)
+    lines.append(("stable: " if verdict["stable"] else "UNSTABLE: ") + verdict["reason"])
+    return "\n".join(lines)
