@@ -12,6 +12,7 @@ import pytest
 import sympy as sp
 
 from symgen import __version__
+from symgen.ir import names
 from symgen.model.derive import derive
 from symgen.model.bars import bar_equations
 from symgen.backends.latex.document import TEMPLATES, Namer, Printer, _RecordingIPT, _split_sides, _width, latex_document, tex_lines
@@ -40,7 +41,7 @@ def _tags(doc: str) -> list[str]:
 
 def test_templates_are_package_data():
     """Inside the package (a plain install carries them: tests/test_packaging.py)."""
-    assert Path(str(TEMPLATES)) == ROOT / "symgen" / "templates" / "latex"
+    assert Path(str(TEMPLATES)) == ROOT / "symgen" / "backends" / "latex" / "templates"
     assert (TEMPLATES / "document.tex.jinja").is_file()
 
 
@@ -109,7 +110,13 @@ def test_von_karman_strain_is_written_as_such():
 
 
 def test_names_print_as_documented():
-    namer = Namer(["rod", "rod_1"], ["B"])
+    """The printer reads each symbol's LaTeX name from the table the records made
+    (symgen.ir.names); display symbols print as they are; anything else upright."""
+    made = [names.bar_angle("rod"), names.bar_angle("rod", 1), names.bar_angle("rod", 2),
+            names.amplitude("f", "rod", 0), names.amplitude("f", "rod_1", 1, 1), names.origin_acceleration("x", "rod"),
+            names.bar_parameter("lambda", "rod"), names.joint_force("B", "x"), names.generalized_force("X", "rod"),
+            names.generalized_force("g", "rod_1", 2)]
+    namer = Namer({n.text: n.latex for n in made})
     assert namer("theta_rod") == r"\theta_{\mathrm{rod}}"
     assert namer("dtheta_rod") == r"\dot \theta_{\mathrm{rod}}"
     assert namer("ddtheta_rod") == r"\ddot \theta_{\mathrm{rod}}"
@@ -120,10 +127,16 @@ def test_names_print_as_documented():
     assert namer("Lx_B") == r"\Lambda_{x,\mathrm{B}}"
     assert namer("EX_rod") == r"E_{X,\mathrm{rod}}"
     assert namer("Eg_rod_1_3") == r"E_{g,\mathrm{rod\_1},3}"
+    assert namer(r"\left(\phi_{1},\psi_{1}\right)") == r"\left(\phi_{1},\psi_{1}\right)"
+    assert namer("unknown_x") == r"\mathrm{unknown\_x}"
+    sym = namer.symbol(names.bar_parameter("rho", "rod"), positive=True)
+    assert sym.is_positive and namer(sym.name) == r"\rho_{\mathrm{rod}}"
 
 
 def test_long_sums_are_broken_without_losing_terms():
-    pr = Printer(Namer(["rod"], []))
+    table = {n.text: n.latex for n in (names.bar_angle("rod", o) for o in range(3))}
+    table.update({names.amplitude(fam, "rod", k).text: names.amplitude(fam, "rod", k).latex for fam in "fg" for k in range(2)})
+    pr = Printer(Namer(table))
     xs = sp.symbols("theta_rod f_rod_1 f_rod_2 g_rod_1 g_rod_2 dtheta_rod ddtheta_rod", real=True)
     expr = sp.Add(*[sp.Float(0.123456789 * (k + 1)) * a * b for k, (a, b) in
                     enumerate((x, y) for x in xs for y in xs)])

@@ -10,6 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from symgen.ir import names as symbol_names
+from symgen.ir.names import Name
 from symgen.scene.model import GROUND, Scene
 
 
@@ -62,6 +64,7 @@ class Parameter:
     value: float
     valid: ParameterRange
     key: str
+    latex: str = ""          # its LaTeX name (symgen.ir.names)
 
 
 def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Parameter]:
@@ -69,48 +72,48 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
     ``None``: every parameter the scene defines a value for."""
     recs: dict[str, Parameter] = {}
 
-    def put(name: str, value: float, valid: ParameterRange, key: str) -> None:
-        recs[name] = Parameter(name, float(value), valid, key)
+    def put(name: Name, value: float, valid: ParameterRange, key: str) -> None:
+        recs[name.text] = Parameter(name.text, float(value), valid, key, name.latex)
 
     si = scene.units == "SI"           # lambda, mu from E, area, inertia and the mass per length
     for b in scene.bodies:
         key = f"bodies.{b.name}"
-        put(f"alpha_{b.name}", b.alpha, POSITIVE, f"{key}.length")        # length / l0
-        put(f"nu_{b.name}", b.nu, POSITIVE, key if si else f"{key}.mass_per_length")   # mass / m_ref
+        put(symbol_names.bar_parameter("alpha", b.name), b.alpha, POSITIVE, f"{key}.length")        # length / l0
+        put(symbol_names.bar_parameter("nu", b.name), b.nu, POSITIVE, key if si else f"{key}.mass_per_length")   # mass / m_ref
         if b.lam is not None:
-            put(f"lambda_{b.name}", b.lam, POSITIVE, f"{key}.E" if si else f"{key}.lambda")
+            put(symbol_names.bar_parameter("lambda", b.name), b.lam, POSITIVE, f"{key}.E" if si else f"{key}.lambda")
         if b.mu is not None:
-            put(f"mu_{b.name}", b.mu, POSITIVE, f"{key}.E" if si else f"{key}.mu")
+            put(symbol_names.bar_parameter("mu", b.name), b.mu, POSITIVE, f"{key}.E" if si else f"{key}.mu")
     eff = scene.effects
-    put("gx", eff.gravity[0], FINITE, "effects.gravity")
-    put("gy", eff.gravity[1], FINITE, "effects.gravity")
-    put("damping", eff.damping, NON_NEGATIVE, "effects.damping")
+    put(symbol_names.global_parameter("gx"), eff.gravity[0], FINITE, "effects.gravity")
+    put(symbol_names.global_parameter("gy"), eff.gravity[1], FINITE, "effects.gravity")
+    put(symbol_names.global_parameter("damping"), eff.damping, NON_NEGATIVE, "effects.damping")
     for j in scene.joints:
         key = f"joints.{j.name}"
         for e in j.ends:
             if e.body == GROUND:
-                put(f"px_{j.name}", e.point[0], FINITE, f"{key}.at")
-                put(f"py_{j.name}", e.point[1], FINITE, f"{key}.at")
+                put(symbol_names.joint_parameter("px", j.name), e.point[0], FINITE, f"{key}.at")
+                put(symbol_names.joint_parameter("py", j.name), e.point[1], FINITE, f"{key}.at")
         if j.direction is not None:                                          # a unit vector
-            put(f"dx_{j.name}", j.direction[0], UNIT_COMPONENT, f"{key}.direction")
-            put(f"dy_{j.name}", j.direction[1], UNIT_COMPONENT, f"{key}.direction")
-        put(f"m_{j.name}", j.mass, NON_NEGATIVE, f"{key}.mass")
-        put(f"I_{j.name}", j.inertia, NON_NEGATIVE, f"{key}.inertia")
+            put(symbol_names.joint_parameter("dx", j.name), j.direction[0], UNIT_COMPONENT, f"{key}.direction")
+            put(symbol_names.joint_parameter("dy", j.name), j.direction[1], UNIT_COMPONENT, f"{key}.direction")
+        put(symbol_names.joint_parameter("m", j.name), j.mass, NON_NEGATIVE, f"{key}.mass")
+        put(symbol_names.joint_parameter("I", j.name), j.inertia, NON_NEGATIVE, f"{key}.inertia")
     d = scene.driver
     if d is not None:
-        put("J_rotor", d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")
+        put(symbol_names.global_parameter("J_rotor"), d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")
         if d.kind == "angle":
-            put("theta0", d.initial, FINITE, "driver.initial")
-            put("rate", d.rate, FINITE, "driver.rate")
+            put(symbol_names.global_parameter("theta0"), d.initial, FINITE, "driver.initial")
+            put(symbol_names.global_parameter("rate"), d.rate, FINITE, "driver.rate")
             if d.ramp is not None:
-                put("ramp", d.ramp, POSITIVE, "driver.ramp")
+                put(symbol_names.global_parameter("ramp"), d.ramp, POSITIVE, "driver.ramp")
         elif not isinstance(d.torque, str):
-            put("torque", d.torque, FINITE, "driver.value")
+            put(symbol_names.global_parameter("torque"), d.torque, FINITE, "driver.value")
     for i, ld in enumerate(scene.loads):
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
             if not isinstance(val, str):
-                put(f"load{i + 1}_{comp}", val, FINITE, f"loads.{i}.{comp}")
+                put(symbol_names.load_parameter(i, comp, point=ld.kind != "distributed"), val, FINITE, f"loads.{i}.{comp}")
     if names is None:
         return list(recs.values())
     missing = [n for n in names if n not in recs]

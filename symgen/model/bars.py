@@ -24,6 +24,8 @@ from itertools import combinations_with_replacement
 import numpy as np
 import sympy as sp
 
+from symgen.ir import names
+
 from symgen.model.shapes import Basis, InnerProducts
 
 ZERO_TOL = 1e-13
@@ -61,18 +63,21 @@ class BarSymbols:
     def make(name: str, na: int, nt: int, elastic: bool, lam: bool = True) -> "BarSymbols":
         """``lam = False``: no lambda symbol even with axial functions (an inextensible bar
         without rotary inertia: its axial force is a multiplier, not lambda times a strain)."""
-        def vec(prefix: str, n: int) -> tuple:
-            return tuple(sp.Symbol(f"{prefix}_{name}_{k + 1}", real=True) for k in range(n))
+        def vec(family: str, n: int, order: int) -> tuple:
+            return tuple(names.amplitude(family, name, k, order).symbol() for k in range(n))
 
-        S = lambda s: sp.Symbol(s, real=True)  # noqa: E731
+        def par(kind: str) -> sp.Symbol:
+            return names.bar_parameter(kind, name).symbol(positive=True)
+
+        th = tuple(names.bar_angle(name, o).symbol() for o in range(3))
         return BarSymbols(
-            name=name, th=S(f"theta_{name}"), dth=S(f"dtheta_{name}"), ddth=S(f"ddtheta_{name}"),
-            f=vec("f", na), df=vec("df", na), ddf=vec("ddf", na),
-            g=vec("g", nt), dg=vec("dg", nt), ddg=vec("ddg", nt),
-            xa_dd=S(f"xAdd_{name}"), ya_dd=S(f"yAdd_{name}"),
-            alpha=sp.Symbol(f"alpha_{name}", positive=True), nu=sp.Symbol(f"nu_{name}", positive=True),
-            lam=sp.Symbol(f"lambda_{name}", positive=True) if elastic and na and lam else None,
-            mu=sp.Symbol(f"mu_{name}", positive=True) if elastic and nt else None)
+            name=name, th=th[0], dth=th[1], ddth=th[2],
+            f=vec("f", na, 0), df=vec("f", na, 1), ddf=vec("f", na, 2),
+            g=vec("g", nt, 0), dg=vec("g", nt, 1), ddg=vec("g", nt, 2),
+            xa_dd=names.origin_acceleration("x", name).symbol(), ya_dd=names.origin_acceleration("y", name).symbol(),
+            alpha=par("alpha"), nu=par("nu"),
+            lam=par("lambda") if elastic and na and lam else None,
+            mu=par("mu") if elastic and nt else None)
 
 
 class IPTable:
@@ -326,7 +331,7 @@ def bar_equations(
         eq17.append(r)
 
     # kinetic energy / nu alpha^3 (bar-axis velocity of A over l_i w: xa_d, ya_d)
-    xa_d, ya_d = sp.Symbol(f"xAd_{s.name}", real=True), sp.Symbol(f"yAd_{s.name}", real=True)
+    xa_d, ya_d = (names.origin_velocity(ax, s.name).symbol() for ax in "xy")
     vx = [xa_d, 0] + df + [-dth * g[k] for k in range(nt)]
     vy = [ya_d, dth] + [dth * f[k] for k in range(na)] + dg
     eqbeta = None

@@ -34,35 +34,12 @@ from symgen.model.slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from symgen.model.static_shapes import bar_bases
 from symgen.model.structure import INEXTENSIBLE, QUASI_STATIC, _tip_joint, axial_treatments, basis_sizes, effective_modes, overhang_modes, structure_key, structure_of
 from symgen.model.topology import Topology, build_topology
+from symgen.ir import names
+from symgen.ir.names import Name
+from symgen.ir.records import (GENERALIZED_FORCE, ORIGIN_ACCELERATION, SUBTREE_FORCE, ConstraintRow, Coordinate,
+                               DerivedModel, Program)
 
 TAU = tau_symbol()
-
-
-@dataclass
-class Program:
-    inputs: dict                                   # name -> tuple of symbols
-    assignments: list = field(default_factory=list)   # [(symbol, expr)]
-    outputs: dict = field(default_factory=dict)        # name -> list of expr
-
-    def assign(self, name: str, expr: sp.Expr) -> sp.Symbol:
-        sym = sp.Symbol(name, real=True)
-        self.assignments.append((sym, sp.sympify(expr)))
-        return sym
-
-
-@dataclass(frozen=True)
-class Coordinate:
-    name: str
-    kind: str          # "theta" | "s" | "f" | "g"
-    body: str
-    index: int = 0     # amplitude index (0-based) for f, g
-
-
-@dataclass(frozen=True)
-class ConstraintRow:
-    joint: str         # cut joint, "driver", or the bar of an "inextensible" row
-    kind: str          # "pin-x" | "pin-y" | "slider" | "driver" | "inextensible"
-    loop: tuple        # bars around the loop (the bar itself for "inextensible")
 
 
 @dataclass
@@ -77,43 +54,27 @@ class BarModel:
     inputs: dict = field(default_factory=dict)    # keyword arguments given to bar_equations
 
 
-@dataclass
-class DerivedModel:
-    key: str
-    scene_name: str
-    structure: dict
-    topology: Topology
-    bars: dict                    # body -> BarModel
-    coords: list                  # Coordinate per q entry
-    q: tuple
-    v: tuple
-    a: tuple
-    lam: tuple
-    lam_rows: list                # ConstraintRow per lam entry
-    params: tuple                 # parameter symbols
-    program: Program
-    output_names: list
-    driver_row: int | None        # index of the angle driver in lam, if any
-    timings: dict
-
-    @property
-    def param_names(self) -> list:
-        return [str(p) for p in self.params]
-
-
 # --------------------------------------------------------------------------- derivation
 def derive(scene: Scene) -> DerivedModel:
     """Derive the mechanism's equations symbolically (parameters stay symbols)."""
     t0 = time.perf_counter()
+    with names.recording() as table:
+        model = _derive(scene)
+    model.latex = dict(table)
+    model.timings = {"derive_s": time.perf_counter() - t0}
+    return model
+
+
+def _derive(scene: Scene) -> DerivedModel:
     structure = structure_of(scene)
     topo = build_topology(scene)
     eff = scene.effects
     P: dict[str, sp.Symbol] = {}
 
-    def param(name: str, **kw) -> sp.Symbol:
-        if name not in P:
-            P[name] = sp.Symbol(name, real=True, **kw)
-        return P[name]
+    def param(name: Name) -> sp.Symbol:
+        if name.text not in P:
+            P[name.text] = name.symbol()
+        return P[name.text]
 
     # ---- bars, shapes, inner products
     bars: dict[str, BarModel] = {}
@@ -126,7 +87,7 @@ def derive(scene: Scene) -> DerivedModel:
         sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid,
                               lam=treatment.get(b.name) != INEXTENSIBLE or eff.rotary_inertia)
         if b.name in slot_of:
-            beta = tuple(sp.Symbol(f"{p}beta_{slot_of[b.name]}", real=True) for p in ("", "d", "dd"))
+            beta = tuple(names.slot_support(slot_of[b.name], o).symbol() for o in range(3))
             sym = replace(sym, beta=beta)
             basis = SlotBasis(nt, beta[0], overhang_modes(scene, b))
             P[str(sym.alpha)], P[str(sym.nu)] = sym.alpha, sym.nu
@@ -153,9 +114,9 @@ def derive(scene: Scene) -> DerivedModel:
     for name in topo.order:
         e = topo.edges[name]
         if e.slider:
-            s_ = tuple(sp.Symbol(f"{p}s_{e.joint}", real=True) for p in ("", "d", "dd"))
+            s_ = tuple(names.slider_travel(e.joint, o).symbol() for o in range(3))
             slider_s[e.joint] = s_
-            coords.append(Coordinate(str(s_[0]), "s", name))
+            coords.append(Coordinate(str(s_[0]), "s", name, joint=e.joint))
             q.append(s_[0]), v.append(s_[1]), a.append(s_[2])
         sym = bars[name].sym
         coords.append(Coordinate(str(sym.th), "theta", name))
@@ -167,16 +128,16 @@ def derive(scene: Scene) -> DerivedModel:
             coords.append(Coordinate(str(sym.g[k]), "g", name, k))
             q.append(sym.g[k]), v.append(sym.dg[k]), a.append(sym.ddg[k])
         if sym.beta:
-            coords.append(Coordinate(str(sym.beta[0]), "beta", name))
+            coords.append(Coordinate(str(sym.beta[0]), "beta", name, joint=slot_of[name]))
             q.append(sym.beta[0]), v.append(sym.beta[1]), a.append(sym.beta[2])
 
     joints = {j.name: j for j in scene.joints}
 
     def ground_point(jname: str, end) -> sp.Matrix:
-        return sp.Matrix([param(f"px_{jname}"), param(f"py_{jname}")])
+        return sp.Matrix([param(names.joint_parameter("px", jname)), param(names.joint_parameter("py", jname))])
 
     def slider_dir(jname: str) -> sp.Matrix:
-        return sp.Matrix([param(f"dx_{jname}"), param(f"dy_{jname}")])
+        return sp.Matrix([param(names.joint_parameter("dx", jname)), param(names.joint_parameter("dy", jname))])
 
     # ---- explicit kinematics along the tree (10): origin of each bar, and any bar point
     path_memo: dict[str, list] = {}
@@ -252,7 +213,7 @@ def derive(scene: Scene) -> DerivedModel:
         ra, va, aa = end_point(j.name, j.ends[0])
         rb, vb, ab = end_point(j.name, j.ends[1]) if j.kind != "slot" else (None, None, None)
         if j.kind == "pin":
-            L = (sp.Symbol(f"Lx_{j.name}", real=True), sp.Symbol(f"Ly_{j.name}", real=True))
+            L = (names.joint_force(j.name, "x").symbol(), names.joint_force(j.name, "y").symbol())
             for k, comp in enumerate("xy"):
                 phi.append(ra[k] - rb[k]), phid.append(va[k] - vb[k]), phidd.append(aa[k] - ab[k])
                 lam.append(L[k]), lam_rows.append(ConstraintRow(j.name, f"pin-{comp}", cut.loop))
@@ -265,7 +226,7 @@ def derive(scene: Scene) -> DerivedModel:
             rA, vA, aA = origin(guide.body)
             c0, c1, c2 = guide.kin.contact()
             rb, vb, ab = rA + c0, vA + c1, aA + c2
-            L = (sp.Symbol(f"Lx_{j.name}", real=True), sp.Symbol(f"Ly_{j.name}", real=True))
+            L = (names.joint_force(j.name, "x").symbol(), names.joint_force(j.name, "y").symbol())
             for k, comp in enumerate("xy"):
                 phi.append(ra[k] - rb[k]), phid.append(va[k] - vb[k]), phidd.append(aa[k] - ab[k])
                 lam.append(L[k]), lam_rows.append(ConstraintRow(j.name, f"slot-{comp}", cut.loop))
@@ -279,7 +240,7 @@ def derive(scene: Scene) -> DerivedModel:
             p0 = ground_point(j.name, j.ends[1 - bar_idx])
             rb_, vb_, ab_ = (ra, va, aa) if bar_idx == 0 else (rb, vb, ab)
             phi.append(sign * (n.dot(rb_ - p0))), phid.append(sign * n.dot(vb_)), phidd.append(sign * n.dot(ab_))
-            L = sp.Symbol(f"L_{j.name}", real=True)
+            L = names.joint_force(j.name).symbol()
             lam.append(L), lam_rows.append(ConstraintRow(j.name, "slider", cut.loop))
             end = j.ends[bar_idx]
             point_forces[end.body].append(PointForce(end.xi, ground=(sign * L * n[0], sign * L * n[1])))
@@ -289,38 +250,38 @@ def derive(scene: Scene) -> DerivedModel:
     torque_expr = None
     rotor = None                     # (driven bar, J) when the driver carries a rotor inertia
     if drv is not None and drv.rotor_inertia > 0:
-        rotor = (drv.body, param("J_rotor"))
+        rotor = (drv.body, param(names.global_parameter("J_rotor")))
     if drv is not None:
         th = bars[drv.body].sym
         if drv.kind == "angle":
-            th0 = param("theta0")
+            th0 = param(names.global_parameter("theta0"))
             if drv.law is None and drv.ramp is None:      # the contract's theta0 + rate tau
-                rate = param("rate")
+                rate = param(names.global_parameter("rate"))
                 phi.append(th.th - th0 - rate * TAU), phid.append(th.dth - rate), phidd.append(th.ddth)
             else:                                          # law(tau) or the spin-up ramp: exact derivatives
-                rate = param("rate") if drv.law is None else None
-                ramp = param("ramp") if drv.ramp is not None else None
+                rate = param(names.global_parameter("rate")) if drv.law is None else None
+                ramp = param(names.global_parameter("ramp")) if drv.ramp is not None else None
                 angle = driver_angle(drv, TAU, th0, rate, ramp)
                 phi.append(th.th - angle), phid.append(th.dth - sp.diff(angle, TAU))
                 phidd.append(th.ddth - sp.diff(angle, TAU, 2))
-            L = sp.Symbol("L_driver", real=True)
+            L = names.DRIVER_FORCE.symbol()
             driver_row = len(lam)
             lam.append(L), lam_rows.append(ConstraintRow("driver", "driver", (GROUND, drv.body)))
         else:
-            torque_expr = parse_tau_expression(drv.torque) if isinstance(drv.torque, str) else param("torque")
+            torque_expr = parse_tau_expression(drv.torque) if isinstance(drv.torque, str) else param(names.global_parameter("torque"))
 
     # ---- lumped masses (carried by the first bar of their joint) and loads
-    grav = (param("gx"), param("gy")) if structure["effects"]["gravity"] else None
+    grav = (param(names.global_parameter("gx")), param(names.global_parameter("gy"))) if structure["effects"]["gravity"] else None
     G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
     lumped = []
     rotary = {n: [] for n in bars}          # lumped rotary inertias, by the bar carrying them
     for j in scene.joints:
         if j.inertia > 0:
             end = next(x for x in j.ends if x.body != GROUND)
-            rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(f"I_{j.name}")))
+            rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(names.joint_parameter("I", j.name))))
         if j.mass > 0:
             end = next(x for x in j.ends if x.body != GROUND)
-            m = param(f"m_{j.name}")
+            m = param(names.joint_parameter("m", j.name))
             lumped.append((j.name, end.body, end.xi, m))
             bm = bars[end.body]
             s = bm.sym
@@ -332,15 +293,15 @@ def derive(scene: Scene) -> DerivedModel:
         vals = []
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
-            vals.append(parse_tau_expression(val) if isinstance(val, str) else param(f"load{i + 1}_{comp}"))
+            vals.append(parse_tau_expression(val) if isinstance(val, str) else param(names.load_parameter(i, comp, point=ld.kind != "distributed")))
         if ld.kind == "distributed":
             dist[ld.body].append(tuple(vals))
         else:
             point_forces[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
-    damping = param("damping") if structure["effects"]["damping"] else None
+    damping = param(names.global_parameter("damping")) if structure["effects"]["damping"] else None
     # inextensible and quasi-static bars: multipliers N_k of (phi'_k, eps) = 0 (the axial force,
     # in lambda eps units); a quasi-static bar's stretch is P eps = N / lambda: amplitudes f + N / lambda
-    axial_force = {name: tuple(sp.Symbol(f"N_{name}_{k + 1}", real=True) for k in range(len(bm.sym.f)))
+    axial_force = {name: tuple(names.axial_force(name, k).symbol() for k in range(len(bm.sym.f)))
                    for name, bm in bars.items()
                    if treatment.get(name) in (INEXTENSIBLE, QUASI_STATIC) and len(bm.sym.f)}
     stretch = {name: axial_force[name] for name in axial_force if treatment[name] == QUASI_STATIC}
@@ -352,8 +313,8 @@ def derive(scene: Scene) -> DerivedModel:
         bm = bars[name]
         s = bm.sym
         acc = origin_acc_local(name)
-        prog.assignments.append((s.xa_dd, acc[0]))
-        prog.assignments.append((s.ya_dd, acc[1]))
+        prog.add(s.xa_dd, acc[0], ORIGIN_ACCELERATION)
+        prog.add(s.ya_dd, acc[1], ORIGIN_ACCELERATION)
         bm.inputs = {"loads": tuple(dist[name]), "points": tuple(point_forces[name]),
                      "gravity": grav, "damping": damping}
         if name in axial_force:
@@ -364,13 +325,14 @@ def derive(scene: Scene) -> DerivedModel:
             gen = _add_contact_force(gen, bm.kin, slot_force[name])
         gen = add_lumped_rotary(gen, s, bm.kin, rotary[name])
         E[name] = {
-            "XY": (prog.assign(f"EX_{name}", gen["XY"][0]), prog.assign(f"EY_{name}", gen["XY"][1])),
-            "th": prog.assign(f"Eth_{name}", gen["th"]),
-            "f": [prog.assign(f"Ef_{name}_{k + 1}", e) for k, e in enumerate(gen["f"])],
-            "g": [prog.assign(f"Eg_{name}_{k + 1}", e) for k, e in enumerate(gen["g"])],
+            "XY": tuple(prog.assign(names.generalized_force(ax, name), gen["XY"][k], GENERALIZED_FORCE)
+                        for k, ax in enumerate("XY")),
+            "th": prog.assign(names.generalized_force("th", name), gen["th"], GENERALIZED_FORCE),
+            "f": [prog.assign(names.generalized_force("f", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["f"])],
+            "g": [prog.assign(names.generalized_force("g", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["g"])],
         }
         if gen.get("beta") is not None:
-            E[name]["beta"] = prog.assign(f"Ebeta_{name}", gen["beta"])
+            E[name]["beta"] = prog.assign(names.generalized_force("beta", name), gen["beta"], GENERALIZED_FORCE)
     # ---- inextensibility rows (after the loops and the driver): position, velocity, acceleration
     for name in topo.order:
         if name not in axial_force:
@@ -390,10 +352,10 @@ def derive(scene: Scene) -> DerivedModel:
         tot = sp.Matrix(E[name]["XY"])
         for ch in topo.children[name]:
             tot += S[ch.body]
-        S[name] = sp.Matrix([prog.assign(f"SX_{name}", tot[0]), prog.assign(f"SY_{name}", tot[1])])
+        S[name] = sp.Matrix([prog.assign(names.subtree_force(ax, name), tot[k], SUBTREE_FORCE) for k, ax in enumerate("xy")])
     # ---- residual of every coordinate (virtual work through the tree)
     res = []
-    for c in coords:
+    for c, var in zip(coords, q):
         if c.kind == "s":
             e = topo.edges[c.body]
             res.append(slider_dir(e.joint).dot(S[c.body]))
@@ -401,7 +363,6 @@ def derive(scene: Scene) -> DerivedModel:
         bm = bars[c.body]
         s = bm.sym
         e = topo.edges[c.body]
-        var = sp.Symbol(c.name, real=True)
         own = {"theta": E[c.body]["th"]}.get(c.kind)
         if c.kind == "f":
             own = E[c.body]["f"][c.index]
@@ -441,7 +402,7 @@ def derive(scene: Scene) -> DerivedModel:
     prog.outputs["closure"] = phi[:n_loop_rows]
     params = tuple(sorted(P.values(), key=lambda x: str(x)))
     prog.inputs["p"] = params
-    timings = {"derive_s": time.perf_counter() - t0}
+    timings: dict = {}
     return DerivedModel(key=structure_key(structure), scene_name=scene.name, structure=structure,
                         topology=topo, bars=bars, coords=coords, q=q_t, v=v_t, a=a_t, lam=tuple(lam),
                         lam_rows=lam_rows, params=params, program=prog, output_names=out_names,

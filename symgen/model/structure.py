@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from symgen import __version__
 from symgen.scene.model import Scene
 
-DERIVE_VERSION = "4"   # 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
+DERIVE_VERSION = "5"   # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:

@@ -24,6 +24,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
+from symgen.ir import names
 from symgen.model.bars import BarSymbols
 from symgen.backends.casadi.functions import SympyToCasadi
 from symgen.model.kinematics import BarKinematics
@@ -52,10 +53,11 @@ class Geometry:
 
     def __init__(self, scene: Scene, meta: dict, samples: int = SAMPLES) -> None:
         self.scene = scene
-        names = [c["name"] for c in meta["coords"]]
-        self.n = len(names)
+        coords = meta["coords"]
+        self.n = len(coords)
         q = ca.SX.sym("q", self.n)
-        env = {sp.Symbol(nm, real=True): q[i] for i, nm in enumerate(names)}
+        env = {names.coordinate(c["kind"], c["body"], c["joint"], c["index"]).symbol(): q[i]
+               for i, c in enumerate(coords)}
         topo = build_topology(scene)
         slot_of = {j.ends[1].body: j.name for j in scene.joints if j.kind == "slot"}
         kins = {}
@@ -65,7 +67,7 @@ class Geometry:
             sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid)
             env[sym.alpha] = ca.SX(b.alpha)
             if b.name in slot_of:
-                beta = sp.Symbol(f"beta_{slot_of[b.name]}", real=True)
+                beta = names.slot_support(slot_of[b.name]).symbol()
                 kins[b.name] = SlotBarKinematics(sym, SlotBasis(nt, beta, overhang_modes(scene, b)), (beta, None, None))
             else:
                 kins[b.name] = BarKinematics(sym, *bar_bases(records[b.name]))
@@ -80,7 +82,7 @@ class Geometry:
                 j = joints[e.joint]
                 p0 = sp.Matrix(list(next(x for x in j.ends if x.body == GROUND).point))
                 if e.slider:
-                    p0 = p0 + sp.Symbol(f"s_{e.joint}", real=True) * sp.Matrix(list(j.direction))
+                    p0 = p0 + names.slider_travel(e.joint).symbol() * sp.Matrix(list(j.direction))
                 r = p0
             else:
                 r = origin(e.parent) + kins[e.parent].rho(e.parent_xi)

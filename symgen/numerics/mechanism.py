@@ -24,6 +24,7 @@ from symgen.backends.casadi.pipeline import CompiledModel
 from symgen.ir.parameters import parameter_values
 from symgen.policy import POLICY
 from symgen.scene.model import Scene
+from symgen.ir.records import find_coordinate
 
 
 @dataclass(frozen=True)
@@ -136,8 +137,7 @@ class Mechanism:
         drv = self.scene.driver
         order = list(reversed(self.rigid))
         if drv is not None:
-            name = f"theta_{drv.body}"
-            idx = next(i for i in self.rigid if self.coords[i]["name"] == name)
+            idx = find_coordinate(self.coords, "theta", drv.body)
             order.remove(idx)
             order = [idx] + order if drv.kind == "angle" else order + [idx]
         order = self.inext_f + order
@@ -259,8 +259,8 @@ class Mechanism:
                         if drv.initial is not None:
                             q[i] = drv.initial
                         v[i] = drv.rate
-            elif c["kind"] == "beta":      # a slot's support distance: guess by the slot joint's name
-                q[i] = guess.get(c["name"][len("beta_"):], 0.5)
+            elif c["kind"] == "beta":      # a slot's support distance: the guess of its slot joint
+                q[i] = guess.get(c["joint"], 0.5)
             elif c["kind"] in ("f", "g") and c["body"] in deform:
                 d = deform[c["body"]]
                 vals, rates = (d.f, d.fdot) if c["kind"] == "f" else (d.g, d.gdot)
@@ -417,7 +417,7 @@ class Mechanism:
         ends = []
         for dt in (-h, h):
             qq = qs.copy()
-            i = next(i for i, c in enumerate(self.coords) if c["name"] == f"theta_{drv.body}")
+            i = find_coordinate(self.coords, "theta", drv.body)
             qq[i] = self.driver_motion(t0 + dt)[0]
             qq = self.assemble(t0 + dt, qq, part)
             vv = self.velocities(t0 + dt, qq, vs, part)

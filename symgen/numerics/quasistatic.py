@@ -51,6 +51,7 @@ from symgen.policy import POLICY
 from symgen.scene.limits import lift_hint, limit_value, over_limit
 from symgen.numerics import interrupt
 from symgen.numerics.mechanism import Mechanism, Partition
+from symgen.ir.records import find_coordinate
 
 KINEMATICS = ("deformed", "rigid")
 RHO_MAX = 0.95          # a fixed-point iteration contracting slower than this goes to Newton
@@ -188,7 +189,7 @@ class QuasiStaticSystem:
         q[self.amp] = 0.0
         drv = mech.scene.driver
         if drv is not None and drv.kind == "angle":
-            i = next(i for i, c in enumerate(mech.coords) if c["name"] == f"theta_{drv.body}")
+            i = find_coordinate(mech.coords, "theta", drv.body)
             q[i] = mech.driver_motion(t)[0]
         q = mech.assemble(t, q, part)
         ratio, row = mech.singular_ratio(t, q, part)

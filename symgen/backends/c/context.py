@@ -23,6 +23,8 @@ from symgen.backends.c import radau
 from symgen.backends.c.codegen import model_functions
 from symgen.backends.c.names import c_comment, c_prefix, c_string
 from symgen.backends.c.printer import c_double
+from symgen.ir import names
+from symgen.ir.records import find_coordinate
 
 
 def _ops_table(prefix: str, funcs) -> list[str]:
@@ -89,12 +91,12 @@ def c_context(scene, model, mech) -> dict:
     params = list(meta["params"])
     driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1, "row": -1}
     if drv is not None:
-        name = f"theta_{drv.body}"
         driver["kind"] = drv.kind
-        driver["coord"] = next(i for i, c in enumerate(mech.coords) if c["name"] == name)
+        driver["coord"] = find_coordinate(mech.coords, "theta", drv.body)
         if drv.kind == "angle":
-            driver["theta0"] = params.index("theta0")
-            driver["rate"] = params.index("rate") if "rate" in params else -1   # a law has no rate
+            theta0, rate = (names.global_parameter(k).text for k in ("theta0", "rate"))
+            driver["theta0"] = params.index(theta0)
+            driver["rate"] = params.index(rate) if rate in params else -1   # a law has no rate
             driver["row"] = meta["driver_row"]
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}

@@ -150,7 +150,8 @@ def model_meta(model) -> dict:
         "key": model.key,
         "scene_name": model.scene_name,
         "structure": model.structure,
-        "coords": [{"name": c.name, "kind": c.kind, "body": c.body, "index": c.index} for c in model.coords],
+        "coords": [{"name": c.name, "kind": c.kind, "body": c.body, "index": c.index, "joint": c.joint}
+                   for c in model.coords],
         "lam_rows": [{"joint": r.joint, "kind": r.kind, "loop": list(r.loop)} for r in model.lam_rows],
         "params": model.param_names,
         "outputs": model.output_names,

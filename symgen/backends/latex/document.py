@@ -9,7 +9,7 @@ two bars the joint equilibrium (13); and the assembled residual of every coordin
 
 Display rules: expressions are never simplified; top-level sums are broken over several lines
 (``tex_lines``); floats are shown with 6 significant digits (integral ones as integers); symbol
-names map to LaTeX through ``Namer`` (``theta_rod`` -> ``\\theta_{\\mathrm{rod}}``).
+names map to LaTeX through the model's table (``symgen.ir.names``: ``theta_rod`` -> ``\\theta_{\\mathrm{rod}}``).
 
 Examples
 --------
@@ -30,6 +30,9 @@ import sympy as sp
 
 from symgen import __version__
 from symgen.model.bars import IPTable, PointForce, bar_equations, distributed_groups
+from symgen.ir import names
+from symgen.ir.names import Name
+from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
 from symgen.model.structure import QUASI_STATIC, axial_treatments
 from symgen.scene.motion import driver_angle
@@ -67,73 +70,27 @@ def _num_text(x: float | None) -> str:
 
 # --------------------------------------------------------------------------- symbol names
 class Namer:
-    """Maps the model's symbol names to LaTeX.
+    """The LaTeX name of each of a model's symbols, from the model's table (``model.latex``,
+    made beside each symbol by ``symgen.ir.names``); :meth:`symbol` adds one made here.
 
-    Built from the scene's body and joint names, so that ``f_rod_1_2`` of a body ``rod_1`` is
-    read unambiguously. Symbols whose name already is LaTeX (inner products such as
-    ``\\left(\\phi_{1},\\psi_{1}\\right)``, display symbols such as ``B_{\\mathrm{B}}``) are
-    printed as they are.
+    Symbols whose name already is LaTeX (display symbols such as the inner products
+    ``\\left(\\phi_{1},\\psi_{1}\\right)`` or ``B_{\\mathrm{B}}``) print as they are;
+    any other name prints upright.
     """
 
-    def __init__(self, bodies: list[str], joints: list[str], point_loads: tuple = ()) -> None:
-        b = "|".join(re.escape(n) for n in sorted(bodies, key=len, reverse=True)) or "(?!)"
-        j = "|".join(re.escape(n) for n in sorted(joints, key=len, reverse=True)) or "(?!)"
-        dots = {"": "", "d": r"\dot ", "dd": r"\ddot "}
-        self._rules: list[tuple[re.Pattern, object]] = [
-            (re.compile(rf"(|d|dd)theta_({b})$"), lambda m: rf"{dots[m[1]]}\theta_{{{_rm(m[2])}}}"),
-            (re.compile(rf"(|d|dd)([fg])_({b})_(\d+)$"),
-             lambda m: rf"{dots[m[1]]}{m[2]}_{{{_rm(m[3])},{m[4]}}}"),
-            (re.compile(rf"([xy])Add_({b})$"), lambda m: rf"[\ddot {m[1]}_A]_{{{_rm(m[2])}}}"),
-            (re.compile(rf"([xy])Ad_({b})$"), lambda m: rf"[\dot {m[1]}_A]_{{{_rm(m[2])}}}"),
-            (re.compile(rf"(alpha|nu|lambda|mu|rho)_({b})$"), lambda m: rf"\{m[1]}_{{{_rm(m[2])}}}"),
-            (re.compile(rf"E(X|Y)_({b})$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])}}}"),
-            (re.compile(rf"Eth_({b})$"), lambda m: rf"E_{{\theta,{_rm(m[1])}}}"),
-            (re.compile(rf"E([fg])_({b})_(\d+)$"), lambda m: rf"E_{{{m[1]},{_rm(m[2])},{m[3]}}}"),
-            (re.compile(rf"Ebeta_({b})$"), lambda m: rf"E_{{\beta,{_rm(m[1])}}}"),
-            (re.compile(rf"(|d|dd)beta_({j})$"), lambda m: rf"{dots[m[1]]}\beta_{{{_rm(m[2])}}}"),
-            (re.compile(rf"S(X|Y)_({b})$"), lambda m: rf"S_{{{m[1]},{_rm(m[2])}}}"),
-            (re.compile(rf"N_({b})_(\d+)$"), lambda m: rf"N_{{{_rm(m[1])},{m[2]}}}"),
-            (re.compile(rf"L([xy])_({j})$"), lambda m: rf"\Lambda_{{{m[1]},{_rm(m[2])}}}"),
-            (re.compile(r"L_driver$"), lambda m: r"\Lambda_{\mathrm{drv}}"),
-            (re.compile(rf"L_({j})$"), lambda m: rf"\Lambda_{{{_rm(m[1])}}}"),
-            (re.compile(rf"(|d|dd)s_({j})$"), lambda m: rf"{dots[m[1]]}s_{{{_rm(m[2])}}}"),
-            (re.compile(rf"p([xy])_({j})$"), lambda m: rf"p_{{{m[1]},{_rm(m[2])}}}"),
-            (re.compile(rf"d([xy])_({j})$"), lambda m: rf"d_{{{m[1]},{_rm(m[2])}}}"),
-            (re.compile(rf"m_({j})$"), lambda m: rf"m_{{{_rm(m[1])}}}"),
-            (re.compile(rf"I_({j})$"), lambda m: rf"I_{{{_rm(m[1])}}}"),
-            (re.compile(r"J_rotor$"), lambda m: r"J_{\mathrm{rot}}"),
-            (re.compile(r"load(\d+)_axial$"),
-             lambda m: rf"B_{{\mathrm{{P}}{m[1]}}}" if int(m[1]) in point_loads else rf"\bar\beta_{{{m[1]}}}"),
-            (re.compile(r"load(\d+)_transverse$"),
-             lambda m: rf"\Gamma_{{\mathrm{{P}}{m[1]}}}" if int(m[1]) in point_loads else rf"\bar\gamma_{{{m[1]}}}"),
-            (re.compile(r"g([xy])$"), lambda m: rf"g_{{{m[1]}}}"),
-            (re.compile(r"theta0$"), lambda m: r"\theta_{\mathrm{drv}}^{0}"),
-            (re.compile(r"rate$"), lambda m: r"\Omega_{\mathrm{drv}}"),
-            (re.compile(r"ramp$"), lambda m: r"T_{\mathrm{drv}}"),
-            (re.compile(r"torque$"), lambda m: r"M_{0}"),
-            (re.compile(r"damping$"), lambda m: r"c_{\mathrm{KV}}"),
-            (re.compile(r"tau$"), lambda m: r"\tau"),
-            (re.compile(r"xi$"), lambda m: r"\xi"),
-        ]
-        self._memo: dict[str, str] = {}
+    def __init__(self, table: dict) -> None:
+        self._table = dict(table)
+
+    def symbol(self, name: Name, **assumptions) -> sp.Symbol:
+        """The symbol of ``name``, its LaTeX name known from here on."""
+        self._table[name.text] = name.latex
+        return name.symbol(**assumptions)
 
     def __call__(self, name: str) -> str:
-        hit = self._memo.get(name)
+        hit = self._table.get(name)
         if hit is not None:
             return hit
-        if name.startswith("\\") or "{" in name:
-            out = name
-        else:
-            out = None
-            for pat, fmt in self._rules:
-                m = pat.match(name)
-                if m:
-                    out = fmt(m)
-                    break
-            if out is None:
-                out = _rm(name)
-        self._memo[name] = out
-        return out
+        return name if name.startswith("\\") or "{" in name else _rm(name)
 
 
 # --------------------------------------------------------------------------- expressions
@@ -193,7 +150,7 @@ def _driver_angle_tex(drv, pr) -> str:
     if drv.law is None and drv.ramp is None:
         return r"\theta^0_{\mathrm{drv}} + \Omega_{\mathrm{drv}}\tau"
     from symgen.model.derive import TAU
-    sym = {k: sp.Symbol(k, real=True) for k in ("theta0", "rate", "ramp")}
+    sym = {k: pr.namer.symbol(names.global_parameter(k)) for k in ("theta0", "rate", "ramp")}
     return pr(driver_angle(drv, TAU, sym["theta0"], sym["rate"], sym["ramp"]))
 
 
@@ -201,7 +158,7 @@ def _rotor_note(drv, pr) -> str:
     """The driver's rotor inertia (empty without one): where it enters the equations."""
     if not drv.rotor_inertia:
         return ""
-    th = pr(sp.Symbol(f"theta_{drv.body}"))
+    th = names.bar_angle(drv.body).latex
     return (rf"; with the rotor inertia $J_{{\mathrm{{rot}}}} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
             rf"reflected to the shaft), which adds $J_{{\mathrm{{rot}}}}\,\ddot{{{th}}}$ to the residual of "
             rf"${th}$ and $\tfrac12 J_{{\mathrm{{rot}}}}\dot{{{th}}}^2$ to the kinetic energy"
@@ -216,7 +173,7 @@ def rotary_notes(scene, pr) -> list[str]:
             continue
         end = next(x for x in j.ends if x.body != GROUND)
         b = scene.body(end.body)
-        th = pr(sp.Symbol(f"theta_{b.name}"))
+        th = names.bar_angle(b.name).latex
         J = rf"I_{{{_rm(j.name)}}}"
         rot_ = th if b.rigid else rf"{th} + \eta_{{{_rm(b.name)}}}'({_num_text(end.xi)})"
         out.append(rf"Joint {tex_escape(j.name)}: a lumped rotary inertia ${J}$ on {tex_escape(b.name)} at "
@@ -514,13 +471,13 @@ def _split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
 
 
 def _point_label(p: PointForce, scene, used: set) -> str:
-    names = {s.name for part in (p.ground or p.bar or ()) for s in sp.sympify(part).free_symbols}
+    used_names = {s.name for part in (p.ground or p.bar or ()) for s in sp.sympify(part).free_symbols}
     label = None
     for j in scene.joints:
-        if {f"Lx_{j.name}", f"Ly_{j.name}", f"L_{j.name}"} & names:
+        if {names.joint_force(j.name, ax).text for ax in ("x", "y", None)} & used_names:
             label = _rm(j.name)
             break
-        if f"m_{j.name}" in names:
+        if names.joint_parameter("m", j.name).text in used_names:
             label = _rm(j.name) + r",m"
             break
     if label is None:
@@ -562,7 +519,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     s = bm.sym
     na, nt = len(s.f), len(s.g)
     B = _rm(name)
-    names = {"B": B}
+    kin_names = {"B": B}
     ctx: dict = {"name": name, "tex": B, "rigid": body.rigid, "na": na, "nt": nt,
                  "frame": body.frame, "text": tex_escape(name)}
     # ---- shape functions
@@ -609,7 +566,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     ctx["amplitudes"] = ", ".join(x for x in (fs, gs) if x)
 
     # ---- (1)
-    ax, ay = _kin_terms(names, na, nt, eff.coriolis)
+    ax, ay = _kin_terms(kin_names, na, nt, eff.coriolis)
     ctx["eq1"] = _block([_term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tex_escape(name)}"),
                          _term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tex_escape(name)}")])
 
@@ -693,7 +650,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     elastic = {x for x in (s.lam, s.mu) if x is not None} | set(bm.inputs.get("axial_force", ()))
     if damp:
         elastic.add(bm.inputs["damping"])
-    rho_pair = (s.mu, s.lam, sp.Symbol(f"rho_{name}", positive=True)) if ctx["rotary"] else None
+    rho_pair = (s.mu, s.lam, pr.namer.symbol(names.bar_parameter("rho", name), positive=True)) if ctx["rotary"] else None
     used_ip: set = set()
 
     def rows(exprs, tags):
@@ -867,8 +824,7 @@ def latex_document(scene, model) -> str:
     scene : the loaded :class:`~symgen.scene.model.Scene`
     model : ``symgen.model.derive.derive(scene)``
     """
-    namer = Namer([b.name for b in scene.bodies], [j.name for j in scene.joints],
-                  tuple(i + 1 for i, ld in enumerate(scene.loads) if ld.kind == "point"))
+    namer = Namer(model.latex)
     from symgen.backends.latex import slot as latex_slot
     pr = Printer(namer, subs=latex_slot.beta_positive(model))
     prog = model.program
@@ -928,7 +884,7 @@ def latex_document(scene, model) -> str:
                            + _driver_law_note(drv) if drv.kind == "angle" else
                            f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")
                   + _rotor_note(drv, pr)}
-    coords = [{"tex": pr(sp.Symbol(c.name)), "kind": c.kind, "body": tex_escape(c.body)} for c in model.coords]
+    coords = [{"tex": pr(x), "kind": c.kind, "body": tex_escape(c.body)} for c, x in zip(model.coords, model.q)]
     mult = []
     for L, row in zip(model.lam, model.lam_rows):
         what = {"pin-x": "x force of pin", "pin-y": "y force of pin", "slider": "normal force of slider",
@@ -1008,16 +964,11 @@ def latex_document(scene, model) -> str:
     joint_eqs = _joints_context(scene, model, pr)
 
     # ---- assembled
-    defs_e, defs_s = [], []
-    for sym, expr in prog.assignments:
-        n = sym.name
-        if re.match(r"E(X|Y|th|f|g|beta)_", n):
-            defs_e.append(_row(pr, pr(sym), expr))
-        elif re.match(r"S(X|Y)_", n):
-            defs_s.append(_row(pr, pr(sym), expr))
+    defs_e = [_row(pr, pr(sym), expr) for sym, expr in prog.group(GENERALIZED_FORCE)]
+    defs_s = [_row(pr, pr(sym), expr) for sym, expr in prog.group(SUBTREE_FORCE)]
     residuals = []
-    for k, (c, r) in enumerate(zip(model.coords, prog.outputs["res"])):
-        lhs = rf"\mathcal R_{{{pr(sp.Symbol(c.name))}}}"
+    for k, (x, r) in enumerate(zip(model.q, prog.outputs["res"])):
+        lhs = rf"\mathcal R_{{{pr(x)}}}"
         residuals.append(_row(pr, lhs, r, f"EoM.{k + 1}"))
 
     ctx = {

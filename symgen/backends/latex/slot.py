@@ -19,6 +19,8 @@ from __future__ import annotations
 import sympy as sp
 
 from symgen.model.bars import PointForce, bar_equations
+from symgen.ir import names
+from symgen.ir.records import find_coordinate
 from symgen.scene.model import GROUND
 
 __all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes",
@@ -216,7 +218,7 @@ def _contact_definitions(model, guide: str, joint: str) -> tuple:
     """(B, Gamma) of the slot force on the guide, bar axes / nu alpha^2: the force is
     -(Lx, Ly) in ground axes (the crank's point receives +(Lx, Ly))."""
     s = model.bars[guide].sym
-    Fx, Fy = -sp.Symbol(f"Lx_{joint}", real=True), -sp.Symbol(f"Ly_{joint}", real=True)
+    Fx, Fy = (-names.joint_force(joint, ax).symbol() for ax in "xy")
     B = (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)
     G = (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)
     return B, G
@@ -428,9 +430,8 @@ def _chain_terms(model, body: str, end) -> tuple[str, list[str]]:
 
 
 def pr_beta(model, bar: str) -> str:
-    from symgen.backends.latex.document import _rm
-    name = model.bars[bar].sym.beta[0].name          # beta_<joint>
-    return rf"\beta_{{{_rm(name[len('beta_'):])}}}"
+    """LaTeX of the support distance beta of the slot that ``bar`` guides."""
+    return names.slot_support(model.coords[find_coordinate(model.coords, "beta", bar)].joint).latex
 
 
 def slot_closure(scene, model, joint: str) -> dict:

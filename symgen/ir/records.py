@@ -1,0 +1,98 @@
+"""The typed records of a derived model: the one contract between the derivation
+(``symgen.model``) and every consumer (CasADi, C, LaTeX, the runners).
+
+A coordinate, a multiplier row or a program intermediate is identified by its fields (kind,
+body, joint, index), never by parsing its symbol's name; names and LaTeX names are made in
+``symgen.ir.names`` from these same fields.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from symgen.ir.names import Name
+
+
+@dataclass
+class Program:
+    """Ordered assignments (intermediate symbol = expression of earlier symbols) and named output
+    vectors over the inputs t, q, v, a, lam, p. Each intermediate belongs to a ``group``
+    ("origin acceleration", "generalized force", "subtree force"), which the LaTeX backend
+    reads to place it."""
+
+    inputs: dict                                   # name -> tuple of symbols
+    assignments: list = field(default_factory=list)   # [(symbol, expr)]
+    outputs: dict = field(default_factory=dict)        # name -> list of expr
+    groups: dict = field(default_factory=dict)         # symbol -> group of the assignment
+
+    def assign(self, name: Name, expr: sp.Expr, group: str) -> sp.Symbol:
+        sym = name.symbol()
+        self.assignments.append((sym, sp.sympify(expr)))
+        self.groups[sym] = group
+        return sym
+
+    def add(self, sym: sp.Symbol, expr: sp.Expr, group: str) -> None:
+        """An assignment to a symbol made elsewhere (a bar's [x_A'']_i of (10))."""
+        self.assignments.append((sym, expr))
+        self.groups[sym] = group
+
+    def group(self, group: str) -> list:
+        """[(symbol, expr)] of the assignments of ``group``, in order."""
+        return [(sym, e) for sym, e in self.assignments if self.groups.get(sym) == group]
+
+
+ORIGIN_ACCELERATION, GENERALIZED_FORCE, SUBTREE_FORCE = "origin acceleration", "generalized force", "subtree force"
+
+
+@dataclass(frozen=True)
+class Coordinate:
+    """One entry of q: a bar angle ("theta"), an axial ("f") or transverse ("g") amplitude of
+    ``body``, a slider travel ("s") or a slot's support distance ("beta") of ``joint``."""
+
+    name: str
+    kind: str          # "theta" | "s" | "f" | "g" | "beta"
+    body: str          # the bar it moves (the bar beyond a slider, the guide of a slot)
+    index: int = 0     # amplitude index (0-based) for f, g
+    joint: str = ""    # the slider or slot joint of "s" and "beta"
+
+
+def find_coordinate(coords, kind: str, body: str) -> int:
+    """Index in ``coords`` (records or their plain-data form) of the coordinate ``kind`` of ``body``."""
+    for i, c in enumerate(coords):
+        k, b = (c["kind"], c["body"]) if isinstance(c, dict) else (c.kind, c.body)
+        if k == kind and b == body:
+            return i
+    raise KeyError(f"no coordinate {kind!r} of {body!r}")
+
+
+@dataclass(frozen=True)
+class ConstraintRow:
+    joint: str         # cut joint, "driver", or the bar of an "inextensible" row
+    kind: str          # "pin-x" | "pin-y" | "slot-x" | "slot-y" | "slider" | "driver" | "inextensible"
+    loop: tuple        # bars around the loop (the bar itself for "inextensible")
+
+
+@dataclass
+class DerivedModel:
+    key: str
+    scene_name: str
+    structure: dict
+    topology: object              # symgen.model.topology.Topology
+    bars: dict                    # body -> symgen.model.derive.BarModel
+    coords: list                  # Coordinate per q entry
+    q: tuple
+    v: tuple
+    a: tuple
+    lam: tuple
+    lam_rows: list                # ConstraintRow per lam entry
+    params: tuple                 # parameter symbols
+    program: Program
+    output_names: list
+    driver_row: int | None        # index of the angle driver in lam, if any
+    timings: dict
+    latex: dict = field(default_factory=dict)   # symbol name -> LaTeX name (symgen.ir.names)
+
+    @property
+    def param_names(self) -> list:
+        return [str(p) for p in self.params]
