@@ -1,14 +1,14 @@
 """One solver policy for the Python runners (``symgen.numerics``) and the emitted C solver.
 
-The consistent start, the assembly, the closure polish, the singular-position test and the
-range of the bar models are done twice: in Python (``run/mechanism.py``, ``run/simulate.py``)
-and in the emitted C (``symgen/backends/c/templates/solver.c.jinja``). Their tolerances and limits live here
-only: the Python code reads :data:`POLICY`, and the C context (``emit/c/context.py``) writes
-the same values into the emitted solver, so the two cannot drift apart. Each value states
-where it comes from.
+The consistent start, the assembly, the closure polish, the singular-position test, the
+range of the bar models and the divergence (beyond-buckling) check of the quasi-static start
+are done twice: in Python (``symgen/numerics/mechanism.py``, ``symgen/numerics/simulate.py``) and in the emitted C
+(``symgen/backends/c/templates/solver.c.jinja``). Their tolerances and limits live here only: the Python code
+reads :data:`POLICY`, and the C context (``symgen/backends/c/context.py``) writes the same values into the
+emitted solver, so the two cannot drift apart. Each value states where it comes from.
 
-Integrator internals with no Python twin (Radau IIA step control, ``emit/c/radau.py``) and the
-Python-only quasi-static solver of (18)-(20) (``run/quasistatic.py``) keep their own constants.
+Integrator internals with no Python twin (Radau IIA step control, ``symgen/backends/c/radau.py``) and the
+Python-only quasi-static solver of (18)-(20) (``symgen/numerics/quasistatic.py``) keep their own constants.
 """
 from __future__ import annotations
 
@@ -69,6 +69,15 @@ class SolverPolicy:
     #: is beyond any elastic metal (steel yields near 0.2 %); only a buckled or overloaded bar
     #: gets there, and the linear elastic law does not hold.
     stretch_limit: float = 0.1
+    #: Divergence check of the quasi-static start (beyond a buckling load): an eigenvalue s of
+    #: the linearised motion of the deformation amplitudes about the start is a divergence when
+    #: |Im s| <= this * scale and Re s > this * scale, scale = max(1, max |s|). Eigenvalues from
+    #: QR (LAPACK's in Python, the C solver's own) are exact for the matrix perturbed by about
+    #: eps = 2.2e-16 of its (balanced) norm: 1e-9 = 4.5e6 eps leaves that round-off of simple
+    #: eigenvalues well below it (a stable undamped state's pairs +-i omega stay complex pairs).
+    #: A load beyond the buckling load by a relative d has the rate omega_1 sqrt(d): refused once
+    #: d > (this * omega_max / omega_1)^2 (1e-10 at a highest-to-lowest frequency ratio of 1e4).
+    divergence_rtol: float = 1e-9
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -1,8 +1,9 @@
 """The Python runners and the emitted C solver give the same verdicts at the same tau on the
 run checks: a singular position met on the way and at the start, a mechanism that cannot be
-assembled, a bar beyond the range of its model (also in the quasi-static start). Both read
-their limits from ``symgen.policy`` and measure singularity the same way (smallest / largest
-singular value of the closure Jacobian in the dependent rigid coordinates)."""
+assembled, a bar beyond the range of its model (also in the quasi-static start), a quasi-static
+start beyond a buckling load (an unstable equilibrium: the same growth rate along the same
+amplitude). Both read their limits from ``symgen.policy`` and measure singularity the same way
+(smallest / largest singular value of the closure Jacobian in the dependent rigid coordinates)."""
 from __future__ import annotations
 
 import math
@@ -11,11 +12,14 @@ import subprocess
 
 import pytest
 
-from symgen.api import mechanism
+from symgen.api import mechanism, write_c
+from symgen.backends.c.build import compile_executable
 from symgen.errors import SimulationError
 from symgen.numerics.csolver import executable
+from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.simulate import simulate
 from test_cli import FOUR_BAR_TOGGLE
+from tests.test_hard_cases import MU, P_CR, write_column
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                                 reason="no C compiler")
@@ -105,3 +109,111 @@ def test_quasi_static_start_beyond_the_range(built):
     assert "beyond the range of the model" in msg and "beyond the range of the model" in err, (msg, err)
     assert tau == 0.0 and code == 1 and "at tau = 0:" in err and "'coupler'" in err
 
+
+
+# ---------------------------------------------------------------------------- beyond buckling
+# The column of tests/test_hard_cases.py (pinned, its far end on a slider along its axis, mu =
+# 0.01, a small lateral load as imperfection) under an axial end load ratio * pi^2 mu, with its
+# axial amplitudes free (7 functions: their stiff axial rows are in the eigenvalue problem) or
+# held by inextensibility (dependent coordinates). One C build per case, from the stable scene;
+# the load is changed with --set (the parameter load1_axial).
+COLUMNS = {"true": 7, "inextensible": 3}
+PROBE = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "column_solver.h"
+static column_solver s;
+/* probe NAME VALUE: the solver's start with one parameter changed; prints the return code, the
+   divergence rate (all digits) and the message */
+int main(int argc, char **argv)
+{
+    double p[column_N_P];
+    int rc;
+    memcpy(p, column_parameter_defaults, sizeof p);
+    if (argc != 3 || column_parameter_index(argv[1]) < 0) return 2;
+    p[column_parameter_index(argv[1])] = strtod(argv[2], NULL);
+    rc = column_solver_init(&s, p, 0.0, -1.0, -1.0);
+    printf("%d %.17g\n%s\n", rc, s.divergence_rate, s.message);
+    return 0;
+}
+"""
+
+
+@pytest.fixture(scope="module", params=sorted(COLUMNS))
+def column(request, tmp_path_factory):
+    """{folder, axial, C simulator, C sources} of the column with effects.axial = param."""
+    axial = request.param
+    d = tmp_path_factory.mktemp(f"column_{axial}")
+    over = [f"effects.axial={axial}"]
+    path = write_column(d, 0.9, COLUMNS[axial])            # the C is emitted from a stable start
+    exe = d / "column_sim"
+    exe.write_bytes(executable(mechanism(path, over))[0])
+    exe.chmod(0o700)
+    return {"folder": d, "axial": axial, "exe": exe, "src": write_c(path, d / "c", over)}
+
+
+def _python_divergence(monkeypatch, column, ratio):
+    """(tau of the failure, message, (rate, coordinate) of the divergence check) of the Python run."""
+    seen = []
+    check = Mechanism.divergent_deformation
+
+    def spy(self, *args):
+        seen.append(check(self, *args))
+        return seen[-1]
+
+    monkeypatch.setattr(Mechanism, "divergent_deformation", spy)
+    axial = column["axial"]
+    tau, msg, _ = _python(write_column(column["folder"], ratio, COLUMNS[axial]), [f"effects.axial={axial}"])
+    monkeypatch.undo()
+    assert len(seen) == 1, "the Python start ran no divergence check"
+    return tau, msg, seen[0]
+
+
+def _load(ratio):
+    return f"load1_axial={-ratio * P_CR!r}"
+
+
+def _c_probe(column, ratio):
+    """(return code, divergence rate, message) of the C solver's start (the probe, built once)."""
+    if "probe" not in column:
+        d, src = column["folder"], column["src"]
+        (d / "probe.c").write_text(PROBE)
+        column["probe"] = compile_executable([src / "column.c", src / "column_solver.c", d / "probe.c"], d / "probe",
+                                             include=[src])
+    out = subprocess.run([str(column["probe"]), *_load(ratio).split("=")], capture_output=True, text=True,
+                         timeout=60).stdout
+    head, message = out.split("\n", 1)
+    rc, rate = head.split()
+    return int(rc), float(rate), message.strip()
+
+
+@pytest.mark.parametrize("ratio", [0.9, 0.99])
+def test_quasi_static_start_below_buckling(column, monkeypatch, ratio):
+    """Below the Euler load pi^2 mu the quasi-static state is stable: both start and run."""
+    tau, msg, (rate, coord) = _python_divergence(monkeypatch, column, ratio)
+    assert (tau, msg, rate, coord) == (None, "complete", 0.0, "")
+    code, err, _ = _c(column["exe"], "--set", _load(ratio))
+    assert code == 0 and err == "", err
+    assert _c_probe(column, ratio)[:2] == (0, 0.0)
+
+
+@pytest.mark.parametrize("ratio, amplitude", [(1.01, "g_col_1"), (1.1, "g_col_1"), (5.0, "g_col_2")])
+def test_quasi_static_start_beyond_buckling(column, monkeypatch, ratio, amplitude):
+    """Beyond it the quasi-static state is an unstable equilibrium: both refuse to start at tau = 0
+    with the same growth rate (pi^2 sqrt(mu) sqrt(ratio - 1) for the first mode; measured to agree
+    to 8e-11 with free axial amplitudes and 2e-14 inextensible) along the same amplitude (the
+    second sine beyond four times the load, where the second mode diverges faster)."""
+    tau, msg, (rate, coord) = _python_divergence(monkeypatch, column, ratio)
+    assert tau == 0.0 and "quasi-static state is unstable" in msg
+    assert coord == amplitude
+    if ratio < 4:
+        assert rate == pytest.approx(math.pi ** 2 * math.sqrt(MU) * math.sqrt(ratio - 1), rel=2e-3)
+    code, err, _ = _c(column["exe"], "--set", _load(ratio))
+    assert code == 1 and "at tau = 0:" in err, err
+    same = f"the quasi-static state is unstable: the deformation grows at rate {rate:.3g} (per unit tau) along {coord}, " \
+           f"a load beyond a buckling load"
+    assert same in msg and same in err, (msg, err)
+    rc, c_rate, c_msg = _c_probe(column, ratio)
+    assert rc == 1 and c_msg in err
+    assert c_rate == pytest.approx(rate, rel=1e-8)

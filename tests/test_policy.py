@@ -59,6 +59,26 @@ def test_python_runners_read_the_policy_at_call_time(monkeypatch):
         mech.assemble(0.0, np.asarray(q0, dtype=float) + 0.05, part, maxit=0)
 
 
+def test_divergence_check_reads_the_policy_at_call_time(tmp_path, monkeypatch):
+    """The divergence check of the quasi-static start (beyond a buckling load) takes its
+    tolerance, POLICY.divergence_rtol, when the call is made: the column of
+    tests/test_hard_cases.py at 1.1 times its Euler load diverges at rate 0.312 = 3.75 % of its
+    largest |eigenvalue|, so a tolerance of 5 % sees no divergence."""
+    from symgen.api import mechanism as load_mechanism
+    from tests.test_hard_cases import write_column
+    mech = load_mechanism(write_column(tmp_path, 1.1, 3), ["effects.axial=inextensible"])
+    q, v = mech.initial_guess(0.0)
+    part = mech.choose_partition(0.0, q)
+    q = mech.assemble(0.0, q, part)
+    qs, vs, _ = mech.quasi_static(0.0, q, v, part)
+    rate, coord = mech.divergent_deformation(0.0, qs, vs, part)
+    assert rate == pytest.approx(0.3121, rel=1e-3) and coord == "g_col_1"
+    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, divergence_rtol=0.05))
+    assert mech.divergent_deformation(0.0, qs, vs, part) == (0.0, "")
+    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, divergence_rtol=0.02))
+    assert mech.divergent_deformation(0.0, qs, vs, part)[0] == rate
+
+
 def test_limits_state_their_source():
     """Every policy value is documented where it is defined (the source of the number)."""
     import inspect

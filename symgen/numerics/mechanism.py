@@ -387,7 +387,8 @@ class Mechanism:
         A[len(E):, :] = dzdx[[2 * nD + i for i in E]][:, cols]
         s, W = np.linalg.eig(A)
         scale = max(1.0, float(np.abs(s).max()))
-        real = [k for k in range(len(s)) if abs(s[k].imag) <= 1e-9 * scale and s[k].real > 1e-9 * scale]
+        tol = POLICY.divergence_rtol * scale
+        real = [k for k in range(len(s)) if abs(s[k].imag) <= tol and s[k].real > tol]
         if not real:
             return 0.0, ""
         k = max(real, key=lambda j: s[j].real)

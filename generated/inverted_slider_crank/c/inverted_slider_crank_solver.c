@@ -203,6 +203,209 @@ static double inverted_slider_crank_x_max_abs(const double *x, int n)
     return m;
 }
 
+/* ------------------------------------------------------------------ eigenvalues of a real matrix */
+/* The eigenvalues of a general real n x n matrix, for the divergence check of the quasi-static
+   start: balancing, Householder reduction to upper Hessenberg form and Francis double-shift QR
+   iterations; the algorithm of EISPACK's balanc, orthes and hqr (Wilkinson & Reinsch, Handbook
+   for Automatic Computation II, 1971; Golub & Van Loan, Matrix Computations, 7.4-7.5), eigenvalues
+   only: no Schur vectors are accumulated. Row-major, the matrix is overwritten. */
+
+/* a := D^-1 a D, D diagonal with powers of 2 (exact): the row and column of an index are scaled
+   while that cuts the sum of their off-diagonal norms by 5 %, until no index changes. The
+   eigenvalues do not change; their round-off then scales with the balanced norm, not with the
+   raw one (stiff axial rows of size lambda next to unit rows) */
+static void inverted_slider_crank_x_balance(double *a, int n)
+{
+    int i, j, done = 0;
+    while (!done) {
+        done = 1;
+        for (i = 0; i < n; ++i) {
+            double c = 0.0, r = 0.0, f = 1.0, sum;
+            for (j = 0; j < n; ++j) {
+                if (j == i) continue;
+                c += fabs(a[j * n + i]);
+                r += fabs(a[i * n + j]);
+            }
+            if (c == 0.0 || r == 0.0) continue;
+            sum = c + r;
+            /* f = 2^k with c f^2 within [r / 2, 2 r); c tracks c f^2 */
+            while (c < 0.5 * r) { f *= 2.0; c *= 4.0; }
+            while (c >= 2.0 * r) { f *= 0.5; c *= 0.25; }
+            if ((c + r) / f < 0.95 * sum) {     /* the sums shrink enough: scale row i by 1/f, column i by f */
+                done = 0;
+                for (j = 0; j < n; ++j) a[i * n + j] /= f;
+                for (j = 0; j < n; ++j) a[j * n + i] *= f;
+            }
+        }
+    }
+}
+
+/* a := P^T a P upper Hessenberg, P a product of n - 2 Householder reflections (u: n doubles of
+   work): step k reflects rows and columns k+1.. so that column k is zero below its subdiagonal */
+static void inverted_slider_crank_x_hessenberg(double *a, int n, double *u)
+{
+    int i, j, k;
+    for (k = 0; k + 2 < n; ++k) {
+        double scale = 0.0, h = 0.0, g, f;
+        for (i = k + 1; i < n; ++i) scale += fabs(a[i * n + k]);
+        if (scale == 0.0) continue;                 /* already zero below the subdiagonal */
+        for (i = k + 1; i < n; ++i) {
+            u[i] = a[i * n + k] / scale;
+            h += u[i] * u[i];
+        }
+        g = u[k + 1] > 0.0 ? -sqrt(h) : sqrt(h);    /* the new subdiagonal (/ scale), sign against cancellation */
+        h -= u[k + 1] * g;                          /* |u|^2 / 2 once u[k+1] -= g: P = I - u u^T / h */
+        u[k + 1] -= g;
+        for (j = k + 1; j < n; ++j) {               /* a := P a (columns k+1..) */
+            f = 0.0;
+            for (i = k + 1; i < n; ++i) f += u[i] * a[i * n + j];
+            f /= h;
+            for (i = k + 1; i < n; ++i) a[i * n + j] -= f * u[i];
+        }
+        for (i = 0; i < n; ++i) {                   /* a := a P */
+            f = 0.0;
+            for (j = k + 1; j < n; ++j) f += a[i * n + j] * u[j];
+            f /= h;
+            for (j = k + 1; j < n; ++j) a[i * n + j] -= f * u[j];
+        }
+        a[(k + 1) * n + k] = scale * g;             /* column k: P maps it to (.., scale g, 0, ..) */
+        for (i = k + 2; i < n; ++i) a[i * n + k] = 0.0;
+    }
+}
+
+/* eigenvalues wr + i wi of the upper Hessenberg a (destroyed) by Francis double-shift QR: the
+   active block is rows / columns l..nn; a negligible subdiagonal entry splits it; a converged
+   1 x 1 or 2 x 2 block at its bottom gives one real eigenvalue or a pair and is deflated.
+   Each step applies (H - s1 I)(H - s2 I), s1 and s2 the eigenvalues of the trailing 2 x 2 block
+   (real arithmetic: only their sum x + y and product x y - w enter), implicitly: a 3 x 3
+   reflection from its first column starts a bulge that 3 x 3 reflections chase down the
+   subdiagonal. 0, or 1 if 30 n steps did not find every eigenvalue. */
+#define inverted_slider_crank_x_H(i, j) a[(i) * n + (j)]
+static int inverted_slider_crank_x_hqr(double *a, int n, double *wr, double *wi)
+{
+    int nn = n - 1, its = 0, steps = 0, i, j, k, l, m;
+    double norm = 0.0, shift = 0.0, p = 0.0, q = 0.0, r = 0.0, s, w, x, y, z;
+    for (i = 0; i < n; ++i) {
+        for (j = i > 0 ? i - 1 : 0; j < n; ++j) norm += fabs(inverted_slider_crank_x_H(i, j));
+    }
+    while (nn >= 0) {
+        /* l: the top of the active block (the lowest negligible subdiagonal entry is set to 0) */
+        for (l = nn; l > 0; --l) {
+            s = fabs(inverted_slider_crank_x_H(l - 1, l - 1)) + fabs(inverted_slider_crank_x_H(l, l));
+            if (s == 0.0) s = norm;
+            if (fabs(inverted_slider_crank_x_H(l, l - 1)) <= DBL_EPSILON * s) { inverted_slider_crank_x_H(l, l - 1) = 0.0; break; }
+        }
+        x = inverted_slider_crank_x_H(nn, nn);
+        if (l == nn) {                              /* 1 x 1: a real eigenvalue */
+            wr[nn] = x + shift;
+            wi[nn] = 0.0;
+            nn -= 1;
+            its = 0;
+            continue;
+        }
+        y = inverted_slider_crank_x_H(nn - 1, nn - 1);
+        w = inverted_slider_crank_x_H(nn, nn - 1) * inverted_slider_crank_x_H(nn - 1, nn);
+        if (l == nn - 1) {                          /* 2 x 2 [[y, .], [., x]]: x + p +- sqrt(p^2 + w) */
+            p = 0.5 * (y - x);
+            q = p * p + w;
+            z = sqrt(fabs(q));
+            x += shift;
+            if (q >= 0.0) {                         /* a real pair; the smaller from the product (no cancellation) */
+                z = p + (p >= 0.0 ? z : -z);
+                wr[nn - 1] = wr[nn] = x + z;
+                if (z != 0.0) wr[nn] = x - w / z;
+                wi[nn - 1] = wi[nn] = 0.0;
+            } else {                                /* a complex pair */
+                wr[nn - 1] = wr[nn] = x + p;
+                wi[nn - 1] = z;
+                wi[nn] = -z;
+            }
+            nn -= 2;
+            its = 0;
+            continue;
+        }
+        if (steps >= 30 * n) return 1;
+        if (its == 10 || its == 20) {               /* exceptional shift: a stalled block is shaken loose */
+            shift += x;
+            for (i = 0; i <= nn; ++i) inverted_slider_crank_x_H(i, i) -= x;
+            s = fabs(inverted_slider_crank_x_H(nn, nn - 1)) + fabs(inverted_slider_crank_x_H(nn - 1, nn - 2));
+            x = y = 0.75 * s;
+            w = -0.4375 * s * s;
+        }
+        ++its;
+        ++steps;
+        /* m: where the step starts, the largest m >= l at which H(m, m-1) is negligible against
+           (p, q, r), the first column of (H - s1 I)(H - s2 I) on rows m.. (else l) */
+        for (m = nn - 2; m >= l; --m) {
+            z = inverted_slider_crank_x_H(m, m);
+            r = x - z;
+            s = y - z;
+            p = (r * s - w) / inverted_slider_crank_x_H(m + 1, m) + inverted_slider_crank_x_H(m, m + 1);
+            q = inverted_slider_crank_x_H(m + 1, m + 1) - z - r - s;
+            r = inverted_slider_crank_x_H(m + 2, m + 1);
+            s = fabs(p) + fabs(q) + fabs(r);
+            p /= s;
+            q /= s;
+            r /= s;
+            if (m == l) break;
+            if (fabs(inverted_slider_crank_x_H(m, m - 1)) * (fabs(q) + fabs(r))
+                <= DBL_EPSILON * fabs(p) * (fabs(inverted_slider_crank_x_H(m - 1, m - 1)) + fabs(z) + fabs(inverted_slider_crank_x_H(m + 1, m + 1)))) break;
+        }
+        for (i = m + 2; i <= nn; ++i) {             /* clear what the bulge will fill */
+            inverted_slider_crank_x_H(i, i - 2) = 0.0;
+            if (i != m + 2) inverted_slider_crank_x_H(i, i - 3) = 0.0;
+        }
+        /* the double step: reflections I - v v^T / v1 on rows / columns k, k+1, k+2 (k+1 at the
+           bottom), v = (1, y, z) / x scaled, chase the bulge from row m to nn */
+        for (k = m; k < nn; ++k) {
+            const int last = k == nn - 1;
+            if (k != m) {
+                p = inverted_slider_crank_x_H(k, k - 1);
+                q = inverted_slider_crank_x_H(k + 1, k - 1);
+                r = last ? 0.0 : inverted_slider_crank_x_H(k + 2, k - 1);
+                x = fabs(p) + fabs(q) + fabs(r);
+                if (x == 0.0) continue;             /* nothing to chase here */
+                p /= x;
+                q /= x;
+                r /= x;
+            }
+            s = sqrt(p * p + q * q + r * r);
+            if (p < 0.0) s = -s;
+            if (k == m) {
+                if (l != m) inverted_slider_crank_x_H(k, k - 1) = -inverted_slider_crank_x_H(k, k - 1);
+            } else {
+                inverted_slider_crank_x_H(k, k - 1) = -s * x;
+            }
+            p += s;
+            x = p / s;
+            y = q / s;
+            z = r / s;
+            q /= p;
+            r /= p;
+            for (j = k; j <= nn; ++j) {             /* rows k, k+1, k+2 of the active block */
+                p = inverted_slider_crank_x_H(k, j) + q * inverted_slider_crank_x_H(k + 1, j);
+                if (!last) {
+                    p += r * inverted_slider_crank_x_H(k + 2, j);
+                    inverted_slider_crank_x_H(k + 2, j) -= p * z;
+                }
+                inverted_slider_crank_x_H(k + 1, j) -= p * y;
+                inverted_slider_crank_x_H(k, j) -= p * x;
+            }
+            for (i = l; i <= (nn < k + 3 ? nn : k + 3); ++i) {   /* columns k, k+1, k+2 */
+                p = x * inverted_slider_crank_x_H(i, k) + y * inverted_slider_crank_x_H(i, k + 1);
+                if (!last) {
+                    p += z * inverted_slider_crank_x_H(i, k + 2);
+                    inverted_slider_crank_x_H(i, k + 2) -= p * r;
+                }
+                inverted_slider_crank_x_H(i, k + 1) -= p * q;
+                inverted_slider_crank_x_H(i, k) -= p;
+            }
+        }
+    }
+    return 0;
+}
+#undef inverted_slider_crank_x_H
+
 /* ------------------------------------------------------------------ the model in y */
 /* q, v from y (a and lam are slices of y) */
 static void inverted_slider_crank_x_unpack(const double *y, double *q, double *v)
@@ -492,6 +695,93 @@ static int inverted_slider_crank_x_quasi_static(inverted_slider_crank_solver *s,
 }
 
 static int inverted_slider_crank_x_beyond_range(inverted_slider_crank_solver *s);
+static void inverted_slider_crank_x_reduce(inverted_slider_crank_solver *s);
+
+/* The divergence check of a quasi-static start (Mechanism.divergent_deformation). The linearised
+   motion of the independent amplitudes q_E about the state (q, v), the rigid independent
+   coordinates held and the dependent ones following the closure, is
+       d/dtau [dq_E; dv_E] = A [dq_E; dv_E],   A = [[0, I], [da_E/dq_E, da_E/dv_E]],
+   whose lower rows are those of dz/dx = -g_z^-1 g_x of the index-1 system (rows of a_E in z,
+   columns of q_E and v_E in x): the integrator's own Jacobian (rhs_jac) and reduction (reduce,
+   K = g_z^-1 g_x). A real eigenvalue s of A (|Im s| <= tol, tol = divergence_rtol max(1, max |s|))
+   above tol is a divergence: the state is an unstable equilibrium, beyond a buckling load, and
+   the start is refused, naming the largest such rate and the amplitude that dominates its
+   eigenvector (largest |component| among the q_E; by inverse iteration with A - s I). 0, or fail. */
+static int inverted_slider_crank_x_divergence(inverted_slider_crank_solver *s, double t, const double *q, const double *v)
+{
+    const int ne = inverted_slider_crank_x_NE, n2 = 2 * inverted_slider_crank_x_NE, nx = inverted_slider_crank_x_NX;
+    double a[11], lam[3], scale = 1.0, tol, rate = 0.0, big;
+    int i, j, k, it, coord = -1, regular = 0;
+    s->divergence_rate = 0.0;
+    if (ne == 0) return 0;
+    if (inverted_slider_crank_x_accelerations(s, t, q, v, a, lam)) return 1;
+    for (k = 0; k < inverted_slider_crank_x_NQ; ++k) {
+        s->y[inverted_slider_crank_x_ypos_q[k]] = q[k];
+        s->y[inverted_slider_crank_x_ypos_v[k]] = v[k];
+        s->y[inverted_slider_crank_x_A0 + k] = a[k];
+    }
+    for (k = 0; k < inverted_slider_crank_x_NL; ++k) s->y[inverted_slider_crank_x_A0 + inverted_slider_crank_x_NQ + k] = lam[k];
+    inverted_slider_crank_x_rhs_jac(s, t, s->y);
+    inverted_slider_crank_x_reduce(s);
+    if (s->gzz_singular) {
+        return inverted_slider_crank_x_fail(s, t, "the quasi-static state's algebraic equations are singular (no linearised motion)", 0.0,
+                           "the rigid mechanism may be at a singular position");
+    }
+    memset(s->dva, 0, sizeof(s->dva));
+    for (i = 0; i < ne; ++i) {
+        const int row = 2 * inverted_slider_crank_x_ND + inverted_slider_crank_x_elastic[i];      /* a_E[i] in z */
+        s->dva[i * n2 + ne + i] = 1.0;
+        for (j = 0; j < ne; ++j) {
+            s->dva[(ne + i) * n2 + j] = -s->kzx[row * nx + inverted_slider_crank_x_ypos_q[inverted_slider_crank_x_elastic[j]]];
+            s->dva[(ne + i) * n2 + ne + j] = -s->kzx[row * nx + inverted_slider_crank_x_ypos_v[inverted_slider_crank_x_elastic[j]]];
+        }
+    }
+    if (!(inverted_slider_crank_x_max_abs(s->dva, n2 * n2) <= DBL_MAX)) {
+        return inverted_slider_crank_x_fail(s, t, "the linearised motion of the quasi-static state is not finite", 0.0,
+                           "check the loads and stiffness of the bars");
+    }
+    memcpy(s->dvh, s->dva, sizeof(s->dvh));
+    inverted_slider_crank_x_balance(s->dvh, n2);
+    inverted_slider_crank_x_hessenberg(s->dvh, n2, s->dvu);
+    if (inverted_slider_crank_x_hqr(s->dvh, n2, s->dvwr, s->dvwi)) {
+        return inverted_slider_crank_x_fail(s, t, "the stability of the quasi-static state is not known: its eigenvalues did not converge", 0.0,
+                           "check the loads and stiffness of the bars");
+    }
+    for (k = 0; k < n2; ++k) scale = fmax(scale, hypot(s->dvwr[k], s->dvwi[k]));
+    tol = 1e-09 * scale;
+    for (k = 0; k < n2; ++k) {
+        if (fabs(s->dvwi[k]) <= tol && s->dvwr[k] > tol && s->dvwr[k] > rate) rate = s->dvwr[k];
+    }
+    if (rate == 0.0) return 0;
+    s->divergence_rate = rate;
+    /* its eigenvector: inverse iteration x := (A - sigma I)^-1 x from x = 1 with sigma = rate (moved
+       by eps scale should the LU meet an exact zero pivot): A - sigma I is singular to the
+       eigenvalue's round-off, so each step multiplies the other eigenvectors' share of x by
+       about that round-off over their distance to rate; 3 steps (Wilkinson: 1 or 2 suffice) */
+    for (it = 0; it < 2 && !regular; ++it) {
+        memcpy(s->dvh, s->dva, sizeof(s->dvh));
+        for (k = 0; k < n2; ++k) s->dvh[k * n2 + k] -= rate + it * DBL_EPSILON * scale;
+        regular = inverted_slider_crank_x_lu(s->dvh, n2, s->dvpiv) == 0;
+    }
+    for (k = 0; k < n2; ++k) s->dvx[k] = 1.0;
+    for (it = 0; regular && it < 3; ++it) {
+        memcpy(s->dvu, s->dvx, sizeof(s->dvu));
+        inverted_slider_crank_x_lu_solve(s->dvh, n2, s->dvpiv, s->dvu);
+        big = inverted_slider_crank_x_max_abs(s->dvu, n2);
+        if (!(big > 0.0 && big <= DBL_MAX)) break;          /* keep the last finite iterate */
+        for (k = 0; k < n2; ++k) s->dvx[k] = s->dvu[k] / big;
+    }
+    for (k = 0, big = -1.0; regular && k < ne; ++k) {       /* the q_E half: the amplitudes */
+        if (fabs(s->dvx[k]) > big) { big = fabs(s->dvx[k]); coord = inverted_slider_crank_x_elastic[k]; }
+    }
+    s->status = inverted_slider_crank_SOLVER_FAILED;
+    snprintf(s->message, sizeof(s->message), "at tau = %.6g: the quasi-static state is unstable: the deformation grows "
+             "at rate %.3g (per unit tau) along %s, a load beyond a buckling load; lower the load or stiffen the bar; "
+             "or start undeformed (remove initial.deformation = \"quasi-static\") to follow the bar into its buckled "
+             "state", t, rate, coord >= 0 ? inverted_slider_crank_coordinate_names[coord] : "the deformation amplitudes");
+    return inverted_slider_crank_SOLVER_FAILED;
+}
+
 
 /* quasi-static start (Mechanism.quasi_static_start): under an angle driver the deformation
    rates are the quasi-static ones too, by central differences */
@@ -504,6 +794,8 @@ static int inverted_slider_crank_x_quasi_static_start(inverted_slider_crank_solv
     memcpy(s->q, q, sizeof(s->q));
     s->t = t0;
     if (inverted_slider_crank_x_beyond_range(s)) return 1;
+    /* and stable: not beyond a buckling load (Mechanism.quasi_static_start) */
+    if (inverted_slider_crank_x_divergence(s, t0, q, v)) return 1;
     if (!inverted_slider_crank_x_ANGLE_DRIVER) return 0;
     inverted_slider_crank_x_driver_motion(s, t0, m3);
     if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */

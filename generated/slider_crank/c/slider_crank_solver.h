@@ -81,6 +81,8 @@ typedef struct slider_crank_solver {
     double rtol, atol;          /* tolerances asked for */
     long n_steps, n_accepted, n_rejected, n_jacobians, n_factorizations, n_residuals;
     double closure_max;         /* max |loop closure| seen at the output times */
+    double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
+                                   buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
     char message[640];
     /* work */
@@ -105,6 +107,12 @@ typedef struct slider_crank_solver {
     double q[4], v[4], a[4], lam[2];
     double qs[4], vs[4], qe[4];
     double q_last[4], t_last;   /* coordinates at the last good output */
+    /* the divergence check of a quasi-static start: the matrix of the linearised motion of the
+       independent amplitudes (2 NE x 2 NE), a copy the eigenvalue QR (then inverse iteration)
+       works in, the eigenvalues, two vectors, pivots */
+    double dva[16], dvh[16], dvwr[4], dvwi[4];
+    double dvx[4], dvu[4];
+    int dvpiv[4];
 } slider_crank_solver;
 
 /*
@@ -114,7 +122,9 @@ typedef struct slider_crank_solver {
  * deformation if the scene asks for it, then consistent velocities, accelerations and
  * multipliers. Returns 0, or nonzero with s->message set: _BAD_ARGUMENT for s == NULL (no
  * message), a t0 that is not finite, an rtol or atol that is NaN, infinite or (rtol) not below _RTOL_MAX, or a parameter
- * that is not valid (_parameter_valid); _FAILED when the start fails.
+ * that is not valid (_parameter_valid); _FAILED when the start fails (no assembly, a singular
+ * position, a quasi-static state that does not converge, is beyond the range of the bar
+ * models or is unstable: beyond a buckling load, s->divergence_rate > 0).
  */
 int slider_crank_solver_init(slider_crank_solver *s, const double *p, double t0, double rtol, double atol);
 
