@@ -14,6 +14,7 @@ from symgen.backends.c import context as ctx_mod
 from symgen.backends.c.printer import c_double
 from symgen.backends.c.render import render_files
 from symgen.errors import SimulationError
+from symgen.numerics import checks, start
 from symgen.numerics import mechanism as mech_mod
 
 
@@ -49,9 +50,9 @@ def test_python_runners_read_the_policy_at_call_time(monkeypatch):
     Q = np.tile(np.asarray(q0, dtype=float).reshape(-1, 1), (1, 3))
     body, (fi, gi) = next((b, ix) for b, ix in mech.amplitudes.items() if ix[1])
     Q[gi[0], 2] = 0.5 * policy.POLICY.deflection_limit
-    assert mech.beyond_range(Q) is None
-    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, deflection_limit=0.25 * policy.POLICY.deflection_limit))
-    column, reason = mech.beyond_range(Q)
+    assert checks.beyond_range(mech, Q) is None
+    monkeypatch.setattr(checks, "POLICY", dataclasses.replace(policy.POLICY, deflection_limit=0.25 * policy.POLICY.deflection_limit))
+    column, reason = checks.beyond_range(mech, Q)
     assert column == 2 and body in reason
     part = mech.choose_partition(0.0, q0)
     monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, assembly_maxit=0, assembly_accept=0.0))
@@ -70,13 +71,13 @@ def test_divergence_check_reads_the_policy_at_call_time(tmp_path, monkeypatch):
     q, v = mech.initial_guess(0.0)
     part = mech.choose_partition(0.0, q)
     q = mech.assemble(0.0, q, part)
-    qs, vs, _ = mech.quasi_static(0.0, q, v, part)
-    rate, coord = mech.divergent_deformation(0.0, qs, vs, part)
+    qs, vs, _ = start.quasi_static(mech, 0.0, q, v, part)
+    rate, coord = checks.divergent_deformation(mech, 0.0, qs, vs, part)
     assert rate == pytest.approx(0.3121, rel=1e-3) and coord == "g_col_1"
-    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, divergence_rtol=0.05))
-    assert mech.divergent_deformation(0.0, qs, vs, part) == (0.0, "")
-    monkeypatch.setattr(mech_mod, "POLICY", dataclasses.replace(policy.POLICY, divergence_rtol=0.02))
-    assert mech.divergent_deformation(0.0, qs, vs, part)[0] == rate
+    monkeypatch.setattr(checks, "POLICY", dataclasses.replace(policy.POLICY, divergence_rtol=0.05))
+    assert checks.divergent_deformation(mech, 0.0, qs, vs, part) == (0.0, "")
+    monkeypatch.setattr(checks, "POLICY", dataclasses.replace(policy.POLICY, divergence_rtol=0.02))
+    assert checks.divergent_deformation(mech, 0.0, qs, vs, part)[0] == rate
 
 
 def test_limits_state_their_source():

@@ -14,8 +14,6 @@ index 1 as long as the rigid mechanism is not at a singular position (phi_qD reg
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import casadi as ca
 import numpy as np
 
@@ -25,43 +23,8 @@ from symgen.ir.parameters import parameter_values
 from symgen.policy import POLICY
 from symgen.scene.model import Scene
 from symgen.ir.records import find_coordinate
-
-
-@dataclass(frozen=True)
-class Partition:
-    ind: tuple      # indices of independent coordinates (differential)
-    dep: tuple      # indices of dependent rigid coordinates (algebraic)
-
-
-@dataclass(frozen=True)
-class Index1:
-    """Symbols of the index-1 DAE of a partition: x = [q_I, v_I], z = [q_D, v_D, a, lam]."""
-
-    x: ca.SX
-    z: ca.SX
-    q: ca.SX
-    v: ca.SX
-    a: ca.SX
-    lam: ca.SX
-
-    def alg(self, f: dict, t, p) -> ca.SX:
-        """The algebraic equations [phi; phid; res; phidd] at time t with parameters p."""
-        args = [t, self.q, self.v, self.a, self.lam, p]
-        return ca.vertcat(*(f[k](*args) for k in ("phi", "phid", "res", "phidd")))
-
-
-def index1(n: int, m: int, part: Partition) -> Index1:
-    """The split of (x, z) into coordinates, rates, accelerations and multipliers."""
-    I, D = list(part.ind), list(part.dep)
-    nI, nD = len(I), len(D)
-    x = ca.SX.sym("x", 2 * nI)
-    z = ca.SX.sym("z", 2 * nD + n + m)
-    q, v = ca.SX.zeros(n), ca.SX.zeros(n)
-    for k, i in enumerate(I):
-        q[i], v[i] = x[k], x[nI + k]
-    for k, i in enumerate(D):
-        q[i], v[i] = z[k], z[nD + k]
-    return Index1(x, z, q, v, z[2 * nD: 2 * nD + n], z[2 * nD + n:])
+from symgen.numerics import checks, start
+from symgen.numerics.index1 import Partition
 
 
 class Mechanism:
@@ -89,6 +52,7 @@ class Mechanism:
         self.inext_rows = [i for i, r in enumerate(self.meta["lam_rows"]) if r["kind"] == "inextensible"]
         inext_bars = {self.meta["lam_rows"][i]["joint"] for i in self.inext_rows}
         self.inext_f = [i for i, c in enumerate(self.coords) if c["kind"] == "f" and c["body"] in inext_bars]
+        self.static_systems: dict = {}    # Partition -> start.StaticSystem (built on first use)
         self.amplitudes: dict = {}        # body -> (axial indices, transverse indices)
         for i, c in enumerate(self.coords):
             if c["kind"] in ("f", "g"):
@@ -151,41 +115,13 @@ class Mechanism:
             if len(chosen) == self.m:
                 break
         if len(chosen) < self.m:
-            bad = self._worst_row(J[:, chosen] if chosen else J[:, []])
+            bad = checks.worst_row(self, J[:, chosen] if chosen else J[:, []])
             raise SimulationError(t, f"the closure equations of the {self.loop_name(bad)} are not independent: "
                                      f"the mechanism is at a singular position (a toggle or change point) "
                                      f"or over-constrained",
                                   "start the driver at another angle, check the joints, the driver and initial.guess")
         ind = tuple(i for i in range(self.n) if i not in chosen)
         return Partition(ind, tuple(chosen))
-
-    def _worst_row(self, Jd: np.ndarray) -> int:
-        if Jd.shape[1] == 0:
-            return 0
-        u, s, _ = np.linalg.svd(Jd)
-        return self._loop_row(u[:, -1])
-
-    def singular_ratio(self, t: float, q, part: Partition) -> tuple[float, int]:
-        """Smallest / largest singular value of the loop and driver rows' Jacobian in the
-        dependent rigid coordinates (inextensibility rows and their axial amplitudes, a
-        regular block Ka, are left out: the rigid mechanism alone decides singularity)."""
-        rows = [i for i in range(self.m) if i not in self.inext_rows]
-        cols = [i for i in part.dep if i not in self.inext_f]
-        if not cols:
-            return 1.0, 0
-        Jd = self.jac_q(t, q)[np.ix_(rows, cols)]
-        u, s, _ = np.linalg.svd(Jd)
-        weights = np.zeros(self.m)
-        weights[rows] = u[:, -1]
-        return float(s[-1] / max(s[0], 1e-300)), self._loop_row(weights)
-
-    def _loop_row(self, weights) -> int:
-        """The closure row (a loop, not the driver) that weighs most in a singular direction."""
-        w = np.abs(np.asarray(weights, dtype=float))
-        for i, r in enumerate(self.meta["lam_rows"]):
-            if (r["joint"] == "driver" or r["kind"] == "inextensible") and len(w) > 1:
-                w[i] = -1.0
-        return int(np.argmax(w))
 
     def assemble(self, t: float, q_guess, part: Partition, tol: float = POLICY.assembly_tol,
                  maxit: int = POLICY.assembly_maxit):
@@ -271,158 +207,5 @@ class Mechanism:
         return q, v
 
     def initial_state(self, t0: float = 0.0):
-        """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
-        sc = self.scene
-        q, v = self.initial_guess(t0)
-        part = self.choose_partition(t0, q)
-        q = self.assemble(t0, q, part)
-        part = self.choose_partition(t0, q)     # re-choose at the assembled position
-        ratio, row = self.singular_ratio(t0, q, part)
-        if ratio < POLICY.singular_ratio:
-            raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
-                                      f"of the {self.loop_name(row)} loses rank (ratio {ratio:.2e})",
-                                  "start the driver at another angle or change initial.guess")
-        if sc.initial.quasi_static:
-            q, v = self.quasi_static_start(t0, q, v, part)
-        v = self.velocities(t0, q, v, part)
-        a, lam = self.accelerations(t0, q, v)
-        return q, v, a, lam, part
-
-    # ---------------------------------------------------------------- quasi-static states
-    def _static_system(self, part: Partition):
-        """Newton system of the quasi-static state (18)-(19): deformation rates and
-        accelerations zero, rigid kinematics consistent with closure at all three levels."""
-        key = part
-        if getattr(self, "_static_key", None) == key:
-            return self._static_fun
-        D = list(part.dep)
-        E = [i for i, c in enumerate(self.coords) if c["kind"] in ("f", "g") and i not in D]
-        R = sorted(set(self.rigid) | set(D))        # unknown accelerations
-        nE, nD, nR = len(E), len(D), len(R)
-        u = ca.SX.sym("u", nE + 2 * nD + nR + self.m)
-        t = ca.SX.sym("t")
-        q0 = ca.SX.sym("q0", self.n)
-        v0 = ca.SX.sym("v0", self.n)
-        q, v, a = ca.SX(q0), ca.SX(v0), ca.SX.zeros(self.n)
-        for k, i in enumerate(E):
-            q[i] = u[k]
-            v[i] = 0
-        for k, i in enumerate(D):
-            q[i] = u[nE + k]
-            v[i] = u[nE + nD + k]
-        for k, i in enumerate(R):
-            a[i] = u[nE + 2 * nD + k]
-        lam = u[nE + 2 * nD + nR:]
-        args = [t, q, v, a, lam, self.p]
-        F = ca.vertcat(self.f["phi"](*args), self.f["phid"](*args), self.f["res"](*args), self.f["phidd"](*args))
-        self._static_fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
-        self._static_key = key
-        self._static_E = E
-        self._static_nR = nR
-        return self._static_fun
-
-    def quasi_static(self, t: float, q, v, part: Partition, tol: float = POLICY.quasi_static_tol,
-                     maxit: int = POLICY.quasi_static_maxit):
-        """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
-        fun = self._static_system(part)
-        E, D = self._static_E, list(part.dep)
-        u = np.concatenate([q[E], q[D], v[D], np.zeros(self._static_nR), np.zeros(self.m)])
-        for it in range(1, maxit + 1):
-            F, J, _, _ = fun(t, q, v, u)
-            F = np.array(F).ravel()
-            if np.abs(F).max() < tol:
-                break
-            u = u - np.linalg.solve(np.array(J), F)
-        else:
-            F = np.array(fun(t, q, v, u)[0]).ravel()
-            if np.abs(F).max() > POLICY.quasi_static_accept:
-                raise SimulationError(t, f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
-                                      "the mechanism may be near buckling or a singular position")
-        _, _, qn, vn = fun(t, q, v, u)
-        return np.array(qn).ravel(), np.array(vn).ravel(), it
-
-    def beyond_range(self, Q) -> tuple[int, str] | None:
-        """First column of Q (coordinates x outputs) where a bar is deformed beyond the range
-        of the model (``POLICY.deflection_limit``, ``POLICY.stretch_limit``), with the reason; None if none."""
-        Q = np.asarray(Q, dtype=float).reshape(self.n, -1)
-        first = None
-        for body, (fi, gi) in self.amplitudes.items():
-            for idx, limit, what in ((gi, POLICY.deflection_limit, "transverse deflection"),
-                                     (fi, POLICY.stretch_limit, "axial displacement")):
-                if not idx:
-                    continue
-                size = np.abs(Q[idx]).sum(axis=0)
-                bad = np.nonzero(~(size <= limit))[0]        # NaN counts as beyond
-                if len(bad) and (first is None or bad[0] < first[0]):
-                    first = (int(bad[0]), body, what, float(size[bad[0]]), limit)
-        if first is None:
-            return None
-        k, body, what, size, limit = first
-        return k, (f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes "
-                   f"sum to {size:.3g} of its length (limit {limit:g}; the bar equations hold for moderate "
-                   f"rotations and small strains): a load beyond a buckling load, or forces the bar "
-                   f"cannot carry")
-
-    def divergent_deformation(self, t: float, q, v, part: Partition) -> tuple[float, str]:
-        """Largest real, positive eigenvalue of the linearised motion of the independent
-        deformation amplitudes about (q, v) (rigid independent coordinates held; dependent
-        ones follow the closure), and the amplitude dominating its eigenvector. Positive:
-        the state is statically unstable (beyond a buckling load). (0.0, "") if none."""
-        E = [i for i in part.ind if self.coords[i]["kind"] in ("f", "g")]
-        if not E:
-            return 0.0, ""
-        I, D = list(part.ind), list(part.dep)
-        nI, nD = len(I), len(D)
-        sys_ = index1(self.n, self.m, part)
-        G = sys_.alg(self.f, t, self.p)
-        jac = ca.Function("lin", [sys_.x, sys_.z], [ca.jacobian(G, sys_.x), ca.jacobian(G, sys_.z)])
-        a, lam = self.accelerations(t, q, v)
-        Gx, Gz = (np.array(w) for w in jac(np.concatenate([q[I], v[I]]),
-                                           np.concatenate([q[D], v[D], a, lam])))
-        dzdx = -np.linalg.solve(Gz, Gx)
-        e = [I.index(i) for i in E]
-        cols = e + [nI + k for k in e]
-        A = np.zeros((2 * len(E), 2 * len(E)))
-        A[:len(E), len(E):] = np.eye(len(E))
-        A[len(E):, :] = dzdx[[2 * nD + i for i in E]][:, cols]
-        s, W = np.linalg.eig(A)
-        scale = max(1.0, float(np.abs(s).max()))
-        tol = POLICY.divergence_rtol * scale
-        real = [k for k in range(len(s)) if abs(s[k].imag) <= tol and s[k].real > tol]
-        if not real:
-            return 0.0, ""
-        k = max(real, key=lambda j: s[j].real)
-        return float(s[k].real), self.coords[E[int(np.argmax(np.abs(W[:len(E), k])))]]["name"]
-
-    def quasi_static_start(self, t0: float, q, v, part: Partition):
-        """Initial deformation = quasi-static state; under an angle driver the deformation
-        rates are the quasi-static ones too (central difference), so the start rings little.
-        An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
-        an equilibrium the bar leaves at the first disturbance."""
-        qs, vs, _ = self.quasi_static(t0, q, v, part)
-        beyond = self.beyond_range(qs)
-        if beyond is not None:
-            raise SimulationError(t0, f"in the quasi-static state, {beyond[1]}",
-                                  "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
-        rate, coord = self.divergent_deformation(t0, qs, vs, part)
-        if rate > 0:
-            raise SimulationError(t0, f"the quasi-static state is unstable: the deformation grows at rate "
-                                      f"{rate:.3g} (per unit tau) along {coord}, a load beyond a buckling load",
-                                  "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
-                                  "= \"quasi-static\") to follow the bar into its buckled state")
-        drv = self.scene.driver
-        if drv is None or drv.kind != "angle" or not any(self.driver_motion(t0)[1:]):
-            return qs, vs       # a driver at rest (constant angle): the quasi-static rates are zero
-        E = self._static_E
-        h = self.driver_step(t0)
-        ends = []
-        for dt in (-h, h):
-            qq = qs.copy()
-            i = find_coordinate(self.coords, "theta", drv.body)
-            qq[i] = self.driver_motion(t0 + dt)[0]
-            qq = self.assemble(t0 + dt, qq, part)
-            vv = self.velocities(t0 + dt, qq, vs, part)
-            ends.append(self.quasi_static(t0 + dt, qq, vv, part)[0])
-        vs = vs.copy()
-        vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
-        return qs, vs
+        """Consistent (q, v, a, lam) at t0 and the coordinate partition (``start.consistent_start``)."""
+        return start.consistent_start(self, t0)

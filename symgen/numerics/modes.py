@@ -36,7 +36,8 @@ import casadi as ca
 import numpy as np
 
 from symgen.errors import SimulationError
-from symgen.numerics.mechanism import Mechanism, index1
+from symgen.numerics.index1 import index1
+from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.quasistatic import QuasiStaticSystem
 
 SHAPE_POINTS = 21

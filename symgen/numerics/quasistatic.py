@@ -50,7 +50,9 @@ from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.scene.limits import lift_hint, limit_value, over_limit
 from symgen.numerics import interrupt
-from symgen.numerics.mechanism import Mechanism, Partition
+from symgen.numerics import checks
+from symgen.numerics.index1 import Partition
+from symgen.numerics.mechanism import Mechanism
 from symgen.ir.records import find_coordinate
 
 KINEMATICS = ("deformed", "rigid")
@@ -192,7 +194,7 @@ class QuasiStaticSystem:
             i = find_coordinate(mech.coords, "theta", drv.body)
             q[i] = mech.driver_motion(t)[0]
         q = mech.assemble(t, q, part)
-        ratio, row = mech.singular_ratio(t, q, part)
+        ratio, row = checks.singular_ratio(mech, t, q, part)
         if ratio < POLICY.singular_ratio:
             raise SimulationError(t, f"the rigid mechanism is at a singular position: the closure Jacobian of "
                                      f"the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",

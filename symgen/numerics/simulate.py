@@ -22,7 +22,9 @@ import numpy as np
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
-from symgen.numerics.mechanism import Mechanism, Partition, index1
+from symgen.numerics import checks
+from symgen.numerics.index1 import Partition, index1
+from symgen.numerics.mechanism import Mechanism
 
 CHUNK = 128         # output steps of the first integrator call; each next one covers twice as
 CHUNK_MAX = 2048    # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
@@ -83,7 +85,7 @@ class DaeRunner:
         # everything recorded at an output, in one call (mapped over a chunk's outputs)
         phi_q = ca.jacobian(f["phi"](*args), q)
         # singular-position check on the loop and driver rows and the dependent rigid
-        # coordinates only, as Mechanism.singular_ratio (inextensibility rows left out)
+        # coordinates only, as checks.singular_ratio (inextensibility rows left out)
         rows = [i for i in range(m) if i not in mech.inext_rows]
         Ds = [i for i in D if i not in mech.inext_f]
         self.n_sing = len(Ds)
@@ -235,10 +237,10 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             if clo.size:
                 closure_max = max(closure_max, float(np.abs(clo).max()))
             taus.append(t), outs.append(out), qs.append(qq), vs.append(vv), lams.append(ll)
-        beyond = mech.beyond_range(qq)
+        beyond = checks.beyond_range(mech, qq)
         if beyond is not None:
             raise SimulationError(t, beyond[1], "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
-        ratio, row = mech.singular_ratio(t, qq, part)
+        ratio, row = checks.singular_ratio(mech, t, qq, part)
         if ratio < POLICY.singular_ratio:
             raise SimulationError(t, f"the rigid mechanism reached a singular position: the closure Jacobian "
                                      f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
@@ -258,7 +260,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < POLICY.singular_ratio)[0]
             if len(bad):
                 stop = int(bad[0]) + 1
-        beyond = mech.beyond_range(Q)
+        beyond = checks.beyond_range(mech, Q)
         if beyond is not None and beyond[0] < stop:
             stop = beyond[0] + 1
         if C.size:
@@ -386,7 +388,7 @@ def _lost(mech: Mechanism, part: Partition, tau: float, q_last, tau_last: float,
     closure Jacobian was already near rank loss at the last good output (or, ``limit``, when
     the driven closure itself lost its solution, which a smooth mechanism does only at a
     singular position), else the solver cause."""
-    ratio, row = mech.singular_ratio(tau_last, q_last, part)
+    ratio, row = checks.singular_ratio(mech, tau_last, q_last, part)
     if ratio < POLICY.near_singular_ratio or limit:
         return SimulationError(tau, f"the rigid mechanism reached a singular position (change point / toggle): "
                                     f"the closure Jacobian of the {mech.loop_name(row)} loses rank "

@@ -153,7 +153,7 @@ def _policy() -> dict:
 
 
 def _amplitude_checks(mech) -> list[dict]:
-    """The range of the bar models (``Mechanism.beyond_range``): per bar, the sum of the absolute
+    """The range of the bar models (``symgen.numerics.checks.beyond_range``): per bar, the sum of the absolute
     transverse (axial) amplitudes may not exceed ``POLICY.deflection_limit`` (``stretch_limit``)."""
     deflection, stretch = POLICY.deflection_limit, POLICY.stretch_limit
     groups: dict = {}

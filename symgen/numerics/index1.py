@@ -1,0 +1,48 @@
+"""The index-1 form of a mechanism's DAE for a partition of its coordinates.
+
+The rigid coordinates split into dependent ones q_D (one per closure row) and independent ones;
+with x = [q_I, v_I] differential and z = [q_D, v_D, a, lam] algebraic, the algebraic equations
+are [phi; phid; res; phidd] (``symgen.numerics.mechanism`` chooses the partition).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+
+
+@dataclass(frozen=True)
+class Partition:
+    ind: tuple      # indices of independent coordinates (differential)
+    dep: tuple      # indices of dependent rigid coordinates (algebraic)
+
+
+@dataclass(frozen=True)
+class Index1:
+    """Symbols of the index-1 DAE of a partition: x = [q_I, v_I], z = [q_D, v_D, a, lam]."""
+
+    x: ca.SX
+    z: ca.SX
+    q: ca.SX
+    v: ca.SX
+    a: ca.SX
+    lam: ca.SX
+
+    def alg(self, f: dict, t, p) -> ca.SX:
+        """The algebraic equations [phi; phid; res; phidd] at time t with parameters p."""
+        args = [t, self.q, self.v, self.a, self.lam, p]
+        return ca.vertcat(*(f[k](*args) for k in ("phi", "phid", "res", "phidd")))
+
+
+def index1(n: int, m: int, part: Partition) -> Index1:
+    """The split of (x, z) into coordinates, rates, accelerations and multipliers."""
+    I, D = list(part.ind), list(part.dep)
+    nI, nD = len(I), len(D)
+    x = ca.SX.sym("x", 2 * nI)
+    z = ca.SX.sym("z", 2 * nD + n + m)
+    q, v = ca.SX.zeros(n), ca.SX.zeros(n)
+    for k, i in enumerate(I):
+        q[i], v[i] = x[k], x[nI + k]
+    for k, i in enumerate(D):
+        q[i], v[i] = z[k], z[nD + k]
+    return Index1(x, z, q, v, z[2 * nD: 2 * nD + n], z[2 * nD + n:])

@@ -1,0 +1,126 @@
+"""The consistent start of a run: assembly at t0, the partition, the singular-position check,
+and, when the scene asks for it (``initial.deformation = "quasi-static"``), the quasi-static
+deformation (18)-(19) with its range and divergence checks (``symgen.numerics.checks``)."""
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+from symgen.errors import SimulationError
+from symgen.ir.records import find_coordinate
+from symgen.numerics import checks
+from symgen.numerics.index1 import Partition
+from symgen.policy import POLICY
+
+
+def consistent_start(mech, t0: float = 0.0):
+    """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
+    sc = mech.scene
+    q, v = mech.initial_guess(t0)
+    part = mech.choose_partition(t0, q)
+    q = mech.assemble(t0, q, part)
+    part = mech.choose_partition(t0, q)     # re-choose at the assembled position
+    ratio, row = checks.singular_ratio(mech, t0, q, part)
+    if ratio < POLICY.singular_ratio:
+        raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
+                                  f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
+                              "start the driver at another angle or change initial.guess")
+    if sc.initial.quasi_static:
+        q, v = quasi_static_start(mech, t0, q, v, part)
+    v = mech.velocities(t0, q, v, part)
+    a, lam = mech.accelerations(t0, q, v)
+    return q, v, a, lam, part
+
+
+class StaticSystem:
+    """Newton system of the quasi-static state (18)-(19) for one partition: deformation rates
+    and accelerations zero, rigid kinematics consistent with closure at all three levels.
+    Unknowns u = [q_E, q_D, v_D, a_R, lam] (E: the independent amplitudes, R: the rigid and
+    dependent accelerations)."""
+
+    def __init__(self, mech, part: Partition) -> None:
+        D = list(part.dep)
+        self.E = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g") and i not in D]
+        R = sorted(set(mech.rigid) | set(D))        # unknown accelerations
+        nE, nD, self.nR = len(self.E), len(D), len(R)
+        u = ca.SX.sym("u", nE + 2 * nD + self.nR + mech.m)
+        t = ca.SX.sym("t")
+        q0 = ca.SX.sym("q0", mech.n)
+        v0 = ca.SX.sym("v0", mech.n)
+        q, v, a = ca.SX(q0), ca.SX(v0), ca.SX.zeros(mech.n)
+        for k, i in enumerate(self.E):
+            q[i] = u[k]
+            v[i] = 0
+        for k, i in enumerate(D):
+            q[i] = u[nE + k]
+            v[i] = u[nE + nD + k]
+        for k, i in enumerate(R):
+            a[i] = u[nE + 2 * nD + k]
+        lam = u[nE + 2 * nD + self.nR:]
+        args = [t, q, v, a, lam, mech.p]
+        F = ca.vertcat(mech.f["phi"](*args), mech.f["phid"](*args), mech.f["res"](*args), mech.f["phidd"](*args))
+        self.fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
+
+
+def static_system(mech, part: Partition) -> StaticSystem:
+    """The mechanism's quasi-static system for ``part``, built once per partition."""
+    cache = mech.static_systems
+    if part not in cache:
+        cache[part] = StaticSystem(mech, part)
+    return cache[part]
+
+
+def quasi_static(mech, t: float, q, v, part: Partition, tol: float = POLICY.quasi_static_tol,
+                 maxit: int = POLICY.quasi_static_maxit):
+    """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
+    system = static_system(mech, part)
+    fun = system.fun
+    E, D = system.E, list(part.dep)
+    u = np.concatenate([q[E], q[D], v[D], np.zeros(system.nR), np.zeros(mech.m)])
+    for it in range(1, maxit + 1):
+        F, J, _, _ = fun(t, q, v, u)
+        F = np.array(F).ravel()
+        if np.abs(F).max() < tol:
+            break
+        u = u - np.linalg.solve(np.array(J), F)
+    else:
+        F = np.array(fun(t, q, v, u)[0]).ravel()
+        if np.abs(F).max() > POLICY.quasi_static_accept:
+            raise SimulationError(t, f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
+                                  "the mechanism may be near buckling or a singular position")
+    _, _, qn, vn = fun(t, q, v, u)
+    return np.array(qn).ravel(), np.array(vn).ravel(), it
+
+
+def quasi_static_start(mech, t0: float, q, v, part: Partition):
+    """Initial deformation = quasi-static state; under an angle driver the deformation
+    rates are the quasi-static ones too (central difference), so the start rings little.
+    An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
+    an equilibrium the bar leaves at the first disturbance."""
+    qs, vs, _ = quasi_static(mech, t0, q, v, part)
+    beyond = checks.beyond_range(mech, qs)
+    if beyond is not None:
+        raise SimulationError(t0, f"in the quasi-static state, {beyond[1]}",
+                              "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
+    rate, coord = checks.divergent_deformation(mech, t0, qs, vs, part)
+    if rate > 0:
+        raise SimulationError(t0, f"the quasi-static state is unstable: the deformation grows at rate "
+                                  f"{rate:.3g} (per unit tau) along {coord}, a load beyond a buckling load",
+                              "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
+                              "= \"quasi-static\") to follow the bar into its buckled state")
+    drv = mech.scene.driver
+    if drv is None or drv.kind != "angle" or not any(mech.driver_motion(t0)[1:]):
+        return qs, vs       # a driver at rest (constant angle): the quasi-static rates are zero
+    E = static_system(mech, part).E
+    h = mech.driver_step(t0)
+    ends = []
+    for dt in (-h, h):
+        qq = qs.copy()
+        i = find_coordinate(mech.coords, "theta", drv.body)
+        qq[i] = mech.driver_motion(t0 + dt)[0]
+        qq = mech.assemble(t0 + dt, qq, part)
+        vv = mech.velocities(t0 + dt, qq, vs, part)
+        ends.append(quasi_static(mech, t0 + dt, qq, vv, part)[0])
+    vs = vs.copy()
+    vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
+    return qs, vs
