@@ -11,7 +11,7 @@ from pathlib import Path
 
 from symgen import __version__
 from symgen.errors import Interrupted, SceneError, SimulationError, SymgenError
-from symgen.model.outputs import check_file, check_folder
+from symgen.outputs import check_file, check_folder
 from symgen.numerics import interrupt
 
 
@@ -250,7 +250,7 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
 def cmd_latex(args) -> int:
     from symgen.model.derive import derive
     from symgen.backends.latex.document import latex_document
-    from symgen.model.outputs import atomic_write
+    from symgen.outputs import atomic_write
 
     out = _check_out(args.output, (".tex",), "-o")
     scene = _scene(args)
@@ -457,7 +457,7 @@ def cmd_modes(args) -> int:
     from symgen.backends.casadi.pipeline import compile_scene
     from symgen.numerics.mechanism import Mechanism
     from symgen.numerics.modes import modes, modes_json, modes_table
-    from symgen.model.outputs import atomic_write, remove
+    from symgen.outputs import atomic_write, remove
 
     out = _check_out(args.output, (".json",), "-o") if args.output else None
     try:

@@ -12,7 +12,7 @@ PKG = Path(__file__).resolve().parent.parent / "symgen"
 
 #: layer of each module (the longest matching prefix wins); lower layers never import higher ones
 LAYERS = {
-    0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata",
+    0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata", "symgen.outputs",
         "symgen.policy"),
     1: ("symgen.scene",),
     2: ("symgen.ir",),

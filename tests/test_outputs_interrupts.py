@@ -20,7 +20,7 @@ import symgen.apps.study  # noqa: F401
 import symgen.scene
 from symgen.cli import main
 from symgen.errors import Interrupted
-from symgen.model.outputs import OutputError, atomic_path, atomic_write
+from symgen.outputs import OutputError, atomic_path, atomic_write
 from symgen.numerics import interrupt
 from tests.test_cli import FOUR_BAR_TOGGLE
 

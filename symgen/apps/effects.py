@@ -62,7 +62,7 @@ from typing import Sequence
 import numpy as np
 
 from symgen.errors import Interrupted, SceneError, SymgenError
-from symgen.model.outputs import atomic_write
+from symgen.outputs import atomic_write
 from symgen.model.structure import axial_treatments, loop_stretch_share
 from symgen.numerics import interrupt
 from symgen.scene import load_scene

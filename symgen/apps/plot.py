@@ -77,7 +77,7 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
                 ax.axvline(c, color="0.7", lw=0.5)
     fig.suptitle(title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10)
     fig.align_ylabels(axes[:, 0])
-    from symgen.model.outputs import atomic_path
+    from symgen.outputs import atomic_path
     try:
         with atomic_path(path) as tmp:       # format from the suffix: .png, .svg or .pdf
             fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")

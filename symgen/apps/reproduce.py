@@ -27,7 +27,7 @@ from typing import Callable
 
 import numpy as np
 
-from symgen.model.outputs import atomic_path, atomic_write, remove
+from symgen.outputs import atomic_path, atomic_write, remove
 from symgen.scene import load_scene
 from symgen.scene.model import GROUND, Output, Scene
 

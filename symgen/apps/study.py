@@ -46,7 +46,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from symgen.errors import Interrupted, SceneError, SymgenError
-from symgen.model.outputs import atomic_path, atomic_write, remove
+from symgen.outputs import atomic_path, atomic_write, remove
 from symgen.scene import load_scene
 from symgen.numerics import interrupt
 

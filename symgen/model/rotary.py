@@ -22,8 +22,12 @@ Units: I and J are / (m_ref l0^3), the common unit of the generalized forces (m_
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import sympy as sp
+
+from symgen.ir import names
+from symgen.ir.names import Name
 
 
 @dataclass(frozen=True)
@@ -34,6 +38,13 @@ class LumpedRotary:
     body: str
     xi: float
     inertia: sp.Symbol
+
+
+def driver_rotor(driver, param: Callable[[Name], sp.Symbol]) -> tuple | None:
+    """(driven bar, J) when the driver carries a rotor inertia, else None."""
+    if driver is not None and driver.rotor_inertia > 0:
+        return driver.body, param(names.global_parameter("J_rotor"))
+    return None
 
 
 def coordinates(sym) -> list:

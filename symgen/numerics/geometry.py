@@ -2,9 +2,11 @@
 
 The positions come from the package's own bar kinematics (``kinematics.BarKinematics``, and
 ``slot.SlotBarKinematics`` for the guide of a slot, whose span psi(xi, beta) moves with the
-contact), placed along the spanning tree exactly as the derivation places them (10): the
-origin of a bar hanging from its parent at joint K is r_K - rho(xi_K), a bar on a slider starts
-at its ground point plus s times the slider's direction. The shape functions are the ones the
+contact), placed along the spanning tree by the derivation's own tree kinematics (10)
+(``kinematics.TreeKinematics``, its position level, with the scene's ground points and slider
+directions as numbers): the origin of a bar hanging from its parent at joint K is
+r_K - rho(xi_K), a bar on a slider starts at its ground point plus s times the slider's
+direction. The shape functions are the ones the
 model was derived with (same families, counts and tip-joint rule), so a point drawn here is the
 point the equations move.
 
@@ -25,9 +27,10 @@ import numpy as np
 import sympy as sp
 
 from symgen.ir import names
+from symgen.ir.parameters import parameter_records
 from symgen.model.bars import BarSymbols
 from symgen.backends.casadi.functions import SympyToCasadi
-from symgen.model.kinematics import BarKinematics
+from symgen.model.kinematics import BarKinematics, TreeKinematics
 from symgen.scene.model import GROUND, Scene
 from symgen.model.static_shapes import bar_bases
 from symgen.model.slot import XI, SlotBarKinematics, SlotBasis
@@ -74,19 +77,9 @@ class Geometry:
         missing = [str(s) for k in kins.values() for s in (k.sym.th, *k.sym.f, *k.sym.g) if s not in env]
         if missing:
             raise ValueError(f"the model has no coordinate {missing[0]} (scene and model differ)")
-        joints = {j.name: j for j in scene.joints}
-
-        def origin(name: str) -> sp.Matrix:
-            e = topo.edges[name]
-            if e.parent == GROUND:
-                j = joints[e.joint]
-                p0 = sp.Matrix(list(next(x for x in j.ends if x.body == GROUND).point))
-                if e.slider:
-                    p0 = p0 + names.slider_travel(e.joint).symbol() * sp.Matrix(list(j.direction))
-                r = p0
-            else:
-                r = origin(e.parent) + kins[e.parent].rho(e.parent_xi)
-            return r - kins[name].rho(e.body_xi)
+        values = {rec.name: rec.value for rec in parameter_records(scene)}     # ground points, slider lines
+        slider_s = {e.joint: (names.slider_travel(e.joint).symbol(), None, None) for e in topo.edges.values() if e.slider}
+        tree = TreeKinematics(topo, kins, lambda name: sp.Float(values[name.text]), slider_s)
 
         def along(name: str, xis) -> list:
             """rho at each xi (a guide's piecewise span built once in xi, then evaluated)."""
@@ -100,14 +93,14 @@ class Geometry:
         self.bars: dict[str, range] = {}
         xis = np.linspace(0.0, 1.0, samples)
         for b in scene.bodies:
-            rA = origin(b.name)
+            rA = tree.position(b.name)
             start = len(pts)
             pts += [rA + r for r in along(b.name, xis)]
             self.bars[b.name] = range(start, len(pts))
         self.markers: list[Marker] = []
         for j in scene.joints:
             end = next(x for x in j.ends if x.body != GROUND and x.xi is not None)
-            pts.append(origin(end.body) + kins[end.body].rho(end.xi))
+            pts.append(tree.point_position(end.body, end.xi))
             g = next((x.point for x in j.ends if x.body == GROUND), None)
             self.markers.append(Marker(j.name, j.kind, len(pts) - 1, None if g is None else tuple(g),
                                        None if j.direction is None else tuple(j.direction)))

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from symgen.model.outputs import atomic_write, remove
+from symgen.outputs import atomic_write, remove
 
 __all__ = ["ResultFiles", "atomic_write", "csv_text", "partial_paths", "write_results"]
 

@@ -1,0 +1,86 @@
+"""What acts on the bars besides the joints: lumped masses and rotary inertias at joints,
+gravity, point and distributed loads, Kelvin-Voigt damping, and a driver's applied torque.
+
+* A lumped mass m at a joint is carried by the first bar of the joint: its inertia and weight
+  -m (r'' - g) enter that bar's equations as a point force in ground axes (common units), its
+  acceleration r'' = alpha R(theta) [x_A'', y_A'']_i + rho''(xi) from the bar's own origin
+  acceleration symbols of (10).
+* A lumped rotary inertia at a joint is a ``rotary.LumpedRotary`` of the bar carrying it (its
+  moment is added to the generalized forces in ``symgen.model.rotary``).
+* Loads are (B, Gamma) groups in bar axes: at a point, or distributed (uniform) on a bar;
+  a value is a parameter, or an expression of tau from the scene.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import sympy as sp
+
+from symgen.ir import names
+from symgen.ir.names import Name
+from symgen.model.bars import PointForce, rot
+from symgen.model.rotary import LumpedRotary
+from symgen.scene.expressions import parse_tau_expression
+from symgen.scene.model import GROUND, Scene
+
+
+@dataclass(frozen=True)
+class LumpedMass:
+    """A point mass ``mass`` (a symbol) at ``xi`` of bar ``body``, from joint ``joint``."""
+
+    joint: str
+    body: str
+    xi: float
+    mass: sp.Symbol
+
+
+@dataclass
+class Loads:
+    """The applied loads of a scene, by the bar they act on."""
+
+    torque: sp.Expr | None        # a torque driver's applied moment (None: angle driver or none)
+    gravity: tuple | None         # (gx, gy) parameters, None without gravity
+    G: sp.Matrix                  # gravity as a vector (zero without gravity)
+    masses: list                  # LumpedMass, in joint order
+    rotary: dict                  # bar -> [LumpedRotary]
+    distributed: dict             # bar -> [(B, Gamma)] uniform loads
+    points: dict                  # bar -> [PointForce]: lumped masses' inertia and weight, then point loads
+    damping: sp.Symbol | None     # Kelvin-Voigt coefficient, None without damping
+
+
+def applied_loads(scene: Scene, effects: dict, kins: dict, param: Callable[[Name], sp.Symbol]) -> Loads:
+    """The loads of ``scene`` on the bars ``kins`` (bar -> kinematics); ``effects``: the
+    structure's effect switches (gravity, damping)."""
+    drv = scene.driver
+    torque = None
+    if drv is not None and drv.kind != "angle":
+        torque = parse_tau_expression(drv.torque) if isinstance(drv.torque, str) else param(names.global_parameter("torque"))
+    grav = (param(names.global_parameter("gx")), param(names.global_parameter("gy"))) if effects["gravity"] else None
+    G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
+    masses, rotary, points = [], {n: [] for n in kins}, {n: [] for n in kins}
+    for j in scene.joints:
+        if j.inertia > 0:
+            end = next(x for x in j.ends if x.body != GROUND)
+            rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(names.joint_parameter("I", j.name))))
+        if j.mass > 0:
+            end = next(x for x in j.ends if x.body != GROUND)
+            m = param(names.joint_parameter("m", j.name))
+            masses.append(LumpedMass(j.name, end.body, end.xi, m))
+            kin = kins[end.body]
+            s = kin.sym
+            aA = s.alpha * rot(s.th) * sp.Matrix([s.xa_dd, s.ya_dd])
+            acc = aA + kin.rho_dd(end.xi) - G
+            points[end.body].append(PointForce(end.xi, ground=(-m * acc[0], -m * acc[1])))
+    dist = {n: [] for n in kins}
+    for i, ld in enumerate(scene.loads):
+        vals = []
+        for comp in ("axial", "transverse"):
+            val = getattr(ld, comp)
+            vals.append(parse_tau_expression(val) if isinstance(val, str) else param(names.load_parameter(i, comp, point=ld.kind != "distributed")))
+        if ld.kind == "distributed":
+            dist[ld.body].append(tuple(vals))
+        else:
+            points[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
+    damping = param(names.global_parameter("damping")) if effects["damping"] else None
+    return Loads(torque, grav, G, masses, rotary, dist, points, damping)

@@ -1,0 +1,133 @@
+"""The residual of every coordinate by virtual work through the spanning tree.
+
+For each bar (tree order) the program first assigns [x_A'']_i, [y_A'']_i of (10), then the
+bar's generalized forces E (its equations (16)-(17) and rigid-body equations from
+``symgen.model.bars``, plus a slot's contact force and the lumped rotary inertias it carries).
+The subtree resultants S of the tree joints (leaves first) are the reactions a bar's parent
+exerts on it, summed from the bars beyond: route 2 of the seed, they never become unknowns.
+The residual of a coordinate of bar i is then
+
+    res = E_i,q - (d rho_i(xi_K) / d q) . S_i + sum over children c of (d rho_i(xi_c) / d q) . S_c
+
+(minus the driver's moment and plus its rotor's J theta'' on the driven angle), and the
+residual of a slider's travel is d . S of the bar on it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from symgen.ir import names
+from symgen.ir.records import GENERALIZED_FORCE, ORIGIN_ACCELERATION, SUBTREE_FORCE, Coordinate, Program
+from symgen.model.bars import bar_equations
+from symgen.model.constraints import Constraints
+from symgen.model.kinematics import TreeKinematics
+from symgen.model.loads import Loads
+from symgen.model.rotary import add_lumped_rotary
+from symgen.model.topology import Topology
+
+
+@dataclass(frozen=True)
+class BarForces:
+    """The generalized forces E of one bar (program symbols, common units)."""
+
+    XY: tuple                     # resultant force, ground axes
+    th: sp.Symbol
+    f: list
+    g: list
+    beta: sp.Symbol | None = None
+
+    def of(self, c: Coordinate) -> sp.Symbol:
+        """E of the bar's own coordinate ``c`` (theta, an amplitude, a slot's beta)."""
+        if c.kind == "theta":
+            return self.th
+        if c.kind == "f":
+            return self.f[c.index]
+        if c.kind == "g":
+            return self.g[c.index]
+        if c.kind == "beta":
+            return self.beta
+        raise ValueError(f"{c.kind!r} is not a coordinate of a bar")
+
+
+def generalized_forces(prog: Program, topo: Topology, bars: dict, tree: TreeKinematics, effects,
+                       loads: Loads, cons: Constraints, axial_force: dict) -> dict:
+    """bar -> :class:`BarForces`: (10) and the bar equations of every bar, in tree order,
+    assigned in ``prog``; each ``BarModel`` keeps its ``equations`` and their ``inputs``."""
+    E: dict[str, BarForces] = {}
+    for name in topo.order:
+        bm = bars[name]
+        s = bm.sym
+        acc = tree.origin_acc_local(name)
+        prog.add(s.xa_dd, acc[0], ORIGIN_ACCELERATION)
+        prog.add(s.ya_dd, acc[1], ORIGIN_ACCELERATION)
+        bm.inputs = {"loads": tuple(loads.distributed[name]),
+                     "points": tuple(cons.point_forces[name]) + tuple(loads.points[name]),
+                     "gravity": loads.gravity, "damping": loads.damping}
+        if name in axial_force:
+            bm.inputs["axial_force"] = axial_force[name]
+        bm.equations = bar_equations(s, bm.basis_a, bm.basis_t, bm.ipt, effects, **bm.inputs)
+        gen = bm.equations.generalized()
+        if name in cons.slot_force:
+            gen = contact_force(gen, bm.kin, cons.slot_force[name])
+        gen = add_lumped_rotary(gen, s, bm.kin, loads.rotary[name])
+        E[name] = BarForces(
+            XY=tuple(prog.assign(names.generalized_force(ax, name), gen["XY"][k], GENERALIZED_FORCE)
+                     for k, ax in enumerate("XY")),
+            th=prog.assign(names.generalized_force("th", name), gen["th"], GENERALIZED_FORCE),
+            f=[prog.assign(names.generalized_force("f", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["f"])],
+            g=[prog.assign(names.generalized_force("g", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["g"])],
+            beta=(prog.assign(names.generalized_force("beta", name), gen["beta"], GENERALIZED_FORCE)
+                  if gen.get("beta") is not None else None))
+    return E
+
+
+def contact_force(gen: dict, kin, force: tuple) -> dict:
+    """Generalized forces of a force applied at the guide's moving contact (xi = beta):
+    E -= (d r_contact / d coordinate) . F for the translation, theta and beta (the
+    amplitudes do no work there: eta(beta) = 0 in the guide's frame)."""
+    F = sp.Matrix(force)
+    arms = kin.contact_partials()
+    s = kin.sym
+    out = dict(gen)
+    out["XY"] = (gen["XY"][0] - F[0], gen["XY"][1] - F[1])
+    out["th"] = gen["th"] - arms[s.th].dot(F)
+    out["beta"] = gen["beta"] - arms[s.beta[0]].dot(F)
+    return out
+
+
+def subtree_resultants(prog: Program, topo: Topology, E: dict) -> dict:
+    """bar -> S (2 program symbols): the resultant of the bar and every bar beyond it, the
+    force its tree joint transmits; leaves first."""
+    S: dict[str, sp.Matrix] = {}
+    for name in reversed(topo.order):
+        tot = sp.Matrix(E[name].XY)
+        for ch in topo.children[name]:
+            tot += S[ch.body]
+        S[name] = sp.Matrix([prog.assign(names.subtree_force(ax, name), tot[k], SUBTREE_FORCE) for k, ax in enumerate("xy")])
+    return S
+
+
+def residuals(coords: list, q: tuple, topo: Topology, bars: dict, tree: TreeKinematics, E: dict, S: dict,
+              driver: tuple | None, rotor: tuple | None) -> list:
+    """One residual per coordinate (virtual work through the tree). ``driver``: (driven bar,
+    applied moment: the torque, or the angle driver's multiplier) or None; ``rotor``: (driven
+    bar, J) or None."""
+    res = []
+    for c, var in zip(coords, q):
+        if c.kind == "s":
+            e = topo.edges[c.body]
+            res.append(tree.slider_dir(e.joint).dot(S[c.body]))
+            continue
+        bm = bars[c.body]
+        e = topo.edges[c.body]
+        r = E[c.body].of(c) - bm.kin.partials(e.body_xi)[var].dot(S[c.body])
+        for ch in topo.children[c.body]:
+            r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
+        if c.kind == "theta" and driver is not None and driver[0] == c.body:
+            r -= driver[1]                       # applied moment
+            if rotor is not None:
+                r += rotor[1] * bm.sym.ddth      # the rotor's inertial moment J theta''
+        res.append(r)
+    return res
