@@ -1,5 +1,6 @@
-"""Lower the model's ``Program`` to straight-line C: dead-code elimination, forward-mode
-Jacobians through the assignment list, one ``sympy.cse`` per function, printing, op counts.
+"""Lower the model's ``Program`` to straight-line C: dead-code elimination and forward-mode
+Jacobians through the assignment list (the shared passes of ``symgen.ir.passes``), one
+``sympy.cse`` per function, printing, op counts.
 
 Every C function has the signature of the CasADi Functions (``symgen.backends.casadi.functions``)::
 
@@ -23,9 +24,9 @@ from dataclasses import dataclass
 import sympy as sp
 
 from symgen.backends.c.printer import CPrinter
+from symgen.ir.passes import forward_jacobian, needed, prune, wrt_symbols
 
 INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
-JAC_WRT = ("q", "v", "a", "lam")
 VALUE_FUNCTIONS = ("phi", "phid", "phidd", "res", "out", "energy", "closure")
 JACOBIAN_FUNCTIONS = ("phi", "phid", "phidd", "res")
 
@@ -58,83 +59,6 @@ def input_symbols(program) -> dict:
             for k, s in enumerate(syms):
                 names[s] = f"{name}[{k}]"
     return names
-
-
-def wrt_symbols(program) -> list:
-    """The Jacobian columns w = [q; v; a; lam], as symbols."""
-    return [s for name in JAC_WRT for s in program.inputs[name]]
-
-
-def _needed(assignments: list, exprs: list) -> list:
-    """The assignments that ``exprs`` depend on, in program order."""
-    index = {sym: k for k, (sym, _) in enumerate(assignments)}
-    live = set()
-    stack = [s for e in exprs for s in e.free_symbols if s in index]
-    while stack:
-        s = stack.pop()
-        if s in live:
-            continue
-        live.add(s)
-        stack.extend(y for y in assignments[index[s]][1].free_symbols if y in index and y not in live)
-    return [assignments[k] for k in sorted(index[s] for s in live)]
-
-
-def _prune(stmts: list, exprs: list) -> list:
-    """Backward liveness on a statement list (drops unused value or derivative statements)."""
-    live = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
-    kept = []
-    for sym, expr in reversed(stmts):
-        if sym in live:
-            kept.append((sym, expr))
-            live |= expr.free_symbols
-    kept.reverse()
-    return kept
-
-
-def forward_jacobian(stmts: list, exprs: list, wrt: list) -> tuple[list, dict]:
-    """Chain rule through ``stmts``: derivative statements and the Jacobian entries of ``exprs``.
-
-    Returns the extended statement list and ``{(row, col): expr}`` of the nonzero entries.
-    """
-    col = {w: c for c, w in enumerate(wrt)}
-    grad: dict = {}
-    out_stmts = []
-    counter = 0
-
-    def gradient(expr) -> dict:
-        g: dict = {}
-        for y in expr.free_symbols:
-            if y in col:
-                d = sp.diff(expr, y)
-                if d != 0:
-                    g[col[y]] = g.get(col[y], 0) + d
-            elif grad.get(y):
-                d = sp.diff(expr, y)
-                if d == 0:
-                    continue
-                for c, gy in grad[y].items():
-                    g[c] = g.get(c, 0) + d * gy
-        return {c: e for c, e in g.items() if e != 0}
-
-    for sym, expr in stmts:
-        out_stmts.append((sym, expr))
-        g = gradient(expr)
-        gs = {}
-        for c in sorted(g):
-            e = g[c]
-            if e.is_Symbol or e.is_Number:
-                gs[c] = e
-            else:
-                counter += 1
-                d = sp.Dummy(f"d{counter}")
-                out_stmts.append((d, e))
-                gs[c] = d
-        grad[sym] = gs
-    entries = {}
-    for r, e in enumerate(exprs):
-        for c, d in sorted(gradient(e).items()):
-            entries[(r, c)] = d
-    return out_stmts, entries
 
 
 class _Emitter:
@@ -248,7 +172,7 @@ def _tokens(text: str):
 def value_function(program, fname: str) -> CFunction:
     """``out[r] = F_r(t, q, v, a, lam, p)`` for the program output ``fname``."""
     exprs = [sp.sympify(e) for e in program.outputs[fname]]
-    stmts = _needed(program.assignments, exprs)
+    stmts = needed(program.assignments, exprs)
     em = lower(stmts, [(f"out[{r}]", e) for r, e in enumerate(exprs)], input_symbols(program))
     return CFunction(name=fname, source=fname, kind="value", rows=len(exprs), cols=1, body=tuple(em.lines),
                      used=_used_inputs(program, em.lines), ops=em.ops, nnz=len(exprs), temporaries=em.temps)
@@ -258,10 +182,10 @@ def jacobian_function(program, fname: str) -> CFunction:
     """``jac[r * NW + c] = dF_r/dw_c`` (dense, row-major; zeros written first)."""
     exprs = [sp.sympify(e) for e in program.outputs[fname]]
     wrt = wrt_symbols(program)
-    stmts = _needed(program.assignments, exprs)
+    stmts = needed(program.assignments, exprs)
     stmts, entries = forward_jacobian(stmts, exprs, wrt)
     targets = [(f"jac[{r * len(wrt) + c}]", e) for (r, c), e in sorted(entries.items())]
-    stmts = _prune(stmts, [e for _, e in targets])
+    stmts = prune(stmts, [e for _, e in targets])
     em = lower(stmts, targets, input_symbols(program))
     size = len(exprs) * len(wrt)
     body = []
