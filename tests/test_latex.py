@@ -14,8 +14,8 @@ import sympy as sp
 from symgen import __version__
 from symgen.ir import names
 from symgen.model.derive import derive
-from symgen.model.bars import bar_equations
-from symgen.backends.latex.document import TEMPLATES, Namer, Printer, _RecordingIPT, _split_sides, _width, latex_document, tex_lines
+from symgen.backends.latex.document import TEMPLATES, latex_document
+from symgen.backends.latex.printing import Namer, Printer, printed_width, split_sides, tex_lines
 from symgen.scene import load_scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -142,7 +142,7 @@ def test_long_sums_are_broken_without_losing_terms():
                     enumerate((x, y) for x in xs for y in xs)])
     lines = tex_lines(expr, pr, 60)
     assert len(lines) > 3
-    assert all(_width(line) <= 62 for line in lines)
+    assert all(printed_width(line) <= 62 for line in lines)
     joined = " ".join(lines)
     assert "0.123457" in joined and "0.12345678" not in joined   # 6 significant digits
     assert sum(line.count(r"\theta") for line in lines) == pr(expr).count(r"\theta")
@@ -153,27 +153,53 @@ def test_split_sides_keeps_the_equation():
     lam, mu, a, f, B = sp.symbols("lambda_rod mu_rod a f B", real=True)
     rho = sp.Symbol("rho_rod", positive=True)
     residual = 2 * a + lam * f + mu * f ** 2 - 3 * B + mu / lam * a
-    left, right = _split_sides(residual, {lam, mu}, {B}, (mu, lam, rho))
+    left, right = split_sides(residual, {lam, mu}, {B}, (mu, lam, rho))
     assert sp.expand(right - left - residual.subs(mu / lam, rho)) == 0
     assert not right.has(B) and not right.has(lam) and left.has(B)
 
 
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
 def test_tabulated_inner_products_give_back_the_model(name):
-    """The symbolic (16), (17), rigid-body equations with the tabulated exact values are the model's."""
+    """The displayed (16), (17), rigid-body equations (the model's display form) with the
+    tabulated exact inner products are the model's; the model is the display form with its
+    values substituted, term for term."""
     rng = random.Random(7)
     scene = load_scene(str(EXAMPLES[name]))
     model = derive(scene)
     for bm in model.bars.values():
-        ipt = _RecordingIPT(bm.ipt.ip)
-        shown = bar_equations(bm.sym, bm.basis_a, bm.basis_t, ipt, scene.effects, **bm.inputs)
-        values = {sym: sp.Float(float(ipt.exact(k)[idx])) for sym, (k, idx) in ipt.used.items()}
         eqs = bm.equations
+        assert eqs.display.substitute(eqs.values) == eqs          # xreplace of the values, nothing else
+        exact = {"KaInv": sp.ImmutableMatrix(bm.ipt.ip.exact["Ka"]).inv()} if bm.ipt.ip.na else {}
+        values = dict(eqs.values)
+        values.update({sym: sp.Float(float(exact.get(k, bm.ipt.ip.exact.get(k))[idx]))
+                       for sym, (k, idx) in eqs.inner_products.items()})
+        shown = eqs.display
         for a, b in zip([*shown.force, shown.moment, *shown.eq16, *shown.eq17],
                         [*eqs.force, eqs.moment, *eqs.eq16, *eqs.eq17]):
-            point = {x: rng.uniform(-1, 1) for x in b.free_symbols | a.xreplace(values).free_symbols}
+            a = a.xreplace(values)
+            assert not any(x.name.startswith("\\") or "{" in x.name for x in a.free_symbols)
+            point = {x: rng.uniform(-1, 1) for x in b.free_symbols | a.free_symbols}
             want = float(b.xreplace(point))
-            assert float(a.xreplace(values).xreplace(point)) == pytest.approx(want, rel=1e-12, abs=1e-12)
+            assert float(a.xreplace(point)) == pytest.approx(want, rel=1e-12, abs=1e-12)
+
+
+def test_the_document_prints_the_derived_model_without_deriving_it_again():
+    """No LaTeX module derives bar equations or builds an inner-product table: they read the
+    model's display form. The section modules (slot, quasi-static) import the shared printing
+    helpers only, never the document or each other (no import cycle)."""
+    import ast
+
+    folder = ROOT / "symgen" / "backends" / "latex"
+    known = {f"symgen.backends.latex.{p.stem}" for p in folder.glob("*.py")}
+    for path in folder.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        imported = {(n.module, a.name) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) for a in n.names}
+        modules = {m for m, _ in imported} | {f"{m}.{a}" for m, a in imported}
+        for name in ("bar_equations", "IPTable", "SlotIPTable", "DisplayIPTable", "SlotDisplayIPTable"):
+            assert not any(a == name for _, a in imported), f"{path.name} imports {name}"
+        latex = modules & known
+        if path.stem in ("slot", "quasistatic", "printing"):
+            assert latex <= {"symgen.backends.latex.printing"} - {f"symgen.backends.latex.{path.stem}"}, (path.name, latex)
 
 
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
@@ -258,8 +284,9 @@ def test_guide_equations_give_back_the_model(inverted):
     scene, model, _ = inverted
     bm = model.bars["guide"]
     s = bm.sym
-    eqs, ipt = guide_display_equations(scene, model, "guide")
-    values = {sym: ipt.value(sym) for sym in ipt.used}
+    eqs = guide_display_equations(scene, model, "guide")
+    values = dict(bm.equations.values)
+    assert {kind for kind, _ in bm.equations.inner_products.values()} == {"gram", "Kt", "dKt"}
     Bc, Gc = _contact_symbols("A")
     values.update(zip((Bc, Gc), _contact_definitions(model, "guide", "A")))
     assigned = dict(model.program.assignments)
@@ -271,7 +298,7 @@ def test_guide_equations_give_back_the_model(inverted):
     pairs += [(k3 * e, E[f"Eg_guide_{k + 1}"]) for k, e in enumerate(eqs["eq17"])]
     rng = random.Random(11)
     for shown, want in pairs:
-        a = shown.xreplace(values).xreplace(values)
+        a = shown.xreplace(values)
         free = a.free_symbols | want.free_symbols
         assert not any(x.name.startswith("\\") for x in free), free     # every display symbol replaced
         point = {x: rng.uniform(-1, 1) for x in free}

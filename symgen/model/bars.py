@@ -4,8 +4,13 @@ the three rigid-body equations, in the bar's own dimensionless form.
 Everything here is local to one bar: its angle theta, amplitudes f (axial, zeta = phi^T f)
 and g (transverse, eta = psi^T g), their rates and accelerations, and the acceleration of
 its origin A in its own axes divided by l_i omega^2 (the paper's [r_A'']_i, given by (10)).
-The inner products come from an ``IPTable``: numbers for the model, or named symbols for
-display in LaTeX, so the same code writes both.
+Each bar's equations are derived once, in *display form*: the inner products as named symbols
+(``DisplayIPTable``, ``slot.SlotDisplayIPTable``), each point force of the scene given in ground
+axes as its bar-axes groups (B_k, Gamma_k) and the distributed loads (gravity included) as
+(beta-bar, gamma-bar). ``BarEquations.values`` maps every such display symbol to its value, and
+the model's (numeric) form is the display form with those values substituted (``xreplace``):
+the LaTeX backend prints ``BarEquations.display``, the model that runs, instead of deriving it
+again.
 
 Normalisation (per bar, forces in m_i l_i omega^2 per unit length):
 
@@ -18,7 +23,7 @@ with the force rotated to ground axes.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from itertools import combinations_with_replacement
 
 import numpy as np
@@ -35,6 +40,23 @@ def rot(th: sp.Expr) -> sp.Matrix:
     """R(theta) of the formulation: bar axes -> ground axes."""
     c, s = sp.cos(th), sp.sin(th)
     return sp.Matrix([[c, -s], [s, c]])
+
+
+def to_bar_axes(th: sp.Expr, x: sp.Expr, y: sp.Expr) -> tuple:
+    """Components in the axes of a bar at angle ``th`` of the ground-axes vector (x, y):
+    R(theta)^T (x, y)."""
+    return sp.cos(th) * x + sp.sin(th) * y, -sp.sin(th) * x + sp.cos(th) * y
+
+
+def point_force_groups(s: "BarSymbols", fx: sp.Expr, fy: sp.Expr) -> tuple:
+    """(B, Gamma) of a point force (fx, fy) on bar ``s``, given in ground axes and common
+    units m_ref l0^2 omega^2: its bar-axes components divided by nu alpha^2, i.e.
+    B = (cos th Fx + sin th Fy) / (nu alpha^2), Gamma = (-sin th Fx + cos th Fy) / (nu alpha^2).
+    The one home of this rotation: ``bar_equations`` (hence the model), the LaTeX definitions
+    of B_K, Gamma_K and the slot force on its guide use it."""
+    bx, by = to_bar_axes(s.th, fx, fy)
+    k = s.nu * s.alpha ** 2
+    return bx / k, by / k
 
 
 @dataclass(frozen=True)
@@ -137,6 +159,65 @@ class IPTable:
             return self._num(value)
         return sp.Symbol(latex.format(*[k + 1 for k in idx]))
 
+    def display(self) -> "DisplayIPTable":
+        """The display table of these inner products (see ``bar_equations``)."""
+        return DisplayIPTable(self)
+
+
+class DisplayIPTable(IPTable):
+    """The inner products of one bar as display symbols, recording each symbol it hands out:
+    ``used`` maps it to (kind, index), ``values`` to the number the numeric table gives there.
+
+    The symmetric ones (the Gram matrix, Ka, Kt, Pd, Ka^-1) have one symbol for (i, j) and
+    (j, i); its value is the mean of the two entries: either one, except where
+    ``np.linalg.inv`` leaves Ka^-1 asymmetric in the last bit (its entries enter only in the
+    symmetric pairs of c^T Ka^-1 c, whose coefficient, twice the mean, is their sum).
+    """
+
+    def __init__(self, numeric: IPTable) -> None:
+        super().__init__(numeric.ip, symbolic=True)
+        self.numeric = numeric
+        self.used: dict[sp.Symbol, tuple] = {}
+        self.values: dict[sp.Symbol, sp.Expr] = {}
+
+    def _record(self, out: sp.Expr, kind: str, idx: tuple, value) -> sp.Expr:
+        if isinstance(out, sp.Symbol) and out not in self.used:
+            self.used[out] = (kind, idx)
+            self.values[out] = value()
+        return out
+
+    def _mean(self, a: sp.Expr, b: sp.Expr) -> sp.Expr:
+        return a if a == b else (a + b) / 2
+
+    def gram(self, i: int, j: int) -> sp.Expr:
+        i, j = min(i, j), max(i, j)
+        return self._record(super().gram(i, j), "gram", (i, j),
+                            lambda: self._mean(self.numeric.gram(i, j), self.numeric.gram(j, i)))
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        if name in ("Ka", "Kt", "Pd"):      # symmetric: one symbol for (a, b) and (b, a)
+            i, j = min(i, j), max(i, j)
+            value = lambda: self._mean(self.numeric.mat(name, i, j, latex), self.numeric.mat(name, j, i, latex))  # noqa: E731
+        else:
+            value = lambda: self.numeric.mat(name, i, j, latex)  # noqa: E731
+        return self._record(super().mat(name, i, j, latex), name, (i, j), value)
+
+    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
+        return self._record(super().vec(name, i, latex), name, (i, 0), lambda: self.numeric.vec(name, i, latex))
+
+    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
+        return self._record(super().tensor(name, idx, latex), name, tuple(idx),
+                            lambda: self.numeric.tensor(name, idx, latex))
+
+    def ka_inv(self, i: int, j: int) -> sp.Expr:
+        i, j = min(i, j), max(i, j)          # symmetric
+        return self._record(super().ka_inv(i, j), "KaInv", (i, j),
+                            lambda: self._mean(self.numeric.ka_inv(i, j), self.numeric.ka_inv(j, i)))
+
+    def finish(self, expr: sp.Expr) -> sp.Expr:
+        """The display form as derived (a slot's table turns functions of beta into symbols)."""
+        return expr
+
 
 def _ip(t: IPTable, u: list, w: list) -> sp.Expr:
     """(u, w) = integral of (u . b)(w . b) over [0, 1] for coefficient lists over b."""
@@ -179,6 +260,29 @@ class BarEquations:
     ya_d: sp.Symbol
     constraint: tuple = ()  # inextensible bar: (phi'_k, eps) = 0, k = 1..na (multipliers N_k)
     eqbeta: sp.Expr | None = None   # guide of a slot: the equation of its support distance beta
+    # the display form (``bar_equations``): the same fields with display symbols, and what they stand for
+    display: "BarEquations | None" = field(default=None, compare=False, repr=False)
+    values: dict = field(default_factory=dict, compare=False, repr=False)      # display symbol -> value
+    inner_products: dict = field(default_factory=dict, compare=False, repr=False)  # symbol -> (kind, index)
+    points: tuple = field(default=(), compare=False, repr=False)    # (B, Gamma) shown for each point force
+    loads: tuple = field(default=(), compare=False, repr=False)     # (beta-bar, gamma-bar) symbols, or ()
+
+    #: the fields holding equations (``substitute`` replaces in these)
+    EXPRESSIONS = ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint", "eqbeta")
+
+    def map(self, fn) -> "BarEquations":
+        """The same equations with ``fn`` applied to each expression."""
+        def each(v):
+            if v is None:
+                return None
+            if isinstance(v, tuple):
+                return tuple(each(x) for x in v)
+            return fn(sp.sympify(v))
+        return replace(self, **{k: each(getattr(self, k)) for k in self.EXPRESSIONS})
+
+    def substitute(self, rule: dict) -> "BarEquations":
+        """The same equations with ``rule`` applied by ``xreplace`` (nothing simplified)."""
+        return self.map(lambda e: e.xreplace(rule))
 
     def generalized(self) -> dict:
         """Generalized forces in common units: 'XY' (ground axes), 'th', 'f', 'g'."""
@@ -195,7 +299,16 @@ def bar_equations(
     loads: tuple = (), points: tuple = (), gravity: tuple | None = None,
     damping: sp.Expr | None = None, axial_force: tuple | None = None,
 ) -> BarEquations:
-    """Derive one bar's equations.
+    """Derive one bar's equations, once, in display form; return the model's form with the
+    display form beside it.
+
+    The display form (``.display``) has the inner products as display symbols (from
+    ``t.display()``: ``DisplayIPTable``, or a slot guide's ``SlotDisplayIPTable``), each point
+    force given in ground axes as the symbols (B_k, Gamma_k) of its bar-axes groups (``.points``
+    lists what each point force shows as), and the distributed loads, gravity included, as
+    (beta-bar, gamma-bar) (``.loads``). ``.values`` maps each of those symbols to its value and
+    ``.inner_products`` each inner product's symbol to (kind, index); the returned equations
+    are the display form with ``.values`` substituted by ``xreplace``.
 
     Parameters
     ----------
@@ -212,8 +325,26 @@ def bar_equations(
         lambda (zeta' eta')' is (N eta')' with N = lambda zeta'). No strain energy, no axial
         damping: the constraint does no work.
     """
+    t = t.display()                       # inner products as display symbols, recorded
+    values: dict = {}
+    # distributed loads (uniform in xi) in bar axes, gravity included: (beta-bar, gamma-bar)
+    groups: tuple = ()
+    if loads or gravity is not None:
+        groups = load_symbols(s)
+        values.update(zip(groups, distributed_groups(s, loads, gravity)))
+    beta, gamma = groups if groups else (sp.Integer(0), sp.Integer(0))
+    # point forces -> groups (B, Gamma) in bar axes: given in ground axes, a symbol each
+    shown = []
+    for k, p in enumerate(points):
+        if p.ground is not None:
+            pair = point_symbols(s, k)
+            values.update(zip(pair, point_force_groups(s, *p.ground)))
+        else:
+            pair = tuple(p.bar)
+        shown.append(pair)
+
     na, nt = len(s.f), len(s.g)
-    th, dth, ddth = s.th, s.dth, s.ddth
+    dth, ddth = s.dth, s.ddth
     f, df, ddf = list(s.f), list(s.df), list(s.ddf)
     g, dg, ddg = list(s.g), list(s.dg), list(s.ddg)
     zf, zg = [0] * na, [0] * nt
@@ -241,18 +372,8 @@ def bar_equations(
         e[k] = 1
         return e
 
-    # distributed loads (uniform in xi) in bar axes, gravity included
-    beta, gamma = distributed_groups(s, loads, gravity)
-
-    # point forces -> groups (B, Gamma) in bar axes
     pts = []
-    for p in points:
-        if p.ground is not None:
-            Fx, Fy = p.ground
-            B = (sp.cos(th) * Fx + sp.sin(th) * Fy) / (s.nu * s.alpha ** 2)
-            G = (-sp.sin(th) * Fx + sp.cos(th) * Fy) / (s.nu * s.alpha ** 2)
-        else:
-            B, G = p.bar
+    for p, (B, G) in zip(points, shown):
         phi_k = basis_a.values(p.xi) if na else np.zeros(0)
         psi_k = basis_t.values(p.xi) if nt else np.zeros(0)
         pts.append((p.xi, B, G, [_val(v) for v in phi_k], [_val(v) for v in psi_k]))
@@ -360,9 +481,26 @@ def bar_equations(
         elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
     else:
         elastic = strain_energy
-    return BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
-                        kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d,
-                        constraint=constraint, eqbeta=eqbeta)
+    display = BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
+                           kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d,
+                           constraint=constraint, eqbeta=eqbeta)
+    display = display.map(t.finish)
+    values.update(t.values)
+    return replace(display.substitute(values), display=display, values=values,
+                   inner_products=dict(t.used), points=tuple(shown), loads=groups)
+
+
+def load_symbols(s: BarSymbols) -> tuple:
+    """Display symbols (beta-bar, gamma-bar) of a bar's distributed load groups."""
+    B = names.upright(s.name)
+    return sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")
+
+
+def point_symbols(s: BarSymbols, k: int) -> tuple:
+    """Display symbols (B, Gamma) of point force ``k`` (0-based) of a bar, given in ground axes
+    (the LaTeX backend names them after their joint)."""
+    B = names.upright(s.name)
+    return sp.Symbol(rf"B_{{{B},{k + 1}}}"), sp.Symbol(rf"\Gamma_{{{B},{k + 1}}}")
 
 
 def distributed_groups(s: BarSymbols, loads: tuple, gravity: tuple | None) -> tuple:
@@ -372,8 +510,9 @@ def distributed_groups(s: BarSymbols, loads: tuple, gravity: tuple | None) -> tu
     gamma = sp.Add(*[c for _, c in loads])
     if gravity is not None:
         gx, gy = gravity
-        beta += (sp.cos(s.th) * gx + sp.sin(s.th) * gy) / s.alpha
-        gamma += (-sp.sin(s.th) * gx + sp.cos(s.th) * gy) / s.alpha
+        bx, by = to_bar_axes(s.th, gx, gy)
+        beta += bx / s.alpha
+        gamma += by / s.alpha
     return beta, gamma
 
 

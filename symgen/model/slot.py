@@ -235,6 +235,70 @@ class SlotIPTable:
     def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
         return sp.Integer(0)      # axially rigid: no stretching couplings
 
+    def display(self) -> "SlotDisplayIPTable":
+        """The display table of these inner products (see ``bars.bar_equations``)."""
+        return SlotDisplayIPTable(self)
+
+
+class SlotDisplayIPTable:
+    """A guide's inner products as display symbols, recording each it hands out: ``used`` maps
+    it to (kind, (i, j)), kind "gram", "Kt" or "dKt" (d/dbeta of Kt), ``values`` to its closed
+    form in beta.
+
+    Same interface as ``SlotIPTable``. (psi''_i, psi''_j) is handed out as a function of beta,
+    so that the beta equation's d/dbeta of the strain energy keeps its term; :meth:`finish`
+    turns it, and its beta derivative, into symbols of their own.
+    """
+
+    def __init__(self, numeric: SlotIPTable) -> None:
+        self.numeric, self.beta = numeric, numeric.basis.beta
+        self.na, self.nt, self.symbolic = 0, numeric.nt, True
+        self.labels = numeric._labels
+        self.used: dict[sp.Symbol, tuple] = {}
+        self.values: dict[sp.Symbol, sp.Expr] = {}
+        self._funcs: dict = {}                       # F(beta) -> (i, j)
+
+    def gram(self, i: int, j: int) -> sp.Expr:
+        if self.numeric.G[i, j] == 0:
+            return sp.Integer(0)
+        i, j = min(i, j), max(i, j)
+        sym = sp.Symbol(rf"\left({self.labels[i]},{self.labels[j]}\right)")
+        if sym not in self.used:
+            self.used[sym] = ("gram", (i, j))
+            self.values[sym] = self.numeric.G[i, j]
+        return sym
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        if name != "Kt":
+            raise KeyError(f"a guide bar has no {name} inner products")
+        i, j = min(i, j), max(i, j)
+        if self.numeric.Kt[i, j] == 0:
+            return sp.Integer(0)
+        f = sp.Function(latex.format(i=i + 1, j=j + 1))(self.beta)
+        self._funcs[f] = (i, j)
+        return f
+
+    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
+        return self.numeric.vec(name, i, latex)
+
+    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
+        return sp.Integer(0)
+
+    def finish(self, expr: sp.Expr) -> sp.Expr:
+        """(psi''_i, psi''_j)(beta) -> a symbol, its beta derivative -> a symbol of its own."""
+        rep = {}
+        for f, (i, j) in self._funcs.items():
+            name = f.func.__name__
+            for key, sym, kind, value in (
+                    (sp.Derivative(f, self.beta), sp.Symbol(r"\partial_{\beta}" + name), "dKt",
+                     lambda: sp.diff(self.numeric.Kt[i, j], self.beta)),
+                    (f, sp.Symbol(name), "Kt", lambda: self.numeric.Kt[i, j])):
+                rep[key] = sym
+                if sym not in self.used and expr.has(key):
+                    self.used[sym] = (kind, (i, j))
+                    self.values[sym] = value()
+        return expr.xreplace(rep)       # top down: a derivative is replaced before its function
+
 
 class SlotBarKinematics:
     """Points of a guide bar: the same interface as ``kinematics.BarKinematics``, with the

@@ -9,14 +9,14 @@
  *   six_bar_phi: 67 operations, 13 temporaries
  *   six_bar_phid: 92 operations, 10 temporaries
  *   six_bar_phidd: 144 operations, 32 temporaries
- *   six_bar_res: 1714 operations, 252 temporaries
+ *   six_bar_res: 1116 operations, 186 temporaries
  *   six_bar_out: 87 operations, 15 temporaries
- *   six_bar_energy: 703 operations, 97 temporaries
+ *   six_bar_energy: 453 operations, 95 temporaries
  *   six_bar_closure: 64 operations, 13 temporaries
  *   six_bar_phi_jac: 63 operations, 16 temporaries, 31 nonzeros of 5x47
  *   six_bar_phid_jac: 115 operations, 38 temporaries, 61 nonzeros of 5x47
  *   six_bar_phidd_jac: 240 operations, 69 temporaries, 91 nonzeros of 5x47
- *   six_bar_res_jac: 2858 operations, 567 temporaries, 256 nonzeros of 14x47
+ *   six_bar_res_jac: 2448 operations, 541 temporaries, 256 nonzeros of 14x47
  */
 
 #ifndef SYMGEN_six_bar_H

@@ -3,8 +3,9 @@
 ``latex_document(scene, model)`` renders ``symgen/backends/latex/templates/document.tex.jinja`` from a plain
 context (strings and lists) built here. The document shows, per bar, the acceleration field
 (1), the strong forms (8)-(9) with only the scene's effects, the origin acceleration (10) and
-the Galerkin equations (16)-(17) and rigid-body equations with *symbolic* inner products, then
-the closed-form values of those inner products; per loop the closure rows (11); per pin between
+the Galerkin equations (16)-(17) and rigid-body equations with *symbolic* inner products (the
+derived model's display form, ``model.bars[name].equations.display``: nothing is derived again
+here), then the closed-form values of those inner products; per loop the closure rows (11); per pin between
 two bars the joint equilibrium (13); and the assembled residual of every coordinate.
 
 Display rules: expressions are never simplified; top-level sums are broken over several lines
@@ -20,8 +21,6 @@ Examples
 """
 from __future__ import annotations
 
-import re
-from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
@@ -29,120 +28,19 @@ import jinja2
 import sympy as sp
 
 from symgen import __version__
-from symgen.model.bars import IPTable, PointForce, bar_equations, distributed_groups
+from symgen.backends.latex import quasistatic as latex_quasistatic
+from symgen.backends.latex import slot as latex_slot
+from symgen.backends.latex.printing import (LINE_WIDTH, Namer, Printer, Row, eq_block, eq_row, kin_terms, num_text, rm,
+                                            shown_forces, split_sides, term_row, tex_escape, tex_lines)
 from symgen.ir import names
-from symgen.ir.names import Name
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
 from symgen.model.structure import QUASI_STATIC, axial_treatments
 from symgen.scene.motion import driver_angle
 
 TEMPLATES = resources.files("symgen.backends.latex") / "templates"   # package data (pyproject: package-data)
-LINE_WIDTH = 82          # estimated printed width of a full display line (units of _width)
-TAG_WIDTH = 12           # room kept for an equation tag
-LHS_MAX = 34             # a longer left side gets a line of its own
-SIG_DIGITS = 6
 
 __all__ = ["latex_document", "tex_lines", "Namer", "TEMPLATES"]
-
-
-# --------------------------------------------------------------------------- text helpers
-_TEXT_ESCAPES = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#",
-                 "$": r"\$", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\^{}"}
-
-
-def tex_escape(text: object) -> str:
-    """Escape a string for LaTeX text mode."""
-    return "".join(_TEXT_ESCAPES.get(c, c) for c in str(text))
-
-
-def _rm(name: str) -> str:
-    """An identifier as upright math text (underscores escaped)."""
-    return r"\mathrm{" + name.replace("_", r"\_") + "}"
-
-
-def _num_text(x: float | None) -> str:
-    """A number for a table cell (math mode), 6 significant digits."""
-    if x is None:
-        return r"\text{--}"
-    return sp.latex(_round_floats(sp.Float(float(x))))
-
-
-# --------------------------------------------------------------------------- symbol names
-class Namer:
-    """The LaTeX name of each of a model's symbols, from the model's table (``model.latex``,
-    made beside each symbol by ``symgen.ir.names``); :meth:`symbol` adds one made here.
-
-    Symbols whose name already is LaTeX (display symbols such as the inner products
-    ``\\left(\\phi_{1},\\psi_{1}\\right)`` or ``B_{\\mathrm{B}}``) print as they are;
-    any other name prints upright.
-    """
-
-    def __init__(self, table: dict) -> None:
-        self._table = dict(table)
-
-    def symbol(self, name: Name, **assumptions) -> sp.Symbol:
-        """The symbol of ``name``, its LaTeX name known from here on."""
-        self._table[name.text] = name.latex
-        return name.symbol(**assumptions)
-
-    def __call__(self, name: str) -> str:
-        hit = self._table.get(name)
-        if hit is not None:
-            return hit
-        return name if name.startswith("\\") or "{" in name else _rm(name)
-
-
-# --------------------------------------------------------------------------- expressions
-def _round_floats(expr: sp.Expr, digits: int = SIG_DIGITS) -> sp.Expr:
-    """Floats to ``digits`` significant digits; integral floats (1.0, -2.0) to integers."""
-    expr = sp.sympify(expr)
-    floats = expr.atoms(sp.Float)
-    if not floats:
-        return expr
-    rep = {}
-    for f in floats:
-        v = float(f)
-        if abs(v - round(v)) <= 1e-12 * max(1.0, abs(v)):
-            rep[f] = sp.Integer(int(round(v)))
-        else:
-            rep[f] = sp.Float(v, digits)
-    return expr.xreplace(rep)
-
-
-_STRIP = re.compile(r"\\(mathrm|operatorname|left|right|Bigl|Bigr|bigl|bigr|dot|ddot|bar|hat|"
-                    r"frac|tfrac|,|;|!|mathbf)(?![A-Za-z])")
-_CMD = re.compile(r"\\[A-Za-z]+")
-_FUNCS = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "max", "min", "mathcal"}
-
-
-def _width(s: str) -> float:
-    """Rough printed width of a LaTeX math string, in units of about one digit (5 pt at 10 pt).
-
-    Commands count as one glyph (a few, like ``\\mathrm`` or ``\\left``, as none), sub- and
-    superscripts at 0.7, binary operators with their spacing as 3.
-    """
-    s = _STRIP.sub("", s)
-    s = s.replace(r"\quad", "QQ")
-    s = _CMD.sub(lambda m: "xxx" if m[0][1:] in _FUNCS else "x", s)
-    width, stack, i, pending = 0.0, [1.0], 0, None
-    while i < len(s):
-        c = s[i]
-        scale = stack[-1]
-        if c in "_^":
-            pending = scale * 0.7
-        elif c == "{":
-            stack.append(pending if pending is not None else scale)
-            pending = None
-        elif c == "}":
-            if len(stack) > 1:
-                stack.pop()
-        elif not c.isspace():
-            cur = pending if pending is not None else scale
-            pending = None
-            width += (3.0 if c in "+-=" and cur == 1.0 else 1.0) * cur
-        i += 1
-    return width
 
 
 def _driver_angle_tex(drv, pr) -> str:
@@ -174,12 +72,12 @@ def rotary_notes(scene, pr) -> list[str]:
         end = next(x for x in j.ends if x.body != GROUND)
         b = scene.body(end.body)
         th = names.bar_angle(b.name).latex
-        J = rf"I_{{{_rm(j.name)}}}"
-        rot_ = th if b.rigid else rf"{th} + \eta_{{{_rm(b.name)}}}'({_num_text(end.xi)})"
+        J = rf"I_{{{rm(j.name)}}}"
+        rot_ = th if b.rigid else rf"{th} + \eta_{{{rm(b.name)}}}'({num_text(end.xi)})"
         out.append(rf"Joint {tex_escape(j.name)}: a lumped rotary inertia ${J}$ on {tex_escape(b.name)} at "
-                   rf"$\xi = {_num_text(end.xi)}$ turning with $\varphi_{{{_rm(j.name)}}} = {rot_}$; it adds "
-                   rf"${J}\,\ddot\varphi_{{{_rm(j.name)}}}\,\partial\varphi_{{{_rm(j.name)}}}/\partial q$ to "
-                   rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{_rm(j.name)}}}^2$ "
+                   rf"$\xi = {num_text(end.xi)}$ turning with $\varphi_{{{rm(j.name)}}} = {rot_}$; it adds "
+                   rf"${J}\,\ddot\varphi_{{{rm(j.name)}}}\,\partial\varphi_{{{rm(j.name)}}}/\partial q$ to "
+                   rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{rm(j.name)}}}^2$ "
                    "to the kinetic energy.")
     return out
 
@@ -193,247 +91,24 @@ def _driver_law_note(drv) -> str:
     return ""
 
 
-class Printer:
-    """LaTeX of expressions with the scene's symbol names and rounded floats."""
-
-    def __init__(self, namer: Namer, width: float = LINE_WIDTH, subs: dict | None = None) -> None:
-        self.namer, self.width, self.subs = namer, width, subs or {}
-
-    def _tidy(self, expr):
-        """``subs`` applied (e.g. a slot's beta as a positive symbol: Piecewise branches decided)."""
-        return sp.sympify(expr).xreplace(self.subs) if self.subs else expr
-
-    def __call__(self, expr) -> str:
-        expr = _round_floats(self._tidy(expr))
-        names = {s: self.namer(s.name) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
-        return sp.latex(expr, symbol_names=names, fold_func_brackets=True)
-
-    def lines(self, expr, width: float | None = None) -> list[str]:
-        """``expr`` split over several lines at top-level sums (see :func:`tex_lines`)."""
-        return tex_lines(_round_floats(self._tidy(expr)), self, self.width if width is None else width)
-
-
-_DELIMS = [(r"\Bigl(", r"\Bigr)"), (r"\bigl[", r"\bigr]"), (r"\bigl\{", r"\bigr\}"), ("(", ")")]
-
-
-def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0) -> list[str]:
-    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters.
-
-    Sums are broken between terms (continuation lines start with their sign); a product
-    with a long sum as a factor becomes ``prefix \\Bigl( ... \\Bigr)`` with the sum broken
-    inside. Nothing is simplified or expanded. Lines after the first are indented by the
-    caller (one ``\\quad`` per nesting level is added here).
-    """
-    s = printer(expr)
-    if _width(s) <= width:
-        return [s]
-    if isinstance(expr, sp.Add):
-        out: list[str] = []
-        cur = ""
-        for i, term in enumerate(expr.as_ordered_terms()):
-            neg = term.could_extract_minus_sign()
-            body = -term if neg else term
-            sign = "- " if neg else ("+ " if i else "")
-            sub = tex_lines(body, printer, width - 2, depth)
-            piece = sign + sub[0]
-            if cur and _width(cur) + _width(piece) > width:
-                out.append(cur)
-                cur = piece
-            else:
-                cur = f"{cur} {piece}" if cur else piece
-            if len(sub) > 1:
-                out.append(cur)
-                out.extend(sub[1:-1])
-                cur = sub[-1]
-        out.append(cur)
-        return out
-    if isinstance(expr, sp.Mul):
-        adds = [a for a in expr.args if isinstance(a, sp.Add)]
-        if not adds:
-            return [s]
-        big = max(adds, key=lambda a: len(printer(a)))
-        rest = list(expr.args)
-        rest.remove(big)
-        others = sp.Mul(*rest)
-        prefix = "" if others == 1 else ("-" if others == -1 else printer(others))
-        op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
-        if _width(prefix) > width / 2 and len(adds) > 1:
-            # a product of several long sums (e.g. the projected strain energy's c^T Ka^-1 c):
-            # each sum in its own brackets, broken inside, one after the other
-            scalar = sp.Mul(*[a for a in expr.args if not isinstance(a, sp.Add)])
-            head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
-            lines = [head]
-            for a in sorted(adds, key=lambda a: len(printer(a))):
-                inner = tex_lines(a, printer, width - 12, depth + 1)     # indented and bracketed
-                if len(inner) == 1:
-                    if _width(lines[-1]) + _width(inner[0]) + 4 <= width:
-                        lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
-                    else:
-                        lines.append(rf"\quad {op} {inner[0]} {cl}")
-                    continue
-                lines[-1] = f"{lines[-1]} {op} {inner[0]}".strip()
-                lines += [r"\quad " + x for x in inner[1:]]
-                lines[-1] += f" {cl}"
-            return lines
-        inner = tex_lines(big, printer, width - 2, depth + 1)
-        if len(inner) == 1:
-            return [f"{prefix} {op} {inner[0]} {cl}".strip()]
-        pad = r"\quad "
-        return ([f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]]
-                + [f"{pad}{inner[-1]} {cl}"])
-    return [s]
-
-
-@dataclass
-class Row:
-    """One displayed equation: ``lhs = lines`` (rhs broken over lines), optional tag."""
-
-    lhs: str
-    lines: list
-    tag: str | None = None
-    rel: str = "="
-
-    def tex(self) -> str:
-        out = []
-        for k, line in enumerate(self.lines):
-            if k == 0:
-                t = f"{self.lhs} &{self.rel} {line}"
-                t += rf" \tag{{{self.tag}}}" if self.tag else ""
-            else:
-                t = rf"&\quad {line}"
-            out.append(t)
-        return " \\\\\n".join(out)
-
-
-class _RawRow(Row):
-    """Rows already laid out (a long left side on lines of its own)."""
-
-    def __init__(self, lines: list[str]) -> None:
-        super().__init__("", lines)
-
-    def tex(self) -> str:
-        return " \\\\\n".join(self.lines)
-
-
-def _block(rows: list[Row]) -> str:
-    return " \\\\\n".join(r.tex() for r in rows)
-
-
-def distributed_load_display(pr, bm, B: str, ext: set) -> tuple:
-    """Display symbols (beta_bar, gamma_bar) of a bar's distributed loads and their
-    definitions (scene loads plus gravity); adds the symbols to ``ext``. ((), []) if none."""
-    if not bm.inputs["loads"] and bm.inputs["gravity"] is None:
-        return (), []
-    beta_s, gamma_s = sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")
-    beta, gamma = distributed_groups(bm.sym, bm.inputs["loads"], bm.inputs["gravity"])
-    ext |= {beta_s, gamma_s}
-    return ((beta_s, gamma_s),), [_row(pr, pr(beta_s), beta), _row(pr, pr(gamma_s), gamma)]
-
-
-def _row(pr: "Printer", lhs, rhs, tag: str | None = None) -> Row:
-    """``lhs = rhs`` with the right side broken to fit beside the left side and the tag.
-
-    ``lhs`` is LaTeX or an expression; a left side too long to share a line becomes a
-    left-aligned block of its own lines followed by ``= rhs``.
-    """
-    avail = LINE_WIDTH - (TAG_WIDTH if tag else 0)
-    if isinstance(lhs, str):
-        lhs_lines = [lhs]
-    else:
-        lhs_lines = pr.lines(lhs, avail - 4) if lhs != 0 else ["0"]
-    if len(lhs_lines) == 1 and _width(lhs_lines[0]) <= LHS_MAX:
-        return Row(lhs_lines[0], pr.lines(rhs, max(avail - _width(lhs_lines[0]) - 3, 40)), tag)
-    rr = pr.lines(rhs, avail - 8)
-    lines = [f"&{lhs_lines[0]}" + (rf" \tag{{{tag}}}" if tag else "")]
-    lines += [rf"&\quad {x}" for x in lhs_lines[1:]]
-    lines += [rf"&\quad = {rr[0]}"] + [rf"&\qquad {x}" for x in rr[1:]]
-    return _RawRow(lines)
-
-
-def _pack(terms: list[str], width: float) -> list[str]:
-    """Join LaTeX terms (each with its leading sign) into lines of about ``width``."""
-    out, cur = [], ""
-    for t in terms:
-        if cur and _width(cur) + _width(t) > width:
-            out.append(cur)
-            cur = t
-        else:
-            cur = f"{cur} {t}" if cur else t
-    out.append(cur)
-    return out
-
-
-def _term_row(lhs: list[str], rhs: list[str], tag: str | None = None) -> Row:
-    """Like :func:`_row` for sides given as lists of LaTeX terms."""
-    avail = LINE_WIDTH - (TAG_WIDTH if tag else 0)
-    lhs_lines = _pack(lhs, avail - 4)
-    if len(lhs_lines) == 1 and _width(lhs_lines[0]) <= LHS_MAX:
-        return Row(lhs_lines[0], _pack(rhs, max(avail - _width(lhs_lines[0]) - 3, 40)), tag)
-    rr = _pack(rhs, avail - 8)
-    lines = [f"&{lhs_lines[0]}" + (rf" \tag{{{tag}}}" if tag else "")]
-    lines += [rf"&\quad {x}" for x in lhs_lines[1:]]
-    lines += [rf"&\quad = {rr[0]}"] + [rf"&\qquad {x}" for x in rr[1:]]
-    return _RawRow(lines)
-
-
 # --------------------------------------------------------------------------- inner products
-class _RecordingIPT(IPTable):
-    """A symbolic IPTable that remembers which inner-product symbols it handed out."""
-
-    def __init__(self, ip) -> None:
-        super().__init__(ip, symbolic=True)
-        self.used: dict[sp.Symbol, tuple] = {}
-
-    def gram(self, i, j):
-        out = super().gram(i, j)
-        if isinstance(out, sp.Symbol):
-            self.used.setdefault(out, ("gram", (min(i, j), max(i, j))))
-        return out
-
-    def mat(self, name, i, j, latex):
-        if name in ("Ka", "Kt", "Pd"):      # symmetric: one symbol for (a, b) and (b, a)
-            i, j = min(i, j), max(i, j)
-        out = super().mat(name, i, j, latex)
-        if isinstance(out, sp.Symbol):
-            self.used.setdefault(out, (name, (i, j)))
-        return out
-
-    def vec(self, name, i, latex):
-        out = super().vec(name, i, latex)
-        if isinstance(out, sp.Symbol):
-            self.used.setdefault(out, (name, (i, 0)))
-        return out
-
-    def tensor(self, name, idx, latex):
-        out = super().tensor(name, idx, latex)
-        if isinstance(out, sp.Symbol):
-            self.used.setdefault(out, (name, tuple(idx)))
-        return out
-
-    def ka_inv(self, i, j):
-        i, j = min(i, j), max(i, j)          # symmetric
-        out = super().ka_inv(i, j)
-        if isinstance(out, sp.Symbol):
-            self.used.setdefault(out, ("KaInv", (i, j)))
-        return out
-
-    def exact(self, name: str):
-        if name != "KaInv":
-            return self.ip.exact[name]
-        if not hasattr(self, "_exact_ka_inv"):
-            self._exact_ka_inv = sp.ImmutableMatrix(self.ip.exact["Ka"]).inv()
-        return self._exact_ka_inv
-
-
 _IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7}
 
 
-def _ip_table(ipt: _RecordingIPT, used: set, pr: Printer) -> list[dict]:
+def _ip_table(bm, used: set) -> list[dict]:
+    """Rows (symbol, exact value, decimal, kind) of the inner products of bar ``bm``'s display
+    form that the shown equations use."""
+    exact_ka_inv = None
     rows = []
-    for sym, (name, idx) in ipt.used.items():
+    for sym, (name, idx) in bm.equations.inner_products.items():
         if sym not in used:
             continue
-        exact = ipt.exact(name)[idx]
+        if name == "KaInv":
+            if exact_ka_inv is None:
+                exact_ka_inv = sp.ImmutableMatrix(bm.ipt.ip.exact["Ka"]).inv()
+            exact = exact_ka_inv[idx]
+        else:
+            exact = bm.ipt.ip.exact[name][idx]
         value = float(exact)
         if exact.atoms(sp.Float):
             ex = sp.latex(sp.Float(value, 15))
@@ -441,7 +116,7 @@ def _ip_table(ipt: _RecordingIPT, used: set, pr: Printer) -> list[dict]:
         else:
             ex = sp.latex(exact)
             kind = "closed form"
-        rows.append({"symbol": sym.name, "exact": ex, "decimal": _num_text(value), "kind": kind,
+        rows.append({"symbol": sym.name, "exact": ex, "decimal": num_text(value), "kind": kind,
                      "key": (_IP_ORDER[name], idx)})
     rows.sort(key=lambda r: r["key"])
     for r in rows:
@@ -450,75 +125,13 @@ def _ip_table(ipt: _RecordingIPT, used: set, pr: Printer) -> list[dict]:
 
 
 # --------------------------------------------------------------------------- bar equations
-def _split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
-    """Split a residual ``inertia + internal - external`` into (paper left side, right side).
-
-    The paper writes loads and elastic forces on the left and inertia on the right:
-    ``left = -(internal + external terms)``, ``right = inertia terms``. A rotary-inertia term
-    (mu/lambda) is inertia.
-    """
-    left, right = [], []
-    for term in sp.Add.make_args(sp.sympify(expr)):
-        free = term.free_symbols
-        if rho_pair is not None and {rho_pair[0], rho_pair[1]} <= free:
-            mu, lam, rho = rho_pair
-            right.append(term.subs(mu / lam, rho))
-        elif free & elastic or free & external:
-            left.append(-term)
-        else:
-            right.append(term)
-    return sp.Add(*left), sp.Add(*right)
-
-
-def _point_label(p: PointForce, scene, used: set) -> str:
-    used_names = {s.name for part in (p.ground or p.bar or ()) for s in sp.sympify(part).free_symbols}
-    label = None
-    for j in scene.joints:
-        if {names.joint_force(j.name, ax).text for ax in ("x", "y", None)} & used_names:
-            label = _rm(j.name)
-            break
-        if names.joint_parameter("m", j.name).text in used_names:
-            label = _rm(j.name) + r",m"
-            break
-    if label is None:
-        label = rf"\xi={_num_text(p.xi)}"
-    base, k = label, 2
-    while label in used:
-        label, k = f"{base},{k}", k + 1
-    used.add(label)
-    return label
-
-
-def _kin_terms(s: dict, na: int, nt: int, coriolis: bool) -> tuple[list, list]:
-    """Right sides of (1) / (8)-(9): the acceleration field in bar axes over l_i w^2."""
-    B = s["B"]
-    ax = [rf"[\ddot x_A]_{{{B}}}"]
-    ay = [rf"[\ddot y_A]_{{{B}}}"]
-    pos = rf"(\xi + \zeta_{{{B}}})" if na else r"\xi"
-    if na:
-        ax.append(rf"+ \ddot\zeta_{{{B}}}")
-    if nt and coriolis:
-        ax.append(rf"- 2\dot\theta_{{{B}}}\dot\eta_{{{B}}}")
-    if nt:
-        ax.append(rf"- \ddot\theta_{{{B}}}\eta_{{{B}}}")
-    ax.append(rf"- \dot\theta_{{{B}}}^{{2}}{pos}")
-    if nt:
-        ay.append(rf"+ \ddot\eta_{{{B}}}")
-    if na and coriolis:
-        ay.append(rf"+ 2\dot\theta_{{{B}}}\dot\zeta_{{{B}}}")
-    ay.append(rf"+ \ddot\theta_{{{B}}}{pos}")
-    if nt:
-        ay.append(rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}")
-    return ax, ay
-
-
 def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     eff = scene.effects
     body = scene.body(name)
     bm = model.bars[name]
     s = bm.sym
     na, nt = len(s.f), len(s.g)
-    B = _rm(name)
+    B = rm(name)
     kin_names = {"B": B}
     ctx: dict = {"name": name, "tex": B, "rigid": body.rigid, "na": na, "nt": nt,
                  "frame": body.frame, "text": tex_escape(name)}
@@ -566,34 +179,16 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     ctx["amplitudes"] = ", ".join(x for x in (fs, gs) if x)
 
     # ---- (1)
-    ax, ay = _kin_terms(kin_names, na, nt, eff.coriolis)
-    ctx["eq1"] = _block([_term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tex_escape(name)}"),
-                         _term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tex_escape(name)}")])
+    ax, ay = kin_terms(kin_names, na, nt, eff.coriolis)
+    ctx["eq1"] = eq_block([term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tex_escape(name)}"),
+                            term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tex_escape(name)}")])
 
-    # ---- point forces and distributed loads, for display
-    used_labels: set = set()
-    disp_points, point_defs, pf_syms, pts_tex = [], [], set(), []
-    for p in bm.inputs["points"]:
-        label = _point_label(p, scene, used_labels)
-        if p.ground is not None:
-            Bs, Gs = sp.Symbol(rf"B_{{{label}}}"), sp.Symbol(rf"\Gamma_{{{label}}}")
-            Fx, Fy = p.ground
-            bdef = (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)
-            gdef = (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)
-            point_defs.append(_row(pr, pr(Bs), bdef))
-            point_defs.append(_row(pr, pr(Gs), gdef))
-            disp_points.append(PointForce(p.xi, bar=(Bs, Gs)))
-            pf_syms |= {Bs, Gs}
-            pts_tex.append((pr(Bs), pr(Gs), _num_text(p.xi)))
-        else:
-            disp_points.append(p)
-            bsym, gsym = p.bar
-            pf_syms |= sp.sympify(bsym).free_symbols | sp.sympify(gsym).free_symbols
-            pts_tex.append((pr(bsym), pr(gsym), _num_text(p.xi)))
-    ext = set(pf_syms)
-    disp_loads, load_defs = distributed_load_display(pr, bm, B, ext)
-    ctx["point_defs"] = _block(point_defs) if point_defs else ""
-    ctx["load_defs"] = _block(load_defs) if load_defs else ""
+    # ---- point forces and distributed loads of the model's display form, labelled
+    forces = shown_forces(scene, bm, pr)
+    disp_loads = forces.loads
+    pts_tex = [(pr(b), pr(g), x) for b, g, x in forces.points]
+    ctx["point_defs"] = eq_block(forces.point_defs) if forces.point_defs else ""
+    ctx["load_defs"] = eq_block(forces.load_defs) if forces.load_defs else ""
     ctx["points"] = [{"B": b, "G": g, "xi": x} for b, g, x in pts_tex]
 
     # ---- (8), (9): strong forms with the switched-on effects
@@ -618,7 +213,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
             left.append(rf"+ \bar\beta_{{{B}}}")
         if pt_a:
             left.extend(pt_a)
-        strong.append(_term_row(left, ax, f"8, {tex_escape(name)}"))
+        strong.append(term_row(left, ax, f"8, {tex_escape(name)}"))
     if nt and not body.rigid:
         left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
         if damp:
@@ -634,19 +229,15 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
             left.append(rf"+ \bar\gamma_{{{B}}}")
         if pt_t:
             left.extend(pt_t)
-        strong.append(_term_row(left, ay, f"9, {tex_escape(name)}"))
-    ctx["strong"] = _block(strong) if strong else ""
+        strong.append(term_row(left, ay, f"9, {tex_escape(name)}"))
+    ctx["strong"] = eq_block(strong) if strong else ""
     ctx["rotary"] = bool(eff.rotary_inertia and na and nt and not body.rigid)
     ctx["bc"] = {"pinned-pinned": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}(1) = 0",
                  "cantilever": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}'(0) = 0"}.get(body.frame, "")
 
-    # ---- (16), (17), rigid-body equations with symbolic inner products
-    ipt = _RecordingIPT(bm.ipt.ip)
-    inputs = dict(bm.inputs)
-    inputs["points"] = tuple(disp_points)
-    inputs["loads"] = disp_loads
-    inputs["gravity"] = None
-    eqs = bar_equations(s, bm.basis_a, bm.basis_t, ipt, eff, **inputs)
+    # ---- (16), (17), rigid-body equations: the model's display form (symbolic inner products)
+    eqs = bm.equations.display.map(forces.show)
+    ext = forces.external
     elastic = {x for x in (s.lam, s.mu) if x is not None} | set(bm.inputs.get("axial_force", ()))
     if damp:
         elastic.add(bm.inputs["damping"])
@@ -657,16 +248,16 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         out = []
         for e, tag in zip(exprs, tags):
             used_ip.update(e.free_symbols)
-            left, right = _split_sides(e, elastic, ext, rho_pair)
-            out.append(_row(pr, left, right, tag))
+            left, right = split_sides(e, elastic, ext, rho_pair)
+            out.append(eq_row(pr, left, right, tag))
         return out
 
     tn = tex_escape(name)
-    ctx["rb"] = _block(rows([eqs.force[0], eqs.force[1], eqs.moment],
-                            [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
-    ctx["eq16"] = _block(rows(eqs.eq16, [f"16.{k + 1}, {tn}" for k in range(na)])) if na else ""
-    ctx["eq17"] = _block(rows(eqs.eq17, [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
-    ctx["ip_table"] = _ip_table(ipt, used_ip, pr)
+    ctx["rb"] = eq_block(rows([eqs.force[0], eqs.force[1], eqs.moment],
+                              [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
+    ctx["eq16"] = eq_block(rows(eqs.eq16, [f"16.{k + 1}, {tn}" for k in range(na)])) if na else ""
+    ctx["eq17"] = eq_block(rows(eqs.eq17, [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
+    ctx["ip_table"] = _ip_table(bm, used_ip)
     return ctx
 
 
@@ -681,10 +272,10 @@ def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
     eff = scene.effects
     bm = model.bars[body]
     s = bm.sym
-    B = _rm(body)
+    B = rm(body)
     na, nt = len(s.f), len(s.g)
     at_one, at_zero = abs(xi - 1.0) < 1e-12, abs(xi) < 1e-12
-    xs = "1" if at_one else ("0" if at_zero else _num_text(xi))
+    xs = "1" if at_one else ("0" if at_zero else num_text(xi))
     F = rf"\mathbf F_{{{B}}}({xs})"
     out = {"sign": 1 if at_one else -1, "F": F, "rows": [], "rigid": False, "end": at_one or at_zero}
     if not out["end"]:
@@ -746,22 +337,22 @@ def _joints_context(scene, model, pr: Printer) -> list[dict]:
         lhs = fa["F"] if fa["sign"] == 1 else "-" + fa["F"]
         rhs = "-" + fb["F"] if fb["sign"] == 1 else fb["F"]
         if j.mass > 0:
-            rhs += rf" - m_{{{_rm(j.name)}}}\bigl(\ddot{{\mathbf r}}_{{{_rm(j.name)}}} - \mathbf g\bigr)"
+            rhs += rf" - m_{{{rm(j.name)}}}\bigl(\ddot{{\mathbf r}}_{{{rm(j.name)}}} - \mathbf g\bigr)"
         rows = [Row(lhs, [rhs], f"13, {tex_escape(j.name)}")]
         defs = fa["rows"] + fb["rows"]
         if j.name in tree:
-            body = _rm(tree[j.name].body)
+            body = rm(tree[j.name].body)
             how = (rf"{tex_escape(j.name)} is a tree joint: its force is the resultant "
                    rf"$\mathbf S_{{{body}}} = (S_{{X,{body}}}, S_{{Y,{body}}})$ of the subtree hanging "
                    rf"from it (route 2 of the seed)")
         elif j.name in cut:
             how = (rf"{tex_escape(j.name)} is a cut joint: its force is carried by the multipliers "
-                   rf"$\Lambda_{{x,{_rm(j.name)}}}$, $\Lambda_{{y,{_rm(j.name)}}}$")
+                   rf"$\Lambda_{{x,{rm(j.name)}}}$, $\Lambda_{{y,{rm(j.name)}}}$")
         else:
             how = ""
         out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "b": tex_escape(b.body),
-                    "xa": _num_text(a.xi), "xb": _num_text(b.xi), "eq": _block(rows),
-                    "defs": _block(defs) if defs else "", "how": how,
+                    "xa": num_text(a.xi), "xb": num_text(b.xi), "eq": eq_block(rows),
+                    "defs": eq_block(defs) if defs else "", "how": how,
                     "rigid": [tex_escape(x) for x, d in ((a.body, fa), (b.body, fb)) if d["rigid"]],
                     "interior": not (fa["end"] and fb["end"]), "mass": j.mass > 0})
     return out
@@ -825,7 +416,6 @@ def latex_document(scene, model) -> str:
     model : ``symgen.model.derive.derive(scene)``
     """
     namer = Namer(model.latex)
-    from symgen.backends.latex import slot as latex_slot
     pr = Printer(namer, subs=latex_slot.beta_positive(model))
     prog = model.program
     assigned = dict(prog.assignments)
@@ -837,16 +427,16 @@ def latex_document(scene, model) -> str:
     for b in scene.bodies:
         bm = model.bars[b.name]
         g = scene.groups.get(b.name, {})
-        bodies.append({"name": tex_escape(b.name), "tex": _rm(b.name),
+        bodies.append({"name": tex_escape(b.name), "tex": rm(b.name),
                        "kind": "rigid" if b.rigid else "elastic",
                        "frame": tex_escape(b.frame or "--"),
                        "na": len(bm.sym.f), "nt": len(bm.sym.g),
-                       "alpha": _num_text(g.get("alpha")), "nu": _num_text(g.get("nu")),
-                       "lam": _num_text(g.get("lambda")), "mu": _num_text(g.get("mu")),
-                       "rho": _num_text(g.get("rho"))})
+                       "alpha": num_text(g.get("alpha")), "nu": num_text(g.get("nu")),
+                       "lam": num_text(g.get("lambda")), "mu": num_text(g.get("mu")),
+                       "rho": num_text(g.get("rho"))})
     sg = scene.groups.get("_scene", {})
     scene_groups = [{"key": tex_escape(k), "value": tex_escape(", ".join(f"{x:.6g}" for x in v))
-                     if isinstance(v, (list, tuple)) else (_num_text(v) if isinstance(v, (int, float))
+                     if isinstance(v, (list, tuple)) else (num_text(v) if isinstance(v, (int, float))
                                                            else tex_escape(v))} for k, v in sg.items()]
     eff = scene.effects
     effects = [
@@ -869,18 +459,18 @@ def latex_document(scene, model) -> str:
             if e.body == GROUND:
                 ends.append(f"ground $({e.point[0]:.6g}, {e.point[1]:.6g})$")
             elif e.variable:
-                ends.append(f"{tex_escape(e.body)} at $\\xi = \\beta_{{{_rm(j.name)}}}(\\tau)$ (variable support)")
+                ends.append(f"{tex_escape(e.body)} at $\\xi = \\beta_{{{rm(j.name)}}}(\\tau)$ (variable support)")
             else:
                 ends.append(f"{tex_escape(e.body)} at $\\xi = {e.xi:.6g}$")
         role = "tree" if any(e.joint == j.name for e in topo.edges.values()) else "cut"
         joints.append({"name": tex_escape(j.name), "kind": j.kind, "ends": ", ".join(ends), "role": role,
                        "mass": (f"{j.mass:.6g}" if j.mass else "")
-                       + (f"; rotary inertia $I_{{{_rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else "")})
+                       + (f"; rotary inertia $I_{{{rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else "")})
     drv = scene.driver
     driver = None
     if drv is not None:
         driver = {"kind": drv.kind, "body": tex_escape(drv.body),
-                  "text": (f"kinematic guidance: $\\theta_{{{_rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
+                  "text": (f"kinematic guidance: $\\theta_{{{rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
                            + _driver_law_note(drv) if drv.kind == "angle" else
                            f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")
                   + _rotor_note(drv, pr)}
@@ -896,7 +486,7 @@ def latex_document(scene, model) -> str:
         values = parameter_values(scene, model.param_names)
     except KeyError:
         values = [None] * len(model.params)
-    params = [{"tex": pr(p), "value": _num_text(v)} for p, v in zip(model.params, values)]
+    params = [{"tex": pr(p), "value": num_text(v)} for p, v in zip(model.params, values)]
 
     # ---- bars
     bars = [latex_slot.guide_context(scene, model, name, pr) if latex_slot.is_guide(model.bars[name])
@@ -914,10 +504,10 @@ def latex_document(scene, model) -> str:
     for name in topo.order:
         s = model.bars[name].sym
         e = topo.edges[name]
-        rows = [_row(pr, pr(s.xa_dd), assigned[s.xa_dd], f"10.x, {tex_escape(name)}"),
-                _row(pr, pr(s.ya_dd), assigned[s.ya_dd], f"10.y, {tex_escape(name)}")]
+        rows = [eq_row(pr, pr(s.xa_dd), assigned[s.xa_dd], f"10.x, {tex_escape(name)}"),
+                eq_row(pr, pr(s.ya_dd), assigned[s.ya_dd], f"10.y, {tex_escape(name)}")]
         eq10.append({"name": tex_escape(name), "chain": chain[name], "joint": tex_escape(e.joint),
-                     "root": e.parent == GROUND, "slider": e.slider, "eq": _block(rows)})
+                     "root": e.parent == GROUND, "slider": e.slider, "eq": eq_block(rows)})
 
     # ---- (11) and the driver
     closure = []
@@ -930,8 +520,8 @@ def latex_document(scene, model) -> str:
         if row.kind == "slot-x":
             sc = latex_slot.slot_closure(scene, model, row.joint)
             jn = tex_escape(row.joint)
-            rows = [_row(pr, r"0", slot_rows[(row.joint, c)], f"11.{c[-1]}, {jn}") for c in ("slot-x", "slot-y")]
-            closure.append({"text": sc["text"], "sym": sc["sym"], "star": sc["star"], "eq": _block(rows)})
+            rows = [eq_row(pr, r"0", slot_rows[(row.joint, c)], f"11.{c[-1]}, {jn}") for c in ("slot-x", "slot-y")]
+            closure.append({"text": sc["text"], "sym": sc["sym"], "star": sc["star"], "eq": eq_block(rows)})
             continue
         if row.kind == "inextensible":
             tag = f"IN, {tex_escape(row.joint)}"
@@ -958,18 +548,18 @@ def latex_document(scene, model) -> str:
             tag = f"11{comp}, {tex_escape(row.joint)}"
             loop = " -- ".join(tex_escape(x) for x in row.loop)
             text = f"Cut {'pin' if row.kind.startswith('pin') else 'slider'} {tex_escape(row.joint)}, loop {loop}"
-        closure.append({"text": text, "eq": _block([_row(pr, r"0", expr, tag)])})
+        closure.append({"text": text, "eq": eq_block([eq_row(pr, r"0", expr, tag)])})
 
     # ---- (13)
     joint_eqs = _joints_context(scene, model, pr)
 
     # ---- assembled
-    defs_e = [_row(pr, pr(sym), expr) for sym, expr in prog.group(GENERALIZED_FORCE)]
-    defs_s = [_row(pr, pr(sym), expr) for sym, expr in prog.group(SUBTREE_FORCE)]
+    defs_e = [eq_row(pr, pr(sym), expr) for sym, expr in prog.group(GENERALIZED_FORCE)]
+    defs_s = [eq_row(pr, pr(sym), expr) for sym, expr in prog.group(SUBTREE_FORCE)]
     residuals = []
     for k, (x, r) in enumerate(zip(model.q, prog.outputs["res"])):
         lhs = rf"\mathcal R_{{{pr(x)}}}"
-        residuals.append(_row(pr, lhs, r, f"EoM.{k + 1}"))
+        residuals.append(eq_row(pr, lhs, r, f"EoM.{k + 1}"))
 
     ctx = {
         "version": __version__, "scene_path": Path(scene.path).name, "scene_path_tex": tex_escape(Path(scene.path).name),
@@ -977,12 +567,11 @@ def latex_document(scene, model) -> str:
         "bodies": bodies, "scene_groups": scene_groups, "effects": effects, "joints": joints,
         "driver": driver, "coords": coords, "multipliers": mult, "params": params, "bars": bars,
         "eq10": eq10, "closure": closure, "joint_eqs": joint_eqs,
-        "defs_e": _block(defs_e), "defs_s": _block(defs_s), "residuals": _block(residuals),
+        "defs_e": eq_block(defs_e), "defs_s": eq_block(defs_s), "residuals": eq_block(residuals),
         "loops": len(topo.cuts),
         "vk": eff.strain == "von_karman",
         "slot_notes": latex_slot.slot_notes(scene, model),
         "rotary_notes": rotary_notes(scene, pr),
     }
-    from symgen.backends.latex.quasistatic import quasi_static_context
-    ctx["qs"] = quasi_static_context(scene, model, pr)
+    ctx["qs"] = latex_quasistatic.quasi_static_context(scene, model, pr)
     return _env().get_template("document.tex.jinja").render(**ctx)

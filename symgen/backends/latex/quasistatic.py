@@ -8,15 +8,14 @@ linear in the multipliers) on the left, the known load terms (B) and, in bracket
 nonlinear terms f(y) on the right. Then (20) itself: how symgen assembles A, B and f(y) from
 the generated residual and solves it (``symgen quasistatic``).
 
-The bar equations are derived again here with symbolic inner products, exactly as the bar
-section of the document does (same ``bar_equations``, same point-force labels).
+The bar equations are the model's display form (``model.bars[name].equations.display``),
+with the point forces labelled as in the bar section of the document (``printing.shown_forces``).
 """
 from __future__ import annotations
 
 import sympy as sp
 
-from symgen.model.bars import IPTable, PointForce, bar_equations
-from symgen.backends.latex import document as L
+from symgen.backends.latex.printing import eq_block, eq_row, rm, shown_forces, term_row, tex_escape
 
 __all__ = ["quasi_static_context"]
 
@@ -61,12 +60,11 @@ def _row20(expr: sp.Expr, unknowns: set, pr, tag: str):
         f[0] = ("+ " if rhs else "") + r"\Bigl[" + (f[0] if not f[0].startswith("+ ") else f[0][2:])
         f[-1] = f[-1] + r"\Bigr]_{f}"
         rhs = rhs + f
-    return L._term_row(lhs, rhs or ["0"], tag)
+    return term_row(lhs, rhs or ["0"], tag)
 
 
 def quasi_static_context(scene, model, pr) -> dict:
     """Context of ``symgen/backends/latex/templates/quasistatic.tex.jinja``."""
-    eff = scene.effects
     prog = model.program
     assigned = dict(prog.assignments)
     zero_rates = {}
@@ -78,42 +76,27 @@ def quasi_static_context(scene, model, pr) -> dict:
     for name in model.topology.order:
         bm = model.bars[name]
         s = bm.sym
-        tn = L.tex_escape(name)
-        B = L._rm(name)
+        tn = tex_escape(name)
+        B = rm(name)
         na, nt = len(s.f), len(s.g)
         star = {s.xa_dd: sp.Symbol(rf"[\ddot x_A]^{{*}}_{{{B}}}"), s.ya_dd: sp.Symbol(rf"[\ddot y_A]^{{*}}_{{{B}}}")}
-        acc = [L._row(pr, pr(star[s.xa_dd]), assigned[s.xa_dd].xreplace(zero_rates), f"10*.x, {tn}"),
-               L._row(pr, pr(star[s.ya_dd]), assigned[s.ya_dd].xreplace(zero_rates), f"10*.y, {tn}")]
+        acc = [eq_row(pr, pr(star[s.xa_dd]), assigned[s.xa_dd].xreplace(zero_rates), f"10*.x, {tn}"),
+               eq_row(pr, pr(star[s.ya_dd]), assigned[s.ya_dd].xreplace(zero_rates), f"10*.y, {tn}")]
         if _is_guide(bm):
             guides.append(tn)
             continue
         if na == 0 and nt == 0:
             continue
-        # display point forces exactly as the bar section does
-        used: set = set()
-        points, unknown_forces = [], set()
-        for p in bm.inputs["points"]:
-            label = L._point_label(p, scene, used)
-            if p.ground is not None:
-                Bs, Gs = sp.Symbol(rf"B_{{{label}}}"), sp.Symbol(rf"\Gamma_{{{label}}}")
-                points.append(PointForce(p.xi, bar=(Bs, Gs)))
-                unknown_forces |= {Bs, Gs}
-            else:
-                points.append(p)
-        inputs = dict(bm.inputs)
-        inputs["points"] = tuple(points)
-        if bm.inputs["loads"] or bm.inputs["gravity"] is not None:
-            inputs["loads"] = ((sp.Symbol(rf"\bar\beta_{{{B}}}"), sp.Symbol(rf"\bar\gamma_{{{B}}}")),)
-        else:
-            inputs["loads"] = ()
-        inputs["gravity"] = None
-        eqs = bar_equations(s, bm.basis_a, bm.basis_t, IPTable(bm.ipt.ip, symbolic=True), eff, **inputs)
+        # the display form, point forces labelled exactly as the bar section does
+        forces = shown_forces(scene, bm, pr, definitions=False)
+        unknown_forces = forces.reactions
+        eqs = bm.equations.display.map(forces.show)
         unknowns = set(s.f) | set(s.g) | unknown_forces | set(bm.inputs.get("axial_force", ()))
         rows = [_row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"18.{k + 1}, {tn}")
                 for k, e in enumerate(eqs.eq16)]
         rows += [_row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"19.{k + 1}, {tn}")
                  for k, e in enumerate(eqs.eq17)]
-        bars.append({"name": tn, "acc": L._block(acc), "eqs": L._block(rows),
+        bars.append({"name": tn, "acc": eq_block(acc), "eqs": eq_block(rows),
                      "forces": ", ".join(f"${pr(x)}$" for x in sorted(unknown_forces, key=str))})
     amps = [x for c, x in zip(model.coords, model.q) if c.kind in ("f", "g")]
     y = [pr(x) for x in amps] + [pr(x) for x in model.lam]

@@ -9,18 +9,22 @@ equation of the support distance beta (tagged ``17.beta``) with symbolic inner p
 the inner products in closed form as functions of beta. The slot's closure rows are shown in
 the form of (11) with the guide's term [beta + zeta*, eta*].
 
-The slot force acts on the guide at its moving support xi = beta (``dae._add_contact_force``
-adds it to the guide's generalized forces, not to ``bar_equations``); it is written here into
-the guide's rigid-body and beta equations as the point force (B, Gamma) at xi = beta, where it
-does no work on the amplitudes (psi(beta, beta) = 0).
+The guide's equations are the model's display form (``model.bars[guide].equations.display``,
+inner products from ``symgen.model.slot.SlotDisplayIPTable``). The slot force acts on the guide
+at its moving support xi = beta (``derive._add_contact_force`` adds it to the guide's
+generalized forces, not to ``bar_equations``); it is written here into the guide's rigid-body
+and beta equations as the point force (B, Gamma) at xi = beta, where it does no work on the
+amplitudes (psi(beta, beta) = 0).
 """
 from __future__ import annotations
 
 import sympy as sp
 
-from symgen.model.bars import PointForce, bar_equations
+from symgen.backends.latex.printing import (eq_block, eq_row, kin_terms, num_text, rm, shown_forces, split_sides,
+                                            term_row, tex_escape)
 from symgen.ir import names
 from symgen.ir.records import find_coordinate
+from symgen.model.bars import point_force_groups
 from symgen.scene.model import GROUND
 
 __all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes",
@@ -56,76 +60,6 @@ def _beta0(scene, joint: str) -> float | None:
 
 
 # --------------------------------------------------------------------------- inner products
-class SlotDisplayIPT:
-    """The guide's inner products as named symbols for display, recording which it handed out.
-
-    Same interface as ``slot.SlotIPTable`` (blocks [1, xi, psi, psi_beta, psi_betabeta]).
-    (psi''_i, psi''_j) are returned as functions of beta, so that the beta equation's
-    d/dbeta of the strain energy keeps its term; :meth:`finish` turns them into symbols.
-    """
-
-    def __init__(self, ipt, beta: sp.Symbol) -> None:
-        self.base, self.beta, self.na, self.nt, self.symbolic = ipt, beta, 0, ipt.nt, True
-        nt = ipt.nt
-        self.labels = (["1", r"\xi"] + [rf"\psi_{{{k + 1}}}" for k in range(nt)]
-                       + [rf"\psi_{{{k + 1},\beta}}" for k in range(nt)]
-                       + [rf"\psi_{{{k + 1},\beta\beta}}" for k in range(nt)])
-        self.used: dict[sp.Symbol, tuple] = {}      # display symbol -> (kind, (i, j))
-        self._funcs: dict = {}                       # F(beta) -> (i, j)
-
-    def gram(self, i: int, j: int) -> sp.Expr:
-        if self.base.G[i, j] == 0:
-            return sp.Integer(0)
-        i, j = min(i, j), max(i, j)
-        sym = sp.Symbol(rf"\left({self.labels[i]},{self.labels[j]}\right)")
-        self.used.setdefault(sym, ("gram", (i, j)))
-        return sym
-
-    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
-        if name != "Kt":
-            raise KeyError(f"a guide bar has no {name} inner products")
-        i, j = min(i, j), max(i, j)
-        if self.base.Kt[i, j] == 0:
-            return sp.Integer(0)
-        f = sp.Function(latex.format(i=i + 1, j=j + 1))(self.beta)
-        self._funcs[f] = (i, j)
-        return f
-
-    def vec(self, name: str, i: int, latex: str) -> sp.Expr:
-        return self.base.vec(name, i, latex)
-
-    def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
-        return sp.Integer(0)
-
-    def finish(self, expr: sp.Expr) -> sp.Expr:
-        """(psi''_i, psi''_j)(beta) -> a symbol, its beta derivative -> a symbol of its own."""
-        rep = {}
-        for f, idx in self._funcs.items():
-            name = f.func.__name__
-            d = sp.Derivative(f, self.beta)
-            dsym = sp.Symbol(r"\partial_{\beta}" + name)
-            sym = sp.Symbol(name)
-            rep[d] = dsym
-            rep[f] = sym
-        expr = sp.sympify(expr).xreplace({k: v for k, v in rep.items() if isinstance(k, sp.Derivative)})
-        expr = expr.xreplace({k: v for k, v in rep.items() if not isinstance(k, sp.Derivative)})
-        for f, idx in self._funcs.items():
-            name = f.func.__name__
-            for sym, kind in ((sp.Symbol(name), "Kt"), (sp.Symbol(r"\partial_{\beta}" + name), "dKt")):
-                if expr.has(sym):
-                    self.used.setdefault(sym, (kind, idx))
-        return expr
-
-    def value(self, sym: sp.Symbol) -> sp.Expr:
-        """Closed form (in the model's beta symbol) of a display symbol."""
-        kind, (i, j) = self.used[sym]
-        if kind == "gram":
-            return self.base.G[i, j]
-        if kind == "Kt":
-            return self.base.Kt[i, j]
-        return sp.diff(self.base.Kt[i, j], self.beta)
-
-
 def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
     """The shortest printed of a few equivalent forms (beta taken positive)."""
     e = sp.sympify(expr).xreplace(pos)
@@ -141,19 +75,20 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
 _KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2}
 
 
-def _ip_rows(ipt: SlotDisplayIPT, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
-    from symgen.backends.latex.document import _num_text
+def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
+    """Rows of the inner products of the guide's display form ``eqs`` that the shown equations
+    use: each symbol's closed form in beta (``eqs.values``), decimal at the initial beta."""
     rows = []
-    for sym, (kind, idx) in ipt.used.items():
+    for sym, (kind, idx) in eqs.inner_products.items():
         if sym not in used:
             continue
-        exact = ipt.value(sym)
+        exact = eqs.values[sym]
         form = _shortest(exact, pos)
-        const = not form.has(ipt.beta) and not form.has(pos.get(ipt.beta, ipt.beta))
+        const = not form.has(beta) and not form.has(pos.get(beta, beta))
         val = None
         if beta0 is not None or const:
-            val = float(exact.subs(ipt.beta, beta0 if beta0 is not None else 0))
-        rows.append({"symbol": sym.name, "exact": pr(form), "decimal": _num_text(val),
+            val = float(exact.subs(beta, beta0 if beta0 is not None else 0))
+        rows.append({"symbol": sym.name, "exact": pr(form), "decimal": num_text(val),
                      "kind": "constant" if const else ("derivative in $\\beta$" if kind == "dKt"
                                                         else "function of $\\beta$"),
                      "key": (_KIND_ORDER[kind], idx)})
@@ -210,68 +145,54 @@ def _shape_rows(basis, b: sp.Symbol, pr) -> tuple[list[dict], bool]:
 
 # --------------------------------------------------------------------------- the guide's equations
 def _contact_symbols(joint: str) -> tuple:
-    from symgen.backends.latex.document import _rm
-    return sp.Symbol(rf"B_{{{_rm(joint)}}}"), sp.Symbol(rf"\Gamma_{{{_rm(joint)}}}")
+    return sp.Symbol(rf"B_{{{rm(joint)}}}"), sp.Symbol(rf"\Gamma_{{{rm(joint)}}}")
 
 
 def _contact_definitions(model, guide: str, joint: str) -> tuple:
     """(B, Gamma) of the slot force on the guide, bar axes / nu alpha^2: the force is
     -(Lx, Ly) in ground axes (the crank's point receives +(Lx, Ly))."""
-    s = model.bars[guide].sym
     Fx, Fy = (-names.joint_force(joint, ax).symbol() for ax in "xy")
-    B = (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)
-    G = (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)
-    return B, G
+    return point_force_groups(model.bars[guide].sym, Fx, Fy)
 
 
-def guide_display_equations(scene, model, name: str, disp_points: tuple = (), disp_loads: tuple = ()):
-    """The guide's rigid-body equations, (17) and the beta equation, with symbolic inner
-    products and the slot force as (B, Gamma) at xi = beta.
+def guide_display_equations(scene, model, name: str, relabel: dict | None = None) -> dict:
+    """The guide's rigid-body equations, (17) and the beta equation of the model's display form
+    (symbolic inner products), with the slot force as (B, Gamma) at xi = beta.
 
-    Returns ``(equations, ipt)``: ``equations`` is a dict with keys "fx", "fy", "mom", "eq17",
-    "eqbeta" (residuals, inertia minus forces, divided by nu alpha^2 / nu alpha^3 as in
-    ``bars.bar_equations``); ``ipt.value(symbol)`` gives each inner product's closed form.
+    Returns a dict with keys "fx", "fy", "mom", "eq17", "eqbeta" (residuals, inertia minus
+    forces, divided by nu alpha^2 / nu alpha^3 as in ``bars.bar_equations``), ``relabel``
+    applied (``xreplace``); ``model.bars[name].equations.values`` gives each display symbol's
+    value (the inner products' closed forms), ``_contact_definitions`` the slot force's.
     """
-    bm = model.bars[name]
-    s = bm.sym
-    joint = _slot_of(scene, name).name
-    ipt = SlotDisplayIPT(bm.ipt, s.beta[0])
-    inputs = dict(bm.inputs)
-    inputs["points"] = tuple(disp_points)
-    inputs["loads"] = tuple(disp_loads)
-    inputs["gravity"] = None
-    inputs.pop("axial_force", None)
-    eqs = bar_equations(s, bm.basis_a, bm.basis_t, ipt, scene.effects, **inputs)
-    Bc, Gc = _contact_symbols(joint)
+    s = model.bars[name].sym
+    eqs = model.bars[name].equations.display.map(lambda e: e.xreplace(relabel or {}))
+    Bc, Gc = _contact_symbols(_slot_of(scene, name).name)
     b = s.beta[0]
-    out = {"fx": eqs.force[0] - Bc, "fy": eqs.force[1] - Gc,
-           "mom": eqs.moment - b * Gc,                      # arm: the contact is at (beta, 0)
-           "eq17": list(eqs.eq17),                          # psi_k(beta) = 0: no work on g
-           "eqbeta": eqs.eqbeta - Bc}                       # d r_contact / d beta = alpha R e_x
-    out = {k: ([ipt.finish(e) for e in v] if isinstance(v, list) else ipt.finish(v)) for k, v in out.items()}
-    return out, ipt
+    return {"fx": eqs.force[0] - Bc, "fy": eqs.force[1] - Gc,
+            "mom": eqs.moment - b * Gc,                      # arm: the contact is at (beta, 0)
+            "eq17": list(eqs.eq17),                          # psi_k(beta) = 0: no work on g
+            "eqbeta": eqs.eqbeta - Bc}                       # d r_contact / d beta = alpha R e_x
 
 
 def guide_context(scene, model, name: str, pr) -> dict:
     """Context of ``guide.tex.jinja`` for the guide bar ``name``."""
-    from symgen.backends.latex.document import _block, _kin_terms, distributed_load_display, _num_text, _point_label, _rm, _row, _split_sides, _term_row, tex_escape
     eff = scene.effects
     body = scene.body(name)
     bm = model.bars[name]
     s = bm.sym
     nt = len(s.g)
-    B = _rm(name)
+    B = rm(name)
     j = _slot_of(scene, name)
-    J = _rm(j.name)
+    J = rm(j.name)
     b, db, ddb = s.beta
     bt, dbt, ddbt = pr(b), pr(db), pr(ddb)
     pos = beta_positive(model)
     tn = tex_escape(name)
     ctx: dict = {"name": name, "tex": B, "text": tn, "rigid": False, "na": 0, "nt": nt, "slot": True,
                  "frame": body.frame, "joint": tex_escape(j.name), "joint_tex": J, "beta": bt,
-                 "follower": tex_escape(j.ends[0].body), "follower_xi": _num_text(j.ends[0].xi)}
+                 "follower": tex_escape(j.ends[0].body), "follower_xi": num_text(j.ends[0].xi)}
     beta0 = _beta0(scene, j.name)
-    ctx["beta0"] = _num_text(beta0) if beta0 is not None else ""
+    ctx["beta0"] = num_text(beta0) if beta0 is not None else ""
 
     # ---- shape functions: span and overhang, and their beta derivatives
     ctx["psi"], ctx["psi_family"] = _shape_rows(bm.basis_t, b, pr)
@@ -293,35 +214,21 @@ def guide_context(scene, model, name: str, pr) -> dict:
     ctx["bc"] = (rf"\zeta_{{{B}}} \equiv 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}({bt}) = 0")
 
     # ---- (1)
-    ax, ay = _kin_terms({"B": B}, 0, nt, eff.coriolis)
-    ctx["eq1"] = _block([_term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tn}"),
-                         _term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tn}")])
+    ax, ay = kin_terms({"B": B}, 0, nt, eff.coriolis)
+    ctx["eq1"] = eq_block([term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tn}"),
+                            term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tn}")])
 
     # ---- applied forces: the guide's own point forces and loads, then the slot force at xi = beta
-    used_labels = {J}
-    disp_points, point_defs, ext, pts_tex = [], [], set(), []
-    for p in bm.inputs["points"]:
-        label = _point_label(p, scene, used_labels)
-        if p.ground is not None:
-            Bs, Gs = sp.Symbol(rf"B_{{{label}}}"), sp.Symbol(rf"\Gamma_{{{label}}}")
-            Fx, Fy = p.ground
-            point_defs.append(_row(pr, pr(Bs), (sp.cos(s.th) * Fx + sp.sin(s.th) * Fy) / (s.nu * s.alpha ** 2)))
-            point_defs.append(_row(pr, pr(Gs), (-sp.sin(s.th) * Fx + sp.cos(s.th) * Fy) / (s.nu * s.alpha ** 2)))
-            disp_points.append(PointForce(p.xi, bar=(Bs, Gs)))
-            ext |= {Bs, Gs}
-            pts_tex.append((pr(Gs), _num_text(p.xi)))
-        else:
-            disp_points.append(p)
-            ext |= sp.sympify(p.bar[0]).free_symbols | sp.sympify(p.bar[1]).free_symbols
-            pts_tex.append((pr(p.bar[1]), _num_text(p.xi)))
+    forces = shown_forces(scene, bm, pr, reserved=(J,))
+    pts_tex = [(pr(g), x) for _, g, x in forces.points]
     Bc, Gc = _contact_symbols(j.name)
     Bdef, Gdef = _contact_definitions(model, name, j.name)
-    point_defs = [_row(pr, pr(Bc), Bdef), _row(pr, pr(Gc), Gdef)] + point_defs
-    ext |= {Bc, Gc}
+    point_defs = [eq_row(pr, pr(Bc), Bdef), eq_row(pr, pr(Gc), Gdef)] + forces.point_defs
+    ext = forces.external | {Bc, Gc}
     pts_tex.insert(0, (pr(Gc), bt))
-    disp_loads, load_defs = distributed_load_display(pr, bm, B, ext)
-    ctx["point_defs"] = _block(point_defs)
-    ctx["load_defs"] = _block(load_defs) if load_defs else ""
+    disp_loads = forces.loads
+    ctx["point_defs"] = eq_block(point_defs)
+    ctx["load_defs"] = eq_block(forces.load_defs) if forces.load_defs else ""
 
     # ---- (9) with the variable-span terms of eta''
     damp = bm.inputs["damping"] is not None
@@ -337,11 +244,11 @@ def guide_context(scene, model, name: str, pr) -> dict:
              rf"+ 2{dbt}{sk}\dot g_{{{B},k}}\psi_{{k,\beta}}",
              rf"+ {sk} g_{{{B},k}}\bigl(\psi_{{k,\beta\beta}}\,{dbt}^{{2}} + \psi_{{k,\beta}}\,{ddbt}\bigr)",
              rf"+ \ddot\theta_{{{B}}}\,\xi", rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}"]
-    ctx["strong"] = _block([_term_row(left, right, f"9, {tn}")])
+    ctx["strong"] = eq_block([term_row(left, right, f"9, {tn}")])
     ctx["damped"] = damp
 
     # ---- rigid-body equations, (17), (17.beta)
-    eqs, ipt = guide_display_equations(scene, model, name, tuple(disp_points), disp_loads)
+    eqs = guide_display_equations(scene, model, name, forces.relabel)
     elastic = {s.mu} if s.mu is not None else set()
     if damp:
         elastic.add(bm.inputs["damping"])
@@ -351,14 +258,14 @@ def guide_context(scene, model, name: str, pr) -> dict:
         out = []
         for e, tag in zip(exprs, tags):
             used.update(e.free_symbols)
-            lft, rgt = _split_sides(e, elastic, ext, None)
-            out.append(_row(pr, lft, rgt, tag))
+            lft, rgt = split_sides(e, elastic, ext, None)
+            out.append(eq_row(pr, lft, rgt, tag))
         return out
 
-    ctx["rb"] = _block(rows([eqs["fx"], eqs["fy"], eqs["mom"]], [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
-    ctx["eq17"] = _block(rows(eqs["eq17"], [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
-    ctx["eqbeta"] = _block(rows([eqs["eqbeta"]], [rf"17.$\beta$, {tn}"]))
-    ctx["ip_table"] = _ip_rows(ipt, used, pr, beta0, pos)
+    ctx["rb"] = eq_block(rows([eqs["fx"], eqs["fy"], eqs["mom"]], [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
+    ctx["eq17"] = eq_block(rows(eqs["eq17"], [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
+    ctx["eqbeta"] = eq_block(rows([eqs["eqbeta"]], [rf"17.$\beta$, {tn}"]))
+    ctx["ip_table"] = _ip_rows(bm.equations, b, used, pr, beta0, pos)
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
@@ -386,12 +293,11 @@ def _vec(top: str, bottom: str) -> str:
 def _at(model, bar: str, xi: float) -> tuple[str, str, str]:
     """(xi, zeta(xi), eta(xi)) of a bar point as LaTeX (hats at xi = 1, zeros where the
     frame or the basis makes them vanish)."""
-    from symgen.backends.latex.document import _num_text, _rm
-    B = _rm(bar)
+    B = rm(bar)
     s = model.bars[bar].sym
     one = abs(xi - 1.0) < 1e-12
     zero = abs(xi) < 1e-12
-    x = "1" if one else _num_text(xi)
+    x = "1" if one else num_text(xi)
     z = "" if (not s.f or zero) else (rf"\hat\zeta_{{{B}}}" if one else rf"\zeta_{{{B}}}({x})")
     e = "0" if (not s.g or zero) else (rf"\hat\eta_{{{B}}}" if one else rf"\eta_{{{B}}}({x})")
     return x, z, e
@@ -399,15 +305,14 @@ def _at(model, bar: str, xi: float) -> tuple[str, str, str]:
 
 def _chain_terms(model, body: str, end) -> tuple[str, list[str]]:
     """(root point, terms alpha_j R(theta_j) [...]) from ground to the end ``end`` of ``body``."""
-    from symgen.backends.latex.document import _rm
     topo = model.topology
     path = _chain(model, body)
     root = topo.edges[path[0]]
-    start = (rf"\mathbf r_{{A,{_rm(path[0])}}}" if root.slider or root.ground_point is None
-             else rf"\mathbf p_{{{_rm(root.joint)}}}")
+    start = (rf"\mathbf r_{{A,{rm(path[0])}}}" if root.slider or root.ground_point is None
+             else rf"\mathbf p_{{{rm(root.joint)}}}")
     terms = []
     for k, bar in enumerate(path):
-        B = _rm(bar)
+        B = rm(bar)
         edge = topo.edges[bar]
         rb = rf"\alpha_{{{B}}} R(\theta_{{{B}}})"
         if k + 1 < len(path):
@@ -437,20 +342,19 @@ def pr_beta(model, bar: str) -> str:
 def slot_closure(scene, model, joint: str) -> dict:
     """The text and the symbolic (11) of a slot: sum of the follower's chain minus the
     guide's chain, with [beta + zeta*, eta*] for the guide, equal to the ground vector K."""
-    from symgen.backends.latex.document import _num_text, _rm, tex_escape
     j = next(x for x in scene.joints if x.name == joint)
     a, g = j.ends
-    J = _rm(joint)
+    J = rm(joint)
     sa, ta = _chain_terms(model, a.body, a)
     sb, tb = _chain_terms(model, g.body, g)
-    G = _rm(g.body)
+    G = rm(g.body)
     bt = pr_beta(model, g.body)
     lhs = " + ".join(ta) + " - " + " - ".join(tb)
     K = rf"\mathbf K_{{{J}}} = {sb} - {sa}"
     star = rf"\zeta^*_{{{G}}} = 0,\quad \eta^*_{{{G}}} = \eta_{{{G}}}({bt}) = 0"
     text = (rf"Slot {tex_escape(joint)} (cut joint, multipliers $\Lambda_{{x,{J}}}$, $\Lambda_{{y,{J}}}$ = the slot "
             rf"force on {tex_escape(a.body)}), loop " + " -- ".join(tex_escape(x) for x in _loop(model, joint))
-            + rf": the point $\xi = {_num_text(a.xi)}$ of {tex_escape(a.body)} stays on {tex_escape(g.body)} at "
+            + rf": the point $\xi = {num_text(a.xi)}$ of {tex_escape(a.body)} stays on {tex_escape(g.body)} at "
             rf"its support distance ${bt}(\tau)$. In (11) the guide's $[1 + \hat\zeta, \hat\eta]$ is replaced "
             rf"by $[{bt} + \zeta^*, \eta^*]$ with $\zeta^* = \zeta({bt})$, $\eta^* = \eta({bt})$; here "
             rf"$\zeta^* = 0$ (axially rigid guide) and $\eta^* = 0$ (the guide's frame is the chord from its "
@@ -467,14 +371,13 @@ def _loop(model, joint: str) -> tuple:
 
 def slot_notes(scene, model) -> list[dict]:
     """(13) has no slot counterpart: what carries the slot force instead."""
-    from symgen.backends.latex.document import _num_text, _rm, tex_escape
     out = []
     for j in scene.joints:
         if j.kind != "slot":
             continue
         a, g = j.ends
-        J = _rm(j.name)
-        out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "xa": _num_text(a.xi),
+        J = rm(j.name)
+        out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "xa": num_text(a.xi),
                     "b": tex_escape(g.body), "beta": pr_beta(model, g.body), "tex": J,
                     "mass": j.mass > 0})
     return out

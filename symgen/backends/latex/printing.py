@@ -1,0 +1,408 @@
+"""Printing helpers shared by the LaTeX sections (``document``, ``slot``, ``quasistatic``).
+
+Text (``tex_escape``, ``rm``, ``num_text``), symbol names (``Namer``: the model's table of LaTeX
+names), expressions (``Printer``, ``tex_lines``: floats to 6 significant digits, long sums broken
+over lines, nothing simplified), displayed equations (``Row``, ``eq_row``, ``term_row``,
+``eq_block``), and what every section shows of a bar's equations alike: the sides of a residual
+(``split_sides``), the acceleration field (``kin_terms``) and the labels of the applied forces of
+the model's display form (``shown_forces``). The section modules import this module only;
+``document`` imports the sections.
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from symgen.ir import names
+from symgen.ir.names import Name
+from symgen.model.bars import PointForce
+
+LINE_WIDTH = 82          # estimated printed width of a full display line (units of printed_width)
+TAG_WIDTH = 12           # room kept for an equation tag
+LHS_MAX = 34             # a longer left side gets a line of its own
+SIG_DIGITS = 6
+
+
+# --------------------------------------------------------------------------- text helpers
+_TEXT_ESCAPES = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#",
+                 "$": r"\$", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\^{}"}
+
+
+def tex_escape(text: object) -> str:
+    """Escape a string for LaTeX text mode."""
+    return "".join(_TEXT_ESCAPES.get(c, c) for c in str(text))
+
+
+def rm(name: str) -> str:
+    """An identifier as upright math text (underscores escaped), as ``symgen.ir.names`` writes it."""
+    return names.upright(name)
+
+
+def num_text(x: float | None) -> str:
+    """A number for a table cell (math mode), 6 significant digits."""
+    if x is None:
+        return r"\text{--}"
+    return sp.latex(_round_floats(sp.Float(float(x))))
+
+
+# --------------------------------------------------------------------------- symbol names
+class Namer:
+    """The LaTeX name of each of a model's symbols, from the model's table (``model.latex``,
+    made beside each symbol by ``symgen.ir.names``); :meth:`symbol` adds one made here.
+
+    Symbols whose name already is LaTeX (display symbols such as the inner products
+    ``\\left(\\phi_{1},\\psi_{1}\\right)`` or ``B_{\\mathrm{B}}``) print as they are;
+    any other name prints upright.
+    """
+
+    def __init__(self, table: dict) -> None:
+        self._table = dict(table)
+
+    def symbol(self, name: Name, **assumptions) -> sp.Symbol:
+        """The symbol of ``name``, its LaTeX name known from here on."""
+        self._table[name.text] = name.latex
+        return name.symbol(**assumptions)
+
+    def __call__(self, name: str) -> str:
+        hit = self._table.get(name)
+        if hit is not None:
+            return hit
+        return name if name.startswith("\\") or "{" in name else rm(name)
+
+
+# --------------------------------------------------------------------------- expressions
+def _round_floats(expr: sp.Expr, digits: int = SIG_DIGITS) -> sp.Expr:
+    """Floats to ``digits`` significant digits; integral floats (1.0, -2.0) to integers."""
+    expr = sp.sympify(expr)
+    floats = expr.atoms(sp.Float)
+    if not floats:
+        return expr
+    rep = {}
+    for f in floats:
+        v = float(f)
+        if abs(v - round(v)) <= 1e-12 * max(1.0, abs(v)):
+            rep[f] = sp.Integer(int(round(v)))
+        else:
+            rep[f] = sp.Float(v, digits)
+    return expr.xreplace(rep)
+
+
+_STRIP = re.compile(r"\\(mathrm|operatorname|left|right|Bigl|Bigr|bigl|bigr|dot|ddot|bar|hat|"
+                    r"frac|tfrac|,|;|!|mathbf)(?![A-Za-z])")
+_CMD = re.compile(r"\\[A-Za-z]+")
+_FUNCS = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "max", "min", "mathcal"}
+
+
+def printed_width(s: str) -> float:
+    """Rough printed width of a LaTeX math string, in units of about one digit (5 pt at 10 pt).
+
+    Commands count as one glyph (a few, like ``\\mathrm`` or ``\\left``, as none), sub- and
+    superscripts at 0.7, binary operators with their spacing as 3.
+    """
+    s = _STRIP.sub("", s)
+    s = s.replace(r"\quad", "QQ")
+    s = _CMD.sub(lambda m: "xxx" if m[0][1:] in _FUNCS else "x", s)
+    width, stack, i, pending = 0.0, [1.0], 0, None
+    while i < len(s):
+        c = s[i]
+        scale = stack[-1]
+        if c in "_^":
+            pending = scale * 0.7
+        elif c == "{":
+            stack.append(pending if pending is not None else scale)
+            pending = None
+        elif c == "}":
+            if len(stack) > 1:
+                stack.pop()
+        elif not c.isspace():
+            cur = pending if pending is not None else scale
+            pending = None
+            width += (3.0 if c in "+-=" and cur == 1.0 else 1.0) * cur
+        i += 1
+    return width
+
+
+class Printer:
+    """LaTeX of expressions with the scene's symbol names and rounded floats."""
+
+    def __init__(self, namer: Namer, width: float = LINE_WIDTH, subs: dict | None = None) -> None:
+        self.namer, self.width, self.subs = namer, width, subs or {}
+
+    def _tidy(self, expr):
+        """``subs`` applied (e.g. a slot's beta as a positive symbol: Piecewise branches decided)."""
+        return sp.sympify(expr).xreplace(self.subs) if self.subs else expr
+
+    def __call__(self, expr) -> str:
+        expr = _round_floats(self._tidy(expr))
+        names = {s: self.namer(s.name) for s in expr.free_symbols if isinstance(s, sp.Symbol)}
+        return sp.latex(expr, symbol_names=names, fold_func_brackets=True)
+
+    def lines(self, expr, width: float | None = None) -> list[str]:
+        """``expr`` split over several lines at top-level sums (see :func:`tex_lines`)."""
+        return tex_lines(_round_floats(self._tidy(expr)), self, self.width if width is None else width)
+
+
+_DELIMS = [(r"\Bigl(", r"\Bigr)"), (r"\bigl[", r"\bigr]"), (r"\bigl\{", r"\bigr\}"), ("(", ")")]
+
+
+def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0) -> list[str]:
+    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters.
+
+    Sums are broken between terms (continuation lines start with their sign); a product
+    with a long sum as a factor becomes ``prefix \\Bigl( ... \\Bigr)`` with the sum broken
+    inside. Nothing is simplified or expanded. Lines after the first are indented by the
+    caller (one ``\\quad`` per nesting level is added here).
+    """
+    s = printer(expr)
+    if printed_width(s) <= width:
+        return [s]
+    if isinstance(expr, sp.Add):
+        out: list[str] = []
+        cur = ""
+        for i, term in enumerate(expr.as_ordered_terms()):
+            neg = term.could_extract_minus_sign()
+            body = -term if neg else term
+            sign = "- " if neg else ("+ " if i else "")
+            sub = tex_lines(body, printer, width - 2, depth)
+            piece = sign + sub[0]
+            if cur and printed_width(cur) + printed_width(piece) > width:
+                out.append(cur)
+                cur = piece
+            else:
+                cur = f"{cur} {piece}" if cur else piece
+            if len(sub) > 1:
+                out.append(cur)
+                out.extend(sub[1:-1])
+                cur = sub[-1]
+        out.append(cur)
+        return out
+    if isinstance(expr, sp.Mul):
+        adds = [a for a in expr.args if isinstance(a, sp.Add)]
+        if not adds:
+            return [s]
+        big = max(adds, key=lambda a: len(printer(a)))
+        rest = list(expr.args)
+        rest.remove(big)
+        others = sp.Mul(*rest)
+        prefix = "" if others == 1 else ("-" if others == -1 else printer(others))
+        op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
+        if printed_width(prefix) > width / 2 and len(adds) > 1:
+            # a product of several long sums (e.g. the projected strain energy's c^T Ka^-1 c):
+            # each sum in its own brackets, broken inside, one after the other
+            scalar = sp.Mul(*[a for a in expr.args if not isinstance(a, sp.Add)])
+            head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
+            lines = [head]
+            for a in sorted(adds, key=lambda a: len(printer(a))):
+                inner = tex_lines(a, printer, width - 12, depth + 1)     # indented and bracketed
+                if len(inner) == 1:
+                    if printed_width(lines[-1]) + printed_width(inner[0]) + 4 <= width:
+                        lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
+                    else:
+                        lines.append(rf"\quad {op} {inner[0]} {cl}")
+                    continue
+                lines[-1] = f"{lines[-1]} {op} {inner[0]}".strip()
+                lines += [r"\quad " + x for x in inner[1:]]
+                lines[-1] += f" {cl}"
+            return lines
+        inner = tex_lines(big, printer, width - 2, depth + 1)
+        if len(inner) == 1:
+            return [f"{prefix} {op} {inner[0]} {cl}".strip()]
+        pad = r"\quad "
+        return ([f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]]
+                + [f"{pad}{inner[-1]} {cl}"])
+    return [s]
+
+
+@dataclass
+class Row:
+    """One displayed equation: ``lhs = lines`` (rhs broken over lines), optional tag."""
+
+    lhs: str
+    lines: list
+    tag: str | None = None
+    rel: str = "="
+
+    def tex(self) -> str:
+        out = []
+        for k, line in enumerate(self.lines):
+            if k == 0:
+                t = f"{self.lhs} &{self.rel} {line}"
+                t += rf" \tag{{{self.tag}}}" if self.tag else ""
+            else:
+                t = rf"&\quad {line}"
+            out.append(t)
+        return " \\\\\n".join(out)
+
+
+class _RawRow(Row):
+    """Rows already laid out (a long left side on lines of its own)."""
+
+    def __init__(self, lines: list[str]) -> None:
+        super().__init__("", lines)
+
+    def tex(self) -> str:
+        return " \\\\\n".join(self.lines)
+
+
+def eq_block(rows: list[Row]) -> str:
+    return " \\\\\n".join(r.tex() for r in rows)
+
+
+def eq_row(pr: "Printer", lhs, rhs, tag: str | None = None) -> Row:
+    """``lhs = rhs`` with the right side broken to fit beside the left side and the tag.
+
+    ``lhs`` is LaTeX or an expression; a left side too long to share a line becomes a
+    left-aligned block of its own lines followed by ``= rhs``.
+    """
+    avail = LINE_WIDTH - (TAG_WIDTH if tag else 0)
+    if isinstance(lhs, str):
+        lhs_lines = [lhs]
+    else:
+        lhs_lines = pr.lines(lhs, avail - 4) if lhs != 0 else ["0"]
+    if len(lhs_lines) == 1 and printed_width(lhs_lines[0]) <= LHS_MAX:
+        return Row(lhs_lines[0], pr.lines(rhs, max(avail - printed_width(lhs_lines[0]) - 3, 40)), tag)
+    rr = pr.lines(rhs, avail - 8)
+    lines = [f"&{lhs_lines[0]}" + (rf" \tag{{{tag}}}" if tag else "")]
+    lines += [rf"&\quad {x}" for x in lhs_lines[1:]]
+    lines += [rf"&\quad = {rr[0]}"] + [rf"&\qquad {x}" for x in rr[1:]]
+    return _RawRow(lines)
+
+
+def _pack(terms: list[str], width: float) -> list[str]:
+    """Join LaTeX terms (each with its leading sign) into lines of about ``width``."""
+    out, cur = [], ""
+    for t in terms:
+        if cur and printed_width(cur) + printed_width(t) > width:
+            out.append(cur)
+            cur = t
+        else:
+            cur = f"{cur} {t}" if cur else t
+    out.append(cur)
+    return out
+
+
+def term_row(lhs: list[str], rhs: list[str], tag: str | None = None) -> Row:
+    """Like :func:`eq_row` for sides given as lists of LaTeX terms."""
+    avail = LINE_WIDTH - (TAG_WIDTH if tag else 0)
+    lhs_lines = _pack(lhs, avail - 4)
+    if len(lhs_lines) == 1 and printed_width(lhs_lines[0]) <= LHS_MAX:
+        return Row(lhs_lines[0], _pack(rhs, max(avail - printed_width(lhs_lines[0]) - 3, 40)), tag)
+    rr = _pack(rhs, avail - 8)
+    lines = [f"&{lhs_lines[0]}" + (rf" \tag{{{tag}}}" if tag else "")]
+    lines += [rf"&\quad {x}" for x in lhs_lines[1:]]
+    lines += [rf"&\quad = {rr[0]}"] + [rf"&\qquad {x}" for x in rr[1:]]
+    return _RawRow(lines)
+
+
+# --------------------------------------------------------------------------- bar equations
+def split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
+    """Split a residual ``inertia + internal - external`` into (paper left side, right side).
+
+    The paper writes loads and elastic forces on the left and inertia on the right:
+    ``left = -(internal + external terms)``, ``right = inertia terms``. A rotary-inertia term
+    (mu/lambda) is inertia.
+    """
+    left, right = [], []
+    for term in sp.Add.make_args(sp.sympify(expr)):
+        free = term.free_symbols
+        if rho_pair is not None and {rho_pair[0], rho_pair[1]} <= free:
+            mu, lam, rho = rho_pair
+            right.append(term.subs(mu / lam, rho))
+        elif free & elastic or free & external:
+            left.append(-term)
+        else:
+            right.append(term)
+    return sp.Add(*left), sp.Add(*right)
+
+
+def point_label(p: PointForce, scene, used: set) -> str:
+    """The label K of a point force in B_K, Gamma_K: its joint (cut-joint reaction), the joint
+    and ",m" (a lumped mass), else its position; made unique within ``used`` (which it joins)."""
+    used_names = {s.name for part in (p.ground or p.bar or ()) for s in sp.sympify(part).free_symbols}
+    label = None
+    for j in scene.joints:
+        if {names.joint_force(j.name, ax).text for ax in ("x", "y", None)} & used_names:
+            label = rm(j.name)
+            break
+        if names.joint_parameter("m", j.name).text in used_names:
+            label = rm(j.name) + r",m"
+            break
+    if label is None:
+        label = rf"\xi={num_text(p.xi)}"
+    base, k = label, 2
+    while label in used:
+        label, k = f"{base},{k}", k + 1
+    used.add(label)
+    return label
+
+
+def kin_terms(s: dict, na: int, nt: int, coriolis: bool) -> tuple[list, list]:
+    """Right sides of (1) / (8)-(9): the acceleration field in bar axes over l_i w^2."""
+    B = s["B"]
+    ax = [rf"[\ddot x_A]_{{{B}}}"]
+    ay = [rf"[\ddot y_A]_{{{B}}}"]
+    pos = rf"(\xi + \zeta_{{{B}}})" if na else r"\xi"
+    if na:
+        ax.append(rf"+ \ddot\zeta_{{{B}}}")
+    if nt and coriolis:
+        ax.append(rf"- 2\dot\theta_{{{B}}}\dot\eta_{{{B}}}")
+    if nt:
+        ax.append(rf"- \ddot\theta_{{{B}}}\eta_{{{B}}}")
+    ax.append(rf"- \dot\theta_{{{B}}}^{{2}}{pos}")
+    if nt:
+        ay.append(rf"+ \ddot\eta_{{{B}}}")
+    if na and coriolis:
+        ay.append(rf"+ 2\dot\theta_{{{B}}}\dot\zeta_{{{B}}}")
+    ay.append(rf"+ \ddot\theta_{{{B}}}{pos}")
+    if nt:
+        ay.append(rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}")
+    return ax, ay
+
+
+@dataclass
+class ShownForces:
+    """The applied forces of a bar's display form as a section shows them."""
+
+    relabel: dict = field(default_factory=dict)    # display symbol (B_k, Gamma_k) -> B_K, Gamma_K
+    point_defs: list = field(default_factory=list)  # rows B_K = ..., Gamma_K = ...
+    load_defs: list = field(default_factory=list)   # rows beta-bar = ..., gamma-bar = ...
+    points: list = field(default_factory=list)      # (B, Gamma, xi as LaTeX) of every point force
+    loads: tuple = ()                               # (beta-bar, gamma-bar) symbols, or ()
+    external: set = field(default_factory=set)      # symbols of the applied forces (left side)
+    reactions: set = field(default_factory=set)     # B_K, Gamma_K of the forces given in ground axes
+
+    def show(self, expr: sp.Expr) -> sp.Expr:
+        """An expression of the display form with the labelled symbols."""
+        return sp.sympify(expr).xreplace(self.relabel)
+
+
+def shown_forces(scene, bm, pr: Printer, reserved: tuple = (), definitions: bool = True) -> ShownForces:
+    """Label the point forces and loads of bar ``bm``'s display form (``bm.equations``).
+
+    A point force given in ground axes (a reaction, a lumped mass) is the display symbol pair
+    (B_k, Gamma_k) of the model, renamed B_K, Gamma_K after its joint (``point_label``; labels in
+    ``reserved`` are taken) and defined by its value in the model (``bars.point_force_groups``);
+    one given in bar axes (a point load) shows as given. The distributed loads are the model's
+    (beta-bar, gamma-bar), defined by their values (rows left out with ``definitions=False``).
+    """
+    eqs = bm.equations
+    out = ShownForces(loads=tuple(eqs.loads))
+    used = set(reserved)
+    for p, (B, G) in zip(bm.inputs["points"], eqs.points):
+        label = point_label(p, scene, used)
+        if p.ground is not None:
+            Bs, Gs = sp.Symbol(rf"B_{{{label}}}"), sp.Symbol(rf"\Gamma_{{{label}}}")
+            out.relabel.update({B: Bs, G: Gs})
+            if definitions:
+                out.point_defs += [eq_row(pr, pr(Bs), eqs.values[B]), eq_row(pr, pr(Gs), eqs.values[G])]
+            out.reactions |= {Bs, Gs}
+            B, G = Bs, Gs
+        out.external |= sp.sympify(B).free_symbols | sp.sympify(G).free_symbols
+        out.points.append((B, G, num_text(p.xi)))
+    for sym in out.loads:
+        if definitions:
+            out.load_defs.append(eq_row(pr, pr(sym), eqs.values[sym]))
+        out.external.add(sym)
+    return out
