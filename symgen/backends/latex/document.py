@@ -30,8 +30,8 @@ import sympy as sp
 from symgen import __version__
 from symgen.backends.latex import quasistatic as latex_quasistatic
 from symgen.backends.latex import slot as latex_slot
-from symgen.backends.latex.printing import (LINE_WIDTH, Namer, Printer, Row, eq_block, eq_row, kin_terms, num_text, rm,
-                                            shown_forces, split_sides, term_row, tex_escape, tex_lines)
+from symgen.backends.latex.printing import (LINE_WIDTH, Namer, Printer, Row, eq_block, eq_row, equation_rows, kin_terms, num_text, rm,
+                                            shown_forces, term_row, tex_escape, tex_lines)
 from symgen.ir import names
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
@@ -245,12 +245,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     used_ip: set = set()
 
     def rows(exprs, tags):
-        out = []
-        for e, tag in zip(exprs, tags):
-            used_ip.update(e.free_symbols)
-            left, right = split_sides(e, elastic, ext, rho_pair)
-            out.append(eq_row(pr, left, right, tag))
-        return out
+        return equation_rows(pr, exprs, tags, elastic, ext, rho_pair, used_ip)
 
     tn = tex_escape(name)
     ctx["rb"] = eq_block(rows([eqs.force[0], eqs.force[1], eqs.moment],

@@ -317,6 +317,17 @@ def split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
     return sp.Add(*left), sp.Add(*right)
 
 
+
+def equation_rows(pr: "Printer", exprs, tags, elastic: set, external: set, rho_pair, used: set) -> list[Row]:
+    """One row per residual, split into the paper's two sides (``split_sides``); the symbols
+    the rows print join ``used`` (the inner-product table lists those)."""
+    out = []
+    for e, tag in zip(exprs, tags):
+        used.update(e.free_symbols)
+        left, right = split_sides(e, elastic, external, rho_pair)
+        out.append(eq_row(pr, left, right, tag))
+    return out
+
 def point_label(p: PointForce, scene, used: set) -> str:
     """The label K of a point force in B_K, Gamma_K: its joint (cut-joint reaction), the joint
     and ",m" (a lumped mass), else its position; made unique within ``used`` (which it joins)."""

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import sympy as sp
 
-from symgen.backends.latex.printing import (eq_block, eq_row, kin_terms, num_text, rm, shown_forces, split_sides,
+from symgen.backends.latex.printing import (eq_block, eq_row, equation_rows, kin_terms, num_text, rm, shown_forces,
                                             term_row, tex_escape)
 from symgen.ir import names
 from symgen.ir.records import find_coordinate
@@ -255,12 +255,7 @@ def guide_context(scene, model, name: str, pr) -> dict:
     used: set = set()
 
     def rows(exprs, tags):
-        out = []
-        for e, tag in zip(exprs, tags):
-            used.update(e.free_symbols)
-            lft, rgt = split_sides(e, elastic, ext, None)
-            out.append(eq_row(pr, lft, rgt, tag))
-        return out
+        return equation_rows(pr, exprs, tags, elastic, ext, None, used)
 
     ctx["rb"] = eq_block(rows([eqs["fx"], eqs["fy"], eqs["mom"]], [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
     ctx["eq17"] = eq_block(rows(eqs["eq17"], [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
