@@ -231,11 +231,13 @@ def test_effects_measure_interrupted_keeps_the_rows_measured(monkeypatch):
 # (numpy calling ``DM.__array__``, a SWIG wrapper running Python code) it does not always come out
 # as itself: CPython reports a C function that returns a result with the exception set as
 # ``SystemError: <function DM.__array__ ...> returned a result with an exception set`` (the
-# ``Interrupted`` its cause), CasADi's ``__array__`` turns a failed ``full()`` into a TypeError,
+# ``Interrupted`` its cause), CasADi's ``__array__`` can turn a failed ``full()`` into a TypeError,
 # and CasADi's own interrupt check raises a bare KeyboardInterrupt. A real SIGINT sent to
-# ``symgen quasistatic`` came out as the SystemError in about 1 run in 12 (the quasi-static loop is
-# many small CasADi calls, each converted by numpy): the loop caught only SimulationError,
-# Interrupted and RuntimeError, so the run stopped without its tau and without its partial result.
+# ``symgen quasistatic`` came out as the SystemError in 2.5 to 10 % of runs (9 of 120 alone at 0 to
+# 0.3 s after the first position, 6 of 60 under load, 1 of 40 alone and 2 of 40 under load at the
+# test's 1.5 s; the quasi-static loop is many small CasADi calls, each converted by numpy): the
+# loop caught only SimulationError, Interrupted and RuntimeError, so the run stopped without its
+# tau and without its partial result.
 # These tests put the signal exactly there, deterministically.
 def _dm_array_error(stop):
     return SystemError("<function DM.__array__ at 0x7f0000000000> returned a result with an exception set")
@@ -408,12 +410,9 @@ def warm(tmp_path_factory):
 
 @pytest.mark.parametrize("command,sig,code", [
     ("simulate", signal.SIGINT, 130), ("simulate", signal.SIGTERM, 143),
-    # KNOWN RACE, not yet found: in 3 of 5 full-suite runs on 2 workers (never alone, in pairs of
-    # modules or in scripted repeats) the quasi-static run stopped with exit 130 within 2 s but
-    # with "interrupted by SIGINT" only: no tau, no partial file. Kept running, not strict, so
-    # that its result stays visible; the session note records it as an open bug.
-    pytest.param("quasistatic", signal.SIGINT, 130, marks=pytest.mark.xfail(
-        strict=False, reason="known race: an Interrupted escaping quasi_static's loop in the full suite"))])
+    # quasistatic failed in 3 of 5 full-suite runs (exit 130, no tau, no partial file): the signal
+    # came out of numpy/CasADi as a SystemError the loop did not catch -- see the tests above
+    ("quasistatic", signal.SIGINT, 130)])
 def test_signal_stops_a_run_at_once_with_a_partial_result_marked_interrupted(warm, command, sig, code):
     """A long run (hundreds of crank turns) is stopped within 2 s of the signal -- not blamed
     on IDAS, not retried step by step -- and keeps what it computed as OUT.partial.*, status
