@@ -82,12 +82,13 @@ def interrupted(err: BaseException | None = None, tau: float | None = None) -> B
 
 class _SolverNoiseFilter:
     """``sys.stderr`` inside ``handling()``: once a signal is pending, CasADi's own report of
-    the interrupt inside a solver ("res failed: KeyboardInterrupt", IDAS's "At t = ..., the
-    residual function failed unrecoverably", written in pieces) is dropped -- symgen says
+    the interrupt inside a solver callback ("res failed: KeyboardInterrupt", "psetup failed:
+    ...", IDAS's "At t = ..., the residual function failed unrecoverably." or "..., the linear
+    solver setup failed unrecoverably.", written in pieces) is dropped -- symgen says
     "interrupted by SIGINT at tau = ..." instead. Everything else passes unchanged."""
 
-    _NOISE = re.compile(r"^(res failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
-                        r"|At t = [^,]*, the \w+ function failed unrecoverably\.)$")
+    _NOISE = re.compile(r"^(\w+ failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
+                        r"|(At t = [^,]*, the|The) [\w ]+ failed unrecoverably\. ?)$")
 
     def __init__(self, stream) -> None:
         self._stream = stream
