@@ -391,9 +391,15 @@ def cmd_quasistatic(args) -> int:
 
 
 def _quasistatic(args, files) -> int:
-    from symgen.numerics.quasistatic import quasi_static
+    from symgen.numerics.quasistatic import NO_POSITION, quasi_static
 
-    scene, compiled, mech, build_s = _prepare_run(args)
+    try:        # a signal while the model is loaded or derived: no position solved yet
+        scene, compiled, mech, build_s = _prepare_run(args)
+    except BaseException as err:
+        stop = interrupt.interrupted(err)
+        if not isinstance(stop, Interrupted):
+            raise
+        raise Interrupted(stop.signum, detail=NO_POSITION) from None
     _say(args, "solving the quasi-static positions")
     result, failure = _attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles,
                                                     say=lambda line: _say(args, line)))

@@ -46,9 +46,11 @@ class Interrupted(KeyboardInterrupt):
     ``except Exception`` of a loop that tolerates failed items swallows it. Raised by the
     handlers of ``symgen.numerics.interrupt.handling``; a run that stops keeps what it computed
     in ``partial`` (as ``SimulationError`` does), to be written marked ``"interrupted"``.
+    ``detail`` completes the message where no tau says where the run stood ("before the first
+    input position was solved (nothing to keep)").
     """
 
-    def __init__(self, signum: int | None = None, tau: float | None = None) -> None:
+    def __init__(self, signum: int | None = None, tau: float | None = None, detail: str = "") -> None:
         import signal
 
         self.signum = signal.SIGINT if signum is None else signum
@@ -58,11 +60,14 @@ class Interrupted(KeyboardInterrupt):
             self.signal_name = f"signal {self.signum}"
         self.exit_code = 128 + int(self.signum)
         self.tau = tau
+        self.detail = detail
         self.partial = None
         text = f"interrupted by {self.signal_name}"
         if tau is not None:
             text += f" at tau = {tau:.6g}"
+        if detail:
+            text += f" {detail}"
         super().__init__(text)
 
     def __reduce__(self):          # picklable (worker processes), without the partial result
-        return (type(self), (self.signum, self.tau))
+        return (type(self), (self.signum, self.tau, self.detail))

@@ -200,6 +200,32 @@ def test_handler_raises_interrupted_and_is_restored():
             interrupt.check()
 
 
+def test_casadi_reports_of_the_signal_are_filtered_from_stderr():
+    """Once a signal is pending, CasADi's report of it inside an IDAS callback is dropped, as
+    written (pieces captured from real runs): the residual callback, and -- 1 signal in about
+    150 -- the linear solver setup ("psetup failed: ", "..., the linear solver setup failed
+    unrecoverably."), which once reached stderr in the simulate SIGTERM test. Other text passes."""
+    import io
+
+    reports = [["res failed: ", "KeyboardInterrupt", "\n",
+                "At t = 2.01843, the residual function failed unrecoverably.", "\n"],
+               ["psetup failed: ", "KeyboardInterrupt", "\n",
+                "At t = 1.7908, the linear solver setup failed unrecoverably.", "\n"]]
+    for pieces in reports:
+        sink = io.StringIO()
+        noise = interrupt._SolverNoiseFilter(sink)
+        noise.write("symgen: integrating\n")
+        interrupt._pending.append(signal.SIGTERM)
+        try:
+            for piece in pieces:
+                noise.write(piece)
+            noise.write("symgen: interrupted by SIGTERM at tau = 0")
+            noise.write("\n")
+        finally:
+            interrupt._pending.clear()
+        assert sink.getvalue() == "symgen: integrating\nsymgen: interrupted by SIGTERM at tau = 0\n"
+
+
 def test_effects_measure_interrupted_keeps_the_rows_measured(monkeypatch):
     from symgen.apps import effects
 
@@ -224,6 +250,143 @@ def test_effects_measure_interrupted_keeps_the_rows_measured(monkeypatch):
     assert all(r.status == "not measured (interrupted)" for r in report.rows[1:])
     text = effects.table(report)
     assert "PARTIAL: interrupted by SIGINT" in text and "not measured (interrupted)" in text
+
+
+# --------------------------------------------------------------------------- the signal inside a C extension
+# The handler raises ``Interrupted`` wherever the main thread is. Inside CasADi's or NumPy's C code
+# (numpy calling ``DM.__array__``, a SWIG wrapper running Python code) it does not always come out
+# as itself: CPython reports a C function that returns a result with the exception set as
+# ``SystemError: <function DM.__array__ ...> returned a result with an exception set`` (the
+# ``Interrupted`` its cause), CasADi's ``__array__`` can turn a failed ``full()`` into a TypeError,
+# and CasADi's own interrupt check raises a bare KeyboardInterrupt. A real SIGINT sent to
+# ``symgen quasistatic`` came out as the SystemError in 2.5 to 10 % of runs (9 of 120 alone at 0 to
+# 0.3 s after the first position, 6 of 60 under load, 1 of 40 alone and 2 of 40 under load at the
+# test's 1.5 s; the quasi-static loop is many small CasADi calls, each converted by numpy): the
+# loop caught only SimulationError, Interrupted and RuntimeError, so the run stopped without its
+# tau and without its partial result.
+# These tests put the signal exactly there, deterministically.
+def _dm_array_error(stop):
+    return SystemError("<function DM.__array__ at 0x7f0000000000> returned a result with an exception set")
+
+
+def _casadi_type_error(stop):
+    return TypeError("Implicit conversion of symbolic CasADi type to numeric matrix not supported.")
+
+
+def _casadi_keyboard_interrupt(stop):
+    return KeyboardInterrupt()
+
+
+SURFACES = [_dm_array_error, _casadi_type_error, _casadi_keyboard_interrupt]
+SURFACE_IDS = ["SystemError", "TypeError", "KeyboardInterrupt"]
+
+
+def _signal_inside(real, at: int, surfaces=None):
+    """``real`` wrapped: its ``at``-th call sends SIGINT to this process; the handler's
+    ``Interrupted`` comes out as ``surfaces(stop)`` (chained as CPython chains it), or as itself."""
+    calls = []
+
+    def wrapped(*a, **k):
+        calls.append(None)
+        if len(calls) == at:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(5)               # the handler raises during the sleep
+            except Interrupted as stop:
+                if surfaces is None:
+                    raise
+                raise surfaces(stop) from stop
+            pytest.fail("the SIGINT handler did not raise")
+        return real(*a, **k)
+    return wrapped
+
+
+@pytest.fixture(scope="module")
+def slider_mech():
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.scene import load_scene
+
+    scene = load_scene(SLIDER)
+    return Mechanism(compile_scene(scene), scene)
+
+
+@pytest.mark.parametrize("surfaces", SURFACES, ids=SURFACE_IDS)
+def test_quasi_static_keeps_its_positions_when_casadi_reports_the_signal_as_another_error(
+        slider_mech, monkeypatch, surfaces):
+    from symgen.numerics.quasistatic import QuasiStaticSystem, cycle_times, quasi_static
+
+    taus = cycle_times(slider_mech, cycles=0.05)
+    monkeypatch.setattr(QuasiStaticSystem, "state", _signal_inside(QuasiStaticSystem.state, 4, surfaces))
+    with pytest.raises(KeyboardInterrupt) as info:      # (not a bare one: an Interrupted)
+        with interrupt.handling():
+            quasi_static(slider_mech, cycles=0.05)
+    stop = info.value
+    assert isinstance(stop, Interrupted), repr(stop)
+    assert stop.exit_code == 130 and stop.tau == taus[2] and f"at tau = {taus[2]:.6g}" in str(stop)
+    part = stop.partial
+    assert part is not None and not part.complete and list(part.tau) == list(taus[:3])
+    assert part.failure == str(stop) and len(part.reports) == 3 and part.outputs.shape[0] == 3
+
+
+@pytest.mark.parametrize("surfaces", SURFACES, ids=SURFACE_IDS)
+def test_quasistatic_cli_interrupted_inside_casadi_writes_the_partial_result(tmp_path, capsys, monkeypatch, surfaces):
+    """The symptom of the full-suite failures: exit 130 but "interrupted by SIGINT" only, no tau
+    and no OUT.partial.* -- here with the signal at the fourth position, every time."""
+    from symgen.numerics.quasistatic import QuasiStaticSystem
+
+    out = tmp_path / "res" / "qs.csv"
+    _complete(out)
+    monkeypatch.setattr(QuasiStaticSystem, "state", _signal_inside(QuasiStaticSystem.state, 4, surfaces))
+    code = main(["quasistatic", SLIDER, "-o", str(out), "--cycles", "0.05"])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert "symgen: interrupted by SIGINT at tau = 0.0349066" in err and "Traceback" not in err
+    assert not out.exists() and not out.with_suffix(".json").exists()
+    meta = json.loads((out.parent / "qs.partial.json").read_text())
+    assert meta["status"] == "interrupted" and meta["failure"] == "interrupted by SIGINT at tau = 0.0349066"
+    rows = (out.parent / "qs.partial.csv").read_text().splitlines()
+    assert rows[0].startswith("tau,eta_mid") and len(rows) == 4
+    _no_temp_files(out.parent)
+
+
+@pytest.mark.parametrize("where", ["compile", "initial state", "system (20)", "first position"])
+def test_quasistatic_cli_interrupted_before_any_position_says_so(tmp_path, capsys, monkeypatch, where):
+    """A signal before the first position is solved (model loading, the start, building (20), the
+    first position itself): exit 130, a message saying that no position was solved, and nothing
+    written -- no OUT.partial.* with zero rows, and the earlier complete results gone."""
+    import symgen.backends.casadi.pipeline
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.quasistatic import QuasiStaticSystem
+
+    target, name = {"compile": (symgen.backends.casadi.pipeline, "compile_scene"), "initial state": (Mechanism, "initial_state"),
+                    "system (20)": (QuasiStaticSystem, "__init__"), "first position": (QuasiStaticSystem, "state")}[where]
+    monkeypatch.setattr(target, name, _signal_inside(getattr(target, name), 1, _dm_array_error))
+    out = tmp_path / "res" / "qs.csv"
+    _complete(out)
+    code = main(["quasistatic", SLIDER, "-o", str(out), "--cycles", "0.05"])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert "symgen: interrupted by SIGINT before the first input position was solved (nothing to keep)" in err
+    assert "Traceback" not in err and "at tau" not in err
+    assert list(out.parent.iterdir()) == []
+
+
+def test_simulate_cli_interrupted_inside_casadi_writes_the_partial_result(tmp_path, capsys, monkeypatch):
+    """The dynamic run between IDAS chunks (recording the outputs: NumPy converting CasADi's
+    results) has the same exposure; its loop caught KeyboardInterrupt but not the SystemError."""
+    from symgen.numerics import checks
+
+    out = tmp_path / "sim.csv"
+    monkeypatch.setattr(checks, "beyond_range", _signal_inside(checks.beyond_range, 3, _dm_array_error))
+    code = main(["simulate", SLIDER, "-o", str(out), "--set", "simulation.cycles=1"])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert "symgen: interrupted by SIGINT at tau =" in err and "Traceback" not in err
+    meta = json.loads((tmp_path / "sim.partial.json").read_text())
+    assert meta["status"] == "interrupted" and meta["failure"].startswith("interrupted by SIGINT at tau =")
+    rows = (tmp_path / "sim.partial.csv").read_text().splitlines()
+    assert len(rows) > 2 and float(rows[-1].split(",")[0]) > 0
 
 
 # --------------------------------------------------------------------------- real processes, real signals
@@ -273,12 +436,9 @@ def warm(tmp_path_factory):
 
 @pytest.mark.parametrize("command,sig,code", [
     ("simulate", signal.SIGINT, 130), ("simulate", signal.SIGTERM, 143),
-    # KNOWN RACE, not yet found: in 3 of 5 full-suite runs on 2 workers (never alone, in pairs of
-    # modules or in scripted repeats) the quasi-static run stopped with exit 130 within 2 s but
-    # with "interrupted by SIGINT" only: no tau, no partial file. Kept running, not strict, so
-    # that its result stays visible; the session note records it as an open bug.
-    pytest.param("quasistatic", signal.SIGINT, 130, marks=pytest.mark.xfail(
-        strict=False, reason="known race: an Interrupted escaping quasi_static's loop in the full suite"))])
+    # quasistatic failed in 3 of 5 full-suite runs (exit 130, no tau, no partial file): the signal
+    # came out of numpy/CasADi as a SystemError the loop did not catch -- see the tests above
+    ("quasistatic", signal.SIGINT, 130)])
 def test_signal_stops_a_run_at_once_with_a_partial_result_marked_interrupted(warm, command, sig, code):
     """A long run (hundreds of crank turns) is stopped within 2 s of the signal -- not blamed
     on IDAS, not retried step by step -- and keeps what it computed as OUT.partial.*, status

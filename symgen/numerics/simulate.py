@@ -335,8 +335,12 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
             x, z = X[:, -1], Z[:, -1]
             done += k
             size = min(2 * size, CHUNK_MAX)
-    except (SimulationError, KeyboardInterrupt, RuntimeError) as err:   # Interrupted is a KeyboardInterrupt
-        exc = interrupt.interrupted(err, taus[-1] if taus else t0)
+    except BaseException as err:
+        # any failure while SIGINT/SIGTERM is pending is the interrupt: inside IDAS a RuntimeError,
+        # between chunks (numpy converting CasADi's results) also the SystemError CPython makes of a
+        # C function that returned with the handler's exception set, or a bare KeyboardInterrupt
+        n_rec = min(len(taus), len(outs), len(qs), len(vs), len(lams))
+        exc = interrupt.interrupted(err, taus[n_rec - 1] if n_rec else t0)
         if not isinstance(exc, (SimulationError, Interrupted)):
             raise
         failure = str(exc)
