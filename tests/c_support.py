@@ -49,12 +49,36 @@ def context(name: str) -> dict:
     return c_context(mech.scene, model(name), mech)
 
 
+def golden_c(name: str) -> Path | None:
+    """``generated/<name>/c``, the checked-in output of ``symgen emit-c`` for an example, when it
+    is the text this checkout emits: under the SymPy version it was written with (its printing and
+    CSE decide the text), tests/test_generated.py holds it equal to a fresh emission, so the C
+    tests compile it instead of deriving and lowering the same model again. None otherwise."""
+    import json
+
+    import sympy
+    folder = ROOT / "generated" / name
+    try:
+        recorded = json.loads((folder / "model.json").read_text())["versions"]["sympy"]
+    except (OSError, ValueError, KeyError):
+        return None
+    return folder / "c" if recorded == sympy.__version__ and (folder / "c").is_dir() else None
+
+
 @functools.lru_cache(maxsize=None)
 def sources(name: str) -> Path:
-    """The folder of ``symgen emit-c`` for an example."""
+    """The folder of ``symgen emit-c`` for an example (the checked-in one when it is current)."""
     from symgen.backends.c import write_tree
     from symgen.backends.c.render import render_files
+    golden = golden_c(name)
+    if golden is not None:
+        return write_tree({p.name: p.read_text() for p in golden.iterdir()}, WORK / f"{name}_c")
     return write_tree(render_files(context(name)), WORK / f"{name}_c")
+
+
+def parameter_names(name: str) -> list[str]:
+    """The model parameters of an example in the emitted C's order (the model's)."""
+    return list(mechanism(name).meta["params"])
 
 
 @functools.lru_cache(maxsize=None)

@@ -11,8 +11,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from c_support import (EXAMPLES, ROOT, WORK, closure_columns, context, idas_reference, library, mechanism,
-                       needs_cc, needs_cxx, run_sim, simulator, sources)
+from c_support import (EXAMPLES, ROOT, WORK, closure_columns, idas_reference, library, mechanism,
+                       needs_cc, needs_cxx, parameter_names, run_sim, simulator, sources)
 
 NAMES = sorted(EXAMPLES)
 DP = ctypes.POINTER(ctypes.c_double)
@@ -46,7 +46,7 @@ def test_radau_constants():
 
 @pytest.mark.parametrize("name", NAMES)
 def test_preamble_and_symbols(name):
-    ctx = context(name)
+    scene_hash = mechanism(name).scene.hash
     folder = sources(name)
     files = sorted(p.name for p in folder.iterdir())
     assert files == sorted(["CMakeLists.txt", f"{name}.h", f"{name}.c", f"{name}_solver.h", f"{name}_solver.c",
@@ -54,7 +54,7 @@ def test_preamble_and_symbols(name):
     for path in folder.iterdir():
         text = path.read_text()
         head = text[:3000]
-        assert "DO NOT EDIT" in head and ctx["scene_hash"] in head and "symgen" in head, path.name
+        assert "DO NOT EDIT" in head and scene_hash in head and "symgen" in head, path.name
         for fn in ("phi", "res", "res_jac", "out"):
             assert f"{name}_{fn}: " in head, (path.name, fn)       # operation count of each function
     header = (folder / f"{name}.h").read_text()
@@ -152,8 +152,7 @@ def test_changed_parameters_reassemble_in_c():
     path computes for the scene with that value: re-assembly and quasi-static state in C."""
     from symgen.api import mechanism as python_mechanism
     name = "four_bar"
-    ctx = context(name)
-    names = [s.strip('"') for s in ctx["parameter_names"]]
+    names = parameter_names(name)
     p = mechanism(name).p.copy()
     p[names.index("theta0")] = 0.7
     lib, buf, rc = _solver(name, p)
@@ -175,7 +174,7 @@ def test_assembly_failure_is_reported():
 
 
 def _bad_slider_crank():
-    names = [s.strip('"') for s in context("slider_crank")["parameter_names"]]
+    names = parameter_names("slider_crank")
     p = mechanism("slider_crank").p.copy()
     p[names.index("py_B")] = 5.0                # the slider's line out of the rod's reach
     return p
