@@ -33,7 +33,7 @@ import json, sys, time
 sys.path.insert(0, {root!r})
 from symgen.scene import load_scene
 from symgen.model.derive import derive
-from symgen.backends import casadi_emit
+from symgen.backends.casadi import functions as casadi_emit
 scene = load_scene({path!r}, {sets!r})
 t0 = time.perf_counter()
 model = derive(scene)

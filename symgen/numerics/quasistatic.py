@@ -395,7 +395,7 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
         return result(None)
     except BaseException as err:
         # Any failure while SIGINT/SIGTERM is pending is the interrupt, whatever it looks like
-        # (symgen.run.interrupt): the handler's Interrupted, CasADi's RuntimeError, a bare
+        # (symgen.numerics.interrupt): the handler's Interrupted, CasADi's RuntimeError, a bare
         # KeyboardInterrupt, a TypeError, or the SystemError CPython makes of a C function that
         # returned with the handler's exception set (numpy converting a DM: "<function
         # DM.__array__> returned a result with an exception set"). Catching only SimulationError,
