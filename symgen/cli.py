@@ -324,9 +324,8 @@ def _quasistatic(args, files) -> int:
 
 
 def cmd_animate(args) -> int:
-    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.api import mechanism
     from symgen.apps.animate import animate, check_target, fresh_run, read_states
-    from symgen.numerics.mechanism import Mechanism
 
     out = check_target(args.output)
     for key, val in (("--fps", args.fps), ("--frames", args.frames), ("--stride", args.stride),
@@ -344,8 +343,8 @@ def cmd_animate(args) -> int:
             raise SceneError(scene.path, "driver", "--turns needs an angle driver with a nonzero rate",
                              "give the end time with --t-end TAU instead")
         t_end = args.turns * 2 * math.pi / abs(drv.rate)
-    compiled = compile_scene(scene, use_cache=not args.no_cache)
-    mech = Mechanism(compiled, scene)
+    mech = mechanism(scene, use_cache=not args.no_cache)
+    compiled = mech.compiled
     if args.from_csv:
         motion = read_states(args.from_csv, scene, compiled.meta)
         if t_end is not None:
@@ -364,16 +363,16 @@ def cmd_animate(args) -> int:
 def cmd_modes(args) -> int:
     import json
 
-    from symgen.backends.casadi.pipeline import compile_scene
-    from symgen.numerics.mechanism import Mechanism
+    from symgen.api import mechanism
     from symgen.numerics.modes import modes, modes_json, modes_table
     from symgen.outputs import atomic_write, remove
 
     out = _check_out(args.output, (".json",), "-o") if args.output else None
     try:
         scene = _scene(args)
-        compiled = compile_scene(scene, use_cache=not args.no_cache)
-        result = modes(Mechanism(compiled, scene), tau=args.at)
+        mech = mechanism(scene, use_cache=not args.no_cache)
+        compiled = mech.compiled
+        result = modes(mech, tau=args.at)
         print(modes_table(result, scene))
         if out is not None:
             atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
