@@ -7,6 +7,12 @@ plot if asked, and removes any ``OUT.partial.*`` of an earlier run. A run that s
 instead, and removes any older ``OUT.csv`` / ``OUT.json`` / ``PLOT`` first, so that nothing
 left behind looks like a complete result. The sidecar is written after its CSV and removed
 before it is rewritten: a failed write never leaves a JSON beside a CSV it does not describe.
+
+``build_sidecar`` makes the sidecar record of a run and ``write_run`` writes the run; both are
+shared by the command line (``symgen simulate``, ``symgen quasistatic``) and ``symgen.api``
+(``simulate_scene(..., out=...)``), which therefore write the same files. The plot is drawn
+above this layer: ``write_run`` returns it as data (``OutputsPlot``) and the application draws
+it (``symgen.apps.plot.plot_run``).
 """
 from __future__ import annotations
 
