@@ -3,13 +3,19 @@
 >>> from symgen.api import simulate_scene
 >>> result = simulate_scene("examples/slider_crank.toml", ["simulation.cycles=0.5"])  # doctest: +SKIP
 >>> result.column("eta_mid").max()                                                   # doctest: +SKIP
+
+With ``out=`` a run writes the files ``symgen simulate`` / ``symgen quasistatic`` write (the
+CSV, its JSON sidecar, the plot), through the same writer (``symgen.numerics.results.write_run``):
+
+>>> simulate_scene("examples/slider_crank.toml", ["simulation.cycles=0.5"],
+...                out="out/sc.csv", plot="out/sc.png")                             # doctest: +SKIP
 """
 from __future__ import annotations
 
 import os
 from typing import Sequence
 
-from symgen.backends.casadi.pipeline import compile_scene
+from symgen.backends.casadi import pipeline
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.simulate import SimResult, simulate
 from symgen.scene import load_scene
@@ -19,11 +25,18 @@ from symgen.scene.model import Scene
 def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
               use_cache: bool = True) -> Mechanism:
     """The compiled model of a scene with its parameter values, ready to run."""
+    scene = _loaded(scene, overrides)
+    # pipeline.compile_scene looked up at the call: a test (or a tool) may wrap it for every caller
+    return Mechanism(pipeline.compile_scene(scene, use_cache=use_cache), scene)
+
+
+def _loaded(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:
+    """``scene`` loaded from its file with ``overrides``, or the Scene given (without overrides)."""
     if not isinstance(scene, Scene):
-        scene = load_scene(scene, overrides)
-    elif overrides:
+        return load_scene(scene, overrides)
+    if overrides:
         raise ValueError("overrides apply to a scene file; pass the path, or load_scene(path, overrides)")
-    return Mechanism(compile_scene(scene, use_cache=use_cache), scene)
+    return scene
 
 
 def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overrides: Sequence[str] = ()):
@@ -48,16 +61,83 @@ def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrid
     return emit(scene, path, mech=mechanism(scene), cc=cc)
 
 
-def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), **kwargs) -> SimResult:
-    """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``."""
-    return simulate(mechanism(scene, overrides), **kwargs)
+def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), *,
+                   out: str | os.PathLike | None = None, plot: str | os.PathLike | None = None,
+                   states: bool = False, units: str | None = None, **kwargs) -> SimResult:
+    """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``.
+
+    ``out``: write the run as ``symgen simulate -o OUT`` does (``out`` a .csv; its JSON sidecar
+    beside it; ``plot``: a .png/.svg/.pdf of the outputs; ``states``: the coordinates as
+    ``q.NAME`` columns; ``units``: "SI" or "dimensionless", default SI for an SI scene). A run
+    that stops early writes the ``.partial`` files, then raises as without ``out``. The sidecar
+    records the scene's own times and tolerances, so with ``out`` the kwargs are those of the
+    command line only (``backend``, ``use_cache``): give the others as overrides."""
+    if out is None:
+        _no_files(plot, states, units)
+        return simulate(mechanism(scene, overrides), **kwargs)
+    _only(kwargs, ("backend", "use_cache"), "simulation.t_end=..., simulation.rtol=...")
+    return _written_run(scene, overrides, out, plot, states, units, kwargs.get("use_cache", True), "idas",
+                        lambda mech: simulate(mech, **kwargs))
 
 
-def quasi_static_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), **kwargs):
+def quasi_static_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), *,
+                       out: str | os.PathLike | None = None, plot: str | os.PathLike | None = None,
+                       states: bool = False, units: str | None = None, use_cache: bool = True, **kwargs):
     """The quasi-static response (18)-(20) over a cycle; kwargs go to
-    ``symgen.numerics.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus)."""
+    ``symgen.numerics.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus, say).
+
+    ``out``, ``plot``, ``states``, ``units``: write the run as ``symgen quasistatic -o OUT`` does
+    (see :func:`simulate_scene`); the kwargs are then those of the command line only
+    (``kinematics``, ``cycles``, ``say``)."""
     from symgen.numerics.quasistatic import quasi_static
-    return quasi_static(mechanism(scene, overrides), **kwargs)
+    if out is None:
+        _no_files(plot, states, units)
+        return quasi_static(mechanism(scene, overrides, use_cache=use_cache), **kwargs)
+    _only(kwargs, ("kinematics", "cycles", "say"), "simulation.output_step=...")
+    return _written_run(scene, overrides, out, plot, states, units, use_cache, "quasi-static",
+                        lambda mech: quasi_static(mech, **kwargs))
+
+
+def _no_files(plot, states: bool, units: str | None) -> None:
+    if plot is not None or states or units is not None:
+        raise ValueError("plot, states and units describe the files of a run: give out=... (a .csv) too, "
+                         "or use results_table(result, scene, units) for the columns")
+
+
+def _only(kwargs: dict, allowed: tuple, hint: str) -> None:
+    """With ``out``, the sidecar records the scene's times and tolerances: other kwargs would
+    make it wrong."""
+    other = sorted(set(kwargs) - set(allowed))
+    if other:
+        raise ValueError(f"with out=..., {', '.join(other)} would not be recorded in the sidecar: give them "
+                         f"as scene overrides ({hint}); the kwargs here are {', '.join(allowed)}")
+
+
+def _written_run(scene, overrides, out, plot, states: bool, units: str | None, use_cache: bool, solver: str, run):
+    """``run(mechanism)`` written as the command line writes it (``symgen.cli``'s simulate and
+    quasistatic): the files checked before any work, the CSV and its sidecar (partial when the
+    run stopped early), the plot; no result of this name from an earlier run left looking
+    complete when it fails. The result, or the run's failure raised (with ``.partial``)."""
+    from symgen.apps.plot import plot_run
+    from symgen.numerics.results import attempt, run_files, write_run
+    from symgen.numerics.units import choose_system
+
+    files = run_files(out, plot, out_key="out", plot_key="plot")
+    try:
+        scene = _loaded(scene, overrides)
+        choose_system(scene, units)
+        mech = mechanism(scene, use_cache=use_cache)
+        result, failure = attempt(lambda: run(mech))
+        written = write_run(files, scene, mech.compiled, mech.build_s, result, failure, solver=solver, units=units,
+                            states=states)
+        if written.plot is not None:
+            plot_run(written.plot)
+        if failure is not None:
+            raise failure
+    except BaseException:
+        files.discard()
+        raise
+    return result
 
 
 def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), tau: float = 0.0, **kwargs):

@@ -5,12 +5,11 @@ import argparse
 import contextlib
 import math
 import sys
-import time
 import warnings
 from pathlib import Path
 
 from symgen import __version__
-from symgen.errors import Interrupted, SceneError, SimulationError, SymgenError
+from symgen.errors import Interrupted, SceneError, SymgenError
 from symgen.outputs import check_file, check_folder
 from symgen.numerics import interrupt
 
@@ -18,9 +17,6 @@ from symgen.numerics import interrupt
 def _scene(args):
     from symgen.scene import load_scene
     return load_scene(args.scene, args.set or [])
-
-
-PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 
 
 def _check_out(path: str, suffixes: tuple, key: str, also=()) -> Path:
@@ -35,13 +31,9 @@ def _say(args, text: str) -> None:
 
 def _run_files(args):
     """The files of simulate/quasistatic, checked before any work (nothing is created)."""
-    from symgen.numerics.results import ResultFiles, partial_paths, partial_plot
+    from symgen.numerics.results import run_files
 
-    out = _check_out(args.output, (".csv",), "-o", also=[Path(args.output).with_suffix(".json"),
-                                                         *partial_paths(Path(args.output))])
-    plot = (_check_out(args.plot, PLOT_SUFFIXES, "--plot", also=[partial_plot(Path(args.plot))])
-            if args.plot else None)
-    return ResultFiles(out, plot)
+    return run_files(args.output, args.plot)
 
 
 @contextlib.contextmanager
@@ -91,26 +83,14 @@ def cmd_check(args) -> int:
 
 
 def _prepare_run(args):
-    """Load the scene, compile it: (scene, compiled, mech, build_s)."""
-    from symgen.backends.casadi.pipeline import compile_scene
-    from symgen.numerics.mechanism import Mechanism
+    """Load the scene, check --units against it, derive or load its model: the mechanism."""
+    from symgen.api import mechanism
+    from symgen.numerics.units import choose_system
 
     scene = _scene(args)
-    from symgen.numerics.units import choose_system
     choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
     _say(args, f"deriving {scene.name}")
-    compiled = compile_scene(scene, use_cache=not args.no_cache)
-    t0 = time.perf_counter()
-    mech = Mechanism(compiled, scene)
-    return scene, compiled, mech, compiled.build_s + (time.perf_counter() - t0)
-
-
-def _attempt(run):
-    """(result, failure): a run that stopped early (a failure, SIGINT/SIGTERM) keeps its partial result."""
-    try:
-        return run(), None
-    except (SimulationError, Interrupted) as err:
-        return getattr(err, "partial", None), err
+    return mechanism(scene, use_cache=not args.no_cache)
 
 
 def _results_run(args, body) -> int:
@@ -124,39 +104,17 @@ def _results_run(args, body) -> int:
         raise
 
 
-def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
-    """CSV, JSON (partial when the run stopped), then the plot if asked; re-raise a failure.
-    Columns in the scene's units (SI for an SI scene unless --units dimensionless)."""
-    from symgen.numerics.units import result_units
+def _write_run(args, files, mech, result, failure, solver: str):
+    """CSV, JSON (partial when the run stopped), then the plot if asked; re-raise a failure."""
+    from symgen.numerics.results import write_run
 
-    units = result_units(scene, args.units)
-    t_col, values = units.convert(result.tau, result.outputs)
-    meta["units"] = units.as_dict()
-    names = list(result.output_names)
-    columns = values
-    if getattr(args, "states", False):           # the coordinates, for symgen animate --from
-        import numpy as np
-
-        from symgen.apps.animate import states_meta
-        meta["states"] = states_meta(scene, meta["coordinates"], meta["model_key"])
-        clash = sorted(set(names) & set(meta["states"]["columns"]))
-        if clash:
-            raise SceneError(scene.path, f"outputs.{clash[0]}", "an output has the name of a state column",
-                             "rename the output, or leave out --states")
-        columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[:len(t_col)]])
-        names += meta["states"]["columns"]
-    complete = failure is None
-    written = files.write(t_col, columns, names, meta, complete, time_name=units.time.name)
+    written = write_run(files, mech.scene, mech.compiled, mech.build_s, result, failure, solver=solver,
+                        units=args.units, states=getattr(args, "states", False))
     if failure is not None:
-        print(f"symgen: partial result kept in {written} ({meta['status']})", file=sys.stderr)
-    if files.plot is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
-        from symgen.apps.plot import plot_outputs
-        drv = scene.driver
-        steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
-        turn = 2 * math.pi / abs(drv.rate) if steady else None      # a law or a ramp: plotted against tau
-        plot_outputs(files.plot_path(complete), t_col, values, result.output_names,
-                     [o.kind for o in scene.outputs], title, partial=not complete,
-                     turn=None if turn is None else turn * units.time.factor, units=units)
+        print(f"symgen: partial result kept in {written.csv} ({written.sidecar['status']})", file=sys.stderr)
+    if written.plot is not None:
+        from symgen.apps.plot import plot_run
+        plot_run(written.plot)
     if failure is not None:
         raise failure
     return written
@@ -167,29 +125,25 @@ def cmd_simulate(args) -> int:
 
 
 def _simulate(args, files) -> int:
+    from symgen.numerics.results import attempt
     from symgen.numerics.simulate import simulate
 
     if args.solver == "c" and args.states:
         raise SceneError("command line", "--states", "the C solver writes the outputs only, not the coordinates",
                          "leave out --states, or --solver c")
-    scene, compiled, mech, build_s = _prepare_run(args)
-    _say(args, f"integrating tau 0 -> {scene.simulation.t_end:.6g}")
+    mech = _prepare_run(args)
+    _say(args, f"integrating tau 0 -> {mech.scene.simulation.t_end:.6g}")
     if args.solver == "c":
         from symgen.numerics.csolver import simulate_c
-        result, failure = _attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
+        result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
     else:
-        result, failure = _attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
-    meta = _sidecar(scene, compiled, build_s, result, failure)
-    if args.solver == "c":
-        meta["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
-    elif result is not None:
-        meta["solver"]["backend"] = result.stats.get("backend")
-    if result is None or len(result.tau) == 0:
-        raise failure if failure is not None else SimulationError(None, "the run produced no output")
-    written = _write_run(args, files, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
-    print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
+        result, failure = attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
+    written = _write_run(args, files, mech, result, failure, args.solver)
+    compiled = mech.compiled
+    print(f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
-          + (f"model loaded from cache {build_s:.2f}s, " if compiled.cached else f"derived {compiled.derive_s:.2f}s, ")
+          + (f"model loaded from cache {mech.build_s:.2f}s, " if compiled.cached
+             else f"derived {compiled.derive_s:.2f}s, ")
           + _backend_text(result.stats) + f"simulate {result.simulate_s:.2f}s)")
     return 0
 
@@ -202,49 +156,6 @@ def _backend_text(stats: dict) -> str:
         return "virtual machine, "
     how = "built" if stats.get("library") == "built" else "loaded"
     return f"compiled library {how} {stats.get('setup_s', 0.0):.2f}s, "
-
-
-def _sidecar(scene, compiled, build_s, result, failure) -> dict:
-    from symgen.scene.motion import driver_record
-    from symgen.model.structure import axial_treatments
-    sim = scene.simulation
-    meta = compiled.meta
-    return {
-        "scene": str(scene.path),
-        "scene_hash": scene.hash,
-        "symgen_version": __version__,
-        "status": ("complete" if failure is None else
-                   "interrupted" if isinstance(failure, Interrupted) else "partial"),
-        "failure": None if failure is None else str(failure),
-        "groups": scene.groups,
-        "effects": {
-            "axial": scene.effects.axial, "transverse": scene.effects.transverse,
-            "geometric_stiffening": scene.effects.geometric_stiffening,
-            "coriolis": scene.effects.coriolis, "rotary_inertia": scene.effects.rotary_inertia,
-            "strain": scene.effects.strain, "gravity": list(scene.effects.gravity),
-            "damping": scene.effects.damping,
-        },
-        "axial_treatment": {name: {"treatment": t.treatment, "reason": t.reason}
-                            for name, t in axial_treatments(scene).items()},
-        "modes": meta["modes"],
-        "driver": driver_record(scene.driver),
-        "model_key": meta["key"],
-        "coordinates": [c["name"] for c in meta["coords"]],
-        "partition": None if result is None or result.partition is None else {
-            "independent": [meta["coords"][i]["name"] for i in result.partition.ind],
-            "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
-        "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
-                   "steps": None if result is None else result.steps},
-        # derive_s is this process's derivation (0 when the model came from the cache); the
-        # cached entry's own derivation time is kept apart so that it is never read as this run's
-        "timings": {"derive_s": 0.0 if compiled.cached else compiled.derive_s, "derive_cached": compiled.cached,
-                    "cached_model_derive_s": compiled.derive_s if compiled.cached else None,
-                    "build_s": build_s, "simulate_s": None if result is None else result.simulate_s},
-        "closure_residual_max": None if result is None else result.closure_max,
-        "outputs": [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "at": o.xi,
-                     "component": o.component} for o in scene.outputs],
-        "t_end": sim.t_end, "output_step": sim.output_step,
-    }
 
 
 def cmd_latex(args) -> int:
@@ -392,37 +303,29 @@ def cmd_quasistatic(args) -> int:
 
 def _quasistatic(args, files) -> int:
     from symgen.numerics.quasistatic import NO_POSITION, quasi_static
+    from symgen.numerics.results import attempt
 
     try:        # a signal while the model is loaded or derived: no position solved yet
-        scene, compiled, mech, build_s = _prepare_run(args)
+        mech = _prepare_run(args)
     except BaseException as err:
         stop = interrupt.interrupted(err)
         if not isinstance(stop, Interrupted):
             raise
         raise Interrupted(stop.signum, detail=NO_POSITION) from None
     _say(args, "solving the quasi-static positions")
-    result, failure = _attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles,
-                                                    say=lambda line: _say(args, line)))
-    if result is None or len(result.tau) == 0:
-        raise failure if failure is not None else SimulationError(None, "no input position was solved")
-    meta = _sidecar(scene, compiled, build_s, result, failure)
-    meta["analysis"] = "quasi-static response (18)-(20)"
-    meta["solver"] = result.solver_info()
-    meta["timings"]["solve_s"] = result.solve_s
-    meta["t_end"] = float(result.tau[-1])
-    written = _write_run(args, files, scene, result, meta, failure,
-                         f"{scene.name}: quasi-static response, {Path(scene.path).name}")
-    info = meta["solver"]
-    print(f"wrote {written} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
+    result, failure = attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles,
+                                                   say=lambda line: _say(args, line)))
+    written = _write_run(args, files, mech, result, failure, "quasi-static")
+    info = written.sidecar["solver"]
+    print(f"wrote {written.csv} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
           f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
           f"{info['residual_max']:.2e}; closure max {result.closure_max:.2e}; {result.solve_s:.2f}s)")
     return 0
 
 
 def cmd_animate(args) -> int:
-    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.api import mechanism
     from symgen.apps.animate import animate, check_target, fresh_run, read_states
-    from symgen.numerics.mechanism import Mechanism
 
     out = check_target(args.output)
     for key, val in (("--fps", args.fps), ("--frames", args.frames), ("--stride", args.stride),
@@ -440,8 +343,8 @@ def cmd_animate(args) -> int:
             raise SceneError(scene.path, "driver", "--turns needs an angle driver with a nonzero rate",
                              "give the end time with --t-end TAU instead")
         t_end = args.turns * 2 * math.pi / abs(drv.rate)
-    compiled = compile_scene(scene, use_cache=not args.no_cache)
-    mech = Mechanism(compiled, scene)
+    mech = mechanism(scene, use_cache=not args.no_cache)
+    compiled = mech.compiled
     if args.from_csv:
         motion = read_states(args.from_csv, scene, compiled.meta)
         if t_end is not None:
@@ -460,16 +363,16 @@ def cmd_animate(args) -> int:
 def cmd_modes(args) -> int:
     import json
 
-    from symgen.backends.casadi.pipeline import compile_scene
-    from symgen.numerics.mechanism import Mechanism
+    from symgen.api import mechanism
     from symgen.numerics.modes import modes, modes_json, modes_table
     from symgen.outputs import atomic_write, remove
 
     out = _check_out(args.output, (".json",), "-o") if args.output else None
     try:
         scene = _scene(args)
-        compiled = compile_scene(scene, use_cache=not args.no_cache)
-        result = modes(Mechanism(compiled, scene), tau=args.at)
+        mech = mechanism(scene, use_cache=not args.no_cache)
+        compiled = mech.compiled
+        result = modes(mech, tau=args.at)
         print(modes_table(result, scene))
         if out is not None:
             atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")

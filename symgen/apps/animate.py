@@ -22,35 +22,10 @@ import numpy as np
 
 from symgen.errors import SceneError
 from symgen.numerics.geometry import Geometry, auto_factor, magnified, rigid_reference
+from symgen.numerics.results import states_block
 
-STATE_PREFIX = "q."          # CSV columns of the coordinates: q.theta_crank, q.g_rod_1, ...
 TARGET = 0.1                 # default factor: peak displacement drawn at 10 % of the reference length
 MAX_FRAMES = 150             # default: every output row up to this many frames, else evenly spaced
-
-
-def states_meta(scene, coordinates: list, model_key: str) -> dict:
-    """The sidecar's ``states`` block: what ``animate --from`` needs to rebuild the geometry."""
-    from symgen.model.structure import basis_sizes
-    bars = {}
-    for b in scene.bodies:
-        na, nt = basis_sizes(scene, b)
-        bars[b.name] = {"length": b.alpha, "rigid": b.rigid, "frame": b.frame, "axial": na, "transverse": nt,
-                        "axial_shapes": b.axial_shapes if na else "",
-                        "transverse_shapes": b.transverse_shapes if nt else ""}
-    coords = list(coordinates)
-    return {"columns": [STATE_PREFIX + c for c in coords], "coordinates": coords, "model_key": model_key,
-            "lengths_in": "reference lengths l0", "bars": bars, "ground": _ground(scene)}
-
-
-def _ground(scene) -> dict:
-    """Ground points (and slider directions) of the joints to ground, dimensionless."""
-    from symgen.scene.model import GROUND
-    out = {}
-    for j in scene.joints:
-        for e in j.ends:
-            if e.body == GROUND:
-                out[j.name] = {"point": list(e.point), "direction": None if j.direction is None else list(j.direction)}
-    return out
 
 
 def _same(a, b, tol: float = 1e-12) -> bool:
@@ -96,7 +71,7 @@ def read_states(path: str | os.PathLike, scene, meta: dict) -> Motion:
     if st.get("model_key") != meta["key"] or st.get("coordinates") != [c["name"] for c in meta["coords"]]:
         raise SceneError(str(path), "--from", f"the run was made with another model (key {st.get('model_key')!r}, "
                          f"here {meta['key']!r}): its coordinates do not fit this scene", hint)
-    here = states_meta(scene, st["coordinates"], meta["key"])
+    here = states_block(scene, st["coordinates"], meta["key"])
     for key, what in (("bars", "bar lengths or shape functions"), ("ground", "ground points or slider lines")):
         if not _same(st.get(key), here[key]):
             raise SceneError(str(path), "--from", f"the run was made from another scene ({info.get('scene')!r}): "

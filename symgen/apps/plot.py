@@ -83,3 +83,10 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
             fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
     finally:
         plt.close(fig)
+
+
+def plot_run(plot) -> None:
+    """Draw the plot a run's writer asked for (``symgen.numerics.results.OutputsPlot``): the
+    ``--plot`` of ``symgen simulate`` / ``quasistatic`` and of ``symgen.api``'s runs."""
+    plot_outputs(plot.path, plot.time, plot.values, plot.names, plot.kinds, plot.title, partial=plot.partial,
+                 turn=plot.turn, units=plot.units)

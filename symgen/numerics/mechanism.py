@@ -14,6 +14,8 @@ index 1 as long as the rigid mechanism is not at a singular position (phi_qD reg
 """
 from __future__ import annotations
 
+import time
+
 import casadi as ca
 import numpy as np
 
@@ -29,7 +31,9 @@ from symgen.numerics.index1 import Partition
 
 class Mechanism:
     def __init__(self, compiled: CompiledModel, scene: Scene) -> None:
+        tic = time.perf_counter()
         self.scene = scene
+        self.compiled = compiled          # its derivation and cache state go into a run's sidecar
         self.f = compiled.funcs
         self.meta = compiled.meta
         self.coords = self.meta["coords"]
@@ -57,6 +61,8 @@ class Mechanism:
         for i, c in enumerate(self.coords):
             if c["kind"] in ("f", "g"):
                 self.amplitudes.setdefault(c["body"], ([], []))[c["kind"] == "g"].append(i)
+        # the model's CasADi build (or load from the cache) and this set-up, in this process
+        self.build_s = compiled.build_s + (time.perf_counter() - tic)
 
     # ---------------------------------------------------------------- helpers
     def call(self, name: str, t: float, q, v=None, a=None, lam=None) -> np.ndarray:

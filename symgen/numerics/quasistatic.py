@@ -346,7 +346,25 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
     ``Interrupted`` on SIGINT/SIGTERM inside ``interrupt.handling()``: with ``.partial`` (the
     positions solved, possibly none) once the system (20) is built, before that without (its
     message then says that no position was solved)."""
-    try:    # a signal while the run is set up (the start's assembly, building (20)): nothing solved yet
+    taus, q, sys_ = _start(mech, taus, kinematics, cycles, output_step)
+    positions = _Positions(sys_)
+    try:
+        _solve_positions(sys_, positions, taus, q, say)
+        return positions.result(None)
+    except BaseException as err:
+        exc = positions.stopped(err)
+        if exc is None:
+            raise
+        exc.partial = positions.result(exc)
+    raise exc
+
+
+def _start(mech: Mechanism, taus, kinematics: str, cycles: float | None,
+           output_step: float | None) -> tuple[np.ndarray, np.ndarray, QuasiStaticSystem]:
+    """The input positions, the consistent start at the first (its q) and the system (20) of its
+    partition. A signal meanwhile (the start's assembly, building (20)): ``Interrupted`` saying
+    that no position was solved."""
+    try:
         taus = cycle_times(mech, cycles, output_step) if taus is None else np.asarray(taus, dtype=float)
         q, v, a, lam, part = mech.initial_state(float(taus[0]) if len(taus) else 0.0)
         sys_ = QuasiStaticSystem(mech, part, kinematics)
@@ -355,57 +373,77 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
         if not isinstance(stop, Interrupted):
             raise
         raise Interrupted(stop.signum, detail=NO_POSITION) from None
-    rows: dict[str, list] = {k: [] for k in ("tau", "out", "q", "v", "a", "lam")}
-    reports: list[PositionReport] = []
-    closure_max = 0.0
-    tic = time.perf_counter()
+    return taus, q, sys_
 
-    def solved() -> int:
+
+def _solve_positions(sys_: QuasiStaticSystem, positions: _Positions, taus: np.ndarray, q, say) -> None:
+    """(20) at each input position in turn, each started from the last one's solution."""
+    y = None
+    q_guess = q
+    for t in taus:
+        t = float(t)
+        interrupt.check(positions.last_tau())
+        qr, vr, ar = sys_.rigid_state(t, q_guess)
+        y, rep = sys_.solve(t, qr, vr, ar, y)
+        qq, vv, aa, ll = sys_.state(t, qr, vr, ar, y)
+        positions.add(t, qq, vv, aa, ll, rep)
+        q_guess = qr
+        if say is not None and len(positions.reports) == 1:
+            say(f"first position solved (tau = {t:g}); {len(taus)} positions in all")
+
+
+class _Positions:
+    """The positions solved so far with their outputs and reports, and the
+    ``QuasiStaticResult`` they make: what a run that stops early keeps."""
+
+    def __init__(self, sys_: QuasiStaticSystem) -> None:
+        self.mech, self.part, self.kinematics = sys_.mech, sys_.part, sys_.kinematics
+        self.rows: dict[str, list] = {k: [] for k in ("tau", "out", "q", "v", "a", "lam")}
+        self.reports: list[PositionReport] = []
+        self.closure_max = 0.0
+        self.tic = time.perf_counter()
+
+    def solved(self) -> int:
         # an interrupt may land between the appends of one position: count the positions recorded whole
-        return min(len(reports), *(len(v) for v in rows.values()))
+        return min(len(self.reports), *(len(v) for v in self.rows.values()))
 
-    def result(exc: BaseException | None) -> QuasiStaticResult:
-        n = solved()
+    def last_tau(self) -> float | None:
+        return self.rows["tau"][-1] if self.rows["tau"] else None
+
+    def add(self, t: float, qq, vv, aa, ll, rep: PositionReport) -> None:
+        """The position at t: its outputs and closure residual evaluated, then recorded."""
+        mech = self.mech
+        out = mech.call("out", t, qq, vv, aa, ll)
+        clo = mech.call("closure", t, qq)
+        if clo.size:
+            self.closure_max = max(self.closure_max, float(np.abs(clo).max()))
+        for k, val in zip(("tau", "out", "q", "v", "a", "lam"), (t, out, qq, vv, aa, ll)):
+            self.rows[k].append(val)
+        self.reports.append(rep)
+
+    def stopped(self, err: BaseException) -> SimulationError | Interrupted | None:
+        """What ended the run early, or None when ``err`` is neither a failure of the run nor an
+        interrupt (the caller re-raises it).
+
+        Any failure while SIGINT/SIGTERM is pending is the interrupt, whatever it looks like
+        (symgen.numerics.interrupt): the handler's Interrupted, CasADi's RuntimeError, a bare
+        KeyboardInterrupt, a TypeError, or the SystemError CPython makes of a C function that
+        returned with the handler's exception set (numpy converting a DM: "<function
+        DM.__array__> returned a result with an exception set"). Catching only SimulationError,
+        Interrupted and RuntimeError let that SystemError out without the tau and the
+        positions solved (2.5 to 10 % of real SIGINTs measured; 3 of 5 full-suite runs)."""
+        n = self.solved()
+        exc = interrupt.interrupted(err, self.rows["tau"][n - 1] if n else None)
+        if isinstance(exc, Interrupted) and not n:
+            exc = Interrupted(exc.signum, detail=NO_POSITION)
+        return exc if isinstance(exc, (SimulationError, Interrupted)) else None
+
+    def result(self, exc: BaseException | None) -> QuasiStaticResult:
+        """The positions solved whole as a ``QuasiStaticResult`` (``exc``: what ended the run early)."""
+        n, rows, mech = self.solved(), self.rows, self.mech
         return QuasiStaticResult(
             tau=np.array(rows["tau"][:n]), outputs=np.array(rows["out"][:n]).reshape(-1, len(mech.meta["outputs"])),
             output_names=list(mech.meta["outputs"]), q=np.array(rows["q"][:n]), v=np.array(rows["v"][:n]),
-            a=np.array(rows["a"][:n]), lam=np.array(rows["lam"][:n]), closure_max=closure_max,
-            reports=reports[:n], solve_s=time.perf_counter() - tic, partition=part, kinematics=kinematics,
-            complete=exc is None, failure="" if exc is None else str(exc))
-
-    y = None
-    q_guess = q
-    try:
-        for t in taus:
-            t = float(t)
-            interrupt.check(rows["tau"][-1] if rows["tau"] else None)
-            qr, vr, ar = sys_.rigid_state(t, q_guess)
-            y, rep = sys_.solve(t, qr, vr, ar, y)
-            qq, vv, aa, ll = sys_.state(t, qr, vr, ar, y)
-            out = mech.call("out", t, qq, vv, aa, ll)
-            clo = mech.call("closure", t, qq)
-            if clo.size:
-                closure_max = max(closure_max, float(np.abs(clo).max()))
-            for k, val in zip(("tau", "out", "q", "v", "a", "lam"), (t, out, qq, vv, aa, ll)):
-                rows[k].append(val)
-            reports.append(rep)
-            q_guess = qr
-            if say is not None and len(reports) == 1:
-                say(f"first position solved (tau = {t:g}); {len(taus)} positions in all")
-        return result(None)
-    except BaseException as err:
-        # Any failure while SIGINT/SIGTERM is pending is the interrupt, whatever it looks like
-        # (symgen.numerics.interrupt): the handler's Interrupted, CasADi's RuntimeError, a bare
-        # KeyboardInterrupt, a TypeError, or the SystemError CPython makes of a C function that
-        # returned with the handler's exception set (numpy converting a DM: "<function
-        # DM.__array__> returned a result with an exception set"). Catching only SimulationError,
-        # Interrupted and RuntimeError let that SystemError out without the tau and the
-        # positions solved (2.5 to 10 % of real SIGINTs measured; 3 of 5 full-suite runs).
-        n = solved()
-        exc = interrupt.interrupted(err, rows["tau"][n - 1] if n else None)
-        if isinstance(exc, Interrupted) and not n:
-            exc = Interrupted(exc.signum, detail=NO_POSITION)
-        if not isinstance(exc, (SimulationError, Interrupted)):
-            raise
-        exc.partial = result(exc)
-    raise exc
+            a=np.array(rows["a"][:n]), lam=np.array(rows["lam"][:n]), closure_max=self.closure_max,
+            reports=self.reports[:n], solve_s=time.perf_counter() - self.tic, partition=self.part,
+            kinematics=self.kinematics, complete=exc is None, failure="" if exc is None else str(exc))

@@ -7,18 +7,33 @@ plot if asked, and removes any ``OUT.partial.*`` of an earlier run. A run that s
 instead, and removes any older ``OUT.csv`` / ``OUT.json`` / ``PLOT`` first, so that nothing
 left behind looks like a complete result. The sidecar is written after its CSV and removed
 before it is rewritten: a failed write never leaves a JSON beside a CSV it does not describe.
+
+``build_sidecar`` makes the sidecar record of a run and ``write_run`` writes the run; both are
+shared by the command line (``symgen simulate``, ``symgen quasistatic``) and ``symgen.api``
+(``simulate_scene(..., out=...)``), which therefore write the same files. The plot is drawn
+above this layer: ``write_run`` returns it as data (``OutputsPlot``) and the application draws
+it (``symgen.apps.plot.plot_run``).
 """
 from __future__ import annotations
 
 import json
+import math
 import os
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
-from symgen.outputs import atomic_write, remove
+from symgen import __version__
+from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.outputs import atomic_write, check_file, remove
 
-__all__ = ["ResultFiles", "atomic_write", "csv_text", "partial_paths", "write_results"]
+__all__ = ["OutputsPlot", "PLOT_SUFFIXES", "ResultFiles", "WrittenRun", "atomic_write", "attempt", "build_sidecar",
+           "csv_text", "partial_paths", "run_files", "states_block", "write_results", "write_run"]
+
+PLOT_SUFFIXES = (".png", ".svg", ".pdf")
+STATE_PREFIX = "q."          # CSV columns of the coordinates: q.theta_crank, q.g_rod_1, ...
 
 
 def csv_text(tau: np.ndarray, values: np.ndarray, names: list[str], time_name: str = "tau") -> str:
@@ -61,7 +76,7 @@ class ResultFiles:
             return None
         return self.plot if complete else partial_plot(self.plot)
 
-    def write(self, tau, values, names, meta: dict, complete: bool = True, time_name: str = "tau") -> Path:
+    def write(self, tau, values, names, sidecar: dict, complete: bool = True, time_name: str = "tau") -> Path:
         """CSV, then its JSON sidecar; return the CSV path. The first column is ``time_name``
         (``tau``, or ``t`` in seconds for SI results). Stale files of the other kind go first;
         if a write fails, neither file of this run is left."""
@@ -71,7 +86,7 @@ class ResultFiles:
         text = csv_text(np.asarray(tau), np.asarray(values).reshape(len(tau), -1), names, time_name)
         try:
             atomic_write(csv_path, text)
-            atomic_write(json_path, json.dumps(meta, indent=1, default=_jsonable) + "\n")
+            atomic_write(json_path, json.dumps(sidecar, indent=1, default=_jsonable) + "\n")
         except BaseException:
             remove([csv_path, json_path])
             raise
@@ -89,10 +104,180 @@ class ResultFiles:
         remove(self.complete_paths() + ([] if self.partial_written else self.partial_paths()))
 
 
-def write_results(out: str | os.PathLike, tau, values, names, meta: dict, complete: bool = True,
+def write_results(out: str | os.PathLike, tau, values, names, sidecar: dict, complete: bool = True,
                   time_name: str = "tau") -> Path:
     """Write the CSV and its JSON sidecar (``ResultFiles.write``); return the CSV path written."""
-    return ResultFiles(out).write(tau, values, names, meta, complete, time_name)
+    return ResultFiles(out).write(tau, values, names, sidecar, complete, time_name)
+
+
+def run_files(out: str | os.PathLike, plot: str | os.PathLike | None = None, out_key: str = "-o",
+              plot_key: str = "--plot") -> ResultFiles:
+    """The files of a run (``simulate``, ``quasistatic``), checked before any work (suffix, not a
+    folder, its folder writable; nothing is created). ``out_key``, ``plot_key``: how the error
+    names the argument."""
+    out_path = check_file(out, (".csv",), out_key, also=[Path(out).with_suffix(".json"), *partial_paths(Path(out))])
+    plot_path = (check_file(plot, PLOT_SUFFIXES, plot_key, also=[partial_plot(Path(plot))])
+                 if plot else None)
+    return ResultFiles(out_path, plot_path)
+
+
+def attempt(run: Callable):
+    """(result, failure) of ``run()``: a run that stopped early (a failure, SIGINT/SIGTERM) keeps
+    its partial result (None when it had none)."""
+    try:
+        return run(), None
+    except (SimulationError, Interrupted) as err:
+        return getattr(err, "partial", None), err
+
+
+def build_sidecar(scene, compiled, build_s: float, result, failure: BaseException | None, solver: str = "idas") -> dict:
+    """The JSON sidecar of a run (before ``write_run`` adds its ``units`` and ``states``): the
+    scene, its model and effects, the status (``failure``: what stopped the run early), the
+    solver, timings and checks. ``compiled``: the model record
+    (``symgen.backends.casadi.pipeline.CompiledModel``); ``build_s``: its build (or load from the
+    cache) and set-up in this process. ``solver``: "idas" (``simulate``), "c" (``simulate
+    --solver c``) or "quasi-static" (``result`` a ``QuasiStaticResult``)."""
+    from symgen.model.structure import axial_treatments
+    from symgen.scene.motion import driver_record
+    sim = scene.simulation
+    meta = compiled.meta
+    sidecar = {
+        "scene": str(scene.path),
+        "scene_hash": scene.hash,
+        "symgen_version": __version__,
+        "status": ("complete" if failure is None else
+                   "interrupted" if isinstance(failure, Interrupted) else "partial"),
+        "failure": None if failure is None else str(failure),
+        "groups": scene.groups,
+        "effects": {
+            "axial": scene.effects.axial, "transverse": scene.effects.transverse,
+            "geometric_stiffening": scene.effects.geometric_stiffening,
+            "coriolis": scene.effects.coriolis, "rotary_inertia": scene.effects.rotary_inertia,
+            "strain": scene.effects.strain, "gravity": list(scene.effects.gravity),
+            "damping": scene.effects.damping,
+        },
+        "axial_treatment": {name: {"treatment": t.treatment, "reason": t.reason}
+                            for name, t in axial_treatments(scene).items()},
+        "modes": meta["modes"],
+        "driver": driver_record(scene.driver),
+        "model_key": meta["key"],
+        "coordinates": [c["name"] for c in meta["coords"]],
+        "partition": None if result is None or result.partition is None else {
+            "independent": [meta["coords"][i]["name"] for i in result.partition.ind],
+            "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
+        "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
+                   "steps": None if result is None else result.steps},
+        # derive_s is this process's derivation (0 when the model came from the cache); the
+        # cached entry's own derivation time is kept apart so that it is never read as this run's
+        "timings": {"derive_s": 0.0 if compiled.cached else compiled.derive_s, "derive_cached": compiled.cached,
+                    "cached_model_derive_s": compiled.derive_s if compiled.cached else None,
+                    "build_s": build_s, "simulate_s": None if result is None else result.simulate_s},
+        "closure_residual_max": None if result is None else result.closure_max,
+        "outputs": [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "at": o.xi,
+                     "component": o.component} for o in scene.outputs],
+        "t_end": sim.t_end, "output_step": sim.output_step,
+    }
+    if solver == "c":
+        sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
+    elif solver == "quasi-static":
+        sidecar["analysis"] = "quasi-static response (18)-(20)"
+        sidecar["solver"] = result.solver_info()
+        sidecar["timings"]["solve_s"] = result.solve_s
+        sidecar["t_end"] = float(result.tau[-1])
+    elif result is not None:
+        sidecar["solver"]["backend"] = result.stats.get("backend")
+    return sidecar
+
+
+def states_block(scene, coordinates: list, model_key: str) -> dict:
+    """The sidecar's ``states`` block: what ``animate --from`` needs to rebuild the geometry."""
+    from symgen.model.structure import basis_sizes
+    bars = {}
+    for b in scene.bodies:
+        na, nt = basis_sizes(scene, b)
+        bars[b.name] = {"length": b.alpha, "rigid": b.rigid, "frame": b.frame, "axial": na, "transverse": nt,
+                        "axial_shapes": b.axial_shapes if na else "",
+                        "transverse_shapes": b.transverse_shapes if nt else ""}
+    coords = list(coordinates)
+    return {"columns": [STATE_PREFIX + c for c in coords], "coordinates": coords, "model_key": model_key,
+            "lengths_in": "reference lengths l0", "bars": bars, "ground": _ground(scene)}
+
+
+def _ground(scene) -> dict:
+    """Ground points (and slider directions) of the joints to ground, dimensionless."""
+    from symgen.scene.model import GROUND
+    out = {}
+    for j in scene.joints:
+        for e in j.ends:
+            if e.body == GROUND:
+                out[j.name] = {"point": list(e.point), "direction": None if j.direction is None else list(j.direction)}
+    return out
+
+
+@dataclass(frozen=True)
+class OutputsPlot:
+    """The plot of a run's outputs against time, as data: the application layer draws it
+    (``symgen.apps.plot.plot_run``); the numerics only say what it shows."""
+    path: Path
+    time: np.ndarray                # the time column, in the results' units
+    values: np.ndarray              # (N, n_out) in the results' units
+    names: list
+    kinds: list
+    title: str
+    partial: bool
+    turn: float | None              # one crank turn in the time unit (a steady angle driver), else None
+    units: object                   # symgen.numerics.units.ResultUnits
+
+
+@dataclass(frozen=True)
+class WrittenRun:
+    """What ``write_run`` wrote: the CSV (its JSON beside it), the sidecar record, and the plot
+    still to draw (None: no plot asked, or the run was interrupted: stopping fast beats a plot)."""
+    csv: Path
+    sidecar: dict
+    plot: OutputsPlot | None
+
+
+def write_run(files: ResultFiles, scene, compiled, build_s: float, result, failure: BaseException | None,
+              solver: str = "idas", units: str | None = None, states: bool = False) -> WrittenRun:
+    """A run's CSV and JSON sidecar (partial when the run stopped: ``failure``), columns in the
+    scene's units (SI for an SI scene unless ``units="dimensionless"``), with the coordinates as
+    ``q.NAME`` columns when ``states`` (for ``symgen animate --from``); and the plot to draw when
+    ``files`` has one. Raises ``failure`` (or a ``SimulationError``) when there is no output to
+    write. ``solver``, ``compiled``, ``build_s``: as for :func:`build_sidecar`."""
+    from symgen.numerics.units import result_units
+
+    if result is None or len(result.tau) == 0:
+        raise failure if failure is not None else SimulationError(
+            None, "no input position was solved" if solver == "quasi-static" else "the run produced no output")
+    sidecar = build_sidecar(scene, compiled, build_s, result, failure, solver)
+    in_units = result_units(scene, units)
+    t_col, values = in_units.convert(result.tau, result.outputs)
+    sidecar["units"] = in_units.as_dict()
+    names = list(result.output_names)
+    columns = values
+    if states:
+        sidecar["states"] = states_block(scene, sidecar["coordinates"], sidecar["model_key"])
+        clash = sorted(set(names) & set(sidecar["states"]["columns"]))
+        if clash:
+            raise SceneError(scene.path, f"outputs.{clash[0]}", "an output has the name of a state column",
+                             "rename the output, or leave out --states")
+        columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[:len(t_col)]])
+        names += sidecar["states"]["columns"]
+    complete = failure is None
+    written = files.write(t_col, columns, names, sidecar, complete, time_name=in_units.time.name)
+    plot = None
+    plot_path = files.plot_path(complete)
+    if plot_path is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
+        drv = scene.driver
+        steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
+        turn = 2 * math.pi / abs(drv.rate) if steady else None      # a law or a ramp: plotted against tau
+        what = "quasi-static response, " if solver == "quasi-static" else ""
+        plot = OutputsPlot(plot_path, t_col, values, list(result.output_names),
+                           [o.kind for o in scene.outputs], f"{scene.name}: {what}{Path(scene.path).name}",
+                           partial=not complete, turn=None if turn is None else turn * in_units.time.factor,
+                           units=in_units)
+    return WrittenRun(written, sidecar, plot)
 
 
 def _jsonable(x):

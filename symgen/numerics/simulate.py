@@ -15,6 +15,7 @@ import re
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import NoReturn
 
 import casadi as ca
 import numpy as np
@@ -91,23 +92,11 @@ class DaeRunner:
         self.n_sing = len(Ds)
         self.rec = ca.Function("rec", [t, x, z, p], [q, v, lam, f["out"](*args), f["closure"](*args),
                                                      phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)])
-        self.backend, self.library = "vm", None
+        self.backend: str = "vm"
+        self.library: str | None = None         # compiled: "built" for this run, or "cached"
         choice = compiled.backend_choice(backend)
         if choice != "vm":
-            funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
-            try:
-                ext, built = compiled.library(funcs, mech.meta["key"], f"ind={list(part.ind)} dep={list(part.dep)}",
-                                              store=use_cache)
-            except compiled.Unavailable as exc:
-                if choice == "compiled":
-                    raise SceneError("command line", "--backend", f"compiled: {exc.reason}",
-                                     f"install a C compiler or set ${compiled.CC_ENV} to one; "
-                                     "or run with --backend vm") from None
-                _notice(f"{exc.reason}: running the model in CasADi's virtual machine (slower; "
-                        f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)")
-            else:
-                self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
-                self.backend, self.library = "compiled", "built" if built else "cached"
+            self._use_compiled(choice, dae_in, dae_out, use_cache)
         # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
         # the new Z and each column's residual norm cross into Python (not the k Jacobians)
         tm, xm, zm, pm = (ca.MX.sym(nm, w.size1()) for nm, w in (("t", t), ("x", x), ("z", z), ("p", p)))
@@ -122,6 +111,25 @@ class DaeRunner:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
             ax = [axial_atol if mech.coords[i]["kind"] == "f" else atol for i in I]
             self.opts["abstolv"] = ax + ax + [atol] * (2 * nD + n + m)
+
+    def _use_compiled(self, choice: str, dae_in: list, dae_out: list, use_cache: bool) -> None:
+        """Run the Functions from a compiled library (built once, cached); when no C compiler
+        works, stay in the virtual machine (said once on stderr) unless ``choice`` is "compiled"."""
+        mech, part = self.mech, self.part
+        funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
+        try:
+            ext, built = compiled.library(funcs, mech.meta["key"], f"ind={list(part.ind)} dep={list(part.dep)}",
+                                          store=use_cache)
+        except compiled.Unavailable as exc:
+            if choice == "compiled":
+                raise SceneError("command line", "--backend", f"compiled: {exc.reason}",
+                                 f"install a C compiler or set ${compiled.CC_ENV} to one; "
+                                 "or run with --backend vm") from None
+            _notice(f"{exc.reason}: running the model in CasADi's virtual machine (slower; "
+                    f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)")
+        else:
+            self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
+            self.backend, self.library = "compiled", "built" if built else "cached"
 
     def pack(self, q, v, a, lam) -> tuple[np.ndarray, np.ndarray]:
         I, D = list(self.part.ind), list(self.part.dep)
@@ -190,6 +198,24 @@ class DaeRunner:
         return z
 
 
+@dataclass(frozen=True)
+class RunSettings:
+    """The times, tolerances and backend of one run: ``simulate``'s arguments, else the scene's."""
+    t0: float
+    t_end: float
+    h: float                        # output step
+    rtol: float
+    atol: float
+    axial_atol: float | None
+    backend: str | None
+    use_cache: bool
+
+    @property
+    def n_outputs(self) -> int:
+        """Output steps after t0: the outputs are at t0 + i h, i = 0 .. n_outputs."""
+        return int(np.floor((self.t_end - self.t0) / self.h + 1e-9))
+
+
 def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | None = None,
              rtol: float | None = None, atol: float | None = None, t0: float = 0.0,
              initial: tuple | None = None, axial_atol: float | None = None, backend: str | None = None,
@@ -202,54 +228,112 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     rtol/atol; see benchmarks/RESULTS.md for what it costs in accuracy).
 
     ``backend``: "auto" (default, or ``$SYMGEN_BACKEND``), "compiled" or "vm" (see ``DaeRunner``);
-    ``use_cache=False``: a compiled library is built for this run only."""
+    ``use_cache=False``: a compiled library is built for this run only.
+
+    A run that stops early (``SimulationError``: a solver failure, a singular position, a bar
+    beyond its range; ``Interrupted``: SIGINT/SIGTERM) raises with ``.partial``, the
+    ``SimResult`` of the outputs recorded before it (``complete=False``)."""
     sim = mech.scene.simulation
-    t_end = sim.t_end if t_end is None else t_end
-    h = sim.output_step if output_step is None else output_step
-    rtol = sim.rtol if rtol is None else rtol
-    atol = sim.atol if atol is None else atol
-    try:           # a signal during the start (assembly, consistent state) stops the run at t0
-        if initial is None:
-            q, v, a, lam, part = mech.initial_state(t0)
+    settings = RunSettings(t0=t0, t_end=sim.t_end if t_end is None else t_end,
+                           h=sim.output_step if output_step is None else output_step,
+                           rtol=sim.rtol if rtol is None else rtol, atol=sim.atol if atol is None else atol,
+                           axial_atol=axial_atol, backend=backend, use_cache=use_cache)
+    run, x, z, setup_s = _start(mech, settings, initial)
+    traj = _Trajectory(run)
+    tic = time.perf_counter()
+    try:
+        traj.record(t0, x, z)
+        if run.nI == 0:
+            _rigid_motion(run, traj, settings, x, z)
         else:
-            q, v, a, lam, part = initial
-        t_setup = time.perf_counter()
-        run = DaeRunner(mech, part, rtol, atol, axial_atol, backend, use_cache)
-        setup_s = time.perf_counter() - t_setup
+            _integrate(run, traj, settings, x, z)
+    except BaseException as err:
+        stop = _stopped(err, traj, t0)
+        if stop is None:
+            raise
+    else:
+        stop = None
+    result = traj.result(time.perf_counter() - tic, setup_s, stop)
+    if stop is not None:
+        stop.partial = result
+        raise stop
+    return result
+
+
+def _start(mech: Mechanism, settings: RunSettings, initial: tuple | None) -> tuple[DaeRunner, np.ndarray, np.ndarray, float]:
+    """The consistent start (``initial``, else the mechanism's own at t0), the runner of its
+    partition and the runner's set-up time: (runner, x, z, setup_s). A signal meanwhile (the
+    assembly, the consistent state, a compiled library's build) stops the run at t0."""
+    try:
+        q, v, a, lam, part = mech.initial_state(settings.t0) if initial is None else initial
+        run, setup_s = _runner(mech, part, settings)
         x, z = run.pack(q, v, a, lam)
     except BaseException as err:
-        stop = interrupt.interrupted(err, t0)
+        stop = interrupt.interrupted(err, settings.t0)
         if stop is err:
             raise
         raise stop from None
-    n_out_total = int(np.floor((t_end - t0) / h + 1e-9))
-    taus, outs, qs, vs, lams = [], [], [], [], []
-    closure_max = 0.0
-    steps = 0
-    pfull = np.concatenate([mech.p, [t0]])
+    return run, x, z, setup_s
 
-    def record(t, x_, z_, append=True):
-        nonlocal closure_max
+
+def _runner(mech: Mechanism, part: Partition, settings: RunSettings) -> tuple[DaeRunner, float]:
+    """The runner of a partition with the run's tolerances and backend, and the seconds it took."""
+    tic = time.perf_counter()
+    run = DaeRunner(mech, part, settings.rtol, settings.atol, settings.axial_atol, settings.backend,
+                    settings.use_cache)
+    return run, time.perf_counter() - tic
+
+
+class _Trajectory:
+    """The outputs of a run recorded so far, each checked as it is recorded (a bar beyond the
+    range of the model or a singular position of the rigid mechanism ends the run there), the
+    IDAS steps taken, and the ``SimResult`` they make: what a run that stops early keeps."""
+
+    def __init__(self, run: DaeRunner) -> None:
+        self.run, self.mech, self.part = run, run.mech, run.part
+        self.taus: list = []
+        self.outs: list = []
+        self.qs: list = []
+        self.vs: list = []
+        self.lams: list = []
+        self.closure_max = 0.0
+        self.steps = 0
+
+    def whole(self) -> int:
+        """The outputs recorded whole (an interrupt may land between the appends of one output)."""
+        return min(len(self.taus), len(self.outs), len(self.qs), len(self.vs), len(self.lams))
+
+    def _append(self, t, out, q, v, lam) -> None:
+        self.taus.append(t)
+        self.outs.append(out)
+        self.qs.append(q)
+        self.vs.append(v)
+        self.lams.append(lam)
+
+    def record(self, t, x_, z_, append=True) -> None:
+        """The output at t (``append=False``: only its checks), or the ``SimulationError`` of a
+        check it fails."""
+        run, mech = self.run, self.mech
         qq, vv, aa, ll = run.unpack(x_, z_)
         if append:
             out = mech.call("out", t, qq, vv, aa, ll)
             clo = mech.call("closure", t, qq)
             if clo.size:
-                closure_max = max(closure_max, float(np.abs(clo).max()))
-            taus.append(t), outs.append(out), qs.append(qq), vs.append(vv), lams.append(ll)
+                self.closure_max = max(self.closure_max, float(np.abs(clo).max()))
+            self._append(t, out, qq, vv, ll)
         beyond = checks.beyond_range(mech, qq)
         if beyond is not None:
             raise SimulationError(t, beyond[1], "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
-        ratio, row = checks.singular_ratio(mech, t, qq, part)
+        ratio, row = checks.singular_ratio(mech, t, qq, self.part)
         if ratio < POLICY.singular_ratio:
             raise SimulationError(t, f"the rigid mechanism reached a singular position: the closure Jacobian "
                                      f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "the mechanism cannot pass this position as driven; shorten t_end or change the geometry")
 
-    def record_many(ts, rel, X, Z, p):
+    def record_many(self, ts, rel, X, Z, p) -> None:
         """``record`` of a chunk's outputs with one mapped call (same values, same stop at the
         first singular position)."""
-        nonlocal closure_max
+        run, mech = self.run, self.mech
         k = len(ts)
         Q, V, L, O, C, Jd = (np.array(w) for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
         L, O, C = (w.reshape(-1, k) for w in (L, O, C))     # no multipliers (an open chain): (0, k)
@@ -264,100 +348,114 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         if beyond is not None and beyond[0] < stop:
             stop = beyond[0] + 1
         if C.size:
-            closure_max = max(closure_max, float(np.abs(C[:, :stop]).max()))
+            self.closure_max = max(self.closure_max, float(np.abs(C[:, :stop]).max()))
         for i in range(stop):
-            taus.append(ts[i]), outs.append(O[:, i]), qs.append(Q[:, i]), vs.append(V[:, i]), lams.append(L[:, i])
+            self._append(ts[i], O[:, i], Q[:, i], V[:, i], L[:, i])
         if stop < k:
-            record(ts[stop - 1], X[:, stop - 1], Z[:, stop - 1], append=False)   # raises, naming the loop
+            self.record(ts[stop - 1], X[:, stop - 1], Z[:, stop - 1], append=False)   # raises, naming the loop
 
-    failure = ""
-    tic = time.perf_counter()
-    try:
-        record(t0, x, z)
-        done = 0
-        if run.nI == 0:
-            # no differential state (a rigid, fully driven mechanism): the motion is the
-            # algebraic solution at each output time; Newton from the previous solution
-            z_prev = None
-            for i in range(1, n_out_total + 1):
-                ti = t0 + i * h
-                pfull[-1] = ti
-                guess = z if z_prev is None else 2 * z - z_prev
-                z_new = run.polish(0.0, x, guess, pfull, tol=1e-12)
-                g = np.array(run.g(0.0, x, z_new, pfull)[0]).ravel()
-                # the position closure (first m rows) decides; the dynamic rows are linear in
-                # (a, lam) and carry force units (1e6 masses: round-off above any absolute 1e-9)
-                if not np.all(np.isfinite(g)) or np.abs(g[:mech.m]).max() > 1e-9:
-                    raise _lost(mech, part, ti, qs[-1], taus[-1], "the closure has no solution near the last one",
-                                limit=True)
-                z_prev, z = z, z_new
-                record(ti, x, z)
-            done = n_out_total
-        size = CHUNK
-        while done < n_out_total:
-            remaining = n_out_total - done
-            k = remaining if remaining <= 2 * size else size
-            t_start = t0 + done * h
-            pfull[-1] = t_start
-            interrupt.check(taus[-1])
-            try:
-                F = run.integrator(h, k, x, z)
-                sol = F(x0=x, z0=z, p=pfull)
-                steps += int(F.stats()["nsteps"])
-            except RuntimeError as err:
-                # SIGINT/SIGTERM inside IDAS comes back as a residual failure: it is the
-                # interrupt, reported at once (no step-by-step retry)
-                stop = interrupt.interrupted(err, taus[-1])
-                if isinstance(stop, Interrupted):
-                    raise stop from None
-                # locate the failure within one output step, keeping what was computed
-                for i in range(k):
-                    pfull[-1] = t_start + i * h
-                    try:
-                        F1 = run.integrator(h, 1, x, z)
-                        sol = F1(x0=x, z0=z, p=pfull)
-                    except RuntimeError as err1:
-                        stop = interrupt.interrupted(err1, taus[-1])
-                        if isinstance(stop, Interrupted):
-                            raise stop from None
-                        raise _lost(mech, part, t_start + i * h, qs[-1], taus[-1],
-                                    f"IDAS failed: {_idas_cause(err1)}") from None
-                    steps += int(F1.stats()["nsteps"])
-                    x = np.array(sol["xf"]).ravel()
-                    z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
-                    record(t_start + (i + 1) * h, x, z)
-                    interrupt.check(taus[-1])
-                raise SimulationError(t_start, f"IDAS failed in a chunk but not step by step: {_idas_cause(err)}") from None
-            X, Z = np.array(sol["xf"]), np.array(sol["zf"])
-            rel = h * np.arange(1, k + 1)
-            Z = run.polish_many(rel, X, Z, pfull)
-            record_many(t_start + rel, rel, X, Z, pfull)
-            x, z = X[:, -1], Z[:, -1]
-            done += k
-            size = min(2 * size, CHUNK_MAX)
-    except BaseException as err:
-        # any failure while SIGINT/SIGTERM is pending is the interrupt: inside IDAS a RuntimeError,
-        # between chunks (numpy converting CasADi's results) also the SystemError CPython makes of a
-        # C function that returned with the handler's exception set, or a bare KeyboardInterrupt
-        n_rec = min(len(taus), len(outs), len(qs), len(vs), len(lams))
-        exc = interrupt.interrupted(err, taus[n_rec - 1] if n_rec else t0)
-        if not isinstance(exc, (SimulationError, Interrupted)):
-            raise
-        failure = str(exc)
-    else:
-        exc = None
-    elapsed = time.perf_counter() - tic
-    # an interrupt may land between the appends of one output: keep the outputs recorded whole
-    n_rec = min(len(taus), len(outs), len(qs), len(vs), len(lams))
-    result = SimResult(tau=np.array(taus[:n_rec]), outputs=np.array(outs[:n_rec]),
-                       output_names=list(mech.meta["outputs"]), q=np.array(qs[:n_rec]), v=np.array(vs[:n_rec]),
-                       lam=np.array(lams[:n_rec]), closure_max=closure_max,
-                       steps=steps, simulate_s=elapsed, partition=part, complete=exc is None, failure=failure,
-                       stats={"backend": run.backend, "library": run.library, "setup_s": setup_s})
-    if exc is not None:
-        exc.partial = result
-        raise exc
-    return result
+    def result(self, elapsed: float, setup_s: float, stop: BaseException | None) -> SimResult:
+        """The outputs recorded whole as a ``SimResult`` (``stop``: what ended the run early)."""
+        n = self.whole()
+        return SimResult(tau=np.array(self.taus[:n]), outputs=np.array(self.outs[:n]),
+                         output_names=list(self.mech.meta["outputs"]), q=np.array(self.qs[:n]),
+                         v=np.array(self.vs[:n]), lam=np.array(self.lams[:n]), closure_max=self.closure_max,
+                         steps=self.steps, simulate_s=elapsed, partition=self.part, complete=stop is None,
+                         failure="" if stop is None else str(stop),
+                         stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s})
+
+
+def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x, z) -> None:
+    """No differential state (a rigid, fully driven mechanism): the motion is the algebraic
+    solution at each output time; Newton from the previous solution (extrapolated)."""
+    mech = run.mech
+    pfull = np.concatenate([mech.p, [settings.t0]])
+    z_prev = None
+    for i in range(1, settings.n_outputs + 1):
+        ti = settings.t0 + i * settings.h
+        pfull[-1] = ti
+        guess = z if z_prev is None else 2 * z - z_prev
+        z_new = run.polish(0.0, x, guess, pfull, tol=1e-12)
+        g = np.array(run.g(0.0, x, z_new, pfull)[0]).ravel()
+        # the position closure (first m rows) decides; the dynamic rows are linear in
+        # (a, lam) and carry force units (1e6 masses: round-off above any absolute 1e-9)
+        if not np.all(np.isfinite(g)) or np.abs(g[:mech.m]).max() > 1e-9:
+            raise _lost(mech, run.part, ti, traj.qs[-1], traj.taus[-1], "the closure has no solution near the last one",
+                        limit=True)
+        z_prev, z = z, z_new
+        traj.record(ti, x, z)
+
+
+def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x, z) -> None:
+    """IDAS over the run in chunks of outputs (``CHUNK`` first, each next one twice as many up to
+    ``CHUNK_MAX``, or all the rest when that is at most twice as many), the algebraic variables
+    polished and the outputs recorded per chunk; a chunk that fails is replayed step by step
+    (``_locate_failure``)."""
+    t0, h, n_out = settings.t0, settings.h, settings.n_outputs
+    pfull = np.concatenate([run.mech.p, [t0]])
+    done, size = 0, CHUNK
+    while done < n_out:
+        remaining = n_out - done
+        k = remaining if remaining <= 2 * size else size
+        t_start = t0 + done * h
+        pfull[-1] = t_start
+        interrupt.check(traj.taus[-1])
+        try:
+            F = run.integrator(h, k, x, z)
+            sol = F(x0=x, z0=z, p=pfull)
+            traj.steps += int(F.stats()["nsteps"])
+        except RuntimeError as err:
+            # SIGINT/SIGTERM inside IDAS comes back as a residual failure: it is the
+            # interrupt, reported at once (no step-by-step retry)
+            _raise_if_interrupted(err, traj.taus[-1])
+            _locate_failure(run, traj, h, k, t_start, x, z, pfull, err)
+        X, Z = np.array(sol["xf"]), np.array(sol["zf"])
+        rel = h * np.arange(1, k + 1)
+        Z = run.polish_many(rel, X, Z, pfull)
+        traj.record_many(t_start + rel, rel, X, Z, pfull)
+        x, z = X[:, -1], Z[:, -1]
+        done += k
+        size = min(2 * size, CHUNK_MAX)
+
+
+def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start: float, x, z, pfull,
+                    err: RuntimeError) -> NoReturn:
+    """A chunk of k outputs from t_start failed (``err``): replay it one output step at a time,
+    recording each output, so that the error names the step that fails (its cause, or the
+    singular position it met) and the run keeps everything before it."""
+    for i in range(k):
+        pfull[-1] = t_start + i * h
+        try:
+            F1 = run.integrator(h, 1, x, z)
+            sol = F1(x0=x, z0=z, p=pfull)
+        except RuntimeError as err1:
+            _raise_if_interrupted(err1, traj.taus[-1])
+            raise _lost(run.mech, run.part, t_start + i * h, traj.qs[-1], traj.taus[-1],
+                        f"IDAS failed: {_idas_cause(err1)}") from None
+        traj.steps += int(F1.stats()["nsteps"])
+        x = np.array(sol["xf"]).ravel()
+        z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
+        traj.record(t_start + (i + 1) * h, x, z)
+        interrupt.check(traj.taus[-1])
+    raise SimulationError(t_start, f"IDAS failed in a chunk but not step by step: {_idas_cause(err)}") from None
+
+
+def _raise_if_interrupted(err: BaseException, tau: float) -> None:
+    """Raise ``Interrupted`` (at ``tau``) when ``err`` is really SIGINT/SIGTERM."""
+    stop = interrupt.interrupted(err, tau)
+    if isinstance(stop, Interrupted):
+        raise stop from None
+
+
+def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationError | Interrupted | None:
+    """What ended the run early, or None when ``err`` is neither a failure of the run nor an
+    interrupt (the caller re-raises it). Any failure while SIGINT/SIGTERM is pending is the
+    interrupt: inside IDAS a RuntimeError, between chunks (numpy converting CasADi's results)
+    also the SystemError CPython makes of a C function that returned with the handler's
+    exception set, or a bare KeyboardInterrupt."""
+    n = traj.whole()
+    exc = interrupt.interrupted(err, traj.taus[n - 1] if n else t0)
+    return exc if isinstance(exc, (SimulationError, Interrupted)) else None
 
 
 def _dae_jacobian(dae: ca.Function, dae_in: list, dae_out: list) -> ca.Function:
