@@ -356,6 +356,8 @@ def _owned() -> list[_Item]:
     items = []
     for sub, entry in ((models_dir(), _MODEL_ENTRY), (compiled_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
         try:
+            if not stat.S_ISDIR(os.lstat(sub).st_mode):
+                continue            # a link (or a file) where symgen makes a folder: never followed
             names = sorted(os.listdir(sub))
         except OSError:
             continue
@@ -414,6 +416,11 @@ def clear() -> tuple[int, int]:
     for it in items:
         _remove(it.path)
     for sub in (models_dir(), compiled_dir(), shapes_dir()):
+        if os.path.islink(sub):
+            print(f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
+                  f"removed; remove the link by hand if the cache should own that folder", file=sys.stderr)
+    for sub in (models_dir(), compiled_dir(), shapes_dir()):
         with contextlib.suppress(OSError):
-            sub.rmdir()   # only when empty
+            if stat.S_ISDIR(os.lstat(sub).st_mode):
+                sub.rmdir()   # only when empty
     return len(items), sum(i.size for i in items)
