@@ -36,6 +36,7 @@ from pathlib import Path
 import casadi as ca
 
 from symgen import __version__, cache
+from symgen.processes import run_group
 
 CC_ENV = "SYMGEN_CC"
 CFLAGS_ENV = "SYMGEN_CFLAGS"
@@ -89,8 +90,7 @@ class Compiler:
 @functools.lru_cache(maxsize=None)
 def _probe(path: str) -> str:
     try:
-        proc = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=60,
-                              stdin=subprocess.DEVNULL)
+        proc = run_group([path, "--version"], timeout=60)
     except (OSError, subprocess.SubprocessError) as exc:
         raise Unavailable(f"the C compiler {path} cannot be run ({exc})") from None
     if proc.returncode != 0:
@@ -206,8 +206,7 @@ def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, rep
         gen.generate(str(tmp) + os.sep)
         cmd = [comp.path, *comp.flags, "-fPIC", "-shared", str(tmp / "model.c"), "-o", str(tmp / LIBRARY), "-lm"]
         try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=COMPILE_TIMEOUT_S,
-                                  stdin=subprocess.DEVNULL)
+            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S)     # an interrupt kills cc1 too
         except (OSError, subprocess.SubprocessError) as exc:
             raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
         if proc.returncode != 0:
