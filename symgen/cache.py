@@ -14,9 +14,13 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
     of the JSON payload that follows; see :mod:`symgen.model.shapes`.
 
 The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
-unpickled or evaluated, and every entry is checked against the hashes recorded when it was
-written *before* any of its bytes reach a parser or CasADi's deserializer. An entry that does
-not verify is reported in one line on stderr (which entry, why) and re-derived.
+unpickled or evaluated, and every entry is checked against the keyed hashes (HMAC-SHA256)
+recorded when it was written *before* any of its bytes reach a parser, CasADi's deserializer
+or the dynamic loader. The key is this user's secret (:func:`key_path`, outside the cache
+folder, mode 0600, made on first use): whoever can write the cache folder but cannot read the
+key cannot make an entry that verifies, and a cache folder copied from elsewhere never does.
+An entry that does not verify is reported in one line on stderr (which entry, why) and
+re-derived. ``docs/threat-model.md`` says what is trusted and what is not.
 
 Writers build an entry under a temporary name next to its final place and rename it there in
 one step, so a reader sees a whole entry or none; a writer that loses a race, fails or is
@@ -32,6 +36,7 @@ import hashlib
 import hmac
 import os
 import re
+import secrets
 import shutil
 import stat
 import sys
@@ -41,8 +46,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
-__all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "cache_root", "models_dir", "compiled_dir", "shapes_dir",
-           "sha256_hex", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",
+__all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "KeyUnavailable", "cache_root", "models_dir",
+           "compiled_dir", "shapes_dir", "key_path", "sha256_hex", "seal", "verify", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",
            "sweep_stale", "info", "clear"]
 
 CACHE_ENV = "SYMGEN_CACHE_DIR"
@@ -54,7 +59,9 @@ TEMP_PREFIX = ".tmp-"
 _MODEL_ENTRY = re.compile(r"[0-9a-f]{20}")
 _SHAPE_ENTRY = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json")
 _SHAPE_OLD = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?")
-_HEADER = re.compile(rb"symgen-cache ([a-z-]+) sha256=([0-9a-f]{64})\n")
+_HEADER = re.compile(rb"symgen-cache ([a-z-]+) hmac-sha256=([0-9a-f]{64})\n")
+#: The per-user key of the cache's keyed hashes: 64 hex digits in a file of its own.
+_KEY = re.compile(rb"[0-9a-f]{64}\n?")
 
 
 class InvalidEntry(Exception):
@@ -84,9 +91,110 @@ def compiled_dir() -> Path:
     return cache_root() / "compiled"
 
 
+class KeyUnavailable(OSError):
+    """This user's cache key cannot be read or made (see :func:`key_path`): nothing is loaded
+    from the cache and nothing is written to it; the run goes on uncached, with a warning."""
+
+
+# ----------------------------------------------------------------------------- the key
+def key_path() -> Path:
+    """This user's cache key: ``$XDG_CONFIG_HOME/symgen/cache.key`` (default
+    ``~/.config/symgen/cache.key``). It is never inside the cache folder, so a cache folder
+    that is shared, copied or pointed elsewhere by ``$SYMGEN_CACHE_DIR`` brings no key of its own."""
+    base = os.environ.get("XDG_CONFIG_HOME") or ""
+    root = Path(base) if os.path.isabs(base) else Path.home() / ".config"
+    return root / "symgen" / "cache.key"
+
+
+_keys: dict[str, bytes] = {}
+
+
+def _check_private(st: os.stat_result, what: str, path: Path, mode_mask: int) -> None:
+    uid = os.geteuid() if hasattr(os, "geteuid") else st.st_uid
+    if st.st_uid != uid:
+        raise KeyUnavailable(f"the cache key's {what} {path} belongs to another user (uid {st.st_uid}): "
+                             f"remove it, or set XDG_CONFIG_HOME to a folder of your own")
+    if st.st_mode & mode_mask:
+        raise KeyUnavailable(f"the cache key's {what} {path} can be {'written' if mode_mask == 0o022 else 'read'} "
+                             f"by others (mode {stat.S_IMODE(st.st_mode):o}): chmod "
+                             f"{'go-w' if mode_mask == 0o022 else '600'} {path}, or remove it to make a new key")
+
+
+def _read_key(path: Path) -> bytes:
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    fd = os.open(path, flags)
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise KeyUnavailable(f"the cache key {path} is not a regular file: remove it")
+        _check_private(st, "file", path, 0o077)
+        data = os.read(fd, 130)
+    finally:
+        os.close(fd)
+    if _KEY.fullmatch(data) is None:
+        raise KeyUnavailable(f"the cache key {path} is not 64 hex digits (damaged): remove it to make a new key")
+    return bytes.fromhex(data[:64].decode())
+
+
+def _user_key() -> bytes:
+    """The key's bytes, made on first use (a 0700 folder, a 0600 file, linked into place in one
+    step so that concurrent first runs agree on one key). :class:`KeyUnavailable` otherwise."""
+    path = key_path()
+    if str(path) in _keys:
+        return _keys[str(path)]
+    try:
+        try:
+            key = _read_key(path)
+        except FileNotFoundError:
+            path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+            _check_private(os.stat(path.parent), "folder", path.parent, 0o022)
+            fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)    # mode 0600
+            try:
+                os.write(fd, secrets.token_hex(32).encode() + b"\n")
+                os.close(fd)
+                with contextlib.suppress(FileExistsError):     # another process made it first
+                    os.link(tmp, path)
+            finally:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+            key = _read_key(path)
+        else:
+            _check_private(os.stat(path.parent), "folder", path.parent, 0o022)
+    except KeyUnavailable:
+        raise
+    except OSError as exc:
+        raise KeyUnavailable(f"the cache key {path} cannot be read or made ({exc.strerror or exc}): "
+                             f"set XDG_CONFIG_HOME to a writable folder of your own") from None
+    _keys[str(path)] = key
+    return key
+
+
 # ----------------------------------------------------------------------------- verifying
 def sha256_hex(data: bytes) -> str:
+    """The plain sha256 of ``data`` (names, fingerprints; never what an entry is verified by)."""
     return hashlib.sha256(data).hexdigest()
+
+
+def seal(label: str, data: bytes) -> str:
+    """The keyed hash (HMAC-SHA256 with this user's key) that a writer records for the file
+    ``label`` (``<entry>/<file name>``: a valid file moved to another name or entry no longer
+    verifies) holding ``data``. Raises :class:`KeyUnavailable` (an ``OSError``: the writer
+    reports the entry unwritable and the run goes on)."""
+    return hmac.new(_user_key(), label.encode() + b"\0" + data, hashlib.sha256).hexdigest()
+
+
+def verify(label: str, data: bytes, recorded: object, name: str | None = None) -> None:
+    """Check ``data`` of the file ``label`` against the keyed hash ``recorded`` when it was
+    written; else :class:`InvalidEntry` naming the file (``name``, default the last part of
+    ``label``; also when this user has no key: an entry that cannot be verified is never trusted)."""
+    try:
+        expected = seal(label, data)
+    except KeyUnavailable as exc:
+        raise InvalidEntry(f"cannot be verified: {exc}") from None
+    if not isinstance(recorded, str) or not hmac.compare_digest(expected, recorded):
+        name = label.rsplit("/", 1)[-1] if name is None else name
+        raise InvalidEntry(f"{name + ' ' if name else ''}does not match the keyed hash recorded when it was written "
+                           "(changed, damaged, or written by another user or machine)")
 
 
 def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -> bytes:
@@ -95,7 +203,7 @@ def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -
     ``dir_fd``: read ``name`` relative to that open folder (a reader that opened an entry's
     folder keeps reading that folder even if a writer renames another one into its place).
     """
-    flags = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NOFOLLOW", 0)
+    flags = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
     try:
         fd = os.open(name, flags, dir_fd=dir_fd) if dir_fd is not None else os.open(name, flags)
     except OSError as exc:
@@ -115,12 +223,13 @@ def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -
 
 
 def pack(kind: str, payload: bytes) -> bytes:
-    """One self-verifying file: ``symgen-cache <kind> sha256=<hex of payload>\\n<payload>``."""
-    return b"symgen-cache %s sha256=%s\n" % (kind.encode(), sha256_hex(payload).encode()) + payload
+    """One self-verifying file: ``symgen-cache <kind> hmac-sha256=<seal of kind and payload>\\n<payload>``
+    (the payload names what it holds: the reader checks that too)."""
+    return b"symgen-cache %s hmac-sha256=%s\n" % (kind.encode(), seal(kind, payload).encode()) + payload
 
 
 def unpack(kind: str, data: bytes) -> bytes:
-    """The payload of a :func:`pack` file, after checking its kind and sha256."""
+    """The payload of a :func:`pack` file, after checking its kind and keyed hash."""
     end = data.find(b"\n")
     m = _HEADER.fullmatch(data[:end + 1]) if end >= 0 else None
     if m is None:
@@ -128,8 +237,7 @@ def unpack(kind: str, data: bytes) -> bytes:
     if m.group(1).decode() != kind:
         raise InvalidEntry(f"is a {m.group(1).decode()!r} entry, not {kind!r}")
     payload = data[end + 1:]
-    if not hmac.compare_digest(sha256_hex(payload).encode(), m.group(2)):
-        raise InvalidEntry("does not match the sha256 recorded when it was written (changed or damaged)")
+    verify(kind, payload, m.group(2).decode(), name="")
     return payload
 
 
@@ -248,6 +356,8 @@ def _owned() -> list[_Item]:
     items = []
     for sub, entry in ((models_dir(), _MODEL_ENTRY), (compiled_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
         try:
+            if not stat.S_ISDIR(os.lstat(sub).st_mode):
+                continue            # a link (or a file) where symgen makes a folder: never followed
             names = sorted(os.listdir(sub))
         except OSError:
             continue
@@ -306,6 +416,11 @@ def clear() -> tuple[int, int]:
     for it in items:
         _remove(it.path)
     for sub in (models_dir(), compiled_dir(), shapes_dir()):
+        if os.path.islink(sub):
+            print(f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
+                  f"removed; remove the link by hand if the cache should own that folder", file=sys.stderr)
+    for sub in (models_dir(), compiled_dir(), shapes_dir()):
         with contextlib.suppress(OSError):
-            sub.rmdir()   # only when empty
+            if stat.S_ISDIR(os.lstat(sub).st_mode):
+                sub.rmdir()   # only when empty
     return len(items), sum(i.size for i in items)

@@ -130,10 +130,10 @@ def test_planted_pickles_are_never_loaded(root, capsys, reference, tmp_path):
     name = S._cache_name(("axial", "stress-free", "any", 1, False), ("transverse", "modes", "pinned-pinned", 1, False))
     old = name.replace(f"v{S.SHAPES_VERSION}__", "v2__")
     # where older symgen read its pickles, and the current entry names: a pickle, and a pickle
-    # behind a header whose sha256 matches it
+    # behind a header whose plain sha256 matches it (the keyed hash cannot be made without the key)
     (shapes / f"{old}.pkl").write_bytes(evil)
     (shapes / f"{name}.pkl").write_bytes(evil)
-    (shapes / f"{name}.json").write_bytes(cache.pack("shapes", evil))
+    (shapes / f"{name}.json").write_bytes(b"symgen-cache shapes hmac-sha256=%s\n" % cache.sha256_hex(evil).encode() + evil)
     key = _fill_key()
     entry = root / "models" / key
     entry.mkdir(parents=True)
@@ -146,7 +146,7 @@ def test_planted_pickles_are_never_loaded(root, capsys, reference, tmp_path):
     assert not marker.exists()
     assert not compiled.cached
     _assert_equal(compiled, reference)
-    assert f"{name}.json" in err and "not a valid shape entry" in err
+    assert f"{name}.json does not match the keyed hash" in err, err
     assert f"models/{key} has no manifest.json" in err
     assert len(err.strip().splitlines()) == 2  # one line per entry
     # the planted entries were overwritten by verified ones; old pickles stay ignored
@@ -165,7 +165,7 @@ def _fill_key() -> str:
 def test_flipped_bit_in_model_entry_is_rederived(root, capsys, reference, fname):
     entry = _fill(root)
     _flip_bit(entry / fname, at=0.5, bit=1)
-    expect = f"{fname} does not match the sha256" if fname != "manifest.json" else f"models/{entry.name} "
+    expect = f"{fname} does not match the keyed hash" if fname != "manifest.json" else f"models/{entry.name} "
     compiled = _recompile(capsys, expect)
     assert not compiled.cached
     _assert_equal(compiled, reference)
@@ -195,7 +195,7 @@ def test_flipped_bit_in_shape_cache_is_recomputed(root, capsys, reference):
     entry.write_bytes(good.split(b"\n", 1)[0] + b"\n" + json.dumps(doc, separators=(",", ":")).encode())
     S.clear_memory_cache()
     compiled = compile_scene(load_scene(SCENE), use_cache=False)
-    assert "sha256" in capsys.readouterr().err
+    assert "keyed hash" in capsys.readouterr().err
     _assert_equal(compiled, reference)
 
 
@@ -205,7 +205,7 @@ def test_edited_model_json_is_rederived(root, capsys, reference):
     meta = json.loads((entry / "model.json").read_text())
     meta["params"] = meta["params"][::-1]   # valid JSON, same sizes: silently wrong numbers if used
     (entry / "model.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
-    compiled = _recompile(capsys, "model.json does not match the sha256")
+    compiled = _recompile(capsys, "model.json does not match the keyed hash")
     assert not compiled.cached
     assert compiled.meta["params"] == sorted(compiled.meta["params"], key=str) != meta["params"]
     _assert_equal(compiled, reference)
@@ -228,13 +228,16 @@ def test_entry_of_another_structure_is_rederived(root, capsys, reference):
             meta["key"] = entry.name
             blob = json.dumps(meta).encode()
             (entry / "model.json").write_bytes(blob)
-            manifest["files"]["model.json"] = cache.sha256_hex(blob)
+            # a writer that holds the key (a bug, not an attacker): every file sealed for this entry
+            manifest["files"] = {name: cache.seal(f"models/{entry.name}/{name}", (entry / name).read_bytes())
+                                 for name in manifest["files"]}
         if edit_manifest:
             manifest["key"] = entry.name
         (entry / "manifest.json").write_text(json.dumps(manifest))
 
     for edit_manifest, edit_meta, expect in ((False, False, f"manifest.json is for structure key '{other.name}'"),
-                                             (True, False, f"model.json: is for structure key '{other.name}'"),
+                                             # the keyed hashes are bound to the entry they were written for
+                                             (True, False, "phi.casadi does not match the keyed hash"),
                                              (True, True, "its structure does not hash to the key")):
         plant(edit_manifest, edit_meta)
         capsys.readouterr()
@@ -248,10 +251,10 @@ def test_swapped_function_files_are_rederived(root, capsys, reference):
     phi, phid = (entry / "phi.casadi").read_bytes(), (entry / "phid.casadi").read_bytes()
     (entry / "phi.casadi").write_bytes(phid)
     (entry / "phid.casadi").write_bytes(phi)
-    compiled = _recompile(capsys, "phi.casadi does not match the sha256")
+    compiled = _recompile(capsys, "phi.casadi does not match the keyed hash")
     _assert_equal(compiled, reference)
 
-    # swapped together with their hashes in the manifest: the Functions' names give it away
+    # swapped together with their keyed hashes in the manifest: each hash is bound to its file's name
     manifest = json.loads((entry / "manifest.json").read_text())
     res, out = (entry / "res.casadi").read_bytes(), (entry / "out.casadi").read_bytes()
     (entry / "res.casadi").write_bytes(out)
@@ -259,7 +262,7 @@ def test_swapped_function_files_are_rederived(root, capsys, reference):
     files = manifest["files"]
     files["res.casadi"], files["out.casadi"] = files["out.casadi"], files["res.casadi"]
     (entry / "manifest.json").write_text(json.dumps(manifest))
-    compiled = _recompile(capsys, "res.casadi holds the function 'out'")
+    compiled = _recompile(capsys, "res.casadi does not match the keyed hash")
     _assert_equal(compiled, reference)
 
 
@@ -271,7 +274,7 @@ def test_function_of_another_model_is_rederived(root, capsys, reference):
     blob = bigger.funcs["res"].serialize().encode()
     (entry / "res.casadi").write_bytes(blob)
     manifest = json.loads((entry / "manifest.json").read_text())
-    manifest["files"]["res.casadi"] = cache.sha256_hex(blob)
+    manifest["files"]["res.casadi"] = cache.seal(f"models/{entry.name}/res.casadi", blob)   # a keyed writer
     (entry / "manifest.json").write_text(json.dumps(manifest))
     compiled = _recompile(capsys, "res.casadi has sizes")
     _assert_equal(compiled, reference)

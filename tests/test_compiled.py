@@ -112,7 +112,7 @@ def test_library_rebuilt_when_flags_or_compiler_change_or_bytes_change(tmp_path,
     res = run()
     err = capsys.readouterr().err
     assert res.stats["library"] == "built"
-    assert err.count("\n") == 1 and "does not match the sha256" in err and "rebuilding it" in err
+    assert err.count("\n") == 1 and "does not match the keyed hash" in err and "rebuilding it" in err
     assert _close(first.outputs, res.outputs) <= 1e-12
     assert cache.sha256_hex(lib.read_bytes()) != cache.sha256_hex(bytes(data))
     assert run().stats["library"] == "cached"

@@ -13,7 +13,7 @@ PKG = Path(__file__).resolve().parent.parent / "symgen"
 #: layer of each module (the longest matching prefix wins); lower layers never import higher ones
 LAYERS = {
     0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata", "symgen.outputs",
-        "symgen.policy"),
+        "symgen.policy", "symgen.processes"),
     1: ("symgen.scene",),
     2: ("symgen.ir",),
     3: ("symgen.model",),

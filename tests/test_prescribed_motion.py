@@ -394,3 +394,22 @@ def test_emitted_c_follows_the_law(case, tmp_path):
     for k, o in enumerate(scene.outputs):
         peak = max(np.abs(res.outputs[:, k]).max(), 1e-12)
         assert np.abs(data[:, 1 + k] - res.outputs[:, k]).max() < 1e-5 * peak, (o.name, stats)
+
+
+def test_non_smooth_law_runs_with_its_piecewise_derivatives(tmp_path):
+    """A law built of the documented non-smooth functions (max, sign, Heaviside, min, Abs), with
+    a continuous rate and a jumping acceleration: the model uses the exact derivative on each
+    piece (SymPy's DiracDelta at the kinks is dropped; it was an internal error before), and
+    the torque is the closed form of the rigid pendulum away from the kinks."""
+    law = ("0.5*max(tau - 1, 0)^2 - 0.1*sign(tau - 2)*(tau - 2)^2 + 0.05*Heaviside(tau - 2.5)*(tau - 2.5)^2"
+           " + 0.1*min(tau, 1)^2 + 0.01*Abs(tau - 0.5)^3")
+    res = simulate(mechanism(_pendulum(tmp_path, f'law = "{law}"')))
+    t = res.tau
+    h = lambda x: np.heaviside(x, 0.5)   # noqa: E731
+    theta = (0.5 * np.maximum(t - 1, 0) ** 2 - 0.1 * np.sign(t - 2) * (t - 2) ** 2
+             + 0.05 * h(t - 2.5) * (t - 2.5) ** 2 + 0.1 * np.minimum(t, 1) ** 2 + 0.01 * np.abs(t - 0.5) ** 3)
+    thdd = h(t - 1) - 0.2 * np.sign(t - 2) + 0.1 * h(t - 2.5) + 0.2 * h(1 - t) + 0.06 * np.abs(t - 0.5)
+    away = np.min(np.abs(t[:, None] - np.array([0.5, 1.0, 2.0, 2.5])[None, :]), axis=1) > 1e-9
+    assert res.complete and t[-1] == pytest.approx(3.0)
+    np.testing.assert_allclose(res.column("theta"), theta, atol=1e-10)
+    np.testing.assert_allclose(res.column("torque")[away], (thdd / 3 + np.cos(theta))[away], atol=1e-8)

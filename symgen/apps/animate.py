@@ -141,7 +141,7 @@ class Animator:
         ax.set_aspect("equal")
         ax.set_xlabel(r"$x / l_0$"), ax.set_ylabel(r"$y / l_0$")
         ax.grid(True, lw=0.3, alpha=0.5)
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title, fontsize=10, parse_math=False)   # a file name is text, never mathtext
         size = 0.035 * span
         for m in geom.markers:        # ground: pins as hatched triangles, slider guides as lines
             if m.ground is None:

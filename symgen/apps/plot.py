@@ -75,7 +75,7 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
         for ax in axes[:, 0]:
             for c in range(1, int(math.floor(x[-1])) + 1):
                 ax.axvline(c, color="0.7", lw=0.5)
-    fig.suptitle(title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10)
+    fig.suptitle(title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10, parse_math=False)   # a file name is text, never mathtext
     fig.align_ylabels(axes[:, 0])
     from symgen.outputs import atomic_path
     try:

@@ -614,7 +614,7 @@ def plot_resonance(path: str | os.PathLike, result: SweepResult, varies: Sequenc
     if len(groups) > 1 or not ok.all():
         axes[0, 0].legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel(key)
-    fig.suptitle(title + ("  [PARTIAL]" if not result.complete else ""), fontsize=10)
+    fig.suptitle(title + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -684,7 +684,7 @@ def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence
     handles = ax.get_legend_handles_labels()[0]
     if 0 < len(handles) <= 12:
         ax.legend(fontsize=8, loc="upper left")
-    fig.suptitle(title + ("  [PARTIAL]" if not result.complete else ""), fontsize=10)
+    fig.suptitle(title + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

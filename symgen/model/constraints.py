@@ -29,7 +29,7 @@ from symgen.model.bars import PointForce
 from symgen.model.kinematics import TreeKinematics
 from symgen.model.structure import INEXTENSIBLE, QUASI_STATIC
 from symgen.model.topology import Topology
-from symgen.scene.expressions import tau_symbol
+from symgen.scene.expressions import derivative, tau_symbol
 from symgen.scene.model import GROUND
 from symgen.scene.motion import driver_angle
 
@@ -115,7 +115,7 @@ def angle_driver(cons: Constraints, driver, kins: dict, param: Callable[[Name], 
         rate = param(names.global_parameter("rate")) if driver.law is None else None
         ramp = param(names.global_parameter("ramp")) if driver.ramp is not None else None
         angle = driver_angle(driver, tau, th0, rate, ramp)
-        rows = (th.th - angle, th.dth - sp.diff(angle, tau), th.ddth - sp.diff(angle, tau, 2))
+        rows = (th.th - angle, th.dth - derivative(angle, tau), th.ddth - derivative(angle, tau, 2))
     cons.driver_row = len(cons.lam)
     cons.add(*rows, names.DRIVER_FORCE.symbol(), ConstraintRow("driver", "driver", (GROUND, driver.body)))
 

@@ -1004,7 +1004,7 @@ def _freeze(ip: InnerProducts) -> InnerProducts:
     return ip
 
 
-# On disk an entry is one file made by symgen.cache.pack: a header line with the sha256 of the
+# On disk an entry is one file made by symgen.cache.pack: a header line with the keyed hash of the
 # JSON payload that follows. The payload holds the float arrays as lists (repr round-trips
 # exactly) and the exact values as symgen.exprdata trees. Never pickle.
 _CACHE_KIND = "shapes"
@@ -1029,7 +1029,7 @@ def _encode_entry(name: str, ip: InnerProducts) -> bytes:
 def _decode_entry(data: bytes, name: str) -> InnerProducts:
     """The inner products of a verified entry; ``cache.InvalidEntry`` for anything else."""
     from symgen import cache, exprdata
-    payload = cache.unpack(_CACHE_KIND, data)   # sha256 checked before any parsing
+    payload = cache.unpack(_CACHE_KIND, data)   # keyed hash checked before any parsing
 
     def bad(what: str) -> Exception:
         return cache.InvalidEntry(f"is not a valid shape entry ({what})")
@@ -1086,7 +1086,7 @@ def _store(path: Path, name: str, ip: InnerProducts) -> None:
     from symgen import cache
     try:
         data = _encode_entry(name, ip)
-    except ValueError as exc:  # pragma: no cover - a value the encoding does not know: a bug
+    except (ValueError, cache.KeyUnavailable) as exc:  # no key of this user: not cached, said once per entry
         cache.report_unwritable(path, exc)
         return
     try:
@@ -1129,7 +1129,7 @@ def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
     """Closed-form inner products of one bar's axial and transverse bases (cached).
 
     Results are cached in memory per ``(family, frame, n, tip_joint)`` of both bases, and
-    on disk as JSON in :func:`cache_dir` (written atomically with the sha256 of its content,
+    on disk as JSON in :func:`cache_dir` (written atomically with the keyed hash of its content,
     checked before it is parsed; an entry that does not verify is said on stderr, recomputed
     and rewritten; pickles of older versions are never read).
 

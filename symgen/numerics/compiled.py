@@ -9,9 +9,10 @@ multiply-adds), so both give the same numbers to the last bit.
 
 Cache: ``<cache root>/compiled/<entry>/`` with ``model.so`` and ``manifest.json`` (format,
 symgen and CasADi versions, the model's structure key and coordinate partition, the compiler's
-path and ``--version`` text, the flags, the Function names and the sha256 of ``model.so``). The
+path and ``--version`` text, the flags, the Function names and the keyed hash of ``model.so``,
+``symgen.cache.seal``). The
 entry's name hashes all of these, so a change of compiler or flags builds a new library. An
-entry is verified before use (manifest fields, then the sha256 of the library's bytes, which
+entry is verified before use (manifest fields, then the keyed hash of the library's bytes, which
 are then loaded from a private copy, never from the shared folder); one that does not verify is
 reported in one line and rebuilt, never loaded.
 
@@ -35,6 +36,7 @@ from pathlib import Path
 import casadi as ca
 
 from symgen import __version__, cache
+from symgen.processes import run_group
 
 CC_ENV = "SYMGEN_CC"
 CFLAGS_ENV = "SYMGEN_CFLAGS"
@@ -44,7 +46,7 @@ BACKEND_ENV = "SYMGEN_BACKEND"
 DEFAULT_CFLAGS = "-O1 -ffp-contract=off"
 BACKENDS = ("auto", "compiled", "vm")
 FORMAT = "symgen-compiled-cache"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2      # 2: keyed hashes (HMAC-SHA256 with the user's key)
 LIBRARY = "model.so"
 MANIFEST = "manifest.json"
 _MAX_MANIFEST = 1 << 16
@@ -88,8 +90,7 @@ class Compiler:
 @functools.lru_cache(maxsize=None)
 def _probe(path: str) -> str:
     try:
-        proc = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=60,
-                              stdin=subprocess.DEVNULL)
+        proc = run_group([path, "--version"], timeout=60)
     except (OSError, subprocess.SubprocessError) as exc:
         raise Unavailable(f"the C compiler {path} cannot be run ({exc})") from None
     if proc.returncode != 0:
@@ -160,7 +161,7 @@ def report_rebuild(where: Path, reason: str) -> None:
 
 def read_verified(where: Path, key: dict, name: str = LIBRARY) -> bytes:
     """The bytes of the file ``name`` of the entry ``where``, after checking that its manifest
-    holds every field of ``key`` and the file's sha256 (else :class:`symgen.cache.InvalidEntry`)."""
+    holds every field of ``key`` and the file's keyed hash (else :class:`symgen.cache.InvalidEntry`)."""
     try:
         manifest = json.loads(cache.read_bytes(where / MANIFEST, _MAX_MANIFEST).decode("utf-8"))
     except FileNotFoundError:
@@ -169,21 +170,25 @@ def read_verified(where: Path, key: dict, name: str = LIBRARY) -> bytes:
         raise cache.InvalidEntry(f"{MANIFEST} is not valid JSON ({exc})") from None
     if not isinstance(manifest, dict) or {k: manifest.get(k) for k in key} != key:
         raise cache.InvalidEntry(f"{MANIFEST} is not for this model, symgen, CasADi, compiler and flags")
-    sha = manifest["files"].get(name) if isinstance(manifest.get("files"), dict) else None
+    mac = manifest["files"].get(name) if isinstance(manifest.get("files"), dict) else None
     try:
         blob = cache.read_bytes(where / name, _MAX_LIBRARY)
     except FileNotFoundError:
         raise cache.InvalidEntry(f"has no {name}") from None
-    if not isinstance(sha, str) or cache.sha256_hex(blob) != sha:
-        raise cache.InvalidEntry(f"{name} does not match the sha256 recorded when it was built (changed or damaged)")
+    cache.verify(_label(where, name), blob, mac)       # before a byte reaches the loader
     return blob
+
+
+def _label(where: Path, name: str) -> str:
+    """What a file's keyed hash is bound to: its entry and its name."""
+    return f"compiled/{where.name}/{name}"
 
 
 def install(tmp: Path, where: Path, key: dict, name: str, blob: bytes, replace: bool) -> None:
     """Write the manifest of the built file ``name`` into ``tmp`` and rename ``tmp`` to ``where``."""
-    manifest = dict(key, files={name: cache.sha256_hex(blob)})
-    (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True))
     try:
+        manifest = dict(key, files={name: cache.seal(_label(where, name), blob)})
+        (tmp / MANIFEST).write_text(json.dumps(manifest, indent=1, sort_keys=True))
         cache.install_dir(tmp, where, replace=replace)
     except OSError as exc:
         cache.report_unwritable(where, exc)
@@ -201,8 +206,7 @@ def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, rep
         gen.generate(str(tmp) + os.sep)
         cmd = [comp.path, *comp.flags, "-fPIC", "-shared", str(tmp / "model.c"), "-o", str(tmp / LIBRARY), "-lm"]
         try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=COMPILE_TIMEOUT_S,
-                                  stdin=subprocess.DEVNULL)
+            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S)     # an interrupt kills cc1 too
         except (OSError, subprocess.SubprocessError) as exc:
             raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
         if proc.returncode != 0:

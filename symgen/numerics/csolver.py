@@ -5,7 +5,7 @@ The executable is cached under ``<cache root>/compiled/<entry>/`` (``sim`` and `
 like the compiled libraries of :mod:`symgen.numerics.compiled`: the entry's name hashes the scene
 (without its [simulation] table: the emitted C holds the rest, e.g. the initial guess), the
 derived model's structure key, the C templates, the symgen version, the compiler's path and
-``--version`` and the flags; the executable's sha256 is checked
+``--version`` and the flags; the executable's keyed hash (``symgen.cache.seal``) is checked
 before every run, and the verified bytes are run from a private copy. The model parameters are
 passed with ``--set`` at full precision, the times and tolerances with ``--t-end``, ``--step``,
 ``--rtol`` and ``--atol``: the run is the scene's, in the model's units, and its rows are
@@ -36,7 +36,7 @@ from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.simulate import SimResult
 
 FORMAT = "symgen-c-solver-cache"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2      # 2: keyed hashes (HMAC-SHA256 with the user's key)
 EXECUTABLE = "sim"
 _STATS = re.compile(r"(\d+) steps \(.*closure residual max ([^;\s]+)(?:; solver CPU (\S+) s)?")
 

@@ -101,6 +101,21 @@ def tau_symbol() -> Any:
     return sympy.Symbol("tau", real=True)
 
 
+def derivative(expr: Any, x: Any, n: int = 1) -> Any:
+    """The ``n``-th derivative of a piecewise-smooth expression (``Abs``, ``Heaviside``, ``sign``,
+    ``min``, ``max``), exact wherever it exists: SymPy's ``DiracDelta`` terms, which stand for
+    the kinks where no derivative exists, are dropped (their value is 0 everywhere else). The
+    derivative across a kink is then the one-sided value of the branch being entered, as in
+    every emitted backend."""
+    import sympy as sp
+
+    for _ in range(n):
+        expr = sp.diff(expr, x)
+        if expr.has(sp.DiracDelta):
+            expr = expr.replace(sp.DiracDelta, lambda *args: sp.S.Zero)
+    return expr
+
+
 def _tokenize(text: str) -> list[_Token]:
     """The tokens of ``text`` (ending with an "end" token); ValueError at the first bad character."""
     tokens: list[_Token] = []

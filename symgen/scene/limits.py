@@ -48,6 +48,11 @@ GROUP_RANGE = (1e-30, 1e30)
 RTOL_MIN, RTOL_MAX, RTOL_WARN = 1e-14, 1.0, 1e-3
 #: Absolute tolerance: largest accepted (exclusive).
 ATOL_MAX = 1.0
+#: Absolute tolerance: smallest accepted. The coordinates are in model units (lengths / l0): 1e-20
+#: of a bar's length is far below any physical deflection, and below it IDAS cannot meet the
+#: tolerance in double precision (measured: 1e-30 gives IDA_TOO_MUCH_WORK at tau = 0, 1e-300
+#: IDA_ILL_INPUT, on the slider-crank).
+ATOL_MIN = 1e-20
 #: Largest scene file, in bytes.
 MAX_FILE_BYTES = 16 * 1024 * 1024
 #: Deepest nesting of tables and arrays (the contract needs 5: initial.deformation.bar.g[k]).

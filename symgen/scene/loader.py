@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 from symgen.errors import SceneError
 from symgen.scene.excitation import check_driver_motion, read_driver, read_effects, read_initial, read_loads
-from symgen.scene.limits import ATOL_MAX, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN, SceneWarning, structure_problem, lift_hint, limit_value, over_limit, short_key
+from symgen.scene.limits import ATOL_MAX, ATOL_MIN, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN, SceneWarning, structure_problem, lift_hint, limit_value, over_limit, short_key
 from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
@@ -184,7 +184,8 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
     if step > t_end:
         r.fail("simulation.output_step", f"the output step ({step:g}) is longer than the run "
                f"(t_end = {t_end:g}, in tau)", "use an output_step <= t_end")
-    rows = math.floor(t_end / step + 1e-9) + 1
+    ratio = t_end / step
+    rows: float = math.floor(ratio + 1e-9) + 1 if math.isfinite(ratio) else math.inf   # a subnormal step: inf rows
     if over_limit("rows", rows):
         key = "simulation.output_step" if "output_step" in table else \
             ("simulation.t_end" if "t_end" in table else "simulation.cycles")
@@ -204,6 +205,11 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
     if not atol < ATOL_MAX:
         r.fail("simulation.atol", f"the absolute tolerance must be < {ATOL_MAX:g}, got {atol:g}: the "
                "coordinates are O(1) in model units, so it would control nothing",
+               "use about rtol / 100, e.g. 1e-10")
+    if atol < ATOL_MIN:
+        r.fail("simulation.atol", f"the absolute tolerance must be >= {ATOL_MIN:g}, got {atol:g}: the "
+               "coordinates are in units of a bar's length, and below that no double-precision solver can "
+               "meet it",
                "use about rtol / 100, e.g. 1e-10")
     return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol)
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from symgen.scene.expressions import parse_tau_expression
+from symgen.scene.expressions import derivative, parse_tau_expression
 
 
 def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
@@ -103,8 +103,8 @@ def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, s
 
     tau = sp.Symbol("tau", real=True)
     theta = driver_angle(driver, tau, driver.initial or 0.0, driver.rate, driver.ramp)
-    exprs = (("theta", theta), ("d theta/d tau", sp.diff(theta, tau)),
-             ("d2 theta/d tau2", sp.diff(theta, tau, 2)))
+    exprs = (("theta", theta), ("d theta/d tau", derivative(theta, tau)),
+             ("d2 theta/d tau2", derivative(theta, tau, 2)))
     for k in range(samples + 1):
         t = t_end * k / samples
         for what, e in exprs:

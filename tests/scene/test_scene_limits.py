@@ -192,3 +192,16 @@ def test_check_of_a_bad_file_exits_2(capsys):
     assert main(["check", str(BAD / "huge_modes.toml")]) == 2
     err = capsys.readouterr().err
     assert f"{BAD / 'huge_modes.toml'}: bodies.rod.transverse_modes: 1000000000 shape functions" in err
+
+
+@pytest.mark.parametrize("override, key, fragment", [
+    ("simulation.output_step=1e-310", "simulation.output_step", "inf output rows"),
+    ("simulation.output_step=5e-324", "simulation.output_step", "inf output rows"),
+    ("simulation.atol=1e-300", "simulation.atol", "must be >= 1e-20"),
+    ("simulation.atol=1e-21", "simulation.atol", "must be >= 1e-20"),
+])
+def test_edge_values_of_steps_and_tolerances_get_clear_errors(override, key, fragment):
+    """Subnormal output steps overflowed the row count (an internal error), and an atol that no
+    double-precision solver meets failed later with a raw IDAS code."""
+    err = _error(SLIDER, [override])
+    assert err.key == key and fragment in err.message, err

@@ -6,9 +6,10 @@ An entry is a folder (see :mod:`symgen.cache`)::
                       (``Function.serialize()``; read back with ``casadi.Function.deserialize``)
     model.json        plain-data description of the model (``casadi_emit.model_meta``)
     manifest.json     format, format_version, symgen and casadi versions, the structure key,
-                      and the sha256 of every file above
+                      and the keyed hash (``symgen.cache.seal``: HMAC-SHA256 with this user's
+                      key, bound to the entry and the file name) of every file above
 
-:func:`load` checks the manifest and every hash before a byte reaches ``json`` or CasADi's
+:func:`load` checks the manifest and every keyed hash before a byte reaches ``json`` or CasADi's
 deserializer (which can crash the process on a damaged file), then that ``model.json``
 belongs to the folder's structure key and that each Function has the name, inputs and sizes
 that ``model.json`` states. Anything else raises :class:`symgen.cache.InvalidEntry`.
@@ -30,7 +31,7 @@ INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
 
 FORMAT = "symgen-model-cache"
 #: Bump when the layout of an entry changes (older entries are then re-derived).
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3      # 3: keyed hashes (HMAC-SHA256 with the user's key)
 MANIFEST = "manifest.json"
 META = "model.json"
 _MAX_MANIFEST = 1 << 16
@@ -57,7 +58,7 @@ def save(funcs: dict, meta: dict, directory: str | os.PathLike, replace: bool = 
     files[META] = json.dumps(meta, indent=1, sort_keys=True, allow_nan=False).encode()
     manifest = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
                 "casadi": ca.__version__, "key": directory.name,
-                "files": {name: cache.sha256_hex(data) for name, data in files.items()}}
+                "files": {name: cache.seal(f"models/{directory.name}/{name}", data) for name, data in files.items()}}
     directory.parent.mkdir(parents=True, exist_ok=True)
     cache.sweep_stale(directory.parent)
     with cache.temp_dir(directory.parent, directory.name) as tmp:
@@ -89,7 +90,7 @@ def load(directory: str | os.PathLike, key: str | None = None) -> tuple[dict, di
 
 
 def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
-    """Every file of the entry, each checked against the manifest's sha256."""
+    """Every file of the entry, each checked against the manifest's keyed hash."""
     use_fd = os.open in os.supports_dir_fd and hasattr(os, "O_DIRECTORY")
     dfd = os.open(directory, os.O_RDONLY | os.O_DIRECTORY) if use_fd else None
     try:
@@ -109,9 +110,7 @@ def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
                 blob = read(name, _MAX_FILE)
             except FileNotFoundError:
                 raise cache.InvalidEntry(f"has no {name}") from None
-            if cache.sha256_hex(blob) != manifest["files"][name]:
-                raise cache.InvalidEntry(f"{name} does not match the sha256 recorded when it was written "
-                                         "(changed or damaged)")
+            cache.verify(f"models/{key}/{name}", blob, manifest["files"][name])
             data[name] = blob
         return data
     finally:
@@ -142,7 +141,7 @@ def _check_manifest(m, key: str) -> None:
     files = m.get("files")
     if not isinstance(files, dict) or set(files) != set(_file_names()) or not all(
             isinstance(h, str) and len(h) == 64 for h in files.values()):
-        raise cache.InvalidEntry(f"{MANIFEST} does not list the sha256 of exactly {', '.join(_file_names())}")
+        raise cache.InvalidEntry(f"{MANIFEST} does not list the keyed hash of exactly {', '.join(_file_names())}")
 
 
 def _check_meta(meta, key: str) -> None:

@@ -31,7 +31,7 @@ from symgen import __version__
 from symgen.backends.latex import quasistatic as latex_quasistatic
 from symgen.backends.latex import slot as latex_slot
 from symgen.backends.latex.printing import (LINE_WIDTH, Namer, Printer, Row, eq_block, eq_row, equation_rows, kin_terms, num_text, rm,
-                                            shown_forces, term_row, tex_escape, tex_lines)
+                                            shown_forces, term_row, tex_comment, tex_escape, tex_lines)
 from symgen.ir import names
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
@@ -557,7 +557,7 @@ def latex_document(scene, model) -> str:
         residuals.append(eq_row(pr, lhs, r, f"EoM.{k + 1}"))
 
     ctx = {
-        "version": __version__, "scene_path": Path(scene.path).name, "scene_path_tex": tex_escape(Path(scene.path).name),
+        "version": __version__, "scene_path": tex_comment(Path(scene.path).name), "scene_path_tex": tex_escape(Path(scene.path).name),
         "hash": scene.hash[:12], "name": tex_escape(scene.name), "units": tex_escape(scene.units),
         "bodies": bodies, "scene_groups": scene_groups, "effects": effects, "joints": joints,
         "driver": driver, "coords": coords, "multipliers": mult, "params": params, "bars": bars,

@@ -31,8 +31,16 @@ _TEXT_ESCAPES = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", 
 
 
 def tex_escape(text: object) -> str:
-    """Escape a string for LaTeX text mode."""
-    return "".join(_TEXT_ESCAPES.get(c, c) for c in str(text))
+    """Escape a string for LaTeX text mode (a character that is not printable, such as a line
+    break in a file name, becomes a visible ``?``)."""
+    return "".join(_TEXT_ESCAPES.get(c, c) for c in tex_comment(text))
+
+
+def tex_comment(text: object) -> str:
+    """A string made safe inside a ``%`` comment line: every character that is not printable
+    (a newline, a carriage return, a Unicode line separator, which would end the comment and
+    make the rest of the text live TeX) becomes ``?``."""
+    return "".join(c if c.isprintable() else "?" for c in str(text))
 
 
 def rm(name: str) -> str:

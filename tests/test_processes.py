@@ -1,0 +1,73 @@
+"""A compile interrupted by a signal leaves no compiler process behind (issue 22): the command
+runs in a process group of its own, killed as a whole."""
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from symgen.processes import run_group
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie is dead for our purpose
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc").exists(), reason="reads /proc")
+def test_sigint_during_a_command_kills_its_grandchildren(tmp_path):
+    """A driver that starts a long-running grandchild (as cc starts cc1), interrupted with SIGINT
+    in the parent: the grandchild is gone within a second (subprocess.run left it running)."""
+    pidfile = tmp_path / "grandchild.pid"
+    driver = tmp_path / "driver.sh"
+    driver.write_text(f"#!/bin/sh\nsleep 300 &\necho $! > {pidfile}\nwait\n")
+    driver.chmod(0o755)
+    parent = textwrap.dedent(f"""
+        import signal, sys
+        sys.path.insert(0, {str(ROOT)!r})
+        from symgen.processes import run_group
+        try:
+            run_group([{str(driver)!r}], timeout=600)
+        except KeyboardInterrupt:
+            sys.exit(130)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", parent])
+    for _ in range(200):
+        if pidfile.exists() and pidfile.read_text().strip():
+            break
+        time.sleep(0.05)
+    grandchild = int(pidfile.read_text())
+    assert _alive(grandchild)
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=30) == 130
+    deadline = time.monotonic() + 2.0
+    while _alive(grandchild) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    alive = _alive(grandchild)
+    if alive:
+        os.kill(grandchild, signal.SIGKILL)
+    assert not alive
+
+
+def test_timeout_kills_the_group_and_output_is_captured(tmp_path):
+    ok = run_group(["sh", "-c", "echo out; echo err >&2; exit 3"])
+    assert (ok.returncode, ok.stdout, ok.stderr) == (3, "out\n", "err\n")
+    t0 = time.monotonic()
+    with pytest.raises(subprocess.TimeoutExpired):
+        run_group(["sh", "-c", "sleep 30 & wait"], timeout=0.5)
+    assert time.monotonic() - t0 < 10
