@@ -10,7 +10,7 @@ from pathlib import Path
 
 from symgen import __version__
 from symgen.errors import Interrupted, SceneError, SymgenError
-from symgen.outputs import check_file, check_folder
+from symgen.outputs import check_file, check_folder, stale_removed_on_failure
 from symgen.numerics import interrupt
 
 
@@ -606,17 +606,39 @@ def main(argv: list[str] | None = None) -> int:
     """Run one command. Exit codes: 0 done, 2 a user-facing error (bad input, a run that
     failed: message names the file/key or tau), 3 an internal error, 130 / 143 stopped by
     SIGINT / SIGTERM (a partial result kept, marked "interrupted")."""
-    ap = build_parser()
-    args = ap.parse_args(argv)
     try:
-        with interrupt.handling():
+        with interrupt.handling():        # first: a signal from here on is reported and cleans up
+            with interrupt.deferred():    # ... once the command's outputs are known
+                args = build_parser().parse_args(argv)
             try:
-                with _scene_warnings():
+                with _scene_warnings(), stale_removed_on_failure(_output_files(args)):
+                    interrupt.check()     # a signal while the command line was read
                     return args.func(args)
             except BaseException as err:
                 return _report(err, args)
-    except KeyboardInterrupt as err:      # a second signal while reporting the first
+    except KeyboardInterrupt as err:      # a signal before the command began, or while reporting one
         return getattr(err, "exit_code", 130)
+
+
+def _output_files(args) -> list[Path]:
+    """The files the command of ``args`` writes (a failed or interrupted run leaves none of an
+    earlier run's behind: ``outputs.stale_removed_on_failure``). Folders of files (emit-c,
+    derive, reproduce) are written all or nothing by their commands."""
+    out = getattr(args, "output", None)
+    if out is None:
+        return []
+    out = Path(out)
+    cmd = args.func
+    if cmd is cmd_sweep:
+        return [out, out.with_suffix(".json"), *(Path(x) for x in (args.plot, args.campbell) if x)]
+    if cmd in (cmd_simulate, cmd_quasistatic):
+        return [out, out.with_suffix(".json"), *([Path(args.plot)] if args.plot else [])]
+    if cmd is cmd_study:
+        from symgen.apps.study import study_paths
+        return [p for fmt in ("png", "svg", "pdf") for p in study_paths(out, True, fmt)]
+    if cmd in (cmd_latex, cmd_effects, cmd_animate, cmd_modes, cmd_schema, cmd_emit_fmu):
+        return [out]
+    return []
 
 
 def _report(err: BaseException, args) -> int:

@@ -7,6 +7,9 @@
   temporary file in the same folder, then renamed over the target (``os.replace``); the
   temporary file is removed when anything fails (or the run is interrupted). Files get the
   usual mode (0666 less the umask), not ``mkstemp``'s 0600.
+* ``stale_removed_on_failure``: a command that fails or is interrupted leaves none of its
+  output files from an earlier run behind looking like its own result (every command that
+  writes files runs inside it: ``symgen.cli.main``).
 """
 from __future__ import annotations
 
@@ -121,3 +124,26 @@ def remove(paths: Iterable[str | os.PathLike]) -> None:
         p = Path(p)
         if p.is_file() or p.is_symlink():
             p.unlink(missing_ok=True)
+
+
+def _identity(path: Path) -> tuple | None:
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino, st.st_mtime_ns, st.st_size)
+
+
+@contextlib.contextmanager
+def stale_removed_on_failure(paths: Iterable[str | os.PathLike]) -> Iterator[None]:
+    """The output files of one command: when the block fails or is interrupted, those that are
+    still the files of an earlier run (unchanged since the block began) are removed, so that no
+    complete-looking result of an earlier run is left where this one failed. Files this run
+    wrote itself (a partial result, which says so) are kept: atomic writes give them a new
+    identity. Folders are never removed."""
+    before = {Path(p): _identity(Path(p)) for p in paths}
+    try:
+        yield
+    except BaseException:
+        remove([p for p, ident in before.items() if ident is not None and _identity(p) == ident])
+        raise

@@ -105,9 +105,25 @@ class _SolverNoiseFilter:
         return getattr(self._stream, name)
 
 
+_deferring: list[bool] = []     # inside deferred(): a signal is recorded, raised when it ends
+
+
 def _handler(signum, frame):
     _pending.append(signum)
-    raise Interrupted(signum)
+    if not _deferring:
+        raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """A short block (reading the command line) that a signal does not cut: the signal is
+    recorded and raised by the next ``check()`` after the block, where the caller is ready to
+    clean up (the command's outputs are known by then)."""
+    _deferring.append(True)
+    try:
+        yield
+    finally:
+        _deferring.pop()
 
 
 @contextlib.contextmanager
