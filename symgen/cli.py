@@ -124,31 +124,31 @@ def _results_run(args, body) -> int:
         raise
 
 
-def _write_run(args, files, scene, result, meta, failure, title: str) -> Path:
+def _write_run(args, files, scene, result, sidecar, failure, title: str) -> Path:
     """CSV, JSON (partial when the run stopped), then the plot if asked; re-raise a failure.
     Columns in the scene's units (SI for an SI scene unless --units dimensionless)."""
     from symgen.numerics.units import result_units
 
     units = result_units(scene, args.units)
     t_col, values = units.convert(result.tau, result.outputs)
-    meta["units"] = units.as_dict()
+    sidecar["units"] = units.as_dict()
     names = list(result.output_names)
     columns = values
     if getattr(args, "states", False):           # the coordinates, for symgen animate --from
         import numpy as np
 
         from symgen.apps.animate import states_meta
-        meta["states"] = states_meta(scene, meta["coordinates"], meta["model_key"])
-        clash = sorted(set(names) & set(meta["states"]["columns"]))
+        sidecar["states"] = states_meta(scene, sidecar["coordinates"], sidecar["model_key"])
+        clash = sorted(set(names) & set(sidecar["states"]["columns"]))
         if clash:
             raise SceneError(scene.path, f"outputs.{clash[0]}", "an output has the name of a state column",
                              "rename the output, or leave out --states")
         columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[:len(t_col)]])
-        names += meta["states"]["columns"]
+        names += sidecar["states"]["columns"]
     complete = failure is None
-    written = files.write(t_col, columns, names, meta, complete, time_name=units.time.name)
+    written = files.write(t_col, columns, names, sidecar, complete, time_name=units.time.name)
     if failure is not None:
-        print(f"symgen: partial result kept in {written} ({meta['status']})", file=sys.stderr)
+        print(f"symgen: partial result kept in {written} ({sidecar['status']})", file=sys.stderr)
     if files.plot is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
         from symgen.apps.plot import plot_outputs
         drv = scene.driver
@@ -179,14 +179,14 @@ def _simulate(args, files) -> int:
         result, failure = _attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
     else:
         result, failure = _attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
-    meta = _sidecar(scene, compiled, build_s, result, failure)
+    sidecar = _sidecar(scene, compiled, build_s, result, failure)
     if args.solver == "c":
-        meta["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
+        sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
     elif result is not None:
-        meta["solver"]["backend"] = result.stats.get("backend")
+        sidecar["solver"]["backend"] = result.stats.get("backend")
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "the run produced no output")
-    written = _write_run(args, files, scene, result, meta, failure, f"{scene.name}: {Path(scene.path).name}")
+    written = _write_run(args, files, scene, result, sidecar, failure, f"{scene.name}: {Path(scene.path).name}")
     print(f"wrote {written} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
           + (f"model loaded from cache {build_s:.2f}s, " if compiled.cached else f"derived {compiled.derive_s:.2f}s, ")
@@ -208,7 +208,7 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
     from symgen.scene.motion import driver_record
     from symgen.model.structure import axial_treatments
     sim = scene.simulation
-    meta = compiled.meta
+    info = compiled.info
     return {
         "scene": str(scene.path),
         "scene_hash": scene.hash,
@@ -226,13 +226,13 @@ def _sidecar(scene, compiled, build_s, result, failure) -> dict:
         },
         "axial_treatment": {name: {"treatment": t.treatment, "reason": t.reason}
                             for name, t in axial_treatments(scene).items()},
-        "modes": meta["modes"],
+        "modes": {name: md.to_json() for name, md in info.modes.items()},
         "driver": driver_record(scene.driver),
-        "model_key": meta["key"],
-        "coordinates": [c["name"] for c in meta["coords"]],
+        "model_key": info.key,
+        "coordinates": list(info.coordinate_names),
         "partition": None if result is None or result.partition is None else {
-            "independent": [meta["coords"][i]["name"] for i in result.partition.ind],
-            "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
+            "independent": [info.coords[i].name for i in result.partition.ind],
+            "dependent": [info.coords[i].name for i in result.partition.dep]},
         "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
                    "steps": None if result is None else result.steps},
         # derive_s is this process's derivation (0 when the model came from the cache); the
@@ -405,14 +405,14 @@ def _quasistatic(args, files) -> int:
                                                     say=lambda line: _say(args, line)))
     if result is None or len(result.tau) == 0:
         raise failure if failure is not None else SimulationError(None, "no input position was solved")
-    meta = _sidecar(scene, compiled, build_s, result, failure)
-    meta["analysis"] = "quasi-static response (18)-(20)"
-    meta["solver"] = result.solver_info()
-    meta["timings"]["solve_s"] = result.solve_s
-    meta["t_end"] = float(result.tau[-1])
-    written = _write_run(args, files, scene, result, meta, failure,
+    sidecar = _sidecar(scene, compiled, build_s, result, failure)
+    sidecar["analysis"] = "quasi-static response (18)-(20)"
+    sidecar["solver"] = result.solver_info()
+    sidecar["timings"]["solve_s"] = result.solve_s
+    sidecar["t_end"] = float(result.tau[-1])
+    written = _write_run(args, files, scene, result, sidecar, failure,
                          f"{scene.name}: quasi-static response, {Path(scene.path).name}")
-    info = meta["solver"]
+    info = sidecar["solver"]
     print(f"wrote {written} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
           f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
           f"{info['residual_max']:.2e}; closure max {result.closure_max:.2e}; {result.solve_s:.2f}s)")
@@ -443,7 +443,7 @@ def cmd_animate(args) -> int:
     compiled = compile_scene(scene, use_cache=not args.no_cache)
     mech = Mechanism(compiled, scene)
     if args.from_csv:
-        motion = read_states(args.from_csv, scene, compiled.meta)
+        motion = read_states(args.from_csv, scene, compiled.info)
         if t_end is not None:
             keep = motion.tau <= motion.tau[0] + t_end + 1e-12
             motion.tau, motion.q = motion.tau[keep], motion.q[keep]
@@ -472,7 +472,7 @@ def cmd_modes(args) -> int:
         result = modes(Mechanism(compiled, scene), tau=args.at)
         print(modes_table(result, scene))
         if out is not None:
-            atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
+            atomic_write(out, json.dumps(modes_json(result, scene, compiled.info), indent=1) + "\n")
             print(f"wrote {out}")
     except BaseException:
         if out is not None:

@@ -33,11 +33,11 @@ SCENE = ROOT / "examples" / "slider_crank.toml"
 
 def _numbers(compiled, scene) -> dict[str, np.ndarray]:
     """Every Function of a model at fixed inputs, with this scene's parameter values."""
-    meta = compiled.meta
-    nq, nlam = len(meta["coords"]), len(meta["lam_rows"])
+    info = compiled.info
+    nq, nlam = info.n, info.m
     rng = np.random.default_rng(7)
     args = [0.3, rng.normal(size=nq) * 0.1, rng.normal(size=nq), rng.normal(size=nq), rng.normal(size=nlam),
-            parameter_values(scene, meta["params"])]
+            parameter_values(scene, info.params)]
     return {name: np.array(f(*args)).ravel() for name, f in compiled.funcs.items()}
 
 
@@ -207,7 +207,7 @@ def test_edited_model_json_is_rederived(root, capsys, reference):
     (entry / "model.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
     compiled = _recompile(capsys, "model.json does not match the sha256")
     assert not compiled.cached
-    assert compiled.meta["params"] == sorted(compiled.meta["params"], key=str) != meta["params"]
+    assert list(compiled.info.params) == sorted(compiled.info.params, key=str) != meta["params"]
     _assert_equal(compiled, reference)
 
 
@@ -320,7 +320,7 @@ def test_interrupted_or_losing_writer_removes_its_temp_dir(root, monkeypatch):
     compiled = compile_scene(load_scene(SCENE))
     entry = _entry(root)
     # a writer that finds the entry installed by another keeps that one
-    assert casadi_io.save(compiled.funcs, compiled.meta, entry) is False
+    assert casadi_io.save(compiled.funcs, compiled.info, entry) is False
     _no_temp(root)
 
     def interrupted(tmp, target, replace):
@@ -328,7 +328,7 @@ def test_interrupted_or_losing_writer_removes_its_temp_dir(root, monkeypatch):
 
     monkeypatch.setattr(cache, "install_dir", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        casadi_io.save(compiled.funcs, compiled.meta, entry, replace=True)
+        casadi_io.save(compiled.funcs, compiled.info, entry, replace=True)
     _no_temp(root)
     monkeypatch.undo()
 
@@ -339,9 +339,9 @@ def test_interrupted_or_losing_writer_removes_its_temp_dir(root, monkeypatch):
         (d / "res.casadi").write_text("half written")
     old = time.time() - cache.STALE_TEMP_S - 60
     os.utime(stale, (old, old))
-    assert casadi_io.save(compiled.funcs, compiled.meta, entry, replace=True) is True
+    assert casadi_io.save(compiled.funcs, compiled.info, entry, replace=True) is True
     assert not stale.exists() and young.exists()
-    assert casadi_io.load(entry)[1] == compiled.meta
+    assert casadi_io.load(entry)[1] == compiled.info
 
 
 # ----------------------------------------------------------------------------- cli

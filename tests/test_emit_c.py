@@ -197,7 +197,7 @@ def test_driver_matches_idas_over_two_turns(name, args):
     tolerances; the four-bar runs at the scene's own tolerances."""
     tau, ref = idas_reference(name)
     header, data, stats = run_sim(simulator(name), *args)
-    assert header == ["tau", *mechanism(name).meta["outputs"]]
+    assert header == ["tau", *mechanism(name).info.outputs]
     assert data.shape == (len(tau), 1 + ref.shape[1]), stats
     np.testing.assert_allclose(data[:, 0], tau, rtol=0, atol=1e-12)
     clo = closure_columns(name)

@@ -20,6 +20,7 @@ import casadi as ca
 import numpy as np
 
 from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.ir.records import CoordKind
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
 from symgen.numerics import checks
@@ -96,7 +97,7 @@ class DaeRunner:
         if choice != "vm":
             funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
             try:
-                ext, built = compiled.library(funcs, mech.meta["key"], f"ind={list(part.ind)} dep={list(part.dep)}",
+                ext, built = compiled.library(funcs, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}",
                                               store=use_cache)
             except compiled.Unavailable as exc:
                 if choice == "compiled":
@@ -120,7 +121,7 @@ class DaeRunner:
                      "calc_ic": CALC_IC}
         if axial_atol is not None:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
-            ax = [axial_atol if mech.coords[i]["kind"] == "f" else atol for i in I]
+            ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
             self.opts["abstolv"] = ax + ax + [atol] * (2 * nD + n + m)
 
     def pack(self, q, v, a, lam) -> tuple[np.ndarray, np.ndarray]:
@@ -350,7 +351,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     # an interrupt may land between the appends of one output: keep the outputs recorded whole
     n_rec = min(len(taus), len(outs), len(qs), len(vs), len(lams))
     result = SimResult(tau=np.array(taus[:n_rec]), outputs=np.array(outs[:n_rec]),
-                       output_names=list(mech.meta["outputs"]), q=np.array(qs[:n_rec]), v=np.array(vs[:n_rec]),
+                       output_names=list(mech.info.outputs), q=np.array(qs[:n_rec]), v=np.array(vs[:n_rec]),
                        lam=np.array(lams[:n_rec]), closure_max=closure_max,
                        steps=steps, simulate_s=elapsed, partition=part, complete=exc is None, failure=failure,
                        stats={"backend": run.backend, "library": run.library, "setup_s": setup_s})
