@@ -211,6 +211,41 @@ def test_edited_model_json_is_rederived(root, capsys, reference):
     _assert_equal(compiled, reference)
 
 
+def _resign_model_json(entry: Path, edit) -> None:
+    """Edit model.json's data with ``edit`` and re-sign it in the manifest (hashes match: only
+    the reading of model.json itself can catch the edit)."""
+    data = json.loads((entry / "model.json").read_text())
+    edit(data)
+    blob = json.dumps(data).encode()
+    (entry / "model.json").write_bytes(blob)
+    manifest = json.loads((entry / "manifest.json").read_text())
+    manifest["files"]["model.json"] = cache.sha256_hex(blob)
+    (entry / "manifest.json").write_text(json.dumps(manifest))
+
+
+@pytest.mark.parametrize("edit, expect", [
+    (lambda d: d["coords"][0].pop("kind"), "model.json: coords[0] has no 'kind'"),
+    (lambda d: d["coords"][1].update(kind="h"), "model.json: coords[1].kind 'h' is not one of theta, s, f, g, beta"),
+    (lambda d: d["coords"][1].update(name="f_other_1"), "model.json: coords[1] is named 'f_other_1', not after"),
+    (lambda d: d["lam_rows"][0].update(kind="weld"), "model.json: lam_rows[0].kind 'weld' is not one of"),
+    (lambda d: d.update(driver_row=0), "model.json: 'driver_row' is not the index of the driver's row"),
+    (lambda d: d.pop("modes"), "model.json: the model description has no 'modes'"),
+    (lambda d: d["modes"]["rod"].update(axial="1"), "model.json: modes.rod.axial is not a count"),
+    (lambda d: d.update(timings={"derive_s": "fast"}), "model.json: 'timings' is not an object of numbers"),
+    (lambda d: d.update(scene_name="old"), "model.json: the model description has an unknown field 'scene_name'"),
+    (lambda d: d.update(params=d["params"][:1] * 2), "model.json: 'params' are not distinct names"),
+])
+def test_malformed_model_json_is_rederived_not_a_key_error(root, capsys, reference, edit, expect):
+    """A model.json edited and re-signed (so its sha256 matches) is read field by field
+    (ir.info.ModelInfo.from_json): a missing or wrong field is an invalid entry, re-derived,
+    never a KeyError or a model run with wrong meaning."""
+    entry = _fill(root)
+    _resign_model_json(entry, edit)
+    compiled = _recompile(capsys, expect)
+    assert not compiled.cached
+    _assert_equal(compiled, reference)
+
+
 def test_entry_of_another_structure_is_rederived(root, capsys, reference):
     """A whole, self-consistent entry of another scene put in this scene's folder, then its
     manifest and model.json edited to claim this key: each step is caught."""

@@ -147,7 +147,7 @@ class ModelInfo:
         """The record of ``model.json``'s data; :class:`InvalidModelInfo` if any field is missing,
         of the wrong type, or inconsistent (a coordinate whose name is not its fields' name, a
         row index out of range, repeated names)."""
-        d = _fields(data, "model.json", ("key", "structure", "coords", "lam_rows", "params", "outputs",
+        d = _fields(data, "the model description", ("key", "structure", "coords", "lam_rows", "params", "outputs",
                                          "driver_row", "n_loop_rows", "modes", "timings"))
         key = _text(d["key"], "key")
         if not isinstance(d["structure"], dict):
