@@ -11,7 +11,7 @@ import pytest
 from symgen.api import mechanism
 from symgen.ir.info import InvalidModelInfo, ModelInfo
 from symgen.ir.plan import StartPlan
-from symgen.ir.records import CoordKind, Coordinate, RowKind, find_coordinate
+from symgen.ir.records import Coordinate, CoordKind, RowKind, find_coordinate
 from symgen.numerics.start import start_plan
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 from symgen.ir import names
-from symgen.ir.records import ConstraintRow, CoordKind, Coordinate, RowKind, find_coordinate
+from symgen.ir.records import ConstraintRow, Coordinate, CoordKind, RowKind, find_coordinate
 
 
 class InvalidModelInfo(ValueError):

@@ -27,7 +27,7 @@ def start_plan(mech) -> StartPlan:
     this start chooses (at the guess, for the assembly, and at the assembled position, for the
     run), the guess itself, and the index sets of the quasi-static start and of the checks.
     Runs the whole start once, so a scene the Python start refuses is refused here too."""
-    q, v, a, lam, part, (q0, v0), assembly = _start(mech, 0.0)
+    _, _, _, _, part, (q0, v0), assembly = _start(mech, 0.0)
     info = mech.info
     dep = set(part.dep)
     inext_rows, inext_axial = info.inextensible_rows, info.inextensible_axial
