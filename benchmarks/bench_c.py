@@ -85,13 +85,14 @@ def _one(path: str, repeats: int) -> dict:
     from symgen.backends.c import c_context, write_tree
     from symgen.backends.c.render import render_files
     from symgen.numerics.simulate import simulate
+    from symgen.numerics.start import start_plan
 
     mech = mechanism(ROOT / path)
     scene = mech.scene
     name = scene.name
     model = derive(scene)
     t0 = time.perf_counter()
-    ctx = c_context(scene, model, mech)
+    ctx = c_context(scene, model, start_plan(mech), mech.info)
     files = render_files(ctx)
     emit_s = time.perf_counter() - t0
     work = Path(tempfile.mkdtemp(prefix=f"bench-c-{name}-"))

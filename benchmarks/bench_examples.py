@@ -81,7 +81,7 @@ def bench_examples(repeats: int) -> list[dict]:
         turns = scene.simulation.t_end / (2 * np.pi)
         rows.append({"scene": path, "turns": turns, "derive_s": median(derive), "build_s": median(build),
                      "simulate_s": median(sim), "per_turn_s": median(sim) / turns, "steps": int(median(steps)),
-                     "closure": max(closure), "n_states": len(compiled.meta["coords"])})
+                     "closure": max(closure), "n_states": compiled.info.n})
     if saved is None:
         os.environ.pop("SYMGEN_CACHE_DIR", None)
     else:

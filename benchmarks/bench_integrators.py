@@ -72,7 +72,7 @@ class ExplicitODE:
         rhs = ca.Function("rhs", [tm, xm, zm, pm], [f_ode(tm, xm, zs, pm), zs])
         self.rhs = rhs
         try:                     # compiled like the rest of the run (Newton loop included)
-            ext, _ = library([rhs], mech.meta["key"], "explicit-rhs " + str(run.part))
+            ext, _ = library([rhs], mech.info.key, "explicit-rhs " + str(run.part))
             self.rhs = ext["rhs"]
             self.compiled = True
         except Exception as exc:  # noqa: BLE001 -- a rootfinder that does not generate code: the VM

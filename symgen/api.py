@@ -39,13 +39,29 @@ def _loaded(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -> 
     return scene
 
 
+def _emit_inputs(scene: Scene):
+    """(derived model, its ModelInfo, StartPlan) of the C emitter: the scene derived once; the
+    start planned on the CasADi Functions of that model (from the model cache when it holds
+    this structure, else built from the model and stored), with the partition chosen once."""
+    from symgen.backends.casadi.pipeline import compile_model
+    from symgen.ir.info import ModelInfo
+    from symgen.model.derive import derive
+    from symgen.numerics.start import start_plan
+
+    model = derive(scene)
+    compiled = compile_model(model)
+    info = ModelInfo.of(model)
+    return model, info, start_plan(Mechanism(compiled, scene))
+
+
 def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overrides: Sequence[str] = ()):
     """``symgen emit-c``: the scene's standalone C (model, solver, driver, CMakeLists.txt) written
     into ``out_dir`` all or nothing; its folder. A bad scene name fails before any work."""
     from symgen.backends.c import c_prefix, write_c as emit
     scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     c_prefix(scene)
-    return emit(scene, out_dir, mech=mechanism(scene))
+    model, info, plan = _emit_inputs(scene)
+    return emit(scene, out_dir, model, plan, info)
 
 
 def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrides: Sequence[str] = (),
@@ -58,7 +74,8 @@ def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrid
     scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     check_fmu_path(Path(path))
     c_prefix(scene)
-    return emit(scene, path, mech=mechanism(scene), cc=cc)
+    model, info, plan = _emit_inputs(scene)
+    return emit(scene, path, model, plan, info, cc=cc)
 
 
 def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), *,

@@ -346,7 +346,7 @@ def cmd_animate(args) -> int:
     mech = mechanism(scene, use_cache=not args.no_cache)
     compiled = mech.compiled
     if args.from_csv:
-        motion = read_states(args.from_csv, scene, compiled.meta)
+        motion = read_states(args.from_csv, scene, compiled.info)
         if t_end is not None:
             keep = motion.tau <= motion.tau[0] + t_end + 1e-12
             motion.tau, motion.q = motion.tau[keep], motion.q[keep]
@@ -375,7 +375,7 @@ def cmd_modes(args) -> int:
         result = modes(mech, tau=args.at)
         print(modes_table(result, scene))
         if out is not None:
-            atomic_write(out, json.dumps(modes_json(result, scene, compiled.meta), indent=1) + "\n")
+            atomic_write(out, json.dumps(modes_json(result, scene, compiled.info), indent=1) + "\n")
             print(f"wrote {out}")
     except BaseException:
         if out is not None:
@@ -608,10 +608,13 @@ def main(argv: list[str] | None = None) -> int:
     SIGINT / SIGTERM (a partial result kept, marked "interrupted")."""
     try:
         with interrupt.handling():        # first: a signal from here on is reported and cleans up
-            with interrupt.deferred():    # ... once the command's outputs are known
-                args = build_parser().parse_args(argv)
+            args = None
             try:
-                with _scene_warnings(), stale_removed_on_failure(_output_files(args)):
+                with contextlib.ExitStack() as stack:
+                    with interrupt.deferred():    # ... once the command's outputs are known
+                        args = build_parser().parse_args(argv)
+                        stack.enter_context(_scene_warnings())
+                        stack.enter_context(stale_removed_on_failure(_output_files(args)))
                     interrupt.check()     # a signal while the command line was read
                     return args.func(args)
             except BaseException as err:
@@ -652,7 +655,7 @@ def _report(err: BaseException, args) -> int:
         print(f"symgen: error: {err}", file=sys.stderr)
         return err.exit_code
     if isinstance(err, Exception):        # an internal error: say so plainly
-        if args.debug:
+        if args is not None and args.debug:
             raise err
         print(f"symgen: internal error: {type(err).__name__}: {err} (rerun with --debug for the traceback; "
               f"please report it)", file=sys.stderr)

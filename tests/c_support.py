@@ -43,10 +43,17 @@ def model(name: str):
 
 
 @functools.lru_cache(maxsize=None)
+def plan(name: str):
+    """The start plan of an example (symgen.numerics.start.start_plan), the C emitter's input."""
+    from symgen.numerics.start import start_plan
+    return start_plan(mechanism(name))
+
+
+@functools.lru_cache(maxsize=None)
 def context(name: str) -> dict:
     from symgen.backends.c import c_context
     mech = mechanism(name)
-    return c_context(mech.scene, model(name), mech)
+    return c_context(mech.scene, model(name), plan(name), mech.info)
 
 
 def golden_c(name: str) -> Path | None:
@@ -78,7 +85,7 @@ def sources(name: str) -> Path:
 
 def parameter_names(name: str) -> list[str]:
     """The model parameters of an example in the emitted C's order (the model's)."""
-    return list(mechanism(name).meta["params"])
+    return list(mechanism(name).info.params)
 
 
 @functools.lru_cache(maxsize=None)

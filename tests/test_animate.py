@@ -98,9 +98,9 @@ def test_drawn_bar_is_rigid_line_plus_factor_times_shape_functions(run):
     scene = load_scene(scene_path, [])
     compiled = compile_scene(scene)
     mech = Mechanism(compiled, scene)
-    motion = read_states(d / "run.csv", scene, compiled.meta)
-    names = [c["name"] for c in compiled.meta["coords"]]
-    geom = Geometry(scene, compiled.meta)
+    motion = read_states(d / "run.csv", scene, compiled.info)
+    names = list(compiled.info.coordinate_names)
+    geom = Geometry(scene, compiled.info)
     P = geom.points(motion.q)
     Pr = geom.points(rigid_reference(mech, motion.tau, motion.q))
     F = 25.0
@@ -234,7 +234,7 @@ def test_magnified_slider_crank_stays_joined():
     compiled = compile_scene(scene)
     mech = Mechanism(compiled, scene)
     res = simulate(mech)
-    geom = Geometry(scene, compiled.meta)
+    geom = Geometry(scene, compiled.info)
     P, Pr = geom.points(res.q), geom.points(rigid_reference(mech, res.tau, res.q))
     crank, rod = geom.bars["crank"], geom.bars["rod"]
     mid = rod.start + len(rod) // 2

@@ -33,11 +33,11 @@ SCENE = ROOT / "examples" / "slider_crank.toml"
 
 def _numbers(compiled, scene) -> dict[str, np.ndarray]:
     """Every Function of a model at fixed inputs, with this scene's parameter values."""
-    meta = compiled.meta
-    nq, nlam = len(meta["coords"]), len(meta["lam_rows"])
+    info = compiled.info
+    nq, nlam = info.n, info.m
     rng = np.random.default_rng(7)
     args = [0.3, rng.normal(size=nq) * 0.1, rng.normal(size=nq), rng.normal(size=nq), rng.normal(size=nlam),
-            parameter_values(scene, meta["params"])]
+            parameter_values(scene, info.params)]
     return {name: np.array(f(*args)).ravel() for name, f in compiled.funcs.items()}
 
 
@@ -207,7 +207,42 @@ def test_edited_model_json_is_rederived(root, capsys, reference):
     (entry / "model.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
     compiled = _recompile(capsys, "model.json does not match the keyed hash")
     assert not compiled.cached
-    assert compiled.meta["params"] == sorted(compiled.meta["params"], key=str) != meta["params"]
+    assert list(compiled.info.params) == sorted(compiled.info.params, key=str) != meta["params"]
+    _assert_equal(compiled, reference)
+
+
+def _resign_model_json(entry: Path, edit) -> None:
+    """Edit model.json's data with ``edit`` and re-sign it in the manifest (hashes match: only
+    the reading of model.json itself can catch the edit)."""
+    data = json.loads((entry / "model.json").read_text())
+    edit(data)
+    blob = json.dumps(data).encode()
+    (entry / "model.json").write_bytes(blob)
+    manifest = json.loads((entry / "manifest.json").read_text())
+    manifest["files"]["model.json"] = cache.seal(f"models/{entry.name}/model.json", blob)   # a keyed writer
+    (entry / "manifest.json").write_text(json.dumps(manifest))
+
+
+@pytest.mark.parametrize("edit, expect", [
+    (lambda d: d["coords"][0].pop("kind"), "model.json: coords[0] has no 'kind'"),
+    (lambda d: d["coords"][1].update(kind="h"), "model.json: coords[1].kind 'h' is not one of theta, s, f, g, beta"),
+    (lambda d: d["coords"][1].update(name="f_other_1"), "model.json: coords[1] is named 'f_other_1', not after"),
+    (lambda d: d["lam_rows"][0].update(kind="weld"), "model.json: lam_rows[0].kind 'weld' is not one of"),
+    (lambda d: d.update(driver_row=0), "model.json: 'driver_row' is not the index of the driver's row"),
+    (lambda d: d.pop("modes"), "model.json: the model description has no 'modes'"),
+    (lambda d: d["modes"]["rod"].update(axial="1"), "model.json: modes.rod.axial is not a count"),
+    (lambda d: d.update(timings={"derive_s": "fast"}), "model.json: 'timings' is not an object of numbers"),
+    (lambda d: d.update(scene_name="old"), "model.json: the model description has an unknown field 'scene_name'"),
+    (lambda d: d.update(params=d["params"][:1] * 2), "model.json: 'params' are not distinct names"),
+])
+def test_malformed_model_json_is_rederived_not_a_key_error(root, capsys, reference, edit, expect):
+    """A model.json edited and re-signed by a keyed writer (so its hash matches) is read field by field
+    (ir.info.ModelInfo.from_json): a missing or wrong field is an invalid entry, re-derived,
+    never a KeyError or a model run with wrong meaning."""
+    entry = _fill(root)
+    _resign_model_json(entry, edit)
+    compiled = _recompile(capsys, expect)
+    assert not compiled.cached
     _assert_equal(compiled, reference)
 
 
@@ -323,7 +358,7 @@ def test_interrupted_or_losing_writer_removes_its_temp_dir(root, monkeypatch):
     compiled = compile_scene(load_scene(SCENE))
     entry = _entry(root)
     # a writer that finds the entry installed by another keeps that one
-    assert casadi_io.save(compiled.funcs, compiled.meta, entry) is False
+    assert casadi_io.save(compiled.funcs, compiled.info, entry) is False
     _no_temp(root)
 
     def interrupted(tmp, target, replace):
@@ -331,7 +366,7 @@ def test_interrupted_or_losing_writer_removes_its_temp_dir(root, monkeypatch):
 
     monkeypatch.setattr(cache, "install_dir", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        casadi_io.save(compiled.funcs, compiled.meta, entry, replace=True)
+        casadi_io.save(compiled.funcs, compiled.info, entry, replace=True)
     _no_temp(root)
     monkeypatch.undo()
 
@@ -342,9 +377,9 @@ def test_interrupted_or_losing_writer_removes_its_temp_dir(root, monkeypatch):
         (d / "res.casadi").write_text("half written")
     old = time.time() - cache.STALE_TEMP_S - 60
     os.utime(stale, (old, old))
-    assert casadi_io.save(compiled.funcs, compiled.meta, entry, replace=True) is True
+    assert casadi_io.save(compiled.funcs, compiled.info, entry, replace=True) is True
     assert not stale.exists() and young.exists()
-    assert casadi_io.load(entry)[1] == compiled.meta
+    assert casadi_io.load(entry)[1] == compiled.info
 
 
 # ----------------------------------------------------------------------------- cli

@@ -197,7 +197,7 @@ def test_driver_matches_idas_over_two_turns(name, args):
     tolerances; the four-bar runs at the scene's own tolerances."""
     tau, ref = idas_reference(name)
     header, data, stats = run_sim(simulator(name), *args)
-    assert header == ["tau", *mechanism(name).meta["outputs"]]
+    assert header == ["tau", *mechanism(name).info.outputs]
     assert data.shape == (len(tau), 1 + ref.shape[1]), stats
     np.testing.assert_allclose(data[:, 0], tau, rtol=0, atol=1e-12)
     clo = closure_columns(name)
@@ -486,3 +486,36 @@ def test_generated_c_is_what_emit_c_writes():
     for name in NAMES:
         stored = ROOT / "generated" / name / "c"
         assert sorted(p.name for p in stored.iterdir()) == sorted(p.name for p in sources(name).iterdir())
+
+
+@pytest.mark.parametrize("cached", [False, True], ids=["cold-cache", "warm-cache"])
+def test_emit_c_derives_once_and_chooses_the_partition_once(cached, tmp_path, monkeypatch):
+    """``symgen emit-c`` derives the SymPy model once (the start plan runs on the CasADi Functions
+    of that model, or of the cache), and the C gets the partitions of the Python start: one
+    choice at the guess, one at the assembled position, none made again for the emitter."""
+    import symgen.model.derive as derive_mod
+    from symgen.api import write_c
+    from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.scene import load_scene
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    scene = load_scene(EXAMPLES["slider_crank"])
+    if cached:
+        compile_scene(scene)
+    calls = {"derive": 0, "choose_partition": 0}
+    derive, choose = derive_mod.derive, Mechanism.choose_partition
+
+    def counted_derive(sc):
+        calls["derive"] += 1
+        return derive(sc)
+
+    def counted_choose(self, t, q):
+        calls["choose_partition"] += 1
+        return choose(self, t, q)
+
+    monkeypatch.setattr(derive_mod, "derive", counted_derive)
+    monkeypatch.setattr(Mechanism, "choose_partition", counted_choose)
+    out = write_c(scene, tmp_path / "c")
+    assert calls == {"derive": 1, "choose_partition": 2}
+    assert (out / "slider_crank_solver.c").is_file()

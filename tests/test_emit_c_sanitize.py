@@ -97,7 +97,7 @@ def _rows(t_end: float, step: float) -> int:
 
 def _positive_parameter(name: str) -> str:
     """A parameter that must be > 0 (a stiffness group)."""
-    return next(p for p in mechanism(name).meta["params"] if p.startswith(("lambda_", "mu_")))
+    return next(p for p in mechanism(name).info.params if p.startswith(("lambda_", "mu_")))
 
 
 # ------------------------------------------------------------------------------------ driver
@@ -108,7 +108,7 @@ def test_short_run_is_clean_under_sanitizers(name):
     proc = _run(_simulator(name), "--t-end", "0.5", "--stats")
     assert proc.returncode == 0, proc.stderr
     lines = proc.stdout.splitlines()
-    assert lines[0].split(",") == ["tau", *mechanism(name).meta["outputs"]]
+    assert lines[0].split(",") == ["tau", *mechanism(name).info.outputs]
     data = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
     step = mechanism(name).scene.simulation.output_step
     assert data.shape[0] == _rows(0.5, step)
@@ -275,7 +275,7 @@ def test_library_rejects_what_the_python_policy_rejects(tmp_path):
     from symgen.ir.parameters import parameter_records
     name = DEFAULT
     mech = mechanism(name)
-    params = list(mech.meta["params"])
+    params = list(mech.info.params)
     records = parameter_records(mech.scene, params)
     probes = [(k, x) for k, rec in enumerate(records) for x in _probes(rec)]
     par = params.index(_positive_parameter(name))

@@ -36,7 +36,7 @@ def test_fmpy_validates_the_fmu(name):
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
     params = [v.name for v in md.modelVariables if v.causality == "parameter"]
     assert outputs == [o.name for o in scene.outputs]
-    assert params == list(mechanism(name).meta["params"])
+    assert params == list(mechanism(name).info.params)
     assert md.coSimulation.modelIdentifier == name
     with zipfile.ZipFile(path) as zf:
         names = set(zf.namelist())
@@ -51,7 +51,7 @@ def test_fmpy_simulates_the_slider_crank_like_idas():
     tau, ref = idas_reference(name)
     res = fmpy.simulate_fmu(str(_fmu(name)))
     got = np.column_stack([res[k] for k in res.dtype.names[1:]])
-    assert list(res.dtype.names[1:]) == list(mechanism(name).meta["outputs"])
+    assert list(res.dtype.names[1:]) == list(mechanism(name).info.outputs)
     assert len(res) == len(tau)
     np.testing.assert_allclose(res["time"], tau, atol=1e-9)
     for k in range(ref.shape[1]):

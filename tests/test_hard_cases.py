@@ -38,6 +38,7 @@ import pytest
 from symgen.api import mechanism, simulate_scene
 from symgen.cli import main
 from symgen.errors import SimulationError
+from symgen.ir.records import CoordKind, RowKind
 from tests.test_cli import FOUR_BAR_TOGGLE
 from tests.test_rigid_limit import rigid_four_bar
 from tests.test_rigid_limit import write_scene as write_rigid_limit_scene
@@ -117,12 +118,12 @@ def test_inextensible_model_has_no_lambda_and_holds_the_chord_shortening():
     shortening -1/2 int eta'^2 that its constraint (phi'_1, eps) = 0 with phi_1 = xi demands
     (pinned-pinned frame: the chord elongation is zeta(1)); eta' from the sines psi_k."""
     mech = mechanism(SLIDER, ACCURATE + basis(3, 4) + QS + INEXT + ["simulation.cycles=0.25"])
-    assert not any(p.startswith("lambda_") for p in mech.meta["params"])
-    assert [r["kind"] for r in mech.meta["lam_rows"]].count("inextensible") == 3
+    assert not any(p.startswith("lambda_") for p in mech.info.params)
+    assert len(mech.info.rows(RowKind.INEXTENSIBLE)) == 3
     from symgen.numerics.simulate import simulate
 
     res = simulate(mech)
-    g = res.q[:, [i for i, c in enumerate(mech.coords) if c["kind"] == "g"]]
+    g = res.q[:, list(mech.info.indices(CoordKind.G))]
     xi = np.linspace(0.0, 1.0, 4001)
     dpsi = np.array([k * np.pi * np.cos(k * np.pi * xi) for k in range(1, 5)])
     slope = g @ dpsi

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from symgen.api import mechanism
+from symgen.ir.records import CoordKind
 from symgen.numerics.modes import modes
 from symgen.numerics.quasistatic import quasi_static
 from symgen.scene import load_scene
@@ -159,7 +160,7 @@ def test_structure_key_changes_only_with_interior_points(tmp_path):
     dyn = structure_of(load_scene(on, ['effects.axial="dynamic"']))
     assert dyn["bodies"][0]["static_points"] == {"transverse": [A_LOAD], "axial": [A_LOAD]}
     m = mechanism(on)
-    names = [c["name"] for c in m.coords if c["kind"] == "g"]
+    names = [c.name for c in m.coords if c.kind is CoordKind.G]
     assert len(names) == 5                                               # 4 sines + 1 correction
 
 

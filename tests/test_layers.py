@@ -89,3 +89,52 @@ def test_the_checker_sees_lazy_and_relative_imports(tmp_path):
     found = imports(bad, root)
     assert found == {"symgen.errors", "symgen.numerics.mechanism"}
     assert [m for m in found if layer(m) > layer("symgen.scene.bad")] == ["symgen.numerics.mechanism"]
+
+
+# --------------------------------------------------------------------------- backends take data
+#: names under which a numerics object (a Mechanism) would enter a backend
+_MECHANISM_NAMES = {"mech", "mechanism", "Mechanism"}
+
+
+def mechanism_uses(path: Path) -> list[str]:
+    """Where the module ``path`` takes or uses a numerics ``Mechanism``: a parameter or name
+    ``mech`` / ``mechanism`` / ``Mechanism``, or a call of one of Mechanism's methods (by its
+    name, on any object: a duck-typed mechanism is still the numerics called at run time)."""
+    from symgen.numerics.mechanism import Mechanism
+
+    methods = {n for n, v in vars(Mechanism).items() if not n.startswith("_") and callable(v)}
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        where = f"{path.name}:{getattr(node, 'lineno', 0)}"
+        if isinstance(node, ast.arg) and node.arg in _MECHANISM_NAMES:
+            found.append(f"{where}: parameter {node.arg!r}")
+        elif isinstance(node, ast.Name) and node.id in _MECHANISM_NAMES:
+            found.append(f"{where}: name {node.id!r}")
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in methods:
+            found.append(f"{where}: call of Mechanism.{node.func.attr}")
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "getattr" \
+                and len(node.args) > 1 and isinstance(node.args[1], ast.Constant) and node.args[1].value in methods:
+            found.append(f"{where}: getattr of Mechanism.{node.args[1].value}")
+    return found
+
+
+def test_backends_take_data_not_a_mechanism():
+    """The backends run no numerics (issue 23): no backends module imports symgen.numerics (the
+    layer rule above), and none takes a Mechanism or calls its methods; the C emitter receives
+    the model, its ModelInfo and the StartPlan the numerics made, as data."""
+    bad = [use for p in sorted((PKG / "backends").rglob("*.py")) for use in mechanism_uses(p)]
+    assert not bad, "a backend uses the numerics' Mechanism: " + "; ".join(bad)
+
+
+def test_the_mechanism_check_can_fail(tmp_path):
+    """The check sees a mechanism passed in, one used through another name, and one read by getattr."""
+    cases = {
+        "passed.py": "def c_context(scene, model, mech):\n    return mech.n\n",
+        "renamed.py": "def c_context(scene, m):\n    return m.initial_state(0.0)\n",
+        "getattr.py": "def f(obj):\n    return getattr(obj, 'choose_partition')(0.0, None)\n",
+    }
+    for name, text in cases.items():
+        (tmp_path / name).write_text(text)
+        assert mechanism_uses(tmp_path / name), name
+    (tmp_path / "data.py").write_text("def c_context(scene, model, plan, info=None):\n    return plan.dependent\n")
+    assert mechanism_uses(tmp_path / "data.py") == []

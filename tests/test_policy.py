@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from c_support import mechanism, model
+from c_support import mechanism, model, plan
 from symgen import policy
 from symgen.backends.c import context as ctx_mod
 from symgen.backends.c.printer import c_double
@@ -27,10 +27,10 @@ def test_every_policy_value_reaches_the_emitted_solver(monkeypatch):
     """Render the slider-crank's C with every policy value changed: each new value appears in
     the emitted sources (the C solver would not see a value retyped in its template)."""
     mech = mechanism("slider_crank")
-    base = render_files(ctx_mod.c_context(mech.scene, model("slider_crank"), mech))
+    base = render_files(ctx_mod.c_context(mech.scene, model("slider_crank"), plan("slider_crank"), mech.info))
     odd = policy.SolverPolicy(**{k: _odd(v) for k, v in policy.POLICY.as_dict().items()})
     monkeypatch.setattr(ctx_mod, "POLICY", odd)
-    files = render_files(ctx_mod.c_context(mech.scene, model("slider_crank"), mech))
+    files = render_files(ctx_mod.c_context(mech.scene, model("slider_crank"), plan("slider_crank"), mech.info))
     missing = []
     for field in dataclasses.fields(odd):
         new = getattr(odd, field.name)

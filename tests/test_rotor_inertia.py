@@ -153,7 +153,7 @@ inertia = 0.05
     assert np.abs(energy - energy[0]).max() < 1e-6 * scale
     # the rotary inertias are in the derived model
     mech = mechanism(path)
-    assert {"I_A", "J_rotor"} <= set(map(str, mech.meta["params"]))
+    assert {"I_A", "J_rotor"} <= set(map(str, mech.info.params))
 
 
 def test_stiff_elastic_pendulum_with_rotor_approaches_the_rigid_closed_form(tmp_path):
@@ -206,8 +206,8 @@ output_step = 0.5
     a, b = mechanism(tmp_path / "si.toml"), mechanism(dimless)
     assert a.scene.driver.rotor_inertia == pytest.approx(J, rel=1e-12)
     assert a.scene.joint("O").inertia == pytest.approx(0.03, rel=1e-12)
-    pa = dict(zip(map(str, a.meta["params"]), a.p))
-    pb = dict(zip(map(str, b.meta["params"]), b.p))
+    pa = dict(zip(map(str, a.info.params), a.p))
+    pb = dict(zip(map(str, b.info.params), b.p))
     for key in ("J_rotor", "I_O", "torque", "alpha_crank", "nu_crank"):
         assert pa[key] == pytest.approx(pb[key], rel=1e-12), key
 
@@ -259,10 +259,12 @@ def test_emitted_c_with_rotary_inertias_matches_python(tmp_path):
     from symgen.backends.c import c_context, write_tree
     from symgen.backends.c.build import compile_executable
     from symgen.backends.c.render import render_files
+    from symgen.numerics.start import start_plan
 
     path = _scene(tmp_path, "c_rotor", g=-0.8, pivot=0.1, t_end=4.0, step=0.5)
     mech = mechanism(path)
-    src = write_tree(render_files(c_context(mech.scene, derive(mech.scene), mech)), tmp_path / "c")
+    src = write_tree(render_files(c_context(mech.scene, derive(mech.scene), start_plan(mech), mech.info)),
+                     tmp_path / "c")
     exe = compile_executable([src / "c_rotor.c", src / "c_rotor_solver.c", src / "c_rotor_sim.c"],
                              tmp_path / "c_rotor_sim", include=[src])
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)

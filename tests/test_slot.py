@@ -13,6 +13,7 @@ import pytest
 from scipy.integrate import quad
 
 from symgen.api import mechanism, simulate_scene
+from symgen.ir.records import CoordKind
 from tests.oracles import write_scene
 
 FROZEN = """
@@ -66,8 +67,8 @@ def frozen_frequencies(tmp_path, L, d, mu, overhang="rigid"):
     path = write_scene(tmp_path / "frozen.toml", FROZEN.format(L=L, d=d, mu=mu, beta=d / L, overhang=overhang))
     mech = mechanism(path)
     q, v, a, lam, part = mech.initial_state()
-    beta = q[[c["kind"] for c in mech.coords].index("beta")]
-    amp = [i for i, c in enumerate(mech.coords) if c["kind"] == "g"]
+    beta = q[[c.kind for c in mech.coords].index(CoordKind.BETA)]
+    amp = list(mech.info.indices(CoordKind.G))
     n, h = len(amp), 1e-7
     K, M = np.zeros((n, n)), np.zeros((n, n))
     r0 = mech.call("res", 0.0, q, v, a, lam)[amp]
@@ -122,7 +123,7 @@ output_step = 0.05
 """
     mech = mechanism(write_scene(tmp_path / "plain.toml", plain))
     q, v, a, lam, _ = mech.initial_state()
-    amp = [i for i, c in enumerate(mech.coords) if c["kind"] == "g"]
+    amp = list(mech.info.indices(CoordKind.G))
     r0 = mech.call("res", 0.0, q, v, a, lam)[amp]
     K = np.column_stack([(mech.call("res", 0.0, q + 1e-7 * np.eye(len(q))[i], v, a, lam)[amp] - r0) / 1e-7
                          for i in amp])

@@ -90,7 +90,7 @@ def test_sigterm_at_the_start_of_simulate_keeps_no_old_result(tmp_path):
     """SIGTERM soon after the start (once the command line is being read): exit 143 and the old
     complete files are gone, never a default-action kill that leaves them."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
-    for delay in (0.3, 0.45, 0.6):
+    for delay in (0.4, 0.55, 0.75):   # 0.1 s and more after main() is called
         out = tmp_path / f"r{delay}.csv"
         out.write_text("tau,x\n0,1\n")
         out.with_suffix(".json").write_text('{"status": "complete"}\n')

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from symgen.api import mechanism, simulate_scene
+from symgen.ir.records import CoordKind
 from tests.oracles import write_scene, zero_crossing_frequency
 
 PINNED = """
@@ -133,7 +134,7 @@ def _linear_frequencies(path) -> np.ndarray:
     """Eigenfrequencies of the generated equations linearised about rest (finite differences)."""
     mech = mechanism(path)
     q, v, a, lam, part = mech.initial_state()
-    amp = [i for i, c in enumerate(mech.coords) if c["kind"] == "g"]
+    amp = list(mech.info.indices(CoordKind.G))
     n = len(amp)
     K = np.zeros((n, n))
     M = np.zeros((n, n))

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from symgen.errors import SceneError
+from symgen.ir.info import ModelInfo
 from symgen.numerics.geometry import Geometry, auto_factor, magnified, rigid_reference
 from symgen.numerics.results import states_block
 
@@ -52,7 +53,7 @@ def fresh_run(mech, t_end: float | None) -> Motion:
     return Motion(res.tau, res.q, "fresh run")
 
 
-def read_states(path: str | os.PathLike, scene, meta: dict) -> Motion:
+def read_states(path: str | os.PathLike, scene, model: ModelInfo) -> Motion:
     """States of a run's CSV (``simulate --states``), checked against the scene and model."""
     path = Path(path)
     hint = (f"write the run with its states: symgen simulate {Path(scene.path).name} -o RUN.csv --states "
@@ -68,10 +69,10 @@ def read_states(path: str | os.PathLike, scene, meta: dict) -> Motion:
     if not isinstance(st, dict) or not isinstance(st.get("columns"), list):
         raise SceneError(str(path), "--from", "this CSV has no state columns (coordinates), only the scene's "
                          "outputs: the geometry cannot be rebuilt from it", hint)
-    if st.get("model_key") != meta["key"] or st.get("coordinates") != [c["name"] for c in meta["coords"]]:
+    if st.get("model_key") != model.key or st.get("coordinates") != list(model.coordinate_names):
         raise SceneError(str(path), "--from", f"the run was made with another model (key {st.get('model_key')!r}, "
-                         f"here {meta['key']!r}): its coordinates do not fit this scene", hint)
-    here = states_block(scene, st["coordinates"], meta["key"])
+                         f"here {model.key!r}): its coordinates do not fit this scene", hint)
+    here = states_block(scene, st["coordinates"], model.key)
     for key, what in (("bars", "bar lengths or shape functions"), ("ground", "ground points or slider lines")):
         if not _same(st.get(key), here[key]):
             raise SceneError(str(path), "--from", f"the run was made from another scene ({info.get('scene')!r}): "
@@ -253,7 +254,7 @@ def animate(out: str | os.PathLike, scene, compiled, mech, motion: Motion, facto
             fps: float = 20.0, frames: int | None = None, stride: int | None = None, dpi: int = 100) -> dict:
     """Render the motion to ``out`` (.gif / .mp4); return a summary (factor, frames, peak)."""
     out = check_target(out)
-    geom = Geometry(scene, compiled.meta)
+    geom = Geometry(scene, compiled.info)
     sel = frame_indices(len(motion.tau), frames, stride)
     tau, Q = motion.tau[sel], motion.q[sel]
     P = geom.points(Q)

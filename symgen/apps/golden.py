@@ -20,14 +20,15 @@ from pathlib import Path
 
 import numpy as np
 
+from symgen.ir.info import ModelInfo
 from symgen.scene.model import Scene
 
 FINGERPRINT_POINTS = 3
 
 
-def fingerprint(funcs: dict, meta: dict, p: np.ndarray) -> dict:
+def fingerprint(funcs: dict, info: ModelInfo, p: np.ndarray) -> dict:
     rng = np.random.default_rng(20261122)
-    n, m = len(meta["coords"]), len(meta["lam_rows"])
+    n, m = info.n, info.m
     out: dict[str, list] = {}
     for k in range(FINGERPRINT_POINTS):
         t = float(rng.uniform(0, 2 * np.pi))
@@ -52,30 +53,32 @@ def generated_payload(scene: Scene) -> dict:
 
     model = derive(scene)
     funcs = casadi_emit.build_functions(model)
-    meta = casadi_emit.model_meta(model)
-    meta.pop("timings", None)
-    p = parameter_values(scene, meta["params"])
-    meta["parameter_values"] = [float(x) for x in p]
-    meta["operations"] = {name: {"instructions": int(f.n_instructions()), "nodes": int(f.n_nodes())}
-                          for name, f in sorted(funcs.items())}
-    meta["fingerprint"] = fingerprint(funcs, meta, p)
-    meta["versions"] = {"symgen": __version__, "sympy": sympy.__version__, "casadi": casadi.__version__}
-    meta["scene_file"] = Path(scene.path).name
-    payload = {"model.json": json.dumps(meta, indent=1, sort_keys=True) + "\n",
+    info = ModelInfo.of(model)
+    record = info.to_json()
+    record.pop("timings", None)
+    record["scene_name"] = scene.name
+    p = parameter_values(scene, info.params)
+    record["parameter_values"] = [float(x) for x in p]
+    record["operations"] = {name: {"instructions": int(f.n_instructions()), "nodes": int(f.n_nodes())}
+                            for name, f in sorted(funcs.items())}
+    record["fingerprint"] = fingerprint(funcs, info, p)
+    record["versions"] = {"symgen": __version__, "sympy": sympy.__version__, "casadi": casadi.__version__}
+    record["scene_file"] = Path(scene.path).name
+    payload = {"model.json": json.dumps(record, indent=1, sort_keys=True) + "\n",
                "equations.tex": latex_document(scene, model)}
-    payload.update({f"c/{name}": text for name, text in _c_payload(scene, model, funcs).items()})
+    payload.update({f"c/{name}": text for name, text in _c_payload(scene, model, funcs, info).items()})
     return payload
 
 
-def _c_payload(scene: Scene, model, funcs: dict) -> dict:
-    """The files of ``symgen emit-c`` (the solver's partition from the CasADi Functions)."""
-    from symgen.backends.casadi import functions as casadi_emit
+def _c_payload(scene: Scene, model, funcs: dict, info: ModelInfo) -> dict:
+    """The files of ``symgen emit-c`` (the solver's start plan from the CasADi Functions)."""
     from symgen.backends.c import c_sources
     from symgen.backends.casadi.pipeline import CompiledModel
     from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.start import start_plan
 
-    mech = Mechanism(CompiledModel(funcs, casadi_emit.model_meta(model), 0.0, 0.0, False), scene)
-    return c_sources(scene, model, mech)
+    mech = Mechanism(CompiledModel(funcs, info, 0.0, 0.0, False), scene)
+    return c_sources(scene, model, start_plan(mech), info=info)
 
 
 def write_generated(scene: Scene, root: Path) -> Path:

@@ -314,7 +314,7 @@ class _Runner:
         try:
             scene = self.scene(cfg)
             compiled, row.derive_s, build_s = self.compiled(scene)
-            row.n_coords = len(compiled.meta["coords"])
+            row.n_coords = compiled.info.n
             row.ops = int(compiled.funcs["res"].n_instructions())
             mech_times, sim_times, result = [], [], None
             for _ in range(self.repeats):

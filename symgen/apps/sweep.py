@@ -144,8 +144,8 @@ _LOCK = threading.Lock()
 
 
 def model_blob(compiled) -> dict:
-    """A derived model as plain data (serialised CasADi Functions + meta) for a worker."""
-    return {"meta": compiled.meta, "derive_s": compiled.derive_s,
+    """A derived model as plain data (serialised CasADi Functions + its ModelInfo's JSON) for a worker."""
+    return {"info": compiled.info.to_json(), "derive_s": compiled.derive_s,
             "funcs": {name: f.serialize() for name, f in compiled.funcs.items()}}
 
 
@@ -154,10 +154,11 @@ def _model(key: str, blobs: Mapping[str, dict]):
         import casadi as ca
 
         from symgen.backends.casadi.pipeline import CompiledModel
+        from symgen.ir.info import ModelInfo
         b = blobs[key]
         t0 = time.perf_counter()
         funcs = {name: ca.Function.deserialize(s) for name, s in b["funcs"].items()}
-        _MODELS[key] = CompiledModel(funcs, b["meta"], b["derive_s"], time.perf_counter() - t0, True)
+        _MODELS[key] = CompiledModel(funcs, ModelInfo.from_json(b["info"]), b["derive_s"], time.perf_counter() - t0, True)
     return _MODELS[key]
 
 
@@ -173,7 +174,7 @@ def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
 
     scene = task.scene
     mech = Mechanism(_model(task.key, blobs), scene)
-    names = list(mech.meta["outputs"])
+    names = list(mech.info.outputs)
     row: dict[str, Any] = {"status": "ok", "failure": "", "steps": 0, "cpu_s": 0.0,
                            "peaks": [math.nan] * len(names), "speed": math.nan, "freqs": []}
     drv = scene.driver
@@ -230,7 +231,7 @@ class SweepResult:
     structures: dict                # structure key -> number of points
     executor: str
     complete: bool = True
-    meta: dict = field(default_factory=dict)
+    notes: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.columns["status"])
@@ -338,7 +339,7 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
         raise
     bar.close()
     result = _result(varies, points, names, rows, counts, executor, complete=True, campbell=campbell)
-    result.meta["models"] = derive_note
+    result.notes["models"] = derive_note
     return result
 
 
@@ -549,7 +550,7 @@ def sweep_meta(result: SweepResult, scene_path: str, varies: Sequence[Vary], ove
         "points": len(result), "points_done": done,
         "vary": [{"key": v.key, "values": [float(t) for t in v.texts], "log": v.log} for v in varies],
         "set": list(overrides), "executor": result.executor, "structures": result.structures,
-        "models": result.meta.get("models", []),
+        "models": result.notes.get("models", []),
         "columns": {
             "status": "ok | failed (the run stopped; see failure) | modes failed | not run (interrupted)",
             "steps": "IDAS steps of the run", "cpu_s": "CPU time of the run in its worker thread, s "

@@ -8,6 +8,7 @@ body, joint, index), never by parsing its symbol's name; names and LaTeX names a
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 
 import sympy as sp
 
@@ -45,32 +46,71 @@ class Program:
 ORIGIN_ACCELERATION, GENERALIZED_FORCE, SUBTREE_FORCE = "origin acceleration", "generalized force", "subtree force"
 
 
+class CoordKind(StrEnum):
+    """What a coordinate is: a bar angle, a slider travel, an axial or transverse amplitude, a
+    slot's support distance. The values are the texts of ``model.json``."""
+
+    THETA = "theta"
+    S = "s"
+    F = "f"
+    G = "g"
+    BETA = "beta"
+
+    @property
+    def elastic(self) -> bool:
+        """An amplitude of a bar's deformation (f, g); the others are rigid coordinates."""
+        return self in (CoordKind.F, CoordKind.G)
+
+
+class RowKind(StrEnum):
+    """What a multiplier row (a row of phi) closes: a cut pin's or slot's x / y, a slider, the
+    angle driver, a bar's inextensibility."""
+
+    PIN_X = "pin-x"
+    PIN_Y = "pin-y"
+    SLOT_X = "slot-x"
+    SLOT_Y = "slot-y"
+    SLIDER = "slider"
+    DRIVER = "driver"
+    INEXTENSIBLE = "inextensible"
+
+
 @dataclass(frozen=True)
 class Coordinate:
-    """One entry of q: a bar angle ("theta"), an axial ("f") or transverse ("g") amplitude of
-    ``body``, a slider travel ("s") or a slot's support distance ("beta") of ``joint``."""
+    """One entry of q: a bar angle (THETA), an axial (F) or transverse (G) amplitude of
+    ``body``, a slider travel (S) or a slot's support distance (BETA) of ``joint``."""
 
     name: str
-    kind: str          # "theta" | "s" | "f" | "g" | "beta"
+    kind: CoordKind    # a text ("theta", ...) is taken as its CoordKind; any other raises ValueError
     body: str          # the bar it moves (the bar beyond a slider, the guide of a slot)
     index: int = 0     # amplitude index (0-based) for f, g
-    joint: str = ""    # the slider or slot joint of "s" and "beta"
+    joint: str = ""    # the slider or slot joint of S and BETA
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", CoordKind(self.kind))
+
+    @property
+    def elastic(self) -> bool:
+        return self.kind.elastic
 
 
-def find_coordinate(coords, kind: str, body: str) -> int:
-    """Index in ``coords`` (records or their plain-data form) of the coordinate ``kind`` of ``body``."""
+def find_coordinate(coords, kind: CoordKind, body: str) -> int:
+    """Index in ``coords`` (Coordinate records) of the coordinate ``kind`` of ``body``."""
     for i, c in enumerate(coords):
-        k, b = (c["kind"], c["body"]) if isinstance(c, dict) else (c.kind, c.body)
-        if k == kind and b == body:
+        if c.kind == kind and c.body == body:
             return i
-    raise KeyError(f"no coordinate {kind!r} of {body!r}")
+    raise KeyError(f"no coordinate {kind!s} of {body!r}")
 
 
 @dataclass(frozen=True)
 class ConstraintRow:
-    joint: str         # cut joint, "driver", or the bar of an "inextensible" row
-    kind: str          # "pin-x" | "pin-y" | "slot-x" | "slot-y" | "slider" | "driver" | "inextensible"
-    loop: tuple        # bars around the loop (the bar itself for "inextensible")
+    joint: str         # cut joint, "driver", or the bar of an INEXTENSIBLE row
+    kind: RowKind      # a text ("pin-x", ...) is taken as its RowKind; any other raises ValueError
+    loop: tuple        # bars around the loop (the bar itself for INEXTENSIBLE)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kind", RowKind(self.kind))
+        object.__setattr__(self, "loop", tuple(self.loop))
 
 
 @dataclass

@@ -24,7 +24,7 @@ import sympy as sp
 
 from symgen.ir import names
 from symgen.ir.names import Name
-from symgen.ir.records import ConstraintRow
+from symgen.ir.records import ConstraintRow, RowKind
 from symgen.model.bars import PointForce
 from symgen.model.kinematics import TreeKinematics
 from symgen.model.structure import INEXTENSIBLE, QUASI_STATIC
@@ -69,7 +69,7 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
         if j.kind == "pin":
             L = (names.joint_force(j.name, "x").symbol(), names.joint_force(j.name, "y").symbol())
             for k, comp in enumerate("xy"):
-                out.add(ra[k] - rb[k], va[k] - vb[k], aa[k] - ab[k], L[k], ConstraintRow(j.name, f"pin-{comp}", cut.loop))
+                out.add(ra[k] - rb[k], va[k] - vb[k], aa[k] - ab[k], L[k], ConstraintRow(j.name, RowKind(f"pin-{comp}"), cut.loop))
             for idx, sign in ((0, 1), (1, -1)):
                 end = j.ends[idx]
                 if end.body != GROUND:
@@ -81,7 +81,7 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
             rb, vb, ab = rA + c0, vA + c1, aA + c2
             L = (names.joint_force(j.name, "x").symbol(), names.joint_force(j.name, "y").symbol())
             for k, comp in enumerate("xy"):
-                out.add(ra[k] - rb[k], va[k] - vb[k], aa[k] - ab[k], L[k], ConstraintRow(j.name, f"slot-{comp}", cut.loop))
+                out.add(ra[k] - rb[k], va[k] - vb[k], aa[k] - ab[k], L[k], ConstraintRow(j.name, RowKind(f"slot-{comp}"), cut.loop))
             out.point_forces[j.ends[0].body].append(PointForce(j.ends[0].xi, ground=(L[0], L[1])))
             out.slot_force[guide] = (-L[0], -L[1])      # on the guide, at the moving contact
         else:  # slider: the bar point stays on the ground line
@@ -92,7 +92,7 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
             p0 = tree.ground_point(j.name)
             r, v, a = (ra, va, aa) if bar_idx == 0 else (rb, vb, ab)
             L = names.joint_force(j.name).symbol()
-            out.add(sign * (n.dot(r - p0)), sign * n.dot(v), sign * n.dot(a), L, ConstraintRow(j.name, "slider", cut.loop))
+            out.add(sign * (n.dot(r - p0)), sign * n.dot(v), sign * n.dot(a), L, ConstraintRow(j.name, RowKind.SLIDER, cut.loop))
             end = j.ends[bar_idx]
             out.point_forces[end.body].append(PointForce(end.xi, ground=(sign * L * n[0], sign * L * n[1])))
     out.n_loop_rows = len(out.phi)
@@ -117,7 +117,7 @@ def angle_driver(cons: Constraints, driver, kins: dict, param: Callable[[Name], 
         angle = driver_angle(driver, tau, th0, rate, ramp)
         rows = (th.th - angle, th.dth - derivative(angle, tau), th.ddth - derivative(angle, tau, 2))
     cons.driver_row = len(cons.lam)
-    cons.add(*rows, names.DRIVER_FORCE.symbol(), ConstraintRow("driver", "driver", (GROUND, driver.body)))
+    cons.add(*rows, names.DRIVER_FORCE.symbol(), ConstraintRow("driver", RowKind.DRIVER, (GROUND, driver.body)))
 
 
 def axial_forces(kins: dict, treatment: dict) -> dict:
@@ -147,4 +147,4 @@ def inextensibility(cons: Constraints, topo: Topology, bars: dict, axial_force: 
             cd = sp.Add(*[gi * dx for gi, (_, dx, _) in zip(grad, amp)])
             cdd = sp.Add(*[gi * ddx for gi, (_, _, ddx) in zip(grad, amp)])
             cdd += sp.Add(*[sp.diff(gi, y) * dx * dy for gi, (_, dx, _) in zip(grad, amp) for y, dy, _ in amp])
-            cons.add(c, cd, cdd, axial_force[name][k], ConstraintRow(name, INEXTENSIBLE, (name,)))
+            cons.add(c, cd, cdd, axial_force[name][k], ConstraintRow(name, RowKind.INEXTENSIBLE, (name,)))

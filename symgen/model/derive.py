@@ -31,7 +31,7 @@ import sympy as sp
 from symgen.errors import SceneError
 from symgen.ir import names
 from symgen.ir.names import Name
-from symgen.ir.records import Coordinate, DerivedModel, Program
+from symgen.ir.records import CoordKind, Coordinate, DerivedModel, Program
 from symgen.model.bars import BarEquations, BarSymbols, IPTable
 from symgen.model.constraints import (angle_driver, axial_forces, inextensibility, loop_closure,
                                       quasi_static_stretch)
@@ -173,19 +173,19 @@ def _coordinates(topo: Topology, bars: dict, slot_of: dict) -> tuple[list, tuple
         if e.slider:
             s_ = tuple(names.slider_travel(e.joint, o).symbol() for o in range(3))
             slider_s[e.joint] = s_
-            coords.append(Coordinate(str(s_[0]), "s", name, joint=e.joint))
+            coords.append(Coordinate(str(s_[0]), CoordKind.S, name, joint=e.joint))
             q.append(s_[0]), v.append(s_[1]), a.append(s_[2])
         sym = bars[name].sym
-        coords.append(Coordinate(str(sym.th), "theta", name))
+        coords.append(Coordinate(str(sym.th), CoordKind.THETA, name))
         q.append(sym.th), v.append(sym.dth), a.append(sym.ddth)
         for k in range(len(sym.f)):
-            coords.append(Coordinate(str(sym.f[k]), "f", name, k))
+            coords.append(Coordinate(str(sym.f[k]), CoordKind.F, name, k))
             q.append(sym.f[k]), v.append(sym.df[k]), a.append(sym.ddf[k])
         for k in range(len(sym.g)):
-            coords.append(Coordinate(str(sym.g[k]), "g", name, k))
+            coords.append(Coordinate(str(sym.g[k]), CoordKind.G, name, k))
             q.append(sym.g[k]), v.append(sym.dg[k]), a.append(sym.ddg[k])
         if sym.beta:
-            coords.append(Coordinate(str(sym.beta[0]), "beta", name, joint=slot_of[name]))
+            coords.append(Coordinate(str(sym.beta[0]), CoordKind.BETA, name, joint=slot_of[name]))
             q.append(sym.beta[0]), v.append(sym.beta[1]), a.append(sym.beta[2])
     return coords, (tuple(q), tuple(v), tuple(a)), slider_s
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from symgen.ir import names
-from symgen.ir.records import GENERALIZED_FORCE, ORIGIN_ACCELERATION, SUBTREE_FORCE, Coordinate, Program
+from symgen.ir.records import GENERALIZED_FORCE, ORIGIN_ACCELERATION, SUBTREE_FORCE, CoordKind, Coordinate, Program
 from symgen.model.bars import bar_equations
 from symgen.model.constraints import Constraints
 from symgen.model.kinematics import TreeKinematics
@@ -40,13 +40,13 @@ class BarForces:
 
     def of(self, c: Coordinate) -> sp.Symbol:
         """E of the bar's own coordinate ``c`` (theta, an amplitude, a slot's beta)."""
-        if c.kind == "theta":
+        if c.kind is CoordKind.THETA:
             return self.th
-        if c.kind == "f":
+        if c.kind is CoordKind.F:
             return self.f[c.index]
-        if c.kind == "g":
+        if c.kind is CoordKind.G:
             return self.g[c.index]
-        if c.kind == "beta":
+        if c.kind is CoordKind.BETA:
             return self.beta
         raise ValueError(f"{c.kind!r} is not a coordinate of a bar")
 
@@ -116,7 +116,7 @@ def residuals(coords: list, q: tuple, topo: Topology, bars: dict, tree: TreeKine
     bar, J) or None."""
     res = []
     for c, var in zip(coords, q):
-        if c.kind == "s":
+        if c.kind is CoordKind.S:
             e = topo.edges[c.body]
             res.append(tree.slider_dir(e.joint).dot(S[c.body]))
             continue
@@ -125,7 +125,7 @@ def residuals(coords: list, q: tuple, topo: Topology, bars: dict, tree: TreeKine
         r = E[c.body].of(c) - bm.kin.partials(e.body_xi)[var].dot(S[c.body])
         for ch in topo.children[c.body]:
             r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
-        if c.kind == "theta" and driver is not None and driver[0] == c.body:
+        if c.kind is CoordKind.THETA and driver is not None and driver[0] == c.body:
             r -= driver[1]                       # applied moment
             if rotor is not None:
                 r += rotor[1] * bm.sym.ddth      # the rotor's inertial moment J theta''

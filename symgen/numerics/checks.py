@@ -14,6 +14,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
+from symgen.ir.records import RowKind
 from symgen.numerics.index1 import Partition, index1
 from symgen.policy import POLICY
 
@@ -43,9 +44,8 @@ def worst_row(mech, Jd: np.ndarray) -> int:
 def loop_row(mech, weights) -> int:
     """The closure row (a loop, not the driver) that weighs most in a singular direction."""
     w = np.abs(np.asarray(weights, dtype=float))
-    for i, r in enumerate(mech.meta["lam_rows"]):
-        if (r["joint"] == "driver" or r["kind"] == "inextensible") and len(w) > 1:
-            w[i] = -1.0
+    if len(w) > 1:
+        w[list(mech.info.rows(RowKind.DRIVER, RowKind.INEXTENSIBLE))] = -1.0
     return int(np.argmax(w))
 
 
@@ -59,7 +59,7 @@ def beyond_range(mech, Q) -> tuple[int, str] | None:
                                  (fi, POLICY.stretch_limit, "axial displacement")):
             if not idx:
                 continue
-            size = np.abs(Q[idx]).sum(axis=0)
+            size = np.abs(Q[list(idx)]).sum(axis=0)
             bad = np.nonzero(~(size <= limit))[0]        # NaN counts as beyond
             if len(bad) and (first is None or bad[0] < first[0]):
                 first = (int(bad[0]), body, what, float(size[bad[0]]), limit)
@@ -77,7 +77,7 @@ def divergent_deformation(mech, t: float, q, v, part: Partition) -> tuple[float,
     deformation amplitudes about (q, v) (rigid independent coordinates held; dependent
     ones follow the closure), and the amplitude dominating its eigenvector. Positive:
     the state is statically unstable (beyond a buckling load). (0.0, "") if none."""
-    E = [i for i in part.ind if mech.coords[i]["kind"] in ("f", "g")]
+    E = [i for i in part.ind if mech.coords[i].elastic]
     if not E:
         return 0.0, ""
     I, D = list(part.ind), list(part.dep)
@@ -101,4 +101,4 @@ def divergent_deformation(mech, t: float, q, v, part: Partition) -> tuple[float,
     if not real:
         return 0.0, ""
     k = max(real, key=lambda j: s[j].real)
-    return float(s[k].real), mech.coords[E[int(np.argmax(np.abs(W[:len(E), k])))]]["name"]
+    return float(s[k].real), mech.coords[E[int(np.argmax(np.abs(W[:len(E), k])))]].name

@@ -107,9 +107,10 @@ def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict, sto
     from symgen.backends.c import c_context
     from symgen.backends.c.build import STRICT_C
     from symgen.backends.c.render import render_files
+    from symgen.numerics.start import start_plan
 
     scene = mech.scene
-    ctx = c_context(scene, derive(scene), mech)
+    ctx = c_context(scene, derive(scene), start_plan(mech), info=mech.info)
     files = render_files(ctx)
     prefix = ctx["prefix"]
     parent = where.parent if store else Path(tempfile.gettempdir())
@@ -150,7 +151,7 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
     args = ["--stats", "--t-end", repr(float(sim.t_end)), "--step", repr(float(sim.output_step)),
             "--rtol", repr(float(sim.rtol)), "--atol", repr(float(sim.atol)),
             "--max-rows", str(n_rows), "--max-t-end", repr(float(sim.t_end))]
-    for name, value in zip(mech.meta["params"], mech.p):
+    for name, value in zip(mech.info.params, mech.p):
         args += ["--set", f"{name}={float(value)!r}"]
     private = Path(tempfile.mkdtemp(prefix="symgen-sim-"))
     tic = time.perf_counter()
@@ -174,7 +175,7 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
         shutil.rmtree(private, ignore_errors=True)
     elapsed = time.perf_counter() - tic
     lines = out.splitlines()
-    names = list(mech.meta["outputs"])
+    names = list(mech.info.outputs)
     if proc.returncode == 2 or not lines or lines[0].split(",") != ["tau", *names]:
         msg = err.strip().splitlines()[0] if err.strip() else f"exit code {proc.returncode}"
         raise SimulationError(None, f"the C solver refused the run: {msg}")

@@ -27,6 +27,7 @@ import numpy as np
 import sympy as sp
 
 from symgen.ir import names
+from symgen.ir.info import ModelInfo
 from symgen.ir.parameters import parameter_records
 from symgen.model.bars import BarSymbols
 from symgen.backends.casadi.functions import SympyToCasadi
@@ -54,12 +55,12 @@ class Marker:
 class Geometry:
     """Sample points of every bar (``bars[name]`` = column range) and joint markers."""
 
-    def __init__(self, scene: Scene, meta: dict, samples: int = SAMPLES) -> None:
+    def __init__(self, scene: Scene, info: ModelInfo, samples: int = SAMPLES) -> None:
         self.scene = scene
-        coords = meta["coords"]
+        coords = info.coords
         self.n = len(coords)
         q = ca.SX.sym("q", self.n)
-        env = {names.coordinate(c["kind"], c["body"], c["joint"], c["index"]).symbol(): q[i]
+        env = {names.coordinate(c.kind, c.body, c.joint, c.index).symbol(): q[i]
                for i, c in enumerate(coords)}
         topo = build_topology(scene)
         slot_of = {j.ends[1].body: j.name for j in scene.joints if j.kind == "slot"}
@@ -120,7 +121,7 @@ def rigid_reference(mech, tau: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """For each state, the rigid mechanism at the same input: every amplitude zero, the
     dependent rigid coordinates solved from the closure by Newton from the computed ones."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
-    amp = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g")]
+    amp = list(mech.info.elastic)
     out = Q.copy()
     if not amp:
         return out

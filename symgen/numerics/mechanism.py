@@ -24,7 +24,7 @@ from symgen.backends.casadi.pipeline import CompiledModel
 from symgen.ir.parameters import parameter_values
 from symgen.policy import POLICY
 from symgen.scene.model import Scene
-from symgen.ir.records import find_coordinate
+from symgen.ir.records import CoordKind, RowKind
 from symgen.numerics import checks, start
 from symgen.numerics.index1 import Partition
 
@@ -35,11 +35,10 @@ class Mechanism:
         self.scene = scene
         self.compiled = compiled          # its derivation and cache state go into a run's sidecar
         self.f = compiled.funcs
-        self.meta = compiled.meta
-        self.coords = self.meta["coords"]
-        self.n = len(self.coords)
-        self.m = len(self.meta["lam_rows"])
-        self.p = parameter_values(scene, self.meta["params"])
+        self.info = info = compiled.info
+        self.coords = info.coords
+        self.n, self.m = info.n, info.m
+        self.p = parameter_values(scene, info.params)
         t, q, v, a, lam, p = (ca.SX.sym(k, s) for k, s in
                               (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m),
                                ("p", len(self.p))))
@@ -50,17 +49,13 @@ class Mechanism:
         phidd = self.f["phidd"](*args)
         self.kkt = ca.Function("kkt", args, [ca.jacobian(ca.vertcat(res, phidd), ca.vertcat(a, lam)),
                                              ca.vertcat(res, phidd)])
-        self.rigid = [i for i, c in enumerate(self.coords) if c["kind"] in ("theta", "s", "beta")]
+        self.rigid = list(info.rigid)
         # effects.axial = "inextensible": the axial amplitudes of those bars are dependent
         # coordinates of their inextensibility rows (kept apart from the loop rows)
-        self.inext_rows = [i for i, r in enumerate(self.meta["lam_rows"]) if r["kind"] == "inextensible"]
-        inext_bars = {self.meta["lam_rows"][i]["joint"] for i in self.inext_rows}
-        self.inext_f = [i for i, c in enumerate(self.coords) if c["kind"] == "f" and c["body"] in inext_bars]
+        self.inext_rows = list(info.inextensible_rows)
+        self.inext_f = list(info.inextensible_axial)
         self.static_systems: dict = {}    # Partition -> start.StaticSystem (built on first use)
-        self.amplitudes: dict = {}        # body -> (axial indices, transverse indices)
-        for i, c in enumerate(self.coords):
-            if c["kind"] in ("f", "g"):
-                self.amplitudes.setdefault(c["body"], ([], []))[c["kind"] == "g"].append(i)
+        self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)
 
@@ -76,18 +71,18 @@ class Mechanism:
         return np.array(self.phi_q(t, q, z(self.n), z(self.n), z(self.m), self.p))
 
     def loop_name(self, row: int) -> str:
-        r = self.meta["lam_rows"][row]
-        if r["joint"] == "driver":
-            return f"driver of '{r['loop'][-1]}'"
-        if r["kind"] == "inextensible":
-            return f"inextensibility of bar '{r['joint']}'"
-        return f"loop closed by joint '{r['joint']}' ({' - '.join(r['loop'])})"
+        r = self.info.lam_rows[row]
+        if r.kind is RowKind.DRIVER:
+            return f"driver of '{r.loop[-1]}'"
+        if r.kind is RowKind.INEXTENSIBLE:
+            return f"inextensibility of bar '{r.joint}'"
+        return f"loop closed by joint '{r.joint}' ({' - '.join(r.loop)})"
 
     def driver_motion(self, t: float) -> tuple[float, float, float]:
         """(theta, theta', theta'') an angle driver prescribes at t, read from the model's own
         driver rows (phi = theta - theta(t), and its two derivatives): whatever the law
         (constant speed, ``law``, ``ramp``), the numbers the equations use."""
-        row = self.meta["driver_row"]
+        row = self.info.driver_row
         z = np.zeros(self.n)
         return (-float(self.call("phi", t, z)[row]), -float(self.call("phid", t, z, z)[row]),
                 -float(self.call("phidd", t, z, z, z)[row]))
@@ -107,7 +102,7 @@ class Mechanism:
         drv = self.scene.driver
         order = list(reversed(self.rigid))
         if drv is not None:
-            idx = find_coordinate(self.coords, "theta", drv.body)
+            idx = self.info.coordinate(CoordKind.THETA, drv.body)
             order.remove(idx)
             order = [idx] + order if drv.kind == "angle" else order + [idx]
         order = self.inext_f + order
@@ -192,24 +187,24 @@ class Mechanism:
         deform = dict(sc.initial.deformation)
         drv = sc.driver
         for i, c in enumerate(self.coords):
-            if c["kind"] == "theta":
-                q[i] = guess.get(c["body"], 0.0)
-                if drv is not None and drv.body == c["body"]:
+            if c.kind is CoordKind.THETA:
+                q[i] = guess.get(c.body, 0.0)
+                if drv is not None and drv.body == c.body:
                     if drv.kind == "angle":
                         q[i], v[i], _ = self.driver_motion(t0)
                     else:
                         if drv.initial is not None:
                             q[i] = drv.initial
                         v[i] = drv.rate
-            elif c["kind"] == "beta":      # a slot's support distance: the guess of its slot joint
-                q[i] = guess.get(c["joint"], 0.5)
-            elif c["kind"] in ("f", "g") and c["body"] in deform:
-                d = deform[c["body"]]
-                vals, rates = (d.f, d.fdot) if c["kind"] == "f" else (d.g, d.gdot)
-                if c["index"] < len(vals):
-                    q[i] = vals[c["index"]]
-                if c["index"] < len(rates):
-                    v[i] = rates[c["index"]]
+            elif c.kind is CoordKind.BETA:      # a slot's support distance: the guess of its slot joint
+                q[i] = guess.get(c.joint, 0.5)
+            elif c.elastic and c.body in deform:
+                d = deform[c.body]
+                vals, rates = (d.f, d.fdot) if c.kind is CoordKind.F else (d.g, d.gdot)
+                if c.index < len(vals):
+                    q[i] = vals[c.index]
+                if c.index < len(rates):
+                    v[i] = rates[c.index]
         return q, v
 
     def initial_state(self, t0: float = 0.0):

@@ -36,6 +36,8 @@ import casadi as ca
 import numpy as np
 
 from symgen.errors import SimulationError
+from symgen.ir.info import ModelInfo
+from symgen.ir.records import CoordKind
 from symgen.numerics.index1 import index1
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.quasistatic import QuasiStaticSystem
@@ -174,8 +176,8 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
     coords = mech.coords
     groups = {}
     for i, c in enumerate(coords):
-        kind = {"f": "axial", "g": "transverse"}.get(c["kind"], "rigid")
-        groups.setdefault(f"{c['body']} {kind}", []).append(i)
+        kind = {CoordKind.F: "axial", CoordKind.G: "transverse"}.get(c.kind, "rigid")
+        groups.setdefault(f"{c.body} {kind}", []).append(i)
     bases = _bases(mech) if shapes else {}
     scale = max(1.0, float(np.abs(s).max()))
     real_eigs, found = [], []
@@ -201,17 +203,17 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         dominant = max(deform, key=deform.get) if deform else (max(fractions, key=fractions.get) if fractions else "?")
         mode = Mode(index=0, eigenvalue=complex(sk), natural_frequency=float(abs(sk)), frequency=float(sk.imag),
                     damping_ratio=float(-sk.real / abs(sk)), dominant=dominant, energy_fractions=fractions,
-                    amplitudes={coords[i]["name"]: float(re[i]) for i in range(n)},
+                    amplitudes={coords[i].name: float(re[i]) for i in range(n)},
                     complexity=float(np.linalg.norm(im) / max(np.linalg.norm(re), 1e-300)))
         if shapes:
-            mode.shape = _shape(coords, re, bases)
+            mode.shape = _shape(mech.info, re, bases)
         found.append(mode)
     found.sort(key=lambda md: md.natural_frequency)
     for k, md in enumerate(found):
         md.index = k + 1
     return ModesResult(tau=float(tau), modes=found, real_eigenvalues=sorted(real_eigs),
-                       state={c["name"]: float(q[i]) for i, c in enumerate(coords)},
-                       independent=[coords[i]["name"] for i in I], dependent=[coords[i]["name"] for i in D],
+                       state={c.name: float(q[i]) for i, c in enumerate(coords)},
+                       independent=[coords[i].name for i in I], dependent=[coords[i].name for i in D],
                        quasi_static=rep.as_dict())
 
 
@@ -219,7 +221,7 @@ def _bases(mech: Mechanism) -> dict:
     from symgen.model.static_shapes import bar_bases
 
     out = {}
-    structure = {b["name"]: b for b in mech.meta["structure"]["bodies"]}
+    structure = {b["name"]: b for b in mech.info.structure["bodies"]}
     for b in mech.scene.bodies:
         st = structure[b.name]
         if b.rigid or (st["na"] == 0 and st["nt"] == 0):
@@ -229,19 +231,19 @@ def _bases(mech: Mechanism) -> dict:
     return out
 
 
-def _shape(coords, dq, bases) -> dict:
+def _shape(info: ModelInfo, dq, bases) -> dict:
     xi = np.linspace(0.0, 1.0, SHAPE_POINTS)
     out = {}
     for body, (ba, bt) in bases.items():
-        f = [dq[i] for i, c in enumerate(coords) if c["body"] == body and c["kind"] == "f"]
-        g = [dq[i] for i, c in enumerate(coords) if c["body"] == body and c["kind"] == "g"]
+        fi, gi = info.amplitudes.get(body, ((), ()))
+        f, g = [dq[i] for i in fi], [dq[i] for i in gi]
         zeta = [float(np.dot(ba.values(x), f)) if ba is not None else 0.0 for x in xi]
         eta = [float(np.dot(bt.values(x), g)) if bt is not None else 0.0 for x in xi]
         out[body] = {"xi": [float(x) for x in xi], "zeta": zeta, "eta": eta}
     return out
 
 
-def modes_json(result: ModesResult, scene, meta: dict) -> dict:
+def modes_json(result: ModesResult, scene, info: ModelInfo) -> dict:
     """The ``symgen modes -o OUT.json`` document."""
     hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
     return {
@@ -254,7 +256,7 @@ def modes_json(result: ModesResult, scene, meta: dict) -> dict:
         "effects": {"geometric_stiffening": scene.effects.geometric_stiffening, "coriolis": scene.effects.coriolis,
                     "strain": scene.effects.strain, "damping": scene.effects.damping,
                     "rotary_inertia": scene.effects.rotary_inertia},
-        "modes_per_body": meta.get("modes"),
+        "modes_per_body": {name: md.to_json() for name, md in info.modes.items()},
         "independent": result.independent, "dependent": result.dependent,
         "state": result.state, "quasi_static": result.quasi_static,
         "stable": result.stable, "stability": result.stability(scene.effects.damping),

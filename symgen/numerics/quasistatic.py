@@ -53,7 +53,7 @@ from symgen.numerics import interrupt
 from symgen.numerics import checks
 from symgen.numerics.index1 import Partition
 from symgen.numerics.mechanism import Mechanism
-from symgen.ir.records import find_coordinate
+from symgen.ir.records import CoordKind
 
 KINEMATICS = ("deformed", "rigid")
 RHO_MAX = 0.95          # a fixed-point iteration contracting slower than this goes to Newton
@@ -142,9 +142,9 @@ class QuasiStaticSystem:
         self.mech, self.part, self.kinematics = mech, part, kinematics
         n, m = mech.n, mech.m
         D = list(part.dep)
-        amp = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g")]
+        amp = list(mech.info.elastic)
         E = [i for i in amp if i not in D]                  # independent amplitudes: the paper's y
-        rigid_rows = [k for k in range(m) if mech.meta["lam_rows"][k]["kind"] != "inextensible"]
+        rigid_rows = [k for k in range(m) if k not in mech.info.inextensible_rows]
         deformed = kinematics == "deformed"
         if deformed:
             # every dependent coordinate, rate and acceleration follows the closure on the deformed bars
@@ -191,7 +191,7 @@ class QuasiStaticSystem:
         q[self.amp] = 0.0
         drv = mech.scene.driver
         if drv is not None and drv.kind == "angle":
-            i = find_coordinate(mech.coords, "theta", drv.body)
+            i = mech.info.coordinate(CoordKind.THETA, drv.body)
             q[i] = mech.driver_motion(t)[0]
         q = mech.assemble(t, q, part)
         ratio, row = checks.singular_ratio(mech, t, q, part)
@@ -442,8 +442,8 @@ class _Positions:
         """The positions solved whole as a ``QuasiStaticResult`` (``exc``: what ended the run early)."""
         n, rows, mech = self.solved(), self.rows, self.mech
         return QuasiStaticResult(
-            tau=np.array(rows["tau"][:n]), outputs=np.array(rows["out"][:n]).reshape(-1, len(mech.meta["outputs"])),
-            output_names=list(mech.meta["outputs"]), q=np.array(rows["q"][:n]), v=np.array(rows["v"][:n]),
+            tau=np.array(rows["tau"][:n]), outputs=np.array(rows["out"][:n]).reshape(-1, len(mech.info.outputs)),
+            output_names=list(mech.info.outputs), q=np.array(rows["q"][:n]), v=np.array(rows["v"][:n]),
             a=np.array(rows["a"][:n]), lam=np.array(rows["lam"][:n]), closure_max=self.closure_max,
             reports=self.reports[:n], solve_s=time.perf_counter() - self.tic, partition=self.part,
             kinematics=self.kinematics, complete=exc is None, failure="" if exc is None else str(exc))

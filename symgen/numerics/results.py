@@ -140,7 +140,7 @@ def build_sidecar(scene, compiled, build_s: float, result, failure: BaseExceptio
     from symgen.model.structure import axial_treatments
     from symgen.scene.motion import driver_record
     sim = scene.simulation
-    meta = compiled.meta
+    info = compiled.info
     sidecar = {
         "scene": str(scene.path),
         "scene_hash": scene.hash,
@@ -158,13 +158,13 @@ def build_sidecar(scene, compiled, build_s: float, result, failure: BaseExceptio
         },
         "axial_treatment": {name: {"treatment": t.treatment, "reason": t.reason}
                             for name, t in axial_treatments(scene).items()},
-        "modes": meta["modes"],
+        "modes": {name: md.to_json() for name, md in info.modes.items()},
         "driver": driver_record(scene.driver),
-        "model_key": meta["key"],
-        "coordinates": [c["name"] for c in meta["coords"]],
+        "model_key": info.key,
+        "coordinates": list(info.coordinate_names),
         "partition": None if result is None or result.partition is None else {
-            "independent": [meta["coords"][i]["name"] for i in result.partition.ind],
-            "dependent": [meta["coords"][i]["name"] for i in result.partition.dep]},
+            "independent": [info.coords[i].name for i in result.partition.ind],
+            "dependent": [info.coords[i].name for i in result.partition.dep]},
         "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
                    "steps": None if result is None else result.steps},
         # derive_s is this process's derivation (0 when the model came from the cache); the

@@ -21,6 +21,7 @@ import casadi as ca
 import numpy as np
 
 from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.ir.records import CoordKind
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
 from symgen.numerics import checks
@@ -109,7 +110,7 @@ class DaeRunner:
                      "calc_ic": CALC_IC}
         if axial_atol is not None:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
-            ax = [axial_atol if mech.coords[i]["kind"] == "f" else atol for i in I]
+            ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
             self.opts["abstolv"] = ax + ax + [atol] * (2 * nD + n + m)
 
     def _use_compiled(self, choice: str, dae_in: list, dae_out: list, use_cache: bool) -> None:
@@ -118,7 +119,7 @@ class DaeRunner:
         mech, part = self.mech, self.part
         funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
         try:
-            ext, built = compiled.library(funcs, mech.meta["key"], f"ind={list(part.ind)} dep={list(part.dep)}",
+            ext, built = compiled.library(funcs, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}",
                                           store=use_cache)
         except compiled.Unavailable as exc:
             if choice == "compiled":
@@ -358,7 +359,7 @@ class _Trajectory:
         """The outputs recorded whole as a ``SimResult`` (``stop``: what ended the run early)."""
         n = self.whole()
         return SimResult(tau=np.array(self.taus[:n]), outputs=np.array(self.outs[:n]),
-                         output_names=list(self.mech.meta["outputs"]), q=np.array(self.qs[:n]),
+                         output_names=list(self.mech.info.outputs), q=np.array(self.qs[:n]),
                          v=np.array(self.vs[:n]), lam=np.array(self.lams[:n]), closure_max=self.closure_max,
                          steps=self.steps, simulate_s=elapsed, partition=self.part, complete=stop is None,
                          failure="" if stop is None else str(stop),

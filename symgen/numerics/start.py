@@ -1,13 +1,17 @@
 """The consistent start of a run: assembly at t0, the partition, the singular-position check,
 and, when the scene asks for it (``initial.deformation = "quasi-static"``), the quasi-static
-deformation (18)-(19) with its range and divergence checks (``symgen.numerics.checks``)."""
+deformation (18)-(19) with its range and divergence checks (``symgen.numerics.checks``).
+
+``start_plan`` gives the same start as data (``symgen.ir.plan.StartPlan``) for the emitted C
+solver, which runs it again from the same guess with the same partitions."""
 from __future__ import annotations
 
 import casadi as ca
 import numpy as np
 
 from symgen.errors import SimulationError
-from symgen.ir.records import find_coordinate
+from symgen.ir.plan import AmplitudeGroup, StartPlan
+from symgen.ir.records import CoordKind
 from symgen.numerics import checks
 from symgen.numerics.index1 import Partition
 from symgen.policy import POLICY
@@ -15,10 +19,36 @@ from symgen.policy import POLICY
 
 def consistent_start(mech, t0: float = 0.0):
     """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
+    return _start(mech, t0)[:5]
+
+
+def start_plan(mech) -> StartPlan:
+    """The start of the scene's run at tau = 0 as data for the emitted C solver: the partitions
+    this start chooses (at the guess, for the assembly, and at the assembled position, for the
+    run), the guess itself, and the index sets of the quasi-static start and of the checks.
+    Runs the whole start once, so a scene the Python start refuses is refused here too."""
+    _, _, _, _, part, (q0, v0), assembly = _start(mech, 0.0)
+    info = mech.info
+    dep = set(part.dep)
+    inext_rows, inext_axial = info.inextensible_rows, info.inextensible_axial
+    return StartPlan(
+        independent=tuple(part.ind), dependent=tuple(part.dep), assembly_dependent=tuple(assembly.dep),
+        q_guess=tuple(float(x) for x in q0), v_guess=tuple(float(x) for x in v0),
+        elastic=tuple(i for i in info.elastic if i not in dep),
+        accel=tuple(sorted(set(info.rigid) | dep)),
+        inextensible_rows=inext_rows, inextensible_axial=inext_axial,
+        singular_rows=tuple(i for i in range(info.m) if i not in inext_rows),
+        singular_cols=tuple(i for i in part.dep if i not in inext_axial),
+        amplitudes=tuple(AmplitudeGroup(body, f, g) for body, (f, g) in info.amplitudes.items()))
+
+
+def _start(mech, t0: float):
+    """(q, v, a, lam, partition, (q, v) guessed, partition of the assembly) at t0."""
     sc = mech.scene
     q, v = mech.initial_guess(t0)
-    part = mech.choose_partition(t0, q)
-    q = mech.assemble(t0, q, part)
+    guess = (q.copy(), v.copy())
+    assembly = mech.choose_partition(t0, q)
+    q = mech.assemble(t0, q, assembly)
     part = mech.choose_partition(t0, q)     # re-choose at the assembled position
     ratio, row = checks.singular_ratio(mech, t0, q, part)
     if ratio < POLICY.singular_ratio:
@@ -29,7 +59,7 @@ def consistent_start(mech, t0: float = 0.0):
         q, v = quasi_static_start(mech, t0, q, v, part)
     v = mech.velocities(t0, q, v, part)
     a, lam = mech.accelerations(t0, q, v)
-    return q, v, a, lam, part
+    return q, v, a, lam, part, guess, assembly
 
 
 class StaticSystem:
@@ -40,7 +70,7 @@ class StaticSystem:
 
     def __init__(self, mech, part: Partition) -> None:
         D = list(part.dep)
-        self.E = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g") and i not in D]
+        self.E = [i for i in mech.info.elastic if i not in D]
         R = sorted(set(mech.rigid) | set(D))        # unknown accelerations
         nE, nD, self.nR = len(self.E), len(D), len(R)
         u = ca.SX.sym("u", nE + 2 * nD + self.nR + mech.m)
@@ -116,7 +146,7 @@ def quasi_static_start(mech, t0: float, q, v, part: Partition):
     ends = []
     for dt in (-h, h):
         qq = qs.copy()
-        i = find_coordinate(mech.coords, "theta", drv.body)
+        i = mech.info.coordinate(CoordKind.THETA, drv.body)
         qq[i] = mech.driver_motion(t0 + dt)[0]
         qq = mech.assemble(t0 + dt, qq, part)
         vv = mech.velocities(t0 + dt, qq, vs, part)

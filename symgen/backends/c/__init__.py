@@ -4,6 +4,11 @@ driver, CMake, and an FMI 2.0 Co-Simulation FMU.
     symgen emit-c examples/slider_crank.toml -o out/slider_crank_c
     symgen emit-fmu examples/slider_crank.toml -o out/slider_crank.fmu
 
+The emitter takes data: the scene, its derived model (``symgen.ir.records.DerivedModel``), the
+start of its run (``symgen.ir.plan.StartPlan``, made by ``symgen.numerics.start.start_plan``)
+and optionally the model's ``symgen.ir.info.ModelInfo``; it derives nothing and runs no
+numerics (``symgen.api.write_c`` / ``write_fmu`` derive once and make the plan).
+
 Stages: ``codegen`` lowers the SymPy ``Program`` to straight-line C (forward-mode Jacobians,
 one CSE per function), ``context`` collects plain data (sizes, names, partition, defaults),
 the jinja2 templates of ``symgen/backends/c/templates/`` render the files, ``fmu`` packs and compiles.
@@ -29,31 +34,17 @@ from symgen.backends.c.names import c_prefix
 __all__ = ["c_sources", "write_c", "write_fmu", "c_prefix"]
 
 
-def _model_and_mechanism(scene, model=None, mech=None):
-    """The derived model (derived here if not given) and the scene's ``Mechanism``, which the
-    caller gives: the coordinate partition and the start come from the numerics, a layer above
-    the emitters (``symgen.api.write_c`` / ``write_fmu`` build it)."""
-    if mech is None:
-        raise TypeError("the C emitter needs the scene's Mechanism (mech=): use symgen.api.write_c or "
-                        "symgen.api.write_fmu, which build it")
-    if model is None:
-        from symgen.model.derive import derive
-        model = derive(scene)
-    return model, mech
-
-
-def c_context(scene, model=None, mech=None) -> dict:
+def c_context(scene, model, plan, info=None) -> dict:
     """The template context of a scene (see ``context.c_context``)."""
     from symgen.backends.c.context import c_context as build
     c_prefix(scene)                      # reject a bad prefix before any work
-    model, mech = _model_and_mechanism(scene, model, mech)
-    return build(scene, model, mech)
+    return build(scene, model, plan, info)
 
 
-def c_sources(scene, model=None, mech=None, ctx: dict | None = None) -> dict:
+def c_sources(scene, model, plan, info=None) -> dict:
     """{file name: text} of the C library, its driver and CMakeLists.txt."""
     from symgen.backends.c.render import render_files
-    return render_files(ctx if ctx is not None else c_context(scene, model, mech))
+    return render_files(c_context(scene, model, plan, info))
 
 
 def write_tree(files: dict, out_dir: str | os.PathLike) -> Path:
@@ -86,13 +77,13 @@ def write_tree(files: dict, out_dir: str | os.PathLike) -> Path:
     return out
 
 
-def write_c(scene, out_dir: str | os.PathLike, model=None, mech=None) -> Path:
+def write_c(scene, out_dir: str | os.PathLike, model, plan, info=None) -> Path:
     """Render the C files of ``scene`` into ``out_dir`` (created; existing files replaced)."""
-    return write_tree(c_sources(scene, model, mech), out_dir)
+    return write_tree(c_sources(scene, model, plan, info), out_dir)
 
 
-def write_fmu(scene, path: str | os.PathLike, model=None, mech=None, cc: str | None = None) -> Path:
+def write_fmu(scene, path: str | os.PathLike, model, plan, info=None, cc: str | None = None) -> Path:
     """Pack the FMI 2.0 Co-Simulation FMU of ``scene`` (sources + linux64 binary) into ``path``."""
     from symgen.backends.fmu import check_fmu_path, write_fmu as write
-    check_fmu_path(Path(path))                         # before the derivation
-    return write(scene, Path(path), c_context(scene, model, mech), cc=cc)
+    check_fmu_path(Path(path))
+    return write(scene, Path(path), c_context(scene, model, plan, info), cc=cc)

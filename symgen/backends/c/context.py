@@ -1,13 +1,15 @@
 """The plain-data context the C templates are rendered from (the contract between the
 symbolic stages and the templates: strings, numbers and lists only).
 
-What the C solver needs beyond the equations is taken from the Python runner so that both
-handle the closure the same way (``symgen.numerics.mechanism``): the partition of the coordinates
-into independent and dependent ones (chosen by ``Mechanism.initial_state`` at the start and
-baked in), the raw initial guess the assembly Newton starts from (the scene's
-``[initial]`` guess and deformation, the driver's angle and rate), which coordinates are
-elastic / rigid for the quasi-static start, and the rows and columns of the closure
-Jacobian that decide a singular position.
+Its inputs are data: the scene, the derived model (``DerivedModel``: the program lowered to C),
+the model's ``ModelInfo`` (names, sizes, the driver row) and the ``StartPlan`` the numerics
+made (``symgen.numerics.start.start_plan``), so that the Python runner and the C solver
+handle the closure the same way: the partition of the coordinates into independent and
+dependent ones (chosen at the start and baked in), the dependent coordinates of the assembly,
+the raw initial guess the assembly Newton starts from (the scene's ``[initial]`` guess and
+deformation, the driver's angle and rate), which coordinates are elastic / rigid for the
+quasi-static start, the rows and columns of the closure Jacobian that decide a singular
+position, and the amplitudes of each bar for the range check.
 
 The valid range of every parameter (``symgen.ir.parameters.parameter_records``) and the limits of
 the run settings (``symgen.scene.model``: output rows, rtol) are rendered from Python, never
@@ -24,7 +26,10 @@ from symgen.backends.c.codegen import model_functions
 from symgen.backends.c.names import c_comment, c_prefix, c_string
 from symgen.backends.c.printer import c_double
 from symgen.ir import names
-from symgen.ir.records import find_coordinate
+from symgen.ir.info import ModelInfo
+from symgen.ir.parameters import parameter_values
+from symgen.ir.plan import StartPlan
+from symgen.ir.records import CoordKind
 
 
 def _ops_table(prefix: str, funcs) -> list[str]:
@@ -59,16 +64,20 @@ def _run_limits() -> dict:
             "loose_rtol": c_double(RTOL_WARN), "max_t_end": c_double(float(LIMITS["t_end"].default))}
 
 
-def c_context(scene, model, mech) -> dict:
-    """Everything the templates under ``symgen/backends/c/templates/`` need, as plain data."""
+def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> dict:
+    """Everything the templates under ``symgen/backends/c/templates/`` need, as plain data.
+    ``info`` defaults to the description of ``model`` (``ModelInfo.of``)."""
     import sympy
 
     prefix = c_prefix(scene)
-    meta = mech.meta
-    n, m = mech.n, mech.m
+    info = ModelInfo.of(model) if info is None else info
+    if info.key != model.key or info.coords != tuple(model.coords):
+        raise ValueError(f"the model information (key {info.key}) is not that of the model {model.key}")
+    n, m = info.n, info.m
+    if plan.n != n:
+        raise ValueError(f"a start plan of {plan.n} coordinates for a model of {n}")
     funcs = model_functions(model.program)
-    _, _, _, _, part = mech.initial_state(0.0)
-    ind, dep = list(part.ind), list(part.dep)
+    ind, dep = list(plan.independent), list(plan.dependent)
     nI, nD = len(ind), len(dep)
     nx, nz = 2 * nI, 2 * nD + n + m
     ny = nx + nz
@@ -79,28 +88,21 @@ def c_context(scene, model, mech) -> dict:
         ypos_q[i], ypos_v[i] = nx + k, nx + nD + k
     a0 = nx + 2 * nD
     ycol = ypos_q + ypos_v + [a0 + i for i in range(n)] + [a0 + n + j for j in range(m)]
-    elastic = [i for i, c in enumerate(mech.coords) if c["kind"] in ("f", "g") and i not in dep]
-    accel = sorted(set(mech.rigid) | set(dep))
-    inext_rows = list(getattr(mech, "inext_rows", []))
-    inext_f = list(getattr(mech, "inext_f", []))
-    sing_rows = [i for i in range(m) if i not in inext_rows]
-    sing_cols = [i for i in dep if i not in inext_f]
-    q0, v0 = mech.initial_guess()
-    assembly_dep = list(mech.choose_partition(0.0, q0).dep)
     drv = scene.driver
-    params = list(meta["params"])
+    params = list(info.params)
+    p = parameter_values(scene, params)
     driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1, "row": -1}
     if drv is not None:
         driver["kind"] = drv.kind
-        driver["coord"] = find_coordinate(mech.coords, "theta", drv.body)
+        driver["coord"] = info.coordinate(CoordKind.THETA, drv.body)
         if drv.kind == "angle":
             theta0, rate = (names.global_parameter(k).text for k in ("theta0", "rate"))
             driver["theta0"] = params.index(theta0)
             driver["rate"] = params.index(rate) if rate in params else -1   # a law has no rate
-            driver["row"] = meta["driver_row"]
+            driver["row"] = info.driver_row
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}
-    amplitude_checks = _amplitude_checks(mech)
+    amplitude_checks = _amplitude_checks(plan)
     return {
         "prefix": prefix,
         "guard": f"SYMGEN_{prefix}_H",
@@ -110,32 +112,32 @@ def c_context(scene, model, mech) -> dict:
         "scene_file": c_comment(Path(str(scene.path)).name),
         "scene_hash": scene.hash,
         "ops": _ops_table(prefix, funcs),
-        "n": n, "m": m, "np": len(params), "nout": len(meta["outputs"]),
-        "nclosure": meta["n_loop_rows"], "nw": 3 * n + m,
+        "n": n, "m": m, "np": len(params), "nout": len(info.outputs),
+        "nclosure": info.n_loop_rows, "nw": 3 * n + m,
         "ni": nI, "nd": nD, "nx": nx, "nz": nz, "ny": ny,
         "nalg": 3 * m + n,
-        "coordinate_names": [c_string(c["name"]) for c in mech.coords],
-        "coordinate_comments": [c_comment(c["name"]) for c in mech.coords],
+        "coordinate_names": [c_string(c.name) for c in info.coords],
+        "coordinate_comments": [c_comment(c.name) for c in info.coords],
         "parameter_names": [c_string(x) for x in params],
         "parameter_comments": [c_comment(x) for x in params],
-        "parameter_defaults": [c_double(x) for x in mech.p],
+        "parameter_defaults": [c_double(x) for x in p],
         "parameter_plain": params,
-        "parameter_values": [float(x) for x in mech.p],
+        "parameter_values": [float(x) for x in p],
         "parameter_ranges": _parameter_ranges(scene, params),
         "limits": _run_limits(),
-        "output_names": [c_string(x) for x in meta["outputs"]],
-        "csv_header": c_string(",".join(["tau", *meta["outputs"]])),
+        "output_names": [c_string(x) for x in info.outputs],
+        "csv_header": c_string(",".join(["tau", *info.outputs])),
         "functions": [{"name": f.name, "kind": f.kind, "rows": f.rows, "cols": f.cols, "body": list(f.body),
                        "unused": [x for x in ("t", "q", "v", "a", "lam", "p") if x not in f.used],
                        "ops": f.ops, "nnz": f.nnz, "temporaries": f.temporaries,
                        "loop": f.kind == "jacobian" and f.nnz < f.rows * f.cols}
                       for f in funcs],
         "jac_rows": {k: by_name[k].rows for k in ("phi", "phid", "phidd", "res")},
-        "independent": ind, "dependent": dep, "assembly_dependent": assembly_dep,
+        "independent": ind, "dependent": dep, "assembly_dependent": list(plan.assembly_dependent),
         "ypos_q": ypos_q, "ypos_v": ypos_v, "ycol": ycol,
-        "elastic": elastic, "accel": accel,
-        "sing_rows": sing_rows, "sing_cols": sing_cols,
-        "q_guess": [c_double(x) for x in q0], "v_guess": [c_double(x) for x in v0],
+        "elastic": list(plan.elastic), "accel": list(plan.accel),
+        "sing_rows": list(plan.singular_rows), "sing_cols": list(plan.singular_cols),
+        "q_guess": [c_double(x) for x in plan.q_guess], "v_guess": [c_double(x) for x in plan.v_guess],
         "driver": driver,
         "quasi_static": bool(scene.initial.quasi_static),
         "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
@@ -152,20 +154,18 @@ def _policy() -> dict:
     return {k: (str(v) if isinstance(v, int) else c_double(v)) for k, v in POLICY.as_dict().items()}
 
 
-def _amplitude_checks(mech) -> list[dict]:
+def _amplitude_checks(plan: StartPlan) -> list[dict]:
     """The range of the bar models (``symgen.numerics.checks.beyond_range``): per bar, the sum of the absolute
     transverse (axial) amplitudes may not exceed ``POLICY.deflection_limit`` (``stretch_limit``)."""
     deflection, stretch = POLICY.deflection_limit, POLICY.stretch_limit
-    groups: dict = {}
-    for i, c in enumerate(mech.coords):
-        if c["kind"] in ("f", "g"):
-            groups.setdefault(c["body"], ([], []))[c["kind"] == "g"].append(i)
     checks = []
-    for body, (fi, gi) in groups.items():
-        for idx, limit, what in ((gi, deflection, "transverse deflection"), (fi, stretch, "axial displacement")):
+    for group in plan.amplitudes:
+        body = group.body
+        for idx, limit, what in ((group.transverse, deflection, "transverse deflection"),
+                                 (group.axial, stretch, "axial displacement")):
             if not idx:
                 continue
-            checks.append({"indices": idx, "limit": c_double(limit), "message": c_string(
+            checks.append({"indices": list(idx), "limit": c_double(limit), "message": c_string(
                 f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "
                 f"fraction of its length (limit {limit:g}; the bar equations hold for moderate rotations and "
                 f"small strains): a load beyond a buckling load, or forces the bar cannot carry")})

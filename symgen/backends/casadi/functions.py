@@ -1,4 +1,5 @@
-"""Emit a derived model as CasADi SX Functions, and save / load them (no SymPy needed to load).
+"""Emit a derived model as CasADi SX Functions, and save / load them with the model's
+``symgen.ir.info.ModelInfo`` (no SymPy needed to load).
 
 Every function has the signature ``F(t, q, v, a, lam, p)`` (unused inputs are ignored):
 
@@ -143,23 +144,3 @@ def build_functions(model) -> dict:
         funcs[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
     return funcs
 
-
-def model_meta(model) -> dict:
-    """Plain-data description of a model, enough to run it without SymPy."""
-    return {
-        "key": model.key,
-        "scene_name": model.scene_name,
-        "structure": model.structure,
-        "coords": [{"name": c.name, "kind": c.kind, "body": c.body, "index": c.index, "joint": c.joint}
-                   for c in model.coords],
-        "lam_rows": [{"joint": r.joint, "kind": r.kind, "loop": list(r.loop)} for r in model.lam_rows],
-        "params": model.param_names,
-        "outputs": model.output_names,
-        "driver_row": model.driver_row,
-        "n_loop_rows": len(model.program.outputs["closure"]),
-        "modes": {name: {"axial": len(b.sym.f), "transverse": len(b.sym.g),
-                         "axial_shapes": b.basis_a.family if len(b.sym.f) else "",
-                         "transverse_shapes": b.basis_t.family if len(b.sym.g) else ""}
-                  for name, b in model.bars.items()},
-        "timings": model.timings,
-    }

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from symgen import cache
+from symgen.ir.info import ModelInfo
 from symgen.scene.model import Scene
 
 
@@ -23,7 +24,7 @@ def cache_dir() -> Path:
 @dataclass
 class CompiledModel:
     funcs: dict
-    meta: dict
+    info: ModelInfo
     derive_s: float          # time the derivation took (when it was done)
     build_s: float           # CasADi build, or load from cache, in this process
     cached: bool
@@ -31,36 +32,56 @@ class CompiledModel:
 
 def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
     """Derived model of ``scene`` as CasADi Functions (from the cache when possible)."""
-    from symgen.backends.casadi import store as casadi_io
     from symgen.model.structure import structure_key, structure_of
 
     key = structure_key(structure_of(scene))
-    where = cache.models_dir() / key
-    replace = False
-    if use_cache and (where.exists() or where.is_symlink()):
-        t0 = time.perf_counter()
-        try:
-            funcs, meta = casadi_io.load(where, key)
-            return CompiledModel(funcs, meta, meta["timings"]["derive_s"], time.perf_counter() - t0, True)
-        except cache.InvalidEntry as exc:
-            cache.report_invalid(where, exc.reason)
-            replace = True
-        except FileNotFoundError:  # removed meanwhile (symgen cache clear): derive it
-            pass
-        except Exception as exc:  # unreadable: never trusted, never fatal
-            cache.report_invalid(where, f"cannot be read ({type(exc).__name__}: {exc})")
-            replace = True
+    compiled, replace = _cached(key) if use_cache else (None, False)
+    if compiled is not None:
+        return compiled
     from symgen.model.derive import derive
+    return _build(derive(scene), use_cache, replace)
+
+
+def compile_model(model, use_cache: bool = True) -> CompiledModel:
+    """The CasADi Functions of a model already derived (``symgen.model.derive.derive``): from the
+    cache when it holds the model's structure, else built from ``model`` (and stored); the
+    model is never derived again."""
+    compiled, replace = _cached(model.key) if use_cache else (None, False)
+    return compiled if compiled is not None else _build(model, use_cache, replace)
+
+
+def _cached(key: str) -> tuple[CompiledModel | None, bool]:
+    """(the verified cache entry of ``key`` or None, whether a bad entry is to be replaced)."""
+    from symgen.backends.casadi import store as casadi_io
+
+    where = cache.models_dir() / key
+    if not (where.exists() or where.is_symlink()):
+        return None, False
+    t0 = time.perf_counter()
+    try:
+        funcs, info = casadi_io.load(where, key)
+        return CompiledModel(funcs, info, info.timings["derive_s"], time.perf_counter() - t0, True), False
+    except cache.InvalidEntry as exc:
+        cache.report_invalid(where, exc.reason)
+        return None, True
+    except FileNotFoundError:  # removed meanwhile (symgen cache clear): derive it
+        return None, False
+    except Exception as exc:  # unreadable: never trusted, never fatal
+        cache.report_invalid(where, f"cannot be read ({type(exc).__name__}: {exc})")
+        return None, True
+
+
+def _build(model, use_cache: bool, replace: bool) -> CompiledModel:
     from symgen.backends.casadi import functions as casadi_emit
-    model = derive(scene)
+
     t0 = time.perf_counter()
     funcs = casadi_emit.build_functions(model)
     build_s = time.perf_counter() - t0
-    meta = casadi_emit.model_meta(model)
-    meta["timings"]["build_s"] = build_s
+    info = ModelInfo.of(model).with_timings(build_s=build_s)
     if use_cache:
+        where = cache.models_dir() / model.key
         try:
-            casadi_emit.save(funcs, meta, where, replace=replace)
+            casadi_emit.save(funcs, info, where, replace=replace)
         except (OSError, ValueError) as exc:
             cache.report_unwritable(where, exc)
-    return CompiledModel(funcs, meta, model.timings["derive_s"], build_s, False)
+    return CompiledModel(funcs, info, model.timings["derive_s"], build_s, False)

@@ -4,20 +4,19 @@ An entry is a folder (see :mod:`symgen.cache`)::
 
     <fname>.casadi    one per name in FUNCTION_NAMES: CasADi's serialized text
                       (``Function.serialize()``; read back with ``casadi.Function.deserialize``)
-    model.json        plain-data description of the model (``casadi_emit.model_meta``)
+    model.json        the model's description (``symgen.ir.info.ModelInfo.to_json``)
     manifest.json     format, format_version, symgen and casadi versions, the structure key,
                       and the keyed hash (``symgen.cache.seal``: HMAC-SHA256 with this user's
                       key, bound to the entry and the file name) of every file above
 
 :func:`load` checks the manifest and every keyed hash before a byte reaches ``json`` or CasADi's
 deserializer (which can crash the process on a damaged file), then that ``model.json``
-belongs to the folder's structure key and that each Function has the name, inputs and sizes
-that ``model.json`` states. Anything else raises :class:`symgen.cache.InvalidEntry`.
+is a valid :class:`~symgen.ir.info.ModelInfo` (``ModelInfo.from_json``) of the folder's
+structure key and that each Function has the name, inputs and sizes that it states. Anything else raises :class:`symgen.cache.InvalidEntry`.
 """
 from __future__ import annotations
 
 import json
-import math
 import os
 from pathlib import Path
 
@@ -25,13 +24,14 @@ import casadi as ca
 
 from symgen import __version__
 from symgen import cache
+from symgen.ir.info import InvalidModelInfo, ModelInfo
 
 FUNCTION_NAMES = ("phi", "phid", "phidd", "res", "out", "energy", "closure")
 INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
 
 FORMAT = "symgen-model-cache"
 #: Bump when the layout of an entry changes (older entries are then re-derived).
-FORMAT_VERSION = 3      # 3: keyed hashes (HMAC-SHA256 with the user's key)
+FORMAT_VERSION = 3      # 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
 MANIFEST = "manifest.json"
 META = "model.json"
 _MAX_MANIFEST = 1 << 16
@@ -42,8 +42,8 @@ def _file_names() -> tuple[str, ...]:
     return tuple(f"{n}.casadi" for n in FUNCTION_NAMES) + (META,)
 
 
-def save(funcs: dict, meta: dict, directory: str | os.PathLike, replace: bool = False) -> bool:
-    """Write the entry ``directory`` (its name is the structure key, ``meta["key"]``) atomically.
+def save(funcs: dict, info: ModelInfo, directory: str | os.PathLike, replace: bool = False) -> bool:
+    """Write the entry ``directory`` (its name is the structure key, ``info.key``) atomically.
 
     The files are built in a temporary folder next to ``directory`` and renamed into place in
     one step. If ``directory`` exists meanwhile, another writer was first: its entry is kept
@@ -52,10 +52,10 @@ def save(funcs: dict, meta: dict, directory: str | os.PathLike, replace: bool = 
     was installed.
     """
     directory = Path(directory)
-    if meta.get("key") != directory.name:
-        raise ValueError(f"model cache entry {directory} for a model with key {meta.get('key')!r}")
+    if info.key != directory.name:
+        raise ValueError(f"model cache entry {directory} for a model with key {info.key!r}")
     files = {f"{name}.casadi": funcs[name].serialize().encode("ascii") for name in FUNCTION_NAMES}
-    files[META] = json.dumps(meta, indent=1, sort_keys=True, allow_nan=False).encode()
+    files[META] = json.dumps(info.to_json(), indent=1, sort_keys=True, allow_nan=False).encode()
     manifest = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
                 "casadi": ca.__version__, "key": directory.name,
                 "files": {name: cache.seal(f"models/{directory.name}/{name}", data) for name, data in files.items()}}
@@ -68,25 +68,24 @@ def save(funcs: dict, meta: dict, directory: str | os.PathLike, replace: bool = 
         return cache.install_dir(tmp, directory, replace=replace)
 
 
-def load(directory: str | os.PathLike, key: str | None = None) -> tuple[dict, dict]:
-    """The Functions and ``model.json`` of a verified entry (``key``: the structure key the
+def load(directory: str | os.PathLike, key: str | None = None) -> tuple[dict, ModelInfo]:
+    """The Functions and the ModelInfo of a verified entry (``key``: the structure key the
     caller expects, default the folder's name); :class:`symgen.cache.InvalidEntry` otherwise."""
     directory = Path(directory)
     key = directory.name if key is None else key
     if directory.name != key:
         raise cache.InvalidEntry(f"is in a folder not named after its structure key {key}")
     data = _read_verified(directory, key)
-    meta = _parse_json(data[META], META)
-    _check_meta(meta, key)
+    info = _model_info(_parse_json(data[META], META), key)
     funcs = {}
     for name in FUNCTION_NAMES:
         try:
             f = ca.Function.deserialize(data[f"{name}.casadi"].decode("ascii"))
         except (UnicodeDecodeError, RuntimeError) as exc:
             raise cache.InvalidEntry(f"{name}.casadi cannot be deserialized by this CasADi ({exc})") from None
-        _check_function(f, name, meta)
+        _check_function(f, name, info)
         funcs[name] = f
-    return funcs, meta
+    return funcs, info
 
 
 def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
@@ -144,46 +143,38 @@ def _check_manifest(m, key: str) -> None:
         raise cache.InvalidEntry(f"{MANIFEST} does not list the keyed hash of exactly {', '.join(_file_names())}")
 
 
-def _check_meta(meta, key: str) -> None:
+def _model_info(data, key: str) -> ModelInfo:
+    """``model.json``'s record, checked field by field, for the structure ``key``."""
     from symgen.model.structure import structure_key
 
     def bad(what: str):
         return cache.InvalidEntry(f"{META}: {what}")
 
-    if not isinstance(meta, dict):
-        raise bad("not an object")
-    if meta.get("key") != key:
-        raise bad(f"is for structure key {meta.get('key')!r}, not {key}")
     try:
-        ok = structure_key(meta["structure"]) == key
+        info = ModelInfo.from_json(data)
+    except InvalidModelInfo as exc:
+        raise bad(str(exc)) from None
+    if info.key != key:
+        raise bad(f"is for structure key {info.key!r}, not {key}")
+    try:
+        ok = structure_key(info.structure) == key
     except (KeyError, TypeError, ValueError):
         ok = False
     if not ok:
         raise bad(f"its structure does not hash to the key {key}")
-    for name in ("coords", "lam_rows", "params", "outputs"):
-        if not isinstance(meta.get(name), list):
-            raise bad(f"{name!r} is not a list")
-    for name in ("params", "outputs"):
-        if not all(isinstance(s, str) for s in meta[name]) or len(set(meta[name])) != len(meta[name]):
-            raise bad(f"{name!r} are not distinct names")
-    n = meta.get("n_loop_rows")
-    if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n <= len(meta["lam_rows"]):
-        raise bad("'n_loop_rows' is not a row count")
-    d = (meta.get("timings") or {}).get("derive_s") if isinstance(meta.get("timings"), dict) else None
-    if not isinstance(d, (int, float)) or isinstance(d, bool) or not math.isfinite(d):
-        raise bad("'timings.derive_s' is not a number")
+    return info
 
 
-def _expected_sizes(meta: dict) -> tuple[dict, dict]:
-    nq, nlam = len(meta["coords"]), len(meta["lam_rows"])
-    ins = {"t": 1, "q": nq, "v": nq, "a": nq, "lam": nlam, "p": len(meta["params"])}
-    outs = {"phi": nlam, "phid": nlam, "phidd": nlam, "res": nq, "out": len(meta["outputs"]),
-            "energy": 1, "closure": meta["n_loop_rows"]}
+def _expected_sizes(info: ModelInfo) -> tuple[dict, dict]:
+    nq, nlam = info.n, info.m
+    ins = {"t": 1, "q": nq, "v": nq, "a": nq, "lam": nlam, "p": len(info.params)}
+    outs = {"phi": nlam, "phid": nlam, "phidd": nlam, "res": nq, "out": len(info.outputs),
+            "energy": 1, "closure": info.n_loop_rows}
     return ins, outs
 
 
-def _check_function(f: ca.Function, name: str, meta: dict) -> None:
-    ins, outs = _expected_sizes(meta)
+def _check_function(f: ca.Function, name: str, info: ModelInfo) -> None:
+    ins, outs = _expected_sizes(info)
     if f.name() != name:
         raise cache.InvalidEntry(f"{name}.casadi holds the function {f.name()!r}")
     if f.n_in() != len(INPUT_NAMES) or f.n_out() != 1 or tuple(f.name_in()) != INPUT_NAMES \

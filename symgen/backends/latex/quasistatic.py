@@ -98,7 +98,7 @@ def quasi_static_context(scene, model, pr) -> dict:
                  for k, e in enumerate(eqs.eq17)]
         bars.append({"name": tn, "acc": eq_block(acc), "eqs": eq_block(rows),
                      "forces": ", ".join(f"${pr(x)}$" for x in sorted(unknown_forces, key=str))})
-    amps = [x for c, x in zip(model.coords, model.q) if c.kind in ("f", "g")]
+    amps = [x for c, x in zip(model.coords, model.q) if c.elastic]
     y = [pr(x) for x in amps] + [pr(x) for x in model.lam]
     return {"bars": bars, "guides": guides, "y": ", ".join(f"${x}$" for x in y), "n_amp": len(amps), "n_lam": len(model.lam),
             "has_lam": bool(model.lam)}

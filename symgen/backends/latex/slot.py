@@ -23,7 +23,7 @@ import sympy as sp
 from symgen.backends.latex.printing import (eq_block, eq_row, equation_rows, kin_terms, num_text, rm, shown_forces,
                                             term_row, tex_escape)
 from symgen.ir import names
-from symgen.ir.records import find_coordinate
+from symgen.ir.records import CoordKind, find_coordinate
 from symgen.model.bars import point_force_groups
 from symgen.scene.model import GROUND
 
@@ -331,7 +331,7 @@ def _chain_terms(model, body: str, end) -> tuple[str, list[str]]:
 
 def pr_beta(model, bar: str) -> str:
     """LaTeX of the support distance beta of the slot that ``bar`` guides."""
-    return names.slot_support(model.coords[find_coordinate(model.coords, "beta", bar)].joint).latex
+    return names.slot_support(model.coords[find_coordinate(model.coords, CoordKind.BETA, bar)].joint).latex
 
 
 def slot_closure(scene, model, joint: str) -> dict:
