@@ -9,8 +9,7 @@ from __future__ import annotations
 import os
 from typing import Sequence
 
-from symgen.backends.casadi.pipeline import compile_scene
-from symgen.numerics.mechanism import Mechanism
+from symgen.numerics.mechanism import Mechanism, load_mechanism
 from symgen.numerics.simulate import SimResult, simulate
 from symgen.scene import load_scene
 from symgen.scene.model import Scene
@@ -18,12 +17,9 @@ from symgen.scene.model import Scene
 
 def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
               use_cache: bool = True) -> Mechanism:
-    """The compiled model of a scene with its parameter values, ready to run."""
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene, overrides)
-    elif overrides:
-        raise ValueError("overrides apply to a scene file; pass the path, or load_scene(path, overrides)")
-    return Mechanism(compile_scene(scene, use_cache=use_cache), scene)
+    """The compiled model of a scene with its parameter values, ready to run
+    (:func:`symgen.numerics.mechanism.load_mechanism`)."""
+    return load_mechanism(scene, overrides, use_cache)
 
 
 def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overrides: Sequence[str] = ()):

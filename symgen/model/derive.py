@@ -40,7 +40,8 @@ from symgen.model.loads import applied_loads
 from symgen.model.quantities import BAR_SHAPE_OUTPUTS, energy, scene_outputs
 from symgen.model.residual import generalized_forces, residuals, subtree_resultants
 from symgen.model.rotary import driver_rotor
-from symgen.model.shapes import Basis, axial_basis, inner_products
+from symgen.model.shape_cache import inner_products
+from symgen.model.shapes import Basis, axial_basis
 from symgen.model.slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from symgen.model.static_shapes import bar_bases
 from symgen.model.structure import (INEXTENSIBLE, axial_treatments, basis_sizes, overhang_modes, structure_key,
