@@ -29,6 +29,7 @@ from typing import Any, Sequence
 
 import sympy
 
+from symgen.ir.spec import BodySpec
 from symgen.model.shapes import XI, Basis, InnerProducts, ShapeFunction, axial_basis, basis_of_key, transverse_basis
 from symgen.model.terms import DPS, MP, Table, Terms, multiply, new_terms, poly_terms, s_add, s_value
 
@@ -393,11 +394,13 @@ def _corrected_basis(key: tuple, pts: tuple[float, ...]) -> Basis:
     return Basis(base.direction, base.family, base.frame, tuple(funcs), base.tip_joint, pts)
 
 
-def bar_bases(record: dict) -> tuple[Any, Any]:
-    """(axial, transverse) bases of a bar from its record in ``structure_of(scene)["bodies"]``
-    (``na``/``nt`` count the standard functions; ``static_points`` adds the corrections)."""
-    pts = record.get("static_points") or {}
-    ba = axial_basis(record["axial_shapes"] or "complete", record["na"])
-    bt = transverse_basis(record["frame"] or "pinned-pinned", record["transverse_shapes"] or "modes",
-                          record["nt"], tip_joint=record["tip_joint"])
-    return corrected_basis(ba, pts.get("axial", ())), corrected_basis(bt, pts.get("transverse", ()))
+def bar_bases(body: BodySpec | dict) -> tuple[Basis, Basis]:
+    """(axial, transverse) bases of a bar from its :class:`symgen.ir.spec.BodySpec` (or that
+    record's JSON, as a cached model's ``structure["bodies"]`` holds it): ``na``/``nt`` count the
+    standard functions, the static correction points add the corrections."""
+    if isinstance(body, dict):
+        body = BodySpec.from_json(body)
+    ba = axial_basis(body.axial_shapes or "complete", body.na)
+    bt = transverse_basis(body.frame or "pinned-pinned", body.transverse_shapes or "modes", body.nt,
+                          tip_joint=body.tip_joint)
+    return corrected_basis(ba, body.static_axial), corrected_basis(bt, body.static_transverse)
