@@ -20,7 +20,8 @@ import hashlib
 import json
 from dataclasses import dataclass
 
-__all__ = ["DYNAMIC", "INEXTENSIBLE", "OFF", "QUASI_STATIC", "BodySpec", "DriverSpec", "EffectsSpec", "JointSpec",
+__all__ = ["DYNAMIC", "INEXTENSIBLE", "OFF", "QUASI_STATIC", "BodySpec", "DriverSpec", "EffectsSpec", "EndSpec",
+           "JointSpec",
            "LoadSpec", "ModelSpec", "OutputSpec", "spec_key"]
 
 #: the axial treatments of an elastic bar (``symgen.model.structure.AxialTreatment``)
@@ -71,19 +72,28 @@ class BodySpec:
 
 
 @dataclass(frozen=True)
+class EndSpec:
+    """One side of a joint: a bar at ``xi``, or the ground (``xi`` None; also for a slot's
+    guide, whose point is the moving support)."""
+
+    body: str
+    xi: float | None
+
+
+@dataclass(frozen=True)
 class JointSpec:
-    """One joint: its ends ``(body, xi)`` (``xi`` None for a ground point or a slot's guide),
-    whether it carries a lumped mass or rotary inertia, a slot's overhang ``(kind, functions)``."""
+    """One joint: its ends in the scene's order, whether it carries a lumped mass or rotary
+    inertia, a slot's overhang ``(kind, functions)``."""
 
     name: str
     kind: str                    # "pin" | "slider" | "slot"
-    ends: tuple[tuple[str, float | None], ...]
+    ends: tuple[EndSpec, ...]
     mass: bool
     inertia: bool = False
     overhang: tuple[str, int] | None = None    # slots only
 
     def to_json(self) -> dict:
-        out = {"name": self.name, "kind": self.kind, "ends": [[b, xi] for b, xi in self.ends], "mass": self.mass}
+        out = {"name": self.name, "kind": self.kind, "ends": [[e.body, e.xi] for e in self.ends], "mass": self.mass}
         if self.inertia:               # only then: the keys of scenes without it are unchanged
             out["inertia"] = True
         if self.overhang is not None:
@@ -93,7 +103,7 @@ class JointSpec:
     @classmethod
     def from_json(cls, d: dict) -> JointSpec:
         oh = d.get("overhang")
-        return cls(d["name"], d["kind"], tuple((b, xi) for b, xi in d["ends"]), d["mass"], bool(d.get("inertia")),
+        return cls(d["name"], d["kind"], tuple(EndSpec(b, xi) for b, xi in d["ends"]), d["mass"], bool(d.get("inertia")),
                    None if oh is None else (oh[0], oh[1]))
 
 
@@ -227,7 +237,7 @@ class ModelSpec:
         if b.rigid or not b.nt:
             return 0
         return sum(j.overhang[1] for j in self.joints
-                   if j.kind == "slot" and j.overhang is not None and j.ends[1][0] == name)
+                   if j.kind == "slot" and j.overhang is not None and j.ends[1].body == name)
 
     def to_json(self) -> dict:
         """The canonical JSON (the layout of the cache keys; ``json.dumps(..., sort_keys=True)``

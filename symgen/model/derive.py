@@ -24,14 +24,13 @@ assignments, rows and outputs are made (it decides the CSE order of the emitted 
 The derivation's input is the typed :class:`symgen.ir.spec.ModelSpec` of the scene
 (``structure.model_spec``; its canonical JSON is the model's cache key): the bars (function
 counts, shape families, static corrections, axial treatment, a guide's overhang), the effects,
-the loads, lumped masses and inertias, the driver's rotor. Four stages still read the scene
-itself: the topology (``build_topology``: the tree from the joints' ends, and the scene file
-named in its error), the loop closure and the angle driver (``loop_closure``, ``angle_driver``:
-the joint ends carry the ground points and slider directions that the tree kinematics turns
-into parameters by joint, and the driver's law goes through ``symgen.scene.motion``, the one
-home of the guidance law that the runners evaluate too), and the outputs (``scene_outputs``,
-which names the scene file in its error). What they read of it beyond the spec is values
-that become parameter symbols, and expressions of tau that the spec holds too.
+the joints of the loop closure, the loads, lumped masses and inertias, the driver's rotor and
+moment, the outputs. Two stages still read the scene itself: the topology (``build_topology``,
+which the numerics' geometry calls with the scene too: its tree edges carry the ground points'
+values, and its error names the scene file) and the angle driver (``angle_driver``: the
+guidance law has one home, ``symgen.scene.motion.driver_angle``, which the runners evaluate too
+and which reads the scene's driver, whose ramp time the spec only records as present). The
+scene's path also names the file in the errors of the slot guides and of the outputs.
 """
 from __future__ import annotations
 
@@ -116,11 +115,11 @@ def _derive(scene: Scene) -> DerivedModel:
     topo = build_topology(scene)
     param = Parameters()
     treatment = spec.axial_treatments()
-    bars, slot_of = _bars(scene, spec, treatment, param)
+    bars, slot_of = _bars(spec, scene.path, treatment, param)
     coords, (q, v, a), slider_s = _coordinates(topo, bars, slot_of)
     kins = {name: bm.kin for name, bm in bars.items()}
     tree = TreeKinematics(topo, kins, param, slider_s)                       # (10)
-    cons = loop_closure(topo, {j.name: j for j in scene.joints}, kins, tree)  # (11)
+    cons = loop_closure(topo, {j.name: j for j in spec.joints}, kins, tree)  # (11)
     rotor = driver_rotor(spec.driver, param)
     angle_driver(cons, scene.driver, kins, param)
     loads = applied_loads(spec, kins, param)
@@ -137,7 +136,7 @@ def _derive(scene: Scene) -> DerivedModel:
     prog.inputs = {"t": (TAU,), "q": q, "v": v, "a": a, "lam": tuple(cons.lam)}
     prog.outputs.update(phi=cons.phi, phid=cons.phid, phidd=cons.phidd, res=res)
     prog.outputs["energy"] = [energy(bars, topo, tree, loads, rotor)]
-    out_names, prog.outputs["out"] = scene_outputs(scene, bars, topo, tree, S, cons, prog.outputs["energy"][0],
+    out_names, prog.outputs["out"] = scene_outputs(spec, scene.path, bars, topo, tree, S, cons, prog.outputs["energy"][0],
                                                    quasi_static_stretch(axial_force, treatment))
     prog.outputs["closure"] = cons.closure
     prog.inputs["p"] = params = param.sorted()
@@ -147,12 +146,12 @@ def _derive(scene: Scene) -> DerivedModel:
                         driver_row=cons.driver_row, timings={})
 
 
-def _bars(scene: Scene, spec: ModelSpec, treatment: dict, param: Parameters) -> tuple[dict, dict]:
+def _bars(spec: ModelSpec, path: str, treatment: dict, param: Parameters) -> tuple[dict, dict]:
     """(bar -> BarModel, guide bar -> its slot joint): symbols, shape functions and inner
     products of every bar of ``spec``; a slot's guide gets the variable span psi(xi, beta).
-    (``scene``: only to name the file when a bar guides two slots.)"""
+    (``path``: the scene file, named when a bar guides two slots.)"""
     bars: dict[str, BarModel] = {}
-    slot_of = _slot_guides(scene)
+    slot_of = _slot_guides(spec, path)
     for b in spec.bodies:
         na, nt = b.sizes                     # the bar's functions and its static corrections
         # lambda: the strain energy (dynamic), the stretch N / lambda (quasi-static), rho = mu / lambda
@@ -202,14 +201,14 @@ def _coordinates(topo: Topology, bars: dict, slot_of: dict) -> tuple[list, tuple
     return coords, (tuple(q), tuple(v), tuple(a)), slider_s
 
 
-def _slot_guides(scene: Scene) -> dict:
+def _slot_guides(spec: ModelSpec, path: str) -> dict:
     """guide bar -> slot joint name (one slot per guide)."""
     out: dict[str, str] = {}
-    for j in scene.joints:
+    for j in spec.joints:
         if j.kind == "slot":
             guide = j.ends[1].body
             if guide in out:
-                raise SceneError(scene.path, f"joints.{j.name}", f"bar {guide!r} already guides slot "
+                raise SceneError(path, f"joints.{j.name}", f"bar {guide!r} already guides slot "
                                  f"{out[guide]!r}; symgen supports one slot per guide bar",
                                  "split the guide into two bars joined by a pin")
             out[guide] = j.name

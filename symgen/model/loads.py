@@ -62,17 +62,17 @@ def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol
     masses, rotary, points = [], {n: [] for n in kins}, {n: [] for n in kins}
     for j in spec.joints:
         if j.inertia:
-            body, xi = next(x for x in j.ends if x[0] != GROUND)
-            rotary[body].append(LumpedRotary(j.name, body, xi, param(names.joint_parameter("I", j.name))))
+            end = next(x for x in j.ends if x.body != GROUND)
+            rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(names.joint_parameter("I", j.name))))
         if j.mass:
-            body, xi = next(x for x in j.ends if x[0] != GROUND)
+            end = next(x for x in j.ends if x.body != GROUND)
             m = param(names.joint_parameter("m", j.name))
-            masses.append(LumpedMass(j.name, body, xi, m))
-            kin = kins[body]
+            masses.append(LumpedMass(j.name, end.body, end.xi, m))
+            kin = kins[end.body]
             s = kin.sym
             aA = s.alpha * rot(s.th) * sp.Matrix([s.xa_dd, s.ya_dd])
-            acc = aA + kin.rho_dd(xi) - G
-            points[body].append(PointForce(xi, ground=(-m * acc[0], -m * acc[1])))
+            acc = aA + kin.rho_dd(end.xi) - G
+            points[end.body].append(PointForce(end.xi, ground=(-m * acc[0], -m * acc[1])))
     dist = {n: [] for n in kins}
     for i, ld in enumerate(spec.loads):
         vals = []

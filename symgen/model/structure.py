@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from symgen import __version__
-from symgen.ir.spec import (DYNAMIC, INEXTENSIBLE, QUASI_STATIC, BodySpec, DriverSpec, EffectsSpec, JointSpec, LoadSpec,
-                            ModelSpec, OutputSpec, spec_key)
+from symgen.ir.spec import (DYNAMIC, INEXTENSIBLE, QUASI_STATIC, BodySpec, DriverSpec, EffectsSpec, EndSpec, JointSpec,
+                            LoadSpec, ModelSpec, OutputSpec, spec_key)
 from symgen.scene.model import Scene
 
 DERIVE_VERSION = "5"   # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
@@ -202,7 +202,7 @@ def model_spec(scene: Scene) -> ModelSpec:
         bodies.append(BodySpec(b.name, b.rigid, b.frame, na, nt, b.axial_shapes if na else "",
                                b.transverse_shapes if nt else "", _tip_joint(scene, b.name) if nt else False,
                                tuple(pts.get("axial", ())), tuple(pts.get("transverse", ()))))
-    joints = tuple(JointSpec(j.name, j.kind, tuple((e.body, e.xi) for e in j.ends), j.mass > 0, j.inertia > 0,
+    joints = tuple(JointSpec(j.name, j.kind, tuple(EndSpec(e.body, e.xi) for e in j.ends), j.mass > 0, j.inertia > 0,
                              (j.overhang, j.overhang_modes) if j.kind == "slot" else None) for j in scene.joints)
     drv = None
     if scene.driver is not None:
