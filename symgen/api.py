@@ -15,8 +15,7 @@ from __future__ import annotations
 import os
 from typing import Sequence
 
-from symgen.backends.casadi import pipeline
-from symgen.numerics.mechanism import Mechanism
+from symgen.numerics.mechanism import Mechanism, load_mechanism
 from symgen.numerics.simulate import SimResult, simulate
 from symgen.scene import load_scene
 from symgen.scene.model import Scene
@@ -24,10 +23,9 @@ from symgen.scene.model import Scene
 
 def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
               use_cache: bool = True) -> Mechanism:
-    """The compiled model of a scene with its parameter values, ready to run."""
-    scene = _loaded(scene, overrides)
-    # pipeline.compile_scene looked up at the call: a test (or a tool) may wrap it for every caller
-    return Mechanism(pipeline.compile_scene(scene, use_cache=use_cache), scene)
+    """The compiled model of a scene with its parameter values, ready to run
+    (:func:`symgen.numerics.mechanism.load_mechanism`)."""
+    return load_mechanism(scene, overrides, use_cache)
 
 
 def _loaded(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:

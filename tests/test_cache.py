@@ -20,7 +20,8 @@ import pytest
 import sympy
 
 from symgen import cache, exprdata
-from symgen.model import shapes as S
+from symgen.model import shape_cache as S
+from symgen.model.shapes import SHAPES_VERSION
 from symgen.cli import main
 from symgen.backends.casadi import store as casadi_io
 from symgen.backends.casadi.pipeline import compile_scene
@@ -128,7 +129,7 @@ def test_planted_pickles_are_never_loaded(root, capsys, reference, tmp_path):
     shapes = root / "shapes"
     shapes.mkdir(parents=True)
     name = S._cache_name(("axial", "stress-free", "any", 1, False), ("transverse", "modes", "pinned-pinned", 1, False))
-    old = name.replace(f"v{S.SHAPES_VERSION}__", "v2__")
+    old = name.replace(f"v{SHAPES_VERSION}__", "v2__")
     # where older symgen read its pickles, and the current entry names: a pickle, and a pickle
     # behind a header whose plain sha256 matches it (the keyed hash cannot be made without the key)
     (shapes / f"{old}.pkl").write_bytes(evil)

@@ -1,8 +1,9 @@
-"""symgen's modules import one way: scene -> model -> IR/emitters -> numerics -> apps
-(``docs/architecture.md``). Every module belongs to exactly one layer; an import of a higher
-layer (also a lazy one inside a function) fails this test unless it is one of the known
+"""symgen's modules import one way: scene -> model -> IR/emitters -> numerics -> apps -> entry
+points (``docs/architecture.md``). Every module belongs to exactly one layer; an import of a
+higher layer (also a lazy one inside a function) fails this test unless it is one of the known
 exceptions listed below, which are debts to pay (issue 10), not a licence: the list may only
-shrink (a paid debt that is still listed fails too)."""
+shrink (a paid debt that is still listed fails too). Within the model, no two modules import
+each other, directly or round a longer circle (lazy imports included)."""
 from __future__ import annotations
 
 import ast
@@ -19,9 +20,11 @@ LAYERS = {
     3: ("symgen.model",),
     4: ("symgen.backends",),
     5: ("symgen.numerics",),
-    6: ("symgen.apps", "symgen.api", "symgen.cli"),
+    6: ("symgen.apps",),
+    7: ("symgen.api", "symgen.cli"),
 }
-NAMES = {0: "base", 1: "scene", 2: "IR (contract)", 3: "model", 4: "backends", 5: "numerics", 6: "apps"}
+NAMES = {0: "base", 1: "scene", 2: "IR (contract)", 3: "model", 4: "backends", 5: "numerics", 6: "apps",
+         7: "entry points (API, CLI)"}
 
 #: known upward imports (importer, imported): none left; a new one is a debt to justify here
 KNOWN: set[tuple[str, str]] = set()
@@ -59,8 +62,30 @@ def imports(path: Path, root: Path = PKG) -> set[str]:
     return {m for m in out if m in known and m != mod}
 
 
-def _edges() -> set[tuple[str, str]]:
-    return {(_module(p), m) for p in PKG.rglob("*.py") for m in imports(p)}
+def _edges(root: Path = PKG) -> set[tuple[str, str]]:
+    return {(_module(p, root), m) for p in root.rglob("*.py") for m in imports(p, root)}
+
+
+def circles(edges: set[tuple[str, str]], package: str) -> list[list[str]]:
+    """The import circles among the modules of ``package`` (each a sorted list of modules that
+    reach each other): the strongly connected components of more than one module."""
+    inside = {(a, b) for a, b in edges if a.startswith(package + ".") and b.startswith(package + ".")}
+    graph: dict[str, set[str]] = {}
+    for a, b in inside:
+        graph.setdefault(a, set()).add(b)
+        graph.setdefault(b, set())
+
+    def reach(start: str) -> set[str]:
+        seen, todo = set(), [start]
+        while todo:
+            for n in graph[todo.pop()] - seen:
+                seen.add(n)
+                todo.append(n)
+        return seen
+
+    reached = {m: reach(m) for m in graph}
+    out = {tuple(sorted({m} | {n for n in reached[m] if m in reached[n]})) for m in graph if m in reached[m]}
+    return sorted(list(c) for c in out)
 
 
 def test_every_module_has_a_layer():
@@ -75,6 +100,45 @@ def test_no_layer_imports_a_higher_one():
         f"{a} ({NAMES[layer(a)]}) imports {b} ({NAMES[layer(b)]})" for a, b in new)
     paid = sorted(KNOWN - upward)
     assert not paid, f"no longer imported, remove from KNOWN: {paid}"
+
+
+def test_no_model_modules_import_each_other():
+    """The model's modules form no import circle (``shapes`` and ``static_shapes`` did: the
+    term algebra is ``terms``, the cache ``shape_cache``, each imported one way)."""
+    found = circles(_edges(), "symgen.model")
+    assert not found, "import circles in the model: " + "; ".join(" <-> ".join(c) for c in found)
+
+
+def _package(root: Path, files: dict[str, str]) -> None:
+    for name, text in files.items():
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_text(text)
+
+
+def test_the_checker_sees_a_lazy_circle(tmp_path):
+    """The circle test can fail: a model module importing another lazily, which imports it back
+    at the top (and a three-module circle) are found; a one-way chain is not."""
+    root = tmp_path / "symgen"
+    _package(root, {"__init__.py": "", "model/__init__.py": "",
+                    "model/a.py": "def f():\n    from symgen.model.b import g\n",
+                    "model/b.py": "from .a import f\n",
+                    "model/c.py": "from symgen.model import d\n", "model/d.py": "from . import e\n",
+                    "model/e.py": "def h():\n    import symgen.model.c\n",
+                    "model/x.py": "from symgen.model import y\n", "model/y.py": "from symgen.model import a\n"})
+    assert circles(_edges(root), "symgen.model") == [
+        ["symgen.model.a", "symgen.model.b"], ["symgen.model.c", "symgen.model.d", "symgen.model.e"]]
+
+
+def test_apps_may_not_import_the_entry_points(tmp_path):
+    """The API and the CLI sit above the applications: ``symgen.api`` may import
+    ``symgen.apps.sweep``; an application importing ``symgen.api`` (lazily too) is upward."""
+    assert layer("symgen.api") > layer("symgen.apps.effects") and layer("symgen.cli") > layer("symgen.apps.study")
+    root = tmp_path / "symgen"
+    _package(root, {"__init__.py": "", "api.py": "from symgen.apps.sweep import sweep\n", "apps/__init__.py": "",
+                    "apps/sweep.py": "def sweep():\n    pass\n",
+                    "apps/reproduce.py": "def run():\n    from symgen.api import mechanism\n"})
+    edges = _edges(root)
+    assert [(a, b) for a, b in sorted(edges) if layer(b) > layer(a)] == [("symgen.apps.reproduce", "symgen.api")]
 
 
 def test_the_checker_sees_lazy_and_relative_imports(tmp_path):

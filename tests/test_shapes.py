@@ -19,7 +19,9 @@ import pytest
 import sympy
 from scipy import integrate, optimize
 
+from symgen.model import shape_cache as C
 from symgen.model import shapes as S
+from symgen.model import terms as T
 
 Fn = Callable[[float, int], float]  # f(x, derivative order)
 TOL = 1e-10
@@ -127,7 +129,7 @@ def _case_id(c: tuple) -> str:
 @pytest.mark.parametrize("case", CASES, ids=_case_id)
 def test_every_inner_product_matches_quadrature(case):
     afam, na, frame, tfam, nt, tip = case
-    ip = S.inner_products(S.axial_basis(afam, na), S.transverse_basis(frame, tfam, nt, tip))
+    ip = C.inner_products(S.axial_basis(afam, na), S.transverse_basis(frame, tfam, nt, tip))
     phi = oracle_axial(afam, na)
     psi = oracle_transverse(frame, tfam, nt, tip)
     assert (ip.na, ip.nt) == (na, nt)
@@ -173,7 +175,7 @@ def test_every_inner_product_matches_quadrature(case):
 @pytest.mark.parametrize("case", CASES, ids=_case_id)
 def test_exact_tables_agree_with_floats(case):
     afam, na, frame, tfam, nt, tip = case
-    ip = S.inner_products(S.axial_basis(afam, na), S.transverse_basis(frame, tfam, nt, tip))
+    ip = C.inner_products(S.axial_basis(afam, na), S.transverse_basis(frame, tfam, nt, tip))
     for name in ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4"):
         arr = getattr(ip, name)
         ex = ip.exact[name]
@@ -188,7 +190,7 @@ def test_exact_tables_agree_with_floats(case):
 
 
 def test_exact_values():
-    ip = S.inner_products(S.axial_basis("stress-free", 1), S.transverse_basis("pinned-pinned", "modes", 1))
+    ip = C.inner_products(S.axial_basis("stress-free", 1), S.transverse_basis("pinned-pinned", "modes", 1))
     g = ip.exact["gram"]  # b = [1, xi, sin(pi xi / 2), sin(pi xi)]
     pi = sympy.pi
     assert sympy.simplify(g[2, 3] - 4 / (3 * pi)) == 0
@@ -210,7 +212,7 @@ def test_exact_values():
 
 
 def test_polynomial_exact_values():
-    ip = S.inner_products(S.axial_basis("complete", 1), S.transverse_basis("pinned-pinned", "polynomial", 1))
+    ip = C.inner_products(S.axial_basis("complete", 1), S.transverse_basis("pinned-pinned", "polynomial", 1))
     # psi = x(1-x): (psi, psi) = 1/30, (psi', psi') = 1/3, (psi'', psi'') = 4, D4 = 1/5
     assert ip.exact["gram"][3, 3] == sympy.Rational(1, 30)
     assert ip.exact["Pd"][0, 0] == sympy.Rational(1, 3)
@@ -230,7 +232,7 @@ def test_eigen_roots_published():
     # the 50-digit roots satisfy cos(b) cosh(b) = -1 far beyond double precision
     with mpmath.workdps(60):
         for k in range(1, 9):
-            beta = mpmath.mpf(S._MP.nstr(S._beta_mp(k), 50))
+            beta = mpmath.mpf(T.MP.nstr(T.beta_mp(k), 50))
             assert abs(mpmath.cos(beta) * mpmath.cosh(beta) + 1) < mpmath.mpf(10) ** -45 * mpmath.cosh(beta)
     assert [f.label for f in t.functions[:2]] == [r"X_1(\xi)", r"X_2(\xi)"]
 
@@ -238,7 +240,7 @@ def test_eigen_roots_published():
 def test_eigen_orthogonality_and_rayleigh_quotient():
     nt = 8
     t = S.transverse_basis("cantilever", "eigen", nt)
-    ip = S.inner_products(S.axial_basis("complete", 6), t)
+    ip = C.inner_products(S.axial_basis("complete", 6), t)
     G = ip.gram[-nt:, -nt:]
     K = ip.Kt
     scale = np.sqrt(np.outer(np.diag(G), np.diag(G)))
@@ -260,7 +262,7 @@ def test_tip_shape_comes_first_and_counts():
     assert t.functions[0].label == r"[\xi^2(3-\xi)/2]_{\perp X_{1..2}}"
     # the first function is the tip-load shape minus its projection on X_1, X_2: orthogonal
     # to them, 1 at the tip, and with the tip shear no eigenfunction has
-    ip = S.inner_products(S.axial_basis("complete", 0), t)
+    ip = C.inner_products(S.axial_basis("complete", 0), t)
     assert abs(ip.gram[2, 3]) < 1e-12 and abs(ip.gram[2, 4]) < 1e-12
     assert t.functions[0].value(1.0) == pytest.approx(1.0, abs=1e-13)
     assert abs(t.functions[0].value(1.0, 3)) > 1.0
@@ -350,7 +352,7 @@ def test_empty_bases_and_validation():
               S.transverse_basis("cantilever", "modes", 0, tip_joint=True),
               S.transverse_basis("pinned-pinned", "polynomial", 0)):
         assert len(b) == 0 and b.values(0.5).shape == (0,)
-    ip = S.inner_products(S.axial_basis("complete", 0), S.transverse_basis("cantilever", "eigen", 0))
+    ip = C.inner_products(S.axial_basis("complete", 0), S.transverse_basis("cantilever", "eigen", 0))
     assert ip.gram.shape == (2, 2) and ip.C3.shape == (0, 0, 0) and ip.D4.shape == (0, 0, 0, 0)
     assert np.allclose(ip.gram, [[1, 0.5], [0.5, 1 / 3]])
     assert S.transverse_basis("pinned-sliding", "modes", 2) == S.transverse_basis("pinned-pinned", "modes", 2)
@@ -361,7 +363,7 @@ def test_empty_bases_and_validation():
     with pytest.raises(ValueError, match="mode count"):
         S.axial_basis("complete", -1)
     with pytest.raises(ValueError, match="directions"):
-        S.inner_products(S.transverse_basis("cantilever", "eigen", 1), S.axial_basis("complete", 1))
+        C.inner_products(S.transverse_basis("cantilever", "eigen", 1), S.axial_basis("complete", 1))
 
 
 def test_bases_pickle():
@@ -376,23 +378,23 @@ def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path))
     a, t = S.axial_basis("complete", 2), S.transverse_basis("cantilever", "modes", 3, tip_joint=True)
     calls = []
-    real_compute = S._compute
+    real_compute = S.compute_inner_products
 
     def counting(*args):
         calls.append(1)
         return real_compute(*args)
 
-    monkeypatch.setattr(S, "_compute", counting)
-    S.clear_memory_cache()
-    ip1 = S.inner_products(a, t)
+    monkeypatch.setattr(S, "compute_inner_products", counting)
+    C.clear_memory_cache()
+    ip1 = C.inner_products(a, t)
     assert len(calls) == 1
-    assert S.inner_products(a, t) is ip1  # memory cache
+    assert C.inner_products(a, t) is ip1  # memory cache
     files = list((tmp_path / "shapes").iterdir())
     assert len(files) == 1 and files[0].suffix == ".json"
     assert S.SHAPES_VERSION in files[0].name and "cantilever" in files[0].name
 
-    S.clear_memory_cache()
-    ip2 = S.inner_products(a, t)  # from disk
+    C.clear_memory_cache()
+    ip2 = C.inner_products(a, t)  # from disk
     assert len(calls) == 1
     for name in ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4"):
         assert np.array_equal(getattr(ip1, name), getattr(ip2, name))
@@ -401,33 +403,33 @@ def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err == ""
 
     files[0].write_bytes(b"not a cache entry \x00\x01")
-    S.clear_memory_cache()
-    ip3 = S.inner_products(a, t)
+    C.clear_memory_cache()
+    ip3 = C.inner_products(a, t)
     assert len(calls) == 2  # corrupt file ignored (said on stderr), recomputed
     assert "symgen: warning: cache entry" in capsys.readouterr().err
     assert np.array_equal(ip3.D4, ip1.D4)
-    again = S._decode_entry(files[0].read_bytes(), files[0].stem)  # and rewritten
+    again = C._decode_entry(files[0].read_bytes(), files[0].stem)  # and rewritten
     assert np.array_equal(again.Kt, ip1.Kt)
     assert sorted(p.name for p in (tmp_path / "shapes").iterdir()) == [files[0].name]  # no temp files left
 
     from symgen import cache  # a verified entry written for another key is not used
     files[0].write_bytes(cache.pack("shapes", files[0].read_bytes().split(b"\n", 1)[1].replace(
         files[0].stem.encode(), b"someone else")))
-    S.clear_memory_cache()
-    S.inner_products(a, t)
+    C.clear_memory_cache()
+    C.inner_products(a, t)
     assert len(calls) == 3
     assert "someone else" in capsys.readouterr().err
-    S.clear_memory_cache()
+    C.clear_memory_cache()
 
 
 def test_memory_cache_keyed_by_parameters(tmp_path, monkeypatch):
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path))
-    S.clear_memory_cache()
+    C.clear_memory_cache()
     a = S.axial_basis("stress-free", 2)
-    ip_a = S.inner_products(a, S.transverse_basis("cantilever", "modes", 2, tip_joint=True))
-    ip_b = S.inner_products(a, S.transverse_basis("cantilever", "modes", 2, tip_joint=False))
+    ip_a = C.inner_products(a, S.transverse_basis("cantilever", "modes", 2, tip_joint=True))
+    ip_b = C.inner_products(a, S.transverse_basis("cantilever", "modes", 2, tip_joint=False))
     assert ip_a is not ip_b and not np.allclose(ip_a.gram, ip_b.gram)
-    assert S.inner_products(S.axial_basis("stress-free", 2),
+    assert C.inner_products(S.axial_basis("stress-free", 2),
                             S.transverse_basis("cantilever", "modes", 2, tip_joint=True)) is ip_a
     assert len(list((tmp_path / "shapes").iterdir())) == 2
-    S.clear_memory_cache()
+    C.clear_memory_cache()

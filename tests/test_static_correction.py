@@ -137,7 +137,7 @@ def test_unknown_kind():
 
 @pytest.mark.parametrize("frame,family", [("pinned-pinned", "modes"), ("cantilever", "eigen")])
 def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
-    from symgen.model.shapes import inner_products
+    from symgen.model.shape_cache import inner_products
     from symgen.model.static_shapes import piecewise_inner_products
     ba, bt = axial_basis("stress-free", 2), transverse_basis(frame, family, 3)
     ref = inner_products(ba, bt)

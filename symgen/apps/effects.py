@@ -301,12 +301,12 @@ class _Runs:
             raise SymgenError(f"the scene itself does not run over the measuring window: {self.ref['status']}")
 
     def run(self, extra: Sequence[str]) -> dict:
-        from symgen.api import mechanism
+        from symgen.numerics.mechanism import load_mechanism
         from symgen.numerics.simulate import simulate
 
         out = {"status": "ok", "steps": None, "simulate_s": None, "error": None, "worst": "", "res": None}
         try:
-            mech = mechanism(self.path, [*self.overrides, *extra])
+            mech = load_mechanism(self.path, [*self.overrides, *extra])
             res = simulate(mech, t_end=self.t_end, output_step=self.step)
         except SymgenError as err:
             interrupt.check()        # a failure while SIGINT/SIGTERM is pending is the interrupt

@@ -62,10 +62,10 @@ def _with_outputs(scene: Scene, outputs: list[Output]) -> Scene:
 
 
 def _dynamic(scene: Scene, t_end: float, step: float, label: str) -> Run:
-    from symgen.api import mechanism
+    from symgen.numerics.mechanism import load_mechanism
     from symgen.numerics.simulate import simulate
 
-    mech = mechanism(scene)
+    mech = load_mechanism(scene)
     tic = time.perf_counter()
     res = simulate(mech, t_end=t_end, output_step=step)
     values = {n: res.column(n) for n in res.output_names}
@@ -74,10 +74,10 @@ def _dynamic(scene: Scene, t_end: float, step: float, label: str) -> Run:
 
 
 def _static(scene: Scene, step: float, label: str) -> Run:
-    from symgen.api import mechanism
+    from symgen.numerics.mechanism import load_mechanism
     from symgen.numerics.quasistatic import quasi_static
 
-    mech = mechanism(scene)
+    mech = load_mechanism(scene)
     tic = time.perf_counter()
     res = quasi_static(mech, output_step=step)
     info = res.solver_info()
@@ -188,10 +188,10 @@ def _second_turn(run: Run, key: str) -> tuple[np.ndarray, np.ndarray]:
 
 def _lowest_mode(scene: Scene, tau: float = 0.0) -> tuple[float, str]:
     """Lowest natural frequency (units of the crank speed) about the quasi-static state."""
-    from symgen.api import mechanism
+    from symgen.numerics.mechanism import load_mechanism
     from symgen.numerics.modes import modes
 
-    md = modes(mechanism(scene), tau, shapes=False).modes[0]
+    md = modes(load_mechanism(scene), tau, shapes=False).modes[0]
     return md.natural_frequency, md.dominant
 
 
@@ -254,9 +254,9 @@ def _slider_crank(path: Path, figs: Figures, quick: bool, notes: list, progress)
     # when the rod's axial response is quasi-static, effects.axial = "auto" on a stiff rod)
     w_ax = {}
     for key, sc in (("seed", seed), ("acc", acc)):
-        from symgen.api import mechanism
+        from symgen.numerics.mechanism import load_mechanism
         from symgen.numerics.modes import modes
-        fr = modes(mechanism(sc), 0.0, shapes=False)
+        fr = modes(load_mechanism(sc), 0.0, shapes=False)
         axial = fr.frequencies("axial", "rod")
         w_ax[key] = (float(axial[0]) if len(axial) else None, fr.frequencies("transverse", "rod")[0])
 

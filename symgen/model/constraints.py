@@ -60,7 +60,8 @@ class Constraints:
 
 
 def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics) -> Constraints:
-    """(11) at every cut joint: pins, slots and sliders, in the topology's order."""
+    """(11) at every cut joint: pins, slots and sliders, in the topology's order (``joints``:
+    name -> :class:`symgen.ir.spec.JointSpec`)."""
     out = Constraints(point_forces={n: [] for n in kins})
     for cut in topo.cuts:
         j = joints[cut.joint]

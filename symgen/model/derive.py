@@ -20,6 +20,17 @@ lumped masses in ``loads`` (rotary inertias and the driver's rotor in ``rotary``
 generalized forces, subtree resultants and residuals in ``residual``, the energy and the
 scene's outputs in ``quantities``. The order of the calls below is the order in which symbols,
 assignments, rows and outputs are made (it decides the CSE order of the emitted code).
+
+The derivation's input is the typed :class:`symgen.ir.spec.ModelSpec` of the scene
+(``structure.model_spec``; its canonical JSON is the model's cache key): the bars (function
+counts, shape families, static corrections, axial treatment, a guide's overhang), the effects,
+the joints of the loop closure, the loads, lumped masses and inertias, the driver's rotor and
+moment, the outputs. Two stages still read the scene itself: the topology (``build_topology``,
+which the numerics' geometry calls with the scene too: its tree edges carry the ground points'
+values, and its error names the scene file) and the angle driver (``angle_driver``: the
+guidance law has one home, ``symgen.scene.motion.driver_angle``, which the runners evaluate too
+and which reads the scene's driver, whose ramp time the spec only records as present). The
+scene's path also names the file in the errors of the slot guides and of the outputs.
 """
 from __future__ import annotations
 
@@ -32,6 +43,7 @@ from symgen.errors import SceneError
 from symgen.ir import names
 from symgen.ir.names import Name
 from symgen.ir.records import CoordKind, Coordinate, DerivedModel, Program
+from symgen.ir.spec import ModelSpec
 from symgen.model.bars import BarEquations, BarSymbols, IPTable
 from symgen.model.constraints import (angle_driver, axial_forces, inextensibility, loop_closure,
                                       quasi_static_stretch)
@@ -40,11 +52,11 @@ from symgen.model.loads import applied_loads
 from symgen.model.quantities import BAR_SHAPE_OUTPUTS, energy, scene_outputs
 from symgen.model.residual import generalized_forces, residuals, subtree_resultants
 from symgen.model.rotary import driver_rotor
-from symgen.model.shapes import Basis, axial_basis, inner_products
+from symgen.model.shape_cache import inner_products
+from symgen.model.shapes import Basis, axial_basis
 from symgen.model.slot import SlotBarKinematics, SlotBasis, SlotIPTable
 from symgen.model.static_shapes import bar_bases
-from symgen.model.structure import (INEXTENSIBLE, axial_treatments, basis_sizes, overhang_modes, structure_key,
-                                    structure_of)
+from symgen.model.structure import INEXTENSIBLE, model_spec, structure_key, structure_of
 from symgen.model.topology import Topology, build_topology
 from symgen.scene.expressions import tau_symbol
 from symgen.scene.model import Scene
@@ -99,63 +111,62 @@ def derive(scene: Scene) -> DerivedModel:
 
 
 def _derive(scene: Scene) -> DerivedModel:
-    structure = structure_of(scene)
+    spec = model_spec(scene)
     topo = build_topology(scene)
     param = Parameters()
-    treatment = {name: t.treatment for name, t in axial_treatments(scene).items()}
-    bars, slot_of = _bars(scene, structure, treatment, param)
+    treatment = spec.axial_treatments()
+    bars, slot_of = _bars(spec, scene.path, treatment, param)
     coords, (q, v, a), slider_s = _coordinates(topo, bars, slot_of)
     kins = {name: bm.kin for name, bm in bars.items()}
     tree = TreeKinematics(topo, kins, param, slider_s)                       # (10)
-    cons = loop_closure(topo, {j.name: j for j in scene.joints}, kins, tree)  # (11)
-    rotor = driver_rotor(scene.driver, param)
+    cons = loop_closure(topo, {j.name: j for j in spec.joints}, kins, tree)  # (11)
+    rotor = driver_rotor(spec.driver, param)
     angle_driver(cons, scene.driver, kins, param)
-    loads = applied_loads(scene, structure["effects"], kins, param)
+    loads = applied_loads(spec, kins, param)
     axial_force = axial_forces(kins, treatment)
 
     prog = Program(inputs={})
-    E = generalized_forces(prog, topo, bars, tree, scene.effects, loads, cons, axial_force)
+    E = generalized_forces(prog, topo, bars, tree, spec.effects, loads, cons, axial_force)
     inextensibility(cons, topo, bars, axial_force)
     S = subtree_resultants(prog, topo, E)
-    drv = scene.driver
+    drv = spec.driver
     moment = None if drv is None else (drv.body, loads.torque if loads.torque is not None else cons.lam[cons.driver_row])
     res = residuals(coords, q, topo, bars, tree, E, S, moment, rotor)
 
     prog.inputs = {"t": (TAU,), "q": q, "v": v, "a": a, "lam": tuple(cons.lam)}
     prog.outputs.update(phi=cons.phi, phid=cons.phid, phidd=cons.phidd, res=res)
     prog.outputs["energy"] = [energy(bars, topo, tree, loads, rotor)]
-    out_names, prog.outputs["out"] = scene_outputs(scene, bars, topo, tree, S, cons, prog.outputs["energy"][0],
+    out_names, prog.outputs["out"] = scene_outputs(spec, scene.path, bars, topo, tree, S, cons, prog.outputs["energy"][0],
                                                    quasi_static_stretch(axial_force, treatment))
     prog.outputs["closure"] = cons.closure
     prog.inputs["p"] = params = param.sorted()
-    return DerivedModel(key=structure_key(structure), scene_name=scene.name, structure=structure,
+    return DerivedModel(key=spec.key(), scene_name=scene.name, structure=spec.to_json(),
                         topology=topo, bars=bars, coords=coords, q=q, v=v, a=a, lam=tuple(cons.lam),
                         lam_rows=cons.rows, params=params, program=prog, output_names=out_names,
                         driver_row=cons.driver_row, timings={})
 
 
-def _bars(scene: Scene, structure: dict, treatment: dict, param: Parameters) -> tuple[dict, dict]:
+def _bars(spec: ModelSpec, path: str, treatment: dict, param: Parameters) -> tuple[dict, dict]:
     """(bar -> BarModel, guide bar -> its slot joint): symbols, shape functions and inner
-    products of every bar; a slot's guide gets the variable span psi(xi, beta)."""
-    eff = scene.effects
+    products of every bar of ``spec``; a slot's guide gets the variable span psi(xi, beta).
+    (``path``: the scene file, named when a bar guides two slots.)"""
     bars: dict[str, BarModel] = {}
-    slot_of = _slot_guides(scene)
-    records = {rec["name"]: rec for rec in structure["bodies"]}
-    for b in scene.bodies:
-        na, nt = basis_sizes(scene, b)       # the bar's functions and its static corrections
+    slot_of = _slot_guides(spec, path)
+    for b in spec.bodies:
+        na, nt = b.sizes                     # the bar's functions and its static corrections
         # lambda: the strain energy (dynamic), the stretch N / lambda (quasi-static), rho = mu / lambda
         sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid,
-                              lam=treatment.get(b.name) != INEXTENSIBLE or eff.rotary_inertia)
+                              lam=treatment.get(b.name) != INEXTENSIBLE or spec.effects.rotary_inertia)
         if b.name in slot_of:
             beta = tuple(names.slot_support(slot_of[b.name], o).symbol() for o in range(3))
             sym = replace(sym, beta=beta)
-            basis = SlotBasis(nt, beta[0], overhang_modes(scene, b))
+            basis = SlotBasis(nt, beta[0], spec.overhang_modes(b.name))
             param.add(sym.alpha, sym.nu, sym.mu)
             ba = axial_basis("complete", 0)
             bars[b.name] = BarModel(b.name, sym, ba, basis, SlotBarKinematics(sym, basis, beta), SlotIPTable(basis))
             continue
         param.add(sym.alpha, sym.nu, sym.lam, sym.mu)
-        ba, bt = bar_bases(records[b.name])
+        ba, bt = bar_bases(b)
         assert (len(ba), len(bt)) == (na, nt), (b.name, len(ba), len(bt), na, nt)
         ipt = IPTable(inner_products(ba, bt))
         bars[b.name] = BarModel(b.name, sym, ba, bt, BarKinematics(sym, ba, bt), ipt)
@@ -190,14 +201,14 @@ def _coordinates(topo: Topology, bars: dict, slot_of: dict) -> tuple[list, tuple
     return coords, (tuple(q), tuple(v), tuple(a)), slider_s
 
 
-def _slot_guides(scene: Scene) -> dict:
+def _slot_guides(spec: ModelSpec, path: str) -> dict:
     """guide bar -> slot joint name (one slot per guide)."""
     out: dict[str, str] = {}
-    for j in scene.joints:
+    for j in spec.joints:
         if j.kind == "slot":
             guide = j.ends[1].body
             if guide in out:
-                raise SceneError(scene.path, f"joints.{j.name}", f"bar {guide!r} already guides slot "
+                raise SceneError(path, f"joints.{j.name}", f"bar {guide!r} already guides slot "
                                  f"{out[guide]!r}; symgen supports one slot per guide bar",
                                  "split the guide into two bars joined by a pin")
             out[guide] = j.name

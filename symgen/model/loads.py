@@ -8,7 +8,7 @@ gravity, point and distributed loads, Kelvin-Voigt damping, and a driver's appli
 * A lumped rotary inertia at a joint is a ``rotary.LumpedRotary`` of the bar carrying it (its
   moment is added to the generalized forces in ``symgen.model.rotary``).
 * Loads are (B, Gamma) groups in bar axes: at a point, or distributed (uniform) on a bar;
-  a value is a parameter, or an expression of tau from the scene.
+  a value is a parameter, or an expression of tau from the scene (held by the model's spec).
 """
 from __future__ import annotations
 
@@ -19,10 +19,11 @@ import sympy as sp
 
 from symgen.ir import names
 from symgen.ir.names import Name
+from symgen.ir.spec import ModelSpec
 from symgen.model.bars import PointForce, rot
 from symgen.model.rotary import LumpedRotary
 from symgen.scene.expressions import parse_tau_expression
-from symgen.scene.model import GROUND, Scene
+from symgen.scene.model import GROUND
 
 
 @dataclass(frozen=True)
@@ -49,21 +50,21 @@ class Loads:
     damping: sp.Symbol | None     # Kelvin-Voigt coefficient, None without damping
 
 
-def applied_loads(scene: Scene, effects: dict, kins: dict, param: Callable[[Name], sp.Symbol]) -> Loads:
-    """The loads of ``scene`` on the bars ``kins`` (bar -> kinematics); ``effects``: the
-    structure's effect switches (gravity, damping)."""
-    drv = scene.driver
+def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol]) -> Loads:
+    """The loads of the model ``spec`` on the bars ``kins`` (bar -> kinematics): a value is a
+    parameter, an expression of tau (held by the spec) is parsed."""
+    drv = spec.driver
     torque = None
     if drv is not None and drv.kind != "angle":
-        torque = parse_tau_expression(drv.torque) if isinstance(drv.torque, str) else param(names.global_parameter("torque"))
-    grav = (param(names.global_parameter("gx")), param(names.global_parameter("gy"))) if effects["gravity"] else None
+        torque = parse_tau_expression(drv.torque) if drv.torque != "const" else param(names.global_parameter("torque"))
+    grav = (param(names.global_parameter("gx")), param(names.global_parameter("gy"))) if spec.effects.gravity else None
     G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
     masses, rotary, points = [], {n: [] for n in kins}, {n: [] for n in kins}
-    for j in scene.joints:
-        if j.inertia > 0:
+    for j in spec.joints:
+        if j.inertia:
             end = next(x for x in j.ends if x.body != GROUND)
             rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(names.joint_parameter("I", j.name))))
-        if j.mass > 0:
+        if j.mass:
             end = next(x for x in j.ends if x.body != GROUND)
             m = param(names.joint_parameter("m", j.name))
             masses.append(LumpedMass(j.name, end.body, end.xi, m))
@@ -73,14 +74,14 @@ def applied_loads(scene: Scene, effects: dict, kins: dict, param: Callable[[Name
             acc = aA + kin.rho_dd(end.xi) - G
             points[end.body].append(PointForce(end.xi, ground=(-m * acc[0], -m * acc[1])))
     dist = {n: [] for n in kins}
-    for i, ld in enumerate(scene.loads):
+    for i, ld in enumerate(spec.loads):
         vals = []
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
-            vals.append(parse_tau_expression(val) if isinstance(val, str) else param(names.load_parameter(i, comp, point=ld.kind != "distributed")))
+            vals.append(parse_tau_expression(val) if val != "const" else param(names.load_parameter(i, comp, point=ld.kind != "distributed")))
         if ld.kind == "distributed":
             dist[ld.body].append(tuple(vals))
         else:
             points[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
-    damping = param(names.global_parameter("damping")) if effects["damping"] else None
+    damping = param(names.global_parameter("damping")) if spec.effects.damping else None
     return Loads(torque, grav, G, masses, rotary, dist, points, damping)

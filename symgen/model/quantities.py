@@ -9,13 +9,14 @@ from __future__ import annotations
 import sympy as sp
 
 from symgen.errors import SceneError
+from symgen.ir.spec import ModelSpec, OutputSpec
 from symgen.model.bars import rot
 from symgen.model.constraints import Constraints
 from symgen.model.kinematics import TreeKinematics
 from symgen.model.loads import Loads
 from symgen.model.rotary import rotary_energy
 from symgen.model.topology import Topology
-from symgen.scene.model import GROUND, Scene
+from symgen.scene.model import GROUND
 
 #: outputs read from a bar's own shape (its amplitudes): a quasi-static bar adds its stretch
 BAR_SHAPE_OUTPUTS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement")
@@ -50,16 +51,16 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
     return total + rotary_energy(bars, [x for n in topo.order for x in loads.rotary[n]], rotor)
 
 
-def scene_outputs(scene: Scene, bars: dict, topo: Topology, tree: TreeKinematics, S: dict, cons: Constraints,
-                  total_energy: sp.Expr, stretch: dict) -> tuple[list, list]:
-    """(names, expressions) of the scene's outputs. ``stretch``: bar -> (N_1, ...) of the
-    quasi-static bars, whose shape reads the stretch N / lambda on top of the inextensible
-    amplitudes."""
-    joints = {j.name: j for j in scene.joints}
+def scene_outputs(spec: ModelSpec, path: str, bars: dict, topo: Topology, tree: TreeKinematics, S: dict,
+                  cons: Constraints, total_energy: sp.Expr, stretch: dict) -> tuple[list, list]:
+    """(names, expressions) of the outputs of the model ``spec`` (``path``: the scene file, for
+    an error). ``stretch``: bar -> (N_1, ...) of the quasi-static bars, whose shape reads the
+    stretch N / lambda on top of the inextensible amplitudes."""
+    joints = {j.name: j for j in spec.joints}
     out_names, out_exprs = [], []
-    for o in scene.outputs:
+    for o in spec.outputs:
         out_names.append(o.name)
-        expr = output(o, scene, bars, topo, joints, tree, S, cons, total_energy)
+        expr = output(o, path, bars, topo, joints, tree, S, cons, total_energy)
         if o.kind in BAR_SHAPE_OUTPUTS and o.body in stretch:
             s = bars[o.body].sym
             expr = expr.xreplace({fk: fk + nk / s.lam for fk, nk in zip(s.f, stretch[o.body])})
@@ -67,9 +68,9 @@ def scene_outputs(scene: Scene, bars: dict, topo: Topology, tree: TreeKinematics
     return out_names, out_exprs
 
 
-def output(o, scene: Scene, bars: dict, topo: Topology, joints: dict, tree: TreeKinematics, S: dict,
+def output(o: OutputSpec, path: str, bars: dict, topo: Topology, joints: dict, tree: TreeKinematics, S: dict,
            cons: Constraints, total_energy: sp.Expr) -> sp.Expr:
-    """The expression of one output ``o`` of the scene."""
+    """The expression of one output ``o`` of the model (``joints``: name -> JointSpec)."""
     k = o.kind
     if k in BAR_SHAPE_OUTPUTS:
         kin = bars[o.body].kin
@@ -121,4 +122,4 @@ def output(o, scene: Scene, bars: dict, topo: Topology, joints: dict, tree: Tree
         bar_idx = 0 if j.ends[0].body != GROUND else 1
         on_bar = cons.lam[rows[0]] * n[comp] * (1 if bar_idx == 0 else -1)   # force on the bar
         return on_bar if bar_idx == 1 else -on_bar
-    raise SceneError(scene.path, f"outputs.{o.name}.kind", f"unknown output kind {k!r}")
+    raise SceneError(path, f"outputs.{o.name}.kind", f"unknown output kind {k!r}")

@@ -28,6 +28,7 @@ import sympy as sp
 
 from symgen.ir import names
 from symgen.ir.names import Name
+from symgen.ir.spec import DriverSpec
 
 
 @dataclass(frozen=True)
@@ -40,9 +41,9 @@ class LumpedRotary:
     inertia: sp.Symbol
 
 
-def driver_rotor(driver, param: Callable[[Name], sp.Symbol]) -> tuple | None:
+def driver_rotor(driver: DriverSpec | None, param: Callable[[Name], sp.Symbol]) -> tuple | None:
     """(driven bar, J) when the driver carries a rotor inertia, else None."""
-    if driver is not None and driver.rotor_inertia > 0:
+    if driver is not None and driver.rotor_inertia:
         return driver.body, param(names.global_parameter("J_rotor"))
     return None
 

@@ -6,7 +6,7 @@ slowly on the kink of the shear force it causes. The *static correction function
 bar's static deflection under a unit force at ``xi_K`` in its deformation frame
 (Euler-Bernoulli, ``EI = 1``, ``l = 1``), Gram-Schmidt orthogonalised in the mass inner
 product against the bar's other functions and scaled to the value 1 at ``xi_K``, exactly as
-the cantilever tip-load shape (:func:`symgen.model.shapes._tip_load_function`) is:
+the cantilever tip-load shape (``_tip_load_function`` of :mod:`symgen.model.shapes`) is:
 
 * pinned-pinned (chord frame): ``b xi (1 - b^2 - xi^2)/6`` left of ``xi_K = a``,
   ``a (1-xi)(1 - a^2 - (1-xi)^2)/6`` right of it (``b = 1 - a``);
@@ -14,25 +14,35 @@ the cantilever tip-load shape (:func:`symgen.model.shapes._tip_load_function`) i
 * axial (``phi(0) = 0``, free end): ``xi`` left, ``a`` right.
 
 These are piecewise polynomials, so the inner products stay closed form: the exact
-integrator of :mod:`symgen.model.shapes` is extended here to sub-intervals ``[lo, hi]`` of
+integrator of :mod:`symgen.model.terms` is extended here to sub-intervals ``[lo, hi]`` of
 ``[0, 1]`` (``int_lo^hi xi^p exp(s xi)`` in closed form at the engine's 50 digits; ``xi_K``
-enters as the exact rational of the scene's float).
+enters as the exact rational of the scene's float). Their inner products are cached by
+:mod:`symgen.model.shape_cache`.
 """
 from __future__ import annotations
 
 import functools
+import itertools
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any, Sequence
 
-from symgen.model.shapes import _DPS, _MP, ShapeFunction, _s_value, _sadd, _Terms, _tnew
+import sympy
+
+from symgen.ir.spec import BodySpec
+from symgen.model.shapes import XI, Basis, InnerProducts, ShapeFunction, axial_basis, basis_of_key, transverse_basis
+from symgen.model.terms import DPS, MP, Table, Terms, multiply, new_terms, poly_terms, s_add, s_value
 
 __all__ = ["STATIC_KINDS", "Piecewise", "StaticCorrection", "static_correction",
            "piecewise_inner", "piecewise_inner_products", "static_polynomials",
-           "corrected_basis", "corrected_inner_products", "bar_bases"]
+           "corrected_basis", "bar_bases", "STATIC_VERSION"]
 
 #: (direction, frame) pairs that have a static correction function.
 STATIC_KINDS = ("pinned-pinned", "cantilever", "axial")
+
+#: bump when a change here changes a cached number of the corrected bases (part of their cache
+#: entries' names, :mod:`symgen.model.shape_cache`)
+STATIC_VERSION = "1"
 
 
 # --------------------------------------------------------------------------------------
@@ -41,17 +51,17 @@ STATIC_KINDS = ("pinned-pinned", "cantilever", "axial")
 def _j01(p: int, z: Any) -> Any:
     """``int_0^1 u^p exp(z u) du`` at 50 digits, closed form (series when ``|z| < 2``)."""
     if z == 0:
-        return _MP.mpc(1) / (p + 1)
+        return MP.mpc(1) / (p + 1)
     if abs(z.real) + abs(z.imag) < 2:
-        r, term, j = _MP.mpc(0), _MP.mpc(1), 0
+        r, term, j = MP.mpc(0), MP.mpc(1), 0
         while True:
             add = term / (p + j + 1)
             r += add
-            if j > 4 and abs(add) < _MP.mpf(10) ** (-_DPS - 5) * max(abs(r), 1):
+            if j > 4 and abs(add) < MP.mpf(10) ** (-DPS - 5) * max(abs(r), 1):
                 return r
             j += 1
             term = term * z / j
-    e = _MP.exp(z)
+    e = MP.exp(z)
     r = (e - 1) / z
     for q in range(1, p + 1):
         r = e / z - q * r / z
@@ -65,16 +75,16 @@ def _j_upto(p: int, s: int, x: Any) -> Any:
     """``int_0^x t^p exp(s t) dt = x^(p+1) int_0^1 u^p exp(s x u) du`` (memoised; exponent
     ids are only ever created, never recycled, for the exponents of our functions)."""
     if x == 0:
-        return _MP.mpc(0)
+        return MP.mpc(0)
     key = (p, s, x)
     r = _J_UPTO.get(key)
     if r is None:
-        sv = _s_value(s) if s else 0
+        sv = s_value(s) if s else 0
         r = _J_UPTO[key] = x ** (p + 1) * _j01(p, sv * x)
     return r
 
 
-def _integrate_product_on(a: _Terms, b: _Terms, lo: Any, hi: Any) -> Any:
+def _integrate_product_on(a: Terms, b: Terms, lo: Any, hi: Any) -> Any:
     """``int_lo^hi a b dxi`` of two real functions, term by term in closed form: the conjugate
     exponent pairs of ``a`` folded (the real part of the sum over one of each pair, doubled, is
     the sum) and the products' coefficients gathered per exponent before each integral is taken."""
@@ -83,21 +93,21 @@ def _integrate_product_on(a: _Terms, b: _Terms, lo: Any, hi: Any) -> Any:
     B = list(b.d.items())
     for p1, s1, c1 in a.half_items():
         for (p2, s2), c2 in B:
-            key = (p1 + p2, _sadd(s1, s2))
+            key = (p1 + p2, s_add(s1, s2))
             c = c1 * c2
             prev = acc.get(key)
             acc[key] = c if prev is None else prev + c
-    tot = _MP.mpc(0)
+    tot = MP.mpc(0)
     for (p, s), c in acc.items():
         tot += c * (_j_upto(p, s, hi) - _j_upto(p, s, lo))
-    return _MP.mpf(tot.real)
+    return MP.mpf(tot.real)
 
 
 # --------------------------------------------------------------------------------------
 # Piecewise functions
 # --------------------------------------------------------------------------------------
 def _mpq(q: Fraction) -> Any:
-    return _MP.mpf(q.numerator) / q.denominator
+    return MP.mpf(q.numerator) / q.denominator
 
 
 @dataclass(frozen=True)
@@ -106,7 +116,7 @@ class Piecewise:
     from 0 to 1. A plain :class:`ShapeFunction` is the one-piece case."""
 
     breaks: tuple[Fraction, ...]
-    pieces: tuple[_Terms, ...]
+    pieces: tuple[Terms, ...]
 
     @staticmethod
     def of(f: ShapeFunction | Piecewise) -> Piecewise:
@@ -114,11 +124,11 @@ class Piecewise:
             return f
         if isinstance(f, StaticCorrection):
             return f.function
-        if f._terms is None:
+        if f.terms is None:
             raise ValueError(f"shape function {f.label!r} has no term form")
-        return Piecewise((Fraction(0), Fraction(1)), (f._terms,))
+        return Piecewise((Fraction(0), Fraction(1)), (f.terms,))
 
-    def piece_at(self, xi: float, right: bool = True) -> _Terms:
+    def piece_at(self, xi: float, right: bool = True) -> Terms:
         x = Fraction(xi)
         for i in range(len(self.pieces)):
             lo, hi = self.breaks[i], self.breaks[i + 1]
@@ -142,7 +152,7 @@ def piecewise_inner(f: Any, g: Any, deriv: int = 0) -> float:
 
 def _inner_mp(f: Piecewise, g: Piecewise, deriv: int = 0) -> Any:
     cuts = sorted(set(f.breaks) | set(g.breaks))
-    tot = _MP.mpf(0)
+    tot = MP.mpf(0)
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         mid = (lo + hi) / 2
         a = f.piece_at(mid).deriv(deriv)
@@ -192,8 +202,8 @@ def static_polynomials(kind: str, xi_k: float) -> tuple[Fraction, list[Fraction]
     return a, left, right
 
 
-def _poly_mp(coeffs: Sequence[Fraction]) -> _Terms:
-    return _tnew({(p, 0): _MP.mpc(_mpq(c)) for p, c in enumerate(coeffs) if c}, exact=False)
+def _poly_mp(coeffs: Sequence[Fraction]) -> Terms:
+    return new_terms({(p, 0): MP.mpc(_mpq(c)) for p, c in enumerate(coeffs) if c}, exact=False)
 
 
 @dataclass(frozen=True)
@@ -225,7 +235,7 @@ class StaticCorrection:
     beta = None
     sigma = None
     tip_value = None
-    _terms = None
+    terms = None
 
     def value(self, xi: float, deriv: int = 0) -> float:
         return self.function.value(xi, deriv)
@@ -253,13 +263,13 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
     m = len(fs)
     coeffs: list[Any] = []
     if m:
-        G = _MP.matrix(m, m)
-        r = _MP.matrix(m, 1)
+        G = MP.matrix(m, m)
+        r = MP.matrix(m, 1)
         for i in range(m):
             r[i] = _inner_mp(w, fs[i])
             for j in range(i, m):
                 G[i, j] = G[j, i] = _inner_mp(fs[i], fs[j])
-        c = _MP.lu_solve(G, r)
+        c = MP.lu_solve(G, r)
         coeffs = [c[i] for i in range(m)]
     breaks = sorted(set(w.breaks).union(*(f.breaks for f in fs)))
     pieces = []
@@ -268,14 +278,14 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
         d = dict(w.piece_at(mid).d)
         for ck, f in zip(coeffs, fs):
             for key, val in f.piece_at(mid).as_mp().d.items():
-                d[key] = d.get(key, _MP.mpc(0)) - ck * val
+                d[key] = d.get(key, MP.mpc(0)) - ck * val
         pieces.append(d)
-    rest = Piecewise(tuple(breaks), tuple(_Terms(d, exact=False) for d in pieces))
+    rest = Piecewise(tuple(breaks), tuple(Terms(d, exact=False) for d in pieces))
     t = rest.value(xi_k)
     if abs(t) < 1e-13 * max(1.0, max(abs(float(x)) for x in (left + right))):
         raise ValueError(f"the static shape at xi = {xi_k} already lies in the span of the "
                          "bar's functions: no correction function to add")
-    scaled = Piecewise(rest.breaks, tuple(_Terms({k: v / t for k, v in p.d.items()}, exact=False)
+    scaled = Piecewise(rest.breaks, tuple(Terms({k: v / t for k, v in p.d.items()}, exact=False)
                                           for p in rest.pieces))
     label = r"\chi_{%s}" % format(float(xi_k), "g")
     return StaticCorrection(kind, float(xi_k), a, tuple(left), tuple(right),
@@ -285,7 +295,7 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
 # --------------------------------------------------------------------------------------
 # Every inner product of a bar whose bases hold correction functions
 # --------------------------------------------------------------------------------------
-def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]):
+def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]) -> InnerProducts:
     """The :class:`symgen.model.shapes.InnerProducts` of a bar whose axial functions ``axial`` and
     transverse functions ``transverse`` may include piecewise (static correction) functions.
 
@@ -293,57 +303,52 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]):
     split at the union of the functions' break points and done in closed form on each piece
     (50 digits; the ``exact`` tables hold 50-digit Floats).
     """
-    import itertools
-
-    from symgen.model.shapes import InnerProducts, _poly_terms, _Table, _tmul
-
     phi = [Piecewise.of(f) for f in axial]
     psi = [Piecewise.of(f) for f in transverse]
     na, nt = len(phi), len(psi)
     cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in phi + psi)))
     ivals = [(lo, hi, (lo + hi) / 2) for lo, hi in zip(cuts[:-1], cuts[1:])]
     lims = [(_mpq(lo), _mpq(hi)) for lo, hi, _ in ivals]
-    one, xi = _poly_terms({0: Fraction(1)}).as_mp(), _poly_terms({1: Fraction(1)}).as_mp()
+    one, xi = poly_terms({0: Fraction(1)}).as_mp(), poly_terms({1: Fraction(1)}).as_mp()
 
-    def at(fs: list[Piecewise], d: int) -> list[list[_Terms]]:   # [function][interval]
+    def at(fs: list[Piecewise], d: int) -> list[list[Terms]]:   # [function][interval]
         return [[f.piece_at(mid).as_mp().deriv(d) for _, _, mid in ivals] for f in fs]
 
     b = [[one] * len(ivals), [xi] * len(ivals)] + at(phi, 0) + at(psi, 0)
     dphi, dpsi, ddpsi = at(phi, 1), at(psi, 1), at(psi, 2)
 
-    def ip(u: list[_Terms], v: list[_Terms]) -> Any:
+    def ip(u: list[Terms], v: list[Terms]) -> Any:
         return sum((_integrate_product_on(x, y, lo, hi) for x, y, (lo, hi) in zip(u, v, lims)),
-                   _MP.mpf(0))
+                   MP.mpf(0))
 
     N = len(b)
-    gram = _Table((N, N))
+    gram = Table((N, N))
     for i in range(N):
         for j in range(i, N):
-            gram.set({(i, j), (j, i)}, _MP.mpc(ip(b[i], b[j])))
-    Ka = _Table((na, na))
+            gram.set({(i, j), (j, i)}, MP.mpc(ip(b[i], b[j])))
+    Ka = Table((na, na))
     for i in range(na):
         for j in range(i, na):
-            Ka.set({(i, j), (j, i)}, _MP.mpc(ip(dphi[i], dphi[j])))
-    Kt, Pd = _Table((nt, nt)), _Table((nt, nt))
+            Ka.set({(i, j), (j, i)}, MP.mpc(ip(dphi[i], dphi[j])))
+    Kt, Pd = Table((nt, nt)), Table((nt, nt))
     for i in range(nt):
         for j in range(i, nt):
-            Kt.set({(i, j), (j, i)}, _MP.mpc(ip(ddpsi[i], ddpsi[j])))
-            Pd.set({(i, j), (j, i)}, _MP.mpc(ip(dpsi[i], dpsi[j])))
-    psid1 = _Table((nt,))
+            Kt.set({(i, j), (j, i)}, MP.mpc(ip(ddpsi[i], ddpsi[j])))
+            Pd.set({(i, j), (j, i)}, MP.mpc(ip(dpsi[i], dpsi[j])))
+    psid1 = Table((nt,))
     for a in range(nt):
-        psid1.set({(a,)}, _MP.mpc(ip(dpsi[a], [one] * len(ivals))))
+        psid1.set({(a,)}, MP.mpc(ip(dpsi[a], [one] * len(ivals))))
     pairs = [(a, c) for a in range(nt) for c in range(a, nt)]
-    P = {(a, c): [_tmul(x, y) for x, y in zip(dpsi[a], dpsi[c])] for a, c in pairs}
-    C3 = _Table((na, nt, nt))
+    P = {(a, c): [multiply(x, y) for x, y in zip(dpsi[a], dpsi[c])] for a, c in pairs}
+    C3 = Table((na, nt, nt))
     for k in range(na):
         for a, c in pairs:
-            C3.set({(k, a, c), (k, c, a)}, _MP.mpc(ip(dphi[k], P[(a, c)])))
-    D4 = _Table((nt, nt, nt, nt))
+            C3.set({(k, a, c), (k, c, a)}, MP.mpc(ip(dphi[k], P[(a, c)])))
+    D4 = Table((nt, nt, nt, nt))
     for idx in itertools.combinations_with_replacement(range(nt), 4):
         a, c, d, e = idx
-        D4.set(set(itertools.permutations(idx)), _MP.mpc(ip(P[(a, c)], P[(d, e)])))
+        D4.set(set(itertools.permutations(idx)), MP.mpc(ip(P[(a, c)], P[(d, e)])))
     _J_UPTO.clear()
-    import sympy
     exact = {"gram": gram.matrix(), "Ka": Ka.matrix(), "Kt": Kt.matrix(), "Pd": Pd.matrix(),
              "psid1": sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)]),
              "C3": C3.array(), "D4": D4.array()}
@@ -356,25 +361,19 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]):
 # Bases that end with correction functions, their cached inner products
 # --------------------------------------------------------------------------------------
 def _poly_expr(coeffs: Sequence[Fraction]) -> Any:
-    import sympy
-
-    from symgen.model.shapes import XI
     return sympy.Add(*[sympy.Rational(c.numerator, c.denominator) * XI ** p
                        for p, c in enumerate(coeffs) if c])
 
 
 def _correction_expr(sc: StaticCorrection, others: Sequence[Any]) -> Any:
     """``(w_K - sum_k c_k f_k) / t`` as a sympy expression in XI (w_K a sympy Piecewise)."""
-    import sympy
-
-    from symgen.model.shapes import XI
     a = sympy.Rational(sc.a.numerator, sc.a.denominator)
     w = sympy.Piecewise((_poly_expr(sc.left), XI <= a), (_poly_expr(sc.right), True))
     rest = sympy.Add(*[sympy.Float(c, 17) * f.expr for c, f in zip(sc.coeffs, others)])
     return (w - rest) / sympy.Float(sc.scale, 17)
 
 
-def corrected_basis(basis: Any, points: Sequence[float]) -> Any:
+def corrected_basis(basis: Basis, points: Sequence[float]) -> Basis:
     """``basis`` followed by one static correction function per interior point (in order; each
     mass-orthogonal to every function before it). ``basis`` must be a standard basis of
     :func:`symgen.model.shapes.axial_basis` / :func:`symgen.model.shapes.transverse_basis`; no points: itself."""
@@ -385,9 +384,8 @@ def corrected_basis(basis: Any, points: Sequence[float]) -> Any:
 
 
 @functools.lru_cache(maxsize=256)
-def _corrected_basis(key: tuple, pts: tuple[float, ...]) -> Any:
-    from symgen.model.shapes import Basis, _rebuild
-    base = _rebuild(key)
+def _corrected_basis(key: tuple, pts: tuple[float, ...]) -> Basis:
+    base = basis_of_key(key)
     kind = "axial" if base.direction == "axial" else base.frame
     funcs: list[Any] = list(base.functions)
     for x in pts:
@@ -396,53 +394,13 @@ def _corrected_basis(key: tuple, pts: tuple[float, ...]) -> Any:
     return Basis(base.direction, base.family, base.frame, tuple(funcs), base.tip_joint, pts)
 
 
-def bar_bases(record: dict) -> tuple[Any, Any]:
-    """(axial, transverse) bases of a bar from its record in ``structure_of(scene)["bodies"]``
-    (``na``/``nt`` count the standard functions; ``static_points`` adds the corrections)."""
-    from symgen.model.shapes import axial_basis, transverse_basis
-    pts = record.get("static_points") or {}
-    ba = axial_basis(record["axial_shapes"] or "complete", record["na"])
-    bt = transverse_basis(record["frame"] or "pinned-pinned", record["transverse_shapes"] or "modes",
-                          record["nt"], tip_joint=record["tip_joint"])
-    return corrected_basis(ba, pts.get("axial", ())), corrected_basis(bt, pts.get("transverse", ()))
-
-
-def _static_cache_name(axial: Any, transverse: Any) -> str:
-    import hashlib
-
-    from symgen.model.shapes import SHAPES_VERSION
-
-    def part(b: Any) -> str:
-        direction, family, frame, n, tip = b.key
-        head = f"{direction}-{family}-{frame}-n{n}-tip{int(tip)}"
-        if not b.points:
-            return head
-        pts = hashlib.sha256(repr([float(x).hex() for x in b.points]).encode()).hexdigest()[:12]
-        return f"{head}-s{len(b.points)}-{pts}"
-
-    return f"v{SHAPES_VERSION}s{STATIC_VERSION}__{part(axial)}__{part(transverse)}"
-
-
-#: bump when a change here changes a cached number of the corrected bases
-STATIC_VERSION = "1"
-
-
-def corrected_inner_products(axial: Any, transverse: Any) -> Any:
-    """:func:`piecewise_inner_products` of two bases made by :func:`corrected_basis`, cached in
-    memory and on disk beside :func:`symgen.model.shapes.inner_products`' entries (same format and
-    checks; the name holds the interior points)."""
-    return _cached_corrected(axial.key, tuple(axial.points), transverse.key, tuple(transverse.points))
-
-
-@functools.lru_cache(maxsize=64)
-def _cached_corrected(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple) -> Any:
-    from symgen.model.shapes import _load, _rebuild, _store, cache_dir
-    ba = corrected_basis(_rebuild(akey), apts)
-    bt = corrected_basis(_rebuild(tkey), tpts)
-    name = _static_cache_name(ba, bt)
-    path = cache_dir() / (name + ".json")
-    ip = _load(path, name)
-    if ip is None:
-        ip = piecewise_inner_products(ba.functions, bt.functions)
-        _store(path, name, ip)
-    return ip
+def bar_bases(body: BodySpec | dict) -> tuple[Basis, Basis]:
+    """(axial, transverse) bases of a bar from its :class:`symgen.ir.spec.BodySpec` (or that
+    record's JSON, as a cached model's ``structure["bodies"]`` holds it): ``na``/``nt`` count the
+    standard functions, the static correction points add the corrections."""
+    if isinstance(body, dict):
+        body = BodySpec.from_json(body)
+    ba = axial_basis(body.axial_shapes or "complete", body.na)
+    bt = transverse_basis(body.frame or "pinned-pinned", body.transverse_shapes or "modes", body.nt,
+                          tip_joint=body.tip_joint)
+    return corrected_basis(ba, body.static_axial), corrected_basis(bt, body.static_transverse)

@@ -1,16 +1,17 @@
 """What shapes a derived model: the scene's *structure* (topology, effects, mode counts, shape
-families, outputs), and the cache key made from it. Values (lambda, mu, lengths, rates, loads)
-are not part of it: changing them reuses the cached model.
+families, outputs) as the typed record :class:`symgen.ir.spec.ModelSpec` (:func:`model_spec`),
+and the cache key made from it. Values (lambda, mu, lengths, rates, loads) are not part of it:
+changing them reuses the cached model.
 
 Kept free of SymPy so that a cached run never imports it.
 """
 from __future__ import annotations
 
-import hashlib
-import json
 from dataclasses import dataclass
 
 from symgen import __version__
+from symgen.ir.spec import (DYNAMIC, INEXTENSIBLE, QUASI_STATIC, BodySpec, DriverSpec, EffectsSpec, EndSpec, JointSpec,
+                            LoadSpec, ModelSpec, OutputSpec, spec_key)
 from symgen.scene.model import Scene
 
 DERIVE_VERSION = "5"   # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
@@ -33,10 +34,6 @@ def overhang_modes(scene: Scene, body) -> int:
         return 0
     return sum(j.overhang_modes for j in scene.joints if j.kind == "slot" and j.ends[1].body == body.name)
 
-
-INEXTENSIBLE = "inextensible"
-QUASI_STATIC = "quasi_static"
-DYNAMIC = "dynamic"
 
 #: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
 #: frequency is at least this many times the fastest motion the run must resolve: the quasi-static
@@ -194,51 +191,42 @@ def basis_sizes(scene: Scene, body) -> tuple[int, int]:
     return na + len(pts.get("axial", ())), nt + len(pts.get("transverse", ()))
 
 
-def structure_of(scene: Scene) -> dict:
-    """Everything that shapes the derived equations (and nothing that is only a value)."""
+def model_spec(scene: Scene) -> ModelSpec:
+    """The typed input of the derivation: everything of ``scene`` that shapes the derived
+    equations (and nothing that is only a value)."""
     eff = scene.effects
     bodies = []
     for b in scene.bodies:
         na, nt = effective_modes(scene, b)
-        bodies.append({"name": b.name, "rigid": b.rigid, "frame": b.frame, "na": na, "nt": nt,
-                       "axial_shapes": b.axial_shapes if na else "", "transverse_shapes": b.transverse_shapes if nt else "",
-                       "tip_joint": _tip_joint(scene, b.name) if nt else False})
         pts = static_points(scene, b)
-        if pts:                        # only then: the keys of scenes without them are unchanged
-            bodies[-1]["static_points"] = {k: list(v) for k, v in pts.items()}
-    joints = [{"name": j.name, "kind": j.kind, "ends": [[e.body, e.xi] for e in j.ends],
-               "mass": j.mass > 0} for j in scene.joints]
-    for rec, j in zip(joints, scene.joints):
-        if j.inertia > 0:              # only then: the keys of scenes without it are unchanged
-            rec["inertia"] = True
-        if j.kind == "slot":
-            rec["overhang"] = [j.overhang, j.overhang_modes]
+        bodies.append(BodySpec(b.name, b.rigid, b.frame, na, nt, b.axial_shapes if na else "",
+                               b.transverse_shapes if nt else "", _tip_joint(scene, b.name) if nt else False,
+                               tuple(pts.get("axial", ())), tuple(pts.get("transverse", ()))))
+    joints = tuple(JointSpec(j.name, j.kind, tuple(EndSpec(e.body, e.xi) for e in j.ends), j.mass > 0, j.inertia > 0,
+                             (j.overhang, j.overhang_modes) if j.kind == "slot" else None) for j in scene.joints)
     drv = None
     if scene.driver is not None:
         d = scene.driver
-        drv = {"kind": d.kind, "body": d.body,
-               "torque": d.torque if isinstance(d.torque, str) else "const"}
-        if d.law is not None:          # only then: the keys of constant-speed scenes are unchanged
-            drv["law"] = d.law
-        if d.ramp is not None:
-            drv["ramp"] = True
-        if d.rotor_inertia > 0:
-            drv["rotor_inertia"] = True
-    loads = [{"body": ld.body, "kind": ld.kind, "xi": ld.xi,
-              "axial": ld.axial if isinstance(ld.axial, str) else "const",
-              "transverse": ld.transverse if isinstance(ld.transverse, str) else "const"} for ld in scene.loads]
-    outputs = [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "xi": o.xi,
-                "component": o.component} for o in scene.outputs]
-    effects = {"coriolis": eff.coriolis, "geometric_stiffening": eff.geometric_stiffening,
-               "rotary_inertia": eff.rotary_inertia, "strain": eff.strain,
-               "gravity": any(x != 0 for x in eff.gravity), "damping": eff.damping > 0}
+        drv = DriverSpec(d.kind, d.body, d.torque if isinstance(d.torque, str) else "const", d.law,
+                         d.ramp is not None, d.rotor_inertia > 0)
+    loads = tuple(LoadSpec(ld.body, ld.kind, ld.xi, ld.axial if isinstance(ld.axial, str) else "const",
+                           ld.transverse if isinstance(ld.transverse, str) else "const") for ld in scene.loads)
+    outputs = tuple(OutputSpec(o.name, o.kind, o.body, o.joint, o.xi, o.component) for o in scene.outputs)
     treat = axial_treatments(scene)
+    axial = None
     if any(t.treatment in (QUASI_STATIC, INEXTENSIBLE) for t in treat.values()):
-        # only then: the keys of every other scene are unchanged
-        effects["axial"] = {name: t.treatment for name, t in sorted(treat.items())}
-    return {"version": [__version__, DERIVE_VERSION], "bodies": bodies, "joints": joints, "driver": drv,
-            "effects": effects, "loads": loads, "outputs": outputs}
+        axial = tuple((name, t.treatment) for name, t in sorted(treat.items()))
+    effects = EffectsSpec(eff.coriolis, eff.geometric_stiffening, eff.rotary_inertia, eff.strain,
+                          any(x != 0 for x in eff.gravity), eff.damping > 0, axial)
+    return ModelSpec((__version__, DERIVE_VERSION), tuple(bodies), joints, drv, effects, loads, outputs)
 
 
-def structure_key(structure: dict) -> str:
-    return hashlib.sha256(json.dumps(structure, sort_keys=True).encode()).hexdigest()[:20]
+def structure_of(scene: Scene) -> dict:
+    """The canonical JSON of :func:`model_spec` (what the cache key hashes, what a derived
+    model and its cache entry carry as ``structure``)."""
+    return model_spec(scene).to_json()
+
+
+def structure_key(structure: ModelSpec | dict) -> str:
+    """The model cache's key of a spec or of its canonical JSON (a cache entry's ``structure``)."""
+    return spec_key(structure.to_json() if isinstance(structure, ModelSpec) else structure)

@@ -48,10 +48,6 @@ class Topology:
         return len(self.cuts)
 
 
-def _other(joint: Joint, body: str) -> int:
-    return 1 if joint.ends[0].body == body else 0
-
-
 def build_topology(scene: Scene) -> Topology:
     """Breadth-first spanning tree from ground (pins preferred), the rest are cut joints."""
     incident: dict[str, list[Joint]] = {GROUND: []}

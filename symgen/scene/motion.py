@@ -59,16 +59,6 @@ def driver_angle(driver: Any, tau: Any, theta0: Any, rate: Any, ramp: Any = None
     return theta0 + rate * tau
 
 
-def law_structure(driver: Any) -> dict:
-    """What of an angle driver shapes the derived equations (keys only when used, so the
-    cache keys of constant-speed scenes are unchanged)."""
-    if driver.law is not None:
-        return {"law": driver.law}
-    if driver.ramp is not None:
-        return {"ramp": True}
-    return {}
-
-
 def driver_record(driver: Any) -> dict | None:
     """The driver as plain data for a run's JSON sidecar (the law as written; angles in rad,
     times in tau)."""

@@ -1,0 +1,230 @@
+"""The on-disk (and in-memory) cache of the closed-form inner products of a bar's bases.
+
+:func:`inner_products` is the entry point of the derivation: for two standard bases it caches
+:func:`symgen.model.shapes.compute_inner_products`, for bases closed by static correction
+functions :func:`symgen.model.static_shapes.piecewise_inner_products`. Results are cached in
+memory per basis key (with the interior points of the corrections) and on disk as one JSON file
+per pair of bases in :func:`cache_dir`, written atomically with the keyed hash of its content,
+checked before it is parsed; an entry that does not verify is said on stderr, recomputed and
+rewritten; pickles of older versions are never read.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from symgen import cache, exprdata
+from symgen.model import shapes, static_shapes
+from symgen.model.shapes import SHAPES_VERSION, Basis, InnerProducts, basis_of_key
+from symgen.model.static_shapes import STATIC_VERSION, corrected_basis
+
+__all__ = ["cache_dir", "clear_memory_cache", "corrected_inner_products", "inner_products"]
+
+
+def cache_dir() -> Path:
+    """Directory of the on-disk inner-product cache: ``$SYMGEN_CACHE_DIR/shapes``
+    (default ``~/.cache/symgen/shapes``)."""
+    return cache.shapes_dir()
+
+
+def _cache_name(akey: tuple, tkey: tuple) -> str:
+    def part(k: tuple) -> str:
+        direction, family, frame, n, tip = k
+        return f"{direction}-{family}-{frame}-n{n}-tip{int(tip)}"
+
+    return f"v{SHAPES_VERSION}__{part(akey)}__{part(tkey)}"
+
+
+def _freeze(ip: InnerProducts) -> InnerProducts:
+    for name in ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4"):
+        getattr(ip, name).flags.writeable = False
+    return ip
+
+
+# On disk an entry is one file made by symgen.cache.pack: a header line with the keyed hash of the
+# JSON payload that follows. The payload holds the float arrays as lists (repr round-trips
+# exactly) and the exact values as symgen.exprdata trees. Never pickle.
+_CACHE_KIND = "shapes"
+_ARRAYS = ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4")
+_MAX_ENTRY_BYTES = 1 << 28
+
+
+def _shapes_of(na: int, nt: int) -> dict[str, tuple[int, ...]]:
+    nb = 2 + na + nt
+    return {"gram": (nb, nb), "Ka": (na, na), "Kt": (nt, nt), "Pd": (nt, nt), "psid1": (nt,),
+            "C3": (na, nt, nt), "D4": (nt, nt, nt, nt)}
+
+
+def _encode_entry(name: str, ip: InnerProducts) -> bytes:
+    doc = {"key": name, "version": SHAPES_VERSION, "na": ip.na, "nt": ip.nt,
+           "floats": {a: [float(x) for x in getattr(ip, a).ravel()] for a in _ARRAYS},
+           "exact": {a: exprdata.encode_tensor(ip.exact[a]) for a in _ARRAYS}}
+    return cache.pack(_CACHE_KIND, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
+
+
+def _decode_entry(data: bytes, name: str) -> InnerProducts:
+    """The inner products of a verified entry; ``cache.InvalidEntry`` for anything else."""
+    payload = cache.unpack(_CACHE_KIND, data)   # keyed hash checked before any parsing
+
+    def bad(what: str) -> Exception:
+        return cache.InvalidEntry(f"is not a valid shape entry ({what})")
+
+    def no_constant(c):
+        raise ValueError(f"non-finite number {c}")
+    try:
+        doc = json.loads(payload.decode("utf-8"), parse_constant=no_constant)
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise bad(f"JSON: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != SHAPES_VERSION:
+        raise bad(f"written for {doc.get('key') if isinstance(doc, dict) else None!r}")
+    na, nt = doc.get("na"), doc.get("nt")
+    if not all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= 1000 for n in (na, nt)):
+        raise bad("mode counts")
+    floats, exact = doc.get("floats"), doc.get("exact")
+    if not isinstance(floats, dict) or not isinstance(exact, dict) or \
+            set(floats) != set(_ARRAYS) or set(exact) != set(_ARRAYS):
+        raise bad(f"it must hold exactly {', '.join(_ARRAYS)}")
+    arrays, values = {}, {}
+    for a, shape in _shapes_of(na, nt).items():
+        flat = floats[a]
+        if not isinstance(flat, list) or len(flat) != math.prod(shape) or not all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in flat):
+            raise bad(f"{a}: not {math.prod(shape)} finite numbers")
+        arrays[a] = np.array(flat, dtype=float).reshape(shape)
+        try:
+            values[a] = exprdata.decode_tensor(exact[a])
+        except (ValueError, TypeError, RecursionError) as exc:
+            raise bad(f"{a}: {exc}") from None
+        want = shape if a != "psid1" else (nt, 1)
+        if tuple(values[a].shape) != want:
+            raise bad(f"{a}: exact values of shape {tuple(values[a].shape)}, not {want}")
+    return _freeze(InnerProducts(na=na, nt=nt, exact=values, **arrays))
+
+
+def _load(path: Path, name: str) -> InnerProducts | None:
+    """The verified entry at ``path``; None when there is none or it does not verify (then said
+    in one line on stderr: it is recomputed and overwritten)."""
+    try:
+        data = cache.read_bytes(path, _MAX_ENTRY_BYTES)
+        return _decode_entry(data, name)
+    except FileNotFoundError:
+        return None
+    except cache.InvalidEntry as exc:
+        cache.report_invalid(path, exc.reason)
+    except OSError as exc:
+        cache.report_invalid(path, f"cannot be read ({exc})")
+    return None
+
+
+def _store(path: Path, name: str, ip: InnerProducts) -> None:
+    try:
+        data = _encode_entry(name, ip)
+    except (ValueError, cache.KeyUnavailable) as exc:  # no key of this user: not cached, said once per entry
+        cache.report_unwritable(path, exc)
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        cache.sweep_stale(path.parent)
+        fd, tmp = tempfile.mkstemp(prefix=f"{cache.TEMP_PREFIX}{path.name}-", dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(data)
+            os.replace(tmp, path)
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+    except OSError as exc:
+        cache.report_unwritable(path, exc)
+
+
+@functools.lru_cache(maxsize=128)
+def _cached(akey: tuple, tkey: tuple) -> InnerProducts:
+    name = _cache_name(akey, tkey)
+    path = cache_dir() / (name + ".json")
+    ip = _load(path, name)
+    if ip is None:
+        ip = shapes.compute_inner_products(basis_of_key(akey), basis_of_key(tkey))
+        _store(path, name, ip)
+    return ip
+
+
+def _static_cache_name(axial: Basis, transverse: Basis) -> str:
+    def part(b: Basis) -> str:
+        direction, family, frame, n, tip = b.key
+        head = f"{direction}-{family}-{frame}-n{n}-tip{int(tip)}"
+        if not b.points:
+            return head
+        pts = hashlib.sha256(repr([float(x).hex() for x in b.points]).encode()).hexdigest()[:12]
+        return f"{head}-s{len(b.points)}-{pts}"
+
+    return f"v{SHAPES_VERSION}s{STATIC_VERSION}__{part(axial)}__{part(transverse)}"
+
+
+def corrected_inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
+    """:func:`symgen.model.static_shapes.piecewise_inner_products` of two bases made by
+    :func:`symgen.model.static_shapes.corrected_basis`, cached in memory and on disk beside the
+    standard bases' entries (same format and checks; the name holds the interior points)."""
+    return _cached_corrected(axial.key, tuple(axial.points), transverse.key, tuple(transverse.points))
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_corrected(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple) -> InnerProducts:
+    ba = corrected_basis(basis_of_key(akey), apts)
+    bt = corrected_basis(basis_of_key(tkey), tpts)
+    name = _static_cache_name(ba, bt)
+    path = cache_dir() / (name + ".json")
+    ip = _load(path, name)
+    if ip is None:
+        ip = static_shapes.piecewise_inner_products(ba.functions, bt.functions)
+        _store(path, name, ip)
+    return ip
+
+
+def clear_memory_cache() -> None:
+    """Forget the in-memory inner products (the disk cache is kept)."""
+    _cached.cache_clear()
+    _cached_corrected.cache_clear()
+
+
+def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
+    """Closed-form inner products of one bar's axial and transverse bases (cached).
+
+    Results are cached in memory per ``(family, frame, n, tip_joint)`` of both bases (and their
+    static correction points), and on disk as JSON in :func:`cache_dir`.
+
+    Parameters
+    ----------
+    axial : from :func:`symgen.model.shapes.axial_basis` (or
+        :func:`symgen.model.static_shapes.corrected_basis` of one)
+    transverse : from :func:`symgen.model.shapes.transverse_basis` (or a corrected one)
+
+    Examples
+    --------
+    >>> from symgen.model.shapes import axial_basis, transverse_basis
+    >>> ip = inner_products(axial_basis("stress-free", 1), transverse_basis("pinned-pinned", "modes", 1))
+    >>> ip.exact["Kt"][0, 0]            # (psi'', psi'')
+    pi**4/2
+    """
+    if axial.direction != "axial" or transverse.direction != "transverse":
+        raise ValueError("inner_products(axial, transverse): got bases with directions "
+                         f"{axial.direction!r}, {transverse.direction!r}")
+    akey, tkey = axial.key, transverse.key
+    if axial.points or transverse.points:   # static correction functions: piecewise inner products
+        return corrected_inner_products(axial, transverse)
+    try:
+        same = all(r is b or r == b for r, b in ((basis_of_key(akey), axial), (basis_of_key(tkey), transverse)))
+    except ValueError:
+        same = False
+    if not same:  # hand-made basis: nothing to key a cache on
+        return shapes.compute_inner_products(axial, transverse)
+    return _cached(akey, tkey)
