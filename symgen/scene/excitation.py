@@ -142,6 +142,26 @@ def check_driver_motion(r: Reader, driver: Driver | None, t_end: float) -> None:
                "give a law that is smooth (twice differentiable) and finite on the whole run")
 
 
+def check_expressions(r: Reader, driver: Driver | None, loads: tuple[Load, ...], t_end: float) -> None:
+    """Every load and torque given as an expression of tau is a finite real number over the
+    run [0, t_end]: a pole or a value outside its domain is named here, with its tau, instead
+    of failing later inside the integrator with a message about its tolerances."""
+    from symgen.scene.expressions import first_non_finite
+
+    found = []
+    if driver is not None and driver.kind == "torque" and isinstance(driver.torque, str):
+        found.append(("driver.value", driver.torque))
+    for i, load in enumerate(loads):
+        found += [(f"loads[{i}].{key}", text) for key in ("axial", "transverse")
+                  if isinstance(text := getattr(load, key), str)]
+    for key, text in found:
+        bad = first_non_finite(parse_tau_expression(text), t_end)
+        if bad is not None:
+            r.fail(key, f"{text!r} is not a finite real number at tau = {bad:.6g} (a pole, or outside the "
+                        f"function's domain; the run goes from 0 to {t_end:.6g})",
+                   "give an expression that is finite on the whole run, or end the run before that tau")
+
+
 # -- loads --------------------------------------------------------------------------------------
 def read_load(r: Reader, table: dict, path: str, bodies: dict[str, Body],
               bars: dict[str, BarSpec], scales: Scales) -> Load:

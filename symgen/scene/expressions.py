@@ -116,6 +116,42 @@ def derivative(expr: Any, x: Any, n: int = 1) -> Any:
     return expr
 
 
+#: An expression with more operations than this is sampled only (no symbolic search for poles,
+#: whose cost grows steeply with the size of the expression).
+MAX_POLE_SEARCH_OPS = 120
+
+
+def first_non_finite(expr: Any, t_end: float, samples: int = 256) -> float | None:
+    """The first tau in [0, t_end] where ``expr`` (of :func:`tau_symbol`) is not a finite real
+    number, else None: a pole (``1/(tau - 0.1)``, ``tan(tau)``) found by SymPy's
+    ``singularities``, or a value that is infinite, NaN or complex at one of ``samples`` + 1
+    evenly spaced tau (``log(tau - 10)``, ``sqrt(tau - 1)``)."""
+    import sympy as sp
+
+    tau = tau_symbol()
+    if tau not in expr.free_symbols:
+        return None
+    first = None
+    if sp.count_ops(expr) <= MAX_POLE_SEARCH_OPS:
+        try:
+            poles = sp.singularities(expr, tau, sp.Interval(0, t_end))
+        except Exception:               # noqa: BLE001 - SymPy cannot tell: the samples decide
+            poles = sp.EmptySet
+        if isinstance(poles, sp.FiniteSet) and poles:
+            first = float(min(poles, key=lambda x: float(x)))
+    for k in range(samples + 1):
+        t = t_end * k / samples
+        if first is not None and t >= first:
+            break
+        try:
+            val = complex(expr.xreplace({tau: sp.Float(t)}).evalf())
+        except (TypeError, ValueError, ZeroDivisionError, OverflowError):
+            return t
+        if val.imag != 0.0 or not math.isfinite(val.real):
+            return t
+    return first
+
+
 def _tokenize(text: str) -> list[_Token]:
     """The tokens of ``text`` (ending with an "end" token); ValueError at the first bad character."""
     tokens: list[_Token] = []

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from symgen.errors import SceneError
-from symgen.scene.excitation import check_driver_motion, read_driver, read_effects, read_initial, read_loads
+from symgen.scene.excitation import check_driver_motion, check_expressions, read_driver, read_effects, read_initial, read_loads
 from symgen.scene.limits import ATOL_MAX, ATOL_MIN, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN, SceneWarning, structure_problem, lift_hint, limit_value, over_limit, short_key
 from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
@@ -271,6 +271,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     check_scaled_values(r, merge_inputs(*reference_inputs(raw, si, ref.name)), joints, effects, loads, driver)
     simulation = read_simulation(r, raw, driver, scales)
     check_driver_motion(r, driver, simulation.t_end)
+    check_expressions(r, driver, loads, simulation.t_end)
     return Scene(name=header.name, path=file, hash=digest or scene_hash(raw), units=header.units,
                  l0=scales.l0, omega=scales.omega, m_ref=scales.m_ref, bodies=bodies,
                  joints=joints, driver=driver, initial=initial, effects=effects, loads=loads,

@@ -205,3 +205,22 @@ def test_edge_values_of_steps_and_tolerances_get_clear_errors(override, key, fra
     double-precision solver meets failed later with a raw IDAS code."""
     err = _error(SLIDER, [override])
     assert err.key == key and fragment in err.message, err
+
+
+@pytest.mark.parametrize("expr, tau", [("log(tau - 10)", 0.0), ("1/(tau - 0.1)", 0.1), ("sqrt(tau - 1)", 0.0),
+                                       ("0.01*tan(tau)", math.pi / 2)])
+def test_a_load_that_is_not_finite_on_the_run_is_named_with_its_tau(tmp_path, expr, tau):
+    """Loads singular inside the run failed later in IDAS with raw codes that blamed the
+    tolerances; a step (Heaviside) or any smooth load is accepted."""
+    def scene(load: str) -> Path:
+        text = SLIDER.read_text().replace("[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\n'
+                                                         f'transverse = "{load}"\n\n[simulation]')
+        path = tmp_path / "loaded.toml"
+        path.write_text(text)
+        return path
+
+    err = _error(scene(expr))
+    assert err.key == "loads[0].transverse" and "not a finite real number" in err.message, err
+    assert f"at tau = {tau:.6g}" in err.message, err
+    for fine in ("0.01*Heaviside(tau - 1)", "0.01*sin(tau)/(2 + cos(tau))", "0.01*Abs(tau - 3)"):
+        assert load_scene(scene(fine)).loads[0].transverse == fine
