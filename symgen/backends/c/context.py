@@ -60,7 +60,7 @@ def _run_limits() -> dict:
 
 
 def c_context(scene, model, mech) -> dict:
-    """Everything the templates under ``symgen/backends/c/templates/`` need, as plain data."""
+    """Everything the templates under ``templates/c/`` need, as plain data."""
     import sympy
 
     prefix = c_prefix(scene)
