@@ -22,6 +22,8 @@
 #ifndef SYMGEN_RUNTIME_H
 #define SYMGEN_RUNTIME_H
 
+#include <string.h>      /* memcpy of SYMGEN_PUBLISH */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
