@@ -64,6 +64,19 @@ def test_runtime_unit_tests(runtime, tmp_path):
 
 
 @needs_cc
+def test_sizes_compiled_for_another_model_are_refused(runtime, tmp_path):
+    """An emitted solver compiles the runtime with its model's sizes as constants (SYMGEN_NQ(s)
+    ...); compiled with sizes that are not the descriptor's, the start refuses instead of running."""
+    exe = tmp_path / "runtime_mismatch"
+    proc = subprocess.run(["gcc", *STRICT_C, "-Wno-unused-function", "-DRUNTIME_TEST_MISMATCH", "-DSYMGEN_NQ(s)=3",
+                           f"-I{runtime}",
+                           str(HERE / "c" / "runtime_test.c"), *map(str, _sources(runtime)), "-o", str(exe), "-lm"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert "compiled for other sizes" in _run(exe)
+
+
+@needs_cc
 @pytest.mark.skipif(shutil.which("g++") is None, reason="g++ is not installed")
 def test_runtime_compiles_as_cxx(runtime, tmp_path):
     for src in _sources(runtime):

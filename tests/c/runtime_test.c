@@ -9,7 +9,8 @@
  *   together by phi = y - x = 0 (index 3, solved with phi, phid, phidd as the emitted models are):
  *   from x(0) = 1 (y assembled from the guess 1.1), v = 0, the closed form x = y = cos(tau),
  *   lam = 0; every output to 1e-8 at rtol 1e-10, the closure to round-off;
- *   the checks: a guess that cannot be assembled fails with the runtime's message; bad arguments.
+ *   the checks: a guess that cannot be assembled fails with the runtime's message; bad arguments;
+ *   (built with -DRUNTIME_TEST_MISMATCH and other compiled sizes) a start refused.
  * Prints one line per check and exits 0 if every check passed.
  */
 #include <math.h>
@@ -264,6 +265,20 @@ static void test_checks(void)
     q_guess[1] = 1.1;
 }
 
+#ifdef RUNTIME_TEST_MISMATCH
+/* built with the solver's sizes fixed to others than the model's (-D'SYMGEN_NQ(s)=3'): init refuses */
+int main(void)
+{
+    int rc;
+    symgen_bind(&solver, &model, p, y, work, iwork);
+    rc = symgen_solver_init(&solver, NULL, 0.0, 0.0, 0.0);
+    check(rc == SYMGEN_SOLVER_FAILED && strstr(solver.message, "compiled for other sizes than its model's"),
+          solver.message, rc);
+    check(symgen_solver_advance(&solver, 1.0) == SYMGEN_SOLVER_FAILED, "and advance refuses", 0.0);
+    printf("%d failed\n", failures);
+    return failures != 0;
+}
+#else
 int main(void)
 {
     test_lu();
@@ -273,3 +288,4 @@ int main(void)
     printf("%d failed\n", failures);
     return failures != 0;
 }
+#endif

@@ -180,6 +180,12 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->sp = symgen_itake_(&k, nalg);
     s->qs_col = symgen_itake_(&k, nalg);
     s->dvpiv = symgen_itake_(&k, n2);
+    /* the sizes the solver's loops use (constants of an emitted solver) are the descriptor's */
+    s->sizes_differ = !(SYMGEN_NQ(s) == model->n && SYMGEN_NL(s) == model->m && SYMGEN_NP(s) == model->np
+                        && SYMGEN_NI(s) == model->ni && SYMGEN_ND(s) == model->nd && SYMGEN_NE(s) == model->ne
+                        && SYMGEN_NR(s) == model->nr && SYMGEN_NS(s) == model->ns && SYMGEN_NCLO(s) == model->nclosure
+                        && SYMGEN_NX(s) == s->nx && SYMGEN_NZ(s) == s->nz && SYMGEN_NY(s) == s->ny
+                        && SYMGEN_NALG(s) == s->nalg && SYMGEN_NW(s) == s->nw && SYMGEN_A0(s) == s->a0);
     return (long)(d - work) + 1;
 }
 
@@ -1051,11 +1057,19 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
         const symgen_model *model = s->model;
         double *pp = s->p, *y = s->y, *work = s->work;
         int *iwork = s->iwork;
+        long used;
         memset(s, 0, sizeof(*s));
-        memset(work, 0, sizeof(double) * (size_t)symgen_bind(s, model, pp, y, work, iwork));
-        memset(iwork, 0, sizeof(int) * (size_t)SYMGEN_WORK_INTS(SYMGEN_NQ(s), SYMGEN_NL(s), SYMGEN_NI(s), SYMGEN_ND(s), SYMGEN_NE(s)));
-        memset(pp, 0, sizeof(double) * (size_t)SYMGEN_NP(s));
-        memset(y, 0, sizeof(double) * (size_t)SYMGEN_NY(s));
+        used = symgen_bind(s, model, pp, y, work, iwork);
+        if (s->sizes_differ) {
+            s->status = SYMGEN_SOLVER_FAILED;
+            snprintf(s->message, SYMGEN_MESSAGE_SIZE, "the solver was compiled for other sizes than its model's "
+                     "(files of different emissions mixed?): emit the model's C again");
+            return SYMGEN_SOLVER_FAILED;
+        }
+        memset(work, 0, sizeof(double) * (size_t)used);
+        memset(iwork, 0, sizeof(int) * (size_t)SYMGEN_WORK_INTS(s->nq, s->nl, s->ni, s->nd, s->ne));
+        memset(pp, 0, sizeof(double) * (size_t)s->np);
+        memset(y, 0, sizeof(double) * (size_t)s->ny);
     }
     if (!(fabs(t0) <= DBL_MAX)) return s->status = symgen_bad_argument_(s, "t0", t0, "finite");
     if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < s->model->rtol_max))) {

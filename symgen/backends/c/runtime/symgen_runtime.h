@@ -142,6 +142,7 @@ typedef struct symgen_solver {
     int nq, nl, np, ni, nd, ne, nr, ns, nclo, nx, nz, ny, nalg, nw, a0;
     double h, h_lu, h_old, h_acc, err_acc, faccon, t_last;
     int first, reject, jac_current, need_jac, have_cont, have_jac, gzz_singular;
+    int sizes_differ;           /* the solver's compiled sizes are not the model's: init fails */
     /* the caller's arrays: p [np], y [ny]; the work arrays (symgen_bind) */
     double *p, *y, *work;
     int *iwork;
