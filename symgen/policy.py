@@ -3,9 +3,9 @@
 The consistent start, the assembly, the closure polish, the singular-position test, the
 range of the bar models and the divergence (beyond-buckling) check of the quasi-static start
 are done twice: in Python (``symgen/numerics/mechanism.py``, ``symgen/numerics/simulate.py``) and in the emitted C
-(``symgen/backends/c/templates/solver.c.jinja``). Their tolerances and limits live here only: the Python code
+(the C runtime, ``symgen/backends/c/runtime/symgen_solver.c``). Their tolerances and limits live here only: the Python code
 reads :data:`POLICY`, and the C context (``symgen/backends/c/context.py``) writes the same values into the
-emitted solver, so the two cannot drift apart. Each value states where it comes from.
+emitted model descriptor, which the runtime reads, so the two cannot drift apart. Each value states where it comes from.
 
 Integrator internals with no Python twin (Radau IIA step control, ``symgen/backends/c/radau.py``) and the
 Python-only quasi-static solver of (18)-(20) (``symgen/numerics/quasistatic.py``) keep their own constants.

@@ -11,6 +11,8 @@ import textwrap
 import numpy as np
 import pytest
 
+from symgen.backends.c.render import RUNTIME_FILES, runtime_files
+
 from c_support import (EXAMPLES, ROOT, WORK, closure_columns, idas_reference, library, mechanism,
                        needs_cc, needs_cxx, parameter_names, run_sim, simulator, sources)
 
@@ -49,9 +51,11 @@ def test_preamble_and_symbols(name):
     scene_hash = mechanism(name).scene.hash
     folder = sources(name)
     files = sorted(p.name for p in folder.iterdir())
-    assert files == sorted(["CMakeLists.txt", f"{name}.h", f"{name}.c", f"{name}_solver.h", f"{name}_solver.c",
-                            f"{name}_sim.c"])
-    for path in folder.iterdir():
+    generated = ["CMakeLists.txt", f"{name}.h", f"{name}.c", f"{name}_solver.h", f"{name}_solver.c", f"{name}_sim.c"]
+    assert files == sorted(generated + list(RUNTIME_FILES))
+    for runtime_file, text in runtime_files().items():          # the runtime: copied, not rendered
+        assert (folder / runtime_file).read_text() == text
+    for path in (folder / f for f in generated):
         text = path.read_text()
         head = text[:3000]
         assert "DO NOT EDIT" in head and scene_hash in head and "symgen" in head, path.name
@@ -208,50 +212,6 @@ def test_driver_matches_idas_over_two_turns(name, args):
         peak = np.abs(ref[:, k]).max()
         err = np.abs(data[:, 1 + k] - ref[:, k]).max() / peak
         assert err < 1e-5, f"{header[1 + k]}: {err:.2e} of peak ({stats})"
-
-
-@needs_cc
-def test_eigenvalues_of_the_divergence_check_match_numpy():
-    """The C solver's eigenvalue routine (balancing, Householder Hessenberg reduction, Francis
-    double-shift QR; used by the divergence check of the quasi-static start) against NumPy's
-    (LAPACK) on random, badly scaled (row / column scales 1e-6..1e6), second-order [[0, I], [K, C]],
-    companion, cyclic-permutation (a stall case of unshifted QR), diagonal and zero matrices of
-    sizes 1..60: every eigenvalue within 1e-12 of max(1, max |s|) (measured 8.5e-14)."""
-    from symgen.backends.c.build import compile_shared
-    harness = WORK / "eig_harness.c"
-    harness.write_text('#include "slider_crank_solver.c"\n'
-                       "int eig(double *a, int n, double *wr, double *wi, double *u)\n{\n"
-                       "    slider_crank_x_balance(a, n);\n    slider_crank_x_hessenberg(a, n, u);\n"
-                       "    return slider_crank_x_hqr(a, n, wr, wi);\n}\n")
-    src = sources("slider_crank")
-    lib = ctypes.CDLL(str(compile_shared([src / "slider_crank.c", harness], WORK / "libeig.so", include=[src])))
-    rng = np.random.default_rng(7)
-    worst = 0.0
-
-    def check(A):
-        nonlocal worst
-        n = A.shape[0]
-        a = np.ascontiguousarray(A, dtype=float).copy()
-        wr, wi, u = np.zeros(n), np.zeros(n), np.zeros(n)
-        assert lib.eig(_ptr(a), n, _ptr(wr), _ptr(wi), _ptr(u)) == 0, A
-        got, ref = list(wr + 1j * wi), np.linalg.eigvals(A)
-        scale = max(1.0, np.abs(ref).max())
-        for x in ref:                       # pair each NumPy eigenvalue with the nearest left
-            k = int(np.argmin([abs(x - y) for y in got]))
-            worst = max(worst, abs(x - got.pop(k)) / scale)
-
-    for n in (*range(1, 12), 20, 40, 60):
-        for _ in range(10):
-            check(rng.standard_normal((n, n)))
-            d = 10.0 ** rng.uniform(-6, 6, n)
-            check(rng.standard_normal((n, n)) * d[None, :] / d[:, None])
-            K = rng.standard_normal((n, n))
-            check(np.block([[np.zeros((n, n)), np.eye(n)], [-(K @ K.T), 0.01 * rng.standard_normal((n, n))]]))
-        companion = np.diag(np.ones(n - 1), -1)
-        companion[0] = rng.standard_normal(n)
-        for A in (companion, np.roll(np.eye(n), 1, axis=0), np.diag(np.arange(n, 0, -1.0)), np.zeros((n, n))):
-            check(A)
-    assert worst < 1e-12, worst
 
 
 @needs_cc

@@ -50,8 +50,9 @@ def _tags(doc: str) -> list[str]:
 
 
 def test_templates_are_package_data():
-    """Inside the package (a plain install carries them: tests/test_packaging.py)."""
-    assert Path(str(TEMPLATES)) == ROOT / "symgen" / "backends" / "latex" / "templates"
+    """In the top-level templates/ folder of the checkout (a plain install carries them as the
+    package data of symgen.templates: tests/test_packaging.py)."""
+    assert Path(str(TEMPLATES)) == ROOT / "templates" / "latex"
     assert (TEMPLATES / "document.tex.jinja").is_file()
 
 

@@ -1,5 +1,5 @@
 """The run checks of a mechanism, one home for Python (the emitted C runs the same checks
-under the same policy, ``symgen/backends/c/templates/solver.c.jinja``; ``tests/test_check_parity.py``):
+under the same policy, the C runtime's ``symgen/backends/c/runtime/symgen_solver.c``; ``tests/test_check_parity.py``):
 
 * ``singular_ratio``: sigma_min / sigma_max of the closure Jacobian in the dependent rigid
   coordinates (a singular position: a toggle, a change point), compared with

@@ -4,7 +4,7 @@ CSV driver) compiled once into a cached executable and run for the scene.
 The executable is cached under ``<cache root>/compiled/<entry>/`` (``sim`` and ``manifest.json``)
 like the compiled libraries of :mod:`symgen.numerics.compiled`: the entry's name hashes the scene
 (without its [simulation] table: the emitted C holds the rest, e.g. the initial guess), the
-derived model's structure key, the C templates, the symgen version, the compiler's path and
+derived model's structure key, the C templates and runtime, the symgen version, the compiler's path and
 ``--version`` and the flags; the executable's keyed hash (``symgen.cache.seal``) is checked
 before every run, and the verified bytes are run from a private copy. The model parameters are
 passed with ``--set`` at full precision, the times and tolerances with ``--t-end``, ``--step``,
@@ -51,12 +51,15 @@ def scene_key(scene) -> str:
 
 
 def templates_digest() -> str:
-    """sha256 over the C templates (names and bytes): an edited template is another executable."""
-    templates = resources.files("symgen.backends.c") / "templates"     # emit.c.render.TEMPLATES, without jinja2
+    """sha256 over the C templates and the C runtime (names and bytes): an edited template or
+    runtime file is another executable."""
+    from symgen.backends import templates
+    runtime = resources.files("symgen.backends.c") / "runtime"     # emit.c.render.RUNTIME, without jinja2
     h = hashlib.sha256()
-    for item in sorted(templates.iterdir(), key=lambda e: e.name):
-        if item.is_file():
-            h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
+    for folder in (templates.folder("c"), runtime):
+        for item in sorted(folder.iterdir(), key=lambda e: e.name):
+            if item.is_file():
+                h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
     return h.hexdigest()
 
 

@@ -23,24 +23,18 @@
 #define SYMGEN_four_bar_SOLVER_H
 
 #include "four_bar.h"
+#include "symgen_runtime.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /*
- * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
- * the rigid coordinates are split into independent ones and dependent ones q_D (one per
- * closure row; the partition below was chosen by symgen where the closure Jacobian is best
- * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
- * z = [q_D, v_D, a, lam] algebraic:
- *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
- * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
- * every step ends on the algebraic equations) with simplified Newton iterations on the
- * stage equations using the analytic Jacobians of the model, dense LU factorizations and
- * Hairer & Wanner's (RADAU5) error estimate and step-size control. The solver lands exactly on
- * every output time and polishes z there by Newton on the algebraic equations (position
- * closure to round-off).
+ * The scene's DAE solver: its tables, gathered into the model descriptor four_bar_model, run by
+ * the symgen C runtime (symgen_runtime.h, symgen_solver.c, symgen_linalg.c: consistent start,
+ * Radau IIA (order 5) integration with step control, closure polish, the run checks). The
+ * runtime is compiled into four_bar_solver.c with internal linkage: any number of emitted models
+ * link into one program.
  */
 #define four_bar_N_I 24        /* independent coordinates */
 #define four_bar_N_D 3        /* dependent coordinates (= closure rows) */
@@ -51,6 +45,8 @@ extern const int four_bar_dependent[3];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
 extern const double four_bar_q_guess[27];
 extern const double four_bar_v_guess[27];
+/* The model as the runtime takes it: functions, sizes, index sets, policy (symgen_runtime.h). */
+extern const symgen_model four_bar_model;
 
 /* Defaults of the scene's [simulation] section (tau). */
 #define four_bar_T_END 12.566370614359172
@@ -69,8 +65,8 @@ extern const double four_bar_v_guess[27];
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or
    out-of-range tolerance, time or parameter; s->message says which): nothing was done. */
-#define four_bar_SOLVER_FAILED 1
-#define four_bar_SOLVER_BAD_ARGUMENT 2
+#define four_bar_SOLVER_FAILED SYMGEN_SOLVER_FAILED
+#define four_bar_SOLVER_BAD_ARGUMENT SYMGEN_SOLVER_BAD_ARGUMENT
 
 /* Allocate statically or with malloc: the struct holds every work array (no allocation). */
 typedef struct four_bar_solver {
@@ -84,35 +80,11 @@ typedef struct four_bar_solver {
     double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
                                    buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
-    char message[640];
-    /* work */
-    double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont, have_jac;
-    double y0[84], f0[84], scal[84], ymax[84];
-    double z[252], w[252], f[252], dw[252], cont[252];
-    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
-       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
-       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
-    double jac[7056], gzz[1296], kzx[1728], jred[2304];
-    double e1[576], e2r[576], e2i[576];
-    int pivz[36], piv1[24], piv2[24], gzz_singular;
-    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
-    int zrow[37], zmid[36], zcol[1296];
-    double uz[36], uzi[36];
-    double galg[3024];
-    double tmp[84], tmp2[84], tmp3[84];
-    double sq[1296];
-    double sv[36], sr[36];
-    int sp[36];
-    double q[27], v[27], a[27], lam[3];
-    double qs[27], vs[27], qe[27];
-    double q_last[27], t_last;   /* coordinates at the last good output */
-    /* the divergence check of a quasi-static start: the matrix of the linearised motion of the
-       independent amplitudes (2 NE x 2 NE), a copy the eigenvalue QR (then inverse iteration)
-       works in, the eigenvalues, two vectors, pivots */
-    double dva[2304], dvh[2304], dvwr[48], dvwi[48];
-    double dvx[48], dvu[48];
-    int dvpiv[48];
+    char message[SYMGEN_MESSAGE_SIZE];
+    /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
+    symgen_solver core;
+    double work[SYMGEN_WORK_DOUBLES(27, 3, 24, 3, 24)];
+    int iwork[SYMGEN_WORK_INTS(27, 3, 24, 3, 24)];
 } four_bar_solver;
 
 /*

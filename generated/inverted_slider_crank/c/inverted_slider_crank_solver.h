@@ -23,24 +23,18 @@
 #define SYMGEN_inverted_slider_crank_SOLVER_H
 
 #include "inverted_slider_crank.h"
+#include "symgen_runtime.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /*
- * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
- * the rigid coordinates are split into independent ones and dependent ones q_D (one per
- * closure row; the partition below was chosen by symgen where the closure Jacobian is best
- * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
- * z = [q_D, v_D, a, lam] algebraic:
- *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
- * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
- * every step ends on the algebraic equations) with simplified Newton iterations on the
- * stage equations using the analytic Jacobians of the model, dense LU factorizations and
- * Hairer & Wanner's (RADAU5) error estimate and step-size control. The solver lands exactly on
- * every output time and polishes z there by Newton on the algebraic equations (position
- * closure to round-off).
+ * The scene's DAE solver: its tables, gathered into the model descriptor inverted_slider_crank_model, run by
+ * the symgen C runtime (symgen_runtime.h, symgen_solver.c, symgen_linalg.c: consistent start,
+ * Radau IIA (order 5) integration with step control, closure polish, the run checks). The
+ * runtime is compiled into inverted_slider_crank_solver.c with internal linkage: any number of emitted models
+ * link into one program.
  */
 #define inverted_slider_crank_N_I 8        /* independent coordinates */
 #define inverted_slider_crank_N_D 3        /* dependent coordinates (= closure rows) */
@@ -51,6 +45,8 @@ extern const int inverted_slider_crank_dependent[3];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
 extern const double inverted_slider_crank_q_guess[11];
 extern const double inverted_slider_crank_v_guess[11];
+/* The model as the runtime takes it: functions, sizes, index sets, policy (symgen_runtime.h). */
+extern const symgen_model inverted_slider_crank_model;
 
 /* Defaults of the scene's [simulation] section (tau). */
 #define inverted_slider_crank_T_END 12.566370614359172
@@ -69,8 +65,8 @@ extern const double inverted_slider_crank_v_guess[11];
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or
    out-of-range tolerance, time or parameter; s->message says which): nothing was done. */
-#define inverted_slider_crank_SOLVER_FAILED 1
-#define inverted_slider_crank_SOLVER_BAD_ARGUMENT 2
+#define inverted_slider_crank_SOLVER_FAILED SYMGEN_SOLVER_FAILED
+#define inverted_slider_crank_SOLVER_BAD_ARGUMENT SYMGEN_SOLVER_BAD_ARGUMENT
 
 /* Allocate statically or with malloc: the struct holds every work array (no allocation). */
 typedef struct inverted_slider_crank_solver {
@@ -84,35 +80,11 @@ typedef struct inverted_slider_crank_solver {
     double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
                                    buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
-    char message[640];
-    /* work */
-    double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont, have_jac;
-    double y0[36], f0[36], scal[36], ymax[36];
-    double z[108], w[108], f[108], dw[108], cont[108];
-    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
-       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
-       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
-    double jac[1296], gzz[400], kzx[320], jred[256];
-    double e1[64], e2r[64], e2i[64];
-    int pivz[20], piv1[8], piv2[8], gzz_singular;
-    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
-    int zrow[21], zmid[20], zcol[400];
-    double uz[20], uzi[20];
-    double galg[720];
-    double tmp[36], tmp2[36], tmp3[36];
-    double sq[400];
-    double sv[20], sr[20];
-    int sp[20];
-    double q[11], v[11], a[11], lam[3];
-    double qs[11], vs[11], qe[11];
-    double q_last[11], t_last;   /* coordinates at the last good output */
-    /* the divergence check of a quasi-static start: the matrix of the linearised motion of the
-       independent amplitudes (2 NE x 2 NE), a copy the eigenvalue QR (then inverse iteration)
-       works in, the eigenvalues, two vectors, pivots */
-    double dva[256], dvh[256], dvwr[16], dvwi[16];
-    double dvx[16], dvu[16];
-    int dvpiv[16];
+    char message[SYMGEN_MESSAGE_SIZE];
+    /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
+    symgen_solver core;
+    double work[SYMGEN_WORK_DOUBLES(11, 3, 8, 3, 8)];
+    int iwork[SYMGEN_WORK_INTS(11, 3, 8, 3, 8)];
 } inverted_slider_crank_solver;
 
 /*

@@ -23,24 +23,18 @@
 #define SYMGEN_motor_arm_SOLVER_H
 
 #include "motor_arm.h"
+#include "symgen_runtime.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /*
- * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
- * the rigid coordinates are split into independent ones and dependent ones q_D (one per
- * closure row; the partition below was chosen by symgen where the closure Jacobian is best
- * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
- * z = [q_D, v_D, a, lam] algebraic:
- *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
- * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
- * every step ends on the algebraic equations) with simplified Newton iterations on the
- * stage equations using the analytic Jacobians of the model, dense LU factorizations and
- * Hairer & Wanner's (RADAU5) error estimate and step-size control. The solver lands exactly on
- * every output time and polishes z there by Newton on the algebraic equations (position
- * closure to round-off).
+ * The scene's DAE solver: its tables, gathered into the model descriptor motor_arm_model, run by
+ * the symgen C runtime (symgen_runtime.h, symgen_solver.c, symgen_linalg.c: consistent start,
+ * Radau IIA (order 5) integration with step control, closure polish, the run checks). The
+ * runtime is compiled into motor_arm_solver.c with internal linkage: any number of emitted models
+ * link into one program.
  */
 #define motor_arm_N_I 6        /* independent coordinates */
 #define motor_arm_N_D 0        /* dependent coordinates (= closure rows) */
@@ -51,6 +45,8 @@ extern const int motor_arm_dependent[1];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
 extern const double motor_arm_q_guess[6];
 extern const double motor_arm_v_guess[6];
+/* The model as the runtime takes it: functions, sizes, index sets, policy (symgen_runtime.h). */
+extern const symgen_model motor_arm_model;
 
 /* Defaults of the scene's [simulation] section (tau). */
 #define motor_arm_T_END 6.0
@@ -69,8 +65,8 @@ extern const double motor_arm_v_guess[6];
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or
    out-of-range tolerance, time or parameter; s->message says which): nothing was done. */
-#define motor_arm_SOLVER_FAILED 1
-#define motor_arm_SOLVER_BAD_ARGUMENT 2
+#define motor_arm_SOLVER_FAILED SYMGEN_SOLVER_FAILED
+#define motor_arm_SOLVER_BAD_ARGUMENT SYMGEN_SOLVER_BAD_ARGUMENT
 
 /* Allocate statically or with malloc: the struct holds every work array (no allocation). */
 typedef struct motor_arm_solver {
@@ -84,35 +80,11 @@ typedef struct motor_arm_solver {
     double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
                                    buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
-    char message[640];
-    /* work */
-    double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont, have_jac;
-    double y0[18], f0[18], scal[18], ymax[18];
-    double z[54], w[54], f[54], dw[54], cont[54];
-    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
-       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
-       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
-    double jac[324], gzz[36], kzx[72], jred[144];
-    double e1[36], e2r[36], e2i[36];
-    int pivz[6], piv1[6], piv2[6], gzz_singular;
-    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
-    int zrow[7], zmid[6], zcol[36];
-    double uz[6], uzi[6];
-    double galg[108];
-    double tmp[18], tmp2[18], tmp3[18];
-    double sq[36];
-    double sv[6], sr[6];
-    int sp[6];
-    double q[6], v[6], a[6], lam[1];
-    double qs[6], vs[6], qe[6];
-    double q_last[6], t_last;   /* coordinates at the last good output */
-    /* the divergence check of a quasi-static start: the matrix of the linearised motion of the
-       independent amplitudes (2 NE x 2 NE), a copy the eigenvalue QR (then inverse iteration)
-       works in, the eigenvalues, two vectors, pivots */
-    double dva[64], dvh[64], dvwr[8], dvwi[8];
-    double dvx[8], dvu[8];
-    int dvpiv[8];
+    char message[SYMGEN_MESSAGE_SIZE];
+    /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
+    symgen_solver core;
+    double work[SYMGEN_WORK_DOUBLES(6, 0, 6, 0, 4)];
+    int iwork[SYMGEN_WORK_INTS(6, 0, 6, 0, 4)];
 } motor_arm_solver;
 
 /*

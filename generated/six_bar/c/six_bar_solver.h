@@ -23,24 +23,18 @@
 #define SYMGEN_six_bar_SOLVER_H
 
 #include "six_bar.h"
+#include "symgen_runtime.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /*
- * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
- * the rigid coordinates are split into independent ones and dependent ones q_D (one per
- * closure row; the partition below was chosen by symgen where the closure Jacobian is best
- * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
- * z = [q_D, v_D, a, lam] algebraic:
- *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
- * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
- * every step ends on the algebraic equations) with simplified Newton iterations on the
- * stage equations using the analytic Jacobians of the model, dense LU factorizations and
- * Hairer & Wanner's (RADAU5) error estimate and step-size control. The solver lands exactly on
- * every output time and polishes z there by Newton on the algebraic equations (position
- * closure to round-off).
+ * The scene's DAE solver: its tables, gathered into the model descriptor six_bar_model, run by
+ * the symgen C runtime (symgen_runtime.h, symgen_solver.c, symgen_linalg.c: consistent start,
+ * Radau IIA (order 5) integration with step control, closure polish, the run checks). The
+ * runtime is compiled into six_bar_solver.c with internal linkage: any number of emitted models
+ * link into one program.
  */
 #define six_bar_N_I 9        /* independent coordinates */
 #define six_bar_N_D 5        /* dependent coordinates (= closure rows) */
@@ -51,6 +45,8 @@ extern const int six_bar_dependent[5];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
 extern const double six_bar_q_guess[14];
 extern const double six_bar_v_guess[14];
+/* The model as the runtime takes it: functions, sizes, index sets, policy (symgen_runtime.h). */
+extern const symgen_model six_bar_model;
 
 /* Defaults of the scene's [simulation] section (tau). */
 #define six_bar_T_END 12.566370614359172
@@ -69,8 +65,8 @@ extern const double six_bar_v_guess[14];
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or
    out-of-range tolerance, time or parameter; s->message says which): nothing was done. */
-#define six_bar_SOLVER_FAILED 1
-#define six_bar_SOLVER_BAD_ARGUMENT 2
+#define six_bar_SOLVER_FAILED SYMGEN_SOLVER_FAILED
+#define six_bar_SOLVER_BAD_ARGUMENT SYMGEN_SOLVER_BAD_ARGUMENT
 
 /* Allocate statically or with malloc: the struct holds every work array (no allocation). */
 typedef struct six_bar_solver {
@@ -84,35 +80,11 @@ typedef struct six_bar_solver {
     double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
                                    buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
-    char message[640];
-    /* work */
-    double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont, have_jac;
-    double y0[47], f0[47], scal[47], ymax[47];
-    double z[141], w[141], f[141], dw[141], cont[141];
-    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
-       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
-       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
-    double jac[2209], gzz[841], kzx[522], jred[324];
-    double e1[81], e2r[81], e2i[81];
-    int pivz[29], piv1[9], piv2[9], gzz_singular;
-    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
-    int zrow[30], zmid[29], zcol[841];
-    double uz[29], uzi[29];
-    double galg[1363];
-    double tmp[47], tmp2[47], tmp3[47];
-    double sq[841];
-    double sv[29], sr[29];
-    int sp[29];
-    double q[14], v[14], a[14], lam[5];
-    double qs[14], vs[14], qe[14];
-    double q_last[14], t_last;   /* coordinates at the last good output */
-    /* the divergence check of a quasi-static start: the matrix of the linearised motion of the
-       independent amplitudes (2 NE x 2 NE), a copy the eigenvalue QR (then inverse iteration)
-       works in, the eigenvalues, two vectors, pivots */
-    double dva[324], dvh[324], dvwr[18], dvwi[18];
-    double dvx[18], dvu[18];
-    int dvpiv[18];
+    char message[SYMGEN_MESSAGE_SIZE];
+    /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
+    symgen_solver core;
+    double work[SYMGEN_WORK_DOUBLES(14, 5, 9, 5, 9)];
+    int iwork[SYMGEN_WORK_INTS(14, 5, 9, 5, 9)];
 } six_bar_solver;
 
 /*

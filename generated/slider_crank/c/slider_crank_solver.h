@@ -23,24 +23,18 @@
 #define SYMGEN_slider_crank_SOLVER_H
 
 #include "slider_crank.h"
+#include "symgen_runtime.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /*
- * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
- * the rigid coordinates are split into independent ones and dependent ones q_D (one per
- * closure row; the partition below was chosen by symgen where the closure Jacobian is best
- * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
- * z = [q_D, v_D, a, lam] algebraic:
- *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
- * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
- * every step ends on the algebraic equations) with simplified Newton iterations on the
- * stage equations using the analytic Jacobians of the model, dense LU factorizations and
- * Hairer & Wanner's (RADAU5) error estimate and step-size control. The solver lands exactly on
- * every output time and polishes z there by Newton on the algebraic equations (position
- * closure to round-off).
+ * The scene's DAE solver: its tables, gathered into the model descriptor slider_crank_model, run by
+ * the symgen C runtime (symgen_runtime.h, symgen_solver.c, symgen_linalg.c: consistent start,
+ * Radau IIA (order 5) integration with step control, closure polish, the run checks). The
+ * runtime is compiled into slider_crank_solver.c with internal linkage: any number of emitted models
+ * link into one program.
  */
 #define slider_crank_N_I 2        /* independent coordinates */
 #define slider_crank_N_D 2        /* dependent coordinates (= closure rows) */
@@ -51,6 +45,8 @@ extern const int slider_crank_dependent[2];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
 extern const double slider_crank_q_guess[4];
 extern const double slider_crank_v_guess[4];
+/* The model as the runtime takes it: functions, sizes, index sets, policy (symgen_runtime.h). */
+extern const symgen_model slider_crank_model;
 
 /* Defaults of the scene's [simulation] section (tau). */
 #define slider_crank_T_END 12.566370614359172
@@ -69,8 +65,8 @@ extern const double slider_crank_v_guess[4];
 /* Return values (and s->status): 0 ok, _FAILED the run failed (s->status stays set, every later
    call returns it), _BAD_ARGUMENT a call with an invalid argument (a NaN, infinite or
    out-of-range tolerance, time or parameter; s->message says which): nothing was done. */
-#define slider_crank_SOLVER_FAILED 1
-#define slider_crank_SOLVER_BAD_ARGUMENT 2
+#define slider_crank_SOLVER_FAILED SYMGEN_SOLVER_FAILED
+#define slider_crank_SOLVER_BAD_ARGUMENT SYMGEN_SOLVER_BAD_ARGUMENT
 
 /* Allocate statically or with malloc: the struct holds every work array (no allocation). */
 typedef struct slider_crank_solver {
@@ -84,35 +80,11 @@ typedef struct slider_crank_solver {
     double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
                                    buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
-    char message[640];
-    /* work */
-    double h, h_lu, h_old, h_acc, err_acc, faccon, theta, rtol_in, atol_in;
-    int first, reject, jac_current, need_jac, have_cont, have_jac;
-    double y0[14], f0[14], scal[14], ymax[14];
-    double z[42], w[42], f[42], dw[42], cont[42];
-    /* the Jacobian dF/dy; the LU of its algebraic block g_z (once per Jacobian), K = g_z^-1 g_x and
-       the Jacobian of the reduced ODE x' = f(x, z(x)), jred = f_x - f_z K; the LU of the real and
-       complex NI x NI matrices c^2 I - c A_v - A_q the Newton matrices reduce to (once per step size) */
-    double jac[196], gzz[100], kzx[40], jred[16];
-    double e1[4], e2r[4], e2i[4];
-    int pivz[10], piv1[2], piv2[2], gzz_singular;
-    /* the nonzeros of the LU factors of g_z, row by row (columns of L, then of U above the diagonal) */
-    int zrow[11], zmid[10], zcol[100];
-    double uz[10], uzi[10];
-    double galg[140];
-    double tmp[14], tmp2[14], tmp3[14];
-    double sq[100];
-    double sv[10], sr[10];
-    int sp[10];
-    double q[4], v[4], a[4], lam[2];
-    double qs[4], vs[4], qe[4];
-    double q_last[4], t_last;   /* coordinates at the last good output */
-    /* the divergence check of a quasi-static start: the matrix of the linearised motion of the
-       independent amplitudes (2 NE x 2 NE), a copy the eigenvalue QR (then inverse iteration)
-       works in, the eigenvalues, two vectors, pivots */
-    double dva[16], dvh[16], dvwr[4], dvwi[4];
-    double dvx[4], dvu[4];
-    int dvpiv[4];
+    char message[SYMGEN_MESSAGE_SIZE];
+    /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
+    symgen_solver core;
+    double work[SYMGEN_WORK_DOUBLES(4, 2, 2, 2, 2)];
+    int iwork[SYMGEN_WORK_INTS(4, 2, 2, 2, 2)];
 } slider_crank_solver;
 
 /*

@@ -11,13 +11,16 @@ numerics (``symgen.api.write_c`` / ``write_fmu`` derive once and make the plan).
 
 Stages: ``codegen`` lowers the SymPy ``Program`` to straight-line C (forward-mode Jacobians,
 one CSE per function), ``context`` collects plain data (sizes, names, partition, defaults),
-the jinja2 templates of ``symgen/backends/c/templates/`` render the files, ``fmu`` packs and compiles.
+the jinja2 templates of ``templates/c/`` render the files (glue: the model's functions and its
+tables in one descriptor), ``render`` copies the C runtime (``runtime/``: the solver's numerics,
+plain C99) beside them, ``fmu`` packs and compiles.
 
 Files written by ``write_c`` (prefix = the scene name):
 
 =====================  =========================================================
 ``PREFIX.h/.c``        model functions (residual, closure, outputs, Jacobians), names, defaults
-``PREFIX_solver.h/.c`` consistent start, Radau IIA integration, closure polish
+``PREFIX_solver.h/.c`` the model descriptor; includes the runtime (internal linkage)
+``symgen_*.h/.c``      the C runtime: consistent start, Radau IIA, closure polish, checks
 ``PREFIX_sim.c``       driver: prints ``tau,<outputs>`` CSV like ``symgen simulate``
 ``CMakeLists.txt``     library target ``PREFIX`` (``add_subdirectory``) + ``PREFIX_sim``
 =====================  =========================================================

@@ -65,7 +65,7 @@ def _run_limits() -> dict:
 
 
 def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> dict:
-    """Everything the templates under ``symgen/backends/c/templates/`` need, as plain data.
+    """Everything the templates under ``templates/c/`` need, as plain data.
     ``info`` defaults to the description of ``model`` (``ModelInfo.of``)."""
     import sympy
 

@@ -1,11 +1,14 @@
-"""Render the C templates (``symgen/backends/c/templates/``, package data) from a context built by ``context.c_context``."""
+"""Render the C templates (``templates/c/``: ``symgen.backends.templates``) from a context built by
+``context.c_context``, and copy the C runtime (``symgen/backends/c/runtime/``, package data) beside them."""
 from __future__ import annotations
 
 from importlib import resources
 
 import jinja2
 
-TEMPLATES = resources.files("symgen.backends.c") / "templates"     # package data (pyproject: package-data)
+from symgen.backends import templates
+
+TEMPLATES = templates.folder("c")
 
 # output file name (after the prefix) -> template
 C_FILES = {
@@ -19,7 +22,7 @@ C_FILES = {
 
 
 def environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=jinja2.PackageLoader("symgen.backends.c", "templates"), undefined=jinja2.StrictUndefined,
+    return jinja2.Environment(loader=templates.loader("c"), undefined=jinja2.StrictUndefined,
                               trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
                               autoescape=False)
 
@@ -28,10 +31,21 @@ def render(template: str, ctx: dict) -> str:
     return environment().get_template(template).render(ctx=ctx)
 
 
+RUNTIME = resources.files("symgen.backends.c") / "runtime"        # the C runtime (package data), copied as is
+RUNTIME_FILES = ("symgen_runtime.h", "symgen_linalg.c", "symgen_solver.c")
+
+
+def runtime_files() -> dict:
+    """{file name: text} of the C runtime, the numerics every emitted solver includes."""
+    return {name: (RUNTIME / name).read_text() for name in RUNTIME_FILES}
+
+
 def render_files(ctx: dict, files: dict | None = None) -> dict:
-    """{file name: text} of every file in ``files`` (default: the C library, driver, CMake)."""
+    """{file name: text} of every file in ``files`` (default: the C library, driver, CMake) and
+    of the C runtime beside them (the emitted solver includes it)."""
     env = environment()
     out = {}
     for pattern, template in (files or C_FILES).items():
         out[pattern.format(p=ctx["prefix"])] = env.get_template(template).render(ctx=ctx)
+    out.update(runtime_files())
     return out

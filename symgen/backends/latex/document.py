@@ -1,6 +1,6 @@
 """Emit a derived model as a LaTeX document: every equation labelled with the paper's number.
 
-``latex_document(scene, model)`` renders ``symgen/backends/latex/templates/document.tex.jinja`` from a plain
+``latex_document(scene, model)`` renders ``templates/latex/document.tex.jinja`` from a plain
 context (strings and lists) built here. The document shows, per bar, the acceleration field
 (1), the strong forms (8)-(9) with only the scene's effects, the origin acceleration (10) and
 the Galerkin equations (16)-(17) and rigid-body equations with *symbolic* inner products (the
@@ -21,13 +21,13 @@ Examples
 """
 from __future__ import annotations
 
-from importlib import resources
 from pathlib import Path
 
 import jinja2
 import sympy as sp
 
 from symgen import __version__
+from symgen.backends import templates
 from symgen.backends.latex import quasistatic as latex_quasistatic
 from symgen.backends.latex import slot as latex_slot
 from symgen.backends.latex.printing import (LINE_WIDTH, Namer, Printer, Row, eq_block, eq_row, equation_rows, kin_terms, num_text, rm,
@@ -38,7 +38,7 @@ from symgen.scene.model import GROUND
 from symgen.model.structure import QUASI_STATIC, axial_treatments
 from symgen.scene.motion import driver_angle
 
-TEMPLATES = resources.files("symgen.backends.latex") / "templates"   # package data (pyproject: package-data)
+TEMPLATES = templates.folder("latex")    # templates/latex/ (symgen.backends.templates)
 
 __all__ = ["latex_document", "tex_lines", "Namer", "TEMPLATES"]
 
@@ -356,7 +356,7 @@ def _joints_context(scene, model, pr: Printer) -> list[dict]:
 # --------------------------------------------------------------------------- document
 def _env() -> jinja2.Environment:
     env = jinja2.Environment(
-        loader=jinja2.PackageLoader("symgen.backends.latex", "templates"),
+        loader=templates.loader("latex"),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
         block_start_string="<%", block_end_string="%>",
         variable_start_string="<<", variable_end_string=">>",

@@ -64,7 +64,7 @@ def _row20(expr: sp.Expr, unknowns: set, pr, tag: str):
 
 
 def quasi_static_context(scene, model, pr) -> dict:
-    """Context of ``symgen/backends/latex/templates/quasistatic.tex.jinja``."""
+    """Context of ``templates/latex/quasistatic.tex.jinja``."""
     prog = model.program
     assigned = dict(prog.assignments)
     zero_rates = {}

@@ -1,0 +1,291 @@
+/*
+ * Unit tests of the symgen C runtime (symgen/backends/c/runtime/), compiled on its own (extern
+ * linkage) with a model written here by hand: tests/test_c_runtime.py builds and runs it.
+ *
+ *   LU and complex LU: solves of random systems (residual to round-off), a zero pivot reported;
+ *   singular values: the ratio of a diagonal matrix;
+ *   storage: symgen_bind uses SYMGEN_WORK_DOUBLES doubles;
+ *   Radau IIA on the DAE of two unit masses on springs, x'' = -x - lam, y'' = -y + lam, held
+ *   together by phi = y - x = 0 (index 3, solved with phi, phid, phidd as the emitted models are):
+ *   from x(0) = 1 (y assembled from the guess 1.1), v = 0, the closed form x = y = cos(tau),
+ *   lam = 0; every output to 1e-8 at rtol 1e-10, the closure to round-off;
+ *   the checks: a guess that cannot be assembled fails with the runtime's message; bad arguments;
+ *   (built with -DRUNTIME_TEST_MISMATCH and other compiled sizes) a start refused.
+ * Prints one line per check and exits 0 if every check passed.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "symgen_runtime.h"
+
+static int failures = 0;
+
+static void check(int ok, const char *what, double value)
+{
+    printf("%s %s (%.3g)\n", ok ? "ok  " : "FAIL", what, value);
+    if (!ok) failures++;
+}
+
+/* ------------------------------------------------------------------ the model */
+/* q = [x, y], lam = [lam]; w = [x, y, vx, vy, ax, ay, lam] (3 n + m = 7 columns) */
+static void m_phi(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                  double *out)
+{
+    (void)t; (void)v; (void)a; (void)lam; (void)p;
+    out[0] = q[1] - q[0];
+}
+
+static void m_phid(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                   double *out)
+{
+    (void)t; (void)q; (void)a; (void)lam; (void)p;
+    out[0] = v[1] - v[0];
+}
+
+static void m_phidd(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                    double *out)
+{
+    (void)t; (void)q; (void)v; (void)lam; (void)p;
+    out[0] = a[1] - a[0];
+}
+
+static void m_res(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                  double *out)
+{
+    (void)t; (void)v; (void)p;
+    out[0] = a[0] + q[0] - lam[0];
+    out[1] = a[1] + q[1] + lam[0];
+}
+
+static void m_out(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                  double *out)
+{
+    (void)t; (void)a; (void)p;
+    out[0] = q[0];
+    out[1] = q[1];
+    out[2] = v[0];
+    out[3] = lam[0];
+}
+
+static void m_closure(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                      double *out)
+{
+    m_phi(t, q, v, a, lam, p, out);
+}
+
+static void m_phi_jac(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                      double *jac)
+{
+    (void)t; (void)q; (void)v; (void)a; (void)lam; (void)p;
+    memset(jac, 0, 7 * sizeof(double));
+    jac[0] = -1.0;
+    jac[1] = 1.0;
+}
+
+static void m_phid_jac(double t, const double *q, const double *v, const double *a, const double *lam,
+                       const double *p, double *jac)
+{
+    (void)t; (void)q; (void)v; (void)a; (void)lam; (void)p;
+    memset(jac, 0, 7 * sizeof(double));
+    jac[2] = -1.0;
+    jac[3] = 1.0;
+}
+
+static void m_phidd_jac(double t, const double *q, const double *v, const double *a, const double *lam,
+                        const double *p, double *jac)
+{
+    (void)t; (void)q; (void)v; (void)a; (void)lam; (void)p;
+    memset(jac, 0, 7 * sizeof(double));
+    jac[4] = -1.0;
+    jac[5] = 1.0;
+}
+
+static void m_res_jac(double t, const double *q, const double *v, const double *a, const double *lam, const double *p,
+                      double *jac)
+{
+    (void)t; (void)q; (void)v; (void)a; (void)lam; (void)p;
+    memset(jac, 0, 14 * sizeof(double));
+    jac[0] = 1.0;  jac[4] = 1.0;  jac[6] = -1.0;           /* row x: dx, dax, dlam */
+    jac[7 + 1] = 1.0;  jac[7 + 5] = 1.0;  jac[7 + 6] = 1.0; /* row y: dy, day, dlam */
+}
+
+static int m_valid(int k, double value)
+{
+    return k == 0 && fabs(value) <= 1e300;
+}
+
+static const int independent[1] = { 0 }, dependent[1] = { 1 };
+/* y = [x, vx, y, vy, ax, ay, lam]: nx = 2, a0 = nx + 2 nd = 4 */
+static const int ypos_q[2] = { 0, 2 }, ypos_v[2] = { 1, 3 }, ycol[7] = { 0, 2, 1, 3, 4, 5, 6 };
+static const int accel[2] = { 0, 1 }, sing_rows[1] = { 0 }, sing_cols[1] = { 1 };
+static const int unused[1] = { -1 };
+static double q_guess[2] = { 1.0, 1.1 };
+static const double v_guess[2] = { 0.0, 0.0 };
+static const char *const coordinate_names[2] = { "x", "y" };
+static const char *const parameter_names[1] = { "k" };
+static const char *const parameter_range[1] = { "finite" };
+static const double parameter_defaults[1] = { 1.0 };
+static const symgen_amplitude_check no_checks[1] = { { 0, 0, 0.0, "" } };
+
+static symgen_model model = {
+    2, 1, 1, 1,  1, 1, 0, 2, 1,
+    independent, dependent, dependent, ypos_q, ypos_v, ycol, unused, accel, sing_rows, sing_cols,
+    q_guess, v_guess, -1, -1, 0, 0,
+    1e-6, 1e-8, 1.0, "in (0, 1), or <= 0 for the model's",
+    coordinate_names, parameter_names, parameter_range, parameter_defaults, m_valid,
+    0, no_checks, unused,
+    m_phi, m_phid, m_phidd, m_res, m_out, m_closure, m_phi_jac, m_phid_jac, m_phidd_jac, m_res_jac,
+    { 1e-13, 1e-10, 60, 1e-4, 0.5, 1e-7, 0.05, 1e-6, 1e-12, 1e-8, 50, 1e-13, 8, 1e-4, 0.25, 0.1, 1e-9 },
+    { { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
+      { { 0.0944387624889752414875, -0.141255295020954208428, -0.0300291941051474244919 },
+        { 0.250213122965333311377, 0.204129352293799931996, 0.382942112757261937795 },
+        { 1.0, 1.0, 0.0 } },
+      { { 4.17871859155190472735, 0.327682820761062387083, 0.52337644549944954804 },
+        { -4.17871859155190472735, -0.327682820761062387083, 0.47662355450055045196 },
+        { -0.502872634945786875951, 2.57192694985560542919, -0.596039204828224924969 } },
+      { -10.0488093998274155625, 1.38214273316074889579, -0.333333333333333333333 },
+      3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
+      7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2 }
+};
+
+/* ------------------------------------------------------------------ checks */
+static double uniform(unsigned long *state)
+{
+    *state = *state * 6364136223846793005UL + 1442695040888963407UL;
+    return (double)(*state >> 11) / 9007199254740992.0 * 2.0 - 1.0;
+}
+
+static void test_lu(void)
+{
+    enum { N = 12 };
+    double A[N * N], LU[N * N], b[N], x[N], ai[N * N], ar[N * N], br[N], bi[N], xr[N], xi[N];
+    int piv[N], i, j, n, singular;
+    unsigned long seed = 7;
+    double worst = 0.0, worst_c = 0.0;
+    for (n = 1; n <= N; ++n) {
+        for (i = 0; i < n * n; ++i) { A[i] = uniform(&seed); ai[i] = uniform(&seed); }
+        for (i = 0; i < n; ++i) { b[i] = uniform(&seed); bi[i] = uniform(&seed); }
+        memcpy(LU, A, sizeof(double) * n * n);
+        memcpy(x, b, sizeof(double) * n);
+        if (symgen_lu(LU, n, piv) == 0) {
+            symgen_lu_solve(LU, n, piv, x);
+            for (i = 0; i < n; ++i) {
+                double r = -b[i];
+                for (j = 0; j < n; ++j) r += A[i * n + j] * x[j];
+                worst = fmax(worst, fabs(r));
+            }
+        } else {
+            worst = HUGE_VAL;
+        }
+        memcpy(ar, A, sizeof(double) * n * n);
+        memcpy(LU, ai, sizeof(double) * n * n);
+        memcpy(xr, b, sizeof(double) * n);
+        memcpy(xi, bi, sizeof(double) * n);
+        if (symgen_clu(ar, LU, n, piv) == 0) {
+            symgen_clu_solve(ar, LU, n, piv, xr, xi);
+            for (i = 0; i < n; ++i) {      /* (A + i Ai)(xr + i xi) - (b + i bi) */
+                double rr = -b[i], ri = -bi[i];
+                for (j = 0; j < n; ++j) {
+                    rr += A[i * n + j] * xr[j] - ai[i * n + j] * xi[j];
+                    ri += A[i * n + j] * xi[j] + ai[i * n + j] * xr[j];
+                }
+                worst_c = fmax(worst_c, hypot(rr, ri));
+            }
+        } else {
+            worst_c = HUGE_VAL;
+        }
+        (void)br;
+    }
+    check(worst < 1e-12, "LU solves random systems of size 1..12 (max residual)", worst);
+    check(worst_c < 1e-12, "complex LU solves random systems of size 1..12 (max residual)", worst_c);
+    memset(LU, 0, sizeof(LU));
+    LU[0] = 1.0;
+    LU[1 * 3 + 1] = 2.0;                 /* third pivot zero */
+    singular = symgen_lu(LU, 3, piv);
+    check(singular == 3, "LU reports the zero pivot (k + 1)", singular);
+}
+
+static void test_singular_ratio(void)
+{
+    double a[9] = { 3.0, 0.0, 0.0, 0.0, -0.5, 0.0, 0.0, 0.0, 1.5 };
+    double r = symgen_singular_ratio(a, 3);
+    check(fabs(r - 0.5 / 3.0) < 1e-15, "singular value ratio of diag(3, -0.5, 1.5)", r);
+    check(symgen_singular_ratio(a, 0) == 1.0, "singular value ratio of an empty matrix is 1", 1.0);
+}
+
+static symgen_solver solver;
+static double work[SYMGEN_WORK_DOUBLES(2, 1, 1, 1, 0)];
+static int iwork[SYMGEN_WORK_INTS(2, 1, 1, 1, 0)];
+static double p[1], y[SYMGEN_NY_(2, 1, 1, 1)];
+
+static void test_radau(void)
+{
+    double out[4], q[2], v[2], worst = 0.0, clo = 0.0, lam = 0.0;
+    long used = symgen_bind(&solver, &model, p, y, work, iwork);
+    int k, rc;
+    check(used == (long)(sizeof(work) / sizeof(double)), "symgen_bind uses SYMGEN_WORK_DOUBLES doubles", (double)used);
+    rc = symgen_solver_init(&solver, NULL, 0.0, 1e-10, 1e-12);
+    check(rc == 0, "start: assembly from the guess y = 1.1, consistent state", rc);
+    check(fabs(y[2] - 1.0) < 1e-13, "start: y assembled onto x = 1", y[2] - 1.0);
+    for (k = 1; k <= 20 && rc == 0; ++k) {
+        const double t = 0.5 * k;
+        rc = symgen_solver_advance(&solver, t);
+        symgen_model_outputs(&model, solver.t, y, p, q, v, out);
+        worst = fmax(worst, fmax(fabs(out[0] - cos(t)), fabs(out[1] - cos(t))));
+        worst = fmax(worst, fabs(out[2] + sin(t)));
+        clo = fmax(clo, fabs(out[1] - out[0]));
+        lam = fmax(lam, fabs(out[3]));
+        if (solver.t != t) rc = -1;
+    }
+    check(rc == 0, "Radau IIA reaches tau = 10, landing on every output time", rc);
+    check(worst < 1e-8, "x = y = cos(tau), x' = -sin(tau) (max error)", worst);
+    check(clo < 1e-14 && solver.closure_max < 1e-14, "closure y - x at round-off", clo);
+    check(lam < 1e-10, "multiplier lam = 0", lam);
+    check(solver.n_accepted > 0 && solver.n_steps >= solver.n_accepted, "step counters", (double)solver.n_accepted);
+}
+
+static void test_checks(void)
+{
+    int rc;
+    symgen_bind(&solver, &model, p, y, work, iwork);
+    rc = symgen_solver_init(&solver, NULL, 0.0, 2.0, 0.0);
+    check(rc == SYMGEN_SOLVER_BAD_ARGUMENT && strstr(solver.message, "rtol = 2 is not valid: it must be in (0, 1)"),
+          solver.message, rc);
+    rc = symgen_solver_init(&solver, NULL, NAN, 0.0, 0.0);
+    check(rc == SYMGEN_SOLVER_BAD_ARGUMENT && strstr(solver.message, "t0 = nan is not valid"), solver.message, rc);
+    model.phi_jac = m_phid_jac;          /* a closure Jacobian without position columns: no assembly */
+    q_guess[1] = 1.5;
+    rc = symgen_solver_init(&solver, NULL, 0.0, 0.0, 0.0);
+    check(rc == SYMGEN_SOLVER_FAILED && strstr(solver.message, "at tau = 0: the mechanism cannot be assembled"),
+          solver.message, rc);
+    check(symgen_solver_advance(&solver, 1.0) == SYMGEN_SOLVER_FAILED, "a failed run stays failed", 0.0);
+    model.phi_jac = m_phi_jac;
+    q_guess[1] = 1.1;
+}
+
+#ifdef RUNTIME_TEST_MISMATCH
+/* built with the solver's sizes fixed to others than the model's (-D'SYMGEN_NQ(s)=3'): init refuses */
+int main(void)
+{
+    int rc;
+    symgen_bind(&solver, &model, p, y, work, iwork);
+    rc = symgen_solver_init(&solver, NULL, 0.0, 0.0, 0.0);
+    check(rc == SYMGEN_SOLVER_FAILED && strstr(solver.message, "compiled for other sizes than its model's"),
+          solver.message, rc);
+    check(symgen_solver_advance(&solver, 1.0) == SYMGEN_SOLVER_FAILED, "and advance refuses", 0.0);
+    printf("%d failed\n", failures);
+    return failures != 0;
+}
+#else
+int main(void)
+{
+    test_lu();
+    test_singular_ratio();
+    test_radau();
+    test_checks();
+    printf("%d failed\n", failures);
+    return failures != 0;
+}
+#endif
