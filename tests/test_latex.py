@@ -330,3 +330,17 @@ def test_inverted_slider_crank_compiles_with_pdflatex(inverted, tmp_path):
     log = (tmp_path / "isc.log").read_text(errors="replace")
     assert (tmp_path / "isc.pdf").stat().st_size > 10_000
     assert "Undefined control sequence" not in log
+
+
+def test_exact_fractions_of_doubles_print_as_decimals():
+    """0.4 in a scene becomes 3602879701896397/9007199254740992 when made exact: the LaTeX shows
+    0.4 (and products of such fractions as rounded decimals); a plain fraction stays one."""
+    import sympy as sp
+
+    from symgen.backends.latex.printing import _round_floats
+
+    xi = sp.Symbol("xi")
+    expr = sp.Piecewise((sp.Rational(0.4) * xi, xi <= sp.Rational(0.4)), (sp.Rational(0.4) ** 3, True)) + xi / 3
+    text = sp.latex(_round_floats(expr))
+    assert "9007199254740992" not in text and r"\xi \leq 0.4" in text and "0.064" in text, text
+    assert r"\frac{\xi}{3}" in text, text

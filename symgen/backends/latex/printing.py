@@ -81,10 +81,17 @@ class Namer:
 
 
 # --------------------------------------------------------------------------- expressions
+#: An exact fraction with a larger denominator is printed as a decimal: it is a double of the
+#: scene made exact (0.4 is 3602879701896397/9007199254740992) or a product of such, never a
+#: fraction a reader wants to see.
+MAX_SHOWN_DENOMINATOR = 10**6
+
+
 def _round_floats(expr: sp.Expr, digits: int = SIG_DIGITS) -> sp.Expr:
-    """Floats to ``digits`` significant digits; integral floats (1.0, -2.0) to integers."""
+    """Floats to ``digits`` significant digits; integral floats (1.0, -2.0) to integers; exact
+    fractions with a denominator above :data:`MAX_SHOWN_DENOMINATOR` as decimals like floats."""
     expr = sp.sympify(expr)
-    floats = expr.atoms(sp.Float)
+    floats = expr.atoms(sp.Float) | {r for r in expr.atoms(sp.Rational) if r.q > MAX_SHOWN_DENOMINATOR}
     if not floats:
         return expr
     rep = {}
