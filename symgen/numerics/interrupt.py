@@ -47,7 +47,8 @@ import re
 import signal
 import sys
 import threading
-from typing import Iterator
+from types import FrameType
+from typing import Iterator, TextIO
 
 from symgen.errors import Interrupted
 
@@ -90,7 +91,7 @@ class _SolverNoiseFilter:
     _NOISE = re.compile(r"^(\w+ failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
                         r"|(At t = [^,]*, the|The) [\w ]+ failed unrecoverably\. ?)$")
 
-    def __init__(self, stream) -> None:
+    def __init__(self, stream: TextIO) -> None:
         self._stream = stream
         self._dropped = False
 
@@ -101,14 +102,14 @@ class _SolverNoiseFilter:
         self._dropped = False
         return self._stream.write(text)
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> object:
         return getattr(self._stream, name)
 
 
 _deferring: list[bool] = []     # inside deferred(): a signal is recorded, raised when it ends
 
 
-def _handler(signum, frame):
+def _handler(signum: int, frame: FrameType | None) -> None:
     _pending.append(signum)
     if not _deferring:
         raise Interrupted(signum)
@@ -127,7 +128,7 @@ def deferred() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def handling(signals=SIGNALS) -> Iterator[None]:
+def handling(signals: tuple[signal.Signals, ...] = SIGNALS) -> Iterator[None]:
     """Install the SIGINT/SIGTERM handlers for the duration of the block (see the module)."""
     global _depth
     if threading.current_thread() is not threading.main_thread() or _depth:
