@@ -45,7 +45,7 @@ class SimResult:
     closure_max: float
     steps: int
     simulate_s: float
-    partition: Partition
+    partition: Partition | None     # None: the emitted C solver's run (symgen.numerics.csolver)
     complete: bool = True
     failure: str = ""
     stats: dict = field(default_factory=dict)

@@ -30,12 +30,15 @@ closure_residual       per l0 (a solver check)      1                        1
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from symgen.errors import SceneError
-from symgen.scene.model import Scene
+
+if TYPE_CHECKING:
+    from symgen.scene.model import Scene
 
 UNIT_SYSTEMS = ("SI", "dimensionless")
 
