@@ -78,7 +78,8 @@ def beyond_range(mech: Mechanism, Q: ArrayLike) -> tuple[int, str] | None:
                f"cannot carry")
 
 
-def divergent_deformation(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: Partition) -> tuple[float, str]:
+def divergent_deformation(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray,
+                          part: Partition) -> tuple[float, str]:
     """Largest real, positive eigenvalue of the linearised motion of the independent
     deformation amplitudes about (q, v) (rigid independent coordinates held; dependent
     ones follow the closure), and the amplitude dominating its eigenvector. Positive:

@@ -137,8 +137,8 @@ def library(funcs: list[ca.Function], model_key: str, variant: str,
     Raises :class:`Unavailable` when there is no compiler or the compile fails.
     """
     comp = compiler()
-    # casadi's stubs (casadi.pyi) do not declare the module's __version__: ignore[attr-defined]
-    key = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "casadi": ca.__version__,  # type: ignore[attr-defined]
+    key = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
+           "casadi": ca.__version__,  # type: ignore[attr-defined]  # casadi.pyi does not declare __version__
            "model": model_key, "variant": variant, "compiler": comp.identity(),
            "functions": [_signature(f) for f in funcs]}
     where = cache.compiled_dir() / _entry_name(key)
@@ -197,7 +197,8 @@ def install(tmp: Path, where: Path, key: dict[str, object], name: str, blob: byt
         cache.report_unwritable(where, exc)
 
 
-def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool, replace: bool) -> bytes:
+def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool,
+           replace: bool) -> bytes:
     parent = where.parent if store else Path(tempfile.gettempdir())
     if store:
         parent.mkdir(parents=True, exist_ok=True)

@@ -48,7 +48,7 @@ import signal
 import sys
 import threading
 from types import FrameType
-from typing import Iterator, TextIO
+from typing import Iterator, TextIO, overload
 
 from symgen.errors import Interrupted
 
@@ -67,6 +67,14 @@ def check(tau: float | None = None) -> None:
     """Raise ``Interrupted`` if a signal arrived (``tau``: where the run stands, for the message)."""
     if _pending:
         raise Interrupted(_pending[0], tau)
+
+
+@overload
+def interrupted(err: BaseException, tau: float | None = None) -> BaseException: ...
+
+
+@overload
+def interrupted(err: None = None, tau: float | None = None) -> Interrupted | None: ...
 
 
 def interrupted(err: BaseException | None = None, tau: float | None = None) -> BaseException | None:

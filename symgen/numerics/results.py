@@ -289,7 +289,8 @@ def write_run(files: ResultFiles, scene: Scene, compiled: CompiledModel, build_s
     if plot_path is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
         drv = scene.driver
         steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
-        turn = 2 * math.pi / abs(drv.rate) if drv is not None and steady else None      # a law or a ramp: plotted against tau
+        # a law or a ramp: plotted against tau
+        turn = 2 * math.pi / abs(drv.rate) if drv is not None and steady else None
         what = "quasi-static response, " if solver == "quasi-static" else ""
         plot = OutputsPlot(plot_path, t_col, values, list(result.output_names),
                            [o.kind for o in scene.outputs], f"{scene.name}: {what}{Path(scene.path).name}",
