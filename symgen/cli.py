@@ -139,6 +139,7 @@ def _simulate(args, files) -> int:
     else:
         result, failure = attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
     written = _write_run(args, files, mech, result, failure, args.solver)
+    assert result is not None       # write_run raises when the run has no result
     compiled = mech.compiled
     print(f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
           f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
@@ -316,6 +317,7 @@ def _quasistatic(args, files) -> int:
     result, failure = attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles,
                                                    say=lambda line: _say(args, line)))
     written = _write_run(args, files, mech, result, failure, "quasi-static")
+    assert result is not None       # write_run raises when the run has no result
     info = written.sidecar["solver"]
     print(f"wrote {written.csv} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
           f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "

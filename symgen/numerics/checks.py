@@ -11,15 +11,21 @@ under the same policy, the C runtime's ``symgen/backends/c/runtime/symgen_solver
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from symgen.ir.records import RowKind
 from symgen.numerics.index1 import Partition, index1
 from symgen.policy import POLICY
 
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
 
-def singular_ratio(mech, t: float, q, part: Partition) -> tuple[float, int]:
+
+def singular_ratio(mech: Mechanism, t: float, q: np.ndarray, part: Partition) -> tuple[float, int]:
     """Smallest / largest singular value of the loop and driver rows' Jacobian in the
     dependent rigid coordinates (inextensibility rows and their axial amplitudes, a
     regular block Ka, are left out: the rigid mechanism alone decides singularity)."""
@@ -34,14 +40,14 @@ def singular_ratio(mech, t: float, q, part: Partition) -> tuple[float, int]:
     return float(s[-1] / max(s[0], 1e-300)), loop_row(mech, weights)
 
 
-def worst_row(mech, Jd: np.ndarray) -> int:
+def worst_row(mech: Mechanism, Jd: np.ndarray) -> int:
     if Jd.shape[1] == 0:
         return 0
     u, s, _ = np.linalg.svd(Jd)
     return loop_row(mech, u[:, -1])
 
 
-def loop_row(mech, weights) -> int:
+def loop_row(mech: Mechanism, weights: ArrayLike) -> int:
     """The closure row (a loop, not the driver) that weighs most in a singular direction."""
     w = np.abs(np.asarray(weights, dtype=float))
     if len(w) > 1:
@@ -49,7 +55,7 @@ def loop_row(mech, weights) -> int:
     return int(np.argmax(w))
 
 
-def beyond_range(mech, Q) -> tuple[int, str] | None:
+def beyond_range(mech: Mechanism, Q: ArrayLike) -> tuple[int, str] | None:
     """First column of Q (coordinates x outputs) where a bar is deformed beyond the range
     of the model (``POLICY.deflection_limit``, ``POLICY.stretch_limit``), with the reason; None if none."""
     Q = np.asarray(Q, dtype=float).reshape(mech.n, -1)
@@ -72,7 +78,8 @@ def beyond_range(mech, Q) -> tuple[int, str] | None:
                f"cannot carry")
 
 
-def divergent_deformation(mech, t: float, q, v, part: Partition) -> tuple[float, str]:
+def divergent_deformation(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray,
+                          part: Partition) -> tuple[float, str]:
     """Largest real, positive eigenvalue of the linearised motion of the independent
     deformation amplitudes about (q, v) (rigid independent coordinates held; dependent
     ones follow the closure), and the amplitude dominating its eigenvector. Positive:

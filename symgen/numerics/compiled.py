@@ -81,9 +81,9 @@ def backend_choice(backend: str | None = None) -> str:
 class Compiler:
     path: str                 # resolved path of the executable
     version: str              # its --version output
-    flags: tuple              # SYMGEN_CFLAGS, split like a shell
+    flags: tuple[str, ...]    # SYMGEN_CFLAGS, split like a shell
 
-    def identity(self) -> dict:
+    def identity(self) -> dict[str, str | list[str]]:
         return {"path": self.path, "version": self.version, "flags": list(self.flags)}
 
 
@@ -95,7 +95,8 @@ def _probe(path: str) -> str:
         raise Unavailable(f"the C compiler {path} cannot be run ({exc})") from None
     if proc.returncode != 0:
         raise Unavailable(f"'{path} --version' exited with code {proc.returncode}")
-    return proc.stdout.strip()
+    version: str = proc.stdout.strip()
+    return version
 
 
 def compiler() -> Compiler:
@@ -117,16 +118,17 @@ def compiler() -> Compiler:
     return Compiler(path, _probe(path), flags)
 
 
-def _entry_name(key: dict) -> str:
+def _entry_name(key: dict[str, object]) -> str:
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
 
 
-def _signature(f: ca.Function) -> list:
+def _signature(f: ca.Function) -> list[str | list[list[int]]]:
     return [f.name(), [list(f.size_in(i)) for i in range(f.n_in())],
             [list(f.size_out(i)) for i in range(f.n_out())]]
 
 
-def library(funcs: list, model_key: str, variant: str, store: bool = True) -> tuple[dict, bool]:
+def library(funcs: list[ca.Function], model_key: str, variant: str,
+            store: bool = True) -> tuple[dict[str, ca.Function], bool]:
     """Compiled twins of ``funcs`` (SX Functions; a Function named ``jac_NAME`` becomes the
     Jacobian of ``NAME``): ``({name: external Function}, built_now)``.
 
@@ -135,7 +137,8 @@ def library(funcs: list, model_key: str, variant: str, store: bool = True) -> tu
     Raises :class:`Unavailable` when there is no compiler or the compile fails.
     """
     comp = compiler()
-    key = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "casadi": ca.__version__,
+    key = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
+           "casadi": ca.__version__,  # type: ignore[attr-defined]  # casadi.pyi does not declare __version__
            "model": model_key, "variant": variant, "compiler": comp.identity(),
            "functions": [_signature(f) for f in funcs]}
     where = cache.compiled_dir() / _entry_name(key)
@@ -159,7 +162,7 @@ def report_rebuild(where: Path, reason: str) -> None:
     print(f"symgen: warning: compiled entry {where} {reason}; rebuilding it", file=sys.stderr)
 
 
-def read_verified(where: Path, key: dict, name: str = LIBRARY) -> bytes:
+def read_verified(where: Path, key: dict[str, object], name: str = LIBRARY) -> bytes:
     """The bytes of the file ``name`` of the entry ``where``, after checking that its manifest
     holds every field of ``key`` and the file's keyed hash (else :class:`symgen.cache.InvalidEntry`)."""
     try:
@@ -184,7 +187,7 @@ def _label(where: Path, name: str) -> str:
     return f"compiled/{where.name}/{name}"
 
 
-def install(tmp: Path, where: Path, key: dict, name: str, blob: bytes, replace: bool) -> None:
+def install(tmp: Path, where: Path, key: dict[str, object], name: str, blob: bytes, replace: bool) -> None:
     """Write the manifest of the built file ``name`` into ``tmp`` and rename ``tmp`` to ``where``."""
     try:
         manifest = dict(key, files={name: cache.seal(_label(where, name), blob)})
@@ -194,7 +197,8 @@ def install(tmp: Path, where: Path, key: dict, name: str, blob: bytes, replace: 
         cache.report_unwritable(where, exc)
 
 
-def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, replace: bool) -> bytes:
+def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool,
+           replace: bool) -> bytes:
     parent = where.parent if store else Path(tempfile.gettempdir())
     if store:
         parent.mkdir(parents=True, exist_ok=True)
@@ -219,7 +223,7 @@ def _build(funcs: list, comp: Compiler, where: Path, key: dict, store: bool, rep
     return blob
 
 
-def _load(blob: bytes, funcs: list) -> dict:
+def _load(blob: bytes, funcs: list[ca.Function]) -> dict[str, ca.Function]:
     """Externals of ``funcs`` from verified library bytes: written to a private folder, loaded
     (the importer keeps the library mapped), the copy removed; signatures checked."""
     private = Path(tempfile.mkdtemp(prefix="symgen-lib-"))

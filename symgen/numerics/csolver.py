@@ -25,6 +25,7 @@ import tempfile
 import time
 from importlib import resources
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -35,13 +36,16 @@ from symgen.numerics import compiled, interrupt
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.simulate import SimResult
 
+if TYPE_CHECKING:
+    from symgen.scene.model import Scene
+
 FORMAT = "symgen-c-solver-cache"
 FORMAT_VERSION = 2      # 2: keyed hashes (HMAC-SHA256 with the user's key)
 EXECUTABLE = "sim"
 _STATS = re.compile(r"(\d+) steps \(.*closure residual max ([^;\s]+)(?:; solver CPU (\S+) s)?")
 
 
-def scene_key(scene) -> str:
+def scene_key(scene: Scene) -> str:
     """sha256 of the scene without its [simulation] table (times, tolerances: given to the
     executable on its command line) and its file's path: what the emitted C is made from."""
     data = dataclasses.asdict(scene)
@@ -63,7 +67,7 @@ def templates_digest() -> str:
     return h.hexdigest()
 
 
-def _key(scene, comp: compiled.Compiler) -> dict:
+def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
     """What the executable is made from (``radau``: the method's and the step control's constants,
     rendered into the C from symgen/backends/c/radau.py; ``policy``: the solver policy's tolerances
     and limits, from symgen/policy.py). ``model``: the derived model's structure key (derivation
@@ -105,7 +109,8 @@ def _no_compiler(reason: str) -> SceneError:
                       f"install a C compiler or set ${compiled.CC_ENV} to one; or leave out --solver c (IDAS)")
 
 
-def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict, store: bool, replace: bool) -> bytes:
+def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str, object], store: bool,
+           replace: bool) -> bytes:
     from symgen.model.derive import derive
     from symgen.backends.c import c_context
     from symgen.backends.c.build import STRICT_C
@@ -197,9 +202,9 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
     if proc.returncode != 0:
         msg = next((ln for ln in reversed(err.strip().splitlines()) if "steps (" not in ln), "the C solver stopped")
         msg = msg.split(": ", 1)[-1]
-        exc = SimulationError(float(rows[-1, 0]) if n else 0.0, f"the C solver stopped: {msg}",
-                              "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)")
-        result.failure = str(exc)
-        exc.partial = result
-        raise exc
+        stopped = SimulationError(float(rows[-1, 0]) if n else 0.0, f"the C solver stopped: {msg}",
+                                  "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)")
+        result.failure = str(stopped)
+        setattr(stopped, "partial", result)     # symgen.errors does not declare SimulationError.partial
+        raise stopped
     return result

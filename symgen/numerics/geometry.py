@@ -21,6 +21,7 @@ joint for any F (the displacement field of a joint point is the same seen from e
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import casadi as ca
 import numpy as np
@@ -38,6 +39,9 @@ from symgen.model.slot import XI, SlotBarKinematics, SlotBasis
 from symgen.model.structure import basis_sizes, overhang_modes, structure_of
 from symgen.model.topology import build_topology
 
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
+
 SAMPLES = 41        # points per bar (shape functions up to ~8 half-waves drawn smoothly)
 
 
@@ -48,8 +52,8 @@ class Marker:
     joint: str
     kind: str              # "pin" | "slider" | "slot"
     index: int
-    ground: tuple | None   # ground point (dimensionless) of a joint to ground, else None
-    direction: tuple | None = None   # slider line direction
+    ground: tuple[float, ...] | None   # ground point (dimensionless) of a joint to ground, else None
+    direction: tuple[float, ...] | None = None   # slider line direction
 
 
 class Geometry:
@@ -64,7 +68,7 @@ class Geometry:
                for i, c in enumerate(coords)}
         topo = build_topology(scene)
         slot_of = {j.ends[1].body: j.name for j in scene.joints if j.kind == "slot"}
-        kins = {}
+        kins: dict[str, BarKinematics | SlotBarKinematics] = {}
         records = {rec["name"]: rec for rec in structure_of(scene)["bodies"]}
         for b in scene.bodies:
             na, nt = basis_sizes(scene, b)
@@ -82,7 +86,7 @@ class Geometry:
         slider_s = {e.joint: (names.slider_travel(e.joint).symbol(), None, None) for e in topo.edges.values() if e.slider}
         tree = TreeKinematics(topo, kins, lambda name: sp.Float(values[name.text]), slider_s)
 
-        def along(name: str, xis) -> list:
+        def along(name: str, xis: np.ndarray) -> list[sp.Matrix]:
             """rho at each xi (a guide's piecewise span built once in xi, then evaluated)."""
             kin = kins[name]
             if isinstance(kin, SlotBarKinematics):
@@ -101,6 +105,7 @@ class Geometry:
         self.markers: list[Marker] = []
         for j in scene.joints:
             end = next(x for x in j.ends if x.body != GROUND and x.xi is not None)
+            assert end.xi is not None       # chosen so (next() does not narrow)
             pts.append(tree.point_position(end.body, end.xi))
             g = next((x.point for x in j.ends if x.body == GROUND), None)
             self.markers.append(Marker(j.name, j.kind, len(pts) - 1, None if g is None else tuple(g),
@@ -117,7 +122,7 @@ class Geometry:
         return out.reshape(2, len(Q), self.npts).transpose(1, 0, 2)
 
 
-def rigid_reference(mech, tau: np.ndarray, Q: np.ndarray) -> np.ndarray:
+def rigid_reference(mech: Mechanism, tau: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """For each state, the rigid mechanism at the same input: every amplitude zero, the
     dependent rigid coordinates solved from the closure by Newton from the computed ones."""
     Q = np.atleast_2d(np.asarray(Q, dtype=float))
@@ -136,7 +141,8 @@ def rigid_reference(mech, tau: np.ndarray, Q: np.ndarray) -> np.ndarray:
 
 def magnified(P: np.ndarray, P_rigid: np.ndarray, factor: float) -> np.ndarray:
     """r(q_r) + F (r(q) - r(q_r)): the elastic displacement field drawn F times larger."""
-    return P_rigid + factor * (P - P_rigid)
+    drawn: np.ndarray = P_rigid + factor * (P - P_rigid)
+    return drawn
 
 
 def auto_factor(P: np.ndarray, P_rigid: np.ndarray, target: float) -> tuple[float, float]:

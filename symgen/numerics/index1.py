@@ -9,12 +9,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
 
 @dataclass(frozen=True)
 class Partition:
-    ind: tuple      # indices of independent coordinates (differential)
-    dep: tuple      # indices of dependent rigid coordinates (algebraic)
+    ind: tuple[int, ...]      # indices of independent coordinates (differential)
+    dep: tuple[int, ...]      # indices of dependent rigid coordinates (algebraic)
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,7 @@ class Index1:
     a: ca.SX
     lam: ca.SX
 
-    def alg(self, f: dict, t, p) -> ca.SX:
+    def alg(self, f: dict[str, ca.Function], t: ca.SX | float, p: ca.SX | np.ndarray) -> ca.SX:
         """The algebraic equations [phi; phid; res; phidd] at time t with parameters p."""
         args = [t, self.q, self.v, self.a, self.lam, p]
         return ca.vertcat(*(f[k](*args) for k in ("phi", "phid", "res", "phidd")))

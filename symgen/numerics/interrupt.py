@@ -47,7 +47,8 @@ import re
 import signal
 import sys
 import threading
-from typing import Iterator
+from types import FrameType
+from typing import Iterator, TextIO, overload
 
 from symgen.errors import Interrupted
 
@@ -66,6 +67,14 @@ def check(tau: float | None = None) -> None:
     """Raise ``Interrupted`` if a signal arrived (``tau``: where the run stands, for the message)."""
     if _pending:
         raise Interrupted(_pending[0], tau)
+
+
+@overload
+def interrupted(err: BaseException, tau: float | None = None) -> BaseException: ...
+
+
+@overload
+def interrupted(err: None = None, tau: float | None = None) -> Interrupted | None: ...
 
 
 def interrupted(err: BaseException | None = None, tau: float | None = None) -> BaseException | None:
@@ -90,7 +99,7 @@ class _SolverNoiseFilter:
     _NOISE = re.compile(r"^(\w+ failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
                         r"|(At t = [^,]*, the|The) [\w ]+ failed unrecoverably\. ?)$")
 
-    def __init__(self, stream) -> None:
+    def __init__(self, stream: TextIO) -> None:
         self._stream = stream
         self._dropped = False
 
@@ -101,14 +110,14 @@ class _SolverNoiseFilter:
         self._dropped = False
         return self._stream.write(text)
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> object:
         return getattr(self._stream, name)
 
 
 _deferring: list[bool] = []     # inside deferred(): a signal is recorded, raised when it ends
 
 
-def _handler(signum, frame):
+def _handler(signum: int, frame: FrameType | None) -> None:
     _pending.append(signum)
     if not _deferring:
         raise Interrupted(signum)
@@ -127,7 +136,7 @@ def deferred() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def handling(signals=SIGNALS) -> Iterator[None]:
+def handling(signals: tuple[signal.Signals, ...] = SIGNALS) -> Iterator[None]:
     """Install the SIGINT/SIGTERM handlers for the duration of the block (see the module)."""
     global _depth
     if threading.current_thread() is not threading.main_thread() or _depth:

@@ -20,6 +20,7 @@ from typing import Sequence
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from symgen.errors import SimulationError
 from symgen.backends.casadi import pipeline
@@ -33,7 +34,7 @@ from symgen.numerics import checks, start
 from symgen.numerics.index1 import Partition
 
 
-def load_mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
+def load_mechanism(scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = (),
                    use_cache: bool = True) -> Mechanism:
     """The compiled model of a scene (a loaded ``Scene``, or a scene file with its ``--set``
     overrides) with its parameter values, ready to run: load, derive or load from the model
@@ -51,11 +52,11 @@ class Mechanism:
         tic = time.perf_counter()
         self.scene = scene
         self.compiled = compiled          # its derivation and cache state go into a run's sidecar
-        self.f = compiled.funcs
+        self.f: dict[str, ca.Function] = compiled.funcs
         self.info = info = compiled.info
         self.coords = info.coords
         self.n, self.m = info.n, info.m
-        self.p = parameter_values(scene, info.params)
+        self.p = parameter_values(scene, list(info.params))
         t, q, v, a, lam, p = (ca.SX.sym(k, s) for k, s in
                               (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m),
                                ("p", len(self.p))))
@@ -71,19 +72,20 @@ class Mechanism:
         # coordinates of their inextensibility rows (kept apart from the loop rows)
         self.inext_rows = list(info.inextensible_rows)
         self.inext_f = list(info.inextensible_axial)
-        self.static_systems: dict = {}    # Partition -> start.StaticSystem (built on first use)
+        self.static_systems: dict[Partition, start.StaticSystem] = {}    # built on first use
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)
 
     # ---------------------------------------------------------------- helpers
-    def call(self, name: str, t: float, q, v=None, a=None, lam=None) -> np.ndarray:
+    def call(self, name: str, t: float, q: np.ndarray, v: np.ndarray | None = None, a: np.ndarray | None = None,
+             lam: np.ndarray | None = None) -> np.ndarray:
         v = np.zeros(self.n) if v is None else v
         a = np.zeros(self.n) if a is None else a
         lam = np.zeros(self.m) if lam is None else lam
         return np.array(self.f[name](t, q, v, a, lam, self.p)).ravel()
 
-    def jac_q(self, t: float, q) -> np.ndarray:
+    def jac_q(self, t: float, q: np.ndarray) -> np.ndarray:
         z = np.zeros
         return np.array(self.phi_q(t, q, z(self.n), z(self.n), z(self.m), self.p))
 
@@ -111,7 +113,7 @@ class Mechanism:
         return POLICY.driver_step / rate if rate > 0 else POLICY.driver_step
 
     # ---------------------------------------------------------------- partition + assembly
-    def choose_partition(self, t: float, q) -> Partition:
+    def choose_partition(self, t: float, q: np.ndarray) -> Partition:
         """Greedy choice of dependent rigid coordinates with a well-conditioned closure Jacobian."""
         if self.m == 0:
             return Partition(tuple(range(self.n)), ())
@@ -141,8 +143,8 @@ class Mechanism:
         ind = tuple(i for i in range(self.n) if i not in chosen)
         return Partition(ind, tuple(chosen))
 
-    def assemble(self, t: float, q_guess, part: Partition, tol: float = POLICY.assembly_tol,
-                 maxit: int = POLICY.assembly_maxit):
+    def assemble(self, t: float, q_guess: ArrayLike, part: Partition, tol: float = POLICY.assembly_tol,
+                 maxit: int = POLICY.assembly_maxit) -> np.ndarray:
         """Solve phi(q) = 0 for the dependent coordinates by damped Newton from q_guess."""
         q = np.array(q_guess, dtype=float)
         dep = list(part.dep)
@@ -175,7 +177,7 @@ class Mechanism:
                                  f"{self.loop_name(worst)} keeps a residual of {np.abs(r).max():.3g}",
                               "give initial.guess angles (rad) near a real assembly, and check lengths and ground points")
 
-    def velocities(self, t: float, q, v, part: Partition) -> np.ndarray:
+    def velocities(self, t: float, q: np.ndarray, v: ArrayLike, part: Partition) -> np.ndarray:
         """Dependent velocities from the velocity-level closure."""
         v = np.array(v, dtype=float)
         if not part.dep:
@@ -187,7 +189,7 @@ class Mechanism:
         v[dep] = np.linalg.solve(J, -r)
         return v
 
-    def accelerations(self, t: float, q, v) -> tuple[np.ndarray, np.ndarray]:
+    def accelerations(self, t: float, q: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Accelerations and multipliers from the dynamics and the acceleration-level closure."""
         z0n, z0m = np.zeros(self.n), np.zeros(self.m)
         K, r = self.kkt(t, q, v, z0n, z0m, self.p)
@@ -224,6 +226,6 @@ class Mechanism:
                     v[i] = rates[c.index]
         return q, v
 
-    def initial_state(self, t0: float = 0.0):
+    def initial_state(self, t0: float = 0.0) -> start.State:
         """Consistent (q, v, a, lam) at t0 and the coordinate partition (``start.consistent_start``)."""
         return start.consistent_start(self, t0)

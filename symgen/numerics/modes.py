@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypedDict
 
 import casadi as ca
 import numpy as np
@@ -41,6 +42,10 @@ from symgen.ir.records import CoordKind
 from symgen.numerics.index1 import index1
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.quasistatic import QuasiStaticSystem
+
+if TYPE_CHECKING:
+    from symgen.model.shapes import Basis
+    from symgen.scene.model import Scene
 
 SHAPE_POINTS = 21
 #: Real parts above this (per unit tau) count as growth; below it they are round-off.
@@ -55,13 +60,14 @@ class Mode:
     frequency: float                # damped: Im s
     damping_ratio: float
     dominant: str                   # "<body> transverse" | "<body> axial": largest deformation share
-    energy_fractions: dict          # group -> share of the modal kinetic energy (diagonal blocks)
-    amplitudes: dict                # coordinate -> real part of the normalised shape
+    energy_fractions: dict[str, float]      # group -> share of the modal kinetic energy (diagonal blocks)
+    amplitudes: dict[str, float]            # coordinate -> real part of the normalised shape
     complexity: float               # |imaginary part| / |real part| of the normalised shape
-    shape: dict = field(default_factory=dict)   # body -> {"xi", "zeta", "eta"}
+    shape: dict[str, dict[str, list[float]]] = field(default_factory=dict)   # body -> {"xi", "zeta", "eta"}
 
-    def as_dict(self, hz_per_unit: float | None = None) -> dict:
-        d = {"index": self.index, "natural_frequency": self.natural_frequency, "frequency": self.frequency,
+    def as_dict(self, hz_per_unit: float | None = None) -> dict[str, object]:
+        d: dict[str, object] = {
+             "index": self.index, "natural_frequency": self.natural_frequency, "frequency": self.frequency,
              "damping_ratio": self.damping_ratio, "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
              "dominant": self.dominant, "energy_fractions": self.energy_fractions,
              "amplitudes": self.amplitudes, "complexity": self.complexity, "shape": self.shape}
@@ -70,22 +76,30 @@ class Mode:
         return d
 
 
+class Stability(TypedDict):
+    """The verdict of :meth:`ModesResult.stability`."""
+
+    stable: bool
+    kind: str           # "stable" | "divergence" | "growth"
+    reason: str
+
+
 @dataclass
 class ModesResult:
     tau: float
-    modes: list
-    real_eigenvalues: list          # overdamped (negative) or divergent (positive) eigenvalues
-    state: dict                     # coordinate -> value at the quasi-static state
-    independent: list
-    dependent: list
-    quasi_static: dict              # the (20) solve's report at tau
+    modes: list[Mode]
+    real_eigenvalues: list[float]   # overdamped (negative) or divergent (positive) eigenvalues
+    state: dict[str, float]         # coordinate -> value at the quasi-static state
+    independent: list[str]
+    dependent: list[str]
+    quasi_static: dict[str, float | str | int | None]   # the (20) solve's report at tau
 
     @property
     def stable(self) -> bool:
         return all(s <= GROWTH_TOL for s in self.real_eigenvalues) and all(
             m.eigenvalue.real <= GROWTH_TOL for m in self.modes)
 
-    def stability(self, damping: float = 0.0) -> dict:
+    def stability(self, damping: float = 0.0) -> Stability:
         """The verdict and its reason: ``{"stable", "kind", "reason"}`` with ``kind`` one of
         ``stable``, ``divergence`` (a real positive eigenvalue: beyond buckling) or ``growth``
         (a vibration mode whose amplitude grows in the frozen system)."""
@@ -122,7 +136,7 @@ class ModesResult:
         return np.array(out)
 
 
-def _rigid_march(qs: QuasiStaticSystem, tau: float):
+def _rigid_march(qs: QuasiStaticSystem, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rigid state at tau, followed from tau = 0 in small steps of the driver (stays on the
     assembly branch of initial.guess)."""
     mech = qs.mech
@@ -156,7 +170,7 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
     # index-1 system G(x, z) = 0 and its Jacobians
     sys_ = index1(n, m, part)
     x, z, aa = sys_.x, sys_.z, sys_.a
-    args = [tau, sys_.q, sys_.v, aa, sys_.lam, mech.p]
+    args: list[ca.SX | np.ndarray | float] = [tau, sys_.q, sys_.v, aa, sys_.lam, mech.p]
     f = mech.f
     G = sys_.alg(f, tau, mech.p)
     jac = ca.Function("modes_jac", [x, z], [G, ca.jacobian(G, x), ca.jacobian(G, z), ca.jacobian(f["res"](*args), aa)])
@@ -174,7 +188,7 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
     s, W = np.linalg.eig(Ax)
 
     coords = mech.coords
-    groups = {}
+    groups: dict[str, list[int]] = {}
     for i, c in enumerate(coords):
         kind = {CoordKind.F: "axial", CoordKind.G: "transverse"}.get(c.kind, "rigid")
         groups.setdefault(f"{c.body} {kind}", []).append(i)
@@ -200,11 +214,12 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         tot = sum(abs(e) for e in energy.values()) or 1.0
         fractions = {g: abs(e) / tot for g, e in energy.items() if abs(e) / tot > 1e-12}
         deform = {g: e for g, e in fractions.items() if not g.endswith(" rigid")}
-        dominant = max(deform, key=deform.get) if deform else (max(fractions, key=fractions.get) if fractions else "?")
+        dominant = (max(deform, key=deform.__getitem__) if deform
+                    else (max(fractions, key=fractions.__getitem__) if fractions else "?"))
         mode = Mode(index=0, eigenvalue=complex(sk), natural_frequency=float(abs(sk)), frequency=float(sk.imag),
                     damping_ratio=float(-sk.real / abs(sk)), dominant=dominant, energy_fractions=fractions,
                     amplitudes={coords[i].name: float(re[i]) for i in range(n)},
-                    complexity=float(np.linalg.norm(im) / max(np.linalg.norm(re), 1e-300)))
+                    complexity=float(np.linalg.norm(im) / max(float(np.linalg.norm(re)), 1e-300)))
         if shapes:
             mode.shape = _shape(mech.info, re, bases)
         found.append(mode)
@@ -217,10 +232,10 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
                        quasi_static=rep.as_dict())
 
 
-def _bases(mech: Mechanism) -> dict:
+def _bases(mech: Mechanism) -> dict[str, tuple[Basis | None, Basis | None]]:
     from symgen.model.static_shapes import bar_bases
 
-    out = {}
+    out: dict[str, tuple[Basis | None, Basis | None]] = {}
     structure = {b["name"]: b for b in mech.info.structure["bodies"]}
     for b in mech.scene.bodies:
         st = structure[b.name]
@@ -231,7 +246,8 @@ def _bases(mech: Mechanism) -> dict:
     return out
 
 
-def _shape(info: ModelInfo, dq, bases) -> dict:
+def _shape(info: ModelInfo, dq: np.ndarray,
+           bases: dict[str, tuple[Basis | None, Basis | None]]) -> dict[str, dict[str, list[float]]]:
     xi = np.linspace(0.0, 1.0, SHAPE_POINTS)
     out = {}
     for body, (ba, bt) in bases.items():
@@ -243,7 +259,7 @@ def _shape(info: ModelInfo, dq, bases) -> dict:
     return out
 
 
-def modes_json(result: ModesResult, scene, info: ModelInfo) -> dict:
+def modes_json(result: ModesResult, scene: Scene, info: ModelInfo) -> dict[str, object]:
     """The ``symgen modes -o OUT.json`` document."""
     hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
     return {
@@ -265,7 +281,7 @@ def modes_json(result: ModesResult, scene, info: ModelInfo) -> dict:
     }
 
 
-def modes_table(result: ModesResult, scene, limit: int = 12) -> str:
+def modes_table(result: ModesResult, scene: Scene, limit: int = 12) -> str:
     """A short text table of the lowest modes, with the stability verdict and its reason."""
     hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
     undamped = scene.effects.damping == 0

@@ -42,9 +42,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Callable
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
@@ -72,8 +74,8 @@ class PositionReport:
     contraction: float | None   # estimated contraction factor of the fixed-point iteration
     reason: str = ""            # why Newton took over
 
-    def as_dict(self) -> dict:
-        d = {"tau": self.tau, "method": self.method, "iterations": self.iterations,
+    def as_dict(self) -> dict[str, float | str | int | None]:
+        d: dict[str, float | str | int | None] = {"tau": self.tau, "method": self.method, "iterations": self.iterations,
              "newton_iterations": self.newton_iterations, "residual": self.residual,
              "contraction": self.contraction}
         if self.reason:
@@ -85,19 +87,19 @@ class PositionReport:
 class QuasiStaticResult:
     tau: np.ndarray
     outputs: np.ndarray             # (N, n_out)
-    output_names: list
+    output_names: list[str]
     q: np.ndarray                   # (N, n)
     v: np.ndarray
     a: np.ndarray
     lam: np.ndarray
     closure_max: float
-    reports: list                   # PositionReport per row
+    reports: list[PositionReport]   # one per row
     solve_s: float
     partition: Partition
     kinematics: str
     complete: bool = True
     failure: str = ""
-    stats: dict = field(default_factory=dict)
+    stats: dict[str, str | float | None] = field(default_factory=dict)
 
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""
@@ -112,7 +114,7 @@ class QuasiStaticResult:
     def simulate_s(self) -> float:
         return self.solve_s
 
-    def solver_info(self) -> dict:
+    def solver_info(self) -> dict[str, object]:
         """The JSON ``solver`` entry: method, tolerances, per-position iterations and residuals."""
         newton = [r for r in self.reports if r.method == "newton"]
         its = [r.iterations for r in self.reports]
@@ -174,16 +176,16 @@ class QuasiStaticSystem:
         for k, i in enumerate(Da):
             a[i] = a0[i] + y[nE + 2 * nq + k]
         lam = y[nE + 2 * nq + na_:]
-        args = [t, q, v, a, lam, mech.p]
+        args: list[ca.SX | np.ndarray] = [t, q, v, a, lam, mech.p]
         f = mech.f
-        sel = (lambda w: w) if deformed else (lambda w: w[rows] if rows else ca.SX(0, 1))
+        sel: Callable[[ca.SX], ca.SX] = (lambda w: w) if deformed else (lambda w: w[rows] if rows else ca.SX(0, 1))
         R = ca.vertcat(sel(f["phi"](*args)), sel(f["phid"](*args)), f["res"](*args), sel(f["phidd"](*args)))
         self._R = ca.Function("qs_R", [t, q0, v0, a0, y], [R])
         self._RJ = ca.Function("qs_RJ", [t, q0, v0, a0, y], [R, ca.jacobian(R, y)])
         self._state = ca.Function("qs_state", [t, q0, v0, a0, y], [q, v, a, lam])
 
     # ------------------------------------------------------------------ rigid kinematics
-    def rigid_state(self, t: float, q_guess) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def rigid_state(self, t: float, q_guess: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """theta, theta', theta'' of the rigid mechanism at t (amplitudes, their rates and
         accelerations zero), from the closure (11) at the three levels."""
         mech, part = self.mech, self.part
@@ -207,26 +209,30 @@ class QuasiStaticSystem:
         return q, v, a
 
     # ------------------------------------------------------------------ (20)
-    def residual(self, t, qr, vr, ar, y) -> np.ndarray:
+    def residual(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray) -> np.ndarray:
         return np.array(self._R(t, qr, vr, ar, y)).ravel()
 
-    def linear_system(self, t, qr, vr, ar) -> tuple[np.ndarray, np.ndarray]:
+    def linear_system(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(A, B) of (20) at the rigid state: A = dR/dy(0), B = -R(0)."""
         R0, J0 = self._RJ(t, qr, vr, ar, np.zeros(self.ny))
         return np.array(J0), -np.array(R0).ravel()
 
-    def nonlinear_rest(self, t, qr, vr, ar, y, A=None, B=None) -> np.ndarray:
+    def nonlinear_rest(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray,
+                       A: np.ndarray | None = None, B: np.ndarray | None = None) -> np.ndarray:
         """f(y) = A y - (R(y) - R(0)) of (20)."""
         if A is None or B is None:
             A, B = self.linear_system(t, qr, vr, ar)
-        return A @ y - self.residual(t, qr, vr, ar, y) - B
+        rest: np.ndarray = A @ y - self.residual(t, qr, vr, ar, y) - B
+        return rest
 
-    def state(self, t, qr, vr, ar, y):
+    def state(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
+              y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Full (q, v, a, lam) of the solution y."""
         q, v, a, lam = self._state(t, qr, vr, ar, y)
         return (np.array(q).ravel(), np.array(v).ravel(), np.array(a).ravel(), np.array(lam).ravel())
 
-    def solve(self, t: float, qr, vr, ar, y0=None) -> tuple[np.ndarray, PositionReport]:
+    def solve(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
+              y0: ArrayLike | None = None) -> tuple[np.ndarray, PositionReport]:
         """Solve (20) at one input position: fixed-point iteration, Newton when it does not contract."""
         A, B = self.linear_system(t, qr, vr, ar)
         tol = RES_TOL * max(1.0, float(np.abs(B).max(initial=0.0)))
@@ -273,7 +279,8 @@ class QuasiStaticSystem:
                                   "the dynamic response (symgen simulate) is still defined")
         return y, PositionReport(t, "newton", it, nit, float(np.abs(R).max()), rho, reason)
 
-    def _newton(self, t, qr, vr, ar, y, tol):
+    def _newton(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray,
+                tol: float) -> tuple[np.ndarray, np.ndarray, int]:
         R, J = self._RJ(t, qr, vr, ar, y)
         R = np.array(R).ravel()
         nit = 0
@@ -335,8 +342,9 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
 NO_POSITION = "before the first input position was solved (nothing to keep)"
 
 
-def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycles: float | None = None,
-                 output_step: float | None = None, say=None) -> QuasiStaticResult:
+def quasi_static(mech: Mechanism, taus: ArrayLike | None = None, kinematics: str = "deformed",
+                 cycles: float | None = None, output_step: float | None = None,
+                 say: Callable[[str], object] | None = None) -> QuasiStaticResult:
     """The quasi-static response (20) at each input position (default: one cycle).
 
     ``say``: an optional callable given one progress line once the first position is solved.
@@ -355,11 +363,11 @@ def quasi_static(mech: Mechanism, taus=None, kinematics: str = "deformed", cycle
         exc = positions.stopped(err)
         if exc is None:
             raise
-        exc.partial = positions.result(exc)
+        setattr(exc, "partial", positions.result(exc))   # symgen.errors does not declare the errors' partial
     raise exc
 
 
-def _start(mech: Mechanism, taus, kinematics: str, cycles: float | None,
+def _start(mech: Mechanism, taus: ArrayLike | None, kinematics: str, cycles: float | None,
            output_step: float | None) -> tuple[np.ndarray, np.ndarray, QuasiStaticSystem]:
     """The input positions, the consistent start at the first (its q) and the system (20) of its
     partition. A signal meanwhile (the start's assembly, building (20)): ``Interrupted`` saying
@@ -376,9 +384,10 @@ def _start(mech: Mechanism, taus, kinematics: str, cycles: float | None,
     return taus, q, sys_
 
 
-def _solve_positions(sys_: QuasiStaticSystem, positions: _Positions, taus: np.ndarray, q, say) -> None:
+def _solve_positions(sys_: QuasiStaticSystem, positions: _Positions, taus: np.ndarray, q: np.ndarray,
+                     say: Callable[[str], object] | None) -> None:
     """(20) at each input position in turn, each started from the last one's solution."""
-    y = None
+    y: np.ndarray | None = None
     q_guess = q
     for t in taus:
         t = float(t)
@@ -398,7 +407,7 @@ class _Positions:
 
     def __init__(self, sys_: QuasiStaticSystem) -> None:
         self.mech, self.part, self.kinematics = sys_.mech, sys_.part, sys_.kinematics
-        self.rows: dict[str, list] = {k: [] for k in ("tau", "out", "q", "v", "a", "lam")}
+        self.rows: dict[str, list[float | np.ndarray]] = {k: [] for k in ("tau", "out", "q", "v", "a", "lam")}
         self.reports: list[PositionReport] = []
         self.closure_max = 0.0
         self.tic = time.perf_counter()
@@ -408,16 +417,18 @@ class _Positions:
         return min(len(self.reports), *(len(v) for v in self.rows.values()))
 
     def last_tau(self) -> float | None:
-        return self.rows["tau"][-1] if self.rows["tau"] else None
+        return float(self.rows["tau"][-1]) if self.rows["tau"] else None
 
-    def add(self, t: float, qq, vv, aa, ll, rep: PositionReport) -> None:
+    def add(self, t: float, qq: np.ndarray, vv: np.ndarray, aa: np.ndarray, ll: np.ndarray,
+            rep: PositionReport) -> None:
         """The position at t: its outputs and closure residual evaluated, then recorded."""
         mech = self.mech
         out = mech.call("out", t, qq, vv, aa, ll)
         clo = mech.call("closure", t, qq)
         if clo.size:
             self.closure_max = max(self.closure_max, float(np.abs(clo).max()))
-        for k, val in zip(("tau", "out", "q", "v", "a", "lam"), (t, out, qq, vv, aa, ll)):
+        values: tuple[float | np.ndarray, ...] = (t, out, qq, vv, aa, ll)
+        for k, val in zip(("tau", "out", "q", "v", "a", "lam"), values):
             self.rows[k].append(val)
         self.reports.append(rep)
 
@@ -433,7 +444,7 @@ class _Positions:
         Interrupted and RuntimeError let that SystemError out without the tau and the
         positions solved (2.5 to 10 % of real SIGINTs measured; 3 of 5 full-suite runs)."""
         n = self.solved()
-        exc = interrupt.interrupted(err, self.rows["tau"][n - 1] if n else None)
+        exc = interrupt.interrupted(err, float(self.rows["tau"][n - 1]) if n else None)
         if isinstance(exc, Interrupted) and not n:
             exc = Interrupted(exc.signum, detail=NO_POSITION)
         return exc if isinstance(exc, (SimulationError, Interrupted)) else None

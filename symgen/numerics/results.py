@@ -21,19 +21,29 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence, TypeVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from symgen import __version__
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.outputs import atomic_write, check_file, remove
+
+if TYPE_CHECKING:
+    from symgen.scene.model import Scene
+    from symgen.backends.casadi.pipeline import CompiledModel
+    from symgen.numerics.quasistatic import QuasiStaticResult
+    from symgen.numerics.simulate import SimResult
+    from symgen.numerics.units import ResultUnits
 
 __all__ = ["OutputsPlot", "PLOT_SUFFIXES", "ResultFiles", "WrittenRun", "atomic_write", "attempt", "build_sidecar",
            "csv_text", "partial_paths", "run_files", "states_block", "write_results", "write_run"]
 
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
 STATE_PREFIX = "q."          # CSV columns of the coordinates: q.theta_crank, q.g_rod_1, ...
+
+R = TypeVar("R")
 
 
 def csv_text(tau: np.ndarray, values: np.ndarray, names: list[str], time_name: str = "tau") -> str:
@@ -56,7 +66,7 @@ def partial_plot(plot: Path) -> Path:
 class ResultFiles:
     """The files of one run: ``OUT.csv``, ``OUT.json``, ``PLOT`` and their ``.partial`` twins."""
 
-    def __init__(self, out: str | os.PathLike, plot: str | os.PathLike | None = None) -> None:
+    def __init__(self, out: str | os.PathLike[str], plot: str | os.PathLike[str] | None = None) -> None:
         self.out = Path(out)
         self.plot = None if plot is None else Path(plot)
         self.partial_written = False
@@ -76,7 +86,8 @@ class ResultFiles:
             return None
         return self.plot if complete else partial_plot(self.plot)
 
-    def write(self, tau, values, names, sidecar: dict, complete: bool = True, time_name: str = "tau") -> Path:
+    def write(self, tau: Sequence[float] | np.ndarray, values: ArrayLike, names: list[str],
+              sidecar: Mapping[str, object], complete: bool = True, time_name: str = "tau") -> Path:
         """CSV, then its JSON sidecar; return the CSV path. The first column is ``time_name``
         (``tau``, or ``t`` in seconds for SI results). Stale files of the other kind go first;
         if a write fails, neither file of this run is left."""
@@ -104,13 +115,14 @@ class ResultFiles:
         remove(self.complete_paths() + ([] if self.partial_written else self.partial_paths()))
 
 
-def write_results(out: str | os.PathLike, tau, values, names, sidecar: dict, complete: bool = True,
+def write_results(out: str | os.PathLike[str], tau: Sequence[float] | np.ndarray, values: ArrayLike,
+                  names: list[str], sidecar: Mapping[str, object], complete: bool = True,
                   time_name: str = "tau") -> Path:
     """Write the CSV and its JSON sidecar (``ResultFiles.write``); return the CSV path written."""
     return ResultFiles(out).write(tau, values, names, sidecar, complete, time_name)
 
 
-def run_files(out: str | os.PathLike, plot: str | os.PathLike | None = None, out_key: str = "-o",
+def run_files(out: str | os.PathLike[str], plot: str | os.PathLike[str] | None = None, out_key: str = "-o",
               plot_key: str = "--plot") -> ResultFiles:
     """The files of a run (``simulate``, ``quasistatic``), checked before any work (suffix, not a
     folder, its folder writable; nothing is created). ``out_key``, ``plot_key``: how the error
@@ -121,7 +133,7 @@ def run_files(out: str | os.PathLike, plot: str | os.PathLike | None = None, out
     return ResultFiles(out_path, plot_path)
 
 
-def attempt(run: Callable):
+def attempt(run: Callable[[], R]) -> tuple[R | None, SimulationError | Interrupted | None]:
     """(result, failure) of ``run()``: a run that stopped early (a failure, SIGINT/SIGTERM) keeps
     its partial result (None when it had none)."""
     try:
@@ -130,7 +142,8 @@ def attempt(run: Callable):
         return getattr(err, "partial", None), err
 
 
-def build_sidecar(scene, compiled, build_s: float, result, failure: BaseException | None, solver: str = "idas") -> dict:
+def build_sidecar(scene: Scene, compiled: CompiledModel, build_s: float, result: SimResult | QuasiStaticResult | None,
+                  failure: BaseException | None, solver: str = "idas") -> dict[str, Any]:
     """The JSON sidecar of a run (before ``write_run`` adds its ``units`` and ``states``): the
     scene, its model and effects, the status (``failure``: what stopped the run early), the
     solver, timings and checks. ``compiled``: the model record
@@ -139,9 +152,10 @@ def build_sidecar(scene, compiled, build_s: float, result, failure: BaseExceptio
     --solver c``) or "quasi-static" (``result`` a ``QuasiStaticResult``)."""
     from symgen.model.structure import axial_treatments
     from symgen.scene.motion import driver_record
+    from symgen.numerics.quasistatic import QuasiStaticResult
     sim = scene.simulation
     info = compiled.info
-    sidecar = {
+    sidecar: dict[str, Any] = {       # a JSON document
         "scene": str(scene.path),
         "scene_hash": scene.hash,
         "symgen_version": __version__,
@@ -180,6 +194,8 @@ def build_sidecar(scene, compiled, build_s: float, result, failure: BaseExceptio
     if solver == "c":
         sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
     elif solver == "quasi-static":
+        if not isinstance(result, QuasiStaticResult):
+            raise TypeError(f"a quasi-static sidecar needs a QuasiStaticResult, not {type(result).__name__}")
         sidecar["analysis"] = "quasi-static response (18)-(20)"
         sidecar["solver"] = result.solver_info()
         sidecar["timings"]["solve_s"] = result.solve_s
@@ -189,7 +205,7 @@ def build_sidecar(scene, compiled, build_s: float, result, failure: BaseExceptio
     return sidecar
 
 
-def states_block(scene, coordinates: list, model_key: str) -> dict:
+def states_block(scene: Scene, coordinates: list[str], model_key: str) -> dict[str, Any]:
     """The sidecar's ``states`` block: what ``animate --from`` needs to rebuild the geometry."""
     from symgen.model.structure import basis_sizes
     bars = {}
@@ -203,13 +219,14 @@ def states_block(scene, coordinates: list, model_key: str) -> dict:
             "lengths_in": "reference lengths l0", "bars": bars, "ground": _ground(scene)}
 
 
-def _ground(scene) -> dict:
+def _ground(scene: Scene) -> dict[str, dict[str, list[float] | None]]:
     """Ground points (and slider directions) of the joints to ground, dimensionless."""
     from symgen.scene.model import GROUND
     out = {}
     for j in scene.joints:
         for e in j.ends:
             if e.body == GROUND:
+                assert e.point is not None      # a ground end has its point (the scene loader checks it)
                 out[j.name] = {"point": list(e.point), "direction": None if j.direction is None else list(j.direction)}
     return out
 
@@ -221,12 +238,12 @@ class OutputsPlot:
     path: Path
     time: np.ndarray                # the time column, in the results' units
     values: np.ndarray              # (N, n_out) in the results' units
-    names: list
-    kinds: list
+    names: list[str]
+    kinds: list[str]
     title: str
     partial: bool
     turn: float | None              # one crank turn in the time unit (a steady angle driver), else None
-    units: object                   # symgen.numerics.units.ResultUnits
+    units: ResultUnits
 
 
 @dataclass(frozen=True)
@@ -234,11 +251,12 @@ class WrittenRun:
     """What ``write_run`` wrote: the CSV (its JSON beside it), the sidecar record, and the plot
     still to draw (None: no plot asked, or the run was interrupted: stopping fast beats a plot)."""
     csv: Path
-    sidecar: dict
+    sidecar: dict[str, Any]         # the JSON document (as json.loads gives it back)
     plot: OutputsPlot | None
 
 
-def write_run(files: ResultFiles, scene, compiled, build_s: float, result, failure: BaseException | None,
+def write_run(files: ResultFiles, scene: Scene, compiled: CompiledModel, build_s: float,
+              result: SimResult | QuasiStaticResult | None, failure: BaseException | None,
               solver: str = "idas", units: str | None = None, states: bool = False) -> WrittenRun:
     """A run's CSV and JSON sidecar (partial when the run stopped: ``failure``), columns in the
     scene's units (SI for an SI scene unless ``units="dimensionless"``), with the coordinates as
@@ -271,7 +289,8 @@ def write_run(files: ResultFiles, scene, compiled, build_s: float, result, failu
     if plot_path is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
         drv = scene.driver
         steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
-        turn = 2 * math.pi / abs(drv.rate) if steady else None      # a law or a ramp: plotted against tau
+        # a law or a ramp: plotted against tau
+        turn = 2 * math.pi / abs(drv.rate) if drv is not None and steady else None
         what = "quasi-static response, " if solver == "quasi-static" else ""
         plot = OutputsPlot(plot_path, t_col, values, list(result.output_names),
                            [o.kind for o in scene.outputs], f"{scene.name}: {what}{Path(scene.path).name}",
@@ -280,7 +299,7 @@ def write_run(files: ResultFiles, scene, compiled, build_s: float, result, failu
     return WrittenRun(written, sidecar, plot)
 
 
-def _jsonable(x):
+def _jsonable(x: object) -> object:
     if isinstance(x, (np.floating, np.integer)):
         return x.item()
     if isinstance(x, np.ndarray):

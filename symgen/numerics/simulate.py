@@ -19,6 +19,7 @@ from typing import NoReturn
 
 import casadi as ca
 import numpy as np
+from numpy.typing import ArrayLike
 
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.ir.records import CoordKind
@@ -27,6 +28,7 @@ from symgen.numerics import compiled, interrupt
 from symgen.numerics import checks
 from symgen.numerics.index1 import Partition, index1
 from symgen.numerics.mechanism import Mechanism
+from symgen.numerics.start import State
 
 CHUNK = 128         # output steps of the first integrator call; each next one covers twice as
 CHUNK_MAX = 2048    # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
@@ -38,17 +40,17 @@ CALC_IC = False     # z0 is always consistent (our own Newton); IDACalcIC only f
 class SimResult:
     tau: np.ndarray
     outputs: np.ndarray             # (N, n_out)
-    output_names: list
+    output_names: list[str]
     q: np.ndarray                   # (N, n)
     v: np.ndarray
     lam: np.ndarray
     closure_max: float
     steps: int
     simulate_s: float
-    partition: Partition
+    partition: Partition | None     # None: the emitted C solver's run (symgen.numerics.csolver)
     complete: bool = True
     failure: str = ""
-    stats: dict = field(default_factory=dict)
+    stats: dict[str, str | float | None] = field(default_factory=dict)   # backend, library, timings
 
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""
@@ -103,17 +105,18 @@ class DaeRunner:
         tm, xm, zm, pm = (ca.MX.sym(nm, w.size1()) for nm, w in (("t", t), ("x", x), ("z", z), ("p", p)))
         gm, jm = self.g(tm, xm, zm, pm)
         self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
-        self._maps: dict = {}
-        self._integrators: dict = {}
-        self.opts = {"abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
-                     "suppress_algebraic": True, "disable_internal_warnings": True,
-                     "calc_ic": CALC_IC}
+        self._maps: dict[tuple[str, int], ca.Function] = {}
+        self._integrators: dict[tuple[float, int], ca.Function] = {}
+        self.opts: dict[str, float | bool | list[float]] = {
+            "abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
+            "suppress_algebraic": True, "disable_internal_warnings": True,
+            "calc_ic": CALC_IC}
         if axial_atol is not None:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
             ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
             self.opts["abstolv"] = ax + ax + [atol] * (2 * nD + n + m)
 
-    def _use_compiled(self, choice: str, dae_in: list, dae_out: list, use_cache: bool) -> None:
+    def _use_compiled(self, choice: str, dae_in: list[ca.SX], dae_out: list[ca.SX], use_cache: bool) -> None:
         """Run the Functions from a compiled library (built once, cached); when no C compiler
         works, stay in the virtual machine (said once on stderr) unless ``choice`` is "compiled"."""
         mech, part = self.mech, self.part
@@ -132,17 +135,17 @@ class DaeRunner:
             self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
             self.backend, self.library = "compiled", "built" if built else "cached"
 
-    def pack(self, q, v, a, lam) -> tuple[np.ndarray, np.ndarray]:
+    def pack(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         I, D = list(self.part.ind), list(self.part.dep)
         x = np.concatenate([q[I], v[I]])
         z = np.concatenate([q[D], v[D], a, lam])
         return x, z
 
-    def unpack(self, x, z):
+    def unpack(self, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         q, v, a, lam = self.split(x, z)
         return (np.array(q).ravel(), np.array(v).ravel(), np.array(a).ravel(), np.array(lam).ravel())
 
-    def integrator(self, h: float, k: int, x, z):
+    def integrator(self, h: float, k: int, x: np.ndarray, z: np.ndarray) -> ca.Function:
         """IDAS over k output steps of h (time offset in the last parameter), made once per k
         and reused. The state derivatives at the start are those at (x, z) of its first use
         (x' = [v_I, a_I], read from z): CasADi would otherwise start IDAS with x' = 0, and a
@@ -155,19 +158,21 @@ class DaeRunner:
             self._integrators[(h, k)] = ca.integrator("F", "idas", self.dae, 0.0, grid, opts)
         return self._integrators[(h, k)]
 
-    def xdot(self, x, z) -> np.ndarray:
+    def xdot(self, x: ArrayLike, z: ArrayLike) -> np.ndarray:
         x = np.asarray(x, dtype=float).ravel()
         z = np.asarray(z, dtype=float).ravel()
         a = z[2 * self.nD: 2 * self.nD + self.mech.n]
         return np.concatenate([x[self.nI:], a[list(self.part.ind)]])
 
-    def _map(self, name: str, k: int):
+    def _map(self, name: str, k: int) -> ca.Function:
         key = (name, k)
         if key not in self._maps:
-            self._maps[key] = getattr(self, name).map(k)
+            fun: ca.Function = getattr(self, name)      # one of the Functions above, by name
+            self._maps[key] = fun.map(k)
         return self._maps[key]
 
-    def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p, tol: float = POLICY.polish_tol) -> np.ndarray:
+    def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p: np.ndarray,
+                    tol: float = POLICY.polish_tol) -> np.ndarray:
         """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
         same iteration per column: columns stop when their residual is below ``tol``; a column
         whose step is not finite (singular Jacobian) keeps its last value)."""
@@ -185,7 +190,8 @@ class DaeRunner:
             Z[:, todo] = Znew[:, todo]
         return Z
 
-    def polish(self, t: float, x, z, p, tol: float = POLICY.polish_tol) -> np.ndarray:
+    def polish(self, t: float, x: np.ndarray, z: np.ndarray, p: np.ndarray,
+               tol: float = POLICY.polish_tol) -> np.ndarray:
         z = np.array(z, dtype=float).ravel()
         for _ in range(POLICY.polish_maxit if tol <= POLICY.polish_tol else 30):
             g, J = self.g(t, x, z, p)
@@ -219,7 +225,7 @@ class RunSettings:
 
 def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | None = None,
              rtol: float | None = None, atol: float | None = None, t0: float = 0.0,
-             initial: tuple | None = None, axial_atol: float | None = None, backend: str | None = None,
+             initial: State | None = None, axial_atol: float | None = None, backend: str | None = None,
              use_cache: bool = True) -> SimResult:
     """Integrate the scene's DAE from t0 to t_end, output every output_step (in tau).
 
@@ -256,12 +262,13 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         stop = None
     result = traj.result(time.perf_counter() - tic, setup_s, stop)
     if stop is not None:
-        stop.partial = result
+        setattr(stop, "partial", result)        # symgen.errors does not declare the errors' partial
         raise stop
     return result
 
 
-def _start(mech: Mechanism, settings: RunSettings, initial: tuple | None) -> tuple[DaeRunner, np.ndarray, np.ndarray, float]:
+def _start(mech: Mechanism, settings: RunSettings,
+           initial: State | None) -> tuple[DaeRunner, np.ndarray, np.ndarray, float]:
     """The consistent start (``initial``, else the mechanism's own at t0), the runner of its
     partition and the runner's set-up time: (runner, x, z, setup_s). A signal meanwhile (the
     assembly, the consistent state, a compiled library's build) stops the run at t0."""
@@ -292,11 +299,11 @@ class _Trajectory:
 
     def __init__(self, run: DaeRunner) -> None:
         self.run, self.mech, self.part = run, run.mech, run.part
-        self.taus: list = []
-        self.outs: list = []
-        self.qs: list = []
-        self.vs: list = []
-        self.lams: list = []
+        self.taus: list[float] = []
+        self.outs: list[np.ndarray] = []
+        self.qs: list[np.ndarray] = []
+        self.vs: list[np.ndarray] = []
+        self.lams: list[np.ndarray] = []
         self.closure_max = 0.0
         self.steps = 0
 
@@ -304,14 +311,14 @@ class _Trajectory:
         """The outputs recorded whole (an interrupt may land between the appends of one output)."""
         return min(len(self.taus), len(self.outs), len(self.qs), len(self.vs), len(self.lams))
 
-    def _append(self, t, out, q, v, lam) -> None:
+    def _append(self, t: float, out: np.ndarray, q: np.ndarray, v: np.ndarray, lam: np.ndarray) -> None:
         self.taus.append(t)
         self.outs.append(out)
         self.qs.append(q)
         self.vs.append(v)
         self.lams.append(lam)
 
-    def record(self, t, x_, z_, append=True) -> None:
+    def record(self, t: float, x_: np.ndarray, z_: np.ndarray, append: bool = True) -> None:
         """The output at t (``append=False``: only its checks), or the ``SimulationError`` of a
         check it fails."""
         run, mech = self.run, self.mech
@@ -331,7 +338,7 @@ class _Trajectory:
                                      f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
                                   "the mechanism cannot pass this position as driven; shorten t_end or change the geometry")
 
-    def record_many(self, ts, rel, X, Z, p) -> None:
+    def record_many(self, ts: np.ndarray, rel: np.ndarray, X: np.ndarray, Z: np.ndarray, p: np.ndarray) -> None:
         """``record`` of a chunk's outputs with one mapped call (same values, same stop at the
         first singular position)."""
         run, mech = self.run, self.mech
@@ -366,12 +373,12 @@ class _Trajectory:
                          stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s})
 
 
-def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x, z) -> None:
+def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray) -> None:
     """No differential state (a rigid, fully driven mechanism): the motion is the algebraic
     solution at each output time; Newton from the previous solution (extrapolated)."""
     mech = run.mech
     pfull = np.concatenate([mech.p, [settings.t0]])
-    z_prev = None
+    z_prev: np.ndarray | None = None
     for i in range(1, settings.n_outputs + 1):
         ti = settings.t0 + i * settings.h
         pfull[-1] = ti
@@ -387,7 +394,7 @@ def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x, z
         traj.record(ti, x, z)
 
 
-def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x, z) -> None:
+def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray) -> None:
     """IDAS over the run in chunks of outputs (``CHUNK`` first, each next one twice as many up to
     ``CHUNK_MAX``, or all the rest when that is at most twice as many), the algebraic variables
     polished and the outputs recorded per chunk; a chunk that fails is replayed step by step
@@ -419,8 +426,8 @@ def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x, z) -
         size = min(2 * size, CHUNK_MAX)
 
 
-def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start: float, x, z, pfull,
-                    err: RuntimeError) -> NoReturn:
+def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start: float, x: np.ndarray,
+                    z: np.ndarray, pfull: np.ndarray, err: RuntimeError) -> NoReturn:
     """A chunk of k outputs from t_start failed (``err``): replay it one output step at a time,
     recording each output, so that the error names the step that fails (its cause, or the
     singular position it met) and the run keeps everything before it."""
@@ -459,7 +466,7 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
     return exc if isinstance(exc, (SimulationError, Interrupted)) else None
 
 
-def _dae_jacobian(dae: ca.Function, dae_in: list, dae_out: list) -> ca.Function:
+def _dae_jacobian(dae: ca.Function, dae_in: list[ca.SX], dae_out: list[ca.SX]) -> ca.Function:
     """``jac_dae``: the Jacobian CasADi's ``external`` gives IDAS for a compiled ``dae``. The
     blocks IDAS uses are built by the factory that builds them for the SX oracle of the virtual
     machine, so the compiled library computes them with the same operations in the same order
@@ -467,7 +474,8 @@ def _dae_jacobian(dae: ca.Function, dae_in: list, dae_out: list) -> ca.Function:
     fac = dae.factory("jac_blocks", ca.dyn_in(), ["jac:ode:x", "jac:alg:x", "jac:ode:z", "jac:alg:z"])
     blocks = dict(zip(("ode_x", "alg_x", "ode_z", "alg_z"), fac(*dae_in)))
     nominal = [ca.SX.sym(f"out_{k}", e.shape) for k, e in zip(ca.dyn_out(), dae_out)]
-    jac, names = [], []
+    jac: list[ca.SX] = []
+    names: list[str] = []
     for ko, e in zip(ca.dyn_out(), dae_out):
         for ki, w in zip(ca.dyn_in(), dae_in):
             jac.append(blocks.get(f"{ko}_{ki}", ca.jacobian(e, w)))
@@ -475,7 +483,7 @@ def _dae_jacobian(dae: ca.Function, dae_in: list, dae_out: list) -> ca.Function:
     return ca.Function("jac_dae", dae_in + nominal, jac, ca.dyn_in() + [f"out_{k}" for k in ca.dyn_out()], names)
 
 
-_noticed: set = set()
+_noticed: set[str] = set()
 
 
 def _notice(text: str) -> None:
@@ -485,7 +493,7 @@ def _notice(text: str) -> None:
         print(f"symgen: {text}", file=sys.stderr)
 
 
-def _lost(mech: Mechanism, part: Partition, tau: float, q_last, tau_last: float, cause: str,
+def _lost(mech: Mechanism, part: Partition, tau: float, q_last: np.ndarray, tau_last: float, cause: str,
           limit: bool = False) -> SimulationError:
     """The error for a step that failed: a singular position of the rigid mechanism when the
     closure Jacobian was already near rank loss at the last good output (or, ``limit``, when

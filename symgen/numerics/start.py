@@ -6,6 +6,8 @@ deformation (18)-(19) with its range and divergence checks (``symgen.numerics.ch
 solver, which runs it again from the same guess with the same partitions."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, TypeAlias
+
 import casadi as ca
 import numpy as np
 
@@ -16,13 +18,19 @@ from symgen.numerics import checks
 from symgen.numerics.index1 import Partition
 from symgen.policy import POLICY
 
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
 
-def consistent_start(mech, t0: float = 0.0):
+#: a consistent start: (q, v, a, lam, partition)
+State: TypeAlias = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition]
+
+
+def consistent_start(mech: Mechanism, t0: float = 0.0) -> State:
     """Consistent (q, v, a, lam) at t0 and the coordinate partition."""
     return _start(mech, t0)[:5]
 
 
-def start_plan(mech) -> StartPlan:
+def start_plan(mech: Mechanism) -> StartPlan:
     """The start of the scene's run at tau = 0 as data for the emitted C solver: the partitions
     this start chooses (at the guess, for the assembly, and at the assembled position, for the
     run), the guess itself, and the index sets of the quasi-static start and of the checks.
@@ -42,7 +50,8 @@ def start_plan(mech) -> StartPlan:
         amplitudes=tuple(AmplitudeGroup(body, f, g) for body, (f, g) in info.amplitudes.items()))
 
 
-def _start(mech, t0: float):
+def _start(mech: Mechanism, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition,
+                                               tuple[np.ndarray, np.ndarray], Partition]:
     """(q, v, a, lam, partition, (q, v) guessed, partition of the assembly) at t0."""
     sc = mech.scene
     q, v = mech.initial_guess(t0)
@@ -68,7 +77,7 @@ class StaticSystem:
     Unknowns u = [q_E, q_D, v_D, a_R, lam] (E: the independent amplitudes, R: the rigid and
     dependent accelerations)."""
 
-    def __init__(self, mech, part: Partition) -> None:
+    def __init__(self, mech: Mechanism, part: Partition) -> None:
         D = list(part.dep)
         self.E = [i for i in mech.info.elastic if i not in D]
         R = sorted(set(mech.rigid) | set(D))        # unknown accelerations
@@ -87,12 +96,12 @@ class StaticSystem:
         for k, i in enumerate(R):
             a[i] = u[nE + 2 * nD + k]
         lam = u[nE + 2 * nD + self.nR:]
-        args = [t, q, v, a, lam, mech.p]
+        args: list[ca.SX | np.ndarray] = [t, q, v, a, lam, mech.p]
         F = ca.vertcat(mech.f["phi"](*args), mech.f["phid"](*args), mech.f["res"](*args), mech.f["phidd"](*args))
         self.fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
 
 
-def static_system(mech, part: Partition) -> StaticSystem:
+def static_system(mech: Mechanism, part: Partition) -> StaticSystem:
     """The mechanism's quasi-static system for ``part``, built once per partition."""
     cache = mech.static_systems
     if part not in cache:
@@ -100,8 +109,9 @@ def static_system(mech, part: Partition) -> StaticSystem:
     return cache[part]
 
 
-def quasi_static(mech, t: float, q, v, part: Partition, tol: float = POLICY.quasi_static_tol,
-                 maxit: int = POLICY.quasi_static_maxit):
+def quasi_static(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: Partition,
+                 tol: float = POLICY.quasi_static_tol,
+                 maxit: int = POLICY.quasi_static_maxit) -> tuple[np.ndarray, np.ndarray, int]:
     """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
     system = static_system(mech, part)
     fun = system.fun
@@ -122,7 +132,8 @@ def quasi_static(mech, t: float, q, v, part: Partition, tol: float = POLICY.quas
     return np.array(qn).ravel(), np.array(vn).ravel(), it
 
 
-def quasi_static_start(mech, t0: float, q, v, part: Partition):
+def quasi_static_start(mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray,
+                       part: Partition) -> tuple[np.ndarray, np.ndarray]:
     """Initial deformation = quasi-static state; under an angle driver the deformation
     rates are the quasi-static ones too (central difference), so the start rings little.
     An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on

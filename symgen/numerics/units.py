@@ -30,10 +30,15 @@ closure_residual       per l0 (a solver check)      1                        1
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from symgen.errors import SceneError
+
+if TYPE_CHECKING:
+    from symgen.scene.model import Scene
 
 UNIT_SYSTEMS = ("SI", "dimensionless")
 
@@ -59,7 +64,7 @@ class ColumnUnit:
     unit: str
     factor: float
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, str | float]:
         return {"unit": self.unit, "factor": self.factor}
 
 
@@ -71,18 +76,18 @@ class ResultUnits:
     time: ColumnUnit
     outputs: tuple[ColumnUnit, ...]
 
-    def convert(self, tau, values) -> tuple[np.ndarray, np.ndarray]:
+    def convert(self, tau: np.ndarray, values: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(time column, output columns) in these units from the model's dimensionless ones."""
         values = np.asarray(values, dtype=float).reshape(len(tau), -1)
         factors = np.array([c.factor for c in self.outputs], dtype=float)
         return np.asarray(tau, dtype=float) * self.time.factor, values * factors
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, object]:
         return {"system": self.system, "time": {"name": self.time.name, **self.time.as_dict()},
                 "columns": {c.name: c.as_dict() for c in self.outputs}}
 
 
-def choose_system(scene, requested: str | None) -> str:
+def choose_system(scene: Scene, requested: str | None) -> str:
     """The unit system of a run's results: SI for SI scenes unless ``dimensionless`` is asked."""
     if requested is None:
         return "SI" if scene.units == "SI" else "dimensionless"
@@ -96,12 +101,12 @@ def choose_system(scene, requested: str | None) -> str:
     return requested
 
 
-def result_units(scene, system: str | None = None) -> ResultUnits:
+def result_units(scene: Scene, system: str | None = None) -> ResultUnits:
     """Units and factors of the results of ``scene`` (``system`` from :func:`choose_system`)."""
     system = choose_system(scene, system)
     si = system == "SI"
     l0, omega, m_ref = scene.l0, scene.omega, scene.m_ref
-    scale = {"bar": None, "l0": l0, "one": 1.0, "force": m_ref * l0 ** 2 * omega ** 2,
+    scale = {"l0": l0, "one": 1.0, "force": m_ref * l0 ** 2 * omega ** 2,
              "moment": m_ref * l0 ** 3 * omega ** 2, "energy": m_ref * l0 ** 3 * omega ** 2, "check": 1.0}
     cols = []
     for o in scene.outputs:
@@ -109,7 +114,11 @@ def result_units(scene, system: str | None = None) -> ResultUnits:
         if not si:
             cols.append(ColumnUnit(o.name, _DIMENSIONLESS_UNIT[kind_scale], 1.0))
             continue
-        factor = scene.body(o.body).alpha * l0 if kind_scale == "bar" else scale[kind_scale]
+        if kind_scale == "bar":
+            assert o.body is not None       # a bar's output names its bar (the scene loader checks it)
+            factor = scene.body(o.body).alpha * l0
+        else:
+            factor = scale[kind_scale]
         cols.append(ColumnUnit(o.name, _SI_UNIT[kind_scale], float(factor)))
     time = ColumnUnit("t", "s", 1.0 / omega) if si else ColumnUnit("tau", "1 (tau = omega t)", 1.0)
     return ResultUnits(system, time, tuple(cols))
