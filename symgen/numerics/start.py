@@ -124,8 +124,15 @@ def quasi_static(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: 
             break
         u = u - np.linalg.solve(np.array(J), F)
     else:
-        F = np.array(fun(t, q, v, u)[0]).ravel()
+        F0, _, q_last, _ = fun(t, q, v, u)
+        F = np.array(F0).ravel()
         if np.abs(F).max() > POLICY.quasi_static_accept:
+            # the real cause first: Newton wandered because the state it seeks lies beyond the
+            # range of the bar models (the emitted C runtime decides alike)
+            beyond = checks.beyond_range(mech, np.array(q_last).ravel())
+            if beyond is not None:
+                raise SimulationError(t, f"in the quasi-static state, {beyond[1]}",
+                                      "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
             raise SimulationError(t, f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
                                   "the mechanism may be near buckling or a singular position")
     _, _, qn, vn = fun(t, q, v, u)

@@ -386,6 +386,8 @@ static int symgen_accelerations_(symgen_solver *s, double t, const double *q, co
     return 0;
 }
 
+static int symgen_beyond_range_(symgen_solver *s);
+
 /* quasi-static deformation for the rigid state in (q, v) (Mechanism.quasi_static):
    unknowns u = [q_E, q_D, v_D, a_R, lam], deformation rates and accelerations zero */
 static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v)
@@ -433,6 +435,10 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
         symgen_alg_(s, t, q, v, a, lam, s->sr);
         Fmax = symgen_max_abs(s->sr, nu);
         if (!(Fmax <= s->model->policy.quasi_static_accept)) {
+            /* the real cause first: a state beyond the range of the bar models (as in Python) */
+            memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
+            s->t = t;
+            if (symgen_beyond_range_(s)) return 1;
             return symgen_fail_(s, t, "the quasi-static state did not converge (residual)", Fmax,
                                "the mechanism may be near buckling or a singular position");
         }
@@ -440,7 +446,6 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
     return 0;
 }
 
-static int symgen_beyond_range_(symgen_solver *s);
 static void symgen_reduce_(symgen_solver *s);
 
 /* The divergence check of a quasi-static start (Mechanism.divergent_deformation). The linearised
