@@ -156,3 +156,23 @@ def test_cache_clear_never_follows_a_linked_folder(tmp_path, monkeypatch, capsys
     assert cache.clear() == (0, 0)
     assert (victim / "data.txt").read_text() == "keep me"
     assert "is a link" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("where", ["file", "devnull", "readonly"])
+def test_a_cache_folder_that_cannot_be_written_degrades_with_a_warning(tmp_path, where):
+    """$SYMGEN_CACHE_DIR at a regular file, at /dev/null or at a read-only folder: every cache
+    (shapes, models, the compiled library) warns and the run goes on uncached (the compiled
+    library's folder was an internal error)."""
+    if where == "readonly" and os.geteuid() == 0:
+        pytest.skip("root writes into a read-only folder")
+    target = {"file": tmp_path / "a-file", "devnull": Path("/dev/null"), "readonly": tmp_path / "ro"}[where]
+    if where == "file":
+        target.write_text("not a folder\n")
+    elif where == "readonly":
+        target.mkdir()
+        target.chmod(0o555)
+    run = _symgen(tmp_path, "simulate", str(SCENE), *SHORT, "-o", "a.csv", SYMGEN_CACHE_DIR=str(target),
+                  SYMGEN_BACKEND="compiled")
+    assert run.returncode == 0, run.stderr
+    assert "internal error" not in run.stderr and "could not write the cache entry" in run.stderr
+    assert "compiled" in run.stderr and (tmp_path / "a.csv").exists()

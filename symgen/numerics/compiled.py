@@ -197,12 +197,25 @@ def install(tmp: Path, where: Path, key: dict[str, object], name: str, blob: byt
         cache.report_unwritable(where, exc)
 
 
+def build_folder(where: Path, store: bool) -> tuple[Path, bool]:
+    """Where to build the entry ``where``, and whether it can be stored: its cache folder, or
+    (not storing, or a cache folder that cannot be made or written: a file, ``/dev/null``, a
+    read-only folder; said in one line) a private temporary folder, the result uncached."""
+    if store:
+        try:
+            where.parent.mkdir(parents=True, exist_ok=True)
+            if not os.access(where.parent, os.W_OK | os.X_OK):
+                raise PermissionError(13, "Permission denied", str(where.parent))
+            cache.sweep_stale(where.parent)
+            return where.parent, True
+        except OSError as exc:
+            cache.report_unwritable(where, exc)
+    return Path(tempfile.gettempdir()), False
+
+
 def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool,
            replace: bool) -> bytes:
-    parent = where.parent if store else Path(tempfile.gettempdir())
-    if store:
-        parent.mkdir(parents=True, exist_ok=True)
-        cache.sweep_stale(parent)
+    parent, store = build_folder(where, store)
     with cache.temp_dir(parent, where.name) as tmp:
         gen = ca.CodeGenerator("model.c", {"with_header": False})
         for f in funcs:

@@ -121,10 +121,7 @@ def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str,
     ctx = c_context(scene, derive(scene), start_plan(mech), info=mech.info)
     files = render_files(ctx)
     prefix = ctx["prefix"]
-    parent = where.parent if store else Path(tempfile.gettempdir())
-    if store:
-        parent.mkdir(parents=True, exist_ok=True)
-        cache.sweep_stale(parent)
+    parent, store = compiled.build_folder(where, store)
     with cache.temp_dir(parent, where.name) as tmp:
         src = tmp / "src"
         src.mkdir()
