@@ -36,7 +36,7 @@ from pathlib import Path
 import casadi as ca
 
 from symgen import __version__, cache
-from symgen.processes import run_group
+from symgen.processes import announce_compile, run_group
 
 CC_ENV = "SYMGEN_CC"
 CFLAGS_ENV = "SYMGEN_CFLAGS"
@@ -223,7 +223,9 @@ def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str,
         gen.generate(str(tmp) + os.sep)
         cmd = [comp.path, *comp.flags, "-fPIC", "-shared", str(tmp / "model.c"), "-o", str(tmp / LIBRARY), "-lm"]
         try:
-            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S)     # an interrupt kills cc1 too
+            label = announce_compile("the model library", (tmp / "model.c").stat().st_size,
+                                     "--backend vm runs the model without compiling (slower per step)")
+            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S, progress=label)   # an interrupt kills cc1 too
         except (OSError, subprocess.SubprocessError) as exc:
             raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
         if proc.returncode != 0:

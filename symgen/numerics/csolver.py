@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from symgen import __version__, cache
+from symgen.processes import announce_compile, run_group
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
@@ -130,9 +131,10 @@ def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str,
             (src / name).write_text(text)
         cmd = [comp.path, *STRICT_C, *comp.flags, f"-I{src}",
                *(str(src / f"{prefix}{s}.c") for s in ("", "_solver", "_sim")), "-o", str(tmp / EXECUTABLE), "-lm"]
-        try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=compiled.COMPILE_TIMEOUT_S,
-                                  stdin=subprocess.DEVNULL)
+        size = sum(len(text.encode()) for name, text in files.items() if name.endswith(".c"))
+        label = announce_compile("the C solver", size, "leave out --solver c to run with IDAS without compiling it")
+        try:     # in a process group of its own: an interrupt kills cc1 too
+            proc = run_group(cmd, timeout=compiled.COMPILE_TIMEOUT_S, progress=label)
         except (OSError, subprocess.SubprocessError) as exc:
             raise _no_compiler(f"the C compiler {comp.path} cannot be run ({exc})") from None
         if proc.returncode != 0:
