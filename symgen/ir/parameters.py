@@ -92,6 +92,7 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
         key = f"joints.{j.name}"
         for e in j.ends:
             if e.body == GROUND:
+                assert e.point is not None, "a ground end has its point (symgen.scene.mechanism)"
                 put(symbol_names.joint_parameter("px", j.name), e.point[0], FINITE, f"{key}.at")
                 put(symbol_names.joint_parameter("py", j.name), e.point[1], FINITE, f"{key}.at")
         if j.direction is not None:                                          # a unit vector
@@ -103,6 +104,7 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
     if d is not None:
         put(symbol_names.global_parameter("J_rotor"), d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")
         if d.kind == "angle":
+            assert d.initial is not None, "an angle driver has its initial angle (symgen.scene.excitation)"
             put(symbol_names.global_parameter("theta0"), d.initial, FINITE, "driver.initial")
             put(symbol_names.global_parameter("rate"), d.rate, FINITE, "driver.rate")
             if d.ramp is not None:
