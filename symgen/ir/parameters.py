@@ -6,6 +6,7 @@ the FMU): ``parameter_records`` is the one statement of what each parameter is a
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,7 +68,7 @@ class Parameter:
     latex: str = ""          # its LaTeX name (symgen.ir.names)
 
 
-def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Parameter]:
+def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[Parameter]:
     """The parameters ``names`` of a model, for this scene (value, valid range, scene key);
     ``None``: every parameter the scene defines a value for."""
     recs: dict[str, Parameter] = {}
@@ -124,7 +125,7 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
     return [recs[n] for n in names]
 
 
-def parameter_values(scene: Scene, names: list[str]) -> np.ndarray:
+def parameter_values(scene: Scene, names: Sequence[str]) -> np.ndarray:
     """Numeric values, in ``names`` order, of a model's parameters for this scene.
 
     Raises SceneError when a value (a dimensionless group computed from the file's numbers, e.g.
