@@ -1,6 +1,8 @@
 """Errors that reach the user as one clear message and exit code 2."""
 from __future__ import annotations
 
+from typing import Any
+
 
 class SymgenError(Exception):
     """Base class of every error symgen reports to a user (no traceback, exit code 2)."""
@@ -61,7 +63,9 @@ class Interrupted(KeyboardInterrupt):
         self.exit_code = 128 + int(self.signum)
         self.tau = tau
         self.detail = detail
-        self.partial = None
+        # what the stopped command had done (a SimResult, a Study, an EffectsReport...: each
+        # command's own result, of a higher layer), read back by the CLI; None: nothing
+        self.partial: Any = None
         text = f"interrupted by {self.signal_name}"
         if tau is not None:
             text += f" at tau = {tau:.6g}"

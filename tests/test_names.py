@@ -78,6 +78,8 @@ def test_names_are_typed_and_distinct():
     assert names.coordinate("beta", "guide", joint="C").text == names.slot_support("C").text
     with pytest.raises(ValueError):
         names.amplitude("h", "rod", 0)
+    with pytest.raises(ValueError, match="index"):       # an amplitude's force needs its index
+        names.generalized_force("g", "rod")
 
 
 @pytest.mark.parametrize("scene_file", ["slider_crank", "inverted_slider_crank", "motor_arm"])

@@ -433,3 +433,17 @@ def test_memory_cache_keyed_by_parameters(tmp_path, monkeypatch):
                             S.transverse_basis("cantilever", "modes", 2, tip_joint=True)) is ip_a
     assert len(list((tmp_path / "shapes").iterdir())) == 2
     C.clear_memory_cache()
+
+
+def test_half_items_fold_conjugate_pairs_of_exact_terms_too():
+    """``Re sum c e^{s xi}`` over the folded terms is the function, for exact coefficients as for
+    mpc ones (the exact form raised a TypeError on ``2 * Exact``)."""
+    t = T.sin_terms(3)                                # sin(3 pi xi / 2): one conjugate exponent pair
+    assert t.exact
+    folded = {"exact": t.half_items(), "mp": t.as_mp().half_items()}
+    assert len(folded["exact"]) == len(folded["mp"]) == 1
+    for form, items in folded.items():
+        for xi in (0.0, 0.3, 0.71, 1.0):
+            value = sum(complex((c.to_mp() if form == "exact" else c) * mpmath.exp(T.s_value(s) * xi))
+                        * xi ** p for p, s, c in items).real
+            assert value == pytest.approx(math.sin(1.5 * math.pi * xi), abs=1e-14), (form, xi)

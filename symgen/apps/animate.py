@@ -206,11 +206,13 @@ def write_frames(anim: Animator, path: str | os.PathLike, fps: float, dpi: int) 
     parts (axes, ticks, ground) are drawn once; each frame restores them and draws only the
     moving artists (blitting), then hands the canvas's pixels to the writer."""
     from matplotlib.animation import FFMpegWriter, PillowWriter
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from PIL import Image
 
     fig = anim.fig
     fig.set_dpi(dpi)
     canvas = fig.canvas
+    assert isinstance(canvas, FigureCanvasAgg), "the Animator draws with Agg (blitting needs its pixel buffer)"
     canvas.draw()                       # lay out once (constrained), then freeze the layout
     fig.set_layout_engine("none")
     canvas.draw()
@@ -222,17 +224,19 @@ def write_frames(anim: Animator, path: str | os.PathLike, fps: float, dpi: int) 
             fig.draw_artist(artist)
         return canvas.buffer_rgba()
 
+    # the frames go to the writers' own frame list and ffmpeg pipe (private: matplotlib's stubs
+    # do not declare them), not through grab_frame, which would redraw the whole figure
     if Path(path).suffix.lower() == ".gif":
-        writer = PillowWriter(fps=fps)
-        with writer.saving(fig, path, dpi):
+        gif = PillowWriter(fps=fps)  # type: ignore[arg-type]  # the stubs say int; a float fps works (1000/fps ms a frame)
+        with gif.saving(fig, os.fspath(path), dpi):
             for k in range(len(anim.tau)):
-                writer._frames.append(Image.fromarray(np.asarray(pixels(k))).convert("RGB"))
+                gif._frames.append(Image.fromarray(np.asarray(pixels(k))).convert("RGB"))  # type: ignore[attr-defined]
     else:
-        writer = FFMpegWriter(fps=fps)
-        writer.frame_format = "rgba"
-        with writer.saving(fig, path, dpi):
+        mp4 = FFMpegWriter(fps=fps)  # type: ignore[arg-type]  # the stubs say int; ffmpeg takes a float frame rate
+        mp4.frame_format = "rgba"
+        with mp4.saving(fig, os.fspath(path), dpi):
             for k in range(len(anim.tau)):
-                writer._proc.stdin.write(bytes(pixels(k)))
+                mp4._proc.stdin.write(bytes(pixels(k)))  # type: ignore[attr-defined]
 
 
 def check_target(path: str | os.PathLike) -> Path:

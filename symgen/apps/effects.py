@@ -57,7 +57,7 @@ import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -304,7 +304,8 @@ class _Runs:
         from symgen.numerics.mechanism import load_mechanism
         from symgen.numerics.simulate import simulate
 
-        out = {"status": "ok", "steps": None, "simulate_s": None, "error": None, "worst": "", "res": None}
+        out: dict[str, Any] = {"status": "ok", "steps": None, "simulate_s": None, "error": None, "worst": "",
+                               "res": None}
         try:
             mech = load_mechanism(self.path, [*self.overrides, *extra])
             res = simulate(mech, t_end=self.t_end, output_step=self.step)

@@ -263,10 +263,11 @@ def _slider_crank(path: Path, figs: Figures, quick: bool, notes: list, progress)
     def band(run: Run, key: str, style: dict, label: str, which: str, x0: float = 0.0) -> list:
         x, y = run.angle_deg(), run.values[key]
         sel = x >= x0 - 1e-9
-        if w_ax[which][0] is None:          # a quasi-static rod does not ring: the curve itself
+        w = w_ax[which][0]
+        if w is None:                       # a quasi-static rod does not ring: the curve itself
             return [(x[sel] - x0, y[sel], label, {**style, "lw": 1.4})]
         out = [(x[sel] - x0, y[sel], label, {**style, "lw": 0.4, "alpha": 0.45})]
-        mean = _running_mean(run.tau, y, 2 * math.pi / w_ax[which][0])
+        mean = _running_mean(run.tau, y, 2 * math.pi / w)
         if mean is not None:
             out.append((x[sel] - x0, mean[sel], label + ", mean over an axial period", {**style, "lw": 1.4}))
         return out
@@ -332,6 +333,8 @@ def _four_bar(path: Path, figs: Figures, quick: bool, notes: list, progress) -> 
     mode = "quick" if quick else "normal"
     h = STEP_DEG[mode] / DEG
     base = load_scene(str(path))
+    if base.driver is None:
+        raise ValueError(f"{path}: no driver: not the four-bar of section 6.2")
     crank = base.driver.body
     outs = [Output("dx", "elastic_displacement", body=crank, xi=1.0, component="x"),
             Output("slope", "slope", body=crank, xi=1.0)]
@@ -390,6 +393,7 @@ def _slot_parts(scene: Scene) -> tuple[str, float, str]:
         if j.kind == "slot":
             guide = next(e for e in j.ends if e.variable)
             slider = next(e for e in j.ends if not e.variable and e.body != GROUND)
+            assert slider.xi is not None, "the sliding bar's end has its xi"
             return slider.body, float(slider.xi), guide.body
     raise ValueError(f"{scene.path}: no slot joint: not an inverted slider-crank")
 
@@ -534,7 +538,8 @@ def _stopped(out: Path, figs: Figures, notes: list, err: BaseException, total_s:
     from symgen.errors import Interrupted
     from symgen.numerics import interrupt
 
-    err = interrupt.interrupted(err)
+    stop = interrupt.interrupted(err)        # not None: err is not None
+    err = err if stop is None else stop
     status = "interrupted" if isinstance(err, Interrupted) else "failed"
     written = {p.name for p in figs.written}
     remove([out / "README.md", *(p for ext in ("png", "svg", "pdf") for p in out.glob(f"G[0-9][0-9]_*.{ext}")

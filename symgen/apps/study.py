@@ -204,10 +204,9 @@ def _level_name(levels: dict, elastic: Sequence[str]) -> str:
 def plan(scene, elastic: Sequence[str], levels: Sequence[tuple], tolerances: Sequence[float],
          ref_rtol: float, per_bar: bool, effects: bool) -> tuple[Config, list[Config]]:
     """The reference and the configurations of a study (see the module docstring)."""
-    base = ["effects.strain=von_karman", "effects.geometric_stiffening=true", "effects.axial=true",
-            "effects.transverse=true", "effects.coriolis=true", "effects.rotary_inertia=true"]
-    base += [f"bodies.{b}.axial_shapes=complete" for b in elastic]
-    base = tuple(base)
+    base_sets = ["effects.strain=von_karman", "effects.geometric_stiffening=true", "effects.axial=true",
+                 "effects.transverse=true", "effects.coriolis=true", "effects.rotary_inertia=true"]
+    base = tuple(base_sets + [f"bodies.{b}.axial_shapes=complete" for b in elastic])
     ref_level = levels[-1]
     ref_modes = {b: ref_level for b in elastic}
     atol = lambda r: r * ATOL_RATIO  # noqa: E731
@@ -325,6 +324,7 @@ class _Runner:
                 t2 = time.process_time()
                 mech_times.append(t1 - t0)
                 sim_times.append(t2 - t1)
+            assert result is not None, "the runner repeats every run at least once"
             row.build_s = build_s + _median(mech_times)
             row.integrate_s = _median(sim_times)
             row.steps, row.closure_max = result.steps, result.closure_max
@@ -356,8 +356,9 @@ def oversampling(scene, n_axial: int, cutoff: float) -> int:
 
 
 def _compare(row: Row, ref: Row, names: list, compared: list, dt: float, cutoff: float, n_window: int) -> None:
-    if row.status != "ok" or row.outputs is None:
+    if row.status != "ok" or row.outputs is None or row.tau is None:
         return
+    assert ref.tau is not None and ref.outputs is not None, "the reference ran"
     n = min(len(row.tau), len(ref.tau))
     for name in compared:
         k = names.index(name)
@@ -420,15 +421,17 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
     sc_ref = runner.scene(ref_cfg)
     names = [o.name for o in sc_ref.outputs]
     compared = [o.name for o in sc_ref.outputs if o.kind != "closure_residual"]
+    assert ref.tau is not None, "the reference ran"
+    t_end = float(ref.tau[-1])
     dt = float(np.median(np.diff(ref.tau)))
     cutoff = cutoff_per_turn / turn
     n_window = int(round(window_turns * turn / dt)) + 1
-    rows = []
+    rows: list[Row] = []
 
     def study(status: str = "complete", stopped: str = "") -> Study:
         return Study(scene_path=str(scene_path), scene_name=scene.name, overrides=tuple(overrides),
-                     elastic=elastic, turn=turn, t_end=float(ref.tau[-1]),
-                     window=min(window_turns * turn, float(ref.tau[-1])), cutoff=cutoff, repeats=max(1, repeats),
+                     elastic=elastic, turn=turn, t_end=t_end,
+                     window=min(window_turns * turn, t_end), cutoff=cutoff, repeats=max(1, repeats),
                      reference=ref, rows=list(rows), output_names=names, compared=compared, notes=notes,
                      oversample=k, status=status, stopped=stopped, planned=len(configs))
 

@@ -27,11 +27,14 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from symgen.errors import SceneError, SimulationError
+
+if TYPE_CHECKING:
+    from symgen.scene.model import Scene
 
 KEY = "--vary"
 NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
@@ -259,7 +262,9 @@ def prepare(scene_path: str, varies: Sequence[Vary], overrides: Sequence[str] = 
     from symgen.model.structure import structure_key, structure_of
 
     points = grid(varies)
-    keys, first, scenes = [], {}, []
+    keys: list[str] = []
+    first: dict[str, Scene] = {}
+    scenes: list[Scene] = []
     for pt in points:
         ov = list(overrides) + [f"{v.key}={t}" for v, t in zip(varies, pt)]
         try:
@@ -335,7 +340,10 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
             _run_processes(tasks, blobs, workers or os.cpu_count() or 1, rows, bar)
     except BaseException as err:
         bar.close()
-        err.partial = _result(varies, points, names, rows, counts, executor, complete=False, campbell=campbell)
+        # the rows measured so far ride on whatever stopped the sweep (an interrupt too): the CLI
+        # reads them with getattr(err, "partial", None); an arbitrary exception has no such field
+        err.partial = _result(varies, points, names, rows, counts, executor,  # type: ignore[attr-defined]
+                              complete=False, campbell=campbell)
         raise
     bar.close()
     result = _result(varies, points, names, rows, counts, executor, complete=True, campbell=campbell)

@@ -118,8 +118,8 @@ def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
     files = fmu_files(scene, ctx)
     prefix = ctx["prefix"]
     path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix=".fmu-", dir=path.parent) as tmp:
-        tmp = Path(tmp)
+    with tempfile.TemporaryDirectory(prefix=".fmu-", dir=path.parent) as tmpdir:
+        tmp = Path(tmpdir)
         for name, text in files.items():
             (tmp / name).parent.mkdir(parents=True, exist_ok=True)
             (tmp / name).write_text(text)

@@ -13,9 +13,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from functools import cached_property
+from typing import Any, TypeGuard
 
 from symgen.ir import names
-from symgen.ir.records import ConstraintRow, Coordinate, CoordKind, RowKind, find_coordinate
+from symgen.ir.records import ConstraintRow, Coordinate, CoordKind, DerivedModel, RowKind, find_coordinate
 
 
 class InvalidModelInfo(ValueError):
@@ -32,7 +33,7 @@ class BarModes:
     axial_shapes: str          # "" when the bar has no axial amplitudes
     transverse_shapes: str     # "" when the bar has no transverse amplitudes
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, int | str]:
         return {"axial": self.axial, "transverse": self.transverse, "axial_shapes": self.axial_shapes,
                 "transverse_shapes": self.transverse_shapes}
 
@@ -42,7 +43,7 @@ class ModelInfo:
     """A derived model's description (see the module docstring)."""
 
     key: str                              # the structure key (symgen.model.structure.structure_key)
-    structure: dict                       # the structure it hashes (symgen.model.structure.structure_of)
+    structure: dict[str, Any]             # the structure it hashes (symgen.model.structure.structure_of)
     coords: tuple[Coordinate, ...]        # one per entry of q
     lam_rows: tuple[ConstraintRow, ...]   # one per multiplier (row of phi): loop rows, driver, inextensibility
     params: tuple[str, ...]               # parameter names, in the order of the p input
@@ -90,7 +91,7 @@ class ModelInfo:
     @cached_property
     def amplitudes(self) -> dict[str, tuple[tuple[int, ...], tuple[int, ...]]]:
         """bar -> (its axial amplitudes, its transverse amplitudes), bars in coordinate order."""
-        groups: dict[str, tuple[list, list]] = {}
+        groups: dict[str, tuple[list[int], list[int]]] = {}
         for i, c in enumerate(self.coords):
             if c.elastic:
                 groups.setdefault(c.body, ([], []))[c.kind is CoordKind.G].append(i)
@@ -114,7 +115,7 @@ class ModelInfo:
 
     # ------------------------------------------------------------------ from the model, to / from JSON
     @classmethod
-    def of(cls, model) -> ModelInfo:
+    def of(cls, model: DerivedModel) -> ModelInfo:
         """The description of a ``DerivedModel`` (its records, names and the bars' functions)."""
         return cls(key=model.key, structure=model.structure, coords=tuple(model.coords),
                    lam_rows=tuple(model.lam_rows), params=tuple(model.param_names),
@@ -126,7 +127,7 @@ class ModelInfo:
                           for name, b in model.bars.items()},
                    timings=dict(model.timings))
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The plain data of ``model.json``."""
         return {
             "key": self.key,
@@ -143,7 +144,7 @@ class ModelInfo:
         }
 
     @classmethod
-    def from_json(cls, data) -> ModelInfo:
+    def from_json(cls, data: object) -> ModelInfo:
         """The record of ``model.json``'s data; :class:`InvalidModelInfo` if any field is missing,
         of the wrong type, or inconsistent (a coordinate whose name is not its fields' name, a
         row index out of range, repeated names)."""
@@ -175,27 +176,27 @@ class ModelInfo:
 
 
 # ---------------------------------------------------------------------- checks of from_json
-def _is_int(x) -> bool:
+def _is_int(x: object) -> TypeGuard[int]:
     return isinstance(x, int) and not isinstance(x, bool)
 
 
-def _is_number(x) -> bool:
+def _is_number(x: object) -> TypeGuard[float]:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
-def _text(x, what: str) -> str:
+def _text(x: object, what: str) -> str:
     if not isinstance(x, str):
         raise InvalidModelInfo(f"{what!r} is not a text")
     return x
 
 
-def _list(x, what: str) -> list:
+def _list(x: object, what: str) -> list[Any]:
     if not isinstance(x, list):
         raise InvalidModelInfo(f"{what!r} is not a list")
     return x
 
 
-def _fields(x, what: str, keys: tuple) -> dict:
+def _fields(x: object, what: str, keys: tuple[str, ...]) -> dict[str, Any]:
     if not isinstance(x, dict):
         raise InvalidModelInfo(f"{what} is not an object")
     missing = [k for k in keys if k not in x]
@@ -207,14 +208,14 @@ def _fields(x, what: str, keys: tuple) -> dict:
     return x
 
 
-def _names(x, what: str) -> tuple[str, ...]:
+def _names(x: object, what: str) -> tuple[str, ...]:
     items = _list(x, what)
     if not all(isinstance(s, str) for s in items) or len(set(items)) != len(items):
         raise InvalidModelInfo(f"{what!r} are not distinct names")
     return tuple(items)
 
 
-def _coordinate(x, k: int) -> Coordinate:
+def _coordinate(x: object, k: int) -> Coordinate:
     what = f"coords[{k}]"
     d = _fields(x, what, ("name", "kind", "body", "index", "joint"))
     name, kind, body, index, joint = (d[f] for f in ("name", "kind", "body", "index", "joint"))
@@ -232,7 +233,7 @@ def _coordinate(x, k: int) -> Coordinate:
     return c
 
 
-def _row(x, k: int) -> ConstraintRow:
+def _row(x: object, k: int) -> ConstraintRow:
     what = f"lam_rows[{k}]"
     d = _fields(x, what, ("joint", "kind", "loop"))
     joint, kind, loop = (d[f] for f in ("joint", "kind", "loop"))
@@ -246,7 +247,7 @@ def _row(x, k: int) -> ConstraintRow:
                                f"{', '.join(k.value for k in RowKind)}") from None
 
 
-def _bar_modes(x, bar: str) -> BarModes:
+def _bar_modes(x: object, bar: str) -> BarModes:
     what = f"modes.{bar}"
     d = _fields(x, what, ("axial", "transverse", "axial_shapes", "transverse_shapes"))
     for f in ("axial", "transverse"):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import sympy as sp
@@ -34,7 +35,7 @@ class Name:
     text: str
     latex: str
 
-    def symbol(self, **assumptions) -> sp.Symbol:
+    def symbol(self, **assumptions: bool) -> sp.Symbol:
         """The SymPy symbol (``real=True`` unless other assumptions are given); recorded in the
         active :func:`recording` table."""
         sym = sp.Symbol(self.text, **(assumptions or {"real": True}))
@@ -44,7 +45,7 @@ class Name:
         return sym
 
 
-_TABLE: contextvars.ContextVar[dict | None] = contextvars.ContextVar("symgen_names", default=None)
+_TABLE: contextvars.ContextVar[dict[str, str] | None] = contextvars.ContextVar("symgen_names", default=None)
 
 #: symbols every model shares
 TAU = Name("tau", r"\tau")
@@ -52,7 +53,7 @@ XI = Name("xi", r"\xi")
 
 
 @contextlib.contextmanager
-def recording():
+def recording() -> Iterator[dict[str, str]]:
     """Collect {text: LaTeX} of every :meth:`Name.symbol` made inside the block."""
     table = {TAU.text: TAU.latex, XI.text: XI.latex}
     token = _TABLE.set(table)
@@ -123,6 +124,8 @@ _FORCE_PARTS = {"X": "X", "Y": "Y", "th": r"\theta", "beta": r"\beta"}
 def generalized_force(part: str, bar: str, k: int | None = None) -> Name:
     """E of a bar: its generalized forces along X, Y, theta, beta, or amplitude ``k`` of "f"/"g"."""
     if part in ("f", "g"):
+        if k is None:
+            raise ValueError(f"the generalized force of amplitude family {part!r} needs the amplitude's index")
         return Name(f"E{part}_{bar}_{k + 1}", rf"E_{{{part},{upright(bar)},{k + 1}}}")
     return Name(f"E{part}_{bar}", rf"E_{{{_FORCE_PARTS[part]},{upright(bar)}}}")
 

@@ -6,6 +6,7 @@ the FMU): ``parameter_records`` is the one statement of what each parameter is a
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,7 +68,7 @@ class Parameter:
     latex: str = ""          # its LaTeX name (symgen.ir.names)
 
 
-def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Parameter]:
+def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[Parameter]:
     """The parameters ``names`` of a model, for this scene (value, valid range, scene key);
     ``None``: every parameter the scene defines a value for."""
     recs: dict[str, Parameter] = {}
@@ -92,6 +93,7 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
         key = f"joints.{j.name}"
         for e in j.ends:
             if e.body == GROUND:
+                assert e.point is not None, "a ground end has its point (symgen.scene.mechanism)"
                 put(symbol_names.joint_parameter("px", j.name), e.point[0], FINITE, f"{key}.at")
                 put(symbol_names.joint_parameter("py", j.name), e.point[1], FINITE, f"{key}.at")
         if j.direction is not None:                                          # a unit vector
@@ -103,6 +105,7 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
     if d is not None:
         put(symbol_names.global_parameter("J_rotor"), d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")
         if d.kind == "angle":
+            assert d.initial is not None, "an angle driver has its initial angle (symgen.scene.excitation)"
             put(symbol_names.global_parameter("theta0"), d.initial, FINITE, "driver.initial")
             put(symbol_names.global_parameter("rate"), d.rate, FINITE, "driver.rate")
             if d.ramp is not None:
@@ -122,7 +125,7 @@ def parameter_records(scene: Scene, names: list[str] | None = None) -> list[Para
     return [recs[n] for n in names]
 
 
-def parameter_values(scene: Scene, names: list[str]) -> np.ndarray:
+def parameter_values(scene: Scene, names: Sequence[str]) -> np.ndarray:
     """Numeric values, in ``names`` order, of a model's parameters for this scene.
 
     Raises SceneError when a value (a dimensionless group computed from the file's numbers, e.g.

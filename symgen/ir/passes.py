@@ -11,19 +11,24 @@ from __future__ import annotations
 
 import sympy as sp
 
+from symgen.ir.records import Program
+
+#: a statement of a program: (symbol, expression of earlier symbols and the inputs)
+Statement = tuple[sp.Symbol, sp.Expr]
+
 #: the inputs Jacobians are taken with respect to: w = [q; v; a; lam]
 JAC_WRT = ("q", "v", "a", "lam")
 
 
-def wrt_symbols(program) -> list:
+def wrt_symbols(program: Program) -> list[sp.Symbol]:
     """The Jacobian columns w = [q; v; a; lam], as symbols."""
     return [s for name in JAC_WRT for s in program.inputs[name]]
 
 
-def needed(assignments: list, exprs: list) -> list:
+def needed(assignments: list[Statement], exprs: list[sp.Expr]) -> list[Statement]:
     """The assignments that ``exprs`` depend on, in program order."""
     index = {sym: k for k, (sym, _) in enumerate(assignments)}
-    live = set()
+    live: set[sp.Symbol] = set()
     stack = [s for e in exprs for s in e.free_symbols if s in index]
     while stack:
         s = stack.pop()
@@ -34,10 +39,10 @@ def needed(assignments: list, exprs: list) -> list:
     return [assignments[k] for k in sorted(index[s] for s in live)]
 
 
-def prune(stmts: list, exprs: list) -> list:
+def prune(stmts: list[Statement], exprs: list[sp.Expr]) -> list[Statement]:
     """Backward liveness on a statement list (drops unused value or derivative statements)."""
-    live = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
-    kept = []
+    live: set[sp.Symbol] = set().union(*(e.free_symbols for e in exprs)) if exprs else set()
+    kept: list[Statement] = []
     for sym, expr in reversed(stmts):
         if sym in live:
             kept.append((sym, expr))
@@ -46,18 +51,19 @@ def prune(stmts: list, exprs: list) -> list:
     return kept
 
 
-def forward_jacobian(stmts: list, exprs: list, wrt: list) -> tuple[list, dict]:
+def forward_jacobian(stmts: list[Statement], exprs: list[sp.Expr], wrt: list[sp.Symbol]
+                     ) -> tuple[list[Statement], dict[tuple[int, int], sp.Expr]]:
     """Chain rule through ``stmts``: derivative statements and the Jacobian entries of ``exprs``.
 
     Returns the extended statement list and ``{(row, col): expr}`` of the nonzero entries.
     """
     col = {w: c for c, w in enumerate(wrt)}
-    grad: dict = {}
-    out_stmts = []
+    grad: dict[sp.Symbol, dict[int, sp.Expr]] = {}
+    out_stmts: list[Statement] = []
     counter = 0
 
-    def gradient(expr) -> dict:
-        g: dict = {}
+    def gradient(expr: sp.Expr) -> dict[int, sp.Expr]:
+        g: dict[int, sp.Expr] = {}
         for y in expr.free_symbols:
             if y in col:
                 d = sp.diff(expr, y)
@@ -74,7 +80,7 @@ def forward_jacobian(stmts: list, exprs: list, wrt: list) -> tuple[list, dict]:
     for sym, expr in stmts:
         out_stmts.append((sym, expr))
         g = gradient(expr)
-        gs = {}
+        gs: dict[int, sp.Expr] = {}
         for c in sorted(g):
             e = g[c]
             if e.is_Symbol or e.is_Number:
@@ -85,7 +91,7 @@ def forward_jacobian(stmts: list, exprs: list, wrt: list) -> tuple[list, dict]:
                 out_stmts.append((d, e))
                 gs[c] = d
         grad[sym] = gs
-    entries = {}
+    entries: dict[tuple[int, int], sp.Expr] = {}
     for r, e in enumerate(exprs):
         for c, d in sorted(gradient(e).items()):
             entries[(r, c)] = d

@@ -7,8 +7,10 @@ body, joint, index), never by parsing its symbol's name; names and LaTeX names a
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
+from typing import Any
 
 import sympy as sp
 
@@ -22,10 +24,10 @@ class Program:
     ("origin acceleration", "generalized force", "subtree force"), which the LaTeX backend
     reads to place it."""
 
-    inputs: dict                                   # name -> tuple of symbols
-    assignments: list = field(default_factory=list)   # [(symbol, expr)]
-    outputs: dict = field(default_factory=dict)        # name -> list of expr
-    groups: dict = field(default_factory=dict)         # symbol -> group of the assignment
+    inputs: dict[str, tuple[sp.Symbol, ...]]                                    # name -> its symbols
+    assignments: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)   # [(symbol, expr)]
+    outputs: dict[str, list[sp.Expr]] = field(default_factory=dict)              # name -> its exprs
+    groups: dict[sp.Symbol, str] = field(default_factory=dict)                   # symbol -> its group
 
     def assign(self, name: Name, expr: sp.Expr, group: str) -> sp.Symbol:
         sym = name.symbol()
@@ -38,7 +40,7 @@ class Program:
         self.assignments.append((sym, expr))
         self.groups[sym] = group
 
-    def group(self, group: str) -> list:
+    def group(self, group: str) -> list[tuple[sp.Symbol, sp.Expr]]:
         """[(symbol, expr)] of the assignments of ``group``, in order."""
         return [(sym, e) for sym, e in self.assignments if self.groups.get(sym) == group]
 
@@ -94,7 +96,7 @@ class Coordinate:
         return self.kind.elastic
 
 
-def find_coordinate(coords, kind: CoordKind, body: str) -> int:
+def find_coordinate(coords: Iterable[Coordinate], kind: CoordKind, body: str) -> int:
     """Index in ``coords`` (Coordinate records) of the coordinate ``kind`` of ``body``."""
     for i, c in enumerate(coords):
         if c.kind == kind and c.body == body:
@@ -106,7 +108,7 @@ def find_coordinate(coords, kind: CoordKind, body: str) -> int:
 class ConstraintRow:
     joint: str         # cut joint, "driver", or the bar of an INEXTENSIBLE row
     kind: RowKind      # a text ("pin-x", ...) is taken as its RowKind; any other raises ValueError
-    loop: tuple        # bars around the loop (the bar itself for INEXTENSIBLE)
+    loop: tuple[str, ...]   # bars around the loop (the bar itself for INEXTENSIBLE)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kind", RowKind(self.kind))
@@ -117,22 +119,22 @@ class ConstraintRow:
 class DerivedModel:
     key: str
     scene_name: str
-    structure: dict
-    topology: object              # symgen.model.topology.Topology
-    bars: dict                    # body -> symgen.model.derive.BarModel
-    coords: list                  # Coordinate per q entry
-    q: tuple
-    v: tuple
-    a: tuple
-    lam: tuple
-    lam_rows: list                # ConstraintRow per lam entry
-    params: tuple                 # parameter symbols
+    structure: dict[str, Any]     # the ModelSpec's canonical JSON (symgen.ir.spec)
+    topology: Any                 # symgen.model.topology.Topology (a higher layer: not importable here)
+    bars: dict[str, Any]          # body -> symgen.model.derive.BarModel (likewise)
+    coords: list[Coordinate]      # Coordinate per q entry
+    q: tuple[sp.Symbol, ...]
+    v: tuple[sp.Symbol, ...]
+    a: tuple[sp.Symbol, ...]
+    lam: tuple[sp.Symbol, ...]
+    lam_rows: list[ConstraintRow]   # ConstraintRow per lam entry
+    params: tuple[sp.Symbol, ...]   # parameter symbols
     program: Program
-    output_names: list
+    output_names: list[str]
     driver_row: int | None        # index of the angle driver in lam, if any
-    timings: dict
-    latex: dict = field(default_factory=dict)   # symbol name -> LaTeX name (symgen.ir.names)
+    timings: dict[str, float]
+    latex: dict[str, str] = field(default_factory=dict)   # symbol name -> LaTeX name (symgen.ir.names)
 
     @property
-    def param_names(self) -> list:
+    def param_names(self) -> list[str]:
         return [str(p) for p in self.params]

@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass
+from typing import Any
 
 __all__ = ["DYNAMIC", "INEXTENSIBLE", "OFF", "QUASI_STATIC", "BodySpec", "DriverSpec", "EffectsSpec", "EndSpec",
            "JointSpec",
@@ -55,7 +56,7 @@ class BodySpec:
         """(axial, transverse) numbers of amplitudes: the functions and the static corrections."""
         return self.na + len(self.static_axial), self.nt + len(self.static_transverse)
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         out = {"name": self.name, "rigid": self.rigid, "frame": self.frame, "na": self.na, "nt": self.nt,
                "axial_shapes": self.axial_shapes, "transverse_shapes": self.transverse_shapes,
                "tip_joint": self.tip_joint}
@@ -65,7 +66,7 @@ class BodySpec:
         return out
 
     @classmethod
-    def from_json(cls, d: dict) -> BodySpec:
+    def from_json(cls, d: dict[str, Any]) -> BodySpec:
         pts = d.get("static_points") or {}
         return cls(d["name"], d["rigid"], d["frame"], d["na"], d["nt"], d["axial_shapes"], d["transverse_shapes"],
                    d["tip_joint"], tuple(pts.get("axial", ())), tuple(pts.get("transverse", ())))
@@ -92,7 +93,7 @@ class JointSpec:
     inertia: bool = False
     overhang: tuple[str, int] | None = None    # slots only
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         out = {"name": self.name, "kind": self.kind, "ends": [[e.body, e.xi] for e in self.ends], "mass": self.mass}
         if self.inertia:               # only then: the keys of scenes without it are unchanged
             out["inertia"] = True
@@ -101,7 +102,7 @@ class JointSpec:
         return out
 
     @classmethod
-    def from_json(cls, d: dict) -> JointSpec:
+    def from_json(cls, d: dict[str, Any]) -> JointSpec:
         oh = d.get("overhang")
         return cls(d["name"], d["kind"], tuple(EndSpec(b, xi) for b, xi in d["ends"]), d["mass"], bool(d.get("inertia")),
                    None if oh is None else (oh[0], oh[1]))
@@ -120,8 +121,8 @@ class DriverSpec:
     ramp: bool = False
     rotor_inertia: bool = False
 
-    def to_json(self) -> dict:
-        out: dict = {"kind": self.kind, "body": self.body, "torque": self.torque}
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"kind": self.kind, "body": self.body, "torque": self.torque}
         if self.law is not None:       # only then: the keys of constant-speed scenes are unchanged
             out["law"] = self.law
         if self.ramp:
@@ -131,7 +132,7 @@ class DriverSpec:
         return out
 
     @classmethod
-    def from_json(cls, d: dict) -> DriverSpec:
+    def from_json(cls, d: dict[str, Any]) -> DriverSpec:
         return cls(d["kind"], d["body"], d["torque"], d.get("law"), bool(d.get("ramp")), bool(d.get("rotor_inertia")))
 
 
@@ -145,11 +146,11 @@ class LoadSpec:
     axial: str
     transverse: str
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         return {"body": self.body, "kind": self.kind, "xi": self.xi, "axial": self.axial, "transverse": self.transverse}
 
     @classmethod
-    def from_json(cls, d: dict) -> LoadSpec:
+    def from_json(cls, d: dict[str, Any]) -> LoadSpec:
         return cls(d["body"], d["kind"], d["xi"], d["axial"], d["transverse"])
 
 
@@ -162,12 +163,12 @@ class OutputSpec:
     xi: float | None = None
     component: str | None = None
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         return {"name": self.name, "kind": self.kind, "body": self.body, "joint": self.joint, "xi": self.xi,
                 "component": self.component}
 
     @classmethod
-    def from_json(cls, d: dict) -> OutputSpec:
+    def from_json(cls, d: dict[str, Any]) -> OutputSpec:
         return cls(d["name"], d["kind"], d["body"], d["joint"], d["xi"], d["component"])
 
 
@@ -186,8 +187,8 @@ class EffectsSpec:
     damping: bool
     axial: tuple[tuple[str, str], ...] | None = None
 
-    def to_json(self) -> dict:
-        out: dict = {"coriolis": self.coriolis, "geometric_stiffening": self.geometric_stiffening,
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"coriolis": self.coriolis, "geometric_stiffening": self.geometric_stiffening,
                      "rotary_inertia": self.rotary_inertia, "strain": self.strain, "gravity": self.gravity,
                      "damping": self.damping}
         if self.axial is not None:     # only then: the keys of every other scene are unchanged
@@ -195,7 +196,7 @@ class EffectsSpec:
         return out
 
     @classmethod
-    def from_json(cls, d: dict) -> EffectsSpec:
+    def from_json(cls, d: dict[str, Any]) -> EffectsSpec:
         ax = d.get("axial")
         return cls(d["coriolis"], d["geometric_stiffening"], d["rotary_inertia"], d["strain"], d["gravity"],
                    d["damping"], None if ax is None else tuple(sorted(ax.items())))
@@ -239,7 +240,7 @@ class ModelSpec:
         return sum(j.overhang[1] for j in self.joints
                    if j.kind == "slot" and j.overhang is not None and j.ends[1].body == name)
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The canonical JSON (the layout of the cache keys; ``json.dumps(..., sort_keys=True)``
         of it is hashed)."""
         return {"version": list(self.version), "bodies": [b.to_json() for b in self.bodies],
@@ -249,7 +250,7 @@ class ModelSpec:
                 "outputs": [o.to_json() for o in self.outputs]}
 
     @classmethod
-    def from_json(cls, d: dict) -> ModelSpec:
+    def from_json(cls, d: dict[str, Any]) -> ModelSpec:
         return cls(tuple(d["version"]), tuple(BodySpec.from_json(b) for b in d["bodies"]),
                    tuple(JointSpec.from_json(j) for j in d["joints"]),
                    None if d["driver"] is None else DriverSpec.from_json(d["driver"]),
@@ -261,6 +262,6 @@ class ModelSpec:
         return spec_key(self.to_json())
 
 
-def spec_key(structure: dict) -> str:
+def spec_key(structure: dict[str, Any]) -> str:
     """The 20 hex digits of the sha256 of a structure's canonical JSON (sorted keys)."""
     return hashlib.sha256(json.dumps(structure, sort_keys=True).encode()).hexdigest()[:20]

@@ -422,7 +422,7 @@ def bar_equations(
     el_f = [sp.diff(strain_energy, fk) for fk in f]
     el_g = [sp.diff(strain_energy, gk) for gk in g]
     constraint = ()
-    if inext:
+    if axial_force is not None:   # inext
         # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
         constraint = tuple(sp.Add(*[Ka[k][j] * f[j] for j in range(na)])
                            + (sp.diff(coupling, f[k]) if effects.strain == "von_karman" else 0)

@@ -50,8 +50,11 @@ class Constraints:
     driver_row: int | None = None                          # index of the angle driver in lam
 
     def add(self, phi: sp.Expr, phid: sp.Expr, phidd: sp.Expr, lam: sp.Symbol, row: ConstraintRow) -> None:
-        self.phi.append(phi), self.phid.append(phid), self.phidd.append(phidd)
-        self.lam.append(lam), self.rows.append(row)
+        self.phi.append(phi)
+        self.phid.append(phid)
+        self.phidd.append(phidd)
+        self.lam.append(lam)
+        self.rows.append(row)
 
     @property
     def closure(self) -> list:

@@ -71,9 +71,9 @@ class BarModel:
     body: str
     sym: BarSymbols
     basis_a: Basis
-    basis_t: Basis
-    kin: BarKinematics
-    ipt: IPTable
+    basis_t: Basis | SlotBasis            # a slot's guide: the variable span's functions
+    kin: BarKinematics | SlotBarKinematics
+    ipt: IPTable | SlotIPTable
     equations: BarEquations | None = None
     inputs: dict = field(default_factory=dict)    # keyword arguments given to bar_equations
 
@@ -130,7 +130,12 @@ def _derive(scene: Scene) -> DerivedModel:
     inextensibility(cons, topo, bars, axial_force)
     S = subtree_resultants(prog, topo, E)
     drv = spec.driver
-    moment = None if drv is None else (drv.body, loads.torque if loads.torque is not None else cons.lam[cons.driver_row])
+    moment: tuple[str, sp.Expr] | None = None
+    if drv is not None and loads.torque is not None:
+        moment = (drv.body, loads.torque)
+    elif drv is not None:
+        assert cons.driver_row is not None, "an angle driver has its multiplier row"
+        moment = (drv.body, cons.lam[cons.driver_row])
     res = residuals(coords, q, topo, bars, tree, E, S, moment, rotor)
 
     prog.inputs = {"t": (TAU,), "q": q, "v": v, "a": a, "lam": tuple(cons.lam)}
@@ -177,27 +182,36 @@ def _coordinates(topo: Topology, bars: dict, slot_of: dict) -> tuple[list, tuple
     """(Coordinate records, (q, v, a), slider joint -> (s, s', s'')) in tree order: per bar its
     slider travel, theta, the f, the g, a guide's beta."""
     coords: list[Coordinate] = []
-    q, v, a = [], [], []
+    q: list[sp.Symbol] = []
+    v: list[sp.Symbol] = []
+    a: list[sp.Symbol] = []
     slider_s: dict[str, tuple] = {}
+
+    def put(x: sp.Symbol, dx: sp.Symbol, ddx: sp.Symbol) -> None:
+        """A coordinate and its rates into q, v, a."""
+        q.append(x)
+        v.append(dx)
+        a.append(ddx)
+
     for name in topo.order:
         e = topo.edges[name]
         if e.slider:
             s_ = tuple(names.slider_travel(e.joint, o).symbol() for o in range(3))
             slider_s[e.joint] = s_
             coords.append(Coordinate(str(s_[0]), CoordKind.S, name, joint=e.joint))
-            q.append(s_[0]), v.append(s_[1]), a.append(s_[2])
+            put(s_[0], s_[1], s_[2])
         sym = bars[name].sym
         coords.append(Coordinate(str(sym.th), CoordKind.THETA, name))
-        q.append(sym.th), v.append(sym.dth), a.append(sym.ddth)
+        put(sym.th, sym.dth, sym.ddth)
         for k in range(len(sym.f)):
             coords.append(Coordinate(str(sym.f[k]), CoordKind.F, name, k))
-            q.append(sym.f[k]), v.append(sym.df[k]), a.append(sym.ddf[k])
+            put(sym.f[k], sym.df[k], sym.ddf[k])
         for k in range(len(sym.g)):
             coords.append(Coordinate(str(sym.g[k]), CoordKind.G, name, k))
-            q.append(sym.g[k]), v.append(sym.dg[k]), a.append(sym.ddg[k])
+            put(sym.g[k], sym.dg[k], sym.ddg[k])
         if sym.beta:
             coords.append(Coordinate(str(sym.beta[0]), CoordKind.BETA, name, joint=slot_of[name]))
-            q.append(sym.beta[0]), v.append(sym.beta[1]), a.append(sym.beta[2])
+            put(sym.beta[0], sym.beta[1], sym.beta[2])
     return coords, (tuple(q), tuple(v), tuple(a)), slider_s
 
 

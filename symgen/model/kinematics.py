@@ -123,6 +123,7 @@ class TreeKinematics:
         if name in self._paths:
             return self._paths[name]
         e = self.topo.edges[name]
+        terms: list[tuple[str, str] | tuple[int, str, float | None]]
         if e.parent == GROUND:
             terms = [("slider" if e.slider else "ground", e.joint)]
         else:

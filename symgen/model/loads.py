@@ -43,10 +43,10 @@ class Loads:
     torque: sp.Expr | None        # a torque driver's applied moment (None: angle driver or none)
     gravity: tuple | None         # (gx, gy) parameters, None without gravity
     G: sp.Matrix                  # gravity as a vector (zero without gravity)
-    masses: list                  # LumpedMass, in joint order
-    rotary: dict                  # bar -> [LumpedRotary]
-    distributed: dict             # bar -> [(B, Gamma)] uniform loads
-    points: dict                  # bar -> [PointForce]: lumped masses' inertia and weight, then point loads
+    masses: list[LumpedMass]                       # in joint order
+    rotary: dict[str, list[LumpedRotary]]          # bar -> its lumped rotary inertias
+    distributed: dict[str, list[tuple[sp.Expr, sp.Expr]]]   # bar -> [(B, Gamma)] uniform loads
+    points: dict[str, list[PointForce]]            # bar -> lumped masses' inertia and weight, then point loads
     damping: sp.Symbol | None     # Kelvin-Voigt coefficient, None without damping
 
 
@@ -59,13 +59,17 @@ def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol
         torque = parse_tau_expression(drv.torque) if drv.torque != "const" else param(names.global_parameter("torque"))
     grav = (param(names.global_parameter("gx")), param(names.global_parameter("gy"))) if spec.effects.gravity else None
     G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
-    masses, rotary, points = [], {n: [] for n in kins}, {n: [] for n in kins}
+    masses: list[LumpedMass] = []
+    rotary: dict[str, list[LumpedRotary]] = {n: [] for n in kins}
+    points: dict[str, list[PointForce]] = {n: [] for n in kins}
     for j in spec.joints:
+        if not (j.inertia or j.mass):
+            continue
+        end = next(x for x in j.ends if x.body != GROUND)
+        assert end.xi is not None, "a lumped mass or inertia sits on a bar at a xi"
         if j.inertia:
-            end = next(x for x in j.ends if x.body != GROUND)
             rotary[end.body].append(LumpedRotary(j.name, end.body, end.xi, param(names.joint_parameter("I", j.name))))
         if j.mass:
-            end = next(x for x in j.ends if x.body != GROUND)
             m = param(names.joint_parameter("m", j.name))
             masses.append(LumpedMass(j.name, end.body, end.xi, m))
             kin = kins[end.body]
@@ -73,15 +77,16 @@ def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol
             aA = s.alpha * rot(s.th) * sp.Matrix([s.xa_dd, s.ya_dd])
             acc = aA + kin.rho_dd(end.xi) - G
             points[end.body].append(PointForce(end.xi, ground=(-m * acc[0], -m * acc[1])))
-    dist = {n: [] for n in kins}
+    dist: dict[str, list[tuple[sp.Expr, sp.Expr]]] = {n: [] for n in kins}
     for i, ld in enumerate(spec.loads):
         vals = []
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
             vals.append(parse_tau_expression(val) if val != "const" else param(names.load_parameter(i, comp, point=ld.kind != "distributed")))
         if ld.kind == "distributed":
-            dist[ld.body].append(tuple(vals))
+            dist[ld.body].append((vals[0], vals[1]))
         else:
+            assert ld.xi is not None, "a point load has its xi (symgen.scene.excitation)"
             points[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
     damping = param(names.global_parameter("damping")) if spec.effects.damping else None
     return Loads(torque, grav, G, masses, rotary, dist, points, damping)

@@ -93,11 +93,13 @@ def output(o: OutputSpec, path: str, bars: dict, topo: Topology, joints: dict, t
         px, py = kin.local(o.xi)
         return (cx * (py - l0y) - cy * (px - l0x)) / chord
     if k == "position":
+        assert o.body is not None and o.xi is not None, "a position output names its bar and xi (symgen.scene.outputs)"
         r = tree.point(o.body, o.xi)[0]
         return r[0 if o.component == "x" else 1]
     if k == "angle":
         return bars[o.body].sym.th
     if k == "driver_torque":
+        assert cons.driver_row is not None, "driver_torque needs an angle driver (symgen.scene.outputs)"
         return cons.lam[cons.driver_row]
     if k == "energy":
         return total_energy

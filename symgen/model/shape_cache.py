@@ -17,6 +17,7 @@ import math
 import os
 import tempfile
 from pathlib import Path
+from typing import TypeGuard
 
 import numpy as np
 
@@ -40,6 +41,11 @@ def _cache_name(akey: tuple, tkey: tuple) -> str:
         return f"{direction}-{family}-{frame}-n{n}-tip{int(tip)}"
 
     return f"v{SHAPES_VERSION}__{part(akey)}__{part(tkey)}"
+
+
+def _is_count(n: object) -> TypeGuard[int]:
+    """A stored mode count: an integer in 0..1000."""
+    return isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= 1000
 
 
 def _freeze(ip: InnerProducts) -> InnerProducts:
@@ -85,7 +91,7 @@ def _decode_entry(data: bytes, name: str) -> InnerProducts:
     if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != SHAPES_VERSION:
         raise bad(f"written for {doc.get('key') if isinstance(doc, dict) else None!r}")
     na, nt = doc.get("na"), doc.get("nt")
-    if not all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= 1000 for n in (na, nt)):
+    if not (_is_count(na) and _is_count(nt)):
         raise bad("mode counts")
     floats, exact = doc.get("floats"), doc.get("exact")
     if not isinstance(floats, dict) or not isinstance(exact, dict) or \

@@ -291,17 +291,17 @@ def _tip_load_projection(eig: list[ShapeFunction]) -> tuple:
     """(c_k, t, terms): xi^2 (3 - xi)/2 - sum_k c_k X_k (mass inner product projections c_k) has
     the value t at xi = 1; ``terms`` is that difference (not yet divided by t)."""
     base = poly_terms({2: Fraction(3, 2), 3: Fraction(-1, 2)}).as_mp()
-    d = dict(base.d)
+    d: dict[tuple[int, int], Any] = dict(base.d)   # inexact terms: mpc coefficients
     coeffs = []
     for f in eig:
+        assert f.terms is not None, "an eigenfunction has its term form"
         t = f.terms.as_mp()
-        c = integrate_product(base, t) / integrate_product(t, t)
-        c = MP.mpf(c.real)
+        ratio: Any = integrate_product(base, t)    # of inexact terms: an mpc
+        c = MP.mpf((ratio / integrate_product(t, t)).real)
         coeffs.append(c)
         for key, val in t.d.items():
             d[key] = d.get(key, MP.mpc(0)) - c * val
-    rest = Terms(d, exact=False)
-    tip = MP.mpf(sum((c * (MP.exp(s_value(sid)) if sid else 1) for (_, sid), c in rest.d.items()),
+    tip = MP.mpf(sum((c * (MP.exp(s_value(sid)) if sid else 1) for (_, sid), c in d.items()),
                      MP.mpc(0)).real)
     return coeffs, tip, d
 

@@ -128,7 +128,7 @@ class Piecewise:
             raise ValueError(f"shape function {f.label!r} has no term form")
         return Piecewise((Fraction(0), Fraction(1)), (f.terms,))
 
-    def piece_at(self, xi: float, right: bool = True) -> Terms:
+    def piece_at(self, xi: float | Fraction, right: bool = True) -> Terms:
         x = Fraction(xi)
         for i in range(len(self.pieces)):
             lo, hi = self.breaks[i], self.breaks[i + 1]
@@ -272,7 +272,7 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
         c = MP.lu_solve(G, r)
         coeffs = [c[i] for i in range(m)]
     breaks = sorted(set(w.breaks).union(*(f.breaks for f in fs)))
-    pieces = []
+    pieces: list[dict[tuple[int, int], Any]] = []   # inexact terms: mpc coefficients
     for lo, hi in zip(breaks[:-1], breaks[1:]):
         mid = (lo + hi) / 2
         d = dict(w.piece_at(mid).d)
@@ -285,8 +285,8 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
     if abs(t) < 1e-13 * max(1.0, max(abs(float(x)) for x in (left + right))):
         raise ValueError(f"the static shape at xi = {xi_k} already lies in the span of the "
                          "bar's functions: no correction function to add")
-    scaled = Piecewise(rest.breaks, tuple(Terms({k: v / t for k, v in p.d.items()}, exact=False)
-                                          for p in rest.pieces))
+    scaled = Piecewise(rest.breaks, tuple(Terms({k: v / t for k, v in p.items()}, exact=False)
+                                          for p in pieces))
     label = r"\chi_{%s}" % format(float(xi_k), "g")
     return StaticCorrection(kind, float(xi_k), a, tuple(left), tuple(right),
                             tuple(float(c) for c in coeffs), float(t), label, scaled)

@@ -134,7 +134,7 @@ Coef = Union[Exact, Any]  # Exact or an mpc of MP
 _LOCK = threading.Lock()
 _COMPUTE_LOCK = threading.RLock()
 _PERSISTENT: set[int] = {0}
-_SKEYS: list[tuple] = [()]
+_SKEYS: list[tuple | None] = [()]   # None: a forgotten key (ids are never reused)
 _SKEY_ID: dict[tuple, int] = {(): 0}
 _SPARENTS: dict[int, tuple[int, int]] = {}
 _SADD: dict[tuple[int, int], int] = {}
@@ -142,6 +142,14 @@ _SVAL: dict[int, Any] = {}
 _SEXP: dict[int, Any] = {}
 _KAPPA: dict[int, Fraction | None] = {0: Fraction(0)}
 _SCONJ: dict[int, int] = {0: 0}
+
+
+def _skey(i: int) -> tuple:
+    """The key of exponent id ``i`` (KeyError if it was forgotten)."""
+    key = _SKEYS[i]
+    if key is None:
+        raise KeyError(f"exponent id {i} was forgotten with its computation's scratch exponents")
+    return key
 
 
 def _sid(key: tuple, parents: tuple[int, int] | None = None, persistent: bool = False) -> int:
@@ -201,8 +209,8 @@ def s_add(i: int, j: int) -> int:
         return i
     r = _SADD.get((i, j))
     if r is None:
-        d = {atom: (a, b) for atom, a, b in _SKEYS[i]}
-        for atom, a, b in _SKEYS[j]:
+        d = {atom: (a, b) for atom, a, b in _skey(i)}
+        for atom, a, b in _skey(j):
             if atom in d:
                 a0, b0 = d[atom]
                 a, b = a0 + a, b0 + b
@@ -219,13 +227,15 @@ def s_add(i: int, j: int) -> int:
 
 def _kappa(i: int) -> Fraction | None:
     """``kappa`` if exponent ``i`` is exactly ``i*pi*kappa`` (kappa rational), else None."""
-    k = _KAPPA.get(i, False)
-    if k is False:
-        key = _SKEYS[i]
-        k = None
-        if len(key) == 1 and key[0][0] == 0 and key[0][1] == 0:
-            k = Fraction(key[0][2], 2)
-        _KAPPA[i] = k
+    try:
+        return _KAPPA[i]
+    except KeyError:
+        pass
+    key = _skey(i)
+    k = None
+    if len(key) == 1 and key[0][0] == 0 and key[0][1] == 0:
+        k = Fraction(key[0][2], 2)
+    _KAPPA[i] = k
     return k
 
 
@@ -242,7 +252,7 @@ def s_value(i: int) -> Any:
             v = s_value(par[0]) + s_value(par[1])
         else:
             v = MP.mpc(0)
-            for atom, a, b in _SKEYS[i]:
+            for atom, a, b in _skey(i):
                 v += MP.mpc(a, b) * _atom_value(atom)
         _SVAL[i] = v
     return v
@@ -262,7 +272,7 @@ def _sconj(i: int) -> int:
     """Id of the complex conjugate of exponent ``i`` (atoms are real)."""
     r = _SCONJ.get(i)
     if r is None:
-        r = _sid(tuple((atom, a, -b) for atom, a, b in _SKEYS[i]), persistent=i in _PERSISTENT)
+        r = _sid(tuple((atom, a, -b) for atom, a, b in _skey(i)), persistent=i in _PERSISTENT)
         _SCONJ[i] = r
         _SCONJ[r] = i
     return r
@@ -293,9 +303,10 @@ class Terms:
     def __getstate__(self) -> tuple:
         # exponent ids are process-local: pickle the keys themselves; mpc as raw mpf tuples
         if self.exact:
-            items = [(p, _SKEYS[s], c) for (p, s), c in self.d.items()]
+            items = [(p, _skey(s), c) for (p, s), c in self.d.items()]
         else:
-            items = [(p, _SKEYS[s], (c.real._mpf_, c.imag._mpf_)) for (p, s), c in self.d.items()]
+            mp: dict[tuple[int, int], Any] = self.d   # the coefficients of inexact terms are mpc
+            items = [(p, _skey(s), (c.real._mpf_, c.imag._mpf_)) for (p, s), c in mp.items()]
         return (items, self.exact)
 
     def __setstate__(self, state: tuple) -> None:
@@ -335,7 +346,7 @@ class Terms:
             if cs == s:
                 out.append((p, s, c))
             elif s < cs:
-                out.append((p, s, 2 * c))
+                out.append((p, s, c.scale(Fraction(2)) if isinstance(c, Exact) else 2 * c))
         return out
 
     def evaluate(self, xi: float, order: int = 0) -> float:
@@ -391,8 +402,9 @@ def _tderiv(a: Terms) -> Terms:
             if s:
                 _acc(out, (p, s), c * Exact.of(0, _kappa(s), 1))
         else:
+            mc: Any = c   # the coefficients of inexact terms are mpc
             if p:
-                _acc(out, (p - 1, s), c * p)
+                _acc(out, (p - 1, s), mc * p)
             if s:
                 _acc(out, (p, s), c * s_value(s))
     return new_terms(out, a.exact)

@@ -51,8 +51,8 @@ class Topology:
 def build_topology(scene: Scene) -> Topology:
     """Breadth-first spanning tree from ground (pins preferred), the rest are cut joints."""
     incident: dict[str, list[Joint]] = {GROUND: []}
-    for b in scene.bodies:
-        incident[b.name] = []
+    for body in scene.bodies:
+        incident[body.name] = []
     for j in scene.joints:
         for end in j.ends:
             incident[end.body].append(j)
@@ -66,10 +66,12 @@ def build_topology(scene: Scene) -> Topology:
         here = 0 if j.ends[0].body == node else 1
         near, far = j.ends[here], j.ends[1 - here]
         child = far.body
+        parent_xi = None if node == GROUND else near.xi
+        assert far.xi is not None and (node == GROUND or parent_xi is not None), "pins and sliders hold bars at a xi"
         used.add(j.name)
         edges[child] = TreeEdge(
             joint=j.name, body=child, parent=node, body_xi=float(far.xi),
-            parent_xi=None if node == GROUND else float(near.xi),
+            parent_xi=None if parent_xi is None else float(parent_xi),
             ground_point=near.point if node == GROUND else None,
             slider=(j.kind == "slider"))
         parent_of[child] = node

@@ -165,9 +165,10 @@ def _tokenize(text: str) -> list[_Token]:
                 why = f"the character {ch!r} is not allowed (names are ASCII; tau may be written τ)"
             raise ValueError(f"{why} (at character {pos + 1})")
         kind, piece = match.lastgroup, match.group()
+        assert kind is not None, "every alternative of _TOKEN is a named group"
         end = match.end()
         if kind == "number" and end < len(text) and (text[end].isalnum() or text[end] in "_."):
-            tail = re.match(r"[A-Za-z0-9_.]*", text[end:]).group()
+            tail = re.split(r"[^A-Za-z0-9_.]", text[end:], maxsplit=1)[0]   # the run of name characters
             raise ValueError(f"malformed number {piece + tail!r} (at character {pos + 1}); "
                              f"write a product with '*', e.g. 2*tau")
         if kind == "name":

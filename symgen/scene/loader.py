@@ -80,8 +80,8 @@ def read_toml(file: str) -> dict:
         raise SceneError(file, "", f"cannot read a value: {str(exc).split(';')[0]}",
                          "fix the value") from None
     except RecursionError:
-        line = nesting_line(text)
-        raise SceneError(file, "", f"arrays or inline tables nested too deeply{f' at line {line}' if line else ''} "
+        deep = nesting_line(text)
+        raise SceneError(file, "", f"arrays or inline tables nested too deeply{f' at line {deep}' if deep else ''} "
                          f"(at most {MAX_DEPTH} levels)", "a scene needs a few levels; check the brackets") from None
     check_structure(raw, file)
     return raw

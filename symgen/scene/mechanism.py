@@ -364,7 +364,7 @@ def read_joints(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales) -
 
 def check_connected(r: Reader, bodies: tuple[Body, ...], joints: tuple[Joint, ...]) -> None:
     """Every bar must be connected to ground through joints."""
-    neighbours: dict[str, set[str]] = {GROUND: set()} | {b.name: set() for b in bodies}
+    neighbours: dict[str, set[str]] = {name: set() for name in (GROUND, *(b.name for b in bodies))}
     for joint in joints:
         a, b = (end.body for end in joint.ends)
         neighbours[a].add(b)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from datetime import date, datetime, time
-from typing import Any, NoReturn
+from typing import Any, NoReturn, TypeGuard
 
 from symgen.errors import SceneError
 from symgen.scene.limits import MAX_MAGNITUDE
@@ -65,7 +65,7 @@ def _short(value: object) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def is_number(value: object) -> bool:
+def is_number(value: object) -> TypeGuard[int | float]:
     """True for TOML integers and floats (TOML booleans are not numbers)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 

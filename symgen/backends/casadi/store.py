@@ -34,6 +34,8 @@ FORMAT = "symgen-model-cache"
 FORMAT_VERSION = 3      # 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
 MANIFEST = "manifest.json"
 META = "model.json"
+#: the CasADi a cache entry was built with (its stubs, casadi/__init__.pyi, omit the module's __version__)
+CASADI_VERSION: str = ca.__version__  # type: ignore[attr-defined]
 _MAX_MANIFEST = 1 << 16
 _MAX_FILE = 1 << 30
 
@@ -57,7 +59,7 @@ def save(funcs: dict, info: ModelInfo, directory: str | os.PathLike, replace: bo
     files = {f"{name}.casadi": funcs[name].serialize().encode("ascii") for name in FUNCTION_NAMES}
     files[META] = json.dumps(info.to_json(), indent=1, sort_keys=True, allow_nan=False).encode()
     manifest = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
-                "casadi": ca.__version__, "key": directory.name,
+                "casadi": CASADI_VERSION, "key": directory.name,
                 "files": {name: cache.seal(f"models/{directory.name}/{name}", data) for name, data in files.items()}}
     directory.parent.mkdir(parents=True, exist_ok=True)
     cache.sweep_stale(directory.parent)
@@ -133,8 +135,8 @@ def _check_manifest(m, key: str) -> None:
         raise cache.InvalidEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
     if m.get("symgen") != __version__:
         raise cache.InvalidEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
-    if m.get("casadi") != ca.__version__:
-        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {ca.__version__}")
+    if m.get("casadi") != CASADI_VERSION:
+        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {CASADI_VERSION}")
     if m.get("key") != key:
         raise cache.InvalidEntry(f"{MANIFEST} is for structure key {m.get('key')!r}, not {key}")
     files = m.get("files")

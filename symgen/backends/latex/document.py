@@ -21,7 +21,9 @@ Examples
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import jinja2
 import sympy as sp
@@ -146,14 +148,14 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         # the orthogonalised tip-load shape: printed factored (its expanded form is a line of
         # ~13 exponential and trigonometric terms), the coefficients on the next line
         from symgen.model.shapes import tip_load_coefficients
-        c, t = tip_load_coefficients(list(tfun[1:]))
-        m = len(c)
+        coef, t = tip_load_coefficients(list(tfun[1:]))
+        m = len(coef)
         ctx["psi"][0]["expr"] = (rf"\frac{{1}}{{t}}\Bigl(\frac{{\xi^2(3-\xi)}}{{2}} - "
                                  rf"\sum_{{k=1}}^{{{m}}} c_k X_k(\xi)\Bigr)")
         # t = 1 - sum c_k is a small difference: the c_k to 10 digits keep psi_1 to ~1e-6
-        nums = [rf"c_{{{k + 1}}} = {_g6(ck, 10)}" for k, ck in enumerate(c)] + [rf"t = {_g6(t, 10)}"]
-        rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
-        ctx["psi"][0]["extra"] = (r"\text{with } " + r", \\ &\qquad ".join(rows) + r", \\ &\qquad "
+        nums = [rf"c_{{{k + 1}}} = {_g6(ck, 10)}" for k, ck in enumerate(coef)] + [rf"t = {_g6(t, 10)}"]
+        lines = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
+        ctx["psi"][0]["extra"] = (r"\text{with } " + r", \\ &\qquad ".join(lines) + r", \\ &\qquad "
                                   r"c_k = (P, X_k)/(X_k, X_k),\ P(\xi) = \xi^2(3-\xi)/2,\ t = 1 - \textstyle\sum_k c_k")
     for key, basis, sym_ in (("phi", bm.basis_a, r"\phi"), ("psi", bm.basis_t, r"\psi")):
         for row, fn in zip(ctx[key], basis.functions):
@@ -272,7 +274,7 @@ def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
     at_one, at_zero = abs(xi - 1.0) < 1e-12, abs(xi) < 1e-12
     xs = "1" if at_one else ("0" if at_zero else num_text(xi))
     F = rf"\mathbf F_{{{B}}}({xs})"
-    out = {"sign": 1 if at_one else -1, "F": F, "rows": [], "rigid": False, "end": at_one or at_zero}
+    out: dict[str, Any] = {"sign": 1 if at_one else -1, "F": F, "rows": [], "rigid": False, "end": at_one or at_zero}
     if not out["end"]:
         out["F"] = rf"\bigl(\mathbf F_{{{B}}}({xs}^-) - \mathbf F_{{{B}}}({xs}^+)\bigr)"
         out["sign"] = 1
@@ -478,7 +480,7 @@ def latex_document(scene, model) -> str:
         mult.append({"tex": pr(L), "text": f"{what} {tex_escape(row.joint) if row.kind != 'driver' else ''}".strip()})
     try:
         from symgen.ir.parameters import parameter_values
-        values = parameter_values(scene, model.param_names)
+        values: Iterable[float | None] = parameter_values(scene, model.param_names)
     except KeyError:
         values = [None] * len(model.params)
     params = [{"tex": pr(p), "value": num_text(v)} for p, v in zip(model.params, values)]

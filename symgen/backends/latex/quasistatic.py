@@ -36,7 +36,9 @@ def _signed(terms: list, pr) -> list[str]:
 
 def _split(expr: sp.Expr, unknowns: set) -> tuple[list, list, list]:
     """Terms of ``expr`` (expanded) by degree in ``unknowns``: (constant, linear, nonlinear)."""
-    const, lin, nonlin = [], [], []
+    const: list[sp.Expr] = []
+    lin: list[sp.Expr] = []
+    nonlin: list[sp.Expr] = []
     gens = sorted(unknowns, key=str)
     for term in sp.Add.make_args(sp.expand(expr)):
         if term == 0:

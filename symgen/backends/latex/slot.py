@@ -18,6 +18,8 @@ amplitudes (psi(beta, beta) = 0).
 """
 from __future__ import annotations
 
+from typing import Any
+
 import sympy as sp
 
 from symgen.backends.latex.printing import (eq_block, eq_row, equation_rows, kin_terms, num_text, rm, shown_forces,
@@ -133,7 +135,7 @@ def _shape_rows(basis, b: sp.Symbol, pr) -> tuple[list[dict], bool]:
             if any(sp.simplify(g - w) != 0 for g, w in zip(got, want[order])):
                 ok = False
     bb = sp.Symbol(r"\beta")
-    rows = []
+    rows: list[dict[str, Any]] = []
     if ok:
         rows = [{"k": "k", "sub": sub, "span": span, "over": over} for sub, span, over in _FAMILY]
     for k, fn in enumerate(basis.functions if not ok else own, start=1 if not ok else nspan + 1):
