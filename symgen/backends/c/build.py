@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
+from collections.abc import Sequence
 from pathlib import Path
 
 from symgen.errors import SymgenError
+from symgen.processes import run_group
 
 STRICT_C = ("-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror")
 STRICT_CXX = ("-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror")
@@ -28,14 +29,16 @@ def find_cc() -> str:
     raise BuildError("no C compiler found (set CC, or install gcc: apt-get install gcc)")
 
 
-def run(cmd: list[str], cwd: str | os.PathLike | None = None) -> None:
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+def run(cmd: list[str], cwd: str | os.PathLike[str] | None = None) -> None:
+    """Run a compile in a process group of its own (an interrupt kills cc1 too); BuildError if it fails."""
+    proc = run_group(cmd, cwd=cwd)
     if proc.returncode != 0:
         raise BuildError(f"the C compiler failed ({' '.join(cmd)}):\n{proc.stderr.strip()[:4000]}")
 
 
-def compile_shared(sources: list, output: Path, include: list = (), flags: tuple = STRICT_C,
-                   opt: str = "-O2", cc: str | None = None, extra: tuple = ()) -> Path:
+def compile_shared(sources: Sequence[str | os.PathLike[str]], output: Path, include: Sequence[str | os.PathLike[str]] = (),
+                   flags: Sequence[str] = STRICT_C, opt: str = "-O2", cc: str | None = None,
+                   extra: Sequence[str] = ()) -> Path:
     """Compile ``sources`` into the shared library ``output`` (position independent, libm)."""
     cc = cc or find_cc()
     output = Path(output)
@@ -46,7 +49,8 @@ def compile_shared(sources: list, output: Path, include: list = (), flags: tuple
     return output
 
 
-def compile_executable(sources: list, output: Path, include: list = (), flags: tuple = STRICT_C,
+def compile_executable(sources: Sequence[str | os.PathLike[str]], output: Path,
+                       include: Sequence[str | os.PathLike[str]] = (), flags: Sequence[str] = STRICT_C,
                        opt: str = "-O2", cc: str | None = None) -> Path:
     cc = cc or find_cc()
     output = Path(output)
