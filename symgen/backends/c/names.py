@@ -18,8 +18,31 @@ from symgen.errors import SceneError
 from symgen.scene.names import name_problem
 
 
+#: Headers a compile of the emitted C includes by a bare name (``<math.h>``, and what the C
+#: library's headers include in turn), and the FMI headers shipped beside an FMU's sources: the
+#: scene's ``NAME.h`` would shadow them (the folder is on the include path). C23's standard
+#: headers, glibc's top-level headers that they pull in, and the POSIX ones the C library may
+#: use. ``tests/test_emit_c_names.py`` checks, by asking the compiler which headers a build of
+#: the emitted C includes, that every one of them is here.
+HEADER_NAMES = frozenset("""
+    assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal stdalign
+    stdarg stdatomic stdbit stdbool stdckdint stddef stdint stdio stdlib stdnoreturn string tgmath
+    threads time uchar wchar wctype
+    alloca endian features strings syslimits unistd fcntl pthread sched dlfcn malloc memory stdc_predef
+    fmi2functions fmi2functiontypes fmi2typesplatform
+""".split())
+#: Target names CMake reserves (policy CMP0037, and the targets its generators add): the
+#: emitted CMakeLists.txt names its library after the scene.
+CMAKE_TARGETS = frozenset("""
+    all clean help install test package package_source edit_cache rebuild_cache
+    list_install_components depend preinstall all_build zero_check run_tests
+""".split())
+#: The C runtime's files and symbols (``symgen_solver.c``, ``symgen_runtime.h``...).
+RUNTIME_PREFIX = "symgen"
+
+
 def c_prefix_problem(name: str) -> str | None:
-    """Why ``name`` cannot prefix the emitted C symbols, or ``None``."""
+    """Why ``name`` cannot prefix the emitted C symbols and name its files, or ``None``."""
     if not isinstance(name, str):
         return "it is not a string"
     problem = name_problem(name)
@@ -27,6 +50,13 @@ def c_prefix_problem(name: str) -> str | None:
         return problem
     if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
         return "identifiers that begin with '__' or '_' and a capital letter are reserved in C"
+    low = name.lower()                  # a case-insensitive file system shadows Math.h as well
+    if low in HEADER_NAMES:
+        return f"the emitted header {name}.h would hide the system or FMI header <{low}.h>"
+    if low in CMAKE_TARGETS:
+        return f"'{name}' is a target name that CMake reserves (the emitted CMakeLists.txt names its library after the scene)"
+    if low == RUNTIME_PREFIX or low.startswith(RUNTIME_PREFIX + "_"):
+        return "names that begin with 'symgen' are the C runtime's (symgen_solver.c, symgen_runtime.h)"
     return None
 
 
