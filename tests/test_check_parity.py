@@ -217,3 +217,25 @@ def test_quasi_static_start_beyond_buckling(column, monkeypatch, ratio, amplitud
     rc, c_rate, c_msg = _c_probe(column, ratio)
     assert rc == 1 and c_msg in err
     assert c_rate == pytest.approx(rate, rel=1e-8)
+
+
+# ---------------------------------------------------------------------------- run settings
+@pytest.mark.parametrize("rtol, atol", [(1e-15, 1e-10), (1e-14, 1e-10), (0.5, 1e-10), (1.0, 1e-10),
+                                        (1e-8, 1e-21), (1e-8, 1e-20), (1e-8, 0.5), (1e-8, 1.0)])
+def test_the_c_driver_takes_the_tolerances_python_takes(built, rtol, atol):
+    """One source of the run-setting bounds (symgen.scene.limits), rendered into the C driver:
+    the same tolerances are refused (exit 2, naming the option) or accepted by both."""
+    from symgen.errors import SceneError
+    from symgen.scene import load_scene
+
+    path, over, exe = built["rigid"]
+    try:
+        load_scene(path, [*over, f"simulation.rtol={rtol!r}", f"simulation.atol={atol!r}"])
+        python_ok = True
+    except SceneError as err:
+        python_ok = False
+        assert ("rtol" if "rtol" in err.key else "atol") in err.key
+    code, err, _ = _c(exe, "--rtol", repr(rtol), "--atol", repr(atol), "--t-end", "0.1", "--step", "0.05")
+    assert (code != 2) == python_ok, (rtol, atol, code, err)
+    if not python_ok:
+        assert "--rtol" in err or "--atol" in err, err

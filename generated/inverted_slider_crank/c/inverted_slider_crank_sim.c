@@ -25,7 +25,7 @@
  *   stdout; --set changes a parameter (see inverted_slider_crank_parameter_names, e.g. --set lambda_rod=20000);
  *   --stats prints step counts, the closure residual and the solver's CPU time on stderr.
  * Every value is a finite number: --t-end > 0, 0 < --step <= --t-end, --rtol in
- * (0, inverted_slider_crank_RTOL_MAX) (a warning above inverted_slider_crank_LOOSE_RTOL), --atol > 0, a --set value in the
+ * [inverted_slider_crank_RTOL_MIN, inverted_slider_crank_RTOL_MAX) (a warning above inverted_slider_crank_LOOSE_RTOL), --atol in [inverted_slider_crank_ATOL_MIN, inverted_slider_crank_ATOL_MAX), a --set value in the
  * parameter's range (inverted_slider_crank_parameter_range), and the run gives at most --max-rows rows
  * (default inverted_slider_crank_MAX_OUTPUT_ROWS). Defaults: the scene's [simulation] section.
  * Exit status: 0 complete, 1 the run stopped early (the rows so far are printed), 2 bad usage
@@ -162,10 +162,14 @@ int main(int argc, char **argv)
     if (step > t_end) {
         return inverted_slider_crank_sim_bad("--step %g is longer than the run (--t-end %g): use a step <= the end time", step, t_end);
     }
-    if (!(rtol > 0.0 && rtol < inverted_slider_crank_RTOL_MAX)) {
-        return inverted_slider_crank_sim_bad("--rtol %g: the relative tolerance must be in (0, %g)", rtol, inverted_slider_crank_RTOL_MAX);
+    if (!(rtol >= inverted_slider_crank_RTOL_MIN && rtol < inverted_slider_crank_RTOL_MAX)) {
+        return inverted_slider_crank_sim_bad("--rtol %g: the relative tolerance must be in [%g, %g)", rtol, inverted_slider_crank_RTOL_MIN,
+                               inverted_slider_crank_RTOL_MAX);
     }
-    if (!(atol > 0.0)) return inverted_slider_crank_sim_bad("--atol %g: the absolute tolerance must be > 0", atol);
+    if (!(atol >= inverted_slider_crank_ATOL_MIN && atol < inverted_slider_crank_ATOL_MAX)) {
+        return inverted_slider_crank_sim_bad("--atol %g: the absolute tolerance must be in [%g, %g)", atol, inverted_slider_crank_ATOL_MIN,
+                               inverted_slider_crank_ATOL_MAX);
+    }
     if (!(max_rows >= 1.0 && max_rows <= rows_cap && max_rows == floor(max_rows))) {
         return inverted_slider_crank_sim_bad("--max-rows %g: give a whole number from 1 to %.0f", max_rows, rows_cap);
     }

@@ -54,9 +54,13 @@ extern const symgen_model inverted_slider_crank_model;
 #define inverted_slider_crank_RTOL 1e-08
 #define inverted_slider_crank_ATOL 1e-10
 
-/* Limits of the run settings (symgen.scene.model, the same as the Python runs'): rtol in
-   (0, _RTOL_MAX), atol > 0; an rtol above _LOOSE_RTOL may give results far off (the driver
-   warns); a run of the driver prints at most _MAX_OUTPUT_ROWS rows unless told otherwise. */
+/* Limits of the run settings (symgen.scene.limits, the same as the Python loader's): the driver
+   takes rtol in [_RTOL_MIN, _RTOL_MAX) and atol in [_ATOL_MIN, _ATOL_MAX); an rtol above
+   _LOOSE_RTOL may give results far off (the driver warns); a run of the driver prints at most
+   _MAX_OUTPUT_ROWS rows unless told otherwise. */
+#define inverted_slider_crank_RTOL_MIN 1e-14
+#define inverted_slider_crank_ATOL_MIN 1e-20
+#define inverted_slider_crank_ATOL_MAX 1.0
 #define inverted_slider_crank_RTOL_MAX 1.0
 #define inverted_slider_crank_LOOSE_RTOL 0.001
 #define inverted_slider_crank_MAX_OUTPUT_ROWS 2000000L

@@ -58,9 +58,10 @@ def _parameter_ranges(scene, params: list[str]) -> list[dict]:
 def _run_limits() -> dict:
     """The run limits of the Python loader (symgen.scene.limits), rendered into the C: the
     default row limit (the C driver lifts it with --max-rows, Python with SYMGEN_MAX_ROWS), the
-    rtol bound and the rtol above which both warn."""
-    from symgen.scene.limits import LIMITS, RTOL_MAX, RTOL_WARN
+    rtol and atol bounds and the rtol above which both warn: one source for both."""
+    from symgen.scene.limits import ATOL_MAX, ATOL_MIN, LIMITS, RTOL_MAX, RTOL_MIN, RTOL_WARN
     return {"max_rows": f"{int(LIMITS['rows'].default)}L", "rtol_max": c_double(RTOL_MAX),
+            "rtol_min": c_double(RTOL_MIN), "atol_min": c_double(ATOL_MIN), "atol_max": c_double(ATOL_MAX),
             "loose_rtol": c_double(RTOL_WARN), "max_t_end": c_double(float(LIMITS["t_end"].default))}
 
 
