@@ -10,7 +10,6 @@ Growth rates are least-squares slopes of log(cost) against log(bars) or log(mode
 from __future__ import annotations
 
 import json
-import math
 import os
 import statistics
 import subprocess

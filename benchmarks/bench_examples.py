@@ -10,11 +10,9 @@ compare ratios within a run, not absolute numbers across runs).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import subprocess
-import platform
 import statistics
 import sys
 import tempfile

@@ -50,7 +50,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -248,7 +248,7 @@ def bench_problem(p: Problem, repeats: int) -> dict:
                     runs += [p.exudyn(ne, spt, p.turns) for _ in range(repeats - 1)]
                 per = {k: peak_error(np.asarray(runs[0][1][k])[on_grid(runs[0][0], dt, n)], ref[k])
                        for k in p.outputs}
-            except Exception as err:  # noqa: BLE001 -- a failed configuration is a row, not a crash
+            except Exception as err:
                 row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0, per={},
                            failed=str(err).splitlines()[0][:90])
                 ex_rows.append(row)
@@ -266,7 +266,7 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         cidx = on_grid(tt, dt, n)
         own_ref = {k: np.asarray(cols[k])[cidx] for k in p.outputs}
         check = {k: peak_error(own_ref[k], ref[k]) for k in p.outputs}
-    except Exception as err:  # noqa: BLE001
+    except Exception as err:
         own_ref, check, ccpu, csteps = None, {"failed": str(err)[:90]}, math.nan, 0
 
     sg_rows = []
@@ -290,7 +290,7 @@ def bench_problem(p: Problem, repeats: int) -> dict:
                 slow.add((axial, nt, solver))
             else:
                 runs += [symgen_run(p, over, solver) for _ in range(repeats - 1)]
-        except Exception as err:  # noqa: BLE001 -- a failed configuration is a row, not a crash
+        except Exception as err:
             row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0, failed=str(err).splitlines()[0][:90])
         else:
             tt, cols, _, steps = runs[0]

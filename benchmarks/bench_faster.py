@@ -92,7 +92,7 @@ def run(repeats: int) -> str:
             mech = mechanism(ROOT / path, [*base, *more])
             try:
                 res, cpu = _timed(mech, repeats, kw, extra, chunk)
-            except Exception as err:  # noqa: BLE001
+            except Exception as err:
                 out.append(f"| {label} | {name} | failed: {str(err)[:80]} | | | | |")
                 continue
             t_default = cpu if t_default is None else t_default

@@ -75,7 +75,7 @@ class ExplicitODE:
             ext, _ = library([rhs], mech.info.key, "explicit-rhs " + str(run.part))
             self.rhs = ext["rhs"]
             self.compiled = True
-        except Exception as exc:  # noqa: BLE001 -- a rootfinder that does not generate code: the VM
+        except Exception as exc:
             print(f"bench_integrators: explicit RHS in the virtual machine ({exc})", file=sys.stderr)
             self.compiled = False
         self.nx, self.nz = nx, nz

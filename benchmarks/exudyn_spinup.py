@@ -185,6 +185,7 @@ if __name__ == "__main__":
     t, out, cpu = spinup(el, st, te, mu, rho, energy_every=50)
     print(f"cpu {cpu:.2f}s theta_end {out['theta'][-1]:.6f} w_end {out['theta_dot'][-1]:.6f} "
           f"rod_mid max {np.abs(out['rod_mid']).max():.6e}")
-    E = out["energy"]; ok = ~np.isnan(E)
+    E = out["energy"]
+    ok = ~np.isnan(E)
     W = scene_data(mu)["T"] * (out["theta"] - out["theta"][0])
     print("E - W drift", np.abs((E - W)[ok] - (E - W)[0]).max(), "E0", E[0])

@@ -13,7 +13,7 @@ CSV, its JSON sidecar, the plot), through the same writer (``symgen.numerics.res
 from __future__ import annotations
 
 import os
-from typing import Sequence
+from collections.abc import Sequence
 
 from symgen.numerics.mechanism import Mechanism, load_mechanism
 from symgen.numerics.simulate import SimResult, simulate

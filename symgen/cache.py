@@ -44,7 +44,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterator
+from collections.abc import Iterator
 
 __all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "KeyUnavailable", "cache_root", "models_dir",
            "compiled_dir", "shapes_dir", "key_path", "sha256_hex", "seal", "verify", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",

@@ -35,6 +35,7 @@ class SimulationError(SymgenError):
 
     def __init__(self, tau: float | None, cause: str, hint: str = "") -> None:
         self.tau, self.cause, self.hint = tau, cause, hint
+        self.partial: Any = None       # the run's result up to tau, when the run keeps one
         text = cause if tau is None else f"at tau = {tau:.6g}: {cause}"
         if hint:
             text += f" ({hint})"

@@ -17,7 +17,7 @@ import contextlib
 import os
 import tempfile
 from pathlib import Path
-from typing import Iterable, Iterator
+from collections.abc import Iterable, Iterator
 
 from symgen.errors import SceneError, SymgenError
 

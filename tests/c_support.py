@@ -30,26 +30,26 @@ needs_cc = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not in
 needs_cxx = pytest.mark.skipif(shutil.which("g++") is None, reason="g++ is not installed")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def mechanism(name: str):
     from symgen.api import mechanism as mech
     return mech(ALL_EXAMPLES[name])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def model(name: str):
     from symgen.model.derive import derive
     return derive(mechanism(name).scene)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def plan(name: str):
     """The start plan of an example (symgen.numerics.start.start_plan), the C emitter's input."""
     from symgen.numerics.start import start_plan
     return start_plan(mechanism(name))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def context(name: str) -> dict:
     from symgen.backends.c import c_context
     mech = mechanism(name)
@@ -72,7 +72,7 @@ def golden_c(name: str) -> Path | None:
     return folder / "c" if recorded == sympy.__version__ and (folder / "c").is_dir() else None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def sources(name: str) -> Path:
     """The folder of ``symgen emit-c`` for an example (the checked-in one when it is current)."""
     from symgen.backends.c import write_tree
@@ -88,7 +88,7 @@ def parameter_names(name: str) -> list[str]:
     return list(mechanism(name).info.params)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def library(name: str) -> ctypes.CDLL:
     """Model + solver as a shared library (strict flags)."""
     from symgen.backends.c.build import compile_shared
@@ -97,7 +97,7 @@ def library(name: str) -> ctypes.CDLL:
     return ctypes.CDLL(str(so))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def simulator(name: str) -> Path:
     from symgen.backends.c.build import compile_executable
     src = sources(name)
@@ -113,7 +113,7 @@ def run_sim(exe: Path, *args: str) -> tuple[list[str], np.ndarray, str]:
     return header, data, proc.stderr
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def idas_reference(name: str):
     """(tau, outputs) of the Python path (IDAS) at converged tolerances."""
     from symgen.numerics.simulate import simulate

@@ -17,7 +17,6 @@ if str(ROOT) not in sys.path:
 # checks that it gives the virtual machine's numbers to the last bit.
 import os  # noqa: E402
 
-import pytest  # noqa: E402
 
 os.environ.setdefault("SYMGEN_BACKEND", "vm")
 

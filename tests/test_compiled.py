@@ -74,7 +74,7 @@ def _entries() -> list[str]:
 def test_library_rebuilt_when_flags_or_compiler_change_or_bytes_change(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     mech = mechanism(SLIDER)
-    run = lambda: simulate(mech, t_end=0.2, backend="compiled")   # noqa: E731
+    run = lambda: simulate(mech, t_end=0.2, backend="compiled")
     first = run()
     assert first.stats["library"] == "built" and len(_entries()) == 1
     again = run()

@@ -30,7 +30,7 @@ DEFAULT = "slider_crank"
 NAMES = [pytest.param(n, marks=() if n == DEFAULT else pytest.mark.slow) for n in ALL_EXAMPLES]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _unavailable() -> str | None:
     """Why sanitized programs cannot be built and run here, or None."""
     cc = shutil.which("gcc")
@@ -61,7 +61,7 @@ def _compile(args: list, output) -> None:
     assert proc.returncode == 0, proc.stderr
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _objects(name: str) -> tuple:
     """The model and solver of an example compiled with the sanitizers (once per session)."""
     src = sources(name)
@@ -74,7 +74,7 @@ def _objects(name: str) -> tuple:
     return tuple(objs)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _simulator(name: str):
     src = sources(name)
     exe = WORK / f"san_{name}" / f"{name}_sim"

@@ -42,7 +42,6 @@ import numpy as np
 import pytest
 
 from symgen.api import simulate_scene
-from symgen.errors import SimulationError
 
 AMP = 1.0
 G = 1.0

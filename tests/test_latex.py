@@ -24,7 +24,7 @@ EXAMPLES = {name: ROOT / "examples" / f"{name}.toml" for name in ("slider_crank"
 PAPER_NUMBERS = (1, 8, 9, 10, 11, 13, 16, 17)
 
 
-@functools.lru_cache(maxsize=None)   # each document is derived and written once per session (read-only)
+@functools.cache   # each document is derived and written once per session (read-only)
 def _document(path: Path, overrides: tuple = ()) -> tuple:
     """The scene and its LaTeX document. An example without overrides reads its checked-in
     ``generated/<scene>/equations.tex`` when that is the text this checkout writes (the SymPy

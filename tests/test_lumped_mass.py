@@ -38,7 +38,7 @@ LINEAR_COMPLETE = ["effects.strain=linear", "bodies.rod.axial_shapes=complete", 
 
 def _slider(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x_B', x_B'' (central differences of the closed form) and the rod angle."""
-    x = lambda t: ALPHA * np.cos(t) + np.sqrt(1 - ALPHA ** 2 * np.sin(t) ** 2)   # noqa: E731
+    x = lambda t: ALPHA * np.cos(t) + np.sqrt(1 - ALPHA ** 2 * np.sin(t) ** 2)
     h = 1e-4
     vel = (x(tau + h) - x(tau - h)) / (2 * h)
     acc = (x(tau + h) - 2 * x(tau) + x(tau - h)) / h ** 2

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import pytest
 
-import symgen.apps.effects  # noqa: F401  (imported before ``no_work`` patches load_scene)
-import symgen.apps.reproduce  # noqa: F401
-import symgen.apps.study  # noqa: F401
+import symgen.apps.effects
+import symgen.apps.reproduce
+import symgen.apps.study
 import symgen.scene
 from symgen.cli import main
 from symgen.errors import Interrupted

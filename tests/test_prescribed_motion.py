@@ -405,7 +405,7 @@ def test_non_smooth_law_runs_with_its_piecewise_derivatives(tmp_path):
            " + 0.1*min(tau, 1)^2 + 0.01*Abs(tau - 0.5)^3")
     res = simulate(mechanism(_pendulum(tmp_path, f'law = "{law}"')))
     t = res.tau
-    h = lambda x: np.heaviside(x, 0.5)   # noqa: E731
+    h = lambda x: np.heaviside(x, 0.5)
     theta = (0.5 * np.maximum(t - 1, 0) ** 2 - 0.1 * np.sign(t - 2) * (t - 2) ** 2
              + 0.05 * h(t - 2.5) * (t - 2.5) ** 2 + 0.1 * np.minimum(t, 1) ** 2 + 0.01 * np.abs(t - 0.5) ** 3)
     thdd = h(t - 1) - 0.2 * np.sign(t - 2) + 0.1 * h(t - 2.5) + 0.2 * h(1 - t) + 0.06 * np.abs(t - 0.5)

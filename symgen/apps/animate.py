@@ -165,7 +165,7 @@ class Animator:
                 (ln,) = ax.plot([], [], color="0.6", lw=0.8, ls="--", zorder=3, animated=True)
                 self.ghosts[name] = ln
         self.lines = {}
-        for k, (name, rg) in enumerate(geom.bars.items()):
+        for k, name in enumerate(geom.bars):
             (ln,) = ax.plot([], [], color=f"C{k}", lw=2.4, zorder=4, label=name, solid_capstyle="round",
                             animated=True)
             self.lines[name] = ln

@@ -30,7 +30,7 @@ def fingerprint(funcs: dict, info: ModelInfo, p: np.ndarray) -> dict:
     rng = np.random.default_rng(20261122)
     n, m = info.n, info.m
     out: dict[str, list] = {}
-    for k in range(FINGERPRINT_POINTS):
+    for _ in range(FINGERPRINT_POINTS):
         t = float(rng.uniform(0, 2 * np.pi))
         q, v, a = (rng.uniform(-0.5, 0.5, n) for _ in range(3))
         lam = rng.uniform(-0.5, 0.5, m)

@@ -41,7 +41,7 @@ import statistics
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -209,7 +209,7 @@ def plan(scene, elastic: Sequence[str], levels: Sequence[tuple], tolerances: Seq
     base = tuple(base_sets + [f"bodies.{b}.axial_shapes=complete" for b in elastic])
     ref_level = levels[-1]
     ref_modes = {b: ref_level for b in elastic}
-    atol = lambda r: r * ATOL_RATIO  # noqa: E731
+    atol = lambda r: r * ATOL_RATIO
     ref = Config(f"reference {_level_name(ref_modes, elastic)} @{_fmt_tol(ref_rtol)}", "reference",
                  base + _level_sets(ref_modes), ref_rtol, atol(ref_rtol),
                  tuple((b, *ref_level) for b in elastic))

@@ -48,7 +48,7 @@ def to_bar_axes(th: sp.Expr, x: sp.Expr, y: sp.Expr) -> tuple:
     return sp.cos(th) * x + sp.sin(th) * y, -sp.sin(th) * x + sp.cos(th) * y
 
 
-def point_force_groups(s: "BarSymbols", fx: sp.Expr, fy: sp.Expr) -> tuple:
+def point_force_groups(s: BarSymbols, fx: sp.Expr, fy: sp.Expr) -> tuple:
     """(B, Gamma) of a point force (fx, fy) on bar ``s``, given in ground axes and common
     units m_ref l0^2 omega^2: its bar-axes components divided by nu alpha^2, i.e.
     B = (cos th Fx + sin th Fy) / (nu alpha^2), Gamma = (-sin th Fx + cos th Fy) / (nu alpha^2).
@@ -82,7 +82,7 @@ class BarSymbols:
     beta: tuple = ()        # guide of a slot: (beta, beta', beta'') of the moving support
 
     @staticmethod
-    def make(name: str, na: int, nt: int, elastic: bool, lam: bool = True) -> "BarSymbols":
+    def make(name: str, na: int, nt: int, elastic: bool, lam: bool = True) -> BarSymbols:
         """``lam = False``: no lambda symbol even with axial functions (an inextensible bar
         without rotary inertia: its axial force is a multiplier, not lambda times a strain)."""
         def vec(family: str, n: int, order: int) -> tuple:
@@ -159,7 +159,7 @@ class IPTable:
             return self._num(value)
         return sp.Symbol(latex.format(*[k + 1 for k in idx]))
 
-    def display(self) -> "DisplayIPTable":
+    def display(self) -> DisplayIPTable:
         """The display table of these inner products (see ``bar_equations``)."""
         return DisplayIPTable(self)
 
@@ -197,9 +197,9 @@ class DisplayIPTable(IPTable):
     def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
         if name in ("Ka", "Kt", "Pd"):      # symmetric: one symbol for (a, b) and (b, a)
             i, j = min(i, j), max(i, j)
-            value = lambda: self._mean(self.numeric.mat(name, i, j, latex), self.numeric.mat(name, j, i, latex))  # noqa: E731
+            value = lambda: self._mean(self.numeric.mat(name, i, j, latex), self.numeric.mat(name, j, i, latex))
         else:
-            value = lambda: self.numeric.mat(name, i, j, latex)  # noqa: E731
+            value = lambda: self.numeric.mat(name, i, j, latex)
         return self._record(super().mat(name, i, j, latex), name, (i, j), value)
 
     def vec(self, name: str, i: int, latex: str) -> sp.Expr:
@@ -261,7 +261,7 @@ class BarEquations:
     constraint: tuple = ()  # inextensible bar: (phi'_k, eps) = 0, k = 1..na (multipliers N_k)
     eqbeta: sp.Expr | None = None   # guide of a slot: the equation of its support distance beta
     # the display form (``bar_equations``): the same fields with display symbols, and what they stand for
-    display: "BarEquations | None" = field(default=None, compare=False, repr=False)
+    display: BarEquations | None = field(default=None, compare=False, repr=False)
     values: dict = field(default_factory=dict, compare=False, repr=False)      # display symbol -> value
     inner_products: dict = field(default_factory=dict, compare=False, repr=False)  # symbol -> (kind, index)
     points: tuple = field(default=(), compare=False, repr=False)    # (B, Gamma) shown for each point force
@@ -270,7 +270,7 @@ class BarEquations:
     #: the fields holding equations (``substitute`` replaces in these)
     EXPRESSIONS = ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint", "eqbeta")
 
-    def map(self, fn) -> "BarEquations":
+    def map(self, fn) -> BarEquations:
         """The same equations with ``fn`` applied to each expression."""
         def each(v):
             if v is None:
@@ -280,7 +280,7 @@ class BarEquations:
             return fn(sp.sympify(v))
         return replace(self, **{k: each(getattr(self, k)) for k in self.EXPRESSIONS})
 
-    def substitute(self, rule: dict) -> "BarEquations":
+    def substitute(self, rule: dict) -> BarEquations:
         """The same equations with ``rule`` applied by ``xreplace`` (nothing simplified)."""
         return self.map(lambda e: e.xreplace(rule))
 
@@ -462,7 +462,7 @@ def bar_equations(
         # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
         w = [0] * (2 + na + nt) + g + [0] * nt
         eqbeta = _ip(t, w, ay) + sp.diff(strain_energy, b) - gamma * _ip(t, w, one)
-        for xi, B, G, ph, ps in pts:
+        for _xi, _B, G, _ph, ps in pts:
             eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
     kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2
 

@@ -18,7 +18,7 @@ Every point is explicit in q, v, a through the tree kinematics (10)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 import sympy as sp
 

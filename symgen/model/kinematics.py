@@ -14,7 +14,7 @@ summing these brackets along the tree from ground gives (10) for every bar
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import sympy as sp

@@ -13,7 +13,7 @@ gravity, point and distributed loads, Kelvin-Voigt damping, and a driver's appli
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import sympy as sp
 

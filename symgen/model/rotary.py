@@ -22,7 +22,7 @@ Units: I and J are / (m_ref l0^3), the common unit of the generalized forces (m_
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from collections.abc import Callable
 
 import sympy as sp
 

@@ -75,7 +75,7 @@ def clamped_free_roots(n: int) -> tuple[float, ...]:
     return tuple(float(beta_mp(k)) for k in range(1, n + 1))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _eigen_data(k: int) -> dict[str, Any]:
     """Coefficients of ``X_k = cosh - cos - sigma (sinh - sin)`` in a cancellation-free form.
 
@@ -219,7 +219,7 @@ def axial_basis(shapes: str, n: int) -> Basis:
     return _axial_basis(shapes, n)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _axial_basis(shapes: str, n: int) -> Basis:
     funcs: list[ShapeFunction] = []
     if shapes == "complete":
@@ -262,7 +262,7 @@ def transverse_basis(frame: str, shapes: str, n: int, tip_joint: bool = False) -
     return _transverse_basis(frame, shapes, n, tip)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _transverse_basis(frame: str, shapes: str, n: int, tip: bool) -> Basis:
     funcs: list[ShapeFunction] = []
     if frame == "pinned-pinned":

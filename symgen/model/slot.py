@@ -39,7 +39,7 @@ contributes nothing there, so the seed's rigid-overhang form, ``no = 0``, is unc
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 
 import sympy as sp
 
@@ -90,7 +90,7 @@ def _span_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
     return sp.expand(sp.expand_complex(total))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _int_pow_exp(m: int, a: sp.Expr) -> sp.Expr:
     """int_0^1 u^m exp(a u) du, exact (a = i k pi here)."""
     if a == 0:
@@ -112,7 +112,7 @@ def _overhang_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
     return sp.factor(sp.cancel(total))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     """Closed-form Gram matrix of [1, xi, psi, psi_b, psi_bb] and (psi'', psi'') (span and
     overhang) as functions of beta; the last ``nover`` of the nt functions are overhang functions."""
@@ -235,7 +235,7 @@ class SlotIPTable:
     def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
         return sp.Integer(0)      # axially rigid: no stretching couplings
 
-    def display(self) -> "SlotDisplayIPTable":
+    def display(self) -> SlotDisplayIPTable:
         """The display table of these inner products (see ``bars.bar_equations``)."""
         return SlotDisplayIPTable(self)
 
@@ -291,8 +291,8 @@ class SlotDisplayIPTable:
             name = f.func.__name__
             for key, sym, kind, value in (
                     (sp.Derivative(f, self.beta), sp.Symbol(r"\partial_{\beta}" + name), "dKt",
-                     lambda: sp.diff(self.numeric.Kt[i, j], self.beta)),
-                    (f, sp.Symbol(name), "Kt", lambda: self.numeric.Kt[i, j])):
+                     lambda: sp.diff(self.numeric.Kt[i, j], self.beta)),  # noqa: B023 - called below, same i, j
+                    (f, sp.Symbol(name), "Kt", lambda: self.numeric.Kt[i, j])):  # noqa: B023 - likewise
                 rep[key] = sym
                 if sym not in self.used and expr.has(key):
                     self.used[sym] = (kind, (i, j))
@@ -369,7 +369,7 @@ class SlotBarKinematics:
         s, (b, db, ddb) = self.sym, self.beta
         R = rot(s.th)
         l, ld, ldd = sp.Matrix([b, 0]), sp.Matrix([db, 0]), sp.Matrix([ddb, 0])
-        J = lambda v: sp.Matrix([-v[1], v[0]])  # noqa: E731
+        J = lambda v: sp.Matrix([-v[1], v[0]])
         return (s.alpha * R * l, s.alpha * R * (ld + s.dth * J(l)),
                 s.alpha * R * (ldd + 2 * s.dth * J(ld) + s.ddth * J(l) - s.dth ** 2 * l))
 

@@ -36,7 +36,8 @@ import functools
 import itertools
 import threading
 from fractions import Fraction
-from typing import Any, Iterator, Union
+from typing import Any
+from collections.abc import Iterator
 
 import numpy as np
 import sympy
@@ -117,7 +118,7 @@ class Exact:
         return all(b == 0 for _, b in self.d.values())
 
 
-Coef = Union[Exact, Any]  # Exact or an mpc of MP
+Coef = Exact | Any  # Exact or an mpc of MP
 
 
 # --------------------------------------------------------------------------------------
@@ -524,7 +525,7 @@ def sin_terms(m: int) -> Terms:
 # --------------------------------------------------------------------------------------
 # The clamped-free roots (the atoms k >= 1 of the exponents)
 # --------------------------------------------------------------------------------------
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def beta_mp(k: int) -> Any:
     """k-th root of ``cos(b) cosh(b) = -1`` at 50 digits (``mpmath.findroot``): the value of
     exponent atom ``k`` (the clamped-free eigenfunctions are in :mod:`symgen.model.shapes`)."""

@@ -87,7 +87,7 @@ class Compiler:
         return {"path": self.path, "version": self.version, "flags": list(self.flags)}
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _probe(path: str) -> str:
     try:
         proc = run_group([path, "--version"], timeout=60)

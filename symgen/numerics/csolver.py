@@ -204,6 +204,6 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
         stopped = SimulationError(float(rows[-1, 0]) if n else 0.0, f"the C solver stopped: {msg}",
                                   "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)")
         result.failure = str(stopped)
-        setattr(stopped, "partial", result)     # symgen.errors does not declare SimulationError.partial
+        stopped.partial = result     # symgen.errors does not declare SimulationError.partial
         raise stopped
     return result

@@ -48,7 +48,8 @@ import signal
 import sys
 import threading
 from types import FrameType
-from typing import Iterator, TextIO, overload
+from typing import TextIO, overload
+from collections.abc import Iterator
 
 from symgen.errors import Interrupted
 

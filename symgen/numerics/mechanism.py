@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np

@@ -42,7 +42,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from collections.abc import Callable
 
 import casadi as ca
 import numpy as np
@@ -363,7 +363,7 @@ def quasi_static(mech: Mechanism, taus: ArrayLike | None = None, kinematics: str
         exc = positions.stopped(err)
         if exc is None:
             raise
-        setattr(exc, "partial", positions.result(exc))   # symgen.errors does not declare the errors' partial
+        exc.partial = positions.result(exc)   # symgen.errors does not declare the errors' partial
     raise exc
 
 

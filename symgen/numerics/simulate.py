@@ -262,7 +262,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         stop = None
     result = traj.result(time.perf_counter() - tic, setup_s, stop)
     if stop is not None:
-        setattr(stop, "partial", result)        # symgen.errors does not declare the errors' partial
+        stop.partial = result        # symgen.errors does not declare the errors' partial
         raise stop
     return result
 

@@ -117,7 +117,7 @@ def quasi_static(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: 
     fun = system.fun
     E, D = system.E, list(part.dep)
     u = np.concatenate([q[E], q[D], v[D], np.zeros(system.nR), np.zeros(mech.m)])
-    for it in range(1, maxit + 1):
+    for it in range(1, maxit + 1):  # noqa: B007 - the count of iterations is returned
         F, J, _, _ = fun(t, q, v, u)
         F = np.array(F).ravel()
         if np.abs(F).max() < tol:

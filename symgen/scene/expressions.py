@@ -135,7 +135,7 @@ def first_non_finite(expr: Any, t_end: float, samples: int = 256) -> float | Non
     if sp.count_ops(expr) <= MAX_POLE_SEARCH_OPS:
         try:
             poles = sp.singularities(expr, tau, sp.Interval(0, t_end))
-        except Exception:               # noqa: BLE001 - SymPy cannot tell: the samples decide
+        except Exception:
             poles = sp.EmptySet
         if isinstance(poles, sp.FiniteSet) and poles:
             first = float(min(poles, key=lambda x: float(x)))

@@ -60,7 +60,7 @@ def test_structure_key_unchanged_unless_inextensible(dimless_path):
     # axial one only while the rod keeps its axial dynamics
     assert base["bodies"][1]["static_points"] == {"transverse": [0.5], "axial": [0.5]}
     assert inext["bodies"][1]["static_points"] == {"transverse": [0.5]}
-    strip = lambda bodies: [{k: v for k, v in b.items() if k != "static_points"} for b in bodies]  # noqa: E731
+    strip = lambda bodies: [{k: v for k, v in b.items() if k != "static_points"} for b in bodies]
     assert strip(inext["bodies"]) == strip(base["bodies"])
     assert structure_key(inext) != structure_key(base)
     off = structure_of(load_scene(dimless_path, ["effects.axial=false"]))

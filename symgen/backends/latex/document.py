@@ -511,7 +511,7 @@ def latex_document(scene, model) -> str:
     phi = prog.outputs["phi"]
     slot_rows = {(row.joint, row.kind): expr for expr, row in zip(phi, model.lam_rows) if row.kind.startswith("slot-")}
     explained: set = set()
-    for k, (expr, row) in enumerate(zip(phi, model.lam_rows)):
+    for expr, row in zip(phi, model.lam_rows):
         if row.kind == "slot-y":
             continue                # shown with its slot-x row
         if row.kind == "slot-x":

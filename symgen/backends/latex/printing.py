@@ -265,7 +265,7 @@ def eq_block(rows: list[Row]) -> str:
     return " \\\\\n".join(r.tex() for r in rows)
 
 
-def eq_row(pr: "Printer", lhs, rhs, tag: str | None = None) -> Row:
+def eq_row(pr: Printer, lhs, rhs, tag: str | None = None) -> Row:
     """``lhs = rhs`` with the right side broken to fit beside the left side and the tag.
 
     ``lhs`` is LaTeX or an expression; a left side too long to share a line becomes a
@@ -333,7 +333,7 @@ def split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
 
 
 
-def equation_rows(pr: "Printer", exprs, tags, elastic: set, external: set, rho_pair, used: set) -> list[Row]:
+def equation_rows(pr: Printer, exprs, tags, elastic: set, external: set, rho_pair, used: set) -> list[Row]:
     """One row per residual, split into the paper's two sides (``split_sides``); the symbols
     the rows print join ``used`` (the inner-product table lists those)."""
     out = []
