@@ -50,6 +50,11 @@ class SolverPolicy:
     quasi_static_tol: float = 1e-12
     #: ... the residual still accepted after quasi_static_maxit iterations (else: near buckling) ...
     quasi_static_accept: float = 1e-8
+    #: ... a last iterate with a residual below this is near a solution: when it lies beyond the
+    #: range of the bar models, that is named as the cause (a state the model cannot hold), not
+    #: the non-convergence (the residual is 1e-6 there: Newton stagnates beyond the range; at a
+    #: buckling load it diverges, residuals of 1 and more) ...
+    quasi_static_near: float = 1e-4
     #: ... and its iteration limit.
     quasi_static_maxit: int = 50
     #: Newton on the algebraic variables at fixed differential ones (the polish of every output

@@ -11,11 +11,11 @@ At each output the algebraic variables are polished by Newton on the algebraic e
 """
 from __future__ import annotations
 
+import math
 import re
 import sys
 import time
 from dataclasses import dataclass, field
-from typing import NoReturn
 
 import casadi as ca
 import numpy as np
@@ -34,6 +34,12 @@ CHUNK = 128         # output steps of the first integrator call; each next one c
 CHUNK_MAX = 2048    # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
                     # (the same chunks whatever the backend: the same steps, the same numbers)
 CALC_IC = False     # z0 is always consistent (our own Newton); IDACalcIC only fails on it
+#: The progress watchdog: IDAS may take at most this many steps per degree of the driver's
+#: motion (per 0.01745 tau without a driven rate) within one output step. Real runs take tens
+#: to hundreds (steel bars at 0.1 %: about 80); a run beyond it has stalled, its steps shrunk to
+#: nothing at a near-singular position or a load singular there, and stops in seconds naming
+#: where, instead of grinding for minutes (IDAS_TOO_MUCH_WORK, reported by ``_lost``).
+MAX_STEPS_PER_DEGREE = 100_000
 
 
 @dataclass
@@ -154,9 +160,17 @@ class DaeRunner:
         if (h, k) not in self._integrators:
             opts = dict(self.opts)
             opts["init_xdot"] = [float(w) for w in self.xdot(x, z)]
+            opts["max_num_steps"] = self.max_steps(h)
             grid = [h * (i + 1) for i in range(k)]
             self._integrators[(h, k)] = ca.integrator("F", "idas", self.dae, 0.0, grid, opts)
         return self._integrators[(h, k)]
+
+    def max_steps(self, h: float) -> int:
+        """The watchdog's IDAS step budget of one output step h (``MAX_STEPS_PER_DEGREE``)."""
+        drv = self.mech.scene.driver
+        rate = abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else 1.0
+        degree = math.pi / 180 / rate
+        return int(MAX_STEPS_PER_DEGREE * max(1.0, h / degree))
 
     def xdot(self, x: ArrayLike, z: ArrayLike) -> np.ndarray:
         x = np.asarray(x, dtype=float).ravel()
@@ -416,7 +430,9 @@ def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.n
             # SIGINT/SIGTERM inside IDAS comes back as a residual failure: it is the
             # interrupt, reported at once (no step-by-step retry)
             _raise_if_interrupted(err, traj.taus[-1])
-            _locate_failure(run, traj, h, k, t_start, x, z, pfull, err)
+            x, z = _locate_failure(run, traj, h, k, t_start, x, z, pfull, err)
+            done += k
+            continue
         X, Z = np.array(sol["xf"]), np.array(sol["zf"])
         rel = h * np.arange(1, k + 1)
         Z = run.polish_many(rel, X, Z, pfull)
@@ -427,10 +443,11 @@ def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.n
 
 
 def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start: float, x: np.ndarray,
-                    z: np.ndarray, pfull: np.ndarray, err: RuntimeError) -> NoReturn:
+                    z: np.ndarray, pfull: np.ndarray, err: RuntimeError) -> tuple[np.ndarray, np.ndarray]:
     """A chunk of k outputs from t_start failed (``err``): replay it one output step at a time,
     recording each output, so that the error names the step that fails (its cause, or the
-    singular position it met) and the run keeps everything before it."""
+    singular position it met) and the run keeps everything before it. When every step goes
+    through (IDAS restarted at each output), the run goes on from the chunk's end: (x, z)."""
     for i in range(k):
         pfull[-1] = t_start + i * h
         try:
@@ -438,14 +455,17 @@ def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start
             sol = F1(x0=x, z0=z, p=pfull)
         except RuntimeError as err1:
             _raise_if_interrupted(err1, traj.taus[-1])
+            cause = _idas_cause(err1)
+            if cause.startswith("IDA_TOO_MUCH_WORK"):
+                raise _stalled(run, t_start + i * h, h, traj) from None
             raise _lost(run.mech, run.part, t_start + i * h, traj.qs[-1], traj.taus[-1],
-                        f"IDAS failed: {_idas_cause(err1)}") from None
+                        f"IDAS failed: {cause}") from None
         traj.steps += int(F1.stats()["nsteps"])
         x = np.array(sol["xf"]).ravel()
         z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
         traj.record(t_start + (i + 1) * h, x, z)
         interrupt.check(traj.taus[-1])
-    raise SimulationError(t_start, f"IDAS failed in a chunk but not step by step: {_idas_cause(err)}") from None
+    return x, z      # the chunk went through step by step (a fresh start of IDAS at each output)
 
 
 def _raise_if_interrupted(err: BaseException, tau: float) -> None:
@@ -507,6 +527,24 @@ def _lost(mech: Mechanism, part: Partition, tau: float, q_last: np.ndarray, tau_
                                "the mechanism cannot be driven through this position; shorten the run or "
                                "change the geometry or the driver")
     return SimulationError(tau, cause, "tighten or loosen simulation.rtol/atol, or check the scene near this tau")
+
+
+def _stalled(run: DaeRunner, tau: float, h: float, traj: _Trajectory) -> SimulationError:
+    """The watchdog's error: no progress within one output step from ``tau``, with the likely
+    cause measured at the last good output (a near-singular position), else the other ones."""
+    mech = run.mech
+    ratio, row = checks.singular_ratio(mech, traj.taus[-1], traj.qs[-1], run.part)
+    what = (f"no progress: IDAS took more than {run.max_steps(h)} steps within the output step from tau = "
+            f"{tau:.6g} (its steps shrank to nothing)")
+    if ratio < POLICY.near_singular_ratio:
+        return SimulationError(tau, f"{what}: the rigid mechanism is at a near-singular position (change point "
+                                    f"/ toggle): the closure Jacobian of the {mech.loop_name(row)} is close to losing "
+                                    f"rank (ratio {ratio:.1e} at tau = {traj.taus[-1]:.6g})",
+                               "the mechanism cannot be driven through this position: change the geometry or the "
+                               "driver, or shorten the run")
+    return SimulationError(tau, f"{what}: a load, a torque or the driver law may be singular there, or the "
+                                f"model stiff beyond what the run can resolve",
+                           "check the scene's expressions near this tau, and the loads and stiffness of the bars")
 
 
 def _idas_cause(err: Exception) -> str:

@@ -127,9 +127,10 @@ def quasi_static(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: 
         F0, _, q_last, _ = fun(t, q, v, u)
         F = np.array(F0).ravel()
         if np.abs(F).max() > POLICY.quasi_static_accept:
-            # the real cause first: Newton wandered because the state it seeks lies beyond the
-            # range of the bar models (the emitted C runtime decides alike)
-            beyond = checks.beyond_range(mech, np.array(q_last).ravel())
+            # the real cause first: Newton stagnates near a state beyond the range of the bar
+            # models (the emitted C runtime decides alike)
+            near = np.abs(F).max() <= POLICY.quasi_static_near
+            beyond = checks.beyond_range(mech, np.array(q_last).ravel()) if near else None
             if beyond is not None:
                 raise SimulationError(t, f"in the quasi-static state, {beyond[1]}",
                                       "check the loads, lumped masses and stiffness (lambda, mu) of that bar")

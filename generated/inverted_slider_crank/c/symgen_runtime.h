@@ -49,7 +49,7 @@ typedef struct symgen_policy {
     int assembly_maxit;
     double assembly_min_step, armijo;
     double singular_ratio, near_singular_ratio, partition_ratio;
-    double quasi_static_tol, quasi_static_accept;
+    double quasi_static_tol, quasi_static_accept, quasi_static_near;
     int quasi_static_maxit;
     double polish_tol;
     int polish_maxit;

@@ -435,10 +435,12 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
         symgen_alg_(s, t, q, v, a, lam, s->sr);
         Fmax = symgen_max_abs(s->sr, nu);
         if (!(Fmax <= s->model->policy.quasi_static_accept)) {
-            /* the real cause first: a state beyond the range of the bar models (as in Python) */
-            memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
-            s->t = t;
-            if (symgen_beyond_range_(s)) return 1;
+            /* the real cause first: near a state beyond the range of the bar models (as in Python) */
+            if (Fmax <= s->model->policy.quasi_static_near) {
+                memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
+                s->t = t;
+                if (symgen_beyond_range_(s)) return 1;
+            }
             return symgen_fail_(s, t, "the quasi-static state did not converge (residual)", Fmax,
                                "the mechanism may be near buckling or a singular position");
         }

@@ -92,7 +92,7 @@ const symgen_model slider_crank_model = {
     {   /* policy (symgen/policy.py) */
         1e-13, 1e-10, 60, 0.0001, 0.5,
         1e-07, 0.05, 1e-06,
-        1e-12, 1e-08, 50,
+        1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09
     },
