@@ -89,8 +89,11 @@ def _prepare_run(args):
 
     scene = _scene(args)
     choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
-    _say(args, f"deriving {scene.name}")
-    return mechanism(scene, use_cache=not args.no_cache)
+    _say(args, f"loading the model of {scene.name} from the cache, or deriving it")
+    mech = mechanism(scene, use_cache=not args.no_cache)
+    _say(args, "model loaded from the cache" if mech.compiled.cached
+         else f"model derived in {mech.compiled.derive_s:.2f} s")
+    return mech
 
 
 def _results_run(args, body) -> int:

@@ -161,3 +161,14 @@ def test_sidecar_derive_time_is_this_runs_not_the_caches(tmp_path, monkeypatch, 
     assert second["derive_cached"] is True and second["derive_s"] == 0.0
     assert second["cached_model_derive_s"] == pytest.approx(first["derive_s"])
     assert "model loaded from cache" in capsys.readouterr().out
+
+
+def test_verbose_says_whether_the_model_was_derived_or_loaded(tmp_path, capsys, monkeypatch):
+    """-v said "deriving" also when the model came from the cache."""
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    args = ["simulate", SLIDER, "-o", str(tmp_path / "a.csv"), "--set", "simulation.cycles=0.05", "-v"]
+    assert main(args) == 0
+    first = capsys.readouterr().err
+    assert main(args) == 0
+    second = capsys.readouterr().err
+    assert "model derived in" in first and "model loaded from the cache" in second, (first, second)

@@ -148,7 +148,27 @@ def apply_overrides(raw: dict, overrides: Sequence[str], file: str) -> dict:
         (key = the override path, message mentioning ``--set``).
     """
     result = copy.deepcopy(raw)
+    made_rigid: list[str] = []
+    given: set[tuple[str, str]] = set()
     for item in overrides:
         key, steps, value = parse_override(item, file)
         set_path(result, steps, value, key, file)
+        if len(steps) == 3 and steps[0] == "bodies" and isinstance(steps[1], str):
+            given.add((steps[1], str(steps[2])))
+            if steps[2] == "rigid" and value is True:
+                made_rigid.append(steps[1])
+    for name in made_rigid:
+        _drop_elastic_data(result, name, given)
     return result
+
+
+def _drop_elastic_data(raw: dict, body: str, given: set[tuple[str, str]]) -> None:
+    """``--set bodies.NAME.rigid=true`` on an elastic bar: its elastic data in the file (E,
+    lambda, mode counts...) no longer applies and is dropped; what the same command line sets
+    for that bar is kept (and refused by the loader, naming it, if a rigid bar cannot take it)."""
+    from symgen.scene.mechanism import RIGID_FORBIDDEN
+
+    for table in raw.get("bodies", []) if isinstance(raw.get("bodies"), list) else []:
+        if isinstance(table, dict) and table.get("name") == body:
+            for key in [k for k in table if k in RIGID_FORBIDDEN and (body, k) not in given]:
+                del table[key]

@@ -78,3 +78,26 @@ def test_override_errors(dimless_path, override, key, fragment):
         load_scene(dimless_path, [override])
     assert info.value.key == key
     assert fragment in info.value.message and "--set" in info.value.message
+
+
+def test_set_rigid_on_an_elastic_si_bar_drops_its_elastic_data(tmp_path):
+    """``--set bodies.X.rigid=true`` on an elastic bar of an SI scene was refused ("a rigid bar
+    has no 'E'"): the file's elastic data of that bar no longer applies; its mass stays; what
+    the same command line sets for it is still checked."""
+    import re
+    from pathlib import Path
+
+    from symgen.errors import SceneError
+    from symgen.scene import load_scene
+
+    root = Path(__file__).resolve().parents[2]
+    text = re.sub(r"(?m)^rocker_mid = .*\n", "", (root / "examples" / "four_bar.toml").read_text())
+    path = tmp_path / "four_bar.toml"
+    path.write_text(text)
+    elastic = load_scene(path)
+    scene = load_scene(path, ["bodies.rocker.rigid=true"])
+    rocker = next(b for b in scene.bodies if b.name == "rocker")
+    assert rocker.rigid and rocker.lam is None and rocker.frame == ""
+    assert rocker.nu == next(b for b in elastic.bodies if b.name == "rocker").nu     # its mass stays
+    with pytest.raises(SceneError, match="a rigid bar has no 'E'"):
+        load_scene(path, ["bodies.rocker.rigid=true", "bodies.rocker.E=1e9"])
