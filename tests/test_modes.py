@@ -154,7 +154,8 @@ def test_cli_modes_json(tmp_path, capsys):
     # undamped moving loop: the console says it is unstable in the frozen sense and why, as the JSON
     assert doc["stable"] is False and doc["stability"]["kind"] == "growth"
     assert "UNSTABLE" in text and "no damping" in text and "zeta*" in text
-    grows = [m for m in doc["modes"] if m["eigenvalue"][0] > 0]
+    from symgen.numerics.modes import ZETA_NEUTRAL
+    grows = [m for m in doc["modes"] if m["eigenvalue"][0] > 0 and m["damping_ratio"] < -ZETA_NEUTRAL]
     assert grows and f"{len(grows)} vibration mode(s) grow" in text
 
 
@@ -178,3 +179,24 @@ def test_divergence_verdict_names_buckling():
                       dependent=[], quasi_static={"method": "newton"})
     v = res.stability(0.01)
     assert (v["stable"], v["kind"]) == (False, "divergence") and "buckling" in v["reason"] and "0.312" in v["reason"]
+
+
+def test_a_mode_growing_slower_than_neutral_is_not_called_unstable():
+    """An undamped moving loop gives vibration modes with growth rates of 1e-6 (zeta -2.5e-7):
+    `modes` called them "UNSTABLE"; they double over millions of periods. Growth beyond
+    zeta = -1e-5 is still unstable."""
+    from symgen.numerics.modes import ZETA_NEUTRAL, Mode, ModesResult
+
+    def result(zeta: float) -> ModesResult:
+        wn = 12.0
+        s = complex(-zeta * wn, wn * (1 - zeta ** 2) ** 0.5)
+        mode = Mode(index=1, eigenvalue=s, natural_frequency=wn, frequency=s.imag, damping_ratio=zeta,
+                    dominant="rod transverse", energy_fractions={}, amplitudes={}, complexity=0.0)
+        return ModesResult(tau=0.0, modes=[mode], real_eigenvalues=[], state={}, independent=[], dependent=[],
+                           quasi_static={})
+
+    neutral = result(-2.5e-7)
+    assert neutral.stable and neutral.stability()["stable"] and "neutral" in neutral.stability()["reason"]
+    growing = result(-10 * ZETA_NEUTRAL)
+    assert not growing.stable and growing.stability()["kind"] == "growth"
+    assert result(0.01).stability()["reason"] == "every eigenvalue has a non-positive real part"
