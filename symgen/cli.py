@@ -140,7 +140,8 @@ def _simulate(args, files) -> int:
         from symgen.numerics.csolver import simulate_c
         result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
     else:
-        result, failure = attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache))
+        result, failure = attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache,
+                                                   progress=True))
     written = _write_run(args, files, mech, result, failure, args.solver)
     assert result is not None       # write_run raises when the run has no result
     compiled = mech.compiled

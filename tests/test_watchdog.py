@@ -37,3 +37,23 @@ def test_a_stalled_run_stops_naming_tau_and_the_likely_cause(monkeypatch):
     assert "no progress: IDAS took more than 3 steps within the output step from tau = " in str(err), err
     assert err.tau is not None and err.partial is not None and len(err.partial.tau) >= 1
     assert "near-singular" not in str(err)      # the slider-crank is far from its toggles here
+
+
+def test_simulate_shows_its_progress_on_a_terminal(monkeypatch):
+    """A long `symgen simulate` printed nothing until it ended: on a terminal a bar of the
+    outputs done goes to stderr (never to stdout, never into a pipe or a log)."""
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr("sys.stderr", term)
+    mech = mechanism(SLIDER, ["simulation.cycles=0.5"])
+    simulate(mech, backend="vm", progress=True)
+    assert "simulate" in term.getvalue() and "output" in term.getvalue()
+    quiet = Terminal()
+    monkeypatch.setattr("sys.stderr", quiet)
+    simulate(mech, backend="vm")                # the API's default: no bar
+    assert quiet.getvalue() == ""

@@ -15,6 +15,7 @@ import math
 import re
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -22,6 +23,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.progress import progress_bar
 from symgen.ir.records import CoordKind
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
@@ -240,7 +242,7 @@ class RunSettings:
 def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | None = None,
              rtol: float | None = None, atol: float | None = None, t0: float = 0.0,
              initial: State | None = None, axial_atol: float | None = None, backend: str | None = None,
-             use_cache: bool = True) -> SimResult:
+             use_cache: bool = True, progress: bool = False) -> SimResult:
     """Integrate the scene's DAE from t0 to t_end, output every output_step (in tau).
 
     ``axial_atol``: absolute tolerance of the axial amplitudes and their rates instead of
@@ -249,7 +251,8 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     rtol/atol; see benchmarks/RESULTS.md for what it costs in accuracy).
 
     ``backend``: "auto" (default, or ``$SYMGEN_BACKEND``), "compiled" or "vm" (see ``DaeRunner``);
-    ``use_cache=False``: a compiled library is built for this run only.
+    ``use_cache=False``: a compiled library is built for this run only. ``progress``: a progress
+    bar of tau on stderr while it runs, when stderr is a terminal (the command line's runs).
 
     A run that stops early (``SimulationError``: a solver failure, a singular position, a bar
     beyond its range; ``Interrupted``: SIGINT/SIGTERM) raises with ``.partial``, the
@@ -267,7 +270,11 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         if run.nI == 0:
             _rigid_motion(run, traj, settings, x, z)
         else:
-            _integrate(run, traj, settings, x, z)
+            if progress:        # tqdm, and only when stderr is a terminal
+                with progress_bar(settings.n_outputs, "simulate", unit="output") as bar:
+                    _integrate(run, traj, settings, x, z, bar.update)
+            else:
+                _integrate(run, traj, settings, x, z)
     except BaseException as err:
         stop = _stopped(err, traj, t0)
         if stop is None:
@@ -408,7 +415,8 @@ def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: n
         traj.record(ti, x, z)
 
 
-def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray) -> None:
+def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray,
+               advanced: Callable[[int], object] = lambda k: None) -> None:
     """IDAS over the run in chunks of outputs (``CHUNK`` first, each next one twice as many up to
     ``CHUNK_MAX``, or all the rest when that is at most twice as many), the algebraic variables
     polished and the outputs recorded per chunk; a chunk that fails is replayed step by step
@@ -432,6 +440,7 @@ def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.n
             _raise_if_interrupted(err, traj.taus[-1])
             x, z = _locate_failure(run, traj, h, k, t_start, x, z, pfull, err)
             done += k
+            advanced(k)
             continue
         X, Z = np.array(sol["xf"]), np.array(sol["zf"])
         rel = h * np.arange(1, k + 1)
@@ -439,6 +448,7 @@ def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.n
         traj.record_many(t_start + rel, rel, X, Z, pfull)
         x, z = X[:, -1], Z[:, -1]
         done += k
+        advanced(k)
         size = min(2 * size, CHUNK_MAX)
 
 
