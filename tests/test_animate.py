@@ -244,3 +244,33 @@ def test_magnified_slider_crank_stays_joined():
         np.testing.assert_allclose(D[:, :, crank.stop - 1], D[:, :, rod.start], atol=1e-10)
         np.testing.assert_allclose(D[:, 1, rod.stop - 1], 0.0, atol=1e-10)
         np.testing.assert_allclose(D[:, :, mid] - Pr[:, :, mid], F * (P[:, :, mid] - Pr[:, :, mid]), atol=1e-12)
+
+
+@pytest.mark.parametrize("example, overrides, si", [("slider_crank", ["joints.B.mass=0.3"], False),
+                                                    ("four_bar", [], True)])
+def test_lumped_masses_are_drawn_and_si_scenes_in_metres(example, overrides, si):
+    """The animation drew no lumped masses and SI scenes on x/l0 axes: a mass is a disk that
+    follows its joint, and an SI mechanism is drawn in metres (its ground pins at their places)."""
+    from symgen.api import mechanism
+    from symgen.apps.animate import Animator
+    from symgen.numerics.geometry import Geometry, rigid_reference
+    from symgen.numerics.simulate import simulate
+
+    mech = mechanism(ROOT / "examples" / f"{example}.toml", [*overrides, "simulation.cycles=0.1"])
+    scene, res = mech.scene, simulate(mech, backend="vm")
+    geom = Geometry(scene, mech.info)
+    P, Pr = geom.points(res.q), geom.points(rigid_reference(mech, res.tau, res.q))
+    anim = Animator(scene, geom, res.tau, P, Pr, 1.0, "test")
+    try:
+        anim.draw(3)
+        assert anim.ax.get_xlabel() == ("x [m]" if si else "$x / l_0$")
+        offsets = np.asarray(anim.masses.get_offsets())
+        if overrides:
+            (marker,) = [m for m in geom.markers if m.joint == "B"]
+            np.testing.assert_allclose(offsets, P[3][:, marker.index][None, :], atol=1e-12)
+        else:
+            assert len(offsets) == 0
+            x, _ = (np.asarray(a) for a in anim.lines["crank"].get_data())
+            assert x[0] == pytest.approx(0.0, abs=1e-12) and abs(x[-1]) < 0.11   # a 100 mm crank, in m
+    finally:
+        anim.close()

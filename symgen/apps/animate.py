@@ -125,29 +125,35 @@ class Animator:
         import matplotlib.pyplot as plt
 
         self.scene, self.geom, self.tau, self.factor, self.turn = scene, geom, tau, factor, turn
-        self.D = magnified(P, P_rigid, factor)
-        self.P_rigid = P_rigid
+        # an SI scene is drawn in metres (the model's lengths are per l0), a dimensionless one per l0
+        self.si = scene.units == "SI"
+        scale = scene.l0 if self.si else 1.0
+        self.D = magnified(P, P_rigid, factor) * scale
+        self.P_rigid = P_rigid = P_rigid * scale
+        grounds = {m.joint: (m.ground[0] * scale, m.ground[1] * scale) for m in geom.markers if m.ground is not None}
         self.fig, ax = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
         self.ax = ax
         allx = np.concatenate([self.D[:, 0, :].ravel(), P_rigid[:, 0, :].ravel()])
         ally = np.concatenate([self.D[:, 1, :].ravel(), P_rigid[:, 1, :].ravel()])
         span = max(np.ptp(allx), np.ptp(ally), 1e-9)
-        for m in geom.markers:        # room for the ground triangles below the pins
-            if m.ground is not None:
-                allx = np.append(allx, m.ground[0])
-                ally = np.append(ally, [m.ground[1], m.ground[1] - 0.06 * span])
+        for gx, gy in grounds.values():   # room for the ground triangles below the pins
+            allx = np.append(allx, gx)
+            ally = np.append(ally, [gy, gy - 0.06 * span])
         pad = 0.08 * span
         x0, x1, y0, y1 = allx.min() - pad, allx.max() + pad, ally.min() - pad, ally.max() + pad
         ax.set_xlim(x0, x1), ax.set_ylim(y0, y1)
         ax.set_aspect("equal")
-        ax.set_xlabel(r"$x / l_0$"), ax.set_ylabel(r"$y / l_0$")
+        if self.si:
+            ax.set_xlabel("x [m]"), ax.set_ylabel("y [m]")
+        else:
+            ax.set_xlabel(r"$x / l_0$"), ax.set_ylabel(r"$y / l_0$")
         ax.grid(True, lw=0.3, alpha=0.5)
         ax.set_title(title, fontsize=10, parse_math=False)   # a file name is text, never mathtext
         size = 0.035 * span
         for m in geom.markers:        # ground: pins as hatched triangles, slider guides as lines
-            if m.ground is None:
+            if m.joint not in grounds:
                 continue
-            gx, gy = m.ground
+            gx, gy = grounds[m.joint]
             if m.kind == "slider" and m.direction is not None:
                 dx, dy = m.direction
                 L = 4 * span
@@ -170,7 +176,14 @@ class Animator:
                             animated=True)
             self.lines[name] = ln
         (self.joints,) = ax.plot([], [], "o", ms=5, mfc="white", mec="k", mew=1.0, zorder=5, animated=True)
-        ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
+        # lumped masses at joints: filled disks, the area growing with the mass
+        masses = {j.name: j.mass for j in scene.joints if j.mass > 0}
+        self.mass_index = [m.index for m in geom.markers if m.joint in masses]
+        heaviest = max(masses.values(), default=1.0)
+        sizes = [36 + 180 * masses[m.joint] / heaviest for m in geom.markers if m.joint in masses]
+        self.masses = ax.scatter(np.zeros(len(sizes)), np.zeros(len(sizes)), s=sizes, c="k", zorder=6,
+                                 animated=True, label="lumped mass" if sizes else None)
+        ax.legend(loc="upper right", fontsize=7, framealpha=0.8, markerscale=0.5)
         self.clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=8,
                              bbox={"fc": "white", "ec": "0.7", "alpha": 0.85, "pad": 2}, animated=True)
         fac = f"deformation x {factor:g}" if factor != 1 else "deformation to scale (x 1)"
@@ -187,6 +200,7 @@ class Animator:
                 self.ghosts[name].set_data(R[0, rg.start:rg.stop], R[1, rg.start:rg.stop])
         idx = [m.index for m in geom.markers]
         self.joints.set_data(D[0, idx], D[1, idx])
+        self.masses.set_offsets(np.column_stack([D[0, self.mass_index], D[1, self.mass_index]]))
         t = self.tau[k]
         text = rf"$\tau$ = {t:.4g}"
         if self.turn:
@@ -194,7 +208,7 @@ class Animator:
         if self.scene.units == "SI" and self.scene.omega:
             text += f"\nt = {t / self.scene.omega:.5g} s"
         self.clock.set_text(text)
-        return [*self.lines.values(), *self.ghosts.values(), self.joints, self.clock]
+        return [*self.lines.values(), *self.ghosts.values(), self.joints, self.masses, self.clock]
 
     def close(self) -> None:
         import matplotlib.pyplot as plt
