@@ -6,6 +6,7 @@ deformation (18)-(19) with its range and divergence checks (``symgen.numerics.ch
 solver, which runs it again from the same guess with the same partitions."""
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING, TypeAlias
 
 import casadi as ca
@@ -23,6 +24,64 @@ if TYPE_CHECKING:
 
 #: a consistent start: (q, v, a, lam, partition)
 State: TypeAlias = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition]
+
+
+#: Seeds of the assembly branch search (initial.guess not given): angles of the free bars drawn
+#: from this generator, this many; the first that assembles to a regular position is taken.
+BRANCH_SEED, BRANCH_TRIES = 20261125, 64
+
+
+def _assembled(mech: Mechanism, t0: float, q: np.ndarray) -> tuple[Partition, np.ndarray, Partition]:
+    """(partition of the assembly, the assembled q, partition at it) from the guess q; a
+    SimulationError when it cannot be assembled or is at a singular position."""
+    assembly = mech.choose_partition(t0, q)
+    q = mech.assemble(t0, q, assembly)
+    part = mech.choose_partition(t0, q)     # re-choose at the assembled position
+    ratio, row = checks.singular_ratio(mech, t0, q, part)
+    if ratio < POLICY.singular_ratio:
+        raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
+                                  f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
+                              "start the driver at another angle or change initial.guess")
+    return assembly, q, part
+
+
+def _find_branch(mech: Mechanism, t0: float, q0: np.ndarray,
+                 failure: SimulationError) -> tuple[np.ndarray, tuple[Partition, np.ndarray, Partition]]:
+    """The assembly from the first of ``BRANCH_TRIES`` seeded guesses of the free bar angles
+    that assembles to a regular position: (that guess, its assembly). The branches found are
+    told on stderr, with the initial.guess that selects each; none found: ``failure``, which
+    names the real cause (the mechanism cannot be assembled), with the hint of a guess."""
+    drv = mech.scene.driver
+    free = [i for i, c in enumerate(mech.coords) if c.kind is CoordKind.THETA
+            and not (drv is not None and drv.body == c.body)]
+    rng = np.random.default_rng(BRANCH_SEED)
+    found: list[tuple[np.ndarray, tuple[Partition, np.ndarray, Partition]]] = []
+    for _ in range(BRANCH_TRIES):
+        q = q0.copy()
+        q[free] = rng.uniform(-np.pi, np.pi, len(free))
+        try:
+            result = _assembled(mech, t0, q)
+        except SimulationError:
+            continue
+        wrapped = np.angle(np.exp(1j * result[1][free]))
+        if not any(np.allclose(wrapped, np.angle(np.exp(1j * r[1][free])), atol=1e-6) for _, r in found):
+            found.append((q, result))
+    # the branch drawn highest first (bars above their joints, as mechanisms are usually drawn)
+    found.sort(key=lambda branch: -float(np.sin(branch[1][1][free]).sum()))
+    if not found:
+        raise SimulationError(t0, f"{failure.cause}; no assembly was found from {BRANCH_TRIES} other guesses "
+                                  "of the bar angles either: the mechanism cannot be assembled at the start",
+                              "check the lengths, ground points and the driver's initial angle; or give "
+                              "initial.guess angles (rad)") from None
+
+    def angles(q: np.ndarray) -> str:
+        return ", ".join(f"{mech.coords[i].body} = {float(np.angle(np.exp(1j * q[i]))):.4g}" for i in free)
+
+    others = "; ".join(f"{{ {angles(r[1])} }}" for _, r in found[1:])
+    print(f"symgen: note: initial.guess is not given and the bars at angle 0 do not assemble "
+          f"({failure.cause}); assembled on branch 1 of {len(found)} found: {{ {angles(found[0][1][1])} }}"
+          + (f"; for another, set initial.guess = {others}" if others else ""), file=sys.stderr)
+    return found[0]
 
 
 def consistent_start(mech: Mechanism, t0: float = 0.0) -> State:
@@ -55,15 +114,16 @@ def _start(mech: Mechanism, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarr
     """(q, v, a, lam, partition, (q, v) guessed, partition of the assembly) at t0."""
     sc = mech.scene
     q, v = mech.initial_guess(t0)
+    try:
+        assembly, q_asm, part = _assembled(mech, t0, q)
+    except SimulationError as failure:
+        if sc.initial.guess or mech.m == 0:
+            raise
+        # no initial.guess: the all-zero angles are a singular or unassemblable start; find the
+        # assembly branches from other seeds, take the first, and say how to choose another
+        q, (assembly, q_asm, part) = _find_branch(mech, t0, q, failure)
     guess = (q.copy(), v.copy())
-    assembly = mech.choose_partition(t0, q)
-    q = mech.assemble(t0, q, assembly)
-    part = mech.choose_partition(t0, q)     # re-choose at the assembled position
-    ratio, row = checks.singular_ratio(mech, t0, q, part)
-    if ratio < POLICY.singular_ratio:
-        raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
-                                  f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
-                              "start the driver at another angle or change initial.guess")
+    q = q_asm
     if sc.initial.quasi_static:
         q, v = quasi_static_start(mech, t0, q, v, part)
     v = mech.velocities(t0, q, v, part)

@@ -1,4 +1,5 @@
-"""The progress watchdog of the IDAS runs (issue 22): a run whose steps shrink to nothing stops
+"""Runs that used to stall, stop at a wrong tau or refuse a legal scene (issues 21, 22). The
+progress watchdog of the IDAS runs: a run whose steps shrink to nothing stops
 in seconds naming where and why, and a chunk that IDAS could not finish in one call but can
 output by output goes on (it ended the run, at a wrong tau, after 2 million steps)."""
 from __future__ import annotations
@@ -57,3 +58,18 @@ def test_simulate_shows_its_progress_on_a_terminal(monkeypatch):
     monkeypatch.setattr("sys.stderr", quiet)
     simulate(mech, backend="vm")                # the API's default: no bar
     assert quiet.getvalue() == ""
+
+
+def test_a_four_bar_without_a_guess_assembles_and_says_which_branch(tmp_path, capsys):
+    """A plain four-bar without [initial] guess failed at tau = 0 ("not independent: singular
+    position"): the branches are found from seeded guesses, the upper one taken (the example's
+    guess), and the note gives the initial.guess of the other."""
+    text = (ROOT / "examples" / "four_bar.toml").read_text()
+    path = tmp_path / "no_guess.toml"
+    path.write_text("\n".join(ln for ln in text.splitlines() if not ln.startswith("guess =")) + "\n")
+    over = ["simulation.cycles=0.1"]
+    res = simulate(mechanism(path, over), backend="vm")
+    note = capsys.readouterr().err
+    assert "assembled on branch 1 of 2 found" in note and "set initial.guess = {" in note, note
+    ref = simulate(mechanism(ROOT / "examples" / "four_bar.toml", over), backend="vm")
+    np.testing.assert_allclose(res.outputs, ref.outputs, rtol=1e-6, atol=1e-9 * np.abs(ref.outputs).max())
