@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 from symgen.numerics.mechanism import Mechanism, load_mechanism
 from symgen.numerics.simulate import SimResult, simulate
@@ -159,6 +161,69 @@ def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
     """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
     from symgen.numerics.modes import modes
     return modes(mechanism(scene, overrides), tau=tau, **kwargs)
+
+
+@dataclass(frozen=True)
+class Equations:
+    """The scene's equations of motion as SymPy objects, as sympy.physics.mechanics gives them:
+
+        mass_matrix * a + multiplier_matrix * lam = forcing        (the weak-form residual, (8)-(17))
+        constraints(q, t) = 0                                       (closure and driver rows, (11))
+
+    with ``constraint_jacobian`` = d constraints / d q. The multipliers ``lam`` are the joint
+    forces of the cut joints (and the driver's moment; each in ``rows``); the model's own
+    residual ``res`` is ``mass_matrix * a + multiplier_matrix * lam - forcing``. Everything is in
+    the model's dimensionless units (``time`` is tau = omega t), with the scene's parameters as
+    symbols (``parameters``) and their values for this scene in ``values``."""
+
+    time: Any                       # sympy Symbol tau
+    coordinates: tuple[Any, ...]    # q (sympy Symbols), one per ``records`` entry
+    records: tuple[Any, ...]        # symgen.ir.records.Coordinate of each q: kind, bar, index, joint
+    speeds: tuple[Any, ...]         # v = dq/dtau
+    accelerations: tuple[Any, ...]  # a = dv/dtau
+    multipliers: tuple[Any, ...]    # lam
+    rows: tuple[Any, ...]           # symgen.ir.records.ConstraintRow of each lam
+    parameters: tuple[Any, ...]     # the parameter symbols
+    values: dict[Any, float]        # parameter symbol -> its value for this scene
+    mass_matrix: Any                # sympy Matrix n x n
+    multiplier_matrix: Any          # sympy Matrix n x m
+    forcing: Any                    # sympy Matrix n x 1
+    constraints: Any                # sympy Matrix m x 1 (position level)
+    constraint_jacobian: Any        # sympy Matrix m x n
+
+
+def equations(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -> Equations:
+    """The derived equations of ``scene`` as SymPy matrices (see :class:`Equations`), every
+    intermediate of the model inlined. For a large model the expressions are large: the
+    emitted code keeps them shared (``symgen latex`` prints them with their intermediates).
+
+    >>> eqs = equations("examples/slider_crank.toml")                          # doctest: +SKIP
+    >>> eqs.mass_matrix.shape, eqs.constraint_jacobian.shape                   # doctest: +SKIP
+    ((7, 7), (3, 7))
+    """
+    import sympy as sp
+
+    from symgen.ir.parameters import parameter_values
+    from symgen.model.derive import TAU, derive
+
+    scene = _loaded(scene, overrides)
+    model = derive(scene)
+    prog = model.program
+    inlined: dict[Any, Any] = {}
+    for sym, expr in prog.assignments:
+        inlined[sym] = sp.sympify(expr).xreplace(inlined)
+    res = sp.Matrix([sp.sympify(e).xreplace(inlined) for e in prog.outputs["res"]])
+    phi = sp.Matrix([sp.sympify(e).xreplace(inlined) for e in prog.outputs["phi"]])
+    a, lam, q = sp.Matrix(model.a), sp.Matrix(model.lam), sp.Matrix(model.q)
+    zero = {x: 0 for x in (*model.a, *model.lam)}
+    params = tuple(model.params)
+    return Equations(
+        time=TAU, coordinates=tuple(model.q), records=tuple(model.coords), speeds=tuple(model.v),
+        accelerations=tuple(model.a), multipliers=tuple(model.lam), rows=tuple(model.lam_rows),
+        parameters=params, values=dict(zip(params, (float(x) for x in parameter_values(scene, model.param_names)))),
+        mass_matrix=res.jacobian(a), multiplier_matrix=res.jacobian(lam) if len(model.lam) else sp.zeros(len(res), 0),
+        forcing=-res.xreplace(zero), constraints=phi,
+        constraint_jacobian=phi.jacobian(q) if len(model.lam) else sp.zeros(0, len(model.q)))
 
 
 def results_table(result, scene: Scene, units: str | None = None) -> dict:
