@@ -71,3 +71,29 @@ def test_timeout_kills_the_group_and_output_is_captured(tmp_path):
     with pytest.raises(subprocess.TimeoutExpired):
         run_group(["sh", "-c", "sleep 30 & wait"], timeout=0.5)
     assert time.monotonic() - t0 < 10
+
+
+def test_a_long_compile_is_announced_with_its_estimate_and_the_way_around_it(capsys):
+    """A 62-bar chain compiled silently for minutes: a compile estimated to be long says so first
+    (one line, also in logs), and on a terminal the seconds run while it compiles."""
+    from symgen.processes import COMPILE_BYTES_PER_S, LONG_COMPILE_S, announce_compile
+
+    small = announce_compile("the model library", 64_000, "--backend vm runs without compiling")
+    assert capsys.readouterr().err == "" and "64 kB of C" in small
+    big = int(3 * LONG_COMPILE_S * COMPILE_BYTES_PER_S)
+    announce_compile("the model library", big, "--backend vm runs without compiling")
+    err = capsys.readouterr().err
+    assert f"about {3 * LONG_COMPILE_S:.0f} s" in err and "--backend vm" in err and "once per model" in err
+
+
+def test_the_seconds_run_on_a_terminal_while_a_command_runs(monkeypatch):
+    import io
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    run_group(["sh", "-c", "sleep 1.6"], progress="compiling the test")
+    assert "symgen: compiling the test: 1 s" in term.getvalue()
