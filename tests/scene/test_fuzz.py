@@ -9,6 +9,22 @@ exit 2 with one message naming the file (and, for a file that is valid TOML, the
 never a traceback or an internal error. A sample of the failing cases also runs
 ``python -m symgen.cli simulate BAD.toml -o out.csv`` in a subprocess: exit 2 and nothing
 written.
+
+Three more classes (issue 22), seeded like the scenes:
+
+* file names: scene and output files named with newlines, ``$ \\ { } % # */ /* -- ??=``,
+  quotes, markup and non-ASCII, up to the longest name a folder allows, through ``check``,
+  ``latex`` (no live TeX from the name), ``emit-c`` (the C compiles), ``simulate --plot`` and
+  ``emit-fmu`` (its XML parses);
+* cache content: garbage, truncated, empty, oversized, FIFO, linked (``/dev/zero``, a folder
+  elsewhere, dangling, looping), folder-for-file, file-for-folder and plain-sha256-manifest
+  files planted in ``models/``, ``compiled/`` and ``shapes/``, and ``$SYMGEN_CACHE_DIR`` a
+  file or ``/dev/null``: ``simulate`` in a fresh process finishes with exit 0 and the CSV of a
+  clean run, and a planted library never runs;
+* non-smooth laws and loads: random nests of Abs, Heaviside, sign, min, max, atan2, sqrt, log,
+  tan, ... with poles and domain edges on the run, as ``driver.law``, ``driver.value`` and
+  load components, through ``check`` (and a sample through ``simulate``): exit 0, or exit 2
+  naming the key (and tau for a run that fails).
 """
 from __future__ import annotations
 
@@ -20,19 +36,25 @@ import json
 import math
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
 import threading
+import shutil
 import tomllib
 import warnings
+import xml.etree.ElementTree as ET
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
 
+from symgen import cache
 from symgen.cli import main
 from symgen.errors import SceneError
+from symgen.outputs import NAME_MARGIN
 from symgen.scene import load_scene
 from symgen.scene.limits import SceneWarning
 
@@ -364,3 +386,139 @@ def test_unmutated_examples_pass_check(tmp_path, path):
     file.write_bytes(dump_toml(tomllib.loads(path.read_text(encoding="utf-8"))).encode("utf-8"))
     code, err = run_check(file, [])
     assert code == 0 and err == ""
+
+
+# -- shared: a command in-process, a command in a fresh process --------------------------------
+def run_cli(argv: list[str]) -> tuple[int, str]:
+    """``symgen ARGV`` in-process: (exit code, stderr), within CASE_SECONDS (x 6: a derivation)."""
+    err = io.StringIO()
+    timed = threading.current_thread() is threading.main_thread()
+    if timed:
+        previous = signal.signal(signal.SIGALRM, _alarm)
+        signal.alarm(6 * CASE_SECONDS)
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            try:
+                code = main(argv)
+            except SystemExit as exc:
+                code = exc.code
+    except CaseTimeout:
+        code = "timeout"
+    finally:
+        if timed:
+            signal.alarm(0)
+            signal.signal(signal.SIGALRM, previous)
+    return code, err.getvalue()
+
+
+def _clean_exit(code, err: str) -> str | None:
+    if code == "timeout":
+        return "hang"
+    if "Traceback" in err or "internal error" in err or code not in (0, 2):
+        return f"exit {code}: {err.strip()[-400:]}"
+    return None
+
+
+# -- file names ---------------------------------------------------------------------------------
+NAME_PARTS = ["\n", "$", "\\", "{", "}", "%", "#", "--", '"', "'", "é", "中", "\\input{x}", "\\end{document}",
+              "??!", "??=", "^_~&", "<b>", "&amp;", "\r", "\t", " ", "`", "\\\\", "}{", "%\n\\x"]
+FILE_NAME_CASES = 8
+CC = shutil.which("cc") or shutil.which("gcc")
+
+
+def file_names(count: int, seed: int = SEED + 2) -> list[str]:
+    """Names (no "/": ``*/`` and ``/*`` come from the folders, see below) bracketed by Qz9 ... Qy8,
+    the markers the LaTeX check looks for; the last one is as long as a folder allows."""
+    rng = random.Random(seed)
+    names = ["".join(rng.choice(NAME_PARTS) for _ in range(rng.randrange(1, 8))) for _ in range(count - 1)]
+    names = [f"Qz9{n}Qy8" for n in names]
+    # 216 bytes: its outputs fit (NAME_MAX 255 less symgen.outputs.NAME_MARGIN); 246 bytes: the
+    # scene file fits, its outputs are refused up front (exit 2; their temporary twins failed, exit 3)
+    return names[:-1] + ["Qz9" + "é" * 100 + "x" * 10 + "Qy8", "Qz9" + "é" * 100 + "x" * 40 + "Qy8"]
+
+
+_SAFE_TT = re.compile(r"(?:[^\\{}$%#&^_~]|\\[{}$%#&_]|\\textbackslash\{\}|\\\^\{\}|\\textasciitilde\{\}|\\textquotedbl\{\})*")
+
+
+def live_tex(text: str) -> list[str]:
+    """Lines of a .tex where text between the markers Qz9 ... Qy8 is not in a comment nor wholly
+    inside one \\texttt{} group of escaped characters."""
+    bad = []
+    for line in text.splitlines():
+        body = re.split(r"(?<!\\)%", line, maxsplit=1)[0]
+        if "Qz9" not in body and "Qy8" not in body:
+            continue
+        groups = [m for m in re.finditer(r"\\texttt\{((?:[^{}\\]|\\[^a-zA-Z](?:\{\})?|\\[a-zA-Z]+\{\})*)\}", body)]
+        inside = [g for g in groups if "Qz9" in g.group(1) and "Qy8" in g.group(1)]
+        rest = body
+        for g in inside:
+            rest = rest.replace(g.group(0), "")
+        if not inside or any(not _SAFE_TT.fullmatch(g.group(1)) for g in inside) or "Qz9" in rest or "Qy8" in rest:
+            bad.append(line)
+    return bad
+
+
+def check_named_files(tmp_path: Path, names: list[str], fmu: int) -> list[str]:
+    scene_text = (ROOT / "examples" / "slider_crank.toml").read_bytes()
+    problems = []
+    for i, name in enumerate(names):
+        folder = tmp_path / f"d{i}*" / "*--"          # the paths hold "*/" and "/*"
+        folder.mkdir(parents=True)
+        scene = folder / f"*{name}.toml"
+        scene.write_bytes(scene_text)
+        out = folder / name
+        runs = [["check", str(scene)],
+                ["latex", str(scene), "-o", f"{out}.tex"],
+                ["emit-c", str(scene), "-o", f"{out}-c"],
+                ["simulate", str(scene), "--set", "simulation.cycles=0.02", "-o", f"{out}.csv",
+                 "--plot", f"{out}.png"]]
+        if i < fmu:
+            runs.append(["emit-fmu", str(scene), "-o", f"{out}.fmu"])
+        too_long = len(os.fsencode(name)) + 4 > 255 - NAME_MARGIN
+        for argv in runs:
+            code, err = run_cli(argv)
+            if argv[0] != "check" and too_long:
+                if code != 2 or "choose a name of at most" not in err:
+                    problems.append(f"{name!r} {argv[0]}: a name too long: exit {code}: {err.strip()[-300:]}")
+            elif code != 0 or "Traceback" in err:
+                problems.append(f"{name!r} {argv[0]}: exit {code}: {err.strip()[-300:]}")
+        if too_long:
+            continue
+        if live := live_tex(Path(f"{out}.tex").read_text(encoding="utf-8")):
+            problems.append(f"{name!r} latex: live TeX from the name: {live[:3]}")
+        if CC:
+            for c in sorted(Path(f"{out}-c").glob("*.c")):
+                proc = subprocess.run([CC, "-std=c99", "-fsyntax-only", "-Werror=comment", "-Werror=trigraphs",
+                                       "-I", str(c.parent), str(c)], capture_output=True, text=True)
+                if proc.returncode:
+                    problems.append(f"{name!r} emit-c: {c.name} does not compile: {proc.stderr[:300]}")
+        if not Path(f"{out}.png").stat().st_size:
+            problems.append(f"{name!r} simulate: empty plot")
+        if i < fmu:
+            with zipfile.ZipFile(f"{out}.fmu") as fmu_zip:
+                ET.fromstring(fmu_zip.read("modelDescription.xml"))
+                if "<b>" in fmu_zip.read("documentation/index.html").decode("utf-8"):
+                    problems.append(f"{name!r} emit-fmu: markup from the name in documentation/index.html")
+    return problems
+
+
+def test_live_tex_catches_an_unescaped_name():
+    """The LaTeX check can fail: a raw name, a name split by a newline, an unescaped $ inside \\texttt."""
+    assert live_tex("from \\texttt{Qz9a\\_b\\$Qy8} ok\n% Qz9 raw $ in a comment Qy8") == []
+    assert live_tex("from Qz9$x$Qy8")
+    assert live_tex("from \\texttt{Qz9a\nb$Qy8}")
+    assert live_tex("from \\texttt{Qz9a$Qy8}")
+    assert live_tex("from \\texttt{Qz9\\^{}\\_\\&Qy8} ok") == []
+
+
+def test_hostile_file_names(tmp_path, monkeypatch):
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    problems = check_named_files(tmp_path, file_names(FILE_NAME_CASES), fmu=1)
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.slow
+def test_hostile_file_names_more(tmp_path, monkeypatch):
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    problems = check_named_files(tmp_path, file_names(60, seed=SEED + 3), fmu=6)
+    assert not problems, "\n".join(problems)
