@@ -48,6 +48,7 @@ import xml.etree.ElementTree as ET
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -522,3 +523,222 @@ def test_hostile_file_names_more(tmp_path, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     problems = check_named_files(tmp_path, file_names(60, seed=SEED + 3), fmu=6)
     assert not problems, "\n".join(problems)
+
+
+# -- cache content ------------------------------------------------------------------------------
+CACHE_SCENE = ROOT / "examples" / "slider_crank.toml"
+CACHE_CASES = 10             # a seeded sample of cache_cases() in the default suite; all under slow
+PLANTS = ["garbage", "empty", "truncated", "oversized", "fifo", "devzero", "folder_link", "dangling", "loop",
+          "folder", "plain_sha256"]
+TOP_PLANTS = ["garbage", "empty", "fifo", "devzero", "folder_link"]
+#: symgen/numerics/compiled.py makes compiled/ with mkdir(parents=True, exist_ok=True) outside its
+#: OSError handling: a compiled/ that is not a folder is an internal error (NotADirectoryError,
+#: FileExistsError). Known, being fixed by the lead; these cases are xfail below until then.
+COMPILED_NOT_A_FOLDER = "compiled.py: compiled/ (or the cache root) not a folder: mkdir raises outside the OSError handling"
+
+
+def cache_cases() -> list[tuple[str, str, str]]:
+    """(folder, level, plant): level "file" plants into an entry's file (a shapes file for
+    shapes/), "entry" replaces an entry's folder, "top" replaces the folder itself."""
+    cases = [(sub, "file", how) for sub in ("models", "compiled", "shapes") for how in PLANTS]
+    cases += [(sub, "entry", how) for sub in ("models", "compiled") for how in TOP_PLANTS]
+    cases += [(sub, "top", how) for sub in ("models", "shapes") for how in TOP_PLANTS]
+    return cases
+
+
+def _cache_env(tmp: Path, root, **extra) -> dict:
+    env = {**os.environ, "SYMGEN_CACHE_DIR": str(root), "XDG_CONFIG_HOME": str(tmp / "config"), "MPLBACKEND": "Agg",
+           "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+           "SYMGEN_BACKEND": "compiled" if CC else "vm"}
+    env.update(extra)
+    return env
+
+
+def _simulate(tmp: Path, root, out: Path, **extra) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", str(CACHE_SCENE), "--set",
+                           "simulation.cycles=0.05", "-o", str(out)], capture_output=True, text=True, timeout=120,
+                          env=_cache_env(tmp, root, **extra), cwd=tmp, stdin=subprocess.DEVNULL)
+
+
+@pytest.fixture(scope="module")
+def clean_cache(tmp_path_factory):
+    """A cache filled by one run (models/, compiled/, shapes/), its CSV, and a payload library
+    whose constructor creates a marker file (shown to work)."""
+    tmp = tmp_path_factory.mktemp("cache")
+    run = _simulate(tmp, tmp / "clean", tmp / "ref.csv")
+    assert run.returncode == 0, run.stderr
+    marker = tmp / "PWNED"
+    evil = None
+    if CC:
+        (tmp / "evil.c").write_text('#include <stdio.h>\n__attribute__((constructor)) static void pwn(void) '
+                                    f'{{ FILE *f = fopen("{marker}", "w"); if (f) fclose(f); }}\n')
+        subprocess.run([CC, "-shared", "-fPIC", str(tmp / "evil.c"), "-o", str(tmp / "evil.so")], check=True)
+        subprocess.run([sys.executable, "-c", f"import ctypes; ctypes.CDLL({str(tmp / 'evil.so')!r})"], check=True)
+        assert marker.exists()
+        marker.unlink()
+        evil = (tmp / "evil.so").read_bytes()
+    elsewhere = tmp / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "keep.txt").write_text("keep")
+    return SimpleNamespace(tmp=tmp, root=tmp / "clean", csv=(tmp / "ref.csv").read_text(), marker=marker,
+                           evil=evil, elsewhere=elsewhere)
+
+
+def _plant(path: Path, how: str, clean, rng: random.Random) -> None:
+    """Replace ``path`` (a file or folder of the cache) by the plant ``how``."""
+    data = path.read_bytes() if path.is_file() else b""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    elif path.exists() or path.is_symlink():
+        path.unlink()
+    if how == "garbage":
+        path.write_bytes(bytes(rng.randrange(256) for _ in range(rng.randrange(1, 3000))))
+    elif how == "empty":
+        path.write_bytes(b"")
+    elif how == "truncated":
+        path.write_bytes(data[:rng.randrange(max(len(data), 1))])
+    elif how == "oversized":                 # sparse: 3 GB of nothing
+        with open(path, "wb") as fh:
+            fh.truncate(3 << 30)
+    elif how == "fifo":
+        os.mkfifo(path)
+    elif how == "devzero":
+        os.symlink("/dev/zero", path)
+    elif how == "folder_link":
+        os.symlink(clean.elsewhere, path)
+    elif how == "dangling":
+        os.symlink(clean.tmp / "nowhere", path)
+    elif how == "loop":
+        os.symlink(path.name, path)
+    elif how == "folder":
+        path.mkdir()
+        (path / "x").write_text("x")
+    else:
+        raise ValueError(how)
+
+
+def _plant_plain_sha256(entry: Path, file: Path, clean, rng: random.Random) -> None:
+    """What a writer without the user's key can do: new content, its plain sha256 recorded."""
+    if file.parent.name == "shapes":
+        payload = json.dumps({"key": file.stem, "shapes": [[1.0, 2.0]]}).encode()
+        file.write_bytes(b"symgen-cache shapes hmac-sha256=%s\n" % cache.sha256_hex(payload).encode() + payload)
+        return
+    blob = clean.evil if file.suffix == ".so" and clean.evil else bytes(rng.randrange(256) for _ in range(500))
+    file.write_bytes(blob)
+    manifest = json.loads((entry / "manifest.json").read_text())
+    manifest["files"][file.name] = cache.sha256_hex(blob)
+    (entry / "manifest.json").write_text(json.dumps(manifest))
+
+
+def run_cache_case(clean, i: int, sub: str, level: str, how: str, rng: random.Random) -> str | None:
+    root = clean.tmp / f"c{i}"
+    shutil.copytree(clean.root, root, symlinks=True)
+    entries = sorted(p for p in (root / sub).iterdir() if not p.name.startswith("."))
+    label = f"{sub} {level} {how}"
+    if sub == "shapes":
+        shutil.rmtree(root / "models")          # the derivation reads the shapes again
+    if level == "top":
+        _plant(root / sub, how, clean, rng)
+    elif level == "entry":
+        _plant(rng.choice(entries), how, clean, rng)
+    else:
+        entry = rng.choice(entries)
+        files = [entry] if sub == "shapes" else sorted(entry.iterdir())
+        if how == "plain_sha256":
+            files = [f for f in files if f.name != "manifest.json"]
+        file = rng.choice(files)
+        label += f" [{file.name}]"
+        if how == "plain_sha256":
+            _plant_plain_sha256(entry, file, clean, rng)
+        else:
+            _plant(file, how, clean, rng)
+    out = clean.tmp / f"o{i}.csv"
+    try:
+        run = _simulate(clean.tmp, root, out)
+    except subprocess.TimeoutExpired:
+        return f"{label}: hang"
+    problem = _clean_exit(run.returncode, run.stderr)
+    if problem is None and run.returncode != 0:
+        problem = f"exit {run.returncode}: {run.stderr.strip()[-300:]}"
+    if problem is None and out.read_text() != clean.csv:
+        problem = "a CSV that differs from the clean run's"
+    if clean.marker.exists():
+        clean.marker.unlink()
+        problem = "the planted library ran"
+    if (clean.elsewhere / "keep.txt").read_text() != "keep":
+        problem = "a file outside the cache was changed"
+    shutil.rmtree(root, ignore_errors=True)
+    return f"{label}: {problem}" if problem else None
+
+
+def _run_cache_cases(clean, cases) -> list[str]:
+    rng = random.Random(SEED + 4)
+    return [p for i, (sub, level, how) in enumerate(cases) if (p := run_cache_case(clean, i, sub, level, how, rng))]
+
+
+def test_planted_cache_content(clean_cache):
+    cases = random.Random(SEED + 5).sample(cache_cases(), CACHE_CASES)
+    problems = _run_cache_cases(clean_cache, cases)
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.slow
+def test_planted_cache_content_all(clean_cache):
+    problems = _run_cache_cases(clean_cache, cache_cases())
+    assert not problems, "\n".join(problems)
+
+
+def test_a_folder_planted_as_the_compiled_library(clean_cache):
+    """Failed before the fix of symgen.cache.read_bytes: IsADirectoryError, exit 3."""
+    if not CC:
+        pytest.skip("needs a C compiler")
+    (entry,) = [p for p in (clean_cache.root / "compiled").iterdir() if not p.name.startswith(".")]
+    assert run_cache_case(clean_cache, 900, "compiled", "file", "folder", _Fixed(entry / "model.so")) is None
+
+
+class _Fixed(random.Random):
+    """A "random" choice that always picks ``item`` (a named case of run_cache_case)."""
+
+    def __init__(self, item):
+        super().__init__(0)
+        self.item = item
+
+    def choice(self, seq):
+        return next((x for x in seq if x.name == self.item.name), seq[0]) if seq and isinstance(seq[0], Path) else super().choice(seq)
+
+
+@pytest.mark.parametrize("how", TOP_PLANTS[:-1] + ["root_file", "root_devnull"])
+@pytest.mark.xfail(strict=True, reason=COMPILED_NOT_A_FOLDER)
+def test_compiled_folder_not_a_folder(clean_cache, how):
+    if not CC:
+        raise RuntimeError("needs a C compiler")      # the xfail stays strict only where it can run
+    if how.startswith("root"):
+        root = clean_cache.tmp / "a-file" if how == "root_file" else Path("/dev/null")
+        if how == "root_file":
+            root.write_text("not a folder")
+        run = _simulate(clean_cache.tmp, root, clean_cache.tmp / f"{how}.csv")
+        assert _clean_exit(run.returncode, run.stderr) is None and run.returncode == 0, run.stderr[-300:]
+        return
+    assert run_cache_case(clean_cache, 950 + TOP_PLANTS.index(how), "compiled", "top", how, random.Random(0)) is None
+
+
+@pytest.mark.parametrize("root", ["file", "devnull", "readonly"])
+def test_cache_root_unusable_runs_uncached(clean_cache, root):
+    """$SYMGEN_CACHE_DIR a file, /dev/null or a read-only folder: the run goes on uncached with
+    a warning, the same CSV (the model's functions in the virtual machine; the compiled
+    backend: test_compiled_folder_not_a_folder)."""
+    tmp = clean_cache.tmp
+    if root == "readonly":
+        if os.geteuid() == 0:
+            pytest.skip("root writes into a read-only folder")
+        where = tmp / "readonly"
+        where.mkdir(exist_ok=True)
+        where.chmod(0o555)
+    else:
+        where = tmp / "root-file" if root == "file" else Path("/dev/null")
+        if root == "file":
+            where.write_text("not a folder")
+    out = tmp / f"root-{root}.csv"
+    run = _simulate(tmp, where, out, SYMGEN_BACKEND="vm")
+    assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr[-500:]
+    assert "warning" in run.stderr and out.read_text() == clean_cache.csv
