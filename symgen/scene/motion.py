@@ -22,7 +22,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from symgen.scene.expressions import derivative, first_pole, parse_tau_expression
+from symgen.scene.expressions import (
+    derivative,
+    first_pole,
+    parse_tau_expression,
+    value_at,
+)
 
 
 def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
@@ -103,10 +108,6 @@ def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, s
         if first is not None and t >= first[0]:
             break
         for what, e in exprs:
-            try:
-                val = complex(e.xreplace({tau: sp.Float(t)}).evalf())
-            except (TypeError, ValueError, ZeroDivisionError):
-                return t, what
-            if val.imag != 0.0 or not math.isfinite(val.real):
+            if not math.isfinite(value_at(e, tau, t)):
                 return t, what
     return first

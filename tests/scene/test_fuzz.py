@@ -742,3 +742,95 @@ def test_cache_root_unusable_runs_uncached(clean_cache, root):
     run = _simulate(tmp, where, out, SYMGEN_BACKEND="vm")
     assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr[-500:]
     assert "warning" in run.stderr and out.read_text() == clean_cache.csv
+
+
+# -- non-smooth laws and loads ------------------------------------------------------------------
+LAW_CASES = 200
+LAW_SIMULATE = 8             # of the accepted ones, run through simulate (t_end 0.6)
+LAW_ATOMS = ["tau", "(tau - 0.3)", "(0.2 - tau)", "pi/2", "(tau - pi/4)", "0", "1e-12", "1e300", "(-1)", "0.5",
+             "(tau*1e6)", "(tau^2 - 0.01)"]
+LAW_UNARY = ["Abs", "Heaviside", "sign", "sqrt", "log", "tan", "exp", "sin", "cos", "tanh", "sinh"]
+
+
+def law_expression(rng: random.Random, depth: int) -> str:
+    """A random nest of the non-smooth functions, with poles and domain edges on the run."""
+    if depth == 0 or rng.random() < 0.25:
+        return rng.choice(LAW_ATOMS)
+    k = rng.random()
+    if k < 0.45:
+        return f"{rng.choice(LAW_UNARY)}({law_expression(rng, depth - 1)})"
+    if k < 0.6:
+        return f"{rng.choice(['min', 'max'])}({law_expression(rng, depth - 1)}, {law_expression(rng, depth - 1)})"
+    if k < 0.7:
+        return f"atan2({law_expression(rng, depth - 1)}, {law_expression(rng, depth - 1)})"
+    if k < 0.8:
+        return f"1/{law_expression(rng, depth - 1)}"
+    if k < 0.9:
+        return f"{law_expression(rng, depth - 1)}^{rng.choice(['0.5', '-1', '2', '-0.5', 'tau', '3'])}"
+    return f"{law_expression(rng, depth - 1)} {rng.choice('+-*/')} {law_expression(rng, depth - 1)}"
+
+
+def law_cases(count: int, seed: int) -> list[tuple[str, str, dict]]:
+    """(key the error must name, expression, scene tree) from the slider-crank."""
+    rng = random.Random(seed)
+    base = tomllib.loads((ROOT / "examples" / "slider_crank.toml").read_text(encoding="utf-8"))
+    cases = []
+    for _ in range(count):
+        raw = copy.deepcopy(base)
+        raw["simulation"].pop("cycles")
+        raw["simulation"].update(t_end=0.6, output_step=0.05)
+        text = law_expression(rng, rng.choice([1, 2, 3, 4]))
+        where = rng.choice(["law", "torque", "load", "load"])
+        if where == "law":
+            del raw["driver"]["rate"]
+            raw["driver"]["law"] = text
+            key = "driver.law"
+        elif where == "torque":
+            raw["driver"] = {"kind": "torque", "body": "crank", "value": text, "rate": 1.0, "initial": 0.0}
+            del raw["outputs"]["torque"]
+            key = "driver.value"
+        else:
+            part = rng.choice(["axial", "transverse"])
+            load = {"body": "rod", "kind": rng.choice(["point", "distributed"]), part: text}
+            if load["kind"] == "point":
+                load["at"] = rng.choice([0.5, 1.0])
+            raw["loads"] = [load]
+            key = f"loads[0].{part}"
+        cases.append((key, text, raw))
+    return cases
+
+
+def check_laws(tmp_path: Path, count: int, simulate: int, seed: int) -> tuple[list[str], dict]:
+    problems, outcomes, ran = [], {0: 0, 2: 0}, 0
+    for i, (key, text, raw) in enumerate(law_cases(count, seed)):
+        file = tmp_path / f"law{i:03d}.toml"
+        file.write_text(dump_toml(raw), encoding="utf-8")
+        code, err = run_check(file, [])
+        problem = _clean_exit(code, err)
+        if problem is None and code == 2 and f"{file}: {key}: " not in err:
+            problem = "the message does not name the key"
+        if problem:
+            problems.append(f"check {key} = {text!r}: {problem}")
+            continue
+        outcomes[code] += 1
+        if code == 0 and ran < simulate:
+            ran += 1
+            code, err = run_cli(["simulate", str(file), "-o", str(tmp_path / f"law{i:03d}.csv")])
+            problem = _clean_exit(code, err)
+            if problem is None and code == 2 and not re.search(r"symgen: error: .*(tau = |at tau|" + re.escape(key) + ")", err):
+                problem = "a failed run whose message names neither tau nor the key"
+            if problem:
+                problems.append(f"simulate {key} = {text!r}: {problem}")
+    return problems, outcomes
+
+
+def test_non_smooth_laws_and_loads(tmp_path):
+    problems, outcomes = check_laws(tmp_path, LAW_CASES, LAW_SIMULATE, SEED + 6)
+    assert not problems, "\n".join(problems)
+    assert outcomes[0] > 0.3 * LAW_CASES and outcomes[2] > 0.1 * LAW_CASES, outcomes    # both kinds hit
+
+
+@pytest.mark.slow
+def test_non_smooth_laws_and_loads_more(tmp_path):
+    problems, _ = check_laws(tmp_path, 400, 40, SEED + 7)
+    assert not problems, "\n".join(problems)
