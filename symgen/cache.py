@@ -210,10 +210,14 @@ def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -
         if isinstance(exc, FileNotFoundError):
             raise
         raise InvalidEntry(f"{os.fspath(name)} cannot be opened ({exc.strerror or exc})") from None
-    with os.fdopen(fd, "rb") as fh:
-        st = os.fstat(fh.fileno())
-        if not stat.S_ISREG(st.st_mode):
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):      # before fdopen, which refuses a folder with IsADirectoryError
             raise InvalidEntry(f"{os.fspath(name)} is not a regular file")
+    except BaseException:
+        os.close(fd)
+        raise
+    with os.fdopen(fd, "rb") as fh:
         if st.st_size > limit:
             raise InvalidEntry(f"{os.fspath(name)} is {st.st_size} bytes, more than the {limit} an entry may have")
         data = fh.read(limit + 1)

@@ -30,19 +30,51 @@ class OutputError(SymgenError):
         super().__init__(f"cannot write {str(path)!r}: {err.strerror or err}")
 
 
+#: Bytes that the names symgen writes beside an output add to its name: the temporary file of
+#: an atomic write of the partial twin, ``.OUT.partial.csv.XXXXXXXX.tmp.csv``, is the longest.
+NAME_MARGIN = 32
+
+
 def _writable_ancestor(path: Path, key: str, what: str) -> None:
-    """The nearest existing ancestor of ``path`` must be a folder we may create files in."""
-    parent = path.parent
-    while not parent.exists():
-        if parent.is_symlink():           # a dangling link: cannot be created through
-            break
-        parent = parent.parent
+    """The nearest existing ancestor of ``path`` must be a folder we may create files in, and
+    the names of ``path`` and of the files written beside it must fit in that folder."""
+    parent = _existing_ancestor(path)
+    _name_fits(path, parent, key)
     if not parent.is_dir():
         raise SceneError("command line", key, f"cannot write {str(path)!r}: {str(parent)!r} is not a folder",
                          f"choose {what} in an existing folder (or one that can be created)")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise SceneError("command line", key, f"cannot write {str(path)!r}: the folder {str(parent)!r} is not "
                          "writable", f"choose {what} in a folder you can write to")
+
+
+def _existing_ancestor(path: Path) -> Path:
+    parent = path.parent
+    while not parent.exists():
+        if parent.is_symlink():           # a dangling link: cannot be created through
+            break
+        parent = parent.parent
+    return parent
+
+
+def _name_fits(path: Path, existing: Path, key: str) -> None:
+    """Every component of ``path`` fits the file system's name length (NAME_MAX), the last one
+    with :data:`NAME_MARGIN` to spare: a legal name whose temporary or partial twin is too long
+    failed after the work (an internal error)."""
+    try:
+        limit = os.pathconf(existing if existing.is_dir() else existing.parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    parts = path.parts
+    for i, part in enumerate(parts):
+        size = len(os.fsencode(part))
+        room = limit - (NAME_MARGIN if i == len(parts) - 1 else 0)
+        if size > room:
+            raise SceneError("command line", key, f"the name {part[:40]!r}... is {size} bytes: "
+                             + (f"symgen writes files beside it with names up to {NAME_MARGIN} bytes longer, and "
+                                if i == len(parts) - 1 else "")
+                             + f"this file system allows names of at most {limit} bytes",
+                             f"choose a name of at most {room} bytes")
 
 
 def check_file(path: str | os.PathLike, suffixes: tuple, key: str,
@@ -53,6 +85,7 @@ def check_file(path: str | os.PathLike, suffixes: tuple, key: str,
     if p.suffix.lower() not in suffixes:
         raise SceneError("command line", key, f"{str(path)!r} should end in {' or '.join(suffixes)}",
                          f"give a file name like out/result{suffixes[0]}")
+    _name_fits(p, _existing_ancestor(p), key)     # first: is_dir() raises on a name too long
     for q in (p, *map(Path, also)):
         if q.is_dir():
             raise SceneError("command line", key, f"{str(q)!r} is a folder, not a file",
@@ -74,6 +107,7 @@ def check_folder(path: str | os.PathLike, key: str) -> Path:
         if not os.access(p, os.W_OK | os.X_OK):
             raise SceneError("command line", key, f"the folder {str(path)!r} is not writable",
                              "choose a folder you can write to")
+        _name_fits(p, p, key)
         return p
     _writable_ancestor(p, key, "a folder")
     return p

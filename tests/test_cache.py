@@ -432,3 +432,17 @@ def test_expression_trees_round_trip_and_reject_anything_else():
         exprdata.decode(deep)
     with pytest.raises(ValueError):
         exprdata.encode(sympy.Function("f")(x))
+
+
+def test_read_bytes_refuses_a_folder_as_an_entry(tmp_path):
+    """A folder planted where a cache file is expected is an invalid entry (os.fdopen raised
+    IsADirectoryError, an internal error of simulate for compiled/<entry>/model.so)."""
+    (tmp_path / "model.so").mkdir()
+    with pytest.raises(cache.InvalidEntry, match="is not a regular file"):
+        cache.read_bytes(tmp_path / "model.so", 1 << 20)
+    fd = os.open(tmp_path, os.O_RDONLY)
+    try:
+        with pytest.raises(cache.InvalidEntry, match="is not a regular file"):
+            cache.read_bytes("model.so", 1 << 20, dir_fd=fd)
+    finally:
+        os.close(fd)

@@ -121,33 +121,114 @@ def derivative(expr: Any, x: Any, n: int = 1) -> Any:
 MAX_POLE_SEARCH_OPS = 120
 
 
+def first_pole(expr: Any, tau: Any, t_end: float) -> float | None:
+    """The first pole of ``expr`` in [0, t_end] that SymPy's ``singularities`` finds, else None.
+
+    The poles are asked for on the whole real line and the first one at or after 0 is taken
+    from the answer: a finite set, or a union of evenly spaced families ``a n + b`` (``tan``,
+    ``1/sin``). Asked for on [0, t_end], SymPy lists every pole of such a family there, which
+    for ``tan(1e6*tau)`` is 190 000 of them (it never ends). An answer of any other form (a
+    condition set, a family that is not evenly spaced) finds nothing: the samples decide."""
+    import sympy as sp
+
+    if sp.count_ops(expr) > MAX_POLE_SEARCH_OPS or expr.has(sp.Min, sp.Max):
+        return None             # Min/Max: SymPy may not return (1/min(exp(tau^2), sinh(tau - 0.3)))
+    try:
+        poles = sp.singularities(expr, tau, sp.S.Reals)
+    except Exception:                   # SymPy cannot tell: the samples decide
+        return None
+    first = _first_at_or_after_zero(poles)
+    return first if first is not None and first <= t_end else None
+
+
+def _first_at_or_after_zero(poles: Any) -> float | None:
+    import sympy as sp
+
+    found: list[float] = []
+    if isinstance(poles, sp.Union):
+        found = [x for part in poles.args if (x := _first_at_or_after_zero(part)) is not None]
+    elif isinstance(poles, sp.FiniteSet):
+        for x in poles:
+            try:
+                v = complex(x)
+            except (TypeError, ValueError):
+                continue
+            if v.imag == 0.0 and v.real >= 0.0:
+                found.append(v.real)
+    elif isinstance(poles, sp.ImageSet) and poles.base_sets == (sp.S.Integers,) and len(poles.lamda.variables) == 1:
+        (n,) = poles.lamda.variables
+        family = sp.Poly(poles.lamda.expr, n) if poles.lamda.expr.is_polynomial(n) else None
+        if family is not None and family.degree() == 1:
+            a, b = (complex(c) for c in family.all_coeffs())
+            if a.imag == 0.0 and b.imag == 0.0 and a.real != 0.0 and math.isfinite(a.real) and math.isfinite(b.real):
+                step, start = abs(a.real), b.real
+                found.append(start + step * math.ceil(-start / step))
+    return min(found) if found else None
+
+
+_DOUBLE_FUNCTIONS: dict[str, Callable[..., float]] = {
+    "sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp, "log": math.log, "sinh": math.sinh,
+    "cosh": math.cosh, "tanh": math.tanh, "atan2": math.atan2, "Abs": abs,
+    "sign": lambda x: math.copysign(1.0, x) if x != 0.0 else (math.nan if math.isnan(x) else x),
+    "Heaviside": lambda x, h0=0.5: 1.0 if x > 0.0 else 0.0 if x < 0.0 else (float(h0) if x == 0.0 else math.nan),
+    "Min": lambda *xs: math.nan if any(map(math.isnan, xs)) else min(xs),
+    "Max": lambda *xs: math.nan if any(map(math.isnan, xs)) else max(xs)}
+
+
+def value_at(expr: Any, tau: Any, t: float) -> float:
+    """``expr`` at tau = ``t`` in double precision, as the integrator will meet it (an overflow
+    is infinite, a value that is not real is NaN). SymPy's ``evalf`` would give the exact value
+    of ``sin(sinh(1e6*tau))`` at 0.6 instead, working at some 900 000 bits (minutes); a node
+    outside the grammar's functions (a derivative's ``DiracDelta``) is left to ``evalf``."""
+    import sympy as sp
+
+    def ev(e: Any) -> float:
+        if e is tau:
+            return t
+        if e.is_Number or e.is_NumberSymbol:
+            return float(e)
+        args = [ev(a) for a in e.args]
+        try:
+            if e.is_Add:
+                return math.fsum(args) if all(math.isfinite(a) for a in args) else sum(args)
+            if e.is_Mul:
+                return math.prod(args)
+            if e.is_Pow:
+                base, power = args
+                if base < 0.0 and power != int(power):
+                    return math.nan
+                return math.pow(base, power)
+            name = type(e).__name__
+            if name in _DOUBLE_FUNCTIONS:
+                return float(_DOUBLE_FUNCTIONS[name](*args))
+        except OverflowError:
+            return math.inf
+        except (ValueError, ZeroDivisionError):
+            return math.nan
+        value = complex(e.xreplace({tau: sp.Float(t)}).evalf())
+        return value.real if value.imag == 0.0 else math.nan
+
+    try:
+        return ev(expr)
+    except (TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return math.nan
+
+
 def first_non_finite(expr: Any, t_end: float, samples: int = 256) -> float | None:
     """The first tau in [0, t_end] where ``expr`` (of :func:`tau_symbol`) is not a finite real
-    number, else None: a pole (``1/(tau - 0.1)``, ``tan(tau)``) found by SymPy's
-    ``singularities``, or a value that is infinite, NaN or complex at one of ``samples`` + 1
-    evenly spaced tau (``log(tau - 10)``, ``sqrt(tau - 1)``)."""
-    import sympy as sp
+    number, else None: a pole (``1/(tau - 0.1)``, ``tan(tau)``) found by :func:`first_pole`,
+    or a value that is infinite, NaN or complex at one of ``samples`` + 1 evenly spaced tau
+    (``log(tau - 10)``, ``sqrt(tau - 1)``), evaluated in double precision (:func:`value_at`)."""
 
     tau = tau_symbol()
     if tau not in expr.free_symbols:
         return None
-    first = None
-    if sp.count_ops(expr) <= MAX_POLE_SEARCH_OPS:
-        try:
-            poles = sp.singularities(expr, tau, sp.Interval(0, t_end))
-        except Exception:
-            poles = sp.EmptySet
-        if isinstance(poles, sp.FiniteSet) and poles:
-            first = float(min(poles, key=lambda x: float(x)))
+    first = first_pole(expr, tau, t_end)
     for k in range(samples + 1):
         t = t_end * k / samples
         if first is not None and t >= first:
             break
-        try:
-            val = complex(expr.xreplace({tau: sp.Float(t)}).evalf())
-        except (TypeError, ValueError, ZeroDivisionError, OverflowError):
-            return t
-        if val.imag != 0.0 or not math.isfinite(val.real):
+        if not math.isfinite(value_at(expr, tau, t)):
             return t
     return first
 

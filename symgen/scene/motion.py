@@ -22,7 +22,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from symgen.scene.expressions import derivative, parse_tau_expression
+from symgen.scene.expressions import (
+    derivative,
+    first_pole,
+    parse_tau_expression,
+    value_at,
+)
 
 
 def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
@@ -86,7 +91,8 @@ def driver_record(driver: Any) -> dict | None:
 
 def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, str] | None:
     """First (tau, what) in [0, t_end] where theta, theta' or theta'' is not a finite real
-    number, else None. ``driver`` has numeric ``initial``, ``rate``, ``ramp``."""
+    number, else None. ``driver`` has numeric ``initial``, ``rate``, ``ramp``. A pole that SymPy
+    finds (:func:`symgen.scene.expressions.first_pole`) counts even between the samples."""
     import math
 
     import sympy as sp
@@ -95,13 +101,13 @@ def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, s
     theta = driver_angle(driver, tau, driver.initial or 0.0, driver.rate, driver.ramp)
     exprs = (("theta", theta), ("d theta/d tau", derivative(theta, tau)),
              ("d2 theta/d tau2", derivative(theta, tau, 2)))
+    poles = [(t, what) for what, e in exprs if (t := first_pole(e, tau, t_end)) is not None]
+    first = min(poles, key=lambda p: p[0]) if poles else None
     for k in range(samples + 1):
         t = t_end * k / samples
+        if first is not None and t >= first[0]:
+            break
         for what, e in exprs:
-            try:
-                val = complex(e.xreplace({tau: sp.Float(t)}).evalf())
-            except (TypeError, ValueError, ZeroDivisionError):
+            if not math.isfinite(value_at(e, tau, t)):
                 return t, what
-            if val.imag != 0.0 or not math.isfinite(val.real):
-                return t, what
-    return None
+    return first
