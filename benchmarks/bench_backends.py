@@ -13,6 +13,7 @@ For each scene (two crank turns, the scene's own effects and function counts, mo
   compiled library is the VM's arithmetic: 0 expected) and between ``--solver c`` and IDAS (both
   within their tolerances of the true solution).
 """
+
 from __future__ import annotations
 
 import os
@@ -30,10 +31,11 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
 
-CASES = [("slider-crank (example)", "examples/slider_crank.toml", []),
-         ("four-bar (example)", "examples/four_bar.toml", []),
-         ("slider-crank, `effects.axial=\"inextensible\"`", "examples/slider_crank.toml",
-          ['effects.axial="inextensible"'])]
+CASES = [
+    ("slider-crank (example)", "examples/slider_crank.toml", []),
+    ("four-bar (example)", "examples/four_bar.toml", []),
+    ('slider-crank, `effects.axial="inextensible"`', "examples/slider_crank.toml", ['effects.axial="inextensible"']),
+]
 TURNS = ["simulation.cycles=2"]
 
 
@@ -48,8 +50,14 @@ def _process(args: list[str]) -> float:
     env.pop("SYMGEN_BACKEND", None)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     c0 = _child_cpu()
-    subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", *args], check=True, cwd=ROOT, env=env,
-                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    subprocess.run(
+        [sys.executable, "-m", "symgen.cli", "simulate", *args],
+        check=True,
+        cwd=ROOT,
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
     return _child_cpu() - c0
 
 
@@ -66,11 +74,12 @@ def bench_case(scene: str, over: list[str], repeats: int) -> dict:
     from symgen.api import mechanism
     from symgen.numerics.csolver import simulate_c
     from symgen.numerics.simulate import simulate
+
     mech = mechanism(str(ROOT / scene), over + TURNS)
     row: dict = {}
     runs = {}
     for backend in ("vm", "compiled"):
-        simulate(mech, backend=backend)                       # the library built / loaded once
+        simulate(mech, backend=backend)  # the library built / loaded once
         cpu = []
         for _ in range(repeats):
             t0 = time.process_time()
@@ -79,7 +88,7 @@ def bench_case(scene: str, over: list[str], repeats: int) -> dict:
         row[backend] = statistics.median(cpu)
         runs[backend] = res
     row["steps"] = runs["vm"].steps
-    simulate_c(mech)                                          # the executable built once
+    simulate_c(mech)  # the executable built once
     wall, own = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -92,10 +101,13 @@ def bench_case(scene: str, over: list[str], repeats: int) -> dict:
     out = Path(tempfile.mkdtemp(prefix="symgen-bench-")) / "out.csv"
     sets = [w for o in over + TURNS for w in ("--set", o)]
     proc = {}
-    for label, extra in (("vm", ["--backend", "vm"]), ("compiled", ["--backend", "compiled"]),
-                         ("c", ["--solver", "c"])):
+    for label, extra in (
+        ("vm", ["--backend", "vm"]),
+        ("compiled", ["--backend", "compiled"]),
+        ("c", ["--solver", "c"]),
+    ):
         args = [scene, "-o", str(out), *sets, *extra]
-        _process(args)                                        # warm (files cached)
+        _process(args)  # warm (files cached)
         proc[label] = statistics.median(_process(args) for _ in range(repeats))
     for f in out.parent.iterdir():
         f.unlink()
@@ -106,23 +118,30 @@ def bench_case(scene: str, over: list[str], repeats: int) -> dict:
 
 def run(repeats: int) -> str:
     import compileall
+
     compileall.compile_dir(str(ROOT / "symgen"), quiet=1)
-    lines = ["## Execution: virtual machine, compiled model, `--solver c`", "",
-             "Two crank turns of each scene with its own effects and function counts, model (and compiled "
-             "files) cached; medians of %d. In-process CPU s of `simulate` (set-up, consistent start, "
-             "integration, outputs) with CasADi's virtual machine and with the compiled model (the default); "
-             "`--solver c`: the C solver's own CPU s and the wall s of the call from Python; whole process: "
-             "CPU s of a fresh `python -m symgen.cli simulate ...`. Gap: max |difference| / peak over the "
-             "outputs against the virtual machine's run." % repeats, "",
-             "| scene | VM s | compiled s | IDAS steps | `--solver c` CPU s (wall s) | C steps | whole process s: "
-             "VM / compiled / `--solver c` | gap compiled | gap `--solver c` |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "## Execution: virtual machine, compiled model, `--solver c`",
+        "",
+        "Two crank turns of each scene with its own effects and function counts, model (and compiled "
+        "files) cached; medians of %d. In-process CPU s of `simulate` (set-up, consistent start, "
+        "integration, outputs) with CasADi's virtual machine and with the compiled model (the default); "
+        "`--solver c`: the C solver's own CPU s and the wall s of the call from Python; whole process: "
+        "CPU s of a fresh `python -m symgen.cli simulate ...`. Gap: max |difference| / peak over the "
+        "outputs against the virtual machine's run." % repeats,
+        "",
+        "| scene | VM s | compiled s | IDAS steps | `--solver c` CPU s (wall s) | C steps | whole process s: "
+        "VM / compiled / `--solver c` | gap compiled | gap `--solver c` |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for label, scene, over in CASES:
         r = bench_case(scene, over, repeats)
         p = r["proc"]
-        lines.append(f"| {label} | {r['vm']:.3f} | {r['compiled']:.3f} | {r['steps']} | {r['c_cpu']:.3f} "
-                     f"({r['c_wall']:.3f}) | {r['c_steps']} | {p['vm']:.2f} / {p['compiled']:.2f} / {p['c']:.2f} | "
-                     f"{r['gap_compiled']:.1e} | {r['gap_c']:.1e} |")
+        lines.append(
+            f"| {label} | {r['vm']:.3f} | {r['compiled']:.3f} | {r['steps']} | {r['c_cpu']:.3f} "
+            f"({r['c_wall']:.3f}) | {r['c_steps']} | {p['vm']:.2f} / {p['compiled']:.2f} / {p['c']:.2f} | "
+            f"{r['gap_compiled']:.1e} | {r['gap_c']:.1e} |"
+        )
     return "\n".join(lines) + "\n"
 
 

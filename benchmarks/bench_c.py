@@ -8,6 +8,7 @@
 
 Times are medians of repeats in one run on this machine (shared, noisy: compare ratios).
 """
+
 from __future__ import annotations
 
 import statistics
@@ -98,33 +99,80 @@ def _one(path: str, repeats: int) -> dict:
     src = write_tree(files, work / "c")
     # CasADi's own C of the same Function
     import casadi as ca
+
     f = mech.f["res"]
-    sx = [ca.SX.sym(k, s) for k, s in (("t", 1), ("q", mech.n), ("v", mech.n), ("a", mech.n), ("lam", mech.m),
-                                       ("p", len(mech.p)))]
+    sx = [
+        ca.SX.sym(k, s)
+        for k, s in (("t", 1), ("q", mech.n), ("v", mech.n), ("a", mech.n), ("lam", mech.m), ("p", len(mech.p)))
+    ]
     cas = ca.Function("cas_res", sx, [f(*sx)], {"cse": True})
     t0 = time.perf_counter()
     cg = ca.CodeGenerator("cas_res.c", {"with_header": True})
     cg.add(cas)
-    cg.generate(str(work) + "/")            # = cas.generate(), written into `work`, not the cwd
+    cg.generate(str(work) + "/")  # = cas.generate(), written into `work`, not the cwd
     gen_s = time.perf_counter() - t0
     comp = {}
-    for key, file in (("model", src / f"{name}.c"), ("solver", src / f"{name}_solver.c"),
-                      ("casadi_res", work / "cas_res.c")):
+    for key, file in (
+        ("model", src / f"{name}.c"),
+        ("solver", src / f"{name}_solver.c"),
+        ("casadi_res", work / "cas_res.c"),
+    ):
         comp[key] = statistics.median(
             _timed(["gcc", *CFLAGS, "-c", str(file), "-o", str(work / (key + ".o")), f"-I{src}", f"-I{work}"])
-            for _ in range(repeats))
-    (work / "bench.c").write_text(HARNESS.format(P=name, n=mech.n, mm=max(mech.m, 1), npp=max(len(mech.p), 1),
-                                                 nw=3 * mech.n + mech.m, N=200000 if mech.n < 10 else 40000,
-                                                 R=max(3, repeats)))
-    subprocess.run(["gcc", *CFLAGS, f"-I{src}", f"-I{work}", str(work / "bench.c"), str(work / "model.o"),
-                    str(work / "casadi_res.o"), "-o", str(work / "bench"), "-lm"], check=True)
-    runs = [list(map(float, subprocess.run([str(work / "bench")], capture_output=True, text=True,
-                                           check=True).stdout.split()[:3])) for _ in range(repeats)]
+            for _ in range(repeats)
+        )
+    (work / "bench.c").write_text(
+        HARNESS.format(
+            P=name,
+            n=mech.n,
+            mm=max(mech.m, 1),
+            npp=max(len(mech.p), 1),
+            nw=3 * mech.n + mech.m,
+            N=200000 if mech.n < 10 else 40000,
+            R=max(3, repeats),
+        )
+    )
+    subprocess.run(
+        [
+            "gcc",
+            *CFLAGS,
+            f"-I{src}",
+            f"-I{work}",
+            str(work / "bench.c"),
+            str(work / "model.o"),
+            str(work / "casadi_res.o"),
+            "-o",
+            str(work / "bench"),
+            "-lm",
+        ],
+        check=True,
+    )
+    runs = [
+        list(
+            map(
+                float,
+                subprocess.run([str(work / "bench")], capture_output=True, text=True, check=True).stdout.split()[:3],
+            )
+        )
+        for _ in range(repeats)
+    ]
     c_ns, cas_ns, jac_ns = (statistics.median(r[i] for r in runs) for i in range(3))
     # driver vs IDAS over the scene's run
     sim_exe = work / "sim"
-    subprocess.run(["gcc", *CFLAGS, f"-I{src}", str(src / f"{name}.c"), str(src / f"{name}_solver.c"),
-                    str(src / f"{name}_sim.c"), "-o", str(sim_exe), "-lm"], check=True)
+    subprocess.run(
+        [
+            "gcc",
+            *CFLAGS,
+            f"-I{src}",
+            str(src / f"{name}.c"),
+            str(src / f"{name}_solver.c"),
+            str(src / f"{name}_sim.c"),
+            "-o",
+            str(sim_exe),
+            "-lm",
+        ],
+        check=True,
+    )
     c_sim, idas_sim, stats = [], [], ""
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -135,34 +183,64 @@ def _one(path: str, repeats: int) -> dict:
         idas_sim.append(r.simulate_s)
     steps = int(stats.split(" steps")[0].split()[-1]) if " steps" in stats else -1
     by = {fn["name"]: fn for fn in ctx["functions"]}
-    return {"name": name, "n": mech.n, "res_ops": by["res"]["ops"], "jac_ops": by["res_jac"]["ops"],
-            "cas_instr": int(cas.n_instructions()), "c_ns": c_ns, "cas_ns": cas_ns, "jac_ns": jac_ns,
-            "emit_s": emit_s, "gen_s": gen_s, "comp": comp, "c_sim": statistics.median(c_sim),
-            "idas_sim": statistics.median(idas_sim), "c_steps": steps, "idas_steps": r.steps}
+    return {
+        "name": name,
+        "n": mech.n,
+        "res_ops": by["res"]["ops"],
+        "jac_ops": by["res_jac"]["ops"],
+        "cas_instr": int(cas.n_instructions()),
+        "c_ns": c_ns,
+        "cas_ns": cas_ns,
+        "jac_ns": jac_ns,
+        "emit_s": emit_s,
+        "gen_s": gen_s,
+        "comp": comp,
+        "c_sim": statistics.median(c_sim),
+        "idas_sim": statistics.median(idas_sim),
+        "c_steps": steps,
+        "idas_steps": r.steps,
+    }
 
 
 def run(repeats: int) -> str:
     rows = [_one(p, repeats) for p in EXAMPLES]
-    out = ["## Emitted C vs CasADi's generated C", "",
-           "Residual `res(t, q, v, a, lam, p)` of each example: the emitted C (SymPy CSE) against "
-           "`casadi.Function.generate()` of the same Function (SX, `cse`), both `gcc -O2`, one harness, "
-           "best of interleaved repeats (ns per call).", "",
-           "| scene | n | emitted res ops | CasADi instructions | emitted C ns | CasADi C ns | ratio | "
-           "emitted res_jac ns |",
-           "|---|---|---|---|---|---|---|---|"]
+    out = [
+        "## Emitted C vs CasADi's generated C",
+        "",
+        "Residual `res(t, q, v, a, lam, p)` of each example: the emitted C (SymPy CSE) against "
+        "`casadi.Function.generate()` of the same Function (SX, `cse`), both `gcc -O2`, one harness, "
+        "best of interleaved repeats (ns per call).",
+        "",
+        "| scene | n | emitted res ops | CasADi instructions | emitted C ns | CasADi C ns | ratio | "
+        "emitted res_jac ns |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        out.append(f"| {r['name']} | {r['n']} | {r['res_ops']} | {r['cas_instr']} | {r['c_ns']:.0f} | "
-                   f"{r['cas_ns']:.0f} | {r['c_ns'] / r['cas_ns']:.2f}x | {r['jac_ns']:.0f} |")
-    out += ["", "Compile times (`gcc -O2 -c`, s) and generation times (s):", "",
-            "| scene | emit-c (Python, derive excluded) | model .c | solver .c | CasADi generate | CasADi res .c |",
-            "|---|---|---|---|---|---|"]
+        out.append(
+            f"| {r['name']} | {r['n']} | {r['res_ops']} | {r['cas_instr']} | {r['c_ns']:.0f} | "
+            f"{r['cas_ns']:.0f} | {r['c_ns'] / r['cas_ns']:.2f}x | {r['jac_ns']:.0f} |"
+        )
+    out += [
+        "",
+        "Compile times (`gcc -O2 -c`, s) and generation times (s):",
+        "",
+        "| scene | emit-c (Python, derive excluded) | model .c | solver .c | CasADi generate | CasADi res .c |",
+        "|---|---|---|---|---|---|",
+    ]
     for r in rows:
         c = r["comp"]
-        out.append(f"| {r['name']} | {r['emit_s']:.2f} | {c['model']:.2f} | {c['solver']:.2f} | {r['gen_s']:.3f} | "
-                   f"{c['casadi_res']:.2f} |")
-    out += ["", "The scene's run (two crank turns at the scene's tolerances): C driver (Radau IIA, process "
-            "wall time incl. start-up) vs the Python path (IDAS, integration time):", "",
-            "| scene | C driver s | C steps | IDAS s | IDAS steps |", "|---|---|---|---|---|"]
+        out.append(
+            f"| {r['name']} | {r['emit_s']:.2f} | {c['model']:.2f} | {c['solver']:.2f} | {r['gen_s']:.3f} | "
+            f"{c['casadi_res']:.2f} |"
+        )
+    out += [
+        "",
+        "The scene's run (two crank turns at the scene's tolerances): C driver (Radau IIA, process "
+        "wall time incl. start-up) vs the Python path (IDAS, integration time):",
+        "",
+        "| scene | C driver s | C steps | IDAS s | IDAS steps |",
+        "|---|---|---|---|---|",
+    ]
     for r in rows:
         out.append(f"| {r['name']} | {r['c_sim']:.2f} | {r['c_steps']} | {r['idas_sim']:.2f} | {r['idas_steps']} |")
     out.append("")

@@ -8,6 +8,7 @@
 Times are medians of repeats measured in one run on this machine (shared, noisy machines:
 compare ratios within a run, not absolute numbers across runs).
 """
+
 from __future__ import annotations
 
 import json
@@ -53,14 +54,19 @@ def fresh_derive_time(path: str) -> float:
     """Derivation in a new process with an empty cache: SymPy's and symgen's caches cold."""
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, SYMGEN_CACHE_DIR=cache)
-        out = subprocess.run([sys.executable, "-c", FRESH_DERIVE.format(root=str(ROOT), path=str(ROOT / path))],
-                             capture_output=True, text=True, env=env, check=True).stdout
+        out = subprocess.run(
+            [sys.executable, "-c", FRESH_DERIVE.format(root=str(ROOT), path=str(ROOT / path))],
+            capture_output=True,
+            text=True,
+            env=env,
+            check=True,
+        ).stdout
     return json.loads(out.strip().splitlines()[-1])["derive_s"]
 
 
 def bench_examples(repeats: int) -> list[dict]:
     rows = []
-    saved = os.environ.get("SYMGEN_CACHE_DIR")     # restored below: later sections keep their cache
+    saved = os.environ.get("SYMGEN_CACHE_DIR")  # restored below: later sections keep their cache
     for path in EXAMPLES:
         scene = load_scene(ROOT / path)
         derive, build, sim, steps, closure = [], [], [], [], []
@@ -77,9 +83,19 @@ def bench_examples(repeats: int) -> list[dict]:
                 steps.append(res.steps)
                 closure.append(res.closure_max)
         turns = scene.simulation.t_end / (2 * np.pi)
-        rows.append({"scene": path, "turns": turns, "derive_s": median(derive), "build_s": median(build),
-                     "simulate_s": median(sim), "per_turn_s": median(sim) / turns, "steps": int(median(steps)),
-                     "closure": max(closure), "n_states": compiled.info.n})
+        rows.append(
+            {
+                "scene": path,
+                "turns": turns,
+                "derive_s": median(derive),
+                "build_s": median(build),
+                "simulate_s": median(sim),
+                "per_turn_s": median(sim) / turns,
+                "steps": int(median(steps)),
+                "closure": max(closure),
+                "n_states": compiled.info.n,
+            }
+        )
     if saved is None:
         os.environ.pop("SYMGEN_CACHE_DIR", None)
     else:
@@ -98,33 +114,68 @@ def bench_seed_vs_accurate() -> list[dict]:
     peak = np.abs(ref).max()
     cases = [
         ("seed (paper): linear strain, stress-free axial, 1+1", []),
-        ("accurate default (rod axially quasi-static: auto), 3+4", [*ACCURATE, "bodies.rod.axial_modes=3",
-                                                                    "bodies.rod.transverse_modes=4"]),
-        ("accurate, full axial dynamics (axial = true), 3+4", [*ACCURATE, "effects.axial=true",
-                                                               "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"]),
-        ("von Karman + stress-free axial, dynamic, 3+4", ["effects.strain=von_karman", "effects.axial=true",
-                                                         "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"]),
+        (
+            "accurate default (rod axially quasi-static: auto), 3+4",
+            [*ACCURATE, "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"],
+        ),
+        (
+            "accurate, full axial dynamics (axial = true), 3+4",
+            [*ACCURATE, "effects.axial=true", "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"],
+        ),
+        (
+            "von Karman + stress-free axial, dynamic, 3+4",
+            [
+                "effects.strain=von_karman",
+                "effects.axial=true",
+                "bodies.rod.axial_modes=3",
+                "bodies.rod.transverse_modes=4",
+            ],
+        ),
         ("accurate default with only 1+1", [*ACCURATE]),
     ]
-    rows = [{"model": "reference: accurate, full axial dynamics, 6 axial + 8 transverse", "peak": peak, "peak_err": 0.0,
-             "max_err": 0.0}]
+    rows = [
+        {
+            "model": "reference: accurate, full axial dynamics, 6 axial + 8 transverse",
+            "peak": peak,
+            "peak_err": 0.0,
+            "max_err": 0.0,
+        }
+    ]
     for label, ov in cases:
         _, y, t = midspan(ov)
-        rows.append({"model": label, "peak": np.abs(y).max(), "peak_err": np.abs(y).max() / peak - 1,
-                     "max_err": np.abs(y - ref).max() / peak, "simulate_s": t})
+        rows.append(
+            {
+                "model": label,
+                "peak": np.abs(y).max(),
+                "peak_err": np.abs(y).max() / peak - 1,
+                "max_err": np.abs(y - ref).max() / peak,
+                "simulate_s": t,
+            }
+        )
     return rows
 
 
 def render(examples, seed) -> str:
-    out = ["## Example scenes (medians of repeats; derivation in a fresh process with empty caches)", "",
-           "| scene | turns | coordinates | derive s | build s | simulate s | s per turn | IDAS steps | closure max |",
-           "|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        "## Example scenes (medians of repeats; derivation in a fresh process with empty caches)",
+        "",
+        "| scene | turns | coordinates | derive s | build s | simulate s | s per turn | IDAS steps | closure max |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in examples:
-        out.append(f"| `{r['scene']}` | {r['turns']:.0f} | {r['n_states']} | {r['derive_s']:.2f} | {r['build_s']:.2f} | "
-                   f"{r['simulate_s']:.2f} | {r['per_turn_s']:.2f} | {r['steps']} | {r['closure']:.1e} |")
-    out += ["", "## Seed model vs the accurate default (slider-crank 6.1, first two turns)", "",
-            "Midspan deflection from the chord, /l; errors relative to the reference peak.", "",
-            "| model | peak abs(eta_mid) | peak error | max pointwise error |", "|---|---|---|---|"]
+        out.append(
+            f"| `{r['scene']}` | {r['turns']:.0f} | {r['n_states']} | {r['derive_s']:.2f} | {r['build_s']:.2f} | "
+            f"{r['simulate_s']:.2f} | {r['per_turn_s']:.2f} | {r['steps']} | {r['closure']:.1e} |"
+        )
+    out += [
+        "",
+        "## Seed model vs the accurate default (slider-crank 6.1, first two turns)",
+        "",
+        "Midspan deflection from the chord, /l; errors relative to the reference peak.",
+        "",
+        "| model | peak abs(eta_mid) | peak error | max pointwise error |",
+        "|---|---|---|---|",
+    ]
     for r in seed:
         out.append(f"| {r['model']} | {r['peak']:.5f} | {100 * r['peak_err']:+.2f} % | {100 * r['max_err']:.2f} % |")
     return "\n".join(out) + "\n"
@@ -133,5 +184,3 @@ def render(examples, seed) -> str:
 def run(repeats: int) -> str:
     """Markdown of this section."""
     return render(bench_examples(repeats), bench_seed_vs_accurate())
-
-

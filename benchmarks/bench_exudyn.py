@@ -38,6 +38,7 @@ Times (medians of repeats in this run): integration CPU (Exudyn ``SolveDynamic``
 disk) and whole process: CPU (user + sys) of a fresh ``python benchmarks/exudyn_models.py ...``
 and of a fresh ``python -m symgen.cli simulate ... -o out.csv`` with the model cache warm.
 """
+
 from __future__ import annotations
 
 import math
@@ -62,7 +63,7 @@ sys.path.insert(0, str(HERE))
 TARGETS = (1e-2, 1e-3)
 TARGET_SPEEDUP = {"slider_crank_steel": (30.0, 10.0), "four_bar_steel": (10.0, None)}  # integration, process
 INEXTENSIBLE = 'effects.axial="inextensible"'
-SLOW_RUN_S = 20.0        # a symgen configuration slower than this is run once, tighter rtols skipped
+SLOW_RUN_S = 20.0  # a symgen configuration slower than this is run once, tighter rtols skipped
 
 
 # --------------------------------------------------------------------------- error measure
@@ -112,18 +113,18 @@ def cheapest(rows: list[dict], target: float, key: str = "error") -> dict | None
 class Problem:
     name: str
     outputs: tuple
-    bars: tuple                       # elastic bars (their transverse_modes are set)
+    bars: tuple  # elastic bars (their transverse_modes are set)
     exudyn: Callable
-    elements: tuple                   # Exudyn meshes (per bar)
-    steps: tuple                      # Exudyn steps per turn (multiples of 360: the output grid)
-    reference: tuple                  # Exudyn (elements, steps per turn) of the reference
-    modes: tuple                      # symgen transverse functions per bar
+    elements: tuple  # Exudyn meshes (per bar)
+    steps: tuple  # Exudyn steps per turn (multiples of 360: the output grid)
+    reference: tuple  # Exudyn (elements, steps per turn) of the reference
+    modes: tuple  # symgen transverse functions per bar
     rtols: tuple
-    default_modes: tuple = (2, 3)     # with the scene's own (default) axial treatment
+    default_modes: tuple = (2, 3)  # with the scene's own (default) axial treatment
     default_rtols: tuple = (1e-4, 1e-5, 1e-6)
-    check: tuple = ("inextensible", 6, 1e-9)   # symgen's own converged model: the cross-check
+    check: tuple = ("inextensible", 6, 1e-9)  # symgen's own converged model: the cross-check
     turns: float = 2.0
-    max_work: int = 10 ** 9           # Exudyn configurations up to elements x steps/turn (besides the reference)
+    max_work: int = 10**9  # Exudyn configurations up to elements x steps/turn (besides the reference)
 
     @property
     def scene(self) -> str:
@@ -132,30 +133,91 @@ class Problem:
 
 def problems(quick: bool) -> list[Problem]:
     from exudyn_models import four_bar, slider_crank
+
     sc_out, fb_out = ("rod_mid",), ("crank_tip", "coupler_mid", "rocker_mid")
     fb_bars = ("crank", "coupler", "rocker")
     if quick:
-        return [Problem("slider_crank_steel", sc_out, ("rod",), slider_crank, (4, 8), (720, 1440, 2880), (16, 11520),
-                        (1, 2), (1e-4, 1e-5, 1e-6), (2,), (1e-4, 1e-5), ("inextensible", 4, 1e-8), turns=1.0, max_work=8 * 2880),
-                Problem("four_bar_steel", fb_out, fb_bars, four_bar, (4, 8), (1440, 2880, 5760), (16, 11520),
-                        (1, 2), (1e-4, 1e-5, 1e-6), (1, 2), (1e-4, 1e-5), ("default", 3, 1e-8), turns=0.5, max_work=8 * 5760)]
-    return [Problem("slider_crank_steel", sc_out, ("rod",), slider_crank, (2, 4, 8, 16, 32),
-                    (360, 720, 1440, 2880, 5760, 11520, 23040), (32, 23040), (1, 2, 3, 4), (1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
-                    (2, 3), (1e-3, 1e-4, 1e-5, 1e-6), ("inextensible", 6, 1e-9), turns=2.0, max_work=32 * 23040),
-            Problem("four_bar_steel", fb_out, fb_bars, four_bar, (4, 8, 16, 32), (1440, 2880, 5760, 11520, 23040),
-                    (32, 23040), (1, 2, 3, 4), (1e-3, 1e-4, 1e-5, 1e-6), (1, 2, 3), (1e-3, 1e-4, 1e-5, 1e-6),
-                    ("default", 4, 1e-8), turns=1.0, max_work=16 * 23040)]
+        return [
+            Problem(
+                "slider_crank_steel",
+                sc_out,
+                ("rod",),
+                slider_crank,
+                (4, 8),
+                (720, 1440, 2880),
+                (16, 11520),
+                (1, 2),
+                (1e-4, 1e-5, 1e-6),
+                (2,),
+                (1e-4, 1e-5),
+                ("inextensible", 4, 1e-8),
+                turns=1.0,
+                max_work=8 * 2880,
+            ),
+            Problem(
+                "four_bar_steel",
+                fb_out,
+                fb_bars,
+                four_bar,
+                (4, 8),
+                (1440, 2880, 5760),
+                (16, 11520),
+                (1, 2),
+                (1e-4, 1e-5, 1e-6),
+                (1, 2),
+                (1e-4, 1e-5),
+                ("default", 3, 1e-8),
+                turns=0.5,
+                max_work=8 * 5760,
+            ),
+        ]
+    return [
+        Problem(
+            "slider_crank_steel",
+            sc_out,
+            ("rod",),
+            slider_crank,
+            (2, 4, 8, 16, 32),
+            (360, 720, 1440, 2880, 5760, 11520, 23040),
+            (32, 23040),
+            (1, 2, 3, 4),
+            (1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
+            (2, 3),
+            (1e-3, 1e-4, 1e-5, 1e-6),
+            ("inextensible", 6, 1e-9),
+            turns=2.0,
+            max_work=32 * 23040,
+        ),
+        Problem(
+            "four_bar_steel",
+            fb_out,
+            fb_bars,
+            four_bar,
+            (4, 8, 16, 32),
+            (1440, 2880, 5760, 11520, 23040),
+            (32, 23040),
+            (1, 2, 3, 4),
+            (1e-3, 1e-4, 1e-5, 1e-6),
+            (1, 2, 3),
+            (1e-3, 1e-4, 1e-5, 1e-6),
+            ("default", 4, 1e-8),
+            turns=1.0,
+            max_work=16 * 23040,
+        ),
+    ]
 
 
 def output_step(p: Problem) -> float:
     """The scene's output step in seconds (the common grid)."""
     from symgen.scene import load_scene
+
     scene = load_scene(p.scene)
     return scene.simulation.output_step / _omega(p)
 
 
 def _omega(p: Problem) -> float:
     import tomllib
+
     with open(p.scene, "rb") as f:
         return float(tomllib.load(f)["scene"]["omega"])
 
@@ -167,7 +229,7 @@ def symgen_overrides(p: Problem, axial: str, nt: int, rtol: float) -> list[str]:
     return over + [f"simulation.rtol={rtol:g}", f"simulation.atol={rtol * 1e-3:g}", f"simulation.cycles={p.turns:g}"]
 
 
-SOLVERS = ("idas", "c")       # symgen simulate (IDAS, compiled model) and symgen simulate --solver c
+SOLVERS = ("idas", "c")  # symgen simulate (IDAS, compiled model) and symgen simulate --solver c
 
 
 def symgen_run(p: Problem, overrides: list[str], solver: str = "idas"):
@@ -183,9 +245,11 @@ def symgen_timed(scene, overrides: list[str], solver: str = "idas"):
     CPU time of ``init`` + ``advance`` (its ``--stats``; the executable is built and cached before)."""
     from symgen.api import mechanism, results_table
     from symgen.numerics.simulate import simulate
+
     mech = mechanism(scene, overrides)
     if solver == "c":
         from symgen.numerics.csolver import simulate_c
+
         res = simulate_c(mech)
         cpu = res.stats["solve_cpu_s"]
     else:
@@ -218,6 +282,7 @@ def process_time(cmd: list[str]) -> tuple[float, float]:
 def compile_sources() -> None:
     """Byte-compile symgen (and this folder) once, as pip does on install."""
     import compileall
+
     for folder in (ROOT / "symgen", HERE):
         compileall.compile_dir(str(folder), quiet=1)
 
@@ -237,27 +302,38 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         for spt in p.steps:
             if ne * spt > p.max_work and (ne, spt) != p.reference:
                 continue
-            row = {"id": (ne, spt), "finer": (ne, 2 * spt), "ne": ne, "spt": spt,
-                   "config": f"{ne} elements/bar, {spt} steps/turn"}
+            row = {
+                "id": (ne, spt),
+                "finer": (ne, 2 * spt),
+                "ne": ne,
+                "spt": spt,
+                "config": f"{ne} elements/bar, {spt} steps/turn",
+            }
             try:
                 if (ne, spt) == p.reference:
                     runs = [(t, ref_out, ref_cpu)]
                 else:
                     runs = [p.exudyn(ne, spt, p.turns)]
-                if runs[0][2] < SLOW_RUN_S / 10:          # time the cheap ones again (the picks are among them)
+                if runs[0][2] < SLOW_RUN_S / 10:  # time the cheap ones again (the picks are among them)
                     runs += [p.exudyn(ne, spt, p.turns) for _ in range(repeats - 1)]
-                per = {k: peak_error(np.asarray(runs[0][1][k])[on_grid(runs[0][0], dt, n)], ref[k])
-                       for k in p.outputs}
+                per = {k: peak_error(np.asarray(runs[0][1][k])[on_grid(runs[0][0], dt, n)], ref[k]) for k in p.outputs}
             except Exception as err:
-                row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0, per={},
-                           failed=str(err).splitlines()[0][:90])
+                row.update(
+                    cpu=math.inf, error=math.inf, own=math.inf, steps=0, per={}, failed=str(err).splitlines()[0][:90]
+                )
                 ex_rows.append(row)
                 continue
-            ex_rows.append({**row,
-                            "steps": len(runs[0][0]) - 1,         # sensors write every step (adaptive halvings too)
-                            "config": f"{ne} elements/bar, {spt} steps/turn", "per": per,
-                            "error": max(per.values()), "own": max(per.values()),
-                            "cpu": statistics.median(r[2] for r in runs)})
+            ex_rows.append(
+                {
+                    **row,
+                    "steps": len(runs[0][0]) - 1,  # sensors write every step (adaptive halvings too)
+                    "config": f"{ne} elements/bar, {spt} steps/turn",
+                    "per": per,
+                    "error": max(per.values()),
+                    "own": max(per.values()),
+                    "cpu": statistics.median(r[2] for r in runs),
+                }
+            )
 
     # symgen's own converged model, cross-checked against the Exudyn reference
     cax, cnt, crtol = p.check
@@ -274,13 +350,26 @@ def bench_problem(p: Problem, repeats: int) -> dict:
     configs += [("default", nt, rtol, sv) for sv in SOLVERS for nt in p.default_modes for rtol in p.default_rtols]
     slow: set = set()
     for axial, nt, rtol, solver in configs:
-        label = (f"{'inextensible' if axial != 'default' else 'scene default axial'}, {nt} transverse, rtol {rtol:g}"
-                 + (", --solver c" if solver == "c" else ""))
-        row = {"id": (axial, nt, rtol, solver), "finer": (axial, nt, rtol / 10, solver), "config": label,
-               "axial": axial, "nt": nt, "rtol": rtol, "solver": solver}
+        label = f"{'inextensible' if axial != 'default' else 'scene default axial'}, {nt} transverse, rtol {rtol:g}" + (
+            ", --solver c" if solver == "c" else ""
+        )
+        row = {
+            "id": (axial, nt, rtol, solver),
+            "finer": (axial, nt, rtol / 10, solver),
+            "config": label,
+            "axial": axial,
+            "nt": nt,
+            "rtol": rtol,
+            "solver": solver,
+        }
         if (axial, nt, solver) in slow:
-            row.update(cpu=math.inf, error=math.inf, own=math.inf, steps=0,
-                       failed=f"not run: a looser rtol took > {SLOW_RUN_S:g} s")
+            row.update(
+                cpu=math.inf,
+                error=math.inf,
+                own=math.inf,
+                steps=0,
+                failed=f"not run: a looser rtol took > {SLOW_RUN_S:g} s",
+            )
             sg_rows.append(row)
             continue
         over = symgen_overrides(p, axial, nt, rtol)
@@ -295,10 +384,17 @@ def bench_problem(p: Problem, repeats: int) -> dict:
         else:
             tt, cols, _, steps = runs[0]
             row["per"] = {k: peak_error(np.asarray(cols[k])[on_grid(tt, dt, n)], ref[k]) for k in p.outputs}
-            row.update(cpu=statistics.median(r[2] for r in runs), steps=steps, error=max(row["per"].values()),
-                       repeats=len(runs))
-            row["own"] = (max(peak_error(np.asarray(cols[k])[on_grid(tt, dt, n)], own_ref[k]) for k in p.outputs)
-                          if own_ref is not None else math.inf)
+            row.update(
+                cpu=statistics.median(r[2] for r in runs),
+                steps=steps,
+                error=max(row["per"].values()),
+                repeats=len(runs),
+            )
+            row["own"] = (
+                max(peak_error(np.asarray(cols[k])[on_grid(tt, dt, n)], own_ref[k]) for k in p.outputs)
+                if own_ref is not None
+                else math.inf
+            )
         sg_rows.append(row)
 
     # whole process, at the 1 % picks (the model cache is warm: every configuration ran above)
@@ -314,12 +410,15 @@ def bench_problem(p: Problem, repeats: int) -> dict:
             sg_cmd += ["--set", o]
         if solver == "c":
             sg_cmd += ["--solver", "c"]
-        process_time(sg_cmd)                                   # warm the cache (and the OS file cache)
+        process_time(sg_cmd)  # warm the cache (and the OS file cache)
         ex_t = [process_time(ex_cmd) for _ in range(repeats)]
         sg_t = [process_time(sg_cmd) for _ in range(repeats)]
-        procs[(target, solver)] = {"exudyn": statistics.median(c for c, _ in ex_t), "symgen": statistics.median(c for c, _ in sg_t),
-                         "exudyn_wall": statistics.median(w for _, w in ex_t),
-                         "symgen_wall": statistics.median(w for _, w in sg_t)}
+        procs[(target, solver)] = {
+            "exudyn": statistics.median(c for c, _ in ex_t),
+            "symgen": statistics.median(c for c, _ in sg_t),
+            "exudyn_wall": statistics.median(w for _, w in ex_t),
+            "symgen_wall": statistics.median(w for _, w in sg_t),
+        }
         for f in out_csv.parent.iterdir():
             f.unlink()
         out_csv.parent.rmdir()
@@ -329,6 +428,7 @@ def bench_problem(p: Problem, repeats: int) -> dict:
     if s1:
         from symgen.api import mechanism
         from symgen.numerics.simulate import simulate
+
         mech = mechanism(p.scene, symgen_overrides(p, s1["axial"], s1["nt"], s1["rtol"]))
         fixed = []
         for _ in range(max(3, repeats)):
@@ -336,11 +436,22 @@ def bench_problem(p: Problem, repeats: int) -> dict:
             simulate(mech, t_end=dt * _omega(p))
             fixed.append(time.process_time() - t0)
         why["fixed"] = statistics.median(fixed)
-        why["imports"] = {tool: statistics.median(process_time([sys.executable, "-c", f"import {mod}"])[0]
-                                                  for _ in range(repeats))
-                          for tool, mod in (("exudyn", "exudyn"), ("symgen", "symgen.cli"))}
-    return {"problem": p, "ref_cpu": ref_cpu, "why": why, "peaks": peaks, "ex": ex_rows, "sg": sg_rows, "check": check,
-            "check_cpu": ccpu, "check_steps": csteps, "procs": procs}
+        why["imports"] = {
+            tool: statistics.median(process_time([sys.executable, "-c", f"import {mod}"])[0] for _ in range(repeats))
+            for tool, mod in (("exudyn", "exudyn"), ("symgen", "symgen.cli"))
+        }
+    return {
+        "problem": p,
+        "ref_cpu": ref_cpu,
+        "why": why,
+        "peaks": peaks,
+        "ex": ex_rows,
+        "sg": sg_rows,
+        "check": check,
+        "check_cpu": ccpu,
+        "check_steps": csteps,
+        "procs": procs,
+    }
 
 
 def _solver_rows(rows: list[dict], solver: str) -> list[dict]:
@@ -356,38 +467,58 @@ def report(r: dict, repeats: int) -> list[str]:
     p: Problem = r["problem"]
     ex, sg = r["ex"], r["sg"]
     ne_ref, spt_ref = p.reference
-    out = [f"### {p.name} ({p.turns:g} turns; outputs {', '.join(p.outputs)})", "",
-           "Reference: Exudyn, " f"{ne_ref} elements/bar, {spt_ref} steps/turn ({r['ref_cpu']:.1f} s); peaks "
-           + ", ".join(f"{k} {v:.4g} m" for k, v in r["peaks"].items()) + ".", ""]
+    out = [
+        f"### {p.name} ({p.turns:g} turns; outputs {', '.join(p.outputs)})",
+        "",
+        "Reference: Exudyn, "
+        f"{ne_ref} elements/bar, {spt_ref} steps/turn ({r['ref_cpu']:.1f} s); peaks "
+        + ", ".join(f"{k} {v:.4g} m" for k, v in r["peaks"].items())
+        + ".",
+        "",
+    ]
     cax, cnt, crtol = p.check
     cname = "inextensible" if cax == "inextensible" else "scene default axial"
     if "failed" in r["check"]:
-        out.append(f"Cross-check: symgen {cname}, {cnt} transverse/bar at rtol {crtol:g} failed: {r['check']['failed']}")
+        out.append(
+            f"Cross-check: symgen {cname}, {cnt} transverse/bar at rtol {crtol:g} failed: {r['check']['failed']}"
+        )
     else:
-        out.append(f"Cross-check: symgen's own converged model ({cname}, {cnt} transverse functions/bar, rtol {crtol:g}, "
-                   f"{r['check_steps']} IDAS steps, {r['check_cpu']:.2f} s) differs from the reference by "
-                   + ", ".join(f"{k} {_pct(v)}" for k, v in r["check"].items()) + ".")
+        out.append(
+            f"Cross-check: symgen's own converged model ({cname}, {cnt} transverse functions/bar, rtol {crtol:g}, "
+            f"{r['check_steps']} IDAS steps, {r['check_cpu']:.2f} s) differs from the reference by "
+            + ", ".join(f"{k} {_pct(v)}" for k, v in r["check"].items())
+            + "."
+        )
     # convergence table of Exudyn
-    out += ["", "Exudyn's convergence (error against the reference, max over the outputs):", "",
-            "| elements/bar \\ steps/turn | " + " | ".join(str(s) for s in p.steps) + " |",
-            "|---|" + "---|" * len(p.steps)]
+    out += [
+        "",
+        "Exudyn's convergence (error against the reference, max over the outputs):",
+        "",
+        "| elements/bar \\ steps/turn | " + " | ".join(str(s) for s in p.steps) + " |",
+        "|---|" + "---|" * len(p.steps),
+    ]
     by = {r_["id"]: r_ for r_ in ex if "failed" not in r_}
     for ne in p.elements:
-        out.append(f"| {ne} | " + " | ".join(_pct(by[(ne, s)]["error"]) if (ne, s) in by else "" for s in p.steps)
-                   + " |")
+        out.append(
+            f"| {ne} | " + " | ".join(_pct(by[(ne, s)]["error"]) if (ne, s) in by else "" for s in p.steps) + " |"
+        )
     # the picks
     tgt_int, tgt_proc = TARGET_SPEEDUP.get(p.name, (None, None))
-    out += ["", "| target | Exudyn: cheapest | error | CPU s | symgen: cheapest | error | CPU s | steps | "
-            "integration Exudyn/symgen | whole process Exudyn/symgen (CPU s) |", "|---|---|---|---|---|---|---|---|---|---|"]
-    for target, key, solver in ((t_, k_, sv) for t_, k_ in ((TARGETS[0], "error"), (TARGETS[1], "error"),
-                                                           (TARGETS[1], "own")) for sv in SOLVERS):
+    out += [
+        "",
+        "| target | Exudyn: cheapest | error | CPU s | symgen: cheapest | error | CPU s | steps | "
+        "integration Exudyn/symgen | whole process Exudyn/symgen (CPU s) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for target, key, solver in (
+        (t_, k_, sv) for t_, k_ in ((TARGETS[0], "error"), (TARGETS[1], "error"), (TARGETS[1], "own")) for sv in SOLVERS
+    ):
         e, s_ = cheapest(ex, target, key), cheapest(_solver_rows(sg, solver), target, key)
         ratio = f"**{e['cpu'] / s_['cpu']:.2f}x**" if e and s_ else "—"
         pr = r["procs"].get((target, solver)) if key == "error" else None
-        pcol = (f"**{pr['exudyn'] / pr['symgen']:.2f}x** ({pr['exudyn']:.2f} / {pr['symgen']:.2f})" if pr else "—")
+        pcol = f"**{pr['exudyn'] / pr['symgen']:.2f}x** ({pr['exudyn']:.2f} / {pr['symgen']:.2f})" if pr else "—"
         ecol = f"{e['config']} | {_pct(e[key])} | {e['cpu']:.3f}" if e else "none reached it | | "
-        scol = (f"{s_['config']} | {_pct(s_[key])} | {s_['cpu']:.3f} | {s_['steps']}" if s_
-                else "none reached it | | | ")
+        scol = f"{s_['config']} | {_pct(s_[key])} | {s_['cpu']:.3f} | {s_['steps']}" if s_ else "none reached it | | | "
         against = "" if key == "error" else " (each tool against its own converged solution)"
         out.append(f"| {100 * target:g} %{against} | {ecol} | {scol} | {ratio} | {pcol} |")
     e1 = cheapest(ex, 1e-2)
@@ -405,8 +536,10 @@ def report(r: dict, repeats: int) -> list[str]:
         if tgt_proc and pr:
             gp = pr["exudyn"] / pr["symgen"]
             verdict = "met" if gp >= tgt_proc else f"**not met**: {tgt_proc / gp:.1f}x short"
-            out.append(f"Target at 1 %, {how}: whole process >= {tgt_proc:g}x: {gp:.2f}x, {verdict} "
-                       f"(wall s: Exudyn {pr['exudyn_wall']:.2f}, symgen {pr['symgen_wall']:.2f}).")
+            out.append(
+                f"Target at 1 %, {how}: whole process >= {tgt_proc:g}x: {gp:.2f}x, {verdict} "
+                f"(wall s: Exudyn {pr['exudyn_wall']:.2f}, symgen {pr['symgen_wall']:.2f})."
+            )
         out.append("")
     why = r["why"]
     s1 = cheapest(_solver_rows(sg, "idas"), 1e-2)
@@ -414,16 +547,23 @@ def report(r: dict, repeats: int) -> list[str]:
         per_ex = e1["cpu"] / max(e1["steps"], 1)
         per_sg = (s1["cpu"] - why["fixed"]) / max(s1["steps"], 1)
         imp = why["imports"]
-        out += ["", f"Where the time goes at 1 %: Exudyn {e1['steps']} steps x {1e6 * per_ex:.1f} µs; symgen "
-                f"{s1['steps']} IDAS steps x {1e6 * per_sg:.1f} µs + {why['fixed']:.3f} s per run (the same "
-                f"configuration over one output step: integrator set-up, consistent start, outputs; "
-                f"{100 * why['fixed'] / s1['cpu']:.0f} % of its integration CPU). Steps: symgen/Exudyn "
-                f"{s1['steps'] / max(e1['steps'], 1):.2f}; cost per step symgen/Exudyn {per_sg / per_ex:.2f}. "
-                f"Whole process: importing alone costs {imp['exudyn']:.2f} s (`import exudyn`) and "
-                f"{imp['symgen']:.2f} s (`import symgen.cli`) CPU."]
-    out += ["", "<details><summary>every configuration</summary>", "",
-            "| tool | configuration | CPU s | steps | error | error vs own converged | " + " | ".join(p.outputs) + " |",
-            "|---|---|---|---|---|---|" + "---|" * len(p.outputs)]
+        out += [
+            "",
+            f"Where the time goes at 1 %: Exudyn {e1['steps']} steps x {1e6 * per_ex:.1f} µs; symgen "
+            f"{s1['steps']} IDAS steps x {1e6 * per_sg:.1f} µs + {why['fixed']:.3f} s per run (the same "
+            f"configuration over one output step: integrator set-up, consistent start, outputs; "
+            f"{100 * why['fixed'] / s1['cpu']:.0f} % of its integration CPU). Steps: symgen/Exudyn "
+            f"{s1['steps'] / max(e1['steps'], 1):.2f}; cost per step symgen/Exudyn {per_sg / per_ex:.2f}. "
+            f"Whole process: importing alone costs {imp['exudyn']:.2f} s (`import exudyn`) and "
+            f"{imp['symgen']:.2f} s (`import symgen.cli`) CPU.",
+        ]
+    out += [
+        "",
+        "<details><summary>every configuration</summary>",
+        "",
+        "| tool | configuration | CPU s | steps | error | error vs own converged | " + " | ".join(p.outputs) + " |",
+        "|---|---|---|---|---|---|" + "---|" * len(p.outputs),
+    ]
     for tool, rows in (("Exudyn", ex), ("symgen", sg)):
         for row in rows:
             if "failed" in row:
@@ -431,14 +571,19 @@ def report(r: dict, repeats: int) -> list[str]:
     for row in ex:
         if "failed" in row:
             continue
-        out.append(f"| Exudyn | {row['config']} | {row['cpu']:.3f} | {row['steps']} | {_pct(row['error'])} | (same) | "
-                   + " | ".join(_pct(row["per"][k]) for k in p.outputs) + " |")
+        out.append(
+            f"| Exudyn | {row['config']} | {row['cpu']:.3f} | {row['steps']} | {_pct(row['error'])} | (same) | "
+            + " | ".join(_pct(row["per"][k]) for k in p.outputs)
+            + " |"
+        )
     for row in sg:
         if "failed" in row:
             continue
         note = "" if row.get("repeats", repeats) == repeats else f" (1 run: > {SLOW_RUN_S:g} s)"
-        out.append(f"| symgen | {row['config']} | {row['cpu']:.3f}{note} | {row['steps']} | {_pct(row['error'])} | "
-                   f"{_pct(row['own'])} | " + " | ".join(_pct(row["per"][k]) for k in p.outputs) + " |")
+        out.append(
+            f"| symgen | {row['config']} | {row['cpu']:.3f}{note} | {row['steps']} | {_pct(row['error'])} | "
+            f"{_pct(row['own'])} | " + " | ".join(_pct(row["per"][k]) for k in p.outputs) + " |"
+        )
     out += ["", "</details>", ""]
     return out
 
@@ -447,21 +592,29 @@ def run(repeats: int, quick: bool = False) -> str:
     try:
         import exudyn
     except ImportError:
-        return ("## symgen vs Exudyn on steel mechanisms\n\nExudyn is not installed (optional: "
-                "`python -m pip install exudyn`, the `bench` extra); section skipped.\n")
+        return (
+            "## symgen vs Exudyn on steel mechanisms\n\nExudyn is not installed (optional: "
+            "`python -m pip install exudyn`, the `bench` extra); section skipped.\n"
+        )
     import symgen
-    out = ["## symgen vs Exudyn on steel mechanisms", "",
-           f"Exudyn {exudyn.__version__} (ANCF cable elements, `SolveDynamic`: generalized-alpha, spectral radius 0.9, "
-           f"fixed step) vs symgen {getattr(symgen, '__version__', '')} (IDAS on the compiled model, and the emitted C "
-           "Radau IIA solver of `--solver c`; configurations: the scene's default effects, and "
-           "`effects.axial=\"inextensible\"`). Scenes `benchmarks/scenes/*_steel.toml`; problem, error "
-           "measure and timing rules in the docstring of `benchmarks/bench_exudyn.py`. Error: max over the outputs of "
-           "max |y − y_ref| / max |y_ref| over the whole run on a one-degree grid, against one Exudyn fine-mesh, "
-           "small-step reference. A configuration counts only when its next refinement (2x steps, 10x tighter rtol) "
-           "is within the target too. CPU s: integration (Exudyn `SolveDynamic`, symgen `simulate` on a cached "
-           "model; for `--solver c` the C solver's own CPU time) and whole process (a fresh Python process per tool: `python benchmarks/exudyn_models.py ...`, "
-           f"`python -m symgen.cli simulate ...` with the model cache warm), medians of {repeats}"
-           + (" (--quick: one turn, small grids)" if quick else "") + ".", ""]
+
+    out = [
+        "## symgen vs Exudyn on steel mechanisms",
+        "",
+        f"Exudyn {exudyn.__version__} (ANCF cable elements, `SolveDynamic`: generalized-alpha, spectral radius 0.9, "
+        f"fixed step) vs symgen {getattr(symgen, '__version__', '')} (IDAS on the compiled model, and the emitted C "
+        "Radau IIA solver of `--solver c`; configurations: the scene's default effects, and "
+        '`effects.axial="inextensible"`). Scenes `benchmarks/scenes/*_steel.toml`; problem, error '
+        "measure and timing rules in the docstring of `benchmarks/bench_exudyn.py`. Error: max over the outputs of "
+        "max |y − y_ref| / max |y_ref| over the whole run on a one-degree grid, against one Exudyn fine-mesh, "
+        "small-step reference. A configuration counts only when its next refinement (2x steps, 10x tighter rtol) "
+        "is within the target too. CPU s: integration (Exudyn `SolveDynamic`, symgen `simulate` on a cached "
+        "model; for `--solver c` the C solver's own CPU time) and whole process (a fresh Python process per tool: `python benchmarks/exudyn_models.py ...`, "
+        f"`python -m symgen.cli simulate ...` with the model cache warm), medians of {repeats}"
+        + (" (--quick: one turn, small grids)" if quick else "")
+        + ".",
+        "",
+    ]
     compile_sources()
     for p in problems(quick):
         out += report(bench_problem(p, repeats), repeats)

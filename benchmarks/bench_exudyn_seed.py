@@ -19,6 +19,7 @@ within 1 % and within 0.1 % is picked; times are CPU seconds of the integration 
 ``SolveDynamic`` after ``Assemble``; symgen: ``simulate`` after derivation and build, whose
 one-off cost, cached on disk, is listed too), medians of repeats.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,25 +41,36 @@ from symgen.apps.study import window_error  # noqa: E402
 SCENE = str(ROOT / "examples" / "slider_crank.toml")
 LAMBDA, MU, ALPHA = 18246.0, 0.495, 0.5
 TURNS = 2
-STEP = math.pi / 180                 # output step of the comparison: one degree of crank
-CUTOFF = 50.0 / (2 * math.pi)        # cycles per unit tau
+STEP = math.pi / 180  # output step of the comparison: one degree of crank
+CUTOFF = 50.0 / (2 * math.pi)  # cycles per unit tau
 ACCURATE = ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete"]
 TARGETS = (1e-2, 1e-3)
 
 EXUDYN_ELEMENTS = (2, 4, 8, 16)
-EXUDYN_STEPS = (90, 180, 360, 720, 1440, 2880, 5760)      # per turn
+EXUDYN_STEPS = (90, 180, 360, 720, 1440, 2880, 5760)  # per turn
 SYMGEN_LEVELS = ((3, 2), (3, 3), (3, 4), (4, 4), (4, 6))
 SYMGEN_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6)
-INEXTENSIBLE = (2, 3, 4, 6)            # transverse functions of the inextensible-bar model
+INEXTENSIBLE = (2, 3, 4, 6)  # transverse functions of the inextensible-bar model
 
 
 # --------------------------------------------------------------------------- Exudyn
 def exudyn_run(elements: int, steps_per_turn: int, turns: float = TURNS) -> tuple[np.ndarray, np.ndarray, float]:
     """(tau, midspan chord deflection, CPU s of SolveDynamic) of the ANCF model."""
     import exudyn as exu
-    from exudyn.itemInterface import (CoordinateConstraint, MarkerBodyPosition, MarkerNodeCoordinate,
-                                      MarkerNodePosition, NodePoint2DSlope1, NodePointGround, NodeRigidBody2D,
-                                      ObjectANCFCable2D, ObjectRigidBody2D, RevoluteJoint2D, SensorNode)
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        MarkerBodyPosition,
+        MarkerNodeCoordinate,
+        MarkerNodePosition,
+        NodePoint2DSlope1,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectANCFCable2D,
+        ObjectRigidBody2D,
+        RevoluteJoint2D,
+        SensorNode,
+    )
+
     assert elements % 2 == 0, "the midspan must be a node"
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
@@ -74,17 +86,35 @@ def exudyn_run(elements: int, steps_per_turn: int, turns: float = TURNS) -> tupl
     for i in range(elements + 1):
         s = i / elements
         # rigid-mechanism velocities at tau = 0: the rod turns at -0.5, its end A moves at (0, 0.5)
-        nodes.append(mbs.AddNode(NodePoint2DSlope1(referenceCoordinates=[ALPHA + s, 0, 1, 0],
-                                                   initialVelocities=[0, ALPHA * (1 - s), 0, -ALPHA])))
+        nodes.append(
+            mbs.AddNode(
+                NodePoint2DSlope1(
+                    referenceCoordinates=[ALPHA + s, 0, 1, 0], initialVelocities=[0, ALPHA * (1 - s), 0, -ALPHA]
+                )
+            )
+        )
     for i in range(elements):
-        mbs.AddObject(ObjectANCFCable2D(nodeNumbers=[nodes[i], nodes[i + 1]], length=1.0 / elements, massPerLength=1.0,
-                                        bendingStiffness=MU, axialStiffness=LAMBDA))
+        mbs.AddObject(
+            ObjectANCFCable2D(
+                nodeNumbers=[nodes[i], nodes[i + 1]],
+                length=1.0 / elements,
+                massPerLength=1.0,
+                bendingStiffness=MU,
+                axialStiffness=LAMBDA,
+            )
+        )
     mbs.AddObject(RevoluteJoint2D(markerNumbers=[m_tip, mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[0]))]))
-    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[-1],
-                                                                                                   coordinate=1))]))
-    sensors = [mbs.AddSensor(SensorNode(nodeNumber=nodes[k], storeInternal=True,
-                                        outputVariableType=exu.OutputVariableType.Position))
-               for k in (0, elements // 2, elements)]
+    mbs.AddObject(
+        CoordinateConstraint(
+            markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[-1], coordinate=1))]
+        )
+    )
+    sensors = [
+        mbs.AddSensor(
+            SensorNode(nodeNumber=nodes[k], storeInternal=True, outputVariableType=exu.OutputVariableType.Position)
+        )
+        for k in (0, elements // 2, elements)
+    ]
     mbs.Assemble()
     ss = exu.SimulationSettings()
     end = turns * 2 * math.pi
@@ -113,8 +143,17 @@ def symgen_mech(na: int | str, nt: int, rtol: float):
     """The accurate model with na axial + nt transverse functions (na = "inextensible": the
     inextensible-bar model, ``effects.axial = "inextensible"``, no axial amplitudes)."""
     axial = ['effects.axial="inextensible"'] if na == "inextensible" else [f"bodies.rod.axial_modes={na}"]
-    return mechanism(SCENE, [*ACCURATE, *axial, f"bodies.rod.transverse_modes={nt}",
-                             f"simulation.rtol={rtol:g}", f"simulation.atol={rtol / 100:g}", f"simulation.cycles={TURNS}"])
+    return mechanism(
+        SCENE,
+        [
+            *ACCURATE,
+            *axial,
+            f"bodies.rod.transverse_modes={nt}",
+            f"simulation.rtol={rtol:g}",
+            f"simulation.atol={rtol / 100:g}",
+            f"simulation.cycles={TURNS}",
+        ],
+    )
 
 
 def symgen_run(mech, **kw) -> tuple[np.ndarray, np.ndarray, float, int]:
@@ -142,11 +181,13 @@ def run(repeats: int) -> str:
     try:
         import exudyn
     except ImportError:
-        return ("## symgen vs Exudyn\n\nExudyn is not installed (optional: `python -m pip install -e '.[bench]'`); "
-                "section skipped.\n")
+        return (
+            "## symgen vs Exudyn\n\nExudyn is not installed (optional: `python -m pip install -e '.[bench]'`); "
+            "section skipped.\n"
+        )
     ref_mech = symgen_mech(6, 8, 1e-9)
     ref_tau, ref, ref_cpu, ref_steps = symgen_run(ref_mech)
-    ex_ref = exudyn_run(32, 23040)                     # Exudyn's own converged solution
+    ex_ref = exudyn_run(32, 23040)  # Exudyn's own converged solution
     ex_ref_y = np.interp(ref_tau, ex_ref[0], ex_ref[1])
     check_err = error(ex_ref[0], ex_ref[1], ref_tau, ref)
     ex_rows = []
@@ -156,19 +197,31 @@ def run(repeats: int) -> str:
                 continue
             runs = [exudyn_run(ne, spt) for _ in range(repeats)]
             tau, y = runs[0][0], runs[0][1]
-            ex_rows.append({"id": (ne, spt), "finer": (ne, 2 * spt), "config": f"{ne} elements, {spt} steps/turn",
-                            "cpu": statistics.median(r[2] for r in runs), "coords": 4 * (ne + 1),
-                            "error": error(tau, y, ref_tau, ref), "own": error(tau, y, ref_tau, ex_ref_y)})
+            ex_rows.append(
+                {
+                    "id": (ne, spt),
+                    "finer": (ne, 2 * spt),
+                    "config": f"{ne} elements, {spt} steps/turn",
+                    "cpu": statistics.median(r[2] for r in runs),
+                    "coords": 4 * (ne + 1),
+                    "error": error(tau, y, ref_tau, ref),
+                    "own": error(tau, y, ref_tau, ex_ref_y),
+                }
+            )
     sg_rows = []
     for na, nt in [*SYMGEN_LEVELS, *[("inextensible", nt) for nt in INEXTENSIBLE]]:
         for rtol in SYMGEN_RTOLS:
             mech = symgen_mech(na, nt, rtol)
-            for axial in ((False, True) if na != "inextensible" else (False,)):
+            for axial in (False, True) if na != "inextensible" else (False,):
                 kw = {"axial_atol": 1e3} if axial else {}
                 name = f"inextensible, {nt} transverse" if na == "inextensible" else f"{na}+{nt}"
                 label = f"{name}, rtol {rtol:g}{', axial error control off' if axial else ''}"
-                row = {"id": (na, nt, rtol, axial), "finer": (na, nt, rtol / 10, axial), "config": label,
-                       "coords": 3 + (0 if na == "inextensible" else na) + nt}
+                row = {
+                    "id": (na, nt, rtol, axial),
+                    "finer": (na, nt, rtol / 10, axial),
+                    "config": label,
+                    "coords": 3 + (0 if na == "inextensible" else na) + nt,
+                }
                 try:
                     runs = [symgen_run(mech, **kw) for _ in range(repeats)]
                 except Exception as err:
@@ -177,18 +230,23 @@ def run(repeats: int) -> str:
                     e = error(runs[0][0], runs[0][1], ref_tau, ref)
                     row.update(cpu=statistics.median(r[2] for r in runs), steps=runs[0][3], error=e, own=e)
                 sg_rows.append(row)
-    out = ["## symgen vs Exudyn: the seed's slider-crank at equal accuracy", "",
-           f"Exudyn {exudyn.__version__} (ANCF cable elements, `SolveDynamic`: generalized-alpha, spectral radius "
-           "0.9, fixed step) vs symgen (von Kármán strain, complete axial family, IDAS). Error: midspan deflection "
-           "from the chord over the first two turns, low-passed below 50 cycles/turn, max |y − y_ref| / max |y_ref|. "
-           f"Common reference: symgen 6+8 at rtol 1e-9 ({ref_steps} IDAS steps, {ref_cpu:.2f} s). Exudyn's own "
-           f"converged solution (32 elements, 23040 steps/turn, {ex_ref[2]:.1f} s) differs from it by "
-           f"**{100 * check_err:.2f} %**: the two formulations (geometrically exact ANCF cable, von Kármán assumed "
-           "modes) agree to that, so below it each tool is measured against its own converged solution as well. "
-           "A configuration counts only when its next refinement (2x steps, or 10x tighter rtol) is within the "
-           f"target too. CPU s of the integration of two turns (720 outputs), medians of {repeats}.", "",
-           "| target | against | Exudyn: cheapest config | error | CPU s | symgen: cheapest config | error | CPU s | "
-           "Exudyn / symgen |", "|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        "## symgen vs Exudyn: the seed's slider-crank at equal accuracy",
+        "",
+        f"Exudyn {exudyn.__version__} (ANCF cable elements, `SolveDynamic`: generalized-alpha, spectral radius "
+        "0.9, fixed step) vs symgen (von Kármán strain, complete axial family, IDAS). Error: midspan deflection "
+        "from the chord over the first two turns, low-passed below 50 cycles/turn, max |y − y_ref| / max |y_ref|. "
+        f"Common reference: symgen 6+8 at rtol 1e-9 ({ref_steps} IDAS steps, {ref_cpu:.2f} s). Exudyn's own "
+        f"converged solution (32 elements, 23040 steps/turn, {ex_ref[2]:.1f} s) differs from it by "
+        f"**{100 * check_err:.2f} %**: the two formulations (geometrically exact ANCF cable, von Kármán assumed "
+        "modes) agree to that, so below it each tool is measured against its own converged solution as well. "
+        "A configuration counts only when its next refinement (2x steps, or 10x tighter rtol) is within the "
+        f"target too. CPU s of the integration of two turns (720 outputs), medians of {repeats}.",
+        "",
+        "| target | against | Exudyn: cheapest config | error | CPU s | symgen: cheapest config | error | CPU s | "
+        "Exudyn / symgen |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for target in TARGETS:
         for key, against in (("error", "common reference"), ("own", "own converged solution")):
             e, s_ = cheapest(ex_rows, target, key), cheapest(sg_rows, target, key)
@@ -196,18 +254,26 @@ def run(repeats: int) -> str:
             ecol = f"{e['config']} | {100 * e[key]:.3f} % | {e['cpu']:.3f}" if e else "none reached it | | "
             scol = f"{s_['config']} | {100 * s_[key]:.3f} % | {s_['cpu']:.3f}" if s_ else "none reached it | | "
             out.append(f"| {100 * target:g} % | {against} | {ecol} | {scol} | {ratio} |")
-    out += ["", "<details><summary>every configuration</summary>", "",
-            "| tool | configuration | coordinates | CPU s | IDAS steps | error (common ref) | error (own ref) |",
-            "|---|---|---|---|---|---|---|"]
+    out += [
+        "",
+        "<details><summary>every configuration</summary>",
+        "",
+        "| tool | configuration | coordinates | CPU s | IDAS steps | error (common ref) | error (own ref) |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in ex_rows:
-        out.append(f"| Exudyn | {r['config']} | {r['coords']} | {r['cpu']:.3f} | | {100 * r['error']:.3f} % | "
-                   f"{100 * r['own']:.3f} % |")
+        out.append(
+            f"| Exudyn | {r['config']} | {r['coords']} | {r['cpu']:.3f} | | {100 * r['error']:.3f} % | "
+            f"{100 * r['own']:.3f} % |"
+        )
     for r in sg_rows:
         if "failed" in r:
             out.append(f"| symgen | {r['config']} | | | | failed: {r['failed']} | |")
         else:
-            out.append(f"| symgen | {r['config']} | {r['coords']} | {r['cpu']:.3f} | {r['steps']} | "
-                       f"{100 * r['error']:.3f} % | (same) |")
+            out.append(
+                f"| symgen | {r['config']} | {r['coords']} | {r['cpu']:.3f} | {r['steps']} | "
+                f"{100 * r['error']:.3f} % | (same) |"
+            )
     out += ["", "</details>", ""]
     return "\n".join(out)
 

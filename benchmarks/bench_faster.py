@@ -17,6 +17,7 @@ axial error control off : ``simulate(axial_atol=1e3)``: IDAS does not resolve th
 quasi-static start : ``initial.deformation = "quasi-static"`` (the four-bar already has it)
 long chunks      : 256 outputs per IDAS call instead of 64 (fewer integrator set-ups)
 """
+
 from __future__ import annotations
 
 import math
@@ -34,9 +35,16 @@ from symgen.apps.study import window_error  # noqa: E402
 
 RTOLS = (1e-4, 1e-6)
 CASES = (
-    ("slider-crank (accurate, 3+4)", "examples/slider_crank.toml",
-     ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete", "bodies.rod.axial_modes=3",
-      "bodies.rod.transverse_modes=4"]),
+    (
+        "slider-crank (accurate, 3+4)",
+        "examples/slider_crank.toml",
+        [
+            "effects.strain=von_karman",
+            "bodies.rod.axial_shapes=complete",
+            "bodies.rod.axial_modes=3",
+            "bodies.rod.transverse_modes=4",
+        ],
+    ),
     ("four-bar (as written)", "examples/four_bar.toml", []),
 )
 
@@ -51,12 +59,14 @@ class _Opts(S.DaeRunner):
 
 def _variants():
     jit = {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O1"], "verbose": False}}
-    return [("default", {}, [], {}, None),
-            ("jit", {}, [], jit, None),
-            ("csparse", {}, [], {"linear_solver": "csparse"}, None),
-            ("axial error control off", {"axial_atol": 1e3}, [], {}, None),
-            ("quasi-static start", {}, ['initial.deformation="quasi-static"'], {}, None),
-            ("long chunks (256 outputs per IDAS call)", {}, [], {}, 256)]
+    return [
+        ("default", {}, [], {}, None),
+        ("jit", {}, [], jit, None),
+        ("csparse", {}, [], {"linear_solver": "csparse"}, None),
+        ("axial error control off", {"axial_atol": 1e3}, [], {}, None),
+        ("quasi-static start", {}, ['initial.deformation="quasi-static"'], {}, None),
+        ("long chunks (256 outputs per IDAS call)", {}, [], {}, 256),
+    ]
 
 
 def _timed(mech, repeats, kw, extra, chunk):
@@ -76,15 +86,22 @@ def _timed(mech, repeats, kw, extra, chunk):
 
 
 def run(repeats: int) -> str:
-    out = ["## Faster paths of the integration", "",
-           "rtol 1e-4 and 1e-6 (atol = rtol/100), two turns, CPU s of `simulate`, medians of " f"{repeats}; error against "
-           "the default path at rtol 1e-10 (low-passed below 50 cycles/turn, whole run, worst output).", "",
-           "| scene | rtol | path | CPU s | vs default | IDAS steps | error | worst output |",
-           "|---|---|---|---|---|---|---|---|"]
+    out = [
+        "## Faster paths of the integration",
+        "",
+        "rtol 1e-4 and 1e-6 (atol = rtol/100), two turns, CPU s of `simulate`, medians of "
+        f"{repeats}; error against "
+        "the default path at rtol 1e-10 (low-passed below 50 cycles/turn, whole run, worst output).",
+        "",
+        "| scene | rtol | path | CPU s | vs default | IDAS steps | error | worst output |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for (label, path, sets), rtol in [(c, r) for c in CASES for r in RTOLS]:
         base = [*sets, f"simulation.rtol={rtol:g}", f"simulation.atol={rtol / 100:g}"]
         label = f"{label} | {rtol:g}"
-        ref, _ = _timed(mechanism(ROOT / path, [*sets, "simulation.rtol=1e-10", "simulation.atol=1e-12"]), 1, {}, {}, None)
+        ref, _ = _timed(
+            mechanism(ROOT / path, [*sets, "simulation.rtol=1e-10", "simulation.atol=1e-12"]), 1, {}, {}, None
+        )
         names = [n for n in ref.output_names if n != "closure"]
         dt = float(ref.tau[1] - ref.tau[0])
         t_default = None
@@ -98,8 +115,10 @@ def run(repeats: int) -> str:
             t_default = cpu if t_default is None else t_default
             errs = {n: window_error(res.column(n), ref.column(n), dt, 50 / (2 * math.pi), len(ref.tau)) for n in names}
             worst = max(errs, key=errs.get)
-            out.append(f"| {label} | {name} | {cpu:.3f} | {t_default / cpu:.2f}x | {res.steps} | "
-                       f"{100 * errs[worst]:.2g} % | {worst} |")
+            out.append(
+                f"| {label} | {name} | {cpu:.3f} | {t_default / cpu:.2f}x | {res.steps} | "
+                f"{100 * errs[worst]:.2g} % | {worst} |"
+            )
     out.append("")
     return "\n".join(out)
 

@@ -12,6 +12,7 @@
 
 Steps are deterministic; times are single runs (compare within a run).
 """
+
 from __future__ import annotations
 
 import sys
@@ -28,8 +29,12 @@ from symgen.api import mechanism  # noqa: E402
 from symgen.numerics import simulate as sim  # noqa: E402
 
 SLIDER = str(ROOT / "examples" / "slider_crank.toml")
-ACCURATE = ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete", "initial.deformation=quasi-static",
-            "effects.axial=true"]          # the full axial dynamics at every lambda (not "auto")
+ACCURATE = [
+    "effects.strain=von_karman",
+    "bodies.rod.axial_shapes=complete",
+    "initial.deformation=quasi-static",
+    "effects.axial=true",
+]  # the full axial dynamics at every lambda (not "auto")
 LAMBDAS = (1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9)
 WINDOW = ["simulation.cycles=0.25", "simulation.output_step=0.01"]
 
@@ -56,10 +61,13 @@ def stiffness(na: int, nt: int) -> str:
     common = ACCURATE + [f"bodies.rod.axial_modes={na}", f"bodies.rod.transverse_modes={nt}"] + WINDOW
     ref, ref_s = _run(common + ["effects.axial=inextensible"])
     eta, peak = ref.column("eta_mid"), np.abs(ref.column("eta_mid")).max()
-    lines = [f"**{na} axial + {nt} transverse functions** (quarter turn, rtol 1e-8):", "",
-             "| lambda | max abs(eta_mid - inextensible) / peak | IDAS steps | integration s | "
-             "steps, BDF order <= 2 | diff, order <= 2 |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"**{na} axial + {nt} transverse functions** (quarter turn, rtol 1e-8):",
+        "",
+        "| lambda | max abs(eta_mid - inextensible) / peak | IDAS steps | integration s | "
+        "steps, BDF order <= 2 | diff, order <= 2 |",
+        "|---|---|---|---|---|---|",
+    ]
     for lam in LAMBDAS:
         res, s = _run(common + [f"bodies.rod.lambda={lam:g}"])
         res2, _ = _run(common + [f"bodies.rod.lambda={lam:g}"], max_order=2)
@@ -75,25 +83,36 @@ def pruning() -> str:
 
     overrides = ACCURATE + ["bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"]
     with tempfile.TemporaryDirectory() as d:
-        report = auto_effects(SLIDER, overrides, tol=1e-2, output=Path(d) / "pruned.toml",
-                              outputs=["eta_mid", "torque"])
+        report = auto_effects(
+            SLIDER, overrides, tol=1e-2, output=Path(d) / "pruned.toml", outputs=["eta_mid", "torque"]
+        )
     return "```\n" + table(report) + "\n```"
 
 
 def run(repeats: int = 3) -> str:
-    parts = ["## Hard cases: stiffness (steps vs lambda) and the inextensible model", "",
-             "Seed slider-crank, accurate strain and basis family, mu = 0.495, quasi-static start. "
-             "The full axial dynamics (`effects.axial = true`) converge to `effects.axial = \"inextensible\"` "
-             "like 1/lambda with any basis (the strain energy is that of the strain the axial basis can "
-             "carry: no locking; the default `\"auto\"` makes such stiff bars quasi-static). IDAS steps grow like "
-             "sqrt(lambda): the undamped stiff axial modes keep IDAS's BDF steps near 1/omega_axial at "
-             "orders above 2 (capping the order at 2 makes the count almost independent of lambda, but "
-             "costs steps at moderate lambda). The inextensible model costs the same at every lambda.", ""]
+    parts = [
+        "## Hard cases: stiffness (steps vs lambda) and the inextensible model",
+        "",
+        "Seed slider-crank, accurate strain and basis family, mu = 0.495, quasi-static start. "
+        'The full axial dynamics (`effects.axial = true`) converge to `effects.axial = "inextensible"` '
+        "like 1/lambda with any basis (the strain energy is that of the strain the axial basis can "
+        'carry: no locking; the default `"auto"` makes such stiff bars quasi-static). IDAS steps grow like '
+        "sqrt(lambda): the undamped stiff axial modes keep IDAS's BDF steps near 1/omega_axial at "
+        "orders above 2 (capping the order at 2 makes the count almost independent of lambda, but "
+        "costs steps at moderate lambda). The inextensible model costs the same at every lambda.",
+        "",
+    ]
     for na, nt in ((5, 2), (3, 4)):
         parts += [stiffness(na, nt), ""]
-    parts += ["## Pruning: what each effect costs (`symgen effects --measure`, `--auto 1e-2`)", "",
-              "Accurate slider-crank with its full axial dynamics (3 + 4, one turn, outputs eta_mid and torque); speed-up = "
-              "integration time of the scene as it is / without the effect.", "", pruning(), ""]
+    parts += [
+        "## Pruning: what each effect costs (`symgen effects --measure`, `--auto 1e-2`)",
+        "",
+        "Accurate slider-crank with its full axial dynamics (3 + 4, one turn, outputs eta_mid and torque); speed-up = "
+        "integration time of the scene as it is / without the effect.",
+        "",
+        pruning(),
+        "",
+    ]
     return "\n".join(parts)
 
 

@@ -18,6 +18,7 @@ on the output grid against IDAS at rtol 1e-10. Columns: steps, right-hand-side e
 compiled right-hand side measured in a batched call (no Python in the loop), i.e. what an
 explicit integrator written in C would spend on them.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,16 +34,19 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 sys.path.insert(0, str(ROOT))
 
-PROBLEMS = [("slider_crank_steel", ["bodies.rod.transverse_modes=2"]),
-            ("four_bar_steel", [f"bodies.{b}.transverse_modes=2" for b in ("crank", "coupler", "rocker")])]
+PROBLEMS = [
+    ("slider_crank_steel", ["bodies.rod.transverse_modes=2"]),
+    ("four_bar_steel", [f"bodies.{b}.transverse_modes=2" for b in ("crank", "coupler", "rocker")]),
+]
 INEXT = ['effects.axial="inextensible"']
 TURNS = 1.0
 RTOLS = (1e-4, 1e-5, 1e-6, 1e-7)
-EXPLICIT_RTOLS = (1e-4, 1e-6)     # their steps barely depend on it (stability-bound); Python-bound CPU
+EXPLICIT_RTOLS = (1e-4, 1e-6)  # their steps barely depend on it (stability-bound); Python-bound CPU
 
 
 def _mech(name: str, over: list[str], rtol: float | None = None):
     from symgen.api import mechanism
+
     extra = [f"simulation.cycles={TURNS:g}"]
     if rtol is not None:
         extra += [f"simulation.rtol={rtol:g}", f"simulation.atol={rtol * 1e-3:g}"]
@@ -60,6 +64,7 @@ class ExplicitODE:
 
     def __init__(self, mech, run) -> None:
         from symgen.numerics.compiled import library
+
         nx, nz, npar = run.dae.size1_in(1), run.dae.size1_in(2), run.dae.size1_in(3)
         t, x, z, p = ca.SX.sym("t"), ca.SX.sym("x", nx), ca.SX.sym("z", nz), ca.SX.sym("p", npar)
         res = run.dae(t=t, x=x, z=z, p=p)
@@ -71,7 +76,7 @@ class ExplicitODE:
         f_ode = ca.Function("f_ode", [t, x, z, p], [ode])
         rhs = ca.Function("rhs", [tm, xm, zm, pm], [f_ode(tm, xm, zs, pm), zs])
         self.rhs = rhs
-        try:                     # compiled like the rest of the run (Newton loop included)
+        try:  # compiled like the rest of the run (Newton loop included)
             ext, _ = library([rhs], mech.info.key, "explicit-rhs " + str(run.part))
             self.rhs = ext["rhs"]
             self.compiled = True
@@ -83,6 +88,7 @@ class ExplicitODE:
 
     def solve(self, run, x0, z0, p, t_end, h, method, rtol, atol):
         from scipy.integrate import solve_ivp
+
         z_last = [np.asarray(z0, float)]
 
         def fun(t, x):
@@ -94,8 +100,7 @@ class ExplicitODE:
         grid = h * np.arange(int(math.floor(t_end / h + 1e-9)) + 1)
         self.n_eval = 0
         t0 = time.process_time()
-        sol = solve_ivp(fun, (0.0, grid[-1]), np.asarray(x0, float), method=method, t_eval=grid, rtol=rtol,
-                        atol=atol)
+        sol = solve_ivp(fun, (0.0, grid[-1]), np.asarray(x0, float), method=method, t_eval=grid, rtol=rtol, atol=atol)
         cpu = time.process_time() - t0
         return sol, cpu, grid
 
@@ -128,6 +133,7 @@ class ExplicitODE:
 def bench_problem(name: str, over: list[str], repeats: int) -> list[str]:
     from symgen.numerics.csolver import simulate_c
     from symgen.numerics.simulate import DaeRunner, simulate
+
     ref_mech = _mech(name, over, 1e-10)
     ref = simulate(ref_mech)
     rows = []
@@ -138,12 +144,23 @@ def bench_problem(name: str, over: list[str], repeats: int) -> list[str]:
             t0 = time.process_time()
             res = simulate(mech)
             cpu.append(time.process_time() - t0)
-        rows.append(("IDAS (BDF), compiled", rtol, _err(res.outputs, ref.outputs), res.steps, "", statistics.median(cpu), ""))
+        rows.append(
+            ("IDAS (BDF), compiled", rtol, _err(res.outputs, ref.outputs), res.steps, "", statistics.median(cpu), "")
+        )
         simulate_c(mech)
         runs = [simulate_c(mech) for _ in range(repeats)]
         res = runs[0]
-        rows.append(("C Radau IIA (`--solver c`)", rtol, _err(res.outputs, ref.outputs), res.steps, "",
-                     statistics.median(r.stats["solve_cpu_s"] for r in runs), ""))
+        rows.append(
+            (
+                "C Radau IIA (`--solver c`)",
+                rtol,
+                _err(res.outputs, ref.outputs),
+                res.steps,
+                "",
+                statistics.median(r.stats["solve_cpu_s"] for r in runs),
+                "",
+            )
+        )
     mech = _mech(name, over)
     q, v, a, lam, part = mech.initial_state(0.0)
     sim = mech.scene.simulation
@@ -162,23 +179,30 @@ def bench_problem(name: str, over: list[str], repeats: int) -> list[str]:
             out = ode.outputs(run, mech, sol, z0, p)
             steps = int(sol.nfev // (6 if method == "RK45" else 12))
             rows.append((f"{method} (explicit)", rtol, _err(out, ref.outputs), steps, evals, cpu, evals * per))
-    lines = [f"### {name}, inextensible, {over[0].split('=')[-1]} transverse functions per elastic bar, "
-             f"{TURNS:g} turn", "",
-             f"Reference: IDAS at rtol 1e-10 ({ref.steps} steps). One compiled explicit right-hand side (Newton "
-             f"on the algebraic equations included) costs {1e6 * per:.2f} µs in a batched call.", "",
-             "| method | rtol | error | steps | RHS evaluations | CPU s | est. C s |", "|---|---|---|---|---|---|---|"]
+    lines = [
+        f"### {name}, inextensible, {over[0].split('=')[-1]} transverse functions per elastic bar, {TURNS:g} turn",
+        "",
+        f"Reference: IDAS at rtol 1e-10 ({ref.steps} steps). One compiled explicit right-hand side (Newton "
+        f"on the algebraic equations included) costs {1e6 * per:.2f} µs in a batched call.",
+        "",
+        "| method | rtol | error | steps | RHS evaluations | CPU s | est. C s |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for m, rtol, err, steps, ev, cpu, est in rows:
         e = "failed" if not math.isfinite(err) else f"{100 * err:.3g} %"
-        lines.append(f"| {m} | {rtol:g} | {e} | {steps} | {ev} | {cpu:.3f} | "
-                     f"{'' if est == '' else f'{est:.4f}'} |")
+        lines.append(f"| {m} | {rtol:g} | {e} | {steps} | {ev} | {cpu:.3f} | {'' if est == '' else f'{est:.4f}'} |")
     return lines + [""]
 
 
 def run(repeats: int) -> str:
-    out = ["## Integrators on the reduced models: explicit vs implicit", "",
-           "Question of issue 8: on the axially eliminated (inextensible) models, which integrator with dense "
-           "output is fastest at equal accuracy? Method and measures in the docstring of "
-           f"`benchmarks/bench_integrators.py`; medians of {repeats} for IDAS and C Radau.", ""]
+    out = [
+        "## Integrators on the reduced models: explicit vs implicit",
+        "",
+        "Question of issue 8: on the axially eliminated (inextensible) models, which integrator with dense "
+        "output is fastest at equal accuracy? Method and measures in the docstring of "
+        f"`benchmarks/bench_integrators.py`; medians of {repeats} for IDAS and C Radau.",
+        "",
+    ]
     for name, over in PROBLEMS:
         out += bench_problem(name, over, repeats)
     return "\n".join(out)

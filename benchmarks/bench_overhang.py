@@ -35,6 +35,7 @@ compiled model) on a model derived before (its derivation cached on disk); media
 ``tests/data/inverted_slider_crank_overhang_exudyn.csv`` (what ``tests/test_overhang_reference.py``
 checks symgen against without Exudyn).
 """
+
 from __future__ import annotations
 
 import math
@@ -52,30 +53,39 @@ sys.path.insert(0, str(HERE))
 NAME = "inverted_slider_crank_overhang"
 SCENE = HERE / "scenes" / f"{NAME}.toml"
 OUTPUTS = ("guide_end", "crank_tip", "guide_slope")
-ACCEPT = ("guide_end", "crank_tip")          # the issue's acceptance outputs
+ACCEPT = ("guide_end", "crank_tip")  # the issue's acceptance outputs
 TARGET = 0.02
 TURNS = 2.0
-REFERENCE = (64, 23040)                      # Exudyn guide elements, steps per turn
+REFERENCE = (64, 23040)  # Exudyn guide elements, steps per turn
 CSV = ROOT / "tests" / "data" / f"{NAME}_exudyn.csv"
 ELEMENTS = (8, 16, 32, 64)
 STEPS = (1440, 2880, 5760, 11520, 23040)
-SYMGEN = [("default (elastic overhang, 2 span + 4 overhang functions)", []),
-          ("rigid overhang (the seed's form)", ['joints.A.overhang="rigid"']),
-          ("elastic, 1 overhang function", ["joints.A.overhang_modes=1"]),
-          ("elastic, 2 overhang functions", ["joints.A.overhang_modes=2"]),
-          ("elastic, 3 overhang functions", ["joints.A.overhang_modes=3"]),
-          ("elastic, 5 overhang functions", ["joints.A.overhang_modes=5"]),
-          ("elastic, 6 overhang functions", ["joints.A.overhang_modes=6"]),
-          ("default, guide 3 span functions", ["bodies.guide.transverse_modes=3"]),
-          ("default, crank 4 transverse functions", ["bodies.crank.transverse_modes=4"]),
-          ("default, rtol 1e-8", ["simulation.rtol=1e-8", "simulation.atol=1e-11"]),
-          ("guide 3 span + 4 overhang, crank 4, rtol 1e-8",
-           ["bodies.guide.transverse_modes=3", "bodies.crank.transverse_modes=4",
-            "simulation.rtol=1e-8", "simulation.atol=1e-11"])]
+SYMGEN = [
+    ("default (elastic overhang, 2 span + 4 overhang functions)", []),
+    ("rigid overhang (the seed's form)", ['joints.A.overhang="rigid"']),
+    ("elastic, 1 overhang function", ["joints.A.overhang_modes=1"]),
+    ("elastic, 2 overhang functions", ["joints.A.overhang_modes=2"]),
+    ("elastic, 3 overhang functions", ["joints.A.overhang_modes=3"]),
+    ("elastic, 5 overhang functions", ["joints.A.overhang_modes=5"]),
+    ("elastic, 6 overhang functions", ["joints.A.overhang_modes=6"]),
+    ("default, guide 3 span functions", ["bodies.guide.transverse_modes=3"]),
+    ("default, crank 4 transverse functions", ["bodies.crank.transverse_modes=4"]),
+    ("default, rtol 1e-8", ["simulation.rtol=1e-8", "simulation.atol=1e-11"]),
+    (
+        "guide 3 span + 4 overhang, crank 4, rtol 1e-8",
+        [
+            "bodies.guide.transverse_modes=3",
+            "bodies.crank.transverse_modes=4",
+            "simulation.rtol=1e-8",
+            "simulation.atol=1e-11",
+        ],
+    ),
+]
 
 
 def _omega() -> float:
     import tomllib
+
     with open(SCENE, "rb") as f:
         return float(tomllib.load(f)["scene"]["omega"])
 
@@ -89,6 +99,7 @@ def exudyn_curves(elements: int, steps: int, turns: float = TURNS) -> tuple[dict
     """({"t", outputs: arrays on the one-degree grid}, CPU s) of one Exudyn run."""
     from bench_exudyn import on_grid
     from exudyn_models import inverted_slider_crank
+
     t, out, cpu = inverted_slider_crank(elements, steps, turns)
     dt, n = grid(turns)
     idx = on_grid(t, dt, n)
@@ -98,6 +109,7 @@ def exudyn_curves(elements: int, steps: int, turns: float = TURNS) -> tuple[dict
 def symgen_curves(overrides: list[str], turns: float = TURNS) -> tuple[dict, float, int]:
     """({"t", outputs (SI) on the grid}, CPU s of ``simulate``, IDAS steps), the model derived first."""
     from bench_exudyn import on_grid, symgen_timed
+
     cols, cpu, steps = symgen_timed(SCENE, list(overrides) + [f"simulation.cycles={turns:g}"])
     dt, n = grid(turns)
     idx = on_grid(cols["t"], dt, n)
@@ -120,14 +132,17 @@ def read_reference(path: Path = CSV) -> dict:
 
 def write_reference(path: Path = CSV) -> None:
     import exudyn
+
     ne, spt = REFERENCE
     ref, cpu = exudyn_curves(ne, spt)
-    head = [f"Exudyn {exudyn.__version__} reference of benchmarks/scenes/{NAME}.toml, written by",
-            "`python benchmarks/bench_overhang.py --write-reference` (exudyn_models.inverted_slider_crank):",
-            f"guide {ne} ANCF Cable2D elements, crank {max(2, ne // 4)}, {spt} generalized-alpha steps per turn",
-            f"(spectral radius 0.9), {TURNS:g} turns, sampled every degree of crank; CPU {cpu:.1f} s.",
-            "Converged: half the steps differs by <= 0.034 % of the peaks, half the elements by <= 0.009 % (bench_overhang).",
-            "Columns: t (s), guide_end, crank_tip (m), guide_slope (rad); symgen's output kinds of the scene."]
+    head = [
+        f"Exudyn {exudyn.__version__} reference of benchmarks/scenes/{NAME}.toml, written by",
+        "`python benchmarks/bench_overhang.py --write-reference` (exudyn_models.inverted_slider_crank):",
+        f"guide {ne} ANCF Cable2D elements, crank {max(2, ne // 4)}, {spt} generalized-alpha steps per turn",
+        f"(spectral radius 0.9), {TURNS:g} turns, sampled every degree of crank; CPU {cpu:.1f} s.",
+        "Converged: half the steps differs by <= 0.034 % of the peaks, half the elements by <= 0.009 % (bench_overhang).",
+        "Columns: t (s), guide_end, crank_tip (m), guide_slope (rad); symgen's output kinds of the scene.",
+    ]
     lines = ["# " + h for h in head] + [",".join(("t",) + OUTPUTS)]
     lines += [",".join(f"{ref[k][i]:.10e}" for k in ("t",) + OUTPUTS) for i in range(len(ref["t"]))]
     path.write_text("\n".join(lines) + "\n")
@@ -141,8 +156,10 @@ def run(repeats: int = 1, quick: bool = False) -> str:
     try:
         import exudyn
     except ImportError:
-        return ("## Slot guide with an elastic overhang (issue 12)\n\nExudyn is not installed (optional: the `bench` "
-                "extra); section skipped.\n")
+        return (
+            "## Slot guide with an elastic overhang (issue 12)\n\nExudyn is not installed (optional: the `bench` "
+            "extra); section skipped.\n"
+        )
     elements, steps, reference, turns = ELEMENTS, STEPS, REFERENCE, TURNS
     configs = SYMGEN
     if quick:
@@ -156,17 +173,23 @@ def run(repeats: int = 1, quick: bool = False) -> str:
         ex[reference] = exudyn_curves(*reference, turns)
     ref = ex[reference][0]
     peaks = {k: float(np.abs(ref[k]).max()) for k in OUTPUTS}
-    out = ["## Slot guide with an elastic overhang (issue 12): inverted slider-crank vs Exudyn", "",
-           f"`scenes/{NAME}.toml` (aluminium: crank 120 mm clamped to the shaft, guide 950 mm pinned 600 mm from it,",
-           "50 g slider, 22 rad/s; the guide overhangs the slider by 0.32-0.98 of its span), "
-           f"{turns:g} turns from the undeformed rigid start. Reference: Exudyn {exudyn.__version__}, guide "
-           f"{reference[0]} ANCF elements (crank {max(2, reference[0] // 4)}), {reference[1]} steps/turn, sliding joint "
-           f"`ObjectJointSliding2D` ({ex[reference][1]:.1f} s CPU); peaks "
-           + ", ".join(f"{k} {v:.4g}" for k, v in peaks.items()) + " (m, rad). Error: per output max |y − y_ref| / "
-           "max |y_ref| on the one-degree grid. Method: docstring of `benchmarks/bench_overhang.py`.", "",
-           "Exudyn's convergence (max error over the three outputs against the reference; CPU s):", "",
-           "| guide elements \\ steps/turn | " + " | ".join(str(s) for s in steps) + " |",
-           "|---|" + "---|" * len(steps)]
+    out = [
+        "## Slot guide with an elastic overhang (issue 12): inverted slider-crank vs Exudyn",
+        "",
+        f"`scenes/{NAME}.toml` (aluminium: crank 120 mm clamped to the shaft, guide 950 mm pinned 600 mm from it,",
+        "50 g slider, 22 rad/s; the guide overhangs the slider by 0.32-0.98 of its span), "
+        f"{turns:g} turns from the undeformed rigid start. Reference: Exudyn {exudyn.__version__}, guide "
+        f"{reference[0]} ANCF elements (crank {max(2, reference[0] // 4)}), {reference[1]} steps/turn, sliding joint "
+        f"`ObjectJointSliding2D` ({ex[reference][1]:.1f} s CPU); peaks "
+        + ", ".join(f"{k} {v:.4g}" for k, v in peaks.items())
+        + " (m, rad). Error: per output max |y − y_ref| / "
+        "max |y_ref| on the one-degree grid. Method: docstring of `benchmarks/bench_overhang.py`.",
+        "",
+        "Exudyn's convergence (max error over the three outputs against the reference; CPU s):",
+        "",
+        "| guide elements \\ steps/turn | " + " | ".join(str(s) for s in steps) + " |",
+        "|---|" + "---|" * len(steps),
+    ]
     for ne in elements:
         cells = []
         for spt in steps:
@@ -176,9 +199,14 @@ def run(repeats: int = 1, quick: bool = False) -> str:
             e = max(errors(ex[(ne, spt)][0], ref).values())
             cells.append(f"{_pct(e)} ({ex[(ne, spt)][1]:.1f} s)")
         out.append(f"| {ne} | " + " | ".join(cells) + " |")
-    out += ["", f"symgen against the reference (CPU: `simulate`, median of {repeats}):", "",
-            "| symgen model | " + " | ".join(OUTPUTS) + f" | acceptance ({' and '.join(ACCEPT)} within "
-            f"{100 * TARGET:g} %) | IDAS steps | CPU s |", "|---|" + "---|" * (len(OUTPUTS) + 3)]
+    out += [
+        "",
+        f"symgen against the reference (CPU: `simulate`, median of {repeats}):",
+        "",
+        "| symgen model | " + " | ".join(OUTPUTS) + f" | acceptance ({' and '.join(ACCEPT)} within "
+        f"{100 * TARGET:g} %) | IDAS steps | CPU s |",
+        "|---|" + "---|" * (len(OUTPUTS) + 3),
+    ]
     rows, cpus = {}, {}
     for label, over in configs:
         try:
@@ -190,22 +218,32 @@ def run(repeats: int = 1, quick: bool = False) -> str:
         rows[label] = e
         cpus[label] = statistics.median(r[1] for r in runs)
         ok = all(e[k] <= TARGET for k in ACCEPT)
-        out.append(f"| {label} | " + " | ".join(_pct(e[k]) for k in OUTPUTS)
-                   + f" | {'met' if ok else '**not met**'} | {runs[0][2]} | "
-                   f"{statistics.median(r[1] for r in runs):.3f} |")
+        out.append(
+            f"| {label} | "
+            + " | ".join(_pct(e[k]) for k in OUTPUTS)
+            + f" | {'met' if ok else '**not met**'} | {runs[0][2]} | "
+            f"{statistics.median(r[1] for r in runs):.3f} |"
+        )
     # Exudyn at the default's accuracy: the cheapest run within the default's error, and its next refinement too
     default = rows.get(configs[0][0])
     if default:
         worst = max(default[k] for k in ACCEPT)
-        ok = [(ne, spt) for (ne, spt) in ex if (ne, spt) != reference
-              and max(errors(ex[(ne, spt)][0], ref)[k] for k in ACCEPT) <= worst
-              and ((ne, 2 * spt) not in ex or max(errors(ex[(ne, 2 * spt)][0], ref)[k] for k in ACCEPT) <= worst)]
+        ok = [
+            (ne, spt)
+            for (ne, spt) in ex
+            if (ne, spt) != reference
+            and max(errors(ex[(ne, spt)][0], ref)[k] for k in ACCEPT) <= worst
+            and ((ne, 2 * spt) not in ex or max(errors(ex[(ne, 2 * spt)][0], ref)[k] for k in ACCEPT) <= worst)
+        ]
         if ok:
             best = min(ok, key=lambda c: ex[c][1])
-            out += ["", f"At symgen's default accuracy ({_pct(worst)} on {' and '.join(ACCEPT)}) the cheapest Exudyn run "
-                    f"is {best[0]} elements x {best[1]} steps/turn: {ex[best][1]:.2f} s CPU, "
-                    f"{ex[best][1] / cpus[configs[0][0]]:.1f}x symgen's {cpus[configs[0][0]]:.3f} s (integration CPU only; "
-                    "symgen's one-off derivation and compilation, cached on disk, not counted)."]
+            out += [
+                "",
+                f"At symgen's default accuracy ({_pct(worst)} on {' and '.join(ACCEPT)}) the cheapest Exudyn run "
+                f"is {best[0]} elements x {best[1]} steps/turn: {ex[best][1]:.2f} s CPU, "
+                f"{ex[best][1] / cpus[configs[0][0]]:.1f}x symgen's {cpus[configs[0][0]]:.3f} s (integration CPU only; "
+                "symgen's one-off derivation and compilation, cached on disk, not counted).",
+            ]
     return "\n".join(out) + "\n"
 
 

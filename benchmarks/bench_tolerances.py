@@ -7,6 +7,7 @@ repeats; the model is derived once (cached) and not timed here (see the derivati
 Errors: every output except the closure residual, low-passed below 50 cycles per turn, max over
 the whole run of |y - y_ref| / max |y_ref|, worst output named (``symgen study`` metric).
 """
+
 from __future__ import annotations
 
 import math
@@ -27,9 +28,16 @@ RTOLS = (1e-4, 1e-6, 1e-8)
 REF_RTOL = 1e-10
 CASES = (
     ("slider-crank (seed model, 1+1)", "examples/slider_crank.toml", []),
-    ("slider-crank (accurate, 3+4)", "examples/slider_crank.toml",
-     ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete", "bodies.rod.axial_modes=3",
-      "bodies.rod.transverse_modes=4"]),
+    (
+        "slider-crank (accurate, 3+4)",
+        "examples/slider_crank.toml",
+        [
+            "effects.strain=von_karman",
+            "bodies.rod.axial_shapes=complete",
+            "bodies.rod.axial_modes=3",
+            "bodies.rod.transverse_modes=4",
+        ],
+    ),
     ("four-bar (examples/four_bar.toml: 3 bars x 4+4, quasi-static start)", "examples/four_bar.toml", []),
 )
 
@@ -45,11 +53,16 @@ def _run(path, sets, rtol, repeats):
 
 
 def run(repeats: int) -> str:
-    out = ["## Integration time per crank turn vs tolerance", "",
-           "CPU s of `simulate` per crank turn (two turns run), atol = rtol/100, medians of "
-           f"{repeats}; error against the same model at rtol {REF_RTOL:g} (outputs low-passed below 50 "
-           "cycles/turn, whole run, worst output).", "",
-           "| scene | rtol | s per turn | IDAS steps per turn | error | worst output |", "|---|---|---|---|---|---|"]
+    out = [
+        "## Integration time per crank turn vs tolerance",
+        "",
+        "CPU s of `simulate` per crank turn (two turns run), atol = rtol/100, medians of "
+        f"{repeats}; error against the same model at rtol {REF_RTOL:g} (outputs low-passed below 50 "
+        "cycles/turn, whole run, worst output).",
+        "",
+        "| scene | rtol | s per turn | IDAS steps per turn | error | worst output |",
+        "|---|---|---|---|---|---|",
+    ]
     for label, path, sets in CASES:
         ref, _ = _run(path, sets, REF_RTOL, 1)
         names = [n for n in ref.output_names if n != "closure"]
@@ -59,8 +72,10 @@ def run(repeats: int) -> str:
             res, cpu = _run(path, sets, rtol, repeats)
             errs = {n: window_error(res.column(n), ref.column(n), dt, 50 / (2 * math.pi), len(ref.tau)) for n in names}
             worst = max(errs, key=errs.get)
-            out.append(f"| {label} | {rtol:g} | {cpu / turns:.3f} | {res.steps / turns:.0f} | "
-                       f"{100 * errs[worst]:.2g} % | {worst} |")
+            out.append(
+                f"| {label} | {rtol:g} | {cpu / turns:.3f} | {res.steps / turns:.0f} | "
+                f"{100 * errs[worst]:.2g} % | {worst} |"
+            )
     out.append("")
     return "\n".join(out)
 

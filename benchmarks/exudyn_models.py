@@ -32,6 +32,7 @@ Run one model in a fresh process (the whole-process timing of ``bench_exudyn``):
     python benchmarks/exudyn_models.py four_bar_steel 8 2000 2
     python benchmarks/exudyn_models.py six_bar_steel 32 23040 2 10     # six-bar, 10x bending stiffness
 """
+
 from __future__ import annotations
 
 import math
@@ -43,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-ADAPTIVE = True          # Exudyn's default: halve the step when Newton fails
+ADAPTIVE = True  # Exudyn's default: halve the step when Newton fails
 # Newton's relative tolerance: Exudyn's default 1e-8 lies below the round-off of the residual of
 # steel bars in SI (EA ~ 1e7 N): Newton stalls at ~1e-8, the adaptive step halves down to the
 # minimum step and the run fails or crawls (16 elements: 60 s for a quarter turn instead of
@@ -67,6 +68,7 @@ def _ancf_bar(mbs, bar: dict, start, angle: float, vel0, omega_bar: float, eleme
     the material (bending moment EI (kappa + kv kappa'), axial force EA (eps + kv eps')).
     Returns the node and element numbers."""
     from exudyn.itemInterface import NodePoint2DSlope1, ObjectANCFCable2D
+
     length = bar["length"]
     ex, ey = math.cos(angle), math.sin(angle)
     nodes = []
@@ -79,18 +81,33 @@ def _ancf_bar(mbs, bar: dict, start, angle: float, vel0, omega_bar: float, eleme
     rho_a = bar["density"] * bar["area"]
     objects = []
     for i in range(elements):
-        objects.append(mbs.AddObject(ObjectANCFCable2D(nodeNumbers=[nodes[i], nodes[i + 1]], length=length / elements,
-                                        massPerLength=rho_a, bendingStiffness=bar["E"] * bar["inertia"],
-                                        axialStiffness=bar["E"] * bar["area"],
-                                        bendingDamping=kv * bar["E"] * bar["inertia"],
-                                        axialDamping=kv * bar["E"] * bar["area"])))
+        objects.append(
+            mbs.AddObject(
+                ObjectANCFCable2D(
+                    nodeNumbers=[nodes[i], nodes[i + 1]],
+                    length=length / elements,
+                    massPerLength=rho_a,
+                    bendingStiffness=bar["E"] * bar["inertia"],
+                    axialStiffness=bar["E"] * bar["area"],
+                    bendingDamping=kv * bar["E"] * bar["inertia"],
+                    axialDamping=kv * bar["E"] * bar["area"],
+                )
+            )
+        )
     return nodes, objects
 
 
 def _pin_nodes(mbs, a: int, b: int) -> None:
     from exudyn.itemInterface import MarkerNodePosition, RevoluteJoint2D
-    mbs.AddObject(RevoluteJoint2D(markerNumbers=[mbs.AddMarker(MarkerNodePosition(nodeNumber=a)),
-                                                 mbs.AddMarker(MarkerNodePosition(nodeNumber=b))]))
+
+    mbs.AddObject(
+        RevoluteJoint2D(
+            markerNumbers=[
+                mbs.AddMarker(MarkerNodePosition(nodeNumber=a)),
+                mbs.AddMarker(MarkerNodePosition(nodeNumber=b)),
+            ]
+        )
+    )
 
 
 def _chord_deflection(P0: np.ndarray, Pm: np.ndarray, P1: np.ndarray) -> np.ndarray:
@@ -101,6 +118,7 @@ def _chord_deflection(P0: np.ndarray, Pm: np.ndarray, P1: np.ndarray) -> np.ndar
 
 def _solve(SC, mbs, omega: float, steps_per_turn: int, turns: float) -> float:
     import exudyn as exu
+
     mbs.Assemble()
     ss = exu.SimulationSettings()
     end = turns * 2 * math.pi / omega
@@ -126,23 +144,34 @@ def _solve(SC, mbs, omega: float, steps_per_turn: int, turns: float) -> float:
 
 def _flywheel(mbs, omega: float, inertia: float):
     """A rigid flywheel at the origin turning at omega, pinned to the ground: (node, body, ground marker)."""
-    from exudyn.itemInterface import (CoordinateConstraint, MarkerNodeCoordinate, NodePointGround, NodeRigidBody2D,
-                                      ObjectRigidBody2D)
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        MarkerNodeCoordinate,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectRigidBody2D,
+    )
+
     ground = mbs.AddNode(NodePointGround(referenceCoordinates=[0, 0, 0]))
     m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=ground, coordinate=0))
     node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[0, 0, 0], initialVelocities=[0, 0, omega]))
     body = mbs.AddObject(ObjectRigidBody2D(mass=1.0, inertia=inertia, nodeNumber=node))
     for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node,
-                                                                                                         coordinate=c))]))
+        mbs.AddObject(
+            CoordinateConstraint(
+                markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=c))]
+            )
+        )
     return node, body, m_ground
 
 
 def _sensor(mbs, node: int) -> int:
     import exudyn as exu
     from exudyn.itemInterface import SensorNode
-    return mbs.AddSensor(SensorNode(nodeNumber=node, storeInternal=True,
-                                    outputVariableType=exu.OutputVariableType.Position))
+
+    return mbs.AddSensor(
+        SensorNode(nodeNumber=node, storeInternal=True, outputVariableType=exu.OutputVariableType.Position)
+    )
 
 
 def slider_crank(elements: int, steps_per_turn: int, turns: float, name: str = "slider_crank_steel"):
@@ -150,6 +179,7 @@ def slider_crank(elements: int, steps_per_turn: int, turns: float, name: str = "
     import exudyn as exu
     from exudyn.itemInterface import CoordinateConstraint, MarkerBodyPosition, MarkerNodeCoordinate, MarkerNodePosition
     from exudyn.itemInterface import RevoluteJoint2D
+
     assert elements % 2 == 0, "the midspan must be a node"
     raw = _scene(name)
     bars = _bars(raw)
@@ -158,14 +188,17 @@ def slider_crank(elements: int, steps_per_turn: int, turns: float, name: str = "
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
     mass = rod["density"] * rod["area"] * rod["length"]
-    _, body, m_ground = _flywheel(mbs, omega, 1e8 * mass * a ** 2)
+    _, body, m_ground = _flywheel(mbs, omega, 1e8 * mass * a**2)
     m_tip = mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[a, 0, 0]))
     # crank along +x at t = 0: A = (a, 0) moves at (0, a w); B on the x axis: the rod turns at -a w / l
-    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega  # symgen's ratio is in units of 1/omega
     nodes, _ = _ancf_bar(mbs, rod, (a, 0.0), 0.0, (0.0, a * omega), -a * omega / rod["length"], elements, kv)
     mbs.AddObject(RevoluteJoint2D(markerNumbers=[m_tip, mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[0]))]))
-    mbs.AddObject(CoordinateConstraint(markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[-1],
-                                                                                                   coordinate=1))]))
+    mbs.AddObject(
+        CoordinateConstraint(
+            markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nodes[-1], coordinate=1))]
+        )
+    )
     sensors = [_sensor(mbs, nodes[k]) for k in (0, elements // 2, elements)]
     cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
     A, M, B = (mbs.GetSensorStoredData(s) for s in sensors)
@@ -202,6 +235,7 @@ def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four
     coupler's length and far stiffer)."""
     import exudyn as exu
     from exudyn.itemInterface import CoordinateConstraint, GenericJoint, MarkerBodyRigid, MarkerNodeCoordinate
+
     assert elements % 2 == 0, "the midspan must be a node"
     raw = _scene(name)
     bars = _bars(raw)
@@ -212,7 +246,7 @@ def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four
     mass = sum(b["density"] * b["area"] * b["length"] for b in bars.values())
     _, fly, m_ground = _flywheel(mbs, omega, 1e8 * mass * bars["coupler"]["length"] ** 2)
     n_crank = max(2, elements // 2)
-    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega  # symgen's ratio is in units of 1/omega
     crank, crank_elements = _ancf_bar(mbs, bars["crank"], (0.0, 0.0), 0.0, (0.0, 0.0), omega, n_crank, kv)
     coupler, _ = _ancf_bar(mbs, bars["coupler"], A, th3, vA, w3, elements, kv)
     rocker, _ = _ancf_bar(mbs, bars["rocker"], O4, th4, (0.0, 0.0), w4, elements, kv)
@@ -223,15 +257,20 @@ def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four
     _pin_nodes(mbs, crank[-1], coupler[0])
     _pin_nodes(mbs, coupler[-1], rocker[-1])
     for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[
-            m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=rocker[0], coordinate=c))]))
-    sensors = {k: [_sensor(mbs, n[i]) for i in (0, len(n) // 2, len(n) - 1)]
-               for k, n in (("crank", crank), ("coupler", coupler), ("rocker", rocker))}
+        mbs.AddObject(
+            CoordinateConstraint(
+                markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=rocker[0], coordinate=c))]
+            )
+        )
+    sensors = {
+        k: [_sensor(mbs, n[i]) for i in (0, len(n) // 2, len(n) - 1)]
+        for k, n in (("crank", crank), ("coupler", coupler), ("rocker", rocker))
+    }
     cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
     data = {k: [mbs.GetSensorStoredData(s) for s in v] for k, v in sensors.items()}
     t = data["crank"][0][:, 0]
     P0, _, P1 = (d[:, 1:3] for d in data["crank"])
-    th = omega * t               # the shaft's angle: the crank's clamped frame
+    th = omega * t  # the shaft's angle: the crank's clamped frame
     tip = -np.sin(th) * (P1[:, 0] - P0[:, 0]) + np.cos(th) * (P1[:, 1] - P0[:, 1])
     out = {"crank_tip": tip}
     for k in ("coupler", "rocker"):
@@ -239,8 +278,13 @@ def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four
     return t, out, cpu
 
 
-def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
-                          name: str = "inverted_slider_crank_overhang", crank_elements: int | None = None):
+def inverted_slider_crank(
+    elements: int,
+    steps_per_turn: int,
+    turns: float,
+    name: str = "inverted_slider_crank_overhang",
+    crank_elements: int | None = None,
+):
     """(t s, {"guide_end", "crank_tip", "guide_slope"}, CPU s of SolveDynamic) of the inverted
     slider-crank scene ``name``: the guide (``elements`` cable elements) pinned to the ground at
     its pivot P, the crank (``crank_elements``, default max(2, elements // 4)) clamped to the driven
@@ -252,9 +296,20 @@ def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
     frame clamped to the shaft, ``guide_slope`` the angle of the guide's slope at the pivot from
     that line (rad)."""
     import exudyn as exu
-    from exudyn.itemInterface import (CoordinateConstraint, GenericJoint, MarkerBodyCable2DCoordinates,
-                                      MarkerBodyRigid, MarkerNodeCoordinate, MarkerNodePosition, NodeGenericData,
-                                      NodePoint2D, ObjectJointSliding2D, ObjectMassPoint2D, SensorNode)
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        GenericJoint,
+        MarkerBodyCable2DCoordinates,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        MarkerNodePosition,
+        NodeGenericData,
+        NodePoint2D,
+        ObjectJointSliding2D,
+        ObjectMassPoint2D,
+        SensorNode,
+    )
+
     raw = _scene(name)
     bars = _bars(raw)
     omega = raw["scene"]["omega"]
@@ -271,8 +326,8 @@ def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
     mass = sum(b["density"] * b["area"] * b["length"] for b in bars.values()) + slider_mass
-    _, fly, m_ground = _flywheel(mbs, omega, 1e8 * mass * L ** 2)
-    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    _, fly, m_ground = _flywheel(mbs, omega, 1e8 * mass * L**2)
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega  # symgen's ratio is in units of 1/omega
     nc = crank_elements or max(2, elements // 4)
     cnodes, celems = _ancf_bar(mbs, crank, (0.0, 0.0), 0.0, (0.0, 0.0), omega, nc, kv)
     gnodes, gelems = _ancf_bar(mbs, guide, tuple(P), 0.0, (0.0, 0.0), w_guide, elements, kv)
@@ -280,8 +335,11 @@ def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
     m_root = mbs.AddMarker(MarkerBodyRigid(bodyNumber=celems[0], localPosition=[0, 0, 0]))
     mbs.AddObject(GenericJoint(markerNumbers=[m_fly, m_root], constrainedAxes=[1, 1, 0, 0, 0, 1]))
     for c in (0, 1):
-        mbs.AddObject(CoordinateConstraint(markerNumbers=[
-            m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnodes[0], coordinate=c))]))
+        mbs.AddObject(
+            CoordinateConstraint(
+                markerNumbers=[m_ground, mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnodes[0], coordinate=c))]
+            )
+        )
     # the slider block: a point mass pinned to the crank's tip node
     block = mbs.AddNode(NodePoint2D(referenceCoordinates=[a, 0.0], initialVelocities=[0.0, a * omega]))
     mbs.AddObject(ObjectMassPoint2D(mass=slider_mass, nodeNumber=block))
@@ -292,13 +350,27 @@ def inverted_slider_crank(elements: int, steps_per_turn: int, turns: float,
     cable_markers = [mbs.AddMarker(MarkerBodyCable2DCoordinates(bodyNumber=e)) for e in gelems]
     first = min(int(s0 // le), elements - 1)
     data = mbs.AddNode(NodeGenericData(initialCoordinates=[first, s0], numberOfDataCoordinates=2))
-    mbs.AddObject(ObjectJointSliding2D(markerNumbers=[m_block, cable_markers[first]], slidingMarkerNumbers=cable_markers,
-                                       slidingMarkerOffsets=[i * le for i in range(elements)], nodeNumber=data,
-                                       useClassicalFormulation=True))
-    sensors = {"root": _sensor(mbs, cnodes[0]), "tip": _sensor(mbs, cnodes[-1]), "block": _sensor(mbs, block),
-               "pivot": _sensor(mbs, gnodes[0]), "end": _sensor(mbs, gnodes[-1]),
-               "pivot_q": mbs.AddSensor(SensorNode(nodeNumber=gnodes[0], storeInternal=True,
-                                                   outputVariableType=exu.OutputVariableType.CoordinatesTotal))}
+    mbs.AddObject(
+        ObjectJointSliding2D(
+            markerNumbers=[m_block, cable_markers[first]],
+            slidingMarkerNumbers=cable_markers,
+            slidingMarkerOffsets=[i * le for i in range(elements)],
+            nodeNumber=data,
+            useClassicalFormulation=True,
+        )
+    )
+    sensors = {
+        "root": _sensor(mbs, cnodes[0]),
+        "tip": _sensor(mbs, cnodes[-1]),
+        "block": _sensor(mbs, block),
+        "pivot": _sensor(mbs, gnodes[0]),
+        "end": _sensor(mbs, gnodes[-1]),
+        "pivot_q": mbs.AddSensor(
+            SensorNode(
+                nodeNumber=gnodes[0], storeInternal=True, outputVariableType=exu.OutputVariableType.CoordinatesTotal
+            )
+        ),
+    }
     cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
     d = {k: mbs.GetSensorStoredData(v) for k, v in sensors.items()}
     t = d["root"][:, 0]
@@ -355,24 +427,37 @@ def six_bar_geometry(raw: dict, crank_angle: float = 0.0) -> dict:
     w3, w4 = _cross_solve(B - A, B - O4, -vA)
     vC = vA + w3 * np.array([-(C - A)[1], (C - A)[0]])
     w5, w6 = _cross_solve(D - C, D - O6, -vC)
-    return {"A": A, "B": B, "C": C, "D": D, "O4": O4, "O6": O6, "vA": vA, "vC": vC,
-            "theta": {"coupler": _angle(B - A), "rocker": _angle(B - O4), "link": _angle(D - C), "rocker2": _angle(D - O6)},
-            "w": {"coupler": w3, "rocker": w4, "link": w5, "rocker2": w6}}
+    return {
+        "A": A,
+        "B": B,
+        "C": C,
+        "D": D,
+        "O4": O4,
+        "O6": O6,
+        "vA": vA,
+        "vC": vC,
+        "theta": {"coupler": _angle(B - A), "rocker": _angle(B - O4), "link": _angle(D - C), "rocker2": _angle(D - O6)},
+        "w": {"coupler": w3, "rocker": w4, "link": w5, "rocker2": w6},
+    }
 
 
 def _rigid_bar(mbs, bar: dict, pivot: np.ndarray, angle: float, w: float):
     """A rigid uniform bar from ``pivot`` (at rest) along ``angle`` turning at w: (body, marker at
     the pivot end, marker at the far end)."""
     from exudyn.itemInterface import MarkerBodyPosition, NodeRigidBody2D, ObjectRigidBody2D
+
     length = bar["length"]
     m = bar["mass_per_length"] * length
     e = np.array([math.cos(angle), math.sin(angle)])
     G = pivot + 0.5 * length * e
     vG = w * 0.5 * length * np.array([-e[1], e[0]])
     node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[G[0], G[1], angle], initialVelocities=[vG[0], vG[1], w]))
-    body = mbs.AddObject(ObjectRigidBody2D(mass=m, inertia=m * length ** 2 / 12, nodeNumber=node))
-    return (body, mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[-0.5 * length, 0, 0])),
-            mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[0.5 * length, 0, 0])))
+    body = mbs.AddObject(ObjectRigidBody2D(mass=m, inertia=m * length**2 / 12, nodeNumber=node))
+    return (
+        body,
+        mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[-0.5 * length, 0, 0])),
+        mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[0.5 * length, 0, 0])),
+    )
 
 
 SIX_BAR_ELASTIC = ("coupler", "link")
@@ -387,6 +472,7 @@ def six_bar(elements: int, steps_per_turn: int, turns: float, name: str = "six_b
     bars' second moment (the ten-times-stiffer variant: 10)."""
     import exudyn as exu
     from exudyn.itemInterface import MarkerBodyPosition, MarkerNodePosition, ObjectGround, RevoluteJoint2D
+
     assert elements % 4 == 0, "the coupler's quarter points must be nodes"
     raw = _scene(name)
     bars = _bars(raw)
@@ -397,10 +483,12 @@ def six_bar(elements: int, steps_per_turn: int, turns: float, name: str = "six_b
     th, w = geo["theta"], geo["w"]
     SC = exu.SystemContainer()
     mbs = SC.AddSystem()
-    mass = sum(b.get("mass_per_length", b.get("density", 0.0) * b.get("area", 0.0)) * b["length"] for b in bars.values())
+    mass = sum(
+        b.get("mass_per_length", b.get("density", 0.0) * b.get("area", 0.0)) * b["length"] for b in bars.values()
+    )
     _, fly, _ = _flywheel(mbs, omega, 1e8 * mass * bars["coupler"]["length"] ** 2)
     m_crank_tip = mbs.AddMarker(MarkerBodyPosition(bodyNumber=fly, localPosition=[bars["crank"]["length"], 0, 0]))
-    kv = raw.get("effects", {}).get("damping", 0.0) / omega      # symgen's ratio is in units of 1/omega
+    kv = raw.get("effects", {}).get("damping", 0.0) / omega  # symgen's ratio is in units of 1/omega
     coupler, _ = _ancf_bar(mbs, bars["coupler"], geo["A"], th["coupler"], geo["vA"], w["coupler"], elements, kv)
     n_link = max(2, elements // 2)
     n_link += n_link % 2
@@ -415,34 +503,46 @@ def six_bar(elements: int, steps_per_turn: int, turns: float, name: str = "six_b
     def ground_marker(P):
         return mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=[P[0], P[1], 0]))
 
-    for m0, m1 in ((m_crank_tip, node_marker(coupler[0])),               # A
-                   (node_marker(coupler[-1]), m_r1),                      # B
-                   (ground_marker(geo["O4"]), m_r0),                      # O4
-                   (node_marker(coupler[elements // 2]), node_marker(link[0])),   # C: the coupler's middle node
-                   (node_marker(link[-1]), m_s1),                         # D
-                   (ground_marker(geo["O6"]), m_s0)):                     # O6
+    for m0, m1 in (
+        (m_crank_tip, node_marker(coupler[0])),  # A
+        (node_marker(coupler[-1]), m_r1),  # B
+        (ground_marker(geo["O4"]), m_r0),  # O4
+        (node_marker(coupler[elements // 2]), node_marker(link[0])),  # C: the coupler's middle node
+        (node_marker(link[-1]), m_s1),  # D
+        (ground_marker(geo["O6"]), m_s0),
+    ):  # O6
         mbs.AddObject(RevoluteJoint2D(markerNumbers=[m0, m1]))
     q = elements // 4
-    sensors = {"coupler": [_sensor(mbs, coupler[i]) for i in (0, q, 2 * q, 3 * q, 4 * q)],
-               "link": [_sensor(mbs, link[i]) for i in (0, n_link // 2, n_link)]}
+    sensors = {
+        "coupler": [_sensor(mbs, coupler[i]) for i in (0, q, 2 * q, 3 * q, 4 * q)],
+        "link": [_sensor(mbs, link[i]) for i in (0, n_link // 2, n_link)],
+    }
     cpu = _solve(SC, mbs, omega, steps_per_turn, turns)
     cp = [mbs.GetSensorStoredData(s) for s in sensors["coupler"]]
     lk = [mbs.GetSensorStoredData(s)[:, 1:3] for s in sensors["link"]]
     t = cp[0][:, 0]
     P = [d[:, 1:3] for d in cp]
-    out = {"coupler_q1": _chord_deflection(P[0], P[1], P[4]), "coupler_mid": _chord_deflection(P[0], P[2], P[4]),
-           "coupler_q3": _chord_deflection(P[0], P[3], P[4]), "link_mid": _chord_deflection(*lk)}
+    out = {
+        "coupler_q1": _chord_deflection(P[0], P[1], P[4]),
+        "coupler_mid": _chord_deflection(P[0], P[2], P[4]),
+        "coupler_q3": _chord_deflection(P[0], P[3], P[4]),
+        "link_mid": _chord_deflection(*lk),
+    }
     return t, out, cpu
 
 
-MODELS = {"slider_crank_steel": slider_crank, "four_bar_steel": four_bar, "six_bar_steel": six_bar,
-          "inverted_slider_crank_overhang": inverted_slider_crank}
+MODELS = {
+    "slider_crank_steel": slider_crank,
+    "four_bar_steel": four_bar,
+    "six_bar_steel": six_bar,
+    "inverted_slider_crank_overhang": inverted_slider_crank,
+}
 
 
 def main(argv: list[str]) -> None:
     """``NAME ELEMENTS STEPS_PER_TURN TURNS``: build, solve, print the peak of each output."""
     name, elements, steps, turns = argv[0], int(argv[1]), int(argv[2]), float(argv[3])
-    kw = {"stiffness": float(argv[4])} if len(argv) > 4 else {}      # six_bar: the bending-stiffness factor
+    kw = {"stiffness": float(argv[4])} if len(argv) > 4 else {}  # six_bar: the bending-stiffness factor
     t, out, cpu = MODELS[name](elements, steps, turns, name, **kw)
     print(" ".join(f"{k}={np.abs(v).max():.6e}" for k, v in out.items()), f"cpu={cpu:.4f}")
 

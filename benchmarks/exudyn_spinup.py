@@ -23,6 +23,7 @@ own shape functions), its strain energy likewise of
 
     python benchmarks/exudyn_spinup.py ELEMENTS STEPS_PER_TAU T_END [MU] [RHO_INF]
 """
+
 from __future__ import annotations
 
 import math
@@ -42,10 +43,17 @@ def scene_data(mu: float | None = None, lam: float | None = None) -> dict:
         raw = tomllib.load(f)
     bars = {b["name"]: b for b in raw["bodies"]}
     slider = next(j for j in raw["joints"] if j["name"] == "B")
-    d = {"a": bars["crank"]["length"], "mc": bars["crank"]["length"] * bars["crank"].get("mass_per_length", 1.0),
-         "l": bars["rod"]["length"], "rhoA": bars["rod"].get("mass_per_length", 1.0),
-         "EA": bars["rod"]["lambda"], "EI": bars["rod"]["mu"], "M": slider["mass"],
-         "T": float(raw["driver"]["value"]), "g": -raw["effects"]["gravity"][1]}
+    d = {
+        "a": bars["crank"]["length"],
+        "mc": bars["crank"]["length"] * bars["crank"].get("mass_per_length", 1.0),
+        "l": bars["rod"]["length"],
+        "rhoA": bars["rod"].get("mass_per_length", 1.0),
+        "EA": bars["rod"]["lambda"],
+        "EI": bars["rod"]["mu"],
+        "M": slider["mass"],
+        "T": float(raw["driver"]["value"]),
+        "g": -raw["effects"]["gravity"][1],
+    }
     if mu is not None:
         d["EI"] = mu
     if lam is not None:
@@ -59,7 +67,7 @@ def scene_data(mu: float | None = None, lam: float | None = None) -> dict:
 def _hermite(x: float, h: float):
     """Cubic Hermite shape functions (values, first, second derivatives in s) on [0, h]."""
     u = x / h
-    N = np.array([1 - 3 * u**2 + 2 * u**3, h * (u - 2 * u**2 + u**3), 3 * u**2 - 2 * u**3, h * (-u**2 + u**3)])
+    N = np.array([1 - 3 * u**2 + 2 * u**3, h * (u - 2 * u**2 + u**3), 3 * u**2 - 2 * u**3, h * (-(u**2) + u**3)])
     dN = np.array([-6 * u + 6 * u**2, h * (1 - 4 * u + 3 * u**2), 6 * u - 6 * u**2, h * (-2 * u + 3 * u**2)]) / h
     ddN = np.array([-6 + 12 * u, h * (-4 + 6 * u), 6 - 12 * u, h * (-2 + 6 * u)]) / h**2
     return N, dN, ddN
@@ -75,9 +83,15 @@ def _cable_energy(q: np.ndarray, v: np.ndarray, h: float, d: dict) -> tuple[floa
         for xi, w in zip(xg, wg):
             s = 0.5 * h * (xi + 1)
             N, dN, ddN = _hermite(s, h)
+
             def interp(S, z):
-                return np.array([S[0] * z[0] + S[1] * z[2] + S[2] * z[4] + S[3] * z[6],
-                                 S[0] * z[1] + S[1] * z[3] + S[2] * z[5] + S[3] * z[7]])
+                return np.array(
+                    [
+                        S[0] * z[0] + S[1] * z[2] + S[2] * z[4] + S[3] * z[6],
+                        S[0] * z[1] + S[1] * z[3] + S[2] * z[5] + S[3] * z[7],
+                    ]
+                )
+
             r, r1, r2, rv = interp(N, qe), interp(dN, qe), interp(ddN, qe), interp(N, ve)
             n1 = np.hypot(*r1)
             eps = n1 - 1.0
@@ -89,15 +103,38 @@ def _cable_energy(q: np.ndarray, v: np.ndarray, h: float, d: dict) -> tuple[floa
     return K, U, V
 
 
-def spinup(elements: int, steps_per_tau: int, t_end: float, mu: float | None = None, rho_inf: float = 0.9,
-           lam: float | None = None, energy_every: int = 0):
+def spinup(
+    elements: int,
+    steps_per_tau: int,
+    t_end: float,
+    mu: float | None = None,
+    rho_inf: float = 0.9,
+    lam: float | None = None,
+    energy_every: int = 0,
+):
     """(t, {theta, theta_dot, rod_mid, xB[, energy]}, CPU s). ``energy_every`` > 0: the energy at
     every that-many output samples (else not computed)."""
     import exudyn as exu
-    from exudyn.itemInterface import (ObjectANCFCable2D, NodePoint2DSlope1, NodeRigidBody2D, ObjectRigidBody2D,
-                                      NodePointGround, MarkerNodeCoordinate, MarkerBodyPosition, MarkerBodyRigid,
-                                      MarkerBodyMass, MarkerNodePosition, CoordinateConstraint, RevoluteJoint2D,
-                                      LoadTorqueVector, LoadMassProportional, NodePoint2D, MassPoint2D, SensorNode)
+    from exudyn.itemInterface import (
+        ObjectANCFCable2D,
+        NodePoint2DSlope1,
+        NodeRigidBody2D,
+        ObjectRigidBody2D,
+        NodePointGround,
+        MarkerNodeCoordinate,
+        MarkerBodyPosition,
+        MarkerBodyRigid,
+        MarkerBodyMass,
+        MarkerNodePosition,
+        CoordinateConstraint,
+        RevoluteJoint2D,
+        LoadTorqueVector,
+        LoadMassProportional,
+        NodePoint2D,
+        MassPoint2D,
+        SensorNode,
+    )
+
     d = scene_data(mu, lam)
     a, l, h = d["a"], d["l"], d["l"] / elements
     SC = exu.SystemContainer()
@@ -109,32 +146,67 @@ def spinup(elements: int, steps_per_tau: int, t_end: float, mu: float | None = N
     crank = mbs.AddObject(ObjectRigidBody2D(mass=d["mc"], inertia=d["mc"] * a * a / 12, nodeNumber=nc))
     mO = mbs.AddMarker(MarkerBodyPosition(bodyNumber=crank, localPosition=[-a / 2, 0, 0]))
     from exudyn.itemInterface import ObjectGround
+
     og = mbs.AddObject(ObjectGround())
-    mbs.AddObject(RevoluteJoint2D(markerNumbers=[mbs.AddMarker(MarkerBodyPosition(bodyNumber=og, localPosition=[0, 0, 0])), mO]))
-    mbs.AddLoad(LoadTorqueVector(markerNumber=mbs.AddMarker(MarkerBodyRigid(bodyNumber=crank, localPosition=[0, 0, 0])),
-                                 loadVector=[0, 0, d["T"]]))
-    mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=crank)), loadVector=[0, -d["g"], 0]))
+    mbs.AddObject(
+        RevoluteJoint2D(markerNumbers=[mbs.AddMarker(MarkerBodyPosition(bodyNumber=og, localPosition=[0, 0, 0])), mO])
+    )
+    mbs.AddLoad(
+        LoadTorqueVector(
+            markerNumber=mbs.AddMarker(MarkerBodyRigid(bodyNumber=crank, localPosition=[0, 0, 0])),
+            loadVector=[0, 0, d["T"]],
+        )
+    )
+    mbs.AddLoad(
+        LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=crank)), loadVector=[0, -d["g"], 0])
+    )
     mA = mbs.AddMarker(MarkerBodyPosition(bodyNumber=crank, localPosition=[a / 2, 0, 0]))
     # rod
     nodes = [mbs.AddNode(NodePoint2DSlope1(referenceCoordinates=[a + i * h, 0, 1, 0])) for i in range(elements + 1)]
     for i in range(elements):
-        el = mbs.AddObject(ObjectANCFCable2D(nodeNumbers=[nodes[i], nodes[i + 1]], length=h, massPerLength=d["rhoA"],
-                                             bendingStiffness=d["EI"], axialStiffness=d["EA"]))
-        mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=el)), loadVector=[0, -d["g"], 0]))
+        el = mbs.AddObject(
+            ObjectANCFCable2D(
+                nodeNumbers=[nodes[i], nodes[i + 1]],
+                length=h,
+                massPerLength=d["rhoA"],
+                bendingStiffness=d["EI"],
+                axialStiffness=d["EA"],
+            )
+        )
+        mbs.AddLoad(
+            LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=el)), loadVector=[0, -d["g"], 0])
+        )
     mbs.AddObject(RevoluteJoint2D(markerNumbers=[mA, mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[0]))]))
     # slider mass
     nB = mbs.AddNode(NodePoint2D(referenceCoordinates=[a + l, 0]))
     sB = mbs.AddObject(MassPoint2D(mass=d["M"], nodeNumber=nB))
-    mbs.AddObject(RevoluteJoint2D(markerNumbers=[mbs.AddMarker(MarkerNodePosition(nodeNumber=nB)),
-                                                 mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[-1]))]))
-    mbs.AddObject(CoordinateConstraint(markerNumbers=[mg[1], mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nB, coordinate=1))]))
-    mbs.AddLoad(LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=sB)), loadVector=[0, -d["g"], 0]))
+    mbs.AddObject(
+        RevoluteJoint2D(
+            markerNumbers=[
+                mbs.AddMarker(MarkerNodePosition(nodeNumber=nB)),
+                mbs.AddMarker(MarkerNodePosition(nodeNumber=nodes[-1])),
+            ]
+        )
+    )
+    mbs.AddObject(
+        CoordinateConstraint(markerNumbers=[mg[1], mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=nB, coordinate=1))])
+    )
+    mbs.AddLoad(
+        LoadMassProportional(markerNumber=mbs.AddMarker(MarkerBodyMass(bodyNumber=sB)), loadVector=[0, -d["g"], 0])
+    )
     OV = exu.OutputVariableType
-    s_c = [mbs.AddSensor(SensorNode(nodeNumber=nc, storeInternal=True, outputVariableType=o))
-           for o in (OV.Coordinates, OV.Coordinates_t)]
+    s_c = [
+        mbs.AddSensor(SensorNode(nodeNumber=nc, storeInternal=True, outputVariableType=o))
+        for o in (OV.Coordinates, OV.Coordinates_t)
+    ]
     keep = nodes if energy_every else [nodes[0], nodes[elements // 2], nodes[-1]]
-    s_n = [(mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, outputVariableType=OV.Coordinates)),
-            mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, outputVariableType=OV.Coordinates_t))) for n in keep]
+    s_n = [
+        (
+            mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, outputVariableType=OV.Coordinates)),
+            mbs.AddSensor(SensorNode(nodeNumber=n, storeInternal=True, outputVariableType=OV.Coordinates_t)),
+        )
+        for n in keep
+    ]
     mbs.Assemble()
     ss = exu.SimulationSettings()
     n = int(round(steps_per_tau * t_end))
@@ -170,7 +242,7 @@ def spinup(elements: int, steps_per_tau: int, t_end: float, mu: float | None = N
             th, w = C[i, 3], Cd[i, 3]
             e_c = 0.5 * I_O * w * w + d["mc"] * d["g"] * 0.5 * a * math.sin(th)
             vB = Qd[-1][i, :2]
-            e_s = 0.5 * d["M"] * (vB @ vB)            # slider on y = 0: no potential
+            e_s = 0.5 * d["M"] * (vB @ vB)  # slider on y = 0: no potential
             K, U, V = _cable_energy(np.array([q[i] for q in Q]), np.array([v[i] for v in Qd]), h, d)
             E[i] = e_c + e_s + K + U + V
         out["energy"] = E
@@ -183,8 +255,10 @@ if __name__ == "__main__":
     mu = float(args[3]) if len(args) > 3 else None
     rho = float(args[4]) if len(args) > 4 else 0.9
     t, out, cpu = spinup(el, st, te, mu, rho, energy_every=50)
-    print(f"cpu {cpu:.2f}s theta_end {out['theta'][-1]:.6f} w_end {out['theta_dot'][-1]:.6f} "
-          f"rod_mid max {np.abs(out['rod_mid']).max():.6e}")
+    print(
+        f"cpu {cpu:.2f}s theta_end {out['theta'][-1]:.6f} w_end {out['theta_dot'][-1]:.6f} "
+        f"rod_mid max {np.abs(out['rod_mid']).max():.6e}"
+    )
     E = out["energy"]
     ok = ~np.isnan(E)
     W = scene_data(mu)["T"] * (out["theta"] - out["theta"][0])

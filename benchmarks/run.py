@@ -10,6 +10,7 @@ sections that have a quick mode take ``quick=True`` too).
 Times are medians of repeats measured in one run on this machine (shared, noisy machines:
 compare ratios within a run, not absolute numbers across runs).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,8 +27,21 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-SECTIONS = ["examples", "derivation", "tolerances", "faster", "backends", "integrators", "exudyn", "exudyn_seed", "c", "hard",
-            "spinup", "overhang", "sixbar"]
+SECTIONS = [
+    "examples",
+    "derivation",
+    "tolerances",
+    "faster",
+    "backends",
+    "integrators",
+    "exudyn",
+    "exudyn_seed",
+    "c",
+    "hard",
+    "spinup",
+    "overhang",
+    "sixbar",
+]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 
 
@@ -38,10 +52,10 @@ def split_sections(text: str) -> tuple[str, dict[str, str]]:
     sections: dict[str, str] = {}
     start = 0
     first = text.find("\n## ")
-    header = text[:first + 1] if first >= 0 else text
+    header = text[: first + 1] if first >= 0 else text
     start = len(header)
     for m in FOOTER.finditer(text):
-        sections[m.group(1)] = text[start:m.end()].strip("\n")
+        sections[m.group(1)] = text[start : m.end()].strip("\n")
         start = m.end()
     return header, sections
 
@@ -58,13 +72,23 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--only", action="append", choices=SECTIONS)
-    ap.add_argument("--quick", action="store_true",
-                    help="small grids for the sections that have them (printed, RESULTS.md left alone)")
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="small grids for the sections that have them (printed, RESULTS.md left alone)",
+    )
     args = ap.parse_args()
-    header = "\n".join(["# symgen benchmark results", "",
-                        f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
-                        f"written by `python benchmarks/run.py` (sections updated by `--only NAME`; this one on "
-                        f"{time.strftime('%Y-%m-%d')}).", "", ""])
+    header = "\n".join(
+        [
+            "# symgen benchmark results",
+            "",
+            f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}; "
+            f"written by `python benchmarks/run.py` (sections updated by `--only NAME`; this one on "
+            f"{time.strftime('%Y-%m-%d')}).",
+            "",
+            "",
+        ]
+    )
     new = {}
     for name in args.only or SECTIONS:
         module = importlib.import_module(f"bench_{name}")

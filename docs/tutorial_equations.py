@@ -9,6 +9,7 @@ them the way ``sympy.physics.mechanics`` users expect: a mass matrix, a forcing 
 constraints with their Jacobian, so that they can be linearised, simplified, compared with a
 hand derivation or handed to other tools.
 """
+
 import tempfile
 from pathlib import Path
 
@@ -49,7 +50,7 @@ with tempfile.TemporaryDirectory() as folder:
     eqs = equations(path)
 
 (theta,) = eqs.coordinates
-M = eqs.mass_matrix.xreplace(eqs.values)        # the parameters' values for this scene
+M = eqs.mass_matrix.xreplace(eqs.values)  # the parameters' values for this scene
 f = eqs.forcing.xreplace(eqs.values)
 print("coordinates:", eqs.coordinates)
 print("mass matrix:", sp.nsimplify(M[0, 0]))
@@ -61,5 +62,11 @@ print("theta'' =", sp.nsimplify(sp.simplify(sp.solve(sp.Eq((M * sp.Matrix([a]))[
 #    constraint Jacobian is that of the loop closure (11) and the driver row.
 eqs = equations("examples/slider_crank.toml")
 print("slider-crank: q =", eqs.coordinates)
-print("mass matrix", eqs.mass_matrix.shape, "constraint Jacobian", eqs.constraint_jacobian.shape,
-      "rows", [f"{r.kind} of {r.joint}" for r in eqs.rows])
+print(
+    "mass matrix",
+    eqs.mass_matrix.shape,
+    "constraint Jacobian",
+    eqs.constraint_jacobian.shape,
+    "rows",
+    [f"{r.kind} of {r.joint}" for r in eqs.rows],
+)

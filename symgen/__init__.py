@@ -6,4 +6,5 @@ Data flows one way through these stages::
       -> bars (8)-(9), (16)-(17) and rigid-body equations -> dae (assembled model)
       -> emit (casadi, latex) -> run (idas, outputs)
 """
+
 __version__ = "0.1.0"

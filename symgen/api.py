@@ -10,6 +10,7 @@ CSV, its JSON sidecar, the plot), through the same writer (``symgen.numerics.res
 >>> simulate_scene("examples/slider_crank.toml", ["simulation.cycles=0.5"],
 ...                out="out/sc.csv", plot="out/sc.png")                             # doctest: +SKIP
 """
+
 from __future__ import annotations
 
 import os
@@ -23,8 +24,7 @@ from symgen.scene import load_scene
 from symgen.scene.model import Scene
 
 
-def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (),
-              use_cache: bool = True) -> Mechanism:
+def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), use_cache: bool = True) -> Mechanism:
     """The compiled model of a scene with its parameter values, ready to run
     (:func:`symgen.numerics.mechanism.load_mechanism`)."""
     return load_mechanism(scene, overrides, use_cache)
@@ -58,19 +58,22 @@ def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overri
     """``symgen emit-c``: the scene's standalone C (model, solver, driver, CMakeLists.txt) written
     into ``out_dir`` all or nothing; its folder. A bad scene name fails before any work."""
     from symgen.backends.c import c_prefix, write_c as emit
+
     scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     c_prefix(scene)
     model, info, plan = _emit_inputs(scene)
     return emit(scene, out_dir, model, plan, info)
 
 
-def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrides: Sequence[str] = (),
-              cc: str | None = None):
+def write_fmu(
+    scene: Scene | str | os.PathLike, path: str | os.PathLike, overrides: Sequence[str] = (), cc: str | None = None
+):
     """``symgen emit-fmu``: the scene's FMI 2.0 Co-Simulation FMU at ``path``; its path."""
     from pathlib import Path
 
     from symgen.backends.c import c_prefix, write_fmu as emit
     from symgen.backends.fmu import check_fmu_path
+
     scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
     check_fmu_path(Path(path))
     c_prefix(scene)
@@ -78,9 +81,16 @@ def write_fmu(scene: Scene | str | os.PathLike, path: str | os.PathLike, overrid
     return emit(scene, path, model, plan, info, cc=cc)
 
 
-def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), *,
-                   out: str | os.PathLike | None = None, plot: str | os.PathLike | None = None,
-                   states: bool = False, units: str | None = None, **kwargs) -> SimResult:
+def simulate_scene(
+    scene: Scene | str | os.PathLike,
+    overrides: Sequence[str] = (),
+    *,
+    out: str | os.PathLike | None = None,
+    plot: str | os.PathLike | None = None,
+    states: bool = False,
+    units: str | None = None,
+    **kwargs,
+) -> SimResult:
     """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``.
 
     ``out``: write the run as ``symgen simulate -o OUT`` does (``out`` a .csv; its JSON sidecar
@@ -93,13 +103,30 @@ def simulate_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = 
         _no_files(plot, states, units)
         return simulate(mechanism(scene, overrides), **kwargs)
     _only(kwargs, ("backend", "use_cache"), "simulation.t_end=..., simulation.rtol=...")
-    return _written_run(scene, overrides, out, plot, states, units, kwargs.get("use_cache", True), "idas",
-                        lambda mech: simulate(mech, **kwargs))
+    return _written_run(
+        scene,
+        overrides,
+        out,
+        plot,
+        states,
+        units,
+        kwargs.get("use_cache", True),
+        "idas",
+        lambda mech: simulate(mech, **kwargs),
+    )
 
 
-def quasi_static_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), *,
-                       out: str | os.PathLike | None = None, plot: str | os.PathLike | None = None,
-                       states: bool = False, units: str | None = None, use_cache: bool = True, **kwargs):
+def quasi_static_scene(
+    scene: Scene | str | os.PathLike,
+    overrides: Sequence[str] = (),
+    *,
+    out: str | os.PathLike | None = None,
+    plot: str | os.PathLike | None = None,
+    states: bool = False,
+    units: str | None = None,
+    use_cache: bool = True,
+    **kwargs,
+):
     """The quasi-static response (18)-(20) over a cycle; kwargs go to
     ``symgen.numerics.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus, say).
 
@@ -107,18 +134,22 @@ def quasi_static_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str
     (see :func:`simulate_scene`); the kwargs are then those of the command line only
     (``kinematics``, ``cycles``, ``say``)."""
     from symgen.numerics.quasistatic import quasi_static
+
     if out is None:
         _no_files(plot, states, units)
         return quasi_static(mechanism(scene, overrides, use_cache=use_cache), **kwargs)
     _only(kwargs, ("kinematics", "cycles", "say"), "simulation.output_step=...")
-    return _written_run(scene, overrides, out, plot, states, units, use_cache, "quasi-static",
-                        lambda mech: quasi_static(mech, **kwargs))
+    return _written_run(
+        scene, overrides, out, plot, states, units, use_cache, "quasi-static", lambda mech: quasi_static(mech, **kwargs)
+    )
 
 
 def _no_files(plot, states: bool, units: str | None) -> None:
     if plot is not None or states or units is not None:
-        raise ValueError("plot, states and units describe the files of a run: give out=... (a .csv) too, "
-                         "or use results_table(result, scene, units) for the columns")
+        raise ValueError(
+            "plot, states and units describe the files of a run: give out=... (a .csv) too, "
+            "or use results_table(result, scene, units) for the columns"
+        )
 
 
 def _only(kwargs: dict, allowed: tuple, hint: str) -> None:
@@ -126,8 +157,10 @@ def _only(kwargs: dict, allowed: tuple, hint: str) -> None:
     make it wrong."""
     other = sorted(set(kwargs) - set(allowed))
     if other:
-        raise ValueError(f"with out=..., {', '.join(other)} would not be recorded in the sidecar: give them "
-                         f"as scene overrides ({hint}); the kwargs here are {', '.join(allowed)}")
+        raise ValueError(
+            f"with out=..., {', '.join(other)} would not be recorded in the sidecar: give them "
+            f"as scene overrides ({hint}); the kwargs here are {', '.join(allowed)}"
+        )
 
 
 def _written_run(scene, overrides, out, plot, states: bool, units: str | None, use_cache: bool, solver: str, run):
@@ -145,8 +178,9 @@ def _written_run(scene, overrides, out, plot, states: bool, units: str | None, u
         choose_system(scene, units)
         mech = mechanism(scene, use_cache=use_cache)
         result, failure = attempt(lambda: run(mech))
-        written = write_run(files, scene, mech.compiled, mech.build_s, result, failure, solver=solver, units=units,
-                            states=states)
+        written = write_run(
+            files, scene, mech.compiled, mech.build_s, result, failure, solver=solver, units=units, states=states
+        )
         if written.plot is not None:
             plot_run(written.plot)
         if failure is not None:
@@ -160,6 +194,7 @@ def _written_run(scene, overrides, out, plot, states: bool, units: str | None, u
 def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), tau: float = 0.0, **kwargs):
     """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
     from symgen.numerics.modes import modes
+
     return modes(mechanism(scene, overrides), tau=tau, **kwargs)
 
 
@@ -176,20 +211,20 @@ class Equations:
     the model's dimensionless units (``time`` is tau = omega t), with the scene's parameters as
     symbols (``parameters``) and their values for this scene in ``values``."""
 
-    time: Any                       # sympy Symbol tau
-    coordinates: tuple[Any, ...]    # q (sympy Symbols), one per ``records`` entry
-    records: tuple[Any, ...]        # symgen.ir.records.Coordinate of each q: kind, bar, index, joint
-    speeds: tuple[Any, ...]         # v = dq/dtau
+    time: Any  # sympy Symbol tau
+    coordinates: tuple[Any, ...]  # q (sympy Symbols), one per ``records`` entry
+    records: tuple[Any, ...]  # symgen.ir.records.Coordinate of each q: kind, bar, index, joint
+    speeds: tuple[Any, ...]  # v = dq/dtau
     accelerations: tuple[Any, ...]  # a = dv/dtau
-    multipliers: tuple[Any, ...]    # lam
-    rows: tuple[Any, ...]           # symgen.ir.records.ConstraintRow of each lam
-    parameters: tuple[Any, ...]     # the parameter symbols
-    values: dict[Any, float]        # parameter symbol -> its value for this scene
-    mass_matrix: Any                # sympy Matrix n x n
-    multiplier_matrix: Any          # sympy Matrix n x m
-    forcing: Any                    # sympy Matrix n x 1
-    constraints: Any                # sympy Matrix m x 1 (position level)
-    constraint_jacobian: Any        # sympy Matrix m x n
+    multipliers: tuple[Any, ...]  # lam
+    rows: tuple[Any, ...]  # symgen.ir.records.ConstraintRow of each lam
+    parameters: tuple[Any, ...]  # the parameter symbols
+    values: dict[Any, float]  # parameter symbol -> its value for this scene
+    mass_matrix: Any  # sympy Matrix n x n
+    multiplier_matrix: Any  # sympy Matrix n x m
+    forcing: Any  # sympy Matrix n x 1
+    constraints: Any  # sympy Matrix m x 1 (position level)
+    constraint_jacobian: Any  # sympy Matrix m x n
 
 
 def equations(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -> Equations:
@@ -218,12 +253,21 @@ def equations(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -
     zero = {x: 0 for x in (*model.a, *model.lam)}
     params = tuple(model.params)
     return Equations(
-        time=TAU, coordinates=tuple(model.q), records=tuple(model.coords), speeds=tuple(model.v),
-        accelerations=tuple(model.a), multipliers=tuple(model.lam), rows=tuple(model.lam_rows),
-        parameters=params, values=dict(zip(params, (float(x) for x in parameter_values(scene, model.param_names)))),
-        mass_matrix=res.jacobian(a), multiplier_matrix=res.jacobian(lam) if len(model.lam) else sp.zeros(len(res), 0),
-        forcing=-res.xreplace(zero), constraints=phi,
-        constraint_jacobian=phi.jacobian(q) if len(model.lam) else sp.zeros(0, len(model.q)))
+        time=TAU,
+        coordinates=tuple(model.q),
+        records=tuple(model.coords),
+        speeds=tuple(model.v),
+        accelerations=tuple(model.a),
+        multipliers=tuple(model.lam),
+        rows=tuple(model.lam_rows),
+        parameters=params,
+        values=dict(zip(params, (float(x) for x in parameter_values(scene, model.param_names)))),
+        mass_matrix=res.jacobian(a),
+        multiplier_matrix=res.jacobian(lam) if len(model.lam) else sp.zeros(len(res), 0),
+        forcing=-res.xreplace(zero),
+        constraints=phi,
+        constraint_jacobian=phi.jacobian(q) if len(model.lam) else sp.zeros(0, len(model.q)),
+    )
 
 
 def results_table(result, scene: Scene, units: str | None = None) -> dict:
@@ -250,13 +294,13 @@ def results_frame(result, scene: Scene, units: str | None = None):
     try:
         import pandas as pd
     except ImportError:
-        raise ImportError("results_frame needs pandas (pip install pandas); results_table gives "
-                          "the same columns as numpy arrays") from None
+        raise ImportError(
+            "results_frame needs pandas (pip install pandas); results_table gives the same columns as numpy arrays"
+        ) from None
     return pd.DataFrame(results_table(result, scene, units))
 
 
-def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *, frame: bool = False,
-          **kwargs):
+def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *, frame: bool = False, **kwargs):
     """A parameter sweep: one row per point of the grid of ``vary``, as a dict of numpy arrays
     (a pandas DataFrame with ``frame=True``; pandas is optional).
 
@@ -278,7 +322,9 @@ def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *
         try:
             import pandas  # noqa: F401
         except ImportError:
-            raise ImportError("sweep(..., frame=True) needs pandas: pip install pandas "
-                              "(without it, sweep returns a dict of numpy arrays)") from None
+            raise ImportError(
+                "sweep(..., frame=True) needs pandas: pip install pandas "
+                "(without it, sweep returns a dict of numpy arrays)"
+            ) from None
     result = run_sweep(scene, [vary_from(k, v) for k, v in vary.items()], overrides, **kwargs)
     return result.frame() if frame else result.columns

@@ -29,6 +29,7 @@ interrupted removes its temporary files, and temporaries older than :data:`STALE
 
 Kept free of SymPy and CasADi.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -46,9 +47,30 @@ from dataclasses import dataclass
 from pathlib import Path
 from collections.abc import Iterator
 
-__all__ = ["CACHE_ENV", "STALE_TEMP_S", "InvalidEntry", "KeyUnavailable", "cache_root", "models_dir",
-           "compiled_dir", "shapes_dir", "key_path", "sha256_hex", "seal", "verify", "read_bytes", "pack", "unpack", "report_invalid", "report_unwritable", "temp_dir", "install_dir",
-           "sweep_stale", "info", "clear"]
+__all__ = [
+    "CACHE_ENV",
+    "STALE_TEMP_S",
+    "InvalidEntry",
+    "KeyUnavailable",
+    "cache_root",
+    "models_dir",
+    "compiled_dir",
+    "shapes_dir",
+    "key_path",
+    "sha256_hex",
+    "seal",
+    "verify",
+    "read_bytes",
+    "pack",
+    "unpack",
+    "report_invalid",
+    "report_unwritable",
+    "temp_dir",
+    "install_dir",
+    "sweep_stale",
+    "info",
+    "clear",
+]
 
 CACHE_ENV = "SYMGEN_CACHE_DIR"
 #: A temporary entry older than this (seconds) belongs to a writer that died: swept away.
@@ -112,12 +134,16 @@ _keys: dict[str, bytes] = {}
 def _check_private(st: os.stat_result, what: str, path: Path, mode_mask: int) -> None:
     uid = os.geteuid() if hasattr(os, "geteuid") else st.st_uid
     if st.st_uid != uid:
-        raise KeyUnavailable(f"the cache key's {what} {path} belongs to another user (uid {st.st_uid}): "
-                             f"remove it, or set XDG_CONFIG_HOME to a folder of your own")
+        raise KeyUnavailable(
+            f"the cache key's {what} {path} belongs to another user (uid {st.st_uid}): "
+            f"remove it, or set XDG_CONFIG_HOME to a folder of your own"
+        )
     if st.st_mode & mode_mask:
-        raise KeyUnavailable(f"the cache key's {what} {path} can be {'written' if mode_mask == 0o022 else 'read'} "
-                             f"by others (mode {stat.S_IMODE(st.st_mode):o}): chmod "
-                             f"{'go-w' if mode_mask == 0o022 else '600'} {path}, or remove it to make a new key")
+        raise KeyUnavailable(
+            f"the cache key's {what} {path} can be {'written' if mode_mask == 0o022 else 'read'} "
+            f"by others (mode {stat.S_IMODE(st.st_mode):o}): chmod "
+            f"{'go-w' if mode_mask == 0o022 else '600'} {path}, or remove it to make a new key"
+        )
 
 
 def _read_key(path: Path) -> bytes:
@@ -148,11 +174,11 @@ def _user_key() -> bytes:
         except FileNotFoundError:
             path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
             _check_private(os.stat(path.parent), "folder", path.parent, 0o022)
-            fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)    # mode 0600
+            fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)  # mode 0600
             try:
                 os.write(fd, secrets.token_hex(32).encode() + b"\n")
                 os.close(fd)
-                with contextlib.suppress(FileExistsError):     # another process made it first
+                with contextlib.suppress(FileExistsError):  # another process made it first
                     os.link(tmp, path)
             finally:
                 with contextlib.suppress(OSError):
@@ -163,8 +189,10 @@ def _user_key() -> bytes:
     except KeyUnavailable:
         raise
     except OSError as exc:
-        raise KeyUnavailable(f"the cache key {path} cannot be read or made ({exc.strerror or exc}): "
-                             f"set XDG_CONFIG_HOME to a writable folder of your own") from None
+        raise KeyUnavailable(
+            f"the cache key {path} cannot be read or made ({exc.strerror or exc}): "
+            f"set XDG_CONFIG_HOME to a writable folder of your own"
+        ) from None
     _keys[str(path)] = key
     return key
 
@@ -193,8 +221,10 @@ def verify(label: str, data: bytes, recorded: object, name: str | None = None) -
         raise InvalidEntry(f"cannot be verified: {exc}") from None
     if not isinstance(recorded, str) or not hmac.compare_digest(expected, recorded):
         name = label.rsplit("/", 1)[-1] if name is None else name
-        raise InvalidEntry(f"{name + ' ' if name else ''}does not match the keyed hash recorded when it was written "
-                           "(changed, damaged, or written by another user or machine)")
+        raise InvalidEntry(
+            f"{name + ' ' if name else ''}does not match the keyed hash recorded when it was written "
+            "(changed, damaged, or written by another user or machine)"
+        )
 
 
 def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -> bytes:
@@ -212,7 +242,7 @@ def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -
         raise InvalidEntry(f"{os.fspath(name)} cannot be opened ({exc.strerror or exc})") from None
     try:
         st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):      # before fdopen, which refuses a folder with IsADirectoryError
+        if not stat.S_ISREG(st.st_mode):  # before fdopen, which refuses a folder with IsADirectoryError
             raise InvalidEntry(f"{os.fspath(name)} is not a regular file")
     except BaseException:
         os.close(fd)
@@ -235,12 +265,12 @@ def pack(kind: str, payload: bytes) -> bytes:
 def unpack(kind: str, data: bytes) -> bytes:
     """The payload of a :func:`pack` file, after checking its kind and keyed hash."""
     end = data.find(b"\n")
-    m = _HEADER.fullmatch(data[:end + 1]) if end >= 0 else None
+    m = _HEADER.fullmatch(data[: end + 1]) if end >= 0 else None
     if m is None:
         raise InvalidEntry("has no valid symgen-cache header (not written by this symgen, or damaged)")
     if m.group(1).decode() != kind:
         raise InvalidEntry(f"is a {m.group(1).decode()!r} entry, not {kind!r}")
-    payload = data[end + 1:]
+    payload = data[end + 1 :]
     verify(kind, payload, m.group(2).decode(), name="")
     return payload
 
@@ -252,8 +282,11 @@ def report_invalid(entry: os.PathLike | str, reason: str) -> None:
 
 def report_unwritable(entry: os.PathLike | str, exc: BaseException) -> None:
     """The one stderr line for an entry that could not be written (the run goes on)."""
-    print(f"symgen: warning: could not write the cache entry {os.fspath(entry)} ({exc}); the results are "
-          f"correct, only not cached (set ${CACHE_ENV} to a writable folder)", file=sys.stderr)
+    print(
+        f"symgen: warning: could not write the cache entry {os.fspath(entry)} ({exc}); the results are "
+        f"correct, only not cached (set ${CACHE_ENV} to a writable folder)",
+        file=sys.stderr,
+    )
 
 
 # ----------------------------------------------------------------------------- writing
@@ -342,7 +375,7 @@ def sweep_stale(parent: Path, max_age: float = STALE_TEMP_S) -> int:
 @dataclass
 class _Item:
     path: Path
-    kind: str       # "model", "compiled", "shapes", "temp", "old"
+    kind: str  # "model", "compiled", "shapes", "temp", "old"
     size: int
 
 
@@ -361,7 +394,7 @@ def _owned() -> list[_Item]:
     for sub, entry in ((models_dir(), _MODEL_ENTRY), (compiled_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
         try:
             if not stat.S_ISDIR(os.lstat(sub).st_mode):
-                continue            # a link (or a file) where symgen makes a folder: never followed
+                continue  # a link (or a file) where symgen makes a folder: never followed
             names = sorted(os.listdir(sub))
         except OSError:
             continue
@@ -372,7 +405,7 @@ def _owned() -> list[_Item]:
             elif entry.fullmatch(name):
                 kind = {"models": "model", "compiled": "compiled"}.get(sub.name, "shapes")
             elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
-                kind = "old"   # a pickle from an older symgen: never loaded
+                kind = "old"  # a pickle from an older symgen: never loaded
             else:
                 continue
             items.append(_Item(path, kind, _size(path)))
@@ -397,9 +430,13 @@ def info() -> str:
     source = f"${CACHE_ENV}" if os.environ.get(CACHE_ENV) else f"default; set ${CACHE_ENV} to move it"
     lines = [f"cache: {root} ({source})"]
     items = _owned()
-    labels = {"model": ("models", "derived models"), "compiled": ("compiled", "compiled model libraries"),
-              "shapes": ("shapes", "shape inner products"),
-              "temp": ("temporary", "unfinished writes"), "old": ("old", "pickles of an older symgen, never loaded")}
+    labels = {
+        "model": ("models", "derived models"),
+        "compiled": ("compiled", "compiled model libraries"),
+        "shapes": ("shapes", "shape inner products"),
+        "temp": ("temporary", "unfinished writes"),
+        "old": ("old", "pickles of an older symgen, never loaded"),
+    }
     for kind, (label, what) in labels.items():
         sel = [i for i in items if i.kind == kind]
         if not sel and kind in ("temp", "old", "compiled"):
@@ -421,10 +458,13 @@ def clear() -> tuple[int, int]:
         _remove(it.path)
     for sub in (models_dir(), compiled_dir(), shapes_dir()):
         if os.path.islink(sub):
-            print(f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
-                  f"removed; remove the link by hand if the cache should own that folder", file=sys.stderr)
+            print(
+                f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
+                f"removed; remove the link by hand if the cache should own that folder",
+                file=sys.stderr,
+            )
     for sub in (models_dir(), compiled_dir(), shapes_dir()):
         with contextlib.suppress(OSError):
             if stat.S_ISDIR(os.lstat(sub).st_mode):
-                sub.rmdir()   # only when empty
+                sub.rmdir()  # only when empty
     return len(items), sum(i.size for i in items)

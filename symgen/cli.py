@@ -1,4 +1,5 @@
 """The ``symgen`` command line (thin: every command calls one stage function)."""
+
 from __future__ import annotations
 
 import argparse
@@ -16,6 +17,7 @@ from symgen.numerics import interrupt
 
 def _scene(args):
     from symgen.scene import load_scene
+
     return load_scene(args.scene, args.set or [])
 
 
@@ -49,6 +51,7 @@ def _scene_warnings():
                 print(f"symgen: warning: {message}", file=sys.stderr)
             else:
                 previous(message, category, filename, lineno, file, line)
+
         warnings.showwarning = show
         yield
 
@@ -63,14 +66,20 @@ def _bounded(kind=float, *, gt=None, ge=None, lt=None, le=None):
             x = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}") from None
-        if not (math.isfinite(x) and (gt is None or x > gt) and (ge is None or x >= ge)
-                and (lt is None or x < lt) and (le is None or x <= le)):
+        if not (
+            math.isfinite(x)
+            and (gt is None or x > gt)
+            and (ge is None or x >= ge)
+            and (lt is None or x < lt)
+            and (le is None or x <= le)
+        ):
             raise argparse.ArgumentTypeError(f"must be {wanted}, got {text!r}")
         return x
+
     return parse
 
 
-_RTOL = _bounded(ge=1e-14, lt=1.0)      # the scene loader's range of simulation.rtol
+_RTOL = _bounded(ge=1e-14, lt=1.0)  # the scene loader's range of simulation.rtol
 
 
 def cmd_check(args) -> int:
@@ -88,11 +97,13 @@ def _prepare_run(args):
     from symgen.numerics.units import choose_system
 
     scene = _scene(args)
-    choose_system(scene, args.units)          # before any work: --units SI needs an SI scene
+    choose_system(scene, args.units)  # before any work: --units SI needs an SI scene
     _say(args, f"loading the model of {scene.name} from the cache, or deriving it")
     mech = mechanism(scene, use_cache=not args.no_cache)
-    _say(args, "model loaded from the cache" if mech.compiled.cached
-         else f"model derived in {mech.compiled.derive_s:.2f} s")
+    _say(
+        args,
+        "model loaded from the cache" if mech.compiled.cached else f"model derived in {mech.compiled.derive_s:.2f} s",
+    )
     return mech
 
 
@@ -111,12 +122,22 @@ def _write_run(args, files, mech, result, failure, solver: str):
     """CSV, JSON (partial when the run stopped), then the plot if asked; re-raise a failure."""
     from symgen.numerics.results import write_run
 
-    written = write_run(files, mech.scene, mech.compiled, mech.build_s, result, failure, solver=solver,
-                        units=args.units, states=getattr(args, "states", False))
+    written = write_run(
+        files,
+        mech.scene,
+        mech.compiled,
+        mech.build_s,
+        result,
+        failure,
+        solver=solver,
+        units=args.units,
+        states=getattr(args, "states", False),
+    )
     if failure is not None:
         print(f"symgen: partial result kept in {written.csv} ({written.sidecar['status']})", file=sys.stderr)
     if written.plot is not None:
         from symgen.apps.plot import plot_run
+
         plot_run(written.plot)
     if failure is not None:
         raise failure
@@ -132,24 +153,36 @@ def _simulate(args, files) -> int:
     from symgen.numerics.simulate import simulate
 
     if args.solver == "c" and args.states:
-        raise SceneError("command line", "--states", "the C solver writes the outputs only, not the coordinates",
-                         "leave out --states, or --solver c")
+        raise SceneError(
+            "command line",
+            "--states",
+            "the C solver writes the outputs only, not the coordinates",
+            "leave out --states, or --solver c",
+        )
     mech = _prepare_run(args)
     _say(args, f"integrating tau 0 -> {mech.scene.simulation.t_end:.6g}")
     if args.solver == "c":
         from symgen.numerics.csolver import simulate_c
+
         result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
     else:
-        result, failure = attempt(lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache,
-                                                   progress=True))
+        result, failure = attempt(
+            lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache, progress=True)
+        )
     written = _write_run(args, files, mech, result, failure, args.solver)
-    assert result is not None       # write_run raises when the run has no result
+    assert result is not None  # write_run raises when the run has no result
     compiled = mech.compiled
-    print(f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
-          f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
-          + (f"model loaded from cache {mech.build_s:.2f}s, " if compiled.cached
-             else f"derived {compiled.derive_s:.2f}s, ")
-          + _backend_text(result.stats) + f"simulate {result.simulate_s:.2f}s)")
+    print(
+        f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
+        f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
+        + (
+            f"model loaded from cache {mech.build_s:.2f}s, "
+            if compiled.cached
+            else f"derived {compiled.derive_s:.2f}s, "
+        )
+        + _backend_text(result.stats)
+        + f"simulate {result.simulate_s:.2f}s)"
+    )
     return 0
 
 
@@ -198,22 +231,39 @@ def cmd_study(args) -> int:
             levels = [tuple(int(x) for x in lev.split("+")) for lev in args.levels.split(",")]
             assert all(len(lev) == 2 and min(lev) >= 0 for lev in levels)
         except (ValueError, AssertionError):
-            raise SceneError("command line", "--levels", f"{args.levels!r} is not a list like 1+1,3+4,6+8",
-                             "give axial+transverse mode counts, poorest first, separated by commas") from None
+            raise SceneError(
+                "command line",
+                "--levels",
+                f"{args.levels!r} is not a list like 1+1,3+4,6+8",
+                "give axial+transverse mode counts, poorest first, separated by commas",
+            ) from None
     tols = None
     if args.tolerances:
         try:
             tols = [_RTOL(x) for x in args.tolerances.split(",")]
         except (ValueError, argparse.ArgumentTypeError):
-            raise SceneError("command line", "--tolerances", f"{args.tolerances!r} is not a list like 1e-4,1e-6",
-                             "give rtol values in [1e-14, 1) separated by commas") from None
+            raise SceneError(
+                "command line",
+                "--tolerances",
+                f"{args.tolerances!r} is not a list like 1e-4,1e-6",
+                "give rtol values in [1e-14, 1) separated by commas",
+            ) from None
     try:
-        study = run_study(args.scene, args.set or [], quick=args.quick, repeats=args.repeats,
-                          window_turns=args.window, cutoff_per_turn=args.cutoff, levels=levels, tolerances=tols,
-                          ref_rtol=args.ref_rtol, progress=None if args.silent else _flush_print)
+        study = run_study(
+            args.scene,
+            args.set or [],
+            quick=args.quick,
+            repeats=args.repeats,
+            window_turns=args.window,
+            cutoff_per_turn=args.cutoff,
+            levels=levels,
+            tolerances=tols,
+            ref_rtol=args.ref_rtol,
+            progress=None if args.silent else _flush_print,
+        )
     except BaseException as err:
         partial = getattr(err, "partial", None)
-        if partial is not None:       # interrupted after the reference: the rows done, marked partial
+        if partial is not None:  # interrupted after the reference: the rows done, marked partial
             paths = write_study(partial, args.output, with_plot=False)
             print(f"symgen: partial study kept in {paths[1]} ({partial.status})", file=sys.stderr)
         else:
@@ -229,7 +279,15 @@ def _flush_print(text: str) -> None:
 
 
 def cmd_sweep(args) -> int:
-    from symgen.apps.sweep import check_table_path, parse_vary, plot_campbell, plot_resonance, sweep, sweep_meta, write_table
+    from symgen.apps.sweep import (
+        check_table_path,
+        parse_vary,
+        plot_campbell,
+        plot_resonance,
+        sweep,
+        sweep_meta,
+        write_table,
+    )
 
     out = check_table_path(args.output)
     for path, key in ((args.plot, "--plot"), (args.campbell, "--campbell")):
@@ -244,30 +302,48 @@ def cmd_sweep(args) -> int:
     scene = _scene(args)
     campbell_at = args.campbell_at if args.campbell else None
     try:
-        result = sweep(args.scene, varies, overrides, workers=args.workers, scheduler=args.scheduler,
-                       window=args.window, campbell=bool(args.campbell), campbell_at=args.campbell_at,
-                       use_cache=not args.no_cache, say=print)
+        result = sweep(
+            args.scene,
+            varies,
+            overrides,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            window=args.window,
+            campbell=bool(args.campbell),
+            campbell_at=args.campbell_at,
+            use_cache=not args.no_cache,
+            say=print,
+        )
     except BaseException as err:
         partial = getattr(err, "partial", None)
         if partial is not None and any(s != "not run" for s in partial.columns["status"]):
             stopped = "partial" if isinstance(err, Exception) else "interrupted"
-            written = write_table(out, partial, sweep_meta(partial, args.scene, varies, overrides, args.window,
-                                                           campbell_at, scene, stopped))
+            written = write_table(
+                out,
+                partial,
+                sweep_meta(partial, args.scene, varies, overrides, args.window, campbell_at, scene, stopped),
+            )
             print(f"symgen: partial sweep kept in {written}", file=sys.stderr)
         raise
-    written = write_table(out, result, sweep_meta(result, args.scene, varies, overrides, args.window,
-                                                  campbell_at, scene))
+    written = write_table(
+        out, result, sweep_meta(result, args.scene, varies, overrides, args.window, campbell_at, scene)
+    )
     title = f"{scene.name}: {Path(scene.path).name}"
     if args.plot:
         plot_resonance(args.plot, result, varies, [o.kind for o in scene.outputs], title)
     if args.campbell:
         hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
-        plot_campbell(args.campbell, result, varies, f"{title}: Campbell diagram at tau = {args.campbell_at:g}",
-                      orders=args.orders, hz_per_unit=hz)
+        plot_campbell(
+            args.campbell,
+            result,
+            varies,
+            f"{title}: Campbell diagram at tau = {args.campbell_at:g}",
+            orders=args.orders,
+            hz_per_unit=hz,
+        )
     failed = int(sum(s != "ok" for s in result.columns["status"]))
     cpu = float(result.columns["cpu_s"].sum())
-    print(f"wrote {written} ({len(result)} points on {result.executor}; {failed} not ok; "
-          f"CPU {cpu:.1f} s in the runs)")
+    print(f"wrote {written} ({len(result)} points on {result.executor}; {failed} not ok; CPU {cpu:.1f} s in the runs)")
     for path in (args.plot, args.campbell):
         if path:
             print(f"wrote {path}")
@@ -280,20 +356,30 @@ def cmd_effects(args) -> int:
     outputs = [x.strip() for x in args.outputs.split(",") if x.strip()] if args.outputs else None
     if args.auto is not None:
         if not 0 < args.auto < 1:
-            raise SceneError("command line", "--auto", f"the tolerance must be > 0 and < 1, got {args.auto!r}",
-                             "give a relative tolerance such as 1e-3")
+            raise SceneError(
+                "command line",
+                "--auto",
+                f"the tolerance must be > 0 and < 1, got {args.auto!r}",
+                "give a relative tolerance such as 1e-3",
+            )
         if not args.output:
-            raise SceneError("command line", "-o", "--auto writes the resulting scene: give -o FILE.toml",
-                             "e.g. symgen effects SCENE --auto 1e-3 -o out/pruned.toml")
+            raise SceneError(
+                "command line",
+                "-o",
+                "--auto writes the resulting scene: give -o FILE.toml",
+                "e.g. symgen effects SCENE --auto 1e-3 -o out/pruned.toml",
+            )
         _check_out(args.output, (".toml",), "-o")
-        report = auto_effects(args.scene, args.set or [], tol=args.auto, output=args.output, cycles=args.cycles,
-                              outputs=outputs)
+        report = auto_effects(
+            args.scene, args.set or [], tol=args.auto, output=args.output, cycles=args.cycles, outputs=outputs
+        )
     elif args.measure:
         try:
-            report = measure_effects(args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles,
-                                     outputs=outputs)
+            report = measure_effects(
+                args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles, outputs=outputs
+            )
         except Interrupted as err:
-            if err.partial is not None:     # the rows measured before the signal
+            if err.partial is not None:  # the rows measured before the signal
                 print(table(err.partial), flush=True)
             raise
     else:
@@ -310,7 +396,7 @@ def _quasistatic(args, files) -> int:
     from symgen.numerics.quasistatic import NO_POSITION, quasi_static
     from symgen.numerics.results import attempt
 
-    try:        # a signal while the model is loaded or derived: no position solved yet
+    try:  # a signal while the model is loaded or derived: no position solved yet
         mech = _prepare_run(args)
     except BaseException as err:
         stop = interrupt.interrupted(err)
@@ -318,14 +404,17 @@ def _quasistatic(args, files) -> int:
             raise
         raise Interrupted(stop.signum, detail=NO_POSITION) from None
     _say(args, "solving the quasi-static positions")
-    result, failure = attempt(lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles,
-                                                   say=lambda line: _say(args, line)))
+    result, failure = attempt(
+        lambda: quasi_static(mech, kinematics=args.kinematics, cycles=args.cycles, say=lambda line: _say(args, line))
+    )
     written = _write_run(args, files, mech, result, failure, "quasi-static")
-    assert result is not None       # write_run raises when the run has no result
+    assert result is not None  # write_run raises when the run has no result
     info = written.sidecar["solver"]
-    print(f"wrote {written.csv} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
-          f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
-          f"{info['residual_max']:.2e}; closure max {result.closure_max:.2e}; {result.solve_s:.2f}s)")
+    print(
+        f"wrote {written.csv} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
+        f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
+        f"{info['residual_max']:.2e}; closure max {result.closure_max:.2e}; {result.solve_s:.2f}s)"
+    )
     return 0
 
 
@@ -334,20 +423,33 @@ def cmd_animate(args) -> int:
     from symgen.apps.animate import animate, check_target, fresh_run, read_states
 
     out = check_target(args.output)
-    for key, val in (("--fps", args.fps), ("--frames", args.frames), ("--stride", args.stride),
-                     ("--turns", args.turns), ("--t-end", args.t_end)):
+    for key, val in (
+        ("--fps", args.fps),
+        ("--frames", args.frames),
+        ("--stride", args.stride),
+        ("--turns", args.turns),
+        ("--t-end", args.t_end),
+    ):
         if val is not None and not (val > 0 and math.isfinite(val)):
             raise SceneError("command line", key, f"must be a positive number, got {val!r}", "e.g. --fps 20")
     if args.magnify is not None and not (args.magnify >= 0 and math.isfinite(args.magnify)):
-        raise SceneError("command line", "--magnify", f"must be >= 0, got {args.magnify!r}",
-                         "e.g. --magnify 50 (0: the rigid mechanism, 1: to scale)")
+        raise SceneError(
+            "command line",
+            "--magnify",
+            f"must be >= 0, got {args.magnify!r}",
+            "e.g. --magnify 50 (0: the rigid mechanism, 1: to scale)",
+        )
     scene = _scene(args)
     t_end = args.t_end
     if args.turns is not None:
         drv = scene.driver
         if drv is None or drv.kind != "angle" or not drv.rate:
-            raise SceneError(scene.path, "driver", "--turns needs an angle driver with a nonzero rate",
-                             "give the end time with --t-end TAU instead")
+            raise SceneError(
+                scene.path,
+                "driver",
+                "--turns needs an angle driver with a nonzero rate",
+                "give the end time with --t-end TAU instead",
+            )
         t_end = args.turns * 2 * math.pi / abs(drv.rate)
     mech = mechanism(scene, use_cache=not args.no_cache)
     compiled = mech.compiled
@@ -358,11 +460,22 @@ def cmd_animate(args) -> int:
             motion.tau, motion.q = motion.tau[keep], motion.q[keep]
     else:
         motion = fresh_run(mech, t_end)
-    info = animate(out, scene, compiled, mech, motion, factor=args.magnify, fps=args.fps or 20.0,
-                   frames=args.frames, stride=args.stride)
+    info = animate(
+        out,
+        scene,
+        compiled,
+        mech,
+        motion,
+        factor=args.magnify,
+        fps=args.fps or 20.0,
+        frames=args.frames,
+        stride=args.stride,
+    )
     chosen = "chosen: peak elastic displacement at 10 % of l0" if args.magnify is None else "given"
-    print(f"wrote {info['path']} ({info['frames']} frames, tau {info['tau'][0]:.4g} to {info['tau'][1]:.4g}; "
-          f"deformation x {info['factor']:g} ({chosen}; peak elastic displacement {info['peak']:.3g} l0))")
+    print(
+        f"wrote {info['path']} ({info['frames']} frames, tau {info['tau'][0]:.4g} to {info['tau'][1]:.4g}; "
+        f"deformation x {info['factor']:g} ({chosen}; peak elastic displacement {info['peak']:.3g} l0))"
+    )
     return 0
 
 
@@ -385,7 +498,7 @@ def cmd_modes(args) -> int:
             print(f"wrote {out}")
     except BaseException:
         if out is not None:
-            remove([out])         # no result of an earlier run left behind looking like this one's
+            remove([out])  # no result of an earlier run left behind looking like this one's
         raise
     return 0
 
@@ -450,8 +563,11 @@ def cmd_cache(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="symgen", description="Planar mechanisms with elastic bars: "
-                                 "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.")
+    ap = argparse.ArgumentParser(
+        prog="symgen",
+        description="Planar mechanisms with elastic bars: "
+        "SymPy derivation, CasADi/IDAS simulation, LaTeX and C output.",
+    )
     ap.add_argument("--version", action="version", version=f"symgen {__version__}")
     ap.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = ap.add_subparsers(dest="command", required=True)
@@ -459,8 +575,9 @@ def build_parser() -> argparse.ArgumentParser:
     def scene_cmd(name: str, help_: str):
         p = sub.add_parser(name, help=help_)
         p.add_argument("scene", help="scene file (TOML)")
-        p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                       help="override a scene value by dotted path (repeatable)")
+        p.add_argument(
+            "--set", action="append", metavar="KEY=VALUE", help="override a scene value by dotted path (repeatable)"
+        )
         return p
 
     p = scene_cmd("check", "validate a scene (and --set overrides) without deriving; print a summary")
@@ -469,20 +586,33 @@ def build_parser() -> argparse.ArgumentParser:
     p = scene_cmd("simulate", "simulate a scene with IDAS; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
-    p.add_argument("--states", action="store_true", help="also write the coordinates (q.NAME columns) "
-                   "for symgen animate --from")
+    p.add_argument(
+        "--states", action="store_true", help="also write the coordinates (q.NAME columns) for symgen animate --from"
+    )
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
-    p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
-                   help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
-                        "dimensionless keeps tau and the model's units)")
-    p.add_argument("--backend", choices=("auto", "compiled", "vm"), default=None,
-                   help="how the model's functions run: compiled (C compiled once by the system compiler, "
-                        "cached; $SYMGEN_CC, $SYMGEN_CFLAGS), vm (CasADi's virtual machine, slower, same numbers) "
-                        "or auto (default, or $SYMGEN_BACKEND: compiled when a C compiler works, else vm, "
-                        "said in one line)")
-    p.add_argument("--solver", choices=("idas", "c"), default="idas",
-                   help="idas (default: SUNDIALS IDAS through CasADi) or c (the emitted C Radau IIA solver of "
-                        "symgen emit-c, compiled once and cached; same CSV/JSON, outputs only)")
+    p.add_argument(
+        "--units",
+        choices=("SI", "dimensionless"),
+        default=None,
+        help="units of the results (default: SI for an SI scene: s, m, rad, N, N m, J; "
+        "dimensionless keeps tau and the model's units)",
+    )
+    p.add_argument(
+        "--backend",
+        choices=("auto", "compiled", "vm"),
+        default=None,
+        help="how the model's functions run: compiled (C compiled once by the system compiler, "
+        "cached; $SYMGEN_CC, $SYMGEN_CFLAGS), vm (CasADi's virtual machine, slower, same numbers) "
+        "or auto (default, or $SYMGEN_BACKEND: compiled when a C compiler works, else vm, "
+        "said in one line)",
+    )
+    p.add_argument(
+        "--solver",
+        choices=("idas", "c"),
+        default="idas",
+        help="idas (default: SUNDIALS IDAS through CasADi) or c (the emitted C Radau IIA solver of "
+        "symgen emit-c, compiled once and cached; same CSV/JSON, outputs only)",
+    )
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_simulate)
 
@@ -500,72 +630,131 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help="folder for study.csv, study.md, study.png")
     p.add_argument("--quick", action="store_true", help="fewer mode levels and tolerances, no per-bar rows")
     p.add_argument("--repeats", type=_bounded(int, ge=1), default=3, help="timed repeats, medians reported (default 3)")
-    p.add_argument("--window", type=_bounded(gt=0.0), default=1.0, help="early window of the pointwise error, crank turns")
-    p.add_argument("--cutoff", type=_bounded(gt=0.0), default=50.0, help="low-pass cutoff of compared outputs, cycles per turn")
-    p.add_argument("--levels", help="mode levels axial+transverse per elastic bar, e.g. 1+1,3+4,6+8 "
-                                    "(the last is the reference's)")
+    p.add_argument(
+        "--window", type=_bounded(gt=0.0), default=1.0, help="early window of the pointwise error, crank turns"
+    )
+    p.add_argument(
+        "--cutoff", type=_bounded(gt=0.0), default=50.0, help="low-pass cutoff of compared outputs, cycles per turn"
+    )
+    p.add_argument(
+        "--levels", help="mode levels axial+transverse per elastic bar, e.g. 1+1,3+4,6+8 (the last is the reference's)"
+    )
     p.add_argument("--tolerances", help="rtol values of the sweep, e.g. 1e-4,1e-6,1e-8 (atol = rtol/100)")
     p.add_argument("--ref-rtol", type=_RTOL, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the Pareto plot")
     p.set_defaults(func=cmd_study)
-    p = scene_cmd("sweep", "run a grid of parameter values (one derivation, parallel runs): peaks table, "
-                           "resonance plot, Campbell diagram")
-    p.add_argument("--vary", action="append", required=True, metavar="KEY=SPEC",
-                   help="scene key (as for --set) and values: start:stop:n, start:stop:n:log or v1,v2,... "
-                        "(repeatable: full grid)")
+    p = scene_cmd(
+        "sweep",
+        "run a grid of parameter values (one derivation, parallel runs): peaks table, resonance plot, Campbell diagram",
+    )
+    p.add_argument(
+        "--vary",
+        action="append",
+        required=True,
+        metavar="KEY=SPEC",
+        help="scene key (as for --set) and values: start:stop:n, start:stop:n:log or v1,v2,... (repeatable: full grid)",
+    )
     p.add_argument("-o", "--output", required=True, help="table to write: .csv or .parquet (+ .json sidecar)")
     p.add_argument("--plot", help="resonance plot (PNG/SVG/PDF): peak of each output against the first varied key")
-    p.add_argument("--campbell", help="Campbell diagram (PNG/SVG/PDF): natural frequencies from modes against "
-                                      "the crank speed, with the excitation orders; frequencies go into the table")
-    p.add_argument("--campbell-at", type=float, default=0.0, metavar="TAU",
-                   help="input position of the modes (default 0)")
+    p.add_argument(
+        "--campbell",
+        help="Campbell diagram (PNG/SVG/PDF): natural frequencies from modes against "
+        "the crank speed, with the excitation orders; frequencies go into the table",
+    )
+    p.add_argument(
+        "--campbell-at", type=float, default=0.0, metavar="TAU", help="input position of the modes (default 0)"
+    )
     p.add_argument("--orders", type=int, default=6, help="excitation order lines 1x..Nx (default 6)")
-    p.add_argument("--window", type=float, default=None, metavar="TURNS",
-                   help="peaks over the last TURNS crank turns only (skip start-up transients)")
+    p.add_argument(
+        "--window",
+        type=float,
+        default=None,
+        metavar="TURNS",
+        help="peaks over the last TURNS crank turns only (skip start-up transients)",
+    )
     p.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="run on this Dask distributed scheduler "
-                                                          "(e.g. tcp://scheduler-host:8786) instead of local processes")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run on this Dask distributed scheduler (e.g. tcp://scheduler-host:8786) instead of local processes",
+    )
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_sweep)
 
-    p = scene_cmd("effects", "which effects the scene needs: estimates from its groups, measured with --measure, "
-                             "the smallest verified effect set with --auto TOL")
+    p = scene_cmd(
+        "effects",
+        "which effects the scene needs: estimates from its groups, measured with --measure, "
+        "the smallest verified effect set with --auto TOL",
+    )
     p.add_argument("--measure", action="store_true", help="short runs with and without each effect")
-    p.add_argument("--auto", type=float, metavar="TOL", help="prune effects while outputs stay within TOL "
-                   "of the full model (verified by a run); write the scene with -o")
+    p.add_argument(
+        "--auto",
+        type=float,
+        metavar="TOL",
+        help="prune effects while outputs stay within TOL "
+        "of the full model (verified by a run); write the scene with -o",
+    )
     p.add_argument("-o", "--output", help="TOML file for the scene written by --auto")
-    p.add_argument("--tol", type=_bounded(gt=0.0, lt=1.0), default=None, help="tolerance of the recommendations (default 1e-3)")
-    p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns of the measuring runs (default 1)")
-    p.add_argument("--outputs", help="compare only these outputs (comma-separated names; default all but "
-                                     "closure residuals)")
+    p.add_argument(
+        "--tol", type=_bounded(gt=0.0, lt=1.0), default=None, help="tolerance of the recommendations (default 1e-3)"
+    )
+    p.add_argument(
+        "--cycles", type=_bounded(gt=0.0), default=None, help="crank turns of the measuring runs (default 1)"
+    )
+    p.add_argument(
+        "--outputs", help="compare only these outputs (comma-separated names; default all but closure residuals)"
+    )
     p.set_defaults(func=cmd_effects)
 
     p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
-    p.add_argument("--states", action="store_true", help="also write the coordinates (q.NAME columns) "
-                   "for symgen animate --from")
+    p.add_argument(
+        "--states", action="store_true", help="also write the coordinates (q.NAME columns) for symgen animate --from"
+    )
     p.add_argument("--cycles", type=_bounded(gt=0.0), default=None, help="crank turns to cover (default 1)")
-    p.add_argument("--units", choices=("SI", "dimensionless"), default=None,
-                   help="units of the results (default: SI for an SI scene; dimensionless keeps tau)")
-    p.add_argument("--kinematics", choices=("deformed", "rigid"), default="deformed",
-                   help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are")
+    p.add_argument(
+        "--units",
+        choices=("SI", "dimensionless"),
+        default=None,
+        help="units of the results (default: SI for an SI scene; dimensionless keeps tau)",
+    )
+    p.add_argument(
+        "--kinematics",
+        choices=("deformed", "rigid"),
+        default="deformed",
+        help="closure on the deformed bars (default) or the rigid mechanism's kinematics as they are",
+    )
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_quasistatic)
 
-    p = scene_cmd("animate", "the mechanism moving, deformation magnified: a GIF or MP4 from a fresh run "
-                             "or a run's CSV")
+    p = scene_cmd(
+        "animate", "the mechanism moving, deformation magnified: a GIF or MP4 from a fresh run or a run's CSV"
+    )
     p.add_argument("-o", "--output", required=True, help=".gif (Pillow) or .mp4 (needs ffmpeg) file to write")
-    p.add_argument("--from", dest="from_csv", metavar="RUN.csv", help="animate a run written by "
-                   "symgen simulate ... --states (default: run the scene now)")
-    p.add_argument("--magnify", type=float, default=None, metavar="F", help="deformation scale factor "
-                   "(default: peak elastic displacement drawn at 10 %% of the reference length)")
+    p.add_argument(
+        "--from",
+        dest="from_csv",
+        metavar="RUN.csv",
+        help="animate a run written by symgen simulate ... --states (default: run the scene now)",
+    )
+    p.add_argument(
+        "--magnify",
+        type=float,
+        default=None,
+        metavar="F",
+        help="deformation scale factor (default: peak elastic displacement drawn at 10 %% of the reference length)",
+    )
     p.add_argument("--fps", type=float, default=None, help="frames per second (default 20)")
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--frames", type=int, default=None, help="number of frames, evenly spaced over the run "
-                   "(default: every output row, at most 150)")
+    g.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        help="number of frames, evenly spaced over the run (default: every output row, at most 150)",
+    )
     g.add_argument("--stride", type=int, default=None, help="use every STRIDE-th output row")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--turns", type=float, default=None, help="crank turns to show (angle driver)")
@@ -574,8 +763,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_animate)
 
     p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
-    p.add_argument("--at", type=_bounded(ge=-1e3, le=1e3), default=0.0, metavar="TAU",
-                   help="input position tau, |TAU| <= 1000 (default 0)")
+    p.add_argument(
+        "--at",
+        type=_bounded(ge=-1e3, le=1e3),
+        default=0.0,
+        metavar="TAU",
+        help="input position tau, |TAU| <= 1000 (default 0)",
+    )
     p.add_argument("-o", "--output", help="JSON file to write")
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_modes)
@@ -600,8 +794,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help=".fmu file to write")
     p.set_defaults(func=cmd_emit_fmu)
 
-    p = sub.add_parser("cache", help="the derived-model and shape caches ($SYMGEN_CACHE_DIR, default "
-                                     "~/.cache/symgen): info shows location, entries, sizes; clear removes them")
+    p = sub.add_parser(
+        "cache",
+        help="the derived-model and shape caches ($SYMGEN_CACHE_DIR, default "
+        "~/.cache/symgen): info shows location, entries, sizes; clear removes them",
+    )
     p.add_argument("action", choices=("info", "clear"))
     p.set_defaults(func=cmd_cache)
 
@@ -613,19 +810,19 @@ def main(argv: list[str] | None = None) -> int:
     failed: message names the file/key or tau), 3 an internal error, 130 / 143 stopped by
     SIGINT / SIGTERM (a partial result kept, marked "interrupted")."""
     try:
-        with interrupt.handling():        # first: a signal from here on is reported and cleans up
+        with interrupt.handling():  # first: a signal from here on is reported and cleans up
             args = None
             try:
                 with contextlib.ExitStack() as stack:
-                    with interrupt.deferred():    # ... once the command's outputs are known
+                    with interrupt.deferred():  # ... once the command's outputs are known
                         args = build_parser().parse_args(argv)
                         stack.enter_context(_scene_warnings())
                         stack.enter_context(stale_removed_on_failure(_output_files(args)))
-                    interrupt.check()     # a signal while the command line was read
+                    interrupt.check()  # a signal while the command line was read
                     return args.func(args)
             except BaseException as err:
                 return _report(err, args)
-    except KeyboardInterrupt as err:      # a signal before the command began, or while reporting one
+    except KeyboardInterrupt as err:  # a signal before the command began, or while reporting one
         return getattr(err, "exit_code", 130)
 
 
@@ -644,6 +841,7 @@ def _output_files(args) -> list[Path]:
         return [out, out.with_suffix(".json"), *([Path(args.plot)] if args.plot else [])]
     if cmd is cmd_study:
         from symgen.apps.study import study_paths
+
         return [p for fmt in ("png", "svg", "pdf") for p in study_paths(out, True, fmt)]
     if cmd in (cmd_latex, cmd_effects, cmd_animate, cmd_modes, cmd_schema, cmd_emit_fmu):
         return [out]
@@ -653,18 +851,21 @@ def _output_files(args) -> list[Path]:
 def _report(err: BaseException, args) -> int:
     if isinstance(err, SystemExit):
         raise err
-    stop = interrupt.interrupted(err)     # any failure while a signal is pending is the interrupt
+    stop = interrupt.interrupted(err)  # any failure while a signal is pending is the interrupt
     if isinstance(stop, KeyboardInterrupt):
         print(f"symgen: {stop if isinstance(stop, Interrupted) else 'interrupted'}", file=sys.stderr)
         return getattr(stop, "exit_code", 130)
     if isinstance(err, SymgenError):
         print(f"symgen: error: {err}", file=sys.stderr)
         return err.exit_code
-    if isinstance(err, Exception):        # an internal error: say so plainly
+    if isinstance(err, Exception):  # an internal error: say so plainly
         if args is not None and args.debug:
             raise err
-        print(f"symgen: internal error: {type(err).__name__}: {err} (rerun with --debug for the traceback; "
-              f"please report it)", file=sys.stderr)
+        print(
+            f"symgen: internal error: {type(err).__name__}: {err} (rerun with --debug for the traceback; "
+            f"please report it)",
+            file=sys.stderr,
+        )
         return 3
     raise err
 

@@ -1,4 +1,5 @@
 """Errors that reach the user as one clear message and exit code 2."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -35,7 +36,7 @@ class SimulationError(SymgenError):
 
     def __init__(self, tau: float | None, cause: str, hint: str = "") -> None:
         self.tau, self.cause, self.hint = tau, cause, hint
-        self.partial: Any = None       # the run's result up to tau, when the run keeps one
+        self.partial: Any = None  # the run's result up to tau, when the run keeps one
         text = cause if tau is None else f"at tau = {tau:.6g}: {cause}"
         if hint:
             text += f" ({hint})"
@@ -74,5 +75,5 @@ class Interrupted(KeyboardInterrupt):
             text += f" {detail}"
         super().__init__(text)
 
-    def __reduce__(self):          # picklable (worker processes), without the partial result
+    def __reduce__(self):  # picklable (worker processes), without the partial result
         return (type(self), (self.signum, self.tau, self.detail))

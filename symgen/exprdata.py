@@ -14,6 +14,7 @@ A tree is a list whose first item names the node; only these nodes exist::
 of a file ever goes to ``sympify``, ``eval`` or ``srepr``; anything else raises ``ValueError``.
 Numbers are bounded (digits, exponents, precision) and so is the depth of a tree.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -23,15 +24,23 @@ import sympy
 
 __all__ = ["encode", "decode", "encode_tensor", "decode_tensor"]
 
-_FUNCS = {"sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "exp": sympy.exp, "log": sympy.log,
-          "sinh": sympy.sinh, "cosh": sympy.cosh, "tanh": sympy.tanh}
+_FUNCS = {
+    "sin": sympy.sin,
+    "cos": sympy.cos,
+    "tan": sympy.tan,
+    "exp": sympy.exp,
+    "log": sympy.log,
+    "sinh": sympy.sinh,
+    "cosh": sympy.cosh,
+    "tanh": sympy.tanh,
+}
 _CONSTS = {"pi": sympy.pi, "E": sympy.E}
 _INT = re.compile(r"-?[0-9]{1,1000}")
 _HEX = re.compile(r"[0-9a-f]{1,2500}")
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]{0,63}")
 MAX_DEPTH = 64
-_MAX_PREC = 10_000        # bits of a Float (50 digits need 169)
-_MAX_EXP = 100_000        # |binary exponent| of a Float
+_MAX_PREC = 10_000  # bits of a Float (50 digits need 169)
+_MAX_EXP = 100_000  # |binary exponent| of a Float
 
 
 def encode(e: sympy.Basic) -> list:
@@ -50,8 +59,10 @@ def encode(e: sympy.Basic) -> list:
             return ["const", name]
     if isinstance(e, sympy.Symbol) and type(e) is sympy.Symbol:
         real = e.is_real is True
-        if e.assumptions0 != sympy.Symbol(e.name, real=True).assumptions0 and \
-                e.assumptions0 != sympy.Symbol(e.name).assumptions0:
+        if (
+            e.assumptions0 != sympy.Symbol(e.name, real=True).assumptions0
+            and e.assumptions0 != sympy.Symbol(e.name).assumptions0
+        ):
             raise ValueError(f"cannot encode the assumptions of the symbol {e}")
         return ["sym", e.name, real]
     if isinstance(e, sympy.Add):
@@ -152,8 +163,9 @@ def decode_tensor(d) -> sympy.Basic:
     if not isinstance(d, dict) or set(d) != {"kind", "shape", "entries"}:
         raise ValueError("not a tensor")
     shape = d["shape"]
-    if not isinstance(shape, list) or not all(isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= 10_000
-                                              for n in shape):
+    if not isinstance(shape, list) or not all(
+        isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= 10_000 for n in shape
+    ):
         raise ValueError(f"bad tensor shape {shape!r:.60}")
     size = 1
     for n in shape:

@@ -11,6 +11,7 @@
   output files from an earlier run behind looking like its own result (every command that
   writes files runs inside it: ``symgen.cli.main``).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -41,17 +42,25 @@ def _writable_ancestor(path: Path, key: str, what: str) -> None:
     parent = _existing_ancestor(path)
     _name_fits(path, parent, key)
     if not parent.is_dir():
-        raise SceneError("command line", key, f"cannot write {str(path)!r}: {str(parent)!r} is not a folder",
-                         f"choose {what} in an existing folder (or one that can be created)")
+        raise SceneError(
+            "command line",
+            key,
+            f"cannot write {str(path)!r}: {str(parent)!r} is not a folder",
+            f"choose {what} in an existing folder (or one that can be created)",
+        )
     if not os.access(parent, os.W_OK | os.X_OK):
-        raise SceneError("command line", key, f"cannot write {str(path)!r}: the folder {str(parent)!r} is not "
-                         "writable", f"choose {what} in a folder you can write to")
+        raise SceneError(
+            "command line",
+            key,
+            f"cannot write {str(path)!r}: the folder {str(parent)!r} is not writable",
+            f"choose {what} in a folder you can write to",
+        )
 
 
 def _existing_ancestor(path: Path) -> Path:
     parent = path.parent
     while not parent.exists():
-        if parent.is_symlink():           # a dangling link: cannot be created through
+        if parent.is_symlink():  # a dangling link: cannot be created through
             break
         parent = parent.parent
     return parent
@@ -70,30 +79,48 @@ def _name_fits(path: Path, existing: Path, key: str) -> None:
         size = len(os.fsencode(part))
         room = limit - (NAME_MARGIN if i == len(parts) - 1 else 0)
         if size > room:
-            raise SceneError("command line", key, f"the name {part[:40]!r}... is {size} bytes: "
-                             + (f"symgen writes files beside it with names up to {NAME_MARGIN} bytes longer, and "
-                                if i == len(parts) - 1 else "")
-                             + f"this file system allows names of at most {limit} bytes",
-                             f"choose a name of at most {room} bytes")
+            raise SceneError(
+                "command line",
+                key,
+                f"the name {part[:40]!r}... is {size} bytes: "
+                + (
+                    f"symgen writes files beside it with names up to {NAME_MARGIN} bytes longer, and "
+                    if i == len(parts) - 1
+                    else ""
+                )
+                + f"this file system allows names of at most {limit} bytes",
+                f"choose a name of at most {room} bytes",
+            )
 
 
-def check_file(path: str | os.PathLike, suffixes: tuple, key: str,
-               also: Iterable[str | os.PathLike] = ()) -> Path:
+def check_file(path: str | os.PathLike, suffixes: tuple, key: str, also: Iterable[str | os.PathLike] = ()) -> Path:
     """Check an output file before any work (``also``: companion files written beside it,
     e.g. the JSON sidecar, which must not be folders either). Creates nothing."""
     p = Path(path)
     if p.suffix.lower() not in suffixes:
-        raise SceneError("command line", key, f"{str(path)!r} should end in {' or '.join(suffixes)}",
-                         f"give a file name like out/result{suffixes[0]}")
-    _name_fits(p, _existing_ancestor(p), key)     # first: is_dir() raises on a name too long
+        raise SceneError(
+            "command line",
+            key,
+            f"{str(path)!r} should end in {' or '.join(suffixes)}",
+            f"give a file name like out/result{suffixes[0]}",
+        )
+    _name_fits(p, _existing_ancestor(p), key)  # first: is_dir() raises on a name too long
     for q in (p, *map(Path, also)):
         if q.is_dir():
-            raise SceneError("command line", key, f"{str(q)!r} is a folder, not a file",
-                             f"give a file name like {q / ('result' + suffixes[0])}")
+            raise SceneError(
+                "command line",
+                key,
+                f"{str(q)!r} is a folder, not a file",
+                f"give a file name like {q / ('result' + suffixes[0])}",
+            )
     _writable_ancestor(p, key, "a file")
     if p.exists() and not os.access(p.parent, os.W_OK | os.X_OK):
-        raise SceneError("command line", key, f"cannot replace {str(p)!r}: its folder is not writable",
-                         "choose a file in a folder you can write to")
+        raise SceneError(
+            "command line",
+            key,
+            f"cannot replace {str(p)!r}: its folder is not writable",
+            "choose a file in a folder you can write to",
+        )
     return p
 
 
@@ -102,11 +129,13 @@ def check_folder(path: str | os.PathLike, key: str) -> Path:
     p = Path(path)
     if p.exists():
         if not p.is_dir():
-            raise SceneError("command line", key, f"{str(path)!r} exists and is not a folder",
-                             "give a folder name, e.g. out/results")
+            raise SceneError(
+                "command line", key, f"{str(path)!r} exists and is not a folder", "give a folder name, e.g. out/results"
+            )
         if not os.access(p, os.W_OK | os.X_OK):
-            raise SceneError("command line", key, f"the folder {str(path)!r} is not writable",
-                             "choose a folder you can write to")
+            raise SceneError(
+                "command line", key, f"the folder {str(path)!r} is not writable", "choose a folder you can write to"
+            )
         _name_fits(p, p, key)
         return p
     _writable_ancestor(p, key, "a folder")

@@ -10,6 +10,7 @@ emitted model descriptor, which the runtime reads, so the two cannot drift apart
 Integrator internals with no Python twin (Radau IIA step control, ``symgen/backends/c/radau.py``) and the
 Python-only quasi-static solver of (18)-(20) (``symgen/numerics/quasistatic.py``) keep their own constants.
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass

@@ -8,6 +8,7 @@ reaps it before the exception goes on.
 
 Kept free of SymPy and CasADi (base layer).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -28,16 +29,29 @@ COMPILE_BYTES_PER_S = 180e3
 LONG_COMPILE_S = 20.0
 
 
-def run_group(cmd: Sequence[str | os.PathLike[str]], *, timeout: float | None = None,
-              cwd: str | os.PathLike[str] | None = None, env: dict[str, str] | None = None,
-              progress: str | None = None) -> subprocess.CompletedProcess[str]:
+def run_group(
+    cmd: Sequence[str | os.PathLike[str]],
+    *,
+    timeout: float | None = None,
+    cwd: str | os.PathLike[str] | None = None,
+    env: dict[str, str] | None = None,
+    progress: str | None = None,
+) -> subprocess.CompletedProcess[str]:
     """``subprocess.run(cmd, capture_output=True, text=True)`` with stdin closed, in a new process
     group (a new session) that is killed as a whole when the wait ends by an exception
     (``subprocess.TimeoutExpired`` after ``timeout`` seconds, ``KeyboardInterrupt``...).
     ``progress``: what to show, with the seconds elapsed, on a terminal's stderr while it runs."""
     args = [os.fspath(c) for c in cmd]
-    proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, cwd=None if cwd is None else Path(cwd), env=env, start_new_session=True)
+    proc = subprocess.Popen(
+        args,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=None if cwd is None else Path(cwd),
+        env=env,
+        start_new_session=True,
+    )
     try:
         with _ticker(progress):
             out, err = proc.communicate(timeout=timeout)
@@ -57,8 +71,12 @@ def announce_compile(what: str, source_bytes: int, instead: str) -> str:
     stderr first (one line, also in logs), with ``instead``: how to run without it."""
     est = compile_estimate(source_bytes)
     if est > LONG_COMPILE_S:
-        print(f"symgen: compiling {what} ({source_bytes / 1e6:.1f} MB of C): about {est:.0f} s, once per model "
-              f"(cached); {instead}", file=sys.stderr, flush=True)
+        print(
+            f"symgen: compiling {what} ({source_bytes / 1e6:.1f} MB of C): about {est:.0f} s, once per model "
+            f"(cached); {instead}",
+            file=sys.stderr,
+            flush=True,
+        )
     return f"compiling {what} ({source_bytes / 1e3:.0f} kB of C, about {max(est, 1):.0f} s)"
 
 

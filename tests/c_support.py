@@ -1,5 +1,6 @@
 """Shared, cached pieces of the C / FMU tests: emitted sources, compiled libraries, and the
 converged IDAS references the C solver is compared with (computed once per test session)."""
+
 from __future__ import annotations
 
 import atexit
@@ -15,8 +16,7 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-EXAMPLES = {"slider_crank": ROOT / "examples" / "slider_crank.toml",
-            "four_bar": ROOT / "examples" / "four_bar.toml"}
+EXAMPLES = {"slider_crank": ROOT / "examples" / "slider_crank.toml", "four_bar": ROOT / "examples" / "four_bar.toml"}
 # every example scene (the helpers below take any of them; EXAMPLES are the ones compared with IDAS)
 ALL_EXAMPLES = {p.stem: p for p in sorted((ROOT / "examples").glob("*.toml"))}
 # IDAS at tolerances tight enough to be converged to ~1e-6 of each output's peak (the scene's
@@ -33,12 +33,14 @@ needs_cxx = pytest.mark.skipif(shutil.which("g++") is None, reason="g++ is not i
 @functools.cache
 def mechanism(name: str):
     from symgen.api import mechanism as mech
+
     return mech(ALL_EXAMPLES[name])
 
 
 @functools.cache
 def model(name: str):
     from symgen.model.derive import derive
+
     return derive(mechanism(name).scene)
 
 
@@ -46,12 +48,14 @@ def model(name: str):
 def plan(name: str):
     """The start plan of an example (symgen.numerics.start.start_plan), the C emitter's input."""
     from symgen.numerics.start import start_plan
+
     return start_plan(mechanism(name))
 
 
 @functools.cache
 def context(name: str) -> dict:
     from symgen.backends.c import c_context
+
     mech = mechanism(name)
     return c_context(mech.scene, model(name), plan(name), mech.info)
 
@@ -64,6 +68,7 @@ def golden_c(name: str) -> Path | None:
     import json
 
     import sympy
+
     folder = ROOT / "generated" / name
     try:
         recorded = json.loads((folder / "model.json").read_text())["versions"]["sympy"]
@@ -77,6 +82,7 @@ def sources(name: str) -> Path:
     """The folder of ``symgen emit-c`` for an example (the checked-in one when it is current)."""
     from symgen.backends.c import write_tree
     from symgen.backends.c.render import render_files
+
     golden = golden_c(name)
     if golden is not None:
         return write_tree({p.name: p.read_text() for p in golden.iterdir()}, WORK / f"{name}_c")
@@ -92,6 +98,7 @@ def parameter_names(name: str) -> list[str]:
 def library(name: str) -> ctypes.CDLL:
     """Model + solver as a shared library (strict flags)."""
     from symgen.backends.c.build import compile_shared
+
     src = sources(name)
     so = compile_shared([src / f"{name}.c", src / f"{name}_solver.c"], WORK / f"lib{name}.so", include=[src])
     return ctypes.CDLL(str(so))
@@ -100,9 +107,11 @@ def library(name: str) -> ctypes.CDLL:
 @functools.cache
 def simulator(name: str) -> Path:
     from symgen.backends.c.build import compile_executable
+
     src = sources(name)
-    return compile_executable([src / f"{name}.c", src / f"{name}_solver.c", src / f"{name}_sim.c"],
-                              WORK / f"{name}_sim", include=[src])
+    return compile_executable(
+        [src / f"{name}.c", src / f"{name}_solver.c", src / f"{name}_sim.c"], WORK / f"{name}_sim", include=[src]
+    )
 
 
 def run_sim(exe: Path, *args: str) -> tuple[list[str], np.ndarray, str]:
@@ -117,6 +126,7 @@ def run_sim(exe: Path, *args: str) -> tuple[list[str], np.ndarray, str]:
 def idas_reference(name: str):
     """(tau, outputs) of the Python path (IDAS) at converged tolerances."""
     from symgen.numerics.simulate import simulate
+
     rtol, atol = IDAS_TOL[name]
     res = simulate(mechanism(name), rtol=rtol, atol=atol)
     return res.tau, res.outputs

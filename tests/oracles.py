@@ -1,4 +1,5 @@
 """Numerical helpers shared by the physics tests (independent of symgen's internals)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -38,6 +39,7 @@ def hermite_beam_frequencies(a: float, ne: int, far_end_pinned: bool, count: int
     interior point a, pinned or free at 1: Hermite cubic elements (exact stiffness and consistent
     mass of Euler-Bernoulli), ``ne`` of them with a node at a. Independent of symgen's code."""
     import scipy.linalg as sl
+
     n1 = int(round(ne * a))
     x = np.concatenate([np.linspace(0, a, n1 + 1), np.linspace(a, 1, ne - n1 + 1)[1:]])
     N = len(x)
@@ -45,15 +47,33 @@ def hermite_beam_frequencies(a: float, ne: int, far_end_pinned: bool, count: int
     M = np.zeros_like(K)
     for e in range(N - 1):
         h = x[e + 1] - x[e]
-        k = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-                      [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h ** 3
-        m = h / 420 * np.array([[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-                                [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]])
+        k = (
+            np.array(
+                [
+                    [12, 6 * h, -12, 6 * h],
+                    [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                    [-12, -6 * h, 12, -6 * h],
+                    [6 * h, 2 * h * h, -6 * h, 4 * h * h],
+                ]
+            )
+            / h**3
+        )
+        m = (
+            h
+            / 420
+            * np.array(
+                [
+                    [156, 22 * h, 54, -13 * h],
+                    [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+                    [54, 13 * h, 156, -22 * h],
+                    [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
+                ]
+            )
+        )
         d = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
         K[np.ix_(d, d)] += k
         M[np.ix_(d, d)] += m
     fixed = {0, 2 * n1} | ({2 * (N - 1)} if far_end_pinned else set())
     free = [i for i in range(2 * N) if i not in fixed]
-    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True,
-                 subset_by_index=[0, count - 1])
+    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True, subset_by_index=[0, count - 1])
     return np.sqrt(w2)

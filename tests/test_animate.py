@@ -6,6 +6,7 @@ with zeta, eta evaluated here from the amplitudes in the run's state columns and
 functions of ``symgen.model.shapes`` (the cantilever's clamped-free eigenfunctions), independently of
 the animation's own geometry (CasADi function of the tree kinematics).
 """
+
 from __future__ import annotations
 
 import json
@@ -115,10 +116,10 @@ def test_drawn_bar_is_rigid_line_plus_factor_times_shape_functions(run):
             zeta = np.array([ba.values(s) @ [q["f_beam_1"]] for s in xi])
             eta = np.array([bt.values(s) @ [q["g_beam_1"], q["g_beam_2"]] for s in xi])
             th = q["theta_beam"]
-            assert th == pytest.approx(0.3 + motion.tau[k], abs=1e-9)      # the driver
+            assert th == pytest.approx(0.3 + motion.tau[k], abs=1e-9)  # the driver
             lx, ly = xi + F * zeta, F * eta
             ex, ey = np.cos(th) * lx - np.sin(th) * ly, np.sin(th) * lx + np.cos(th) * ly
-            assert np.abs(eta).max() > 1e-3                                # something to magnify
+            assert np.abs(eta).max() > 1e-3  # something to magnify
             np.testing.assert_allclose(x, ex, atol=1e-12)
             np.testing.assert_allclose(y, ey, atol=1e-12)
     finally:
@@ -129,9 +130,8 @@ def test_from_csv_uses_the_state_columns(run, capsys):
     d, scene = run
     side = json.loads((d / "run.json").read_text())
     assert side["states"]["coordinates"] == ["theta_beam", "f_beam_1", "g_beam_1", "g_beam_2"]
-    assert main(["animate", str(scene), "--from", str(d / "run.csv"), "-o", str(d / "from.gif"),
-                 "--stride", "3"]) == 0
-    assert len(frames(d / "from.gif")) == 5                      # rows 0, 3, 6, 9, 12 of 13
+    assert main(["animate", str(scene), "--from", str(d / "run.csv"), "-o", str(d / "from.gif"), "--stride", "3"]) == 0
+    assert len(frames(d / "from.gif")) == 5  # rows 0, 3, 6, 9, 12 of 13
     assert "deformation x" in capsys.readouterr().out
 
 
@@ -152,6 +152,7 @@ def test_from_csv_without_states_or_of_another_scene_is_refused(run, capsys, tmp
 
 def test_bad_targets_exit_2(run, capsys, tmp_path, monkeypatch):
     from matplotlib.animation import FFMpegWriter
+
     d, scene = run
     assert main(["animate", str(scene), "-o", str(tmp_path / "x.avi")]) == 2
     monkeypatch.setattr(FFMpegWriter, "isAvailable", classmethod(lambda cls: False))
@@ -170,13 +171,20 @@ def test_plots_as_svg_and_pdf(run):
     assert header == ["tau", "tip", "q.theta_beam", "q.f_beam_1", "q.g_beam_1", "q.g_beam_2"]
 
 
-TIP = BEAM.replace('[driver]', '''[[joints]]
+TIP = (
+    BEAM.replace(
+        "[driver]",
+        """[[joints]]
 name = "B"
 kind = "slider"
 bodies = ["beam", "ground"]
 at = [1.0, [1.0, 0.0]]
 direction = [0.0, 1.0]
-[driver]''').replace("transverse_modes = 2", "transverse_modes = 3").replace("g = [0.04, 0.005]", "g = [0.0, 0.0, 0.0]")
+[driver]""",
+    )
+    .replace("transverse_modes = 2", "transverse_modes = 3")
+    .replace("g = [0.04, 0.005]", "g = [0.0, 0.0, 0.0]")
+)
 
 
 def test_tip_load_shape_printed_factored(tmp_path):
@@ -192,8 +200,8 @@ def test_tip_load_shape_printed_factored(tmp_path):
     eig = list(basis.functions[1:])
     c, t = tip_load_coefficients(eig)
     xi = np.linspace(0, 1, 20001)
-    P = xi ** 2 * (3 - xi) / 2
-    X = [np.array([f.value(s) for s in xi[::20]]) for f in eig]       # 1001 points, Simpson
+    P = xi**2 * (3 - xi) / 2
+    X = [np.array([f.value(s) for s in xi[::20]]) for f in eig]  # 1001 points, Simpson
     Pc = P[::20]
     w = np.ones(1001)
     w[1:-1:2], w[2:-1:2] = 4, 2
@@ -209,13 +217,18 @@ def test_tip_load_shape_printed_factored(tmp_path):
     scene.write_text(TIP)
     assert main(["latex", str(scene), "-o", str(tmp_path / "tip.tex")]) == 0
     tex = (tmp_path / "tip.tex").read_text()
-    block = tex[tex.index(r"\psi_{1}(\xi)"):tex.index(r"\psi_{2}(\xi)")]
+    block = tex[tex.index(r"\psi_{1}(\xi)") : tex.index(r"\psi_{2}(\xi)")]
     assert r"\sum_{k=1}^{2} c_k X_k(\xi)" in block and "e^{" not in block
     assert f"c_{{1}} = {c[0]:.10g}" in block
     assert max(len(line) for line in block.splitlines()) < 200
     if shutil.which("pdflatex"):
-        subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "tip.tex"], cwd=tmp_path,
-                       capture_output=True, timeout=120, check=True)
+        subprocess.run(
+            ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "tip.tex"],
+            cwd=tmp_path,
+            capture_output=True,
+            timeout=120,
+            check=True,
+        )
         log = (tmp_path / "tip.log").read_text(errors="replace")
         assert "Overfull \\hbox" not in log
 
@@ -238,7 +251,7 @@ def test_magnified_slider_crank_stays_joined():
     P, Pr = geom.points(res.q), geom.points(rigid_reference(mech, res.tau, res.q))
     crank, rod = geom.bars["crank"], geom.bars["rod"]
     mid = rod.start + len(rod) // 2
-    assert np.abs(P[:, :, mid] - Pr[:, :, mid]).max() > 1e-4          # the rod does bend
+    assert np.abs(P[:, :, mid] - Pr[:, :, mid]).max() > 1e-4  # the rod does bend
     for F in (1.0, 50.0, 500.0):
         D = magnified(P, Pr, F)
         np.testing.assert_allclose(D[:, :, crank.stop - 1], D[:, :, rod.start], atol=1e-10)
@@ -246,8 +259,9 @@ def test_magnified_slider_crank_stays_joined():
         np.testing.assert_allclose(D[:, :, mid] - Pr[:, :, mid], F * (P[:, :, mid] - Pr[:, :, mid]), atol=1e-12)
 
 
-@pytest.mark.parametrize("example, overrides, si", [("slider_crank", ["joints.B.mass=0.3"], False),
-                                                    ("four_bar", [], True)])
+@pytest.mark.parametrize(
+    "example, overrides, si", [("slider_crank", ["joints.B.mass=0.3"], False), ("four_bar", [], True)]
+)
 def test_lumped_masses_are_drawn_and_si_scenes_in_metres(example, overrides, si):
     """The animation drew no lumped masses and SI scenes on x/l0 axes: a mass is a disk that
     follows its joint, and an SI mechanism is drawn in metres (its ground pins at their places)."""
@@ -271,6 +285,6 @@ def test_lumped_masses_are_drawn_and_si_scenes_in_metres(example, overrides, si)
         else:
             assert len(offsets) == 0
             x, _ = (np.asarray(a) for a in anim.lines["crank"].get_data())
-            assert x[0] == pytest.approx(0.0, abs=1e-12) and abs(x[-1]) < 0.11   # a 100 mm crank, in m
+            assert x[0] == pytest.approx(0.0, abs=1e-12) and abs(x[-1]) < 0.11  # a 100 mm crank, in m
     finally:
         anim.close()

@@ -1,6 +1,7 @@
 """symgen.api.equations: the derived model as SymPy matrices (issue 21), checked against a hand
 derivation (the rigid pendulum of docs/tutorial_equations.py, which this test runs) and against
 the model that runs (the CasADi functions) on a closed loop."""
+
 from __future__ import annotations
 
 import os
@@ -17,9 +18,14 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_the_tutorial_runs_and_gives_the_pendulum_by_hand():
-    run = subprocess.run([sys.executable, str(ROOT / "docs" / "tutorial_equations.py")], cwd=ROOT,
-                         capture_output=True, text=True, timeout=600,
-                         env={**os.environ, "PYTHONPATH": str(ROOT)})
+    run = subprocess.run(
+        [sys.executable, str(ROOT / "docs" / "tutorial_equations.py")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
     assert run.returncode == 0, run.stderr
     # (m l^2 / 3) theta'' = T - m g (l / 2) cos(theta), with m = l = 1, g = 2, T = 0.3
     assert "mass matrix: 1/3" in run.stdout and "forcing: 3/10 - cos(theta_bar)" in run.stdout, run.stdout

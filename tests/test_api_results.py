@@ -1,6 +1,7 @@
 """``symgen.api`` writes a run's files as the command line does (one writer,
 ``symgen.numerics.results.write_run``): the same CSV, byte for byte, and the same JSON sidecar
 but for the wall-clock times each process measures for itself."""
+
 from __future__ import annotations
 
 import json
@@ -28,31 +29,36 @@ TIMED = {"simulate": {"build_s", "simulate_s"}, "quasistatic": {"build_s", "simu
 def _same_files(cli_csv: Path, api_csv: Path, command: str) -> None:
     assert cli_csv.read_bytes() == api_csv.read_bytes()
     a, b = (json.loads(p.with_suffix(".json").read_text()) for p in (cli_csv, api_csv))
-    assert list(a) == list(b)                               # same keys, same order
+    assert list(a) == list(b)  # same keys, same order
     timings_a, timings_b = a.pop("timings"), b.pop("timings")
     assert a == b
     assert list(timings_a) == list(timings_b)
     differ = {k for k in timings_a if timings_a[k] != timings_b[k]}
     assert differ <= TIMED[command], differ
     assert timings_a["derive_cached"] and timings_b["derive_cached"]
-    assert {k: v for k, v in timings_a.items() if k not in TIMED[command]} == \
-        {k: v for k, v in timings_b.items() if k not in TIMED[command]}
+    assert {k: v for k, v in timings_a.items() if k not in TIMED[command]} == {
+        k: v for k, v in timings_b.items() if k not in TIMED[command]
+    }
 
 
-@pytest.mark.parametrize("scene, overrides, extra", [
-    (SLIDER, ["simulation.cycles=0.25"], ["--states"]),
-    (FOUR_BAR, ["simulation.cycles=0.1"], ["--units", "dimensionless"]),
-    (FOUR_BAR, ["simulation.cycles=0.1"], []),                       # SI results: t in s, N, N m
-], ids=["slider-states", "four-bar-dimensionless", "four-bar-SI"])
+@pytest.mark.parametrize(
+    "scene, overrides, extra",
+    [
+        (SLIDER, ["simulation.cycles=0.25"], ["--states"]),
+        (FOUR_BAR, ["simulation.cycles=0.1"], ["--units", "dimensionless"]),
+        (FOUR_BAR, ["simulation.cycles=0.1"], []),  # SI results: t in s, N, N m
+    ],
+    ids=["slider-states", "four-bar-dimensionless", "four-bar-SI"],
+)
 def test_simulate_scene_writes_the_files_of_symgen_simulate(tmp_path, capsys, scene, overrides, extra):
-    api.mechanism(scene, overrides)                         # the model in the cache for both runs
+    api.mechanism(scene, overrides)  # the model in the cache for both runs
     cli_csv, api_csv = tmp_path / "cli" / "run.csv", tmp_path / "api" / "run.csv"
     sets = [a for o in overrides for a in ("--set", o)]
-    assert main(["simulate", scene, "-o", str(cli_csv), "--plot", str(cli_csv.with_suffix(".svg")),
-                 *sets, *extra]) == 0
+    assert main(["simulate", scene, "-o", str(cli_csv), "--plot", str(cli_csv.with_suffix(".svg")), *sets, *extra]) == 0
     units = extra[1] if "--units" in extra else None
-    result = api.simulate_scene(scene, overrides, out=api_csv, plot=api_csv.with_suffix(".svg"),
-                                states="--states" in extra, units=units)
+    result = api.simulate_scene(
+        scene, overrides, out=api_csv, plot=api_csv.with_suffix(".svg"), states="--states" in extra, units=units
+    )
     assert result.complete
     _same_files(cli_csv, api_csv, "simulate")
     assert api_csv.with_suffix(".svg").stat().st_size > 10_000

@@ -15,6 +15,7 @@ centrifugal axial force (1 - xi^2)/2 over the axial stiffness); the converged fu
 deflection, the quantity the issue measures; and, where the full model is too stiff to run, its
 lambda -> oo limit with many functions (inextensible 6 + 8), which differs from it by O(1/lambda).
 """
+
 from __future__ import annotations
 
 import json
@@ -31,8 +32,12 @@ from tests.oracles import write_scene
 
 SLIDER = "examples/slider_crank.toml"
 FOUR_BAR = "examples/four_bar.toml"
-ACCURATE = ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete",     # the accurate defaults
-            "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"]
+ACCURATE = [
+    "effects.strain=von_karman",
+    "bodies.rod.axial_shapes=complete",  # the accurate defaults
+    "bodies.rod.axial_modes=3",
+    "bodies.rod.transverse_modes=4",
+]
 
 SPINNING = """
 [scene]
@@ -84,7 +89,7 @@ def _peak_error(y: np.ndarray, ref: np.ndarray) -> float:
 
 # --------------------------------------------------------------------------- the choice
 def test_auto_picks_per_bar_from_the_frequencies_and_says_why():
-    seed = load_scene(SLIDER)                                   # the paper's linear strain: its model
+    seed = load_scene(SLIDER)  # the paper's linear strain: its model
     t = axial_treatments(seed)["rod"]
     assert t.treatment == "dynamic" and "linear strain" in t.reason
     for lam, want in ((1e3, "dynamic"), (1e5, "quasi_static"), (1e10, "quasi_static")):
@@ -101,8 +106,13 @@ def test_auto_picks_per_bar_from_the_frequencies_and_says_why():
     steel = load_scene("benchmarks/scenes/four_bar_steel.toml")
     assert {t.treatment for t in axial_treatments(steel).values()} == {"dynamic"}
     # written values mean what they say, for every bar
-    for value, want in (("true", "dynamic"), ('"dynamic"', "dynamic"), ('"quasi_static"', "quasi_static"),
-                        ('"inextensible"', "inextensible"), ("false", "off")):
+    for value, want in (
+        ("true", "dynamic"),
+        ('"dynamic"', "dynamic"),
+        ('"quasi_static"', "quasi_static"),
+        ('"inextensible"', "inextensible"),
+        ("false", "off"),
+    ):
         sc = load_scene(FOUR_BAR, [f"effects.axial={value}"])
         assert {t.treatment for t in axial_treatments(sc).values()} == {want}, value
 
@@ -134,14 +144,18 @@ def test_dynamic_stretch_rings_about_the_quasi_static_one(tmp_path):
     lam = 1e3
     path = write_scene(tmp_path / "dyn.toml", SPINNING.format(lam=lam, axial="dynamic"))
     res = simulate_scene(path, ["simulation.output_step=0.002", "simulation.cycles=0.5"])
-    mean = float(np.mean(res.column("stretch")[len(res.tau) // 4:]))
+    mean = float(np.mean(res.column("stretch")[len(res.tau) // 4 :]))
     assert abs(mean * 3 * lam - 1) < 0.05
 
 
 # --------------------------------------------------------------------------- accuracy and cost
 def _slider(lam: float, extra: list[str]):
-    return simulate_scene(SLIDER, ACCURATE + [f"bodies.rod.lambda={lam:g}", "simulation.cycles=0.5",
-                                              "simulation.rtol=1e-8", "simulation.atol=1e-10"] + extra)
+    return simulate_scene(
+        SLIDER,
+        ACCURATE
+        + [f"bodies.rod.lambda={lam:g}", "simulation.cycles=0.5", "simulation.rtol=1e-8", "simulation.atol=1e-10"]
+        + extra,
+    )
 
 
 @pytest.mark.parametrize("lam", [1e3, 1e5])
@@ -149,8 +163,16 @@ def test_default_slider_crank_within_one_percent_of_the_converged_model(lam):
     """Default effects (auto) and function counts (3 + 4) against the converged full-dynamics
     6 + 8 model at the same lambda: midspan deflection within 1 % of its peak over half a turn.
     At lambda = 1e5 auto is quasi-static and costs what the inextensible model costs."""
-    ref = _slider(lam, ["effects.axial=true", "bodies.rod.axial_modes=6", "bodies.rod.transverse_modes=8",
-                        "simulation.rtol=1e-10", "simulation.atol=1e-12"])
+    ref = _slider(
+        lam,
+        [
+            "effects.axial=true",
+            "bodies.rod.axial_modes=6",
+            "bodies.rod.transverse_modes=8",
+            "simulation.rtol=1e-10",
+            "simulation.atol=1e-12",
+        ],
+    )
     auto = _slider(lam, [])
     err = _peak_error(auto.column("eta_mid"), ref.column("eta_mid"))
     assert err < 1e-2, err
@@ -174,8 +196,13 @@ def test_stiff_four_bar_default_is_quasi_static_and_within_one_percent():
     assert {t.treatment for t in axial_treatments(stiff_scene).values()} == {"quasi_static"}
     window = ["simulation.cycles=0.2"]
     auto = simulate_scene(FOUR_BAR, stiff + window)
-    ref = simulate_scene(FOUR_BAR, stiff + window + ["effects.axial=inextensible"]
-                         + [f"bodies.{b}.transverse_modes=6" for b in ("crank", "coupler", "rocker")])
+    ref = simulate_scene(
+        FOUR_BAR,
+        stiff
+        + window
+        + ["effects.axial=inextensible"]
+        + [f"bodies.{b}.transverse_modes=6" for b in ("crank", "coupler", "rocker")],
+    )
     for name in auto.output_names:
         if name.startswith(("coupler", "rocker", "crank")) and np.abs(ref.column(name)).max() > 1e-9:
             assert _peak_error(auto.column(name), ref.column(name)) < 1e-2, name
@@ -183,8 +210,20 @@ def test_stiff_four_bar_default_is_quasi_static_and_within_one_percent():
 
 def test_sidecar_and_effects_say_which_treatment_each_bar_got(tmp_path, capsys):
     out = tmp_path / "sc.csv"
-    assert main(["simulate", SLIDER, "-o", str(out), "--set", "simulation.cycles=0.02", *sum(
-        (["--set", o] for o in ACCURATE + ["bodies.rod.lambda=1e6"]), [])]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                SLIDER,
+                "-o",
+                str(out),
+                "--set",
+                "simulation.cycles=0.02",
+                *sum((["--set", o] for o in ACCURATE + ["bodies.rod.lambda=1e6"]), []),
+            ]
+        )
+        == 0
+    )
     meta = json.loads(out.with_suffix(".json").read_text())
     rod = meta["axial_treatment"]["rod"]
     assert rod["treatment"] == "quasi_static" and "eliminated" in rod["reason"]
@@ -205,21 +244,29 @@ def test_lambda_sweep_slider_crank_default_within_one_percent():
     inextensible 6 + 8 model, O(1/lambda) from it); IDAS steps per turn at lambda >= 1e5 at most 2x
     those of the inextensible model; lambda = 1e10 in seconds."""
     import time
+
     rows = []
     for lam in SWEEP:
         base = ACCURATE + [f"bodies.rod.lambda={lam:g}", "simulation.cycles=1"]
-        fine = ["bodies.rod.axial_modes=6", "bodies.rod.transverse_modes=8", "simulation.rtol=1e-10",
-                "simulation.atol=1e-12"]
-        ref = simulate_scene(SLIDER, base + fine + (["effects.axial=true"] if lam <= 1e6
-                                                    else ["effects.axial=inextensible"]))
+        fine = [
+            "bodies.rod.axial_modes=6",
+            "bodies.rod.transverse_modes=8",
+            "simulation.rtol=1e-10",
+            "simulation.atol=1e-12",
+        ]
+        ref = simulate_scene(
+            SLIDER, base + fine + (["effects.axial=true"] if lam <= 1e6 else ["effects.axial=inextensible"])
+        )
         t0 = time.perf_counter()
         auto = simulate_scene(SLIDER, base)
         secs = time.perf_counter() - t0
         inext = simulate_scene(SLIDER, base + ["effects.axial=inextensible"])
         err = _peak_error(auto.column("eta_mid"), ref.column("eta_mid"))
         rows.append((lam, err, auto.steps, inext.steps, secs))
-        print(f"lambda {lam:.0e}: error {100 * err:.3f} %  steps/turn {auto.steps} (inextensible {inext.steps})  "
-              f"{secs:.2f} s")
+        print(
+            f"lambda {lam:.0e}: error {100 * err:.3f} %  steps/turn {auto.steps} (inextensible {inext.steps})  "
+            f"{secs:.2f} s"
+        )
         assert err < 1e-2
         if lam >= 1e5:
             assert auto.steps <= 2 * inext.steps
@@ -243,11 +290,16 @@ def test_lambda_sweep_four_bar_default_within_one_percent():
         ref = simulate_scene(FOUR_BAR, over + fine + ["simulation.rtol=1e-10", "simulation.atol=1e-12"])
         auto = simulate_scene(FOUR_BAR, over)
         inext = simulate_scene(FOUR_BAR, over + ["effects.axial=inextensible"])
-        errs = {n: _peak_error(auto.column(n), ref.column(n)) for n in auto.output_names
-                if n.startswith(("crank", "coupler", "rocker")) and np.abs(ref.column(n)).max() > 1e-12}
-        print(f"scale {scale:g}: lambda {min(lams):.1e}-{max(lams):.1e}: errors "
-              + ", ".join(f"{k} {100 * v:.3f} %" for k, v in errs.items())
-              + f"; steps {auto.steps} (inextensible {inext.steps})")
+        errs = {
+            n: _peak_error(auto.column(n), ref.column(n))
+            for n in auto.output_names
+            if n.startswith(("crank", "coupler", "rocker")) and np.abs(ref.column(n)).max() > 1e-12
+        }
+        print(
+            f"scale {scale:g}: lambda {min(lams):.1e}-{max(lams):.1e}: errors "
+            + ", ".join(f"{k} {100 * v:.3f} %" for k, v in errs.items())
+            + f"; steps {auto.steps} (inextensible {inext.steps})"
+        )
         assert max(errs.values()) < 1e-2
         if min(lams) >= 1e5:
             assert auto.steps <= 2 * inext.steps

@@ -1,6 +1,7 @@
 """The symgen-vs-Exudyn benchmark harness (benchmarks/bench_exudyn.py, exudyn_models.py, run.py):
 its error measure, configuration pick, RESULTS.md section merge and the four-bar's rigid start.
 No timing here (speed targets live in benchmarks/), and no Exudyn needed."""
+
 from __future__ import annotations
 
 import math
@@ -20,14 +21,14 @@ import run as R  # noqa: E402
 
 def test_on_grid_picks_the_grid_samples_and_skips_the_others():
     dt = 0.01
-    t = np.array([0.0, 0.005, 0.01, 0.0125, 0.02, 0.03])           # steps of dt/2 and dt/4
+    t = np.array([0.0, 0.005, 0.01, 0.0125, 0.02, 0.03])  # steps of dt/2 and dt/4
     assert B.on_grid(t, dt, 4).tolist() == [0, 2, 4, 5]
 
 
 def test_on_grid_refuses_a_missing_grid_point():
     with pytest.raises(ValueError, match="1 of 4 grid points missing"):
         B.on_grid(np.array([0.0, 0.01, 0.03]), 0.01, 4)
-    with pytest.raises(ValueError, match="grid points missing"):     # drifted samples are not on the grid
+    with pytest.raises(ValueError, match="grid points missing"):  # drifted samples are not on the grid
         B.on_grid(np.array([0.0, 0.0101, 0.0201]), 0.01, 3)
 
 
@@ -42,7 +43,7 @@ def test_peak_error_is_relative_to_the_reference_peak():
 
 def test_run_error_is_the_worst_output_on_the_grid():
     dt = 0.5
-    t = np.arange(0.0, 2.01, 0.25)                                   # twice the grid's rate
+    t = np.arange(0.0, 2.01, 0.25)  # twice the grid's rate
     a, b = np.sin(t), np.cos(t)
     ref = {"a": np.sin(np.arange(5) * dt), "b": np.cos(np.arange(5) * dt) * 1.01}
     expect = max(0.0, np.abs(np.cos(np.arange(5) * dt) * 0.01).max() / np.abs(ref["b"]).max())
@@ -51,24 +52,28 @@ def test_run_error_is_the_worst_output_on_the_grid():
 
 
 def test_cheapest_needs_the_next_refinement_within_the_target_too():
-    rows = [{"id": 1, "finer": 2, "error": 0.009, "cpu": 1.0},        # lucky: its refinement is off
-            {"id": 2, "finer": 3, "error": 0.02, "cpu": 2.0},
-            {"id": 3, "finer": 4, "error": 0.005, "cpu": 4.0},       # 4 not run: counts on its own
-            {"id": 5, "finer": 6, "error": 0.001, "cpu": 9.0}]
+    rows = [
+        {"id": 1, "finer": 2, "error": 0.009, "cpu": 1.0},  # lucky: its refinement is off
+        {"id": 2, "finer": 3, "error": 0.02, "cpu": 2.0},
+        {"id": 3, "finer": 4, "error": 0.005, "cpu": 4.0},  # 4 not run: counts on its own
+        {"id": 5, "finer": 6, "error": 0.001, "cpu": 9.0},
+    ]
     assert B.cheapest(rows, 0.01)["id"] == 3
     assert B.cheapest(rows, 0.002)["id"] == 5
     assert B.cheapest(rows, 1e-4) is None
 
 
 def test_results_sections_round_trip_and_replace_one():
-    text = ("# title\n\nMachine: x.\n\n## A\n\nalpha\n\n_(section `examples` took 3 s)_\n\n"
-            "## B one\n\n## B two\n\n_(section `c` took 10 s)_\n")
+    text = (
+        "# title\n\nMachine: x.\n\n## A\n\nalpha\n\n_(section `examples` took 3 s)_\n\n"
+        "## B one\n\n## B two\n\n_(section `c` took 10 s)_\n"
+    )
     header, sections = R.split_sections(text)
     assert header == "# title\n\nMachine: x.\n\n"
     assert list(sections) == ["examples", "c"]
     assert R.merge(text, header, {}) == text
     merged = R.merge(text, "# new\n\n", {"exudyn": "## E\n\n_(section `exudyn` took 1 s)_"})
-    assert merged.index("## A") < merged.index("## E") < merged.index("## B one")   # in SECTIONS order
+    assert merged.index("## A") < merged.index("## E") < merged.index("## B one")  # in SECTIONS order
     assert merged.startswith("# new\n\n## A")
     again = R.merge(merged, "# new\n\n", {"exudyn": "## E2\n\n_(section `exudyn` took 2 s)_"})
     assert "## E2" in again and "## E\n" not in again
@@ -82,7 +87,7 @@ def test_four_bar_rigid_start_closes_the_loop_and_its_velocities():
     assert np.linalg.norm(A) == pytest.approx(a)
     assert np.linalg.norm(Bp - A) == pytest.approx(c)
     assert np.linalg.norm(Bp - O4) == pytest.approx(r)
-    assert Bp[1] > 0                                                  # the open (upper) assembly
+    assert Bp[1] > 0  # the open (upper) assembly
     # the velocities: differentiate the assembly numerically (closed form of two circles' crossing)
     omega, h = raw["scene"]["omega"], 1e-7
 
@@ -110,10 +115,10 @@ def test_six_bar_rigid_start_closes_both_loops_and_its_velocities():
     assert np.linalg.norm(A) == pytest.approx(length["crank"])
     assert np.linalg.norm(Bp - A) == pytest.approx(length["coupler"])
     assert np.linalg.norm(Bp - O4) == pytest.approx(length["rocker"])
-    assert C == pytest.approx((A + Bp) / 2)                               # the ternary link's midspan
+    assert C == pytest.approx((A + Bp) / 2)  # the ternary link's midspan
     assert np.linalg.norm(D - C) == pytest.approx(length["link"])
     assert np.linalg.norm(D - O6) == pytest.approx(length["rocker2"])
-    for k, guess in raw["initial"]["guess"].items():                     # the scene's branch
+    for k, guess in raw["initial"]["guess"].items():  # the scene's branch
         assert abs(g["theta"][k] - guess) < 0.05, k
     omega, h = raw["scene"]["omega"], 1e-7
     plus, minus = E.six_bar_geometry(raw, h), E.six_bar_geometry(raw, -h)

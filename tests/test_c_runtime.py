@@ -3,6 +3,7 @@ model: tests/c/runtime_test.c (LU, complex LU, singular values, the work storage
 constrained two-mass DAE with a closed-form solution, the start's checks and messages) built
 with the strict flags (also as C++, and with ASan/UBSan where they run); the eigenvalue routine
 of the divergence check against NumPy through the runtime built as a shared library."""
+
 from __future__ import annotations
 
 import ctypes
@@ -51,8 +52,9 @@ def test_runtime_is_plain_c():
 
 @needs_cc
 def test_runtime_unit_tests(runtime, tmp_path):
-    exe = compile_executable([HERE / "c" / "runtime_test.c", *_sources(runtime)], tmp_path / "runtime_test",
-                             include=[runtime])
+    exe = compile_executable(
+        [HERE / "c" / "runtime_test.c", *_sources(runtime)], tmp_path / "runtime_test", include=[runtime]
+    )
     out = _run(exe)
     assert "Radau IIA reaches tau = 10" in out
     # every external symbol of the runtime compiled on its own carries the symgen_ prefix
@@ -60,7 +62,9 @@ def test_runtime_unit_tests(runtime, tmp_path):
     if nm.returncode == 0:
         syms = [ln.split()[-1] for ln in nm.stdout.splitlines() if len(ln.split()) == 3 and ln.split()[1] in "T"]
         ours = [s for s in syms if s.startswith("symgen")]
-        assert {"symgen_bind", "symgen_solver_init", "symgen_solver_advance", "symgen_lu", "symgen_eigenvalues"} <= set(ours)
+        assert {"symgen_bind", "symgen_solver_init", "symgen_solver_advance", "symgen_lu", "symgen_eigenvalues"} <= set(
+            ours
+        )
 
 
 @needs_cc
@@ -68,10 +72,23 @@ def test_sizes_compiled_for_another_model_are_refused(runtime, tmp_path):
     """An emitted solver compiles the runtime with its model's sizes as constants (SYMGEN_NQ(s)
     ...); compiled with sizes that are not the descriptor's, the start refuses instead of running."""
     exe = tmp_path / "runtime_mismatch"
-    proc = subprocess.run(["gcc", *STRICT_C, "-Wno-unused-function", "-DRUNTIME_TEST_MISMATCH", "-DSYMGEN_NQ(s)=3",
-                           f"-I{runtime}",
-                           str(HERE / "c" / "runtime_test.c"), *map(str, _sources(runtime)), "-o", str(exe), "-lm"],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            "gcc",
+            *STRICT_C,
+            "-Wno-unused-function",
+            "-DRUNTIME_TEST_MISMATCH",
+            "-DSYMGEN_NQ(s)=3",
+            f"-I{runtime}",
+            str(HERE / "c" / "runtime_test.c"),
+            *map(str, _sources(runtime)),
+            "-o",
+            str(exe),
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     assert "compiled for other sizes" in _run(exe)
 
@@ -80,18 +97,49 @@ def test_sizes_compiled_for_another_model_are_refused(runtime, tmp_path):
 @pytest.mark.skipif(shutil.which("g++") is None, reason="g++ is not installed")
 def test_runtime_compiles_as_cxx(runtime, tmp_path):
     for src in _sources(runtime):
-        proc = subprocess.run(["g++", "-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1", f"-I{runtime}",
-                               "-c", str(src), "-o", str(tmp_path / (src.name + ".o"))], capture_output=True, text=True)
+        proc = subprocess.run(
+            [
+                "g++",
+                "-x",
+                "c++",
+                "-Wall",
+                "-Wextra",
+                "-pedantic",
+                "-Werror",
+                "-O1",
+                f"-I{runtime}",
+                "-c",
+                str(src),
+                "-o",
+                str(tmp_path / (src.name + ".o")),
+            ],
+            capture_output=True,
+            text=True,
+        )
         assert proc.returncode == 0, proc.stderr
 
 
 @needs_cc
 def test_runtime_unit_tests_sanitized(runtime, tmp_path):
     from test_emit_c_sanitize import ENV, SANITIZE, _need_sanitizers
+
     _need_sanitizers()
     exe = tmp_path / "runtime_test_san"
-    proc = subprocess.run(["gcc", *STRICT_C, *SANITIZE, f"-I{runtime}", str(HERE / "c" / "runtime_test.c"),
-                           *map(str, _sources(runtime)), "-o", str(exe), "-lm"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            "gcc",
+            *STRICT_C,
+            *SANITIZE,
+            f"-I{runtime}",
+            str(HERE / "c" / "runtime_test.c"),
+            *map(str, _sources(runtime)),
+            "-o",
+            str(exe),
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     _run(exe, env=ENV)
 
@@ -119,7 +167,7 @@ def test_eigenvalues_of_the_divergence_check_match_numpy(runtime, tmp_path):
         assert lib.symgen_eigenvalues(ptr(a), n, ptr(u), ptr(wr), ptr(wi)) == 0, A
         got, ref = list(wr + 1j * wi), np.linalg.eigvals(A)
         scale = max(1.0, np.abs(ref).max())
-        for x in ref:                       # pair each NumPy eigenvalue with the nearest left
+        for x in ref:  # pair each NumPy eigenvalue with the nearest left
             k = int(np.argmin([abs(x - y) for y in got]))
             worst = max(worst, abs(x - got.pop(k)) / scale)
 

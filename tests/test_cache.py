@@ -5,6 +5,7 @@ the numbers then equal those of a fresh derivation (the oracle: ``compile_scene(
 use_cache=False)`` with the shape cache in another, empty folder). Nothing in the cache is ever
 unpickled; concurrent writers leave one entry and no temporary folders.
 """
+
 from __future__ import annotations
 
 import json
@@ -37,8 +38,14 @@ def _numbers(compiled, scene) -> dict[str, np.ndarray]:
     info = compiled.info
     nq, nlam = info.n, info.m
     rng = np.random.default_rng(7)
-    args = [0.3, rng.normal(size=nq) * 0.1, rng.normal(size=nq), rng.normal(size=nq), rng.normal(size=nlam),
-            parameter_values(scene, info.params)]
+    args = [
+        0.3,
+        rng.normal(size=nq) * 0.1,
+        rng.normal(size=nq),
+        rng.normal(size=nq),
+        rng.normal(size=nlam),
+        parameter_values(scene, info.params),
+    ]
     return {name: np.array(f(*args)).ravel() for name, f in compiled.funcs.items()}
 
 
@@ -103,8 +110,13 @@ def _flip_bit(path: Path, at: float = 0.5, bit: int = 0) -> None:
 
 
 def _no_temp(root: Path) -> None:
-    left = [p for sub in ("models", "shapes") if (root / sub).is_dir() for p in (root / sub).iterdir()
-            if p.name.startswith(".tmp-") or p.name.endswith(".tmp")]
+    left = [
+        p
+        for sub in ("models", "shapes")
+        if (root / sub).is_dir()
+        for p in (root / sub).iterdir()
+        if p.name.startswith(".tmp-") or p.name.endswith(".tmp")
+    ]
     assert left == []
 
 
@@ -134,7 +146,9 @@ def test_planted_pickles_are_never_loaded(root, capsys, reference, tmp_path):
     # behind a header whose plain sha256 matches it (the keyed hash cannot be made without the key)
     (shapes / f"{old}.pkl").write_bytes(evil)
     (shapes / f"{name}.pkl").write_bytes(evil)
-    (shapes / f"{name}.json").write_bytes(b"symgen-cache shapes hmac-sha256=%s\n" % cache.sha256_hex(evil).encode() + evil)
+    (shapes / f"{name}.json").write_bytes(
+        b"symgen-cache shapes hmac-sha256=%s\n" % cache.sha256_hex(evil).encode() + evil
+    )
     key = _fill_key()
     entry = root / "models" / key
     entry.mkdir(parents=True)
@@ -158,6 +172,7 @@ def test_planted_pickles_are_never_loaded(root, capsys, reference, tmp_path):
 
 def _fill_key() -> str:
     from symgen.model.structure import structure_key, structure_of
+
     return structure_key(structure_of(load_scene(SCENE)))
 
 
@@ -180,7 +195,7 @@ def test_flipped_bit_in_shape_cache_is_recomputed(root, capsys, reference):
     _fill(root)
     (entry,) = [p for p in (root / "shapes").iterdir() if "n1" in p.name]
     good = entry.read_bytes()
-    for at, bit in ((0.3, 0), (0.0, 3), (0.99, 2)):   # in the payload, in the header, near the end
+    for at, bit in ((0.3, 0), (0.0, 3), (0.99, 2)):  # in the payload, in the header, near the end
         entry.write_bytes(good)
         _flip_bit(entry, at=at, bit=bit)
         S.clear_memory_cache()
@@ -188,7 +203,7 @@ def test_flipped_bit_in_shape_cache_is_recomputed(root, capsys, reference):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and entry.name in err[0], err
         _assert_equal(compiled, reference)
-        assert entry.read_bytes() == good   # rewritten, byte for byte
+        assert entry.read_bytes() == good  # rewritten, byte for byte
     # a digit changed so that the JSON stays valid (the value 7*pi**2/15 of C3 as a float, say)
     payload = good.split(b"\n", 1)[1]
     doc = json.loads(payload)
@@ -204,7 +219,7 @@ def test_flipped_bit_in_shape_cache_is_recomputed(root, capsys, reference):
 def test_edited_model_json_is_rederived(root, capsys, reference):
     entry = _fill(root)
     meta = json.loads((entry / "model.json").read_text())
-    meta["params"] = meta["params"][::-1]   # valid JSON, same sizes: silently wrong numbers if used
+    meta["params"] = meta["params"][::-1]  # valid JSON, same sizes: silently wrong numbers if used
     (entry / "model.json").write_text(json.dumps(meta, indent=1, sort_keys=True))
     compiled = _recompile(capsys, "model.json does not match the keyed hash")
     assert not compiled.cached
@@ -220,22 +235,28 @@ def _resign_model_json(entry: Path, edit) -> None:
     blob = json.dumps(data).encode()
     (entry / "model.json").write_bytes(blob)
     manifest = json.loads((entry / "manifest.json").read_text())
-    manifest["files"]["model.json"] = cache.seal(f"models/{entry.name}/model.json", blob)   # a keyed writer
+    manifest["files"]["model.json"] = cache.seal(f"models/{entry.name}/model.json", blob)  # a keyed writer
     (entry / "manifest.json").write_text(json.dumps(manifest))
 
 
-@pytest.mark.parametrize("edit, expect", [
-    (lambda d: d["coords"][0].pop("kind"), "model.json: coords[0] has no 'kind'"),
-    (lambda d: d["coords"][1].update(kind="h"), "model.json: coords[1].kind 'h' is not one of theta, s, f, g, beta"),
-    (lambda d: d["coords"][1].update(name="f_other_1"), "model.json: coords[1] is named 'f_other_1', not after"),
-    (lambda d: d["lam_rows"][0].update(kind="weld"), "model.json: lam_rows[0].kind 'weld' is not one of"),
-    (lambda d: d.update(driver_row=0), "model.json: 'driver_row' is not the index of the driver's row"),
-    (lambda d: d.pop("modes"), "model.json: the model description has no 'modes'"),
-    (lambda d: d["modes"]["rod"].update(axial="1"), "model.json: modes.rod.axial is not a count"),
-    (lambda d: d.update(timings={"derive_s": "fast"}), "model.json: 'timings' is not an object of numbers"),
-    (lambda d: d.update(scene_name="old"), "model.json: the model description has an unknown field 'scene_name'"),
-    (lambda d: d.update(params=d["params"][:1] * 2), "model.json: 'params' are not distinct names"),
-])
+@pytest.mark.parametrize(
+    "edit, expect",
+    [
+        (lambda d: d["coords"][0].pop("kind"), "model.json: coords[0] has no 'kind'"),
+        (
+            lambda d: d["coords"][1].update(kind="h"),
+            "model.json: coords[1].kind 'h' is not one of theta, s, f, g, beta",
+        ),
+        (lambda d: d["coords"][1].update(name="f_other_1"), "model.json: coords[1] is named 'f_other_1', not after"),
+        (lambda d: d["lam_rows"][0].update(kind="weld"), "model.json: lam_rows[0].kind 'weld' is not one of"),
+        (lambda d: d.update(driver_row=0), "model.json: 'driver_row' is not the index of the driver's row"),
+        (lambda d: d.pop("modes"), "model.json: the model description has no 'modes'"),
+        (lambda d: d["modes"]["rod"].update(axial="1"), "model.json: modes.rod.axial is not a count"),
+        (lambda d: d.update(timings={"derive_s": "fast"}), "model.json: 'timings' is not an object of numbers"),
+        (lambda d: d.update(scene_name="old"), "model.json: the model description has an unknown field 'scene_name'"),
+        (lambda d: d.update(params=d["params"][:1] * 2), "model.json: 'params' are not distinct names"),
+    ],
+)
 def test_malformed_model_json_is_rederived_not_a_key_error(root, capsys, reference, edit, expect):
     """A model.json edited and re-signed by a keyed writer (so its hash matches) is read field by field
     (ir.info.ModelInfo.from_json): a missing or wrong field is an invalid entry, re-derived,
@@ -251,6 +272,7 @@ def test_entry_of_another_structure_is_rederived(root, capsys, reference):
     """A whole, self-consistent entry of another scene put in this scene's folder, then its
     manifest and model.json edited to claim this key: each step is caught."""
     import shutil
+
     entry = _fill(root)
     compile_scene(load_scene(SCENE, ["bodies.rod.transverse_modes=2"]))
     (other,) = [p for p in (root / "models").iterdir() if p != entry]
@@ -265,16 +287,20 @@ def test_entry_of_another_structure_is_rederived(root, capsys, reference):
             blob = json.dumps(meta).encode()
             (entry / "model.json").write_bytes(blob)
             # a writer that holds the key (a bug, not an attacker): every file sealed for this entry
-            manifest["files"] = {name: cache.seal(f"models/{entry.name}/{name}", (entry / name).read_bytes())
-                                 for name in manifest["files"]}
+            manifest["files"] = {
+                name: cache.seal(f"models/{entry.name}/{name}", (entry / name).read_bytes())
+                for name in manifest["files"]
+            }
         if edit_manifest:
             manifest["key"] = entry.name
         (entry / "manifest.json").write_text(json.dumps(manifest))
 
-    for edit_manifest, edit_meta, expect in ((False, False, f"manifest.json is for structure key '{other.name}'"),
-                                             # the keyed hashes are bound to the entry they were written for
-                                             (True, False, "phi.casadi does not match the keyed hash"),
-                                             (True, True, "its structure does not hash to the key")):
+    for edit_manifest, edit_meta, expect in (
+        (False, False, f"manifest.json is for structure key '{other.name}'"),
+        # the keyed hashes are bound to the entry they were written for
+        (True, False, "phi.casadi does not match the keyed hash"),
+        (True, True, "its structure does not hash to the key"),
+    ):
         plant(edit_manifest, edit_meta)
         capsys.readouterr()
         compiled = _recompile(capsys, expect)
@@ -310,7 +336,7 @@ def test_function_of_another_model_is_rederived(root, capsys, reference):
     blob = bigger.funcs["res"].serialize().encode()
     (entry / "res.casadi").write_bytes(blob)
     manifest = json.loads((entry / "manifest.json").read_text())
-    manifest["files"]["res.casadi"] = cache.seal(f"models/{entry.name}/res.casadi", blob)   # a keyed writer
+    manifest["files"]["res.casadi"] = cache.seal(f"models/{entry.name}/res.casadi", blob)  # a keyed writer
     (entry / "manifest.json").write_text(json.dumps(manifest))
     compiled = _recompile(capsys, "res.casadi has sizes")
     _assert_equal(compiled, reference)
@@ -324,7 +350,7 @@ def _race_child(cache_dir: str, barrier, results) -> None:
     installed = []
 
     def install_together(tmp, target, replace):
-        barrier.wait(timeout=60)   # both writers have a complete temporary entry: race the rename
+        barrier.wait(timeout=60)  # both writers have a complete temporary entry: race the rename
         installed.append(real_install(tmp, target, replace))
         return installed[-1]
 
@@ -344,7 +370,7 @@ def test_concurrent_writers_leave_one_entry_and_no_temp_dirs(root, reference):
     for p in procs:
         p.join(timeout=60)
         assert p.exitcode == 0
-    assert sorted(installed for installed, _ in got) == [[False], [True]]   # one won, one lost
+    assert sorted(installed for installed, _ in got) == [[False], [True]]  # one won, one lost
     for _, numbers in got:
         for name in reference:
             np.testing.assert_allclose(numbers[name], reference[name], rtol=1e-12, atol=1e-12, err_msg=name)
@@ -405,24 +431,40 @@ def test_cache_info_and_clear(root, capsys, tmp_path):
 
     assert main(["cache", "info"]) == 0
     assert "total         0 entries" in capsys.readouterr().out
-    assert not compile_scene(load_scene(SCENE)).cached   # and the cache fills again
+    assert not compile_scene(load_scene(SCENE)).cached  # and the cache fills again
 
 
 # ----------------------------------------------------------------------------- expression trees
 def test_expression_trees_round_trip_and_reject_anything_else():
     x = sympy.Symbol("xi", real=True)
     y = sympy.Symbol("y")
-    exprs = [sympy.Rational(-7, 15) * sympy.pi ** -3 + 2, sympy.Float("-1.25e-40", 50) * x ** 3,
-             sympy.sin(x) * sympy.exp(y) + sympy.cosh(2 * x) - sympy.E ** 2 + sympy.log(3) * sympy.tan(y),
-             sympy.Integer(10) ** 80 + sympy.sqrt(2), sympy.Float(0, 30)]
+    exprs = [
+        sympy.Rational(-7, 15) * sympy.pi**-3 + 2,
+        sympy.Float("-1.25e-40", 50) * x**3,
+        sympy.sin(x) * sympy.exp(y) + sympy.cosh(2 * x) - sympy.E**2 + sympy.log(3) * sympy.tan(y),
+        sympy.Integer(10) ** 80 + sympy.sqrt(2),
+        sympy.Float(0, 30),
+    ]
     for e in exprs:
         tree = json.loads(json.dumps(exprdata.encode(e)))
         back = exprdata.decode(tree)
         assert back == e and sympy.srepr(back) == sympy.srepr(e)
-    for bad in (["fn", "__import__", ["int", "1"]], ["sym", "a b", True], ["int", "1+1"], ["int", 5],
-                ["rat", "1", "0"], ["float", 0, "zz", 0, 53], ["float", 0, "ff", 10 ** 9, 53],
-                ["const", "oo"], ["add", ["int", "1"]], ["pow", ["int", "2"]], "sin(x)", [],
-                ["eval", "1"], ["mul"] + [["int", "1"]] * 2 + [["fn", "open", ["int", "0"]]]):
+    for bad in (
+        ["fn", "__import__", ["int", "1"]],
+        ["sym", "a b", True],
+        ["int", "1+1"],
+        ["int", 5],
+        ["rat", "1", "0"],
+        ["float", 0, "zz", 0, 53],
+        ["float", 0, "ff", 10**9, 53],
+        ["const", "oo"],
+        ["add", ["int", "1"]],
+        ["pow", ["int", "2"]],
+        "sin(x)",
+        [],
+        ["eval", "1"],
+        ["mul"] + [["int", "1"]] * 2 + [["fn", "open", ["int", "0"]]],
+    ):
         with pytest.raises(ValueError):
             exprdata.decode(bad)
     deep = ["int", "1"]

@@ -5,6 +5,7 @@ symgen meets it in its cache, in a fresh process, and the marker must stay absen
 user did not build runs, and the run still gives its result. Whoever can write the cache folder
 can recompute a plain sha256, but not the keyed hash of this user's key.
 """
+
 from __future__ import annotations
 
 import json
@@ -23,28 +24,44 @@ ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "examples" / "slider_crank.toml"
 SHORT = ["--set", "simulation.cycles=0.05"]
 
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="needs a C compiler to build the planted libraries")
+pytestmark = pytest.mark.skipif(
+    shutil.which("cc") is None and shutil.which("gcc") is None,
+    reason="needs a C compiler to build the planted libraries",
+)
 
 
 def _env(tmp: Path, **extra: str) -> dict:
-    env = {**os.environ, "SYMGEN_CACHE_DIR": str(tmp / "cache"), "XDG_CONFIG_HOME": str(tmp / "config"),
-           "MPLBACKEND": "Agg", "PYTHONPATH": str(ROOT)}
+    env = {
+        **os.environ,
+        "SYMGEN_CACHE_DIR": str(tmp / "cache"),
+        "XDG_CONFIG_HOME": str(tmp / "config"),
+        "MPLBACKEND": "Agg",
+        "PYTHONPATH": str(ROOT),
+    }
     env.update(extra)
     return env
 
 
 def _symgen(tmp: Path, *args: str, timeout: float = 300, **extra: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "symgen.cli", *args], capture_output=True, text=True,
-                          timeout=timeout, env=_env(tmp, **extra), cwd=tmp, stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        [sys.executable, "-m", "symgen.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=_env(tmp, **extra),
+        cwd=tmp,
+        stdin=subprocess.DEVNULL,
+    )
 
 
 def _evil_library(tmp: Path, marker: Path, extra_c: str = "") -> Path:
     """A shared library whose constructor creates ``marker`` when it is loaded."""
     src = tmp / "evil.c"
-    src.write_text('#include <stdio.h>\n'
-                   f'__attribute__((constructor)) static void pwn(void) {{ FILE *f = fopen("{marker}", "w"); '
-                   'if (f) fclose(f); }\n' + extra_c)
+    src.write_text(
+        "#include <stdio.h>\n"
+        f'__attribute__((constructor)) static void pwn(void) {{ FILE *f = fopen("{marker}", "w"); '
+        "if (f) fclose(f); }\n" + extra_c
+    )
     lib = tmp / "evil.so"
     cc = shutil.which("cc") or shutil.which("gcc")
     subprocess.run([cc, "-shared", "-fPIC", str(src), "-o", str(lib)], check=True, capture_output=True)
@@ -68,7 +85,7 @@ def test_planted_compiled_library_never_runs(tmp_path):
     blob = evil.read_bytes()
     (entry / "model.so").write_bytes(blob)
     manifest = json.loads((entry / "manifest.json").read_text())
-    manifest["files"]["model.so"] = cache.sha256_hex(blob)      # all that a writer without the key can do
+    manifest["files"]["model.so"] = cache.sha256_hex(blob)  # all that a writer without the key can do
     (entry / "manifest.json").write_text(json.dumps(manifest))
     again = _symgen(tmp_path, "simulate", str(SCENE), *SHORT, "-o", "b.csv", SYMGEN_BACKEND="compiled")
     assert again.returncode == 0, again.stderr
@@ -92,9 +109,13 @@ def test_planted_casadi_file_never_loads_a_library(tmp_path):
     _loads_marker(evil, marker)
     text = ca.external("f", str(evil)).serialize()
     marker.unlink(missing_ok=True)
-    probe = subprocess.run([sys.executable, "-c", "import sys, casadi; casadi.Function.deserialize(sys.stdin.read())"],
-                           input=text, capture_output=True, text=True)
-    assert marker.exists(), probe.stderr        # the deserializer loads the library it names
+    probe = subprocess.run(
+        [sys.executable, "-c", "import sys, casadi; casadi.Function.deserialize(sys.stdin.read())"],
+        input=text,
+        capture_output=True,
+        text=True,
+    )
+    assert marker.exists(), probe.stderr  # the deserializer loads the library it names
     marker.unlink()
 
     first = _symgen(tmp_path, "simulate", str(SCENE), *SHORT, "-o", "a.csv")
@@ -148,7 +169,7 @@ def test_a_fifo_in_the_cache_never_hangs_a_run(tmp_path):
 def test_cache_clear_never_follows_a_linked_folder(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     elsewhere = tmp_path / "precious"
-    victim = elsewhere / ("0" * 20)          # named like a model entry
+    victim = elsewhere / ("0" * 20)  # named like a model entry
     victim.mkdir(parents=True)
     (victim / "data.txt").write_text("keep me")
     (tmp_path / "cache").mkdir()
@@ -171,8 +192,9 @@ def test_a_cache_folder_that_cannot_be_written_degrades_with_a_warning(tmp_path,
     elif where == "readonly":
         target.mkdir()
         target.chmod(0o555)
-    run = _symgen(tmp_path, "simulate", str(SCENE), *SHORT, "-o", "a.csv", SYMGEN_CACHE_DIR=str(target),
-                  SYMGEN_BACKEND="compiled")
+    run = _symgen(
+        tmp_path, "simulate", str(SCENE), *SHORT, "-o", "a.csv", SYMGEN_CACHE_DIR=str(target), SYMGEN_BACKEND="compiled"
+    )
     assert run.returncode == 0, run.stderr
     assert "internal error" not in run.stderr and "could not write the cache entry" in run.stderr
     assert "compiled" in run.stderr and (tmp_path / "a.csv").exists()

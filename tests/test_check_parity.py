@@ -4,6 +4,7 @@ assembled, a bar beyond the range of its model (also in the quasi-static start),
 start beyond a buckling load (an unstable equilibrium: the same growth rate along the same
 amplitude). Both read their limits from ``symgen.policy`` and measure singularity the same way
 (smallest / largest singular value of the closure Jacobian in the dependent rigid coordinates)."""
+
 from __future__ import annotations
 
 import math
@@ -21,16 +22,19 @@ from symgen.numerics.simulate import simulate
 from test_cli import FOUR_BAR_TOGGLE
 from tests.test_hard_cases import MU, P_CR, write_column
 
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
 
-SINGULAR = "the rigid mechanism reached a singular position"    # not "may have reached"
-TOGGLE = math.acos(0.375)       # the crank angle where coupler and rocker align (tests/test_cli.py)
-ELASTIC = FOUR_BAR_TOGGLE.replace('name = "coupler"\nlength = 1.0\nrigid = true',
-                                  'name = "coupler"\nlength = 1.0\nlambda = 1e4\nmu = 2.0\n'
-                                  'frame = "pinned-pinned"\naxial_modes = 2\ntransverse_modes = 2')
-SCENES = {"rigid": (FOUR_BAR_TOGGLE, []),
-          "elastic": (ELASTIC, ["effects.axial=inextensible", "initial.deformation=quasi-static"])}
+SINGULAR = "the rigid mechanism reached a singular position"  # not "may have reached"
+TOGGLE = math.acos(0.375)  # the crank angle where coupler and rocker align (tests/test_cli.py)
+ELASTIC = FOUR_BAR_TOGGLE.replace(
+    'name = "coupler"\nlength = 1.0\nrigid = true',
+    'name = "coupler"\nlength = 1.0\nlambda = 1e4\nmu = 2.0\n'
+    'frame = "pinned-pinned"\naxial_modes = 2\ntransverse_modes = 2',
+)
+SCENES = {
+    "rigid": (FOUR_BAR_TOGGLE, []),
+    "elastic": (ELASTIC, ["effects.axial=inextensible", "initial.deformation=quasi-static"]),
+}
 
 
 @pytest.fixture(scope="module")
@@ -110,7 +114,6 @@ def test_quasi_static_start_beyond_the_range(built):
     assert tau == 0.0 and code == 1 and "at tau = 0:" in err and "'coupler'" in err
 
 
-
 # ---------------------------------------------------------------------------- beyond buckling
 # The column of tests/test_hard_cases.py (pinned, its far end on a slider along its axis, mu =
 # 0.01, a small lateral load as imperfection) under an axial end load ratio * pi^2 mu, with its
@@ -146,7 +149,7 @@ def column(request, tmp_path_factory):
     axial = request.param
     d = tmp_path_factory.mktemp(f"column_{axial}")
     over = [f"effects.axial={axial}"]
-    path = write_column(d, 0.9, COLUMNS[axial])            # the C is emitted from a stable start
+    path = write_column(d, 0.9, COLUMNS[axial])  # the C is emitted from a stable start
     exe = d / "column_sim"
     exe.write_bytes(executable(mechanism(path, over))[0])
     exe.chmod(0o700)
@@ -179,10 +182,12 @@ def _c_probe(column, ratio):
     if "probe" not in column:
         d, src = column["folder"], column["src"]
         (d / "probe.c").write_text(PROBE)
-        column["probe"] = compile_executable([src / "column.c", src / "column_solver.c", d / "probe.c"], d / "probe",
-                                             include=[src])
-    out = subprocess.run([str(column["probe"]), *_load(ratio).split("=")], capture_output=True, text=True,
-                         timeout=60).stdout
+        column["probe"] = compile_executable(
+            [src / "column.c", src / "column_solver.c", d / "probe.c"], d / "probe", include=[src]
+        )
+    out = subprocess.run(
+        [str(column["probe"]), *_load(ratio).split("=")], capture_output=True, text=True, timeout=60
+    ).stdout
     head, message = out.split("\n", 1)
     rc, rate = head.split()
     return int(rc), float(rate), message.strip()
@@ -208,11 +213,13 @@ def test_quasi_static_start_beyond_buckling(column, monkeypatch, ratio, amplitud
     assert tau == 0.0 and "quasi-static state is unstable" in msg
     assert coord == amplitude
     if ratio < 4:
-        assert rate == pytest.approx(math.pi ** 2 * math.sqrt(MU) * math.sqrt(ratio - 1), rel=2e-3)
+        assert rate == pytest.approx(math.pi**2 * math.sqrt(MU) * math.sqrt(ratio - 1), rel=2e-3)
     code, err, _ = _c(column["exe"], "--set", _load(ratio))
     assert code == 1 and "at tau = 0:" in err, err
-    same = f"the quasi-static state is unstable: the deformation grows at rate {rate:.3g} (per unit tau) along {coord}, " \
-           f"a load beyond a buckling load"
+    same = (
+        f"the quasi-static state is unstable: the deformation grows at rate {rate:.3g} (per unit tau) along {coord}, "
+        f"a load beyond a buckling load"
+    )
     assert same in msg and same in err, (msg, err)
     rc, c_rate, c_msg = _c_probe(column, ratio)
     assert rc == 1 and c_msg in err
@@ -220,8 +227,19 @@ def test_quasi_static_start_beyond_buckling(column, monkeypatch, ratio, amplitud
 
 
 # ---------------------------------------------------------------------------- run settings
-@pytest.mark.parametrize("rtol, atol", [(1e-15, 1e-10), (1e-14, 1e-10), (0.5, 1e-10), (1.0, 1e-10),
-                                        (1e-8, 1e-21), (1e-8, 1e-20), (1e-8, 0.5), (1e-8, 1.0)])
+@pytest.mark.parametrize(
+    "rtol, atol",
+    [
+        (1e-15, 1e-10),
+        (1e-14, 1e-10),
+        (0.5, 1e-10),
+        (1.0, 1e-10),
+        (1e-8, 1e-21),
+        (1e-8, 1e-20),
+        (1e-8, 0.5),
+        (1e-8, 1.0),
+    ],
+)
 def test_the_c_driver_takes_the_tolerances_python_takes(built, rtol, atol):
     """One source of the run-setting bounds (symgen.scene.limits), rendered into the C driver:
     the same tolerances are refused (exit 2, naming the option) or accepted by both."""

@@ -1,5 +1,6 @@
 """The command line as a user meets it: results files, plots, errors (exit 2, no traceback,
 no output file)."""
+
 from __future__ import annotations
 
 import json
@@ -35,8 +36,12 @@ def test_simulate_writes_csv_json_and_plot(tmp_path, capsys):
     assert set(meta["timings"]) >= {"derive_s", "build_s", "simulate_s"}
     assert meta["closure_residual_max"] <= 1e-10
     assert meta["groups"]["rod"]["lambda"] == 18246.0
-    assert meta["modes"]["rod"] == {"axial": 1, "transverse": 1, "axial_shapes": "stress-free",
-                                    "transverse_shapes": "modes"}
+    assert meta["modes"]["rod"] == {
+        "axial": 1,
+        "transverse": 1,
+        "axial_shapes": "stress-free",
+        "transverse_shapes": "modes",
+    }
     assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
     assert "wrote" in capsys.readouterr().out
 
@@ -66,8 +71,12 @@ def test_bad_override_and_bad_output_name(tmp_path, capsys):
 
 def test_real_process_exit_code_and_stderr(tmp_path):
     bad = BAD / "slot_joint.toml"
-    proc = subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", str(bad), "-o", str(tmp_path / "x.csv")],
-                          capture_output=True, text=True, cwd=ROOT)
+    proc = subprocess.run(
+        [sys.executable, "-m", "symgen.cli", "simulate", str(bad), "-o", str(tmp_path / "x.csv")],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
     assert proc.returncode == 2
     assert "a slot joins a point of one bar to a second (guide) bar" in proc.stderr
     assert "Traceback" not in proc.stderr

@@ -8,6 +8,7 @@ library, run by IDAS through CasADi.
 * Without a C compiler (``SYMGEN_CC`` pointing nowhere, PATH without one, a compile that
   fails) the run falls back to the virtual machine, says so in one line, same numbers.
 """
+
 from __future__ import annotations
 
 import os
@@ -29,8 +30,7 @@ SLIDER = ROOT / "examples" / "slider_crank.toml"
 FOUR_BAR = ROOT / "examples" / "four_bar.toml"
 SHORT = {"slider_crank": (SLIDER, 1.0), "four_bar": (FOUR_BAR, 0.4)}
 
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler")
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
 
 
 @pytest.fixture(autouse=True)
@@ -62,7 +62,7 @@ def test_compiled_results_equal_the_virtual_machine(pairs, name):
     vm, comp = pairs[name]
     assert vm.stats["backend"] == "vm" and comp.stats["backend"] == "compiled"
     assert len(vm.tau) == len(comp.tau) > 10 and comp.complete
-    assert comp.steps == vm.steps                           # the same IDAS steps
+    assert comp.steps == vm.steps  # the same IDAS steps
     for what in ("outputs", "q", "v", "lam"):
         assert _close(getattr(vm, what), getattr(comp, what)) <= 1e-12, what
 
@@ -96,15 +96,18 @@ def test_library_rebuilt_when_flags_or_compiler_change_or_bytes_change(tmp_path,
     assert run().stats["library"] == "built" and len(_entries()) == 3
     assert run().stats["library"] == "cached"
     wrapper.write_text(f'#!/bin/sh\nif [ "$1" = --version ]; then echo "mycc 99.0"; exit 0; fi\nexec {real} "$@"\n')
-    compiled._probe.cache_clear()          # a new process would ask the compiler again
+    compiled._probe.cache_clear()  # a new process would ask the compiler again
     assert run().stats["library"] == "built" and len(_entries()) == 4
     # a library whose bytes changed is reported in one line, rebuilt and never loaded
     monkeypatch.delenv(compiled.CC_ENV)
     compiled._probe.cache_clear()
     capsys.readouterr()
-    entry = next(cache.compiled_dir() / e for e in _entries()
-                 if (cache.compiled_dir() / e / compiled.LIBRARY).stat().st_mtime_ns
-                 == min((cache.compiled_dir() / x / compiled.LIBRARY).stat().st_mtime_ns for x in _entries()))
+    entry = next(
+        cache.compiled_dir() / e
+        for e in _entries()
+        if (cache.compiled_dir() / e / compiled.LIBRARY).stat().st_mtime_ns
+        == min((cache.compiled_dir() / x / compiled.LIBRARY).stat().st_mtime_ns for x in _entries())
+    )
     lib = entry / compiled.LIBRARY
     data = bytearray(lib.read_bytes())
     data[len(data) // 2] ^= 0xFF
@@ -123,14 +126,15 @@ def test_library_rebuilt_when_flags_or_compiler_change_or_bytes_change(tmp_path,
 
 
 @pytest.mark.parametrize("hide", ["SYMGEN_CC", "PATH", "flags"])
-def test_without_a_working_compiler_the_virtual_machine_runs_and_says_so_once(hide, tmp_path, monkeypatch,
-                                                                              capsys, pairs):
+def test_without_a_working_compiler_the_virtual_machine_runs_and_says_so_once(
+    hide, tmp_path, monkeypatch, capsys, pairs
+):
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     if hide == "SYMGEN_CC":
         monkeypatch.setenv(compiled.CC_ENV, "/nonexistent/cc")
         why = "is not an executable"
     elif hide == "PATH":
-        monkeypatch.setenv("PATH", str(tmp_path))             # no cc, gcc or clang
+        monkeypatch.setenv("PATH", str(tmp_path))  # no cc, gcc or clang
         why = "no C compiler"
     else:
         monkeypatch.setenv(compiled.CFLAGS_ENV, "--no-such-flag-for-any-compiler")
@@ -138,7 +142,7 @@ def test_without_a_working_compiler_the_virtual_machine_runs_and_says_so_once(hi
     mech = mechanism(SLIDER)
     capsys.readouterr()
     res = simulate(mech, t_end=SHORT["slider_crank"][1])
-    simulate(mech, t_end=0.1)                                   # the notice is not repeated
+    simulate(mech, t_end=0.1)  # the notice is not repeated
     err = capsys.readouterr().err
     assert res.stats["backend"] == "vm"
     assert err.count("\n") == 1 and why in err and "virtual machine" in err, err
@@ -149,8 +153,9 @@ def test_without_a_working_compiler_the_virtual_machine_runs_and_says_so_once(hi
 
 def _cli(args, env_extra: dict, tmp_path: Path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), **env_extra)
-    return subprocess.run([sys.executable, "-m", "symgen.cli", *args], cwd=ROOT, env=env,
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "symgen.cli", *args], cwd=ROOT, env=env, capture_output=True, text=True, timeout=300
+    )
 
 
 def test_cli_backends_write_the_same_csv_and_forced_compiled_without_compiler_exits_2(tmp_path):
@@ -166,10 +171,12 @@ def test_cli_backends_write_the_same_csv_and_forced_compiled_without_compiler_ex
     text = (tmp_path / "a.csv").read_text()
     assert text == (tmp_path / "b.csv").read_text() == (tmp_path / "c.csv").read_text()
     import json
+
     assert json.loads((tmp_path / "a.json").read_text())["solver"]["backend"] == "compiled"
     assert json.loads((tmp_path / "c.json").read_text())["solver"]["backend"] == "vm"
-    d = _cli([*common, "-o", str(tmp_path / "d.csv"), "--backend", "compiled"], {compiled.CC_ENV: "/nonexistent"},
-             tmp_path)
+    d = _cli(
+        [*common, "-o", str(tmp_path / "d.csv"), "--backend", "compiled"], {compiled.CC_ENV: "/nonexistent"}, tmp_path
+    )
     assert d.returncode == 2 and "--backend" in d.stderr and "/nonexistent" in d.stderr
     assert not (tmp_path / "d.csv").exists() and not (tmp_path / "d.json").exists()
     e = _cli([*common, "-o", str(tmp_path / "e.csv")], {compiled.BACKEND_ENV: "fast"}, tmp_path)
@@ -196,15 +203,30 @@ def test_solver_c_writes_the_idas_columns_within_the_tolerance(tmp_path):
     peak = np.abs(a).max(axis=0)
     assert np.abs(a[:, 1] - b[:, 1]).max() < 1e-5 * peak[1]
     assert np.abs(a[:, 2:4] - b[:, 2:4]).max(axis=0).tolist() < (3e-3 * peak[2:4]).tolist()
-    assert np.abs(b[:, 4]).max() < 1e-12                         # closure at machine precision
+    assert np.abs(b[:, 4]).max() < 1e-12  # closure at machine precision
     import json
+
     meta = json.loads((tmp_path / "c.json").read_text())
     assert meta["status"] == "complete" and meta["solver"]["backend"] == "c"
     assert meta["solver"]["name"].startswith("radau-iia") and meta["solver"]["steps"] > 0
     assert json.loads((tmp_path / "idas.json").read_text())["solver"]["name"] == "idas"
     # another run length or tolerance reuses the cached executable (they are its arguments)
-    f = _cli(["simulate", str(SLIDER), "--set", "simulation.cycles=0.1", "--set", "simulation.rtol=1e-7",
-              "--solver", "c", "-o", str(tmp_path / "f.csv")], {}, tmp_path)
+    f = _cli(
+        [
+            "simulate",
+            str(SLIDER),
+            "--set",
+            "simulation.cycles=0.1",
+            "--set",
+            "simulation.rtol=1e-7",
+            "--solver",
+            "c",
+            "-o",
+            str(tmp_path / "f.csv"),
+        ],
+        {},
+        tmp_path,
+    )
     assert f.returncode == 0 and "C solver loaded" in f.stdout, f.stdout + f.stderr
     assert len((tmp_path / "f.csv").read_text().splitlines()) == 1 + 37
     # no compiler, or --states (the C driver writes no coordinates): exit 2, nothing written
@@ -213,7 +235,6 @@ def test_solver_c_writes_the_idas_columns_within_the_tolerance(tmp_path):
     assert d.returncode == 2 and "--solver" in d.stderr and "/nonexistent" in d.stderr, d.stderr
     assert e.returncode == 2 and "--states" in e.stderr, e.stderr
     assert not any((tmp_path / f).exists() for f in ("d.csv", "d.json", "e.csv", "e.json"))
-
 
 
 def test_solver_c_executable_follows_the_derived_model_not_only_the_scene(tmp_path, monkeypatch):
@@ -225,6 +246,7 @@ def test_solver_c_executable_follows_the_derived_model_not_only_the_scene(tmp_pa
     executable keyed by the scene alone once ran the quasi-static model here: 4-7 % off."""
     from symgen.model import structure
     from symgen.numerics.csolver import simulate_c
+
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     scene = ROOT / "benchmarks" / "scenes" / "four_bar_steel.toml"
     run = ["simulation.cycles=1", "simulation.rtol=1e-5", "simulation.atol=1e-8"]
@@ -250,6 +272,7 @@ def test_solver_c_executable_follows_the_solver_constants(tmp_path, monkeypatch)
     equal after the manifest's JSON round trip)."""
     from symgen.backends.c import radau
     from symgen.numerics.csolver import simulate_c
+
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
     mech = mechanism(SLIDER, ["simulation.cycles=0.05"])
     first = simulate_c(mech)

@@ -6,6 +6,7 @@
    operation count (instructions of all emitted functions) drops.
 2. ``symgen effects SCENE``: estimates from the groups, ``--measure``, ``--auto TOL -o FILE``.
 """
+
 from __future__ import annotations
 
 import math
@@ -27,9 +28,16 @@ SLIDER = "examples/slider_crank.toml"
 ROOT = Path(__file__).resolve().parent.parent
 # every effect on, the rod's axial dynamics included (effects.axial = true: "auto" would make this
 # rod quasi-static, without the lambda terms whose absence the switches are checked by)
-FULL = ["effects.axial=true", "effects.strain=von_karman", "bodies.rod.axial_shapes=complete", "bodies.rod.axial_modes=2",
-        "bodies.rod.transverse_modes=2", "effects.rotary_inertia=true", "effects.gravity=[0.0, -0.3]",
-        "effects.damping=0.01"]
+FULL = [
+    "effects.axial=true",
+    "effects.strain=von_karman",
+    "bodies.rod.axial_shapes=complete",
+    "bodies.rod.axial_modes=2",
+    "bodies.rod.transverse_modes=2",
+    "effects.rotary_inertia=true",
+    "effects.gravity=[0.0, -0.3]",
+    "effects.damping=0.01",
+]
 
 
 def _model(extra=()):
@@ -69,7 +77,7 @@ def _names(term) -> set:
 
 F = {"f_rod_1", "f_rod_2"}
 G = {"g_rod_1", "g_rod_2"}
-DF = {"df_rod_1", "df_rod_2"}          # Kelvin-Voigt damping: lambda c Ka f'
+DF = {"df_rod_1", "df_rod_2"}  # Kelvin-Voigt damping: lambda c Ka f'
 
 
 def _degree(term, names: set) -> int:
@@ -94,26 +102,57 @@ def _check_absent(full, extra, absent):
 
 
 SWITCHES = {
-    "axial=false": (["effects.axial=false"], lambda m: not (_symbols(m) & (F | {"df_rod_1", "ddf_rod_1", "lambda_rod"}))),
-    "axial=inextensible": (["effects.axial=inextensible", "effects.rotary_inertia=false"],
-                           lambda m: "lambda_rod" not in _symbols(m)),
+    "axial=false": (
+        ["effects.axial=false"],
+        lambda m: not (_symbols(m) & (F | {"df_rod_1", "ddf_rod_1", "lambda_rod"})),
+    ),
+    "axial=inextensible": (
+        ["effects.axial=inextensible", "effects.rotary_inertia=false"],
+        lambda m: "lambda_rod" not in _symbols(m),
+    ),
     "transverse=false": (["effects.transverse=false"], lambda m: not (_symbols(m) & (G | {"dg_rod_1", "mu_rod"}))),
     # the rod's transverse forces have no lambda; its axial forces' lambda terms are all linear in f
-    "geometric_stiffening=false": (["effects.geometric_stiffening=false", "effects.rotary_inertia=false"], lambda m: (
-        "lambda_rod" not in _symbols(m, "Eg_rod")
-        and all(_degree(t, F | DF) == 1 and not _names(t) & G for t in _terms(m, "Ef_rod") if "lambda_rod" in _names(t)))),
+    "geometric_stiffening=false": (
+        ["effects.geometric_stiffening=false", "effects.rotary_inertia=false"],
+        lambda m: (
+            "lambda_rod" not in _symbols(m, "Eg_rod")
+            and all(
+                _degree(t, F | DF) == 1 and not _names(t) & G for t in _terms(m, "Ef_rod") if "lambda_rod" in _names(t)
+            )
+        ),
+    ),
     # no product theta' f' or theta' g' in any generalized force of the rod (its field (1))
-    "coriolis=false": (["effects.coriolis=false"], lambda m: not any(
-        "dtheta_rod" in _names(t) and _names(t) & {"df_rod_1", "df_rod_2", "dg_rod_1", "dg_rod_2"}
-        for t in _terms(m, "E") if "_rod" in str(t))),
+    "coriolis=false": (
+        ["effects.coriolis=false"],
+        lambda m: (
+            not any(
+                "dtheta_rod" in _names(t) and _names(t) & {"df_rod_1", "df_rod_2", "dg_rod_1", "dg_rod_2"}
+                for t in _terms(m, "E")
+                if "_rod" in str(t)
+            )
+        ),
+    ),
     # rho = mu / lambda: no lambda in a denominator
-    "rotary_inertia=false": (["effects.rotary_inertia=false"], lambda m: not any(
-        isinstance(b, sp.Symbol) and b.name == "lambda_rod" and e < 0
-        for t in _terms(m, "E") for b, e in t.as_powers_dict().items())),
+    "rotary_inertia=false": (
+        ["effects.rotary_inertia=false"],
+        lambda m: (
+            not any(
+                isinstance(b, sp.Symbol) and b.name == "lambda_rod" and e < 0
+                for t in _terms(m, "E")
+                for b, e in t.as_powers_dict().items()
+            )
+        ),
+    ),
     # von Karman: lambda g^3 in (17), lambda g^2 without f in (16); linear strain: neither
-    "strain=linear": (["effects.strain=linear"], lambda m: (
-        not any(_degree(t, G) >= 2 for t in _terms(m, "Eg_rod") if "lambda_rod" in _names(t))
-        and not any(_degree(t, G) >= 1 and _degree(t, F) == 0 for t in _terms(m, "Ef_rod") if "lambda_rod" in _names(t)))),
+    "strain=linear": (
+        ["effects.strain=linear"],
+        lambda m: (
+            not any(_degree(t, G) >= 2 for t in _terms(m, "Eg_rod") if "lambda_rod" in _names(t))
+            and not any(
+                _degree(t, G) >= 1 and _degree(t, F) == 0 for t in _terms(m, "Ef_rod") if "lambda_rod" in _names(t)
+            )
+        ),
+    ),
     "gravity=off": (["effects.gravity=[0.0, 0.0]"], lambda m: not (_symbols(m) & {"gx", "gy"})),
     "damping=0": (["effects.damping=0.0"], lambda m: "damping" not in _symbols(m)),
 }
@@ -139,18 +178,18 @@ def test_estimates_from_the_groups():
     scene = load_scene(SLIDER, ["effects.rotary_inertia=true", "effects.strain=von_karman", "effects.axial=true"])
     rows = {r.change.key: r for r in estimate_effects(scene, 1e-3).rows}
     lam, mu = 18246.0, 0.495
-    assert rows["rotary inertia off"].estimate == pytest.approx(math.pi ** 2 * mu / lam)
+    assert rows["rotary inertia off"].estimate == pytest.approx(math.pi**2 * mu / lam)
     # eps_ax reads the rod's stretch: the inextensible model loses it, and the foreshortening
     # lambda pi^2 eta0^2/(4 N0) (eta0 = 5/384 / mu, N0 = 1/2) is in it
     eta0 = 5 / 384 / mu
-    fore = min(1.0, lam * math.pi ** 2 * eta0 ** 2 / (4 * 0.5))
-    assert rows["geometric stiffening off"].estimate == pytest.approx(max(0.5 / (math.pi ** 2 * mu), fore))
+    fore = min(1.0, lam * math.pi**2 * eta0**2 / (4 * 0.5))
+    assert rows["geometric stiffening off"].estimate == pytest.approx(max(0.5 / (math.pi**2 * mu), fore))
     assert rows["strain -> linear"].estimate == pytest.approx(fore)
     assert rows["axial -> inextensible"].estimate == 1.0 and "eps_ax" in rows["axial -> inextensible"].detail
     assert rows["transverse off"].estimate == 1.0
     assert rows["rotary inertia off"].recommendation.startswith("prune")
     assert rows["transverse off"].recommendation.startswith("keep")
-    assert "gravity off" not in rows and "damping off" not in rows      # not in this scene
+    assert "gravity off" not in rows and "damping off" not in rows  # not in this scene
 
 
 def test_effects_command_prints_the_table(capsys):
@@ -160,9 +199,22 @@ def test_effects_command_prints_the_table(capsys):
         assert word in out
 
 
-CHEAP = ["--set", "effects.axial=true", "--set", "effects.strain=von_karman", "--set", "bodies.rod.axial_shapes=complete",
-         "--set", "bodies.rod.axial_modes=3", "--set", "bodies.rod.transverse_modes=1",
-         "--set", "initial.deformation=quasi-static", "--cycles", "0.25"]
+CHEAP = [
+    "--set",
+    "effects.axial=true",
+    "--set",
+    "effects.strain=von_karman",
+    "--set",
+    "bodies.rod.axial_shapes=complete",
+    "--set",
+    "bodies.rod.axial_modes=3",
+    "--set",
+    "bodies.rod.transverse_modes=1",
+    "--set",
+    "initial.deformation=quasi-static",
+    "--cycles",
+    "0.25",
+]
 
 
 def test_effects_measure(capsys):
@@ -192,12 +244,15 @@ def test_effects_auto_writes_a_verified_scene(tmp_path, capsys):
     assert np.abs(pruned.column("eta_mid") - full.column("eta_mid")).max() / peak < 2e-2
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["--auto", "1e-3"], "give -o FILE.toml"),
-    (["--auto", "0", "-o", "x.toml"], "must be > 0"),
-    (["--auto", "1e-3", "-o", "x.txt"], "should end in .toml"),
-    (["--measure", "--outputs", "nope"], "no compared output named nope"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--auto", "1e-3"], "give -o FILE.toml"),
+        (["--auto", "0", "-o", "x.toml"], "must be > 0"),
+        (["--auto", "1e-3", "-o", "x.txt"], "should end in .toml"),
+        (["--measure", "--outputs", "nope"], "no compared output named nope"),
+    ],
+)
 def test_effects_command_errors(tmp_path, capsys, args, fragment):
     args = [a if not a.endswith((".toml", ".txt")) else str(tmp_path / a) for a in args]
     assert main(["effects", SLIDER, *args]) == 2
@@ -214,8 +269,9 @@ def test_toml_writer_round_trips_the_examples():
         assert tomllib.loads(toml_text(raw, "header")) == raw
 
 
-@pytest.mark.parametrize("example", ["slider_crank", "inverted_slider_crank",
-                                     pytest.param("four_bar", marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "example", ["slider_crank", "inverted_slider_crank", pytest.param("four_bar", marks=pytest.mark.slow)]
+)
 def test_estimate_agrees_with_measure_on_the_examples(example):
     """The estimate from the groups (no run) recommends what the short runs of ``--measure`` find,
     change by change, on every example, and is within a factor 30 of the measured error where

@@ -1,6 +1,7 @@
 """The emitted C (symgen emit-c): strict C99 / C++ compiles, values and Jacobians against the
 CasADi Functions, consistent start and driver runs against the Python path (IDAS), two models
 in one program, CMake add_subdirectory, odd scene names, the CLI."""
+
 from __future__ import annotations
 
 import ctypes
@@ -13,8 +14,21 @@ import pytest
 
 from symgen.backends.c.render import RUNTIME_FILES, runtime_files
 
-from c_support import (EXAMPLES, ROOT, WORK, closure_columns, idas_reference, library, mechanism,
-                       needs_cc, needs_cxx, parameter_names, run_sim, simulator, sources)
+from c_support import (
+    EXAMPLES,
+    ROOT,
+    WORK,
+    closure_columns,
+    idas_reference,
+    library,
+    mechanism,
+    needs_cc,
+    needs_cxx,
+    parameter_names,
+    run_sim,
+    simulator,
+    sources,
+)
 
 NAMES = sorted(EXAMPLES)
 DP = ctypes.POINTER(ctypes.c_double)
@@ -30,20 +44,21 @@ def _ptr(x: np.ndarray):
 def test_radau_constants():
     """The Radau IIA constants baked into the solver satisfy their defining identities."""
     from symgen.backends.c import radau
+
     A = np.array(radau.A, dtype=float)
     c = np.array(radau.C, dtype=float)
     T, TI = np.array(radau.T, dtype=float), np.array(radau.TI, dtype=float)
     g, al, be = float(radau.GAMMA), float(radau.ALPHA), float(radau.BETA)
-    np.testing.assert_allclose(A.sum(axis=1), c, atol=1e-15)                       # row sums = nodes
-    np.testing.assert_allclose(c, [(4 - 6 ** 0.5) / 10, (4 + 6 ** 0.5) / 10, 1.0], atol=1e-16)
+    np.testing.assert_allclose(A.sum(axis=1), c, atol=1e-15)  # row sums = nodes
+    np.testing.assert_allclose(c, [(4 - 6**0.5) / 10, (4 + 6**0.5) / 10, 1.0], atol=1e-16)
     np.testing.assert_allclose(T @ TI, np.eye(3), atol=1e-14)
     block = np.array([[g, 0, 0], [0, al, -be], [0, be, al]])
     np.testing.assert_allclose(TI @ np.linalg.inv(A) @ T, block, atol=1e-12)
     dd = np.array(radau.DD, dtype=float)
-    np.testing.assert_allclose([dd @ c, dd @ c ** 2, dd @ c ** 3], [-1, 0, 0], atol=1e-13)
+    np.testing.assert_allclose([dd @ c, dd @ c**2, dd @ c**3], [-1, 0, 0], atol=1e-13)
     # order conditions of the collocation method: A c^(k-1) = c^k / k, k = 1..3
     for k in (1, 2, 3):
-        np.testing.assert_allclose(A @ c ** (k - 1), c ** k / k, atol=1e-15)
+        np.testing.assert_allclose(A @ c ** (k - 1), c**k / k, atol=1e-15)
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -53,14 +68,14 @@ def test_preamble_and_symbols(name):
     files = sorted(p.name for p in folder.iterdir())
     generated = ["CMakeLists.txt", f"{name}.h", f"{name}.c", f"{name}_solver.h", f"{name}_solver.c", f"{name}_sim.c"]
     assert files == sorted(generated + list(RUNTIME_FILES))
-    for runtime_file, text in runtime_files().items():          # the runtime: copied, not rendered
+    for runtime_file, text in runtime_files().items():  # the runtime: copied, not rendered
         assert (folder / runtime_file).read_text() == text
     for path in (folder / f for f in generated):
         text = path.read_text()
         head = text[:3000]
         assert "DO NOT EDIT" in head and scene_hash in head and "symgen" in head, path.name
         for fn in ("phi", "res", "res_jac", "out"):
-            assert f"{name}_{fn}: " in head, (path.name, fn)       # operation count of each function
+            assert f"{name}_{fn}: " in head, (path.name, fn)  # operation count of each function
     header = (folder / f"{name}.h").read_text()
     assert f"#ifndef SYMGEN_{name}_H" in header and 'extern "C"' in header
     # every external symbol of the library carries the prefix
@@ -79,10 +94,13 @@ def test_preamble_and_symbols(name):
 def test_compiles_strict_c99_and_cxx(name):
     folder = sources(name)
     for src in (f"{name}.c", f"{name}_solver.c", f"{name}_sim.c"):
-        for cmd in (["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
-                    ["g++", "-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"]):
-            proc = subprocess.run([*cmd, "-c", str(folder / src), "-o", str(WORK / f"{src}.{cmd[0]}.o")],
-                                  capture_output=True, text=True)
+        for cmd in (
+            ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
+            ["g++", "-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
+        ):
+            proc = subprocess.run(
+                [*cmd, "-c", str(folder / src), "-o", str(WORK / f"{src}.{cmd[0]}.o")], capture_output=True, text=True
+            )
             assert proc.returncode == 0, f"{cmd[0]} {src}:\n{proc.stderr}"
 
 
@@ -114,7 +132,7 @@ def test_values_and_jacobians_match_casadi(name):
             out = np.full(max(ref.size, 1), np.nan)
             getattr(lib, f"{name}_{k}")(*args, _ptr(out))
             scale = max(np.abs(ref).max(initial=0.0), 1e-300)
-            worst[k] = max(worst.get(k, 0.0), np.abs(out[:ref.size] - ref).max(initial=0.0) / scale)
+            worst[k] = max(worst.get(k, 0.0), np.abs(out[: ref.size] - ref).max(initial=0.0) / scale)
         for k in JACOBIANS:
             ref = np.array(jac[k](t, q, v, a, lam, p))
             out = np.full(ref.size, np.nan)
@@ -146,7 +164,7 @@ def test_consistent_start_matches_python(name):
     q, v, a = (np.zeros(mech.n) for _ in range(3))
     lam = np.zeros(max(mech.m, 1))
     lib[f"{name}_solver_state"](buf, _ptr(q), _ptr(v), _ptr(a), _ptr(lam))
-    for got, ref in ((q, q0), (v, v0), (a, a0), (lam[:mech.m], lam0)):
+    for got, ref in ((q, q0), (v, v0), (a, a0), (lam[: mech.m], lam0)):
         np.testing.assert_allclose(got, ref, rtol=1e-8, atol=1e-9 * max(1.0, np.abs(ref).max()))
 
 
@@ -155,6 +173,7 @@ def test_changed_parameters_reassemble_in_c():
     """A parameter changed in C (crank start angle of the four-bar) gives the start the Python
     path computes for the scene with that value: re-assembly and quasi-static state in C."""
     from symgen.api import mechanism as python_mechanism
+
     name = "four_bar"
     names = parameter_names(name)
     p = mechanism(name).p.copy()
@@ -180,7 +199,7 @@ def test_assembly_failure_is_reported():
 def _bad_slider_crank():
     names = parameter_names("slider_crank")
     p = mechanism("slider_crank").p.copy()
-    p[names.index("py_B")] = 5.0                # the slider's line out of the rod's reach
+    p[names.index("py_B")] = 5.0  # the slider's line out of the rod's reach
     return p
 
 
@@ -192,8 +211,7 @@ def _message_offset(name, lib, buf) -> int:
 
 
 @needs_cc
-@pytest.mark.parametrize("name,args", [("slider_crank", ("--rtol", "1e-10", "--atol", "1e-12")),
-                                       ("four_bar", ())])
+@pytest.mark.parametrize("name,args", [("slider_crank", ("--rtol", "1e-10", "--atol", "1e-12")), ("four_bar", ())])
 def test_driver_matches_idas_over_two_turns(name, args):
     """The C driver's CSV over the scene's two crank turns against IDAS at converged
     tolerances: every output within 1e-5 of its peak (closure columns: both at round-off).
@@ -231,6 +249,7 @@ def test_bar_beyond_range_stops_like_python():
     """A rod too soft for its load buckles: C and Python stop at the same output, same reason."""
     from symgen.api import simulate_scene
     from symgen.errors import SimulationError
+
     with pytest.raises(SimulationError, match="beyond the range") as err:
         simulate_scene(EXAMPLES["slider_crank"], ["bodies.rod.mu=0.01"])
     partial = err.value.partial
@@ -245,9 +264,11 @@ def test_bar_beyond_range_stops_like_python():
 def test_changed_stiffness_run_matches_python():
     """--set lambda_rod in the C driver = the scene overridden in Python (half a turn)."""
     from symgen.api import simulate_scene
+
     res = simulate_scene(EXAMPLES["slider_crank"], ["bodies.rod.lambda=9000"], t_end=1.5, rtol=1e-11, atol=1e-13)
-    _, data, _ = run_sim(simulator("slider_crank"), "--t-end", "1.5", "--set", "lambda_rod=9000",
-                         "--rtol", "1e-10", "--atol", "1e-12")
+    _, data, _ = run_sim(
+        simulator("slider_crank"), "--t-end", "1.5", "--set", "lambda_rod=9000", "--rtol", "1e-10", "--atol", "1e-12"
+    )
     assert data.shape[0] == len(res.tau)
     for k in (0, 1, 2):
         peak = np.abs(res.outputs[:, k]).max()
@@ -256,12 +277,17 @@ def test_changed_stiffness_run_matches_python():
 
 def _rigid_slider_crank(tmp_path):
     text = EXAMPLES["slider_crank"].read_text()
-    elastic = ('lambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\naxial_modes = 1\ntransverse_modes = 1\n'
-               'axial_shapes = "stress-free"\ntransverse_shapes = "modes"')
+    elastic = (
+        'lambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\naxial_modes = 1\ntransverse_modes = 1\n'
+        'axial_shapes = "stress-free"\ntransverse_shapes = "modes"'
+    )
     assert elastic in text
     text = text.replace(elastic, "rigid = true").replace('[effects]\nstrain = "linear"\n', "")
-    text = text.replace('eta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
-                        'eps_ax = { kind = "chord_elongation", body = "rod" }\n', 'rod = { kind = "angle", body = "rod" }\n')
+    text = text.replace(
+        'eta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
+        'eps_ax = { kind = "chord_elongation", body = "rod" }\n',
+        'rod = { kind = "angle", body = "rod" }\n',
+    )
     path = tmp_path / "rigid.toml"
     path.write_text(text)
     return path, ["simulation.cycles=0.25"]
@@ -269,13 +295,15 @@ def _rigid_slider_crank(tmp_path):
 
 def _pendulum(tmp_path):
     from test_energy import write_pendulum
+
     return write_pendulum(tmp_path, strain="linear", t_end=2.0, quasi_static=True, rtol=1e-8, atol=1e-10), []
 
 
 @needs_cc
 @needs_cxx
-@pytest.mark.parametrize("build", [_rigid_slider_crank, _pendulum], ids=["rigid-no-differential-state",
-                                                                         "pendulum-no-closure-torque-driver"])
+@pytest.mark.parametrize(
+    "build", [_rigid_slider_crank, _pendulum], ids=["rigid-no-differential-state", "pendulum-no-closure-torque-driver"]
+)
 def test_edge_scenes_compile_and_match_python(build, tmp_path):
     """No differential state (a rigid driven slider-crank) and no closure at all (a free elastic
     pendulum under a torque driver, quasi-static start): zero-size arrays compile, runs agree."""
@@ -283,14 +311,30 @@ def test_edge_scenes_compile_and_match_python(build, tmp_path):
     from symgen.api import write_c
     from symgen.numerics.simulate import simulate
     from symgen.scene import load_scene
+
     path, overrides = build(tmp_path)
     scene = load_scene(path, overrides)
     out = write_c(scene, tmp_path / "c")
     n = scene.name
     files = [str(out / f) for f in (f"{n}.c", f"{n}_solver.c", f"{n}_sim.c")]
     for cmd in (["gcc", "-std=c99"], ["g++", "-x", "c++"]):
-        proc = subprocess.run([*cmd, "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1", f"-I{out}", *files,
-                               "-o", str(tmp_path / "sim"), "-lm"], capture_output=True, text=True)
+        proc = subprocess.run(
+            [
+                *cmd,
+                "-Wall",
+                "-Wextra",
+                "-pedantic",
+                "-Werror",
+                "-O1",
+                f"-I{out}",
+                *files,
+                "-o",
+                str(tmp_path / "sim"),
+                "-lm",
+            ],
+            capture_output=True,
+            text=True,
+        )
         assert proc.returncode == 0, proc.stderr
     _, data, stats = run_sim(tmp_path / "sim", "--rtol", "1e-10", "--atol", "1e-12")
     res = simulate(python_mechanism(scene), rtol=1e-11, atol=1e-12)
@@ -330,8 +374,20 @@ def test_both_examples_link_into_one_program():
     main.write_text(MAIN_BOTH)
     files = [main] + [src[n] / f for n in NAMES for f in (f"{n}.c", f"{n}_solver.c")]
     exe = WORK / "both"
-    cmd = ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1",
-           *[f"-I{src[n]}" for n in NAMES], *map(str, files), "-o", str(exe), "-lm"]
+    cmd = [
+        "gcc",
+        "-std=c99",
+        "-Wall",
+        "-Wextra",
+        "-pedantic",
+        "-Werror",
+        "-O1",
+        *[f"-I{src[n]}" for n in NAMES],
+        *map(str, files),
+        "-o",
+        str(exe),
+        "-lm",
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
@@ -348,35 +404,54 @@ def test_cmake_add_subdirectory_of_both_models():
     proj = WORK / "cmake_parent"
     proj.mkdir(exist_ok=True)
     (proj / "main.c").write_text(MAIN_BOTH)
-    (proj / "CMakeLists.txt").write_text(textwrap.dedent(f"""\
+    (proj / "CMakeLists.txt").write_text(
+        textwrap.dedent(f"""\
         cmake_minimum_required(VERSION 3.10...3.31)
         project(parent C)
         set(four_bar_BUILD_SIM OFF CACHE BOOL "" FORCE)
-        add_subdirectory({sources('slider_crank')} slider_crank)
-        add_subdirectory({sources('four_bar')} four_bar)
+        add_subdirectory({sources("slider_crank")} slider_crank)
+        add_subdirectory({sources("four_bar")} four_bar)
         add_executable(app main.c)
         target_link_libraries(app PRIVATE slider_crank four_bar)
-        """))
+        """)
+    )
     build = proj / "build"
-    for cmd in (["cmake", "-S", str(proj), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release"],
-                ["cmake", "--build", str(build), "-j", "2"]):
+    for cmd in (
+        ["cmake", "-S", str(proj), "-B", str(build), "-DCMAKE_BUILD_TYPE=Release"],
+        ["cmake", "--build", str(build), "-j", "2"],
+    ):
         proc = subprocess.run(cmd, capture_output=True, text=True)
         assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    assert (build / "slider_crank" / "slider_crank_sim").exists()        # the driver target
-    assert not (build / "four_bar" / "four_bar_sim").exists()             # switched off
+    assert (build / "slider_crank" / "slider_crank_sim").exists()  # the driver target
+    assert not (build / "four_bar" / "four_bar_sim").exists()  # switched off
     run = subprocess.run([str(build / "app")], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
 
 
 # ---------------------------------------------------------------------------- names, CLI
-ODD_NAMES = ["slider crank", "int", "class", "a;b", "x); system(\"rm\"", "ünïcode", "crank\u00e9", "1st",
-             "__reserved", "_Reserved", "", "a" * 64, "a\nb", "/*x*/"]
+ODD_NAMES = [
+    "slider crank",
+    "int",
+    "class",
+    "a;b",
+    'x); system("rm"',
+    "ünïcode",
+    "crank\u00e9",
+    "1st",
+    "__reserved",
+    "_Reserved",
+    "",
+    "a" * 64,
+    "a\nb",
+    "/*x*/",
+]
 
 
 @pytest.mark.parametrize("bad", ODD_NAMES)
 def test_odd_scene_names_are_rejected(bad, tmp_path):
     from symgen.api import write_c
     from symgen.errors import SceneError
+
     scene = dataclasses.replace(mechanism("slider_crank").scene, name=bad)
     with pytest.raises(SceneError, match="scene.name"):
         write_c(scene, tmp_path / "out")
@@ -385,6 +460,7 @@ def test_odd_scene_names_are_rejected(bad, tmp_path):
 
 def test_strings_are_escaped_in_c_and_xml():
     from symgen.backends.c.names import c_comment, c_string, xml_attr
+
     for text in ODD_NAMES + ['quote " back \\ ??= trigraph', "*/ end", "é\u2028"]:
         lit = c_string(text)
         assert lit.isascii() and "\n" not in lit and "??" not in lit[1:-1].replace("\\?", "")
@@ -396,13 +472,20 @@ def test_strings_are_escaped_in_c_and_xml():
 @needs_cc
 def test_escaped_strings_compile_and_round_trip(tmp_path):
     from symgen.backends.c.names import c_string
+
     texts = ["a;b", 'q"uote', "back\\slash", "ünï", "??=", "tab\there"]
     src = tmp_path / "s.c"
-    src.write_text("#include <stdio.h>\nint main(void)\n{\n"
-                   + "".join(f"    puts({c_string(t)});\n" for t in texts) + "    return 0;\n}\n")
+    src.write_text(
+        "#include <stdio.h>\nint main(void)\n{\n"
+        + "".join(f"    puts({c_string(t)});\n" for t in texts)
+        + "    return 0;\n}\n"
+    )
     exe = tmp_path / "s"
-    proc = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", str(src), "-o", str(exe)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", str(src), "-o", str(exe)],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     out = subprocess.run([str(exe)], capture_output=True).stdout.decode("utf-8").splitlines()
     assert out == texts
@@ -410,9 +493,12 @@ def test_escaped_strings_compile_and_round_trip(tmp_path):
 
 def test_cli_emit_c_and_errors(tmp_path, capsys):
     from symgen.cli import main
+
     out = tmp_path / "sc_c"
     assert main(["emit-c", str(EXAMPLES["slider_crank"]), "-o", str(out)]) == 0
-    assert (out / "slider_crank_solver.c").read_text() == (sources("slider_crank") / "slider_crank_solver.c").read_text()
+    assert (out / "slider_crank_solver.c").read_text() == (
+        sources("slider_crank") / "slider_crank_solver.c"
+    ).read_text()
     # a scene with an odd name (a C keyword): exit 2, a message naming the key, no folder
     bad = tmp_path / "bad.toml"
     bad.write_text(EXAMPLES["slider_crank"].read_text().replace('name = "slider_crank"', 'name = "int"'))
@@ -431,6 +517,7 @@ def test_emitted_folder_has_the_mode_of_any_output(tmp_path):
     mkdir gives (0777 & ~umask), not mkdtemp's 0700."""
     import os
     from symgen.backends.c import write_tree
+
     old = os.umask(0o027)
     try:
         out = write_tree({"a.c": "int a;\n", "sub/b.h": "int b;\n"}, tmp_path / "out_c")

@@ -1,6 +1,7 @@
 """Scene names that would collide in the emitted C: system and FMI headers, CMake's reserved
 targets, the runtime's files (issue 22). Each is refused by emit-c with a message, and the list
 of header names is checked against what a real compile of the emitted C includes."""
+
 from __future__ import annotations
 
 import re
@@ -26,8 +27,23 @@ def _scene(tmp_path: Path, name: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("name", ["math", "errno", "stdio", "Math", "all", "clean", "help", "install", "test",
-                                  "symgen", "symgen_solver", "fmi2Functions"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "math",
+        "errno",
+        "stdio",
+        "Math",
+        "all",
+        "clean",
+        "help",
+        "install",
+        "test",
+        "symgen",
+        "symgen_solver",
+        "fmi2Functions",
+    ],
+)
 def test_emit_c_refuses_a_colliding_name_with_a_message(tmp_path, capsys, name):
     assert main(["emit-c", str(_scene(tmp_path, name)), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
@@ -49,10 +65,14 @@ def test_the_header_list_covers_every_header_a_build_includes_by_a_bare_name():
     probe = subprocess.run([CC, "-E", "-v", "-x", "c", "/dev/null"], capture_output=True, text=True)
     lines = probe.stderr.splitlines()
     start = lines.index("#include <...> search starts here:") + 1
-    dirs = {Path(d.strip()).resolve() for d in lines[start:lines.index("End of search list.")]}
+    dirs = {Path(d.strip()).resolve() for d in lines[start : lines.index("End of search list.")]}
     fmi = ROOT / "templates" / "c" / "fmi2"
-    deps = subprocess.run([CC, "-M", f"-I{src}", f"-I{fmi}", *map(str, sorted(src.glob("*.c")))],
-                          capture_output=True, text=True, check=True).stdout
+    deps = subprocess.run(
+        [CC, "-M", f"-I{src}", f"-I{fmi}", *map(str, sorted(src.glob("*.c")))],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
     found = set()
     for token in deps.replace("\\\n", " ").split():
         path = Path(token)

@@ -7,6 +7,7 @@ symgen.scene.model limits), probed from a sanitized C harness.
 The slider-crank runs in the default suite; the other examples (larger C, slower to compile
 with sanitizers) are marked slow.
 """
+
 from __future__ import annotations
 
 import functools
@@ -20,8 +21,13 @@ import pytest
 
 from c_support import ALL_EXAMPLES, WORK, mechanism, sources
 
-SANITIZE = ("-fsanitize=address,undefined,float-cast-overflow", "-fno-sanitize-recover=all",
-            "-fno-omit-frame-pointer", "-g", "-O1")
+SANITIZE = (
+    "-fsanitize=address,undefined,float-cast-overflow",
+    "-fno-sanitize-recover=all",
+    "-fno-omit-frame-pointer",
+    "-g",
+    "-O1",
+)
 STRICT = ("-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror")
 # a sanitizer report exits with these (the driver's own statuses are 0, 1 and 2)
 ENV = {**os.environ, "ASAN_OPTIONS": "exitcode=86:detect_leaks=1", "UBSAN_OPTIONS": "exitcode=87:print_stacktrace=1"}
@@ -38,9 +44,10 @@ def _unavailable() -> str | None:
         return "gcc is not installed"
     folder = WORK / "sanitizer_probe"
     folder.mkdir(exist_ok=True)
-    (folder / "probe.c").write_text("#include <stdio.h>\nint main(void) { puts(\"ok\"); return 0; }\n")
-    proc = subprocess.run([cc, *SANITIZE, str(folder / "probe.c"), "-o", str(folder / "probe")],
-                          capture_output=True, text=True)
+    (folder / "probe.c").write_text('#include <stdio.h>\nint main(void) { puts("ok"); return 0; }\n')
+    proc = subprocess.run(
+        [cc, *SANITIZE, str(folder / "probe.c"), "-o", str(folder / "probe")], capture_output=True, text=True
+    )
     if proc.returncode != 0:
         return f"gcc cannot build with -fsanitize=address,undefined (sanitizer runtime missing?): {proc.stderr[:300]}"
     run = subprocess.run([str(folder / "probe")], capture_output=True, text=True, env=ENV, timeout=60)
@@ -56,8 +63,9 @@ def _need_sanitizers():
 
 
 def _compile(args: list, output) -> None:
-    proc = subprocess.run(["gcc", *STRICT, *SANITIZE, *map(str, args), "-o", str(output)],
-                          capture_output=True, text=True)
+    proc = subprocess.run(
+        ["gcc", *STRICT, *SANITIZE, *map(str, args), "-o", str(output)], capture_output=True, text=True
+    )
     assert proc.returncode == 0, proc.stderr
 
 
@@ -120,6 +128,7 @@ def _bad_arguments(name: str) -> list:
     """(arguments, text the message must contain) of usages the driver rejects."""
     from symgen.ir.parameters import POSITIVE
     from symgen.scene.limits import LIMITS
+
     MAX_OUTPUT_ROWS = LIMITS["rows"].default
     par = _positive_parameter(name)
     rows = f"more than the limit of {MAX_OUTPUT_ROWS}"
@@ -135,7 +144,7 @@ def _bad_arguments(name: str) -> list:
         (["--t-end", "1e400"], "--t-end: '1e400' is out of the range of a double"),
         (["--atol", "1e-400"], "--atol: '1e-400' is out of the range of a double"),
         (["--t-end", "1e300"], "longer than the limit of 1e+06"),  # was: (long) of 6e301, undefined
-        (["--t-end", "1e300", "--step", "1e300"], "longer than the limit"),   # two rows, 1e300 of tau
+        (["--t-end", "1e300", "--step", "1e300"], "longer than the limit"),  # two rows, 1e300 of tau
         (["--t-end", "1e300", "--max-t-end", "1e301"], rows),
         (["--max-t-end", "0"], "the limit must be > 0"),
         (["--t-end", "1.7976931348623157e308", "--step", "1e-300"], "longer than the limit"),
@@ -186,6 +195,7 @@ def test_row_limit_is_exact_and_can_be_raised():
     warning (symgen.scene.limits.RTOL_WARN) does not stop the run."""
     _need_sanitizers()
     from symgen.scene.limits import RTOL_WARN as LOOSE_RTOL
+
     exe = _simulator(DEFAULT)
     step = mechanism(DEFAULT).scene.simulation.output_step
     n = _rows(0.3, step)
@@ -273,14 +283,19 @@ def test_library_rejects_what_the_python_policy_rejects(tmp_path):
     leaves the run usable); all of it clean under the sanitizers."""
     _need_sanitizers()
     from symgen.ir.parameters import parameter_records
+
     name = DEFAULT
     mech = mechanism(name)
     params = list(mech.info.params)
     records = parameter_records(mech.scene, params)
     probes = [(k, x) for k, rec in enumerate(records) for x in _probes(rec)]
     par = params.index(_positive_parameter(name))
-    code = (HARNESS.replace("PFX", name).replace("PROBE_K", ", ".join(str(k) for k, _ in probes))
-            .replace("PROBE_X", ", ".join(_c_double(x) for _, x in probes)).replace("PAR", str(par)))
+    code = (
+        HARNESS.replace("PFX", name)
+        .replace("PROBE_K", ", ".join(str(k) for k, _ in probes))
+        .replace("PROBE_X", ", ".join(_c_double(x) for _, x in probes))
+        .replace("PAR", str(par))
+    )
     (tmp_path / "harness.c").write_text(code)
     exe = tmp_path / "harness"
     _compile([*_objects(name), tmp_path / "harness.c", f"-I{sources(name)}", "-lm"], exe)
@@ -292,12 +307,15 @@ def test_library_rejects_what_the_python_policy_rejects(tmp_path):
     assert valid == expected
     calls = {x[0]: (int(x[1]), int(x[2]), x[3]) for x in lines if len(x) == 4}
     bad = 2
-    for what, text in (("t0 nan", "t0 = nan is not valid: it must be finite"),
-                       ("rtol nan", "rtol = nan is not valid"), ("rtol inf", "rtol = inf is not valid"),
-                       ("rtol 1", "rtol = 1 is not valid: it must be in (0, 1.0)"),
-                       ("atol inf", "atol = inf is not valid"),
-                       ("parameter", f"{params[par]} = -1 is not valid: it must be > 0"),
-                       ("parameter nan", f"{params[par]} = nan is not valid")):
+    for what, text in (
+        ("t0 nan", "t0 = nan is not valid: it must be finite"),
+        ("rtol nan", "rtol = nan is not valid"),
+        ("rtol inf", "rtol = inf is not valid"),
+        ("rtol 1", "rtol = 1 is not valid: it must be in (0, 1.0)"),
+        ("atol inf", "atol = inf is not valid"),
+        ("parameter", f"{params[par]} = -1 is not valid: it must be > 0"),
+        ("parameter nan", f"{params[par]} = nan is not valid"),
+    ):
         rc, status, message = calls[what]
         assert (rc, status) == (bad, bad) and message.startswith(text), (what, message)
     assert next(x[1:] for x in lines if x[0] == "null") == [str(bad), str(bad)]

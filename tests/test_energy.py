@@ -32,6 +32,7 @@ amplitude (0.01 rad; the finite-amplitude correction is 6e-6 relative) and 4 K(s
 sqrt(3 g / (2 L)) at a = 1 rad (K: complete elliptic integral, mpmath). Measured relative
 errors ~1e-7; asserted < 1e-5 (the brief asked 1e-3 for the small-amplitude case).
 """
+
 from __future__ import annotations
 
 import math
@@ -45,12 +46,24 @@ from symgen.api import simulate_scene
 
 AMP = 1.0
 G = 1.0
-V_RANGE = G * 0.5 * (1 - math.cos(AMP))     # m g L/2 (1 - cos a), m = L = 1
+V_RANGE = G * 0.5 * (1 - math.cos(AMP))  # m g L/2 (1 - cos a), m = L = 1
 
 
-def write_pendulum(path, *, strain="von_karman", lam=1e3, mu=5.0, amp=AMP, t_end=20.0,
-                   output_step=0.05, rtol=1e-10, atol=1e-10, frame="pinned-pinned",
-                   stiffening=True, quasi_static=False) -> str:
+def write_pendulum(
+    path,
+    *,
+    strain="von_karman",
+    lam=1e3,
+    mu=5.0,
+    amp=AMP,
+    t_end=20.0,
+    output_step=0.05,
+    rtol=1e-10,
+    atol=1e-10,
+    frame="pinned-pinned",
+    stiffening=True,
+    quasi_static=False,
+) -> str:
     initial = '\n[initial]\ndeformation = "quasi-static"\n' if quasi_static else ""
     text = f"""
 [scene]
@@ -125,8 +138,10 @@ def drifts(tmp_path_factory):
         res, wall = run(tmp_path_factory.mktemp(strain), strain=strain)
         theta = res.column("angle") + math.pi / 2
         out[strain] = energy_drift(res)
-        print(f"\n{strain}: drift {out[strain]:.2e}  theta range [{theta.min():.3f}, {theta.max():.3f}]  "
-              f"steps {res.steps}  wall {wall:.2f}s")
+        print(
+            f"\n{strain}: drift {out[strain]:.2e}  theta range [{theta.min():.3f}, {theta.max():.3f}]  "
+            f"steps {res.steps}  wall {wall:.2f}s"
+        )
         # it did swing: a few half periods, amplitude about 1 rad both ways
         assert theta.min() < -0.95 and theta.max() > 0.95
     return out
@@ -158,8 +173,7 @@ def _upward_crossings(t, y):
 
 @pytest.mark.parametrize("amp", [0.01, 1.0])
 def test_rigid_period(tmp_path, amp):
-    res, _ = run(tmp_path, lam=1e8, mu=1e8, amp=amp, t_end=12.0, output_step=0.01,
-                 quasi_static=True)
+    res, _ = run(tmp_path, lam=1e8, mu=1e8, amp=amp, t_end=12.0, output_step=0.01, quasi_static=True)
     theta = res.column("angle") + math.pi / 2
     periods = np.diff(_upward_crossings(res.tau, theta))
     assert len(periods) >= 1

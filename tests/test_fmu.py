@@ -2,6 +2,7 @@
 
 FMPy is a test extra (``pip install -e '.[test]'``); without it these tests are skipped.
 """
+
 from __future__ import annotations
 
 import subprocess
@@ -21,6 +22,7 @@ def _fmu(name: str):
     path = WORK / f"{name}.fmu"
     if not path.exists():
         from symgen.backends.fmu import write_fmu
+
         mech = mechanism(name)
         write_fmu(mech.scene, path, context(name))
     return path
@@ -29,6 +31,7 @@ def _fmu(name: str):
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
 def test_fmpy_validates_the_fmu(name):
     from fmpy.validation import validate_fmu
+
     path = _fmu(name)
     assert validate_fmu(str(path)) == []
     md = fmpy.read_model_description(str(path))
@@ -40,8 +43,13 @@ def test_fmpy_validates_the_fmu(name):
     assert md.coSimulation.modelIdentifier == name
     with zipfile.ZipFile(path) as zf:
         names = set(zf.namelist())
-    assert {f"binaries/linux64/{name}.so", f"sources/{name}_fmi2.c", f"sources/{name}_solver.c",
-            "sources/fmi2Functions.h", "modelDescription.xml"} <= names
+    assert {
+        f"binaries/linux64/{name}.so",
+        f"sources/{name}_fmi2.c",
+        f"sources/{name}_solver.c",
+        "sources/fmi2Functions.h",
+        "modelDescription.xml",
+    } <= names
 
 
 def test_fmpy_simulates_the_slider_crank_like_idas():
@@ -77,20 +85,27 @@ def test_fmu_wrapper_compiles_strict_c99_and_cxx():
     with zipfile.ZipFile(_fmu(name)) as zf:
         zf.extractall(folder)
     src = folder / "sources" / f"{name}_fmi2.c"
-    for cmd in (["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
-                ["g++", "-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"]):
-        proc = subprocess.run([*cmd, f"-I{folder / 'sources'}", "-c", str(src), "-o", str(WORK / "fmi2.o")],
-                              capture_output=True, text=True)
+    for cmd in (
+        ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
+        ["g++", "-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
+    ):
+        proc = subprocess.run(
+            [*cmd, f"-I{folder / 'sources'}", "-c", str(src), "-o", str(WORK / "fmi2.o")],
+            capture_output=True,
+            text=True,
+        )
         assert proc.returncode == 0, proc.stderr
 
 
 def test_cli_emit_fmu(tmp_path):
     from symgen.cli import main
+
     out = tmp_path / "sc.fmu"
     assert main(["emit-fmu", str(EXAMPLES["slider_crank"]), "-o", str(out)]) == 0
     from fmpy.validation import validate_fmu
+
     assert validate_fmu(str(out)) == []
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["sc.fmu"]     # no temporary left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sc.fmu"]  # no temporary left
 
 
 def test_fmu_variable_names_stay_unique_when_an_output_is_named_like_a_parameter():
@@ -98,9 +113,10 @@ def test_fmu_variable_names_stay_unique_when_an_output_is_named_like_a_parameter
     import xml.etree.ElementTree as ET
 
     from symgen.backends.fmu import fmu_files
+
     scene = mechanism("slider_crank").scene
     outputs = list(scene.outputs)
-    outputs[0] = dataclasses.replace(outputs[0], name="rate")          # "rate" is also a parameter
+    outputs[0] = dataclasses.replace(outputs[0], name="rate")  # "rate" is also a parameter
     renamed = dataclasses.replace(scene, outputs=tuple(outputs))
     xml = fmu_files(renamed, context("slider_crank"))["modelDescription.xml"]
     root = ET.fromstring(xml.encode())
@@ -113,6 +129,7 @@ def test_fmu_variable_names_stay_unique_when_an_output_is_named_like_a_parameter
 
 def _umask() -> int:
     import os
+
     old = os.umask(0)
     os.umask(old)
     return old
@@ -124,17 +141,22 @@ def test_fmu_rejects_invalid_parameters_and_has_the_mode_of_any_output():
     has the mode open() gives (0666 & ~umask), not mkstemp's 0600."""
     import os
     import xml.etree.ElementTree as ET
+
     path = _fmu("slider_crank")
     assert os.stat(path).st_mode & 0o777 == 0o666 & ~_umask()
     messages = []
     for value in (-1.0, 0.0, float("nan"), float("inf")):
         with pytest.raises(Exception, match="fmi2SetReal"):
-            fmpy.simulate_fmu(str(path), stop_time=0.1, start_values={"lambda_rod": value},
-                              logger=lambda *args: messages.append(args[-1].decode()))
+            fmpy.simulate_fmu(
+                str(path),
+                stop_time=0.1,
+                start_values={"lambda_rod": value},
+                logger=lambda *args: messages.append(args[-1].decode()),
+            )
     assert len(messages) == 4
     assert all("not a valid value of the parameter lambda_rod: it must be > 0" in m for m in messages), messages
     with zipfile.ZipFile(path) as zf:
         root = ET.fromstring(zf.read("modelDescription.xml"))
     real = {v.get("name"): v.find("Real") for v in root.iter("ScalarVariable")}
-    assert (real["dx_B"].get("min"), real["dx_B"].get("max")) == ("-1.0", "1.0")     # closed range
-    assert real["lambda_rod"].get("min") is None                                     # > 0: not expressible
+    assert (real["dx_B"].get("min"), real["dx_B"].get("max")) == ("-1.0", "1.0")  # closed range
+    assert real["lambda_rod"].get("min") is None  # > 0: not expressible

@@ -2,6 +2,7 @@
 
 Regenerate with:  symgen derive examples/slider_crank.toml examples/four_bar.toml -o generated
 """
+
 from __future__ import annotations
 
 import json

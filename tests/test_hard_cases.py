@@ -27,6 +27,7 @@ BDF orders above 2 are not stable on undamped stiff oscillations, so IDAS keeps 
 1/omega_axial. The inextensible model costs the same at every lambda (and the default axial
 treatment, "auto", eliminates the axial dynamics of such stiff bars: tests/test_axial_default.py).
 """
+
 from __future__ import annotations
 
 import math
@@ -127,7 +128,7 @@ def test_inextensible_model_has_no_lambda_and_holds_the_chord_shortening():
     xi = np.linspace(0.0, 1.0, 4001)
     dpsi = np.array([k * np.pi * np.cos(k * np.pi * xi) for k in range(1, 5)])
     slope = g @ dpsi
-    shortening = -0.5 * np.trapezoid(slope ** 2, xi, axis=1)
+    shortening = -0.5 * np.trapezoid(slope**2, xi, axis=1)
     assert np.abs(shortening).max() > 1e-5
     assert np.abs(res.column("eps_ax") - shortening).max() < 1e-9 * 1e3 * np.abs(shortening).max()
 
@@ -221,8 +222,9 @@ def test_von_karman_free_motion_conserves_energy_over_1000_periods(tmp_path):
         eta = res.column("eta")
         n = len(eta) // 10
         assert np.abs(eta[-n:]).max() > 0.9 * np.abs(eta[:n]).max()
-        print(f"\nrtol {rtol:g}: energy drift {drift[rtol]:.2e} of E over {_periods(res)} periods, "
-              f"IDAS steps {res.steps}")
+        print(
+            f"\nrtol {rtol:g}: energy drift {drift[rtol]:.2e} of E over {_periods(res)} periods, IDAS steps {res.steps}"
+        )
     assert drift[1e-10] < 1e-6
     assert drift[1e-8] > 3 * drift[1e-10]
 
@@ -263,12 +265,15 @@ def test_toggle_with_an_inextensible_elastic_coupler_names_the_loop(tmp_path, ca
     """The toggle test of tests/test_cli.py with an elastic coupler under effects.axial =
     "inextensible": its constraint rows do not hide the singular position, which is met where
     the rigid one is (tau = acos(0.375) - 0.5 = 0.686) and named by its loop."""
-    elastic = FOUR_BAR_TOGGLE.replace('name = "coupler"\nlength = 1.0\nrigid = true',
-                                      'name = "coupler"\nlength = 1.0\nlambda = 1e4\nmu = 2.0\n'
-                                      'frame = "pinned-pinned"\naxial_modes = 2\ntransverse_modes = 2')
+    elastic = FOUR_BAR_TOGGLE.replace(
+        'name = "coupler"\nlength = 1.0\nrigid = true',
+        'name = "coupler"\nlength = 1.0\nlambda = 1e4\nmu = 2.0\n'
+        'frame = "pinned-pinned"\naxial_modes = 2\ntransverse_modes = 2',
+    )
     assert elastic != FOUR_BAR_TOGGLE
-    code, err = _cli(tmp_path, elastic, capsys, "--set", "effects.axial=inextensible",
-                     "--set", "initial.deformation=quasi-static")
+    code, err = _cli(
+        tmp_path, elastic, capsys, "--set", "effects.axial=inextensible", "--set", "initial.deformation=quasi-static"
+    )
     assert code == 2
     assert "singular position" in err and "loop closed by joint 'B'" in err
     assert "inextensibility" not in err
@@ -294,7 +299,7 @@ def test_mass_ratios_rigid_four_bar_against_newton_euler(tmp_path, masses):
     open(path, "w").write(text)
     res = simulate_scene(path)
     ref = rigid_four_bar(res.tau, masses)
-    torque = ref[:, 0] / masses[0]          # the crank is the reference bar (units)
+    torque = ref[:, 0] / masses[0]  # the crank is the reference bar (units)
     assert np.abs(res.column("torque") - torque).max() / np.abs(torque).max() < 1e-9
     assert np.abs(res.column("rocker_angle") - ref[:, 2]).max() < 1e-12
 
@@ -324,7 +329,7 @@ def test_slider_mass_ratios(capsys):
         res = simulate_scene(SLIDER, SLIDER_MASS + [f"joints.B.mass={m}"])
         diffs[m] = np.abs(res.column("eta_mid") - base).max() / peak
     assert diffs[1e-6] < 1e-6
-    assert 0.5e3 < diffs[1e-3] / diffs[1e-6] < 2e3          # linear in the mass
+    assert 0.5e3 < diffs[1e-3] / diffs[1e-6] < 2e3  # linear in the mass
     for m in (1e2, 1e6):
         with pytest.raises(SimulationError) as info:
             simulate_scene(SLIDER, SLIDER_MASS + [f"joints.B.mass={m}"])
@@ -338,17 +343,29 @@ def test_very_short_elastic_crank_next_to_the_long_rod(alpha):
     1.0e-5 and 6.5e-5 of the rod's peak deflection)."""
     common = ACCURATE + basis(3, 4) + QS + ["simulation.cycles=1", f"bodies.crank.length={alpha}"]
     rigid = simulate_scene(SLIDER, common).column("eta_mid")
-    elastic = simulate_scene(SLIDER, common + [
-        "bodies.crank.rigid=false", f"bodies.crank.lambda={18246 / alpha ** 2:g}",
-        f"bodies.crank.mu={0.495 / alpha ** 4:g}", "bodies.crank.frame=cantilever",
-        "bodies.crank.axial_modes=2", "bodies.crank.transverse_modes=2"])
+    elastic = simulate_scene(
+        SLIDER,
+        common
+        + [
+            "bodies.crank.rigid=false",
+            f"bodies.crank.lambda={18246 / alpha**2:g}",
+            f"bodies.crank.mu={0.495 / alpha**4:g}",
+            "bodies.crank.frame=cantilever",
+            "bodies.crank.axial_modes=2",
+            "bodies.crank.transverse_modes=2",
+        ],
+    )
     assert elastic.complete
     assert np.abs(elastic.column("eta_mid") - rigid).max() / np.abs(rigid).max() < 2e-4
 
 
 FREE_FOUR_BAR = "tests/data/four_bar_free.toml"
-ZERO_MODES = ["bodies.crank.axial_modes=0", "bodies.crank.transverse_modes=0",
-              "bodies.coupler.axial_modes=0", "bodies.rocker.transverse_modes=0"]
+ZERO_MODES = [
+    "bodies.crank.axial_modes=0",
+    "bodies.crank.transverse_modes=0",
+    "bodies.coupler.axial_modes=0",
+    "bodies.rocker.transverse_modes=0",
+]
 
 
 @pytest.mark.parametrize("axial", ["true", "inextensible"])
@@ -370,8 +387,13 @@ def test_elastic_bar_with_zero_modes_is_the_rigid_bar(tmp_path):
     zero = tmp_path / "zero.toml"
     zero.write_text(text)
     rigid = tmp_path / "rigid.toml"
-    rigid.write_text(text.replace('name = "crank"\nlength = 1.0\nlambda = 1e4\nmu = 20.0\nframe = "cantilever"\n'
-                                  'axial_modes = 2\ntransverse_modes = 3', 'name = "crank"\nlength = 1.0\nrigid = true'))
+    rigid.write_text(
+        text.replace(
+            'name = "crank"\nlength = 1.0\nlambda = 1e4\nmu = 20.0\nframe = "cantilever"\n'
+            "axial_modes = 2\ntransverse_modes = 3",
+            'name = "crank"\nlength = 1.0\nrigid = true',
+        )
+    )
     a = simulate_scene(rigid)
     b = simulate_scene(zero, ["bodies.crank.axial_modes=0", "bodies.crank.transverse_modes=0"])
     assert np.abs(a.column("th") - b.column("th")).max() < 1e-6
@@ -418,7 +440,7 @@ t_end = {t_end!r}
 output_step = 0.05
 """
 MU, GAMMA = 1e-2, 1e-4
-P_CR = math.pi ** 2 * MU
+P_CR = math.pi**2 * MU
 
 
 def write_column(path, ratio: float, na: int = 7, quasi_static: bool = True, t_end: float = 1.0) -> str:
@@ -426,15 +448,18 @@ def write_column(path, ratio: float, na: int = 7, quasi_static: bool = True, t_e
     compressive end load ratio * pi^2 mu and a small uniform lateral load (the imperfection)."""
     file = path / f"column_{ratio:g}_{na}_{quasi_static}.toml"
     initial = '[initial]\ndeformation = "quasi-static"' if quasi_static else ""
-    file.write_text(COLUMN.format(mu=MU, na=na, axial_load=-ratio * P_CR, gamma=GAMMA, initial=initial,
-                                  t_end=float(t_end)))
+    file.write_text(
+        COLUMN.format(mu=MU, na=na, axial_load=-ratio * P_CR, gamma=GAMMA, initial=initial, t_end=float(t_end))
+    )
     return str(file)
 
 
 def beam_column_midspan(P: float) -> float:
     """Oracle: pinned-pinned beam-column, uniform load gamma, compression P (series of sines)."""
-    return sum(4 * GAMMA / (n * math.pi) * math.sin(n * math.pi / 2)
-               / (MU * (n * math.pi) ** 4 - P * (n * math.pi) ** 2) for n in range(1, 4001, 2))
+    return sum(
+        4 * GAMMA / (n * math.pi) * math.sin(n * math.pi / 2) / (MU * (n * math.pi) ** 4 - P * (n * math.pi) ** 2)
+        for n in range(1, 4001, 2)
+    )
 
 
 @pytest.mark.parametrize("axial, na", [("true", 7), ("inextensible", 3)])
@@ -463,7 +488,7 @@ def test_at_and_beyond_buckling_stops_with_the_reason(tmp_path, axial):
     with pytest.raises(SimulationError, match="quasi-static state is unstable") as info:
         simulate_scene(write_column(tmp_path, 1.1), over)
     rate = float(re.search(r"grows at rate ([0-9.e+-]+)", str(info.value)).group(1))
-    assert rate == pytest.approx(math.pi ** 2 * math.sqrt(MU) * math.sqrt(0.1), rel=1e-3)
+    assert rate == pytest.approx(math.pi**2 * math.sqrt(MU) * math.sqrt(0.1), rel=1e-3)
     assert "g_col_1" in str(info.value) and "buckling" in str(info.value)
     with pytest.raises(SimulationError, match="bar 'col' is deformed beyond the range of the model") as info:
         simulate_scene(write_column(tmp_path, 2.0, quasi_static=False, t_end=20.0), over)

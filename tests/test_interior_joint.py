@@ -8,6 +8,7 @@ Oracles, independent of symgen's shape machinery:
 * (slow) a converged symgen model with many more sine functions and no correction.
 Each case also shows that the same model without the correction functions misses the 0.5 %.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -57,20 +58,24 @@ output_step = 0.5
 """
 
 
-def _write(path, body: str, *, a: float, nt: int = 4, sc: bool = True, lam: float = 1e4,
-           mu: float = 1.0, axial: str = "false"):
-    path.write_text(HEAD.format(name=path.stem, lam=lam, mu=mu, nt=nt, sc=str(sc).lower())
-                    + body + TAIL.format(axial=axial, a=a))
+def _write(
+    path, body: str, *, a: float, nt: int = 4, sc: bool = True, lam: float = 1e4, mu: float = 1.0, axial: str = "false"
+):
+    path.write_text(
+        HEAD.format(name=path.stem, lam=lam, mu=mu, nt=nt, sc=str(sc).lower()) + body + TAIL.format(axial=axial, a=a)
+    )
     return path
 
 
 # ------------------------------------------------------------------ (a) point load: deflection
 A_LOAD = 0.25
-P = 1e-3          # transverse load group F / (m l^2 omega^2): a small, linear deflection
+P = 1e-3  # transverse load group F / (m l^2 omega^2): a small, linear deflection
 
 
 def _point_load_scene(tmp_path, name, a=A_LOAD, **kw):
-    return _write(tmp_path / f"{name}.toml", f"""
+    return _write(
+        tmp_path / f"{name}.toml",
+        f"""
 [[joints]]
 name = "T"
 kind = "slider"
@@ -83,7 +88,10 @@ body = "beam"
 kind = "point"
 at = {a}
 transverse = {P}
-""", a=a, **kw)
+""",
+        a=a,
+        **kw,
+    )
 
 
 @pytest.mark.parametrize("axial,lam", [("false", 1e4), ('"dynamic"', 1e3), ('"dynamic"', 1e10)])
@@ -116,14 +124,19 @@ def _fe_overhang(a, ne=240):
 
 
 def _support_scene(tmp_path, name, a=A_SUPPORT, **kw):
-    return _write(tmp_path / f"{name}.toml", f"""
+    return _write(
+        tmp_path / f"{name}.toml",
+        f"""
 [[joints]]
 name = "K"
 kind = "slider"
 bodies = ["beam", "ground"]
 at = [{a}, [{a}, 0.0]]
 direction = [1.0, 0.0]
-""", a=a, **kw)
+""",
+        a=a,
+        **kw,
+    )
 
 
 def test_interior_support_frequencies_match_finite_elements(tmp_path):
@@ -140,7 +153,7 @@ def test_interior_support_frequencies_match_finite_elements(tmp_path):
     err = np.abs(got[True] / ref - 1)
     assert err.max() < 5e-3, (got[True], ref)
     assert np.abs(got[False] / ref - 1).max() > 5e-3, (got[False], ref)
-    assert np.all(got[True] >= ref * (1 - 1e-6))        # Ritz: from above
+    assert np.all(got[True] >= ref * (1 - 1e-6))  # Ritz: from above
 
 
 # ---------------------------------------------------------------------- the structure and key
@@ -150,18 +163,18 @@ def test_structure_key_changes_only_with_interior_points(tmp_path):
     on = _point_load_scene(tmp_path, "on")
     off = _point_load_scene(tmp_path, "off", sc=False)
     s_on, s_off = structure_of(load_scene(on)), structure_of(load_scene(off))
-    assert s_on["bodies"][0]["static_points"] == {"transverse": [A_LOAD]}   # axial off: none
+    assert s_on["bodies"][0]["static_points"] == {"transverse": [A_LOAD]}  # axial off: none
     assert "static_points" not in s_off["bodies"][0]
     assert structure_key(s_on) != structure_key(s_off)
     text = off.read_text().replace("static_correction = false\n", "")
     plain = tmp_path / "plain.toml"
-    plain.write_text(text.replace(f"at = {A_LOAD}\n", "at = 1.0\n"))       # the load at the end: not interior
+    plain.write_text(text.replace(f"at = {A_LOAD}\n", "at = 1.0\n"))  # the load at the end: not interior
     assert "static_points" not in structure_of(load_scene(plain))["bodies"][0]
     dyn = structure_of(load_scene(on, ['effects.axial="dynamic"']))
     assert dyn["bodies"][0]["static_points"] == {"transverse": [A_LOAD], "axial": [A_LOAD]}
     m = mechanism(on)
     names = [c.name for c in m.coords if c.kind is CoordKind.G]
-    assert len(names) == 5                                               # 4 sines + 1 correction
+    assert len(names) == 5  # 4 sines + 1 correction
 
 
 # ------------------------------------------------- (b) the six-bar: an interior pin in a mechanism
@@ -190,7 +203,7 @@ def test_six_bar_default_model_matches_a_converged_model_without_corrections():
     assert max(default[n] for n in shape) < 1e-2, default
     assert max(default[n] for n in forces) < 2e-2, default
     assert all(default[n] < plain[n] for n in shape + forces), (default, plain)
-    assert plain["coupler_slope_D"] > 0.1            # the sines alone: 17 % on the slope at the pin
+    assert plain["coupler_slope_D"] > 0.1  # the sines alone: 17 % on the slope at the pin
 
 
 def test_latex_prints_the_correction_factored(tmp_path):
@@ -204,5 +217,5 @@ def test_latex_prints_the_correction_factored(tmp_path):
     doc = latex_document(scene, derive(scene))
     line = next(x for x in doc.splitlines() if r"\psi_{5}(\xi)" in x)
     assert r"\chi_{0.25} = \frac{1}{t}\Bigl(w_{K}(\xi) - \sum_{k=1}^{4} c_k\,\psi_k(\xi)\Bigr)" in line
-    shape = doc[doc.index(line):].splitlines()[1]
+    shape = doc[doc.index(line) :].splitlines()[1]
     assert r"\begin{cases}" in shape and "t = " in shape and len(shape) < 600

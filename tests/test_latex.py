@@ -1,4 +1,5 @@
 """The LaTeX emitter: every paper equation labelled, closed-form inner products, compiles."""
+
 from __future__ import annotations
 
 import functools
@@ -24,7 +25,7 @@ EXAMPLES = {name: ROOT / "examples" / f"{name}.toml" for name in ("slider_crank"
 PAPER_NUMBERS = (1, 8, 9, 10, 11, 13, 16, 17)
 
 
-@functools.cache   # each document is derived and written once per session (read-only)
+@functools.cache  # each document is derived and written once per session (read-only)
 def _document(path: Path, overrides: tuple = ()) -> tuple:
     """The scene and its LaTeX document. An example without overrides reads its checked-in
     ``generated/<scene>/equations.tex`` when that is the text this checkout writes (the SymPy
@@ -97,36 +98,45 @@ def test_slider_crank_shows_closed_form_inner_products():
     _, doc = _document(EXAMPLES["slider_crank"])
     # (phi, psi) with phi = sin(pi xi / 2), psi = sin(pi xi)
     assert r"\left(\phi_{1},\psi_{1}\right) & \frac{4}{3 \pi} & 0.424413" in doc
-    assert r"\frac{\pi^{4}}{2}" in doc            # (psi'', psi'')
-    assert "KG, crank" in doc                      # the angle driver is labelled as guidance
+    assert r"\frac{\pi^{4}}{2}" in doc  # (psi'', psi'')
+    assert "KG, crank" in doc  # the angle driver is labelled as guidance
     # the seed's linear strain: lambda zeta'' in (8), lambda (zeta' eta')' in (9), no epsilon
     assert r"\lambda_{\mathrm{rod}}\zeta_{\mathrm{rod}}''" in doc
     assert r"\varepsilon_{\mathrm{rod}}" not in doc
 
 
 def test_switched_off_effects_are_not_written():
-    _, doc = _document(EXAMPLES["slider_crank"], ("effects.coriolis=false", "effects.strain=von_karman",
-                                                  "bodies.rod.axial_modes=0"))
+    _, doc = _document(
+        EXAMPLES["slider_crank"], ("effects.coriolis=false", "effects.strain=von_karman", "bodies.rod.axial_modes=0")
+    )
     tags = _tags(doc)
-    assert r"2\dot\theta" not in doc                     # Coriolis terms of (1), (8), (9)
+    assert r"2\dot\theta" not in doc  # Coriolis terms of (1), (8), (9)
     assert "8, rod" not in tags and not any(t.startswith("16.") for t in tags)
     assert "9, rod" in tags and "17.1, rod" in tags
-    assert r"\lambda_{\mathrm{rod}}" not in doc           # axially rigid: no axial stiffness at all
+    assert r"\lambda_{\mathrm{rod}}" not in doc  # axially rigid: no axial stiffness at all
 
 
 def test_von_karman_strain_is_written_as_such():
     _, doc = _document(EXAMPLES["four_bar"])
     assert r"\varepsilon_{\mathrm{coupler}} = \zeta_{\mathrm{coupler}}' + \tfrac{1}{2}" in doc
-    assert "numeric (50 digits)" in doc               # clamped-free eigenfunctions of the crank
+    assert "numeric (50 digits)" in doc  # clamped-free eigenfunctions of the crank
 
 
 def test_names_print_as_documented():
     """The printer reads each symbol's LaTeX name from the table the records made
     (symgen.ir.names); display symbols print as they are; anything else upright."""
-    made = [names.bar_angle("rod"), names.bar_angle("rod", 1), names.bar_angle("rod", 2),
-            names.amplitude("f", "rod", 0), names.amplitude("f", "rod_1", 1, 1), names.origin_acceleration("x", "rod"),
-            names.bar_parameter("lambda", "rod"), names.joint_force("B", "x"), names.generalized_force("X", "rod"),
-            names.generalized_force("g", "rod_1", 2)]
+    made = [
+        names.bar_angle("rod"),
+        names.bar_angle("rod", 1),
+        names.bar_angle("rod", 2),
+        names.amplitude("f", "rod", 0),
+        names.amplitude("f", "rod_1", 1, 1),
+        names.origin_acceleration("x", "rod"),
+        names.bar_parameter("lambda", "rod"),
+        names.joint_force("B", "x"),
+        names.generalized_force("X", "rod"),
+        names.generalized_force("g", "rod_1", 2),
+    ]
     namer = Namer({n.text: n.latex for n in made})
     assert namer("theta_rod") == r"\theta_{\mathrm{rod}}"
     assert namer("dtheta_rod") == r"\dot \theta_{\mathrm{rod}}"
@@ -146,16 +156,17 @@ def test_names_print_as_documented():
 
 def test_long_sums_are_broken_without_losing_terms():
     table = {n.text: n.latex for n in (names.bar_angle("rod", o) for o in range(3))}
-    table.update({names.amplitude(fam, "rod", k).text: names.amplitude(fam, "rod", k).latex for fam in "fg" for k in range(2)})
+    table.update(
+        {names.amplitude(fam, "rod", k).text: names.amplitude(fam, "rod", k).latex for fam in "fg" for k in range(2)}
+    )
     pr = Printer(Namer(table))
     xs = sp.symbols("theta_rod f_rod_1 f_rod_2 g_rod_1 g_rod_2 dtheta_rod ddtheta_rod", real=True)
-    expr = sp.Add(*[sp.Float(0.123456789 * (k + 1)) * a * b for k, (a, b) in
-                    enumerate((x, y) for x in xs for y in xs)])
+    expr = sp.Add(*[sp.Float(0.123456789 * (k + 1)) * a * b for k, (a, b) in enumerate((x, y) for x in xs for y in xs)])
     lines = tex_lines(expr, pr, 60)
     assert len(lines) > 3
     assert all(printed_width(line) <= 62 for line in lines)
     joined = " ".join(lines)
-    assert "0.123457" in joined and "0.12345678" not in joined   # 6 significant digits
+    assert "0.123457" in joined and "0.12345678" not in joined  # 6 significant digits
     assert sum(line.count(r"\theta") for line in lines) == pr(expr).count(r"\theta")
     assert tex_lines(xs[0] + xs[1], pr, 60) == [pr(xs[0] + xs[1])]
 
@@ -163,7 +174,7 @@ def test_long_sums_are_broken_without_losing_terms():
 def test_split_sides_keeps_the_equation():
     lam, mu, a, f, B = sp.symbols("lambda_rod mu_rod a f B", real=True)
     rho = sp.Symbol("rho_rod", positive=True)
-    residual = 2 * a + lam * f + mu * f ** 2 - 3 * B + mu / lam * a
+    residual = 2 * a + lam * f + mu * f**2 - 3 * B + mu / lam * a
     left, right = split_sides(residual, {lam, mu}, {B}, (mu, lam, rho))
     assert sp.expand(right - left - residual.subs(mu / lam, rho)) == 0
     assert not right.has(B) and not right.has(lam) and left.has(B)
@@ -179,14 +190,19 @@ def test_tabulated_inner_products_give_back_the_model(name):
     model = derive(scene)
     for bm in model.bars.values():
         eqs = bm.equations
-        assert eqs.display.substitute(eqs.values) == eqs          # xreplace of the values, nothing else
+        assert eqs.display.substitute(eqs.values) == eqs  # xreplace of the values, nothing else
         exact = {"KaInv": sp.ImmutableMatrix(bm.ipt.ip.exact["Ka"]).inv()} if bm.ipt.ip.na else {}
         values = dict(eqs.values)
-        values.update({sym: sp.Float(float(exact.get(k, bm.ipt.ip.exact.get(k))[idx]))
-                       for sym, (k, idx) in eqs.inner_products.items()})
+        values.update(
+            {
+                sym: sp.Float(float(exact.get(k, bm.ipt.ip.exact.get(k))[idx]))
+                for sym, (k, idx) in eqs.inner_products.items()
+            }
+        )
         shown = eqs.display
-        for a, b in zip([*shown.force, shown.moment, *shown.eq16, *shown.eq17],
-                        [*eqs.force, eqs.moment, *eqs.eq16, *eqs.eq17]):
+        for a, b in zip(
+            [*shown.force, shown.moment, *shown.eq16, *shown.eq17], [*eqs.force, eqs.moment, *eqs.eq16, *eqs.eq17]
+        ):
             a = a.xreplace(values)
             assert not any(x.name.startswith("\\") or "{" in x.name for x in a.free_symbols)
             point = {x: rng.uniform(-1, 1) for x in b.free_symbols | a.free_symbols}
@@ -210,7 +226,10 @@ def test_the_document_prints_the_derived_model_without_deriving_it_again():
             assert not any(a == name for _, a in imported), f"{path.name} imports {name}"
         latex = modules & known
         if path.stem in ("slot", "quasistatic", "printing"):
-            assert latex <= {"symgen.backends.latex.printing"} - {f"symgen.backends.latex.{path.stem}"}, (path.name, latex)
+            assert latex <= {"symgen.backends.latex.printing"} - {f"symgen.backends.latex.{path.stem}"}, (
+                path.name,
+                latex,
+            )
 
 
 @pytest.mark.parametrize("name", sorted(EXAMPLES))
@@ -220,8 +239,13 @@ def test_document_compiles_with_pdflatex(name, tmp_path):
     _, doc = _document(EXAMPLES[name])
     tex = tmp_path / f"{name}.tex"
     tex.write_text(doc)
-    run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", tex.name],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", tex.name],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     log = (tmp_path / f"{name}.log").read_text(errors="replace") if (tmp_path / f"{name}.log").exists() else ""
     assert run.returncode == 0, run.stdout[-3000:]
     pdf = tmp_path / f"{name}.pdf"
@@ -257,22 +281,38 @@ def test_inverted_slider_crank_tags_every_equation(inverted):
     for n in (1, 8, 9, 10, 11, 16, 17):
         assert re.search(rf"\\tag\{{{n}[.,}}]", doc), f"no equation tagged ({n})"
     nt = len(model.bars["guide"].sym.g)
-    for t in ("1.x, guide", "1.y, guide", "9, guide", "RB.x, guide", "RB.y, guide", "RB.M, guide",
-              r"17.$\beta$, guide", "10.x, guide", "10.y, guide", "10.x, crank", "11.x, A", "11.y, A",
-              "KG, crank", "8, crank", "16.1, crank"):
+    for t in (
+        "1.x, guide",
+        "1.y, guide",
+        "9, guide",
+        "RB.x, guide",
+        "RB.y, guide",
+        "RB.M, guide",
+        r"17.$\beta$, guide",
+        "10.x, guide",
+        "10.y, guide",
+        "10.x, crank",
+        "11.x, A",
+        "11.y, A",
+        "KG, crank",
+        "8, crank",
+        "16.1, crank",
+    ):
         assert t in tags, t
     assert sum(t.startswith("17.") and t.endswith(", guide") for t in tags) == nt + 1
     assert "8, guide" not in tags and not any(t.startswith("16.") and t.endswith(", guide") for t in tags)
     assert sum(t.startswith("EoM.") for t in tags) == len(model.coords)
     assert sum(t.startswith("11") for t in tags) == 2
-    assert "Piecewise" not in doc and "beta\\_A" not in doc       # beta_A is named, branches decided
+    assert "Piecewise" not in doc and "beta\\_A" not in doc  # beta_A is named, branches decided
 
 
 def test_inverted_slider_crank_shows_the_variable_span(inverted):
     _, _, doc = inverted
     G = r"_{\mathrm{guide},k}"
     # eta, its rates with the psi_beta / psi_betabeta terms of the formulation's "Variable span"
-    assert rf"\dot\eta_{{\mathrm{{guide}}}} = \sum_{{k=1}}^{{2}} \bigl(\dot g{G}\,\psi_k + g{G}\,\psi_{{k,\beta}}" in doc
+    assert (
+        rf"\dot\eta_{{\mathrm{{guide}}}} = \sum_{{k=1}}^{{2}} \bigl(\dot g{G}\,\psi_k + g{G}\,\psi_{{k,\beta}}" in doc
+    )
     assert rf"2\dot g{G}\,\psi_{{k,\beta}}\,\dot \beta_{{\mathrm{{A}}}}" in doc
     assert r"\psi_{k,\beta\beta}\,\dot \beta_{\mathrm{A}}^{2} + \psi_{k,\beta}\,\ddot \beta_{\mathrm{A}}" in doc
     # the shape functions on span and overhang, and the closure with [beta + zeta*, eta*]
@@ -302,16 +342,20 @@ def test_guide_equations_give_back_the_model(inverted):
     values.update(zip((Bc, Gc), _contact_definitions(model, "guide", "A")))
     assigned = dict(model.program.assignments)
     E = {sym.name: expr for sym, expr in assigned.items()}
-    k2, k3 = s.nu * s.alpha ** 2, s.nu * s.alpha ** 3
+    k2, k3 = s.nu * s.alpha**2, s.nu * s.alpha**3
     fxy = rot(s.th) * sp.Matrix([eqs["fx"], eqs["fy"]]) * k2
-    pairs = [(fxy[0], E["EX_guide"]), (fxy[1], E["EY_guide"]), (k3 * eqs["mom"], E["Eth_guide"]),
-             (k3 * eqs["eqbeta"], E["Ebeta_guide"])]
+    pairs = [
+        (fxy[0], E["EX_guide"]),
+        (fxy[1], E["EY_guide"]),
+        (k3 * eqs["mom"], E["Eth_guide"]),
+        (k3 * eqs["eqbeta"], E["Ebeta_guide"]),
+    ]
     pairs += [(k3 * e, E[f"Eg_guide_{k + 1}"]) for k, e in enumerate(eqs["eq17"])]
     rng = random.Random(11)
     for shown, want in pairs:
         a = shown.xreplace(values)
         free = a.free_symbols | want.free_symbols
-        assert not any(x.name.startswith("\\") for x in free), free     # every display symbol replaced
+        assert not any(x.name.startswith("\\") for x in free), free  # every display symbol replaced
         point = {x: rng.uniform(-1, 1) for x in free}
         point[s.beta[0]] = rng.uniform(0.3, 0.9)
         got, ref = float(a.xreplace(point)), float(want.xreplace(point))
@@ -324,8 +368,13 @@ def test_inverted_slider_crank_compiles_with_pdflatex(inverted, tmp_path):
     _, _, doc = inverted
     tex = tmp_path / "isc.tex"
     tex.write_text(doc)
-    run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", tex.name],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    run = subprocess.run(
+        ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", tex.name],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert run.returncode == 0, run.stdout[-3000:]
     log = (tmp_path / "isc.log").read_text(errors="replace")
     assert (tmp_path / "isc.pdf").stat().st_size > 10_000

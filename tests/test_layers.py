@@ -4,6 +4,7 @@ higher layer (also a lazy one inside a function) fails this test unless it is on
 exceptions listed below, which are debts to pay (issue 10), not a licence: the list may only
 shrink (a paid debt that is still listed fails too). Within the model, no two modules import
 each other, directly or round a longer circle (lazy imports included)."""
+
 from __future__ import annotations
 
 import ast
@@ -13,8 +14,16 @@ PKG = Path(__file__).resolve().parent.parent / "symgen"
 
 #: layer of each module (the longest matching prefix wins); lower layers never import higher ones
 LAYERS = {
-    0: ("symgen", "symgen.errors", "symgen.cache", "symgen.progress", "symgen.exprdata", "symgen.outputs",
-        "symgen.policy", "symgen.processes"),
+    0: (
+        "symgen",
+        "symgen.errors",
+        "symgen.cache",
+        "symgen.progress",
+        "symgen.exprdata",
+        "symgen.outputs",
+        "symgen.policy",
+        "symgen.processes",
+    ),
     1: ("symgen.scene",),
     2: ("symgen.ir",),
     3: ("symgen.model",),
@@ -23,8 +32,16 @@ LAYERS = {
     6: ("symgen.apps",),
     7: ("symgen.api", "symgen.cli"),
 }
-NAMES = {0: "base", 1: "scene", 2: "IR (contract)", 3: "model", 4: "backends", 5: "numerics", 6: "apps",
-         7: "entry points (API, CLI)"}
+NAMES = {
+    0: "base",
+    1: "scene",
+    2: "IR (contract)",
+    3: "model",
+    4: "backends",
+    5: "numerics",
+    6: "apps",
+    7: "entry points (API, CLI)",
+}
 
 #: known upward imports (importer, imported): none left; a new one is a debt to justify here
 KNOWN: set[tuple[str, str]] = set()
@@ -53,9 +70,12 @@ def imports(path: Path, root: Path = PKG) -> set[str]:
     out: set[str] = set()
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         if isinstance(node, ast.ImportFrom):
-            base = ".".join(pkg[:len(pkg) - node.level + 1] + ([node.module] if node.module else [])) \
-                if node.level else (node.module or "")
-            for a in node.names:           # "from . import x" imports the module x when it is one
+            base = (
+                ".".join(pkg[: len(pkg) - node.level + 1] + ([node.module] if node.module else []))
+                if node.level
+                else (node.module or "")
+            )
+            for a in node.names:  # "from . import x" imports the module x when it is one
                 out.add(f"{base}.{a.name}" if f"{base}.{a.name}" in known else base)
         elif isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
@@ -97,7 +117,8 @@ def test_no_layer_imports_a_higher_one():
     upward = {(a, b) for a, b in _edges() if layer(b) > layer(a)}
     new = sorted(upward - KNOWN)
     assert not new, "upward imports: " + "; ".join(
-        f"{a} ({NAMES[layer(a)]}) imports {b} ({NAMES[layer(b)]})" for a, b in new)
+        f"{a} ({NAMES[layer(a)]}) imports {b} ({NAMES[layer(b)]})" for a, b in new
+    )
     paid = sorted(KNOWN - upward)
     assert not paid, f"no longer imported, remove from KNOWN: {paid}"
 
@@ -119,14 +140,24 @@ def test_the_checker_sees_a_lazy_circle(tmp_path):
     """The circle test can fail: a model module importing another lazily, which imports it back
     at the top (and a three-module circle) are found; a one-way chain is not."""
     root = tmp_path / "symgen"
-    _package(root, {"__init__.py": "", "model/__init__.py": "",
-                    "model/a.py": "def f():\n    from symgen.model.b import g\n",
-                    "model/b.py": "from .a import f\n",
-                    "model/c.py": "from symgen.model import d\n", "model/d.py": "from . import e\n",
-                    "model/e.py": "def h():\n    import symgen.model.c\n",
-                    "model/x.py": "from symgen.model import y\n", "model/y.py": "from symgen.model import a\n"})
+    _package(
+        root,
+        {
+            "__init__.py": "",
+            "model/__init__.py": "",
+            "model/a.py": "def f():\n    from symgen.model.b import g\n",
+            "model/b.py": "from .a import f\n",
+            "model/c.py": "from symgen.model import d\n",
+            "model/d.py": "from . import e\n",
+            "model/e.py": "def h():\n    import symgen.model.c\n",
+            "model/x.py": "from symgen.model import y\n",
+            "model/y.py": "from symgen.model import a\n",
+        },
+    )
     assert circles(_edges(root), "symgen.model") == [
-        ["symgen.model.a", "symgen.model.b"], ["symgen.model.c", "symgen.model.d", "symgen.model.e"]]
+        ["symgen.model.a", "symgen.model.b"],
+        ["symgen.model.c", "symgen.model.d", "symgen.model.e"],
+    ]
 
 
 def test_apps_may_not_import_the_entry_points(tmp_path):
@@ -134,9 +165,16 @@ def test_apps_may_not_import_the_entry_points(tmp_path):
     ``symgen.apps.sweep``; an application importing ``symgen.api`` (lazily too) is upward."""
     assert layer("symgen.api") > layer("symgen.apps.effects") and layer("symgen.cli") > layer("symgen.apps.study")
     root = tmp_path / "symgen"
-    _package(root, {"__init__.py": "", "api.py": "from symgen.apps.sweep import sweep\n", "apps/__init__.py": "",
-                    "apps/sweep.py": "def sweep():\n    pass\n",
-                    "apps/reproduce.py": "def run():\n    from symgen.api import mechanism\n"})
+    _package(
+        root,
+        {
+            "__init__.py": "",
+            "api.py": "from symgen.apps.sweep import sweep\n",
+            "apps/__init__.py": "",
+            "apps/sweep.py": "def sweep():\n    pass\n",
+            "apps/reproduce.py": "def run():\n    from symgen.api import mechanism\n",
+        },
+    )
     edges = _edges(root)
     assert [(a, b) for a, b in sorted(edges) if layer(b) > layer(a)] == [("symgen.apps.reproduce", "symgen.api")]
 
@@ -176,8 +214,14 @@ def mechanism_uses(path: Path) -> list[str]:
             found.append(f"{where}: name {node.id!r}")
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in methods:
             found.append(f"{where}: call of Mechanism.{node.func.attr}")
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "getattr" \
-                and len(node.args) > 1 and isinstance(node.args[1], ast.Constant) and node.args[1].value in methods:
+        elif (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id == "getattr"
+            and len(node.args) > 1
+            and isinstance(node.args[1], ast.Constant)
+            and node.args[1].value in methods
+        ):
             found.append(f"{where}: getattr of Mechanism.{node.args[1].value}")
     return found
 

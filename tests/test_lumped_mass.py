@@ -19,6 +19,7 @@ estimates of its effect:
   omega = beta sqrt(lambda) (a fixed-free bar with a tip mass); at theta = 0 the rod lies on the
   slider's line, so the slider moves with the rod's end.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,16 +33,21 @@ from symgen.numerics.quasistatic import quasi_static
 
 SC = "examples/slider_crank.toml"
 ALPHA, LAMBDA = 0.5, 18246.0
-LINEAR_COMPLETE = ["effects.strain=linear", "bodies.rod.axial_shapes=complete", "bodies.rod.axial_modes=3",
-                   "bodies.rod.transverse_modes=1", "simulation.output_step=0.19634954084936207"]
+LINEAR_COMPLETE = [
+    "effects.strain=linear",
+    "bodies.rod.axial_shapes=complete",
+    "bodies.rod.axial_modes=3",
+    "bodies.rod.transverse_modes=1",
+    "simulation.output_step=0.19634954084936207",
+]
 
 
 def _slider(tau: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """x_B', x_B'' (central differences of the closed form) and the rod angle."""
-    x = lambda t: ALPHA * np.cos(t) + np.sqrt(1 - ALPHA ** 2 * np.sin(t) ** 2)
+    x = lambda t: ALPHA * np.cos(t) + np.sqrt(1 - ALPHA**2 * np.sin(t) ** 2)
     h = 1e-4
     vel = (x(tau + h) - x(tau - h)) / (2 * h)
-    acc = (x(tau + h) - 2 * x(tau) + x(tau - h)) / h ** 2
+    acc = (x(tau + h) - 2 * x(tau) + x(tau - h)) / h**2
     return vel, acc, -np.arcsin(ALPHA * np.sin(tau))
 
 
@@ -72,10 +78,10 @@ def test_slider_mass_adds_its_kinetic_energy_rate_to_the_driver_torque(pair):
 
 
 def test_slider_mass_lowers_the_rods_axial_frequency():
-    beta = 0.8603335890193797          # beta tan beta = 1 (slider mass = rod mass)
+    beta = 0.8603335890193797  # beta tan beta = 1 (slider mass = rod mass)
     assert beta * math.tan(beta) == pytest.approx(1.0, rel=1e-12)
     axial = ["bodies.rod.axial_shapes=complete", "bodies.rod.axial_modes=6"]
     free = modes(mechanism(SC, [*axial, "joints.B.mass=0.0"]), 0.0, shapes=False).frequencies("axial", "rod")[0]
     heavy = modes(mechanism(SC, [*axial, "joints.B.mass=1.0"]), 0.0, shapes=False).frequencies("axial", "rod")[0]
-    assert free == pytest.approx(math.pi / 2 * math.sqrt(LAMBDA), rel=5e-4)      # Ritz: from above
+    assert free == pytest.approx(math.pi / 2 * math.sqrt(LAMBDA), rel=5e-4)  # Ritz: from above
     assert heavy == pytest.approx(beta * math.sqrt(LAMBDA), rel=1e-4)

@@ -1,6 +1,7 @@
 """The typed records after the cache (issue 23): ``ir.info.ModelInfo`` round-trips through
 ``model.json``'s data with the same records the derivation made, and ``ir.plan.StartPlan``
 holds the partition the Python start chose."""
+
 from __future__ import annotations
 
 import json
@@ -61,12 +62,24 @@ def test_start_plan_is_the_python_start(six_bar):
     assert plan.q_guess == tuple(q0) and plan.v_guess == tuple(v0)
     assert plan.assembly_dependent == six_bar.choose_partition(0.0, q0).dep
     assert set(plan.elastic) == set(six_bar.info.elastic) - set(part.dep)
-    assert [(g.body, g.axial, g.transverse) for g in plan.amplitudes] == \
-        [(b, f, g) for b, (f, g) in six_bar.info.amplitudes.items()]
+    assert [(g.body, g.axial, g.transverse) for g in plan.amplitudes] == [
+        (b, f, g) for b, (f, g) in six_bar.info.amplitudes.items()
+    ]
 
 
 def test_start_plan_refuses_a_partition_that_does_not_split_the_coordinates():
     with pytest.raises(ValueError, match="does not split"):
-        StartPlan(independent=(0, 1), dependent=(1,), assembly_dependent=(1,), q_guess=(0.0, 0.0),
-                  v_guess=(0.0, 0.0), elastic=(), accel=(1,), inextensible_rows=(), inextensible_axial=(),
-                  singular_rows=(0,), singular_cols=(1,), amplitudes=())
+        StartPlan(
+            independent=(0, 1),
+            dependent=(1,),
+            assembly_dependent=(1,),
+            q_guess=(0.0, 0.0),
+            v_guess=(0.0, 0.0),
+            elastic=(),
+            accel=(1,),
+            inextensible_rows=(),
+            inextensible_axial=(),
+            singular_rows=(0,),
+            singular_cols=(1,),
+            amplitudes=(),
+        )

@@ -8,6 +8,7 @@ switch on the fields that appear only when set) the sha256 of their structure co
 untyped ``structure_of`` of the main branch, with the version field blanked so that a version
 bump does not touch this table.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -51,16 +52,30 @@ theta = {{ kind = "angle", body = "bar" }}
 t_end = 1.0
 output_step = 0.05
 """
-DRIVERS = {"law": ("angle", 'law = "0.3*sin(2*tau)"'), "ramp": ("angle", "rate = 1.0\nramp = 2.0"),
-           "torque_expression": ("torque", 'value = "0.5*sin(tau)"\nrotor_inertia = 0.1'),
-           "constant_speed": ("angle", "rate = 1.0")}
-SCENES = ["benchmarks/scenes/four_bar_steel.toml", "benchmarks/scenes/inverted_slider_crank_overhang.toml",
-          "benchmarks/scenes/six_bar_steel.toml", "benchmarks/scenes/slider_crank_spinup.toml",
-          "benchmarks/scenes/slider_crank_steel.toml", "tests/data/four_bar_free.toml",
-          "tests/scene/data/slider_crank.toml", "tests/scene/data/si_slider_crank.toml",
-          *(f"examples/{p.name}" for p in EXAMPLES)]
-VARIANTS = {"": [], "inextensible": ['effects.axial="inextensible"'], "quasi_static": ['effects.axial="quasi_static"'],
-            "no_axial": ["effects.axial=false"], "no_bending": ["effects.transverse=false"]}
+DRIVERS = {
+    "law": ("angle", 'law = "0.3*sin(2*tau)"'),
+    "ramp": ("angle", "rate = 1.0\nramp = 2.0"),
+    "torque_expression": ("torque", 'value = "0.5*sin(tau)"\nrotor_inertia = 0.1'),
+    "constant_speed": ("angle", "rate = 1.0"),
+}
+SCENES = [
+    "benchmarks/scenes/four_bar_steel.toml",
+    "benchmarks/scenes/inverted_slider_crank_overhang.toml",
+    "benchmarks/scenes/six_bar_steel.toml",
+    "benchmarks/scenes/slider_crank_spinup.toml",
+    "benchmarks/scenes/slider_crank_steel.toml",
+    "tests/data/four_bar_free.toml",
+    "tests/scene/data/slider_crank.toml",
+    "tests/scene/data/si_slider_crank.toml",
+    *(f"examples/{p.name}" for p in EXAMPLES),
+]
+VARIANTS = {
+    "": [],
+    "inextensible": ['effects.axial="inextensible"'],
+    "quasi_static": ['effects.axial="quasi_static"'],
+    "no_axial": ["effects.axial=false"],
+    "no_bending": ["effects.transverse=false"],
+}
 
 
 def cases(tmp: Path) -> dict:
@@ -167,7 +182,7 @@ def test_every_scene_keeps_its_structure(tmp_path):
     assert set(got) == set(EXPECTED)
     changed = sorted(label for label in got if got[label] != EXPECTED[label])
     assert not changed, f"structure (so the model key) changed for {changed}"
-    assert len(set(got.values())) > len(got) // 2       # the variants are different models
+    assert len(set(got.values())) > len(got) // 2  # the variants are different models
 
 
 def test_fields_set_only_when_used_are_exercised(tmp_path):
@@ -197,8 +212,9 @@ def test_axial_treatment_and_sizes_read_from_the_spec():
     assert plain.effects.axial is None
     assert plain.axial_treatments() == {b.name: ("dynamic" if b.na else "off") for b in plain.bodies if not b.rigid}
     corrected = [b for b in plain.bodies if b.static_transverse]
-    assert corrected and all(b.sizes == (b.na + len(b.static_axial), b.nt + len(b.static_transverse))
-                             for b in corrected)
+    assert corrected and all(
+        b.sizes == (b.na + len(b.static_axial), b.nt + len(b.static_transverse)) for b in corrected
+    )
     body = BodySpec("b", False, "cantilever", 2, 3, "complete", "modes", True, (0.5,), ())
     assert body.to_json()["static_points"] == {"axial": [0.5]} and BodySpec.from_json(body.to_json()) == body
     effects = EffectsSpec(True, True, False, "von_karman", False, False)

@@ -17,6 +17,7 @@ Oracles:
   carries the centrifugal tension N = Omega^2 (1 - xi^2)/2;
 * the pinned-pinned bar at rest: (n pi)^2 sqrt(mu), and Kelvin-Voigt modal damping c omega/2.
 """
+
 from __future__ import annotations
 
 import json
@@ -32,8 +33,15 @@ from tests.oracles import write_scene
 
 # Hodges & Rutkowski (1981) Table 1 / Wright et al. (1982) Table 1: uniform cantilever, hub
 # radius 0, flapwise frequencies of the first two modes for nondimensional spin rate Omega
-FLAPWISE = {0: (3.5160, 22.0345), 1: (3.6816, 22.1810), 2: (4.1373, 22.6149), 3: (4.7973, 23.3203),
-            5: (6.4495, 25.4461), 8: (9.2568, 29.9954), 10: (11.2023, 33.6404)}
+FLAPWISE = {
+    0: (3.5160, 22.0345),
+    1: (3.6816, 22.1810),
+    2: (4.1373, 22.6149),
+    3: (4.7973, 23.3203),
+    5: (6.4495, 25.4461),
+    8: (9.2568, 29.9954),
+    10: (11.2023, 33.6404),
+}
 
 SPINNING = """
 [scene]
@@ -73,20 +81,20 @@ def spinning(tmp_path_factory):
 def test_spinning_cantilever_in_plane_frequencies(spinning, spin):
     res = modes(mechanism(spinning, [f"driver.rate={spin}"]), tau=0.7, shapes=False)
     measured = res.frequencies("transverse", "crank")[:2]
-    expected = [math.sqrt(w ** 2 - spin ** 2) for w in FLAPWISE[spin]]
+    expected = [math.sqrt(w**2 - spin**2) for w in FLAPWISE[spin]]
     assert measured == pytest.approx(expected, rel=5e-3)
     assert res.stable
     # spin stiffens the bar: the axial (centrifugal) tension of the quasi-static state is in it
     # (without it the first mode would be sqrt(3.516^2 - Omega^2), imaginary beyond Omega = 3.5)
     if spin:
-        assert measured[0] ** 2 + spin ** 2 > 1.01 * 3.5160 ** 2
+        assert measured[0] ** 2 + spin**2 > 1.01 * 3.5160**2
 
 
 def test_spin_stiffening_needs_geometric_stiffening(spinning):
     """Without the axial-force coupling only spin softening is left: omega^2 = omega_0^2 - Omega^2
     in the first mode (Rayleigh quotient of the non-rotating mode, to 1e-3)."""
     res = modes(mechanism(spinning, ["driver.rate=2", "effects.geometric_stiffening=false"]), shapes=False)
-    assert res.frequencies("transverse")[0] == pytest.approx(math.sqrt(3.5160 ** 2 - 4), rel=1e-3)
+    assert res.frequencies("transverse")[0] == pytest.approx(math.sqrt(3.5160**2 - 4), rel=1e-3)
 
 
 PINNED = """
@@ -155,6 +163,7 @@ def test_cli_modes_json(tmp_path, capsys):
     assert doc["stable"] is False and doc["stability"]["kind"] == "growth"
     assert "UNSTABLE" in text and "no damping" in text and "zeta*" in text
     from symgen.numerics.modes import ZETA_NEUTRAL
+
     grows = [m for m in doc["modes"] if m["eigenvalue"][0] > 0 and m["damping_ratio"] < -ZETA_NEUTRAL]
     assert grows and f"{len(grows)} vibration mode(s) grow" in text
 
@@ -175,8 +184,15 @@ def test_divergence_verdict_names_buckling():
     """A real positive eigenvalue is a divergence (beyond buckling), whatever the damping."""
     from symgen.numerics.modes import ModesResult
 
-    res = ModesResult(tau=0.0, modes=[], real_eigenvalues=[-0.5, 0.312], state={}, independent=[],
-                      dependent=[], quasi_static={"method": "newton"})
+    res = ModesResult(
+        tau=0.0,
+        modes=[],
+        real_eigenvalues=[-0.5, 0.312],
+        state={},
+        independent=[],
+        dependent=[],
+        quasi_static={"method": "newton"},
+    )
     v = res.stability(0.01)
     assert (v["stable"], v["kind"]) == (False, "divergence") and "buckling" in v["reason"] and "0.312" in v["reason"]
 
@@ -189,11 +205,21 @@ def test_a_mode_growing_slower_than_neutral_is_not_called_unstable():
 
     def result(zeta: float) -> ModesResult:
         wn = 12.0
-        s = complex(-zeta * wn, wn * (1 - zeta ** 2) ** 0.5)
-        mode = Mode(index=1, eigenvalue=s, natural_frequency=wn, frequency=s.imag, damping_ratio=zeta,
-                    dominant="rod transverse", energy_fractions={}, amplitudes={}, complexity=0.0)
-        return ModesResult(tau=0.0, modes=[mode], real_eigenvalues=[], state={}, independent=[], dependent=[],
-                           quasi_static={})
+        s = complex(-zeta * wn, wn * (1 - zeta**2) ** 0.5)
+        mode = Mode(
+            index=1,
+            eigenvalue=s,
+            natural_frequency=wn,
+            frequency=s.imag,
+            damping_ratio=zeta,
+            dominant="rod transverse",
+            energy_fractions={},
+            amplitudes={},
+            complexity=0.0,
+        )
+        return ModesResult(
+            tau=0.0, modes=[mode], real_eigenvalues=[], state={}, independent=[], dependent=[], quasi_static={}
+        )
 
     neutral = result(-2.5e-7)
     assert neutral.stable and neutral.stability()["stable"] and "neutral" in neutral.stability()["reason"]

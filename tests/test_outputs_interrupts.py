@@ -2,6 +2,7 @@
 the order CSV -> JSON -> plot, stale results removed when a run fails, and SIGINT/SIGTERM
 stopping a run within two seconds (exit 130/143) with its partial result marked
 "interrupted" -- the last ones with real processes and real signals."""
+
 from __future__ import annotations
 
 import json
@@ -64,7 +65,7 @@ def test_successful_run_removes_stale_partials(tmp_path, capsys):
         p.write_text("old")
     assert main(["simulate", SLIDER, "-o", str(out), "--set", "simulation.cycles=0.05"]) == 0
     assert json.loads(out.with_suffix(".json").read_text())["status"] == "complete"
-    assert len(out.read_text().splitlines()) == 20           # header + tau = 0, 1 deg, ..., 18 deg
+    assert len(out.read_text().splitlines()) == 20  # header + tau = 0, 1 deg, ..., 18 deg
     assert not any(p.exists() for p in stale)
     _no_temp_files(tmp_path)
 
@@ -112,8 +113,10 @@ def _umask() -> int:
 @pytest.fixture
 def no_work(monkeypatch):
     """Loading a scene is the start of the work: it must not happen."""
+
     def boom(*a, **k):
         raise AssertionError("the scene was loaded before the output path was checked")
+
     monkeypatch.setattr(symgen.scene, "load_scene", boom)
     monkeypatch.setattr("symgen.apps.study.load_scene", boom)
     monkeypatch.setattr("symgen.apps.effects.load_scene", boom)
@@ -185,7 +188,7 @@ def test_handler_raises_interrupted_and_is_restored():
         with interrupt.handling():
             assert interrupt.requested() is None
             os.kill(os.getpid(), signal.SIGTERM)
-            for _ in range(10**7):          # pure Python: the handler raises within a bytecode
+            for _ in range(10**7):  # pure Python: the handler raises within a bytecode
                 pass
     assert info.value.exit_code == 143 and "SIGTERM" in str(info.value)
     assert signal.getsignal(signal.SIGTERM) is before and interrupt.requested() is None
@@ -207,10 +210,22 @@ def test_casadi_reports_of_the_signal_are_filtered_from_stderr():
     unrecoverably."), which once reached stderr in the simulate SIGTERM test. Other text passes."""
     import io
 
-    reports = [["res failed: ", "KeyboardInterrupt", "\n",
-                "At t = 2.01843, the residual function failed unrecoverably.", "\n"],
-               ["psetup failed: ", "KeyboardInterrupt", "\n",
-                "At t = 1.7908, the linear solver setup failed unrecoverably.", "\n"]]
+    reports = [
+        [
+            "res failed: ",
+            "KeyboardInterrupt",
+            "\n",
+            "At t = 2.01843, the residual function failed unrecoverably.",
+            "\n",
+        ],
+        [
+            "psetup failed: ",
+            "KeyboardInterrupt",
+            "\n",
+            "At t = 1.7908, the linear solver setup failed unrecoverably.",
+            "\n",
+        ],
+    ]
     for pieces in reports:
         sink = io.StringIO()
         noise = interrupt._SolverNoiseFilter(sink)
@@ -239,7 +254,7 @@ def test_effects_measure_interrupted_keeps_the_rows_measured(monkeypatch):
             calls.append(extra)
             if len(calls) == 2:
                 os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(5)               # the handler raises during the sleep
+                time.sleep(5)  # the handler raises during the sleep
             return {"status": "ok", "steps": 5, "simulate_s": 0.05, "error": 2e-5, "worst": "eta_mid"}
 
     with pytest.raises(Interrupted) as info:
@@ -291,13 +306,14 @@ def _signal_inside(real, at: int, surfaces=None):
         if len(calls) == at:
             try:
                 os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(5)               # the handler raises during the sleep
+                time.sleep(5)  # the handler raises during the sleep
             except Interrupted as stop:
                 if surfaces is None:
                     raise
                 raise surfaces(stop) from stop
             pytest.fail("the SIGINT handler did not raise")
         return real(*a, **k)
+
     return wrapped
 
 
@@ -313,12 +329,13 @@ def slider_mech():
 
 @pytest.mark.parametrize("surfaces", SURFACES, ids=SURFACE_IDS)
 def test_quasi_static_keeps_its_positions_when_casadi_reports_the_signal_as_another_error(
-        slider_mech, monkeypatch, surfaces):
+    slider_mech, monkeypatch, surfaces
+):
     from symgen.numerics.quasistatic import QuasiStaticSystem, cycle_times, quasi_static
 
     taus = cycle_times(slider_mech, cycles=0.05)
     monkeypatch.setattr(QuasiStaticSystem, "state", _signal_inside(QuasiStaticSystem.state, 4, surfaces))
-    with pytest.raises(KeyboardInterrupt) as info:      # (not a bare one: an Interrupted)
+    with pytest.raises(KeyboardInterrupt) as info:  # (not a bare one: an Interrupted)
         with interrupt.handling():
             quasi_static(slider_mech, cycles=0.05)
     stop = info.value
@@ -359,8 +376,12 @@ def test_quasistatic_cli_interrupted_before_any_position_says_so(tmp_path, capsy
     from symgen.numerics.mechanism import Mechanism
     from symgen.numerics.quasistatic import QuasiStaticSystem
 
-    target, name = {"compile": (symgen.backends.casadi.pipeline, "compile_scene"), "initial state": (Mechanism, "initial_state"),
-                    "system (20)": (QuasiStaticSystem, "__init__"), "first position": (QuasiStaticSystem, "state")}[where]
+    target, name = {
+        "compile": (symgen.backends.casadi.pipeline, "compile_scene"),
+        "initial state": (Mechanism, "initial_state"),
+        "system (20)": (QuasiStaticSystem, "__init__"),
+        "first position": (QuasiStaticSystem, "state"),
+    }[where]
     monkeypatch.setattr(target, name, _signal_inside(getattr(target, name), 1, _dm_array_error))
     out = tmp_path / "res" / "qs.csv"
     _complete(out)
@@ -400,8 +421,14 @@ def _env(tmp_path: Path) -> dict:
 def _interrupt(cmd: list[str], env: dict, marker: str, stream: str, sig: int, wait: float = 1.5):
     """Start ``symgen cmd``, wait for ``marker`` on ``stream``, then ``wait`` s, send ``sig``;
     return (exit code, seconds from the signal to the exit, stdout, stderr)."""
-    proc = subprocess.Popen([sys.executable, "-m", "symgen.cli", *cmd], cwd=ROOT, env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "symgen.cli", *cmd],
+        cwd=ROOT,
+        env=env,
+        text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
     seen = []
     try:
         for line in getattr(proc, stream):
@@ -428,17 +455,27 @@ def warm(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("warm")
     env = _env(tmp)
     out = tmp / "res" / "sc.csv"
-    proc = subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", SLIDER, "-o", str(out),
-                           "--set", "simulation.cycles=0.05"], cwd=ROOT, env=env, capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-m", "symgen.cli", "simulate", SLIDER, "-o", str(out), "--set", "simulation.cycles=0.05"],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     return tmp, env
 
 
-@pytest.mark.parametrize("command,sig,code", [
-    ("simulate", signal.SIGINT, 130), ("simulate", signal.SIGTERM, 143),
-    # quasistatic failed in 3 of 5 full-suite runs (exit 130, no tau, no partial file): the signal
-    # came out of numpy/CasADi as a SystemError the loop did not catch -- see the tests above
-    ("quasistatic", signal.SIGINT, 130)])
+@pytest.mark.parametrize(
+    "command,sig,code",
+    [
+        ("simulate", signal.SIGINT, 130),
+        ("simulate", signal.SIGTERM, 143),
+        # quasistatic failed in 3 of 5 full-suite runs (exit 130, no tau, no partial file): the signal
+        # came out of numpy/CasADi as a SystemError the loop did not catch -- see the tests above
+        ("quasistatic", signal.SIGINT, 130),
+    ],
+)
 def test_signal_stops_a_run_at_once_with_a_partial_result_marked_interrupted(warm, command, sig, code):
     """A long run (hundreds of crank turns) is stopped within 2 s of the signal -- not blamed
     on IDAS, not retried step by step -- and keeps what it computed as OUT.partial.*, status
@@ -447,13 +484,18 @@ def test_signal_stops_a_run_at_once_with_a_partial_result_marked_interrupted(war
     out = tmp / "res" / f"{command}_{sig}.csv"
     _complete(out)
     long = ["--set", "simulation.cycles=500"] if command == "simulate" else ["--cycles", "5000"]
-    rc, dt, _, err = _interrupt([command, SLIDER, "-o", str(out), "-v", *long], env,
-                                "integrating" if command == "simulate" else "first position solved", "stderr", sig)
+    rc, dt, _, err = _interrupt(
+        [command, SLIDER, "-o", str(out), "-v", *long],
+        env,
+        "integrating" if command == "simulate" else "first position solved",
+        "stderr",
+        sig,
+    )
     assert rc == code, err
     assert dt < 2.0, f"took {dt:.2f} s to stop"
     name = signal.Signals(sig).name
     assert f"interrupted by {name} at tau =" in err and "IDAS failed" not in err and "Traceback" not in err
-    assert "res failed" not in err and "failed unrecoverably" not in err     # CasADi's noise, filtered
+    assert "res failed" not in err and "failed unrecoverably" not in err  # CasADi's noise, filtered
     assert not out.exists() and not out.with_suffix(".json").exists()
     meta = json.loads(out.with_name(out.stem + ".partial.json").read_text())
     assert meta["status"] == "interrupted" and meta["failure"].startswith(f"interrupted by {name}")
@@ -469,13 +511,19 @@ def test_study_stops_at_once_on_sigint(warm, tmp_path):
     folder.mkdir()
     (folder / "study.csv").write_text("stale")
     (folder / "study.md").write_text("stale")
-    rc, dt, out, err = _interrupt(["study", SLIDER, "-o", str(folder), "--quick", "--repeats", "1",
-                                   "--levels", "1+1,2+2"], env, "reference:", "stdout", signal.SIGINT, wait=0.5)
+    rc, dt, out, err = _interrupt(
+        ["study", SLIDER, "-o", str(folder), "--quick", "--repeats", "1", "--levels", "1+1,2+2"],
+        env,
+        "reference:",
+        "stdout",
+        signal.SIGINT,
+        wait=0.5,
+    )
     assert rc == 130, err
     assert dt < 2.0, f"took {dt:.2f} s to stop"
     assert "interrupted by SIGINT" in err and "Traceback" not in err
     assert not (folder / "study.csv").exists() and not (folder / "study.md").exists()
-    assert list(folder.iterdir()) == []            # stopped during the reference: nothing to keep
+    assert list(folder.iterdir()) == []  # stopped during the reference: nothing to keep
 
 
 def test_reproduce_stopped_leaves_no_complete_readme(tmp_path, capsys, monkeypatch):

@@ -11,6 +11,7 @@ Acceptance: symgen's default model (elastic overhang) gives the guide's far-end 
 the crank-tip deflection within 2 % of their peaks (max |y - y_ref| / max |y_ref| on the
 one-degree grid); the seed's rigid overhang does not.
 """
+
 from __future__ import annotations
 
 import math
@@ -31,7 +32,7 @@ TARGET = 0.02
 def _reference(degrees: int) -> dict:
     lines = [ln for ln in CSV.read_text().splitlines() if ln and not ln.startswith("#")]
     names = lines[0].split(",")
-    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:degrees + 2]])
+    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1 : degrees + 2]])
     return {k: data[:, names.index(k)] for k in ("t",) + OUTPUTS}
 
 
@@ -39,6 +40,7 @@ def _symgen(overrides: list[str], degrees: int) -> dict:
     """symgen's outputs (SI) on the one-degree grid over ``degrees`` of crank."""
     from symgen.api import mechanism, results_table
     from symgen.numerics.simulate import simulate
+
     mech = mechanism(SCENE, overrides + [f"simulation.cycles={degrees / 360}"])
     res = simulate(mech)
     assert res.complete, res.failure
@@ -90,6 +92,7 @@ def test_exudyn_reproduces_the_stored_reference():
     pytest.importorskip("exudyn")
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from exudyn_models import inverted_slider_crank
+
     t, out, _ = inverted_slider_crank(16, 2880, 2.0)
     ref = _reference(720)
     dt = math.pi / 180 / 22.0

@@ -8,6 +8,7 @@ site-packages through a .pth file (sympy, casadi, ... but the venv's own symgen 
 and the commands that render templates run from a folder outside the repository: ``derive``,
 ``latex``, ``emit-c`` and ``emit-fmu``. Each must succeed and write what it says.
 """
+
 from __future__ import annotations
 
 import os
@@ -49,9 +50,18 @@ def installed(tmp_path_factory):
     # this interpreter's site-packages, after the venv's own (a .pth line only adds its folder to
     # sys.path: the .pth files in it, e.g. an editable symgen's finder, are not run)
     inner = _run([bindir / "python", "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"]).stdout.strip()
-    outer = [p for p in dict.fromkeys([*site.getsitepackages(), site.getusersitepackages(),
-                                       sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]])
-             if Path(p).is_dir()]
+    outer = [
+        p
+        for p in dict.fromkeys(
+            [
+                *site.getsitepackages(),
+                site.getusersitepackages(),
+                sysconfig.get_paths()["purelib"],
+                sysconfig.get_paths()["platlib"],
+            ]
+        )
+        if Path(p).is_dir()
+    ]
     (Path(inner) / "outer_site_packages.pth").write_text("".join(f"{p}\n" for p in outer))
     # --ignore-installed: a symgen seen through the system site-packages (an editable install,
     # possibly of another checkout) must not make pip skip the wheel
@@ -62,8 +72,10 @@ def installed(tmp_path_factory):
 def test_wheel_carries_the_templates(installed):
     wheel, _, _ = installed
     names = set(zipfile.ZipFile(wheel).namelist())
-    for folder, prefix in ((ROOT / "templates", "symgen/templates"),
-                           (ROOT / "symgen" / "backends" / "c" / "runtime", "symgen/backends/c/runtime")):
+    for folder, prefix in (
+        (ROOT / "templates", "symgen/templates"),
+        (ROOT / "symgen" / "backends" / "c" / "runtime", "symgen/backends/c/runtime"),
+    ):
         files = [p for p in folder.rglob("*") if p.is_file() and "__pycache__" not in p.parts]
         assert files
         for path in files:

@@ -1,6 +1,7 @@
 """The valid ranges of the model parameters (symgen.ir.parameters.parameter_records), the one policy
 the Python runs verify and the emitted C renders (tests/test_emit_c_sanitize.py checks the C
 side against it)."""
+
 from __future__ import annotations
 
 import math
@@ -8,7 +9,15 @@ import math
 import pytest
 
 from symgen.errors import SceneError
-from symgen.ir.parameters import FINITE, NON_NEGATIVE, POSITIVE, UNIT_COMPONENT, ParameterRange, parameter_records, parameter_values
+from symgen.ir.parameters import (
+    FINITE,
+    NON_NEGATIVE,
+    POSITIVE,
+    UNIT_COMPONENT,
+    ParameterRange,
+    parameter_records,
+    parameter_values,
+)
 from symgen.scene import load_scene
 
 from c_support import ALL_EXAMPLES, ROOT
@@ -19,9 +28,25 @@ SI_SCENE = ROOT / "tests" / "scene" / "data" / "si_slider_crank.toml"
 def test_range_membership_and_wording():
     assert [POSITIVE.contains(x) for x in (1e-300, 0.0, -1.0, math.inf, math.nan)] == [True, False, False, False, False]
     assert [NON_NEGATIVE.contains(x) for x in (0.0, -5e-324, 1e300)] == [True, False, True]
-    assert [UNIT_COMPONENT.contains(x) for x in (-1.0, 1.0, math.nextafter(1.0, 2.0), math.nan)] == [True, True, False, False]
-    assert [FINITE.contains(x) for x in (-1e308, 1e308, math.inf, -math.inf, math.nan)] == [True, True, False, False, False]
-    assert [r.text() for r in (POSITIVE, NON_NEGATIVE, UNIT_COMPONENT, FINITE)] == ["> 0", ">= 0", "in [-1, 1]", "finite"]
+    assert [UNIT_COMPONENT.contains(x) for x in (-1.0, 1.0, math.nextafter(1.0, 2.0), math.nan)] == [
+        True,
+        True,
+        False,
+        False,
+    ]
+    assert [FINITE.contains(x) for x in (-1e308, 1e308, math.inf, -math.inf, math.nan)] == [
+        True,
+        True,
+        False,
+        False,
+        False,
+    ]
+    assert [r.text() for r in (POSITIVE, NON_NEGATIVE, UNIT_COMPONENT, FINITE)] == [
+        "> 0",
+        ">= 0",
+        "in [-1, 1]",
+        "finite",
+    ]
     half_open = ParameterRange(lower=0.0, upper=1.0, upper_open=True)
     assert half_open.text() == "in [0, 1)" and half_open.contains(0.0) and not half_open.contains(1.0)
 
@@ -43,7 +68,7 @@ def test_every_parameter_of_a_valid_scene_is_in_range_and_names_a_scene_key(path
         if section == "joints":
             assert entry in {j.name for j in scene.joints}, r
     by_name = {r.name: r for r in recs}
-    if path == SI_SCENE:        # stiffness from E, lumped mass, slider direction, loads
+    if path == SI_SCENE:  # stiffness from E, lumped mass, slider direction, loads
         assert by_name["lambda_rod"].key == "bodies.rod.E" and by_name["lambda_rod"].valid == POSITIVE
         assert by_name["m_B"].valid == NON_NEGATIVE and by_name["dx_B"].valid == UNIT_COMPONENT
         assert any(n.startswith("load") for n in names)

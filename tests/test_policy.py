@@ -1,6 +1,7 @@
 """One solver policy (``symgen.policy``) for the Python runners and the emitted C: every value
 reaches the C solver through the context (no constant retyped in the template), and the Python
 runners read it at call time."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -35,7 +36,7 @@ def test_every_policy_value_reaches_the_emitted_solver(monkeypatch):
     for field in dataclasses.fields(odd):
         new = getattr(odd, field.name)
         literal = str(new) if isinstance(new, int) else c_double(new)
-        if field.name in ("partition_ratio",):       # Python-only: the C solver gets the partition
+        if field.name in ("partition_ratio",):  # Python-only: the C solver gets the partition
             continue
         if not any(literal in text for text in files.values()):
             missing.append(f"{field.name} ({literal})")
@@ -51,7 +52,9 @@ def test_python_runners_read_the_policy_at_call_time(monkeypatch):
     body, (fi, gi) = next((b, ix) for b, ix in mech.amplitudes.items() if ix[1])
     Q[gi[0], 2] = 0.5 * policy.POLICY.deflection_limit
     assert checks.beyond_range(mech, Q) is None
-    monkeypatch.setattr(checks, "POLICY", dataclasses.replace(policy.POLICY, deflection_limit=0.25 * policy.POLICY.deflection_limit))
+    monkeypatch.setattr(
+        checks, "POLICY", dataclasses.replace(policy.POLICY, deflection_limit=0.25 * policy.POLICY.deflection_limit)
+    )
     column, reason = checks.beyond_range(mech, Q)
     assert column == 2 and body in reason
     part = mech.choose_partition(0.0, q0)
@@ -67,6 +70,7 @@ def test_divergence_check_reads_the_policy_at_call_time(tmp_path, monkeypatch):
     largest |eigenvalue|, so a tolerance of 5 % sees no divergence."""
     from symgen.api import mechanism as load_mechanism
     from tests.test_hard_cases import write_column
+
     mech = load_mechanism(write_column(tmp_path, 1.1, 3), ["effects.axial=inextensible"])
     q, v = mech.initial_guess(0.0)
     part = mech.choose_partition(0.0, q)
@@ -83,8 +87,9 @@ def test_divergence_check_reads_the_policy_at_call_time(tmp_path, monkeypatch):
 def test_limits_state_their_source():
     """Every policy value is documented where it is defined (the source of the number)."""
     import inspect
+
     src = inspect.getsource(policy.SolverPolicy)
     for field in dataclasses.fields(policy.SolverPolicy):
         line = next(ln for ln in src.splitlines() if ln.strip().startswith(f"{field.name}:"))
-        above = src[:src.index(line)].rstrip().splitlines()[-1].strip()
+        above = src[: src.index(line)].rstrip().splitlines()[-1].strip()
         assert above.startswith("#:") or "..." in above, f"{field.name} has no stated source"

@@ -26,6 +26,7 @@ Oracles:
   I theta'' + m g (l/2) cos(theta) in closed form.
 * the derivatives in the driver rows are those of sympy.diff of the law.
 """
+
 from __future__ import annotations
 
 import math
@@ -98,8 +99,11 @@ def _theta_ddot(t):
 def _clamped_free(n):
     """Roots beta_k L of cos b cosh b = -1 and the eigenfunctions' coefficients sigma_k."""
     from scipy.optimize import brentq
-    roots = [brentq(lambda b: math.cos(b) * math.cosh(b) + 1, (k + 0.5) * math.pi - 1.0, (k + 0.5) * math.pi + 1.0)
-             for k in range(n)]
+
+    roots = [
+        brentq(lambda b: math.cos(b) * math.cosh(b) + 1, (k + 0.5) * math.pi - 1.0, (k + 0.5) * math.pi + 1.0)
+        for k in range(n)
+    ]
     sig = [(math.cosh(b) + math.cos(b)) / (math.sinh(b) + math.sin(b)) for b in roots]
     return roots, sig
 
@@ -115,7 +119,7 @@ def assumed_modes_spin_up(n_modes: int, stiffening: bool = True, t_end: float = 
         b = roots[k] / L
         s = sig[k]
         c = [(math.cosh, math.cos, math.sinh, math.sin), (math.sinh, lambda y: -math.sin(y), math.cosh, math.cos)][d]
-        return b ** d * (c[0](b * x) - c[1](b * x) - s * (c[2](b * x) - c[3](b * x)))
+        return b**d * (c[0](b * x) - c[1](b * x) - s * (c[2](b * x) - c[3](b * x)))
 
     def phi2(k, x):
         b = roots[k] / L
@@ -123,12 +127,27 @@ def assumed_modes_spin_up(n_modes: int, stiffening: bool = True, t_end: float = 
         return b * b * (math.cosh(b * x) + math.cos(b * x) - s * (math.sinh(b * x) + math.sin(b * x)))
 
     opts = {"limit": 200, "epsabs": 1e-10, "epsrel": 1e-10}
-    M = np.array([[RHO_A * quad(lambda x: phi(i, x) * phi(j, x), 0, L, **opts)[0] for j in range(n_modes)]
-                  for i in range(n_modes)])
-    K = np.array([[EI * quad(lambda x: phi2(i, x) * phi2(j, x), 0, L, **opts)[0] for j in range(n_modes)]
-                  for i in range(n_modes)])
-    G = np.array([[RHO_A * quad(lambda x: (L * L - x * x) / 2 * phi(i, x, 1) * phi(j, x, 1), 0, L, **opts)[0]
-                   for j in range(n_modes)] for i in range(n_modes)])
+    M = np.array(
+        [
+            [RHO_A * quad(lambda x: phi(i, x) * phi(j, x), 0, L, **opts)[0] for j in range(n_modes)]
+            for i in range(n_modes)
+        ]
+    )
+    K = np.array(
+        [
+            [EI * quad(lambda x: phi2(i, x) * phi2(j, x), 0, L, **opts)[0] for j in range(n_modes)]
+            for i in range(n_modes)
+        ]
+    )
+    G = np.array(
+        [
+            [
+                RHO_A * quad(lambda x: (L * L - x * x) / 2 * phi(i, x, 1) * phi(j, x, 1), 0, L, **opts)[0]
+                for j in range(n_modes)
+            ]
+            for i in range(n_modes)
+        ]
+    )
     F = np.array([RHO_A * quad(lambda x: x * phi(i, x), 0, L, **opts)[0] for i in range(n_modes)])
     Minv = np.linalg.inv(M)
     stiff = G - M if stiffening else -M
@@ -139,8 +158,7 @@ def assumed_modes_spin_up(n_modes: int, stiffening: bool = True, t_end: float = 
         return np.concatenate([qd, Minv @ (-(K + w2 * stiff) @ q - _theta_ddot(t) * F)])
 
     times = np.arange(0.0, t_end + 1e-9, 0.05)
-    sol = solve_ivp(rhs, (0.0, t_end), np.zeros(2 * n_modes), method="DOP853", t_eval=times,
-                    rtol=1e-10, atol=1e-12)
+    sol = solve_ivp(rhs, (0.0, t_end), np.zeros(2 * n_modes), method="DOP853", t_eval=times, rtol=1e-10, atol=1e-12)
     tip = np.array([phi(k, L) for k in range(n_modes)])
     return sol.t, tip @ sol.y[:n_modes]
 
@@ -170,7 +188,7 @@ def test_spin_up_tip_deflection_matches_independent_model(spin_scene, reference)
     """von Karman strain, default effects, inextensible axial: within 2 % of the peak."""
     t_ref, w_ref = reference
     res = simulate(mechanism(spin_scene))
-    tip = res.column("tip") * L_BEAM                 # eta is w / L
+    tip = res.column("tip") * L_BEAM  # eta is w / L
     np.testing.assert_allclose(res.tau, t_ref, atol=1e-9)
     peak = np.abs(w_ref).max()
     assert np.abs(tip - w_ref).max() < 0.02 * peak
@@ -217,8 +235,17 @@ def test_spin_up_seed_linear_strain_is_bounded(spin_scene, reference):
     published, is the conventional model without the coupling (previous test). ~10 s of IDAS
     (the axial ringing at lambda = 2.3e5)."""
     t_ref, w_ref = reference
-    res = simulate(mechanism(spin_scene, ["effects.axial=true", "effects.strain=linear",
-                                          "bodies.beam.axial_shapes=stress-free", "bodies.beam.axial_modes=2"]))
+    res = simulate(
+        mechanism(
+            spin_scene,
+            [
+                "effects.axial=true",
+                "effects.strain=linear",
+                "bodies.beam.axial_shapes=stress-free",
+                "bodies.beam.axial_modes=2",
+            ],
+        )
+    )
     tip = res.column("tip") * L_BEAM
     assert np.abs(tip - w_ref).max() < 0.02 * np.abs(w_ref).max()
 
@@ -262,7 +289,7 @@ def test_law_derivatives_in_the_driver_rows_are_exact(tmp_path):
     and sympy.diff of it at random tau (to rounding), and the initial angle adds."""
     mech = mechanism(_pendulum(tmp_path, f'initial = 0.25\nlaw = "{LAW}"'))
     tau = sp.Symbol("tau")
-    law = 0.25 + 0.3 * sp.sin(2 * tau) + sp.Rational(1, 10) * tau ** 2 + sp.exp(-tau) * sp.cos(3 * tau)
+    law = 0.25 + 0.3 * sp.sin(2 * tau) + sp.Rational(1, 10) * tau**2 + sp.exp(-tau) * sp.cos(3 * tau)
     rng = np.random.default_rng(11)
     for t in rng.uniform(0.0, 3.0, 8):
         got = mech.driver_motion(float(t))
@@ -307,6 +334,7 @@ def test_law_is_part_of_the_model_key(tmp_path):
 
 def test_sidecar_and_latex_carry_the_law(tmp_path):
     import json
+
     scene = _pendulum(tmp_path, f'law = "{LAW}"')
     assert main(["simulate", str(scene), "-o", str(tmp_path / "out.csv")]) == 0
     side = json.loads((tmp_path / "out.json").read_text())
@@ -314,27 +342,43 @@ def test_sidecar_and_latex_carry_the_law(tmp_path):
     assert main(["latex", str(scene), "-o", str(tmp_path / "eq.tex")]) == 0
     tex = (tmp_path / "eq.tex").read_text()
     assert r"\theta_{\mathrm{bar}} = 0.1 \tau^{2} + \theta_{\mathrm{drv}}^{0} + 0.3 \sin {2 \tau}" in tex
-    assert r"e^{- \tau} \cos {3 \tau} \tag{KG, bar}" in tex         # the guidance row (phi) itself
+    assert r"e^{- \tau} \cos {3 \tau} \tag{KG, bar}" in tex  # the guidance row (phi) itself
 
 
 def test_ramp_latex_is_piecewise(spin_scene, tmp_path):
-    assert main(["latex", str(spin_scene), "-o", str(tmp_path / "spin.tex"), "--set", "bodies.beam.axial_modes=3",
-                 "--set", "bodies.beam.transverse_modes=1"]) == 0
+    assert (
+        main(
+            [
+                "latex",
+                str(spin_scene),
+                "-o",
+                str(tmp_path / "spin.tex"),
+                "--set",
+                "bodies.beam.axial_modes=3",
+                "--set",
+                "bodies.beam.transverse_modes=1",
+            ]
+        )
+        == 0
+    )
     tex = (tmp_path / "spin.tex").read_text()
     assert r"\begin{cases}" in tex and r"T_{\mathrm{drv}}" in tex and r"\Omega_{\mathrm{drv}}" in tex
 
 
-@pytest.mark.parametrize("driver, key, words", [
-    ('law = "sin(tau"', "driver.law", "invalid expression"),
-    ('law = "omega*tau"', "driver.law", "omega"),
-    ('law = "__import__(1)"', "driver.law", "invalid expression"),
-    ('law = "log(tau)"', "driver.law", "not a finite real number at tau = 0"),
-    ('law = "sqrt(tau - 1)"', "driver.law", "not a finite real number"),
-    ('law = 3.0', "driver.law", "string expression"),
-    ('rate = 1.0\nlaw = "tau"', "driver.rate", "has no rate"),
-    ('rate = 1.0\nramp = -2.0', "driver.ramp", "ramp"),
-    ('ramp = 2.0\nlaw = "tau"', "driver.ramp", "has no ramp"),
-])
+@pytest.mark.parametrize(
+    "driver, key, words",
+    [
+        ('law = "sin(tau"', "driver.law", "invalid expression"),
+        ('law = "omega*tau"', "driver.law", "omega"),
+        ('law = "__import__(1)"', "driver.law", "invalid expression"),
+        ('law = "log(tau)"', "driver.law", "not a finite real number at tau = 0"),
+        ('law = "sqrt(tau - 1)"', "driver.law", "not a finite real number"),
+        ("law = 3.0", "driver.law", "string expression"),
+        ('rate = 1.0\nlaw = "tau"', "driver.rate", "has no rate"),
+        ("rate = 1.0\nramp = -2.0", "driver.ramp", "ramp"),
+        ('ramp = 2.0\nlaw = "tau"', "driver.ramp", "has no ramp"),
+    ],
+)
 def test_bad_laws_exit_2_naming_the_key(tmp_path, capsys, driver, key, words):
     scene = _pendulum(tmp_path, driver)
     out = tmp_path / "out.csv"
@@ -348,7 +392,9 @@ def test_law_rejects_cycles_and_torque_drivers_reject_laws(tmp_path, capsys):
     text = PENDULUM.format(driver='law = "tau"', t_end=1.0).replace("t_end = 1.0", "cycles = 1")
     assert main(["simulate", str(write_scene(tmp_path / "c.toml", text)), "-o", str(tmp_path / "o.csv")]) == 2
     assert "simulation.cycles" in capsys.readouterr().err
-    text = PENDULUM.format(driver='law = "tau"', t_end=1.0).replace('kind = "angle"\nbody', 'kind = "torque"\nvalue = 0.0\nbody')
+    text = PENDULUM.format(driver='law = "tau"', t_end=1.0).replace(
+        'kind = "angle"\nbody', 'kind = "torque"\nvalue = 0.0\nbody'
+    )
     text = text.replace('torque = { kind = "driver_torque" }', "")
     assert main(["simulate", str(write_scene(tmp_path / "t.toml", text)), "-o", str(tmp_path / "o.csv")]) == 2
     assert "driver.law" in capsys.readouterr().err
@@ -356,12 +402,15 @@ def test_law_rejects_cycles_and_torque_drivers_reject_laws(tmp_path, capsys):
 
 # ------------------------------------------------------------------ the emitted C prints the laws
 def _c_cases(tmp_path):
-    law_beam = (SPIN_UP.replace(f"rate = {OMEGA_S}\nramp = {T_S}", 'law = "0.5*tau**2 + 0.05*tau**3"')
-                .replace("[effects]", '[initial]\ndeformation = "quasi-static"\n[effects]'))
-    small = ["bodies.beam.axial_modes=3", "bodies.beam.transverse_modes=1"]    # a small model: quick C builds
-    return {"ramp": (write_scene(tmp_path / "ramp.toml", SPIN_UP), ["simulation.t_end=4", *small]),
-            "law-quasi-static-start": (write_scene(tmp_path / "law.toml", law_beam), ["simulation.t_end=3", *small]),
-            "law-rigid": (_pendulum(tmp_path, f'initial = 0.25\nlaw = "{LAW}"'), [])}
+    law_beam = SPIN_UP.replace(f"rate = {OMEGA_S}\nramp = {T_S}", 'law = "0.5*tau**2 + 0.05*tau**3"').replace(
+        "[effects]", '[initial]\ndeformation = "quasi-static"\n[effects]'
+    )
+    small = ["bodies.beam.axial_modes=3", "bodies.beam.transverse_modes=1"]  # a small model: quick C builds
+    return {
+        "ramp": (write_scene(tmp_path / "ramp.toml", SPIN_UP), ["simulation.t_end=4", *small]),
+        "law-quasi-static-start": (write_scene(tmp_path / "law.toml", law_beam), ["simulation.t_end=3", *small]),
+        "law-rigid": (_pendulum(tmp_path, f'initial = 0.25\nlaw = "{LAW}"'), []),
+    }
 
 
 @pytest.mark.parametrize("case", ["ramp", "law-quasi-static-start", "law-rigid"])
@@ -383,10 +432,26 @@ def test_emitted_c_follows_the_law(case, tmp_path):
     n = scene.name
     model_c = (out / f"{n}.c").read_text()
     if case == "ramp":
-        assert "?" in model_c and "cos(" in model_c          # Piecewise -> ternary, cos of the ramp
+        assert "?" in model_c and "cos(" in model_c  # Piecewise -> ternary, cos of the ramp
     files = [str(out / f) for f in (f"{n}.c", f"{n}_solver.c", f"{n}_sim.c")]
-    proc = subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1", f"-I{out}",
-                           *files, "-o", str(tmp_path / "sim"), "-lm"], capture_output=True, text=True)
+    proc = subprocess.run(
+        [
+            "gcc",
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-pedantic",
+            "-Werror",
+            "-O1",
+            f"-I{out}",
+            *files,
+            "-o",
+            str(tmp_path / "sim"),
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert proc.returncode == 0, proc.stderr
     _, data, stats = run_sim(tmp_path / "sim", "--rtol", "1e-10", "--atol", "1e-12")
     res = simulate(mechanism(scene), rtol=1e-10, atol=1e-12)
@@ -401,13 +466,20 @@ def test_non_smooth_law_runs_with_its_piecewise_derivatives(tmp_path):
     a continuous rate and a jumping acceleration: the model uses the exact derivative on each
     piece (SymPy's DiracDelta at the kinks is dropped; it was an internal error before), and
     the torque is the closed form of the rigid pendulum away from the kinks."""
-    law = ("0.5*max(tau - 1, 0)^2 - 0.1*sign(tau - 2)*(tau - 2)^2 + 0.05*Heaviside(tau - 2.5)*(tau - 2.5)^2"
-           " + 0.1*min(tau, 1)^2 + 0.01*Abs(tau - 0.5)^3")
+    law = (
+        "0.5*max(tau - 1, 0)^2 - 0.1*sign(tau - 2)*(tau - 2)^2 + 0.05*Heaviside(tau - 2.5)*(tau - 2.5)^2"
+        " + 0.1*min(tau, 1)^2 + 0.01*Abs(tau - 0.5)^3"
+    )
     res = simulate(mechanism(_pendulum(tmp_path, f'law = "{law}"')))
     t = res.tau
     h = lambda x: np.heaviside(x, 0.5)
-    theta = (0.5 * np.maximum(t - 1, 0) ** 2 - 0.1 * np.sign(t - 2) * (t - 2) ** 2
-             + 0.05 * h(t - 2.5) * (t - 2.5) ** 2 + 0.1 * np.minimum(t, 1) ** 2 + 0.01 * np.abs(t - 0.5) ** 3)
+    theta = (
+        0.5 * np.maximum(t - 1, 0) ** 2
+        - 0.1 * np.sign(t - 2) * (t - 2) ** 2
+        + 0.05 * h(t - 2.5) * (t - 2.5) ** 2
+        + 0.1 * np.minimum(t, 1) ** 2
+        + 0.01 * np.abs(t - 0.5) ** 3
+    )
     thdd = h(t - 1) - 0.2 * np.sign(t - 2) + 0.1 * h(t - 2.5) + 0.2 * h(1 - t) + 0.06 * np.abs(t - 0.5)
     away = np.min(np.abs(t[:, None] - np.array([0.5, 1.0, 2.0, 2.5])[None, :]), axis=1) > 1e-9
     assert res.complete and t[-1] == pytest.approx(3.0)

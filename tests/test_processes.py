@@ -1,5 +1,6 @@
 """A compile interrupted by a signal leaves no compiler process behind (issue 22): the command
 runs in a process group of its own, killed as a whole."""
+
 from __future__ import annotations
 
 import os

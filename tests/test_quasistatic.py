@@ -17,6 +17,7 @@ Oracles:
 * the closure (11): with the rigid kinematics substituted as they are (the paper's literal
   reading) the loop misses by the bars' deformation.
 """
+
 from __future__ import annotations
 
 import json
@@ -40,15 +41,22 @@ SC = "examples/slider_crank.toml"
 FB = "examples/four_bar.toml"
 # the rod's axial dynamics kept (effects.axial = true): "auto" would make it quasi-static, whose
 # axial force is a multiplier and needs no Newton on the geometric coupling
-ACCURATE = ["effects.axial=true", "effects.strain=von_karman", "bodies.rod.axial_shapes=complete",
-            "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4"]
+ACCURATE = [
+    "effects.axial=true",
+    "effects.strain=von_karman",
+    "bodies.rod.axial_shapes=complete",
+    "bodies.rod.axial_modes=3",
+    "bodies.rod.transverse_modes=4",
+]
 
 
 def _steady_gap(scene: str, overrides: list, damping: float, cycles: int) -> dict:
     """max |dynamic - quasi-static| / peak(quasi-static) over the last turn of a damped run
     started on the quasi-static state, per output."""
-    mech = mechanism(scene, [*overrides, f"effects.damping={damping}", f"simulation.cycles={cycles}",
-                             "initial.deformation=quasi-static"])
+    mech = mechanism(
+        scene,
+        [*overrides, f"effects.damping={damping}", f"simulation.cycles={cycles}", "initial.deformation=quasi-static"],
+    )
     dyn = simulate(mech)
     qs = quasi_static(mech)
     last = dyn.tau >= dyn.tau[-1] - 2 * math.pi - 1e-9
@@ -61,10 +69,14 @@ def _steady_gap(scene: str, overrides: list, damping: float, cycles: int) -> dic
     return out
 
 
-@pytest.mark.parametrize("scene,overrides,damping,cycles", [
-    (SC, ["bodies.rod.lambda=182460", "bodies.rod.mu=4.95"], 0.005, 6),     # crank at 1/sqrt(10) of 6.1's speed
-    (FB, ["scene.omega=38.333333333333336"], 0.003, 4),                     # 366 rpm instead of 2196
-], ids=["slider_crank", "four_bar"])
+@pytest.mark.parametrize(
+    "scene,overrides,damping,cycles",
+    [
+        (SC, ["bodies.rod.lambda=182460", "bodies.rod.mu=4.95"], 0.005, 6),  # crank at 1/sqrt(10) of 6.1's speed
+        (FB, ["scene.omega=38.333333333333336"], 0.003, 4),  # 366 rpm instead of 2196
+    ],
+    ids=["slider_crank", "four_bar"],
+)
 def test_quasi_static_is_the_damped_steady_state(scene, overrides, damping, cycles):
     gaps = _steady_gap(scene, overrides, damping, cycles)
     assert max(gaps.values()) < 0.02, gaps
@@ -133,18 +145,32 @@ def test_rigid_kinematics_leave_the_loop_open_by_the_deformation():
     rigid = quasi_static(mech, output_step=step, kinematics="rigid")
     eps = np.abs(deformed.column("eps_ax")).max()
     assert deformed.closure_max < 1e-13
-    assert 0.05 * eps < rigid.closure_max < 2 * eps          # the rod's elongation is missing
+    assert 0.05 * eps < rigid.closure_max < 2 * eps  # the rod's elongation is missing
     peak = np.abs(deformed.column("eta_mid")).max()
     assert np.abs(rigid.column("eta_mid") - deformed.column("eta_mid")).max() < 1e-3 * peak
 
 
 def test_cli_quasistatic_writes_the_simulate_contract(tmp_path):
     out = tmp_path / "qs.csv"
-    assert main(["quasistatic", SC, "-o", str(out), "--set", "simulation.output_step=0.05235987755982988",
-                 *[x for o in ACCURATE for x in ("--set", o)], "--plot", str(tmp_path / "qs.png")]) == 0
+    assert (
+        main(
+            [
+                "quasistatic",
+                SC,
+                "-o",
+                str(out),
+                "--set",
+                "simulation.output_step=0.05235987755982988",
+                *[x for o in ACCURATE for x in ("--set", o)],
+                "--plot",
+                str(tmp_path / "qs.png"),
+            ]
+        )
+        == 0
+    )
     lines = out.read_text().splitlines()
     assert lines[0] == "tau,eta_mid,eps_ax,torque,closure"
-    assert len(lines) == 1 + 121                               # one turn in steps of 3 degrees, both ends
+    assert len(lines) == 1 + 121  # one turn in steps of 3 degrees, both ends
     meta = json.loads(out.with_suffix(".json").read_text())
     for key in ("scene_hash", "groups", "effects", "modes", "solver", "timings", "closure_residual_max"):
         assert key in meta
@@ -199,7 +225,7 @@ def test_latex_shows_18_19_20():
     doc = latex_document(scene, derive(scene))
     tags = set(re.findall(r"\\tag\{([^}]*)\}", doc))
     assert {"10*.x, rod", "10*.y, rod", "18.1, rod", "19.1, rod", "20"} <= tags
-    section = doc[doc.index(r"\section{Quasi-static response (18)--(20)}"):]
-    assert r"\Bigr]_{f}" in section            # the nonlinear rest f(y) of (19)
+    section = doc[doc.index(r"\section{Quasi-static response (18)--(20)}") :]
+    assert r"\Bigr]_{f}" in section  # the nonlinear rest f(y) of (19)
     for rate in (r"\dot f_{", r"\ddot f_{", r"\dot g_{", r"\ddot g_{"):
-        assert rate not in section               # deformation rates and accelerations are zero
+        assert rate not in section  # deformation rates and accelerations are zero

@@ -1,5 +1,6 @@
 """``symgen reproduce --quick`` writes every figure of the paper it can (G.1-G.10, and G.11-G.12
 when the inverted slider-crank example exists) and a README that names each one."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -11,7 +12,7 @@ from symgen.cli import main
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@pytest.mark.slow      # ~14 s: every figure's runs; the figures' physics is tested elsewhere
+@pytest.mark.slow  # ~14 s: every figure's runs; the figures' physics is tested elsewhere
 def test_reproduce_quick_writes_every_figure(tmp_path):
     out = tmp_path / "figures"
     assert main(["reproduce", "-o", str(out), "--quick"]) == 0

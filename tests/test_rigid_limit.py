@@ -27,6 +27,7 @@ atol 1e-12 -> 1.0e-4 (marginal for a 1e-4 check), 1e-13 -> 6.5e-6, 1e-14 -> 4.2e
 These tests run with atol = 1e-13 and assert 1e-4: measured here 3.7e-7 .. 4.8e-6 (1.5e-5 seen
 in exploratory variants of the same scene).
 """
+
 from __future__ import annotations
 
 import math
@@ -39,7 +40,7 @@ from symgen.api import simulate_scene
 
 L_CRANK, L_COUPLER, L_ROCKER = 1.0, 3.0, 2.5
 GROUND_ROCKER = (3.0, 0.0)
-GUESS = (1.0, 1.9)            # coupler, rocker: the upper assembly (0.973, 1.696 at tau = 0)
+GUESS = (1.0, 1.9)  # coupler, rocker: the upper assembly (0.973, 1.696 at tau = 0)
 STIFF = 1e9
 RTOL, ATOL = 1e-9, 1e-13
 STEP = 2 * math.pi / 180
@@ -147,7 +148,7 @@ def rigid_four_bar(tau, masses=(1.0, 1.0, 1.0), gravity=(0.0, 0.0), rate=1.0):
     O4 = np.array(GROUND_ROCKER, float)
     g = np.array(gravity, float)
     m = [masses[0] * L1, masses[1] * L2, masses[2] * L3]
-    inertia = [m[0] * L1 ** 2 / 12, m[1] * L2 ** 2 / 12, m[2] * L3 ** 2 / 12]
+    inertia = [m[0] * L1**2 / 12, m[1] * L2**2 / 12, m[2] * L3**2 / 12]
     th2, th3 = GUESS
     rows = []
     for t in np.asarray(tau, float):
@@ -164,15 +165,15 @@ def rigid_four_bar(tau, masses=(1.0, 1.0, 1.0), gravity=(0.0, 0.0), rate=1.0):
         assert np.abs(L1 * _e(th1) + L2 * _e(th2) - L3 * _e(th3) - O4).max() < 1e-13
         # velocity and acceleration from the differentiated closure
         w2, w3 = np.linalg.solve(J, -L1 * w1 * _n(th1))
-        rhs = -(L1 * (al1 * _n(th1) - w1 ** 2 * _e(th1)) - L2 * w2 ** 2 * _e(th2) + L3 * w3 ** 2 * _e(th3))
+        rhs = -(L1 * (al1 * _n(th1) - w1**2 * _e(th1)) - L2 * w2**2 * _e(th2) + L3 * w3**2 * _e(th3))
         al2, al3 = np.linalg.solve(J, rhs)
         A = L1 * _e(th1)
         B = O4 + L3 * _e(th3)
         G1, G2, G3 = L1 / 2 * _e(th1), A + L2 / 2 * _e(th2), O4 + L3 / 2 * _e(th3)
-        aA = L1 * (al1 * _n(th1) - w1 ** 2 * _e(th1))
+        aA = L1 * (al1 * _n(th1) - w1**2 * _e(th1))
         aG1 = aA / 2
-        aG2 = aA + L2 / 2 * (al2 * _n(th2) - w2 ** 2 * _e(th2))
-        aG3 = L3 / 2 * (al3 * _n(th3) - w3 ** 2 * _e(th3))
+        aG2 = aA + L2 / 2 * (al2 * _n(th2) - w2**2 * _e(th2))
+        aG3 = L3 / 2 * (al3 * _n(th3) - w3**2 * _e(th3))
         # Newton-Euler. Unknowns: F_O (ground on crank), F_A (crank on coupler),
         # F_B (coupler on rocker), F_O4 (ground on rocker), T (input moment on the crank)
         M = np.zeros((9, 9))
@@ -193,8 +194,9 @@ def rigid_four_bar(tau, masses=(1.0, 1.0, 1.0), gravity=(0.0, 0.0), rate=1.0):
         vG1 = L1 / 2 * w1 * _n(th1)
         vG2 = L1 * w1 * _n(th1) + L2 / 2 * w2 * _n(th2)
         vG3 = L3 / 2 * w3 * _n(th3)
-        kin = 0.5 * sum(mi * v @ v for mi, v in zip(m, (vG1, vG2, vG3))) \
-            + 0.5 * (inertia[0] * w1 ** 2 + inertia[1] * w2 ** 2 + inertia[2] * w3 ** 2)
+        kin = 0.5 * sum(mi * v @ v for mi, v in zip(m, (vG1, vG2, vG3))) + 0.5 * (
+            inertia[0] * w1**2 + inertia[1] * w2**2 + inertia[2] * w3**2
+        )
         pot = -sum(mi * (g @ G) for mi, G in zip(m, (G1, G2, G3)))
         rows.append((x[8], th2, th3, w2, w3, kin, pot))
     return np.array(rows)
@@ -242,9 +244,11 @@ def test_four_bar_rigid_limit(tmp_path, masses, gravity):
     torque_err = np.abs(T - T_ref).max() / scale
     rocker_err = np.abs(res.column("rocker_angle") - ref[:, 2]).max()
     coupler_err = np.abs(res.column("coupler_angle") - ref[:, 1]).max()
-    print(f"\n{masses} g={gravity}: max|T|={scale:.4f} torque rel err={torque_err:.2e} "
-          f"rocker err={rocker_err:.2e} coupler err={coupler_err:.2e} closure={res.closure_max:.1e} "
-          f"steps={res.steps} wall={wall:.2f}s")
+    print(
+        f"\n{masses} g={gravity}: max|T|={scale:.4f} torque rel err={torque_err:.2e} "
+        f"rocker err={rocker_err:.2e} coupler err={coupler_err:.2e} closure={res.closure_max:.1e} "
+        f"steps={res.steps} wall={wall:.2f}s"
+    )
 
     assert torque_err < 1e-4
     assert rocker_err < 5e-8

@@ -14,6 +14,7 @@ Oracles, independent of the derivation:
 * an elastic pendulum with a rotor, stiff (mu = 1e7): the rigid closed form;
 * SI and dimensionless scenes give the same dimensionless parameters (J / (m_ref l0^3)).
 """
+
 from __future__ import annotations
 
 import math
@@ -86,10 +87,29 @@ atol = 1e-12
 """
 
 
-def _scene(tmp_path, name="rotor_pendulum", bar=RIGID, extra="", *, pivot=0.0, rotor=J, torque=T, g=0.0,
-           t_end=2.0, step=0.25, lam=1e3, mu=2.0):
-    text = (HEAD.format(name=name) + bar.format(lam=lam, mu=mu) + PIVOT.format(pivot=pivot) + extra
-            + DRIVER.format(torque=torque, rotor=rotor) + TAIL.format(g=g, t_end=t_end, step=step))
+def _scene(
+    tmp_path,
+    name="rotor_pendulum",
+    bar=RIGID,
+    extra="",
+    *,
+    pivot=0.0,
+    rotor=J,
+    torque=T,
+    g=0.0,
+    t_end=2.0,
+    step=0.25,
+    lam=1e3,
+    mu=2.0,
+):
+    text = (
+        HEAD.format(name=name)
+        + bar.format(lam=lam, mu=mu)
+        + PIVOT.format(pivot=pivot)
+        + extra
+        + DRIVER.format(torque=torque, rotor=rotor)
+        + TAIL.format(g=g, t_end=t_end, step=step)
+    )
     path = tmp_path / f"{name}.toml"
     path.write_text(text)
     return path
@@ -97,7 +117,7 @@ def _scene(tmp_path, name="rotor_pendulum", bar=RIGID, extra="", *, pivot=0.0, r
 
 def test_rigid_rotor_under_constant_torque_is_the_closed_form(tmp_path):
     res = simulate_scene(_scene(tmp_path))
-    exact = T * res.tau ** 2 / (2 * (I_BAR + J))
+    exact = T * res.tau**2 / (2 * (I_BAR + J))
     assert np.abs(res.column("theta") - exact).max() < 1e-6 * exact.max()
     # no gravity, no elasticity: the energy is the torque's work
     assert np.abs(res.column("energy") - T * res.column("theta")).max() < 1e-6 * (T * exact.max())
@@ -109,6 +129,7 @@ def test_rigid_rotor_under_constant_torque_is_the_closed_form(tmp_path):
 def _rigid_gravity_reference(tau, g, inertia):
     def rhs(_, y):
         return [y[1], (T - 0.5 * g * math.cos(y[0])) / inertia]
+
     sol = solve_ivp(rhs, (0.0, tau[-1]), [0.0, 0.0], method="DOP853", t_eval=tau, rtol=1e-12, atol=1e-14)
     return sol.y[0]
 
@@ -116,13 +137,13 @@ def _rigid_gravity_reference(tau, g, inertia):
 @pytest.mark.parametrize("route", ["rotor", "pivot"])
 def test_rigid_rotor_under_gravity_matches_the_rigid_ode(tmp_path, route):
     """Both routes, the driver's rotor and a lumped inertia at the pivot, give the ODE's theta."""
-    g = 1.5                                  # T - g/2 < 0 at theta = 0: it first swings back
+    g = 1.5  # T - g/2 < 0 at theta = 0: it first swings back
     kw = {"rotor": J} if route == "rotor" else {"rotor": 0.0, "pivot": J}
     res = simulate_scene(_scene(tmp_path, f"grav_{route}", g=-g, t_end=6.0, step=0.5, **kw))
     ref = _rigid_gravity_reference(res.tau, g, I_BAR + J)
     theta = res.column("theta")
     assert np.abs(theta - ref).max() < 1e-6 * np.abs(ref).max()
-    assert theta.min() < -0.05                # the swing back happened
+    assert theta.min() < -0.05  # the swing back happened
     # energy: (I + J) theta'^2 / 2 + g sin(theta) / 2 - T theta = 0 along the motion
     assert np.abs(res.column("energy") - T * theta).max() < 1e-6
 
@@ -143,13 +164,12 @@ at = [1.0, 0.0]
 mass = 0.3
 inertia = 0.05
 """
-    path = _scene(tmp_path, "elastic_double", ELASTIC, extra, rotor=J, g=-0.5, t_end=8.0, step=0.05,
-                  lam=2e3, mu=3.0)
+    path = _scene(tmp_path, "elastic_double", ELASTIC, extra, rotor=J, g=-0.5, t_end=8.0, step=0.05, lam=2e3, mu=3.0)
     res = simulate_scene(path)
     theta = res.column("theta")
     energy = res.column("energy") - T * theta
     scale = np.abs(res.column("energy")).max()
-    assert np.abs(theta).max() > 1.0          # a real motion
+    assert np.abs(theta).max() > 1.0  # a real motion
     assert np.abs(energy - energy[0]).max() < 1e-6 * scale
     # the rotary inertias are in the derived model
     mech = mechanism(path)
@@ -161,7 +181,7 @@ def test_stiff_elastic_pendulum_with_rotor_approaches_the_rigid_closed_form(tmp_
     errors = []
     for mu in (1e4, 1e5):
         res = simulate_scene(_scene(tmp_path, f"stiff{int(mu)}", ELASTIC, lam=10 * mu, mu=mu, t_end=2.0, step=0.25))
-        exact = T * res.tau ** 2 / (2 * (I_BAR + J))
+        exact = T * res.tau**2 / (2 * (I_BAR + J))
         errors.append(np.abs(res.column("theta") - exact).max() / exact.max())
     assert errors[0] < 1e-5 and errors[1] < 1e-6
     assert errors[1] < errors[0] / 5
@@ -186,13 +206,13 @@ name = "O"
 kind = "pin"
 bodies = ["ground", "crank"]
 at = [[0.0, 0.0], 0.0]
-inertia = {0.03 * m_ref * l0 ** 3}
+inertia = {0.03 * m_ref * l0**3}
 
 [driver]
 kind = "torque"
 body = "crank"
-value = {T * m_ref * l0 ** 3 * omega ** 2}
-rotor_inertia = {J * m_ref * l0 ** 3}
+value = {T * m_ref * l0**3 * omega**2}
+rotor_inertia = {J * m_ref * l0**3}
 
 [outputs]
 theta = {{ kind = "angle", body = "crank" }}
@@ -212,14 +232,17 @@ output_step = 0.5
         assert pa[key] == pytest.approx(pb[key], rel=1e-12), key
 
 
-@pytest.mark.parametrize("where, key, value", [
-    ("driver", "rotor_inertia", "-0.1"),
-    ("driver", "rotor_inertia", "inf"),
-    ("driver", "rotor_inertia", '"0.1"'),
-    ("driver", "hub_inertia", "0.1"),
-    ("joint", "inertia", "-1.0"),
-    ("joint", "inertia", "nan"),
-])
+@pytest.mark.parametrize(
+    "where, key, value",
+    [
+        ("driver", "rotor_inertia", "-0.1"),
+        ("driver", "rotor_inertia", "inf"),
+        ("driver", "rotor_inertia", '"0.1"'),
+        ("driver", "hub_inertia", "0.1"),
+        ("joint", "inertia", "-1.0"),
+        ("joint", "inertia", "nan"),
+    ],
+)
 def test_bad_rotary_inertia_is_a_scene_error(tmp_path, where, key, value):
     path = _scene(tmp_path)
     text = path.read_text()
@@ -240,8 +263,12 @@ def test_bad_rotor_inertia_exits_2_from_the_cli(tmp_path):
     path = _scene(tmp_path)
     path.write_text(path.read_text().replace(f"rotor_inertia = {J}", "rotor_inertia = -2.0"))
     out = tmp_path / "out"
-    proc = subprocess.run([sys.executable, "-m", "symgen.cli", "derive", str(path), "-o", str(out)],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [sys.executable, "-m", "symgen.cli", "derive", str(path), "-o", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2, proc.stderr
     assert "driver.rotor_inertia" in proc.stderr
     assert not out.exists() or not any(out.iterdir())
@@ -249,7 +276,7 @@ def test_bad_rotor_inertia_exits_2_from_the_cli(tmp_path):
 
 def test_zero_inertias_are_allowed_and_change_nothing(tmp_path):
     res = simulate_scene(_scene(tmp_path, "zero", rotor=0.0, pivot=0.0))
-    exact = T * res.tau ** 2 / (2 * I_BAR)
+    exact = T * res.tau**2 / (2 * I_BAR)
     assert np.abs(res.column("theta") - exact).max() < 1e-6 * exact.max()
 
 
@@ -263,10 +290,12 @@ def test_emitted_c_with_rotary_inertias_matches_python(tmp_path):
 
     path = _scene(tmp_path, "c_rotor", g=-0.8, pivot=0.1, t_end=4.0, step=0.5)
     mech = mechanism(path)
-    src = write_tree(render_files(c_context(mech.scene, derive(mech.scene), start_plan(mech), mech.info)),
-                     tmp_path / "c")
-    exe = compile_executable([src / "c_rotor.c", src / "c_rotor_solver.c", src / "c_rotor_sim.c"],
-                             tmp_path / "c_rotor_sim", include=[src])
+    src = write_tree(
+        render_files(c_context(mech.scene, derive(mech.scene), start_plan(mech), mech.info)), tmp_path / "c"
+    )
+    exe = compile_executable(
+        [src / "c_rotor.c", src / "c_rotor_solver.c", src / "c_rotor_sim.c"], tmp_path / "c_rotor_sim", include=[src]
+    )
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     header = proc.stdout.splitlines()[0].split(",")
@@ -281,7 +310,11 @@ def test_latex_shows_the_rotary_inertias_and_compiles(tmp_path):
     from symgen.model.derive import derive
     from symgen.backends.latex.document import latex_document
 
-    path = _scene(tmp_path, "tex_rotor", ELASTIC, """
+    path = _scene(
+        tmp_path,
+        "tex_rotor",
+        ELASTIC,
+        """
 [[bodies]]
 name = "link"
 length = 0.6
@@ -293,17 +326,23 @@ kind = "pin"
 bodies = ["crank", "link"]
 at = [1.0, 0.0]
 inertia = 0.05
-""")
+""",
+    )
     scene = load_scene(path)
     tex = latex_document(scene, derive(scene))
-    assert r"J_{\mathrm{rot}} \ddot \theta_{\mathrm{crank}}" in tex          # in the crank's residual
+    assert r"J_{\mathrm{rot}} \ddot \theta_{\mathrm{crank}}" in tex  # in the crank's residual
     assert r"\varphi_{\mathrm{A}} = \theta_{\mathrm{crank}} + \eta_{\mathrm{crank}}'(1)" in tex
     eth = next(line for line in tex.splitlines() if line.startswith(r"E_{\theta,\mathrm{crank}} &="))
     assert r"I_{\mathrm{A}}" in eth
     if shutil.which("pdflatex"):
         (tmp_path / "doc.tex").write_text(tex)
-        run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"],
-                             cwd=tmp_path, capture_output=True, text=True, timeout=300)
+        run = subprocess.run(
+            ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert run.returncode == 0, run.stdout[-2000:]
 
 
@@ -312,11 +351,14 @@ def _pinned_beam_with_end_inertias(b, inertia):
     rotary inertia ``inertia`` at each end: w(0) = w(1) = 0, w''(0) = -J w^2 w'(0),
     w''(1) = J w^2 w'(1), w^2 = b^4; w = A sin bx + B cos bx + C sinh bx + D cosh bx."""
     s, c, sh, ch = np.sin(b), np.cos(b), np.sinh(b), np.cosh(b)
-    k = inertia * b ** 4
-    rows = [[0, 1, 0, 1], [s, c, sh, ch],
-            [k * b, -b * b, k * b, b * b],
-            [-b * b * s - k * b * c, -b * b * c + k * b * s, b * b * sh - k * b * ch, b * b * ch - k * b * sh]]
-    return np.linalg.det(np.array(rows)) / ch ** 2
+    k = inertia * b**4
+    rows = [
+        [0, 1, 0, 1],
+        [s, c, sh, ch],
+        [k * b, -b * b, k * b, b * b],
+        [-b * b * s - k * b * c, -b * b * c + k * b * s, b * b * sh - k * b * ch, b * b * ch - k * b * sh],
+    ]
+    return np.linalg.det(np.array(rows)) / ch**2
 
 
 def test_end_rotary_inertias_lower_the_pinned_beams_frequencies_as_the_closed_form(tmp_path):
@@ -329,7 +371,9 @@ def test_end_rotary_inertias_lower_the_pinned_beams_frequencies_as_the_closed_fo
 
     inertia, mu = 0.01, 1.0
     path = tmp_path / "pinned_rotary.toml"
-    path.write_text(HEAD.format(name="pinned_rotary") + f"""
+    path.write_text(
+        HEAD.format(name="pinned_rotary")
+        + f"""
 [[bodies]]
 name = "beam"
 length = 1.0
@@ -361,16 +405,20 @@ e = {{ kind = "energy" }}
 [simulation]
 t_end = 1.0
 output_step = 0.5
-""")
+"""
+    )
     grid = np.linspace(0.5, 7.0, 2000)
     d = [_pinned_beam_with_end_inertias(b, inertia) for b in grid]
-    roots = [brentq(_pinned_beam_with_end_inertias, grid[i], grid[i + 1], args=(inertia,))
-             for i in range(len(grid) - 1) if d[i] * d[i + 1] < 0]
+    roots = [
+        brentq(_pinned_beam_with_end_inertias, grid[i], grid[i + 1], args=(inertia,))
+        for i in range(len(grid) - 1)
+        if d[i] * d[i + 1] < 0
+    ]
     exact = np.array(roots[:3]) ** 2 * math.sqrt(mu)
-    assert exact[0] < 0.9 * math.pi ** 2                      # the inertias matter
+    assert exact[0] < 0.9 * math.pi**2  # the inertias matter
     got = modes(mechanism(path), 0.0, shapes=False).frequencies("transverse", "beam")[:3]
     rel = got / exact - 1
-    assert np.abs(rel[:2]).max() < 1e-6 and 0 <= rel[2] < 5e-4, (got, exact)   # Ritz: from above
+    assert np.abs(rel[:2]).max() < 1e-6 and 0 <= rel[2] < 5e-4, (got, exact)  # Ritz: from above
 
 
 def test_angle_driver_reports_the_motor_torque_rotor_included(tmp_path):
@@ -378,17 +426,20 @@ def test_angle_driver_reports_the_motor_torque_rotor_included(tmp_path):
     path = _scene(tmp_path, "angle_rotor")
     text = path.read_text().replace('kind = "torque"', 'kind = "angle"').replace(f"value = {T}\n", "")
     text = text.replace("initial = 0.0\nrotor_inertia", 'law = "0.5*sin(tau)"\nrotor_inertia')
-    text = text.replace('energy = { kind = "energy" }',
-                        'energy = { kind = "energy" }\ntorque = { kind = "driver_torque" }')
+    text = text.replace(
+        'energy = { kind = "energy" }', 'energy = { kind = "energy" }\ntorque = { kind = "driver_torque" }'
+    )
     path.write_text(text)
     res = simulate_scene(path)
     exact = -(I_BAR + J) * 0.5 * np.sin(res.tau)
     assert np.abs(res.column("torque") - exact).max() < 1e-8
     theta_d = 0.5 * np.cos(res.tau)
-    assert np.abs(res.column("energy") - (I_BAR + J) * theta_d ** 2 / 2).max() < 1e-10
+    assert np.abs(res.column("energy") - (I_BAR + J) * theta_d**2 / 2).max() < 1e-10
 
 
-FOUR_BAR = HEAD.format(name="{name}") + """
+FOUR_BAR = (
+    HEAD.format(name="{name}")
+    + """
 [[bodies]]
 name = "crank"
 length = 0.3
@@ -450,6 +501,7 @@ output_step = 0.5
 rtol = 1e-10
 atol = 1e-12
 """
+)
 
 
 def test_four_bar_rotor_equals_the_same_inertia_lumped_at_the_crank_pivot(tmp_path):
@@ -461,9 +513,9 @@ def test_four_bar_rotor_equals_the_same_inertia_lumped_at_the_crank_pivot(tmp_pa
         path.write_text(FOUR_BAR.format(name=f"fb_{route}", rotor=rotor, pivot=pivot))
         runs[route] = simulate_scene(path)
     a, b, bare = runs["rotor"], runs["pivot"], runs["bare"]
-    for col in ("theta", "rocker", "energy"):      # equal to the integration's error (rtol 1e-10)
+    for col in ("theta", "rocker", "energy"):  # equal to the integration's error (rtol 1e-10)
         assert np.abs(a.column(col) - b.column(col)).max() < 1e-8 * np.abs(a.column(col)).max(), col
     theta = a.column("theta")
-    assert theta[-1] - theta[0] > 1.0                                        # a real motion
+    assert theta[-1] - theta[0] > 1.0  # a real motion
     assert np.abs(a.column("energy") - a.column("energy")[0] - 0.05 * (theta - theta[0])).max() < 1e-7
-    assert bare.column("theta")[-1] > theta[-1] + 0.05                      # the inertia counts
+    assert bare.column("theta")[-1] > theta[-1] + 0.05  # the inertia counts

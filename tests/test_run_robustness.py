@@ -2,6 +2,7 @@
 progress watchdog of the IDAS runs: a run whose steps shrink to nothing stops
 in seconds naming where and why, and a chunk that IDAS could not finish in one call but can
 output by output goes on (it ended the run, at a wrong tau, after 2 million steps)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -37,7 +38,7 @@ def test_a_stalled_run_stops_naming_tau_and_the_likely_cause(monkeypatch):
     err = info.value
     assert "no progress: IDAS took more than 3 steps within the output step from tau = " in str(err), err
     assert err.tau is not None and err.partial is not None and len(err.partial.tau) >= 1
-    assert "near-singular" not in str(err)      # the slider-crank is far from its toggles here
+    assert "near-singular" not in str(err)  # the slider-crank is far from its toggles here
 
 
 def test_simulate_shows_its_progress_on_a_terminal(monkeypatch):
@@ -56,7 +57,7 @@ def test_simulate_shows_its_progress_on_a_terminal(monkeypatch):
     assert "simulate" in term.getvalue() and "output" in term.getvalue()
     quiet = Terminal()
     monkeypatch.setattr("sys.stderr", quiet)
-    simulate(mech, backend="vm")                # the API's default: no bar
+    simulate(mech, backend="vm")  # the API's default: no bar
     assert quiet.getvalue() == ""
 
 

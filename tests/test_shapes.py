@@ -5,6 +5,7 @@ cancellation-free form ``A e^{b x} + B e^{-b x} - cos(b x) + sigma sin(b x)`` wi
 ``1 - sigma`` from its own stable formula and roots from ``scipy.optimize.brentq``), and
 every inner product is checked against ``scipy.integrate.quad`` of them.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -41,19 +42,19 @@ def _poly(coeffs: dict[int, float]) -> Fn:
             if p >= d:
                 tot += c * math.perm(p, d) * x ** (p - d)
         return tot
+
     return f
 
 
 def _sin(w: float) -> Fn:
     """sin(w x) and its derivatives."""
-    return lambda x, d=0: w ** d * math.sin(w * x + d * math.pi / 2)
+    return lambda x, d=0: w**d * math.sin(w * x + d * math.pi / 2)
 
 
 def oracle_roots(n: int) -> list[float]:
     """Roots of cos b cosh b = -1 by bracketing, one in each ((k-1) pi, k pi)."""
     f = lambda b: math.cos(b) + 1.0 / math.cosh(b)
-    return [optimize.brentq(f, (k - 1) * math.pi + 1e-9, k * math.pi, xtol=1e-15, rtol=1e-15)
-            for k in range(1, n + 1)]
+    return [optimize.brentq(f, (k - 1) * math.pi + 1e-9, k * math.pi, xtol=1e-15, rtol=1e-15) for k in range(1, n + 1)]
 
 
 def _eigen(beta: float) -> Fn:
@@ -63,9 +64,12 @@ def _eigen(beta: float) -> Fn:
     A, B = one_minus_sigma / 2, 1.0 - one_minus_sigma / 2
 
     def raw(x: float, d: int = 0) -> float:
-        return (A * beta ** d * math.exp(beta * x) + B * (-beta) ** d * math.exp(-beta * x)
-                - beta ** d * math.cos(beta * x + d * math.pi / 2)
-                + sigma * beta ** d * math.sin(beta * x + d * math.pi / 2))
+        return (
+            A * beta**d * math.exp(beta * x)
+            + B * (-beta) ** d * math.exp(-beta * x)
+            - beta**d * math.cos(beta * x + d * math.pi / 2)
+            + sigma * beta**d * math.sin(beta * x + d * math.pi / 2)
+        )
 
     tip = raw(1.0)
     return lambda x, d=0: raw(x, d) / tip
@@ -185,8 +189,9 @@ def test_exact_tables_agree_with_floats(case):
     exact_family = frame == "pinned-pinned" or tfam == "polynomial"
     if exact_family:  # no Float anywhere
         for name in ("gram", "Kt", "C3", "D4"):
-            assert not any(isinstance(e, sympy.Float) or e.atoms(sympy.Float)
-                           for e in sympy.flatten(ip.exact[name].tolist())), name
+            assert not any(
+                isinstance(e, sympy.Float) or e.atoms(sympy.Float) for e in sympy.flatten(ip.exact[name].tolist())
+            ), name
 
 
 def test_exact_values():
@@ -198,17 +203,17 @@ def test_exact_values():
     assert sympy.simplify(g[3, 3] - sympy.Rational(1, 2)) == 0
     assert sympy.simplify(g[2, 2] - sympy.Rational(1, 2)) == 0
     assert sympy.simplify(g[0, 2] - 2 / pi) == 0
-    assert sympy.simplify(ip.exact["Kt"][0, 0] - pi ** 4 / 2) == 0
-    assert sympy.simplify(ip.exact["Ka"][0, 0] - pi ** 2 / 8) == 0
-    assert sympy.simplify(ip.exact["Pd"][0, 0] - pi ** 2 / 2) == 0
-    assert sympy.simplify(ip.exact["D4"][0, 0, 0, 0] - 3 * pi ** 4 / 8) == 0  # int pi^4 cos^4
+    assert sympy.simplify(ip.exact["Kt"][0, 0] - pi**4 / 2) == 0
+    assert sympy.simplify(ip.exact["Ka"][0, 0] - pi**2 / 8) == 0
+    assert sympy.simplify(ip.exact["Pd"][0, 0] - pi**2 / 2) == 0
+    assert sympy.simplify(ip.exact["D4"][0, 0, 0, 0] - 3 * pi**4 / 8) == 0  # int pi^4 cos^4
     assert ip.exact["psid1"][0, 0] == 0
     # int (pi/2) cos(pi x/2) pi^2 cos^2(pi x) dx = pi^2 (1/2 + ... ) closed form by sympy
     x = S.XI
-    ref = sympy.integrate(pi / 2 * sympy.cos(pi * x / 2) * pi ** 2 * sympy.cos(pi * x) ** 2, (x, 0, 1))
+    ref = sympy.integrate(pi / 2 * sympy.cos(pi * x / 2) * pi**2 * sympy.cos(pi * x) ** 2, (x, 0, 1))
     assert sympy.simplify(ip.exact["C3"][0, 0, 0] - ref) == 0
     assert ip.gram[2, 3] == pytest.approx(4 / (3 * math.pi), rel=1e-15)
-    assert ip.Kt[0, 0] == pytest.approx(math.pi ** 4 / 2, rel=1e-15)
+    assert ip.Kt[0, 0] == pytest.approx(math.pi**4 / 2, rel=1e-15)
 
 
 def test_polynomial_exact_values():
@@ -249,7 +254,7 @@ def test_eigen_orthogonality_and_rayleigh_quotient():
     kscale = np.sqrt(np.outer(np.diag(K), np.diag(K)))
     assert np.max(np.abs(K[off] / kscale[off])) < 1e-13
     betas = np.array([f.beta for f in t.functions])
-    assert np.allclose(np.diag(K), betas ** 4 * np.diag(G), rtol=1e-13)
+    assert np.allclose(np.diag(K), betas**4 * np.diag(G), rtol=1e-13)
     # tip normalisation recorded
     for f in t.functions:
         assert abs(abs(f.tip_value) - 2.0) < 0.05  # |X_k(1)| -> 2 for clamped-free
@@ -343,14 +348,17 @@ def test_boundary_conditions(spec, oracle):
             assert np.allclose(v1, 1.0, atol=1e-13)  # normalised tip value
         for f in basis.functions:
             if f.beta is not None:  # free end of an eigenfunction: no moment, no shear
-                assert abs(f.value(1.0, 2)) < 1e-9 * f.beta ** 2
-                assert abs(f.value(1.0, 3)) < 1e-9 * f.beta ** 3
+                assert abs(f.value(1.0, 2)) < 1e-9 * f.beta**2
+                assert abs(f.value(1.0, 3)) < 1e-9 * f.beta**3
 
 
 def test_empty_bases_and_validation():
-    for b in (S.axial_basis("complete", 0), S.axial_basis("stress-free", 0),
-              S.transverse_basis("cantilever", "modes", 0, tip_joint=True),
-              S.transverse_basis("pinned-pinned", "polynomial", 0)):
+    for b in (
+        S.axial_basis("complete", 0),
+        S.axial_basis("stress-free", 0),
+        S.transverse_basis("cantilever", "modes", 0, tip_joint=True),
+        S.transverse_basis("pinned-pinned", "polynomial", 0),
+    ):
         assert len(b) == 0 and b.values(0.5).shape == (0,)
     ip = C.inner_products(S.axial_basis("complete", 0), S.transverse_basis("cantilever", "eigen", 0))
     assert ip.gram.shape == (2, 2) and ip.C3.shape == (0, 0, 0) and ip.D4.shape == (0, 0, 0, 0)
@@ -413,8 +421,10 @@ def test_disk_cache_round_trip_and_corrupt_file(tmp_path, monkeypatch, capsys):
     assert sorted(p.name for p in (tmp_path / "shapes").iterdir()) == [files[0].name]  # no temp files left
 
     from symgen import cache  # a verified entry written for another key is not used
-    files[0].write_bytes(cache.pack("shapes", files[0].read_bytes().split(b"\n", 1)[1].replace(
-        files[0].stem.encode(), b"someone else")))
+
+    files[0].write_bytes(
+        cache.pack("shapes", files[0].read_bytes().split(b"\n", 1)[1].replace(files[0].stem.encode(), b"someone else"))
+    )
     C.clear_memory_cache()
     C.inner_products(a, t)
     assert len(calls) == 3
@@ -429,8 +439,10 @@ def test_memory_cache_keyed_by_parameters(tmp_path, monkeypatch):
     ip_a = C.inner_products(a, S.transverse_basis("cantilever", "modes", 2, tip_joint=True))
     ip_b = C.inner_products(a, S.transverse_basis("cantilever", "modes", 2, tip_joint=False))
     assert ip_a is not ip_b and not np.allclose(ip_a.gram, ip_b.gram)
-    assert C.inner_products(S.axial_basis("stress-free", 2),
-                            S.transverse_basis("cantilever", "modes", 2, tip_joint=True)) is ip_a
+    assert (
+        C.inner_products(S.axial_basis("stress-free", 2), S.transverse_basis("cantilever", "modes", 2, tip_joint=True))
+        is ip_a
+    )
     assert len(list((tmp_path / "shapes").iterdir())) == 2
     C.clear_memory_cache()
 
@@ -438,12 +450,14 @@ def test_memory_cache_keyed_by_parameters(tmp_path, monkeypatch):
 def test_half_items_fold_conjugate_pairs_of_exact_terms_too():
     """``Re sum c e^{s xi}`` over the folded terms is the function, for exact coefficients as for
     mpc ones (the exact form raised a TypeError on ``2 * Exact``)."""
-    t = T.sin_terms(3)                                # sin(3 pi xi / 2): one conjugate exponent pair
+    t = T.sin_terms(3)  # sin(3 pi xi / 2): one conjugate exponent pair
     assert t.exact
     folded = {"exact": t.half_items(), "mp": t.as_mp().half_items()}
     assert len(folded["exact"]) == len(folded["mp"]) == 1
     for form, items in folded.items():
         for xi in (0.0, 0.3, 0.71, 1.0):
-            value = sum(complex((c.to_mp() if form == "exact" else c) * mpmath.exp(T.s_value(s) * xi))
-                        * xi ** p for p, s, c in items).real
+            value = sum(
+                complex((c.to_mp() if form == "exact" else c) * mpmath.exp(T.s_value(s) * xi)) * xi**p
+                for p, s, c in items
+            ).real
             assert value == pytest.approx(math.sin(1.5 * math.pi * xi), abs=1e-14), (form, xi)

@@ -6,6 +6,7 @@
 * ``simulate(axial_atol=...)`` (no error control on the axial amplitudes) takes far fewer IDAS
   steps on the seed's slider-crank at rtol 1e-4 and keeps the midspan deflection within 1 %.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -16,8 +17,14 @@ from symgen.api import mechanism
 from symgen.numerics.simulate import DaeRunner, simulate
 
 ROOT = Path(__file__).resolve().parent.parent
-ACCURATE = ["effects.axial=true", "effects.strain=von_karman", "bodies.rod.axial_shapes=complete",
-            "bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=2", "simulation.cycles=0.25"]
+ACCURATE = [
+    "effects.axial=true",
+    "effects.strain=von_karman",
+    "bodies.rod.axial_shapes=complete",
+    "bodies.rod.axial_modes=3",
+    "bodies.rod.transverse_modes=2",
+    "simulation.cycles=0.25",
+]
 
 
 def test_batched_outputs_match_one_at_a_time():
@@ -36,10 +43,20 @@ def test_batched_outputs_match_one_at_a_time():
         out = mech.call("out", t, q, v, a, lam)
         assert np.allclose(out, res.outputs[i], rtol=1e-9, atol=1e-12)
     # a batched polish of perturbed columns lands where polish of each column does
-    X = np.stack([run.pack(res.q[i], res.v[i], mech.accelerations(res.tau[i], res.q[i], res.v[i])[0],
-                           res.lam[i])[0] for i in (1, 2, 3)], axis=1)
-    Z0 = np.stack([run.pack(res.q[i], res.v[i], mech.accelerations(res.tau[i], res.q[i], res.v[i])[0],
-                            res.lam[i])[1] for i in (1, 2, 3)], axis=1) * (1 + 1e-6)
+    X = np.stack(
+        [
+            run.pack(res.q[i], res.v[i], mech.accelerations(res.tau[i], res.q[i], res.v[i])[0], res.lam[i])[0]
+            for i in (1, 2, 3)
+        ],
+        axis=1,
+    )
+    Z0 = np.stack(
+        [
+            run.pack(res.q[i], res.v[i], mech.accelerations(res.tau[i], res.q[i], res.v[i])[0], res.lam[i])[1]
+            for i in (1, 2, 3)
+        ],
+        axis=1,
+    ) * (1 + 1e-6)
     p = np.concatenate([mech.p, [0.0]])
     ts = res.tau[[1, 2, 3]]
     Zb = run.polish_many(ts, X, Z0, p)

@@ -22,6 +22,7 @@ With 2 transverse functions per bar (the count of the other steel benchmark scen
 model is 0.34 % and 0.33 % off; sines alone 4.1 % and 2.4 % (3 functions: 0.69 % / 0.41 %):
 ``test_two_functions_within_one_percent`` checks both.
 """
+
 from __future__ import annotations
 
 import math
@@ -34,17 +35,24 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_sixbar import load_reference  # noqa: E402  (one reader of the stored references)
+
 SCENE = ROOT / "benchmarks" / "scenes" / "six_bar_steel.toml"
 DATA = ROOT / "tests" / "data"
 ELASTIC = ("coupler", "link")
 INERTIA = 2.25e-11
-VARIANTS = {"scene": ([], DATA / "six_bar_reference.csv", 1.0),
-            "stiff10": ([f"bodies.{b}.inertia={10 * INERTIA:g}" for b in ELASTIC],
-                        DATA / "six_bar_reference_stiff10.csv", 10.0)}
+VARIANTS = {
+    "scene": ([], DATA / "six_bar_reference.csv", 1.0),
+    "stiff10": (
+        [f"bodies.{b}.inertia={10 * INERTIA:g}" for b in ELASTIC],
+        DATA / "six_bar_reference_stiff10.csv",
+        10.0,
+    ),
+}
 
 
 def _scene_outputs() -> tuple[list[str], float]:
     import tomllib
+
     with open(SCENE, "rb") as f:
         raw = tomllib.load(f)
     return list(raw["outputs"]), float(raw["scene"]["omega"])
@@ -66,7 +74,7 @@ def test_stored_reference_is_sound(variant):
     for key in ("exudyn_version", "date", "elements_coupler", "elements_link", "steps_per_turn"):
         assert key in meta, key
     assert float(meta["stiffness_factor"]) == factor
-    assert int(meta["elements_coupler"]) % 4 == 0        # quarter points and midspan are nodes
+    assert int(meta["elements_coupler"]) % 4 == 0  # quarter points and midspan are nodes
     figure = float(meta["convergence"])
     assert figure == max(float(meta["convergence_elements"]), float(meta["convergence_steps"]))
     assert figure < 2e-3, f"the reference's own convergence {figure:.2e} is not below 0.2 %"
@@ -75,6 +83,7 @@ def test_stored_reference_is_sound(variant):
 def _symgen_error(variant: str, extra: tuple = ()) -> tuple[float, dict]:
     from symgen.api import mechanism, results_table
     from symgen.numerics.simulate import simulate
+
     over, path, _ = VARIANTS[variant]
     over = list(over) + list(extra)
     _, ref = load_reference(path)
@@ -82,7 +91,7 @@ def _symgen_error(variant: str, extra: tuple = ()) -> tuple[float, dict]:
     mech = mechanism(SCENE, over)
     res = simulate(mech)
     assert res.complete, res.failure
-    cols = results_table(res, mech.scene)                 # SI: t in s, deflections in m
+    cols = results_table(res, mech.scene)  # SI: t in s, deflections in m
     deg = np.asarray(cols["t"]) * omega / (math.pi / 180)
     idx = np.rint(deg).astype(int)
     keep = np.abs(deg - idx) < 1e-6

@@ -4,6 +4,7 @@ Oracle: a converged finer model (6 axial + 8 transverse functions) of the same e
 Midspan deflection is compared over the first turns (an early window: late in an undamped run
 the axial ringing makes pointwise comparisons measure phase, not accuracy).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,8 +19,10 @@ ACCURATE = ["effects.strain=von_karman", "bodies.rod.axial_shapes=complete"]
 
 
 def midspan(extra, na, nt, cycles=1):
-    res = simulate_scene(SCENE, [*extra, f"bodies.rod.axial_modes={na}", f"bodies.rod.transverse_modes={nt}",
-                                 f"simulation.cycles={cycles}"])
+    res = simulate_scene(
+        SCENE,
+        [*extra, f"bodies.rod.axial_modes={na}", f"bodies.rod.transverse_modes={nt}", f"simulation.cycles={cycles}"],
+    )
     return res.column("eta_mid")
 
 
@@ -66,8 +69,11 @@ def test_defaults_are_the_accurate_model_and_do_not_lock(tmp_path):
     assert scene.effects.strain == Effects().strain == "von_karman"
     assert scene.body("rod").axial_shapes == "complete"
     fine = np.abs(midspan(ACCURATE, 6, 8)).max()
-    default = np.abs(simulate_scene(path, ["bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4",
-                                            "simulation.cycles=1"]).column("eta_mid")).max()
+    default = np.abs(
+        simulate_scene(
+            path, ["bodies.rod.axial_modes=3", "bodies.rod.transverse_modes=4", "simulation.cycles=1"]
+        ).column("eta_mid")
+    ).max()
     stress_free = np.abs(midspan(["effects.strain=von_karman"], 3, 4)).max()
     assert abs(default - fine) / fine < 5e-3
     assert abs(stress_free - fine) / fine < 5e-3

@@ -4,6 +4,7 @@ Oracles: the simply supported beam ((k pi)^2 sqrt(mu) for a span equal to the gu
 independent Rayleigh-Ritz computation of the frozen-beta guide by numerical quadrature, the
 symgen pinned-pinned bar of the same span, and a hand estimate of the slider mass's effect.
 """
+
 from __future__ import annotations
 
 import math
@@ -125,8 +126,9 @@ output_step = 0.05
     q, v, a, lam, _ = mech.initial_state()
     amp = list(mech.info.indices(CoordKind.G))
     r0 = mech.call("res", 0.0, q, v, a, lam)[amp]
-    K = np.column_stack([(mech.call("res", 0.0, q + 1e-7 * np.eye(len(q))[i], v, a, lam)[amp] - r0) / 1e-7
-                         for i in amp])
+    K = np.column_stack(
+        [(mech.call("res", 0.0, q + 1e-7 * np.eye(len(q))[i], v, a, lam)[amp] - r0) / 1e-7 for i in amp]
+    )
     M = np.column_stack([mech.call("res", 0.0, q, v, a + np.eye(len(q))[i], lam)[amp] - r0 for i in amp])
     w_plain = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real))
     np.testing.assert_allclose(w_slot, w_plain, rtol=1e-6)
@@ -149,17 +151,29 @@ def test_frozen_slot_with_overhang_matches_independent_rayleigh_ritz(tmp_path, d
         return [slope * (x - beta), slope, 0.0][der]
 
     n = 3
-    M = np.array([[quad(lambda x: psi(i, x) * psi(j, x), 0, beta)[0] + quad(lambda x: psi(i, x) * psi(j, x), beta, 1)[0]
-                   for j in range(1, n + 1)] for i in range(1, n + 1)])
-    K = mu * np.array([[quad(lambda x: psi(i, x, 2) * psi(j, x, 2), 0, beta, limit=200)[0]
-                        for j in range(1, n + 1)] for i in range(1, n + 1)])
+    M = np.array(
+        [
+            [
+                quad(lambda x: psi(i, x) * psi(j, x), 0, beta)[0] + quad(lambda x: psi(i, x) * psi(j, x), beta, 1)[0]
+                for j in range(1, n + 1)
+            ]
+            for i in range(1, n + 1)
+        ]
+    )
+    K = mu * np.array(
+        [
+            [quad(lambda x: psi(i, x, 2) * psi(j, x, 2), 0, beta, limit=200)[0] for j in range(1, n + 1)]
+            for i in range(1, n + 1)
+        ]
+    )
     expected = np.sqrt(np.sort(np.linalg.eigvals(np.linalg.solve(M, K)).real))
     np.testing.assert_allclose(w, expected, rtol=1e-6)
 
 
 def test_inverted_slider_crank_closes_over_ten_turns():
-    res = simulate_scene("examples/inverted_slider_crank.toml",
-                         ["simulation.cycles=10", "simulation.output_step=0.0698131700797732"])
+    res = simulate_scene(
+        "examples/inverted_slider_crank.toml", ["simulation.cycles=10", "simulation.output_step=0.0698131700797732"]
+    )
     assert res.tau[-1] == pytest.approx(20 * math.pi)
     assert res.closure_max <= 1e-10
     # the guide swings +-30 degrees (asin(crank / pivot distance) = asin(1/2))

@@ -7,6 +7,7 @@ come from a fine Hermite-cubic finite-element model written here (no symgen code
 guide's Galerkin matrices are the closed-form inner products of ``slot.SlotIPTable``
 evaluated at that beta.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -31,9 +32,9 @@ def _matrices(nspan: int, nover: int, beta: float):
     nt = basis.nt
     at = {BETA: beta}
     K = np.array(ipt.Kt.xreplace(at).evalf(), dtype=float)
-    M = np.array(ipt.G[2:2 + nt, 2:2 + nt].xreplace(at).evalf(), dtype=float)
-    load = np.array(ipt.G[0, 2:2 + nt].xreplace(at).evalf(), dtype=float).ravel()      # (psi_k, 1)
-    tip = np.array([float(basis.expr(k, 1.0).xreplace(at)) for k in range(nt)])         # psi_k(1)
+    M = np.array(ipt.G[2 : 2 + nt, 2 : 2 + nt].xreplace(at).evalf(), dtype=float)
+    load = np.array(ipt.G[0, 2 : 2 + nt].xreplace(at).evalf(), dtype=float).ravel()  # (psi_k, 1)
+    tip = np.array([float(basis.expr(k, 1.0).xreplace(at)) for k in range(nt)])  # psi_k(1)
     return K, M, load, tip
 
 
@@ -45,16 +46,36 @@ def _tip_deflections(nspan: int, nover: int, beta: float) -> tuple[float, float]
 
 def _fe_frequencies(beta: float, n: int = 120) -> np.ndarray:
     """First three frequencies of the pinned / supported-at-beta / free beam (EI = m = 1)."""
-    xs = np.unique(np.concatenate([np.linspace(0.0, beta, round(n * beta) + 1),
-                                   np.linspace(beta, 1.0, round(n * (1 - beta)) + 1)]))
+    xs = np.unique(
+        np.concatenate([np.linspace(0.0, beta, round(n * beta) + 1), np.linspace(beta, 1.0, round(n * (1 - beta)) + 1)])
+    )
     N = len(xs)
     K, M = np.zeros((2 * N, 2 * N)), np.zeros((2 * N, 2 * N))
     for e in range(N - 1):
         L = xs[e + 1] - xs[e]
-        k = np.array([[12, 6 * L, -12, 6 * L], [6 * L, 4 * L * L, -6 * L, 2 * L * L],
-                      [-12, -6 * L, 12, -6 * L], [6 * L, 2 * L * L, -6 * L, 4 * L * L]]) / L ** 3
-        m = L / 420 * np.array([[156, 22 * L, 54, -13 * L], [22 * L, 4 * L * L, 13 * L, -3 * L * L],
-                                [54, 13 * L, 156, -22 * L], [-13 * L, -3 * L * L, -22 * L, 4 * L * L]])
+        k = (
+            np.array(
+                [
+                    [12, 6 * L, -12, 6 * L],
+                    [6 * L, 4 * L * L, -6 * L, 2 * L * L],
+                    [-12, -6 * L, 12, -6 * L],
+                    [6 * L, 2 * L * L, -6 * L, 4 * L * L],
+                ]
+            )
+            / L**3
+        )
+        m = (
+            L
+            / 420
+            * np.array(
+                [
+                    [156, 22 * L, 54, -13 * L],
+                    [22 * L, 4 * L * L, 13 * L, -3 * L * L],
+                    [54, 13 * L, 156, -22 * L],
+                    [-13 * L, -3 * L * L, -22 * L, 4 * L * L],
+                ]
+            )
+        )
         idx = np.arange(2 * e, 2 * e + 4)
         K[np.ix_(idx, idx)] += k
         M[np.ix_(idx, idx)] += m
@@ -75,21 +96,21 @@ def test_fe_oracle_is_converged():
 @pytest.mark.parametrize("beta", [0.5, 0.6, 0.75])
 def test_static_overhang_tip_deflection_matches_closed_forms(beta):
     span, over = beta, 1.0 - beta
-    tip_load = over ** 2 * (span + over) / 3                                  # P c^2 (l + c) / 3EI
-    uniform = over * (4 * over ** 2 * span + 3 * over ** 3 - span ** 3) / 24  # w c (4c^2 l + 3c^3 - l^3) / 24EI
-    d_tip, d_uni = _tip_deflections(2, 4, beta)                               # the defaults
+    tip_load = over**2 * (span + over) / 3  # P c^2 (l + c) / 3EI
+    uniform = over * (4 * over**2 * span + 3 * over**3 - span**3) / 24  # w c (4c^2 l + 3c^3 - l^3) / 24EI
+    d_tip, d_uni = _tip_deflections(2, 4, beta)  # the defaults
     assert d_tip == pytest.approx(tip_load, rel=5e-3)
     assert d_uni == pytest.approx(uniform, rel=5e-3)
-    r_tip, _ = _tip_deflections(2, 0, beta)                                   # the seed's rigid overhang
-    assert abs(r_tip / tip_load - 1) > 0.2       # it misses the overhang's own bending
+    r_tip, _ = _tip_deflections(2, 0, beta)  # the seed's rigid overhang
+    assert abs(r_tip / tip_load - 1) > 0.2  # it misses the overhang's own bending
 
 
 @pytest.mark.parametrize("beta", [0.5, 0.6, 0.75])
 def test_frequencies_match_finite_elements(beta):
     ref = _fe_frequencies(beta)
-    assert _frequencies(2, 4, beta) == pytest.approx(ref, rel=5e-3)           # the defaults: three
-    assert _frequencies(2, 3, beta)[:2] == pytest.approx(ref[:2], rel=5e-3)    # three functions: two
-    if beta <= 0.6:                               # overhang >= 2/3 span: the rigid one is far off
+    assert _frequencies(2, 4, beta) == pytest.approx(ref, rel=5e-3)  # the defaults: three
+    assert _frequencies(2, 3, beta)[:2] == pytest.approx(ref[:2], rel=5e-3)  # three functions: two
+    if beta <= 0.6:  # overhang >= 2/3 span: the rigid one is far off
         assert abs(_frequencies(2, 0, beta)[0] / ref[0] - 1) > 0.1
 
 
@@ -111,9 +132,14 @@ def test_rigid_overhang_keeps_the_seed_matrices():
     """overhang = "rigid" (no overhang functions) gives the seed's inner products: the
     stiffness over the overhang adds nothing for the tangent continuation."""
     ipt = SlotIPTable(SlotBasis(2, BETA, 0))
-    span_only = sp.Matrix(2, 2, lambda i, j: sp.integrate(
-        sp.diff(sp.sin((i + 1) * sp.pi * XI / BETA), XI, 2) * sp.diff(sp.sin((j + 1) * sp.pi * XI / BETA), XI, 2),
-        (XI, 0, BETA)))
+    span_only = sp.Matrix(
+        2,
+        2,
+        lambda i, j: sp.integrate(
+            sp.diff(sp.sin((i + 1) * sp.pi * XI / BETA), XI, 2) * sp.diff(sp.sin((j + 1) * sp.pi * XI / BETA), XI, 2),
+            (XI, 0, BETA),
+        ),
+    )
     assert sp.simplify(ipt.Kt - span_only) == sp.zeros(2, 2)
 
 
@@ -127,7 +153,7 @@ def test_elastic_overhang_is_the_default(tmp_path):
 
 
 def test_scene_keys_default_and_rigid():
-    scene = load_scene(SCENE, ["joints.A.overhang=elastic"])      # the example sets the seed's form
+    scene = load_scene(SCENE, ["joints.A.overhang=elastic"])  # the example sets the seed's form
     guide = scene.body("guide")
     assert overhang_modes(scene, guide) == 4
     assert effective_modes(scene, guide) == (0, guide.transverse_modes + 4)
@@ -137,13 +163,16 @@ def test_scene_keys_default_and_rigid():
     assert overhang_modes(load_scene(SCENE, ["joints.A.overhang=elastic", "joints.A.overhang_modes=5"]), guide) == 5
 
 
-@pytest.mark.parametrize("override, key", [
-    (["joints.A.overhang=bent"], "joints.A.overhang"),
-    (["joints.A.overhang=elastic", "joints.A.overhang_modes=0"], "joints.A.overhang_modes"),
-    (["joints.A.overhang=elastic", "joints.A.overhang_modes=6"], "joints.A.overhang_modes"),   # nearly dependent
-    (["joints.A.overhang_modes=2"], "joints.A.overhang_modes"),               # the file's overhang is rigid
-    (["joints.O.overhang=rigid"], "joints.O.overhang"),
-])
+@pytest.mark.parametrize(
+    "override, key",
+    [
+        (["joints.A.overhang=bent"], "joints.A.overhang"),
+        (["joints.A.overhang=elastic", "joints.A.overhang_modes=0"], "joints.A.overhang_modes"),
+        (["joints.A.overhang=elastic", "joints.A.overhang_modes=6"], "joints.A.overhang_modes"),  # nearly dependent
+        (["joints.A.overhang_modes=2"], "joints.A.overhang_modes"),  # the file's overhang is rigid
+        (["joints.O.overhang=rigid"], "joints.O.overhang"),
+    ],
+)
 def test_bad_overhang_keys_are_scene_errors(override, key):
     with pytest.raises(SceneError) as err:
         load_scene(SCENE, override)
@@ -184,6 +213,10 @@ def test_latex_of_the_elastic_overhang_shows_and_gives_back_the_model(tmp_path):
     test_guide_equations_give_back_the_model((scene, model, doc))
     if shutil.which("pdflatex"):
         (tmp_path / "isc.tex").write_text(doc)
-        run = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "isc.tex"],
-                             cwd=tmp_path, capture_output=True, timeout=300)
+        run = subprocess.run(
+            ["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "isc.tex"],
+            cwd=tmp_path,
+            capture_output=True,
+            timeout=300,
+        )
         assert run.returncode == 0

@@ -18,6 +18,7 @@ What holds, pinned here (benchmarks/RESULTS.md "Torque-driven spin-up" has the s
   3 -> 5 axial functions moves the midspan deflection by 8 % of its peak by 16 tau, more
   transverse functions change nothing (``test_axial_functions_converge``, slow).
 """
+
 from __future__ import annotations
 
 
@@ -90,8 +91,10 @@ rtol = {rtol!r}
 atol = {atol!r}
 """
 RIGID_ROD = "rigid = true\nmass_per_length = 1.0"
-ELASTIC_ROD = ('mass_per_length = 1.0\nlambda = {lam!r}\nmu = {mu!r}\nframe = "pinned-pinned"\n'
-               "axial_modes = 3\ntransverse_modes = {nt}")
+ELASTIC_ROD = (
+    'mass_per_length = 1.0\nlambda = {lam!r}\nmu = {mu!r}\nframe = "pinned-pinned"\n'
+    "axial_modes = 3\ntransverse_modes = {nt}"
+)
 
 
 def write(path, rod: str, *, rtol=1e-10, atol=1e-12, t_end=T_END) -> str:
@@ -110,13 +113,24 @@ def rigid_slider_crank(taus):
     gr = sp.Matrix([A * sp.cos(th) + L / 2 * sp.cos(phi), A * sp.sin(th) + L / 2 * sp.sin(phi)])
     xb = A * sp.cos(th) + L * sp.cos(phi)
     # velocity coefficients d(.)/d theta: kinetic energy 1/2 m(theta) omega^2
-    m = (MC * A**2 / 3 + MR * (gr.diff(th).T * gr.diff(th))[0] + MR * L**2 / 12 * sp.diff(phi, th) ** 2
-         + MS * sp.diff(xb, th) ** 2)
+    m = (
+        MC * A**2 / 3
+        + MR * (gr.diff(th).T * gr.diff(th))[0]
+        + MR * L**2 / 12 * sp.diff(phi, th) ** 2
+        + MS * sp.diff(xb, th) ** 2
+    )
     V = G * (MC * gc[1] + MR * gr[1])
     # d/dt(m w) - 1/2 m' w^2 + V' = T  ->  m wdot = T - V' - 1/2 m' w^2
     acc = sp.lambdify((th, w), (TQ - sp.diff(V, th) - sp.diff(m, th) * w**2 / 2) / m, "math")
-    sol = solve_ivp(lambda t, y: (y[1], acc(y[0], y[1])), (0.0, taus[-1]), [0.0, 0.0], t_eval=taus,
-                    rtol=1e-12, atol=1e-12, method="DOP853")
+    sol = solve_ivp(
+        lambda t, y: (y[1], acc(y[0], y[1])),
+        (0.0, taus[-1]),
+        [0.0, 0.0],
+        t_eval=taus,
+        rtol=1e-12,
+        atol=1e-12,
+        method="DOP853",
+    )
     assert sol.success
     energy = sp.lambdify((th, w), m * w**2 / 2 + V, "math")
     return sol.y[0], np.array([energy(a, b) for a, b in sol.y.T])
@@ -128,7 +142,7 @@ def rigid_ref():
     theta, energy = rigid_slider_crank(taus)
     # the oracle's own check: its energy minus the torque's work is constant
     assert np.abs(energy - TQ * theta - energy[0]).max() < 1e-9
-    assert theta[-1] > 60.0            # it did spin up (about 11 turns)
+    assert theta[-1] > 60.0  # it did spin up (about 11 turns)
     return taus, theta
 
 
@@ -143,7 +157,7 @@ def test_rigid_slider_crank_matches_closed_form(tmp_path, rigid_ref):
     print(f"\nrigid |dtheta| {err:.2e}")
     assert err < 1e-6
     E = res.column("energy")
-    assert np.abs(E - TQ * res.column("theta") - E[0]).max() < 1e-6       # measured 1.3e-7 of ~7
+    assert np.abs(E - TQ * res.column("theta") - E[0]).max() < 1e-6  # measured 1.3e-7 of ~7
 
 
 @pytest.mark.slow
@@ -153,8 +167,9 @@ def test_elastic_rod_tends_to_rigid(tmp_path, rigid_ref, scale, bound):
     (a missing term in the slider mass or the gravity on the bar would leave an O(1) gap)."""
     taus, theta = rigid_ref
     t_end = 8.0
-    res = simulate_scene(write(tmp_path, ELASTIC_ROD.format(lam=1e4 * scale, mu=10.0 * scale, nt=2), t_end=t_end,
-                               rtol=1e-10, atol=1e-12))
+    res = simulate_scene(
+        write(tmp_path, ELASTIC_ROD.format(lam=1e4 * scale, mu=10.0 * scale, nt=2), t_end=t_end, rtol=1e-10, atol=1e-12)
+    )
     assert res.complete
     n = len(res.tau)
     err = np.abs(res.column("theta") - theta[:n]).max()
@@ -184,6 +199,7 @@ def test_axial_functions_converge():
     energy lambda/2 ||P eps||^2 (no locking): 3 axial 1.2e-2, 5 axial 2.0e-3 (with the former
     lambda/8 int eta'^4, which locked on the 3-function basis: 8.4e-2 and 2.1e-3)."""
     from pathlib import Path
+
     scene = Path(__file__).resolve().parents[1] / "benchmarks" / "scenes" / "slider_crank_spinup.toml"
     runs = {}
     for na in (3, 5, 9):

@@ -1,5 +1,6 @@
 """A command that fails or is interrupted leaves no complete-looking file of an earlier run
 (issue 22): each case first writes a real result, then reruns the command so that it fails."""
+
 from __future__ import annotations
 
 import json
@@ -53,6 +54,7 @@ def test_a_sweep_interrupted_before_its_first_point_leaves_no_complete_table(tmp
 
     def stop(*args, **kwargs):
         raise Interrupted(signal.SIGINT)
+
     monkeypatch.setattr(sw, "sweep", stop)
     assert _sweep(out) == 130
     assert not out.exists() and not out.with_suffix(".json").exists()
@@ -81,7 +83,7 @@ def test_an_unrelated_file_and_this_runs_partial_result_are_kept(tmp_path):
         p.write_text("old\n")
     with pytest.raises(RuntimeError), stale_removed_on_failure([mine, fresh, tmp_path]):
         fresh.write_text("written by this run, replacing the old one\n")
-        os.replace(fresh, fresh)      # (no-op) the content change alone gives it a new identity
+        os.replace(fresh, fresh)  # (no-op) the content change alone gives it a new identity
         raise RuntimeError("the run failed")
     assert not mine.exists() and other.exists() and fresh.exists() and tmp_path.is_dir()
 
@@ -90,15 +92,27 @@ def test_sigterm_at_the_start_of_simulate_keeps_no_old_result(tmp_path):
     """SIGTERM soon after the start (once the command line is being read): exit 143 and the old
     complete files are gone, never a default-action kill that leaves them."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MPLBACKEND": "Agg"}
-    for delay in (0.4, 0.55, 0.75):   # 0.1 s and more after main() is called
+    for delay in (0.4, 0.55, 0.75):  # 0.1 s and more after main() is called
         out = tmp_path / f"r{delay}.csv"
         out.write_text("tau,x\n0,1\n")
         out.with_suffix(".json").write_text('{"status": "complete"}\n')
-        proc = subprocess.Popen([sys.executable, "-c", "import sys, signal; from symgen.cli import main; "
-                                 "print('ready', flush=True); sys.exit(main(sys.argv[1:]))",
-                                 "simulate", SLIDER, "-o", str(out)],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
-        assert proc.stdout.readline().strip() == "ready"     # symgen.cli imported: main() is next
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-c",
+                "import sys, signal; from symgen.cli import main; "
+                "print('ready', flush=True); sys.exit(main(sys.argv[1:]))",
+                "simulate",
+                SLIDER,
+                "-o",
+                str(out),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        assert proc.stdout.readline().strip() == "ready"  # symgen.cli imported: main() is next
         time.sleep(delay - 0.3)
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=60)

@@ -3,6 +3,7 @@
 Oracles: Euler-Bernoulli closed forms for point-load deflections, and an independent numpy
 Hermite finite-element model for the natural frequencies of a beam with an interior pin.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -28,8 +29,7 @@ def _ritz_static(fs, a, xs):
 def _pp_deflection(x, a):
     """Pinned-pinned beam, unit force at a: P b x (l^2 - b^2 - x^2) / (6 EI l) left of a."""
     b = 1 - a
-    return np.where(x <= a, b * x * (1 - b * b - x * x) / 6,
-                    a * (1 - x) * (1 - a * a - (1 - x) ** 2) / 6)
+    return np.where(x <= a, b * x * (1 - b * b - x * x) / 6, a * (1 - x) * (1 - a * a - (1 - x) ** 2) / 6)
 
 
 def _cantilever_deflection(x, a):
@@ -56,10 +56,10 @@ def test_cantilever_point_load_deflection():
     basis = list(transverse_basis("cantilever", "eigen", 3).functions)
     chi = static_correction("cantilever", A, basis)
     w = _ritz_static(basis + [chi], A, [A, *XS])
-    assert w[0] == pytest.approx(A ** 3 / 3, rel=5e-3)
-    assert np.max(np.abs(w[1:] - _cantilever_deflection(XS, A))) < 5e-3 * A ** 3 / 3
+    assert w[0] == pytest.approx(A**3 / 3, rel=5e-3)
+    assert np.max(np.abs(w[1:] - _cantilever_deflection(XS, A))) < 5e-3 * A**3 / 3
     w0 = _ritz_static(basis, A, [A])
-    assert abs(w0[0] / (A ** 3 / 3) - 1) > 5e-3
+    assert abs(w0[0] / (A**3 / 3) - 1) > 5e-3
 
 
 def test_axial_point_force():
@@ -106,8 +106,10 @@ def test_closed_form_integrals_match_quadrature():
         chi = static_correction(frame, A, basis)
         for f in basis + [chi]:
             for d in (0, 2):
-                num = sum(si.quad(lambda x: chi.value(x, d) * f.value(x, d), lo, hi,
-                                  epsabs=1e-13, epsrel=1e-12)[0] for lo, hi in ((0, A), (A, 1)))
+                num = sum(
+                    si.quad(lambda x: chi.value(x, d) * f.value(x, d), lo, hi, epsabs=1e-13, epsrel=1e-12)[0]
+                    for lo, hi in ((0, A), (A, 1))
+                )
                 assert piecewise_inner(chi, f, d) == pytest.approx(num, rel=1e-9, abs=1e-11)
         # orthogonal (mass) to the others, value 1 at the point
         assert max(abs(piecewise_inner(chi, f)) for f in basis) < 1e-12
@@ -139,6 +141,7 @@ def test_unknown_kind():
 def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
     from symgen.model.shape_cache import inner_products
     from symgen.model.static_shapes import piecewise_inner_products
+
     ba, bt = axial_basis("stress-free", 2), transverse_basis(frame, family, 3)
     ref = inner_products(ba, bt)
     pw = piecewise_inner_products(ba.functions, bt.functions)
@@ -148,6 +151,7 @@ def test_piecewise_inner_products_reproduce_the_exact_engine(frame, family):
 
 def test_piecewise_inner_products_with_corrections_match_quadrature():
     from symgen.model.static_shapes import piecewise_inner_products
+
     ba, bt = axial_basis("stress-free", 2), transverse_basis("pinned-pinned", "modes", 3)
     cha = static_correction("axial", A, ba.functions)
     chi = static_correction("pinned-pinned", A, bt.functions)
@@ -160,9 +164,11 @@ def test_piecewise_inner_products_with_corrections_match_quadrature():
     d1 = psi[3].value
     assert ip.D4[3, 3, 3, 3] == pytest.approx(quad(lambda x: d1(x, 1) ** 4), rel=1e-9)
     assert ip.D4[0, 3, 3, 1] == pytest.approx(
-        quad(lambda x: psi[0].value(x, 1) * d1(x, 1) ** 2 * psi[1].value(x, 1)), rel=1e-9, abs=1e-11)
+        quad(lambda x: psi[0].value(x, 1) * d1(x, 1) ** 2 * psi[1].value(x, 1)), rel=1e-9, abs=1e-11
+    )
     assert ip.C3[2, 3, 0] == pytest.approx(
-        quad(lambda x: cha.value(x, 1) * d1(x, 1) * psi[0].value(x, 1)), rel=1e-9, abs=1e-11)
+        quad(lambda x: cha.value(x, 1) * d1(x, 1) * psi[0].value(x, 1)), rel=1e-9, abs=1e-11
+    )
     assert ip.Ka[2, 2] == pytest.approx(quad(lambda x: cha.value(x, 1) ** 2), rel=1e-9)
     assert ip.gram[1, 2 + 2] == pytest.approx(quad(lambda x: x * cha.value(x)), rel=1e-9)
     assert ip.psid1[3] == pytest.approx(chi.value(1) - chi.value(0), abs=1e-12)

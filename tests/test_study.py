@@ -4,6 +4,7 @@ Checks the files it writes, that errors are measured against the reference (whic
 richest model: a poorer one is worse), that the reference's own convergence rows are there,
 and the error measures on signals with a known answer.
 """
+
 from __future__ import annotations
 
 import csv
@@ -23,7 +24,7 @@ def test_lowpass_keeps_slow_removes_fast():
     t = np.arange(0, 10, dt)
     slow, fast = np.sin(2 * math.pi * 0.5 * t), 0.3 * np.sin(2 * math.pi * 20 * t)
     y = lowpass(slow + fast, dt, cutoff=5.0)
-    inner = slice(100, -100)              # away from the ends
+    inner = slice(100, -100)  # away from the ends
     assert np.abs(y - slow)[inner].max() < 2e-3
     # the pointwise error ignores the fast part, the spectral error too
     assert window_error(slow + fast, slow, dt, 5.0, len(t)) < 2e-2
@@ -34,9 +35,27 @@ def test_lowpass_keeps_slow_removes_fast():
 @pytest.fixture(scope="module")
 def tiny_study(tmp_path_factory):
     out = tmp_path_factory.mktemp("study")
-    code = main(["study", str(ROOT / "examples/slider_crank.toml"), "-o", str(out), "--silent",
-                 "--set", "simulation.cycles=0.25", "--levels", "1+1,3+2,3+3", "--tolerances", "1e-5",
-                 "--ref-rtol", "1e-8", "--repeats", "1", "--window", "0.25"])
+    code = main(
+        [
+            "study",
+            str(ROOT / "examples/slider_crank.toml"),
+            "-o",
+            str(out),
+            "--silent",
+            "--set",
+            "simulation.cycles=0.25",
+            "--levels",
+            "1+1,3+2,3+3",
+            "--tolerances",
+            "1e-5",
+            "--ref-rtol",
+            "1e-8",
+            "--repeats",
+            "1",
+            "--window",
+            "0.25",
+        ]
+    )
     assert code == 0
     return out
 
@@ -52,7 +71,7 @@ def test_study_files_and_reference(tiny_study):
     assert {"error_eta_mid", "error_eps_ax", "error_torque"} <= set(rows[0]) and "error_closure" not in rows[0]
     poor, rich = float(by["1+1 @1e-5"]["error"]), float(by["3+2 @1e-5"]["error"])
     finest = float(by["3+3 @1e-5"]["error"])
-    assert finest < min(poor, rich) / 10     # the reference's level is the closest to it
+    assert finest < min(poor, rich) / 10  # the reference's level is the closest to it
     # von Karman with one axial function (xi) no longer locks (it was > 20 % off): the strain
     # energy is that of the strain the basis can carry
     assert float(by["1+1 @1e-5"]["error_eta_mid"]) < 1e-2
@@ -69,6 +88,7 @@ def test_study_files_and_reference(tiny_study):
 
 def test_pareto_front_is_monotone():
     from symgen.apps.study import Config, Row
+
     rows = []
     for t, e in [(1.0, 0.1), (2.0, 0.2), (3.0, 0.01), (0.5, 0.5), (4.0, 0.02)]:
         r = Row(Config(f"{t}", "modes", (), 1e-6, 1e-8))

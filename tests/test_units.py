@@ -5,6 +5,7 @@ Oracle: the factors are recomputed here from the raw SI data of ``examples/four_
 symgen's scales; the run in SI and the run with ``--units dimensionless`` are compared column by
 column, both ways.
 """
+
 from __future__ import annotations
 
 import json
@@ -31,8 +32,11 @@ def runs(tmp_path_factory):
         extra = [] if units == "SI" else ["--units", "dimensionless"]
         assert main(["simulate", str(FOUR_BAR), "-o", str(csv), *SHORT, *extra]) == 0
         header = csv.read_text().splitlines()[0].split(",")
-        out[units] = (header, np.loadtxt(csv, delimiter=",", skiprows=1),
-                      json.loads(csv.with_suffix(".json").read_text()))
+        out[units] = (
+            header,
+            np.loadtxt(csv, delimiter=",", skiprows=1),
+            json.loads(csv.with_suffix(".json").read_text()),
+        )
     return out
 
 
@@ -40,8 +44,8 @@ def test_si_four_bar_is_the_dimensionless_run_times_the_factors(runs):
     raw = tomllib.loads(FOUR_BAR.read_text())
     omega = raw["scene"]["omega"]
     l0 = raw["scene"]["reference_length"]
-    crank = raw["bodies"][0]                      # the reference bar: the first elastic bar
-    m_ref = crank["density"] * crank["area"]      # kg/m
+    crank = raw["bodies"][0]  # the reference bar: the first elastic bar
+    m_ref = crank["density"] * crank["area"]  # kg/m
     length = {b["name"]: b["length"] for b in raw["bodies"]}
     h_si, si, meta_si = runs["SI"]
     h_nd, nd, meta_nd = runs["dimensionless"]
@@ -49,8 +53,7 @@ def test_si_four_bar_is_the_dimensionless_run_times_the_factors(runs):
     col = {name: k for k, name in enumerate(h_si)}
     # time in s, torque in N m, deflections in m, angles unchanged
     np.testing.assert_allclose(si[:, 0], nd[:, 0] / omega, rtol=1e-14)
-    np.testing.assert_allclose(si[:, col["torque"]], nd[:, col["torque"]] * m_ref * l0 ** 3 * omega ** 2,
-                               rtol=1e-12)
+    np.testing.assert_allclose(si[:, col["torque"]], nd[:, col["torque"]] * m_ref * l0**3 * omega**2, rtol=1e-12)
     np.testing.assert_allclose(si[:, col["coupler_mid"]], nd[:, col["coupler_mid"]] * length["coupler"], rtol=1e-12)
     np.testing.assert_allclose(si[:, col["crank_tip_dx"]], nd[:, col["crank_tip_dx"]] * l0, rtol=1e-12)
     np.testing.assert_array_equal(si[:, col["rocker_angle"]], nd[:, col["rocker_angle"]])
@@ -65,7 +68,7 @@ def test_si_four_bar_is_the_dimensionless_run_times_the_factors(runs):
     # a magnitude check in physical terms: the torque is of order (coupler+rocker mass) r omega^2 r
     peak = np.abs(si[:, col["torque"]]).max()
     masses = sum(b["density"] * b["area"] * b["length"] for b in raw["bodies"][1:])
-    assert 0.1 < peak / (masses * 0.1 ** 2 * omega ** 2) < 10
+    assert 0.1 < peak / (masses * 0.1**2 * omega**2) < 10
 
 
 def test_api_results_table_matches_the_cli(runs):
@@ -80,8 +83,17 @@ def test_api_results_table_matches_the_cli(runs):
 
 
 def test_units_errors(tmp_path, capsys):
-    code = main(["simulate", str(ROOT / "examples" / "slider_crank.toml"), "-o", str(tmp_path / "x.csv"),
-                 "--units", "SI", *SHORT])
+    code = main(
+        [
+            "simulate",
+            str(ROOT / "examples" / "slider_crank.toml"),
+            "-o",
+            str(tmp_path / "x.csv"),
+            "--units",
+            "SI",
+            *SHORT,
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2 and "scene.units" in err and "SI results need an SI scene" in err
     assert list(tmp_path.iterdir()) == []
@@ -101,6 +113,6 @@ def test_sweep_sidecar_gives_the_si_factors_of_the_peaks():
     raw = tomllib.loads(FOUR_BAR.read_text())
     m_ref = raw["bodies"][0]["density"] * raw["bodies"][0]["area"]
     f = _si_factors(fb)
-    assert f["peak_torque"] == {"unit": "N m", "factor": pytest.approx(m_ref * 0.1 ** 3 * 230.0 ** 2)}
+    assert f["peak_torque"] == {"unit": "N m", "factor": pytest.approx(m_ref * 0.1**3 * 230.0**2)}
     assert f["peak_coupler_mid"] == {"unit": "m", "factor": pytest.approx(0.3)}
     assert _si_factors(load_scene(str(ROOT / "examples" / "slider_crank.toml"))) is None

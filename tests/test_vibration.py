@@ -5,6 +5,7 @@ beta_n^2 sqrt(mu) with beta_1 = 1.8751, beta_2 = 4.6941 (clamped-free), in units
 excitation frequency (tau = omega t, mu = EI/(m l^4 omega^2)); the static tip deflection of a
 cantilever under a uniform load group gamma, gamma / (8 mu).
 """
+
 from __future__ import annotations
 
 import math
@@ -211,7 +212,8 @@ def test_von_karman_no_axial_basis_locks(tmp_path):
     mu, gamma = 3.0, 0.02
     for axial in ("true", "auto"):
         for na in (1, 2, 4):
-            path = write_scene(tmp_path / f"c{na}.toml",
-                               STATIC.format(mu=mu, nt=3, na=na, shapes="polynomial", gamma=gamma))
+            path = write_scene(
+                tmp_path / f"c{na}.toml", STATIC.format(mu=mu, nt=3, na=na, shapes="polynomial", gamma=gamma)
+            )
             tip = simulate_scene(path, [f"effects.axial={axial}"]).column("tip")[0]
             assert abs(tip / (gamma / (8 * mu)) - 1) < 1e-3, (axial, na)

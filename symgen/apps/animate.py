@@ -8,6 +8,7 @@ drawn ``factor`` times larger (``geometry`` explains why the bars stay joined).
 GIF through matplotlib's PillowWriter, MP4 through ffmpeg; written to a temporary file and
 renamed, so a failed or interrupted rendering leaves no file that looks complete.
 """
+
 from __future__ import annotations
 
 import csv
@@ -25,8 +26,8 @@ from symgen.ir.info import ModelInfo
 from symgen.numerics.geometry import Geometry, auto_factor, magnified, rigid_reference
 from symgen.numerics.results import states_block
 
-TARGET = 0.1                 # default factor: peak displacement drawn at 10 % of the reference length
-MAX_FRAMES = 150             # default: every output row up to this many frames, else evenly spaced
+TARGET = 0.1  # default factor: peak displacement drawn at 10 % of the reference length
+MAX_FRAMES = 150  # default: every output row up to this many frames, else evenly spaced
 
 
 def _same(a, b, tol: float = 1e-12) -> bool:
@@ -42,13 +43,14 @@ def _same(a, b, tol: float = 1e-12) -> bool:
 
 @dataclass
 class Motion:
-    tau: np.ndarray     # (N,)
-    q: np.ndarray       # (N, n)
+    tau: np.ndarray  # (N,)
+    q: np.ndarray  # (N, n)
     source: str
 
 
 def fresh_run(mech, t_end: float | None) -> Motion:
     from symgen.numerics.simulate import simulate
+
     res = simulate(mech, t_end=t_end)
     return Motion(res.tau, res.q, "fresh run")
 
@@ -56,8 +58,10 @@ def fresh_run(mech, t_end: float | None) -> Motion:
 def read_states(path: str | os.PathLike, scene, model: ModelInfo) -> Motion:
     """States of a run's CSV (``simulate --states``), checked against the scene and model."""
     path = Path(path)
-    hint = (f"write the run with its states: symgen simulate {Path(scene.path).name} -o RUN.csv --states "
-            f"(same scene and --set values as here)")
+    hint = (
+        f"write the run with its states: symgen simulate {Path(scene.path).name} -o RUN.csv --states "
+        f"(same scene and --set values as here)"
+    )
     if path.suffix.lower() != ".csv" or not path.is_file():
         raise SceneError(str(path), "--from", "not a readable .csv file", hint)
     side = path.with_suffix(".json")
@@ -67,16 +71,30 @@ def read_states(path: str | os.PathLike, scene, model: ModelInfo) -> Motion:
         raise SceneError(str(side), "--from", f"the run's JSON sidecar cannot be read ({err})", hint) from None
     st = info.get("states") if isinstance(info, dict) else None
     if not isinstance(st, dict) or not isinstance(st.get("columns"), list):
-        raise SceneError(str(path), "--from", "this CSV has no state columns (coordinates), only the scene's "
-                         "outputs: the geometry cannot be rebuilt from it", hint)
+        raise SceneError(
+            str(path),
+            "--from",
+            "this CSV has no state columns (coordinates), only the scene's "
+            "outputs: the geometry cannot be rebuilt from it",
+            hint,
+        )
     if st.get("model_key") != model.key or st.get("coordinates") != list(model.coordinate_names):
-        raise SceneError(str(path), "--from", f"the run was made with another model (key {st.get('model_key')!r}, "
-                         f"here {model.key!r}): its coordinates do not fit this scene", hint)
+        raise SceneError(
+            str(path),
+            "--from",
+            f"the run was made with another model (key {st.get('model_key')!r}, "
+            f"here {model.key!r}): its coordinates do not fit this scene",
+            hint,
+        )
     here = states_block(scene, st["coordinates"], model.key)
     for key, what in (("bars", "bar lengths or shape functions"), ("ground", "ground points or slider lines")):
         if not _same(st.get(key), here[key]):
-            raise SceneError(str(path), "--from", f"the run was made from another scene ({info.get('scene')!r}): "
-                             f"its {what} differ from this scene's", hint)
+            raise SceneError(
+                str(path),
+                "--from",
+                f"the run was made from another scene ({info.get('scene')!r}): its {what} differ from this scene's",
+                hint,
+            )
     try:
         with path.open(newline="") as fh:
             rows = list(csv.reader(fh))
@@ -101,8 +119,9 @@ def read_states(path: str | os.PathLike, scene, model: ModelInfo) -> Motion:
     try:
         data = np.array([[float(r[i]) for i in idx] for r in rows[1:] if r], dtype=float)
     except (ValueError, IndexError):
-        raise SceneError(str(path), "--from", "a state row is not a list of numbers (truncated or edited file?)",
-                         hint) from None
+        raise SceneError(
+            str(path), "--from", "a state row is not a list of numbers (truncated or edited file?)", hint
+        ) from None
     if not np.all(np.isfinite(data)):
         raise SceneError(str(path), "--from", "the states hold NaN or infinite values", hint)
     return Motion(data[:, 0] / time_factor, data[:, 1:], f"{path.name}")
@@ -118,9 +137,20 @@ def frame_indices(n: int, frames: int | None, stride: int | None) -> np.ndarray:
 class Animator:
     """One matplotlib figure whose artists ``draw(k)`` moves to frame k."""
 
-    def __init__(self, scene, geom: Geometry, tau: np.ndarray, P: np.ndarray, P_rigid: np.ndarray,
-                 factor: float, title: str, turn: float | None = None, rigid_ghost: bool = True) -> None:
+    def __init__(
+        self,
+        scene,
+        geom: Geometry,
+        tau: np.ndarray,
+        P: np.ndarray,
+        P_rigid: np.ndarray,
+        factor: float,
+        title: str,
+        turn: float | None = None,
+        rigid_ghost: bool = True,
+    ) -> None:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
@@ -136,7 +166,7 @@ class Animator:
         allx = np.concatenate([self.D[:, 0, :].ravel(), P_rigid[:, 0, :].ravel()])
         ally = np.concatenate([self.D[:, 1, :].ravel(), P_rigid[:, 1, :].ravel()])
         span = max(np.ptp(allx), np.ptp(ally), 1e-9)
-        for gx, gy in grounds.values():   # room for the ground triangles below the pins
+        for gx, gy in grounds.values():  # room for the ground triangles below the pins
             allx = np.append(allx, gx)
             ally = np.append(ally, [gy, gy - 0.06 * span])
         pad = 0.08 * span
@@ -148,22 +178,41 @@ class Animator:
         else:
             ax.set_xlabel(r"$x / l_0$"), ax.set_ylabel(r"$y / l_0$")
         ax.grid(True, lw=0.3, alpha=0.5)
-        ax.set_title(title, fontsize=10, parse_math=False)   # a file name is text, never mathtext
+        ax.set_title(title, fontsize=10, parse_math=False)  # a file name is text, never mathtext
         size = 0.035 * span
-        for m in geom.markers:        # ground: pins as hatched triangles, slider guides as lines
+        for m in geom.markers:  # ground: pins as hatched triangles, slider guides as lines
             if m.joint not in grounds:
                 continue
             gx, gy = grounds[m.joint]
             if m.kind == "slider" and m.direction is not None:
                 dx, dy = m.direction
                 L = 4 * span
-                ax.plot([gx - L * dx, gx + L * dx], [gy - L * dy, gy + L * dy], color="0.45", lw=2.2,
-                        zorder=1, solid_capstyle="butt")
-                ax.plot([gx - L * dx, gx + L * dx], [gy - L * dy - 0.25 * size, gy + L * dy - 0.25 * size],
-                        color="0.45", lw=0.6, ls=(0, (1, 2)), zorder=1)
+                ax.plot(
+                    [gx - L * dx, gx + L * dx],
+                    [gy - L * dy, gy + L * dy],
+                    color="0.45",
+                    lw=2.2,
+                    zorder=1,
+                    solid_capstyle="butt",
+                )
+                ax.plot(
+                    [gx - L * dx, gx + L * dx],
+                    [gy - L * dy - 0.25 * size, gy + L * dy - 0.25 * size],
+                    color="0.45",
+                    lw=0.6,
+                    ls=(0, (1, 2)),
+                    zorder=1,
+                )
             else:
-                tri = plt.Polygon([[gx, gy], [gx - size, gy - 1.6 * size], [gx + size, gy - 1.6 * size]],
-                                  closed=True, fc="0.85", ec="0.3", hatch="///", lw=0.8, zorder=2)
+                tri = plt.Polygon(
+                    [[gx, gy], [gx - size, gy - 1.6 * size], [gx + size, gy - 1.6 * size]],
+                    closed=True,
+                    fc="0.85",
+                    ec="0.3",
+                    hatch="///",
+                    lw=0.8,
+                    zorder=2,
+                )
                 ax.add_patch(tri)
         self.ghosts = {}
         if rigid_ghost and factor != 0:
@@ -172,8 +221,7 @@ class Animator:
                 self.ghosts[name] = ln
         self.lines = {}
         for k, name in enumerate(geom.bars):
-            (ln,) = ax.plot([], [], color=f"C{k}", lw=2.4, zorder=4, label=name, solid_capstyle="round",
-                            animated=True)
+            (ln,) = ax.plot([], [], color=f"C{k}", lw=2.4, zorder=4, label=name, solid_capstyle="round", animated=True)
             self.lines[name] = ln
         (self.joints,) = ax.plot([], [], "o", ms=5, mfc="white", mec="k", mew=1.0, zorder=5, animated=True)
         # lumped masses at joints: filled disks, the area growing with the mass
@@ -181,23 +229,44 @@ class Animator:
         self.mass_index = [m.index for m in geom.markers if m.joint in masses]
         heaviest = max(masses.values(), default=1.0)
         sizes = [36 + 180 * masses[m.joint] / heaviest for m in geom.markers if m.joint in masses]
-        self.masses = ax.scatter(np.zeros(len(sizes)), np.zeros(len(sizes)), s=sizes, c="k", zorder=6,
-                                 animated=True, label="lumped mass" if sizes else None)
+        self.masses = ax.scatter(
+            np.zeros(len(sizes)),
+            np.zeros(len(sizes)),
+            s=sizes,
+            c="k",
+            zorder=6,
+            animated=True,
+            label="lumped mass" if sizes else None,
+        )
         ax.legend(loc="upper right", fontsize=7, framealpha=0.8, markerscale=0.5)
-        self.clock = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=8,
-                             bbox={"fc": "white", "ec": "0.7", "alpha": 0.85, "pad": 2}, animated=True)
+        self.clock = ax.text(
+            0.02,
+            0.97,
+            "",
+            transform=ax.transAxes,
+            va="top",
+            fontsize=8,
+            bbox={"fc": "white", "ec": "0.7", "alpha": 0.85, "pad": 2},
+            animated=True,
+        )
         fac = f"deformation x {factor:g}" if factor != 1 else "deformation to scale (x 1)"
-        ax.text(0.02, 0.03, fac + ("  (dashed: rigid mechanism)" if self.ghosts else ""),
-                transform=ax.transAxes, fontsize=8, color="0.2",
-                bbox={"fc": "white", "ec": "0.7", "alpha": 0.85, "pad": 2})
+        ax.text(
+            0.02,
+            0.03,
+            fac + ("  (dashed: rigid mechanism)" if self.ghosts else ""),
+            transform=ax.transAxes,
+            fontsize=8,
+            color="0.2",
+            bbox={"fc": "white", "ec": "0.7", "alpha": 0.85, "pad": 2},
+        )
 
     def draw(self, k: int) -> list:
         D, geom = self.D[k], self.geom
         for name, rg in geom.bars.items():
-            self.lines[name].set_data(D[0, rg.start:rg.stop], D[1, rg.start:rg.stop])
+            self.lines[name].set_data(D[0, rg.start : rg.stop], D[1, rg.start : rg.stop])
             if name in self.ghosts:
                 R = self.P_rigid[k]
-                self.ghosts[name].set_data(R[0, rg.start:rg.stop], R[1, rg.start:rg.stop])
+                self.ghosts[name].set_data(R[0, rg.start : rg.stop], R[1, rg.start : rg.stop])
         idx = [m.index for m in geom.markers]
         self.joints.set_data(D[0, idx], D[1, idx])
         self.masses.set_offsets(np.column_stack([D[0, self.mass_index], D[1, self.mass_index]]))
@@ -212,6 +281,7 @@ class Animator:
 
     def close(self) -> None:
         import matplotlib.pyplot as plt
+
         plt.close(self.fig)
 
 
@@ -227,7 +297,7 @@ def write_frames(anim: Animator, path: str | os.PathLike, fps: float, dpi: int) 
     fig.set_dpi(dpi)
     canvas = fig.canvas
     assert isinstance(canvas, FigureCanvasAgg), "the Animator draws with Agg (blitting needs its pixel buffer)"
-    canvas.draw()                       # lay out once (constrained), then freeze the layout
+    canvas.draw()  # lay out once (constrained), then freeze the layout
     fig.set_layout_engine("none")
     canvas.draw()
     background = canvas.copy_from_bbox(fig.bbox)
@@ -258,18 +328,34 @@ def check_target(path: str | os.PathLike) -> Path:
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix not in (".gif", ".mp4"):
-        raise SceneError("command line", "-o", f"{str(path)!r} should end in .gif or .mp4",
-                         "give a file name like out/four_bar.gif")
+        raise SceneError(
+            "command line", "-o", f"{str(path)!r} should end in .gif or .mp4", "give a file name like out/four_bar.gif"
+        )
     if suffix == ".mp4":
         from matplotlib.animation import FFMpegWriter
+
         if not FFMpegWriter.isAvailable():
-            raise SceneError("command line", "-o", "writing .mp4 needs ffmpeg, which is not installed",
-                             "install ffmpeg (e.g. apt-get install ffmpeg) or write a .gif")
+            raise SceneError(
+                "command line",
+                "-o",
+                "writing .mp4 needs ffmpeg, which is not installed",
+                "install ffmpeg (e.g. apt-get install ffmpeg) or write a .gif",
+            )
     return p
 
 
-def animate(out: str | os.PathLike, scene, compiled, mech, motion: Motion, factor: float | None = None,
-            fps: float = 20.0, frames: int | None = None, stride: int | None = None, dpi: int = 100) -> dict:
+def animate(
+    out: str | os.PathLike,
+    scene,
+    compiled,
+    mech,
+    motion: Motion,
+    factor: float | None = None,
+    fps: float = 20.0,
+    frames: int | None = None,
+    stride: int | None = None,
+    dpi: int = 100,
+) -> dict:
     """Render the motion to ``out`` (.gif / .mp4); return a summary (factor, frames, peak)."""
     out = check_target(out)
     geom = Geometry(scene, compiled.info)
@@ -297,5 +383,11 @@ def animate(out: str | os.PathLike, scene, compiled, mech, motion: Motion, facto
         raise
     finally:
         anim.close()
-    return {"path": out, "frames": len(tau), "factor": factor, "auto_factor": auto, "peak": peak,
-            "tau": (float(tau[0]), float(tau[-1]))}
+    return {
+        "path": out,
+        "frames": len(tau),
+        "factor": factor,
+        "auto_factor": auto,
+        "peak": peak,
+        "tau": (float(tau[0]), float(tau[-1])),
+    }

@@ -50,6 +50,7 @@ scene that does not need an effect runs faster without it. This module says whic
 >>> from symgen.apps.effects import estimate_effects            # doctest: +SKIP
 >>> rows = estimate_effects(load_scene("examples/slider_crank.toml"))
 """
+
 from __future__ import annotations
 
 import math
@@ -86,20 +87,55 @@ class Change:
 
 
 CHANGES = (
-    Change("axial -> inextensible", "axial", "effects.axial=inextensible", "axial",
-           "dynamic axial amplification (2 Omega/pi)^2/lambda, static strain N0/lambda"),
-    Change("axial off", "axial", "effects.axial=false", "axial",
-           "drops the axial force and its stiffening: sigma = N0/N_Euler"),
-    Change("transverse off", "transverse", "effects.transverse=false", "transverse",
-           "drops every deflection (static eta0 shown)"),
-    Change("geometric stiffening off", "geometric_stiffening", "effects.geometric_stiffening=false",
-           "geometric_stiffening", "axial force / Euler load sigma"),
-    Change("Coriolis off", "coriolis", "effects.coriolis=false", "coriolis",
-           "2 theta' zeta' and 2 theta' eta' terms: 2 N0/lambda, 4 sigma eta0"),
-    Change("rotary inertia off", "rotary_inertia", "effects.rotary_inertia=false", "rotary_inertia",
-           "(r_g/l)^2 pi^2 = pi^2 mu/lambda"),
-    Change("strain -> linear", "strain", "effects.strain=linear", "strain",
-           "chord shortening of bending vs axial strain, times sigma"),
+    Change(
+        "axial -> inextensible",
+        "axial",
+        "effects.axial=inextensible",
+        "axial",
+        "dynamic axial amplification (2 Omega/pi)^2/lambda, static strain N0/lambda",
+    ),
+    Change(
+        "axial off",
+        "axial",
+        "effects.axial=false",
+        "axial",
+        "drops the axial force and its stiffening: sigma = N0/N_Euler",
+    ),
+    Change(
+        "transverse off",
+        "transverse",
+        "effects.transverse=false",
+        "transverse",
+        "drops every deflection (static eta0 shown)",
+    ),
+    Change(
+        "geometric stiffening off",
+        "geometric_stiffening",
+        "effects.geometric_stiffening=false",
+        "geometric_stiffening",
+        "axial force / Euler load sigma",
+    ),
+    Change(
+        "Coriolis off",
+        "coriolis",
+        "effects.coriolis=false",
+        "coriolis",
+        "2 theta' zeta' and 2 theta' eta' terms: 2 N0/lambda, 4 sigma eta0",
+    ),
+    Change(
+        "rotary inertia off",
+        "rotary_inertia",
+        "effects.rotary_inertia=false",
+        "rotary_inertia",
+        "(r_g/l)^2 pi^2 = pi^2 mu/lambda",
+    ),
+    Change(
+        "strain -> linear",
+        "strain",
+        "effects.strain=linear",
+        "strain",
+        "chord shortening of bending vs axial strain, times sigma",
+    ),
     Change("gravity off", "gravity", "effects.gravity=[0.0, 0.0]", "gravity", "|g| / (Omega^2 alpha)"),
     Change("damping off", "damping", "effects.damping=0.0", "damping", "1 - exp(-c w_b^2 T/2)"),
 )
@@ -109,11 +145,17 @@ def applicable(scene) -> list[Change]:
     """The changes that remove something this scene has."""
     e = scene.effects
     dynamic = any(t.treatment == "dynamic" for t in axial_treatments(scene).values())
-    on = {"axial -> inextensible": dynamic, "axial off": e.axial is not False,
-          "transverse off": e.transverse, "geometric stiffening off": e.geometric_stiffening,
-          "Coriolis off": e.coriolis, "rotary inertia off": e.rotary_inertia,
-          "strain -> linear": e.strain == "von_karman", "gravity off": any(g != 0 for g in e.gravity),
-          "damping off": e.damping > 0}
+    on = {
+        "axial -> inextensible": dynamic,
+        "axial off": e.axial is not False,
+        "transverse off": e.transverse,
+        "geometric stiffening off": e.geometric_stiffening,
+        "Coriolis off": e.coriolis,
+        "rotary inertia off": e.rotary_inertia,
+        "strain -> linear": e.strain == "von_karman",
+        "gravity off": any(g != 0 for g in e.gravity),
+        "damping off": e.damping > 0,
+    }
     elastic = any(not b.rigid and (b.axial_modes or b.transverse_modes) for b in scene.bodies)
     return [c for c in CHANGES if on[c.key] and (elastic or c.group == "gravity")]
 
@@ -122,9 +164,9 @@ def applicable(scene) -> list[Change]:
 class EffectRow:
     change: Change
     estimate: float
-    detail: str                              # the groups behind the estimate (worst bar)
-    error: float | None = None               # measured (--measure): the worst output's
-    worst: str = ""                          # ... name
+    detail: str  # the groups behind the estimate (worst bar)
+    error: float | None = None  # measured (--measure): the worst output's
+    worst: str = ""  # ... name
     steps: int | None = None
     simulate_s: float | None = None
     status: str = ""
@@ -136,10 +178,10 @@ class EffectsReport:
     scene: str
     tol: float
     rows: list
-    reference: dict = field(default_factory=dict)      # steps, simulate_s, window of the measure runs
-    auto: dict = field(default_factory=dict)           # chosen overrides, verified error, file
-    stopped: str = ""                                  # "interrupted by SIGINT ..." of a partial report
-    axial: dict = field(default_factory=dict)          # bar -> (treatment, reason) of effects.axial
+    reference: dict = field(default_factory=dict)  # steps, simulate_s, window of the measure runs
+    auto: dict = field(default_factory=dict)  # chosen overrides, verified error, file
+    stopped: str = ""  # "interrupted by SIGINT ..." of a partial report
+    axial: dict = field(default_factory=dict)  # bar -> (treatment, reason) of effects.axial
 
 
 # --------------------------------------------------------------------------- estimates
@@ -168,14 +210,14 @@ def _bar_estimates(scene, body, outputs: Sequence[str] | None = None) -> dict:
     W = _rate(scene)
     lam, mu, alpha = body.lam, body.mu, body.alpha
     cantilever = body.frame == "cantilever"
-    n0 = W ** 2 / 2
+    n0 = W**2 / 2
     eff = scene.effects
     out = {}
     if mu:
-        eta0 = (1 / 8 if cantilever else 5 / 384) * W ** 2 / mu
-        euler = math.pi ** 2 * mu / (4 if cantilever else 1)
+        eta0 = (1 / 8 if cantilever else 5 / 384) * W**2 / mu
+        euler = math.pi**2 * mu / (4 if cantilever else 1)
         sigma = n0 / euler
-        w_b = (1.875 ** 2 if cantilever else math.pi ** 2) * math.sqrt(mu)
+        w_b = (1.875**2 if cantilever else math.pi**2) * math.sqrt(mu)
     else:
         eta0 = sigma = w_b = 0.0
     has_axial = body.axial_modes > 0 and lam
@@ -185,7 +227,7 @@ def _bar_estimates(scene, body, outputs: Sequence[str] | None = None) -> dict:
     detail = f"{body.name}: lambda {lam:.3g}, " if lam else f"{body.name}: "
     detail += f"mu {mu:.3g}, " if mu else ""
     # foreshortening 1/2 int eta'^2 ~ pi^2 eta0^2 / 4 against the stretch N0 / lambda
-    foreshortening = min(1.0, lam * math.pi ** 2 * eta0 ** 2 / (4 * n0)) if (has_axial and mu) else 0.0
+    foreshortening = min(1.0, lam * math.pi**2 * eta0**2 / (4 * n0)) if (has_axial and mu) else 0.0
     if has_axial and reads_stretch:
         # an output that reads the stretch is the stretch: without axial deformation it is lost
         inext = 1.0
@@ -202,30 +244,38 @@ def _bar_estimates(scene, body, outputs: Sequence[str] | None = None) -> dict:
         if loop > inext:
             inext, inext_detail = loop, detail + loop_detail.rstrip("; ")
     out["axial -> inextensible"] = (inext, inext_detail)
-    out["axial off"] = (max(sigma, inext) if has_axial else 0.0,
-                        (inext_detail if inext >= sigma else detail + f"sigma = N0/N_Euler = {sigma:.2g}"))
-    out["transverse off"] = (1.0 if mu and body.transverse_modes else 0.0,
-                             detail + f"static deflection eta0 = {eta0:.2g} of its length")
+    out["axial off"] = (
+        max(sigma, inext) if has_axial else 0.0,
+        (inext_detail if inext >= sigma else detail + f"sigma = N0/N_Euler = {sigma:.2g}"),
+    )
+    out["transverse off"] = (
+        1.0 if mu and body.transverse_modes else 0.0,
+        detail + f"static deflection eta0 = {eta0:.2g} of its length",
+    )
     if has_axial and reads_stretch:
         # the stretch output carries the foreshortening that the axial-transverse coupling makes
         stiff = max(sigma, foreshortening)
-        out["geometric stiffening off"] = (stiff, detail + f"foreshortening in {reads_stretch[0]}: "
-                                                           f"lambda pi^2 eta0^2/(4 N0) = {foreshortening:.2g}")
-        out["strain -> linear"] = (foreshortening, detail + f"foreshortening in {reads_stretch[0]}: "
-                                                            f"lambda pi^2 eta0^2/(4 N0) = {foreshortening:.2g}")
+        out["geometric stiffening off"] = (
+            stiff,
+            detail + f"foreshortening in {reads_stretch[0]}: lambda pi^2 eta0^2/(4 N0) = {foreshortening:.2g}",
+        )
+        out["strain -> linear"] = (
+            foreshortening,
+            detail + f"foreshortening in {reads_stretch[0]}: lambda pi^2 eta0^2/(4 N0) = {foreshortening:.2g}",
+        )
     else:
         out["geometric stiffening off"] = (sigma if has_axial else 0.0, detail + f"sigma = {sigma:.2g}")
         lin = sigma * foreshortening
         out["strain -> linear"] = (lin, detail + f"sigma x min(1, lambda pi^2 eta0^2/(4 N0)) = {lin:.2g}")
     cor = max(2 * n0 / lam if has_axial else 0.0, 4 * sigma * eta0)
     out["Coriolis off"] = (cor, detail + f"2 N0/lambda, 4 sigma eta0 = {cor:.2g}")
-    rot = math.pi ** 2 * mu / lam if (mu and lam) else 0.0
+    rot = math.pi**2 * mu / lam if (mu and lam) else 0.0
     out["rotary inertia off"] = (rot, detail + f"pi^2 mu/lambda = {rot:.2g}")
     g = math.hypot(*eff.gravity)
-    grav = g / (W ** 2 * alpha)
+    grav = g / (W**2 * alpha)
     out["gravity off"] = (grav, f"{body.name}: |g| {g:.3g}, alpha {alpha:.3g}: {grav:.2g}")
     T = scene.simulation.t_end
-    damp = 1 - math.exp(-eff.damping * w_b ** 2 * T / 2) if w_b else 0.0
+    damp = 1 - math.exp(-eff.damping * w_b**2 * T / 2) if w_b else 0.0
     out["damping off"] = (damp, detail + f"c {eff.damping:.3g}, w_b {w_b:.3g}, T {T:.3g}: {damp:.2g}")
     return out
 
@@ -236,8 +286,12 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
     if outputs is not None:
         unknown = [n for n in outputs if n not in {o.name for o in scene.outputs}]
         if unknown:
-            raise SceneError(str(scene.path), "--outputs", f"no output named {', '.join(unknown)}",
-                             f"the scene's outputs: {', '.join(o.name for o in scene.outputs)}")
+            raise SceneError(
+                str(scene.path),
+                "--outputs",
+                f"no output named {', '.join(unknown)}",
+                f"the scene's outputs: {', '.join(o.name for o in scene.outputs)}",
+            )
     rows = []
     bars = [b for b in scene.bodies if not b.rigid and (b.axial_modes or b.transverse_modes)]
     per_bar = [_bar_estimates(scene, b, outputs) for b in bars]
@@ -248,8 +302,12 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
             continue
         value, detail = max((pb[change.key] for pb in per_bar), key=lambda x: x[0])
         rows.append(EffectRow(change, value, detail))
-    report = EffectsReport(scene=str(scene.path), tol=tol, rows=rows,
-                           axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()})
+    report = EffectsReport(
+        scene=str(scene.path),
+        tol=tol,
+        rows=rows,
+        axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()},
+    )
     recommend(report)
     return report
 
@@ -278,8 +336,9 @@ def _window(scene, cycles: float | None) -> float:
 class _Runs:
     """Short runs of the scene with extra overrides, compared with the reference run."""
 
-    def __init__(self, path: str, overrides: Sequence[str], cycles: float | None,
-                 outputs: Sequence[str] | None = None) -> None:
+    def __init__(
+        self, path: str, overrides: Sequence[str], cycles: float | None, outputs: Sequence[str] | None = None
+    ) -> None:
         from symgen.apps.study import DEFAULT_CUTOFF, oversampling
 
         self.path, self.overrides = path, list(overrides)
@@ -294,8 +353,12 @@ class _Runs:
         if outputs:
             unknown = [n for n in outputs if n not in self.compared]
             if unknown:
-                raise SceneError(path, "--outputs", f"no compared output named {', '.join(unknown)}",
-                                 f"the scene's outputs: {', '.join(self.compared)}")
+                raise SceneError(
+                    path,
+                    "--outputs",
+                    f"no compared output named {', '.join(unknown)}",
+                    f"the scene's outputs: {', '.join(self.compared)}",
+                )
             self.compared = list(outputs)
         self.ref = self.run(())
         if self.ref["status"] != "ok":
@@ -305,13 +368,19 @@ class _Runs:
         from symgen.numerics.mechanism import load_mechanism
         from symgen.numerics.simulate import simulate
 
-        out: dict[str, Any] = {"status": "ok", "steps": None, "simulate_s": None, "error": None, "worst": "",
-                               "res": None}
+        out: dict[str, Any] = {
+            "status": "ok",
+            "steps": None,
+            "simulate_s": None,
+            "error": None,
+            "worst": "",
+            "res": None,
+        }
         try:
             mech = load_mechanism(self.path, [*self.overrides, *extra])
             res = simulate(mech, t_end=self.t_end, output_step=self.step)
         except SymgenError as err:
-            interrupt.check()        # a failure while SIGINT/SIGTERM is pending is the interrupt
+            interrupt.check()  # a failure while SIGINT/SIGTERM is pending is the interrupt
             out["status"] = f"failed: {err}"
             return out
         out.update(steps=res.steps, simulate_s=res.simulate_s, res=res)
@@ -336,16 +405,28 @@ class _Runs:
         return worst, name_w
 
 
-def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DEFAULT_TOL,
-                    cycles: float | None = None, outputs: Sequence[str] | None = None,
-                    runs: _Runs | None = None) -> EffectsReport:
+def measure_effects(
+    path: str,
+    overrides: Sequence[str] = (),
+    *,
+    tol: float = DEFAULT_TOL,
+    cycles: float | None = None,
+    outputs: Sequence[str] | None = None,
+    runs: _Runs | None = None,
+) -> EffectsReport:
     """The estimates plus short runs with and without each effect (errors over ``outputs``,
     default every output but closure residuals)."""
     runs = runs or _Runs(str(path), overrides, cycles, outputs)
     report = estimate_effects(load_scene(path, overrides), tol, runs.compared)
-    report.reference = {"steps": runs.ref["steps"], "simulate_s": runs.ref["simulate_s"], "t_end": runs.t_end,
-                        "output_step": runs.step, "outputs": list(runs.compared)}
+    report.reference = {
+        "steps": runs.ref["steps"],
+        "simulate_s": runs.ref["simulate_s"],
+        "t_end": runs.t_end,
+        "output_step": runs.step,
+        "outputs": list(runs.compared),
+    }
     from symgen.progress import progress_bar
+
     try:
         with progress_bar(len(report.rows), "effects --measure") as bar:
             for row in report.rows:
@@ -373,8 +454,15 @@ def measure_effects(path: str, overrides: Sequence[str] = (), *, tol: float = DE
     return report
 
 
-def auto_effects(path: str, overrides: Sequence[str] = (), *, tol: float, output: str | Path,
-                 cycles: float | None = None, outputs: Sequence[str] | None = None) -> EffectsReport:
+def auto_effects(
+    path: str,
+    overrides: Sequence[str] = (),
+    *,
+    tol: float,
+    output: str | Path,
+    cycles: float | None = None,
+    outputs: Sequence[str] | None = None,
+) -> EffectsReport:
     """Greedy smallest effect set within ``tol`` of the full model, verified by a run; writes
     the scene with those effects to ``output`` (TOML)."""
     runs = _Runs(str(path), overrides, cycles, outputs)
@@ -383,7 +471,7 @@ def auto_effects(path: str, overrides: Sequence[str] = (), *, tol: float, output
     groups: dict[str, list] = {}
     for row in sorted(ok, key=lambda r: r.error):
         groups.setdefault(row.change.group, []).append(row)
-    for rows in groups.values():          # the switch's most aggressive option first
+    for rows in groups.values():  # the switch's most aggressive option first
         rows.sort(key=lambda r: [c.key for c in CHANGES].index(r.change.key) * (-1 if r.change.group == "axial" else 1))
     chosen: list[Change] = []
     verified = {"error": 0.0, "steps": runs.ref["steps"], "simulate_s": runs.ref["simulate_s"]}
@@ -391,24 +479,35 @@ def auto_effects(path: str, overrides: Sequence[str] = (), *, tol: float, output
     for group in sorted(groups, key=lambda g: min(r.error for r in groups[g])):
         for row in groups[group]:
             trial = chosen + [row.change]
-            r = runs.run([c.override for c in trial]) if len(trial) > 1 else \
-                {"status": row.status, "error": row.error, "steps": row.steps, "simulate_s": row.simulate_s}
+            r = (
+                runs.run([c.override for c in trial])
+                if len(trial) > 1
+                else {"status": row.status, "error": row.error, "steps": row.steps, "simulate_s": row.simulate_s}
+            )
             tried.append({"set": [c.key for c in trial], "error": r["error"], "status": r["status"]})
             if r["status"] == "ok" and r["error"] <= tol:
                 chosen = trial
                 verified = {"error": r["error"], "steps": r["steps"], "simulate_s": r["simulate_s"]}
                 break
     raw = apply_overrides(read_toml(str(path)), [*overrides, *[c.override for c in chosen]], str(path))
-    header = (f"written by `symgen effects --auto {tol:g}` from {Path(path).name}: "
-              f"{', '.join(c.key for c in chosen) or 'no effect pruned'}; verified error "
-              f"{verified['error']:.2e} of the full model over tau in [0, {runs.t_end:.4g}]")
+    header = (
+        f"written by `symgen effects --auto {tol:g}` from {Path(path).name}: "
+        f"{', '.join(c.key for c in chosen) or 'no effect pruned'}; verified error "
+        f"{verified['error']:.2e} of the full model over tau in [0, {runs.t_end:.4g}]"
+    )
     text = toml_text(raw, header)
     load_scene_text_check(text, str(output))
     out = Path(output)
     atomic_write(out, text)
-    report.auto = {"chosen": [c.key for c in chosen], "overrides": [c.override for c in chosen],
-                   "verified_error": verified["error"], "steps": verified["steps"],
-                   "simulate_s": verified["simulate_s"], "file": str(out), "tried": tried}
+    report.auto = {
+        "chosen": [c.key for c in chosen],
+        "overrides": [c.override for c in chosen],
+        "verified_error": verified["error"],
+        "steps": verified["steps"],
+        "simulate_s": verified["simulate_s"],
+        "file": str(out),
+        "tried": tried,
+    }
     return report
 
 
@@ -455,10 +554,13 @@ def _value(v) -> str:
 def toml_text(raw: dict, header: str = "") -> str:
     """A scene dict as TOML: top-level tables as [table], arrays of tables as [[array]], nested
     tables inline. Checked to read back to the same dict."""
-    header = "".join(c if " " <= c != "\x7f" else "?" for c in header)   # e.g. a file name with a newline
+    header = "".join(c if " " <= c != "\x7f" else "?" for c in header)  # e.g. a file name with a newline
     lines = [f"# {header}"] if header else []
-    plain = {k: v for k, v in raw.items() if not isinstance(v, (dict, list)) or
-             (isinstance(v, list) and not (v and all(isinstance(x, dict) for x in v)))}
+    plain = {
+        k: v
+        for k, v in raw.items()
+        if not isinstance(v, (dict, list)) or (isinstance(v, list) and not (v and all(isinstance(x, dict) for x in v)))
+    }
     for k, v in plain.items():
         lines.append(f"{_key(k)} = {_value(v)}")
     for k, v in raw.items():
@@ -517,13 +619,18 @@ def table(report: EffectsReport) -> str:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:
         ref = report.reference
-        lines.append(f"measured over tau in [0, {ref['t_end']:.4g}], output step {ref['output_step']:.3g}, outputs "
-                     f"{', '.join(ref['outputs'])}; the scene as it is: {ref['steps']} IDAS steps, "
-                     f"{ref['simulate_s']:.2f} s")
+        lines.append(
+            f"measured over tau in [0, {ref['t_end']:.4g}], output step {ref['output_step']:.3g}, outputs "
+            f"{', '.join(ref['outputs'])}; the scene as it is: {ref['steps']} IDAS steps, "
+            f"{ref['simulate_s']:.2f} s"
+        )
     lines += [fmt.format(*head), fmt.format(*["-" * w for w in widths])]
     lines += [fmt.format(*row) for row in body]
     if report.auto:
         a = report.auto
-        lines += ["", f"auto (tol {report.tol:g}): {', '.join(a['chosen']) or 'nothing pruned'}; verified error "
-                      f"{a['verified_error']:.2e}, {a['steps']} IDAS steps, {a['simulate_s']:.2f} s; wrote {a['file']}"]
+        lines += [
+            "",
+            f"auto (tol {report.tol:g}): {', '.join(a['chosen']) or 'nothing pruned'}; verified error "
+            f"{a['verified_error']:.2e}, {a['steps']} IDAS steps, {a['simulate_s']:.2f} s; wrote {a['file']}",
+        ]
     return "\n".join(lines)

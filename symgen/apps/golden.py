@@ -13,6 +13,7 @@ the fingerprint numerically (1e-9 relative: robust to CAS versions, sensitive to
 the equations), and the LaTeX and C text only when the SymPy version matches the one recorded
 (its printing and CSE change between releases).
 """
+
 from __future__ import annotations
 
 import json
@@ -59,13 +60,16 @@ def generated_payload(scene: Scene) -> dict:
     record["scene_name"] = scene.name
     p = parameter_values(scene, info.params)
     record["parameter_values"] = [float(x) for x in p]
-    record["operations"] = {name: {"instructions": int(f.n_instructions()), "nodes": int(f.n_nodes())}
-                            for name, f in sorted(funcs.items())}
+    record["operations"] = {
+        name: {"instructions": int(f.n_instructions()), "nodes": int(f.n_nodes())} for name, f in sorted(funcs.items())
+    }
     record["fingerprint"] = fingerprint(funcs, info, p)
     record["versions"] = {"symgen": __version__, "sympy": sympy.__version__, "casadi": CASADI_VERSION}
     record["scene_file"] = Path(scene.path).name
-    payload = {"model.json": json.dumps(record, indent=1, sort_keys=True) + "\n",
-               "equations.tex": latex_document(scene, model)}
+    payload = {
+        "model.json": json.dumps(record, indent=1, sort_keys=True) + "\n",
+        "equations.tex": latex_document(scene, model),
+    }
     payload.update({f"c/{name}": text for name, text in _c_payload(scene, model, funcs, info).items()})
     return payload
 

@@ -1,4 +1,5 @@
 """Plots of outputs against tau (matplotlib, no display needed)."""
+
 from __future__ import annotations
 
 import math
@@ -38,13 +39,22 @@ SI_LABELS = {
 }
 
 
-def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, names: list[str],
-                 kinds: list[str], title: str, partial: bool = False, turn: float | None = None,
-                 units=None) -> None:
+def plot_outputs(
+    path: str | os.PathLike,
+    tau: np.ndarray,
+    values: np.ndarray,
+    names: list[str],
+    kinds: list[str],
+    title: str,
+    partial: bool = False,
+    turn: float | None = None,
+    units=None,
+) -> None:
     """One panel per output, shared time axis (in crank turns when ``turn`` is given, in the
     time unit of ``turn`` and ``tau``); ``units`` (``symgen.numerics.units.ResultUnits``) labels the
     columns with their units."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -57,10 +67,11 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
         y = values[:, k]
         si = units is not None and units.system == "SI"
         unit = f" [{units.outputs[k].unit}]" if si else ""
-        label = (SI_LABELS if si else LABELS).get(kinds[k], '')
+        label = (SI_LABELS if si else LABELS).get(kinds[k], "")
         if kinds[k] == "closure_residual":
             # its size is what matters: |r| on a log axis, a few decades labelled
             from matplotlib.ticker import LogLocator
+
             ax.semilogy(x, np.maximum(np.abs(y), 1e-18), lw=0.9, color="C0")
             ax.yaxis.set_major_locator(LogLocator(numticks=5))
             label = "|" + label + "|"
@@ -75,11 +86,14 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
         for ax in axes[:, 0]:
             for c in range(1, int(math.floor(x[-1])) + 1):
                 ax.axvline(c, color="0.7", lw=0.5)
-    fig.suptitle(title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10, parse_math=False)   # a file name is text, never mathtext
+    fig.suptitle(
+        title + ("  [PARTIAL RUN]" if partial else ""), fontsize=10, parse_math=False
+    )  # a file name is text, never mathtext
     fig.align_ylabels(axes[:, 0])
     from symgen.outputs import atomic_path
+
     try:
-        with atomic_path(path) as tmp:       # format from the suffix: .png, .svg or .pdf
+        with atomic_path(path) as tmp:  # format from the suffix: .png, .svg or .pdf
             fig.savefig(tmp, dpi=120, format=Path(path).suffix.lstrip(".") or "png")
     finally:
         plt.close(fig)
@@ -88,5 +102,14 @@ def plot_outputs(path: str | os.PathLike, tau: np.ndarray, values: np.ndarray, n
 def plot_run(plot) -> None:
     """Draw the plot a run's writer asked for (``symgen.numerics.results.OutputsPlot``): the
     ``--plot`` of ``symgen simulate`` / ``quasistatic`` and of ``symgen.api``'s runs."""
-    plot_outputs(plot.path, plot.time, plot.values, plot.names, plot.kinds, plot.title, partial=plot.partial,
-                 turn=plot.turn, units=plot.units)
+    plot_outputs(
+        plot.path,
+        plot.time,
+        plot.values,
+        plot.names,
+        plot.kinds,
+        plot.title,
+        partial=plot.partial,
+        turn=plot.turn,
+        units=plot.units,
+    )

@@ -32,6 +32,7 @@ compared: they are zero to round-off in every configuration).
 >>> study = run_study("examples/slider_crank.toml", quick=True)   # doctest: +SKIP
 >>> write_study(study, "out/study_slider_crank")                   # doctest: +SKIP
 """
+
 from __future__ import annotations
 
 import csv
@@ -56,8 +57,8 @@ QUICK_LEVELS = ((1, 1), (3, 3), (3, 4), (4, 6))
 TOLERANCES = (1e-4, 1e-6, 1e-8)
 QUICK_TOLERANCES = (1e-4, 1e-6)
 REFERENCE_RTOL = 1e-9
-ATOL_RATIO = 1e-2            # atol = rtol * ATOL_RATIO (amplitudes are O(1e-2) or larger)
-DEFAULT_CUTOFF = 50.0        # cycles per crank turn (or per 2 pi of tau without an angle driver)
+ATOL_RATIO = 1e-2  # atol = rtol * ATOL_RATIO (amplitudes are O(1e-2) or larger)
+DEFAULT_CUTOFF = 50.0  # cycles per crank turn (or per 2 pi of tau without an angle driver)
 TARGETS = (1e-2, 1e-3, 1e-4)
 
 #: effect sets compared with the base model: label -> overrides
@@ -76,12 +77,12 @@ class Config:
     """One configuration: a label, a group and the ``--set`` overrides that make it."""
 
     label: str
-    group: str                   # reference | reference check | modes | per-bar | effects | scene
+    group: str  # reference | reference check | modes | per-bar | effects | scene
     overrides: tuple
     rtol: float
     atol: float
-    levels: tuple = ()           # ((bar, na, nt), ...)
-    base_label: str = ""         # effects rows: the configuration they prune
+    levels: tuple = ()  # ((bar, na, nt), ...)
+    base_label: str = ""  # effects rows: the configuration they prune
 
     def sets(self) -> list[str]:
         return [*self.overrides, f"simulation.rtol={self.rtol:g}", f"simulation.atol={self.atol:g}"]
@@ -101,8 +102,8 @@ class Row:
     error: float = math.nan
     worst: str = ""
     spectral: float = math.nan
-    errors: dict = field(default_factory=dict)     # output -> window error
-    spectra: dict = field(default_factory=dict)    # output -> spectral error
+    errors: dict = field(default_factory=dict)  # output -> window error
+    spectra: dict = field(default_factory=dict)  # output -> spectral error
     tau: np.ndarray | None = None
     outputs: np.ndarray | None = None
 
@@ -113,10 +114,10 @@ class Study:
     scene_name: str
     overrides: tuple
     elastic: tuple
-    turn: float                  # tau of one crank turn (2 pi / rate, or 2 pi)
+    turn: float  # tau of one crank turn (2 pi / rate, or 2 pi)
     t_end: float
-    window: float                # tau
-    cutoff: float                # cycles per unit tau
+    window: float  # tau
+    cutoff: float  # cycles per unit tau
     repeats: int
     reference: Row
     rows: list
@@ -124,9 +125,9 @@ class Study:
     compared: list
     notes: list = field(default_factory=list)
     oversample: int = 1
-    status: str = "complete"     # or "interrupted" (rows: the configurations run before the signal)
-    stopped: str = ""            # the cause when not complete
-    planned: int = 0             # configurations planned
+    status: str = "complete"  # or "interrupted" (rows: the configurations run before the signal)
+    stopped: str = ""  # the cause when not complete
+    planned: int = 0  # configurations planned
 
 
 # --------------------------------------------------------------------------- errors
@@ -201,33 +202,74 @@ def _level_name(levels: dict, elastic: Sequence[str]) -> str:
     return " ".join(f"{b}:{na}+{nt}" for b, (na, nt) in levels.items())
 
 
-def plan(scene, elastic: Sequence[str], levels: Sequence[tuple], tolerances: Sequence[float],
-         ref_rtol: float, per_bar: bool, effects: bool) -> tuple[Config, list[Config]]:
+def plan(
+    scene,
+    elastic: Sequence[str],
+    levels: Sequence[tuple],
+    tolerances: Sequence[float],
+    ref_rtol: float,
+    per_bar: bool,
+    effects: bool,
+) -> tuple[Config, list[Config]]:
     """The reference and the configurations of a study (see the module docstring)."""
-    base_sets = ["effects.strain=von_karman", "effects.geometric_stiffening=true", "effects.axial=true",
-                 "effects.transverse=true", "effects.coriolis=true", "effects.rotary_inertia=true"]
+    base_sets = [
+        "effects.strain=von_karman",
+        "effects.geometric_stiffening=true",
+        "effects.axial=true",
+        "effects.transverse=true",
+        "effects.coriolis=true",
+        "effects.rotary_inertia=true",
+    ]
     base = tuple(base_sets + [f"bodies.{b}.axial_shapes=complete" for b in elastic])
     ref_level = levels[-1]
     ref_modes = {b: ref_level for b in elastic}
     atol = lambda r: r * ATOL_RATIO
-    ref = Config(f"reference {_level_name(ref_modes, elastic)} @{_fmt_tol(ref_rtol)}", "reference",
-                 base + _level_sets(ref_modes), ref_rtol, atol(ref_rtol),
-                 tuple((b, *ref_level) for b in elastic))
+    ref = Config(
+        f"reference {_level_name(ref_modes, elastic)} @{_fmt_tol(ref_rtol)}",
+        "reference",
+        base + _level_sets(ref_modes),
+        ref_rtol,
+        atol(ref_rtol),
+        tuple((b, *ref_level) for b in elastic),
+    )
     configs: list[Config] = []
     # the reference's own convergence
     if len(levels) > 1:
         lower = {b: levels[-2] for b in elastic}
-        configs.append(Config(f"check: {_level_name(lower, elastic)} @{_fmt_tol(ref_rtol)}", "reference check",
-                              base + _level_sets(lower), ref_rtol, atol(ref_rtol),
-                              tuple((b, *levels[-2]) for b in elastic)))
-    configs.append(Config(f"check: {_level_name(ref_modes, elastic)} @{_fmt_tol(ref_rtol * 10)}", "reference check",
-                          ref.overrides, ref_rtol * 10, atol(ref_rtol * 10), ref.levels))
+        configs.append(
+            Config(
+                f"check: {_level_name(lower, elastic)} @{_fmt_tol(ref_rtol)}",
+                "reference check",
+                base + _level_sets(lower),
+                ref_rtol,
+                atol(ref_rtol),
+                tuple((b, *levels[-2]) for b in elastic),
+            )
+        )
+    configs.append(
+        Config(
+            f"check: {_level_name(ref_modes, elastic)} @{_fmt_tol(ref_rtol * 10)}",
+            "reference check",
+            ref.overrides,
+            ref_rtol * 10,
+            atol(ref_rtol * 10),
+            ref.levels,
+        )
+    )
     # uniform mode levels x tolerances (the base effects: the scene's, made accurate)
     for lev in levels:
         modes = {b: lev for b in elastic}
         for tol in tolerances:
-            configs.append(Config(f"{_level_name(modes, elastic)} @{_fmt_tol(tol)}", "modes",
-                                  base + _level_sets(modes), tol, atol(tol), tuple((b, *lev) for b in elastic)))
+            configs.append(
+                Config(
+                    f"{_level_name(modes, elastic)} @{_fmt_tol(tol)}",
+                    "modes",
+                    base + _level_sets(modes),
+                    tol,
+                    atol(tol),
+                    tuple((b, *lev) for b in elastic),
+                )
+            )
     mid_tol = sorted(tolerances)[len(tolerances) // 2]
     # one bar at a time below the reference level, the others at it
     if per_bar and len(elastic) > 1:
@@ -235,20 +277,44 @@ def plan(scene, elastic: Sequence[str], levels: Sequence[tuple], tolerances: Seq
             for lev in levels[:-1]:
                 modes = dict(ref_modes)
                 modes[b] = lev
-                configs.append(Config(f"{b} {lev[0]}+{lev[1]}, others {ref_level[0]}+{ref_level[1]} @{_fmt_tol(mid_tol)}",
-                                      "per-bar", base + _level_sets(modes), mid_tol, atol(mid_tol),
-                                      tuple((x, *modes[x]) for x in elastic)))
+                configs.append(
+                    Config(
+                        f"{b} {lev[0]}+{lev[1]}, others {ref_level[0]}+{ref_level[1]} @{_fmt_tol(mid_tol)}",
+                        "per-bar",
+                        base + _level_sets(modes),
+                        mid_tol,
+                        atol(mid_tol),
+                        tuple((x, *modes[x]) for x in elastic),
+                    )
+                )
     # effect sets on a mid-level model
     if effects:
         mid_level = (3, 4) if (3, 4) in levels else levels[len(levels) // 2]
         modes = {b: mid_level for b in elastic}
         base_label = f"{_level_name(modes, elastic)} @{_fmt_tol(mid_tol)}"
         for label, sets in EFFECT_SETS:
-            configs.append(Config(f"{label}, {base_label}", "effects", base + _level_sets(modes) + tuple(sets),
-                                  mid_tol, atol(mid_tol), tuple((b, *mid_level) for b in elastic), base_label))
+            configs.append(
+                Config(
+                    f"{label}, {base_label}",
+                    "effects",
+                    base + _level_sets(modes) + tuple(sets),
+                    mid_tol,
+                    atol(mid_tol),
+                    tuple((b, *mid_level) for b in elastic),
+                    base_label,
+                )
+            )
         sim = scene.simulation
-        configs.append(Config(f"scene as written @{_fmt_tol(sim.rtol)}", "scene", (), sim.rtol, sim.atol,
-                              tuple((b.name, b.axial_modes, b.transverse_modes) for b in scene.bodies if not b.rigid)))
+        configs.append(
+            Config(
+                f"scene as written @{_fmt_tol(sim.rtol)}",
+                "scene",
+                (),
+                sim.rtol,
+                sim.atol,
+                tuple((b.name, b.axial_modes, b.transverse_modes) for b in scene.bodies if not b.rigid),
+            )
+        )
     # drop duplicates (same overrides and tolerances), keeping the first
     seen, unique = {tuple(ref.sets())}, []
     for c in configs:
@@ -268,8 +334,15 @@ def _median(xs):
 class _Runner:
     """Derive each model structure once per repeat (timed), run each configuration."""
 
-    def __init__(self, path: str, overrides: Sequence[str], repeats: int, t_end: float | None, step: float | None,
-                 turn: float = 2 * math.pi):
+    def __init__(
+        self,
+        path: str,
+        overrides: Sequence[str],
+        repeats: int,
+        t_end: float | None,
+        step: float | None,
+        turn: float = 2 * math.pi,
+    ):
         self.path, self.overrides, self.repeats = path, tuple(overrides), repeats
         self.t_end, self.step, self.turn = t_end, step, turn
         self.models: dict = {}
@@ -280,7 +353,7 @@ class _Runner:
             return load_scene(self.path, sets)
         try:
             return load_scene(self.path, sets + [f"simulation.t_end={self.t_end!r}"])
-        except SceneError:      # the file gives cycles (crank turns), not t_end
+        except SceneError:  # the file gives cycles (crank turns), not t_end
             return load_scene(self.path, sets + [f"simulation.cycles={self.t_end / self.turn!r}"])
 
     def compiled(self, scene):
@@ -334,7 +407,7 @@ class _Runner:
         except SceneError:
             raise
         except SymgenError as err:
-            interrupt.check()        # a failure while SIGINT/SIGTERM is pending is the interrupt
+            interrupt.check()  # a failure while SIGINT/SIGTERM is pending is the interrupt
             row.status = f"failed: {err}"
         return row
 
@@ -345,8 +418,12 @@ def oversampling(scene, n_axial: int, cutoff: float) -> int:
     start-up ringing of those modes is real but far above the response the study compares;
     sampled at the scene's step it would fold down onto it. Frequencies: (2k - 1)(pi/2)
     sqrt(lambda) per unit tau, k = 1..n_axial (a free-ended bar's axial modes)."""
-    freqs = [(2 * k - 1) * 0.25 * math.sqrt(b.lam) for b in scene.bodies if not b.rigid and b.lam
-             for k in range(1, max(1, n_axial) + 1)]           # cycles per unit tau
+    freqs = [
+        (2 * k - 1) * 0.25 * math.sqrt(b.lam)
+        for b in scene.bodies
+        if not b.rigid and b.lam
+        for k in range(1, max(1, n_axial) + 1)
+    ]  # cycles per unit tau
     step = scene.simulation.output_step
     for K in range(1, 17):
         fs = K / step
@@ -371,11 +448,23 @@ def _compare(row: Row, ref: Row, names: list, compared: list, dt: float, cutoff:
         row.spectral = max(row.spectra.values())
 
 
-def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = False, repeats: int = 3,
-              window_turns: float = 1.0, cutoff_per_turn: float = DEFAULT_CUTOFF,
-              levels: Sequence[tuple] | None = None, tolerances: Sequence[float] | None = None,
-              ref_rtol: float = REFERENCE_RTOL, per_bar: bool | None = None, effects: bool = True,
-              t_end: float | None = None, oversample: int | None = None, progress: Callable[[str], None] | None = None) -> Study:
+def run_study(
+    scene_path: str,
+    overrides: Sequence[str] = (),
+    *,
+    quick: bool = False,
+    repeats: int = 3,
+    window_turns: float = 1.0,
+    cutoff_per_turn: float = DEFAULT_CUTOFF,
+    levels: Sequence[tuple] | None = None,
+    tolerances: Sequence[float] | None = None,
+    ref_rtol: float = REFERENCE_RTOL,
+    per_bar: bool | None = None,
+    effects: bool = True,
+    t_end: float | None = None,
+    oversample: int | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Study:
     """Run the study of a scene (see the module docstring); ``write_study`` writes its files.
 
     Parameters
@@ -395,15 +484,22 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
     scene = load_scene(scene_path, list(overrides))
     elastic = tuple(b.name for b in scene.bodies if not b.rigid)
     if not elastic:
-        raise SceneError(scene_path, "bodies", "the scene has no elastic bar: a study compares mode counts",
-                         "make at least one bar elastic (rigid = false with lambda and mu)")
+        raise SceneError(
+            scene_path,
+            "bodies",
+            "the scene has no elastic bar: a study compares mode counts",
+            "make at least one bar elastic (rigid = false with lambda and mu)",
+        )
     levels = tuple(tuple(x) for x in (levels or (QUICK_LEVELS if quick else LEVELS)))
     tolerances = tuple(tolerances or (QUICK_TOLERANCES if quick else TOLERANCES))
     per_bar = (not quick) if per_bar is None else per_bar
     drv = scene.driver
     turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else 2 * math.pi
-    k = (oversampling(scene, max(lev[0] for lev in levels), cutoff_per_turn / turn) if oversample is None
-         else max(1, int(oversample)))
+    k = (
+        oversampling(scene, max(lev[0] for lev in levels), cutoff_per_turn / turn)
+        if oversample is None
+        else max(1, int(oversample))
+    )
     runner = _Runner(scene_path, overrides, max(1, repeats), t_end, scene.simulation.output_step / k, turn)
     ref_cfg, configs = plan(scene, elastic, levels, tolerances, ref_rtol, per_bar, effects)
     notes = []
@@ -429,13 +525,29 @@ def run_study(scene_path: str, overrides: Sequence[str] = (), *, quick: bool = F
     rows: list[Row] = []
 
     def study(status: str = "complete", stopped: str = "") -> Study:
-        return Study(scene_path=str(scene_path), scene_name=scene.name, overrides=tuple(overrides),
-                     elastic=elastic, turn=turn, t_end=t_end,
-                     window=min(window_turns * turn, t_end), cutoff=cutoff, repeats=max(1, repeats),
-                     reference=ref, rows=list(rows), output_names=names, compared=compared, notes=notes,
-                     oversample=k, status=status, stopped=stopped, planned=len(configs))
+        return Study(
+            scene_path=str(scene_path),
+            scene_name=scene.name,
+            overrides=tuple(overrides),
+            elastic=elastic,
+            turn=turn,
+            t_end=t_end,
+            window=min(window_turns * turn, t_end),
+            cutoff=cutoff,
+            repeats=max(1, repeats),
+            reference=ref,
+            rows=list(rows),
+            output_names=names,
+            compared=compared,
+            notes=notes,
+            oversample=k,
+            status=status,
+            stopped=stopped,
+            planned=len(configs),
+        )
 
     from symgen.progress import progress_bar
+
     try:
         with progress_bar(len(configs), f"study {scene.name}", unit="config") as bar:
             for i, cfg in enumerate(configs):
@@ -482,8 +594,11 @@ def pick(study: Study, target: float) -> tuple[Row | None, bool]:
 
 def output_uncertainty(study: Study, name: str) -> float:
     """How far the reference is converged for one output (largest reference-check error)."""
-    errs = [r.errors[name] for r in study.rows
-            if r.config.group == "reference check" and r.status == "ok" and name in r.errors]
+    errs = [
+        r.errors[name]
+        for r in study.rows
+        if r.config.group == "reference check" and r.status == "ok" and name in r.errors
+    ]
     return max(errs) if errs else math.nan
 
 
@@ -520,21 +635,56 @@ def _speedup(study: Study, row: Row) -> float:
 def csv_text(study: Study) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    head = ["label", "group", "status", "set", "rtol", "atol", "coordinates", "res_ops", "derive_cpu_s",
-            "build_cpu_s", "integrate_cpu_s", "integrate_cpu_s_per_turn", "idas_steps", "closure_max", "error",
-            "worst_output", "spectral_error", "speedup_vs_base"]
+    head = [
+        "label",
+        "group",
+        "status",
+        "set",
+        "rtol",
+        "atol",
+        "coordinates",
+        "res_ops",
+        "derive_cpu_s",
+        "build_cpu_s",
+        "integrate_cpu_s",
+        "integrate_cpu_s_per_turn",
+        "idas_steps",
+        "closure_max",
+        "error",
+        "worst_output",
+        "spectral_error",
+        "speedup_vs_base",
+    ]
     head += [f"error_{n}" for n in study.compared] + [f"spectral_{n}" for n in study.compared]
     w.writerow(head)
     turns = study.t_end / study.turn
     for row in [study.reference, *study.rows]:
         c = row.config
         err = 0.0 if c.group == "reference" else row.error
-        w.writerow([c.label, c.group, row.status, " ".join(c.overrides), repr(c.rtol), repr(c.atol), row.n_coords,
-                    row.ops, f"{row.derive_s:.6g}", f"{row.build_s:.6g}", f"{row.integrate_s:.6g}",
-                    f"{row.integrate_s / turns:.6g}", row.steps, f"{row.closure_max:.3g}", f"{err:.6g}", row.worst,
-                    f"{0.0 if c.group == 'reference' else row.spectral:.6g}", f"{_speedup(study, row):.4g}"]
-                   + [f"{row.errors.get(n, math.nan):.6g}" for n in study.compared]
-                   + [f"{row.spectra.get(n, math.nan):.6g}" for n in study.compared])
+        w.writerow(
+            [
+                c.label,
+                c.group,
+                row.status,
+                " ".join(c.overrides),
+                repr(c.rtol),
+                repr(c.atol),
+                row.n_coords,
+                row.ops,
+                f"{row.derive_s:.6g}",
+                f"{row.build_s:.6g}",
+                f"{row.integrate_s:.6g}",
+                f"{row.integrate_s / turns:.6g}",
+                row.steps,
+                f"{row.closure_max:.3g}",
+                f"{err:.6g}",
+                row.worst,
+                f"{0.0 if c.group == 'reference' else row.spectral:.6g}",
+                f"{_speedup(study, row):.4g}",
+            ]
+            + [f"{row.errors.get(n, math.nan):.6g}" for n in study.compared]
+            + [f"{row.spectra.get(n, math.nan):.6g}" for n in study.compared]
+        )
     return buf.getvalue()
 
 
@@ -550,8 +700,11 @@ def markdown(study: Study, png_name: str | None = "study.png") -> str:
     unc = reference_uncertainty(study)
     lines = [f"# Accuracy vs time: `{study.scene_path}`", ""]
     if study.status != "complete":
-        lines += [f"**PARTIAL STUDY ({study.status}: {study.stopped}): {len(study.rows)} of {study.planned} "
-                  f"configurations were run; the picks below are among those only.**", ""]
+        lines += [
+            f"**PARTIAL STUDY ({study.status}: {study.stopped}): {len(study.rows)} of {study.planned} "
+            f"configurations were run; the picks below are among those only.**",
+            "",
+        ]
     if study.overrides:
         lines += [f"Scene overrides: `{' '.join('--set ' + o for o in study.overrides)}`", ""]
     lines += [
@@ -562,58 +715,97 @@ def markdown(study: Study, png_name: str | None = "study.png") -> str:
         f"step so that the axial ringing does not alias; **error** = max over the first "
         f"{study.window / study.turn:.3g} turn(s) of |y − y_ref| / max|y_ref|, worst output; **spectral** = "
         f"amplitude-spectrum difference over the whole run (insensitive to phase slips). CPU times: medians of "
-        f"{study.repeats} repeat(s); derivation with SymPy's cache cleared, no model cache.", ""]
-    lines += ["## The reference's own convergence", "",
-              "| check | error | spectral |", "|---|---|---|"]
+        f"{study.repeats} repeat(s); derivation with SymPy's cache cleared, no model cache.",
+        "",
+    ]
+    lines += ["## The reference's own convergence", "", "| check | error | spectral |", "|---|---|---|"]
     for r in study.rows:
         if r.config.group == "reference check":
-            lines.append(f"| {r.config.label} | {_pct(r.error)} | {_pct(r.spectral)} |"
-                         if r.status == "ok" else f"| {r.config.label} | {r.status} | |")
-    lines += ["", f"The reference is converged to about {_pct(unc)} (the largest of these): a configuration "
-                  f"is certified for a target when its error plus this stays within the target.", ""]
+            lines.append(
+                f"| {r.config.label} | {_pct(r.error)} | {_pct(r.spectral)} |"
+                if r.status == "ok"
+                else f"| {r.config.label} | {r.status} | |"
+            )
+    lines += [
+        "",
+        f"The reference is converged to about {_pct(unc)} (the largest of these): a configuration "
+        f"is certified for a target when its error plus this stays within the target.",
+        "",
+    ]
     for note in study.notes:
         lines += [f"Note: {note}", ""]
-    lines += ["## Which configuration to pick", "",
-              "| target | configuration | error | integrate CPU s / turn | `--set` |", "|---|---|---|---|---|"]
+    lines += [
+        "## Which configuration to pick",
+        "",
+        "| target | configuration | error | integrate CPU s / turn | `--set` |",
+        "|---|---|---|---|---|",
+    ]
     for target in TARGETS:
         r, certified = pick(study, target)
         if r is None:
             lines.append(f"| {_pct(target)} | none of the configurations reaches it | | | |")
         else:
             flag = "" if certified else " (not certified: within the reference's own uncertainty)"
-            lines.append(f"| {_pct(target)} | {r.config.label}{flag} | {_pct(r.error)} | "
-                         f"{r.integrate_s / turns:.3g} | `{' '.join(r.config.sets())}` |")
-    lines += ["", "Per output (cheapest configuration whose error on that output alone is within the target; "
-                  "† = not certified: within the reference's own uncertainty for that output):", "",
-              "| output | reference converged to | " + " | ".join(_pct(t) for t in TARGETS) + " |",
-              "|---|---|" + "---|" * len(TARGETS)]
+            lines.append(
+                f"| {_pct(target)} | {r.config.label}{flag} | {_pct(r.error)} | "
+                f"{r.integrate_s / turns:.3g} | `{' '.join(r.config.sets())}` |"
+            )
+    lines += [
+        "",
+        "Per output (cheapest configuration whose error on that output alone is within the target; "
+        "† = not certified: within the reference's own uncertainty for that output):",
+        "",
+        "| output | reference converged to | " + " | ".join(_pct(t) for t in TARGETS) + " |",
+        "|---|---|" + "---|" * len(TARGETS),
+    ]
     for name in study.compared:
         cells = []
         for target in TARGETS:
             r, certified = pick_output(study, name, target)
-            cells.append("—" if r is None else f"{r.config.label}{'' if certified else ' †'} "
-                                               f"({_pct(r.errors[name])}, {r.integrate_s / turns:.3g} s/turn)")
+            cells.append(
+                "—"
+                if r is None
+                else f"{r.config.label}{'' if certified else ' †'} "
+                f"({_pct(r.errors[name])}, {r.integrate_s / turns:.3g} s/turn)"
+            )
         lines.append(f"| {name} | {_pct(output_uncertainty(study, name))} | " + " | ".join(cells) + " |")
     lines += [""] + ([f"![error vs integration time]({png_name})", ""] if png_name else [])
-    lines += ["## Every configuration", "",
-              "| configuration | group | coords | res ops | derive s | build s | integrate s / turn | IDAS steps | "
-              "error | worst output | spectral | speed-up |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines += [
+        "## Every configuration",
+        "",
+        "| configuration | group | coords | res ops | derive s | build s | integrate s / turn | IDAS steps | "
+        "error | worst output | spectral | speed-up |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in study.rows:
         if r.status != "ok":
-            lines.append(f"| {r.config.label} | {r.config.group} | {r.n_coords} | {r.ops} | {r.derive_s:.2f} | | "
-                         f"| | {r.status[:120]} | | | |")
+            lines.append(
+                f"| {r.config.label} | {r.config.group} | {r.n_coords} | {r.ops} | {r.derive_s:.2f} | | "
+                f"| | {r.status[:120]} | | | |"
+            )
             continue
         sp_ = _speedup(study, r)
-        lines.append(f"| {r.config.label} | {r.config.group} | {r.n_coords} | {r.ops} | {r.derive_s:.2f} | "
-                     f"{r.build_s:.2f} | {r.integrate_s / turns:.3g} | {r.steps} | {_pct(r.error)} | {r.worst} | "
-                     f"{_pct(r.spectral)} | {'' if not np.isfinite(sp_) else f'{sp_:.2f}x'} |")
-    lines += ["", "Per-output errors are in `study.csv` (`error_<output>`, `spectral_<output>`); the speed-up of an "
-                  "effects row is the integration time of the same model with every effect on divided by its own.", ""]
+        lines.append(
+            f"| {r.config.label} | {r.config.group} | {r.n_coords} | {r.ops} | {r.derive_s:.2f} | "
+            f"{r.build_s:.2f} | {r.integrate_s / turns:.3g} | {r.steps} | {_pct(r.error)} | {r.worst} | "
+            f"{_pct(r.spectral)} | {'' if not np.isfinite(sp_) else f'{sp_:.2f}x'} |"
+        )
+    lines += [
+        "",
+        "Per-output errors are in `study.csv` (`error_<output>`, `spectral_<output>`); the speed-up of an "
+        "effects row is the integration time of the same model with every effect on divided by its own.",
+        "",
+    ]
     return "\n".join(lines)
 
 
-GROUP_STYLE = {"modes": ("tab:blue", "o"), "per-bar": ("tab:green", "s"), "effects": ("tab:red", "^"),
-               "scene": ("black", "*"), "reference check": ("tab:purple", "D")}
+GROUP_STYLE = {
+    "modes": ("tab:blue", "o"),
+    "per-bar": ("tab:green", "s"),
+    "effects": ("tab:red", "^"),
+    "scene": ("black", "*"),
+    "reference check": ("tab:purple", "D"),
+}
 
 
 def plot(study: Study, path: str | Path) -> None:
@@ -621,6 +813,7 @@ def plot(study: Study, path: str | Path) -> None:
     a number, placed clear of the other numbers and of the markers; the key beside the plot
     lists the numbers with their configurations (long labels never cross the data)."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -633,21 +826,46 @@ def plot(study: Study, path: str | Path) -> None:
     for group, (color, marker) in GROUP_STYLE.items():
         pts = [r for r in rows if r.config.group == group]
         if pts:
-            ax.scatter([r.integrate_s / turns for r in pts], [max(r.error, floor) for r in pts], c=color,
-                       marker=marker, s=40, label=group, zorder=3)
+            ax.scatter(
+                [r.integrate_s / turns for r in pts],
+                [max(r.error, floor) for r in pts],
+                c=color,
+                marker=marker,
+                s=40,
+                label=group,
+                zorder=3,
+            )
     front = pareto([r for r in rows if r.config.group != "reference check"])
     if front:
-        ax.step([r.integrate_s / turns for r in front], [max(r.error, floor) for r in front], where="post",
-                color="gray", lw=1, ls="--", label="Pareto front (reference checks left out)", zorder=2)
+        ax.step(
+            [r.integrate_s / turns for r in front],
+            [max(r.error, floor) for r in front],
+            where="post",
+            color="gray",
+            lw=1,
+            ls="--",
+            label="Pareto front (reference checks left out)",
+            zorder=2,
+        )
     for target in TARGETS:
         ax.axhline(target, color="gray", lw=0.6, ls=":")
-        ax.text(1.0, target, f"{_pct(target)} ", transform=ax.get_yaxis_transform(),
-                fontsize=7, va="bottom", ha="right", color="gray")
+        ax.text(
+            1.0,
+            target,
+            f"{_pct(target)} ",
+            transform=ax.get_yaxis_transform(),
+            fontsize=7,
+            va="bottom",
+            ha="right",
+            color="gray",
+        )
     unc = reference_uncertainty(study)
     if np.isfinite(unc) and unc > 0:
         ax.axhspan(floor, unc, color="tab:purple", alpha=0.07, label="within the reference's own uncertainty")
     ax.set_xlabel("integration CPU time per crank turn [s] (IDAS, median of repeats)")
-    ax.set_ylabel(f"error: max over outputs of max|y − y_ref| / max|y_ref|, first {study.window / study.turn:.3g} turn(s)")
+    ax.set_ylabel(
+        f"error: max over outputs of max|y − y_ref| / max|y_ref|, first {study.window / study.turn:.3g} turn(s)"
+    )
     ax.set_title(f"{study.scene_name}: accuracy vs time ({study.reference.config.label})", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, loc="lower left")
@@ -672,9 +890,17 @@ def _key(ax, rows) -> None:
     ax.set_title("key: point number, configuration", fontsize=9, loc="left")
     for k, r in enumerate(rows):
         col, line = divmod(k, per)
-        ax.text(col / ncol, 1 - (line + 0.5) / max(per, 24), f"{k + 1:>2}  {r.config.label}",
-                transform=ax.transAxes, fontsize=size * (0.85 if ncol > 1 else 1), va="center", ha="left",
-                family="monospace", color=GROUP_STYLE.get(r.config.group, ("black",))[0])
+        ax.text(
+            col / ncol,
+            1 - (line + 0.5) / max(per, 24),
+            f"{k + 1:>2}  {r.config.label}",
+            transform=ax.transAxes,
+            fontsize=size * (0.85 if ncol > 1 else 1),
+            va="center",
+            ha="left",
+            family="monospace",
+            color=GROUP_STYLE.get(r.config.group, ("black",))[0],
+        )
 
 
 def _labels(ax, fig, points) -> None:
@@ -688,15 +914,26 @@ def _labels(ax, fig, points) -> None:
         return
     ax.set_xlim(min(xs) / 1.25, max(xs) * 1.6)
     ax.set_ylim(min(ys) / 3, max(ys) * 3)
-    fig.canvas.draw()                   # final layout, then freeze it: the labels are placed in points
+    fig.canvas.draw()  # final layout, then freeze it: the labels are placed in points
     fig.set_layout_engine("none")
     scale = 72.0 / fig.dpi
     disp = [ax.transData.transform((x, y)) * scale for x, y, _ in points]
-    placed: list = [(px - 4, py - 4, px + 4, py + 4) for px, py in disp]      # the markers
-    char_w, line_h = 4.2, 8.5          # points, at fontsize 7
-    offsets = [(dx, dy) for r in (5, 11, 18, 26, 35) for dx, dy in
-               ((r, -line_h / 2), (-r, -line_h / 2), (0, r - 3), (0, -r - line_h + 3),
-                (r, r - 3), (-r, r - 3), (r, -r - line_h + 3), (-r, -r - line_h + 3))]
+    placed: list = [(px - 4, py - 4, px + 4, py + 4) for px, py in disp]  # the markers
+    char_w, line_h = 4.2, 8.5  # points, at fontsize 7
+    offsets = [
+        (dx, dy)
+        for r in (5, 11, 18, 26, 35)
+        for dx, dy in (
+            (r, -line_h / 2),
+            (-r, -line_h / 2),
+            (0, r - 3),
+            (0, -r - line_h + 3),
+            (r, r - 3),
+            (-r, r - 3),
+            (r, -r - line_h + 3),
+            (-r, -r - line_h + 3),
+        )
+    ]
     order = sorted(range(len(points)), key=lambda i: (points[i][0], points[i][1]))
     for i in order:
         x, y, text = points[i]
@@ -712,10 +949,19 @@ def _labels(ax, fig, points) -> None:
         box, dist = choice or ((px + 5, py, px + 5 + w, py + line_h), 5.0)
         placed.append(box)
         cx, cy = (box[0] + box[2]) / 2 - px, (box[1] + box[3]) / 2 - py
-        ax.annotate(text, (x, y), xytext=(cx, cy), textcoords="offset points", fontsize=7, zorder=4,
-                    ha="center", va="center",
-                    arrowprops=None if dist < 12 else {"arrowstyle": "-", "lw": 0.4, "color": "gray",
-                                                        "shrinkA": 0, "shrinkB": 3})
+        ax.annotate(
+            text,
+            (x, y),
+            xytext=(cx, cy),
+            textcoords="offset points",
+            fontsize=7,
+            zorder=4,
+            ha="center",
+            va="center",
+            arrowprops=None
+            if dist < 12
+            else {"arrowstyle": "-", "lw": 0.4, "color": "gray", "shrinkA": 0, "shrinkB": 3},
+        )
 
 
 def study_paths(directory: str | Path, complete: bool = True, fmt: str = "png") -> list[Path]:

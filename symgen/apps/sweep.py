@@ -13,6 +13,7 @@ change the structure (mode counts, effects) form several groups, each derived on
 Each point is an independent, deterministic computation (the same Functions, the same inputs):
 the table is identical whatever runs it, in any order, except the measured ``cpu_s``.
 """
+
 from __future__ import annotations
 
 import csv
@@ -45,8 +46,8 @@ MAX_POINTS = 100_000
 # --------------------------------------------------------------------------- the grid
 @dataclass(frozen=True)
 class Vary:
-    key: str                    # dotted scene key, as for --set
-    texts: tuple                # the values as written into the override (exact TOML numbers)
+    key: str  # dotted scene key, as for --set
+    texts: tuple  # the values as written into the override (exact TOML numbers)
     log: bool = False
 
     @property
@@ -55,9 +56,12 @@ class Vary:
 
 
 def _bad(item: str, message: str, hint: str = "") -> SceneError:
-    return SceneError("command line", KEY, f"{item!r}: {message}",
-                      hint or "give KEY=start:stop:n, KEY=start:stop:n:log or KEY=v1,v2,... "
-                              "e.g. --vary driver.rate=0.5:3:20")
+    return SceneError(
+        "command line",
+        KEY,
+        f"{item!r}: {message}",
+        hint or "give KEY=start:stop:n, KEY=start:stop:n:log or KEY=v1,v2,... e.g. --vary driver.rate=0.5:3:20",
+    )
 
 
 def _number(text: str, item: str) -> str:
@@ -109,8 +113,11 @@ def vary_from(key: str, values) -> Vary:
         raise _bad(f"{key}=[]", "no values")
     texts = []
     for v in vals:
-        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                or not math.isfinite(float(v)):
+        if (
+            isinstance(v, (bool, np.bool_))
+            or not isinstance(v, (int, float, np.integer, np.floating))
+            or not math.isfinite(float(v))
+        ):
             raise _bad(f"{key}={values!r}", f"{v!r} is not a finite number")
         texts.append(str(int(v)) if isinstance(v, (int, np.integer)) else repr(float(v)))
     return parse_vary(f"{key}={','.join(texts)}")
@@ -124,8 +131,9 @@ def grid(varies: Sequence[Vary]) -> list[tuple]:
         raise SceneError("command line", KEY, f"{dup[0]!r} is varied twice", "give each key one --vary")
     total = math.prod(len(v.texts) for v in varies)
     if total > MAX_POINTS:
-        raise SceneError("command line", KEY, f"the grid has {total} points (more than {MAX_POINTS})",
-                         "use fewer values")
+        raise SceneError(
+            "command line", KEY, f"the grid has {total} points (more than {MAX_POINTS})", "use fewer values"
+        )
     return list(itertools.product(*(v.texts for v in varies)))
 
 
@@ -133,14 +141,14 @@ def grid(varies: Sequence[Vary]) -> list[tuple]:
 @dataclass(frozen=True)
 class Task:
     index: int
-    scene: Any                  # the point's validated Scene (shipped: workers need no scene file)
-    key: str                    # structure key of its model
-    window: float | None        # last crank turns over which peaks are taken (None: the whole run)
+    scene: Any  # the point's validated Scene (shipped: workers need no scene file)
+    key: str  # structure key of its model
+    window: float | None  # last crank turns over which peaks are taken (None: the whole run)
     campbell: bool
     campbell_at: float
 
 
-_MODELS: dict = {}              # structure key -> CompiledModel, per worker process
+_MODELS: dict = {}  # structure key -> CompiledModel, per worker process
 # One point at a time per process: CasADi is not safe to drive from several threads (plugin
 # loading, Function memory), and holds the GIL anyway; a Dask worker with several threads thus
 # runs its points in turn (give workers --nthreads 1 and more processes for parallel runs).
@@ -149,8 +157,11 @@ _LOCK = threading.Lock()
 
 def model_blob(compiled) -> dict:
     """A derived model as plain data (serialised CasADi Functions + its ModelInfo's JSON) for a worker."""
-    return {"info": compiled.info.to_json(), "derive_s": compiled.derive_s,
-            "funcs": {name: f.serialize() for name, f in compiled.funcs.items()}}
+    return {
+        "info": compiled.info.to_json(),
+        "derive_s": compiled.derive_s,
+        "funcs": {name: f.serialize() for name, f in compiled.funcs.items()},
+    }
 
 
 def _model(key: str, blobs: Mapping[str, dict]):
@@ -159,10 +170,13 @@ def _model(key: str, blobs: Mapping[str, dict]):
 
         from symgen.backends.casadi.pipeline import CompiledModel
         from symgen.ir.info import ModelInfo
+
         b = blobs[key]
         t0 = time.perf_counter()
         funcs = {name: ca.Function.deserialize(s) for name, s in b["funcs"].items()}
-        _MODELS[key] = CompiledModel(funcs, ModelInfo.from_json(b["info"]), b["derive_s"], time.perf_counter() - t0, True)
+        _MODELS[key] = CompiledModel(
+            funcs, ModelInfo.from_json(b["info"]), b["derive_s"], time.perf_counter() - t0, True
+        )
     return _MODELS[key]
 
 
@@ -179,8 +193,15 @@ def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
     scene = task.scene
     mech = Mechanism(_model(task.key, blobs), scene)
     names = list(mech.info.outputs)
-    row: dict[str, Any] = {"status": "ok", "failure": "", "steps": 0, "cpu_s": 0.0,
-                           "peaks": [math.nan] * len(names), "speed": math.nan, "freqs": []}
+    row: dict[str, Any] = {
+        "status": "ok",
+        "failure": "",
+        "steps": 0,
+        "cpu_s": 0.0,
+        "peaks": [math.nan] * len(names),
+        "speed": math.nan,
+        "freqs": [],
+    }
     drv = scene.driver
     if drv is not None and drv.kind == "angle":
         row["speed"] = float(drv.rate)
@@ -200,6 +221,7 @@ def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
         row["peaks"] = [float(x) for x in np.abs(out).max(axis=0)]
     if task.campbell:
         from symgen.numerics.modes import modes
+
         try:
             md = modes(mech, tau=task.campbell_at, shapes=False)
             row["freqs"] = [m.natural_frequency for m in md.modes]
@@ -212,7 +234,7 @@ def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
 def _init_worker(blobs: Mapping[str, dict]) -> None:
     """Local worker processes: the parent handles Ctrl-C (and stops them); keep the models."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # a forked worker drops the parent's handler
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a forked worker drops the parent's handler
     global _BLOBS
     _BLOBS = blobs
 
@@ -230,9 +252,9 @@ class SweepResult:
     """One row per grid point (grid order). ``columns``: name -> numpy array."""
 
     columns: dict
-    varied: list                    # varied keys, in order
+    varied: list  # varied keys, in order
     output_names: list
-    structures: dict                # structure key -> number of points
+    structures: dict  # structure key -> number of points
     executor: str
     complete: bool = True
     notes: dict = field(default_factory=dict)
@@ -245,8 +267,9 @@ class SweepResult:
         try:
             import pandas as pd
         except ImportError:
-            raise ImportError("SweepResult.frame() needs pandas: pip install pandas "
-                              "(or use .columns, a dict of numpy arrays)") from None
+            raise ImportError(
+                "SweepResult.frame() needs pandas: pip install pandas (or use .columns, a dict of numpy arrays)"
+            ) from None
         return pd.DataFrame(self.columns)
 
     def frequencies(self) -> np.ndarray:
@@ -271,8 +294,12 @@ def prepare(scene_path: str, varies: Sequence[Vary], overrides: Sequence[str] = 
         try:
             scene = load_scene(scene_path, ov)
         except SceneError as err:
-            raise SceneError(err.file, err.key, f"{err.message} (at sweep point "
-                             f"{', '.join(f'{v.key}={t}' for v, t in zip(varies, pt))})", err.hint) from None
+            raise SceneError(
+                err.file,
+                err.key,
+                f"{err.message} (at sweep point {', '.join(f'{v.key}={t}' for v, t in zip(varies, pt))})",
+                err.hint,
+            ) from None
         k = structure_key(structure_of(scene))
         keys.append(k)
         scenes.append(scene)
@@ -280,10 +307,20 @@ def prepare(scene_path: str, varies: Sequence[Vary], overrides: Sequence[str] = 
     return points, scenes, keys, first
 
 
-def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequence[str] = (), *,
-          workers: int | None = None, scheduler: Any = None, window: float | None = None,
-          campbell: bool = False, campbell_at: float = 0.0, use_cache: bool = True,
-          progress: bool | None = None, say: Callable[[str], object] | None = None) -> SweepResult:
+def sweep(
+    scene_path: str | os.PathLike,
+    varies: Sequence[Vary],
+    overrides: Sequence[str] = (),
+    *,
+    workers: int | None = None,
+    scheduler: Any = None,
+    window: float | None = None,
+    campbell: bool = False,
+    campbell_at: float = 0.0,
+    use_cache: bool = True,
+    progress: bool | None = None,
+    say: Callable[[str], object] | None = None,
+) -> SweepResult:
     """Run the grid of ``varies`` over the scene; see the module docstring.
 
     workers : local processes (default: the machine's cores; 1 runs in this process)
@@ -301,27 +338,42 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
     scene_path = str(scene_path)
     say = say or (lambda _m: None)
     if window is not None and not window > 0:
-        raise SceneError("command line", "--window", f"the window must be > 0 crank turns, got {window!r}",
-                         "e.g. --window 1 (the last turn)")
+        raise SceneError(
+            "command line",
+            "--window",
+            f"the window must be > 0 crank turns, got {window!r}",
+            "e.g. --window 1 (the last turn)",
+        )
     points, scenes, keys, first = prepare(scene_path, varies, overrides)
     counts = {k: keys.count(k) for k in first}
-    if window is not None and any(sc.driver is None or sc.driver.kind != "angle" or sc.driver.rate == 0
-                                  for sc in first.values()):
-        raise SceneError("command line", "--window", "a window in crank turns needs an angle driver with a rate",
-                         "leave out --window: the peaks are then taken over the whole run")
+    if window is not None and any(
+        sc.driver is None or sc.driver.kind != "angle" or sc.driver.rate == 0 for sc in first.values()
+    ):
+        raise SceneError(
+            "command line",
+            "--window",
+            "a window in crank turns needs an angle driver with a rate",
+            "leave out --window: the peaks are then taken over the whole run",
+        )
     if campbell:
         for sc in first.values():
             if sc.driver is None or sc.driver.kind != "angle":
-                raise SceneError(scene_path, "driver", "a Campbell diagram needs an angle driver (its rate is the speed)",
-                                 "drive the crank with [driver] kind = \"angle\"")
+                raise SceneError(
+                    scene_path,
+                    "driver",
+                    "a Campbell diagram needs an angle driver (its rate is the speed)",
+                    'drive the crank with [driver] kind = "angle"',
+                )
     blobs, derive_note = {}, []
     for k, sc in first.items():
         compiled = compile_scene(sc, use_cache=use_cache)
         blobs[k] = model_blob(compiled)
         derive_note.append(f"{k}: {'cached' if compiled.cached else f'derived in {compiled.derive_s:.1f} s'}")
     if len(first) > 1:
-        say(f"{len(first)} distinct model structures in the grid (the varied keys change the structure): "
-            f"each derived once")
+        say(
+            f"{len(first)} distinct model structures in the grid (the varied keys change the structure): "
+            f"each derived once"
+        )
     tasks = [Task(i, scenes[i], keys[i], window, campbell, campbell_at) for i in range(len(points))]
     sc0 = next(iter(first.values()))
     names = [o.name for o in sc0.outputs]
@@ -343,8 +395,16 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
         bar.close()
         # the rows measured so far ride on whatever stopped the sweep (an interrupt too): the CLI
         # reads them with getattr(err, "partial", None); an arbitrary exception has no such field
-        err.partial = _result(varies, points, names, rows, counts, executor,  # type: ignore[attr-defined]
-                              complete=False, campbell=campbell)
+        err.partial = _result(  # type: ignore[attr-defined]
+            varies,
+            points,
+            names,
+            rows,
+            counts,
+            executor,
+            complete=False,
+            campbell=campbell,
+        )
         raise
     bar.close()
     result = _result(varies, points, names, rows, counts, executor, complete=True, campbell=campbell)
@@ -354,6 +414,7 @@ def sweep(scene_path: str | os.PathLike, varies: Sequence[Vary], overrides: Sequ
 
 def _bar(total: int, progress: bool | None, desc: str):
     from symgen.progress import progress_bar
+
     return progress_bar(total, desc, unit="point", enabled=progress)
 
 
@@ -364,10 +425,15 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
     # fork where it is safe (Linux, no other Python thread): fast, and scripts need no
     # ``if __name__ == "__main__"`` guard; else spawn
     import sys
+
     method = "fork" if sys.platform.startswith("linux") and threading.active_count() == 1 else "spawn"
     before, threads = set(mp.active_children()), set(threading.enumerate())
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=mp.get_context(method),
-                               initializer=_init_worker, initargs=(blobs,))
+    pool = ProcessPoolExecutor(
+        max_workers=min(workers, len(tasks)),
+        mp_context=mp.get_context(method),
+        initializer=_init_worker,
+        initargs=(blobs,),
+    )
     try:
         pending = {pool.submit(_run_local, t) for t in tasks}
         while pending:
@@ -379,7 +445,7 @@ def _run_processes(tasks, blobs, workers, rows, bar) -> None:
     except BaseException:
         # stop at once: drop the queue, end the worker processes (they ignore SIGINT)
         pool.shutdown(wait=False, cancel_futures=True)
-        _stop(set(mp.active_children()) - before)          # this pool's workers, however started
+        _stop(set(mp.active_children()) - before)  # this pool's workers, however started
         # the pool's manager thread ends (pool broken); shutdown(wait=True) after a first
         # shutdown no longer joins it, so join the threads the pool started, then end any
         # worker process started meanwhile
@@ -407,23 +473,36 @@ def _run_dask(tasks, blobs, scheduler, rows, bar) -> None:
     try:
         from distributed import Client, as_completed
     except ImportError:
-        raise SceneError("command line", "--scheduler", "running on a Dask cluster needs dask.distributed",
-                         "pip install 'symgen[distributed]'") from None
+        raise SceneError(
+            "command line",
+            "--scheduler",
+            "running on a Dask cluster needs dask.distributed",
+            "pip install 'symgen[distributed]'",
+        ) from None
     own = not isinstance(scheduler, Client)
     if own:
-        address = getattr(scheduler, "scheduler_address", scheduler)     # a LocalCluster, or its address
+        address = getattr(scheduler, "scheduler_address", scheduler)  # a LocalCluster, or its address
         try:
             client = Client(address, timeout="20s")
         except (OSError, TimeoutError) as err:
-            raise SceneError("command line", "--scheduler", f"cannot reach the Dask scheduler at {address!r}: {err}",
-                             "start one (dask scheduler; dask worker ADDRESS) or leave out --scheduler") from None
+            raise SceneError(
+                "command line",
+                "--scheduler",
+                f"cannot reach the Dask scheduler at {address!r}: {err}",
+                "start one (dask scheduler; dask worker ADDRESS) or leave out --scheduler",
+            ) from None
     else:
         client = scheduler
     futures = []
     try:
         shipped = client.scatter(blobs, broadcast=True, hash=False)
-        futures = client.map(run_point, tasks, blobs=shipped, pure=False, key=[f"symgen-sweep-{t.index}-{os.getpid()}-"
-                                                                              f"{time.time_ns()}" for t in tasks])
+        futures = client.map(
+            run_point,
+            tasks,
+            blobs=shipped,
+            pure=False,
+            key=[f"symgen-sweep-{t.index}-{os.getpid()}-{time.time_ns()}" for t in tasks],
+        )
         for fut in as_completed(futures):
             r = fut.result()
             rows[r["index"]] = r
@@ -437,8 +516,9 @@ def _run_dask(tasks, blobs, scheduler, rows, bar) -> None:
             client.close()
 
 
-def _result(varies, points, names, rows: dict, counts: dict, executor: str, complete: bool,
-            campbell: bool) -> SweepResult:
+def _result(
+    varies, points, names, rows: dict, counts: dict, executor: str, complete: bool, campbell: bool
+) -> SweepResult:
     n = len(points)
     cols: dict[str, np.ndarray] = {}
     for j, v in enumerate(varies):
@@ -455,8 +535,14 @@ def _result(varies, points, names, rows: dict, counts: dict, executor: str, comp
         for k in range(nf):
             cols[f"f{k + 1}"] = np.array([r["freqs"][k] if r and k < len(r["freqs"]) else math.nan for r in get])
     cols["failure"] = np.array([r["failure"] if r else "" for r in get], dtype=object)
-    return SweepResult(columns=cols, varied=[v.key for v in varies], output_names=list(names),
-                       structures=counts, executor=executor, complete=complete)
+    return SweepResult(
+        columns=cols,
+        varied=[v.key for v in varies],
+        output_names=list(names),
+        structures=counts,
+        executor=executor,
+        complete=complete,
+    )
 
 
 # --------------------------------------------------------------------------- writing
@@ -466,8 +552,9 @@ TABLE_SUFFIXES = (".csv", ".parquet")
 def check_table_path(path: str) -> Path:
     p = Path(path)
     if p.suffix.lower() not in TABLE_SUFFIXES:
-        raise SceneError("command line", "-o", f"{path!r} should end in .csv or .parquet",
-                         "give a file name like out/sweep.csv")
+        raise SceneError(
+            "command line", "-o", f"{path!r} should end in .csv or .parquet", "give a file name like out/sweep.csv"
+        )
     if p.suffix.lower() == ".parquet":
         _parquet_writer()
     return p
@@ -477,15 +564,21 @@ def _parquet_writer():
     try:
         import pyarrow
         import pyarrow.parquet  # noqa: F401
+
         return "pyarrow"
     except ImportError:
         pass
     try:
         import pandas  # noqa: F401
+
         return "pandas"
     except ImportError:
-        raise SceneError("command line", "-o", "writing Parquet needs pyarrow (or pandas with a Parquet engine)",
-                         "pip install 'symgen[parquet]', or write a .csv") from None
+        raise SceneError(
+            "command line",
+            "-o",
+            "writing Parquet needs pyarrow (or pandas with a Parquet engine)",
+            "pip install 'symgen[parquet]', or write a .csv",
+        ) from None
 
 
 def table_csv(result: SweepResult) -> str:
@@ -531,6 +624,7 @@ def write_table(out: str | os.PathLike, result: SweepResult, meta: dict) -> Path
 
 def _write_parquet(path: Path, result: SweepResult) -> None:
     import tempfile
+
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(fd)
@@ -539,9 +633,11 @@ def _write_parquet(path: Path, result: SweepResult) -> None:
         if _parquet_writer() == "pyarrow":
             import pyarrow as pa
             import pyarrow.parquet as pq
+
             pq.write_table(pa.table(cols), tmp)
         else:
             import pandas as pd
+
             pd.DataFrame(cols).to_parquet(tmp, index=False)
         os.replace(tmp, path)
     except BaseException:
@@ -549,25 +645,39 @@ def _write_parquet(path: Path, result: SweepResult) -> None:
         raise
 
 
-def sweep_meta(result: SweepResult, scene_path: str, varies: Sequence[Vary], overrides: Sequence[str],
-               window: float | None, campbell_at: float | None, scene, stopped: str = "interrupted") -> dict:
+def sweep_meta(
+    result: SweepResult,
+    scene_path: str,
+    varies: Sequence[Vary],
+    overrides: Sequence[str],
+    window: float | None,
+    campbell_at: float | None,
+    scene,
+    stopped: str = "interrupted",
+) -> dict:
     from symgen import __version__
+
     done = int(sum(s != "not run" for s in result.columns["status"]))
     return {
-        "scene": str(scene_path), "symgen_version": __version__,
+        "scene": str(scene_path),
+        "symgen_version": __version__,
         "status": "complete" if result.complete else stopped,
-        "points": len(result), "points_done": done,
+        "points": len(result),
+        "points_done": done,
         "vary": [{"key": v.key, "values": [float(t) for t in v.texts], "log": v.log} for v in varies],
-        "set": list(overrides), "executor": result.executor, "structures": result.structures,
+        "set": list(overrides),
+        "executor": result.executor,
+        "structures": result.structures,
         "models": result.notes.get("models", []),
         "columns": {
             "status": "ok | failed (the run stopped; see failure) | modes failed | not run (interrupted)",
-            "steps": "IDAS steps of the run", "cpu_s": "CPU time of the run in its worker thread, s "
-            "(the only column that differs between runs)",
+            "steps": "IDAS steps of the run",
+            "cpu_s": "CPU time of the run in its worker thread, s (the only column that differs between runs)",
             "peak_<output>": "max |output| over the run" + (f", last {window:g} crank turns" if window else ""),
             "speed": "crank speed = driver rate, units of omega",
             "f<k>": f"natural frequencies from modes at tau = {campbell_at:g}, units of omega"
-            if campbell_at is not None else "",
+            if campbell_at is not None
+            else "",
         },
         "units": "dimensionless (tau = omega t)" + (f"; omega = {scene.omega:g} rad/s" if scene.units == "SI" else ""),
         "si_factors": _si_factors(scene),
@@ -583,6 +693,7 @@ def _si_factors(scene) -> dict | None:
     if scene.units != "SI":
         return None
     from symgen.numerics.units import result_units
+
     return {f"peak_{c.name}": {"unit": c.unit, "factor": c.factor} for c in result_units(scene, "SI").outputs}
 
 
@@ -593,10 +704,12 @@ def _x_axis(result: SweepResult, varies: Sequence[Vary]):
     return key, others
 
 
-def plot_resonance(path: str | os.PathLike, result: SweepResult, varies: Sequence[Vary], kinds: Sequence[str],
-                   title: str) -> None:
+def plot_resonance(
+    path: str | os.PathLike, result: SweepResult, varies: Sequence[Vary], kinds: Sequence[str], title: str
+) -> None:
     """Peak |output| against the first varied key (one line per value of the others)."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -634,17 +747,29 @@ def _groups(result: SweepResult, others: Sequence[str]) -> list:
     if not others:
         return [("", np.ones(len(result), dtype=bool))]
     combos = sorted({tuple(result.columns[k][i] for k in others) for i in range(len(result))})
-    return [(", ".join(f"{k}={v:g}" for k, v in zip(others, c)),
-             np.all([result.columns[k] == v for k, v in zip(others, c)], axis=0)) for c in combos]
+    return [
+        (
+            ", ".join(f"{k}={v:g}" for k, v in zip(others, c)),
+            np.all([result.columns[k] == v for k, v in zip(others, c)], axis=0),
+        )
+        for c in combos
+    ]
 
 
-def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence[Vary], title: str,
-                  orders: int = 6, hz_per_unit: float | None = None) -> None:
+def plot_campbell(
+    path: str | os.PathLike,
+    result: SweepResult,
+    varies: Sequence[Vary],
+    title: str,
+    orders: int = 6,
+    hz_per_unit: float | None = None,
+) -> None:
     """Natural frequencies against the crank speed with the 1x..``orders``x excitation lines.
 
     x: the crank speed when it varies over the grid (else the first varied key, with the order
     lines at each point's speed); y: frequencies in units of omega (Hz for SI scenes)."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -669,8 +794,16 @@ def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence
     above = [k for k in range(F.shape[1]) if np.isfinite(F[:, k]).any() and np.nanmin(F[:, k]) * s > top]
     if above:
         text = ", ".join(f"f{k + 1} = {np.nanmin(F[:, k]) * s:.4g}..{np.nanmax(F[:, k]) * s:.4g}" for k in above[:4])
-        ax.text(0.99, 0.98, f"above the frame: {text}" + (" ..." if len(above) > 4 else ""),
-                transform=ax.transAxes, ha="right", va="top", fontsize=7, color="0.25")
+        ax.text(
+            0.99,
+            0.98,
+            f"above the frame: {text}" + (" ..." if len(above) > 4 else ""),
+            transform=ax.transAxes,
+            ha="right",
+            va="top",
+            fontsize=7,
+            color="0.25",
+        )
     # one line per mode and per value of the other varied keys (not the x axis's)
     xkey = None if varies_speed else varies[0].key
     others = [v.key for v in varies if v.key != xkey and not (varies_speed and v.key == "driver.rate")]
@@ -679,14 +812,28 @@ def plot_campbell(path: str | os.PathLike, result: SweepResult, varies: Sequence
         sel = order[idx[order]]
         for k in range(F.shape[1]):
             if k not in above:
-                ax.plot(x[sel], F[sel, k] * s, styles[g % len(styles)], ms=3, lw=1.1, color=f"C{k % 10}",
-                        label=f"f{k + 1}" + (f" ({label})" if label else ""))
+                ax.plot(
+                    x[sel],
+                    F[sel, k] * s,
+                    styles[g % len(styles)],
+                    ms=3,
+                    lw=1.1,
+                    color=f"C{k % 10}",
+                    label=f"f{k + 1}" + (f" ({label})" if label else ""),
+                )
     for n in range(1, orders + 1):
         ax.plot(x[order], n * speed[order] * s, "--", lw=0.8, color="0.45")
         i = order[-1]
         if n * speed[i] * s <= top:
-            ax.annotate(f"{n}x", (x[i], n * speed[i] * s), fontsize=7, color="0.3",
-                        xytext=(3, 0), textcoords="offset points", va="center")
+            ax.annotate(
+                f"{n}x",
+                (x[i], n * speed[i] * s),
+                fontsize=7,
+                color="0.3",
+                xytext=(3, 0),
+                textcoords="offset points",
+                va="center",
+            )
     ax.set_ylim(0, top)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(f"natural frequency ({unit})")

@@ -7,6 +7,7 @@ values as start values (value references after the outputs). ``fmi2DoStep`` runs
 Radau IIA solver to the next communication point; the tolerance comes from
 ``fmi2SetupExperiment`` (else the scene's ``rtol``; ``atol`` keeps the scene's ratio).
 """
+
 from __future__ import annotations
 
 import math
@@ -41,30 +42,43 @@ def fmu_context(scene, ctx: dict) -> dict:
     variables = []
     for k, o in enumerate(scene.outputs):
         where = o.body or o.joint or ""
-        desc = f"{o.kind}" + (f" of {where}" if where else "") + (f" at {o.xi:g}" if getattr(o, "xi", None) is not None else "")
+        desc = (
+            f"{o.kind}"
+            + (f" of {where}" if where else "")
+            + (f" at {o.xi:g}" if getattr(o, "xi", None) is not None else "")
+        )
         variables.append({"name": xml_attr(o.name), "vr": k, "causality": "output", "description": xml_attr(desc)})
     records = parameter_records(scene, params)
     for k, (name, value, rec) in enumerate(zip(params, ctx["parameter_values"], records)):
         fmu_name = name
-        while fmu_name in taken:                   # a parameter named like an output
+        while fmu_name in taken:  # a parameter named like an output
             fmu_name = "parameter_" + fmu_name
         taken.add(fmu_name)
-        valid = rec.valid                          # FMI min / max are inclusive: closed bounds only
-        variables.append({"name": xml_attr(fmu_name), "vr": len(outputs) + k, "causality": "parameter",
-                          "start": c_double(value),
-                          "min": c_double(valid.lower) if math.isfinite(valid.lower) and not valid.lower_open else None,
-                          "max": c_double(valid.upper) if math.isfinite(valid.upper) and not valid.upper_open else None,
-                          "description": xml_attr(f"model parameter {name} (dimensionless, {valid.text()})")})
+        valid = rec.valid  # FMI min / max are inclusive: closed bounds only
+        variables.append(
+            {
+                "name": xml_attr(fmu_name),
+                "vr": len(outputs) + k,
+                "causality": "parameter",
+                "start": c_double(value),
+                "min": c_double(valid.lower) if math.isfinite(valid.lower) and not valid.lower_open else None,
+                "max": c_double(valid.upper) if math.isfinite(valid.upper) and not valid.upper_open else None,
+                "description": xml_attr(f"model parameter {name} (dimensionless, {valid.text()})"),
+            }
+        )
     sim = scene.simulation
     guid = fmu_guid(ctx)
     prefix = ctx["prefix"]
     return {
-        "guid": guid, "guid_c": c_string(guid),
+        "guid": guid,
+        "guid_c": c_string(guid),
         "model_name": xml_attr(scene.name),
-        "description": xml_attr(f"symgen model of the scene {scene.name}: planar mechanism with elastic bars; "
-                                f"time is tau = omega t"),
+        "description": xml_attr(
+            f"symgen model of the scene {scene.name}: planar mechanism with elastic bars; time is tau = omega t"
+        ),
         "scene_file_xml": xml_attr(Path(str(scene.path)).name).replace("--", "- -"),
-        "stop_time": c_double(sim.t_end), "step_size": c_double(sim.output_step),
+        "stop_time": c_double(sim.t_end),
+        "step_size": c_double(sim.output_step),
         "tolerance": c_double(sim.rtol),
         "variables": variables,
         "output_indices": list(range(1, len(outputs) + 1)),
@@ -75,12 +89,20 @@ def fmu_context(scene, ctx: dict) -> dict:
 def fmu_files(scene, ctx: dict) -> dict:
     """{path inside the FMU: text} of everything but the binary."""
     from symgen.backends.c.render import render_files
+
     ctx = dict(ctx)
     ctx["fmu"] = fmu_context(scene, ctx)
     prefix = ctx["prefix"]
-    sources = render_files(ctx, {"{p}.h": "model.h.jinja", "{p}.c": "model.c.jinja",
-                                 "{p}_solver.h": "solver.h.jinja", "{p}_solver.c": "solver.c.jinja",
-                                 "{p}_fmi2.c": "fmi2.c.jinja"})
+    sources = render_files(
+        ctx,
+        {
+            "{p}.h": "model.h.jinja",
+            "{p}.c": "model.c.jinja",
+            "{p}_solver.h": "solver.h.jinja",
+            "{p}_solver.c": "solver.c.jinja",
+            "{p}_fmi2.c": "fmi2.c.jinja",
+        },
+    )
     files = {"modelDescription.xml": environment().get_template("modelDescription.xml.jinja").render(ctx=ctx)}
     for name, text in sources.items():
         files[f"sources/{name}"] = text
@@ -92,22 +114,28 @@ def fmu_files(scene, ctx: dict) -> dict:
 
 def _documentation(scene, ctx: dict, prefix: str) -> str:
     rows = "".join(f"<li>{v['name']} ({v['causality']})</li>" for v in ctx["fmu"]["variables"])
-    return (f"<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>{xml_attr(scene.name)}</title></head><body>"
-            f"<h1>{xml_attr(scene.name)}</h1><p>Generated by symgen {ctx['version']} from "
-            f"{ctx['fmu']['scene_file_xml']} (sha256 {ctx['scene_hash']}). FMI 2.0 Co-Simulation; time is "
-            f"tau = omega t. The C sources are in <code>sources/</code>; the Radau IIA solver lands on every "
-            f"communication point.</p><ul>{rows}</ul></body></html>\n")
+    return (
+        f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{xml_attr(scene.name)}</title></head><body>'
+        f"<h1>{xml_attr(scene.name)}</h1><p>Generated by symgen {ctx['version']} from "
+        f"{ctx['fmu']['scene_file_xml']} (sha256 {ctx['scene_hash']}). FMI 2.0 Co-Simulation; time is "
+        f"tau = omega t. The C sources are in <code>sources/</code>; the Radau IIA solver lands on every "
+        f"communication point.</p><ul>{rows}</ul></body></html>\n"
+    )
 
 
 def check_fmu_path(path: Path) -> None:
     """Reject an FMU path that cannot be written (before any work)."""
     if path.suffix.lower() != ".fmu":
-        raise SceneError("command line", "-o", f"{str(path)!r} should end in .fmu", "give a file name like out/model.fmu")
+        raise SceneError(
+            "command line", "-o", f"{str(path)!r} should end in .fmu", "give a file name like out/model.fmu"
+        )
     if path.is_dir():
         raise SceneError("command line", "-o", f"{str(path)!r} is a folder", "give a file name like out/model.fmu")
     if platform.system() != "Linux" or platform.machine() not in ("x86_64", "AMD64"):
-        raise BuildError(f"emit-fmu builds a linux64 binary; this machine is {platform.system()} "
-                         f"{platform.machine()} (use emit-c and build the sources there)")
+        raise BuildError(
+            f"emit-fmu builds a linux64 binary; this machine is {platform.system()} "
+            f"{platform.machine()} (use emit-c and build the sources there)"
+        )
 
 
 def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
@@ -125,9 +153,10 @@ def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
             (tmp / name).write_text(text)
         src = tmp / "sources"
         binary = tmp / "binaries" / "linux64" / f"{prefix}.so"
-        compile_shared([src / f for f in ctx_sources(prefix)], binary, include=[src], cc=cc,
-                       extra=("-fvisibility=hidden",))
-        zpath = new_file(path.parent, f".{path.name}.")    # mode 0666 & ~umask, like any output
+        compile_shared(
+            [src / f for f in ctx_sources(prefix)], binary, include=[src], cc=cc, extra=("-fvisibility=hidden",)
+        )
+        zpath = new_file(path.parent, f".{path.name}.")  # mode 0666 & ~umask, like any output
         try:
             with zipfile.ZipFile(zpath, "w", zipfile.ZIP_DEFLATED) as zf:
                 for name in sorted(files):

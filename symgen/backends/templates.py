@@ -7,6 +7,7 @@ folder there with ``package-dir``), so an installed symgen finds them at ``symge
 through ``importlib.resources``; a source checkout (``PYTHONPATH``, or an editable install, whose
 ``symgen`` is the checkout's) finds them beside the ``symgen`` package.
 """
+
 from __future__ import annotations
 
 from importlib import resources
@@ -34,13 +35,16 @@ def folder(backend: str) -> Traversable:
     checkout = _checkout() / backend
     if checkout.is_dir():
         return checkout
-    raise FileNotFoundError(f"the {backend} templates are missing: neither {installed} (an installed symgen) "
-                            f"nor {checkout} (a source checkout) exists; reinstall symgen")
+    raise FileNotFoundError(
+        f"the {backend} templates are missing: neither {installed} (an installed symgen) "
+        f"nor {checkout} (a source checkout) exists; reinstall symgen"
+    )
 
 
 def loader(backend: str):
     """A jinja2 loader of ``folder(backend)`` (through importlib.resources when installed)."""
-    import jinja2                # here: the cache keys read folder() without jinja2
+    import jinja2  # here: the cache keys read folder() without jinja2
+
     if (_installed() / backend).is_dir():
         return jinja2.PackageLoader("symgen", f"templates/{backend}")
     return jinja2.FileSystemLoader(str(folder(backend)))

@@ -8,6 +8,7 @@ bars' mode counts, the structure with its key, and the derivation's timings. ``t
 the plain data of ``model.json``; ``from_json`` reads it back and checks every field, raising
 :class:`InvalidModelInfo` (never a ``KeyError``) on anything malformed.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,28 +31,32 @@ class BarModes:
 
     axial: int
     transverse: int
-    axial_shapes: str          # "" when the bar has no axial amplitudes
-    transverse_shapes: str     # "" when the bar has no transverse amplitudes
+    axial_shapes: str  # "" when the bar has no axial amplitudes
+    transverse_shapes: str  # "" when the bar has no transverse amplitudes
 
     def to_json(self) -> dict[str, int | str]:
-        return {"axial": self.axial, "transverse": self.transverse, "axial_shapes": self.axial_shapes,
-                "transverse_shapes": self.transverse_shapes}
+        return {
+            "axial": self.axial,
+            "transverse": self.transverse,
+            "axial_shapes": self.axial_shapes,
+            "transverse_shapes": self.transverse_shapes,
+        }
 
 
 @dataclass(frozen=True)
 class ModelInfo:
     """A derived model's description (see the module docstring)."""
 
-    key: str                              # the structure key (symgen.model.structure.structure_key)
-    structure: dict[str, Any]             # the structure it hashes (symgen.model.structure.structure_of)
-    coords: tuple[Coordinate, ...]        # one per entry of q
-    lam_rows: tuple[ConstraintRow, ...]   # one per multiplier (row of phi): loop rows, driver, inextensibility
-    params: tuple[str, ...]               # parameter names, in the order of the p input
-    outputs: tuple[str, ...]              # output names, in the order of the out function
-    driver_row: int | None                # row of the angle driver in lam, if any
-    n_loop_rows: int                      # rows of the closure function (the loop rows of phi)
-    modes: dict[str, BarModes]            # bar -> its deformation functions
-    timings: dict[str, float] = field(default_factory=dict)   # derive_s, and build_s once built
+    key: str  # the structure key (symgen.model.structure.structure_key)
+    structure: dict[str, Any]  # the structure it hashes (symgen.model.structure.structure_of)
+    coords: tuple[Coordinate, ...]  # one per entry of q
+    lam_rows: tuple[ConstraintRow, ...]  # one per multiplier (row of phi): loop rows, driver, inextensibility
+    params: tuple[str, ...]  # parameter names, in the order of the p input
+    outputs: tuple[str, ...]  # output names, in the order of the out function
+    driver_row: int | None  # row of the angle driver in lam, if any
+    n_loop_rows: int  # rows of the closure function (the loop rows of phi)
+    modes: dict[str, BarModes]  # bar -> its deformation functions
+    timings: dict[str, float] = field(default_factory=dict)  # derive_s, and build_s once built
 
     # ------------------------------------------------------------------ sizes and look-ups
     @property
@@ -117,23 +122,36 @@ class ModelInfo:
     @classmethod
     def of(cls, model: DerivedModel) -> ModelInfo:
         """The description of a ``DerivedModel`` (its records, names and the bars' functions)."""
-        return cls(key=model.key, structure=model.structure, coords=tuple(model.coords),
-                   lam_rows=tuple(model.lam_rows), params=tuple(model.param_names),
-                   outputs=tuple(model.output_names), driver_row=model.driver_row,
-                   n_loop_rows=len(model.program.outputs["closure"]),
-                   modes={name: BarModes(len(b.sym.f), len(b.sym.g),
-                                         b.basis_a.family if len(b.sym.f) else "",
-                                         b.basis_t.family if len(b.sym.g) else "")
-                          for name, b in model.bars.items()},
-                   timings=dict(model.timings))
+        return cls(
+            key=model.key,
+            structure=model.structure,
+            coords=tuple(model.coords),
+            lam_rows=tuple(model.lam_rows),
+            params=tuple(model.param_names),
+            outputs=tuple(model.output_names),
+            driver_row=model.driver_row,
+            n_loop_rows=len(model.program.outputs["closure"]),
+            modes={
+                name: BarModes(
+                    len(b.sym.f),
+                    len(b.sym.g),
+                    b.basis_a.family if len(b.sym.f) else "",
+                    b.basis_t.family if len(b.sym.g) else "",
+                )
+                for name, b in model.bars.items()
+            },
+            timings=dict(model.timings),
+        )
 
     def to_json(self) -> dict[str, Any]:
         """The plain data of ``model.json``."""
         return {
             "key": self.key,
             "structure": self.structure,
-            "coords": [{"name": c.name, "kind": c.kind.value, "body": c.body, "index": c.index, "joint": c.joint}
-                       for c in self.coords],
+            "coords": [
+                {"name": c.name, "kind": c.kind.value, "body": c.body, "index": c.index, "joint": c.joint}
+                for c in self.coords
+            ],
             "lam_rows": [{"joint": r.joint, "kind": r.kind.value, "loop": list(r.loop)} for r in self.lam_rows],
             "params": list(self.params),
             "outputs": list(self.outputs),
@@ -148,8 +166,22 @@ class ModelInfo:
         """The record of ``model.json``'s data; :class:`InvalidModelInfo` if any field is missing,
         of the wrong type, or inconsistent (a coordinate whose name is not its fields' name, a
         row index out of range, repeated names)."""
-        d = _fields(data, "the model description", ("key", "structure", "coords", "lam_rows", "params", "outputs",
-                                         "driver_row", "n_loop_rows", "modes", "timings"))
+        d = _fields(
+            data,
+            "the model description",
+            (
+                "key",
+                "structure",
+                "coords",
+                "lam_rows",
+                "params",
+                "outputs",
+                "driver_row",
+                "n_loop_rows",
+                "modes",
+                "timings",
+            ),
+        )
         key = _text(d["key"], "key")
         if not isinstance(d["structure"], dict):
             raise InvalidModelInfo("'structure' is not an object")
@@ -160,8 +192,9 @@ class ModelInfo:
         if not _is_int(n_loop) or not 0 <= n_loop <= len(lam_rows):
             raise InvalidModelInfo("'n_loop_rows' is not a row count")
         drv = d["driver_row"]
-        if drv is not None and (not _is_int(drv) or not 0 <= drv < len(lam_rows)
-                                or lam_rows[drv].kind is not RowKind.DRIVER):
+        if drv is not None and (
+            not _is_int(drv) or not 0 <= drv < len(lam_rows) or lam_rows[drv].kind is not RowKind.DRIVER
+        ):
             raise InvalidModelInfo("'driver_row' is not the index of the driver's row")
         if not isinstance(d["modes"], dict):
             raise InvalidModelInfo("'modes' is not an object")
@@ -171,8 +204,18 @@ class ModelInfo:
             raise InvalidModelInfo("'timings' is not an object of numbers")
         if "derive_s" not in timings:
             raise InvalidModelInfo("'timings.derive_s' is not a number")
-        return cls(key=key, structure=d["structure"], coords=coords, lam_rows=lam_rows, params=params,
-                   outputs=outputs, driver_row=drv, n_loop_rows=n_loop, modes=modes, timings=dict(timings))
+        return cls(
+            key=key,
+            structure=d["structure"],
+            coords=coords,
+            lam_rows=lam_rows,
+            params=params,
+            outputs=outputs,
+            driver_row=drv,
+            n_loop_rows=n_loop,
+            modes=modes,
+            timings=dict(timings),
+        )
 
 
 # ---------------------------------------------------------------------- checks of from_json
@@ -226,8 +269,9 @@ def _coordinate(x: object, k: int) -> Coordinate:
     try:
         c = Coordinate(name, CoordKind(kind), body, index, joint)
     except ValueError:
-        raise InvalidModelInfo(f"{what}.kind {kind!r:.40} is not one of "
-                               f"{', '.join(k.value for k in CoordKind)}") from None
+        raise InvalidModelInfo(
+            f"{what}.kind {kind!r:.40} is not one of {', '.join(k.value for k in CoordKind)}"
+        ) from None
     if names.coordinate(c.kind, c.body, c.joint, c.index).text != c.name:
         raise InvalidModelInfo(f"{what} is named {c.name!r:.60}, not after its kind, bar, joint and index")
     return c
@@ -243,8 +287,9 @@ def _row(x: object, k: int) -> ConstraintRow:
     try:
         return ConstraintRow(joint, RowKind(kind), tuple(loop))
     except ValueError:
-        raise InvalidModelInfo(f"{what}.kind {kind!r:.40} is not one of "
-                               f"{', '.join(k.value for k in RowKind)}") from None
+        raise InvalidModelInfo(
+            f"{what}.kind {kind!r:.40} is not one of {', '.join(k.value for k in RowKind)}"
+        ) from None
 
 
 def _bar_modes(x: object, bar: str) -> BarModes:

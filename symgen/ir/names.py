@@ -9,6 +9,7 @@ into the model's table; the LaTeX backend prints from that table. No module buil
 from strings of its own, and none parses them back to recover what a symbol is: consumers read
 the typed records (``symgen.ir.records``) instead. ``tests/test_names.py`` holds both rules.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -161,8 +162,16 @@ def joint_parameter(kind: str, joint: str) -> Name:
     raise ValueError(f"unknown joint parameter {kind!r}")
 
 
-_GLOBAL = {"gx": r"g_{x}", "gy": r"g_{y}", "theta0": r"\theta_{\mathrm{drv}}^{0}", "rate": r"\Omega_{\mathrm{drv}}",
-           "ramp": r"T_{\mathrm{drv}}", "torque": r"M_{0}", "damping": r"c_{\mathrm{KV}}", "J_rotor": r"J_{\mathrm{rot}}"}
+_GLOBAL = {
+    "gx": r"g_{x}",
+    "gy": r"g_{y}",
+    "theta0": r"\theta_{\mathrm{drv}}^{0}",
+    "rate": r"\Omega_{\mathrm{drv}}",
+    "ramp": r"T_{\mathrm{drv}}",
+    "torque": r"M_{0}",
+    "damping": r"c_{\mathrm{KV}}",
+    "J_rotor": r"J_{\mathrm{rot}}",
+}
 
 
 def global_parameter(kind: str) -> Name:

@@ -3,6 +3,7 @@
 Part of the contract between the derivation and every consumer (the CasADi runs, the emitted C,
 the FMU): ``parameter_records`` is the one statement of what each parameter is and may be.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,8 +43,9 @@ class ParameterRange:
         """``"> 0"``, ``">= 0"``, ``"in [-1, 1]"`` or ``"finite"``."""
         lo, hi = math.isfinite(self.lower), math.isfinite(self.upper)
         if lo and hi:
-            return (f"in {'(' if self.lower_open else '['}{self.lower:g}, "
-                    f"{self.upper:g}{')' if self.upper_open else ']'}")
+            return (
+                f"in {'(' if self.lower_open else '['}{self.lower:g}, {self.upper:g}{')' if self.upper_open else ']'}"
+            )
         if lo:
             return f"{'>' if self.lower_open else '>='} {self.lower:g}"
         if hi:
@@ -65,7 +67,7 @@ class Parameter:
     value: float
     valid: ParameterRange
     key: str
-    latex: str = ""          # its LaTeX name (symgen.ir.names)
+    latex: str = ""  # its LaTeX name (symgen.ir.names)
 
 
 def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[Parameter]:
@@ -76,11 +78,13 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
     def put(name: Name, value: float, valid: ParameterRange, key: str) -> None:
         recs[name.text] = Parameter(name.text, float(value), valid, key, name.latex)
 
-    si = scene.units == "SI"           # lambda, mu from E, area, inertia and the mass per length
+    si = scene.units == "SI"  # lambda, mu from E, area, inertia and the mass per length
     for b in scene.bodies:
         key = f"bodies.{b.name}"
-        put(symbol_names.bar_parameter("alpha", b.name), b.alpha, POSITIVE, f"{key}.length")        # length / l0
-        put(symbol_names.bar_parameter("nu", b.name), b.nu, POSITIVE, key if si else f"{key}.mass_per_length")   # mass / m_ref
+        put(symbol_names.bar_parameter("alpha", b.name), b.alpha, POSITIVE, f"{key}.length")  # length / l0
+        put(
+            symbol_names.bar_parameter("nu", b.name), b.nu, POSITIVE, key if si else f"{key}.mass_per_length"
+        )  # mass / m_ref
         if b.lam is not None:
             put(symbol_names.bar_parameter("lambda", b.name), b.lam, POSITIVE, f"{key}.E" if si else f"{key}.lambda")
         if b.mu is not None:
@@ -96,7 +100,7 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
                 assert e.point is not None, "a ground end has its point (symgen.scene.mechanism)"
                 put(symbol_names.joint_parameter("px", j.name), e.point[0], FINITE, f"{key}.at")
                 put(symbol_names.joint_parameter("py", j.name), e.point[1], FINITE, f"{key}.at")
-        if j.direction is not None:                                          # a unit vector
+        if j.direction is not None:  # a unit vector
             put(symbol_names.joint_parameter("dx", j.name), j.direction[0], UNIT_COMPONENT, f"{key}.direction")
             put(symbol_names.joint_parameter("dy", j.name), j.direction[1], UNIT_COMPONENT, f"{key}.direction")
         put(symbol_names.joint_parameter("m", j.name), j.mass, NON_NEGATIVE, f"{key}.mass")
@@ -116,7 +120,12 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
             if not isinstance(val, str):
-                put(symbol_names.load_parameter(i, comp, point=ld.kind != "distributed"), val, FINITE, f"loads.{i}.{comp}")
+                put(
+                    symbol_names.load_parameter(i, comp, point=ld.kind != "distributed"),
+                    val,
+                    FINITE,
+                    f"loads.{i}.{comp}",
+                )
     if names is None:
         return list(recs.values())
     missing = [n for n in names if n not in recs]
@@ -132,10 +141,14 @@ def parameter_values(scene: Scene, names: Sequence[str]) -> np.ndarray:
     lambda from E, area, density and omega) is not finite or outside its valid range.
     """
     from symgen.errors import SceneError
+
     recs = parameter_records(scene, names)
     for r in recs:
         if not r.valid.contains(r.value):
-            raise SceneError(scene.path, r.key, f"the model parameter {r.name} computed from it is "
-                             f"{r.value!r}; it must be {r.valid.text()}",
-                             "check the magnitudes and units of the numbers this key depends on")
+            raise SceneError(
+                scene.path,
+                r.key,
+                f"the model parameter {r.name} computed from it is {r.value!r}; it must be {r.valid.text()}",
+                "check the magnitudes and units of the numbers this key depends on",
+            )
     return np.array([r.value for r in recs], dtype=float)

@@ -7,6 +7,7 @@ a derivative intermediate ``ds/dw_c = sum_y de/dy * dy/dw_c`` is introduced only
 structurally nonzero, so the cost grows with the size of the program, not with the size of its
 expressions once inlined (no expression swell). CasADi differentiates its own graphs.
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -51,8 +52,9 @@ def prune(stmts: list[Statement], exprs: list[sp.Expr]) -> list[Statement]:
     return kept
 
 
-def forward_jacobian(stmts: list[Statement], exprs: list[sp.Expr], wrt: list[sp.Symbol]
-                     ) -> tuple[list[Statement], dict[tuple[int, int], sp.Expr]]:
+def forward_jacobian(
+    stmts: list[Statement], exprs: list[sp.Expr], wrt: list[sp.Symbol]
+) -> tuple[list[Statement], dict[tuple[int, int], sp.Expr]]:
     """Chain rule through ``stmts``: derivative statements and the Jacobian entries of ``exprs``.
 
     Returns the extended statement list and ``{(row, col): expr}`` of the nonzero entries.

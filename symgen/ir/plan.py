@@ -5,6 +5,7 @@ both start the same way and the backend never calls the numerics.
 Indices are positions in q (coordinates) or in lam (multiplier rows) of the model's
 :class:`~symgen.ir.info.ModelInfo`.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -24,26 +25,32 @@ class StartPlan:
     """The partition of the coordinates, the assembly and quasi-static start, and the index sets
     of the run checks."""
 
-    independent: tuple[int, ...]          # the partition at the assembled start: differential coordinates
-    dependent: tuple[int, ...]            # ... and the dependent rigid ones (one per multiplier row)
-    assembly_dependent: tuple[int, ...]   # the dependent coordinates of the assembly Newton at the guess
-    q_guess: tuple[float, ...]            # the raw guess the assembly starts from (initial.guess, deformation, driver)
+    independent: tuple[int, ...]  # the partition at the assembled start: differential coordinates
+    dependent: tuple[int, ...]  # ... and the dependent rigid ones (one per multiplier row)
+    assembly_dependent: tuple[int, ...]  # the dependent coordinates of the assembly Newton at the guess
+    q_guess: tuple[float, ...]  # the raw guess the assembly starts from (initial.guess, deformation, driver)
     v_guess: tuple[float, ...]
-    elastic: tuple[int, ...]              # independent amplitudes: the unknowns of the quasi-static start
-    accel: tuple[int, ...]                # rigid and dependent coordinates: its unknown accelerations
-    inextensible_rows: tuple[int, ...]    # inextensibility rows (left out of the singular-position check)
-    inextensible_axial: tuple[int, ...]   # their axial amplitudes
-    singular_rows: tuple[int, ...]        # rows of the closure Jacobian that decide a singular position
-    singular_cols: tuple[int, ...]        # ... and its columns (the dependent rigid coordinates)
+    elastic: tuple[int, ...]  # independent amplitudes: the unknowns of the quasi-static start
+    accel: tuple[int, ...]  # rigid and dependent coordinates: its unknown accelerations
+    inextensible_rows: tuple[int, ...]  # inextensibility rows (left out of the singular-position check)
+    inextensible_axial: tuple[int, ...]  # their axial amplitudes
+    singular_rows: tuple[int, ...]  # rows of the closure Jacobian that decide a singular position
+    singular_cols: tuple[int, ...]  # ... and its columns (the dependent rigid coordinates)
     amplitudes: tuple[AmplitudeGroup, ...]
 
     def __post_init__(self) -> None:
         n = len(self.q_guess)
         ind, dep = set(self.independent), set(self.dependent)
-        if len(self.v_guess) != n or ind & dep or ind | dep != set(range(n)) \
-                or len(ind) != len(self.independent) or len(dep) != len(self.dependent):
-            raise ValueError(f"a start plan whose partition {self.independent} | {self.dependent} does not split "
-                             f"the {n} coordinates")
+        if (
+            len(self.v_guess) != n
+            or ind & dep
+            or ind | dep != set(range(n))
+            or len(ind) != len(self.independent)
+            or len(dep) != len(self.dependent)
+        ):
+            raise ValueError(
+                f"a start plan whose partition {self.independent} | {self.dependent} does not split the {n} coordinates"
+            )
         if len(self.assembly_dependent) != len(self.dependent):
             raise ValueError("the assembly and the run have different numbers of dependent coordinates")
 

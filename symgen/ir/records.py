@@ -5,6 +5,7 @@ A coordinate, a multiplier row or a program intermediate is identified by its fi
 body, joint, index), never by parsing its symbol's name; names and LaTeX names are made in
 ``symgen.ir.names`` from these same fields.
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -24,10 +25,10 @@ class Program:
     ("origin acceleration", "generalized force", "subtree force"), which the LaTeX backend
     reads to place it."""
 
-    inputs: dict[str, tuple[sp.Symbol, ...]]                                    # name -> its symbols
-    assignments: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)   # [(symbol, expr)]
-    outputs: dict[str, list[sp.Expr]] = field(default_factory=dict)              # name -> its exprs
-    groups: dict[sp.Symbol, str] = field(default_factory=dict)                   # symbol -> its group
+    inputs: dict[str, tuple[sp.Symbol, ...]]  # name -> its symbols
+    assignments: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)  # [(symbol, expr)]
+    outputs: dict[str, list[sp.Expr]] = field(default_factory=dict)  # name -> its exprs
+    groups: dict[sp.Symbol, str] = field(default_factory=dict)  # symbol -> its group
 
     def assign(self, name: Name, expr: sp.Expr, group: str) -> sp.Symbol:
         sym = name.symbol()
@@ -83,10 +84,10 @@ class Coordinate:
     ``body``, a slider travel (S) or a slot's support distance (BETA) of ``joint``."""
 
     name: str
-    kind: CoordKind    # a text ("theta", ...) is taken as its CoordKind; any other raises ValueError
-    body: str          # the bar it moves (the bar beyond a slider, the guide of a slot)
-    index: int = 0     # amplitude index (0-based) for f, g
-    joint: str = ""    # the slider or slot joint of S and BETA
+    kind: CoordKind  # a text ("theta", ...) is taken as its CoordKind; any other raises ValueError
+    body: str  # the bar it moves (the bar beyond a slider, the guide of a slot)
+    index: int = 0  # amplitude index (0-based) for f, g
+    joint: str = ""  # the slider or slot joint of S and BETA
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kind", CoordKind(self.kind))
@@ -106,9 +107,9 @@ def find_coordinate(coords: Iterable[Coordinate], kind: CoordKind, body: str) ->
 
 @dataclass(frozen=True)
 class ConstraintRow:
-    joint: str         # cut joint, "driver", or the bar of an INEXTENSIBLE row
-    kind: RowKind      # a text ("pin-x", ...) is taken as its RowKind; any other raises ValueError
-    loop: tuple[str, ...]   # bars around the loop (the bar itself for INEXTENSIBLE)
+    joint: str  # cut joint, "driver", or the bar of an INEXTENSIBLE row
+    kind: RowKind  # a text ("pin-x", ...) is taken as its RowKind; any other raises ValueError
+    loop: tuple[str, ...]  # bars around the loop (the bar itself for INEXTENSIBLE)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "kind", RowKind(self.kind))
@@ -119,21 +120,21 @@ class ConstraintRow:
 class DerivedModel:
     key: str
     scene_name: str
-    structure: dict[str, Any]     # the ModelSpec's canonical JSON (symgen.ir.spec)
-    topology: Any                 # symgen.model.topology.Topology (a higher layer: not importable here)
-    bars: dict[str, Any]          # body -> symgen.model.derive.BarModel (likewise)
-    coords: list[Coordinate]      # Coordinate per q entry
+    structure: dict[str, Any]  # the ModelSpec's canonical JSON (symgen.ir.spec)
+    topology: Any  # symgen.model.topology.Topology (a higher layer: not importable here)
+    bars: dict[str, Any]  # body -> symgen.model.derive.BarModel (likewise)
+    coords: list[Coordinate]  # Coordinate per q entry
     q: tuple[sp.Symbol, ...]
     v: tuple[sp.Symbol, ...]
     a: tuple[sp.Symbol, ...]
     lam: tuple[sp.Symbol, ...]
-    lam_rows: list[ConstraintRow]   # ConstraintRow per lam entry
-    params: tuple[sp.Symbol, ...]   # parameter symbols
+    lam_rows: list[ConstraintRow]  # ConstraintRow per lam entry
+    params: tuple[sp.Symbol, ...]  # parameter symbols
     program: Program
     output_names: list[str]
-    driver_row: int | None        # index of the angle driver in lam, if any
+    driver_row: int | None  # index of the angle driver in lam, if any
     timings: dict[str, float]
-    latex: dict[str, str] = field(default_factory=dict)   # symbol name -> LaTeX name (symgen.ir.names)
+    latex: dict[str, str] = field(default_factory=dict)  # symbol name -> LaTeX name (symgen.ir.names)
 
     @property
     def param_names(self) -> list[str]:

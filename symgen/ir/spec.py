@@ -14,6 +14,7 @@ The JSON keeps the layout the cache keys were first made from: fields that were 
 per-bar axial treatment) appear only when they are set, so the key of a scene without them is
 unchanged. Kept free of SymPy, so a cached run never imports it.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -21,9 +22,21 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["DYNAMIC", "INEXTENSIBLE", "OFF", "QUASI_STATIC", "BodySpec", "DriverSpec", "EffectsSpec", "EndSpec",
-           "JointSpec",
-           "LoadSpec", "ModelSpec", "OutputSpec", "spec_key"]
+__all__ = [
+    "DYNAMIC",
+    "INEXTENSIBLE",
+    "OFF",
+    "QUASI_STATIC",
+    "BodySpec",
+    "DriverSpec",
+    "EffectsSpec",
+    "EndSpec",
+    "JointSpec",
+    "LoadSpec",
+    "ModelSpec",
+    "OutputSpec",
+    "spec_key",
+]
 
 #: the axial treatments of an elastic bar (``symgen.model.structure.AxialTreatment``)
 DYNAMIC = "dynamic"
@@ -42,7 +55,7 @@ class BodySpec:
 
     name: str
     rigid: bool
-    frame: str                   # "pinned-pinned" | "cantilever" | "" (rigid)
+    frame: str  # "pinned-pinned" | "cantilever" | "" (rigid)
     na: int
     nt: int
     axial_shapes: str
@@ -57,19 +70,36 @@ class BodySpec:
         return self.na + len(self.static_axial), self.nt + len(self.static_transverse)
 
     def to_json(self) -> dict[str, Any]:
-        out = {"name": self.name, "rigid": self.rigid, "frame": self.frame, "na": self.na, "nt": self.nt,
-               "axial_shapes": self.axial_shapes, "transverse_shapes": self.transverse_shapes,
-               "tip_joint": self.tip_joint}
+        out = {
+            "name": self.name,
+            "rigid": self.rigid,
+            "frame": self.frame,
+            "na": self.na,
+            "nt": self.nt,
+            "axial_shapes": self.axial_shapes,
+            "transverse_shapes": self.transverse_shapes,
+            "tip_joint": self.tip_joint,
+        }
         pts = {k: list(v) for k, v in (("transverse", self.static_transverse), ("axial", self.static_axial)) if v}
-        if pts:                        # only then: the keys of scenes without them are unchanged
+        if pts:  # only then: the keys of scenes without them are unchanged
             out["static_points"] = pts
         return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> BodySpec:
         pts = d.get("static_points") or {}
-        return cls(d["name"], d["rigid"], d["frame"], d["na"], d["nt"], d["axial_shapes"], d["transverse_shapes"],
-                   d["tip_joint"], tuple(pts.get("axial", ())), tuple(pts.get("transverse", ())))
+        return cls(
+            d["name"],
+            d["rigid"],
+            d["frame"],
+            d["na"],
+            d["nt"],
+            d["axial_shapes"],
+            d["transverse_shapes"],
+            d["tip_joint"],
+            tuple(pts.get("axial", ())),
+            tuple(pts.get("transverse", ())),
+        )
 
 
 @dataclass(frozen=True)
@@ -87,15 +117,15 @@ class JointSpec:
     inertia, a slot's overhang ``(kind, functions)``."""
 
     name: str
-    kind: str                    # "pin" | "slider" | "slot"
+    kind: str  # "pin" | "slider" | "slot"
     ends: tuple[EndSpec, ...]
     mass: bool
     inertia: bool = False
-    overhang: tuple[str, int] | None = None    # slots only
+    overhang: tuple[str, int] | None = None  # slots only
 
     def to_json(self) -> dict[str, Any]:
         out = {"name": self.name, "kind": self.kind, "ends": [[e.body, e.xi] for e in self.ends], "mass": self.mass}
-        if self.inertia:               # only then: the keys of scenes without it are unchanged
+        if self.inertia:  # only then: the keys of scenes without it are unchanged
             out["inertia"] = True
         if self.overhang is not None:
             out["overhang"] = list(self.overhang)
@@ -104,8 +134,14 @@ class JointSpec:
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> JointSpec:
         oh = d.get("overhang")
-        return cls(d["name"], d["kind"], tuple(EndSpec(b, xi) for b, xi in d["ends"]), d["mass"], bool(d.get("inertia")),
-                   None if oh is None else (oh[0], oh[1]))
+        return cls(
+            d["name"],
+            d["kind"],
+            tuple(EndSpec(b, xi) for b, xi in d["ends"]),
+            d["mass"],
+            bool(d.get("inertia")),
+            None if oh is None else (oh[0], oh[1]),
+        )
 
 
 @dataclass(frozen=True)
@@ -114,7 +150,7 @@ class DriverSpec:
     ``law`` the expression of tau of a prescribed angle (None: constant speed); ``ramp``: a
     spin-up; ``rotor_inertia``: a rotor on the driven shaft."""
 
-    kind: str                    # "angle" | "torque"
+    kind: str  # "angle" | "torque"
     body: str
     torque: str = "const"
     law: str | None = None
@@ -123,7 +159,7 @@ class DriverSpec:
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"kind": self.kind, "body": self.body, "torque": self.torque}
-        if self.law is not None:       # only then: the keys of constant-speed scenes are unchanged
+        if self.law is not None:  # only then: the keys of constant-speed scenes are unchanged
             out["law"] = self.law
         if self.ramp:
             out["ramp"] = True
@@ -141,7 +177,7 @@ class LoadSpec:
     """A load: its components are "const" (a parameter) or an expression of tau."""
 
     body: str
-    kind: str                    # "distributed" | "point"
+    kind: str  # "distributed" | "point"
     xi: float | None
     axial: str
     transverse: str
@@ -164,8 +200,14 @@ class OutputSpec:
     component: str | None = None
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "kind": self.kind, "body": self.body, "joint": self.joint, "xi": self.xi,
-                "component": self.component}
+        return {
+            "name": self.name,
+            "kind": self.kind,
+            "body": self.body,
+            "joint": self.joint,
+            "xi": self.xi,
+            "component": self.component,
+        }
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> OutputSpec:
@@ -182,24 +224,36 @@ class EffectsSpec:
     coriolis: bool
     geometric_stiffening: bool
     rotary_inertia: bool
-    strain: str                  # "von_karman" | "linear"
+    strain: str  # "von_karman" | "linear"
     gravity: bool
     damping: bool
     axial: tuple[tuple[str, str], ...] | None = None
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"coriolis": self.coriolis, "geometric_stiffening": self.geometric_stiffening,
-                     "rotary_inertia": self.rotary_inertia, "strain": self.strain, "gravity": self.gravity,
-                     "damping": self.damping}
-        if self.axial is not None:     # only then: the keys of every other scene are unchanged
+        out: dict[str, Any] = {
+            "coriolis": self.coriolis,
+            "geometric_stiffening": self.geometric_stiffening,
+            "rotary_inertia": self.rotary_inertia,
+            "strain": self.strain,
+            "gravity": self.gravity,
+            "damping": self.damping,
+        }
+        if self.axial is not None:  # only then: the keys of every other scene are unchanged
             out["axial"] = dict(self.axial)
         return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> EffectsSpec:
         ax = d.get("axial")
-        return cls(d["coriolis"], d["geometric_stiffening"], d["rotary_inertia"], d["strain"], d["gravity"],
-                   d["damping"], None if ax is None else tuple(sorted(ax.items())))
+        return cls(
+            d["coriolis"],
+            d["geometric_stiffening"],
+            d["rotary_inertia"],
+            d["strain"],
+            d["gravity"],
+            d["damping"],
+            None if ax is None else tuple(sorted(ax.items())),
+        )
 
 
 @dataclass(frozen=True)
@@ -237,25 +291,34 @@ class ModelSpec:
         b = self.body(name)
         if b.rigid or not b.nt:
             return 0
-        return sum(j.overhang[1] for j in self.joints
-                   if j.kind == "slot" and j.overhang is not None and j.ends[1].body == name)
+        return sum(
+            j.overhang[1] for j in self.joints if j.kind == "slot" and j.overhang is not None and j.ends[1].body == name
+        )
 
     def to_json(self) -> dict[str, Any]:
         """The canonical JSON (the layout of the cache keys; ``json.dumps(..., sort_keys=True)``
         of it is hashed)."""
-        return {"version": list(self.version), "bodies": [b.to_json() for b in self.bodies],
-                "joints": [j.to_json() for j in self.joints],
-                "driver": None if self.driver is None else self.driver.to_json(),
-                "effects": self.effects.to_json(), "loads": [ld.to_json() for ld in self.loads],
-                "outputs": [o.to_json() for o in self.outputs]}
+        return {
+            "version": list(self.version),
+            "bodies": [b.to_json() for b in self.bodies],
+            "joints": [j.to_json() for j in self.joints],
+            "driver": None if self.driver is None else self.driver.to_json(),
+            "effects": self.effects.to_json(),
+            "loads": [ld.to_json() for ld in self.loads],
+            "outputs": [o.to_json() for o in self.outputs],
+        }
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> ModelSpec:
-        return cls(tuple(d["version"]), tuple(BodySpec.from_json(b) for b in d["bodies"]),
-                   tuple(JointSpec.from_json(j) for j in d["joints"]),
-                   None if d["driver"] is None else DriverSpec.from_json(d["driver"]),
-                   EffectsSpec.from_json(d["effects"]), tuple(LoadSpec.from_json(ld) for ld in d["loads"]),
-                   tuple(OutputSpec.from_json(o) for o in d["outputs"]))
+        return cls(
+            tuple(d["version"]),
+            tuple(BodySpec.from_json(b) for b in d["bodies"]),
+            tuple(JointSpec.from_json(j) for j in d["joints"]),
+            None if d["driver"] is None else DriverSpec.from_json(d["driver"]),
+            EffectsSpec.from_json(d["effects"]),
+            tuple(LoadSpec.from_json(ld) for ld in d["loads"]),
+            tuple(OutputSpec.from_json(o) for o in d["outputs"]),
+        )
 
     def key(self) -> str:
         """The model cache's key: :func:`spec_key` of the canonical JSON."""

@@ -21,6 +21,7 @@ Normalisation (per bar, forces in m_i l_i omega^2 per unit length):
 and ``generalized`` multiplies back to common units (m_ref l0^3 omega^2 per unit coordinate)
 with the force rotated to ground axes.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -55,7 +56,7 @@ def point_force_groups(s: BarSymbols, fx: sp.Expr, fy: sp.Expr) -> tuple:
     The one home of this rotation: ``bar_equations`` (hence the model), the LaTeX definitions
     of B_K, Gamma_K and the slot force on its guide use it."""
     bx, by = to_bar_axes(s.th, fx, fy)
-    k = s.nu * s.alpha ** 2
+    k = s.nu * s.alpha**2
     return bx / k, by / k
 
 
@@ -73,18 +74,19 @@ class BarSymbols:
     g: tuple
     dg: tuple
     ddg: tuple
-    xa_dd: sp.Symbol        # [x_A'']_i : acceleration of A along the bar / (l_i omega^2)
+    xa_dd: sp.Symbol  # [x_A'']_i : acceleration of A along the bar / (l_i omega^2)
     ya_dd: sp.Symbol
     alpha: sp.Symbol
     nu: sp.Symbol
     lam: sp.Symbol | None
     mu: sp.Symbol | None
-    beta: tuple = ()        # guide of a slot: (beta, beta', beta'') of the moving support
+    beta: tuple = ()  # guide of a slot: (beta, beta', beta'') of the moving support
 
     @staticmethod
     def make(name: str, na: int, nt: int, elastic: bool, lam: bool = True) -> BarSymbols:
         """``lam = False``: no lambda symbol even with axial functions (an inextensible bar
         without rotary inertia: its axial force is a multiplier, not lambda times a strain)."""
+
         def vec(family: str, n: int, order: int) -> tuple:
             return tuple(names.amplitude(family, name, k, order).symbol() for k in range(n))
 
@@ -93,13 +95,23 @@ class BarSymbols:
 
         th = tuple(names.bar_angle(name, o).symbol() for o in range(3))
         return BarSymbols(
-            name=name, th=th[0], dth=th[1], ddth=th[2],
-            f=vec("f", na, 0), df=vec("f", na, 1), ddf=vec("f", na, 2),
-            g=vec("g", nt, 0), dg=vec("g", nt, 1), ddg=vec("g", nt, 2),
-            xa_dd=names.origin_acceleration("x", name).symbol(), ya_dd=names.origin_acceleration("y", name).symbol(),
-            alpha=par("alpha"), nu=par("nu"),
+            name=name,
+            th=th[0],
+            dth=th[1],
+            ddth=th[2],
+            f=vec("f", na, 0),
+            df=vec("f", na, 1),
+            ddf=vec("f", na, 2),
+            g=vec("g", nt, 0),
+            dg=vec("g", nt, 1),
+            ddg=vec("g", nt, 2),
+            xa_dd=names.origin_acceleration("x", name).symbol(),
+            ya_dd=names.origin_acceleration("y", name).symbol(),
+            alpha=par("alpha"),
+            nu=par("nu"),
             lam=par("lambda") if elastic and na and lam else None,
-            mu=par("mu") if elastic and nt else None)
+            mu=par("mu") if elastic and nt else None,
+        )
 
 
 class IPTable:
@@ -110,8 +122,9 @@ class IPTable:
 
     def __init__(self, ip: InnerProducts, symbolic: bool = False) -> None:
         self.ip, self.na, self.nt, self.symbolic = ip, ip.na, ip.nt, symbolic
-        self._labels = (["1", r"\xi"] + [rf"\phi_{{{k + 1}}}" for k in range(ip.na)]
-                        + [rf"\psi_{{{k + 1}}}" for k in range(ip.nt)])
+        self._labels = (
+            ["1", r"\xi"] + [rf"\phi_{{{k + 1}}}" for k in range(ip.na)] + [rf"\psi_{{{k + 1}}}" for k in range(ip.nt)]
+        )
 
     def _num(self, x: float) -> sp.Expr:
         return sp.Integer(0) if abs(x) < ZERO_TOL else sp.Float(float(x), 17)
@@ -191,11 +204,12 @@ class DisplayIPTable(IPTable):
 
     def gram(self, i: int, j: int) -> sp.Expr:
         i, j = min(i, j), max(i, j)
-        return self._record(super().gram(i, j), "gram", (i, j),
-                            lambda: self._mean(self.numeric.gram(i, j), self.numeric.gram(j, i)))
+        return self._record(
+            super().gram(i, j), "gram", (i, j), lambda: self._mean(self.numeric.gram(i, j), self.numeric.gram(j, i))
+        )
 
     def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
-        if name in ("Ka", "Kt", "Pd"):      # symmetric: one symbol for (a, b) and (b, a)
+        if name in ("Ka", "Kt", "Pd"):  # symmetric: one symbol for (a, b) and (b, a)
             i, j = min(i, j), max(i, j)
             value = lambda: self._mean(self.numeric.mat(name, i, j, latex), self.numeric.mat(name, j, i, latex))
         else:
@@ -206,13 +220,18 @@ class DisplayIPTable(IPTable):
         return self._record(super().vec(name, i, latex), name, (i, 0), lambda: self.numeric.vec(name, i, latex))
 
     def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
-        return self._record(super().tensor(name, idx, latex), name, tuple(idx),
-                            lambda: self.numeric.tensor(name, idx, latex))
+        return self._record(
+            super().tensor(name, idx, latex), name, tuple(idx), lambda: self.numeric.tensor(name, idx, latex)
+        )
 
     def ka_inv(self, i: int, j: int) -> sp.Expr:
-        i, j = min(i, j), max(i, j)          # symmetric
-        return self._record(super().ka_inv(i, j), "KaInv", (i, j),
-                            lambda: self._mean(self.numeric.ka_inv(i, j), self.numeric.ka_inv(j, i)))
+        i, j = min(i, j), max(i, j)  # symmetric
+        return self._record(
+            super().ka_inv(i, j),
+            "KaInv",
+            (i, j),
+            lambda: self._mean(self.numeric.ka_inv(i, j), self.numeric.ka_inv(j, i)),
+        )
 
     def finish(self, expr: sp.Expr) -> sp.Expr:
         """The display form as derived (a slot's table turns functions of beta into symbols)."""
@@ -250,34 +269,36 @@ class PointForce:
 @dataclass(frozen=True)
 class BarEquations:
     sym: BarSymbols
-    force: tuple            # (2,) bar axes, / nu alpha^2
-    moment: sp.Expr         # / nu alpha^3
-    eq16: tuple             # (na,) / nu alpha^3
-    eq17: tuple             # (nt,) / nu alpha^3
-    kinetic: sp.Expr        # / nu alpha^3, needs xa_d, ya_d symbols
-    elastic: sp.Expr        # strain energy / nu alpha^3
+    force: tuple  # (2,) bar axes, / nu alpha^2
+    moment: sp.Expr  # / nu alpha^3
+    eq16: tuple  # (na,) / nu alpha^3
+    eq17: tuple  # (nt,) / nu alpha^3
+    kinetic: sp.Expr  # / nu alpha^3, needs xa_d, ya_d symbols
+    elastic: sp.Expr  # strain energy / nu alpha^3
     xa_d: sp.Symbol
     ya_d: sp.Symbol
     constraint: tuple = ()  # inextensible bar: (phi'_k, eps) = 0, k = 1..na (multipliers N_k)
-    eqbeta: sp.Expr | None = None   # guide of a slot: the equation of its support distance beta
+    eqbeta: sp.Expr | None = None  # guide of a slot: the equation of its support distance beta
     # the display form (``bar_equations``): the same fields with display symbols, and what they stand for
     display: BarEquations | None = field(default=None, compare=False, repr=False)
-    values: dict = field(default_factory=dict, compare=False, repr=False)      # display symbol -> value
+    values: dict = field(default_factory=dict, compare=False, repr=False)  # display symbol -> value
     inner_products: dict = field(default_factory=dict, compare=False, repr=False)  # symbol -> (kind, index)
-    points: tuple = field(default=(), compare=False, repr=False)    # (B, Gamma) shown for each point force
-    loads: tuple = field(default=(), compare=False, repr=False)     # (beta-bar, gamma-bar) symbols, or ()
+    points: tuple = field(default=(), compare=False, repr=False)  # (B, Gamma) shown for each point force
+    loads: tuple = field(default=(), compare=False, repr=False)  # (beta-bar, gamma-bar) symbols, or ()
 
     #: the fields holding equations (``substitute`` replaces in these)
     EXPRESSIONS = ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint", "eqbeta")
 
     def map(self, fn) -> BarEquations:
         """The same equations with ``fn`` applied to each expression."""
+
         def each(v):
             if v is None:
                 return None
             if isinstance(v, tuple):
                 return tuple(each(x) for x in v)
             return fn(sp.sympify(v))
+
         return replace(self, **{k: each(getattr(self, k)) for k in self.EXPRESSIONS})
 
     def substitute(self, rule: dict) -> BarEquations:
@@ -287,17 +308,29 @@ class BarEquations:
     def generalized(self) -> dict:
         """Generalized forces in common units: 'XY' (ground axes), 'th', 'f', 'g'."""
         s = self.sym
-        k2, k3 = s.nu * s.alpha ** 2, s.nu * s.alpha ** 3
+        k2, k3 = s.nu * s.alpha**2, s.nu * s.alpha**3
         fxy = rot(s.th) * sp.Matrix(self.force) * k2
-        return {"XY": (fxy[0], fxy[1]), "th": k3 * self.moment,
-                "f": tuple(k3 * e for e in self.eq16), "g": tuple(k3 * e for e in self.eq17),
-                "beta": None if self.eqbeta is None else k3 * self.eqbeta}
+        return {
+            "XY": (fxy[0], fxy[1]),
+            "th": k3 * self.moment,
+            "f": tuple(k3 * e for e in self.eq16),
+            "g": tuple(k3 * e for e in self.eq17),
+            "beta": None if self.eqbeta is None else k3 * self.eqbeta,
+        }
 
 
 def bar_equations(
-    s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, *,
-    loads: tuple = (), points: tuple = (), gravity: tuple | None = None,
-    damping: sp.Expr | None = None, axial_force: tuple | None = None,
+    s: BarSymbols,
+    basis_a: Basis,
+    basis_t: Basis,
+    t: IPTable,
+    effects,
+    *,
+    loads: tuple = (),
+    points: tuple = (),
+    gravity: tuple | None = None,
+    damping: sp.Expr | None = None,
+    axial_force: tuple | None = None,
 ) -> BarEquations:
     """Derive one bar's equations, once, in display form; return the model's form with the
     display form beside it.
@@ -325,7 +358,7 @@ def bar_equations(
         lambda (zeta' eta')' is (N eta')' with N = lambda zeta'). No strain energy, no axial
         damping: the constraint does no work.
     """
-    t = t.display()                       # inner products as display symbols, recorded
+    t = t.display()  # inner products as display symbols, recorded
     values: dict = {}
     # distributed loads (uniform in xi) in bar axes, gravity included: (beta-bar, gamma-bar)
     groups: tuple = ()
@@ -352,19 +385,21 @@ def bar_equations(
     inext = axial_force is not None
 
     # eq. (1) divided by l_i w^2, as coefficients over b = [1, xi, phi, psi]
-    ax = [s.xa_dd, -dth ** 2] + [ddf[k] - dth ** 2 * f[k] for k in range(na)] \
+    ax = (
+        [s.xa_dd, -(dth**2)]
+        + [ddf[k] - dth**2 * f[k] for k in range(na)]
         + [-cor * dg[k] - ddth * g[k] for k in range(nt)]
-    ay = [s.ya_dd, ddth] + [cor * df[k] + ddth * f[k] for k in range(na)] \
-        + [ddg[k] - dth ** 2 * g[k] for k in range(nt)]
-    pos_x = [0, 1] + f + zg          # xi + zeta
-    pos_y = [0, 0] + zf + g          # eta
+    )
+    ay = [s.ya_dd, ddth] + [cor * df[k] + ddth * f[k] for k in range(na)] + [ddg[k] - dth**2 * g[k] for k in range(nt)]
+    pos_x = [0, 1] + f + zg  # xi + zeta
+    pos_y = [0, 0] + zf + g  # eta
     one = [1, 0] + zf + zg
-    var = bool(s.beta)               # variable span psi(xi, beta): blocks psi_beta, psi_betabeta
+    var = bool(s.beta)  # variable span psi(xi, beta): blocks psi_beta, psi_betabeta
     nb = 2 * nt if var else 0
     if var:
         b, db, ddb = s.beta
         ax += [-cor * g[k] * db for k in range(nt)] + [0] * nt
-        ay += [2 * dg[k] * db + g[k] * ddb for k in range(nt)] + [g[k] * db ** 2 for k in range(nt)]
+        ay += [2 * dg[k] * db + g[k] * ddb for k in range(nt)] + [g[k] * db**2 for k in range(nt)]
         pos_x, pos_y, one = pos_x + [0] * nb, pos_y + [0] * nb, one + [0] * nb
 
     def unit(k: int) -> list:
@@ -395,8 +430,8 @@ def bar_equations(
     Kt = [[t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
     quad_a = sp.Add(*[Ka[i][j] * f[i] * f[j] for i in range(na) for j in range(na)]) / 2
     quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
-    coupling = sp.Integer(0)   # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
-    quartic = sp.Integer(0)    # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
+    coupling = sp.Integer(0)  # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
+    quartic = sp.Integer(0)  # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
     if effects.geometric_stiffening and na and nt:
         for k in range(na):
             for a, b in combinations_with_replacement(range(nt), 2):
@@ -412,7 +447,7 @@ def bar_equations(
             c = [sp.diff(coupling, f[k]) for k in range(na)]
             quartic = sp.Add(*[t.ka_inv(k, j) * c[k] * c[j] for k in range(na) for j in range(na)]) / 2
     if inext:
-        strain_energy = sp.Integer(0)     # the axial part is a constraint (no energy)
+        strain_energy = sp.Integer(0)  # the axial part is a constraint (no energy)
     elif na and lam is not None:
         strain_energy = lam * (quad_a + (coupling + quartic if effects.strain == "von_karman" else 0))
     else:
@@ -422,15 +457,18 @@ def bar_equations(
     el_f = [sp.diff(strain_energy, fk) for fk in f]
     el_g = [sp.diff(strain_energy, gk) for gk in g]
     constraint = ()
-    if axial_force is not None:   # inext
+    if axial_force is not None:  # inext
         # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
-        constraint = tuple(sp.Add(*[Ka[k][j] * f[j] for j in range(na)])
-                           + (sp.diff(coupling, f[k]) if effects.strain == "von_karman" else 0)
-                           for k in range(na))
+        constraint = tuple(
+            sp.Add(*[Ka[k][j] * f[j] for j in range(na)])
+            + (sp.diff(coupling, f[k]) if effects.strain == "von_karman" else 0)
+            for k in range(na)
+        )
         el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
         # (N eta', psi'_a) = sum_k N_k d(coupling)/d(f_k g_a): the coupling is (1/2) sum C3 f g g
-        el_g = [el_g[a] + sp.Add(*[axial_force[k] * sp.diff(coupling, f[k], g[a]) for k in range(na)])
-                for a in range(nt)]
+        el_g = [
+            el_g[a] + sp.Add(*[axial_force[k] * sp.diff(coupling, f[k], g[a]) for k in range(na)]) for a in range(nt)
+        ]
     if effects.strain == "linear" and lam is not None and coupling != 0 and not inext:
         # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
         el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
@@ -471,23 +509,45 @@ def bar_equations(
         psid1 = [t.vec("psid1", k, r"\left(\psi'_{{{i}}},1\right)") for k in range(nt)]
         Pd = [[t.mat("Pd", i, j, r"\left(\psi'_{{{i}}},\psi'_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
         mom += rho * (ddth + sp.Add(*[psid1[k] * ddg[k] for k in range(nt)]))
-        eq17 = [eq17[i] + rho * (psid1[i] * ddth + sp.Add(*[Pd[i][j] * ddg[j] for j in range(nt)]))
-                for i in range(nt)]
-        kinetic += rho * (dth ** 2 + 2 * dth * sp.Add(*[psid1[k] * dg[k] for k in range(nt)])
-                          + sp.Add(*[Pd[i][j] * dg[i] * dg[j] for i in range(nt) for j in range(nt)])) / 2
+        eq17 = [eq17[i] + rho * (psid1[i] * ddth + sp.Add(*[Pd[i][j] * ddg[j] for j in range(nt)])) for i in range(nt)]
+        kinetic += (
+            rho
+            * (
+                dth**2
+                + 2 * dth * sp.Add(*[psid1[k] * dg[k] for k in range(nt)])
+                + sp.Add(*[Pd[i][j] * dg[i] * dg[j] for i in range(nt) for j in range(nt)])
+            )
+            / 2
+        )
     if inext:
         elastic = mu * quad_t if (nt and mu is not None) else 0
     elif effects.strain == "linear" or not effects.geometric_stiffening:
         elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
     else:
         elastic = strain_energy
-    display = BarEquations(sym=s, force=(fx, fy), moment=mom, eq16=tuple(eq16), eq17=tuple(eq17),
-                           kinetic=kinetic, elastic=sp.sympify(elastic), xa_d=xa_d, ya_d=ya_d,
-                           constraint=constraint, eqbeta=eqbeta)
+    display = BarEquations(
+        sym=s,
+        force=(fx, fy),
+        moment=mom,
+        eq16=tuple(eq16),
+        eq17=tuple(eq17),
+        kinetic=kinetic,
+        elastic=sp.sympify(elastic),
+        xa_d=xa_d,
+        ya_d=ya_d,
+        constraint=constraint,
+        eqbeta=eqbeta,
+    )
     display = display.map(t.finish)
     values.update(t.values)
-    return replace(display.substitute(values), display=display, values=values,
-                   inner_products=dict(t.used), points=tuple(shown), loads=groups)
+    return replace(
+        display.substitute(values),
+        display=display,
+        values=values,
+        inner_products=dict(t.used),
+        points=tuple(shown),
+        loads=groups,
+    )
 
 
 def load_symbols(s: BarSymbols) -> tuple:

@@ -15,6 +15,7 @@ the inextensibility rows, each at position, velocity and acceleration level with
 Every point is explicit in q, v, a through the tree kinematics (10)
 (``symgen.model.kinematics.TreeKinematics``).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -43,11 +44,11 @@ class Constraints:
     phid: list = field(default_factory=list)
     phidd: list = field(default_factory=list)
     lam: list = field(default_factory=list)
-    rows: list = field(default_factory=list)               # ConstraintRow per multiplier
-    point_forces: dict = field(default_factory=dict)       # bar -> [PointForce] the multipliers put on it
-    slot_force: dict = field(default_factory=dict)         # guide -> (Fx, Fy) at its moving contact
-    n_loop_rows: int = 0                                   # the closure rows (11) come first
-    driver_row: int | None = None                          # index of the angle driver in lam
+    rows: list = field(default_factory=list)  # ConstraintRow per multiplier
+    point_forces: dict = field(default_factory=dict)  # bar -> [PointForce] the multipliers put on it
+    slot_force: dict = field(default_factory=dict)  # guide -> (Fx, Fy) at its moving contact
+    n_loop_rows: int = 0  # the closure rows (11) come first
+    driver_row: int | None = None  # index of the angle driver in lam
 
     def add(self, phi: sp.Expr, phid: sp.Expr, phidd: sp.Expr, lam: sp.Symbol, row: ConstraintRow) -> None:
         self.phi.append(phi)
@@ -59,7 +60,7 @@ class Constraints:
     @property
     def closure(self) -> list:
         """phi of the loop-closure rows (11) only."""
-        return self.phi[:self.n_loop_rows]
+        return self.phi[: self.n_loop_rows]
 
 
 def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics) -> Constraints:
@@ -73,7 +74,13 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
         if j.kind == "pin":
             L = (names.joint_force(j.name, "x").symbol(), names.joint_force(j.name, "y").symbol())
             for k, comp in enumerate("xy"):
-                out.add(ra[k] - rb[k], va[k] - vb[k], aa[k] - ab[k], L[k], ConstraintRow(j.name, RowKind(f"pin-{comp}"), cut.loop))
+                out.add(
+                    ra[k] - rb[k],
+                    va[k] - vb[k],
+                    aa[k] - ab[k],
+                    L[k],
+                    ConstraintRow(j.name, RowKind(f"pin-{comp}"), cut.loop),
+                )
             for idx, sign in ((0, 1), (1, -1)):
                 end = j.ends[idx]
                 if end.body != GROUND:
@@ -85,9 +92,15 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
             rb, vb, ab = rA + c0, vA + c1, aA + c2
             L = (names.joint_force(j.name, "x").symbol(), names.joint_force(j.name, "y").symbol())
             for k, comp in enumerate("xy"):
-                out.add(ra[k] - rb[k], va[k] - vb[k], aa[k] - ab[k], L[k], ConstraintRow(j.name, RowKind(f"slot-{comp}"), cut.loop))
+                out.add(
+                    ra[k] - rb[k],
+                    va[k] - vb[k],
+                    aa[k] - ab[k],
+                    L[k],
+                    ConstraintRow(j.name, RowKind(f"slot-{comp}"), cut.loop),
+                )
             out.point_forces[j.ends[0].body].append(PointForce(j.ends[0].xi, ground=(L[0], L[1])))
-            out.slot_force[guide] = (-L[0], -L[1])      # on the guide, at the moving contact
+            out.slot_force[guide] = (-L[0], -L[1])  # on the guide, at the moving contact
         else:  # slider: the bar point stays on the ground line
             bar_idx = 0 if j.ends[0].body != GROUND else 1
             sign = 1 if bar_idx == 0 else -1
@@ -96,7 +109,13 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
             p0 = tree.ground_point(j.name)
             r, v, a = (ra, va, aa) if bar_idx == 0 else (rb, vb, ab)
             L = names.joint_force(j.name).symbol()
-            out.add(sign * (n.dot(r - p0)), sign * n.dot(v), sign * n.dot(a), L, ConstraintRow(j.name, RowKind.SLIDER, cut.loop))
+            out.add(
+                sign * (n.dot(r - p0)),
+                sign * n.dot(v),
+                sign * n.dot(a),
+                L,
+                ConstraintRow(j.name, RowKind.SLIDER, cut.loop),
+            )
             end = j.ends[bar_idx]
             out.point_forces[end.body].append(PointForce(end.xi, ground=(sign * L * n[0], sign * L * n[1])))
     out.n_loop_rows = len(out.phi)
@@ -112,10 +131,10 @@ def angle_driver(cons: Constraints, driver, kins: dict, param: Callable[[Name], 
     tau = tau_symbol()
     th = kins[driver.body].sym
     th0 = param(names.global_parameter("theta0"))
-    if driver.law is None and driver.ramp is None:      # the contract's theta0 + rate tau
+    if driver.law is None and driver.ramp is None:  # the contract's theta0 + rate tau
         rate = param(names.global_parameter("rate"))
         rows = (th.th - th0 - rate * tau, th.dth - rate, th.ddth)
-    else:                                                # law(tau) or the spin-up ramp: exact derivatives
+    else:  # law(tau) or the spin-up ramp: exact derivatives
         rate = param(names.global_parameter("rate")) if driver.law is None else None
         ramp = param(names.global_parameter("ramp")) if driver.ramp is not None else None
         angle = driver_angle(driver, tau, th0, rate, ramp)
@@ -127,9 +146,11 @@ def angle_driver(cons: Constraints, driver, kins: dict, param: Callable[[Name], 
 def axial_forces(kins: dict, treatment: dict) -> dict:
     """bar -> (N_1, ...): the multipliers of (phi'_k, eps) = 0 of every inextensible and
     quasi-static bar with axial functions (a quasi-static bar's stretch is P eps = N / lambda)."""
-    return {name: tuple(names.axial_force(name, k).symbol() for k in range(len(kin.sym.f)))
-            for name, kin in kins.items()
-            if treatment.get(name) in (INEXTENSIBLE, QUASI_STATIC) and len(kin.sym.f)}
+    return {
+        name: tuple(names.axial_force(name, k).symbol() for k in range(len(kin.sym.f)))
+        for name, kin in kins.items()
+        if treatment.get(name) in (INEXTENSIBLE, QUASI_STATIC) and len(kin.sym.f)
+    }
 
 
 def quasi_static_stretch(axial_force: dict, treatment: dict) -> dict:

@@ -32,6 +32,7 @@ guidance law has one home, ``symgen.scene.motion.driver_angle``, which the runne
 and which reads the scene's driver, whose ramp time the spec only records as present). The
 scene's path also names the file in the errors of the slot guides and of the outputs.
 """
+
 from __future__ import annotations
 
 import time
@@ -45,8 +46,7 @@ from symgen.ir.names import Name
 from symgen.ir.records import CoordKind, Coordinate, DerivedModel, Program
 from symgen.ir.spec import ModelSpec
 from symgen.model.bars import BarEquations, BarSymbols, IPTable
-from symgen.model.constraints import (angle_driver, axial_forces, inextensibility, loop_closure,
-                                      quasi_static_stretch)
+from symgen.model.constraints import angle_driver, axial_forces, inextensibility, loop_closure, quasi_static_stretch
 from symgen.model.kinematics import BarKinematics, TreeKinematics
 from symgen.model.loads import applied_loads
 from symgen.model.quantities import BAR_SHAPE_OUTPUTS, energy, scene_outputs
@@ -71,11 +71,11 @@ class BarModel:
     body: str
     sym: BarSymbols
     basis_a: Basis
-    basis_t: Basis | SlotBasis            # a slot's guide: the variable span's functions
+    basis_t: Basis | SlotBasis  # a slot's guide: the variable span's functions
     kin: BarKinematics | SlotBarKinematics
     ipt: IPTable | SlotIPTable
     equations: BarEquations | None = None
-    inputs: dict = field(default_factory=dict)    # keyword arguments given to bar_equations
+    inputs: dict = field(default_factory=dict)  # keyword arguments given to bar_equations
 
 
 class Parameters:
@@ -118,7 +118,7 @@ def _derive(scene: Scene) -> DerivedModel:
     bars, slot_of = _bars(spec, scene.path, treatment, param)
     coords, (q, v, a), slider_s = _coordinates(topo, bars, slot_of)
     kins = {name: bm.kin for name, bm in bars.items()}
-    tree = TreeKinematics(topo, kins, param, slider_s)                       # (10)
+    tree = TreeKinematics(topo, kins, param, slider_s)  # (10)
     cons = loop_closure(topo, {j.name: j for j in spec.joints}, kins, tree)  # (11)
     rotor = driver_rotor(spec.driver, param)
     angle_driver(cons, scene.driver, kins, param)
@@ -141,14 +141,37 @@ def _derive(scene: Scene) -> DerivedModel:
     prog.inputs = {"t": (TAU,), "q": q, "v": v, "a": a, "lam": tuple(cons.lam)}
     prog.outputs.update(phi=cons.phi, phid=cons.phid, phidd=cons.phidd, res=res)
     prog.outputs["energy"] = [energy(bars, topo, tree, loads, rotor)]
-    out_names, prog.outputs["out"] = scene_outputs(spec, scene.path, bars, topo, tree, S, cons, prog.outputs["energy"][0],
-                                                   quasi_static_stretch(axial_force, treatment))
+    out_names, prog.outputs["out"] = scene_outputs(
+        spec,
+        scene.path,
+        bars,
+        topo,
+        tree,
+        S,
+        cons,
+        prog.outputs["energy"][0],
+        quasi_static_stretch(axial_force, treatment),
+    )
     prog.outputs["closure"] = cons.closure
     prog.inputs["p"] = params = param.sorted()
-    return DerivedModel(key=spec.key(), scene_name=scene.name, structure=spec.to_json(),
-                        topology=topo, bars=bars, coords=coords, q=q, v=v, a=a, lam=tuple(cons.lam),
-                        lam_rows=cons.rows, params=params, program=prog, output_names=out_names,
-                        driver_row=cons.driver_row, timings={})
+    return DerivedModel(
+        key=spec.key(),
+        scene_name=scene.name,
+        structure=spec.to_json(),
+        topology=topo,
+        bars=bars,
+        coords=coords,
+        q=q,
+        v=v,
+        a=a,
+        lam=tuple(cons.lam),
+        lam_rows=cons.rows,
+        params=params,
+        program=prog,
+        output_names=out_names,
+        driver_row=cons.driver_row,
+        timings={},
+    )
 
 
 def _bars(spec: ModelSpec, path: str, treatment: dict, param: Parameters) -> tuple[dict, dict]:
@@ -158,10 +181,15 @@ def _bars(spec: ModelSpec, path: str, treatment: dict, param: Parameters) -> tup
     bars: dict[str, BarModel] = {}
     slot_of = _slot_guides(spec, path)
     for b in spec.bodies:
-        na, nt = b.sizes                     # the bar's functions and its static corrections
+        na, nt = b.sizes  # the bar's functions and its static corrections
         # lambda: the strain energy (dynamic), the stretch N / lambda (quasi-static), rho = mu / lambda
-        sym = BarSymbols.make(b.name, na, nt, elastic=not b.rigid,
-                              lam=treatment.get(b.name) != INEXTENSIBLE or spec.effects.rotary_inertia)
+        sym = BarSymbols.make(
+            b.name,
+            na,
+            nt,
+            elastic=not b.rigid,
+            lam=treatment.get(b.name) != INEXTENSIBLE or spec.effects.rotary_inertia,
+        )
         if b.name in slot_of:
             beta = tuple(names.slot_support(slot_of[b.name], o).symbol() for o in range(3))
             sym = replace(sym, beta=beta)
@@ -222,8 +250,11 @@ def _slot_guides(spec: ModelSpec, path: str) -> dict:
         if j.kind == "slot":
             guide = j.ends[1].body
             if guide in out:
-                raise SceneError(path, f"joints.{j.name}", f"bar {guide!r} already guides slot "
-                                 f"{out[guide]!r}; symgen supports one slot per guide bar",
-                                 "split the guide into two bars joined by a pin")
+                raise SceneError(
+                    path,
+                    f"joints.{j.name}",
+                    f"bar {guide!r} already guides slot {out[guide]!r}; symgen supports one slot per guide bar",
+                    "split the guide into two bars joined by a pin",
+                )
             out[guide] = j.name
     return out

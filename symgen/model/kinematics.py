@@ -11,6 +11,7 @@ summing these brackets along the tree from ground gives (10) for every bar
 (:class:`TreeKinematics`). The loop closure (11) that ties the cut joints is in
 ``symgen.model.constraints``.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -67,8 +68,8 @@ class BarKinematics:
         s = self.sym
         lx, ly = self.local(xi)
         dz, de = self.zeta(xi, amp=s.df), self.eta(xi, amp=s.dg)
-        ax = self.zeta(xi, amp=s.ddf) - 2 * s.dth * de - s.ddth * ly - s.dth ** 2 * lx
-        ay = self.eta(xi, amp=s.ddg) + 2 * s.dth * dz + s.ddth * lx - s.dth ** 2 * ly
+        ax = self.zeta(xi, amp=s.ddf) - 2 * s.dth * de - s.ddth * ly - s.dth**2 * lx
+        ay = self.eta(xi, amp=s.ddg) + 2 * s.dth * dz + s.ddth * lx - s.dth**2 * ly
         return s.alpha * sp.Matrix([ax, ay])
 
     def rho_dd(self, xi: float) -> sp.Matrix:
@@ -102,20 +103,21 @@ class TreeKinematics:
     caller may give (s, None, None) and use :meth:`position` / :meth:`point_position` only).
     """
 
-    def __init__(self, topology: Topology, kins: dict, param: Callable[[Name], sp.Expr],
-                 slider_s: dict) -> None:
+    def __init__(self, topology: Topology, kins: dict, param: Callable[[Name], sp.Expr], slider_s: dict) -> None:
         self.topo, self.kins, self.param, self.slider_s = topology, kins, param, slider_s
         self._paths: dict[str, list] = {}
 
     def ground_point(self, joint: str) -> sp.Matrix:
         """The ground end (px, py) of ``joint``."""
-        return sp.Matrix([self.param(names.joint_parameter("px", joint)),
-                          self.param(names.joint_parameter("py", joint))])
+        return sp.Matrix(
+            [self.param(names.joint_parameter("px", joint)), self.param(names.joint_parameter("py", joint))]
+        )
 
     def slider_dir(self, joint: str) -> sp.Matrix:
         """The unit direction (dx, dy) of the ground line of slider ``joint``."""
-        return sp.Matrix([self.param(names.joint_parameter("dx", joint)),
-                          self.param(names.joint_parameter("dy", joint))])
+        return sp.Matrix(
+            [self.param(names.joint_parameter("dx", joint)), self.param(names.joint_parameter("dy", joint))]
+        )
 
     def path(self, name: str) -> list:
         """Contributions to r_A of bar ``name``: (sign, body, xi) bar terms and the
@@ -136,7 +138,7 @@ class TreeKinematics:
         """Derivative ``order`` of the tree's ground end: the ground point, or on a slider the
         ground point plus s times the line's direction."""
         kind, joint = term
-        p0 = self.ground_point(joint)    # made at every order: the parameters' order of creation
+        p0 = self.ground_point(joint)  # made at every order: the parameters' order of creation
         if kind == "slider":
             d = self.slider_dir(joint)
             return p0 + self.slider_s[joint][0] * d if order == 0 else self.slider_s[joint][order] * d

@@ -10,6 +10,7 @@ gravity, point and distributed loads, Kelvin-Voigt damping, and a driver's appli
 * Loads are (B, Gamma) groups in bar axes: at a point, or distributed (uniform) on a bar;
   a value is a parameter, or an expression of tau from the scene (held by the model's spec).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -40,14 +41,14 @@ class LumpedMass:
 class Loads:
     """The applied loads of a scene, by the bar they act on."""
 
-    torque: sp.Expr | None        # a torque driver's applied moment (None: angle driver or none)
-    gravity: tuple | None         # (gx, gy) parameters, None without gravity
-    G: sp.Matrix                  # gravity as a vector (zero without gravity)
-    masses: list[LumpedMass]                       # in joint order
-    rotary: dict[str, list[LumpedRotary]]          # bar -> its lumped rotary inertias
-    distributed: dict[str, list[tuple[sp.Expr, sp.Expr]]]   # bar -> [(B, Gamma)] uniform loads
-    points: dict[str, list[PointForce]]            # bar -> lumped masses' inertia and weight, then point loads
-    damping: sp.Symbol | None     # Kelvin-Voigt coefficient, None without damping
+    torque: sp.Expr | None  # a torque driver's applied moment (None: angle driver or none)
+    gravity: tuple | None  # (gx, gy) parameters, None without gravity
+    G: sp.Matrix  # gravity as a vector (zero without gravity)
+    masses: list[LumpedMass]  # in joint order
+    rotary: dict[str, list[LumpedRotary]]  # bar -> its lumped rotary inertias
+    distributed: dict[str, list[tuple[sp.Expr, sp.Expr]]]  # bar -> [(B, Gamma)] uniform loads
+    points: dict[str, list[PointForce]]  # bar -> lumped masses' inertia and weight, then point loads
+    damping: sp.Symbol | None  # Kelvin-Voigt coefficient, None without damping
 
 
 def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol]) -> Loads:
@@ -82,7 +83,11 @@ def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol
         vals = []
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)
-            vals.append(parse_tau_expression(val) if val != "const" else param(names.load_parameter(i, comp, point=ld.kind != "distributed")))
+            vals.append(
+                parse_tau_expression(val)
+                if val != "const"
+                else param(names.load_parameter(i, comp, point=ld.kind != "distributed"))
+            )
         if ld.kind == "distributed":
             dist[ld.body].append((vals[0], vals[1]))
         else:

@@ -4,6 +4,7 @@ residual), as expressions of t, q, v, a, lam and p.
 
 (Not to be confused with ``symgen.outputs``, which writes output files atomically.)
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -36,7 +37,7 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
         rA, vA, _ = tree.origin(name)
         R = rot(s.th)
         vb = R.T * vA / s.alpha
-        k3 = s.nu * s.alpha ** 3
+        k3 = s.nu * s.alpha**3
         total += k3 * (eq.kinetic.xreplace({eq.xa_d: vb[0], eq.ya_d: vb[1]}) + eq.elastic)
         if G != sp.zeros(2, 1):
             t = bm.ipt
@@ -51,8 +52,17 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
     return total + rotary_energy(bars, [x for n in topo.order for x in loads.rotary[n]], rotor)
 
 
-def scene_outputs(spec: ModelSpec, path: str, bars: dict, topo: Topology, tree: TreeKinematics, S: dict,
-                  cons: Constraints, total_energy: sp.Expr, stretch: dict) -> tuple[list, list]:
+def scene_outputs(
+    spec: ModelSpec,
+    path: str,
+    bars: dict,
+    topo: Topology,
+    tree: TreeKinematics,
+    S: dict,
+    cons: Constraints,
+    total_energy: sp.Expr,
+    stretch: dict,
+) -> tuple[list, list]:
     """(names, expressions) of the outputs of the model ``spec`` (``path``: the scene file, for
     an error). ``stretch``: bar -> (N_1, ...) of the quasi-static bars, whose shape reads the
     stretch N / lambda on top of the inextensible amplitudes."""
@@ -68,8 +78,17 @@ def scene_outputs(spec: ModelSpec, path: str, bars: dict, topo: Topology, tree: 
     return out_names, out_exprs
 
 
-def output(o: OutputSpec, path: str, bars: dict, topo: Topology, joints: dict, tree: TreeKinematics, S: dict,
-           cons: Constraints, total_energy: sp.Expr) -> sp.Expr:
+def output(
+    o: OutputSpec,
+    path: str,
+    bars: dict,
+    topo: Topology,
+    joints: dict,
+    tree: TreeKinematics,
+    S: dict,
+    cons: Constraints,
+    total_energy: sp.Expr,
+) -> sp.Expr:
     """The expression of one output ``o`` of the model (``joints``: name -> JointSpec)."""
     k = o.kind
     if k in BAR_SHAPE_OUTPUTS:
@@ -87,7 +106,7 @@ def output(o: OutputSpec, path: str, bars: dict, topo: Topology, joints: dict, t
         l0x, l0y = kin.local(0.0)
         l1x, l1y = kin.local(1.0)
         cx, cy = l1x - l0x, l1y - l0y
-        chord = sp.sqrt(cx ** 2 + cy ** 2)
+        chord = sp.sqrt(cx**2 + cy**2)
         if k == "chord_elongation":
             return chord - 1
         px, py = kin.local(o.xi)
@@ -118,10 +137,10 @@ def output(o: OutputSpec, path: str, bars: dict, topo: Topology, joints: dict, t
                 return on_child if j.ends[1].body == name else -on_child
         rows = [i for i, r in enumerate(cons.rows) if r.joint == j.name]
         if j.kind == "pin":
-            return -cons.lam[rows[comp]]        # lam is the force on ends[0] from ends[1]
+            return -cons.lam[rows[comp]]  # lam is the force on ends[0] from ends[1]
         d = tree.slider_dir(j.name)
         n = (-d[1], d[0])
         bar_idx = 0 if j.ends[0].body != GROUND else 1
-        on_bar = cons.lam[rows[0]] * n[comp] * (1 if bar_idx == 0 else -1)   # force on the bar
+        on_bar = cons.lam[rows[0]] * n[comp] * (1 if bar_idx == 0 else -1)  # force on the bar
         return on_bar if bar_idx == 1 else -on_bar
     raise SceneError(path, f"outputs.{o.name}.kind", f"unknown output kind {k!r}")

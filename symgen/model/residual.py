@@ -12,6 +12,7 @@ The residual of a coordinate of bar i is then
 (minus the driver's moment and plus its rotor's J theta'' on the driven angle), and the
 residual of a slider's travel is d . S of the bar on it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ from symgen.model.topology import Topology
 class BarForces:
     """The generalized forces E of one bar (program symbols, common units)."""
 
-    XY: tuple                     # resultant force, ground axes
+    XY: tuple  # resultant force, ground axes
     th: sp.Symbol
     f: list
     g: list
@@ -51,8 +52,16 @@ class BarForces:
         raise ValueError(f"{c.kind!r} is not a coordinate of a bar")
 
 
-def generalized_forces(prog: Program, topo: Topology, bars: dict, tree: TreeKinematics, effects,
-                       loads: Loads, cons: Constraints, axial_force: dict) -> dict:
+def generalized_forces(
+    prog: Program,
+    topo: Topology,
+    bars: dict,
+    tree: TreeKinematics,
+    effects,
+    loads: Loads,
+    cons: Constraints,
+    axial_force: dict,
+) -> dict:
     """bar -> :class:`BarForces`: (10) and the bar equations of every bar, in tree order,
     assigned in ``prog``; each ``BarModel`` keeps its ``equations`` and their ``inputs``."""
     E: dict[str, BarForces] = {}
@@ -62,9 +71,12 @@ def generalized_forces(prog: Program, topo: Topology, bars: dict, tree: TreeKine
         acc = tree.origin_acc_local(name)
         prog.add(s.xa_dd, acc[0], ORIGIN_ACCELERATION)
         prog.add(s.ya_dd, acc[1], ORIGIN_ACCELERATION)
-        bm.inputs = {"loads": tuple(loads.distributed[name]),
-                     "points": tuple(cons.point_forces[name]) + tuple(loads.points[name]),
-                     "gravity": loads.gravity, "damping": loads.damping}
+        bm.inputs = {
+            "loads": tuple(loads.distributed[name]),
+            "points": tuple(cons.point_forces[name]) + tuple(loads.points[name]),
+            "gravity": loads.gravity,
+            "damping": loads.damping,
+        }
         if name in axial_force:
             bm.inputs["axial_force"] = axial_force[name]
         bm.equations = bar_equations(s, bm.basis_a, bm.basis_t, bm.ipt, effects, **bm.inputs)
@@ -73,13 +85,23 @@ def generalized_forces(prog: Program, topo: Topology, bars: dict, tree: TreeKine
             gen = contact_force(gen, bm.kin, cons.slot_force[name])
         gen = add_lumped_rotary(gen, s, bm.kin, loads.rotary[name])
         E[name] = BarForces(
-            XY=tuple(prog.assign(names.generalized_force(ax, name), gen["XY"][k], GENERALIZED_FORCE)
-                     for k, ax in enumerate("XY")),
+            XY=tuple(
+                prog.assign(names.generalized_force(ax, name), gen["XY"][k], GENERALIZED_FORCE)
+                for k, ax in enumerate("XY")
+            ),
             th=prog.assign(names.generalized_force("th", name), gen["th"], GENERALIZED_FORCE),
-            f=[prog.assign(names.generalized_force("f", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["f"])],
-            g=[prog.assign(names.generalized_force("g", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["g"])],
-            beta=(prog.assign(names.generalized_force("beta", name), gen["beta"], GENERALIZED_FORCE)
-                  if gen.get("beta") is not None else None))
+            f=[
+                prog.assign(names.generalized_force("f", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["f"])
+            ],
+            g=[
+                prog.assign(names.generalized_force("g", name, k), e, GENERALIZED_FORCE) for k, e in enumerate(gen["g"])
+            ],
+            beta=(
+                prog.assign(names.generalized_force("beta", name), gen["beta"], GENERALIZED_FORCE)
+                if gen.get("beta") is not None
+                else None
+            ),
+        )
     return E
 
 
@@ -105,12 +127,23 @@ def subtree_resultants(prog: Program, topo: Topology, E: dict) -> dict:
         tot = sp.Matrix(E[name].XY)
         for ch in topo.children[name]:
             tot += S[ch.body]
-        S[name] = sp.Matrix([prog.assign(names.subtree_force(ax, name), tot[k], SUBTREE_FORCE) for k, ax in enumerate("xy")])
+        S[name] = sp.Matrix(
+            [prog.assign(names.subtree_force(ax, name), tot[k], SUBTREE_FORCE) for k, ax in enumerate("xy")]
+        )
     return S
 
 
-def residuals(coords: list, q: tuple, topo: Topology, bars: dict, tree: TreeKinematics, E: dict, S: dict,
-              driver: tuple | None, rotor: tuple | None) -> list:
+def residuals(
+    coords: list,
+    q: tuple,
+    topo: Topology,
+    bars: dict,
+    tree: TreeKinematics,
+    E: dict,
+    S: dict,
+    driver: tuple | None,
+    rotor: tuple | None,
+) -> list:
     """One residual per coordinate (virtual work through the tree). ``driver``: (driven bar,
     applied moment: the torque, or the angle driver's multiplier) or None; ``rotor``: (driven
     bar, J) or None."""
@@ -126,8 +159,8 @@ def residuals(coords: list, q: tuple, topo: Topology, bars: dict, tree: TreeKine
         for ch in topo.children[c.body]:
             r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
         if c.kind is CoordKind.THETA and driver is not None and driver[0] == c.body:
-            r -= driver[1]                       # applied moment
+            r -= driver[1]  # applied moment
             if rotor is not None:
-                r += rotor[1] * bm.sym.ddth      # the rotor's inertial moment J theta''
+                r += rotor[1] * bm.sym.ddth  # the rotor's inertial moment J theta''
         res.append(r)
     return res

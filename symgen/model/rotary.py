@@ -19,6 +19,7 @@ angle theta: it adds J theta'' to that bar's moment equation and J theta'^2 / 2 
 
 Units: I and J are / (m_ref l0^3), the common unit of the generalized forces (m_ref l0^3 omega^2).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -104,7 +105,7 @@ def rotary_energy(bars: dict, items: list, rotor: tuple | None) -> sp.Expr:
     for it in items:
         bm = bars[it.body]
         phid, _, _ = rotation_rates(section_rotation(bm.sym, bm.kin, it.xi), coordinates(bm.sym))
-        total += it.inertia * phid ** 2 / 2
+        total += it.inertia * phid**2 / 2
     if rotor is not None:
         body, J = rotor
         total += J * bars[body].sym.dth ** 2 / 2

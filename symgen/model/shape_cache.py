@@ -8,6 +8,7 @@ per pair of bases in :func:`cache_dir`, written atomically with the keyed hash o
 checked before it is parsed; an entry that does not verify is said on stderr, recomputed and
 rewritten; pickles of older versions are never read.
 """
+
 from __future__ import annotations
 
 import functools
@@ -64,26 +65,39 @@ _MAX_ENTRY_BYTES = 1 << 28
 
 def _shapes_of(na: int, nt: int) -> dict[str, tuple[int, ...]]:
     nb = 2 + na + nt
-    return {"gram": (nb, nb), "Ka": (na, na), "Kt": (nt, nt), "Pd": (nt, nt), "psid1": (nt,),
-            "C3": (na, nt, nt), "D4": (nt, nt, nt, nt)}
+    return {
+        "gram": (nb, nb),
+        "Ka": (na, na),
+        "Kt": (nt, nt),
+        "Pd": (nt, nt),
+        "psid1": (nt,),
+        "C3": (na, nt, nt),
+        "D4": (nt, nt, nt, nt),
+    }
 
 
 def _encode_entry(name: str, ip: InnerProducts) -> bytes:
-    doc = {"key": name, "version": SHAPES_VERSION, "na": ip.na, "nt": ip.nt,
-           "floats": {a: [float(x) for x in getattr(ip, a).ravel()] for a in _ARRAYS},
-           "exact": {a: exprdata.encode_tensor(ip.exact[a]) for a in _ARRAYS}}
+    doc = {
+        "key": name,
+        "version": SHAPES_VERSION,
+        "na": ip.na,
+        "nt": ip.nt,
+        "floats": {a: [float(x) for x in getattr(ip, a).ravel()] for a in _ARRAYS},
+        "exact": {a: exprdata.encode_tensor(ip.exact[a]) for a in _ARRAYS},
+    }
     return cache.pack(_CACHE_KIND, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
 
 
 def _decode_entry(data: bytes, name: str) -> InnerProducts:
     """The inner products of a verified entry; ``cache.InvalidEntry`` for anything else."""
-    payload = cache.unpack(_CACHE_KIND, data)   # keyed hash checked before any parsing
+    payload = cache.unpack(_CACHE_KIND, data)  # keyed hash checked before any parsing
 
     def bad(what: str) -> Exception:
         return cache.InvalidEntry(f"is not a valid shape entry ({what})")
 
     def no_constant(c):
         raise ValueError(f"non-finite number {c}")
+
     try:
         doc = json.loads(payload.decode("utf-8"), parse_constant=no_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
@@ -94,14 +108,21 @@ def _decode_entry(data: bytes, name: str) -> InnerProducts:
     if not (_is_count(na) and _is_count(nt)):
         raise bad("mode counts")
     floats, exact = doc.get("floats"), doc.get("exact")
-    if not isinstance(floats, dict) or not isinstance(exact, dict) or \
-            set(floats) != set(_ARRAYS) or set(exact) != set(_ARRAYS):
+    if (
+        not isinstance(floats, dict)
+        or not isinstance(exact, dict)
+        or set(floats) != set(_ARRAYS)
+        or set(exact) != set(_ARRAYS)
+    ):
         raise bad(f"it must hold exactly {', '.join(_ARRAYS)}")
     arrays, values = {}, {}
     for a, shape in _shapes_of(na, nt).items():
         flat = floats[a]
-        if not isinstance(flat, list) or len(flat) != math.prod(shape) or not all(
-                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in flat):
+        if (
+            not isinstance(flat, list)
+            or len(flat) != math.prod(shape)
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in flat)
+        ):
             raise bad(f"{a}: not {math.prod(shape)} finite numbers")
         arrays[a] = np.array(flat, dtype=float).reshape(shape)
         try:
@@ -222,10 +243,12 @@ def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
     pi**4/2
     """
     if axial.direction != "axial" or transverse.direction != "transverse":
-        raise ValueError("inner_products(axial, transverse): got bases with directions "
-                         f"{axial.direction!r}, {transverse.direction!r}")
+        raise ValueError(
+            "inner_products(axial, transverse): got bases with directions "
+            f"{axial.direction!r}, {transverse.direction!r}"
+        )
     akey, tkey = axial.key, transverse.key
-    if axial.points or transverse.points:   # static correction functions: piecewise inner products
+    if axial.points or transverse.points:  # static correction functions: piecewise inner products
         return corrected_inner_products(axial, transverse)
     try:
         same = all(r is b or r == b for r, b in ((basis_of_key(akey), axial), (basis_of_key(tkey), transverse)))

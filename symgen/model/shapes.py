@@ -18,6 +18,7 @@ Examples
 >>> ip.exact["Kt"][0, 0]            # (psi'', psi'')
 pi**4/2
 """
+
 from __future__ import annotations
 
 import functools
@@ -29,8 +30,21 @@ from typing import Any
 import numpy as np
 import sympy
 
-from symgen.model.terms import (DPS, MP, Table, Terms, beta_mp, integrate, integrate_product, multiply,
-                                poly_terms, s_key, s_value, scratch_exponents, sin_terms)
+from symgen.model.terms import (
+    DPS,
+    MP,
+    Table,
+    Terms,
+    beta_mp,
+    integrate,
+    integrate_product,
+    multiply,
+    poly_terms,
+    s_key,
+    s_value,
+    scratch_exponents,
+    sin_terms,
+)
 
 __all__ = [
     "SHAPES_VERSION",
@@ -109,11 +123,16 @@ def _eigen_function(k: int) -> ShapeFunction:
     }
     bs = _sf(b)
     # stable in double precision too: no cosh - sigma*sinh difference of two huge numbers
-    expr = (_sf(e["A"] / tip) * sympy.exp(bs * XI) + _sf(e["B"] / tip) * sympy.exp(-bs * XI)
-            - _sf(1 / tip) * sympy.cos(bs * XI) + _sf(sigma / tip) * sympy.sin(bs * XI))
+    expr = (
+        _sf(e["A"] / tip) * sympy.exp(bs * XI)
+        + _sf(e["B"] / tip) * sympy.exp(-bs * XI)
+        - _sf(1 / tip) * sympy.cos(bs * XI)
+        + _sf(sigma / tip) * sympy.sin(bs * XI)
+    )
     label = rf"X_{k}(\xi)" if k < 10 else rf"X_{{{k}}}(\xi)"
-    return ShapeFunction(label, expr, beta=float(b), sigma=float(sigma), tip_value=float(tip),
-                         terms=Terms(d, exact=False))
+    return ShapeFunction(
+        label, expr, beta=float(b), sigma=float(sigma), tip_value=float(tip), terms=Terms(d, exact=False)
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -180,7 +199,7 @@ class Basis:
     frame: str
     functions: tuple[ShapeFunction, ...]
     tip_joint: bool = False
-    points: tuple[float, ...] = ()   # interior points whose static correction functions end the basis
+    points: tuple[float, ...] = ()  # interior points whose static correction functions end the basis
 
     def __len__(self) -> int:
         return len(self.functions)
@@ -193,8 +212,7 @@ class Basis:
     def key(self) -> tuple[str, str, str, int, bool]:
         """``(direction, family, frame, n, tip_joint)``: what determines the functions (with
         ``points``: the standard functions before the static corrections, ``n`` counting those)."""
-        return (self.direction, self.family, self.frame, len(self.functions) - len(self.points),
-                self.tip_joint)
+        return (self.direction, self.family, self.frame, len(self.functions) - len(self.points), self.tip_joint)
 
 
 def _check_n(n: int, what: str) -> int:
@@ -269,8 +287,9 @@ def _transverse_basis(frame: str, shapes: str, n: int, tip: bool) -> Basis:
         for k in range(1, n + 1):
             if shapes == "polynomial":
                 lab = r"\xi(1-\xi)" if k == 1 else (rf"\xi^{k}(1-\xi)" if k < 10 else rf"\xi^{{{k}}}(1-\xi)")
-                funcs.append(ShapeFunction(lab, XI ** k * (1 - XI),
-                                           terms=poly_terms({k: Fraction(1), k + 1: Fraction(-1)})))
+                funcs.append(
+                    ShapeFunction(lab, XI**k * (1 - XI), terms=poly_terms({k: Fraction(1), k + 1: Fraction(-1)}))
+                )
             else:
                 lab = r"\sin(\pi\xi)" if k == 1 else rf"\sin({k}\pi\xi)"
                 funcs.append(ShapeFunction(lab, sympy.sin(k * sympy.pi * XI), terms=sin_terms(2 * k)))
@@ -291,18 +310,17 @@ def _tip_load_projection(eig: list[ShapeFunction]) -> tuple:
     """(c_k, t, terms): xi^2 (3 - xi)/2 - sum_k c_k X_k (mass inner product projections c_k) has
     the value t at xi = 1; ``terms`` is that difference (not yet divided by t)."""
     base = poly_terms({2: Fraction(3, 2), 3: Fraction(-1, 2)}).as_mp()
-    d: dict[tuple[int, int], Any] = dict(base.d)   # inexact terms: mpc coefficients
+    d: dict[tuple[int, int], Any] = dict(base.d)  # inexact terms: mpc coefficients
     coeffs = []
     for f in eig:
         assert f.terms is not None, "an eigenfunction has its term form"
         t = f.terms.as_mp()
-        ratio: Any = integrate_product(base, t)    # of inexact terms: an mpc
+        ratio: Any = integrate_product(base, t)  # of inexact terms: an mpc
         c = MP.mpf((ratio / integrate_product(t, t)).real)
         coeffs.append(c)
         for key, val in t.d.items():
             d[key] = d.get(key, MP.mpc(0)) - c * val
-    tip = MP.mpf(sum((c * (MP.exp(s_value(sid)) if sid else 1) for (_, sid), c in d.items()),
-                     MP.mpc(0)).real)
+    tip = MP.mpf(sum((c * (MP.exp(s_value(sid)) if sid else 1) for (_, sid), c in d.items()), MP.mpc(0)).real)
     return coeffs, tip, d
 
 
@@ -324,7 +342,7 @@ def _tip_load_function(eig: list[ShapeFunction]) -> ShapeFunction:
     the projection is the part that carries the tip shear, which no eigenfunction has.
     """
     static = poly_terms({2: Fraction(3, 2), 3: Fraction(-1, 2)})
-    expr = XI ** 2 * (3 - XI) / 2
+    expr = XI**2 * (3 - XI) / 2
     if not eig:
         return ShapeFunction(r"\xi^2(3-\xi)/2", expr, terms=static)
     coeffs, tip, d = _tip_load_projection(eig)
@@ -383,8 +401,10 @@ def _terms_of(basis: Basis) -> list[Terms]:
     out = []
     for f in basis.functions:
         if f.terms is None:
-            raise ValueError(f"shape function {f.label!r} has no term representation; build bases "
-                             "with axial_basis()/transverse_basis()")
+            raise ValueError(
+                f"shape function {f.label!r} has no term representation; build bases "
+                "with axial_basis()/transverse_basis()"
+            )
         out.append(f.terms)
     return out
 
@@ -423,7 +443,7 @@ def _compute_locked(phi: list[Terms], psi: list[Terms]) -> InnerProducts:
     pairs = [(a, c) for a in range(nt) for c in range(a, nt)]
     P = {ab: multiply(dpsi[ab[0]], dpsi[ab[1]]) for ab in pairs}
     Pd = Table((nt, nt))
-    for (a, c) in pairs:
+    for a, c in pairs:
         Pd.set({(a, c), (c, a)}, integrate(P[(a, c)]))
     psid1 = Table((nt,))
     for a in range(nt):
@@ -431,7 +451,7 @@ def _compute_locked(phi: list[Terms], psi: list[Terms]) -> InnerProducts:
 
     C3 = Table((na, nt, nt))
     for k in range(na):
-        for (a, c) in pairs:
+        for a, c in pairs:
             C3.set({(k, a, c), (k, c, a)}, integrate_product(dphi[k], P[(a, c)]))
 
     D4 = Table((nt, nt, nt, nt))
@@ -448,6 +468,15 @@ def _compute_locked(phi: list[Terms], psi: list[Terms]) -> InnerProducts:
         "C3": C3.array(),
         "D4": D4.array(),
     }
-    return InnerProducts(na=na, nt=nt, gram=gram.frozen(), Ka=Ka.frozen(), Kt=Kt.frozen(),
-                         Pd=Pd.frozen(), psid1=psid1.frozen(), C3=C3.frozen(), D4=D4.frozen(),
-                         exact=exact)
+    return InnerProducts(
+        na=na,
+        nt=nt,
+        gram=gram.frozen(),
+        Ka=Ka.frozen(),
+        Kt=Kt.frozen(),
+        Pd=Pd.frozen(),
+        psid1=psid1.frozen(),
+        C3=C3.frozen(),
+        D4=D4.frozen(),
+        exact=exact,
+    )

@@ -36,6 +36,7 @@ overhang left its functions vanish). The
 bending stiffness (psi'', psi'') covers the span and the overhang (the tangent continuation
 contributes nothing there, so the seed's rigid-overhang form, ``no = 0``, is unchanged).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -55,18 +56,19 @@ def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None) -> tuple:
     the overhang function chi_{k - nspan} (zero value and slope at the contact)."""
     if nspan is not None and k > nspan:
         m = k - nspan
-        if m == 1:      # with the span's end-moment shape: the exact static tip-load deflection
-            span = XI * (XI ** 2 - beta ** 2) / beta
+        if m == 1:  # with the span's end-moment shape: the exact static tip-load deflection
+            span = XI * (XI**2 - beta**2) / beta
             over = 2 * beta * (XI - beta) + 3 * (XI - beta) ** 2
         else:
             span, over = sp.Integer(0), (2 * (XI - beta)) ** (m + 1)
-        return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)),
-                (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+        return (
+            (span, sp.diff(span, beta), sp.diff(span, beta, 2)),
+            (over, sp.diff(over, beta), sp.diff(over, beta, 2)),
+        )
     span = sp.sin(k * sp.pi * XI / beta)
-    slope = (-1) ** k * k * sp.pi / beta                 # d psi_k / d xi at xi = beta
+    slope = (-1) ** k * k * sp.pi / beta  # d psi_k / d xi at xi = beta
     over = slope * (XI - beta)
-    return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)),
-            (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+    return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)), (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
 
 
 def _span_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
@@ -136,8 +138,9 @@ def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     Kt = sp.zeros(nt, nt)
     for i in range(nt):
         for j in range(nt):
-            Kt[i, j] = (_span_integral(sp.diff(blocks_s[0][i], XI, 2) * sp.diff(blocks_s[0][j], XI, 2), beta)
-                        + _overhang_integral(sp.diff(blocks_o[0][i], XI, 2) * sp.diff(blocks_o[0][j], XI, 2), beta))
+            Kt[i, j] = _span_integral(
+                sp.diff(blocks_s[0][i], XI, 2) * sp.diff(blocks_s[0][j], XI, 2), beta
+            ) + _overhang_integral(sp.diff(blocks_o[0][i], XI, 2) * sp.diff(blocks_o[0][j], XI, 2), beta)
     return beta, G, Kt
 
 
@@ -167,8 +170,7 @@ class SlotBasis:
         fs = []
         for k in range(1, self.nt + 1):
             (s, _, _), (o, _, _) = _pieces(k, self.beta, self.nspan)
-            label = (rf"\sin({k}\pi\xi/\beta)" if k <= self.nspan
-                     else rf"\chi_{{{k - self.nspan}}}")
+            label = rf"\sin({k}\pi\xi/\beta)" if k <= self.nspan else rf"\chi_{{{k - self.nspan}}}"
             fs.append(SlotFunction(label, s, o))
         self.functions = tuple(fs)
 
@@ -208,9 +210,12 @@ class SlotIPTable:
         self.G = G.xreplace(sub)
         self.Kt = Kt.xreplace(sub)
         nt = basis.nt
-        self._labels = (["1", r"\xi"] + [rf"\psi_{{{k + 1}}}" for k in range(nt)]
-                        + [rf"\psi_{{{k + 1},\beta}}" for k in range(nt)]
-                        + [rf"\psi_{{{k + 1},\beta\beta}}" for k in range(nt)])
+        self._labels = (
+            ["1", r"\xi"]
+            + [rf"\psi_{{{k + 1}}}" for k in range(nt)]
+            + [rf"\psi_{{{k + 1},\beta}}" for k in range(nt)]
+            + [rf"\psi_{{{k + 1},\beta\beta}}" for k in range(nt)]
+        )
 
     def gram(self, i: int, j: int) -> sp.Expr:
         value = self.G[i, j]
@@ -233,7 +238,7 @@ class SlotIPTable:
         raise KeyError(f"a guide bar has no {name} inner products (rotary inertia is not modelled on slots)")
 
     def tensor(self, name: str, idx: tuple, latex: str) -> sp.Expr:
-        return sp.Integer(0)      # axially rigid: no stretching couplings
+        return sp.Integer(0)  # axially rigid: no stretching couplings
 
     def display(self) -> SlotDisplayIPTable:
         """The display table of these inner products (see ``bars.bar_equations``)."""
@@ -256,7 +261,7 @@ class SlotDisplayIPTable:
         self.labels = numeric._labels
         self.used: dict[sp.Symbol, tuple] = {}
         self.values: dict[sp.Symbol, sp.Expr] = {}
-        self._funcs: dict = {}                       # F(beta) -> (i, j)
+        self._funcs: dict = {}  # F(beta) -> (i, j)
 
     def gram(self, i: int, j: int) -> sp.Expr:
         if self.numeric.G[i, j] == 0:
@@ -290,14 +295,19 @@ class SlotDisplayIPTable:
         for f, (i, j) in self._funcs.items():
             name = f.func.__name__
             for key, sym, kind, value in (
-                    (sp.Derivative(f, self.beta), sp.Symbol(r"\partial_{\beta}" + name), "dKt",
-                     lambda: sp.diff(self.numeric.Kt[i, j], self.beta)),  # noqa: B023 - called below, same i, j
-                    (f, sp.Symbol(name), "Kt", lambda: self.numeric.Kt[i, j])):  # noqa: B023 - likewise
+                (
+                    sp.Derivative(f, self.beta),
+                    sp.Symbol(r"\partial_{\beta}" + name),
+                    "dKt",
+                    lambda i=i, j=j: sp.diff(self.numeric.Kt[i, j], self.beta),
+                ),
+                (f, sp.Symbol(name), "Kt", lambda i=i, j=j: self.numeric.Kt[i, j]),
+            ):
                 rep[key] = sym
                 if sym not in self.used and expr.has(key):
                     self.used[sym] = (kind, (i, j))
                     self.values[sym] = value()
-        return expr.xreplace(rep)       # top down: a derivative is replaced before its function
+        return expr.xreplace(rep)  # top down: a derivative is replaced before its function
 
 
 class SlotBarKinematics:
@@ -305,7 +315,7 @@ class SlotBarKinematics:
     time derivatives taken through beta(tau) as well (generic chain rule on the local point)."""
 
     def __init__(self, sym, basis: SlotBasis, beta: tuple) -> None:
-        self.sym, self.basis_t, self.beta = sym, basis, beta     # beta = (b, db, ddb)
+        self.sym, self.basis_t, self.beta = sym, basis, beta  # beta = (b, db, ddb)
         self.basis_a = None
 
     def zeta(self, xi, deriv: int = 0, amp=None) -> sp.Expr:
@@ -349,7 +359,7 @@ class SlotBarKinematics:
         s = self.sym
         l, ld, ldd = self._local_derivs(xi)
         Jl, Jld = sp.Matrix([-l[1], l[0]]), sp.Matrix([-ld[1], ld[0]])
-        return s.alpha * (ldd + 2 * s.dth * Jld + s.ddth * Jl - s.dth ** 2 * l)
+        return s.alpha * (ldd + 2 * s.dth * Jld + s.ddth * Jl - s.dth**2 * l)
 
     def rho_dd(self, xi) -> sp.Matrix:
         return rot(self.sym.th) * self.bracket_dd(xi)
@@ -370,8 +380,11 @@ class SlotBarKinematics:
         R = rot(s.th)
         l, ld, ldd = sp.Matrix([b, 0]), sp.Matrix([db, 0]), sp.Matrix([ddb, 0])
         J = lambda v: sp.Matrix([-v[1], v[0]])
-        return (s.alpha * R * l, s.alpha * R * (ld + s.dth * J(l)),
-                s.alpha * R * (ldd + 2 * s.dth * J(ld) + s.ddth * J(l) - s.dth ** 2 * l))
+        return (
+            s.alpha * R * l,
+            s.alpha * R * (ld + s.dth * J(l)),
+            s.alpha * R * (ldd + 2 * s.dth * J(ld) + s.ddth * J(l) - s.dth**2 * l),
+        )
 
     def contact_partials(self) -> dict:
         """d rho(contact) / d coordinate: the slot force's lever arms (theta, beta)."""

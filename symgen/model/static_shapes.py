@@ -19,6 +19,7 @@ integrator of :mod:`symgen.model.terms` is extended here to sub-intervals ``[lo,
 enters as the exact rational of the scene's float). Their inner products are cached by
 :mod:`symgen.model.shape_cache`.
 """
+
 from __future__ import annotations
 
 import functools
@@ -34,9 +35,18 @@ from symgen.ir.spec import BodySpec
 from symgen.model.shapes import XI, Basis, InnerProducts, ShapeFunction, axial_basis, basis_of_key, transverse_basis
 from symgen.model.terms import DPS, MP, Table, Terms, multiply, new_terms, poly_terms, s_add, s_value
 
-__all__ = ["STATIC_KINDS", "Piecewise", "StaticCorrection", "static_correction",
-           "piecewise_inner", "piecewise_inner_products", "static_polynomials",
-           "corrected_basis", "bar_bases", "STATIC_VERSION"]
+__all__ = [
+    "STATIC_KINDS",
+    "Piecewise",
+    "StaticCorrection",
+    "static_correction",
+    "piecewise_inner",
+    "piecewise_inner_products",
+    "static_polynomials",
+    "corrected_basis",
+    "bar_bases",
+    "STATIC_VERSION",
+]
 
 #: (direction, frame) pairs that have a static correction function.
 STATIC_KINDS = ("pinned-pinned", "cantilever", "axial")
@@ -196,7 +206,7 @@ def static_polynomials(kind: str, xi_k: float) -> tuple[Fraction, list[Fraction]
         right = [c * a / 6 for c in _pmul(y, _padd([1 - a * a], [-c for c in _pmul(y, y)]))]
     elif kind == "cantilever":
         left = [Fraction(0), Fraction(0), a / 2, Fraction(-1, 6)]
-        right = [-a ** 3 / 6, a * a / 2]
+        right = [-(a**3) / 6, a * a / 2]
     else:
         left = [Fraction(0), Fraction(1)]
         right = [a]
@@ -230,7 +240,7 @@ class StaticCorrection:
     scale: float
     label: str
     function: Piecewise = field(compare=False, repr=False)
-    expr: Any = field(default=None, compare=False, repr=False)   # sympy, in XI (set by corrected_basis)
+    expr: Any = field(default=None, compare=False, repr=False)  # sympy, in XI (set by corrected_basis)
 
     # what the emitters ask of every shape function (ShapeFunction's attributes)
     beta = None
@@ -273,7 +283,7 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
         c = MP.lu_solve(G, r)
         coeffs = [c[i] for i in range(m)]
     breaks = sorted(set(w.breaks).union(*(f.breaks for f in fs)))
-    pieces: list[dict[tuple[int, int], Any]] = []   # inexact terms: mpc coefficients
+    pieces: list[dict[tuple[int, int], Any]] = []  # inexact terms: mpc coefficients
     for lo, hi in zip(breaks[:-1], breaks[1:]):
         mid = (lo + hi) / 2
         d = dict(w.piece_at(mid).d)
@@ -284,13 +294,15 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
     rest = Piecewise(tuple(breaks), tuple(Terms(d, exact=False) for d in pieces))
     t = rest.value(xi_k)
     if abs(t) < 1e-13 * max(1.0, max(abs(float(x)) for x in (left + right))):
-        raise ValueError(f"the static shape at xi = {xi_k} already lies in the span of the "
-                         "bar's functions: no correction function to add")
-    scaled = Piecewise(rest.breaks, tuple(Terms({k: v / t for k, v in p.items()}, exact=False)
-                                          for p in pieces))
+        raise ValueError(
+            f"the static shape at xi = {xi_k} already lies in the span of the "
+            "bar's functions: no correction function to add"
+        )
+    scaled = Piecewise(rest.breaks, tuple(Terms({k: v / t for k, v in p.items()}, exact=False) for p in pieces))
     label = r"\chi_{%s}" % format(float(xi_k), "g")
-    return StaticCorrection(kind, float(xi_k), a, tuple(left), tuple(right),
-                            tuple(float(c) for c in coeffs), float(t), label, scaled)
+    return StaticCorrection(
+        kind, float(xi_k), a, tuple(left), tuple(right), tuple(float(c) for c in coeffs), float(t), label, scaled
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -312,15 +324,14 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]) ->
     lims = [(_mpq(lo), _mpq(hi)) for lo, hi, _ in ivals]
     one, xi = poly_terms({0: Fraction(1)}).as_mp(), poly_terms({1: Fraction(1)}).as_mp()
 
-    def at(fs: list[Piecewise], d: int) -> list[list[Terms]]:   # [function][interval]
+    def at(fs: list[Piecewise], d: int) -> list[list[Terms]]:  # [function][interval]
         return [[f.piece_at(mid).as_mp().deriv(d) for _, _, mid in ivals] for f in fs]
 
     b = [[one] * len(ivals), [xi] * len(ivals)] + at(phi, 0) + at(psi, 0)
     dphi, dpsi, ddpsi = at(phi, 1), at(psi, 1), at(psi, 2)
 
     def ip(u: list[Terms], v: list[Terms]) -> Any:
-        return sum((_integrate_product_on(x, y, lo, hi) for x, y, (lo, hi) in zip(u, v, lims)),
-                   MP.mpf(0))
+        return sum((_integrate_product_on(x, y, lo, hi) for x, y, (lo, hi) in zip(u, v, lims)), MP.mpf(0))
 
     N = len(b)
     gram = Table((N, N))
@@ -350,20 +361,34 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]) ->
         a, c, d, e = idx
         D4.set(set(itertools.permutations(idx)), MP.mpc(ip(P[(a, c)], P[(d, e)])))
     _J_UPTO.clear()
-    exact = {"gram": gram.matrix(), "Ka": Ka.matrix(), "Kt": Kt.matrix(), "Pd": Pd.matrix(),
-             "psid1": sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)]),
-             "C3": C3.array(), "D4": D4.array()}
-    return InnerProducts(na=na, nt=nt, gram=gram.frozen(), Ka=Ka.frozen(), Kt=Kt.frozen(),
-                         Pd=Pd.frozen(), psid1=psid1.frozen(), C3=C3.frozen(), D4=D4.frozen(),
-                         exact=exact)
+    exact = {
+        "gram": gram.matrix(),
+        "Ka": Ka.matrix(),
+        "Kt": Kt.matrix(),
+        "Pd": Pd.matrix(),
+        "psid1": sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)]),
+        "C3": C3.array(),
+        "D4": D4.array(),
+    }
+    return InnerProducts(
+        na=na,
+        nt=nt,
+        gram=gram.frozen(),
+        Ka=Ka.frozen(),
+        Kt=Kt.frozen(),
+        Pd=Pd.frozen(),
+        psid1=psid1.frozen(),
+        C3=C3.frozen(),
+        D4=D4.frozen(),
+        exact=exact,
+    )
 
 
 # --------------------------------------------------------------------------------------
 # Bases that end with correction functions, their cached inner products
 # --------------------------------------------------------------------------------------
 def _poly_expr(coeffs: Sequence[Fraction]) -> Any:
-    return sympy.Add(*[sympy.Rational(c.numerator, c.denominator) * XI ** p
-                       for p, c in enumerate(coeffs) if c])
+    return sympy.Add(*[sympy.Rational(c.numerator, c.denominator) * XI**p for p, c in enumerate(coeffs) if c])
 
 
 def _correction_expr(sc: StaticCorrection, others: Sequence[Any]) -> Any:
@@ -402,6 +427,7 @@ def bar_bases(body: BodySpec | dict) -> tuple[Basis, Basis]:
     if isinstance(body, dict):
         body = BodySpec.from_json(body)
     ba = axial_basis(body.axial_shapes or "complete", body.na)
-    bt = transverse_basis(body.frame or "pinned-pinned", body.transverse_shapes or "modes", body.nt,
-                          tip_joint=body.tip_joint)
+    bt = transverse_basis(
+        body.frame or "pinned-pinned", body.transverse_shapes or "modes", body.nt, tip_joint=body.tip_joint
+    )
     return corrected_basis(ba, body.static_axial), corrected_basis(bt, body.static_transverse)

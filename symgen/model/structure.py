@@ -5,16 +5,29 @@ changing them reuses the cached model.
 
 Kept free of SymPy so that a cached run never imports it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from symgen import __version__
-from symgen.ir.spec import (DYNAMIC, INEXTENSIBLE, QUASI_STATIC, BodySpec, DriverSpec, EffectsSpec, EndSpec, JointSpec,
-                            LoadSpec, ModelSpec, OutputSpec, spec_key)
+from symgen.ir.spec import (
+    DYNAMIC,
+    INEXTENSIBLE,
+    QUASI_STATIC,
+    BodySpec,
+    DriverSpec,
+    EffectsSpec,
+    EndSpec,
+    JointSpec,
+    LoadSpec,
+    ModelSpec,
+    OutputSpec,
+    spec_key,
+)
 from symgen.scene.model import Scene
 
-DERIVE_VERSION = "5"   # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
+DERIVE_VERSION = "5"  # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:
@@ -94,27 +107,42 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
         written = "true" if eff.axial is True else '"dynamic"'
         return AxialTreatment(body.name, DYNAMIC, f"effects.axial = {written}")
     if eff.strain != "von_karman":
-        return AxialTreatment(body.name, DYNAMIC, "auto: the seed's linear strain keeps its axial dynamics "
-                              "(the paper's model)")
+        return AxialTreatment(
+            body.name, DYNAMIC, "auto: the seed's linear strain keeps its axial dynamics (the paper's model)"
+        )
     if slot_guide(scene, body.name):
         return AxialTreatment(body.name, DYNAMIC, "auto: slot guide")
-    w_axial = AXIAL_FIRST * body.lam ** 0.5
-    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu ** 0.5 if body.mu else 0.0
+    w_axial = AXIAL_FIRST * body.lam**0.5
+    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu**0.5 if body.mu else 0.0
     rate = abs(scene.driver.rate) if scene.driver is not None else 0.0
     w_run = max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0))
     ratio = w_axial / w_run
-    detail = (f"first axial frequency {w_axial:.4g} = {ratio:.3g} x the fastest motion to resolve {w_run:.4g} "
-              f"(max of 2 x first bending {w_bend:.4g}, {DRIVER_HARMONICS:g} x driver rate), per unit tau")
+    detail = (
+        f"first axial frequency {w_axial:.4g} = {ratio:.3g} x the fastest motion to resolve {w_run:.4g} "
+        f"(max of 2 x first bending {w_bend:.4g}, {DRIVER_HARMONICS:g} x driver rate), per unit tau"
+    )
     share, softest = loop_stretch_share(scene, body)
     if ratio >= AXIAL_SEPARATION and share > LOOP_SHARE_MAX:
-        return AxialTreatment(body.name, DYNAMIC, f"auto: {detail}, but in a closed loop its stretch is "
-                              f"{share:.2g} of the compliance against the bending of {softest} (> {LOOP_SHARE_MAX:g}): "
-                              "axial dynamics kept", w_axial, w_run)
+        return AxialTreatment(
+            body.name,
+            DYNAMIC,
+            f"auto: {detail}, but in a closed loop its stretch is "
+            f"{share:.2g} of the compliance against the bending of {softest} (> {LOOP_SHARE_MAX:g}): "
+            "axial dynamics kept",
+            w_axial,
+            w_run,
+        )
     if ratio >= AXIAL_SEPARATION:
-        return AxialTreatment(body.name, QUASI_STATIC, f"auto: {detail} >= {AXIAL_SEPARATION:g}: axial dynamics "
-                              "eliminated", w_axial, w_run)
-    return AxialTreatment(body.name, DYNAMIC, f"auto: {detail} < {AXIAL_SEPARATION:g}: axial dynamics kept",
-                          w_axial, w_run)
+        return AxialTreatment(
+            body.name,
+            QUASI_STATIC,
+            f"auto: {detail} >= {AXIAL_SEPARATION:g}: axial dynamics eliminated",
+            w_axial,
+            w_run,
+        )
+    return AxialTreatment(
+        body.name, DYNAMIC, f"auto: {detail} < {AXIAL_SEPARATION:g}: axial dynamics kept", w_axial, w_run
+    )
 
 
 def loop_stretch_share(scene: Scene, body) -> tuple[float, str]:
@@ -141,8 +169,7 @@ def slot_guide(scene: Scene, name: str) -> bool:
 
 
 def _tip_joint(scene: Scene, name: str) -> bool:
-    return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12
-               for j in scene.joints for e in j.ends)
+    return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12 for j in scene.joints for e in j.ends)
 
 
 #: points closer than this (in xi) share one static correction function; nearer the ends than this
@@ -154,8 +181,7 @@ def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
     """The interior points 0 < xi < 1 of bar ``name`` where a point force acts: joint ends (pins,
     sliders, a slot's sliding point; lumped masses sit on joints) and point loads; sorted, merged
     within POINT_TOL."""
-    xs = [e.xi for j in scene.joints for e in j.ends
-          if e.body == name and e.xi is not None and not e.variable]
+    xs = [e.xi for j in scene.joints for e in j.ends if e.body == name and e.xi is not None and not e.variable]
     xs += [ld.xi for ld in scene.loads if ld.body == name and ld.kind == "point" and ld.xi is not None]
     out: list[float] = []
     for x in sorted(float(x) for x in xs):
@@ -199,25 +225,66 @@ def model_spec(scene: Scene) -> ModelSpec:
     for b in scene.bodies:
         na, nt = effective_modes(scene, b)
         pts = static_points(scene, b)
-        bodies.append(BodySpec(b.name, b.rigid, b.frame, na, nt, b.axial_shapes if na else "",
-                               b.transverse_shapes if nt else "", _tip_joint(scene, b.name) if nt else False,
-                               tuple(pts.get("axial", ())), tuple(pts.get("transverse", ()))))
-    joints = tuple(JointSpec(j.name, j.kind, tuple(EndSpec(e.body, e.xi) for e in j.ends), j.mass > 0, j.inertia > 0,
-                             (j.overhang, j.overhang_modes) if j.kind == "slot" else None) for j in scene.joints)
+        bodies.append(
+            BodySpec(
+                b.name,
+                b.rigid,
+                b.frame,
+                na,
+                nt,
+                b.axial_shapes if na else "",
+                b.transverse_shapes if nt else "",
+                _tip_joint(scene, b.name) if nt else False,
+                tuple(pts.get("axial", ())),
+                tuple(pts.get("transverse", ())),
+            )
+        )
+    joints = tuple(
+        JointSpec(
+            j.name,
+            j.kind,
+            tuple(EndSpec(e.body, e.xi) for e in j.ends),
+            j.mass > 0,
+            j.inertia > 0,
+            (j.overhang, j.overhang_modes) if j.kind == "slot" else None,
+        )
+        for j in scene.joints
+    )
     drv = None
     if scene.driver is not None:
         d = scene.driver
-        drv = DriverSpec(d.kind, d.body, d.torque if isinstance(d.torque, str) else "const", d.law,
-                         d.ramp is not None, d.rotor_inertia > 0)
-    loads = tuple(LoadSpec(ld.body, ld.kind, ld.xi, ld.axial if isinstance(ld.axial, str) else "const",
-                           ld.transverse if isinstance(ld.transverse, str) else "const") for ld in scene.loads)
+        drv = DriverSpec(
+            d.kind,
+            d.body,
+            d.torque if isinstance(d.torque, str) else "const",
+            d.law,
+            d.ramp is not None,
+            d.rotor_inertia > 0,
+        )
+    loads = tuple(
+        LoadSpec(
+            ld.body,
+            ld.kind,
+            ld.xi,
+            ld.axial if isinstance(ld.axial, str) else "const",
+            ld.transverse if isinstance(ld.transverse, str) else "const",
+        )
+        for ld in scene.loads
+    )
     outputs = tuple(OutputSpec(o.name, o.kind, o.body, o.joint, o.xi, o.component) for o in scene.outputs)
     treat = axial_treatments(scene)
     axial = None
     if any(t.treatment in (QUASI_STATIC, INEXTENSIBLE) for t in treat.values()):
         axial = tuple((name, t.treatment) for name, t in sorted(treat.items()))
-    effects = EffectsSpec(eff.coriolis, eff.geometric_stiffening, eff.rotary_inertia, eff.strain,
-                          any(x != 0 for x in eff.gravity), eff.damping > 0, axial)
+    effects = EffectsSpec(
+        eff.coriolis,
+        eff.geometric_stiffening,
+        eff.rotary_inertia,
+        eff.strain,
+        any(x != 0 for x in eff.gravity),
+        eff.damping > 0,
+        axial,
+    )
     return ModelSpec((__version__, DERIVE_VERSION), tuple(bodies), joints, drv, effects, loads, outputs)
 
 

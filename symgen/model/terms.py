@@ -29,6 +29,7 @@ Examples
 >>> integrate_product(poly_terms({1: Fraction(1)}), sin_terms(2)).to_sympy()   # (xi, sin(pi xi))
 1/pi
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -43,8 +44,25 @@ import numpy as np
 import sympy
 from mpmath.ctx_mp import MPContext
 
-__all__ = ["DPS", "MP", "Exact", "Coef", "Terms", "new_terms", "multiply", "integrate", "integrate_product",
-           "poly_terms", "sin_terms", "s_key", "s_add", "s_value", "beta_mp", "scratch_exponents", "Table"]
+__all__ = [
+    "DPS",
+    "MP",
+    "Exact",
+    "Coef",
+    "Terms",
+    "new_terms",
+    "multiply",
+    "integrate",
+    "integrate_product",
+    "poly_terms",
+    "sin_terms",
+    "s_key",
+    "s_add",
+    "s_value",
+    "beta_mp",
+    "scratch_exponents",
+    "Table",
+]
 
 DPS = 50  # working digits of every non-exact computation
 MP = MPContext()  # private context: nobody else's mp.dps setting can reach us
@@ -103,15 +121,16 @@ class Exact:
     def to_mp(self) -> Any:
         tot = MP.mpc(0)
         for m, (a, b) in self.d.items():
-            tot += MP.mpc(MP.mpf(a.numerator) / a.denominator,
-                          MP.mpf(b.numerator) / b.denominator) * MP.pi ** m
+            tot += MP.mpc(MP.mpf(a.numerator) / a.denominator, MP.mpf(b.numerator) / b.denominator) * MP.pi**m
         return tot
 
     def to_sympy(self) -> sympy.Expr:
         terms = []
         for m, (a, b) in sorted(self.d.items()):
-            terms.append((sympy.Rational(a.numerator, a.denominator)
-                          + sympy.I * sympy.Rational(b.numerator, b.denominator)) * sympy.pi ** m)
+            terms.append(
+                (sympy.Rational(a.numerator, a.denominator) + sympy.I * sympy.Rational(b.numerator, b.denominator))
+                * sympy.pi**m
+            )
         return sympy.Add(*terms)
 
     def is_real(self) -> bool:
@@ -135,7 +154,7 @@ Coef = Exact | Any  # Exact or an mpc of MP
 _LOCK = threading.Lock()
 _COMPUTE_LOCK = threading.RLock()
 _PERSISTENT: set[int] = {0}
-_SKEYS: list[tuple | None] = [()]   # None: a forgotten key (ids are never reused)
+_SKEYS: list[tuple | None] = [()]  # None: a forgotten key (ids are never reused)
 _SKEY_ID: dict[tuple, int] = {(): 0}
 _SPARENTS: dict[int, tuple[int, int]] = {}
 _SADD: dict[tuple[int, int], int] = {}
@@ -306,7 +325,7 @@ class Terms:
         if self.exact:
             items = [(p, _skey(s), c) for (p, s), c in self.d.items()]
         else:
-            mp: dict[tuple[int, int], Any] = self.d   # the coefficients of inexact terms are mpc
+            mp: dict[tuple[int, int], Any] = self.d  # the coefficients of inexact terms are mpc
             items = [(p, _skey(s), (c.real._mpf_, c.imag._mpf_)) for (p, s), c in mp.items()]
         return (items, self.exact)
 
@@ -355,13 +374,12 @@ class Terms:
         num = self._numeric.get(order)
         if num is None:
             t = self.deriv(order)
-            num = [(p, s_value(s) if s else None, c.to_mp() if t.exact else c)
-                   for (p, s), c in t.d.items()]
+            num = [(p, s_value(s) if s else None, c.to_mp() if t.exact else c) for (p, s), c in t.d.items()]
             self._numeric[order] = num
         x = MP.mpf(float(xi))
         tot = MP.mpc(0)
         for p, s, c in num:
-            v = c * x ** p if p else c
+            v = c * x**p if p else c
             if s is not None:
                 v = v * MP.exp(s * x)
             tot += v
@@ -403,7 +421,7 @@ def _tderiv(a: Terms) -> Terms:
             if s:
                 _acc(out, (p, s), c * Exact.of(0, _kappa(s), 1))
         else:
-            mc: Any = c   # the coefficients of inexact terms are mpc
+            mc: Any = c  # the coefficients of inexact terms are mpc
             if p:
                 _acc(out, (p - 1, s), mc * p)
             if s:
@@ -428,8 +446,10 @@ def _j_exact(p: int, s: int) -> Exact:
     else:
         two_k = 2 * kappa
         if two_k.denominator != 1:
-            raise ValueError(f"exp(i*pi*{kappa}) is not a Gaussian rational; "
-                             "exact integration supports half-integer multiples of pi only")
+            raise ValueError(
+                f"exp(i*pi*{kappa}) is not a Gaussian rational; "
+                "exact integration supports half-integer multiples of pi only"
+            )
         unit = [(1, 0), (0, 1), (-1, 0), (0, -1)][int(two_k) % 4]  # exp(i pi kappa) = i**(2 kappa)
         e_s = Exact.of(*unit)
         inv_s = Exact.of(0, -1 / kappa, -1)  # 1/(i pi kappa)
@@ -518,8 +538,7 @@ def poly_terms(coeffs: dict[int, Fraction]) -> Terms:
 def sin_terms(m: int) -> Terms:
     """``sin(m pi xi / 2) = (e^{i m (pi/2) xi} - e^{-i m (pi/2) xi}) / (2i)``."""
     half = Fraction(1, 2)
-    return new_terms({(0, s_key(0, 0, m)): Exact.of(0, -half),
-                      (0, s_key(0, 0, -m)): Exact.of(0, half)}, exact=True)
+    return new_terms({(0, s_key(0, 0, m)): Exact.of(0, -half), (0, s_key(0, 0, -m)): Exact.of(0, half)}, exact=True)
 
 
 # --------------------------------------------------------------------------------------

@@ -5,6 +5,7 @@ reached from ground through a slider also has the slider's travel ``s``; elastic
 their axial (f) and transverse (g) amplitudes. Joints outside the tree are *cut*: each closes
 one independent loop and gives the closure equations (11) (2 rows for a pin, 1 for a slider).
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -21,10 +22,10 @@ class TreeEdge:
     joint: str
     body: str
     parent: str
-    body_xi: float                      # where the joint is on ``body``
-    parent_xi: float | None             # where it is on the parent bar (None: ground)
-    ground_point: tuple[float, float] | None   # ground end of the joint (None: parent is a bar)
-    slider: bool                        # joined through a slider: adds a travel coordinate s
+    body_xi: float  # where the joint is on ``body``
+    parent_xi: float | None  # where it is on the parent bar (None: ground)
+    ground_point: tuple[float, float] | None  # ground end of the joint (None: parent is a bar)
+    slider: bool  # joined through a slider: adds a travel coordinate s
 
 
 @dataclass(frozen=True)
@@ -32,15 +33,15 @@ class CutJoint:
     """A joint outside the spanning tree, closing one independent loop."""
 
     joint: str
-    kind: str                           # "pin" | "slider"
-    loop: tuple[str, ...]               # bars around the loop (for messages), ground shown as "ground"
+    kind: str  # "pin" | "slider"
+    loop: tuple[str, ...]  # bars around the loop (for messages), ground shown as "ground"
 
 
 @dataclass(frozen=True)
 class Topology:
-    order: tuple[str, ...]              # bars in tree order (parents before children)
-    edges: dict                         # body -> TreeEdge
-    children: dict                      # body -> tuple of TreeEdge hanging from it
+    order: tuple[str, ...]  # bars in tree order (parents before children)
+    edges: dict  # body -> TreeEdge
+    children: dict  # body -> tuple of TreeEdge hanging from it
     cuts: tuple[CutJoint, ...]
 
     @property
@@ -70,10 +71,14 @@ def build_topology(scene: Scene) -> Topology:
         assert far.xi is not None and (node == GROUND or parent_xi is not None), "pins and sliders hold bars at a xi"
         used.add(j.name)
         edges[child] = TreeEdge(
-            joint=j.name, body=child, parent=node, body_xi=float(far.xi),
+            joint=j.name,
+            body=child,
+            parent=node,
+            body_xi=float(far.xi),
             parent_xi=None if parent_xi is None else float(parent_xi),
             ground_point=near.point if node == GROUND else None,
-            slider=(j.kind == "slider"))
+            slider=(j.kind == "slider"),
+        )
         parent_of[child] = node
         order.append(child)
         return child
@@ -90,17 +95,27 @@ def build_topology(scene: Scene) -> Topology:
             for j in incident[node]:
                 if j.kind == "pin" and reachable(node, j):
                     queue.append(attach(node, j))
-        nxt = next(((node, j) for node in [GROUND, *order] for j in incident[node]
-                    if j.kind == "slider" and reachable(node, j)), None)
+        nxt = next(
+            (
+                (node, j)
+                for node in [GROUND, *order]
+                for j in incident[node]
+                if j.kind == "slider" and reachable(node, j)
+            ),
+            None,
+        )
         if nxt is None:
             break
         queue.append(attach(*nxt))
 
     missing = [b.name for b in scene.bodies if b.name not in edges]
     if missing:
-        raise SceneError(scene.path, f"bodies.{missing[0]}",
-                         "this bar is not connected to ground through joints",
-                         "add a pin or slider joining it to the mechanism")
+        raise SceneError(
+            scene.path,
+            f"bodies.{missing[0]}",
+            "this bar is not connected to ground through joints",
+            "add a pin or slider joining it to the mechanism",
+        )
 
     def path_to_ground(body: str) -> list[str]:
         out = [body]
@@ -115,7 +130,7 @@ def build_topology(scene: Scene) -> Topology:
         a, b = j.ends[0].body, j.ends[1].body
         pa, pb = path_to_ground(a), path_to_ground(b)
         common = next(x for x in pa if x in pb)
-        loop = pa[:pa.index(common) + 1] + list(reversed(pb[:pb.index(common)]))
+        loop = pa[: pa.index(common) + 1] + list(reversed(pb[: pb.index(common)]))
         cuts.append(CutJoint(joint=j.name, kind=j.kind, loop=tuple(loop)))
 
     children: dict[str, tuple[TreeEdge, ...]] = {name: () for name in [GROUND, *order]}

@@ -9,6 +9,7 @@ under the same policy, the C runtime's ``symgen/backends/c/runtime/symgen_solver
 * ``divergent_deformation``: a quasi-static state beyond a buckling load (a real, positive
   eigenvalue of the linearised motion of the amplitudes, ``POLICY.divergence_rtol``).
 """
+
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
@@ -61,25 +62,30 @@ def beyond_range(mech: Mechanism, Q: ArrayLike) -> tuple[int, str] | None:
     Q = np.asarray(Q, dtype=float).reshape(mech.n, -1)
     first = None
     for body, (fi, gi) in mech.amplitudes.items():
-        for idx, limit, what in ((gi, POLICY.deflection_limit, "transverse deflection"),
-                                 (fi, POLICY.stretch_limit, "axial displacement")):
+        for idx, limit, what in (
+            (gi, POLICY.deflection_limit, "transverse deflection"),
+            (fi, POLICY.stretch_limit, "axial displacement"),
+        ):
             if not idx:
                 continue
             size = np.abs(Q[list(idx)]).sum(axis=0)
-            bad = np.nonzero(~(size <= limit))[0]        # NaN counts as beyond
+            bad = np.nonzero(~(size <= limit))[0]  # NaN counts as beyond
             if len(bad) and (first is None or bad[0] < first[0]):
                 first = (int(bad[0]), body, what, float(size[bad[0]]), limit)
     if first is None:
         return None
     k, body, what, size, limit = first
-    return k, (f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes "
-               f"sum to {size:.3g} of its length (limit {limit:g}; the bar equations hold for moderate "
-               f"rotations and small strains): a load beyond a buckling load, or forces the bar "
-               f"cannot carry")
+    return k, (
+        f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes "
+        f"sum to {size:.3g} of its length (limit {limit:g}; the bar equations hold for moderate "
+        f"rotations and small strains): a load beyond a buckling load, or forces the bar "
+        f"cannot carry"
+    )
 
 
-def divergent_deformation(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray,
-                          part: Partition) -> tuple[float, str]:
+def divergent_deformation(
+    mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: Partition
+) -> tuple[float, str]:
     """Largest real, positive eigenvalue of the linearised motion of the independent
     deformation amplitudes about (q, v) (rigid independent coordinates held; dependent
     ones follow the closure), and the amplitude dominating its eigenvector. Positive:
@@ -93,14 +99,13 @@ def divergent_deformation(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarra
     G = sys_.alg(mech.f, t, mech.p)
     jac = ca.Function("lin", [sys_.x, sys_.z], [ca.jacobian(G, sys_.x), ca.jacobian(G, sys_.z)])
     a, lam = mech.accelerations(t, q, v)
-    Gx, Gz = (np.array(w) for w in jac(np.concatenate([q[I], v[I]]),
-                                       np.concatenate([q[D], v[D], a, lam])))
+    Gx, Gz = (np.array(w) for w in jac(np.concatenate([q[I], v[I]]), np.concatenate([q[D], v[D], a, lam])))
     dzdx = -np.linalg.solve(Gz, Gx)
     e = [I.index(i) for i in E]
     cols = e + [nI + k for k in e]
     A = np.zeros((2 * len(E), 2 * len(E)))
-    A[:len(E), len(E):] = np.eye(len(E))
-    A[len(E):, :] = dzdx[[2 * nD + i for i in E]][:, cols]
+    A[: len(E), len(E) :] = np.eye(len(E))
+    A[len(E) :, :] = dzdx[[2 * nD + i for i in E]][:, cols]
     s, W = np.linalg.eig(A)
     scale = max(1.0, float(np.abs(s).max()))
     tol = POLICY.divergence_rtol * scale
@@ -108,4 +113,4 @@ def divergent_deformation(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarra
     if not real:
         return 0.0, ""
     k = max(real, key=lambda j: s[j].real)
-    return float(s[k].real), mech.coords[E[int(np.argmax(np.abs(W[:len(E), k])))]].name
+    return float(s[k].real), mech.coords[E[int(np.argmax(np.abs(W[: len(E), k])))]].name

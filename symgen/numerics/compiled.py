@@ -19,6 +19,7 @@ reported in one line and rebuilt, never loaded.
 Environment: ``SYMGEN_CC`` (the compiler; default the first of cc, gcc, clang on PATH),
 ``SYMGEN_CFLAGS`` (default :data:`DEFAULT_CFLAGS`), ``SYMGEN_BACKEND`` (auto, compiled, vm).
 """
+
 from __future__ import annotations
 
 import functools
@@ -46,7 +47,7 @@ BACKEND_ENV = "SYMGEN_BACKEND"
 DEFAULT_CFLAGS = "-O1 -ffp-contract=off"
 BACKENDS = ("auto", "compiled", "vm")
 FORMAT = "symgen-compiled-cache"
-FORMAT_VERSION = 2      # 2: keyed hashes (HMAC-SHA256 with the user's key)
+FORMAT_VERSION = 2  # 2: keyed hashes (HMAC-SHA256 with the user's key)
 LIBRARY = "model.so"
 MANIFEST = "manifest.json"
 _MAX_MANIFEST = 1 << 16
@@ -65,23 +66,29 @@ class Unavailable(Exception):
 def backend_choice(backend: str | None = None) -> str:
     """``backend``, else ``$SYMGEN_BACKEND``, else "auto" (checked against :data:`BACKENDS`)."""
     from symgen.errors import SceneError
+
     if backend is None:
         env = os.environ.get(BACKEND_ENV, "").strip()
         if env and env not in BACKENDS:
-            raise SceneError("environment", BACKEND_ENV, f"is {env!r}; it must be one of {', '.join(BACKENDS)}",
-                             f"unset {BACKEND_ENV} or set it to auto, compiled or vm")
+            raise SceneError(
+                "environment",
+                BACKEND_ENV,
+                f"is {env!r}; it must be one of {', '.join(BACKENDS)}",
+                f"unset {BACKEND_ENV} or set it to auto, compiled or vm",
+            )
         return env or "auto"
     if backend not in BACKENDS:
-        raise SceneError("command line", "--backend", f"is {backend!r}; it must be one of {', '.join(BACKENDS)}",
-                         "e.g. --backend vm")
+        raise SceneError(
+            "command line", "--backend", f"is {backend!r}; it must be one of {', '.join(BACKENDS)}", "e.g. --backend vm"
+        )
     return backend
 
 
 @dataclass(frozen=True)
 class Compiler:
-    path: str                 # resolved path of the executable
-    version: str              # its --version output
-    flags: tuple[str, ...]    # SYMGEN_CFLAGS, split like a shell
+    path: str  # resolved path of the executable
+    version: str  # its --version output
+    flags: tuple[str, ...]  # SYMGEN_CFLAGS, split like a shell
 
     def identity(self) -> dict[str, str | list[str]]:
         return {"path": self.path, "version": self.version, "flags": list(self.flags)}
@@ -123,12 +130,12 @@ def _entry_name(key: dict[str, object]) -> str:
 
 
 def _signature(f: ca.Function) -> list[str | list[list[int]]]:
-    return [f.name(), [list(f.size_in(i)) for i in range(f.n_in())],
-            [list(f.size_out(i)) for i in range(f.n_out())]]
+    return [f.name(), [list(f.size_in(i)) for i in range(f.n_in())], [list(f.size_out(i)) for i in range(f.n_out())]]
 
 
-def library(funcs: list[ca.Function], model_key: str, variant: str,
-            store: bool = True) -> tuple[dict[str, ca.Function], bool]:
+def library(
+    funcs: list[ca.Function], model_key: str, variant: str, store: bool = True
+) -> tuple[dict[str, ca.Function], bool]:
     """Compiled twins of ``funcs`` (SX Functions; a Function named ``jac_NAME`` becomes the
     Jacobian of ``NAME``): ``({name: external Function}, built_now)``.
 
@@ -137,10 +144,16 @@ def library(funcs: list[ca.Function], model_key: str, variant: str,
     Raises :class:`Unavailable` when there is no compiler or the compile fails.
     """
     comp = compiler()
-    key = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
-           "casadi": ca.__version__,  # type: ignore[attr-defined]  # casadi.pyi does not declare __version__
-           "model": model_key, "variant": variant, "compiler": comp.identity(),
-           "functions": [_signature(f) for f in funcs]}
+    key = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "symgen": __version__,
+        "casadi": ca.__version__,  # type: ignore[attr-defined]  # casadi.pyi does not declare __version__
+        "model": model_key,
+        "variant": variant,
+        "compiler": comp.identity(),
+        "functions": [_signature(f) for f in funcs],
+    }
     where = cache.compiled_dir() / _entry_name(key)
     replace = False
     if store and (where.exists() or where.is_symlink()):
@@ -178,7 +191,7 @@ def read_verified(where: Path, key: dict[str, object], name: str = LIBRARY) -> b
         blob = cache.read_bytes(where / name, _MAX_LIBRARY)
     except FileNotFoundError:
         raise cache.InvalidEntry(f"has no {name}") from None
-    cache.verify(_label(where, name), blob, mac)       # before a byte reaches the loader
+    cache.verify(_label(where, name), blob, mac)  # before a byte reaches the loader
     return blob
 
 
@@ -213,8 +226,9 @@ def build_folder(where: Path, store: bool) -> tuple[Path, bool]:
     return Path(tempfile.gettempdir()), False
 
 
-def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool,
-           replace: bool) -> bytes:
+def _build(
+    funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool, replace: bool
+) -> bytes:
     parent, store = build_folder(where, store)
     with cache.temp_dir(parent, where.name) as tmp:
         gen = ca.CodeGenerator("model.c", {"with_header": False})
@@ -223,9 +237,12 @@ def _build(funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str,
         gen.generate(str(tmp) + os.sep)
         cmd = [comp.path, *comp.flags, "-fPIC", "-shared", str(tmp / "model.c"), "-o", str(tmp / LIBRARY), "-lm"]
         try:
-            label = announce_compile("the model library", (tmp / "model.c").stat().st_size,
-                                     "--backend vm runs the model without compiling (slower per step)")
-            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S, progress=label)   # an interrupt kills cc1 too
+            label = announce_compile(
+                "the model library",
+                (tmp / "model.c").stat().st_size,
+                "--backend vm runs the model without compiling (slower per step)",
+            )
+            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S, progress=label)  # an interrupt kills cc1 too
         except (OSError, subprocess.SubprocessError) as exc:
             raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
         if proc.returncode != 0:
@@ -250,18 +267,21 @@ def _load(blob: bytes, funcs: list[ca.Function]) -> dict[str, ca.Function]:
         try:
             importer = ca.Importer(str(path), "dll")
         except RuntimeError as exc:
-            raise cache.InvalidEntry(f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})") from None
+            raise cache.InvalidEntry(
+                f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})"
+            ) from None
         out = {}
         for f in funcs:
             if f.name().startswith("jac_"):
-                continue                            # loaded by its function's external on demand
+                continue  # loaded by its function's external on demand
             try:
                 ext = ca.external(f.name(), importer, {"enable_fd": False})
             except RuntimeError:
                 raise cache.InvalidEntry(f"{LIBRARY} has no function {f.name()!r}") from None
             if _signature(ext) != _signature(f):
-                raise cache.InvalidEntry(f"{LIBRARY}: {f.name()} has the signature {_signature(ext)}, "
-                                         f"not {_signature(f)}")
+                raise cache.InvalidEntry(
+                    f"{LIBRARY}: {f.name()} has the signature {_signature(ext)}, not {_signature(f)}"
+                )
             out[f.name()] = ext
         return out
     finally:

@@ -11,6 +11,7 @@ passed with ``--set`` at full precision, the times and tolerances with ``--t-end
 ``--rtol`` and ``--atol``: the run is the scene's, in the model's units, and its rows are
 written like those of the IDAS path.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -41,7 +42,7 @@ if TYPE_CHECKING:
     from symgen.scene.model import Scene
 
 FORMAT = "symgen-c-solver-cache"
-FORMAT_VERSION = 2      # 2: keyed hashes (HMAC-SHA256 with the user's key)
+FORMAT_VERSION = 2  # 2: keyed hashes (HMAC-SHA256 with the user's key)
 EXECUTABLE = "sim"
 _STATS = re.compile(r"(\d+) steps \(.*closure residual max ([^;\s]+)(?:; solver CPU (\S+) s)?")
 
@@ -59,7 +60,8 @@ def templates_digest() -> str:
     """sha256 over the C templates and the C runtime (names and bytes): an edited template or
     runtime file is another executable."""
     from symgen.backends import templates
-    runtime = resources.files("symgen.backends.c") / "runtime"     # emit.c.render.RUNTIME, without jinja2
+
+    runtime = resources.files("symgen.backends.c") / "runtime"  # emit.c.render.RUNTIME, without jinja2
     h = hashlib.sha256()
     for folder in (templates.folder("c"), runtime):
         for item in sorted(folder.iterdir(), key=lambda e: e.name):
@@ -77,11 +79,19 @@ def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
     from symgen.backends.c import radau
     from symgen.backends.c.build import STRICT_C
     from symgen.model.structure import structure_key, structure_of
-    return {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__, "scene": scene_key(scene),
-            "model": structure_key(structure_of(scene)), "templates": templates_digest(),
-            "radau": json.loads(json.dumps(radau.constants())),   # as the manifest holds it (lists)
-            "policy": POLICY.as_dict(),
-            "compiler": comp.identity(), "strict": list(STRICT_C)}
+
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "symgen": __version__,
+        "scene": scene_key(scene),
+        "model": structure_key(structure_of(scene)),
+        "templates": templates_digest(),
+        "radau": json.loads(json.dumps(radau.constants())),  # as the manifest holds it (lists)
+        "policy": POLICY.as_dict(),
+        "compiler": comp.identity(),
+        "strict": list(STRICT_C),
+    }
 
 
 def executable(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
@@ -106,12 +116,17 @@ def executable(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
 
 
 def _no_compiler(reason: str) -> SceneError:
-    return SceneError("command line", "--solver", f"c: {reason}",
-                      f"install a C compiler or set ${compiled.CC_ENV} to one; or leave out --solver c (IDAS)")
+    return SceneError(
+        "command line",
+        "--solver",
+        f"c: {reason}",
+        f"install a C compiler or set ${compiled.CC_ENV} to one; or leave out --solver c (IDAS)",
+    )
 
 
-def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str, object], store: bool,
-           replace: bool) -> bytes:
+def _build(
+    mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str, object], store: bool, replace: bool
+) -> bytes:
     from symgen.model.derive import derive
     from symgen.backends.c import c_context
     from symgen.backends.c.build import STRICT_C
@@ -129,18 +144,27 @@ def _build(mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str,
         for name, text in files.items():
             (src / name).parent.mkdir(parents=True, exist_ok=True)
             (src / name).write_text(text)
-        cmd = [comp.path, *STRICT_C, *comp.flags, f"-I{src}",
-               *(str(src / f"{prefix}{s}.c") for s in ("", "_solver", "_sim")), "-o", str(tmp / EXECUTABLE), "-lm"]
+        cmd = [
+            comp.path,
+            *STRICT_C,
+            *comp.flags,
+            f"-I{src}",
+            *(str(src / f"{prefix}{s}.c") for s in ("", "_solver", "_sim")),
+            "-o",
+            str(tmp / EXECUTABLE),
+            "-lm",
+        ]
         size = sum(len(text.encode()) for name, text in files.items() if name.endswith(".c"))
         label = announce_compile("the C solver", size, "leave out --solver c to run with IDAS without compiling it")
-        try:     # in a process group of its own: an interrupt kills cc1 too
+        try:  # in a process group of its own: an interrupt kills cc1 too
             proc = run_group(cmd, timeout=compiled.COMPILE_TIMEOUT_S, progress=label)
         except (OSError, subprocess.SubprocessError) as exc:
             raise _no_compiler(f"the C compiler {comp.path} cannot be run ({exc})") from None
         if proc.returncode != 0:
             first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
-            raise _no_compiler(f"the C compiler {comp.path} failed on the emitted C (exit {proc.returncode}: "
-                               f"{first[:200]})")
+            raise _no_compiler(
+                f"the C compiler {comp.path} failed on the emitted C (exit {proc.returncode}: {first[:200]})"
+            )
         blob = (tmp / EXECUTABLE).read_bytes()
         if store:
             shutil.rmtree(src)
@@ -155,9 +179,21 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
     blob, built = executable(mech, use_cache)
     setup_s = time.perf_counter() - t_setup
     n_rows = int(math.floor(sim.t_end / sim.output_step + 1e-9)) + 1
-    args = ["--stats", "--t-end", repr(float(sim.t_end)), "--step", repr(float(sim.output_step)),
-            "--rtol", repr(float(sim.rtol)), "--atol", repr(float(sim.atol)),
-            "--max-rows", str(n_rows), "--max-t-end", repr(float(sim.t_end))]
+    args = [
+        "--stats",
+        "--t-end",
+        repr(float(sim.t_end)),
+        "--step",
+        repr(float(sim.output_step)),
+        "--rtol",
+        repr(float(sim.rtol)),
+        "--atol",
+        repr(float(sim.atol)),
+        "--max-rows",
+        str(n_rows),
+        "--max-t-end",
+        repr(float(sim.t_end)),
+    ]
     for name, value in zip(mech.info.params, mech.p):
         args += ["--set", f"{name}={float(value)!r}"]
     private = Path(tempfile.mkdtemp(prefix="symgen-sim-"))
@@ -167,8 +203,9 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
         fd = os.open(exe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o700)
         with os.fdopen(fd, "wb") as fh:
             fh.write(blob)
-        proc = subprocess.Popen([str(exe), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                stdin=subprocess.DEVNULL)
+        proc = subprocess.Popen(
+            [str(exe), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL
+        )
         try:
             out, err = proc.communicate()
         except BaseException as exc:
@@ -193,17 +230,29 @@ def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
         steps, closure = int(m.group(1)), float(m.group(2))
         solve_cpu = float(m.group(3)) if m.group(3) else float("nan")
     n = len(rows)
-    result = SimResult(tau=rows[:, 0], outputs=rows[:, 1:], output_names=names, q=np.zeros((n, 0)),
-                       v=np.zeros((n, 0)), lam=np.zeros((n, 0)), closure_max=closure, steps=steps,
-                       simulate_s=elapsed, partition=None, complete=proc.returncode == 0,
-                       stats={"backend": "c", "library": "built" if built else "cached", "setup_s": setup_s,
-                              "solve_cpu_s": solve_cpu})
+    result = SimResult(
+        tau=rows[:, 0],
+        outputs=rows[:, 1:],
+        output_names=names,
+        q=np.zeros((n, 0)),
+        v=np.zeros((n, 0)),
+        lam=np.zeros((n, 0)),
+        closure_max=closure,
+        steps=steps,
+        simulate_s=elapsed,
+        partition=None,
+        complete=proc.returncode == 0,
+        stats={"backend": "c", "library": "built" if built else "cached", "setup_s": setup_s, "solve_cpu_s": solve_cpu},
+    )
     if proc.returncode != 0:
         msg = next((ln for ln in reversed(err.strip().splitlines()) if "steps (" not in ln), "the C solver stopped")
         msg = msg.split(": ", 1)[-1]
-        stopped = SimulationError(float(rows[-1, 0]) if n else 0.0, f"the C solver stopped: {msg}",
-                                  "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)")
+        stopped = SimulationError(
+            float(rows[-1, 0]) if n else 0.0,
+            f"the C solver stopped: {msg}",
+            "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)",
+        )
         result.failure = str(stopped)
-        stopped.partial = result     # symgen.errors does not declare SimulationError.partial
+        stopped.partial = result  # symgen.errors does not declare SimulationError.partial
         raise stopped
     return result

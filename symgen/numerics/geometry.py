@@ -18,6 +18,7 @@ r(q_r) + F (r(q) - r(q_r)). With F = 1 it is the computed position, with F = 0 t
 mechanism, and since r(q) and r(q_r) both close every loop the bars stay joined at every
 joint for any F (the displacement field of a joint point is the same seen from either bar).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -42,7 +43,7 @@ from symgen.model.topology import build_topology
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
 
-SAMPLES = 41        # points per bar (shape functions up to ~8 half-waves drawn smoothly)
+SAMPLES = 41  # points per bar (shape functions up to ~8 half-waves drawn smoothly)
 
 
 @dataclass(frozen=True)
@@ -50,10 +51,10 @@ class Marker:
     """A joint drawn on the picture: index of its point in the points array."""
 
     joint: str
-    kind: str              # "pin" | "slider" | "slot"
+    kind: str  # "pin" | "slider" | "slot"
     index: int
-    ground: tuple[float, ...] | None   # ground point (dimensionless) of a joint to ground, else None
-    direction: tuple[float, ...] | None = None   # slider line direction
+    ground: tuple[float, ...] | None  # ground point (dimensionless) of a joint to ground, else None
+    direction: tuple[float, ...] | None = None  # slider line direction
 
 
 class Geometry:
@@ -64,8 +65,7 @@ class Geometry:
         coords = info.coords
         self.n = len(coords)
         q = ca.SX.sym("q", self.n)
-        env = {names.coordinate(c.kind, c.body, c.joint, c.index).symbol(): q[i]
-               for i, c in enumerate(coords)}
+        env = {names.coordinate(c.kind, c.body, c.joint, c.index).symbol(): q[i] for i, c in enumerate(coords)}
         topo = build_topology(scene)
         slot_of = {j.ends[1].body: j.name for j in scene.joints if j.kind == "slot"}
         kins: dict[str, BarKinematics | SlotBarKinematics] = {}
@@ -82,8 +82,10 @@ class Geometry:
         missing = [str(s) for k in kins.values() for s in (k.sym.th, *k.sym.f, *k.sym.g) if s not in env]
         if missing:
             raise ValueError(f"the model has no coordinate {missing[0]} (scene and model differ)")
-        values = {rec.name: rec.value for rec in parameter_records(scene)}     # ground points, slider lines
-        slider_s = {e.joint: (names.slider_travel(e.joint).symbol(), None, None) for e in topo.edges.values() if e.slider}
+        values = {rec.name: rec.value for rec in parameter_records(scene)}  # ground points, slider lines
+        slider_s = {
+            e.joint: (names.slider_travel(e.joint).symbol(), None, None) for e in topo.edges.values() if e.slider
+        }
         tree = TreeKinematics(topo, kins, lambda name: sp.Float(values[name.text]), slider_s)
 
         def along(name: str, xis: np.ndarray) -> list[sp.Matrix]:
@@ -105,11 +107,18 @@ class Geometry:
         self.markers: list[Marker] = []
         for j in scene.joints:
             end = next(x for x in j.ends if x.body != GROUND and x.xi is not None)
-            assert end.xi is not None       # chosen so (next() does not narrow)
+            assert end.xi is not None  # chosen so (next() does not narrow)
             pts.append(tree.point_position(end.body, end.xi))
             g = next((x.point for x in j.ends if x.body == GROUND), None)
-            self.markers.append(Marker(j.name, j.kind, len(pts) - 1, None if g is None else tuple(g),
-                                       None if j.direction is None else tuple(j.direction)))
+            self.markers.append(
+                Marker(
+                    j.name,
+                    j.kind,
+                    len(pts) - 1,
+                    None if g is None else tuple(g),
+                    None if j.direction is None else tuple(j.direction),
+                )
+            )
         conv = SympyToCasadi(env)
         xy = ca.horzcat(*[ca.vertcat(conv(p[0]), conv(p[1])) for p in pts])
         self.f = ca.Function("points", [q], [xy])
@@ -118,7 +127,7 @@ class Geometry:
     def points(self, Q: np.ndarray) -> np.ndarray:
         """Positions (N, 2, npts) of every sample point for each row of Q (N, n)."""
         Q = np.atleast_2d(np.asarray(Q, dtype=float))
-        out = np.array(self.f.map(len(Q))(Q.T))            # (2, npts * N)
+        out = np.array(self.f.map(len(Q))(Q.T))  # (2, npts * N)
         return out.reshape(2, len(Q), self.npts).transpose(1, 0, 2)
 
 
@@ -156,6 +165,6 @@ def auto_factor(P: np.ndarray, P_rigid: np.ndarray, target: float) -> tuple[floa
     if raw <= 1.0:
         return 1.0, peak
     e = np.floor(np.log10(raw))
-    mant = raw / 10 ** e
+    mant = raw / 10**e
     nice = 5.0 if mant >= 5 else 2.0 if mant >= 2 else 1.0
-    return float(nice * 10 ** e), peak
+    return float(nice * 10**e), peak

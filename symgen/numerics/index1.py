@@ -4,6 +4,7 @@ The rigid coordinates split into dependent ones q_D (one per closure row) and in
 with x = [q_I, v_I] differential and z = [q_D, v_D, a, lam] algebraic, the algebraic equations
 are [phi; phid; res; phidd] (``symgen.numerics.mechanism`` chooses the partition).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -14,8 +15,8 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Partition:
-    ind: tuple[int, ...]      # indices of independent coordinates (differential)
-    dep: tuple[int, ...]      # indices of dependent rigid coordinates (algebraic)
+    ind: tuple[int, ...]  # indices of independent coordinates (differential)
+    dep: tuple[int, ...]  # indices of dependent rigid coordinates (algebraic)
 
 
 @dataclass(frozen=True)
@@ -46,4 +47,4 @@ def index1(n: int, m: int, part: Partition) -> Index1:
         q[i], v[i] = x[k], x[nI + k]
     for k, i in enumerate(D):
         q[i], v[i] = z[k], z[nD + k]
-    return Index1(x, z, q, v, z[2 * nD: 2 * nD + n], z[2 * nD + n:])
+    return Index1(x, z, q, v, z[2 * nD : 2 * nD + n], z[2 * nD + n :])

@@ -40,6 +40,7 @@ One mechanism for every long loop (``simulate``, ``quasistatic``, ``study``, ``r
   ``except SymgenError`` let it through. Its ``exit_code`` is 128 + the signal (130 for SIGINT,
   143 for SIGTERM) and ``partial`` carries a run's partial result when the run keeps one.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -55,7 +56,7 @@ from symgen.errors import Interrupted
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
-_pending: list[int] = []       # signals received inside handling(), oldest first
+_pending: list[int] = []  # signals received inside handling(), oldest first
 _depth = 0
 
 
@@ -97,8 +98,10 @@ class _SolverNoiseFilter:
     solver setup failed unrecoverably.", written in pieces) is dropped -- symgen says
     "interrupted by SIGINT at tau = ..." instead. Everything else passes unchanged."""
 
-    _NOISE = re.compile(r"^(\w+ failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
-                        r"|(At t = [^,]*, the|The) [\w ]+ failed unrecoverably\. ?)$")
+    _NOISE = re.compile(
+        r"^(\w+ failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
+        r"|(At t = [^,]*, the|The) [\w ]+ failed unrecoverably\. ?)$"
+    )
 
     def __init__(self, stream: TextIO) -> None:
         self._stream = stream
@@ -115,7 +118,7 @@ class _SolverNoiseFilter:
         return getattr(self._stream, name)
 
 
-_deferring: list[bool] = []     # inside deferred(): a signal is recorded, raised when it ends
+_deferring: list[bool] = []  # inside deferred(): a signal is recorded, raised when it ends
 
 
 def _handler(signum: int, frame: FrameType | None) -> None:

@@ -12,6 +12,7 @@ algebraic, the DAE is
 whose Jacobian in z is block-triangular with blocks phi_qD, phi_qD, [[M, -phi_q^T], [phi_q, 0]]:
 index 1 as long as the rigid mechanism is not at a singular position (phi_qD regular).
 """
+
 from __future__ import annotations
 
 import os
@@ -34,8 +35,9 @@ from symgen.numerics import checks, start
 from symgen.numerics.index1 import Partition
 
 
-def load_mechanism(scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = (),
-                   use_cache: bool = True) -> Mechanism:
+def load_mechanism(
+    scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = (), use_cache: bool = True
+) -> Mechanism:
     """The compiled model of a scene (a loaded ``Scene``, or a scene file with its ``--set``
     overrides) with its parameter values, ready to run: load, derive or load from the model
     cache, and wrap in a :class:`Mechanism`."""
@@ -51,35 +53,44 @@ class Mechanism:
     def __init__(self, compiled: CompiledModel, scene: Scene) -> None:
         tic = time.perf_counter()
         self.scene = scene
-        self.compiled = compiled          # its derivation and cache state go into a run's sidecar
+        self.compiled = compiled  # its derivation and cache state go into a run's sidecar
         self.f: dict[str, ca.Function] = compiled.funcs
         self.info = info = compiled.info
         self.coords = info.coords
         self.n, self.m = info.n, info.m
         self.p = parameter_values(scene, list(info.params))
-        t, q, v, a, lam, p = (ca.SX.sym(k, s) for k, s in
-                              (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m),
-                               ("p", len(self.p))))
+        t, q, v, a, lam, p = (
+            ca.SX.sym(k, s)
+            for k, s in (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m), ("p", len(self.p)))
+        )
         args = [t, q, v, a, lam, p]
         phi = self.f["phi"](*args)
         self.phi_q = ca.Function("phi_q", args, [ca.jacobian(phi, q)])
         res = self.f["res"](*args)
         phidd = self.f["phidd"](*args)
-        self.kkt = ca.Function("kkt", args, [ca.jacobian(ca.vertcat(res, phidd), ca.vertcat(a, lam)),
-                                             ca.vertcat(res, phidd)])
+        self.kkt = ca.Function(
+            "kkt", args, [ca.jacobian(ca.vertcat(res, phidd), ca.vertcat(a, lam)), ca.vertcat(res, phidd)]
+        )
         self.rigid = list(info.rigid)
         # effects.axial = "inextensible": the axial amplitudes of those bars are dependent
         # coordinates of their inextensibility rows (kept apart from the loop rows)
         self.inext_rows = list(info.inextensible_rows)
         self.inext_f = list(info.inextensible_axial)
-        self.static_systems: dict[Partition, start.StaticSystem] = {}    # built on first use
+        self.static_systems: dict[Partition, start.StaticSystem] = {}  # built on first use
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)
 
     # ---------------------------------------------------------------- helpers
-    def call(self, name: str, t: float, q: np.ndarray, v: np.ndarray | None = None, a: np.ndarray | None = None,
-             lam: np.ndarray | None = None) -> np.ndarray:
+    def call(
+        self,
+        name: str,
+        t: float,
+        q: np.ndarray,
+        v: np.ndarray | None = None,
+        a: np.ndarray | None = None,
+        lam: np.ndarray | None = None,
+    ) -> np.ndarray:
         v = np.zeros(self.n) if v is None else v
         a = np.zeros(self.n) if a is None else a
         lam = np.zeros(self.m) if lam is None else lam
@@ -103,8 +114,11 @@ class Mechanism:
         (constant speed, ``law``, ``ramp``), the numbers the equations use."""
         row = self.info.driver_row
         z = np.zeros(self.n)
-        return (-float(self.call("phi", t, z)[row]), -float(self.call("phid", t, z, z)[row]),
-                -float(self.call("phidd", t, z, z, z)[row]))
+        return (
+            -float(self.call("phi", t, z)[row]),
+            -float(self.call("phid", t, z, z)[row]),
+            -float(self.call("phidd", t, z, z, z)[row]),
+        )
 
     def driver_step(self, t: float) -> float:
         """Time step of the central differences of the quasi-static start: POLICY.driver_step
@@ -136,15 +150,24 @@ class Mechanism:
                 break
         if len(chosen) < self.m:
             bad = checks.worst_row(self, J[:, chosen] if chosen else J[:, []])
-            raise SimulationError(t, f"the closure equations of the {self.loop_name(bad)} are not independent: "
-                                     f"the mechanism is at a singular position (a toggle or change point) "
-                                     f"or over-constrained",
-                                  "start the driver at another angle, check the joints, the driver and initial.guess")
+            raise SimulationError(
+                t,
+                f"the closure equations of the {self.loop_name(bad)} are not independent: "
+                f"the mechanism is at a singular position (a toggle or change point) "
+                f"or over-constrained",
+                "start the driver at another angle, check the joints, the driver and initial.guess",
+            )
         ind = tuple(i for i in range(self.n) if i not in chosen)
         return Partition(ind, tuple(chosen))
 
-    def assemble(self, t: float, q_guess: ArrayLike, part: Partition, tol: float = POLICY.assembly_tol,
-                 maxit: int = POLICY.assembly_maxit) -> np.ndarray:
+    def assemble(
+        self,
+        t: float,
+        q_guess: ArrayLike,
+        part: Partition,
+        tol: float = POLICY.assembly_tol,
+        maxit: int = POLICY.assembly_maxit,
+    ) -> np.ndarray:
         """Solve phi(q) = 0 for the dependent coordinates by damped Newton from q_guess."""
         q = np.array(q_guess, dtype=float)
         dep = list(part.dep)
@@ -173,9 +196,12 @@ class Mechanism:
         if np.abs(r).max() < POLICY.assembly_accept:
             return q
         worst = int(np.argmax(np.abs(r)))
-        raise SimulationError(t, f"the mechanism cannot be assembled near initial.guess: the closure of the "
-                                 f"{self.loop_name(worst)} keeps a residual of {np.abs(r).max():.3g}",
-                              "give initial.guess angles (rad) near a real assembly, and check lengths and ground points")
+        raise SimulationError(
+            t,
+            f"the mechanism cannot be assembled near initial.guess: the closure of the "
+            f"{self.loop_name(worst)} keeps a residual of {np.abs(r).max():.3g}",
+            "give initial.guess angles (rad) near a real assembly, and check lengths and ground points",
+        )
 
     def velocities(self, t: float, q: np.ndarray, v: ArrayLike, part: Partition) -> np.ndarray:
         """Dependent velocities from the velocity-level closure."""
@@ -194,7 +220,7 @@ class Mechanism:
         z0n, z0m = np.zeros(self.n), np.zeros(self.m)
         K, r = self.kkt(t, q, v, z0n, z0m, self.p)
         sol = np.linalg.solve(np.array(K), -np.array(r).ravel())
-        return sol[: self.n], sol[self.n:]
+        return sol[: self.n], sol[self.n :]
 
     def initial_guess(self, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) the assembly starts from: the driver's angle and rate, initial.guess angles
@@ -215,7 +241,7 @@ class Mechanism:
                         if drv.initial is not None:
                             q[i] = drv.initial
                         v[i] = drv.rate
-            elif c.kind is CoordKind.BETA:      # a slot's support distance: the guess of its slot joint
+            elif c.kind is CoordKind.BETA:  # a slot's support distance: the guess of its slot joint
                 q[i] = guess.get(c.joint, 0.5)
             elif c.elastic and c.body in deform:
                 d = deform[c.body]

@@ -27,6 +27,7 @@ without any damping. They describe the energy exchange with the driver at that p
 single bar spinning at constant speed (no loop) has none. A bar with a moving support (a slot's
 variable span) shows larger ones: its support does work on the vibration.
 """
+
 from __future__ import annotations
 
 import math
@@ -61,21 +62,28 @@ ZETA_NEUTRAL = 1e-5
 class Mode:
     index: int
     eigenvalue: complex
-    natural_frequency: float        # |s|, units of omega
-    frequency: float                # damped: Im s
+    natural_frequency: float  # |s|, units of omega
+    frequency: float  # damped: Im s
     damping_ratio: float
-    dominant: str                   # "<body> transverse" | "<body> axial": largest deformation share
-    energy_fractions: dict[str, float]      # group -> share of the modal kinetic energy (diagonal blocks)
-    amplitudes: dict[str, float]            # coordinate -> real part of the normalised shape
-    complexity: float               # |imaginary part| / |real part| of the normalised shape
-    shape: dict[str, dict[str, list[float]]] = field(default_factory=dict)   # body -> {"xi", "zeta", "eta"}
+    dominant: str  # "<body> transverse" | "<body> axial": largest deformation share
+    energy_fractions: dict[str, float]  # group -> share of the modal kinetic energy (diagonal blocks)
+    amplitudes: dict[str, float]  # coordinate -> real part of the normalised shape
+    complexity: float  # |imaginary part| / |real part| of the normalised shape
+    shape: dict[str, dict[str, list[float]]] = field(default_factory=dict)  # body -> {"xi", "zeta", "eta"}
 
     def as_dict(self, hz_per_unit: float | None = None) -> dict[str, object]:
         d: dict[str, object] = {
-             "index": self.index, "natural_frequency": self.natural_frequency, "frequency": self.frequency,
-             "damping_ratio": self.damping_ratio, "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
-             "dominant": self.dominant, "energy_fractions": self.energy_fractions,
-             "amplitudes": self.amplitudes, "complexity": self.complexity, "shape": self.shape}
+            "index": self.index,
+            "natural_frequency": self.natural_frequency,
+            "frequency": self.frequency,
+            "damping_ratio": self.damping_ratio,
+            "eigenvalue": [self.eigenvalue.real, self.eigenvalue.imag],
+            "dominant": self.dominant,
+            "energy_fractions": self.energy_fractions,
+            "amplitudes": self.amplitudes,
+            "complexity": self.complexity,
+            "shape": self.shape,
+        }
         if hz_per_unit is not None:
             d["natural_frequency_hz"] = self.natural_frequency * hz_per_unit
         return d
@@ -85,7 +93,7 @@ class Stability(TypedDict):
     """The verdict of :meth:`ModesResult.stability`."""
 
     stable: bool
-    kind: str           # "stable" | "divergence" | "growth"
+    kind: str  # "stable" | "divergence" | "growth"
     reason: str
 
 
@@ -93,11 +101,11 @@ class Stability(TypedDict):
 class ModesResult:
     tau: float
     modes: list[Mode]
-    real_eigenvalues: list[float]   # overdamped (negative) or divergent (positive) eigenvalues
-    state: dict[str, float]         # coordinate -> value at the quasi-static state
+    real_eigenvalues: list[float]  # overdamped (negative) or divergent (positive) eigenvalues
+    state: dict[str, float]  # coordinate -> value at the quasi-static state
     independent: list[str]
     dependent: list[str]
-    quasi_static: dict[str, float | str | int | None]   # the (20) solve's report at tau
+    quasi_static: dict[str, float | str | int | None]  # the (20) solve's report at tau
 
     @property
     def stable(self) -> bool:
@@ -113,33 +121,42 @@ class ModesResult:
         (a vibration mode whose amplitude grows in the frozen system)."""
         pos = [s for s in self.real_eigenvalues if s > GROWTH_TOL]
         if pos:
-            return {"stable": False, "kind": "divergence",
-                    "reason": f"{len(pos)} real positive eigenvalue(s) (largest {max(pos):.3g}): the "
-                              "quasi-static state is unstable, beyond buckling; a deformation grows without "
-                              "oscillating"}
+            return {
+                "stable": False,
+                "kind": "divergence",
+                "reason": f"{len(pos)} real positive eigenvalue(s) (largest {max(pos):.3g}): the "
+                "quasi-static state is unstable, beyond buckling; a deformation grows without "
+                "oscillating",
+            }
         growing = self._growing()
         if growing:
             worst = max(growing, key=lambda m: m.eigenvalue.real)
-            what = (f"{len(growing)} vibration mode(s) grow in the frozen system (fastest: mode {worst.index}, "
-                    f"growth rate {worst.eigenvalue.real:.3g} per unit tau, zeta {worst.damping_ratio:.2g})")
+            what = (
+                f"{len(growing)} vibration mode(s) grow in the frozen system (fastest: mode {worst.index}, "
+                f"growth rate {worst.eigenvalue.real:.3g} per unit tau, zeta {worst.damping_ratio:.2g})"
+            )
             if damping == 0:
-                why = ("the model has no damping: this is the energy the driver exchanges with the vibration "
-                       "at this position of the moving loop (the frozen linearisation is not conservative); "
-                       "it changes sign along the cycle. Not a buckling; set effects.damping to see whether "
-                       "damping outweighs it")
+                why = (
+                    "the model has no damping: this is the energy the driver exchanges with the vibration "
+                    "at this position of the moving loop (the frozen linearisation is not conservative); "
+                    "it changes sign along the cycle. Not a buckling; set effects.damping to see whether "
+                    "damping outweighs it"
+                )
             else:
                 why = "the driver feeds the vibration faster than effects.damping removes it at this position"
             return {"stable": False, "kind": "growth", "reason": f"{what}: {why}"}
         neutral = [m for m in self.modes if m.eigenvalue.real > GROWTH_TOL]
         if neutral:
             worst = max(neutral, key=lambda m: m.eigenvalue.real)
-            return {"stable": True, "kind": "stable",
-                    "reason": f"no mode grows faster than neutral: {len(neutral)} vibration mode(s) have a tiny "
-                              f"positive real part (largest {worst.eigenvalue.real:.3g} per unit tau at mode "
-                              f"{worst.index}, zeta {worst.damping_ratio:.2g} > -{ZETA_NEUTRAL:g}: doubling over more "
-                              f"than {math.log(2) / (2 * math.pi * ZETA_NEUTRAL):.0f} periods)"}
-        return {"stable": True, "kind": "stable",
-                "reason": "every eigenvalue has a non-positive real part"}
+            return {
+                "stable": True,
+                "kind": "stable",
+                "reason": f"no mode grows faster than neutral: {len(neutral)} vibration mode(s) have a tiny "
+                f"positive real part (largest {worst.eigenvalue.real:.3g} per unit tau at mode "
+                f"{worst.index}, zeta {worst.damping_ratio:.2g} > -{ZETA_NEUTRAL:g}: doubling over more "
+                f"than {math.log(2) / (2 * math.pi * ZETA_NEUTRAL):.0f} periods)",
+            }
+        return {"stable": True, "kind": "stable", "reason": "every eigenvalue has a non-positive real part"}
 
     def frequencies(self, kind: str | None = None, body: str | None = None) -> np.ndarray:
         """Natural frequencies, ascending; ``kind`` ("transverse"/"axial") and ``body`` filter by
@@ -162,7 +179,7 @@ def _rigid_march(qs: QuasiStaticSystem, tau: float) -> tuple[np.ndarray, np.ndar
     if drv is not None and drv.kind == "angle" and tau != 0:
         turned = abs(mech.driver_motion(tau)[0] - mech.driver_motion(0.0)[0])
         steps = max(1, int(math.ceil(turned / 0.05)))
-        if drv.law is not None or drv.ramp is not None:   # a law may swing back: follow it in tau too
+        if drv.law is not None or drv.ramp is not None:  # a law may swing back: follow it in tau too
             steps = max(steps, int(math.ceil(abs(tau) / 0.05)))
     for k in range(1, steps + 1):
         q, v, a = qs.rigid_state(tau * k / steps, q)
@@ -181,8 +198,11 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
     n, m = mech.n, mech.m
     nI, nD = len(I), len(D)
     if nI == 0:
-        raise SimulationError(tau, "the mechanism has no deformation amplitudes: it has no modes",
-                              "give an elastic bar axial_modes or transverse_modes")
+        raise SimulationError(
+            tau,
+            "the mechanism has no deformation amplitudes: it has no modes",
+            "give an elastic bar axial_modes or transverse_modes",
+        )
     # index-1 system G(x, z) = 0 and its Jacobians
     sys_ = index1(n, m, part)
     x, z, aa = sys_.x, sys_.z, sys_.a
@@ -194,8 +214,11 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
     z0 = np.concatenate([q[D], v[D], a, lam])
     G0, Gx, Gz, M = (np.array(w) for w in jac(x0, z0))
     if np.abs(G0).max() > 1e-8:
-        raise SimulationError(tau, f"the quasi-static state does not satisfy the equations (residual "
-                                   f"{np.abs(G0).max():.3g})", "report this: it is an internal inconsistency")
+        raise SimulationError(
+            tau,
+            f"the quasi-static state does not satisfy the equations (residual {np.abs(G0).max():.3g})",
+            "report this: it is an internal inconsistency",
+        )
     dzdx = -np.linalg.solve(Gz, Gx)
     rows_aI = [2 * nD + i for i in I]
     Ax = np.zeros((2 * nI, 2 * nI))
@@ -221,7 +244,7 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         w = W[:nI, k]
         dq = np.zeros(n, dtype=complex)
         dq[I] = w
-        dq[D] = dzdx[:nD, :nI] @ w          # dependent coordinates follow the closure
+        dq[D] = dzdx[:nD, :nI] @ w  # dependent coordinates follow the closure
         amp = [i for i in I]
         j = amp[int(np.argmax(np.abs(dq[amp])))]
         dq = dq / dq[j]
@@ -230,22 +253,37 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         tot = sum(abs(e) for e in energy.values()) or 1.0
         fractions = {g: abs(e) / tot for g, e in energy.items() if abs(e) / tot > 1e-12}
         deform = {g: e for g, e in fractions.items() if not g.endswith(" rigid")}
-        dominant = (max(deform, key=deform.__getitem__) if deform
-                    else (max(fractions, key=fractions.__getitem__) if fractions else "?"))
-        mode = Mode(index=0, eigenvalue=complex(sk), natural_frequency=float(abs(sk)), frequency=float(sk.imag),
-                    damping_ratio=float(-sk.real / abs(sk)), dominant=dominant, energy_fractions=fractions,
-                    amplitudes={coords[i].name: float(re[i]) for i in range(n)},
-                    complexity=float(np.linalg.norm(im) / max(float(np.linalg.norm(re)), 1e-300)))
+        dominant = (
+            max(deform, key=deform.__getitem__)
+            if deform
+            else (max(fractions, key=fractions.__getitem__) if fractions else "?")
+        )
+        mode = Mode(
+            index=0,
+            eigenvalue=complex(sk),
+            natural_frequency=float(abs(sk)),
+            frequency=float(sk.imag),
+            damping_ratio=float(-sk.real / abs(sk)),
+            dominant=dominant,
+            energy_fractions=fractions,
+            amplitudes={coords[i].name: float(re[i]) for i in range(n)},
+            complexity=float(np.linalg.norm(im) / max(float(np.linalg.norm(re)), 1e-300)),
+        )
         if shapes:
             mode.shape = _shape(mech.info, re, bases)
         found.append(mode)
     found.sort(key=lambda md: md.natural_frequency)
     for k, md in enumerate(found):
         md.index = k + 1
-    return ModesResult(tau=float(tau), modes=found, real_eigenvalues=sorted(real_eigs),
-                       state={c.name: float(q[i]) for i, c in enumerate(coords)},
-                       independent=[coords[i].name for i in I], dependent=[coords[i].name for i in D],
-                       quasi_static=rep.as_dict())
+    return ModesResult(
+        tau=float(tau),
+        modes=found,
+        real_eigenvalues=sorted(real_eigs),
+        state={c.name: float(q[i]) for i, c in enumerate(coords)},
+        independent=[coords[i].name for i in I],
+        dependent=[coords[i].name for i in D],
+        quasi_static=rep.as_dict(),
+    )
 
 
 def _bases(mech: Mechanism) -> dict[str, tuple[Basis | None, Basis | None]]:
@@ -257,13 +295,14 @@ def _bases(mech: Mechanism) -> dict[str, tuple[Basis | None, Basis | None]]:
         st = structure[b.name]
         if b.rigid or (st["na"] == 0 and st["nt"] == 0):
             continue
-        ba, bt = bar_bases(st)          # with the static correction functions of its interior points
+        ba, bt = bar_bases(st)  # with the static correction functions of its interior points
         out[b.name] = (ba if len(ba) else None, bt if len(bt) else None)
     return out
 
 
-def _shape(info: ModelInfo, dq: np.ndarray,
-           bases: dict[str, tuple[Basis | None, Basis | None]]) -> dict[str, dict[str, list[float]]]:
+def _shape(
+    info: ModelInfo, dq: np.ndarray, bases: dict[str, tuple[Basis | None, Basis | None]]
+) -> dict[str, dict[str, list[float]]]:
     xi = np.linspace(0.0, 1.0, SHAPE_POINTS)
     out = {}
     for body, (ba, bt) in bases.items():
@@ -279,19 +318,30 @@ def modes_json(result: ModesResult, scene: Scene, info: ModelInfo) -> dict[str, 
     """The ``symgen modes -o OUT.json`` document."""
     hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
     return {
-        "scene": str(scene.path), "scene_hash": scene.hash, "tau": result.tau,
-        "units": ("frequencies in units of omega (per unit tau = omega t)"
-                  + (f"; *_hz: Hz with omega = {scene.omega:g} rad/s" if hz else "")),
+        "scene": str(scene.path),
+        "scene_hash": scene.hash,
+        "tau": result.tau,
+        "units": (
+            "frequencies in units of omega (per unit tau = omega t)"
+            + (f"; *_hz: Hz with omega = {scene.omega:g} rad/s" if hz else "")
+        ),
         "about": "quasi-static state at tau (closure exact on the deformed bars), linearised on the "
-                 "independent coordinates (tangent space of the closure)",
+        "independent coordinates (tangent space of the closure)",
         "groups": scene.groups,
-        "effects": {"geometric_stiffening": scene.effects.geometric_stiffening, "coriolis": scene.effects.coriolis,
-                    "strain": scene.effects.strain, "damping": scene.effects.damping,
-                    "rotary_inertia": scene.effects.rotary_inertia},
+        "effects": {
+            "geometric_stiffening": scene.effects.geometric_stiffening,
+            "coriolis": scene.effects.coriolis,
+            "strain": scene.effects.strain,
+            "damping": scene.effects.damping,
+            "rotary_inertia": scene.effects.rotary_inertia,
+        },
         "modes_per_body": {name: md.to_json() for name, md in info.modes.items()},
-        "independent": result.independent, "dependent": result.dependent,
-        "state": result.state, "quasi_static": result.quasi_static,
-        "stable": result.stable, "stability": result.stability(scene.effects.damping),
+        "independent": result.independent,
+        "dependent": result.dependent,
+        "state": result.state,
+        "quasi_static": result.quasi_static,
+        "stable": result.stable,
+        "stability": result.stability(scene.effects.damping),
         "real_eigenvalues": result.real_eigenvalues,
         "modes": [m.as_dict(hz) for m in result.modes],
     }
@@ -305,13 +355,18 @@ def modes_table(result: ModesResult, scene: Scene, limit: int = 12) -> str:
     head = f"{'mode':>4}  {'omega_n (x omega)':>17}  {zeta_head:>9}  " + (f"{'Hz':>10}  " if hz else "") + "dominant"
     lines = [f"modes at tau = {result.tau:g} (quasi-static state, {result.quasi_static['method']})", head]
     for m in result.modes[:limit]:
-        lines.append(f"{m.index:>4}  {m.natural_frequency:>17.6g}  {m.damping_ratio:>9.2g}  "
-                     + (f"{m.natural_frequency * hz:>10.5g}  " if hz else "") + m.dominant)
+        lines.append(
+            f"{m.index:>4}  {m.natural_frequency:>17.6g}  {m.damping_ratio:>9.2g}  "
+            + (f"{m.natural_frequency * hz:>10.5g}  " if hz else "")
+            + m.dominant
+        )
     if len(result.modes) > limit:
         lines.append(f"... {len(result.modes) - limit} more in the JSON")
     if undamped and result.modes:
-        lines.append("* no damping in the model (effects.damping = 0): zeta is the frozen-time energy exchange "
-                     "with the driver at this position, of either sign, not dissipation")
+        lines.append(
+            "* no damping in the model (effects.damping = 0): zeta is the frozen-time energy exchange "
+            "with the driver at this position, of either sign, not dissipation"
+        )
     if result.real_eigenvalues:
         neg = [s for s in result.real_eigenvalues if s <= GROWTH_TOL]
         if neg:

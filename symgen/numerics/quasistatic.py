@@ -37,6 +37,7 @@ and the driver torque). Two readings of "rigid kinematics substituted":
 Only a kinematically guided mechanism (angle driver, or no rigid degree of freedom at all) has
 a quasi-static response: its rigid motion is known without solving the dynamics.
 """
+
 from __future__ import annotations
 
 import math
@@ -58,26 +59,31 @@ from symgen.numerics.mechanism import Mechanism
 from symgen.ir.records import CoordKind
 
 KINEMATICS = ("deformed", "rigid")
-RHO_MAX = 0.95          # a fixed-point iteration contracting slower than this goes to Newton
+RHO_MAX = 0.95  # a fixed-point iteration contracting slower than this goes to Newton
 FP_MAXIT = 200
 NEWTON_MAXIT = 50
-RES_TOL = 1e-12         # |R|_inf <= RES_TOL * max(1, |B|_inf)
+RES_TOL = 1e-12  # |R|_inf <= RES_TOL * max(1, |B|_inf)
 
 
 @dataclass
 class PositionReport:
     tau: float
-    method: str                 # "fixed-point" | "newton"
-    iterations: int             # fixed-point iterations done (also when Newton took over)
+    method: str  # "fixed-point" | "newton"
+    iterations: int  # fixed-point iterations done (also when Newton took over)
     newton_iterations: int
-    residual: float             # |R(y)|_inf at the solution
-    contraction: float | None   # estimated contraction factor of the fixed-point iteration
-    reason: str = ""            # why Newton took over
+    residual: float  # |R(y)|_inf at the solution
+    contraction: float | None  # estimated contraction factor of the fixed-point iteration
+    reason: str = ""  # why Newton took over
 
     def as_dict(self) -> dict[str, float | str | int | None]:
-        d: dict[str, float | str | int | None] = {"tau": self.tau, "method": self.method, "iterations": self.iterations,
-             "newton_iterations": self.newton_iterations, "residual": self.residual,
-             "contraction": self.contraction}
+        d: dict[str, float | str | int | None] = {
+            "tau": self.tau,
+            "method": self.method,
+            "iterations": self.iterations,
+            "newton_iterations": self.newton_iterations,
+            "residual": self.residual,
+            "contraction": self.contraction,
+        }
         if self.reason:
             d["newton_reason"] = self.reason
         return d
@@ -86,14 +92,14 @@ class PositionReport:
 @dataclass
 class QuasiStaticResult:
     tau: np.ndarray
-    outputs: np.ndarray             # (N, n_out)
+    outputs: np.ndarray  # (N, n_out)
     output_names: list[str]
-    q: np.ndarray                   # (N, n)
+    q: np.ndarray  # (N, n)
     v: np.ndarray
     a: np.ndarray
     lam: np.ndarray
     closure_max: float
-    reports: list[PositionReport]   # one per row
+    reports: list[PositionReport]  # one per row
     solve_s: float
     partition: Partition
     kinematics: str
@@ -121,7 +127,9 @@ class QuasiStaticResult:
         return {
             "name": "quasi-static (20): fixed-point iteration y <- A^-1 (B + f(y)), Newton fallback",
             "kinematics": self.kinematics,
-            "residual_tol": RES_TOL, "contraction_limit": RHO_MAX, "fixed_point_maxit": FP_MAXIT,
+            "residual_tol": RES_TOL,
+            "contraction_limit": RHO_MAX,
+            "fixed_point_maxit": FP_MAXIT,
             "steps": self.steps,
             "positions": len(self.reports),
             "newton_used": bool(newton),
@@ -145,7 +153,7 @@ class QuasiStaticSystem:
         n, m = mech.n, mech.m
         D = list(part.dep)
         amp = list(mech.info.elastic)
-        E = [i for i in amp if i not in D]                  # independent amplitudes: the paper's y
+        E = [i for i in amp if i not in D]  # independent amplitudes: the paper's y
         rigid_rows = [k for k in range(m) if k not in mech.info.inextensible_rows]
         deformed = kinematics == "deformed"
         if deformed:
@@ -175,7 +183,7 @@ class QuasiStaticSystem:
             v[i] = v0[i] + y[nE + nq + k]
         for k, i in enumerate(Da):
             a[i] = a0[i] + y[nE + 2 * nq + k]
-        lam = y[nE + 2 * nq + na_:]
+        lam = y[nE + 2 * nq + na_ :]
         args: list[ca.SX | np.ndarray] = [t, q, v, a, lam, mech.p]
         f = mech.f
         sel: Callable[[ca.SX], ca.SX] = (lambda w: w) if deformed else (lambda w: w[rows] if rows else ca.SX(0, 1))
@@ -198,9 +206,12 @@ class QuasiStaticSystem:
         q = mech.assemble(t, q, part)
         ratio, row = checks.singular_ratio(mech, t, q, part)
         if ratio < POLICY.singular_ratio:
-            raise SimulationError(t, f"the rigid mechanism is at a singular position: the closure Jacobian of "
-                                     f"the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
-                                  "the quasi-static response is not defined here; change the geometry or the driver")
+            raise SimulationError(
+                t,
+                f"the rigid mechanism is at a singular position: the closure Jacobian of "
+                f"the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
+                "the quasi-static response is not defined here; change the geometry or the driver",
+            )
         v = mech.velocities(t, q, np.zeros(mech.n), part)
         a = np.zeros(mech.n)
         if self.D:
@@ -217,22 +228,32 @@ class QuasiStaticSystem:
         R0, J0 = self._RJ(t, qr, vr, ar, np.zeros(self.ny))
         return np.array(J0), -np.array(R0).ravel()
 
-    def nonlinear_rest(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray,
-                       A: np.ndarray | None = None, B: np.ndarray | None = None) -> np.ndarray:
+    def nonlinear_rest(
+        self,
+        t: float,
+        qr: np.ndarray,
+        vr: np.ndarray,
+        ar: np.ndarray,
+        y: np.ndarray,
+        A: np.ndarray | None = None,
+        B: np.ndarray | None = None,
+    ) -> np.ndarray:
         """f(y) = A y - (R(y) - R(0)) of (20)."""
         if A is None or B is None:
             A, B = self.linear_system(t, qr, vr, ar)
         rest: np.ndarray = A @ y - self.residual(t, qr, vr, ar, y) - B
         return rest
 
-    def state(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
-              y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def state(
+        self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Full (q, v, a, lam) of the solution y."""
         q, v, a, lam = self._state(t, qr, vr, ar, y)
         return (np.array(q).ravel(), np.array(v).ravel(), np.array(a).ravel(), np.array(lam).ravel())
 
-    def solve(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray,
-              y0: ArrayLike | None = None) -> tuple[np.ndarray, PositionReport]:
+    def solve(
+        self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y0: ArrayLike | None = None
+    ) -> tuple[np.ndarray, PositionReport]:
         """Solve (20) at one input position: fixed-point iteration, Newton when it does not contract."""
         A, B = self.linear_system(t, qr, vr, ar)
         tol = RES_TOL * max(1.0, float(np.abs(B).max(initial=0.0)))
@@ -273,14 +294,18 @@ class QuasiStaticSystem:
             y = np.zeros(self.ny) if y0 is None else np.array(y0, dtype=float)
         y, R, nit = self._newton(t, qr, vr, ar, y, tol)
         if np.abs(R).max() > max(tol, 1e-8):
-            raise SimulationError(t, f"the quasi-static system (20) has no solution near the rigid state: "
-                                     f"{reason}, and Newton stopped at residual {np.abs(R).max():.3g}",
-                                  "a bar may be at or beyond its buckling load at this position; "
-                                  "the dynamic response (symgen simulate) is still defined")
+            raise SimulationError(
+                t,
+                f"the quasi-static system (20) has no solution near the rigid state: "
+                f"{reason}, and Newton stopped at residual {np.abs(R).max():.3g}",
+                "a bar may be at or beyond its buckling load at this position; "
+                "the dynamic response (symgen simulate) is still defined",
+            )
         return y, PositionReport(t, "newton", it, nit, float(np.abs(R).max()), rho, reason)
 
-    def _newton(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray,
-                tol: float) -> tuple[np.ndarray, np.ndarray, int]:
+    def _newton(
+        self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray, tol: float
+    ) -> tuple[np.ndarray, np.ndarray, int]:
         R, J = self._RJ(t, qr, vr, ar, y)
         R = np.array(R).ravel()
         nit = 0
@@ -309,14 +334,20 @@ def require_guided(mech: Mechanism, part: Partition) -> None:
     free = [i for i in mech.rigid if i not in part.dep]
     if free:
         sc = mech.scene
-        why = ("its driver is a torque driver" if sc.driver is not None and sc.driver.kind == "torque"
-               else "it has no angle driver")
+        why = (
+            "its driver is a torque driver"
+            if sc.driver is not None and sc.driver.kind == "torque"
+            else "it has no angle driver"
+        )
         dof = len(free)
-        raise SceneError(sc.path, "driver",
-                         f"the quasi-static response needs a kinematically guided mechanism, but {why} "
-                         f"and the rigid mechanism keeps {dof} degree(s) of freedom",
-                         'use [driver] kind = "angle" (the quasi-static response of seed section 5 '
-                         'assumes the input motion is prescribed)')
+        raise SceneError(
+            sc.path,
+            "driver",
+            f"the quasi-static response needs a kinematically guided mechanism, but {why} "
+            f"and the rigid mechanism keeps {dof} degree(s) of freedom",
+            'use [driver] kind = "angle" (the quasi-static response of seed section 5 '
+            "assumes the input motion is prescribed)",
+        )
 
 
 def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float | None = None) -> np.ndarray:
@@ -332,9 +363,13 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
     rows = t_end / h + 1
     if not math.isfinite(rows) or over_limit("rows", rows):
         file, key = ("command line", "--cycles") if cycles is not None else (mech.scene.path, "driver.rate")
-        raise SceneError(file, key, f"the cycle would have {rows:.4g} input positions (t_end / output_step + 1 = "
-                         f"{t_end:g} / {h:g} + 1), more than the limit {limit_value('rows'):g}",
-                         lift_hint("rows", "use fewer cycles or a larger simulation.output_step"))
+        raise SceneError(
+            file,
+            key,
+            f"the cycle would have {rows:.4g} input positions (t_end / output_step + 1 = "
+            f"{t_end:g} / {h:g} + 1), more than the limit {limit_value('rows'):g}",
+            lift_hint("rows", "use fewer cycles or a larger simulation.output_step"),
+        )
     n = int(math.floor(t_end / h + 1e-9))
     return np.arange(n + 1) * h
 
@@ -342,9 +377,14 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
 NO_POSITION = "before the first input position was solved (nothing to keep)"
 
 
-def quasi_static(mech: Mechanism, taus: ArrayLike | None = None, kinematics: str = "deformed",
-                 cycles: float | None = None, output_step: float | None = None,
-                 say: Callable[[str], object] | None = None) -> QuasiStaticResult:
+def quasi_static(
+    mech: Mechanism,
+    taus: ArrayLike | None = None,
+    kinematics: str = "deformed",
+    cycles: float | None = None,
+    output_step: float | None = None,
+    say: Callable[[str], object] | None = None,
+) -> QuasiStaticResult:
     """The quasi-static response (20) at each input position (default: one cycle).
 
     ``say``: an optional callable given one progress line once the first position is solved.
@@ -363,12 +403,13 @@ def quasi_static(mech: Mechanism, taus: ArrayLike | None = None, kinematics: str
         exc = positions.stopped(err)
         if exc is None:
             raise
-        exc.partial = positions.result(exc)   # symgen.errors does not declare the errors' partial
+        exc.partial = positions.result(exc)  # symgen.errors does not declare the errors' partial
     raise exc
 
 
-def _start(mech: Mechanism, taus: ArrayLike | None, kinematics: str, cycles: float | None,
-           output_step: float | None) -> tuple[np.ndarray, np.ndarray, QuasiStaticSystem]:
+def _start(
+    mech: Mechanism, taus: ArrayLike | None, kinematics: str, cycles: float | None, output_step: float | None
+) -> tuple[np.ndarray, np.ndarray, QuasiStaticSystem]:
     """The input positions, the consistent start at the first (its q) and the system (20) of its
     partition. A signal meanwhile (the start's assembly, building (20)): ``Interrupted`` saying
     that no position was solved."""
@@ -384,8 +425,9 @@ def _start(mech: Mechanism, taus: ArrayLike | None, kinematics: str, cycles: flo
     return taus, q, sys_
 
 
-def _solve_positions(sys_: QuasiStaticSystem, positions: _Positions, taus: np.ndarray, q: np.ndarray,
-                     say: Callable[[str], object] | None) -> None:
+def _solve_positions(
+    sys_: QuasiStaticSystem, positions: _Positions, taus: np.ndarray, q: np.ndarray, say: Callable[[str], object] | None
+) -> None:
     """(20) at each input position in turn, each started from the last one's solution."""
     y: np.ndarray | None = None
     q_guess = q
@@ -419,8 +461,9 @@ class _Positions:
     def last_tau(self) -> float | None:
         return float(self.rows["tau"][-1]) if self.rows["tau"] else None
 
-    def add(self, t: float, qq: np.ndarray, vv: np.ndarray, aa: np.ndarray, ll: np.ndarray,
-            rep: PositionReport) -> None:
+    def add(
+        self, t: float, qq: np.ndarray, vv: np.ndarray, aa: np.ndarray, ll: np.ndarray, rep: PositionReport
+    ) -> None:
         """The position at t: its outputs and closure residual evaluated, then recorded."""
         mech = self.mech
         out = mech.call("out", t, qq, vv, aa, ll)
@@ -453,8 +496,18 @@ class _Positions:
         """The positions solved whole as a ``QuasiStaticResult`` (``exc``: what ended the run early)."""
         n, rows, mech = self.solved(), self.rows, self.mech
         return QuasiStaticResult(
-            tau=np.array(rows["tau"][:n]), outputs=np.array(rows["out"][:n]).reshape(-1, len(mech.info.outputs)),
-            output_names=list(mech.info.outputs), q=np.array(rows["q"][:n]), v=np.array(rows["v"][:n]),
-            a=np.array(rows["a"][:n]), lam=np.array(rows["lam"][:n]), closure_max=self.closure_max,
-            reports=self.reports[:n], solve_s=time.perf_counter() - self.tic, partition=self.part,
-            kinematics=self.kinematics, complete=exc is None, failure="" if exc is None else str(exc))
+            tau=np.array(rows["tau"][:n]),
+            outputs=np.array(rows["out"][:n]).reshape(-1, len(mech.info.outputs)),
+            output_names=list(mech.info.outputs),
+            q=np.array(rows["q"][:n]),
+            v=np.array(rows["v"][:n]),
+            a=np.array(rows["a"][:n]),
+            lam=np.array(rows["lam"][:n]),
+            closure_max=self.closure_max,
+            reports=self.reports[:n],
+            solve_s=time.perf_counter() - self.tic,
+            partition=self.part,
+            kinematics=self.kinematics,
+            complete=exc is None,
+            failure="" if exc is None else str(exc),
+        )

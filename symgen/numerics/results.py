@@ -14,6 +14,7 @@ shared by the command line (``symgen simulate``, ``symgen quasistatic``) and ``s
 above this layer: ``write_run`` returns it as data (``OutputsPlot``) and the application draws
 it (``symgen.apps.plot.plot_run``).
 """
+
 from __future__ import annotations
 
 import json
@@ -38,11 +39,24 @@ if TYPE_CHECKING:
     from symgen.numerics.simulate import SimResult
     from symgen.numerics.units import ResultUnits
 
-__all__ = ["OutputsPlot", "PLOT_SUFFIXES", "ResultFiles", "WrittenRun", "atomic_write", "attempt", "build_sidecar",
-           "csv_text", "partial_paths", "run_files", "states_block", "write_results", "write_run"]
+__all__ = [
+    "OutputsPlot",
+    "PLOT_SUFFIXES",
+    "ResultFiles",
+    "WrittenRun",
+    "atomic_write",
+    "attempt",
+    "build_sidecar",
+    "csv_text",
+    "partial_paths",
+    "run_files",
+    "states_block",
+    "write_results",
+    "write_run",
+]
 
 PLOT_SUFFIXES = (".png", ".svg", ".pdf")
-STATE_PREFIX = "q."          # CSV columns of the coordinates: q.theta_crank, q.g_rod_1, ...
+STATE_PREFIX = "q."  # CSV columns of the coordinates: q.theta_crank, q.g_rod_1, ...
 
 R = TypeVar("R")
 
@@ -87,8 +101,15 @@ class ResultFiles:
             return None
         return self.plot if complete else partial_plot(self.plot)
 
-    def write(self, tau: Sequence[float] | np.ndarray, values: ArrayLike, names: list[str],
-              sidecar: Mapping[str, object], complete: bool = True, time_name: str = "tau") -> Path:
+    def write(
+        self,
+        tau: Sequence[float] | np.ndarray,
+        values: ArrayLike,
+        names: list[str],
+        sidecar: Mapping[str, object],
+        complete: bool = True,
+        time_name: str = "tau",
+    ) -> Path:
         """CSV, then its JSON sidecar; return the CSV path. The first column is ``time_name``
         (``tau``, or ``t`` in seconds for SI results). Stale files of the other kind go first;
         if a write fails, neither file of this run is left."""
@@ -116,21 +137,30 @@ class ResultFiles:
         remove(self.complete_paths() + ([] if self.partial_written else self.partial_paths()))
 
 
-def write_results(out: str | os.PathLike[str], tau: Sequence[float] | np.ndarray, values: ArrayLike,
-                  names: list[str], sidecar: Mapping[str, object], complete: bool = True,
-                  time_name: str = "tau") -> Path:
+def write_results(
+    out: str | os.PathLike[str],
+    tau: Sequence[float] | np.ndarray,
+    values: ArrayLike,
+    names: list[str],
+    sidecar: Mapping[str, object],
+    complete: bool = True,
+    time_name: str = "tau",
+) -> Path:
     """Write the CSV and its JSON sidecar (``ResultFiles.write``); return the CSV path written."""
     return ResultFiles(out).write(tau, values, names, sidecar, complete, time_name)
 
 
-def run_files(out: str | os.PathLike[str], plot: str | os.PathLike[str] | None = None, out_key: str = "-o",
-              plot_key: str = "--plot") -> ResultFiles:
+def run_files(
+    out: str | os.PathLike[str],
+    plot: str | os.PathLike[str] | None = None,
+    out_key: str = "-o",
+    plot_key: str = "--plot",
+) -> ResultFiles:
     """The files of a run (``simulate``, ``quasistatic``), checked before any work (suffix, not a
     folder, its folder writable; nothing is created). ``out_key``, ``plot_key``: how the error
     names the argument."""
     out_path = check_file(out, (".csv",), out_key, also=[Path(out).with_suffix(".json"), *partial_paths(Path(out))])
-    plot_path = (check_file(plot, PLOT_SUFFIXES, plot_key, also=[partial_plot(Path(plot))])
-                 if plot else None)
+    plot_path = check_file(plot, PLOT_SUFFIXES, plot_key, also=[partial_plot(Path(plot))]) if plot else None
     return ResultFiles(out_path, plot_path)
 
 
@@ -143,8 +173,14 @@ def attempt(run: Callable[[], R]) -> tuple[R | None, SimulationError | Interrupt
         return getattr(err, "partial", None), err
 
 
-def build_sidecar(scene: Scene, compiled: CompiledModel, build_s: float, result: SimResult | QuasiStaticResult | None,
-                  failure: BaseException | None, solver: str = "idas") -> dict[str, Any]:
+def build_sidecar(
+    scene: Scene,
+    compiled: CompiledModel,
+    build_s: float,
+    result: SimResult | QuasiStaticResult | None,
+    failure: BaseException | None,
+    solver: str = "idas",
+) -> dict[str, Any]:
     """The JSON sidecar of a run (before ``write_run`` adds its ``units`` and ``states``): the
     scene, its model and effects, the status (``failure``: what stopped the run early), the
     solver, timings and checks. ``compiled``: the model record
@@ -154,43 +190,61 @@ def build_sidecar(scene: Scene, compiled: CompiledModel, build_s: float, result:
     from symgen.model.structure import axial_treatments
     from symgen.scene.motion import driver_record
     from symgen.numerics.quasistatic import QuasiStaticResult
+
     sim = scene.simulation
     info = compiled.info
-    sidecar: dict[str, Any] = {       # a JSON document
+    sidecar: dict[str, Any] = {  # a JSON document
         "scene": str(scene.path),
         "scene_hash": scene.hash,
         "symgen_version": __version__,
-        "status": ("complete" if failure is None else
-                   "interrupted" if isinstance(failure, Interrupted) else "partial"),
+        "status": ("complete" if failure is None else "interrupted" if isinstance(failure, Interrupted) else "partial"),
         "failure": None if failure is None else str(failure),
         "groups": scene.groups,
         "effects": {
-            "axial": scene.effects.axial, "transverse": scene.effects.transverse,
+            "axial": scene.effects.axial,
+            "transverse": scene.effects.transverse,
             "geometric_stiffening": scene.effects.geometric_stiffening,
-            "coriolis": scene.effects.coriolis, "rotary_inertia": scene.effects.rotary_inertia,
-            "strain": scene.effects.strain, "gravity": list(scene.effects.gravity),
+            "coriolis": scene.effects.coriolis,
+            "rotary_inertia": scene.effects.rotary_inertia,
+            "strain": scene.effects.strain,
+            "gravity": list(scene.effects.gravity),
             "damping": scene.effects.damping,
         },
-        "axial_treatment": {name: {"treatment": t.treatment, "reason": t.reason}
-                            for name, t in axial_treatments(scene).items()},
+        "axial_treatment": {
+            name: {"treatment": t.treatment, "reason": t.reason} for name, t in axial_treatments(scene).items()
+        },
         "modes": {name: md.to_json() for name, md in info.modes.items()},
         "driver": driver_record(scene.driver),
         "model_key": info.key,
         "coordinates": list(info.coordinate_names),
-        "partition": None if result is None or result.partition is None else {
+        "partition": None
+        if result is None or result.partition is None
+        else {
             "independent": [info.coords[i].name for i in result.partition.ind],
-            "dependent": [info.coords[i].name for i in result.partition.dep]},
-        "solver": {"name": "idas", "rtol": sim.rtol, "atol": sim.atol,
-                   "steps": None if result is None else result.steps},
+            "dependent": [info.coords[i].name for i in result.partition.dep],
+        },
+        "solver": {
+            "name": "idas",
+            "rtol": sim.rtol,
+            "atol": sim.atol,
+            "steps": None if result is None else result.steps,
+        },
         # derive_s is this process's derivation (0 when the model came from the cache); the
         # cached entry's own derivation time is kept apart so that it is never read as this run's
-        "timings": {"derive_s": 0.0 if compiled.cached else compiled.derive_s, "derive_cached": compiled.cached,
-                    "cached_model_derive_s": compiled.derive_s if compiled.cached else None,
-                    "build_s": build_s, "simulate_s": None if result is None else result.simulate_s},
+        "timings": {
+            "derive_s": 0.0 if compiled.cached else compiled.derive_s,
+            "derive_cached": compiled.cached,
+            "cached_model_derive_s": compiled.derive_s if compiled.cached else None,
+            "build_s": build_s,
+            "simulate_s": None if result is None else result.simulate_s,
+        },
         "closure_residual_max": None if result is None else result.closure_max,
-        "outputs": [{"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "at": o.xi,
-                     "component": o.component} for o in scene.outputs],
-        "t_end": sim.t_end, "output_step": sim.output_step,
+        "outputs": [
+            {"name": o.name, "kind": o.kind, "body": o.body, "joint": o.joint, "at": o.xi, "component": o.component}
+            for o in scene.outputs
+        ],
+        "t_end": sim.t_end,
+        "output_step": sim.output_step,
     }
     if solver == "c":
         sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
@@ -209,25 +263,39 @@ def build_sidecar(scene: Scene, compiled: CompiledModel, build_s: float, result:
 def states_block(scene: Scene, coordinates: list[str], model_key: str) -> dict[str, Any]:
     """The sidecar's ``states`` block: what ``animate --from`` needs to rebuild the geometry."""
     from symgen.model.structure import basis_sizes
+
     bars = {}
     for b in scene.bodies:
         na, nt = basis_sizes(scene, b)
-        bars[b.name] = {"length": b.alpha, "rigid": b.rigid, "frame": b.frame, "axial": na, "transverse": nt,
-                        "axial_shapes": b.axial_shapes if na else "",
-                        "transverse_shapes": b.transverse_shapes if nt else ""}
+        bars[b.name] = {
+            "length": b.alpha,
+            "rigid": b.rigid,
+            "frame": b.frame,
+            "axial": na,
+            "transverse": nt,
+            "axial_shapes": b.axial_shapes if na else "",
+            "transverse_shapes": b.transverse_shapes if nt else "",
+        }
     coords = list(coordinates)
-    return {"columns": [STATE_PREFIX + c for c in coords], "coordinates": coords, "model_key": model_key,
-            "lengths_in": "reference lengths l0", "bars": bars, "ground": _ground(scene)}
+    return {
+        "columns": [STATE_PREFIX + c for c in coords],
+        "coordinates": coords,
+        "model_key": model_key,
+        "lengths_in": "reference lengths l0",
+        "bars": bars,
+        "ground": _ground(scene),
+    }
 
 
 def _ground(scene: Scene) -> dict[str, dict[str, list[float] | None]]:
     """Ground points (and slider directions) of the joints to ground, dimensionless."""
     from symgen.scene.model import GROUND
+
     out = {}
     for j in scene.joints:
         for e in j.ends:
             if e.body == GROUND:
-                assert e.point is not None      # a ground end has its point (the scene loader checks it)
+                assert e.point is not None  # a ground end has its point (the scene loader checks it)
                 out[j.name] = {"point": list(e.point), "direction": None if j.direction is None else list(j.direction)}
     return out
 
@@ -236,14 +304,15 @@ def _ground(scene: Scene) -> dict[str, dict[str, list[float] | None]]:
 class OutputsPlot:
     """The plot of a run's outputs against time, as data: the application layer draws it
     (``symgen.apps.plot.plot_run``); the numerics only say what it shows."""
+
     path: Path
-    time: np.ndarray                # the time column, in the results' units
-    values: np.ndarray              # (N, n_out) in the results' units
+    time: np.ndarray  # the time column, in the results' units
+    values: np.ndarray  # (N, n_out) in the results' units
     names: list[str]
     kinds: list[str]
     title: str
     partial: bool
-    turn: float | None              # one crank turn in the time unit (a steady angle driver), else None
+    turn: float | None  # one crank turn in the time unit (a steady angle driver), else None
     units: ResultUnits
 
 
@@ -251,14 +320,23 @@ class OutputsPlot:
 class WrittenRun:
     """What ``write_run`` wrote: the CSV (its JSON beside it), the sidecar record, and the plot
     still to draw (None: no plot asked, or the run was interrupted: stopping fast beats a plot)."""
+
     csv: Path
-    sidecar: dict[str, Any]         # the JSON document (as json.loads gives it back)
+    sidecar: dict[str, Any]  # the JSON document (as json.loads gives it back)
     plot: OutputsPlot | None
 
 
-def write_run(files: ResultFiles, scene: Scene, compiled: CompiledModel, build_s: float,
-              result: SimResult | QuasiStaticResult | None, failure: BaseException | None,
-              solver: str = "idas", units: str | None = None, states: bool = False) -> WrittenRun:
+def write_run(
+    files: ResultFiles,
+    scene: Scene,
+    compiled: CompiledModel,
+    build_s: float,
+    result: SimResult | QuasiStaticResult | None,
+    failure: BaseException | None,
+    solver: str = "idas",
+    units: str | None = None,
+    states: bool = False,
+) -> WrittenRun:
     """A run's CSV and JSON sidecar (partial when the run stopped: ``failure``), columns in the
     scene's units (SI for an SI scene unless ``units="dimensionless"``), with the coordinates as
     ``q.NAME`` columns when ``states`` (for ``symgen animate --from``); and the plot to draw when
@@ -267,8 +345,13 @@ def write_run(files: ResultFiles, scene: Scene, compiled: CompiledModel, build_s
     from symgen.numerics.units import result_units
 
     if result is None or len(result.tau) == 0:
-        raise failure if failure is not None else SimulationError(
-            None, "no input position was solved" if solver == "quasi-static" else "the run produced no output")
+        raise (
+            failure
+            if failure is not None
+            else SimulationError(
+                None, "no input position was solved" if solver == "quasi-static" else "the run produced no output"
+            )
+        )
     sidecar = build_sidecar(scene, compiled, build_s, result, failure, solver)
     in_units = result_units(scene, units)
     t_col, values = in_units.convert(result.tau, result.outputs)
@@ -279,24 +362,35 @@ def write_run(files: ResultFiles, scene: Scene, compiled: CompiledModel, build_s
         sidecar["states"] = states_block(scene, sidecar["coordinates"], sidecar["model_key"])
         clash = sorted(set(names) & set(sidecar["states"]["columns"]))
         if clash:
-            raise SceneError(scene.path, f"outputs.{clash[0]}", "an output has the name of a state column",
-                             "rename the output, or leave out --states")
-        columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[:len(t_col)]])
+            raise SceneError(
+                scene.path,
+                f"outputs.{clash[0]}",
+                "an output has the name of a state column",
+                "rename the output, or leave out --states",
+            )
+        columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[: len(t_col)]])
         names += sidecar["states"]["columns"]
     complete = failure is None
     written = files.write(t_col, columns, names, sidecar, complete, time_name=in_units.time.name)
     plot = None
     plot_path = files.plot_path(complete)
-    if plot_path is not None and not isinstance(failure, Interrupted):   # stopping fast beats a plot
+    if plot_path is not None and not isinstance(failure, Interrupted):  # stopping fast beats a plot
         drv = scene.driver
         steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
         # a law or a ramp: plotted against tau
         turn = 2 * math.pi / abs(drv.rate) if drv is not None and steady else None
         what = "quasi-static response, " if solver == "quasi-static" else ""
-        plot = OutputsPlot(plot_path, t_col, values, list(result.output_names),
-                           [o.kind for o in scene.outputs], f"{scene.name}: {what}{Path(scene.path).name}",
-                           partial=not complete, turn=None if turn is None else turn * in_units.time.factor,
-                           units=in_units)
+        plot = OutputsPlot(
+            plot_path,
+            t_col,
+            values,
+            list(result.output_names),
+            [o.kind for o in scene.outputs],
+            f"{scene.name}: {what}{Path(scene.path).name}",
+            partial=not complete,
+            turn=None if turn is None else turn * in_units.time.factor,
+            units=in_units,
+        )
     return WrittenRun(written, sidecar, plot)
 
 

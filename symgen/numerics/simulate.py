@@ -9,6 +9,7 @@ machine, with the same numbers.
 At each output the algebraic variables are polished by Newton on the algebraic equations
 (position closure to ~1e-14), then the outputs are evaluated.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,10 +33,10 @@ from symgen.numerics.index1 import Partition, index1
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.start import State
 
-CHUNK = 128         # output steps of the first integrator call; each next one covers twice as
-CHUNK_MAX = 2048    # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
-                    # (the same chunks whatever the backend: the same steps, the same numbers)
-CALC_IC = False     # z0 is always consistent (our own Newton); IDACalcIC only fails on it
+CHUNK = 128  # output steps of the first integrator call; each next one covers twice as
+CHUNK_MAX = 2048  # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
+# (the same chunks whatever the backend: the same steps, the same numbers)
+CALC_IC = False  # z0 is always consistent (our own Newton); IDACalcIC only fails on it
 #: The progress watchdog: IDAS may take at most this many steps per degree of the driver's
 #: motion (per 0.01745 tau without a driven rate) within one output step. Real runs take tens
 #: to hundreds (steel bars at 0.1 %: about 80); a run beyond it has stalled, its steps shrunk to
@@ -47,18 +48,18 @@ MAX_STEPS_PER_DEGREE = 100_000
 @dataclass
 class SimResult:
     tau: np.ndarray
-    outputs: np.ndarray             # (N, n_out)
+    outputs: np.ndarray  # (N, n_out)
     output_names: list[str]
-    q: np.ndarray                   # (N, n)
+    q: np.ndarray  # (N, n)
     v: np.ndarray
     lam: np.ndarray
     closure_max: float
     steps: int
     simulate_s: float
-    partition: Partition | None     # None: the emitted C solver's run (symgen.numerics.csolver)
+    partition: Partition | None  # None: the emitted C solver's run (symgen.numerics.csolver)
     complete: bool = True
     failure: str = ""
-    stats: dict[str, str | float | None] = field(default_factory=dict)   # backend, library, timings
+    stats: dict[str, str | float | None] = field(default_factory=dict)  # backend, library, timings
 
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""
@@ -73,8 +74,16 @@ class DaeRunner:
     compiler is at hand, else the virtual machine, said in one line on stderr). Both evaluate
     the same operations in the same order: their results agree to the last bit."""
 
-    def __init__(self, mech: Mechanism, part: Partition, rtol: float, atol: float,
-                 axial_atol: float | None = None, backend: str | None = None, use_cache: bool = True) -> None:
+    def __init__(
+        self,
+        mech: Mechanism,
+        part: Partition,
+        rtol: float,
+        atol: float,
+        axial_atol: float | None = None,
+        backend: str | None = None,
+        use_cache: bool = True,
+    ) -> None:
         self.mech, self.part = mech, part
         n, m = mech.n, mech.m
         I, D = list(part.ind), list(part.dep)
@@ -85,7 +94,7 @@ class DaeRunner:
         p = ca.SX.sym("p", len(mech.p) + 1)
         t = ca.SX.sym("t")
         u = ca.SX.sym("u", 0)
-        tt = t + p[-1]                      # time offset: one integrator serves every chunk
+        tt = t + p[-1]  # time offset: one integrator serves every chunk
         args = [tt, q, v, a, lam, p[:-1]]
         f = mech.f
         alg = sys_.alg(f, tt, p[:-1])
@@ -101,10 +110,13 @@ class DaeRunner:
         rows = [i for i in range(m) if i not in mech.inext_rows]
         Ds = [i for i in D if i not in mech.inext_f]
         self.n_sing = len(Ds)
-        self.rec = ca.Function("rec", [t, x, z, p], [q, v, lam, f["out"](*args), f["closure"](*args),
-                                                     phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)])
+        self.rec = ca.Function(
+            "rec",
+            [t, x, z, p],
+            [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
+        )
         self.backend: str = "vm"
-        self.library: str | None = None         # compiled: "built" for this run, or "cached"
+        self.library: str | None = None  # compiled: "built" for this run, or "cached"
         choice = compiled.backend_choice(backend)
         if choice != "vm":
             self._use_compiled(choice, dae_in, dae_out, use_cache)
@@ -116,9 +128,13 @@ class DaeRunner:
         self._maps: dict[tuple[str, int], ca.Function] = {}
         self._integrators: dict[tuple[float, int], ca.Function] = {}
         self.opts: dict[str, float | bool | list[float]] = {
-            "abstol": atol, "reltol": rtol, "max_num_steps": 2_000_000,
-            "suppress_algebraic": True, "disable_internal_warnings": True,
-            "calc_ic": CALC_IC}
+            "abstol": atol,
+            "reltol": rtol,
+            "max_num_steps": 2_000_000,
+            "suppress_algebraic": True,
+            "disable_internal_warnings": True,
+            "calc_ic": CALC_IC,
+        }
         if axial_atol is not None:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
             ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
@@ -130,15 +146,21 @@ class DaeRunner:
         mech, part = self.mech, self.part
         funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
         try:
-            ext, built = compiled.library(funcs, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}",
-                                          store=use_cache)
+            ext, built = compiled.library(
+                funcs, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
+            )
         except compiled.Unavailable as exc:
             if choice == "compiled":
-                raise SceneError("command line", "--backend", f"compiled: {exc.reason}",
-                                 f"install a C compiler or set ${compiled.CC_ENV} to one; "
-                                 "or run with --backend vm") from None
-            _notice(f"{exc.reason}: running the model in CasADi's virtual machine (slower; "
-                    f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)")
+                raise SceneError(
+                    "command line",
+                    "--backend",
+                    f"compiled: {exc.reason}",
+                    f"install a C compiler or set ${compiled.CC_ENV} to one; or run with --backend vm",
+                ) from None
+            _notice(
+                f"{exc.reason}: running the model in CasADi's virtual machine (slower; "
+                f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)"
+            )
         else:
             self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
             self.backend, self.library = "compiled", "built" if built else "cached"
@@ -177,18 +199,19 @@ class DaeRunner:
     def xdot(self, x: ArrayLike, z: ArrayLike) -> np.ndarray:
         x = np.asarray(x, dtype=float).ravel()
         z = np.asarray(z, dtype=float).ravel()
-        a = z[2 * self.nD: 2 * self.nD + self.mech.n]
-        return np.concatenate([x[self.nI:], a[list(self.part.ind)]])
+        a = z[2 * self.nD : 2 * self.nD + self.mech.n]
+        return np.concatenate([x[self.nI :], a[list(self.part.ind)]])
 
     def _map(self, name: str, k: int) -> ca.Function:
         key = (name, k)
         if key not in self._maps:
-            fun: ca.Function = getattr(self, name)      # one of the Functions above, by name
+            fun: ca.Function = getattr(self, name)  # one of the Functions above, by name
             self._maps[key] = fun.map(k)
         return self._maps[key]
 
-    def polish_many(self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p: np.ndarray,
-                    tol: float = POLICY.polish_tol) -> np.ndarray:
+    def polish_many(
+        self, t: np.ndarray, X: np.ndarray, Z: np.ndarray, p: np.ndarray, tol: float = POLICY.polish_tol
+    ) -> np.ndarray:
         """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
         same iteration per column: columns stop when their residual is below ``tol``; a column
         whose step is not finite (singular Jacobian) keeps its last value)."""
@@ -206,8 +229,9 @@ class DaeRunner:
             Z[:, todo] = Znew[:, todo]
         return Z
 
-    def polish(self, t: float, x: np.ndarray, z: np.ndarray, p: np.ndarray,
-               tol: float = POLICY.polish_tol) -> np.ndarray:
+    def polish(
+        self, t: float, x: np.ndarray, z: np.ndarray, p: np.ndarray, tol: float = POLICY.polish_tol
+    ) -> np.ndarray:
         z = np.array(z, dtype=float).ravel()
         for _ in range(POLICY.polish_maxit if tol <= POLICY.polish_tol else 30):
             g, J = self.g(t, x, z, p)
@@ -224,9 +248,10 @@ class DaeRunner:
 @dataclass(frozen=True)
 class RunSettings:
     """The times, tolerances and backend of one run: ``simulate``'s arguments, else the scene's."""
+
     t0: float
     t_end: float
-    h: float                        # output step
+    h: float  # output step
     rtol: float
     atol: float
     axial_atol: float | None
@@ -239,10 +264,19 @@ class RunSettings:
         return int(np.floor((self.t_end - self.t0) / self.h + 1e-9))
 
 
-def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | None = None,
-             rtol: float | None = None, atol: float | None = None, t0: float = 0.0,
-             initial: State | None = None, axial_atol: float | None = None, backend: str | None = None,
-             use_cache: bool = True, progress: bool = False) -> SimResult:
+def simulate(
+    mech: Mechanism,
+    t_end: float | None = None,
+    output_step: float | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    t0: float = 0.0,
+    initial: State | None = None,
+    axial_atol: float | None = None,
+    backend: str | None = None,
+    use_cache: bool = True,
+    progress: bool = False,
+) -> SimResult:
     """Integrate the scene's DAE from t0 to t_end, output every output_step (in tau).
 
     ``axial_atol``: absolute tolerance of the axial amplitudes and their rates instead of
@@ -258,10 +292,16 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
     beyond its range; ``Interrupted``: SIGINT/SIGTERM) raises with ``.partial``, the
     ``SimResult`` of the outputs recorded before it (``complete=False``)."""
     sim = mech.scene.simulation
-    settings = RunSettings(t0=t0, t_end=sim.t_end if t_end is None else t_end,
-                           h=sim.output_step if output_step is None else output_step,
-                           rtol=sim.rtol if rtol is None else rtol, atol=sim.atol if atol is None else atol,
-                           axial_atol=axial_atol, backend=backend, use_cache=use_cache)
+    settings = RunSettings(
+        t0=t0,
+        t_end=sim.t_end if t_end is None else t_end,
+        h=sim.output_step if output_step is None else output_step,
+        rtol=sim.rtol if rtol is None else rtol,
+        atol=sim.atol if atol is None else atol,
+        axial_atol=axial_atol,
+        backend=backend,
+        use_cache=use_cache,
+    )
     run, x, z, setup_s = _start(mech, settings, initial)
     traj = _Trajectory(run)
     tic = time.perf_counter()
@@ -270,7 +310,7 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         if run.nI == 0:
             _rigid_motion(run, traj, settings, x, z)
         else:
-            if progress:        # tqdm, and only when stderr is a terminal
+            if progress:  # tqdm, and only when stderr is a terminal
                 with progress_bar(settings.n_outputs, "simulate", unit="output") as bar:
                     _integrate(run, traj, settings, x, z, bar.update)
             else:
@@ -283,13 +323,14 @@ def simulate(mech: Mechanism, t_end: float | None = None, output_step: float | N
         stop = None
     result = traj.result(time.perf_counter() - tic, setup_s, stop)
     if stop is not None:
-        stop.partial = result        # symgen.errors does not declare the errors' partial
+        stop.partial = result  # symgen.errors does not declare the errors' partial
         raise stop
     return result
 
 
-def _start(mech: Mechanism, settings: RunSettings,
-           initial: State | None) -> tuple[DaeRunner, np.ndarray, np.ndarray, float]:
+def _start(
+    mech: Mechanism, settings: RunSettings, initial: State | None
+) -> tuple[DaeRunner, np.ndarray, np.ndarray, float]:
     """The consistent start (``initial``, else the mechanism's own at t0), the runner of its
     partition and the runner's set-up time: (runner, x, z, setup_s). A signal meanwhile (the
     assembly, the consistent state, a compiled library's build) stops the run at t0."""
@@ -308,8 +349,7 @@ def _start(mech: Mechanism, settings: RunSettings,
 def _runner(mech: Mechanism, part: Partition, settings: RunSettings) -> tuple[DaeRunner, float]:
     """The runner of a partition with the run's tolerances and backend, and the seconds it took."""
     tic = time.perf_counter()
-    run = DaeRunner(mech, part, settings.rtol, settings.atol, settings.axial_atol, settings.backend,
-                    settings.use_cache)
+    run = DaeRunner(mech, part, settings.rtol, settings.atol, settings.axial_atol, settings.backend, settings.use_cache)
     return run, time.perf_counter() - tic
 
 
@@ -355,9 +395,12 @@ class _Trajectory:
             raise SimulationError(t, beyond[1], "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
         ratio, row = checks.singular_ratio(mech, t, qq, self.part)
         if ratio < POLICY.singular_ratio:
-            raise SimulationError(t, f"the rigid mechanism reached a singular position: the closure Jacobian "
-                                     f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
-                                  "the mechanism cannot pass this position as driven; shorten t_end or change the geometry")
+            raise SimulationError(
+                t,
+                f"the rigid mechanism reached a singular position: the closure Jacobian "
+                f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
+                "the mechanism cannot pass this position as driven; shorten t_end or change the geometry",
+            )
 
     def record_many(self, ts: np.ndarray, rel: np.ndarray, X: np.ndarray, Z: np.ndarray, p: np.ndarray) -> None:
         """``record`` of a chunk's outputs with one mapped call (same values, same stop at the
@@ -365,7 +408,7 @@ class _Trajectory:
         run, mech = self.run, self.mech
         k = len(ts)
         Q, V, L, O, C, Jd = (np.array(w) for w in run._map("rec", k)(rel.reshape(1, -1), X, Z, p))
-        L, O, C = (w.reshape(-1, k) for w in (L, O, C))     # no multipliers (an open chain): (0, k)
+        L, O, C = (w.reshape(-1, k) for w in (L, O, C))  # no multipliers (an open chain): (0, k)
         stop = k
         if run.n_sing:
             nd = run.n_sing
@@ -381,17 +424,26 @@ class _Trajectory:
         for i in range(stop):
             self._append(ts[i], O[:, i], Q[:, i], V[:, i], L[:, i])
         if stop < k:
-            self.record(ts[stop - 1], X[:, stop - 1], Z[:, stop - 1], append=False)   # raises, naming the loop
+            self.record(ts[stop - 1], X[:, stop - 1], Z[:, stop - 1], append=False)  # raises, naming the loop
 
     def result(self, elapsed: float, setup_s: float, stop: BaseException | None) -> SimResult:
         """The outputs recorded whole as a ``SimResult`` (``stop``: what ended the run early)."""
         n = self.whole()
-        return SimResult(tau=np.array(self.taus[:n]), outputs=np.array(self.outs[:n]),
-                         output_names=list(self.mech.info.outputs), q=np.array(self.qs[:n]),
-                         v=np.array(self.vs[:n]), lam=np.array(self.lams[:n]), closure_max=self.closure_max,
-                         steps=self.steps, simulate_s=elapsed, partition=self.part, complete=stop is None,
-                         failure="" if stop is None else str(stop),
-                         stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s})
+        return SimResult(
+            tau=np.array(self.taus[:n]),
+            outputs=np.array(self.outs[:n]),
+            output_names=list(self.mech.info.outputs),
+            q=np.array(self.qs[:n]),
+            v=np.array(self.vs[:n]),
+            lam=np.array(self.lams[:n]),
+            closure_max=self.closure_max,
+            steps=self.steps,
+            simulate_s=elapsed,
+            partition=self.part,
+            complete=stop is None,
+            failure="" if stop is None else str(stop),
+            stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s},
+        )
 
 
 def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray) -> None:
@@ -408,15 +460,28 @@ def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: n
         g = np.array(run.g(0.0, x, z_new, pfull)[0]).ravel()
         # the position closure (first m rows) decides; the dynamic rows are linear in
         # (a, lam) and carry force units (1e6 masses: round-off above any absolute 1e-9)
-        if not np.all(np.isfinite(g)) or np.abs(g[:mech.m]).max() > 1e-9:
-            raise _lost(mech, run.part, ti, traj.qs[-1], traj.taus[-1], "the closure has no solution near the last one",
-                        limit=True)
+        if not np.all(np.isfinite(g)) or np.abs(g[: mech.m]).max() > 1e-9:
+            raise _lost(
+                mech,
+                run.part,
+                ti,
+                traj.qs[-1],
+                traj.taus[-1],
+                "the closure has no solution near the last one",
+                limit=True,
+            )
         z_prev, z = z, z_new
         traj.record(ti, x, z)
 
 
-def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray,
-               advanced: Callable[[int], object] = lambda k: None) -> None:
+def _integrate(
+    run: DaeRunner,
+    traj: _Trajectory,
+    settings: RunSettings,
+    x: np.ndarray,
+    z: np.ndarray,
+    advanced: Callable[[int], object] = lambda k: None,
+) -> None:
     """IDAS over the run in chunks of outputs (``CHUNK`` first, each next one twice as many up to
     ``CHUNK_MAX``, or all the rest when that is at most twice as many), the algebraic variables
     polished and the outputs recorded per chunk; a chunk that fails is replayed step by step
@@ -452,8 +517,17 @@ def _integrate(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.n
         size = min(2 * size, CHUNK_MAX)
 
 
-def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start: float, x: np.ndarray,
-                    z: np.ndarray, pfull: np.ndarray, err: RuntimeError) -> tuple[np.ndarray, np.ndarray]:
+def _locate_failure(
+    run: DaeRunner,
+    traj: _Trajectory,
+    h: float,
+    k: int,
+    t_start: float,
+    x: np.ndarray,
+    z: np.ndarray,
+    pfull: np.ndarray,
+    err: RuntimeError,
+) -> tuple[np.ndarray, np.ndarray]:
     """A chunk of k outputs from t_start failed (``err``): replay it one output step at a time,
     recording each output, so that the error names the step that fails (its cause, or the
     singular position it met) and the run keeps everything before it. When every step goes
@@ -468,14 +542,15 @@ def _locate_failure(run: DaeRunner, traj: _Trajectory, h: float, k: int, t_start
             cause = _idas_cause(err1)
             if cause.startswith("IDA_TOO_MUCH_WORK"):
                 raise _stalled(run, t_start + i * h, h, traj) from None
-            raise _lost(run.mech, run.part, t_start + i * h, traj.qs[-1], traj.taus[-1],
-                        f"IDAS failed: {cause}") from None
+            raise _lost(
+                run.mech, run.part, t_start + i * h, traj.qs[-1], traj.taus[-1], f"IDAS failed: {cause}"
+            ) from None
         traj.steps += int(F1.stats()["nsteps"])
         x = np.array(sol["xf"]).ravel()
         z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
         traj.record(t_start + (i + 1) * h, x, z)
         interrupt.check(traj.taus[-1])
-    return x, z      # the chunk went through step by step (a fresh start of IDAS at each output)
+    return x, z  # the chunk went through step by step (a fresh start of IDAS at each output)
 
 
 def _raise_if_interrupted(err: BaseException, tau: float) -> None:
@@ -523,19 +598,23 @@ def _notice(text: str) -> None:
         print(f"symgen: {text}", file=sys.stderr)
 
 
-def _lost(mech: Mechanism, part: Partition, tau: float, q_last: np.ndarray, tau_last: float, cause: str,
-          limit: bool = False) -> SimulationError:
+def _lost(
+    mech: Mechanism, part: Partition, tau: float, q_last: np.ndarray, tau_last: float, cause: str, limit: bool = False
+) -> SimulationError:
     """The error for a step that failed: a singular position of the rigid mechanism when the
     closure Jacobian was already near rank loss at the last good output (or, ``limit``, when
     the driven closure itself lost its solution, which a smooth mechanism does only at a
     singular position), else the solver cause."""
     ratio, row = checks.singular_ratio(mech, tau_last, q_last, part)
     if ratio < POLICY.near_singular_ratio or limit:
-        return SimulationError(tau, f"the rigid mechanism reached a singular position (change point / toggle): "
-                                    f"the closure Jacobian of the {mech.loop_name(row)} loses rank "
-                                    f"(ratio {ratio:.1e} at tau = {tau_last:.6g}); {cause}",
-                               "the mechanism cannot be driven through this position; shorten the run or "
-                               "change the geometry or the driver")
+        return SimulationError(
+            tau,
+            f"the rigid mechanism reached a singular position (change point / toggle): "
+            f"the closure Jacobian of the {mech.loop_name(row)} loses rank "
+            f"(ratio {ratio:.1e} at tau = {tau_last:.6g}); {cause}",
+            "the mechanism cannot be driven through this position; shorten the run or "
+            "change the geometry or the driver",
+        )
     return SimulationError(tau, cause, "tighten or loosen simulation.rtol/atol, or check the scene near this tau")
 
 
@@ -544,17 +623,25 @@ def _stalled(run: DaeRunner, tau: float, h: float, traj: _Trajectory) -> Simulat
     cause measured at the last good output (a near-singular position), else the other ones."""
     mech = run.mech
     ratio, row = checks.singular_ratio(mech, traj.taus[-1], traj.qs[-1], run.part)
-    what = (f"no progress: IDAS took more than {run.max_steps(h)} steps within the output step from tau = "
-            f"{tau:.6g} (its steps shrank to nothing)")
+    what = (
+        f"no progress: IDAS took more than {run.max_steps(h)} steps within the output step from tau = "
+        f"{tau:.6g} (its steps shrank to nothing)"
+    )
     if ratio < POLICY.near_singular_ratio:
-        return SimulationError(tau, f"{what}: the rigid mechanism is at a near-singular position (change point "
-                                    f"/ toggle): the closure Jacobian of the {mech.loop_name(row)} is close to losing "
-                                    f"rank (ratio {ratio:.1e} at tau = {traj.taus[-1]:.6g})",
-                               "the mechanism cannot be driven through this position: change the geometry or the "
-                               "driver, or shorten the run")
-    return SimulationError(tau, f"{what}: a load, a torque or the driver law may be singular there, or the "
-                                f"model stiff beyond what the run can resolve",
-                           "check the scene's expressions near this tau, and the loads and stiffness of the bars")
+        return SimulationError(
+            tau,
+            f"{what}: the rigid mechanism is at a near-singular position (change point "
+            f"/ toggle): the closure Jacobian of the {mech.loop_name(row)} is close to losing "
+            f"rank (ratio {ratio:.1e} at tau = {traj.taus[-1]:.6g})",
+            "the mechanism cannot be driven through this position: change the geometry or the "
+            "driver, or shorten the run",
+        )
+    return SimulationError(
+        tau,
+        f"{what}: a load, a torque or the driver law may be singular there, or the "
+        f"model stiff beyond what the run can resolve",
+        "check the scene's expressions near this tau, and the loads and stiffness of the bars",
+    )
 
 
 def _idas_cause(err: Exception) -> str:

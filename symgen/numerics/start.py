@@ -4,6 +4,7 @@ deformation (18)-(19) with its range and divergence checks (``symgen.numerics.ch
 
 ``start_plan`` gives the same start as data (``symgen.ir.plan.StartPlan``) for the emitted C
 solver, which runs it again from the same guess with the same partitions."""
+
 from __future__ import annotations
 
 import sys
@@ -36,24 +37,31 @@ def _assembled(mech: Mechanism, t0: float, q: np.ndarray) -> tuple[Partition, np
     SimulationError when it cannot be assembled or is at a singular position."""
     assembly = mech.choose_partition(t0, q)
     q = mech.assemble(t0, q, assembly)
-    part = mech.choose_partition(t0, q)     # re-choose at the assembled position
+    part = mech.choose_partition(t0, q)  # re-choose at the assembled position
     ratio, row = checks.singular_ratio(mech, t0, q, part)
     if ratio < POLICY.singular_ratio:
-        raise SimulationError(t0, f"the rigid mechanism starts at a singular position: the closure Jacobian "
-                                  f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
-                              "start the driver at another angle or change initial.guess")
+        raise SimulationError(
+            t0,
+            f"the rigid mechanism starts at a singular position: the closure Jacobian "
+            f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
+            "start the driver at another angle or change initial.guess",
+        )
     return assembly, q, part
 
 
-def _find_branch(mech: Mechanism, t0: float, q0: np.ndarray,
-                 failure: SimulationError) -> tuple[np.ndarray, tuple[Partition, np.ndarray, Partition]]:
+def _find_branch(
+    mech: Mechanism, t0: float, q0: np.ndarray, failure: SimulationError
+) -> tuple[np.ndarray, tuple[Partition, np.ndarray, Partition]]:
     """The assembly from the first of ``BRANCH_TRIES`` seeded guesses of the free bar angles
     that assembles to a regular position: (that guess, its assembly). The branches found are
     told on stderr, with the initial.guess that selects each; none found: ``failure``, which
     names the real cause (the mechanism cannot be assembled), with the hint of a guess."""
     drv = mech.scene.driver
-    free = [i for i, c in enumerate(mech.coords) if c.kind is CoordKind.THETA
-            and not (drv is not None and drv.body == c.body)]
+    free = [
+        i
+        for i, c in enumerate(mech.coords)
+        if c.kind is CoordKind.THETA and not (drv is not None and drv.body == c.body)
+    ]
     rng = np.random.default_rng(BRANCH_SEED)
     found: list[tuple[np.ndarray, tuple[Partition, np.ndarray, Partition]]] = []
     for _ in range(BRANCH_TRIES):
@@ -69,18 +77,23 @@ def _find_branch(mech: Mechanism, t0: float, q0: np.ndarray,
     # the branch drawn highest first (bars above their joints, as mechanisms are usually drawn)
     found.sort(key=lambda branch: -float(np.sin(branch[1][1][free]).sum()))
     if not found:
-        raise SimulationError(t0, f"{failure.cause}; no assembly was found from {BRANCH_TRIES} other guesses "
-                                  "of the bar angles either: the mechanism cannot be assembled at the start",
-                              "check the lengths, ground points and the driver's initial angle; or give "
-                              "initial.guess angles (rad)") from None
+        raise SimulationError(
+            t0,
+            f"{failure.cause}; no assembly was found from {BRANCH_TRIES} other guesses "
+            "of the bar angles either: the mechanism cannot be assembled at the start",
+            "check the lengths, ground points and the driver's initial angle; or give initial.guess angles (rad)",
+        ) from None
 
     def angles(q: np.ndarray) -> str:
         return ", ".join(f"{mech.coords[i].body} = {float(np.angle(np.exp(1j * q[i]))):.4g}" for i in free)
 
     others = "; ".join(f"{{ {angles(r[1])} }}" for _, r in found[1:])
-    print(f"symgen: note: initial.guess is not given and the bars at angle 0 do not assemble "
-          f"({failure.cause}); assembled on branch 1 of {len(found)} found: {{ {angles(found[0][1][1])} }}"
-          + (f"; for another, set initial.guess = {others}" if others else ""), file=sys.stderr)
+    print(
+        f"symgen: note: initial.guess is not given and the bars at angle 0 do not assemble "
+        f"({failure.cause}); assembled on branch 1 of {len(found)} found: {{ {angles(found[0][1][1])} }}"
+        + (f"; for another, set initial.guess = {others}" if others else ""),
+        file=sys.stderr,
+    )
     return found[0]
 
 
@@ -99,18 +112,24 @@ def start_plan(mech: Mechanism) -> StartPlan:
     dep = set(part.dep)
     inext_rows, inext_axial = info.inextensible_rows, info.inextensible_axial
     return StartPlan(
-        independent=tuple(part.ind), dependent=tuple(part.dep), assembly_dependent=tuple(assembly.dep),
-        q_guess=tuple(float(x) for x in q0), v_guess=tuple(float(x) for x in v0),
+        independent=tuple(part.ind),
+        dependent=tuple(part.dep),
+        assembly_dependent=tuple(assembly.dep),
+        q_guess=tuple(float(x) for x in q0),
+        v_guess=tuple(float(x) for x in v0),
         elastic=tuple(i for i in info.elastic if i not in dep),
         accel=tuple(sorted(set(info.rigid) | dep)),
-        inextensible_rows=inext_rows, inextensible_axial=inext_axial,
+        inextensible_rows=inext_rows,
+        inextensible_axial=inext_axial,
         singular_rows=tuple(i for i in range(info.m) if i not in inext_rows),
         singular_cols=tuple(i for i in part.dep if i not in inext_axial),
-        amplitudes=tuple(AmplitudeGroup(body, f, g) for body, (f, g) in info.amplitudes.items()))
+        amplitudes=tuple(AmplitudeGroup(body, f, g) for body, (f, g) in info.amplitudes.items()),
+    )
 
 
-def _start(mech: Mechanism, t0: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition,
-                                               tuple[np.ndarray, np.ndarray], Partition]:
+def _start(
+    mech: Mechanism, t0: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition, tuple[np.ndarray, np.ndarray], Partition]:
     """(q, v, a, lam, partition, (q, v) guessed, partition of the assembly) at t0."""
     sc = mech.scene
     q, v = mech.initial_guess(t0)
@@ -140,7 +159,7 @@ class StaticSystem:
     def __init__(self, mech: Mechanism, part: Partition) -> None:
         D = list(part.dep)
         self.E = [i for i in mech.info.elastic if i not in D]
-        R = sorted(set(mech.rigid) | set(D))        # unknown accelerations
+        R = sorted(set(mech.rigid) | set(D))  # unknown accelerations
         nE, nD, self.nR = len(self.E), len(D), len(R)
         u = ca.SX.sym("u", nE + 2 * nD + self.nR + mech.m)
         t = ca.SX.sym("t")
@@ -155,7 +174,7 @@ class StaticSystem:
             v[i] = u[nE + nD + k]
         for k, i in enumerate(R):
             a[i] = u[nE + 2 * nD + k]
-        lam = u[nE + 2 * nD + self.nR:]
+        lam = u[nE + 2 * nD + self.nR :]
         args: list[ca.SX | np.ndarray] = [t, q, v, a, lam, mech.p]
         F = ca.vertcat(mech.f["phi"](*args), mech.f["phid"](*args), mech.f["res"](*args), mech.f["phidd"](*args))
         self.fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
@@ -169,9 +188,15 @@ def static_system(mech: Mechanism, part: Partition) -> StaticSystem:
     return cache[part]
 
 
-def quasi_static(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: Partition,
-                 tol: float = POLICY.quasi_static_tol,
-                 maxit: int = POLICY.quasi_static_maxit) -> tuple[np.ndarray, np.ndarray, int]:
+def quasi_static(
+    mech: Mechanism,
+    t: float,
+    q: np.ndarray,
+    v: np.ndarray,
+    part: Partition,
+    tol: float = POLICY.quasi_static_tol,
+    maxit: int = POLICY.quasi_static_maxit,
+) -> tuple[np.ndarray, np.ndarray, int]:
     """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
     system = static_system(mech, part)
     fun = system.fun
@@ -192,16 +217,23 @@ def quasi_static(mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, part: 
             near = np.abs(F).max() <= POLICY.quasi_static_near
             beyond = checks.beyond_range(mech, np.array(q_last).ravel()) if near else None
             if beyond is not None:
-                raise SimulationError(t, f"in the quasi-static state, {beyond[1]}",
-                                      "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
-            raise SimulationError(t, f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
-                                  "the mechanism may be near buckling or a singular position")
+                raise SimulationError(
+                    t,
+                    f"in the quasi-static state, {beyond[1]}",
+                    "check the loads, lumped masses and stiffness (lambda, mu) of that bar",
+                )
+            raise SimulationError(
+                t,
+                f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
+                "the mechanism may be near buckling or a singular position",
+            )
     _, _, qn, vn = fun(t, q, v, u)
     return np.array(qn).ravel(), np.array(vn).ravel(), it
 
 
-def quasi_static_start(mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray,
-                       part: Partition) -> tuple[np.ndarray, np.ndarray]:
+def quasi_static_start(
+    mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray, part: Partition
+) -> tuple[np.ndarray, np.ndarray]:
     """Initial deformation = quasi-static state; under an angle driver the deformation
     rates are the quasi-static ones too (central difference), so the start rings little.
     An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
@@ -209,17 +241,23 @@ def quasi_static_start(mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray,
     qs, vs, _ = quasi_static(mech, t0, q, v, part)
     beyond = checks.beyond_range(mech, qs)
     if beyond is not None:
-        raise SimulationError(t0, f"in the quasi-static state, {beyond[1]}",
-                              "check the loads, lumped masses and stiffness (lambda, mu) of that bar")
+        raise SimulationError(
+            t0,
+            f"in the quasi-static state, {beyond[1]}",
+            "check the loads, lumped masses and stiffness (lambda, mu) of that bar",
+        )
     rate, coord = checks.divergent_deformation(mech, t0, qs, vs, part)
     if rate > 0:
-        raise SimulationError(t0, f"the quasi-static state is unstable: the deformation grows at rate "
-                                  f"{rate:.3g} (per unit tau) along {coord}, a load beyond a buckling load",
-                              "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
-                              "= \"quasi-static\") to follow the bar into its buckled state")
+        raise SimulationError(
+            t0,
+            f"the quasi-static state is unstable: the deformation grows at rate "
+            f"{rate:.3g} (per unit tau) along {coord}, a load beyond a buckling load",
+            "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
+            '= "quasi-static") to follow the bar into its buckled state',
+        )
     drv = mech.scene.driver
     if drv is None or drv.kind != "angle" or not any(mech.driver_motion(t0)[1:]):
-        return qs, vs       # a driver at rest (constant angle): the quasi-static rates are zero
+        return qs, vs  # a driver at rest (constant angle): the quasi-static rates are zero
     E = static_system(mech, part).E
     h = mech.driver_step(t0)
     ends = []

@@ -27,6 +27,7 @@ closure_residual       per l0 (a solver check)      1                        1
 >>> cols.time.unit, cols.time.factor                                       # doctest: +SKIP
 ('s', 0.004347826086956522)
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -44,16 +45,29 @@ UNIT_SYSTEMS = ("SI", "dimensionless")
 
 #: (unit, dimensionless unit) of every output kind, by the scale its factor uses
 _KIND_SCALE = {
-    "deflection": "bar", "axial": "bar", "chord_deflection": "bar", "chord_elongation": "bar",
-    "elastic_displacement": "l0", "position": "l0",
-    "slope": "one", "angle": "one",
-    "reaction": "force", "driver_torque": "moment", "energy": "energy",
+    "deflection": "bar",
+    "axial": "bar",
+    "chord_deflection": "bar",
+    "chord_elongation": "bar",
+    "elastic_displacement": "l0",
+    "position": "l0",
+    "slope": "one",
+    "angle": "one",
+    "reaction": "force",
+    "driver_torque": "moment",
+    "energy": "energy",
     "closure_residual": "check",
 }
 _SI_UNIT = {"bar": "m", "l0": "m", "one": "rad", "force": "N", "moment": "N m", "energy": "J", "check": "1"}
-_DIMENSIONLESS_UNIT = {"bar": "l_i (bar length)", "l0": "l0", "one": "rad", "force": "m_ref l0^2 omega^2",
-                       "moment": "m_ref l0^3 omega^2", "energy": "m_ref l0^3 omega^2",
-                       "check": "l0 (solver check)"}
+_DIMENSIONLESS_UNIT = {
+    "bar": "l_i (bar length)",
+    "l0": "l0",
+    "one": "rad",
+    "force": "m_ref l0^2 omega^2",
+    "moment": "m_ref l0^3 omega^2",
+    "energy": "m_ref l0^3 omega^2",
+    "check": "l0 (solver check)",
+}
 
 
 @dataclass(frozen=True)
@@ -72,7 +86,7 @@ class ColumnUnit:
 class ResultUnits:
     """Units of the time column and of every output column of one scene's results."""
 
-    system: str                     # "SI" | "dimensionless"
+    system: str  # "SI" | "dimensionless"
     time: ColumnUnit
     outputs: tuple[ColumnUnit, ...]
 
@@ -83,8 +97,11 @@ class ResultUnits:
         return np.asarray(tau, dtype=float) * self.time.factor, values * factors
 
     def as_dict(self) -> dict[str, object]:
-        return {"system": self.system, "time": {"name": self.time.name, **self.time.as_dict()},
-                "columns": {c.name: c.as_dict() for c in self.outputs}}
+        return {
+            "system": self.system,
+            "time": {"name": self.time.name, **self.time.as_dict()},
+            "columns": {c.name: c.as_dict() for c in self.outputs},
+        }
 
 
 def choose_system(scene: Scene, requested: str | None) -> str:
@@ -92,12 +109,16 @@ def choose_system(scene: Scene, requested: str | None) -> str:
     if requested is None:
         return "SI" if scene.units == "SI" else "dimensionless"
     if requested not in UNIT_SYSTEMS:
-        raise SceneError("command line", "--units", f"unknown unit system {requested!r}",
-                         f"use one of {', '.join(UNIT_SYSTEMS)}")
+        raise SceneError(
+            "command line", "--units", f"unknown unit system {requested!r}", f"use one of {', '.join(UNIT_SYSTEMS)}"
+        )
     if requested == "SI" and scene.units != "SI":
-        raise SceneError(str(scene.path), "scene.units",
-                         "SI results need an SI scene (units = \"SI\" with omega and SI data)",
-                         "drop --units SI: a dimensionless scene has no scales to convert with")
+        raise SceneError(
+            str(scene.path),
+            "scene.units",
+            'SI results need an SI scene (units = "SI" with omega and SI data)',
+            "drop --units SI: a dimensionless scene has no scales to convert with",
+        )
     return requested
 
 
@@ -106,8 +127,14 @@ def result_units(scene: Scene, system: str | None = None) -> ResultUnits:
     system = choose_system(scene, system)
     si = system == "SI"
     l0, omega, m_ref = scene.l0, scene.omega, scene.m_ref
-    scale = {"l0": l0, "one": 1.0, "force": m_ref * l0 ** 2 * omega ** 2,
-             "moment": m_ref * l0 ** 3 * omega ** 2, "energy": m_ref * l0 ** 3 * omega ** 2, "check": 1.0}
+    scale = {
+        "l0": l0,
+        "one": 1.0,
+        "force": m_ref * l0**2 * omega**2,
+        "moment": m_ref * l0**3 * omega**2,
+        "energy": m_ref * l0**3 * omega**2,
+        "check": 1.0,
+    }
     cols = []
     for o in scene.outputs:
         kind_scale = _KIND_SCALE[o.kind]
@@ -115,7 +142,7 @@ def result_units(scene: Scene, system: str | None = None) -> ResultUnits:
             cols.append(ColumnUnit(o.name, _DIMENSIONLESS_UNIT[kind_scale], 1.0))
             continue
         if kind_scale == "bar":
-            assert o.body is not None       # a bar's output names its bar (the scene loader checks it)
+            assert o.body is not None  # a bar's output names its bar (the scene loader checks it)
             factor = scene.body(o.body).alpha * l0
         else:
             factor = scale[kind_scale]

@@ -3,16 +3,46 @@
 >>> from symgen.scene import load_scene
 >>> scene = load_scene("examples/slider_crank.toml")   # doctest: +SKIP
 """
+
 from __future__ import annotations
 
 from symgen.scene.expressions import parse_tau_expression, tau_symbol
 from symgen.scene.loader import load_scene, parse_scene, scene_hash
-from symgen.scene.model import GROUND, OUTPUT_KINDS, Body, BodyDeformation, Driver, Effects, Initial, Joint, JointEnd, Load, Output, Scene, Simulation
+from symgen.scene.model import (
+    GROUND,
+    OUTPUT_KINDS,
+    Body,
+    BodyDeformation,
+    Driver,
+    Effects,
+    Initial,
+    Joint,
+    JointEnd,
+    Load,
+    Output,
+    Scene,
+    Simulation,
+)
 from symgen.scene.overrides import apply_overrides
 
 __all__ = [
-    "load_scene", "apply_overrides", "parse_scene", "scene_hash",
-    "parse_tau_expression", "tau_symbol",
-    "GROUND", "OUTPUT_KINDS", "Body", "BodyDeformation", "Driver", "Effects", "Initial", "Joint",
-    "JointEnd", "Load", "Output", "Scene", "Simulation",
+    "load_scene",
+    "apply_overrides",
+    "parse_scene",
+    "scene_hash",
+    "parse_tau_expression",
+    "tau_symbol",
+    "GROUND",
+    "OUTPUT_KINDS",
+    "Body",
+    "BodyDeformation",
+    "Driver",
+    "Effects",
+    "Initial",
+    "Joint",
+    "JointEnd",
+    "Load",
+    "Output",
+    "Scene",
+    "Simulation",
 ]

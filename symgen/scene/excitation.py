@@ -1,4 +1,5 @@
 """``[driver]``, ``[[loads]]``, ``[effects]`` and ``[initial]``: what moves and loads the bars."""
+
 from __future__ import annotations
 
 from symgen.scene.expressions import EXPRESSION_HINT, parse_tau_expression
@@ -9,8 +10,7 @@ from symgen.scene.units import Scales
 
 DRIVER_KINDS = ("angle", "torque")
 DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp", "rotor_inertia")
-LAW_HINT = ("law is the prescribed angle theta - initial in rad as an expression of tau, e.g. "
-            "law = \"0.5*sin(tau)\"; ")
+LAW_HINT = 'law is the prescribed angle theta - initial in rad as an expression of tau, e.g. law = "0.5*sin(tau)"; '
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
 EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
@@ -29,14 +29,15 @@ def bar_name(r: Reader, value: object, key: str, bodies: dict[str, Body], hint: 
     if not isinstance(value, str):
         r.fail(key, f"must be a body name, got {describe(value)}", f"known bodies: {known}")
     if value == GROUND:
-        r.fail(key, "\"ground\" is not a bar here", hint or f"name a bar: {known}")
+        r.fail(key, '"ground" is not a bar here', hint or f"name a bar: {known}")
     if value not in bodies:
         r.fail(key, f"unknown body {value!r}", f"known bodies: {known}")
     return value
 
 
-def value_or_expression(r: Reader, table: dict, path: str, key: str, default: object,
-                        si: bool, what: str) -> float | str:
+def value_or_expression(
+    r: Reader, table: dict, path: str, key: str, default: object, si: bool, what: str
+) -> float | str:
     """A number, or (dimensionless input only) an expression of tau (symgen.scene.expressions)."""
     if key not in table:
         if default is REQUIRED:
@@ -45,8 +46,11 @@ def value_or_expression(r: Reader, table: dict, path: str, key: str, default: ob
     value = table[key]
     if isinstance(value, str):
         if si:
-            r.fail(join(path, key), f"SI {what}s must be numbers, got expression {value!r}",
-                   "write a number in SI units, or use a dimensionless scene for expressions of tau")
+            r.fail(
+                join(path, key),
+                f"SI {what}s must be numbers, got expression {value!r}",
+                "write a number in SI units, or use a dimensionless scene for expressions of tau",
+            )
         try:
             parse_tau_expression(value)
         except ValueError as exc:
@@ -54,8 +58,7 @@ def value_or_expression(r: Reader, table: dict, path: str, key: str, default: ob
             r.fail(join(path, key), f"invalid expression {shown!r}: {exc}", EXPRESSION_HINT)
         return value
     if not is_number(value):
-        r.fail(join(path, key), f"must be a number or an expression of tau, got {describe(value)}",
-               EXPRESSION_HINT)
+        r.fail(join(path, key), f"must be a number or an expression of tau, got {describe(value)}", EXPRESSION_HINT)
     return r.as_number(value, join(path, key))
 
 
@@ -66,43 +69,76 @@ def _check_pinned_to_ground(r: Reader, body: str, joints: tuple[Joint, ...]) -> 
         names = {end.body for end in joint.ends}
         if joint.kind == "pin" and names == {GROUND, body}:
             return
-    r.fail("driver.body", f"bar {body!r} has no pin joint with \"ground\"; a driver prescribes the "
-           "angle of (or applies a moment to) a bar turning about a ground pin",
-           "drive a bar that is pinned to ground, e.g. the crank")
+    r.fail(
+        "driver.body",
+        f'bar {body!r} has no pin joint with "ground"; a driver prescribes the '
+        "angle of (or applies a moment to) a bar turning about a ground pin",
+        "drive a bar that is pinned to ground, e.g. the crank",
+    )
 
 
-def read_driver(r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joint, ...],
-                scales: Scales) -> Driver | None:
+def read_driver(
+    r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joint, ...], scales: Scales
+) -> Driver | None:
     """The optional ``[driver]``: kinematic (angle) or dynamic (torque) guidance."""
     if "driver" not in raw:
         return None
     table = r.table(raw["driver"], "driver")
     r.check_keys(table, "driver", DRIVER_KEYS, "[driver]")
     kind = r.choice(table, "driver", "kind", DRIVER_KINDS)
-    body = bar_name(r, r.require(table, "driver", "body", "name the driven bar"), "driver.body",
-                    bodies, "the driver acts on a bar pinned to ground, not on ground itself")
+    body = bar_name(
+        r,
+        r.require(table, "driver", "body", "name the driven bar"),
+        "driver.body",
+        bodies,
+        "the driver acts on a bar pinned to ground, not on ground itself",
+    )
     _check_pinned_to_ground(r, body, joints)
-    rotor = scales.rotary_inertia(r.number(
-        table, "driver", "rotor_inertia", 0.0, ge=0.0,
-        hint="the rotor inertia (motor rotor + gears reflected to the driven bar's shaft; kg m^2 in SI, "
-        "else relative to m_ref l0^3) must be >= 0"))
+    rotor = scales.rotary_inertia(
+        r.number(
+            table,
+            "driver",
+            "rotor_inertia",
+            0.0,
+            ge=0.0,
+            hint="the rotor inertia (motor rotor + gears reflected to the driven bar's shaft; kg m^2 in SI, "
+            "else relative to m_ref l0^3) must be >= 0",
+        )
+    )
     if kind == "angle":
         if "value" in table:
-            r.fail("driver.value", "an angle driver has no value (torque)",
-                   "remove it, or use kind = \"torque\" to apply a moment")
+            r.fail(
+                "driver.value",
+                "an angle driver has no value (torque)",
+                'remove it, or use kind = "torque" to apply a moment',
+            )
         initial = r.number(table, "driver", "initial", 0.0)
         if "law" in table:
             return Driver("angle", body, initial, 0.0, law=_law(r, table), rotor_inertia=rotor)
-        rate = r.number(table, "driver", "rate", hint="the angular rate d theta/d tau, or rad/s in SI; "
-                        "or give law = \"<expression of tau>\" for a prescribed angle")
-        ramp = r.number(table, "driver", "ramp", None, gt=0.0,
-                        hint="ramp is the spin-up time T (in tau) over which the rate rises smoothly "
-                        "from 0 to 'rate'; it must be > 0")
+        rate = r.number(
+            table,
+            "driver",
+            "rate",
+            hint="the angular rate d theta/d tau, or rad/s in SI; "
+            'or give law = "<expression of tau>" for a prescribed angle',
+        )
+        ramp = r.number(
+            table,
+            "driver",
+            "ramp",
+            None,
+            gt=0.0,
+            hint="ramp is the spin-up time T (in tau) over which the rate rises smoothly "
+            "from 0 to 'rate'; it must be > 0",
+        )
         return Driver("angle", body, initial, scales.rate(rate), ramp=ramp, rotor_inertia=rotor)
     for key in ("law", "ramp"):
         if key in table:
-            r.fail(f"driver.{key}", f"a torque driver has no {key} (it prescribes a moment, not the angle)",
-                   "remove it, or use kind = \"angle\" to prescribe the angle")
+            r.fail(
+                f"driver.{key}",
+                f"a torque driver has no {key} (it prescribes a moment, not the angle)",
+                'remove it, or use kind = "angle" to prescribe the angle',
+            )
     torque = value_or_expression(r, table, "driver", "value", REQUIRED, scales.si, "torque")
     initial = r.number(table, "driver", "initial", None)
     rate = r.number(table, "driver", "rate", 0.0)
@@ -115,13 +151,15 @@ def _law(r: Reader, table: dict) -> str:
     """``driver.law``: theta - initial as an expression of tau (exclusive with rate and ramp)."""
     for key in ("rate", "ramp"):
         if key in table:
-            r.fail(f"driver.{key}", f"an angle driver with a law has no {key} (the law gives the whole motion)",
-                   f"remove {key}, or remove law for the constant-speed drive"
-                   + (" with its spin-up ramp" if key == "ramp" else ""))
+            r.fail(
+                f"driver.{key}",
+                f"an angle driver with a law has no {key} (the law gives the whole motion)",
+                f"remove {key}, or remove law for the constant-speed drive"
+                + (" with its spin-up ramp" if key == "ramp" else ""),
+            )
     value = table["law"]
     if not isinstance(value, str):
-        r.fail("driver.law", f"must be a string expression of tau, got {describe(value)}",
-               LAW_HINT + EXPRESSION_HINT)
+        r.fail("driver.law", f"must be a string expression of tau, got {describe(value)}", LAW_HINT + EXPRESSION_HINT)
     try:
         parse_tau_expression(value)
     except ValueError as exc:
@@ -132,14 +170,17 @@ def _law(r: Reader, table: dict) -> str:
 def check_driver_motion(r: Reader, driver: Driver | None, t_end: float) -> None:
     """The prescribed angle and its two derivatives are finite over [0, t_end]."""
     if driver is None or driver.kind != "angle" or driver.law is None:
-        return          # the constant-speed drive and its ramp (T > 0) are finite by construction
+        return  # the constant-speed drive and its ramp (T > 0) are finite by construction
     from symgen.scene.motion import check_finite
 
     bad = check_finite(driver, t_end)
     if bad is not None:
-        r.fail("driver.law", f"the prescribed angle's {bad[1]} is not a finite real number at tau = {bad[0]:.6g} "
-               f"(the run goes from 0 to {t_end:.6g})",
-               "give a law that is smooth (twice differentiable) and finite on the whole run")
+        r.fail(
+            "driver.law",
+            f"the prescribed angle's {bad[1]} is not a finite real number at tau = {bad[0]:.6g} "
+            f"(the run goes from 0 to {t_end:.6g})",
+            "give a law that is smooth (twice differentiable) and finite on the whole run",
+        )
 
 
 def check_expressions(r: Reader, driver: Driver | None, loads: tuple[Load, ...], t_end: float) -> None:
@@ -152,46 +193,52 @@ def check_expressions(r: Reader, driver: Driver | None, loads: tuple[Load, ...],
     if driver is not None and driver.kind == "torque" and isinstance(driver.torque, str):
         found.append(("driver.value", driver.torque))
     for i, load in enumerate(loads):
-        found += [(f"loads[{i}].{key}", text) for key in ("axial", "transverse")
-                  if isinstance(text := getattr(load, key), str)]
+        found += [
+            (f"loads[{i}].{key}", text)
+            for key in ("axial", "transverse")
+            if isinstance(text := getattr(load, key), str)
+        ]
     for key, text in found:
         bad = first_non_finite(parse_tau_expression(text), t_end)
         if bad is not None:
-            r.fail(key, f"{text!r} is not a finite real number at tau = {bad:.6g} (a pole, or outside the "
-                        f"function's domain; the run goes from 0 to {t_end:.6g})",
-                   "give an expression that is finite on the whole run, or end the run before that tau")
+            r.fail(
+                key,
+                f"{text!r} is not a finite real number at tau = {bad:.6g} (a pole, or outside the "
+                f"function's domain; the run goes from 0 to {t_end:.6g})",
+                "give an expression that is finite on the whole run, or end the run before that tau",
+            )
 
 
 # -- loads --------------------------------------------------------------------------------------
-def read_load(r: Reader, table: dict, path: str, bodies: dict[str, Body],
-              bars: dict[str, BarSpec], scales: Scales) -> Load:
+def read_load(
+    r: Reader, table: dict, path: str, bodies: dict[str, Body], bars: dict[str, BarSpec], scales: Scales
+) -> Load:
     """One ``[[loads]]`` entry, scaled by the loaded bar's m_i l_i omega^2 (SI)."""
     r.check_keys(table, path, LOAD_KEYS, "a load")
-    body = bar_name(r, r.require(table, path, "body", "name the loaded bar"), join(path, "body"),
-                    bodies, "loads act on bars")
+    body = bar_name(
+        r, r.require(table, path, "body", "name the loaded bar"), join(path, "body"), bodies, "loads act on bars"
+    )
     kind = r.choice(table, path, "kind", LOAD_KINDS)
     xi = None
     if kind == "point":
-        xi = r.number(table, path, "at", ge=0.0, le=1.0,
-                      hint="a point load needs its position at = xi in [0, 1] along the bar")
+        xi = r.number(
+            table, path, "at", ge=0.0, le=1.0, hint="a point load needs its position at = xi in [0, 1] along the bar"
+        )
     elif "at" in table:
-        r.fail(join(path, "at"), "a distributed load has no 'at'",
-               "remove it, or use kind = \"point\"")
-    values = [value_or_expression(r, table, path, key, 0.0, scales.si, "load")
-              for key in ("axial", "transverse")]
+        r.fail(join(path, "at"), "a distributed load has no 'at'", 'remove it, or use kind = "point"')
+    values = [value_or_expression(r, table, path, key, 0.0, scales.si, "load") for key in ("axial", "transverse")]
     bar = bars[body]
     scale = scales.point if kind == "point" else scales.distributed
-    axial, transverse = (scale(v, bar.mass_per_length, bar.length) if isinstance(v, float) else v
-                         for v in values)
+    axial, transverse = (scale(v, bar.mass_per_length, bar.length) if isinstance(v, float) else v for v in values)
     return Load(body=body, kind=kind, xi=xi, axial=axial, transverse=transverse)
 
 
-def read_loads(r: Reader, raw: dict, bodies: dict[str, Body], bars: dict[str, BarSpec],
-               scales: Scales) -> tuple[Load, ...]:
+def read_loads(
+    r: Reader, raw: dict, bodies: dict[str, Body], bars: dict[str, BarSpec], scales: Scales
+) -> tuple[Load, ...]:
     """Every ``[[loads]]`` entry (optional)."""
     tables = r.table_array(raw.get("loads", []), "loads")
-    return tuple(read_load(r, t, join("loads", i), bodies, bars, scales)
-                 for i, t in enumerate(tables))
+    return tuple(read_load(r, t, join("loads", i), bodies, bars, scales) for i, t in enumerate(tables))
 
 
 # -- effects ------------------------------------------------------------------------------------
@@ -200,11 +247,12 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
     defaults = Effects()
     table = r.table(raw.get("effects", {}), "effects")
     r.check_keys(table, "effects", EFFECT_KEYS, "[effects]")
-    switches = {k: r.boolean(table, "effects", k, getattr(defaults, k)) for k in EFFECT_SWITCHES
-                if k != "axial"}
-    axial_hint = ('write "auto" (the default: per bar, the axial dynamics eliminated when they are far '
-                  'faster than the run), true (= "dynamic"), "quasi_static", "inextensible" (the lambda -> '
-                  'infinity limit: no stretch) or false (no axial deformation)')
+    switches = {k: r.boolean(table, "effects", k, getattr(defaults, k)) for k in EFFECT_SWITCHES if k != "axial"}
+    axial_hint = (
+        'write "auto" (the default: per bar, the axial dynamics eliminated when they are far '
+        'faster than the run), true (= "dynamic"), "quasi_static", "inextensible" (the lambda -> '
+        "infinity limit: no stretch) or false (no axial deformation)"
+    )
     if isinstance(table.get("axial"), str):
         switches["axial"] = r.choice(table, "effects", "axial", AXIAL_MODELS, hint=axial_hint)
     else:
@@ -212,17 +260,17 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
     strain = r.choice(table, "effects", "strain", STRAINS, defaults.strain)
     gx, gy = defaults.gravity
     if "gravity" in table:
-        gx, gy = r.pair(table["gravity"], "effects.gravity",
-                        "gravity = [gx, gy] in ground axes, m/s^2 in SI")
-    damping = r.number(table, "effects", "damping", defaults.damping, ge=0.0,
-                       hint="the Kelvin-Voigt ratio must be >= 0")
-    return Effects(**switches, strain=strain, gravity=(scales.gravity(gx), scales.gravity(gy)),
-                   damping=damping)
+        gx, gy = r.pair(table["gravity"], "effects.gravity", "gravity = [gx, gy] in ground axes, m/s^2 in SI")
+    damping = r.number(
+        table, "effects", "damping", defaults.damping, ge=0.0, hint="the Kelvin-Voigt ratio must be >= 0"
+    )
+    return Effects(**switches, strain=strain, gravity=(scales.gravity(gx), scales.gravity(gy)), damping=damping)
 
 
 # -- initial ------------------------------------------------------------------------------------
-def _guess(r: Reader, value: object, bodies: dict[str, Body],
-           slots: tuple[str, ...] = ()) -> tuple[tuple[str, float], ...]:
+def _guess(
+    r: Reader, value: object, bodies: dict[str, Body], slots: tuple[str, ...] = ()
+) -> tuple[tuple[str, float], ...]:
     """``initial.guess = {body = angle, slot_joint = beta}``."""
     table = r.table(value, "initial.guess", "write guess = { bar = angle_in_rad, ... }")
     for name in table:
@@ -231,17 +279,18 @@ def _guess(r: Reader, value: object, bodies: dict[str, Body],
     return tuple((name, r.number(table, "initial.guess", name)) for name in table)
 
 
-def _body_deformation(r: Reader, value: object, path: str, body: Body,
-                      scales: Scales) -> BodyDeformation:
+def _body_deformation(r: Reader, value: object, path: str, body: Body, scales: Scales) -> BodyDeformation:
     """Modal amplitudes of one bar; lists must match its mode counts, missing ones are zeros."""
     table = r.table(value, path, "write { f = [...], g = [...], fdot = [...], gdot = [...] }")
     r.check_keys(table, path, DEFORMATION_KEYS, "a deformation")
     if body.rigid:
-        r.fail(path, f"{body.name!r} is a rigid bar: it has no deformation",
-               "remove it, or make the bar elastic")
-    counts = {"f": ("axial_modes", body.axial_modes), "fdot": ("axial_modes", body.axial_modes),
-              "g": ("transverse_modes", body.transverse_modes),
-              "gdot": ("transverse_modes", body.transverse_modes)}
+        r.fail(path, f"{body.name!r} is a rigid bar: it has no deformation", "remove it, or make the bar elastic")
+    counts = {
+        "f": ("axial_modes", body.axial_modes),
+        "fdot": ("axial_modes", body.axial_modes),
+        "g": ("transverse_modes", body.transverse_modes),
+        "gdot": ("transverse_modes", body.transverse_modes),
+    }
     values = {}
     for key, (count_name, count) in counts.items():
         if key not in table:
@@ -249,16 +298,18 @@ def _body_deformation(r: Reader, value: object, path: str, body: Body,
             continue
         amplitudes = r.numbers(table[key], join(path, key))
         if len(amplitudes) != count:
-            r.fail(join(path, key), f"has {len(amplitudes)} entries but bar {body.name!r} has "
-                   f"{count_name} = {count}", "give one amplitude per mode")
+            r.fail(
+                join(path, key),
+                f"has {len(amplitudes)} entries but bar {body.name!r} has {count_name} = {count}",
+                "give one amplitude per mode",
+            )
         if key.endswith("dot"):
             amplitudes = tuple(scales.rate(a) for a in amplitudes)
         values[key] = amplitudes
     return BodyDeformation(**values)
 
 
-def read_initial(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales,
-                 slots: tuple[str, ...] = ()) -> Initial:
+def read_initial(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales, slots: tuple[str, ...] = ()) -> Initial:
     """The optional ``[initial]``: assembly guess and initial deformation."""
     table = r.table(raw.get("initial", {}), "initial")
     r.check_keys(table, "initial", INITIAL_KEYS, "[initial]")
@@ -266,11 +317,13 @@ def read_initial(r: Reader, raw: dict, bodies: dict[str, Body], scales: Scales,
     value = table.get("deformation", {})
     if isinstance(value, str):
         if value != "quasi-static":
-            r.fail("initial.deformation", f"unknown value {value!r}",
-                   "use \"quasi-static\" or a table { bar = { f = [...], g = [...] } }")
+            r.fail(
+                "initial.deformation",
+                f"unknown value {value!r}",
+                'use "quasi-static" or a table { bar = { f = [...], g = [...] } }',
+            )
         return Initial(guess=guess, quasi_static=True)
-    table = r.table(value, "initial.deformation",
-                    "use \"quasi-static\" or a table { bar = { f = [...], g = [...] } }")
+    table = r.table(value, "initial.deformation", 'use "quasi-static" or a table { bar = { f = [...], g = [...] } }')
     deformation = []
     for name, entry in table.items():
         key = join("initial.deformation", name)

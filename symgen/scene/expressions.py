@@ -37,6 +37,7 @@ Traceback (most recent call last):
 ...
 ValueError: 'and' is a Python keyword, not part of a formula (at character 3)
 """
+
 from __future__ import annotations
 
 import keyword
@@ -47,51 +48,84 @@ from dataclasses import dataclass
 from typing import Any
 
 #: Functions an expression may call (``abs`` is the same function as ``Abs``).
-ALLOWED_FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "Abs", "abs", "Heaviside",
-                     "sign", "min", "max", "atan2", "sinh", "cosh", "tanh")
+ALLOWED_FUNCTIONS = (
+    "sin",
+    "cos",
+    "tan",
+    "exp",
+    "log",
+    "sqrt",
+    "Abs",
+    "abs",
+    "Heaviside",
+    "sign",
+    "min",
+    "max",
+    "atan2",
+    "sinh",
+    "cosh",
+    "tanh",
+)
 ALLOWED_NAMES = ("tau", "pi") + ALLOWED_FUNCTIONS
-EXPRESSION_HINT = ("write a formula of tau with numbers, tau, pi, + - * /, ^ (or **) for the power, "
-                   "parentheses and the functions " + " ".join(ALLOWED_FUNCTIONS))
+EXPRESSION_HINT = (
+    "write a formula of tau with numbers, tau, pi, + - * /, ^ (or **) for the power, "
+    "parentheses and the functions " + " ".join(ALLOWED_FUNCTIONS)
+)
 
-MAX_LENGTH = 2000       # characters
+MAX_LENGTH = 2000  # characters
 MAX_TOKENS = 600
-MAX_DEPTH = 20          # nested parentheses, calls, signs and exponents (SymPy slows steeply with it)
-MAX_EXPONENT = 1000     # |constant exponent| of a power
-MAX_EXACT_BITS = 4096   # numerator/denominator size of an exact constant (a power of 3/7, say)
+MAX_DEPTH = 20  # nested parentheses, calls, signs and exponents (SymPy slows steeply with it)
+MAX_EXPONENT = 1000  # |constant exponent| of a power
+MAX_EXACT_BITS = 4096  # numerator/denominator size of an exact constant (a power of 3/7, say)
 _LOG_DBL_MAX = math.log(1.7976931348623157e308)
 
 _ALIASES = {"τ": "tau", "π": "pi"}
-_TOKEN = re.compile(r"""
+_TOKEN = re.compile(
+    r"""
     (?P<space>[ \t\r\n]+)
   | (?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)
   | (?P<name>[A-Za-z_][A-Za-z0-9_]*|τ|π)
   | (?P<op>\*\*|[-+*/^(),])
-""", re.VERBOSE)
+""",
+    re.VERBOSE,
+)
 _IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
-_WHY_NOT = {"'": "strings are not allowed", '"': "strings are not allowed",
-            ".": "attribute access is not allowed", "[": "subscripts and lists are not allowed",
-            "]": "subscripts and lists are not allowed", "{": "braces are not allowed",
-            "}": "braces are not allowed", "=": "comparisons and assignments are not allowed",
-            "<": "comparisons are not allowed", ">": "comparisons are not allowed",
-            "!": "comparisons are not allowed", ";": "only one expression is allowed",
-            ":": "slices and lambdas are not allowed", "@": "'@' is not an operator here",
-            "%": "'%' is not an operator here", "&": "logical operators are not allowed",
-            "|": "logical operators are not allowed", "~": "logical operators are not allowed",
-            "#": "comments are not allowed", "\\": "backslashes are not allowed"}
+_WHY_NOT = {
+    "'": "strings are not allowed",
+    '"': "strings are not allowed",
+    ".": "attribute access is not allowed",
+    "[": "subscripts and lists are not allowed",
+    "]": "subscripts and lists are not allowed",
+    "{": "braces are not allowed",
+    "}": "braces are not allowed",
+    "=": "comparisons and assignments are not allowed",
+    "<": "comparisons are not allowed",
+    ">": "comparisons are not allowed",
+    "!": "comparisons are not allowed",
+    ";": "only one expression is allowed",
+    ":": "slices and lambdas are not allowed",
+    "@": "'@' is not an operator here",
+    "%": "'%' is not an operator here",
+    "&": "logical operators are not allowed",
+    "|": "logical operators are not allowed",
+    "~": "logical operators are not allowed",
+    "#": "comments are not allowed",
+    "\\": "backslashes are not allowed",
+}
 
 
 @dataclass(frozen=True)
 class _Token:
-    kind: str       # "number" | "name" | "op" | "end"
+    kind: str  # "number" | "name" | "op" | "end"
     text: str
-    at: int         # 1-based character position, for messages
+    at: int  # 1-based character position, for messages
 
 
 @dataclass(frozen=True)
 class _Node:
-    expr: Any                  # the SymPy object
-    value: float | None        # its value as a double when it is a constant, else None
-    calls: bool = False        # it holds a function value (sin(2), sqrt(tau), ...)
+    expr: Any  # the SymPy object
+    value: float | None  # its value as a double when it is a constant, else None
+    calls: bool = False  # it holds a function value (sin(2), sqrt(tau), ...)
 
 
 def tau_symbol() -> Any:
@@ -132,10 +166,10 @@ def first_pole(expr: Any, tau: Any, t_end: float) -> float | None:
     import sympy as sp
 
     if sp.count_ops(expr) > MAX_POLE_SEARCH_OPS or expr.has(sp.Min, sp.Max):
-        return None             # Min/Max: SymPy may not return (1/min(exp(tau^2), sinh(tau - 0.3)))
+        return None  # Min/Max: SymPy may not return (1/min(exp(tau^2), sinh(tau - 0.3)))
     try:
         poles = sp.singularities(expr, tau, sp.S.Reals)
-    except Exception:                   # SymPy cannot tell: the samples decide
+    except Exception:  # SymPy cannot tell: the samples decide
         return None
     first = _first_at_or_after_zero(poles)
     return first if first is not None and first <= t_end else None
@@ -167,12 +201,21 @@ def _first_at_or_after_zero(poles: Any) -> float | None:
 
 
 _DOUBLE_FUNCTIONS: dict[str, Callable[..., float]] = {
-    "sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp, "log": math.log, "sinh": math.sinh,
-    "cosh": math.cosh, "tanh": math.tanh, "atan2": math.atan2, "Abs": abs,
+    "sin": math.sin,
+    "cos": math.cos,
+    "tan": math.tan,
+    "exp": math.exp,
+    "log": math.log,
+    "sinh": math.sinh,
+    "cosh": math.cosh,
+    "tanh": math.tanh,
+    "atan2": math.atan2,
+    "Abs": abs,
     "sign": lambda x: math.copysign(1.0, x) if x != 0.0 else (math.nan if math.isnan(x) else x),
     "Heaviside": lambda x, h0=0.5: 1.0 if x > 0.0 else 0.0 if x < 0.0 else (float(h0) if x == 0.0 else math.nan),
     "Min": lambda *xs: math.nan if any(map(math.isnan, xs)) else min(xs),
-    "Max": lambda *xs: math.nan if any(map(math.isnan, xs)) else max(xs)}
+    "Max": lambda *xs: math.nan if any(map(math.isnan, xs)) else max(xs),
+}
 
 
 def value_at(expr: Any, tau: Any, t: float) -> float:
@@ -249,9 +292,10 @@ def _tokenize(text: str) -> list[_Token]:
         assert kind is not None, "every alternative of _TOKEN is a named group"
         end = match.end()
         if kind == "number" and end < len(text) and (text[end].isalnum() or text[end] in "_."):
-            tail = re.split(r"[^A-Za-z0-9_.]", text[end:], maxsplit=1)[0]   # the run of name characters
-            raise ValueError(f"malformed number {piece + tail!r} (at character {pos + 1}); "
-                             f"write a product with '*', e.g. 2*tau")
+            tail = re.split(r"[^A-Za-z0-9_.]", text[end:], maxsplit=1)[0]  # the run of name characters
+            raise ValueError(
+                f"malformed number {piece + tail!r} (at character {pos + 1}); write a product with '*', e.g. 2*tau"
+            )
         if kind == "name":
             piece = _ALIASES.get(piece, piece)
             if piece.startswith("_"):
@@ -301,12 +345,22 @@ def _sign(x: float) -> float:
 
 
 _FUNCTIONS: dict[str, tuple[int, int | None, str, Callable[..., float]]] = {
-    "sin": (1, 1, "sin", math.sin), "cos": (1, 1, "cos", math.cos), "tan": (1, 1, "tan", math.tan),
-    "exp": (1, 1, "exp", math.exp), "log": (1, 1, "log", _log), "sqrt": (1, 1, "sqrt", _sqrt),
-    "Abs": (1, 1, "Abs", abs), "abs": (1, 1, "Abs", abs), "Heaviside": (1, 1, "Heaviside", _heaviside),
-    "sign": (1, 1, "sign", _sign), "min": (2, None, "Min", min), "max": (2, None, "Max", max),
-    "atan2": (2, 2, "atan2", _atan2), "sinh": (1, 1, "sinh", math.sinh),
-    "cosh": (1, 1, "cosh", math.cosh), "tanh": (1, 1, "tanh", math.tanh),
+    "sin": (1, 1, "sin", math.sin),
+    "cos": (1, 1, "cos", math.cos),
+    "tan": (1, 1, "tan", math.tan),
+    "exp": (1, 1, "exp", math.exp),
+    "log": (1, 1, "log", _log),
+    "sqrt": (1, 1, "sqrt", _sqrt),
+    "Abs": (1, 1, "Abs", abs),
+    "abs": (1, 1, "Abs", abs),
+    "Heaviside": (1, 1, "Heaviside", _heaviside),
+    "sign": (1, 1, "sign", _sign),
+    "min": (2, None, "Min", min),
+    "max": (2, None, "Max", max),
+    "atan2": (2, 2, "atan2", _atan2),
+    "sinh": (1, 1, "sinh", math.sinh),
+    "cosh": (1, 1, "cosh", math.cosh),
+    "tanh": (1, 1, "tanh", math.tanh),
 }
 assert set(_FUNCTIONS) == set(ALLOWED_FUNCTIONS)
 
@@ -317,7 +371,7 @@ def _exact_bits(sp: Any, expr: Any) -> int:
 
 
 def _short(text: str, limit: int = 40) -> str:
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _finite(value: float, what: str) -> float:
@@ -358,8 +412,10 @@ class _Parser:
             raise ValueError(f"',' outside a function call (at character {self.tok.at})")
         if self.tok.kind == "end":
             raise ValueError(f"unbalanced parentheses: the '(' at character {opened.at} is never closed")
-        raise ValueError(f"expected ')' (for the '(' at character {opened.at}) but found {_describe(self.tok)}"
-                         f"; write products with '*'")
+        raise ValueError(
+            f"expected ')' (for the '(' at character {opened.at}) but found {_describe(self.tok)}"
+            f"; write products with '*'"
+        )
 
     # ---------------------------------------------------------------- grammar
     def parse(self) -> _Node:
@@ -370,8 +426,7 @@ class _Parser:
                 raise ValueError(f"unbalanced parentheses: ')' at character {tok.at} closes nothing")
             if tok.kind == "op" and tok.text == ",":
                 raise ValueError(f"',' outside a function call (at character {tok.at})")
-            raise ValueError(f"unexpected {_describe(tok)} after a complete expression; "
-                             f"write products with '*'")
+            raise ValueError(f"unexpected {_describe(tok)} after a complete expression; write products with '*'")
         return node
 
     def expr(self, depth: int) -> _Node:
@@ -390,8 +445,10 @@ class _Parser:
 
     def unary(self, depth: int) -> _Node:
         if depth > MAX_DEPTH:
-            raise ValueError(f"it is nested too deeply (more than {MAX_DEPTH} levels of parentheses, "
-                             f"calls, signs or powers; at character {self.tok.at})")
+            raise ValueError(
+                f"it is nested too deeply (more than {MAX_DEPTH} levels of parentheses, "
+                f"calls, signs or powers; at character {self.tok.at})"
+            )
         if self.at_op("+", "-"):
             op = self.take()
             node = self.unary(depth + 1)
@@ -424,9 +481,11 @@ class _Parser:
         if tok.text == ",":
             raise ValueError(f"',' outside a function call (at character {tok.at})")
         if tok.text == ")":
-            raise ValueError(f"unbalanced parentheses: ')' at character {tok.at} closes nothing"
-                             if not any(t.text == "(" for t in self.tokens[:self.pos])
-                             else f"an operand is missing before ')' at character {tok.at}")
+            raise ValueError(
+                f"unbalanced parentheses: ')' at character {tok.at} closes nothing"
+                if not any(t.text == "(" for t in self.tokens[: self.pos])
+                else f"an operand is missing before ')' at character {tok.at}"
+            )
         raise ValueError(f"an operand is missing before {tok.text!r} at character {tok.at}")
 
     def number(self, tok: _Token) -> _Node:
@@ -438,12 +497,12 @@ class _Parser:
         if not math.isfinite(value):
             raise ValueError(f"the number {tok.text} is not a finite double (at character {tok.at})")
         if value == 0 and re.search(r"[1-9]", tok.text.split("e")[0].split("E")[0]):
-            raise ValueError(f"the number {tok.text} is below the smallest double, about 5e-324 "
-                             f"(at character {tok.at})")
+            raise ValueError(
+                f"the number {tok.text} is below the smallest double, about 5e-324 (at character {tok.at})"
+            )
         # as SymPy's parser did: a decimal or exponent form is a Float (precision from its digits),
         # an integer literal an exact Integer
-        return _Node(sp.Float(tok.text) if any(c in tok.text for c in ".eE") else sp.Integer(tok.text),
-                     value)
+        return _Node(sp.Float(tok.text) if any(c in tok.text for c in ".eE") else sp.Integer(tok.text), value)
 
     def name(self, tok: _Token, depth: int) -> _Node:
         sp = self.sp
@@ -455,13 +514,13 @@ class _Parser:
             return self.call(tok, depth)
         if name == "pi" or name in self.symbols:
             if calling:
-                raise ValueError(f"{name} is not a function (at character {tok.at}); "
-                                 f"write {name}*(...) for a product")
+                raise ValueError(f"{name} is not a function (at character {tok.at}); write {name}*(...) for a product")
             return _Node(sp.pi, math.pi) if name == "pi" else _Node(self.symbols[name], None)
         known = ", ".join(["tau", "pi", *sorted(n for n in self.symbols if n != "tau")])
         if calling:
-            raise ValueError(f"unknown function {name!r} (at character {tok.at}); "
-                             f"the functions are {', '.join(ALLOWED_FUNCTIONS)}")
+            raise ValueError(
+                f"unknown function {name!r} (at character {tok.at}); the functions are {', '.join(ALLOWED_FUNCTIONS)}"
+            )
         raise ValueError(f"unknown name {name!r} (at character {tok.at}); the names are {known}")
 
     def call(self, tok: _Token, depth: int) -> _Node:
@@ -475,8 +534,7 @@ class _Parser:
         self.expect_close(opened)
         low, high, builder, value_of = _FUNCTIONS[tok.text]
         if len(args) < low or (high is not None and len(args) > high):
-            wanted = (f"{low} argument{'s' if low > 1 else ''}" if low == high
-                      else f"at least {low} arguments")
+            wanted = f"{low} argument{'s' if low > 1 else ''}" if low == high else f"at least {low} arguments"
             raise ValueError(f"{tok.text} takes {wanted}, got {len(args)} (at character {tok.at})")
         value = None
         if all(a.value is not None for a in args):
@@ -484,8 +542,9 @@ class _Parser:
             try:
                 value = _finite(float(value_of(*(a.value for a in args))), what)
             except OverflowError:
-                raise ValueError(f"{what} is too large (beyond the largest double, about 1.8e308) "
-                                 f"(at character {tok.at})") from None
+                raise ValueError(
+                    f"{what} is too large (beyond the largest double, about 1.8e308) (at character {tok.at})"
+                ) from None
             except ValueError as exc:
                 raise ValueError(f"{exc} (at character {tok.at})") from None
         # SymPy's automatic evaluation of a function of something that holds function values
@@ -500,33 +559,48 @@ class _Parser:
     def binary(self, op: _Token, a: _Node, b: _Node) -> _Node:
         value = None
         if op.text == "/" and b.value == 0:
-            raise ValueError(f"division by zero (at character {op.at})" if b.expr.is_zero
-                             else f"division by {_short(self.sp.sstr(b.expr))}, which is below the smallest "
-                                  f"double (at character {op.at})")
+            raise ValueError(
+                f"division by zero (at character {op.at})"
+                if b.expr.is_zero
+                else f"division by {_short(self.sp.sstr(b.expr))}, which is below the smallest "
+                f"double (at character {op.at})"
+            )
         if a.value is not None and b.value is not None:
-            value = {"+": a.value + b.value, "-": a.value - b.value, "*": a.value * b.value,
-                     "/": a.value / b.value if b.value else math.inf}[op.text]
+            value = {
+                "+": a.value + b.value,
+                "-": a.value - b.value,
+                "*": a.value * b.value,
+                "/": a.value / b.value if b.value else math.inf,
+            }[op.text]
             if not math.isfinite(value):
-                raise ValueError(f"{a.value:g} {op.text} {b.value:g} is too large (beyond the largest "
-                                 f"double, about 1.8e308) (at character {op.at})")
-        expr = {"+": lambda: a.expr + b.expr, "-": lambda: a.expr - b.expr,
-                "*": lambda: a.expr * b.expr, "/": lambda: a.expr / b.expr}[op.text]()
+                raise ValueError(
+                    f"{a.value:g} {op.text} {b.value:g} is too large (beyond the largest "
+                    f"double, about 1.8e308) (at character {op.at})"
+                )
+        expr = {
+            "+": lambda: a.expr + b.expr,
+            "-": lambda: a.expr - b.expr,
+            "*": lambda: a.expr * b.expr,
+            "/": lambda: a.expr / b.expr,
+        }[op.text]()
         return self.checked(expr, value, op, a.calls or b.calls)
 
     def pow(self, op: _Token, base: _Node, ex: _Node) -> _Node:
         at = f"(at character {op.at})"
         value = None
         if ex.value is not None and abs(ex.value) > MAX_EXPONENT:
-            raise ValueError(f"the exponent {ex.value:g} is too large (at most {MAX_EXPONENT} in "
-                             f"magnitude) {at}")
+            raise ValueError(f"the exponent {ex.value:g} is too large (at most {MAX_EXPONENT} in magnitude) {at}")
         if base.value is not None and ex.value is None and base.value < 0:
-            raise ValueError(f"a negative base ({base.value:g}) needs a constant integer exponent: "
-                             f"the power is not real {at}")
+            raise ValueError(
+                f"a negative base ({base.value:g}) needs a constant integer exponent: the power is not real {at}"
+            )
         if base.value is not None and ex.value is not None:
             b, e = base.value, ex.value
             if ex.expr.is_Rational and abs(e) * _exact_bits(self.sp, base.expr) > MAX_EXACT_BITS:
-                raise ValueError(f"the exact value of {_short(self.sp.sstr(base.expr))}^{e:g} has too many "
-                                 f"digits; write the base as a decimal {at}")
+                raise ValueError(
+                    f"the exact value of {_short(self.sp.sstr(base.expr))}^{e:g} has too many "
+                    f"digits; write the base as a decimal {at}"
+                )
             if b == 0:
                 if e < 0:
                     raise ValueError(f"division by zero: 0^{e:g} {at}")
@@ -535,13 +609,12 @@ class _Parser:
                 if b < 0 and e != int(e):
                     raise ValueError(f"({b:g})^{e:g} is not real {at}")
                 if e * math.log(abs(b)) > _LOG_DBL_MAX:
-                    raise ValueError(f"({b:g})^{e:g} is too large (beyond the largest double, about "
-                                     f"1.8e308) {at}")
+                    raise ValueError(f"({b:g})^{e:g} is too large (beyond the largest double, about 1.8e308) {at}")
                 try:
                     value = float(abs(b) ** e) * (-1.0 if b < 0 and int(e) % 2 else 1.0)
                 except OverflowError:
                     raise ValueError(f"({b:g})^{e:g} is too large {at}") from None
-        nested = base.calls or ex.calls                 # see call()
+        nested = base.calls or ex.calls  # see call()
         built = self.sp.Pow(base.expr, ex.expr, evaluate=not nested)
         return self.checked(built, value, op, base.calls or ex.calls)
 
@@ -549,7 +622,7 @@ class _Parser:
         """The node of a built SymPy object: a constant must be finite and real."""
         sp = self.sp
         if expr.is_Number:
-            value, calls = float(expr), False   # e.g. 0*tau, tau - tau, sin(0)
+            value, calls = float(expr), False  # e.g. 0*tau, tau - tau, sin(0)
         if value is not None:
             if expr.has(sp.zoo, sp.nan, sp.oo, -sp.oo):
                 raise ValueError(f"the constant at character {tok.at} is not finite (it is {_short(sp.sstr(expr))})")
@@ -557,12 +630,13 @@ class _Parser:
                 raise ValueError(f"the constant at character {tok.at} is not real")
             _finite(value, f"the constant at character {tok.at}")
             if value == 0 and expr.is_Number and not expr.is_zero:
-                raise ValueError(f"the constant at character {tok.at} is below the smallest double "
-                                 f"(about 5e-324)")
+                raise ValueError(f"the constant at character {tok.at} is below the smallest double (about 5e-324)")
         for part in (expr, expr.as_coeff_Add()[0], expr.as_coeff_Mul()[0]):
             if part.is_Rational and _exact_bits(sp, part) > MAX_EXACT_BITS:
-                raise ValueError(f"an exact fraction with more than {MAX_EXACT_BITS} bits arises at "
-                                 f"character {tok.at}; write decimals")
+                raise ValueError(
+                    f"an exact fraction with more than {MAX_EXACT_BITS} bits arises at "
+                    f"character {tok.at}; write decimals"
+                )
         return _Node(expr, value, calls)
 
 
@@ -571,8 +645,9 @@ def _symbols(names: Mapping[str, Any] | None) -> dict[str, Any]:
     symbols: dict[str, Any] = {"tau": tau_symbol()}
     for name, symbol in (names or {}).items():
         if not isinstance(name, str) or not _IDENTIFIER.fullmatch(name) or keyword.iskeyword(name):
-            raise ValueError(f"parameter name {name!r} is not a plain name (letters, digits, '_', "
-                             f"starting with a letter)")
+            raise ValueError(
+                f"parameter name {name!r} is not a plain name (letters, digits, '_', starting with a letter)"
+            )
         if name in ("tau", "pi") or name in _FUNCTIONS:
             raise ValueError(f"parameter name {name!r} is reserved in expressions")
         symbols[name] = symbol
@@ -610,7 +685,7 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> A
 
     try:
         expr = _Parser(tokens, symbols).parse().expr
-    except (ArithmeticError, TypeError, RecursionError) as exc:   # from SymPy on an odd constant
+    except (ArithmeticError, TypeError, RecursionError) as exc:  # from SymPy on an odd constant
         raise ValueError(f"cannot evaluate it ({type(exc).__name__}: {exc})") from None
     if expr.has(sympy.zoo, sympy.nan, sympy.oo, -sympy.oo):
         raise ValueError("it is not finite")

@@ -31,6 +31,7 @@ Examples
 >>> limit_value("modes", env={"SYMGEN_MAX_MODES": "40"})
 40
 """
+
 from __future__ import annotations
 
 import math
@@ -58,7 +59,7 @@ MAX_FILE_BYTES = 16 * 1024 * 1024
 #: Deepest nesting of tables and arrays (the contract needs 5: initial.deformation.bar.g[k]).
 MAX_DEPTH = 16
 #: TOML integers are 64-bit signed.
-INT64 = (-2 ** 63, 2 ** 63 - 1)
+INT64 = (-(2**63), 2**63 - 1)
 
 
 @dataclass(frozen=True)
@@ -72,12 +73,15 @@ class Limit:
     integer: bool = True
 
 
-LIMITS: dict[str, Limit] = {lim.name: lim for lim in (
-    Limit("modes", 24, "SYMGEN_MAX_MODES", "shape functions per family (axial or transverse) of one bar"),
-    Limit("rows", 2_000_000, "SYMGEN_MAX_ROWS", "output rows of a run (t_end / output_step + 1)"),
-    Limit("t_end", 1e6, "SYMGEN_MAX_T_END", "run length t_end in tau", integer=False),
-    Limit("entries", 256, "SYMGEN_MAX_ENTRIES", "entries of [[bodies]], [[joints]], [[loads]] or [outputs]"),
-)}
+LIMITS: dict[str, Limit] = {
+    lim.name: lim
+    for lim in (
+        Limit("modes", 24, "SYMGEN_MAX_MODES", "shape functions per family (axial or transverse) of one bar"),
+        Limit("rows", 2_000_000, "SYMGEN_MAX_ROWS", "output rows of a run (t_end / output_step + 1)"),
+        Limit("t_end", 1e6, "SYMGEN_MAX_T_END", "run length t_end in tau", integer=False),
+        Limit("entries", 256, "SYMGEN_MAX_ENTRIES", "entries of [[bodies]], [[joints]], [[loads]] or [outputs]"),
+    )
+}
 
 
 class SceneWarning(UserWarning):
@@ -103,16 +107,22 @@ def limit_value(name: str, env: Mapping[str, str] | None = None) -> int | float:
         value = None
     if value is None or not math.isfinite(value) or value <= 0:
         kind = "a positive integer" if lim.integer else "a positive finite number"
-        raise SceneError("environment", lim.env, f"must be {kind} (the limit on {lim.what}), "
-                         f"got {text!r}", f"unset it for the default {lim.default:g}, or give {kind}")
+        raise SceneError(
+            "environment",
+            lim.env,
+            f"must be {kind} (the limit on {lim.what}), got {text!r}",
+            f"unset it for the default {lim.default:g}, or give {kind}",
+        )
     return value
 
 
 def lift_hint(name: str, advice: str) -> str:
     """``advice``, then how to lift limit ``name``."""
     lim = LIMITS[name]
-    return f"{advice}; or, if you really mean it, raise the limit with the environment variable " \
-           f"{lim.env}=N (now {limit_value(name):g})"
+    return (
+        f"{advice}; or, if you really mean it, raise the limit with the environment variable "
+        f"{lim.env}=N (now {limit_value(name):g})"
+    )
 
 
 def over_limit(name: str, count: float) -> bool:
@@ -152,4 +162,4 @@ def _entry_key(where: str, i: int, entry: object) -> str:
 
 def short_key(key: str, width: int = 80) -> str:
     """A dotted key cut to ``width`` characters for messages."""
-    return key if len(key) <= width else key[:width - 3] + "..."
+    return key if len(key) <= width else key[: width - 3] + "..."

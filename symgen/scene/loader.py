@@ -10,6 +10,7 @@ Examples
 >>> scene.body("rod").transverse_modes                                                   # doctest: +SKIP
 3
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -22,8 +23,29 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from symgen.errors import SceneError
-from symgen.scene.excitation import check_driver_motion, check_expressions, read_driver, read_effects, read_initial, read_loads
-from symgen.scene.limits import ATOL_MAX, ATOL_MIN, MAX_DEPTH, MAX_FILE_BYTES, RTOL_MAX, RTOL_MIN, RTOL_WARN, SceneWarning, structure_problem, lift_hint, limit_value, over_limit, short_key
+from symgen.scene.excitation import (
+    check_driver_motion,
+    check_expressions,
+    read_driver,
+    read_effects,
+    read_initial,
+    read_loads,
+)
+from symgen.scene.limits import (
+    ATOL_MAX,
+    ATOL_MIN,
+    MAX_DEPTH,
+    MAX_FILE_BYTES,
+    RTOL_MAX,
+    RTOL_MIN,
+    RTOL_WARN,
+    SceneWarning,
+    structure_problem,
+    lift_hint,
+    limit_value,
+    over_limit,
+    short_key,
+)
 from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
@@ -34,8 +56,7 @@ from symgen.scene.units import Scales
 
 __all__ = ["load_scene", "apply_overrides", "parse_scene", "scene_hash"]
 
-TOP_KEYS = ("scene", "bodies", "joints", "driver", "initial", "effects", "loads", "outputs",
-            "simulation")
+TOP_KEYS = ("scene", "bodies", "joints", "driver", "initial", "effects", "loads", "outputs", "simulation")
 SCENE_KEYS = ("name", "reference_length", "omega", "units")
 UNITS = ("dimensionless", "SI")
 SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol")
@@ -59,30 +80,39 @@ def read_toml(file: str) -> dict:
         with open(file, "rb") as handle:
             data = handle.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
-        raise SceneError(file, "", f"cannot read the scene file: {exc.strerror or exc}",
-                         "check the path") from None
+        raise SceneError(file, "", f"cannot read the scene file: {exc.strerror or exc}", "check the path") from None
     if len(data) > MAX_FILE_BYTES:
-        raise SceneError(file, "", f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB; "
-                         "a scene file is a short text", "check that this is the scene file")
+        raise SceneError(
+            file,
+            "",
+            f"the file is larger than {MAX_FILE_BYTES // 2**20} MiB; a scene file is a short text",
+            "check that this is the scene file",
+        )
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
-        raise SceneError(file, "", f"not UTF-8 text (byte {exc.start}, line {line}: "
-                         f"{data[exc.start:exc.start + 1]!r})",
-                         "a scene file is TOML text in UTF-8; save it as UTF-8, "
-                         "or check that this is the scene file") from None
+        line = data[: exc.start].count(b"\n") + 1
+        raise SceneError(
+            file,
+            "",
+            f"not UTF-8 text (byte {exc.start}, line {line}: {data[exc.start : exc.start + 1]!r})",
+            "a scene file is TOML text in UTF-8; save it as UTF-8, or check that this is the scene file",
+        ) from None
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(file, "", f"TOML syntax error: {exc}", "fix the TOML syntax") from None
-    except ValueError as exc:   # e.g. an integer of more than 4300 digits
-        raise SceneError(file, "", f"cannot read a value: {str(exc).split(';')[0]}",
-                         "fix the value") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise SceneError(file, "", f"cannot read a value: {str(exc).split(';')[0]}", "fix the value") from None
     except RecursionError:
         deep = nesting_line(text)
-        raise SceneError(file, "", f"arrays or inline tables nested too deeply{f' at line {deep}' if deep else ''} "
-                         f"(at most {MAX_DEPTH} levels)", "a scene needs a few levels; check the brackets") from None
+        raise SceneError(
+            file,
+            "",
+            f"arrays or inline tables nested too deeply{f' at line {deep}' if deep else ''} "
+            f"(at most {MAX_DEPTH} levels)",
+            "a scene needs a few levels; check the brackets",
+        ) from None
     check_structure(raw, file)
     return raw
 
@@ -121,9 +151,12 @@ def check_structure(raw: dict, file: str, key: str = "", levels: int = MAX_DEPTH
     problem = structure_problem(raw, key, levels)
     if problem is not None:
         where, what = problem
-        raise SceneError(file, short_key(where), what,
-                         "a scene needs a few levels of tables and arrays and modest numbers; "
-                         "check the keys, brackets and values")
+        raise SceneError(
+            file,
+            short_key(where),
+            what,
+            "a scene needs a few levels of tables and arrays and modest numbers; check the keys, brackets and values",
+        )
 
 
 def scene_hash(raw: dict) -> str:
@@ -135,82 +168,114 @@ def scene_hash(raw: dict) -> str:
 def read_header(r: Reader, raw: dict) -> Header:
     """``[scene]``: name (required), units, omega (required for SI), reference_length."""
     if "scene" not in raw:
-        r.fail("scene", "missing required table [scene]", "add [scene] with at least name = \"...\"")
+        r.fail("scene", "missing required table [scene]", 'add [scene] with at least name = "..."')
     table = r.table(raw["scene"], "scene")
     r.check_keys(table, "scene", SCENE_KEYS, "[scene]")
-    name = check_name(r, r.require(table, "scene", "name", "name the scene with a C identifier"),
-                      "scene.name", "scene")
+    name = check_name(r, r.require(table, "scene", "name", "name the scene with a C identifier"), "scene.name", "scene")
     units = r.choice(table, "scene", "units", UNITS, "dimensionless")
     if units == "SI":
-        omega = r.number(table, "scene", "omega", gt=0.0,
-                         hint="SI input needs the reference frequency omega in rad/s; tau = omega t")
+        omega = r.number(
+            table, "scene", "omega", gt=0.0, hint="SI input needs the reference frequency omega in rad/s; tau = omega t"
+        )
     else:
         omega = r.number(table, "scene", "omega", 1.0, gt=0.0)
         if omega != 1.0:
-            r.fail("scene.omega", f"a dimensionless scene is already scaled by omega; it must be 1.0, "
-                   f"got {omega!r}", "remove omega, or set scene.units = \"SI\" to give it in rad/s")
-    reference = r.number(table, "scene", "reference_length", None, gt=0.0,
-                         hint="the reference length l0 must be > 0")
+            r.fail(
+                "scene.omega",
+                f"a dimensionless scene is already scaled by omega; it must be 1.0, got {omega!r}",
+                'remove omega, or set scene.units = "SI" to give it in rad/s',
+            )
+    reference = r.number(table, "scene", "reference_length", None, gt=0.0, hint="the reference length l0 must be > 0")
     return Header(name, units, omega, reference)
 
 
 def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales) -> Simulation:
     """``[simulation]``: t_end or cycles (exactly one), output_step, rtol, atol."""
     if "simulation" not in raw:
-        r.fail("simulation", "missing required table [simulation]",
-               "add [simulation] with t_end = ... or cycles = ...")
+        r.fail("simulation", "missing required table [simulation]", "add [simulation] with t_end = ... or cycles = ...")
     table = r.table(raw["simulation"], "simulation")
     r.check_keys(table, "simulation", SIMULATION_KEYS, "[simulation]")
     if ("t_end" in table) == ("cycles" in table):
         which = "both" if "t_end" in table else "neither"
-        r.fail("simulation", f"give exactly one of t_end and cycles ({which} given)",
-               "t_end is the end time in tau = omega t (in both unit systems); cycles is the number of crank turns")
+        r.fail(
+            "simulation",
+            f"give exactly one of t_end and cycles ({which} given)",
+            "t_end is the end time in tau = omega t (in both unit systems); cycles is the number of crank turns",
+        )
     if "t_end" in table:
         t_end = scales.time(r.number(table, "simulation", "t_end", gt=0.0))
         check_t_end(r, t_end, "simulation.t_end", "")
     else:
         cycles = r.number(table, "simulation", "cycles", gt=0.0)
         if driver is not None and driver.law is not None:
-            r.fail("simulation.cycles", "an angle driver with a law has no constant rate to count turns by",
-                   "give t_end (in tau) instead of cycles")
+            r.fail(
+                "simulation.cycles",
+                "an angle driver with a law has no constant rate to count turns by",
+                "give t_end (in tau) instead of cycles",
+            )
         rate = abs(driver.rate) if driver is not None and driver.kind == "angle" else 0.0
         t_end = cycles * 2.0 * math.pi / (rate if rate != 0.0 else 1.0)
-        check_t_end(r, t_end, "simulation.cycles",
-                    f" ({cycles:g} turns at driver.rate {rate:g})" if rate else f" ({cycles:g} x 2 pi)")
+        check_t_end(
+            r,
+            t_end,
+            "simulation.cycles",
+            f" ({cycles:g} turns at driver.rate {rate:g})" if rate else f" ({cycles:g} x 2 pi)",
+        )
     if "output_step" in table:
         step = scales.time(r.number(table, "simulation", "output_step", gt=0.0))
     else:
         step = DEFAULT_OUTPUT_STEP
     if step > t_end:
-        r.fail("simulation.output_step", f"the output step ({step:g}) is longer than the run "
-               f"(t_end = {t_end:g}, in tau)", "use an output_step <= t_end")
+        r.fail(
+            "simulation.output_step",
+            f"the output step ({step:g}) is longer than the run (t_end = {t_end:g}, in tau)",
+            "use an output_step <= t_end",
+        )
     ratio = t_end / step
-    rows: float = math.floor(ratio + 1e-9) + 1 if math.isfinite(ratio) else math.inf   # a subnormal step: inf rows
+    rows: float = math.floor(ratio + 1e-9) + 1 if math.isfinite(ratio) else math.inf  # a subnormal step: inf rows
     if over_limit("rows", rows):
-        key = "simulation.output_step" if "output_step" in table else \
-            ("simulation.t_end" if "t_end" in table else "simulation.cycles")
-        r.fail(key, f"the run would write {rows:.4g} output rows (t_end / output_step + 1 = "
-               f"{t_end:g} / {step:g} + 1), more than the limit {limit_value('rows'):g}",
-               lift_hint("rows", "use a larger output_step or a shorter run"))
+        key = (
+            "simulation.output_step"
+            if "output_step" in table
+            else ("simulation.t_end" if "t_end" in table else "simulation.cycles")
+        )
+        r.fail(
+            key,
+            f"the run would write {rows:.4g} output rows (t_end / output_step + 1 = "
+            f"{t_end:g} / {step:g} + 1), more than the limit {limit_value('rows'):g}",
+            lift_hint("rows", "use a larger output_step or a shorter run"),
+        )
     rtol = r.number(table, "simulation", "rtol", 1e-8, gt=0.0)
     if not RTOL_MIN <= rtol < RTOL_MAX:
-        r.fail("simulation.rtol", f"the relative tolerance must be in [{RTOL_MIN:g}, {RTOL_MAX:g}), "
-               f"got {rtol:g}", "1e-6 to 1e-8 are usual; below 1e-14 is beyond double precision, "
-               "1 or more controls nothing")
+        r.fail(
+            "simulation.rtol",
+            f"the relative tolerance must be in [{RTOL_MIN:g}, {RTOL_MAX:g}), got {rtol:g}",
+            "1e-6 to 1e-8 are usual; below 1e-14 is beyond double precision, 1 or more controls nothing",
+        )
     if rtol > RTOL_WARN:
-        warnings.warn(SceneWarning(
-            f"{r.file}: simulation.rtol = {rtol:g} is loose: results can be tens of per cent off "
-            f"(use rtol <= {RTOL_WARN:g}; 1e-6 to 1e-8 are usual)"), stacklevel=2)
+        warnings.warn(
+            SceneWarning(
+                f"{r.file}: simulation.rtol = {rtol:g} is loose: results can be tens of per cent off "
+                f"(use rtol <= {RTOL_WARN:g}; 1e-6 to 1e-8 are usual)"
+            ),
+            stacklevel=2,
+        )
     atol = r.number(table, "simulation", "atol", 1e-10, gt=0.0)
     if not atol < ATOL_MAX:
-        r.fail("simulation.atol", f"the absolute tolerance must be < {ATOL_MAX:g}, got {atol:g}: the "
-               "coordinates are O(1) in model units, so it would control nothing",
-               "use about rtol / 100, e.g. 1e-10")
+        r.fail(
+            "simulation.atol",
+            f"the absolute tolerance must be < {ATOL_MAX:g}, got {atol:g}: the "
+            "coordinates are O(1) in model units, so it would control nothing",
+            "use about rtol / 100, e.g. 1e-10",
+        )
     if atol < ATOL_MIN:
-        r.fail("simulation.atol", f"the absolute tolerance must be >= {ATOL_MIN:g}, got {atol:g}: the "
-               "coordinates are in units of a bar's length, and below that no double-precision solver can "
-               "meet it",
-               "use about rtol / 100, e.g. 1e-10")
+        r.fail(
+            "simulation.atol",
+            f"the absolute tolerance must be >= {ATOL_MIN:g}, got {atol:g}: the "
+            "coordinates are in units of a bar's length, and below that no double-precision solver can "
+            "meet it",
+            "use about rtol / 100, e.g. 1e-10",
+        )
     return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol)
 
 
@@ -219,23 +284,33 @@ def check_sizes(r: Reader, raw: dict) -> None:
     for section in ("bodies", "joints", "loads", "outputs"):
         value = raw.get(section)
         if isinstance(value, (list, dict)) and over_limit("entries", len(value)):
-            r.fail(section, f"{len(value)} entries, more than the limit {limit_value('entries'):g}",
-                   lift_hint("entries", "split the model, or check that the file was generated correctly"))
+            r.fail(
+                section,
+                f"{len(value)} entries, more than the limit {limit_value('entries'):g}",
+                lift_hint("entries", "split the model, or check that the file was generated correctly"),
+            )
 
 
 def check_t_end(r: Reader, t_end: float, key: str, how: str) -> None:
     """t_end (in tau) finite and within the run-length limit."""
     if not math.isfinite(t_end) or over_limit("t_end", t_end):
-        r.fail(key, f"the run would last t_end = {t_end:g} in tau{how}, more than the limit "
-               f"{limit_value('t_end'):g}", lift_hint("t_end", "shorten the run"))
+        r.fail(
+            key,
+            f"the run would last t_end = {t_end:g} in tau{how}, more than the limit {limit_value('t_end'):g}",
+            lift_hint("t_end", "shorten the run"),
+        )
 
 
 def build_groups(bodies: tuple[Body, ...], scales: Scales, units: str, effects: Effects) -> dict:
     """JSON-serialisable dimensionless groups by body, plus the scene's scales."""
-    groups: dict = {b.name: {"alpha": b.alpha, "nu": b.nu, "lambda": b.lam, "mu": b.mu,
-                             "rho": b.rho} for b in bodies}
-    groups["_scene"] = {"l0": scales.l0, "omega": scales.omega, "m_ref": scales.m_ref,
-                        "units": units, "gravity": list(effects.gravity)}
+    groups: dict = {b.name: {"alpha": b.alpha, "nu": b.nu, "lambda": b.lam, "mu": b.mu, "rho": b.rho} for b in bodies}
+    groups["_scene"] = {
+        "l0": scales.l0,
+        "omega": scales.omega,
+        "m_ref": scales.m_ref,
+        "units": units,
+        "gravity": list(effects.gravity),
+    }
     return groups
 
 
@@ -256,8 +331,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     si = header.units == "SI"
     bars = read_bars(r, raw, si, header.omega)
     ref = reference_bar(bars)
-    scales = Scales(si=si, l0=header.reference_length or ref.length, omega=header.omega,
-                    m_ref=ref.mass_per_length)
+    scales = Scales(si=si, l0=header.reference_length or ref.length, omega=header.omega, m_ref=ref.mass_per_length)
     bodies = tuple(make_body(bar, scales) for bar in bars)
     check_body_groups(r, raw, bodies, si, ref.name, (scales.l0, scales.m_ref, scales.omega))
     by_name = {b.name: b for b in bodies}
@@ -272,11 +346,24 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     simulation = read_simulation(r, raw, driver, scales)
     check_driver_motion(r, driver, simulation.t_end)
     check_expressions(r, driver, loads, simulation.t_end)
-    return Scene(name=header.name, path=file, hash=digest or scene_hash(raw), units=header.units,
-                 l0=scales.l0, omega=scales.omega, m_ref=scales.m_ref, bodies=bodies,
-                 joints=joints, driver=driver, initial=initial, effects=effects, loads=loads,
-                 outputs=outputs, simulation=simulation,
-                 groups=build_groups(bodies, scales, header.units, effects))
+    return Scene(
+        name=header.name,
+        path=file,
+        hash=digest or scene_hash(raw),
+        units=header.units,
+        l0=scales.l0,
+        omega=scales.omega,
+        m_ref=scales.m_ref,
+        bodies=bodies,
+        joints=joints,
+        driver=driver,
+        initial=initial,
+        effects=effects,
+        loads=loads,
+        outputs=outputs,
+        simulation=simulation,
+        groups=build_groups(bodies, scales, header.units, effects),
+    )
 
 
 def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:

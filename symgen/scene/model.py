@@ -16,6 +16,7 @@ stage. Units after loading (whatever the file's ``units``):
 A load or torque value is either a float or a string expression of ``tau`` (validated by the
 loader with :func:`symgen.scene.expressions.parse_tau_expression`, which every later stage uses).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -28,51 +29,51 @@ class Body:
     """One bar. ``rigid`` bars have lam = mu = rho = None, frame = "", no modes."""
 
     name: str
-    alpha: float                # l_i / l0
+    alpha: float  # l_i / l0
     rigid: bool
-    nu: float                   # m_i / m_ref
-    lam: float | None           # lambda_i = EA/(m_i l_i^2 w^2)
-    mu: float | None            # mu_i = EI/(m_i l_i^4 w^2)
-    rho: float | None           # rotary-inertia group (r_g / l_i)^2 = mu/lam
-    frame: str                  # "pinned-pinned" ("pinned-sliding" normalised to it) | "cantilever" | "" (rigid)
-    axial_modes: int            # as written in the file (effects are applied by the derivation)
+    nu: float  # m_i / m_ref
+    lam: float | None  # lambda_i = EA/(m_i l_i^2 w^2)
+    mu: float | None  # mu_i = EI/(m_i l_i^4 w^2)
+    rho: float | None  # rotary-inertia group (r_g / l_i)^2 = mu/lam
+    frame: str  # "pinned-pinned" ("pinned-sliding" normalised to it) | "cantilever" | "" (rigid)
+    axial_modes: int  # as written in the file (effects are applied by the derivation)
     transverse_modes: int
-    axial_shapes: str           # "complete" | "stress-free"
-    transverse_shapes: str      # "modes" | "eigen" | "polynomial"
-    static_correction: bool | None = None   # None: static correction functions at interior points (default)
+    axial_shapes: str  # "complete" | "stress-free"
+    transverse_shapes: str  # "modes" | "eigen" | "polynomial"
+    static_correction: bool | None = None  # None: static correction functions at interior points (default)
 
 
 @dataclass(frozen=True)
 class JointEnd:
     """One side of a joint: a bar at position xi in [0, 1], or a ground point."""
 
-    body: str                                   # body name or GROUND
-    xi: float | None = None                     # bars only (None for the guide of a slot)
-    point: tuple[float, float] | None = None    # ground only (dimensionless, / l0)
-    variable: bool = False                      # slot guide: the support distance beta(tau) is unknown
+    body: str  # body name or GROUND
+    xi: float | None = None  # bars only (None for the guide of a slot)
+    point: tuple[float, float] | None = None  # ground only (dimensionless, / l0)
+    variable: bool = False  # slot guide: the support distance beta(tau) is unknown
 
 
 @dataclass(frozen=True)
 class Joint:
     name: str
-    kind: str                                   # "pin" | "slider" | "slot"
-    ends: tuple[JointEnd, JointEnd]             # in the file's order of ``bodies``
-    direction: tuple[float, float] | None = None   # slider: unit vector of the ground line
-    mass: float = 0.0                           # lumped mass at the joint / (m_ref l0)
-    inertia: float = 0.0                        # lumped rotary inertia at the joint / (m_ref l0^3)
-    overhang: str = ""                          # slot: "elastic" (the guide's overhang bends) | "rigid"
-    overhang_modes: int = 0                     # slot, elastic overhang: its own bending functions
+    kind: str  # "pin" | "slider" | "slot"
+    ends: tuple[JointEnd, JointEnd]  # in the file's order of ``bodies``
+    direction: tuple[float, float] | None = None  # slider: unit vector of the ground line
+    mass: float = 0.0  # lumped mass at the joint / (m_ref l0)
+    inertia: float = 0.0  # lumped rotary inertia at the joint / (m_ref l0^3)
+    overhang: str = ""  # slot: "elastic" (the guide's overhang bends) | "rigid"
+    overhang_modes: int = 0  # slot, elastic overhang: its own bending functions
 
 
 @dataclass(frozen=True)
 class Driver:
-    kind: str                   # "angle" | "torque"
+    kind: str  # "angle" | "torque"
     body: str
-    initial: float | None       # angle at tau = 0 [rad]; torque driver: None = from the assembly
-    rate: float                 # angle: d theta/d tau; torque: initial angular rate (default 0)
-    torque: float | str = 0.0   # torque driver only: constant or expression of tau
-    law: str | None = None      # angle driver only: theta = initial + law(tau), expression of tau
-    ramp: float | None = None   # angle driver only: spin-up time T (tau) to reach ``rate`` smoothly
+    initial: float | None  # angle at tau = 0 [rad]; torque driver: None = from the assembly
+    rate: float  # angle: d theta/d tau; torque: initial angular rate (default 0)
+    torque: float | str = 0.0  # torque driver only: constant or expression of tau
+    law: str | None = None  # angle driver only: theta = initial + law(tau), expression of tau
+    ramp: float | None = None  # angle driver only: spin-up time T (tau) to reach ``rate`` smoothly
     rotor_inertia: float = 0.0  # rotor + gear reflected to the driven bar's shaft / (m_ref l0^3)
 
 
@@ -86,29 +87,29 @@ class BodyDeformation:
 
 @dataclass(frozen=True)
 class Initial:
-    guess: tuple[tuple[str, float], ...] = ()                    # (body, angle) or (slot joint, beta) pairs
-    deformation: tuple[tuple[str, BodyDeformation], ...] = ()    # (body, amplitudes) pairs
-    quasi_static: bool = False    # project key: initial.deformation = "quasi-static"
+    guess: tuple[tuple[str, float], ...] = ()  # (body, angle) or (slot joint, beta) pairs
+    deformation: tuple[tuple[str, BodyDeformation], ...] = ()  # (body, amplitudes) pairs
+    quasi_static: bool = False  # project key: initial.deformation = "quasi-static"
 
 
 @dataclass(frozen=True)
 class Effects:
-    axial: bool | str = "auto"              # true | false | project additions "auto" (default, per bar),
-                                            # "dynamic" (= true), "quasi_static", "inextensible" (lambda -> oo)
+    axial: bool | str = "auto"  # true | false | project additions "auto" (default, per bar),
+    # "dynamic" (= true), "quasi_static", "inextensible" (lambda -> oo)
     transverse: bool = True
     geometric_stiffening: bool = True
     coriolis: bool = True
     rotary_inertia: bool = False
-    strain: str = "von_karman"              # "von_karman" | "linear"
+    strain: str = "von_karman"  # "von_karman" | "linear"
     gravity: tuple[float, float] = (0.0, 0.0)
-    damping: float = 0.0                    # Kelvin-Voigt ratio (in units of 1/omega)
+    damping: float = 0.0  # Kelvin-Voigt ratio (in units of 1/omega)
 
 
 @dataclass(frozen=True)
 class Load:
     body: str
-    kind: str                   # "distributed" | "point"
-    xi: float | None            # point loads only
+    kind: str  # "distributed" | "point"
+    xi: float | None  # point loads only
     axial: float | str = 0.0
     transverse: float | str = 0.0
 
@@ -116,17 +117,26 @@ class Load:
 @dataclass(frozen=True)
 class Output:
     name: str
-    kind: str                   # see OUTPUT_KINDS
+    kind: str  # see OUTPUT_KINDS
     body: str | None = None
     joint: str | None = None
-    xi: float | None = None     # "at"
-    component: str | None = None   # "x" | "y"
+    xi: float | None = None  # "at"
+    component: str | None = None  # "x" | "y"
 
 
 OUTPUT_KINDS = (
-    "chord_deflection", "chord_elongation", "deflection", "axial", "slope",
-    "elastic_displacement", "position", "angle", "reaction", "driver_torque",
-    "energy", "closure_residual",
+    "chord_deflection",
+    "chord_elongation",
+    "deflection",
+    "axial",
+    "slope",
+    "elastic_displacement",
+    "position",
+    "angle",
+    "reaction",
+    "driver_torque",
+    "energy",
+    "closure_residual",
 )
 
 
@@ -142,11 +152,11 @@ class Simulation:
 class Scene:
     name: str
     path: str
-    hash: str                   # sha256 hex of the canonical scene after overrides
-    units: str                  # "dimensionless" | "SI"
-    l0: float                   # reference length (m for SI, else the dimensionless value used)
-    omega: float                # rad/s (SI) or 1.0
-    m_ref: float                # kg/m (SI) or 1.0
+    hash: str  # sha256 hex of the canonical scene after overrides
+    units: str  # "dimensionless" | "SI"
+    l0: float  # reference length (m for SI, else the dimensionless value used)
+    omega: float  # rad/s (SI) or 1.0
+    m_ref: float  # kg/m (SI) or 1.0
     bodies: tuple[Body, ...]
     joints: tuple[Joint, ...]
     driver: Driver | None

@@ -18,6 +18,7 @@ The derivation (``symgen.model.derive``) differentiates the expression exactly (
 velocity- and acceleration-level driver rows; the loader evaluates it to check that the law is
 finite over the run. Kept in ``symgen.scene`` because both use it; it imports SymPy lazily.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -42,7 +43,7 @@ def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
     """
     import sympy as sp
 
-    first = rate / ramp * (tau ** 2 / 2 + (ramp / (2 * sp.pi)) ** 2 * (sp.cos(2 * sp.pi * tau / ramp) - 1))
+    first = rate / ramp * (tau**2 / 2 + (ramp / (2 * sp.pi)) ** 2 * (sp.cos(2 * sp.pi * tau / ramp) - 1))
     return sp.Piecewise((first, tau < ramp), (rate * (tau - ramp / 2), True))
 
 
@@ -71,7 +72,7 @@ def driver_record(driver: Any) -> dict | None:
         return None
     out = {"kind": driver.kind, "body": driver.body, "initial": driver.initial}
     if getattr(driver, "rotor_inertia", 0.0):
-        out["rotor_inertia"] = driver.rotor_inertia       # / (m_ref l0^3)
+        out["rotor_inertia"] = driver.rotor_inertia  # / (m_ref l0^3)
     if driver.kind == "torque":
         out["torque"] = driver.torque
         return out
@@ -82,8 +83,10 @@ def driver_record(driver: Any) -> dict | None:
         out["rate"] = driver.rate
         if driver.ramp is not None:
             out["ramp"] = driver.ramp
-            out["theta"] = ("initial + (rate/ramp) (tau^2/2 + (ramp/(2 pi))^2 (cos(2 pi tau/ramp) - 1)) "
-                            "for tau < ramp, else initial + rate (tau - ramp/2)")
+            out["theta"] = (
+                "initial + (rate/ramp) (tau^2/2 + (ramp/(2 pi))^2 (cos(2 pi tau/ramp) - 1)) "
+                "for tau < ramp, else initial + rate (tau - ramp/2)"
+            )
         else:
             out["theta"] = "initial + rate tau"
     return out
@@ -99,8 +102,11 @@ def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, s
 
     tau = sp.Symbol("tau", real=True)
     theta = driver_angle(driver, tau, driver.initial or 0.0, driver.rate, driver.ramp)
-    exprs = (("theta", theta), ("d theta/d tau", derivative(theta, tau)),
-             ("d2 theta/d tau2", derivative(theta, tau, 2)))
+    exprs = (
+        ("theta", theta),
+        ("d theta/d tau", derivative(theta, tau)),
+        ("d2 theta/d tau2", derivative(theta, tau, 2)),
+    )
     poles = [(t, what) for what, e in exprs if (t := first_pole(e, tau, t_end)) is not None]
     first = min(poles, key=lambda p: p[0]) if poles else None
     for k in range(samples + 1):

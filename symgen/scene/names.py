@@ -10,6 +10,7 @@ True
 >>> name_problem("int")
 "'int' is a C/C++ keyword"
 """
+
 from __future__ import annotations
 
 import re
@@ -17,26 +18,32 @@ import re
 MAX_NAME_LENGTH = 63
 IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
-C_KEYWORDS = frozenset("""
+C_KEYWORDS = frozenset(
+    """
     auto break case char const continue default do double else enum extern float for goto if
     inline int long register restrict return short signed sizeof static struct switch typedef
     union unsigned void volatile while _Bool _Complex _Imaginary
     _Alignas _Alignof _Atomic _Generic _Noreturn _Static_assert _Thread_local
-""".split())
+""".split()
+)
 
-CPP_KEYWORDS = frozenset("""
+CPP_KEYWORDS = frozenset(
+    """
     alignas alignof and and_eq asm atomic_cancel atomic_commit atomic_noexcept bitand bitor bool
     catch char8_t char16_t char32_t class compl concept const_cast consteval constexpr constinit
     co_await co_return co_yield decltype delete dynamic_cast explicit export false friend mutable
     namespace new noexcept not not_eq nullptr operator or or_eq private protected public
     reflexpr reinterpret_cast requires static_assert static_cast synchronized template this
     thread_local throw true try typeid typename using virtual wchar_t xor xor_eq
-""".split())
+""".split()
+)
 
 KEYWORDS = C_KEYWORDS | CPP_KEYWORDS
 
-NAME_RULE = ("names must be C identifiers: an ASCII letter or '_' followed by ASCII letters, "
-             f"digits or '_', at most {MAX_NAME_LENGTH} characters, not a C/C++ keyword")
+NAME_RULE = (
+    "names must be C identifiers: an ASCII letter or '_' followed by ASCII letters, "
+    f"digits or '_', at most {MAX_NAME_LENGTH} characters, not a C/C++ keyword"
+)
 
 
 def name_problem(name: str) -> str | None:

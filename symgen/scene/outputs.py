@@ -1,4 +1,5 @@
 """``[outputs]``: named signals, each kind with exactly the keys it needs."""
+
 from __future__ import annotations
 
 from symgen.scene.excitation import bar_name
@@ -22,11 +23,9 @@ KIND_KEYS: dict[str, tuple[str, ...]] = {
     "closure_residual": (),
 }
 #: Kinds that measure deformation: their bar must be elastic.
-ELASTIC_KINDS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope",
-                 "elastic_displacement")
+ELASTIC_KINDS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement")
 COMPONENTS = ("x", "y")
-RESERVED_OUTPUT_NAMES = {"tau": "it is the time column of the results",
-                         "ground": "it is reserved for the fixed frame"}
+RESERVED_OUTPUT_NAMES = {"tau": "it is the time column of the results", "ground": "it is reserved for the fixed frame"}
 
 
 def _output_keys(r: Reader, table: dict, path: str, kind: str) -> None:
@@ -36,25 +35,33 @@ def _output_keys(r: Reader, table: dict, path: str, kind: str) -> None:
     needs = ", ".join(needed) if needed else "nothing else"
     for key in table:
         if key not in allowed:
-            r.fail(join(path, key), f"an output of kind {kind!r} takes no '{key}' "
-                   f"(allowed: {', '.join(allowed)})", f"remove it; {kind} needs {needs}")
+            r.fail(
+                join(path, key),
+                f"an output of kind {kind!r} takes no '{key}' (allowed: {', '.join(allowed)})",
+                f"remove it; {kind} needs {needs}",
+            )
     for key in needed:
         if key not in table:
-            r.fail(join(path, key), f"missing required key '{key}' for an output of kind {kind!r}",
-                   f"{kind} needs {needs}")
+            r.fail(
+                join(path, key), f"missing required key '{key}' for an output of kind {kind!r}", f"{kind} needs {needs}"
+            )
 
 
 def _output_body(r: Reader, table: dict, path: str, kind: str, bodies: dict[str, Body]) -> str:
     """The measured bar; deformation kinds need an elastic bar."""
     name = bar_name(r, table["body"], join(path, "body"), bodies)
     if kind in ELASTIC_KINDS and bodies[name].rigid:
-        r.fail(join(path, "body"), f"{kind} measures deformation but {name!r} is a rigid bar",
-               "name an elastic bar, or use position/angle for a rigid one")
+        r.fail(
+            join(path, "body"),
+            f"{kind} measures deformation but {name!r} is a rigid bar",
+            "name an elastic bar, or use position/angle for a rigid one",
+        )
     return name
 
 
-def read_output(r: Reader, name: str, value: object, bodies: dict[str, Body],
-                joints: dict[str, Joint], driver: Driver | None) -> Output:
+def read_output(
+    r: Reader, name: str, value: object, bodies: dict[str, Body], joints: dict[str, Joint], driver: Driver | None
+) -> Output:
     """One named output."""
     path = join("outputs", name)
     check_name(r, name, path, "output", RESERVED_OUTPUT_NAMES)
@@ -66,24 +73,30 @@ def read_output(r: Reader, name: str, value: object, bodies: dict[str, Body],
     if "joint" in table:
         joint = table["joint"]
         if not isinstance(joint, str) or joint not in joints:
-            r.fail(join(path, "joint"), f"unknown joint {joint!r}" if isinstance(joint, str)
-                   else f"must be a joint name, got {describe(joint)}",
-                   f"known joints: {', '.join(joints)}")
-    xi = r.number(table, path, "at", None, ge=0.0, le=1.0,
-                  hint="at is a position along the bar in [0, 1]")
+            r.fail(
+                join(path, "joint"),
+                f"unknown joint {joint!r}"
+                if isinstance(joint, str)
+                else f"must be a joint name, got {describe(joint)}",
+                f"known joints: {', '.join(joints)}",
+            )
+    xi = r.number(table, path, "at", None, ge=0.0, le=1.0, hint="at is a position along the bar in [0, 1]")
     component = r.choice(table, path, "component", COMPONENTS, None)
     if kind == "driver_torque" and (driver is None or driver.kind != "angle"):
         why = "the scene has no driver" if driver is None else "the driver is a torque driver"
-        r.fail(join(path, "kind"), f"driver_torque is the moment needed by an angle driver, but {why}",
-               "use it with [driver] kind = \"angle\"; a torque driver's moment is its 'value'")
+        r.fail(
+            join(path, "kind"),
+            f"driver_torque is the moment needed by an angle driver, but {why}",
+            "use it with [driver] kind = \"angle\"; a torque driver's moment is its 'value'",
+        )
     return Output(name=name, kind=kind, body=body, joint=joint, xi=xi, component=component)
 
 
-def read_outputs(r: Reader, raw: dict, bodies: dict[str, Body], joints: dict[str, Joint],
-                 driver: Driver | None) -> tuple[Output, ...]:
+def read_outputs(
+    r: Reader, raw: dict, bodies: dict[str, Body], joints: dict[str, Joint], driver: Driver | None
+) -> tuple[Output, ...]:
     """Every output, in the file's order (at least one)."""
     table = r.table(raw.get("outputs", {}), "outputs")
     if not table:
-        r.fail("outputs", "the scene has no outputs",
-               'add at least one, e.g. [outputs] eps = { kind = "energy" }')
+        r.fail("outputs", "the scene has no outputs", 'add at least one, e.g. [outputs] eps = { kind = "energy" }')
     return tuple(read_output(r, name, value, bodies, joints, driver) for name, value in table.items())

@@ -13,6 +13,7 @@ Examples
 >>> apply_overrides(raw, ["bodies.rod.transverse_modes=3", "effects.strain=linear"], "s.toml")
 {'bodies': [{'name': 'rod', 'transverse_modes': 3}], 'effects': {'strain': 'linear'}}
 """
+
 from __future__ import annotations
 
 import copy
@@ -43,8 +44,9 @@ def _split_key(key: str, file: str, item: str) -> list[str | int]:
     for part in key.split("."):
         match = SEGMENT.fullmatch(part)
         if not match:
-            raise SceneError(file, key or item, f"malformed --set key {key!r} in {item!r}",
-                             f"use a dotted path of keys, {EXAMPLE}")
+            raise SceneError(
+                file, key or item, f"malformed --set key {key!r} in {item!r}", f"use a dotted path of keys, {EXAMPLE}"
+            )
         steps.append(int(match[1]) if match[1].isdigit() else match[1])
         steps.extend(int(i) for i in re.findall(r"\d+", match[2]))
     return steps
@@ -55,22 +57,33 @@ def parse_override(item: str, file: str) -> tuple[str, list[str | int], Any]:
     key, sep, text = item.partition("=")
     key = key.strip()
     if not sep or not key:
-        raise SceneError(file, key or item, f"malformed --set override {item!r}: expected KEY=VALUE",
-                         EXAMPLE)
+        raise SceneError(file, key or item, f"malformed --set override {item!r}: expected KEY=VALUE", EXAMPLE)
     steps = _split_key(key, file, item)
     if len(steps) > MAX_DEPTH:
-        raise SceneError(file, short_key(key), f"--set {short_key(key)}: nested more than {MAX_DEPTH} "
-                         "levels deep", f"use a dotted path of keys, {EXAMPLE}")
+        raise SceneError(
+            file,
+            short_key(key),
+            f"--set {short_key(key)}: nested more than {MAX_DEPTH} levels deep",
+            f"use a dotted path of keys, {EXAMPLE}",
+        )
     try:
         value = parse_value(text)
-    except (ValueError, RecursionError) as exc:   # e.g. 5000 digits or 1000 nested brackets
+    except (ValueError, RecursionError) as exc:  # e.g. 5000 digits or 1000 nested brackets
         what = "nested too deeply" if isinstance(exc, RecursionError) else str(exc).split(";")[0]
-        raise SceneError(file, short_key(key), f"--set {short_key(key)}: cannot read the value: {what}",
-                         "give a TOML value: a number, true/false, a \"string\", [array] or { table }") from None
+        raise SceneError(
+            file,
+            short_key(key),
+            f"--set {short_key(key)}: cannot read the value: {what}",
+            'give a TOML value: a number, true/false, a "string", [array] or { table }',
+        ) from None
     problem = structure_problem(value, key, MAX_DEPTH - len(steps))
     if problem is not None:
-        raise SceneError(file, short_key(problem[0]), f"--set {short_key(key)}: {problem[1]}",
-                         "give a TOML value: a number, true/false, a \"string\", [array] or { table }")
+        raise SceneError(
+            file,
+            short_key(problem[0]),
+            f"--set {short_key(key)}: {problem[1]}",
+            'give a TOML value: a number, true/false, a "string", [array] or { table }',
+        )
     return key, steps, value
 
 
@@ -78,40 +91,52 @@ def _array_entry(node: list, step: str | int, path: list[str | int], key: str, f
     """The entry of an array addressed by position or (for tables) by ``name``."""
     if isinstance(step, int):
         if step >= len(node):
-            raise SceneError(file, key, f"--set {key}: there is no entry {step} "
-                             f"(the array has {len(node)})", "count entries from 0")
+            raise SceneError(
+                file, key, f"--set {key}: there is no entry {step} (the array has {len(node)})", "count entries from 0"
+            )
         return step
     for i, entry in enumerate(node):
         if isinstance(entry, dict) and entry.get("name") == step:
             return i
     what = NAMED_ARRAYS.get(str(path[0]), "entry") if path else "entry"
     known = [str(e.get("name")) for e in node if isinstance(e, dict) and "name" in e]
-    raise SceneError(file, key, f"--set {key}: no {what} named {step!r}",
-                     f"known: {', '.join(known)}" if known else "check the scene file")
+    raise SceneError(
+        file,
+        key,
+        f"--set {key}: no {what} named {step!r}",
+        f"known: {', '.join(known)}" if known else "check the scene file",
+    )
 
 
-def _descend(node: Any, step: str | int, done: list[str | int], last: bool,
-             key: str, file: str) -> Any:
+def _descend(node: Any, step: str | int, done: list[str | int], last: bool, key: str, file: str) -> Any:
     """The index into ``node`` for ``step``, creating a missing table where allowed."""
     here = ".".join(str(s) for s in done) or "the scene"
     if isinstance(node, list):
         if last and len(done) == 1 and done[0] in NAMED_ARRAYS:
             what = NAMED_ARRAYS[str(done[0])]
-            raise SceneError(file, key, f"--set {key}: set one key of a {what}, not the whole entry",
-                             f"address it by name, e.g. --set {done[0]}.{step}.<key>=VALUE")
+            raise SceneError(
+                file,
+                key,
+                f"--set {key}: set one key of a {what}, not the whole entry",
+                f"address it by name, e.g. --set {done[0]}.{step}.<key>=VALUE",
+            )
         return _array_entry(node, step, done, key, file)
     if not isinstance(node, dict):
         raise SceneError(file, key, f"--set {key}: {here} is not a table", "check the path")
     if isinstance(step, int):
-        raise SceneError(file, key, f"--set {key}: {here} is not an array",
-                         "address table keys by name, array entries by position")
+        raise SceneError(
+            file, key, f"--set {key}: {here} is not an array", "address table keys by name, array entries by position"
+        )
     if step not in node and not last:
         if done == ["outputs"]:
-            raise SceneError(file, key, f"--set {key}: no output named {step!r}",
-                             f"to add one, --set outputs.{step}={{kind = \"...\", ...}}")
+            raise SceneError(
+                file,
+                key,
+                f"--set {key}: no output named {step!r}",
+                f'to add one, --set outputs.{step}={{kind = "...", ...}}',
+            )
         if not done and step in NAMED_ARRAYS:
-            raise SceneError(file, key, f"--set {key}: the scene has no [[{step}]]",
-                             "add them to the scene file")
+            raise SceneError(file, key, f"--set {key}: the scene has no [[{step}]]", "add them to the scene file")
         node[step] = {}
     return step
 

@@ -12,6 +12,7 @@ Examples
 >>> culprit([("bodies.rod.length", 1e-300), ("scene.reference_length", 1.0)])
 'bodies.rod.length'
 """
+
 from __future__ import annotations
 
 import math
@@ -28,9 +29,11 @@ HINT = "check the units and the exponents of these inputs"
 
 def culprit(inputs: Inputs) -> str:
     """The key of the input farthest from 1 in orders of magnitude."""
+
     def distance(item: tuple[str, float]) -> float:
         value = abs(item[1])
         return abs(math.log10(value)) if 0.0 < value < math.inf else math.inf
+
     return max(inputs, key=distance)[0]
 
 
@@ -43,8 +46,11 @@ def check_group(r: Reader, what: str, value: float | None, inputs: Inputs) -> No
     lo, hi = GROUP_RANGE
     if value is None or (math.isfinite(value) and lo <= abs(value) <= hi):
         return
-    r.fail(culprit(inputs), f"gives {what} = {value:g}, outside [{lo:g}, {hi:g}] where the model can "
-           f"compute (from {_listing(inputs)})", HINT)
+    r.fail(
+        culprit(inputs),
+        f"gives {what} = {value:g}, outside [{lo:g}, {hi:g}] where the model can compute (from {_listing(inputs)})",
+        HINT,
+    )
 
 
 def check_scaled(r: Reader, key: str, what: str, value: float, inputs: Inputs) -> None:
@@ -75,8 +81,9 @@ def _body_table(raw: dict, name: str) -> dict:
     return next((t for t in bodies if isinstance(t, dict) and t.get("name") == name), {})
 
 
-def check_body_groups(r: Reader, raw: dict, bodies: Sequence[Body], si: bool, ref: str,
-                      scales: tuple[float, float, float]) -> None:
+def check_body_groups(
+    r: Reader, raw: dict, bodies: Sequence[Body], si: bool, ref: str, scales: tuple[float, float, float]
+) -> None:
     """l0, m_ref, omega and alpha, nu, lambda, mu, rho of every bar within GROUP_RANGE.
 
     Parameters
@@ -89,8 +96,9 @@ def check_body_groups(r: Reader, raw: dict, bodies: Sequence[Body], si: bool, re
     scales : (l0, m_ref, omega)
     """
     l0_in, m_in, omega_in = reference_inputs(raw, si, ref)
-    for what, value, inputs in zip(("the reference length l0", "the reference mass per length m_ref",
-                                    "omega"), scales, (l0_in, m_in, omega_in)):
+    for what, value, inputs in zip(
+        ("the reference length l0", "the reference mass per length m_ref", "omega"), scales, (l0_in, m_in, omega_in)
+    ):
         if inputs:
             check_group(r, what, value, inputs)
     for body in bodies:
@@ -115,29 +123,32 @@ def merge_inputs(*lists: Inputs) -> list[tuple[str, float]]:
     return list(dict(item for items in lists for item in items).items())
 
 
-def check_scaled_values(r: Reader, scales_inputs: Inputs, joints: Sequence[Joint], effects: Effects,
-                        loads: Sequence[Load], driver: Driver | None) -> None:
+def check_scaled_values(
+    r: Reader,
+    scales_inputs: Inputs,
+    joints: Sequence[Joint],
+    effects: Effects,
+    loads: Sequence[Load],
+    driver: Driver | None,
+) -> None:
     """Ground points, joint masses, gravity, numeric loads and torque: finite after scaling."""
     for joint in joints:
         path = f"joints.{joint.name}"
-        check_scaled(r, join(path, "mass"), f"the lumped mass of joint {joint.name!r}", joint.mass,
-                     scales_inputs)
-        check_scaled(r, join(path, "inertia"), f"the lumped rotary inertia of joint {joint.name!r}",
-                     joint.inertia, scales_inputs)
+        check_scaled(r, join(path, "mass"), f"the lumped mass of joint {joint.name!r}", joint.mass, scales_inputs)
+        check_scaled(
+            r, join(path, "inertia"), f"the lumped rotary inertia of joint {joint.name!r}", joint.inertia, scales_inputs
+        )
         for end in joint.ends:
             for x in end.point or ():
-                check_scaled(r, join(path, "at"), f"a ground point of joint {joint.name!r}", x,
-                             scales_inputs)
+                check_scaled(r, join(path, "at"), f"a ground point of joint {joint.name!r}", x, scales_inputs)
     for g in effects.gravity:
         check_scaled(r, "effects.gravity", "gravity", g, scales_inputs)
     for i, load in enumerate(loads):
         for key in ("axial", "transverse"):
             value = getattr(load, key)
             if isinstance(value, float):
-                check_scaled(r, join(join("loads", i), key), f"the {key} load on {load.body!r}", value,
-                             scales_inputs)
+                check_scaled(r, join(join("loads", i), key), f"the {key} load on {load.body!r}", value, scales_inputs)
     if driver is not None:
-        check_scaled(r, "driver.rotor_inertia", "the driver's rotor inertia", driver.rotor_inertia,
-                     scales_inputs)
+        check_scaled(r, "driver.rotor_inertia", "the driver's rotor inertia", driver.rotor_inertia, scales_inputs)
     if driver is not None and isinstance(driver.torque, float):
         check_scaled(r, "driver.value", "the driver torque", driver.torque, scales_inputs)

@@ -9,6 +9,7 @@ Examples
 >>> r.number({"length": 2}, "bodies.rod", "length", gt=0.0)
 2.0
 """
+
 from __future__ import annotations
 
 import math
@@ -94,15 +95,19 @@ class Reader:
     def table(self, value: object, key: str, hint: str = "") -> dict:
         """Check that ``value`` is a TOML table."""
         if not isinstance(value, dict):
-            self.fail(key, f"must be a table, got {describe(value)}",
-                      hint or f"write [{key}] or {{ key = value, ... }}")
+            self.fail(
+                key, f"must be a table, got {describe(value)}", hint or f"write [{key}] or {{ key = value, ... }}"
+            )
         return value
 
     def table_array(self, value: object, key: str, hint: str = "") -> list[dict]:
         """Check that ``value`` is an array of tables (``[[key]]``)."""
         if not isinstance(value, list):
-            self.fail(key, f"must be an array of tables ([[{key}]]), got {describe(value)}",
-                      hint or f"write each entry as a [[{key}]] table")
+            self.fail(
+                key,
+                f"must be an array of tables ([[{key}]]), got {describe(value)}",
+                hint or f"write each entry as a [[{key}]] table",
+            )
         for i, item in enumerate(value):
             self.table(item, join(key, i), hint)
         return value
@@ -113,9 +118,7 @@ class Reader:
         for key in table:
             if key not in allowed:
                 where = f" in {what}" if what else ""
-                self.fail(join(path, key),
-                          f"unknown key '{key}'{where} (allowed: {', '.join(allowed)})",
-                          SPELLING_HINT)
+                self.fail(join(path, key), f"unknown key '{key}'{where} (allowed: {', '.join(allowed)})", SPELLING_HINT)
 
     def require(self, table: dict, path: str, key: str, hint: str = "") -> Any:
         """The value of a required key."""
@@ -124,9 +127,18 @@ class Reader:
         return table[key]
 
     # -- scalars ----------------------------------------------------------------------------
-    def number(self, table: dict, path: str, key: str, default: Any = REQUIRED, *,
-               gt: float | None = None, ge: float | None = None, le: float | None = None,
-               hint: str = "") -> Any:
+    def number(
+        self,
+        table: dict,
+        path: str,
+        key: str,
+        default: Any = REQUIRED,
+        *,
+        gt: float | None = None,
+        ge: float | None = None,
+        le: float | None = None,
+        hint: str = "",
+    ) -> Any:
         """A finite number (int or float, not bool) as ``float``, optionally range-checked."""
         if key not in table:
             if default is REQUIRED:
@@ -134,25 +146,39 @@ class Reader:
             return default
         return self.as_number(table[key], join(path, key), gt=gt, ge=ge, le=le, hint=hint)
 
-    def as_number(self, value: object, key: str, *, gt: float | None = None,
-                  ge: float | None = None, le: float | None = None, hint: str = "",
-                  label: str = "") -> float:
+    def as_number(
+        self,
+        value: object,
+        key: str,
+        *,
+        gt: float | None = None,
+        ge: float | None = None,
+        le: float | None = None,
+        hint: str = "",
+        label: str = "",
+    ) -> float:
         """Check one value: a finite number within the given bounds."""
         prefix = f"{label} " if label else ""
         if not is_number(value):
-            self.fail(key, f"{prefix}must be a number, got {describe(value)}",
-                      hint or "write a number without quotes, e.g. 1.0")
+            self.fail(
+                key,
+                f"{prefix}must be a number, got {describe(value)}",
+                hint or "write a number without quotes, e.g. 1.0",
+            )
         try:
             x = float(value)
-        except OverflowError:   # an integer beyond the float range
+        except OverflowError:  # an integer beyond the float range
             x = math.copysign(math.inf, value)
         bounds = [f"{op} {b:g}" for op, b in ((">", gt), (">=", ge), ("<=", le)) if b is not None]
         hint = hint or f"use a finite number{' ' + ' and '.join(bounds) if bounds else ''}"
         if not math.isfinite(x):
             self.fail(key, f"{prefix}must be a finite number, got {_short(value)}", hint)
         if abs(x) > MAX_MAGNITUDE:
-            self.fail(key, f"{prefix}is {x:g}: beyond {MAX_MAGNITUDE:g}, larger than any quantity "
-                      "of a scene", "check the units and the exponent")
+            self.fail(
+                key,
+                f"{prefix}is {x:g}: beyond {MAX_MAGNITUDE:g}, larger than any quantity of a scene",
+                "check the units and the exponent",
+            )
         if gt is not None and not x > gt:
             self.fail(key, f"{prefix}must be > {gt:g}, got {value!r}", hint)
         if ge is not None and not x >= ge:
@@ -161,8 +187,9 @@ class Reader:
             self.fail(key, f"{prefix}must be <= {le:g}, got {value!r}", hint)
         return x
 
-    def integer(self, table: dict, path: str, key: str, default: Any = REQUIRED, *,
-                ge: int | None = None, hint: str = "") -> Any:
+    def integer(
+        self, table: dict, path: str, key: str, default: Any = REQUIRED, *, ge: int | None = None, hint: str = ""
+    ) -> Any:
         """An integer (not bool, not float), optionally with a lower bound."""
         if key not in table:
             if default is REQUIRED:
@@ -170,14 +197,16 @@ class Reader:
             return default
         value = table[key]
         if isinstance(value, bool) or not isinstance(value, int):
-            self.fail(join(path, key), f"must be an integer, got {describe(value)}",
-                      hint or "write a whole number without a decimal point")
+            self.fail(
+                join(path, key),
+                f"must be an integer, got {describe(value)}",
+                hint or "write a whole number without a decimal point",
+            )
         if ge is not None and value < ge:
             self.fail(join(path, key), f"must be >= {ge}, got {value}", hint or f"use an integer >= {ge}")
         return value
 
-    def boolean(self, table: dict, path: str, key: str, default: Any = REQUIRED,
-                hint: str = "") -> Any:
+    def boolean(self, table: dict, path: str, key: str, default: Any = REQUIRED, hint: str = "") -> Any:
         """A TOML boolean (``true``/``false``)."""
         if key not in table:
             if default is REQUIRED:
@@ -185,12 +214,14 @@ class Reader:
             return default
         value = table[key]
         if not isinstance(value, bool):
-            self.fail(join(path, key), f"must be true or false, got {describe(value)}",
-                      hint or "write true or false without quotes")
+            self.fail(
+                join(path, key),
+                f"must be true or false, got {describe(value)}",
+                hint or "write true or false without quotes",
+            )
         return value
 
-    def string(self, table: dict, path: str, key: str, default: Any = REQUIRED,
-               hint: str = "") -> Any:
+    def string(self, table: dict, path: str, key: str, default: Any = REQUIRED, hint: str = "") -> Any:
         """A TOML string."""
         if key not in table:
             if default is REQUIRED:
@@ -198,36 +229,40 @@ class Reader:
             return default
         value = table[key]
         if not isinstance(value, str):
-            self.fail(join(path, key), f"must be a string, got {describe(value)}",
-                      hint or "write it in double quotes")
+            self.fail(join(path, key), f"must be a string, got {describe(value)}", hint or "write it in double quotes")
         return value
 
-    def choice(self, table: dict, path: str, key: str, choices: Sequence[str],
-               default: Any = REQUIRED, hint: str = "") -> Any:
+    def choice(
+        self, table: dict, path: str, key: str, choices: Sequence[str], default: Any = REQUIRED, hint: str = ""
+    ) -> Any:
         """A string that must be one of ``choices``."""
         allowed = ", ".join(f'"{c}"' for c in choices)
         value = self.string(table, path, key, default, hint or f"use one of {allowed}")
         if value is not default and value not in choices:
-            self.fail(join(path, key), f"unknown value {value!r} (allowed: {allowed})",
-                      hint or "check the spelling; values are case-sensitive")
+            self.fail(
+                join(path, key),
+                f"unknown value {value!r} (allowed: {allowed})",
+                hint or "check the spelling; values are case-sensitive",
+            )
         return value
 
     # -- arrays -----------------------------------------------------------------------------
-    def numbers(self, value: object, key: str, length: int | None = None,
-                hint: str = "", label: str = "") -> tuple[float, ...]:
+    def numbers(
+        self, value: object, key: str, length: int | None = None, hint: str = "", label: str = ""
+    ) -> tuple[float, ...]:
         """An array of finite numbers, optionally of a given length."""
         prefix = f"{label} " if label else ""
         if not isinstance(value, list):
-            self.fail(key, f"{prefix}must be an array of numbers, got {describe(value)}",
-                      hint or "write [number, ...]")
+            self.fail(key, f"{prefix}must be an array of numbers, got {describe(value)}", hint or "write [number, ...]")
         if length is not None and len(value) != length:
-            self.fail(key, f"{prefix}must have {length} entries, got {len(value)}",
-                      hint or f"write {length} numbers in brackets")
-        return tuple(self.as_number(v, key, hint=hint, label=f"{prefix}entry {i}".strip())
-                     for i, v in enumerate(value))
+            self.fail(
+                key,
+                f"{prefix}must have {length} entries, got {len(value)}",
+                hint or f"write {length} numbers in brackets",
+            )
+        return tuple(self.as_number(v, key, hint=hint, label=f"{prefix}entry {i}".strip()) for i, v in enumerate(value))
 
-    def pair(self, value: object, key: str, hint: str = "",
-             label: str = "") -> tuple[float, float]:
+    def pair(self, value: object, key: str, hint: str = "", label: str = "") -> tuple[float, float]:
         """A 2-vector ``[x, y]`` of finite numbers."""
         x, y = self.numbers(value, key, 2, hint or "write it as [x, y]", label)
         return (x, y)

@@ -16,6 +16,7 @@ Examples
 >>> markdown().startswith("# Scene files")
 True
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -29,8 +30,10 @@ from symgen.scene.model import OUTPUT_KINDS
 from symgen.scene.names import MAX_NAME_LENGTH
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
-NAME_RULE = (f"a C identifier: letters, digits and _, not starting with a digit, at most "
-             f"{MAX_NAME_LENGTH} characters, no C/C++ keyword")
+NAME_RULE = (
+    f"a C identifier: letters, digits and _, not starting with a digit, at most "
+    f"{MAX_NAME_LENGTH} characters, no C/C++ keyword"
+)
 
 
 @dataclass(frozen=True)
@@ -58,7 +61,7 @@ class Table:
     """A table of the file: ``[path]``, ``[[path]]`` (array) or ``[path]`` of named entries (map)."""
 
     path: str
-    form: str                   # "table" | "array" | "map"
+    form: str  # "table" | "array" | "map"
     description: str
     keys: tuple[Key, ...]
     required: bool = False
@@ -74,193 +77,539 @@ def _num(**kw) -> dict:
 
 
 NUMBER_OR_EXPRESSION = {"oneOf": [{"type": "number"}, {"type": "string", "minLength": 1}]}
-EXPRESSION_TEXT = ("a number, or (dimensionless scenes) a string: an expression of tau with + - * / ^ "
-                   "(or **), parentheses, numbers, tau, pi and the functions "
-                   + ", ".join(ALLOWED_FUNCTIONS))
+EXPRESSION_TEXT = (
+    "a number, or (dimensionless scenes) a string: an expression of tau with + - * / ^ "
+    "(or **), parentheses, numbers, tau, pi and the functions " + ", ".join(ALLOWED_FUNCTIONS)
+)
 NAME_JSON = {"type": "string", "pattern": NAME_PATTERN, "maxLength": MAX_NAME_LENGTH}
 
-SCENE = Table("scene", "table", "The scene's name and its unit system.", required=True, keys=(
-    Key("name", "string", f"Identifier of the scene, used in generated file and C symbol names ({NAME_RULE}).",
-        NAME_JSON, required="yes", example='"slider_crank"'),
-    Key("reference_length", "number > 0", "The reference length l0 that makes lengths dimensionless.",
-        _num(exclusiveMinimum=0), default="the first elastic bar's length (else the first bar's)",
-        unit="m (SI) or the file's length unit", example="0.1"),
-    Key("omega", "number > 0", "The reference frequency: tau = omega t. A dimensionless scene is already "
-        "scaled by it (1.0).", _num(exclusiveMinimum=0), required='when units = "SI"',
-        default="1.0 (dimensionless)", unit="rad/s (SI)", example="230.0"),
-    Key("units", "string", "Unit system of the file's data. Results of an SI scene are written in SI "
-        "(--units dimensionless keeps the model's units).", {"enum": list(_ld.UNITS)},
-        default='"dimensionless"', allowed=_ld.UNITS, example='"SI"'),
-), example='[scene]\nname = "four_bar"\nunits = "SI"\nomega = 230.0\nreference_length = 0.1')
+SCENE = Table(
+    "scene",
+    "table",
+    "The scene's name and its unit system.",
+    required=True,
+    keys=(
+        Key(
+            "name",
+            "string",
+            f"Identifier of the scene, used in generated file and C symbol names ({NAME_RULE}).",
+            NAME_JSON,
+            required="yes",
+            example='"slider_crank"',
+        ),
+        Key(
+            "reference_length",
+            "number > 0",
+            "The reference length l0 that makes lengths dimensionless.",
+            _num(exclusiveMinimum=0),
+            default="the first elastic bar's length (else the first bar's)",
+            unit="m (SI) or the file's length unit",
+            example="0.1",
+        ),
+        Key(
+            "omega",
+            "number > 0",
+            "The reference frequency: tau = omega t. A dimensionless scene is already scaled by it (1.0).",
+            _num(exclusiveMinimum=0),
+            required='when units = "SI"',
+            default="1.0 (dimensionless)",
+            unit="rad/s (SI)",
+            example="230.0",
+        ),
+        Key(
+            "units",
+            "string",
+            "Unit system of the file's data. Results of an SI scene are written in SI "
+            "(--units dimensionless keeps the model's units).",
+            {"enum": list(_ld.UNITS)},
+            default='"dimensionless"',
+            allowed=_ld.UNITS,
+            example='"SI"',
+        ),
+    ),
+    example='[scene]\nname = "four_bar"\nunits = "SI"\nomega = 230.0\nreference_length = 0.1',
+)
 
-BODIES = Table("bodies", "array", "The bars, in any order; each is rigid or elastic.", required=True, keys=(
-    Key("name", "string", f"The bar's name ({NAME_RULE}); \"ground\" is reserved.", NAME_JSON,
-        required="yes", example='"rod"'),
-    Key("length", "number > 0", "The bar's length l_i.", _num(exclusiveMinimum=0), required="yes",
-        unit="m (SI), else in the file's length unit", example="1.0"),
-    Key("rigid", "boolean", "A rigid bar has no deformation unknowns and no elastic keys.",
-        {"type": "boolean"}, default="false", example="true"),
-    Key("mass_per_length", "number > 0", "Mass per length (SI: instead of density x area).",
-        _num(exclusiveMinimum=0), default="1.0 (dimensionless); SI: density x area",
-        unit="kg/m (SI), else relative to the reference bar", example="1.0"),
-    Key("lambda", "number > 0", "Axial group EA/(m_i l_i^2 omega^2) of this bar (dimensionless scenes).",
-        _num(exclusiveMinimum=0), required="when axial_modes > 0 (dimensionless)", example="18246.0"),
-    Key("mu", "number > 0", "Bending group EI/(m_i l_i^4 omega^2) of this bar (dimensionless scenes).",
-        _num(exclusiveMinimum=0), required="when transverse_modes > 0 (dimensionless)", example="0.495"),
-    Key("E", "number > 0", "Young's modulus (SI scenes).", _num(exclusiveMinimum=0),
-        required="for an elastic bar (SI)", unit="Pa", example="69e9"),
-    Key("area", "number > 0", "Cross-section area (SI scenes).", _num(exclusiveMinimum=0),
-        required="when axial_modes > 0 (SI), or with density", unit="m^2", example="5e-5"),
-    Key("inertia", "number > 0", "Second moment of area for in-plane bending (SI scenes).",
-        _num(exclusiveMinimum=0), required="when transverse_modes > 0 (SI)", unit="m^4", example="4.1667e-10"),
-    Key("density", "number > 0", "Density; the mass per length is density x area (SI scenes).",
-        _num(exclusiveMinimum=0), required="without mass_per_length (SI)", unit="kg/m^3", example="2700.0"),
-    Key("frame", "string", 'Deformation reference. "pinned-pinned": chord frame, eta(0) = eta(1) = 0, '
-        'zeta(0) = 0, the far end free axially ("pinned-sliding" is an alias). "cantilever": tangent frame '
-        "clamped at xi = 0.", {"enum": list(_me.FRAMES)}, required="for an elastic bar", allowed=_me.FRAMES,
-        example='"pinned-pinned"'),
-    Key("axial_modes", "integer >= 0", "Number of axial shape functions (0: axially rigid). With von "
-        "Karman strain use at least 3.", {"type": "integer", "minimum": 0}, required="for an elastic bar",
-        example="3"),
-    Key("transverse_modes", "integer >= 0", "Number of transverse shape functions (0: no bending).",
-        {"type": "integer", "minimum": 0}, required="for an elastic bar", example="4"),
-    Key("axial_shapes", "string", '"complete" = {xi, sin(k pi xi)} (no locking) or "stress-free" = '
-        "sin((2k-1) pi xi/2) (the seed's).", {"enum": list(_me.AXIAL_SHAPES)}, default='"complete"',
-        allowed=_me.AXIAL_SHAPES, example='"complete"'),
-    Key("transverse_shapes", "string", '"modes": sines for pinned frames; for cantilevers the clamped-free '
-        "eigenfunctions, preceded by the static tip-load shape when a joint acts at the tip. \"eigen\": "
-        'eigenfunctions only (the seed). "polynomial".', {"enum": list(_me.TRANSVERSE_SHAPES)},
-        default='"modes"', allowed=_me.TRANSVERSE_SHAPES, example='"modes"'),
-    Key("static_correction", "boolean", "Static correction functions at interior points: for each joint "
-        "end, point load or lumped mass at 0 < xi_K < 1 of this bar, its static deflection under a unit "
-        "force at xi_K (piecewise cubic transverse, piecewise linear axial when the bar keeps its axial "
-        "dynamics), mass-orthogonalised against the bar's other functions, is added after its "
-        "transverse_modes (axial_modes) functions: the sines alone converge slowly on the kink a point "
-        "force makes. false: the standard functions only (the seed).", {"type": "boolean"},
-        default="true (adds nothing without interior points)", example="false"),
-), example='[[bodies]]\nname = "rod"\nlength = 1.0\nlambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\n'
-           'axial_modes = 3\ntransverse_modes = 4',
-    notes=("SI scenes give E, area, inertia, density (or mass_per_length); dimensionless scenes give lambda "
-           "and mu. The other system's keys are rejected.",
-           "A rigid bar takes only name, length, rigid and mass_per_length."))
+BODIES = Table(
+    "bodies",
+    "array",
+    "The bars, in any order; each is rigid or elastic.",
+    required=True,
+    keys=(
+        Key(
+            "name",
+            "string",
+            f'The bar\'s name ({NAME_RULE}); "ground" is reserved.',
+            NAME_JSON,
+            required="yes",
+            example='"rod"',
+        ),
+        Key(
+            "length",
+            "number > 0",
+            "The bar's length l_i.",
+            _num(exclusiveMinimum=0),
+            required="yes",
+            unit="m (SI), else in the file's length unit",
+            example="1.0",
+        ),
+        Key(
+            "rigid",
+            "boolean",
+            "A rigid bar has no deformation unknowns and no elastic keys.",
+            {"type": "boolean"},
+            default="false",
+            example="true",
+        ),
+        Key(
+            "mass_per_length",
+            "number > 0",
+            "Mass per length (SI: instead of density x area).",
+            _num(exclusiveMinimum=0),
+            default="1.0 (dimensionless); SI: density x area",
+            unit="kg/m (SI), else relative to the reference bar",
+            example="1.0",
+        ),
+        Key(
+            "lambda",
+            "number > 0",
+            "Axial group EA/(m_i l_i^2 omega^2) of this bar (dimensionless scenes).",
+            _num(exclusiveMinimum=0),
+            required="when axial_modes > 0 (dimensionless)",
+            example="18246.0",
+        ),
+        Key(
+            "mu",
+            "number > 0",
+            "Bending group EI/(m_i l_i^4 omega^2) of this bar (dimensionless scenes).",
+            _num(exclusiveMinimum=0),
+            required="when transverse_modes > 0 (dimensionless)",
+            example="0.495",
+        ),
+        Key(
+            "E",
+            "number > 0",
+            "Young's modulus (SI scenes).",
+            _num(exclusiveMinimum=0),
+            required="for an elastic bar (SI)",
+            unit="Pa",
+            example="69e9",
+        ),
+        Key(
+            "area",
+            "number > 0",
+            "Cross-section area (SI scenes).",
+            _num(exclusiveMinimum=0),
+            required="when axial_modes > 0 (SI), or with density",
+            unit="m^2",
+            example="5e-5",
+        ),
+        Key(
+            "inertia",
+            "number > 0",
+            "Second moment of area for in-plane bending (SI scenes).",
+            _num(exclusiveMinimum=0),
+            required="when transverse_modes > 0 (SI)",
+            unit="m^4",
+            example="4.1667e-10",
+        ),
+        Key(
+            "density",
+            "number > 0",
+            "Density; the mass per length is density x area (SI scenes).",
+            _num(exclusiveMinimum=0),
+            required="without mass_per_length (SI)",
+            unit="kg/m^3",
+            example="2700.0",
+        ),
+        Key(
+            "frame",
+            "string",
+            'Deformation reference. "pinned-pinned": chord frame, eta(0) = eta(1) = 0, '
+            'zeta(0) = 0, the far end free axially ("pinned-sliding" is an alias). "cantilever": tangent frame '
+            "clamped at xi = 0.",
+            {"enum": list(_me.FRAMES)},
+            required="for an elastic bar",
+            allowed=_me.FRAMES,
+            example='"pinned-pinned"',
+        ),
+        Key(
+            "axial_modes",
+            "integer >= 0",
+            "Number of axial shape functions (0: axially rigid). With von Karman strain use at least 3.",
+            {"type": "integer", "minimum": 0},
+            required="for an elastic bar",
+            example="3",
+        ),
+        Key(
+            "transverse_modes",
+            "integer >= 0",
+            "Number of transverse shape functions (0: no bending).",
+            {"type": "integer", "minimum": 0},
+            required="for an elastic bar",
+            example="4",
+        ),
+        Key(
+            "axial_shapes",
+            "string",
+            '"complete" = {xi, sin(k pi xi)} (no locking) or "stress-free" = sin((2k-1) pi xi/2) (the seed\'s).',
+            {"enum": list(_me.AXIAL_SHAPES)},
+            default='"complete"',
+            allowed=_me.AXIAL_SHAPES,
+            example='"complete"',
+        ),
+        Key(
+            "transverse_shapes",
+            "string",
+            '"modes": sines for pinned frames; for cantilevers the clamped-free '
+            'eigenfunctions, preceded by the static tip-load shape when a joint acts at the tip. "eigen": '
+            'eigenfunctions only (the seed). "polynomial".',
+            {"enum": list(_me.TRANSVERSE_SHAPES)},
+            default='"modes"',
+            allowed=_me.TRANSVERSE_SHAPES,
+            example='"modes"',
+        ),
+        Key(
+            "static_correction",
+            "boolean",
+            "Static correction functions at interior points: for each joint "
+            "end, point load or lumped mass at 0 < xi_K < 1 of this bar, its static deflection under a unit "
+            "force at xi_K (piecewise cubic transverse, piecewise linear axial when the bar keeps its axial "
+            "dynamics), mass-orthogonalised against the bar's other functions, is added after its "
+            "transverse_modes (axial_modes) functions: the sines alone converge slowly on the kink a point "
+            "force makes. false: the standard functions only (the seed).",
+            {"type": "boolean"},
+            default="true (adds nothing without interior points)",
+            example="false",
+        ),
+    ),
+    example='[[bodies]]\nname = "rod"\nlength = 1.0\nlambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\n'
+    "axial_modes = 3\ntransverse_modes = 4",
+    notes=(
+        "SI scenes give E, area, inertia, density (or mass_per_length); dimensionless scenes give lambda "
+        "and mu. The other system's keys are rejected.",
+        "A rigid bar takes only name, length, rigid and mass_per_length.",
+    ),
+)
 
-JOINTS = Table("joints", "array", "Pins, sliders on ground lines and slots joining two bodies.", keys=(
-    Key("name", "string", f"The joint's name ({NAME_RULE}).", NAME_JSON, required="yes", example='"A"'),
-    Key("kind", "string", '"pin"; "slider": a bar point on a fixed ground line; "slot": a point of the '
-        "first bar sliding along the second (the guide), whose support distance beta(tau) becomes an "
-        "unknown.", {"enum": list(_me.JOINT_KINDS)}, required="yes", allowed=_me.JOINT_KINDS, example='"pin"'),
-    Key("bodies", "array of 2 strings", 'The two bodies joined: bar names or "ground".',
-        {"type": "array", "items": {"type": "string"}, "minItems": 2, "maxItems": 2}, required="yes",
-        example='["crank", "rod"]'),
-    Key("at", "array of 2", 'Per body: a ground point [x, y], or a position xi in [0, 1] along a bar; a '
-        'slot is [xi, "variable"].', {"type": "array", "minItems": 2, "maxItems": 2}, required="yes",
-        unit="ground points: m (SI) or file length unit", example="[1.0, 0.0]"),
-    Key("direction", "array of 2 numbers", "Direction of a slider's ground line (sliders only).",
-        {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2},
-        required="for a slider", example="[1.0, 0.0]"),
-    Key("mass", "number >= 0", "Lumped mass at the joint, carried by the first bar listed.",
-        _num(minimum=0), default="0.0", unit="kg (SI), else relative to m_ref l0", example="0.25"),
-    Key("inertia", "number >= 0", "Lumped rotary inertia at the joint (a hub, pulley or gear about its own "
-        "centre of mass), carried by the first bar listed with the mass: it turns with that bar's cross-section, "
-        "theta + eta'(xi) on an elastic bar, theta on a rigid one; in the equations, energy, modes, LaTeX and C.",
-        _num(minimum=0), default="0.0", unit="kg m^2 (SI), else relative to m_ref l0^3", example="0.01"),
-    Key("overhang", "string", 'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it bends '
-        "with overhang_modes functions of its own (the static deflection under a far-end load, then "
-        "(2 (xi - beta))^(m+1)), zero value and slope at the moving contact, stiffness over span and "
-        "overhang; the contact must stay short of the far end (beta < 1). "
-        '"rigid": it moves with the span\'s end slope (the seed\'s form, for its reproduction).',
-        {"enum": list(_me.OVERHANG_FORMS)}, default='"elastic"', allowed=_me.OVERHANG_FORMS, example='"rigid"'),
-    Key("overhang_modes", "integer 1 to 5", "Slots with an elastic overhang: number of the overhang's own bending "
-        "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
-        "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
-        "is up to its span within 0.5 %; at most 5 (beyond, the polynomial functions are nearly dependent).",
-        {"type": "integer", "minimum": 1, "maximum": _me.OVERHANG_MODES_MAX},
-        default=str(_me.OVERHANG_MODES_DEFAULT), example="4"),
-))
+JOINTS = Table(
+    "joints",
+    "array",
+    "Pins, sliders on ground lines and slots joining two bodies.",
+    keys=(
+        Key("name", "string", f"The joint's name ({NAME_RULE}).", NAME_JSON, required="yes", example='"A"'),
+        Key(
+            "kind",
+            "string",
+            '"pin"; "slider": a bar point on a fixed ground line; "slot": a point of the '
+            "first bar sliding along the second (the guide), whose support distance beta(tau) becomes an "
+            "unknown.",
+            {"enum": list(_me.JOINT_KINDS)},
+            required="yes",
+            allowed=_me.JOINT_KINDS,
+            example='"pin"',
+        ),
+        Key(
+            "bodies",
+            "array of 2 strings",
+            'The two bodies joined: bar names or "ground".',
+            {"type": "array", "items": {"type": "string"}, "minItems": 2, "maxItems": 2},
+            required="yes",
+            example='["crank", "rod"]',
+        ),
+        Key(
+            "at",
+            "array of 2",
+            'Per body: a ground point [x, y], or a position xi in [0, 1] along a bar; a slot is [xi, "variable"].',
+            {"type": "array", "minItems": 2, "maxItems": 2},
+            required="yes",
+            unit="ground points: m (SI) or file length unit",
+            example="[1.0, 0.0]",
+        ),
+        Key(
+            "direction",
+            "array of 2 numbers",
+            "Direction of a slider's ground line (sliders only).",
+            {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2},
+            required="for a slider",
+            example="[1.0, 0.0]",
+        ),
+        Key(
+            "mass",
+            "number >= 0",
+            "Lumped mass at the joint, carried by the first bar listed.",
+            _num(minimum=0),
+            default="0.0",
+            unit="kg (SI), else relative to m_ref l0",
+            example="0.25",
+        ),
+        Key(
+            "inertia",
+            "number >= 0",
+            "Lumped rotary inertia at the joint (a hub, pulley or gear about its own "
+            "centre of mass), carried by the first bar listed with the mass: it turns with that bar's cross-section, "
+            "theta + eta'(xi) on an elastic bar, theta on a rigid one; in the equations, energy, modes, LaTeX and C.",
+            _num(minimum=0),
+            default="0.0",
+            unit="kg m^2 (SI), else relative to m_ref l0^3",
+            example="0.01",
+        ),
+        Key(
+            "overhang",
+            "string",
+            'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it bends '
+            "with overhang_modes functions of its own (the static deflection under a far-end load, then "
+            "(2 (xi - beta))^(m+1)), zero value and slope at the moving contact, stiffness over span and "
+            "overhang; the contact must stay short of the far end (beta < 1). "
+            "\"rigid\": it moves with the span's end slope (the seed's form, for its reproduction).",
+            {"enum": list(_me.OVERHANG_FORMS)},
+            default='"elastic"',
+            allowed=_me.OVERHANG_FORMS,
+            example='"rigid"',
+        ),
+        Key(
+            "overhang_modes",
+            "integer 1 to 5",
+            "Slots with an elastic overhang: number of the overhang's own bending "
+            "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
+            "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
+            "is up to its span within 0.5 %; at most 5 (beyond, the polynomial functions are nearly dependent).",
+            {"type": "integer", "minimum": 1, "maximum": _me.OVERHANG_MODES_MAX},
+            default=str(_me.OVERHANG_MODES_DEFAULT),
+            example="4",
+        ),
+    ),
+)
 
-DRIVER = Table("driver", "table", "Optional guidance of a bar pinned to ground: a prescribed angle or an "
-               "applied moment.", keys=(
-    Key("kind", "string", '"angle": theta = initial + rate tau; "torque": an applied moment.',
-        {"enum": list(_ex.DRIVER_KINDS)}, required="yes", allowed=_ex.DRIVER_KINDS, example='"angle"'),
-    Key("body", "string", "The driven bar (pinned to ground).", NAME_JSON, required="yes", example='"crank"'),
-    Key("initial", "number", "Initial angle (torque drivers: the start angle; default from the assembly).",
-        _num(), default="0.0 (angle driver)", unit="rad", example="0.0"),
-    Key("rate", "number", "d theta / d tau (angle drivers; torque drivers: the initial angular velocity). "
-        "In an SI scene the crank turns at rate x omega rad/s.", _num(),
-        required="for an angle driver", default="0.0 (torque driver)", unit="per tau", example="1.0"),
-    Key("law", "string (expression)", "Prescribed angle theta - initial as an expression of tau (angle "
-        "drivers, instead of rate; the run needs t_end): " + EXPRESSION_TEXT + ". theta' and theta'' are its exact "
-        "derivatives.", {"type": "string", "minLength": 1}, unit="rad; tau in both unit systems",
-        example='"0.5*sin(tau)"'),
-    Key("ramp", "number > 0", "Spin-up time T of a constant-speed drive (with rate): theta = (rate/T)(tau^2/2 + "
-        "(T/2 pi)^2 (cos(2 pi tau/T) - 1)) for tau < T, rate (tau - T/2) after (Kane, Ryan & Banerjee 1987).",
-        _num(exclusiveMinimum=0), unit="tau", example="15.0"),
-    Key("value", "number or expression", "The applied moment (torque drivers): " + EXPRESSION_TEXT + ".",
-        NUMBER_OR_EXPRESSION, required="for a torque driver", unit="N m (SI), else m_ref l0^3 omega^2",
-        example='"0.5*Heaviside(tau - 1)"'),
-    Key("rotor_inertia", "number >= 0", "Inertia of the motor rotor, gears or flywheel reflected to the driven "
-        "bar's shaft; turns with the bar's angle theta. Adds J theta'' to the driven bar's moment equation and "
-        "J theta'^2 / 2 to the kinetic energy; for an angle driver the reported driver torque is the motor's "
-        "(rotor inertia included).", _num(minimum=0), default="0.0",
-        unit="kg m^2 (SI), else relative to m_ref l0^3", example="0.02"),
-), example='[driver]\nkind = "angle"\nbody = "crank"\ninitial = 0.0\nrate = 1.0')
+DRIVER = Table(
+    "driver",
+    "table",
+    "Optional guidance of a bar pinned to ground: a prescribed angle or an applied moment.",
+    keys=(
+        Key(
+            "kind",
+            "string",
+            '"angle": theta = initial + rate tau; "torque": an applied moment.',
+            {"enum": list(_ex.DRIVER_KINDS)},
+            required="yes",
+            allowed=_ex.DRIVER_KINDS,
+            example='"angle"',
+        ),
+        Key("body", "string", "The driven bar (pinned to ground).", NAME_JSON, required="yes", example='"crank"'),
+        Key(
+            "initial",
+            "number",
+            "Initial angle (torque drivers: the start angle; default from the assembly).",
+            _num(),
+            default="0.0 (angle driver)",
+            unit="rad",
+            example="0.0",
+        ),
+        Key(
+            "rate",
+            "number",
+            "d theta / d tau (angle drivers; torque drivers: the initial angular velocity). "
+            "In an SI scene the crank turns at rate x omega rad/s.",
+            _num(),
+            required="for an angle driver",
+            default="0.0 (torque driver)",
+            unit="per tau",
+            example="1.0",
+        ),
+        Key(
+            "law",
+            "string (expression)",
+            "Prescribed angle theta - initial as an expression of tau (angle "
+            "drivers, instead of rate; the run needs t_end): " + EXPRESSION_TEXT + ". theta' and theta'' are its exact "
+            "derivatives.",
+            {"type": "string", "minLength": 1},
+            unit="rad; tau in both unit systems",
+            example='"0.5*sin(tau)"',
+        ),
+        Key(
+            "ramp",
+            "number > 0",
+            "Spin-up time T of a constant-speed drive (with rate): theta = (rate/T)(tau^2/2 + "
+            "(T/2 pi)^2 (cos(2 pi tau/T) - 1)) for tau < T, rate (tau - T/2) after (Kane, Ryan & Banerjee 1987).",
+            _num(exclusiveMinimum=0),
+            unit="tau",
+            example="15.0",
+        ),
+        Key(
+            "value",
+            "number or expression",
+            "The applied moment (torque drivers): " + EXPRESSION_TEXT + ".",
+            NUMBER_OR_EXPRESSION,
+            required="for a torque driver",
+            unit="N m (SI), else m_ref l0^3 omega^2",
+            example='"0.5*Heaviside(tau - 1)"',
+        ),
+        Key(
+            "rotor_inertia",
+            "number >= 0",
+            "Inertia of the motor rotor, gears or flywheel reflected to the driven "
+            "bar's shaft; turns with the bar's angle theta. Adds J theta'' to the driven bar's moment equation and "
+            "J theta'^2 / 2 to the kinetic energy; for an angle driver the reported driver torque is the motor's "
+            "(rotor inertia included).",
+            _num(minimum=0),
+            default="0.0",
+            unit="kg m^2 (SI), else relative to m_ref l0^3",
+            example="0.02",
+        ),
+    ),
+    example='[driver]\nkind = "angle"\nbody = "crank"\ninitial = 0.0\nrate = 1.0',
+)
 
-INITIAL = Table("initial", "table", "Optional start: default the rigid assembly at tau = 0, undeformed.", keys=(
-    Key("guess", "table", "Rigid angles (rad) to start the assembly of closed loops, by bar name; a "
-        "slot joint's name gives its beta.", {"type": "object", "additionalProperties": {"type": "number"}},
-        example="{ coupler = 1.2, rocker = 1.9 }"),
-    Key("deformation", 'string or table', '"quasi-static" starts on the quasi-static deformation (no '
-        "start-up ringing); or per bar { f = [...], g = [...], fdot = [...], gdot = [...] } amplitudes.",
-        {"oneOf": [{"const": "quasi-static"}, {"type": "object"}]}, default="undeformed, at rest",
-        example='"quasi-static"'),
-))
+INITIAL = Table(
+    "initial",
+    "table",
+    "Optional start: default the rigid assembly at tau = 0, undeformed.",
+    keys=(
+        Key(
+            "guess",
+            "table",
+            "Rigid angles (rad) to start the assembly of closed loops, by bar name; a "
+            "slot joint's name gives its beta.",
+            {"type": "object", "additionalProperties": {"type": "number"}},
+            example="{ coupler = 1.2, rocker = 1.9 }",
+        ),
+        Key(
+            "deformation",
+            "string or table",
+            '"quasi-static" starts on the quasi-static deformation (no '
+            "start-up ringing); or per bar { f = [...], g = [...], fdot = [...], gdot = [...] } amplitudes.",
+            {"oneOf": [{"const": "quasi-static"}, {"type": "object"}]},
+            default="undeformed, at rest",
+            example='"quasi-static"',
+        ),
+    ),
+)
 
-EFFECTS = Table("effects", "table", "Which physics is generated: a switched-off effect is never derived.", keys=(
-    Key("axial", 'boolean or string', 'Axial deformation, chosen per elastic bar. "auto" (the default): '
-        "with von Karman strain, a bar whose first axial frequency (pi/2) sqrt(lambda) is at least 10 times "
-        "the fastest motion the run must resolve (twice its first bending frequency, 4 times the driver "
-        "rate), and whose stretch is at most 1e-4 of a closed loop's compliance (against the bending of "
-        "the softest other bar: the quasi-static stretch is not fed back into the loop), is quasi-static, "
-        "else dynamic; with the seed's linear strain, dynamic. \"dynamic\" (= true): "
-        "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
-        "basis can carry (no locking at any lambda). \"quasi_static\": no axial vibration: the axial "
-        "amplitudes follow the bending through (phi'_k, eps) = 0, the axial force N is its multiplier, and "
-        "outputs that read the bar's shape (axial, chord_elongation, ...) add the stretch N/lambda; costs "
-        "what the inextensible model costs. "
-        "\"inextensible\": the lambda -> infinity limit (no stretch). false: no axial deformation (drops the "
-        "axial force too). The JSON sidecar (axial_treatment) and `symgen effects` say what each bar got "
-        "and why.",
-        {"oneOf": [{"type": "boolean"}, {"enum": list(_ex.AXIAL_MODELS)}]}, default='"auto"',
-        allowed=(True, False) + _ex.AXIAL_MODELS, example='"quasi_static"'),
-    Key("transverse", "boolean", "Bending.", {"type": "boolean"}, default="true", example="true"),
-    Key("geometric_stiffening", "boolean", "The axial force's stiffening of bending, lambda (zeta' eta')'.",
-        {"type": "boolean"}, default="true", example="true"),
-    Key("coriolis", "boolean", "Coriolis inertia of each bar's own mass.", {"type": "boolean"},
-        default="true", example="true"),
-    Key("rotary_inertia", "boolean", "Rotary inertia of the cross-sections (needs lambda).",
-        {"type": "boolean"}, default="false", example="false"),
-    Key("strain", "string", '"von_karman" (energy-consistent: bending shortens the chord) or "linear" '
-        "(the seed's).", {"enum": list(_ex.STRAINS)}, default='"von_karman"', allowed=_ex.STRAINS,
-        example='"von_karman"'),
-    Key("gravity", "array of 2 numbers", "Gravity in ground axes.",
-        {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2},
-        default="[0.0, 0.0]", unit="m/s^2 (SI), else g/(l0 omega^2)", example="[0.0, -9.81]"),
-    Key("damping", "number >= 0", "Kelvin-Voigt ratio on the strain rates.", _num(minimum=0),
-        default="0.0", unit="1/omega", example="0.002"),
-))
+EFFECTS = Table(
+    "effects",
+    "table",
+    "Which physics is generated: a switched-off effect is never derived.",
+    keys=(
+        Key(
+            "axial",
+            "boolean or string",
+            'Axial deformation, chosen per elastic bar. "auto" (the default): '
+            "with von Karman strain, a bar whose first axial frequency (pi/2) sqrt(lambda) is at least 10 times "
+            "the fastest motion the run must resolve (twice its first bending frequency, 4 times the driver "
+            "rate), and whose stretch is at most 1e-4 of a closed loop's compliance (against the bending of "
+            "the softest other bar: the quasi-static stretch is not fed back into the loop), is quasi-static, "
+            'else dynamic; with the seed\'s linear strain, dynamic. "dynamic" (= true): '
+            "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
+            'basis can carry (no locking at any lambda). "quasi_static": no axial vibration: the axial '
+            "amplitudes follow the bending through (phi'_k, eps) = 0, the axial force N is its multiplier, and "
+            "outputs that read the bar's shape (axial, chord_elongation, ...) add the stretch N/lambda; costs "
+            "what the inextensible model costs. "
+            '"inextensible": the lambda -> infinity limit (no stretch). false: no axial deformation (drops the '
+            "axial force too). The JSON sidecar (axial_treatment) and `symgen effects` say what each bar got "
+            "and why.",
+            {"oneOf": [{"type": "boolean"}, {"enum": list(_ex.AXIAL_MODELS)}]},
+            default='"auto"',
+            allowed=(True, False) + _ex.AXIAL_MODELS,
+            example='"quasi_static"',
+        ),
+        Key("transverse", "boolean", "Bending.", {"type": "boolean"}, default="true", example="true"),
+        Key(
+            "geometric_stiffening",
+            "boolean",
+            "The axial force's stiffening of bending, lambda (zeta' eta')'.",
+            {"type": "boolean"},
+            default="true",
+            example="true",
+        ),
+        Key(
+            "coriolis",
+            "boolean",
+            "Coriolis inertia of each bar's own mass.",
+            {"type": "boolean"},
+            default="true",
+            example="true",
+        ),
+        Key(
+            "rotary_inertia",
+            "boolean",
+            "Rotary inertia of the cross-sections (needs lambda).",
+            {"type": "boolean"},
+            default="false",
+            example="false",
+        ),
+        Key(
+            "strain",
+            "string",
+            '"von_karman" (energy-consistent: bending shortens the chord) or "linear" (the seed\'s).',
+            {"enum": list(_ex.STRAINS)},
+            default='"von_karman"',
+            allowed=_ex.STRAINS,
+            example='"von_karman"',
+        ),
+        Key(
+            "gravity",
+            "array of 2 numbers",
+            "Gravity in ground axes.",
+            {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2},
+            default="[0.0, 0.0]",
+            unit="m/s^2 (SI), else g/(l0 omega^2)",
+            example="[0.0, -9.81]",
+        ),
+        Key(
+            "damping",
+            "number >= 0",
+            "Kelvin-Voigt ratio on the strain rates.",
+            _num(minimum=0),
+            default="0.0",
+            unit="1/omega",
+            example="0.002",
+        ),
+    ),
+)
 
-LOADS = Table("loads", "array", "Optional point or distributed loads on bars, in the bar's axes.", keys=(
-    Key("body", "string", "The loaded bar.", NAME_JSON, required="yes", example='"rod"'),
-    Key("kind", "string", '"distributed" or "point".', {"enum": list(_ex.LOAD_KINDS)}, required="yes",
-        allowed=_ex.LOAD_KINDS, example='"distributed"'),
-    Key("at", "number in [0, 1]", "Position xi of a point load along the bar.", _num(minimum=0, maximum=1),
-        required="for a point load", example="0.5"),
-    Key("axial", "number or expression", "Axial component: " + EXPRESSION_TEXT + ".", NUMBER_OR_EXPRESSION,
-        default="0.0", unit="SI: N/m (distributed) or N (point); else q/(m_i l_i omega^2), "
-        "F/(m_i l_i^2 omega^2)", example="0.0"),
-    Key("transverse", "number or expression", "Transverse component (see axial).", NUMBER_OR_EXPRESSION,
-        default="0.0", unit="as axial", example='"0.1*sin(2*tau)"'),
-))
+LOADS = Table(
+    "loads",
+    "array",
+    "Optional point or distributed loads on bars, in the bar's axes.",
+    keys=(
+        Key("body", "string", "The loaded bar.", NAME_JSON, required="yes", example='"rod"'),
+        Key(
+            "kind",
+            "string",
+            '"distributed" or "point".',
+            {"enum": list(_ex.LOAD_KINDS)},
+            required="yes",
+            allowed=_ex.LOAD_KINDS,
+            example='"distributed"',
+        ),
+        Key(
+            "at",
+            "number in [0, 1]",
+            "Position xi of a point load along the bar.",
+            _num(minimum=0, maximum=1),
+            required="for a point load",
+            example="0.5",
+        ),
+        Key(
+            "axial",
+            "number or expression",
+            "Axial component: " + EXPRESSION_TEXT + ".",
+            NUMBER_OR_EXPRESSION,
+            default="0.0",
+            unit="SI: N/m (distributed) or N (point); else q/(m_i l_i omega^2), F/(m_i l_i^2 omega^2)",
+            example="0.0",
+        ),
+        Key(
+            "transverse",
+            "number or expression",
+            "Transverse component (see axial).",
+            NUMBER_OR_EXPRESSION,
+            default="0.0",
+            unit="as axial",
+            example='"0.1*sin(2*tau)"',
+        ),
+    ),
+)
 
 _OUTPUT_KEYS = sorted({k for keys in _ou.KIND_KEYS.values() for k in keys})
 OUTPUT_KIND_TEXT = {
@@ -277,36 +626,106 @@ OUTPUT_KIND_TEXT = {
     "energy": "kinetic (rotary inertias included) + elastic + potential energy",
     "closure_residual": "max |position closure| (a solver check)",
 }
-OUTPUTS = Table("outputs", "map", "Named signals written as columns, in this order after the time column. "
-                "Each kind takes exactly the keys it needs.", required=True, keys=(
-    Key("kind", "string", "What is measured (see the kinds below).", {"enum": list(OUTPUT_KINDS)},
-        required="yes", allowed=OUTPUT_KINDS, example='"chord_deflection"'),
-    Key("body", "string", "The measured bar (elastic for deformation kinds).", NAME_JSON,
-        required="by the kind", example='"rod"'),
-    Key("at", "number in [0, 1]", "Position xi along the bar.", _num(minimum=0, maximum=1),
-        required="by the kind", example="0.5"),
-    Key("component", "string", "Ground-axes component.", {"enum": list(_ou.COMPONENTS)},
-        required="by the kind", allowed=_ou.COMPONENTS, example='"x"'),
-    Key("joint", "string", "The joint of a reaction.", NAME_JSON, required="by the kind", example='"A"'),
-), example='[outputs]\neta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
-           'eps_ax = { kind = "chord_elongation", body = "rod" }',
-    notes=tuple(f"`{k}` ({', '.join(_ou.KIND_KEYS[k]) or 'no other keys'}): {OUTPUT_KIND_TEXT[k]}"
-                for k in OUTPUT_KINDS))
+OUTPUTS = Table(
+    "outputs",
+    "map",
+    "Named signals written as columns, in this order after the time column. Each kind takes exactly the keys it needs.",
+    required=True,
+    keys=(
+        Key(
+            "kind",
+            "string",
+            "What is measured (see the kinds below).",
+            {"enum": list(OUTPUT_KINDS)},
+            required="yes",
+            allowed=OUTPUT_KINDS,
+            example='"chord_deflection"',
+        ),
+        Key(
+            "body",
+            "string",
+            "The measured bar (elastic for deformation kinds).",
+            NAME_JSON,
+            required="by the kind",
+            example='"rod"',
+        ),
+        Key(
+            "at",
+            "number in [0, 1]",
+            "Position xi along the bar.",
+            _num(minimum=0, maximum=1),
+            required="by the kind",
+            example="0.5",
+        ),
+        Key(
+            "component",
+            "string",
+            "Ground-axes component.",
+            {"enum": list(_ou.COMPONENTS)},
+            required="by the kind",
+            allowed=_ou.COMPONENTS,
+            example='"x"',
+        ),
+        Key("joint", "string", "The joint of a reaction.", NAME_JSON, required="by the kind", example='"A"'),
+    ),
+    example='[outputs]\neta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
+    'eps_ax = { kind = "chord_elongation", body = "rod" }',
+    notes=tuple(
+        f"`{k}` ({', '.join(_ou.KIND_KEYS[k]) or 'no other keys'}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS
+    ),
+)
 
-SIMULATION = Table("simulation", "table", "The run: its length, output grid and solver tolerances.",
-                   required=True, keys=(
-    Key("t_end", "number > 0", "End time (exactly one of t_end and cycles).", _num(exclusiveMinimum=0),
-        required="t_end or cycles", unit="tau = omega t (both unit systems)", example="12.566370614359172"),
-    Key("cycles", "number > 0", "Crank turns to run (angle drivers; else 2 pi per cycle).",
-        _num(exclusiveMinimum=0), required="t_end or cycles", example="2"),
-    Key("output_step", "number > 0", "Step of the output grid.", _num(exclusiveMinimum=0),
-        default=f"{_ld.DEFAULT_OUTPUT_STEP!r} (1 degree of a unit-rate crank)", unit="tau",
-        example="0.017453292519943295"),
-    Key("rtol", "number > 0", "Relative tolerance of the integrator.", _num(exclusiveMinimum=0),
-        default="1e-08", example="1e-8"),
-    Key("atol", "number > 0", "Absolute tolerance of the integrator.", _num(exclusiveMinimum=0),
-        default="1e-10", example="1e-10"),
-), example="[simulation]\ncycles = 2\noutput_step = 0.017453292519943295\nrtol = 1e-8")
+SIMULATION = Table(
+    "simulation",
+    "table",
+    "The run: its length, output grid and solver tolerances.",
+    required=True,
+    keys=(
+        Key(
+            "t_end",
+            "number > 0",
+            "End time (exactly one of t_end and cycles).",
+            _num(exclusiveMinimum=0),
+            required="t_end or cycles",
+            unit="tau = omega t (both unit systems)",
+            example="12.566370614359172",
+        ),
+        Key(
+            "cycles",
+            "number > 0",
+            "Crank turns to run (angle drivers; else 2 pi per cycle).",
+            _num(exclusiveMinimum=0),
+            required="t_end or cycles",
+            example="2",
+        ),
+        Key(
+            "output_step",
+            "number > 0",
+            "Step of the output grid.",
+            _num(exclusiveMinimum=0),
+            default=f"{_ld.DEFAULT_OUTPUT_STEP!r} (1 degree of a unit-rate crank)",
+            unit="tau",
+            example="0.017453292519943295",
+        ),
+        Key(
+            "rtol",
+            "number > 0",
+            "Relative tolerance of the integrator.",
+            _num(exclusiveMinimum=0),
+            default="1e-08",
+            example="1e-8",
+        ),
+        Key(
+            "atol",
+            "number > 0",
+            "Absolute tolerance of the integrator.",
+            _num(exclusiveMinimum=0),
+            default="1e-10",
+            example="1e-10",
+        ),
+    ),
+    example="[simulation]\ncycles = 2\noutput_step = 0.017453292519943295\nrtol = 1e-8",
+)
 
 TABLES = (SCENE, BODIES, JOINTS, DRIVER, INITIAL, EFFECTS, LOADS, OUTPUTS, SIMULATION)
 
@@ -336,29 +755,52 @@ def _cell(text: str) -> str:
 
 def markdown() -> str:
     """The scene reference (``docs/scene-format.md``), rendered from :data:`TABLES`."""
-    out = ["# Scene files: the reference", "",
-           "<!-- Generated from symgen/scene/schema.py by `symgen schema --markdown docs/scene-format.md`; "
-           "do not edit (tests/scene/test_schema.py compares). -->", "",
-           "A scene file is TOML. This page lists every table and key symgen accepts: the contract's keys "
-           "and the project's additions. Anything else is rejected with a message naming the file and the "
-           "key. `--set KEY=VALUE` overrides any value by its dotted path, bodies and joints by name "
-           "(`--set bodies.rod.transverse_modes=3`). A JSON Schema for editors: `symgen schema -o "
-           "scene.schema.json`.", "",
-           "Tables: " + ", ".join(f"[`{t.path}`](#{t.path})" for t in TABLES) + ".", ""]
+    out = [
+        "# Scene files: the reference",
+        "",
+        "<!-- Generated from symgen/scene/schema.py by `symgen schema --markdown docs/scene-format.md`; "
+        "do not edit (tests/scene/test_schema.py compares). -->",
+        "",
+        "A scene file is TOML. This page lists every table and key symgen accepts: the contract's keys "
+        "and the project's additions. Anything else is rejected with a message naming the file and the "
+        "key. `--set KEY=VALUE` overrides any value by its dotted path, bodies and joints by name "
+        "(`--set bodies.rod.transverse_modes=3`). A JSON Schema for editors: `symgen schema -o "
+        "scene.schema.json`.",
+        "",
+        "Tables: " + ", ".join(f"[`{t.path}`](#{t.path})" for t in TABLES) + ".",
+        "",
+    ]
     for t in TABLES:
         head = {"table": f"[{t.path}]", "array": f"[[{t.path}]]", "map": f"[{t.path}]"}[t.form]
         out += [f"## {t.path}", "", f"`{head}`{' (required)' if t.required else ' (optional)'}: {t.description}"]
         if t.form == "array":
             out.append("An array of tables: one `[[" + t.path + "]]` block per entry.")
         if t.form == "map":
-            out.append("A table of named entries: `NAME = { kind = \"...\", ... }`, NAME a C identifier.")
-        out += ["", "| key | type | required | default | unit | allowed | meaning | example |",
-                "|---|---|---|---|---|---|---|---|"]
+            out.append('A table of named entries: `NAME = { kind = "...", ... }`, NAME a C identifier.')
+        out += [
+            "",
+            "| key | type | required | default | unit | allowed | meaning | example |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for k in t.keys:
             allowed = ", ".join(f"`{a!r}`" if isinstance(a, bool) else f'`"{a}"`' for a in k.allowed)
-            out.append("| " + " | ".join(_cell(x) for x in (
-                f"`{k.name}`", k.type, k.required, k.default, k.unit, allowed, k.description,
-                f"`{k.example}`" if k.example else "")) + " |")
+            out.append(
+                "| "
+                + " | ".join(
+                    _cell(x)
+                    for x in (
+                        f"`{k.name}`",
+                        k.type,
+                        k.required,
+                        k.default,
+                        k.unit,
+                        allowed,
+                        k.description,
+                        f"`{k.example}`" if k.example else "",
+                    )
+                )
+                + " |"
+            )
         out.append("")
         for note in t.notes:
             out.append(f"* {note}")
@@ -373,8 +815,7 @@ def markdown() -> str:
 def _object(t: Table) -> dict:
     props = {k.name: {**k.json, "description": k.description} for k in t.keys}
     required = [k.name for k in t.keys if k.required == "yes"]
-    obj = {"type": "object", "description": t.description, "properties": props,
-           "additionalProperties": False}
+    obj = {"type": "object", "description": t.description, "properties": props, "additionalProperties": False}
     if required:
         obj["required"] = required
     return obj
@@ -390,13 +831,20 @@ def json_schema() -> dict:
         if t.form == "array":
             props[t.path] = {"type": "array", "items": obj, "description": t.description}
         elif t.form == "map":
-            props[t.path] = {"type": "object", "description": t.description,
-                             "propertyNames": {"pattern": NAME_PATTERN}, "additionalProperties": obj}
+            props[t.path] = {
+                "type": "object",
+                "description": t.description,
+                "propertyNames": {"pattern": NAME_PATTERN},
+                "additionalProperties": obj,
+            }
         else:
             props[t.path] = obj
-    return {"$schema": "https://json-schema.org/draft/2020-12/schema",
-            "$id": "https://symgen.invalid/scene.schema.json",
-            "title": "symgen scene file", "type": "object", "properties": props,
-            "required": [t.path for t in TABLES if t.required],
-            "additionalProperties": False}
-
+    return {
+        "$schema": "https://json-schema.org/draft/2020-12/schema",
+        "$id": "https://symgen.invalid/scene.schema.json",
+        "title": "symgen scene file",
+        "type": "object",
+        "properties": props,
+        "required": [t.path for t in TABLES if t.required],
+        "additionalProperties": False,
+    }

@@ -8,6 +8,7 @@ slider_crank (examples/slider_crank.toml): valid, dimensionless, l0 = 1, omega =
   bars     crank: rigid, alpha 0.5, nu 1
   ...
 """
+
 from __future__ import annotations
 
 import math
@@ -19,16 +20,23 @@ def _bar(body, corrections: dict | None = None) -> str:
     head = f"{body.name}: "
     if body.rigid:
         return head + f"rigid, alpha {body.alpha:.6g}, nu {body.nu:.6g}"
-    groups = ", ".join(f"{k} {v:.6g}" for k, v in (("alpha", body.alpha), ("nu", body.nu),
-                                                    ("lambda", body.lam), ("mu", body.mu)) if v is not None)
-    families = " + ".join(f"{n} {what}" + (f" ({shapes})" if n else "") for n, what, shapes in (
-        (body.axial_modes, "axial", body.axial_shapes), (body.transverse_modes, "transverse", body.transverse_shapes)))
+    groups = ", ".join(
+        f"{k} {v:.6g}"
+        for k, v in (("alpha", body.alpha), ("nu", body.nu), ("lambda", body.lam), ("mu", body.mu))
+        if v is not None
+    )
+    families = " + ".join(
+        f"{n} {what}" + (f" ({shapes})" if n else "")
+        for n, what, shapes in (
+            (body.axial_modes, "axial", body.axial_shapes),
+            (body.transverse_modes, "transverse", body.transverse_shapes),
+        )
+    )
     extra = ""
     pts = (corrections or {}).get(body.name)
     if pts:
         where = ", ".join(f"{x:.6g}" for x in next(iter(pts.values())))
-        extra = (f" + static corrections at xi = {where} ({' and '.join(pts)}; "
-                 "static_correction = false: none)")
+        extra = f" + static corrections at xi = {where} ({' and '.join(pts)}; static_correction = false: none)"
     return head + f"{body.frame}, {families} shape functions{extra}; {groups}"
 
 
@@ -44,8 +52,7 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     """Bars (frames, shape functions, groups), joints, driver, loads, outputs and the run;
     ``corrections``: {bar: its static correction points by direction} (``structure.static_points``,
     which the caller gives: the model layer is above the scene's)."""
-    lines = [f"{scene.name} ({scene.path}): valid, {scene.units}, l0 = {scene.l0:.6g}, "
-             f"omega = {scene.omega:.6g}"]
+    lines = [f"{scene.name} ({scene.path}): valid, {scene.units}, l0 = {scene.l0:.6g}, omega = {scene.omega:.6g}"]
     lines += [f"  {'bars' if i == 0 else '':8} {_bar(b, corrections)}" for i, b in enumerate(scene.bodies)]
     lines += [f"  {'joints' if i == 0 else '':8} {_joint(j)}" for i, j in enumerate(scene.joints)]
     modes = sum(b.axial_modes + b.transverse_modes for b in scene.bodies)
@@ -68,6 +75,8 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     lines.append(f"  {'outputs':8} " + ", ".join(f"{o.name} ({o.kind})" for o in scene.outputs))
     sim = scene.simulation
     rows = math.floor(sim.t_end / sim.output_step + 1e-9) + 1
-    lines.append(f"  {'run':8} t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g} "
-                 f"({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}")
+    lines.append(
+        f"  {'run':8} t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g} "
+        f"({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}"
+    )
     return "\n".join(lines)

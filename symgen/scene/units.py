@@ -9,6 +9,7 @@ Examples
 >>> s.gravity(9.81)   # g / (l0 omega^2)
 0.1962
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,20 +52,20 @@ class Scales:
 
     def rotary_inertia(self, j: float) -> float:
         """A rotary inertia (driver rotor, lumped at a joint): SI kg m^2 -> J / (m_ref l0^3)."""
-        return j / (self.m_ref * self.l0 ** 3) if self.si else j
+        return j / (self.m_ref * self.l0**3) if self.si else j
 
     def gravity(self, g: float) -> float:
         """A gravity component: SI m/s^2 -> g / (l0 omega^2)."""
-        return g / (self.l0 * self.omega ** 2) if self.si else g
+        return g / (self.l0 * self.omega**2) if self.si else g
 
     def torque(self, torque: float) -> float:
         """A moment: SI N m -> M / (m_ref l0^3 omega^2)."""
-        return torque / (self.m_ref * self.l0 ** 3 * self.omega ** 2) if self.si else torque
+        return torque / (self.m_ref * self.l0**3 * self.omega**2) if self.si else torque
 
     def distributed(self, q: float, m_i: float, l_i: float) -> float:
         """A distributed load on bar i: SI N/m -> q / (m_i l_i omega^2)."""
-        return q / (m_i * l_i * self.omega ** 2) if self.si else q
+        return q / (m_i * l_i * self.omega**2) if self.si else q
 
     def point(self, force: float, m_i: float, l_i: float) -> float:
         """A point load on bar i: SI N -> F / (m_i l_i^2 omega^2)."""
-        return force / (m_i * l_i ** 2 * self.omega ** 2) if self.si else force
+        return force / (m_i * l_i**2 * self.omega**2) if self.si else force

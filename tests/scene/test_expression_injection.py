@@ -6,6 +6,7 @@ the file, ``--set`` on them or on the whole driver, output/body/joint names) and
 that reads a scene must end in exit 2 with a message naming the file and the key, with no output
 written and no file created. A valid expression in the same place is accepted (the route is live).
 """
+
 from __future__ import annotations
 
 import json
@@ -30,28 +31,31 @@ def payloads(marker: Path) -> list[str]:
     touch = f'__import__("pathlib").Path({str(marker)!r}).touch()'
     system = "__import__('os').system('touch PWNED')"
     return [
-        f"0*sin('{touch}')",                               # string arguments went to sympify
+        f"0*sin('{touch}')",  # string arguments went to sympify
         f'0*cos("{system}")',
-        f"exp('{touch}')*0", f"log('{touch}')", f"sqrt('{touch}')", f"Abs('{touch}')",
+        f"exp('{touch}')*0",
+        f"log('{touch}')",
+        f"sqrt('{touch}')",
+        f"Abs('{touch}')",
         f"Heaviside('{touch}')",
-        f"0 and {touch}",                                  # evaluated at parse time
+        f"0 and {touch}",  # evaluated at parse time
         f"1 if {touch} else 0",
         f"(lambda: {touch})()",
         system,
         f"[{touch} for x in (1,)]",
         "().__class__.__base__.__subclasses__()",
         f"Symbol('x').__class__.__init__.__globals__['__builtins__']['exec']('{system}')",
-        "9**9**9**9",                                      # hung SymPy's parser
+        "9**9**9**9",  # hung SymPy's parser
     ]
 
 
 def _toml_string(text: str) -> str:
-    return json.dumps(text)          # a JSON string of ASCII text is a TOML basic string
+    return json.dumps(text)  # a JSON string of ASCII text is a TOML basic string
 
 
 def torque_scene(value: str) -> str:
     """The valid slider-crank with a torque driver of the given value (TOML text)."""
-    text = SCENE_TEXT.replace('M0 = { kind = "driver_torque" }\n', "")   # an angle driver's output
+    text = SCENE_TEXT.replace('M0 = { kind = "driver_torque" }\n', "")  # an angle driver's output
     return DRIVER.sub(f'[driver]\nkind = "torque"\nvalue = {_toml_string(value)}\n', text)
 
 
@@ -90,8 +94,7 @@ def test_expressions_in_the_scene_file(sandbox, capsys, route):
     marker = sandbox / "PWNED"
     for i, payload in enumerate(payloads(marker)):
         scene = sandbox / "scenes" / f"{route}{i}.toml"
-        scene.write_text(load_scene_text(payload) if route == "load" else torque_scene(payload),
-                         encoding="utf-8")
+        scene.write_text(load_scene_text(payload) if route == "load" else torque_scene(payload), encoding="utf-8")
         code = main(["simulate", str(scene), "-o", str(sandbox / "out" / "r.csv")])
         key = "loads[0].transverse" if route == "load" else "driver.value"
         _assert_refused(code, capsys.readouterr().err, sandbox, str(scene), key)
@@ -108,20 +111,27 @@ def test_expressions_through_set_overrides(sandbox, capsys):
             (loads, f"loads[0].transverse={payload}", "loads[0].transverse"),
             (loads, f"loads.1.axial={payload}", "loads[1].axial"),
             (torque, f"driver.value={payload}", "driver.value"),
-            (loads, f'driver={{kind = "torque", body = "crank", value = {_toml_string(payload)}}}',
-             "driver.value"),
+            (loads, f'driver={{kind = "torque", body = "crank", value = {_toml_string(payload)}}}', "driver.value"),
         ]
         for scene, override, key in cases:
             code = main(["simulate", str(scene), "-o", str(sandbox / "out" / "r.csv"), "--set", override])
             _assert_refused(code, capsys.readouterr().err, sandbox, str(scene), key)
 
 
-@pytest.mark.parametrize("command", [
-    ["simulate", "-o", "{out}/r.csv"], ["quasistatic", "-o", "{out}/r.csv"], ["latex", "-o", "{out}/m.tex"],
-    ["modes", "-o", "{out}/m.json"], ["emit-c", "-o", "{out}/c"], ["emit-fmu", "-o", "{out}/m.fmu"],
-    ["effects", "--auto", "1e-3", "-o", "{out}/pruned.toml"], ["study", "--quick", "-o", "{out}/study"],
-    ["derive", "-o", "{out}/generated"],
-])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["simulate", "-o", "{out}/r.csv"],
+        ["quasistatic", "-o", "{out}/r.csv"],
+        ["latex", "-o", "{out}/m.tex"],
+        ["modes", "-o", "{out}/m.json"],
+        ["emit-c", "-o", "{out}/c"],
+        ["emit-fmu", "-o", "{out}/m.fmu"],
+        ["effects", "--auto", "1e-3", "-o", "{out}/pruned.toml"],
+        ["study", "--quick", "-o", "{out}/study"],
+        ["derive", "-o", "{out}/generated"],
+    ],
+)
 def test_every_command_refuses_the_payload(sandbox, capsys, command):
     scene = sandbox / "scenes" / "scene.toml"
     scene.write_text(load_scene_text(payloads(sandbox / "PWNED")[0]), encoding="utf-8")
@@ -130,14 +140,19 @@ def test_every_command_refuses_the_payload(sandbox, capsys, command):
     _assert_refused(code, capsys.readouterr().err, sandbox, str(scene), "loads[0].transverse")
 
 
-@pytest.mark.parametrize("where,key", [
-    ("output", "outputs."), ("body", "bodies[0].name"), ("joint", "joints[0].name"),
-])
+@pytest.mark.parametrize(
+    "where,key",
+    [
+        ("output", "outputs."),
+        ("body", "bodies[0].name"),
+        ("joint", "joints[0].name"),
+    ],
+)
 def test_names_are_identifiers_not_code(sandbox, capsys, where, key):
     payload = "__import__('os').system('touch PWNED')"
     text = SCENE_TEXT
     if where == "output":
-        text = text.replace("[outputs]\n", f"[outputs]\n{_toml_string(payload)} = {{ kind = \"energy\" }}\n")
+        text = text.replace("[outputs]\n", f'[outputs]\n{_toml_string(payload)} = {{ kind = "energy" }}\n')
     elif where == "body":
         text = text.replace('name = "crank"', f"name = {_toml_string(payload)}", 1)
     else:
@@ -147,8 +162,16 @@ def test_names_are_identifiers_not_code(sandbox, capsys, where, key):
     scene.write_text(text, encoding="utf-8")
     code = main(["simulate", str(scene), "-o", str(sandbox / "out" / "r.csv")])
     _assert_refused(code, capsys.readouterr().err, sandbox, str(scene), key)
-    code = main(["simulate", str(DATA / "slider_crank.toml"), "-o", str(sandbox / "out" / "r.csv"),
-                 "--set", f"outputs.{payload}={{kind = \"energy\"}}"])
+    code = main(
+        [
+            "simulate",
+            str(DATA / "slider_crank.toml"),
+            "-o",
+            str(sandbox / "out" / "r.csv"),
+            "--set",
+            f'outputs.{payload}={{kind = "energy"}}',
+        ]
+    )
     _assert_refused(code, capsys.readouterr().err, sandbox, str(DATA / "slider_crank.toml"), "outputs.")
 
 

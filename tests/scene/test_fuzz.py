@@ -26,6 +26,7 @@ Three more classes (issue 22), seeded like the scenes:
   load components, through ``check`` (and a sample through ``simulate``): exit 0, or exit 2
   naming the key (and tau for a run that fails).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -63,7 +64,7 @@ ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
 SEED = 20261123
 CASES = 360
-CASE_SECONDS = 10            # generous: the loader takes milliseconds, the machine is shared
+CASE_SECONDS = 10  # generous: the loader takes milliseconds, the machine is shared
 SUBPROCESS_SAMPLE = 12
 
 
@@ -98,8 +99,11 @@ def _value(v) -> str:
 
 def dump_toml(raw: dict) -> str:
     """TOML text of a parsed scene: scalars first, then [table] and [[array]] sections."""
-    lines = [f"{_key(k)} = {_value(v)}" for k, v in raw.items()
-             if not isinstance(v, dict) and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))]
+    lines = [
+        f"{_key(k)} = {_value(v)}"
+        for k, v in raw.items()
+        if not isinstance(v, dict) and not (isinstance(v, list) and v and all(isinstance(x, dict) for x in v))
+    ]
     for k, v in raw.items():
         if isinstance(v, dict):
             lines += ["", f"[{_key(k)}]"] + [f"{_key(kk)} = {_value(vv)}" for kk, vv in v.items()]
@@ -115,7 +119,7 @@ class Case:
     label: str
     data: bytes
     sets: list[str] = field(default_factory=list)
-    structured: bool = True          # the file is valid TOML: an error must name a key
+    structured: bool = True  # the file is valid TOML: an error must name a key
 
 
 def _paths(node, prefix=()):
@@ -132,11 +136,51 @@ def _parent(raw, path):
     return node
 
 
-NUMBERS = [-1, 0, -0.0, 0.5, 1e300, -1e300, 1e-300, 1e30, 1e31, float("nan"), float("inf"), float("-inf"),
-           2 ** 63 - 1, -2 ** 63, 10 ** 18, 1e-320, 3]
-STRINGS = ["", " ", "x" * 70, "ground", "tau", "_scene", "int", "namespace", "1abc", "a b", "η", "rod",
-           "__import__('os').system('touch PWNED')", "0*sin('__import__(\"os\")')", "${HOME}", "\u0000",
-           "'; DROP TABLE", "../../etc/passwd", "\\", '"', "sin(tau)**2", "9**9**9", "nan", "inf"]
+NUMBERS = [
+    -1,
+    0,
+    -0.0,
+    0.5,
+    1e300,
+    -1e300,
+    1e-300,
+    1e30,
+    1e31,
+    float("nan"),
+    float("inf"),
+    float("-inf"),
+    2**63 - 1,
+    -(2**63),
+    10**18,
+    1e-320,
+    3,
+]
+STRINGS = [
+    "",
+    " ",
+    "x" * 70,
+    "ground",
+    "tau",
+    "_scene",
+    "int",
+    "namespace",
+    "1abc",
+    "a b",
+    "η",
+    "rod",
+    "__import__('os').system('touch PWNED')",
+    "0*sin('__import__(\"os\")')",
+    "${HOME}",
+    "\u0000",
+    "'; DROP TABLE",
+    "../../etc/passwd",
+    "\\",
+    '"',
+    "sin(tau)**2",
+    "9**9**9",
+    "nan",
+    "inf",
+]
 OTHERS = [True, False, [], {}, [1, 2, 3], ["ground", "ground"], [[0.0, 0.0], 0.0], {"a": 1}, [0]]
 NAMES = ["ground", "tau", "_scene", "int", "1x", "a-b", "", "x" * 64, "namespace", "η", "crank", "rod", "A", "O"]
 
@@ -157,12 +201,27 @@ def mutate_tree(raw: dict, rng: random.Random) -> tuple[str, dict, list[str]]:
         try:
             return _mutate_tree(copy.deepcopy(raw), rng)
         except (KeyError, IndexError, TypeError, AttributeError):
-            continue          # the tree lacks what this mutation needs (a first one removed it)
+            continue  # the tree lacks what this mutation needs (a first one removed it)
 
 
 def _mutate_tree(raw: dict, rng: random.Random) -> tuple[str, dict, list[str]]:
-    kind = rng.choice(["delete", "type", "number", "string", "name", "duplicate", "modes", "step",
-                       "tolerance", "nest", "set", "set", "double"])
+    kind = rng.choice(
+        [
+            "delete",
+            "type",
+            "number",
+            "string",
+            "name",
+            "duplicate",
+            "modes",
+            "step",
+            "tolerance",
+            "nest",
+            "set",
+            "set",
+            "double",
+        ]
+    )
     paths = [p for p, _ in _paths(raw)]
     leaves = _leaves(raw)
     if kind == "delete":
@@ -202,7 +261,7 @@ def _mutate_tree(raw: dict, rng: random.Random) -> tuple[str, dict, list[str]]:
         elastic = [b for b in raw["bodies"] if isinstance(b, dict) and not b.get("rigid")]
         body = rng.choice(elastic)
         key = rng.choice(["axial_modes", "transverse_modes"])
-        body[key] = rng.choice([25, 100, 10 ** 9, 2 ** 63 - 1, -1, 1.5])
+        body[key] = rng.choice([25, 100, 10**9, 2**63 - 1, -1, 1.5])
         return f"modes {body['name']}.{key}={body[key]}", raw, []
     if kind == "step":
         sim = raw["simulation"]
@@ -228,8 +287,26 @@ def _mutate_tree(raw: dict, rng: random.Random) -> tuple[str, dict, list[str]]:
         for section in ("bodies", "joints"):
             if path[0] == section and isinstance(path[1], int):
                 key = ".".join([section, str(raw[section][path[1]].get("name", path[1])), *map(str, path[2:])])
-        text = rng.choice(["nan", "inf", "-1", "0", "1e300", "1e-300", '"ground"', "[[[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]]",
-                           "{", "x" * 50, "1" * 5000, "true", "9**9**9", "{a = 1}", "25", "1000000000"])
+        text = rng.choice(
+            [
+                "nan",
+                "inf",
+                "-1",
+                "0",
+                "1e300",
+                "1e-300",
+                '"ground"',
+                "[[[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]]",
+                "{",
+                "x" * 50,
+                "1" * 5000,
+                "true",
+                "9**9**9",
+                "{a = 1}",
+                "25",
+                "1000000000",
+            ]
+        )
         return f"--set {key}={text[:30]}", raw, [f"{key}={text}"]
     # two mutations at once
     label1, raw, sets1 = mutate_tree(raw, rng)
@@ -289,7 +366,7 @@ def _alarm(signum, frame):
 def run_check(file: Path, sets: list[str]) -> tuple[int, str]:
     """``symgen check FILE --set ...`` in-process: (exit code, stderr), within CASE_SECONDS."""
     err, out = io.StringIO(), io.StringIO()
-    timed = threading.current_thread() is threading.main_thread()     # signals need the main thread
+    timed = threading.current_thread() is threading.main_thread()  # signals need the main thread
     if timed:
         previous = signal.signal(signal.SIGALRM, _alarm)
         signal.alarm(CASE_SECONDS)
@@ -297,7 +374,7 @@ def run_check(file: Path, sets: list[str]) -> tuple[int, str]:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
             try:
                 code = main(["check", str(file), *[a for s in sets for a in ("--set", s)]])
-            except SystemExit as exc:     # argparse
+            except SystemExit as exc:  # argparse
                 code = exc.code
     except CaseTimeout:
         code = "timeout"
@@ -366,9 +443,25 @@ def test_fuzz_sample_through_simulate_subprocess(tmp_path):
     for case, file in picked:
         out_dir = tmp_path / f"out_{file.stem}"
         out_dir.mkdir()
-        proc = subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", str(file), "-o", "out.csv",
-                               "--plot", "out.png", *[a for s in case.sets for a in ("--set", s)]],
-                              capture_output=True, text=True, cwd=out_dir, timeout=120, env=env)
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "symgen.cli",
+                "simulate",
+                str(file),
+                "-o",
+                "out.csv",
+                "--plot",
+                "out.png",
+                *[a for s in case.sets for a in ("--set", s)],
+            ],
+            capture_output=True,
+            text=True,
+            cwd=out_dir,
+            timeout=120,
+            env=env,
+        )
         assert proc.returncode == 2, (case.label, proc.stderr[-500:])
         assert str(file) in proc.stderr and "Traceback" not in proc.stderr, (case.label, proc.stderr[-500:])
         assert list(out_dir.iterdir()) == [], (case.label, list(out_dir.iterdir()))
@@ -421,8 +514,34 @@ def _clean_exit(code, err: str) -> str | None:
 
 
 # -- file names ---------------------------------------------------------------------------------
-NAME_PARTS = ["\n", "$", "\\", "{", "}", "%", "#", "--", '"', "'", "é", "中", "\\input{x}", "\\end{document}",
-              "??!", "??=", "^_~&", "<b>", "&amp;", "\r", "\t", " ", "`", "\\\\", "}{", "%\n\\x"]
+NAME_PARTS = [
+    "\n",
+    "$",
+    "\\",
+    "{",
+    "}",
+    "%",
+    "#",
+    "--",
+    '"',
+    "'",
+    "é",
+    "中",
+    "\\input{x}",
+    "\\end{document}",
+    "??!",
+    "??=",
+    "^_~&",
+    "<b>",
+    "&amp;",
+    "\r",
+    "\t",
+    " ",
+    "`",
+    "\\\\",
+    "}{",
+    "%\n\\x",
+]
 FILE_NAME_CASES = 8
 CC = shutil.which("cc") or shutil.which("gcc")
 
@@ -438,7 +557,9 @@ def file_names(count: int, seed: int = SEED + 2) -> list[str]:
     return names[:-1] + ["Qz9" + "é" * 100 + "x" * 10 + "Qy8", "Qz9" + "é" * 100 + "x" * 40 + "Qy8"]
 
 
-_SAFE_TT = re.compile(r"(?:[^\\{}$%#&^_~]|\\[{}$%#&_]|\\textbackslash\{\}|\\\^\{\}|\\textasciitilde\{\}|\\textquotedbl\{\})*")
+_SAFE_TT = re.compile(
+    r"(?:[^\\{}$%#&^_~]|\\[{}$%#&_]|\\textbackslash\{\}|\\\^\{\}|\\textasciitilde\{\}|\\textquotedbl\{\})*"
+)
 
 
 def live_tex(text: str) -> list[str]:
@@ -463,16 +584,17 @@ def check_named_files(tmp_path: Path, names: list[str], fmu: int) -> list[str]:
     scene_text = (ROOT / "examples" / "slider_crank.toml").read_bytes()
     problems = []
     for i, name in enumerate(names):
-        folder = tmp_path / f"d{i}*" / "*--"          # the paths hold "*/" and "/*"
+        folder = tmp_path / f"d{i}*" / "*--"  # the paths hold "*/" and "/*"
         folder.mkdir(parents=True)
         scene = folder / f"*{name}.toml"
         scene.write_bytes(scene_text)
         out = folder / name
-        runs = [["check", str(scene)],
-                ["latex", str(scene), "-o", f"{out}.tex"],
-                ["emit-c", str(scene), "-o", f"{out}-c"],
-                ["simulate", str(scene), "--set", "simulation.cycles=0.02", "-o", f"{out}.csv",
-                 "--plot", f"{out}.png"]]
+        runs = [
+            ["check", str(scene)],
+            ["latex", str(scene), "-o", f"{out}.tex"],
+            ["emit-c", str(scene), "-o", f"{out}-c"],
+            ["simulate", str(scene), "--set", "simulation.cycles=0.02", "-o", f"{out}.csv", "--plot", f"{out}.png"],
+        ]
         if i < fmu:
             runs.append(["emit-fmu", str(scene), "-o", f"{out}.fmu"])
         too_long = len(os.fsencode(name)) + 4 > 255 - NAME_MARGIN
@@ -489,8 +611,20 @@ def check_named_files(tmp_path: Path, names: list[str], fmu: int) -> list[str]:
             problems.append(f"{name!r} latex: live TeX from the name: {live[:3]}")
         if CC:
             for c in sorted(Path(f"{out}-c").glob("*.c")):
-                proc = subprocess.run([CC, "-std=c99", "-fsyntax-only", "-Werror=comment", "-Werror=trigraphs",
-                                       "-I", str(c.parent), str(c)], capture_output=True, text=True)
+                proc = subprocess.run(
+                    [
+                        CC,
+                        "-std=c99",
+                        "-fsyntax-only",
+                        "-Werror=comment",
+                        "-Werror=trigraphs",
+                        "-I",
+                        str(c.parent),
+                        str(c),
+                    ],
+                    capture_output=True,
+                    text=True,
+                )
                 if proc.returncode:
                     problems.append(f"{name!r} emit-c: {c.name} does not compile: {proc.stderr[:300]}")
         if not Path(f"{out}.png").stat().st_size:
@@ -527,9 +661,20 @@ def test_hostile_file_names_more(tmp_path, monkeypatch):
 
 # -- cache content ------------------------------------------------------------------------------
 CACHE_SCENE = ROOT / "examples" / "slider_crank.toml"
-CACHE_CASES = 10             # a seeded sample of cache_cases() in the default suite; all under slow
-PLANTS = ["garbage", "empty", "truncated", "oversized", "fifo", "devzero", "folder_link", "dangling", "loop",
-          "folder", "plain_sha256"]
+CACHE_CASES = 10  # a seeded sample of cache_cases() in the default suite; all under slow
+PLANTS = [
+    "garbage",
+    "empty",
+    "truncated",
+    "oversized",
+    "fifo",
+    "devzero",
+    "folder_link",
+    "dangling",
+    "loop",
+    "folder",
+    "plain_sha256",
+]
 TOP_PLANTS = ["garbage", "empty", "fifo", "devzero", "folder_link"]
 
 
@@ -543,17 +688,38 @@ def cache_cases() -> list[tuple[str, str, str]]:
 
 
 def _cache_env(tmp: Path, root, **extra) -> dict:
-    env = {**os.environ, "SYMGEN_CACHE_DIR": str(root), "XDG_CONFIG_HOME": str(tmp / "config"), "MPLBACKEND": "Agg",
-           "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
-           "SYMGEN_BACKEND": "compiled" if CC else "vm"}
+    env = {
+        **os.environ,
+        "SYMGEN_CACHE_DIR": str(root),
+        "XDG_CONFIG_HOME": str(tmp / "config"),
+        "MPLBACKEND": "Agg",
+        "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+        "SYMGEN_BACKEND": "compiled" if CC else "vm",
+    }
     env.update(extra)
     return env
 
 
 def _simulate(tmp: Path, root, out: Path, **extra) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "symgen.cli", "simulate", str(CACHE_SCENE), "--set",
-                           "simulation.cycles=0.05", "-o", str(out)], capture_output=True, text=True, timeout=120,
-                          env=_cache_env(tmp, root, **extra), cwd=tmp, stdin=subprocess.DEVNULL)
+    return subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "symgen.cli",
+            "simulate",
+            str(CACHE_SCENE),
+            "--set",
+            "simulation.cycles=0.05",
+            "-o",
+            str(out),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=_cache_env(tmp, root, **extra),
+        cwd=tmp,
+        stdin=subprocess.DEVNULL,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -566,8 +732,10 @@ def clean_cache(tmp_path_factory):
     marker = tmp / "PWNED"
     evil = None
     if CC:
-        (tmp / "evil.c").write_text('#include <stdio.h>\n__attribute__((constructor)) static void pwn(void) '
-                                    f'{{ FILE *f = fopen("{marker}", "w"); if (f) fclose(f); }}\n')
+        (tmp / "evil.c").write_text(
+            "#include <stdio.h>\n__attribute__((constructor)) static void pwn(void) "
+            f'{{ FILE *f = fopen("{marker}", "w"); if (f) fclose(f); }}\n'
+        )
         subprocess.run([CC, "-shared", "-fPIC", str(tmp / "evil.c"), "-o", str(tmp / "evil.so")], check=True)
         subprocess.run([sys.executable, "-c", f"import ctypes; ctypes.CDLL({str(tmp / 'evil.so')!r})"], check=True)
         assert marker.exists()
@@ -576,8 +744,9 @@ def clean_cache(tmp_path_factory):
     elsewhere = tmp / "elsewhere"
     elsewhere.mkdir()
     (elsewhere / "keep.txt").write_text("keep")
-    return SimpleNamespace(tmp=tmp, root=tmp / "clean", csv=(tmp / "ref.csv").read_text(), marker=marker,
-                           evil=evil, elsewhere=elsewhere)
+    return SimpleNamespace(
+        tmp=tmp, root=tmp / "clean", csv=(tmp / "ref.csv").read_text(), marker=marker, evil=evil, elsewhere=elsewhere
+    )
 
 
 def _plant(path: Path, how: str, clean, rng: random.Random) -> None:
@@ -592,8 +761,8 @@ def _plant(path: Path, how: str, clean, rng: random.Random) -> None:
     elif how == "empty":
         path.write_bytes(b"")
     elif how == "truncated":
-        path.write_bytes(data[:rng.randrange(max(len(data), 1))])
-    elif how == "oversized":                 # sparse: 3 GB of nothing
+        path.write_bytes(data[: rng.randrange(max(len(data), 1))])
+    elif how == "oversized":  # sparse: 3 GB of nothing
         with open(path, "wb") as fh:
             fh.truncate(3 << 30)
     elif how == "fifo":
@@ -632,7 +801,7 @@ def run_cache_case(clean, i: int, sub: str, level: str, how: str, rng: random.Ra
     entries = sorted(p for p in (root / sub).iterdir() if not p.name.startswith("."))
     label = f"{sub} {level} {how}"
     if sub == "shapes":
-        shutil.rmtree(root / "models")          # the derivation reads the shapes again
+        shutil.rmtree(root / "models")  # the derivation reads the shapes again
     if level == "top":
         _plant(root / sub, how, clean, rng)
     elif level == "entry":
@@ -700,7 +869,11 @@ class _Fixed(random.Random):
         self.item = item
 
     def choice(self, seq):
-        return next((x for x in seq if x.name == self.item.name), seq[0]) if seq and isinstance(seq[0], Path) else super().choice(seq)
+        return (
+            next((x for x in seq if x.name == self.item.name), seq[0])
+            if seq and isinstance(seq[0], Path)
+            else super().choice(seq)
+        )
 
 
 @pytest.mark.parametrize("how", TOP_PLANTS[:-1] + ["root_file", "root_devnull"])
@@ -743,9 +916,21 @@ def test_cache_root_unusable_runs_uncached(clean_cache, root):
 
 # -- non-smooth laws and loads ------------------------------------------------------------------
 LAW_CASES = 200
-LAW_SIMULATE = 8             # of the accepted ones, run through simulate (t_end 0.6)
-LAW_ATOMS = ["tau", "(tau - 0.3)", "(0.2 - tau)", "pi/2", "(tau - pi/4)", "0", "1e-12", "1e300", "(-1)", "0.5",
-             "(tau*1e6)", "(tau^2 - 0.01)"]
+LAW_SIMULATE = 8  # of the accepted ones, run through simulate (t_end 0.6)
+LAW_ATOMS = [
+    "tau",
+    "(tau - 0.3)",
+    "(0.2 - tau)",
+    "pi/2",
+    "(tau - pi/4)",
+    "0",
+    "1e-12",
+    "1e300",
+    "(-1)",
+    "0.5",
+    "(tau*1e6)",
+    "(tau^2 - 0.01)",
+]
 LAW_UNARY = ["Abs", "Heaviside", "sign", "sqrt", "log", "tan", "exp", "sin", "cos", "tanh", "sinh"]
 
 
@@ -814,7 +999,11 @@ def check_laws(tmp_path: Path, count: int, simulate: int, seed: int) -> tuple[li
             ran += 1
             code, err = run_cli(["simulate", str(file), "-o", str(tmp_path / f"law{i:03d}.csv")])
             problem = _clean_exit(code, err)
-            if problem is None and code == 2 and not re.search(r"symgen: error: .*(tau = |at tau|" + re.escape(key) + ")", err):
+            if (
+                problem is None
+                and code == 2
+                and not re.search(r"symgen: error: .*(tau = |at tau|" + re.escape(key) + ")", err)
+            ):
                 problem = "a failed run whose message names neither tau nor the key"
             if problem:
                 problems.append(f"simulate {key} = {text!r}: {problem}")
@@ -824,7 +1013,7 @@ def check_laws(tmp_path: Path, count: int, simulate: int, seed: int) -> tuple[li
 def test_non_smooth_laws_and_loads(tmp_path):
     problems, outcomes = check_laws(tmp_path, LAW_CASES, LAW_SIMULATE, SEED + 6)
     assert not problems, "\n".join(problems)
-    assert outcomes[0] > 0.3 * LAW_CASES and outcomes[2] > 0.1 * LAW_CASES, outcomes    # both kinds hit
+    assert outcomes[0] > 0.3 * LAW_CASES and outcomes[2] > 0.1 * LAW_CASES, outcomes  # both kinds hit
 
 
 @pytest.mark.slow

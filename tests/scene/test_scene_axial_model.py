@@ -1,5 +1,6 @@
 """``effects.axial``: the contract's true / false plus the project's "auto" (the default),
 "dynamic", "quasi_static" and "inextensible"."""
+
 from __future__ import annotations
 
 import pytest
@@ -15,30 +16,41 @@ def _with_axial(path, value: str, write_scene):
     return write_scene(text.replace("\naxial = true\n", f"\naxial = {value}\n"))
 
 
-@pytest.mark.parametrize("value, expected", [("true", True), ("false", False),
-                                             ('"inextensible"', "inextensible"), ('"auto"', "auto"),
-                                             ('"dynamic"', "dynamic"), ('"quasi_static"', "quasi_static")])
+@pytest.mark.parametrize(
+    "value, expected",
+    [
+        ("true", True),
+        ("false", False),
+        ('"inextensible"', "inextensible"),
+        ('"auto"', "auto"),
+        ('"dynamic"', "dynamic"),
+        ('"quasi_static"', "quasi_static"),
+    ],
+)
 def test_axial_values(dimless_path, write_scene, value, expected):
     scene = load_scene(_with_axial(dimless_path, value, write_scene))
     assert scene.effects.axial == expected
-    assert scene.effects.coriolis is False          # the rest of [effects] read as before
+    assert scene.effects.coriolis is False  # the rest of [effects] read as before
 
 
 def test_axial_default_and_override(dimless_path, write_scene):
     assert Effects().axial == "auto"
     text = dimless_path.read_text().replace("\naxial = true\n", "\n")
-    assert load_scene(write_scene(text)).effects.axial == "auto"          # absent: the default
+    assert load_scene(write_scene(text)).effects.axial == "auto"  # absent: the default
     assert load_scene(dimless_path).effects.axial is True
     assert load_scene(dimless_path, ["effects.axial=inextensible"]).effects.axial == "inextensible"
     assert load_scene(dimless_path, ["effects.axial=false"]).effects.axial is False
 
 
-@pytest.mark.parametrize("value, fragment", [
-    ('"rigid"', "unknown value 'rigid'"),
-    ('"Inextensible"', "unknown value 'Inextensible'"),
-    ("1", "must be true or false, got integer 1"),
-    ("[true]", "must be true or false"),
-])
+@pytest.mark.parametrize(
+    "value, fragment",
+    [
+        ('"rigid"', "unknown value 'rigid'"),
+        ('"Inextensible"', "unknown value 'Inextensible'"),
+        ("1", "must be true or false, got integer 1"),
+        ("[true]", "must be true or false"),
+    ],
+)
 def test_bad_axial_values(dimless_path, write_scene, value, fragment):
     with pytest.raises(SceneError) as info:
         load_scene(_with_axial(dimless_path, value, write_scene))

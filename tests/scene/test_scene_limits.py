@@ -2,6 +2,7 @@
 deep are named, loose tolerances warn, command-line numbers are checked, `symgen check` summarises.
 
 The limit violations of scene files themselves are in bad/ (test_scene_bad_files.py)."""
+
 from __future__ import annotations
 
 import math
@@ -28,11 +29,14 @@ def _error(path, sets=()) -> SceneError:
 
 
 # -- liftable limits ----------------------------------------------------------------------------
-@pytest.mark.parametrize("stem, env, value, sets", [
-    ("modes_over_limit", "SYMGEN_MAX_MODES", "25", ["initial.deformation.rod.f=[" + ", ".join(["0.0"] * 25) + "]"]),
-    ("tiny_output_step", "SYMGEN_MAX_ROWS", "7000000", []),
-    ("t_end_over_limit", "SYMGEN_MAX_T_END", "1e7", []),
-])
+@pytest.mark.parametrize(
+    "stem, env, value, sets",
+    [
+        ("modes_over_limit", "SYMGEN_MAX_MODES", "25", ["initial.deformation.rod.f=[" + ", ".join(["0.0"] * 25) + "]"]),
+        ("tiny_output_step", "SYMGEN_MAX_ROWS", "7000000", []),
+        ("t_end_over_limit", "SYMGEN_MAX_T_END", "1e7", []),
+    ],
+)
 def test_environment_variable_lifts_the_limit(monkeypatch, stem, env, value, sets):
     err = _error(BAD / f"{stem}.toml", sets)
     assert env in err.hint, "the message says how to lift the limit"
@@ -65,8 +69,7 @@ def test_bad_environment_value_is_named(monkeypatch, text):
 
 
 def test_defaults_are_the_documented_ones():
-    assert {k: v.default for k, v in LIMITS.items()} == {"modes": 24, "rows": 2_000_000, "t_end": 1e6,
-                                                          "entries": 256}
+    assert {k: v.default for k, v in LIMITS.items()} == {"modes": 24, "rows": 2_000_000, "t_end": 1e6, "entries": 256}
     assert limit_value("t_end", {"SYMGEN_MAX_T_END": "1e8"}) == 1e8
 
 
@@ -92,8 +95,9 @@ def test_latin1_file_is_named_with_its_line(tmp_path):
     assert str(err).startswith(f"{bad}: not UTF-8 text")
 
 
-@pytest.mark.parametrize("data", [bytes(range(256)) * 4, b"\xff\xfe" + "[scene]".encode("utf-16-le"),
-                                  b"\x89PNG\r\n\x1a\n\x00\x00"])
+@pytest.mark.parametrize(
+    "data", [bytes(range(256)) * 4, b"\xff\xfe" + "[scene]".encode("utf-16-le"), b"\x89PNG\r\n\x1a\n\x00\x00"]
+)
 def test_binary_files_are_not_utf8(tmp_path, data):
     bad = tmp_path / "blob.toml"
     bad.write_bytes(data)
@@ -126,41 +130,47 @@ def test_more_digits_than_python_reads(tmp_path):
     assert "set_int_max_str_digits" not in str(err), "no Python advice in a user message"
 
 
-@pytest.mark.parametrize("item, key, fragment", [
-    ("bodies.rod.mu=" + "[" * 30 + "1" + "]" * 30, "bodies.rod.mu", "nested more than"),
-    ("bodies.rod.mu=" + "[" * 3000 + "]" * 3000, "bodies.rod.mu", "nested too deeply"),
-    ("joints.B.mass=0x" + "f" * 4000, "joints.B.mass", "beyond TOML's 64-bit integers"),
-    ("joints.B.mass=" + "1" * 5000, "joints.B.mass", "4300 digits"),
-    (".".join(["a"] * 40) + "=1", "a.a.a", "nested more than 16 levels"),
-    ("bodies.rod.length=1e300", "bodies.rod.length", "beyond 1e+30"),
-    ("bodies.crank.length=1e-300", "bodies.crank.length", "alpha = l / l0 of bar 'crank'"),
-    ("simulation.cycles=inf", "simulation.cycles", "must be a finite number"),
-    ('bodies.crank.name="ground"', "bodies[0].name", "reserved for the fixed frame"),
-])
+@pytest.mark.parametrize(
+    "item, key, fragment",
+    [
+        ("bodies.rod.mu=" + "[" * 30 + "1" + "]" * 30, "bodies.rod.mu", "nested more than"),
+        ("bodies.rod.mu=" + "[" * 3000 + "]" * 3000, "bodies.rod.mu", "nested too deeply"),
+        ("joints.B.mass=0x" + "f" * 4000, "joints.B.mass", "beyond TOML's 64-bit integers"),
+        ("joints.B.mass=" + "1" * 5000, "joints.B.mass", "4300 digits"),
+        (".".join(["a"] * 40) + "=1", "a.a.a", "nested more than 16 levels"),
+        ("bodies.rod.length=1e300", "bodies.rod.length", "beyond 1e+30"),
+        ("bodies.crank.length=1e-300", "bodies.crank.length", "alpha = l / l0 of bar 'crank'"),
+        ("simulation.cycles=inf", "simulation.cycles", "must be a finite number"),
+        ('bodies.crank.name="ground"', "bodies[0].name", "reserved for the fixed frame"),
+    ],
+)
 def test_overrides_are_limited_like_the_file(item, key, fragment):
     err = _error(SLIDER, [item])
     assert err.key.startswith(key) and fragment in err.message, str(err)
 
 
 # -- command-line numbers -----------------------------------------------------------------------
-@pytest.mark.parametrize("argv, option", [
-    (["modes", str(SLIDER), "--at", "nan"], "--at"),
-    (["modes", str(SLIDER), "--at", "1e300"], "--at"),
-    (["quasistatic", str(SLIDER), "-o", "{out}/q.csv", "--cycles", "inf"], "--cycles"),
-    (["quasistatic", str(SLIDER), "-o", "{out}/q.csv", "--cycles", "-1"], "--cycles"),
-    (["effects", str(SLIDER), "--tol", "nan"], "--tol"),
-    (["effects", str(SLIDER), "--auto", "nan", "-o", "{out}/x.toml"], "--auto"),
-    (["effects", str(SLIDER), "--measure", "--cycles", "nan"], "--cycles"),
-    (["study", str(SLIDER), "-o", "{out}/st", "--repeats", "0"], "--repeats"),
-    (["study", str(SLIDER), "-o", "{out}/st", "--window", "nan"], "--window"),
-    (["study", str(SLIDER), "-o", "{out}/st", "--ref-rtol", "5"], "--ref-rtol"),
-    (["study", str(SLIDER), "-o", "{out}/st", "--tolerances", "1e-4,nan"], "--tolerances"),
-])
+@pytest.mark.parametrize(
+    "argv, option",
+    [
+        (["modes", str(SLIDER), "--at", "nan"], "--at"),
+        (["modes", str(SLIDER), "--at", "1e300"], "--at"),
+        (["quasistatic", str(SLIDER), "-o", "{out}/q.csv", "--cycles", "inf"], "--cycles"),
+        (["quasistatic", str(SLIDER), "-o", "{out}/q.csv", "--cycles", "-1"], "--cycles"),
+        (["effects", str(SLIDER), "--tol", "nan"], "--tol"),
+        (["effects", str(SLIDER), "--auto", "nan", "-o", "{out}/x.toml"], "--auto"),
+        (["effects", str(SLIDER), "--measure", "--cycles", "nan"], "--cycles"),
+        (["study", str(SLIDER), "-o", "{out}/st", "--repeats", "0"], "--repeats"),
+        (["study", str(SLIDER), "-o", "{out}/st", "--window", "nan"], "--window"),
+        (["study", str(SLIDER), "-o", "{out}/st", "--ref-rtol", "5"], "--ref-rtol"),
+        (["study", str(SLIDER), "-o", "{out}/st", "--tolerances", "1e-4,nan"], "--tolerances"),
+    ],
+)
 def test_command_line_numbers_are_checked(tmp_path, capsys, argv, option):
     argv = [a.replace("{out}", str(tmp_path)) for a in argv]
     try:
         code = main(argv)
-    except SystemExit as exc:            # argparse: "argument --at: must be ..."
+    except SystemExit as exc:  # argparse: "argument --at: must be ..."
         code = exc.code
     err = capsys.readouterr().err
     assert code == 2 and option in err and "Traceback" not in err, err
@@ -194,12 +204,15 @@ def test_check_of_a_bad_file_exits_2(capsys):
     assert f"{BAD / 'huge_modes.toml'}: bodies.rod.transverse_modes: 1000000000 shape functions" in err
 
 
-@pytest.mark.parametrize("override, key, fragment", [
-    ("simulation.output_step=1e-310", "simulation.output_step", "inf output rows"),
-    ("simulation.output_step=5e-324", "simulation.output_step", "inf output rows"),
-    ("simulation.atol=1e-300", "simulation.atol", "must be >= 1e-20"),
-    ("simulation.atol=1e-21", "simulation.atol", "must be >= 1e-20"),
-])
+@pytest.mark.parametrize(
+    "override, key, fragment",
+    [
+        ("simulation.output_step=1e-310", "simulation.output_step", "inf output rows"),
+        ("simulation.output_step=5e-324", "simulation.output_step", "inf output rows"),
+        ("simulation.atol=1e-300", "simulation.atol", "must be >= 1e-20"),
+        ("simulation.atol=1e-21", "simulation.atol", "must be >= 1e-20"),
+    ],
+)
 def test_edge_values_of_steps_and_tolerances_get_clear_errors(override, key, fragment):
     """Subnormal output steps overflowed the row count (an internal error), and an atol that no
     double-precision solver meets failed later with a raw IDAS code."""
@@ -207,14 +220,18 @@ def test_edge_values_of_steps_and_tolerances_get_clear_errors(override, key, fra
     assert err.key == key and fragment in err.message, err
 
 
-@pytest.mark.parametrize("expr, tau", [("log(tau - 10)", 0.0), ("1/(tau - 0.1)", 0.1), ("sqrt(tau - 1)", 0.0),
-                                       ("0.01*tan(tau)", math.pi / 2)])
+@pytest.mark.parametrize(
+    "expr, tau",
+    [("log(tau - 10)", 0.0), ("1/(tau - 0.1)", 0.1), ("sqrt(tau - 1)", 0.0), ("0.01*tan(tau)", math.pi / 2)],
+)
 def test_a_load_that_is_not_finite_on_the_run_is_named_with_its_tau(tmp_path, expr, tau):
     """Loads singular inside the run failed later in IDAS with raw codes that blamed the
     tolerances; a step (Heaviside) or any smooth load is accepted."""
+
     def scene(load: str) -> Path:
-        text = SLIDER.read_text().replace("[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\n'
-                                                         f'transverse = "{load}"\n\n[simulation]')
+        text = SLIDER.read_text().replace(
+            "[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\ntransverse = "{load}"\n\n[simulation]'
+        )
         path = tmp_path / "loaded.toml"
         path.write_text(text)
         return path
@@ -226,16 +243,20 @@ def test_a_load_that_is_not_finite_on_the_run_is_named_with_its_tau(tmp_path, ex
         assert load_scene(scene(fine)).loads[0].transverse == fine
 
 
-@pytest.mark.parametrize("expr, key, tau", [
-    # thousands of poles on the run: SymPy, asked for the poles on [0, t_end], listed them all (hung)
-    ("0.01*tan(1e6*tau)", "loads[0].transverse", math.pi / 2e6),
-    ("0.01/sin(1e6*tau - 1)", "loads[0].transverse", 1e-6),
-])
+@pytest.mark.parametrize(
+    "expr, key, tau",
+    [
+        # thousands of poles on the run: SymPy, asked for the poles on [0, t_end], listed them all (hung)
+        ("0.01*tan(1e6*tau)", "loads[0].transverse", math.pi / 2e6),
+        ("0.01/sin(1e6*tau - 1)", "loads[0].transverse", 1e-6),
+    ],
+)
 def test_a_load_with_dense_poles_is_named_quickly(tmp_path, expr, key, tau):
     import time
 
-    text = SLIDER.read_text().replace("[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\n'
-                                                     f'transverse = "{expr}"\n\n[simulation]')
+    text = SLIDER.read_text().replace(
+        "[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\ntransverse = "{expr}"\n\n[simulation]'
+    )
     path = tmp_path / "loaded.toml"
     path.write_text(text)
     start = time.perf_counter()
@@ -255,18 +276,22 @@ def test_a_law_with_a_pole_between_the_samples_is_named(tmp_path):
     assert err.key == "driver.law" and "at tau = 0.1 " in err.message, err
 
 
-@pytest.mark.parametrize("expr, named", [
-    ("0.01*sin(sinh(1e6*tau))", True),        # evalf worked at ~10^6 bits per sample (minutes)
-    # SymPy's singularities did not return; with Min/Max the samples decide (a pole between
-    # them is left to the run, which fails naming its tau)
-    ("0.01/min(exp(tau^2), sinh(tau - 0.3))", False),
-    ("0.01/atan2(0.5, min(tan(tau^2 - 0.01), 0))", False),
-])
+@pytest.mark.parametrize(
+    "expr, named",
+    [
+        ("0.01*sin(sinh(1e6*tau))", True),  # evalf worked at ~10^6 bits per sample (minutes)
+        # SymPy's singularities did not return; with Min/Max the samples decide (a pole between
+        # them is left to the run, which fails naming its tau)
+        ("0.01/min(exp(tau^2), sinh(tau - 0.3))", False),
+        ("0.01/atan2(0.5, min(tan(tau^2 - 0.01), 0))", False),
+    ],
+)
 def test_a_load_that_overflows_or_has_min_poles_is_read_quickly(tmp_path, expr, named):
     import time
 
-    text = SLIDER.read_text().replace("[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\n'
-                                                     f'transverse = "{expr}"\n\n[simulation]')
+    text = SLIDER.read_text().replace(
+        "[simulation]", f'[[loads]]\nbody = "rod"\nkind = "distributed"\ntransverse = "{expr}"\n\n[simulation]'
+    )
     path = tmp_path / "loaded.toml"
     path.write_text(text)
     start = time.perf_counter()

@@ -1,4 +1,5 @@
 """Any single corrupted value gives a SceneError (or a valid scene), never a crash."""
+
 from __future__ import annotations
 
 import copy
@@ -12,8 +13,7 @@ from symgen.scene import parse_scene
 
 DATA = pathlib.Path(__file__).parent / "data"
 DELETE = object()
-ODD_VALUES = [-1, 0, 1.5, float("nan"), "x", True, [], {}, [1, 2, 3], ["ground", "ground"],
-              [[0.0, 0.0], 0.0], DELETE]
+ODD_VALUES = [-1, 0, 1.5, float("nan"), "x", True, [], {}, [1, 2, 3], ["ground", "ground"], [[0.0, 0.0], 0.0], DELETE]
 
 
 def _paths(node, prefix=()):

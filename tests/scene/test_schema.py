@@ -2,6 +2,7 @@
 symgen/scene/schema.py, whose key lists must equal the loader's own constants, whose stated
 defaults must be what the loader does, and which covers every key of the examples. The JSON
 Schema for editors accepts the examples and rejects misspellings."""
+
 from __future__ import annotations
 
 import json
@@ -23,7 +24,8 @@ EXAMPLES = sorted((ROOT / "examples").glob("*.toml"))
 def test_docs_are_rendered_from_the_schema():
     doc = ROOT / "docs" / "scene-format.md"
     assert doc.read_text() == markdown(), (
-        "docs/scene-format.md is stale: run `symgen schema --markdown docs/scene-format.md`")
+        "docs/scene-format.md is stale: run `symgen schema --markdown docs/scene-format.md`"
+    )
 
 
 def test_schema_describes_exactly_the_keys_the_loader_accepts():
@@ -54,11 +56,13 @@ def test_json_schema_rejects_what_the_loader_rejects():
     raw = tomllib.loads((ROOT / "examples" / "slider_crank.toml").read_text())
     schema = json_schema()
     jsonschema.Draft202012Validator.check_schema(schema)
-    for mutate in (lambda r: r["bodies"][1].update(lenght=1.0),            # misspelt key
-                   lambda r: r["bodies"][1].update(axial_modes=1.5),        # not an integer
-                   lambda r: r["effects"].update(strain="nonlinear"),       # not an allowed value
-                   lambda r: r["scene"].update(name="1bad"),                # not an identifier
-                   lambda r: r.update(extra={})):                           # unknown table
+    for mutate in (
+        lambda r: r["bodies"][1].update(lenght=1.0),  # misspelt key
+        lambda r: r["bodies"][1].update(axial_modes=1.5),  # not an integer
+        lambda r: r["effects"].update(strain="nonlinear"),  # not an allowed value
+        lambda r: r["scene"].update(name="1bad"),  # not an identifier
+        lambda r: r.update(extra={}),
+    ):  # unknown table
         bad = json.loads(json.dumps(raw))
         mutate(bad)
         with pytest.raises(jsonschema.ValidationError):

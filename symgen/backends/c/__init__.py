@@ -25,6 +25,7 @@ Files written by ``write_c`` (prefix = the scene name):
 ``CMakeLists.txt``     library target ``PREFIX`` (``add_subdirectory``) + ``PREFIX_sim``
 =====================  =========================================================
 """
+
 from __future__ import annotations
 
 import os
@@ -40,13 +41,15 @@ __all__ = ["c_sources", "write_c", "write_fmu", "c_prefix"]
 def c_context(scene, model, plan, info=None) -> dict:
     """The template context of a scene (see ``context.c_context``)."""
     from symgen.backends.c.context import c_context as build
-    c_prefix(scene)                      # reject a bad prefix before any work
+
+    c_prefix(scene)  # reject a bad prefix before any work
     return build(scene, model, plan, info)
 
 
 def c_sources(scene, model, plan, info=None) -> dict:
     """{file name: text} of the C library, its driver and CMakeLists.txt."""
     from symgen.backends.c.render import render_files
+
     return render_files(c_context(scene, model, plan, info))
 
 
@@ -56,10 +59,12 @@ def write_tree(files: dict, out_dir: str | os.PathLike) -> Path:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         from symgen.errors import SceneError
-        raise SceneError("command line", "-o", f"{str(out)!r} exists and is not a folder",
-                         "give a folder name, e.g. out/model_c")
+
+        raise SceneError(
+            "command line", "-o", f"{str(out)!r} exists and is not a folder", "give a folder name, e.g. out/model_c"
+        )
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = new_dir(out.parent, f".{out.name}.")         # mode 0777 & ~umask, like any output folder
+    tmp = new_dir(out.parent, f".{out.name}.")  # mode 0777 & ~umask, like any output folder
     try:
         for name, text in files.items():
             path = tmp / name
@@ -88,5 +93,6 @@ def write_c(scene, out_dir: str | os.PathLike, model, plan, info=None) -> Path:
 def write_fmu(scene, path: str | os.PathLike, model, plan, info=None, cc: str | None = None) -> Path:
     """Pack the FMI 2.0 Co-Simulation FMU of ``scene`` (sources + linux64 binary) into ``path``."""
     from symgen.backends.fmu import check_fmu_path, write_fmu as write
+
     check_fmu_path(Path(path))
     return write(scene, Path(path), c_context(scene, model, plan, info), cc=cc)

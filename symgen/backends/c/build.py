@@ -3,6 +3,7 @@
 Used by ``emit-fmu`` (the FMU's binary), the tests and the benchmarks. Flags are the strict
 ones the generated code is written for (C99, every warning an error).
 """
+
 from __future__ import annotations
 
 import os
@@ -36,25 +37,46 @@ def run(cmd: list[str], cwd: str | os.PathLike[str] | None = None) -> None:
         raise BuildError(f"the C compiler failed ({' '.join(cmd)}):\n{proc.stderr.strip()[:4000]}")
 
 
-def compile_shared(sources: Sequence[str | os.PathLike[str]], output: Path, include: Sequence[str | os.PathLike[str]] = (),
-                   flags: Sequence[str] = STRICT_C, opt: str = "-O2", cc: str | None = None,
-                   extra: Sequence[str] = ()) -> Path:
+def compile_shared(
+    sources: Sequence[str | os.PathLike[str]],
+    output: Path,
+    include: Sequence[str | os.PathLike[str]] = (),
+    flags: Sequence[str] = STRICT_C,
+    opt: str = "-O2",
+    cc: str | None = None,
+    extra: Sequence[str] = (),
+) -> Path:
     """Compile ``sources`` into the shared library ``output`` (position independent, libm)."""
     cc = cc or find_cc()
     output = Path(output)
     output.parent.mkdir(parents=True, exist_ok=True)
-    cmd = [*cc.split(), *flags, opt, "-shared", "-fPIC", *extra, *[f"-I{d}" for d in include],
-           *[str(s) for s in sources], "-o", str(output), "-lm"]
+    cmd = [
+        *cc.split(),
+        *flags,
+        opt,
+        "-shared",
+        "-fPIC",
+        *extra,
+        *[f"-I{d}" for d in include],
+        *[str(s) for s in sources],
+        "-o",
+        str(output),
+        "-lm",
+    ]
     run(cmd)
     return output
 
 
-def compile_executable(sources: Sequence[str | os.PathLike[str]], output: Path,
-                       include: Sequence[str | os.PathLike[str]] = (), flags: Sequence[str] = STRICT_C,
-                       opt: str = "-O2", cc: str | None = None) -> Path:
+def compile_executable(
+    sources: Sequence[str | os.PathLike[str]],
+    output: Path,
+    include: Sequence[str | os.PathLike[str]] = (),
+    flags: Sequence[str] = STRICT_C,
+    opt: str = "-O2",
+    cc: str | None = None,
+) -> Path:
     cc = cc or find_cc()
     output = Path(output)
-    cmd = [*cc.split(), *flags, opt, *[f"-I{d}" for d in include], *[str(s) for s in sources],
-           "-o", str(output), "-lm"]
+    cmd = [*cc.split(), *flags, opt, *[f"-I{d}" for d in include], *[str(s) for s in sources], "-o", str(output), "-lm"]
     run(cmd)
     return output

@@ -17,6 +17,7 @@ introduced only where it is structurally nonzero, so the cost grows with the siz
 program, not with the size of its expressions once inlined (no expression swell). The value
 statements and the derivative statements then go through one ``sympy.cse`` call.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -35,16 +36,16 @@ JACOBIAN_FUNCTIONS = ("phi", "phid", "phidd", "res")
 class CFunction:
     """One emitted C function (body only; the templates write the signature)."""
 
-    name: str                  # suffix after the scene prefix: "res", "res_jac"
-    source: str                # program output it computes: "res"
-    kind: str                  # "value" | "jacobian"
+    name: str  # suffix after the scene prefix: "res", "res_jac"
+    source: str  # program output it computes: "res"
+    kind: str  # "value" | "jacobian"
     rows: int
-    cols: int                  # 1 for a value function; NW for a Jacobian
-    body: tuple                # C statements, one per line, no indentation
-    used: tuple                # input arrays the body reads
-    ops: int                   # arithmetic operations (sympy.count_ops) after CSE
-    nnz: int                   # entries written (structural nonzeros)
-    temporaries: int           # local variables
+    cols: int  # 1 for a value function; NW for a Jacobian
+    body: tuple  # C statements, one per line, no indentation
+    used: tuple  # input arrays the body reads
+    ops: int  # arithmetic operations (sympy.count_ops) after CSE
+    nnz: int  # entries written (structural nonzeros)
+    temporaries: int  # local variables
 
 
 def input_symbols(program) -> dict:
@@ -77,7 +78,7 @@ class _Emitter:
     def _new_local(self, sym, expr) -> None:
         expr = self._hoist_pow_bases(expr)
         if expr.is_Symbol and expr in self.names:
-            self.names[sym] = self.names[expr]          # alias: no new variable
+            self.names[sym] = self.names[expr]  # alias: no new variable
         else:
             name = f"w{self.temps}"
             self.temps += 1
@@ -147,7 +148,7 @@ def lower(stmts: list, targets: list, names: dict) -> _Emitter:
     em._order = {sym: k for k, (sym, _) in enumerate(repl_list)}
     for (sym, _), e in zip(stmts, reduced[: len(stmts)]):
         em.statement(sym, e, repl)
-    for (target, _), e in zip(targets, reduced[len(stmts):]):
+    for (target, _), e in zip(targets, reduced[len(stmts) :]):
         em.store(target, e, repl)
     return em
 
@@ -166,6 +167,7 @@ def _used_inputs(program, body: list[str]) -> tuple:
 
 def _tokens(text: str):
     import re
+
     return re.findall(r"[A-Za-z_][A-Za-z0-9_]*", text)
 
 
@@ -174,8 +176,18 @@ def value_function(program, fname: str) -> CFunction:
     exprs = [sp.sympify(e) for e in program.outputs[fname]]
     stmts = needed(program.assignments, exprs)
     em = lower(stmts, [(f"out[{r}]", e) for r, e in enumerate(exprs)], input_symbols(program))
-    return CFunction(name=fname, source=fname, kind="value", rows=len(exprs), cols=1, body=tuple(em.lines),
-                     used=_used_inputs(program, em.lines), ops=em.ops, nnz=len(exprs), temporaries=em.temps)
+    return CFunction(
+        name=fname,
+        source=fname,
+        kind="value",
+        rows=len(exprs),
+        cols=1,
+        body=tuple(em.lines),
+        used=_used_inputs(program, em.lines),
+        ops=em.ops,
+        nnz=len(exprs),
+        temporaries=em.temps,
+    )
 
 
 def jacobian_function(program, fname: str) -> CFunction:
@@ -192,9 +204,18 @@ def jacobian_function(program, fname: str) -> CFunction:
     if size > len(entries):
         body.append(f"for (k = 0; k < {size}; ++k) jac[k] = 0.0;")
     body += em.lines
-    return CFunction(name=f"{fname}_jac", source=fname, kind="jacobian", rows=len(exprs), cols=len(wrt),
-                     body=tuple(body), used=_used_inputs(program, em.lines), ops=em.ops, nnz=len(entries),
-                     temporaries=em.temps)
+    return CFunction(
+        name=f"{fname}_jac",
+        source=fname,
+        kind="jacobian",
+        rows=len(exprs),
+        cols=len(wrt),
+        body=tuple(body),
+        used=_used_inputs(program, em.lines),
+        ops=em.ops,
+        nnz=len(entries),
+        temporaries=em.temps,
+    )
 
 
 def model_functions(program) -> list[CFunction]:

@@ -15,6 +15,7 @@ The valid range of every parameter (``symgen.ir.parameters.parameter_records``) 
 the run settings (``symgen.scene.model``: output rows, rtol) are rendered from Python, never
 retyped in the templates.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -33,9 +34,11 @@ from symgen.ir.records import CoordKind
 
 
 def _ops_table(prefix: str, funcs) -> list[str]:
-    return [f"{prefix}_{f.name}: {f.ops} operations, {f.temporaries} temporaries"
-            + (f", {f.nnz} nonzeros of {f.rows}x{f.cols}" if f.kind == "jacobian" else "")
-            for f in funcs]
+    return [
+        f"{prefix}_{f.name}: {f.ops} operations, {f.temporaries} temporaries"
+        + (f", {f.nnz} nonzeros of {f.rows}x{f.cols}" if f.kind == "jacobian" else "")
+        for f in funcs
+    ]
 
 
 def _c_bound(x: float) -> str:
@@ -49,10 +52,18 @@ def _c_bound(x: float) -> str:
 
 def _parameter_ranges(scene, params: list[str]) -> list[dict]:
     from symgen.ir.parameters import parameter_records
-    return [{"lower": _c_bound(r.valid.lower), "upper": _c_bound(r.valid.upper),
-             "lower_open": int(r.valid.lower_open), "upper_open": int(r.valid.upper_open),
-             "text": c_string(r.valid.text()), "key": c_comment(r.key)}
-            for r in parameter_records(scene, params)]
+
+    return [
+        {
+            "lower": _c_bound(r.valid.lower),
+            "upper": _c_bound(r.valid.upper),
+            "lower_open": int(r.valid.lower_open),
+            "upper_open": int(r.valid.upper_open),
+            "text": c_string(r.valid.text()),
+            "key": c_comment(r.key),
+        }
+        for r in parameter_records(scene, params)
+    ]
 
 
 def _run_limits() -> dict:
@@ -60,9 +71,16 @@ def _run_limits() -> dict:
     default row limit (the C driver lifts it with --max-rows, Python with SYMGEN_MAX_ROWS), the
     rtol and atol bounds and the rtol above which both warn: one source for both."""
     from symgen.scene.limits import ATOL_MAX, ATOL_MIN, LIMITS, RTOL_MAX, RTOL_MIN, RTOL_WARN
-    return {"max_rows": f"{int(LIMITS['rows'].default)}L", "rtol_max": c_double(RTOL_MAX),
-            "rtol_min": c_double(RTOL_MIN), "atol_min": c_double(ATOL_MIN), "atol_max": c_double(ATOL_MAX),
-            "loose_rtol": c_double(RTOL_WARN), "max_t_end": c_double(float(LIMITS["t_end"].default))}
+
+    return {
+        "max_rows": f"{int(LIMITS['rows'].default)}L",
+        "rtol_max": c_double(RTOL_MAX),
+        "rtol_min": c_double(RTOL_MIN),
+        "atol_min": c_double(ATOL_MIN),
+        "atol_max": c_double(ATOL_MAX),
+        "loose_rtol": c_double(RTOL_WARN),
+        "max_t_end": c_double(float(LIMITS["t_end"].default)),
+    }
 
 
 def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> dict:
@@ -99,7 +117,7 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         if drv.kind == "angle":
             theta0, rate = (names.global_parameter(k).text for k in ("theta0", "rate"))
             driver["theta0"] = params.index(theta0)
-            driver["rate"] = params.index(rate) if rate in params else -1   # a law has no rate
+            driver["rate"] = params.index(rate) if rate in params else -1  # a law has no rate
             driver["row"] = info.driver_row
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}
@@ -113,9 +131,17 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "scene_file": c_comment(Path(str(scene.path)).name),
         "scene_hash": scene.hash,
         "ops": _ops_table(prefix, funcs),
-        "n": n, "m": m, "np": len(params), "nout": len(info.outputs),
-        "nclosure": info.n_loop_rows, "nw": 3 * n + m,
-        "ni": nI, "nd": nD, "nx": nx, "nz": nz, "ny": ny,
+        "n": n,
+        "m": m,
+        "np": len(params),
+        "nout": len(info.outputs),
+        "nclosure": info.n_loop_rows,
+        "nw": 3 * n + m,
+        "ni": nI,
+        "nd": nD,
+        "nx": nx,
+        "nz": nz,
+        "ny": ny,
         "nalg": 3 * m + n,
         "coordinate_names": [c_string(c.name) for c in info.coords],
         "coordinate_comments": [c_comment(c.name) for c in info.coords],
@@ -128,21 +154,40 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "limits": _run_limits(),
         "output_names": [c_string(x) for x in info.outputs],
         "csv_header": c_string(",".join(["tau", *info.outputs])),
-        "functions": [{"name": f.name, "kind": f.kind, "rows": f.rows, "cols": f.cols, "body": list(f.body),
-                       "unused": [x for x in ("t", "q", "v", "a", "lam", "p") if x not in f.used],
-                       "ops": f.ops, "nnz": f.nnz, "temporaries": f.temporaries,
-                       "loop": f.kind == "jacobian" and f.nnz < f.rows * f.cols}
-                      for f in funcs],
+        "functions": [
+            {
+                "name": f.name,
+                "kind": f.kind,
+                "rows": f.rows,
+                "cols": f.cols,
+                "body": list(f.body),
+                "unused": [x for x in ("t", "q", "v", "a", "lam", "p") if x not in f.used],
+                "ops": f.ops,
+                "nnz": f.nnz,
+                "temporaries": f.temporaries,
+                "loop": f.kind == "jacobian" and f.nnz < f.rows * f.cols,
+            }
+            for f in funcs
+        ],
         "jac_rows": {k: by_name[k].rows for k in ("phi", "phid", "phidd", "res")},
-        "independent": ind, "dependent": dep, "assembly_dependent": list(plan.assembly_dependent),
-        "ypos_q": ypos_q, "ypos_v": ypos_v, "ycol": ycol,
-        "elastic": list(plan.elastic), "accel": list(plan.accel),
-        "sing_rows": list(plan.singular_rows), "sing_cols": list(plan.singular_cols),
-        "q_guess": [c_double(x) for x in plan.q_guess], "v_guess": [c_double(x) for x in plan.v_guess],
+        "independent": ind,
+        "dependent": dep,
+        "assembly_dependent": list(plan.assembly_dependent),
+        "ypos_q": ypos_q,
+        "ypos_v": ypos_v,
+        "ycol": ycol,
+        "elastic": list(plan.elastic),
+        "accel": list(plan.accel),
+        "sing_rows": list(plan.singular_rows),
+        "sing_cols": list(plan.singular_cols),
+        "q_guess": [c_double(x) for x in plan.q_guess],
+        "v_guess": [c_double(x) for x in plan.v_guess],
         "driver": driver,
         "quasi_static": bool(scene.initial.quasi_static),
-        "t_end": c_double(sim.t_end), "output_step": c_double(sim.output_step),
-        "rtol": c_double(sim.rtol), "atol": c_double(sim.atol),
+        "t_end": c_double(sim.t_end),
+        "output_step": c_double(sim.output_step),
+        "rtol": c_double(sim.rtol),
+        "atol": c_double(sim.atol),
         "policy": _policy(),
         "amplitude_checks": amplitude_checks,
         "radau": radau.constants(),
@@ -162,12 +207,21 @@ def _amplitude_checks(plan: StartPlan) -> list[dict]:
     checks = []
     for group in plan.amplitudes:
         body = group.body
-        for idx, limit, what in ((group.transverse, deflection, "transverse deflection"),
-                                 (group.axial, stretch, "axial displacement")):
+        for idx, limit, what in (
+            (group.transverse, deflection, "transverse deflection"),
+            (group.axial, stretch, "axial displacement"),
+        ):
             if not idx:
                 continue
-            checks.append({"indices": list(idx), "limit": c_double(limit), "message": c_string(
-                f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "
-                f"fraction of its length (limit {limit:g}; the bar equations hold for moderate rotations and "
-                f"small strains): a load beyond a buckling load, or forces the bar cannot carry")})
+            checks.append(
+                {
+                    "indices": list(idx),
+                    "limit": c_double(limit),
+                    "message": c_string(
+                        f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "
+                        f"fraction of its length (limit {limit:g}; the bar equations hold for moderate rotations and "
+                        f"small strains): a load beyond a buckling load, or forces the bar cannot carry"
+                    ),
+                }
+            )
     return checks

@@ -5,6 +5,7 @@ would keep those modes. These helpers create them with 0666 / 0777 masked by the
 ``open`` and ``mkdir`` give every other file symgen writes), under a fresh hidden name next to
 the target so that ``os.replace`` onto it is atomic.
 """
+
 from __future__ import annotations
 
 import os

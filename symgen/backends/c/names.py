@@ -12,6 +12,7 @@ XML attributes, escaped by the functions below.
 >>> c_string('say "hi"\\n')
 '"say \\\\"hi\\\\"\\\\n"'
 """
+
 from __future__ import annotations
 
 from symgen.errors import SceneError
@@ -24,19 +25,23 @@ from symgen.scene.names import name_problem
 #: headers, glibc's top-level headers that they pull in, and the POSIX ones the C library may
 #: use. ``tests/test_emit_c_names.py`` checks, by asking the compiler which headers a build of
 #: the emitted C includes, that every one of them is here.
-HEADER_NAMES = frozenset("""
+HEADER_NAMES = frozenset(
+    """
     assert complex ctype errno fenv float inttypes iso646 limits locale math setjmp signal stdalign
     stdarg stdatomic stdbit stdbool stdckdint stddef stdint stdio stdlib stdnoreturn string tgmath
     threads time uchar wchar wctype
     alloca endian features strings syslimits unistd fcntl pthread sched dlfcn malloc memory stdc_predef
     fmi2functions fmi2functiontypes fmi2typesplatform
-""".split())
+""".split()
+)
 #: Target names CMake reserves (policy CMP0037, and the targets its generators add): the
 #: emitted CMakeLists.txt names its library after the scene.
-CMAKE_TARGETS = frozenset("""
+CMAKE_TARGETS = frozenset(
+    """
     all clean help install test package package_source edit_cache rebuild_cache
     list_install_components depend preinstall all_build zero_check run_tests
-""".split())
+""".split()
+)
 #: The C runtime's files and symbols (``symgen_solver.c``, ``symgen_runtime.h``...).
 RUNTIME_PREFIX = "symgen"
 
@@ -50,7 +55,7 @@ def c_prefix_problem(name: str) -> str | None:
         return problem
     if name.startswith("__") or (name.startswith("_") and len(name) > 1 and name[1].isupper()):
         return "identifiers that begin with '__' or '_' and a capital letter are reserved in C"
-    low = name.lower()                  # a case-insensitive file system shadows Math.h as well
+    low = name.lower()  # a case-insensitive file system shadows Math.h as well
     if low in HEADER_NAMES:
         return f"the emitted header {name}.h would hide the system or FMI header <{low}.h>"
     if low in CMAKE_TARGETS:
@@ -64,9 +69,12 @@ def c_prefix(scene) -> str:
     """The prefix of every exported C symbol: the scene name, validated (never mangled)."""
     problem = c_prefix_problem(scene.name)
     if problem:
-        raise SceneError(getattr(scene, "path", "scene"), "scene.name",
-                         f"{scene.name!r} cannot prefix the emitted C symbols: {problem}",
-                         "rename the scene with [scene] name = \"a_c_identifier\"")
+        raise SceneError(
+            getattr(scene, "path", "scene"),
+            "scene.name",
+            f"{scene.name!r} cannot prefix the emitted C symbols: {problem}",
+            'rename the scene with [scene] name = "a_c_identifier"',
+        )
     return scene.name
 
 
@@ -82,7 +90,7 @@ def c_string(text: str) -> str:
         elif ch == "\n":
             out.append("\\n")
         elif ch == "?":
-            out.append("\\?")            # no trigraphs
+            out.append("\\?")  # no trigraphs
         elif 32 <= byte < 127:
             out.append(ch)
         else:
@@ -99,5 +107,11 @@ def c_comment(text: str) -> str:
 
 def xml_attr(text: str) -> str:
     """``text`` escaped for a double-quoted XML attribute."""
-    return (str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-            .replace('"', "&quot;").replace("\n", "&#10;"))
+    return (
+        str(text)
+        .replace("&", "&amp;")
+        .replace("<", "&lt;")
+        .replace(">", "&gt;")
+        .replace('"', "&quot;")
+        .replace("\n", "&#10;")
+    )

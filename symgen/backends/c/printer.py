@@ -9,6 +9,7 @@ with 17 significant digits (exact round trip); small integer powers become produ
 >>> CPrinter({x: "q[0]"}).doprint(x**2 / 3 + sp.pi)
 '(0.3333333333333333)*(q[0]*q[0]) + 3.141592653589793'
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -85,7 +86,7 @@ class CPrinter(C99CodePrinter):
         base, ex = expr.args
         if ex.is_Integer:
             n = int(ex)
-            b = self.parenthesize(base, 100)       # always parenthesise a compound base
+            b = self.parenthesize(base, 100)  # always parenthesise a compound base
             if n == 0:
                 return "1.0"
             # parenthesised: the caller prints a Pow with the precedence of a power
@@ -113,7 +114,7 @@ class CPrinter(C99CodePrinter):
 
     def _print_Piecewise(self, expr):
         if expr.args[-1].cond != True:  # noqa: E712
-            tail = "(0.0/0.0)"          # no branch applies: NaN, as the CasADi emitter does
+            tail = "(0.0/0.0)"  # no branch applies: NaN, as the CasADi emitter does
         else:
             tail = None
         parts = list(expr.args)
@@ -143,5 +144,21 @@ class CPrinter(C99CodePrinter):
         raise NotImplementedError(f"the C emitter has no translation for {type(expr).__name__}: {expr}")
 
 
-SUPPORTED_FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "fabs", "sinh", "cosh", "tanh",
-                       "asin", "acos", "atan", "fmax", "fmin", "pow")
+SUPPORTED_FUNCTIONS = (
+    "sin",
+    "cos",
+    "tan",
+    "exp",
+    "log",
+    "sqrt",
+    "fabs",
+    "sinh",
+    "cosh",
+    "tanh",
+    "asin",
+    "acos",
+    "atan",
+    "fmax",
+    "fmin",
+    "pow",
+)

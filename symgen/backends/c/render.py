@@ -1,5 +1,6 @@
 """Render the C templates (``templates/c/``: ``symgen.backends.templates``) from a context built by
 ``context.c_context``, and copy the C runtime (``symgen/backends/c/runtime/``, package data) beside them."""
+
 from __future__ import annotations
 
 from importlib import resources
@@ -22,16 +23,21 @@ C_FILES = {
 
 
 def environment() -> jinja2.Environment:
-    return jinja2.Environment(loader=templates.loader("c"), undefined=jinja2.StrictUndefined,
-                              trim_blocks=True, lstrip_blocks=True, keep_trailing_newline=True,
-                              autoescape=False)
+    return jinja2.Environment(
+        loader=templates.loader("c"),
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
 
 
 def render(template: str, ctx: dict) -> str:
     return environment().get_template(template).render(ctx=ctx)
 
 
-RUNTIME = resources.files("symgen.backends.c") / "runtime"        # the C runtime (package data), copied as is
+RUNTIME = resources.files("symgen.backends.c") / "runtime"  # the C runtime (package data), copied as is
 RUNTIME_FILES = ("symgen_runtime.h", "symgen_linalg.c", "symgen_solver.c")
 
 

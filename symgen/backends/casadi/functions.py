@@ -13,6 +13,7 @@ Every function has the signature ``F(t, q, v, a, lam, p)`` (unused inputs are ig
 ``closure`` loop rows of ``phi`` only
 =========  ================================================================
 """
+
 from __future__ import annotations
 
 import casadi as ca
@@ -21,9 +22,19 @@ import sympy as sp
 from symgen.backends.casadi.store import FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (re-exported)
 
 _UNARY = {
-    sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp, sp.log: ca.log,
-    sp.Abs: ca.fabs, sp.sinh: ca.sinh, sp.cosh: ca.cosh, sp.tanh: ca.tanh,
-    sp.asin: ca.asin, sp.acos: ca.acos, sp.atan: ca.atan, sp.sign: ca.sign,
+    sp.sin: ca.sin,
+    sp.cos: ca.cos,
+    sp.tan: ca.tan,
+    sp.exp: ca.exp,
+    sp.log: ca.log,
+    sp.Abs: ca.fabs,
+    sp.sinh: ca.sinh,
+    sp.cosh: ca.cosh,
+    sp.tanh: ca.tanh,
+    sp.asin: ca.asin,
+    sp.acos: ca.acos,
+    sp.atan: ca.atan,
+    sp.sign: ca.sign,
 }
 
 
@@ -110,8 +121,14 @@ class SympyToCasadi:
             return ca.SX(1)
         if isinstance(c, sp.core.relational.Relational):
             lhs, rhs = self(c.lhs), self(c.rhs)
-            return {"<": lhs < rhs, "<=": lhs <= rhs, ">": lhs > rhs, ">=": lhs >= rhs,
-                    "==": lhs == rhs, "!=": lhs != rhs}[c.rel_op]
+            return {
+                "<": lhs < rhs,
+                "<=": lhs <= rhs,
+                ">": lhs > rhs,
+                ">=": lhs >= rhs,
+                "==": lhs == rhs,
+                "!=": lhs != rhs,
+            }[c.rel_op]
         if isinstance(c, sp.And):
             out = ca.SX(1)
             for a in c.args:
@@ -143,4 +160,3 @@ def build_functions(model) -> dict:
         vec = ca.vertcat(*[conv(e) for e in exprs]) if exprs else ca.SX(0, 1)
         funcs[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
     return funcs
-

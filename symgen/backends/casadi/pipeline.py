@@ -5,6 +5,7 @@ families, outputs): a change of parameter values (lambda, mu, lengths, rates, lo
 the cached Functions; nothing is re-derived. Entries are verified before use and re-derived
 when they do not verify (:mod:`symgen.cache`, :mod:`symgen.backends.casadi.store`).
 """
+
 from __future__ import annotations
 
 import time
@@ -25,8 +26,8 @@ def cache_dir() -> Path:
 class CompiledModel:
     funcs: dict
     info: ModelInfo
-    derive_s: float          # time the derivation took (when it was done)
-    build_s: float           # CasADi build, or load from cache, in this process
+    derive_s: float  # time the derivation took (when it was done)
+    build_s: float  # CasADi build, or load from cache, in this process
     cached: bool
 
 
@@ -39,6 +40,7 @@ def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
     if compiled is not None:
         return compiled
     from symgen.model.derive import derive
+
     return _build(derive(scene), use_cache, replace)
 
 

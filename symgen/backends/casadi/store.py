@@ -14,6 +14,7 @@ deserializer (which can crash the process on a damaged file), then that ``model.
 is a valid :class:`~symgen.ir.info.ModelInfo` (``ModelInfo.from_json``) of the folder's
 structure key and that each Function has the name, inputs and sizes that it states. Anything else raises :class:`symgen.cache.InvalidEntry`.
 """
+
 from __future__ import annotations
 
 import json
@@ -31,7 +32,7 @@ INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
 
 FORMAT = "symgen-model-cache"
 #: Bump when the layout of an entry changes (older entries are then re-derived).
-FORMAT_VERSION = 3      # 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
+FORMAT_VERSION = 3  # 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
 MANIFEST = "manifest.json"
 META = "model.json"
 #: the CasADi a cache entry was built with (its stubs, casadi/__init__.pyi, omit the module's __version__)
@@ -58,9 +59,14 @@ def save(funcs: dict, info: ModelInfo, directory: str | os.PathLike, replace: bo
         raise ValueError(f"model cache entry {directory} for a model with key {info.key!r}")
     files = {f"{name}.casadi": funcs[name].serialize().encode("ascii") for name in FUNCTION_NAMES}
     files[META] = json.dumps(info.to_json(), indent=1, sort_keys=True, allow_nan=False).encode()
-    manifest = {"format": FORMAT, "format_version": FORMAT_VERSION, "symgen": __version__,
-                "casadi": CASADI_VERSION, "key": directory.name,
-                "files": {name: cache.seal(f"models/{directory.name}/{name}", data) for name, data in files.items()}}
+    manifest = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "symgen": __version__,
+        "casadi": CASADI_VERSION,
+        "key": directory.name,
+        "files": {name: cache.seal(f"models/{directory.name}/{name}", data) for name, data in files.items()},
+    }
     directory.parent.mkdir(parents=True, exist_ok=True)
     cache.sweep_stale(directory.parent)
     with cache.temp_dir(directory.parent, directory.name) as tmp:
@@ -95,6 +101,7 @@ def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
     use_fd = os.open in os.supports_dir_fd and hasattr(os, "O_DIRECTORY")
     dfd = os.open(directory, os.O_RDONLY | os.O_DIRECTORY) if use_fd else None
     try:
+
         def read(name: str, limit: int) -> bytes:
             if dfd is not None:
                 return cache.read_bytes(name, limit, dir_fd=dfd)
@@ -122,6 +129,7 @@ def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
 def _parse_json(blob: bytes, name: str):
     def no_constant(c):
         raise ValueError(f"non-finite number {c}")
+
     try:
         return json.loads(blob.decode("utf-8"), parse_constant=no_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
@@ -140,8 +148,11 @@ def _check_manifest(m, key: str) -> None:
     if m.get("key") != key:
         raise cache.InvalidEntry(f"{MANIFEST} is for structure key {m.get('key')!r}, not {key}")
     files = m.get("files")
-    if not isinstance(files, dict) or set(files) != set(_file_names()) or not all(
-            isinstance(h, str) and len(h) == 64 for h in files.values()):
+    if (
+        not isinstance(files, dict)
+        or set(files) != set(_file_names())
+        or not all(isinstance(h, str) and len(h) == 64 for h in files.values())
+    ):
         raise cache.InvalidEntry(f"{MANIFEST} does not list the keyed hash of exactly {', '.join(_file_names())}")
 
 
@@ -170,8 +181,15 @@ def _model_info(data, key: str) -> ModelInfo:
 def _expected_sizes(info: ModelInfo) -> tuple[dict, dict]:
     nq, nlam = info.n, info.m
     ins = {"t": 1, "q": nq, "v": nq, "a": nq, "lam": nlam, "p": len(info.params)}
-    outs = {"phi": nlam, "phid": nlam, "phidd": nlam, "res": nq, "out": len(info.outputs),
-            "energy": 1, "closure": info.n_loop_rows}
+    outs = {
+        "phi": nlam,
+        "phid": nlam,
+        "phidd": nlam,
+        "res": nq,
+        "out": len(info.outputs),
+        "energy": 1,
+        "closure": info.n_loop_rows,
+    }
     return ins, outs
 
 
@@ -179,13 +197,14 @@ def _check_function(f: ca.Function, name: str, info: ModelInfo) -> None:
     ins, outs = _expected_sizes(info)
     if f.name() != name:
         raise cache.InvalidEntry(f"{name}.casadi holds the function {f.name()!r}")
-    if f.n_in() != len(INPUT_NAMES) or f.n_out() != 1 or tuple(f.name_in()) != INPUT_NAMES \
-            or f.name_out() != [name]:
-        raise cache.InvalidEntry(f"{name}.casadi has the signature {f.name_in()} -> {f.name_out()}, "
-                                 f"not {list(INPUT_NAMES)} -> [{name!r}]")
+    if f.n_in() != len(INPUT_NAMES) or f.n_out() != 1 or tuple(f.name_in()) != INPUT_NAMES or f.name_out() != [name]:
+        raise cache.InvalidEntry(
+            f"{name}.casadi has the signature {f.name_in()} -> {f.name_out()}, not {list(INPUT_NAMES)} -> [{name!r}]"
+        )
     got_in = [tuple(f.size_in(i)) for i in range(f.n_in())]
     want_in = [(ins[n], 1) for n in INPUT_NAMES]
     got_out, want_out = tuple(f.size_out(0)), (outs[name], 1)
     if got_in != want_in or got_out != want_out:
-        raise cache.InvalidEntry(f"{name}.casadi has sizes {got_in} -> {got_out}, model.json states "
-                                 f"{want_in} -> {want_out}")
+        raise cache.InvalidEntry(
+            f"{name}.casadi has sizes {got_in} -> {got_out}, model.json states {want_in} -> {want_out}"
+        )

@@ -19,6 +19,7 @@ Examples
 >>> scene = load_scene("examples/slider_crank.toml")   # doctest: +SKIP
 >>> tex = latex_document(scene, derive(scene))    # doctest: +SKIP
 """
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -32,15 +33,30 @@ from symgen import __version__
 from symgen.backends import templates
 from symgen.backends.latex import quasistatic as latex_quasistatic
 from symgen.backends.latex import slot as latex_slot
-from symgen.backends.latex.printing import (LINE_WIDTH, Namer, Printer, Row, eq_block, eq_row, equation_rows, kin_terms, num_text, rm,
-                                            shown_forces, term_row, tex_comment, tex_escape, tex_lines)
+from symgen.backends.latex.printing import (
+    LINE_WIDTH,
+    Namer,
+    Printer,
+    Row,
+    eq_block,
+    eq_row,
+    equation_rows,
+    kin_terms,
+    num_text,
+    rm,
+    shown_forces,
+    term_row,
+    tex_comment,
+    tex_escape,
+    tex_lines,
+)
 from symgen.ir import names
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
 from symgen.model.structure import QUASI_STATIC, axial_treatments
 from symgen.scene.motion import driver_angle
 
-TEMPLATES = templates.folder("latex")    # templates/latex/ (symgen.backends.templates)
+TEMPLATES = templates.folder("latex")  # templates/latex/ (symgen.backends.templates)
 
 __all__ = ["latex_document", "tex_lines", "Namer", "TEMPLATES"]
 
@@ -50,6 +66,7 @@ def _driver_angle_tex(drv, pr) -> str:
     if drv.law is None and drv.ramp is None:
         return r"\theta^0_{\mathrm{drv}} + \Omega_{\mathrm{drv}}\tau"
     from symgen.model.derive import TAU
+
     sym = {k: pr.namer.symbol(names.global_parameter(k)) for k in ("theta0", "rate", "ramp")}
     return pr(driver_angle(drv, TAU, sym["theta0"], sym["rate"], sym["ramp"]))
 
@@ -59,10 +76,12 @@ def _rotor_note(drv, pr) -> str:
     if not drv.rotor_inertia:
         return ""
     th = names.bar_angle(drv.body).latex
-    return (rf"; with the rotor inertia $J_{{\mathrm{{rot}}}} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
-            rf"reflected to the shaft), which adds $J_{{\mathrm{{rot}}}}\,\ddot{{{th}}}$ to the residual of "
-            rf"${th}$ and $\tfrac12 J_{{\mathrm{{rot}}}}\dot{{{th}}}^2$ to the kinetic energy"
-            + (r" (the reported driver torque is the motor's, rotor included)" if drv.kind == "angle" else ""))
+    return (
+        rf"; with the rotor inertia $J_{{\mathrm{{rot}}}} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
+        rf"reflected to the shaft), which adds $J_{{\mathrm{{rot}}}}\,\ddot{{{th}}}$ to the residual of "
+        rf"${th}$ and $\tfrac12 J_{{\mathrm{{rot}}}}\dot{{{th}}}^2$ to the kinetic energy"
+        + (r" (the reported driver torque is the motor's, rotor included)" if drv.kind == "angle" else "")
+    )
 
 
 def rotary_notes(scene, pr) -> list[str]:
@@ -76,11 +95,13 @@ def rotary_notes(scene, pr) -> list[str]:
         th = names.bar_angle(b.name).latex
         J = rf"I_{{{rm(j.name)}}}"
         rot_ = th if b.rigid else rf"{th} + \eta_{{{rm(b.name)}}}'({num_text(end.xi)})"
-        out.append(rf"Joint {tex_escape(j.name)}: a lumped rotary inertia ${J}$ on {tex_escape(b.name)} at "
-                   rf"$\xi = {num_text(end.xi)}$ turning with $\varphi_{{{rm(j.name)}}} = {rot_}$; it adds "
-                   rf"${J}\,\ddot\varphi_{{{rm(j.name)}}}\,\partial\varphi_{{{rm(j.name)}}}/\partial q$ to "
-                   rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{rm(j.name)}}}^2$ "
-                   "to the kinetic energy.")
+        out.append(
+            rf"Joint {tex_escape(j.name)}: a lumped rotary inertia ${J}$ on {tex_escape(b.name)} at "
+            rf"$\xi = {num_text(end.xi)}$ turning with $\varphi_{{{rm(j.name)}}} = {rot_}$; it adds "
+            rf"${J}\,\ddot\varphi_{{{rm(j.name)}}}\,\partial\varphi_{{{rm(j.name)}}}/\partial q$ to "
+            rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{rm(j.name)}}}^2$ "
+            "to the kinetic energy."
+        )
     return out
 
 
@@ -88,8 +109,10 @@ def _driver_law_note(drv) -> str:
     if drv.law is not None:
         return f" (driver.law = \\texttt{{{tex_escape(drv.law)}}}; its derivatives taken exactly)"
     if drv.ramp is not None:
-        return (" (the smooth spin-up of Kane, Ryan \\& Banerjee 1987 from rest to the rate "
-                "$\\Omega_{\\mathrm{drv}}$ over $T_{\\mathrm{drv}}$)")
+        return (
+            " (the smooth spin-up of Kane, Ryan \\& Banerjee 1987 from rest to the rate "
+            "$\\Omega_{\\mathrm{drv}}$ over $T_{\\mathrm{drv}}$)"
+        )
     return ""
 
 
@@ -118,8 +141,9 @@ def _ip_table(bm, used: set) -> list[dict]:
         else:
             ex = sp.latex(exact)
             kind = "closed form"
-        rows.append({"symbol": sym.name, "exact": ex, "decimal": num_text(value), "kind": kind,
-                     "key": (_IP_ORDER[name], idx)})
+        rows.append(
+            {"symbol": sym.name, "exact": ex, "decimal": num_text(value), "kind": kind, "key": (_IP_ORDER[name], idx)}
+        )
     rows.sort(key=lambda r: r["key"])
     for r in rows:
         del r["key"]
@@ -135,28 +159,47 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     na, nt = len(s.f), len(s.g)
     B = rm(name)
     kin_names = {"B": B}
-    ctx: dict = {"name": name, "tex": B, "rigid": body.rigid, "na": na, "nt": nt,
-                 "frame": body.frame, "text": tex_escape(name)}
+    ctx: dict = {
+        "name": name,
+        "tex": B,
+        "rigid": body.rigid,
+        "na": na,
+        "nt": nt,
+        "frame": body.frame,
+        "text": tex_escape(name),
+    }
     # ---- shape functions
-    ctx["phi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""} for k, fn in enumerate(bm.basis_a.functions)]
-    ctx["psi"] = [{"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""}
-                  for k, fn in enumerate(bm.basis_t.functions)]
+    ctx["phi"] = [
+        {"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""} for k, fn in enumerate(bm.basis_a.functions)
+    ]
+    ctx["psi"] = [
+        {"k": k + 1, "label": fn.label, "expr": pr(fn.expr), "extra": ""} for k, fn in enumerate(bm.basis_t.functions)
+    ]
     tfun = bm.basis_t.functions
-    tfun = tfun[:len(tfun) - len(getattr(bm.basis_t, "points", ()))]   # static corrections: below
-    if getattr(bm.basis_t, "tip_joint", False) and len(tfun) > 1 and tfun[0].beta is None \
-            and all(fn.beta is not None for fn in tfun[1:]):
+    tfun = tfun[: len(tfun) - len(getattr(bm.basis_t, "points", ()))]  # static corrections: below
+    if (
+        getattr(bm.basis_t, "tip_joint", False)
+        and len(tfun) > 1
+        and tfun[0].beta is None
+        and all(fn.beta is not None for fn in tfun[1:])
+    ):
         # the orthogonalised tip-load shape: printed factored (its expanded form is a line of
         # ~13 exponential and trigonometric terms), the coefficients on the next line
         from symgen.model.shapes import tip_load_coefficients
+
         coef, t = tip_load_coefficients(list(tfun[1:]))
         m = len(coef)
-        ctx["psi"][0]["expr"] = (rf"\frac{{1}}{{t}}\Bigl(\frac{{\xi^2(3-\xi)}}{{2}} - "
-                                 rf"\sum_{{k=1}}^{{{m}}} c_k X_k(\xi)\Bigr)")
+        ctx["psi"][0]["expr"] = (
+            rf"\frac{{1}}{{t}}\Bigl(\frac{{\xi^2(3-\xi)}}{{2}} - "
+            rf"\sum_{{k=1}}^{{{m}}} c_k X_k(\xi)\Bigr)"
+        )
         # t = 1 - sum c_k is a small difference: the c_k to 10 digits keep psi_1 to ~1e-6
         nums = [rf"c_{{{k + 1}}} = {_g6(ck, 10)}" for k, ck in enumerate(coef)] + [rf"t = {_g6(t, 10)}"]
-        lines = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
-        ctx["psi"][0]["extra"] = (r"\text{with } " + r", \\ &\qquad ".join(lines) + r", \\ &\qquad "
-                                  r"c_k = (P, X_k)/(X_k, X_k),\ P(\xi) = \xi^2(3-\xi)/2,\ t = 1 - \textstyle\sum_k c_k")
+        lines = [r",\ ".join(nums[i : i + 3]) for i in range(0, len(nums), 3)]
+        ctx["psi"][0]["extra"] = (
+            r"\text{with } " + r", \\ &\qquad ".join(lines) + r", \\ &\qquad "
+            r"c_k = (P, X_k)/(X_k, X_k),\ P(\xi) = \xi^2(3-\xi)/2,\ t = 1 - \textstyle\sum_k c_k"
+        )
     for key, basis, sym_ in (("phi", bm.basis_a, r"\phi"), ("psi", bm.basis_t, r"\psi")):
         for row, fn in zip(ctx[key], basis.functions):
             if getattr(fn, "xi_k", None) is not None and getattr(fn, "left", None) is not None:
@@ -169,8 +212,13 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
     drv = scene.driver
-    ctx["driven"] = ("" if drv is None or drv.body != name else
-                     (r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle" else r"the applied moment $M_0$ (12)"))
+    ctx["driven"] = (
+        ""
+        if drv is None or drv.body != name
+        else (
+            r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle" else r"the applied moment $M_0$ (12)"
+        )
+    )
     fs = ", ".join(pr(x) for x in s.f)
     gs = ", ".join(pr(x) for x in s.g)
     ctx["expansion"] = []
@@ -182,8 +230,12 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
 
     # ---- (1)
     ax, ay = kin_terms(kin_names, na, nt, eff.coriolis)
-    ctx["eq1"] = eq_block([term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tex_escape(name)}"),
-                            term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tex_escape(name)}")])
+    ctx["eq1"] = eq_block(
+        [
+            term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tex_escape(name)}"),
+            term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tex_escape(name)}"),
+        ]
+    )
 
     # ---- point forces and distributed loads of the model's display form, labelled
     forces = shown_forces(scene, bm, pr)
@@ -223,8 +275,11 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         if gs_on and inext:
             left.append(rf"+ \bigl(N_{{{B}}}\eta_{{{B}}}'\bigr)'")
         elif gs_on:
-            left.append(rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}\eta_{{{B}}}'\bigr)'" if vk
-                        else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'")
+            left.append(
+                rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}\eta_{{{B}}}'\bigr)'"
+                if vk
+                else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'"
+            )
         if eff.rotary_inertia and na:
             left.append(rf"+ \rho_{{{B}}}\ddot\eta_{{{B}}}''")
         if disp_loads:
@@ -234,8 +289,10 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         strong.append(term_row(left, ay, f"9, {tex_escape(name)}"))
     ctx["strong"] = eq_block(strong) if strong else ""
     ctx["rotary"] = bool(eff.rotary_inertia and na and nt and not body.rigid)
-    ctx["bc"] = {"pinned-pinned": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}(1) = 0",
-                 "cantilever": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}'(0) = 0"}.get(body.frame, "")
+    ctx["bc"] = {
+        "pinned-pinned": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}(1) = 0",
+        "cantilever": rf"\zeta_{{{B}}}(0) = 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}'(0) = 0",
+    }.get(body.frame, "")
 
     # ---- (16), (17), rigid-body equations: the model's display form (symbolic inner products)
     eqs = bm.equations.display.map(forces.show)
@@ -243,15 +300,16 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     elastic = {x for x in (s.lam, s.mu) if x is not None} | set(bm.inputs.get("axial_force", ()))
     if damp:
         elastic.add(bm.inputs["damping"])
-    rho_pair = (s.mu, s.lam, pr.namer.symbol(names.bar_parameter("rho", name), positive=True)) if ctx["rotary"] else None
+    rho_pair = (
+        (s.mu, s.lam, pr.namer.symbol(names.bar_parameter("rho", name), positive=True)) if ctx["rotary"] else None
+    )
     used_ip: set = set()
 
     def rows(exprs, tags):
         return equation_rows(pr, exprs, tags, elastic, ext, rho_pair, used_ip)
 
     tn = tex_escape(name)
-    ctx["rb"] = eq_block(rows([eqs.force[0], eqs.force[1], eqs.moment],
-                              [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
+    ctx["rb"] = eq_block(rows([eqs.force[0], eqs.force[1], eqs.moment], [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
     ctx["eq16"] = eq_block(rows(eqs.eq16, [f"16.{k + 1}, {tn}" for k in range(na)])) if na else ""
     ctx["eq17"] = eq_block(rows(eqs.eq17, [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
     ctx["ip_table"] = _ip_table(bm, used_ip)
@@ -279,8 +337,13 @@ def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
         out["F"] = rf"\bigl(\mathbf F_{{{B}}}({xs}^-) - \mathbf F_{{{B}}}({xs}^+)\bigr)"
         out["sign"] = 1
     Nn, Qn = rf"N_{{{B}}}({xs})", rf"Q_{{{B}}}({xs})"
-    frow = Row(F, [rf"\nu_{{{B}}}\alpha_{{{B}}}^{{2}} R(\theta_{{{B}}})"
-                   rf"\begin{{bmatrix}} {Nn} \\ {Qn} \end{{bmatrix}}"])
+    frow = Row(
+        F,
+        [
+            rf"\nu_{{{B}}}\alpha_{{{B}}}^{{2}} R(\theta_{{{B}}})"
+            rf"\begin{{bmatrix}} {Nn} \\ {Qn} \end{{bmatrix}}"
+        ],
+    )
     if scene.body(body).rigid or (na == 0 and nt == 0) or not out["end"]:
         out["rigid"] = scene.body(body).rigid or (na == 0 and nt == 0)
         out["rows"] = [frow] if out["end"] else []
@@ -292,15 +355,31 @@ def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
     p1, p3 = "'", "'''"
     rows = []
     if na and "axial_force" in bm.inputs:
-        rows.append(Row(Nn, [rf"\sum_k N_{{{B},k}}\,\phi'_k({xs})"
-                             r"\text{ (the multiplier of the inextensibility rows)}"]))
-        rows.append(Row("", pr.lines(sp.Add(*[c * n for c, n in zip(kin._vals(bm.basis_a, xi, 1),
-                                                                        bm.inputs["axial_force"])]),
-                                     LINE_WIDTH - 10)))
+        rows.append(
+            Row(
+                Nn,
+                [
+                    rf"\sum_k N_{{{B},k}}\,\phi'_k({xs})"
+                    r"\text{ (the multiplier of the inextensibility rows)}"
+                ],
+            )
+        )
+        rows.append(
+            Row(
+                "",
+                pr.lines(
+                    sp.Add(*[c * n for c, n in zip(kin._vals(bm.basis_a, xi, 1), bm.inputs["axial_force"])]),
+                    LINE_WIDTH - 10,
+                ),
+            )
+        )
     elif na:
-        n_sym = (rf"\lambda_{{{B}}}\bigl(\zeta_{{{B}}}{p1}({xs}) + \tfrac12\eta_{{{B}}}{p1}({xs})^{{2}}\bigr)" if vk
-                 else rf"\lambda_{{{B}}}\zeta_{{{B}}}{p1}({xs})")
-        N = s.lam * (zp + ep ** 2 / 2) if vk else s.lam * zp
+        n_sym = (
+            rf"\lambda_{{{B}}}\bigl(\zeta_{{{B}}}{p1}({xs}) + \tfrac12\eta_{{{B}}}{p1}({xs})^{{2}}\bigr)"
+            if vk
+            else rf"\lambda_{{{B}}}\zeta_{{{B}}}{p1}({xs})"
+        )
+        N = s.lam * (zp + ep**2 / 2) if vk else s.lam * zp
         rows.append(Row(Nn, [n_sym]))
         rows.append(Row("", pr.lines(N, LINE_WIDTH - 10)))
     else:
@@ -339,19 +418,33 @@ def _joints_context(scene, model, pr: Printer) -> list[dict]:
         defs = fa["rows"] + fb["rows"]
         if j.name in tree:
             body = rm(tree[j.name].body)
-            how = (rf"{tex_escape(j.name)} is a tree joint: its force is the resultant "
-                   rf"$\mathbf S_{{{body}}} = (S_{{X,{body}}}, S_{{Y,{body}}})$ of the subtree hanging "
-                   rf"from it (route 2 of the seed)")
+            how = (
+                rf"{tex_escape(j.name)} is a tree joint: its force is the resultant "
+                rf"$\mathbf S_{{{body}}} = (S_{{X,{body}}}, S_{{Y,{body}}})$ of the subtree hanging "
+                rf"from it (route 2 of the seed)"
+            )
         elif j.name in cut:
-            how = (rf"{tex_escape(j.name)} is a cut joint: its force is carried by the multipliers "
-                   rf"$\Lambda_{{x,{rm(j.name)}}}$, $\Lambda_{{y,{rm(j.name)}}}$")
+            how = (
+                rf"{tex_escape(j.name)} is a cut joint: its force is carried by the multipliers "
+                rf"$\Lambda_{{x,{rm(j.name)}}}$, $\Lambda_{{y,{rm(j.name)}}}$"
+            )
         else:
             how = ""
-        out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "b": tex_escape(b.body),
-                    "xa": num_text(a.xi), "xb": num_text(b.xi), "eq": eq_block(rows),
-                    "defs": eq_block(defs) if defs else "", "how": how,
-                    "rigid": [tex_escape(x) for x, d in ((a.body, fa), (b.body, fb)) if d["rigid"]],
-                    "interior": not (fa["end"] and fb["end"]), "mass": j.mass > 0})
+        out.append(
+            {
+                "name": tex_escape(j.name),
+                "a": tex_escape(a.body),
+                "b": tex_escape(b.body),
+                "xa": num_text(a.xi),
+                "xb": num_text(b.xi),
+                "eq": eq_block(rows),
+                "defs": eq_block(defs) if defs else "",
+                "how": how,
+                "rigid": [tex_escape(x) for x, d in ((a.body, fa), (b.body, fb)) if d["rigid"]],
+                "interior": not (fa["end"] and fb["end"]),
+                "mass": j.mass > 0,
+            }
+        )
     return out
 
 
@@ -359,11 +452,18 @@ def _joints_context(scene, model, pr: Printer) -> list[dict]:
 def _env() -> jinja2.Environment:
     env = jinja2.Environment(
         loader=templates.loader("latex"),
-        undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
-        block_start_string="<%", block_end_string="%>",
-        variable_start_string="<<", variable_end_string=">>",
-        comment_start_string="<#", comment_end_string="#>",
-        keep_trailing_newline=True, autoescape=False)
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        block_start_string="<%",
+        block_end_string="%>",
+        variable_start_string="<<",
+        variable_end_string=">>",
+        comment_start_string="<#",
+        comment_end_string="#>",
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
     env.filters["e"] = tex_escape
     return env
 
@@ -376,22 +476,35 @@ def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
     from symgen.model.shapes import XI
 
     def poly(cs) -> str:
-        return pr(sp.Add(*[sp.Rational(c.numerator, c.denominator) * XI ** p for p, c in enumerate(cs) if c]))
+        return pr(sp.Add(*[sp.Rational(c.numerator, c.denominator) * XI**p for p, c in enumerate(cs) if c]))
 
     a = sp.Rational(fn.a.numerator, fn.a.denominator)
     m = len(fn.coeffs)
     k = "K"
-    expr = (rf"\frac{{1}}{{t}}\Bigl(w_{{{k}}}(\xi)"
-            + (rf" - \sum_{{k=1}}^{{{m}}} c_k\,{sym_}_k(\xi)" if m else "") + r"\Bigr)")
-    what = {"axial": "unit axial force", "pinned-pinned": "unit transverse force, pinned-pinned",
-            "cantilever": "unit transverse force, cantilever"}[fn.kind]
-    w = (rf"w_{{{k}}}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
-         rf"\end{{cases}}\ \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}")
-    nums = [rf"c_{{{i + 1}}} = {_g6(c, 10)}" for i, c in enumerate(fn.coeffs) if abs(c) > 1e-14] + \
-        [rf"t = {_g6(fn.scale, 10)}"]
-    rows = [r",\ ".join(nums[i:i + 3]) for i in range(0, len(nums), 3)]
-    extra = (w + r", \\ &\qquad \text{with } " + r", \\ &\qquad ".join(rows)
-             + rf" \ (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)")
+    expr = (
+        rf"\frac{{1}}{{t}}\Bigl(w_{{{k}}}(\xi)"
+        + (rf" - \sum_{{k=1}}^{{{m}}} c_k\,{sym_}_k(\xi)" if m else "")
+        + r"\Bigr)"
+    )
+    what = {
+        "axial": "unit axial force",
+        "pinned-pinned": "unit transverse force, pinned-pinned",
+        "cantilever": "unit transverse force, cantilever",
+    }[fn.kind]
+    w = (
+        rf"w_{{{k}}}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
+        rf"\end{{cases}}\ \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}"
+    )
+    nums = [rf"c_{{{i + 1}}} = {_g6(c, 10)}" for i, c in enumerate(fn.coeffs) if abs(c) > 1e-14] + [
+        rf"t = {_g6(fn.scale, 10)}"
+    ]
+    rows = [r",\ ".join(nums[i : i + 3]) for i in range(0, len(nums), 3)]
+    extra = (
+        w
+        + r", \\ &\qquad \text{with } "
+        + r", \\ &\qquad ".join(rows)
+        + rf" \ (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)"
+    )
     return expr, extra
 
 
@@ -417,36 +530,57 @@ def latex_document(scene, model) -> str:
     prog = model.program
     assigned = dict(prog.assignments)
     topo = model.topology
-    treatments = axial_treatments(scene)          # effects.axial per bar, with the reason
+    treatments = axial_treatments(scene)  # effects.axial per bar, with the reason
 
     # ---- scene tables
     bodies = []
     for b in scene.bodies:
         bm = model.bars[b.name]
         g = scene.groups.get(b.name, {})
-        bodies.append({"name": tex_escape(b.name), "tex": rm(b.name),
-                       "kind": "rigid" if b.rigid else "elastic",
-                       "frame": tex_escape(b.frame or "--"),
-                       "na": len(bm.sym.f), "nt": len(bm.sym.g),
-                       "alpha": num_text(g.get("alpha")), "nu": num_text(g.get("nu")),
-                       "lam": num_text(g.get("lambda")), "mu": num_text(g.get("mu")),
-                       "rho": num_text(g.get("rho"))})
+        bodies.append(
+            {
+                "name": tex_escape(b.name),
+                "tex": rm(b.name),
+                "kind": "rigid" if b.rigid else "elastic",
+                "frame": tex_escape(b.frame or "--"),
+                "na": len(bm.sym.f),
+                "nt": len(bm.sym.g),
+                "alpha": num_text(g.get("alpha")),
+                "nu": num_text(g.get("nu")),
+                "lam": num_text(g.get("lambda")),
+                "mu": num_text(g.get("mu")),
+                "rho": num_text(g.get("rho")),
+            }
+        )
     sg = scene.groups.get("_scene", {})
-    scene_groups = [{"key": tex_escape(k), "value": tex_escape(", ".join(f"{x:.6g}" for x in v))
-                     if isinstance(v, (list, tuple)) else (num_text(v) if isinstance(v, (int, float))
-                                                           else tex_escape(v))} for k, v in sg.items()]
+    scene_groups = [
+        {
+            "key": tex_escape(k),
+            "value": tex_escape(", ".join(f"{x:.6g}" for x in v))
+            if isinstance(v, (list, tuple))
+            else (num_text(v) if isinstance(v, (int, float)) else tex_escape(v)),
+        }
+        for k, v in sg.items()
+    ]
     eff = scene.effects
     effects = [
-        ("axial deformation", "off" if not eff.axial else ", ".join(
-            f"{tex_escape(n)}: {tex_escape(t.treatment.replace('_', '-'))}" for n, t in treatments.items()
-            if t.treatment != "off") or "on"),
+        (
+            "axial deformation",
+            "off"
+            if not eff.axial
+            else ", ".join(
+                f"{tex_escape(n)}: {tex_escape(t.treatment.replace('_', '-'))}"
+                for n, t in treatments.items()
+                if t.treatment != "off"
+            )
+            or "on",
+        ),
         ("transverse deformation", "on" if eff.transverse else "off"),
         ("geometric stiffening", "on" if eff.geometric_stiffening else "off"),
         ("Coriolis terms", "on" if eff.coriolis else "off"),
         ("rotary inertia", "on" if eff.rotary_inertia else "off"),
         ("axial strain", "von K\\'arm\\'an" if eff.strain == "von_karman" else "linear (the seed's)"),
-        ("gravity $(g_x, g_y)$", "off" if not any(eff.gravity) else
-         f"$({eff.gravity[0]:.6g}, {eff.gravity[1]:.6g})$"),
+        ("gravity $(g_x, g_y)$", "off" if not any(eff.gravity) else f"$({eff.gravity[0]:.6g}, {eff.gravity[1]:.6g})$"),
         ("Kelvin--Voigt damping", "off" if not eff.damping else f"${eff.damping:.6g}$"),
     ]
     joints = []
@@ -460,34 +594,58 @@ def latex_document(scene, model) -> str:
             else:
                 ends.append(f"{tex_escape(e.body)} at $\\xi = {e.xi:.6g}$")
         role = "tree" if any(e.joint == j.name for e in topo.edges.values()) else "cut"
-        joints.append({"name": tex_escape(j.name), "kind": j.kind, "ends": ", ".join(ends), "role": role,
-                       "mass": (f"{j.mass:.6g}" if j.mass else "")
-                       + (f"; rotary inertia $I_{{{rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else "")})
+        joints.append(
+            {
+                "name": tex_escape(j.name),
+                "kind": j.kind,
+                "ends": ", ".join(ends),
+                "role": role,
+                "mass": (f"{j.mass:.6g}" if j.mass else "")
+                + (f"; rotary inertia $I_{{{rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else ""),
+            }
+        )
     drv = scene.driver
     driver = None
     if drv is not None:
-        driver = {"kind": drv.kind, "body": tex_escape(drv.body),
-                  "text": (f"kinematic guidance: $\\theta_{{{rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
-                           + _driver_law_note(drv) if drv.kind == "angle" else
-                           f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)")
-                  + _rotor_note(drv, pr)}
+        driver = {
+            "kind": drv.kind,
+            "body": tex_escape(drv.body),
+            "text": (
+                f"kinematic guidance: $\\theta_{{{rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
+                + _driver_law_note(drv)
+                if drv.kind == "angle"
+                else f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)"
+            )
+            + _rotor_note(drv, pr),
+        }
     coords = [{"tex": pr(x), "kind": c.kind, "body": tex_escape(c.body)} for c, x in zip(model.coords, model.q)]
     mult = []
     for L, row in zip(model.lam, model.lam_rows):
-        what = {"pin-x": "x force of pin", "pin-y": "y force of pin", "slider": "normal force of slider",
-                "driver": "driver torque", "inextensible": "axial force amplitude of inextensible bar",
-                "slot-x": "x force of slot", "slot-y": "y force of slot"}[row.kind]
+        what = {
+            "pin-x": "x force of pin",
+            "pin-y": "y force of pin",
+            "slider": "normal force of slider",
+            "driver": "driver torque",
+            "inextensible": "axial force amplitude of inextensible bar",
+            "slot-x": "x force of slot",
+            "slot-y": "y force of slot",
+        }[row.kind]
         mult.append({"tex": pr(L), "text": f"{what} {tex_escape(row.joint) if row.kind != 'driver' else ''}".strip()})
     try:
         from symgen.ir.parameters import parameter_values
+
         values: Iterable[float | None] = parameter_values(scene, model.param_names)
     except KeyError:
         values = [None] * len(model.params)
     params = [{"tex": pr(p), "value": num_text(v)} for p, v in zip(model.params, values)]
 
     # ---- bars
-    bars = [latex_slot.guide_context(scene, model, name, pr) if latex_slot.is_guide(model.bars[name])
-            else _bar_context(scene, model, name, pr) for name in topo.order]
+    bars = [
+        latex_slot.guide_context(scene, model, name, pr)
+        if latex_slot.is_guide(model.bars[name])
+        else _bar_context(scene, model, name, pr)
+        for name in topo.order
+    ]
 
     # ---- (10)
     chain = {}
@@ -501,10 +659,20 @@ def latex_document(scene, model) -> str:
     for name in topo.order:
         s = model.bars[name].sym
         e = topo.edges[name]
-        rows = [eq_row(pr, pr(s.xa_dd), assigned[s.xa_dd], f"10.x, {tex_escape(name)}"),
-                eq_row(pr, pr(s.ya_dd), assigned[s.ya_dd], f"10.y, {tex_escape(name)}")]
-        eq10.append({"name": tex_escape(name), "chain": chain[name], "joint": tex_escape(e.joint),
-                     "root": e.parent == GROUND, "slider": e.slider, "eq": eq_block(rows)})
+        rows = [
+            eq_row(pr, pr(s.xa_dd), assigned[s.xa_dd], f"10.x, {tex_escape(name)}"),
+            eq_row(pr, pr(s.ya_dd), assigned[s.ya_dd], f"10.y, {tex_escape(name)}"),
+        ]
+        eq10.append(
+            {
+                "name": tex_escape(name),
+                "chain": chain[name],
+                "joint": tex_escape(e.joint),
+                "root": e.parent == GROUND,
+                "slider": e.slider,
+                "eq": eq_block(rows),
+            }
+        )
 
     # ---- (11) and the driver
     closure = []
@@ -513,7 +681,7 @@ def latex_document(scene, model) -> str:
     explained: set = set()
     for expr, row in zip(phi, model.lam_rows):
         if row.kind == "slot-y":
-            continue                # shown with its slot-x row
+            continue  # shown with its slot-x row
         if row.kind == "slot-x":
             sc = latex_slot.slot_closure(scene, model, row.joint)
             jn = tex_escape(row.joint)
@@ -526,20 +694,27 @@ def latex_document(scene, model) -> str:
             first = row.joint not in explained
             explained.add(row.joint)
             if how.treatment == QUASI_STATIC:
-                text = (f"Quasi-static axial response of {tex_escape(row.joint)}"
-                        + (f" ({tex_escape(how.reason)}): no axial vibration: the axial amplitudes follow the "
-                           "bending through $(\\phi'_k, \\varepsilon) = 0$ (their inertia kept), the multiplier "
-                           "$N_k$ is the axial force amplitude, and outputs of the bar's shape read the "
-                           "amplitudes $f_k + N_k/\\lambda$ (the stretch $P\\varepsilon = N/\\lambda$)"
-                           if first else ", next row"))
+                text = f"Quasi-static axial response of {tex_escape(row.joint)}" + (
+                    f" ({tex_escape(how.reason)}): no axial vibration: the axial amplitudes follow the "
+                    "bending through $(\\phi'_k, \\varepsilon) = 0$ (their inertia kept), the multiplier "
+                    "$N_k$ is the axial force amplitude, and outputs of the bar's shape read the "
+                    "amplitudes $f_k + N_k/\\lambda$ (the stretch $P\\varepsilon = N/\\lambda$)"
+                    if first
+                    else ", next row"
+                )
             else:
-                text = (f"Inextensibility of {tex_escape(row.joint)}"
-                        + (f" ({tex_escape(how.reason)}): $(\\phi'_k, \\varepsilon) = 0$, multiplier $N_k$ = "
-                           "axial force amplitude" if first else ", next row"))
+                text = f"Inextensibility of {tex_escape(row.joint)}" + (
+                    f" ({tex_escape(how.reason)}): $(\\phi'_k, \\varepsilon) = 0$, multiplier $N_k$ = "
+                    "axial force amplitude"
+                    if first
+                    else ", next row"
+                )
         elif row.kind == "driver":
             tag = f"KG, {tex_escape(drv.body)}"
-            text = ("Kinematic guidance: the input bar's prescribed angle (added to the closure "
-                    "system, multiplier $\\Lambda_{\\mathrm{drv}}$ = driver torque)")
+            text = (
+                "Kinematic guidance: the input bar's prescribed angle (added to the closure "
+                "system, multiplier $\\Lambda_{\\mathrm{drv}}$ = driver torque)"
+            )
         else:
             comp = {"pin-x": ".x", "pin-y": ".y", "slider": ""}[row.kind]
             tag = f"11{comp}, {tex_escape(row.joint)}"
@@ -559,12 +734,27 @@ def latex_document(scene, model) -> str:
         residuals.append(eq_row(pr, lhs, r, f"EoM.{k + 1}"))
 
     ctx = {
-        "version": __version__, "scene_path": tex_comment(Path(scene.path).name), "scene_path_tex": tex_escape(Path(scene.path).name),
-        "hash": scene.hash[:12], "name": tex_escape(scene.name), "units": tex_escape(scene.units),
-        "bodies": bodies, "scene_groups": scene_groups, "effects": effects, "joints": joints,
-        "driver": driver, "coords": coords, "multipliers": mult, "params": params, "bars": bars,
-        "eq10": eq10, "closure": closure, "joint_eqs": joint_eqs,
-        "defs_e": eq_block(defs_e), "defs_s": eq_block(defs_s), "residuals": eq_block(residuals),
+        "version": __version__,
+        "scene_path": tex_comment(Path(scene.path).name),
+        "scene_path_tex": tex_escape(Path(scene.path).name),
+        "hash": scene.hash[:12],
+        "name": tex_escape(scene.name),
+        "units": tex_escape(scene.units),
+        "bodies": bodies,
+        "scene_groups": scene_groups,
+        "effects": effects,
+        "joints": joints,
+        "driver": driver,
+        "coords": coords,
+        "multipliers": mult,
+        "params": params,
+        "bars": bars,
+        "eq10": eq10,
+        "closure": closure,
+        "joint_eqs": joint_eqs,
+        "defs_e": eq_block(defs_e),
+        "defs_s": eq_block(defs_s),
+        "residuals": eq_block(residuals),
         "loops": len(topo.cuts),
         "vk": eff.strain == "von_karman",
         "slot_notes": latex_slot.slot_notes(scene, model),

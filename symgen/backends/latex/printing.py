@@ -8,6 +8,7 @@ over lines, nothing simplified), displayed equations (``Row``, ``eq_row``, ``ter
 the model's display form (``shown_forces``). The section modules import this module only;
 ``document`` imports the sections.
 """
+
 from __future__ import annotations
 
 import re
@@ -19,15 +20,25 @@ from symgen.ir import names
 from symgen.ir.names import Name
 from symgen.model.bars import PointForce
 
-LINE_WIDTH = 82          # estimated printed width of a full display line (units of printed_width)
-TAG_WIDTH = 12           # room kept for an equation tag
-LHS_MAX = 34             # a longer left side gets a line of its own
+LINE_WIDTH = 82  # estimated printed width of a full display line (units of printed_width)
+TAG_WIDTH = 12  # room kept for an equation tag
+LHS_MAX = 34  # a longer left side gets a line of its own
 SIG_DIGITS = 6
 
 
 # --------------------------------------------------------------------------- text helpers
-_TEXT_ESCAPES = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#",
-                 "$": r"\$", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "^": r"\^{}"}
+_TEXT_ESCAPES = {
+    "\\": r"\textbackslash{}",
+    "_": r"\_",
+    "%": r"\%",
+    "&": r"\&",
+    "#": r"\#",
+    "$": r"\$",
+    "{": r"\{",
+    "}": r"\}",
+    "~": r"\textasciitilde{}",
+    "^": r"\^{}",
+}
 
 
 def tex_escape(text: object) -> str:
@@ -104,8 +115,10 @@ def _round_floats(expr: sp.Expr, digits: int = SIG_DIGITS) -> sp.Expr:
     return expr.xreplace(rep)
 
 
-_STRIP = re.compile(r"\\(mathrm|operatorname|left|right|Bigl|Bigr|bigl|bigr|dot|ddot|bar|hat|"
-                    r"frac|tfrac|,|;|!|mathbf)(?![A-Za-z])")
+_STRIP = re.compile(
+    r"\\(mathrm|operatorname|left|right|Bigl|Bigr|bigl|bigr|dot|ddot|bar|hat|"
+    r"frac|tfrac|,|;|!|mathbf)(?![A-Za-z])"
+)
 _CMD = re.compile(r"\\[A-Za-z]+")
 _FUNCS = {"sin", "cos", "tan", "exp", "log", "sinh", "cosh", "tanh", "max", "min", "mathcal"}
 
@@ -210,7 +223,7 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
             head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
             lines = [head]
             for a in sorted(adds, key=lambda a: len(printer(a))):
-                inner = tex_lines(a, printer, width - 12, depth + 1)     # indented and bracketed
+                inner = tex_lines(a, printer, width - 12, depth + 1)  # indented and bracketed
                 if len(inner) == 1:
                     if printed_width(lines[-1]) + printed_width(inner[0]) + 4 <= width:
                         lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
@@ -225,8 +238,7 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
         if len(inner) == 1:
             return [f"{prefix} {op} {inner[0]} {cl}".strip()]
         pad = r"\quad "
-        return ([f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]]
-                + [f"{pad}{inner[-1]} {cl}"])
+        return [f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]] + [f"{pad}{inner[-1]} {cl}"]
     return [s]
 
 
@@ -332,7 +344,6 @@ def split_sides(expr: sp.Expr, elastic: set, external: set, rho_pair) -> tuple:
     return sp.Add(*left), sp.Add(*right)
 
 
-
 def equation_rows(pr: Printer, exprs, tags, elastic: set, external: set, rho_pair, used: set) -> list[Row]:
     """One row per residual, split into the paper's two sides (``split_sides``); the symbols
     the rows print join ``used`` (the inner-product table lists those)."""
@@ -342,6 +353,7 @@ def equation_rows(pr: Printer, exprs, tags, elastic: set, external: set, rho_pai
         left, right = split_sides(e, elastic, external, rho_pair)
         out.append(eq_row(pr, left, right, tag))
     return out
+
 
 def point_label(p: PointForce, scene, used: set) -> str:
     """The label K of a point force in B_K, Gamma_K: its joint (cut-joint reaction), the joint
@@ -391,13 +403,13 @@ def kin_terms(s: dict, na: int, nt: int, coriolis: bool) -> tuple[list, list]:
 class ShownForces:
     """The applied forces of a bar's display form as a section shows them."""
 
-    relabel: dict = field(default_factory=dict)    # display symbol (B_k, Gamma_k) -> B_K, Gamma_K
+    relabel: dict = field(default_factory=dict)  # display symbol (B_k, Gamma_k) -> B_K, Gamma_K
     point_defs: list = field(default_factory=list)  # rows B_K = ..., Gamma_K = ...
-    load_defs: list = field(default_factory=list)   # rows beta-bar = ..., gamma-bar = ...
-    points: list = field(default_factory=list)      # (B, Gamma, xi as LaTeX) of every point force
-    loads: tuple = ()                               # (beta-bar, gamma-bar) symbols, or ()
-    external: set = field(default_factory=set)      # symbols of the applied forces (left side)
-    reactions: set = field(default_factory=set)     # B_K, Gamma_K of the forces given in ground axes
+    load_defs: list = field(default_factory=list)  # rows beta-bar = ..., gamma-bar = ...
+    points: list = field(default_factory=list)  # (B, Gamma, xi as LaTeX) of every point force
+    loads: tuple = ()  # (beta-bar, gamma-bar) symbols, or ()
+    external: set = field(default_factory=set)  # symbols of the applied forces (left side)
+    reactions: set = field(default_factory=set)  # B_K, Gamma_K of the forces given in ground axes
 
     def show(self, expr: sp.Expr) -> sp.Expr:
         """An expression of the display form with the labelled symbols."""

@@ -11,6 +11,7 @@ the generated residual and solves it (``symgen quasistatic``).
 The bar equations are the model's display form (``model.bars[name].equations.display``),
 with the point forces labelled as in the bar section of the document (``printing.shown_forces``).
 """
+
 from __future__ import annotations
 
 import sympy as sp
@@ -82,8 +83,10 @@ def quasi_static_context(scene, model, pr) -> dict:
         B = rm(name)
         na, nt = len(s.f), len(s.g)
         star = {s.xa_dd: sp.Symbol(rf"[\ddot x_A]^{{*}}_{{{B}}}"), s.ya_dd: sp.Symbol(rf"[\ddot y_A]^{{*}}_{{{B}}}")}
-        acc = [eq_row(pr, pr(star[s.xa_dd]), assigned[s.xa_dd].xreplace(zero_rates), f"10*.x, {tn}"),
-               eq_row(pr, pr(star[s.ya_dd]), assigned[s.ya_dd].xreplace(zero_rates), f"10*.y, {tn}")]
+        acc = [
+            eq_row(pr, pr(star[s.xa_dd]), assigned[s.xa_dd].xreplace(zero_rates), f"10*.x, {tn}"),
+            eq_row(pr, pr(star[s.ya_dd]), assigned[s.ya_dd].xreplace(zero_rates), f"10*.y, {tn}"),
+        ]
         if _is_guide(bm):
             guides.append(tn)
             continue
@@ -94,13 +97,29 @@ def quasi_static_context(scene, model, pr) -> dict:
         unknown_forces = forces.reactions
         eqs = bm.equations.display.map(forces.show)
         unknowns = set(s.f) | set(s.g) | unknown_forces | set(bm.inputs.get("axial_force", ()))
-        rows = [_row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"18.{k + 1}, {tn}")
-                for k, e in enumerate(eqs.eq16)]
-        rows += [_row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"19.{k + 1}, {tn}")
-                 for k, e in enumerate(eqs.eq17)]
-        bars.append({"name": tn, "acc": eq_block(acc), "eqs": eq_block(rows),
-                     "forces": ", ".join(f"${pr(x)}$" for x in sorted(unknown_forces, key=str))})
+        rows = [
+            _row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"18.{k + 1}, {tn}")
+            for k, e in enumerate(eqs.eq16)
+        ]
+        rows += [
+            _row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"19.{k + 1}, {tn}")
+            for k, e in enumerate(eqs.eq17)
+        ]
+        bars.append(
+            {
+                "name": tn,
+                "acc": eq_block(acc),
+                "eqs": eq_block(rows),
+                "forces": ", ".join(f"${pr(x)}$" for x in sorted(unknown_forces, key=str)),
+            }
+        )
     amps = [x for c, x in zip(model.coords, model.q) if c.elastic]
     y = [pr(x) for x in amps] + [pr(x) for x in model.lam]
-    return {"bars": bars, "guides": guides, "y": ", ".join(f"${x}$" for x in y), "n_amp": len(amps), "n_lam": len(model.lam),
-            "has_lam": bool(model.lam)}
+    return {
+        "bars": bars,
+        "guides": guides,
+        "y": ", ".join(f"${x}$" for x in y),
+        "n_amp": len(amps),
+        "n_lam": len(model.lam),
+        "has_lam": bool(model.lam),
+    }

@@ -16,21 +16,30 @@ generalized forces, not to ``bar_equations``); it is written here into the guide
 and beta equations as the point force (B, Gamma) at xi = beta, where it does no work on the
 amplitudes (psi(beta, beta) = 0).
 """
+
 from __future__ import annotations
 
 from typing import Any
 
 import sympy as sp
 
-from symgen.backends.latex.printing import (eq_block, eq_row, equation_rows, kin_terms, num_text, rm, shown_forces,
-                                            term_row, tex_escape)
+from symgen.backends.latex.printing import (
+    eq_block,
+    eq_row,
+    equation_rows,
+    kin_terms,
+    num_text,
+    rm,
+    shown_forces,
+    term_row,
+    tex_escape,
+)
 from symgen.ir import names
 from symgen.ir.records import CoordKind, find_coordinate
 from symgen.model.bars import point_force_groups
 from symgen.scene.model import GROUND
 
-__all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes",
-           "beta_positive"]
+__all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes", "beta_positive"]
 
 
 def is_guide(bm) -> bool:
@@ -69,7 +78,7 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
     for fn in (sp.factor, sp.cancel, sp.simplify):
         try:
             forms.append(fn(e))
-        except Exception:       # pragma: no cover - a form sympy cannot produce
+        except Exception:  # pragma: no cover - a form sympy cannot produce
             pass
     return min(forms, key=lambda x: (len(sp.latex(x)), forms.index(x)))
 
@@ -90,10 +99,17 @@ def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict
         val = None
         if beta0 is not None or const:
             val = float(exact.subs(beta, beta0 if beta0 is not None else 0))
-        rows.append({"symbol": sym.name, "exact": pr(form), "decimal": num_text(val),
-                     "kind": "constant" if const else ("derivative in $\\beta$" if kind == "dKt"
-                                                        else "function of $\\beta$"),
-                     "key": (_KIND_ORDER[kind], idx)})
+        rows.append(
+            {
+                "symbol": sym.name,
+                "exact": pr(form),
+                "decimal": num_text(val),
+                "kind": "constant"
+                if const
+                else ("derivative in $\\beta$" if kind == "dKt" else "function of $\\beta$"),
+                "key": (_KIND_ORDER[kind], idx),
+            }
+        )
     rows.sort(key=lambda r: r["key"])
     for r in rows:
         del r["key"]
@@ -104,29 +120,34 @@ def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict
 _FAMILY = [  # psi_k, psi_k,beta, psi_k,betabeta of slot.SlotBasis: (LaTeX span, overhang)
     ("", r"\sin(k\pi\xi/\beta)", r"(-1)^{k}\,\frac{k\pi}{\beta}\,(\xi - \beta)"),
     (r",\beta", r"-\frac{k\pi\xi}{\beta^{2}}\cos(k\pi\xi/\beta)", r"(-1)^{k+1}\,\frac{k\pi\xi}{\beta^{2}}"),
-    (r",\beta\beta",
-     r"\frac{2k\pi\xi}{\beta^{3}}\cos(k\pi\xi/\beta) - \Bigl(\frac{k\pi\xi}{\beta^{2}}\Bigr)^{2}\sin(k\pi\xi/\beta)",
-     r"(-1)^{k}\,\frac{2k\pi\xi}{\beta^{3}}"),
+    (
+        r",\beta\beta",
+        r"\frac{2k\pi\xi}{\beta^{3}}\cos(k\pi\xi/\beta) - \Bigl(\frac{k\pi\xi}{\beta^{2}}\Bigr)^{2}\sin(k\pi\xi/\beta)",
+        r"(-1)^{k}\,\frac{2k\pi\xi}{\beta^{3}}",
+    ),
 ]
 
 
 def _family_exprs(k: int, xi: sp.Symbol, b: sp.Symbol) -> list[tuple]:
     """The expressions that ``_FAMILY`` writes, for mode k (to check them against the basis)."""
     a = k * sp.pi * xi / b
-    return [(sp.sin(a), (-1) ** k * k * sp.pi / b * (xi - b)),
-            (-k * sp.pi * xi / b ** 2 * sp.cos(a), (-1) ** (k + 1) * k * sp.pi * xi / b ** 2),
-            (2 * k * sp.pi * xi / b ** 3 * sp.cos(a) - (k * sp.pi * xi / b ** 2) ** 2 * sp.sin(a),
-             (-1) ** k * 2 * k * sp.pi * xi / b ** 3)]
+    return [
+        (sp.sin(a), (-1) ** k * k * sp.pi / b * (xi - b)),
+        (-k * sp.pi * xi / b**2 * sp.cos(a), (-1) ** (k + 1) * k * sp.pi * xi / b**2),
+        (
+            2 * k * sp.pi * xi / b**3 * sp.cos(a) - (k * sp.pi * xi / b**2) ** 2 * sp.sin(a),
+            (-1) ** k * 2 * k * sp.pi * xi / b**3,
+        ),
+    ]
 
 
 def _shape_rows(basis, b: sp.Symbol, pr) -> tuple[list[dict], bool]:
     """Rows (k, sub, span, overhang) of the guide's functions: the family's formulas in k when
     every function of ``basis`` is that family (checked symbolically), else one row per mode
     and derivative, printed from the basis' own expressions."""
-    xi = next((x for fn in basis.functions for x in fn.span.free_symbols if x.name == "xi"),
-              sp.Symbol("xi", real=True))
+    xi = next((x for fn in basis.functions for x in fn.span.free_symbols if x.name == "xi"), sp.Symbol("xi", real=True))
     nspan = getattr(basis, "nspan", len(basis.functions))
-    sines, own = basis.functions[:nspan], basis.functions[nspan:]      # own: the overhang's chi_m
+    sines, own = basis.functions[:nspan], basis.functions[nspan:]  # own: the overhang's chi_m
     ok = bool(sines)
     for k, fn in enumerate(sines, start=1):
         want = _family_exprs(k, xi, b)
@@ -170,10 +191,13 @@ def guide_display_equations(scene, model, name: str, relabel: dict | None = None
     eqs = model.bars[name].equations.display.map(lambda e: e.xreplace(relabel or {}))
     Bc, Gc = _contact_symbols(_slot_of(scene, name).name)
     b = s.beta[0]
-    return {"fx": eqs.force[0] - Bc, "fy": eqs.force[1] - Gc,
-            "mom": eqs.moment - b * Gc,                      # arm: the contact is at (beta, 0)
-            "eq17": list(eqs.eq17),                          # psi_k(beta) = 0: no work on g
-            "eqbeta": eqs.eqbeta - Bc}                       # d r_contact / d beta = alpha R e_x
+    return {
+        "fx": eqs.force[0] - Bc,
+        "fy": eqs.force[1] - Gc,
+        "mom": eqs.moment - b * Gc,  # arm: the contact is at (beta, 0)
+        "eq17": list(eqs.eq17),  # psi_k(beta) = 0: no work on g
+        "eqbeta": eqs.eqbeta - Bc,
+    }  # d r_contact / d beta = alpha R e_x
 
 
 def guide_context(scene, model, name: str, pr) -> dict:
@@ -190,9 +214,21 @@ def guide_context(scene, model, name: str, pr) -> dict:
     bt, dbt, ddbt = pr(b), pr(db), pr(ddb)
     pos = beta_positive(model)
     tn = tex_escape(name)
-    ctx: dict = {"name": name, "tex": B, "text": tn, "rigid": False, "na": 0, "nt": nt, "slot": True,
-                 "frame": body.frame, "joint": tex_escape(j.name), "joint_tex": J, "beta": bt,
-                 "follower": tex_escape(j.ends[0].body), "follower_xi": num_text(j.ends[0].xi)}
+    ctx: dict = {
+        "name": name,
+        "tex": B,
+        "text": tn,
+        "rigid": False,
+        "na": 0,
+        "nt": nt,
+        "slot": True,
+        "frame": body.frame,
+        "joint": tex_escape(j.name),
+        "joint_tex": J,
+        "beta": bt,
+        "follower": tex_escape(j.ends[0].body),
+        "follower_xi": num_text(j.ends[0].xi),
+    }
     beta0 = _beta0(scene, j.name)
     ctx["beta0"] = num_text(beta0) if beta0 is not None else ""
 
@@ -213,12 +249,13 @@ def guide_context(scene, model, name: str, pr) -> dict:
         rf"\ddot\eta_{{{B}}} = {sm} \Bigl({ddgk}\,\psi_k + 2{dgk}\,\psi_{{k,\beta}}\,{dbt}"
         rf" + {gk}\bigl(\psi_{{k,\beta\beta}}\,{dbt}^{{2}} + \psi_{{k,\beta}}\,{ddbt}\bigr)\Bigr)",
     ]
-    ctx["bc"] = (rf"\zeta_{{{B}}} \equiv 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}({bt}) = 0")
+    ctx["bc"] = rf"\zeta_{{{B}}} \equiv 0,\quad \eta_{{{B}}}(0) = \eta_{{{B}}}({bt}) = 0"
 
     # ---- (1)
     ax, ay = kin_terms({"B": B}, 0, nt, eff.coriolis)
-    ctx["eq1"] = eq_block([term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tn}"),
-                            term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tn}")])
+    ctx["eq1"] = eq_block(
+        [term_row([rf"a_{{x,{B}}}"], ax, f"1.x, {tn}"), term_row([rf"a_{{y,{B}}}"], ay, f"1.y, {tn}")]
+    )
 
     # ---- applied forces: the guide's own point forces and loads, then the slot force at xi = beta
     forces = shown_forces(scene, bm, pr, reserved=(J,))
@@ -242,10 +279,14 @@ def guide_context(scene, model, name: str, pr) -> dict:
         left.append(rf"+ \bar\gamma_{{{B}}}")
     left += [rf"+ {G}\,\delta(\xi - {x})" for G, x in pts_tex]
     sk = r"\sum_k"
-    right = [rf"[\ddot y_A]_{{{B}}}", rf"+ {sk}\ddot g_{{{B},k}}\psi_k",
-             rf"+ 2{dbt}{sk}\dot g_{{{B},k}}\psi_{{k,\beta}}",
-             rf"+ {sk} g_{{{B},k}}\bigl(\psi_{{k,\beta\beta}}\,{dbt}^{{2}} + \psi_{{k,\beta}}\,{ddbt}\bigr)",
-             rf"+ \ddot\theta_{{{B}}}\,\xi", rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}"]
+    right = [
+        rf"[\ddot y_A]_{{{B}}}",
+        rf"+ {sk}\ddot g_{{{B},k}}\psi_k",
+        rf"+ 2{dbt}{sk}\dot g_{{{B},k}}\psi_{{k,\beta}}",
+        rf"+ {sk} g_{{{B},k}}\bigl(\psi_{{k,\beta\beta}}\,{dbt}^{{2}} + \psi_{{k,\beta}}\,{ddbt}\bigr)",
+        rf"+ \ddot\theta_{{{B}}}\,\xi",
+        rf"- \dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}",
+    ]
     ctx["strong"] = eq_block([term_row(left, right, f"9, {tn}")])
     ctx["damped"] = damp
 
@@ -267,9 +308,13 @@ def guide_context(scene, model, name: str, pr) -> dict:
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
     drv = scene.driver
-    ctx["driven"] = ("" if drv is None or drv.body != name else
-                     (r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle"
-                      else r"the applied moment $M_0$ (12)"))
+    ctx["driven"] = (
+        ""
+        if drv is None or drv.body != name
+        else (
+            r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle" else r"the applied moment $M_0$ (12)"
+        )
+    )
     return ctx
 
 
@@ -305,8 +350,11 @@ def _chain_terms(model, body: str, end) -> tuple[str, list[str]]:
     topo = model.topology
     path = _chain(model, body)
     root = topo.edges[path[0]]
-    start = (rf"\mathbf r_{{A,{rm(path[0])}}}" if root.slider or root.ground_point is None
-             else rf"\mathbf p_{{{rm(root.joint)}}}")
+    start = (
+        rf"\mathbf r_{{A,{rm(path[0])}}}"
+        if root.slider or root.ground_point is None
+        else rf"\mathbf p_{{{rm(root.joint)}}}"
+    )
     terms = []
     for k, bar in enumerate(path):
         B = rm(bar)
@@ -349,13 +397,16 @@ def slot_closure(scene, model, joint: str) -> dict:
     lhs = " + ".join(ta) + " - " + " - ".join(tb)
     K = rf"\mathbf K_{{{J}}} = {sb} - {sa}"
     star = rf"\zeta^*_{{{G}}} = 0,\quad \eta^*_{{{G}}} = \eta_{{{G}}}({bt}) = 0"
-    text = (rf"Slot {tex_escape(joint)} (cut joint, multipliers $\Lambda_{{x,{J}}}$, $\Lambda_{{y,{J}}}$ = the slot "
-            rf"force on {tex_escape(a.body)}), loop " + " -- ".join(tex_escape(x) for x in _loop(model, joint))
-            + rf": the point $\xi = {num_text(a.xi)}$ of {tex_escape(a.body)} stays on {tex_escape(g.body)} at "
-            rf"its support distance ${bt}(\tau)$. In (11) the guide's $[1 + \hat\zeta, \hat\eta]$ is replaced "
-            rf"by $[{bt} + \zeta^*, \eta^*]$ with $\zeta^* = \zeta({bt})$, $\eta^* = \eta({bt})$; here "
-            rf"$\zeta^* = 0$ (axially rigid guide) and $\eta^* = 0$ (the guide's frame is the chord from its "
-            rf"pin to the slot)")
+    text = (
+        rf"Slot {tex_escape(joint)} (cut joint, multipliers $\Lambda_{{x,{J}}}$, $\Lambda_{{y,{J}}}$ = the slot "
+        rf"force on {tex_escape(a.body)}), loop "
+        + " -- ".join(tex_escape(x) for x in _loop(model, joint))
+        + rf": the point $\xi = {num_text(a.xi)}$ of {tex_escape(a.body)} stays on {tex_escape(g.body)} at "
+        rf"its support distance ${bt}(\tau)$. In (11) the guide's $[1 + \hat\zeta, \hat\eta]$ is replaced "
+        rf"by $[{bt} + \zeta^*, \eta^*]$ with $\zeta^* = \zeta({bt})$, $\eta^* = \eta({bt})$; here "
+        rf"$\zeta^* = 0$ (axially rigid guide) and $\eta^* = 0$ (the guide's frame is the chord from its "
+        rf"pin to the slot)"
+    )
     return {"text": text, "sym": rf"{lhs} = {K}", "star": star}
 
 
@@ -374,7 +425,15 @@ def slot_notes(scene, model) -> list[dict]:
             continue
         a, g = j.ends
         J = rm(j.name)
-        out.append({"name": tex_escape(j.name), "a": tex_escape(a.body), "xa": num_text(a.xi),
-                    "b": tex_escape(g.body), "beta": pr_beta(model, g.body), "tex": J,
-                    "mass": j.mass > 0})
+        out.append(
+            {
+                "name": tex_escape(j.name),
+                "a": tex_escape(a.body),
+                "xa": num_text(a.xi),
+                "b": tex_escape(g.body),
+                "beta": pr_beta(model, g.body),
+                "tex": J,
+                "mass": j.mass > 0,
+            }
+        )
     return out
