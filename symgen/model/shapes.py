@@ -396,6 +396,17 @@ class InnerProducts:
     D4: np.ndarray
     exact: dict[str, object]
 
+    @classmethod
+    def from_tables(cls, na: int, nt: int, tables: dict[str, Table]) -> InnerProducts:
+        """The inner products of the filled tables ``gram, Ka, Kt, Pd, psid1, C3, D4`` (their float
+        arrays and their exact values)."""
+        exact: dict[str, object] = {name: tables[name].matrix() for name in ("gram", "Ka", "Kt", "Pd")}
+        psid1 = tables["psid1"]
+        exact["psid1"] = sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)])
+        exact["C3"], exact["D4"] = tables["C3"].array(), tables["D4"].array()
+        frozen = {name: table.frozen() for name, table in tables.items()}
+        return cls(na=na, nt=nt, exact=exact, **frozen)
+
 
 def _terms_of(basis: Basis) -> list[Terms]:
     out = []
@@ -459,24 +470,5 @@ def _compute_locked(phi: list[Terms], psi: list[Terms]) -> InnerProducts:
         a, c, d, e = idx
         D4.set(set(itertools.permutations(idx)), integrate_product(P[(a, c)], P[(d, e)]))
 
-    exact = {
-        "gram": gram.matrix(),
-        "Ka": Ka.matrix(),
-        "Kt": Kt.matrix(),
-        "Pd": Pd.matrix(),
-        "psid1": sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)]),
-        "C3": C3.array(),
-        "D4": D4.array(),
-    }
-    return InnerProducts(
-        na=na,
-        nt=nt,
-        gram=gram.frozen(),
-        Ka=Ka.frozen(),
-        Kt=Kt.frozen(),
-        Pd=Pd.frozen(),
-        psid1=psid1.frozen(),
-        C3=C3.frozen(),
-        D4=D4.frozen(),
-        exact=exact,
-    )
+    tables = {"gram": gram, "Ka": Ka, "Kt": Kt, "Pd": Pd, "psid1": psid1, "C3": C3, "D4": D4}
+    return InnerProducts.from_tables(na, nt, tables)

@@ -361,27 +361,8 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]) ->
         a, c, d, e = idx
         D4.set(set(itertools.permutations(idx)), MP.mpc(ip(P[(a, c)], P[(d, e)])))
     _J_UPTO.clear()
-    exact = {
-        "gram": gram.matrix(),
-        "Ka": Ka.matrix(),
-        "Kt": Kt.matrix(),
-        "Pd": Pd.matrix(),
-        "psid1": sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)]),
-        "C3": C3.array(),
-        "D4": D4.array(),
-    }
-    return InnerProducts(
-        na=na,
-        nt=nt,
-        gram=gram.frozen(),
-        Ka=Ka.frozen(),
-        Kt=Kt.frozen(),
-        Pd=Pd.frozen(),
-        psid1=psid1.frozen(),
-        C3=C3.frozen(),
-        D4=D4.frozen(),
-        exact=exact,
-    )
+    tables = {"gram": gram, "Ka": Ka, "Kt": Kt, "Pd": Pd, "psid1": psid1, "C3": C3, "D4": D4}
+    return InnerProducts.from_tables(na, nt, tables)
 
 
 # --------------------------------------------------------------------------------------
