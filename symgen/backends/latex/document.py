@@ -493,7 +493,7 @@ def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
     }[fn.kind]
     w = (
         rf"w_{{{k}}}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
-        rf"\end{{cases}}\ \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}"
+        rf"\end{{cases}} \\ &\qquad \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}"
     )
     nums = [rf"c_{{{i + 1}}} = {_g6(c, 10)}" for i, c in enumerate(fn.coeffs) if abs(c) > 1e-14] + [
         rf"t = {_g6(fn.scale, 10)}"
@@ -503,7 +503,7 @@ def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
         w
         + r", \\ &\qquad \text{with } "
         + r", \\ &\qquad ".join(rows)
-        + rf" \ (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)"
+        + rf", \\ &\qquad (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)"
     )
     return expr, extra
 
