@@ -23,12 +23,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from symgen.scene.expressions import (
-    derivative,
-    first_pole,
-    parse_tau_expression,
-    value_at,
-)
+from symgen.scene.expressions import derivative, first_non_finite, parse_tau_expression, tau_symbol
 
 
 def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
@@ -94,26 +89,14 @@ def driver_record(driver: Any) -> dict | None:
 
 def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, str] | None:
     """First (tau, what) in [0, t_end] where theta, theta' or theta'' is not a finite real
-    number, else None. ``driver`` has numeric ``initial``, ``rate``, ``ramp``. A pole that SymPy
-    finds (:func:`symgen.scene.expressions.first_pole`) counts even between the samples."""
-    import math
-
-    import sympy as sp
-
-    tau = sp.Symbol("tau", real=True)
+    number, else None (:func:`symgen.scene.expressions.first_non_finite` of each: a pole counts
+    even between the samples). ``driver`` has numeric ``initial``, ``rate``, ``ramp``."""
+    tau = tau_symbol()
     theta = driver_angle(driver, tau, driver.initial or 0.0, driver.rate, driver.ramp)
     exprs = (
         ("theta", theta),
         ("d theta/d tau", derivative(theta, tau)),
         ("d2 theta/d tau2", derivative(theta, tau, 2)),
     )
-    poles = [(t, what) for what, e in exprs if (t := first_pole(e, tau, t_end)) is not None]
-    first = min(poles, key=lambda p: p[0]) if poles else None
-    for k in range(samples + 1):
-        t = t_end * k / samples
-        if first is not None and t >= first[0]:
-            break
-        for what, e in exprs:
-            if not math.isfinite(value_at(e, tau, t)):
-                return t, what
-    return first
+    bad = [(t, k, what) for k, (what, e) in enumerate(exprs) if (t := first_non_finite(e, t_end, samples)) is not None]
+    return (min(bad)[0], min(bad)[2]) if bad else None
