@@ -20,7 +20,7 @@ from typing import Any
 
 from symgen.numerics.mechanism import Mechanism, load_mechanism
 from symgen.numerics.simulate import SimResult, simulate
-from symgen.scene import load_scene
+from symgen.scene import scene_of
 from symgen.scene.model import Scene
 
 
@@ -28,15 +28,6 @@ def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), u
     """The compiled model of a scene with its parameter values, ready to run
     (:func:`symgen.numerics.mechanism.load_mechanism`)."""
     return load_mechanism(scene, overrides, use_cache)
-
-
-def _loaded(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:
-    """``scene`` loaded from its file with ``overrides``, or the Scene given (without overrides)."""
-    if not isinstance(scene, Scene):
-        return load_scene(scene, overrides)
-    if overrides:
-        raise ValueError("overrides apply to a scene file; pass the path, or load_scene(path, overrides)")
-    return scene
 
 
 def _emit_inputs(scene: Scene):
@@ -59,7 +50,7 @@ def write_c(scene: Scene | str | os.PathLike, out_dir: str | os.PathLike, overri
     into ``out_dir`` all or nothing; its folder. A bad scene name fails before any work."""
     from symgen.backends.c import c_prefix, write_c as emit
 
-    scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
+    scene = scene_of(scene, overrides)
     c_prefix(scene)
     model, info, plan = _emit_inputs(scene)
     return emit(scene, out_dir, model, plan, info)
@@ -74,7 +65,7 @@ def write_fmu(
     from symgen.backends.c import c_prefix, write_fmu as emit
     from symgen.backends.fmu import check_fmu_path
 
-    scene = scene if isinstance(scene, Scene) else load_scene(scene, overrides)
+    scene = scene_of(scene, overrides)
     check_fmu_path(Path(path))
     c_prefix(scene)
     model, info, plan = _emit_inputs(scene)
@@ -174,7 +165,7 @@ def _written_run(scene, overrides, out, plot, states: bool, units: str | None, u
 
     files = run_files(out, plot, out_key="out", plot_key="plot")
     try:
-        scene = _loaded(scene, overrides)
+        scene = scene_of(scene, overrides)
         choose_system(scene, units)
         mech = mechanism(scene, use_cache=use_cache)
         result, failure = attempt(lambda: run(mech))
@@ -241,7 +232,7 @@ def equations(scene: Scene | str | os.PathLike, overrides: Sequence[str] = ()) -
     from symgen.ir.parameters import parameter_values
     from symgen.model.derive import TAU, derive
 
-    scene = _loaded(scene, overrides)
+    scene = scene_of(scene, overrides)
     model = derive(scene)
     prog = model.program
     inlined: dict[Any, Any] = {}

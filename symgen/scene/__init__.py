@@ -7,7 +7,7 @@
 from __future__ import annotations
 
 from symgen.scene.expressions import parse_tau_expression, tau_symbol
-from symgen.scene.loader import load_scene, parse_scene, scene_hash
+from symgen.scene.loader import load_scene, parse_scene, scene_hash, scene_of
 from symgen.scene.model import (
     GROUND,
     OUTPUT_KINDS,
@@ -27,6 +27,7 @@ from symgen.scene.overrides import apply_overrides
 
 __all__ = [
     "load_scene",
+    "scene_of",
     "apply_overrides",
     "parse_scene",
     "scene_hash",

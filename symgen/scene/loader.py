@@ -387,3 +387,13 @@ def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:
     file = os.fspath(path)
     raw = apply_overrides(read_toml(file), overrides, file)
     return parse_scene(raw, file, scene_hash(raw))
+
+
+def scene_of(scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = ()) -> Scene:
+    """``scene`` itself when it is a loaded ``Scene`` (overrides then refused: they apply to a
+    file), else the scene file loaded with its ``--set`` overrides (:func:`load_scene`)."""
+    if not isinstance(scene, Scene):
+        return load_scene(scene, overrides)
+    if overrides:
+        raise ValueError("overrides apply to a scene file; pass the path, or load_scene(path, overrides)")
+    return scene
