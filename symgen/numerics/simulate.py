@@ -598,45 +598,42 @@ def _notice(text: str) -> None:
         print(f"symgen: {text}", file=sys.stderr)
 
 
+def _singular(
+    mech: Mechanism, part: Partition, tau: float, q_last: np.ndarray, tau_last: float, cause: str, limit: bool = False
+) -> SimulationError | None:
+    """The error of a step that failed at a singular position of the rigid mechanism: the
+    closure Jacobian was already near rank loss at the last good output (or, ``limit``, the
+    driven closure itself lost its solution, which a smooth mechanism does only at a singular
+    position); None when it was not."""
+    ratio, row = checks.singular_ratio(mech, tau_last, q_last, part)
+    if ratio >= POLICY.near_singular_ratio and not limit:
+        return None
+    return SimulationError(
+        tau,
+        f"the rigid mechanism reached a singular position (change point / toggle): "
+        f"the closure Jacobian of the {mech.loop_name(row)} loses rank "
+        f"(ratio {ratio:.1e} at tau = {tau_last:.6g}); {cause}",
+        "the mechanism cannot be driven through this position; shorten the run or change the geometry or the driver",
+    )
+
+
 def _lost(
     mech: Mechanism, part: Partition, tau: float, q_last: np.ndarray, tau_last: float, cause: str, limit: bool = False
 ) -> SimulationError:
-    """The error for a step that failed: a singular position of the rigid mechanism when the
-    closure Jacobian was already near rank loss at the last good output (or, ``limit``, when
-    the driven closure itself lost its solution, which a smooth mechanism does only at a
-    singular position), else the solver cause."""
-    ratio, row = checks.singular_ratio(mech, tau_last, q_last, part)
-    if ratio < POLICY.near_singular_ratio or limit:
-        return SimulationError(
-            tau,
-            f"the rigid mechanism reached a singular position (change point / toggle): "
-            f"the closure Jacobian of the {mech.loop_name(row)} loses rank "
-            f"(ratio {ratio:.1e} at tau = {tau_last:.6g}); {cause}",
-            "the mechanism cannot be driven through this position; shorten the run or "
-            "change the geometry or the driver",
-        )
-    return SimulationError(tau, cause, "tighten or loosen simulation.rtol/atol, or check the scene near this tau")
+    """The error for a step that failed: a singular position (``_singular``), else the solver cause."""
+    return _singular(mech, part, tau, q_last, tau_last, cause, limit) or SimulationError(
+        tau, cause, "tighten or loosen simulation.rtol/atol, or check the scene near this tau"
+    )
 
 
 def _stalled(run: DaeRunner, tau: float, h: float, traj: _Trajectory) -> SimulationError:
-    """The watchdog's error: no progress within one output step from ``tau``, with the likely
-    cause measured at the last good output (a near-singular position), else the other ones."""
-    mech = run.mech
-    ratio, row = checks.singular_ratio(mech, traj.taus[-1], traj.qs[-1], run.part)
+    """The watchdog's error: no progress within one output step from ``tau``; the likely cause
+    measured at the last good output (a near-singular position, ``_singular``), else the others."""
     what = (
         f"no progress: IDAS took more than {run.max_steps(h)} steps within the output step from tau = "
         f"{tau:.6g} (its steps shrank to nothing)"
     )
-    if ratio < POLICY.near_singular_ratio:
-        return SimulationError(
-            tau,
-            f"{what}: the rigid mechanism is at a near-singular position (change point "
-            f"/ toggle): the closure Jacobian of the {mech.loop_name(row)} is close to losing "
-            f"rank (ratio {ratio:.1e} at tau = {traj.taus[-1]:.6g})",
-            "the mechanism cannot be driven through this position: change the geometry or the "
-            "driver, or shorten the run",
-        )
-    return SimulationError(
+    return _singular(run.mech, run.part, tau, traj.qs[-1], traj.taus[-1], what) or SimulationError(
         tau,
         f"{what}: a load, a torque or the driver law may be singular there, or the "
         f"model stiff beyond what the run can resolve",
