@@ -210,3 +210,11 @@ def stale_removed_on_failure(paths: Iterable[str | os.PathLike]) -> Iterator[Non
     except BaseException:
         remove([p for p, ident in before.items() if ident is not None and _identity(p) == ident])
         raise
+
+
+def printable(text: object) -> str:
+    """Text from outside (a file name) made safe to show in a one-line context: a TeX ``%``
+    comment, a figure title. Every character that is not printable (a line break, which would
+    end a comment and make the rest live TeX, a carriage return, a tab, a Unicode line
+    separator) becomes ``?``."""
+    return "".join(c if c.isprintable() else "?" for c in str(text))

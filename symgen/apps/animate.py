@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from symgen.apps.plot import title_text
 from symgen.errors import SceneError
 from symgen.ir.info import ModelInfo
 from symgen.numerics.geometry import Geometry, auto_factor, magnified, rigid_reference
 from symgen.numerics.results import states_block
+from symgen.outputs import printable
 
 TARGET = 0.1  # default factor: peak displacement drawn at 10 % of the reference length
 MAX_FRAMES = 150  # default: every output row up to this many frames, else evenly spaced
@@ -179,7 +179,7 @@ class Animator:
         else:
             ax.set_xlabel(r"$x / l_0$"), ax.set_ylabel(r"$y / l_0$")
         ax.grid(True, lw=0.3, alpha=0.5)
-        ax.set_title(title_text(title), fontsize=10, parse_math=False)  # a file name is text, never mathtext
+        ax.set_title(printable(title), fontsize=10, parse_math=False)  # a file name is text, never mathtext
         size = 0.035 * span
         for m in geom.markers:  # ground: pins as hatched triangles, slider guides as lines
             if m.joint not in grounds:

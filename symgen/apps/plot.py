@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from symgen.outputs import printable
+
 LABELS = {
     "chord_deflection": "deflection from chord / l",
     "chord_elongation": "chord elongation (|c| - l) / l",
@@ -37,12 +39,6 @@ SI_LABELS = {
     "energy": "energy",
     "closure_residual": "closure residual",
 }
-
-
-def title_text(text: str) -> str:
-    """A figure title made of a file name: shown as text (never mathtext: ``parse_math=False`` at
-    the call), every character that is not printable (a line break, a tab) as ``?``."""
-    return "".join(c if c.isprintable() else "?" for c in text)
 
 
 def plot_outputs(
@@ -93,7 +89,7 @@ def plot_outputs(
             for c in range(1, int(math.floor(x[-1])) + 1):
                 ax.axvline(c, color="0.7", lw=0.5)
     fig.suptitle(
-        title_text(title) + ("  [PARTIAL RUN]" if partial else ""), fontsize=10, parse_math=False
+        printable(title) + ("  [PARTIAL RUN]" if partial else ""), fontsize=10, parse_math=False
     )  # a file name is text, never mathtext
     fig.align_ylabels(axes[:, 0])
     from symgen.outputs import atomic_path

@@ -33,8 +33,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
-from symgen.apps.plot import title_text
 from symgen.errors import SceneError, SimulationError
+from symgen.outputs import printable
 
 if TYPE_CHECKING:
     from symgen.scene.model import Scene
@@ -738,7 +738,7 @@ def plot_resonance(
     if len(groups) > 1 or not ok.all():
         axes[0, 0].legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel(key)
-    fig.suptitle(title_text(title) + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
+    fig.suptitle(printable(title) + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -842,7 +842,7 @@ def plot_campbell(
     handles = ax.get_legend_handles_labels()[0]
     if 0 < len(handles) <= 12:
         ax.legend(fontsize=8, loc="upper left")
-    fig.suptitle(title_text(title) + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
+    fig.suptitle(printable(title) + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

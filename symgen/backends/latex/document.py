@@ -46,11 +46,11 @@ from symgen.backends.latex.printing import (
     rm,
     shown_forces,
     term_row,
-    tex_comment,
     tex_escape,
     tex_lines,
 )
 from symgen.ir import names
+from symgen.outputs import printable
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
 from symgen.model.structure import QUASI_STATIC, axial_treatments
@@ -735,7 +735,7 @@ def latex_document(scene, model) -> str:
 
     ctx = {
         "version": __version__,
-        "scene_path": tex_comment(Path(scene.path).name),
+        "scene_path": printable(Path(scene.path).name),
         "scene_path_tex": tex_escape(Path(scene.path).name),
         "hash": scene.hash[:12],
         "name": tex_escape(scene.name),

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from symgen.ir import names
+from symgen.outputs import printable
 from symgen.ir.names import Name
 from symgen.model.bars import PointForce
 
@@ -44,14 +45,7 @@ _TEXT_ESCAPES = {
 def tex_escape(text: object) -> str:
     """Escape a string for LaTeX text mode (a character that is not printable, such as a line
     break in a file name, becomes a visible ``?``)."""
-    return "".join(_TEXT_ESCAPES.get(c, c) for c in tex_comment(text))
-
-
-def tex_comment(text: object) -> str:
-    """A string made safe inside a ``%`` comment line: every character that is not printable
-    (a newline, a carriage return, a Unicode line separator, which would end the comment and
-    make the rest of the text live TeX) becomes ``?``."""
-    return "".join(c if c.isprintable() else "?" for c in str(text))
+    return "".join(_TEXT_ESCAPES.get(c, c) for c in printable(text))
 
 
 def rm(name: str) -> str:
