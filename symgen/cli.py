@@ -838,7 +838,9 @@ def _output_files(args) -> list[Path]:
     if cmd is cmd_sweep:
         return [out, out.with_suffix(".json"), *(Path(x) for x in (args.plot, args.campbell) if x)]
     if cmd in (cmd_simulate, cmd_quasistatic):
-        return [out, out.with_suffix(".json"), *([Path(args.plot)] if args.plot else [])]
+        from symgen.numerics.results import ResultFiles
+
+        return ResultFiles(out, args.plot).complete_paths()
     if cmd is cmd_study:
         from symgen.apps.study import study_paths
 
