@@ -410,6 +410,13 @@ def _quasistatic(args, files) -> int:
     written = _write_run(args, files, mech, result, failure, "quasi-static")
     assert result is not None  # write_run raises when the run has no result
     info = written.sidecar["solver"]
+    if result.kinematics == "equilibrium":
+        print(
+            f"wrote {written.csv} ({len(result.tau)} positions: the static equilibrium at each (the mechanism has "
+            f"free rigid coordinates); Newton steps mean {info['iterations_mean']:.1f}, max {info['iterations_max']}; "
+            f"residual max {info['residual_max']:.2e}; closure max {result.closure_max:.2e}; {result.solve_s:.2f}s)"
+        )
+        return 0
     print(
         f"wrote {written.csv} ({len(result.tau)} positions; fixed-point iterations mean {info['iterations_mean']:.1f}, "
         f"max {info['iterations_max']}; Newton at {info['newton_positions']} position(s); residual max "
@@ -707,7 +714,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.set_defaults(func=cmd_effects)
 
-    p = scene_cmd("quasistatic", "quasi-static response (18)-(20) over a cycle; write CSV + JSON sidecar")
+    p = scene_cmd(
+        "quasistatic",
+        "quasi-static response (18)-(20) over a cycle (free rigid coordinates: the static equilibrium at each position); write CSV + JSON sidecar",
+    )
     p.add_argument("-o", "--output", required=True, help="CSV file to write")
     p.add_argument("--plot", help="figure of the outputs against tau (.png, .svg or .pdf)")
     p.add_argument(
@@ -762,7 +772,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_animate)
 
-    p = scene_cmd("modes", "natural frequencies and mode shapes about the quasi-static state")
+    p = scene_cmd(
+        "modes",
+        "natural frequencies and mode shapes about the quasi-static state (free rigid coordinates: about the static equilibrium)",
+    )
     p.add_argument(
         "--at",
         type=_bounded(ge=-1e3, le=1e3),

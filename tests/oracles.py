@@ -77,3 +77,86 @@ def hermite_beam_frequencies(a: float, ne: int, far_end_pinned: bool, count: int
     free = [i for i in range(2 * N) if i not in fixed]
     w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True, subset_by_index=[0, count - 1])
     return np.sqrt(w2)
+
+
+def hanging_chain_frequencies(
+    bars: list[tuple[float, float, float]], g: float, ne: int = 40, count: int = 6
+) -> np.ndarray:
+    """First ``count`` circular frequencies of the small in-plane lateral vibration of a chain of
+    Euler-Bernoulli bars hanging straight down under gravity ``g`` from a pin at the top, joined
+    end to end by pins: ``bars`` = [(length, mass per length, EI), ...] from the top.
+
+    Hermite cubic elements (``ne`` per bar: exact bending stiffness, consistent mass) with the
+    geometric stiffness of the tension N(s) = g x (the mass below s), integrated exactly by
+    3-point Gauss quadrature: int N u' du' ds. The rigid pendulum modes come out of the tension
+    alone, the bending modes of the bending stiffness stiffened by it. A pin has one lateral
+    displacement and the rotations of the two bar ends it joins; the top pin holds the
+    displacement. Independent of symgen's code (no floating frame, no Lagrange multipliers)."""
+    import scipy.linalg as sl
+
+    gauss_x = np.array([-np.sqrt(0.6), 0.0, np.sqrt(0.6)])
+    gauss_w = np.array([5.0, 8.0, 5.0]) / 9.0
+    total = sum(length * rho for length, rho, _ in bars)
+    # dof numbering: per bar, lateral displacements u_0..u_ne (u_0 shared with the bar above's
+    # last node), and rotations r_0..r_ne of its own
+    dofs_u: list[list[int]] = []
+    dofs_r: list[list[int]] = []
+    nd = 0
+    for b in range(len(bars)):
+        first = dofs_u[-1][-1] if b else None
+        us = [first] if first is not None else [nd]
+        nd += 0 if first is not None else 1
+        for _ in range(ne):
+            us.append(nd)
+            nd += 1
+        dofs_u.append(us)
+        dofs_r.append(list(range(nd, nd + ne + 1)))
+        nd += ne + 1
+    K = np.zeros((nd, nd))
+    M = np.zeros((nd, nd))
+    above = 0.0  # mass above the current bar
+    for b, (length, rho, EI) in enumerate(bars):
+        h = length / ne
+        for e in range(ne):
+            k = (
+                EI
+                / h**3
+                * np.array(
+                    [
+                        [12, 6 * h, -12, 6 * h],
+                        [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                        [-12, -6 * h, 12, -6 * h],
+                        [6 * h, 2 * h * h, -6 * h, 4 * h * h],
+                    ]
+                )
+            )
+            m = (
+                rho
+                * h
+                / 420
+                * np.array(
+                    [
+                        [156, 22 * h, 54, -13 * h],
+                        [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+                        [54, 13 * h, 156, -22 * h],
+                        [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
+                    ]
+                )
+            )
+            kg = np.zeros((4, 4))
+            for xg, wg in zip(gauss_x, gauss_w):
+                x = (xg + 1) / 2  # in [0, 1] along the element
+                s = e * h + x * h  # from the bar's top
+                tension = g * (total - above - rho * s)
+                # derivatives d/ds of the Hermite functions
+                dN = np.array(
+                    [(-6 * x + 6 * x * x) / h, 1 - 4 * x + 3 * x * x, (6 * x - 6 * x * x) / h, -2 * x + 3 * x * x]
+                )
+                kg += wg * h / 2 * tension * np.outer(dN, dN)
+            d = [dofs_u[b][e], dofs_r[b][e], dofs_u[b][e + 1], dofs_r[b][e + 1]]
+            K[np.ix_(d, d)] += k + kg
+            M[np.ix_(d, d)] += m
+        above += rho * length
+    free = [i for i in range(nd) if i != dofs_u[0][0]]
+    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True, subset_by_index=[0, count - 1])
+    return np.sqrt(w2)

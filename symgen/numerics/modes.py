@@ -40,6 +40,7 @@ import numpy as np
 from symgen.errors import SimulationError
 from symgen.ir.info import ModelInfo
 from symgen.ir.records import CoordKind
+from symgen.numerics.equilibrium import Equilibrium, EquilibriumSystem, free_coordinates, frozen_alg
 from symgen.numerics.index1 import index1
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.quasistatic import QuasiStaticSystem
@@ -56,6 +57,10 @@ GROWTH_TOL = 1e-9
 #: structural damping (zeta 1e-3 to 1e-2) removes it. An undamped moving loop shows such rates
 #: (zeta -2.5e-7 measured) from the energy the driver exchanges at a frozen position.
 ZETA_NEUTRAL = 1e-5
+#: About an equilibrium, |s| below this fraction of the largest |s| is a zero eigenvalue: a
+#: neutral direction (a bar free to turn with nothing holding it), whose double root at 0 the
+#: eigensolver splits by about sqrt(machine epsilon x |A|).
+NEUTRAL_REL = 1e-5
 
 
 @dataclass
@@ -106,6 +111,9 @@ class ModesResult:
     independent: list[str]
     dependent: list[str]
     quasi_static: dict[str, float | str | int | None]  # the (20) solve's report at tau
+    #: about a static equilibrium (a mechanism with free rigid coordinates): how it was found
+    #: and the free coordinates' values (``Equilibrium.as_dict``); None about a quasi-static state
+    equilibrium: dict[str, object] | None = None
 
     @property
     def stable(self) -> bool:
@@ -118,8 +126,18 @@ class ModesResult:
     def stability(self, damping: float = 0.0) -> Stability:
         """The verdict and its reason: ``{"stable", "kind", "reason"}`` with ``kind`` one of
         ``stable``, ``divergence`` (a real positive eigenvalue: beyond buckling) or ``growth``
-        (a vibration mode whose amplitude grows in the frozen system)."""
+        (a vibration mode whose amplitude grows in the frozen system). About a static
+        equilibrium, a divergence is the mechanism falling away from an unstable equilibrium."""
         pos = [s for s in self.real_eigenvalues if s > GROWTH_TOL]
+        if pos and self.equilibrium is not None:
+            return {
+                "stable": False,
+                "kind": "divergence",
+                "reason": f"the static equilibrium is unstable: {len(pos)} real positive eigenvalue(s) (largest "
+                f"{max(pos):.3g} per unit tau: an imaginary frequency {max(pos):.3g}i); a small push grows "
+                "without oscillating and the mechanism falls away from this position (as an inverted pendulum "
+                "does). A stable equilibrium: initial.guess angles near it",
+            }
         if pos:
             return {
                 "stable": False,
@@ -187,15 +205,24 @@ def _rigid_march(qs: QuasiStaticSystem, tau: float) -> tuple[np.ndarray, np.ndar
 
 
 def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult:
-    """Linearised modes of the deformation about the quasi-static state at input position ``tau``."""
-    _, _, _, _, part0 = mech.initial_state(0.0)
-    qs = QuasiStaticSystem(mech, part0, "deformed")
-    qr, vr, ar = _rigid_march(qs, tau)
-    y, rep = qs.solve(tau, qr, vr, ar)
-    q, v, a, lam = qs.state(tau, qr, vr, ar, y)
+    """Linearised modes about the quasi-static state at input position ``tau`` (a kinematically
+    guided mechanism), or about the static equilibrium at ``tau`` (a mechanism with free rigid
+    coordinates: ``symgen.numerics.equilibrium``)."""
+    q0, _, _, _, part0 = mech.initial_state(0.0)
+    n, m = mech.n, mech.m
+    eq: Equilibrium | None = None
+    if free_coordinates(mech, part0):
+        eq = EquilibriumSystem(mech).solve(tau, q0)
+        q, v, a, lam = eq.q, np.zeros(n), np.zeros(n), eq.lam
+        about: dict[str, float | str | int | None] = {"method": "static equilibrium", "residual": eq.residual}
+    else:
+        qs = QuasiStaticSystem(mech, part0, "deformed")
+        qr, vr, ar = _rigid_march(qs, tau)
+        y, rep = qs.solve(tau, qr, vr, ar)
+        q, v, a, lam = qs.state(tau, qr, vr, ar, y)
+        about = rep.as_dict()
     part = mech.choose_partition(tau, q)
     I, D = list(part.ind), list(part.dep)
-    n, m = mech.n, mech.m
     nI, nD = len(I), len(D)
     if nI == 0:
         raise SimulationError(
@@ -203,20 +230,21 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
             "the mechanism has no deformation amplitudes: it has no modes",
             "give an elastic bar axial_modes or transverse_modes",
         )
-    # index-1 system G(x, z) = 0 and its Jacobians
+    # index-1 system G(x, z) = 0 and its Jacobians (about an equilibrium: with the time frozen)
     sys_ = index1(n, m, part)
     x, z, aa = sys_.x, sys_.z, sys_.a
     args: list[ca.SX | np.ndarray | float] = [tau, sys_.q, sys_.v, aa, sys_.lam, mech.p]
     f = mech.f
-    G = sys_.alg(f, tau, mech.p)
+    G = sys_.alg(f, tau, mech.p) if eq is None else frozen_alg(sys_, mech, tau)
     jac = ca.Function("modes_jac", [x, z], [G, ca.jacobian(G, x), ca.jacobian(G, z), ca.jacobian(f["res"](*args), aa)])
     x0 = np.concatenate([q[I], v[I]])
     z0 = np.concatenate([q[D], v[D], a, lam])
     G0, Gx, Gz, M = (np.array(w) for w in jac(x0, z0))
     if np.abs(G0).max() > 1e-8:
+        what = "quasi-static state" if eq is None else "static equilibrium"
         raise SimulationError(
             tau,
-            f"the quasi-static state does not satisfy the equations (residual {np.abs(G0).max():.3g})",
+            f"the {what} does not satisfy the equations (residual {np.abs(G0).max():.3g})",
             "report this: it is an internal inconsistency",
         )
     dzdx = -np.linalg.solve(Gz, Gx)
@@ -232,10 +260,14 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         kind = {CoordKind.F: "axial", CoordKind.G: "transverse"}.get(c.kind, "rigid")
         groups.setdefault(f"{c.body} {kind}", []).append(i)
     bases = _bases(mech) if shapes else {}
+    K = None if eq is None else _stiffness(mech, tau, q, lam)
     scale = max(1.0, float(np.abs(s).max()))
     real_eigs, found = [], []
     for k in range(len(s)):
         sk = s[k]
+        if eq is not None and abs(sk) <= NEUTRAL_REL * scale:
+            real_eigs.append(0.0)  # a neutral direction: every nearby value is an equilibrium too
+            continue
         if abs(sk.imag) <= 1e-9 * scale:
             real_eigs.append(float(sk.real))
             continue
@@ -253,6 +285,8 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         tot = sum(abs(e) for e in energy.values()) or 1.0
         fractions = {g: abs(e) / tot for g, e in energy.items() if abs(e) / tot > 1e-12}
         deform = {g: e for g, e in fractions.items() if not g.endswith(" rigid")}
+        if K is not None and _rigid_share(K, dq, groups) > 0.5:
+            deform = {}  # about an equilibrium: a rigid-body (pendulum) mode
         dominant = (
             max(deform, key=deform.__getitem__)
             if deform
@@ -282,8 +316,26 @@ def modes(mech: Mechanism, tau: float = 0.0, shapes: bool = True) -> ModesResult
         state={c.name: float(q[i]) for i, c in enumerate(coords)},
         independent=[coords[i].name for i in I],
         dependent=[coords[i].name for i in D],
-        quasi_static=rep.as_dict(),
+        quasi_static=about,
+        equilibrium=None if eq is None else eq.as_dict(mech),
     )
+
+
+def _stiffness(mech: Mechanism, tau: float, q: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """d res / d q at rest at (q, lam): the tangent stiffness, gravity's included."""
+    qs = ca.SX.sym("q", mech.n)
+    zn = np.zeros(mech.n)
+    K = ca.Function("modes_K", [qs], [ca.jacobian(mech.f["res"](tau, qs, zn, zn, lam, mech.p), qs)])
+    return np.array(K(q))
+
+
+def _rigid_share(K: np.ndarray, dq: np.ndarray, groups: dict[str, list[int]]) -> float:
+    """The share of a mode's potential energy (diagonal blocks of the stiffness) in the rigid
+    coordinates: near 1 for a pendulum mode (gravity's stiffness), near 0 for a bending mode
+    (strain energy)."""
+    energy = {g: abs(float(np.real(np.conj(dq[idx]) @ K[np.ix_(idx, idx)] @ dq[idx]))) for g, idx in groups.items()}
+    total = sum(energy.values()) or 1.0
+    return sum(e for g, e in energy.items() if g.endswith(" rigid")) / total
 
 
 def _bases(mech: Mechanism) -> dict[str, tuple[Basis | None, Basis | None]]:
@@ -326,7 +378,12 @@ def modes_json(result: ModesResult, scene: Scene, info: ModelInfo) -> dict[str, 
             + (f"; *_hz: Hz with omega = {scene.omega:g} rad/s" if hz else "")
         ),
         "about": "quasi-static state at tau (closure exact on the deformed bars), linearised on the "
-        "independent coordinates (tangent space of the closure)",
+        "independent coordinates (tangent space of the closure)"
+        if result.equilibrium is None
+        else "static equilibrium at tau (the mechanism has free rigid coordinates: rates and accelerations "
+        "zero, gravity, loads and torques at tau, prescribed angles held), linearised with the time frozen on "
+        "the independent coordinates (tangent space of the closure)",
+        "equilibrium": result.equilibrium,
         "groups": scene.groups,
         "effects": {
             "geometric_stiffening": scene.effects.geometric_stiffening,
@@ -353,7 +410,11 @@ def modes_table(result: ModesResult, scene: Scene, limit: int = 12) -> str:
     undamped = scene.effects.damping == 0
     zeta_head = "zeta*" if undamped else "zeta"
     head = f"{'mode':>4}  {'omega_n (x omega)':>17}  {zeta_head:>9}  " + (f"{'Hz':>10}  " if hz else "") + "dominant"
-    lines = [f"modes at tau = {result.tau:g} (quasi-static state, {result.quasi_static['method']})", head]
+    if result.equilibrium is None:
+        lines = [f"modes at tau = {result.tau:g} (quasi-static state, {result.quasi_static['method']})"]
+    else:
+        lines = equilibrium_lines(result.equilibrium, scene)
+    lines.append(head)
     for m in result.modes[:limit]:
         lines.append(
             f"{m.index:>4}  {m.natural_frequency:>17.6g}  {m.damping_ratio:>9.2g}  "
@@ -362,15 +423,47 @@ def modes_table(result: ModesResult, scene: Scene, limit: int = 12) -> str:
         )
     if len(result.modes) > limit:
         lines.append(f"... {len(result.modes) - limit} more in the JSON")
-    if undamped and result.modes:
+    if undamped and result.modes and result.equilibrium is None:
         lines.append(
             "* no damping in the model (effects.damping = 0): zeta is the frozen-time energy exchange "
             "with the driver at this position, of either sign, not dissipation"
         )
+    if undamped and result.modes and result.equilibrium is not None:
+        lines.append("* no damping in the model (effects.damping = 0): zeta is round-off")
     if result.real_eigenvalues:
-        neg = [s for s in result.real_eigenvalues if s <= GROWTH_TOL]
+        zero = [s for s in result.real_eigenvalues if s == 0.0] if result.equilibrium is not None else []
+        if zero:
+            lines.append(
+                f"{len(zero)} zero eigenvalue(s), two per neutral direction: nothing holds the free "
+                "coordinates there (every nearby position is an equilibrium too)"
+            )
+        neg = [s for s in result.real_eigenvalues if s < 0.0 or (s <= GROWTH_TOL and s not in zero)]
         if neg:
-            lines.append(f"{len(neg)} real negative eigenvalue(s) (overdamped)")
+            what = "overdamped" if result.equilibrium is None else "decaying without oscillating"
+            lines.append(f"{len(neg)} real negative eigenvalue(s) ({what})")
     verdict = result.stability(scene.effects.damping)
     lines.append(("stable: " if verdict["stable"] else "UNSTABLE: ") + verdict["reason"])
     return "\n".join(lines)
+
+
+def equilibrium_lines(equilibrium: dict[str, object], scene: Scene) -> list[str]:
+    """The head of the table about a static equilibrium: which one (the free coordinates'
+    values, angles in degrees), how it was found, how to choose another."""
+    free = equilibrium["free"]
+    assert isinstance(free, dict)
+    values = ", ".join(
+        f"{name} = {math.degrees(x):.6g} deg" if name.startswith("theta_") else f"{name} = {x:.6g}"
+        for name, x in free.items()
+    )
+    first = next((name for name in free if name.startswith("theta_")), None)
+    other = (
+        f"; another equilibrium: --set initial.guess.{first[len('theta_') :]}=ANGLE_RAD (or [initial] guess) near it"
+        if first
+        else ""
+    )
+    return [
+        f"modes about the static equilibrium at tau = {equilibrium['tau']:g} (the mechanism has free rigid "
+        "coordinates: gravity, loads and torques frozen at tau, prescribed angles held)",
+        f"equilibrium: {values} (found by {equilibrium['method']} from initial.guess in "
+        f"{equilibrium['iterations']} step(s){other})",
+    ]

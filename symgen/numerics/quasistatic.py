@@ -35,7 +35,18 @@ and the driver torque). Two readings of "rigid kinematics substituted":
   (O(zeta), visible in a ``closure_residual`` output), the deformations differ at second order.
 
 Only a kinematically guided mechanism (angle driver, or no rigid degree of freedom at all) has
-a quasi-static response: its rigid motion is known without solving the dynamics.
+a quasi-static response in this sense: its rigid motion is known without solving the dynamics.
+
+A mechanism with free rigid coordinates (no driver, a torque driver, bars left undriven) has
+not; for it ``quasi_static`` computes what is defined without the dynamics, the **static
+equilibrium at each input position** (``kinematics = "equilibrium"``): every rate and
+acceleration zero, the prescribed (angle-driven) coordinates at their value at tau, gravity,
+loads and driver torques at their values at tau, the free coordinates and every deformation
+amplitude solved (``symgen.numerics.equilibrium``), each position started from the last one's
+equilibrium (continuation). That is the slow-motion limit: the inertia loads of the driver's
+motion are left out, since the free coordinates' motion under them is the dynamics. With
+nothing varying in tau (no angle driver, constant loads) every position is the same
+equilibrium, the one ``symgen modes`` reports.
 """
 
 from __future__ import annotations
@@ -54,11 +65,14 @@ from symgen.policy import POLICY
 from symgen.scene.limits import lift_hint, limit_value, over_limit
 from symgen.numerics import interrupt
 from symgen.numerics import checks
+from symgen.numerics.equilibrium import RES_TOL as EQ_RES_TOL
+from symgen.numerics.equilibrium import EquilibriumSystem, free_coordinates, why_free
 from symgen.numerics.index1 import Partition
 from symgen.numerics.mechanism import Mechanism
 from symgen.ir.records import CoordKind
 
 KINEMATICS = ("deformed", "rigid")
+EQUILIBRIUM = "equilibrium"  # the kinematics of a mechanism with free rigid coordinates
 RHO_MAX = 0.95  # a fixed-point iteration contracting slower than this goes to Newton
 FP_MAXIT = 200
 NEWTON_MAXIT = 50
@@ -107,6 +121,16 @@ class QuasiStaticResult:
     failure: str = ""
     stats: dict[str, str | float | None] = field(default_factory=dict)
 
+    @property
+    def analysis(self) -> str:
+        """What the run computed, for the JSON sidecar."""
+        if self.kinematics == EQUILIBRIUM:
+            return (
+                "static equilibrium at each input position (a mechanism with free rigid coordinates: "
+                "rates and accelerations zero, prescribed angles at their value at tau)"
+            )
+        return "quasi-static response (18)-(20)"
+
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""
         return self.outputs[:, self.output_names.index(name)]
@@ -124,6 +148,22 @@ class QuasiStaticResult:
         """The JSON ``solver`` entry: method, tolerances, per-position iterations and residuals."""
         newton = [r for r in self.reports if r.method == "newton"]
         its = [r.iterations for r in self.reports]
+        if self.kinematics == EQUILIBRIUM:
+            its = [r.newton_iterations for r in self.reports]
+            return {
+                "name": "static equilibrium res(tau, q, 0, 0, lam) = 0, phi(tau, q) = 0: Newton with "
+                "pseudo-time damping, each position from the last one's equilibrium",
+                "kinematics": self.kinematics,
+                "residual_tol": EQ_RES_TOL,
+                "steps": self.steps,
+                "positions": len(self.reports),
+                "newton_used": True,
+                "newton_positions": len(self.reports),
+                "iterations_max": max(its) if its else 0,
+                "iterations_mean": float(np.mean(its)) if its else 0.0,
+                "residual_max": max((r.residual for r in self.reports), default=0.0),
+                "per_position": [r.as_dict() for r in self.reports],
+            }
         return {
             "name": "quasi-static (20): fixed-point iteration y <- A^-1 (B + f(y)), Newton fallback",
             "kinematics": self.kinematics,
@@ -218,6 +258,10 @@ class QuasiStaticSystem:
             J = mech.jac_q(t, q)[:, self.D]
             a[self.D] = np.linalg.solve(J, -mech.call("phidd", t, q, v, a))
         return q, v, a
+
+    def next_guess(self, qr: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Where the next position's rigid state starts: this one's rigid state ``qr``."""
+        return qr
 
     # ------------------------------------------------------------------ (20)
     def residual(self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -329,25 +373,51 @@ class QuasiStaticSystem:
 
 
 def require_guided(mech: Mechanism, part: Partition) -> None:
-    """The quasi-static response needs a rigid motion known without the dynamics: every rigid
-    coordinate must be dependent (fixed by the closure and an angle driver)."""
-    free = [i for i in mech.rigid if i not in part.dep]
+    """The quasi-static response (20) needs a rigid motion known without the dynamics: every
+    rigid coordinate must be dependent (fixed by the closure and the prescribed coordinates)."""
+    free = free_coordinates(mech, part)
     if free:
-        sc = mech.scene
-        why = (
-            "its driver is a torque driver"
-            if sc.driver is not None and sc.driver.kind == "torque"
-            else "it has no angle driver"
-        )
-        dof = len(free)
         raise SceneError(
-            sc.path,
+            mech.scene.path,
             "driver",
-            f"the quasi-static response needs a kinematically guided mechanism, but {why} "
-            f"and the rigid mechanism keeps {dof} degree(s) of freedom",
-            'use [driver] kind = "angle" (the quasi-static response of seed section 5 '
-            "assumes the input motion is prescribed)",
+            f"the quasi-static system (18)-(20) needs a kinematically guided mechanism, but {why_free(mech, free)}",
+            "quasi_static() and modes() give such a mechanism its static equilibrium instead; "
+            'to prescribe the motion use [driver] kind = "angle" on the free bar',
         )
+
+
+class EquilibriumTrack:
+    """The static equilibrium at each input position of a mechanism with free rigid coordinates,
+    with the interface of ``QuasiStaticSystem`` that ``quasi_static`` runs: y = [q; lam]."""
+
+    kinematics = EQUILIBRIUM
+
+    def __init__(self, mech: Mechanism, part: Partition) -> None:
+        self.mech, self.part = mech, part
+        self.system = EquilibriumSystem(mech)
+
+    def rigid_state(self, t: float, q_guess: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The start at t: the guess (the last position's equilibrium), at rest."""
+        z = np.zeros(self.mech.n)
+        return np.array(q_guess, dtype=float), z, z
+
+    def next_guess(self, qr: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Where the next position starts: this one's equilibrium ``q`` (continuation)."""
+        return q
+
+    def solve(
+        self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y0: ArrayLike | None = None
+    ) -> tuple[np.ndarray, PositionReport]:
+        n = self.mech.n
+        lam0 = None if y0 is None else np.asarray(y0, dtype=float)[n:]
+        eq = self.system.solve(t, qr, lam0)
+        return np.concatenate([eq.q, eq.lam]), PositionReport(t, "newton", 0, eq.iterations, eq.residual, None)
+
+    def state(
+        self, t: float, qr: np.ndarray, vr: np.ndarray, ar: np.ndarray, y: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        n = self.mech.n
+        return y[:n].copy(), np.zeros(n), np.zeros(n), y[n:].copy()
 
 
 def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float | None = None) -> np.ndarray:
@@ -409,14 +479,14 @@ def quasi_static(
 
 def _start(
     mech: Mechanism, taus: ArrayLike | None, kinematics: str, cycles: float | None, output_step: float | None
-) -> tuple[np.ndarray, np.ndarray, QuasiStaticSystem]:
+) -> tuple[np.ndarray, np.ndarray, QuasiStaticSystem | EquilibriumTrack]:
     """The input positions, the consistent start at the first (its q) and the system (20) of its
     partition. A signal meanwhile (the start's assembly, building (20)): ``Interrupted`` saying
     that no position was solved."""
     try:
         taus = cycle_times(mech, cycles, output_step) if taus is None else np.asarray(taus, dtype=float)
         q, v, a, lam, part = mech.initial_state(float(taus[0]) if len(taus) else 0.0)
-        sys_ = QuasiStaticSystem(mech, part, kinematics)
+        sys_ = _system(mech, part, kinematics)
     except BaseException as err:
         stop = interrupt.interrupted(err)
         if not isinstance(stop, Interrupted):
@@ -425,8 +495,29 @@ def _start(
     return taus, q, sys_
 
 
+def _system(mech: Mechanism, part: Partition, kinematics: str) -> QuasiStaticSystem | EquilibriumTrack:
+    """The system (20) of a guided mechanism, the static equilibrium of one with free rigid
+    coordinates."""
+    free = free_coordinates(mech, part)
+    if not free:
+        return QuasiStaticSystem(mech, part, kinematics)
+    if kinematics == "rigid":
+        raise SceneError(
+            "command line",
+            "--kinematics",
+            f"'rigid' substitutes the rigid mechanism's motion, but {why_free(mech, free)}, so that "
+            "motion is not known without the dynamics",
+            "leave --kinematics out: such a mechanism gets its static equilibrium at each position",
+        )
+    return EquilibriumTrack(mech, part)
+
+
 def _solve_positions(
-    sys_: QuasiStaticSystem, positions: _Positions, taus: np.ndarray, q: np.ndarray, say: Callable[[str], object] | None
+    sys_: QuasiStaticSystem | EquilibriumTrack,
+    positions: _Positions,
+    taus: np.ndarray,
+    q: np.ndarray,
+    say: Callable[[str], object] | None,
 ) -> None:
     """(20) at each input position in turn, each started from the last one's solution."""
     y: np.ndarray | None = None
@@ -438,7 +529,7 @@ def _solve_positions(
         y, rep = sys_.solve(t, qr, vr, ar, y)
         qq, vv, aa, ll = sys_.state(t, qr, vr, ar, y)
         positions.add(t, qq, vv, aa, ll, rep)
-        q_guess = qr
+        q_guess = sys_.next_guess(qr, qq)
         if say is not None and len(positions.reports) == 1:
             say(f"first position solved (tau = {t:g}); {len(taus)} positions in all")
 
@@ -447,7 +538,7 @@ class _Positions:
     """The positions solved so far with their outputs and reports, and the
     ``QuasiStaticResult`` they make: what a run that stops early keeps."""
 
-    def __init__(self, sys_: QuasiStaticSystem) -> None:
+    def __init__(self, sys_: QuasiStaticSystem | EquilibriumTrack) -> None:
         self.mech, self.part, self.kinematics = sys_.mech, sys_.part, sys_.kinematics
         self.rows: dict[str, list[float | np.ndarray]] = {k: [] for k in ("tau", "out", "q", "v", "a", "lam")}
         self.reports: list[PositionReport] = []

@@ -251,7 +251,7 @@ def build_sidecar(
     elif solver == "quasi-static":
         if not isinstance(result, QuasiStaticResult):
             raise TypeError(f"a quasi-static sidecar needs a QuasiStaticResult, not {type(result).__name__}")
-        sidecar["analysis"] = "quasi-static response (18)-(20)"
+        sidecar["analysis"] = result.analysis
         sidecar["solver"] = result.solver_info()
         sidecar["timings"]["solve_s"] = result.solve_s
         sidecar["t_end"] = float(result.tau[-1])
