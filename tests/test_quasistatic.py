@@ -212,12 +212,20 @@ output_step = 0.1
 """
 
 
-def test_a_torque_driven_mechanism_has_no_quasi_static_response(tmp_path, capsys):
+def test_a_torque_driven_mechanism_gets_its_static_equilibrium(tmp_path, capsys):
+    """A torque-driven crank has no quasi-static response (18)-(20) (its motion is not
+    prescribed): quasistatic gives its static equilibrium at each position instead, and refuses
+    (exit 2, no file) where there is none, naming the unbalanced coordinate."""
     path = write_scene(tmp_path / "free.toml", TORQUE)
     out = tmp_path / "free.csv"
-    assert main(["quasistatic", str(path), "-o", str(out)]) == 2
+    assert main(["quasistatic", str(path), "-o", str(out)]) == 0  # no torque, no gravity: at rest anywhere
+    assert "static equilibrium" in capsys.readouterr().out
+    assert json.loads(out.with_suffix(".json").read_text())["solver"]["kinematics"] == "equilibrium"
+    out.unlink()
+    assert main(["quasistatic", str(path), "-o", str(out), "--set", "driver.value=1.0"]) == 2
     err = capsys.readouterr().err
-    assert "driver" in err and "kinematically guided" in err and not out.exists()
+    assert "no static equilibrium" in err and "theta_crank" in err and "driver torque" in err
+    assert not out.exists()
 
 
 def test_latex_shows_18_19_20():
