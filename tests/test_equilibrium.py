@@ -363,3 +363,17 @@ def test_an_unbalanced_torque_has_no_equilibrium(tmp_path, capsys):
     assert main(["quasistatic", str(path), "--set", "driver.value=0.5", "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert "no static equilibrium" in err and "theta_crank" in err and not out.exists()
+
+
+def test_the_example_double_pendulum_in_hz(tmp_path, capsys):
+    """examples/double_pendulum.toml (SI, swung-out guess): the equilibrium hangs straight down and
+    its pendulum frequencies in Hz are the rigid double pendulum's of the two steel bars."""
+    out = tmp_path / "modes.json"
+    assert main(["modes", "examples/double_pendulum.toml", "-o", str(out)]) == 0
+    assert "theta_upper = -90 deg, theta_lower = -90 deg" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    rigid = [m["natural_frequency_hz"] for m in doc["modes"] if m["dominant"].endswith(" rigid")]
+    m1, m2 = 7850 * 1e-4 * 0.3, 7850 * 1e-4 * 0.25  # kg
+    expected = rigid_double_pendulum(0.3, m1, 0.25, m2, 0.0, 9.81) / (2 * math.pi)
+    assert rigid == pytest.approx(expected, rel=5e-3)
+    assert doc["stable"] is True and doc["equilibrium"]["choose_with"] == ["initial.guess.upper", "initial.guess.lower"]

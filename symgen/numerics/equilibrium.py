@@ -62,6 +62,15 @@ def prescribed(mech: Mechanism, t: float) -> dict[int, float]:
     return {}
 
 
+def guess_key(mech: Mechanism, body: str) -> str:
+    """The scene key that sets the start of bar ``body``'s angle: a torque driver's ``initial``
+    for its bar, else ``initial.guess.<body>``."""
+    drv = mech.scene.driver
+    if drv is not None and drv.kind == "torque" and drv.body == body:
+        return "driver.initial"
+    return f"initial.guess.{body}"
+
+
 def free_coordinates(mech: Mechanism, part: Partition) -> list[int]:
     """The rigid coordinates neither fixed by the closure nor prescribed: the mechanism's free
     degrees of freedom (empty for a kinematically guided mechanism)."""
@@ -103,9 +112,11 @@ class Equilibrium:
         return out
 
     def as_dict(self, mech: Mechanism) -> dict[str, object]:
+        thetas = [mech.coords[i].body for i in self.free if mech.coords[i].kind is CoordKind.THETA]
         return {
             "tau": self.tau,
             "free": self.angles(mech),
+            "choose_with": [guess_key(mech, b) for b in thetas],
             "iterations": self.iterations,
             "residual": self.residual,
             "method": "Newton with pseudo-time damping (pseudo-transient continuation)" if self.damped else "Newton",

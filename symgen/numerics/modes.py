@@ -455,12 +455,9 @@ def equilibrium_lines(equilibrium: dict[str, object], scene: Scene) -> list[str]
         f"{name} = {math.degrees(x):.6g} deg" if name.startswith("theta_") else f"{name} = {x:.6g}"
         for name, x in free.items()
     )
-    first = next((name for name in free if name.startswith("theta_")), None)
-    other = (
-        f"; another equilibrium: --set initial.guess.{first[len('theta_') :]}=ANGLE_RAD (or [initial] guess) near it"
-        if first
-        else ""
-    )
+    keys = equilibrium.get("choose_with") or []
+    assert isinstance(keys, list)
+    other = f"; another equilibrium: --set {keys[0]}=ANGLE_RAD near it" if keys else ""
     return [
         f"modes about the static equilibrium at tau = {equilibrium['tau']:g} (the mechanism has free rigid "
         "coordinates: gravity, loads and torques frozen at tau, prescribed angles held)",
