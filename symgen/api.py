@@ -118,7 +118,8 @@ def quasi_static_scene(
     use_cache: bool = True,
     **kwargs,
 ):
-    """The quasi-static response (18)-(20) over a cycle; kwargs go to
+    """The quasi-static response (18)-(20) over a cycle (a mechanism with free rigid coordinates:
+    its static equilibrium at each position, ``symgen.numerics.equilibrium``); kwargs go to
     ``symgen.numerics.quasistatic.quasi_static`` (kinematics, cycles, output_step, taus, say).
 
     ``out``, ``plot``, ``states``, ``units``: write the run as ``symgen quasistatic -o OUT`` does
@@ -183,7 +184,9 @@ def _written_run(scene, overrides, out, plot, states: bool, units: str | None, u
 
 
 def modes_scene(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), tau: float = 0.0, **kwargs):
-    """Natural frequencies and mode shapes about the quasi-static state at input position tau."""
+    """Natural frequencies and mode shapes about the quasi-static state at input position tau (a
+    mechanism with free rigid coordinates: about its static equilibrium at tau, with the
+    pendulum modes; ``ModesResult.equilibrium`` says which equilibrium)."""
     from symgen.numerics.modes import modes
 
     return modes(mechanism(scene, overrides), tau=tau, **kwargs)

@@ -17,7 +17,11 @@ equilibrium (``symgen.numerics.equilibrium``), against independent oracles:
   the upper one unstable (a real eigenvalue of the same size);
 * the inverted pendulum: a real eigenvalue sqrt(3 g / (2 l)), reported as instability;
 * a crank turned by an angle driver with a free bar hanging from its tip: at every position
-  the bar hangs straight down and the driver holds T = g (m1 l1/2 + m2 l1) cos(theta_crank).
+  the bar hangs straight down and the driver holds T = g (m1 l1/2 + m2 l1) cos(theta_crank);
+  with the crank held, the bar swings at w^2 = 3 g / (2 l2);
+* a four-bar (closed loop) with no driver hanging under gravity: the minimum of the rigid
+  linkage's potential V(phi) along its one-parameter motion (closed-form circle intersection),
+  and w^2 = V''(phi) / M(phi), M the generalized mass of the Lagrangian T = M(phi) phi'^2 / 2.
 """
 
 from __future__ import annotations
@@ -292,6 +296,15 @@ def test_quasistatic_tracks_the_equilibrium_over_the_driven_motion(tmp_path):
     assert res.column("torque") == pytest.approx(hold, abs=1e-4)
 
 
+def test_modes_of_a_free_bar_on_a_held_crank(tmp_path):
+    path = write_scene(tmp_path / "bob.toml", BOB)
+    res = modes(mechanism(path), tau=1.0, shapes=False)
+    assert res.equilibrium is not None and res.equilibrium["free"] == pytest.approx({"theta_bob": -math.pi / 2})
+    assert res.state["theta_crank"] == pytest.approx(1.3)  # the angle driver's angle at tau = 1, held
+    assert res.frequencies("rigid") == pytest.approx([math.sqrt(1.5 * G / 0.6)], rel=5e-3)
+    assert res.stable
+
+
 def test_quasistatic_cli_writes_the_equilibrium_run(tmp_path, capsys):
     path = write_scene(tmp_path / "bob.toml", BOB)
     out = tmp_path / "bob.csv"
@@ -377,3 +390,104 @@ def test_the_example_double_pendulum_in_hz(tmp_path, capsys):
     expected = rigid_double_pendulum(0.3, m1, 0.25, m2, 0.0, 9.81) / (2 * math.pi)
     assert rigid == pytest.approx(expected, rel=5e-3)
     assert doc["stable"] is True and doc["equilibrium"]["choose_with"] == ["initial.guess.upper", "initial.guess.lower"]
+
+
+FOUR_BAR = f"""
+[scene]
+name = "hanging_four_bar"
+reference_length = 1.0
+[[bodies]]
+name = "crank"
+length = 0.5
+rigid = true
+[[bodies]]
+name = "coupler"
+length = 1.0
+lambda = 1.0e6
+mu = 1.0e4
+frame = "pinned-pinned"
+axial_modes = 1
+transverse_modes = 3
+[[bodies]]
+name = "rocker"
+length = 0.8
+rigid = true
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "crank"]
+at = [[0.0, 0.0], 0.0]
+[[joints]]
+name = "A"
+kind = "pin"
+bodies = ["crank", "coupler"]
+at = [1.0, 0.0]
+[[joints]]
+name = "B"
+kind = "pin"
+bodies = ["coupler", "rocker"]
+at = [1.0, 1.0]
+[[joints]]
+name = "C"
+kind = "pin"
+bodies = ["rocker", "ground"]
+at = [0.0, [1.2, 0.0]]
+[initial]
+guess = {{ crank = -1.2, coupler = 0.2, rocker = -1.5 }}
+[effects]
+gravity = [0.0, -{G}]
+[outputs]
+crank = {{ kind = "angle", body = "crank" }}
+[simulation]
+t_end = 1.0
+output_step = 0.5
+"""
+
+
+def rigid_four_bar_rest(lengths: tuple[float, float, float], ground: float, g: float) -> tuple[float, float]:
+    """(crank angle, circular frequency) of a rigid four-bar of uniform bars (mass = length)
+    hanging under gravity: crank pinned at the origin, rocker at (ground, 0), the coupler's far
+    end B on the lower branch of the two circles."""
+    from scipy.optimize import brentq
+
+    l1, l2, l3 = lengths
+    C = np.array([ground, 0.0])
+
+    def points(phi: float) -> tuple[np.ndarray, np.ndarray]:
+        A = l1 * np.array([math.cos(phi), math.sin(phi)])
+        d = C - A
+        dist = float(np.hypot(*d))
+        a = (l2**2 - l3**2 + dist**2) / (2 * dist)
+        B = A + a * d / dist - math.sqrt(l2**2 - a**2) * np.array([-d[1], d[0]]) / dist
+        return A, B
+
+    def centroids(phi: float) -> np.ndarray:
+        A, B = points(phi)
+        return np.concatenate([A / 2, (A + B) / 2, (C + B) / 2])
+
+    def angles(phi: float) -> np.ndarray:
+        A, B = points(phi)
+        return np.array([phi, math.atan2(*(B - A)[::-1]), math.atan2(*(B - C)[::-1])])
+
+    m = np.array(lengths)
+
+    def V(phi: float) -> float:
+        return g * float(m @ centroids(phi)[1::2])
+
+    h = 1e-5
+    phi = brentq(lambda p: (V(p + h) - V(p - h)) / (2 * h), -1.6, -1.1)
+    k = 1e-4
+    Vpp = (V(phi + k) - 2 * V(phi) + V(phi - k)) / k**2
+    dc = (centroids(phi + h) - centroids(phi - h)) / (2 * h)
+    dth = (angles(phi + h) - angles(phi - h)) / (2 * h)
+    M = float(m @ (dc[0::2] ** 2 + dc[1::2] ** 2) + (m * m**2 / 12) @ dth**2)
+    return phi, math.sqrt(Vpp / M)
+
+
+def test_a_hanging_four_bar_rests_at_its_potential_minimum(tmp_path):
+    path = write_scene(tmp_path / "four_bar.toml", FOUR_BAR)
+    res = modes(mechanism(path), shapes=False)
+    phi, w = rigid_four_bar_rest((0.5, 1.0, 0.8), 1.2, G)
+    assert res.equilibrium is not None and res.equilibrium["free"]["theta_crank"] == pytest.approx(phi, abs=1e-4)
+    assert res.frequencies("rigid") == pytest.approx([w], rel=5e-3)
+    assert res.stable and len(res.frequencies("transverse", "coupler")) == 3

@@ -42,31 +42,35 @@ from symgen.errors import SimulationError
 from symgen.ir.records import CoordKind
 from symgen.numerics.index1 import Index1, Partition
 from symgen.numerics.mechanism import Mechanism
+from symgen.scene.model import Driver
 
 #: Largest turn (rad) of a rigid coordinate in one step of the equilibrium solve.
 TRUST = 0.5
 MAXIT = 400
 RES_TOL = 1e-11  # |F|_inf <= RES_TOL * max(1, load scale)
-#: |s| below this fraction of the largest eigenvalue: a zero eigenvalue (neutral direction).
-NEUTRAL_TOL = 1e-7
+
+
+def drivers(mech: Mechanism) -> list[Driver]:
+    """The scene's drivers: the one place this module reads them (today the one ``[driver]``,
+    or none; with several drivers, all of them)."""
+    drv = mech.scene.driver
+    return [] if drv is None else [drv]
 
 
 def prescribed(mech: Mechanism, t: float) -> dict[int, float]:
-    """The prescribed rigid coordinates and their values at t: index -> value.
-
-    The one place the equilibrium reads the scene's drivers (today one ``[driver]``; an angle
-    driver prescribes its bar's angle, a torque driver prescribes nothing)."""
-    drv = mech.scene.driver
-    if drv is not None and drv.kind == "angle":
-        return {mech.info.coordinate(CoordKind.THETA, drv.body): mech.driver_motion(t)[0]}
-    return {}
+    """The prescribed rigid coordinates and their values at t: index -> value (an angle driver
+    prescribes its bar's angle, a torque driver nothing)."""
+    out = {}
+    for drv in drivers(mech):
+        if drv.kind == "angle":  # the driver's angle as the model's driver row prescribes it
+            out[mech.info.coordinate(CoordKind.THETA, drv.body)] = mech.driver_motion(t)[0]
+    return out
 
 
 def guess_key(mech: Mechanism, body: str) -> str:
     """The scene key that sets the start of bar ``body``'s angle: a torque driver's ``initial``
     for its bar, else ``initial.guess.<body>``."""
-    drv = mech.scene.driver
-    if drv is not None and drv.kind == "torque" and drv.body == body:
+    if any(d.kind == "torque" and d.body == body for d in drivers(mech)):
         return "driver.initial"
     return f"initial.guess.{body}"
 
@@ -80,13 +84,14 @@ def free_coordinates(mech: Mechanism, part: Partition) -> list[int]:
 def why_free(mech: Mechanism, free: list[int]) -> str:
     """Why the coordinates ``free`` are free, in words: names the coordinates and the driver."""
     names = ", ".join(mech.coords[i].name for i in free)
-    drv = mech.scene.driver
-    if drv is None:
+    angle = [d.body for d in drivers(mech) if d.kind == "angle"]
+    torque = [d.body for d in drivers(mech) if d.kind == "torque"]
+    if not angle and not torque:
         driver = "the scene has no driver"
-    elif drv.kind == "torque":
-        driver = f"the driver of '{drv.body}' is a torque driver (it prescribes a moment, not a motion)"
+    elif not angle:
+        driver = f"the driver of '{', '.join(torque)}' is a torque driver (it prescribes a moment, not a motion)"
     else:
-        driver = f"the angle driver of '{drv.body}' and the closure do not fix them"
+        driver = f"the angle driver of '{', '.join(angle)}' and the closure do not fix them"
     return f"{len(free)} rigid coordinate(s) are free ({names}): {driver}"
 
 
@@ -172,7 +177,7 @@ class EquilibriumSystem:
         sigma0 = 1e-6 * max(1.0, float(np.abs(J).max()))
         while np.abs(F).max() > tol:
             if it >= MAXIT:
-                raise SimulationError(t, *self._no_equilibrium(F, it))
+                raise SimulationError(t, *self._no_equilibrium(F, it, _turned(w, q0, rigid)))
             step = None
             while True:
                 try:
@@ -197,7 +202,7 @@ class EquilibriumSystem:
             P[:n, :n] = M
             it += 1
             if not np.all(np.isfinite(F)):
-                raise SimulationError(t, *self._no_equilibrium(F, it))
+                raise SimulationError(t, *self._no_equilibrium(F, it, _turned(w, q0, rigid)))
             # switched evolution relaxation: the pseudo-time step grows as the residual falls
             sigma = sigma * min(float(np.abs(F).max()) / max(F_old, 1e-300), 4.0)
             if sigma < 1e-12 * sigma0:
@@ -213,19 +218,34 @@ class EquilibriumSystem:
             damped=damped,
         )
 
-    def _no_equilibrium(self, F: np.ndarray, it: int) -> tuple[str, str]:
+    def _no_equilibrium(self, F: np.ndarray, it: int, turned: float) -> tuple[str, str]:
+        """Why the solve stopped without an equilibrium, naming the unbalanced coordinate: a
+        free coordinate that turned by more than a full turn is driven without end."""
         mech = self.mech
-        n = mech.n
-        res = np.abs(F[:n])
+        res = np.abs(F[: mech.n])
         rigid = list(mech.rigid)
         worst = max(rigid, key=lambda i: res[i]) if rigid else int(np.argmax(res))
+        name = mech.coords[worst].name
+        if turned > 2 * math.pi:
+            return (
+                f"no static equilibrium: from initial.guess, {name} turned by {turned:.3g} rad in {it} steps "
+                f"and its generalized force stays unbalanced ({res[worst]:.3g}): a torque or load that gravity "
+                "and the supports cannot hold turns the mechanism without end",
+                "check the driver torque and the loads against gravity; the dynamic response (symgen "
+                "simulate) is defined either way",
+            )
         return (
-            f"no static equilibrium found from initial.guess in {it} steps: the generalized force on "
-            f"{mech.coords[worst].name} stays unbalanced ({res[worst]:.3g}); a constant torque or load "
-            "that gravity and the supports cannot hold turns the mechanism without end",
-            "check the driver torque and the loads against gravity, or give initial.guess angles near "
-            "an equilibrium; the dynamic response (symgen simulate) is defined either way",
+            f"no static equilibrium found from initial.guess in {it} steps: the residual stays at "
+            f"{np.abs(F).max():.3g} (the generalized force on {name}: {res[worst]:.3g})",
+            "give initial.guess angles near an equilibrium, and check the driver torque and the loads "
+            "against gravity and the bars' stiffness (a bar beyond its buckling load has no equilibrium "
+            "near the straight one); the dynamic response (symgen simulate) is defined either way",
         )
+
+
+def _turned(w: np.ndarray, q0: np.ndarray, rigid: list[int]) -> float:
+    """The largest change of a rigid coordinate from the start."""
+    return float(np.abs(w[rigid] - q0[rigid]).max(initial=0.0))
 
 
 def frozen_alg(sys_: Index1, mech: Mechanism, t: float) -> ca.SX:
