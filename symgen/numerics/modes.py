@@ -26,6 +26,16 @@ a linkage such as the four-bar shows small damping ratios of either sign (|zeta|
 without any damping. They describe the energy exchange with the driver at that position; a
 single bar spinning at constant speed (no loop) has none. A bar with a moving support (a slot's
 variable span) shows larger ones: its support does work on the vibration.
+
+A mechanism with free rigid coordinates (no driver, a torque driver, bars left undriven) has
+no quasi-static state; its modes are taken about its static equilibrium at tau
+(``symgen.numerics.equilibrium``), with the same index-1 linearisation and the time frozen
+(prescribed angles held, loads and torques at their values at tau). The free rigid
+coordinates are then independent coordinates too: their gravity (geometric) stiffness gives the
+pendulum modes, labelled "<body> rigid" when most of a mode's potential energy is in the rigid
+coordinates, beside the bending modes. An unstable equilibrium has real eigenvalues +-s (an
+imaginary frequency), reported as a divergence; a direction nothing holds (a bar free to turn
+without gravity) gives zero eigenvalues, reported as neutral.
 """
 
 from __future__ import annotations
