@@ -121,6 +121,11 @@ class Equilibrium:
         return {
             "tau": self.tau,
             "free": self.angles(mech),
+            "free_deg": {
+                mech.coords[i].name: math.degrees(x)
+                for i, x in zip(self.free, self.angles(mech).values())
+                if mech.coords[i].kind is CoordKind.THETA
+            },
             "choose_with": [guess_key(mech, b) for b in thetas],
             "iterations": self.iterations,
             "residual": self.residual,

@@ -461,9 +461,10 @@ def equilibrium_lines(equilibrium: dict[str, object], scene: Scene) -> list[str]
     values, angles in degrees), how it was found, how to choose another."""
     free = equilibrium["free"]
     assert isinstance(free, dict)
+    degrees = equilibrium["free_deg"]  # the angles among them, in degrees
+    assert isinstance(degrees, dict)
     values = ", ".join(
-        f"{name} = {math.degrees(x):.6g} deg" if name.startswith("theta_") else f"{name} = {x:.6g}"
-        for name, x in free.items()
+        f"{name} = {degrees[name]:.6g} deg" if name in degrees else f"{name} = {x:.6g}" for name, x in free.items()
     )
     keys = equilibrium.get("choose_with") or []
     assert isinstance(keys, list)
