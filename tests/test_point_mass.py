@@ -204,7 +204,11 @@ def test_si_values_are_scaled_like_joint_masses():
         ('body = "coupler"\nmass = 0.1', "masses[0].at", "missing required key 'at'"),
         ('body = "coupler"\nat = 0.4\nmass = -0.1', "masses[0].mass", ">= 0"),
         ('body = "coupler"\nat = 0.4\nmass = 0.1\ninertia = -1e-6', "masses[0].inertia", ">= 0"),
-        ('body = "coupler"\nat = 0.4\nmass = 0.1\noffset = [0.0, 0.1, 0.2]', "masses[0].offset", "must have 2 entries, got 3"),
+        (
+            'body = "coupler"\nat = 0.4\nmass = 0.1\noffset = [0.0, 0.1, 0.2]',
+            "masses[0].offset",
+            "must have 2 entries, got 3",
+        ),
         ('body = "coupler"\nat = 0.4\nmass = 0.1\noffset = "up"', "masses[0].offset", "array of numbers"),
         ('body = "coupler"\nat = 0.4\nmass = 0.1\nxi = 0.3', "masses[0].xi", "unknown key 'xi'"),
     ],

@@ -621,7 +621,14 @@ MASSES = Table(
     "(bodies.<name>.static_correction), and it appears in the energy, modes, LaTeX, the emitted C, the FMU "
     "and the animation.",
     keys=(
-        Key("body", "string", "The bar that carries the mass (not a slot's guide).", NAME_JSON, required="yes", example='"coupler"'),
+        Key(
+            "body",
+            "string",
+            "The bar that carries the mass (not a slot's guide).",
+            NAME_JSON,
+            required="yes",
+            example='"coupler"',
+        ),
         Key(
             "at",
             "number in [0, 1]",
