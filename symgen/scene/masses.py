@@ -8,6 +8,8 @@ derivation treats it like a joint's lumped mass and inertia (``symgen.model.load
 
 from __future__ import annotations
 
+import math
+
 from symgen.scene.excitation import bar_name
 from symgen.scene.model import Body, Joint, PointMass
 from symgen.scene.reader import Reader, join
@@ -65,4 +67,12 @@ def read_mass(
         )
         if along or across:  # [0, 0] is the axis: no attachment arm
             offset = (scales.length(along), scales.length(across))
-    return PointMass(body, xi, scales.joint_mass(mass), scales.rotary_inertia(inertia), offset)
+    out = PointMass(body, xi, scales.joint_mass(mass), scales.rotary_inertia(inertia), offset)
+    for key, value in (("mass", out.mass), ("inertia", out.inertia), *(("offset", x) for x in offset or ())):
+        if not math.isfinite(value):
+            r.fail(
+                join(path, key),
+                f"is not a finite number in model units (relative to the reference bar: {value})",
+                "check the value and its unit against the bars' (m_ref, l0)",
+            )
+    return out
