@@ -106,7 +106,7 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
         put(symbol_names.joint_parameter("m", j.name), j.mass, NON_NEGATIVE, f"{key}.mass")
         put(symbol_names.joint_parameter("I", j.name), j.inertia, NON_NEGATIVE, f"{key}.inertia")
     for i, pm in enumerate(scene.masses):
-        key = f"masses[{i}]"
+        key = f"masses.{i}"  # as loads.{i}: a --set path
         put(symbol_names.mass_parameter("m", i), pm.mass, NON_NEGATIVE, f"{key}.mass")
         put(symbol_names.mass_parameter("I", i), pm.inertia, NON_NEGATIVE, f"{key}.inertia")
         along, across = pm.offset or (0.0, 0.0)
