@@ -73,10 +73,10 @@ const char *const four_bar_tool_parameter_range[18] = {
     "> 0",    /* alpha_crank: from bodies.crank.length */
     "> 0",    /* alpha_rocker: from bodies.rocker.length */
     "> 0",    /* lambda_coupler: from bodies.coupler.E */
-    ">= 0",    /* mass1_I: from masses[0].inertia */
-    "finite",    /* mass1_across: from masses[0].offset */
-    "finite",    /* mass1_along: from masses[0].offset */
-    ">= 0",    /* mass1_m: from masses[0].mass */
+    ">= 0",    /* mass1_I: from masses.0.inertia */
+    "finite",    /* mass1_across: from masses.0.offset */
+    "finite",    /* mass1_along: from masses.0.offset */
+    ">= 0",    /* mass1_m: from masses.0.mass */
     "> 0",    /* mu_coupler: from bodies.coupler.E */
     "> 0",    /* nu_coupler: from bodies.coupler */
     "> 0",    /* nu_crank: from bodies.crank */
