@@ -43,6 +43,17 @@ def hermite_beam_frequencies(a: float, ne: int, far_end_pinned: bool, count: int
     n1 = int(round(ne * a))
     x = np.concatenate([np.linspace(0, a, n1 + 1), np.linspace(a, 1, ne - n1 + 1)[1:]])
     N = len(x)
+    K, M = _hermite_matrices(x)
+    fixed = {0, 2 * n1} | ({2 * (N - 1)} if far_end_pinned else set())
+    free = [i for i in range(2 * N) if i not in fixed]
+    w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True, subset_by_index=[0, count - 1])
+    return np.sqrt(w2)
+
+
+def _hermite_matrices(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness and consistent mass (EI = m = 1) of Euler-Bernoulli Hermite cubic elements on the
+    nodes ``x``; the unknowns are (w, w') at every node."""
+    N = len(x)
     K = np.zeros((2 * N, 2 * N))
     M = np.zeros_like(K)
     for e in range(N - 1):
@@ -73,8 +84,29 @@ def hermite_beam_frequencies(a: float, ne: int, far_end_pinned: bool, count: int
         d = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
         K[np.ix_(d, d)] += k
         M[np.ix_(d, d)] += m
-    fixed = {0, 2 * n1} | ({2 * (N - 1)} if far_end_pinned else set())
-    free = [i for i in range(2 * N) if i not in fixed]
+    return K, M
+
+
+def cantilever_mass_frequencies(
+    a: float, mass: float, inertia: float, offset: tuple[float, float], ne: int, count: int = 3
+) -> np.ndarray:
+    """First ``count`` circular frequencies (EI = m = l = 1) of a beam clamped at 0, free at 1,
+    carrying at xi = a a rigid body of mass ``mass`` and rotary inertia ``inertia`` about its
+    centre, the centre at ``offset`` = (along, across) from the axis: Hermite cubic elements,
+    ``ne`` of them with a node at a. The body's centre moves by (-across w', w + along w')
+    (small rotation w' of the section), so it adds to the node's (w, w') mass matrix
+    m [[1, along], [along, along^2 + across^2]] + I [[0, 0], [0, 1]]. Independent of symgen."""
+    import scipy.linalg as sl
+
+    n1 = int(round(ne * a))
+    x = np.concatenate([np.linspace(0, a, n1 + 1), np.linspace(a, 1, ne - n1 + 1)[1:]]) if 0 < n1 < ne else None
+    if x is None:
+        x = np.linspace(0, 1, ne + 1)
+    K, M = _hermite_matrices(x)
+    s, c = offset
+    d = [2 * n1, 2 * n1 + 1]
+    M[np.ix_(d, d)] += mass * np.array([[1.0, s], [s, s * s + c * c]]) + inertia * np.array([[0.0, 0.0], [0.0, 1.0]])
+    free = list(range(2, 2 * len(x)))  # clamped: w(0) = w'(0) = 0
     w2 = sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True, subset_by_index=[0, count - 1])
     return np.sqrt(w2)
 

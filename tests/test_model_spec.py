@@ -147,6 +147,12 @@ EXPECTED = {
     "examples/four_bar.toml:quasi_static": "d917bc67a666680843c6",
     "examples/four_bar.toml:no_axial": "c04cecbfea44fc598d2f",
     "examples/four_bar.toml:no_bending": "3f646b64c11ae03f5bd7",
+    # added with the example (issue 21, [[masses]]): its structure as first derived
+    "examples/four_bar_tool.toml:": "49e498c56c46e8be9b95",
+    "examples/four_bar_tool.toml:inextensible": "573023abe699a6bb98c5",
+    "examples/four_bar_tool.toml:quasi_static": "be656835b1a45c6d2d2d",
+    "examples/four_bar_tool.toml:no_axial": "18d2b360857279bfeec7",
+    "examples/four_bar_tool.toml:no_bending": "172c4c16dde43a27ce56",
     "examples/inverted_slider_crank.toml:": "234f7b423fc2cfd4ffa0",
     "examples/inverted_slider_crank.toml:inextensible": "5b52b64db726d2749045",
     "examples/inverted_slider_crank.toml:quasi_static": "8dfb3f15ff474136a2ba",
@@ -196,6 +202,7 @@ def test_fields_set_only_when_used_are_exercised(tmp_path):
     assert any(b.static_axial for s in specs for b in s.bodies)
     assert any(b.static_transverse for s in specs for b in s.bodies)
     assert any(j.inertia for s in specs for j in s.joints)
+    assert any(m.inertia and m.offset for s in specs for m in s.masses)
     assert any(j.overhang is not None for s in specs for j in s.joints)
     drivers = [s.driver for s in specs if s.driver is not None]
     assert any(d.law for d in drivers) and any(d.ramp for d in drivers) and any(d.rotor_inertia for d in drivers)

@@ -54,7 +54,7 @@ def test_range_membership_and_wording():
 @pytest.mark.parametrize("path", [*ALL_EXAMPLES.values(), SI_SCENE], ids=lambda p: p.stem)
 def test_every_parameter_of_a_valid_scene_is_in_range_and_names_a_scene_key(path):
     """Every kind of parameter (stiffness, lengths, masses, lumped masses, ground points, slider
-    direction, gravity, damping, loads, driver) of the examples and the SI scene."""
+    direction, gravity, damping, loads, driver, [[masses]]) of the examples and the SI scene."""
     scene = load_scene(path)
     recs = parameter_records(scene)
     assert recs and all(r.valid.contains(r.value) for r in recs)
@@ -62,7 +62,9 @@ def test_every_parameter_of_a_valid_scene_is_in_range_and_names_a_scene_key(path
     assert {"gx", "gy", "damping"} <= names
     for r in recs:
         section, entry, *_ = r.key.split(".") + [""]
-        assert section in ("bodies", "joints", "effects", "driver", "loads"), r
+        assert section in ("bodies", "joints", "effects", "driver", "loads", "masses"), r
+        if section == "masses":  # [[masses]] by position, like loads
+            assert int(entry) < len(scene.masses), r
         if section == "bodies":
             assert entry in {b.name for b in scene.bodies}, r
         if section == "joints":

@@ -225,11 +225,19 @@ class Animator:
             (ln,) = ax.plot([], [], color=f"C{k}", lw=2.4, zorder=4, label=name, solid_capstyle="round", animated=True)
             self.lines[name] = ln
         (self.joints,) = ax.plot([], [], "o", ms=5, mfc="white", mec="k", mew=1.0, zorder=5, animated=True)
-        # lumped masses at joints: filled disks, the area growing with the mass
+        # lumped masses at joints and [[masses]] at their centres: filled disks, the area growing
+        # with the mass; a rigid attachment's arm from its bar point to its centre
         masses = {j.name: j.mass for j in scene.joints if j.mass > 0}
-        self.mass_index = [m.index for m in geom.markers if m.joint in masses]
-        heaviest = max(masses.values(), default=1.0)
+        carried = [(pm, at, centre) for pm, (at, centre) in zip(scene.masses, geom.point_masses)]
+        self.mass_index = [m.index for m in geom.markers if m.joint in masses] + [c for _, _, c in carried]
+        heaviest = max([*masses.values(), *(pm.mass for pm, _, _ in carried)], default=1.0) or 1.0
         sizes = [36 + 180 * masses[m.joint] / heaviest for m in geom.markers if m.joint in masses]
+        sizes += [36 + 180 * pm.mass / heaviest for pm, _, _ in carried]
+        self.arms = []
+        for pm, at, centre in carried:
+            if pm.offset is not None:
+                (ln,) = ax.plot([], [], color="k", lw=1.2, zorder=5, animated=True)
+                self.arms.append((ln, at, centre))
         self.masses = ax.scatter(
             np.zeros(len(sizes)),
             np.zeros(len(sizes)),
@@ -271,6 +279,8 @@ class Animator:
         idx = [m.index for m in geom.markers]
         self.joints.set_data(D[0, idx], D[1, idx])
         self.masses.set_offsets(np.column_stack([D[0, self.mass_index], D[1, self.mass_index]]))
+        for ln, at, centre in self.arms:
+            ln.set_data(D[0, [at, centre]], D[1, [at, centre]])
         t = self.tau[k]
         text = rf"$\tau$ = {t:.4g}"
         if self.turn:
@@ -278,7 +288,8 @@ class Animator:
         if self.scene.units == "SI" and self.scene.omega:
             text += f"\nt = {t / self.scene.omega:.5g} s"
         self.clock.set_text(text)
-        return [*self.lines.values(), *self.ghosts.values(), self.joints, self.masses, self.clock]
+        arms = [ln for ln, _, _ in self.arms]
+        return [*self.lines.values(), *self.ghosts.values(), *arms, self.joints, self.masses, self.clock]
 
     def close(self) -> None:
         import matplotlib.pyplot as plt

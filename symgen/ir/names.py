@@ -162,6 +162,20 @@ def joint_parameter(kind: str, joint: str) -> Name:
     raise ValueError(f"unknown joint parameter {kind!r}")
 
 
+_MASS = {"m": "m", "I": "I", "along": r"d_{\parallel", "across": r"d_{\perp"}
+
+
+def mass_parameter(kind: str, index: int) -> Name:
+    """Of ``[[masses]]`` entry ``index`` (0-based): m (its mass), I (its rotary inertia), along,
+    across (its offset from the bar's axis in the cross-section's axes)."""
+    if kind not in _MASS:
+        raise ValueError(f"unknown point-mass parameter {kind!r}")
+    n = index + 1
+    head = _MASS[kind]
+    latex = rf"{head}_{{\mathrm{{M}}{n}}}" if kind in ("m", "I") else rf"{head},\mathrm{{M}}{n}}}"
+    return Name(f"mass{n}_{kind}", latex)
+
+
 _GLOBAL = {
     "gx": r"g_{x}",
     "gy": r"g_{y}",

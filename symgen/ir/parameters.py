@@ -105,6 +105,13 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
             put(symbol_names.joint_parameter("dy", j.name), j.direction[1], UNIT_COMPONENT, f"{key}.direction")
         put(symbol_names.joint_parameter("m", j.name), j.mass, NON_NEGATIVE, f"{key}.mass")
         put(symbol_names.joint_parameter("I", j.name), j.inertia, NON_NEGATIVE, f"{key}.inertia")
+    for i, pm in enumerate(scene.masses):
+        key = f"masses.{i}"  # as loads.{i}: a --set path
+        put(symbol_names.mass_parameter("m", i), pm.mass, NON_NEGATIVE, f"{key}.mass")
+        put(symbol_names.mass_parameter("I", i), pm.inertia, NON_NEGATIVE, f"{key}.inertia")
+        along, across = pm.offset or (0.0, 0.0)
+        put(symbol_names.mass_parameter("along", i), along, FINITE, f"{key}.offset")
+        put(symbol_names.mass_parameter("across", i), across, FINITE, f"{key}.offset")
     d = scene.driver
     if d is not None:
         put(symbol_names.global_parameter("J_rotor"), d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")

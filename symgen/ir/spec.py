@@ -11,7 +11,7 @@ they become parameter symbols, so changing them reuses the cached model.
 
 The JSON keeps the layout the cache keys were first made from: fields that were added later
 (static correction points, a joint's rotary inertia, a driver's law, ramp or rotor, the
-per-bar axial treatment) appear only when they are set, so the key of a scene without them is
+per-bar axial treatment, the ``[[masses]]``) appear only when they are set, so the key of a scene without them is
 unchanged. Kept free of SymPy, so a cached run never imports it.
 """
 
@@ -33,6 +33,7 @@ __all__ = [
     "EndSpec",
     "JointSpec",
     "LoadSpec",
+    "MassSpec",
     "ModelSpec",
     "OutputSpec",
     "spec_key",
@@ -142,6 +143,26 @@ class JointSpec:
             bool(d.get("inertia")),
             None if oh is None else (oh[0], oh[1]),
         )
+
+
+@dataclass(frozen=True)
+class MassSpec:
+    """A ``[[masses]]`` entry: a point mass at ``xi`` of bar ``body``; whether it has a mass, a
+    rotary inertia and an offset from the bar's axis (a rigid attachment turning with the
+    cross-section). Its parameters are named by its position in the list."""
+
+    body: str
+    xi: float
+    mass: bool
+    inertia: bool = False
+    offset: bool = False
+
+    def to_json(self) -> dict[str, Any]:
+        return {"body": self.body, "xi": self.xi, "mass": self.mass, "inertia": self.inertia, "offset": self.offset}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> MassSpec:
+        return cls(d["body"], d["xi"], d["mass"], d["inertia"], d["offset"])
 
 
 @dataclass(frozen=True)
@@ -267,6 +288,7 @@ class ModelSpec:
     effects: EffectsSpec
     loads: tuple[LoadSpec, ...]
     outputs: tuple[OutputSpec, ...]
+    masses: tuple[MassSpec, ...] = ()  # [[masses]]: point masses and rigid attachments on bars
 
     def body(self, name: str) -> BodySpec:
         for b in self.bodies:
@@ -298,7 +320,7 @@ class ModelSpec:
     def to_json(self) -> dict[str, Any]:
         """The canonical JSON (the layout of the cache keys; ``json.dumps(..., sort_keys=True)``
         of it is hashed)."""
-        return {
+        out = {
             "version": list(self.version),
             "bodies": [b.to_json() for b in self.bodies],
             "joints": [j.to_json() for j in self.joints],
@@ -307,6 +329,9 @@ class ModelSpec:
             "loads": [ld.to_json() for ld in self.loads],
             "outputs": [o.to_json() for o in self.outputs],
         }
+        if self.masses:  # only then: the keys of scenes without them are unchanged
+            out["masses"] = [m.to_json() for m in self.masses]
+        return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> ModelSpec:
@@ -318,6 +343,7 @@ class ModelSpec:
             EffectsSpec.from_json(d["effects"]),
             tuple(LoadSpec.from_json(ld) for ld in d["loads"]),
             tuple(OutputSpec.from_json(o) for o in d["outputs"]),
+            tuple(MassSpec.from_json(m) for m in d.get("masses", ())),
         )
 
     def key(self) -> str:

@@ -27,7 +27,8 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
     """Kinetic + elastic + gravity potential energy, common units m_ref l0^3 omega^2. A
     quasi-static bar counts as the inextensible bar its dynamics are (the energy those
     conserve); its stretch energy N^T Ka N / (2 lambda) is of order 1/lambda and left out.
-    The lumped rotary inertias and the driver's rotor add their kinetic energy
+    The lumped masses (at joints, ``[[masses]]`` with their arms) add their kinetic and
+    potential energy, the lumped rotary inertias and the driver's rotor their kinetic energy
     (``symgen.model.rotary``)."""
     G = loads.G
     total = sp.Integer(0)
@@ -47,7 +48,7 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
             centroid = rA + s.alpha * R * sp.Matrix([mean_x, mean_y])
             total -= s.nu * s.alpha * G.dot(centroid)
     for lm in loads.masses:
-        r, vv, _ = tree.point(lm.body, lm.xi)
+        r, vv = lm.point(tree, bars[lm.body].kin)
         total += lm.mass * vv.dot(vv) / 2 - lm.mass * G.dot(r)
     return total + rotary_energy(bars, [x for n in topo.order for x in loads.rotary[n]], rotor)
 

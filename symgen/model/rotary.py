@@ -17,6 +17,12 @@ reactions of the tree joints are unchanged.
 A driver's rotor (motor rotor + gears reflected to the crank shaft) turns with the driven bar's
 angle theta: it adds J theta'' to that bar's moment equation and J theta'^2 / 2 to the energy.
 
+A rigid attachment (a ``[[masses]]`` entry with an offset d = [along, across] in the axes of
+the cross-section at xi) turns with the same phi: its centre sits at the bar point plus
+R(phi) d (:func:`arm`). A force F acting there does the work of F at the bar point plus that of
+the couple (R(phi) d) x F through d phi; ``LumpedRotary.couple`` carries such a couple, and it
+enters the generalized forces with the inertial moment: (I phi'' - C) d phi / d q.
+
 Units: I and J are / (m_ref l0^3), the common unit of the generalized forces (m_ref l0^3 omega^2).
 """
 
@@ -30,16 +36,20 @@ import sympy as sp
 from symgen.ir import names
 from symgen.ir.names import Name
 from symgen.ir.spec import DriverSpec
+from symgen.model.bars import rot
 
 
 @dataclass(frozen=True)
 class LumpedRotary:
-    """A rotary inertia ``inertia`` (a symbol) at ``xi`` of bar ``body``, from joint ``joint``."""
+    """A rotary inertia ``inertia`` (a symbol, or 0) at ``xi`` of bar ``body``, from joint
+    ``joint`` (or ``masses[i]``), and an applied ``couple`` (common units) that turns with the
+    same cross-section (the arm of a rigid attachment's force), 0 without one."""
 
     joint: str
     body: str
     xi: float
-    inertia: sp.Symbol
+    inertia: sp.Expr
+    couple: sp.Expr = sp.Integer(0)
 
 
 def driver_rotor(driver: DriverSpec | None, param: Callable[[Name], sp.Symbol]) -> tuple | None:
@@ -74,9 +84,19 @@ def rotation_rates(phi: sp.Expr, coords: list) -> tuple:
     return phid, phidd, grads
 
 
+def arm(sym, kin, xi: float, offset: tuple) -> tuple:
+    """(d, d', d''): the offset ``offset`` = (along, across) of a rigid attachment at ``xi``,
+    in ground axes, d = R(phi) offset, turning with the cross-section phi (common units l0)."""
+    phid, phidd, _ = rotation_rates(section_rotation(sym, kin, xi), coordinates(sym))
+    d = rot(section_rotation(sym, kin, xi)) * sp.Matrix(offset)
+    perp = sp.Matrix([-d[1], d[0]])
+    return d, phid * perp, phidd * perp - phid**2 * d
+
+
 def add_lumped_rotary(gen: dict, sym, kin, items: list) -> dict:
-    """``gen`` (a bar's generalized forces, common units) plus the inertial moments of ``items``
-    (:class:`LumpedRotary` on this bar): I phi'' d phi / d q on theta, every g_k and beta."""
+    """``gen`` (a bar's generalized forces, common units) plus the inertial moments and couples of
+    ``items`` (:class:`LumpedRotary` on this bar): (I phi'' - C) d phi / d q on theta, every g_k
+    and beta."""
     if not items:
         return gen
     coords = coordinates(sym)
@@ -85,7 +105,7 @@ def add_lumped_rotary(gen: dict, sym, kin, items: list) -> dict:
     beta = gen.get("beta")
     for it in items:
         _, phidd, grads = rotation_rates(section_rotation(sym, kin, it.xi), coords)
-        moment = it.inertia * phidd
+        moment = it.inertia * phidd - it.couple
         th += moment * grads[sym.th]
         for k, gk in enumerate(sym.g):
             g[k] += moment * grads[gk]
@@ -103,6 +123,8 @@ def rotary_energy(bars: dict, items: list, rotor: tuple | None) -> sp.Expr:
     driver's rotor ``rotor`` = (body, J) or None."""
     total = sp.Integer(0)
     for it in items:
+        if it.inertia == 0:
+            continue
         bm = bars[it.body]
         phid, _, _ = rotation_rates(section_rotation(bm.sym, bm.kin, it.xi), coordinates(bm.sym))
         total += it.inertia * phid**2 / 2

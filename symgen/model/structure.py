@@ -21,6 +21,7 @@ from symgen.ir.spec import (
     EndSpec,
     JointSpec,
     LoadSpec,
+    MassSpec,
     ModelSpec,
     OutputSpec,
     spec_key,
@@ -169,6 +170,9 @@ def slot_guide(scene: Scene, name: str) -> bool:
 
 
 def _tip_joint(scene: Scene, name: str) -> bool:
+    """A joint or a ``[[masses]]`` entry acts at the bar's far end (xi = 1)."""
+    if any(m.body == name and abs(m.xi - 1.0) < 1e-12 for m in scene.masses):
+        return True
     return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12 for j in scene.joints for e in j.ends)
 
 
@@ -179,10 +183,11 @@ POINT_TOL = 1e-9
 
 def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
     """The interior points 0 < xi < 1 of bar ``name`` where a point force acts: joint ends (pins,
-    sliders, a slot's sliding point; lumped masses sit on joints) and point loads; sorted, merged
-    within POINT_TOL."""
+    sliders, a slot's sliding point; a joint's lumped mass sits on it), point loads and the
+    ``[[masses]]``; sorted, merged within POINT_TOL."""
     xs = [e.xi for j in scene.joints for e in j.ends if e.body == name and e.xi is not None and not e.variable]
     xs += [ld.xi for ld in scene.loads if ld.body == name and ld.kind == "point" and ld.xi is not None]
+    xs += [m.xi for m in scene.masses if m.body == name]
     out: list[float] = []
     for x in sorted(float(x) for x in xs):
         if POINT_TOL < x < 1 - POINT_TOL and not (out and x - out[-1] < POINT_TOL):
@@ -285,7 +290,8 @@ def model_spec(scene: Scene) -> ModelSpec:
         eff.damping > 0,
         axial,
     )
-    return ModelSpec((__version__, DERIVE_VERSION), tuple(bodies), joints, drv, effects, loads, outputs)
+    masses = tuple(MassSpec(m.body, m.xi, m.mass > 0, m.inertia > 0, m.offset is not None) for m in scene.masses)
+    return ModelSpec((__version__, DERIVE_VERSION), tuple(bodies), joints, drv, effects, loads, outputs, masses)
 
 
 def structure_of(scene: Scene) -> dict:

@@ -31,9 +31,10 @@ import sympy as sp
 from symgen.ir import names
 from symgen.ir.info import ModelInfo
 from symgen.ir.parameters import parameter_records
-from symgen.model.bars import BarSymbols
+from symgen.model.bars import BarSymbols, rot
 from symgen.backends.casadi.functions import SympyToCasadi
 from symgen.model.kinematics import BarKinematics, TreeKinematics
+from symgen.model.rotary import section_rotation
 from symgen.scene.model import GROUND, Scene
 from symgen.model.static_shapes import bar_bases
 from symgen.model.slot import XI, SlotBarKinematics, SlotBasis
@@ -58,7 +59,8 @@ class Marker:
 
 
 class Geometry:
-    """Sample points of every bar (``bars[name]`` = column range) and joint markers."""
+    """Sample points of every bar (``bars[name]`` = column range), joint markers, and per
+    ``[[masses]]`` entry the indices (point on the bar, the mass's centre)."""
 
     def __init__(self, scene: Scene, info: ModelInfo, samples: int = SAMPLES) -> None:
         self.scene = scene
@@ -119,6 +121,17 @@ class Geometry:
                     None if j.direction is None else tuple(j.direction),
                 )
             )
+        # [[masses]]: the point on the bar, and the centre (the arm turning with the cross-section)
+        self.point_masses: list[tuple[int, int]] = []
+        for i, pm in enumerate(scene.masses):
+            pts.append(tree.point_position(pm.body, pm.xi))
+            centre = pts[-1]
+            if pm.offset is not None:
+                kin = kins[pm.body]
+                d = sp.Matrix([values[names.mass_parameter(k, i).text] for k in ("along", "across")])
+                centre = centre + rot(section_rotation(kin.sym, kin, pm.xi)) * d
+            pts.append(centre)
+            self.point_masses.append((len(pts) - 2, len(pts) - 1))
         conv = SympyToCasadi(env)
         xy = ca.horzcat(*[ca.vertcat(conv(p[0]), conv(p[1])) for p in pts])
         self.f = ca.Function("points", [q], [xy])

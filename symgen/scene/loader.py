@@ -46,6 +46,7 @@ from symgen.scene.limits import (
     over_limit,
     short_key,
 )
+from symgen.scene.masses import read_masses
 from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
@@ -56,7 +57,7 @@ from symgen.scene.units import Scales
 
 __all__ = ["load_scene", "apply_overrides", "parse_scene", "scene_hash"]
 
-TOP_KEYS = ("scene", "bodies", "joints", "driver", "initial", "effects", "loads", "outputs", "simulation")
+TOP_KEYS = ("scene", "bodies", "joints", "driver", "initial", "effects", "loads", "masses", "outputs", "simulation")
 SCENE_KEYS = ("name", "reference_length", "omega", "units")
 UNITS = ("dimensionless", "SI")
 SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol")
@@ -280,8 +281,8 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
 
 
 def check_sizes(r: Reader, raw: dict) -> None:
-    """At most SYMGEN_MAX_ENTRIES bodies, joints, loads and outputs (before any work on them)."""
-    for section in ("bodies", "joints", "loads", "outputs"):
+    """At most SYMGEN_MAX_ENTRIES bodies, joints, loads, masses and outputs (before any work on them)."""
+    for section in ("bodies", "joints", "loads", "masses", "outputs"):
         value = raw.get(section)
         if isinstance(value, (list, dict)) and over_limit("entries", len(value)):
             r.fail(
@@ -341,6 +342,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
     effects = read_effects(r, raw, scales)
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
+    masses = read_masses(r, raw, by_name, joints, scales)
     outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, driver)
     check_scaled_values(r, merge_inputs(*reference_inputs(raw, si, ref.name)), joints, effects, loads, driver)
     simulation = read_simulation(r, raw, driver, scales)
@@ -363,6 +365,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         outputs=outputs,
         simulation=simulation,
         groups=build_groups(bodies, scales, header.units, effects),
+        masses=masses,
     )
 
 

@@ -5,12 +5,12 @@ stage. Units after loading (whatever the file's ``units``):
 
 * lengths / positions: divided by the reference length l0 (``alpha = l_i / l0``);
 * time: tau = omega t;
-* mass per length: relative to m_ref (``nu = m_i / m_ref``); lumped masses relative to m_ref l0;
+* mass per length: relative to m_ref (``nu = m_i / m_ref``); lumped masses (joints, ``[[masses]]``) relative to m_ref l0;
 * lambda, mu: each bar's OWN groups EA/(m_i l_i^2 omega^2), EI/(m_i l_i^4 omega^2);
 * distributed loads: groups q/(m_i l_i omega^2) of that bar, in the bar's axes;
 * point loads: F/(m_i l_i^2 omega^2) of that bar, in the bar's axes;
 * gravity: g/(l0 omega^2) in ground axes;
-* rotary inertias (driver rotor, lumped at joints): J/(m_ref l0^3);
+* rotary inertias (driver rotor, lumped at joints, of ``[[masses]]``): J/(m_ref l0^3);
 * torque: M/(m_ref l0^3 omega^2); forces (reactions) in m_ref l0^2 omega^2.
 
 A load or torque value is either a float or a string expression of ``tau`` (validated by the
@@ -63,6 +63,20 @@ class Joint:
     inertia: float = 0.0  # lumped rotary inertia at the joint / (m_ref l0^3)
     overhang: str = ""  # slot: "elastic" (the guide's overhang bends) | "rigid"
     overhang_modes: int = 0  # slot, elastic overhang: its own bending functions
+
+
+@dataclass(frozen=True)
+class PointMass:
+    """A ``[[masses]]`` entry: a point mass (with its rotary inertia) at ``xi`` of bar ``body``,
+    on the bar's axis or, with ``offset``, rigidly attached beside it (a tool on an arm): the
+    offset (along, across) / l0 is in the axes of the cross-section at xi, so the attachment
+    turns with it (theta + eta'(xi) on an elastic bar)."""
+
+    body: str
+    xi: float
+    mass: float = 0.0  # / (m_ref l0)
+    inertia: float = 0.0  # about its own centre / (m_ref l0^3)
+    offset: tuple[float, float] | None = None  # (along, across) / l0, None: on the axis
 
 
 @dataclass(frozen=True)
@@ -166,6 +180,7 @@ class Scene:
     outputs: tuple[Output, ...]
     simulation: Simulation
     groups: dict = field(default_factory=dict, compare=False, hash=False)
+    masses: tuple[PointMass, ...] = ()  # [[masses]]: point masses and rigid attachments on bars
     # groups: {body: {"alpha":..,"nu":..,"lambda":..,"mu":..,"rho":..}, "_scene": {"gravity": [..], ...}}
 
     def body(self, name: str) -> Body:

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 from symgen.scene import excitation as _ex
 from symgen.scene import loader as _ld
+from symgen.scene import masses as _ma
 from symgen.scene import mechanism as _me
 from symgen.scene import outputs as _ou
 from symgen.scene.expressions import ALLOWED_FUNCTIONS
@@ -273,7 +274,7 @@ BODIES = Table(
             "static_correction",
             "boolean",
             "Static correction functions at interior points: for each joint "
-            "end, point load or lumped mass at 0 < xi_K < 1 of this bar, its static deflection under a unit "
+            "end, point load, lumped mass or [[masses]] entry at 0 < xi_K < 1 of this bar, its static deflection under a unit "
             "force at xi_K (piecewise cubic transverse, piecewise linear axial when the bar keeps its axial "
             "dynamics), mass-orthogonalised against the bar's other functions, is added after its "
             "transverse_modes (axial_modes) functions: the sines alone converge slowly on the kink a point "
@@ -611,6 +612,65 @@ LOADS = Table(
     ),
 )
 
+MASSES = Table(
+    "masses",
+    "array",
+    "Optional point masses and rigid attachments anywhere on a bar (a tool partway along a coupler). Each "
+    "is carried by its bar: its inertia and weight enter that bar's equations (mass matrix, velocity terms, "
+    "gravity) like a joint's lumped mass, with a static correction function at an interior xi "
+    "(bodies.<name>.static_correction), and it appears in the energy, modes, LaTeX, the emitted C, the FMU "
+    "and the animation.",
+    keys=(
+        Key(
+            "body",
+            "string",
+            "The bar that carries the mass (not a slot's guide).",
+            NAME_JSON,
+            required="yes",
+            example='"coupler"',
+        ),
+        Key(
+            "at",
+            "number in [0, 1]",
+            "Position xi along the bar of the point the mass is attached at.",
+            _num(minimum=0, maximum=1),
+            required="yes",
+            example="0.4",
+        ),
+        Key(
+            "mass",
+            "number >= 0",
+            "The point mass.",
+            _num(minimum=0),
+            required="yes",
+            unit="kg (SI), else relative to m_ref l0",
+            example="0.5",
+        ),
+        Key(
+            "inertia",
+            "number >= 0",
+            "Rotary inertia about the mass's own centre: it turns with the bar's cross-section at xi, "
+            "theta + eta'(xi) on an elastic bar, theta on a rigid one.",
+            _num(minimum=0),
+            default="0.0",
+            unit="kg m^2 (SI), else relative to m_ref l0^3",
+            example="0.002",
+        ),
+        Key(
+            "offset",
+            "array of 2 numbers",
+            "[along, across]: the mass's centre from the bar's axis at xi, in the axes of the cross-section "
+            "there (along the bar, and 90 degrees counter-clockwise from it): a rigid attachment that turns "
+            "with the cross-section. Absent: the mass sits on the axis.",
+            {"type": "array", "items": {"type": "number"}, "minItems": 2, "maxItems": 2},
+            default="[0.0, 0.0]",
+            unit="m (SI), else the file's length unit",
+            example="[0.0, 0.05]",
+        ),
+    ),
+    example='[[masses]]\nbody = "coupler"\nat = 0.4\nmass = 0.5\ninertia = 0.002\noffset = [0.0, 0.05]',
+)
+
 _OUTPUT_KEYS = sorted({k for keys in _ou.KIND_KEYS.values() for k in keys})
 OUTPUT_KIND_TEXT = {
     "chord_deflection": "deflection of the point xi from the chord between the bar's ends / bar length",
@@ -727,7 +787,7 @@ SIMULATION = Table(
     example="[simulation]\ncycles = 2\noutput_step = 0.017453292519943295\nrtol = 1e-8",
 )
 
-TABLES = (SCENE, BODIES, JOINTS, DRIVER, INITIAL, EFFECTS, LOADS, OUTPUTS, SIMULATION)
+TABLES = (SCENE, BODIES, JOINTS, DRIVER, INITIAL, EFFECTS, LOADS, MASSES, OUTPUTS, SIMULATION)
 
 #: The loader's accepted keys per table (its own constants): the schema must describe exactly these.
 LOADER_KEYS = {
@@ -739,6 +799,7 @@ LOADER_KEYS = {
     "initial": tuple(_ex.INITIAL_KEYS),
     "effects": tuple(_ex.EFFECT_KEYS),
     "loads": tuple(_ex.LOAD_KEYS),
+    "masses": tuple(_ma.MASS_KEYS),
     "outputs": ("kind", *_OUTPUT_KEYS),
     "simulation": tuple(_ld.SIMULATION_KEYS),
 }

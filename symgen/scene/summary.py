@@ -49,7 +49,7 @@ def _joint(joint) -> str:
 
 
 def summary(scene: Scene, corrections: dict | None = None) -> str:
-    """Bars (frames, shape functions, groups), joints, driver, loads, outputs and the run;
+    """Bars (frames, shape functions, groups), joints, driver, point masses, loads, outputs and the run;
     ``corrections``: {bar: its static correction points by direction} (``structure.static_points``,
     which the caller gives: the model layer is above the scene's)."""
     lines = [f"{scene.name} ({scene.path}): valid, {scene.units}, l0 = {scene.l0:.6g}, omega = {scene.omega:.6g}"]
@@ -67,6 +67,13 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
         lines.append(f"  {'driver':8} torque on {drv.body}: {drv.torque}")
     if drv is not None and drv.rotor_inertia:
         lines.append(f"  {'':8} rotor inertia {drv.rotor_inertia:.6g} (/ m_ref l0^3)")
+    for i, pm in enumerate(scene.masses):
+        mass = f"{'masses' if i == 0 else '':8} masses[{i}]: {pm.mass:.6g} on {pm.body} at xi = {pm.xi:.6g}"
+        if pm.inertia:
+            mass += f", rotary inertia {pm.inertia:.6g}"
+        if pm.offset is not None:
+            mass += f", offset [{pm.offset[0]:.6g}, {pm.offset[1]:.6g}] (a rigid attachment)"
+        lines.append(f"  {mass}")
     if scene.loads:
         lines.append(f"  {'loads':8} {len(scene.loads)} on " + ", ".join(sorted({ld.body for ld in scene.loads})))
     gx, gy = scene.effects.gravity

@@ -85,7 +85,8 @@ def _rotor_note(drv, pr) -> str:
 
 
 def rotary_notes(scene, pr) -> list[str]:
-    """One sentence per joint with a lumped rotary inertia: the section rotation it turns with."""
+    """One sentence per joint with a lumped rotary inertia (the section rotation it turns with),
+    then one per ``[[masses]]`` entry."""
     out = []
     for j in scene.joints:
         if not j.inertia:
@@ -102,7 +103,36 @@ def rotary_notes(scene, pr) -> list[str]:
             rf"$E_q$ of every coordinate $q$ of that bar and $\tfrac12 {J}\dot\varphi_{{{rm(j.name)}}}^2$ "
             "to the kinetic energy."
         )
+    for i, pm in enumerate(scene.masses):
+        out.append(_mass_note(scene, pm, i))
     return out
+
+
+def _mass_note(scene, pm, i: int) -> str:
+    """The sentence of ``[[masses]]`` entry ``i``: where it sits, what it adds to the equations."""
+    b = scene.body(pm.body)
+    lab = rf"\mathrm{{M}}{i + 1}"
+    th = names.bar_angle(b.name).latex
+    at = num_text(pm.xi)
+    rot_ = th if b.rigid or not b.transverse_modes else rf"{th} + \eta_{{{rm(b.name)}}}'({at})"
+    m, J = (names.mass_parameter(k, i).latex for k in ("m", "I"))
+    text = rf"Point mass M{i + 1} (masses[{i}]): ${m}$ on {tex_escape(b.name)} at $\xi = {at}$"
+    if pm.offset is not None:
+        a, c = (names.mass_parameter(k, i).latex for k in ("along", "across"))
+        text += (
+            rf", its centre at the offset $({a}, {c})$ from the axis in the axes of the cross-section, which "
+            rf"turn by $\varphi_{{{lab}}} = {rot_}$ (a rigid attachment): its inertia and weight "
+            rf"$(B_{{{lab}}}, \Gamma_{{{lab}}})$ act at $\xi = {at}$ with the couple of their arm "
+            rf"through $\partial\varphi_{{{lab}}}/\partial q$"
+        )
+    else:
+        text += rf": its inertia and weight are the point force $(B_{{{lab}}}, \Gamma_{{{lab}}})$ there"
+    if pm.inertia:
+        text += (
+            rf"; its rotary inertia ${J}$ turns with $\varphi_{{{lab}}} = {rot_}$ and adds "
+            rf"${J}\,\ddot\varphi_{{{lab}}}\,\partial\varphi_{{{lab}}}/\partial q$ to $E_q$"
+        )
+    return text + "; it adds its kinetic and potential energy to the energy."
 
 
 def _driver_law_note(drv) -> str:

@@ -351,7 +351,7 @@ def equation_rows(pr: Printer, exprs, tags, elastic: set, external: set, rho_pai
 
 def point_label(p: PointForce, scene, used: set) -> str:
     """The label K of a point force in B_K, Gamma_K: its joint (cut-joint reaction), the joint
-    and ",m" (a lumped mass), else its position; made unique within ``used`` (which it joins)."""
+    and ",m" (a lumped mass), M1, M2, ... (a ``[[masses]]`` entry), else its position; made unique within ``used`` (which it joins)."""
     used_names = {s.name for part in (p.ground or p.bar or ()) for s in sp.sympify(part).free_symbols}
     label = None
     for j in scene.joints:
@@ -360,6 +360,10 @@ def point_label(p: PointForce, scene, used: set) -> str:
             break
         if names.joint_parameter("m", j.name).text in used_names:
             label = rm(j.name) + r",m"
+            break
+    for i in range(len(getattr(scene, "masses", ())) if label is None else 0):
+        if names.mass_parameter("m", i).text in used_names:
+            label = rf"\mathrm{{M}}{i + 1}"
             break
     if label is None:
         label = rf"\xi={num_text(p.xi)}"
