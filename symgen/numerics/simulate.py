@@ -85,44 +85,21 @@ class DaeRunner:
         use_cache: bool = True,
     ) -> None:
         self.mech, self.part = mech, part
-        n, m = mech.n, mech.m
         I, D = list(part.ind), list(part.dep)
-        nI, nD = len(I), len(D)
-        self.nI, self.nD = nI, nD
-        sys_ = index1(n, m, part)
-        x, z, q, v, a, lam = sys_.x, sys_.z, sys_.q, sys_.v, sys_.a, sys_.lam
-        p = ca.SX.sym("p", len(mech.p) + 1)
-        t = ca.SX.sym("t")
-        u = ca.SX.sym("u", 0)
-        tt = t + p[-1]  # time offset: one integrator serves every chunk
-        args = [tt, q, v, a, lam, p[:-1]]
-        f = mech.f
-        alg = sys_.alg(f, tt, p[:-1])
-        ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
-        dae_in, dae_out = [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)]
-        self.dae = ca.Function("dae", dae_in, dae_out, ca.dyn_in(), ca.dyn_out())
-        self.g = ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)])
-        self.split = ca.Function("split", [x, z], [q, v, a, lam])
-        # everything recorded at an output, in one call (mapped over a chunk's outputs)
-        phi_q = ca.jacobian(f["phi"](*args), q)
-        # singular-position check on the loop and driver rows and the dependent rigid
-        # coordinates only, as checks.singular_ratio (inextensibility rows left out)
-        rows = [i for i in range(m) if i not in mech.inext_rows]
-        Ds = [i for i in D if i not in mech.inext_f]
-        self.n_sing = len(Ds)
-        self.rec = ca.Function(
-            "rec",
-            [t, x, z, p],
-            [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
-        )
+        self.nI, self.nD = len(I), len(D)
+        self.n_sing = len([i for i in D if i not in mech.inext_f])
         self.backend: str = "vm"
         self.library: str | None = None  # compiled: "built" for this run, or "cached"
+        self._built: dict[str, ca.Function] = {}
         choice = compiled.backend_choice(backend)
         if choice != "vm":
-            self._use_compiled(choice, dae_in, dae_out, use_cache)
+            self._use_compiled(choice, use_cache)
+        if self.backend == "vm":
+            funcs = self._functions()
+            self.dae, self.g, self.split, self.rec = funcs["dae"], funcs["g"], funcs["split"], funcs["rec"]
         # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
         # the new Z and each column's residual norm cross into Python (not the k Jacobians)
-        tm, xm, zm, pm = (ca.MX.sym(nm, w.size1()) for nm, w in (("t", t), ("x", x), ("z", z), ("p", p)))
+        tm, xm, zm, pm = (ca.MX.sym(nm, self.g.size1_in(i)) for i, nm in enumerate(("t", "x", "z", "p")))
         gm, jm = self.g(tm, xm, zm, pm)
         self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
         self._maps: dict[tuple[str, int], ca.Function] = {}
@@ -138,16 +115,36 @@ class DaeRunner:
         if axial_atol is not None:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
             ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
-            self.opts["abstolv"] = ax + ax + [atol] * (2 * nD + n + m)
+            self.opts["abstolv"] = ax + ax + [atol] * (2 * self.nD + mech.n + mech.m)
 
-    def _use_compiled(self, choice: str, dae_in: list[ca.SX], dae_out: list[ca.SX], use_cache: bool) -> None:
-        """Run the Functions from a compiled library (built once, cached); when no C compiler
-        works, stay in the virtual machine (said once on stderr) unless ``choice`` is "compiled"."""
+    def _functions(self) -> dict[str, ca.Function]:
+        """The runner's SX Functions, made on first use: ``dae`` (the index-1 DAE for IDAS, time
+        offset in the last parameter), ``jac_dae`` (its Jacobian as IDAS asks a compiled ``dae``
+        for it), ``g`` (the algebraic equations and their Jacobian in z), ``split`` and ``rec``
+        (everything recorded at an output, mapped over a chunk's outputs)."""
+        if not self._built:
+            self._built = _symbolic(self.mech, self.part)
+        return self._built
+
+    def _compiled_functions(self) -> list[ca.Function]:
+        """The Functions ``COMPILED`` (with ``jac_dae``, which only a compiled ``dae`` needs)."""
+        funcs = self._functions()
+        if "jac_dae" not in funcs:
+            dae = funcs["dae"]
+            dae_in = dae.sx_in()
+            funcs["jac_dae"] = _dae_jacobian(dae, dae_in, dae.call(dae_in))
+        return [funcs[name] for name in COMPILED]
+
+    def _use_compiled(self, choice: str, use_cache: bool) -> None:
+        """Run the Functions from a compiled library (built once, cached; when cached, the
+        symbolic Functions are not even made); when no C compiler works, stay in the virtual
+        machine (said once on stderr) unless ``choice`` is "compiled"."""
         mech, part = self.mech, self.part
-        funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
+        build = self._compiled_functions
+        signatures = _signatures(mech, part) if self.nI else [compiled._signature(f) for f in build()]
         try:
-            ext, built = compiled.library(
-                funcs, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
+            ext, built = compiled.library_of(
+                signatures, build, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
             )
         except compiled.Unavailable as exc:
             if choice == "compiled":
@@ -569,6 +566,81 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
     n = traj.whole()
     exc = interrupt.interrupted(err, traj.taus[n - 1] if n else t0)
     return exc if isinstance(exc, (SimulationError, Interrupted)) else None
+
+
+#: The Functions of a runner that a compiled library holds, in its order.
+COMPILED = ("dae", "jac_dae", "g", "split", "rec")
+
+
+def _symbolic(mech: Mechanism, part: Partition) -> dict[str, ca.Function]:
+    """The SX Functions of :meth:`DaeRunner._functions` for a partition of ``mech`` (all but
+    ``jac_dae``)."""
+    n, m = mech.n, mech.m
+    I, D = list(part.ind), list(part.dep)
+    nI = len(I)
+    sys_ = index1(n, m, part)
+    x, z, q, v, a, lam = sys_.x, sys_.z, sys_.q, sys_.v, sys_.a, sys_.lam
+    p = ca.SX.sym("p", len(mech.p) + 1)
+    t = ca.SX.sym("t")
+    u = ca.SX.sym("u", 0)
+    tt = t + p[-1]  # time offset: one integrator serves every chunk
+    args = [tt, q, v, a, lam, p[:-1]]
+    f = mech.f
+    alg = sys_.alg(f, tt, p[:-1])
+    ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
+    dae = ca.Function("dae", [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)], ca.dyn_in(), ca.dyn_out())
+    phi_q = ca.jacobian(f["phi"](*args), q)
+    # singular-position check on the loop and driver rows and the dependent rigid
+    # coordinates only, as checks.singular_ratio (inextensibility rows left out)
+    rows = [i for i in range(m) if i not in mech.inext_rows]
+    Ds = [i for i in D if i not in mech.inext_f]
+    return {
+        "dae": dae,
+        "g": ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)]),
+        "split": ca.Function("split", [x, z], [q, v, a, lam]),
+        "rec": ca.Function(
+            "rec",
+            [t, x, z, p],
+            [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
+        ),
+    }
+
+
+def _signatures(mech: Mechanism, part: Partition) -> list[compiled.Signature]:
+    """The signatures (names and sizes) of the Functions ``COMPILED`` of a partition with at
+    least one independent coordinate, from the sizes alone: what a cached library is found and
+    checked by, without making the Functions (:func:`compiled.library_of` checks them against
+    the Functions whenever it builds)."""
+    n, m, nI, nD = mech.n, mech.m, len(part.ind), len(part.dep)
+    nz = 2 * nD + n + m
+    n_alg = sum(mech.f[k].size1_out(0) for k in ("phi", "phid", "res", "phidd"))
+    rows = [i for i in range(m) if i not in mech.inext_rows]
+    n_sing = len([i for i in part.dep if i not in mech.inext_f])
+
+    def col(k: int) -> list[int]:
+        return [k, 1]
+
+    ins = [col(1), col(2 * nI), col(nz), col(len(mech.p) + 1), col(0)]
+    outs = [col(2 * nI), col(n_alg), col(0), col(0)]
+    jac_outs = [[o[0], i[0]] for o in outs for i in ins]
+    return [
+        ["dae", ins, outs],
+        ["jac_dae", ins + outs, jac_outs],
+        ["g", ins[:4], [col(n_alg), [n_alg, nz]]],
+        ["split", ins[1:3], [col(n), col(n), col(n), col(m)]],
+        [
+            "rec",
+            ins[:4],
+            [
+                col(n),
+                col(n),
+                col(m),
+                col(mech.f["out"].size1_out(0)),
+                col(mech.f["closure"].size1_out(0)),
+                [len(rows), n_sing],
+            ],
+        ],
+    ]
 
 
 def _dae_jacobian(dae: ca.Function, dae_in: list[ca.SX], dae_out: list[ca.SX]) -> ca.Function:
