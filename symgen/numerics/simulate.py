@@ -123,7 +123,10 @@ class DaeRunner:
         for it), ``g`` (the algebraic equations and their Jacobian in z), ``split`` and ``rec``
         (everything recorded at an output, mapped over a chunk's outputs)."""
         if not self._built:
-            self._built = _symbolic(self.mech, self.part)
+            memo = self.mech.runner_functions
+            if self.part not in memo:
+                memo[self.part] = _symbolic(self.mech, self.part)
+            self._built = memo[self.part]
         return self._built
 
     def _compiled_functions(self) -> list[ca.Function]:
@@ -211,19 +214,27 @@ class DaeRunner:
     ) -> np.ndarray:
         """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
         same iteration per column: columns stop when their residual is below ``tol``; a column
-        whose step is not finite (singular Jacobian) keeps its last value)."""
+        whose step is not finite (singular Jacobian) keeps its last value). After the first
+        iteration only the columns still polished are evaluated (a map of the next power of two
+        of them, padded with the last one): each column gets the same numbers as alone."""
         k = X.shape[1]
+        t = np.asarray(t, dtype=float).ravel()
         Z = np.array(Z, dtype=float)
-        todo = np.ones(k, dtype=bool)
-        step = self._map("gstep", k)
+        cols = np.arange(k)  # the columns still polished
         for _ in range(POLICY.polish_maxit):
-            Znew, res = step(t.reshape(1, -1), X, Z, p)
-            todo &= np.array(res).ravel() >= tol
-            if not todo.any():
+            width = k if len(cols) == k else 1 << (len(cols) - 1).bit_length()
+            pick = np.concatenate([cols, np.full(width - len(cols), cols[-1])])
+            Znew, res = self._map("gstep", width)(t[pick].reshape(1, -1), X[:, pick], Z[:, pick], p)
+            keep = np.array(res).ravel()[: len(cols)] >= tol
+            if not keep.any():
                 break
-            Znew = np.array(Znew)
-            todo &= np.isfinite(Znew).all(axis=0)
-            Z[:, todo] = Znew[:, todo]
+            Znew = np.array(Znew)[:, : len(cols)][:, keep]
+            cols = cols[keep]
+            finite = np.isfinite(Znew).all(axis=0)
+            cols = cols[finite]
+            if not len(cols):
+                break
+            Z[:, cols] = Znew[:, finite]
         return Z
 
     def polish(
