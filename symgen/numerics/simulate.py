@@ -419,9 +419,7 @@ class _Trajectory:
         L, O, C = (w.reshape(-1, k) for w in (L, O, C))  # no multipliers (an open chain): (0, k)
         stop = k
         if run.n_sing:
-            nd = run.n_sing
-            sv = np.linalg.svd(Jd.reshape(-1, k, nd).transpose(1, 0, 2), compute_uv=False)
-            bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < POLICY.singular_ratio)[0]
+            bad = _singular_outputs(Jd.reshape(-1, k, run.n_sing).transpose(1, 0, 2))
             if len(bad):
                 stop = int(bad[0]) + 1
         beyond = checks.beyond_range(mech, Q)
@@ -452,6 +450,26 @@ class _Trajectory:
             failure="" if stop is None else str(stop),
             stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s},
         )
+
+
+def _singular_outputs(J: np.ndarray) -> np.ndarray:
+    """The indices i where the closure Jacobian J[i] (loop rows x dependent rigid coordinates)
+    is singular: smallest / largest singular value below ``POLICY.singular_ratio``. A square
+    J[i] with |det| / ||J||_F^n above twice that is not, without its SVD: that quotient is a
+    lower bound of the ratio (|det| = prod(sigma) <= sigma_min sigma_max^(n-1), sigma_max <=
+    ||J||_F), and it settles nearly every output; the others (near singular, not finite, not
+    square) are decided by the SVD as before."""
+    check = np.ones(len(J), dtype=bool)
+    rows, cols = J.shape[1:]
+    if rows == cols:
+        with np.errstate(all="ignore"):
+            bound = np.abs(np.linalg.det(J)) / np.linalg.norm(J, axis=(1, 2)) ** cols
+        check = ~(bound >= 2 * POLICY.singular_ratio)  # NaN: checked
+    ratio = np.ones(len(J))
+    if check.any():
+        sv = np.linalg.svd(J[check], compute_uv=False)
+        ratio[check] = sv[:, -1] / np.maximum(sv[:, 0], 1e-300)
+    return np.nonzero(ratio < POLICY.singular_ratio)[0]
 
 
 def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray) -> None:
