@@ -222,7 +222,7 @@ def render(whole: list[dict], path: list[dict], trees: dict[str, Path]) -> str:
 
 def run(repeats: int) -> str:
     """Markdown of this section."""
-    repeats = max(5, repeats)
+    repeats = max(3, repeats)
     with tempfile.TemporaryDirectory(prefix="symgen-lean-") as tmp:
         trees = {"after": ROOT}
         base = Path(tmp) / "base"
