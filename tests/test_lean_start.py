@@ -186,3 +186,45 @@ def test_the_watch_sees_a_heavy_import(tmp_path):
     _run(steps, tmp_path)
     (entry,) = _run(steps, tmp_path)
     assert "matplotlib" in entry["heavy"] and entry["via"]["matplotlib"]
+
+
+# ----------------------------------------------------------------------------- remembered verdicts
+def test_a_verdict_is_recalled_only_as_written_for_its_own_question(tmp_path, monkeypatch, capsys):
+    from symgen import cache
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    q1 = {"check": "finite", "text": "sin(tau)", "t_end": 2.0, "symgen": "x"}
+    q2 = dict(q1, t_end=3.0)
+    assert cache.recall(q1) == (False, None)
+    cache.remember(q1, None)
+    assert cache.recall(q1) == (True, None) and cache.recall(q2) == (False, None)
+    (f1,) = cache.checks_dir().iterdir()
+    # moved to the name of another question: it verifies, but holds another question
+    cache.remember(q2, None)
+    f2 = next(f for f in cache.checks_dir().iterdir() if f != f1)
+    f2.write_bytes(f1.read_bytes())
+    capsys.readouterr()
+    assert cache.recall(q2) == (False, None)
+    assert "holds the verdict of another question" in capsys.readouterr().err
+    # changed bytes: the keyed hash does not match
+    data = bytearray(f1.read_bytes())
+    data[-3] ^= 0x01
+    f1.write_bytes(bytes(data))
+    assert cache.recall(q1) == (False, None)
+    assert "does not match the keyed hash" in capsys.readouterr().err
+    assert "checks" in cache.info()
+    cache.clear()
+    assert not cache.checks_dir().exists()
+
+
+def test_only_a_passed_check_is_remembered(tmp_path, monkeypatch):
+    from symgen import cache
+    from symgen.scene import verdicts
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    assert verdicts.expression_error("sin(tau") is not None
+    assert verdicts.expression_not_finite("1/(tau - 0.5)", 1.0) == pytest.approx(0.5)
+    assert not cache.checks_dir().exists() or not list(cache.checks_dir().iterdir())
+    assert verdicts.expression_error("sin(tau)") is None
+    assert verdicts.expression_not_finite("1/(tau - 0.5)", 0.4) is None
+    assert len(list(cache.checks_dir().iterdir())) == 2
