@@ -41,6 +41,7 @@ SECTIONS = [
     "spinup",
     "overhang",
     "sixbar",
+    "lean",
 ]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 

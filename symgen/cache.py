@@ -12,6 +12,10 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
 ``shapes/v<version>__<bases>.json``
     closed-form inner products of one bar's shape bases: one file, a header line with the sha256
     of the JSON payload that follows; see :mod:`symgen.model.shapes`.
+``checks/<hash of the question>.json``
+    remembered verdicts of checks that need SymPy (is a scene's expression finite over the run?):
+    one :func:`pack` file holding the question and its answer (:func:`recall`, :func:`remember`),
+    so that a run on a cached model checks its scene without importing SymPy.
 
 The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
 unpickled or evaluated, and every entry is checked against the keyed hashes (HMAC-SHA256)
@@ -35,6 +39,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import hmac
+import json
 import os
 import re
 import secrets
@@ -45,6 +50,7 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 from collections.abc import Iterator
 
 __all__ = [
@@ -56,6 +62,9 @@ __all__ = [
     "models_dir",
     "compiled_dir",
     "shapes_dir",
+    "checks_dir",
+    "recall",
+    "remember",
     "key_path",
     "sha256_hex",
     "seal",
@@ -79,6 +88,10 @@ STALE_TEMP_S = 15 * 60
 TEMP_PREFIX = ".tmp-"
 
 _MODEL_ENTRY = re.compile(r"[0-9a-f]{20}")
+_CHECK_ENTRY = re.compile(r"[0-9a-f]{32}\.json")
+#: The kind of a remembered verdict's file (:func:`pack`) and the most bytes it may have.
+_CHECK_KIND = "check"
+_MAX_CHECK_BYTES = 1 << 20
 _SHAPE_ENTRY = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json")
 _SHAPE_OLD = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?")
 _HEADER = re.compile(rb"symgen-cache ([a-z-]+) hmac-sha256=([0-9a-f]{64})\n")
@@ -111,6 +124,10 @@ def shapes_dir() -> Path:
 
 def compiled_dir() -> Path:
     return cache_root() / "compiled"
+
+
+def checks_dir() -> Path:
+    return cache_root() / "checks"
 
 
 class KeyUnavailable(OSError):
@@ -289,6 +306,61 @@ def report_unwritable(entry: os.PathLike | str, exc: BaseException) -> None:
     )
 
 
+# ----------------------------------------------------------------------------- verdicts
+def _check_path(question: dict[str, Any]) -> tuple[Path, bytes]:
+    text = json.dumps(question, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
+    return checks_dir() / f"{sha256_hex(text)[:32]}.json", text
+
+
+def recall(question: dict[str, Any]) -> tuple[bool, Any]:
+    """``(True, answer)`` when a verdict for ``question`` (plain JSON data that names the check,
+    its inputs and the symgen version) was remembered by :func:`remember` and verifies (its keyed
+    hash, then the question it holds, which must be this one); else ``(False, None)``. A file that
+    does not verify is reported in one line and the check is made again."""
+    try:
+        path, text = _check_path(question)
+        data = read_bytes(path, _MAX_CHECK_BYTES)
+    except (FileNotFoundError, ValueError):  # ValueError: not a question JSON can hold
+        return False, None
+    try:
+        doc = json.loads(unpack(_CHECK_KIND, data))  # keyed hash checked before any parsing
+        if not isinstance(doc, dict) or set(doc) != {"question", "answer"}:
+            raise InvalidEntry("is not a remembered verdict")
+        if json.dumps(doc["question"], sort_keys=True, separators=(",", ":")).encode() != text:
+            raise InvalidEntry("holds the verdict of another question")
+    except InvalidEntry as exc:
+        print(f"symgen: warning: cache entry {path} {exc.reason}; checking again", file=sys.stderr)
+        return False, None
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        print(f"symgen: warning: cache entry {path} is not valid JSON ({exc}); checking again", file=sys.stderr)
+        return False, None
+    return True, doc["answer"]
+
+
+def remember(question: dict[str, Any], answer: Any) -> None:
+    """Store the verdict ``answer`` (plain JSON data) of ``question`` for :func:`recall`: one
+    sealed file, written under a temporary name and renamed into place. A cache that cannot be
+    written (or no key) only means the check is made again next time: nothing is said (the model
+    cache reports an unwritable folder)."""
+    try:
+        path, _ = _check_path(question)
+        payload = json.dumps({"question": question, "answer": answer}, sort_keys=True, allow_nan=False).encode()
+        blob = pack(_CHECK_KIND, payload)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        sweep_stale(path.parent)
+        fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(blob)
+            os.replace(tmp, path)
+        except BaseException:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
+            raise
+    except (OSError, ValueError):  # KeyUnavailable included; ValueError: not JSON data
+        return
+
+
 # ----------------------------------------------------------------------------- writing
 @contextlib.contextmanager
 def temp_dir(parent: Path, name: str) -> Iterator[Path]:
@@ -375,7 +447,7 @@ def sweep_stale(parent: Path, max_age: float = STALE_TEMP_S) -> int:
 @dataclass
 class _Item:
     path: Path
-    kind: str  # "model", "compiled", "shapes", "temp", "old"
+    kind: str  # "model", "compiled", "shapes", "checks", "temp", "old"
     size: int
 
 
@@ -391,7 +463,13 @@ def _size(path: Path) -> int:
 def _owned() -> list[_Item]:
     """Everything under the cache folder that symgen wrote (and nothing else)."""
     items = []
-    for sub, entry in ((models_dir(), _MODEL_ENTRY), (compiled_dir(), _MODEL_ENTRY), (shapes_dir(), _SHAPE_ENTRY)):
+    dirs = (
+        (models_dir(), _MODEL_ENTRY),
+        (compiled_dir(), _MODEL_ENTRY),
+        (shapes_dir(), _SHAPE_ENTRY),
+        (checks_dir(), _CHECK_ENTRY),
+    )
+    for sub, entry in dirs:
         try:
             if not stat.S_ISDIR(os.lstat(sub).st_mode):
                 continue  # a link (or a file) where symgen makes a folder: never followed
@@ -403,7 +481,7 @@ def _owned() -> list[_Item]:
             if _is_temp(name):
                 kind = "temp"
             elif entry.fullmatch(name):
-                kind = {"models": "model", "compiled": "compiled"}.get(sub.name, "shapes")
+                kind = {"models": "model", "compiled": "compiled", "checks": "checks"}.get(sub.name, "shapes")
             elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
                 kind = "old"  # a pickle from an older symgen: never loaded
             else:
@@ -434,12 +512,13 @@ def info() -> str:
         "model": ("models", "derived models"),
         "compiled": ("compiled", "compiled model libraries"),
         "shapes": ("shapes", "shape inner products"),
+        "checks": ("checks", "verdicts of scene checks that need SymPy"),
         "temp": ("temporary", "unfinished writes"),
         "old": ("old", "pickles of an older symgen, never loaded"),
     }
     for kind, (label, what) in labels.items():
         sel = [i for i in items if i.kind == kind]
-        if not sel and kind in ("temp", "old", "compiled"):
+        if not sel and kind in ("temp", "old", "compiled", "checks"):
             continue
         lines.append(f"  {label:<10} {_count(len(sel))} {_human(sum(i.size for i in sel)):>10}  ({what})")
     total = sum(i.size for i in items)
@@ -456,14 +535,14 @@ def clear() -> tuple[int, int]:
     items = _owned()
     for it in items:
         _remove(it.path)
-    for sub in (models_dir(), compiled_dir(), shapes_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir()):
         if os.path.islink(sub):
             print(
                 f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
                 f"removed; remove the link by hand if the cache should own that folder",
                 file=sys.stderr,
             )
-    for sub in (models_dir(), compiled_dir(), shapes_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir()):
         with contextlib.suppress(OSError):
             if stat.S_ISDIR(os.lstat(sub).st_mode):
                 sub.rmdir()  # only when empty

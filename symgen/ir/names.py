@@ -16,8 +16,10 @@ import contextlib
 import contextvars
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import sympy as sp
+if TYPE_CHECKING:  # names are texts; only the derivation makes symbols (a cached run has no SymPy)
+    import sympy as sp
 
 #: derivative order -> text prefix and LaTeX accent
 _PREFIX = ("", "d", "dd")
@@ -39,6 +41,8 @@ class Name:
     def symbol(self, **assumptions: bool) -> sp.Symbol:
         """The SymPy symbol (``real=True`` unless other assumptions are given); recorded in the
         active :func:`recording` table."""
+        import sympy as sp
+
         sym = sp.Symbol(self.text, **(assumptions or {"real": True}))
         table = _TABLE.get()
         if table is not None:

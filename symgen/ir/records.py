@@ -11,11 +11,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any
-
-import sympy as sp
+from typing import TYPE_CHECKING, Any
 
 from symgen.ir.names import Name
+
+if TYPE_CHECKING:  # a cached run reads these records without SymPy (tests/test_lean_start.py)
+    import sympy as sp
 
 
 @dataclass
@@ -31,6 +32,8 @@ class Program:
     groups: dict[sp.Symbol, str] = field(default_factory=dict)  # symbol -> its group
 
     def assign(self, name: Name, expr: sp.Expr, group: str) -> sp.Symbol:
+        import sympy as sp
+
         sym = name.symbol()
         self.assignments.append((sym, sp.sympify(expr)))
         self.groups[sym] = group

@@ -31,8 +31,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeAlias
 
 import casadi as ca
 
@@ -129,7 +131,11 @@ def _entry_name(key: dict[str, object]) -> str:
     return hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:20]
 
 
-def _signature(f: ca.Function) -> list[str | list[list[int]]]:
+#: A Function's name and sizes: [name, [[rows, cols] per input], [[rows, cols] per output]].
+Signature: TypeAlias = list[str | list[list[int]]]
+
+
+def _signature(f: ca.Function) -> Signature:
     return [f.name(), [list(f.size_in(i)) for i in range(f.n_in())], [list(f.size_out(i)) for i in range(f.n_out())]]
 
 
@@ -143,6 +149,20 @@ def library(
     depend on (the coordinate partition). ``store=False``: build without using the cache.
     Raises :class:`Unavailable` when there is no compiler or the compile fails.
     """
+    return library_of([_signature(f) for f in funcs], lambda: funcs, model_key, variant, store)
+
+
+def library_of(
+    signatures: list[Signature],
+    build: Callable[[], list[ca.Function]],
+    model_key: str,
+    variant: str,
+    store: bool = True,
+) -> tuple[dict[str, ca.Function], bool]:
+    """:func:`library` of the Functions that ``build()`` makes, known before by their
+    ``signatures`` (name and sizes, what the entry's key holds): ``build`` is called only when
+    the library is not in the cache, so a cached run makes none of the symbolic Functions (their
+    Jacobians are most of a runner's set-up). The Functions built must have these signatures."""
     comp = compiler()
     key = {
         "format": FORMAT,
@@ -152,21 +172,25 @@ def library(
         "model": model_key,
         "variant": variant,
         "compiler": comp.identity(),
-        "functions": [_signature(f) for f in funcs],
+        "functions": signatures,
     }
     where = cache.compiled_dir() / _entry_name(key)
     replace = False
     if store and (where.exists() or where.is_symlink()):
         try:
-            return _load(read_verified(where, key), funcs), False
+            return _load(read_verified(where, key), signatures), False
         except cache.InvalidEntry as exc:
             report_rebuild(where, exc.reason)
             replace = True
         except FileNotFoundError:
             pass
+    funcs = build()
+    made = [_signature(f) for f in funcs]
+    if made != signatures:  # the caller's sizes and its Functions disagree: symgen's own error
+        raise AssertionError(f"compiled.library_of: built {made}, announced {signatures}")
     blob = _build(funcs, comp, where, key, store, replace)
     try:
-        return _load(blob, funcs), True
+        return _load(blob, signatures), True
     except cache.InvalidEntry as exc:
         raise Unavailable(f"the library just built {exc.reason}") from None
 
@@ -255,9 +279,10 @@ def _build(
     return blob
 
 
-def _load(blob: bytes, funcs: list[ca.Function]) -> dict[str, ca.Function]:
-    """Externals of ``funcs`` from verified library bytes: written to a private folder, loaded
-    (the importer keeps the library mapped), the copy removed; signatures checked."""
+def _load(blob: bytes, signatures: list[Signature]) -> dict[str, ca.Function]:
+    """Externals of the Functions of ``signatures`` from verified library bytes: written to a
+    private folder, loaded (the importer keeps the library mapped), the copy removed; signatures
+    checked."""
     private = Path(tempfile.mkdtemp(prefix="symgen-lib-"))
     try:
         path = private / LIBRARY
@@ -271,18 +296,17 @@ def _load(blob: bytes, funcs: list[ca.Function]) -> dict[str, ca.Function]:
                 f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})"
             ) from None
         out = {}
-        for f in funcs:
-            if f.name().startswith("jac_"):
+        for sig in signatures:
+            name = str(sig[0])
+            if name.startswith("jac_"):
                 continue  # loaded by its function's external on demand
             try:
-                ext = ca.external(f.name(), importer, {"enable_fd": False})
+                ext = ca.external(name, importer, {"enable_fd": False})
             except RuntimeError:
-                raise cache.InvalidEntry(f"{LIBRARY} has no function {f.name()!r}") from None
-            if _signature(ext) != _signature(f):
-                raise cache.InvalidEntry(
-                    f"{LIBRARY}: {f.name()} has the signature {_signature(ext)}, not {_signature(f)}"
-                )
-            out[f.name()] = ext
+                raise cache.InvalidEntry(f"{LIBRARY} has no function {name!r}") from None
+            if _signature(ext) != sig:
+                raise cache.InvalidEntry(f"{LIBRARY}: {name} has the signature {_signature(ext)}, not {sig}")
+            out[name] = ext
         return out
     finally:
         shutil.rmtree(private, ignore_errors=True)

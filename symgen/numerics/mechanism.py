@@ -74,6 +74,9 @@ class Mechanism:
         self.inext_rows = list(info.inextensible_rows)
         self.inext_f = list(info.inextensible_axial)
         self.static_systems: dict[Partition, start.StaticSystem] = {}  # built on first use
+        # the SX Functions of a simulation's runner per partition (symgen.numerics.simulate):
+        # made on first use, shared by every later run of this mechanism (sweeps, studies)
+        self.runner_functions: dict[Partition, dict[str, ca.Function]] = {}
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)

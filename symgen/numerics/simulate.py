@@ -85,44 +85,21 @@ class DaeRunner:
         use_cache: bool = True,
     ) -> None:
         self.mech, self.part = mech, part
-        n, m = mech.n, mech.m
         I, D = list(part.ind), list(part.dep)
-        nI, nD = len(I), len(D)
-        self.nI, self.nD = nI, nD
-        sys_ = index1(n, m, part)
-        x, z, q, v, a, lam = sys_.x, sys_.z, sys_.q, sys_.v, sys_.a, sys_.lam
-        p = ca.SX.sym("p", len(mech.p) + 1)
-        t = ca.SX.sym("t")
-        u = ca.SX.sym("u", 0)
-        tt = t + p[-1]  # time offset: one integrator serves every chunk
-        args = [tt, q, v, a, lam, p[:-1]]
-        f = mech.f
-        alg = sys_.alg(f, tt, p[:-1])
-        ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
-        dae_in, dae_out = [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)]
-        self.dae = ca.Function("dae", dae_in, dae_out, ca.dyn_in(), ca.dyn_out())
-        self.g = ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)])
-        self.split = ca.Function("split", [x, z], [q, v, a, lam])
-        # everything recorded at an output, in one call (mapped over a chunk's outputs)
-        phi_q = ca.jacobian(f["phi"](*args), q)
-        # singular-position check on the loop and driver rows and the dependent rigid
-        # coordinates only, as checks.singular_ratio (inextensibility rows left out)
-        rows = [i for i in range(m) if i not in mech.inext_rows]
-        Ds = [i for i in D if i not in mech.inext_f]
-        self.n_sing = len(Ds)
-        self.rec = ca.Function(
-            "rec",
-            [t, x, z, p],
-            [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
-        )
+        self.nI, self.nD = len(I), len(D)
+        self.n_sing = len([i for i in D if i not in mech.inext_f])
         self.backend: str = "vm"
         self.library: str | None = None  # compiled: "built" for this run, or "cached"
+        self._built: dict[str, ca.Function] = {}
         choice = compiled.backend_choice(backend)
         if choice != "vm":
-            self._use_compiled(choice, dae_in, dae_out, use_cache)
+            self._use_compiled(choice, use_cache)
+        if self.backend == "vm":
+            funcs = self._functions()
+            self.dae, self.g, self.split, self.rec = funcs["dae"], funcs["g"], funcs["split"], funcs["rec"]
         # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
         # the new Z and each column's residual norm cross into Python (not the k Jacobians)
-        tm, xm, zm, pm = (ca.MX.sym(nm, w.size1()) for nm, w in (("t", t), ("x", x), ("z", z), ("p", p)))
+        tm, xm, zm, pm = (ca.MX.sym(nm, self.g.size1_in(i)) for i, nm in enumerate(("t", "x", "z", "p")))
         gm, jm = self.g(tm, xm, zm, pm)
         self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
         self._maps: dict[tuple[str, int], ca.Function] = {}
@@ -138,16 +115,39 @@ class DaeRunner:
         if axial_atol is not None:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
             ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
-            self.opts["abstolv"] = ax + ax + [atol] * (2 * nD + n + m)
+            self.opts["abstolv"] = ax + ax + [atol] * (2 * self.nD + mech.n + mech.m)
 
-    def _use_compiled(self, choice: str, dae_in: list[ca.SX], dae_out: list[ca.SX], use_cache: bool) -> None:
-        """Run the Functions from a compiled library (built once, cached); when no C compiler
-        works, stay in the virtual machine (said once on stderr) unless ``choice`` is "compiled"."""
+    def _functions(self) -> dict[str, ca.Function]:
+        """The runner's SX Functions, made on first use: ``dae`` (the index-1 DAE for IDAS, time
+        offset in the last parameter), ``jac_dae`` (its Jacobian as IDAS asks a compiled ``dae``
+        for it), ``g`` (the algebraic equations and their Jacobian in z), ``split`` and ``rec``
+        (everything recorded at an output, mapped over a chunk's outputs)."""
+        if not self._built:
+            memo = self.mech.runner_functions
+            if self.part not in memo:
+                memo[self.part] = _symbolic(self.mech, self.part)
+            self._built = memo[self.part]
+        return self._built
+
+    def _compiled_functions(self) -> list[ca.Function]:
+        """The Functions ``COMPILED`` (with ``jac_dae``, which only a compiled ``dae`` needs)."""
+        funcs = self._functions()
+        if "jac_dae" not in funcs:
+            dae = funcs["dae"]
+            dae_in = dae.sx_in()
+            funcs["jac_dae"] = _dae_jacobian(dae, dae_in, dae.call(dae_in))
+        return [funcs[name] for name in COMPILED]
+
+    def _use_compiled(self, choice: str, use_cache: bool) -> None:
+        """Run the Functions from a compiled library (built once, cached; when cached, the
+        symbolic Functions are not even made); when no C compiler works, stay in the virtual
+        machine (said once on stderr) unless ``choice`` is "compiled"."""
         mech, part = self.mech, self.part
-        funcs = [self.dae, _dae_jacobian(self.dae, dae_in, dae_out), self.g, self.split, self.rec]
+        build = self._compiled_functions
+        signatures = _signatures(mech, part) if self.nI else [compiled._signature(f) for f in build()]
         try:
-            ext, built = compiled.library(
-                funcs, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
+            ext, built = compiled.library_of(
+                signatures, build, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
             )
         except compiled.Unavailable as exc:
             if choice == "compiled":
@@ -214,19 +214,27 @@ class DaeRunner:
     ) -> np.ndarray:
         """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
         same iteration per column: columns stop when their residual is below ``tol``; a column
-        whose step is not finite (singular Jacobian) keeps its last value)."""
+        whose step is not finite (singular Jacobian) keeps its last value). After the first
+        iteration only the columns still polished are evaluated (a map of the next power of two
+        of them, padded with the last one): each column gets the same numbers as alone."""
         k = X.shape[1]
+        t = np.asarray(t, dtype=float).ravel()
         Z = np.array(Z, dtype=float)
-        todo = np.ones(k, dtype=bool)
-        step = self._map("gstep", k)
+        cols = np.arange(k)  # the columns still polished
         for _ in range(POLICY.polish_maxit):
-            Znew, res = step(t.reshape(1, -1), X, Z, p)
-            todo &= np.array(res).ravel() >= tol
-            if not todo.any():
+            width = k if len(cols) == k else 1 << (len(cols) - 1).bit_length()
+            pick = np.concatenate([cols, np.full(width - len(cols), cols[-1])])
+            Znew, res = self._map("gstep", width)(t[pick].reshape(1, -1), X[:, pick], Z[:, pick], p)
+            keep = np.array(res).ravel()[: len(cols)] >= tol
+            if not keep.any():
                 break
-            Znew = np.array(Znew)
-            todo &= np.isfinite(Znew).all(axis=0)
-            Z[:, todo] = Znew[:, todo]
+            Znew = np.array(Znew)[:, : len(cols)][:, keep]
+            cols = cols[keep]
+            finite = np.isfinite(Znew).all(axis=0)
+            cols = cols[finite]
+            if not len(cols):
+                break
+            Z[:, cols] = Znew[:, finite]
         return Z
 
     def polish(
@@ -411,9 +419,7 @@ class _Trajectory:
         L, O, C = (w.reshape(-1, k) for w in (L, O, C))  # no multipliers (an open chain): (0, k)
         stop = k
         if run.n_sing:
-            nd = run.n_sing
-            sv = np.linalg.svd(Jd.reshape(-1, k, nd).transpose(1, 0, 2), compute_uv=False)
-            bad = np.nonzero(sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < POLICY.singular_ratio)[0]
+            bad = _singular_outputs(Jd.reshape(-1, k, run.n_sing).transpose(1, 0, 2))
             if len(bad):
                 stop = int(bad[0]) + 1
         beyond = checks.beyond_range(mech, Q)
@@ -444,6 +450,26 @@ class _Trajectory:
             failure="" if stop is None else str(stop),
             stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s},
         )
+
+
+def _singular_outputs(J: np.ndarray) -> np.ndarray:
+    """The indices i where the closure Jacobian J[i] (loop rows x dependent rigid coordinates)
+    is singular: smallest / largest singular value below ``POLICY.singular_ratio``. A square
+    J[i] with |det| / ||J||_F^n above twice that is not, without its SVD: that quotient is a
+    lower bound of the ratio (|det| = prod(sigma) <= sigma_min sigma_max^(n-1), sigma_max <=
+    ||J||_F), and it settles nearly every output; the others (near singular, not finite, not
+    square) are decided by the SVD as before."""
+    check = np.ones(len(J), dtype=bool)
+    rows, cols = J.shape[1:]
+    if rows == cols:
+        with np.errstate(all="ignore"):
+            bound = np.abs(np.linalg.det(J)) / np.linalg.norm(J, axis=(1, 2)) ** cols
+        check = ~(bound >= 2 * POLICY.singular_ratio)  # NaN: checked
+    ratio = np.ones(len(J))
+    if check.any():
+        sv = np.linalg.svd(J[check], compute_uv=False)
+        ratio[check] = sv[:, -1] / np.maximum(sv[:, 0], 1e-300)
+    return np.nonzero(ratio < POLICY.singular_ratio)[0]
 
 
 def _rigid_motion(run: DaeRunner, traj: _Trajectory, settings: RunSettings, x: np.ndarray, z: np.ndarray) -> None:
@@ -569,6 +595,81 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
     n = traj.whole()
     exc = interrupt.interrupted(err, traj.taus[n - 1] if n else t0)
     return exc if isinstance(exc, (SimulationError, Interrupted)) else None
+
+
+#: The Functions of a runner that a compiled library holds, in its order.
+COMPILED = ("dae", "jac_dae", "g", "split", "rec")
+
+
+def _symbolic(mech: Mechanism, part: Partition) -> dict[str, ca.Function]:
+    """The SX Functions of :meth:`DaeRunner._functions` for a partition of ``mech`` (all but
+    ``jac_dae``)."""
+    n, m = mech.n, mech.m
+    I, D = list(part.ind), list(part.dep)
+    nI = len(I)
+    sys_ = index1(n, m, part)
+    x, z, q, v, a, lam = sys_.x, sys_.z, sys_.q, sys_.v, sys_.a, sys_.lam
+    p = ca.SX.sym("p", len(mech.p) + 1)
+    t = ca.SX.sym("t")
+    u = ca.SX.sym("u", 0)
+    tt = t + p[-1]  # time offset: one integrator serves every chunk
+    args = [tt, q, v, a, lam, p[:-1]]
+    f = mech.f
+    alg = sys_.alg(f, tt, p[:-1])
+    ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
+    dae = ca.Function("dae", [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)], ca.dyn_in(), ca.dyn_out())
+    phi_q = ca.jacobian(f["phi"](*args), q)
+    # singular-position check on the loop and driver rows and the dependent rigid
+    # coordinates only, as checks.singular_ratio (inextensibility rows left out)
+    rows = [i for i in range(m) if i not in mech.inext_rows]
+    Ds = [i for i in D if i not in mech.inext_f]
+    return {
+        "dae": dae,
+        "g": ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)]),
+        "split": ca.Function("split", [x, z], [q, v, a, lam]),
+        "rec": ca.Function(
+            "rec",
+            [t, x, z, p],
+            [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
+        ),
+    }
+
+
+def _signatures(mech: Mechanism, part: Partition) -> list[compiled.Signature]:
+    """The signatures (names and sizes) of the Functions ``COMPILED`` of a partition with at
+    least one independent coordinate, from the sizes alone: what a cached library is found and
+    checked by, without making the Functions (:func:`compiled.library_of` checks them against
+    the Functions whenever it builds)."""
+    n, m, nI, nD = mech.n, mech.m, len(part.ind), len(part.dep)
+    nz = 2 * nD + n + m
+    n_alg = sum(mech.f[k].size1_out(0) for k in ("phi", "phid", "res", "phidd"))
+    rows = [i for i in range(m) if i not in mech.inext_rows]
+    n_sing = len([i for i in part.dep if i not in mech.inext_f])
+
+    def col(k: int) -> list[int]:
+        return [k, 1]
+
+    ins = [col(1), col(2 * nI), col(nz), col(len(mech.p) + 1), col(0)]
+    outs = [col(2 * nI), col(n_alg), col(0), col(0)]
+    jac_outs = [[o[0], i[0]] for o in outs for i in ins]
+    return [
+        ["dae", ins, outs],
+        ["jac_dae", ins + outs, jac_outs],
+        ["g", ins[:4], [col(n_alg), [n_alg, nz]]],
+        ["split", ins[1:3], [col(n), col(n), col(n), col(m)]],
+        [
+            "rec",
+            ins[:4],
+            [
+                col(n),
+                col(n),
+                col(m),
+                col(mech.f["out"].size1_out(0)),
+                col(mech.f["closure"].size1_out(0)),
+                [len(rows), n_sing],
+            ],
+        ],
+    ]
 
 
 def _dae_jacobian(dae: ca.Function, dae_in: list[ca.SX], dae_out: list[ca.SX]) -> ca.Function:

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from symgen.scene.expressions import EXPRESSION_HINT, parse_tau_expression
+from symgen.scene.expressions import EXPRESSION_HINT
 from symgen.scene.mechanism import BarSpec
 from symgen.scene.model import GROUND, Body, BodyDeformation, Driver, Effects, Initial, Joint, Load
 from symgen.scene.reader import REQUIRED, Reader, describe, is_number, join
 from symgen.scene.units import Scales
+from symgen.scene.verdicts import expression_error, expression_not_finite, law_not_finite
 
 DRIVER_KINDS = ("angle", "torque")
 DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp", "rotor_inertia")
@@ -51,11 +52,10 @@ def value_or_expression(
                 f"SI {what}s must be numbers, got expression {value!r}",
                 "write a number in SI units, or use a dimensionless scene for expressions of tau",
             )
-        try:
-            parse_tau_expression(value)
-        except ValueError as exc:
+        error = expression_error(value)
+        if error is not None:
             shown = value if len(value) <= 80 else value[:60] + f"... ({len(value)} characters)"
-            r.fail(join(path, key), f"invalid expression {shown!r}: {exc}", EXPRESSION_HINT)
+            r.fail(join(path, key), f"invalid expression {shown!r}: {error}", EXPRESSION_HINT)
         return value
     if not is_number(value):
         r.fail(join(path, key), f"must be a number or an expression of tau, got {describe(value)}", EXPRESSION_HINT)
@@ -160,10 +160,9 @@ def _law(r: Reader, table: dict) -> str:
     value = table["law"]
     if not isinstance(value, str):
         r.fail("driver.law", f"must be a string expression of tau, got {describe(value)}", LAW_HINT + EXPRESSION_HINT)
-    try:
-        parse_tau_expression(value)
-    except ValueError as exc:
-        r.fail("driver.law", f"invalid expression {value!r}: {exc}", LAW_HINT + EXPRESSION_HINT)
+    error = expression_error(value)
+    if error is not None:
+        r.fail("driver.law", f"invalid expression {value!r}: {error}", LAW_HINT + EXPRESSION_HINT)
     return value
 
 
@@ -171,9 +170,7 @@ def check_driver_motion(r: Reader, driver: Driver | None, t_end: float) -> None:
     """The prescribed angle and its two derivatives are finite over [0, t_end]."""
     if driver is None or driver.kind != "angle" or driver.law is None:
         return  # the constant-speed drive and its ramp (T > 0) are finite by construction
-    from symgen.scene.motion import check_finite
-
-    bad = check_finite(driver, t_end)
+    bad = law_not_finite(driver, t_end)
     if bad is not None:
         r.fail(
             "driver.law",
@@ -187,8 +184,6 @@ def check_expressions(r: Reader, driver: Driver | None, loads: tuple[Load, ...],
     """Every load and torque given as an expression of tau is a finite real number over the
     run [0, t_end]: a pole or a value outside its domain is named here, with its tau, instead
     of failing later inside the integrator with a message about its tolerances."""
-    from symgen.scene.expressions import first_non_finite
-
     found = []
     if driver is not None and driver.kind == "torque" and isinstance(driver.torque, str):
         found.append(("driver.value", driver.torque))
@@ -199,7 +194,7 @@ def check_expressions(r: Reader, driver: Driver | None, loads: tuple[Load, ...],
             if isinstance(text := getattr(load, key), str)
         ]
     for key, text in found:
-        bad = first_non_finite(parse_tau_expression(text), t_end)
+        bad = expression_not_finite(text, t_end)
         if bad is not None:
             r.fail(
                 key,

@@ -1,0 +1,245 @@
+"""Benchmark section ``lean`` (issue 20, items 1 and 2): the start-up and the IDAS path of a run
+on a cached model, before and after, on the example scenes.
+
+*Before* is the tree of :data:`BASE` (the commit before the lean start and the lean IDAS path),
+taken with ``git archive`` into a temporary folder; *after* is this checkout. Both run from one
+model cache, warmed first, with the compiled backend (the default when a C compiler is at hand),
+and are interleaved run by run; the tables give medians of the CPU time (user + system).
+
+1. Whole process: ``python -m symgen.cli simulate SCENE -o out.csv`` and ``symgen check SCENE``
+   (fresh interpreters), and the import of ``symgen.numerics.simulate`` alone, with whether the
+   process imported SymPy.
+2. The IDAS path in one process: ``simulate(mech)`` at rtol 1e-4 / atol 1e-6 (the 1 % class of
+   the Exudyn comparison), repeated on one mechanism, with the time of its parts outside IDAS:
+   the runner's set-up, the creation of the integrators, the polish of the algebraic variables
+   and the recording of the outputs.
+
+    python benchmarks/run.py --only lean
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tarfile
+import tempfile
+import time
+from io import BytesIO
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+HERE = Path(__file__).resolve().parent
+#: The commit before issue 20's lean start and lean IDAS path.
+BASE = "710fcf8"
+EXAMPLES = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "examples").glob("*.toml"))
+#: The folder the processes run in: not a checkout (``python -c`` and ``-m`` put it first on the path).
+WORK = Path(tempfile.gettempdir())
+LOOSE = {"rtol": 1e-4, "atol": 1e-6}
+
+# One process: the IDAS path of `simulate` repeated on one mechanism, its parts outside IDAS timed
+# by wrapping the functions that make them (the same names in both trees).
+IN_PROCESS = r"""
+import collections, json, sys, time
+import symgen
+import symgen.numerics.simulate as S
+from symgen.api import mechanism
+acc = collections.defaultdict(float)
+def wrap(owner, name, label):
+    f = getattr(owner, name)
+    def timed(*a, **k):
+        t = time.process_time()
+        try:
+            return f(*a, **k)
+        finally:
+            acc[label] += time.process_time() - t
+    setattr(owner, name, timed)
+wrap(S, "_runner", "runner")
+wrap(S.DaeRunner, "integrator", "integrators")
+wrap(S.DaeRunner, "polish_many", "polish")
+wrap(S._Trajectory, "record_many", "record")
+scene, repeats, kw = sys.argv[1], int(sys.argv[2]), json.loads(sys.argv[3])
+mech = mechanism(scene)
+S.simulate(mech, **kw)
+acc.clear()
+cpu = []
+for _ in range(repeats):
+    t = time.process_time()
+    res = S.simulate(mech, **kw)
+    cpu.append(time.process_time() - t)
+parts = {k: v / repeats for k, v in acc.items()}
+print("RESULT " + json.dumps({"file": symgen.__file__, "cpu": cpu, "parts": parts, "steps": res.steps,
+                              "backend": res.stats["backend"]}))
+"""
+
+SYMPY_AFTER = (
+    "import sys, runpy; sys.argv = ['symgen'] + sys.argv[1:]\n"
+    "try:\n    runpy.run_module('symgen.cli', run_name='__main__')\n"
+    "except SystemExit as e:\n    assert not e.code, e.code\n"
+    "print('SYMPY', 'sympy' in sys.modules)\n"
+)
+
+
+def base_tree(dest: Path) -> bool:
+    """Extract the symgen package and templates of :data:`BASE` into ``dest``; False when git or
+    the commit is not at hand (the section then measures this checkout only)."""
+    try:
+        blob = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", "--format=tar", BASE, "symgen", "templates"],
+            capture_output=True,
+            check=True,
+        ).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return False
+    with tarfile.open(fileobj=BytesIO(blob)) as tar:
+        tar.extractall(dest, filter="data")
+    return True
+
+
+def _child_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def _env(tree: Path, cache: str) -> dict[str, str]:
+    env = dict(os.environ, PYTHONPATH=str(tree), SYMGEN_CACHE_DIR=cache)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as installed: bytecode cached
+    env.pop("SYMGEN_BACKEND", None)  # the default (compiled when a C compiler is at hand)
+    return env
+
+
+def process(cmd: list[str], tree: Path, cache: str) -> tuple[float, str]:
+    """(CPU s of a fresh process running ``cmd`` with ``tree`` first on the path, its stdout)."""
+    c0 = _child_cpu()
+    proc = subprocess.run(cmd, cwd=WORK, env=_env(tree, cache), capture_output=True, text=True, check=True)
+    return _child_cpu() - c0, proc.stdout
+
+
+def _median(xs: list[float]) -> float:
+    return statistics.median(xs)
+
+
+def whole_process(trees: dict[str, Path], cache: str, repeats: int, out: Path) -> list[dict]:
+    rows = []
+    py = sys.executable
+    cases: list[tuple[str, list[str]]] = [
+        ("import symgen.numerics.simulate", [py, "-c", "import symgen.numerics.simulate"])
+    ]
+    for scene in EXAMPLES:
+        path = str(ROOT / scene)
+        cases.append((f"check `{scene}`", [py, "-c", SYMPY_AFTER, "check", path]))
+        cases.append((f"simulate `{scene}`", [py, "-c", SYMPY_AFTER, "simulate", path, "-o", str(out)]))
+    for label, cmd in cases:
+        times: dict[str, list[float]] = {name: [] for name in trees}
+        sympy: dict[str, str] = {}
+        for tree in trees.values():
+            process(
+                [str(tree) if c == "{tree}" else c for c in cmd], tree, cache
+            )  # warm: the model cache, the OS file cache, the bytecode
+        for _ in range(repeats):
+            for name, tree in trees.items():
+                cpu, stdout = process([str(tree) if c == "{tree}" else c for c in cmd], tree, cache)
+                times[name].append(cpu)
+                if "SYMPY" in stdout:
+                    sympy[name] = "yes" if "SYMPY True" in stdout else "no"
+        rows.append({"case": label, "cpu": {k: _median(v) for k, v in times.items()}, "sympy": sympy})
+    return rows
+
+
+def idas_path(trees: dict[str, Path], cache: str, repeats: int) -> list[dict]:
+    rows = []
+    for scene in EXAMPLES:
+        runs: dict[str, list[dict]] = {name: [] for name in trees}
+        for _ in range(max(3, repeats)):
+            for name, tree in trees.items():
+                _, stdout = process(
+                    [sys.executable, "-c", IN_PROCESS, str(ROOT / scene), "5", json.dumps(LOOSE)], tree, cache
+                )
+                got = json.loads(next(ln for ln in stdout.splitlines() if ln.startswith("RESULT "))[7:])
+                assert got["file"].startswith(str(tree)), (got["file"], tree)  # the tree meant
+                runs[name].append(got)
+        row: dict = {"scene": scene}
+        for name, got in runs.items():
+            row[name] = {
+                "cpu": _median([_median(g["cpu"]) for g in got]),
+                "parts": {k: _median([g["parts"].get(k, 0.0) for g in got]) for k in got[0]["parts"]},
+                "steps": got[0]["steps"],
+                "backend": got[0]["backend"],
+            }
+        rows.append(row)
+    return rows
+
+
+def render(whole: list[dict], path: list[dict], trees: dict[str, Path]) -> str:
+    both = len(trees) == 2
+    out = [
+        "## Lean start and lean IDAS path (issue 20, items 1 and 2)",
+        "",
+        f"Before: commit `{BASE}`; after: this checkout. One warm model cache, the compiled backend, "
+        "interleaved runs, medians of the CPU time (user + system).",
+        "",
+        "### Whole process on a cached model",
+        "",
+        "| process | before s | after s | after / before | SymPy imported (before / after) |"
+        if both
+        else "| process | after s | SymPy imported |",
+        "|---|---|---|---|---|" if both else "|---|---|---|",
+    ]
+    for r in whole:
+        c, sp = r["cpu"], r["sympy"]
+        if both:
+            imported = f"{sp.get('before', '-')} / {sp.get('after', '-')}"
+            out.append(
+                f"| {r['case']} | {c['before']:.3f} | {c['after']:.3f} | {c['after'] / c['before']:.2f} | {imported} |"
+            )
+        else:
+            out.append(f"| {r['case']} | {c['after']:.3f} | {sp.get('after', '-')} |")
+    out += [
+        "",
+        f"### The IDAS path in one process (rtol {LOOSE['rtol']:g}, atol {LOOSE['atol']:g}; ms per run)",
+        "",
+        "Outside IDAS: the runner's set-up, the integrators' creation, the polish of the algebraic "
+        "variables at the outputs, the recording (and checks) of the outputs.",
+        "",
+        "| scene | IDAS steps | tree | simulate ms | runner | integrators | polish | record | outside IDAS |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in path:
+        for name in trees:
+            d = r[name]
+            p = d["parts"]
+            outside = sum(p.get(k, 0.0) for k in ("runner", "integrators", "polish", "record"))
+            out.append(
+                f"| `{r['scene']}` | {d['steps']} | {name} | {1e3 * d['cpu']:.1f} | {1e3 * p.get('runner', 0):.1f} | "
+                f"{1e3 * p.get('integrators', 0):.1f} | {1e3 * p.get('polish', 0):.1f} | "
+                f"{1e3 * p.get('record', 0):.1f} | {1e3 * outside:.1f} |"
+            )
+    return "\n".join(out) + "\n"
+
+
+def run(repeats: int) -> str:
+    """Markdown of this section."""
+    repeats = max(3, repeats)
+    with tempfile.TemporaryDirectory(prefix="symgen-lean-") as tmp:
+        trees = {"after": ROOT}
+        base = Path(tmp) / "base"
+        base.mkdir()
+        if base_tree(base):
+            trees = {"before": base, "after": ROOT}
+        cache = str(Path(tmp) / "cache")
+        out = Path(tmp) / "out" / "run.csv"
+        out.parent.mkdir()
+        t0 = time.perf_counter()
+        for scene in EXAMPLES:  # derive and compile once, outside the timings
+            process([sys.executable, "-m", "symgen.cli", "simulate", str(ROOT / scene), "-o", str(out)], ROOT, cache)
+        print(f"(lean: cache warmed in {time.perf_counter() - t0:.0f} s)", file=sys.stderr)
+        whole = whole_process(trees, cache, repeats, out)
+        path = idas_path(trees, cache, repeats)
+    return render(whole, path, trees)
+
+
+if __name__ == "__main__":
+    print(run(int(sys.argv[1]) if len(sys.argv) > 1 else 5))

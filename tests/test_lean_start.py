@@ -1,0 +1,230 @@
+"""A run on a cached model imports neither SymPy nor jinja2 nor matplotlib (issue 20, item 1).
+
+Each case runs twice in fresh interpreters: the first fills the model cache (it may derive, and
+so import SymPy), the second runs again from the cache and reports ``sys.modules`` after each
+command. Covered: ``symgen simulate`` and ``symgen check`` on every example, the Python API's
+``simulate_scene`` (with and without files), and scenes with user expressions (a driver ``law``,
+load and torque expressions), whose checks are answered from the signed cache on the second run
+(``symgen.scene.verdicts``). A plot is the one thing that may import matplotlib.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from tests.oracles import write_scene
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = sorted(str(p) for p in (ROOT / "examples").glob("*.toml"))
+HEAVY = ("sympy", "jinja2", "matplotlib")
+
+
+def short(scene: str) -> str:
+    """The override that shortens a run of ``scene`` (a value, not the structure: the same
+    cached model)."""
+    with open(scene, "rb") as fh:
+        given = tomllib.load(fh)["simulation"]
+    return "simulation.cycles=0.05" if "cycles" in given else "simulation.t_end=0.3"
+
+
+LAW_SCENE = """
+[scene]
+name = "driven_flexible_bar"
+[[bodies]]
+name = "bar"
+length = 1.0
+frame = "cantilever"
+axial_modes = 1
+transverse_modes = 2
+lambda = 1000.0
+mu = 50.0
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "bar"]
+at = [[0.0, 0.0], 0.0]
+[driver]
+kind = "angle"
+body = "bar"
+initial = 0.1
+law = "0.3*sin(2*tau) + 0.1*tau^2"
+[[loads]]
+body = "bar"
+kind = "distributed"
+transverse = "0.05*sin(3*tau)*exp(-tau/4)"
+[[loads]]
+body = "bar"
+kind = "point"
+at = 1.0
+axial = "0.01*cos(tau)"
+[effects]
+gravity = [0.0, -2.0]
+[outputs]
+theta = { kind = "angle", body = "bar" }
+tip = { kind = "deflection", body = "bar", at = 1.0 }
+torque = { kind = "driver_torque" }
+[simulation]
+t_end = 1.0
+output_step = 0.05
+"""
+
+TORQUE_SCENE = """
+[scene]
+name = "torqued_bar"
+[[bodies]]
+name = "bar"
+length = 1.0
+frame = "cantilever"
+axial_modes = 0
+transverse_modes = 1
+mu = 50.0
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "bar"]
+at = [[0.0, 0.0], 0.0]
+[driver]
+kind = "torque"
+body = "bar"
+value = "0.5*Heaviside(tau - 0.2) + 0.1*sqrt(1 + tau)"
+[outputs]
+theta = { kind = "angle", body = "bar" }
+tip = { kind = "deflection", body = "bar", at = 1.0 }
+[simulation]
+t_end = 1.0
+output_step = 0.05
+"""
+
+# Runs each step (a list: "cli", argv... | "api", scene, override, out or None) and prints, per step, the
+# heavy modules loaded so far and, for the first import of each, the symgen frames that made it.
+DRIVER = r"""
+import json, sys, traceback
+HEAVY = {heavy!r}
+first = {{}}
+
+class Watch:
+    def find_spec(self, name, path, target=None):
+        top = name.split(".")[0]
+        if top in HEAVY and top not in first:
+            first[top] = [f"{{f.filename.rsplit('/symgen/', 1)[-1]}}:{{f.lineno}}"
+                          for f in traceback.extract_stack() if "/symgen/" in f.filename]
+        return None
+
+sys.meta_path.insert(0, Watch())
+from symgen.cli import main
+from symgen.api import simulate_scene
+report = []
+for step in json.loads(sys.argv[1]):
+    if step[0] == "cli":
+        try:
+            main(step[1:])
+        except SystemExit as exc:
+            assert not exc.code, (step, exc.code)
+    else:
+        simulate_scene(step[1], [step[2]], out=step[3])
+    report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules), "via": dict(first)}})
+print("REPORT " + json.dumps(report))
+"""
+
+
+def _run(steps: list[list], cwd: Path) -> list[dict]:
+    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    code = DRIVER.format(heavy=HEAVY)
+    proc = subprocess.run(
+        [sys.executable, "-c", code, json.dumps(steps)], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("REPORT "))
+    return list(json.loads(line[len("REPORT ") :]))
+
+
+def _lean(steps: list[list], cwd: Path) -> None:
+    _run(steps, cwd)  # fills the cache (derives what it does not hold)
+    for entry in _run(steps, cwd):
+        assert entry["heavy"] == [], f"{entry['step']} imported {entry['heavy']} via {entry['via']}"
+
+
+@pytest.mark.parametrize("scene", EXAMPLES, ids=lambda p: Path(p).stem)
+def test_cached_example_runs_import_no_sympy(scene, tmp_path):
+    over = short(scene)
+    _lean(
+        [
+            ["cli", "check", scene],
+            ["cli", "simulate", scene, "--set", over, "-o", str(tmp_path / "cli.csv")],
+            ["api", scene, over, str(tmp_path / "api.csv")],
+            ["api", scene, over, None],
+        ],
+        tmp_path,
+    )
+
+
+@pytest.mark.parametrize("text", [LAW_SCENE, TORQUE_SCENE], ids=["law-and-loads", "torque"])
+def test_cached_runs_with_user_expressions_import_no_sympy(text, tmp_path):
+    scene = str(write_scene(tmp_path / "expr.toml", text))
+    _lean(
+        [
+            ["cli", "check", scene],
+            ["cli", "simulate", scene, "-o", str(tmp_path / "cli.csv")],
+            ["api", scene, "simulation.output_step=0.1", str(tmp_path / "api.csv")],
+        ],
+        tmp_path,
+    )
+
+
+def test_the_watch_sees_a_heavy_import(tmp_path):
+    """The check can fail: a run that plots imports matplotlib, and the report names it."""
+    scene = EXAMPLES[0]
+    plot = ["--plot", str(tmp_path / "a.png")]
+    steps = [["cli", "simulate", scene, "--set", short(scene), "-o", str(tmp_path / "a.csv"), *plot]]
+    _run(steps, tmp_path)
+    (entry,) = _run(steps, tmp_path)
+    assert "matplotlib" in entry["heavy"] and entry["via"]["matplotlib"]
+
+
+# ----------------------------------------------------------------------------- remembered verdicts
+def test_a_verdict_is_recalled_only_as_written_for_its_own_question(tmp_path, monkeypatch, capsys):
+    from symgen import cache
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    q1 = {"check": "finite", "text": "sin(tau)", "t_end": 2.0, "symgen": "x"}
+    q2 = dict(q1, t_end=3.0)
+    assert cache.recall(q1) == (False, None)
+    cache.remember(q1, None)
+    assert cache.recall(q1) == (True, None) and cache.recall(q2) == (False, None)
+    (f1,) = cache.checks_dir().iterdir()
+    # moved to the name of another question: it verifies, but holds another question
+    cache.remember(q2, None)
+    f2 = next(f for f in cache.checks_dir().iterdir() if f != f1)
+    f2.write_bytes(f1.read_bytes())
+    capsys.readouterr()
+    assert cache.recall(q2) == (False, None)
+    assert "holds the verdict of another question" in capsys.readouterr().err
+    # changed bytes: the keyed hash does not match
+    data = bytearray(f1.read_bytes())
+    data[-3] ^= 0x01
+    f1.write_bytes(bytes(data))
+    assert cache.recall(q1) == (False, None)
+    assert "does not match the keyed hash" in capsys.readouterr().err
+    assert "checks" in cache.info()
+    cache.clear()
+    assert not cache.checks_dir().exists()
+
+
+def test_only_a_passed_check_is_remembered(tmp_path, monkeypatch):
+    from symgen import cache
+    from symgen.scene import verdicts
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    assert verdicts.expression_error("sin(tau") is not None
+    assert verdicts.expression_not_finite("1/(tau - 0.5)", 1.0) == pytest.approx(0.5)
+    assert not cache.checks_dir().exists() or not list(cache.checks_dir().iterdir())
+    assert verdicts.expression_error("sin(tau)") is None
+    assert verdicts.expression_not_finite("1/(tau - 0.5)", 0.4) is None
+    assert len(list(cache.checks_dir().iterdir())) == 2
