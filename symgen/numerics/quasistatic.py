@@ -199,10 +199,8 @@ class QuasiStaticSystem:
         mech, part = self.mech, self.part
         q = np.array(q_guess, dtype=float)
         q[self.amp] = 0.0
-        drv = mech.scene.driver
-        if drv is not None and drv.kind == "angle":
-            i = mech.info.coordinate(CoordKind.THETA, drv.body)
-            q[i] = mech.driver_motion(t)[0]
+        for body, motion in mech.driver_motions(t).items():  # the angles of ALL angle drivers
+            q[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
         q = mech.assemble(t, q, part)
         ratio, row = checks.singular_ratio(mech, t, q, part)
         if ratio < POLICY.singular_ratio:
@@ -334,11 +332,13 @@ def require_guided(mech: Mechanism, part: Partition) -> None:
     free = [i for i in mech.rigid if i not in part.dep]
     if free:
         sc = mech.scene
-        why = (
-            "its driver is a torque driver"
-            if sc.driver is not None and sc.driver.kind == "torque"
-            else "it has no angle driver"
-        )
+        kinds = {d.kind for d in sc.drivers}
+        if kinds == {"torque"}:
+            why = "its driver is a torque driver" if len(sc.drivers) == 1 else "its drivers are torque drivers"
+        elif "angle" in kinds:
+            why = "its angle drivers do not guide every bar"
+        else:
+            why = "it has no angle driver"
         dof = len(free)
         raise SceneError(
             sc.path,
@@ -350,19 +350,27 @@ def require_guided(mech: Mechanism, part: Partition) -> None:
         )
 
 
+def _rate_key(scene, drv) -> str:
+    """The scene key of the turning angle driver's rate (simulation.t_end without one)."""
+    if drv is None:
+        return "simulation.t_end"
+    return "driver.rate" if len(scene.drivers) == 1 else f"drivers[{scene.drivers.index(drv)}].rate"
+
+
 def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float | None = None) -> np.ndarray:
     """Input positions: one crank turn (``cycles`` turns) at the scene's output step; a scene
     without a turning angle driver uses its [simulation] times."""
     sim = mech.scene.simulation
     h = sim.output_step if output_step is None else output_step
-    drv = mech.scene.driver
-    if drv is not None and drv.kind == "angle" and drv.rate != 0:
+    # the first angle driver turning at a constant rate (as simulation.cycles)
+    drv = next((d for d in mech.scene.angle_drivers if d.rate != 0), None)
+    if drv is not None:
         t_end = (1.0 if cycles is None else cycles) * 2 * math.pi / abs(drv.rate)
     else:
         t_end = sim.t_end if cycles is None else cycles * 2 * math.pi
     rows = t_end / h + 1
     if not math.isfinite(rows) or over_limit("rows", rows):
-        file, key = ("command line", "--cycles") if cycles is not None else (mech.scene.path, "driver.rate")
+        file, key = ("command line", "--cycles") if cycles is not None else (mech.scene.path, _rate_key(mech.scene, drv))
         raise SceneError(
             file,
             key,

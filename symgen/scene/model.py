@@ -159,7 +159,7 @@ class Scene:
     m_ref: float  # kg/m (SI) or 1.0
     bodies: tuple[Body, ...]
     joints: tuple[Joint, ...]
-    driver: Driver | None
+    drivers: tuple[Driver, ...]  # [driver] (one) or [[drivers]], in the file's order
     initial: Initial
     effects: Effects
     loads: tuple[Load, ...]
@@ -167,6 +167,20 @@ class Scene:
     simulation: Simulation
     groups: dict = field(default_factory=dict, compare=False, hash=False)
     # groups: {body: {"alpha":..,"nu":..,"lambda":..,"mu":..,"rho":..}, "_scene": {"gravity": [..], ...}}
+
+    @property
+    def driver(self) -> Driver | None:
+        """The scene's only driver (None without one). A scene with several drivers has no
+        single one: code that reads this must handle ``drivers``, so it is refused here instead
+        of silently dropping drivers 2..n."""
+        if len(self.drivers) > 1:
+            raise ValueError(f"scene {self.name!r} has {len(self.drivers)} drivers; read Scene.drivers")
+        return self.drivers[0] if self.drivers else None
+
+    @property
+    def angle_drivers(self) -> tuple[Driver, ...]:
+        """The angle drivers, in the file's order."""
+        return tuple(d for d in self.drivers if d.kind == "angle")
 
     def body(self, name: str) -> Body:
         for b in self.bodies:

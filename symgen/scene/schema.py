@@ -460,6 +460,20 @@ DRIVER = Table(
     example='[driver]\nkind = "angle"\nbody = "crank"\ninitial = 0.0\nrate = 1.0',
 )
 
+DRIVERS = Table(
+    "drivers",
+    "array",
+    "Optional several drivers (a five-bar's two cranks, a two-arm robot): each [[drivers]] table takes "
+    "exactly the keys of [driver] and drives a distinct bar pinned to ground. Angle and torque drivers "
+    "mix; degrees of freedom left undriven move freely. Give either [driver] or [[drivers]], not both. "
+    "With several angle drivers, a driver_torque output names its driven bar (body), and "
+    "simulation.cycles counts the turns of the first angle driver that turns at a constant rate "
+    "(no law, rate != 0). A torque driver is an input of the FMU each.",
+    keys=DRIVER.keys,
+    example='[[drivers]]\nkind = "angle"\nbody = "crank_a"\nrate = 1.0\n\n'
+    '[[drivers]]\nkind = "angle"\nbody = "crank_b"\ninitial = 1.5707963267948966\nrate = -1.0',
+)
+
 INITIAL = Table(
     "initial",
     "table",
@@ -622,7 +636,8 @@ OUTPUT_KIND_TEXT = {
     "position": "absolute x or y of a bar point / l0",
     "angle": "theta of a bar",
     "reaction": "force of the joint's first body on the second, ground axes",
-    "driver_torque": "the moment the angle driver applies",
+    "driver_torque": "the moment the angle driver applies (optional body: the driven bar, required with "
+    "several angle drivers)",
     "energy": "kinetic (rotary inertias included) + elastic + potential energy",
     "closure_residual": "max |position closure| (a solver check)",
 }
@@ -644,7 +659,7 @@ OUTPUTS = Table(
         Key(
             "body",
             "string",
-            "The measured bar (elastic for deformation kinds).",
+            "The measured bar (elastic for deformation kinds; for driver_torque the driven bar).",
             NAME_JSON,
             required="by the kind",
             example='"rod"',
@@ -693,7 +708,8 @@ SIMULATION = Table(
         Key(
             "cycles",
             "number > 0",
-            "Crank turns to run (angle drivers; else 2 pi per cycle).",
+            "Crank turns to run (angle drivers; with several, the turns of the first angle driver "
+            "turning at a constant rate; else 2 pi per cycle).",
             _num(exclusiveMinimum=0),
             required="t_end or cycles",
             example="2",
@@ -727,7 +743,7 @@ SIMULATION = Table(
     example="[simulation]\ncycles = 2\noutput_step = 0.017453292519943295\nrtol = 1e-8",
 )
 
-TABLES = (SCENE, BODIES, JOINTS, DRIVER, INITIAL, EFFECTS, LOADS, OUTPUTS, SIMULATION)
+TABLES = (SCENE, BODIES, JOINTS, DRIVER, DRIVERS, INITIAL, EFFECTS, LOADS, OUTPUTS, SIMULATION)
 
 #: The loader's accepted keys per table (its own constants): the schema must describe exactly these.
 LOADER_KEYS = {
@@ -736,6 +752,7 @@ LOADER_KEYS = {
     "bodies": tuple(dict.fromkeys(_me.BODY_KEYS_DIMLESS + _me.BODY_KEYS_SI)),
     "joints": tuple(_me.JOINT_KEYS),
     "driver": tuple(_ex.DRIVER_KEYS),
+    "drivers": tuple(_ex.DRIVER_KEYS),
     "initial": tuple(_ex.INITIAL_KEYS),
     "effects": tuple(_ex.EFFECT_KEYS),
     "loads": tuple(_ex.LOAD_KEYS),
