@@ -140,7 +140,8 @@ class Mechanism:
             return Partition(tuple(range(self.n)), ())
         J = self.jac_q(t, q)
         order = list(reversed(self.rigid))
-        first, last = [], []  # angle-driven angles are dependent first, torque-driven ones last
+        first: list[int] = []  # angle-driven angles are dependent first, torque-driven ones last
+        last: list[int] = []
         for drv in self.scene.drivers:
             idx = self.info.coordinate(CoordKind.THETA, drv.body)
             order.remove(idx)

@@ -52,6 +52,7 @@ from numpy.typing import ArrayLike
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.scene.limits import lift_hint, limit_value, over_limit
+from symgen.scene.model import Driver, Scene
 from symgen.numerics import interrupt
 from symgen.numerics import checks
 from symgen.numerics.index1 import Partition
@@ -350,7 +351,7 @@ def require_guided(mech: Mechanism, part: Partition) -> None:
         )
 
 
-def _rate_key(scene, drv) -> str:
+def _rate_key(scene: Scene, drv: Driver | None) -> str:
     """The scene key of the turning angle driver's rate (simulation.t_end without one)."""
     if drv is None:
         return "simulation.t_end"
@@ -370,7 +371,9 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
         t_end = sim.t_end if cycles is None else cycles * 2 * math.pi
     rows = t_end / h + 1
     if not math.isfinite(rows) or over_limit("rows", rows):
-        file, key = ("command line", "--cycles") if cycles is not None else (mech.scene.path, _rate_key(mech.scene, drv))
+        file, key = (
+            ("command line", "--cycles") if cycles is not None else (mech.scene.path, _rate_key(mech.scene, drv))
+        )
         raise SceneError(
             file,
             key,

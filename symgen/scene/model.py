@@ -182,6 +182,12 @@ class Scene:
         """The angle drivers, in the file's order."""
         return tuple(d for d in self.drivers if d.kind == "angle")
 
+    @property
+    def turning_driver(self) -> Driver | None:
+        """The first angle driver that turns at a constant rate (no law, rate != 0): its turns
+        are the scene's crank turns (simulation.cycles, plots, windows); None without one."""
+        return next((d for d in self.angle_drivers if d.law is None and d.rate != 0.0), None)
+
     def body(self, name: str) -> Body:
         for b in self.bodies:
             if b.name == name:

@@ -26,7 +26,6 @@ from symgen.backends.c import radau
 from symgen.backends.c.codegen import model_functions
 from symgen.backends.c.names import c_comment, c_prefix, c_string
 from symgen.backends.c.printer import c_double
-from symgen.ir import names
 from symgen.ir.info import ModelInfo
 from symgen.ir.parameters import parameter_values
 from symgen.ir.plan import StartPlan

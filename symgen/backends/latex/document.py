@@ -34,6 +34,9 @@ from symgen.backends import templates
 from symgen.backends.latex import quasistatic as latex_quasistatic
 from symgen.backends.latex import slot as latex_slot
 from symgen.backends.latex.printing import (
+    driver_force_tex,
+    torque_tex,
+    driven_text,
     LINE_WIDTH,
     Namer,
     Printer,
@@ -86,27 +89,6 @@ def _rotor_note(drv, pr, i: int = 0) -> str:
         rf"${th}$ and $\tfrac12 {J}\dot{{{th}}}^2$ to the kinetic energy"
         + (r" (the reported driver torque is the motor's, rotor included)" if drv.kind == "angle" else "")
     )
-
-
-def _driven_text(scene, body: str) -> str:
-    """What a driver applies to bar ``body`` (empty: the bar is not driven)."""
-    for i, drv in enumerate(scene.drivers):
-        if drv.body == body:
-            if drv.kind == "angle":
-                return rf"the driver torque ${names.driver_force(i).latex}$"
-            return rf"the applied moment ${_torque_tex(i)}$ (12)"
-    return ""
-
-
-def _driver_force_tex(scene, body: str) -> str:
-    """The multiplier of the angle driver of bar ``body``: Lambda_drv (the first driver), Lambda_{drv,i+1}."""
-    i = next(k for k, d in enumerate(scene.drivers) if d.body == body)
-    return names.driver_force(i).latex
-
-
-def _torque_tex(i: int) -> str:
-    """The applied moment of torque driver ``i``: M_0 (the first driver), M_{0,i+1}."""
-    return "M_0" if i == 0 else names.driver_parameter("torque", i).latex
 
 
 def rotary_notes(scene, pr) -> list[str]:
@@ -234,7 +216,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
-    ctx["driven"] = _driven_text(scene, name)
+    ctx["driven"] = driven_text(scene, name)
     fs = ", ".join(pr(x) for x in s.f)
     gs = ", ".join(pr(x) for x in s.g)
     ctx["expansion"] = []
@@ -628,7 +610,7 @@ def latex_document(scene, model) -> str:
                 f"kinematic guidance: $\\theta_{{{rm(drv.body)}}} = {_driver_angle_tex(drv, pr, i)}$"
                 + _driver_law_note(drv, i)
                 if drv.kind == "angle"
-                else f"dynamic guidance: applied moment ${_torque_tex(i)}$ on {tex_escape(drv.body)} (12)"
+                else f"dynamic guidance: applied moment ${torque_tex(i)}$ on {tex_escape(drv.body)} (12)"
             )
             + _rotor_note(drv, pr, i),
         }
@@ -729,7 +711,7 @@ def latex_document(scene, model) -> str:
             tag = f"KG, {tex_escape(row.loop[-1])}"
             text = (
                 "Kinematic guidance: the input bar's prescribed angle (added to the closure "
-                f"system, multiplier ${_driver_force_tex(scene, row.loop[-1])}$ = driver torque)"
+                f"system, multiplier ${driver_force_tex(scene, row.loop[-1])}$ = driver torque)"
             )
         else:
             comp = {"pin-x": ".x", "pin-y": ".y", "slider": ""}[row.kind]
