@@ -463,12 +463,12 @@ DRIVER = Table(
 DRIVERS = Table(
     "drivers",
     "array",
-    "Optional several drivers (a five-bar's two cranks, a two-arm robot): each [[drivers]] table takes "
+    "Optional: several drivers (a five-bar's two cranks, a two-arm robot); each [[drivers]] table takes "
     "exactly the keys of [driver] and drives a distinct bar pinned to ground. Angle and torque drivers "
     "mix; degrees of freedom left undriven move freely. Give either [driver] or [[drivers]], not both. "
     "With several angle drivers, a driver_torque output names its driven bar (body), and "
     "simulation.cycles counts the turns of the first angle driver that turns at a constant rate "
-    "(no law, rate != 0). A torque driver is an input of the FMU each.",
+    "(no law, rate != 0). Each torque driver whose value is a number is a real input of the FMU.",
     keys=DRIVER.keys,
     example='[[drivers]]\nkind = "angle"\nbody = "crank_a"\nrate = 1.0\n\n'
     '[[drivers]]\nkind = "angle"\nbody = "crank_b"\ninitial = 1.5707963267948966\nrate = -1.0',
@@ -636,11 +636,18 @@ OUTPUT_KIND_TEXT = {
     "position": "absolute x or y of a bar point / l0",
     "angle": "theta of a bar",
     "reaction": "force of the joint's first body on the second, ground axes",
-    "driver_torque": "the moment the angle driver applies (optional body: the driven bar, required with "
-    "several angle drivers)",
+    "driver_torque": "the moment the angle driver applies (body: the driven bar, required with several angle drivers)",
     "energy": "kinetic (rotary inertias included) + elastic + potential energy",
     "closure_residual": "max |position closure| (a solver check)",
 }
+
+
+def _kind_keys_text(kind: str) -> str:
+    """The keys an output kind takes, its optional ones marked."""
+    keys = [*_ou.KIND_KEYS[kind], *(f"optional {k}" for k in _ou.OPTIONAL_KEYS.get(kind, ()))]
+    return ", ".join(keys) or "no other keys"
+
+
 OUTPUTS = Table(
     "outputs",
     "map",
@@ -685,9 +692,7 @@ OUTPUTS = Table(
     ),
     example='[outputs]\neta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
     'eps_ax = { kind = "chord_elongation", body = "rod" }',
-    notes=tuple(
-        f"`{k}` ({', '.join(_ou.KIND_KEYS[k]) or 'no other keys'}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS
-    ),
+    notes=tuple(f"`{k}` ({_kind_keys_text(k)}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS),
 )
 
 SIMULATION = Table(
