@@ -62,7 +62,9 @@ def test_every_parameter_of_a_valid_scene_is_in_range_and_names_a_scene_key(path
     assert {"gx", "gy", "damping"} <= names
     for r in recs:
         section, entry, *_ = r.key.split(".") + [""]
-        assert section in ("bodies", "joints", "effects", "driver", "loads"), r
+        assert section in ("bodies", "joints", "effects", "driver", "drivers", "loads"), r
+        if section == "drivers":  # several drivers: drivers.<index>.<key>
+            assert len(scene.drivers) > 1 and int(entry) < len(scene.drivers), r
         if section == "bodies":
             assert entry in {b.name for b in scene.bodies}, r
         if section == "joints":

@@ -364,7 +364,7 @@ def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float
     sim = mech.scene.simulation
     h = sim.output_step if output_step is None else output_step
     # the first angle driver turning at a constant rate (as simulation.cycles)
-    drv = next((d for d in mech.scene.angle_drivers if d.rate != 0), None)
+    drv = mech.scene.turning_driver
     if drv is not None:
         t_end = (1.0 if cycles is None else cycles) * 2 * math.pi / abs(drv.rate)
     else:
