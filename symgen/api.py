@@ -197,10 +197,10 @@ class Equations:
     """The scene's equations of motion as SymPy objects, as sympy.physics.mechanics gives them:
 
         mass_matrix * a + multiplier_matrix * lam = forcing        (the weak-form residual, (8)-(17))
-        constraints(q, t) = 0                                       (closure and driver rows, (11))
+        constraints(q, t) = 0                                       (closure and angle-driver rows, (11))
 
     with ``constraint_jacobian`` = d constraints / d q. The multipliers ``lam`` are the joint
-    forces of the cut joints (and the driver's moment; each in ``rows``); the model's own
+    forces of the cut joints (and each angle driver's moment; each in ``rows``); the model's own
     residual ``res`` is ``mass_matrix * a + multiplier_matrix * lam - forcing``. Everything is in
     the model's dimensionless units (``time`` is tau = omega t), with the scene's parameters as
     symbols (``parameters``) and their values for this scene in ``values``."""

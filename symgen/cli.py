@@ -449,8 +449,8 @@ def cmd_animate(args) -> int:
     scene = _scene(args)
     t_end = args.t_end
     if args.turns is not None:
-        drv = scene.driver
-        if drv is None or drv.kind != "angle" or not drv.rate:
+        drv = scene.turning_driver
+        if drv is None:
             raise SceneError(
                 scene.path,
                 "driver",

@@ -62,9 +62,11 @@ def test_every_parameter_of_a_valid_scene_is_in_range_and_names_a_scene_key(path
     assert {"gx", "gy", "damping"} <= names
     for r in recs:
         section, entry, *_ = r.key.split(".") + [""]
-        assert section in ("bodies", "joints", "effects", "driver", "loads", "masses"), r
+        assert section in ("bodies", "joints", "effects", "driver", "drivers", "loads", "masses"), r
         if section == "masses":  # [[masses]] by position, like loads
             assert int(entry) < len(scene.masses), r
+        if section == "drivers":  # several drivers: drivers.<index>.<key>
+            assert len(scene.drivers) > 1 and int(entry) < len(scene.drivers), r
         if section == "bodies":
             assert entry in {b.name for b in scene.bodies}, r
         if section == "joints":

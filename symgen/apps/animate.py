@@ -377,8 +377,8 @@ def animate(
     P_rigid = geom.points(rigid_reference(mech, tau, Q))
     auto, peak = auto_factor(P, P_rigid, TARGET)
     factor = auto if factor is None else factor
-    drv = scene.driver
-    turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else None
+    drv = scene.turning_driver
+    turn = 2 * math.pi / abs(drv.rate) if drv is not None else None
     title = f"{scene.name}: {Path(scene.path).name} ({motion.source})"
     anim = Animator(scene, geom, tau, P, P_rigid, factor, title, turn)
     out.parent.mkdir(parents=True, exist_ok=True)

@@ -186,8 +186,7 @@ class EffectsReport:
 
 # --------------------------------------------------------------------------- estimates
 def _rate(scene) -> float:
-    d = scene.driver
-    rate = abs(d.rate) if d is not None else 0.0
+    rate = max((abs(d.rate) for d in scene.drivers), default=0.0)  # the fastest driver
     return rate if rate > 0 else 1.0
 
 
@@ -327,8 +326,8 @@ def recommend(report: EffectsReport) -> None:
 
 # --------------------------------------------------------------------------- measured
 def _window(scene, cycles: float | None) -> float:
-    d = scene.driver
-    turn = 2 * math.pi / abs(d.rate) if d is not None and d.kind == "angle" and d.rate else 2 * math.pi
+    d = scene.turning_driver
+    turn = 2 * math.pi / abs(d.rate) if d is not None else 2 * math.pi
     length = turn * (1.0 if cycles is None else cycles)
     return min(length, scene.simulation.t_end)
 
@@ -344,8 +343,8 @@ class _Runs:
         self.path, self.overrides = path, list(overrides)
         scene = load_scene(path, self.overrides)
         self.t_end = _window(scene, cycles)
-        d = scene.driver
-        turn = 2 * math.pi / abs(d.rate) if d is not None and d.kind == "angle" and d.rate else 2 * math.pi
+        d = scene.turning_driver
+        turn = 2 * math.pi / abs(d.rate) if d is not None else 2 * math.pi
         self.cutoff = DEFAULT_CUTOFF / turn
         n_axial = max([b.axial_modes for b in scene.bodies if not b.rigid] or [0])
         self.step = scene.simulation.output_step / oversampling(scene, n_axial, self.cutoff)

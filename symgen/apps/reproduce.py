@@ -415,9 +415,9 @@ def _four_bar(path: Path, figs: Figures, quick: bool, notes: list, progress) -> 
     mode = "quick" if quick else "normal"
     h = STEP_DEG[mode] / DEG
     base = load_scene(str(path))
-    if base.driver is None:
-        raise ValueError(f"{path}: no driver: not the four-bar of section 6.2")
-    crank = base.driver.body
+    if len(base.drivers) != 1:
+        raise ValueError(f"{path}: not one driver: not the four-bar of section 6.2")
+    crank = base.drivers[0].body
     outs = [
         Output("dx", "elastic_displacement", body=crank, xi=1.0, component="x"),
         Output("slope", "slope", body=crank, xi=1.0),

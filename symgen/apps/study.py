@@ -493,8 +493,8 @@ def run_study(
     levels = tuple(tuple(x) for x in (levels or (QUICK_LEVELS if quick else LEVELS)))
     tolerances = tuple(tolerances or (QUICK_TOLERANCES if quick else TOLERANCES))
     per_bar = (not quick) if per_bar is None else per_bar
-    drv = scene.driver
-    turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else 2 * math.pi
+    drv = scene.turning_driver
+    turn = 2 * math.pi / abs(drv.rate) if drv is not None else 2 * math.pi
     k = (
         oversampling(scene, max(lev[0] for lev in levels), cutoff_per_turn / turn)
         if oversample is None

@@ -203,8 +203,9 @@ def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
         "speed": math.nan,
         "freqs": [],
     }
-    drv = scene.driver
-    if drv is not None and drv.kind == "angle":
+    # the crank speed: the first angle driver turning at a constant rate (else the first angle driver's)
+    drv = scene.turning_driver or next(iter(scene.angle_drivers), None)
+    if drv is not None:
         row["speed"] = float(drv.rate)
     t0 = time.thread_time()
     try:
@@ -347,9 +348,7 @@ def sweep(
         )
     points, scenes, keys, first = prepare(scene_path, varies, overrides)
     counts = {k: keys.count(k) for k in first}
-    if window is not None and any(
-        sc.driver is None or sc.driver.kind != "angle" or sc.driver.rate == 0 for sc in first.values()
-    ):
+    if window is not None and any(sc.turning_driver is None for sc in first.values()):
         raise SceneError(
             "command line",
             "--window",
@@ -358,7 +357,7 @@ def sweep(
         )
     if campbell:
         for sc in first.values():
-            if sc.driver is None or sc.driver.kind != "angle":
+            if not sc.angle_drivers:
                 raise SceneError(
                     scene_path,
                     "driver",

@@ -3,7 +3,9 @@ scene's outputs and parameters), the C sources, and ``binaries/linux64/<prefix>.
 
 The FMU's time is the model's tau. Outputs are ``causality="output"`` (value references
 0..n_out-1), parameters ``causality="parameter"``, ``variability="fixed"`` with the scene's
-values as start values (value references after the outputs). ``fmi2DoStep`` runs the emitted
+values as start values (value references after the outputs), except the applied moment of each
+torque driver given as a number: a ``causality="input"`` (continuous, held over a
+communication step), settable between steps. ``fmi2DoStep`` runs the emitted
 Radau IIA solver to the next communication point; the tolerance comes from
 ``fmi2SetupExperiment`` (else the scene's ``rtol``; ``atol`` keeps the scene's ratio).
 """
@@ -19,6 +21,7 @@ import zipfile
 from pathlib import Path
 
 from symgen.errors import SceneError
+from symgen.ir import names as symbol_names
 from symgen.ir.parameters import parameter_records
 from symgen.backends.c.build import BuildError, compile_shared
 from symgen.backends.c.files import new_file
@@ -35,6 +38,16 @@ def fmu_guid(ctx: dict) -> str:
     return "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, "symgen:" + key)) + "}"
 
 
+def torque_inputs(scene) -> dict[str, str]:
+    """{parameter name: driven bar} of the FMU's inputs: the applied moment of every torque
+    driver given as a number (one real input each; an expression of tau is the FMU's own)."""
+    return {
+        symbol_names.driver_parameter("torque", i).text: d.body
+        for i, d in enumerate(scene.drivers)
+        if d.kind == "torque" and not isinstance(d.torque, str)
+    }
+
+
 def fmu_context(scene, ctx: dict) -> dict:
     outputs = [o.name for o in scene.outputs]
     params = list(ctx["parameter_plain"])
@@ -49,6 +62,7 @@ def fmu_context(scene, ctx: dict) -> dict:
         )
         variables.append({"name": xml_attr(o.name), "vr": k, "causality": "output", "description": xml_attr(desc)})
     records = parameter_records(scene, params)
+    inputs = torque_inputs(scene)
     for k, (name, value, rec) in enumerate(zip(params, ctx["parameter_values"], records)):
         fmu_name = name
         while fmu_name in taken:  # a parameter named like an output
@@ -59,11 +73,15 @@ def fmu_context(scene, ctx: dict) -> dict:
             {
                 "name": xml_attr(fmu_name),
                 "vr": len(outputs) + k,
-                "causality": "parameter",
+                "causality": "input" if name in inputs else "parameter",
                 "start": c_double(value),
                 "min": c_double(valid.lower) if math.isfinite(valid.lower) and not valid.lower_open else None,
                 "max": c_double(valid.upper) if math.isfinite(valid.upper) and not valid.upper_open else None,
-                "description": xml_attr(f"model parameter {name} (dimensionless, {valid.text()})"),
+                "description": xml_attr(
+                    f"applied moment of the torque driver on {inputs[name]} (dimensionless, {valid.text()})"
+                    if name in inputs
+                    else f"model parameter {name} (dimensionless, {valid.text()})"
+                ),
             }
         )
     sim = scene.simulation
@@ -81,6 +99,7 @@ def fmu_context(scene, ctx: dict) -> dict:
         "step_size": c_double(sim.output_step),
         "tolerance": c_double(sim.rtol),
         "variables": variables,
+        "input_flags": [1 if name in inputs else 0 for name in params],
         "output_indices": list(range(1, len(outputs) + 1)),
         "sources": [f"{prefix}.c", f"{prefix}_solver.c", f"{prefix}_fmi2.c"],
     }

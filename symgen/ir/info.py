@@ -53,7 +53,7 @@ class ModelInfo:
     lam_rows: tuple[ConstraintRow, ...]  # one per multiplier (row of phi): loop rows, driver, inextensibility
     params: tuple[str, ...]  # parameter names, in the order of the p input
     outputs: tuple[str, ...]  # output names, in the order of the out function
-    driver_row: int | None  # row of the angle driver in lam, if any
+    driver_row: int | None  # row of the first angle driver in lam, if any (driver_rows: all)
     n_loop_rows: int  # rows of the closure function (the loop rows of phi)
     modes: dict[str, BarModes]  # bar -> its deformation functions
     timings: dict[str, float] = field(default_factory=dict)  # derive_s, and build_s once built
@@ -66,6 +66,11 @@ class ModelInfo:
     @property
     def m(self) -> int:
         return len(self.lam_rows)
+
+    @property
+    def driver_rows(self) -> dict[str, int]:
+        """driven bar -> the row of its angle driver in lam, in the scene's order of drivers."""
+        return {r.loop[-1]: i for i, r in enumerate(self.lam_rows) if r.kind is RowKind.DRIVER}
 
     def indices(self, *kinds: CoordKind) -> tuple[int, ...]:
         """Indices of the coordinates of the given kinds, in order."""
@@ -192,10 +197,13 @@ class ModelInfo:
         if not _is_int(n_loop) or not 0 <= n_loop <= len(lam_rows):
             raise InvalidModelInfo("'n_loop_rows' is not a row count")
         drv = d["driver_row"]
+        first = next((i for i, r in enumerate(lam_rows) if r.kind is RowKind.DRIVER), None)
         if drv is not None and (
             not _is_int(drv) or not 0 <= drv < len(lam_rows) or lam_rows[drv].kind is not RowKind.DRIVER
         ):
             raise InvalidModelInfo("'driver_row' is not the index of the driver's row")
+        if drv != first:
+            raise InvalidModelInfo("'driver_row' is not the index of the first driver's row")
         if not isinstance(d["modes"], dict):
             raise InvalidModelInfo("'modes' is not an object")
         modes = {_text(name, "modes"): _bar_modes(md, name) for name, md in d["modes"].items()}

@@ -156,6 +156,14 @@ def joint_force(joint: str, axis: str | None = None) -> Name:
 DRIVER_FORCE = Name("L_driver", r"\Lambda_{\mathrm{drv}}")
 
 
+def driver_force(index: int) -> Name:
+    """Lambda of angle driver ``index`` (0-based, among all drivers): the first is ``L_driver``
+    (the name of a single-driver scene), driver i > 0 is ``L_driver_<i+1>``."""
+    if index == 0:
+        return DRIVER_FORCE
+    return Name(f"L_driver_{index + 1}", rf"\Lambda_{{\mathrm{{drv}},{index + 1}}}")
+
+
 # --------------------------------------------------------------------------- parameters
 def joint_parameter(kind: str, joint: str) -> Name:
     """px, py (ground point), dx, dy (slider direction), m (lumped mass), I (rotary inertia)."""
@@ -195,6 +203,28 @@ _GLOBAL = {
 def global_parameter(kind: str) -> Name:
     """gx, gy (gravity), theta0, rate, ramp (angle driver), torque, damping, J_rotor."""
     return Name(kind, _GLOBAL[kind])
+
+
+DRIVER_PARAMETERS = ("theta0", "rate", "ramp", "torque", "J_rotor")
+
+
+def driver_parameter(kind: str, index: int) -> Name:
+    """theta0, rate, ramp, torque or J_rotor of driver ``index`` (0-based, in the scene's order):
+    the first driver's are the global names of a single-driver scene, driver i > 0 has
+    ``<kind>_<i+1>``."""
+    if kind not in DRIVER_PARAMETERS:
+        raise ValueError(f"unknown driver parameter {kind!r}")
+    if index == 0:
+        return global_parameter(kind)
+    n = index + 1
+    latex = {
+        "theta0": rf"\theta_{{\mathrm{{drv}},{n}}}^{{0}}",
+        "rate": rf"\Omega_{{\mathrm{{drv}},{n}}}",
+        "ramp": rf"T_{{\mathrm{{drv}},{n}}}",
+        "torque": rf"M_{{0,{n}}}",
+        "J_rotor": rf"J_{{\mathrm{{rot}},{n}}}",
+    }[kind]
+    return Name(f"{kind}_{n}", latex)
 
 
 def load_parameter(index: int, component: str, point: bool) -> Name:

@@ -112,17 +112,21 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
         along, across = pm.offset or (0.0, 0.0)
         put(symbol_names.mass_parameter("along", i), along, FINITE, f"{key}.offset")
         put(symbol_names.mass_parameter("across", i), across, FINITE, f"{key}.offset")
-    d = scene.driver
-    if d is not None:
-        put(symbol_names.global_parameter("J_rotor"), d.rotor_inertia, NON_NEGATIVE, "driver.rotor_inertia")
+    for i, d in enumerate(scene.drivers):
+        key = "driver" if len(scene.drivers) == 1 else f"drivers.{i}"
+
+        def name(kind: str, i: int = i) -> Name:
+            return symbol_names.driver_parameter(kind, i)
+
+        put(name("J_rotor"), d.rotor_inertia, NON_NEGATIVE, f"{key}.rotor_inertia")
         if d.kind == "angle":
             assert d.initial is not None, "an angle driver has its initial angle (symgen.scene.excitation)"
-            put(symbol_names.global_parameter("theta0"), d.initial, FINITE, "driver.initial")
-            put(symbol_names.global_parameter("rate"), d.rate, FINITE, "driver.rate")
+            put(name("theta0"), d.initial, FINITE, f"{key}.initial")
+            put(name("rate"), d.rate, FINITE, f"{key}.rate")
             if d.ramp is not None:
-                put(symbol_names.global_parameter("ramp"), d.ramp, POSITIVE, "driver.ramp")
+                put(name("ramp"), d.ramp, POSITIVE, f"{key}.ramp")
         elif not isinstance(d.torque, str):
-            put(symbol_names.global_parameter("torque"), d.torque, FINITE, "driver.value")
+            put(name("torque"), d.torque, FINITE, f"{key}.value")
     for i, ld in enumerate(scene.loads):
         for comp in ("axial", "transverse"):
             val = getattr(ld, comp)

@@ -135,7 +135,7 @@ class DerivedModel:
     params: tuple[sp.Symbol, ...]  # parameter symbols
     program: Program
     output_names: list[str]
-    driver_row: int | None  # index of the angle driver in lam, if any
+    driver_row: int | None  # index of the first angle driver in lam, if any (ConstraintRow DRIVER: all)
     timings: dict[str, float]
     latex: dict[str, str] = field(default_factory=dict)  # symbol name -> LaTeX name (symgen.ir.names)
 

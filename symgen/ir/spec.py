@@ -284,11 +284,18 @@ class ModelSpec:
     version: tuple[str, str]
     bodies: tuple[BodySpec, ...]
     joints: tuple[JointSpec, ...]
-    driver: DriverSpec | None
+    drivers: tuple[DriverSpec, ...]  # in the scene's order
     effects: EffectsSpec
     loads: tuple[LoadSpec, ...]
     outputs: tuple[OutputSpec, ...]
     masses: tuple[MassSpec, ...] = ()  # [[masses]]: point masses and rigid attachments on bars
+
+    @property
+    def driver(self) -> DriverSpec | None:
+        """The only driver (None without one); several drivers are refused (read ``drivers``)."""
+        if len(self.drivers) > 1:
+            raise ValueError(f"the model has {len(self.drivers)} drivers; read ModelSpec.drivers")
+        return self.drivers[0] if self.drivers else None
 
     def body(self, name: str) -> BodySpec:
         for b in self.bodies:
@@ -320,17 +327,19 @@ class ModelSpec:
     def to_json(self) -> dict[str, Any]:
         """The canonical JSON (the layout of the cache keys; ``json.dumps(..., sort_keys=True)``
         of it is hashed)."""
-        out = {
+        out: dict[str, Any] = {
             "version": list(self.version),
             "bodies": [b.to_json() for b in self.bodies],
             "joints": [j.to_json() for j in self.joints],
-            "driver": None if self.driver is None else self.driver.to_json(),
+            "driver": self.drivers[0].to_json() if len(self.drivers) == 1 else None,
             "effects": self.effects.to_json(),
             "loads": [ld.to_json() for ld in self.loads],
             "outputs": [o.to_json() for o in self.outputs],
         }
         if self.masses:  # only then: the keys of scenes without them are unchanged
             out["masses"] = [m.to_json() for m in self.masses]
+        if len(self.drivers) > 1:  # only then: a scene with one driver or none keeps its keys
+            out["drivers"] = [d.to_json() for d in self.drivers]
         return out
 
     @classmethod
@@ -339,7 +348,7 @@ class ModelSpec:
             tuple(d["version"]),
             tuple(BodySpec.from_json(b) for b in d["bodies"]),
             tuple(JointSpec.from_json(j) for j in d["joints"]),
-            None if d["driver"] is None else DriverSpec.from_json(d["driver"]),
+            _drivers_from_json(d),
             EffectsSpec.from_json(d["effects"]),
             tuple(LoadSpec.from_json(ld) for ld in d["loads"]),
             tuple(OutputSpec.from_json(o) for o in d["outputs"]),
@@ -349,6 +358,15 @@ class ModelSpec:
     def key(self) -> str:
         """The model cache's key: :func:`spec_key` of the canonical JSON."""
         return spec_key(self.to_json())
+
+
+def _drivers_from_json(d: dict[str, Any]) -> tuple[DriverSpec, ...]:
+    """``drivers`` (several) or ``driver`` (one, or null: none) of a ModelSpec's JSON."""
+    if "drivers" in d:
+        if d["driver"] is not None or len(d["drivers"]) < 2:
+            raise ValueError("a ModelSpec lists several drivers under 'drivers' and then has 'driver': null")
+        return tuple(DriverSpec.from_json(x) for x in d["drivers"])
+    return () if d["driver"] is None else (DriverSpec.from_json(d["driver"]),)
 
 
 def spec_key(structure: dict[str, Any]) -> str:

@@ -7,8 +7,8 @@ the inextensibility rows, each at position, velocity and acceleration level with
   the guide takes minus the force at the contact (``Constraints.slot_force``);
 * a cut slider: the bar point stays on the ground line, n . (r - p0) = 0 (1 row), the multiplier
   its normal force;
-* the angle driver: theta - theta_drv(tau) = 0, exactly differentiated; its multiplier is the
-  driving torque (``Constraints.driver_row``);
+* each angle driver: theta - theta_drv(tau) = 0, exactly differentiated; its multiplier is the
+  driving torque (``Constraints.driver_rows``);
 * an inextensible or quasi-static bar: (phi'_k, eps) = 0 for each axial function k, the
   multiplier N_k its axial force (in lambda eps units); these rows come last.
 
@@ -48,7 +48,12 @@ class Constraints:
     point_forces: dict = field(default_factory=dict)  # bar -> [PointForce] the multipliers put on it
     slot_force: dict = field(default_factory=dict)  # guide -> (Fx, Fy) at its moving contact
     n_loop_rows: int = 0  # the closure rows (11) come first
-    driver_row: int | None = None  # index of the angle driver in lam
+    driver_rows: dict = field(default_factory=dict)  # driven bar -> index of its angle driver's row in lam
+
+    @property
+    def driver_row(self) -> int | None:
+        """The first angle driver's row in lam (None without an angle driver)."""
+        return min(self.driver_rows.values(), default=None)
 
     def add(self, phi: sp.Expr, phid: sp.Expr, phidd: sp.Expr, lam: sp.Symbol, row: ConstraintRow) -> None:
         self.phi.append(phi)
@@ -122,25 +127,29 @@ def loop_closure(topo: Topology, joints: dict, kins: dict, tree: TreeKinematics)
     return out
 
 
-def angle_driver(cons: Constraints, driver, kins: dict, param: Callable[[Name], sp.Symbol]) -> None:
-    """The row of an angle driver, appended to ``cons``: theta = theta0 + rate tau (the
-    contract's parameters), or a law theta(tau) / the spin-up ramp with exact derivatives.
-    A torque driver (or none) adds nothing."""
-    if driver is None or driver.kind != "angle":
-        return
+def angle_drivers(cons: Constraints, drivers, kins: dict, param: Callable[[Name], sp.Symbol]) -> None:
+    """The row of each angle driver, appended to ``cons`` in the scene's order: theta = theta0 +
+    rate tau (the contract's parameters), or a law theta(tau) / the spin-up ramp with exact
+    derivatives. Driver i's parameters and multiplier are named by ``names.driver_parameter``
+    and ``names.driver_force`` (driver 0: the names of a single-driver scene). Torque drivers
+    add nothing."""
     tau = tau_symbol()
-    th = kins[driver.body].sym
-    th0 = param(names.global_parameter("theta0"))
-    if driver.law is None and driver.ramp is None:  # the contract's theta0 + rate tau
-        rate = param(names.global_parameter("rate"))
-        rows = (th.th - th0 - rate * tau, th.dth - rate, th.ddth)
-    else:  # law(tau) or the spin-up ramp: exact derivatives
-        rate = param(names.global_parameter("rate")) if driver.law is None else None
-        ramp = param(names.global_parameter("ramp")) if driver.ramp is not None else None
-        angle = driver_angle(driver, tau, th0, rate, ramp)
-        rows = (th.th - angle, th.dth - derivative(angle, tau), th.ddth - derivative(angle, tau, 2))
-    cons.driver_row = len(cons.lam)
-    cons.add(*rows, names.DRIVER_FORCE.symbol(), ConstraintRow("driver", RowKind.DRIVER, (GROUND, driver.body)))
+    for i, driver in enumerate(drivers):
+        if driver.kind != "angle":
+            continue
+        th = kins[driver.body].sym
+        th0 = param(names.driver_parameter("theta0", i))
+        if driver.law is None and driver.ramp is None:  # the contract's theta0 + rate tau
+            rate = param(names.driver_parameter("rate", i))
+            rows = (th.th - th0 - rate * tau, th.dth - rate, th.ddth)
+        else:  # law(tau) or the spin-up ramp: exact derivatives
+            rate = param(names.driver_parameter("rate", i)) if driver.law is None else None
+            ramp = param(names.driver_parameter("ramp", i)) if driver.ramp is not None else None
+            angle = driver_angle(driver, tau, th0, rate, ramp)
+            rows = (th.th - angle, th.dth - derivative(angle, tau), th.ddth - derivative(angle, tau, 2))
+        cons.driver_rows[driver.body] = len(cons.lam)
+        row = ConstraintRow("driver", RowKind.DRIVER, (GROUND, driver.body))
+        cons.add(*rows, names.driver_force(i).symbol(), row)
 
 
 def axial_forces(kins: dict, treatment: dict) -> dict:

@@ -8,9 +8,9 @@ of earlier symbols) and named output vectors, over the inputs
 Equations of motion (index-3 form, reduced to index 1 by the runner):
 
     res(t, q, v, a, lam, p) = 0      (one row per coordinate)
-    phi(t, q, p) = 0, phid = 0, phidd = 0   (closure (11) of each loop, the angle driver)
+    phi(t, q, p) = 0, phid = 0, phidd = 0   (closure (11) of each loop, the angle drivers)
 
-Reactions of cut joints (and the driver torque) are the multipliers ``lam``; those of tree
+Reactions of cut joints (and the angle drivers' torques) are the multipliers ``lam``; those of tree
 joints are the subtree resultants ``S`` (route 2 of the seed: global equilibrium of the bars
 beyond the joint), which never enter the motion: only reactions that do work are unknowns.
 
@@ -24,10 +24,10 @@ assignments, rows and outputs are made (it decides the CSE order of the emitted 
 The derivation's input is the typed :class:`symgen.ir.spec.ModelSpec` of the scene
 (``structure.model_spec``; its canonical JSON is the model's cache key): the bars (function
 counts, shape families, static corrections, axial treatment, a guide's overhang), the effects,
-the joints of the loop closure, the loads, lumped masses and inertias, the driver's rotor and
-moment, the outputs. Two stages still read the scene itself: the topology (``build_topology``,
+the joints of the loop closure, the loads, lumped masses and inertias, the drivers' rotors and
+moments, the outputs. Two stages still read the scene itself: the topology (``build_topology``,
 which the numerics' geometry calls with the scene too: its tree edges carry the ground points'
-values, and its error names the scene file) and the angle driver (``angle_driver``: the
+values, and its error names the scene file) and the angle drivers (``angle_drivers``: the
 guidance law has one home, ``symgen.scene.motion.driver_angle``, which the runners evaluate too
 and which reads the scene's driver, whose ramp time the spec only records as present). The
 scene's path also names the file in the errors of the slot guides and of the outputs.
@@ -46,12 +46,12 @@ from symgen.ir.names import Name
 from symgen.ir.records import CoordKind, Coordinate, DerivedModel, Program
 from symgen.ir.spec import ModelSpec
 from symgen.model.bars import BarEquations, BarSymbols, IPTable
-from symgen.model.constraints import angle_driver, axial_forces, inextensibility, loop_closure, quasi_static_stretch
+from symgen.model.constraints import angle_drivers, axial_forces, inextensibility, loop_closure, quasi_static_stretch
 from symgen.model.kinematics import BarKinematics, TreeKinematics
 from symgen.model.loads import applied_loads
 from symgen.model.quantities import BAR_SHAPE_OUTPUTS, energy, scene_outputs
 from symgen.model.residual import generalized_forces, residuals, subtree_resultants
-from symgen.model.rotary import driver_rotor
+from symgen.model.rotary import driver_rotors
 from symgen.model.shape_cache import inner_products
 from symgen.model.shapes import Basis, axial_basis
 from symgen.model.slot import SlotBarKinematics, SlotBasis, SlotIPTable
@@ -120,8 +120,8 @@ def _derive(scene: Scene) -> DerivedModel:
     kins = {name: bm.kin for name, bm in bars.items()}
     tree = TreeKinematics(topo, kins, param, slider_s)  # (10)
     cons = loop_closure(topo, {j.name: j for j in spec.joints}, kins, tree)  # (11)
-    rotor = driver_rotor(spec.driver, param)
-    angle_driver(cons, scene.driver, kins, param)
+    rotors = driver_rotors(spec.drivers, param)
+    angle_drivers(cons, scene.drivers, kins, param)
     loads = applied_loads(spec, kins, param)
     axial_force = axial_forces(kins, treatment)
 
@@ -129,18 +129,13 @@ def _derive(scene: Scene) -> DerivedModel:
     E = generalized_forces(prog, topo, bars, tree, spec.effects, loads, cons, axial_force)
     inextensibility(cons, topo, bars, axial_force)
     S = subtree_resultants(prog, topo, E)
-    drv = spec.driver
-    moment: tuple[str, sp.Expr] | None = None
-    if drv is not None and loads.torque is not None:
-        moment = (drv.body, loads.torque)
-    elif drv is not None:
-        assert cons.driver_row is not None, "an angle driver has its multiplier row"
-        moment = (drv.body, cons.lam[cons.driver_row])
-    res = residuals(coords, q, topo, bars, tree, E, S, moment, rotor)
+    # each driven bar's applied moment: a torque driver's torque, an angle driver's multiplier
+    moments = dict(loads.torques) | {body: cons.lam[row] for body, row in cons.driver_rows.items()}
+    res = residuals(coords, q, topo, bars, tree, E, S, moments, rotors)
 
     prog.inputs = {"t": (TAU,), "q": q, "v": v, "a": a, "lam": tuple(cons.lam)}
     prog.outputs.update(phi=cons.phi, phid=cons.phid, phidd=cons.phidd, res=res)
-    prog.outputs["energy"] = [energy(bars, topo, tree, loads, rotor)]
+    prog.outputs["energy"] = [energy(bars, topo, tree, loads, rotors)]
     out_names, prog.outputs["out"] = scene_outputs(
         spec,
         scene.path,

@@ -1,5 +1,5 @@
 """What acts on the bars besides the joints: lumped masses and rotary inertias at joints,
-gravity, point and distributed loads, Kelvin-Voigt damping, and a driver's applied torque.
+gravity, point and distributed loads, Kelvin-Voigt damping, and the torque drivers' applied moments.
 
 * A lumped mass m at a joint is carried by the first bar of the joint: its inertia and weight
   -m (r'' - g) enter that bar's equations as a point force in ground axes (common units), its
@@ -56,7 +56,7 @@ class LumpedMass:
 class Loads:
     """The applied loads of a scene, by the bar they act on."""
 
-    torque: sp.Expr | None  # a torque driver's applied moment (None: angle driver or none)
+    torques: dict  # driven bar -> the applied moment of each torque driver
     gravity: tuple | None  # (gx, gy) parameters, None without gravity
     G: sp.Matrix  # gravity as a vector (zero without gravity)
     masses: list[LumpedMass]  # in joint order, then the [[masses]]
@@ -69,10 +69,11 @@ class Loads:
 def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol]) -> Loads:
     """The loads of the model ``spec`` on the bars ``kins`` (bar -> kinematics): a value is a
     parameter, an expression of tau (held by the spec) is parsed."""
-    drv = spec.driver
-    torque = None
-    if drv is not None and drv.kind != "angle":
-        torque = parse_tau_expression(drv.torque) if drv.torque != "const" else param(names.global_parameter("torque"))
+    torques = {
+        d.body: parse_tau_expression(d.torque) if d.torque != "const" else param(names.driver_parameter("torque", i))
+        for i, d in enumerate(spec.drivers)
+        if d.kind != "angle"
+    }
     grav = (param(names.global_parameter("gx")), param(names.global_parameter("gy"))) if spec.effects.gravity else None
     G = sp.Matrix(grav) if grav else sp.zeros(2, 1)
     masses: list[LumpedMass] = []
@@ -130,4 +131,4 @@ def applied_loads(spec: ModelSpec, kins: dict, param: Callable[[Name], sp.Symbol
             assert ld.xi is not None, "a point load has its xi (symgen.scene.excitation)"
             points[ld.body].append(PointForce(ld.xi, bar=tuple(vals)))
     damping = param(names.global_parameter("damping")) if spec.effects.damping else None
-    return Loads(torque, grav, G, masses, rotary, dist, points, damping)
+    return Loads(torques, grav, G, masses, rotary, dist, points, damping)

@@ -23,7 +23,7 @@ from symgen.scene.model import GROUND
 BAR_SHAPE_OUTPUTS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement")
 
 
-def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor: tuple | None) -> sp.Expr:
+def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotors: dict) -> sp.Expr:
     """Kinetic + elastic + gravity potential energy, common units m_ref l0^3 omega^2. A
     quasi-static bar counts as the inextensible bar its dynamics are (the energy those
     conserve); its stretch energy N^T Ka N / (2 lambda) is of order 1/lambda and left out.
@@ -50,7 +50,7 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
     for lm in loads.masses:
         r, vv = lm.point(tree, bars[lm.body].kin)
         total += lm.mass * vv.dot(vv) / 2 - lm.mass * G.dot(r)
-    return total + rotary_energy(bars, [x for n in topo.order for x in loads.rotary[n]], rotor)
+    return total + rotary_energy(bars, [x for n in topo.order for x in loads.rotary[n]], rotors)
 
 
 def scene_outputs(
@@ -119,8 +119,10 @@ def output(
     if k == "angle":
         return bars[o.body].sym.th
     if k == "driver_torque":
-        assert cons.driver_row is not None, "driver_torque needs an angle driver (symgen.scene.outputs)"
-        return cons.lam[cons.driver_row]
+        # the driven bar named, else the only angle driver (symgen.scene.outputs)
+        row = cons.driver_rows[o.body] if o.body is not None else cons.driver_row
+        assert row is not None, "driver_torque needs an angle driver (symgen.scene.outputs)"
+        return cons.lam[row]
     if k == "energy":
         return total_energy
     if k == "closure_residual":

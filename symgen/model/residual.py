@@ -141,12 +141,12 @@ def residuals(
     tree: TreeKinematics,
     E: dict,
     S: dict,
-    driver: tuple | None,
-    rotor: tuple | None,
+    moments: dict,
+    rotors: dict,
 ) -> list:
-    """One residual per coordinate (virtual work through the tree). ``driver``: (driven bar,
-    applied moment: the torque, or the angle driver's multiplier) or None; ``rotor``: (driven
-    bar, J) or None."""
+    """One residual per coordinate (virtual work through the tree). ``moments``: driven bar ->
+    applied moment (a torque driver's torque, or an angle driver's multiplier); ``rotors``:
+    driven bar -> J of its rotor."""
     res = []
     for c, var in zip(coords, q):
         if c.kind is CoordKind.S:
@@ -158,9 +158,9 @@ def residuals(
         r = E[c.body].of(c) - bm.kin.partials(e.body_xi)[var].dot(S[c.body])
         for ch in topo.children[c.body]:
             r += bm.kin.partials(ch.parent_xi)[var].dot(S[ch.body])
-        if c.kind is CoordKind.THETA and driver is not None and driver[0] == c.body:
-            r -= driver[1]  # applied moment
-            if rotor is not None:
-                r += rotor[1] * bm.sym.ddth  # the rotor's inertial moment J theta''
+        if c.kind is CoordKind.THETA and c.body in moments:
+            r -= moments[c.body]  # applied moment
+            if c.body in rotors:
+                r += rotors[c.body] * bm.sym.ddth  # the rotor's inertial moment J theta''
         res.append(r)
     return res

@@ -29,7 +29,7 @@ Units: I and J are / (m_ref l0^3), the common unit of the generalized forces (m_
 from __future__ import annotations
 
 from dataclasses import dataclass
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import sympy as sp
 
@@ -52,11 +52,9 @@ class LumpedRotary:
     couple: sp.Expr = sp.Integer(0)
 
 
-def driver_rotor(driver: DriverSpec | None, param: Callable[[Name], sp.Symbol]) -> tuple | None:
-    """(driven bar, J) when the driver carries a rotor inertia, else None."""
-    if driver is not None and driver.rotor_inertia:
-        return driver.body, param(names.global_parameter("J_rotor"))
-    return None
+def driver_rotors(drivers: Sequence[DriverSpec], param: Callable[[Name], sp.Symbol]) -> dict:
+    """driven bar -> J of each driver that carries a rotor inertia (in the drivers' order)."""
+    return {d.body: param(names.driver_parameter("J_rotor", i)) for i, d in enumerate(drivers) if d.rotor_inertia}
 
 
 def coordinates(sym) -> list:
@@ -118,9 +116,9 @@ def add_lumped_rotary(gen: dict, sym, kin, items: list) -> dict:
     return out
 
 
-def rotary_energy(bars: dict, items: list, rotor: tuple | None) -> sp.Expr:
+def rotary_energy(bars: dict, items: list, rotors: dict) -> sp.Expr:
     """Kinetic energy I phi'^2 / 2 of the lumped rotary inertias and J theta'^2 / 2 of the
-    driver's rotor ``rotor`` = (body, J) or None."""
+    drivers' rotors ``rotors`` (driven bar -> J)."""
     total = sp.Integer(0)
     for it in items:
         if it.inertia == 0:
@@ -128,7 +126,6 @@ def rotary_energy(bars: dict, items: list, rotor: tuple | None) -> sp.Expr:
         bm = bars[it.body]
         phid, _, _ = rotation_rates(section_rotation(bm.sym, bm.kin, it.xi), coordinates(bm.sym))
         total += it.inertia * phid**2 / 2
-    if rotor is not None:
-        body, J = rotor
+    for body, J in rotors.items():
         total += J * bars[body].sym.dth ** 2 / 2
     return total

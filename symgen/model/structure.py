@@ -115,7 +115,7 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
         return AxialTreatment(body.name, DYNAMIC, "auto: slot guide")
     w_axial = AXIAL_FIRST * body.lam**0.5
     w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu**0.5 if body.mu else 0.0
-    rate = abs(scene.driver.rate) if scene.driver is not None else 0.0
+    rate = max((abs(d.rate) for d in scene.drivers), default=0.0)
     w_run = max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0))
     ratio = w_axial / w_run
     detail = (
@@ -255,10 +255,8 @@ def model_spec(scene: Scene) -> ModelSpec:
         )
         for j in scene.joints
     )
-    drv = None
-    if scene.driver is not None:
-        d = scene.driver
-        drv = DriverSpec(
+    drv = tuple(
+        DriverSpec(
             d.kind,
             d.body,
             d.torque if isinstance(d.torque, str) else "const",
@@ -266,6 +264,8 @@ def model_spec(scene: Scene) -> ModelSpec:
             d.ramp is not None,
             d.rotor_inertia > 0,
         )
+        for d in scene.drivers
+    )
     loads = tuple(
         LoadSpec(
             ld.body,

@@ -51,10 +51,9 @@ RES_TOL = 1e-11  # |F|_inf <= RES_TOL * max(1, load scale)
 
 
 def drivers(mech: Mechanism) -> list[Driver]:
-    """The scene's drivers: the one place this module reads them (today the one ``[driver]``,
-    or none; with several drivers, all of them)."""
-    drv = mech.scene.driver
-    return [] if drv is None else [drv]
+    """The scene's drivers (``[driver]`` or every ``[[drivers]]`` entry): the one place this
+    module reads them."""
+    return list(mech.scene.drivers)
 
 
 def prescribed(mech: Mechanism, t: float) -> dict[int, float]:
@@ -63,15 +62,16 @@ def prescribed(mech: Mechanism, t: float) -> dict[int, float]:
     out = {}
     for drv in drivers(mech):
         if drv.kind == "angle":  # the driver's angle as the model's driver row prescribes it
-            out[mech.info.coordinate(CoordKind.THETA, drv.body)] = mech.driver_motion(t)[0]
+            out[mech.info.coordinate(CoordKind.THETA, drv.body)] = mech.driver_motion(t, drv.body)[0]
     return out
 
 
 def guess_key(mech: Mechanism, body: str) -> str:
     """The scene key that sets the start of bar ``body``'s angle: a torque driver's ``initial``
     for its bar, else ``initial.guess.<body>``."""
-    if any(d.kind == "torque" and d.body == body for d in drivers(mech)):
-        return "driver.initial"
+    found = [i for i, d in enumerate(drivers(mech)) if d.kind == "torque" and d.body == body]
+    if found:
+        return "driver.initial" if len(drivers(mech)) == 1 else f"drivers.{found[0]}.initial"
     return f"initial.guess.{body}"
 
 

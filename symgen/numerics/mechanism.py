@@ -108,11 +108,12 @@ class Mechanism:
             return f"inextensibility of bar '{r.joint}'"
         return f"loop closed by joint '{r.joint}' ({' - '.join(r.loop)})"
 
-    def driver_motion(self, t: float) -> tuple[float, float, float]:
-        """(theta, theta', theta'') an angle driver prescribes at t, read from the model's own
-        driver rows (phi = theta - theta(t), and its two derivatives): whatever the law
-        (constant speed, ``law``, ``ramp``), the numbers the equations use."""
-        row = self.info.driver_row
+    def driver_motion(self, t: float, body: str | None = None) -> tuple[float, float, float]:
+        """(theta, theta', theta'') the angle driver of ``body`` (None: the first angle driver)
+        prescribes at t, read from the model's own driver rows (phi = theta - theta(t), and its
+        two derivatives): whatever the law (constant speed, ``law``, ``ramp``), the numbers the
+        equations use."""
+        row = self.info.driver_row if body is None else self.info.driver_rows[body]
         z = np.zeros(self.n)
         return (
             -float(self.call("phi", t, z)[row]),
@@ -120,10 +121,19 @@ class Mechanism:
             -float(self.call("phidd", t, z, z, z)[row]),
         )
 
+    def driver_motions(self, t: float) -> dict[str, tuple[float, float, float]]:
+        """driven bar -> (theta, theta', theta'') of every angle driver at t."""
+        z = np.zeros(self.n)
+        phi, phid, phidd = (self.call(f, t, z, z, z) for f in ("phi", "phid", "phidd"))
+        return {
+            body: (-float(phi[row]), -float(phid[row]), -float(phidd[row]))
+            for body, row in self.info.driver_rows.items()
+        }
+
     def driver_step(self, t: float) -> float:
         """Time step of the central differences of the quasi-static start: POLICY.driver_step
-        rad of the driver at its rate at t (that many tau when it is at rest)."""
-        rate = abs(self.driver_motion(t)[1])
+        rad of the fastest angle driver at its rate at t (that many tau when all are at rest)."""
+        rate = max((abs(m[1]) for m in self.driver_motions(t).values()), default=0.0)
         return POLICY.driver_step / rate if rate > 0 else POLICY.driver_step
 
     # ---------------------------------------------------------------- partition + assembly
@@ -132,12 +142,14 @@ class Mechanism:
         if self.m == 0:
             return Partition(tuple(range(self.n)), ())
         J = self.jac_q(t, q)
-        drv = self.scene.driver
         order = list(reversed(self.rigid))
-        if drv is not None:
+        first: list[int] = []  # angle-driven angles are dependent first, torque-driven ones last
+        last: list[int] = []
+        for drv in self.scene.drivers:
             idx = self.info.coordinate(CoordKind.THETA, drv.body)
             order.remove(idx)
-            order = [idx] + order if drv.kind == "angle" else order + [idx]
+            (first if drv.kind == "angle" else last).append(idx)
+        order = first + order + last
         order = self.inext_f + order
         chosen: list[int] = []
         scale = max(np.abs(J).max(), 1e-300)
@@ -223,20 +235,21 @@ class Mechanism:
         return sol[: self.n], sol[self.n :]
 
     def initial_guess(self, t0: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """(q, v) the assembly starts from: the driver's angle and rate, initial.guess angles
+        """(q, v) the assembly starts from: each driver's angle and rate, initial.guess angles
         (and slot distances, by joint name), the given deformation and its rates, else zeros."""
         sc = self.scene
         q = np.zeros(self.n)
         v = np.zeros(self.n)
         guess = dict(sc.initial.guess)
         deform = dict(sc.initial.deformation)
-        drv = sc.driver
+        drivers = {d.body: d for d in sc.drivers}
         for i, c in enumerate(self.coords):
             if c.kind is CoordKind.THETA:
                 q[i] = guess.get(c.body, 0.0)
-                if drv is not None and drv.body == c.body:
+                drv = drivers.get(c.body)
+                if drv is not None:
                     if drv.kind == "angle":
-                        q[i], v[i], _ = self.driver_motion(t0)
+                        q[i], v[i], _ = self.driver_motion(t0, c.body)
                     else:
                         if drv.initial is not None:
                             q[i] = drv.initial

@@ -198,17 +198,18 @@ class ModesResult:
 
 
 def _rigid_march(qs: QuasiStaticSystem, tau: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rigid state at tau, followed from tau = 0 in small steps of the driver (stays on the
+    """Rigid state at tau, followed from tau = 0 in small steps of the angle drivers (stays on the
     assembly branch of initial.guess)."""
     mech = qs.mech
     q, _, _, _, _ = mech.initial_state(0.0)
-    drv = mech.scene.driver
     steps = 1
-    if drv is not None and drv.kind == "angle" and tau != 0:
-        turned = abs(mech.driver_motion(tau)[0] - mech.driver_motion(0.0)[0])
-        steps = max(1, int(math.ceil(turned / 0.05)))
-        if drv.law is not None or drv.ramp is not None:  # a law may swing back: follow it in tau too
-            steps = max(steps, int(math.ceil(abs(tau) / 0.05)))
+    if tau != 0:
+        start, end = mech.driver_motions(0.0), mech.driver_motions(tau)
+        for drv in mech.scene.angle_drivers:  # every angle driver turns less than 0.05 per step
+            turned = abs(end[drv.body][0] - start[drv.body][0])
+            steps = max(steps, int(math.ceil(turned / 0.05)))
+            if drv.law is not None or drv.ramp is not None:  # a law may swing back: follow it in tau too
+                steps = max(steps, int(math.ceil(abs(tau) / 0.05)))
     for k in range(1, steps + 1):
         q, v, a = qs.rigid_state(tau * k / steps, q)
     return q, v, a

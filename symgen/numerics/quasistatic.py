@@ -63,6 +63,7 @@ from numpy.typing import ArrayLike
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.scene.limits import lift_hint, limit_value, over_limit
+from symgen.scene.model import Driver, Scene
 from symgen.numerics import interrupt
 from symgen.numerics import checks
 from symgen.numerics.equilibrium import RES_TOL as EQ_RES_TOL
@@ -239,10 +240,8 @@ class QuasiStaticSystem:
         mech, part = self.mech, self.part
         q = np.array(q_guess, dtype=float)
         q[self.amp] = 0.0
-        drv = mech.scene.driver
-        if drv is not None and drv.kind == "angle":
-            i = mech.info.coordinate(CoordKind.THETA, drv.body)
-            q[i] = mech.driver_motion(t)[0]
+        for body, motion in mech.driver_motions(t).items():  # the angles of ALL angle drivers
+            q[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
         q = mech.assemble(t, q, part)
         ratio, row = checks.singular_ratio(mech, t, q, part)
         if ratio < POLICY.singular_ratio:
@@ -420,19 +419,29 @@ class EquilibriumTrack:
         return y[:n].copy(), np.zeros(n), np.zeros(n), y[n:].copy()
 
 
+def _rate_key(scene: Scene, drv: Driver | None) -> str:
+    """The scene key of the turning angle driver's rate (simulation.t_end without one)."""
+    if drv is None:
+        return "simulation.t_end"
+    return "driver.rate" if len(scene.drivers) == 1 else f"drivers[{scene.drivers.index(drv)}].rate"
+
+
 def cycle_times(mech: Mechanism, cycles: float | None = None, output_step: float | None = None) -> np.ndarray:
     """Input positions: one crank turn (``cycles`` turns) at the scene's output step; a scene
     without a turning angle driver uses its [simulation] times."""
     sim = mech.scene.simulation
     h = sim.output_step if output_step is None else output_step
-    drv = mech.scene.driver
-    if drv is not None and drv.kind == "angle" and drv.rate != 0:
+    # the first angle driver turning at a constant rate (as simulation.cycles)
+    drv = mech.scene.turning_driver
+    if drv is not None:
         t_end = (1.0 if cycles is None else cycles) * 2 * math.pi / abs(drv.rate)
     else:
         t_end = sim.t_end if cycles is None else cycles * 2 * math.pi
     rows = t_end / h + 1
     if not math.isfinite(rows) or over_limit("rows", rows):
-        file, key = ("command line", "--cycles") if cycles is not None else (mech.scene.path, "driver.rate")
+        file, key = (
+            ("command line", "--cycles") if cycles is not None else (mech.scene.path, _rate_key(mech.scene, drv))
+        )
         raise SceneError(
             file,
             key,

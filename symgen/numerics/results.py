@@ -214,7 +214,8 @@ def build_sidecar(
             name: {"treatment": t.treatment, "reason": t.reason} for name, t in axial_treatments(scene).items()
         },
         "modes": {name: md.to_json() for name, md in info.modes.items()},
-        "driver": driver_record(scene.driver),
+        "driver": driver_record(scene.drivers[0]) if len(scene.drivers) == 1 else None,
+        "drivers": [driver_record(d) for d in scene.drivers],
         "model_key": info.key,
         "coordinates": list(info.coordinate_names),
         "partition": None
@@ -375,10 +376,10 @@ def write_run(
     plot = None
     plot_path = files.plot_path(complete)
     if plot_path is not None and not isinstance(failure, Interrupted):  # stopping fast beats a plot
-        drv = scene.driver
-        steady = drv is not None and drv.kind == "angle" and drv.rate and drv.law is None and drv.ramp is None
+        # the turns of the first angle driver turning at a constant rate (as simulation.cycles);
         # a law or a ramp: plotted against tau
-        turn = 2 * math.pi / abs(drv.rate) if drv is not None and steady else None
+        drv = next((d for d in scene.angle_drivers if d.law is None and d.rate), None)
+        turn = 2 * math.pi / abs(drv.rate) if drv is not None and drv.ramp is None else None
         what = "quasi-static response, " if solver == "quasi-static" else ""
         plot = OutputsPlot(
             plot_path,

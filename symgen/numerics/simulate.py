@@ -191,8 +191,8 @@ class DaeRunner:
 
     def max_steps(self, h: float) -> int:
         """The watchdog's IDAS step budget of one output step h (``MAX_STEPS_PER_DEGREE``)."""
-        drv = self.mech.scene.driver
-        rate = abs(drv.rate) if drv is not None and drv.kind == "angle" and drv.rate else 1.0
+        rates = [abs(d.rate) for d in self.mech.scene.angle_drivers if d.rate]
+        rate = max(rates) if rates else 1.0  # the fastest angle driver
         degree = math.pi / 180 / rate
         return int(MAX_STEPS_PER_DEGREE * max(1.0, h / degree))
 

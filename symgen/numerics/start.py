@@ -56,12 +56,8 @@ def _find_branch(
     that assembles to a regular position: (that guess, its assembly). The branches found are
     told on stderr, with the initial.guess that selects each; none found: ``failure``, which
     names the real cause (the mechanism cannot be assembled), with the hint of a guess."""
-    drv = mech.scene.driver
-    free = [
-        i
-        for i, c in enumerate(mech.coords)
-        if c.kind is CoordKind.THETA and not (drv is not None and drv.body == c.body)
-    ]
+    driven = {d.body for d in mech.scene.drivers}
+    free = [i for i, c in enumerate(mech.coords) if c.kind is CoordKind.THETA and c.body not in driven]
     rng = np.random.default_rng(BRANCH_SEED)
     found: list[tuple[np.ndarray, tuple[Partition, np.ndarray, Partition]]] = []
     for _ in range(BRANCH_TRIES):
@@ -234,7 +230,7 @@ def quasi_static(
 def quasi_static_start(
     mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray, part: Partition
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Initial deformation = quasi-static state; under an angle driver the deformation
+    """Initial deformation = quasi-static state; under angle drivers the deformation
     rates are the quasi-static ones too (central difference), so the start rings little.
     An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
     an equilibrium the bar leaves at the first disturbance."""
@@ -255,16 +251,15 @@ def quasi_static_start(
             "lower the load or stiffen the bar; or start undeformed (remove initial.deformation "
             '= "quasi-static") to follow the bar into its buckled state',
         )
-    drv = mech.scene.driver
-    if drv is None or drv.kind != "angle" or not any(mech.driver_motion(t0)[1:]):
-        return qs, vs  # a driver at rest (constant angle): the quasi-static rates are zero
+    if not any(any(m[1:]) for m in mech.driver_motions(t0).values()):
+        return qs, vs  # angle drivers at rest (constant angles), or none: the quasi-static rates are zero
     E = static_system(mech, part).E
     h = mech.driver_step(t0)
     ends = []
     for dt in (-h, h):
         qq = qs.copy()
-        i = mech.info.coordinate(CoordKind.THETA, drv.body)
-        qq[i] = mech.driver_motion(t0 + dt)[0]
+        for body, motion in mech.driver_motions(t0 + dt).items():
+            qq[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
         qq = mech.assemble(t0 + dt, qq, part)
         vv = mech.velocities(t0 + dt, qq, vs, part)
         ends.append(quasi_static(mech, t0 + dt, qq, vv, part)[0])

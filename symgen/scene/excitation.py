@@ -1,4 +1,4 @@
-"""``[driver]``, ``[[loads]]``, ``[effects]`` and ``[initial]``: what moves and loads the bars."""
+"""``[driver]`` / ``[[drivers]]``, ``[[loads]]``, ``[effects]`` and ``[initial]``: what moves and loads the bars."""
 
 from __future__ import annotations
 
@@ -63,41 +63,75 @@ def value_or_expression(
 
 
 # -- driver -------------------------------------------------------------------------------------
-def _check_pinned_to_ground(r: Reader, body: str, joints: tuple[Joint, ...]) -> None:
+def _check_pinned_to_ground(r: Reader, path: str, body: str, joints: tuple[Joint, ...]) -> None:
     """A driver turns its bar about a ground pin."""
     for joint in joints:
         names = {end.body for end in joint.ends}
         if joint.kind == "pin" and names == {GROUND, body}:
             return
     r.fail(
-        "driver.body",
+        join(path, "body"),
         f'bar {body!r} has no pin joint with "ground"; a driver prescribes the '
         "angle of (or applies a moment to) a bar turning about a ground pin",
         "drive a bar that is pinned to ground, e.g. the crank",
     )
 
 
-def read_driver(
+def driver_paths(raw: dict) -> list[str]:
+    """The key path of each driver table of a raw scene: ``driver`` or ``drivers[i]``."""
+    if "drivers" in raw and isinstance(raw["drivers"], list):
+        return [join("drivers", i) for i in range(len(raw["drivers"]))]
+    return ["driver"] if "driver" in raw else []
+
+
+def read_drivers(
     r: Reader, raw: dict, bodies: dict[str, Body], joints: tuple[Joint, ...], scales: Scales
-) -> Driver | None:
-    """The optional ``[driver]``: kinematic (angle) or dynamic (torque) guidance."""
-    if "driver" not in raw:
-        return None
-    table = r.table(raw["driver"], "driver")
-    r.check_keys(table, "driver", DRIVER_KEYS, "[driver]")
-    kind = r.choice(table, "driver", "kind", DRIVER_KINDS)
+) -> tuple[Driver, ...]:
+    """``[driver]`` (one) or ``[[drivers]]`` (several, the same keys each): each drives a distinct
+    bar pinned to ground."""
+    if "driver" in raw and "drivers" in raw:
+        r.fail(
+            "drivers",
+            "give either [driver] or [[drivers]], not both",
+            "move the [driver] table into the [[drivers]] array (one [[drivers]] table per driver)",
+        )
+    if "driver" in raw:
+        return (read_driver(r, raw["driver"], "driver", bodies, joints, scales),)
+    tables = r.table_array(raw.get("drivers", []), "drivers")
+    out: list[Driver] = []
+    for i, table in enumerate(tables):
+        path = join("drivers", i)
+        d = read_driver(r, table, path, bodies, joints, scales)
+        for k, prev in enumerate(out):
+            if prev.body == d.body:
+                r.fail(
+                    join(path, "body"),
+                    f"bar {d.body!r} is already driven by drivers[{k}]; a bar takes one driver",
+                    "drive each bar once: remove one of the two, or drive another bar pinned to ground",
+                )
+        out.append(d)
+    return tuple(out)
+
+
+def read_driver(
+    r: Reader, value: object, path: str, bodies: dict[str, Body], joints: tuple[Joint, ...], scales: Scales
+) -> Driver:
+    """One driver table at ``path``: kinematic (angle) or dynamic (torque) guidance."""
+    table = r.table(value, path)
+    r.check_keys(table, path, DRIVER_KEYS, "[driver]" if path == "driver" else "a [[drivers]] table")
+    kind = r.choice(table, path, "kind", DRIVER_KINDS)
     body = bar_name(
         r,
-        r.require(table, "driver", "body", "name the driven bar"),
-        "driver.body",
+        r.require(table, path, "body", "name the driven bar"),
+        join(path, "body"),
         bodies,
         "the driver acts on a bar pinned to ground, not on ground itself",
     )
-    _check_pinned_to_ground(r, body, joints)
+    _check_pinned_to_ground(r, path, body, joints)
     rotor = scales.rotary_inertia(
         r.number(
             table,
-            "driver",
+            path,
             "rotor_inertia",
             0.0,
             ge=0.0,
@@ -108,23 +142,23 @@ def read_driver(
     if kind == "angle":
         if "value" in table:
             r.fail(
-                "driver.value",
+                join(path, "value"),
                 "an angle driver has no value (torque)",
                 'remove it, or use kind = "torque" to apply a moment',
             )
-        initial = r.number(table, "driver", "initial", 0.0)
+        initial = r.number(table, path, "initial", 0.0)
         if "law" in table:
-            return Driver("angle", body, initial, 0.0, law=_law(r, table), rotor_inertia=rotor)
+            return Driver("angle", body, initial, 0.0, law=_law(r, table, path), rotor_inertia=rotor)
         rate = r.number(
             table,
-            "driver",
+            path,
             "rate",
             hint="the angular rate d theta/d tau, or rad/s in SI; "
             'or give law = "<expression of tau>" for a prescribed angle',
         )
         ramp = r.number(
             table,
-            "driver",
+            path,
             "ramp",
             None,
             gt=0.0,
@@ -135,58 +169,64 @@ def read_driver(
     for key in ("law", "ramp"):
         if key in table:
             r.fail(
-                f"driver.{key}",
+                join(path, key),
                 f"a torque driver has no {key} (it prescribes a moment, not the angle)",
                 'remove it, or use kind = "angle" to prescribe the angle',
             )
-    torque = value_or_expression(r, table, "driver", "value", REQUIRED, scales.si, "torque")
-    initial = r.number(table, "driver", "initial", None)
-    rate = r.number(table, "driver", "rate", 0.0)
+    torque = value_or_expression(r, table, path, "value", REQUIRED, scales.si, "torque")
+    initial = r.number(table, path, "initial", None)
+    rate = r.number(table, path, "rate", 0.0)
     if isinstance(torque, float):
         torque = scales.torque(torque)
     return Driver("torque", body, initial, scales.rate(rate), torque, rotor_inertia=rotor)
 
 
-def _law(r: Reader, table: dict) -> str:
-    """``driver.law``: theta - initial as an expression of tau (exclusive with rate and ramp)."""
+def _law(r: Reader, table: dict, path: str) -> str:
+    """``law``: theta - initial as an expression of tau (exclusive with rate and ramp)."""
     for key in ("rate", "ramp"):
         if key in table:
             r.fail(
-                f"driver.{key}",
+                join(path, key),
                 f"an angle driver with a law has no {key} (the law gives the whole motion)",
                 f"remove {key}, or remove law for the constant-speed drive"
                 + (" with its spin-up ramp" if key == "ramp" else ""),
             )
     value = table["law"]
+    key = join(path, "law")
     if not isinstance(value, str):
-        r.fail("driver.law", f"must be a string expression of tau, got {describe(value)}", LAW_HINT + EXPRESSION_HINT)
+        r.fail(key, f"must be a string expression of tau, got {describe(value)}", LAW_HINT + EXPRESSION_HINT)
     error = expression_error(value)
     if error is not None:
-        r.fail("driver.law", f"invalid expression {value!r}: {error}", LAW_HINT + EXPRESSION_HINT)
+        r.fail(key, f"invalid expression {value!r}: {error}", LAW_HINT + EXPRESSION_HINT)
     return value
 
 
-def check_driver_motion(r: Reader, driver: Driver | None, t_end: float) -> None:
-    """The prescribed angle and its two derivatives are finite over [0, t_end]."""
-    if driver is None or driver.kind != "angle" or driver.law is None:
-        return  # the constant-speed drive and its ramp (T > 0) are finite by construction
-    bad = law_not_finite(driver, t_end)
-    if bad is not None:
-        r.fail(
-            "driver.law",
-            f"the prescribed angle's {bad[1]} is not a finite real number at tau = {bad[0]:.6g} "
-            f"(the run goes from 0 to {t_end:.6g})",
-            "give a law that is smooth (twice differentiable) and finite on the whole run",
-        )
+def check_driver_motion(r: Reader, drivers: tuple[Driver, ...], paths: list[str], t_end: float) -> None:
+    """Each prescribed angle and its two derivatives are finite over [0, t_end]."""
+    for driver, path in zip(drivers, paths):
+        if driver.kind != "angle" or driver.law is None:
+            continue  # the constant-speed drive and its ramp (T > 0) are finite by construction
+        bad = law_not_finite(driver, t_end)
+        if bad is not None:
+            r.fail(
+                join(path, "law"),
+                f"the prescribed angle's {bad[1]} is not a finite real number at tau = {bad[0]:.6g} "
+                f"(the run goes from 0 to {t_end:.6g})",
+                "give a law that is smooth (twice differentiable) and finite on the whole run",
+            )
 
 
-def check_expressions(r: Reader, driver: Driver | None, loads: tuple[Load, ...], t_end: float) -> None:
+def check_expressions(
+    r: Reader, drivers: tuple[Driver, ...], paths: list[str], loads: tuple[Load, ...], t_end: float
+) -> None:
     """Every load and torque given as an expression of tau is a finite real number over the
     run [0, t_end]: a pole or a value outside its domain is named here, with its tau, instead
     of failing later inside the integrator with a message about its tolerances."""
-    found = []
-    if driver is not None and driver.kind == "torque" and isinstance(driver.torque, str):
-        found.append(("driver.value", driver.torque))
+    found = [
+        (join(path, "value"), driver.torque)
+        for driver, path in zip(drivers, paths)
+        if driver.kind == "torque" and isinstance(driver.torque, str)
+    ]
     for i, load in enumerate(loads):
         found += [
             (f"loads[{i}].{key}", text)

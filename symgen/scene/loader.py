@@ -26,7 +26,8 @@ from symgen.errors import SceneError
 from symgen.scene.excitation import (
     check_driver_motion,
     check_expressions,
-    read_driver,
+    driver_paths,
+    read_drivers,
     read_effects,
     read_initial,
     read_loads,
@@ -57,7 +58,19 @@ from symgen.scene.units import Scales
 
 __all__ = ["load_scene", "apply_overrides", "parse_scene", "scene_hash"]
 
-TOP_KEYS = ("scene", "bodies", "joints", "driver", "initial", "effects", "loads", "masses", "outputs", "simulation")
+TOP_KEYS = (
+    "scene",
+    "bodies",
+    "joints",
+    "driver",
+    "drivers",
+    "initial",
+    "effects",
+    "loads",
+    "masses",
+    "outputs",
+    "simulation",
+)
 SCENE_KEYS = ("name", "reference_length", "omega", "units")
 UNITS = ("dimensionless", "SI")
 SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol")
@@ -190,7 +203,7 @@ def read_header(r: Reader, raw: dict) -> Header:
     return Header(name, units, omega, reference)
 
 
-def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales) -> Simulation:
+def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: list[str], scales: Scales) -> Simulation:
     """``[simulation]``: t_end or cycles (exactly one), output_step, rtol, atol."""
     if "simulation" not in raw:
         r.fail("simulation", "missing required table [simulation]", "add [simulation] with t_end = ... or cycles = ...")
@@ -208,19 +221,22 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
         check_t_end(r, t_end, "simulation.t_end", "")
     else:
         cycles = r.number(table, "simulation", "cycles", gt=0.0)
-        if driver is not None and driver.law is not None:
+        # the turns of the first turning angle driver (constant rate, no law)
+        angle = [(d, p) for d, p in zip(drivers, paths) if d.kind == "angle"]
+        turning = [(d, p) for d, p in angle if d.law is None and d.rate != 0.0]
+        if not turning and any(d.law is not None for d, _ in angle):
             r.fail(
                 "simulation.cycles",
                 "an angle driver with a law has no constant rate to count turns by",
                 "give t_end (in tau) instead of cycles",
             )
-        rate = abs(driver.rate) if driver is not None and driver.kind == "angle" else 0.0
+        rate = abs(turning[0][0].rate) if turning else 0.0
         t_end = cycles * 2.0 * math.pi / (rate if rate != 0.0 else 1.0)
         check_t_end(
             r,
             t_end,
             "simulation.cycles",
-            f" ({cycles:g} turns at driver.rate {rate:g})" if rate else f" ({cycles:g} x 2 pi)",
+            f" ({cycles:g} turns at {turning[0][1]}.rate {rate:g})" if turning else f" ({cycles:g} x 2 pi)",
         )
     if "output_step" in table:
         step = scales.time(r.number(table, "simulation", "output_step", gt=0.0))
@@ -338,16 +354,17 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     by_name = {b.name: b for b in bodies}
     joints = read_joints(r, raw, by_name, scales)
     check_connected(r, bodies, joints)
-    driver = read_driver(r, raw, by_name, joints, scales)
+    drivers = read_drivers(r, raw, by_name, joints, scales)
+    paths = driver_paths(raw)
     initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
     effects = read_effects(r, raw, scales)
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
     masses = read_masses(r, raw, by_name, joints, scales)
-    outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, driver)
-    check_scaled_values(r, merge_inputs(*reference_inputs(raw, si, ref.name)), joints, effects, loads, driver)
-    simulation = read_simulation(r, raw, driver, scales)
-    check_driver_motion(r, driver, simulation.t_end)
-    check_expressions(r, driver, loads, simulation.t_end)
+    outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, drivers)
+    check_scaled_values(r, merge_inputs(*reference_inputs(raw, si, ref.name)), joints, effects, loads, drivers, paths)
+    simulation = read_simulation(r, raw, drivers, paths, scales)
+    check_driver_motion(r, drivers, paths, simulation.t_end)
+    check_expressions(r, drivers, paths, loads, simulation.t_end)
     return Scene(
         name=header.name,
         path=file,
@@ -358,7 +375,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         m_ref=scales.m_ref,
         bodies=bodies,
         joints=joints,
-        driver=driver,
+        drivers=drivers,
         initial=initial,
         effects=effects,
         loads=loads,

@@ -173,7 +173,7 @@ class Scene:
     m_ref: float  # kg/m (SI) or 1.0
     bodies: tuple[Body, ...]
     joints: tuple[Joint, ...]
-    driver: Driver | None
+    drivers: tuple[Driver, ...]  # [driver] (one) or [[drivers]], in the file's order
     initial: Initial
     effects: Effects
     loads: tuple[Load, ...]
@@ -182,6 +182,26 @@ class Scene:
     groups: dict = field(default_factory=dict, compare=False, hash=False)
     masses: tuple[PointMass, ...] = ()  # [[masses]]: point masses and rigid attachments on bars
     # groups: {body: {"alpha":..,"nu":..,"lambda":..,"mu":..,"rho":..}, "_scene": {"gravity": [..], ...}}
+
+    @property
+    def driver(self) -> Driver | None:
+        """The scene's only driver (None without one). A scene with several drivers has no
+        single one: code that reads this must handle ``drivers``, so it is refused here instead
+        of silently dropping drivers 2..n."""
+        if len(self.drivers) > 1:
+            raise ValueError(f"scene {self.name!r} has {len(self.drivers)} drivers; read Scene.drivers")
+        return self.drivers[0] if self.drivers else None
+
+    @property
+    def angle_drivers(self) -> tuple[Driver, ...]:
+        """The angle drivers, in the file's order."""
+        return tuple(d for d in self.drivers if d.kind == "angle")
+
+    @property
+    def turning_driver(self) -> Driver | None:
+        """The first angle driver that turns at a constant rate (no law, rate != 0): its turns
+        are the scene's crank turns (simulation.cycles, plots, windows); None without one."""
+        return next((d for d in self.angle_drivers if d.law is None and d.rate != 0.0), None)
 
     def body(self, name: str) -> Body:
         for b in self.bodies:

@@ -22,6 +22,9 @@ KIND_KEYS: dict[str, tuple[str, ...]] = {
     "energy": (),
     "closure_residual": (),
 }
+#: Keys that a kind accepts but does not require: driver_torque's driven bar (required when the
+#: scene has several angle drivers).
+OPTIONAL_KEYS: dict[str, tuple[str, ...]] = {"driver_torque": ("body",)}
 #: Kinds that measure deformation: their bar must be elastic.
 ELASTIC_KINDS = ("chord_deflection", "chord_elongation", "deflection", "axial", "slope", "elastic_displacement")
 COMPONENTS = ("x", "y")
@@ -31,8 +34,11 @@ RESERVED_OUTPUT_NAMES = {"tau": "it is the time column of the results", "ground"
 def _output_keys(r: Reader, table: dict, path: str, kind: str) -> None:
     """Exactly the keys the kind needs: none missing, none extra."""
     needed = KIND_KEYS[kind]
-    allowed = ("kind",) + needed
+    optional = OPTIONAL_KEYS.get(kind, ())
+    allowed = ("kind",) + needed + optional
     needs = ", ".join(needed) if needed else "nothing else"
+    if optional:
+        needs += f" (optional: {', '.join(optional)})"
     for key in table:
         if key not in allowed:
             r.fail(
@@ -60,7 +66,7 @@ def _output_body(r: Reader, table: dict, path: str, kind: str, bodies: dict[str,
 
 
 def read_output(
-    r: Reader, name: str, value: object, bodies: dict[str, Body], joints: dict[str, Joint], driver: Driver | None
+    r: Reader, name: str, value: object, bodies: dict[str, Body], joints: dict[str, Joint], drivers: tuple[Driver, ...]
 ) -> Output:
     """One named output."""
     path = join("outputs", name)
@@ -82,21 +88,43 @@ def read_output(
             )
     xi = r.number(table, path, "at", None, ge=0.0, le=1.0, hint="at is a position along the bar in [0, 1]")
     component = r.choice(table, path, "component", COMPONENTS, None)
-    if kind == "driver_torque" and (driver is None or driver.kind != "angle"):
-        why = "the scene has no driver" if driver is None else "the driver is a torque driver"
+    if kind == "driver_torque":
+        _driver_torque_body(r, path, body, drivers)
+    return Output(name=name, kind=kind, body=body, joint=joint, xi=xi, component=component)
+
+
+def _driver_torque_body(r: Reader, path: str, body: str | None, drivers: tuple[Driver, ...]) -> None:
+    """driver_torque is the moment of an angle driver: the only one, or the one on ``body``."""
+    angle = [d.body for d in drivers if d.kind == "angle"]
+    if not angle:
+        if not drivers:
+            why = "the scene has no driver"
+        else:
+            why = "the driver is a torque driver" if len(drivers) == 1 else "every driver is a torque driver"
         r.fail(
             join(path, "kind"),
             f"driver_torque is the moment needed by an angle driver, but {why}",
             "use it with [driver] kind = \"angle\"; a torque driver's moment is its 'value'",
         )
-    return Output(name=name, kind=kind, body=body, joint=joint, xi=xi, component=component)
+    if body is None and len(angle) > 1:
+        r.fail(
+            join(path, "body"),
+            f"the scene has {len(angle)} angle drivers ({', '.join(angle)}); driver_torque must say which",
+            f'add body = "<driven bar>", one of: {", ".join(angle)}',
+        )
+    if body is not None and body not in angle:
+        r.fail(
+            join(path, "body"),
+            f"bar {body!r} has no angle driver",
+            f"name a bar driven by an angle driver: {', '.join(angle)}",
+        )
 
 
 def read_outputs(
-    r: Reader, raw: dict, bodies: dict[str, Body], joints: dict[str, Joint], driver: Driver | None
+    r: Reader, raw: dict, bodies: dict[str, Body], joints: dict[str, Joint], drivers: tuple[Driver, ...]
 ) -> tuple[Output, ...]:
     """Every output, in the file's order (at least one)."""
     table = r.table(raw.get("outputs", {}), "outputs")
     if not table:
         r.fail("outputs", "the scene has no outputs", 'add at least one, e.g. [outputs] eps = { kind = "energy" }')
-    return tuple(read_output(r, name, value, bodies, joints, driver) for name, value in table.items())
+    return tuple(read_output(r, name, value, bodies, joints, drivers) for name, value in table.items())

@@ -129,7 +129,8 @@ def check_scaled_values(
     joints: Sequence[Joint],
     effects: Effects,
     loads: Sequence[Load],
-    driver: Driver | None,
+    drivers: Sequence[Driver],
+    driver_paths: Sequence[str],
 ) -> None:
     """Ground points, joint masses, gravity, numeric loads and torque: finite after scaling."""
     for joint in joints:
@@ -148,7 +149,7 @@ def check_scaled_values(
             value = getattr(load, key)
             if isinstance(value, float):
                 check_scaled(r, join(join("loads", i), key), f"the {key} load on {load.body!r}", value, scales_inputs)
-    if driver is not None:
-        check_scaled(r, "driver.rotor_inertia", "the driver's rotor inertia", driver.rotor_inertia, scales_inputs)
-    if driver is not None and isinstance(driver.torque, float):
-        check_scaled(r, "driver.value", "the driver torque", driver.torque, scales_inputs)
+    for driver, path in zip(drivers, driver_paths):
+        check_scaled(r, join(path, "rotor_inertia"), "the driver's rotor inertia", driver.rotor_inertia, scales_inputs)
+        if isinstance(driver.torque, float):
+            check_scaled(r, join(path, "value"), "the driver torque", driver.torque, scales_inputs)

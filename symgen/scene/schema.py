@@ -461,6 +461,20 @@ DRIVER = Table(
     example='[driver]\nkind = "angle"\nbody = "crank"\ninitial = 0.0\nrate = 1.0',
 )
 
+DRIVERS = Table(
+    "drivers",
+    "array",
+    "Optional: several drivers (a five-bar's two cranks, a two-arm robot); each [[drivers]] table takes "
+    "exactly the keys of [driver] and drives a distinct bar pinned to ground. Angle and torque drivers "
+    "mix; degrees of freedom left undriven move freely. Give either [driver] or [[drivers]], not both. "
+    "With several angle drivers, a driver_torque output names its driven bar (body), and "
+    "simulation.cycles counts the turns of the first angle driver that turns at a constant rate "
+    "(no law, rate != 0). Each torque driver whose value is a number is a real input of the FMU.",
+    keys=DRIVER.keys,
+    example='[[drivers]]\nkind = "angle"\nbody = "crank_a"\nrate = 1.0\n\n'
+    '[[drivers]]\nkind = "angle"\nbody = "crank_b"\ninitial = 1.5707963267948966\nrate = -1.0',
+)
+
 INITIAL = Table(
     "initial",
     "table",
@@ -682,10 +696,18 @@ OUTPUT_KIND_TEXT = {
     "position": "absolute x or y of a bar point / l0",
     "angle": "theta of a bar",
     "reaction": "force of the joint's first body on the second, ground axes",
-    "driver_torque": "the moment the angle driver applies",
+    "driver_torque": "the moment the angle driver applies (body: the driven bar, required with several angle drivers)",
     "energy": "kinetic (rotary inertias included) + elastic + potential energy",
     "closure_residual": "max |position closure| (a solver check)",
 }
+
+
+def _kind_keys_text(kind: str) -> str:
+    """The keys an output kind takes, its optional ones marked."""
+    keys = [*_ou.KIND_KEYS[kind], *(f"optional {k}" for k in _ou.OPTIONAL_KEYS.get(kind, ()))]
+    return ", ".join(keys) or "no other keys"
+
+
 OUTPUTS = Table(
     "outputs",
     "map",
@@ -704,7 +726,7 @@ OUTPUTS = Table(
         Key(
             "body",
             "string",
-            "The measured bar (elastic for deformation kinds).",
+            "The measured bar (elastic for deformation kinds; for driver_torque the driven bar).",
             NAME_JSON,
             required="by the kind",
             example='"rod"',
@@ -730,9 +752,7 @@ OUTPUTS = Table(
     ),
     example='[outputs]\neta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
     'eps_ax = { kind = "chord_elongation", body = "rod" }',
-    notes=tuple(
-        f"`{k}` ({', '.join(_ou.KIND_KEYS[k]) or 'no other keys'}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS
-    ),
+    notes=tuple(f"`{k}` ({_kind_keys_text(k)}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS),
 )
 
 SIMULATION = Table(
@@ -753,7 +773,8 @@ SIMULATION = Table(
         Key(
             "cycles",
             "number > 0",
-            "Crank turns to run (angle drivers; else 2 pi per cycle).",
+            "Crank turns to run (angle drivers; with several, the turns of the first angle driver "
+            "turning at a constant rate; else 2 pi per cycle).",
             _num(exclusiveMinimum=0),
             required="t_end or cycles",
             example="2",
@@ -787,7 +808,7 @@ SIMULATION = Table(
     example="[simulation]\ncycles = 2\noutput_step = 0.017453292519943295\nrtol = 1e-8",
 )
 
-TABLES = (SCENE, BODIES, JOINTS, DRIVER, INITIAL, EFFECTS, LOADS, MASSES, OUTPUTS, SIMULATION)
+TABLES = (SCENE, BODIES, JOINTS, DRIVER, DRIVERS, INITIAL, EFFECTS, LOADS, MASSES, OUTPUTS, SIMULATION)
 
 #: The loader's accepted keys per table (its own constants): the schema must describe exactly these.
 LOADER_KEYS = {
@@ -796,6 +817,7 @@ LOADER_KEYS = {
     "bodies": tuple(dict.fromkeys(_me.BODY_KEYS_DIMLESS + _me.BODY_KEYS_SI)),
     "joints": tuple(_me.JOINT_KEYS),
     "driver": tuple(_ex.DRIVER_KEYS),
+    "drivers": tuple(_ex.DRIVER_KEYS),
     "initial": tuple(_ex.INITIAL_KEYS),
     "effects": tuple(_ex.EFFECT_KEYS),
     "loads": tuple(_ex.LOAD_KEYS),

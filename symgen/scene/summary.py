@@ -58,15 +58,16 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     modes = sum(b.axial_modes + b.transverse_modes for b in scene.bodies)
     elastic = sum(not b.rigid for b in scene.bodies)
     lines.append(f"  {'modes':8} {modes} shape functions on {elastic} elastic bar(s)")
-    drv = scene.driver
-    if drv is None:
+    if not scene.drivers:
         lines.append(f"  {'driver':8} none")
-    elif drv.kind == "angle":
-        lines.append(f"  {'driver':8} angle of {drv.body}: {drv.initial:.6g} + {drv.rate:.6g} tau")
-    else:
-        lines.append(f"  {'driver':8} torque on {drv.body}: {drv.torque}")
-    if drv is not None and drv.rotor_inertia:
-        lines.append(f"  {'':8} rotor inertia {drv.rotor_inertia:.6g} (/ m_ref l0^3)")
+    for i, drv in enumerate(scene.drivers):
+        head = ("driver" if len(scene.drivers) == 1 else "drivers") if i == 0 else ""
+        if drv.kind == "angle":
+            lines.append(f"  {head:8} angle of {drv.body}: {drv.initial:.6g} + {drv.rate:.6g} tau")
+        else:
+            lines.append(f"  {head:8} torque on {drv.body}: {drv.torque}")
+        if drv.rotor_inertia:
+            lines.append(f"  {'':8} rotor inertia {drv.rotor_inertia:.6g} (/ m_ref l0^3)")
     for i, pm in enumerate(scene.masses):
         mass = f"{'masses' if i == 0 else '':8} masses[{i}]: {pm.mass:.6g} on {pm.body} at xi = {pm.xi:.6g}"
         if pm.inertia:

@@ -132,7 +132,7 @@ static const symgen_amplitude_check no_checks[1] = { { 0, 0, 0.0, "" } };
 static symgen_model model = {
     2, 1, 1, 1,  1, 1, 0, 2, 1,
     independent, dependent, dependent, ypos_q, ypos_v, ycol, unused, accel, sing_rows, sing_cols,
-    q_guess, v_guess, -1, -1, 0, 0,
+    q_guess, v_guess, 0, unused, unused, 0,   /* no angle driver (n_angle, angle_coords, angle_rows), quasi_static */
     1e-6, 1e-8, 1.0, "in (0, 1), or <= 0 for the model's",
     coordinate_names, parameter_names, parameter_range, parameter_defaults, m_valid,
     0, no_checks, unused,

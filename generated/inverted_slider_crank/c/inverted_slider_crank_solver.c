@@ -51,6 +51,8 @@ const double inverted_slider_crank_q_guess[11] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 const double inverted_slider_crank_v_guess[11] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
+static const int inverted_slider_crank_x_angle_coords[1] = { 0 };
+static const int inverted_slider_crank_x_angle_rows[1] = { 2 };
 static const int inverted_slider_crank_x_assembly_dep[3] = { 0, 10, 7 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
 static const int inverted_slider_crank_x_ypos_q[11] = { 16, 0, 1, 2, 3, 4, 5, 18, 6, 7, 17 };
@@ -82,8 +84,8 @@ const symgen_model inverted_slider_crank_model = {
     inverted_slider_crank_x_ypos_q, inverted_slider_crank_x_ypos_v, inverted_slider_crank_x_ycol,
     inverted_slider_crank_x_elastic, inverted_slider_crank_x_accel, inverted_slider_crank_x_sing_rows, inverted_slider_crank_x_sing_cols,
     inverted_slider_crank_q_guess, inverted_slider_crank_v_guess,
-    0, 2,      /* driver, driver_row */
-    1, 1,      /* angle_driver, quasi_static */
+    1, inverted_slider_crank_x_angle_coords, inverted_slider_crank_x_angle_rows,      /* n_angle, angle_coords, angle_rows */
+    1,      /* quasi_static */
     inverted_slider_crank_RTOL, inverted_slider_crank_ATOL, inverted_slider_crank_RTOL_MAX,
     "in (0, 1.0), or <= 0 for the scene's",
     inverted_slider_crank_coordinate_names, inverted_slider_crank_parameter_names, inverted_slider_crank_parameter_range, inverted_slider_crank_parameter_defaults,

@@ -51,6 +51,8 @@ const double motor_arm_q_guess[6] = { -1.5707963267948966, 0.0, 0.0, 0.0, 0.0, -
 const double motor_arm_v_guess[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
+static const int motor_arm_x_angle_coords[1] = { -1 };
+static const int motor_arm_x_angle_rows[1] = { -1 };
 static const int motor_arm_x_assembly_dep[1] = { -1 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
 static const int motor_arm_x_ypos_q[6] = { 0, 1, 2, 3, 4, 5 };
@@ -80,8 +82,8 @@ const symgen_model motor_arm_model = {
     motor_arm_x_ypos_q, motor_arm_x_ypos_v, motor_arm_x_ycol,
     motor_arm_x_elastic, motor_arm_x_accel, motor_arm_x_sing_rows, motor_arm_x_sing_cols,
     motor_arm_q_guess, motor_arm_v_guess,
-    0, -1,      /* driver, driver_row */
-    0, 0,      /* angle_driver, quasi_static */
+    0, motor_arm_x_angle_coords, motor_arm_x_angle_rows,      /* n_angle, angle_coords, angle_rows */
+    0,      /* quasi_static */
     motor_arm_RTOL, motor_arm_ATOL, motor_arm_RTOL_MAX,
     "in (0, 1.0), or <= 0 for the scene's",
     motor_arm_coordinate_names, motor_arm_parameter_names, motor_arm_parameter_range, motor_arm_parameter_defaults,

@@ -51,6 +51,8 @@ const double six_bar_q_guess[14] = { -0.0, 1.7, 0.12, 0.97, 0.0, 0.0, 0.0, 0.0, 
 const double six_bar_v_guess[14] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
+static const int six_bar_x_angle_coords[1] = { 0 };
+static const int six_bar_x_angle_rows[1] = { 4 };
 static const int six_bar_x_assembly_dep[5] = { 0, 13, 3, 2, 1 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
 static const int six_bar_x_ypos_q[14] = { 18, 22, 21, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 19 };
@@ -80,8 +82,8 @@ const symgen_model six_bar_model = {
     six_bar_x_ypos_q, six_bar_x_ypos_v, six_bar_x_ycol,
     six_bar_x_elastic, six_bar_x_accel, six_bar_x_sing_rows, six_bar_x_sing_cols,
     six_bar_q_guess, six_bar_v_guess,
-    0, 4,      /* driver, driver_row */
-    1, 1,      /* angle_driver, quasi_static */
+    1, six_bar_x_angle_coords, six_bar_x_angle_rows,      /* n_angle, angle_coords, angle_rows */
+    1,      /* quasi_static */
     six_bar_RTOL, six_bar_ATOL, six_bar_RTOL_MAX,
     "in (0, 1.0), or <= 0 for the scene's",
     six_bar_coordinate_names, six_bar_parameter_names, six_bar_parameter_range, six_bar_parameter_defaults,

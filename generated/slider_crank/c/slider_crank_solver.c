@@ -51,6 +51,8 @@ const double slider_crank_q_guess[4] = { -0.0, 0.0, 0.0, 0.0 };
 const double slider_crank_v_guess[4] = { 1.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
+static const int slider_crank_x_angle_coords[1] = { 0 };
+static const int slider_crank_x_angle_rows[1] = { 1 };
 static const int slider_crank_x_assembly_dep[2] = { 0, 1 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
 static const int slider_crank_x_ypos_q[4] = { 4, 5, 0, 1 };
@@ -80,8 +82,8 @@ const symgen_model slider_crank_model = {
     slider_crank_x_ypos_q, slider_crank_x_ypos_v, slider_crank_x_ycol,
     slider_crank_x_elastic, slider_crank_x_accel, slider_crank_x_sing_rows, slider_crank_x_sing_cols,
     slider_crank_q_guess, slider_crank_v_guess,
-    0, 1,      /* driver, driver_row */
-    1, 0,      /* angle_driver, quasi_static */
+    1, slider_crank_x_angle_coords, slider_crank_x_angle_rows,      /* n_angle, angle_coords, angle_rows */
+    0,      /* quasi_static */
     slider_crank_RTOL, slider_crank_ATOL, slider_crank_RTOL_MAX,
     "in (0, 1.0), or <= 0 for the scene's",
     slider_crank_coordinate_names, slider_crank_parameter_names, slider_crank_parameter_range, slider_crank_parameter_defaults,

@@ -2,7 +2,7 @@
 symbolic stages and the templates: strings, numbers and lists only).
 
 Its inputs are data: the scene, the derived model (``DerivedModel``: the program lowered to C),
-the model's ``ModelInfo`` (names, sizes, the driver row) and the ``StartPlan`` the numerics
+the model's ``ModelInfo`` (names, sizes, the angle drivers' rows) and the ``StartPlan`` the numerics
 made (``symgen.numerics.start.start_plan``), so that the Python runner and the C solver
 handle the closure the same way: the partition of the coordinates into independent and
 dependent ones (chosen at the start and baked in), the dependent coordinates of the assembly,
@@ -26,7 +26,6 @@ from symgen.backends.c import radau
 from symgen.backends.c.codegen import model_functions
 from symgen.backends.c.names import c_comment, c_prefix, c_string
 from symgen.backends.c.printer import c_double
-from symgen.ir import names
 from symgen.ir.info import ModelInfo
 from symgen.ir.parameters import parameter_values
 from symgen.ir.plan import StartPlan
@@ -107,18 +106,14 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         ypos_q[i], ypos_v[i] = nx + k, nx + nD + k
     a0 = nx + 2 * nD
     ycol = ypos_q + ypos_v + [a0 + i for i in range(n)] + [a0 + n + j for j in range(m)]
-    drv = scene.driver
     params = list(info.params)
     p = parameter_values(scene, params)
-    driver = {"kind": "none", "coord": -1, "theta0": -1, "rate": -1, "row": -1}
-    if drv is not None:
-        driver["kind"] = drv.kind
-        driver["coord"] = info.coordinate(CoordKind.THETA, drv.body)
-        if drv.kind == "angle":
-            theta0, rate = (names.global_parameter(k).text for k in ("theta0", "rate"))
-            driver["theta0"] = params.index(theta0)
-            driver["rate"] = params.index(rate) if rate in params else -1  # a law has no rate
-            driver["row"] = info.driver_row
+    # every angle driver (the scene's order): its angle's coordinate and its row of phi
+    rows = info.driver_rows
+    driver = {
+        "angle_coords": [info.coordinate(CoordKind.THETA, body) for body in rows],
+        "angle_rows": list(rows.values()),
+    }
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}
     amplitude_checks = _amplitude_checks(plan)

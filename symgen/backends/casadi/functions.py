@@ -4,7 +4,7 @@
 Every function has the signature ``F(t, q, v, a, lam, p)`` (unused inputs are ignored):
 
 =========  ================================================================
-``phi``    position closure (11) of every cut joint, then the angle driver
+``phi``    position closure (11) of every cut joint, then the angle drivers
 ``phid``   its first time derivative
 ``phidd``  its second time derivative (linear in a)
 ``res``    generalized-force residual, one row per coordinate (16), (17), rigid-body eqs.

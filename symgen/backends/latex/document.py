@@ -34,6 +34,9 @@ from symgen.backends import templates
 from symgen.backends.latex import quasistatic as latex_quasistatic
 from symgen.backends.latex import slot as latex_slot
 from symgen.backends.latex.printing import (
+    driver_force_tex,
+    torque_tex,
+    driven_text,
     LINE_WIDTH,
     Namer,
     Printer,
@@ -61,25 +64,29 @@ TEMPLATES = templates.folder("latex")  # templates/latex/ (symgen.backends.templ
 __all__ = ["latex_document", "tex_lines", "Namer", "TEMPLATES"]
 
 
-def _driver_angle_tex(drv, pr) -> str:
-    """theta(tau) of an angle driver with its parameters as symbols (the law's numbers as written)."""
+def _driver_angle_tex(drv, pr, i: int = 0) -> str:
+    """theta(tau) of angle driver ``i`` (0-based) with its parameters as symbols (the law's
+    numbers as written)."""
     if drv.law is None and drv.ramp is None:
-        return r"\theta^0_{\mathrm{drv}} + \Omega_{\mathrm{drv}}\tau"
+        if i == 0:
+            return r"\theta^0_{\mathrm{drv}} + \Omega_{\mathrm{drv}}\tau"
+        return rf"\theta^0_{{\mathrm{{drv}},{i + 1}}} + \Omega_{{\mathrm{{drv}},{i + 1}}}\tau"
     from symgen.model.derive import TAU
 
-    sym = {k: pr.namer.symbol(names.global_parameter(k)) for k in ("theta0", "rate", "ramp")}
+    sym = {k: pr.namer.symbol(names.driver_parameter(k, i)) for k in ("theta0", "rate", "ramp")}
     return pr(driver_angle(drv, TAU, sym["theta0"], sym["rate"], sym["ramp"]))
 
 
-def _rotor_note(drv, pr) -> str:
-    """The driver's rotor inertia (empty without one): where it enters the equations."""
+def _rotor_note(drv, pr, i: int = 0) -> str:
+    """Driver ``i``'s rotor inertia (empty without one): where it enters the equations."""
     if not drv.rotor_inertia:
         return ""
     th = names.bar_angle(drv.body).latex
+    J = names.driver_parameter("J_rotor", i).latex
     return (
-        rf"; with the rotor inertia $J_{{\mathrm{{rot}}}} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
-        rf"reflected to the shaft), which adds $J_{{\mathrm{{rot}}}}\,\ddot{{{th}}}$ to the residual of "
-        rf"${th}$ and $\tfrac12 J_{{\mathrm{{rot}}}}\dot{{{th}}}^2$ to the kinetic energy"
+        rf"; with the rotor inertia ${J} = {drv.rotor_inertia:.6g}$ (motor rotor and gears "
+        rf"reflected to the shaft), which adds ${J}\,\ddot{{{th}}}$ to the residual of "
+        rf"${th}$ and $\tfrac12 {J}\dot{{{th}}}^2$ to the kinetic energy"
         + (r" (the reported driver torque is the motor's, rotor included)" if drv.kind == "angle" else "")
     )
 
@@ -135,14 +142,12 @@ def _mass_note(scene, pm, i: int) -> str:
     return text + "; it adds its kinetic and potential energy to the energy."
 
 
-def _driver_law_note(drv) -> str:
+def _driver_law_note(drv, i: int = 0) -> str:
     if drv.law is not None:
         return f" (driver.law = \\texttt{{{tex_escape(drv.law)}}}; its derivatives taken exactly)"
     if drv.ramp is not None:
-        return (
-            " (the smooth spin-up of Kane, Ryan \\& Banerjee 1987 from rest to the rate "
-            "$\\Omega_{\\mathrm{drv}}$ over $T_{\\mathrm{drv}}$)"
-        )
+        rate, ramp = (names.driver_parameter(k, i).latex for k in ("rate", "ramp"))
+        return f" (the smooth spin-up of Kane, Ryan \\& Banerjee 1987 from rest to the rate ${rate}$ over ${ramp}$)"
     return ""
 
 
@@ -241,14 +246,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
-    drv = scene.driver
-    ctx["driven"] = (
-        ""
-        if drv is None or drv.body != name
-        else (
-            r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle" else r"the applied moment $M_0$ (12)"
-        )
-    )
+    ctx["driven"] = driven_text(scene, name)
     fs = ", ".join(pr(x) for x in s.f)
     gs = ", ".join(pr(x) for x in s.g)
     ctx["expansion"] = []
@@ -634,20 +632,20 @@ def latex_document(scene, model) -> str:
                 + (f"; rotary inertia $I_{{{rm(j.name)}}} = {j.inertia:.6g}$" if j.inertia else ""),
             }
         )
-    drv = scene.driver
-    driver = None
-    if drv is not None:
-        driver = {
+    drivers = [
+        {
             "kind": drv.kind,
             "body": tex_escape(drv.body),
             "text": (
-                f"kinematic guidance: $\\theta_{{{rm(drv.body)}}} = {_driver_angle_tex(drv, pr)}$"
-                + _driver_law_note(drv)
+                f"kinematic guidance: $\\theta_{{{rm(drv.body)}}} = {_driver_angle_tex(drv, pr, i)}$"
+                + _driver_law_note(drv, i)
                 if drv.kind == "angle"
-                else f"dynamic guidance: applied moment $M_0$ on {tex_escape(drv.body)} (12)"
+                else f"dynamic guidance: applied moment ${torque_tex(i)}$ on {tex_escape(drv.body)} (12)"
             )
-            + _rotor_note(drv, pr),
+            + _rotor_note(drv, pr, i),
         }
+        for i, drv in enumerate(scene.drivers)
+    ]
     coords = [{"tex": pr(x), "kind": c.kind, "body": tex_escape(c.body)} for c, x in zip(model.coords, model.q)]
     mult = []
     for L, row in zip(model.lam, model.lam_rows):
@@ -740,10 +738,10 @@ def latex_document(scene, model) -> str:
                     else ", next row"
                 )
         elif row.kind == "driver":
-            tag = f"KG, {tex_escape(drv.body)}"
+            tag = f"KG, {tex_escape(row.loop[-1])}"
             text = (
                 "Kinematic guidance: the input bar's prescribed angle (added to the closure "
-                "system, multiplier $\\Lambda_{\\mathrm{drv}}$ = driver torque)"
+                f"system, multiplier ${driver_force_tex(scene, row.loop[-1])}$ = driver torque)"
             )
         else:
             comp = {"pin-x": ".x", "pin-y": ".y", "slider": ""}[row.kind]
@@ -774,7 +772,8 @@ def latex_document(scene, model) -> str:
         "scene_groups": scene_groups,
         "effects": effects,
         "joints": joints,
-        "driver": driver,
+        "drivers": drivers,
+        "angle_driver": any(d.kind == "angle" for d in scene.drivers),
         "coords": coords,
         "multipliers": mult,
         "params": params,

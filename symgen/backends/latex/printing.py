@@ -442,3 +442,25 @@ def shown_forces(scene, bm, pr: Printer, reserved: tuple = (), definitions: bool
             out.load_defs.append(eq_row(pr, pr(sym), eqs.values[sym]))
         out.external.add(sym)
     return out
+
+
+# --------------------------------------------------------------------------- drivers
+def driven_text(scene, body: str) -> str:
+    """What a driver applies to bar ``body`` (empty: the bar is not driven)."""
+    for i, drv in enumerate(scene.drivers):
+        if drv.body == body:
+            if drv.kind == "angle":
+                return rf"the driver torque ${names.driver_force(i).latex}$"
+            return rf"the applied moment ${torque_tex(i)}$ (12)"
+    return ""
+
+
+def driver_force_tex(scene, body: str) -> str:
+    """The multiplier of the angle driver of bar ``body``: Lambda_drv (the first driver), Lambda_{drv,i+1}."""
+    i = next(k for k, d in enumerate(scene.drivers) if d.body == body)
+    return names.driver_force(i).latex
+
+
+def torque_tex(i: int) -> str:
+    """The applied moment of torque driver ``i``: M_0 (the first driver), M_{0,i+1}."""
+    return "M_0" if i == 0 else names.driver_parameter("torque", i).latex

@@ -24,6 +24,7 @@ from typing import Any
 import sympy as sp
 
 from symgen.backends.latex.printing import (
+    driven_text,
     eq_block,
     eq_row,
     equation_rows,
@@ -307,14 +308,7 @@ def guide_context(scene, model, name: str, pr) -> dict:
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
-    drv = scene.driver
-    ctx["driven"] = (
-        ""
-        if drv is None or drv.body != name
-        else (
-            r"the driver torque $\Lambda_{\mathrm{drv}}$" if drv.kind == "angle" else r"the applied moment $M_0$ (12)"
-        )
-    )
+    ctx["driven"] = driven_text(scene, name)
     return ctx
 
 

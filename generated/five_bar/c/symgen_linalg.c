@@ -1,0 +1,391 @@
+/*
+ * symgen C runtime: dense linear algebra (plain C99 + libm; see symgen_runtime.h).
+ * LU with partial pivoting, real and complex; the eigenvalues of a general real matrix; the
+ * ratio of the extreme singular values of a square matrix.
+ */
+#include <float.h>
+#include <math.h>
+
+#include "symgen_runtime.h"
+
+/* ------------------------------------------------------------------ LU */
+/* LU with partial pivoting of the row-major n x n matrix A; 0, or k + 1 at a zero pivot k */
+SYMGEN_API int symgen_lu(double *A, int n, int *piv)
+{
+    int i, j, k;
+    for (k = 0; k < n; ++k) {
+        int pr = k;
+        double best = fabs(A[k * n + k]);
+        for (i = k + 1; i < n; ++i) {
+            if (fabs(A[i * n + k]) > best) { best = fabs(A[i * n + k]); pr = i; }
+        }
+        piv[k] = pr;
+        if (!(best > 0.0)) return k + 1;
+        if (pr != k) {
+            for (j = 0; j < n; ++j) { double tmp = A[k * n + j]; A[k * n + j] = A[pr * n + j]; A[pr * n + j] = tmp; }
+        }
+        for (i = k + 1; i < n; ++i) {
+            double l = A[i * n + k] / A[k * n + k];
+            A[i * n + k] = l;
+            if (l != 0.0) {
+                for (j = k + 1; j < n; ++j) A[i * n + j] -= l * A[k * n + j];
+            }
+        }
+    }
+    return 0;
+}
+
+SYMGEN_API void symgen_lu_solve(const double *A, int n, const int *piv, double *b)
+{
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        if (piv[i] != i) { double tmp = b[i]; b[i] = b[piv[i]]; b[piv[i]] = tmp; }
+    }
+    for (i = 1; i < n; ++i) {
+        double sum = b[i];
+        for (j = 0; j < i; ++j) sum -= A[i * n + j] * b[j];
+        b[i] = sum;
+    }
+    for (i = n - 1; i >= 0; --i) {
+        double sum = b[i];
+        for (j = i + 1; j < n; ++j) sum -= A[i * n + j] * b[j];
+        b[i] = sum / A[i * n + i];
+    }
+}
+
+/* the same for a complex matrix held as real and imaginary parts */
+SYMGEN_API int symgen_clu(double *ar, double *ai, int n, int *piv)
+{
+    int i, j, k;
+    for (k = 0; k < n; ++k) {
+        int pr = k;
+        double best = fabs(ar[k * n + k]) + fabs(ai[k * n + k]);
+        double dr, di, den;
+        for (i = k + 1; i < n; ++i) {
+            double mag = fabs(ar[i * n + k]) + fabs(ai[i * n + k]);
+            if (mag > best) { best = mag; pr = i; }
+        }
+        piv[k] = pr;
+        if (!(best > 0.0)) return k + 1;
+        if (pr != k) {
+            for (j = 0; j < n; ++j) {
+                double tr = ar[k * n + j], ti = ai[k * n + j];
+                ar[k * n + j] = ar[pr * n + j]; ai[k * n + j] = ai[pr * n + j];
+                ar[pr * n + j] = tr; ai[pr * n + j] = ti;
+            }
+        }
+        den = ar[k * n + k] * ar[k * n + k] + ai[k * n + k] * ai[k * n + k];
+        dr = ar[k * n + k] / den;        /* 1 / pivot */
+        di = -ai[k * n + k] / den;
+        for (i = k + 1; i < n; ++i) {
+            double xr = ar[i * n + k], xi = ai[i * n + k];
+            double lr = xr * dr - xi * di, li = xr * di + xi * dr;
+            ar[i * n + k] = lr; ai[i * n + k] = li;
+            if (lr != 0.0 || li != 0.0) {
+                for (j = k + 1; j < n; ++j) {
+                    double ur = ar[k * n + j], ui = ai[k * n + j];
+                    ar[i * n + j] -= lr * ur - li * ui;
+                    ai[i * n + j] -= lr * ui + li * ur;
+                }
+            }
+        }
+    }
+    return 0;
+}
+
+SYMGEN_API void symgen_clu_solve(const double *ar, const double *ai, int n, const int *piv, double *br, double *bi)
+{
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        if (piv[i] != i) {
+            double tr = br[i], ti = bi[i];
+            br[i] = br[piv[i]]; bi[i] = bi[piv[i]]; br[piv[i]] = tr; bi[piv[i]] = ti;
+        }
+    }
+    for (i = 1; i < n; ++i) {
+        double sr = br[i], si = bi[i];
+        for (j = 0; j < i; ++j) {
+            sr -= ar[i * n + j] * br[j] - ai[i * n + j] * bi[j];
+            si -= ar[i * n + j] * bi[j] + ai[i * n + j] * br[j];
+        }
+        br[i] = sr; bi[i] = si;
+    }
+    for (i = n - 1; i >= 0; --i) {
+        double sr = br[i], si = bi[i], dr, di, den;
+        for (j = i + 1; j < n; ++j) {
+            sr -= ar[i * n + j] * br[j] - ai[i * n + j] * bi[j];
+            si -= ar[i * n + j] * bi[j] + ai[i * n + j] * br[j];
+        }
+        dr = ar[i * n + i]; di = ai[i * n + i];
+        den = dr * dr + di * di;
+        br[i] = (sr * dr + si * di) / den;
+        bi[i] = (si * dr - sr * di) / den;
+    }
+}
+
+SYMGEN_API double symgen_max_abs(const double *x, int n)
+{
+    double m = 0.0;
+    int i;
+    for (i = 0; i < n; ++i) {
+        if (!(fabs(x[i]) <= m)) m = fabs(x[i]);     /* NaN propagates */
+    }
+    return m;
+}
+
+/* ------------------------------------------------------------------ eigenvalues of a real matrix */
+/* The eigenvalues of a general real n x n matrix, for the divergence check of the quasi-static
+   start: balancing, Householder reduction to upper Hessenberg form and Francis double-shift QR
+   iterations; the algorithm of EISPACK's balanc, orthes and hqr (Wilkinson & Reinsch, Handbook
+   for Automatic Computation II, 1971; Golub & Van Loan, Matrix Computations, 7.4-7.5), eigenvalues
+   only: no Schur vectors are accumulated. Row-major, the matrix is overwritten. */
+
+/* a := D^-1 a D, D diagonal with powers of 2 (exact): the row and column of an index are scaled
+   while that cuts the sum of their off-diagonal norms by 5 %, until no index changes. The
+   eigenvalues do not change; their round-off then scales with the balanced norm, not with the
+   raw one (stiff axial rows of size lambda next to unit rows) */
+static void symgen_balance_(double *a, int n)
+{
+    int i, j, done = 0;
+    while (!done) {
+        done = 1;
+        for (i = 0; i < n; ++i) {
+            double c = 0.0, r = 0.0, f = 1.0, sum;
+            for (j = 0; j < n; ++j) {
+                if (j == i) continue;
+                c += fabs(a[j * n + i]);
+                r += fabs(a[i * n + j]);
+            }
+            if (c == 0.0 || r == 0.0) continue;
+            sum = c + r;
+            /* f = 2^k with c f^2 within [r / 2, 2 r); c tracks c f^2 */
+            while (c < 0.5 * r) { f *= 2.0; c *= 4.0; }
+            while (c >= 2.0 * r) { f *= 0.5; c *= 0.25; }
+            if ((c + r) / f < 0.95 * sum) {     /* the sums shrink enough: scale row i by 1/f, column i by f */
+                done = 0;
+                for (j = 0; j < n; ++j) a[i * n + j] /= f;
+                for (j = 0; j < n; ++j) a[j * n + i] *= f;
+            }
+        }
+    }
+}
+
+/* a := P^T a P upper Hessenberg, P a product of n - 2 Householder reflections (u: n doubles of
+   work): step k reflects rows and columns k+1.. so that column k is zero below its subdiagonal */
+static void symgen_hessenberg_(double *a, int n, double *u)
+{
+    int i, j, k;
+    for (k = 0; k + 2 < n; ++k) {
+        double scale = 0.0, h = 0.0, g, f;
+        for (i = k + 1; i < n; ++i) scale += fabs(a[i * n + k]);
+        if (scale == 0.0) continue;                 /* already zero below the subdiagonal */
+        for (i = k + 1; i < n; ++i) {
+            u[i] = a[i * n + k] / scale;
+            h += u[i] * u[i];
+        }
+        g = u[k + 1] > 0.0 ? -sqrt(h) : sqrt(h);    /* the new subdiagonal (/ scale), sign against cancellation */
+        h -= u[k + 1] * g;                          /* |u|^2 / 2 once u[k+1] -= g: P = I - u u^T / h */
+        u[k + 1] -= g;
+        for (j = k + 1; j < n; ++j) {               /* a := P a (columns k+1..) */
+            f = 0.0;
+            for (i = k + 1; i < n; ++i) f += u[i] * a[i * n + j];
+            f /= h;
+            for (i = k + 1; i < n; ++i) a[i * n + j] -= f * u[i];
+        }
+        for (i = 0; i < n; ++i) {                   /* a := a P */
+            f = 0.0;
+            for (j = k + 1; j < n; ++j) f += a[i * n + j] * u[j];
+            f /= h;
+            for (j = k + 1; j < n; ++j) a[i * n + j] -= f * u[j];
+        }
+        a[(k + 1) * n + k] = scale * g;             /* column k: P maps it to (.., scale g, 0, ..) */
+        for (i = k + 2; i < n; ++i) a[i * n + k] = 0.0;
+    }
+}
+
+/* eigenvalues wr + i wi of the upper Hessenberg a (destroyed) by Francis double-shift QR: the
+   active block is rows / columns l..nn; a negligible subdiagonal entry splits it; a converged
+   1 x 1 or 2 x 2 block at its bottom gives one real eigenvalue or a pair and is deflated.
+   Each step applies (H - s1 I)(H - s2 I), s1 and s2 the eigenvalues of the trailing 2 x 2 block
+   (real arithmetic: only their sum x + y and product x y - w enter), implicitly: a 3 x 3
+   reflection from its first column starts a bulge that 3 x 3 reflections chase down the
+   subdiagonal. 0, or 1 if 30 n steps did not find every eigenvalue. */
+#define SYMGEN_H_(i, j) a[(i) * n + (j)]
+static int symgen_hqr_(double *a, int n, double *wr, double *wi)
+{
+    int nn = n - 1, its = 0, steps = 0, i, j, k, l, m;
+    double norm = 0.0, shift = 0.0, p = 0.0, q = 0.0, r = 0.0, s, w, x, y, z;
+    for (i = 0; i < n; ++i) {
+        for (j = i > 0 ? i - 1 : 0; j < n; ++j) norm += fabs(SYMGEN_H_(i, j));
+    }
+    while (nn >= 0) {
+        /* l: the top of the active block (the lowest negligible subdiagonal entry is set to 0) */
+        for (l = nn; l > 0; --l) {
+            s = fabs(SYMGEN_H_(l - 1, l - 1)) + fabs(SYMGEN_H_(l, l));
+            if (s == 0.0) s = norm;
+            if (fabs(SYMGEN_H_(l, l - 1)) <= DBL_EPSILON * s) { SYMGEN_H_(l, l - 1) = 0.0; break; }
+        }
+        x = SYMGEN_H_(nn, nn);
+        if (l == nn) {                              /* 1 x 1: a real eigenvalue */
+            wr[nn] = x + shift;
+            wi[nn] = 0.0;
+            nn -= 1;
+            its = 0;
+            continue;
+        }
+        y = SYMGEN_H_(nn - 1, nn - 1);
+        w = SYMGEN_H_(nn, nn - 1) * SYMGEN_H_(nn - 1, nn);
+        if (l == nn - 1) {                          /* 2 x 2 [[y, .], [., x]]: x + p +- sqrt(p^2 + w) */
+            p = 0.5 * (y - x);
+            q = p * p + w;
+            z = sqrt(fabs(q));
+            x += shift;
+            if (q >= 0.0) {                         /* a real pair; the smaller from the product (no cancellation) */
+                z = p + (p >= 0.0 ? z : -z);
+                wr[nn - 1] = wr[nn] = x + z;
+                if (z != 0.0) wr[nn] = x - w / z;
+                wi[nn - 1] = wi[nn] = 0.0;
+            } else {                                /* a complex pair */
+                wr[nn - 1] = wr[nn] = x + p;
+                wi[nn - 1] = z;
+                wi[nn] = -z;
+            }
+            nn -= 2;
+            its = 0;
+            continue;
+        }
+        if (steps >= 30 * n) return 1;
+        if (its == 10 || its == 20) {               /* exceptional shift: a stalled block is shaken loose */
+            shift += x;
+            for (i = 0; i <= nn; ++i) SYMGEN_H_(i, i) -= x;
+            s = fabs(SYMGEN_H_(nn, nn - 1)) + fabs(SYMGEN_H_(nn - 1, nn - 2));
+            x = y = 0.75 * s;
+            w = -0.4375 * s * s;
+        }
+        ++its;
+        ++steps;
+        /* m: where the step starts, the largest m >= l at which H(m, m-1) is negligible against
+           (p, q, r), the first column of (H - s1 I)(H - s2 I) on rows m.. (else l) */
+        for (m = nn - 2; m >= l; --m) {
+            z = SYMGEN_H_(m, m);
+            r = x - z;
+            s = y - z;
+            p = (r * s - w) / SYMGEN_H_(m + 1, m) + SYMGEN_H_(m, m + 1);
+            q = SYMGEN_H_(m + 1, m + 1) - z - r - s;
+            r = SYMGEN_H_(m + 2, m + 1);
+            s = fabs(p) + fabs(q) + fabs(r);
+            p /= s;
+            q /= s;
+            r /= s;
+            if (m == l) break;
+            if (fabs(SYMGEN_H_(m, m - 1)) * (fabs(q) + fabs(r))
+                <= DBL_EPSILON * fabs(p) * (fabs(SYMGEN_H_(m - 1, m - 1)) + fabs(z) + fabs(SYMGEN_H_(m + 1, m + 1)))) break;
+        }
+        for (i = m + 2; i <= nn; ++i) {             /* clear what the bulge will fill */
+            SYMGEN_H_(i, i - 2) = 0.0;
+            if (i != m + 2) SYMGEN_H_(i, i - 3) = 0.0;
+        }
+        /* the double step: reflections I - v v^T / v1 on rows / columns k, k+1, k+2 (k+1 at the
+           bottom), v = (1, y, z) / x scaled, chase the bulge from row m to nn */
+        for (k = m; k < nn; ++k) {
+            const int last = k == nn - 1;
+            if (k != m) {
+                p = SYMGEN_H_(k, k - 1);
+                q = SYMGEN_H_(k + 1, k - 1);
+                r = last ? 0.0 : SYMGEN_H_(k + 2, k - 1);
+                x = fabs(p) + fabs(q) + fabs(r);
+                if (x == 0.0) continue;             /* nothing to chase here */
+                p /= x;
+                q /= x;
+                r /= x;
+            }
+            s = sqrt(p * p + q * q + r * r);
+            if (p < 0.0) s = -s;
+            if (k == m) {
+                if (l != m) SYMGEN_H_(k, k - 1) = -SYMGEN_H_(k, k - 1);
+            } else {
+                SYMGEN_H_(k, k - 1) = -s * x;
+            }
+            p += s;
+            x = p / s;
+            y = q / s;
+            z = r / s;
+            q /= p;
+            r /= p;
+            for (j = k; j <= nn; ++j) {             /* rows k, k+1, k+2 of the active block */
+                p = SYMGEN_H_(k, j) + q * SYMGEN_H_(k + 1, j);
+                if (!last) {
+                    p += r * SYMGEN_H_(k + 2, j);
+                    SYMGEN_H_(k + 2, j) -= p * z;
+                }
+                SYMGEN_H_(k + 1, j) -= p * y;
+                SYMGEN_H_(k, j) -= p * x;
+            }
+            for (i = l; i <= (nn < k + 3 ? nn : k + 3); ++i) {   /* columns k, k+1, k+2 */
+                p = x * SYMGEN_H_(i, k) + y * SYMGEN_H_(i, k + 1);
+                if (!last) {
+                    p += z * SYMGEN_H_(i, k + 2);
+                    SYMGEN_H_(i, k + 2) -= p * r;
+                }
+                SYMGEN_H_(i, k + 1) -= p * q;
+                SYMGEN_H_(i, k) -= p;
+            }
+        }
+    }
+    return 0;
+}
+#undef SYMGEN_H_
+
+
+SYMGEN_API int symgen_eigenvalues(double *a, int n, double *u, double *wr, double *wi)
+{
+    symgen_balance_(a, n);
+    symgen_hessenberg_(a, n, u);
+    return symgen_hqr_(a, n, wr, wi);
+}
+
+/* ------------------------------------------------------------------ singular values */
+/* smallest / largest singular value of a (the distance of the closure Jacobian to a singular
+   position: Mechanism.singular_ratio, the same measure), by one-sided Jacobi rotations of the
+   columns (Hestenes; n is small): the columns become orthogonal, their norms the singular values */
+SYMGEN_API double symgen_singular_ratio(double *a, int n)
+{
+    double lo = HUGE_VAL, hi = 0.0;
+    int r, j, k, sweep;
+    if (n == 0) return 1.0;
+    for (sweep = 0; sweep < 60; ++sweep) {
+        int rotated = 0;
+        for (j = 0; j < n - 1; ++j) {
+            for (k = j + 1; k < n; ++k) {
+                double alpha = 0.0, beta = 0.0, gamma = 0.0, zeta, tn, c, sn;
+                for (r = 0; r < n; ++r) {
+                    const double x = a[r * n + j], y = a[r * n + k];
+                    alpha += x * x;
+                    beta += y * y;
+                    gamma += x * y;
+                }
+                if (!(fabs(gamma) > DBL_EPSILON * sqrt(alpha * beta))) continue;
+                rotated = 1;
+                zeta = (beta - alpha) / (2.0 * gamma);
+                tn = fabs(zeta) > 1e150 ? 0.5 / zeta
+                     : (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta * zeta));
+                c = 1.0 / sqrt(1.0 + tn * tn);
+                sn = c * tn;
+                for (r = 0; r < n; ++r) {
+                    const double x = a[r * n + j], y = a[r * n + k];
+                    a[r * n + j] = c * x - sn * y;
+                    a[r * n + k] = sn * x + c * y;
+                }
+            }
+        }
+        if (!rotated) break;
+    }
+    for (k = 0; k < n; ++k) {
+        double d = 0.0;
+        for (r = 0; r < n; ++r) d += a[r * n + k] * a[r * n + k];
+        d = sqrt(d);
+        if (d < lo) lo = d;
+        if (d > hi) hi = d;
+    }
+    return hi > 0.0 ? lo / hi : 0.0;
+}

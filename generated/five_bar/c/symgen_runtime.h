@@ -1,0 +1,215 @@
+/*
+ * symgen C runtime: the numerics of the emitted DAE solver (plain C99 + libm).
+ *
+ * An emitted model (PREFIX.c: its functions; PREFIX_solver.c: its tables, gathered into one
+ * `symgen_model` descriptor) is integrated by this runtime: dense and sparse LU, complex LU,
+ * eigenvalues, the consistent and quasi-static start, Radau IIA (order 5) with its step
+ * control, the closure polish, and the run checks (singular position, range of the bar models,
+ * divergence of a quasi-static start) with their messages. The runtime holds no data of a
+ * scene: every size, index set, limit and policy value comes in through the descriptor.
+ *
+ * Linkage. Every function of the runtime is declared with SYMGEN_API, `extern` unless defined
+ * before this header is included. The emitted PREFIX_solver.c defines it as `static` and
+ * includes the runtime's .c files: each model then carries a private copy, so that any number
+ * of emitted models (of any symgen version) link into one program without duplicate symbols,
+ * and `cc PREFIX.c PREFIX_solver.c main.c` builds a model with nothing else to list. Compiled on
+ * its own (the runtime's unit tests), the runtime is an ordinary library with `symgen_` symbols.
+ *
+ * Storage. The runtime allocates nothing: a solver's work arrays live in storage of the caller
+ * (the emitted struct PREFIX_solver), of SYMGEN_WORK_DOUBLES / SYMGEN_WORK_INTS elements, and
+ * are bound to the solver's pointers on every call (the struct may be moved between calls).
+ */
+#ifndef SYMGEN_RUNTIME_H
+#define SYMGEN_RUNTIME_H
+
+#include <string.h>      /* memcpy of SYMGEN_PUBLISH */
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#ifndef SYMGEN_API
+#define SYMGEN_API extern
+#endif
+
+/* Return values (and status): 0 ok, _FAILED the run failed (status stays set, every later call
+   returns it), _BAD_ARGUMENT a call with an invalid argument (message says which; nothing done). */
+#define SYMGEN_SOLVER_FAILED 1
+#define SYMGEN_SOLVER_BAD_ARGUMENT 2
+#define SYMGEN_MESSAGE_SIZE 640
+
+/* F(t, q, v, a, lam, p) -> out: the signature of every model function (symgen's C codegen) */
+typedef void (*symgen_function)(double t, const double *q, const double *v, const double *a, const double *lam,
+                                const double *p, double *out);
+
+/* The solver policy (symgen/policy.py, rendered by the emitter): tolerances and limits of the
+   start, the polish and the checks; the same values the Python runners use. */
+typedef struct symgen_policy {
+    double assembly_tol, assembly_accept;
+    int assembly_maxit;
+    double assembly_min_step, armijo;
+    double singular_ratio, near_singular_ratio, partition_ratio;
+    double quasi_static_tol, quasi_static_accept, quasi_static_near;
+    int quasi_static_maxit;
+    double polish_tol;
+    int polish_maxit;
+    double driver_step, deflection_limit, stretch_limit, divergence_rtol;
+} symgen_policy;
+
+/* The 3-stage Radau IIA method and its step control (symgen/backends/c/radau.py) */
+typedef struct symgen_radau {
+    double c[3], T[3][3], TI[3][3], dd[3], gamma, alpha, beta;
+    int nit;
+    double thet, safe, facl, facr, quot1, quot2;
+} symgen_radau;
+
+/* The range of a bar model: sum |q[index[start..start+count)]| <= limit, else `message` */
+typedef struct symgen_amplitude_check {
+    int start, count;
+    double limit;
+    const char *message;
+} symgen_amplitude_check;
+
+/*
+ * An emitted model: its functions and tables. Sizes: n coordinates q, m multipliers (closure
+ * rows: loops, then the angle drivers), np parameters, nclosure loop rows of phi; the solver's
+ * partition into ni independent and nd dependent coordinates (y = [q_I, v_I, q_D, v_D, a, lam]);
+ * ne deformation amplitudes the quasi-static start solves for, nr accelerations it solves for,
+ * ns dependent rigid coordinates that decide a singular position.
+ */
+typedef struct symgen_model {
+    int n, m, np, nclosure, ni, nd, ne, nr, ns;
+    const int *independent, *dependent;      /* [ni], [nd]: indices into q */
+    const int *assembly_dependent;           /* [nd]: the partition of the assembly at the guess */
+    const int *ypos_q, *ypos_v;              /* [n]: position in y of q_i, of v_i */
+    const int *ycol;                         /* [3n + m]: position in y of each Jacobian column w = [q; v; a; lam] */
+    const int *elastic, *accel;              /* [ne], [nr]: the unknowns of the quasi-static start */
+    const int *sing_rows, *sing_cols;        /* [ns]: the closure Jacobian's block that decides a singular position */
+    const double *q_guess, *v_guess;         /* [n]: the assembly's initial guess */
+    int n_angle;                             /* angle drivers (0: none) */
+    const int *angle_coords, *angle_rows;    /* [n_angle]: each angle driver's coordinate and row of phi */
+    int quasi_static;                        /* 1: start on the quasi-static deformation */
+    double rtol, atol;                       /* the scene's default tolerances */
+    double rtol_max;                         /* rtol must be below it */
+    const char *rtol_rule;                   /* that rule in words, for the message */
+    const char *const *coordinate_names;     /* [n] */
+    const char *const *parameter_names;      /* [np] */
+    const char *const *parameter_range;      /* [np]: the valid values in words */
+    const double *parameter_defaults;        /* [np] */
+    int (*parameter_valid)(int k, double value);
+    int n_amplitude_checks;
+    const symgen_amplitude_check *amplitude_checks;
+    const int *amplitude_index;              /* the coordinates the checks sum over */
+    symgen_function phi, phid, phidd, res, out, closure;           /* values */
+    symgen_function phi_jac, phid_jac, phidd_jac, res_jac;         /* dF/dw, row-major [rows x (3n + m)] */
+    symgen_policy policy;
+    symgen_radau radau;
+} symgen_model;
+
+/*
+ * The work arrays of a model, in doubles and in ints: the storage a solver needs beside its
+ * struct (p and y are the caller's own arrays). The sizes in terms of the model's: n, m, ni, nd,
+ * ne (nclosure <= m). symgen_bind carves the storage in this order.
+ */
+#define SYMGEN_NX_(ni) (2 * (ni))
+#define SYMGEN_NZ_(n, m, nd) (2 * (nd) + (n) + (m))
+#define SYMGEN_NY_(n, m, ni, nd) (SYMGEN_NX_(ni) + SYMGEN_NZ_(n, m, nd))
+#define SYMGEN_NALG_(n, m) (3 * (m) + (n))
+#define SYMGEN_NW_(n, m) (3 * (n) + (m))
+#define SYMGEN_WORK_DOUBLES(n, m, ni, nd, ne) \
+    (22 * SYMGEN_NY_(n, m, ni, nd) + SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
+     + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
+     + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
+     + 13 * (n) + 10 * (m) + 8 * (ne) * (ne) + 8 * (ne) + 1)
+#define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
+    (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 2 * (ne) + 1)
+
+/*
+ * A solver's state. The first block is what a caller reads between calls (the emitted driver
+ * and FMU copy it into PREFIX_solver); the rest is the integrator's state and the work arrays.
+ */
+typedef struct symgen_solver {
+    double t;                   /* current tau */
+    double rtol, atol;          /* tolerances asked for */
+    long n_steps, n_accepted, n_rejected, n_jacobians, n_factorizations, n_residuals;
+    double closure_max;         /* max |loop closure| seen at the output times */
+    double divergence_rate;     /* growth rate (per unit tau) of a quasi-static start beyond a
+                                   buckling load (the start is refused), else 0 */
+    int status;                 /* 0 ok, else an error (see message) */
+    char message[SYMGEN_MESSAGE_SIZE];
+    /* the integrator: the model, its sizes (nx = 2 ni, nz = 2 nd + n + m, ny = nx + nz,
+       nalg = 3 m + n rows and nw = 3 n + m columns of the algebraic Jacobian, y[a0..]: a, lam) */
+    const symgen_model *model;
+    int nq, nl, np, ni, nd, ne, nr, ns, nclo, nx, nz, ny, nalg, nw, a0;
+    double h, h_lu, h_old, h_acc, err_acc, faccon, t_last;
+    int first, reject, jac_current, need_jac, have_cont, have_jac, gzz_singular;
+    int sizes_differ;           /* the solver's compiled sizes are not the model's: init fails */
+    /* the caller's arrays: p [np], y [ny]; the work arrays (symgen_bind) */
+    double *p, *y, *work;
+    int *iwork;
+    double *y0, *f0, *scal, *ymax, *z, *w, *f, *dw, *cont, *tmp, *tmp2, *tmp3;
+    double *jac, *gzz, *kzx, *jred, *e1, *e2r, *e2i, *uz, *uzi;
+    double *galg, *sq, *sv, *sr;
+    double *q, *v, *qs, *vs, *qe, *q_last, *zeros;
+    double *start_q, *start_v, *start_a, *start_lam, *qs_u, *qs_a, *qs_lam, *dv_a, *dv_lam;
+    double *as_r, *as_rt, *as_dq, *as_trial, *vel_r, *drv_r, *clo;
+    double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;
+    int *pivz, *zrow, *zmid, *zcol, *piv1, *piv2, *sp, *qs_col, *dvpiv;
+} symgen_solver;
+
+/* The public block of symgen_solver, copied into a struct with the same members (the emitted
+   PREFIX_solver): t, rtol, atol, the counters, closure_max, divergence_rate, status, message. */
+#define SYMGEN_PUBLISH(dst, src) do { \
+        (dst)->t = (src)->t; (dst)->rtol = (src)->rtol; (dst)->atol = (src)->atol; \
+        (dst)->n_steps = (src)->n_steps; (dst)->n_accepted = (src)->n_accepted; \
+        (dst)->n_rejected = (src)->n_rejected; (dst)->n_jacobians = (src)->n_jacobians; \
+        (dst)->n_factorizations = (src)->n_factorizations; (dst)->n_residuals = (src)->n_residuals; \
+        (dst)->closure_max = (src)->closure_max; (dst)->divergence_rate = (src)->divergence_rate; \
+        (dst)->status = (src)->status; \
+        memcpy((dst)->message, (src)->message, SYMGEN_MESSAGE_SIZE); \
+    } while (0)
+
+/* ------------------------------------------------------------------ solver */
+/* Point s's work arrays into `work` (SYMGEN_WORK_DOUBLES) and `iwork` (SYMGEN_WORK_INTS) and its
+   p, y at the caller's arrays; returns the number of doubles used (= SYMGEN_WORK_DOUBLES). */
+SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double *p, double *y, double *work,
+                            int *iwork);
+
+/* Start a run at tau = t0 with parameters p (NULL: the model's defaults) and tolerances rtol,
+   atol (<= 0: the model's): assembly, singular-position check, quasi-static start (range and
+   divergence checks), consistent velocities, accelerations and multipliers. s is bound. */
+SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, double rtol, double atol);
+
+/* Integrate to tau = t_out (> s->t), landing exactly on it, polish z and run the checks. */
+SYMGEN_API int symgen_solver_advance(symgen_solver *s, double t_out);
+
+/* The q, v, a, lam of the solver vector y of a model (any pointer may be NULL). */
+SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, double *q, double *v, double *a,
+                                   double *lam);
+
+/* The model's outputs at tau = t, y, parameters p; q, v: n doubles of scratch. */
+SYMGEN_API void symgen_model_outputs(const symgen_model *model, double t, const double *y, const double *p, double *q,
+                                     double *v, double *out);
+
+/* ------------------------------------------------------------------ dense linear algebra */
+/* LU with partial pivoting of the row-major n x n matrix A; 0, or k + 1 at a zero pivot k */
+SYMGEN_API int symgen_lu(double *A, int n, int *piv);
+SYMGEN_API void symgen_lu_solve(const double *A, int n, const int *piv, double *b);
+/* the same for a complex matrix held as real and imaginary parts */
+SYMGEN_API int symgen_clu(double *ar, double *ai, int n, int *piv);
+SYMGEN_API void symgen_clu_solve(const double *ar, const double *ai, int n, const int *piv, double *br, double *bi);
+/* max |x_i| (a NaN propagates) */
+SYMGEN_API double symgen_max_abs(const double *x, int n);
+/* the eigenvalues wr + i wi of the general real n x n matrix a (row-major, overwritten; u: n
+   doubles of work) by balancing, Hessenberg reduction and Francis double-shift QR: 0, or 1 if
+   they did not converge */
+SYMGEN_API int symgen_eigenvalues(double *a, int n, double *u, double *wr, double *wi);
+/* smallest / largest singular value of the n x n matrix a (row-major, overwritten) by one-sided
+   Jacobi rotations; 1 for n = 0 */
+SYMGEN_API double symgen_singular_ratio(double *a, int n);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* SYMGEN_RUNTIME_H */

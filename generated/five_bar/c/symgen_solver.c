@@ -1,0 +1,1195 @@
+/*
+ * symgen C runtime: the DAE solver of an emitted model (plain C99 + libm; see symgen_runtime.h).
+ *
+ * Index-1 DAE of the mechanism, as in the Python path (symgen/numerics/mechanism.py, simulate.py):
+ * the rigid coordinates are split into independent ones and dependent ones q_D (one per closure
+ * row; the model's partition was chosen by symgen where the closure Jacobian is best
+ * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
+ * z = [q_D, v_D, a, lam] algebraic:
+ *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
+ * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
+ * every step ends on the algebraic equations) with simplified Newton iterations on the stage
+ * equations using the analytic Jacobians of the model, and Hairer & Wanner's (RADAU5) error
+ * estimate and step-size control. The solver lands exactly on every output time and polishes z
+ * there by Newton on the algebraic equations (position closure to round-off).
+ *
+ * The start (assembly, quasi-static deformation, consistent velocities, accelerations and
+ * multipliers) and the run checks (singular position, range of the bar models, divergence of a
+ * quasi-static start) are the Python runners' (symgen.numerics.mechanism, checks), with the
+ * limits of the model's policy (symgen/policy.py).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "symgen_runtime.h"
+
+/* The model's sizes as the solver reads them: from the solver (symgen_bind), unless defined
+   before this file is included. An emitted solver defines them as its model's numbers (they
+   equal the descriptor's): the loops then have fixed bounds, as fast as a solver written for
+   the model. */
+#ifndef SYMGEN_NQ
+#define SYMGEN_NQ(s) ((s)->nq)
+#endif
+#ifndef SYMGEN_NL
+#define SYMGEN_NL(s) ((s)->nl)
+#endif
+#ifndef SYMGEN_NP
+#define SYMGEN_NP(s) ((s)->np)
+#endif
+#ifndef SYMGEN_NI
+#define SYMGEN_NI(s) ((s)->ni)
+#endif
+#ifndef SYMGEN_ND
+#define SYMGEN_ND(s) ((s)->nd)
+#endif
+#ifndef SYMGEN_NE
+#define SYMGEN_NE(s) ((s)->ne)
+#endif
+#ifndef SYMGEN_NR
+#define SYMGEN_NR(s) ((s)->nr)
+#endif
+#ifndef SYMGEN_NS
+#define SYMGEN_NS(s) ((s)->ns)
+#endif
+#ifndef SYMGEN_NCLO
+#define SYMGEN_NCLO(s) ((s)->nclo)
+#endif
+#ifndef SYMGEN_NX
+#define SYMGEN_NX(s) ((s)->nx)
+#endif
+#ifndef SYMGEN_NZ
+#define SYMGEN_NZ(s) ((s)->nz)
+#endif
+#ifndef SYMGEN_NY
+#define SYMGEN_NY(s) ((s)->ny)
+#endif
+#ifndef SYMGEN_NALG
+#define SYMGEN_NALG(s) ((s)->nalg)
+#endif
+#ifndef SYMGEN_NW
+#define SYMGEN_NW(s) ((s)->nw)
+#endif
+#ifndef SYMGEN_A0
+#define SYMGEN_A0(s) ((s)->a0)
+#endif
+
+/* ------------------------------------------------------------------ storage */
+static double *symgen_take_(double **next, long count)
+{
+    double *p = *next;
+    *next += count;
+    return p;
+}
+
+static int *symgen_itake_(int **next, long count)
+{
+    int *p = *next;
+    *next += count;
+    return p;
+}
+
+SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double *p, double *y, double *work,
+                            int *iwork)
+{
+    double *d = work;
+    int *k = iwork;
+    long ny, nz, nx, nalg, nw, n2, n, m, ni;
+    s->model = model;
+    s->nq = model->n;
+    s->nl = model->m;
+    s->np = model->np;
+    s->ni = model->ni;
+    s->nd = model->nd;
+    s->ne = model->ne;
+    s->nr = model->nr;
+    s->ns = model->ns;
+    s->nclo = model->nclosure;
+    s->nx = SYMGEN_NX_(model->ni);
+    s->nz = SYMGEN_NZ_(model->n, model->m, model->nd);
+    s->ny = s->nx + s->nz;
+    s->nalg = SYMGEN_NALG_(model->n, model->m);
+    s->nw = SYMGEN_NW_(model->n, model->m);
+    s->a0 = s->nx + 2 * model->nd;
+    s->p = p;
+    s->y = y;
+    s->work = work;
+    s->iwork = iwork;
+    n = s->nq, m = s->nl, ni = s->ni, nx = s->nx, nz = s->nz, ny = s->ny, nalg = s->nalg, nw = s->nw, n2 = 2 * s->ne;
+    s->y0 = symgen_take_(&d, ny);
+    s->f0 = symgen_take_(&d, ny);
+    s->scal = symgen_take_(&d, ny);
+    s->ymax = symgen_take_(&d, ny);
+    s->tmp = symgen_take_(&d, ny);
+    s->tmp2 = symgen_take_(&d, ny);
+    s->tmp3 = symgen_take_(&d, ny);
+    s->z = symgen_take_(&d, 3 * ny);
+    s->w = symgen_take_(&d, 3 * ny);
+    s->f = symgen_take_(&d, 3 * ny);
+    s->dw = symgen_take_(&d, 3 * ny);
+    s->cont = symgen_take_(&d, 3 * ny);
+    s->jac = symgen_take_(&d, ny * ny);
+    s->gzz = symgen_take_(&d, nz * nz);
+    s->kzx = symgen_take_(&d, nz * nx);
+    s->uz = symgen_take_(&d, nz);
+    s->uzi = symgen_take_(&d, nz);
+    s->jred = symgen_take_(&d, nx * nx);
+    s->e1 = symgen_take_(&d, ni * ni);
+    s->e2r = symgen_take_(&d, ni * ni);
+    s->e2i = symgen_take_(&d, ni * ni);
+    s->galg = symgen_take_(&d, nalg * nw);
+    s->sq = symgen_take_(&d, nalg * nalg);
+    s->sv = symgen_take_(&d, nalg);
+    s->sr = symgen_take_(&d, nalg);
+    s->qs_u = symgen_take_(&d, nalg);
+    s->q = symgen_take_(&d, n);
+    s->v = symgen_take_(&d, n);
+    s->qs = symgen_take_(&d, n);
+    s->vs = symgen_take_(&d, n);
+    s->qe = symgen_take_(&d, n);
+    s->q_last = symgen_take_(&d, n);
+    s->start_q = symgen_take_(&d, n);
+    s->start_v = symgen_take_(&d, n);
+    s->start_a = symgen_take_(&d, n);
+    s->qs_a = symgen_take_(&d, n);
+    s->dv_a = symgen_take_(&d, n);
+    s->as_trial = symgen_take_(&d, n);
+    s->zeros = symgen_take_(&d, n + m);      /* stands for inputs a model function does not read */
+    s->start_lam = symgen_take_(&d, m);
+    s->qs_lam = symgen_take_(&d, m);
+    s->dv_lam = symgen_take_(&d, m);
+    s->as_r = symgen_take_(&d, m);
+    s->as_rt = symgen_take_(&d, m);
+    s->as_dq = symgen_take_(&d, m);
+    s->vel_r = symgen_take_(&d, m);
+    s->drv_r = symgen_take_(&d, m);
+    s->clo = symgen_take_(&d, m);
+    s->dva = symgen_take_(&d, n2 * n2);
+    s->dvh = symgen_take_(&d, n2 * n2);
+    s->dvwr = symgen_take_(&d, n2);
+    s->dvwi = symgen_take_(&d, n2);
+    s->dvx = symgen_take_(&d, n2);
+    s->dvu = symgen_take_(&d, n2);
+    s->pivz = symgen_itake_(&k, nz);
+    s->zrow = symgen_itake_(&k, nz + 1);
+    s->zmid = symgen_itake_(&k, nz);
+    s->zcol = symgen_itake_(&k, nz * nz);
+    s->piv1 = symgen_itake_(&k, ni);
+    s->piv2 = symgen_itake_(&k, ni);
+    s->sp = symgen_itake_(&k, nalg);
+    s->qs_col = symgen_itake_(&k, nalg);
+    s->dvpiv = symgen_itake_(&k, n2);
+    /* the sizes the solver's loops use (constants of an emitted solver) are the descriptor's */
+    s->sizes_differ = !(SYMGEN_NQ(s) == model->n && SYMGEN_NL(s) == model->m && SYMGEN_NP(s) == model->np
+                        && SYMGEN_NI(s) == model->ni && SYMGEN_ND(s) == model->nd && SYMGEN_NE(s) == model->ne
+                        && SYMGEN_NR(s) == model->nr && SYMGEN_NS(s) == model->ns && SYMGEN_NCLO(s) == model->nclosure
+                        && SYMGEN_NX(s) == s->nx && SYMGEN_NZ(s) == s->nz && SYMGEN_NY(s) == s->ny
+                        && SYMGEN_NALG(s) == s->nalg && SYMGEN_NW(s) == s->nw && SYMGEN_A0(s) == s->a0);
+    return (long)(d - work) + 1;
+}
+
+/* ------------------------------------------------------------------ the model in y */
+/* q, v from y (a and lam are slices of y) */
+static void symgen_unpack_(const symgen_solver *s, const double *y, double *q, double *v)
+{
+    int i;
+    for (i = 0; i < SYMGEN_NQ(s); ++i) { q[i] = y[s->model->ypos_q[i]]; v[i] = y[s->model->ypos_v[i]]; }
+}
+
+/* algebraic equations g = [phi; phid; res; phidd] */
+static void symgen_alg_(const symgen_solver *s, double t, const double *q, const double *v, const double *a,
+                       const double *lam, double *g)
+{
+    s->model->phi(t, q, v, a, lam, s->p, g);
+    s->model->phid(t, q, v, a, lam, s->p, g + SYMGEN_NL(s));
+    s->model->res(t, q, v, a, lam, s->p, g + 2 * SYMGEN_NL(s));
+    s->model->phidd(t, q, v, a, lam, s->p, g + 2 * SYMGEN_NL(s) + SYMGEN_NQ(s));
+}
+
+/* their Jacobian in w = [q; v; a; lam], row-major NALG x NW, into s->galg */
+static void symgen_alg_jac_(symgen_solver *s, double t, const double *q, const double *v, const double *a,
+                           const double *lam)
+{
+    s->model->phi_jac(t, q, v, a, lam, s->p, s->galg);
+    s->model->phid_jac(t, q, v, a, lam, s->p, s->galg + SYMGEN_NL(s) * SYMGEN_NW(s));
+    s->model->res_jac(t, q, v, a, lam, s->p, s->galg + 2 * SYMGEN_NL(s) * SYMGEN_NW(s));
+    s->model->phidd_jac(t, q, v, a, lam, s->p, s->galg + (2 * SYMGEN_NL(s) + SYMGEN_NQ(s)) * SYMGEN_NW(s));
+}
+
+/* M y' = F(t, y): F = [v_I; a_I; g] */
+static void symgen_rhs_(symgen_solver *s, double t, const double *y, double *out)
+{
+    int k;
+    const double *a = y + SYMGEN_A0(s);
+    const double *lam = y + SYMGEN_A0(s) + SYMGEN_NQ(s);
+    symgen_unpack_(s, y, s->q, s->v);
+    for (k = 0; k < SYMGEN_NI(s); ++k) {
+        out[k] = y[SYMGEN_NI(s) + k];
+        out[SYMGEN_NI(s) + k] = a[s->model->independent[k]];
+    }
+    symgen_alg_(s, t, s->q, s->v, a, lam, out + SYMGEN_NX(s));
+    s->n_residuals++;
+}
+
+/* dF/dy into s->jac */
+static void symgen_rhs_jac_(symgen_solver *s, double t, const double *y)
+{
+    int k, r, c;
+    const int ny = SYMGEN_NY(s);
+    symgen_unpack_(s, y, s->q, s->v);
+    symgen_alg_jac_(s, t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
+    memset(s->jac, 0, sizeof(double) * ny * ny);
+    for (k = 0; k < SYMGEN_NI(s); ++k) {
+        s->jac[k * ny + SYMGEN_NI(s) + k] = 1.0;
+        s->jac[(SYMGEN_NI(s) + k) * ny + SYMGEN_A0(s) + s->model->independent[k]] = 1.0;
+    }
+    for (r = 0; r < SYMGEN_NALG(s); ++r) {
+        for (c = 0; c < SYMGEN_NW(s); ++c) {
+            s->jac[(SYMGEN_NX(s) + r) * ny + s->model->ycol[c]] = s->galg[r * SYMGEN_NW(s) + c];
+        }
+    }
+    s->n_jacobians++;
+}
+
+/* ------------------------------------------------------------------ consistent start */
+static int symgen_fail_(symgen_solver *s, double t, const char *what, double value, const char *hint)
+{
+    s->status = SYMGEN_SOLVER_FAILED;
+    if (value == value && value != 0.0) {
+        snprintf(s->message, SYMGEN_MESSAGE_SIZE, "at tau = %.6g: %s (%.3g); %s", t, what, value, hint);
+    } else {
+        snprintf(s->message, SYMGEN_MESSAGE_SIZE, "at tau = %.6g: %s; %s", t, what, hint);
+    }
+    return SYMGEN_SOLVER_FAILED;
+}
+
+/* phi_q restricted to the columns `cols` (NL x NL) into s->sq, factored; 0 if regular */
+static int symgen_closure_matrix_(symgen_solver *s, double t, const double *q, const int *cols)
+{
+    int r, k;
+    s->model->phi_jac(t, q, s->zeros, s->zeros, s->zeros, s->p, s->galg);
+    for (r = 0; r < SYMGEN_NL(s); ++r) {
+        for (k = 0; k < SYMGEN_NL(s); ++k) s->sq[r * SYMGEN_NL(s) + k] = s->galg[r * SYMGEN_NW(s) + cols[k]];
+    }
+    return symgen_lu(s->sq, SYMGEN_NL(s), s->sp);
+}
+
+/* smallest / largest singular value of the loop rows of phi_q in the dependent rigid
+   coordinates: the distance to a singular position (Mechanism.singular_ratio: the same measure) */
+static double symgen_closure_ratio_(symgen_solver *s, double t, const double *q)
+{
+    const int n = SYMGEN_NS(s);
+    int r, k;
+    if (n == 0) return 1.0;
+    s->model->phi_jac(t, q, s->zeros, s->zeros, s->zeros, s->p, s->galg);
+    for (r = 0; r < n; ++r) {
+        for (k = 0; k < n; ++k) s->sq[r * n + k] = s->galg[s->model->sing_rows[r] * SYMGEN_NW(s) + s->model->sing_cols[k]];
+    }
+    return symgen_singular_ratio(s->sq, n);
+}
+
+/* theta, theta', theta'' angle driver k prescribes at t, from its row of phi, phid, phidd
+   (Mechanism.driver_motion): the same law the equations use, whatever its form */
+static void symgen_driver_motion_(symgen_solver *s, int k, double t, double *m3)
+{
+    double *r = s->drv_r;
+    const int row = s->model->angle_rows[k];
+    s->model->phi(t, s->zeros, s->zeros, s->zeros, s->zeros, s->p, r);
+    m3[0] = -r[row];
+    s->model->phid(t, s->zeros, s->zeros, s->zeros, s->zeros, s->p, r);
+    m3[1] = -r[row];
+    s->model->phidd(t, s->zeros, s->zeros, s->zeros, s->zeros, s->p, r);
+    m3[2] = -r[row];
+}
+
+/* damped Newton on phi(t, q) = 0 in the coordinates `dep` (Mechanism.assemble; tolerances
+   and limits of symgen.policy, as in Python) */
+static int symgen_assemble_(symgen_solver *s, double t, double *q, const int *dep)
+{
+    const double tol = s->model->policy.assembly_tol;
+    double *r = s->as_r, *rt = s->as_rt, *dq = s->as_dq, *trial = s->as_trial;
+    double rn, step;
+    int it, k;
+    if (SYMGEN_NL(s) == 0) return 0;
+    s->model->phi(t, q, s->zeros, s->zeros, s->zeros, s->p, r);
+    rn = symgen_max_abs(r, SYMGEN_NL(s));
+    for (it = 0; it < s->model->policy.assembly_maxit; ++it) {
+        int accepted = 0;
+        if (rn < tol) return 0;
+        if (symgen_closure_matrix_(s, t, q, dep)) break;
+        for (k = 0; k < SYMGEN_NL(s); ++k) dq[k] = -r[k];
+        symgen_lu_solve(s->sq, SYMGEN_NL(s), s->sp, dq);
+        for (step = 1.0; step > s->model->policy.assembly_min_step; step /= 2) {
+            double rtn;
+            memcpy(trial, q, sizeof(double) * SYMGEN_NQ(s));
+            for (k = 0; k < SYMGEN_NL(s); ++k) trial[dep[k]] += step * dq[k];
+            s->model->phi(t, trial, s->zeros, s->zeros, s->zeros, s->p, rt);
+            rtn = symgen_max_abs(rt, SYMGEN_NL(s));
+            if (rtn < rn * (1 - s->model->policy.armijo * step) || rtn < tol) {
+                memcpy(q, trial, sizeof(double) * SYMGEN_NQ(s));
+                memcpy(r, rt, sizeof(double) * SYMGEN_NL(s));
+                rn = rtn;
+                accepted = 1;
+                break;
+            }
+        }
+        if (!accepted) break;
+    }
+    if (rn < s->model->policy.assembly_accept) return 0;
+    return symgen_fail_(s, t, "the mechanism cannot be assembled near the initial guess: the closure keeps a residual", rn,
+                       "give initial.guess angles (rad) near a real assembly, and check lengths and ground points");
+}
+
+/* dependent velocities from phid = 0 (Mechanism.velocities) */
+static int symgen_velocities_(symgen_solver *s, double t, const double *q, double *v)
+{
+    double *r = s->vel_r;
+    int k;
+    if (SYMGEN_NL(s) == 0) return 0;
+    for (k = 0; k < SYMGEN_ND(s); ++k) v[s->model->dependent[k]] = 0.0;
+    s->model->phid(t, q, v, s->zeros, s->zeros, s->p, r);
+    if (symgen_closure_matrix_(s, t, q, s->model->dependent)) {
+        return symgen_fail_(s, t, "the closure Jacobian is singular in the dependent coordinates", 0.0,
+                           "the rigid mechanism is at a singular position");
+    }
+    for (k = 0; k < SYMGEN_NL(s); ++k) r[k] = -r[k];
+    symgen_lu_solve(s->sq, SYMGEN_NL(s), s->sp, r);
+    for (k = 0; k < SYMGEN_ND(s); ++k) v[s->model->dependent[k]] = r[k];
+    return 0;
+}
+
+/* accelerations and multipliers from [res; phidd] = 0 (Mechanism.accelerations) */
+static int symgen_accelerations_(symgen_solver *s, double t, const double *q, const double *v, double *a, double *lam)
+{
+    const int nk = SYMGEN_NQ(s) + SYMGEN_NL(s);
+    int r, c;
+    memset(a, 0, sizeof(double) * SYMGEN_NQ(s));
+    memset(lam, 0, sizeof(double) * SYMGEN_NL(s));
+    symgen_alg_(s, t, q, v, a, lam, s->sr);
+    symgen_alg_jac_(s, t, q, v, a, lam);
+    for (r = 0; r < nk; ++r) {
+        for (c = 0; c < nk; ++c) s->sq[r * nk + c] = s->galg[(2 * SYMGEN_NL(s) + r) * SYMGEN_NW(s) + 2 * SYMGEN_NQ(s) + c];
+        s->sv[r] = -s->sr[2 * SYMGEN_NL(s) + r];
+    }
+    if (symgen_lu(s->sq, nk, s->sp)) {
+        return symgen_fail_(s, t, "the accelerations are not determined (singular mass / constraint matrix)", 0.0,
+                           "check masses and the driver");
+    }
+    symgen_lu_solve(s->sq, nk, s->sp, s->sv);
+    for (c = 0; c < SYMGEN_NQ(s); ++c) a[c] = s->sv[c];
+    for (c = 0; c < SYMGEN_NL(s); ++c) lam[c] = s->sv[SYMGEN_NQ(s) + c];
+    return 0;
+}
+
+static int symgen_beyond_range_(symgen_solver *s);
+
+/* quasi-static deformation for the rigid state in (q, v) (Mechanism.quasi_static):
+   unknowns u = [q_E, q_D, v_D, a_R, lam], deformation rates and accelerations zero */
+static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v)
+{
+    const int nu = SYMGEN_NALG(s);
+    double *u = s->qs_u, *a = s->qs_a, *lam = s->qs_lam;
+    double Fmax = 0.0;
+    int it, k, r, *col = s->qs_col, converged = 0;
+    int off = 0;
+    for (k = 0; k < SYMGEN_NE(s); ++k) { u[off + k] = q[s->model->elastic[k]]; col[off + k] = s->model->elastic[k]; }
+    off += SYMGEN_NE(s);
+    for (k = 0; k < SYMGEN_ND(s); ++k) { u[off + k] = q[s->model->dependent[k]]; col[off + k] = s->model->dependent[k]; }
+    off += SYMGEN_ND(s);
+    for (k = 0; k < SYMGEN_ND(s); ++k) { u[off + k] = v[s->model->dependent[k]]; col[off + k] = SYMGEN_NQ(s) + s->model->dependent[k]; }
+    off += SYMGEN_ND(s);
+    for (k = 0; k < SYMGEN_NR(s); ++k) { u[off + k] = 0.0; col[off + k] = 2 * SYMGEN_NQ(s) + s->model->accel[k]; }
+    off += SYMGEN_NR(s);
+    for (k = 0; k < SYMGEN_NL(s); ++k) { u[off + k] = 0.0; col[off + k] = 3 * SYMGEN_NQ(s) + k; }
+    for (it = 1; it <= s->model->policy.quasi_static_maxit + 1; ++it) {
+        /* state of u */
+        off = 0;
+        memset(a, 0, sizeof(double) * SYMGEN_NQ(s));
+        for (k = 0; k < SYMGEN_NE(s); ++k) { q[s->model->elastic[k]] = u[off + k]; v[s->model->elastic[k]] = 0.0; }
+        off += SYMGEN_NE(s);
+        for (k = 0; k < SYMGEN_ND(s); ++k) q[s->model->dependent[k]] = u[off + k];
+        off += SYMGEN_ND(s);
+        for (k = 0; k < SYMGEN_ND(s); ++k) v[s->model->dependent[k]] = u[off + k];
+        off += SYMGEN_ND(s);
+        for (k = 0; k < SYMGEN_NR(s); ++k) a[s->model->accel[k]] = u[off + k];
+        off += SYMGEN_NR(s);
+        for (k = 0; k < SYMGEN_NL(s); ++k) lam[k] = u[off + k];
+        if (it == s->model->policy.quasi_static_maxit + 1) break;
+        symgen_alg_(s, t, q, v, a, lam, s->sr);
+        Fmax = symgen_max_abs(s->sr, nu);
+        if (Fmax < s->model->policy.quasi_static_tol) { converged = 1; break; }
+        symgen_alg_jac_(s, t, q, v, a, lam);
+        for (r = 0; r < nu; ++r) {
+            for (k = 0; k < nu; ++k) s->sq[r * nu + k] = s->galg[r * SYMGEN_NW(s) + col[k]];
+        }
+        if (symgen_lu(s->sq, nu, s->sp)) break;
+        symgen_lu_solve(s->sq, nu, s->sp, s->sr);
+        for (k = 0; k < nu; ++k) u[k] -= s->sr[k];
+    }
+    if (!converged) {
+        symgen_alg_(s, t, q, v, a, lam, s->sr);
+        Fmax = symgen_max_abs(s->sr, nu);
+        if (!(Fmax <= s->model->policy.quasi_static_accept)) {
+            /* the real cause first: near a state beyond the range of the bar models (as in Python) */
+            if (Fmax <= s->model->policy.quasi_static_near) {
+                memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
+                s->t = t;
+                if (symgen_beyond_range_(s)) return 1;
+            }
+            return symgen_fail_(s, t, "the quasi-static state did not converge (residual)", Fmax,
+                               "the mechanism may be near buckling or a singular position");
+        }
+    }
+    return 0;
+}
+
+static void symgen_reduce_(symgen_solver *s);
+
+/* The divergence check of a quasi-static start (Mechanism.divergent_deformation). The linearised
+   motion of the independent amplitudes q_E about the state (q, v), the rigid independent
+   coordinates held and the dependent ones following the closure, is
+       d/dtau [dq_E; dv_E] = A [dq_E; dv_E],   A = [[0, I], [da_E/dq_E, da_E/dv_E]],
+   whose lower rows are those of dz/dx = -g_z^-1 g_x of the index-1 system (rows of a_E in z,
+   columns of q_E and v_E in x): the integrator's own Jacobian (rhs_jac) and reduction (reduce,
+   K = g_z^-1 g_x). A real eigenvalue s of A (|Im s| <= tol, tol = divergence_rtol max(1, max |s|))
+   above tol is a divergence: the state is an unstable equilibrium, beyond a buckling load, and
+   the start is refused, naming the largest such rate and the amplitude that dominates its
+   eigenvector (largest |component| among the q_E; by inverse iteration with A - s I). 0, or fail. */
+static int symgen_divergence_(symgen_solver *s, double t, const double *q, const double *v)
+{
+    const int ne = SYMGEN_NE(s), n2 = 2 * SYMGEN_NE(s), nx = SYMGEN_NX(s);
+    double *a = s->dv_a, *lam = s->dv_lam, scale = 1.0, tol, rate = 0.0, big;
+    int i, j, k, it, coord = -1, regular = 0;
+    s->divergence_rate = 0.0;
+    if (ne == 0) return 0;
+    if (symgen_accelerations_(s, t, q, v, a, lam)) return 1;
+    for (k = 0; k < SYMGEN_NQ(s); ++k) {
+        s->y[s->model->ypos_q[k]] = q[k];
+        s->y[s->model->ypos_v[k]] = v[k];
+        s->y[SYMGEN_A0(s) + k] = a[k];
+    }
+    for (k = 0; k < SYMGEN_NL(s); ++k) s->y[SYMGEN_A0(s) + SYMGEN_NQ(s) + k] = lam[k];
+    symgen_rhs_jac_(s, t, s->y);
+    symgen_reduce_(s);
+    if (s->gzz_singular) {
+        return symgen_fail_(s, t, "the quasi-static state's algebraic equations are singular (no linearised motion)", 0.0,
+                           "the rigid mechanism may be at a singular position");
+    }
+    memset(s->dva, 0, sizeof(double) * n2 * n2);
+    for (i = 0; i < ne; ++i) {
+        const int row = 2 * SYMGEN_ND(s) + s->model->elastic[i];      /* a_E[i] in z */
+        s->dva[i * n2 + ne + i] = 1.0;
+        for (j = 0; j < ne; ++j) {
+            s->dva[(ne + i) * n2 + j] = -s->kzx[row * nx + s->model->ypos_q[s->model->elastic[j]]];
+            s->dva[(ne + i) * n2 + ne + j] = -s->kzx[row * nx + s->model->ypos_v[s->model->elastic[j]]];
+        }
+    }
+    if (!(symgen_max_abs(s->dva, n2 * n2) <= DBL_MAX)) {
+        return symgen_fail_(s, t, "the linearised motion of the quasi-static state is not finite", 0.0,
+                           "check the loads and stiffness of the bars");
+    }
+    memcpy(s->dvh, s->dva, sizeof(double) * n2 * n2);
+    if (symgen_eigenvalues(s->dvh, n2, s->dvu, s->dvwr, s->dvwi)) {
+        return symgen_fail_(s, t, "the stability of the quasi-static state is not known: its eigenvalues did not converge", 0.0,
+                           "check the loads and stiffness of the bars");
+    }
+    for (k = 0; k < n2; ++k) scale = fmax(scale, hypot(s->dvwr[k], s->dvwi[k]));
+    tol = s->model->policy.divergence_rtol * scale;
+    for (k = 0; k < n2; ++k) {
+        if (fabs(s->dvwi[k]) <= tol && s->dvwr[k] > tol && s->dvwr[k] > rate) rate = s->dvwr[k];
+    }
+    if (rate == 0.0) return 0;
+    s->divergence_rate = rate;
+    /* its eigenvector: inverse iteration x := (A - sigma I)^-1 x from x = 1 with sigma = rate (moved
+       by eps scale should the LU meet an exact zero pivot): A - sigma I is singular to the
+       eigenvalue's round-off, so each step multiplies the other eigenvectors' share of x by
+       about that round-off over their distance to rate; 3 steps (Wilkinson: 1 or 2 suffice) */
+    for (it = 0; it < 2 && !regular; ++it) {
+        memcpy(s->dvh, s->dva, sizeof(double) * n2 * n2);
+        for (k = 0; k < n2; ++k) s->dvh[k * n2 + k] -= rate + it * DBL_EPSILON * scale;
+        regular = symgen_lu(s->dvh, n2, s->dvpiv) == 0;
+    }
+    for (k = 0; k < n2; ++k) s->dvx[k] = 1.0;
+    for (it = 0; regular && it < 3; ++it) {
+        memcpy(s->dvu, s->dvx, sizeof(double) * n2);
+        symgen_lu_solve(s->dvh, n2, s->dvpiv, s->dvu);
+        big = symgen_max_abs(s->dvu, n2);
+        if (!(big > 0.0 && big <= DBL_MAX)) break;          /* keep the last finite iterate */
+        for (k = 0; k < n2; ++k) s->dvx[k] = s->dvu[k] / big;
+    }
+    for (k = 0, big = -1.0; regular && k < ne; ++k) {       /* the q_E half: the amplitudes */
+        if (fabs(s->dvx[k]) > big) { big = fabs(s->dvx[k]); coord = s->model->elastic[k]; }
+    }
+    s->status = SYMGEN_SOLVER_FAILED;
+    snprintf(s->message, SYMGEN_MESSAGE_SIZE, "at tau = %.6g: the quasi-static state is unstable: the deformation grows "
+             "at rate %.3g (per unit tau) along %s, a load beyond a buckling load; lower the load or stiffen the bar; "
+             "or start undeformed (remove initial.deformation = \"quasi-static\") to follow the bar into its buckled "
+             "state", t, rate, coord >= 0 ? s->model->coordinate_names[coord] : "the deformation amplitudes");
+    return SYMGEN_SOLVER_FAILED;
+}
+
+
+/* quasi-static start (Mechanism.quasi_static_start): under angle drivers the deformation
+   rates are the quasi-static ones too, by central differences */
+static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, double *v)
+{
+    double m3[3], h, dt;
+    int k, side;
+    if (symgen_quasi_static_(s, t0, q, v)) return 1;
+    /* the quasi-static state within the range of the bar models (Mechanism.quasi_static_start) */
+    memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
+    s->t = t0;
+    if (symgen_beyond_range_(s)) return 1;
+    /* and stable: not beyond a buckling load (Mechanism.quasi_static_start) */
+    if (symgen_divergence_(s, t0, q, v)) return 1;
+    {   /* the fastest angle driver at t0 (Mechanism.driver_step); all at rest: quasi-static rates are zero */
+        double rate = 0.0;
+        int moving = 0;
+        for (k = 0; k < s->model->n_angle; ++k) {
+            symgen_driver_motion_(s, k, t0, m3);
+            if (m3[1] != 0.0 || m3[2] != 0.0) moving = 1;
+            if (fabs(m3[1]) > rate) rate = fabs(m3[1]);
+        }
+        if (!moving) return 0;
+        h = rate > 0.0 ? s->model->policy.driver_step / rate : s->model->policy.driver_step;
+    }
+    for (side = 0; side < 2; ++side) {
+        dt = side == 0 ? -h : h;
+        memcpy(s->qs, q, sizeof(double) * SYMGEN_NQ(s));
+        memcpy(s->vs, v, sizeof(double) * SYMGEN_NQ(s));
+        for (k = 0; k < s->model->n_angle; ++k) {
+            symgen_driver_motion_(s, k, t0 + dt, m3);
+            s->qs[s->model->angle_coords[k]] = m3[0];
+        }
+        if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
+        if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
+        if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs)) return 1;
+        for (k = 0; k < SYMGEN_NE(s); ++k) {
+            int i = s->model->elastic[k];
+            if (side == 0) s->qe[i] = s->qs[i];
+            else v[i] = (s->qs[i] - s->qe[i]) / (2 * h);
+        }
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ Radau IIA */
+/* The Newton matrices E = c M - dF/dy (M = diag(I, 0); c = GAMMA / h real, (ALPHA + i BETA) / h
+   complex) are solved by block elimination on y = [x; z]: with g_z the algebraic block of dF/dy
+   (regular: the DAE has index 1), K = g_z^-1 g_x and jred = f_x - f_z K (the Jacobian of the
+   reduced ODE x' = f(x, z(x))),
+       (c I - jred) dx = r_x - f_z g_z^-1 r_z,    dz = -g_z^-1 r_z - K dx.
+   x = [q_I, v_I] is of second order: jred = [[0, I], [A_q, A_v]], so that (as RADAU5 does for
+   second-order systems) dq = (c^2 I - c A_v - A_q)^-1 (r_v + (c I - A_v) r_q), dv = c dq - r_q.
+   g_z is factored once per Jacobian and is real for both matrices; a new step size costs only
+   the NI x NI LU of c^2 I - c A_v - A_q (real and complex). */
+/* b := g_z^-1 b with the factors of g_z (lu_solve visiting their nonzeros only) */
+static void symgen_zsolve_(const symgen_solver *s, double *b)
+{
+    const int nz = SYMGEN_NZ(s);
+    const double *A = s->gzz;
+    int i, k;
+    for (i = 0; i < nz; ++i) {
+        const int pi = s->pivz[i];
+        if (pi != i) { double tmp = b[i]; b[i] = b[pi]; b[pi] = tmp; }
+    }
+    for (i = 1; i < nz; ++i) {
+        double sum = b[i];
+        for (k = s->zrow[i]; k < s->zmid[i]; ++k) sum -= A[i * nz + s->zcol[k]] * b[s->zcol[k]];
+        b[i] = sum;
+    }
+    for (i = nz - 1; i >= 0; --i) {
+        double sum = b[i];
+        for (k = s->zmid[i]; k < s->zrow[i + 1]; ++k) sum -= A[i * nz + s->zcol[k]] * b[s->zcol[k]];
+        b[i] = sum / A[i * nz + i];
+    }
+}
+
+static void symgen_reduce_(symgen_solver *s)
+{
+    const int ny = SYMGEN_NY(s), nx = SYMGEN_NX(s), nz = SYMGEN_NZ(s);
+    int i, j, k;
+    for (i = 0; i < nz; ++i) {
+        for (j = 0; j < nz; ++j) s->gzz[i * nz + j] = s->jac[(nx + i) * ny + nx + j];
+    }
+    s->gzz_singular = symgen_lu(s->gzz, nz, s->pivz) != 0;
+    if (s->gzz_singular) return;
+    /* g_z is sparse (block lower triangular in [q_D, v_D, (a, lam)]) and so are its factors:
+       the solves visit their nonzeros only (in the dense order: the same sums) */
+    k = 0;
+    for (i = 0; i < nz; ++i) {
+        s->zrow[i] = k;
+        for (j = 0; j < i; ++j) {
+            if (s->gzz[i * nz + j] != 0.0) s->zcol[k++] = j;
+        }
+        s->zmid[i] = k;
+        for (j = i + 1; j < nz; ++j) {
+            if (s->gzz[i * nz + j] != 0.0) s->zcol[k++] = j;
+        }
+    }
+    s->zrow[nz] = k;
+    for (j = 0; j < nx; ++j) {
+        for (i = 0; i < nz; ++i) s->uz[i] = s->jac[(nx + i) * ny + j];
+        symgen_zsolve_(s, s->uz);
+        for (i = 0; i < nz; ++i) s->kzx[i * nx + j] = s->uz[i];
+    }
+    for (i = 0; i < nx; ++i) {
+        for (j = 0; j < nx; ++j) s->jred[i * nx + j] = s->jac[i * ny + j];
+        for (k = 0; k < nz; ++k) {
+            const double fz = s->jac[i * ny + nx + k];
+            if (fz != 0.0) {
+                for (j = 0; j < nx; ++j) s->jred[i * nx + j] -= fz * s->kzx[k * nx + j];
+            }
+        }
+    }
+}
+
+static int symgen_factor_(symgen_solver *s, double h)
+{
+    const int ni = SYMGEN_NI(s), nx = SYMGEN_NX(s);
+    const double fac1 = s->model->radau.gamma / h, alphn = s->model->radau.alpha / h, betan = s->model->radau.beta / h;
+    int i, j;
+    if (s->gzz_singular) return 1;
+    for (i = 0; i < ni; ++i) {
+        for (j = 0; j < ni; ++j) {
+            const double aq = s->jred[(ni + i) * nx + j], av = s->jred[(ni + i) * nx + ni + j];
+            s->e1[i * ni + j] = -aq - fac1 * av;
+            s->e2r[i * ni + j] = -aq - alphn * av;
+            s->e2i[i * ni + j] = -betan * av;
+        }
+        s->e1[i * ni + i] += fac1 * fac1;
+        s->e2r[i * ni + i] += alphn * alphn - betan * betan;
+        s->e2i[i * ni + i] += 2.0 * alphn * betan;
+    }
+    s->n_factorizations++;
+    s->h_lu = h;
+    if (symgen_lu(s->e1, ni, s->piv1)) return 1;
+    if (symgen_clu(s->e2r, s->e2i, ni, s->piv2)) return 1;
+    return 0;
+}
+
+/* d := E1^-1 d (real Newton matrix; c = GAMMA / h) */
+static void symgen_solve1_(symgen_solver *s, double *d)
+{
+    const int ny = SYMGEN_NY(s), ni = SYMGEN_NI(s), nx = SYMGEN_NX(s), nz = SYMGEN_NZ(s);
+    const double fac1 = s->model->radau.gamma / s->h_lu;
+    double *x = d, *z = d + nx, *u = s->uz;
+    int i, k;
+    memcpy(u, z, sizeof(double) * nz);
+    symgen_zsolve_(s, u);
+    for (i = ni; i < nx; ++i) {          /* the rows of q_I do not depend on z */
+        double sum = x[i];
+        for (k = 0; k < nz; ++k) sum -= s->jac[i * ny + nx + k] * u[k];
+        x[i] = sum;
+    }
+    for (i = 0; i < ni; ++i) {           /* r_v + (c I - A_v) r_q */
+        double sum = x[ni + i] + fac1 * x[i];
+        for (k = 0; k < ni; ++k) sum -= s->jred[(ni + i) * nx + ni + k] * x[k];
+        x[ni + i] = sum;
+    }
+    symgen_lu_solve(s->e1, ni, s->piv1, x + ni);
+    for (i = 0; i < ni; ++i) {
+        const double dq = x[ni + i];
+        x[ni + i] = fac1 * dq - x[i];
+        x[i] = dq;
+    }
+    for (k = 0; k < nz; ++k) {
+        double sum = -u[k];
+        for (i = 0; i < nx; ++i) sum -= s->kzx[k * nx + i] * x[i];
+        z[k] = sum;
+    }
+}
+
+/* (dr + i di) := E2^-1 (dr + i di) (complex Newton matrix; c = (ALPHA + i BETA) / h) */
+static void symgen_solve2_(symgen_solver *s, double *dr, double *di)
+{
+    const int ny = SYMGEN_NY(s), ni = SYMGEN_NI(s), nx = SYMGEN_NX(s), nz = SYMGEN_NZ(s);
+    const double alphn = s->model->radau.alpha / s->h_lu, betan = s->model->radau.beta / s->h_lu;
+    double *ur = s->uz, *ui = s->uzi;
+    int i, k;
+    memcpy(ur, dr + nx, sizeof(double) * nz);
+    memcpy(ui, di + nx, sizeof(double) * nz);
+    symgen_zsolve_(s, ur);
+    symgen_zsolve_(s, ui);
+    for (i = ni; i < nx; ++i) {
+        double sr = dr[i], si = di[i];
+        for (k = 0; k < nz; ++k) {
+            const double fz = s->jac[i * ny + nx + k];
+            sr -= fz * ur[k];
+            si -= fz * ui[k];
+        }
+        dr[i] = sr;
+        di[i] = si;
+    }
+    for (i = 0; i < ni; ++i) {
+        double sr = dr[ni + i] + alphn * dr[i] - betan * di[i];
+        double si = di[ni + i] + alphn * di[i] + betan * dr[i];
+        for (k = 0; k < ni; ++k) {
+            const double av = s->jred[(ni + i) * nx + ni + k];
+            sr -= av * dr[k];
+            si -= av * di[k];
+        }
+        dr[ni + i] = sr;
+        di[ni + i] = si;
+    }
+    symgen_clu_solve(s->e2r, s->e2i, ni, s->piv2, dr + ni, di + ni);
+    for (i = 0; i < ni; ++i) {
+        const double qr = dr[ni + i], qi = di[ni + i];
+        dr[ni + i] = alphn * qr - betan * qi - dr[i];
+        di[ni + i] = alphn * qi + betan * qr - di[i];
+        dr[i] = qr;
+        di[i] = qi;
+    }
+    for (k = 0; k < nz; ++k) {
+        double sr = -ur[k], si = -ui[k];
+        for (i = 0; i < nx; ++i) {
+            sr -= s->kzx[k * nx + i] * dr[i];
+            si -= s->kzx[k * nx + i] * di[i];
+        }
+        dr[nx + k] = sr;
+        di[nx + k] = si;
+    }
+}
+
+static double symgen_rms_(const double *x, const double *scal, int n, int reps)
+{
+    double sum = 0.0;
+    int i, r;
+    for (r = 0; r < reps; ++r) {
+        for (i = 0; i < n; ++i) { double e = x[r * n + i] / scal[i]; sum += e * e; }
+    }
+    return sqrt(sum / (n * reps));
+}
+
+/* integrate from s->t to t_out with Radau IIA (after Hairer & Wanner's RADAU5) */
+static int symgen_integrate_(symgen_solver *s, double t_out)
+{
+    const int ny = SYMGEN_NY(s);
+    const double uround = DBL_EPSILON;
+    const symgen_radau *rk = &s->model->radau;
+    const double safe = rk->safe, facl = rk->facl, facr = rk->facr, thet = rk->thet;
+    const double quot1 = rk->quot1, quot2 = rk->quot2;
+    const int nit = rk->nit, nx = SYMGEN_NX(s);
+    const double C[3] = { rk->c[0], rk->c[1], rk->c[2] }, DD[3] = { rk->dd[0], rk->dd[1], rk->dd[2] };
+    const double T[3][3] = { { rk->T[0][0], rk->T[0][1], rk->T[0][2] }, { rk->T[1][0], rk->T[1][1], rk->T[1][2] },
+                             { rk->T[2][0], rk->T[2][1], rk->T[2][2] } };
+    const double TI[3][3] = { { rk->TI[0][0], rk->TI[0][1], rk->TI[0][2] }, { rk->TI[1][0], rk->TI[1][1], rk->TI[1][2] },
+                              { rk->TI[2][0], rk->TI[2][1], rk->TI[2][2] } };
+    const double c1 = C[0], c2 = C[1], c1m1 = c1 - 1.0, c2m1 = c2 - 1.0, c1mc2 = c1 - c2;
+    const double cfac = safe * (1 + 2 * nit);
+    /* the error estimate is of order 3: tolerances transformed as in RADAU5 */
+    const double rtol = 0.1 * pow(s->rtol, 2.0 / 3.0), atol = rtol * (s->atol / s->rtol);
+    const double fnewt = fmax(10 * uround / rtol, fmin(0.03, sqrt(rtol)));
+    long budget = 50000000L;
+    int i, j;
+    while (s->t < t_out) {
+        double h = s->h, h_unclipped = s->h, rem = t_out - s->t, hhfac = 0.5;
+        double fac1, alphn, betan, theta, thqold = 1.0, dynold = 1.0, err, fac, quot, hnew;
+        int newt = 0, outcome = 0, clipped = 0, landing = 0;
+        if (rem <= 4 * uround * fmax(fabs(t_out), 1.0)) { s->t = t_out; break; }
+        if (--budget <= 0) return symgen_fail_(s, s->t, "too many steps", 0.0, "loosen the tolerances");
+        if (h >= rem * (1.0 - 1e-4)) { h = rem; clipped = 1; landing = 1; }
+        else if (h > 0.5 * rem) { h = 0.5 * rem; clipped = 1; }
+        if (!(h > 1e-14 * fmax(fabs(s->t), 1.0))) {
+            return symgen_fail_(s, s->t, "the step size became too small", h,
+                               "the mechanism may have reached a singular position, or the tolerances are too tight");
+        }
+        if (s->need_jac) {
+            symgen_rhs_jac_(s, s->t, s->y);
+            symgen_reduce_(s);
+            s->have_jac = 1;
+            s->need_jac = 0;
+            s->jac_current = 1;
+            s->h_lu = -1.0;
+        }
+        if (h != s->h_lu && symgen_factor_(s, h)) {
+            s->n_rejected++;
+            s->reject = 1;
+            s->h = 0.5 * h;
+            continue;
+        }
+        fac1 = rk->gamma / h; alphn = rk->alpha / h; betan = rk->beta / h;
+        /* weights of the Newton test: differential components by their value; algebraic ones
+           (they pass through zero with round-off of the size of their peaks) by the largest
+           magnitude they have had in this run, and accelerations and multipliers, which move
+           x only through h * a, relaxed by 1/h (as RADAU5 does for index-2 variables) */
+        for (j = 0; j < ny; ++j) {
+            if (j >= nx && fabs(s->y[j]) > s->ymax[j]) s->ymax[j] = fabs(s->y[j]);
+            s->scal[j] = atol + rtol * (j < nx ? fabs(s->y[j]) : s->ymax[j]);
+            if (j >= SYMGEN_A0(s) && h < 1.0) s->scal[j] /= h;
+        }
+        memcpy(s->y0, s->y, sizeof(double) * ny);
+        /* starting values: the previous step's collocation polynomial, or zero */
+        if (s->first || !s->have_cont) {
+            memset(s->z, 0, sizeof(double) * 3 * ny);
+        } else {
+            const double c3q = h / s->h_old, c1q = c1 * c3q, c2q = c2 * c3q;
+            for (j = 0; j < ny; ++j) {
+                const double ak1 = s->cont[j], ak2 = s->cont[ny + j], ak3 = s->cont[2 * ny + j];
+                s->z[j] = c1q * (ak1 + (c1q - c2m1) * (ak2 + (c1q - c1m1) * ak3));
+                s->z[ny + j] = c2q * (ak1 + (c2q - c2m1) * (ak2 + (c2q - c1m1) * ak3));
+                s->z[2 * ny + j] = c3q * (ak1 + (c3q - c2m1) * (ak2 + (c3q - c1m1) * ak3));
+            }
+        }
+        for (j = 0; j < ny; ++j) {
+            const double z1 = s->z[j], z2 = s->z[ny + j], z3 = s->z[2 * ny + j];
+            s->w[j] = TI[0][0] * z1 + TI[0][1] * z2 + TI[0][2] * z3;
+            s->w[ny + j] = TI[1][0] * z1 + TI[1][1] * z2 + TI[1][2] * z3;
+            s->w[2 * ny + j] = TI[2][0] * z1 + TI[2][1] * z2 + TI[2][2] * z3;
+        }
+        /* simplified Newton iterations on the stage equations */
+        s->faccon = pow(fmax(s->faccon, uround), 0.8);
+        theta = thet;
+        for (;;) {
+            double dyno;
+            int finite = 1;
+            if (newt >= nit) { outcome = 2; break; }
+            for (i = 0; i < 3; ++i) {
+                for (j = 0; j < ny; ++j) s->tmp[j] = s->y0[j] + s->z[i * ny + j];
+                symgen_rhs_(s, s->t + C[i] * h, s->tmp, s->f + i * ny);
+            }
+            for (j = 0; j < 3 * ny; ++j) {
+                if (!(fabs(s->f[j]) <= DBL_MAX)) { finite = 0; break; }
+            }
+            if (!finite) { outcome = 2; break; }
+            for (j = 0; j < ny; ++j) {
+                const double f0 = s->f[j], f1 = s->f[ny + j], f2 = s->f[2 * ny + j];
+                const double g1 = TI[0][0] * f0 + TI[0][1] * f1 + TI[0][2] * f2;
+                const double g2 = TI[1][0] * f0 + TI[1][1] * f1 + TI[1][2] * f2;
+                const double g3 = TI[2][0] * f0 + TI[2][1] * f1 + TI[2][2] * f2;
+                if (j < nx) {
+                    const double w1 = s->w[j], w2 = s->w[ny + j], w3 = s->w[2 * ny + j];
+                    s->dw[j] = g1 - fac1 * w1;
+                    s->dw[ny + j] = g2 - (alphn * w2 - betan * w3);
+                    s->dw[2 * ny + j] = g3 - (betan * w2 + alphn * w3);
+                } else {
+                    s->dw[j] = g1;
+                    s->dw[ny + j] = g2;
+                    s->dw[2 * ny + j] = g3;
+                }
+            }
+            symgen_solve1_(s, s->dw);
+            symgen_solve2_(s, s->dw + ny, s->dw + 2 * ny);
+            newt++;
+            dyno = symgen_rms_(s->dw, s->scal, ny, 3);
+            if (!(dyno <= DBL_MAX)) { outcome = 2; break; }
+            if (newt > 1 && newt < nit) {
+                const double thq = dyno / dynold;
+                theta = newt == 2 ? thq : sqrt(thq * thqold);
+                thqold = thq;
+                if (theta < 0.99) {
+                    double dyth;
+                    s->faccon = theta / (1.0 - theta);
+                    dyth = s->faccon * dyno * pow(theta, nit - 1 - newt) / fnewt;
+                    if (dyth >= 1.0) {
+                        const double qnewt = fmax(1e-4, fmin(20.0, dyth));
+                        hhfac = 0.8 * pow(qnewt, -1.0 / (4.0 + nit - 1 - newt));
+                        outcome = 1;
+                        break;
+                    }
+                } else {
+                    outcome = 2;
+                    break;
+                }
+            }
+            dynold = fmax(dyno, uround);
+            for (j = 0; j < 3 * ny; ++j) s->w[j] += s->dw[j];
+            for (j = 0; j < ny; ++j) {
+                const double w1 = s->w[j], w2 = s->w[ny + j], w3 = s->w[2 * ny + j];
+                s->z[j] = T[0][0] * w1 + T[0][1] * w2 + T[0][2] * w3;
+                s->z[ny + j] = T[1][0] * w1 + T[1][1] * w2 + T[1][2] * w3;
+                s->z[2 * ny + j] = T[2][0] * w1 + T[2][1] * w2 + T[2][2] * w3;
+            }
+            if (s->faccon * dyno <= fnewt) break;
+        }
+        s->n_steps++;
+        if (outcome) {
+            /* Newton too slow (1) or diverging (2): smaller step, fresh Jacobian if it is old */
+            s->n_rejected++;
+            s->reject = 1;
+            s->h = h * (outcome == 1 ? hhfac : 0.5);
+            if (!s->jac_current) s->need_jac = 1;
+            continue;
+        }
+        /* error estimate (Hairer & Wanner IV.8) */
+        for (j = 0; j < ny; ++j) {
+            const double e = (DD[0] * s->z[j] + DD[1] * s->z[ny + j] + DD[2] * s->z[2 * ny + j]) / h;
+            s->tmp2[j] = j < nx ? e : 0.0;
+            s->tmp[j] = s->tmp2[j] + s->f0[j];
+        }
+        /* the local error test covers the differential components only (like the Python
+           path's IDAS with suppress_algebraic): z follows x through the algebraic equations */
+        symgen_solve1_(s, s->tmp);
+        err = fmax(symgen_rms_(s->tmp, s->scal, nx > 0 ? nx : ny, 1), 1e-10);
+        if (err >= 1.0 && (s->first || s->reject)) {
+            for (j = 0; j < ny; ++j) s->tmp[j] += s->y0[j];
+            symgen_rhs_(s, s->t, s->tmp, s->tmp3);
+            for (j = 0; j < ny; ++j) s->tmp[j] = s->tmp3[j] + s->tmp2[j];
+            symgen_solve1_(s, s->tmp);
+            err = fmax(symgen_rms_(s->tmp, s->scal, nx > 0 ? nx : ny, 1), 1e-10);
+        }
+        if (!(err <= DBL_MAX)) err = 1e6;
+        fac = fmin(safe, cfac / (newt + 2 * nit));
+        quot = fmax(facr, fmin(facl, pow(err, 0.25) / fac));
+        hnew = h / quot;
+        if (err < 1.0) {
+            double qt;
+            s->n_accepted++;
+            if (s->n_accepted > 1) {
+                double facgus = (s->h_acc / h) * pow(err * err / s->err_acc, 0.25) / safe;
+                facgus = fmax(facr, fmin(facl, facgus));
+                quot = fmax(quot, facgus);
+                hnew = h / quot;
+            }
+            s->h_acc = h;
+            s->err_acc = fmax(1e-2, err);
+            s->first = 0;
+            for (j = 0; j < ny; ++j) {
+                const double z1 = s->z[j], z2 = s->z[ny + j], z3 = s->z[2 * ny + j];
+                const double ak = (z1 - z2) / c1mc2;
+                double acont3 = z1 / c1;
+                s->y[j] = s->y0[j] + z3;
+                s->cont[j] = (z2 - z3) / c2m1;
+                acont3 = (ak - acont3) / c2;
+                s->cont[ny + j] = (ak - s->cont[j]) / c1m1;
+                s->cont[2 * ny + j] = s->cont[ny + j] - acont3;
+            }
+            s->have_cont = 1;
+            s->h_old = h;
+            s->t = landing ? t_out : s->t + h;
+            symgen_rhs_(s, s->t, s->y, s->f0);
+            if (s->reject) hnew = fmin(hnew, h);
+            s->reject = 0;
+            s->jac_current = 0;
+            qt = hnew / h;
+            if (theta <= thet && qt >= quot1 && qt <= quot2) hnew = h;
+            if (clipped) hnew = hnew < h ? hnew : fmax(hnew, h_unclipped);
+            s->h = hnew;
+            s->need_jac = theta > thet;
+        } else {
+            s->n_rejected++;
+            s->reject = 1;
+            s->h = s->first ? 0.1 * h : hnew;
+            if (!s->jac_current) s->need_jac = 1;
+        }
+    }
+    return 0;
+}
+
+/* Newton on the algebraic equations in z at fixed x (DaeRunner.polish). The first iterations
+   use the factored g_z of the integrator's last Jacobian (a chord step costs one solve, no
+   Jacobian and no LU), kept while each contracts the residual at least tenfold; then Newton with
+   a fresh g_z. Both stop at the same residual. */
+static void symgen_polish_(symgen_solver *s)
+{
+    const int nz = SYMGEN_NZ(s);
+    int it, r, c, chord = s->have_jac && !s->gzz_singular;
+    double *y = s->y, rn, rn_old = HUGE_VAL;
+    for (it = 0; it < s->model->policy.polish_maxit; ++it) {
+        symgen_unpack_(s, y, s->q, s->v);
+        symgen_alg_(s, s->t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s), s->sr);
+        rn = symgen_max_abs(s->sr, nz);
+        if (rn < s->model->policy.polish_tol) break;
+        if (chord && !(rn <= 0.1 * rn_old)) {
+            chord = 0;
+            if (rn_old < rn) {       /* the last chord step made it worse: undo it */
+                for (r = 0; r < nz; ++r) y[SYMGEN_NX(s) + r] += s->uz[r];
+                it--;
+                continue;
+            }
+        }
+        rn_old = rn;
+        if (chord) {
+            memcpy(s->uz, s->sr, sizeof(double) * nz);
+            symgen_zsolve_(s, s->uz);
+            for (r = 0; r < nz; ++r) y[SYMGEN_NX(s) + r] -= s->uz[r];
+            it--;                    /* chord steps are not counted against the Newton iterations */
+            continue;
+        }
+        symgen_alg_jac_(s, s->t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
+        for (r = 0; r < nz; ++r) {
+            for (c = 0; c < SYMGEN_NW(s); ++c) {
+                const int col = s->model->ycol[c] - SYMGEN_NX(s);
+                if (col >= 0) s->sq[r * nz + col] = s->galg[r * SYMGEN_NW(s) + c];
+            }
+        }
+        if (symgen_lu(s->sq, nz, s->sp)) break;
+        symgen_lu_solve(s->sq, nz, s->sp, s->sr);
+        for (r = 0; r < nz; ++r) y[SYMGEN_NX(s) + r] -= s->sr[r];
+    }
+}
+
+/* bars deformed beyond the range of the model (Mechanism.beyond_range): 0, or fail */
+static int symgen_beyond_range_(symgen_solver *s)
+{
+    const symgen_model *M = s->model;
+    int g, k;
+    for (g = 0; g < M->n_amplitude_checks; ++g) {
+        const symgen_amplitude_check *c = &M->amplitude_checks[g];
+        double size = 0.0;
+        for (k = 0; k < c->count; ++k) size += fabs(s->q[M->amplitude_index[c->start + k]]);
+        if (!(size <= c->limit)) {
+            return symgen_fail_(s, s->t, c->message, size,
+                                "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
+        }
+    }
+    return 0;
+}
+
+/* at a good output (the start, each advance): the largest closure residual seen, and the
+   coordinates there (a failing step's diagnosis looks back at them) */
+static void symgen_record_closure_(symgen_solver *s)
+{
+    double *clo = s->clo;
+    double m;
+    symgen_unpack_(s, s->y, s->q, s->v);
+    memcpy(s->q_last, s->q, sizeof(double) * SYMGEN_NQ(s));
+    s->t_last = s->t;
+    if (SYMGEN_NCLO(s) == 0) return;
+    s->model->closure(s->t, s->q, s->zeros, s->zeros, s->zeros, s->p, clo);
+    m = symgen_max_abs(clo, SYMGEN_NCLO(s));
+    if (m > s->closure_max) s->closure_max = m;
+}
+
+/* ------------------------------------------------------------------ public */
+/* a call with an invalid argument: the message, nothing else changed */
+static int symgen_bad_argument_(symgen_solver *s, const char *what, double value, const char *rule)
+{
+    snprintf(s->message, SYMGEN_MESSAGE_SIZE, "%s = %.17g is not valid: it must be %s", what, value, rule);
+    return SYMGEN_SOLVER_BAD_ARGUMENT;
+}
+
+SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, double rtol, double atol)
+{
+    double *q, *v;
+    int k;
+    if (!s || !s->model) return SYMGEN_SOLVER_BAD_ARGUMENT;
+    {   /* a fresh state (every array zero) in the storage s is bound to */
+        const symgen_model *model = s->model;
+        double *pp = s->p, *y = s->y, *work = s->work;
+        int *iwork = s->iwork;
+        long used;
+        memset(s, 0, sizeof(*s));
+        used = symgen_bind(s, model, pp, y, work, iwork);
+        if (s->sizes_differ) {
+            s->status = SYMGEN_SOLVER_FAILED;
+            snprintf(s->message, SYMGEN_MESSAGE_SIZE, "the solver was compiled for other sizes than its model's "
+                     "(files of different emissions mixed?): emit the model's C again");
+            return SYMGEN_SOLVER_FAILED;
+        }
+        memset(work, 0, sizeof(double) * (size_t)used);
+        memset(iwork, 0, sizeof(int) * (size_t)SYMGEN_WORK_INTS(s->nq, s->nl, s->ni, s->nd, s->ne));
+        memset(pp, 0, sizeof(double) * (size_t)s->np);
+        memset(y, 0, sizeof(double) * (size_t)s->ny);
+    }
+    if (!(fabs(t0) <= DBL_MAX)) return s->status = symgen_bad_argument_(s, "t0", t0, "finite");
+    if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < s->model->rtol_max))) {
+        return s->status = symgen_bad_argument_(s, "rtol", rtol, s->model->rtol_rule);
+    }
+    if (!(fabs(atol) <= DBL_MAX)) {
+        return s->status = symgen_bad_argument_(s, "atol", atol, "finite and > 0, or <= 0 for the scene's");
+    }
+    memcpy(s->p, p ? p : s->model->parameter_defaults, sizeof(double) * SYMGEN_NP(s));
+    for (k = 0; k < SYMGEN_NP(s); ++k) {
+        if (!s->model->parameter_valid(k, s->p[k])) {
+            return s->status = symgen_bad_argument_(s, s->model->parameter_names[k], s->p[k], s->model->parameter_range[k]);
+        }
+    }
+    s->t = t0;
+    s->rtol = rtol > 0 ? rtol : s->model->rtol;
+    s->atol = atol > 0 ? atol : s->model->atol;
+    q = s->qs;   /* scratch for the start */
+    v = s->vs;
+    memcpy(q, s->model->q_guess, sizeof(double) * SYMGEN_NQ(s));
+    memcpy(v, s->model->v_guess, sizeof(double) * SYMGEN_NQ(s));
+    for (k = 0; k < s->model->n_angle; ++k) {   /* every angle driver's angle and rate at t0 */
+        double m3[3];
+        symgen_driver_motion_(s, k, t0, m3);
+        q[s->model->angle_coords[k]] = m3[0];
+        v[s->model->angle_coords[k]] = m3[1];
+    }
+    if (symgen_assemble_(s, t0, q, s->model->assembly_dependent)) return s->status;
+    if (symgen_closure_ratio_(s, t0, q) < s->model->policy.singular_ratio) {
+        return symgen_fail_(s, t0, "the rigid mechanism starts at a singular position: the closure Jacobian loses rank", 0.0,
+                           "start the driver at another angle or change initial.guess");
+    }
+    {
+        double *q0 = s->start_q, *v0 = s->start_v, *a = s->start_a, *lam = s->start_lam;
+        memcpy(q0, q, sizeof(double) * SYMGEN_NQ(s));
+        memcpy(v0, v, sizeof(double) * SYMGEN_NQ(s));
+        if (s->model->quasi_static && symgen_quasi_static_start_(s, t0, q0, v0)) return s->status;
+        if (symgen_velocities_(s, t0, q0, v0)) return s->status;
+        if (symgen_accelerations_(s, t0, q0, v0, a, lam)) return s->status;
+        for (k = 0; k < SYMGEN_NQ(s); ++k) {
+            s->y[s->model->ypos_q[k]] = q0[k];
+            s->y[s->model->ypos_v[k]] = v0[k];
+            s->y[SYMGEN_A0(s) + k] = a[k];
+        }
+        for (k = 0; k < SYMGEN_NL(s); ++k) s->y[SYMGEN_A0(s) + SYMGEN_NQ(s) + k] = lam[k];
+    }
+    s->first = 1;
+    s->need_jac = 1;
+    s->h = 1e-6;
+    s->h_lu = -1.0;
+    s->faccon = 1.0;
+    symgen_rhs_(s, t0, s->y, s->f0);
+    symgen_record_closure_(s);
+    return 0;
+}
+
+SYMGEN_API int symgen_solver_advance(symgen_solver *s, double t_out)
+{
+    double ratio;
+    if (!s) return SYMGEN_SOLVER_BAD_ARGUMENT;
+    if (s->status) return s->status;
+    if (!(fabs(t_out) <= DBL_MAX)) return symgen_bad_argument_(s, "t_out", t_out, "finite");
+    if (!(t_out > s->t)) return 0;
+    if (symgen_integrate_(s, t_out)) {
+        /* a step that failed where the closure was already near rank loss at the last good
+           output met a singular position (as simulate._lost reports it in Python) */
+        const double t_fail = s->t;
+        ratio = symgen_closure_ratio_(s, s->t_last, s->q_last);
+        if (ratio < s->model->policy.near_singular_ratio) {
+            return symgen_fail_(s, t_fail, "the rigid mechanism reached a singular position (change point / toggle): "
+                               "the closure Jacobian loses rank (singular value ratio at the last output)", ratio,
+                               "the mechanism cannot be driven through this position; shorten the run or change "
+                               "the geometry or the driver");
+        }
+        return s->status;
+    }
+    symgen_polish_(s);
+    symgen_rhs_(s, s->t, s->y, s->f0);
+    symgen_unpack_(s, s->y, s->q, s->v);
+    if (symgen_beyond_range_(s)) return s->status;
+    ratio = symgen_closure_ratio_(s, s->t, s->q);
+    if (ratio < s->model->policy.singular_ratio) {
+        return symgen_fail_(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (singular value ratio)",
+                           ratio, "the mechanism cannot pass this position as driven; shorten t_end or change the geometry");
+    }
+    symgen_record_closure_(s);
+    return 0;
+}
+
+SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, double *q, double *v, double *a,
+                                   double *lam)
+{
+    const int a0 = SYMGEN_NX_(model->ni) + 2 * model->nd;
+    int k;
+    for (k = 0; k < model->n; ++k) {
+        if (q) q[k] = y[model->ypos_q[k]];
+        if (v) v[k] = y[model->ypos_v[k]];
+        if (a) a[k] = y[a0 + k];
+    }
+    for (k = 0; k < model->m; ++k) {
+        if (lam) lam[k] = y[a0 + model->n + k];
+    }
+}
+
+SYMGEN_API void symgen_model_outputs(const symgen_model *model, double t, const double *y, const double *p, double *q,
+                                     double *v, double *out)
+{
+    const int a0 = SYMGEN_NX_(model->ni) + 2 * model->nd;
+    symgen_model_state(model, y, q, v, NULL, NULL);
+    model->out(t, q, v, y + a0, y + a0 + model->n, p, out);
+}
