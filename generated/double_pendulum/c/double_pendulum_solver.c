@@ -51,6 +51,8 @@ const double double_pendulum_q_guess[10] = { -1.2, 0.0, 0.0, 0.0, 0.0, -0.9, 0.0
 const double double_pendulum_v_guess[10] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
+static const int double_pendulum_x_angle_coords[1] = { -1 };
+static const int double_pendulum_x_angle_rows[1] = { -1 };
 static const int double_pendulum_x_assembly_dep[2] = { 1, 6 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
 static const int double_pendulum_x_ypos_q[10] = { 0, 16, 1, 2, 3, 4, 17, 5, 6, 7 };
@@ -84,8 +86,8 @@ const symgen_model double_pendulum_model = {
     double_pendulum_x_ypos_q, double_pendulum_x_ypos_v, double_pendulum_x_ycol,
     double_pendulum_x_elastic, double_pendulum_x_accel, double_pendulum_x_sing_rows, double_pendulum_x_sing_cols,
     double_pendulum_q_guess, double_pendulum_v_guess,
-    -1, -1,      /* driver, driver_row */
-    0, 0,      /* angle_driver, quasi_static */
+    0, double_pendulum_x_angle_coords, double_pendulum_x_angle_rows,      /* n_angle, angle_coords, angle_rows */
+    0,      /* quasi_static */
     double_pendulum_RTOL, double_pendulum_ATOL, double_pendulum_RTOL_MAX,
     "in (0, 1.0), or <= 0 for the scene's",
     double_pendulum_coordinate_names, double_pendulum_parameter_names, double_pendulum_parameter_range, double_pendulum_parameter_defaults,

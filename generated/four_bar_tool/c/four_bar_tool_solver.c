@@ -51,6 +51,8 @@ const double four_bar_tool_q_guess[10] = { -0.0, 1.7, 0.97, 0.0, 0.0, 0.0, 0.0, 
 const double four_bar_tool_v_guess[10] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
+static const int four_bar_tool_x_angle_coords[1] = { 0 };
+static const int four_bar_tool_x_angle_rows[1] = { 2 };
 static const int four_bar_tool_x_assembly_dep[3] = { 0, 2, 1 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
 static const int four_bar_tool_x_ypos_q[10] = { 14, 16, 15, 0, 1, 2, 3, 4, 5, 6 };
@@ -80,8 +82,8 @@ const symgen_model four_bar_tool_model = {
     four_bar_tool_x_ypos_q, four_bar_tool_x_ypos_v, four_bar_tool_x_ycol,
     four_bar_tool_x_elastic, four_bar_tool_x_accel, four_bar_tool_x_sing_rows, four_bar_tool_x_sing_cols,
     four_bar_tool_q_guess, four_bar_tool_v_guess,
-    0, 2,      /* driver, driver_row */
-    1, 1,      /* angle_driver, quasi_static */
+    1, four_bar_tool_x_angle_coords, four_bar_tool_x_angle_rows,      /* n_angle, angle_coords, angle_rows */
+    1,      /* quasi_static */
     four_bar_tool_RTOL, four_bar_tool_ATOL, four_bar_tool_RTOL_MAX,
     "in (0, 1.0), or <= 0 for the scene's",
     four_bar_tool_coordinate_names, four_bar_tool_parameter_names, four_bar_tool_parameter_range, four_bar_tool_parameter_defaults,

@@ -72,7 +72,7 @@ typedef struct symgen_amplitude_check {
 
 /*
  * An emitted model: its functions and tables. Sizes: n coordinates q, m multipliers (closure
- * rows: loops, then the angle driver), np parameters, nclosure loop rows of phi; the solver's
+ * rows: loops, then the angle drivers), np parameters, nclosure loop rows of phi; the solver's
  * partition into ni independent and nd dependent coordinates (y = [q_I, v_I, q_D, v_D, a, lam]);
  * ne deformation amplitudes the quasi-static start solves for, nr accelerations it solves for,
  * ns dependent rigid coordinates that decide a singular position.
@@ -86,8 +86,9 @@ typedef struct symgen_model {
     const int *elastic, *accel;              /* [ne], [nr]: the unknowns of the quasi-static start */
     const int *sing_rows, *sing_cols;        /* [ns]: the closure Jacobian's block that decides a singular position */
     const double *q_guess, *v_guess;         /* [n]: the assembly's initial guess */
-    int driver, driver_row;                  /* the driver's coordinate and row of phi (-1: none) */
-    int angle_driver, quasi_static;          /* 1: an angle driver; 1: start on the quasi-static deformation */
+    int n_angle;                             /* angle drivers (0: none) */
+    const int *angle_coords, *angle_rows;    /* [n_angle]: each angle driver's coordinate and row of phi */
+    int quasi_static;                        /* 1: start on the quasi-static deformation */
     double rtol, atol;                       /* the scene's default tolerances */
     double rtol_max;                         /* rtol must be below it */
     const char *rtol_rule;                   /* that rule in words, for the message */

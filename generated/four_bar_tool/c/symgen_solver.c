@@ -289,16 +289,12 @@ static double symgen_closure_ratio_(symgen_solver *s, double t, const double *q)
     return symgen_singular_ratio(s->sq, n);
 }
 
-/* theta, theta', theta'' an angle driver prescribes at t, from the driver rows of phi, phid,
-   phidd (Mechanism.driver_motion): the same law the equations use, whatever its form */
-static void symgen_driver_motion_(symgen_solver *s, double t, double *m3)
+/* theta, theta', theta'' angle driver k prescribes at t, from its row of phi, phid, phidd
+   (Mechanism.driver_motion): the same law the equations use, whatever its form */
+static void symgen_driver_motion_(symgen_solver *s, int k, double t, double *m3)
 {
     double *r = s->drv_r;
-    const int row = s->model->driver_row >= 0 ? s->model->driver_row : 0;
-    if (SYMGEN_NL(s) == 0 || s->model->driver_row < 0) {
-        m3[0] = m3[1] = m3[2] = 0.0;
-        return;
-    }
+    const int row = s->model->angle_rows[k];
     s->model->phi(t, s->zeros, s->zeros, s->zeros, s->zeros, s->p, r);
     m3[0] = -r[row];
     s->model->phid(t, s->zeros, s->zeros, s->zeros, s->zeros, s->p, r);
@@ -534,7 +530,7 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
 }
 
 
-/* quasi-static start (Mechanism.quasi_static_start): under an angle driver the deformation
+/* quasi-static start (Mechanism.quasi_static_start): under angle drivers the deformation
    rates are the quasi-static ones too, by central differences */
 static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, double *v)
 {
@@ -547,16 +543,25 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
     if (symgen_beyond_range_(s)) return 1;
     /* and stable: not beyond a buckling load (Mechanism.quasi_static_start) */
     if (symgen_divergence_(s, t0, q, v)) return 1;
-    if (!s->model->angle_driver) return 0;
-    symgen_driver_motion_(s, t0, m3);
-    if (m3[1] == 0.0 && m3[2] == 0.0) return 0;   /* driver at rest: quasi-static rates are zero */
-    h = m3[1] != 0.0 ? s->model->policy.driver_step / fabs(m3[1]) : s->model->policy.driver_step;  /* Mechanism.driver_step */
+    {   /* the fastest angle driver at t0 (Mechanism.driver_step); all at rest: quasi-static rates are zero */
+        double rate = 0.0;
+        int moving = 0;
+        for (k = 0; k < s->model->n_angle; ++k) {
+            symgen_driver_motion_(s, k, t0, m3);
+            if (m3[1] != 0.0 || m3[2] != 0.0) moving = 1;
+            if (fabs(m3[1]) > rate) rate = fabs(m3[1]);
+        }
+        if (!moving) return 0;
+        h = rate > 0.0 ? s->model->policy.driver_step / rate : s->model->policy.driver_step;
+    }
     for (side = 0; side < 2; ++side) {
         dt = side == 0 ? -h : h;
         memcpy(s->qs, q, sizeof(double) * SYMGEN_NQ(s));
         memcpy(s->vs, v, sizeof(double) * SYMGEN_NQ(s));
-        symgen_driver_motion_(s, t0 + dt, m3);
-        s->qs[s->model->driver >= 0 ? s->model->driver : 0] = m3[0];
+        for (k = 0; k < s->model->n_angle; ++k) {
+            symgen_driver_motion_(s, k, t0 + dt, m3);
+            s->qs[s->model->angle_coords[k]] = m3[0];
+        }
         if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
         if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
         if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs)) return 1;
@@ -1098,11 +1103,11 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
     v = s->vs;
     memcpy(q, s->model->q_guess, sizeof(double) * SYMGEN_NQ(s));
     memcpy(v, s->model->v_guess, sizeof(double) * SYMGEN_NQ(s));
-    if (s->model->angle_driver) {
+    for (k = 0; k < s->model->n_angle; ++k) {   /* every angle driver's angle and rate at t0 */
         double m3[3];
-        symgen_driver_motion_(s, t0, m3);
-        q[s->model->driver >= 0 ? s->model->driver : 0] = m3[0];
-        v[s->model->driver >= 0 ? s->model->driver : 0] = m3[1];
+        symgen_driver_motion_(s, k, t0, m3);
+        q[s->model->angle_coords[k]] = m3[0];
+        v[s->model->angle_coords[k]] = m3[1];
     }
     if (symgen_assemble_(s, t0, q, s->model->assembly_dependent)) return s->status;
     if (symgen_closure_ratio_(s, t0, q) < s->model->policy.singular_ratio) {
