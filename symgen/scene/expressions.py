@@ -516,7 +516,8 @@ class _Parser:
             if calling:
                 raise ValueError(f"{name} is not a function (at character {tok.at}); write {name}*(...) for a product")
             return _Node(sp.pi, math.pi) if name == "pi" else _Node(self.symbols[name], None)
-        known = ", ".join(["tau", "pi", *sorted(n for n in self.symbols if n != "tau")])
+        time = [n for n in ("tau", TIME_NAME) if n in self.symbols]
+        known = ", ".join([*time, "pi", *sorted(n for n in self.symbols if n not in time)])
         if calling:
             raise ValueError(
                 f"unknown function {name!r} (at character {tok.at}); the functions are {', '.join(ALLOWED_FUNCTIONS)}"
@@ -654,7 +655,7 @@ def _symbols(names: Mapping[str, Any] | None) -> dict[str, Any]:
     return symbols
 
 
-def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> Any:
+def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None, time: str = "tau") -> Any:
     """Parse a scene expression of ``tau`` into a SymPy expression (never evaluating the text).
 
     Parameters
@@ -662,6 +663,8 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> A
     text : the expression as written in the scene file (grammar in the module docstring)
     names : optional named parameters the expression may use, name -> ``sympy.Symbol``
         (a name may not be ``tau``, ``pi`` or a function)
+    time : the name of the time: ``"tau"`` (:func:`tau_symbol`), or ``"t"`` for an SI scene's
+        seconds (:func:`time_symbol`; use :func:`parse_seconds_expression`)
 
     Returns
     -------
@@ -680,6 +683,11 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> A
     if not text.strip():
         raise ValueError("the expression is empty")
     symbols = _symbols(names)
+    if time != "tau":
+        if time != TIME_NAME or TIME_NAME in symbols:
+            raise ValueError(f"the time is tau, or t in an SI scene, got {time!r}")
+        del symbols["tau"]
+        symbols[TIME_NAME] = time_symbol()
     tokens = _tokenize(text)
     import sympy
 
@@ -692,3 +700,71 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> A
     if expr.has(sympy.I):
         raise ValueError("it is not real")
     return expr
+
+
+# -- SI scenes: expressions of t in seconds --------------------------------------------------
+#: The time of an SI scene's expressions, in seconds (tau = omega t is the model's time).
+TIME_NAME = "t"
+SECONDS_HINT = (
+    "in an SI scene an expression is of t, the time in seconds (tau = omega t is not used there), "
+    "with numbers, t, pi, + - * /, ^ (or **) for the power, parentheses and the functions "
+    + " ".join(ALLOWED_FUNCTIONS)
+)
+
+
+def time_symbol() -> Any:
+    """The SymPy symbol ``t`` (real, seconds) of an SI scene's expressions."""
+    import sympy
+
+    return sympy.Symbol(TIME_NAME, real=True)
+
+
+def _refuse_tau(tokens: list[_Token]) -> None:
+    for tok in tokens:
+        if tok.kind == "name" and tok.text == "tau":
+            raise ValueError(
+                f"tau is the model's dimensionless time; an SI scene's expressions are of t in "
+                f"seconds (tau = omega t; at character {tok.at})"
+            )
+
+
+def parse_seconds_expression(text: str) -> Any:
+    """Parse an SI scene's expression of ``t`` (seconds) into a SymPy expression of
+    :func:`time_symbol`, with the grammar and bounds of :func:`parse_tau_expression`; ``tau``
+    is refused (an SI scene's expressions are of t only).
+
+    >>> parse_seconds_expression("2*sin(50*t)")
+    2*sin(50*t)
+    """
+    if isinstance(text, str) and len(text) <= MAX_LENGTH:
+        _refuse_tau(_tokenize(text))
+    return parse_tau_expression(text, {}, time=TIME_NAME)
+
+
+def seconds_to_tau_text(text: str, omega: float, scale: float = 1.0) -> str:
+    """The model's expression of tau for an SI scene's expression of ``t`` in seconds whose
+    value is in SI: ``t`` becomes ``(tau/omega)`` and the whole is divided by ``scale`` (the SI
+    value of one model unit: 1 for an angle, m_ref l0^3 omega^2 for a moment, ...), the same
+    double operations as the loader's conversion of a number. The text is spliced, token by
+    token, so that the result is an expression of the same grammar (never built from SymPy's
+    printing); ValueError when ``text`` is not an expression of t, or when the converted text
+    exceeds the grammar's bounds.
+
+    >>> seconds_to_tau_text("0.5*sin(2*t)", 10.0, 4.0)
+    '(0.5*sin(2*(tau/10.0)))/4.0'
+    """
+    parse_seconds_expression(text)
+    pieces, end = [], 0
+    for tok in _tokenize(text):
+        if tok.kind == "name" and tok.text == TIME_NAME:
+            pieces += [text[end : tok.at - 1], f"(tau/{float(omega)!r})"]
+            end = tok.at  # the name t is one character
+    pieces.append(text[end:])
+    converted = "".join(pieces)
+    if scale != 1.0:
+        converted = f"({converted})/{float(scale)!r}"
+    try:
+        parse_tau_expression(converted)
+    except ValueError as exc:
+        raise ValueError(f"converted to the model's time (t = tau/omega) {exc}") from None
+    return converted

@@ -58,14 +58,34 @@ class Scales:
         """A gravity component: SI m/s^2 -> g / (l0 omega^2)."""
         return g / (self.l0 * self.omega**2) if self.si else g
 
+    def torque_unit(self) -> float:
+        """The SI value of one model unit of moment: m_ref l0^3 omega^2 (N m); 1 when dimensionless."""
+        return self.m_ref * self.l0**3 * self.omega**2 if self.si else 1.0
+
+    def distributed_unit(self, m_i: float, l_i: float) -> float:
+        """The SI value of one model unit of distributed load on bar i: m_i l_i omega^2 (N/m)."""
+        return m_i * l_i * self.omega**2 if self.si else 1.0
+
+    def point_unit(self, m_i: float, l_i: float) -> float:
+        """The SI value of one model unit of point load on bar i: m_i l_i^2 omega^2 (N)."""
+        return m_i * l_i**2 * self.omega**2 if self.si else 1.0
+
     def torque(self, torque: float) -> float:
         """A moment: SI N m -> M / (m_ref l0^3 omega^2)."""
-        return torque / (self.m_ref * self.l0**3 * self.omega**2) if self.si else torque
+        return torque / self.torque_unit() if self.si else torque
 
     def distributed(self, q: float, m_i: float, l_i: float) -> float:
         """A distributed load on bar i: SI N/m -> q / (m_i l_i omega^2)."""
-        return q / (m_i * l_i * self.omega**2) if self.si else q
+        return q / self.distributed_unit(m_i, l_i) if self.si else q
 
     def point(self, force: float, m_i: float, l_i: float) -> float:
         """A point load on bar i: SI N -> F / (m_i l_i^2 omega^2)."""
-        return force / (m_i * l_i**2 * self.omega**2) if self.si else force
+        return force / self.point_unit(m_i, l_i) if self.si else force
+
+    def seconds(self, tau: float) -> float:
+        """A model time tau as shown to the user: t = tau / omega seconds in SI, else tau."""
+        return tau / self.omega if self.si else tau
+
+    def time_text(self, tau: float) -> str:
+        """``"t = 0.1 s"`` (SI) or ``"tau = 23"`` (dimensionless) for messages."""
+        return f"t = {tau / self.omega:.6g} s" if self.si else f"tau = {tau:.6g}"
