@@ -11,7 +11,9 @@ from symgen.scene.units import Scales
 DRIVER_KINDS = ("angle", "torque")
 DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp", "rotor_inertia")
 LAW_HINT = 'law is the prescribed angle theta - initial in rad as an expression of tau, e.g. law = "0.5*sin(tau)"; '
-LAW_HINT_SI = 'law is the prescribed angle theta - initial in rad as an expression of t in seconds, e.g. law = "0.5*sin(30*t)"; '
+LAW_HINT_SI = (
+    'law is the prescribed angle theta - initial in rad as an expression of t in seconds, e.g. law = "0.5*sin(30*t)"; '
+)
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
 EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
@@ -206,10 +208,11 @@ def check_driver_motion(r: Reader, driver: Driver | None, t_end: float, scales: 
     if bad is not None:
         si = scales is not None and scales.si
         what = bad[1].replace("d tau", "dt") if si else bad[1]
-        at, run = (scales.time_text(bad[0]), f"{scales.seconds(t_end):.6g} s") if si else (
-            f"tau = {bad[0]:.6g}",
-            f"{t_end:.6g}",
-        )
+        if si:
+            assert scales is not None
+            at, run = scales.time_text(bad[0]), f"{scales.seconds(t_end):.6g} s"
+        else:
+            at, run = f"tau = {bad[0]:.6g}", f"{t_end:.6g}"
         r.fail(
             "driver.law",
             f"the prescribed angle's {what} is not a finite real number at {at} (the run goes from 0 to {run})",

@@ -201,7 +201,7 @@ def _seconds_keys(r: Reader, table: dict, scales: Scales) -> None:
             r.fail(
                 f"simulation.{key}",
                 f"{key} is in seconds, but this scene is dimensionless (it has no omega to convert with)",
-                f"give {twin} in tau instead, or set scene.units = \"SI\" with omega",
+                f'give {twin} in tau instead, or set scene.units = "SI" with omega',
             )
         if twin in table and key == "output_interval":
             r.fail(
@@ -245,7 +245,9 @@ def read_simulation(r: Reader, raw: dict, driver: Driver | None, scales: Scales)
             r.fail(
                 "simulation.cycles",
                 "an angle driver with a law has no constant rate to count turns by",
-                "give duration (in seconds) instead of cycles" if scales.si else "give t_end (in tau) instead of cycles",
+                "give duration (in seconds) instead of cycles"
+                if scales.si
+                else "give t_end (in tau) instead of cycles",
             )
         rate = abs(driver.rate) if driver is not None and driver.kind == "angle" else 0.0
         t_end = cycles * 2.0 * math.pi / (rate if rate != 0.0 else 1.0)
