@@ -90,13 +90,17 @@ CASES = {
 }
 
 
-@pytest.fixture(scope="module", params=sorted(CASES))
-def pair(request, tmp_path_factory):
-    (si_driver, si_load), (dl_driver, dl_load) = CASES[request.param]
-    tmp = tmp_path_factory.mktemp(request.param)
+def _pair(tmp, case: str):
+    """(SI scene file, hand-written dimensionless scene file) of one of CASES."""
+    (si_driver, si_load), (dl_driver, dl_load) = CASES[case]
     si = write_scene(tmp / "si.toml", _scene(SI_HEADER, SI_BAR, si_driver, si_load, G, SI_RUN))
     dl = write_scene(tmp / "dimless.toml", _scene("", DIMLESS_BAR, dl_driver, dl_load, GRAVITY, DIMLESS_RUN))
     return si, dl
+
+
+@pytest.fixture(scope="module", params=sorted(CASES))
+def pair(request, tmp_path_factory):
+    return _pair(tmp_path_factory.mktemp(request.param), request.param)
 
 
 def test_si_scene_is_the_hand_written_dimensionless_scene(pair):
@@ -118,11 +122,9 @@ def test_si_expressions_match_the_dimensionless_run(pair):
         assert np.abs(a - b).max() < 1e-6 * scale, name
 
 
-def test_si_law_follows_the_seconds_law(pair):
+def test_si_law_follows_the_seconds_law(tmp_path):
     """Independent of the dimensionless scene: theta(t) = 0.4 sin(15 t) at t = tau / omega."""
-    si = pair[0]
-    if "law" not in si.read_text():
-        pytest.skip("a torque-driven case")
+    si = _pair(tmp_path, "law")[0]
     res = simulate(mechanism(si))
     t = res.tau / OMEGA
     np.testing.assert_allclose(res.column("theta"), 0.4 * np.sin(15 * t), atol=1e-9)
@@ -212,3 +214,63 @@ def test_check_prints_si_scenes_in_seconds(tmp_path, capsys):
     path = write_scene(tmp_path / "a.toml", _si_text(**{'value = "0.2*sin(15*t)"': "value = 0.5"}))
     assert main(["check", str(path)]) == 0
     assert "torque on arm: 0.5 N m" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ sweep tables and plots in SI
+def test_sweep_of_an_si_scene_is_in_si(tmp_path, capsys):
+    """Peaks in m, speeds in Hz and rpm, frequencies in Hz: the dimensionless table times the
+    scales; the first bending frequency of the slowly turning cantilever is the clamped-free
+    beam's 1.8751^2 sqrt(EI / (m L^4)) / 2 pi Hz (closed form)."""
+    import csv
+    import json
+
+    from symgen.api import sweep
+
+    path = write_scene(
+        tmp_path / "arm.toml",
+        _si_text(
+            **{
+                'kind = "torque"\nvalue = "0.2*sin(15*t)"\ninitial = 0.0': 'kind = "angle"\nrate = 1.0',
+                f"gravity = [0.0, {-G!r}]": "gravity = [0.0, 0.0]",
+                "transverse = 1.0": 'transverse = "2.0*sin(40*t)"',
+            }
+        ),
+    )
+    vary = {"driver.rate": "0.01,0.5"}
+    si = sweep(path, vary, workers=1, campbell=True)
+    dl = sweep(path, vary, workers=1, campbell=True, units="dimensionless")
+    hz = OMEGA / (2 * np.pi)
+    np.testing.assert_array_equal(si["driver.rate"], dl["driver.rate"])
+    np.testing.assert_allclose(si["peak_tip"], dl["peak_tip"] * LENGTH, rtol=1e-14)
+    np.testing.assert_allclose(si["peak_theta"], dl["peak_theta"], rtol=1e-14)
+    np.testing.assert_allclose(si["speed"], [0.01 * hz, 0.5 * hz], rtol=1e-14)
+    np.testing.assert_allclose(si["speed_rpm"], [0.01 * OMEGA * 60 / (2 * np.pi), 0.5 * OMEGA * 60 / (2 * np.pi)])
+    np.testing.assert_allclose(si["f1"], dl["f1"] * hz, rtol=1e-14)
+    beam = 1.8751040687**2 * np.sqrt(E * INERTIA / (MASS * LENGTH**4)) / (2 * np.pi)
+    assert si["f1"][0] == pytest.approx(beam, rel=2e-3)
+    assert si["peak_tip"][1] > 1e-7  # a real deflection, in m
+
+    out = tmp_path / "sweep.csv"
+    args = ["sweep", str(path), "--vary", "driver.rate=0.01,0.5", "-o", str(out), "--workers", "1"]
+    assert main([*args, "--campbell", str(tmp_path / "c.png"), "--plot", str(tmp_path / "r.png")]) == 0
+    rows = list(csv.DictReader(out.open()))
+    assert [float(r["f1"]) for r in rows] == pytest.approx(list(si["f1"]), rel=1e-12)
+    assert [float(r["peak_tip"]) for r in rows] == pytest.approx(list(si["peak_tip"]), rel=1e-12)
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["units"] == "SI" and meta["si_factors"] is None
+    assert meta["column_units"] == {
+        "peak_tip": "m",
+        "peak_theta": "rad",
+        "f1": "Hz",
+        "f2": "Hz",
+        "speed": "Hz",
+        "speed_rpm": "rpm",
+    }
+    for png in ("c.png", "r.png"):
+        assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # --units dimensionless keeps the model's units and the factors to SI
+    assert main([*args, "--units", "dimensionless"]) == 0
+    meta = json.loads(out.with_suffix(".json").read_text())
+    assert meta["units"].startswith("dimensionless") and meta["si_factors"]["peak_tip"]["factor"] == LENGTH
+    rows = list(csv.DictReader(out.open()))
+    assert [float(r["peak_tip"]) for r in rows] == pytest.approx(list(dl["peak_tip"]), rel=1e-12)
