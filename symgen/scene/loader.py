@@ -46,7 +46,15 @@ from symgen.scene.limits import (
     over_limit,
     short_key,
 )
-from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
+from symgen.scene.mechanism import (
+    check_connected,
+    check_name,
+    make_body,
+    read_bars,
+    read_joints,
+    reference_bar,
+    si_inputs,
+)
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
@@ -406,6 +414,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         outputs=outputs,
         simulation=simulation,
         groups=build_groups(bodies, scales, header.units, effects),
+        si_inputs=si_inputs(raw, bars, header.omega, header.reference_length) if si else (),
     )
 
 

@@ -13,11 +13,24 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
+
+
+def axial_group(modulus: Any, area: Any, mass: Any, length: Any, omega: Any) -> Any:
+    """lambda = E A / (m l^2 omega^2) of an SI bar (numbers, or SymPy symbols for the emitted
+    C's conversion of physical parameters: one formula, symgen.ir.physical)."""
+    return modulus * area / (mass * length**2 * omega**2)
+
+
+def bending_group(modulus: Any, inertia: Any, mass: Any, length: Any, omega: Any) -> Any:
+    """mu = E I / (m l^4 omega^2) of an SI bar (numbers or SymPy symbols, as axial_group)."""
+    return modulus * inertia / (mass * length**4 * omega**2)
 
 
 @dataclass(frozen=True)
 class Scales:
-    """Reference scales of one scene.
+    """Reference scales of one scene. The methods are formulas: they take numbers, or SymPy
+    symbols (``symgen.ir.physical`` builds the emitted C's conversion from them).
 
     Parameters
     ----------
