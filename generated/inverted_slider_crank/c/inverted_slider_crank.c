@@ -101,6 +101,33 @@ int inverted_slider_crank_parameter_valid(int k, double value)
     return 1;
 }
 
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const inverted_slider_crank_physical_names[1] = {
+    ""
+};
+const double inverted_slider_crank_physical_defaults[1] = {
+    0.0
+};
+
+int inverted_slider_crank_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 0; ++k) {
+        if (strcmp(name, inverted_slider_crank_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int inverted_slider_crank_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    (void)x;
+    (void)changed;
+    (void)p;
+    (void)written;
+    return count;
+}
+
 /* inverted_slider_crank_phi: 45 operations, 8 temporaries */
 void inverted_slider_crank_phi(double t, const double *q, const double *v, const double *a, const double *lam, const double *p, double *out)
 {

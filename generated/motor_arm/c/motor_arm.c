@@ -101,6 +101,87 @@ int motor_arm_parameter_valid(int k, double value)
     return 1;
 }
 
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const motor_arm_physical_names[9] = {
+    "scene.omega", "scene.reference_length", "bodies.arm.length", "bodies.arm.E", "bodies.arm.area", "bodies.arm.inertia", "bodies.arm.density", "bodies.link.length", "bodies.link.mass_per_length"
+};
+const double motor_arm_physical_defaults[9] = {
+    31.4159,    /* scene.omega */
+    0.2,    /* scene.reference_length */
+    0.2,    /* bodies.arm.length */
+    210000000000.0,    /* bodies.arm.E */
+    0.0002,    /* bodies.arm.area */
+    6.6667e-09,    /* bodies.arm.inertia */
+    7850.0,    /* bodies.arm.density */
+    0.15,    /* bodies.link.length */
+    1.0    /* bodies.link.mass_per_length */
+};
+
+int motor_arm_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 9; ++k) {
+        if (strcmp(name, motor_arm_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int motor_arm_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[4] || changed[6]) {   /* I_A */
+        p[0] = 0.0001/(x[4]*x[6]*(x[1]*x[1]*x[1]));
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[4] || changed[6]) {   /* J_rotor */
+        p[1] = 0.005/(x[4]*x[6]*(x[1]*x[1]*x[1]));
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[2]) {   /* alpha_arm */
+        p[2] = x[2]/x[1];
+        written[2] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[7]) {   /* alpha_link */
+        p[3] = x[7]/x[1];
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[1]) {   /* gy */
+        p[5] = -9.81/((x[0]*x[0])*x[1]);
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[6]) {   /* lambda_arm */
+        p[6] = x[3]/(x[6]*(x[2]*x[2])*(x[0]*x[0]));
+        written[6] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[4] || changed[6]) {   /* m_A */
+        p[7] = 0.3/(x[4]*x[6]*x[1]);
+        written[7] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[4] || changed[5] || changed[6]) {   /* mu_arm */
+        p[8] = x[3]*x[5]/(x[4]*x[6]*(x[2]*x[2]*x[2]*x[2])*(x[0]*x[0]));
+        written[8] = 1;
+        ++count;
+    }
+    if (changed[4] || changed[6] || changed[8]) {   /* nu_link */
+        p[10] = x[8]/(x[4]*x[6]);
+        written[10] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[1] || changed[4] || changed[6]) {   /* torque */
+        p[13] = 3.9999999999999996/(x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]));
+        written[13] = 1;
+        ++count;
+    }
+    return count;
+}
+
 /* motor_arm_phi: 0 operations, 0 temporaries */
 void motor_arm_phi(double t, const double *q, const double *v, const double *a, const double *lam, const double *p, double *out)
 {

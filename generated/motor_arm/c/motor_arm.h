@@ -60,6 +60,26 @@ int motor_arm_parameter_index(const char *name);
 int motor_arm_parameter_valid(int k, double value);
 
 /*
+ * Physical inputs of an SI scene (none for a dimensionless one): the scene keys the model's
+ * parameters are computed from (bodies.<bar>.E, .area, .inertia, .density or .mass_per_length,
+ * .length; scene.omega, scene.reference_length), in SI units, each finite and > 0. The
+ * conversion is the Python loader's formulas printed to C (symgen.ir.physical).
+ */
+#define motor_arm_N_PHYSICAL 9
+extern const char *const motor_arm_physical_names[9];
+/* The scene's values of the physical inputs, in the order of _physical_names. */
+extern const double motor_arm_physical_defaults[9];
+
+/* Index of the physical input called `name`, or -1. */
+int motor_arm_physical_index(const char *name);
+
+/* For the physical inputs x (SI, in the order of _physical_names): p[k] = the parameter k of
+   these inputs, for every parameter that depends on an input j with changed[j] != 0 (the
+   others are not written); written[k] = 1 for each parameter written, else left as it is.
+   Returns the number of parameters written. */
+int motor_arm_physical_apply(const double *x, const int *changed, double *p, int *written);
+
+/*
  * Every function below has the signature of the CasADi Functions F(t, q, v, a, lam, p) of the
  * Python path (t is tau); it writes its rows into `out`. Inputs it does not use may be NULL.
  *   phi     position closure (11) of every cut joint, then the angle driver   [N_LAM]

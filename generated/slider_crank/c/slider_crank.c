@@ -101,6 +101,33 @@ int slider_crank_parameter_valid(int k, double value)
     return 1;
 }
 
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const slider_crank_physical_names[1] = {
+    ""
+};
+const double slider_crank_physical_defaults[1] = {
+    0.0
+};
+
+int slider_crank_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 0; ++k) {
+        if (strcmp(name, slider_crank_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int slider_crank_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    (void)x;
+    (void)changed;
+    (void)p;
+    (void)written;
+    return count;
+}
+
 /* slider_crank_phi: 24 operations, 2 temporaries */
 void slider_crank_phi(double t, const double *q, const double *v, const double *a, const double *lam, const double *p, double *out)
 {
