@@ -106,8 +106,8 @@ gravity = [0.0, -9.81]
 tip = { kind = "deflection", body = "arm", at = 1.0 }
 theta = { kind = "angle", body = "arm" }
 [simulation]
-t_end = 6.0
-output_step = 0.1
+duration = 0.3
+output_interval = 0.005
 rtol = 1e-10
 atol = 1e-12
 """
@@ -131,22 +131,23 @@ def test_c_set_by_physical_parameters_matches_python(tmp_path):
     path = write_scene(tmp_path / "si_arm.toml", ARM)
     exe = _simulator(path, tmp_path / "c")
     sets = ["bodies.arm.E=3.5e10", "bodies.arm.density=7800.0", "scene.omega=25.0"]
+    grid = ["--t-end", "6", "--step", "0.1"]  # the C runs in tau (its defaults: the scene's)
     args = [a for s in sets for a in ("--set", s)]
-    header, got, _ = run_sim(exe, *args)
+    header, got, _ = run_sim(exe, *args, *grid)
     # the C emitted from the overridden scene: the same parameters, the same run
     exe2 = _simulator(path, tmp_path / "c2", sets)
-    header2, ref_c, _ = run_sim(exe2)
+    header2, ref_c, _ = run_sim(exe2, *grid)
     assert header == header2 == ["tau", "tip", "theta"]
     np.testing.assert_allclose(got, ref_c, rtol=1e-9, atol=1e-12)
     # the Python run with the same overrides (IDAS; the tolerances apart)
-    res = simulate(mechanism(path, sets))
+    res = simulate(mechanism(path, sets), t_end=6.0, output_step=0.1)
     np.testing.assert_allclose(got[:, 0], res.tau, atol=1e-12)
     for k, name in enumerate(("tip", "theta"), start=1):
         scale = np.abs(res.column(name)).max()
         assert scale > 0
         assert np.abs(got[:, k] - res.column(name)).max() < 1e-6 * scale, name
     # and the change is real: the default run differs
-    _, default, _ = run_sim(exe)
+    _, default, _ = run_sim(exe, *grid)
     assert np.abs(default[:, 1] - got[:, 1]).max() > 1e-3 * np.abs(default[:, 1]).max()
 
 
@@ -156,9 +157,56 @@ def test_c_set_physical_refusals(tmp_path):
     exe = _simulator(path, tmp_path / "c")
     for args, fragment in (
         (["--set", "bodies.arm.E=-1"], "the physical input bodies.arm.E must be > 0"),
-        (["--set", "bodies.arm.E=1e11", "--set", "mu_arm=2"], "also set this parameter"),
+        (["--set", "bodies.arm.E=1e11", "--set", "mu_arm=2"], "also set it: give one or the other"),
         (["--set", "bodies.arm.Young=1"], "the physical inputs (SI): scene.omega, bodies.arm.length, bodies.arm.E"),
     ):
         proc = subprocess.run([str(exe), *args], capture_output=True, text=True, timeout=60)
         assert proc.returncode == 2 and proc.stdout == "", args
         assert fragment in proc.stderr, proc.stderr
+
+
+# ------------------------------------------------------------------ the FMU in seconds and SI
+@needs_cc
+def test_si_fmu_runs_in_seconds_with_units_and_physical_parameters(tmp_path):
+    """The FMU of an SI scene: its time in s, its outputs in SI with their units, its physical
+    inputs as SI parameters; its run matches the Python run converted to SI (symgen simulate's
+    units), also with a physical parameter changed (the Python run with the same override)."""
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    fmpy = pytest.importorskip("fmpy")
+    from fmpy.validation import validate_fmu
+
+    from symgen.api import mechanism, write_fmu
+    from symgen.numerics.simulate import simulate
+    from symgen.numerics.units import result_units
+
+    path = write_scene(tmp_path / "si_arm.toml", ARM)
+    fmu = tmp_path / "si_arm.fmu"
+    write_fmu(path, fmu)
+    assert validate_fmu(str(fmu)) == []
+    with zipfile.ZipFile(fmu) as zf:
+        root = ET.fromstring(zf.read("modelDescription.xml"))
+    real = {v.get("name"): (v.get("causality"), v.find("Real").get("unit")) for v in root.iter("ScalarVariable")}
+    assert real["tip"] == ("output", "m") and real["theta"] == ("output", "rad")
+    assert real["bodies.arm.E"] == ("parameter", "Pa") and real["scene.omega"] == ("parameter", "rad/s")
+    assert real["bodies.arm.inertia"] == ("parameter", "m4") and real["bodies.arm.density"] == ("parameter", "kg/m3")
+    assert real["time"] == ("independent", "s") and real["mu_arm"] == ("parameter", None)
+    units = {u.get("name") for u in root.iter("Unit")}
+    assert {"s", "m", "rad", "Pa", "rad/s", "m4", "kg/m3"} <= units
+    exp = root.find("DefaultExperiment")
+    assert float(exp.get("stopTime")) == pytest.approx(6.0 / 20.0) and float(exp.get("stepSize")) == pytest.approx(
+        0.1 / 20.0
+    )
+
+    for sets in ([], ["bodies.arm.E=3.5e10", "scene.omega=25.0"]):
+        start = {k: float(v) for k, v in (s.split("=") for s in sets)}
+        res = fmpy.simulate_fmu(str(fmu), start_values=start, output_interval=0.01)
+        mech = mechanism(path, [*sets, "simulation.output_interval=0.01"])
+        py = simulate(mech)
+        t, values = result_units(mech.scene, "SI").convert(py.tau, py.outputs)
+        np.testing.assert_allclose(res["time"], t, atol=1e-12)  # 0 to 0.3 s whatever omega is
+        for k, name in enumerate(("tip", "theta")):
+            scale = np.abs(values[:, k]).max()
+            assert scale > 0
+            assert np.abs(res[name] - values[:, k]).max() < 1e-5 * scale, (sets, name)

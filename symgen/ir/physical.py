@@ -30,7 +30,26 @@ import sympy as sp
 
 from symgen.ir import names as symbol_names
 from symgen.scene.model import GROUND, Scene
-from symgen.scene.units import Scales, axial_group, bending_group
+from symgen.scene.units import OUTPUT_SCALE, Scales, axial_group, bending_group, output_factor
+
+#: the SI unit of each physical input, by the last part of its scene key (FMI unit names)
+INPUT_UNITS = {
+    "omega": "rad/s",
+    "reference_length": "m",
+    "length": "m",
+    "E": "Pa",
+    "area": "m2",
+    "inertia": "m4",
+    "density": "kg/m3",
+    "mass_per_length": "kg/m",
+}
+#: the SI unit of each output kind (FMI unit names; "" for the closure check, a pure number)
+OUTPUT_UNITS = {"bar": "m", "l0": "m", "one": "rad", "force": "N", "moment": "N.m", "energy": "J", "check": ""}
+
+
+def output_unit(kind: str) -> str:
+    """The SI unit (FMI unit name) of an output of ``kind``."""
+    return OUTPUT_UNITS[OUTPUT_SCALE[kind]]
 
 
 @dataclass(frozen=True)
@@ -43,18 +62,26 @@ class PhysicalMap:
     expressions : model parameter name -> its SymPy expression of the input symbols (only the
         parameters that depend on at least one offered input)
     frozen : scene keys of inputs not offered (used by an SI expression's conversion)
+    omega : omega (rad/s) as an expression of the inputs: tau = omega t
+    output_factors : per scene output, in order, its SI factor (symgen.scene.units.output_factor)
+        as an expression of the inputs
     """
 
     inputs: tuple[tuple[str, float], ...] = ()
     symbols: dict[str, sp.Symbol] = field(default_factory=dict)
     expressions: dict[str, sp.Expr] = field(default_factory=dict)
     frozen: tuple[str, ...] = ()
+    omega: sp.Expr = sp.S.One
+    output_factors: tuple[sp.Expr, ...] = ()
+
+    def evaluate(self, expr: sp.Expr, overrides: dict[str, float] | None = None) -> float:
+        """An expression of the inputs at their values (``overrides``: scene key -> new value)."""
+        values = dict(self.inputs) | (overrides or {})
+        return float(expr.xreplace({self.symbols[k]: sp.Float(v, 17) for k, v in values.items()}))
 
     def value(self, parameter: str, overrides: dict[str, float] | None = None) -> float:
         """The parameter at the inputs' values (``overrides``: scene key -> new value)."""
-        values = dict(self.inputs) | (overrides or {})
-        expr = self.expressions[parameter]
-        return float(expr.xreplace({self.symbols[k]: sp.Float(v, 17) for k, v in values.items()}))
+        return self.evaluate(self.expressions[parameter], overrides)
 
 
 def _mass_keys(scene: Scene, bar: str) -> tuple[str, ...]:
@@ -162,11 +189,17 @@ def physical_map(scene: Scene, parameters: list[str] | tuple[str, ...] | None = 
     fixed = {sym[k]: sp.Float(given[k], 17) for k in frozen}
     wanted = set(parameters) if parameters is not None else set(out)
     expressions = {k: e.xreplace(fixed) for k, e in out.items() if k in wanted and e.free_symbols & offered}
+    factors = []
+    for o in scene.outputs:
+        f = output_factor(o.kind, l0, omega, m_ref, sym[f"bodies.{o.body}.length"] if o.body is not None else None)
+        factors.append(sp.Float(f) if isinstance(f, float) else f.xreplace(fixed))
     return PhysicalMap(
         inputs=tuple((k, v) for k, v in scene.si_inputs if k not in frozen),
         symbols=sym,
         expressions=expressions,
         frozen=tuple(k for k in given if k in frozen),
+        omega=omega.xreplace(fixed),
+        output_factors=tuple(factors),
     )
 
 

@@ -102,3 +102,39 @@ class Scales:
     def time_text(self, tau: float) -> str:
         """``"t = 0.1 s"`` (SI) or ``"tau = 23"`` (dimensionless) for messages."""
         return f"t = {tau / self.omega:.6g} s" if self.si else f"tau = {tau:.6g}"
+
+
+#: The scale of each output kind's SI factor (symgen.numerics.units: the results' columns)
+OUTPUT_SCALE = {
+    "deflection": "bar",
+    "axial": "bar",
+    "chord_deflection": "bar",
+    "chord_elongation": "bar",
+    "elastic_displacement": "l0",
+    "position": "l0",
+    "slope": "one",
+    "angle": "one",
+    "reaction": "force",
+    "driver_torque": "moment",
+    "energy": "energy",
+    "closure_residual": "check",
+}
+
+
+def output_factor(kind: str, l0: Any, omega: Any, m_ref: Any, bar_length: Any = None) -> Any:
+    """The SI value of one model unit of an output of ``kind`` (numbers or SymPy symbols):
+    ``bar_length`` (m) for a bar's deflection or stretch, l0 for positions, m_ref l0^2 omega^2
+    for a force, m_ref l0^3 omega^2 for a moment or an energy, 1 for angles and the closure check."""
+    scale = OUTPUT_SCALE[kind]
+    if scale == "bar":
+        if bar_length is None:
+            raise ValueError(f"a {kind} output needs its bar's length")
+        return bar_length
+    return {
+        "l0": l0,
+        "one": 1.0,
+        "force": m_ref * l0**2 * omega**2,
+        "moment": m_ref * l0**3 * omega**2,
+        "energy": m_ref * l0**3 * omega**2,
+        "check": 1.0,
+    }[scale]

@@ -84,7 +84,14 @@ def _physical(scene, params: list[str]) -> dict:
             continue
         deps = sorted(keys.index(s.name) for s in expr.free_symbols)
         formulas.append({"index": k, "code": printer.doprint(expr), "deps": deps, "name": c_comment(name)})
+    from symgen.ir.physical import INPUT_UNITS, output_unit
+
     return {
+        "si": scene.units == "SI",
+        "omega": printer.doprint(pm.omega) if pm.output_factors else c_double(scene.omega),
+        "output_factors": [printer.doprint(f) for f in pm.output_factors],
+        "output_units": [output_unit(o.kind) for o in scene.outputs],
+        "units": [INPUT_UNITS[k.rsplit(".", 1)[1]] for k in keys],
         "n": len(keys),
         "names": [c_string(k) for k in keys],
         "comments": [c_comment(k) for k in keys],
