@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "four_bar.h"
@@ -206,6 +207,52 @@ int four_bar_physical_apply(const double *x, const int *changed, double *p, int 
         ++count;
     }
     return count;
+}
+
+int four_bar_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[18];
+    int written[18];
+    int k, j;
+    for (j = 0; j < 17 && !changed[j]; ++j) {}
+    if (j == 17) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    four_bar_physical_apply(x, changed, q, written);
+    for (k = 0; k < 18; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", four_bar_parameter_names[k], four_bar_physical_names[j]);
+            return -1;
+        }
+        if (!four_bar_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     four_bar_physical_names[j], x[j], four_bar_parameter_names[k], q[k],
+                     four_bar_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double four_bar_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void four_bar_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = x[1];
+    factor[1] = 1.0;
+    factor[2] = x[7];
+    factor[3] = x[12];
+    factor[4] = 1.0;
+    factor[5] = x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[6] = 1.0;
 }
 
 /* four_bar_phi: 44 operations, 6 temporaries */

@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "motor_arm.h"
@@ -180,6 +181,48 @@ int motor_arm_physical_apply(const double *x, const int *changed, double *p, int
         ++count;
     }
     return count;
+}
+
+int motor_arm_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[14];
+    int written[14];
+    int k, j;
+    for (j = 0; j < 9 && !changed[j]; ++j) {}
+    if (j == 9) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    motor_arm_physical_apply(x, changed, q, written);
+    for (k = 0; k < 14; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", motor_arm_parameter_names[k], motor_arm_physical_names[j]);
+            return -1;
+        }
+        if (!motor_arm_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     motor_arm_physical_names[j], x[j], motor_arm_parameter_names[k], q[k],
+                     motor_arm_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double motor_arm_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void motor_arm_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = 1.0;
+    factor[1] = x[2];
+    factor[2] = x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
 }
 
 /* motor_arm_phi: 0 operations, 0 temporaries */

@@ -137,34 +137,6 @@ static int motor_arm_sim_set(const char *item, double *p, int *direct, double *x
     return 1;
 }
 
-/* the parameters computed from the physical inputs that were set; 0 (after a message) if one
-   was also set directly or is outside its range */
-static int motor_arm_sim_physical(const double *x, const int *changed, double *p, const int *direct)
-{
-    double q[14];
-    int written[14] = {0};
-    int k, j;
-    memcpy(q, p, sizeof(q));
-    if (motor_arm_physical_apply(x, changed, q, written) == 0) return 1;
-    for (k = 0; k < motor_arm_N_P; ++k) {
-        if (!written[k]) continue;
-        for (j = 0; j < motor_arm_N_PHYSICAL && !changed[j]; ++j) {}
-        if (direct[k]) {
-            motor_arm_sim_bad("--set %s: the physical inputs given (--set %s ...) also set this parameter: give "
-                            "one or the other", motor_arm_parameter_names[k], motor_arm_physical_names[j]);
-            return 0;
-        }
-        if (!motor_arm_parameter_valid(k, q[k])) {
-            motor_arm_sim_bad("the physical inputs set (--set %s=%g ...) give %s = %g, which must be %s",
-                            motor_arm_physical_names[j], x[j], motor_arm_parameter_names[k], q[k],
-                            motor_arm_parameter_range[k]);
-            return 0;
-        }
-        p[k] = q[k];
-    }
-    return 1;
-}
-
 int main(int argc, char **argv)
 {
     motor_arm_solver *s = &motor_arm_sim_solver;
@@ -203,7 +175,12 @@ int main(int argc, char **argv)
         ++a;
         if (target ? !motor_arm_sim_number(arg, value, target) : !motor_arm_sim_set(value, p, direct, x, changed)) return 2;
     }
-    if (!motor_arm_sim_physical(x, changed, p, direct)) return 2;
+    {
+        char message[400];
+        if (motor_arm_physical_set(x, changed, direct, p, message, sizeof(message))) {
+            return motor_arm_sim_bad("--set: %s", message);
+        }
+    }
     /* every value is finite here; the ranges (also of the scene's defaults) */
     if (!(t_end > 0.0)) return motor_arm_sim_bad("--t-end %g: the end time must be > 0", t_end);
     if (!(max_t_end > 0.0)) return motor_arm_sim_bad("--max-t-end %g: the limit must be > 0", max_t_end);

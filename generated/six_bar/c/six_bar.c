@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "six_bar.h"
@@ -213,6 +214,53 @@ int six_bar_physical_apply(const double *x, const int *changed, double *p, int *
         ++count;
     }
     return count;
+}
+
+int six_bar_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[20];
+    int written[20];
+    int k, j;
+    for (j = 0; j < 15 && !changed[j]; ++j) {}
+    if (j == 15) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    six_bar_physical_apply(x, changed, q, written);
+    for (k = 0; k < 20; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", six_bar_parameter_names[k], six_bar_physical_names[j]);
+            return -1;
+        }
+        if (!six_bar_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     six_bar_physical_names[j], x[j], six_bar_parameter_names[k], q[k],
+                     six_bar_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double six_bar_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void six_bar_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = x[4];
+    factor[1] = x[4];
+    factor[2] = 1.0;
+    factor[3] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]);
+    factor[4] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]);
+    factor[5] = 1.0;
+    factor[6] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[7] = 1.0;
 }
 
 /* six_bar_phi: 67 operations, 13 temporaries */

@@ -22,6 +22,8 @@
 #ifndef SYMGEN_six_bar_H
 #define SYMGEN_six_bar_H
 
+#include <stddef.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -78,6 +80,19 @@ int six_bar_physical_index(const char *name);
    others are not written); written[k] = 1 for each parameter written, else left as it is.
    Returns the number of parameters written. */
 int six_bar_physical_apply(const double *x, const int *changed, double *p, int *written);
+
+/* _physical_apply for the inputs set (changed[j] != 0) into p, all or nothing: 0 when done;
+   -1 with a message in `message` (at most `size` bytes) when a parameter computed from them was
+   also set directly (direct[k] != 0) or is outside its range (p is then unchanged). */
+int six_bar_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size);
+
+/* omega in rad/s at the physical inputs x (tau = omega t); the scene's omega when it has none. */
+double six_bar_physical_omega(const double *x);
+
+/* The SI value of one model unit of each output at the physical inputs x (m, rad, N, N m, J;
+   symgen.scene.units.output_factor): output_SI[k] = out[k] * factor[k]. No-op without inputs. */
+void six_bar_physical_output_factors(const double *x, double *factor);
 
 /*
  * Every function below has the signature of the CasADi Functions F(t, q, v, a, lam, p) of the

@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "slider_crank.h"
@@ -126,6 +127,47 @@ int slider_crank_physical_apply(const double *x, const int *changed, double *p, 
     (void)p;
     (void)written;
     return count;
+}
+
+int slider_crank_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[14];
+    int written[14];
+    int k, j;
+    for (j = 0; j < 0 && !changed[j]; ++j) {}
+    if (j == 0) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    slider_crank_physical_apply(x, changed, q, written);
+    for (k = 0; k < 14; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", slider_crank_parameter_names[k], slider_crank_physical_names[j]);
+            return -1;
+        }
+        if (!slider_crank_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     slider_crank_physical_names[j], x[j], slider_crank_parameter_names[k], q[k],
+                     slider_crank_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double slider_crank_physical_omega(const double *x)
+{
+    (void)x;
+    return 1.0;
+}
+
+void slider_crank_physical_output_factors(const double *x, double *factor)
+{
+    (void)x;
+    (void)factor;
 }
 
 /* slider_crank_phi: 24 operations, 2 temporaries */
