@@ -160,7 +160,9 @@ def _simulate(args, files) -> int:
             "leave out --states, or --solver c",
         )
     mech = _prepare_run(args)
-    _say(args, f"integrating tau 0 -> {mech.scene.simulation.t_end:.6g}")
+    sc = mech.scene
+    seconds = f" (t 0 -> {sc.simulation.t_end / sc.omega:.6g} s)" if sc.units == "SI" else ""
+    _say(args, f"integrating tau 0 -> {sc.simulation.t_end:.6g}{seconds}")
     if args.solver == "c":
         from symgen.numerics.csolver import simulate_c
 

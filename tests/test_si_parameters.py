@@ -210,3 +210,21 @@ def test_si_fmu_runs_in_seconds_with_units_and_physical_parameters(tmp_path):
             scale = np.abs(values[:, k]).max()
             assert scale > 0
             assert np.abs(res[name] - values[:, k]).max() < 1e-5 * scale, (sets, name)
+
+
+@needs_cc
+def test_si_fmu_refuses_bad_physical_parameters(tmp_path):
+    fmpy = pytest.importorskip("fmpy")
+    from symgen.api import write_fmu
+
+    fmu = write_fmu(write_scene(tmp_path / "si_arm.toml", ARM), tmp_path / "si_arm.fmu")
+    for start, fragment in (
+        ({"bodies.arm.E": -1.0}, "not a valid value of the physical input bodies.arm.E: it must be > 0"),
+        ({"bodies.arm.E": 1e11, "mu_arm": 2.0}, "the parameter mu_arm was set, and the physical inputs set"),
+    ):
+        messages = []
+        with pytest.raises(Exception):  # noqa: B017 - fmpy raises its own exception types
+            fmpy.simulate_fmu(
+                str(fmu), stop_time=0.01, start_values=start, logger=lambda *a: messages.append(a[-1].decode())
+            )
+        assert any(fragment in m for m in messages), messages
