@@ -157,10 +157,21 @@ def test_si_torque_expression_is_converted_exactly(tmp_path):
     assert scene.driver.torque == f"(0.2*sin(15*(tau/{OMEGA!r})))/{MOMENT!r}"
 
 
-def test_tau_is_refused_in_si_and_t_in_dimensionless(tmp_path):
-    err = _error(tmp_path, _si_text(**{"0.2*sin(15*t)": "0.2*sin(tau)"}))
-    assert err.key == "driver.value"
-    assert "SI scene's expressions are of t in seconds" in err.message
+def test_tau_is_allowed_in_si_and_t_refused_in_dimensionless(tmp_path):
+    """In an SI scene tau = omega t may be written too (a law of tau keeps its meaning), the value
+    in SI all the same; a dimensionless scene knows no t."""
+    from symgen.scene.expressions import parse_tau_expression, tau_symbol, value_at
+
+    def torque(text: str) -> object:
+        value = f'value = "{text}"'
+        scene = load_scene(write_scene(tmp_path / "s.toml", _si_text(**{'value = "0.2*sin(15*t)"': value})))
+        return parse_tau_expression(scene.driver.torque)
+
+    tau = tau_symbol()
+    for a, b in (("0.2*sin(15*t)", "0.2*sin(0.75*tau)"), ("0.1*t*tau", f"0.1*tau^2/{OMEGA!r}")):
+        ea, eb = torque(a), torque(b)
+        for x in (0.0, 0.3, 1.7, 9.0):
+            assert value_at(ea, tau, x) == pytest.approx(value_at(eb, tau, x), rel=1e-14, abs=1e-300)
     text = _scene("", DIMLESS_BAR, 'kind = "angle"\nlaw = "sin(t)"', 'kind = "point"\nat = 1.0', 0.0, DIMLESS_RUN)
     err = _error(tmp_path, text)
     assert err.key == "driver.law"

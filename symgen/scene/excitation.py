@@ -12,7 +12,8 @@ DRIVER_KINDS = ("angle", "torque")
 DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp", "rotor_inertia")
 LAW_HINT = 'law is the prescribed angle theta - initial in rad as an expression of tau, e.g. law = "0.5*sin(tau)"; '
 LAW_HINT_SI = (
-    'law is the prescribed angle theta - initial in rad as an expression of t in seconds, e.g. law = "0.5*sin(30*t)"; '
+    "law is the prescribed angle theta - initial in rad as an expression of t in seconds (or tau = omega t), "
+    'e.g. law = "0.5*sin(30*t)"; '
 )
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")

@@ -516,8 +516,7 @@ class _Parser:
             if calling:
                 raise ValueError(f"{name} is not a function (at character {tok.at}); write {name}*(...) for a product")
             return _Node(sp.pi, math.pi) if name == "pi" else _Node(self.symbols[name], None)
-        time = [n for n in ("tau", TIME_NAME) if n in self.symbols]
-        known = ", ".join([*time, "pi", *sorted(n for n in self.symbols if n not in time)])
+        known = ", ".join(["tau", "pi", *sorted(n for n in self.symbols if n != "tau")])
         if calling:
             raise ValueError(
                 f"unknown function {name!r} (at character {tok.at}); the functions are {', '.join(ALLOWED_FUNCTIONS)}"
@@ -655,7 +654,7 @@ def _symbols(names: Mapping[str, Any] | None) -> dict[str, Any]:
     return symbols
 
 
-def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None, time: str = "tau") -> Any:
+def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> Any:
     """Parse a scene expression of ``tau`` into a SymPy expression (never evaluating the text).
 
     Parameters
@@ -663,8 +662,6 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None, time
     text : the expression as written in the scene file (grammar in the module docstring)
     names : optional named parameters the expression may use, name -> ``sympy.Symbol``
         (a name may not be ``tau``, ``pi`` or a function)
-    time : the name of the time: ``"tau"`` (:func:`tau_symbol`), or ``"t"`` for an SI scene's
-        seconds (:func:`time_symbol`; use :func:`parse_seconds_expression`)
 
     Returns
     -------
@@ -683,11 +680,6 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None, time
     if not text.strip():
         raise ValueError("the expression is empty")
     symbols = _symbols(names)
-    if time != "tau":
-        if time != TIME_NAME or TIME_NAME in symbols:
-            raise ValueError(f"the time is tau, or t in an SI scene, got {time!r}")
-        del symbols["tau"]
-        symbols[TIME_NAME] = time_symbol()
     tokens = _tokenize(text)
     import sympy
 
@@ -703,12 +695,12 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None, time
 
 
 # -- SI scenes: expressions of t in seconds --------------------------------------------------
-#: The time of an SI scene's expressions, in seconds (tau = omega t is the model's time).
+#: The time of an SI scene's expressions in seconds (tau = omega t, the model's time, is allowed too).
 TIME_NAME = "t"
 SECONDS_HINT = (
-    "in an SI scene an expression is of t, the time in seconds (tau = omega t is not used there), "
-    "with numbers, t, pi, + - * /, ^ (or **) for the power, parentheses and the functions "
-    + " ".join(ALLOWED_FUNCTIONS)
+    "in an SI scene an expression is of t, the time in seconds (or of tau = omega t), its value in "
+    "SI units, with numbers, t, tau, pi, + - * /, ^ (or **) for the power, parentheses and the "
+    "functions " + " ".join(ALLOWED_FUNCTIONS)
 )
 
 
@@ -719,35 +711,25 @@ def time_symbol() -> Any:
     return sympy.Symbol(TIME_NAME, real=True)
 
 
-def _refuse_tau(tokens: list[_Token]) -> None:
-    for tok in tokens:
-        if tok.kind == "name" and tok.text == "tau":
-            raise ValueError(
-                f"tau is the model's dimensionless time; an SI scene's expressions are of t in "
-                f"seconds (tau = omega t; at character {tok.at})"
-            )
-
-
 def parse_seconds_expression(text: str) -> Any:
-    """Parse an SI scene's expression of ``t`` (seconds) into a SymPy expression of
-    :func:`time_symbol`, with the grammar and bounds of :func:`parse_tau_expression`; ``tau``
-    is refused (an SI scene's expressions are of t only).
+    """Parse an SI scene's expression of ``t`` (seconds; ``tau`` = omega t may appear too) into a
+    SymPy expression of :func:`time_symbol` and :func:`tau_symbol`, with the grammar and bounds
+    of :func:`parse_tau_expression`.
 
     >>> parse_seconds_expression("2*sin(50*t)")
     2*sin(50*t)
     """
-    if isinstance(text, str) and len(text) <= MAX_LENGTH:
-        _refuse_tau(_tokenize(text))
-    return parse_tau_expression(text, {}, time=TIME_NAME)
+    return parse_tau_expression(text, {TIME_NAME: time_symbol()})
 
 
 def seconds_to_tau_text(text: str, omega: float, scale: float = 1.0) -> str:
-    """The model's expression of tau for an SI scene's expression of ``t`` in seconds whose
-    value is in SI: ``t`` becomes ``(tau/omega)`` and the whole is divided by ``scale`` (the SI
-    value of one model unit: 1 for an angle, m_ref l0^3 omega^2 for a moment, ...), the same
-    double operations as the loader's conversion of a number. The text is spliced, token by
-    token, so that the result is an expression of the same grammar (never built from SymPy's
-    printing); ValueError when ``text`` is not an expression of t, or when the converted text
+    """The model's expression of tau for an SI scene's expression of ``t`` in seconds (and of
+    tau = omega t) whose value is in SI: ``t`` becomes ``(tau/omega)`` and the whole is divided
+    by ``scale`` (the SI value of one model unit: 1 for an angle, m_ref l0^3 omega^2 for a
+    moment, ...), the same double operations as the loader's conversion of a number. The text
+    is spliced, token by token, so that the result is an expression of the same grammar (never
+    built from SymPy's printing); an expression without ``t`` and a scale of 1 is returned as
+    it is. ValueError when ``text`` is not such an expression, or when the converted text
     exceeds the grammar's bounds.
 
     >>> seconds_to_tau_text("0.5*sin(2*t)", 10.0, 4.0)

@@ -80,8 +80,8 @@ NUMBER_OR_EXPRESSION = {"oneOf": [{"type": "number"}, {"type": "string", "minLen
 EXPRESSION_TEXT = (
     "a number, or a string: an expression with + - * / ^ (or **), parentheses, numbers, pi, the "
     "functions " + ", ".join(ALLOWED_FUNCTIONS) + " and the time: tau in a dimensionless scene; t, "
-    "in seconds, in an SI scene (tau is refused there), where the value is in SI and converted "
-    "exactly to the model's (t = tau / omega)"
+    "in seconds, in an SI scene (tau = omega t may be used there too), where the value is in SI and "
+    "converted exactly to the model's (t = tau / omega)"
 )
 NAME_JSON = {"type": "string", "pattern": NAME_PATTERN, "maxLength": MAX_NAME_LENGTH}
 
@@ -425,7 +425,7 @@ DRIVER = Table(
             "drivers, instead of rate; the run needs t_end, or duration): " + EXPRESSION_TEXT + ". theta' and "
             "theta'' are its exact derivatives.",
             {"type": "string", "minLength": 1},
-            unit="rad; of tau (dimensionless scene) or of t in s (SI scene)",
+            unit="rad; of tau, or (SI scene) of t in s",
             example='"0.5*sin(tau)" (SI: "0.5*sin(30*t)")',
         ),
         Key(
