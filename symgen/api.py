@@ -301,7 +301,9 @@ def sweep(scene: str | os.PathLike, vary: dict, overrides: Sequence[str] = (), *
     ``vary`` maps scene keys (as for ``--set``) to a grid spec string (``"0.5:3:20"``,
     ``"1e4:1e8:9:log"``, ``"1,2,4"``) or a sequence of numbers; several keys give the full grid.
     kwargs go to ``symgen.apps.sweep.sweep`` (workers, scheduler, window, campbell, campbell_at,
-    progress; ``workers=1`` runs in this process). Local worker processes are forked on Linux;
+    progress, units; ``workers=1`` runs in this process). The table of an SI scene is in SI
+    (peaks in their outputs' units, speed and frequencies in Hz, speed_rpm) unless
+    ``units="dimensionless"``. Local worker processes are forked on Linux;
     where they are spawned instead (macOS, Windows, or a parent with threads) a script must guard
     its entry point with ``if __name__ == "__main__":``. Columns: the varied keys, status, steps, cpu_s, peak_<output>, and with
     ``campbell=True`` speed and f1..fk (natural frequencies from ``modes``).

@@ -160,7 +160,9 @@ def _simulate(args, files) -> int:
             "leave out --states, or --solver c",
         )
     mech = _prepare_run(args)
-    _say(args, f"integrating tau 0 -> {mech.scene.simulation.t_end:.6g}")
+    sc = mech.scene
+    seconds = f" (t 0 -> {sc.simulation.t_end / sc.omega:.6g} s)" if sc.units == "SI" else ""
+    _say(args, f"integrating tau 0 -> {sc.simulation.t_end:.6g}{seconds}")
     if args.solver == "c":
         from symgen.numerics.csolver import simulate_c
 
@@ -288,6 +290,7 @@ def cmd_sweep(args) -> int:
         sweep_meta,
         write_table,
     )
+    from symgen.numerics.units import choose_system
 
     out = check_table_path(args.output)
     for path, key in ((args.plot, "--plot"), (args.campbell, "--campbell")):
@@ -300,6 +303,7 @@ def cmd_sweep(args) -> int:
     varies = [parse_vary(v) for v in args.vary]
     overrides = args.set or []
     scene = _scene(args)
+    choose_system(scene, args.units)  # before any work: --units SI needs an SI scene
     campbell_at = args.campbell_at if args.campbell else None
     try:
         result = sweep(
@@ -313,6 +317,7 @@ def cmd_sweep(args) -> int:
             campbell_at=args.campbell_at,
             use_cache=not args.no_cache,
             say=print,
+            units=args.units,
         )
     except BaseException as err:
         partial = getattr(err, "partial", None)
@@ -330,14 +335,15 @@ def cmd_sweep(args) -> int:
     )
     title = f"{scene.name}: {Path(scene.path).name}"
     if args.plot:
-        plot_resonance(args.plot, result, varies, [o.kind for o in scene.outputs], title)
+        plot_resonance(args.plot, result, varies, [o.kind for o in scene.outputs], title, scene)
     if args.campbell:
-        hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None
+        hz = scene.omega / (2 * math.pi) if scene.units == "SI" else None  # a dimensionless table's
         plot_campbell(
             args.campbell,
             result,
             varies,
-            f"{title}: Campbell diagram at tau = {args.campbell_at:g}",
+            f"{title}: Campbell diagram at tau = {args.campbell_at:g}"
+            + (f" (t = {args.campbell_at / scene.omega:g} s)" if result.units == "SI" else ""),
             orders=args.orders,
             hz_per_unit=hz,
         )
@@ -687,6 +693,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="run on this Dask distributed scheduler (e.g. tcp://scheduler-host:8786) instead of local processes",
     )
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
+    p.add_argument(
+        "--units",
+        choices=("SI", "dimensionless"),
+        default=None,
+        help="units of the table and plots (default: SI for an SI scene: peaks in m, rad, N, N m, J; "
+        "speed and frequencies in Hz, speed_rpm; dimensionless keeps the model's units)",
+    )
     p.set_defaults(func=cmd_sweep)
 
     p = scene_cmd(

@@ -13,6 +13,8 @@ import pytest
 
 from c_support import EXAMPLES, WORK, closure_columns, context, idas_reference, mechanism, needs_cc, needs_cxx
 
+from symgen.ir.physical import physical_map
+
 fmpy = pytest.importorskip("fmpy", reason="fmpy is not installed (pip install fmpy, or pip install -e '.[test]')")
 
 pytestmark = needs_cc
@@ -39,7 +41,10 @@ def test_fmpy_validates_the_fmu(name):
     outputs = [v.name for v in md.modelVariables if v.causality == "output"]
     params = [v.name for v in md.modelVariables if v.causality == "parameter"]
     assert outputs == [o.name for o in scene.outputs]
-    assert params == list(mechanism(name).info.params)
+    # the model's parameters, then (an SI scene) its physical inputs in SI (symgen.ir.physical)
+    physical = [k for k, _ in physical_map(scene).inputs]
+    assert bool(physical) == (scene.units == "SI")
+    assert params == list(mechanism(name).info.params) + physical
     assert md.coSimulation.modelIdentifier == name
     with zipfile.ZipFile(path) as zf:
         names = set(zf.namelist())

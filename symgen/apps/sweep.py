@@ -260,6 +260,7 @@ class SweepResult:
     executor: str
     complete: bool = True
     notes: dict = field(default_factory=dict)
+    units: str = "dimensionless"  # "SI": peaks in their SI units, speed and f<k> in Hz (speed_rpm in rpm)
 
     def __len__(self) -> int:
         return len(self.columns["status"])
@@ -322,6 +323,7 @@ def sweep(
     use_cache: bool = True,
     progress: bool | None = None,
     say: Callable[[str], object] | None = None,
+    units: str | None = None,
 ) -> SweepResult:
     """Run the grid of ``varies`` over the scene; see the module docstring.
 
@@ -331,6 +333,9 @@ def sweep(
     window : peaks over the last ``window`` crank turns (skips start-up transients)
     campbell : also the natural frequencies (``modes``) at input position ``campbell_at``
     progress : a progress bar on stderr (None: only when stderr is a terminal)
+    units : "SI" or "dimensionless" (default: SI for an SI scene, as ``symgen simulate``): in SI
+        each point's peaks are in its outputs' SI units (its own scales: a varied key may change
+        them), the crank speed and the natural frequencies in Hz, plus speed_rpm
 
     On KeyboardInterrupt (or any exception) the workers are stopped and the exception carries
     ``partial``: the SweepResult of the points done (the others have status "not run").
@@ -347,6 +352,7 @@ def sweep(
             "e.g. --window 1 (the last turn)",
         )
     points, scenes, keys, first = prepare(scene_path, varies, overrides)
+    si = si_scales(scenes, units)
     counts = {k: keys.count(k) for k in first}
     if window is not None and any(sc.turning_driver is None for sc in first.values()):
         raise SceneError(
@@ -404,10 +410,11 @@ def sweep(
             executor,
             complete=False,
             campbell=campbell,
+            si=si,
         )
         raise
     bar.close()
-    result = _result(varies, points, names, rows, counts, executor, complete=True, campbell=campbell)
+    result = _result(varies, points, names, rows, counts, executor, complete=True, campbell=campbell, si=si)
     result.notes["models"] = derive_note
     return result
 
@@ -516,8 +523,33 @@ def _run_dask(tasks, blobs, scheduler, rows, bar) -> None:
             client.close()
 
 
+def si_scales(scenes: Sequence[Scene], units: str | None) -> list[tuple[dict, float]] | None:
+    """Per point: (SI factor of each peak column, Hz per model frequency unit omega / 2 pi) when
+    the table is in SI (``units``, default SI for an SI scene: symgen.numerics.units), else None.
+    The factors are those of ``symgen simulate``'s SI columns for the point's own scene."""
+    from symgen.numerics.units import choose_system, result_units
+
+    if not scenes or choose_system(scenes[0], units) != "SI":
+        return None
+    return [
+        (
+            {f"peak_{c.name}": c.factor for c in result_units(sc, "SI").outputs},
+            sc.omega / (2.0 * math.pi),
+        )
+        for sc in scenes
+    ]
+
+
 def _result(
-    varies, points, names, rows: dict, counts: dict, executor: str, complete: bool, campbell: bool
+    varies,
+    points,
+    names,
+    rows: dict,
+    counts: dict,
+    executor: str,
+    complete: bool,
+    campbell: bool,
+    si: list[tuple[dict, float]] | None = None,
 ) -> SweepResult:
     n = len(points)
     cols: dict[str, np.ndarray] = {}
@@ -535,6 +567,18 @@ def _result(
         for k in range(nf):
             cols[f"f{k + 1}"] = np.array([r["freqs"][k] if r and k < len(r["freqs"]) else math.nan for r in get])
     cols["failure"] = np.array([r["failure"] if r else "" for r in get], dtype=object)
+    if si is not None:
+        for name in names:
+            cols[f"peak_{name}"] = cols[f"peak_{name}"] * np.array([f[f"peak_{name}"] for f, _ in si])
+        hz = np.array([h for _, h in si])
+        for c in [c for c in cols if c == "speed" or re.fullmatch(r"f\d+", c)]:
+            cols[c] = cols[c] * hz
+        if "speed" in cols:  # speed_rpm next to speed
+            cols = dict(
+                itertools.chain.from_iterable(
+                    [(k, v), ("speed_rpm", v * 60.0)] if k == "speed" else [(k, v)] for k, v in cols.items()
+                )
+            )
     return SweepResult(
         columns=cols,
         varied=[v.key for v in varies],
@@ -542,6 +586,7 @@ def _result(
         structures=counts,
         executor=executor,
         complete=complete,
+        units="SI" if si is not None else "dimensionless",
     )
 
 
@@ -658,6 +703,10 @@ def sweep_meta(
     from symgen import __version__
 
     done = int(sum(s != "not run" for s in result.columns["status"]))
+    si = result.units == "SI"
+    at = f"tau = {campbell_at:g}" if campbell_at is not None else ""
+    if si and campbell_at is not None:
+        at += f" (t = {campbell_at / scene.omega:g} s)"
     return {
         "scene": str(scene_path),
         "symgen_version": __version__,
@@ -673,23 +722,45 @@ def sweep_meta(
             "status": "ok | failed (the run stopped; see failure) | modes failed | not run (interrupted)",
             "steps": "IDAS steps of the run",
             "cpu_s": "CPU time of the run in its worker thread, s (the only column that differs between runs)",
-            "peak_<output>": "max |output| over the run" + (f", last {window:g} crank turns" if window else ""),
-            "speed": "crank speed = driver rate, units of omega",
-            "f<k>": f"natural frequencies from modes at tau = {campbell_at:g}, units of omega"
+            "peak_<output>": "max |output| over the run"
+            + (f", last {window:g} crank turns" if window else "")
+            + (", in the output's SI unit (see column_units)" if si else ""),
+            "speed": "crank speed = driver rate x omega / 2 pi, Hz (revolutions per second)"
+            if si
+            else "crank speed = driver rate, units of omega",
+            **({"speed_rpm": "crank speed, rpm"} if si and campbell_at is not None else {}),
+            "f<k>": f"natural frequencies from modes at {at}, " + ("Hz" if si else "units of omega")
             if campbell_at is not None
             else "",
         },
-        "units": "dimensionless (tau = omega t)" + (f"; omega = {scene.omega:g} rad/s" if scene.units == "SI" else ""),
-        "si_factors": _si_factors(scene),
+        "units": "SI"
+        if si
+        else "dimensionless (tau = omega t)" + (f"; omega = {scene.omega:g} rad/s" if scene.units == "SI" else ""),
+        "column_units": _column_units(result, scene) if si else None,
+        "si_factors": None if si else _si_factors(scene),
         "window_turns": window,
     }
 
 
+def _column_units(result: SweepResult, scene) -> dict:
+    """The unit of each column of an SI table (the varied keys are as written in the scene)."""
+    from symgen.numerics.units import result_units
+
+    out = {f"peak_{c.name}": c.unit for c in result_units(scene, "SI").outputs}
+    for c in result.columns:
+        if c == "speed" or re.fullmatch(r"f\d+", c):
+            out[c] = "Hz"
+    if "speed_rpm" in result.columns:
+        out["speed_rpm"] = "rpm"
+    return out
+
+
 def _si_factors(scene) -> dict | None:
     """For an SI scene: the unit and factor that turn each peak column into SI (the factors of
-    ``symgen simulate``'s SI columns, symgen.numerics.units); None for a dimensionless scene. (The
-    swept points share the scene's scales unless a varied key changes them: the factors are
-    those of the scene as given.)"""
+    ``symgen simulate``'s SI columns, symgen.numerics.units); None for a dimensionless scene,
+    and for an SI table (already converted, point by point). (The swept points share the
+    scene's scales unless a varied key changes them: the factors are those of the scene as
+    given.)"""
     if scene.units != "SI":
         return None
     from symgen.numerics.units import result_units
@@ -705,21 +776,38 @@ def _x_axis(result: SweepResult, varies: Sequence[Vary]):
 
 
 def plot_resonance(
-    path: str | os.PathLike, result: SweepResult, varies: Sequence[Vary], kinds: Sequence[str], title: str
+    path: str | os.PathLike,
+    result: SweepResult,
+    varies: Sequence[Vary],
+    kinds: Sequence[str],
+    title: str,
+    scene: Scene | None = None,
 ) -> None:
-    """Peak |output| against the first varied key (one line per value of the others)."""
+    """Peak |output| against the first varied key (one line per value of the others). An SI
+    table (``result.units``) is drawn in its SI units (those of ``scene``'s outputs), and a
+    varied driver.rate as the crank speed in rpm."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from symgen.apps.plot import LABELS
+    from symgen.apps.plot import LABELS, SI_LABELS
 
     key, others = _x_axis(result, varies)
+    si = result.units == "SI" and scene is not None
+    labels, x_scale, x_label = LABELS, 1.0, key
+    if si:
+        assert scene is not None
+        from symgen.numerics.units import result_units
+
+        unit = {c.name: c.unit for c in result_units(scene, "SI").outputs}
+        labels = {k: f"{v} ({{}})" for k, v in SI_LABELS.items()}
+        if key == "driver.rate":
+            x_scale, x_label = scene.omega * 60.0 / (2.0 * math.pi), "crank speed (rpm; driver.rate x omega)"
     shown = [(n, k) for n, k in zip(result.output_names, kinds) if k != "closure_residual"]
     fig, axes = plt.subplots(len(shown), 1, figsize=(7.5, 2.1 * len(shown) + 1.0), sharex=True, squeeze=False)
     groups = _groups(result, others)
-    x = result.columns[key]
+    x = result.columns[key] * x_scale
     ok = np.array([s == "ok" for s in result.columns["status"]])
     for ax, (name, kind) in zip(axes[:, 0], shown):
         y = result.columns[f"peak_{name}"]
@@ -729,14 +817,15 @@ def plot_resonance(
             bad = idx & ~ok
             if bad.any():
                 ax.plot(x[bad], np.zeros(bad.sum()), "x", color="C3", label="failed / not run")
-        ax.set_ylabel(f"peak |{name}|\n{LABELS.get(kind, '')}", fontsize=8)
+        label = labels.get(kind, "")
+        ax.set_ylabel(f"peak |{name}|\n{label.format(unit[name]) if si else label}", fontsize=8)
         ax.grid(True, lw=0.3, alpha=0.6)
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
         if varies[0].log:
             ax.set_xscale("log")
     if len(groups) > 1 or not ok.all():
         axes[0, 0].legend(fontsize=7, loc="best")
-    axes[-1, 0].set_xlabel(key)
+    axes[-1, 0].set_xlabel(x_label)
     fig.suptitle(printable(title) + ("  [PARTIAL]" if not result.complete else ""), fontsize=10, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -767,7 +856,8 @@ def plot_campbell(
     """Natural frequencies against the crank speed with the 1x..``orders``x excitation lines.
 
     x: the crank speed when it varies over the grid (else the first varied key, with the order
-    lines at each point's speed); y: frequencies in units of omega (Hz for SI scenes)."""
+    lines at each point's speed); y: frequencies in units of omega (Hz for SI scenes: an SI
+    table, ``result.units``, is in Hz already, and its speed axis in rpm)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -775,10 +865,13 @@ def plot_campbell(
 
     F = result.frequencies()
     speed = result.columns["speed"]
-    s = hz_per_unit or 1.0
-    unit = "Hz" if hz_per_unit else r"units of $\omega$"
+    si = result.units == "SI"
+    s = 1.0 if si else hz_per_unit or 1.0
+    unit = "Hz" if si or hz_per_unit else r"units of $\omega$"
     varies_speed = np.nanmax(speed) > np.nanmin(speed) if np.isfinite(speed).any() else False
-    if varies_speed:
+    if varies_speed and si:
+        x, xlabel = speed * 60.0, "crank speed (rpm)"
+    elif varies_speed:
         x, xlabel = speed * s, f"crank speed ({unit})"
     else:
         x, xlabel = result.columns[varies[0].key], varies[0].key

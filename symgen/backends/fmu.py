@@ -1,11 +1,18 @@
 """FMI 2.0 Co-Simulation FMU of a scene: ``modelDescription.xml`` (variables named after the
 scene's outputs and parameters), the C sources, and ``binaries/linux64/<prefix>.so``.
 
-The FMU's time is the model's tau. Outputs are ``causality="output"`` (value references
-0..n_out-1), parameters ``causality="parameter"``, ``variability="fixed"`` with the scene's
-values as start values (value references after the outputs), except the applied moment of each
-torque driver given as a number: a ``causality="input"`` (continuous, held over a
-communication step), settable between steps. ``fmi2DoStep`` runs the emitted
+The FMU's time is the model's tau for a dimensionless scene. Outputs are ``causality="output"``
+(value references 0..n_out-1), parameters ``causality="parameter"``, ``variability="fixed"``
+with the scene's values as start values (value references after the outputs), except the
+applied moment of each torque driver given as a number: a ``causality="input"`` (continuous,
+held over a communication step, in the model's units), settable between steps.
+
+An SI scene's FMU is in SI: its time is t in seconds (tau = omega t; the default experiment in
+seconds), its outputs in SI (the factors of ``symgen simulate``'s SI columns, computed in the C
+from the physical inputs: symgen.ir.physical), and its physical inputs (E, area, inertia,
+density or mass per length, lengths, omega) are parameters too, after the model's, in SI; the
+model parameters computed from those set follow them. Every SI variable has its ``unit``
+(``UnitDefinitions`` give their SI base units), and the time is the independent variable. ``fmi2DoStep`` runs the emitted
 Radau IIA solver to the next communication point; the tolerance comes from
 ``fmi2SetupExperiment`` (else the scene's ``rtol``; ``atol`` keeps the scene's ratio).
 """
@@ -60,7 +67,9 @@ def fmu_context(scene, ctx: dict) -> dict:
             + (f" of {where}" if where else "")
             + (f" at {o.xi:g}" if getattr(o, "xi", None) is not None else "")
         )
-        variables.append({"name": xml_attr(o.name), "vr": k, "causality": "output", "description": xml_attr(desc)})
+        variables.append(
+            {"name": xml_attr(o.name), "vr": k, "causality": "output", "unit": None, "description": xml_attr(desc)}
+        )
     records = parameter_records(scene, params)
     inputs = torque_inputs(scene)
     for k, (name, value, rec) in enumerate(zip(params, ctx["parameter_values"], records)):
@@ -77,6 +86,7 @@ def fmu_context(scene, ctx: dict) -> dict:
                 "start": c_double(value),
                 "min": c_double(valid.lower) if math.isfinite(valid.lower) and not valid.lower_open else None,
                 "max": c_double(valid.upper) if math.isfinite(valid.upper) and not valid.upper_open else None,
+                "unit": None,
                 "description": xml_attr(
                     f"applied moment of the torque driver on {inputs[name]} (dimensionless, {valid.text()})"
                     if name in inputs
@@ -84,7 +94,43 @@ def fmu_context(scene, ctx: dict) -> dict:
                 ),
             }
         )
+    phys = ctx["physical"]
+    si = bool(phys["si"])
+    if si:
+        for v, unit in zip(variables, phys["output_units"]):
+            v["unit"] = unit
+        for j, (name, value, unit) in enumerate(zip(_physical_keys(scene, ctx), phys["defaults"], phys["units"])):
+            fmu_name = name
+            while fmu_name in taken:
+                fmu_name = "parameter_" + fmu_name
+            taken.add(fmu_name)
+            variables.append(
+                {
+                    "name": xml_attr(fmu_name),
+                    "vr": len(outputs) + len(params) + j,
+                    "causality": "parameter",
+                    "start": value,
+                    "min": None,
+                    "max": None,
+                    "unit": unit,
+                    "description": xml_attr(f"physical input {name} (SI, > 0)"),
+                }
+            )
+        time_name = "time"
+        while time_name in taken:
+            time_name = "fmu_" + time_name
+        variables.append(
+            {
+                "name": time_name,
+                "vr": len(outputs) + len(params) + len(phys["defaults"]),
+                "causality": "independent",
+                "unit": "s",
+                "description": "time t in seconds (the model's tau = omega t)",
+            }
+        )
+    used = sorted({str(v["unit"]) for v in variables if v["unit"]})
     sim = scene.simulation
+    seconds = 1.0 / scene.omega if si else 1.0
     guid = fmu_guid(ctx)
     prefix = ctx["prefix"]
     return {
@@ -92,17 +138,43 @@ def fmu_context(scene, ctx: dict) -> dict:
         "guid_c": c_string(guid),
         "model_name": xml_attr(scene.name),
         "description": xml_attr(
-            f"symgen model of the scene {scene.name}: planar mechanism with elastic bars; time is tau = omega t"
+            f"symgen model of the scene {scene.name}: planar mechanism with elastic bars; "
+            + ("time is t in seconds, values in SI" if si else "time is tau = omega t")
         ),
         "scene_file_xml": xml_attr(Path(str(scene.path)).name).replace("--", "- -"),
-        "stop_time": c_double(sim.t_end),
-        "step_size": c_double(sim.output_step),
+        "stop_time": c_double(sim.t_end * seconds),
+        "step_size": c_double(sim.output_step * seconds),
+        "units": [{"name": u, "base": UNIT_BASES[u]} for u in used],
         "tolerance": c_double(sim.rtol),
         "variables": variables,
         "input_flags": [1 if name in inputs else 0 for name in params],
         "output_indices": list(range(1, len(outputs) + 1)),
         "sources": [f"{prefix}.c", f"{prefix}_solver.c", f"{prefix}_fmi2.c"],
     }
+
+
+#: FMI 2.0 BaseUnit exponents of every unit an SI FMU uses (symgen.ir.physical's unit names)
+UNIT_BASES = {
+    "s": {"s": 1},
+    "m": {"m": 1},
+    "rad": {"rad": 1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N.m": {"kg": 1, "m": 2, "s": -2},
+    "J": {"kg": 1, "m": 2, "s": -2},
+    "Pa": {"kg": 1, "m": -1, "s": -2},
+    "m2": {"m": 2},
+    "m4": {"m": 4},
+    "kg/m3": {"kg": 1, "m": -3},
+    "kg/m": {"kg": 1, "m": -1},
+    "rad/s": {"rad": 1, "s": -1},
+}
+
+
+def _physical_keys(scene, ctx: dict) -> list[str]:
+    """The physical inputs' scene keys, in the C's order (symgen.ir.physical)."""
+    from symgen.ir.physical import physical_map
+
+    return [k for k, _ in physical_map(scene, list(ctx["parameter_plain"])).inputs]
 
 
 def fmu_files(scene, ctx: dict) -> dict:
@@ -137,7 +209,8 @@ def _documentation(scene, ctx: dict, prefix: str) -> str:
         f'<!DOCTYPE html><html><head><meta charset="utf-8"><title>{xml_attr(scene.name)}</title></head><body>'
         f"<h1>{xml_attr(scene.name)}</h1><p>Generated by symgen {ctx['version']} from "
         f"{ctx['fmu']['scene_file_xml']} (sha256 {ctx['scene_hash']}). FMI 2.0 Co-Simulation; time is "
-        f"tau = omega t. The C sources are in <code>sources/</code>; the Radau IIA solver lands on every "
+        + ("t in seconds, values in SI (tau = omega t inside)" if ctx["physical"]["si"] else "tau = omega t")
+        + f". The C sources are in <code>sources/</code>; the Radau IIA solver lands on every "
         f"communication point.</p><ul>{rows}</ul></body></html>\n"
     )
 

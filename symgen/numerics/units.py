@@ -37,27 +37,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from symgen.errors import SceneError
+from symgen.scene.units import OUTPUT_SCALE, output_factor
 
 if TYPE_CHECKING:
     from symgen.scene.model import Scene
 
 UNIT_SYSTEMS = ("SI", "dimensionless")
 
-#: (unit, dimensionless unit) of every output kind, by the scale its factor uses
-_KIND_SCALE = {
-    "deflection": "bar",
-    "axial": "bar",
-    "chord_deflection": "bar",
-    "chord_elongation": "bar",
-    "elastic_displacement": "l0",
-    "position": "l0",
-    "slope": "one",
-    "angle": "one",
-    "reaction": "force",
-    "driver_torque": "moment",
-    "energy": "energy",
-    "closure_residual": "check",
-}
+#: the scale of every output kind's factor (its formula: symgen.scene.units.output_factor)
+_KIND_SCALE = OUTPUT_SCALE
 _SI_UNIT = {"bar": "m", "l0": "m", "one": "rad", "force": "N", "moment": "N m", "energy": "J", "check": "1"}
 _DIMENSIONLESS_UNIT = {
     "bar": "l_i (bar length)",
@@ -127,25 +115,17 @@ def result_units(scene: Scene, system: str | None = None) -> ResultUnits:
     system = choose_system(scene, system)
     si = system == "SI"
     l0, omega, m_ref = scene.l0, scene.omega, scene.m_ref
-    scale = {
-        "l0": l0,
-        "one": 1.0,
-        "force": m_ref * l0**2 * omega**2,
-        "moment": m_ref * l0**3 * omega**2,
-        "energy": m_ref * l0**3 * omega**2,
-        "check": 1.0,
-    }
     cols = []
     for o in scene.outputs:
         kind_scale = _KIND_SCALE[o.kind]
         if not si:
             cols.append(ColumnUnit(o.name, _DIMENSIONLESS_UNIT[kind_scale], 1.0))
             continue
+        length = None
         if kind_scale == "bar":
             assert o.body is not None  # a bar's output names its bar (the scene loader checks it)
-            factor = scene.body(o.body).alpha * l0
-        else:
-            factor = scale[kind_scale]
+            length = scene.body(o.body).alpha * l0
+        factor = output_factor(o.kind, l0, omega, m_ref, length)
         cols.append(ColumnUnit(o.name, _SI_UNIT[kind_scale], float(factor)))
     time = ColumnUnit("t", "s", 1.0 / omega) if si else ColumnUnit("tau", "1 (tau = omega t)", 1.0)
     return ResultUnits(system, time, tuple(cols))

@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
-from symgen.scene.expressions import EXPRESSION_HINT
+from symgen.scene.expressions import EXPRESSION_HINT, SECONDS_HINT, splice_seconds
 from symgen.scene.mechanism import BarSpec
 from symgen.scene.model import GROUND, Body, BodyDeformation, Driver, Effects, Initial, Joint, Load
 from symgen.scene.reader import REQUIRED, Reader, describe, is_number, join
 from symgen.scene.units import Scales
-from symgen.scene.verdicts import expression_error, expression_not_finite, law_not_finite
+from symgen.scene.verdicts import expression_error, expression_not_finite, law_not_finite, seconds_error
 
 DRIVER_KINDS = ("angle", "torque")
 DRIVER_KEYS = ("kind", "body", "initial", "rate", "value", "law", "ramp", "rotor_inertia")
 LAW_HINT = 'law is the prescribed angle theta - initial in rad as an expression of tau, e.g. law = "0.5*sin(tau)"; '
+LAW_HINT_SI = (
+    "law is the prescribed angle theta - initial in rad as an expression of t in seconds (or tau = omega t), "
+    'e.g. law = "0.5*sin(30*t)"; '
+)
 LOAD_KINDS = ("distributed", "point")
 LOAD_KEYS = ("body", "kind", "at", "axial", "transverse")
 EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "rotary_inertia")
@@ -36,29 +40,39 @@ def bar_name(r: Reader, value: object, key: str, bodies: dict[str, Body], hint: 
     return value
 
 
+def expression_text(r: Reader, value: str, key: str, scales: Scales, unit: float = 1.0, hint: str = "") -> str:
+    """The model's expression of tau for the text ``value`` at ``key``: as written in a
+    dimensionless scene; in an SI scene the text is of t in seconds with an SI value, converted
+    exactly (t = tau/omega, the value divided by ``unit``, the SI value of one model unit:
+    :func:`symgen.scene.expressions.seconds_to_tau_text`, its verdict
+    remembered: :mod:`symgen.scene.verdicts`)."""
+    error = seconds_error(value, scales.omega, unit) if scales.si else expression_error(value)
+    if error is not None:
+        shown = value if len(value) <= 80 else value[:60] + f"... ({len(value)} characters)"
+        r.fail(key, f"invalid expression {shown!r}: {error}", hint + (SECONDS_HINT if scales.si else EXPRESSION_HINT))
+    return splice_seconds(value, scales.omega, unit) if scales.si else value
+
+
 def value_or_expression(
-    r: Reader, table: dict, path: str, key: str, default: object, si: bool, what: str
+    r: Reader, table: dict, path: str, key: str, default: object, scales: Scales, what: str, unit: float = 1.0
 ) -> float | str:
-    """A number, or (dimensionless input only) an expression of tau (symgen.scene.expressions)."""
+    """A number (as written: the caller scales it), or an expression of tau (dimensionless
+    scenes) or of t in seconds (SI scenes; returned converted to tau, its value divided by
+    ``unit``: :func:`expression_text`)."""
+    of = "t (in seconds)" if scales.si else "tau"
     if key not in table:
         if default is REQUIRED:
-            r.missing(path, key, f"give a number or an expression of tau ({what})")
+            r.missing(path, key, f"give a number or an expression of {of} ({what})")
         return default  # type: ignore[return-value]
     value = table[key]
     if isinstance(value, str):
-        if si:
-            r.fail(
-                join(path, key),
-                f"SI {what}s must be numbers, got expression {value!r}",
-                "write a number in SI units, or use a dimensionless scene for expressions of tau",
-            )
-        error = expression_error(value)
-        if error is not None:
-            shown = value if len(value) <= 80 else value[:60] + f"... ({len(value)} characters)"
-            r.fail(join(path, key), f"invalid expression {shown!r}: {error}", EXPRESSION_HINT)
-        return value
+        return expression_text(r, value, join(path, key), scales, unit)
     if not is_number(value):
-        r.fail(join(path, key), f"must be a number or an expression of tau, got {describe(value)}", EXPRESSION_HINT)
+        r.fail(
+            join(path, key),
+            f"must be a number or an expression of {of}, got {describe(value)}",
+            SECONDS_HINT if scales.si else EXPRESSION_HINT,
+        )
     return r.as_number(value, join(path, key))
 
 
@@ -148,7 +162,7 @@ def read_driver(
             )
         initial = r.number(table, path, "initial", 0.0)
         if "law" in table:
-            return Driver("angle", body, initial, 0.0, law=_law(r, table, path), rotor_inertia=rotor)
+            return Driver("angle", body, initial, 0.0, law=_law(r, table, path, scales), rotor_inertia=rotor)
         rate = r.number(
             table,
             path,
@@ -173,7 +187,7 @@ def read_driver(
                 f"a torque driver has no {key} (it prescribes a moment, not the angle)",
                 'remove it, or use kind = "angle" to prescribe the angle',
             )
-    torque = value_or_expression(r, table, path, "value", REQUIRED, scales.si, "torque")
+    torque = value_or_expression(r, table, path, "value", REQUIRED, scales, "torque", scales.torque_unit())
     initial = r.number(table, path, "initial", None)
     rate = r.number(table, path, "rate", 0.0)
     if isinstance(torque, float):
@@ -181,8 +195,9 @@ def read_driver(
     return Driver("torque", body, initial, scales.rate(rate), torque, rotor_inertia=rotor)
 
 
-def _law(r: Reader, table: dict, path: str) -> str:
-    """``law``: theta - initial as an expression of tau (exclusive with rate and ramp)."""
+def _law(r: Reader, table: dict, path: str, scales: Scales) -> str:
+    """``law``: theta - initial in rad as an expression of tau (SI scenes: of t in seconds,
+    converted to tau); exclusive with rate and ramp."""
     for key in ("rate", "ramp"):
         if key in table:
             r.fail(
@@ -193,35 +208,69 @@ def _law(r: Reader, table: dict, path: str) -> str:
             )
     value = table["law"]
     key = join(path, "law")
+    hint = LAW_HINT_SI if scales.si else LAW_HINT
     if not isinstance(value, str):
-        r.fail(key, f"must be a string expression of tau, got {describe(value)}", LAW_HINT + EXPRESSION_HINT)
-    error = expression_error(value)
-    if error is not None:
-        r.fail(key, f"invalid expression {value!r}: {error}", LAW_HINT + EXPRESSION_HINT)
-    return value
+        r.fail(
+            key,
+            f"must be a string expression of {'t (in seconds)' if scales.si else 'tau'}, got {describe(value)}",
+            hint + (SECONDS_HINT if scales.si else EXPRESSION_HINT),
+        )
+    return expression_text(r, value, key, scales, 1.0, hint)
 
 
-def check_driver_motion(r: Reader, drivers: tuple[Driver, ...], paths: list[str], t_end: float) -> None:
-    """Each prescribed angle and its two derivatives are finite over [0, t_end]."""
+def _as_written(raw: dict | None, key: str, text: str) -> str:
+    """The text at ``key`` ("driver.value", "drivers[1].law", "loads[1].axial") as the file gives
+    it (an SI scene's expression of t, before its conversion to tau), else ``text``."""
+    table: object = raw
+    for part in key.replace("[", ".").replace("]", "").split("."):
+        if isinstance(table, dict):
+            table = table.get(part)
+        elif isinstance(table, list) and part.isdigit() and int(part) < len(table):
+            table = table[int(part)]
+        else:
+            return text
+    return table if isinstance(table, str) else text
+
+
+def check_driver_motion(
+    r: Reader, drivers: tuple[Driver, ...], paths: list[str], t_end: float, scales: Scales | None = None
+) -> None:
+    """Each prescribed angle and its two derivatives are finite over [0, t_end] (t_end in tau;
+    an SI scene's messages give the time in seconds)."""
+    si = scales is not None and scales.si
     for driver, path in zip(drivers, paths):
         if driver.kind != "angle" or driver.law is None:
             continue  # the constant-speed drive and its ramp (T > 0) are finite by construction
         bad = law_not_finite(driver, t_end)
-        if bad is not None:
-            r.fail(
-                join(path, "law"),
-                f"the prescribed angle's {bad[1]} is not a finite real number at tau = {bad[0]:.6g} "
-                f"(the run goes from 0 to {t_end:.6g})",
-                "give a law that is smooth (twice differentiable) and finite on the whole run",
-            )
+        if bad is None:
+            continue
+        what = bad[1].replace("d tau", "dt") if si else bad[1]
+        if si:
+            assert scales is not None
+            at, run = scales.time_text(bad[0]), f"{scales.seconds(t_end):.6g} s"
+        else:
+            at, run = f"tau = {bad[0]:.6g}", f"{t_end:.6g}"
+        r.fail(
+            join(path, "law"),
+            f"the prescribed angle's {what} is not a finite real number at {at} (the run goes from 0 to {run})",
+            "give a law that is smooth (twice differentiable) and finite on the whole run",
+        )
 
 
 def check_expressions(
-    r: Reader, drivers: tuple[Driver, ...], paths: list[str], loads: tuple[Load, ...], t_end: float
+    r: Reader,
+    drivers: tuple[Driver, ...],
+    paths: list[str],
+    loads: tuple[Load, ...],
+    t_end: float,
+    scales: Scales | None = None,
+    raw: dict | None = None,
 ) -> None:
-    """Every load and torque given as an expression of tau is a finite real number over the
-    run [0, t_end]: a pole or a value outside its domain is named here, with its tau, instead
+    """Every load and torque given as an expression is a finite real number over the run
+    [0, t_end] (in tau): a pole or a value outside its domain is named here, with its time
+    (in seconds for an SI scene, whose ``raw`` expressions of t are quoted as written), instead
     of failing later inside the integrator with a message about its tolerances."""
+    si = scales is not None and scales.si
     found = [
         (join(path, "value"), driver.torque)
         for driver, path in zip(drivers, paths)
@@ -236,11 +285,16 @@ def check_expressions(
     for key, text in found:
         bad = expression_not_finite(text, t_end)
         if bad is not None:
+            if si:
+                assert scales is not None
+                at, run, end = scales.time_text(bad), f"{scales.seconds(t_end):.6g} s", "that time"
+            else:
+                at, run, end = f"tau = {bad:.6g}", f"{t_end:.6g}", "that tau"
             r.fail(
                 key,
-                f"{text!r} is not a finite real number at tau = {bad:.6g} (a pole, or outside the "
-                f"function's domain; the run goes from 0 to {t_end:.6g})",
-                "give an expression that is finite on the whole run, or end the run before that tau",
+                f"{_as_written(raw, key, text)!r} is not a finite real number at {at} (a pole, or outside the "
+                f"function's domain; the run goes from 0 to {run})",
+                f"give an expression that is finite on the whole run, or end the run before {end}",
             )
 
 
@@ -261,8 +315,9 @@ def read_load(
         )
     elif "at" in table:
         r.fail(join(path, "at"), "a distributed load has no 'at'", 'remove it, or use kind = "point"')
-    values = [value_or_expression(r, table, path, key, 0.0, scales.si, "load") for key in ("axial", "transverse")]
     bar = bars[body]
+    unit = (scales.point_unit if kind == "point" else scales.distributed_unit)(bar.mass_per_length, bar.length)
+    values = [value_or_expression(r, table, path, key, 0.0, scales, "load", unit) for key in ("axial", "transverse")]
     scale = scales.point if kind == "point" else scales.distributed
     axial, transverse = (scale(v, bar.mass_per_length, bar.length) if isinstance(v, float) else v for v in values)
     return Load(body=body, kind=kind, xi=xi, axial=axial, transverse=transverse)

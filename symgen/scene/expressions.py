@@ -692,3 +692,74 @@ def parse_tau_expression(text: str, names: Mapping[str, Any] | None = None) -> A
     if expr.has(sympy.I):
         raise ValueError("it is not real")
     return expr
+
+
+# -- SI scenes: expressions of t in seconds --------------------------------------------------
+#: The time of an SI scene's expressions in seconds (tau = omega t, the model's time, is allowed too).
+TIME_NAME = "t"
+SECONDS_HINT = (
+    "in an SI scene an expression is of t, the time in seconds (or of tau = omega t), its value in "
+    "SI units, with numbers, t, tau, pi, + - * /, ^ (or **) for the power, parentheses and the "
+    "functions " + " ".join(ALLOWED_FUNCTIONS)
+)
+
+
+def time_symbol() -> Any:
+    """The SymPy symbol ``t`` (real, seconds) of an SI scene's expressions."""
+    import sympy
+
+    return sympy.Symbol(TIME_NAME, real=True)
+
+
+def parse_seconds_expression(text: str) -> Any:
+    """Parse an SI scene's expression of ``t`` (seconds; ``tau`` = omega t may appear too) into a
+    SymPy expression of :func:`time_symbol` and :func:`tau_symbol`, with the grammar and bounds
+    of :func:`parse_tau_expression`.
+
+    >>> parse_seconds_expression("2*sin(50*t)")
+    2*sin(50*t)
+    """
+    return parse_tau_expression(text, {TIME_NAME: time_symbol()})
+
+
+def seconds_to_tau_text(text: str, omega: float, scale: float = 1.0) -> str:
+    """The model's expression of tau for an SI scene's expression of ``t`` in seconds (and of
+    tau = omega t) whose value is in SI: ``t`` becomes ``(tau/omega)`` and the whole is divided
+    by ``scale`` (the SI value of one model unit: 1 for an angle, m_ref l0^3 omega^2 for a
+    moment, ...), the same double operations as the loader's conversion of a number. The text
+    is spliced, token by token, so that the result is an expression of the same grammar (never
+    built from SymPy's printing); an expression without ``t`` and a scale of 1 is returned as
+    it is. ValueError when ``text`` is not such an expression, or when the converted text
+    exceeds the grammar's bounds.
+
+    >>> seconds_to_tau_text("0.5*sin(2*t)", 10.0, 4.0)
+    '(0.5*sin(2*(tau/10.0)))/4.0'
+    """
+    parse_seconds_expression(text)
+    converted = splice_seconds(text, omega, scale)
+    try:
+        parse_tau_expression(converted)
+    except ValueError as exc:
+        raise ValueError(f"converted to the model's time (t = tau/omega) {exc}") from None
+    return converted
+
+
+def splice_seconds(text: str, omega: float, scale: float = 1.0) -> str:
+    """The text of :func:`seconds_to_tau_text` without its checks (no SymPy): ``t`` spliced into
+    ``(tau/omega)`` token by token, the whole divided by ``scale``. For text that
+    :func:`seconds_to_tau_text` accepted (a cached run's verdict,
+    :func:`symgen.scene.verdicts.seconds_error`).
+
+    >>> splice_seconds("0.5*sin(2*t)", 10.0, 4.0)
+    '(0.5*sin(2*(tau/10.0)))/4.0'
+    """
+    pieces, end = [], 0
+    for tok in _tokenize(text):
+        if tok.kind == "name" and tok.text == TIME_NAME:
+            pieces += [text[end : tok.at - 1], f"(tau/{float(omega)!r})"]
+            end = tok.at  # the name t is one character
+    pieces.append(text[end:])
+    converted = "".join(pieces)
+    if scale != 1.0:
+        converted = f"({converted})/{float(scale)!r}"
+    return converted

@@ -48,7 +48,15 @@ from symgen.scene.limits import (
     short_key,
 )
 from symgen.scene.masses import read_masses
-from symgen.scene.mechanism import check_connected, check_name, make_body, read_bars, read_joints, reference_bar
+from symgen.scene.mechanism import (
+    check_connected,
+    check_name,
+    make_body,
+    read_bars,
+    read_joints,
+    reference_bar,
+    si_inputs,
+)
 from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
@@ -73,7 +81,9 @@ TOP_KEYS = (
 )
 SCENE_KEYS = ("name", "reference_length", "omega", "units")
 UNITS = ("dimensionless", "SI")
-SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol")
+SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol", "duration", "output_interval")
+#: [simulation] keys in seconds, for SI scenes only (t_end and output_step stay in tau in both systems)
+SECONDS_KEYS = ("duration", "output_interval")
 DEFAULT_OUTPUT_STEP = 2.0 * math.pi / 360.0
 
 
@@ -203,22 +213,54 @@ def read_header(r: Reader, raw: dict) -> Header:
     return Header(name, units, omega, reference)
 
 
+def _seconds_keys(r: Reader, table: dict, scales: Scales) -> None:
+    """duration and output_interval are in seconds: SI scenes only, each exclusive with its
+    tau twin (t_end/cycles, output_step)."""
+    for key, twin in (("duration", "t_end"), ("output_interval", "output_step")):
+        if key not in table:
+            continue
+        if not scales.si:
+            r.fail(
+                f"simulation.{key}",
+                f"{key} is in seconds, but this scene is dimensionless (it has no omega to convert with)",
+                f'give {twin} in tau instead, or set scene.units = "SI" with omega',
+            )
+        if twin in table and key == "output_interval":
+            r.fail(
+                "simulation.output_interval",
+                "give either output_step (in tau) or output_interval (in seconds), not both",
+                "remove one of them",
+            )
+
+
 def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: list[str], scales: Scales) -> Simulation:
-    """``[simulation]``: t_end or cycles (exactly one), output_step, rtol, atol."""
+    """``[simulation]``: t_end or cycles or (SI) duration (exactly one), output_step or (SI)
+    output_interval, rtol, atol. Times are returned in tau; an SI scene's messages give seconds."""
     if "simulation" not in raw:
         r.fail("simulation", "missing required table [simulation]", "add [simulation] with t_end = ... or cycles = ...")
     table = r.table(raw["simulation"], "simulation")
     r.check_keys(table, "simulation", SIMULATION_KEYS, "[simulation]")
-    if ("t_end" in table) == ("cycles" in table):
-        which = "both" if "t_end" in table else "neither"
+    _seconds_keys(r, table, scales)
+    lengths = [k for k in ("t_end", "cycles", "duration") if k in table]
+    if len(lengths) != 1:
+        which = "neither" if not lengths else "both" if len(lengths) == 2 and not scales.si else " and ".join(lengths)
         r.fail(
             "simulation",
-            f"give exactly one of t_end and cycles ({which} given)",
-            "t_end is the end time in tau = omega t (in both unit systems); cycles is the number of crank turns",
+            (
+                f"give exactly one of t_end, cycles and duration ({which} given)"
+                if scales.si
+                else f"give exactly one of t_end and cycles ({which} given)"
+            ),
+            "t_end is the end time in tau = omega t (in both unit systems); cycles is the number of crank turns"
+            + ("; duration is the run's length in seconds" if scales.si else ""),
         )
     if "t_end" in table:
         t_end = scales.time(r.number(table, "simulation", "t_end", gt=0.0))
-        check_t_end(r, t_end, "simulation.t_end", "")
+        check_t_end(r, t_end, "simulation.t_end", "", scales)
+    elif "duration" in table:
+        duration = r.number(table, "simulation", "duration", gt=0.0, hint="the run's length in seconds, > 0")
+        t_end = duration * scales.omega
+        check_t_end(r, t_end, "simulation.duration", f" ({duration:g} s x omega {scales.omega:g} rad/s)", scales)
     else:
         cycles = r.number(table, "simulation", "cycles", gt=0.0)
         # the turns of the first turning angle driver (constant rate, no law)
@@ -228,7 +270,9 @@ def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: li
             r.fail(
                 "simulation.cycles",
                 "an angle driver with a law has no constant rate to count turns by",
-                "give t_end (in tau) instead of cycles",
+                "give duration (in seconds) instead of cycles"
+                if scales.si
+                else "give t_end (in tau) instead of cycles",
             )
         rate = abs(turning[0][0].rate) if turning else 0.0
         t_end = cycles * 2.0 * math.pi / (rate if rate != 0.0 else 1.0)
@@ -237,30 +281,35 @@ def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: li
             t_end,
             "simulation.cycles",
             f" ({cycles:g} turns at {turning[0][1]}.rate {rate:g})" if turning else f" ({cycles:g} x 2 pi)",
+            scales,
         )
-    if "output_step" in table:
+    step_key = "output_interval" if "output_interval" in table else "output_step"
+    if "output_interval" in table:
+        interval = r.number(table, "simulation", "output_interval", gt=0.0, hint="the output interval in seconds, > 0")
+        step = interval * scales.omega
+    elif "output_step" in table:
         step = scales.time(r.number(table, "simulation", "output_step", gt=0.0))
     else:
         step = DEFAULT_OUTPUT_STEP
     if step > t_end:
-        r.fail(
-            "simulation.output_step",
-            f"the output step ({step:g}) is longer than the run (t_end = {t_end:g}, in tau)",
-            "use an output_step <= t_end",
-        )
+        if scales.si:
+            said = f"the output step ({scales.seconds(step):g} s) is longer than the run ({scales.seconds(t_end):g} s)"
+        else:
+            said = f"the output step ({step:g}) is longer than the run (t_end = {t_end:g}, in tau)"
+        r.fail(f"simulation.{step_key}", said, f"use an {step_key} <= the run's length")
     ratio = t_end / step
     rows: float = math.floor(ratio + 1e-9) + 1 if math.isfinite(ratio) else math.inf  # a subnormal step: inf rows
     if over_limit("rows", rows):
         key = (
-            "simulation.output_step"
-            if "output_step" in table
-            else ("simulation.t_end" if "t_end" in table else "simulation.cycles")
+            f"simulation.{step_key}"
+            if step_key in table
+            else ("simulation." + next(k for k in ("t_end", "duration", "cycles") if k in table))
         )
         r.fail(
             key,
             f"the run would write {rows:.4g} output rows (t_end / output_step + 1 = "
-            f"{t_end:g} / {step:g} + 1), more than the limit {limit_value('rows'):g}",
-            lift_hint("rows", "use a larger output_step or a shorter run"),
+            f"{t_end:g} / {step:g} + 1, in tau), more than the limit {limit_value('rows'):g}",
+            lift_hint("rows", "use a larger output step or a shorter run"),
         )
     rtol = r.number(table, "simulation", "rtol", 1e-8, gt=0.0)
     if not RTOL_MIN <= rtol < RTOL_MAX:
@@ -308,9 +357,11 @@ def check_sizes(r: Reader, raw: dict) -> None:
             )
 
 
-def check_t_end(r: Reader, t_end: float, key: str, how: str) -> None:
-    """t_end (in tau) finite and within the run-length limit."""
+def check_t_end(r: Reader, t_end: float, key: str, how: str, scales: Scales | None = None) -> None:
+    """t_end (in tau) finite and within the run-length limit (which is in tau)."""
     if not math.isfinite(t_end) or over_limit("t_end", t_end):
+        if scales is not None and scales.si and math.isfinite(t_end):
+            how += f", {scales.seconds(t_end):g} s"
         r.fail(
             key,
             f"the run would last t_end = {t_end:g} in tau{how}, more than the limit {limit_value('t_end'):g}",
@@ -363,8 +414,8 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, drivers)
     check_scaled_values(r, merge_inputs(*reference_inputs(raw, si, ref.name)), joints, effects, loads, drivers, paths)
     simulation = read_simulation(r, raw, drivers, paths, scales)
-    check_driver_motion(r, drivers, paths, simulation.t_end)
-    check_expressions(r, drivers, paths, loads, simulation.t_end)
+    check_driver_motion(r, drivers, paths, simulation.t_end, scales)
+    check_expressions(r, drivers, paths, loads, simulation.t_end, scales, raw)
     return Scene(
         name=header.name,
         path=file,
@@ -383,6 +434,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         simulation=simulation,
         groups=build_groups(bodies, scales, header.units, effects),
         masses=masses,
+        si_inputs=si_inputs(raw, bars, header.omega, header.reference_length) if si else (),
     )
 
 

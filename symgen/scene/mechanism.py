@@ -9,7 +9,7 @@ from symgen.scene.limits import lift_hint, limit_value, over_limit
 from symgen.scene.model import GROUND, Body, Joint, JointEnd
 from symgen.scene.names import NAME_RULE, name_problem
 from symgen.scene.reader import REQUIRED, Reader, describe, join
-from symgen.scene.units import Scales
+from symgen.scene.units import Scales, axial_group, bending_group
 
 FRAMES = ("pinned-pinned", "pinned-sliding", "cantilever")
 AXIAL_SHAPES = ("complete", "stress-free")
@@ -183,9 +183,9 @@ def _elastic_groups_si(
     )
     lam = mu = None
     if modulus is not None and area is not None:
-        lam = modulus * area / (mass * length**2 * omega**2)
+        lam = axial_group(modulus, area, mass, length, omega)
     if modulus is not None and inertia is not None:
-        mu = modulus * inertia / (mass * length**4 * omega**2)
+        mu = bending_group(modulus, inertia, mass, length, omega)
     return lam, mu
 
 
@@ -243,6 +243,24 @@ def read_bars(r: Reader, raw: dict, si: bool, omega: float) -> list[BarSpec]:
         r.fail("bodies", "the scene has no bodies", "add at least one [[bodies]] table")
     entries = named_entries(r, raw, "bodies", "body", RESERVED_BODY_NAMES)
     return [read_bar(r, name, path, table, si, omega) for name, path, table in entries]
+
+
+#: The physical inputs of an SI bar's groups, in the order of :func:`si_inputs`.
+BAR_INPUTS = ("length", "E", "area", "inertia", "density", "mass_per_length")
+
+
+def si_inputs(raw: dict, bars: list[BarSpec], omega: float, reference_length: float | None) -> tuple:
+    """(scene key, value) of an SI scene's physical inputs of its groups (the scene is valid:
+    the values are numbers): scene.omega, scene.reference_length when given, and each bar's
+    BAR_INPUTS that the file gives."""
+    tables = {t.get("name"): t for t in raw.get("bodies", []) if isinstance(t, dict)}
+    out = [("scene.omega", float(omega))]
+    if reference_length is not None:
+        out.append(("scene.reference_length", float(reference_length)))
+    for bar in bars:
+        table = tables.get(bar.name, {})
+        out += [(f"bodies.{bar.name}.{k}", float(table[k])) for k in BAR_INPUTS if k in table]
+    return tuple(out)
 
 
 def reference_bar(bars: list[BarSpec]) -> BarSpec:

@@ -182,6 +182,10 @@ class Scene:
     groups: dict = field(default_factory=dict, compare=False, hash=False)
     masses: tuple[PointMass, ...] = ()  # [[masses]]: point masses and rigid attachments on bars
     # groups: {body: {"alpha":..,"nu":..,"lambda":..,"mu":..,"rho":..}, "_scene": {"gravity": [..], ...}}
+    si_inputs: tuple[tuple[str, float], ...] = ()
+    # SI scenes: the file's physical inputs of the groups, (scene key, value) in SI units:
+    # scene.omega, scene.reference_length (if given) and each bar's length, E, area, inertia,
+    # density or mass_per_length, as given (symgen.ir.physical: the emitted C's --set by them)
 
     @property
     def driver(self) -> Driver | None:

@@ -79,8 +79,10 @@ def _num(**kw) -> dict:
 
 NUMBER_OR_EXPRESSION = {"oneOf": [{"type": "number"}, {"type": "string", "minLength": 1}]}
 EXPRESSION_TEXT = (
-    "a number, or (dimensionless scenes) a string: an expression of tau with + - * / ^ "
-    "(or **), parentheses, numbers, tau, pi and the functions " + ", ".join(ALLOWED_FUNCTIONS)
+    "a number, or a string: an expression with + - * / ^ (or **), parentheses, numbers, pi, the "
+    "functions " + ", ".join(ALLOWED_FUNCTIONS) + " and the time: tau in a dimensionless scene; t, "
+    "in seconds, in an SI scene (tau = omega t may be used there too), where the value is in SI and "
+    "converted exactly to the model's (t = tau / omega)"
 )
 NAME_JSON = {"type": "string", "pattern": NAME_PATTERN, "maxLength": MAX_NAME_LENGTH}
 
@@ -420,12 +422,12 @@ DRIVER = Table(
         Key(
             "law",
             "string (expression)",
-            "Prescribed angle theta - initial as an expression of tau (angle "
-            "drivers, instead of rate; the run needs t_end): " + EXPRESSION_TEXT + ". theta' and theta'' are its exact "
-            "derivatives.",
+            "Prescribed angle theta - initial as an expression of the time (angle "
+            "drivers, instead of rate; the run needs t_end, or duration): " + EXPRESSION_TEXT + ". theta' and "
+            "theta'' are its exact derivatives.",
             {"type": "string", "minLength": 1},
-            unit="rad; tau in both unit systems",
-            example='"0.5*sin(tau)"',
+            unit="rad; of tau, or (SI scene) of t in s",
+            example='"0.5*sin(tau)" (SI: "0.5*sin(30*t)")',
         ),
         Key(
             "ramp",
@@ -442,8 +444,8 @@ DRIVER = Table(
             "The applied moment (torque drivers): " + EXPRESSION_TEXT + ".",
             NUMBER_OR_EXPRESSION,
             required="for a torque driver",
-            unit="N m (SI), else m_ref l0^3 omega^2",
-            example='"0.5*Heaviside(tau - 1)"',
+            unit="N m (SI; an expression of t in s), else m_ref l0^3 omega^2",
+            example='"0.5*Heaviside(tau - 1)" (SI: "4.0*tanh(t/0.1)")',
         ),
         Key(
             "rotor_inertia",
@@ -611,7 +613,8 @@ LOADS = Table(
             "Axial component: " + EXPRESSION_TEXT + ".",
             NUMBER_OR_EXPRESSION,
             default="0.0",
-            unit="SI: N/m (distributed) or N (point); else q/(m_i l_i omega^2), F/(m_i l_i^2 omega^2)",
+            unit="SI: N/m (distributed) or N (point), an expression of t in s; else q/(m_i l_i omega^2), "
+            "F/(m_i l_i^2 omega^2)",
             example="0.0",
         ),
         Key(
@@ -764,9 +767,9 @@ SIMULATION = Table(
         Key(
             "t_end",
             "number > 0",
-            "End time (exactly one of t_end and cycles).",
+            "End time (exactly one of t_end, cycles and duration).",
             _num(exclusiveMinimum=0),
-            required="t_end or cycles",
+            required="t_end, cycles or duration",
             unit="tau = omega t (both unit systems)",
             example="12.566370614359172",
         ),
@@ -776,7 +779,7 @@ SIMULATION = Table(
             "Crank turns to run (angle drivers; with several, the turns of the first angle driver "
             "turning at a constant rate; else 2 pi per cycle).",
             _num(exclusiveMinimum=0),
-            required="t_end or cycles",
+            required="t_end, cycles or duration",
             example="2",
         ),
         Key(
@@ -787,6 +790,26 @@ SIMULATION = Table(
             default=f"{_ld.DEFAULT_OUTPUT_STEP!r} (1 degree of a unit-rate crank)",
             unit="tau",
             example="0.017453292519943295",
+        ),
+        Key(
+            "duration",
+            "number > 0",
+            "Length of the run in seconds (SI scenes only; exactly one of t_end, cycles and duration): "
+            "t_end = duration x omega.",
+            _num(exclusiveMinimum=0),
+            required="t_end, cycles or duration",
+            unit="s",
+            example="0.5",
+        ),
+        Key(
+            "output_interval",
+            "number > 0",
+            "Step of the output grid in seconds (SI scenes only; instead of output_step): "
+            "output_step = output_interval x omega.",
+            _num(exclusiveMinimum=0),
+            default="output_step's",
+            unit="s",
+            example="0.001",
         ),
         Key(
             "rtol",

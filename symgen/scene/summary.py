@@ -7,6 +7,9 @@ Examples
 slider_crank (examples/slider_crank.toml): valid, dimensionless, l0 = 1, omega = 1
   bars     crank: rigid, alpha 0.5, nu 1
   ...
+
+An SI scene's driver, gravity and run are given in SI (rad/s, N m, m/s^2, seconds; the run's
+t_end in tau too): ``run      duration 0.0546 s (t_end 12.6 tau), output interval ...``.
 """
 
 from __future__ import annotations
@@ -52,6 +55,8 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     """Bars (frames, shape functions, groups), joints, driver, point masses, loads, outputs and the run;
     ``corrections``: {bar: its static correction points by direction} (``structure.static_points``,
     which the caller gives: the model layer is above the scene's)."""
+    si = scene.units == "SI"
+    moment = scene.m_ref * scene.l0**3 * scene.omega**2  # N m per model unit (SI scenes)
     lines = [f"{scene.name} ({scene.path}): valid, {scene.units}, l0 = {scene.l0:.6g}, omega = {scene.omega:.6g}"]
     lines += [f"  {'bars' if i == 0 else '':8} {_bar(b, corrections)}" for i, b in enumerate(scene.bodies)]
     lines += [f"  {'joints' if i == 0 else '':8} {_joint(j)}" for i, j in enumerate(scene.joints)]
@@ -63,9 +68,18 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     for i, drv in enumerate(scene.drivers):
         head = ("driver" if len(scene.drivers) == 1 else "drivers") if i == 0 else ""
         if drv.kind == "angle":
-            lines.append(f"  {head:8} angle of {drv.body}: {drv.initial:.6g} + {drv.rate:.6g} tau")
+            if drv.law is not None:
+                motion = f"{drv.initial:.6g} + ({drv.law}) rad, tau = omega t"
+            elif si:
+                motion = f"{drv.initial:.6g} rad + {drv.rate * scene.omega:.6g} rad/s t"
+            else:
+                motion = f"{drv.initial:.6g} + {drv.rate:.6g} tau"
+            lines.append(f"  {head:8} angle of {drv.body}: {motion}")
+        elif si and isinstance(drv.torque, float):
+            lines.append(f"  {head:8} torque on {drv.body}: {drv.torque * moment:.6g} N m")
         else:
-            lines.append(f"  {head:8} torque on {drv.body}: {drv.torque}")
+            unit = " x m_ref l0^3 omega^2, tau = omega t" if si else ""
+            lines.append(f"  {head:8} torque on {drv.body}: {drv.torque}{unit}")
         if drv.rotor_inertia:
             lines.append(f"  {'':8} rotor inertia {drv.rotor_inertia:.6g} (/ m_ref l0^3)")
     for i, pm in enumerate(scene.masses):
@@ -78,13 +92,20 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     if scene.loads:
         lines.append(f"  {'loads':8} {len(scene.loads)} on " + ", ".join(sorted({ld.body for ld in scene.loads})))
     gx, gy = scene.effects.gravity
-    if gx or gy:
+    if si and (gx or gy):
+        g = scene.l0 * scene.omega**2
+        lines.append(f"  {'gravity':8} [{gx * g:.6g}, {gy * g:.6g}] m/s^2")
+    elif gx or gy:
         lines.append(f"  {'gravity':8} [{gx:.6g}, {gy:.6g}] (g / (l0 omega^2))")
     lines.append(f"  {'outputs':8} " + ", ".join(f"{o.name} ({o.kind})" for o in scene.outputs))
     sim = scene.simulation
     rows = math.floor(sim.t_end / sim.output_step + 1e-9) + 1
-    lines.append(
-        f"  {'run':8} t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g} "
-        f"({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}"
-    )
+    if si:
+        run = (
+            f"duration {sim.t_end / scene.omega:.6g} s (t_end {sim.t_end:.6g} tau), "
+            f"output interval {sim.output_step / scene.omega:.6g} s"
+        )
+    else:
+        run = f"t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g}"
+    lines.append(f"  {'run':8} {run} ({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}")
     return "\n".join(lines)

@@ -50,6 +50,22 @@ def expression_error(text: str) -> str | None:
     return _remembered({"check": "expression", "text": text}, answer)
 
 
+def seconds_error(text: str, omega: float, scale: float) -> str | None:
+    """Why an SI scene's ``text`` (an expression of t in seconds) cannot be converted to the
+    model's expression of tau (:func:`symgen.scene.expressions.seconds_to_tau_text`), else None."""
+
+    def answer() -> str | None:
+        from symgen.scene.expressions import seconds_to_tau_text
+
+        try:
+            seconds_to_tau_text(text, omega, scale)
+        except ValueError as exc:
+            return str(exc)
+        return None
+
+    return _remembered({"check": "seconds", "text": text, "omega": omega, "scale": scale}, answer)
+
+
 def expression_not_finite(text: str, t_end: float) -> float | None:
     """The first tau in [0, t_end] where the (valid) expression ``text`` is not a finite real
     number, else None (:func:`symgen.scene.expressions.first_non_finite`)."""

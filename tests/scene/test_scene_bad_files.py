@@ -48,7 +48,7 @@ BAD_CASES = [
     ("si_missing_E", "bodies.rod.E", "missing required key 'E'"),
     ("si_missing_omega", "scene.omega", "missing required key 'omega'"),
     ("si_lambda", "bodies.rod.lambda", "dimensionless group"),
-    ("si_expression_load", "loads[0].transverse", "SI loads must be numbers"),
+    ("si_expression_load", "loads[0].transverse", "unknown name 'omega'"),
     ("si_both_masses", "bodies.crank.density", "either mass_per_length or density"),
     ("dimensionless_E", "bodies.rod.E", "SI quantity"),
     ("rigid_with_lambda", "bodies.crank.lambda", "a rigid bar has no 'lambda'"),

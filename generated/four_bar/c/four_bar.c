@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "four_bar.h"
@@ -107,6 +108,151 @@ int four_bar_parameter_valid(int k, double value)
     if (four_bar_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (four_bar_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const four_bar_physical_names[17] = {
+    "scene.omega", "scene.reference_length", "bodies.crank.length", "bodies.crank.E", "bodies.crank.area", "bodies.crank.inertia", "bodies.crank.density", "bodies.coupler.length", "bodies.coupler.E", "bodies.coupler.area", "bodies.coupler.inertia", "bodies.coupler.density", "bodies.rocker.length", "bodies.rocker.E", "bodies.rocker.area", "bodies.rocker.inertia", "bodies.rocker.density"
+};
+const double four_bar_physical_defaults[17] = {
+    230.0,    /* scene.omega */
+    0.1,    /* scene.reference_length */
+    0.1,    /* bodies.crank.length */
+    69000000000.0,    /* bodies.crank.E */
+    0.0001,    /* bodies.crank.area */
+    8.3333e-10,    /* bodies.crank.inertia */
+    2700.0,    /* bodies.crank.density */
+    0.3,    /* bodies.coupler.length */
+    69000000000.0,    /* bodies.coupler.E */
+    5e-05,    /* bodies.coupler.area */
+    4.1667e-10,    /* bodies.coupler.inertia */
+    2700.0,    /* bodies.coupler.density */
+    0.25,    /* bodies.rocker.length */
+    69000000000.0,    /* bodies.rocker.E */
+    5e-05,    /* bodies.rocker.area */
+    4.1667e-10,    /* bodies.rocker.inertia */
+    2700.0    /* bodies.rocker.density */
+};
+
+int four_bar_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 17; ++k) {
+        if (strcmp(name, four_bar_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int four_bar_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[7]) {   /* alpha_coupler */
+        p[0] = x[7]/x[1];
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[2]) {   /* alpha_crank */
+        p[1] = x[2]/x[1];
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[12]) {   /* alpha_rocker */
+        p[2] = x[12]/x[1];
+        written[2] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[7] || changed[8] || changed[11]) {   /* lambda_coupler */
+        p[3] = x[8]/(x[11]*(x[7]*x[7])*(x[0]*x[0]));
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[6]) {   /* lambda_crank */
+        p[4] = x[3]/(x[6]*(x[2]*x[2])*(x[0]*x[0]));
+        written[4] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[12] || changed[13] || changed[16]) {   /* lambda_rocker */
+        p[5] = x[13]/(x[16]*(x[12]*x[12])*(x[0]*x[0]));
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[7] || changed[8] || changed[9] || changed[10] || changed[11]) {   /* mu_coupler */
+        p[6] = x[8]*x[10]/(x[9]*x[11]*(x[7]*x[7]*x[7]*x[7])*(x[0]*x[0]));
+        written[6] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[4] || changed[5] || changed[6]) {   /* mu_crank */
+        p[7] = x[3]*x[5]/(x[4]*x[6]*(x[2]*x[2]*x[2]*x[2])*(x[0]*x[0]));
+        written[7] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[12] || changed[13] || changed[14] || changed[15] || changed[16]) {   /* mu_rocker */
+        p[8] = x[13]*x[15]/(x[14]*x[16]*(x[12]*x[12]*x[12]*x[12])*(x[0]*x[0]));
+        written[8] = 1;
+        ++count;
+    }
+    if (changed[4] || changed[6] || changed[9] || changed[11]) {   /* nu_coupler */
+        p[9] = x[9]*x[11]/(x[4]*x[6]);
+        written[9] = 1;
+        ++count;
+    }
+    if (changed[4] || changed[6] || changed[14] || changed[16]) {   /* nu_rocker */
+        p[11] = x[14]*x[16]/(x[4]*x[6]);
+        written[11] = 1;
+        ++count;
+    }
+    if (changed[1]) {   /* px_O4 */
+        p[13] = 0.3/x[1];
+        written[13] = 1;
+        ++count;
+    }
+    return count;
+}
+
+int four_bar_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[18];
+    int written[18];
+    int k, j;
+    for (j = 0; j < 17 && !changed[j]; ++j) {}
+    if (j == 17) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    four_bar_physical_apply(x, changed, q, written);
+    for (k = 0; k < 18; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", four_bar_parameter_names[k], four_bar_physical_names[j]);
+            return -1;
+        }
+        if (!four_bar_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     four_bar_physical_names[j], x[j], four_bar_parameter_names[k], q[k],
+                     four_bar_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double four_bar_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void four_bar_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = x[1];
+    factor[1] = 1.0;
+    factor[2] = x[7];
+    factor[3] = x[12];
+    factor[4] = 1.0;
+    factor[5] = x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[6] = 1.0;
 }
 
 /* four_bar_phi: 44 operations, 6 temporaries */

@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "motor_arm.h"
@@ -99,6 +100,129 @@ int motor_arm_parameter_valid(int k, double value)
     if (motor_arm_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (motor_arm_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const motor_arm_physical_names[9] = {
+    "scene.omega", "scene.reference_length", "bodies.arm.length", "bodies.arm.E", "bodies.arm.area", "bodies.arm.inertia", "bodies.arm.density", "bodies.link.length", "bodies.link.mass_per_length"
+};
+const double motor_arm_physical_defaults[9] = {
+    31.4159,    /* scene.omega */
+    0.2,    /* scene.reference_length */
+    0.2,    /* bodies.arm.length */
+    210000000000.0,    /* bodies.arm.E */
+    0.0002,    /* bodies.arm.area */
+    6.6667e-09,    /* bodies.arm.inertia */
+    7850.0,    /* bodies.arm.density */
+    0.15,    /* bodies.link.length */
+    1.0    /* bodies.link.mass_per_length */
+};
+
+int motor_arm_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 9; ++k) {
+        if (strcmp(name, motor_arm_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int motor_arm_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[4] || changed[6]) {   /* I_A */
+        p[0] = 0.0001/(x[4]*x[6]*(x[1]*x[1]*x[1]));
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[4] || changed[6]) {   /* J_rotor */
+        p[1] = 0.005/(x[4]*x[6]*(x[1]*x[1]*x[1]));
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[2]) {   /* alpha_arm */
+        p[2] = x[2]/x[1];
+        written[2] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[7]) {   /* alpha_link */
+        p[3] = x[7]/x[1];
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[1]) {   /* gy */
+        p[5] = -9.81/((x[0]*x[0])*x[1]);
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[6]) {   /* lambda_arm */
+        p[6] = x[3]/(x[6]*(x[2]*x[2])*(x[0]*x[0]));
+        written[6] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[4] || changed[6]) {   /* m_A */
+        p[7] = 0.3/(x[4]*x[6]*x[1]);
+        written[7] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[4] || changed[5] || changed[6]) {   /* mu_arm */
+        p[8] = x[3]*x[5]/(x[4]*x[6]*(x[2]*x[2]*x[2]*x[2])*(x[0]*x[0]));
+        written[8] = 1;
+        ++count;
+    }
+    if (changed[4] || changed[6] || changed[8]) {   /* nu_link */
+        p[10] = x[8]/(x[4]*x[6]);
+        written[10] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[1] || changed[4] || changed[6]) {   /* torque */
+        p[13] = 3.9999999999999996/(x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]));
+        written[13] = 1;
+        ++count;
+    }
+    return count;
+}
+
+int motor_arm_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[14];
+    int written[14];
+    int k, j;
+    for (j = 0; j < 9 && !changed[j]; ++j) {}
+    if (j == 9) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    motor_arm_physical_apply(x, changed, q, written);
+    for (k = 0; k < 14; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", motor_arm_parameter_names[k], motor_arm_physical_names[j]);
+            return -1;
+        }
+        if (!motor_arm_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     motor_arm_physical_names[j], x[j], motor_arm_parameter_names[k], q[k],
+                     motor_arm_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double motor_arm_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void motor_arm_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = 1.0;
+    factor[1] = x[2];
+    factor[2] = x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
 }
 
 /* motor_arm_phi: 0 operations, 0 temporaries */

@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "six_bar.h"
@@ -111,6 +112,155 @@ int six_bar_parameter_valid(int k, double value)
     if (six_bar_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (six_bar_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const six_bar_physical_names[15] = {
+    "scene.omega", "scene.reference_length", "bodies.crank.length", "bodies.crank.mass_per_length", "bodies.coupler.length", "bodies.coupler.E", "bodies.coupler.area", "bodies.coupler.inertia", "bodies.coupler.density", "bodies.rocker.length", "bodies.rocker.mass_per_length", "bodies.link5.length", "bodies.link5.mass_per_length", "bodies.link6.length", "bodies.link6.mass_per_length"
+};
+const double six_bar_physical_defaults[15] = {
+    230.0,    /* scene.omega */
+    0.1,    /* scene.reference_length */
+    0.1,    /* bodies.crank.length */
+    0.785,    /* bodies.crank.mass_per_length */
+    0.3,    /* bodies.coupler.length */
+    210000000000.0,    /* bodies.coupler.E */
+    5e-05,    /* bodies.coupler.area */
+    4.1667e-10,    /* bodies.coupler.inertia */
+    7850.0,    /* bodies.coupler.density */
+    0.25,    /* bodies.rocker.length */
+    0.3925,    /* bodies.rocker.mass_per_length */
+    0.3,    /* bodies.link5.length */
+    0.3925,    /* bodies.link5.mass_per_length */
+    0.2,    /* bodies.link6.length */
+    0.3925    /* bodies.link6.mass_per_length */
+};
+
+int six_bar_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 15; ++k) {
+        if (strcmp(name, six_bar_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int six_bar_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[4]) {   /* alpha_coupler */
+        p[0] = x[4]/x[1];
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[2]) {   /* alpha_crank */
+        p[1] = x[2]/x[1];
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[11]) {   /* alpha_link5 */
+        p[2] = x[11]/x[1];
+        written[2] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[13]) {   /* alpha_link6 */
+        p[3] = x[13]/x[1];
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[9]) {   /* alpha_rocker */
+        p[4] = x[9]/x[1];
+        written[4] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[4] || changed[5] || changed[8]) {   /* lambda_coupler */
+        p[5] = x[5]/(x[8]*(x[4]*x[4])*(x[0]*x[0]));
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[4] || changed[5] || changed[6] || changed[7] || changed[8]) {   /* mu_coupler */
+        p[6] = x[5]*x[7]/(x[6]*x[8]*(x[4]*x[4]*x[4]*x[4])*(x[0]*x[0]));
+        written[6] = 1;
+        ++count;
+    }
+    if (changed[3] || changed[6] || changed[8]) {   /* nu_crank */
+        p[8] = x[3]/(x[6]*x[8]);
+        written[8] = 1;
+        ++count;
+    }
+    if (changed[6] || changed[8] || changed[12]) {   /* nu_link5 */
+        p[9] = x[12]/(x[6]*x[8]);
+        written[9] = 1;
+        ++count;
+    }
+    if (changed[6] || changed[8] || changed[14]) {   /* nu_link6 */
+        p[10] = x[14]/(x[6]*x[8]);
+        written[10] = 1;
+        ++count;
+    }
+    if (changed[6] || changed[8] || changed[10]) {   /* nu_rocker */
+        p[11] = x[10]/(x[6]*x[8]);
+        written[11] = 1;
+        ++count;
+    }
+    if (changed[1]) {   /* px_O4 */
+        p[14] = 0.3/x[1];
+        written[14] = 1;
+        ++count;
+    }
+    if (changed[1]) {   /* py_F */
+        p[15] = 0.4/x[1];
+        written[15] = 1;
+        ++count;
+    }
+    return count;
+}
+
+int six_bar_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[20];
+    int written[20];
+    int k, j;
+    for (j = 0; j < 15 && !changed[j]; ++j) {}
+    if (j == 15) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    six_bar_physical_apply(x, changed, q, written);
+    for (k = 0; k < 20; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", six_bar_parameter_names[k], six_bar_physical_names[j]);
+            return -1;
+        }
+        if (!six_bar_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     six_bar_physical_names[j], x[j], six_bar_parameter_names[k], q[k],
+                     six_bar_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double six_bar_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void six_bar_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = x[4];
+    factor[1] = x[4];
+    factor[2] = 1.0;
+    factor[3] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]);
+    factor[4] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]);
+    factor[5] = 1.0;
+    factor[6] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[7] = 1.0;
 }
 
 /* six_bar_phi: 67 operations, 13 temporaries */

@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "slider_crank.h"
@@ -99,6 +100,74 @@ int slider_crank_parameter_valid(int k, double value)
     if (slider_crank_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (slider_crank_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const slider_crank_physical_names[1] = {
+    ""
+};
+const double slider_crank_physical_defaults[1] = {
+    0.0
+};
+
+int slider_crank_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 0; ++k) {
+        if (strcmp(name, slider_crank_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int slider_crank_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    (void)x;
+    (void)changed;
+    (void)p;
+    (void)written;
+    return count;
+}
+
+int slider_crank_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[14];
+    int written[14];
+    int k, j;
+    for (j = 0; j < 0 && !changed[j]; ++j) {}
+    if (j == 0) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    slider_crank_physical_apply(x, changed, q, written);
+    for (k = 0; k < 14; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", slider_crank_parameter_names[k], slider_crank_physical_names[j]);
+            return -1;
+        }
+        if (!slider_crank_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     slider_crank_physical_names[j], x[j], slider_crank_parameter_names[k], q[k],
+                     slider_crank_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double slider_crank_physical_omega(const double *x)
+{
+    (void)x;
+    return 1.0;
+}
+
+void slider_crank_physical_output_factors(const double *x, double *factor)
+{
+    (void)x;
+    (void)factor;
 }
 
 /* slider_crank_phi: 24 operations, 2 temporaries */

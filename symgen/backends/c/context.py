@@ -65,6 +65,41 @@ def _parameter_ranges(scene, params: list[str]) -> list[dict]:
     ]
 
 
+def _physical(scene, params: list[str]) -> dict:
+    """An SI scene's physical inputs (``--set bodies.rod.E=...``) and, per model parameter that
+    depends on them, its C expression of x[j] (the inputs): the loader's formulas printed, not
+    retyped (symgen.ir.physical); ``deps``: the inputs it depends on."""
+    from symgen.backends.c.printer import CPrinter
+    from symgen.ir.physical import physical_map
+
+    pm = physical_map(scene, params)
+    keys = [k for k, _ in pm.inputs]
+    names = {pm.symbols[k]: f"x[{j}]" for j, k in enumerate(keys)}
+    printer = CPrinter(names)
+    formulas = []
+    for k, name in enumerate(params):
+        expr = pm.expressions.get(name)
+        if expr is None:
+            continue
+        deps = sorted(keys.index(s.name) for s in expr.free_symbols)
+        formulas.append({"index": k, "code": printer.doprint(expr), "deps": deps, "name": c_comment(name)})
+    from symgen.ir.physical import INPUT_UNITS, output_unit
+
+    return {
+        "si": scene.units == "SI",
+        "omega": printer.doprint(pm.omega) if pm.output_factors else c_double(scene.omega),
+        "output_factors": [printer.doprint(f) for f in pm.output_factors],
+        "output_units": [output_unit(o.kind) for o in scene.outputs],
+        "units": [INPUT_UNITS[k.rsplit(".", 1)[1]] for k in keys],
+        "n": len(keys),
+        "names": [c_string(k) for k in keys],
+        "comments": [c_comment(k) for k in keys],
+        "defaults": [c_double(v) for _, v in pm.inputs],
+        "frozen": [c_comment(k) for k in pm.frozen],
+        "formulas": formulas,
+    }
+
+
 def _run_limits() -> dict:
     """The run limits of the Python loader (symgen.scene.limits), rendered into the C: the
     default row limit (the C driver lifts it with --max-rows, Python with SYMGEN_MAX_ROWS), the
@@ -146,6 +181,7 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "parameter_plain": params,
         "parameter_values": [float(x) for x in p],
         "parameter_ranges": _parameter_ranges(scene, params),
+        "physical": _physical(scene, params),
         "limits": _run_limits(),
         "output_names": [c_string(x) for x in info.outputs],
         "csv_header": c_string(",".join(["tau", *info.outputs])),
