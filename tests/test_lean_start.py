@@ -102,6 +102,62 @@ t_end = 1.0
 output_step = 0.05
 """
 
+SI_SCENE = """
+[scene]
+name = "si_arm"
+units = "SI"
+omega = 20.0
+[[bodies]]
+name = "arm"
+length = 0.5
+E = 70e9
+area = 1e-4
+inertia = 1e-9
+density = 2700.0
+frame = "cantilever"
+axial_modes = 0
+transverse_modes = 2
+[[bodies]]
+name = "link"
+length = 0.4
+E = 70e9
+area = 1e-4
+inertia = 1e-9
+density = 2700.0
+frame = "cantilever"
+axial_modes = 0
+transverse_modes = 1
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "arm"]
+at = [[0.0, 0.0], 0.0]
+[[joints]]
+name = "P"
+kind = "pin"
+bodies = ["link", "ground"]
+at = [0.0, [0.6, 0.0]]
+[[drivers]]
+kind = "angle"
+body = "arm"
+law = "0.4*sin(10*t)"
+[[drivers]]
+kind = "torque"
+body = "link"
+value = "0.2*tanh(t/0.05)"
+[[loads]]
+body = "arm"
+kind = "point"
+at = 1.0
+transverse = "1.5*sin(30*t)"
+[outputs]
+theta = { kind = "angle", body = "arm" }
+tip = { kind = "deflection", body = "arm", at = 1.0 }
+[simulation]
+duration = 0.05
+output_interval = 0.005
+"""
+
 # Runs each step (a list: "cli", argv... | "api", scene, override, out or None) and prints, per step, the
 # heavy modules loaded so far and, for the first import of each, the symgen frames that made it.
 DRIVER = r"""
@@ -165,14 +221,16 @@ def test_cached_example_runs_import_no_sympy(scene, tmp_path):
     )
 
 
-@pytest.mark.parametrize("text", [LAW_SCENE, TORQUE_SCENE], ids=["law-and-loads", "torque"])
+@pytest.mark.parametrize(
+    "text", [LAW_SCENE, TORQUE_SCENE, SI_SCENE], ids=["law-and-loads", "torque", "si-expressions-two-drivers"]
+)
 def test_cached_runs_with_user_expressions_import_no_sympy(text, tmp_path):
     scene = str(write_scene(tmp_path / "expr.toml", text))
     _lean(
         [
             ["cli", "check", scene],
             ["cli", "simulate", scene, "-o", str(tmp_path / "cli.csv")],
-            ["api", scene, "simulation.output_step=0.1", str(tmp_path / "api.csv")],
+            ["api", scene, "simulation.rtol=1e-7", str(tmp_path / "api.csv")],
         ],
         tmp_path,
     )

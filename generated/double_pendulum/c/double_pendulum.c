@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "double_pendulum.h"
@@ -95,6 +96,123 @@ int double_pendulum_parameter_valid(int k, double value)
     if (double_pendulum_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (double_pendulum_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const double_pendulum_physical_names[12] = {
+    "scene.omega", "scene.reference_length", "bodies.upper.length", "bodies.upper.E", "bodies.upper.area", "bodies.upper.inertia", "bodies.upper.density", "bodies.lower.length", "bodies.lower.E", "bodies.lower.area", "bodies.lower.inertia", "bodies.lower.density"
+};
+const double double_pendulum_physical_defaults[12] = {
+    10.0,    /* scene.omega */
+    0.3,    /* scene.reference_length */
+    0.3,    /* bodies.upper.length */
+    210000000000.0,    /* bodies.upper.E */
+    0.0001,    /* bodies.upper.area */
+    8.3333e-10,    /* bodies.upper.inertia */
+    7850.0,    /* bodies.upper.density */
+    0.25,    /* bodies.lower.length */
+    210000000000.0,    /* bodies.lower.E */
+    0.0001,    /* bodies.lower.area */
+    8.3333e-10,    /* bodies.lower.inertia */
+    7850.0    /* bodies.lower.density */
+};
+
+int double_pendulum_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 12; ++k) {
+        if (strcmp(name, double_pendulum_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int double_pendulum_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[7]) {   /* alpha_lower */
+        p[0] = x[7]/x[1];
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[2]) {   /* alpha_upper */
+        p[1] = x[2]/x[1];
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[1]) {   /* gy */
+        p[3] = -9.81/((x[0]*x[0])*x[1]);
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[7] || changed[8] || changed[11]) {   /* lambda_lower */
+        p[4] = x[8]/(x[11]*(x[7]*x[7])*(x[0]*x[0]));
+        written[4] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[6]) {   /* lambda_upper */
+        p[5] = x[3]/(x[6]*(x[2]*x[2])*(x[0]*x[0]));
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[7] || changed[8] || changed[9] || changed[10] || changed[11]) {   /* mu_lower */
+        p[6] = x[8]*x[10]/(x[9]*x[11]*(x[7]*x[7]*x[7]*x[7])*(x[0]*x[0]));
+        written[6] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[2] || changed[3] || changed[4] || changed[5] || changed[6]) {   /* mu_upper */
+        p[7] = x[3]*x[5]/(x[4]*x[6]*(x[2]*x[2]*x[2]*x[2])*(x[0]*x[0]));
+        written[7] = 1;
+        ++count;
+    }
+    if (changed[4] || changed[6] || changed[9] || changed[11]) {   /* nu_lower */
+        p[8] = x[9]*x[11]/(x[4]*x[6]);
+        written[8] = 1;
+        ++count;
+    }
+    return count;
+}
+
+int double_pendulum_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[12];
+    int written[12];
+    int k, j;
+    for (j = 0; j < 12 && !changed[j]; ++j) {}
+    if (j == 12) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    double_pendulum_physical_apply(x, changed, q, written);
+    for (k = 0; k < 12; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", double_pendulum_parameter_names[k], double_pendulum_physical_names[j]);
+            return -1;
+        }
+        if (!double_pendulum_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     double_pendulum_physical_names[j], x[j], double_pendulum_parameter_names[k], q[k],
+                     double_pendulum_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double double_pendulum_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void double_pendulum_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = 1.0;
+    factor[1] = 1.0;
+    factor[2] = x[7];
+    factor[3] = x[4]*x[6]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
 }
 
 /* double_pendulum_phi: 38 operations, 0 temporaries */

@@ -22,6 +22,8 @@
 #ifndef SYMGEN_double_pendulum_H
 #define SYMGEN_double_pendulum_H
 
+#include <stddef.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -58,6 +60,39 @@ int double_pendulum_parameter_index(const char *name);
 /* 1 if `value` is a valid value of parameter k (finite and in its range), else 0 (also for a k
    that is not a parameter index). */
 int double_pendulum_parameter_valid(int k, double value);
+
+/*
+ * Physical inputs of an SI scene (none for a dimensionless one): the scene keys the model's
+ * parameters are computed from (bodies.<bar>.E, .area, .inertia, .density or .mass_per_length,
+ * .length; scene.omega, scene.reference_length), in SI units, each finite and > 0. The
+ * conversion is the Python loader's formulas printed to C (symgen.ir.physical).
+ */
+#define double_pendulum_N_PHYSICAL 12
+extern const char *const double_pendulum_physical_names[12];
+/* The scene's values of the physical inputs, in the order of _physical_names. */
+extern const double double_pendulum_physical_defaults[12];
+
+/* Index of the physical input called `name`, or -1. */
+int double_pendulum_physical_index(const char *name);
+
+/* For the physical inputs x (SI, in the order of _physical_names): p[k] = the parameter k of
+   these inputs, for every parameter that depends on an input j with changed[j] != 0 (the
+   others are not written); written[k] = 1 for each parameter written, else left as it is.
+   Returns the number of parameters written. */
+int double_pendulum_physical_apply(const double *x, const int *changed, double *p, int *written);
+
+/* _physical_apply for the inputs set (changed[j] != 0) into p, all or nothing: 0 when done;
+   -1 with a message in `message` (at most `size` bytes) when a parameter computed from them was
+   also set directly (direct[k] != 0) or is outside its range (p is then unchanged). */
+int double_pendulum_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size);
+
+/* omega in rad/s at the physical inputs x (tau = omega t); the scene's omega when it has none. */
+double double_pendulum_physical_omega(const double *x);
+
+/* The SI value of one model unit of each output at the physical inputs x (m, rad, N, N m, J;
+   symgen.scene.units.output_factor): output_SI[k] = out[k] * factor[k]. No-op without inputs. */
+void double_pendulum_physical_output_factors(const double *x, double *factor);
 
 /*
  * Every function below has the signature of the CasADi Functions F(t, q, v, a, lam, p) of the

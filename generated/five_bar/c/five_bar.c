@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "five_bar.h"
@@ -109,6 +110,144 @@ int five_bar_parameter_valid(int k, double value)
     if (five_bar_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (five_bar_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const five_bar_physical_names[13] = {
+    "scene.omega", "scene.reference_length", "bodies.crank_a.length", "bodies.crank_a.mass_per_length", "bodies.crank_b.length", "bodies.crank_b.mass_per_length", "bodies.link_a.length", "bodies.link_a.E", "bodies.link_a.area", "bodies.link_a.inertia", "bodies.link_a.density", "bodies.link_b.length", "bodies.link_b.mass_per_length"
+};
+const double five_bar_physical_defaults[13] = {
+    60.0,    /* scene.omega */
+    0.1,    /* scene.reference_length */
+    0.1,    /* bodies.crank_a.length */
+    0.27,    /* bodies.crank_a.mass_per_length */
+    0.1,    /* bodies.crank_b.length */
+    0.27,    /* bodies.crank_b.mass_per_length */
+    0.3,    /* bodies.link_a.length */
+    69000000000.0,    /* bodies.link_a.E */
+    5e-05,    /* bodies.link_a.area */
+    4.1667e-10,    /* bodies.link_a.inertia */
+    2700.0,    /* bodies.link_a.density */
+    0.3,    /* bodies.link_b.length */
+    0.135    /* bodies.link_b.mass_per_length */
+};
+
+int five_bar_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 13; ++k) {
+        if (strcmp(name, five_bar_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int five_bar_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[2]) {   /* alpha_crank_a */
+        p[0] = x[2]/x[1];
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[4]) {   /* alpha_crank_b */
+        p[1] = x[4]/x[1];
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[6]) {   /* alpha_link_a */
+        p[2] = x[6]/x[1];
+        written[2] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[11]) {   /* alpha_link_b */
+        p[3] = x[11]/x[1];
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[6] || changed[7] || changed[10]) {   /* lambda_link_a */
+        p[4] = x[7]/(x[10]*(x[6]*x[6])*(x[0]*x[0]));
+        written[4] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[8] || changed[10]) {   /* m_P */
+        p[5] = 0.020000000000000004/(x[8]*x[10]*x[1]);
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[6] || changed[7] || changed[8] || changed[9] || changed[10]) {   /* mu_link_a */
+        p[6] = x[7]*x[9]/(x[8]*x[10]*(x[6]*x[6]*x[6]*x[6])*(x[0]*x[0]));
+        written[6] = 1;
+        ++count;
+    }
+    if (changed[3] || changed[8] || changed[10]) {   /* nu_crank_a */
+        p[7] = x[3]/(x[8]*x[10]);
+        written[7] = 1;
+        ++count;
+    }
+    if (changed[5] || changed[8] || changed[10]) {   /* nu_crank_b */
+        p[8] = x[5]/(x[8]*x[10]);
+        written[8] = 1;
+        ++count;
+    }
+    if (changed[8] || changed[10] || changed[12]) {   /* nu_link_b */
+        p[10] = x[12]/(x[8]*x[10]);
+        written[10] = 1;
+        ++count;
+    }
+    if (changed[1]) {   /* px_O2 */
+        p[12] = 0.3/x[1];
+        written[12] = 1;
+        ++count;
+    }
+    return count;
+}
+
+int five_bar_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[19];
+    int written[19];
+    int k, j;
+    for (j = 0; j < 13 && !changed[j]; ++j) {}
+    if (j == 13) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    five_bar_physical_apply(x, changed, q, written);
+    for (k = 0; k < 19; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", five_bar_parameter_names[k], five_bar_physical_names[j]);
+            return -1;
+        }
+        if (!five_bar_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     five_bar_physical_names[j], x[j], five_bar_parameter_names[k], q[k],
+                     five_bar_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double five_bar_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void five_bar_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = 1.0;
+    factor[1] = 1.0;
+    factor[2] = x[8]*x[10]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[3] = x[8]*x[10]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[4] = x[6];
+    factor[5] = x[1];
+    factor[6] = x[1];
+    factor[7] = x[8]*x[10]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[8] = 1.0;
 }
 
 /* five_bar_phi: 38 operations, 4 temporaries */

@@ -22,7 +22,10 @@
 /*
  * usage: five_bar_sim [--t-end TAU] [--step TAU] [--rtol R] [--atol A] [--set NAME=VALUE]... [--max-rows N] [--stats]
  *   prints "tau,<outputs>" and one row per output time (every --step from 0 to --t-end) on
- *   stdout; --set changes a parameter (see five_bar_parameter_names, e.g. --set lambda_rod=20000);
+ *   stdout; --set changes a parameter (see five_bar_parameter_names, e.g. --set lambda_rod=20000)
+ *   or, in an SI scene, a physical input (see five_bar_physical_names, e.g. --set bodies.rod.E=2e11,
+ *   in SI units, > 0): the parameters computed from it follow, by the Python loader's formulas
+ *   (a parameter set directly may not also be computed from a physical input given);
  *   --stats prints step counts, the closure residual and the solver's CPU time on stderr.
  * Every value is a finite number: --t-end > 0, 0 < --step <= --t-end, --rtol in
  * [five_bar_RTOL_MIN, five_bar_RTOL_MAX) (a warning above five_bar_LOOSE_RTOL), --atol in [five_bar_ATOL_MIN, five_bar_ATOL_MAX), a --set value in the
@@ -84,14 +87,15 @@ static int five_bar_sim_number(const char *option, const char *text, double *out
     return 1;
 }
 
-/* --set NAME=VALUE into p; 0 (after a message) if NAME is no parameter or VALUE is not valid */
-static int five_bar_sim_set(const char *item, double *p)
+/* --set NAME=VALUE into p (direct[k] = 1) or, for a physical input, into x (changed[j] = 1);
+   0 (after a message) if NAME is neither or VALUE is not valid */
+static int five_bar_sim_set(const char *item, double *p, int *direct, double *x, int *changed)
 {
     char name[128], option[160];
     const char *eq = strchr(item, '=');
     size_t len = eq ? (size_t)(eq - item) : 0;
     double value;
-    int k = -1;
+    int k = -1, j;
     if (!eq || len == 0) {
         five_bar_sim_bad("--set '%s': expected NAME=VALUE, e.g. --set %s=1.0", item, five_bar_N_P > 0 ? five_bar_parameter_names[0] : "NAME");
         return 0;
@@ -100,10 +104,25 @@ static int five_bar_sim_set(const char *item, double *p)
         memcpy(name, item, len);
         name[len] = '\0';
         k = five_bar_parameter_index(name);
+        if (k < 0 && (j = five_bar_physical_index(name)) >= 0) {
+            snprintf(option, sizeof(option), "--set %s", name);
+            if (!five_bar_sim_number(option, eq + 1, &value)) return 0;
+            if (!(value > 0.0)) {
+                five_bar_sim_bad("--set %s=%s: the physical input %s must be > 0 (SI units)", name, eq + 1, name);
+                return 0;
+            }
+            x[j] = value;
+            changed[j] = 1;
+            return 1;
+        }
     }
     if (k < 0) {
         fprintf(stderr, "five_bar_sim: --set: no parameter named '%.*s'; the parameters are", (int)(len < 100 ? len : 100), item);
         for (k = 0; k < five_bar_N_P; ++k) fprintf(stderr, "%s %s", k ? "," : ":", five_bar_parameter_names[k]);
+        if (five_bar_N_PHYSICAL > 0) {
+            fprintf(stderr, "; the physical inputs (SI)");
+            for (j = 0; j < five_bar_N_PHYSICAL; ++j) fprintf(stderr, "%s %s", j ? "," : ":", five_bar_physical_names[j]);
+        }
         fprintf(stderr, "%s\n%s", five_bar_N_P ? "" : " none", five_bar_SIM_USAGE);
         return 0;
     }
@@ -114,6 +133,7 @@ static int five_bar_sim_set(const char *item, double *p)
         return 0;
     }
     p[k] = value;
+    direct[k] = 1;
     return 1;
 }
 
@@ -121,6 +141,9 @@ int main(int argc, char **argv)
 {
     five_bar_solver *s = &five_bar_sim_solver;
     double p[19];
+    int direct[19] = {0};
+    double x[13];
+    int changed[13] = {0};
     double out[9];
     double t_end = five_bar_T_END, step = five_bar_OUTPUT_STEP, rtol = five_bar_RTOL, atol = five_bar_ATOL;
     double max_rows = (double)five_bar_MAX_OUTPUT_ROWS, rows, max_t_end = five_bar_MAX_T_END;
@@ -131,6 +154,7 @@ int main(int argc, char **argv)
     double solve_cpu = 0.0;   /* CPU seconds in the solver (init and advance), for --stats */
     long i, n_out;
     memcpy(p, five_bar_parameter_defaults, sizeof(p));
+    memcpy(x, five_bar_physical_defaults, sizeof(x));
     for (a = 1; a < argc; ++a) {
         const char *arg = argv[a];
         const char *value = a + 1 < argc ? argv[a + 1] : NULL;
@@ -149,7 +173,13 @@ int main(int argc, char **argv)
         }
         if (!value) return five_bar_sim_bad("option '%s' is missing its value", arg);
         ++a;
-        if (target ? !five_bar_sim_number(arg, value, target) : !five_bar_sim_set(value, p)) return 2;
+        if (target ? !five_bar_sim_number(arg, value, target) : !five_bar_sim_set(value, p, direct, x, changed)) return 2;
+    }
+    {
+        char message[400];
+        if (five_bar_physical_set(x, changed, direct, p, message, sizeof(message))) {
+            return five_bar_sim_bad("--set: %s", message);
+        }
     }
     /* every value is finite here; the ranges (also of the scene's defaults) */
     if (!(t_end > 0.0)) return five_bar_sim_bad("--t-end %g: the end time must be > 0", t_end);

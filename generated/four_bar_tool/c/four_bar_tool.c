@@ -21,6 +21,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "four_bar_tool.h"
@@ -107,6 +108,139 @@ int four_bar_tool_parameter_valid(int k, double value)
     if (four_bar_tool_parameter_lower_open[k] ? !(value > lo) : !(value >= lo)) return 0;
     if (four_bar_tool_parameter_upper_open[k] ? !(value < hi) : !(value <= hi)) return 0;
     return 1;
+}
+
+/* physical inputs of an SI scene (symgen.ir.physical) */
+const char *const four_bar_tool_physical_names[11] = {
+    "scene.omega", "scene.reference_length", "bodies.crank.length", "bodies.crank.mass_per_length", "bodies.coupler.length", "bodies.coupler.E", "bodies.coupler.area", "bodies.coupler.inertia", "bodies.coupler.density", "bodies.rocker.length", "bodies.rocker.mass_per_length"
+};
+const double four_bar_tool_physical_defaults[11] = {
+    100.0,    /* scene.omega */
+    0.1,    /* scene.reference_length */
+    0.1,    /* bodies.crank.length */
+    0.27,    /* bodies.crank.mass_per_length */
+    0.3,    /* bodies.coupler.length */
+    69000000000.0,    /* bodies.coupler.E */
+    5e-05,    /* bodies.coupler.area */
+    4.1667e-10,    /* bodies.coupler.inertia */
+    2700.0,    /* bodies.coupler.density */
+    0.25,    /* bodies.rocker.length */
+    0.135    /* bodies.rocker.mass_per_length */
+};
+
+int four_bar_tool_physical_index(const char *name)
+{
+    int k;
+    for (k = 0; k < 11; ++k) {
+        if (strcmp(name, four_bar_tool_physical_names[k]) == 0) return k;
+    }
+    return -1;
+}
+
+int four_bar_tool_physical_apply(const double *x, const int *changed, double *p, int *written)
+{
+    int count = 0;
+    if (changed[1] || changed[4]) {   /* alpha_coupler */
+        p[0] = x[4]/x[1];
+        written[0] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[2]) {   /* alpha_crank */
+        p[1] = x[2]/x[1];
+        written[1] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[9]) {   /* alpha_rocker */
+        p[2] = x[9]/x[1];
+        written[2] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[4] || changed[5] || changed[8]) {   /* lambda_coupler */
+        p[3] = x[5]/(x[8]*(x[4]*x[4])*(x[0]*x[0]));
+        written[3] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[6] || changed[8]) {   /* mass1_I */
+        p[4] = 4.330000000000001e-06/(x[6]*x[8]*(x[1]*x[1]*x[1]));
+        written[4] = 1;
+        ++count;
+    }
+    if (changed[1]) {   /* mass1_across */
+        p[5] = 0.02/x[1];
+        written[5] = 1;
+        ++count;
+    }
+    if (changed[1] || changed[6] || changed[8]) {   /* mass1_m */
+        p[7] = 0.04000000000000001/(x[6]*x[8]*x[1]);
+        written[7] = 1;
+        ++count;
+    }
+    if (changed[0] || changed[4] || changed[5] || changed[6] || changed[7] || changed[8]) {   /* mu_coupler */
+        p[8] = x[5]*x[7]/(x[6]*x[8]*(x[4]*x[4]*x[4]*x[4])*(x[0]*x[0]));
+        written[8] = 1;
+        ++count;
+    }
+    if (changed[3] || changed[6] || changed[8]) {   /* nu_crank */
+        p[10] = x[3]/(x[6]*x[8]);
+        written[10] = 1;
+        ++count;
+    }
+    if (changed[6] || changed[8] || changed[10]) {   /* nu_rocker */
+        p[11] = x[10]/(x[6]*x[8]);
+        written[11] = 1;
+        ++count;
+    }
+    if (changed[1]) {   /* px_O4 */
+        p[13] = 0.3/x[1];
+        written[13] = 1;
+        ++count;
+    }
+    return count;
+}
+
+int four_bar_tool_physical_set(const double *x, const int *changed, const int *direct, double *p, char *message,
+                                  size_t size)
+{
+    double q[18];
+    int written[18];
+    int k, j;
+    for (j = 0; j < 11 && !changed[j]; ++j) {}
+    if (j == 11) return 0;                   /* no input set */
+    memcpy(q, p, sizeof(q));
+    memset(written, 0, sizeof(written));
+    four_bar_tool_physical_apply(x, changed, q, written);
+    for (k = 0; k < 18; ++k) {
+        if (!written[k]) continue;
+        if (direct[k]) {
+            snprintf(message, size, "the parameter %s was set, and the physical inputs set (%s ...) also set it: "
+                     "give one or the other", four_bar_tool_parameter_names[k], four_bar_tool_physical_names[j]);
+            return -1;
+        }
+        if (!four_bar_tool_parameter_valid(k, q[k])) {
+            snprintf(message, size, "the physical inputs set (%s = %g ...) give %s = %g, which must be %s",
+                     four_bar_tool_physical_names[j], x[j], four_bar_tool_parameter_names[k], q[k],
+                     four_bar_tool_parameter_range[k]);
+            return -1;
+        }
+    }
+    memcpy(p, q, sizeof(q));
+    return 0;
+}
+
+double four_bar_tool_physical_omega(const double *x)
+{
+    (void)x;
+    return x[0];
+}
+
+void four_bar_tool_physical_output_factors(const double *x, double *factor)
+{
+    factor[0] = x[4];
+    factor[1] = x[4];
+    factor[2] = 1.0;
+    factor[3] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[4] = x[6]*x[8]*(x[0]*x[0])*(x[1]*x[1]*x[1]);
+    factor[5] = 1.0;
 }
 
 /* four_bar_tool_phi: 30 operations, 3 temporaries */
