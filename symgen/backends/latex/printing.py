@@ -167,15 +167,33 @@ class Printer:
 
 
 _DELIMS = [(r"\Bigl(", r"\Bigr)"), (r"\bigl[", r"\bigr]"), (r"\bigl\{", r"\bigr\}"), ("(", ")")]
+_FUNC_TEX = {sp.sin: r"\sin", sp.cos: r"\cos", sp.tan: r"\tan", sp.sinh: r"\sinh", sp.cosh: r"\cosh", sp.tanh: r"\tanh"}
+
+
+def _opened(factor: sp.Expr) -> tuple[str, sp.Expr, str] | None:
+    """A factor that can be broken inside brackets as (text before the opening bracket, the
+    expression inside, text after the closing bracket): a sum, a sum to a positive integer
+    power, a trigonometric or hyperbolic function of a sum; None for any other factor."""
+    if isinstance(factor, sp.Add):
+        return "", factor, ""
+    if isinstance(factor, sp.Pow) and isinstance(factor.base, sp.Add) and factor.exp.is_Integer and factor.exp > 1:
+        return "", factor.base, f"^{{{factor.exp}}}"
+    if factor.func in _FUNC_TEX and isinstance(factor.args[0], sp.Add):
+        return _FUNC_TEX[factor.func], factor.args[0], ""
+    return None
 
 
 def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0) -> list[str]:
     """LaTeX of ``expr`` as lines of at most about ``width`` printed characters.
 
-    Sums are broken between terms (continuation lines start with their sign); a product
-    with a long sum as a factor becomes ``prefix \\Bigl( ... \\Bigr)`` with the sum broken
-    inside. Nothing is simplified or expanded. Lines after the first are indented by the
-    caller (one ``\\quad`` per nesting level is added here).
+    Sums are broken between terms (continuation lines start with their sign). A product is
+    written as its other factors followed by its bracketed factors (sums, powers of sums, sines
+    and cosines of sums), shortest first; a bracketed factor that does not fit on a line already
+    a third full goes on a line of its own, else it is broken inside its brackets
+    (``\\Bigl( ... \\Bigr)``, then ``\\bigl[``, ``\\bigl\\{``, plain brackets as they nest).
+    Nothing is simplified or expanded: the lines hold the factors and terms of the unbroken
+    LaTeX. Lines after the first are indented by the caller (one ``\\quad`` per nesting level is
+    added here).
     """
     s = printer(expr)
     if printed_width(s) <= width:
@@ -200,40 +218,34 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
                 cur = sub[-1]
         out.append(cur)
         return out
-    if isinstance(expr, sp.Mul):
-        adds = [a for a in expr.args if isinstance(a, sp.Add)]
-        if not adds:
-            return [s]
-        big = max(adds, key=lambda a: len(printer(a)))
-        rest = list(expr.args)
-        rest.remove(big)
-        others = sp.Mul(*rest)
-        prefix = "" if others == 1 else ("-" if others == -1 else printer(others))
-        op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
-        if printed_width(prefix) > width / 2 and len(adds) > 1:
-            # a product of several long sums (e.g. the projected strain energy's c^T Ka^-1 c):
-            # each sum in its own brackets, broken inside, one after the other
-            scalar = sp.Mul(*[a for a in expr.args if not isinstance(a, sp.Add)])
-            head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
-            lines = [head]
-            for a in sorted(adds, key=lambda a: len(printer(a))):
-                inner = tex_lines(a, printer, width - 12, depth + 1)  # indented and bracketed
-                if len(inner) == 1:
-                    if printed_width(lines[-1]) + printed_width(inner[0]) + 4 <= width:
-                        lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
-                    else:
-                        lines.append(rf"\quad {op} {inner[0]} {cl}")
-                    continue
-                lines[-1] = f"{lines[-1]} {op} {inner[0]}".strip()
-                lines += [r"\quad " + x for x in inner[1:]]
-                lines[-1] += f" {cl}"
-            return lines
-        inner = tex_lines(big, printer, width - 2, depth + 1)
-        if len(inner) == 1:
-            return [f"{prefix} {op} {inner[0]} {cl}".strip()]
-        pad = r"\quad "
-        return [f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]] + [f"{pad}{inner[-1]} {cl}"]
-    return [s]
+    factors = list(expr.args) if isinstance(expr, sp.Mul) else [expr]
+    opened = [f for f in factors if _opened(f) is not None]
+    if not opened:
+        return [s]
+    others = sp.Mul(*[f for f in factors if _opened(f) is None])
+    head = "" if others == 1 else ("-" if others == -1 else printer(others))
+    op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
+    lines = [head]
+    for f in sorted(opened, key=lambda f: (printed_width(printer(f)), printer(f))):
+        before, inside, after = _opened(f)  # type: ignore[misc]
+        whole = printer(f)
+        if isinstance(f, sp.Add):
+            whole = rf"\left({whole}\right)"
+        if printed_width(lines[-1]) + printed_width(whole) + 1 <= width:
+            lines[-1] = f"{lines[-1]} {whole}".strip()
+            continue
+        if printed_width(whole) + 2 <= width and printed_width(lines[-1]) > width / 3:
+            lines.append(rf"\quad {whole}")
+            continue
+        room = width - printed_width(lines[-1]) - printed_width(before) - 3
+        if room < width / 2 and lines[-1].strip() not in ("", "-", r"\quad"):
+            lines.append(r"\quad")
+            room = width - 2 - printed_width(before) - 3
+        inner = tex_lines(inside, printer, room, depth + 1)
+        lines[-1] = f"{lines[-1]} {before} {op} {inner[0]}".replace("  ", " ").strip()
+        lines += [r"\quad " + x for x in inner[1:]]
+        lines[-1] += f" {cl}{after}"
+    return lines
 
 
 @dataclass
