@@ -183,20 +183,23 @@ def _opened(factor: sp.Expr) -> tuple[str, sp.Expr, str] | None:
     return None
 
 
-def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0) -> list[str]:
-    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters.
+def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0, first: float | None = None) -> list[str]:
+    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters (the first line
+    at most ``first``, the room left on a line begun by the caller; default ``width``).
 
     Sums are broken between terms (continuation lines start with their sign). A product is
     written as its other factors followed by its bracketed factors (sums, powers of sums, sines
     and cosines of sums), shortest first; a bracketed factor that does not fit on a line already
     a third full goes on a line of its own, else it is broken inside its brackets
-    (``\\Bigl( ... \\Bigr)``, then ``\\bigl[``, ``\\bigl\\{``, plain brackets as they nest).
-    Nothing is simplified or expanded: the lines hold the factors and terms of the unbroken
-    LaTeX. Lines after the first are indented by the caller (one ``\\quad`` per nesting level is
-    added here).
+    (``\\Bigl( ... \\Bigr)``, then ``\\bigl[``, ``\\bigl\\{``, plain brackets as they nest),
+    beginning on the current line when half a line is left there. Nothing is simplified or
+    expanded: the lines hold the factors and terms of the unbroken LaTeX. Lines after the first
+    are indented by the caller (one ``\\quad`` per nesting level is added here and counted in
+    the width).
     """
+    first = width if first is None else min(first, width)
     s = printer(expr)
-    if printed_width(s) <= width:
+    if printed_width(s) <= first:
         return [s]
     if isinstance(expr, sp.Add):
         out: list[str] = []
@@ -205,13 +208,21 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
             neg = term.could_extract_minus_sign()
             body = -term if neg else term
             sign = "- " if neg else ("+ " if i else "")
-            sub = tex_lines(body, printer, width - 2, depth)
-            piece = sign + sub[0]
-            if cur and printed_width(cur) + printed_width(piece) > width:
+            piece = sign + printer(body)
+            limit = width if out else first
+            if printed_width(cur) + 1 + printed_width(piece) <= limit:
+                cur = f"{cur} {piece}" if cur else piece
+                continue
+            if cur and printed_width(piece) <= width:
                 out.append(cur)
                 cur = piece
-            else:
-                cur = f"{cur} {piece}" if cur else piece
+                continue
+            room = limit - printed_width(cur) - printed_width(sign) - 1
+            if cur and room < width / 2:
+                out.append(cur)
+                cur, room = "", width - printed_width(sign)
+            sub = tex_lines(body, printer, width, depth, room)
+            cur = f"{cur} {sign}{sub[0]}".strip()
             if len(sub) > 1:
                 out.append(cur)
                 out.extend(sub[1:-1])
@@ -231,17 +242,18 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
         whole = printer(f)
         if isinstance(f, sp.Add):
             whole = rf"\left({whole}\right)"
-        if printed_width(lines[-1]) + printed_width(whole) + 1 <= width:
+        limit = first if len(lines) == 1 else width
+        if printed_width(lines[-1]) + 1 + printed_width(whole) <= limit:
             lines[-1] = f"{lines[-1]} {whole}".strip()
             continue
         if printed_width(whole) + 2 <= width and printed_width(lines[-1]) > width / 3:
             lines.append(rf"\quad {whole}")
             continue
-        room = width - printed_width(lines[-1]) - printed_width(before) - 3
+        room = limit - printed_width(lines[-1]) - printed_width(before) - 3
         if room < width / 2 and lines[-1].strip() not in ("", "-", r"\quad"):
             lines.append(r"\quad")
             room = width - 2 - printed_width(before) - 3
-        inner = tex_lines(inside, printer, room, depth + 1)
+        inner = tex_lines(inside, printer, width - 2, depth + 1, room)
         lines[-1] = f"{lines[-1]} {before} {op} {inner[0]}".replace("  ", " ").strip()
         lines += [r"\quad " + x for x in inner[1:]]
         lines[-1] += f" {cl}{after}"
