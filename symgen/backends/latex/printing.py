@@ -21,7 +21,7 @@ from symgen.outputs import printable
 from symgen.ir.names import Name
 from symgen.model.bars import PointForce
 
-LINE_WIDTH = 82  # estimated printed width of a full display line (units of printed_width)
+LINE_WIDTH = 88  # estimated printed width of a full display line (units of printed_width)
 TAG_WIDTH = 12  # room kept for an equation tag
 LHS_MAX = 34  # a longer left side gets a line of its own
 SIG_DIGITS = 6
