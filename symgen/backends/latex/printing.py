@@ -1,11 +1,12 @@
 """Printing helpers shared by the LaTeX sections (``document``, ``slot``, ``quasistatic``).
 
 Text (``tex_escape``, ``rm``, ``num_text``), symbol names (``Namer``: the model's table of LaTeX
-names), expressions (``Printer``, ``tex_lines``: floats to 6 significant digits, long sums broken
-over lines, nothing simplified), displayed equations (``Row``, ``eq_row``, ``term_row``,
-``eq_block``), and what every section shows of a bar's equations alike: the sides of a residual
-(``split_sides``), the acceleration field (``kin_terms``) and the labels of the applied forces of
-the model's display form (``shown_forces``). The section modules import this module only;
+names), expressions (``Printer``, ``tex_lines``: floats to 6 significant digits, long sums and
+products broken over lines, inside nested brackets and function arguments too, nothing
+simplified), displayed equations (``Row``, ``eq_row``, ``term_row``, ``eq_block``), and what
+every section shows of a bar's equations alike: the sides of a residual (``split_sides``), the
+acceleration field (``kin_terms``) and the labels of the applied forces of the model's display
+form (``shown_forces``). The section modules import this module only;
 ``document`` imports the sections.
 """
 
@@ -162,7 +163,7 @@ class Printer:
         return sp.latex(expr, symbol_names=names, fold_func_brackets=True)
 
     def lines(self, expr, width: float | None = None) -> list[str]:
-        """``expr`` split over several lines at top-level sums (see :func:`tex_lines`)."""
+        """``expr`` split over several lines at sums, inside brackets (see :func:`tex_lines`)."""
         return tex_lines(_round_floats(self._tidy(expr)), self, self.width if width is None else width)
 
 
@@ -183,7 +184,9 @@ def _opened(factor: sp.Expr) -> tuple[str, sp.Expr, str] | None:
     return None
 
 
-def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0, first: float | None = None) -> list[str]:
+def tex_lines(
+    expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0, first: float | None = None
+) -> list[str]:
     """LaTeX of ``expr`` as lines of at most about ``width`` printed characters (the first line
     at most ``first``, the room left on a line begun by the caller; default ``width``).
 
