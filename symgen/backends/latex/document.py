@@ -247,14 +247,14 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
     ctx["driven"] = driven_text(scene, name)
-    fs = ", ".join(pr(x) for x in s.f)
-    gs = ", ".join(pr(x) for x in s.g)
+    fs = r",\allowbreak ".join(pr(x) for x in s.f)
+    gs = r",\allowbreak ".join(pr(x) for x in s.g)
     ctx["expansion"] = []
     if na:
         ctx["expansion"].append(rf"\zeta_{{{B}}}(\xi,\tau) = \sum_{{k=1}}^{{{na}}} \phi_k(\xi)\, f_{{{B},k}}(\tau)")
     if nt:
         ctx["expansion"].append(rf"\eta_{{{B}}}(\xi,\tau) = \sum_{{k=1}}^{{{nt}}} \psi_k(\xi)\, g_{{{B},k}}(\tau)")
-    ctx["amplitudes"] = ", ".join(x for x in (fs, gs) if x)
+    ctx["amplitudes"] = r",\allowbreak ".join(x for x in (fs, gs) if x)  # a long list may break after a comma
 
     # ---- (1)
     ax, ay = kin_terms(kin_names, na, nt, eff.coriolis)

@@ -1,11 +1,12 @@
 """Printing helpers shared by the LaTeX sections (``document``, ``slot``, ``quasistatic``).
 
 Text (``tex_escape``, ``rm``, ``num_text``), symbol names (``Namer``: the model's table of LaTeX
-names), expressions (``Printer``, ``tex_lines``: floats to 6 significant digits, long sums broken
-over lines, nothing simplified), displayed equations (``Row``, ``eq_row``, ``term_row``,
-``eq_block``), and what every section shows of a bar's equations alike: the sides of a residual
-(``split_sides``), the acceleration field (``kin_terms``) and the labels of the applied forces of
-the model's display form (``shown_forces``). The section modules import this module only;
+names), expressions (``Printer``, ``tex_lines``: floats to 6 significant digits, long sums and
+products broken over lines, inside nested brackets and function arguments too, nothing
+simplified), displayed equations (``Row``, ``eq_row``, ``term_row``, ``eq_block``), and what
+every section shows of a bar's equations alike: the sides of a residual (``split_sides``), the
+acceleration field (``kin_terms``) and the labels of the applied forces of the model's display
+form (``shown_forces``). The section modules import this module only;
 ``document`` imports the sections.
 """
 
@@ -21,7 +22,7 @@ from symgen.outputs import printable
 from symgen.ir.names import Name
 from symgen.model.bars import PointForce
 
-LINE_WIDTH = 82  # estimated printed width of a full display line (units of printed_width)
+LINE_WIDTH = 88  # estimated printed width of a full display line (units of printed_width)
 TAG_WIDTH = 12  # room kept for an equation tag
 LHS_MAX = 34  # a longer left side gets a line of its own
 SIG_DIGITS = 6
@@ -162,23 +163,46 @@ class Printer:
         return sp.latex(expr, symbol_names=names, fold_func_brackets=True)
 
     def lines(self, expr, width: float | None = None) -> list[str]:
-        """``expr`` split over several lines at top-level sums (see :func:`tex_lines`)."""
+        """``expr`` split over several lines at sums, inside brackets (see :func:`tex_lines`)."""
         return tex_lines(_round_floats(self._tidy(expr)), self, self.width if width is None else width)
 
 
 _DELIMS = [(r"\Bigl(", r"\Bigr)"), (r"\bigl[", r"\bigr]"), (r"\bigl\{", r"\bigr\}"), ("(", ")")]
+_FUNC_TEX = {sp.sin: r"\sin", sp.cos: r"\cos", sp.tan: r"\tan", sp.sinh: r"\sinh", sp.cosh: r"\cosh", sp.tanh: r"\tanh"}
 
 
-def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0) -> list[str]:
-    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters.
+def _opened(factor: sp.Expr) -> tuple[str, sp.Expr, str] | None:
+    """A factor that can be broken inside brackets as (text before the opening bracket, the
+    expression inside, text after the closing bracket): a sum, a sum to a positive integer
+    power, a trigonometric or hyperbolic function of a sum; None for any other factor."""
+    if isinstance(factor, sp.Add):
+        return "", factor, ""
+    if isinstance(factor, sp.Pow) and isinstance(factor.base, sp.Add) and factor.exp.is_Integer and factor.exp > 1:
+        return "", factor.base, f"^{{{factor.exp}}}"
+    if factor.func in _FUNC_TEX and isinstance(factor.args[0], sp.Add):
+        return _FUNC_TEX[factor.func], factor.args[0], ""
+    return None
 
-    Sums are broken between terms (continuation lines start with their sign); a product
-    with a long sum as a factor becomes ``prefix \\Bigl( ... \\Bigr)`` with the sum broken
-    inside. Nothing is simplified or expanded. Lines after the first are indented by the
-    caller (one ``\\quad`` per nesting level is added here).
+
+def tex_lines(
+    expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0, first: float | None = None
+) -> list[str]:
+    """LaTeX of ``expr`` as lines of at most about ``width`` printed characters (the first line
+    at most ``first``, the room left on a line begun by the caller; default ``width``).
+
+    Sums are broken between terms (continuation lines start with their sign). A product is
+    written as its other factors followed by its bracketed factors (sums, powers of sums, sines
+    and cosines of sums), shortest first; a bracketed factor that does not fit on a line already
+    a third full goes on a line of its own, else it is broken inside its brackets
+    (``\\Bigl( ... \\Bigr)``, then ``\\bigl[``, ``\\bigl\\{``, plain brackets as they nest),
+    beginning on the current line when half a line is left there. Nothing is simplified or
+    expanded: the lines hold the factors and terms of the unbroken LaTeX. Lines after the first
+    are indented by the caller (one ``\\quad`` per nesting level is added here and counted in
+    the width).
     """
+    first = width if first is None else min(first, width)
     s = printer(expr)
-    if printed_width(s) <= width:
+    if printed_width(s) <= first:
         return [s]
     if isinstance(expr, sp.Add):
         out: list[str] = []
@@ -187,53 +211,56 @@ def tex_lines(expr: sp.Expr, printer, width: float = LINE_WIDTH, depth: int = 0)
             neg = term.could_extract_minus_sign()
             body = -term if neg else term
             sign = "- " if neg else ("+ " if i else "")
-            sub = tex_lines(body, printer, width - 2, depth)
-            piece = sign + sub[0]
-            if cur and printed_width(cur) + printed_width(piece) > width:
+            piece = sign + printer(body)
+            limit = width if out else first
+            if printed_width(cur) + 1 + printed_width(piece) <= limit:
+                cur = f"{cur} {piece}" if cur else piece
+                continue
+            if cur and printed_width(piece) <= width:
                 out.append(cur)
                 cur = piece
-            else:
-                cur = f"{cur} {piece}" if cur else piece
+                continue
+            room = limit - printed_width(cur) - printed_width(sign) - 1
+            if cur and room < width / 2:
+                out.append(cur)
+                cur, room = "", width - printed_width(sign)
+            sub = tex_lines(body, printer, width, depth, room)
+            cur = f"{cur} {sign}{sub[0]}".strip()
             if len(sub) > 1:
                 out.append(cur)
                 out.extend(sub[1:-1])
                 cur = sub[-1]
         out.append(cur)
         return out
-    if isinstance(expr, sp.Mul):
-        adds = [a for a in expr.args if isinstance(a, sp.Add)]
-        if not adds:
-            return [s]
-        big = max(adds, key=lambda a: len(printer(a)))
-        rest = list(expr.args)
-        rest.remove(big)
-        others = sp.Mul(*rest)
-        prefix = "" if others == 1 else ("-" if others == -1 else printer(others))
-        op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
-        if printed_width(prefix) > width / 2 and len(adds) > 1:
-            # a product of several long sums (e.g. the projected strain energy's c^T Ka^-1 c):
-            # each sum in its own brackets, broken inside, one after the other
-            scalar = sp.Mul(*[a for a in expr.args if not isinstance(a, sp.Add)])
-            head = "" if scalar == 1 else ("-" if scalar == -1 else printer(scalar))
-            lines = [head]
-            for a in sorted(adds, key=lambda a: len(printer(a))):
-                inner = tex_lines(a, printer, width - 12, depth + 1)  # indented and bracketed
-                if len(inner) == 1:
-                    if printed_width(lines[-1]) + printed_width(inner[0]) + 4 <= width:
-                        lines[-1] = f"{lines[-1]} {op} {inner[0]} {cl}".strip()
-                    else:
-                        lines.append(rf"\quad {op} {inner[0]} {cl}")
-                    continue
-                lines[-1] = f"{lines[-1]} {op} {inner[0]}".strip()
-                lines += [r"\quad " + x for x in inner[1:]]
-                lines[-1] += f" {cl}"
-            return lines
-        inner = tex_lines(big, printer, width - 2, depth + 1)
-        if len(inner) == 1:
-            return [f"{prefix} {op} {inner[0]} {cl}".strip()]
-        pad = r"\quad "
-        return [f"{prefix} {op} {inner[0]}".strip()] + [pad + x for x in inner[1:-1]] + [f"{pad}{inner[-1]} {cl}"]
-    return [s]
+    factors = list(expr.args) if isinstance(expr, sp.Mul) else [expr]
+    opened = [f for f in factors if _opened(f) is not None]
+    if not opened:
+        return [s]
+    others = sp.Mul(*[f for f in factors if _opened(f) is None])
+    head = "" if others == 1 else ("-" if others == -1 else printer(others))
+    op, cl = _DELIMS[min(depth, len(_DELIMS) - 1)]
+    lines = [head]
+    for f in sorted(opened, key=lambda f: (printed_width(printer(f)), printer(f))):
+        before, inside, after = _opened(f)  # type: ignore[misc]
+        whole = printer(f)
+        if isinstance(f, sp.Add):
+            whole = rf"\left({whole}\right)"
+        limit = first if len(lines) == 1 else width
+        if printed_width(lines[-1]) + 1 + printed_width(whole) <= limit:
+            lines[-1] = f"{lines[-1]} {whole}".strip()
+            continue
+        if printed_width(whole) + 2 <= width and printed_width(lines[-1]) > width / 3:
+            lines.append(rf"\quad {whole}")
+            continue
+        room = limit - printed_width(lines[-1]) - printed_width(before) - 3
+        if room < width / 2 and lines[-1].strip() not in ("", "-", r"\quad"):
+            lines.append(r"\quad")
+            room = width - 2 - printed_width(before) - 3
+        inner = tex_lines(inside, printer, width - 2, depth + 1, room)
+        lines[-1] = f"{lines[-1]} {before} {op} {inner[0]}".replace("  ", " ").strip()
+        lines += [r"\quad " + x for x in inner[1:]]
+        lines[-1] += f" {cl}{after}"
+    return lines
 
 
 @dataclass
