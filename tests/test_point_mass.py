@@ -262,6 +262,8 @@ def test_scenes_without_masses_keep_their_model_spec_and_masses_round_trip():
     assert (entry.body, entry.xi, entry.mass, entry.inertia, entry.offset) == ("coupler", 0.4, True, True, True)
     # the tool's point is an interior point of the coupler: a static correction function there
     assert spec.body("coupler").static_transverse == (0.4,)
+    # with its inertia and arm, the moment correction there too
+    assert spec.body("coupler").static_moment == (0.4,)
     # values are parameters, the structure stays: another mass or offset reuses the model
     other = model_spec(load_scene(EXAMPLE, ["masses[0].mass=0.1", "masses[0].offset=[0.01, 0.0]"]))
     assert other.key() == spec.key()
