@@ -66,14 +66,95 @@ def test_point_mass_on_a_clamped_beam_matches_the_finite_element_frequencies():
 def test_rigid_attachment_on_a_clamped_beam_matches_the_finite_element_frequencies():
     """The tool of tests/data/cantilever_mass.toml: 0.4 x the beam's mass with a rotary inertia,
     its centre at [0.05, 0.1] from the axis. Its inertia couples the beam's slope to its
-    deflection: the first two frequencies within 0.5 % of the finite-element beam with the rigid
-    body at the node; the first is 5 % below the point mass's (the arm and inertia add mass to
-    the slope)."""
-    got = _beam_frequencies([], 2)
-    ref = _fe(0.4, 0.003, (0.05, 0.1), 2)
+    deflection: with the scene's 6 bending functions, the first FOUR frequencies within 0.5 % of
+    the finite-element beam with the rigid body at the node (the moment correction function at
+    xi = 0.6 carries the section rotation's inertia; with the force correction alone the 3rd and
+    4th were 5 % and 10 % high); the first is 5 % below the point mass's (the arm and inertia add
+    mass to the slope)."""
+    assert load_scene(CANTILEVER).bodies[0].transverse_modes == 6
+    got = _beam_frequencies([], 4)
+    ref = _fe(0.4, 0.003, (0.05, 0.1), 4)
     assert np.abs(got / ref - 1).max() < 5e-3, (got, ref)
     on_axis = _fe(0.4, 0.0, (0.0, 0.0), 1)
     assert ref[0] < 0.96 * on_axis[0] and got[0] < 0.96 * on_axis[0]
+
+
+@pytest.mark.parametrize(
+    "overrides, moment",
+    [
+        ([], (0.6,)),
+        (["masses[0].offset=[0.0, 0.0]"], (0.6,)),  # the rotary inertia alone
+        (["masses[0].inertia=0.0"], (0.6,)),  # the arm alone
+        (["masses[0].inertia=0.0", "masses[0].offset=[0.0, 0.0]"], ()),  # a point mass on the axis
+    ],
+)
+def test_a_moment_correction_only_where_a_rigid_body_turns_with_the_section(overrides, moment):
+    """The moment correction function is added at the mass's xi when it has a rotary inertia or
+    an arm, after the force correction; an entry on the axis without inertia gets the force one
+    only (its model is the one it had before moment corrections existed)."""
+    spec = model_spec(load_scene(CANTILEVER, overrides))
+    beam = spec.body("beam")
+    assert beam.static_transverse == (0.6,) and beam.static_moment == moment
+    assert beam.sizes == (0, 6 + 1 + len(moment))
+    assert ("moment" in beam.to_json()["static_points"]) == bool(moment)
+
+
+HUB_SCENE = """
+[scene]
+name = "beam_with_hub"
+
+[[bodies]]
+name = "beam"
+length = 1.0
+mass_per_length = 1.0
+lambda = 1.0e6
+mu = 100.0
+frame = "cantilever"
+axial_modes = 0
+transverse_modes = 6
+
+[[bodies]]
+name = "arm"
+length = 0.5
+mass_per_length = 1.0
+rigid = true
+
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "beam"]
+at = [[0.0, 0.0], 0.0]
+
+[[joints]]
+name = "H"
+kind = "pin"
+bodies = ["beam", "arm"]
+at = [0.6, 0.0]
+HUB
+
+[driver]
+kind = "angle"
+body = "beam"
+initial = 0.0
+rate = 0.0
+
+[outputs]
+energy = { kind = "energy" }
+
+[simulation]
+t_end = 1.0
+"""
+
+
+def test_a_joint_inertia_at_an_interior_point_gets_a_moment_correction(tmp_path):
+    """A joint's rotary inertia on a bar's interior point turns with the section too (the joint's
+    first bar carries it): a moment correction there; the plain pin gets the force one only."""
+    plain, hub = tmp_path / "plain.toml", tmp_path / "hub.toml"
+    plain.write_text(HUB_SCENE.replace("HUB", ""))
+    hub.write_text(HUB_SCENE.replace("HUB", "inertia = 0.01"))
+    for path, moment in ((plain, ()), (hub, (0.6,))):
+        beam = model_spec(load_scene(path)).body("beam")
+        assert (beam.static_transverse, beam.static_moment) == ((0.6,), moment)
 
 
 def _pendulum_closed_form() -> tuple[float, float]:
@@ -181,6 +262,8 @@ def test_scenes_without_masses_keep_their_model_spec_and_masses_round_trip():
     assert (entry.body, entry.xi, entry.mass, entry.inertia, entry.offset) == ("coupler", 0.4, True, True, True)
     # the tool's point is an interior point of the coupler: a static correction function there
     assert spec.body("coupler").static_transverse == (0.4,)
+    # with its inertia and arm, the moment correction there too
+    assert spec.body("coupler").static_moment == (0.4,)
     # values are parameters, the structure stays: another mass or offset reuses the model
     other = model_spec(load_scene(EXAMPLE, ["masses[0].mass=0.1", "masses[0].offset=[0.01, 0.0]"]))
     assert other.key() == spec.key()
@@ -251,6 +334,10 @@ def test_latex_names_the_tool_and_its_force():
     assert r"Point mass M1 (masses[0])" in tex
     assert r"B_{\mathrm{M}1}\,\delta(\xi - 0.4)" in tex and r"\Gamma_{\mathrm{M}1}\,\delta(\xi - 0.4)" in tex
     assert r"d_{\perp,\mathrm{M}1}" in tex
+    # the tool's inertia and arm: the coupler's moment correction at xi = 0.4, printed like the force one
+    assert r"\frac{1}{t}\Bigl(w^{M}_{K}(\xi)" in tex
+    assert r"\text{(static shape, unit couple, pinned-pinned at }\xi_{K} = 0.4\text{)}" in tex
+    assert r"\chi^{M}_{0.4}{}'(\xi_{K}) = 1" in tex
 
 
 def test_animation_draws_the_tool_at_its_arm():

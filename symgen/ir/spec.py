@@ -52,7 +52,9 @@ class BodySpec:
     applied (a slot guide's ``nt`` includes its overhang's own functions); ``axial_shapes``,
     ``transverse_shapes``: their families ("" when there are none); ``tip_joint``: a joint acts
     at its free end (transverse functions only); ``static_axial``, ``static_transverse``: the
-    interior points whose static correction functions close its bases."""
+    interior points whose static correction functions close its bases; ``static_moment``: the
+    interior points (a rigid body with a rotary inertia or an arm, a joint's rotary inertia)
+    whose transverse moment correction functions follow those."""
 
     name: str
     rigid: bool
@@ -64,11 +66,12 @@ class BodySpec:
     tip_joint: bool
     static_axial: tuple[float, ...] = ()
     static_transverse: tuple[float, ...] = ()
+    static_moment: tuple[float, ...] = ()
 
     @property
     def sizes(self) -> tuple[int, int]:
         """(axial, transverse) numbers of amplitudes: the functions and the static corrections."""
-        return self.na + len(self.static_axial), self.nt + len(self.static_transverse)
+        return self.na + len(self.static_axial), self.nt + len(self.static_transverse) + len(self.static_moment)
 
     def to_json(self) -> dict[str, Any]:
         out = {
@@ -81,7 +84,15 @@ class BodySpec:
             "transverse_shapes": self.transverse_shapes,
             "tip_joint": self.tip_joint,
         }
-        pts = {k: list(v) for k, v in (("transverse", self.static_transverse), ("axial", self.static_axial)) if v}
+        pts = {
+            k: list(v)
+            for k, v in (
+                ("transverse", self.static_transverse),
+                ("axial", self.static_axial),
+                ("moment", self.static_moment),
+            )
+            if v
+        }
         if pts:  # only then: the keys of scenes without them are unchanged
             out["static_points"] = pts
         return out
@@ -100,6 +111,7 @@ class BodySpec:
             d["tip_joint"],
             tuple(pts.get("axial", ())),
             tuple(pts.get("transverse", ())),
+            tuple(pts.get("moment", ())),
         )
 
 

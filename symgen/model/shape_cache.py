@@ -189,10 +189,13 @@ def _static_cache_name(axial: Basis, transverse: Basis) -> str:
     def part(b: Basis) -> str:
         direction, family, frame, n, tip = b.key
         head = f"{direction}-{family}-{frame}-n{n}-tip{int(tip)}"
-        if not b.points:
+        if not b.points and not b.moment_points:
             return head
         pts = hashlib.sha256(repr([float(x).hex() for x in b.points]).encode()).hexdigest()[:12]
-        return f"{head}-s{len(b.points)}-{pts}"
+        if not b.moment_points:  # the names of entries without moment corrections are unchanged
+            return f"{head}-s{len(b.points)}-{pts}"
+        mpts = hashlib.sha256(repr([float(x).hex() for x in b.moment_points]).encode()).hexdigest()[:12]
+        return f"{head}-s{len(b.points)}-{pts}-m{len(b.moment_points)}-{mpts}"
 
     return f"v{SHAPES_VERSION}s{STATIC_VERSION}__{part(axial)}__{part(transverse)}"
 
@@ -201,13 +204,15 @@ def corrected_inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
     """:func:`symgen.model.static_shapes.piecewise_inner_products` of two bases made by
     :func:`symgen.model.static_shapes.corrected_basis`, cached in memory and on disk beside the
     standard bases' entries (same format and checks; the name holds the interior points)."""
-    return _cached_corrected(axial.key, tuple(axial.points), transverse.key, tuple(transverse.points))
+    return _cached_corrected(
+        axial.key, tuple(axial.points), transverse.key, tuple(transverse.points), tuple(transverse.moment_points)
+    )
 
 
 @functools.lru_cache(maxsize=64)
-def _cached_corrected(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple) -> InnerProducts:
+def _cached_corrected(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple, mpts: tuple = ()) -> InnerProducts:
     ba = corrected_basis(basis_of_key(akey), apts)
-    bt = corrected_basis(basis_of_key(tkey), tpts)
+    bt = corrected_basis(basis_of_key(tkey), tpts, mpts)
     name = _static_cache_name(ba, bt)
     path = cache_dir() / (name + ".json")
     ip = _load(path, name)
@@ -248,7 +253,8 @@ def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
             f"{axial.direction!r}, {transverse.direction!r}"
         )
     akey, tkey = axial.key, transverse.key
-    if axial.points or transverse.points:  # static correction functions: piecewise inner products
+    # static correction functions: piecewise inner products
+    if axial.points or transverse.points or transverse.moment_points:
         return corrected_inner_products(axial, transverse)
     try:
         same = all(r is b or r == b for r, b in ((basis_of_key(akey), axial), (basis_of_key(tkey), transverse)))

@@ -192,6 +192,7 @@ class Basis:
         with a joint at the free end)
     points : interior points ``0 < xi_K < 1`` whose static correction functions
         (:mod:`symgen.model.static_shapes`) close the basis, one per point, after the ``key``'s functions
+    moment_points : interior points whose moment correction functions (unit couple) follow those
     """
 
     direction: str
@@ -200,6 +201,7 @@ class Basis:
     functions: tuple[ShapeFunction, ...]
     tip_joint: bool = False
     points: tuple[float, ...] = ()  # interior points whose static correction functions end the basis
+    moment_points: tuple[float, ...] = ()  # then those whose moment correction functions end it
 
     def __len__(self) -> int:
         return len(self.functions)
@@ -211,8 +213,10 @@ class Basis:
     @property
     def key(self) -> tuple[str, str, str, int, bool]:
         """``(direction, family, frame, n, tip_joint)``: what determines the functions (with
-        ``points``: the standard functions before the static corrections, ``n`` counting those)."""
-        return (self.direction, self.family, self.frame, len(self.functions) - len(self.points), self.tip_joint)
+        ``points`` or ``moment_points``: the standard functions before the static corrections,
+        ``n`` counting those)."""
+        n = len(self.functions) - len(self.points) - len(self.moment_points)
+        return (self.direction, self.family, self.frame, n, self.tip_joint)
 
 
 def _check_n(n: int, what: str) -> int:

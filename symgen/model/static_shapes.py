@@ -13,6 +13,18 @@ the cantilever tip-load shape (``_tip_load_function`` of :mod:`symgen.model.shap
 * cantilever: ``xi^2 (3a - xi)/6`` left, ``a^2 (3 xi - a)/6`` right;
 * axial (``phi(0) = 0``, free end): ``xi`` left, ``a`` right.
 
+A rigid body with a rotary inertia or an offset arm at ``xi_K`` (a ``[[masses]]`` entry, a
+joint's rotary inertia) also transmits a point *moment* there: the section rotation
+``eta'(xi_K)`` carries its inertia, and the smooth functions converge slowly on the jump of the
+bending moment it causes. Those points get a second, *moment* correction function: the static
+deflection under a unit couple at ``xi_K`` (``w''`` jumps by -1 there, ``w'`` is continuous
+with a kink), orthogonalised the same way (also against the force correction functions) and
+scaled to the slope 1 at ``xi_K``:
+
+* pinned-pinned: ``xi^3/6 + (a^2/2 - a + 1/3) xi`` left,
+  ``xi^3/6 - xi^2/2 + (a^2/2 + 1/3) xi - a^2/2`` right;
+* cantilever: ``xi^2/2`` left, ``a xi - a^2/2`` right.
+
 These are piecewise polynomials, so the inner products stay closed form: the exact
 integrator of :mod:`symgen.model.terms` is extended here to sub-intervals ``[lo, hi]`` of
 ``[0, 1]`` (``int_lo^hi xi^p exp(s xi)`` in closed form at the engine's 50 digits; ``xi_K``
@@ -37,6 +49,7 @@ from symgen.model.terms import DPS, MP, Table, Terms, multiply, new_terms, poly_
 
 __all__ = [
     "STATIC_KINDS",
+    "STATIC_LOADS",
     "Piecewise",
     "StaticCorrection",
     "static_correction",
@@ -50,6 +63,10 @@ __all__ = [
 
 #: (direction, frame) pairs that have a static correction function.
 STATIC_KINDS = ("pinned-pinned", "cantilever", "axial")
+
+#: what the static shape is the deflection under: a unit point force, or a unit couple
+#: (transverse kinds only)
+STATIC_LOADS = ("force", "moment")
 
 #: bump when a change here changes a cached number of the corrected bases (part of their cache
 #: entries' names, :mod:`symgen.model.shape_cache`)
@@ -191,15 +208,28 @@ def _padd(*ps: list[Fraction]) -> list[Fraction]:
     return out
 
 
-def static_polynomials(kind: str, xi_k: float) -> tuple[Fraction, list[Fraction], list[Fraction]]:
+def static_polynomials(kind: str, xi_k: float, load: str = "force") -> tuple[Fraction, list[Fraction], list[Fraction]]:
     """``(a, left, right)``: the exact rational ``a`` of ``xi_k`` and the power-series
-    coefficients (lowest first) of the unit-force static shape left and right of it."""
+    coefficients (lowest first) of the static shape under a unit ``load`` ("force" or
+    "moment") left and right of it."""
     if kind not in STATIC_KINDS:
         raise ValueError(f"unknown static correction kind {kind!r}; expected one of {STATIC_KINDS}")
+    if load not in STATIC_LOADS or (load == "moment" and kind == "axial"):
+        raise ValueError(
+            f"unknown static load {load!r} for kind {kind!r}; expected 'force', or 'moment' for a transverse kind"
+        )
     a = Fraction(xi_k)
     if not 0 < a < 1:
         raise ValueError(f"static correction point must be inside the bar (0 < xi < 1), got {xi_k!r}")
     b = 1 - a
+    if load == "moment":  # w'' = the bending moment of a unit couple at a: jumps by -1 there
+        if kind == "pinned-pinned":
+            left = [Fraction(0), a * a / 2 - a + Fraction(1, 3), Fraction(0), Fraction(1, 6)]
+            right = [-a * a / 2, a * a / 2 + Fraction(1, 3), Fraction(-1, 2), Fraction(1, 6)]
+        else:
+            left = [Fraction(0), Fraction(0), Fraction(1, 2)]
+            right = [-a * a / 2, a]
+        return a, left, right
     if kind == "pinned-pinned":
         left = [Fraction(0), b * (1 - b * b) / 6, Fraction(0), -b / 6]
         y = [Fraction(1), Fraction(-1)]  # 1 - xi
@@ -227,8 +257,10 @@ class StaticCorrection:
     xi_k : the point (the scene's float); ``a`` its exact rational
     left, right : coefficients of the raw static shape ``w_K`` on ``[0, a]`` and ``[a, 1]``
     coeffs : the mass-inner-product projections ``c_k`` on the bar's other functions
-    scale : ``t``, the value of ``w_K - sum c_k f_k`` at ``xi_k`` (so the function is 1 there)
-    label : LaTeX label, e.g. ``\\chi_{0.3}``
+    scale : ``t``, the value of ``w_K - sum c_k f_k`` at ``xi_k`` (so the function is 1 there);
+        for a moment correction its slope there (so the function's slope is 1 there)
+    label : LaTeX label, e.g. ``\\chi_{0.3}``; ``\\chi^{M}_{0.3}`` for a moment correction
+    load : "force" (a unit point force at ``xi_k``) or "moment" (a unit couple)
     """
 
     kind: str
@@ -241,6 +273,7 @@ class StaticCorrection:
     label: str
     function: Piecewise = field(compare=False, repr=False)
     expr: Any = field(default=None, compare=False, repr=False)  # sympy, in XI (set by corrected_basis)
+    load: str = "force"
 
     # what the emitters ask of every shape function (ShapeFunction's attributes)
     beta = None
@@ -252,8 +285,8 @@ class StaticCorrection:
         return self.function.value(xi, deriv)
 
 
-def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCorrection:
-    """The static correction function of a bar at ``xi_k``.
+def static_correction(kind: str, xi_k: float, others: Sequence[Any], load: str = "force") -> StaticCorrection:
+    """The static correction function of a bar at ``xi_k`` for a unit point ``load``.
 
     Parameters
     ----------
@@ -262,13 +295,15 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
     others : the bar's other functions of that direction (ShapeFunction, Piecewise or
         StaticCorrection): the correction is made mass-orthogonal to all of them (the Gram
         system is solved, so they need not be orthogonal among themselves)
+    load : "force" (value 1 at ``xi_k``) or "moment" (a unit couple, transverse kinds only;
+        slope 1 at ``xi_k``)
 
     Raises
     ------
-    ValueError : unknown kind, point not inside the bar, or the static shape already lies in
-        the span of ``others`` (nothing left to add)
+    ValueError : unknown kind or load, point not inside the bar, or the static shape already
+        lies in the span of ``others`` (nothing left to add)
     """
-    a, left, right = static_polynomials(kind, xi_k)
+    a, left, right = static_polynomials(kind, xi_k, load)
     w = Piecewise((Fraction(0), a, Fraction(1)), (_poly_mp(left), _poly_mp(right)))
     fs = [Piecewise.of(f) for f in others]
     m = len(fs)
@@ -292,16 +327,25 @@ def static_correction(kind: str, xi_k: float, others: Sequence[Any]) -> StaticCo
                 d[key] = d.get(key, MP.mpc(0)) - ck * val
         pieces.append(d)
     rest = Piecewise(tuple(breaks), tuple(Terms(d, exact=False) for d in pieces))
-    t = rest.value(xi_k)
+    t = rest.value(xi_k, 1 if load == "moment" else 0)
     if abs(t) < 1e-13 * max(1.0, max(abs(float(x)) for x in (left + right))):
         raise ValueError(
             f"the static shape at xi = {xi_k} already lies in the span of the "
             "bar's functions: no correction function to add"
         )
     scaled = Piecewise(rest.breaks, tuple(Terms({k: v / t for k, v in p.items()}, exact=False) for p in pieces))
-    label = r"\chi_{%s}" % format(float(xi_k), "g")
+    label = (r"\chi^{M}_{%s}" if load == "moment" else r"\chi_{%s}") % format(float(xi_k), "g")
     return StaticCorrection(
-        kind, float(xi_k), a, tuple(left), tuple(right), tuple(float(c) for c in coeffs), float(t), label, scaled
+        kind,
+        float(xi_k),
+        a,
+        tuple(left),
+        tuple(right),
+        tuple(float(c) for c in coeffs),
+        float(t),
+        label,
+        scaled,
+        load=load,
     )
 
 
@@ -380,35 +424,40 @@ def _correction_expr(sc: StaticCorrection, others: Sequence[Any]) -> Any:
     return (w - rest) / sympy.Float(sc.scale, 17)
 
 
-def corrected_basis(basis: Basis, points: Sequence[float]) -> Basis:
+def corrected_basis(basis: Basis, points: Sequence[float], moments: Sequence[float] = ()) -> Basis:
     """``basis`` followed by one static correction function per interior point (in order; each
-    mass-orthogonal to every function before it). ``basis`` must be a standard basis of
+    mass-orthogonal to every function before it), then one moment correction function per point
+    of ``moments`` (transverse bases only). ``basis`` must be a standard basis of
     :func:`symgen.model.shapes.axial_basis` / :func:`symgen.model.shapes.transverse_basis`; no points: itself."""
     pts = tuple(float(x) for x in points)
-    if not pts:
+    mpts = tuple(float(x) for x in moments)
+    if not pts and not mpts:
         return basis
-    return _corrected_basis(basis.key, pts)
+    if mpts and basis.direction != "transverse":
+        raise ValueError("moment correction functions are transverse: an axial basis has none")
+    return _corrected_basis(basis.key, pts, mpts)
 
 
 @functools.lru_cache(maxsize=256)
-def _corrected_basis(key: tuple, pts: tuple[float, ...]) -> Basis:
+def _corrected_basis(key: tuple, pts: tuple[float, ...], mpts: tuple[float, ...] = ()) -> Basis:
     base = basis_of_key(key)
     kind = "axial" if base.direction == "axial" else base.frame
     funcs: list[Any] = list(base.functions)
-    for x in pts:
-        sc = static_correction(kind, x, funcs)
+    for x, load in [(x, "force") for x in pts] + [(x, "moment") for x in mpts]:
+        sc = static_correction(kind, x, funcs, load)
         funcs.append(replace(sc, expr=_correction_expr(sc, funcs)))
-    return Basis(base.direction, base.family, base.frame, tuple(funcs), base.tip_joint, pts)
+    return Basis(base.direction, base.family, base.frame, tuple(funcs), base.tip_joint, pts, mpts)
 
 
 def bar_bases(body: BodySpec | dict) -> tuple[Basis, Basis]:
     """(axial, transverse) bases of a bar from its :class:`symgen.ir.spec.BodySpec` (or that
     record's JSON, as a cached model's ``structure["bodies"]`` holds it): ``na``/``nt`` count the
-    standard functions, the static correction points add the corrections."""
+    standard functions, the static correction points add the corrections (the moment points
+    their moment corrections, after the force ones)."""
     if isinstance(body, dict):
         body = BodySpec.from_json(body)
     ba = axial_basis(body.axial_shapes or "complete", body.na)
     bt = transverse_basis(
         body.frame or "pinned-pinned", body.transverse_shapes or "modes", body.nt, tip_joint=body.tip_joint
     )
-    return corrected_basis(ba, body.static_axial), corrected_basis(bt, body.static_transverse)
+    return corrected_basis(ba, body.static_axial), corrected_basis(bt, body.static_transverse, body.static_moment)

@@ -26,7 +26,7 @@ from symgen.ir.spec import (
     OutputSpec,
     spec_key,
 )
-from symgen.scene.model import Scene
+from symgen.scene.model import GROUND, Scene
 
 DERIVE_VERSION = "5"  # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
 
@@ -195,12 +195,27 @@ def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
     return tuple(out)
 
 
+def moment_points(scene: Scene, name: str) -> tuple[float, ...]:
+    """The interior points of bar ``name`` (those of :func:`interior_points`) where a point
+    MOMENT acts too: a ``[[masses]]`` entry with a rotary inertia or an offset arm, a joint with
+    a rotary inertia carried by the bar (both turn with the cross-section, so their inertia acts
+    through the section's rotation)."""
+    xs = [m.xi for m in scene.masses if m.body == name and (m.inertia > 0 or m.offset is not None)]
+    for j in scene.joints:
+        if j.inertia > 0:
+            end = next((e for e in j.ends if e.body != GROUND), None)
+            if end is not None and end.body == name and end.xi is not None and not end.variable:
+                xs.append(end.xi)
+    return tuple(x for x in interior_points(scene, name) if any(abs(x - float(y)) < POINT_TOL for y in xs))
+
+
 def static_points(scene: Scene, body) -> dict:
-    """``{"transverse": (...), "axial": (...)}``: where the bar gets static correction functions
-    (``bodies.<name>.static_correction``, default on): at its interior points, transverse when it
-    bends, axial when it keeps its axial dynamics (a quasi-static or inextensible bar's axial
-    amplitudes are constrained by the bending, they carry no point force of their own). Empty
-    dict when none."""
+    """``{"transverse": (...), "axial": (...), "moment": (...)}``: where the bar gets static
+    correction functions (``bodies.<name>.static_correction``, default on): at its interior
+    points, transverse when it bends, axial when it keeps its axial dynamics (a quasi-static or
+    inextensible bar's axial amplitudes are constrained by the bending, they carry no point force
+    of their own); a transverse moment correction too where a point moment acts
+    (:func:`moment_points`). Empty dict when none; no "moment" key when no moment acts."""
     if body.rigid or body.static_correction is False or slot_guide(scene, body.name):
         return {}
     pts = interior_points(scene, body.name)
@@ -210,6 +225,9 @@ def static_points(scene: Scene, body) -> dict:
     out = {}
     if nt:
         out["transverse"] = pts
+        moments = moment_points(scene, body.name)
+        if moments:
+            out["moment"] = moments
     if na and axial_treatment(scene, body).treatment == DYNAMIC:
         out["axial"] = pts
     return out
@@ -219,7 +237,7 @@ def basis_sizes(scene: Scene, body) -> tuple[int, int]:
     """(axial, transverse) numbers of amplitudes of a bar: its functions and its static corrections."""
     na, nt = effective_modes(scene, body)
     pts = static_points(scene, body)
-    return na + len(pts.get("axial", ())), nt + len(pts.get("transverse", ()))
+    return na + len(pts.get("axial", ())), nt + len(pts.get("transverse", ())) + len(pts.get("moment", ()))
 
 
 def model_spec(scene: Scene) -> ModelSpec:
@@ -242,6 +260,7 @@ def model_spec(scene: Scene) -> ModelSpec:
                 _tip_joint(scene, b.name) if nt else False,
                 tuple(pts.get("axial", ())),
                 tuple(pts.get("transverse", ())),
+                tuple(pts.get("moment", ())),
             )
         )
     joints = tuple(

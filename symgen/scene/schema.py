@@ -280,7 +280,9 @@ BODIES = Table(
             "force at xi_K (piecewise cubic transverse, piecewise linear axial when the bar keeps its axial "
             "dynamics), mass-orthogonalised against the bar's other functions, is added after its "
             "transverse_modes (axial_modes) functions: the sines alone converge slowly on the kink a point "
-            "force makes. false: the standard functions only (the seed).",
+            "force makes. Where a point moment acts too ([[masses]] entry with an inertia or an offset, a joint's "
+            "inertia), its static deflection under a unit couple at xi_K follows (transverse, slope 1 at xi_K). "
+            "false: the standard functions only (the seed).",
             {"type": "boolean"},
             default="true (adds nothing without interior points)",
             example="false",
@@ -635,7 +637,7 @@ MASSES = Table(
     "Optional point masses and rigid attachments anywhere on a bar (a tool partway along a coupler). Each "
     "is carried by its bar: its inertia and weight enter that bar's equations (mass matrix, velocity terms, "
     "gravity) like a joint's lumped mass, with a static correction function at an interior xi "
-    "(bodies.<name>.static_correction), and it appears in the energy, modes, LaTeX, the emitted C, the FMU "
+    "(bodies.<name>.static_correction; with an inertia or an offset also a unit couple's), and it appears in the energy, modes, LaTeX, the emitted C, the FMU "
     "and the animation.",
     keys=(
         Key(

@@ -39,7 +39,10 @@ def _bar(body, corrections: dict | None = None) -> str:
     pts = (corrections or {}).get(body.name)
     if pts:
         where = ", ".join(f"{x:.6g}" for x in next(iter(pts.values())))
-        extra = f" + static corrections at xi = {where} ({' and '.join(pts)}; static_correction = false: none)"
+        kinds = " and ".join(k for k in pts if k != "moment")
+        if pts.get("moment"):  # a rigid body with a rotary inertia or an arm: a unit couple's too
+            kinds += "; moment at xi = " + ", ".join(f"{x:.6g}" for x in pts["moment"])
+        extra = f" + static corrections at xi = {where} ({kinds}; static_correction = false: none)"
     return head + f"{body.frame}, {families} shape functions{extra}; {groups}"
 
 

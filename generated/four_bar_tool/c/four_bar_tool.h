@@ -9,14 +9,14 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 892 operations, 138 temporaries
- *   four_bar_tool_out: 426 operations, 75 temporaries
- *   four_bar_tool_energy: 395 operations, 68 temporaries
+ *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_out: 516 operations, 88 temporaries
+ *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries
- *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x33
- *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x33
- *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x33
- *   four_bar_tool_res_jac: 3330 operations, 739 temporaries, 247 nonzeros of 10x33
+ *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x36
+ *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x36
+ *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x36
+ *   four_bar_tool_res_jac: 4411 operations, 890 temporaries, 304 nonzeros of 11x36
  */
 
 #ifndef SYMGEN_four_bar_tool_H
@@ -29,14 +29,14 @@ extern "C" {
 #endif
 
 /* Sizes. Arrays with a size of 0 are declared with one unused element. */
-#define four_bar_tool_N_Q 10              /* coordinates q (v = q', a = q'') */
+#define four_bar_tool_N_Q 11              /* coordinates q (v = q', a = q'') */
 #define four_bar_tool_N_LAM 3            /* multipliers = closure rows (loops, then the angle driver) */
 #define four_bar_tool_N_P 18              /* parameters */
 #define four_bar_tool_N_OUT 6            /* scene outputs */
 #define four_bar_tool_N_CLOSURE 2        /* loop rows of phi */
-#define four_bar_tool_N_W 33             /* Jacobian columns: w = [q; v; a; lam] */
+#define four_bar_tool_N_W 36             /* Jacobian columns: w = [q; v; a; lam] */
 
-extern const char *const four_bar_tool_coordinate_names[10];
+extern const char *const four_bar_tool_coordinate_names[11];
 extern const char *const four_bar_tool_parameter_names[18];
 extern const char *const four_bar_tool_output_names[6];
 /* The scene's parameter values (dimensionless groups), in the order of _parameter_names. */

@@ -9,14 +9,14 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 892 operations, 138 temporaries
- *   four_bar_tool_out: 426 operations, 75 temporaries
- *   four_bar_tool_energy: 395 operations, 68 temporaries
+ *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_out: 516 operations, 88 temporaries
+ *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries
- *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x33
- *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x33
- *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x33
- *   four_bar_tool_res_jac: 3330 operations, 739 temporaries, 247 nonzeros of 10x33
+ *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x36
+ *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x36
+ *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x36
+ *   four_bar_tool_res_jac: 4411 operations, 890 temporaries, 304 nonzeros of 11x36
  */
 
 /*

@@ -9,14 +9,14 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 892 operations, 138 temporaries
- *   four_bar_tool_out: 426 operations, 75 temporaries
- *   four_bar_tool_energy: 395 operations, 68 temporaries
+ *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_out: 516 operations, 88 temporaries
+ *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries
- *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x33
- *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x33
- *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x33
- *   four_bar_tool_res_jac: 3330 operations, 739 temporaries, 247 nonzeros of 10x33
+ *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x36
+ *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x36
+ *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x36
+ *   four_bar_tool_res_jac: 4411 operations, 890 temporaries, 304 nonzeros of 11x36
  */
 
 #include <string.h>
@@ -25,41 +25,41 @@
    model's sizes (those of four_bar_tool_model) */
 #undef SYMGEN_API
 #define SYMGEN_API static
-#define SYMGEN_NQ(s) 10
+#define SYMGEN_NQ(s) 11
 #define SYMGEN_NL(s) 3
 #define SYMGEN_NP(s) 18
-#define SYMGEN_NI(s) 7
+#define SYMGEN_NI(s) 8
 #define SYMGEN_ND(s) 3
-#define SYMGEN_NE(s) 7
+#define SYMGEN_NE(s) 8
 #define SYMGEN_NR(s) 3
 #define SYMGEN_NS(s) 3
 #define SYMGEN_NCLO(s) 2
-#define SYMGEN_NX(s) 14
-#define SYMGEN_NZ(s) 19
-#define SYMGEN_NY(s) 33
-#define SYMGEN_NALG(s) 19
-#define SYMGEN_NW(s) 33
-#define SYMGEN_A0(s) 20
+#define SYMGEN_NX(s) 16
+#define SYMGEN_NZ(s) 20
+#define SYMGEN_NY(s) 36
+#define SYMGEN_NALG(s) 20
+#define SYMGEN_NW(s) 36
+#define SYMGEN_A0(s) 22
 #include "four_bar_tool_solver.h"
 #include "symgen_linalg.c"
 #include "symgen_solver.c"
 
 /* ------------------------------------------------------------------ the model's tables */
-const int four_bar_tool_independent[7] = { 3, 4, 5, 6, 7, 8, 9 };
+const int four_bar_tool_independent[8] = { 3, 4, 5, 6, 7, 8, 9, 10 };
 const int four_bar_tool_dependent[3] = { 0, 2, 1 };
-const double four_bar_tool_q_guess[10] = { -0.0, 1.7, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
-const double four_bar_tool_v_guess[10] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
+const double four_bar_tool_q_guess[11] = { -0.0, 1.7, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
+const double four_bar_tool_v_guess[11] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
 /* dependent coordinates of the assembly at the initial guess (the partition chosen there) */
 static const int four_bar_tool_x_angle_coords[1] = { 0 };
 static const int four_bar_tool_x_angle_rows[1] = { 2 };
 static const int four_bar_tool_x_assembly_dep[3] = { 0, 2, 1 };
 /* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
-static const int four_bar_tool_x_ypos_q[10] = { 14, 16, 15, 0, 1, 2, 3, 4, 5, 6 };
-static const int four_bar_tool_x_ypos_v[10] = { 17, 19, 18, 7, 8, 9, 10, 11, 12, 13 };
-static const int four_bar_tool_x_ycol[33] = { 14, 16, 15, 0, 1, 2, 3, 4, 5, 6, 17, 19, 18, 7, 8, 9, 10, 11, 12, 13, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32 };
+static const int four_bar_tool_x_ypos_q[11] = { 16, 18, 17, 0, 1, 2, 3, 4, 5, 6, 7 };
+static const int four_bar_tool_x_ypos_v[11] = { 19, 21, 20, 8, 9, 10, 11, 12, 13, 14, 15 };
+static const int four_bar_tool_x_ycol[36] = { 16, 18, 17, 0, 1, 2, 3, 4, 5, 6, 7, 19, 21, 20, 8, 9, 10, 11, 12, 13, 14, 15, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35 };
 /* quasi-static start: unknown deformations (elastic, not dependent) and accelerations */
-static const int four_bar_tool_x_elastic[7] = { 3, 4, 5, 6, 7, 8, 9 };
+static const int four_bar_tool_x_elastic[8] = { 3, 4, 5, 6, 7, 8, 9, 10 };
 static const int four_bar_tool_x_accel[3] = { 0, 1, 2 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int four_bar_tool_x_sing_rows[3] = { 0, 1, 2 };
@@ -67,17 +67,17 @@ static const int four_bar_tool_x_sing_cols[3] = { 0, 2, 1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
-static const int four_bar_tool_x_amplitude_index[7] = { 6, 7, 8, 9, 3, 4, 5 };
+static const int four_bar_tool_x_amplitude_index[8] = { 6, 7, 8, 9, 10, 3, 4, 5 };
 static const symgen_amplitude_check four_bar_tool_x_amplitude_checks[2] = {
-    { 0, 4, 0.25,
+    { 0, 5, 0.25,
       "bar 'coupler' is deformed beyond the range of the model: its transverse deflection amplitudes sum to this fraction of its length (limit 0.25; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 4, 3, 0.1,
+    { 5, 3, 0.1,
       "bar 'coupler' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for moderate rotations and small strains): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model four_bar_tool_model = {
-    10, 3, 18, 2,      /* n, m, np, nclosure */
-    7, 3, 7, 3, 3,      /* ni, nd, ne, nr, ns */
+    11, 3, 18, 2,      /* n, m, np, nclosure */
+    8, 3, 8, 3, 3,      /* ni, nd, ne, nr, ns */
     four_bar_tool_independent, four_bar_tool_dependent, four_bar_tool_x_assembly_dep,
     four_bar_tool_x_ypos_q, four_bar_tool_x_ypos_v, four_bar_tool_x_ycol,
     four_bar_tool_x_elastic, four_bar_tool_x_accel, four_bar_tool_x_sing_rows, four_bar_tool_x_sing_cols,
@@ -142,7 +142,7 @@ void four_bar_tool_solver_state(const four_bar_tool_solver *s, double *q, double
 
 void four_bar_tool_solver_outputs(const four_bar_tool_solver *s, double *out)
 {
-    double q[10], v[10];
+    double q[11], v[11];
     symgen_model_outputs(&four_bar_tool_model, s->t, s->y, s->p, q, v, out);
 }
 

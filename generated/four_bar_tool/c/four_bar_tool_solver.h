@@ -9,14 +9,14 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 892 operations, 138 temporaries
- *   four_bar_tool_out: 426 operations, 75 temporaries
- *   four_bar_tool_energy: 395 operations, 68 temporaries
+ *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_out: 516 operations, 88 temporaries
+ *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries
- *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x33
- *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x33
- *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x33
- *   four_bar_tool_res_jac: 3330 operations, 739 temporaries, 247 nonzeros of 10x33
+ *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x36
+ *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x36
+ *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x36
+ *   four_bar_tool_res_jac: 4411 operations, 890 temporaries, 304 nonzeros of 11x36
  */
 
 #ifndef SYMGEN_four_bar_tool_SOLVER_H
@@ -36,15 +36,15 @@ extern "C" {
  * runtime is compiled into four_bar_tool_solver.c with internal linkage: any number of emitted models
  * link into one program.
  */
-#define four_bar_tool_N_I 7        /* independent coordinates */
+#define four_bar_tool_N_I 8        /* independent coordinates */
 #define four_bar_tool_N_D 3        /* dependent coordinates (= closure rows) */
-#define four_bar_tool_N_Y 33       /* solver unknowns y = [q_I, v_I, q_D, v_D, a, lam] */
+#define four_bar_tool_N_Y 36       /* solver unknowns y = [q_I, v_I, q_D, v_D, a, lam] */
 
-extern const int four_bar_tool_independent[7];   /* indices into q */
+extern const int four_bar_tool_independent[8];   /* indices into q */
 extern const int four_bar_tool_dependent[3];     /* indices into q */
 /* The initial guess the assembly Newton starts from (the scene's [initial] section). */
-extern const double four_bar_tool_q_guess[10];
-extern const double four_bar_tool_v_guess[10];
+extern const double four_bar_tool_q_guess[11];
+extern const double four_bar_tool_v_guess[11];
 /* The model as the runtime takes it: functions, sizes, index sets, policy (symgen_runtime.h). */
 extern const symgen_model four_bar_tool_model;
 
@@ -77,7 +77,7 @@ typedef struct four_bar_tool_solver {
     /* public, read-only between calls */
     double p[18];         /* parameter values used by this run */
     double t;                   /* current tau */
-    double y[33];               /* [q_I, v_I, q_D, v_D, a, lam] */
+    double y[36];               /* [q_I, v_I, q_D, v_D, a, lam] */
     double rtol, atol;          /* tolerances asked for */
     long n_steps, n_accepted, n_rejected, n_jacobians, n_factorizations, n_residuals;
     double closure_max;         /* max |loop closure| seen at the output times */
@@ -87,8 +87,8 @@ typedef struct four_bar_tool_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(10, 3, 7, 3, 7)];
-    int iwork[SYMGEN_WORK_INTS(10, 3, 7, 3, 7)];
+    double work[SYMGEN_WORK_DOUBLES(11, 3, 8, 3, 8)];
+    int iwork[SYMGEN_WORK_INTS(11, 3, 8, 3, 8)];
 } four_bar_tool_solver;
 
 /*

@@ -498,7 +498,8 @@ def _env() -> jinja2.Environment:
 
 def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
     """A static correction function printed factored: (w_K - sum_k c_k f_k) / t, then the
-    piecewise static shape w_K and the coefficients (10 digits: t can be a small difference)."""
+    piecewise static shape w_K and the coefficients (10 digits: t can be a small difference).
+    A moment correction (unit couple) prints its static shape as w^M_K, scaled to the slope 1."""
     import sympy as sp
 
     from symgen.model.shapes import XI
@@ -509,8 +510,10 @@ def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
     a = sp.Rational(fn.a.numerator, fn.a.denominator)
     m = len(fn.coeffs)
     k = "K"
+    moment = getattr(fn, "load", "force") == "moment"
+    w_name = rf"w^{{M}}_{{{k}}}" if moment else rf"w_{{{k}}}"
     expr = (
-        rf"\frac{{1}}{{t}}\Bigl(w_{{{k}}}(\xi)"
+        rf"\frac{{1}}{{t}}\Bigl({w_name}(\xi)"
         + (rf" - \sum_{{k=1}}^{{{m}}} c_k\,{sym_}_k(\xi)" if m else "")
         + r"\Bigr)"
     )
@@ -519,19 +522,22 @@ def _static_correction_tex(fn, sym_: str, pr) -> tuple[str, str]:
         "pinned-pinned": "unit transverse force, pinned-pinned",
         "cantilever": "unit transverse force, cantilever",
     }[fn.kind]
+    if moment:
+        what = f"unit couple, {fn.kind}"
     w = (
-        rf"w_{{{k}}}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
+        rf"{w_name}(\xi) = \begin{{cases}} {poly(fn.left)} & \xi \le {pr(a)} \\ {poly(fn.right)} & \xi > {pr(a)}"
         rf"\end{{cases}} \\ &\qquad \text{{(static shape, {what} at }}\xi_{{{k}}} = {_g6(fn.xi_k, 10)}\text{{)}}"
     )
     nums = [rf"c_{{{i + 1}}} = {_g6(c, 10)}" for i, c in enumerate(fn.coeffs) if abs(c) > 1e-14] + [
         rf"t = {_g6(fn.scale, 10)}"
     ]
     rows = [r",\ ".join(nums[i : i + 3]) for i in range(0, len(nums), 3)]
+    norm = rf"{fn.label}{{}}'(\xi_{{{k}}}) = 1" if moment else rf"{fn.label}(\xi_{{{k}}}) = 1"
     extra = (
         w
         + r", \\ &\qquad \text{with } "
         + r", \\ &\qquad ".join(rows)
-        + rf", \\ &\qquad (c_k\text{{: mass inner-product projections, zero ones omitted; }}{fn.label}(\xi_{{{k}}}) = 1)"
+        + rf", \\ &\qquad (c_k\text{{: mass inner-product projections, zero ones omitted; }}{norm})"
     )
     return expr, extra
 
