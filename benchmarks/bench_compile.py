@@ -58,12 +58,15 @@ def _child_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def first_run(tree: Path, scene: Path, tmp: Path) -> dict[str, float]:
-    """Wall and CPU s of a first run (empty cache) of ``scene`` with ``tree`` first on the path."""
+def first_run(tree: Path, scene: Path, tmp: Path, cflags: str | None = None) -> dict[str, float]:
+    """Wall and CPU s of a first run (empty cache) of ``scene`` with ``tree`` first on the path
+    (``cflags``: ``$SYMGEN_CFLAGS``, else the default)."""
     with tempfile.TemporaryDirectory(dir=tmp) as cache:
         env = dict(os.environ, PYTHONPATH=str(tree), SYMGEN_CACHE_DIR=cache)
         for name in ("SYMGEN_BACKEND", "SYMGEN_CFLAGS", "SYMGEN_CC"):
             env.pop(name, None)
+        if cflags is not None:
+            env["SYMGEN_CFLAGS"] = cflags
         cmd = [sys.executable, "-m", "symgen.cli", "simulate", str(scene), "-o", str(tmp / "out.csv")]
         c0, t0 = _child_cpu(), time.perf_counter()
         proc = subprocess.run(cmd, cwd=tmp, env=env, capture_output=True, text=True, check=True)
@@ -130,6 +133,7 @@ def run(repeats: int, quick: bool = False) -> str:
 
     rows_first: list[tuple[int, dict[str, dict[str, float]]]] = []
     rows_alone: list[tuple[int, dict[str, object]]] = []
+    rows_flags: list[tuple[str, dict[str, float]]] = []
     with tempfile.TemporaryDirectory(prefix="symgen-compile-") as tmp_s:
         tmp = Path(tmp_s)
         trees = {"after": ROOT}
@@ -151,14 +155,18 @@ def run(repeats: int, quick: bool = False) -> str:
             work = tmp / f"alone{n}"
             work.mkdir()
             rows_alone.append((n, compile_alone(_functions(scene), work)))
-    return render(rows_first, rows_alone, list(trees), jobs())
+        # the flags' trade: compile time against the cost of the run, on the largest chain (after)
+        for flag in FLAGS:
+            runs_f = [first_run(ROOT, scene, tmp, f"{flag} -ffp-contract=off") for _ in range(1 if quick else repeats)]
+            rows_flags.append((flag, {k: statistics.median(r[k] for r in runs_f) for k in runs_f[0]}))
+    return render(rows_first, rows_alone, rows_flags, list(trees), jobs())
 
 
 def _fmt(x: float) -> str:
     return f"{x:.2f}"
 
 
-def render(rows_first, rows_alone, trees: list[str], cores: int) -> str:
+def render(rows_first, rows_alone, rows_flags, trees: list[str], cores: int) -> str:
     lines = [
         "## compile: the first run of a chain of N bars (issue 20, item 4)",
         "",
@@ -193,6 +201,17 @@ def render(rows_first, rows_alone, trees: list[str], cores: int) -> str:
                 cells.append(f"{wall:.2f} / {cpu:.2f}")
         lines.append(f"| {n} | {alone['kB']:.0f} | " + " | ".join(cells) + " |")
     n_last, last = rows_alone[-1]
+    lines += [
+        "",
+        f"The flags on the first run of the {n_last}-bar chain (after; `SYMGEN_CFLAGS=FLAG -ffp-contract=off`): "
+        "the compile saved against the cost of the run.",
+        "",
+        "| flag | wall | CPU | library | simulate |",
+        "|---|---|---|---|---|",
+    ]
+    for flag, med in rows_flags:
+        cells = [_fmt(med.get(k, float("nan"))) for k in ("wall", "cpu", "library", "simulate")]
+        lines.append(f"| `{flag}` | " + " | ".join(cells) + " |")
     lines += [
         "",
         f"The Functions of the {n_last}-bar chain, largest first (-O1, each alone):",
