@@ -1,8 +1,10 @@
 """The model's run-time CasADi Functions compiled to a shared library, cached and verified.
 
 A run's Functions (the DAE residual and its Jacobian for IDAS, the algebraic polish, the
-record of an output) are written as C by CasADi's code generator, compiled once by the system
-C compiler into a shared library and loaded with ``casadi.external``; IDAS (``ca.integrator``)
+record of an output) are written as C by CasADi's code generator, one translation unit per
+Function, compiled once by the system C compiler (the units in parallel, as many at once as there
+are cores, each compiler in a process group of its own that an interrupt kills) and linked into
+one shared library, loaded with ``casadi.external``; IDAS (``ca.integrator``)
 then evaluates them as machine code instead of in CasADi's virtual machine. The C performs the
 very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
 multiply-adds), so both give the same numbers to the last bit.
