@@ -42,6 +42,7 @@ SECTIONS = [
     "overhang",
     "sixbar",
     "lean",
+    "compile",
 ]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 

@@ -18,8 +18,10 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator, Sequence
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
+from typing import IO
 
 #: Measured C compile speed of the emitted model code at the default flags (-O1), bytes of C per
 #: second: 64 kB in 0.41 s, 264 kB in 1.45 s on a loaded 2-core machine (2026-11-25). Used only to
@@ -61,15 +63,93 @@ def run_group(
     return subprocess.CompletedProcess(args, proc.returncode, out, err)
 
 
-def compile_estimate(source_bytes: int) -> float:
-    """Seconds a compile of ``source_bytes`` of emitted C will take, roughly (:data:`COMPILE_BYTES_PER_S`)."""
-    return source_bytes / COMPILE_BYTES_PER_S
+def jobs() -> int:
+    """How many commands to run at once: the cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
 
 
-def announce_compile(what: str, source_bytes: int, instead: str) -> str:
+def run_groups(
+    cmds: Sequence[Sequence[str | os.PathLike[str]]],
+    *,
+    max_jobs: int,
+    timeout: float | None = None,
+    progress: str | None = None,
+) -> list[subprocess.CompletedProcess[str]]:
+    """:func:`run_group` of several commands, at most ``max_jobs`` at once, started in the order
+    given (put the longest first): each in a process group of its own, and every group still
+    running killed and reaped when the wait ends by an exception (``KeyboardInterrupt``,
+    ``subprocess.TimeoutExpired`` after ``timeout`` seconds in all, ...). A command that fails
+    stops the rest (those running are killed, those waiting never start): the result then
+    ends with the failed one. ``progress``: what to show on a terminal, with the commands done."""
+    todo = [[os.fspath(c) for c in cmd] for cmd in cmds]
+    running: list[tuple[int, subprocess.Popen[bytes], IO[bytes], IO[bytes]]] = []  # (index, process, stdout, stderr)
+    done: dict[int, subprocess.CompletedProcess[str]] = {}
+    failed: int | None = None
+    t0 = time.monotonic()
+    label = None if progress is None else lambda: f"{progress}: {len(done)}/{len(todo)} done"
+    try:
+        with _ticker(label):
+            nxt = 0
+            while (nxt < len(todo) and failed is None) or running:
+                while nxt < len(todo) and failed is None and len(running) < max(1, max_jobs):
+                    out: IO[bytes] = tempfile.TemporaryFile()  # files, not pipes: none blocks on a full pipe
+                    err: IO[bytes] = tempfile.TemporaryFile()
+                    proc = subprocess.Popen(
+                        todo[nxt], stdin=subprocess.DEVNULL, stdout=out, stderr=err, start_new_session=True
+                    )
+                    running.append((nxt, proc, out, err))
+                    nxt += 1
+                for entry in list(running):
+                    k, proc, out, err = entry
+                    if proc.poll() is None:
+                        continue
+                    running.remove(entry)
+                    done[k] = subprocess.CompletedProcess(todo[k], proc.returncode, _text(out), _text(err))
+                    if proc.returncode != 0 and failed is None:
+                        failed = k
+                if failed is not None:
+                    _kill_all(running)
+                elif timeout is not None and time.monotonic() - t0 > timeout:
+                    raise subprocess.TimeoutExpired(todo[running[0][0]], timeout)
+                time.sleep(0.02)
+    except BaseException:
+        _kill_all(running)
+        raise
+    order = sorted(k for k in done if k != failed) + ([] if failed is None else [failed])
+    return [done[k] for k in order]
+
+
+def _kill_all(running: list[tuple[int, subprocess.Popen[bytes], IO[bytes], IO[bytes]]]) -> None:
+    """:func:`kill_group` of every running command, its output files closed; the list emptied."""
+    for _, proc, out, err in running:
+        kill_group(proc)
+        out.close()
+        err.close()
+    running.clear()
+
+
+def _text(fh: IO[bytes]) -> str:
+    """What a command wrote to the temporary file ``fh`` (closed after)."""
+    with fh:
+        fh.seek(0)
+        return fh.read().decode(errors="replace")
+
+
+def compile_estimate(source_bytes: int, max_jobs: int = 1, largest: int = 0) -> float:
+    """Seconds a compile of ``source_bytes`` of emitted C will take, roughly (:data:`COMPILE_BYTES_PER_S`):
+    spread over ``max_jobs`` compilers at once, no less than the ``largest`` translation unit's."""
+    return max(source_bytes / max(1, max_jobs), largest) / COMPILE_BYTES_PER_S
+
+
+def announce_compile(what: str, source_bytes: int, instead: str, max_jobs: int = 1, largest: int = 0) -> str:
     """The progress label of compiling ``what``; a compile estimated to be long is announced on
-    stderr first (one line, also in logs), with ``instead``: how to run without it."""
-    est = compile_estimate(source_bytes)
+    stderr first (one line, also in logs), with ``instead``: how to run without it. ``max_jobs``,
+    ``largest``: the C is compiled as translation units (the largest of ``largest`` bytes), that
+    many at once."""
+    est = compile_estimate(source_bytes, max_jobs, largest)
     if est > LONG_COMPILE_S:
         print(
             f"symgen: compiling {what} ({source_bytes / 1e6:.1f} MB of C): about {est:.0f} s, once per model "
@@ -81,9 +161,10 @@ def announce_compile(what: str, source_bytes: int, instead: str) -> str:
 
 
 @contextlib.contextmanager
-def _ticker(label: str | None, every: float = 1.0) -> Iterator[None]:
-    """``label`` and the seconds elapsed, rewritten in place on a terminal's stderr each
-    ``every`` seconds until the block ends (then erased); nothing when stderr is not a terminal."""
+def _ticker(label: str | Callable[[], str] | None, every: float = 1.0) -> Iterator[None]:
+    """``label`` (or what it returns, when a function) and the seconds elapsed, rewritten in place
+    on a terminal's stderr each ``every`` seconds until the block ends (then erased); nothing when
+    stderr is not a terminal."""
     if not label or not sys.stderr.isatty():
         yield
         return
@@ -92,7 +173,8 @@ def _ticker(label: str | None, every: float = 1.0) -> Iterator[None]:
 
     def tick() -> None:
         while not done.wait(every):
-            sys.stderr.write(f"\rsymgen: {label}: {time.monotonic() - t0:.0f} s ")
+            text = label() if callable(label) else label
+            sys.stderr.write(f"\rsymgen: {text}: {time.monotonic() - t0:.0f} s \033[K")
             sys.stderr.flush()
 
     thread = threading.Thread(target=tick, daemon=True)

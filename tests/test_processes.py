@@ -100,3 +100,73 @@ def test_the_seconds_run_on_a_terminal_while_a_command_runs(monkeypatch):
     monkeypatch.setattr(sys, "stderr", term)
     run_group(["sh", "-c", "sleep 1.6"], progress="compiling the test")
     assert "symgen: compiling the test: 1 s" in term.getvalue()
+
+
+@pytest.mark.skipif(not Path("/proc").exists(), reason="reads /proc")
+def test_sigint_during_parallel_commands_kills_every_group_and_starts_no_more(tmp_path):
+    """Three compiler-like drivers, two at a time (as the model library's units are compiled),
+    interrupted with SIGINT once both are running: both grandchildren are gone, the third
+    driver never started."""
+    drivers = []
+    for k in range(3):
+        driver = tmp_path / f"driver{k}.sh"
+        driver.write_text(f"#!/bin/sh\nsleep 300 &\necho $! > {tmp_path / f'grandchild{k}.pid'}\nwait\n")
+        driver.chmod(0o755)
+        drivers.append([str(driver)])
+    parent = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(ROOT)!r})
+        from symgen.processes import run_groups
+        try:
+            run_groups({drivers!r}, max_jobs=2, timeout=600)
+        except KeyboardInterrupt:
+            sys.exit(130)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", parent])
+    pidfiles = [tmp_path / f"grandchild{k}.pid" for k in range(3)]
+    for _ in range(400):
+        if all(p.exists() and p.read_text().strip() for p in pidfiles[:2]):
+            break
+        time.sleep(0.05)
+    grandchildren = [int(p.read_text()) for p in pidfiles[:2]]
+    assert all(map(_alive, grandchildren))
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=30) == 130
+    deadline = time.monotonic() + 2.0
+    while any(map(_alive, grandchildren)) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    alive = [pid for pid in grandchildren if _alive(pid)]
+    for pid in alive:
+        os.kill(pid, signal.SIGKILL)
+    assert not alive
+    assert not pidfiles[2].exists()
+
+
+def test_parallel_commands_keep_their_order_and_a_failure_stops_the_rest(tmp_path):
+    from symgen.processes import run_groups
+
+    done = run_groups([["sh", "-c", f"sleep 0.{3 - k}; echo {k}"] for k in range(3)], max_jobs=2)
+    assert [(p.returncode, p.stdout) for p in done] == [(0, "0\n"), (0, "1\n"), (0, "2\n")]
+    marker = tmp_path / "never"
+    cmds = [["sh", "-c", "echo bad >&2; exit 4"], ["sh", "-c", "sleep 30"], ["sh", "-c", f"touch {marker}"]]
+    t0 = time.monotonic()
+    out = run_groups(cmds, max_jobs=2)
+    assert time.monotonic() - t0 < 10
+    assert (out[-1].returncode, out[-1].stderr) == (4, "bad\n") and not marker.exists()
+    with pytest.raises(subprocess.TimeoutExpired):
+        run_groups([["sh", "-c", "sleep 30 & wait"]] * 2, max_jobs=2, timeout=0.5)
+
+
+def test_the_units_done_show_on_a_terminal_while_parallel_commands_run(monkeypatch):
+    import io
+
+    from symgen.processes import run_groups
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    run_groups([["true"], ["sh", "-c", "sleep 1.6"]], max_jobs=1, progress="compiling the test")
+    assert "symgen: compiling the test: 1/2 done: 1 s" in term.getvalue()

@@ -1,8 +1,10 @@
 """The model's run-time CasADi Functions compiled to a shared library, cached and verified.
 
 A run's Functions (the DAE residual and its Jacobian for IDAS, the algebraic polish, the
-record of an output) are written as C by CasADi's code generator, compiled once by the system
-C compiler into a shared library and loaded with ``casadi.external``; IDAS (``ca.integrator``)
+record of an output) are written as C by CasADi's code generator, one translation unit per
+Function, compiled once by the system C compiler (the units in parallel, as many at once as there
+are cores, each compiler in a process group of its own that an interrupt kills) and linked into
+one shared library, loaded with ``casadi.external``; IDAS (``ca.integrator``)
 then evaluates them as machine code instead of in CasADi's virtual machine. The C performs the
 very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
 multiply-adds), so both give the same numbers to the last bit.
@@ -39,7 +41,7 @@ from typing import TypeAlias
 import casadi as ca
 
 from symgen import __version__, cache
-from symgen.processes import announce_compile, run_group
+from symgen.processes import announce_compile, jobs, run_group, run_groups
 
 CC_ENV = "SYMGEN_CC"
 CFLAGS_ENV = "SYMGEN_CFLAGS"
@@ -255,28 +257,50 @@ def _build(
 ) -> bytes:
     parent, store = build_folder(where, store)
     with cache.temp_dir(parent, where.name) as tmp:
-        gen = ca.CodeGenerator("model.c", {"with_header": False})
-        for f in funcs:
-            gen.add(f)
-        gen.generate(str(tmp) + os.sep)
-        cmd = [comp.path, *comp.flags, "-fPIC", "-shared", str(tmp / "model.c"), "-o", str(tmp / LIBRARY), "-lm"]
+        units = write_units(funcs, tmp)
+        objects = [c.with_suffix(".o") for c in units]
+        compile_cmds = [[comp.path, *comp.flags, "-fPIC", "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
+        link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(tmp / LIBRARY), "-lm"]
+        sizes = [c.stat().st_size for c in units]
+        max_jobs = min(len(units), jobs())
         try:
             label = announce_compile(
-                "the model library",
-                (tmp / "model.c").stat().st_size,
+                f"the model library in {len(units)} parts, {max_jobs} at a time",
+                sum(sizes),
                 "--backend vm runs the model without compiling (slower per step)",
+                max_jobs,
+                max(sizes),
             )
-            proc = run_group(cmd, timeout=COMPILE_TIMEOUT_S, progress=label)  # an interrupt kills cc1 too
+            # every compiler in a process group of its own: an interrupt kills each cc1 too
+            procs = run_groups(compile_cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=label)
+            if all(p.returncode == 0 for p in procs):
+                procs.append(run_group(link, timeout=COMPILE_TIMEOUT_S))
         except (OSError, subprocess.SubprocessError) as exc:
             raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
+        proc = procs[-1]
         if proc.returncode != 0:
             first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
             raise Unavailable(f"the C compiler {comp.path} failed (exit {proc.returncode}: {first[:200]})")
         blob = (tmp / LIBRARY).read_bytes()
         if store:
-            (tmp / "model.c").unlink()
+            for path in (*units, *objects):
+                path.unlink()
             install(tmp, where, key, LIBRARY, blob, replace)
     return blob
+
+
+def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
+    """The C of ``funcs`` written by CasADi's code generator into ``folder``, one translation unit
+    per Function (``<name>.c``, its internal symbols prefixed by its name, so the units link
+    into one library), the largest first: the units are compiled in parallel, and each Function's
+    C is what one unit holding them all would have (the same statements in the same order)."""
+    units = []
+    for f in funcs:
+        gen = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
+        gen.add(f)
+        gen.generate(str(folder) + os.sep)
+        units.append(folder / f"{f.name()}.c")
+    return sorted(units, key=lambda c: -c.stat().st_size)
 
 
 def _load(blob: bytes, signatures: list[Signature]) -> dict[str, ca.Function]:

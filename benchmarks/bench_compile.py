@@ -1,0 +1,228 @@
+"""Benchmark section ``compile`` (issue 20, item 4): the first run of open chains of 2-12 elastic
+bars (derivation, the compiled library's build, the simulation), before and after the library
+was split into translation units compiled in parallel; the compile time against the flags and
+the sizes of the biggest Functions.
+
+*Before* is the tree of :data:`BASE` (one translation unit, one compiler), taken with
+``git archive`` into a temporary folder; *after* is this checkout. The chains are those of the
+``derivation`` section (``bench_derivation.scene_text``: a driven ground pin, 2 axial and 4
+transverse modes per bar, one cycle).
+
+1. First run: ``python -m symgen.cli simulate CHAIN -o out.csv`` in a fresh process with an
+   empty model cache: wall and CPU (user + system of the process and its compilers), and the
+   parts the command reports (derived, compiled library built, simulate).
+2. Compile alone: the library's Functions written as C by CasADi, compiled as one unit (before)
+   and as one unit per Function, as many at once as there are cores (after), at -O0, -O1 (the
+   default) and -O2 (always with ``-ffp-contract=off``), wall and CPU; and the largest Functions
+   (operations, kB of C) with their compile time alone at -O1.
+
+    python benchmarks/run.py --only compile
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from bench_derivation import scene_text
+from bench_lean import base_tree as _lean_base_tree
+
+ROOT = Path(__file__).resolve().parent.parent
+#: The commit before the split into parallel translation units.
+BASE = "8bcc5b0"
+BARS = (2, 4, 6, 8, 10, 12)
+FLAGS = ("-O0", "-O1", "-O2")
+TARGET_S = 5.0
+PARTS = re.compile(r"derived ([\d.]+)s, compiled library built ([\d.]+)s, simulate ([\d.]+)s")
+
+
+def base_tree(dest: Path) -> bool:
+    import bench_lean
+
+    old, bench_lean.BASE = bench_lean.BASE, BASE
+    try:
+        return _lean_base_tree(dest)
+    finally:
+        bench_lean.BASE = old
+
+
+def _child_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def first_run(tree: Path, scene: Path, tmp: Path, cflags: str | None = None) -> dict[str, float]:
+    """Wall and CPU s of a first run (empty cache) of ``scene`` with ``tree`` first on the path
+    (``cflags``: ``$SYMGEN_CFLAGS``, else the default)."""
+    with tempfile.TemporaryDirectory(dir=tmp) as cache:
+        env = dict(os.environ, PYTHONPATH=str(tree), SYMGEN_CACHE_DIR=cache)
+        for name in ("SYMGEN_BACKEND", "SYMGEN_CFLAGS", "SYMGEN_CC"):
+            env.pop(name, None)
+        if cflags is not None:
+            env["SYMGEN_CFLAGS"] = cflags
+        cmd = [sys.executable, "-m", "symgen.cli", "simulate", str(scene), "-o", str(tmp / "out.csv")]
+        c0, t0 = _child_cpu(), time.perf_counter()
+        proc = subprocess.run(cmd, cwd=tmp, env=env, capture_output=True, text=True, check=True)
+        wall, cpu = time.perf_counter() - t0, _child_cpu() - c0
+    m = PARTS.search(proc.stdout + proc.stderr)
+    parts = dict(zip(("derive", "library", "simulate"), map(float, m.groups()))) if m else {}
+    return {"wall": wall, "cpu": cpu, **parts}
+
+
+def _functions(scene: Path):
+    """The compiled library's Functions of ``scene`` (this checkout)."""
+    from symgen.api import mechanism
+    from symgen.numerics.simulate import DaeRunner
+
+    mech = mechanism(scene)
+    *_, part = mech.initial_state(0.0)
+    return DaeRunner(mech, part, 1e-6, 1e-8, backend="vm")._compiled_functions()
+
+
+def _timed(cmds: list[list[str]], max_jobs: int) -> tuple[float, float]:
+    from symgen.processes import run_groups
+
+    c0, t0 = _child_cpu(), time.perf_counter()
+    procs = run_groups(cmds, max_jobs=max_jobs, timeout=1800)
+    assert all(p.returncode == 0 for p in procs), procs[-1].stderr[:500]
+    return time.perf_counter() - t0, _child_cpu() - c0
+
+
+def compile_alone(funcs, tmp: Path) -> dict[str, object]:
+    """Wall/CPU s of compiling ``funcs`` as one unit and split (each flag), and the biggest Functions."""
+    import casadi as ca
+
+    from symgen.numerics import compiled
+    from symgen.processes import jobs
+
+    cc = compiled.compiler().path
+    one = tmp / "one"
+    one.mkdir()
+    gen = ca.CodeGenerator("model.c", {"with_header": False})
+    for f in funcs:
+        gen.add(f)
+    gen.generate(str(one) + os.sep)
+    split = tmp / "split"
+    split.mkdir()
+    units = compiled.write_units(funcs, split)
+    out: dict[str, object] = {"kB": sum(u.stat().st_size for u in units) / 1e3, "units": len(units)}
+    for flag in FLAGS:
+        base = [cc, flag, "-ffp-contract=off", "-fPIC", "-c"]
+        out[f"one {flag}"] = _timed([[*base, str(one / "model.c"), "-o", str(one / "model.o")]], 1)
+        cmds = [[*base, str(u), "-o", str(u.with_suffix(".o"))] for u in units]
+        out[f"split {flag}"] = _timed(cmds, min(len(units), jobs()))
+    sizes = []
+    for f in funcs:
+        unit = split / f"{f.name()}.c"
+        wall, _ = _timed([[cc, "-O1", "-ffp-contract=off", "-fPIC", "-c", str(unit), "-o", str(tmp / "f.o")]], 1)
+        sizes.append((f.name(), int(f.n_instructions()), unit.stat().st_size / 1e3, wall))
+    out["sizes"] = sorted(sizes, key=lambda s: -s[2])
+    return out
+
+
+def run(repeats: int, quick: bool = False) -> str:
+    """Markdown of this section (``quick``: chains of 2 and 4 bars, one run each)."""
+    from symgen.processes import jobs
+
+    rows_first: list[tuple[int, dict[str, dict[str, float]]]] = []
+    rows_alone: list[tuple[int, dict[str, object]]] = []
+    rows_flags: list[tuple[str, dict[str, float]]] = []
+    with tempfile.TemporaryDirectory(prefix="symgen-compile-") as tmp_s:
+        tmp = Path(tmp_s)
+        trees = {"after": ROOT}
+        base = tmp / "base"
+        base.mkdir()
+        if base_tree(base):
+            trees = {"before": base, "after": ROOT}
+        os.environ["SYMGEN_CACHE_DIR"] = str(tmp / "cache")  # this process's derivations
+        for n in (2, 4) if quick else BARS:
+            scene = tmp / f"chain{n}.toml"
+            scene.write_text(scene_text("chain", n, 2, 4))
+            runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
+            for _ in range(1 if quick else repeats):  # interleaved run by run
+                for name, tree in trees.items():
+                    runs[name].append(first_run(tree, scene, tmp))
+            med = {name: {k: statistics.median(r[k] for r in rs) for k in rs[0]} for name, rs in runs.items()}
+            rows_first.append((n, med))
+            print(f"(compile: {n} bars first run {med})", file=sys.stderr, flush=True)
+            work = tmp / f"alone{n}"
+            work.mkdir()
+            rows_alone.append((n, compile_alone(_functions(scene), work)))
+        # the flags' trade: compile time against the cost of the run, on the largest chain (after)
+        for flag in FLAGS:
+            runs_f = [first_run(ROOT, scene, tmp, f"{flag} -ffp-contract=off") for _ in range(1 if quick else repeats)]
+            rows_flags.append((flag, {k: statistics.median(r[k] for r in runs_f) for k in runs_f[0]}))
+    return render(rows_first, rows_alone, rows_flags, list(trees), jobs())
+
+
+def _fmt(x: float) -> str:
+    return f"{x:.2f}"
+
+
+def render(rows_first, rows_alone, rows_flags, trees: list[str], cores: int) -> str:
+    lines = [
+        "## compile: the first run of a chain of N bars (issue 20, item 4)",
+        "",
+        f"First run (`symgen simulate CHAIN`, empty cache, {cores} cores, medians): before = {BASE} (one "
+        "translation unit), after = one unit per Function compiled in parallel. Wall and CPU s of the whole "
+        "process (compilers included), and the parts it reports (derive, library build including "
+        "the Functions' construction, simulate).",
+        "",
+        "| bars | "
+        + " | ".join(f"{t} wall | {t} CPU | {t} derive | {t} library | {t} simulate" for t in trees)
+        + " | under 5 s |",
+        "|---|" + "---|" * (5 * len(trees) + 1),
+    ]
+    for n, med in rows_first:
+        cells = [
+            _fmt(med[t].get(k, float("nan"))) for t in trees for k in ("wall", "cpu", "derive", "library", "simulate")
+        ]
+        lines.append(f"| {n} | " + " | ".join(cells) + f" | {'yes' if med[trees[-1]]['wall'] < TARGET_S else 'no'} |")
+    lines += [
+        "",
+        "Compile alone (wall / CPU s): the library's C as one unit, and split into one unit per "
+        f"Function compiled {cores} at a time, at each flag (with `-ffp-contract=off`).",
+        "",
+        "| bars | kB of C | " + " | ".join(f"one {f} | split {f}" for f in FLAGS) + " |",
+        "|---|---|" + "---|---|" * len(FLAGS),
+    ]
+    for n, alone in rows_alone:
+        cells = []
+        for flag in FLAGS:
+            for kind in ("one", "split"):
+                wall, cpu = alone[f"{kind} {flag}"]
+                cells.append(f"{wall:.2f} / {cpu:.2f}")
+        lines.append(f"| {n} | {alone['kB']:.0f} | " + " | ".join(cells) + " |")
+    n_last, last = rows_alone[-1]
+    lines += [
+        "",
+        f"The flags on the first run of the {n_last}-bar chain (after; `SYMGEN_CFLAGS=FLAG -ffp-contract=off`): "
+        "the compile saved against the cost of the run.",
+        "",
+        "| flag | wall | CPU | library | simulate |",
+        "|---|---|---|---|---|",
+    ]
+    for flag, med in rows_flags:
+        cells = [_fmt(med.get(k, float("nan"))) for k in ("wall", "cpu", "library", "simulate")]
+        lines.append(f"| `{flag}` | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        f"The Functions of the {n_last}-bar chain, largest first (-O1, each alone):",
+        "",
+        "| Function | operations | kB of C | compile s |",
+        "|---|---|---|---|",
+    ]
+    for name, ops, kb, wall in last["sizes"]:
+        lines.append(f"| `{name}` | {ops} | {kb:.0f} | {wall:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    print(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1))
