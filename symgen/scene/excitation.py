@@ -232,27 +232,25 @@ def _as_written(raw: dict | None, key: str, text: str) -> str:
     return table if isinstance(table, str) else text
 
 
-def check_driver_motion(
-    r: Reader, drivers: tuple[Driver, ...], paths: list[str], t_end: float, scales: Scales | None = None
-) -> None:
+def _run_text(scales: Scales, t_end: float) -> str:
+    """The end of the run (t_end in tau) as messages show it: seconds in SI, else tau."""
+    return f"{scales.seconds(t_end):.6g}" + (" s" if scales.si else "")
+
+
+def check_driver_motion(r: Reader, drivers: tuple[Driver, ...], paths: list[str], t_end: float, scales: Scales) -> None:
     """Each prescribed angle and its two derivatives are finite over [0, t_end] (t_end in tau;
     an SI scene's messages give the time in seconds)."""
-    si = scales is not None and scales.si
     for driver, path in zip(drivers, paths):
         if driver.kind != "angle" or driver.law is None:
             continue  # the constant-speed drive and its ramp (T > 0) are finite by construction
         bad = law_not_finite(driver, t_end)
         if bad is None:
             continue
-        what = bad[1].replace("d tau", "dt") if si else bad[1]
-        if si:
-            assert scales is not None
-            at, run = scales.time_text(bad[0]), f"{scales.seconds(t_end):.6g} s"
-        else:
-            at, run = f"tau = {bad[0]:.6g}", f"{t_end:.6g}"
+        what = bad[1].replace("d tau", "dt") if scales.si else bad[1]
         r.fail(
             join(path, "law"),
-            f"the prescribed angle's {what} is not a finite real number at {at} (the run goes from 0 to {run})",
+            f"the prescribed angle's {what} is not a finite real number at {scales.time_text(bad[0])} "
+            f"(the run goes from 0 to {_run_text(scales, t_end)})",
             "give a law that is smooth (twice differentiable) and finite on the whole run",
         )
 
@@ -263,14 +261,13 @@ def check_expressions(
     paths: list[str],
     loads: tuple[Load, ...],
     t_end: float,
-    scales: Scales | None = None,
+    scales: Scales,
     raw: dict | None = None,
 ) -> None:
     """Every load and torque given as an expression is a finite real number over the run
     [0, t_end] (in tau): a pole or a value outside its domain is named here, with its time
     (in seconds for an SI scene, whose ``raw`` expressions of t are quoted as written), instead
     of failing later inside the integrator with a message about its tolerances."""
-    si = scales is not None and scales.si
     found = [
         (join(path, "value"), driver.torque)
         for driver, path in zip(drivers, paths)
@@ -285,11 +282,7 @@ def check_expressions(
     for key, text in found:
         bad = expression_not_finite(text, t_end)
         if bad is not None:
-            if si:
-                assert scales is not None
-                at, run, end = scales.time_text(bad), f"{scales.seconds(t_end):.6g} s", "that time"
-            else:
-                at, run, end = f"tau = {bad:.6g}", f"{t_end:.6g}", "that tau"
+            at, run, end = scales.time_text(bad), _run_text(scales, t_end), "that time" if scales.si else "that tau"
             r.fail(
                 key,
                 f"{_as_written(raw, key, text)!r} is not a finite real number at {at} (a pole, or outside the "
