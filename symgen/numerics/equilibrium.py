@@ -42,7 +42,6 @@ from symgen.errors import SimulationError
 from symgen.ir.records import CoordKind
 from symgen.numerics.index1 import Index1, Partition
 from symgen.numerics.mechanism import Mechanism
-from symgen.scene.model import Driver
 
 #: Largest turn (rad) of a rigid coordinate in one step of the equilibrium solve.
 TRUST = 0.5
@@ -50,28 +49,20 @@ MAXIT = 400
 RES_TOL = 1e-11  # |F|_inf <= RES_TOL * max(1, load scale)
 
 
-def drivers(mech: Mechanism) -> list[Driver]:
-    """The scene's drivers (``[driver]`` or every ``[[drivers]]`` entry): the one place this
-    module reads them."""
-    return list(mech.scene.drivers)
-
-
 def prescribed(mech: Mechanism, t: float) -> dict[int, float]:
     """The prescribed rigid coordinates and their values at t: index -> value (an angle driver
     prescribes its bar's angle, a torque driver nothing)."""
-    out = {}
-    for drv in drivers(mech):
-        if drv.kind == "angle":  # the driver's angle as the model's driver row prescribes it
-            out[mech.info.coordinate(CoordKind.THETA, drv.body)] = mech.driver_motion(t, drv.body)[0]
-    return out
+    # each angle as the model's driver rows prescribe it (one evaluation for all drivers)
+    return {mech.info.coordinate(CoordKind.THETA, body): m[0] for body, m in mech.driver_motions(t).items()}
 
 
 def guess_key(mech: Mechanism, body: str) -> str:
     """The scene key that sets the start of bar ``body``'s angle: a torque driver's ``initial``
     for its bar, else ``initial.guess.<body>``."""
-    found = [i for i, d in enumerate(drivers(mech)) if d.kind == "torque" and d.body == body]
+    drivers = mech.scene.drivers
+    found = [i for i, d in enumerate(drivers) if d.kind == "torque" and d.body == body]
     if found:
-        return "driver.initial" if len(drivers(mech)) == 1 else f"drivers.{found[0]}.initial"
+        return "driver.initial" if len(drivers) == 1 else f"drivers.{found[0]}.initial"
     return f"initial.guess.{body}"
 
 
@@ -84,8 +75,8 @@ def free_coordinates(mech: Mechanism, part: Partition) -> list[int]:
 def why_free(mech: Mechanism, free: list[int]) -> str:
     """Why the coordinates ``free`` are free, in words: names the coordinates and the driver."""
     names = ", ".join(mech.coords[i].name for i in free)
-    angle = [d.body for d in drivers(mech) if d.kind == "angle"]
-    torque = [d.body for d in drivers(mech) if d.kind == "torque"]
+    angle = [d.body for d in mech.scene.drivers if d.kind == "angle"]
+    torque = [d.body for d in mech.scene.drivers if d.kind == "torque"]
     if not angle and not torque:
         driver = "the scene has no driver"
     elif not angle:
