@@ -257,7 +257,7 @@ class EffectsSpec:
     coriolis: bool
     geometric_stiffening: bool
     rotary_inertia: bool
-    strain: str  # "von_karman" | "linear"
+    strain: str  # "von_karman" | "linear" | "exact"
     gravity: bool
     damping: bool
     axial: tuple[tuple[str, str], ...] | None = None

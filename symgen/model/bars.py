@@ -24,6 +24,7 @@ with the force rotated to ground axes.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from itertools import combinations_with_replacement
 
@@ -32,6 +33,7 @@ import sympy as sp
 
 from symgen.ir import names
 
+from symgen.model.shape_cache import curvature_products
 from symgen.model.shapes import Basis, InnerProducts
 
 ZERO_TOL = 1e-13
@@ -175,6 +177,13 @@ class IPTable:
     def display(self) -> DisplayIPTable:
         """The display table of these inner products (see ``bar_equations``)."""
         return DisplayIPTable(self)
+
+    def with_curvature(self, basis_a: Basis, basis_t: Basis) -> IPTable:
+        """This table with the exact bar's tables E4, G3 of the bases (``effects.strain =
+        "exact"``), from the shape cache."""
+        if self.ip.curvature is not None:
+            return self
+        return IPTable(self.ip.with_curvature(curvature_products(basis_a, basis_t)), self.symbolic)
 
 
 class DisplayIPTable(IPTable):
@@ -358,6 +367,10 @@ def bar_equations(
         lambda (zeta' eta')' is (N eta')' with N = lambda zeta'). No strain energy, no axial
         damping: the constraint does no work.
     """
+    exact = effects.strain == "exact" and not s.beta and len(s.g) > 0
+    vk = effects.strain in ("von_karman", "exact")  # the axial strain: von Karman's (exact: docs/exact-bars.md)
+    if exact:
+        t = t.with_curvature(basis_a, basis_t)
     t = t.display()  # inner products as display symbols, recorded
     values: dict = {}
     # distributed loads (uniform in xi) in bar axes, gravity included: (beta-bar, gamma-bar)
@@ -432,13 +445,14 @@ def bar_equations(
     quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
     coupling = sp.Integer(0)  # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
     quartic = sp.Integer(0)  # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
+    c: list = []  # c_k = (phi'_k, eta'^2 / 2), von Karman and exact, dynamic bars
     if effects.geometric_stiffening and na and nt:
         for k in range(na):
             for a, b in combinations_with_replacement(range(nt), 2):
                 c3 = t.tensor("C3", (k, a, b), r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)")
                 mult = 1 if a == b else 2
                 coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
-        if effects.strain == "von_karman" and not inext:
+        if vk and not inext:
             # the strain energy of the axial strain the basis can carry: lambda/2 ||P eps||^2 with P
             # the projection onto span{phi'_k}, = lambda (f^T Ka f / 2 + f^T c + c^T Ka^-1 c / 2),
             # c_k = (phi'_k, eta'^2 / 2). The full lambda/8 int eta'^4 adds lambda/2 ||(1-P) eta'^2/2||^2,
@@ -449,20 +463,48 @@ def bar_equations(
     if inext:
         strain_energy = sp.Integer(0)  # the axial part is a constraint (no energy)
     elif na and lam is not None:
-        strain_energy = lam * (quad_a + (coupling + quartic if effects.strain == "von_karman" else 0))
+        strain_energy = lam * (quad_a + (coupling + quartic if vk else 0))
     else:
         strain_energy = sp.Integer(0)
     if nt and mu is not None:
         strain_energy += mu * quad_t
+    bend4 = sp.Integer(0)  # the exact bar's fourth-order bending terms (docs/exact-bars.md)
+    if exact and mu is not None:
+        # (mu/2) int eta'^2 eta''^2, over sorted index tuples of the fully symmetric E4
+        e4 = sp.Add(
+            *[
+                _multiplicity(idx)
+                * t.tensor("E4", idx, r"\mathcal{{E}}_{{{0},{1},{2},{3}}}")
+                * sp.Mul(*[g[i] for i in idx])
+                for idx in combinations_with_replacement(range(nt), 4)
+            ]
+        )
+        bend4 = mu * e4 / 2
+        if c and not inext:
+            # - mu int (eps eta''^2 + eps' eta' eta''), eps = P eps = sum_k e_k phi'_k the strain the
+            # basis carries: e = f + Ka^-1 c (zero on an inextensible or quasi-static bar)
+            e = [f[k] + sp.Add(*[t.ka_inv(k, j) * c[j] for j in range(na)]) for k in range(na)]
+            g3 = [
+                sp.Add(
+                    *[
+                        _multiplicity((a, b))
+                        * t.tensor("G3", (k, a, b), r"\mathcal{{G}}_{{{0},{1},{2}}}")
+                        * g[a]
+                        * g[b]
+                        for a, b in combinations_with_replacement(range(nt), 2)
+                    ]
+                )
+                for k in range(na)
+            ]
+            bend4 -= mu * sp.Add(*[e[k] * g3[k] for k in range(na)])
+        strain_energy += bend4
     el_f = [sp.diff(strain_energy, fk) for fk in f]
     el_g = [sp.diff(strain_energy, gk) for gk in g]
     constraint = ()
     if axial_force is not None:  # inext
         # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
         constraint = tuple(
-            sp.Add(*[Ka[k][j] * f[j] for j in range(na)])
-            + (sp.diff(coupling, f[k]) if effects.strain == "von_karman" else 0)
-            for k in range(na)
+            sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) + (sp.diff(coupling, f[k]) if vk else 0) for k in range(na)
         )
         el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
         # (N eta', psi'_a) = sum_k N_k d(coupling)/d(f_k g_a): the coupling is (1/2) sum C3 f g g
@@ -520,9 +562,10 @@ def bar_equations(
             / 2
         )
     if inext:
-        elastic = mu * quad_t if (nt and mu is not None) else 0
+        elastic = (mu * quad_t if (nt and mu is not None) else 0) + bend4
     elif effects.strain == "linear" or not effects.geometric_stiffening:
         elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
+        elastic += bend4
     else:
         elastic = strain_energy
     display = BarEquations(
@@ -548,6 +591,15 @@ def bar_equations(
         points=tuple(shown),
         loads=groups,
     )
+
+
+def _multiplicity(idx: tuple) -> int:
+    """How many index tuples sort to ``idx``: the weight of its monomial in a sum over all
+    tuples of a fully symmetric tensor."""
+    out = math.factorial(len(idx))
+    for k in set(idx):
+        out //= math.factorial(idx.count(k))
+    return out
 
 
 def load_symbols(s: BarSymbols) -> tuple:

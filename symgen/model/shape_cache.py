@@ -24,10 +24,10 @@ import numpy as np
 
 from symgen import cache, exprdata
 from symgen.model import shapes, static_shapes
-from symgen.model.shapes import SHAPES_VERSION, Basis, InnerProducts, basis_of_key
+from symgen.model.shapes import SHAPES_VERSION, Basis, CurvatureProducts, InnerProducts, basis_of_key
 from symgen.model.static_shapes import STATIC_VERSION, corrected_basis
 
-__all__ = ["cache_dir", "clear_memory_cache", "corrected_inner_products", "inner_products"]
+__all__ = ["cache_dir", "clear_memory_cache", "corrected_inner_products", "curvature_products", "inner_products"]
 
 
 def cache_dir() -> Path:
@@ -156,6 +156,11 @@ def _store(path: Path, name: str, ip: InnerProducts) -> None:
     except (ValueError, cache.KeyUnavailable) as exc:  # no key of this user: not cached, said once per entry
         cache.report_unwritable(path, exc)
         return
+    _write(path, data)
+
+
+def _write(path: Path, data: bytes) -> None:
+    """``data`` to ``path`` atomically (a failure said on stderr: the entry is recomputed next time)."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         cache.sweep_stale(path.parent)
@@ -226,6 +231,7 @@ def clear_memory_cache() -> None:
     """Forget the in-memory inner products (the disk cache is kept)."""
     _cached.cache_clear()
     _cached_corrected.cache_clear()
+    _cached_curvature.cache_clear()
 
 
 def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
@@ -263,3 +269,125 @@ def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
     if not same:  # hand-made basis: nothing to key a cache on
         return shapes.compute_inner_products(axial, transverse)
     return _cached(akey, tkey)
+
+
+# --------------------------------------------------------------------------------------
+# The exact bar's tables (effects.strain = "exact"): a separate entry beside the bases' one,
+# computed only for the bars that need them (E4 is nt^4 entries)
+# --------------------------------------------------------------------------------------
+#: Bump whenever a change to ``shapes.curvature_tables`` changes a cached number.
+CURVATURE_VERSION = "1"
+_CURVATURE_KIND = "curvature"
+_CURVATURE_ARRAYS = ("E4", "G3")
+
+
+def _curvature_shapes(na: int, nt: int) -> dict[str, tuple[int, ...]]:
+    return {"E4": (nt, nt, nt, nt), "G3": (na, nt, nt)}
+
+
+def _encode_curvature(name: str, cp: CurvatureProducts) -> bytes:
+    doc = {
+        "key": name,
+        "version": CURVATURE_VERSION,
+        "na": cp.na,
+        "nt": cp.nt,
+        "floats": {a: [float(x) for x in getattr(cp, a).ravel()] for a in _CURVATURE_ARRAYS},
+        "exact": {a: exprdata.encode_tensor(cp.exact[a]) for a in _CURVATURE_ARRAYS},
+    }
+    return cache.pack(_CURVATURE_KIND, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
+
+
+def _decode_curvature(data: bytes, name: str) -> CurvatureProducts:
+    """The tables of a verified entry; ``cache.InvalidEntry`` for anything else."""
+    payload = cache.unpack(_CURVATURE_KIND, data)
+
+    def bad(what: str) -> Exception:
+        return cache.InvalidEntry(f"is not a valid curvature entry ({what})")
+
+    def no_constant(c):
+        raise ValueError(f"non-finite number {c}")
+
+    try:
+        doc = json.loads(payload.decode("utf-8"), parse_constant=no_constant)
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise bad(f"JSON: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != CURVATURE_VERSION:
+        raise bad(f"written for {doc.get('key') if isinstance(doc, dict) else None!r}")
+    na, nt = doc.get("na"), doc.get("nt")
+    floats, exact = doc.get("floats"), doc.get("exact")
+    if not (_is_count(na) and _is_count(nt)) or not isinstance(floats, dict) or not isinstance(exact, dict):
+        raise bad("mode counts or tables")
+    if set(floats) != set(_CURVATURE_ARRAYS) or set(exact) != set(_CURVATURE_ARRAYS):
+        raise bad(f"it must hold exactly {', '.join(_CURVATURE_ARRAYS)}")
+    arrays, values = {}, {}
+    for a, shape in _curvature_shapes(na, nt).items():
+        flat = floats[a]
+        if (
+            not isinstance(flat, list)
+            or len(flat) != math.prod(shape)
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in flat)
+        ):
+            raise bad(f"{a}: not {math.prod(shape)} finite numbers")
+        arrays[a] = np.array(flat, dtype=float).reshape(shape)
+        arrays[a].flags.writeable = False
+        try:
+            values[a] = exprdata.decode_tensor(exact[a])
+        except (ValueError, TypeError, RecursionError) as exc:
+            raise bad(f"{a}: {exc}") from None
+        if tuple(values[a].shape) != shape:
+            raise bad(f"{a}: exact values of shape {tuple(values[a].shape)}, not {shape}")
+    return CurvatureProducts(na=na, nt=nt, exact=values, **arrays)
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_curvature(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple, mpts: tuple) -> CurvatureProducts:
+    if apts or tpts or mpts:
+        ba = corrected_basis(basis_of_key(akey), apts)
+        bt = corrected_basis(basis_of_key(tkey), tpts, mpts)
+        name = _static_cache_name(ba, bt)
+    else:
+        ba, bt = basis_of_key(akey), basis_of_key(tkey)
+        name = _cache_name(akey, tkey)
+    name = f"k{CURVATURE_VERSION}{name}"
+    path = cache_dir() / (name + ".json")
+    try:
+        cp: CurvatureProducts | None = _decode_curvature(cache.read_bytes(path, _MAX_ENTRY_BYTES), name)
+    except FileNotFoundError:
+        cp = None
+    except cache.InvalidEntry as exc:
+        cache.report_invalid(path, exc.reason)
+        cp = None
+    except OSError as exc:
+        cache.report_invalid(path, f"cannot be read ({exc})")
+        cp = None
+    if cp is None:
+        if apts or tpts or mpts:
+            cp = static_shapes.piecewise_curvature_products(ba.functions, bt.functions)
+        else:
+            cp = shapes.compute_curvature_products(ba, bt)
+        try:
+            data = _encode_curvature(name, cp)
+        except (ValueError, cache.KeyUnavailable) as exc:
+            cache.report_unwritable(path, exc)
+            return cp
+        _write(path, data)
+    return cp
+
+
+def curvature_products(axial: Basis, transverse: Basis) -> CurvatureProducts:
+    """The exact bar's closed-form tables (:class:`symgen.model.shapes.CurvatureProducts`) of one
+    bar's bases, cached in memory and on disk like :func:`inner_products` (an entry of its own,
+    named after the bases' entry with a ``k`` prefix)."""
+    try:
+        same = all(
+            r is b or r == b for r, b in ((basis_of_key(axial.key), axial), (basis_of_key(transverse.key), transverse))
+        )
+    except ValueError:
+        same = False
+    if axial.points or transverse.points or transverse.moment_points:
+        return _cached_curvature(
+            axial.key, tuple(axial.points), transverse.key, tuple(transverse.points), tuple(transverse.moment_points)
+        )
+    if not same:  # hand-made basis: nothing to key a cache on
+        return shapes.compute_curvature_products(axial, transverse)
+    return _cached_curvature(axial.key, (), transverse.key, (), ())

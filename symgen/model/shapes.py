@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import functools
 import itertools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any
 
@@ -32,6 +32,7 @@ import sympy
 
 from symgen.model.terms import (
     DPS,
+    combine,
     MP,
     Table,
     Terms,
@@ -52,6 +53,9 @@ __all__ = [
     "ShapeFunction",
     "Basis",
     "InnerProducts",
+    "CurvatureProducts",
+    "compute_curvature_products",
+    "curvature_tables",
     "axial_basis",
     "transverse_basis",
     "compute_inner_products",
@@ -399,6 +403,29 @@ class InnerProducts:
     C3: np.ndarray
     D4: np.ndarray
     exact: dict[str, object]
+    #: the exact bar's tables (``effects.strain = "exact"``), joined by
+    #: :meth:`with_curvature`; None for the other strains
+    curvature: CurvatureProducts | None = None
+
+    @property
+    def E4(self) -> np.ndarray:
+        return self._curvature().E4
+
+    @property
+    def G3(self) -> np.ndarray:
+        return self._curvature().G3
+
+    def _curvature(self) -> CurvatureProducts:
+        if self.curvature is None:
+            raise ValueError("these inner products have no curvature tables (join them with with_curvature)")
+        return self.curvature
+
+    def with_curvature(self, curvature: CurvatureProducts) -> InnerProducts:
+        """These inner products with the exact bar's tables (their exact values under the same
+        names in ``exact``)."""
+        if (curvature.na, curvature.nt) != (self.na, self.nt):
+            raise ValueError(f"curvature tables of {curvature.na} + {curvature.nt} functions for {self.na} + {self.nt}")
+        return replace(self, curvature=curvature, exact={**self.exact, **curvature.exact})
 
     @classmethod
     def from_tables(cls, na: int, nt: int, tables: dict[str, Table]) -> InnerProducts:
@@ -476,3 +503,85 @@ def _compute_locked(phi: list[Terms], psi: list[Terms]) -> InnerProducts:
 
     tables = {"gram": gram, "Ka": Ka, "Kt": Kt, "Pd": Pd, "psid1": psid1, "C3": C3, "D4": D4}
     return InnerProducts.from_tables(na, nt, tables)
+
+
+# --------------------------------------------------------------------------------------
+# The exact bar's inner products (effects.strain = "exact", docs/exact-bars.md)
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class CurvatureProducts:
+    """The inner products of the fourth-order curvature terms of one bar's bending energy,
+    (mu/2) int kappa^2 = (mu/2) int eta''^2 + (mu/2) int eta'^2 eta''^2
+    - mu int (eps eta''^2 + eps' eta' eta'') (``docs/exact-bars.md``).
+
+    Attributes
+    ----------
+    E4 : ``(nt, nt, nt, nt)``, fully symmetric: the symmetric part of
+        ``int psi'_a psi'_b psi''_c psi''_d``, so that ``int eta'^2 eta''^2 = sum E4 g g g g``;
+        with ``P_ab = psi'_a psi'_b`` (``eta' eta'' = (eta'^2)'/2``) it is
+        ``(1/12) [(P'_ab, P'_cd) + (P'_ac, P'_bd) + (P'_ad, P'_bc)]``
+    G3 : ``(na, nt, nt)``, symmetric in its last two indices:
+        ``(phi'_k, psi''_a psi''_b) + (phi''_k, P'_ab) / 2``, so that
+        ``int (eps eta''^2 + eps' eta' eta'') = sum_k e_k sum_ab G3 g_a g_b`` for the strain
+        ``eps = sum_k e_k phi'_k``
+    exact : the same names mapped to ``ImmutableDenseNDimArray`` (as ``InnerProducts.exact``)
+    """
+
+    na: int
+    nt: int
+    E4: np.ndarray
+    G3: np.ndarray
+    exact: dict[str, object]
+
+    @classmethod
+    def from_tables(cls, na: int, nt: int, tables: dict[str, Table]) -> CurvatureProducts:
+        exact: dict[str, object] = {name: tables[name].array() for name in ("E4", "G3")}
+        return cls(na=na, nt=nt, exact=exact, E4=tables["E4"].frozen(), G3=tables["G3"].frozen())
+
+
+def curvature_tables(
+    dphi: list[Any], ddphi: list[Any], dpsi: list[Any], ddpsi: list[Any], mul: Any, der: Any, ip: Any
+) -> dict[str, Table]:
+    """The tables of :class:`CurvatureProducts` from the functions' derivatives, for any
+    representation: ``mul(u, v)`` the product, ``der(u)`` the derivative and ``ip(u, v)`` the
+    closed-form integral of the product over [0, 1] (one piece, or piecewise functions).
+    Only sorted index tuples are integrated; the others are set by symmetry."""
+    na, nt = len(dphi), len(dpsi)
+    pairs = [(a, c) for a in range(nt) for c in range(a, nt)]
+    dP = {(a, c): der(mul(dpsi[a], dpsi[c])) for a, c in pairs}  # P'_ac = (psi'_a psi'_c)'
+    done: dict[tuple, Any] = {}
+
+    def pp(x: tuple, y: tuple) -> Any:  # (P'_x, P'_y), each pair of pairs integrated once
+        key = (min(x, y), max(x, y))
+        if key not in done:
+            done[key] = ip(dP[x], dP[y])
+        return done[key]
+
+    E4 = Table((nt, nt, nt, nt))
+    for a, b, c, d in itertools.combinations_with_replacement(range(nt), 4):
+        parts = [pp((a, b), (c, d)), pp((a, c), (b, d)), pp((a, d), (b, c))]
+        E4.set(set(itertools.permutations((a, b, c, d))), combine(parts, Fraction(1, 12)))
+    G3 = Table((na, nt, nt))
+    for k in range(na):
+        for a, c in pairs:
+            value = combine([ip(dphi[k], mul(ddpsi[a], ddpsi[c]))], Fraction(1))
+            value = combine([value, combine([ip(ddphi[k], dP[(a, c)])], Fraction(1, 2))], Fraction(1))
+            G3.set({(k, a, c), (k, c, a)}, value)
+    return {"E4": E4, "G3": G3}
+
+
+def compute_curvature_products(axial: Basis, transverse: Basis) -> CurvatureProducts:
+    """:class:`CurvatureProducts` of two standard bases, uncached
+    (:func:`symgen.model.shape_cache.curvature_products` caches it)."""
+    phi, psi = _terms_of(axial), _terms_of(transverse)
+    with scratch_exponents():
+        tables = curvature_tables(
+            [t.deriv(1) for t in phi],
+            [t.deriv(2) for t in phi],
+            [t.deriv(1) for t in psi],
+            [t.deriv(2) for t in psi],
+            multiply,
+            lambda u: u.deriv(1),
+            integrate_product,
+        )
+        return CurvatureProducts.from_tables(len(phi), len(psi), tables)

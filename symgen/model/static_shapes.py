@@ -44,7 +44,17 @@ from collections.abc import Sequence
 import sympy
 
 from symgen.ir.spec import BodySpec
-from symgen.model.shapes import XI, Basis, InnerProducts, ShapeFunction, axial_basis, basis_of_key, transverse_basis
+from symgen.model.shapes import (
+    XI,
+    Basis,
+    CurvatureProducts,
+    InnerProducts,
+    ShapeFunction,
+    axial_basis,
+    basis_of_key,
+    curvature_tables,
+    transverse_basis,
+)
 from symgen.model.terms import DPS, MP, Table, Terms, multiply, new_terms, poly_terms, s_add, s_value
 
 __all__ = [
@@ -55,6 +65,7 @@ __all__ = [
     "static_correction",
     "piecewise_inner",
     "piecewise_inner_products",
+    "piecewise_curvature_products",
     "static_polynomials",
     "corrected_basis",
     "bar_bases",
@@ -407,6 +418,34 @@ def piecewise_inner_products(axial: Sequence[Any], transverse: Sequence[Any]) ->
     _J_UPTO.clear()
     tables = {"gram": gram, "Ka": Ka, "Kt": Kt, "Pd": Pd, "psid1": psid1, "C3": C3, "D4": D4}
     return InnerProducts.from_tables(na, nt, tables)
+
+
+def piecewise_curvature_products(axial: Sequence[Any], transverse: Sequence[Any]) -> CurvatureProducts:
+    """:class:`symgen.model.shapes.CurvatureProducts` of bases that may include piecewise (static
+    correction) functions: :func:`symgen.model.shapes.curvature_tables` on each piece."""
+    phi = [Piecewise.of(f) for f in axial]
+    psi = [Piecewise.of(f) for f in transverse]
+    cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in phi + psi)))
+    ivals = [(lo, hi, (lo + hi) / 2) for lo, hi in zip(cuts[:-1], cuts[1:])]
+    lims = [(_mpq(lo), _mpq(hi)) for lo, hi, _ in ivals]
+
+    def at(fs: list[Piecewise], d: int) -> list[list[Terms]]:  # [function][interval]
+        return [[f.piece_at(mid).as_mp().deriv(d) for _, _, mid in ivals] for f in fs]
+
+    def ip(u: list[Terms], v: list[Terms]) -> Any:
+        return MP.mpc(sum((_integrate_product_on(x, y, lo, hi) for x, y, (lo, hi) in zip(u, v, lims)), MP.mpf(0)))
+
+    tables = curvature_tables(
+        at(phi, 1),
+        at(phi, 2),
+        at(psi, 1),
+        at(psi, 2),
+        lambda u, v: [multiply(x, y) for x, y in zip(u, v)],
+        lambda u: [x.deriv(1) for x in u],
+        ip,
+    )
+    _J_UPTO.clear()
+    return CurvatureProducts.from_tables(len(phi), len(psi), tables)
 
 
 # --------------------------------------------------------------------------------------

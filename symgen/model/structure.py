@@ -107,7 +107,7 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
     if eff.axial is True or eff.axial == DYNAMIC:
         written = "true" if eff.axial is True else '"dynamic"'
         return AxialTreatment(body.name, DYNAMIC, f"effects.axial = {written}")
-    if eff.strain != "von_karman":
+    if eff.strain == "linear":
         return AxialTreatment(
             body.name, DYNAMIC, "auto: the seed's linear strain keeps its axial dynamics (the paper's model)"
         )

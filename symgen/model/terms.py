@@ -54,6 +54,7 @@ __all__ = [
     "multiply",
     "integrate",
     "integrate_product",
+    "combine",
     "poly_terms",
     "sin_terms",
     "s_key",
@@ -528,6 +529,19 @@ def integrate_product(a: Terms, b: Terms) -> Coef:
             acc += c2 * j
         tot += c1 * acc
     return MP.mpc(tot.real)
+
+
+def combine(coefs: list[Coef], weight: Fraction) -> Coef:
+    """``weight * sum(coefs)`` of integrals (all :class:`Exact`, or any mpc among them)."""
+    if all(isinstance(c, Exact) for c in coefs):
+        tot = Exact({})
+        for c in coefs:
+            tot = tot + c
+        return tot.scale(weight)
+    tot = MP.mpc(0)
+    for c in coefs:
+        tot += c.to_mp() if isinstance(c, Exact) else c
+    return tot * MP.mpf(weight.numerator) / weight.denominator
 
 
 def poly_terms(coeffs: dict[int, Fraction]) -> Terms:

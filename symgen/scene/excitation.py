@@ -23,7 +23,11 @@ EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "r
 # choice "auto" (the default), "dynamic" (= true), "quasi_static" and "inextensible"
 AXIAL_MODELS = ("auto", "dynamic", "quasi_static", "inextensible")
 EFFECT_KEYS = EFFECT_SWITCHES + ("strain", "gravity", "damping")
-STRAINS = ("von_karman", "linear")
+STRAINS = ("von_karman", "linear", "exact")
+STRAIN_HINT = (
+    'use "von_karman" (the default), "exact" (von Karman strain and the curvature of the bar\'s axis to '
+    'fourth order in the amplitudes: docs/exact-bars.md) or "linear" (the seed\'s)'
+)
 INITIAL_KEYS = ("guess", "deformation")
 DEFORMATION_KEYS = ("f", "g", "fdot", "gdot")
 
@@ -340,7 +344,28 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
         switches["axial"] = r.choice(table, "effects", "axial", AXIAL_MODELS, hint=axial_hint)
     else:
         switches["axial"] = r.boolean(table, "effects", "axial", defaults.axial, hint=axial_hint)
-    strain = r.choice(table, "effects", "strain", STRAINS, defaults.strain)
+    strain = r.choice(table, "effects", "strain", STRAINS, defaults.strain, hint=STRAIN_HINT)
+    if strain == "exact":
+        if not switches["geometric_stiffening"]:
+            r.fail(
+                "effects.strain",
+                '"exact" needs geometric_stiffening = true (its curvature terms and the von Karman strain '
+                "are one expansion of the bar's exact deformation)",
+                'remove geometric_stiffening = false, or use strain = "linear"',
+            )
+        joints = raw.get("joints", [])
+        slots = (
+            [j.get("name", "?") for j in joints if isinstance(j, dict) and j.get("kind") == "slot"]
+            if isinstance(joints, list)
+            else []
+        )
+        if slots:
+            r.fail(
+                "effects.strain",
+                f'"exact" is not available with a slot joint ({", ".join(map(str, slots))}): the guide\'s '
+                "variable span psi(xi, beta) has no closed-form fourth-order curvature tables",
+                'use strain = "von_karman" for this scene',
+            )
     gx, gy = defaults.gravity
     if "gravity" in table:
         gx, gy = r.pair(table["gravity"], "effects.gravity", "gravity = [gx, gy] in ground axes, m/s^2 in SI")

@@ -114,7 +114,7 @@ class Effects:
     geometric_stiffening: bool = True
     coriolis: bool = True
     rotary_inertia: bool = False
-    strain: str = "von_karman"  # "von_karman" | "linear"
+    strain: str = "von_karman"  # "von_karman" | "linear" | "exact"
     gravity: tuple[float, float] = (0.0, 0.0)
     damping: float = 0.0  # Kelvin-Voigt ratio (in units of 1/omega)
 

@@ -559,7 +559,10 @@ EFFECTS = Table(
         Key(
             "strain",
             "string",
-            '"von_karman" (energy-consistent: bending shortens the chord) or "linear" (the seed\'s).',
+            '"von_karman" (energy-consistent: bending shortens the chord), "exact" (von Karman strain '
+            "and the exact curvature of the bar's axis to fourth order in the amplitudes: the geometrically "
+            "exact beam's answer at large deflection; needs geometric_stiffening, no slot joints) or "
+            '"linear" (the seed\'s).',
             {"enum": list(_ex.STRAINS)},
             default='"von_karman"',
             allowed=_ex.STRAINS,
