@@ -56,6 +56,7 @@ from symgen.ir import names
 from symgen.outputs import printable
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
+from symgen.model.shape_cache import curvature_products
 from symgen.model.structure import QUASI_STATIC, axial_treatments
 from symgen.scene.motion import driver_angle
 
@@ -152,7 +153,16 @@ def _driver_law_note(drv, i: int = 0) -> str:
 
 
 # --------------------------------------------------------------------------- inner products
-_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7}
+_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7, "E4": 8, "G3": 9}
+#: the exact bar's tables (``effects.strain = "exact"``): in their own shape-cache entry
+_CURVATURE = ("E4", "G3")
+#: strains whose axial strain is von Karman's (the exact bar adds the curvature terms)
+VON_KARMAN = ("von_karman", "exact")
+STRAIN_TEXT = {
+    "von_karman": "von K\\'arm\\'an",
+    "linear": "linear (the seed's)",
+    "exact": "von K\\'arm\\'an, exact curvature to fourth order (docs/exact-bars.md)",
+}
 
 
 def _ip_table(bm, used: set) -> list[dict]:
@@ -167,6 +177,8 @@ def _ip_table(bm, used: set) -> list[dict]:
             if exact_ka_inv is None:
                 exact_ka_inv = sp.ImmutableMatrix(bm.ipt.ip.exact["Ka"]).inv()
             exact = exact_ka_inv[idx]
+        elif name in _CURVATURE:
+            exact = curvature_products(bm.basis_a, bm.basis_t).exact[name][idx]
         else:
             exact = bm.ipt.ip.exact[name][idx]
         value = float(exact)
@@ -275,10 +287,13 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
 
     # ---- (8), (9): strong forms with the switched-on effects
     gs_on = eff.geometric_stiffening and na and nt
-    vk = gs_on and eff.strain == "von_karman"
+    vk = gs_on and eff.strain in VON_KARMAN
     damp = bm.inputs["damping"] is not None
     c = r"c_{\mathrm{KV}}"
     ctx["vk"] = bool(vk)
+    # the exact bar: its fourth-order bending energy, whose inner products E, G appear in (16), (17)
+    ctx["exact"] = bool(eff.strain == "exact" and nt and not body.rigid and not s.beta)
+    ctx["exact_g"] = bool(ctx["exact"] and vk and na and "axial_force" not in bm.inputs)
     ctx["strain_def"] = rf"\varepsilon_{{{B}}} = \zeta_{{{B}}}' + \tfrac{{1}}{{2}}\,\eta_{{{B}}}'^{{2}}" if vk else ""
     pt_a = [rf"+ {b}\,\delta(\xi - {x})" for b, _, x in pts_tex]
     pt_t = [rf"+ {g}\,\delta(\xi - {x})" for _, g, x in pts_tex]
@@ -377,7 +392,7 @@ def _section_force(scene, model, body: str, xi: float, pr: Printer) -> dict:
         out["rows"] = [frow] if out["end"] else []
         return out
     gs_on = eff.geometric_stiffening and na and nt
-    vk = gs_on and eff.strain == "von_karman"
+    vk = gs_on and eff.strain in VON_KARMAN
     kin = bm.kin
     zp, ep, e3 = kin.zeta(xi, 1), kin.eta(xi, 1), kin.eta(xi, 3)
     p1, p3 = "'", "'''"
@@ -613,7 +628,7 @@ def latex_document(scene, model) -> str:
         ("geometric stiffening", "on" if eff.geometric_stiffening else "off"),
         ("Coriolis terms", "on" if eff.coriolis else "off"),
         ("rotary inertia", "on" if eff.rotary_inertia else "off"),
-        ("axial strain", "von K\\'arm\\'an" if eff.strain == "von_karman" else "linear (the seed's)"),
+        ("axial strain", STRAIN_TEXT[eff.strain]),
         ("gravity $(g_x, g_y)$", "off" if not any(eff.gravity) else f"$({eff.gravity[0]:.6g}, {eff.gravity[1]:.6g})$"),
         ("Kelvin--Voigt damping", "off" if not eff.damping else f"${eff.damping:.6g}$"),
     ]
@@ -791,7 +806,7 @@ def latex_document(scene, model) -> str:
         "defs_s": eq_block(defs_s),
         "residuals": eq_block(residuals),
         "loops": len(topo.cuts),
-        "vk": eff.strain == "von_karman",
+        "vk": eff.strain in VON_KARMAN,
         "slot_notes": latex_slot.slot_notes(scene, model),
         "rotary_notes": rotary_notes(scene, pr),
     }
