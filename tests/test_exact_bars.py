@@ -261,30 +261,61 @@ def test_small_amplitude_reduces_to_von_karman():
 
 
 # --------------------------------------------------------------------------- dynamics: Exudyn ANCF
-def _slider_crank_error(strain: str, na: int, nt: int) -> float:
-    """Midspan chord deflection of the paper's slider-crank 6.1 over two turns against the Exudyn
-    ANCF reference, both low-passed below 50 cycles per turn: max |y - y_ref| / max |y_ref|."""
+def _paper_run(strain: str, na: int, nt: int):
+    """(mechanism, run) of the paper's slider-crank 6.1 (SI form) over two turns."""
     from symgen.api import mechanism
-    from symgen.apps.study import window_error
     from symgen.numerics.simulate import simulate
 
-    ref = np.loadtxt(DATA / "slider_crank_paper_exudyn.csv", delimiter=",", skiprows=1)
     overrides = [f"effects.strain={strain}", f"bodies.rod.axial_modes={na}", f"bodies.rod.transverse_modes={nt}"]
-    res = simulate(mechanism(str(DATA / "slider_crank_paper_si.toml"), overrides))
+    mech = mechanism(str(DATA / "slider_crank_paper_si.toml"), overrides)
+    return mech, simulate(mech)
+
+
+def _ancf_error(res) -> float:
+    """Midspan chord deflection of a run against the Exudyn ANCF reference, both low-passed below 50
+    cycles per turn: max |y - y_ref| / max |y_ref|."""
+    from symgen.apps.study import window_error
+
+    ref = np.loadtxt(DATA / "slider_crank_paper_exudyn.csv", delimiter=",", skiprows=1)
     y = res.column("rod_mid")
     assert y.shape == ref[:, 1].shape and np.allclose(res.tau, ref[:, 0], rtol=0, atol=1e-9)
     return window_error(y, ref[:, 1], 2 * math.pi / 360, 50 / (2 * math.pi), len(y))
 
 
-def test_slider_crank_against_ancf():
-    """The paper's slider-crank 6.1 (rod at ~0.8 of its Euler load) against a converged Exudyn
-    ANCF cable (``benchmarks/exudyn_exact.py``: 32 elements and 23040 steps per turn; 64 elements
-    move it by 4e-6 of peak, 11520 steps by 1.7e-5, low-passed). At 3 + 4 functions von Karman is
-    0.28 % off (converged: 0.31 %), the exact bar 0.026 %."""
-    vk = _slider_crank_error("von_karman", 3, 4)
-    exact = _slider_crank_error("exact", 3, 4)
-    assert vk > 2.5e-3
-    assert exact < 4e-4
+def _slider_crank_error(strain: str, na: int, nt: int) -> float:
+    return _ancf_error(_paper_run(strain, na, nt)[1])
+
+
+@pytest.fixture(scope="module")
+def paper_runs():
+    """The paper's slider-crank at 3 + 4 functions, von Karman and exact."""
+    return {st: _paper_run(st, 3, 4) for st in ("von_karman", "exact")}
+
+
+def test_slider_crank_against_ancf(paper_runs):
+    """The paper's slider-crank 6.1 against a converged Exudyn ANCF cable
+    (``benchmarks/exudyn_exact.py``: 32 elements and 23040 steps per turn; 64 elements move it by
+    4e-6 of peak, 11520 steps by 1.7e-5, low-passed). At 3 + 4 functions von Karman is 0.28 % off
+    (converged: 0.31 %), the exact bar 0.026 %."""
+    assert _ancf_error(paper_runs["von_karman"][1]) > 2.5e-3
+    assert _ancf_error(paper_runs["exact"][1]) < 4e-4
+
+
+def test_model_form_estimate_is_honest(paper_runs):
+    """The model-form estimate of the von Karman run lies within [0.5, 2] x the change the exact
+    bar makes (measured 3.0e-3 of peak, estimated 3.6e-3); an exact run estimates zero."""
+    from symgen.apps.study import window_error
+    from symgen.numerics.model_form import model_form_estimate
+
+    mech, vk = paper_runs["von_karman"]
+    ex = paper_runs["exact"][1]
+    measured = window_error(
+        ex.column("rod_mid"), vk.column("rod_mid"), 2 * math.pi / 360, 50 / (2 * math.pi), len(vk.tau)
+    )
+    est = model_form_estimate(mech, vk)
+    assert measured > 1e-3
+    assert 0.5 <= est.outputs["rod_mid"] / measured <= 2.0
+    assert model_form_estimate(*paper_runs["exact"]).outputs == {"rod_mid": 0.0}
 
 
 @pytest.mark.slow
