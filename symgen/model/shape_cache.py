@@ -18,7 +18,7 @@ import math
 import os
 import tempfile
 from pathlib import Path
-from typing import TypeGuard
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -115,7 +115,8 @@ def _decode_entry(data: bytes, name: str) -> InnerProducts:
         or set(exact) != set(_ARRAYS)
     ):
         raise bad(f"it must hold exactly {', '.join(_ARRAYS)}")
-    arrays, values = {}, {}
+    arrays: dict[str, Any] = {}
+    values: dict[str, Any] = {}
     for a, shape in _shapes_of(na, nt).items():
         flat = floats[a]
         if (
@@ -319,7 +320,8 @@ def _decode_curvature(data: bytes, name: str) -> CurvatureProducts:
         raise bad("mode counts or tables")
     if set(floats) != set(_CURVATURE_ARRAYS) or set(exact) != set(_CURVATURE_ARRAYS):
         raise bad(f"it must hold exactly {', '.join(_CURVATURE_ARRAYS)}")
-    arrays, values = {}, {}
+    arrays: dict[str, Any] = {}
+    values: dict[str, Any] = {}
     for a, shape in _curvature_shapes(na, nt).items():
         flat = floats[a]
         if (

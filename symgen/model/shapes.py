@@ -435,7 +435,7 @@ class InnerProducts:
         psid1 = tables["psid1"]
         exact["psid1"] = sympy.ImmutableMatrix(nt, 1, lambda i, j: psid1.s[(i,)])
         exact["C3"], exact["D4"] = tables["C3"].array(), tables["D4"].array()
-        frozen = {name: table.frozen() for name, table in tables.items()}
+        frozen: dict[str, Any] = {name: table.frozen() for name, table in tables.items()}
         return cls(na=na, nt=nt, exact=exact, **frozen)
 
 

@@ -38,6 +38,7 @@ Measured against von Karman vs exact runs in docs/exact-bars.md.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import scipy.linalg
@@ -45,6 +46,10 @@ import scipy.linalg
 from symgen.ir.records import RowKind
 from symgen.model.shape_cache import curvature_products, inner_products
 from symgen.model.static_shapes import bar_bases
+
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.simulate import SimResult
 
 __all__ = ["AMPLIFICATION_CAP", "ModelFormEstimate", "model_form_estimate"]
 
@@ -68,7 +73,9 @@ class ModelFormEstimate:
 class _Bar:
     """The tables of one elastic bar and its places in q and lam."""
 
-    def __init__(self, mech, name: str, body: dict, f_idx: tuple, g_idx: tuple) -> None:
+    def __init__(
+        self, mech: Mechanism, name: str, body: dict[str, Any], f_idx: tuple[int, ...], g_idx: tuple[int, ...]
+    ) -> None:
         ba, bt = bar_bases(body)
         ip = inner_products(ba, bt)
         cp = curvature_products(ba, bt)
@@ -79,7 +86,7 @@ class _Bar:
         M = ip.gram[nb : nb + self.nt, nb : nb + self.nt]
         self.Ka_inv = np.linalg.inv(ip.Ka) if self.na else np.zeros((0, 0))
         sc = mech.scene.body(name)
-        self.lam, self.mu = sc.lam, sc.mu
+        self.lam, self.mu = float(sc.lam or 0.0), float(sc.mu or 0.0)
         rows = [i for i, r in enumerate(mech.info.lam_rows) if r.kind is RowKind.INEXTENSIBLE and r.joint == name]
         self.n_rows = rows  # multipliers N_k of a constrained (quasi-static or inextensible) bar
         # the first bending mode of the bar alone and its frequency (per unit tau): where its free
@@ -120,7 +127,7 @@ class _Bar:
         return dg, tangent, amp
 
 
-def model_form_estimate(mech, result, samples: int = 400) -> ModelFormEstimate:
+def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) -> ModelFormEstimate:
     """The estimate of a finished run ``result`` (:class:`symgen.numerics.simulate.SimResult`) of
     ``mech`` (:class:`symgen.numerics.mechanism.Mechanism`), at up to ``samples`` evenly spaced
     output rows. A run already with the exact strain estimates 0 for every output."""
@@ -135,7 +142,7 @@ def model_form_estimate(mech, result, samples: int = 400) -> ModelFormEstimate:
     ]
     rows = np.unique(np.linspace(0, len(result.tau) - 1, min(samples, len(result.tau))).astype(int))
     change = np.zeros((len(rows), len(names)))
-    tangent = {b.name: [] for b in bars}
+    tangent: dict[str, list[float]] = {b.name: [] for b in bars}
     amplification = {b.name: 1.0 for b in bars}
     for r, i in enumerate(rows):
         q, v, lam = result.q[i], result.v[i], result.lam[i]

@@ -178,7 +178,8 @@ def _ip_table(bm, used: set) -> list[dict]:
                 exact_ka_inv = sp.ImmutableMatrix(bm.ipt.ip.exact["Ka"]).inv()
             exact = exact_ka_inv[idx]
         elif name in _CURVATURE:
-            exact = curvature_products(bm.basis_a, bm.basis_t).exact[name][idx]
+            table: Any = curvature_products(bm.basis_a, bm.basis_t).exact[name]
+            exact = table[idx]
         else:
             exact = bm.ipt.ip.exact[name][idx]
         value = float(exact)
