@@ -365,3 +365,23 @@ def test_emitted_c_solver_runs_the_exact_bar(tmp_path):
     a = simulate(mech).column("rod_mid")
     b = simulate_c(mech).column("rod_mid")
     assert np.abs(a - b).max() < 1e-6 * np.abs(a).max()
+
+
+def test_latex_shows_the_exact_bar(tmp_path):
+    """``symgen latex`` prints the formulation used: the exact bar's bending energy, its named inner
+    products in the bar's equations (17) and their closed-form values (E_1111 = pi^6/8 for
+    sin(pi xi)); a von Karman document has none of them."""
+    from symgen.cli import main
+
+    scene = str(DATA / "slider_crank_paper_si.toml")
+    texts = {}
+    for st in ("exact", "von_karman"):
+        out = tmp_path / f"{st}.tex"
+        assert main(["latex", scene, "--set", f"effects.strain={st}", "-o", str(out)]) == 0
+        texts[st] = out.read_text()
+    exact, vk = texts["exact"], texts["von_karman"]
+    assert r"\paragraph{Exact bar.}" in exact and r"\eta'^2\eta''^2" in exact
+    assert r"\mathcal{E}_{1,1,1,1}" in exact and r"\mathcal{G}_{1,1,1}" in exact
+    assert r"\mathcal{E}_{1,1,1,1} & \frac{\pi^{6}}{8}" in exact
+    assert "exact curvature to fourth order" in exact
+    assert r"\mathcal{E}" not in vk and "Exact bar" not in vk

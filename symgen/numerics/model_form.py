@@ -14,7 +14,8 @@ stiffness at that instant, bending plus the geometric stiffness of its axial for
                                    the axial basis carries), or the multipliers N_k (quasi-static,
                                    inextensible)
 
-so that dg = -K^-1 dQ: the static change of the deflection. Compression lowers K towards zero at
+so that dg = -K^-1 dQ: the static change of the deflection (the axial amplitudes follow it,
+df = -Ka^-1 dc, so that the strain the axial basis carries stays). Compression lowers K towards zero at
 the bar's Euler load, which amplifies dg by 1 / (1 - P/P_cr) with no separate factor; the
 amplification is capped at ``AMPLIFICATION_CAP`` (a bar at or beyond buckling in the run). Each
 output's change is the model's output function at q + dq minus at q, its maximum over the run
@@ -150,6 +151,9 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         for b in bars:
             dg, tan, amp = b.change(q, lam)
             dq[b.g_idx] = dg
+            if b.na:  # the axial amplitudes follow: the strain P eps (= N / lambda) stays, to first order
+                g = q[b.g_idx]
+                dq[b.f_idx] = -b.Ka_inv @ np.einsum("kab,a,b->k", b.C3, g, dg)
             tangent[b.name].append(tan)
             amplification[b.name] = max(amplification[b.name], amp)
         t = float(result.tau[i])
