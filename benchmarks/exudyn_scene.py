@@ -665,6 +665,8 @@ def run(
     ss.timeIntegration.generalizedAlpha.spectralRadius = rho_inf
     for k, val in NEWTON.items():
         setattr(ss.timeIntegration.newton, k, val)
+    if mbs.systemData.NumberOfNodes() > 100:  # long chains: Exudyn's dense solver grows as n^3
+        ss.linearSolver.solverType = exu.LinearSolverType.EigenSparse
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         ss.solutionSettings.writeSolutionToFile = False
