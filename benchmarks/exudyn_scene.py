@@ -13,8 +13,10 @@ lumped masses, torques and the Kelvin-Voigt time constant are the scene's number
   (the element count is raised to a multiple of the denominators of those xi, else the point is
   a body marker inside an element);
 * rigid bar: ``ObjectRigidBody2D`` (m = nu alpha, centroidal inertia m alpha^2 / 12);
-* pin: ``RevoluteJoint2D`` between the two points; slider: ``ObjectJointPrismatic2D`` of the
-  bar point along the ground line;
+* pin: ``RevoluteJoint2D`` between the two points; slider: a block of negligible mass pinned to
+  the bar point, held on the ground line without turning by an ``ObjectJointPrismatic2D`` (its
+  markers must be rigid; a cable's cross-section would turn the line with it); the joint's
+  mass is attached to the bar like any other;
 * angle driver: the driven bar's rotation coordinate prescribed by a ``CoordinateConstraint``
   whose offset is the scene's law, evaluated by symgen's own driver rows
   (``Mechanism.driver_motion``: constant speed, ``law``, ``ramp``); its multiplier is the
@@ -133,9 +135,11 @@ def _perp(v: np.ndarray) -> np.ndarray:
 def rigid_start(scene, q: np.ndarray, v: np.ndarray, coords) -> dict[str, tuple]:
     """bar -> (origin, origin velocity, theta, theta') of the start: the angles and rates from
     symgen's state, the origins (xi = 0) placed from the ground pins along the pins."""
+    from symgen.ir.records import CoordKind
+
     ang = {}
     for i, c in enumerate(coords):
-        if c.kind.name == "THETA":
+        if c.kind is CoordKind.THETA:
             ang[c.body] = (float(q[i]), float(v[i]))
     bars = {b.name: b for b in scene.bodies}
     placed: dict[str, tuple] = {}
@@ -487,6 +491,13 @@ def build(scene, mech, elements: int) -> tuple[_Model, dict]:
             if b.name in drivers:
                 if b.frame != "cantilever":
                     raise Unsupported(f"driven elastic bar {b.name!r} needs a cantilever frame (clamped to the shaft)")
+                if not any(
+                    e.body == b.name and abs(e.xi) < 1e-12 and o.body == "ground"
+                    for j in scene.joints
+                    if j.kind == "pin"
+                    for e, o in (j.ends, j.ends[::-1])
+                ):
+                    raise Unsupported(f"driven elastic bar {b.name!r}: its ground pin must be at its root (xi = 0)")
                 M.hub(b, start, drivers[b.name])
     for j in scene.joints:
         M.joint(j, start)
