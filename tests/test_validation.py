@@ -155,3 +155,21 @@ def test_converter_agrees_with_the_hand_written_model() -> None:
     te, oe, _ = E.slider_crank(8, 2000, 0.25)
     peak = np.abs(oe["rod_mid"]).max()
     assert np.abs(np.interp(t, te, oe["rod_mid"]) - out["rod_mid"]).max() < 1e-5 * peak
+
+
+def test_the_reference_is_the_converters_finest_run() -> None:
+    """The committed reference of the cheapest scene is what ``exudyn_scene`` gives at the
+    finest resolution its ladder records (ref/slewing_arm.json): the files are reproducible."""
+    pytest.importorskip("exudyn")
+    import exudyn_scene as X
+
+    from symgen.scene import load_scene
+
+    name = "slewing_arm"
+    final = json.loads((V.REF / f"{name}.json").read_text())["final"]
+    scene = load_scene(V.scene_path(name))
+    r = X.run(scene, max(final["elements"].values()), final["step_tau"])
+    t, out = X.to_result_units(scene, r.tau, r.outputs)
+    t_ref, ref = V.read_reference(name)
+    for k, v in ref.items():
+        assert np.abs(np.interp(t_ref, t, out[k]) - v).max() < 1e-6 * np.abs(v).max(), k
