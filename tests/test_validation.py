@@ -1,0 +1,175 @@
+"""Issue 19, item 4: the validation suite, symgen against converged Exudyn ANCF references.
+
+Scenes ``benchmarks/validation/*.toml``; references ``benchmarks/validation/ref/<scene>.csv.gz``:
+the Exudyn model of the same TOML (``benchmarks/exudyn_scene.py``: ANCF cables, read through
+symgen's loader), converged in mesh and step to ``bench_validation.TOL`` of each output's peak
+(``ref/<scene>.json``: the ladder; ``benchmarks/validation/README.md``: the table). Only the
+converter test needs Exudyn.
+
+The error of an output is max over the run |symgen - ref| / peak |ref|, symgen with the mode
+counts the scene states (3 axial + 4 transverse per elastic bar).
+
+* ``test_not_worse_than_measured``: every output within its error measured today
+  (``MEASURED``, with 30 % headroom, plus the references' own convergence tolerance
+  ``bench_validation.TOL``, below which differences mean nothing): a regression guard, not the goal.
+* ``test_within_one_percent``: the issue's acceptance, <= 1 % of peak for every output (with no
+  mode counts once the accuracy-driven bases exist; converged symgen within 0.1 %). Where
+  symgen exceeds it today the case is ``xfail(strict=True)`` with the measured number, so it
+  flips when fixed.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+import bench_validation as V  # noqa: E402
+
+#: max |symgen - ref| / peak |ref| measured with the counts as written (von Karman strain),
+#: by ``python benchmarks/bench_validation.py compare`` (README.md)
+MEASURED: dict[str, dict[str, float]] = {
+    "crank_rocker_steel": {"crank_tip": 0.00247, "coupler_mid": 0.00569, "rocker_mid": 0.00504, "torque": 0.00244},
+    "double_pendulum_alu": {
+        "upper_angle": 8.02e-07,
+        "lower_angle": 2.22e-06,
+        "upper_tip": 0.000128,
+        "lower_tip": 0.000414,
+    },
+    "five_bar_elastic": {
+        "link_a_mid": 0.00876,
+        "link_b_mid": 0.00623,
+        "P_x": 6.89e-06,
+        "torque_a": 0.00211,
+        "torque_b": 0.00415,
+    },
+    "six_bar_soft": {
+        "coupler_mid": 0.00144,
+        "rocker_mid": 0.00524,
+        "rocker_q3": 0.00524,
+        "link_mid": 0.0139,
+        "xD": 2.44e-05,
+        "torque": 0.0109,
+    },
+    "slewing_arm": {"tip": 0.032, "mid": 0.0313, "torque": 0.0293},
+    "slider_crank_paper": {"eta_mid": 0.00266},
+    "slider_crank_steel_rest": {"rod_mid": 0.000388},
+    "slider_crank_torque_soft": {"rod_mid": 0.171, "theta": 0.00121, "xB": 0.00507},
+}
+#: why a scene's outputs exceed the acceptance today (README.md: "What it says")
+CAUSE = {
+    "slewing_arm": "unchanged with 5 + 8 functions (3.2 %): model form, the von Karman curvature at 14 % tip deflection",
+    "six_bar_soft": "link 1.4 % at 6 + 10 functions too, torque 0.61 %: not truncation alone",
+    "slider_crank_torque_soft": "17 % at 5 + 8 functions too, growing with the speed over the 4 turns: model form",
+}
+#: scenes whose symgen run takes more than ~15 s: under ``slow`` only
+SLOW: set[str] = set()
+#: the acceptance: every output within this fraction of its peak
+ACCEPT = 0.01
+HEADROOM = 1.3
+
+
+def _cases(kind: str) -> list:
+    cases = []
+    for scene, outs in sorted(MEASURED.items()):
+        marks = [pytest.mark.slow] if scene in SLOW else []
+        for out, err in outs.items():
+            m = list(marks)
+            if kind == "accept" and err > ACCEPT:
+                m.append(
+                    pytest.mark.xfail(
+                        strict=True,
+                        reason=f"measured {100 * err:.2g} % of peak with 3 + 4 functions and von Karman strain; "
+                        f"{CAUSE[scene]} (issue 19)",
+                    )
+                )
+            cases.append(pytest.param(scene, out, err, marks=m, id=f"{scene}-{out}"))
+    return cases
+
+
+_ERRORS: dict[str, dict[str, float]] = {}
+
+
+def _errors(scene: str) -> dict[str, float]:
+    if scene not in _ERRORS:
+        _ERRORS[scene] = V.errors(scene)
+    return _ERRORS[scene]
+
+
+@pytest.mark.parametrize("scene, output, measured", _cases("guard"))
+def test_not_worse_than_measured(scene: str, output: str, measured: float) -> None:
+    err = _errors(scene)[output]
+    assert err <= HEADROOM * measured + 1e-6, (
+        f"{scene}.{output}: {100 * err:.3g} % of peak, measured {100 * measured:.3g} %"
+    )
+
+
+@pytest.mark.parametrize("scene, output, measured", _cases("accept"))
+def test_within_one_percent(scene: str, output: str, measured: float) -> None:
+    err = _errors(scene)[output]
+    assert err <= ACCEPT, f"{scene}.{output}: {100 * err:.3g} % of peak (acceptance: 1 %)"
+
+
+def test_every_scene_has_a_converged_reference() -> None:
+    """Each validation scene has its reference, converged in mesh and step (the error left in
+    the finest run of each ladder, estimated from its last refinements by
+    ``bench_validation.estimate``, < TOL of every output's peak), decimated to <= MAX_ROWS
+    rows, and its outputs are the scene's (all of them: the converter leaves none out)."""
+    from symgen.scene import load_scene
+
+    assert len(V.scenes()) >= 8
+    for name in V.scenes():
+        table = json.loads((V.REF / f"{name}.json").read_text())
+        assert table["converged_mesh"] and table["converged_step"], name
+        for what in ("mesh", "step"):
+            seen = [max(r["change"].values()) for r in table["rows"] if r.get("refined") == what and r.get("change")]
+            assert V.estimate(seen) < V.TOL, (name, what, seen)
+        t, ref = V.read_reference(name)
+        assert len(t) <= V.MAX_ROWS and np.all(np.diff(t) > 0), name
+        scene = load_scene(V.scene_path(name))
+        assert list(ref) == [o.name for o in scene.outputs], name
+        assert set(MEASURED[name]) == set(ref), name
+
+
+def test_converter_agrees_with_the_hand_written_model() -> None:
+    """The general converter (``exudyn_scene``) and the hand-written Exudyn slider-crank of
+    ``exudyn_models`` (same element count and step) give the same rod deflection. (The
+    converter's driver torque, its sign and size, is checked against symgen by the suite
+    itself: five_bar_elastic's two torques within 0.2 and 0.4 % of peak.)"""
+    pytest.importorskip("exudyn")
+    import exudyn_models as E
+    import exudyn_scene as X
+
+    from symgen.scene import load_scene
+
+    path = ROOT / "benchmarks" / "scenes" / "slider_crank_steel.toml"
+    scene = load_scene(path, ["simulation.cycles=0.25"])
+    r = X.run(scene, 8, 2 * np.pi / 2000)
+    t, out = X.to_result_units(scene, r.tau, r.outputs)
+    te, oe, _ = E.slider_crank(8, 2000, 0.25)
+    peak = np.abs(oe["rod_mid"]).max()
+    assert np.abs(np.interp(t, te, oe["rod_mid"]) - out["rod_mid"]).max() < 1e-5 * peak
+
+
+def test_the_reference_is_the_converters_finest_run() -> None:
+    """The committed reference of the cheapest scene is what ``exudyn_scene`` gives at the
+    finest resolution its ladder records (ref/slewing_arm.json): the files are reproducible."""
+    pytest.importorskip("exudyn")
+    import exudyn_scene as X
+
+    from symgen.scene import load_scene
+
+    name = "slewing_arm"
+    final = json.loads((V.REF / f"{name}.json").read_text())["final"]
+    scene = load_scene(V.scene_path(name))
+    r = X.run(scene, max(final["elements"].values()), final["step_tau"])
+    t, out = X.to_result_units(scene, r.tau, r.outputs)
+    t_ref, ref = V.read_reference(name)
+    for k, v in ref.items():
+        assert np.abs(np.interp(t_ref, t, out[k]) - v).max() < 1e-6 * np.abs(v).max(), k
