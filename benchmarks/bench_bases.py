@@ -92,7 +92,8 @@ def case(label: str) -> str:
         "",
         "chosen: " + "; ".join(f"{c.bar} {c.axial} + {c.transverse} (estimate {c.estimate:.2g})" for c in scene.bases),
         "",
-        "| model | " + " | ".join(ref.output_names[i] for i in range(len(ref.output_names)) if ref.output_names[i] != "closure")
+        "| model | "
+        + " | ".join(ref.output_names[i] for i in range(len(ref.output_names)) if ref.output_names[i] != "closure")
         + " | IDAS steps | integration s |",
         "|---|" + "---|" * (len([n for n in ref.output_names if n != "closure"]) + 2),
     ]

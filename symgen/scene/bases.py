@@ -146,7 +146,11 @@ def run_frequency(scene: Scene) -> tuple[float, str]:
     rates: list[tuple[float, str]] = []
     for d in scene.drivers:
         if d.kind == "angle":
-            rates.append((1.0, f"the law of the driver of {d.body} (rate 1)") if d.law else (abs(d.rate), f"driver rate {abs(d.rate):.4g}"))
+            rates.append(
+                (1.0, f"the law of the driver of {d.body} (rate 1)")
+                if d.law
+                else (abs(d.rate), f"driver rate {abs(d.rate):.4g}")
+            )
         else:
             rates.append((max(abs(d.rate), 1.0), f"torque driver of {d.body} (rate {max(abs(d.rate), 1.0):.4g})"))
     if any(isinstance(ld.axial, str) or isinstance(ld.transverse, str) for ld in scene.loads):
@@ -176,10 +180,29 @@ def _beam_fe(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     K, M = np.zeros((n, n)), np.zeros((n, n))
     for e in range(len(x) - 1):
         h = x[e + 1] - x[e]
-        k = np.array([[12, 6 * h, -12, 6 * h], [6 * h, 4 * h * h, -6 * h, 2 * h * h],
-                      [-12, -6 * h, 12, -6 * h], [6 * h, 2 * h * h, -6 * h, 4 * h * h]]) / h**3
-        m = np.array([[156, 22 * h, 54, -13 * h], [22 * h, 4 * h * h, 13 * h, -3 * h * h],
-                      [54, 13 * h, 156, -22 * h], [-13 * h, -3 * h * h, -22 * h, 4 * h * h]]) * h / 420
+        k = (
+            np.array(
+                [
+                    [12, 6 * h, -12, 6 * h],
+                    [6 * h, 4 * h * h, -6 * h, 2 * h * h],
+                    [-12, -6 * h, 12, -6 * h],
+                    [6 * h, 2 * h * h, -6 * h, 4 * h * h],
+                ]
+            )
+            / h**3
+        )
+        m = (
+            np.array(
+                [
+                    [156, 22 * h, 54, -13 * h],
+                    [22 * h, 4 * h * h, 13 * h, -3 * h * h],
+                    [54, 13 * h, 156, -22 * h],
+                    [-13 * h, -3 * h * h, -22 * h, 4 * h * h],
+                ]
+            )
+            * h
+            / 420
+        )
         i = slice(2 * e, 2 * e + 4)
         K[i, i] += k
         M[i, i] += m
@@ -280,7 +303,10 @@ def _transverse_functions(bar: _Bar, frame: str, n: int) -> tuple[np.ndarray, np
             full[f] = v[:, k]
             cols.append(full)
     else:
-        cols += [np.ravel(np.column_stack([np.sin(k * np.pi * x), k * np.pi * np.cos(k * np.pi * x)])) for k in range(1, n + 1)]
+        cols += [
+            np.ravel(np.column_stack([np.sin(k * np.pi * x), k * np.pi * np.cos(k * np.pi * x)]))
+            for k in range(1, n + 1)
+        ]
     corrections = []
     if bar.corrected:
         for xi in bar.interior:
@@ -378,28 +404,32 @@ def _axial_functions(shapes: str, n: int, x: np.ndarray) -> tuple[np.ndarray, np
     return np.array(vals[:n]).T, np.array(ders[:n]).T
 
 
-def axial_estimates(scene: Scene, body, omega_run: float, stretch: bool):
+def axial_estimates(scene: Scene, body, omega_run: float, points: tuple[float, ...]):
     """(omegas, dynamic count, estimate(n) for n = 1..MAX_CHOSEN) of a bar's axial functions:
-    the first in-band axial mode missed, and, when an output reads the bar's stretch
-    (``stretch``), the static truncation of the axial response to uniform and linear loads
-    (u(0) = 0, far end free): other outputs see the stretch of a bar, a fraction 1/lambda of its
-    length, only through the positions it shifts, far below their peaks."""
+    the first in-band axial mode missed, and the static truncation of the axial response to
+    uniform and linear loads (u(0) = 0, far end free) at the ``points`` where outputs read the
+    bar's stretch, relative to its largest value there (other outputs see the stretch, a fraction
+    1/lambda of the bar's length, only through the positions it shifts, far below their peaks)."""
     omegas = np.array([(np.pi / 2) * (2 * k - 1) * math.sqrt(body.lam) for k in range(1, MAX_CHOSEN + 2)])
     amp = [amplification_error(omega_run, w) for w in omegas]
     dynamic = int(sum(a > scene.simulation.accuracy for a in amp))
     x, w = _gauss(64)
-    exact = {"uniform": (x - x**2 / 2), "linear": (x / 2 - x**3 / 6)}
+    at = np.array(points, dtype=float)
+    exact = {"uniform": lambda s: s - s**2 / 2, "linear": lambda s: s / 2 - s**3 / 6}
     loads = {"uniform": np.ones_like(x), "linear": x}
     estimates = []
     for n in range(1, MAX_CHOSEN + 1):
         P, D = _axial_functions(body.axial_shapes or "complete", n, x)
         K = (D * w[:, None]).T @ D
         worst = 0.0
-        for key, q in loads.items():
-            u = P @ np.linalg.solve(K, P.T @ (w * q))
-            worst = max(worst, float(np.max(abs(u - exact[key])) / np.max(abs(exact[key]))))
+        if len(at):
+            Pa, _ = _axial_functions(body.axial_shapes or "complete", n, at)
+            for key, q in loads.items():
+                u = Pa @ np.linalg.solve(K, P.T @ (w * q))
+                ref = exact[key](at)
+                worst = max(worst, float(np.max(abs(u - ref)) / np.max(abs(ref))))
         missing = amp[n] if n < len(amp) else 0.0
-        estimates.append(max(missing, AXIAL_STATIC_WEIGHT * worst if stretch else 0.0))
+        estimates.append(max(missing, AXIAL_STATIC_WEIGHT * worst))
     return omegas, dynamic, estimates
 
 
@@ -437,7 +467,11 @@ def choose_bases(scene: Scene, given: dict[str, tuple[int | None, int | None]]) 
             wb, dyn_t, est_t, need_t = np.zeros(0), 0, [], 0
         # axial
         if body.lam and scene.effects.axial is not False and not guide and not (ga == 0):
-            stretch = any(o.body == body.name and o.kind in STRETCH_OUTPUTS for o in scene.outputs)
+            stretch = tuple(
+                1.0 if o.xi is None else o.xi
+                for o in scene.outputs
+                if o.body == body.name and o.kind in STRETCH_OUTPUTS
+            )
             wa, dyn_a, est_a = axial_estimates(scene, body, omega_run, stretch)
             least = AXIAL_MIN_VON_KARMAN if scene.effects.strain == "von_karman" and need_t else 1
             need_a = _first_meeting(est_a, acc, least)

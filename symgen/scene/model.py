@@ -192,7 +192,9 @@ class Scene:
     # SI scenes: the file's physical inputs of the groups, (scene key, value) in SI units:
     # scene.omega, scene.reference_length (if given) and each bar's length, E, area, inertia,
     # density or mass_per_length, as given (symgen.ir.physical: the emitted C's --set by them)
-    bases: tuple[BasisChoice, ...] = ()  # symgen.scene.bases.BasisChoice per elastic bar: its counts, chosen or stated, and why
+    bases: tuple[
+        BasisChoice, ...
+    ] = ()  # symgen.scene.bases.BasisChoice per elastic bar: its counts, chosen or stated, and why
 
     @property
     def driver(self) -> Driver | None:
