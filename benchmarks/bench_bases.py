@@ -35,6 +35,7 @@ CASES = {
             "effects.strain=von_karman",
             "bodies.rod.axial_shapes=complete",
             "initial.deformation=quasi-static",
+            "simulation.accuracy=0.01",
             "bodies.rod.axial_modes=",
             "bodies.rod.transverse_modes=",
         ],

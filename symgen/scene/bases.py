@@ -50,10 +50,9 @@ DRIVER_HARMONICS = 4.0
 DEFAULT_ACCURACY = 0.01
 #: at most this many functions per family are chosen (the derivation's cost grows steeply)
 MAX_CHOSEN = 12
-#: the weight of the static truncation (relative to the bar's own static deflection, it bounds the
-#: outputs' error: measured on the slider-crank 6.1, README "Accuracy", 1 + 1 functions are 1.03 %
-#: off where this estimates 3 %, 3 + 4 are 0.18 % where it estimates 0.3 %)
-STATIC_WEIGHT = 1.0
+#: the weight of the static truncation (relative to the bar's own static deflection and slope),
+#: measured: benchmarks/RESULTS.md "Accuracy-driven bases"
+STATIC_WEIGHT = 2.0
 #: output kinds that read a bar's stretch (as symgen.apps.effects.STRETCH_OUTPUTS)
 STRETCH_OUTPUTS = ("chord_elongation", "axial")
 #: the axial static truncation counts once: the axial displacement is read only by the outputs
@@ -368,6 +367,22 @@ def _ritz_error(bar: _Bar, B: np.ndarray, reference: np.ndarray, count: int) -> 
 
 
 # -- the choice -----------------------------------------------------------------------------------
+def coupled(scene: Scene, body) -> bool:
+    """The bar's bending moves other parts: it is joined to another elastic bar, or a lumped
+    mass (a joint's, a ``[[masses]]`` entry) sits on it. Its end slopes and rotations then set
+    their motion, so the truncation of its slope counts (measured: a steel crank-rocker's coupler
+    carrying a 0.15 kg tool at its rocker pin is 13 % off with 2 sines, 1.2 % without the tool)."""
+    if any(m.body == body.name for m in scene.masses):
+        return True
+    for j in scene.joints:
+        if any(e.body == body.name for e in j.ends):
+            if j.mass > 0 or j.inertia > 0:
+                return True
+            if any(e.body not in (GROUND, body.name) and not scene.body(e.body).rigid for e in j.ends):
+                return True
+    return False
+
+
 def transverse_estimates(
     scene: Scene, body, interior: tuple[float, ...], corrected: bool, omega_run: float, slope: bool = True
 ):
@@ -458,9 +473,7 @@ def choose_bases(scene: Scene, given: dict[str, tuple[int | None, int | None]]) 
         if body.mu and scene.effects.transverse and not (gt == 0):
             corrected = body.static_correction is not False and not guide
             pts = interior_points(scene, body.name)
-            slope = any(o.body == body.name and o.kind == "slope" for o in scene.outputs) or any(
-                m.body == body.name and (m.inertia > 0 or m.offset is not None) for m in scene.masses
-            )
+            slope = coupled(scene, body) or any(o.body == body.name and o.kind == "slope" for o in scene.outputs)
             wb, dyn_t, est_t = transverse_estimates(scene, body, pts, corrected, omega_run, slope)
             need_t = _first_meeting(est_t, acc, 1)
         else:
