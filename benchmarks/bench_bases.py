@@ -41,6 +41,11 @@ CASES = {
         ],
         [(3, 4), (5, 6), (6, 8)],
     ),
+    "slider_crank_steel": (
+        "benchmarks/scenes/slider_crank_steel.toml",
+        ["bodies.rod.axial_modes=", "bodies.rod.transverse_modes="],
+        [(3, 4), (5, 6), (6, 8)],
+    ),
     "crank_rocker_steel_900": ("benchmarks/scenes/crank_rocker_steel_900.toml", [], [(3, 4), (5, 6), (6, 8)]),
     "double_pendulum_aluminium": ("benchmarks/scenes/double_pendulum_aluminium.toml", [], [(3, 4), (5, 6), (6, 8)]),
 }
