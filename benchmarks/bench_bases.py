@@ -61,7 +61,7 @@ def counts(path: str, overrides: list[str], na: int, nt: int) -> list[str]:
     return out
 
 
-def run(path: str, overrides: list[str]):
+def simulate_file(path: str, overrides: list[str]):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         mech = mechanism(str(ROOT / path), overrides)
@@ -90,7 +90,7 @@ def case(label: str) -> str:
     runs = []
     for na, nt in ladder:
         ov = counts(path, base, na, nt)
-        _, res, s = run(path, ov)
+        _, res, s = simulate_file(path, ov)
         runs.append(((na, nt), res, s))
     ref = runs[-1][1]
     lines = [
@@ -137,6 +137,20 @@ def run_scene(scene):
     tic = time.perf_counter()
     res = sim.simulate(mech)
     return mech, res, time.perf_counter() - tic
+
+
+INTRO = (
+    "## Accuracy-driven bases (issue 19, item 1)\n\n"
+    "No mode counts in the scene: symgen chooses each bar's from `simulation.accuracy` (0.01 here; "
+    "`symgen/scene/bases.py`). Each table: max over the run |y - y_ref| / max |y_ref| per output, "
+    "against symgen converged in its own counts (the richest rung, the same counts on every "
+    "elastic bar; the rung before it says how converged it is), and the cost (IDAS steps, "
+    "integration s: single runs on a shared machine). `python benchmarks/bench_bases.py [case]`."
+)
+
+
+def run(repeats: int = 1) -> str:
+    return INTRO + "\n\n" + "\n\n".join(case(label) for label in CASES)
 
 
 if __name__ == "__main__":

@@ -365,3 +365,16 @@ def test_the_steel_crank_rocker_deflections_are_within_the_accuracy_of_6_plus_8(
     path = ROOT / "benchmarks" / "scenes" / "crank_rocker_steel_900.toml"
     scene, err, _ = _chosen_vs_rich(path, (6, 8), ["coupler_mid", "rocker_mid", "rocker_angle"])
     assert max(err.values()) <= scene.simulation.accuracy, err
+
+
+def test_an_undamped_undeformed_start_is_said_to_ring(tmp_path):
+    """The estimate covers each bar's spectrum, not the phase of the coupled modes a ringing
+    start excites: the record and its reason say so; a quasi-static start or damping does not ring."""
+    ringing = load_scene(bar_scene(tmp_path, mu=0.5, frame="pinned-pinned")).bases[0]
+    assert ringing.start_rings and "rings" in ringing.reason and ringing.as_dict()["start_rings"]
+    quiet = bar_scene(tmp_path, mu=0.5, frame="pinned-pinned", name="q.toml")
+    quiet.write_text(quiet.read_text().replace("[outputs]", '[initial]\ndeformation = "quasi-static"\n\n[outputs]'))
+    assert not load_scene(quiet).bases[0].start_rings
+    damped = bar_scene(tmp_path, mu=0.5, frame="pinned-pinned", name="d.toml")
+    damped.write_text(damped.read_text().replace("[outputs]", "[effects]\ndamping = 0.001\n\n[outputs]"))
+    assert not load_scene(damped).bases[0].start_rings

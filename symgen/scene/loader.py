@@ -57,7 +57,7 @@ from symgen.scene.mechanism import (
     reference_bar,
     si_inputs,
 )
-from symgen.scene.bases import DEFAULT_ACCURACY, choose_bases
+from symgen.scene.bases import DEFAULT_ACCURACY, choose_bases, with_start
 from symgen.scene.model import Body, Driver, Effects, Initial, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
@@ -453,7 +453,8 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     scene = with_bases(r, scene, {b.name: (b.axial_modes, b.transverse_modes) for b in bars if not b.rigid})
     by_name = {b.name: b for b in scene.bodies}
     initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
-    return replace(scene, initial=initial)
+    bases = with_start(scene.bases, initial.quasi_static, effects.damping)
+    return replace(scene, initial=initial, bases=bases)
 
 
 def with_bases(r: Reader, scene: Scene, given: dict[str, tuple[int | None, int | None]]) -> Scene:
