@@ -378,3 +378,17 @@ def test_an_undamped_undeformed_start_is_said_to_ring(tmp_path):
     damped = bar_scene(tmp_path, mu=0.5, frame="pinned-pinned", name="d.toml")
     damped.write_text(damped.read_text().replace("[outputs]", "[effects]\ndamping = 0.001\n\n[outputs]"))
     assert not load_scene(damped).bases[0].start_rings
+
+
+def test_the_sidecar_of_a_run_records_the_bases_and_the_accuracy(tmp_path):
+    path = tmp_path / "sc.toml"
+    path.write_text(SOFT_ROD.format(counts="transverse_modes = 1").replace("cycles = 1", "cycles = 0.25"))
+    out = tmp_path / "out.csv"
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        assert main(["simulate", str(path), "-o", str(out)]) == 0
+    side = json.loads(out.with_suffix(".json").read_text())
+    assert side["accuracy"] == 0.01
+    rod = side["bases"]["rod"]
+    assert rod["chosen"] == [True, False] and rod["transverse"] == 1 and rod["needed"][1] > 1
+    assert rod["warning"].startswith("bodies.rod: transverse_modes = 1") and "bodies.rod" in err.getvalue()
