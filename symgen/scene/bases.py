@@ -21,16 +21,21 @@ What it estimates, per bar (tau units, omega = 1):
 * a mode with frequency w_k is *dynamic* when treating it statically would err by more than the
   accuracy: the amplification r^2 / (1 - r^2) at r = omega_run / w_k exceeds it; the first mode is
   always dynamic (an undamped start rings it).
-* the estimate of n functions is the largest of: the amplification of the first dynamic mode the
-  n functions miss; ``STATIC_WEIGHT`` x the static truncation of the load content (the deflection
-  and slope under uniform and linear inertia loads, and under point forces where no static
-  correction function carries them), relative to the exact static deflection; and
+* the estimate of n functions is the largest of: the amplification of the first mode the n
+  functions miss; ``STATIC_WEIGHT`` x the static truncation of the load content (the deflection,
+  and the slope where an output reads it or the bar is coupled to other elastic bars or carries
+  lumped masses, under uniform and linear inertia loads, and under point forces where no static
+  correction function carries them), relative to the exact static response; and
   ``FREQUENCY_WEIGHT`` x the relative error of the Rayleigh-Ritz frequencies of the dynamic modes
   (a ringing mode at the wrong frequency drifts in phase over the run).
 * the chosen count is the smallest n whose estimate is at most the accuracy (at most
   ``MAX_CHOSEN``); axial the same with the axial frequencies (pi/2)(2k-1) sqrt(lambda) and the
-  static axial response, and at least ``AXIAL_MIN_VON_KARMAN`` functions under von Karman strain
+  static axial response where an output reads the stretch, and at least ``AXIAL_MIN_VON_KARMAN`` functions under von Karman strain
   (fewer lock: the basis must carry 1/2 eta'^2).
+
+Not covered: the phase of the mechanism's *coupled* modes that an undeformed, undamped start
+rings for the whole run (``BasisChoice.start_rings`` says when the start does; measured in
+benchmarks/RESULTS.md "Accuracy-driven bases").
 """
 
 from __future__ import annotations
