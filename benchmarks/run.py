@@ -44,6 +44,7 @@ SECTIONS = [
     "lean",
     "compile",
     "validation",
+    "bases",
 ]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 

@@ -68,6 +68,7 @@ from symgen.outputs import atomic_write
 from symgen.model.structure import axial_treatments, loop_stretch_share
 from symgen.numerics import interrupt
 from symgen.scene import load_scene
+from symgen.scene.summary import describe_basis
 from symgen.scene.loader import read_toml
 from symgen.scene.overrides import apply_overrides
 
@@ -182,6 +183,7 @@ class EffectsReport:
     auto: dict = field(default_factory=dict)  # chosen overrides, verified error, file
     stopped: str = ""  # "interrupted by SIGINT ..." of a partial report
     axial: dict = field(default_factory=dict)  # bar -> (treatment, reason) of effects.axial
+    bases: dict = field(default_factory=dict)  # bar -> its BasisChoice (counts, chosen or stated, and why)
 
 
 # --------------------------------------------------------------------------- estimates
@@ -306,6 +308,7 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
         tol=tol,
         rows=rows,
         axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()},
+        bases={c.bar: c for c in scene.bases},
     )
     recommend(report)
     return report
@@ -614,6 +617,7 @@ def table(report: EffectsReport) -> str:
     lines = [f"effects of {report.scene} (tol {report.tol:g})"]
     for name, (treatment, reason) in report.axial.items():
         lines.append(f"axial treatment of {name}: {treatment} ({reason})")
+    lines += [f"bases of {name}: {describe_basis(c)}" for name, c in report.bases.items()]
     if report.stopped:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:

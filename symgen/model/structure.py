@@ -26,6 +26,9 @@ from symgen.ir.spec import (
     OutputSpec,
     spec_key,
 )
+from symgen.scene.bases import DRIVER_HARMONICS as DRIVER_HARMONICS  # home: symgen.scene.bases (re-exported)
+from symgen.scene.bases import POINT_TOL as POINT_TOL
+from symgen.scene.bases import interior_points as interior_points
 from symgen.scene.model import GROUND, Scene
 
 DERIVE_VERSION = "5"  # 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
@@ -62,9 +65,6 @@ AXIAL_SEPARATION = 10.0
 #: the steel four-bar (shares 0.13-0.28 %) is 3-7 % off its full dynamics when quasi-static;
 #: the aluminium four-bar with 100x stiffer bars (shares <= 7.7e-5) 0.04 %.
 LOOP_SHARE_MAX = 1e-4
-#: harmonics of the driver rate in the inertia loads of a mechanism (a slider-crank's piston
-#: force has its 2nd and 4th harmonics): the run must resolve up to this multiple of the rate.
-DRIVER_HARMONICS = 4.0
 #: first natural frequency / sqrt(group) of the standard bases: axial, any frame (phi(0) = 0, the
 #: far end free along the bar: (pi/2) sqrt(lambda)); bending, by frame (pinned-pinned
 #: pi^2 sqrt(mu), clamped-free 1.8751^2 sqrt(mu)); tau units (omega = 1).
@@ -174,25 +174,6 @@ def _tip_joint(scene: Scene, name: str) -> bool:
     if any(m.body == name and abs(m.xi - 1.0) < 1e-12 for m in scene.masses):
         return True
     return any(e.body == name and e.xi is not None and abs(e.xi - 1.0) < 1e-12 for j in scene.joints for e in j.ends)
-
-
-#: points closer than this (in xi) share one static correction function; nearer the ends than this
-#: they are not interior
-POINT_TOL = 1e-9
-
-
-def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
-    """The interior points 0 < xi < 1 of bar ``name`` where a point force acts: joint ends (pins,
-    sliders, a slot's sliding point; a joint's lumped mass sits on it), point loads and the
-    ``[[masses]]``; sorted, merged within POINT_TOL."""
-    xs = [e.xi for j in scene.joints for e in j.ends if e.body == name and e.xi is not None and not e.variable]
-    xs += [ld.xi for ld in scene.loads if ld.body == name and ld.kind == "point" and ld.xi is not None]
-    xs += [m.xi for m in scene.masses if m.body == name]
-    out: list[float] = []
-    for x in sorted(float(x) for x in xs):
-        if POINT_TOL < x < 1 - POINT_TOL and not (out and x - out[-1] < POINT_TOL):
-            out.append(x)
-    return tuple(out)
 
 
 def moment_points(scene: Scene, name: str) -> tuple[float, ...]:

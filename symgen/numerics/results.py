@@ -213,6 +213,8 @@ def build_sidecar(
         "axial_treatment": {
             name: {"treatment": t.treatment, "reason": t.reason} for name, t in axial_treatments(scene).items()
         },
+        "accuracy": sim.accuracy,
+        "bases": {c.bar: c.as_dict() for c in scene.bases},
         "modes": {name: md.to_json() for name, md in info.modes.items()},
         "driver": driver_record(scene.drivers[0]) if len(scene.drivers) == 1 else None,
         "drivers": [driver_record(d) for d in scene.drivers],

@@ -20,7 +20,7 @@ import os
 import tomllib
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from symgen.errors import SceneError
 from symgen.scene.excitation import (
@@ -57,7 +57,8 @@ from symgen.scene.mechanism import (
     reference_bar,
     si_inputs,
 )
-from symgen.scene.model import Body, Driver, Effects, Scene, Simulation
+from symgen.scene.bases import DEFAULT_ACCURACY, choose_bases, with_start
+from symgen.scene.model import Body, Driver, Effects, Initial, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
 from symgen.scene.ranges import merge_inputs, check_body_groups, check_scaled_values, reference_inputs
@@ -81,7 +82,7 @@ TOP_KEYS = (
 )
 SCENE_KEYS = ("name", "reference_length", "omega", "units")
 UNITS = ("dimensionless", "SI")
-SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol", "duration", "output_interval")
+SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol", "duration", "output_interval", "accuracy")
 #: [simulation] keys in seconds, for SI scenes only (t_end and output_step stay in tau in both systems)
 SECONDS_KEYS = ("duration", "output_interval")
 DEFAULT_OUTPUT_STEP = 2.0 * math.pi / 360.0
@@ -342,7 +343,21 @@ def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: li
             "meet it",
             "use about rtol / 100, e.g. 1e-10",
         )
-    return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol)
+    accuracy = r.number(
+        table,
+        "simulation",
+        "accuracy",
+        DEFAULT_ACCURACY,
+        gt=0.0,
+        hint="the accuracy is a fraction of each output's peak, 0 < accuracy < 1 (e.g. 0.01 for 1 %)",
+    )
+    if accuracy >= 1.0:
+        r.fail(
+            "simulation.accuracy",
+            f"the accuracy is a fraction of each output's peak and must be < 1, got {accuracy:g}",
+            "use e.g. 0.01 for 1 % of peak (0.001 for 0.1 %)",
+        )
+    return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol, accuracy=accuracy)
 
 
 def check_sizes(r: Reader, raw: dict) -> None:
@@ -407,7 +422,6 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     check_connected(r, bodies, joints)
     drivers = read_drivers(r, raw, by_name, joints, scales)
     paths = driver_paths(raw)
-    initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
     effects = read_effects(r, raw, scales)
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
     masses = read_masses(r, raw, by_name, joints, scales)
@@ -416,7 +430,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     simulation = read_simulation(r, raw, drivers, paths, scales)
     check_driver_motion(r, drivers, paths, simulation.t_end, scales)
     check_expressions(r, drivers, paths, loads, simulation.t_end, scales, raw)
-    return Scene(
+    scene = Scene(
         name=header.name,
         path=file,
         hash=digest or scene_hash(raw),
@@ -427,7 +441,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         bodies=bodies,
         joints=joints,
         drivers=drivers,
-        initial=initial,
+        initial=Initial(),  # read below, once every bar's counts are known
         effects=effects,
         loads=loads,
         outputs=outputs,
@@ -436,6 +450,29 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         masses=masses,
         si_inputs=si_inputs(raw, bars, header.omega, header.reference_length) if si else (),
     )
+    scene = with_bases(r, scene, {b.name: (b.axial_modes, b.transverse_modes) for b in bars if not b.rigid})
+    by_name = {b.name: b for b in scene.bodies}
+    initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
+    bases = with_start(scene.bases, initial.quasi_static, effects.damping)
+    return replace(scene, initial=initial, bases=bases)
+
+
+def with_bases(r: Reader, scene: Scene, given: dict[str, tuple[int | None, int | None]]) -> Scene:
+    """The scene with every elastic bar's counts: as written, or chosen from
+    ``simulation.accuracy`` where absent (:func:`symgen.scene.bases.choose_bases`), and the
+    choice recorded on ``Scene.bases``. Stated counts whose a-priori estimate exceeds the
+    accuracy warn (SceneWarning: stderr; the sidecar's ``bases`` carries it too)."""
+    choices = choose_bases(scene, given)
+    bodies = tuple(
+        replace(b, axial_modes=choices[b.name].axial, transverse_modes=choices[b.name].transverse)
+        if b.name in choices
+        else b
+        for b in scene.bodies
+    )
+    for c in choices.values():
+        if c.warning:
+            warnings.warn(SceneWarning(f"{r.file}: {c.warning}"), stacklevel=3)
+    return replace(scene, bodies=bodies, bases=tuple(choices.values()))
 
 
 def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:

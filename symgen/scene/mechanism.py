@@ -49,8 +49,8 @@ class BarSpec:
     lam: float | None
     mu: float | None
     frame: str
-    axial_modes: int
-    transverse_modes: int
+    axial_modes: int | None  # None: absent, chosen from simulation.accuracy (symgen.scene.bases)
+    transverse_modes: int | None
     axial_shapes: str
     transverse_shapes: str
     static_correction: bool | None = None
@@ -135,14 +135,21 @@ def _si_mass(r: Reader, table: dict, path: str) -> float:
 
 
 def _elastic_groups_dimless(
-    r: Reader, table: dict, path: str, axial: int, transverse: int
+    r: Reader, table: dict, path: str, axial: int | None, transverse: int | None
 ) -> tuple[float | None, float | None]:
-    """lambda (required when axial_modes > 0) and mu (required when transverse_modes > 0)."""
+    """lambda (required when axial_modes > 0) and mu (required when transverse_modes > 0); with
+    a count absent, its group is optional (without it that count is 0), but one of them is needed."""
+    if axial is None and transverse is None and "lambda" not in table and "mu" not in table:
+        r.fail(
+            path,
+            "an elastic bar without mode counts needs lambda or mu (or both)",
+            "give lambda = EA/(m l^2 omega^2) and mu = EI/(m l^4 omega^2), or set rigid = true",
+        )
     lam = r.number(
         table,
         path,
         "lambda",
-        REQUIRED if axial > 0 else None,
+        REQUIRED if axial else None,
         gt=0.0,
         hint="lambda = EA/(m l^2 omega^2) of this bar, > 0; required when axial_modes > 0",
     )
@@ -150,7 +157,7 @@ def _elastic_groups_dimless(
         table,
         path,
         "mu",
-        REQUIRED if transverse > 0 else None,
+        REQUIRED if transverse else None,
         gt=0.0,
         hint="mu = EI/(m l^4 omega^2) of this bar, > 0; required when transverse_modes > 0",
     )
@@ -158,10 +165,24 @@ def _elastic_groups_dimless(
 
 
 def _elastic_groups_si(
-    r: Reader, table: dict, path: str, axial: int, transverse: int, length: float, mass: float, omega: float
+    r: Reader,
+    table: dict,
+    path: str,
+    axial: int | None,
+    transverse: int | None,
+    length: float,
+    mass: float,
+    omega: float,
 ) -> tuple[float | None, float | None]:
-    """lambda = EA/(m l^2 w^2) and mu = EI/(m l^4 w^2) from SI data."""
-    need_e = axial > 0 or transverse > 0
+    """lambda = EA/(m l^2 w^2) and mu = EI/(m l^4 w^2) from SI data (an absent count: its
+    section property is optional, without it that count is 0; one of them is needed)."""
+    need_e = axial is None or transverse is None or axial > 0 or transverse > 0
+    if axial is None and transverse is None and "area" not in table and "inertia" not in table:
+        r.fail(
+            path,
+            "an elastic bar without mode counts needs its area or inertia (or both)",
+            "give E with area (axial) and inertia (bending) in SI units, or set rigid = true",
+        )
     modulus = r.number(
         table, path, "E", REQUIRED if need_e else None, gt=0.0, hint="an elastic bar needs Young's modulus E in Pa"
     )
@@ -169,7 +190,7 @@ def _elastic_groups_si(
         table,
         path,
         "area",
-        REQUIRED if axial > 0 else None,
+        REQUIRED if axial else None,
         gt=0.0,
         hint="axial_modes > 0 needs the cross-section area in m^2",
     )
@@ -177,7 +198,7 @@ def _elastic_groups_si(
         table,
         path,
         "inertia",
-        REQUIRED if transverse > 0 else None,
+        REQUIRED if transverse else None,
         gt=0.0,
         hint="transverse_modes > 0 needs the second moment of area in m^4",
     )
@@ -211,12 +232,24 @@ def read_bar(r: Reader, name: str, path: str, table: dict, si: bool, omega: floa
     if rigid:
         return BarSpec(name, length, mass, True, None, None, "", 0, 0, "", "")
     frame = r.choice(table, path, "frame", FRAMES)
-    axial = r.integer(table, path, "axial_modes", ge=0, hint="the number of axial shape functions, 0 = axially rigid")
+    axial = r.integer(
+        table,
+        path,
+        "axial_modes",
+        None,
+        ge=0,
+        hint="the number of axial shape functions, 0 = axially rigid; leave it out to let simulation.accuracy choose",
+    )
     transverse = r.integer(
-        table, path, "transverse_modes", ge=0, hint="the number of transverse shape functions, 0 = no bending"
+        table,
+        path,
+        "transverse_modes",
+        None,
+        ge=0,
+        hint="the number of transverse shape functions, 0 = no bending; leave it out to let simulation.accuracy choose",
     )
     for key, count in (("axial_modes", axial), ("transverse_modes", transverse)):
-        if over_limit("modes", count):
+        if count is not None and over_limit("modes", count):
             r.fail(
                 join(path, key),
                 f"{count} shape functions is more than the limit of "
@@ -280,8 +313,8 @@ def make_body(bar: BarSpec, scales: Scales) -> Body:
         mu=bar.mu,
         rho=rho,
         frame=bar.frame,
-        axial_modes=bar.axial_modes,
-        transverse_modes=bar.transverse_modes,
+        axial_modes=bar.axial_modes or 0,  # an absent count: chosen once the scene is read (loader)
+        transverse_modes=bar.transverse_modes or 0,
         axial_shapes=bar.axial_shapes,
         transverse_shapes=bar.transverse_shapes,
         static_correction=bar.static_correction,

@@ -20,6 +20,10 @@ loader with :func:`symgen.scene.expressions.parse_tau_expression`, which every l
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from symgen.scene.bases import BasisChoice
 
 GROUND = "ground"
 
@@ -36,7 +40,8 @@ class Body:
     mu: float | None  # mu_i = EI/(m_i l_i^4 w^2)
     rho: float | None  # rotary-inertia group (r_g / l_i)^2 = mu/lam
     frame: str  # "pinned-pinned" ("pinned-sliding" normalised to it) | "cantilever" | "" (rigid)
-    axial_modes: int  # as written in the file (effects are applied by the derivation)
+    axial_modes: int  # as written in the file, or chosen from simulation.accuracy when absent (Scene.bases
+    # says which); effects are applied by the derivation
     transverse_modes: int
     axial_shapes: str  # "complete" | "stress-free"
     transverse_shapes: str  # "modes" | "eigen" | "polynomial"
@@ -160,6 +165,7 @@ class Simulation:
     output_step: float
     rtol: float = 1e-8
     atol: float = 1e-10
+    accuracy: float = 0.01  # fraction of each output's peak: chooses absent mode counts (symgen.scene.bases)
 
 
 @dataclass(frozen=True)
@@ -186,6 +192,9 @@ class Scene:
     # SI scenes: the file's physical inputs of the groups, (scene key, value) in SI units:
     # scene.omega, scene.reference_length (if given) and each bar's length, E, area, inertia,
     # density or mass_per_length, as given (symgen.ir.physical: the emitted C's --set by them)
+    bases: tuple[
+        BasisChoice, ...
+    ] = ()  # symgen.scene.bases.BasisChoice per elastic bar: its counts, chosen or stated, and why
 
     @property
     def driver(self) -> Driver | None:

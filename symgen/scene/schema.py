@@ -178,7 +178,7 @@ BODIES = Table(
             "number > 0",
             "Axial group EA/(m_i l_i^2 omega^2) of this bar (dimensionless scenes).",
             _num(exclusiveMinimum=0),
-            required="when axial_modes > 0 (dimensionless)",
+            required="when axial_modes > 0 (dimensionless); without counts, lambda or mu",
             example="18246.0",
         ),
         Key(
@@ -186,7 +186,7 @@ BODIES = Table(
             "number > 0",
             "Bending group EI/(m_i l_i^4 omega^2) of this bar (dimensionless scenes).",
             _num(exclusiveMinimum=0),
-            required="when transverse_modes > 0 (dimensionless)",
+            required="when transverse_modes > 0 (dimensionless); without counts, lambda or mu",
             example="0.495",
         ),
         Key(
@@ -203,7 +203,7 @@ BODIES = Table(
             "number > 0",
             "Cross-section area (SI scenes).",
             _num(exclusiveMinimum=0),
-            required="when axial_modes > 0 (SI), or with density",
+            required="when axial_modes > 0 (SI), or with density; without counts, area or inertia",
             unit="m^2",
             example="5e-5",
         ),
@@ -212,7 +212,7 @@ BODIES = Table(
             "number > 0",
             "Second moment of area for in-plane bending (SI scenes).",
             _num(exclusiveMinimum=0),
-            required="when transverse_modes > 0 (SI)",
+            required="when transverse_modes > 0 (SI); without counts, area or inertia",
             unit="m^4",
             example="4.1667e-10",
         ),
@@ -239,17 +239,25 @@ BODIES = Table(
         Key(
             "axial_modes",
             "integer >= 0",
-            "Number of axial shape functions (0: axially rigid). With von Karman strain use at least 3.",
+            "Number of axial shape functions (0: axially rigid). With von Karman strain use at least 3. "
+            "Absent: chosen from simulation.accuracy (the bar's axial frequencies against the run's fastest "
+            "content, and the static truncation of its axial loads; `symgen check`, `symgen effects` and the "
+            "sidecar's bases say what and why). Given: used as written, with a warning when the a-priori "
+            "estimate of the count exceeds simulation.accuracy.",
             {"type": "integer", "minimum": 0},
-            required="for an elastic bar",
+            default="chosen from simulation.accuracy (0 without lambda, or area in SI)",
             example="3",
         ),
         Key(
             "transverse_modes",
             "integer >= 0",
-            "Number of transverse shape functions (0: no bending).",
+            "Number of transverse shape functions (0: no bending). Absent: chosen from simulation.accuracy: "
+            "the bending modes below the band where a static treatment errs by more than the accuracy are "
+            "dynamic, the rest contribute their static shape; functions are added until the static "
+            "truncation of the inertia loads and the frequencies of the dynamic modes meet the accuracy. "
+            "Given: used as written, with a warning when the a-priori estimate exceeds the accuracy.",
             {"type": "integer", "minimum": 0},
-            required="for an elastic bar",
+            default="chosen from simulation.accuracy (0 without mu, or inertia in SI)",
             example="4",
         ),
         Key(
@@ -831,6 +839,16 @@ SIMULATION = Table(
             _num(exclusiveMinimum=0),
             default="1e-10",
             example="1e-10",
+        ),
+        Key(
+            "accuracy",
+            "number, 0 < accuracy < 1",
+            "The accuracy asked of every output, as a fraction of its peak over the run. It chooses the "
+            "shape-function counts that a bar does not state (bodies.<name>.axial_modes, transverse_modes) "
+            "and is the threshold of the warning on stated counts.",
+            _num(exclusiveMinimum=0, exclusiveMaximum=1),
+            default="0.01",
+            example="0.001",
         ),
     ),
     example="[simulation]\ncycles = 2\noutput_step = 0.017453292519943295\nrtol = 1e-8",

@@ -46,6 +46,21 @@ def _bar(body, corrections: dict | None = None) -> str:
     return head + f"{body.frame}, {families} shape functions{extra}; {groups}"
 
 
+def describe_basis(choice) -> str:
+    """One line of a bar's :class:`~symgen.scene.bases.BasisChoice`: its counts, whether chosen
+    or stated, the dynamic/static split, the a-priori estimate and why."""
+    how = " and ".join(
+        f"{n} {what} {'chosen' if g is None else 'as stated'}"
+        for n, what, g in zip((choice.axial, choice.transverse), ("axial", "transverse"), choice.given)
+    )
+    split = (
+        f"dynamic modes: {choice.dynamic[0]} axial, {choice.dynamic[1]} bending; "
+        f"a-priori estimate {choice.estimate:.2g} of peak (accuracy {choice.accuracy:g})"
+    )
+    warn = f"; WARNING: {choice.warning}" if choice.warning else ""
+    return f"{how}; {split}; {choice.reason}{warn}"
+
+
 def _joint(joint) -> str:
     ends = " - ".join(end.body for end in joint.ends)
     mass = f", mass {joint.mass:.6g}" if joint.mass else ""
@@ -66,6 +81,7 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     modes = sum(b.axial_modes + b.transverse_modes for b in scene.bodies)
     elastic = sum(not b.rigid for b in scene.bodies)
     lines.append(f"  {'modes':8} {modes} shape functions on {elastic} elastic bar(s)")
+    lines += [f"  {'bases' if i == 0 else '':8} {c.bar}: {describe_basis(c)}" for i, c in enumerate(scene.bases)]
     if not scene.drivers:
         lines.append(f"  {'driver':8} none")
     for i, drv in enumerate(scene.drivers):
@@ -110,5 +126,7 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
         )
     else:
         run = f"t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g}"
-    lines.append(f"  {'run':8} {run} ({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}")
+    lines.append(
+        f"  {'run':8} {run} ({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}, accuracy {sim.accuracy:g} of peak"
+    )
     return "\n".join(lines)
