@@ -515,7 +515,24 @@ def bar_equations(
         # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
         el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
     if damping is not None:
-        if lam is not None and not inext:
+        if lam is not None and not inext and c:
+            # Kelvin-Voigt on the strain the basis carries (von Karman, exact): the dissipation
+            # D = (damping lam / 2) ||P eps_dot||^2, eps_dot = zeta_dot' + eta' eta_dot', whose
+            # coefficients on phi'_k are e_dot = f_dot + Ka^-1 J g_dot, J_ka = d c_k / d g_a. Its
+            # forces: dD/df_dot = damping lam (Ka f_dot + J g_dot), dD/dg_dot = damping lam J^T e_dot.
+            # Damping zeta_dot' alone (the seed's linear strain, below) would damp the chord's
+            # shortening that bending makes, which is no strain: on a soft slider-crank at 6 % of
+            # its length deflection that over-damped the rod's vibration by about a third
+            # (benchmarks/validation, slider_crank_torque_soft, against Exudyn's ANCF cable, whose
+            # axial damping acts on the rate of |r'| - 1).
+            J = [[sp.diff(c[k], g[a]) for a in range(nt)] for k in range(na)]
+            jg = [sp.Add(*[J[k][a] * dg[a] for a in range(nt)]) for k in range(na)]
+            el_f = [
+                el_f[i] + damping * lam * (sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) + jg[i]) for i in range(na)
+            ]
+            e_dot = [df[k] + sp.Add(*[t.ka_inv(k, j) * jg[j] for j in range(na)]) for k in range(na)]
+            el_g = [el_g[a] + damping * lam * sp.Add(*[J[k][a] * e_dot[k] for k in range(na)]) for a in range(nt)]
+        elif lam is not None and not inext:
             el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
         if mu is not None:
             el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
