@@ -50,6 +50,7 @@ from symgen.errors import Interrupted, SceneError, SymgenError
 from symgen.outputs import atomic_path, atomic_write, remove
 from symgen.scene import load_scene
 from symgen.numerics import interrupt
+from symgen.numerics.signals import DEFAULT_CUTOFF, edge, lowpass
 
 #: mode levels (axial, transverse) per elastic bar, poorest to richest
 LEVELS = ((1, 1), (2, 2), (3, 3), (3, 4), (4, 6), (6, 8))
@@ -58,7 +59,6 @@ TOLERANCES = (1e-4, 1e-6, 1e-8)
 QUICK_TOLERANCES = (1e-4, 1e-6)
 REFERENCE_RTOL = 1e-9
 ATOL_RATIO = 1e-2  # atol = rtol * ATOL_RATIO (amplitudes are O(1e-2) or larger)
-DEFAULT_CUTOFF = 50.0  # cycles per crank turn (or per 2 pi of tau without an angle driver)
 TARGETS = (1e-2, 1e-3, 1e-4)
 
 #: effect sets compared with the base model: label -> overrides
@@ -131,28 +131,6 @@ class Study:
 
 
 # --------------------------------------------------------------------------- errors
-def lowpass(y: np.ndarray, dt: float, cutoff: float) -> np.ndarray:
-    """Zero-phase low-pass of a sampled signal: keep frequencies below ``cutoff`` (cycles per
-    unit of time), with a raised-cosine roll-off from 0.8 cutoff. The signal is mirrored first
-    (continuous when made periodic); within about 1/cutoff of either end the result carries
-    the filter's edge transient, which ``window_error`` leaves out."""
-    y = np.asarray(y, dtype=float)
-    n = len(y)
-    if n < 4:
-        return y.copy()
-    ext = np.concatenate([y, y[::-1]])
-    spec = np.fft.rfft(ext)
-    f = np.fft.rfftfreq(2 * n, dt)
-    gain = np.clip((cutoff - f) / (0.2 * cutoff), 0.0, 1.0)
-    gain = 0.5 - 0.5 * np.cos(np.pi * gain)
-    return np.fft.irfft(spec * gain, 2 * n)[:n]
-
-
-def edge(dt: float, cutoff: float) -> int:
-    """Samples at each end of a filtered signal left out of comparisons (one cutoff period)."""
-    return int(math.ceil(1.0 / (cutoff * dt)))
-
-
 def window_error(y: np.ndarray, ref: np.ndarray, dt: float, cutoff: float, n_window: int) -> float:
     """max |y - ref| over the first ``n_window`` samples, both low-passed, / max |ref| there
     (leaving out the filter's edge transient: one cutoff period at the start, and at the end

@@ -1,0 +1,165 @@
+"""Section ``estimate``: the truncation part of the error estimate (issue 19, item 2) against
+the truncation error it estimates.
+
+Each case runs a scene with small function counts, estimates its truncation error from that
+run alone (``symgen.numerics.error_estimate``), runs the same scene with converged counts (the
+oracle: a richer symgen model, a model of the same kind converged in its bases) and measures
+the difference of every output (closure residuals left out) the way ``symgen study`` does:
+both low-passed below 50 cycles per crank turn (the axial ringing and the ringing of bending
+modes far above what the output grid resolves go), max over the run / the converged peak.
+The ratio estimate / measured must lie within [0.5, 2] where the measured error is above
+``NOISE``. ``tests/test_error_estimate.py`` runs the cheap cases.
+
+    PYTHONPATH=. python benchmarks/bench_estimate.py [--quick]
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+#: measured errors below this are noise (the time-integration part at these tolerances, and
+#: far below any accuracy a user asks for)
+NOISE = 1e-4
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    scene: str
+    small: tuple[str, ...]  # overrides of the run whose error is estimated
+    converged: tuple[str, ...]  # overrides of the oracle
+    turns: float  # run length in crank turns (2 pi tau without an angle driver)
+    quick: bool = True  # in the default test suite
+
+
+VK = ("effects.strain=von_karman", "bodies.rod.axial_shapes=complete")
+
+
+def counts(bars: tuple[str, ...], na: int, nt: int) -> tuple[str, ...]:
+    return tuple(s for b in bars for s in (f"bodies.{b}.axial_modes={na}", f"bodies.{b}.transverse_modes={nt}"))
+
+
+CASES = (
+    Case(
+        "slider-crank 6.1, von Karman, 3+4 vs 9+10",
+        "examples/slider_crank.toml",
+        VK + counts(("rod",), 3, 4),
+        VK + counts(("rod",), 9, 10),
+        1.0,
+    ),
+    Case(
+        "slider-crank 6.1, seed model 1+1 vs 7+8",
+        "examples/slider_crank.toml",
+        counts(("rod",), 1, 1),
+        counts(("rod",), 7, 8),
+        1.0,
+    ),
+    Case(
+        "steel slider-crank, 3+2 vs 7+6",
+        "benchmarks/scenes/slider_crank_steel.toml",
+        counts(("rod",), 3, 2),
+        counts(("rod",), 7, 6),
+        1.0,
+    ),
+    Case(
+        "steel four-bar (cantilever crank), 3+2 vs 7+6",
+        "benchmarks/scenes/four_bar_steel.toml",
+        counts(("crank", "coupler", "rocker"), 3, 2),
+        counts(("crank", "coupler", "rocker"), 7, 6),
+        1.0,
+    ),
+    Case(
+        "four-bar with a tool, 2+3 vs 6+7",
+        "examples/four_bar_tool.toml",
+        counts(("coupler",), 2, 3),
+        counts(("coupler",), 6, 7),
+        1.0,
+    ),
+    Case(
+        "elastic double pendulum (free, cantilevers), 1+3 vs 3+7",
+        "examples/double_pendulum.toml",
+        counts(("upper", "lower"), 1, 3),
+        counts(("upper", "lower"), 3, 7),
+        1.0,
+    ),
+    Case(
+        "torque-driven arm with a link, 1+3 vs 3+7",
+        "examples/motor_arm.toml",
+        counts(("arm",), 1, 3),
+        counts(("arm",), 3, 7),
+        1.0,
+    ),
+)
+
+
+def measure(case: Case, method: str = "rerun") -> list[dict]:
+    """One row per output: the estimate, the measured error, their ratio, and the times."""
+    from symgen.apps.study import DEFAULT_CUTOFF, oversampling, window_error
+    from symgen.numerics import error_estimate
+    from symgen.numerics.mechanism import load_mechanism
+    from symgen.numerics.simulate import simulate
+
+    small = load_mechanism(case.scene, list(case.small))
+    ref = load_mechanism(case.scene, list(case.converged))
+    d = small.scene.turning_driver
+    turn = 2 * math.pi / abs(d.rate) if d is not None else 2 * math.pi
+    t_end = min(case.turns * turn, small.scene.simulation.t_end)
+    sim = small.scene.simulation
+    # oversampled as in symgen study: the axial modes' ringing must not alias below the cutoff
+    n_axial = max([b.axial_modes for b in ref.scene.bodies if not b.rigid] or [0])
+    step = sim.output_step / oversampling(ref.scene, n_axial, DEFAULT_CUTOFF / turn)
+    t0 = time.perf_counter()
+    run = simulate(small, t_end=t_end, output_step=step)
+    run_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    est = error_estimate.estimate_errors(small, run, sim.rtol, sim.atol, truncation=method)
+    est_s = time.perf_counter() - t0
+    conv = simulate(ref, t_end=t_end, output_step=step)
+    rows = []
+    for name in run.output_names:
+        e = est.parts["truncation"][name]
+        if e is None:
+            continue
+        y, r = run.column(name), conv.column(name)
+        k = min(len(y), len(r))
+        raw = float(np.abs(y[:k] - r[:k]).max() / np.abs(r[:k]).max())
+        true = window_error(y[:k], r[:k], step, DEFAULT_CUTOFF / turn, k)
+        rows.append(
+            {
+                "case": case.name,
+                "output": name,
+                "estimate": e,
+                "measured": true,
+                "raw": raw,
+                "ratio": e / true if true > 0 else math.inf,
+                "checked": true > NOISE,
+                "run_s": run_s,
+                "estimate_s": est_s,
+            }
+        )
+    return rows
+
+
+def main(quick: bool = False) -> None:
+    print("| case | output | estimate | measured | ratio | not low-passed | run s | estimate s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for case in CASES:
+        if quick and not case.quick:
+            continue
+        for row in measure(case):
+            ratio = f"{row['ratio']:.2f}" if row["checked"] else f"({row['ratio']:.2f}: below noise)"
+            print(
+                f"| {row['case']} | {row['output']} | {row['estimate']:.2e} | {row['measured']:.2e} | {ratio} "
+                f"| {row['raw']:.2e} "
+                f"| {row['run_s']:.2f} | {row['estimate_s']:.2f} |",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main("--quick" in sys.argv)
