@@ -86,6 +86,7 @@ CASES = (
         counts(("upper", "lower"), 1, 3),
         counts(("upper", "lower"), 3, 7),
         1.0,
+        quick=False,
     ),
     Case(
         "torque-driven arm with a link, 1+3 vs 3+7",
@@ -93,6 +94,7 @@ CASES = (
         counts(("arm",), 1, 3),
         counts(("arm",), 3, 7),
         1.0,
+        quick=False,
     ),
 )
 

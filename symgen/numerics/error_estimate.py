@@ -57,6 +57,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from symgen import __version__
+from symgen.errors import SymgenError
 from symgen.ir.records import CoordKind
 
 if TYPE_CHECKING:
@@ -165,6 +166,16 @@ class ErrorEstimate:
             raise InvalidEstimate("'richer' is not an object of [axial, transverse] counts")
         return cls(outputs, parts, methods, reasons, {b: list(c) for b, c in richer.items()})
 
+    @classmethod
+    def not_estimated(cls, names: list[str], reason: str) -> ErrorEstimate:
+        """The record of a run whose error was not estimated (every part, with the reason)."""
+        return cls(
+            dict.fromkeys(names),
+            {p: dict.fromkeys(names) for p in PARTS},
+            dict.fromkeys(PARTS, "not estimated"),
+            dict.fromkeys(PARTS, reason),
+        )
+
     def text(self, name: str) -> str:
         """One output's estimate as text: the total and its parts ("not estimated" for a part
         that was not)."""
@@ -217,7 +228,7 @@ def estimate_errors(
         trunc, counts, how = truncation_part(mech, result, richer, truncation)
         parts["truncation"] = {n: trunc.get(n) for n in names}
         methods["truncation"] = how
-    except TruncationNotEstimated as why:
+    except (TruncationNotEstimated, SymgenError) as why:
         parts["truncation"] = dict.fromkeys(names)
         methods["truncation"] = "not estimated"
         reasons["truncation"] = str(why)
@@ -230,9 +241,12 @@ def estimate_errors(
         )
     else:
         values, how = estimator(mech, result)
-        parts["model_form"] = {n: (None if values.get(n) is None else float(values[n])) for n in names}
+        parts["model_form"] = {n: (float(values[n]) if n in values else None) for n in names}
         methods["model_form"] = how
-    parts["time_integration"] = dict(time_integration_part(result, rtol, atol, peaks))
+    measured = _measured(mech, names)
+    parts["time_integration"] = {
+        n: v if n in measured else None for n, v in time_integration_part(result, rtol, atol, peaks).items()
+    }
     methods["time_integration"] = (
         f"a-priori bound from the tolerances: {TIME_FACTOR:g} x rtol + atol / peak (rtol {rtol:g}, atol {atol:g})"
     )
@@ -465,8 +479,17 @@ def _rerun(
         raise TruncationNotEstimated("the run has fewer than two outputs")
     sim = mech.scene.simulation
     step = float(tau[1] - tau[0])
+    backend = result.stats.get("backend")
     try:
-        rich = simulate(richer, t_end=float(tau[-1]), output_step=step, rtol=sim.rtol, atol=sim.atol, t0=float(tau[0]))
+        rich = simulate(
+            richer,
+            t_end=float(tau[-1]),
+            output_step=step,
+            rtol=sim.rtol,
+            atol=sim.atol,
+            t0=float(tau[0]),
+            backend=backend if backend in ("compiled", "vm") else None,
+        )
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
@@ -481,7 +504,7 @@ def _rerun(
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
-        f"and tolerances ({rich.steps} IDAS steps, {rich.simulate_s:.2g} s): the difference below "
+        f"and tolerances ({rich.steps} IDAS steps): the difference below "
         "50 cycles per crank turn"
     )
     return values, counts, how
