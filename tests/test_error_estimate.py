@@ -149,6 +149,35 @@ def test_time_integration_part_from_the_tolerances():
     part = error_estimate.time_integration_part(res, 1e-6, 1e-8)
     assert part["a"] == pytest.approx(error_estimate.TIME_FACTOR * 1e-6 + 1e-8 / 4.0)
     assert part["zero"] is None  # no peak to be a fraction of
+    torque = error_estimate.time_integration_part(res, 1e-6, 1e-8, kinds={"a": "driver_torque"})
+    assert torque["a"] == pytest.approx(error_estimate.ALGEBRAIC_TIME_FACTOR * 1e-6 + 1e-8 / 4.0)
+
+
+def test_time_integration_part_bounds_the_measured_time_error():
+    """The bound against the same run at 100x tighter tolerances (every output, the torque a
+    multiplier outside IDAS's error control): it must not flatter."""
+    from symgen.numerics.mechanism import load_mechanism
+    from symgen.numerics.signals import DEFAULT_CUTOFF
+    from symgen.apps.study import oversampling, window_error
+    from symgen.scene import load_scene
+    from symgen.numerics.simulate import simulate
+
+    case = next(c for c in CASES if c.name.startswith("slider-crank 6.1, seed"))
+    mech = load_mechanism(case.scene, list(case.small))
+    sim = mech.scene.simulation
+    # sampled as the benchmark does: no axial mode (up to the converged model's) aliases below the cutoff
+    step = sim.output_step / oversampling(
+        load_scene(case.scene, list(case.converged)), 7, DEFAULT_CUTOFF / (2 * math.pi)
+    )
+    run = simulate(mech, t_end=2 * math.pi, output_step=step)
+    tight = simulate(mech, t_end=2 * math.pi, output_step=step, rtol=sim.rtol / 100, atol=sim.atol / 100)
+    bound = error_estimate.time_integration_part(
+        run, sim.rtol, sim.atol, kinds={o.name: o.kind for o in mech.scene.outputs}
+    )
+    for name in ("eta_mid", "eps_ax", "torque"):
+        k = min(len(run.tau), len(tight.tau))
+        measured = window_error(run.column(name)[:k], tight.column(name)[:k], step, DEFAULT_CUTOFF / (2 * math.pi), k)
+        assert measured <= bound[name], f"{name}: measured {measured:.2e} > bound {bound[name]:.2e}"
 
 
 # ---------------------------------------------------------------------- the sidecar
