@@ -43,6 +43,7 @@ SECTIONS = [
     "sixbar",
     "lean",
     "compile",
+    "estimate",
 ]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 
