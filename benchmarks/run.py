@@ -45,6 +45,7 @@ SECTIONS = [
     "compile",
     "validation",
     "bases",
+    "estimate",
 ]
 FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
 

@@ -80,13 +80,15 @@ def simulate_scene(
     plot: str | os.PathLike | None = None,
     states: bool = False,
     units: str | None = None,
+    estimate: str = "rerun",
     **kwargs,
 ) -> SimResult:
     """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``.
 
     ``out``: write the run as ``symgen simulate -o OUT`` does (``out`` a .csv; its JSON sidecar
     beside it; ``plot``: a .png/.svg/.pdf of the outputs; ``states``: the coordinates as
-    ``q.NAME`` columns; ``units``: "SI" or "dimensionless", default SI for an SI scene). A run
+    ``q.NAME`` columns; ``units``: "SI" or "dimensionless", default SI for an SI scene;
+    ``estimate``: the sidecar's error estimate, as ``symgen simulate --estimate``). A run
     that stops early writes the ``.partial`` files, then raises as without ``out``. The sidecar
     records the scene's own times and tolerances, so with ``out`` the kwargs are those of the
     command line only (``backend``, ``use_cache``): give the others as overrides."""
@@ -104,6 +106,7 @@ def simulate_scene(
         kwargs.get("use_cache", True),
         "idas",
         lambda mech: simulate(mech, **kwargs),
+        estimate,
     )
 
 
@@ -155,7 +158,9 @@ def _only(kwargs: dict, allowed: tuple, hint: str) -> None:
         )
 
 
-def _written_run(scene, overrides, out, plot, states: bool, units: str | None, use_cache: bool, solver: str, run):
+def _written_run(
+    scene, overrides, out, plot, states: bool, units: str | None, use_cache: bool, solver: str, run, estimate="off"
+):
     """``run(mechanism)`` written as the command line writes it (``symgen.cli``'s simulate and
     quasistatic): the files checked before any work, the CSV and its sidecar (partial when the
     run stopped early), the plot; no result of this name from an earlier run left looking
@@ -171,7 +176,16 @@ def _written_run(scene, overrides, out, plot, states: bool, units: str | None, u
         mech = mechanism(scene, use_cache=use_cache)
         result, failure = attempt(lambda: run(mech))
         written = write_run(
-            files, scene, mech.compiled, mech.build_s, result, failure, solver=solver, units=units, states=states
+            files,
+            scene,
+            mech.compiled,
+            mech.build_s,
+            result,
+            failure,
+            solver=solver,
+            units=units,
+            states=states,
+            estimate=estimate,
         )
         if written.plot is not None:
             plot_run(written.plot)

@@ -132,6 +132,7 @@ def _write_run(args, files, mech, result, failure, solver: str):
         solver=solver,
         units=args.units,
         states=getattr(args, "states", False),
+        estimate=getattr(args, "estimate", "off"),
     )
     if failure is not None:
         print(f"symgen: partial result kept in {written.csv} ({written.sidecar['status']})", file=sys.stderr)
@@ -185,6 +186,13 @@ def _simulate(args, files) -> int:
         + _backend_text(result.stats)
         + f"simulate {result.simulate_s:.2f}s)"
     )
+    estimate = {n: v for n, v in written.sidecar["error_estimate"].items() if v is not None}
+    if estimate:
+        worst = max(estimate, key=lambda n: estimate[n])
+        print(
+            f"error estimate (fraction of peak, in {written.csv.with_suffix('.json').name}): largest "
+            f"{estimate[worst]:.1e} on {worst} (model form not included where not estimated)"
+        )
     return 0
 
 
@@ -625,6 +633,14 @@ def build_parser() -> argparse.ArgumentParser:
         default="idas",
         help="idas (default: SUNDIALS IDAS through CasADi) or c (the emitted C Radau IIA solver of "
         "symgen emit-c, compiled once and cached; same CSV/JSON, outputs only)",
+    )
+    p.add_argument(
+        "--estimate",
+        choices=("rerun", "linearized", "off"),
+        default="rerun",
+        help="the error estimate in the JSON sidecar (error_estimate: output -> fraction of peak): its "
+        "truncation part by a second run of a richer model (rerun, default), the richer model "
+        "linearised along the run (linearized: cheaper, low where the run rings freely), or off",
     )
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_simulate)

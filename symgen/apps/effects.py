@@ -184,6 +184,7 @@ class EffectsReport:
     stopped: str = ""  # "interrupted by SIGINT ..." of a partial report
     axial: dict = field(default_factory=dict)  # bar -> (treatment, reason) of effects.axial
     bases: dict = field(default_factory=dict)  # bar -> its BasisChoice (counts, chosen or stated, and why)
+    estimate: Any = None  # --measure: the ErrorEstimate of the scene's own measuring run
 
 
 # --------------------------------------------------------------------------- estimates
@@ -427,6 +428,8 @@ def measure_effects(
         "output_step": runs.step,
         "outputs": list(runs.compared),
     }
+    res = runs.ref.get("res")
+    report.estimate = None if res is None else _estimate(str(path), overrides, res)
     from symgen.progress import progress_bar
 
     try:
@@ -454,6 +457,17 @@ def measure_effects(
         raise stop from None
     recommend(report)
     return report
+
+
+def _estimate(path: str, overrides: Sequence[str], res) -> Any:
+    """The error estimate of the scene's own measuring run (``symgen.numerics.error_estimate``):
+    how far the scene as it is stands from more functions per bar (and its tolerances)."""
+    from symgen.numerics.error_estimate import estimate_errors
+    from symgen.numerics.mechanism import load_mechanism
+
+    mech = load_mechanism(path, overrides)
+    sim = mech.scene.simulation
+    return estimate_errors(mech, res, sim.rtol, sim.atol)
 
 
 def auto_effects(
@@ -627,6 +641,15 @@ def table(report: EffectsReport) -> str:
             f"{', '.join(ref['outputs'])}; the scene as it is: {ref['steps']} IDAS steps, "
             f"{ref['simulate_s']:.2f} s"
         )
+    if report.estimate is not None:
+        est = report.estimate
+        shown = report.reference.get("outputs") or list(est.outputs)
+        per_output = ", ".join(f"{n} {est.text(n)}" for n in shown if n in est.outputs)
+        lines.append(f"error estimate of the scene as it is (fraction of peak, over the window): {per_output}")
+        for part in ("truncation", "model_form"):
+            how = est.methods[part]
+            why = est.reasons.get(part)
+            lines.append(f"  {part.replace('_', ' ')}: {how}" + (f" ({why})" if why else ""))
     lines += [fmt.format(*head), fmt.format(*["-" * w for w in widths])]
     lines += [fmt.format(*row) for row in body]
     if report.auto:

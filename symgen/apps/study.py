@@ -50,6 +50,7 @@ from symgen.errors import Interrupted, SceneError, SymgenError
 from symgen.outputs import atomic_path, atomic_write, remove
 from symgen.scene import load_scene
 from symgen.numerics import interrupt
+from symgen.numerics.signals import DEFAULT_CUTOFF, edge, lowpass
 
 #: mode levels (axial, transverse) per elastic bar, poorest to richest
 LEVELS = ((1, 1), (2, 2), (3, 3), (3, 4), (4, 6), (6, 8))
@@ -58,8 +59,12 @@ TOLERANCES = (1e-4, 1e-6, 1e-8)
 QUICK_TOLERANCES = (1e-4, 1e-6)
 REFERENCE_RTOL = 1e-9
 ATOL_RATIO = 1e-2  # atol = rtol * ATOL_RATIO (amplitudes are O(1e-2) or larger)
-DEFAULT_CUTOFF = 50.0  # cycles per crank turn (or per 2 pi of tau without an angle driver)
 TARGETS = (1e-2, 1e-3, 1e-4)
+
+#: the groups whose rows carry the run's own error estimate (symgen.numerics.error_estimate: a
+#: second run of a model with two more functions per bar), beside the error measured against
+#: the reference
+ESTIMATED = ("modes", "per-bar")
 
 #: effect sets compared with the base model: label -> overrides
 EFFECT_SETS = (
@@ -104,6 +109,7 @@ class Row:
     spectral: float = math.nan
     errors: dict = field(default_factory=dict)  # output -> window error
     spectra: dict = field(default_factory=dict)  # output -> spectral error
+    estimates: dict = field(default_factory=dict)  # output -> estimated error (ESTIMATED groups' rows)
     tau: np.ndarray | None = None
     outputs: np.ndarray | None = None
 
@@ -131,28 +137,6 @@ class Study:
 
 
 # --------------------------------------------------------------------------- errors
-def lowpass(y: np.ndarray, dt: float, cutoff: float) -> np.ndarray:
-    """Zero-phase low-pass of a sampled signal: keep frequencies below ``cutoff`` (cycles per
-    unit of time), with a raised-cosine roll-off from 0.8 cutoff. The signal is mirrored first
-    (continuous when made periodic); within about 1/cutoff of either end the result carries
-    the filter's edge transient, which ``window_error`` leaves out."""
-    y = np.asarray(y, dtype=float)
-    n = len(y)
-    if n < 4:
-        return y.copy()
-    ext = np.concatenate([y, y[::-1]])
-    spec = np.fft.rfft(ext)
-    f = np.fft.rfftfreq(2 * n, dt)
-    gain = np.clip((cutoff - f) / (0.2 * cutoff), 0.0, 1.0)
-    gain = 0.5 - 0.5 * np.cos(np.pi * gain)
-    return np.fft.irfft(spec * gain, 2 * n)[:n]
-
-
-def edge(dt: float, cutoff: float) -> int:
-    """Samples at each end of a filtered signal left out of comparisons (one cutoff period)."""
-    return int(math.ceil(1.0 / (cutoff * dt)))
-
-
 def window_error(y: np.ndarray, ref: np.ndarray, dt: float, cutoff: float, n_window: int) -> float:
     """max |y - ref| over the first ``n_window`` samples, both low-passed, / max |ref| there
     (leaving out the filter's edge transient: one cutoff period at the start, and at the end
@@ -404,6 +388,10 @@ class _Runner:
             if self.step is not None and self.step < scene.simulation.output_step:
                 result = simulate(mech, output_step=self.step)
             row.tau, row.outputs = result.tau, result.outputs
+            if cfg.group in ESTIMATED:
+                from symgen.numerics.error_estimate import estimate_errors
+
+                row.estimates = estimate_errors(mech, result, cfg.rtol, cfg.atol).outputs
         except SceneError:
             raise
         except SymgenError as err:
@@ -632,6 +620,17 @@ def _speedup(study: Study, row: Row) -> float:
     return base.integrate_s / row.integrate_s if base is not None and row.integrate_s > 0 else math.nan
 
 
+def _nan(x: float | None) -> float:
+    return math.nan if x is None else float(x)
+
+
+def _estimate(study: Study, row: Row) -> float:
+    """The row's estimated error (its run's own estimate, ``symgen.numerics.error_estimate``):
+    the largest over the compared outputs, nan where not estimated."""
+    vals = [float(v) for v in (row.estimates.get(n) for n in study.compared) if v is not None]
+    return max(vals) if vals else math.nan
+
+
 def csv_text(study: Study) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -654,8 +653,10 @@ def csv_text(study: Study) -> str:
         "worst_output",
         "spectral_error",
         "speedup_vs_base",
+        "estimated_error",
     ]
     head += [f"error_{n}" for n in study.compared] + [f"spectral_{n}" for n in study.compared]
+    head += [f"estimated_{n}" for n in study.compared]
     w.writerow(head)
     turns = study.t_end / study.turn
     for row in [study.reference, *study.rows]:
@@ -681,9 +682,11 @@ def csv_text(study: Study) -> str:
                 row.worst,
                 f"{0.0 if c.group == 'reference' else row.spectral:.6g}",
                 f"{_speedup(study, row):.4g}",
+                f"{_estimate(study, row):.6g}",
             ]
             + [f"{row.errors.get(n, math.nan):.6g}" for n in study.compared]
             + [f"{row.spectra.get(n, math.nan):.6g}" for n in study.compared]
+            + [f"{_nan(row.estimates.get(n)):.6g}" for n in study.compared]
         )
     return buf.getvalue()
 
@@ -774,26 +777,30 @@ def markdown(study: Study, png_name: str | None = "study.png") -> str:
         "## Every configuration",
         "",
         "| configuration | group | coords | res ops | derive s | build s | integrate s / turn | IDAS steps | "
-        "error | worst output | spectral | speed-up |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "error | worst output | spectral | speed-up | estimated |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in study.rows:
         if r.status != "ok":
             lines.append(
                 f"| {r.config.label} | {r.config.group} | {r.n_coords} | {r.ops} | {r.derive_s:.2f} | | "
-                f"| | {r.status[:120]} | | | |"
+                f"| | {r.status[:120]} | | | | |"
             )
             continue
         sp_ = _speedup(study, r)
         lines.append(
             f"| {r.config.label} | {r.config.group} | {r.n_coords} | {r.ops} | {r.derive_s:.2f} | "
             f"{r.build_s:.2f} | {r.integrate_s / turns:.3g} | {r.steps} | {_pct(r.error)} | {r.worst} | "
-            f"{_pct(r.spectral)} | {'' if not np.isfinite(sp_) else f'{sp_:.2f}x'} |"
+            f"{_pct(r.spectral)} | {'' if not np.isfinite(sp_) else f'{sp_:.2f}x'} | "
+            f"{'' if not np.isfinite(_estimate(study, r)) else _pct(_estimate(study, r))} |"
         )
     lines += [
         "",
         "Per-output errors are in `study.csv` (`error_<output>`, `spectral_<output>`); the speed-up of an "
-        "effects row is the integration time of the same model with every effect on divided by its own.",
+        "effects row is the integration time of the same model with every effect on divided by its own. "
+        "**estimated**: the run's own error estimate (no reference needed: what `symgen simulate` writes "
+        "in its sidecar), worst output over the whole run, for the mode rows (`estimated_<output>` in "
+        "`study.csv`); it estimates the truncation error that **error** measures against the reference.",
         "",
     ]
     return "\n".join(lines)

@@ -33,6 +33,7 @@ from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.outputs import atomic_write, check_file, remove
 
 if TYPE_CHECKING:
+    from symgen.numerics.error_estimate import ErrorEstimate
     from symgen.scene.model import Scene
     from symgen.backends.casadi.pipeline import CompiledModel
     from symgen.numerics.quasistatic import QuasiStaticResult
@@ -48,6 +49,7 @@ __all__ = [
     "attempt",
     "build_sidecar",
     "csv_text",
+    "error_estimate",
     "partial_paths",
     "run_files",
     "states_block",
@@ -329,6 +331,37 @@ class WrittenRun:
     plot: OutputsPlot | None
 
 
+def error_estimate(
+    scene: Scene,
+    compiled: CompiledModel,
+    result: SimResult | QuasiStaticResult,
+    failure: BaseException | None,
+    solver: str,
+    estimate: str = "rerun",
+) -> tuple[ErrorEstimate, Interrupted | None]:
+    """The error estimate of a run's outputs (``symgen.numerics.error_estimate``; ``estimate``:
+    its truncation method, "rerun" or "linearized", or "off"), and the interrupt that stopped it
+    (the run itself is complete: its files are written, the estimate marked not estimated,
+    then the interrupt is raised). Only a complete dynamic run is estimated; the record of any
+    other says why not."""
+    from symgen.numerics.error_estimate import ErrorEstimate, estimate_errors
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.quasistatic import QuasiStaticResult
+
+    names = list(result.output_names)
+    if isinstance(result, QuasiStaticResult) or solver == "quasi-static":
+        return ErrorEstimate.not_estimated(names, "a quasi-static analysis: estimated for dynamic runs only"), None
+    if failure is not None:
+        return ErrorEstimate.not_estimated(names, "the run did not complete"), None
+    if estimate == "off":
+        return ErrorEstimate.not_estimated(names, "not asked (--estimate off)"), None
+    sim = scene.simulation
+    try:
+        return estimate_errors(Mechanism(compiled, scene), result, sim.rtol, sim.atol, truncation=estimate), None
+    except Interrupted as stop:
+        return ErrorEstimate.not_estimated(names, f"interrupted while estimating: {stop}"), stop
+
+
 def write_run(
     files: ResultFiles,
     scene: Scene,
@@ -339,12 +372,16 @@ def write_run(
     solver: str = "idas",
     units: str | None = None,
     states: bool = False,
+    estimate: str = "rerun",
 ) -> WrittenRun:
     """A run's CSV and JSON sidecar (partial when the run stopped: ``failure``), columns in the
     scene's units (SI for an SI scene unless ``units="dimensionless"``), with the coordinates as
     ``q.NAME`` columns when ``states`` (for ``symgen animate --from``); and the plot to draw when
     ``files`` has one. Raises ``failure`` (or a ``SimulationError``) when there is no output to
-    write. ``solver``, ``compiled``, ``build_s``: as for :func:`build_sidecar`."""
+    write. ``solver``, ``compiled``, ``build_s``: as for :func:`build_sidecar`; ``estimate``: the
+    error estimate's truncation method (:func:`error_estimate`), in the sidecar as
+    ``error_estimate`` (output -> fraction of peak, null where not estimated) and
+    ``error_estimate_detail`` (its parts, methods and reasons)."""
     from symgen.numerics.units import result_units
 
     if result is None or len(result.tau) == 0:
@@ -356,6 +393,9 @@ def write_run(
             )
         )
     sidecar = build_sidecar(scene, compiled, build_s, result, failure, solver)
+    record, stop = error_estimate(scene, compiled, result, failure, solver, estimate)
+    sidecar["error_estimate"] = dict(record.outputs)
+    sidecar["error_estimate_detail"] = record.to_json()
     in_units = result_units(scene, units)
     t_col, values = in_units.convert(result.tau, result.outputs)
     sidecar["units"] = in_units.as_dict()
@@ -394,6 +434,8 @@ def write_run(
             turn=None if turn is None else turn * in_units.time.factor,
             units=in_units,
         )
+    if stop is not None:  # SIGINT/SIGTERM while estimating: the complete run is written
+        raise stop
     return WrittenRun(written, sidecar, plot)
 
 

@@ -1,0 +1,700 @@
+"""An a-posteriori error estimate of every output of a finished run (issue 19, item 2).
+
+The estimate of an output is a fraction of its peak, the sum of the parts that were estimated
+(a part that was not is ``None`` with its reason, never 0):
+
+* **truncation** -- how much the output would change with more functions per bar. An
+  *embedded richer model* -- the same scene with ``EXTRA_AXIAL`` more axial and
+  ``EXTRA_TRANSVERSE`` more transverse functions on every elastic bar that has them (a slot's
+  guide keeps its counts), derived once and cached like any model -- is evaluated against the
+  run, in one of two ways (``TRUNCATION_METHODS``):
+
+  - ``"rerun"`` (the default): a second run of the richer model on the run's own output grid
+    and tolerances; the estimate is the difference of the two runs.
+  - ``"linearized"``: no second integration. At the run's outputs its state (q, v, a, lam) is
+    carried into the richer model's amplitudes (by index where the families are hierarchical,
+    else by a least-squares map of the shape functions: the tip-load shape and the static
+    corrections change with the count), where it leaves a residual only in the rows of the added
+    functions: their generalized load (the distributed inertia of the frame's motion and of the
+    retained amplitudes, gravity, the joint forces, i.e. the multipliers, projected onto the
+    added functions). The richer model's own Jacobians linearised along the run (mass, damping,
+    stiffness with the axial force's geometric stiffness, constraint rows, so the loop's
+    compliance moves the angles and joint positions) are marched over the outputs by BDF2, which
+    follows the retained functions' dynamics and leaves the added ones, far above what the
+    output grid resolves, at their quasi-static response (residual flexibility); the outputs
+    are read by the richer model's own output function.
+
+  Both keep the response below ``DEFAULT_CUTOFF`` cycles per crank turn
+  (``symgen.numerics.signals``) as a fraction of that response's peak: the measure
+  ``symgen study`` and ``symgen effects --measure`` use (the axial ringing and bending modes far
+  above the grid ring at hundreds of periods per turn and alias onto it).
+
+  Why the rerun is the default: ``benchmarks/bench_estimate.py`` (RESULTS.md, "Error estimate")
+  compares both with the error measured against converged richer models on seven mechanisms.
+  The rerun lies within 0.75x-1.13x of it on every output checked. The linearised route is as
+  good where the motion forces the response (the slider-crank, the steel four-bar, the
+  deflections of the four-bar with a tool) but 4x to 20x low where the run rings freely
+  (a released double pendulum, a torque-driven arm, a driver reaction with a ringing coupler):
+  there a changed frequency slips the phase over the run, which is not linear in the change.
+  The projection of the loads by hand onto the omitted functions was not written: it would be
+  a second implementation of every load and joint beside the derivation's, and the linearised
+  route, which gets the same projection from the derivation itself, shows that a quasi-static
+  answer is not enough. The rerun costs a derivation (once) and a run of a model with two more
+  functions per bar (``symgen simulate --estimate linearized|off`` for less).
+* **time integration** -- an a-priori bound from the integrator's tolerances,
+  ``TIME_FACTOR * rtol`` plus ``atol`` over the output's peak (``ALGEBRAIC_TIME_FACTOR`` for
+  the outputs read from the multipliers, algebraic variables that IDAS's error control leaves
+  out: driver torques measured up to 30x rtol); with the "rerun" method, where larger, the
+  run's difference to itself at ``TIGHTER`` times tighter tolerances (x 1/(1 - TIGHTER^-0.7)): a
+  run that rings freely through many periods accumulates a phase error beyond any fixed
+  multiple of rtol (the released double pendulum: 110x rtol).
+* **model form** -- the gap between the bar model and a geometrically exact beam (for von
+  Karman bars, the curvature). Its estimator lives with the formulation
+  (``symgen.numerics.model_form``, the "exact" slice) and is connected through
+  :data:`MODEL_FORM_ESTIMATORS` (:func:`register_model_form`) or the ``model_form`` argument.
+  Until one is connected the part is reported as not estimated.
+
+The record (:class:`ErrorEstimate`) is typed, with ``to_json``/``from_json`` that check every
+field; a run's sidecar holds ``error_estimate: {output: fraction of peak}`` and the record as
+``error_estimate_detail`` (``symgen.numerics.results.write_run``). Closure residuals are not
+estimated (they are zero to round-off in every model).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from symgen import __version__
+from symgen.errors import SymgenError
+from symgen.ir.records import CoordKind
+
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.numerics.simulate import SimResult
+
+__all__ = [
+    "EXTRA_AXIAL",
+    "EXTRA_TRANSVERSE",
+    "MODEL_FORM_ESTIMATORS",
+    "PARTS",
+    "ErrorEstimate",
+    "InvalidEstimate",
+    "estimate_errors",
+    "register_model_form",
+    "time_integration_part",
+    "truncation_part",
+]
+
+#: the richer model of the truncation part: this many more functions per elastic bar
+EXTRA_TRANSVERSE = 2
+EXTRA_AXIAL = 2
+#: sampled outputs of the truncation part (all of them when the run has fewer)
+MAX_SAMPLES = 2000
+#: how the truncation part is computed: "rerun" (a second run of the richer model: honest also
+#: where the run rings freely and a changed frequency slips the phase over the run) or
+#: "linearized" (the richer model linearised along the run: no second integration; measured
+#: honest where the response is forced, 4x to 20x low where it rings freely: benchmarks/RESULTS.md)
+TRUNCATION_METHODS = ("rerun", "linearized")
+#: the time-integration bound: this many times rtol (plus atol over the output's peak; measured up
+#: to 17 x rtol on steel bars against runs at 100x tighter tolerances) ...
+TIME_FACTOR = 30.0
+#: ... and this many for the outputs read from the multipliers (reactions, the driver torque,
+#: axial forces), algebraic variables outside IDAS's error control: measured up to 30 x rtol
+#: against runs at 100x tighter tolerances (benchmarks/RESULTS.md, "Error estimate")
+ALGEBRAIC_TIME_FACTOR = 100.0
+ALGEBRAIC_KINDS = ("reaction", "driver_torque", "axial")
+#: the parts, in the order they are reported
+PARTS = ("truncation", "model_form", "time_integration")
+
+#: name -> a model-form estimator: ``f(mech, result) -> (output -> fraction of peak, method text)``.
+#: The "exact" slice registers the von Karman curvature estimate (symgen.numerics.model_form).
+ModelFormEstimator = Callable[["Mechanism", "SimResult"], tuple[dict[str, float], str]]
+MODEL_FORM_ESTIMATORS: dict[str, ModelFormEstimator] = {}
+
+
+def register_model_form(name: str, estimator: ModelFormEstimator) -> None:
+    """Connect a model-form estimator (the seam of the model-form part)."""
+    MODEL_FORM_ESTIMATORS[name] = estimator
+
+
+class InvalidEstimate(ValueError):
+    """An ``error_estimate_detail`` record that is not one (a field missing or of a wrong type)."""
+
+
+# ---------------------------------------------------------------------- the record
+@dataclass(frozen=True)
+class ErrorEstimate:
+    """The error estimate of a run's outputs, each a fraction of the output's peak.
+
+    ``outputs``: output -> the sum of its estimated parts (None when no part was estimated).
+    ``parts``: part -> output -> value, or None for "not estimated" (``reasons[part]`` says why).
+    ``methods``: part -> how it was estimated. ``richer``: bar -> [axial, transverse] counts of
+    the richer model of the truncation part."""
+
+    outputs: dict[str, float | None]
+    parts: dict[str, dict[str, float | None]]
+    methods: dict[str, str]
+    reasons: dict[str, str] = field(default_factory=dict)
+    richer: dict[str, list[int]] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "outputs": dict(self.outputs),
+            "parts": {p: dict(v) for p, v in self.parts.items()},
+            "methods": dict(self.methods),
+            "reasons": dict(self.reasons),
+            "richer": {b: list(c) for b, c in self.richer.items()},
+        }
+
+    @classmethod
+    def from_json(cls, data: object) -> ErrorEstimate:
+        """The record of ``to_json``'s data; :class:`InvalidEstimate` on anything malformed."""
+        keys = ("outputs", "parts", "methods", "reasons", "richer")
+        if not isinstance(data, dict):
+            raise InvalidEstimate("the error estimate is not an object")
+        missing = [k for k in keys if k not in data]
+        if missing:
+            raise InvalidEstimate(f"the error estimate has no {missing[0]!r}")
+        extra = sorted(set(data) - set(keys))
+        if extra:
+            raise InvalidEstimate(f"the error estimate has an unknown field {extra[0]!r}")
+        outputs = _values(data["outputs"], "outputs")
+        parts_raw = data["parts"]
+        if not isinstance(parts_raw, dict) or set(parts_raw) != set(PARTS):
+            raise InvalidEstimate(f"'parts' is not an object of the parts {', '.join(PARTS)}")
+        parts = {p: _values(parts_raw[p], f"parts.{p}") for p in PARTS}
+        for p, vals in parts.items():
+            if set(vals) != set(outputs):
+                raise InvalidEstimate(f"'parts.{p}' does not name the same outputs as 'outputs'")
+        methods, reasons = (_texts(data[k], k) for k in ("methods", "reasons"))
+        if set(methods) != set(PARTS):
+            raise InvalidEstimate(f"'methods' does not describe the parts {', '.join(PARTS)}")
+        richer = data["richer"]
+        if not isinstance(richer, dict) or not all(
+            isinstance(b, str)
+            and isinstance(c, list)
+            and len(c) == 2
+            and all(isinstance(x, int) and not isinstance(x, bool) and x >= 0 for x in c)
+            for b, c in richer.items()
+        ):
+            raise InvalidEstimate("'richer' is not an object of [axial, transverse] counts")
+        return cls(outputs, parts, methods, reasons, {b: list(c) for b, c in richer.items()})
+
+    @classmethod
+    def not_estimated(cls, names: list[str], reason: str) -> ErrorEstimate:
+        """The record of a run whose error was not estimated (every part, with the reason)."""
+        return cls(
+            dict.fromkeys(names),
+            {p: dict.fromkeys(names) for p in PARTS},
+            dict.fromkeys(PARTS, "not estimated"),
+            dict.fromkeys(PARTS, reason),
+        )
+
+    def text(self, name: str) -> str:
+        """One output's estimate as text: the total and its parts ("not estimated" for a part
+        that was not)."""
+        total = self.outputs.get(name)
+        cells = []
+        for p in PARTS:
+            v = self.parts[p].get(name)
+            cells.append(f"{p.replace('_', ' ')} {'not estimated' if v is None else f'{v:.1e}'}")
+        head = "not estimated" if total is None else f"{total:.1e}"
+        return f"{head} ({', '.join(cells)})"
+
+
+def _values(x: object, what: str) -> dict[str, float | None]:
+    if not isinstance(x, dict) or not all(
+        isinstance(k, str)
+        and (v is None or (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0))
+        for k, v in x.items()
+    ):
+        raise InvalidEstimate(f"{what!r} is not an object of fractions (or null)")
+    return {k: (None if v is None else float(v)) for k, v in x.items()}
+
+
+def _texts(x: object, what: str) -> dict[str, str]:
+    if not isinstance(x, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in x.items()):
+        raise InvalidEstimate(f"{what!r} is not an object of texts")
+    return dict(x)
+
+
+# ---------------------------------------------------------------------- the estimate
+def estimate_errors(
+    mech: Mechanism,
+    result: SimResult,
+    rtol: float,
+    atol: float,
+    model_form: ModelFormEstimator | None = None,
+    richer: Mechanism | None = None,
+    truncation: str = "rerun",
+) -> ErrorEstimate:
+    """The error estimate of ``result``, a run of ``mech`` with the tolerances ``rtol``,
+    ``atol`` (see the module docstring). ``model_form``: the model-form estimator (default: the
+    one registered, if any: :data:`MODEL_FORM_ESTIMATORS`). ``richer``: the richer model of the
+    truncation part, when the caller has it already (else it is made: :func:`richer_mechanism`)."""
+    names = list(result.output_names)
+    peaks = _peaks(result)
+    parts: dict[str, dict[str, float | None]] = {}
+    methods: dict[str, str] = {}
+    reasons: dict[str, str] = {}
+    counts: dict[str, list[int]] = {}
+    try:
+        trunc, counts, how = truncation_part(mech, result, richer, truncation)
+        parts["truncation"] = {n: trunc.get(n) for n in names}
+        methods["truncation"] = how
+    except (TruncationNotEstimated, SymgenError) as why:
+        parts["truncation"] = dict.fromkeys(names)
+        methods["truncation"] = "not estimated"
+        reasons["truncation"] = str(why)
+    except (ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
+        # the run is complete and stays so: its estimate says what stopped the richer model
+        parts["truncation"] = dict.fromkeys(names)
+        methods["truncation"] = "not estimated"
+        reasons["truncation"] = f"the richer model could not be evaluated ({type(why).__name__}: {why})"
+    estimator = model_form or (next(iter(MODEL_FORM_ESTIMATORS.values())) if MODEL_FORM_ESTIMATORS else None)
+    if estimator is None:
+        parts["model_form"] = dict.fromkeys(names)
+        methods["model_form"] = "not estimated"
+        reasons["model_form"] = (
+            "no model-form estimator is connected (the von Karman curvature estimate: symgen.numerics.model_form)"
+        )
+    else:
+        values, how = estimator(mech, result)
+        parts["model_form"] = {n: (float(values[n]) if n in values else None) for n in names}
+        methods["model_form"] = how
+    measured = _measured(mech, names)
+    bound = time_integration_part(result, rtol, atol, peaks, {o.name: o.kind for o in mech.scene.outputs})
+    parts["time_integration"] = {n: v if n in measured else None for n, v in bound.items()}
+    methods["time_integration"] = (
+        f"a-priori bound from the tolerances: {TIME_FACTOR:g} x rtol + atol / peak, {ALGEBRAIC_TIME_FACTOR:g} x rtol "
+        f"for reactions, driver torques and axial forces (rtol {rtol:g}, atol {atol:g})"
+    )
+    if truncation == "rerun":
+        try:
+            tight = _tighter_run(mech, result, rtol, atol)
+        except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
+            reasons["time_integration"] = f"the run at tighter tolerances failed ({why}): the bound alone"
+        else:
+            parts["time_integration"] = {
+                n: (max(v, tight[n]) if v is not None and n in tight else v)
+                for n, v in parts["time_integration"].items()
+            }
+            methods["time_integration"] += (
+                f", or where larger the run's difference to itself at {TIGHTER:g}x tighter tolerances "
+                f"x {1 / (1 - TIGHTER**-0.7):.3g} (the global error grows with the periods a run rings through)"
+            )
+    outputs: dict[str, float | None] = {}
+    for n in names:
+        vals = [parts[p][n] for p in PARTS if parts[p][n] is not None]
+        outputs[n] = float(sum(v for v in vals if v is not None)) if vals else None
+    return ErrorEstimate(outputs, parts, methods, reasons, counts)
+
+
+#: the time-integration part's check run: this many times tighter tolerances
+TIGHTER = 10.0
+
+
+def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> dict[str, float]:
+    """output -> the difference of the run to the same run at ``TIGHTER`` times tighter
+    tolerances (below the cutoff, as a fraction of the peak there), scaled to the run's own
+    error: x 1 / (1 - TIGHTER^-0.7), the global error of a BDF run with local error control
+    taken as at least rtol^0.7 (orders 2 to 5: rtol^(p/(p+1)))."""
+    from symgen.numerics.simulate import simulate
+
+    tau = np.asarray(result.tau, dtype=float)
+    if len(tau) < 2:
+        return {}
+    backend = result.stats.get("backend")
+    tight = simulate(
+        mech,
+        t_end=float(tau[-1]),
+        output_step=float(tau[1] - tau[0]),
+        rtol=rtol / TIGHTER,
+        atol=atol / TIGHTER,
+        t0=float(tau[0]),
+        backend=backend if backend in ("compiled", "vm") else None,
+    )
+    names = [n for n in result.output_names if n in _measured(mech, list(result.output_names))]
+    k = min(len(tight.tau), len(tau))
+    deltas = np.column_stack([tight.column(n)[:k] - result.column(n)[:k] for n in names])
+    smooth = _below_cutoff(mech, tau[:k], deltas)
+    peaks = _smooth_peaks(mech, result)
+    scale = 1.0 / (1.0 - TIGHTER**-0.7)
+    return {n: scale * float(np.abs(smooth[:, j]).max()) / peaks[n] for j, n in enumerate(names) if peaks[n] > 0}
+
+
+def _peaks(result: SimResult) -> dict[str, float]:
+    out = np.asarray(result.outputs, dtype=float)
+    return {n: float(np.max(np.abs(out[:, k]))) if len(out) else 0.0 for k, n in enumerate(result.output_names)}
+
+
+def time_integration_part(
+    result: SimResult,
+    rtol: float,
+    atol: float,
+    peaks: Mapping[str, float] | None = None,
+    kinds: Mapping[str, str] | None = None,
+) -> dict[str, float | None]:
+    """output -> ``TIME_FACTOR * rtol + atol / peak`` (``ALGEBRAIC_TIME_FACTOR`` for the outputs
+    of ``kinds`` (output -> kind) read from the multipliers; None for an output that is zero over
+    the run: it has no peak to be a fraction of)."""
+    peaks = _peaks(result) if peaks is None else peaks
+    kinds = kinds or {}
+
+    def factor(n: str) -> float:
+        return ALGEBRAIC_TIME_FACTOR if kinds.get(n) in ALGEBRAIC_KINDS else TIME_FACTOR
+
+    return {n: (factor(n) * rtol + atol / p if p > 0 else None) for n, p in peaks.items()}
+
+
+def _smooth_peaks(mech: Mechanism, result: SimResult) -> dict[str, float]:
+    """output -> the peak of its response below the cutoff (what the truncation part is a
+    fraction of: the same measure as ``symgen study``'s errors)."""
+    tau = np.asarray(result.tau, dtype=float)
+    smooth = _below_cutoff(mech, tau, np.asarray(result.outputs, dtype=float).reshape(len(tau), -1))
+    return {n: float(np.abs(smooth[:, j]).max()) if len(smooth) else 0.0 for j, n in enumerate(result.output_names)}
+
+
+def _below_cutoff(mech: Mechanism, tau: np.ndarray, deltas: np.ndarray) -> np.ndarray:
+    """The changes below ``DEFAULT_CUTOFF`` cycles per crank turn (the response every comparison
+    of two runs keeps: ``symgen.numerics.signals``), without the filter's edge samples."""
+    from symgen.numerics.signals import DEFAULT_CUTOFF, edge, lowpass
+
+    if len(tau) < 4:
+        return deltas
+    d = mech.scene.turning_driver
+    turn = 2 * math.pi / abs(d.rate) if d is not None else 2 * math.pi
+    dt, cutoff = float(tau[1] - tau[0]), DEFAULT_CUTOFF / turn
+    smooth = np.column_stack([lowpass(deltas[:, j], dt, cutoff) for j in range(deltas.shape[1])])
+    k = edge(dt, cutoff)
+    return smooth[k : len(tau) - k] if len(tau) - 2 * k >= 2 else smooth
+
+
+def _solve(A: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    try:
+        sol: np.ndarray = np.linalg.solve(A, rhs)
+    except np.linalg.LinAlgError:
+        sol = np.linalg.lstsq(A, rhs, rcond=None)[0]
+    return sol
+
+
+def _free_at_start(mech: Mechanism, result: SimResult, T: np.ndarray) -> list[int]:
+    """Richer coordinates the quasi-static start solves for: all but the run's independent
+    rigid coordinates (a free crank, a pendulum: their start is given)."""
+    part = result.partition or mech.choose_partition(float(result.tau[0]), np.asarray(result.q[0]))
+    held = {int(np.argmax(np.abs(T[:, i]))) for i in part.ind if i in mech.rigid}
+    return [i for i in range(T.shape[0]) if i not in held]
+
+
+def _measured(mech: Mechanism, names: list[str]) -> set[str]:
+    """The outputs an estimate is given for: all but the closure residuals (zero to round-off in
+    every model: not an approximation of anything)."""
+    kinds = {o.name: o.kind for o in mech.scene.outputs}
+    return {n for n in names if kinds.get(n) != "closure_residual"}
+
+
+class TruncationNotEstimated(Exception):
+    """The truncation part cannot be estimated for this run (the reason)."""
+
+
+# ---------------------------------------------------------------------- truncation
+def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
+    """The scene with ``EXTRA_AXIAL`` / ``EXTRA_TRANSVERSE`` more functions on every elastic bar
+    that has functions of that kind (a slot's guide keeps its counts: its span and overhang
+    functions move with the support), and bar -> [axial, transverse] counts as written."""
+    from symgen.model.structure import slot_guide
+
+    bodies, counts = [], {}
+    eff = scene.effects
+    for b in scene.bodies:
+        if b.rigid or slot_guide(scene, b.name):
+            bodies.append(b)
+            continue
+        na = b.axial_modes + (EXTRA_AXIAL if eff.axial is not False and b.axial_modes else 0)
+        nt = b.transverse_modes + (EXTRA_TRANSVERSE if eff.transverse and b.transverse_modes else 0)
+        bodies.append(dataclasses.replace(b, axial_modes=na, transverse_modes=nt))
+        counts[b.name] = [na, nt]
+    return dataclasses.replace(scene, bodies=tuple(bodies)), counts
+
+
+def richer_mechanism(mech: Mechanism) -> tuple[Mechanism, dict[str, list[int]]]:
+    """The embedded richer model of ``mech`` (derived once, then from the model cache)."""
+    from symgen.numerics.mechanism import load_mechanism
+
+    scene, counts = richer_scene(mech.scene)
+    return load_mechanism(scene), counts
+
+
+def _bodies(info: Any) -> dict[str, dict[str, Any]]:
+    return {b["name"]: b for b in info.structure.get("bodies", [])}
+
+
+def _hierarchical(spec: Mapping[str, Any]) -> bool:
+    """The first n functions of the bar's families are the same whatever n: no static
+    corrections (orthogonalised against the others) and no tip-load shape (likewise)."""
+    tip = spec.get("tip_joint") and spec.get("frame") == "cantilever" and spec.get("transverse_shapes") == "modes"
+    return not spec.get("static_points") and not tip
+
+
+def _shape_map(base: Mapping[str, Any], rich: Mapping[str, Any]) -> tuple[list[list[float]], list[list[float]]]:
+    """(axial, transverse) matrices P (rich x base) with rich_functions @ P = base_functions,
+    by least squares over the bar (values and second derivatives), remembered in the cache
+    (a cached run does not import the model's SymPy); ValueError when the richer basis does not
+    contain the base one."""
+    from symgen import cache
+
+    question = {"check": "error_estimate.shape_map", "version": __version__, "base": dict(base), "rich": dict(rich)}
+    known, answer = cache.recall(question)
+    if known:
+        return answer["axial"], answer["transverse"]
+    from symgen.model.static_shapes import bar_bases
+
+    xs = np.linspace(0.0, 1.0, 121)
+    out: list[list[list[float]]] = []
+    for k, (bb, br) in enumerate(zip(bar_bases(dict(base)), bar_bases(dict(rich)))):
+        if len(bb) == 0:
+            out.append([])
+            continue
+        derivs = (0, 2) if k == 1 else (0, 1)
+        B = np.vstack([np.array([bb.values(x, d) for x in xs]) for d in derivs])
+        Rm = np.vstack([np.array([br.values(x, d) for x in xs]) for d in derivs])
+        P, *_ = np.linalg.lstsq(Rm, B, rcond=None)
+        miss = np.abs(Rm @ P - B).max() / max(np.abs(B).max(), 1e-300)
+        if miss > 1e-6:
+            raise ValueError(f"the richer basis of bar {base['name']} does not contain its functions ({miss:.1e})")
+        out.append(P.tolist())
+    cache.remember(question, {"axial": out[0], "transverse": out[1]})
+    return out[0], out[1]
+
+
+def _state_map(base: Mechanism, rich: Mechanism) -> tuple[np.ndarray, np.ndarray]:
+    """(T, S): q_rich = T q_base (and v, a likewise), lam_rich = S lam_base."""
+    bi, ri = base.info, rich.info
+    T = np.zeros((ri.n, bi.n))
+    where = {(c.kind, c.body, c.joint, c.index): i for i, c in enumerate(ri.coords)}
+    bspec, rspec = _bodies(bi), _bodies(ri)
+    maps: dict[str, tuple[Any, Any]] = {}
+    for body in bi.amplitudes:
+        same = bspec[body] == rspec[body]
+        if not same and not (_hierarchical(bspec[body]) and _hierarchical(rspec[body])):
+            maps[body] = _shape_map(bspec[body], rspec[body])
+    for j, c in enumerate(bi.coords):
+        if c.elastic and c.body in maps:
+            pa, pt = maps[c.body]
+            P = np.asarray(pa if c.kind is CoordKind.F else pt)
+            rich_idx = ri.amplitudes[c.body][c.kind is CoordKind.G]
+            base_idx = bi.amplitudes[c.body][c.kind is CoordKind.G]
+            T[list(rich_idx), j] = P[:, base_idx.index(j)]
+            continue
+        key = (c.kind, c.body, c.joint, c.index)
+        if key not in where:
+            raise TruncationNotEstimated(f"the richer model has no coordinate {c.name}")
+        T[where[key], j] = 1.0
+    S = np.zeros((ri.m, bi.m))
+    seen: dict[tuple[Any, ...], int] = {}
+    rich_rows: dict[tuple[Any, ...], int] = {}
+    for i, r in enumerate(ri.lam_rows):
+        k = (r.kind, r.joint, r.loop)
+        rich_rows[(*k, seen.get(k, 0))] = i
+        seen[k] = seen.get(k, 0) + 1
+    seen.clear()
+    for j, r in enumerate(bi.lam_rows):
+        k = (r.kind, r.joint, r.loop)
+        n = seen.get(k, 0)
+        seen[k] = n + 1
+        if (*k, n) not in rich_rows:
+            raise TruncationNotEstimated(f"the richer model has no row of joint {r.joint}")
+        S[rich_rows[(*k, n)], j] = 1.0
+    return T, S
+
+
+def truncation_part(
+    mech: Mechanism, result: SimResult, richer: Mechanism | None = None, method: str = "rerun"
+) -> tuple[dict[str, float], dict[str, list[int]], str]:
+    """(output -> fraction of peak, bar -> richer counts, method text) of the truncation part
+    (the module docstring). Raises :class:`TruncationNotEstimated` with the reason when the run
+    has no elastic functions to enrich or the richer model does not extend this one."""
+    if method not in TRUNCATION_METHODS:
+        raise ValueError(f"unknown truncation method {method!r}; expected one of {', '.join(TRUNCATION_METHODS)}")
+    if method == "rerun":
+        return _rerun(mech, result, richer)
+    idx, deltas, counts = truncation_deltas(mech, result, richer)
+    names = list(result.output_names)
+    measured = _measured(mech, names)
+    peaks = _smooth_peaks(mech, result)
+    smooth = _below_cutoff(mech, np.asarray(result.tau)[idx], deltas)
+    values = {
+        n: float(np.abs(smooth[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
+    }
+    bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
+    how = (
+        f"embedded richer model ({bars} axial+transverse functions) linearised along the run, "
+        f"on {len(idx)} of its outputs: the response of the added functions to their generalized loads "
+        "(quasi-static above the output grid's resolution), through the loop"
+    )
+    return values, counts, how
+
+
+def _rerun(
+    mech: Mechanism, result: SimResult, richer: Mechanism | None
+) -> tuple[dict[str, float], dict[str, list[int]], str]:
+    """The truncation part by a second run of the richer model on the run's own output grid and
+    tolerances."""
+    from symgen.errors import SimulationError
+    from symgen.numerics.simulate import simulate
+
+    counts: dict[str, list[int]]
+    if richer is None:
+        richer, counts = richer_mechanism(mech)
+    else:
+        counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
+    if richer.info.n == mech.info.n:
+        raise TruncationNotEstimated("the model has no elastic functions to add to")
+    tau = np.asarray(result.tau, dtype=float)
+    if len(tau) < 2:
+        raise TruncationNotEstimated("the run has fewer than two outputs")
+    sim = mech.scene.simulation
+    step = float(tau[1] - tau[0])
+    backend = result.stats.get("backend")
+    try:
+        rich = simulate(
+            richer,
+            t_end=float(tau[-1]),
+            output_step=step,
+            rtol=sim.rtol,
+            atol=sim.atol,
+            t0=float(tau[0]),
+            backend=backend if backend in ("compiled", "vm") else None,
+        )
+    except SimulationError as err:
+        raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
+    names = list(result.output_names)
+    k = min(len(rich.tau), len(tau))
+    deltas = np.column_stack([rich.column(n)[:k] - result.column(n)[:k] for n in names])
+    smooth = _below_cutoff(mech, tau[:k], deltas)
+    measured = _measured(mech, names)
+    peaks = _smooth_peaks(mech, result)
+    values = {
+        n: float(np.abs(smooth[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
+    }
+    bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
+    how = (
+        f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
+        f"and tolerances ({rich.steps} IDAS steps): the difference below "
+        "50 cycles per crank turn"
+    )
+    return values, counts, how
+
+
+def truncation_deltas(
+    mech: Mechanism, result: SimResult, richer: Mechanism | None = None
+) -> tuple[np.ndarray, np.ndarray, dict[str, list[int]]]:
+    """(the sampled output indices, the change of every output there (samples x outputs), bar ->
+    richer counts): what the richer model changes along the run (:func:`truncation_part`)."""
+    import casadi as ca
+
+    counts: dict[str, list[int]]
+    if richer is None:
+        richer, counts = richer_mechanism(mech)
+    else:
+        counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
+    if not any(mech.info.amplitudes.values()) or richer.info.n == mech.info.n:
+        raise TruncationNotEstimated("the model has no elastic functions to add to")
+    T, S = _state_map(mech, richer)
+    ri = richer.info
+    tau = np.asarray(result.tau, dtype=float)
+    N = len(tau)
+    if N == 0:
+        raise TruncationNotEstimated("the run has no output")
+    idx = np.arange(0, N, max(1, math.ceil(N / MAX_SAMPLES)))
+    t, q, v, a, lam, p = (
+        ca.SX.sym(k, s)
+        for k, s in (("t", 1), ("q", ri.n), ("v", ri.n), ("a", ri.n), ("lam", ri.m), ("p", len(richer.p)))
+    )
+    args = [t, q, v, a, lam, p]
+    res, phi = richer.f["res"](*args), richer.f["phi"](*args)
+    system = ca.Function(
+        "truncation_system",
+        args,
+        [
+            res,
+            phi,
+            ca.jacobian(res, a),
+            ca.jacobian(res, v),
+            ca.jacobian(res, q),
+            ca.jacobian(res, lam),
+            ca.jacobian(phi, q),
+        ],
+    )
+    out_f = richer.f["out"]
+    names = list(result.output_names)
+    cols = [list(ri.outputs).index(n) for n in names]
+    n, m = ri.n, ri.m
+    quasi_static_start = bool(mech.scene.initial.quasi_static)
+    # the correction d = [dq; dlam] of the richer model about the run, linearised along it:
+    #   M da + C dv + K dq + L dlam = -r(t),  Phi_q dq = -phi(t)
+    # marched on the sampled outputs by BDF2 (BDF1 on the first step and where the step
+    # changes): A-stable and strongly damping where h w >> 1, so the omitted functions, far
+    # above what the output grid resolves, respond quasi-statically (residual flexibility),
+    # while the retained ones keep their dynamics (a changed frequency shows as the phase
+    # drift it causes)
+    dq_prev: list[np.ndarray] = []
+    dv_prev: list[np.ndarray] = []
+    deltas = np.zeros((len(idx), len(names)))
+    for j, k in enumerate(idx):
+        tk = float(tau[k])
+        qb, vb, lb = np.asarray(result.q[k]), np.asarray(result.v[k]), np.asarray(result.lam[k])
+        ab, _ = mech.accelerations(tk, qb, vb)
+        qr, vr, ar, lr = T @ qb, T @ vb, T @ ab, S @ lb
+        r, ph, M, C, K, L, G = (np.array(x) for x in system(tk, qr, vr, ar, lr, richer.p))
+        r, ph = r.ravel(), ph.ravel()
+        A = np.zeros((n + m, n + m))
+        A[n:, :n] = G
+        if j == 0:
+            # the start: the richer model starts from the same state, its added functions at
+            # their quasi-static values when the scene starts quasi-static (else undeformed)
+            if quasi_static_start:
+                held = [i for i in range(n) if i not in _free_at_start(mech, result, T)]
+                A[:n, :n], A[:n, n:] = K, L
+                A[held, :] = 0.0
+                A[held, held] = 1.0
+                rhs = -np.concatenate([r, ph])
+                rhs[held] = 0.0
+            else:
+                A[:n, :n] = np.eye(n)
+                A[:n, n:] = 0.0
+                rhs = np.zeros(n + m)
+                A[n:, n:] = np.eye(m)  # then dlam is 0 too (read only through the outputs)
+                A[n:, :n] = 0.0
+            sol = _solve(A, rhs)
+            dq, dl = sol[:n], sol[n:]
+            dv = np.zeros(n)
+            da = np.zeros(n)
+        else:
+            h = tau[k] - tau[idx[j - 1]]
+            bdf2 = j >= 2 and abs((tau[idx[j - 1]] - tau[idx[j - 2]]) - h) <= 1e-6 * h
+            if bdf2:
+                c0 = 3.0 / (2.0 * h)
+                v_hist = (-4.0 * dq_prev[-1] + dq_prev[-2]) / (2.0 * h)
+                a_hist = (-4.0 * dv_prev[-1] + dv_prev[-2]) / (2.0 * h)
+            else:
+                c0 = 1.0 / h
+                v_hist = -dq_prev[-1] / h
+                a_hist = -dv_prev[-1] / h
+            A[:n, :n] = c0 * c0 * M + c0 * C + K
+            A[:n, n:] = L
+            rhs = np.concatenate([-r - M @ (c0 * v_hist + a_hist) - C @ v_hist, -ph])
+            sol = _solve(A, rhs)
+            dq, dl = sol[:n], sol[n:]
+            dv = c0 * dq + v_hist
+            da = c0 * dv + a_hist
+        dq_prev, dv_prev = [*dq_prev[-1:], dq], [*dv_prev[-1:], dv]
+        y1 = np.array(out_f(tk, qr + dq, vr + dv, ar + da, lr + dl, richer.p)).ravel()[cols]
+        deltas[j] = y1 - np.asarray(result.outputs[k])
+    return idx, deltas, counts
