@@ -152,13 +152,6 @@ def _simulate(args, files) -> int:
     from symgen.numerics.results import attempt
     from symgen.numerics.simulate import simulate
 
-    if args.solver == "c" and args.states:
-        raise SceneError(
-            "command line",
-            "--states",
-            "the C solver writes the outputs only, not the coordinates",
-            "leave out --states, or --solver c",
-        )
     mech = _prepare_run(args)
     sc = mech.scene
     seconds = f" (t 0 -> {sc.simulation.t_end / sc.omega:.6g} s)" if sc.units == "SI" else ""
@@ -166,7 +159,7 @@ def _simulate(args, files) -> int:
     if args.solver == "c":
         from symgen.numerics.csolver import simulate_c
 
-        result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
+        result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache, progress=True))
     else:
         result, failure = attempt(
             lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache, progress=True)
