@@ -35,7 +35,7 @@ import time
 from importlib import resources
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -57,8 +57,10 @@ LIBRARY = "solver.so"
 #: (a step costs 10-200 us: the run answers within tens of milliseconds)
 STEPS_PER_CALL = 400
 #: the counters of ``PREFIX_solver_counters``, in its order
-COUNTERS = ("t", "steps", "accepted", "rejected", "jacobians", "factorizations", "residuals", "closure_max",
-            "divergence_rate", "status")
+COUNTERS = (
+    *("t", "steps", "accepted", "rejected", "jacobians", "factorizations", "residuals"),
+    *("closure_max", "divergence_rate", "status"),
+)
 
 
 def scene_key(scene: Scene) -> str:
@@ -217,7 +219,7 @@ class Solver:
         D, L = ctypes.c_double, ctypes.c_long
         P, DP = ctypes.c_void_p, ctypes.POINTER(ctypes.c_double)
 
-        def fn(name: str, res: object, *args: object) -> ctypes._CFuncPtr:
+        def fn(name: str, res: object, *args: object) -> Any:
             try:
                 f = getattr(lib, f"{prefix}_{name}")
             except AttributeError:
@@ -287,10 +289,10 @@ def simulate_c(
     try:
         lib, built = solver(mech, use_cache)
     except BaseException as err:
-        stop = interrupt.interrupted(err, 0.0)
-        if stop is err:
+        cause = interrupt.interrupted(err, 0.0)
+        if cause is err:
             raise
-        raise stop from None
+        raise cause from None
     setup_s = time.perf_counter() - t_setup
     n_rows = int(math.floor(t_end / h + 1e-9)) + 1
     rec = np.zeros((n_rows, lib.stride))
@@ -299,7 +301,8 @@ def simulate_c(
     p = np.ascontiguousarray(mech.p, dtype=float)
     DP = ctypes.POINTER(ctypes.c_double)
     tic, cpu = time.perf_counter(), time.process_time()
-    rc, stop = 0, None
+    rc = 0
+    stop: Interrupted | SimulationError | None = None  # what ended the run early
     try:
         with _progress(progress, n_rows) as advanced:
             rc = lib.init(state, p.ctypes.data_as(DP), 0.0, rtol, atol)
@@ -313,9 +316,10 @@ def simulate_c(
                 if rc == PAUSED:
                     rc = 0
     except BaseException as err:
-        stop = interrupt.interrupted(err, float(rec[done.value - 1, 0]) if done.value else 0.0)
-        if not isinstance(stop, Interrupted):
+        cause = interrupt.interrupted(err, float(rec[done.value - 1, 0]) if done.value else 0.0)
+        if not isinstance(cause, Interrupted):
             raise
+        stop = cause
     elapsed, cpu = time.perf_counter() - tic, time.process_time() - cpu
     counts = (ctypes.c_double * len(COUNTERS))()
     lib.counters(state, counts)
