@@ -46,9 +46,10 @@ from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.simulate import SimResult
+from symgen.numerics.solvers import check_solver
 
 if TYPE_CHECKING:
-    from symgen.scene.model import Scene
+    from symgen.ir.plan import StartPlan
 
 FORMAT = "symgen-c-solver-cache"
 FORMAT_VERSION = 3  # 2: keyed hashes (HMAC-SHA256 with the user's key); 3: a shared library, not an executable
@@ -63,12 +64,26 @@ COUNTERS = (
 )
 
 
-def scene_key(scene: Scene) -> str:
-    """sha256 of the scene without its [simulation] table (times, tolerances: given to the
-    executable on its command line) and its file's path: what the emitted C is made from."""
-    data = dataclasses.asdict(scene)
-    for name in ("hash", "path", "simulation"):
-        data.pop(name, None)
+def emitted_key(mech: Mechanism, plan: StartPlan) -> str:
+    """sha256 of what the emitted solver holds of the scene beyond its model (the structure key)
+    and the parameters a run passes in (``mech.p``: any values): the start plan (partitions,
+    initial guess, index sets of the start and the checks), the quasi-static start, the C prefix,
+    the parameters' names, valid ranges and keys, the outputs. Scenes that differ only in
+    parameter values (a sweep's points) share one library; the times and tolerances are a run's
+    arguments too."""
+    from symgen.backends.c.names import c_prefix
+    from symgen.ir.parameters import parameter_records
+
+    scene = mech.scene
+    params = list(mech.info.params)
+    data = {
+        "prefix": c_prefix(scene),
+        "start": dataclasses.asdict(plan),
+        "quasi_static": bool(scene.initial.quasi_static),
+        "parameters": [[r.name, r.valid.text(), r.key] for r in parameter_records(scene, params)],
+        "outputs": list(mech.info.outputs),
+        "units": scene.units,
+    }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=repr).encode()).hexdigest()
 
 
@@ -86,12 +101,12 @@ def templates_digest() -> str:
     return h.hexdigest()
 
 
-def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
-    """What the executable is made from (``radau``: the method's and the step control's constants,
+def _key(mech: Mechanism, plan: StartPlan, comp: compiled.Compiler) -> dict[str, object]:
+    """What the library is made from (``radau``: the method's and the step control's constants,
     rendered into the C from symgen/backends/c/radau.py; ``policy``: the solver policy's tolerances
     and limits, from symgen/policy.py). ``model``: the derived model's structure key (derivation
     version, per-bar axial treatment, ...): the same scene file derives another model when
-    symgen's rules change, and an executable of the old model must not be loaded for it."""
+    symgen's rules change, and a library of the old model must not be loaded for it."""
     from symgen.backends.c import radau
     from symgen.backends.c.build import STRICT_C
     from symgen.model.structure import structure_key, structure_of
@@ -100,8 +115,8 @@ def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "symgen": __version__,
-        "scene": scene_key(scene),
-        "model": structure_key(structure_of(scene)),
+        "emitted": emitted_key(mech, plan),
+        "model": structure_key(structure_of(mech.scene)),
         "templates": templates_digest(),
         "radau": json.loads(json.dumps(radau.constants())),  # as the manifest holds it (lists)
         "policy": POLICY.as_dict(),
@@ -113,11 +128,14 @@ def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
 def library(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
     """The verified bytes of the scene's C solver library and whether it was built now.
     Raises SceneError (``--solver``) when no C compiler works."""
+    from symgen.numerics.start import start_plan
+
     try:
         comp = compiled.compiler()
     except compiled.Unavailable as exc:
         raise _no_compiler(exc.reason) from None
-    key = _key(mech.scene, comp)
+    plan = start_plan(mech)  # the Python start (milliseconds): a scene it refuses is refused here
+    key = _key(mech, plan, comp)
     where = cache.compiled_dir() / ("c" + hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:19])
     replace = False
     if use_cache and where.exists():
@@ -128,7 +146,7 @@ def library(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
             replace = True
         except FileNotFoundError:
             pass
-    return _build(mech, comp, where, key, use_cache, replace), True
+    return _build(mech, plan, comp, where, key, use_cache, replace), True
 
 
 def _no_compiler(reason: str) -> SceneError:
@@ -141,7 +159,13 @@ def _no_compiler(reason: str) -> SceneError:
 
 
 def _build(
-    mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str, object], store: bool, replace: bool
+    mech: Mechanism,
+    plan: StartPlan,
+    comp: compiled.Compiler,
+    where: Path,
+    key: dict[str, object],
+    store: bool,
+    replace: bool,
 ) -> bytes:
     """Emit the scene's C and compile the model and the solver (two units, in parallel, each
     compiler in a process group of its own) into one shared library."""
@@ -149,10 +173,9 @@ def _build(
     from symgen.backends.c import c_context
     from symgen.backends.c.build import STRICT_C
     from symgen.backends.c.render import render_files
-    from symgen.numerics.start import start_plan
 
     scene = mech.scene
-    ctx = c_context(scene, derive(scene), start_plan(mech), info=mech.info)
+    ctx = c_context(scene, derive(scene), plan, info=mech.info)
     files = render_files(ctx)
     prefix = ctx["prefix"]
     parent, store = compiled.build_folder(where, store)
@@ -363,6 +386,40 @@ def simulate_c(
         stop.partial = result  # symgen.errors does not declare the errors' partial
         raise stop
     return result
+
+
+def run(
+    mech: Mechanism,
+    solver: str = "idas",
+    *,
+    t_end: float | None = None,
+    output_step: float | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    use_cache: bool = True,
+    progress: bool = False,
+    **idas_only: Any,
+) -> SimResult:
+    """One run of the scene with ``solver``: "idas" (:func:`symgen.numerics.simulate.simulate`,
+    which also takes ``idas_only``: t0, initial, axial_atol, backend) or "c" (:func:`simulate_c`).
+    The same result record, the same partial result on a failure or an interrupt."""
+    check_solver(solver, "solver")
+    if solver == "c":
+        if idas_only:
+            raise ValueError(f"the C solver does not take {', '.join(sorted(idas_only))} (IDAS only): leave them out")
+        return simulate_c(mech, use_cache, t_end, output_step, rtol, atol, progress)
+    from symgen.numerics.simulate import simulate
+
+    return simulate(
+        mech,
+        t_end=t_end,
+        output_step=output_step,
+        rtol=rtol,
+        atol=atol,
+        use_cache=use_cache,
+        progress=progress,
+        **idas_only,
+    )
 
 
 #: the library's return codes (symgen_runtime.h)
