@@ -434,5 +434,5 @@ def _progress(show: bool, n_rows: int) -> Iterator[Callable[[int], object]]:
         return
     from symgen.progress import progress_bar
 
-    with progress_bar(n_rows - 1, "simulate (C)", unit="output") as bar:
+    with progress_bar(n_rows, "simulate (C)", unit="output") as bar:
         yield bar.update
