@@ -1,7 +1,7 @@
 """The C solver's dense output and its in-process run (``simulate --solver c``, issue 20 item 3).
 
 * Steps set by accuracy, not by the output grid: the steel slider-crank (rtol 1e-4, two turns)
-  with outputs every degree and every 10 degrees takes the very same steps (1891 measured; the
+  with outputs every degree and every 10 degrees takes the very same steps (1992 measured; the
   solver that landed on every output took 725 vs 164 at 1 %), and the rows at common times
   agree to round-off. The rows lie between steps (steps and rows interleave); they are compared
   with IDAS at rtol 1e-11 (the oracle, converged far below 1e-4) to the run's tolerance.
@@ -66,7 +66,8 @@ def test_steps_do_not_depend_on_the_output_grid_and_rows_between_steps_match_ida
     assert np.abs(every1.outputs[::10] - every10.outputs).max() < 1e-12 * np.abs(every1.outputs).max()
     ref = simulate(mech, output_step=DEG, rtol=1e-11, atol=1e-13)
     assert ref.outputs.shape == every1.outputs.shape
-    assert _peak_error(ref.outputs, every1.outputs) < 1e-3  # measured 2.3e-5 at rtol 1e-4
+    # measured 2.3e-5 at rtol 1e-4 with RADAU5's looser atol, less since
+    assert _peak_error(ref.outputs, every1.outputs) < 1e-3
     # the states: q of the C rows are IDAS's (rigid angles, amplitudes)
     assert every1.q.shape == ref.q.shape and every1.lam.shape == ref.lam.shape
     for k in range(ref.q.shape[1]):
