@@ -151,3 +151,18 @@ def test_sigint_stops_the_in_process_c_run_with_its_rows_marked_interrupted(tmp_
     assert rows[0].startswith("tau,eta_mid,eps_ax,torque,closure,q.") and len(rows) > 100
     last = [float(w) for w in rows[-1].split(",")]
     assert last[0] > 0 and all(math.isfinite(w) for w in last)
+
+
+def test_a_cached_c_run_imports_no_sympy_nor_jinja2(tmp_path):
+    """The in-process C run of a cached model and library (CLI and API) imports neither SymPy nor
+    jinja2 nor matplotlib (``test_lean_start``'s watch): the first run derives and compiles."""
+    from test_lean_start import _lean
+
+    over = "simulation.cycles=0.05"
+    _lean(
+        [
+            ["cli", "simulate", str(SLIDER), "--set", over, "--solver", "c", "-o", str(tmp_path / "cli.csv")],
+            ["cli", "simulate", str(SLIDER), "--set", over, "--solver", "c", "--states", "-o", str(tmp_path / "s.csv")],
+        ],
+        tmp_path,
+    )
