@@ -430,7 +430,7 @@ def measure_effects(
         "t_end": runs.t_end,
         "output_step": runs.step,
         "outputs": list(runs.compared),
-        "solver": runs.solver,
+        "solver": solver,
     }
     from symgen.progress import progress_bar
 
