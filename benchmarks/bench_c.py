@@ -5,6 +5,10 @@
    with ``gcc -O2`` and timed in one C harness (interleaved repeats, medians).
 2. Compile times of the emitted files and of CasADi's C; emission time (derive excluded).
 3. The C driver (Radau IIA) against the Python path (IDAS) over the scene's two crank turns.
+4. Dense output and the in-process run (``simulate --solver c``): steps and CPU of the steel
+   slider-crank with rows every 1 and every 10 degrees, dense against landing on every output
+   (``PREFIX_solver_advance``, what the solver did before); in process (ctypes) against the
+   emitted executable in a subprocess.
 
 Times are medians of repeats in one run on this machine (shared, noisy: compare ratios).
 """
@@ -202,6 +206,122 @@ def _one(path: str, repeats: int) -> dict:
     }
 
 
+STEEL = "benchmarks/scenes/slider_crank_steel.toml"
+DEG = 0.017453292519943295
+
+
+def _landing(solver, mech, step: float, rtol: float, atol: float) -> tuple[int, float]:
+    """Steps and CPU s of the run landing on every output (``PREFIX_solver_advance``), the rows
+    from Python through ctypes (about a microsecond a call, 1 % of these runs)."""
+    import ctypes
+    import math
+
+    import numpy as np
+
+    lib, P = solver.lib, solver.prefix
+    init = getattr(lib, f"{P}_solver_init")
+    init.argtypes = [
+        ctypes.c_void_p,
+        ctypes.POINTER(ctypes.c_double),
+        ctypes.c_double,
+        ctypes.c_double,
+        ctypes.c_double,
+    ]
+    advance = getattr(lib, f"{P}_solver_advance")
+    advance.argtypes = [ctypes.c_void_p, ctypes.c_double]
+    state = (ctypes.c_double * ((solver.size + 7) // 8))()
+    p = np.ascontiguousarray(mech.p, dtype=float)
+    n = int(math.floor(mech.scene.simulation.t_end / step + 1e-9))
+    cpu = time.process_time()
+    rc = init(state, p.ctypes.data_as(ctypes.POINTER(ctypes.c_double)), 0.0, rtol, atol)
+    for i in range(1, n + 1):
+        rc = rc or advance(state, i * step)
+    cpu = time.process_time() - cpu
+    counts = (ctypes.c_double * 10)()
+    solver.counters(state, counts)
+    assert rc == 0, rc
+    return int(counts[1]), cpu
+
+
+def _dense(repeats: int) -> list[str]:
+    from symgen.api import mechanism
+    from symgen.backends.c import c_context, write_tree
+    from symgen.backends.c.render import render_files
+    from symgen.model.derive import derive
+    from symgen.numerics import csolver
+    from symgen.numerics.start import start_plan
+
+    out = [
+        "### Dense output and the in-process run",
+        "",
+        f"`{STEEL}` (undamped, from rest), two crank turns at rtol = 100 atol as given; rows every 1 and "
+        "every 10 degrees. Dense: `--solver c` (steps set by the error control, rows from the collocation "
+        "polynomial); landing: the same solver stopping on every output time (`PREFIX_solver_advance`, the "
+        f"C solver before dense output). CPU s: medians of {repeats}, the solver's own (in process).",
+        "",
+        "| rtol | dense steps, 1 deg | dense steps, 10 deg | dense CPU s, 1 deg / 10 deg | landing steps, 1 deg "
+        "| landing steps, 10 deg | landing CPU s, 1 deg / 10 deg |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for rtol in (1e-3, 1e-4, 1e-6):
+        mech = mechanism(ROOT / STEEL, [f"simulation.rtol={rtol!r}", f"simulation.atol={rtol / 100!r}"])
+        solver, _ = csolver.solver(mech)
+        cells = []
+        for mode in ("dense", "landing"):
+            steps, cpus = [], []
+            for step in (DEG, 10 * DEG):
+                runs = []
+                for _ in range(repeats):
+                    if mode == "dense":
+                        res = csolver.simulate_c(mech, output_step=step)
+                        runs.append((res.steps, float(res.stats["solve_cpu_s"])))
+                    else:
+                        runs.append(_landing(solver, mech, step, rtol, rtol / 100))
+                steps.append(runs[0][0])
+                cpus.append(statistics.median(r[1] for r in runs))
+            cells += [str(steps[0]), str(steps[1]), f"{cpus[0]:.4f} / {cpus[1]:.4f}"]
+        out.append(f"| {rtol:g} | " + " | ".join(cells) + " |")
+    # in process against the executable in a subprocess (whole call, wall s)
+    mech = mechanism(ROOT / STEEL, ["simulation.rtol=1e-4", "simulation.atol=1e-6"])
+    name = mech.scene.name
+    work = Path(tempfile.mkdtemp(prefix="bench-c-dense-"))
+    src = write_tree(render_files(c_context(mech.scene, derive(mech.scene), start_plan(mech), mech.info)), work / "c")
+    exe = work / "sim"
+    subprocess.run(
+        [
+            "gcc",
+            *CFLAGS,
+            f"-I{src}",
+            *(str(src / f"{name}{x}.c") for x in ("", "_solver", "_sim")),
+            "-o",
+            str(exe),
+            "-lm",
+        ],
+        check=True,
+    )
+    csolver.simulate_c(mech)  # loaded
+    inproc, sub = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        csolver.simulate_c(mech)
+        inproc.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        subprocess.run([str(exe), "--rtol", "1e-4", "--atol", "1e-6"], capture_output=True, check=True)
+        sub.append(time.perf_counter() - t0)
+    out += [
+        "",
+        "The same run (rtol 1e-4, rows every degree) in process (`simulate_c`: ctypes calls of 400 steps, "
+        "the rows with the states into NumPy) against the emitted executable (`PREFIX_sim`, `gcc -O2`) "
+        "in a subprocess, rows printed as CSV (wall s, medians):",
+        "",
+        "| in process | subprocess |",
+        "|---|---|",
+        f"| {statistics.median(inproc):.4f} | {statistics.median(sub):.4f} |",
+        "",
+    ]
+    return out
+
+
 def run(repeats: int) -> str:
     rows = [_one(p, repeats) for p in EXAMPLES]
     out = [
@@ -244,6 +364,7 @@ def run(repeats: int) -> str:
     for r in rows:
         out.append(f"| {r['name']} | {r['c_sim']:.2f} | {r['c_steps']} | {r['idas_sim']:.2f} | {r['idas_steps']} |")
     out.append("")
+    out += _dense(repeats)
     return "\n".join(out)
 
 

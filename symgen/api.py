@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from symgen.numerics.mechanism import Mechanism, load_mechanism
-from symgen.numerics.simulate import SimResult, simulate
+from symgen.numerics.simulate import SimResult
 from symgen.scene import scene_of
 from symgen.scene.model import Scene
 
@@ -81,9 +81,12 @@ def simulate_scene(
     states: bool = False,
     units: str | None = None,
     estimate: str = "rerun",
+    solver: str = "idas",
     **kwargs,
 ) -> SimResult:
-    """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``.
+    """Load (if needed), derive or load from cache, and simulate; kwargs go to ``simulate``
+    (``solver="c"``: to ``symgen.numerics.csolver.simulate_c``, the emitted C Radau IIA solver
+    run in this process: t_end, output_step, rtol, atol, use_cache).
 
     ``out``: write the run as ``symgen simulate -o OUT`` does (``out`` a .csv; its JSON sidecar
     beside it; ``plot``: a .png/.svg/.pdf of the outputs; ``states``: the coordinates as
@@ -92,10 +95,15 @@ def simulate_scene(
     that stops early writes the ``.partial`` files, then raises as without ``out``. The sidecar
     records the scene's own times and tolerances, so with ``out`` the kwargs are those of the
     command line only (``backend``, ``use_cache``): give the others as overrides."""
+    from symgen.numerics.csolver import run
+    from symgen.numerics.solvers import check_solver
+
+    check_solver(solver, "solver")
     if out is None:
         _no_files(plot, states, units)
-        return simulate(mechanism(scene, overrides), **kwargs)
-    _only(kwargs, ("backend", "use_cache"), "simulation.t_end=..., simulation.rtol=...")
+        return run(mechanism(scene, overrides), solver, **kwargs)
+    allowed = ("backend", "use_cache") if solver == "idas" else ("use_cache",)
+    _only(kwargs, allowed, "simulation.t_end=..., simulation.rtol=...")
     return _written_run(
         scene,
         overrides,
@@ -104,8 +112,8 @@ def simulate_scene(
         states,
         units,
         kwargs.get("use_cache", True),
-        "idas",
-        lambda mech: simulate(mech, **kwargs),
+        solver,
+        lambda mech: run(mech, solver, **kwargs),
         estimate,
     )
 

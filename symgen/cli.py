@@ -153,13 +153,6 @@ def _simulate(args, files) -> int:
     from symgen.numerics.results import attempt
     from symgen.numerics.simulate import simulate
 
-    if args.solver == "c" and args.states:
-        raise SceneError(
-            "command line",
-            "--states",
-            "the C solver writes the outputs only, not the coordinates",
-            "leave out --states, or --solver c",
-        )
     mech = _prepare_run(args)
     sc = mech.scene
     seconds = f" (t 0 -> {sc.simulation.t_end / sc.omega:.6g} s)" if sc.units == "SI" else ""
@@ -167,7 +160,7 @@ def _simulate(args, files) -> int:
     if args.solver == "c":
         from symgen.numerics.csolver import simulate_c
 
-        result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache))
+        result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache, progress=True))
     else:
         result, failure = attempt(
             lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache, progress=True)
@@ -270,6 +263,7 @@ def cmd_study(args) -> int:
             tolerances=tols,
             ref_rtol=args.ref_rtol,
             progress=None if args.silent else _flush_print,
+            solver=args.solver,
         )
     except BaseException as err:
         partial = getattr(err, "partial", None)
@@ -326,6 +320,7 @@ def cmd_sweep(args) -> int:
             use_cache=not args.no_cache,
             say=print,
             units=args.units,
+            solver=args.solver,
         )
     except BaseException as err:
         partial = getattr(err, "partial", None)
@@ -385,12 +380,23 @@ def cmd_effects(args) -> int:
             )
         _check_out(args.output, (".toml",), "-o")
         report = auto_effects(
-            args.scene, args.set or [], tol=args.auto, output=args.output, cycles=args.cycles, outputs=outputs
+            args.scene,
+            args.set or [],
+            tol=args.auto,
+            output=args.output,
+            cycles=args.cycles,
+            outputs=outputs,
+            solver=args.solver,
         )
     elif args.measure:
         try:
             report = measure_effects(
-                args.scene, args.set or [], tol=args.tol or DEFAULT_TOL, cycles=args.cycles, outputs=outputs
+                args.scene,
+                args.set or [],
+                tol=args.tol or DEFAULT_TOL,
+                cycles=args.cycles,
+                outputs=outputs,
+                solver=args.solver,
             )
         except Interrupted as err:
             if err.partial is not None:  # the rows measured before the signal
@@ -583,6 +589,12 @@ def cmd_cache(args) -> int:
     return 0
 
 
+def _solver_option(p: argparse.ArgumentParser, what: str) -> None:
+    from symgen.numerics.solvers import SOLVER_HELP, SOLVERS
+
+    p.add_argument("--solver", choices=SOLVERS, default="idas", help=SOLVER_HELP + what)
+
+
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="symgen",
@@ -627,13 +639,7 @@ def build_parser() -> argparse.ArgumentParser:
         "or auto (default, or $SYMGEN_BACKEND: compiled when a C compiler works, else vm, "
         "said in one line)",
     )
-    p.add_argument(
-        "--solver",
-        choices=("idas", "c"),
-        default="idas",
-        help="idas (default: SUNDIALS IDAS through CasADi) or c (the emitted C Radau IIA solver of "
-        "symgen emit-c, compiled once and cached; same CSV/JSON, outputs only)",
-    )
+    _solver_option(p, "; the same CSV/JSON, --states too")
     p.add_argument(
         "--estimate",
         choices=("rerun", "linearized", "off"),
@@ -672,6 +678,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ref-rtol", type=_RTOL, default=1e-9, help="rtol of the reference (default 1e-9)")
     p.add_argument("--silent", action="store_true", help="no progress lines")
     p.add_argument("--format", choices=("png", "svg", "pdf"), default="png", help="format of the Pareto plot")
+    _solver_option(p, " (every run, the reference too)")
     p.set_defaults(func=cmd_study)
     p = scene_cmd(
         "sweep",
@@ -716,6 +723,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="units of the table and plots (default: SI for an SI scene: peaks in m, rad, N, N m, J; "
         "speed and frequencies in Hz, speed_rpm; dimensionless keeps the model's units)",
     )
+    _solver_option(p, " (every point; a library per model, shared by points that differ in values only)")
     p.set_defaults(func=cmd_sweep)
 
     p = scene_cmd(
@@ -741,6 +749,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--outputs", help="compare only these outputs (comma-separated names; default all but closure residuals)"
     )
+    _solver_option(p, " (the runs of --measure and --auto)")
     p.set_defaults(func=cmd_effects)
 
     p = scene_cmd(

@@ -16,7 +16,7 @@ import pytest
 from symgen.api import mechanism, write_c
 from symgen.backends.c.build import compile_executable
 from symgen.errors import SimulationError
-from symgen.numerics.csolver import executable
+from symgen.numerics.csolver import simulate_c
 from symgen.numerics import checks
 from symgen.numerics.simulate import simulate
 from test_cli import FOUR_BAR_TOGGLE
@@ -37,6 +37,15 @@ SCENES = {
 }
 
 
+def _executable(path, over, folder):
+    """The emitted C simulator (``symgen emit-c``: ``PREFIX_sim``) of a scene, compiled."""
+    src = write_c(path, folder / "c", over)
+    name = mechanism(path, over).scene.name
+    return compile_executable(
+        [src / f"{name}.c", src / f"{name}_solver.c", src / f"{name}_sim.c"], folder / f"{name}_sim", include=[src]
+    )
+
+
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
     """{name: (scene path, overrides, the C executable)} of the toggle four-bars."""
@@ -45,9 +54,7 @@ def built(tmp_path_factory):
     for name, (text, over) in SCENES.items():
         path = d / f"{name}.toml"
         path.write_text(text)
-        exe = d / f"{name}_sim"
-        exe.write_bytes(executable(mechanism(path, over))[0])
-        exe.chmod(0o700)
+        exe = _executable(path, over, d / name)
         out[name] = (path, over, exe)
     return out
 
@@ -82,6 +89,10 @@ def test_singular_position_on_the_way(built, name):
     assert code == 1
     assert last_py == pytest.approx(last_c, abs=1e-9)
     assert last_py == pytest.approx(TOGGLE - 0.5, abs=0.011)
+    # and the C solver in process (simulate --solver c): the same verdict after the same output
+    with pytest.raises(SimulationError, match="singular position") as stop:
+        simulate_c(mechanism(path, over))
+    assert stop.value.partial.tau[-1] == pytest.approx(last_py, abs=1e-9) and not stop.value.partial.complete
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
@@ -150,9 +161,7 @@ def column(request, tmp_path_factory):
     d = tmp_path_factory.mktemp(f"column_{axial}")
     over = [f"effects.axial={axial}"]
     path = write_column(d, 0.9, COLUMNS[axial])  # the C is emitted from a stable start
-    exe = d / "column_sim"
-    exe.write_bytes(executable(mechanism(path, over))[0])
-    exe.chmod(0o700)
+    exe = _executable(path, over, d / "sim")
     return {"folder": d, "axial": axial, "exe": exe, "src": write_c(path, d / "c", over)}
 
 

@@ -230,12 +230,20 @@ def test_solver_c_writes_the_idas_columns_within_the_tolerance(tmp_path):
     )
     assert f.returncode == 0 and "C solver loaded" in f.stdout, f.stdout + f.stderr
     assert len((tmp_path / "f.csv").read_text().splitlines()) == 1 + 37
-    # no compiler, or --states (the C driver writes no coordinates): exit 2, nothing written
+    # no compiler: exit 2, nothing written
     d = _cli([*common, "--solver", "c", "-o", str(tmp_path / "d.csv")], {compiled.CC_ENV: "/nonexistent"}, tmp_path)
-    e = _cli([*common, "--solver", "c", "--states", "-o", str(tmp_path / "e.csv")], {}, tmp_path)
     assert d.returncode == 2 and "--solver" in d.stderr and "/nonexistent" in d.stderr, d.stderr
-    assert e.returncode == 2 and "--states" in e.stderr, e.stderr
-    assert not any((tmp_path / f).exists() for f in ("d.csv", "d.json", "e.csv", "e.json"))
+    assert not any((tmp_path / f).exists() for f in ("d.csv", "d.json"))
+    # --states: the in-process C run has the coordinates (it once wrote the outputs only, exit 2):
+    # the columns of the IDAS path's --states, the rigid angles within the tolerance
+    e = _cli([*common, "--solver", "c", "--states", "-o", str(tmp_path / "e.csv")], {}, tmp_path)
+    s = _cli([*common, "--states", "-o", str(tmp_path / "s.csv")], {}, tmp_path)
+    assert e.returncode == 0 and s.returncode == 0, e.stderr + s.stderr
+    head_e, head_s = ((tmp_path / f).read_text().splitlines()[0] for f in ("e.csv", "s.csv"))
+    assert head_e == head_s and ",q." in head_e
+    qe = np.loadtxt(tmp_path / "e.csv", delimiter=",", skiprows=1)[:, 5:]
+    qs = np.loadtxt(tmp_path / "s.csv", delimiter=",", skiprows=1)[:, 5:]
+    assert qe.shape == qs.shape and np.abs(qe - qs).max() < 1e-4 * np.abs(qs).max()
 
 
 def test_solver_c_executable_follows_the_derived_model_not_only_the_scene(tmp_path, monkeypatch):

@@ -123,6 +123,47 @@ def _simulator(scene_path, out, overrides=()):
     )
 
 
+def _physical_parameters(tmp_path, sets) -> tuple[np.ndarray, np.ndarray]:
+    """(p of the base scene's C from the physical inputs of ``sets`` by ``si_arm_physical_set``,
+    p emitted for the scene with ``sets`` applied): the model C of both as shared libraries."""
+    import ctypes
+
+    from symgen.backends.c.build import compile_shared
+
+    base = ctypes.CDLL(
+        str(compile_shared([tmp_path / "c" / "si_arm.c"], tmp_path / "base.so", include=[tmp_path / "c"]))
+    )
+    over = ctypes.CDLL(
+        str(compile_shared([tmp_path / "c2" / "si_arm.c"], tmp_path / "over.so", include=[tmp_path / "c2"]))
+    )
+    import re
+
+    header = (tmp_path / "c" / "si_arm.h").read_text()
+    n_p, n_x = (int(re.search(rf"#define si_arm_{m} (\d+)", header).group(1)) for m in ("N_P", "N_PHYSICAL"))
+    x = (ctypes.c_double * n_x)()
+    changed = (ctypes.c_int * n_x)()
+    direct = (ctypes.c_int * max(n_p, 1))()
+    p = (ctypes.c_double * n_p)()
+    defaults = (ctypes.c_double * n_p).in_dll(base, "si_arm_parameter_defaults")
+    x_defaults = (ctypes.c_double * n_x).in_dll(base, "si_arm_physical_defaults")
+    index = base.si_arm_physical_index
+    index.argtypes = [ctypes.c_char_p]
+    for k in range(n_x):
+        x[k] = x_defaults[k]
+    for item in sets:
+        key, value = item.split("=")
+        j = index(key.encode())
+        assert j >= 0, key
+        x[j], changed[j] = float(value), 1
+    for k in range(n_p):
+        p[k] = defaults[k]
+    message = ctypes.create_string_buffer(400)
+    base.si_arm_physical_set.argtypes = [ctypes.c_void_p] * 5 + [ctypes.c_size_t]
+    assert base.si_arm_physical_set(x, changed, direct, p, message, 400) == 0, message.value
+    emitted = (ctypes.c_double * n_p).in_dll(over, "si_arm_parameter_defaults")
+    return np.array(p[:]), np.array(emitted[:])
+
+
 @needs_cc
 def test_c_set_by_physical_parameters_matches_python(tmp_path):
     from symgen.api import mechanism
@@ -138,7 +179,15 @@ def test_c_set_by_physical_parameters_matches_python(tmp_path):
     exe2 = _simulator(path, tmp_path / "c2", sets)
     header2, ref_c, _ = run_sim(exe2, *grid)
     assert header == header2 == ["tau", "tip", "theta"]
-    np.testing.assert_allclose(got, ref_c, rtol=1e-9, atol=1e-12)
+    # the parameters: the C's formulas of the physical inputs give the overridden scene's own
+    # parameters (printed by the Python loader) to round-off
+    p_set, p_emitted = _physical_parameters(tmp_path, sets)
+    np.testing.assert_allclose(p_set, p_emitted, rtol=4e-16, atol=0)
+    # the runs: parameters equal to round-off, not to the bit, may part the step sequences of
+    # the dense-output solver (its steps are its error control's, not reset at each output:
+    # 5966 and 5967 accepted steps here), so the rows agree to the integration's accuracy
+    # (rtol 1e-10 asked, 0.1 rtol^(2/3) = 2e-8 on the error estimate): measured 2e-9
+    np.testing.assert_allclose(got, ref_c, rtol=2e-8, atol=1e-11)
     # the Python run with the same overrides (IDAS; the tolerances apart)
     res = simulate(mechanism(path, sets), t_end=6.0, output_step=0.1)
     np.testing.assert_allclose(got[:, 0], res.tau, atol=1e-12)

@@ -340,11 +340,17 @@ class _Runs:
     """Short runs of the scene with extra overrides, compared with the reference run."""
 
     def __init__(
-        self, path: str, overrides: Sequence[str], cycles: float | None, outputs: Sequence[str] | None = None
+        self,
+        path: str,
+        overrides: Sequence[str],
+        cycles: float | None,
+        outputs: Sequence[str] | None = None,
+        solver: str = "idas",
     ) -> None:
         from symgen.apps.study import DEFAULT_CUTOFF, oversampling
+        from symgen.numerics.solvers import check_solver
 
-        self.path, self.overrides = path, list(overrides)
+        self.path, self.overrides, self.solver = path, list(overrides), check_solver(solver)
         scene = load_scene(path, self.overrides)
         self.t_end = _window(scene, cycles)
         d = scene.turning_driver
@@ -368,8 +374,8 @@ class _Runs:
             raise SymgenError(f"the scene itself does not run over the measuring window: {self.ref['status']}")
 
     def run(self, extra: Sequence[str]) -> dict:
+        from symgen.numerics.csolver import run
         from symgen.numerics.mechanism import load_mechanism
-        from symgen.numerics.simulate import simulate
 
         out: dict[str, Any] = {
             "status": "ok",
@@ -381,7 +387,7 @@ class _Runs:
         }
         try:
             mech = load_mechanism(self.path, [*self.overrides, *extra])
-            res = simulate(mech, t_end=self.t_end, output_step=self.step)
+            res = run(mech, self.solver, t_end=self.t_end, output_step=self.step)
         except SymgenError as err:
             interrupt.check()  # a failure while SIGINT/SIGTERM is pending is the interrupt
             out["status"] = f"failed: {err}"
@@ -416,10 +422,11 @@ def measure_effects(
     cycles: float | None = None,
     outputs: Sequence[str] | None = None,
     runs: _Runs | None = None,
+    solver: str = "idas",
 ) -> EffectsReport:
     """The estimates plus short runs with and without each effect (errors over ``outputs``,
-    default every output but closure residuals)."""
-    runs = runs or _Runs(str(path), overrides, cycles, outputs)
+    default every output but closure residuals; ``solver``: "idas" or "c", the runs' integrator)."""
+    runs = runs or _Runs(str(path), overrides, cycles, outputs, solver)
     report = estimate_effects(load_scene(path, overrides), tol, runs.compared)
     report.reference = {
         "steps": runs.ref["steps"],
@@ -427,6 +434,7 @@ def measure_effects(
         "t_end": runs.t_end,
         "output_step": runs.step,
         "outputs": list(runs.compared),
+        "solver": solver,
     }
     res = runs.ref.get("res")
     report.estimate = None if res is None else _estimate(str(path), overrides, res)
@@ -478,10 +486,11 @@ def auto_effects(
     output: str | Path,
     cycles: float | None = None,
     outputs: Sequence[str] | None = None,
+    solver: str = "idas",
 ) -> EffectsReport:
     """Greedy smallest effect set within ``tol`` of the full model, verified by a run; writes
     the scene with those effects to ``output`` (TOML)."""
-    runs = _Runs(str(path), overrides, cycles, outputs)
+    runs = _Runs(str(path), overrides, cycles, outputs, solver)
     report = measure_effects(path, overrides, tol=tol, cycles=cycles, runs=runs)
     ok = [r for r in report.rows if r.status == "ok" and r.error is not None and r.error <= tol]
     groups: dict[str, list] = {}
@@ -610,9 +619,10 @@ def load_scene_text_check(text: str, name: str) -> None:
 def table(report: EffectsReport) -> str:
     """The report as a plain-text table (what ``symgen effects`` prints)."""
     measured = any(r.error is not None or r.status for r in report.rows)
+    steps = "Radau IIA (C) steps" if report.reference.get("solver") == "c" else "IDAS steps"
     head = ["change", "estimate", "from the groups"]
     if measured:
-        head += ["measured", "worst output", "IDAS steps", "simulate s", "speed-up"]
+        head += ["measured", "worst output", steps, "simulate s", "speed-up"]
     head.append("recommendation")
     body = []
     ref_s = report.reference.get("simulate_s")
@@ -638,7 +648,7 @@ def table(report: EffectsReport) -> str:
         ref = report.reference
         lines.append(
             f"measured over tau in [0, {ref['t_end']:.4g}], output step {ref['output_step']:.3g}, outputs "
-            f"{', '.join(ref['outputs'])}; the scene as it is: {ref['steps']} IDAS steps, "
+            f"{', '.join(ref['outputs'])}; the scene as it is: {ref['steps']} {steps}, "
             f"{ref['simulate_s']:.2f} s"
         )
     if report.estimate is not None:

@@ -134,6 +134,7 @@ class Study:
     status: str = "complete"  # or "interrupted" (rows: the configurations run before the signal)
     stopped: str = ""  # the cause when not complete
     planned: int = 0  # configurations planned
+    solver: str = "idas"  # the integrator of every run: "idas" or "c" (the emitted Radau IIA)
 
 
 # --------------------------------------------------------------------------- errors
@@ -326,8 +327,10 @@ class _Runner:
         t_end: float | None,
         step: float | None,
         turn: float = 2 * math.pi,
+        solver: str = "idas",
     ):
         self.path, self.overrides, self.repeats = path, tuple(overrides), repeats
+        self.solver = solver
         self.t_end, self.step, self.turn = t_end, step, turn
         self.models: dict = {}
 
@@ -363,8 +366,8 @@ class _Runner:
     def run(self, cfg: Config) -> Row:
         """Timed runs at the scene's output step (medians), then one run at the study's finer
         output step for the errors (the timing runs are not slowed by the extra outputs)."""
+        from symgen.numerics import csolver
         from symgen.numerics.mechanism import Mechanism
-        from symgen.numerics.simulate import simulate
 
         row = Row(cfg)
         try:
@@ -373,11 +376,15 @@ class _Runner:
             row.n_coords = compiled.info.n
             row.ops = int(compiled.funcs["res"].n_instructions())
             mech_times, sim_times, result = [], [], None
+            if self.solver == "c":  # its library compiled before the timed runs (a model's build, not its run)
+                t0 = time.process_time()
+                csolver.solver(Mechanism(compiled, scene))
+                build_s += time.process_time() - t0
             for _ in range(self.repeats):
                 t0 = time.process_time()
                 mech = Mechanism(compiled, scene)
                 t1 = time.process_time()
-                result = simulate(mech)
+                result = csolver.run(mech, self.solver)
                 t2 = time.process_time()
                 mech_times.append(t1 - t0)
                 sim_times.append(t2 - t1)
@@ -386,7 +393,7 @@ class _Runner:
             row.integrate_s = _median(sim_times)
             row.steps, row.closure_max = result.steps, result.closure_max
             if self.step is not None and self.step < scene.simulation.output_step:
-                result = simulate(mech, output_step=self.step)
+                result = csolver.run(mech, self.solver, output_step=self.step)
             row.tau, row.outputs = result.tau, result.outputs
             if cfg.group in ESTIMATED:
                 from symgen.numerics.error_estimate import estimate_errors
@@ -452,6 +459,7 @@ def run_study(
     t_end: float | None = None,
     oversample: int | None = None,
     progress: Callable[[str], None] | None = None,
+    solver: str = "idas",
 ) -> Study:
     """Run the study of a scene (see the module docstring); ``write_study`` writes its files.
 
@@ -467,7 +475,12 @@ def run_study(
     t_end : simulated tau (default: the scene's)
     oversample : the errors are measured on outputs this many times finer than the scene's
         output step (default: ``oversampling``: the axial ringing must not alias)
+    solver : "idas" (default) or "c": every run (the reference too) with the emitted C Radau IIA
+        solver, its library compiled per configuration outside the timed runs (in build s)
     """
+    from symgen.numerics.solvers import check_solver
+
+    check_solver(solver)
     say = progress or (lambda _msg: None)
     scene = load_scene(scene_path, list(overrides))
     elastic = tuple(b.name for b in scene.bodies if not b.rigid)
@@ -488,7 +501,7 @@ def run_study(
         if oversample is None
         else max(1, int(oversample))
     )
-    runner = _Runner(scene_path, overrides, max(1, repeats), t_end, scene.simulation.output_step / k, turn)
+    runner = _Runner(scene_path, overrides, max(1, repeats), t_end, scene.simulation.output_step / k, turn, solver)
     ref_cfg, configs = plan(scene, elastic, levels, tolerances, ref_rtol, per_bar, effects)
     notes = []
     say(f"reference: {ref_cfg.label}")
@@ -532,6 +545,7 @@ def run_study(
             status=status,
             stopped=stopped,
             planned=len(configs),
+            solver=solver,
         )
 
     from symgen.progress import progress_bar
@@ -560,6 +574,13 @@ def run_study(
 
 
 # --------------------------------------------------------------------------- choosing and writing
+SOLVER_NAMES = {"idas": "IDAS", "c": "Radau IIA (C)"}
+
+
+def _steps_of(study: Study) -> str:
+    return f"{SOLVER_NAMES[study.solver]} steps"
+
+
 def reference_uncertainty(study: Study) -> float:
     """Largest error of the reference-check rows: how far the reference itself is converged."""
     errs = [r.error for r in study.rows if r.config.group == "reference check" and r.status == "ok"]
@@ -712,7 +733,7 @@ def markdown(study: Study, png_name: str | None = "study.png") -> str:
         lines += [f"Scene overrides: `{' '.join('--set ' + o for o in study.overrides)}`", ""]
     lines += [
         f"Reference: **{ref.config.label}** ({ref.n_coords} coordinates, von Kármán strain, complete axial "
-        f"family, rotary inertia on; {ref.steps} IDAS steps, integration {ref.integrate_s:.2f} s CPU). "
+        f"family, rotary inertia on; {ref.steps} {_steps_of(study)}, integration {ref.integrate_s:.2f} s CPU). "
         f"Run: {turns:.3g} crank turns (tau = {study.t_end:.4g}). Errors: outputs low-passed below "
         f"{study.cutoff * study.turn:.3g} cycles per turn, sampled {study.oversample}x finer than the scene's output "
         f"step so that the axial ringing does not alias; **error** = max over the first "
@@ -776,7 +797,7 @@ def markdown(study: Study, png_name: str | None = "study.png") -> str:
     lines += [
         "## Every configuration",
         "",
-        "| configuration | group | coords | res ops | derive s | build s | integrate s / turn | IDAS steps | "
+        f"| configuration | group | coords | res ops | derive s | build s | integrate s / turn | {_steps_of(study)} | "
         "error | worst output | spectral | speed-up | estimated |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
@@ -869,7 +890,7 @@ def plot(study: Study, path: str | Path) -> None:
     unc = reference_uncertainty(study)
     if np.isfinite(unc) and unc > 0:
         ax.axhspan(floor, unc, color="tab:purple", alpha=0.07, label="within the reference's own uncertainty")
-    ax.set_xlabel("integration CPU time per crank turn [s] (IDAS, median of repeats)")
+    ax.set_xlabel(f"integration CPU time per crank turn [s] ({SOLVER_NAMES[study.solver]}, median of repeats)")
     ax.set_ylabel(
         f"error: max over outputs of max|y − y_ref| / max|y_ref|, first {study.window / study.turn:.3g} turn(s)"
     )

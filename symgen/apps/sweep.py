@@ -147,6 +147,7 @@ class Task:
     window: float | None  # last crank turns over which peaks are taken (None: the whole run)
     campbell: bool
     campbell_at: float
+    solver: str = "idas"  # "idas" or "c" (symgen.numerics.csolver.run)
 
 
 _MODELS: dict = {}  # structure key -> CompiledModel, per worker process
@@ -188,8 +189,8 @@ def run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
 
 
 def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
+    from symgen.numerics.csolver import run
     from symgen.numerics.mechanism import Mechanism
-    from symgen.numerics.simulate import simulate
 
     scene = task.scene
     mech = Mechanism(_model(task.key, blobs), scene)
@@ -209,7 +210,7 @@ def _run_point(task: Task, blobs: Mapping[str, dict]) -> dict:
         row["speed"] = float(drv.rate)
     t0 = time.thread_time()
     try:
-        res = simulate(mech)
+        res = run(mech, task.solver)
     except SimulationError as err:
         res = None
         row["status"], row["failure"] = "failed", str(err)
@@ -324,6 +325,7 @@ def sweep(
     progress: bool | None = None,
     say: Callable[[str], object] | None = None,
     units: str | None = None,
+    solver: str = "idas",
 ) -> SweepResult:
     """Run the grid of ``varies`` over the scene; see the module docstring.
 
@@ -336,12 +338,17 @@ def sweep(
     units : "SI" or "dimensionless" (default: SI for an SI scene, as ``symgen simulate``): in SI
         each point's peaks are in its outputs' SI units (its own scales: a varied key may change
         them), the crank speed and the natural frequencies in Hz, plus speed_rpm
+    solver : "idas" (default) or "c": the emitted C Radau IIA solver (``--solver c``), its
+        library compiled here once per model and start (points that differ in parameter values
+        only share one) before the points run
 
     On KeyboardInterrupt (or any exception) the workers are stopped and the exception carries
     ``partial``: the SweepResult of the points done (the others have status "not run").
     """
     from symgen.backends.casadi.pipeline import compile_scene
+    from symgen.numerics.solvers import check_solver
 
+    check_solver(solver)
     scene_path = str(scene_path)
     say = say or (lambda _m: None)
     if window is not None and not window > 0:
@@ -380,7 +387,9 @@ def sweep(
             f"{len(first)} distinct model structures in the grid (the varied keys change the structure): "
             f"each derived once"
         )
-    tasks = [Task(i, scenes[i], keys[i], window, campbell, campbell_at) for i in range(len(points))]
+    if solver == "c" and use_cache:
+        _c_libraries(scenes, keys, blobs, say)
+    tasks = [Task(i, scenes[i], keys[i], window, campbell, campbell_at, solver) for i in range(len(points))]
     sc0 = next(iter(first.values()))
     names = [o.name for o in sc0.outputs]
     rows: dict[int, dict] = {}
@@ -416,7 +425,26 @@ def sweep(
     bar.close()
     result = _result(varies, points, names, rows, counts, executor, complete=True, campbell=campbell, si=si)
     result.notes["models"] = derive_note
+    result.notes["solver"] = solver
     return result
+
+
+def _c_libraries(scenes: Sequence[Scene], keys: Sequence[str], blobs: Mapping[str, dict], say) -> None:
+    """The C solver's library of every point, built (or found in the cache) here, before the
+    points run: the workers then load it from the cache, none builds it twice. A point whose
+    start fails is left to its run (which reports it)."""
+    from symgen.numerics import csolver
+    from symgen.numerics.mechanism import Mechanism
+
+    built = 0
+    for scene, key in zip(scenes, keys):
+        try:
+            _, now = csolver.library(Mechanism(_model(key, blobs), scene))
+        except SimulationError:
+            continue
+        built += now
+    if built:
+        say(f"C solver: {built} librar{'y' if built == 1 else 'ies'} compiled for the grid")
 
 
 def _bar(total: int, progress: bool | None, desc: str):
@@ -718,9 +746,10 @@ def sweep_meta(
         "executor": result.executor,
         "structures": result.structures,
         "models": result.notes.get("models", []),
+        "solver": result.notes.get("solver", "idas"),
         "columns": {
             "status": "ok | failed (the run stopped; see failure) | modes failed | not run (interrupted)",
-            "steps": "IDAS steps of the run",
+            "steps": "integrator steps of the run (IDAS, or Radau IIA with --solver c)",
             "cpu_s": "CPU time of the run in its worker thread, s (the only column that differs between runs)",
             "peak_<output>": "max |output| over the run"
             + (f", last {window:g} crank turns" if window else "")

@@ -1,19 +1,27 @@
-"""``symgen simulate --solver c``: the emitted C (``symgen emit-c``: model, Radau IIA solver,
-CSV driver) compiled once into a cached executable and run for the scene.
+"""``symgen simulate --solver c``: the emitted C (``symgen emit-c``: model and Radau IIA solver)
+compiled once into a cached shared library and run in this process through ctypes.
 
-The executable is cached under ``<cache root>/compiled/<entry>/`` (``sim`` and ``manifest.json``)
-like the compiled libraries of :mod:`symgen.numerics.compiled`: the entry's name hashes the scene
-(without its [simulation] table: the emitted C holds the rest, e.g. the initial guess), the
-derived model's structure key, the C templates and runtime, the symgen version, the compiler's path and
-``--version`` and the flags; the executable's keyed hash (``symgen.cache.seal``) is checked
-before every run, and the verified bytes are run from a private copy. The model parameters are
-passed with ``--set`` at full precision, the times and tolerances with ``--t-end``, ``--step``,
-``--rtol`` and ``--atol``: the run is the scene's, in the model's units, and its rows are
-written like those of the IDAS path.
+The library is cached under ``<cache root>/compiled/<entry>/`` (``solver.so`` and
+``manifest.json``) like the compiled libraries of :mod:`symgen.numerics.compiled`: the entry's
+name hashes the scene (without its [simulation] table: the emitted C holds the rest, e.g. the
+initial guess), the derived model's structure key, the C templates and runtime, the symgen
+version, the compiler's path and ``--version`` and the flags; the library's keyed hash
+(``symgen.cache.seal``) is checked before it is loaded, from a private copy (never from the
+shared folder), once per process.
+
+The run: ``PREFIX_solver_init`` (the consistent start and its checks, in C) with the model's
+parameters (their names checked against the library's), then ``PREFIX_solver_rows`` (dense
+output: the steps are the error control's, whatever the output step; every row the collocation
+polynomial at its time, the algebraic unknowns polished, the checks of an output run on it) in
+calls of at most :data:`STEPS_PER_CALL` steps, so that SIGINT/SIGTERM stops the run between two
+calls with the rows so far (``Interrupted.partial``, ``complete=False``), as a failure does
+(``SimulationError.partial``). The rows hold the outputs and the states (q, v, lam): the result
+is a ``SimResult`` like the IDAS path's (``partition`` None).
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -25,34 +33,57 @@ import subprocess
 import tempfile
 import time
 from importlib import resources
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from symgen import __version__, cache
-from symgen.processes import announce_compile, run_group
+from symgen.processes import announce_compile, jobs, run_group, run_groups
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.simulate import SimResult
+from symgen.numerics.solvers import check_solver
 
 if TYPE_CHECKING:
-    from symgen.scene.model import Scene
+    from symgen.ir.plan import StartPlan
 
 FORMAT = "symgen-c-solver-cache"
-FORMAT_VERSION = 2  # 2: keyed hashes (HMAC-SHA256 with the user's key)
-EXECUTABLE = "sim"
-_STATS = re.compile(r"(\d+) steps \(.*closure residual max ([^;\s]+)(?:; solver CPU (\S+) s)?")
+FORMAT_VERSION = 3  # 2: keyed hashes (HMAC-SHA256 with the user's key); 3: a shared library, not an executable
+LIBRARY = "solver.so"
+#: Integrator steps per call into the library: between calls a SIGINT/SIGTERM stops the run
+#: (a step costs 10-200 us: the run answers within tens of milliseconds)
+STEPS_PER_CALL = 400
+#: the counters of ``PREFIX_solver_counters``, in its order
+COUNTERS = (
+    *("t", "steps", "accepted", "rejected", "jacobians", "factorizations", "residuals"),
+    *("closure_max", "divergence_rate", "status"),
+)
 
 
-def scene_key(scene: Scene) -> str:
-    """sha256 of the scene without its [simulation] table (times, tolerances: given to the
-    executable on its command line) and its file's path: what the emitted C is made from."""
-    data = dataclasses.asdict(scene)
-    for name in ("hash", "path", "simulation"):
-        data.pop(name, None)
+def emitted_key(mech: Mechanism, plan: StartPlan) -> str:
+    """sha256 of what the emitted solver holds of the scene beyond its model (the structure key)
+    and the parameters a run passes in (``mech.p``: any values): the start plan (partitions,
+    initial guess, index sets of the start and the checks), the quasi-static start, the C prefix,
+    the parameters' names, valid ranges and keys, the outputs. Scenes that differ only in
+    parameter values (a sweep's points) share one library; the times and tolerances are a run's
+    arguments too."""
+    from symgen.backends.c.names import c_prefix
+    from symgen.ir.parameters import parameter_records
+
+    scene = mech.scene
+    params = list(mech.info.params)
+    data = {
+        "prefix": c_prefix(scene),
+        "start": dataclasses.asdict(plan),
+        "quasi_static": bool(scene.initial.quasi_static),
+        "parameters": [[r.name, r.valid.text(), r.key] for r in parameter_records(scene, params)],
+        "outputs": list(mech.info.outputs),
+        "units": scene.units,
+    }
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=repr).encode()).hexdigest()
 
 
@@ -70,12 +101,12 @@ def templates_digest() -> str:
     return h.hexdigest()
 
 
-def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
-    """What the executable is made from (``radau``: the method's and the step control's constants,
+def _key(mech: Mechanism, plan: StartPlan, comp: compiled.Compiler) -> dict[str, object]:
+    """What the library is made from (``radau``: the method's and the step control's constants,
     rendered into the C from symgen/backends/c/radau.py; ``policy``: the solver policy's tolerances
     and limits, from symgen/policy.py). ``model``: the derived model's structure key (derivation
     version, per-bar axial treatment, ...): the same scene file derives another model when
-    symgen's rules change, and an executable of the old model must not be loaded for it."""
+    symgen's rules change, and a library of the old model must not be loaded for it."""
     from symgen.backends.c import radau
     from symgen.backends.c.build import STRICT_C
     from symgen.model.structure import structure_key, structure_of
@@ -84,8 +115,8 @@ def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "symgen": __version__,
-        "scene": scene_key(scene),
-        "model": structure_key(structure_of(scene)),
+        "emitted": emitted_key(mech, plan),
+        "model": structure_key(structure_of(mech.scene)),
         "templates": templates_digest(),
         "radau": json.loads(json.dumps(radau.constants())),  # as the manifest holds it (lists)
         "policy": POLICY.as_dict(),
@@ -94,25 +125,28 @@ def _key(scene: Scene, comp: compiled.Compiler) -> dict[str, object]:
     }
 
 
-def executable(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
-    """The verified bytes of the scene's C simulator and whether it was built now.
+def library(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
+    """The verified bytes of the scene's C solver library and whether it was built now.
     Raises SceneError (``--solver``) when no C compiler works."""
+    from symgen.numerics.start import start_plan
+
     try:
         comp = compiled.compiler()
     except compiled.Unavailable as exc:
         raise _no_compiler(exc.reason) from None
-    key = _key(mech.scene, comp)
+    plan = start_plan(mech)  # the Python start (milliseconds): a scene it refuses is refused here
+    key = _key(mech, plan, comp)
     where = cache.compiled_dir() / ("c" + hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:19])
     replace = False
     if use_cache and where.exists():
         try:
-            return compiled.read_verified(where, key, EXECUTABLE), False
+            return compiled.read_verified(where, key, LIBRARY), False
         except cache.InvalidEntry as exc:
             compiled.report_rebuild(where, exc.reason)
             replace = True
         except FileNotFoundError:
             pass
-    return _build(mech, comp, where, key, use_cache, replace), True
+    return _build(mech, plan, comp, where, key, use_cache, replace), True
 
 
 def _no_compiler(reason: str) -> SceneError:
@@ -125,16 +159,23 @@ def _no_compiler(reason: str) -> SceneError:
 
 
 def _build(
-    mech: Mechanism, comp: compiled.Compiler, where: Path, key: dict[str, object], store: bool, replace: bool
+    mech: Mechanism,
+    plan: StartPlan,
+    comp: compiled.Compiler,
+    where: Path,
+    key: dict[str, object],
+    store: bool,
+    replace: bool,
 ) -> bytes:
+    """Emit the scene's C and compile the model and the solver (two units, in parallel, each
+    compiler in a process group of its own) into one shared library."""
     from symgen.model.derive import derive
     from symgen.backends.c import c_context
     from symgen.backends.c.build import STRICT_C
     from symgen.backends.c.render import render_files
-    from symgen.numerics.start import start_plan
 
     scene = mech.scene
-    ctx = c_context(scene, derive(scene), start_plan(mech), info=mech.info)
+    ctx = c_context(scene, derive(scene), plan, info=mech.info)
     files = render_files(ctx)
     prefix = ctx["prefix"]
     parent, store = compiled.build_folder(where, store)
@@ -144,115 +185,254 @@ def _build(
         for name, text in files.items():
             (src / name).parent.mkdir(parents=True, exist_ok=True)
             (src / name).write_text(text)
-        cmd = [
-            comp.path,
-            *STRICT_C,
-            *comp.flags,
-            f"-I{src}",
-            *(str(src / f"{prefix}{s}.c") for s in ("", "_solver", "_sim")),
-            "-o",
-            str(tmp / EXECUTABLE),
-            "-lm",
-        ]
-        size = sum(len(text.encode()) for name, text in files.items() if name.endswith(".c"))
-        label = announce_compile("the C solver", size, "leave out --solver c to run with IDAS without compiling it")
-        try:  # in a process group of its own: an interrupt kills cc1 too
-            proc = run_group(cmd, timeout=compiled.COMPILE_TIMEOUT_S, progress=label)
+        units = sorted((src / f"{prefix}{s}.c" for s in ("", "_solver")), key=lambda c: -c.stat().st_size)
+        objects = [c.with_suffix(".o") for c in units]
+        flags = [*STRICT_C, *comp.flags, "-fPIC", f"-I{src}"]
+        cmds = [[comp.path, *flags, "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
+        link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(tmp / LIBRARY), "-lm"]
+        sizes = [c.stat().st_size for c in units]
+        max_jobs = min(len(units), jobs())
+        label = announce_compile(
+            f"the C solver in {len(units)} parts, {max_jobs} at a time",
+            sum(sizes),
+            "leave out --solver c to run with IDAS without compiling it",
+            max_jobs,
+            max(sizes),
+        )
+        try:  # each compiler in a process group of its own: an interrupt kills cc1 too
+            procs = run_groups(cmds, max_jobs=max_jobs, timeout=compiled.COMPILE_TIMEOUT_S, progress=label)
+            if all(p.returncode == 0 for p in procs):
+                procs.append(run_group(link, timeout=compiled.COMPILE_TIMEOUT_S))
         except (OSError, subprocess.SubprocessError) as exc:
             raise _no_compiler(f"the C compiler {comp.path} cannot be run ({exc})") from None
+        proc = procs[-1]
         if proc.returncode != 0:
             first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
             raise _no_compiler(
                 f"the C compiler {comp.path} failed on the emitted C (exit {proc.returncode}: {first[:200]})"
             )
-        blob = (tmp / EXECUTABLE).read_bytes()
+        blob = (tmp / LIBRARY).read_bytes()
         if store:
             shutil.rmtree(src)
-            compiled.install(tmp, where, key, EXECUTABLE, blob, replace)
+            compiled.install(tmp, where, key, LIBRARY, blob, replace)
     return blob
 
 
-def simulate_c(mech: Mechanism, use_cache: bool = True) -> SimResult:
-    """The scene's run with the emitted C Radau IIA solver (outputs only: no states)."""
-    sim = mech.scene.simulation
-    t_setup = time.perf_counter()
-    blob, built = executable(mech, use_cache)
-    setup_s = time.perf_counter() - t_setup
-    n_rows = int(math.floor(sim.t_end / sim.output_step + 1e-9)) + 1
-    args = [
-        "--stats",
-        "--t-end",
-        repr(float(sim.t_end)),
-        "--step",
-        repr(float(sim.output_step)),
-        "--rtol",
-        repr(float(sim.rtol)),
-        "--atol",
-        repr(float(sim.atol)),
-        "--max-rows",
-        str(n_rows),
-        "--max-t-end",
-        repr(float(sim.t_end)),
-    ]
-    for name, value in zip(mech.info.params, mech.p):
-        args += ["--set", f"{name}={float(value)!r}"]
-    private = Path(tempfile.mkdtemp(prefix="symgen-sim-"))
-    tic = time.perf_counter()
-    try:
-        exe = private / EXECUTABLE
-        fd = os.open(exe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o700)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(blob)
-        proc = subprocess.Popen(
-            [str(exe), *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL
-        )
+class Solver:
+    """The scene's C solver loaded in this process (ctypes) from verified library bytes: a
+    private copy is loaded and removed at once (the loader keeps it mapped). ``prefix``: the
+    emitted symbols' prefix; the library's parameter names must be ``params`` (the model's
+    order), its sizes ``n``, ``m``, ``nout`` the model's."""
+
+    def __init__(self, blob: bytes, prefix: str, params: list[str], n: int, m: int, nout: int) -> None:
+        import ctypes
+
+        private = Path(tempfile.mkdtemp(prefix="symgen-csolver-"))
         try:
-            out, err = proc.communicate()
-        except BaseException as exc:
-            proc.kill()
-            proc.wait()
-            stop = interrupt.interrupted(exc, 0.0)
-            if isinstance(stop, Interrupted):
-                raise stop from None
+            path = private / LIBRARY
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o500)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(blob)
+            try:
+                lib = ctypes.CDLL(str(path), mode=ctypes.RTLD_LOCAL)
+            except OSError as exc:
+                raise cache.InvalidEntry(f"{LIBRARY} cannot be loaded ({str(exc)[:200]})") from None
+        finally:
+            shutil.rmtree(private, ignore_errors=True)
+        D, L = ctypes.c_double, ctypes.c_long
+        P, DP = ctypes.c_void_p, ctypes.POINTER(ctypes.c_double)
+
+        def fn(name: str, res: object, *args: object) -> Any:
+            try:
+                f = getattr(lib, f"{prefix}_{name}")
+            except AttributeError:
+                raise cache.InvalidEntry(f"{LIBRARY} has no function {prefix}_{name}") from None
+            f.restype, f.argtypes = res, list(args)
+            return f
+
+        self.lib, self.prefix = lib, prefix
+        self.init = fn("solver_init", ctypes.c_int, P, DP, D, D, D)
+        self.rows = fn("solver_rows", ctypes.c_int, P, D, D, L, ctypes.POINTER(L), L, L, DP)
+        self.counters = fn("solver_counters", None, P, DP)
+        self.message = fn("solver_message", ctypes.c_char_p, P)
+        self.size = int(fn("solver_sizeof", ctypes.c_ulong)())
+        try:
+            names = (ctypes.c_char_p * max(len(params), 1)).in_dll(lib, f"{prefix}_parameter_names")
+            model = (ctypes.c_int * 2).in_dll(lib, f"{prefix}_model")  # symgen_model starts with n, m
+        except ValueError:
+            raise cache.InvalidEntry(f"{LIBRARY} has no table {prefix}_parameter_names or {prefix}_model") from None
+        got = [(names[k] or b"").decode() for k in range(len(params))]
+        sizes = [model[0], model[1]]
+        if got != list(params) or sizes != [n, m]:
+            raise cache.InvalidEntry(f"{LIBRARY} is not this model's (parameters {got}, sizes {sizes})")
+        self.stride = 1 + nout + 2 * n + m
+        self.n, self.m, self.nout = n, m, nout
+
+
+_LOADED: dict[str, Solver] = {}  # keyed hash of the library's bytes -> the loaded library
+
+
+def solver(mech: Mechanism, use_cache: bool = True) -> tuple[Solver, bool]:
+    """The scene's C solver, loaded (once per process and library), and whether it was built now."""
+    blob, built = library(mech, use_cache)
+    digest = hashlib.sha256(blob).hexdigest()
+    if digest not in _LOADED:
+        from symgen.backends.c.names import c_prefix
+
+        info = mech.info
+        try:
+            _LOADED[digest] = Solver(blob, c_prefix(mech.scene), list(info.params), mech.n, mech.m, len(info.outputs))
+        except cache.InvalidEntry as exc:
+            raise _no_compiler(f"the C solver library {exc.reason}") from None
+    return _LOADED[digest], built
+
+
+def simulate_c(
+    mech: Mechanism,
+    use_cache: bool = True,
+    t_end: float | None = None,
+    output_step: float | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    progress: bool = False,
+) -> SimResult:
+    """The scene's run with the emitted C Radau IIA solver, in this process: outputs every
+    ``output_step`` from 0 to ``t_end`` with tolerances ``rtol``, ``atol`` (None: the scene's),
+    the states with them. A run that stops early (a failure of the C solver or of a check,
+    ``SimulationError``; SIGINT/SIGTERM, ``Interrupted``) raises with ``.partial``, the
+    ``SimResult`` of the rows before it (``complete=False``)."""
+    import ctypes
+
+    sim = mech.scene.simulation
+    t_end = float(sim.t_end if t_end is None else t_end)
+    h = float(sim.output_step if output_step is None else output_step)
+    rtol = float(sim.rtol if rtol is None else rtol)
+    atol = float(sim.atol if atol is None else atol)
+    t_setup = time.perf_counter()
+    try:
+        lib, built = solver(mech, use_cache)
+    except BaseException as err:
+        cause = interrupt.interrupted(err, 0.0)
+        if cause is err:
             raise
-    finally:
-        shutil.rmtree(private, ignore_errors=True)
-    elapsed = time.perf_counter() - tic
-    lines = out.splitlines()
-    names = list(mech.info.outputs)
-    if proc.returncode == 2 or not lines or lines[0].split(",") != ["tau", *names]:
-        msg = err.strip().splitlines()[0] if err.strip() else f"exit code {proc.returncode}"
-        raise SimulationError(None, f"the C solver refused the run: {msg}")
-    rows = np.array([[float(w) for w in ln.split(",")] for ln in lines[1:]], dtype=float).reshape(-1, 1 + len(names))
-    steps, closure, solve_cpu = 0, float("nan"), float("nan")
-    m = _STATS.search(err)
-    if m:
-        steps, closure = int(m.group(1)), float(m.group(2))
-        solve_cpu = float(m.group(3)) if m.group(3) else float("nan")
-    n = len(rows)
+        raise cause from None
+    setup_s = time.perf_counter() - t_setup
+    n_rows = int(math.floor(t_end / h + 1e-9)) + 1
+    rec = np.zeros((n_rows, lib.stride))
+    state = (ctypes.c_double * ((lib.size + 7) // 8))()
+    done = ctypes.c_long(0)
+    p = np.ascontiguousarray(mech.p, dtype=float)
+    DP = ctypes.POINTER(ctypes.c_double)
+    tic, cpu = time.perf_counter(), time.process_time()
+    rc = 0
+    stop: Interrupted | SimulationError | None = None  # what ended the run early
+    try:
+        with _progress(progress, n_rows) as advanced:
+            rc = lib.init(state, p.ctypes.data_as(DP), 0.0, rtol, atol)
+            while rc == 0 and done.value < n_rows:
+                interrupt.check(float(rec[done.value - 1, 0]) if done.value else 0.0)
+                before = done.value
+                rc = lib.rows(
+                    state, 0.0, h, n_rows, ctypes.byref(done), 0, STEPS_PER_CALL, rec[before:].ctypes.data_as(DP)
+                )
+                advanced(done.value - before)
+                if rc == PAUSED:
+                    rc = 0
+    except BaseException as err:
+        cause = interrupt.interrupted(err, float(rec[done.value - 1, 0]) if done.value else 0.0)
+        if not isinstance(cause, Interrupted):
+            raise
+        stop = cause
+    elapsed, cpu = time.perf_counter() - tic, time.process_time() - cpu
+    counts = (ctypes.c_double * len(COUNTERS))()
+    lib.counters(state, counts)
+    stats = dict(zip(COUNTERS, counts))
+    k = done.value
+    rows = rec[:k]
+    a = 1 + lib.nout
     result = SimResult(
-        tau=rows[:, 0],
-        outputs=rows[:, 1:],
-        output_names=names,
-        q=np.zeros((n, 0)),
-        v=np.zeros((n, 0)),
-        lam=np.zeros((n, 0)),
-        closure_max=closure,
-        steps=steps,
+        tau=rows[:, 0].copy(),
+        outputs=rows[:, 1:a].copy(),
+        output_names=list(mech.info.outputs),
+        q=rows[:, a : a + lib.n].copy(),
+        v=rows[:, a + lib.n : a + 2 * lib.n].copy(),
+        lam=rows[:, a + 2 * lib.n :].copy(),
+        closure_max=float(stats["closure_max"]),
+        steps=int(stats["steps"]),
         simulate_s=elapsed,
         partition=None,
-        complete=proc.returncode == 0,
-        stats={"backend": "c", "library": "built" if built else "cached", "setup_s": setup_s, "solve_cpu_s": solve_cpu},
+        complete=stop is None and rc == 0,
+        stats={
+            "backend": "c",
+            "library": "built" if built else "cached",
+            "setup_s": setup_s,
+            "solve_cpu_s": cpu,
+            "accepted": int(stats["accepted"]),
+            "rejected": int(stats["rejected"]),
+        },
     )
-    if proc.returncode != 0:
-        msg = next((ln for ln in reversed(err.strip().splitlines()) if "steps (" not in ln), "the C solver stopped")
-        msg = msg.split(": ", 1)[-1]
-        stopped = SimulationError(
-            float(rows[-1, 0]) if n else 0.0,
-            f"the C solver stopped: {msg}",
+    if stop is None and rc != 0:
+        msg = (lib.message(state) or b"").decode(errors="replace")
+        if rc == BAD_ARGUMENT:
+            raise SimulationError(None, f"the C solver refused the run: {msg}")
+        msg = re.sub(r"^at tau = \S+: ", "", msg)
+        stop = SimulationError(
+            float(rows[-1, 0]) if k else 0.0,
+            f"the C solver stopped at tau = {stats['t']:.6g}: {msg}",
             "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)",
         )
-        result.failure = str(stopped)
-        stopped.partial = result  # symgen.errors does not declare SimulationError.partial
-        raise stopped
+    if stop is not None:
+        result.failure = str(stop)
+        stop.partial = result  # symgen.errors does not declare the errors' partial
+        raise stop
     return result
+
+
+def run(
+    mech: Mechanism,
+    solver: str = "idas",
+    *,
+    t_end: float | None = None,
+    output_step: float | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    use_cache: bool = True,
+    progress: bool = False,
+    **idas_only: Any,
+) -> SimResult:
+    """One run of the scene with ``solver``: "idas" (:func:`symgen.numerics.simulate.simulate`,
+    which also takes ``idas_only``: t0, initial, axial_atol, backend) or "c" (:func:`simulate_c`).
+    The same result record, the same partial result on a failure or an interrupt."""
+    check_solver(solver, "solver")
+    if solver == "c":
+        if idas_only:
+            raise ValueError(f"the C solver does not take {', '.join(sorted(idas_only))} (IDAS only): leave them out")
+        return simulate_c(mech, use_cache, t_end, output_step, rtol, atol, progress)
+    from symgen.numerics.simulate import simulate
+
+    return simulate(
+        mech,
+        t_end=t_end,
+        output_step=output_step,
+        rtol=rtol,
+        atol=atol,
+        use_cache=use_cache,
+        progress=progress,
+        **idas_only,
+    )
+
+
+#: the library's return codes (symgen_runtime.h)
+FAILED, BAD_ARGUMENT, PAUSED = 1, 2, 3
+
+
+@contextlib.contextmanager
+def _progress(show: bool, n_rows: int) -> Iterator[Callable[[int], object]]:
+    """A progress bar of the rows on stderr when ``show`` (a terminal's run), else nothing."""
+    if not show:
+        yield lambda k: None
+        return
+    from symgen.progress import progress_bar
+
+    with progress_bar(n_rows, "simulate (C)", unit="output") as bar:
+        yield bar.update

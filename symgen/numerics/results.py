@@ -252,7 +252,7 @@ def build_sidecar(
         "output_step": sim.output_step,
     }
     if solver == "c":
-        sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c)", backend="c")
+        sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c; dense output)", backend="c")
     elif solver == "quasi-static":
         if not isinstance(result, QuasiStaticResult):
             raise TypeError(f"a quasi-static sidecar needs a QuasiStaticResult, not {type(result).__name__}")

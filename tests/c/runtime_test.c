@@ -147,7 +147,8 @@ static symgen_model model = {
         { -0.502872634945786875951, 2.57192694985560542919, -0.596039204828224924969 } },
       { -10.0488093998274155625, 1.38214273316074889579, -0.333333333333333333333 },
       3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
-      7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2 }
+      7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2 },
+    4   /* nout */
 };
 
 /* ------------------------------------------------------------------ checks */
@@ -246,6 +247,49 @@ static void test_radau(void)
     check(solver.n_accepted > 0 && solver.n_steps >= solver.n_accepted, "step counters", (double)solver.n_accepted);
 }
 
+/* dense output: the same run with rows every 0.01 and every 0.5 takes the same steps (the error
+   control's), and every row, between steps too, is the closed form cos(tau) */
+static void test_dense(void)
+{
+    enum { STRIDE = 1 + 4 + 2 * 2 + 1, FINE = 1001, COARSE = 21 };
+    static double fine[FINE * STRIDE], coarse[COARSE * STRIDE];
+    double worst = 0.0, differ = 0.0, clo = 0.0;
+    long done = 0, steps_fine, steps_coarse, i;
+    int rc, paused = 0;
+    symgen_bind(&solver, &model, p, y, work, iwork);
+    rc = symgen_solver_init(&solver, NULL, 0.0, 1e-10, 1e-12);
+    while (rc == 0 && done < FINE) {       /* in pieces of at most 7 steps: a pause is resumed */
+        rc = symgen_solver_rows(&solver, 0.0, 0.01, FINE, &done, 0, 7, fine + done * STRIDE);
+        if (rc == SYMGEN_SOLVER_PAUSED) { paused++; rc = 0; }
+    }
+    steps_fine = solver.n_steps;
+    check(rc == 0 && done == FINE && paused > 1, "dense rows every 0.01 to tau = 10, paused and resumed", paused);
+    for (i = 0; i < FINE; ++i) {
+        const double *r = fine + i * STRIDE, t = 0.01 * (double)i;
+        worst = fmax(worst, fmax(fabs(r[1] - cos(t)), fabs(r[2] - cos(t))));
+        worst = fmax(worst, fmax(fabs(r[3] + sin(t)), fabs(r[5] - cos(t))));   /* v_x; q_x again */
+        clo = fmax(clo, fabs(r[2] - r[1]));
+        if (r[0] != t) worst = HUGE_VAL;
+    }
+    check(worst < 1e-8, "dense rows: x = y = cos(tau), x' = -sin(tau) between steps (max error)", worst);
+    check(clo < 1e-14, "dense rows: closure y - x at round-off (polished)", clo);
+    check(steps_fine < FINE / 2, "dense rows: fewer steps than rows (landing on each takes 1000)", (double)steps_fine);
+    done = 0;
+    rc = symgen_solver_init(&solver, NULL, 0.0, 1e-10, 1e-12);
+    if (rc == 0) rc = symgen_solver_rows(&solver, 0.0, 0.5, COARSE, &done, 0, 0, coarse);
+    steps_coarse = solver.n_steps;
+    for (i = 0; i < COARSE; ++i) {
+        const double *a = coarse + i * STRIDE, *b = fine + 50 * i * STRIDE;
+        int k;
+        for (k = 0; k < STRIDE; ++k) differ = fmax(differ, fabs(a[k] - b[k]));
+    }
+    check(rc == 0 && steps_coarse == steps_fine, "dense rows every 0.5: the same steps as every 0.01",
+          (double)(steps_coarse - steps_fine));
+    check(differ < 1e-12, "dense rows every 0.5 equal those every 0.01 at the same times", differ);
+    rc = symgen_solver_dense(&solver, 1.0, 10.0, solver.yd);
+    check(rc == SYMGEN_SOLVER_BAD_ARGUMENT && strstr(solver.message, "t_out = 1 is not valid"), solver.message, rc);
+}
+
 static void test_checks(void)
 {
     int rc;
@@ -284,6 +328,7 @@ int main(void)
     test_lu();
     test_singular_ratio();
     test_radau();
+    test_dense();
     test_checks();
     printf("%d failed\n", failures);
     return failures != 0;

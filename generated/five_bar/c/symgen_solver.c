@@ -117,6 +117,7 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->work = work;
     s->iwork = iwork;
     n = s->nq, m = s->nl, ni = s->ni, nx = s->nx, nz = s->nz, ny = s->ny, nalg = s->nalg, nw = s->nw, n2 = 2 * s->ne;
+    s->yd = symgen_take_(&d, ny);
     s->y0 = symgen_take_(&d, ny);
     s->f0 = symgen_take_(&d, ny);
     s->scal = symgen_take_(&d, ny);
@@ -382,7 +383,7 @@ static int symgen_accelerations_(symgen_solver *s, double t, const double *q, co
     return 0;
 }
 
-static int symgen_beyond_range_(symgen_solver *s);
+static int symgen_beyond_range_(symgen_solver *s, double t);
 
 /* quasi-static deformation for the rigid state in (q, v) (Mechanism.quasi_static):
    unknowns u = [q_E, q_D, v_D, a_R, lam], deformation rates and accelerations zero */
@@ -434,8 +435,7 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
             /* the real cause first: near a state beyond the range of the bar models (as in Python) */
             if (Fmax <= s->model->policy.quasi_static_near) {
                 memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
-                s->t = t;
-                if (symgen_beyond_range_(s)) return 1;
+                if (symgen_beyond_range_(s, t)) return 1;
             }
             return symgen_fail_(s, t, "the quasi-static state did not converge (residual)", Fmax,
                                "the mechanism may be near buckling or a singular position");
@@ -539,8 +539,7 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
     if (symgen_quasi_static_(s, t0, q, v)) return 1;
     /* the quasi-static state within the range of the bar models (Mechanism.quasi_static_start) */
     memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
-    s->t = t0;
-    if (symgen_beyond_range_(s)) return 1;
+    if (symgen_beyond_range_(s, t0)) return 1;
     /* and stable: not beyond a buckling load (Mechanism.quasi_static_start) */
     if (symgen_divergence_(s, t0, q, v)) return 1;
     {   /* the fastest angle driver at t0 (Mechanism.driver_step); all at rest: quasi-static rates are zero */
@@ -762,8 +761,10 @@ static double symgen_rms_(const double *x, const double *scal, int n, int reps)
     return sqrt(sum / (n * reps));
 }
 
-/* integrate from s->t to t_out with Radau IIA (after Hairer & Wanner's RADAU5) */
-static int symgen_integrate_(symgen_solver *s, double t_out)
+/* integrate from s->t with Radau IIA (after Hairer & Wanner's RADAU5) until s->t >= t_out; the
+   steps are the error control's, but none passes t_stop >= t_out: the one that would lands on
+   it (t_stop = t_out: land exactly on t_out). 0, _FAILED, or _PAUSED at s->step_limit steps */
+static int symgen_integrate_(symgen_solver *s, double t_out, double t_stop)
 {
     const int ny = SYMGEN_NY(s);
     const double uround = DBL_EPSILON;
@@ -778,16 +779,21 @@ static int symgen_integrate_(symgen_solver *s, double t_out)
                               { rk->TI[2][0], rk->TI[2][1], rk->TI[2][2] } };
     const double c1 = C[0], c2 = C[1], c1m1 = c1 - 1.0, c2m1 = c2 - 1.0, c1mc2 = c1 - c2;
     const double cfac = safe * (1 + 2 * nit);
-    /* the error estimate is of order 3: tolerances transformed as in RADAU5 */
-    const double rtol = 0.1 * pow(s->rtol, 2.0 / 3.0), atol = rtol * (s->atol / s->rtol);
+    /* the error estimate is of order 3: rtol transformed as in RADAU5, 0.1 rtol^(2/3) (looser than
+       asked below rtol = 1e-3); atol with it (RADAU5 keeps atol / rtol) but never looser than
+       asked: RADAU5's atol grows as rtol^(-1/3), so that a tighter rtol took fewer steps and
+       components at the scale of atol (axial amplitudes of 1e-6 under atol 1e-10) lost accuracy:
+       the inverted slider-crank at rtol 1e-10, atol 1e-10 took 70 steps, 8e-5 off its axial peak */
+    const double rtol = 0.1 * pow(s->rtol, 2.0 / 3.0), atol = fmin(rtol * (s->atol / s->rtol), s->atol);
     const double fnewt = fmax(10 * uround / rtol, fmin(0.03, sqrt(rtol)));
     long budget = 50000000L;
     int i, j;
     while (s->t < t_out) {
-        double h = s->h, h_unclipped = s->h, rem = t_out - s->t, hhfac = 0.5;
+        double h = s->h, h_unclipped = s->h, rem = t_stop - s->t, hhfac = 0.5;
         double fac1, alphn, betan, theta, thqold = 1.0, dynold = 1.0, err, fac, quot, hnew;
         int newt = 0, outcome = 0, clipped = 0, landing = 0;
-        if (rem <= 4 * uround * fmax(fabs(t_out), 1.0)) { s->t = t_out; break; }
+        if (rem <= 4 * uround * fmax(fabs(t_stop), 1.0)) { s->t = t_stop; break; }
+        if (s->step_limit > 0 && s->n_steps >= s->step_limit) return SYMGEN_SOLVER_PAUSED;
         if (--budget <= 0) return symgen_fail_(s, s->t, "too many steps", 0.0, "loosen the tolerances");
         if (h >= rem * (1.0 - 1e-4)) { h = rem; clipped = 1; landing = 1; }
         else if (h > 0.5 * rem) { h = 0.5 * rem; clipped = 1; }
@@ -957,7 +963,7 @@ static int symgen_integrate_(symgen_solver *s, double t_out)
             }
             s->have_cont = 1;
             s->h_old = h;
-            s->t = landing ? t_out : s->t + h;
+            s->t = landing ? t_stop : s->t + h;
             symgen_rhs_(s, s->t, s->y, s->f0);
             if (s->reject) hnew = fmin(hnew, h);
             s->reject = 0;
@@ -981,14 +987,14 @@ static int symgen_integrate_(symgen_solver *s, double t_out)
    use the factored g_z of the integrator's last Jacobian (a chord step costs one solve, no
    Jacobian and no LU), kept while each contracts the residual at least tenfold; then Newton with
    a fresh g_z. Both stop at the same residual. */
-static void symgen_polish_(symgen_solver *s)
+static void symgen_polish_(symgen_solver *s, double t, double *y)
 {
     const int nz = SYMGEN_NZ(s);
     int it, r, c, chord = s->have_jac && !s->gzz_singular;
-    double *y = s->y, rn, rn_old = HUGE_VAL;
+    double rn, rn_old = HUGE_VAL;
     for (it = 0; it < s->model->policy.polish_maxit; ++it) {
         symgen_unpack_(s, y, s->q, s->v);
-        symgen_alg_(s, s->t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s), s->sr);
+        symgen_alg_(s, t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s), s->sr);
         rn = symgen_max_abs(s->sr, nz);
         if (rn < s->model->policy.polish_tol) break;
         if (chord && !(rn <= 0.1 * rn_old)) {
@@ -1007,7 +1013,7 @@ static void symgen_polish_(symgen_solver *s)
             it--;                    /* chord steps are not counted against the Newton iterations */
             continue;
         }
-        symgen_alg_jac_(s, s->t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
+        symgen_alg_jac_(s, t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
         for (r = 0; r < nz; ++r) {
             for (c = 0; c < SYMGEN_NW(s); ++c) {
                 const int col = s->model->ycol[c] - SYMGEN_NX(s);
@@ -1020,8 +1026,8 @@ static void symgen_polish_(symgen_solver *s)
     }
 }
 
-/* bars deformed beyond the range of the model (Mechanism.beyond_range): 0, or fail */
-static int symgen_beyond_range_(symgen_solver *s)
+/* bars deformed beyond the range of the model (Mechanism.beyond_range) in s->q at t: 0, or fail */
+static int symgen_beyond_range_(symgen_solver *s, double t)
 {
     const symgen_model *M = s->model;
     int g, k;
@@ -1030,24 +1036,24 @@ static int symgen_beyond_range_(symgen_solver *s)
         double size = 0.0;
         for (k = 0; k < c->count; ++k) size += fabs(s->q[M->amplitude_index[c->start + k]]);
         if (!(size <= c->limit)) {
-            return symgen_fail_(s, s->t, c->message, size,
+            return symgen_fail_(s, t, c->message, size,
                                 "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
         }
     }
     return 0;
 }
 
-/* at a good output (the start, each advance): the largest closure residual seen, and the
-   coordinates there (a failing step's diagnosis looks back at them) */
-static void symgen_record_closure_(symgen_solver *s)
+/* at a good output (the start, each advance, each dense output) at t with state y: the largest
+   closure residual seen, and the coordinates there (a failing step's diagnosis looks back at them) */
+static void symgen_record_closure_(symgen_solver *s, double t, const double *y)
 {
     double *clo = s->clo;
     double m;
-    symgen_unpack_(s, s->y, s->q, s->v);
+    symgen_unpack_(s, y, s->q, s->v);
     memcpy(s->q_last, s->q, sizeof(double) * SYMGEN_NQ(s));
-    s->t_last = s->t;
+    s->t_last = t;
     if (SYMGEN_NCLO(s) == 0) return;
-    s->model->closure(s->t, s->q, s->zeros, s->zeros, s->zeros, s->p, clo);
+    s->model->closure(t, s->q, s->zeros, s->zeros, s->zeros, s->p, clo);
     m = symgen_max_abs(clo, SYMGEN_NCLO(s));
     if (m > s->closure_max) s->closure_max = m;
 }
@@ -1134,41 +1140,118 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
     s->h_lu = -1.0;
     s->faccon = 1.0;
     symgen_rhs_(s, t0, s->y, s->f0);
-    symgen_record_closure_(s);
+    s->t_dense = -HUGE_VAL;
+    symgen_record_closure_(s, t0, s->y);
+    return 0;
+}
+
+/* a failed integration: a step that failed where the closure was already near rank loss at the
+   last good output met a singular position (as simulate._lost reports it in Python) */
+static int symgen_integration_failed_(symgen_solver *s)
+{
+    const double t_fail = s->t;
+    const double ratio = symgen_closure_ratio_(s, s->t_last, s->q_last);
+    if (ratio < s->model->policy.near_singular_ratio) {
+        return symgen_fail_(s, t_fail, "the rigid mechanism reached a singular position (change point / toggle): "
+                           "the closure Jacobian loses rank (singular value ratio at the last output)", ratio,
+                           "the mechanism cannot be driven through this position; shorten the run or change "
+                           "the geometry or the driver");
+    }
+    return s->status;
+}
+
+/* the checks of an output at t with the polished state y (Mechanism.beyond_range, the singular
+   position), then its closure recorded: 0, or fail */
+static int symgen_output_checks_(symgen_solver *s, double t, const double *y)
+{
+    double ratio;
+    symgen_unpack_(s, y, s->q, s->v);
+    if (symgen_beyond_range_(s, t)) return s->status;
+    ratio = symgen_closure_ratio_(s, t, s->q);
+    if (ratio < s->model->policy.singular_ratio) {
+        return symgen_fail_(s, t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (singular value ratio)",
+                           ratio, "the mechanism cannot pass this position as driven; shorten t_end or change the geometry");
+    }
+    symgen_record_closure_(s, t, y);
     return 0;
 }
 
 SYMGEN_API int symgen_solver_advance(symgen_solver *s, double t_out)
 {
-    double ratio;
     if (!s) return SYMGEN_SOLVER_BAD_ARGUMENT;
     if (s->status) return s->status;
     if (!(fabs(t_out) <= DBL_MAX)) return symgen_bad_argument_(s, "t_out", t_out, "finite");
     if (!(t_out > s->t)) return 0;
-    if (symgen_integrate_(s, t_out)) {
-        /* a step that failed where the closure was already near rank loss at the last good
-           output met a singular position (as simulate._lost reports it in Python) */
-        const double t_fail = s->t;
-        ratio = symgen_closure_ratio_(s, s->t_last, s->q_last);
-        if (ratio < s->model->policy.near_singular_ratio) {
-            return symgen_fail_(s, t_fail, "the rigid mechanism reached a singular position (change point / toggle): "
-                               "the closure Jacobian loses rank (singular value ratio at the last output)", ratio,
-                               "the mechanism cannot be driven through this position; shorten the run or change "
-                               "the geometry or the driver");
-        }
-        return s->status;
-    }
-    symgen_polish_(s);
+    s->step_limit = 0;
+    if (symgen_integrate_(s, t_out, t_out)) return symgen_integration_failed_(s);
+    symgen_polish_(s, s->t, s->y);
     symgen_rhs_(s, s->t, s->y, s->f0);
-    symgen_unpack_(s, s->y, s->q, s->v);
-    if (symgen_beyond_range_(s)) return s->status;
-    ratio = symgen_closure_ratio_(s, s->t, s->q);
-    if (ratio < s->model->policy.singular_ratio) {
-        return symgen_fail_(s, s->t, "the rigid mechanism reached a singular position: the closure Jacobian loses rank (singular value ratio)",
-                           ratio, "the mechanism cannot pass this position as driven; shorten t_end or change the geometry");
+    return symgen_output_checks_(s, s->t, s->y);
+}
+
+/* y := the collocation polynomial of the last accepted step at t (RADAU5's CONTR5) */
+static void symgen_interpolate_(const symgen_solver *s, double t, double *y)
+{
+    const int ny = SYMGEN_NY(s);
+    const double c1m1 = s->model->radau.c[0] - 1.0, c2m1 = s->model->radau.c[1] - 1.0;
+    const double u = (t - s->t) / s->h_old;
+    int j;
+    for (j = 0; j < ny; ++j) {
+        y[j] = s->y[j] + u * (s->cont[j] + (u - c2m1) * (s->cont[ny + j] + (u - c1m1) * s->cont[2 * ny + j]));
     }
-    symgen_record_closure_(s);
-    return 0;
+}
+
+SYMGEN_API int symgen_solver_dense(symgen_solver *s, double t_out, double t_stop, double *y_out)
+{
+    int rc;
+    if (!s) return SYMGEN_SOLVER_BAD_ARGUMENT;
+    if (s->status) return s->status;
+    if (!(fabs(t_out) <= DBL_MAX)) return symgen_bad_argument_(s, "t_out", t_out, "finite");
+    if (!(fabs(t_stop) <= DBL_MAX) || !(t_stop >= t_out)) {
+        return symgen_bad_argument_(s, "t_stop", t_stop, "finite and at or after t_out");
+    }
+    if (t_out > s->t) {
+        rc = symgen_integrate_(s, t_out, t_stop);
+        if (rc == SYMGEN_SOLVER_PAUSED) return rc;
+        if (rc) return symgen_integration_failed_(s);
+    }
+    if (t_out == s->t) {
+        memcpy(y_out, s->y, sizeof(double) * SYMGEN_NY(s));
+    } else if (s->have_cont && t_out >= s->t - s->h_old * (1.0 + 1e-12)) {
+        symgen_interpolate_(s, t_out, y_out);
+    } else {
+        return symgen_bad_argument_(s, "t_out", t_out, "at or after the start of the last step");
+    }
+    symgen_polish_(s, t_out, y_out);
+    s->t_dense = t_out;
+    return symgen_output_checks_(s, t_out, y_out);
+}
+
+SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long n_rows, long *done, long max_rows,
+                                  long max_steps, double *rec)
+{
+    const symgen_model *M;
+    const long first = *done;
+    const double t_stop = t0 + (double)(n_rows - 1) * step;
+    long stride, i;
+    int rc = 0, k;
+    if (!s || !done || !rec) return SYMGEN_SOLVER_BAD_ARGUMENT;
+    M = s->model;
+    stride = 1 + M->nout + 2 * M->n + M->m;
+    s->step_limit = max_steps > 0 ? s->n_steps + max_steps : 0;
+    for (i = first; i < n_rows && (max_rows <= 0 || i - first < max_rows); ++i) {
+        const double t = t0 + (double)i * step;
+        double *row = rec + (i - first) * stride;
+        rc = symgen_solver_dense(s, t, t_stop, s->yd);
+        if (rc && !(rc == SYMGEN_SOLVER_FAILED && s->t_dense == t)) break;
+        row[0] = t;
+        symgen_model_outputs(M, t, s->yd, s->p, row + 1 + M->nout, row + 1 + M->nout + M->n, row + 1);
+        for (k = 0; k < M->m; ++k) row[1 + M->nout + 2 * M->n + k] = s->yd[SYMGEN_A0(s) + M->n + k];
+        *done = i + 1;
+        if (rc) break;
+    }
+    s->step_limit = 0;
+    return rc;
 }
 
 SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, double *q, double *v, double *a,

@@ -108,6 +108,39 @@ int four_bar_tool_solver_init(four_bar_tool_solver *s, const double *p, double t
    _BAD_ARGUMENT (s->status unchanged) for a t_out that is not finite. */
 int four_bar_tool_solver_advance(four_bar_tool_solver *s, double t_out);
 
+/*
+ * Dense output: integrate with the steps the error control sets (not shortened for t_out; the
+ * step that would pass t_stop >= t_out lands on it) until the last step covers t_out, and write
+ * the state at tau = t_out into y (four_bar_tool_N_Y doubles): the step's collocation polynomial, the
+ * algebraic unknowns polished, the checks of an output run there. The steps, hence the results,
+ * do not depend on the output times: give the run's end as t_stop. 0; _FAILED (a failed check
+ * leaves the state that failed it in y); _BAD_ARGUMENT (t_out before the last step, or after
+ * t_stop); SYMGEN_SOLVER_PAUSED (only with a step limit, see _solver_rows).
+ */
+int four_bar_tool_solver_dense(four_bar_tool_solver *s, double t_out, double t_stop, double *y);
+
+/*
+ * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
+ * output, at most max_rows per call (<= 0: all), each row four_bar_tool_ROW_SIZE doubles at rec + (i -
+ * first) four_bar_tool_ROW_SIZE (first: *done at the call): tau, the outputs (four_bar_tool_N_OUT), q, v (n each),
+ * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
+ * caller can react to an interrupt in between). 0 when the rows asked for are written.
+ */
+#define four_bar_tool_ROW_SIZE 32
+int four_bar_tool_solver_rows(four_bar_tool_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
+                              double *rec);
+
+/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+void four_bar_tool_state_of(const double *y, double *q, double *v, double *a, double *lam);
+void four_bar_tool_outputs_of(const four_bar_tool_solver *s, double t, const double *y, double *out);
+
+/* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
+   and the message. */
+void four_bar_tool_solver_counters(const four_bar_tool_solver *s, double *stats);
+const char *four_bar_tool_solver_message(const four_bar_tool_solver *s);
+
 /* The current q, v, a, lam (any pointer may be NULL). */
 void four_bar_tool_solver_state(const four_bar_tool_solver *s, double *q, double *v, double *a, double *lam);
 

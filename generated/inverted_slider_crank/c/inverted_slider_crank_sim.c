@@ -50,6 +50,8 @@
     "[--max-rows N] [--max-t-end TAU] [--stats]\n"
 
 static inverted_slider_crank_solver inverted_slider_crank_sim_solver;
+#define inverted_slider_crank_SIM_BLOCK 256     /* rows computed per call, then printed */
+static double inverted_slider_crank_sim_rows[inverted_slider_crank_SIM_BLOCK * inverted_slider_crank_ROW_SIZE];
 
 /* a usage error: the message and the usage on stderr; exit status 2 */
 static int inverted_slider_crank_sim_bad(const char *format, ...)
@@ -144,7 +146,6 @@ int main(int argc, char **argv)
     int direct[14] = {0};
     double x[1];
     int changed[1] = {0};
-    double out[8];
     double t_end = inverted_slider_crank_T_END, step = inverted_slider_crank_OUTPUT_STEP, rtol = inverted_slider_crank_RTOL, atol = inverted_slider_crank_ATOL;
     double max_rows = (double)inverted_slider_crank_MAX_OUTPUT_ROWS, rows, max_t_end = inverted_slider_crank_MAX_T_END;
     /* rows are counted in long and their times are i * step: whole numbers exact in both */
@@ -152,7 +153,7 @@ int main(int argc, char **argv)
     int stats = 0, a, k, rc;
     clock_t tick;
     double solve_cpu = 0.0;   /* CPU seconds in the solver (init and advance), for --stats */
-    long i, n_out;
+    long i, n_out, done;
     memcpy(p, inverted_slider_crank_parameter_defaults, sizeof(p));
     memcpy(x, inverted_slider_crank_physical_defaults, sizeof(x));
     for (a = 1; a < argc; ++a) {
@@ -223,23 +224,22 @@ int main(int argc, char **argv)
         fprintf(stderr, "inverted_slider_crank_sim: %s\n", s->message);
         return rc == inverted_slider_crank_SOLVER_BAD_ARGUMENT ? 2 : 1;
     }
-    for (i = 0; i <= n_out; ++i) {
-        const double t = (double)i * step;
-        int failed;
+    /* dense output: the steps are the error control's, whatever --step (the rows are the
+       solver's collocation polynomial at the output times, polished); the last row is t_end */
+    for (done = 0; done <= n_out;) {
+        const long first = done;
         tick = clock();
-        failed = i > 0 && inverted_slider_crank_solver_advance(s, t);
+        rc = inverted_slider_crank_solver_rows(s, 0.0, step, n_out + 1, &done, inverted_slider_crank_SIM_BLOCK, 0, inverted_slider_crank_sim_rows);
         solve_cpu += (double)(clock() - tick) / CLOCKS_PER_SEC;
-        if (failed && s->t != t) {                 /* the integration stopped short of the output */
-            fprintf(stderr, "inverted_slider_crank_sim: %s\n", s->message);
-            return 1;
+        for (i = first; i < done; ++i) {          /* (like symgen simulate: a row that fails a check is kept) */
+            const double *row = inverted_slider_crank_sim_rows + (i - first) * inverted_slider_crank_ROW_SIZE;
+            printf("%.17g", row[0]);
+            for (k = 0; k < inverted_slider_crank_N_OUT; ++k) printf(",%.17g", row[1 + k]);
+            printf("\n");
         }
-        inverted_slider_crank_solver_outputs(s, out);            /* (like symgen simulate: a row that fails a check is kept) */
-        printf("%.17g", s->t);
-        for (k = 0; k < inverted_slider_crank_N_OUT; ++k) printf(",%.17g", out[k]);
-        printf("\n");
-        if (failed) {
+        if (rc) {
             fprintf(stderr, "inverted_slider_crank_sim: %s\n", s->message);
-            return 1;
+            return rc == inverted_slider_crank_SOLVER_BAD_ARGUMENT ? 2 : 1;
         }
     }
     if (fflush(stdout) != 0 || ferror(stdout)) {

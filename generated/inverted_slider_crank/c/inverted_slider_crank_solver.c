@@ -107,7 +107,8 @@ const symgen_model inverted_slider_crank_model = {
         { -10.0488093998274155625, 1.38214273316074889579, -0.333333333333333333333 },
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
-    }
+    },
+    8      /* nout */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -146,6 +147,49 @@ void inverted_slider_crank_solver_outputs(const inverted_slider_crank_solver *s,
 {
     double q[11], v[11];
     symgen_model_outputs(&inverted_slider_crank_model, s->t, s->y, s->p, q, v, out);
+}
+
+int inverted_slider_crank_solver_dense(inverted_slider_crank_solver *s, double t_out, double t_stop, double *y)
+{
+    if (!s || !y) return inverted_slider_crank_SOLVER_BAD_ARGUMENT;
+    return inverted_slider_crank_x_publish(s, symgen_solver_dense(inverted_slider_crank_x_core(s), t_out, t_stop, y));
+}
+
+int inverted_slider_crank_solver_rows(inverted_slider_crank_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
+                                      double *rec)
+{
+    if (!s) return inverted_slider_crank_SOLVER_BAD_ARGUMENT;
+    return inverted_slider_crank_x_publish(s, symgen_solver_rows(inverted_slider_crank_x_core(s), t0, step, n_rows, done, max_rows, max_steps, rec));
+}
+
+void inverted_slider_crank_state_of(const double *y, double *q, double *v, double *a, double *lam)
+{
+    symgen_model_state(&inverted_slider_crank_model, y, q, v, a, lam);
+}
+
+void inverted_slider_crank_outputs_of(const inverted_slider_crank_solver *s, double t, const double *y, double *out)
+{
+    double q[11], v[11];
+    symgen_model_outputs(&inverted_slider_crank_model, t, y, s->p, q, v, out);
+}
+
+void inverted_slider_crank_solver_counters(const inverted_slider_crank_solver *s, double *stats)
+{
+    stats[0] = s->t;
+    stats[1] = (double)s->n_steps;
+    stats[2] = (double)s->n_accepted;
+    stats[3] = (double)s->n_rejected;
+    stats[4] = (double)s->n_jacobians;
+    stats[5] = (double)s->n_factorizations;
+    stats[6] = (double)s->n_residuals;
+    stats[7] = s->closure_max;
+    stats[8] = s->divergence_rate;
+    stats[9] = (double)s->status;
+}
+
+const char *inverted_slider_crank_solver_message(const inverted_slider_crank_solver *s)
+{
+    return s->message;
 }
 
 unsigned long inverted_slider_crank_solver_sizeof(void)

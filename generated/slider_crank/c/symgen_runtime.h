@@ -36,6 +36,9 @@ extern "C" {
    returns it), _BAD_ARGUMENT a call with an invalid argument (message says which; nothing done). */
 #define SYMGEN_SOLVER_FAILED 1
 #define SYMGEN_SOLVER_BAD_ARGUMENT 2
+/* symgen_solver_dense / _rows only: the step limit s->step_limit was reached before the output
+   time (not a failure: status stays 0; call again to go on) */
+#define SYMGEN_SOLVER_PAUSED 3
 #define SYMGEN_MESSAGE_SIZE 640
 
 /* F(t, q, v, a, lam, p) -> out: the signature of every model function (symgen's C codegen) */
@@ -104,6 +107,7 @@ typedef struct symgen_model {
     symgen_function phi_jac, phid_jac, phidd_jac, res_jac;         /* dF/dw, row-major [rows x (3n + m)] */
     symgen_policy policy;
     symgen_radau radau;
+    int nout;                                /* values of `out` (a row of symgen_solver_rows) */
 } symgen_model;
 
 /*
@@ -117,7 +121,7 @@ typedef struct symgen_model {
 #define SYMGEN_NALG_(n, m) (3 * (m) + (n))
 #define SYMGEN_NW_(n, m) (3 * (n) + (m))
 #define SYMGEN_WORK_DOUBLES(n, m, ni, nd, ne) \
-    (22 * SYMGEN_NY_(n, m, ni, nd) + SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
+    (23 * SYMGEN_NY_(n, m, ni, nd) + SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
      + 13 * (n) + 10 * (m) + 8 * (ne) * (ne) + 8 * (ne) + 1)
@@ -144,9 +148,12 @@ typedef struct symgen_solver {
     double h, h_lu, h_old, h_acc, err_acc, faccon, t_last;
     int first, reject, jac_current, need_jac, have_cont, have_jac, gzz_singular;
     int sizes_differ;           /* the solver's compiled sizes are not the model's: init fails */
+    long step_limit;            /* > 0: symgen_solver_dense / _rows pause once n_steps reaches it */
+    double t_dense;             /* the time of the last state symgen_solver_dense wrote (checked or not) */
     /* the caller's arrays: p [np], y [ny]; the work arrays (symgen_bind) */
     double *p, *y, *work;
     int *iwork;
+    double *yd;                 /* [ny]: the state at an output time of symgen_solver_rows */
     double *y0, *f0, *scal, *ymax, *z, *w, *f, *dw, *cont, *tmp, *tmp2, *tmp3;
     double *jac, *gzz, *kzx, *jred, *e1, *e2r, *e2i, *uz, *uzi;
     double *galg, *sq, *sv, *sr;
@@ -182,6 +189,32 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
 
 /* Integrate to tau = t_out (> s->t), landing exactly on it, polish z and run the checks. */
 SYMGEN_API int symgen_solver_advance(symgen_solver *s, double t_out);
+
+/*
+ * Dense output. Integrate with the steps the error control sets (never shortened to meet t_out;
+ * only the step that would pass t_stop >= t_out lands on it) until the last step covers tau =
+ * t_out (t_out at or after the previous output time), and write the state at t_out into y_out
+ * (ny doubles): the last step's collocation polynomial (order 3 in x, z alike), then z polished
+ * by Newton on the algebraic equations at fixed x (position closure to round-off), then the run
+ * checks of an output (range of the bar models, singular position; closure_max). The steps and
+ * so the results do not depend on the output times. Returns 0; _FAILED (a failed step: y_out
+ * untouched; a failed check: y_out holds the state that failed it and s->t_dense = t_out);
+ * _BAD_ARGUMENT (t_out before the last step or after t_stop); _PAUSED (s->step_limit reached:
+ * call again with the same arguments).
+ */
+SYMGEN_API int symgen_solver_dense(symgen_solver *s, double t_out, double t_stop, double *y_out);
+
+/*
+ * The rows of a run on the grid tau_i = t0 + i step, i = *done .. n_rows - 1 (t0 = the start
+ * time, the last row the stop time), by symgen_solver_dense, at most max_rows of them (<= 0:
+ * all): row i at rec + (i - first) * stride, first = *done at the call, stride = 1 + nout + 2 n
+ * + m: tau, the outputs, q, v, lam. *done counts the rows written (a row whose check failed is
+ * written, as symgen simulate keeps it). max_steps > 0: pause (_PAUSED) after that many more
+ * steps; call again to go on. Returns 0 when max_rows or all rows are written, or
+ * symgen_solver_dense's code.
+ */
+SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long n_rows, long *done, long max_rows,
+                                  long max_steps, double *rec);
 
 /* The q, v, a, lam of the solver vector y of a model (any pointer may be NULL). */
 SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, double *q, double *v, double *a,
