@@ -515,7 +515,7 @@ def bar_equations(
         # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
         el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
     if damping is not None:
-        if lam is not None and not inext and c:
+        if lam is not None and not inext and c and not var:
             # Kelvin-Voigt on the strain the basis carries (von Karman, exact): the dissipation
             # D = (damping lam / 2) ||P eps_dot||^2, eps_dot = zeta_dot' + eta' eta_dot', whose
             # coefficients on phi'_k are e_dot = f_dot + Ka^-1 J g_dot, J_ka = d c_k / d g_a. Its
@@ -524,7 +524,8 @@ def bar_equations(
             # shortening that bending makes, which is no strain: on a soft slider-crank at 6 % of
             # its length deflection that over-damped the rod's vibration by about a third
             # (benchmarks/validation, slider_crank_torque_soft, against Exudyn's ANCF cable, whose
-            # axial damping acts on the rate of |r'| - 1).
+            # axial damping acts on the rate of |r'| - 1). A slot's guide (variable span psi(xi, beta))
+            # keeps the rate of zeta' alone: its strain rate has a beta_dot part too (not derived).
             J = [[sp.diff(c[k], g[a]) for a in range(nt)] for k in range(na)]
             jg = [sp.Add(*[J[k][a] * dg[a] for a in range(nt)]) for k in range(na)]
             el_f = [
