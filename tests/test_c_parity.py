@@ -3,7 +3,9 @@ and the same results to the accuracy target).
 
 Each scene runs its first 2 tau (or the whole run when shorter) three times: the C solver and
 IDAS at the scene's tolerances, and IDAS at tolerances 1000 times tighter (rtol at most 1e-10),
-the oracle. Asserted: the same verdict (every run complete) and the same rows; every output
+the oracle. Where IDAS's corrector fails at rtol 1e-10 / atol 1e-12 (the inverted slider-crank with
+an elastic overhang, at its first output step, with the von Karman strain-rate damping and without:
+measured on the command line), the oracle runs at exactly 1000 times the scene's rtol (1e-9). Asserted: the same verdict (every run complete) and the same rows; every output
 within the accuracy the scene's tolerances buy: the C solver's largest error (relative to the
 output's peak) at most twice IDAS's own at the same tolerances, or below 1e-5 of the peak where
 IDAS is closer than that. Measured (2026-11-26): the C solver's error 1e-9 .. 8e-5, below IDAS's
@@ -51,6 +53,7 @@ def _errors(ref, res) -> np.ndarray:
     [pytest.param(p, id=p.stem, marks=() if p.name in CHEAP else pytest.mark.slow) for p in SCENES],
 )
 def test_solver_c_matches_idas_to_the_accuracy_target(scene):
+    from symgen.errors import SimulationError
     from symgen.numerics.csolver import simulate_c
     from symgen.numerics.simulate import simulate
 
@@ -60,7 +63,10 @@ def test_solver_c_matches_idas_to_the_accuracy_target(scene):
     backend = "vm" if mech.m == 0 else None
     c = simulate_c(mech, t_end=t_end)
     idas = simulate(mech, t_end=t_end, backend=backend)
-    oracle = simulate(mech, t_end=t_end, rtol=min(sim.rtol * 1e-3, 1e-10), atol=sim.atol * 1e-3, backend=backend)
+    try:
+        oracle = simulate(mech, t_end=t_end, rtol=min(sim.rtol * 1e-3, 1e-10), atol=sim.atol * 1e-3, backend=backend)
+    except SimulationError:  # IDAS's corrector at its limit (see the module docstring)
+        oracle = simulate(mech, t_end=t_end, rtol=sim.rtol * 1e-3, atol=sim.atol * 1e-3, backend=backend)
     assert c.complete and idas.complete and oracle.complete
     assert c.outputs.shape == idas.outputs.shape == oracle.outputs.shape
     np.testing.assert_allclose(c.tau, oracle.tau, rtol=0, atol=1e-12)
