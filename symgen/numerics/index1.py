@@ -3,6 +3,11 @@
 The rigid coordinates split into dependent ones q_D (one per closure row) and independent ones;
 with x = [q_I, v_I] differential and z = [q_D, v_D, a, lam] algebraic, the algebraic equations
 are [phi; phid; res; phidd] (``symgen.numerics.mechanism`` chooses the partition).
+
+Quasi-static amplitudes h (``Partition.quasi``, docs/quasi-static-modes.md) are neither
+independent nor dependent: their rates and accelerations are zero in every equation, and the
+slot of a_h in z holds q_h instead, so z = [q_D, v_D, a with q_h in place of a_h, lam] keeps its
+size and the rows res_h (which no longer read a_h) determine q_h.
 """
 
 from __future__ import annotations
@@ -17,6 +22,16 @@ import numpy as np
 class Partition:
     ind: tuple[int, ...]  # indices of independent coordinates (differential)
     dep: tuple[int, ...]  # indices of dependent rigid coordinates (algebraic)
+    quasi: tuple[int, ...] = ()  # quasi-static amplitudes (algebraic: q in the slot of a, v = a = 0)
+
+    def pack(
+        self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(x, z) of a state (the inverse of :func:`index1`'s split)."""
+        I, D, Q = list(self.ind), list(self.dep), list(self.quasi)
+        a = np.array(a, dtype=float)
+        a[Q] = np.asarray(q, dtype=float)[Q]
+        return np.concatenate([q[I], v[I]]), np.concatenate([q[D], v[D], a, lam])
 
 
 @dataclass(frozen=True)
@@ -47,4 +62,7 @@ def index1(n: int, m: int, part: Partition) -> Index1:
         q[i], v[i] = x[k], x[nI + k]
     for k, i in enumerate(D):
         q[i], v[i] = z[k], z[nD + k]
-    return Index1(x, z, q, v, z[2 * nD : 2 * nD + n], z[2 * nD + n :])
+    a = ca.SX(z[2 * nD : 2 * nD + n])
+    for i in part.quasi:
+        q[i], a[i] = z[2 * nD + i], 0
+    return Index1(x, z, q, v, a, z[2 * nD + n :])

@@ -23,7 +23,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from symgen.errors import SimulationError
+from symgen.errors import SceneError, SimulationError
 from symgen.backends.casadi import pipeline
 from symgen.backends.casadi.pipeline import CompiledModel
 from symgen.ir.parameters import parameter_values
@@ -78,8 +78,17 @@ class Mechanism:
         # made on first use, shared by every later run of this mechanism (sweeps, studies)
         self.runner_functions: dict[Partition, dict[str, ca.Function]] = {}
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
+        # bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
+        self.quasi = quasi_static_amplitudes(self, ca.jacobian(phi, q))
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)
+
+    def run_partition(self, part: Partition) -> Partition:
+        """The partition a run integrates: ``part`` with the quasi-static amplitudes taken out
+        of the independent coordinates (``Partition.quasi``)."""
+        if not self.quasi:
+            return part
+        return Partition(tuple(i for i in part.ind if i not in self.quasi), part.dep, self.quasi)
 
     # ---------------------------------------------------------------- helpers
     def call(
@@ -268,3 +277,57 @@ class Mechanism:
     def initial_state(self, t0: float = 0.0) -> start.State:
         """Consistent (q, v, a, lam) at t0 and the coordinate partition (``start.consistent_start``)."""
         return start.consistent_start(self, t0)
+
+
+def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
+    """The coordinate indices of the quasi-static transverse amplitudes of the scene's bars
+    (``bodies.<name>.quasi_static_transverse``: the highest of each bar's standard transverse
+    functions, before its static correction functions). Refused (SceneError, exit 2) where the
+    treatment would be inconsistent: a function that moves a joint (its amplitude appears in the
+    loop closure ``phi_q``: its rate and acceleration would be missing from the velocity and
+    acceleration closure; an inextensibility row may read it: the axial shortening then follows
+    the quasi-static amplitude's value, its rate only the dynamic ones'), a slot's guide (its overhang's functions follow the span's), polynomial
+    shapes (not ordered by frequency), more functions than the bar has."""
+    scene = mech.scene
+    out: list[int] = []
+    for body in scene.bodies:
+        k = body.quasi_static_transverse
+        if body.rigid or not k:
+            continue
+        key = f"bodies.{body.name}.quasi_static_transverse"
+        nt = body.transverse_modes if scene.effects.transverse else 0
+        if body.transverse_shapes == "polynomial":
+            raise SceneError(
+                scene.path,
+                key,
+                "quasi-static functions need transverse_shapes ordered by frequency, not \"polynomial\"",
+                'use transverse_shapes = "modes" or "eigen", or leave out quasi_static_transverse',
+            )
+        if any(j.kind == "slot" and any(e.body == body.name and e.variable for e in j.ends) for j in scene.joints):
+            raise SceneError(
+                scene.path,
+                key,
+                "a slot's guide cannot have quasi-static functions (its overhang's functions follow the span's)",
+                "leave out quasi_static_transverse on the guide",
+            )
+        if k > nt:
+            raise SceneError(
+                scene.path,
+                key,
+                f"{k} quasi-static functions is more than the bar's {nt} transverse functions"
+                + ("" if scene.effects.transverse else " (effects.transverse is off)"),
+                f"give at most {nt}",
+            )
+        idx = list(mech.amplitudes[body.name][1][nt - k : nt])
+        loops = [r for r in range(mech.m) if r not in mech.inext_rows]
+        moving = [i for i in idx if loops and phi_q[loops, i].nnz() > 0]
+        if moving:
+            raise SceneError(
+                scene.path,
+                key,
+                f"the function {mech.coords[moving[0]].name} moves a joint of the bar (it is not zero at an "
+                "interior pin or a slider): a quasi-static amplitude has no rate for the closure",
+                "lower quasi_static_transverse to keep that function dynamic, or move the joint to an end of the bar",
+            )
+        out += idx
+    return tuple(sorted(out))

@@ -147,7 +147,7 @@ class DaeRunner:
         signatures = _signatures(mech, part) if self.nI else [compiled._signature(f) for f in build()]
         try:
             ext, built = compiled.library_of(
-                signatures, build, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
+                signatures, build, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}" + (f" quasi={list(part.quasi)}" if part.quasi else ""), store=use_cache
             )
         except compiled.Unavailable as exc:
             if choice == "compiled":
@@ -166,14 +166,34 @@ class DaeRunner:
             self.backend, self.library = "compiled", "built" if built else "cached"
 
     def pack(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        I, D = list(self.part.ind), list(self.part.dep)
-        x = np.concatenate([q[I], v[I]])
-        z = np.concatenate([q[D], v[D], a, lam])
-        return x, z
+        return self.part.pack(q, v, a, lam)
 
     def unpack(self, x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         q, v, a, lam = self.split(x, z)
         return (np.array(q).ravel(), np.array(v).ravel(), np.array(a).ravel(), np.array(lam).ravel())
+
+    def quasi_start(self, t0: float, x: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """z at t0 with the quasi-static amplitudes (and with them a, lam) solved from the
+        algebraic equations by Newton from the full model's consistent start; refused when it
+        does not converge (a quasi-static function near buckling: keep it dynamic)."""
+        p = np.concatenate([self.mech.p, [t0]])
+        z = np.array(z, dtype=float)
+        for _ in range(QUASI_START_MAXIT):
+            g, J = self.g(0.0, x, z, p)
+            try:
+                dz = np.linalg.solve(np.array(J), np.array(g).ravel())
+            except np.linalg.LinAlgError:
+                break
+            z = z - dz
+            if not np.all(np.isfinite(z)):
+                break
+            if np.abs(dz).max() <= QUASI_START_TOL * max(1.0, np.abs(z).max()):
+                return z
+        raise SimulationError(
+            t0,
+            "the quasi-static transverse amplitudes have no solution at the start (Newton does not converge)",
+            "lower bodies.<name>.quasi_static_transverse (keep those functions dynamic)",
+        )
 
     def integrator(self, h: float, k: int, x: np.ndarray, z: np.ndarray) -> ca.Function:
         """IDAS over k output steps of h (time offset in the last parameter), made once per k
@@ -344,8 +364,11 @@ def _start(
     assembly, the consistent state, a compiled library's build) stops the run at t0."""
     try:
         q, v, a, lam, part = mech.initial_state(settings.t0) if initial is None else initial
+        part = mech.run_partition(part)
         run, setup_s = _runner(mech, part, settings)
         x, z = run.pack(q, v, a, lam)
+        if part.quasi:  # the quasi-static amplitudes: the solution of their rows at the start
+            z = run.quasi_start(settings.t0, x, z)
     except BaseException as err:
         stop = interrupt.interrupted(err, settings.t0)
         if stop is err:
@@ -596,6 +619,10 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
     exc = interrupt.interrupted(err, traj.taus[n - 1] if n else t0)
     return exc if isinstance(exc, (SimulationError, Interrupted)) else None
 
+
+#: Newton on the algebraic equations for the quasi-static amplitudes at the start: at most this
+#: many iterations, converged when the step is below this fraction of the largest |z|.
+QUASI_START_MAXIT, QUASI_START_TOL = 30, 1e-13
 
 #: The Functions of a runner that a compiled library holds, in its order.
 COMPILED = ("dae", "jac_dae", "g", "split", "rec")

@@ -17,7 +17,15 @@ TRANSVERSE_SHAPES = ("modes", "eigen", "polynomial")
 JOINT_KINDS = ("pin", "slider", "slot")
 
 BODY_COMMON = ("name", "length", "rigid", "mass_per_length")
-BODY_ELASTIC = ("frame", "axial_modes", "transverse_modes", "axial_shapes", "transverse_shapes", "static_correction")
+BODY_ELASTIC = (
+    "frame",
+    "axial_modes",
+    "transverse_modes",
+    "axial_shapes",
+    "transverse_shapes",
+    "static_correction",
+    "quasi_static_transverse",
+)
 BODY_DIMLESS = ("lambda", "mu")
 BODY_SI = ("E", "area", "inertia", "density")
 BODY_KEYS_DIMLESS = BODY_COMMON + BODY_DIMLESS + BODY_ELASTIC
@@ -54,6 +62,7 @@ class BarSpec:
     axial_shapes: str
     transverse_shapes: str
     static_correction: bool | None = None
+    quasi_static_transverse: int = 0  # the highest standard transverse functions without own inertia
 
 
 # -- names --------------------------------------------------------------------------------------
@@ -260,13 +269,39 @@ def read_bar(r: Reader, name: str, path: str, table: dict, si: bool, omega: floa
     axial_shapes = r.choice(table, path, "axial_shapes", AXIAL_SHAPES, "complete")
     transverse_shapes = r.choice(table, path, "transverse_shapes", TRANSVERSE_SHAPES, "modes")
     static_correction = r.boolean(table, path, "static_correction", None) if "static_correction" in table else None
+    quasi = r.integer(
+        table,
+        path,
+        "quasi_static_transverse",
+        0,
+        ge=0,
+        hint="the number of the highest transverse functions treated quasi-statically, 0 (default) = none",
+    )
+    if transverse is not None and quasi > transverse:
+        r.fail(
+            join(path, "quasi_static_transverse"),
+            f"{quasi} quasi-static functions is more than the bar's {transverse} transverse_modes",
+            f"give at most {transverse} (the highest of its transverse_modes functions lose their own inertia)",
+        )
     if si:
         lam, mu = _elastic_groups_si(r, table, path, axial, transverse, length, mass, omega)
     else:
         lam, mu = _elastic_groups_dimless(r, table, path, axial, transverse)
     frame = "pinned-pinned" if frame == "pinned-sliding" else frame
     return BarSpec(
-        name, length, mass, False, lam, mu, frame, axial, transverse, axial_shapes, transverse_shapes, static_correction
+        name,
+        length,
+        mass,
+        False,
+        lam,
+        mu,
+        frame,
+        axial,
+        transverse,
+        axial_shapes,
+        transverse_shapes,
+        static_correction,
+        quasi,
     )
 
 
@@ -318,6 +353,7 @@ def make_body(bar: BarSpec, scales: Scales) -> Body:
         axial_shapes=bar.axial_shapes,
         transverse_shapes=bar.transverse_shapes,
         static_correction=bar.static_correction,
+        quasi_static_transverse=bar.quasi_static_transverse,
     )
 
 

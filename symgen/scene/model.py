@@ -46,6 +46,9 @@ class Body:
     axial_shapes: str  # "complete" | "stress-free"
     transverse_shapes: str  # "modes" | "eigen" | "polynomial"
     static_correction: bool | None = None  # None: static correction functions at interior points (default)
+    # the highest this many of its transverse_modes functions are quasi-static: stiffness and
+    # loads, no inertia of their own (docs/quasi-static-modes.md; applied by the run, not the model)
+    quasi_static_transverse: int = 0
 
 
 @dataclass(frozen=True)

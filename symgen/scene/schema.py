@@ -295,6 +295,20 @@ BODIES = Table(
             default="true (adds nothing without interior points)",
             example="false",
         ),
+        Key(
+            "quasi_static_transverse",
+            "integer",
+            "How many of the highest of the bar's transverse_modes functions are quasi-static "
+            "(residual flexibility): they keep their stiffness and every load on them, the inertia loads of the "
+            "rigid motion and of the other functions included, but not their own inertia, so their amplitudes "
+            "are algebraic (solved at each instant) and add no eigenvalues for the integrator to follow "
+            "(docs/quasi-static-modes.md). Their rates read 0. Refused where such a function moves a joint "
+            "(an interior pin of the bar), on a slot's guide and with polynomial transverse_shapes; "
+            "IDAS runs only (--solver c and the emitted C refuse it).",
+            {"type": "integer", "minimum": 0},
+            default="0 (every function dynamic)",
+            example="2",
+        ),
     ),
     example='[[bodies]]\nname = "rod"\nlength = 1.0\nlambda = 18246.0\nmu = 0.495\nframe = "pinned-pinned"\n'
     "axial_modes = 3\ntransverse_modes = 4",
