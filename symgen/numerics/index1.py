@@ -24,9 +24,7 @@ class Partition:
     dep: tuple[int, ...]  # indices of dependent rigid coordinates (algebraic)
     quasi: tuple[int, ...] = ()  # quasi-static amplitudes (algebraic: q in the slot of a, v = a = 0)
 
-    def pack(
-        self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def pack(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(x, z) of a state (the inverse of :func:`index1`'s split)."""
         I, D, Q = list(self.ind), list(self.dep), list(self.quasi)
         a = np.array(a, dtype=float)

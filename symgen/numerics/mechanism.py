@@ -300,7 +300,7 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
             raise SceneError(
                 scene.path,
                 key,
-                "quasi-static functions need transverse_shapes ordered by frequency, not \"polynomial\"",
+                'quasi-static functions need transverse_shapes ordered by frequency, not "polynomial"',
                 'use transverse_shapes = "modes" or "eigen", or leave out quasi_static_transverse',
             )
         if any(j.kind == "slot" and any(e.body == body.name and e.variable for e in j.ends) for j in scene.joints):

@@ -147,7 +147,11 @@ class DaeRunner:
         signatures = _signatures(mech, part) if self.nI else [compiled._signature(f) for f in build()]
         try:
             ext, built = compiled.library_of(
-                signatures, build, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}" + (f" quasi={list(part.quasi)}" if part.quasi else ""), store=use_cache
+                signatures,
+                build,
+                mech.info.key,
+                f"ind={list(part.ind)} dep={list(part.dep)}" + (f" quasi={list(part.quasi)}" if part.quasi else ""),
+                store=use_cache,
             )
         except compiled.Unavailable as exc:
             if choice == "compiled":

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, TypeAlias
 import casadi as ca
 import numpy as np
 
-from symgen.errors import SimulationError
+from symgen.errors import SceneError, SimulationError
 from symgen.ir.plan import AmplitudeGroup, StartPlan
 from symgen.ir.records import CoordKind
 from symgen.numerics import checks
@@ -102,7 +102,18 @@ def start_plan(mech: Mechanism) -> StartPlan:
     """The start of the scene's run at tau = 0 as data for the emitted C solver: the partitions
     this start chooses (at the guess, for the assembly, and at the assembled position, for the
     run), the guess itself, and the index sets of the quasi-static start and of the checks.
-    Runs the whole start once, so a scene the Python start refuses is refused here too."""
+    Runs the whole start once, so a scene the Python start refuses is refused here too.
+    Quasi-static transverse functions (``bodies.<name>.quasi_static_transverse``) are refused:
+    the emitted solver integrates every amplitude (docs/quasi-static-modes.md)."""
+    if mech.quasi:
+        body = mech.coords[mech.quasi[0]].body
+        raise SceneError(
+            mech.scene.path,
+            f"bodies.{body}.quasi_static_transverse",
+            "the emitted C solver (--solver c, emit-c, emit-fmu) does not treat functions quasi-statically",
+            "leave out quasi_static_transverse (every function dynamic) for the C solver, or run with IDAS "
+            "(without --solver c)",
+        )
     _, _, _, _, part, (q0, v0), assembly = _start(mech, 0.0)
     info = mech.info
     dep = set(part.dep)
