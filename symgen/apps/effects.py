@@ -66,6 +66,7 @@ import numpy as np
 from symgen.errors import Interrupted, SceneError, SymgenError
 from symgen.outputs import atomic_write
 from symgen.model.structure import axial_treatments, loop_stretch_share
+from symgen.scene.quasi import quasi_static_reasons
 from symgen.numerics import interrupt
 from symgen.scene import load_scene
 from symgen.scene.summary import describe_basis
@@ -184,6 +185,7 @@ class EffectsReport:
     stopped: str = ""  # "interrupted by SIGINT ..." of a partial report
     axial: dict = field(default_factory=dict)  # bar -> (treatment, reason) of effects.axial
     bases: dict = field(default_factory=dict)  # bar -> its BasisChoice (counts, chosen or stated, and why)
+    quasi: dict = field(default_factory=dict)  # bar -> (quasi-static transverse functions, why)
     estimate: Any = None  # --measure: the ErrorEstimate of the scene's own measuring run
 
 
@@ -310,6 +312,7 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
         rows=rows,
         axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()},
         bases={c.bar: c for c in scene.bases},
+        quasi=quasi_static_reasons(scene),
     )
     recommend(report)
     return report
@@ -642,6 +645,7 @@ def table(report: EffectsReport) -> str:
     for name, (treatment, reason) in report.axial.items():
         lines.append(f"axial treatment of {name}: {treatment} ({reason})")
     lines += [f"bases of {name}: {describe_basis(c)}" for name, c in report.bases.items()]
+    lines += [f"quasi-static functions of {name}: {why}" for name, (_, why) in report.quasi.items()]
     if report.stopped:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:

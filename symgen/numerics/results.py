@@ -191,6 +191,7 @@ def build_sidecar(
     --solver c``) or "quasi-static" (``result`` a ``QuasiStaticResult``)."""
     from symgen.model.structure import axial_treatments
     from symgen.scene.motion import driver_record
+    from symgen.scene.quasi import quasi_static_reasons
     from symgen.numerics.quasistatic import QuasiStaticResult
 
     sim = scene.simulation
@@ -215,6 +216,9 @@ def build_sidecar(
         "axial_treatment": {
             name: {"treatment": t.treatment, "reason": t.reason} for name, t in axial_treatments(scene).items()
         },
+        "quasi_static_transverse": {
+            name: {"functions": k, "reason": why} for name, (k, why) in quasi_static_reasons(scene).items()
+        },
         "accuracy": sim.accuracy,
         "bases": {c.bar: c.as_dict() for c in scene.bases},
         "modes": {name: md.to_json() for name, md in info.modes.items()},
@@ -227,6 +231,7 @@ def build_sidecar(
         else {
             "independent": [info.coords[i].name for i in result.partition.ind],
             "dependent": [info.coords[i].name for i in result.partition.dep],
+            "quasi_static": [info.coords[i].name for i in result.partition.quasi],
         },
         "solver": {
             "name": "idas",
