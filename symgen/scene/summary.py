@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 
+from symgen.scene.quasi import quasi_static_reasons
 from symgen.scene.model import Scene
 
 
@@ -82,6 +83,8 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     elastic = sum(not b.rigid for b in scene.bodies)
     lines.append(f"  {'modes':8} {modes} shape functions on {elastic} elastic bar(s)")
     lines += [f"  {'bases' if i == 0 else '':8} {c.bar}: {describe_basis(c)}" for i, c in enumerate(scene.bases)]
+    quasi = quasi_static_reasons(scene)
+    lines += [f"  {'quasi' if i == 0 else '':8} {bar}: {why}" for i, (bar, (_, why)) in enumerate(quasi.items())]
     if not scene.drivers:
         lines.append(f"  {'driver':8} none")
     for i, drv in enumerate(scene.drivers):

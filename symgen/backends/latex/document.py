@@ -633,6 +633,18 @@ def latex_document(scene, model) -> str:
         ("gravity $(g_x, g_y)$", "off" if not any(eff.gravity) else f"$({eff.gravity[0]:.6g}, {eff.gravity[1]:.6g})$"),
         ("Kelvin--Voigt damping", "off" if not eff.damping else f"${eff.damping:.6g}$"),
     ]
+    quasi = [b for b in scene.bodies if not b.rigid and b.quasi_static_transverse]
+    if quasi:  # bodies.<name>.quasi_static_transverse: applied by the run (docs/quasi-static-modes.md)
+        effects.append(
+            (
+                "quasi-static transverse functions",
+                "; ".join(
+                    f"{tex_escape(b.name)}: the highest {b.quasi_static_transverse} of {b.transverse_modes}, "
+                    "whose rates and accelerations are zero in every equation below (no inertia of their own)"
+                    for b in quasi
+                ),
+            )
+        )
     joints = []
     for j in scene.joints:
         ends = []
