@@ -33,9 +33,22 @@ What it estimates, per bar (tau units, omega = 1):
   static axial response where an output reads the stretch, and at least ``AXIAL_MIN_VON_KARMAN`` functions under von Karman strain
   (fewer lock: the basis must carry 1/2 eta'^2).
 
-Not covered: the phase of the mechanism's *coupled* modes that an undeformed, undamped start
-rings for the whole run (``BasisChoice.start_rings`` says when the start does; measured in
-benchmarks/RESULTS.md "Accuracy-driven bases").
+Then the mechanism's *coupled* modes (:func:`coupled_choice`), where symgen chooses counts: a
+linear finite-element model of the whole mechanism at its start position (each elastic bar
+``COUPLED_ELEMENTS`` Hermite beam and linear bar elements, rigid bars rigid, the lumped masses;
+pins, sliders and angle drivers as constraints) and the floating-frame model with the counts
+mapped into it (each bar's frame motion plus its functions: Rayleigh-Ritz in the same
+equations) give each coupled mode's frequency error e_k. An undeformed start that is not
+quasi-static rings every coupled mode with its static share of the start's loads, and the
+driver torque and the reactions read that share undiminished at high frequency (a deflection
+reads it relative to its peak); the mode's phase drifts by w_k T e_k over the run (or over its
+Kelvin-Voigt decay time), a mode the counts lack misses its whole share
+(:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
+represented until the estimate meets the accuracy (measured: a steel crank-rocker's driver
+torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 % -> 0.27 %;
+benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
+masses beside a bar (the reason says so; each bar's own choice stands), the preload and speed
+of the run (the model is linear about the undeformed start), other positions of the cycle.
 """
 
 from __future__ import annotations
@@ -1143,13 +1156,11 @@ def coupled_choice(
     return out
 
 
-#: what the estimate does not cover, said where the start rings
+#: what the start does, said where it rings
 RINGING = (
     "the start (not quasi-static, undamped) rings the mechanism's coupled modes for the whole run; "
-    "this estimate covers each bar's own spectrum, not their phase: measured, a steel crank-rocker's "
-    "driver torque is 4.6 % off with the chosen basis, a released double pendulum's tip deflections "
-    '3.8 % (benchmarks/RESULTS.md); start with initial.deformation = "quasi-static", or damping, or '
-    "state richer counts"
+    "the estimate counts their phase at the start position (the coupled check), not their change over "
+    'the cycle; start with initial.deformation = "quasi-static", or damping, where the ringing is not wanted'
 )
 
 
