@@ -507,3 +507,30 @@ def test_a_scene_the_coupled_model_does_not_cover_says_so():
     scene = _without_counts(ROOT / "examples" / "inverted_slider_crank.toml")
     chosen = [b for b in scene.bases if None in b.given]
     assert chosen and all("coupled modes are not checked (slots)" in b.reason for b in chosen)
+
+
+def test_the_paper_slider_crank_at_accuracy_0_001_is_within_0_1_percent_of_its_ancf_reference():
+    """Issue 19's acceptance: the paper's slider-crank with ``accuracy = 0.001`` (and the exact
+    bar: von Karman's model form alone is 0.27 %) within 0.1 % of its converged Exudyn ANCF
+    reference (benchmarks/validation/ref), both below 50 cycles per turn (the low-pass every
+    comparison of runs uses): measured 0.088 % with the chosen 3 + 5. Unfiltered it is 0.156 %
+    (0.150 % with 8 + 8): the rod's axial ringing at 212 per unit tau, sampled at 360 per turn,
+    aliases to 148 cycles per turn, and its phase against the reference's is not a count's."""
+    import sys
+
+    from symgen.numerics.signals import DEFAULT_CUTOFF, edge, lowpass
+
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import bench_validation as V
+
+    t_ref, ref = V.read_reference("slider_crank_paper")
+    scene = load_scene(V.scene_path("slider_crank_paper"), ["simulation.accuracy=0.001", 'effects.strain="exact"'])
+    assert [(b.axial, b.transverse) for b in scene.bases] == [(3, 5)]
+    t, out = V.symgen_run("slider_crank_paper", ["simulation.accuracy=0.001", 'effects.strain="exact"'])
+    dt = t_ref[1] - t_ref[0]
+    cut = DEFAULT_CUTOFF / (t_ref[-1] / 2)  # cycles per turn: the run is 2 turns
+    y = np.interp(t_ref, t, out["eta_mid"])
+    r = ref["eta_mid"]
+    m = edge(dt, cut)
+    err = np.max(np.abs(lowpass(y, dt, cut) - lowpass(r, dt, cut))[m:-m]) / np.max(np.abs(r))
+    assert err <= 0.001, err

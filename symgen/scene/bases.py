@@ -761,22 +761,37 @@ class _CoupledEstimate:
         self.share = self._shares()
 
     def _fields(self) -> list[np.ndarray]:
+        """The start's loads: a chain without a driver starts at rest, loaded by gravity alone (along
+        it: a uniform field); a driven mechanism's inertia loads turn over the cycle (uniform fields
+        along x and y and a rotation about the origin)."""
         m = self.model
+        sc = m.scene
+        gx, gy = sc.effects.gravity
+        if not sc.drivers and math.hypot(gx, gy) > 0:
+            x_part, y_part = gx / math.hypot(gx, gy), gy / math.hypot(gx, gy)
+            kinds: tuple[str, ...] = ("gravity",)
+        else:
+            x_part, y_part = 0.0, 0.0
+            kinds = ("x", "y", "turn")
         out = []
-        for kind in ("x", "y", "turn"):
+        for kind in kinds:
             g = np.zeros(m.n)
             for p in m.parts.values():
                 c, s = math.cos(p.theta), math.sin(p.theta)
                 if p.body.rigid:
-                    g[p.start : p.start + 3] = {"x": (1, 0, 0), "y": (0, 1, 0), "turn": (-p.origin[1], p.origin[0], 1)}[
-                        kind
-                    ]
+                    g[p.start : p.start + 3] = {
+                        "x": (1, 0, 0),
+                        "y": (0, 1, 0),
+                        "turn": (-p.origin[1], p.origin[0], 1),
+                        "gravity": (x_part, y_part, 0),
+                    }[kind]
                     continue
                 pos = p.origin[:, None] + np.outer((c, s), p.x * p.body.alpha)
                 d = {
                     "x": np.vstack([np.ones_like(p.x), np.zeros_like(p.x)]),
                     "y": np.vstack([np.zeros_like(p.x), np.ones_like(p.x)]),
                     "turn": np.vstack([-pos[1], pos[0]]),
+                    "gravity": np.vstack([x_part * np.ones_like(p.x), y_part * np.ones_like(p.x)]),
                 }[kind]
                 g[p.start : p.start + 3 * len(p.x) : 3] = c * d[0] + s * d[1]
                 g[p.start + 1 : p.start + 3 * len(p.x) : 3] = -s * d[0] + c * d[1]
