@@ -33,9 +33,22 @@ What it estimates, per bar (tau units, omega = 1):
   static axial response where an output reads the stretch, and at least ``AXIAL_MIN_VON_KARMAN`` functions under von Karman strain
   (fewer lock: the basis must carry 1/2 eta'^2).
 
-Not covered: the phase of the mechanism's *coupled* modes that an undeformed, undamped start
-rings for the whole run (``BasisChoice.start_rings`` says when the start does; measured in
-benchmarks/RESULTS.md "Accuracy-driven bases").
+Then the mechanism's *coupled* modes (:func:`coupled_choice`), where symgen chooses counts: a
+linear finite-element model of the whole mechanism at its start position (each elastic bar
+``COUPLED_ELEMENTS`` Hermite beam and linear bar elements, rigid bars rigid, the lumped masses;
+pins, sliders and angle drivers as constraints) and the floating-frame model with the counts
+mapped into it (each bar's frame motion plus its functions: Rayleigh-Ritz in the same
+equations) give each coupled mode's frequency error e_k. An undeformed start that is not
+quasi-static rings every coupled mode with its static share of the start's loads, and the
+driver torque and the reactions read that share undiminished at high frequency (a deflection
+reads it relative to its peak); the mode's phase drifts by w_k T e_k over the run (or over its
+Kelvin-Voigt decay time), a mode the counts lack misses its whole share
+(:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
+represented until the estimate meets the accuracy (measured: a steel crank-rocker's driver
+torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 % -> 0.27 %;
+benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
+masses beside a bar (the reason says so; each bar's own choice stands), the preload and speed
+of the run (the model is linear about the undeformed start), other positions of the cycle.
 """
 
 from __future__ import annotations
@@ -46,7 +59,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from symgen.scene.model import GROUND, Scene
+from symgen.scene.model import GROUND, Body, JointEnd, Scene
 
 #: harmonics of the driver rate in the inertia loads of a mechanism (a slider-crank's piston
 #: force has its 2nd and 4th harmonics): the run must resolve up to this multiple of the rate.
@@ -176,8 +189,8 @@ def run_frequency(scene: Scene) -> tuple[float, str]:
 
 
 # -- the bar's reference finite elements --------------------------------------------------------
-def _mesh(points: tuple[float, ...]) -> np.ndarray:
-    xs = set(np.linspace(0.0, 1.0, FE_ELEMENTS + 1).round(12))
+def _mesh(points: tuple[float, ...], elements: int = FE_ELEMENTS) -> np.ndarray:
+    xs = set(np.linspace(0.0, 1.0, elements + 1).round(12))
     xs |= {round(float(p), 12) for p in points}
     return np.array(sorted(xs))
 
@@ -280,9 +293,11 @@ def _point_masses(scene: Scene, body) -> dict[float, float]:
     return out
 
 
-def _reference_bar(scene: Scene, body, interior: tuple[float, ...], corrected: bool) -> _Bar:
+def _reference_bar(
+    scene: Scene, body, interior: tuple[float, ...], corrected: bool, elements: int = FE_ELEMENTS
+) -> _Bar:
     masses = _point_masses(scene, body)
-    x = _mesh(tuple(masses) + interior)
+    x = _mesh(tuple(masses) + interior, elements)
     K, M = _beam_fe(x)
     for xi, m in masses.items():
         M[2 * _node(x, xi), 2 * _node(x, xi)] += m
@@ -376,6 +391,500 @@ def _ritz_error(bar: _Bar, B: np.ndarray, reference: np.ndarray, count: int) -> 
     return float(np.max(abs(np.sqrt(w) / np.sqrt(reference[:count]) - 1.0)))
 
 
+# -- the mechanism's coupled spectrum -------------------------------------------------------------
+#: elements per elastic bar of the coupled model (Hermite cubics: a hinged pair of bars' first six
+#: bending modes within 1.2e-4 of the closed form; the Ritz model is compared with it on the same
+#: elements, so its frequency errors are those of the functions)
+COUPLED_ELEMENTS = 16
+#: a ringing mode's phase error saturates: the run's and the reference's ringing then differ by up to
+#: twice its amplitude
+PHASE_CAP = 2.0
+#: at most this many functions are added to the per-bar choice to meet the coupled estimate
+COUPLED_STEPS = 16
+
+
+@dataclass(frozen=True)
+class _Part:
+    """One body of the coupled model: its dofs in the global vector, its nodes (elastic bars:
+    (u, w, dw/dxi) per node in the bar's axes; rigid bars: (x, y, phi) of its end xi = 0)."""
+
+    body: Body
+    start: int
+    x: np.ndarray  # nodes in xi (elastic), [0.0] (rigid)
+    theta: float
+    origin: np.ndarray
+
+
+def _placement(scene: Scene, guess: dict[str, float]) -> dict[str, tuple[np.ndarray, float]] | None:
+    """Each bar's end xi = 0 and its angle at the start: the loop closure (pins, sliders, angle
+    drivers at their initial angles) solved by Gauss-Newton from the guess (None: not closed)."""
+    names = [b.name for b in scene.bodies]
+    alpha = {b.name: b.alpha for b in scene.bodies}
+    fixed = {d.body: float(d.initial) for d in scene.drivers if d.kind == "angle" and d.initial is not None}
+    z = np.zeros(3 * len(names))
+    for i, n in enumerate(names):
+        z[3 * i + 2] = fixed.get(n, guess.get(n, 0.0))
+
+    def point(z, end):
+        if end.body == GROUND:
+            return np.array(end.point, dtype=float)
+        i = names.index(end.body)
+        th = z[3 * i + 2]
+        return z[3 * i : 3 * i + 2] + float(end.xi) * alpha[end.body] * np.array([math.cos(th), math.sin(th)])
+
+    def residual(z):
+        out = []
+        for j in scene.joints:
+            a, b = j.ends
+            if j.kind == "pin":
+                out += list(point(z, a) - point(z, b))
+            else:  # slider: the bar's point on the ground's line
+                bar, ground = (a, b) if b.body == GROUND else (b, a)
+                line = np.array(j.direction, dtype=float)
+                r = point(z, bar) - point(z, ground)
+                out.append(r[0] * line[1] - r[1] * line[0])
+        for n, th in fixed.items():
+            out.append(z[3 * names.index(n) + 2] - th)
+        return np.array(out)
+
+    # start each bar's end at its ground pin, or where the pins chain it from there
+    for j in scene.joints:
+        for a, b in (j.ends, j.ends[::-1]):
+            if b.body == GROUND and a.body != GROUND and j.kind == "pin":
+                ia = names.index(a.body)
+                th = z[3 * ia + 2]
+                z[3 * ia : 3 * ia + 2] = np.array(b.point) - float(a.xi or 0.0) * alpha[a.body] * np.array(
+                    [math.cos(th), math.sin(th)]
+                )
+    for _ in range(len(names)):
+        for j in scene.joints:
+            if j.kind != "pin":
+                continue
+            for a, b in (j.ends, j.ends[::-1]):
+                if b.body == GROUND or a.body == GROUND:
+                    continue
+                ib = names.index(b.body)
+                if not z[3 * ib : 3 * ib + 2].any():
+                    th = z[3 * ib + 2]
+                    z[3 * ib : 3 * ib + 2] = point(z, a) - float(b.xi or 0.0) * alpha[b.body] * np.array(
+                        [math.cos(th), math.sin(th)]
+                    )
+    for _ in range(60):
+        r = residual(z)
+        if np.max(abs(r), initial=0.0) < 1e-12:
+            break
+        J = np.array([(residual(z + h) - r) / 1e-7 for h in np.eye(len(z)) * 1e-7]).T
+        z = z - np.linalg.lstsq(J, r, rcond=None)[0]
+    if np.max(abs(residual(z)), initial=0.0) > 1e-8:
+        return None
+    return {n: (z[3 * i : 3 * i + 2], float(z[3 * i + 2])) for i, n in enumerate(names)}
+
+
+def _coupled_supported(scene: Scene) -> str:
+    """'' when the coupled model covers the scene, else what it does not cover."""
+    if any(j.kind == "slot" for j in scene.joints):
+        return "slots"
+    if any(m.offset is not None for m in scene.masses):
+        return "masses beside a bar (offset)"
+    if any(j.kind == "slider" and all(e.body != GROUND for e in j.ends) for j in scene.joints):
+        return "sliders between two bars"
+    return ""
+
+
+def _null(C: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the null space of C (columns)."""
+    if not C.shape[0]:
+        return np.eye(C.shape[1])
+    _, sv, vt = np.linalg.svd(C)
+    rank = int(np.sum(sv > 1e-10 * max(sv[0], 1.0)))
+    return vt[rank:].T
+
+
+class _Coupled:
+    """The mechanism at its start position, linear about its undeformed state (no preload, no
+    speed): every elastic bar a chain of Hermite beam and linear bar elements in its own axes,
+    every rigid bar a rigid body, the joints' masses and ``[[masses]]`` lumped, the pins, sliders
+    and angle drivers as linear constraints on the dofs. ``ritz`` maps the floating-frame model
+    with given counts into it (each bar's frame motion plus its axial and transverse functions),
+    so both spectra come from the same equations."""
+
+    def __init__(self, scene: Scene, place: dict[str, tuple[np.ndarray, float]], inextensible: set[str]):
+        self.scene = scene
+        self.inextensible = inextensible
+        self.parts: dict[str, _Part] = {}
+        start = 0
+        for body in scene.bodies:
+            if body.rigid:
+                x = np.zeros(1)
+            else:
+                x = _reference_bar(scene, body, interior_points(scene, body.name), True, COUPLED_ELEMENTS).x
+            origin, theta = place[body.name]
+            self.parts[body.name] = _Part(body, start, x, theta, origin)
+            start += 3 * len(x)
+        self.n = start
+        self.K, self.M = np.zeros((start, start)), np.zeros((start, start))
+        self.bending: dict[str, tuple[slice, np.ndarray]] = {}
+        self._built: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        for p in self.parts.values():
+            self._body_matrices(p)
+        self._lumped()
+        self.C = self._constraints()
+
+    # dofs ---------------------------------------------------------------------------------------
+    def translation(self, end) -> np.ndarray:
+        """2 x n: the global displacement of a joint end's point (zero for ground)."""
+        row = np.zeros((2, self.n))
+        if end.body == GROUND:
+            return row
+        p = self.parts[end.body]
+        c, s = math.cos(p.theta), math.sin(p.theta)
+        if p.body.rigid:
+            arm = float(end.xi) * p.body.alpha
+            row[:, p.start : p.start + 3] = [[1.0, 0.0, -arm * s], [0.0, 1.0, arm * c]]
+        else:
+            k = p.start + 3 * _node(p.x, float(end.xi))
+            row[:, k : k + 2] = [[c, -s], [s, c]]
+        return row
+
+    def rotation(self, body: str, xi: float = 0.0) -> np.ndarray:
+        row = np.zeros(self.n)
+        p = self.parts[body]
+        if p.body.rigid:
+            row[p.start + 2] = 1.0
+        elif p.body.frame == "cantilever":
+            row[p.start + 3 * _node(p.x, xi) + 2] = 1.0 / p.body.alpha
+        else:  # the chord's rotation
+            a, b = p.start, p.start + 3 * (len(p.x) - 1)
+            row[b + 1], row[a + 1] = 1.0 / p.body.alpha, -1.0 / p.body.alpha
+        return row
+
+    # matrices -------------------------------------------------------------------------------------
+    def _body_matrices(self, p: _Part) -> None:
+        b = p.body
+        m = b.nu * b.alpha
+        i = slice(p.start, p.start + 3 * len(p.x))
+        if b.rigid:
+            c, s, L = math.cos(p.theta), math.sin(p.theta), b.alpha
+            self.M[i, i] = [
+                [m, 0.0, -m * L * s / 2],
+                [0.0, m, m * L * c / 2],
+                [-m * L * s / 2, m * L * c / 2, m * L * L / 3],
+            ]
+            return
+        Kb, Mb = _beam_fe(p.x)  # (w, dw/dxi) per node, EI = 1, unit mass per length, xi in [0, 1]
+        ei = (b.mu or 0.0) * b.nu * b.alpha**4 / b.alpha**3
+        ea = (b.lam or 0.0) * b.nu * b.alpha**2 / b.alpha
+        nn = len(p.x)
+        wi = [3 * k + j for k in range(nn) for j in (1, 2)]
+        K, M = np.zeros((3 * nn, 3 * nn)), np.zeros((3 * nn, 3 * nn))
+        K[np.ix_(wi, wi)] = ei * Kb
+        M[np.ix_(wi, wi)] = m * Mb
+        for e in range(nn - 1):
+            h = p.x[e + 1] - p.x[e]
+            k = [3 * e, 3 * e + 3]
+            K[np.ix_(k, k)] += ea / h * np.array([[1.0, -1.0], [-1.0, 1.0]])
+            M[np.ix_(k, k)] += m * h / 6 * np.array([[2.0, 1.0], [1.0, 2.0]])
+        self.K[i, i] += K
+        self.M[i, i] += M
+        self.bending[b.name] = (i, np.where(np.isin(np.arange(3 * nn), wi)[:, None], K, 0.0))
+
+    def _lumped(self) -> None:
+        for j in self.scene.joints:
+            end = next((e for e in j.ends if e.body != GROUND), None)
+            if end is not None and j.mass:
+                T = self.translation(end)
+                self.M += j.mass * T.T @ T
+            if end is not None and j.inertia:
+                r = self.rotation(end.body, float(end.xi or 0.0))
+                self.M += j.inertia * np.outer(r, r)
+        for d in self.scene.drivers:
+            if d.rotor_inertia:
+                r = self.rotation(d.body)
+                self.M += d.rotor_inertia * np.outer(r, r)
+        for pm in self.scene.masses:
+            T = self.translation(JointEnd(pm.body, pm.xi))
+            self.M += pm.mass * T.T @ T
+            if pm.inertia:
+                r = self.rotation(pm.body, pm.xi)
+                self.M += pm.inertia * np.outer(r, r)
+
+    def _constraints(self) -> np.ndarray:
+        rows: list[np.ndarray] = []
+        self.rows: dict[str, list[int]] = {}
+        for j in self.scene.joints:
+            a, b = j.ends
+            self.rows[j.name] = [len(rows), len(rows) + 1] if j.kind == "pin" else [len(rows)]
+            if j.kind == "pin":
+                rows += list(self.translation(a) - self.translation(b))
+            else:
+                bar = a if b.body == GROUND else b
+                line = np.array(j.direction, dtype=float)
+                rows.append(np.array([-line[1], line[0]]) @ self.translation(bar))
+        for d in self.scene.drivers:
+            if d.kind == "angle":
+                self.rows[f"driver {d.body}"] = [len(rows)]
+                rows.append(self.rotation(d.body))
+        for p in self.parts.values():
+            if p.body.name in self.inextensible:
+                # a bar without axial functions: its nodes keep their spacing
+                for k in range(1, len(p.x)):
+                    row = np.zeros(self.n)
+                    row[p.start + 3 * k], row[p.start] = 1.0, -1.0
+                    rows.append(row)
+        return np.array(rows) if rows else np.zeros((0, self.n))
+
+    # spectra ------------------------------------------------------------------------------------
+    def spectrum(self, T: np.ndarray, count: bool = False):
+        """All frequencies (per unit tau, ascending, the free rigid motions' near zero first) of
+        the model restricted to span(T); ``count``: only the number of its dofs."""
+        B = T @ _null(self.C @ T)
+        if count:
+            return B.shape[1]
+        Kr, Mr = B.T @ self.K @ B, B.T @ self.M @ B
+        L = np.linalg.cholesky((Mr + Mr.T) / 2)
+        Li = np.linalg.inv(L)
+        lam = np.linalg.eigvalsh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
+        return np.sqrt(np.maximum(lam, 0.0))
+
+    def spectrum_and_modes(self) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+        """(number of free rigid motions, frequencies, mass-normalised modes as dof columns, the
+        constraint rows' forces per unit modal amplitude: (K - w^2 M) phi = C^T mu) of the
+        reference model; the free rigid motions (as many as the rigid mechanism has) left out."""
+        N = _null(self.C)
+        Kr, Mr = N.T @ self.K @ N, N.T @ self.M @ N
+        L = np.linalg.cholesky((Mr + Mr.T) / 2)
+        Li = np.linalg.inv(L)
+        lam, v = np.linalg.eigh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
+        rigid = self.spectrum(self.ritz({}), count=True)  # the mechanism's free rigid motions
+        keep = np.arange(len(lam)) >= rigid
+        phi = N @ (Li.T @ v[:, keep])
+        w = np.sqrt(lam[keep])
+        resid = self.K @ phi - self.M @ phi * w**2
+        mu = np.linalg.lstsq(self.C.T, resid, rcond=None)[0] if self.C.shape[0] else np.zeros((0, len(w)))
+        return rigid, w, phi, mu
+
+    def _functions(self, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A bar's MAX_CHOSEN axial and transverse functions and its static corrections on its nodes."""
+        if name not in self._built:
+            self._built[name] = self._build_functions(name)
+        return self._built[name]
+
+    def _build_functions(self, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = self.parts[name]
+        b = p.body
+        U, _ = _axial_functions(b.axial_shapes or "complete", MAX_CHOSEN, p.x)
+        bar = _reference_bar(
+            self.scene, b, interior_points(self.scene, name), b.static_correction is not False, COUPLED_ELEMENTS
+        )
+        std, corr = _transverse_functions(bar, b.frame, MAX_CHOSEN)
+        return U, std, corr
+
+    def local(self, name: str, na: int, nt: int) -> np.ndarray:
+        """A bar's floating-frame columns on its own dofs: its frame's translation and rotation,
+        its first ``na`` axial and ``nt`` transverse functions and its static corrections."""
+        p = self.parts[name]
+        b, nn = p.body, len(p.x)
+        if b.rigid:
+            return np.eye(3)
+        cols = []
+
+        def put(u=None, w=None, dw=None):
+            c = np.zeros(3 * nn)
+            if u is not None:
+                c[0::3] = u
+            if w is not None:
+                c[1::3], c[2::3] = w, dw
+            cols.append(c)
+
+        one = np.ones(nn)
+        put(u=one)
+        put(w=one, dw=0 * one)
+        put(w=b.alpha * p.x, dw=b.alpha * one)  # the frame's rotation (w per unit angle)
+        U, std, corr = self._functions(name)
+        for k in range(min(na, U.shape[1]) if b.lam else 0):
+            put(u=U[:, k])
+        for F in (std[:, : min(nt, std.shape[1])], corr) if nt else ():
+            for k in range(F.shape[1]):
+                put(w=F[0::2, k], dw=F[1::2, k])
+        return np.array(cols).T
+
+    def ritz(self, counts: dict[str, tuple[int, int]]) -> np.ndarray:
+        """The floating-frame model with ``counts`` (bar -> (axial, transverse)) as columns of
+        the dofs (:meth:`local` per bar)."""
+        blocks = []
+        for name, p in self.parts.items():
+            L = self.local(name, *counts.get(name, (0, 0)))
+            full = np.zeros((self.n, L.shape[1]))
+            full[p.start : p.start + L.shape[0]] = L
+            blocks.append(full)
+        return np.hstack(blocks)
+
+
+@dataclass(frozen=True)
+class CoupledCheck:
+    """The coupled spectrum's verdict on a set of counts: ``estimate`` (fraction of peak), the
+    mode that sets it (its frequency per unit tau, the Ritz frequency of the floating-frame
+    model with the counts, its share of the outputs' peak) and what it measures."""
+
+    estimate: float
+    omega: float = 0.0
+    omega_ritz: float = 0.0
+    share: float = 0.0
+    what: str = ""
+
+
+class _CoupledEstimate:
+    """The a-priori estimate of the coupled modes' error for given counts, from :class:`_Coupled`.
+
+    An undeformed start that is not quasi-static meets the inertia loads at once: each coupled
+    mode k then rings with the static share of the load it carries, a_k = phi_k^T f / w_k^2 (f:
+    the loads of a uniform acceleration of the mechanism along x and along y and of a rotation
+    about the origin; mass-normalised phi_k). An output that reads a deflection (relative to the
+    bar's frame) sees a_k |phi_k|, one that reads a force of a constraint (``driver_torque``,
+    ``reaction``) a_k |mu_k| with (K - w_k^2 M) phi_k = C^T mu_k: undiminished with frequency,
+    which is why reactions need the high modes. Each share is relative to the static response of
+    the same loads. The floating-frame model rings at its Ritz frequency w_k (1 + e_k): over the
+    run (or while the mode rings: Kelvin-Voigt damping c decays it in 2 / (c w_k^2)) its phase
+    drifts by w_k T e_k, so the mode's part of the error is share_k min(PHASE_CAP, w_k T e_k);
+    a mode the counts do not have at all misses its whole share. Without a ringing start only
+    the modes inside the run's band count, as for each bar's own: FREQUENCY_WEIGHT e_k."""
+
+    def __init__(self, model: _Coupled, rings: bool, omega_run: float):
+        self.model = model
+        sc = model.scene
+        self.rigid, self.w, self.phi, self.mu = model.spectrum_and_modes()
+        self.rings = rings
+        self.omega_run = omega_run
+        T = sc.simulation.t_end
+        c = sc.effects.damping
+        self.t_eff = np.array([T if c <= 0 else min(T, 2.0 / (c * w * w)) for w in self.w])
+        self.share = self._shares()
+
+    def _fields(self) -> list[np.ndarray]:
+        """The start's loads: a chain without a driver starts at rest, loaded by gravity alone (along
+        it: a uniform field); a driven mechanism's inertia loads turn over the cycle (uniform fields
+        along x and y and a rotation about the origin)."""
+        m = self.model
+        sc = m.scene
+        gx, gy = sc.effects.gravity
+        if not sc.drivers and math.hypot(gx, gy) > 0:
+            x_part, y_part = gx / math.hypot(gx, gy), gy / math.hypot(gx, gy)
+            kinds: tuple[str, ...] = ("gravity",)
+        else:
+            x_part, y_part = 0.0, 0.0
+            kinds = ("x", "y", "turn")
+        out = []
+        for kind in kinds:
+            g = np.zeros(m.n)
+            for p in m.parts.values():
+                c, s = math.cos(p.theta), math.sin(p.theta)
+                if p.body.rigid:
+                    g[p.start : p.start + 3] = {
+                        "x": (1, 0, 0),
+                        "y": (0, 1, 0),
+                        "turn": (-p.origin[1], p.origin[0], 1),
+                        "gravity": (x_part, y_part, 0),
+                    }[kind]
+                    continue
+                pos = p.origin[:, None] + np.outer((c, s), p.x * p.body.alpha)
+                d = {
+                    "x": np.vstack([np.ones_like(p.x), np.zeros_like(p.x)]),
+                    "y": np.vstack([np.zeros_like(p.x), np.ones_like(p.x)]),
+                    "turn": np.vstack([-pos[1], pos[0]]),
+                    "gravity": np.vstack([x_part * np.ones_like(p.x), y_part * np.ones_like(p.x)]),
+                }[kind]
+                g[p.start : p.start + 3 * len(p.x) : 3] = c * d[0] + s * d[1]
+                g[p.start + 1 : p.start + 3 * len(p.x) : 3] = -s * d[0] + c * d[1]
+                g[p.start + 2 : p.start + 3 * len(p.x) : 3] = p.body.alpha if kind == "turn" else 0.0
+            out.append(m.M @ g)
+        return out
+
+    def _relative(self, v: np.ndarray) -> np.ndarray:
+        """Per elastic bar the largest deflection relative to its frame (columns of v)."""
+        out = []
+        for p in self.model.parts.values():
+            if p.body.rigid:
+                continue
+            w = v[p.start + 1 : p.start + 3 * len(p.x) : 3]
+            if p.body.frame == "cantilever":
+                dw = v[p.start + 2]
+                rel = w - w[0] - np.outer(p.x, dw)
+            else:
+                rel = w - w[0] - np.outer(p.x, w[-1] - w[0])
+            out.append(np.max(abs(rel), axis=0))
+        return np.array(out)
+
+    def _shares(self) -> np.ndarray:
+        m, sc = self.model, self.model.scene
+        rows: list[int] = []
+        if any(o.kind == "driver_torque" for o in sc.outputs):
+            rows += [i for k, v in m.rows.items() if k.startswith("driver ") for i in v]
+        rows += [i for o in sc.outputs if o.kind == "reaction" and o.joint in m.rows for i in m.rows[o.joint]]
+        deflect = any(o.kind not in ("driver_torque", "reaction", "energy", "closure_residual") for o in sc.outputs)
+        ring_d, ref_d, ring_f, ref_f = [], [], [], []
+        for f in self._fields():
+            # the static response to the loads, less what accelerates the free rigid motions: the
+            # sum over every mode of the reference model; K us = f (less its rigid part) + C^T lam_s
+            amp = (self.phi.T @ f) / self.w**2
+            if deflect:
+                ring = self._relative(self.phi) * abs(amp)[None, :]
+                ring_d.append(ring)
+                ref_d.append(self._relative((self.phi @ amp)[:, None])[:, 0] + np.sum(ring, axis=1))
+            if rows:
+                ref_f.append(float(np.max(abs((self.mu @ amp)[rows]))))
+                ring_f.append(np.max(abs(self.mu[rows]), axis=0) * abs(amp))
+        # each relative to the largest static response of the loads (the outputs' peaks)
+        share = np.zeros(len(self.w))
+        if ref_d:
+            scale_d = np.max(np.array(ref_d), axis=0)  # per bar
+            ok = scale_d > 1e-9 * max(float(np.max(scale_d)), 1e-300)
+            if ok.any():
+                share = np.maximum(share, np.max(np.max(np.array(ring_d), axis=0)[ok] / scale_d[ok, None], axis=0))
+        if ref_f and max(ref_f) > 0:
+            share = np.maximum(share, np.max(np.array(ring_f), axis=0) / max(ref_f))
+        return share
+
+    def check(self, counts: dict[str, tuple[int, int]]) -> CoupledCheck:
+        acc = self.model.scene.simulation.accuracy
+        ritz = self.model.spectrum(self.model.ritz(counts))[self.rigid :]
+        worst = CoupledCheck(0.0)
+        for k, w in enumerate(self.w):
+            if k < len(ritz):
+                e = abs(ritz[k] / w - 1.0)
+                if self.rings:
+                    est = self.share[k] * min(PHASE_CAP, w * self.t_eff[k] * e)
+                    what = "its phase over the run"
+                else:
+                    est = FREQUENCY_WEIGHT * e if amplification_error(self.omega_run, w) > acc else 0.0
+                    what = "its frequency, in the run's band"
+                wr = float(ritz[k])
+            else:
+                est, what, wr = (self.share[k] if self.rings else 0.0), "missing: the counts have no such mode", 0.0
+            if est > worst.estimate:
+                worst = CoupledCheck(float(est), float(w), wr, float(self.share[k]), what)
+        return worst
+
+    def culprit(
+        self, check: CoupledCheck, refinable: list[tuple[str, str]], counts: dict[str, tuple[int, int]]
+    ) -> tuple[str, str] | None:
+        """(bar, "axial" | "transverse") whose functions miss the most strain energy of the mode
+        that sets the estimate: the part of the mode's shape on the bar outside the span of its
+        current columns, in the energy of that family."""
+        k = int(np.argmin(abs(self.w - check.omega)))
+        best, out = -1.0, None
+        for name, kind in refinable:
+            i, Kb = self.model.bending[name]
+            K = Kb if kind == "transverse" else self.model.K[i, i] - Kb
+            b = self.phi[i, k]
+            T = self.model.local(name, *counts[name])
+            c = np.linalg.lstsq(T.T @ K @ T, T.T @ K @ b, rcond=None)[0]
+            r = b - T @ c
+            missed = float(r @ K @ r)
+            if missed > best:
+                best, out = missed, (name, kind)
+        return out
+
+
 # -- the choice -----------------------------------------------------------------------------------
 def coupled(scene: Scene, body) -> bool:
     """The bar's bending moves other parts: it is joined to another elastic bar, or a lumped
@@ -465,15 +974,27 @@ def _first_meeting(estimates: list[float], accuracy: float, least: int) -> int:
     return len(estimates)
 
 
-def choose_bases(scene: Scene, given: dict[str, tuple[int | None, int | None]]) -> dict[str, BasisChoice]:
+def choose_bases(
+    scene: Scene,
+    given: dict[str, tuple[int | None, int | None]],
+    quasi_static_start: bool = False,
+    guess: dict[str, float] | None = None,
+) -> dict[str, BasisChoice]:
     """Per elastic bar: its counts (``given`` where the file states them, else chosen) and why.
 
     ``scene``: the scene with every stated count in place (absent ones may be anything);
     ``given``: bar -> (axial_modes, transverse_modes) as written (None: absent); a bar not in
-    it keeps the counts on its record as stated."""
+    it keeps the counts on its record as stated; ``quasi_static_start``: the run starts on its
+    quasi-static deformation (``initial.deformation = "quasi-static"``), else undeformed: the
+    start rings the coupled modes; ``guess``: bar -> angle, the assembly guess (``initial.guess``).
+
+    Each bar's counts come from its own spectrum first; where symgen chooses counts, the
+    mechanism's coupled spectrum (:func:`coupled_choice`) then adds functions until its
+    estimate meets the accuracy."""
     acc = scene.simulation.accuracy
     omega_run, how = run_frequency(scene)
     out: dict[str, BasisChoice] = {}
+    own: dict[str, tuple[list[float], list[float]]] = {}
     for body in scene.bodies:
         if body.rigid:
             continue
@@ -535,6 +1056,7 @@ def choose_bases(scene: Scene, given: dict[str, tuple[int | None, int | None]]) 
                 f"bodies.{body.name}: even {MAX_CHOSEN} functions per family leave an a-priori estimate of "
                 f"{estimate:.2g} of peak (> simulation.accuracy = {acc:g})"
             )
+        own[body.name] = (est_a, est_t)
         out[body.name] = BasisChoice(
             body.name,
             na,
@@ -550,16 +1072,110 @@ def choose_bases(scene: Scene, given: dict[str, tuple[int | None, int | None]]) 
             reason,
             warning,
         )
+    if any(None in c.given for c in out.values()):
+        out = coupled_choice(scene, out, own, not quasi_static_start, guess or {}, omega_run)
     return out
 
 
-#: what the estimate does not cover, said where the start rings
+def _own_estimate(est: list[float], n: int) -> float:
+    return est[n - 1] if 0 < n <= len(est) else 0.0
+
+
+def coupled_choice(
+    scene: Scene,
+    choices: dict[str, BasisChoice],
+    own: dict[str, tuple[list[float], list[float]]],
+    rings: bool,
+    guess: dict[str, float],
+    omega_run: float,
+) -> dict[str, BasisChoice]:
+    """The per-bar choices checked against the mechanism's coupled spectrum at its start
+    position (:class:`_CoupledEstimate`): while its estimate exceeds the accuracy, one more
+    function for the chosen (not stated) family of the bar with the largest strain energy in
+    the mode that sets it (at most COUPLED_STEPS more, MAX_CHOSEN per family). Every bar's
+    estimate then includes the coupled one, its reason says what the check found."""
+    acc = scene.simulation.accuracy
+    missing = _coupled_supported(scene)
+    place = None if missing else _placement(scene, guess)
+    if place is None:
+        note = f"the coupled modes are not checked ({missing or 'the start position did not close'})"
+        return {k: replace(c, reason=f"{c.reason}; {note}") for k, c in choices.items()}
+    counts = {k: (c.axial, c.transverse) for k, c in choices.items()}
+    inextensible = {
+        b.name
+        for b in scene.bodies
+        if not b.rigid and (not b.lam or counts[b.name][0] == 0 or scene.effects.axial in (False, "inextensible"))
+    }
+    if any(b.mu is None or counts[b.name][1] == 0 for b in scene.bodies if not b.rigid) or not scene.effects.transverse:
+        note = "the coupled modes are not checked (a bar without bending)"
+        return {k: replace(c, reason=f"{c.reason}; {note}") for k, c in choices.items()}
+    try:
+        model = _CoupledEstimate(_Coupled(scene, place, inextensible), rings, omega_run)
+    except np.linalg.LinAlgError:
+        note = "the coupled modes are not checked (a massless part)"
+        return {k: replace(c, reason=f"{c.reason}; {note}") for k, c in choices.items()}
+    check = model.check(counts)
+    first = check
+    added = dict.fromkeys(counts, 0)
+    for _ in range(COUPLED_STEPS):
+        if check.estimate <= acc:
+            break
+        refinable = [
+            (name, kind)
+            for name, c in choices.items()
+            for kind, i in (("axial", 0), ("transverse", 1))
+            if c.given[i] is None and 0 < counts[name][i] < MAX_CHOSEN and not (i == 0 and name in inextensible)
+        ]
+        pick = model.culprit(check, refinable, counts)
+        if pick is None:
+            break
+        name, kind = pick
+        na, nt = counts[name]
+        counts[name] = (na + 1, nt) if kind == "axial" else (na, nt + 1)
+        added[name] += 1
+        check = model.check(counts)
+    out = {}
+    for name, c in choices.items():
+        na, nt = counts[name]
+        est_a, est_t = own[name]
+        estimate = max(_own_estimate(est_a, na), _own_estimate(est_t, nt), check.estimate)
+        if not added[name]:
+            estimate = max(c.estimate, check.estimate)
+        said = (
+            f"the coupled modes at the start position ({'ringing from the start' if rings else 'in the band'}): "
+            f"{first.estimate:.2g} of peak with the bars' own counts, from the mode at {first.omega:.4g} per unit tau "
+            f"({first.what}, share {first.share:.2g})"
+        )
+        if any(added.values()):
+            said += f"; {sum(added.values())} functions added ({', '.join(f'{k} +{v}' for k, v in added.items() if v)})"
+            said += f": {check.estimate:.2g}"
+        warning = c.warning
+        if check.estimate > acc and not warning:
+            warning = (
+                f"bodies.{name}: the coupled modes leave an a-priori estimate of {check.estimate:.2g} of peak "
+                f"(> simulation.accuracy = {acc:g}; the mode at {check.omega:.4g} per unit tau, {check.what})"
+            )
+        needed = (
+            max(c.needed[0], na) if c.given[0] is None else c.needed[0],
+            max(c.needed[1], nt) if c.given[1] is None else c.needed[1],
+        )
+        out[name] = replace(
+            c,
+            axial=na,
+            transverse=nt,
+            needed=needed,
+            estimate=float(estimate),
+            reason=f"{c.reason}; {said}",
+            warning=warning,
+        )
+    return out
+
+
+#: what the start does, said where it rings
 RINGING = (
     "the start (not quasi-static, undamped) rings the mechanism's coupled modes for the whole run; "
-    "this estimate covers each bar's own spectrum, not their phase: measured, a steel crank-rocker's "
-    "driver torque is 4.6 % off with the chosen basis, a released double pendulum's tip deflections "
-    '3.8 % (benchmarks/RESULTS.md); start with initial.deformation = "quasi-static", or damping, or '
-    "state richer counts"
+    "the estimate counts their phase at the start position (the coupled check), not their change over "
+    'the cycle; start with initial.deformation = "quasi-static", or damping, where the ringing is not wanted'
 )
 
 

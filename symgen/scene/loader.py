@@ -450,19 +450,37 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         masses=masses,
         si_inputs=si_inputs(raw, bars, header.omega, header.reference_length) if si else (),
     )
-    scene = with_bases(r, scene, {b.name: (b.axial_modes, b.transverse_modes) for b in bars if not b.rigid})
+    table: dict = raw["initial"] if isinstance(raw.get("initial"), dict) else {}
+    given_guess: dict = table["guess"] if isinstance(table.get("guess"), dict) else {}
+    scene = with_bases(
+        r,
+        scene,
+        {b.name: (b.axial_modes, b.transverse_modes) for b in bars if not b.rigid},
+        quasi_static_start=table.get("deformation") == "quasi-static",
+        guess={  # read_initial checks the guess below; here only its well-formed angles
+            k: float(v)
+            for k, v in given_guess.items()
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+        },
+    )
     by_name = {b.name: b for b in scene.bodies}
     initial = read_initial(r, raw, by_name, scales, tuple(j.name for j in joints if j.kind == "slot"))
     bases = with_start(scene.bases, initial.quasi_static, effects.damping)
     return replace(scene, initial=initial, bases=bases)
 
 
-def with_bases(r: Reader, scene: Scene, given: dict[str, tuple[int | None, int | None]]) -> Scene:
+def with_bases(
+    r: Reader,
+    scene: Scene,
+    given: dict[str, tuple[int | None, int | None]],
+    quasi_static_start: bool = False,
+    guess: dict[str, float] | None = None,
+) -> Scene:
     """The scene with every elastic bar's counts: as written, or chosen from
     ``simulation.accuracy`` where absent (:func:`symgen.scene.bases.choose_bases`), and the
     choice recorded on ``Scene.bases``. Stated counts whose a-priori estimate exceeds the
     accuracy warn (SceneWarning: stderr; the sidecar's ``bases`` carries it too)."""
-    choices = choose_bases(scene, given)
+    choices = choose_bases(scene, given, quasi_static_start, guess)
     bodies = tuple(
         replace(b, axial_modes=choices[b.name].axial, transverse_modes=choices[b.name].transverse)
         if b.name in choices

@@ -254,7 +254,10 @@ BODIES = Table(
             "Number of transverse shape functions (0: no bending). Absent: chosen from simulation.accuracy: "
             "the bending modes below the band where a static treatment errs by more than the accuracy are "
             "dynamic, the rest contribute their static shape; functions are added until the static "
-            "truncation of the inertia loads and the frequencies of the dynamic modes meet the accuracy. "
+            "truncation of the inertia loads and the frequencies of the dynamic modes meet the accuracy; "
+            "then the mechanism's coupled modes at its start position add functions where an undeformed "
+            "start rings them (their phase over the run, in deflections and driver torques) or their "
+            "frequencies miss. "
             "Given: used as written, with a warning when the a-priori estimate exceeds the accuracy.",
             {"type": "integer", "minimum": 0},
             default="chosen from simulation.accuracy (0 without mu, or inertia in SI)",
