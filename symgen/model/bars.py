@@ -469,7 +469,7 @@ def bar_equations(
         strain_energy = sp.Integer(0)
     if nt and mu is not None:
         strain_energy += mu * quad_t
-    bend4 = sp.Integer(0)  # the exact bar's fourth-order bending terms (docs/exact-bars.md)
+    bend4 = sp.Integer(0)  # the exact bar's fourth- and sixth-order bending terms (docs/exact-bars.md)
     if exact and mu is not None:
         # (mu/2) int eta'^2 eta''^2, over sorted index tuples of the fully symmetric E4
         e4 = sp.Add(

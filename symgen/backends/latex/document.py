@@ -305,7 +305,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     damp = bm.inputs["damping"] is not None
     c = r"c_{\mathrm{KV}}"
     ctx["vk"] = bool(vk)
-    # the exact bar: its fourth-order bending energy, whose inner products E, G appear in (16), (17)
+    # the exact bar: its sixth-order bending energy, whose inner products E, G appear in (16), (17)
     ctx["exact"] = bool(eff.strain == "exact" and nt and not body.rigid and not s.beta)
     ctx["exact_g"] = bool(ctx["exact"] and vk and na and "axial_force" not in bm.inputs)
     ctx["strain_def"] = rf"\varepsilon_{{{B}}} = \zeta_{{{B}}}' + \tfrac{{1}}{{2}}\,\eta_{{{B}}}'^{{2}}" if vk else ""
