@@ -33,7 +33,7 @@ import sympy as sp
 
 from symgen.ir import names
 
-from symgen.model.shape_cache import curvature_products
+from symgen.model.shape_cache import curvature_products, sixth_order_products
 from symgen.model.shapes import Basis, InnerProducts
 
 ZERO_TOL = 1e-13
@@ -183,7 +183,8 @@ class IPTable:
         "exact"``), from the shape cache."""
         if self.ip.curvature is not None:
             return self
-        return IPTable(self.ip.with_curvature(curvature_products(basis_a, basis_t)), self.symbolic)
+        ip = self.ip.with_curvature(curvature_products(basis_a, basis_t))
+        return IPTable(ip.with_sixth_order(sixth_order_products(basis_a, basis_t)), self.symbolic)
 
 
 class DisplayIPTable(IPTable):
@@ -468,7 +469,7 @@ def bar_equations(
         strain_energy = sp.Integer(0)
     if nt and mu is not None:
         strain_energy += mu * quad_t
-    bend4 = sp.Integer(0)  # the exact bar's fourth-order bending terms (docs/exact-bars.md)
+    bend4 = sp.Integer(0)  # the exact bar's fourth- and sixth-order bending terms (docs/exact-bars.md)
     if exact and mu is not None:
         # (mu/2) int eta'^2 eta''^2, over sorted index tuples of the fully symmetric E4
         e4 = sp.Add(
@@ -479,7 +480,17 @@ def bar_equations(
                 for idx in combinations_with_replacement(range(nt), 4)
             ]
         )
-        bend4 = mu * e4 / 2
+        # (mu/2) int eta'^4 eta''^2: the sixth-order term of the inextensible bar's curvature,
+        # kappa^2 = eta''^2 / (1 - eta'^2) = eta''^2 (1 + eta'^2 + eta'^4 + ...), over sorted tuples of E6
+        e6 = sp.Add(
+            *[
+                _multiplicity(idx)
+                * t.tensor("E6", idx, r"\mathcal{{E}}_{{{0},{1},{2},{3},{4},{5}}}")
+                * sp.Mul(*[g[i] for i in idx])
+                for idx in combinations_with_replacement(range(nt), 6)
+            ]
+        )
+        bend4 = mu * (e4 + e6) / 2
         if c and not inext:
             # - mu int (eps eta''^2 + eps' eta' eta''), eps = P eps = sum_k e_k phi'_k the strain the
             # basis carries: e = f + Ka^-1 c (zero on an inextensible or quasi-static bar)

@@ -25,7 +25,7 @@ import numpy as np
 from symgen import cache, exprdata
 from symgen.model import shapes, static_shapes
 from symgen.model.shapes import SHAPES_VERSION, Basis, CurvatureProducts, InnerProducts, basis_of_key
-from symgen.model.static_shapes import STATIC_VERSION, corrected_basis
+from symgen.model.static_shapes import STATIC_VERSION, SixthOrderProducts, corrected_basis
 
 __all__ = ["cache_dir", "clear_memory_cache", "corrected_inner_products", "curvature_products", "inner_products"]
 
@@ -76,24 +76,32 @@ def _shapes_of(na: int, nt: int) -> dict[str, tuple[int, ...]]:
     }
 
 
-def _encode_entry(name: str, ip: InnerProducts) -> bytes:
+def _encode_tables(kind: str, version: str, name: str, na: int, nt: int, source: Any, arrays: tuple[str, ...]) -> bytes:
+    """One cache entry of kind ``kind``: the float arrays ``arrays`` of ``source`` (attributes)
+    and their exact values (``source.exact``), written for entry ``name`` at ``version``."""
     doc = {
         "key": name,
-        "version": SHAPES_VERSION,
-        "na": ip.na,
-        "nt": ip.nt,
-        "floats": {a: [float(x) for x in getattr(ip, a).ravel()] for a in _ARRAYS},
-        "exact": {a: exprdata.encode_tensor(ip.exact[a]) for a in _ARRAYS},
+        "version": version,
+        "na": na,
+        "nt": nt,
+        "floats": {a: [float(x) for x in getattr(source, a).ravel()] for a in arrays},
+        "exact": {a: exprdata.encode_tensor(source.exact[a]) for a in arrays},
     }
-    return cache.pack(_CACHE_KIND, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
+    return cache.pack(kind, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
 
 
-def _decode_entry(data: bytes, name: str) -> InnerProducts:
-    """The inner products of a verified entry; ``cache.InvalidEntry`` for anything else."""
-    payload = cache.unpack(_CACHE_KIND, data)  # keyed hash checked before any parsing
+def _decode_tables(
+    data: bytes, name: str, kind: str, version: str, what: str, shapes_of: Any, exact_shape: Any = None
+) -> tuple[int, int, dict[str, Any], dict[str, Any]]:
+    """``(na, nt, float arrays, exact values)`` of a verified entry of kind ``kind`` written by
+    :func:`_encode_tables` for ``name`` at ``version``, holding exactly the arrays of
+    ``shapes_of(na, nt)`` (``{array: shape}``; ``exact_shape(array, shape)`` the shape of its
+    exact values where it differs); ``cache.InvalidEntry`` for anything else (``what`` names
+    the entry in the message)."""
+    payload = cache.unpack(kind, data)  # keyed hash checked before any parsing
 
-    def bad(what: str) -> Exception:
-        return cache.InvalidEntry(f"is not a valid shape entry ({what})")
+    def bad(reason: str) -> Exception:
+        return cache.InvalidEntry(f"is not a valid {what} entry ({reason})")
 
     def no_constant(c):
         raise ValueError(f"non-finite number {c}")
@@ -102,22 +110,23 @@ def _decode_entry(data: bytes, name: str) -> InnerProducts:
         doc = json.loads(payload.decode("utf-8"), parse_constant=no_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise bad(f"JSON: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != SHAPES_VERSION:
+    if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != version:
         raise bad(f"written for {doc.get('key') if isinstance(doc, dict) else None!r}")
     na, nt = doc.get("na"), doc.get("nt")
     if not (_is_count(na) and _is_count(nt)):
         raise bad("mode counts")
+    shapes_ = shapes_of(na, nt)
     floats, exact = doc.get("floats"), doc.get("exact")
     if (
         not isinstance(floats, dict)
         or not isinstance(exact, dict)
-        or set(floats) != set(_ARRAYS)
-        or set(exact) != set(_ARRAYS)
+        or set(floats) != set(shapes_)
+        or set(exact) != set(shapes_)
     ):
-        raise bad(f"it must hold exactly {', '.join(_ARRAYS)}")
+        raise bad(f"it must hold exactly {', '.join(shapes_)}")
     arrays: dict[str, Any] = {}
     values: dict[str, Any] = {}
-    for a, shape in _shapes_of(na, nt).items():
+    for a, shape in shapes_.items():
         flat = floats[a]
         if (
             not isinstance(flat, list)
@@ -126,13 +135,32 @@ def _decode_entry(data: bytes, name: str) -> InnerProducts:
         ):
             raise bad(f"{a}: not {math.prod(shape)} finite numbers")
         arrays[a] = np.array(flat, dtype=float).reshape(shape)
+        arrays[a].flags.writeable = False
         try:
             values[a] = exprdata.decode_tensor(exact[a])
         except (ValueError, TypeError, RecursionError) as exc:
             raise bad(f"{a}: {exc}") from None
-        want = shape if a != "psid1" else (nt, 1)
+        want = exact_shape(a, shape) if exact_shape else shape
         if tuple(values[a].shape) != want:
             raise bad(f"{a}: exact values of shape {tuple(values[a].shape)}, not {want}")
+    return na, nt, arrays, values
+
+
+def _encode_entry(name: str, ip: InnerProducts) -> bytes:
+    return _encode_tables(_CACHE_KIND, SHAPES_VERSION, name, ip.na, ip.nt, ip, _ARRAYS)
+
+
+def _decode_entry(data: bytes, name: str) -> InnerProducts:
+    """The inner products of a verified entry; ``cache.InvalidEntry`` for anything else."""
+    na, nt, arrays, values = _decode_tables(
+        data,
+        name,
+        _CACHE_KIND,
+        SHAPES_VERSION,
+        "shape",
+        _shapes_of,
+        lambda a, shape: (shape[0], 1) if a == "psid1" else shape,  # psid1: an nt x 1 column
+    )
     return _freeze(InnerProducts(na=na, nt=nt, exact=values, **arrays))
 
 
@@ -233,6 +261,7 @@ def clear_memory_cache() -> None:
     _cached.cache_clear()
     _cached_corrected.cache_clear()
     _cached_curvature.cache_clear()
+    _cached_sixth.cache_clear()
 
 
 def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
@@ -287,57 +316,14 @@ def _curvature_shapes(na: int, nt: int) -> dict[str, tuple[int, ...]]:
 
 
 def _encode_curvature(name: str, cp: CurvatureProducts) -> bytes:
-    doc = {
-        "key": name,
-        "version": CURVATURE_VERSION,
-        "na": cp.na,
-        "nt": cp.nt,
-        "floats": {a: [float(x) for x in getattr(cp, a).ravel()] for a in _CURVATURE_ARRAYS},
-        "exact": {a: exprdata.encode_tensor(cp.exact[a]) for a in _CURVATURE_ARRAYS},
-    }
-    return cache.pack(_CURVATURE_KIND, json.dumps(doc, separators=(",", ":"), allow_nan=False).encode())
+    return _encode_tables(_CURVATURE_KIND, CURVATURE_VERSION, name, cp.na, cp.nt, cp, _CURVATURE_ARRAYS)
 
 
 def _decode_curvature(data: bytes, name: str) -> CurvatureProducts:
     """The tables of a verified entry; ``cache.InvalidEntry`` for anything else."""
-    payload = cache.unpack(_CURVATURE_KIND, data)
-
-    def bad(what: str) -> Exception:
-        return cache.InvalidEntry(f"is not a valid curvature entry ({what})")
-
-    def no_constant(c):
-        raise ValueError(f"non-finite number {c}")
-
-    try:
-        doc = json.loads(payload.decode("utf-8"), parse_constant=no_constant)
-    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
-        raise bad(f"JSON: {exc}") from None
-    if not isinstance(doc, dict) or doc.get("key") != name or doc.get("version") != CURVATURE_VERSION:
-        raise bad(f"written for {doc.get('key') if isinstance(doc, dict) else None!r}")
-    na, nt = doc.get("na"), doc.get("nt")
-    floats, exact = doc.get("floats"), doc.get("exact")
-    if not (_is_count(na) and _is_count(nt)) or not isinstance(floats, dict) or not isinstance(exact, dict):
-        raise bad("mode counts or tables")
-    if set(floats) != set(_CURVATURE_ARRAYS) or set(exact) != set(_CURVATURE_ARRAYS):
-        raise bad(f"it must hold exactly {', '.join(_CURVATURE_ARRAYS)}")
-    arrays: dict[str, Any] = {}
-    values: dict[str, Any] = {}
-    for a, shape in _curvature_shapes(na, nt).items():
-        flat = floats[a]
-        if (
-            not isinstance(flat, list)
-            or len(flat) != math.prod(shape)
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in flat)
-        ):
-            raise bad(f"{a}: not {math.prod(shape)} finite numbers")
-        arrays[a] = np.array(flat, dtype=float).reshape(shape)
-        arrays[a].flags.writeable = False
-        try:
-            values[a] = exprdata.decode_tensor(exact[a])
-        except (ValueError, TypeError, RecursionError) as exc:
-            raise bad(f"{a}: {exc}") from None
-        if tuple(values[a].shape) != shape:
-            raise bad(f"{a}: exact values of shape {tuple(values[a].shape)}, not {shape}")
+    na, nt, arrays, values = _decode_tables(
+        data, name, _CURVATURE_KIND, CURVATURE_VERSION, "curvature", _curvature_shapes
+    )
     return CurvatureProducts(na=na, nt=nt, exact=values, **arrays)
 
 
@@ -393,3 +379,37 @@ def curvature_products(axial: Basis, transverse: Basis) -> CurvatureProducts:
     if not same:  # hand-made basis: nothing to key a cache on
         return shapes.compute_curvature_products(axial, transverse)
     return _cached_curvature(axial.key, (), transverse.key, (), ())
+
+
+# --------------------------------------------------------------------------------------
+# The exact bar's sixth-order tables: computed by quadrature in well under a second for the
+# counts symgen uses (faster than reading an entry of nt^6 / 720 numbers), so held in memory only
+# --------------------------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def _cached_sixth(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple, mpts: tuple) -> SixthOrderProducts:
+    ba = corrected_basis(basis_of_key(akey), apts)
+    bt = corrected_basis(basis_of_key(tkey), tpts, mpts)
+    return static_shapes.sixth_order_products(ba.functions, bt.functions)
+
+
+def sixth_order_products(axial: Basis, transverse: Basis) -> SixthOrderProducts:
+    """The exact bar's sixth-order tables (:class:`symgen.model.static_shapes.SixthOrderProducts`)
+    of one bar's bases, cached in memory."""
+    try:
+        same = all(
+            r is b or r == b
+            for r, b in (
+                (corrected_basis(basis_of_key(axial.key), axial.points), axial),
+                (
+                    corrected_basis(basis_of_key(transverse.key), transverse.points, transverse.moment_points),
+                    transverse,
+                ),
+            )
+        )
+    except ValueError:
+        same = False
+    if not same:  # hand-made basis: nothing to key a cache on
+        return static_shapes.sixth_order_products(axial.functions, transverse.functions)
+    return _cached_sixth(
+        axial.key, tuple(axial.points), transverse.key, tuple(transverse.points), tuple(transverse.moment_points)
+    )

@@ -406,6 +406,24 @@ class InnerProducts:
     #: the exact bar's tables (``effects.strain = "exact"``), joined by
     #: :meth:`with_curvature`; None for the other strains
     curvature: CurvatureProducts | None = None
+    #: the exact bar's sixth-order tables (:class:`symgen.model.static_shapes.SixthOrderProducts`),
+    #: joined by :meth:`with_sixth_order`; None for the other strains
+    sixth: Any = None
+
+    @property
+    def E6(self) -> dict[tuple[int, ...], float]:
+        return self._sixth().E6
+
+    def _sixth(self) -> Any:
+        if self.sixth is None:
+            raise ValueError("these inner products have no sixth-order tables (join them with with_sixth_order)")
+        return self.sixth
+
+    def with_sixth_order(self, sixth: Any) -> InnerProducts:
+        """These inner products with the exact bar's sixth-order tables."""
+        if (sixth.na, sixth.nt) != (self.na, self.nt):
+            raise ValueError(f"sixth-order tables of {sixth.na} + {sixth.nt} functions for {self.na} + {self.nt}")
+        return replace(self, sixth=sixth)
 
     @property
     def E4(self) -> np.ndarray:

@@ -41,6 +41,7 @@ from fractions import Fraction
 from typing import Any
 from collections.abc import Sequence
 
+import numpy as np
 import sympy
 
 from symgen.ir.spec import BodySpec
@@ -66,6 +67,8 @@ __all__ = [
     "piecewise_inner",
     "piecewise_inner_products",
     "piecewise_curvature_products",
+    "SixthOrderProducts",
+    "sixth_order_products",
     "static_polynomials",
     "corrected_basis",
     "bar_bases",
@@ -500,3 +503,67 @@ def bar_bases(body: BodySpec | dict) -> tuple[Basis, Basis]:
         body.frame or "pinned-pinned", body.transverse_shapes or "modes", body.nt, tip_joint=body.tip_joint
     )
     return corrected_basis(ba, body.static_axial), corrected_basis(bt, body.static_transverse, body.static_moment)
+
+
+# --------------------------------------------------------------------------------------
+# The exact bar's sixth-order tables (effects.strain = "exact", docs/exact-bars.md)
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class SixthOrderProducts:
+    """The inner products of the exact bar's sixth-order bending term, over **sorted** index
+    tuples (the others follow by symmetry; ``bars._multiplicity`` counts them).
+
+    E6 : ``{(a, b, c, d, e, f): the fully symmetric part of int psi'_a psi'_b psi'_c psi'_d psi''_e psi''_f}``,
+        so that ``int eta'^4 eta''^2 = sum_sorted mult E6 g^6``
+
+    By Gauss-Legendre quadrature on each smooth piece (:func:`sixth_order_nodes` nodes per piece:
+    the integrands are products of six sines, exponentials and polynomials, integrated to
+    round-off; ``tests/test_exact_bars.py`` checks against adaptive quadrature and doubled
+    nodes), not in closed form: the closed form of a six-fold product of clamped-free
+    eigenfunctions has 4^6 exponential terms per entry (E4's closed form, 4^4, already takes
+    about a minute at 8 + 10 functions).
+    """
+
+    na: int
+    nt: int
+    E6: dict[tuple[int, ...], float]
+
+
+def sixth_order_nodes(nt: int) -> int:
+    """Gauss-Legendre nodes per piece for :func:`sixth_order_products`: the highest frequency of
+    a six-fold product of the first ``nt`` functions' derivatives is ~6 nt pi."""
+    return 48 + 16 * nt
+
+
+def sixth_order_products(
+    axial: Sequence[Any], transverse: Sequence[Any], nodes: int | None = None
+) -> SixthOrderProducts:
+    """:class:`SixthOrderProducts` of (possibly piecewise) bases (``axial`` counts only)."""
+    psi = [Piecewise.of(f) for f in transverse]
+    nt = len(psi)
+    n = nodes or sixth_order_nodes(nt)
+    cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in psi)))
+    z, w = np.polynomial.legendre.leggauss(n)
+    ws, A, B = [], [], []
+    for lo, hi in zip(cuts[:-1], cuts[1:]):
+        mid = (lo + hi) / 2
+        a, b = float(lo), float(hi)
+        ws.append(w * (b - a) / 2)
+        for xi in a + (b - a) * (z + 1) / 2:
+            A.append([f.piece_at(mid).evaluate(xi, 1) for f in psi])
+            B.append([f.piece_at(mid).evaluate(xi, 2) for f in psi])
+    W = np.concatenate(ws)
+    Aq = np.array(A, dtype=float).reshape(-1, nt)
+    Bq = np.array(B, dtype=float).reshape(-1, nt)
+    pairs = list(itertools.combinations(range(6), 2))  # which two factors are psi''
+    E6: dict[tuple[int, ...], float] = {}
+    for idx in itertools.combinations_with_replacement(range(nt), 6):
+        total = np.zeros_like(W)
+        for i, j in pairs:
+            term = Bq[:, idx[i]] * Bq[:, idx[j]]
+            for m in range(6):
+                if m != i and m != j:
+                    term = term * Aq[:, idx[m]]
+            total += term
+        E6[idx] = float(W @ total) / len(pairs)
+    return SixthOrderProducts(na=len(axial), nt=nt, E6=E6)

@@ -26,7 +26,7 @@ EFFECT_KEYS = EFFECT_SWITCHES + ("strain", "gravity", "damping")
 STRAINS = ("von_karman", "linear", "exact")
 STRAIN_HINT = (
     'use "von_karman" (the default), "exact" (von Karman strain and the curvature of the bar\'s axis to '
-    'fourth order in the amplitudes: docs/exact-bars.md) or "linear" (the seed\'s)'
+    'sixth order in the amplitudes: docs/exact-bars.md) or "linear" (the seed\'s)'
 )
 INITIAL_KEYS = ("guess", "deformation")
 DEFORMATION_KEYS = ("f", "g", "fdot", "gdot")

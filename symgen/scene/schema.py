@@ -585,7 +585,7 @@ EFFECTS = Table(
             "strain",
             "string",
             '"von_karman" (energy-consistent: bending shortens the chord), "exact" (von Karman strain '
-            "and the exact curvature of the bar's axis to fourth order in the amplitudes: the geometrically "
+            "and the exact curvature of the bar's axis to sixth order in the amplitudes: the geometrically "
             "exact beam's answer at large deflection; needs geometric_stiffening, no slot joints) or "
             '"linear" (the seed\'s).',
             {"enum": list(_ex.STRAINS)},

@@ -56,7 +56,7 @@ from symgen.ir import names
 from symgen.outputs import printable
 from symgen.ir.records import GENERALIZED_FORCE, SUBTREE_FORCE
 from symgen.scene.model import GROUND
-from symgen.model.shape_cache import curvature_products
+from symgen.model.shape_cache import curvature_products, sixth_order_products
 from symgen.model.structure import QUASI_STATIC, axial_treatments
 from symgen.scene.motion import driver_angle
 
@@ -153,7 +153,7 @@ def _driver_law_note(drv, i: int = 0) -> str:
 
 
 # --------------------------------------------------------------------------- inner products
-_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7, "E4": 8, "G3": 9}
+_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7, "E4": 8, "G3": 9, "E6": 10}
 #: the exact bar's tables (``effects.strain = "exact"``): in their own shape-cache entry
 _CURVATURE = ("E4", "G3")
 #: strains whose axial strain is von Karman's (the exact bar adds the curvature terms)
@@ -161,7 +161,7 @@ VON_KARMAN = ("von_karman", "exact")
 STRAIN_TEXT = {
     "von_karman": "von K\\'arm\\'an",
     "linear": "linear (the seed's)",
-    "exact": "von K\\'arm\\'an, exact curvature to fourth order (docs/exact-bars.md)",
+    "exact": "von K\\'arm\\'an, exact curvature to sixth order (docs/exact-bars.md)",
 }
 
 
@@ -180,6 +180,19 @@ def _ip_table(bm, used: set) -> list[dict]:
         elif name in _CURVATURE:
             table: Any = curvature_products(bm.basis_a, bm.basis_t).exact[name]
             exact = table[idx]
+        elif name == "E6":  # the exact bar's sixth-order table: by quadrature (docs/exact-bars.md)
+            value = float(sixth_order_products(bm.basis_a, bm.basis_t).E6[idx])
+            ex = sp.latex(sp.Float(value, 15))
+            rows.append(
+                {
+                    "symbol": sym.name,
+                    "exact": ex,
+                    "decimal": num_text(value),
+                    "kind": "quadrature (double)",
+                    "key": (_IP_ORDER[name], idx),
+                }
+            )
+            continue
         else:
             exact = bm.ipt.ip.exact[name][idx]
         value = float(exact)
@@ -292,7 +305,7 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     damp = bm.inputs["damping"] is not None
     c = r"c_{\mathrm{KV}}"
     ctx["vk"] = bool(vk)
-    # the exact bar: its fourth-order bending energy, whose inner products E, G appear in (16), (17)
+    # the exact bar: its sixth-order bending energy, whose inner products E, G appear in (16), (17)
     ctx["exact"] = bool(eff.strain == "exact" and nt and not body.rigid and not s.beta)
     ctx["exact_g"] = bool(ctx["exact"] and vk and na and "axial_force" not in bm.inputs)
     ctx["strain_def"] = rf"\varepsilon_{{{B}}} = \zeta_{{{B}}}' + \tfrac{{1}}{{2}}\,\eta_{{{B}}}'^{{2}}" if vk else ""
