@@ -86,7 +86,9 @@ def cmd_check(args) -> int:
     from symgen.scene.summary import summary
     from symgen.model.structure import static_points
 
-    scene = _scene(args)
+    from symgen.numerics.strain_choice import resolved
+
+    scene = resolved(_scene(args))  # effects.strain = "auto": with the decision a run remembered
     print(summary(scene, {b.name: static_points(scene, b) for b in scene.bodies}))
     return 0
 
@@ -212,8 +214,10 @@ def cmd_latex(args) -> int:
     from symgen.backends.latex.document import latex_document
     from symgen.outputs import atomic_write
 
+    from symgen.numerics.strain_choice import resolved
+
     out = _check_out(args.output, (".tex",), "-o")
-    scene = _scene(args)
+    scene = resolved(_scene(args))  # effects.strain = "auto": the formulation a run decided, if any
     model = derive(scene)
     atomic_write(out, latex_document(scene, model))
     print(f"wrote {out}")
@@ -411,7 +415,10 @@ def cmd_effects(args) -> int:
                 print(table(err.partial), flush=True)
             raise
     else:
-        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL, outputs)
+        from symgen.numerics.strain_choice import resolved
+
+        # effects.strain = "auto": with the decision a run remembered
+        report = estimate_effects(resolved(_scene(args)), args.tol or DEFAULT_TOL, outputs)
     print(table(report))
     return 0
 

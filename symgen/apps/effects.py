@@ -184,6 +184,7 @@ class EffectsReport:
     stopped: str = ""  # "interrupted by SIGINT ..." of a partial report
     axial: dict = field(default_factory=dict)  # bar -> (treatment, reason) of effects.axial
     bases: dict = field(default_factory=dict)  # bar -> its BasisChoice (counts, chosen or stated, and why)
+    strain: tuple[str, str] = ("", "")  # (effects.strain used, why: symgen.scene.strain)
     estimate: Any = None  # --measure: the ErrorEstimate of the scene's own measuring run
 
 
@@ -310,6 +311,7 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
         rows=rows,
         axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()},
         bases={c.bar: c for c in scene.bases},
+        strain=(scene.effects.strain, scene.strain_choice.reason if scene.strain_choice else "as the scene says"),
     )
     recommend(report)
     return report
@@ -642,6 +644,8 @@ def table(report: EffectsReport) -> str:
     for name, (treatment, reason) in report.axial.items():
         lines.append(f"axial treatment of {name}: {treatment} ({reason})")
     lines += [f"bases of {name}: {describe_basis(c)}" for name, c in report.bases.items()]
+    if report.strain[0]:
+        lines.append(f"strain: {report.strain[0]} ({report.strain[1]})")
     if report.stopped:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:

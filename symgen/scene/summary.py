@@ -82,6 +82,8 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     elastic = sum(not b.rigid for b in scene.bodies)
     lines.append(f"  {'modes':8} {modes} shape functions on {elastic} elastic bar(s)")
     lines += [f"  {'bases' if i == 0 else '':8} {c.bar}: {describe_basis(c)}" for i, c in enumerate(scene.bases)]
+    if scene.strain_choice is not None:
+        lines.append(f"  {'strain':8} {scene.strain_choice.strain} ({scene.strain_choice.reason})")
     if not scene.drivers:
         lines.append(f"  {'driver':8} none")
     for i, drv in enumerate(scene.drivers):
