@@ -82,6 +82,9 @@ AMPLIFICATION_CAP = 20.0
 #: the powers of s = eta'^2 the exact bar keeps in eta''^2 (1 + s + ...): 1 (fourth order in
 #: the amplitudes, symgen/model/bars.py); a longer expansion there raises it here
 EXACT_ORDER = 1
+#: both von Karman and the exact bar keep von Karman's axial strain: the exact strain's left-out
+#: part (its work with the axial force) is estimated too
+STRAIN_LEFT_OUT = True
 #: the largest eta'^2 the series is evaluated at
 SLOPE2_MAX = 0.5
 
@@ -146,6 +149,7 @@ class _Bar:
             np.asarray(t).reshape(len(w), -1) for t in (samples.trans0, samples.trans1, samples.trans2)
         )
         A1 = np.asarray(samples.axial1).reshape(len(w), -1) if self.na else np.zeros((len(w), 0))
+        self.A1 = A1
         self.Kt = self.P2.T @ (w[:, None] * self.P2)
         M = self.P0.T @ (w[:, None] * self.P0)
         self.C3 = np.einsum("i,ik,ia,ib->kab", w, A1, self.P1, self.P1)
@@ -162,32 +166,45 @@ class _Bar:
         w2, y = np.linalg.eigh(Li @ (self.mu * self.Kt) @ Li.T)
         self.omega, self.mode = float(np.sqrt(max(w2[0], 0.0))), Li.T @ y[:, 0]
 
-    def force(self, g: np.ndarray) -> np.ndarray:
-        """dQ_a = d/dg_a of (mu/2) int eta''^2 h(eta'^2)."""
+    def force(self, g: np.ndarray, N: np.ndarray | None = None) -> np.ndarray:
+        """dQ_a = d/dg_a of the left-out energy: the curvature's (mu/2) int eta''^2 h(eta'^2),
+        plus, where the axial force N(xi) is known (at the nodes), the exact strain's
+        int N (eps_x - eps_vK) = int N (eta'^4 / 8 - eps eta'^2 / 2), eps = N / lambda (N held:
+        the axial amplitudes re-equilibrate, to first order the energy changes by N's work)."""
         e1, e2 = self.P1 @ g, self.P2 @ g
         h, dh = _residual(e1 * e1, self.order)
         wq = self.w * self.mu
-        return self.P2.T @ (wq * e2 * h) + self.P1.T @ (wq * e2 * e2 * dh * e1)
+        dQ: np.ndarray = self.P2.T @ (wq * e2 * h) + self.P1.T @ (wq * e2 * e2 * dh * e1)
+        if N is not None and STRAIN_LEFT_OUT:
+            soft = N * N / self.lam if self.lam > 0 else 0.0 * N
+            dQ = dQ + self.P1.T @ (self.w * (0.5 * N * e1**3 - soft * e1))
+        return dQ
+
+    def axial_force(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray | None:
+        """(the multipliers N_k or lambda e_k, the axial force at the nodes) of one sample, or
+        None without axial functions."""
+        if not self.na:
+            return None
+        if self.n_rows:
+            return np.asarray(lam[self.n_rows])  # the multipliers N_k
+        g = q[self.g_idx]
+        c = 0.5 * np.einsum("kab,a,b->k", self.C3, g, g)
+        return np.asarray(self.lam * (q[self.f_idx] + self.Ka_inv @ c))  # lambda P eps
 
     def change(self, q: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, float, float]:
         """(dg, the relative change of the first mode's tangent stiffness, amplification) at one
         sample."""
         g = q[self.g_idx]
         mu = self.mu
-        dQ = self.force(g)
+        n = self.axial_force(q, lam)
+        N = None if n is None else self.A1 @ n
+        dQ = self.force(g, N)
         v = self.mode
         step = 1e-4 * max(float(np.abs(self.P1 @ g).max()), 1e-3) / max(float(np.abs(self.P1 @ v).max()), 1e-300)
-        vHv = float(v @ (self.force(g + step * v) - self.force(g - step * v))) / (2.0 * step)
+        vHv = float(v @ (self.force(g + step * v, N) - self.force(g - step * v, N))) / (2.0 * step)
         tangent = vHv / float(v @ (mu * self.Kt) @ v)
         K0 = mu * self.Kt
-        K = K0
-        if self.na:
-            if self.n_rows:
-                n = lam[self.n_rows]  # the multipliers N_k
-            else:
-                c = 0.5 * np.einsum("kab,a,b->k", self.C3, g, g)
-                n = self.lam * (q[self.f_idx] + self.Ka_inv @ c)  # lambda P eps
-            K = K0 + np.einsum("k,kab->ab", n, self.C3)
+        K = K0 if n is None else K0 + np.einsum("k,kab->ab", n, self.C3)
         dg0 = -np.linalg.solve(K0, dQ)
         try:
             dg = -np.linalg.solve(K, dQ)
@@ -242,19 +259,39 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     change = np.zeros((len(rows), len(names)))
     tangent: dict[str, list[float]] = {b.name: [] for b in bars}
     amplification = {b.name: 1.0 for b in bars}
+    dqs = np.zeros((len(rows), mech.n))
     for r, i in enumerate(rows):
-        q, v, lam = result.q[i], result.v[i], result.lam[i]
-        dq = np.zeros_like(q)
+        q, lam = result.q[i], result.lam[i]
         for b in bars:
             dg, tan, amp = b.change(q, lam)
-            dq[b.g_idx] = dg
+            dqs[r, b.g_idx] = dg
             if b.na:  # the axial amplitudes follow: the strain P eps (= N / lambda) stays, to first order
                 g = q[b.g_idx]
-                dq[b.f_idx] = -b.Ka_inv @ np.einsum("kab,a,b->k", b.C3, g, dg)
+                dqs[r, b.f_idx] = -b.Ka_inv @ np.einsum("kab,a,b->k", b.C3, g, dg)
             tangent[b.name].append(tan)
             amplification[b.name] = max(amplification[b.name], amp)
+    # the multipliers (driver torques, reactions, axial forces) change with the accelerations of
+    # the change: d2(dq)/dt2 on the elastic coordinates, the rigid accelerations and multipliers
+    # re-solved from the rigid rows of the dynamics and the acceleration-level closure
+    ddq = _second_derivative(np.asarray(result.tau)[rows], dqs)
+    elastic = sorted({i for b in bars for i in (*b.f_idx, *b.g_idx)})
+    free = [i for i in range(mech.n) if i not in set(elastic)]
+    eq_rows = free + list(range(mech.n, mech.n + mech.m))
+    unknown = free + list(range(mech.n, mech.n + mech.m))
+    for r, i in enumerate(rows):
+        q, v, lam = result.q[i], result.v[i], result.lam[i]
         t = float(result.tau[i])
-        change[r] = mech.call("out", t, q + dq, v, None, lam) - mech.call("out", t, q, v, None, lam)
+        dlam = np.zeros(mech.m)
+        if mech.m and elastic:
+            J = np.array(mech.kkt(t, q, v, np.zeros(mech.n), np.zeros(mech.m), mech.p)[0])
+            A = J[np.ix_(eq_rows, unknown)]
+            rhs = -J[np.ix_(eq_rows, elastic)] @ ddq[r, elastic]
+            try:
+                x = np.linalg.lstsq(A, rhs, rcond=None)[0]
+                dlam = x[len(free) :]
+            except np.linalg.LinAlgError:
+                dlam = np.zeros(mech.m)
+        change[r] = mech.call("out", t, q + dqs[r], v, None, lam + dlam) - mech.call("out", t, q, v, None, lam)
     # the first bending frequency moves by half the mean relative change of its tangent stiffness
     shift = {name: 0.5 * float(np.mean(t)) for name, t in tangent.items()}
     stiff = {b.name: (shift[b.name], amplification[b.name]) for b in bars}
@@ -302,6 +339,14 @@ def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]
     return est.outputs, est.method
 
 
+def _second_derivative(tau: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """d2y/dtau2 of the samples ``y`` (rows at ``tau``), by second-order differences (zeros
+    with fewer than three samples)."""
+    if len(tau) < 3:
+        return np.zeros_like(y)
+    return np.asarray(np.gradient(np.gradient(y, tau, axis=0), tau, axis=0))
+
+
 def _band_amplitude(tau: np.ndarray, y: np.ndarray, omega: float) -> float:
     """Amplitude of the content of ``y(tau)`` within 25 % of the angular frequency ``omega``
     (Hann-windowed spectrum; 0 when the run is shorter than two periods)."""
@@ -328,4 +373,4 @@ def _drift(tau: np.ndarray, y: np.ndarray, omega: float, shift: float, span: flo
     moved by the fraction ``shift``, the phase moves by omega span shift, the output by that times
     the vibration's amplitude in it (at most twice the amplitude: opposite phase)."""
     amp = _band_amplitude(tau, y, omega)
-    return min(omega * span * shift, 2.0) * amp
+    return min(omega * span * abs(shift), 2.0) * amp

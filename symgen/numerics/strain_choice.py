@@ -30,12 +30,14 @@ __all__ = ["decide", "recalled", "resolved", "run_with_strain_choice", "switchab
 
 R = TypeVar("R")
 
+#: the model-form estimator's version in the remembered decisions (a changed estimator decides again)
+ESTIMATOR_VERSION = "2"
 #: output kinds that do not decide (zero to round-off in every model)
 NOT_DECIDING = ("closure_residual",)
 
 
 def _question(scene: Scene) -> dict[str, Any]:
-    return {"check": "strain.auto", "version": __version__, "scene": scene.hash}
+    return {"check": "strain.auto", "version": __version__, "estimator": ESTIMATOR_VERSION, "scene": scene.hash}
 
 
 def switchable(scene: Scene) -> bool:
