@@ -112,6 +112,7 @@ def simulate_scene(
         )
         if failure is not None:
             raise failure
+        assert result is not None  # attempt gives a result or the failure
         return result
     allowed = ("backend", "use_cache") if solver == "idas" else ("use_cache",)
     _only(kwargs, allowed, "simulation.t_end=..., simulation.rtol=...")
@@ -195,6 +196,7 @@ def _written_run(
         scene = resolved(scene_of(scene, overrides))  # effects.strain = "auto": a decision remembered
         choose_system(scene, units)
         mech = mechanism(scene, use_cache=use_cache)
+        failure: BaseException | None
         if solver == "quasi-static":
             result, failure = attempt(lambda: run(mech))
         else:  # "auto": the von Karman run's model-form estimate may call for the exact bar
