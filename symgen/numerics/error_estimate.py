@@ -279,6 +279,11 @@ def estimate_errors(
             parts["model_form"] = dict.fromkeys(names)
             methods["model_form"] = "not estimated"
             reasons["model_form"] = str(why)
+        except (ValueError, ArithmeticError, RuntimeError) as why:  # LinAlgError is a ValueError
+            # the run is complete and stays so: its estimate says what stopped the estimator
+            parts["model_form"] = dict.fromkeys(names)
+            methods["model_form"] = "not estimated"
+            reasons["model_form"] = f"the model-form estimate could not be evaluated ({type(why).__name__}: {why})"
         else:
             measured_mf = _measured(mech, names)
             parts["model_form"] = {n: (float(values[n]) if n in values and n in measured_mf else None) for n in names}

@@ -81,7 +81,8 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
     scene = mech.scene
     try:
         est = model_form_estimate(mech, result)
-    except ModelFormNotEstimated:
+    except (ModelFormNotEstimated, ValueError, ArithmeticError, RuntimeError):
+        # not estimated (the reason is the sidecar's error estimate): von Karman, provisionally
         return None
     kinds = {o.name: o.kind for o in scene.outputs}
     values = {n: v for n, v in est.outputs.items() if kinds.get(n) not in NOT_DECIDING}
