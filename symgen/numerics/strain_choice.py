@@ -104,7 +104,7 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
         choice = StrainChoice(
             AUTO,
             "von_karman",
-            f"auto: von Karman, its model-form estimate (the curvature terms it leaves out) is "
+            f"auto: von Karman, its model-form estimate (the curvature and strain terms it leaves out) is "
             f"{top:.2e} of peak{f' on {worst}' if worst else ''}, within simulation.accuracy {accuracy:g}",
             False,
             top,

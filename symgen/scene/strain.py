@@ -58,7 +58,7 @@ def exact_refused(geometric_stiffening: bool, slots: list[str]) -> str:
     if not geometric_stiffening:
         return "geometric_stiffening = false (the exact curvature and the von Karman strain are one expansion)"
     if slots:
-        return f"a slot joint ({', '.join(slots)}): the exact bar has no slot guide"
+        return f"a slot joint ({', '.join(slots)}): it has no slot guide"
     return ""
 
 
@@ -68,11 +68,11 @@ def choose_strain(requested: str, geometric_stiffening: bool, slots: list[str]) 
         return StrainChoice(requested, requested, f'effects.strain = "{requested}"')
     refused = exact_refused(geometric_stiffening, slots)
     if refused:
-        return StrainChoice(AUTO, "von_karman", f"auto: von Karman, the exact bar is not available with {refused}")
+        return StrainChoice(AUTO, "von_karman", f"auto: von Karman; the exact bar is not available with {refused}")
     return StrainChoice(
         AUTO,
         "von_karman",
-        "auto: von Karman until a run's model-form estimate (the curvature terms it leaves out) exceeds "
+        "auto: von Karman until a run's model-form estimate (the curvature and strain terms it leaves out) exceeds "
         "simulation.accuracy on an output; then the run is made with the exact bar",
         switchable=True,
     )
