@@ -100,8 +100,20 @@ def simulate_scene(
 
     check_solver(solver, "solver")
     if out is None:
+        from symgen.numerics.results import attempt
+        from symgen.numerics.strain_choice import resolved, run_with_strain_choice
+
         _no_files(plot, states, units)
-        return run(mechanism(scene, overrides), solver, **kwargs)
+        use_cache = kwargs.get("use_cache", True)
+        _, result, failure = run_with_strain_choice(
+            mechanism(resolved(scene_of(scene, overrides)), use_cache=use_cache),
+            lambda sc: mechanism(sc, use_cache=use_cache),
+            lambda mech: attempt(lambda: run(mech, solver, **kwargs)),
+        )
+        if failure is not None:
+            raise failure
+        assert result is not None  # attempt gives a result or the failure
+        return result
     allowed = ("backend", "use_cache") if solver == "idas" else ("use_cache",)
     _only(kwargs, allowed, "simulation.t_end=..., simulation.rtol=...")
     return _written_run(
@@ -179,10 +191,19 @@ def _written_run(
 
     files = run_files(out, plot, out_key="out", plot_key="plot")
     try:
-        scene = scene_of(scene, overrides)
+        from symgen.numerics.strain_choice import resolved, run_with_strain_choice
+
+        scene = resolved(scene_of(scene, overrides))  # effects.strain = "auto": a decision remembered
         choose_system(scene, units)
         mech = mechanism(scene, use_cache=use_cache)
-        result, failure = attempt(lambda: run(mech))
+        failure: BaseException | None
+        if solver == "quasi-static":
+            result, failure = attempt(lambda: run(mech))
+        else:  # "auto": the von Karman run's model-form estimate may call for the exact bar
+            mech, result, failure = run_with_strain_choice(
+                mech, lambda sc: mechanism(sc, use_cache=use_cache), lambda m: attempt(lambda: run(m))
+            )
+        scene = mech.scene
         written = write_run(
             files,
             scene,

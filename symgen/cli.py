@@ -86,7 +86,9 @@ def cmd_check(args) -> int:
     from symgen.scene.summary import summary
     from symgen.model.structure import static_points
 
-    scene = _scene(args)
+    from symgen.numerics.strain_choice import resolved
+
+    scene = resolved(_scene(args))  # effects.strain = "auto": with the decision a run remembered
     print(summary(scene, {b.name: static_points(scene, b) for b in scene.bodies}))
     return 0
 
@@ -96,7 +98,9 @@ def _prepare_run(args):
     from symgen.api import mechanism
     from symgen.numerics.units import choose_system
 
-    scene = _scene(args)
+    from symgen.numerics.strain_choice import resolved
+
+    scene = resolved(_scene(args))  # effects.strain = "auto": a decision remembered for the scene
     choose_system(scene, args.units)  # before any work: --units SI needs an SI scene
     _say(args, f"loading the model of {scene.name} from the cache, or deriving it")
     mech = mechanism(scene, use_cache=not args.no_cache)
@@ -157,14 +161,20 @@ def _simulate(args, files) -> int:
     sc = mech.scene
     seconds = f" (t 0 -> {sc.simulation.t_end / sc.omega:.6g} s)" if sc.units == "SI" else ""
     _say(args, f"integrating tau 0 -> {sc.simulation.t_end:.6g}{seconds}")
-    if args.solver == "c":
-        from symgen.numerics.csolver import simulate_c
+    from symgen.api import mechanism
+    from symgen.numerics.strain_choice import run_with_strain_choice
 
-        result, failure = attempt(lambda: simulate_c(mech, use_cache=not args.no_cache, progress=True))
-    else:
-        result, failure = attempt(
-            lambda: simulate(mech, backend=args.backend, use_cache=not args.no_cache, progress=True)
-        )
+    def run(m):
+        if args.solver == "c":
+            from symgen.numerics.csolver import simulate_c
+
+            return attempt(lambda: simulate_c(m, use_cache=not args.no_cache, progress=True))
+        return attempt(lambda: simulate(m, backend=args.backend, use_cache=not args.no_cache, progress=True))
+
+    # effects.strain = "auto": the von Karman run's model-form estimate may call for the exact bar
+    mech, result, failure = run_with_strain_choice(
+        mech, lambda sc: mechanism(sc, use_cache=not args.no_cache), run, lambda text: _say(args, text)
+    )
     written = _write_run(args, files, mech, result, failure, args.solver)
     assert result is not None  # write_run raises when the run has no result
     compiled = mech.compiled
@@ -204,8 +214,10 @@ def cmd_latex(args) -> int:
     from symgen.backends.latex.document import latex_document
     from symgen.outputs import atomic_write
 
+    from symgen.numerics.strain_choice import resolved
+
     out = _check_out(args.output, (".tex",), "-o")
-    scene = _scene(args)
+    scene = resolved(_scene(args))  # effects.strain = "auto": the formulation a run decided, if any
     model = derive(scene)
     atomic_write(out, latex_document(scene, model))
     print(f"wrote {out}")
@@ -403,7 +415,10 @@ def cmd_effects(args) -> int:
                 print(table(err.partial), flush=True)
             raise
     else:
-        report = estimate_effects(_scene(args), args.tol or DEFAULT_TOL, outputs)
+        from symgen.numerics.strain_choice import resolved
+
+        # effects.strain = "auto": with the decision a run remembered
+        report = estimate_effects(resolved(_scene(args)), args.tol or DEFAULT_TOL, outputs)
     print(table(report))
     return 0
 

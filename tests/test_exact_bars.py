@@ -383,7 +383,8 @@ def test_slider_crank_against_ancf(paper_runs):
 
 def test_model_form_estimate_is_honest(paper_runs):
     """The model-form estimate of the von Karman run lies within [0.5, 2] x the change the exact
-    bar makes (measured 3.0e-3 of peak, estimated 3.6e-3); an exact run estimates zero."""
+    bar makes (measured 3.0e-3 of peak, estimated 3.6e-3); an exact run estimates its sixth-order
+    terms."""
     from symgen.apps.study import window_error
     from symgen.numerics.model_form import model_form_estimate
 
@@ -395,7 +396,10 @@ def test_model_form_estimate_is_honest(paper_runs):
     est = model_form_estimate(mech, vk)
     assert measured > 1e-3
     assert 0.5 <= est.outputs["rod_mid"] / measured <= 2.0
-    assert model_form_estimate(*paper_runs["exact"]).outputs == {"rod_mid": 0.0}
+    # the exact run: its left-out terms are of sixth order (slope^4 relative, not 0): far below
+    # von Karman's, and below what the exact bar is off the ANCF cable (2.6e-4, test above)
+    exact = model_form_estimate(*paper_runs["exact"]).outputs["rod_mid"]
+    assert 0 < exact < 0.05 * est.outputs["rod_mid"] and exact < 2.6e-4
 
 
 def test_slider_crank_quasi_static_axial_against_ancf():

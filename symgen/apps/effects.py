@@ -186,6 +186,7 @@ class EffectsReport:
     axial: dict = field(default_factory=dict)  # bar -> (treatment, reason) of effects.axial
     bases: dict = field(default_factory=dict)  # bar -> its BasisChoice (counts, chosen or stated, and why)
     quasi: dict = field(default_factory=dict)  # bar -> (quasi-static transverse functions, why)
+    strain: tuple[str, str] = ("", "")  # (effects.strain used, why: symgen.scene.strain)
     estimate: Any = None  # --measure: the ErrorEstimate of the scene's own measuring run
 
 
@@ -313,6 +314,7 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
         axial={n: (t.treatment, t.reason) for n, t in axial_treatments(scene).items()},
         bases={c.bar: c for c in scene.bases},
         quasi=quasi_static_reasons(scene),
+        strain=(scene.effects.strain, scene.strain_choice.reason if scene.strain_choice else "as the scene says"),
     )
     recommend(report)
     return report
@@ -646,6 +648,8 @@ def table(report: EffectsReport) -> str:
         lines.append(f"axial treatment of {name}: {treatment} ({reason})")
     lines += [f"bases of {name}: {describe_basis(c)}" for name, c in report.bases.items()]
     lines += [f"quasi-static functions of {name}: {why}" for name, (_, why) in report.quasi.items()]
+    if report.strain[0]:
+        lines.append(f"strain: {report.strain[0]} ({report.strain[1]})")
     if report.stopped:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:

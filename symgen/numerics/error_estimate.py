@@ -48,11 +48,12 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   run's difference to itself at ``TIGHTER`` times tighter tolerances (x 1/(1 - TIGHTER^-0.7)): a
   run that rings freely through many periods accumulates a phase error beyond any fixed
   multiple of rtol (the released double pendulum: 110x rtol).
-* **model form** -- the gap between the bar model and a geometrically exact beam (for von
-  Karman bars, the curvature). Its estimator lives with the formulation
-  (``symgen.numerics.model_form``, the "exact" slice) and is connected through
-  :data:`MODEL_FORM_ESTIMATORS` (:func:`register_model_form`) or the ``model_form`` argument.
-  Until one is connected the part is reported as not estimated.
+* **model form** -- the gap between the bar model and a geometrically exact beam: the terms of
+  the exact curvature the run's bar leaves out (von Karman: all beyond eta''^2; the exact bar:
+  those beyond its fourth-order expansion), ``symgen.numerics.model_form``, numpy only on the
+  shape samples the derivation cached. Connected through :data:`MODEL_FORM_ESTIMATORS`
+  (:func:`register_model_form`) or the ``model_form`` argument. The seed's linear strain and
+  ``geometric_stiffening = false`` are "not estimated" with the reason.
 
 The record (:class:`ErrorEstimate`) is typed, with ``to_json``/``from_json`` that check every
 field; a run's sidecar holds ``error_estimate: {output: fraction of peak}`` and the record as
@@ -73,6 +74,8 @@ import numpy as np
 from symgen import __version__
 from symgen.errors import SymgenError
 from symgen.ir.records import CoordKind
+from symgen.numerics import model_form as _model_form
+from symgen.numerics.model_form import ModelFormNotEstimated
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -113,7 +116,7 @@ ALGEBRAIC_KINDS = ("reaction", "driver_torque", "axial")
 PARTS = ("truncation", "model_form", "time_integration")
 
 #: name -> a model-form estimator: ``f(mech, result) -> (output -> fraction of peak, method text)``.
-#: The "exact" slice registers the von Karman curvature estimate (symgen.numerics.model_form).
+#: The curvature estimate (symgen.numerics.model_form) is registered below.
 ModelFormEstimator = Callable[["Mechanism", "SimResult"], tuple[dict[str, float], str]]
 MODEL_FORM_ESTIMATORS: dict[str, ModelFormEstimator] = {}
 
@@ -121,6 +124,11 @@ MODEL_FORM_ESTIMATORS: dict[str, ModelFormEstimator] = {}
 def register_model_form(name: str, estimator: ModelFormEstimator) -> None:
     """Connect a model-form estimator (the seam of the model-form part)."""
     MODEL_FORM_ESTIMATORS[name] = estimator
+
+
+#: the curvature's left-out terms (von Karman's beyond eta''^2, the exact bar's beyond its
+#: expansion): symgen.numerics.model_form
+register_model_form("curvature", _model_form.estimate)
 
 
 class InvalidEstimate(ValueError):
@@ -262,12 +270,24 @@ def estimate_errors(
         parts["model_form"] = dict.fromkeys(names)
         methods["model_form"] = "not estimated"
         reasons["model_form"] = (
-            "no model-form estimator is connected (the von Karman curvature estimate: symgen.numerics.model_form)"
+            "no model-form estimator is connected (the curvature estimate: symgen.numerics.model_form)"
         )
     else:
-        values, how = estimator(mech, result)
-        parts["model_form"] = {n: (float(values[n]) if n in values else None) for n in names}
-        methods["model_form"] = how
+        try:
+            values, how = estimator(mech, result)
+        except ModelFormNotEstimated as why:
+            parts["model_form"] = dict.fromkeys(names)
+            methods["model_form"] = "not estimated"
+            reasons["model_form"] = str(why)
+        except (ValueError, ArithmeticError, RuntimeError) as why:  # LinAlgError is a ValueError
+            # the run is complete and stays so: its estimate says what stopped the estimator
+            parts["model_form"] = dict.fromkeys(names)
+            methods["model_form"] = "not estimated"
+            reasons["model_form"] = f"the model-form estimate could not be evaluated ({type(why).__name__}: {why})"
+        else:
+            measured_mf = _measured(mech, names)
+            parts["model_form"] = {n: (float(values[n]) if n in values and n in measured_mf else None) for n in names}
+            methods["model_form"] = how
     measured = _measured(mech, names)
     bound = time_integration_part(result, rtol, atol, peaks, {o.name: o.kind for o in mech.scene.outputs})
     parts["time_integration"] = {n: v if n in measured else None for n, v in bound.items()}

@@ -219,6 +219,19 @@ def build_sidecar(
         "quasi_static_transverse": {
             name: {"functions": k, "reason": why} for name, (k, why) in quasi_static_reasons(scene).items()
         },
+        # effects.strain as written, the bar formulation used and why (symgen.scene.strain)
+        "strain": (
+            scene.strain_choice.as_dict()
+            if scene.strain_choice is not None
+            else {
+                "requested": scene.effects.strain,
+                "strain": scene.effects.strain,
+                "reason": "the scene's effects.strain",
+                "von_karman_model_form": None,
+                "output": "",
+                "accuracy": None,
+            }
+        ),
         "accuracy": sim.accuracy,
         "bases": {c.bar: c.as_dict() for c in scene.bases},
         "modes": {name: md.to_json() for name, md in info.modes.items()},

@@ -23,9 +23,10 @@ EFFECT_SWITCHES = ("axial", "transverse", "geometric_stiffening", "coriolis", "r
 # choice "auto" (the default), "dynamic" (= true), "quasi_static" and "inextensible"
 AXIAL_MODELS = ("auto", "dynamic", "quasi_static", "inextensible")
 EFFECT_KEYS = EFFECT_SWITCHES + ("strain", "gravity", "damping")
-STRAINS = ("von_karman", "linear", "exact")
+STRAINS = ("von_karman", "linear", "exact", "auto")
 STRAIN_HINT = (
-    'use "von_karman" (the default), "exact" (von Karman strain and the curvature of the bar\'s axis to '
+    'use "auto" (the default: von Karman, the exact bar where a run\'s model-form estimate exceeds '
+    'simulation.accuracy), "von_karman", "exact" (von Karman strain and the curvature of the bar\'s axis to '
     'sixth order in the amplitudes: docs/exact-bars.md) or "linear" (the seed\'s)'
 )
 INITIAL_KEYS = ("guess", "deformation")
@@ -344,7 +345,7 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
         switches["axial"] = r.choice(table, "effects", "axial", AXIAL_MODELS, hint=axial_hint)
     else:
         switches["axial"] = r.boolean(table, "effects", "axial", defaults.axial, hint=axial_hint)
-    strain = r.choice(table, "effects", "strain", STRAINS, defaults.strain, hint=STRAIN_HINT)
+    strain = r.choice(table, "effects", "strain", STRAINS, "auto", hint=STRAIN_HINT)
     if strain == "exact":
         if not switches["geometric_stiffening"]:
             r.fail(

@@ -63,6 +63,7 @@ from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
 from symgen.scene.ranges import merge_inputs, check_body_groups, check_scaled_values, reference_inputs
 from symgen.scene.reader import Reader
+from symgen.scene.strain import choose_strain
 from symgen.scene.units import Scales
 
 __all__ = ["load_scene", "apply_overrides", "parse_scene", "scene_hash"]
@@ -423,6 +424,10 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
     drivers = read_drivers(r, raw, by_name, joints, scales)
     paths = driver_paths(raw)
     effects = read_effects(r, raw, scales)
+    strain_choice = choose_strain(
+        effects.strain, effects.geometric_stiffening, [j.name for j in joints if j.kind == "slot"]
+    )
+    effects = replace(effects, strain=strain_choice.strain)
     loads = read_loads(r, raw, by_name, {b.name: b for b in bars}, scales)
     masses = read_masses(r, raw, by_name, joints, scales)
     outputs = read_outputs(r, raw, by_name, {j.name: j for j in joints}, drivers)
@@ -449,6 +454,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         groups=build_groups(bodies, scales, header.units, effects),
         masses=masses,
         si_inputs=si_inputs(raw, bars, header.omega, header.reference_length) if si else (),
+        strain_choice=strain_choice,
     )
     table: dict = raw["initial"] if isinstance(raw.get("initial"), dict) else {}
     given_guess: dict = table["guess"] if isinstance(table.get("guess"), dict) else {}

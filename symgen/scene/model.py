@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from symgen.scene.bases import BasisChoice
+    from symgen.scene.strain import StrainChoice
 
 GROUND = "ground"
 
@@ -198,6 +199,9 @@ class Scene:
     bases: tuple[
         BasisChoice, ...
     ] = ()  # symgen.scene.bases.BasisChoice per elastic bar: its counts, chosen or stated, and why
+    # effects.strain as written ("auto", the default, or a value), the formulation used and why
+    # (symgen.scene.strain; None for a Scene built in code: its effects.strain is used as it is)
+    strain_choice: StrainChoice | None = None
 
     @property
     def driver(self) -> Driver | None:

@@ -584,12 +584,17 @@ EFFECTS = Table(
         Key(
             "strain",
             "string",
-            '"von_karman" (energy-consistent: bending shortens the chord), "exact" (von Karman strain '
+            '"auto" (the default): von Karman, or the exact bar where a run\'s model-form estimate of von '
+            "Karman (the curvature terms it leaves out) exceeds simulation.accuracy on an output: symgen "
+            "simulate then runs the scene again with the exact bar, remembers the decision for the scene, and "
+            "the sidecar (strain) says which and why; derive, latex, check and emit-c use von Karman (scenes "
+            'with a slot joint or geometric_stiffening = false keep it). "von_karman" (energy-consistent: '
+            'bending shortens the chord), "exact" (von Karman strain '
             "and the exact curvature of the bar's axis to sixth order in the amplitudes: the geometrically "
             "exact beam's answer at large deflection; needs geometric_stiffening, no slot joints) or "
             '"linear" (the seed\'s).',
             {"enum": list(_ex.STRAINS)},
-            default='"von_karman"',
+            default='"auto"',
             allowed=_ex.STRAINS,
             example='"von_karman"',
         ),

@@ -85,6 +85,8 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
     lines += [f"  {'bases' if i == 0 else '':8} {c.bar}: {describe_basis(c)}" for i, c in enumerate(scene.bases)]
     quasi = quasi_static_reasons(scene)
     lines += [f"  {'quasi' if i == 0 else '':8} {bar}: {why}" for i, (bar, (_, why)) in enumerate(quasi.items())]
+    if scene.strain_choice is not None:
+        lines.append(f"  {'strain':8} {scene.strain_choice.strain} ({scene.strain_choice.reason})")
     if not scene.drivers:
         lines.append(f"  {'driver':8} none")
     for i, drv in enumerate(scene.drivers):

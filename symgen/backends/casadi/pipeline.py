@@ -41,7 +41,22 @@ def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
         return compiled
     from symgen.model.derive import derive
 
-    return _build(derive(scene), use_cache, replace)
+    model = derive(scene)
+    if use_cache:
+        _sample_shapes(model.structure)
+    return _build(model, use_cache, replace)
+
+
+def _sample_shapes(structure: dict) -> None:
+    """The bars' shape functions at quadrature nodes, into the signed cache, where the
+    model-form estimate of the model's runs reads them without SymPy
+    (:mod:`symgen.model.shape_samples`): only where there is a curvature to estimate (von Karman
+    or the exact bar; the seed's linear strain has no model-form estimate)."""
+    from symgen.model.shape_samples import remember_samples
+
+    effects = structure.get("effects", {})
+    if effects.get("strain") in ("von_karman", "exact") and effects.get("geometric_stiffening", True):
+        remember_samples(structure)
 
 
 def compile_model(model, use_cache: bool = True) -> CompiledModel:

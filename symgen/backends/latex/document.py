@@ -165,6 +165,15 @@ STRAIN_TEXT = {
 }
 
 
+def _strain_reason(scene) -> str:
+    """Why the scene has its strain, when it was chosen (``effects.strain = "auto"``:
+    :mod:`symgen.scene.strain`): a sentence under the effects table ("" when written)."""
+    choice = scene.strain_choice
+    if choice is None or choice.requested != "auto":
+        return ""
+    return tex_escape(choice.reason)
+
+
 def _ip_table(bm, used: set) -> list[dict]:
     """Rows (symbol, exact value, decimal, kind) of the inner products of bar ``bm``'s display
     form that the shown equations use."""
@@ -642,7 +651,7 @@ def latex_document(scene, model) -> str:
         ("geometric stiffening", "on" if eff.geometric_stiffening else "off"),
         ("Coriolis terms", "on" if eff.coriolis else "off"),
         ("rotary inertia", "on" if eff.rotary_inertia else "off"),
-        ("axial strain", STRAIN_TEXT[eff.strain]),
+        ("axial strain", STRAIN_TEXT[eff.strain] + (" (auto)" if _strain_reason(scene) else "")),
         ("gravity $(g_x, g_y)$", "off" if not any(eff.gravity) else f"$({eff.gravity[0]:.6g}, {eff.gravity[1]:.6g})$"),
         ("Kelvin--Voigt damping", "off" if not eff.damping else f"${eff.damping:.6g}$"),
     ]
@@ -818,6 +827,7 @@ def latex_document(scene, model) -> str:
         "bodies": bodies,
         "scene_groups": scene_groups,
         "effects": effects,
+        "strain_reason": _strain_reason(scene),
         "joints": joints,
         "drivers": drivers,
         "angle_driver": any(d.kind == "angle" for d in scene.drivers),

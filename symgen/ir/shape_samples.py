@@ -1,0 +1,130 @@
+"""The shape functions of one elastic bar sampled at quadrature nodes: what the model-form
+estimate of a run (:mod:`symgen.numerics.model_form`) needs of the bar's bases, without the
+model layer's SymPy.
+
+The samples are taken when a model is derived (:func:`symgen.model.shape_samples.remember_samples`)
+and kept in the signed cache of checks (:func:`symgen.cache.remember`), keyed by
+:func:`samples_question` (the bar's structure record, the node count, the version); a run reads
+them back with :func:`symgen.cache.recall` and :meth:`ShapeSamples.from_json`, which checks
+every field (:class:`InvalidShapeSamples`, never a ``KeyError``).
+
+Every integral the estimate takes over the bar (mass, bending and geometric stiffness, the
+exact curvature's energy) is ``sum_i w_i f(xi_i)`` over these nodes: Gauss-Legendre on
+``SEGMENTS`` equal pieces of [0, 1], each further split at the bar's static-correction points
+(where a correction function's third derivative jumps).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from symgen import __version__
+
+__all__ = ["GAUSS_POINTS", "SEGMENTS", "InvalidShapeSamples", "ShapeSamples", "samples_question"]
+
+#: Gauss-Legendre points per segment and equal segments of [0, 1] (before the split at the
+#: correction points): 16 x 8 nodes integrate the sine and clamped-free families' products of
+#: degree <= 6 (E4's eta'^2 eta''^2) to 1e-12 relative (tests/test_model_form_lean.py)
+GAUSS_POINTS = 8
+SEGMENTS = 16
+#: the version of the samples' question (a change of the nodes or of the record)
+SAMPLES_VERSION = "1"
+
+
+class InvalidShapeSamples(ValueError):
+    """A cached shape-samples record that is not one (sampled again)."""
+
+
+@dataclass(frozen=True)
+class ShapeSamples:
+    """One bar's functions at the quadrature nodes ``xi`` (weights ``w``): ``axial1[i][k]`` =
+    phi_k'(xi_i); ``trans0``, ``trans1``, ``trans2`` the transverse functions psi_a and their
+    first and second derivatives (lengths in units of the bar's length)."""
+
+    bar: str
+    xi: tuple[float, ...]
+    w: tuple[float, ...]
+    axial1: tuple[tuple[float, ...], ...]
+    trans0: tuple[tuple[float, ...], ...]
+    trans1: tuple[tuple[float, ...], ...]
+    trans2: tuple[tuple[float, ...], ...]
+
+    @property
+    def na(self) -> int:
+        return len(self.axial1[0]) if self.axial1 else 0
+
+    @property
+    def nt(self) -> int:
+        return len(self.trans0[0]) if self.trans0 else 0
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "bar": self.bar,
+            "xi": list(self.xi),
+            "w": list(self.w),
+            "axial1": [list(r) for r in self.axial1],
+            "trans0": [list(r) for r in self.trans0],
+            "trans1": [list(r) for r in self.trans1],
+            "trans2": [list(r) for r in self.trans2],
+        }
+
+    @classmethod
+    def from_json(cls, data: object) -> ShapeSamples:
+        keys = ("bar", "xi", "w", "axial1", "trans0", "trans1", "trans2")
+        if not isinstance(data, dict):
+            raise InvalidShapeSamples("the shape samples are not an object")
+        missing = [k for k in keys if k not in data]
+        if missing:
+            raise InvalidShapeSamples(f"the shape samples have no {missing[0]!r}")
+        extra = sorted(set(data) - set(keys))
+        if extra:
+            raise InvalidShapeSamples(f"the shape samples have an unknown field {extra[0]!r}")
+        bar = data["bar"]
+        if not isinstance(bar, str) or not bar:
+            raise InvalidShapeSamples("'bar' is not a bar's name")
+        xi, w = _row(data["xi"], "xi"), _row(data["w"], "w")
+        if not xi or len(w) != len(xi):
+            raise InvalidShapeSamples("'xi' and 'w' are not nodes and their weights")
+        if any(not 0.0 <= x <= 1.0 for x in xi) or any(x <= 0 for x in w) or abs(sum(w) - 1.0) > 1e-9:
+            raise InvalidShapeSamples("'xi' and 'w' are not a quadrature of [0, 1]")
+        tables = {k: _table(data[k], k, len(xi)) for k in ("axial1", "trans0", "trans1", "trans2")}
+        widths = {len(t[0]) if t else 0 for k, t in tables.items() if k != "axial1"}
+        if len(widths) != 1:
+            raise InvalidShapeSamples("'trans0', 'trans1', 'trans2' do not hold the same functions")
+        return cls(bar, xi, w, tables["axial1"], tables["trans0"], tables["trans1"], tables["trans2"])
+
+
+def samples_question(body: dict[str, Any]) -> dict[str, Any]:
+    """The cache question of a bar's samples: its structure record (``ModelInfo.structure``'s
+    ``bodies`` entry: the families, counts, frame, correction points), the nodes, the version."""
+    return {
+        "check": "model_form.shape_samples",
+        "version": __version__,
+        "samples": SAMPLES_VERSION,
+        "nodes": [SEGMENTS, GAUSS_POINTS],
+        "body": body,
+    }
+
+
+def _row(x: object, what: str) -> tuple[float, ...]:
+    if not isinstance(x, list) or not all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in x
+    ):
+        raise InvalidShapeSamples(f"{what!r} is not a list of numbers")
+    return tuple(float(v) for v in x)
+
+
+def _table(x: object, what: str, rows: int) -> tuple[tuple[float, ...], ...]:
+    """A rows x k table (k >= 0; an empty list when the bar has no functions of that kind)."""
+    if not isinstance(x, list):
+        raise InvalidShapeSamples(f"{what!r} is not a table")
+    if not x:
+        return ()
+    if len(x) != rows:
+        raise InvalidShapeSamples(f"{what!r} does not have one row per node")
+    table = tuple(_row(r, what) for r in x)
+    if len({len(r) for r in table}) != 1 or not table[0]:
+        raise InvalidShapeSamples(f"{what!r} is not a table of equal rows")
+    return table

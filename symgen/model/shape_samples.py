@@ -1,0 +1,72 @@
+"""Sample a bar's shape functions at quadrature nodes for the model-form estimate
+(:class:`symgen.ir.shape_samples.ShapeSamples`), when the model is derived: a run on the cached
+model then reads them from the signed cache without SymPy."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from symgen import cache
+from symgen.ir.shape_samples import GAUSS_POINTS, SEGMENTS, ShapeSamples, samples_question
+from symgen.model.static_shapes import bar_bases
+
+__all__ = ["remember_samples", "sample_bar", "shape_samples"]
+
+
+def _nodes(breaks: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights on [0, 1]: ``SEGMENTS`` equal pieces, split further at
+    ``breaks``."""
+    cuts = sorted({*np.linspace(0.0, 1.0, SEGMENTS + 1).tolist(), *(b for b in breaks if 0.0 < b < 1.0)})
+    x0, w0 = np.polynomial.legendre.leggauss(GAUSS_POINTS)
+    xs, ws = [], []
+    for a, b in zip(cuts[:-1], cuts[1:]):
+        if b - a <= 1e-12:
+            continue
+        xs.append(a + (b - a) * (x0 + 1.0) / 2.0)
+        ws.append((b - a) * w0 / 2.0)
+    return np.concatenate(xs), np.concatenate(ws)
+
+
+def sample_bar(body: dict[str, Any]) -> ShapeSamples:
+    """The samples of one bar (its ``ModelInfo.structure["bodies"]`` record)."""
+    ba, bt = bar_bases(body)
+    xi, w = _nodes((*ba.points, *bt.points, *bt.moment_points))
+
+    def table(basis: Any, d: int) -> tuple[tuple[float, ...], ...]:
+        if len(basis) == 0:
+            return ()
+        return tuple(tuple(float(v) for v in basis.values(float(x), d)) for x in xi)
+
+    return ShapeSamples(
+        body["name"],
+        tuple(float(x) for x in xi),
+        tuple(float(x) for x in w),
+        table(ba, 1),
+        table(bt, 0),
+        table(bt, 1),
+        table(bt, 2),
+    )
+
+
+def shape_samples(body: dict[str, Any]) -> ShapeSamples:
+    """The samples of one bar, from the cache of checks or sampled now (and remembered)."""
+    question = samples_question(body)
+    known, answer = cache.recall(question)
+    if known:
+        try:
+            return ShapeSamples.from_json(answer)
+        except ValueError:
+            pass
+    samples = sample_bar(body)
+    cache.remember(question, samples.to_json())
+    return samples
+
+
+def remember_samples(structure: dict[str, Any]) -> None:
+    """Sample every bar of a derived model's ``structure`` that bends (its transverse count > 0)
+    into the cache, where the model-form estimate of its runs reads them."""
+    for body in structure.get("bodies", []):
+        if body.get("nt"):
+            shape_samples(body)

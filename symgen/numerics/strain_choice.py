@@ -1,0 +1,151 @@
+"""The run-time half of ``effects.strain = "auto"`` (:mod:`symgen.scene.strain` has the loaded
+half): after a complete von Karman run of an "auto" scene, its model-form estimate
+(:func:`symgen.numerics.model_form.model_form_estimate`) decides whether the run is made again
+with the exact bar: when it exceeds ``simulation.accuracy`` on any output (closure residuals
+aside). The decision is remembered in the signed cache, keyed by the scene's hash (the scene
+after overrides) and the version, so a rerun of the same scene loads the decided model directly.
+
+Why after the run, not from the scene alone: the error is ~ (pi^2 / 2) (slope)^2, amplified by
+axial compression towards the Euler load, and the slopes come from the run (a torque-driven
+spin-up's speed, a slewing arm's tip deflection): the a-priori estimates of the bases chooser
+(:mod:`symgen.scene.bases`) are relative (truncation as a fraction of the bar's own response)
+and carry no amplitude. docs/exact-bars.md, "Choosing the bar", has the measured cases.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from symgen import __version__, cache
+from symgen.numerics.model_form import ModelFormNotEstimated, model_form_estimate
+from symgen.scene.strain import AUTO, StrainChoice
+
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.scene.model import Scene
+
+__all__ = ["decide", "recalled", "resolved", "run_with_strain_choice", "switchable", "with_choice"]
+
+R = TypeVar("R")
+
+#: the model-form estimator's version in the remembered decisions (a changed estimator decides again)
+ESTIMATOR_VERSION = "2"
+#: output kinds that do not decide (zero to round-off in every model)
+NOT_DECIDING = ("closure_residual",)
+
+
+def _question(scene: Scene) -> dict[str, Any]:
+    return {"check": "strain.auto", "version": __version__, "estimator": ESTIMATOR_VERSION, "scene": scene.hash}
+
+
+def switchable(scene: Scene) -> bool:
+    """An "auto" scene whose run may still switch to the exact bar."""
+    return scene.strain_choice is not None and scene.strain_choice.switchable
+
+
+def with_choice(scene: Scene, choice: StrainChoice) -> Scene:
+    """The scene with the formulation ``choice`` (its effects.strain and its record)."""
+    return replace(scene, effects=replace(scene.effects, strain=choice.strain), strain_choice=choice)
+
+
+def recalled(scene: Scene) -> Scene | None:
+    """The scene with the decision remembered for it, or None (not "auto", or not decided yet)."""
+    if not switchable(scene) or not scene.hash:
+        return None
+    known, answer = cache.recall(_question(scene))
+    if not known or not isinstance(answer, dict):
+        return None
+    try:
+        choice = StrainChoice(
+            AUTO,
+            str(answer["strain"]),
+            str(answer["reason"]),
+            False,
+            float(answer["estimate"]),
+            str(answer["output"]),
+            float(answer["accuracy"]),
+        )
+    except (KeyError, TypeError, ValueError):
+        return None
+    if choice.strain not in ("von_karman", "exact"):
+        return None
+    return with_choice(scene, choice)
+
+
+def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
+    """The decision after a complete von Karman run ``result`` of the "auto" scene of ``mech``
+    (remembered), or None when its model form cannot be estimated (the scene keeps von Karman,
+    provisionally)."""
+    scene = mech.scene
+    try:
+        est = model_form_estimate(mech, result)
+    except (ModelFormNotEstimated, ValueError, ArithmeticError, RuntimeError):
+        # not estimated (the reason is the sidecar's error estimate): von Karman, provisionally
+        return None
+    kinds = {o.name: o.kind for o in scene.outputs}
+    values = {n: v for n, v in est.outputs.items() if kinds.get(n) not in NOT_DECIDING}
+    accuracy = float(scene.simulation.accuracy)
+    worst = max(values, key=lambda n: values[n]) if values else ""
+    top = values.get(worst, 0.0)
+    if top > accuracy:
+        choice = StrainChoice(
+            AUTO,
+            "exact",
+            f"auto: the exact bar, because the model-form estimate of von Karman (the curvature terms it "
+            f"leaves out) is {top:.2e} of peak on {worst}, above simulation.accuracy {accuracy:g}",
+            False,
+            top,
+            worst,
+            accuracy,
+        )
+    else:
+        choice = StrainChoice(
+            AUTO,
+            "von_karman",
+            f"auto: von Karman, its model-form estimate (the curvature and strain terms it leaves out) is "
+            f"{top:.2e} of peak{f' on {worst}' if worst else ''}, within simulation.accuracy {accuracy:g}",
+            False,
+            top,
+            worst,
+            accuracy,
+        )
+    if scene.hash:
+        cache.remember(
+            _question(scene),
+            {"strain": choice.strain, "reason": choice.reason, "estimate": top, "output": worst, "accuracy": accuracy},
+        )
+    return choice
+
+
+def resolved(scene: Scene) -> Scene:
+    """The scene with the decision remembered for it, else as it is."""
+    return recalled(scene) or scene
+
+
+def run_with_strain_choice(
+    mech: Mechanism,
+    load: Callable[[Scene], Mechanism],
+    run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
+    say: Callable[[str], None] | None = None,
+) -> tuple[Mechanism, R | None, BaseException | None]:
+    """``run(mech)`` -> (mechanism, result, failure), with "auto" decided when the scene of
+    ``mech`` may still switch (:func:`resolved` it first to use a remembered decision): after a
+    complete von Karman run its model-form estimate decides, and the run is made again with the
+    exact bar (``load``-ed) when it says so. Any other scene is run once, as it is."""
+    result, failure = run(mech)
+    if failure is not None or result is None or not switchable(mech.scene):
+        return mech, result, failure
+    choice = decide(mech, result)
+    if choice is None:
+        return mech, result, failure
+    decided = with_choice(mech.scene, choice)
+    if choice.strain == "von_karman":
+        mech.scene = decided  # the same model: the record says what was estimated
+        return mech, result, failure
+    if say is not None:
+        say(choice.reason + ": running it")
+    mech = load(decided)
+    result, failure = run(mech)
+    return mech, result, failure
