@@ -258,35 +258,50 @@ def _build(
     parent, store = build_folder(where, store)
     with cache.temp_dir(parent, where.name) as tmp:
         units = write_units(funcs, tmp)
-        objects = [c.with_suffix(".o") for c in units]
-        compile_cmds = [[comp.path, *comp.flags, "-fPIC", "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
-        link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(tmp / LIBRARY), "-lm"]
-        sizes = [c.stat().st_size for c in units]
-        max_jobs = min(len(units), jobs())
-        try:
-            label = announce_compile(
-                f"the model library in {len(units)} parts, {max_jobs} at a time",
-                sum(sizes),
-                "--backend vm runs the model without compiling (slower per step)",
-                max_jobs,
-                max(sizes),
-            )
-            # every compiler in a process group of its own: an interrupt kills each cc1 too
-            procs = run_groups(compile_cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=label)
-            if all(p.returncode == 0 for p in procs):
-                procs.append(run_group(link, timeout=COMPILE_TIMEOUT_S))
-        except (OSError, subprocess.SubprocessError) as exc:
-            raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
-        proc = procs[-1]
-        if proc.returncode != 0:
-            first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
-            raise Unavailable(f"the C compiler {comp.path} failed (exit {proc.returncode}: {first[:200]})")
-        blob = (tmp / LIBRARY).read_bytes()
+        blob = link_units(
+            comp,
+            units,
+            [],
+            tmp / LIBRARY,
+            f"the model library in {len(units)} parts",
+            "--backend vm runs the model without compiling (slower per step)",
+            "",
+        )
         if store:
-            for path in (*units, *objects):
-                path.unlink()
+            for path in tmp.iterdir():
+                if path.name != LIBRARY:  # the C and the objects
+                    path.unlink()
             install(tmp, where, key, LIBRARY, blob, replace)
     return blob
+
+
+def link_units(
+    comp: Compiler, units: list[Path], flags: list[str], out: Path, what: str, instead: str, on: str
+) -> bytes:
+    """The bytes of the shared library ``out`` linked from the C files ``units``, compiled in
+    parallel (as many at once as there are cores, the largest first; each compiler in a process
+    group of its own: an interrupt kills cc1 too) with ``flags`` before the compiler's; a progress
+    line names ``what``, and a long compile is announced with ``instead`` (how to run without it).
+    Raises :class:`Unavailable` when the compiler cannot be run or fails (``on``: what it failed
+    on, e.g. " on the emitted C")."""
+    units = sorted(units, key=lambda c: -c.stat().st_size)
+    objects = [c.with_suffix(".o") for c in units]
+    cmds = [[comp.path, *flags, *comp.flags, "-fPIC", "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
+    link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(out), "-lm"]
+    sizes = [c.stat().st_size for c in units]
+    max_jobs = min(len(units), jobs())
+    try:
+        label = announce_compile(f"{what}, {max_jobs} at a time", sum(sizes), instead, max_jobs, max(sizes))
+        procs = run_groups(cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=label)
+        if all(p.returncode == 0 for p in procs):
+            procs.append(run_group(link, timeout=COMPILE_TIMEOUT_S))
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
+    proc = next((p for p in procs if p.returncode != 0), procs[-1])
+    if proc.returncode != 0:
+        first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
+        raise Unavailable(f"the C compiler {comp.path} failed{on} (exit {proc.returncode}: {first[:200]})")
+    return out.read_bytes()
 
 
 def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
@@ -304,33 +319,26 @@ def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
 
 
 def _load(blob: bytes, signatures: list[Signature]) -> dict[str, ca.Function]:
-    """Externals of the Functions of ``signatures`` from verified library bytes: written to a
-    private folder, loaded (the importer keeps the library mapped), the copy removed; signatures
-    checked."""
-    private = Path(tempfile.mkdtemp(prefix="symgen-lib-"))
+    """Externals of the Functions of ``signatures`` from verified library bytes, loaded from a
+    private copy (:func:`symgen.cache.load_private`); signatures checked."""
+    return cache.load_private(blob, LIBRARY, lambda path: _externals(path, signatures))
+
+
+def _externals(path: Path, signatures: list[Signature]) -> dict[str, ca.Function]:
     try:
-        path = private / LIBRARY
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o500)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(blob)
+        importer = ca.Importer(str(path), "dll")
+    except RuntimeError as exc:
+        raise cache.InvalidEntry(f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})") from None
+    out = {}
+    for sig in signatures:
+        name = str(sig[0])
+        if name.startswith("jac_"):
+            continue  # loaded by its function's external on demand
         try:
-            importer = ca.Importer(str(path), "dll")
-        except RuntimeError as exc:
-            raise cache.InvalidEntry(
-                f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})"
-            ) from None
-        out = {}
-        for sig in signatures:
-            name = str(sig[0])
-            if name.startswith("jac_"):
-                continue  # loaded by its function's external on demand
-            try:
-                ext = ca.external(name, importer, {"enable_fd": False})
-            except RuntimeError:
-                raise cache.InvalidEntry(f"{LIBRARY} has no function {name!r}") from None
-            if _signature(ext) != sig:
-                raise cache.InvalidEntry(f"{LIBRARY}: {name} has the signature {_signature(ext)}, not {sig}")
-            out[name] = ext
-        return out
-    finally:
-        shutil.rmtree(private, ignore_errors=True)
+            ext = ca.external(name, importer, {"enable_fd": False})
+        except RuntimeError:
+            raise cache.InvalidEntry(f"{LIBRARY} has no function {name!r}") from None
+        if _signature(ext) != sig:
+            raise cache.InvalidEntry(f"{LIBRARY}: {name} has the signature {_signature(ext)}, not {sig}")
+        out[name] = ext
+    return out
