@@ -346,6 +346,9 @@ def simulate_c(
             "solve_cpu_s": cpu,
             "accepted": int(stats["accepted"]),
             "rejected": int(stats["rejected"]),
+            "jacobians": int(stats["jacobians"]),
+            "factorizations": int(stats["factorizations"]),
+            "residuals": int(stats["residuals"]),
         },
     )
     if stop is None and rc != 0:
