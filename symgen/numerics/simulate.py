@@ -108,7 +108,7 @@ class DaeRunner:
         self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
         self._maps: dict[tuple[str, int], ca.Function] = {}
         self._integrators: dict[tuple[float, int], ca.Function] = {}
-        self.opts: dict[str, float | bool | list[float]] = {
+        self.opts: dict[str, float | bool | str | list[float]] = {
             "abstol": atol,
             "reltol": rtol,
             "max_num_steps": 2_000_000,
