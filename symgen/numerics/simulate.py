@@ -152,7 +152,12 @@ class DaeRunner:
         signatures = _signatures(mech, part) if self.nI else [compiled._signature(f) for f in build()]
         try:
             ext, built = compiled.library_of(
-                signatures, build, mech.info.key, f"ind={list(part.ind)} dep={list(part.dep)}", store=use_cache
+                signatures,
+                build,
+                mech.info.key,
+                f"ind={list(part.ind)} dep={list(part.dep)}",
+                store=use_cache,
+                cold=COLD,
             )
         except compiled.Unavailable as exc:
             if choice == "compiled":
@@ -604,6 +609,9 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
 
 #: The Functions of a runner that a compiled library holds, in its order.
 COMPILED = ("dae", "jac_dae", "g", "split", "rec")
+#: Those evaluated rarely (once per IDAS Jacobian; once per polish iteration or chunk of outputs),
+#: compiled with ``compiled.COLD_CFLAGS``: the residual ``dae`` is the run's hot loop.
+COLD = ("jac_dae", "g", "split", "rec")
 
 
 def _symbolic(mech: Mechanism, part: Partition) -> dict[str, ca.Function]:
