@@ -144,7 +144,11 @@ def render(rows: list, repeats: int) -> str:
             f"| {n} | {a['n']} | {c0['steps']} | {c0['jacobians']} | {c0['factorizations']} | {_fmt(cb)} | "
             f"{_fmt(ca)} | {a['idas'][0]['steps']} | {_fmt(ib)} | {_fmt(ia)} |"
         )
-    out += ["", f"Exponent k of µs per step ~ N^k (least squares over {ns[0]}-{ns[-1]} bars; target k <= {TARGET_K}):", ""]
+    out += [
+        "",
+        f"Exponent k of µs per step ~ N^k (least squares over {ns[0]}-{ns[-1]} bars; target k <= {TARGET_K}):",
+        "",
+    ]
     out += ["| path | before | after |", "|---|---|---|"]
     for label, kb, ka in (("C solver", "cb", "ca"), ("IDAS (compiled)", "ib", "ia")):
         sb = f"{_slope(ns, cols[kb]):.2f}" if len(cols[kb]) == len(ns) > 1 else "-"

@@ -217,6 +217,7 @@ static void test_lu(void)
 static int sp_idx[SPN * SPN], sp_mark[SPN * SPN], sp_prow[SPN], sp_pcol[SPN], sp_rc[SPN], sp_cc[SPN];
 static int sp_lptr[SPN + 1], sp_uptr[SPN];
 static double sp_A[SPN * SPN], sp_LU[SPN * SPN], sp_Ai[SPN * SPN], sp_LUi[SPN * SPN];
+static double sp_v[SPN * SPN + SPN], sp_vi[SPN * SPN + SPN];
 
 static void arrow(double *A, int n, unsigned long *seed)
 {
@@ -268,7 +269,7 @@ static void test_sparse_lu(void)
         memcpy(sp_LU, sp_A, sizeof(double) * n * n);
         rc = symgen_splu_analyze(&f, sp_LU, 0.1);
         memcpy(rhs, b, sizeof(double) * n);
-        if (rc == 0) symgen_splu_solve(&f, sp_LU, rhs, x);
+        if (rc == 0) { symgen_splu_pack(&f, sp_LU, sp_v); symgen_splu_solve(&f, sp_v, rhs, x); }
         worst = fmax(worst, rc == 0 ? residual(sp_A, NULL, n, b, NULL, x, NULL) : HUGE_VAL);
         if (n == SPN && !(f.nnz < 2 * nnz_a && f.flops < n * n * n / 20)) fill_ok = 0;
         /* new values on the same pattern: the kept pivots */
@@ -278,7 +279,7 @@ static void test_sparse_lu(void)
         symgen_splu_gather(&f, sp_A, 1.0, sp_LU);
         rc = symgen_splu_refactor(&f, sp_LU, 0.01);
         memcpy(rhs, b, sizeof(double) * n);
-        if (rc == 0) symgen_splu_solve(&f, sp_LU, rhs, x);
+        if (rc == 0) { symgen_splu_pack(&f, sp_LU, sp_v); symgen_splu_solve(&f, sp_v, rhs, x); }
         worst_re = fmax(worst_re, rc == 0 ? residual(sp_A, NULL, n, b, NULL, x, NULL) : HUGE_VAL);
         /* complex: A + i D (D diagonal on the first rows, as the Radau matrix E2) */
         memset(sp_Ai, 0, sizeof(double) * n * n);
@@ -288,7 +289,11 @@ static void test_sparse_lu(void)
         rc = symgen_splu_crefactor(&f, sp_LU, sp_LUi, 0.01);
         memcpy(rhs, b, sizeof(double) * n);
         memcpy(rhsi, bi, sizeof(double) * n);
-        if (rc == 0) symgen_splu_csolve(&f, sp_LU, sp_LUi, rhs, rhsi, x, xi);
+        if (rc == 0) {
+            symgen_splu_pack(&f, sp_LU, sp_v);
+            symgen_splu_pack(&f, sp_LUi, sp_vi);
+            symgen_splu_csolve(&f, sp_v, sp_vi, rhs, rhsi, x, xi);
+        }
         worst_c = fmax(worst_c, rc == 0 ? residual(sp_A, sp_Ai, n, b, bi, x, xi) : HUGE_VAL);
     }
     check(worst < 1e-12, "sparse LU solves arrow saddle-point systems of size 1..40 (max residual)", worst);

@@ -132,7 +132,7 @@ typedef struct symgen_splu {
 #define SYMGEN_NALG_(n, m) (3 * (m) + (n))
 #define SYMGEN_NW_(n, m) (3 * (n) + (m))
 #define SYMGEN_WORK_DOUBLES(n, m, ni, nd, ne) \
-    (25 * SYMGEN_NY_(n, m, ni, nd) + 4 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
+    (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
      + 13 * (n) + 10 * (m) + 8 * (ne) * (ne) + 8 * (ne) + 1)
@@ -180,7 +180,7 @@ typedef struct symgen_solver {
        K and jred of the dense path are up to date; dense_newton: always the dense path (set
        after symgen_solver_init: the runtime's tests compare both) */
     symgen_splu lu;
-    double *spa, *spr, *spi, *spx, *spxi;
+    double *spa, *spr, *spi, *spx, *spxi, *spv, *spvr, *spvi;   /* spv*: the packed factors */
     int analyzed, sparse, reduced_x, dense_newton;
 } symgen_solver;
 
@@ -262,11 +262,14 @@ SYMGEN_API void symgen_splu_gather(const symgen_splu *f, const double *src, doub
 /* Factor A (values on f's pattern) in place with f's pivots: 0, or k + 1 when pivot k is zero,
    not finite or below tol times the largest entry of its column of L */
 SYMGEN_API int symgen_splu_refactor(const symgen_splu *f, double *A, double tol);
-/* x := A^-1 b (b by rows, overwritten; x by columns) */
-SYMGEN_API void symgen_splu_solve(const symgen_splu *f, const double *A, double *b, double *x);
-/* the same for a complex matrix held as real and imaginary parts */
+/* The factors of the factored A packed in the order the solves read them: val [n * n + n]
+   (L and U along idx, the pivots after n * n): contiguous, where A's columns are strided */
+SYMGEN_API void symgen_splu_pack(const symgen_splu *f, const double *A, double *val);
+/* x := A^-1 b from the packed factors (b by rows, overwritten; x by columns) */
+SYMGEN_API void symgen_splu_solve(const symgen_splu *f, const double *val, double *b, double *x);
+/* the same for a complex matrix held as real and imaginary parts (packed: both parts) */
 SYMGEN_API int symgen_splu_crefactor(const symgen_splu *f, double *ar, double *ai, double tol);
-SYMGEN_API void symgen_splu_csolve(const symgen_splu *f, const double *ar, const double *ai, double *br, double *bi,
+SYMGEN_API void symgen_splu_csolve(const symgen_splu *f, const double *vr, const double *vi, double *br, double *bi,
                                    double *xr, double *xi);
 /* max |x_i| (a NaN propagates) */
 SYMGEN_API double symgen_max_abs(const double *x, int n);

@@ -186,6 +186,9 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->spi = symgen_take_(&d, ny * ny);
     s->spx = symgen_take_(&d, ny);
     s->spxi = symgen_take_(&d, ny);
+    s->spv = symgen_take_(&d, ny * ny + ny);
+    s->spvr = symgen_take_(&d, ny * ny + ny);
+    s->spvi = symgen_take_(&d, ny * ny + ny);
     s->lu.n = (int)ny;
     s->lu.prow = symgen_itake_(&k, ny);
     s->lu.pcol = symgen_itake_(&k, ny);
@@ -707,7 +710,11 @@ static int symgen_sparse_factor_(symgen_solver *s, double h)
         s->spr[j * ny + j] += alphn;
         s->spi[j * ny + j] += betan;
     }
-    return symgen_splu_crefactor(&s->lu, s->spr, s->spi, SYMGEN_SPLU_KEEP) != 0;
+    if (symgen_splu_crefactor(&s->lu, s->spr, s->spi, SYMGEN_SPLU_KEEP)) return 1;
+    symgen_splu_pack(&s->lu, s->spa, s->spv);
+    symgen_splu_pack(&s->lu, s->spr, s->spvr);
+    symgen_splu_pack(&s->lu, s->spi, s->spvi);
+    return 0;
 }
 
 static int symgen_factor_(symgen_solver *s, double h)
@@ -749,7 +756,7 @@ static void symgen_solve1_(symgen_solver *s, double *d)
     double *x = d, *z = d + nx, *u = s->uz;
     int i, k;
     if (s->sparse) {
-        symgen_splu_solve(&s->lu, s->spa, d, s->spx);
+        symgen_splu_solve(&s->lu, s->spv, d, s->spx);
         memcpy(d, s->spx, sizeof(double) * ny);
         return;
     }
@@ -786,7 +793,7 @@ static void symgen_solve2_(symgen_solver *s, double *dr, double *di)
     double *ur = s->uz, *ui = s->uzi;
     int i, k;
     if (s->sparse) {
-        symgen_splu_csolve(&s->lu, s->spr, s->spi, dr, di, s->spx, s->spxi);
+        symgen_splu_csolve(&s->lu, s->spvr, s->spvi, dr, di, s->spx, s->spxi);
         memcpy(dr, s->spx, sizeof(double) * ny);
         memcpy(di, s->spxi, sizeof(double) * ny);
         return;
