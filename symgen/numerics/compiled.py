@@ -19,7 +19,8 @@ are then loaded from a private copy, never from the shared folder); one that doe
 reported in one line and rebuilt, never loaded.
 
 Environment: ``SYMGEN_CC`` (the compiler; default the first of cc, gcc, clang on PATH),
-``SYMGEN_CFLAGS`` (default :data:`DEFAULT_CFLAGS`), ``SYMGEN_BACKEND`` (auto, compiled, vm).
+``SYMGEN_CFLAGS`` (default :data:`DEFAULT_CFLAGS`, and :data:`COLD_CFLAGS` for the Functions a
+caller names cold), ``SYMGEN_BACKEND`` (auto, compiled, vm).
 """
 
 from __future__ import annotations
