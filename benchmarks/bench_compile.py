@@ -166,6 +166,53 @@ def _fmt(x: float) -> str:
     return f"{x:.2f}"
 
 
+def first_runs(base: str, bars: list[int], repeats: int) -> str:
+    """Markdown: the first run of the chains of ``bars`` bars, the tree of commit ``base``
+    against this checkout, interleaved run by run, medians (wall, CPU and the reported parts)."""
+    global BASE
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="symgen-first-") as tmp_s:
+        tmp = Path(tmp_s)
+        old, BASE = BASE, base
+        try:
+            trees = {"before": tmp / "base", "after": ROOT}
+            trees["before"].mkdir()
+            if not base_tree(trees["before"]):
+                del trees["before"]
+        finally:
+            BASE = old
+        for n in bars:
+            scene = tmp / f"chain{n}.toml"
+            scene.write_text(scene_text("chain", n, 2, 4))
+            runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
+            for _ in range(repeats):
+                for name, tree in trees.items():
+                    runs[name].append(first_run(tree, scene, tmp))
+                    print(f"(first run: {n} bars, {name}: {runs[name][-1]})", file=sys.stderr, flush=True)
+            rows.append(
+                (
+                    n,
+                    {
+                        k: {q: statistics.median(r.get(q, float("nan")) for r in rs) for q in rs[0]}
+                        for k, rs in runs.items()
+                    },
+                )
+            )
+    keys = ("wall", "cpu", "derive", "library", "simulate")
+    out = [
+        f"First run (`symgen simulate CHAIN`, empty cache, {os.cpu_count()} cores, medians of {repeats}, "
+        f"interleaved): before = {base}, after = this tree. Wall and CPU s of the whole process (compilers "
+        "included) and the parts it reports.",
+        "",
+        "| bars | " + " | ".join(f"{t} {k}" for t in runs for k in keys) + " | under 5 s |",
+        "|---|" + "---|" * (len(runs) * len(keys) + 1),
+    ]
+    for n, med in rows:
+        cells = [_fmt(med[t].get(k, float("nan"))) for t in runs for k in keys]
+        out.append(f"| {n} | " + " | ".join(cells) + f" | {'yes' if med['after']['wall'] < TARGET_S else 'no'} |")
+    return "\n".join(out)
+
+
 def render(rows_first, rows_alone, rows_flags, trees: list[str], cores: int) -> str:
     lines = [
         "## compile: the first run of a chain of N bars (issue 20, item 4)",
@@ -225,4 +272,8 @@ def render(rows_first, rows_alone, rows_flags, trees: list[str], cores: int) -> 
 
 
 if __name__ == "__main__":
-    print(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1))
+    # bench_compile.py [REPEATS]: the section; --first BASE REPEATS N [N ...]: the first-run table alone
+    if len(sys.argv) > 3 and sys.argv[1] == "--first":
+        print(first_runs(sys.argv[2], [int(a) for a in sys.argv[4:]], int(sys.argv[3])))
+    else:
+        print(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1))

@@ -43,6 +43,7 @@ SECTIONS = [
     "sixbar",
     "lean",
     "compile",
+    "perstep",
     "validation",
     "bases",
     "estimate",

@@ -50,8 +50,8 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-from collections.abc import Iterator
+from typing import Any, TypeVar
+from collections.abc import Callable, Iterator
 
 __all__ = [
     "CACHE_ENV",
@@ -97,6 +97,8 @@ _SHAPE_OLD = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.
 _HEADER = re.compile(rb"symgen-cache ([a-z-]+) hmac-sha256=([0-9a-f]{64})\n")
 #: The per-user key of the cache's keyed hashes: 64 hex digits in a file of its own.
 _KEY = re.compile(rb"[0-9a-f]{64}\n?")
+
+T = TypeVar("T")
 
 
 class InvalidEntry(Exception):
@@ -359,6 +361,23 @@ def remember(question: dict[str, Any], answer: Any) -> None:
             raise
     except (OSError, ValueError):  # KeyUnavailable included; ValueError: not JSON data
         return
+
+
+def load_private(blob: bytes, name: str, loader: Callable[[Path], T]) -> T:
+    """``loader(path)`` of a private copy of verified library bytes ``blob``: written as ``name``
+    (read and execute for the user only, created anew: never a file someone else placed) into a
+    fresh private folder, loaded (the loader keeps the library mapped), the copy removed at once,
+    also when the loader raises. Libraries are loaded from here, never from the shared cache
+    folder, and only after :func:`verify` has checked their keyed hash."""
+    private = Path(tempfile.mkdtemp(prefix="symgen-lib-"))
+    try:
+        path = private / name
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o500)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(blob)
+        return loader(path)
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
 
 
 # ----------------------------------------------------------------------------- writing

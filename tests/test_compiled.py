@@ -332,3 +332,31 @@ def test_the_library_split_in_parallel_units_computes_what_one_unit_computes(tmp
             args = [rng.uniform(-1.0, 1.0, jg.size_in(i)) for i in range(jg.n_in())]
             for g, w in zip(jg.call(args), jw.call(args)):
                 assert np.array_equal(np.asarray(g), np.asarray(w))
+
+
+def test_a_scene_without_multipliers_runs_on_every_path(tmp_path):
+    """tests/data/pendulum_tool.toml (one coordinate, no constraint, no multiplier): the compiled
+    IDAS library once failed its own signature check on it (the empty multiplier vector sliced
+    from a one-element z came out 1 x 0, announced 0 x 1). On the virtual machine, the compiled
+    library and the C solver it swings at the compound pendulum's closed-form frequency; the
+    compiled run equals the virtual machine's to the last bit, the C run agrees within the
+    scene's tolerance, and the --states columns hold no multiplier."""
+    from tests.oracles import zero_crossing_frequency
+    from tests.test_point_mass import _pendulum_closed_form
+
+    omega, hanging = _pendulum_closed_form()
+    amp = 0.02
+    scene = ROOT / "tests" / "data" / "pendulum_tool.toml"
+    common = ["simulate", str(scene), "--set", f"driver.initial={hanging + amp!r}", "--estimate", "off", "--states"]
+    runs = {}
+    for name, extra in (("vm", ["--backend", "vm"]), ("compiled", ["--backend", "compiled"]), ("c", ["--solver", "c"])):
+        proc = _cli([*common, *extra, "-o", str(tmp_path / f"{name}.csv")], {}, tmp_path)
+        assert proc.returncode == 0 and proc.stderr == "", (name, proc.stderr)
+        head = (tmp_path / f"{name}.csv").read_text().splitlines()[0]
+        assert head == "tau,theta,energy,q.theta_arm", (name, head)
+        runs[name] = np.loadtxt(tmp_path / f"{name}.csv", delimiter=",", skiprows=1)
+    assert runs["vm"].shape == runs["compiled"].shape == runs["c"].shape and runs["vm"].shape[0] == 2001
+    assert _close(runs["vm"], runs["compiled"]) <= 1e-12
+    assert np.abs(runs["c"][:, 1] - runs["vm"][:, 1]).max() < 1e-6 * amp
+    for name, rows in runs.items():
+        assert zero_crossing_frequency(rows[:, 0], rows[:, 1] - hanging) == pytest.approx(omega, rel=1e-4), name

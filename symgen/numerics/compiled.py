@@ -19,7 +19,8 @@ are then loaded from a private copy, never from the shared folder); one that doe
 reported in one line and rebuilt, never loaded.
 
 Environment: ``SYMGEN_CC`` (the compiler; default the first of cc, gcc, clang on PATH),
-``SYMGEN_CFLAGS`` (default :data:`DEFAULT_CFLAGS`), ``SYMGEN_BACKEND`` (auto, compiled, vm).
+``SYMGEN_CFLAGS`` (default :data:`DEFAULT_CFLAGS`, and :data:`COLD_CFLAGS` for the Functions a
+caller names cold), ``SYMGEN_BACKEND`` (auto, compiled, vm).
 """
 
 from __future__ import annotations
@@ -49,6 +50,12 @@ BACKEND_ENV = "SYMGEN_BACKEND"
 #: -O1: most of -O2's speed on CasADi's straight-line code at half its compile time;
 #: -ffp-contract=off: the same rounding as the virtual machine (no fused multiply-add)
 DEFAULT_CFLAGS = "-O1 -ffp-contract=off"
+#: The flags of the cold Functions (a caller's ``cold``: evaluated once per Newton matrix or per
+#: output, not per residual) under the default flags: -O0 compiles CasADi's C 4-5 times faster
+#: than -O1 (the 12-bar chain's Jacobian: 1.6 MB of C, 16.5 s at -O1), and the run spends little
+#: in them. The same IEEE operations in the same order: the same numbers as -O1 to the last bit.
+#: A user's $SYMGEN_CFLAGS applies to every unit.
+COLD_CFLAGS = "-O0 -ffp-contract=off"
 BACKENDS = ("auto", "compiled", "vm")
 FORMAT = "symgen-compiled-cache"
 FORMAT_VERSION = 2  # 2: keyed hashes (HMAC-SHA256 with the user's key)
@@ -142,16 +149,22 @@ def _signature(f: ca.Function) -> Signature:
 
 
 def library(
-    funcs: list[ca.Function], model_key: str, variant: str, store: bool = True
+    funcs: list[ca.Function], model_key: str, variant: str, store: bool = True, cold: tuple[str, ...] = ()
 ) -> tuple[dict[str, ca.Function], bool]:
     """Compiled twins of ``funcs`` (SX Functions; a Function named ``jac_NAME`` becomes the
     Jacobian of ``NAME``): ``({name: external Function}, built_now)``.
 
     ``model_key``: the structure key of the derived model; ``variant``: what else the Functions
     depend on (the coordinate partition). ``store=False``: build without using the cache.
+    ``cold``: the names of Functions the run evaluates rarely (:data:`COLD_CFLAGS`).
     Raises :class:`Unavailable` when there is no compiler or the compile fails.
     """
-    return library_of([_signature(f) for f in funcs], lambda: funcs, model_key, variant, store)
+    return library_of([_signature(f) for f in funcs], lambda: funcs, model_key, variant, store, cold)
+
+
+def cold_flags(comp: Compiler) -> tuple[str, ...]:
+    """The flags of a cold Function: :data:`COLD_CFLAGS` under the default flags, else the user's."""
+    return tuple(shlex.split(COLD_CFLAGS)) if comp.flags == tuple(shlex.split(DEFAULT_CFLAGS)) else comp.flags
 
 
 def library_of(
@@ -160,6 +173,7 @@ def library_of(
     model_key: str,
     variant: str,
     store: bool = True,
+    cold: tuple[str, ...] = (),
 ) -> tuple[dict[str, ca.Function], bool]:
     """:func:`library` of the Functions that ``build()`` makes, known before by their
     ``signatures`` (name and sizes, what the entry's key holds): ``build`` is called only when
@@ -175,6 +189,7 @@ def library_of(
         "variant": variant,
         "compiler": comp.identity(),
         "functions": signatures,
+        "cold": {"functions": sorted(cold), "flags": list(cold_flags(comp))},
     }
     where = cache.compiled_dir() / _entry_name(key)
     replace = False
@@ -190,7 +205,7 @@ def library_of(
     made = [_signature(f) for f in funcs]
     if made != signatures:  # the caller's sizes and its Functions disagree: symgen's own error
         raise AssertionError(f"compiled.library_of: built {made}, announced {signatures}")
-    blob = _build(funcs, comp, where, key, store, replace)
+    blob = _build(funcs, comp, where, key, store, replace, cold)
     try:
         return _load(blob, signatures), True
     except cache.InvalidEntry as exc:
@@ -253,40 +268,71 @@ def build_folder(where: Path, store: bool) -> tuple[Path, bool]:
 
 
 def _build(
-    funcs: list[ca.Function], comp: Compiler, where: Path, key: dict[str, object], store: bool, replace: bool
+    funcs: list[ca.Function],
+    comp: Compiler,
+    where: Path,
+    key: dict[str, object],
+    store: bool,
+    replace: bool,
+    cold: tuple[str, ...] = (),
 ) -> bytes:
     parent, store = build_folder(where, store)
     with cache.temp_dir(parent, where.name) as tmp:
         units = write_units(funcs, tmp)
-        objects = [c.with_suffix(".o") for c in units]
-        compile_cmds = [[comp.path, *comp.flags, "-fPIC", "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
-        link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(tmp / LIBRARY), "-lm"]
-        sizes = [c.stat().st_size for c in units]
-        max_jobs = min(len(units), jobs())
-        try:
-            label = announce_compile(
-                f"the model library in {len(units)} parts, {max_jobs} at a time",
-                sum(sizes),
-                "--backend vm runs the model without compiling (slower per step)",
-                max_jobs,
-                max(sizes),
-            )
-            # every compiler in a process group of its own: an interrupt kills each cc1 too
-            procs = run_groups(compile_cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=label)
-            if all(p.returncode == 0 for p in procs):
-                procs.append(run_group(link, timeout=COMPILE_TIMEOUT_S))
-        except (OSError, subprocess.SubprocessError) as exc:
-            raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
-        proc = procs[-1]
-        if proc.returncode != 0:
-            first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
-            raise Unavailable(f"the C compiler {comp.path} failed (exit {proc.returncode}: {first[:200]})")
-        blob = (tmp / LIBRARY).read_bytes()
+        slow = {tmp / f"{name}.c" for name in cold}
+        blob = link_units(
+            comp,
+            units,
+            [],
+            tmp / LIBRARY,
+            f"the model library in {len(units)} parts",
+            "--backend vm runs the model without compiling (slower per step)",
+            "",
+            lambda c: cold_flags(comp) if c in slow else comp.flags,
+        )
         if store:
-            for path in (*units, *objects):
-                path.unlink()
+            for path in tmp.iterdir():
+                if path.name != LIBRARY:  # the C and the objects
+                    path.unlink()
             install(tmp, where, key, LIBRARY, blob, replace)
     return blob
+
+
+def link_units(
+    comp: Compiler,
+    units: list[Path],
+    flags: list[str],
+    out: Path,
+    what: str,
+    instead: str,
+    on: str,
+    flags_of: Callable[[Path], tuple[str, ...]] | None = None,
+) -> bytes:
+    """The bytes of the shared library ``out`` linked from the C files ``units``, compiled in
+    parallel (as many at once as there are cores, the largest first; each compiler in a process
+    group of its own: an interrupt kills cc1 too) with ``flags`` before the compiler's (those of
+    ``flags_of(unit)`` when given); a progress line names ``what``, and a long compile is
+    announced with ``instead`` (how to run without it). Raises :class:`Unavailable` when the
+    compiler cannot be run or fails (``on``: what it failed on, e.g. " on the emitted C")."""
+    units = sorted(units, key=lambda c: -c.stat().st_size)
+    objects = [c.with_suffix(".o") for c in units]
+    of = flags_of or (lambda c: comp.flags)
+    cmds = [[comp.path, *flags, *of(c), "-fPIC", "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
+    link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(out), "-lm"]
+    sizes = [c.stat().st_size for c in units]
+    max_jobs = min(len(units), jobs())
+    try:
+        label = announce_compile(f"{what}, {max_jobs} at a time", sum(sizes), instead, max_jobs, max(sizes))
+        procs = run_groups(cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=label)
+        if all(p.returncode == 0 for p in procs):
+            procs.append(run_group(link, timeout=COMPILE_TIMEOUT_S))
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise Unavailable(f"the C compiler {comp.path} cannot be run ({exc})") from None
+    proc = next((p for p in procs if p.returncode != 0), procs[-1])
+    if proc.returncode != 0:
+        first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
+        raise Unavailable(f"the C compiler {comp.path} failed{on} (exit {proc.returncode}: {first[:200]})")
+    return out.read_bytes()
 
 
 def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
@@ -304,33 +350,26 @@ def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
 
 
 def _load(blob: bytes, signatures: list[Signature]) -> dict[str, ca.Function]:
-    """Externals of the Functions of ``signatures`` from verified library bytes: written to a
-    private folder, loaded (the importer keeps the library mapped), the copy removed; signatures
-    checked."""
-    private = Path(tempfile.mkdtemp(prefix="symgen-lib-"))
+    """Externals of the Functions of ``signatures`` from verified library bytes, loaded from a
+    private copy (:func:`symgen.cache.load_private`); signatures checked."""
+    return cache.load_private(blob, LIBRARY, lambda path: _externals(path, signatures))
+
+
+def _externals(path: Path, signatures: list[Signature]) -> dict[str, ca.Function]:
     try:
-        path = private / LIBRARY
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o500)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(blob)
+        importer = ca.Importer(str(path), "dll")
+    except RuntimeError as exc:
+        raise cache.InvalidEntry(f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})") from None
+    out = {}
+    for sig in signatures:
+        name = str(sig[0])
+        if name.startswith("jac_"):
+            continue  # loaded by its function's external on demand
         try:
-            importer = ca.Importer(str(path), "dll")
-        except RuntimeError as exc:
-            raise cache.InvalidEntry(
-                f"{LIBRARY} cannot be loaded ({str(exc).strip().splitlines()[-1][:200]})"
-            ) from None
-        out = {}
-        for sig in signatures:
-            name = str(sig[0])
-            if name.startswith("jac_"):
-                continue  # loaded by its function's external on demand
-            try:
-                ext = ca.external(name, importer, {"enable_fd": False})
-            except RuntimeError:
-                raise cache.InvalidEntry(f"{LIBRARY} has no function {name!r}") from None
-            if _signature(ext) != sig:
-                raise cache.InvalidEntry(f"{LIBRARY}: {name} has the signature {_signature(ext)}, not {sig}")
-            out[name] = ext
-        return out
-    finally:
-        shutil.rmtree(private, ignore_errors=True)
+            ext = ca.external(name, importer, {"enable_fd": False})
+        except RuntimeError:
+            raise cache.InvalidEntry(f"{LIBRARY} has no function {name!r}") from None
+        if _signature(ext) != sig:
+            raise cache.InvalidEntry(f"{LIBRARY}: {name} has the signature {_signature(ext)}, not {sig}")
+        out[name] = ext
+    return out

@@ -26,11 +26,8 @@ import dataclasses
 import hashlib
 import json
 import math
-import os
 import re
 import shutil
-import subprocess
-import tempfile
 import time
 from importlib import resources
 from collections.abc import Callable, Iterator
@@ -40,7 +37,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from symgen import __version__, cache
-from symgen.processes import announce_compile, jobs, run_group, run_groups
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
@@ -185,33 +181,19 @@ def _build(
         for name, text in files.items():
             (src / name).parent.mkdir(parents=True, exist_ok=True)
             (src / name).write_text(text)
-        units = sorted((src / f"{prefix}{s}.c" for s in ("", "_solver")), key=lambda c: -c.stat().st_size)
-        objects = [c.with_suffix(".o") for c in units]
-        flags = [*STRICT_C, *comp.flags, "-fPIC", f"-I{src}"]
-        cmds = [[comp.path, *flags, "-c", str(c), "-o", str(o)] for c, o in zip(units, objects)]
-        link = [comp.path, *comp.flags, "-fPIC", "-shared", *map(str, objects), "-o", str(tmp / LIBRARY), "-lm"]
-        sizes = [c.stat().st_size for c in units]
-        max_jobs = min(len(units), jobs())
-        label = announce_compile(
-            f"the C solver in {len(units)} parts, {max_jobs} at a time",
-            sum(sizes),
-            "leave out --solver c to run with IDAS without compiling it",
-            max_jobs,
-            max(sizes),
-        )
-        try:  # each compiler in a process group of its own: an interrupt kills cc1 too
-            procs = run_groups(cmds, max_jobs=max_jobs, timeout=compiled.COMPILE_TIMEOUT_S, progress=label)
-            if all(p.returncode == 0 for p in procs):
-                procs.append(run_group(link, timeout=compiled.COMPILE_TIMEOUT_S))
-        except (OSError, subprocess.SubprocessError) as exc:
-            raise _no_compiler(f"the C compiler {comp.path} cannot be run ({exc})") from None
-        proc = procs[-1]
-        if proc.returncode != 0:
-            first = next((ln for ln in proc.stderr.splitlines() if ln.strip()), "no message")
-            raise _no_compiler(
-                f"the C compiler {comp.path} failed on the emitted C (exit {proc.returncode}: {first[:200]})"
+        units = [src / f"{prefix}{s}.c" for s in ("", "_solver")]
+        try:
+            blob = compiled.link_units(
+                comp,
+                units,
+                [*STRICT_C, f"-I{src}"],
+                tmp / LIBRARY,
+                f"the C solver in {len(units)} parts",
+                "leave out --solver c to run with IDAS without compiling it",
+                " on the emitted C",
             )
-        blob = (tmp / LIBRARY).read_bytes()
+        except compiled.Unavailable as exc:
+            raise _no_compiler(exc.reason) from None
         if store:
             shutil.rmtree(src)
             compiled.install(tmp, where, key, LIBRARY, blob, replace)
@@ -219,26 +201,21 @@ def _build(
 
 
 class Solver:
-    """The scene's C solver loaded in this process (ctypes) from verified library bytes: a
-    private copy is loaded and removed at once (the loader keeps it mapped). ``prefix``: the
+    """The scene's C solver loaded in this process (ctypes) from verified library bytes, from a
+    private copy (:func:`symgen.cache.load_private`). ``prefix``: the
     emitted symbols' prefix; the library's parameter names must be ``params`` (the model's
     order), its sizes ``n``, ``m``, ``nout`` the model's."""
 
     def __init__(self, blob: bytes, prefix: str, params: list[str], n: int, m: int, nout: int) -> None:
         import ctypes
 
-        private = Path(tempfile.mkdtemp(prefix="symgen-csolver-"))
-        try:
-            path = private / LIBRARY
-            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o500)
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(blob)
+        def load(path: Path) -> ctypes.CDLL:
             try:
-                lib = ctypes.CDLL(str(path), mode=ctypes.RTLD_LOCAL)
+                return ctypes.CDLL(str(path), mode=ctypes.RTLD_LOCAL)
             except OSError as exc:
                 raise cache.InvalidEntry(f"{LIBRARY} cannot be loaded ({str(exc)[:200]})") from None
-        finally:
-            shutil.rmtree(private, ignore_errors=True)
+
+        lib = cache.load_private(blob, LIBRARY, load)
         D, L = ctypes.c_double, ctypes.c_long
         P, DP = ctypes.c_void_p, ctypes.POINTER(ctypes.c_double)
 
@@ -369,6 +346,9 @@ def simulate_c(
             "solve_cpu_s": cpu,
             "accepted": int(stats["accepted"]),
             "rejected": int(stats["rejected"]),
+            "jacobians": int(stats["jacobians"]),
+            "factorizations": int(stats["factorizations"]),
+            "residuals": int(stats["residuals"]),
         },
     )
     if stop is None and rc != 0:

@@ -60,7 +60,9 @@ def index1(n: int, m: int, part: Partition) -> Index1:
         q[i], v[i] = x[k], x[nI + k]
     for k, i in enumerate(D):
         q[i], v[i] = z[k], z[nD + k]
-    a = ca.SX(z[2 * nD : 2 * nD + n])
+    # row slices with an explicit column: CasADi slices a 1 x 1 matrix by a single index as a
+    # row, so z[1:] of a one-element z (one coordinate, no multiplier) would be 1 x 0, not 0 x 1
+    a = ca.SX(z[2 * nD : 2 * nD + n, 0])
     for i in part.quasi:
         q[i], a[i] = z[2 * nD + i], 0
-    return Index1(x, z, q, v, a, z[2 * nD + n :])
+    return Index1(x, z, q, v, a, z[2 * nD + n :, 0])

@@ -208,6 +208,115 @@ static void test_lu(void)
     check(singular == 3, "LU reports the zero pivot (k + 1)", singular);
 }
 
+/* sparse LU: arrow-shaped saddle-point matrices (a block diagonal, a dense last rows and columns
+   block, zero-diagonal constraint rows: the pattern of a chain's Newton matrix) of sizes 1..40,
+   solved to round-off against their own residual; refactored with the kept pivots after the
+   values change, real and complex; the fill-in stays small where dense LU would fill in all;
+   a kept pivot that no longer holds and a singular matrix are reported (k + 1) */
+#define SPN 40
+static int sp_idx[SPN * SPN], sp_mark[SPN * SPN], sp_prow[SPN], sp_pcol[SPN], sp_rc[SPN], sp_cc[SPN];
+static int sp_lptr[SPN + 1], sp_uptr[SPN];
+static double sp_A[SPN * SPN], sp_LU[SPN * SPN], sp_Ai[SPN * SPN], sp_LUi[SPN * SPN];
+static double sp_v[SPN * SPN + SPN], sp_vi[SPN * SPN + SPN];
+
+static void arrow(double *A, int n, unsigned long *seed)
+{
+    int i, j, nc = n >= 4 ? 2 : 0;       /* the last nc rows and columns: constraints */
+    memset(A, 0, sizeof(double) * n * n);
+    for (i = 0; i < n - nc; ++i) {
+        for (j = 0; j < n - nc; ++j) {
+            if (i / 3 == j / 3) A[i * n + j] = uniform(seed) + (i == j ? 4.0 : 0.0);   /* blocks of 3 */
+        }
+    }
+    for (i = 0; i < n - nc; ++i) {
+        for (j = n - nc; j < n; ++j) {
+            if (i % 5 == 0 || i < 2) { A[i * n + j] = uniform(seed); A[j * n + i] = A[i * n + j]; }
+        }
+    }
+}
+
+static double residual(const double *A, const double *Ai, int n, const double *b, const double *bi, const double *x,
+                       const double *xi)
+{
+    double worst = 0.0;
+    int i, j;
+    for (i = 0; i < n; ++i) {
+        double rr = -b[i], ri = Ai ? -bi[i] : 0.0;
+        for (j = 0; j < n; ++j) {
+            rr += A[i * n + j] * x[j] - (Ai ? Ai[i * n + j] * xi[j] : 0.0);
+            if (Ai) ri += A[i * n + j] * xi[j] + Ai[i * n + j] * x[j];
+        }
+        worst = fmax(worst, hypot(rr, ri));
+    }
+    return worst;
+}
+
+static void test_sparse_lu(void)
+{
+    symgen_splu f;
+    double b[SPN], bi[SPN], rhs[SPN], rhsi[SPN], x[SPN], xi[SPN];
+    double worst = 0.0, worst_re = 0.0, worst_c = 0.0;
+    unsigned long seed = 11;
+    int i, n, rc, fill_ok = 1;
+    f.prow = sp_prow; f.pcol = sp_pcol; f.rcount = sp_rc; f.ccount = sp_cc;
+    f.lptr = sp_lptr; f.uptr = sp_uptr; f.idx = sp_idx; f.mark = sp_mark;
+    for (n = 1; n <= SPN; ++n) {
+        int nnz_a = 0;
+        f.n = n;
+        arrow(sp_A, n, &seed);
+        for (i = 0; i < n * n; ++i) nnz_a += sp_A[i] != 0.0;
+        for (i = 0; i < n; ++i) { b[i] = uniform(&seed); bi[i] = uniform(&seed); }
+        memcpy(sp_LU, sp_A, sizeof(double) * n * n);
+        rc = symgen_splu_analyze(&f, sp_LU, 0.1);
+        memcpy(rhs, b, sizeof(double) * n);
+        if (rc == 0) { symgen_splu_pack(&f, sp_LU, sp_v); symgen_splu_solve(&f, sp_v, rhs, x); }
+        worst = fmax(worst, rc == 0 ? residual(sp_A, NULL, n, b, NULL, x, NULL) : HUGE_VAL);
+        if (n == SPN && !(f.nnz < 2 * nnz_a && f.flops < n * n * n / 20)) fill_ok = 0;
+        /* new values on the same pattern: the kept pivots */
+        for (i = 0; i < n * n; ++i) {
+            if (sp_A[i] != 0.0) sp_A[i] *= 1.0 + 0.3 * uniform(&seed);
+        }
+        symgen_splu_gather(&f, sp_A, 1.0, sp_LU);
+        rc = symgen_splu_refactor(&f, sp_LU, 0.01);
+        memcpy(rhs, b, sizeof(double) * n);
+        if (rc == 0) { symgen_splu_pack(&f, sp_LU, sp_v); symgen_splu_solve(&f, sp_v, rhs, x); }
+        worst_re = fmax(worst_re, rc == 0 ? residual(sp_A, NULL, n, b, NULL, x, NULL) : HUGE_VAL);
+        /* complex: A + i D (D diagonal on the first rows, as the Radau matrix E2) */
+        memset(sp_Ai, 0, sizeof(double) * n * n);
+        for (i = 0; i < n - (n >= 4 ? 2 : 0); ++i) sp_Ai[i * n + i] = 2.0 * uniform(&seed);
+        symgen_splu_gather(&f, sp_A, 1.0, sp_LU);
+        symgen_splu_gather(&f, sp_Ai, 1.0, sp_LUi);
+        rc = symgen_splu_crefactor(&f, sp_LU, sp_LUi, 0.01);
+        memcpy(rhs, b, sizeof(double) * n);
+        memcpy(rhsi, bi, sizeof(double) * n);
+        if (rc == 0) {
+            symgen_splu_pack(&f, sp_LU, sp_v);
+            symgen_splu_pack(&f, sp_LUi, sp_vi);
+            symgen_splu_csolve(&f, sp_v, sp_vi, rhs, rhsi, x, xi);
+        }
+        worst_c = fmax(worst_c, rc == 0 ? residual(sp_A, sp_Ai, n, b, bi, x, xi) : HUGE_VAL);
+    }
+    check(worst < 1e-12, "sparse LU solves arrow saddle-point systems of size 1..40 (max residual)", worst);
+    check(worst_re < 1e-12, "sparse LU with the kept pivots after new values (max residual)", worst_re);
+    check(worst_c < 1e-12, "complex sparse LU with the kept pivots (max residual)", worst_c);
+    check(fill_ok, "sparse LU of size 40: fill-in under the matrix's own entries, flops under n^3/20", (double)f.flops);
+    /* a kept pivot gone to zero: reported, k + 1 */
+    n = 3;
+    f.n = n;
+    memset(sp_A, 0, sizeof(double) * 9);
+    sp_A[0] = 2.0; sp_A[4] = 3.0; sp_A[8] = 5.0; sp_A[1] = 1.0; sp_A[3] = 1.0;
+    memcpy(sp_LU, sp_A, sizeof(sp_A[0]) * 9);
+    rc = symgen_splu_analyze(&f, sp_LU, 0.1);
+    for (i = 0; i < 9; ++i) sp_A[i] = sp_A[i] == 0.0 ? 0.0 : 1e-20;
+    sp_A[sp_prow[0] * 3 + sp_pcol[0]] = 0.0;
+    symgen_splu_gather(&f, sp_A, 1.0, sp_LU);
+    check(rc == 0 && symgen_splu_refactor(&f, sp_LU, 0.01) == 1, "sparse LU: a kept pivot gone to zero is reported", 0.0);
+    memset(sp_LU, 0, sizeof(sp_A[0]) * 9);
+    sp_LU[0] = 1.0; sp_LU[4] = 2.0;      /* the third row and column empty */
+    rc = symgen_splu_analyze(&f, sp_LU, 0.1);
+    check(rc == 3, "sparse LU reports a singular matrix (k + 1)", rc);
+}
+
 static void test_singular_ratio(void)
 {
     double a[9] = { 3.0, 0.0, 0.0, 0.0, -0.5, 0.0, 0.0, 0.0, 1.5 };
@@ -245,6 +354,19 @@ static void test_radau(void)
     check(clo < 1e-14 && solver.closure_max < 1e-14, "closure y - x at round-off", clo);
     check(lam < 1e-10, "multiplier lam = 0", lam);
     check(solver.n_accepted > 0 && solver.n_steps >= solver.n_accepted, "step counters", (double)solver.n_accepted);
+    check(solver.sparse && solver.analyzed == 1, "the Newton matrices factored sparse", solver.sparse);
+    {   /* the dense path (block elimination) gives the same run to round-off */
+        double ys[SYMGEN_NY_(2, 1, 1, 1)], differ = 0.0;
+        long steps = solver.n_steps;
+        memcpy(ys, y, sizeof(ys));
+        rc = symgen_solver_init(&solver, NULL, 0.0, 1e-10, 1e-12);
+        solver.dense_newton = 1;
+        for (k = 1; k <= 20 && rc == 0; ++k) rc = symgen_solver_advance(&solver, 0.5 * k);
+        for (k = 0; k < SYMGEN_NY_(2, 1, 1, 1); ++k) differ = fmax(differ, fabs(y[k] - ys[k]));
+        check(rc == 0 && !solver.sparse && differ < 1e-10, "the dense Newton path: the same state at tau = 10 (rtol 1e-10)", differ);
+        check(labs(solver.n_steps - steps) <= 2, "the dense Newton path: the same steps (within 2)",
+              (double)(solver.n_steps - steps));
+    }
 }
 
 /* dense output: the same run with rows every 0.01 and every 0.5 takes the same steps (the error
@@ -326,6 +448,7 @@ int main(void)
 int main(void)
 {
     test_lu();
+    test_sparse_lu();
     test_singular_ratio();
     test_radau();
     test_dense();

@@ -2,7 +2,7 @@
  * symgen C runtime: the numerics of the emitted DAE solver (plain C99 + libm).
  *
  * An emitted model (PREFIX.c: its functions; PREFIX_solver.c: its tables, gathered into one
- * `symgen_model` descriptor) is integrated by this runtime: dense and sparse LU, complex LU,
+ * `symgen_model` descriptor) is integrated by this runtime: dense and sparse LU, real and complex,
  * eigenvalues, the consistent and quasi-static start, Radau IIA (order 5) with its step
  * control, the closure polish, and the run checks (singular position, range of the bar models,
  * divergence of a quasi-static start) with their messages. The runtime holds no data of a
@@ -110,6 +110,17 @@ typedef struct symgen_model {
     int nout;                                /* values of `out` (a row of symgen_solver_rows) */
 } symgen_model;
 
+/* The sparse LU of an n x n matrix held in dense row-major storage (symgen_linalg.c): the
+   pivot sequence and the factors' pattern, bound to caller storage: prow, pcol, rcount, ccount
+   [n], lptr [n + 1], uptr [n], idx and mark [n * n]. */
+typedef struct symgen_splu {
+    int n, nnz;                  /* size; entries of L + U (fill-in included), after analyze */
+    long flops;                  /* multiply-adds of one factorization */
+    int *prow, *pcol;            /* step k pivots on (prow[k], pcol[k]) */
+    int *lptr, *uptr, *idx;      /* idx[lptr[k]..uptr[k]): rows of L, idx[uptr[k]..lptr[k+1]): columns of U */
+    int *mark, *rcount, *ccount; /* the analysis' pattern and active counts */
+} symgen_splu;
+
 /*
  * The work arrays of a model, in doubles and in ints: the storage a solver needs beside its
  * struct (p and y are the caller's own arrays). The sizes in terms of the model's: n, m, ni, nd,
@@ -121,12 +132,13 @@ typedef struct symgen_model {
 #define SYMGEN_NALG_(n, m) (3 * (m) + (n))
 #define SYMGEN_NW_(n, m) (3 * (n) + (m))
 #define SYMGEN_WORK_DOUBLES(n, m, ni, nd, ne) \
-    (23 * SYMGEN_NY_(n, m, ni, nd) + SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
+    (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
      + 13 * (n) + 10 * (m) + 8 * (ne) * (ne) + 8 * (ne) + 1)
 #define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
-    (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 2 * (ne) + 1)
+    (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 2 * (ne) + 1 \
+     + 2 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) + 6 * SYMGEN_NY_(n, m, ni, nd) + 1)
 
 /*
  * A solver's state. The first block is what a caller reads between calls (the emitted driver
@@ -162,6 +174,14 @@ typedef struct symgen_solver {
     double *as_r, *as_rt, *as_dq, *as_trial, *vel_r, *drv_r, *clo;
     double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;
     int *pivz, *zrow, *zmid, *zcol, *piv1, *piv2, *sp, *qs_col, *dvpiv;
+    /* the Newton matrices factored whole and sparse (the default; else by block elimination,
+       dense): the pivots chosen once per Jacobian (analyzed 1; -1: none qualified, dense until
+       the next Jacobian), kept while they hold; sparse: the last factorization was; reduced_x:
+       K and jred of the dense path are up to date; dense_newton: always the dense path (set
+       after symgen_solver_init: the runtime's tests compare both) */
+    symgen_splu lu;
+    double *spa, *spr, *spi, *spx, *spxi, *spv, *spvr, *spvi;   /* spv*: the packed factors */
+    int analyzed, sparse, reduced_x, dense_newton;
 } symgen_solver;
 
 /* The public block of symgen_solver, copied into a struct with the same members (the emitted
@@ -231,6 +251,26 @@ SYMGEN_API void symgen_lu_solve(const double *A, int n, const int *piv, double *
 /* the same for a complex matrix held as real and imaginary parts */
 SYMGEN_API int symgen_clu(double *ar, double *ai, int n, int *piv);
 SYMGEN_API void symgen_clu_solve(const double *ar, const double *ai, int n, const int *piv, double *br, double *bi);
+/* ------------------------------------------------------------------ sparse LU */
+/* The sparse LU of an n x n matrix held in dense row-major storage (symgen_splu): see
+   symgen_splu above the solver. */
+/* Factor A in place choosing the pivots (Markowitz, threshold u in (0, 1]; the pattern: A's
+   nonzeros) and record them in f: 0, or k + 1 when no entry of the active columns qualifies */
+SYMGEN_API int symgen_splu_analyze(symgen_splu *f, double *A, double u);
+/* A := alpha src on the pattern of f (fill-in positions included: src is 0 there) */
+SYMGEN_API void symgen_splu_gather(const symgen_splu *f, const double *src, double alpha, double *A);
+/* Factor A (values on f's pattern) in place with f's pivots: 0, or k + 1 when pivot k is zero,
+   not finite or below tol times the largest entry of its column of L */
+SYMGEN_API int symgen_splu_refactor(const symgen_splu *f, double *A, double tol);
+/* The factors of the factored A packed in the order the solves read them: val [n * n + n]
+   (L and U along idx, the pivots after n * n): contiguous, where A's columns are strided */
+SYMGEN_API void symgen_splu_pack(const symgen_splu *f, const double *A, double *val);
+/* x := A^-1 b from the packed factors (b by rows, overwritten; x by columns) */
+SYMGEN_API void symgen_splu_solve(const symgen_splu *f, const double *val, double *b, double *x);
+/* the same for a complex matrix held as real and imaginary parts (packed: both parts) */
+SYMGEN_API int symgen_splu_crefactor(const symgen_splu *f, double *ar, double *ai, double tol);
+SYMGEN_API void symgen_splu_csolve(const symgen_splu *f, const double *vr, const double *vi, double *br, double *bi,
+                                   double *xr, double *xi);
 /* max |x_i| (a NaN propagates) */
 SYMGEN_API double symgen_max_abs(const double *x, int n);
 /* the eigenvalues wr + i wi of the general real n x n matrix a (row-major, overwritten; u: n

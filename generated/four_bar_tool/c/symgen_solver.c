@@ -181,6 +181,23 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->sp = symgen_itake_(&k, nalg);
     s->qs_col = symgen_itake_(&k, nalg);
     s->dvpiv = symgen_itake_(&k, n2);
+    s->spa = symgen_take_(&d, ny * ny);
+    s->spr = symgen_take_(&d, ny * ny);
+    s->spi = symgen_take_(&d, ny * ny);
+    s->spx = symgen_take_(&d, ny);
+    s->spxi = symgen_take_(&d, ny);
+    s->spv = symgen_take_(&d, ny * ny + ny);
+    s->spvr = symgen_take_(&d, ny * ny + ny);
+    s->spvi = symgen_take_(&d, ny * ny + ny);
+    s->lu.n = (int)ny;
+    s->lu.prow = symgen_itake_(&k, ny);
+    s->lu.pcol = symgen_itake_(&k, ny);
+    s->lu.rcount = symgen_itake_(&k, ny);
+    s->lu.ccount = symgen_itake_(&k, ny);
+    s->lu.lptr = symgen_itake_(&k, ny + 1);
+    s->lu.uptr = symgen_itake_(&k, ny);
+    s->lu.idx = symgen_itake_(&k, ny * ny);
+    s->lu.mark = symgen_itake_(&k, ny * ny);
     /* the sizes the solver's loops use (constants of an emitted solver) are the descriptor's */
     s->sizes_differ = !(SYMGEN_NQ(s) == model->n && SYMGEN_NL(s) == model->m && SYMGEN_NP(s) == model->np
                         && SYMGEN_NI(s) == model->ni && SYMGEN_ND(s) == model->nd && SYMGEN_NE(s) == model->ne
@@ -605,10 +622,12 @@ static void symgen_zsolve_(const symgen_solver *s, double *b)
     }
 }
 
-static void symgen_reduce_(symgen_solver *s)
+/* g_z factored (the polish's chord steps and the dense path use it) */
+static void symgen_reduce_z_(symgen_solver *s)
 {
     const int ny = SYMGEN_NY(s), nx = SYMGEN_NX(s), nz = SYMGEN_NZ(s);
     int i, j, k;
+    s->reduced_x = 0;
     for (i = 0; i < nz; ++i) {
         for (j = 0; j < nz; ++j) s->gzz[i * nz + j] = s->jac[(nx + i) * ny + nx + j];
     }
@@ -628,6 +647,14 @@ static void symgen_reduce_(symgen_solver *s)
         }
     }
     s->zrow[nz] = k;
+}
+
+/* K = g_z^-1 g_x and jred = f_x - f_z K of the dense path */
+static void symgen_reduce_x_(symgen_solver *s)
+{
+    const int ny = SYMGEN_NY(s), nx = SYMGEN_NX(s), nz = SYMGEN_NZ(s);
+    int i, j, k;
+    s->reduced_x = 1;
     for (j = 0; j < nx; ++j) {
         for (i = 0; i < nz; ++i) s->uz[i] = s->jac[(nx + i) * ny + j];
         symgen_zsolve_(s, s->uz);
@@ -644,12 +671,65 @@ static void symgen_reduce_(symgen_solver *s)
     }
 }
 
+static void symgen_reduce_(symgen_solver *s)
+{
+    symgen_reduce_z_(s);
+    if (!s->gzz_singular) symgen_reduce_x_(s);
+}
+
+/* The Newton matrices factored whole, sparse: E1 = c M - J (real, c = GAMMA / h), E2 (complex,
+   c = (ALPHA + i BETA) / h), with M = diag(I, 0) and J = dF/dy of the last Jacobian: its pattern
+   is fixed, and so are the pivots Markowitz's criterion chose on the first E1 (the fewest
+   fill-in among entries of at least SYMGEN_SPLU_PIVOT of their column), kept for each new step
+   size while every pivot stays at least SYMGEN_SPLU_KEEP of its column (else chosen again). A
+   chain's Jacobian is block-sparse: the factors keep it so, and a step costs about linearly in
+   the number of bars, where the dense path's reduced matrices are full (cubic). 0, or 1: the
+   dense path factors this step size (also when the pivots of E2 do not hold). */
+#define SYMGEN_SPLU_PIVOT 0.1
+#define SYMGEN_SPLU_KEEP 0.01
+static int symgen_sparse_factor_(symgen_solver *s, double h)
+{
+    const int ny = SYMGEN_NY(s), nx = SYMGEN_NX(s);
+    const double fac1 = s->model->radau.gamma / h, alphn = s->model->radau.alpha / h, betan = s->model->radau.beta / h;
+    int j, fresh = 0;
+    if (s->analyzed < 0 || s->dense_newton) return 1;
+    if (s->analyzed) {
+        symgen_splu_gather(&s->lu, s->jac, -1.0, s->spa);
+        for (j = 0; j < nx; ++j) s->spa[j * ny + j] += fac1;
+        fresh = symgen_splu_refactor(&s->lu, s->spa, SYMGEN_SPLU_KEEP) != 0;
+    }
+    if (!s->analyzed || fresh) {
+        for (j = 0; j < ny * ny; ++j) s->spa[j] = -s->jac[j];
+        for (j = 0; j < nx; ++j) s->spa[j * ny + j] += fac1;
+        s->analyzed = symgen_splu_analyze(&s->lu, s->spa, SYMGEN_SPLU_PIVOT) ? -1 : 1;
+        if (s->analyzed < 0) return 1;
+    }
+    symgen_splu_gather(&s->lu, s->jac, -1.0, s->spr);
+    symgen_splu_gather(&s->lu, s->jac, 0.0, s->spi);
+    for (j = 0; j < nx; ++j) {
+        s->spr[j * ny + j] += alphn;
+        s->spi[j * ny + j] += betan;
+    }
+    if (symgen_splu_crefactor(&s->lu, s->spr, s->spi, SYMGEN_SPLU_KEEP)) return 1;
+    symgen_splu_pack(&s->lu, s->spa, s->spv);
+    symgen_splu_pack(&s->lu, s->spr, s->spvr);
+    symgen_splu_pack(&s->lu, s->spi, s->spvi);
+    return 0;
+}
+
 static int symgen_factor_(symgen_solver *s, double h)
 {
     const int ni = SYMGEN_NI(s), nx = SYMGEN_NX(s);
     const double fac1 = s->model->radau.gamma / h, alphn = s->model->radau.alpha / h, betan = s->model->radau.beta / h;
     int i, j;
     if (s->gzz_singular) return 1;
+    s->sparse = symgen_sparse_factor_(s, h) == 0;
+    if (s->sparse) {
+        s->n_factorizations++;
+        s->h_lu = h;
+        return 0;
+    }
+    if (!s->reduced_x) symgen_reduce_x_(s);
     for (i = 0; i < ni; ++i) {
         for (j = 0; j < ni; ++j) {
             const double aq = s->jred[(ni + i) * nx + j], av = s->jred[(ni + i) * nx + ni + j];
@@ -675,6 +755,11 @@ static void symgen_solve1_(symgen_solver *s, double *d)
     const double fac1 = s->model->radau.gamma / s->h_lu;
     double *x = d, *z = d + nx, *u = s->uz;
     int i, k;
+    if (s->sparse) {
+        symgen_splu_solve(&s->lu, s->spv, d, s->spx);
+        memcpy(d, s->spx, sizeof(double) * ny);
+        return;
+    }
     memcpy(u, z, sizeof(double) * nz);
     symgen_zsolve_(s, u);
     for (i = ni; i < nx; ++i) {          /* the rows of q_I do not depend on z */
@@ -707,6 +792,12 @@ static void symgen_solve2_(symgen_solver *s, double *dr, double *di)
     const double alphn = s->model->radau.alpha / s->h_lu, betan = s->model->radau.beta / s->h_lu;
     double *ur = s->uz, *ui = s->uzi;
     int i, k;
+    if (s->sparse) {
+        symgen_splu_csolve(&s->lu, s->spvr, s->spvi, dr, di, s->spx, s->spxi);
+        memcpy(dr, s->spx, sizeof(double) * ny);
+        memcpy(di, s->spxi, sizeof(double) * ny);
+        return;
+    }
     memcpy(ur, dr + nx, sizeof(double) * nz);
     memcpy(ui, di + nx, sizeof(double) * nz);
     symgen_zsolve_(s, ur);
@@ -803,7 +894,8 @@ static int symgen_integrate_(symgen_solver *s, double t_out, double t_stop)
         }
         if (s->need_jac) {
             symgen_rhs_jac_(s, s->t, s->y);
-            symgen_reduce_(s);
+            symgen_reduce_z_(s);
+            s->analyzed = 0;
             s->have_jac = 1;
             s->need_jac = 0;
             s->jac_current = 1;
