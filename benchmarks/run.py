@@ -48,7 +48,9 @@ SECTIONS = [
     "bases",
     "estimate",
 ]
-FOOTER = re.compile(r"^_\(section `(\w+)` took \d+ s\)_$", re.M)
+#: a section's last line: ``_(section `name` took N s)_``, or for a section run.py does not
+#: write (its numbers from a script of its own) ``_(section `name`: how it was made)_``
+FOOTER = re.compile(r"^_\(section `(\w+)`(?: took \d+ s|: [^\n]*)\)_$", re.M)
 
 
 def split_sections(text: str) -> tuple[str, dict[str, str]]:
