@@ -44,13 +44,7 @@ PARTS = re.compile(r"derived ([\d.]+)s, compiled library built ([\d.]+)s, simula
 
 
 def base_tree(dest: Path) -> bool:
-    import bench_lean
-
-    old, bench_lean.BASE = bench_lean.BASE, BASE
-    try:
-        return _lean_base_tree(dest)
-    finally:
-        bench_lean.BASE = old
+    return _lean_base_tree(dest, BASE)
 
 
 def _child_cpu() -> float:

@@ -83,12 +83,13 @@ SYMPY_AFTER = (
 )
 
 
-def base_tree(dest: Path) -> bool:
-    """Extract the symgen package and templates of :data:`BASE` into ``dest``; False when git or
-    the commit is not at hand (the section then measures this checkout only)."""
+def base_tree(dest: Path, base: str = BASE) -> bool:
+    """Extract the symgen package and templates of commit ``base`` (default :data:`BASE`) into
+    ``dest``; False when git or the commit is not at hand (the section then measures this
+    checkout only)."""
     try:
         blob = subprocess.run(
-            ["git", "-C", str(ROOT), "archive", "--format=tar", BASE, "symgen", "templates"],
+            ["git", "-C", str(ROOT), "archive", "--format=tar", base, "symgen", "templates"],
             capture_output=True,
             check=True,
         ).stdout

@@ -60,13 +60,7 @@ print(json.dumps({"n": mech.n, "c": c, "idas": i}))
 
 
 def base_tree(dest: Path) -> bool:
-    import bench_lean
-
-    old, bench_lean.BASE = bench_lean.BASE, BASE
-    try:
-        return _lean_base_tree(dest)
-    finally:
-        bench_lean.BASE = old
+    return _lean_base_tree(dest, BASE)
 
 
 def _measure(tree: Path, scene: Path, cache: Path, repeats: int) -> dict:
