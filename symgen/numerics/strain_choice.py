@@ -93,7 +93,7 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
         choice = StrainChoice(
             AUTO,
             "exact",
-            f"auto: the exact bar, because the model-form estimate of von Karman (the curvature terms it "
+            f"auto: the exact bar, because the model-form estimate of von Karman (the curvature and strain terms it "
             f"leaves out) is {top:.2e} of peak on {worst}, above simulation.accuracy {accuracy:g}",
             False,
             top,

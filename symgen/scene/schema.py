@@ -585,9 +585,10 @@ EFFECTS = Table(
             "strain",
             "string",
             '"auto" (the default): von Karman, or the exact bar where a run\'s model-form estimate of von '
-            "Karman (the curvature terms it leaves out) exceeds simulation.accuracy on an output: symgen "
+            "Karman (the curvature and strain terms it leaves out) exceeds simulation.accuracy on an output: symgen "
             "simulate then runs the scene again with the exact bar, remembers the decision for the scene, and "
-            "the sidecar (strain) says which and why; derive, latex, check and emit-c use von Karman (scenes "
+            "the sidecar (strain) says which and why; later runs, check, effects and latex use the decision a run "
+            "remembered, derive and emit-c von Karman (scenes "
             'with a slot joint or geometric_stiffening = false keep it). "von_karman" (energy-consistent: '
             'bending shortens the chord), "exact" (von Karman strain '
             "and the exact curvature of the bar's axis to sixth order in the amplitudes: the geometrically "
