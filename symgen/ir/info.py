@@ -171,7 +171,7 @@ class ModelInfo:
         """The record of ``model.json``'s data; :class:`InvalidModelInfo` if any field is missing,
         of the wrong type, or inconsistent (a coordinate whose name is not its fields' name, a
         row index out of range, repeated names)."""
-        d = _fields(
+        d = record_fields(
             data,
             "the model description",
             (
@@ -247,15 +247,20 @@ def _list(x: object, what: str) -> list[Any]:
     return x
 
 
-def _fields(x: object, what: str, keys: tuple[str, ...]) -> dict[str, Any]:
+def record_fields(
+    x: object, what: str, keys: tuple[str, ...], error: type[ValueError] = InvalidModelInfo
+) -> dict[str, Any]:
+    """``x`` as the JSON object of a record with exactly the fields ``keys``; ``error`` (the
+    record's own exception) naming ``what`` when it is not an object, lacks a field or has one
+    more. Every record's ``from_json`` starts here."""
     if not isinstance(x, dict):
-        raise InvalidModelInfo(f"{what} is not an object")
+        raise error(f"{what} is not an object")
     missing = [k for k in keys if k not in x]
     if missing:
-        raise InvalidModelInfo(f"{what} has no {missing[0]!r}")
+        raise error(f"{what} has no {missing[0]!r}")
     extra = sorted(set(x) - set(keys))
     if extra:
-        raise InvalidModelInfo(f"{what} has an unknown field {extra[0]!r}")
+        raise error(f"{what} has an unknown field {extra[0]!r}")
     return x
 
 
@@ -268,7 +273,7 @@ def _names(x: object, what: str) -> tuple[str, ...]:
 
 def _coordinate(x: object, k: int) -> Coordinate:
     what = f"coords[{k}]"
-    d = _fields(x, what, ("name", "kind", "body", "index", "joint"))
+    d = record_fields(x, what, ("name", "kind", "body", "index", "joint"))
     name, kind, body, index, joint = (d[f] for f in ("name", "kind", "body", "index", "joint"))
     for f, text in (("name", name), ("body", body), ("joint", joint)):
         _text(text, f"{what}.{f}")
@@ -287,7 +292,7 @@ def _coordinate(x: object, k: int) -> Coordinate:
 
 def _row(x: object, k: int) -> ConstraintRow:
     what = f"lam_rows[{k}]"
-    d = _fields(x, what, ("joint", "kind", "loop"))
+    d = record_fields(x, what, ("joint", "kind", "loop"))
     joint, kind, loop = (d[f] for f in ("joint", "kind", "loop"))
     _text(joint, f"{what}.joint")
     if not all(isinstance(b, str) for b in _list(loop, f"{what}.loop")):
@@ -302,7 +307,7 @@ def _row(x: object, k: int) -> ConstraintRow:
 
 def _bar_modes(x: object, bar: str) -> BarModes:
     what = f"modes.{bar}"
-    d = _fields(x, what, ("axial", "transverse", "axial_shapes", "transverse_shapes"))
+    d = record_fields(x, what, ("axial", "transverse", "axial_shapes", "transverse_shapes"))
     for f in ("axial", "transverse"):
         if not _is_int(d[f]) or d[f] < 0:
             raise InvalidModelInfo(f"{what}.{f} is not a count")

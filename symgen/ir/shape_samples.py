@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from symgen import __version__
+from symgen.ir.info import record_fields
 
 __all__ = ["GAUSS_POINTS", "SEGMENTS", "InvalidShapeSamples", "ShapeSamples", "samples_question"]
 
@@ -73,14 +74,7 @@ class ShapeSamples:
     @classmethod
     def from_json(cls, data: object) -> ShapeSamples:
         keys = ("bar", "xi", "w", "axial1", "trans0", "trans1", "trans2")
-        if not isinstance(data, dict):
-            raise InvalidShapeSamples("the shape samples are not an object")
-        missing = [k for k in keys if k not in data]
-        if missing:
-            raise InvalidShapeSamples(f"the shape samples have no {missing[0]!r}")
-        extra = sorted(set(data) - set(keys))
-        if extra:
-            raise InvalidShapeSamples(f"the shape samples have an unknown field {extra[0]!r}")
+        data = record_fields(data, "the shape-samples record", keys, InvalidShapeSamples)
         bar = data["bar"]
         if not isinstance(bar, str) or not bar:
             raise InvalidShapeSamples("'bar' is not a bar's name")

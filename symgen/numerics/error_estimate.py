@@ -73,6 +73,7 @@ import numpy as np
 
 from symgen import __version__
 from symgen.errors import SymgenError
+from symgen.ir.info import record_fields
 from symgen.ir.records import CoordKind
 from symgen.numerics import model_form as _model_form
 from symgen.numerics.model_form import ModelFormNotEstimated
@@ -164,14 +165,7 @@ class ErrorEstimate:
     def from_json(cls, data: object) -> ErrorEstimate:
         """The record of ``to_json``'s data; :class:`InvalidEstimate` on anything malformed."""
         keys = ("outputs", "parts", "methods", "reasons", "richer")
-        if not isinstance(data, dict):
-            raise InvalidEstimate("the error estimate is not an object")
-        missing = [k for k in keys if k not in data]
-        if missing:
-            raise InvalidEstimate(f"the error estimate has no {missing[0]!r}")
-        extra = sorted(set(data) - set(keys))
-        if extra:
-            raise InvalidEstimate(f"the error estimate has an unknown field {extra[0]!r}")
+        data = record_fields(data, "the error estimate", keys, InvalidEstimate)
         outputs = _values(data["outputs"], "outputs")
         parts_raw = data["parts"]
         if not isinstance(parts_raw, dict) or set(parts_raw) != set(PARTS):
