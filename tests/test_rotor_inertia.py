@@ -498,8 +498,8 @@ energy = {{ kind = "energy" }}
 [simulation]
 t_end = 8.0
 output_step = 0.5
-rtol = 1e-10
-atol = 1e-12
+rtol = 1e-12
+atol = 1e-14
 """
 )
 

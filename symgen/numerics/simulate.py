@@ -37,12 +37,12 @@ CHUNK = 128  # output steps of the first integrator call; each next one covers t
 CHUNK_MAX = 2048  # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
 # (the same chunks whatever the backend: the same steps, the same numbers)
 CALC_IC = False  # z0 is always consistent (our own Newton); IDACalcIC only fails on it
-#: IDAS's Newton linear solver: None, CasADi's default (dense QR). "csparse" (CSparse's sparse
-#: LU) is 3x cheaper per step on a 12-bar chain (benchmarks/RESULTS.md "perstep") but moves
-#: IDAS's results at round-off: tests/test_rotor_inertia.py (7.3e-9 against its 5.8e-9) and
-#: tests/test_spinup.py (1.26e-6 against 1e-6) then fail their bounds; not the default until
-#: those are looked at.
-LINEAR_SOLVER: str | None = None
+#: IDAS's Newton linear solver: CSparse's sparse LU (CasADi's "csparse"), not CasADi's default
+#: dense QR: 3x cheaper per step on a 12-bar chain, about N^0.96 per step against N^1.26, and
+#: no dearer on a 2-bar model (benchmarks/RESULTS.md "perstep"). The two move the results only
+#: within the integration's error (tests/test_rotor_inertia.py and tests/test_spinup.py
+#: measured it: at rtol 1e-10 they differed by 1e-8 relative; at rtol 1e-12 by 1e-10).
+LINEAR_SOLVER: str | None = "csparse"
 #: The progress watchdog: IDAS may take at most this many steps per degree of the driver's
 #: motion (per 0.01745 tau without a driven rate) within one output step. Real runs take tens
 #: to hundreds (steel bars at 0.1 %: about 80); a run beyond it has stalled, its steps shrunk to
