@@ -1419,6 +1419,11 @@ def quasi_choice(
             )
         elif gain and name in limit and limit[name]:
             why = gain
+        elif steps and steps[-1][0].get(name, 0) > k:
+            why = (
+                "every transverse function dynamic: its highest quasi-static fits the accuracy but does not "
+                f"lower the fastest bending mode (from {fastest:.4g} per unit tau) further"
+            )
         elif name not in limit:
             why = "every transverse function dynamic: none above its dynamic band"
         elif limit[name] == 0:
