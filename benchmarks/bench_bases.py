@@ -5,6 +5,8 @@ For each scene: the counts chosen (no counts in the file, or the file's counts r
 with them, and a ladder of richer uniform counts on every elastic bar; the richest run is the
 reference (its distance to the one before it says how converged it is). The table gives per
 output max over the run |y - y_ref| / max |y_ref|, the IDAS steps and the integration time.
+Where symgen makes functions quasi-static (``BasisChoice.quasi``), a row with the chosen counts
+and every function dynamic shows what that saves.
 
     PYTHONPATH=. python benchmarks/bench_bases.py [scene ...]     # prints a RESULTS section
 
@@ -16,6 +18,7 @@ from __future__ import annotations
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -87,6 +90,11 @@ def case(label: str) -> str:
     absent = [o[:-1] for o in extra if o.endswith("=")]
     scene = _scene_without(path, base, absent)
     mech, chosen, chosen_s = run_scene(scene)
+    quasi = {c.bar: c.quasi for c in scene.bases if c.quasi}
+    dynamic = None
+    if quasi:  # the same counts with every function dynamic: what the quasi-static choice saves
+        flat = tuple(replace(b, quasi_static_transverse=0) if b.name in quasi else b for b in scene.bodies)
+        _, dynamic, dynamic_s = run_scene(replace(scene, bodies=flat))
     runs = []
     for na, nt in ladder:
         ov = counts(path, base, na, nt)
@@ -96,7 +104,12 @@ def case(label: str) -> str:
     lines = [
         f"### {label} (`{path}`{', ' + ', '.join(base) if base else ''})",
         "",
-        "chosen: " + "; ".join(f"{c.bar} {c.axial} + {c.transverse} (estimate {c.estimate:.2g})" for c in scene.bases),
+        "chosen: "
+        + "; ".join(
+            f"{c.bar} {c.axial} + {c.transverse} (estimate {c.estimate:.2g}"
+            + (f", the highest {c.quasi} quasi-static)" if c.quasi else ")")
+            for c in scene.bases
+        ),
         "",
         "| model | "
         + " | ".join(ref.output_names[i] for i in range(len(ref.output_names)) if ref.output_names[i] != "closure")
@@ -109,6 +122,8 @@ def case(label: str) -> str:
         return f"| {name} | " + " | ".join(f"{v:.2e}" for v in e.values()) + f" | {res.steps} | {s:.2f} |"
 
     lines.append(row("chosen (accuracy %g)" % scene.simulation.accuracy, chosen, chosen_s))
+    if dynamic is not None:
+        lines.append(row("chosen counts, every function dynamic", dynamic, dynamic_s))
     for (na, nt), res, s in runs:
         lines.append(row(f"{na} + {nt} every bar" + (" (reference)" if res is ref else ""), res, s))
     return "\n".join(lines)

@@ -289,10 +289,14 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
     the quasi-static amplitude's value, its rate only the dynamic ones'), a slot's guide (its overhang's functions follow the span's), polynomial
     shapes (not ordered by frequency), more functions than the bar has."""
     scene = mech.scene
+    chosen = {c.bar: c.quasi for c in scene.bases if c.quasi}
     out: list[int] = []
     for body in scene.bodies:
         k = body.quasi_static_transverse
         if body.rigid or not k:
+            continue
+        if chosen.get(body.name) == k:  # symgen's choice (symgen.scene.bases.quasi_choice): never refused
+            out += _chosen_quasi(mech, phi_q, body.name, body.transverse_modes, k)
             continue
         key = f"bodies.{body.name}.quasi_static_transverse"
         nt = body.transverse_modes if scene.effects.transverse else 0
@@ -331,3 +335,14 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
             )
         out += idx
     return tuple(sorted(out))
+
+
+def _chosen_quasi(mech: Mechanism, phi_q: ca.SX, name: str, nt: int, k: int) -> list[int]:
+    """The amplitudes of the highest ``k`` of bar ``name``'s ``nt`` transverse functions that
+    symgen chose quasi-static, fewer where the closure reads one (the choice's numpy model found
+    none: a sine at a node of its own reads about 1e-16 here): dynamic is always consistent."""
+    loops = [r for r in range(mech.m) if r not in mech.inext_rows]
+    idx = list(mech.amplitudes[name][1][:nt])
+    while k and loops and any(phi_q[loops, i].nnz() > 0 for i in idx[nt - k :]):
+        k -= 1
+    return idx[nt - k :] if k else []

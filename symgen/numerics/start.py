@@ -104,9 +104,13 @@ def start_plan(mech: Mechanism) -> StartPlan:
     run), the guess itself, and the index sets of the quasi-static start and of the checks.
     Runs the whole start once, so a scene the Python start refuses is refused here too.
     Quasi-static transverse functions (``bodies.<name>.quasi_static_transverse``) are refused:
-    the emitted solver integrates every amplitude (docs/quasi-static-modes.md)."""
-    if mech.quasi:
-        body = mech.coords[mech.quasi[0]].body
+    the emitted solver integrates every amplitude (docs/quasi-static-modes.md); those symgen
+    chose itself (``symgen.scene.bases.quasi_choice``) are integrated as dynamic there, the
+    model its choice was checked against."""
+    chosen = {c.bar for c in mech.scene.bases if c.quasi}
+    stated = [i for i in mech.quasi if mech.coords[i].body not in chosen]
+    if stated:
+        body = mech.coords[stated[0]].body
         raise SceneError(
             mech.scene.path,
             f"bodies.{body}.quasi_static_transverse",

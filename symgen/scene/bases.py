@@ -96,7 +96,10 @@ class BasisChoice:
     ``estimate``: the a-priori estimate of the counts used (fraction of peak);
     ``omega_run``, ``omega_bending``, ``omega_axial``: the frequencies used (tau units);
     ``reason``: one sentence; ``warning``: set when stated counts miss the accuracy;
-    ``start_rings``: the run starts undeformed and undamped (:func:`with_start`)."""
+    ``start_rings``: the run starts undeformed and undamped (:func:`with_start`);
+    ``quasi``: how many of the highest transverse functions symgen made quasi-static
+    (:func:`quasi_choice`; 0 where none, or where the file states ``quasi_static_transverse``),
+    ``quasi_reason``: why (or why none)."""
 
     bar: str
     axial: int
@@ -112,6 +115,8 @@ class BasisChoice:
     reason: str = ""
     warning: str = ""
     start_rings: bool = False
+    quasi: int = 0
+    quasi_reason: str = ""
 
     def as_dict(self) -> dict:
         """The sidecar's ``bases`` entry of this bar (JSON)."""
@@ -133,6 +138,7 @@ class BasisChoice:
             "reason": self.reason,
             "warning": self.warning,
             "start_rings": self.start_rings,
+            "quasi_static": {"functions": self.quasi, "reason": self.quasi_reason},
         }
 
 
@@ -401,6 +407,23 @@ COUPLED_ELEMENTS = 16
 PHASE_CAP = 2.0
 #: at most this many functions are added to the per-bar choice to meet the coupled estimate
 COUPLED_STEPS = 16
+#: a quasi-static function moves a joint when the closure reads it above this fraction of the
+#: largest closure entry (sines at a node of theirs read about 1e-16)
+QUASI_JOINT_TOL = 1e-9
+#: a mode keeps its shape when a quasi-static function is condensed out if the mass-weighted overlap
+#: of its old and new shape is at least this
+QUASI_MATCH = 0.9
+#: the frequency shift quasi-static functions cause counts this many times: the coupled model is
+#: linear about the undeformed start, and the run's own linearisation can amplify the shift (the
+#: steel crank-rocker's coupled mode at 14 per unit tau is negatively damped along the run: its
+#: coupler's top function quasi-static measured 1.5e-3 of peak over half a turn where the shift
+#: alone predicts 3e-4; benchmarks/RESULTS.md "Quasi-static transverse functions")
+QUASI_PHASE_SAFETY = 10.0
+#: quasi-static functions are chosen only where they lower the fastest bending mode the run
+#: integrates at least this much (BDF follows its ringing: the steel slider-crank's rod 2 of 3
+#: quasi-static, 9973 -> 1625 steps; the crank-rocker's rocker 1 of 4, its crank's functions
+#: still as fast, 7959 -> 8042)
+QUASI_GAIN = 1.5
 
 
 @dataclass(frozen=True)
@@ -489,6 +512,14 @@ def _coupled_supported(scene: Scene) -> str:
     if any(j.kind == "slider" and all(e.body != GROUND for e in j.ends) for j in scene.joints):
         return "sliders between two bars"
     return ""
+
+
+def _modes(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(frequencies ascending, M-normalised modes as columns) of K v = w^2 M v."""
+    L = np.linalg.cholesky((M + M.T) / 2)
+    Li = np.linalg.inv(L)
+    lam, v = np.linalg.eigh(Li @ ((K + K.T) / 2) @ Li.T)
+    return np.sqrt(np.maximum(lam, 0.0)), Li.T @ v
 
 
 def _null(C: np.ndarray) -> np.ndarray:
@@ -724,13 +755,16 @@ class _Coupled:
 class CoupledCheck:
     """The coupled spectrum's verdict on a set of counts: ``estimate`` (fraction of peak), the
     mode that sets it (its frequency per unit tau, the Ritz frequency of the floating-frame
-    model with the counts, its share of the outputs' peak) and what it measures."""
+    model with the counts, its share of the outputs' peak) and what it measures; ``fastest``
+    (:meth:`_CoupledEstimate.quasi_check`): the fastest mode whose strain energy is mostly
+    bending, of the model with the quasi-static functions (the ringing BDF follows)."""
 
     estimate: float
     omega: float = 0.0
     omega_ritz: float = 0.0
     share: float = 0.0
     what: str = ""
+    fastest: float = 0.0  # quasi_check: the fastest bending-dominated mode left dynamic (per unit tau)
 
 
 class _CoupledEstimate:
@@ -814,29 +848,64 @@ class _CoupledEstimate:
             out.append(np.max(abs(rel), axis=0))
         return np.array(out)
 
-    def _shares(self) -> np.ndarray:
+    def _points(self, v: np.ndarray) -> np.ndarray:
+        """What the outputs read of the deflections (columns of v): a chord or frame deflection at
+        its point of its bar, any other output of a bar the largest deflection of that bar, of a
+        rigid part or of none every elastic bar's (as :meth:`_relative`); forces apart."""
+        rel = self._relative(v)
+        elastic = [p for p in self.model.parts.values() if not p.body.rigid]
+        out = []
+        for o in self.model.scene.outputs:
+            if o.kind in ("driver_torque", "reaction", "energy", "closure_residual"):
+                continue
+            p = self.model.parts.get(o.body or "")
+            if p is None or p.body.rigid:
+                out += list(rel)
+                continue
+            i = elastic.index(p)
+            if o.kind in ("chord_deflection", "deflection") and o.xi is not None:
+                out.append(abs(self._relative_at(p, v, float(o.xi))))
+            else:
+                out.append(rel[i])
+        return np.array(out) if out else np.zeros((0, v.shape[1]))
+
+    def _relative_at(self, p: _Part, v: np.ndarray, xi: float) -> np.ndarray:
+        w = v[p.start + 1 : p.start + 3 * len(p.x) : 3]
+        k = _node(p.x, xi)
+        if p.body.frame == "cantilever":
+            return w[k] - w[0] - p.x[k] * v[p.start + 2]
+        return w[k] - w[0] - p.x[k] * (w[-1] - w[0])
+
+    @functools.cached_property
+    def point_share(self) -> np.ndarray:
+        """Each mode's share as :attr:`share`, the deflections read where the outputs read them
+        (:meth:`_points`): the measure of the quasi-static functions' change (:meth:`quasi_check`)."""
+        return self._shares(self._points)
+
+    def _shares(self, reading=None) -> np.ndarray:
         m, sc = self.model, self.model.scene
         rows: list[int] = []
         if any(o.kind == "driver_torque" for o in sc.outputs):
             rows += [i for k, v in m.rows.items() if k.startswith("driver ") for i in v]
         rows += [i for o in sc.outputs if o.kind == "reaction" and o.joint in m.rows for i in m.rows[o.joint]]
         deflect = any(o.kind not in ("driver_torque", "reaction", "energy", "closure_residual") for o in sc.outputs)
+        read = reading or self._relative
         ring_d, ref_d, ring_f, ref_f = [], [], [], []
         for f in self._fields():
             # the static response to the loads, less what accelerates the free rigid motions: the
             # sum over every mode of the reference model; K us = f (less its rigid part) + C^T lam_s
             amp = (self.phi.T @ f) / self.w**2
             if deflect:
-                ring = self._relative(self.phi) * abs(amp)[None, :]
+                ring = read(self.phi) * abs(amp)[None, :]
                 ring_d.append(ring)
-                ref_d.append(self._relative((self.phi @ amp)[:, None])[:, 0] + np.sum(ring, axis=1))
+                ref_d.append(read((self.phi @ amp)[:, None])[:, 0] + np.sum(ring, axis=1))
             if rows:
                 ref_f.append(float(np.max(abs((self.mu @ amp)[rows]))))
                 ring_f.append(np.max(abs(self.mu[rows]), axis=0) * abs(amp))
         # each relative to the largest static response of the loads (the outputs' peaks)
         share = np.zeros(len(self.w))
         if ref_d:
-            scale_d = np.max(np.array(ref_d), axis=0)  # per bar
+            scale_d = np.max(np.array(ref_d), axis=0)  # per bar (per reading)
             ok = scale_d > 1e-9 * max(float(np.max(scale_d)), 1e-300)
             if ok.any():
                 share = np.maximum(share, np.max(np.max(np.array(ring_d), axis=0)[ok] / scale_d[ok, None], axis=0))
@@ -883,6 +952,85 @@ class _CoupledEstimate:
             if missed > best:
                 best, out = missed, (name, kind)
         return out
+
+    def top_columns(self, counts: dict[str, tuple[int, int]], name: str, k: int) -> list[int]:
+        """The columns of :meth:`_Coupled.ritz` of bar ``name``'s highest ``k`` standard
+        transverse functions (before its static corrections)."""
+        start = 0
+        for n, p in self.model.parts.items():
+            if n == name:
+                na, nt = counts[n]
+                U, std, _ = self.model._functions(n)
+                first = start + 3 + (min(na, U.shape[1]) if p.body.lam else 0)
+                last = first + min(nt, std.shape[1])
+                return list(range(max(last - k, first), last))
+            start += self.model.local(n, *counts.get(n, (0, 0))).shape[1]
+        return []
+
+    def quasi_check(self, counts: dict[str, tuple[int, int]], quasi: dict[str, int]) -> CoupledCheck | None:
+        """What making the highest ``quasi[bar]`` transverse functions of each bar quasi-static
+        changes (None: one of them moves a joint). The floating-frame model with ``counts`` and the
+        same model with those functions' inertia dropped (static condensation: their amplitudes
+        follow the others through the stiffness, h = -K_hh^-1 K_hd d) are compared mode by mode
+        (each of the first model's modes with the second's of the largest mass-weighted overlap):
+        a mode that keeps its shape (overlap at least QUASI_MATCH) rings at a shifted frequency,
+        its error as :meth:`check`'s with the shift counted QUASI_PHASE_SAFETY times; a mode
+        that has none left (the functions' own modes) misses its ringing share, plus its static
+        amplification r^2 / (1 - r^2) in both cases. The estimate is the sum over the modes; the
+        shares read the deflections where the outputs read them (:attr:`point_share`)."""
+        m = self.model
+        acc = m.scene.simulation.accuracy
+        T = m.ritz(counts)
+        H = sorted({c for name, k in quasi.items() if k for c in self.top_columns(counts, name, k)})
+        D = [c for c in range(T.shape[1]) if c not in set(H)]
+        CT = m.C @ T
+        if H and CT.shape[0] and np.abs(CT[:, H]).max() > QUASI_JOINT_TOL * max(float(np.abs(CT).max()), 1e-300):
+            return None
+        N = _null(CT[:, D])
+        Bm = np.hstack([T[:, D] @ N, T[:, H]])
+        Kr, Mr = Bm.T @ m.K @ Bm, Bm.T @ m.M @ Bm
+        nd = N.shape[1]
+        wd, vd = _modes(Kr, Mr)
+        X = np.linalg.solve(Kr[nd:, nd:], Kr[nd:, :nd]) if H else np.zeros((0, nd))
+        wq, vq = _modes(Kr[:nd, :nd] - Kr[:nd, nd:] @ X, Mr[:nd, :nd])
+        vq = np.vstack([vq, -X @ vq])
+        r = self.rigid
+        wd, vd, wq, vq = wd[r:], vd[:, r:], wq[r:], vq[:, r:]
+        norm = np.sqrt(np.einsum("ij,ij->j", vq, Mr @ vq))
+        overlap = np.abs(vd.T @ Mr @ vq) / norm[None, :]
+        reference = np.argmax(np.abs((Bm @ vd).T @ m.M @ self.phi), axis=1)
+        total, worst = 0.0, CoupledCheck(0.0, fastest=self._fastest_bending(Bm @ vq, wq))
+        for i, w in enumerate(wd):
+            ref = int(reference[i])
+            share = float(self.point_share[ref])
+            j = int(np.argmax(overlap[i])) if overlap.shape[1] else -1
+            amp = amplification_error(self.omega_run, float(w)) if w > 0 else 1.0
+            if j >= 0 and overlap[i, j] >= QUASI_MATCH:
+                e = abs(wq[j] / w - 1.0)
+                if self.rings:
+                    est = share * min(PHASE_CAP, QUASI_PHASE_SAFETY * w * self.t_eff[ref] * e)
+                    what = "its phase over the run"
+                else:
+                    est = QUASI_PHASE_SAFETY * FREQUENCY_WEIGHT * e if amp > acc else 0.0
+                    what = "its frequency, in the run's band"
+            else:
+                est = (share if self.rings else 0.0) + amp
+                what = "quasi-static: its ringing and dynamic amplification missing"
+            total += est
+            if est > worst.estimate:
+                worst = CoupledCheck(float(est), float(w), float(wq[j]) if j >= 0 else 0.0, share, what, worst.fastest)
+        return replace(worst, estimate=float(total))
+
+    def _fastest_bending(self, u: np.ndarray, w: np.ndarray) -> float:
+        """The largest of the frequencies ``w`` whose mode (columns of ``u``, dofs) stores more
+        than half its strain energy in bending."""
+        m = self.model
+        bend = np.zeros(u.shape[1])
+        for i, Kb in m.bending.values():
+            bend += np.einsum("ij,ij->j", u[i], Kb @ u[i])
+        total = np.einsum("ij,ij->j", u, m.K @ u)
+        fast = [float(x) for x, b, t in zip(w, bend, total, strict=True) if t > 0 and b > 0.5 * t]
+        return max(fast, default=0.0)
 
 
 # -- the choice -----------------------------------------------------------------------------------
@@ -979,6 +1127,7 @@ def choose_bases(
     given: dict[str, tuple[int | None, int | None]],
     quasi_static_start: bool = False,
     guess: dict[str, float] | None = None,
+    quasi_stated: frozenset[str] = frozenset(),
 ) -> dict[str, BasisChoice]:
     """Per elastic bar: its counts (``given`` where the file states them, else chosen) and why.
 
@@ -1073,7 +1222,7 @@ def choose_bases(
             warning,
         )
     if any(None in c.given for c in out.values()):
-        out = coupled_choice(scene, out, own, not quasi_static_start, guess or {}, omega_run)
+        out = coupled_choice(scene, out, own, not quasi_static_start, guess or {}, omega_run, quasi_stated)
     return out
 
 
@@ -1088,18 +1237,22 @@ def coupled_choice(
     rings: bool,
     guess: dict[str, float],
     omega_run: float,
+    quasi_stated: frozenset[str] = frozenset(),
 ) -> dict[str, BasisChoice]:
     """The per-bar choices checked against the mechanism's coupled spectrum at its start
     position (:class:`_CoupledEstimate`): while its estimate exceeds the accuracy, one more
     function for the chosen (not stated) family of the bar with the largest strain energy in
     the mode that sets it (at most COUPLED_STEPS more, MAX_CHOSEN per family). Every bar's
-    estimate then includes the coupled one, its reason says what the check found."""
+    estimate then includes the coupled one, its reason says what the check found. Then the
+    functions that may be quasi-static (:func:`quasi_choice`)."""
     acc = scene.simulation.accuracy
     missing = _coupled_supported(scene)
     place = None if missing else _placement(scene, guess)
     if place is None:
         note = f"the coupled modes are not checked ({missing or 'the start position did not close'})"
-        return {k: replace(c, reason=f"{c.reason}; {note}") for k, c in choices.items()}
+        return {
+            k: replace(c, reason=f"{c.reason}; {note}", quasi_reason=_not_checked(c, note)) for k, c in choices.items()
+        }
     counts = {k: (c.axial, c.transverse) for k, c in choices.items()}
     inextensible = {
         b.name
@@ -1108,12 +1261,16 @@ def coupled_choice(
     }
     if any(b.mu is None or counts[b.name][1] == 0 for b in scene.bodies if not b.rigid) or not scene.effects.transverse:
         note = "the coupled modes are not checked (a bar without bending)"
-        return {k: replace(c, reason=f"{c.reason}; {note}") for k, c in choices.items()}
+        return {
+            k: replace(c, reason=f"{c.reason}; {note}", quasi_reason=_not_checked(c, note)) for k, c in choices.items()
+        }
     try:
         model = _CoupledEstimate(_Coupled(scene, place, inextensible), rings, omega_run)
     except np.linalg.LinAlgError:
         note = "the coupled modes are not checked (a massless part)"
-        return {k: replace(c, reason=f"{c.reason}; {note}") for k, c in choices.items()}
+        return {
+            k: replace(c, reason=f"{c.reason}; {note}", quasi_reason=_not_checked(c, note)) for k, c in choices.items()
+        }
     check = model.check(counts)
     first = check
     added = dict.fromkeys(counts, 0)
@@ -1168,6 +1325,117 @@ def coupled_choice(
             reason=f"{c.reason}; {said}",
             warning=warning,
         )
+    return quasi_choice(scene, out, model, counts, quasi_stated)
+
+
+def _not_checked(c: BasisChoice, note: str) -> str:
+    """The quasi-static reason where the coupled modes are not checked."""
+    return "" if c.given[1] is not None else f"every transverse function dynamic: {note}"
+
+
+def _quasi_candidates(scene: Scene, choices: dict[str, BasisChoice], stated: frozenset[str]) -> dict[str, int]:
+    """bar -> at most how many of its highest transverse functions may be quasi-static: those
+    above its dynamic band, where symgen chose its transverse count and the file does not state
+    ``quasi_static_transverse``; none on a slot's guide or with polynomial shapes (as
+    ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses)."""
+    out = {}
+    for name, c in choices.items():
+        body = scene.body(name)
+        guide = any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
+        if c.given[1] is not None or name in stated or guide or body.transverse_shapes == "polynomial":
+            continue
+        if c.transverse - c.dynamic[1] > 0:
+            out[name] = c.transverse - c.dynamic[1]
+    return out
+
+
+def quasi_choice(
+    scene: Scene,
+    choices: dict[str, BasisChoice],
+    model: _CoupledEstimate,
+    counts: dict[str, tuple[int, int]],
+    stated: frozenset[str] = frozenset(),
+) -> dict[str, BasisChoice]:
+    """The highest transverse functions that may be quasi-static (residual flexibility,
+    docs/quasi-static-modes.md), chosen from the mechanism's coupled modes: one function at a
+    time (the bar whose next function changes the coupled estimate least), from the top of each
+    bar's functions above its dynamic band (:func:`_quasi_candidates`), while the change the
+    quasi-static functions make (:meth:`_CoupledEstimate.quasi_check`: every coupled mode's
+    shift and the ringing of the modes they remove) stays within what the accuracy leaves over
+    the bases' own estimate: ``accuracy - max(estimate)``. A function that moves a joint is not
+    taken (nor any below it). IDAS runs only: the emitted C solver integrates every function."""
+    acc = scene.simulation.accuracy
+    limit = _quasi_candidates(scene, choices, stated)
+    budget = acc - max(c.estimate for c in choices.values())
+    quasi: dict[str, int] = {}
+    last: CoupledCheck | None = None
+    dynamic = model.quasi_check(counts, {})
+    fastest = dynamic.fastest if dynamic is not None else 0.0
+    steps: list[tuple[dict[str, int], CoupledCheck]] = []
+    while True:
+        best: tuple[str, CoupledCheck] | None = None
+        for name in list(limit):
+            k = quasi.get(name, 0) + 1
+            if k > limit[name]:
+                continue
+            check = model.quasi_check(counts, {**quasi, name: k})
+            if check is None:  # moves a joint: so does every larger set of its highest functions
+                limit[name] = k - 1
+                continue
+            if check.estimate <= budget and (best is None or check.estimate < best[1].estimate):
+                best = (name, check)
+        if best is None:
+            break
+        quasi[best[0]] = quasi.get(best[0], 0) + 1
+        steps.append((dict(quasi), best[1]))
+    # only what lowers the fastest bending mode the run integrates saves steps (BDF follows that
+    # ringing): the shortest prefix that lowers it most, if by QUASI_GAIN at least
+    gain = ""
+    quasi = {}
+    if steps:
+        low = min(c.fastest for _, c in steps)
+        first = next(k for k, (_, c) in enumerate(steps) if c.fastest <= low)
+        if fastest >= QUASI_GAIN * low:
+            quasi, last = steps[first]
+        else:
+            gain = (
+                f"every transverse function dynamic: the quasi-static functions the accuracy allows would lower "
+                f"the fastest bending mode only from {fastest:.4g} to {low:.4g} per unit tau (less than "
+                f"{QUASI_GAIN:g}x: no steps saved)"
+            )
+    out = {}
+    for name, c in choices.items():
+        k = quasi.get(name, 0)
+        if c.given[1] is not None or name in stated:
+            out[name] = c
+            continue
+        if k and last is not None:
+            why = (
+                f"the highest {k} of its {c.transverse} transverse functions are quasi-static (IDAS runs): above its "
+                f"{c.dynamic[1]} dynamic, they change the coupled modes by {last.estimate:.2g} of peak "
+                f"(the most at {last.omega:.4g} per unit tau, {last.what}), within the {max(budget, 0.0):.2g} "
+                f"the accuracy {acc:g} leaves over the bases' estimate, and lower the fastest bending mode "
+                f"from {fastest:.4g} to {last.fastest:.4g} per unit tau"
+            )
+        elif gain and name in limit and limit[name]:
+            why = gain
+        elif steps and steps[-1][0].get(name, 0) > k:
+            why = (
+                "every transverse function dynamic: its highest quasi-static fits the accuracy but does not "
+                f"lower the fastest bending mode (from {fastest:.4g} per unit tau) further"
+            )
+        elif name not in limit:
+            why = "every transverse function dynamic: none above its dynamic band"
+        elif limit[name] == 0:
+            why = "every transverse function dynamic: its highest function moves a joint"
+        else:
+            alone = model.quasi_check(counts, {**quasi, name: 1})
+            change = f"{alone.estimate:.2g} of peak" if alone is not None else "a moved joint"
+            why = (
+                f"every transverse function dynamic: its highest quasi-static would change the coupled modes by "
+                f"{change}, more than the {max(budget, 0.0):.2g} the accuracy {acc:g} leaves over the bases' estimate"
+            )
+        out[name] = replace(c, quasi=k, quasi_reason=why)
     return out
 
 

@@ -463,6 +463,11 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         scene,
         {b.name: (b.axial_modes, b.transverse_modes) for b in bars if not b.rigid},
         quasi_static_start=table.get("deformation") == "quasi-static",
+        quasi_stated=frozenset(
+            t["name"]
+            for t in (raw["bodies"] if isinstance(raw.get("bodies"), list) else [])
+            if isinstance(t, dict) and "quasi_static_transverse" in t and isinstance(t.get("name"), str)
+        ),
         guess={  # read_initial checks the guess below; here only its well-formed angles
             k: float(v)
             for k, v in given_guess.items()
@@ -481,14 +486,21 @@ def with_bases(
     given: dict[str, tuple[int | None, int | None]],
     quasi_static_start: bool = False,
     guess: dict[str, float] | None = None,
+    quasi_stated: frozenset[str] = frozenset(),
 ) -> Scene:
     """The scene with every elastic bar's counts: as written, or chosen from
     ``simulation.accuracy`` where absent (:func:`symgen.scene.bases.choose_bases`), and the
-    choice recorded on ``Scene.bases``. Stated counts whose a-priori estimate exceeds the
+    choice recorded on ``Scene.bases``; the quasi-static functions symgen chooses
+    (:func:`symgen.scene.bases.quasi_choice`) on the bars' ``quasi_static_transverse``. Stated counts whose a-priori estimate exceeds the
     accuracy warn (SceneWarning: stderr; the sidecar's ``bases`` carries it too)."""
-    choices = choose_bases(scene, given, quasi_static_start, guess)
+    choices = choose_bases(scene, given, quasi_static_start, guess, quasi_stated)
     bodies = tuple(
-        replace(b, axial_modes=choices[b.name].axial, transverse_modes=choices[b.name].transverse)
+        replace(
+            b,
+            axial_modes=choices[b.name].axial,
+            transverse_modes=choices[b.name].transverse,
+            quasi_static_transverse=choices[b.name].quasi or b.quasi_static_transverse,
+        )
         if b.name in choices
         else b
         for b in scene.bodies

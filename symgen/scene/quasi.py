@@ -7,13 +7,22 @@ from __future__ import annotations
 from symgen.scene.model import Scene
 
 
+#: said of the functions symgen chose quasi-static
+C_PATH = "the emitted C solver (--solver c, emit-c, emit-fmu) integrates them as dynamic"
+
+
 def quasi_static_reasons(scene: Scene) -> dict[str, tuple[int, str]]:
     """bar -> (number of its quasi-static transverse functions, one sentence) for every bar that
-    has any."""
+    has any, and for every bar whose quasi-static functions symgen chose
+    (``symgen.scene.bases.quasi_choice``; its reason, also where it chose none)."""
     choices = {c.bar: c for c in scene.bases}
     out: dict[str, tuple[int, str]] = {}
     for body in scene.bodies:
         k = body.quasi_static_transverse
+        c = choices.get(body.name)
+        if not body.rigid and c is not None and c.quasi_reason and c.quasi == k:  # symgen's choice
+            out[body.name] = (k, f"chosen: {c.quasi_reason}" + (f"; {C_PATH}" if k else ""))
+            continue
         if body.rigid or not k:
             continue
         nt = body.transverse_modes
@@ -23,7 +32,6 @@ def quasi_static_reasons(scene: Scene) -> dict[str, tuple[int, str]]:
             "the inertia loads of the rigid motion and of the other functions included, but no inertia "
             "of their own: algebraic amplitudes, no eigenvalues for IDAS to follow"
         )
-        c = choices.get(body.name)
         if c is not None and c.omega_bending:
             dyn = c.dynamic[1]
             text += f"; the bases' dynamic band holds {dyn} bending mode{'s' if dyn != 1 else ''}"

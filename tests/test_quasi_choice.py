@@ -1,0 +1,239 @@
+"""symgen's own choice of quasi-static transverse functions (``symgen.scene.bases.quasi_choice``,
+issue 19 item 1, issue 20 item 2; docs/quasi-static-modes.md "Chosen by symgen").
+
+Oracles:
+* the clamped-free Euler-Bernoulli beam: its eigenfunctions are the arm's functions and its
+  modes (beta_1^2 = 3.5160, beta_2^2 = 22.0345 times sqrt(mu)), so condensing the second
+  function out leaves the first mode where it is and removes the second, whose static treatment
+  errs by its amplification r^2 / (1 - r^2) at the run's r = omega_run / (beta_2^2 sqrt(mu));
+  and the tip deflection of the uniformly loaded cantilever, q l^4 / (8 EI);
+* the converged Exudyn ANCF reference of the steel slider-crank from rest
+  (benchmarks/validation/ref) and the same model with every function dynamic.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from symgen.api import mechanism
+from symgen.numerics.simulate import simulate
+from symgen.numerics.start import start_plan
+from symgen.numerics.units import result_units
+from symgen.scene import load_scene
+from symgen.scene import bases as B
+
+BETA1_SQ = 3.5160152
+BETA2_SQ = 22.034491
+
+
+def _arm(path, *, lam=1e6, mu=1e4, g=10.0, start="quasi-static", extra=""):
+    """The turning arm of tests/test_quasi_static_modes.py without mode counts: a cantilever
+    turned at rate 1 under gravity."""
+    initial = f'[initial]\ndeformation = "{start}"\n' if start else ""
+    text = f"""
+[scene]
+name = "turning_arm"
+units = "dimensionless"
+
+[[bodies]]
+name = "arm"
+length = 1.0
+mass_per_length = 1.0
+lambda = {lam!r}
+mu = {mu!r}
+frame = "cantilever"
+transverse_shapes = "eigen"
+{extra}
+
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "arm"]
+at = [[0.0, 0.0], 0.0]
+
+[driver]
+kind = "angle"
+body = "arm"
+initial = 0.0
+rate = 1.0
+
+{initial}
+[effects]
+gravity = [0.0, {-g!r}]
+
+[outputs]
+tip = {{ kind = "deflection", body = "arm", at = 1.0 }}
+angle = {{ kind = "angle", body = "arm" }}
+
+[simulation]
+t_end = 3.2
+output_step = 0.05
+rtol = 1e-8
+atol = 1e-12
+"""
+    file = path / f"arm{len(list(path.iterdir()))}.toml"
+    file.write_text(text)
+    return str(file)
+
+
+def _scene(file, overrides=()):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_scene(file, list(overrides))
+
+
+def _estimate(scene):
+    place = B._placement(scene, dict(scene.initial.guess))
+    counts = {c.bar: (c.axial, c.transverse) for c in scene.bases}
+    omega_run, _ = B.run_frequency(scene)
+    model = B._Coupled(scene, place, set())
+    return B._CoupledEstimate(model, not scene.initial.quasi_static, omega_run), counts, omega_run
+
+
+def test_condensation_against_the_clamped_free_beam(tmp_path):
+    """The arm's second function quasi-static: the first mode stays at beta_1^2 sqrt(mu), the second
+    is gone and costs its amplification r^2 / (1 - r^2); the fastest bending mode left is the first."""
+    mu = 1e4
+    scene = _scene(_arm(tmp_path, mu=mu))
+    est, counts, omega_run = _estimate(scene)
+    assert counts["arm"][1] == 2
+    check = est.quasi_check(counts, {"arm": 1})
+    assert check is not None
+    w1, w2 = BETA1_SQ * np.sqrt(mu), BETA2_SQ * np.sqrt(mu)
+    r2 = (omega_run / w2) ** 2
+    assert check.estimate == pytest.approx(r2 / (1 - r2), rel=2e-3)
+    assert check.omega == pytest.approx(w2, rel=1e-3)
+    assert check.fastest == pytest.approx(w1, rel=1e-3)
+    assert est.quasi_check(counts, {}).fastest == pytest.approx(w2, rel=1e-3)
+    # the choice: the second function quasi-static, said with the numbers
+    (c,) = scene.bases
+    assert c.quasi == 1 and scene.bodies[0].quasi_static_transverse == 1
+    assert "2203" in c.quasi_reason and "351.6" in c.quasi_reason
+    assert c.as_dict()["quasi_static"]["functions"] == 1
+
+
+def test_undeformed_start_counts_the_removed_ringing(tmp_path):
+    """From an undeformed start the removed mode's ringing share counts too: the estimate is larger
+    than the amplification alone (and the choice still makes the function quasi-static: its share
+    at the tip is small)."""
+    mu = 1e4
+    quiet = _estimate(_scene(_arm(tmp_path, mu=mu)))
+    loud_scene = _scene(_arm(tmp_path, mu=mu, start=""))
+    ringing = _estimate(loud_scene)
+    assert ringing[0].rings and not quiet[0].rings
+    loud = ringing[0].quasi_check(ringing[1], {"arm": 1})
+    calm = quiet[0].quasi_check(quiet[1], {"arm": 1})
+    assert loud is not None and calm is not None
+    assert loud.estimate > calm.estimate
+    assert loud.estimate == pytest.approx(calm.estimate + loud.share, rel=1e-6)
+    assert loud_scene.bases[0].quasi == 1
+
+
+def test_chosen_arm_meets_the_closed_form_with_fewer_steps(tmp_path):
+    """The arm with symgen's choice against q l^4 / (8 EI) and against every function dynamic."""
+    mu, g, lam = 1e4, 10.0, 1e6
+    file = _arm(tmp_path, lam=lam, mu=mu, g=g)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        mech = mechanism(file)
+        dyn_mech = mechanism(file, ["bodies.arm.quasi_static_transverse=0"])
+    assert [mech.coords[i].name for i in mech.quasi] == ["g_arm_2"]
+    assert dyn_mech.quasi == ()
+    qs, dyn = simulate(mech), simulate(dyn_mech)
+    exact = -g * np.cos(qs.column("angle")) / (8 * mu)
+    peak = np.abs(exact).max()
+    # within the accuracy (0.01): the 2 functions chosen miss 9.1e-4 of the static tip deflection
+    # (measured; 4 functions 7.7e-5, tests/test_quasi_static_modes.py), dynamic or not alike
+    err_qs = np.abs(qs.column("tip") - exact).max() / peak
+    err_dyn = np.abs(dyn.column("tip") - exact).max() / peak
+    assert err_qs < 2e-3 and err_dyn < 2e-3
+    assert np.abs(qs.column("tip") - dyn.column("tip")).max() / peak < 2e-5
+    assert qs.steps < dyn.steps
+
+
+def test_stated_keys_are_honoured(tmp_path):
+    """quasi_static_transverse stated (also 0) or transverse_modes stated: symgen chooses none."""
+    file = _arm(tmp_path)
+    for overrides in (["bodies.arm.quasi_static_transverse=0"], ["bodies.arm.transverse_modes=3"]):
+        (c,) = _scene(file, overrides).bases
+        assert c.quasi == 0 and c.quasi_reason == ""
+        assert _scene(file, overrides).bodies[0].quasi_static_transverse == 0
+
+
+def test_coupled_mechanisms_keep_every_function_dynamic():
+    """The steel crank-rocker (validation scene): the accuracy would allow the rocker's highest
+    function, but the crank's functions (which move joint A) keep the fastest bending mode: no steps
+    saved, none chosen; the released double pendulum: the upper cantilever's functions move the
+    lower's pin, the lower's would change the coupled modes beyond the accuracy."""
+    rocker = _scene("benchmarks/validation/crank_rocker_steel.toml")
+    assert all(c.quasi == 0 for c in rocker.bases)
+    by = {c.bar: c for c in rocker.bases}
+    assert "moves a joint" in by["crank"].quasi_reason
+    assert "fastest bending mode" in by["rocker"].quasi_reason
+    pendulum = _scene("benchmarks/validation/double_pendulum_alu.toml")
+    by = {c.bar: c for c in pendulum.bases}
+    assert by["upper"].quasi == 0 and "moves a joint" in by["upper"].quasi_reason
+    assert by["lower"].quasi == 0 and "more than" in by["lower"].quasi_reason
+
+
+def test_steel_slider_crank_against_its_reference_and_the_dynamic_run():
+    """benchmarks/validation/slider_crank_steel_rest.toml: symgen makes the rod's highest 2 of 3
+    functions quasi-static; against the converged Exudyn reference it stays as close as every
+    function dynamic (measured 3.3e-4 vs 3.9e-4 of peak) in a fraction of the steps (1625 vs
+    9973); the emitted C solver's start plan integrates every function (that of the dynamic model)."""
+    import sys
+
+    sys.path.insert(0, "benchmarks")
+    from bench_validation import read_reference
+
+    path = "benchmarks/validation/slider_crank_steel_rest.toml"
+    t_ref, ref = read_reference("slider_crank_steel_rest")
+    errors, steps, runs = {}, {}, {}
+    for label, ov in (("chosen", []), ("dynamic", ["bodies.rod.quasi_static_transverse=0"])):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mech = mechanism(path, ov)
+        res = simulate(mech)
+        t, vals = result_units(mech.scene).convert(res.tau, res.outputs)
+        y = np.interp(t_ref, t, vals[:, res.output_names.index("rod_mid")])
+        r = ref["rod_mid"]
+        errors[label] = float(np.max(np.abs(y - r)) / np.max(np.abs(r)))
+        steps[label] = res.steps
+        runs[label] = (mech, y, np.max(np.abs(r)))
+    assert [runs["chosen"][0].coords[i].name for i in runs["chosen"][0].quasi] == ["g_rod_2", "g_rod_3"]
+    assert errors["chosen"] < 1e-3 and errors["dynamic"] < 1e-3
+    assert errors["chosen"] < errors["dynamic"] + 0.01
+    assert np.max(np.abs(runs["chosen"][1] - runs["dynamic"][1])) / runs["chosen"][2] < 1e-3
+    assert steps["chosen"] < steps["dynamic"] / 3
+    chosen, dynamic = start_plan(runs["chosen"][0]), start_plan(runs["dynamic"][0])
+    assert chosen.independent == dynamic.independent and chosen.dependent == dynamic.dependent
+
+
+@pytest.mark.slow
+def test_c_solver_runs_the_chosen_scene_every_function_dynamic(tmp_path):
+    """``--solver c`` on a scene where symgen chose quasi-static functions: not refused (exit 0),
+    and it integrates every function: its rod_mid is the IDAS run's with every function dynamic
+    (measured 2.5e-6 of peak; the chosen IDAS run, its rod's top two functions quasi-static, differs
+    from the C run by 1.1e-4)."""
+    import csv
+
+    from symgen.cli import main
+
+    path = "benchmarks/validation/slider_crank_steel_rest.toml"
+    out = tmp_path / "c.csv"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["simulate", path, "--solver", "c", "-o", str(out)]) == 0
+        dyn = simulate(mechanism(path, ["bodies.rod.quasi_static_transverse=0"]))
+    rows = list(csv.DictReader(out.open()))
+    y = np.array([float(r["rod_mid"]) for r in rows])
+    t = np.array([float(r["t"]) for r in rows])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        scene = load_scene(path)
+    tt, vals = result_units(scene).convert(dyn.tau, dyn.outputs)
+    ref = np.interp(t, tt, vals[:, dyn.output_names.index("rod_mid")])
+    assert np.max(np.abs(y - ref)) / np.max(np.abs(ref)) < 2e-5
