@@ -23,7 +23,8 @@ from tests.oracles import write_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted(str(p) for p in (ROOT / "examples").glob("*.toml"))
-HEAVY = ("sympy", "jinja2", "matplotlib")
+#: tqdm too: a bar that is not shown (stderr not a terminal) does not import it (symgen.progress)
+HEAVY = ("sympy", "jinja2", "matplotlib", "tqdm")
 
 
 def short(scene: str) -> str:
@@ -233,6 +234,16 @@ def test_cached_runs_with_user_expressions_import_no_sympy(text, tmp_path):
             ["api", scene, "simulation.rtol=1e-7", str(tmp_path / "api.csv")],
         ],
         tmp_path,
+    )
+
+
+def test_a_cached_c_solver_run_is_lean(tmp_path):
+    """``simulate --solver c`` from the cache (its model and its C solver) imports none of them:
+    the whole process Exudyn is measured against (benchmarks/bench_exudyn.py)."""
+    scene = str(ROOT / "examples" / "slider_crank.toml")
+    out = str(tmp_path / "c.csv")
+    _lean(
+        [["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o", out]], tmp_path
     )
 
 
