@@ -247,6 +247,31 @@ def test_a_cached_c_solver_run_is_lean(tmp_path):
     )
 
 
+BLAS_CHECK = r"""
+import json, os, sys
+import symgen.cli
+before = "numpy" in sys.modules  # the command sets its BLAS threads before numpy's first import
+symgen.cli.main(["schema"])
+import numpy
+print("BLAS " + json.dumps({"numpy_before_main": before, "threads": os.environ.get("OPENBLAS_NUM_THREADS")}))
+"""
+
+
+@pytest.mark.parametrize("given", [None, "2"])
+def test_a_command_runs_numpy_with_one_blas_thread_unless_told(given, tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    proc = subprocess.run(
+        [sys.executable, "-c", BLAS_CHECK], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("BLAS "))
+    report = json.loads(line[len("BLAS ") :])
+    assert report == {"numpy_before_main": False, "threads": given or "1"}
+
+
 def test_the_watch_sees_a_heavy_import(tmp_path):
     """The check can fail: a run that plots imports matplotlib, and the report names it."""
     scene = EXAMPLES[0]
