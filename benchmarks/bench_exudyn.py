@@ -19,8 +19,8 @@ output grid (the rod's midspan deflection from its chord), against the committed
 Exudyn: ``exudyn_scene.run`` (ANCF cable elements, ``SolveDynamic``: generalized-alpha, spectral
 radius 0.9, fixed step; Newton's tolerance as for the reference, ``bench_validation.NEWTON_RTOL``)
 on a grid of elements per elastic bar x steps per output step; its cheapest configuration within a
-target whose next refinement (twice the steps) is within it too (configurations past
-``EX_MAX_S`` of CPU are not run, nor finer steps at that mesh).
+target whose next refinement (twice the steps) is within it too, or was not run (after a run past
+``EX_MAX_S`` of CPU a mesh's finer steps are not run: the table says "not run").
 
 symgen: the scene as a user runs it: ``symgen simulate SCENE -o out.csv --set
 simulation.accuracy=TARGET`` (no mode counts: chosen from the accuracy; default rtol, strain
