@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -871,10 +872,19 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
+#: BLAS threads of a command's process (numpy's OpenBLAS), unless the environment says otherwise:
+#: symgen's dense matrices are small (a bar's reference FE model, the modes of a mechanism), where
+#: threads only spin: one thread saves ~0.05 s of CPU of a cached ``simulate --solver c`` process
+#: (0.29 against 0.34 s; benchmarks/bench_exudyn.py). Set before numpy is first imported.
+BLAS_THREADS = {"OPENBLAS_NUM_THREADS": "1"}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command. Exit codes: 0 done, 2 a user-facing error (bad input, a run that
     failed: message names the file/key or tau), 3 an internal error, 130 / 143 stopped by
     SIGINT / SIGTERM (a partial result kept, marked "interrupted")."""
+    for key, value in BLAS_THREADS.items():
+        os.environ.setdefault(key, value)
     try:
         with interrupt.handling():  # first: a signal from here on is reported and cleans up
             args = None

@@ -63,6 +63,41 @@ def test_cheapest_needs_the_next_refinement_within_the_target_too():
     assert B.cheapest(rows, 1e-4) is None
 
 
+def test_error_against_reads_the_run_on_the_reference_grid():
+    t_ref = np.linspace(0.0, 1.0, 11)
+    ref = (t_ref, {"y": np.sin(t_ref)})
+    t = np.linspace(0.0, 1.0, 101)  # a finer run: its samples at the reference's times
+    y = np.sin(t)
+    y[50] += 0.3  # off the reference grid (t = 0.5 is on it: index 50 of 101 is t = 0.5)
+    assert B.error_against(t, {"y": y}, ref) == pytest.approx(0.3 / np.sin(1.0))
+    y[50] -= 0.3
+    y[51] += 0.3  # t = 0.51: between reference samples, not read
+    assert B.error_against(t, {"y": y}, ref) == pytest.approx(0.0, abs=1e-12)
+
+
+def _acceptance_results(ex_int, ex_proc, floor, sg):
+    """A results dict of bench_exudyn.run for the steel scene at 1 %: symgen's variants (name ->
+    (integration s, process s))."""
+    symgen = {v: {"int": i, "proc": p} for v, (i, p) in sg.items()}
+    targets = {1e-2: {"ex_int": ex_int, "ex_proc": ex_proc, "floor": floor, "symgen": symgen}}
+    return {"slider_crank_steel_rest": {"targets": targets}}
+
+
+def test_acceptance_lines_compare_each_variant_with_its_target():
+    sg = {"default": (0.1, 0.5), "estimate off": (0.01, 0.1), "c": (0.05, 0.4), "c, estimate off": (0.0149, 0.02)}
+    lines = B.acceptance_lines(_acceptance_results(0.2, 0.35, 0.01, sg))
+    default_int, default_proc, c_floor, c_proc = lines
+    # Exudyn 0.2 s / 0.1 s = 2x (< 10x, not met), / 0.01 s = 20x (met)
+    assert "2x" in default_int and "20x" in default_int
+    assert default_int.index("**not met**") < default_int.index("; ") < default_int.rindex(", met")
+    # whole process 0.35 / 0.5 = 0.7x, 0.35 / 0.1 = 3.5x (>= 3x: met)
+    assert "0.7x" in default_proc and "3.5x" in default_proc and default_proc.endswith(", met.")
+    # the floor is an upper bound: 5x the floor not met, 1.49x met
+    assert "5.00x the floor" in c_floor and "1.49x the floor" in c_floor and c_floor.endswith(", met.")
+    assert "**not met**" in c_floor.split("; ")[0]
+    assert "17.5x" in c_proc and c_proc.endswith(", met.")
+
+
 def test_results_sections_round_trip_and_replace_one():
     text = (
         "# title\n\nMachine: x.\n\n## A\n\nalpha\n\n_(section `examples` took 3 s)_\n\n"

@@ -23,7 +23,8 @@ from tests.oracles import write_scene
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted(str(p) for p in (ROOT / "examples").glob("*.toml"))
-HEAVY = ("sympy", "jinja2", "matplotlib")
+#: tqdm too: a bar that is not shown (stderr not a terminal) does not import it (symgen.progress)
+HEAVY = ("sympy", "jinja2", "matplotlib", "tqdm")
 
 
 def short(scene: str) -> str:
@@ -234,6 +235,41 @@ def test_cached_runs_with_user_expressions_import_no_sympy(text, tmp_path):
         ],
         tmp_path,
     )
+
+
+def test_a_cached_c_solver_run_is_lean(tmp_path):
+    """``simulate --solver c`` from the cache (its model and its C solver) imports none of them:
+    the whole process Exudyn is measured against (benchmarks/bench_exudyn.py)."""
+    scene = str(ROOT / "examples" / "slider_crank.toml")
+    out = str(tmp_path / "c.csv")
+    _lean(
+        [["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o", out]], tmp_path
+    )
+
+
+BLAS_CHECK = r"""
+import json, os, sys
+import symgen.cli
+before = "numpy" in sys.modules  # the command sets its BLAS threads before numpy's first import
+symgen.cli.main(["schema"])
+import numpy
+print("BLAS " + json.dumps({"numpy_before_main": before, "threads": os.environ.get("OPENBLAS_NUM_THREADS")}))
+"""
+
+
+@pytest.mark.parametrize("given", [None, "2"])
+def test_a_command_runs_numpy_with_one_blas_thread_unless_told(given, tmp_path):
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    proc = subprocess.run(
+        [sys.executable, "-c", BLAS_CHECK], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    line = next(ln for ln in proc.stdout.splitlines() if ln.startswith("BLAS "))
+    report = json.loads(line[len("BLAS ") :])
+    assert report == {"numpy_before_main": False, "threads": given or "1"}
 
 
 def test_the_watch_sees_a_heavy_import(tmp_path):
