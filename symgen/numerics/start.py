@@ -295,6 +295,7 @@ def free_inertia_parameters(mech: Mechanism) -> tuple[int, ...]:
     quasi-static or inextensible axial functions, is rigid in that direction: its inertia does
     act on the joints at once), none of them quasi-static, and no slot guide (its support moves
     with the bar)."""
+    from symgen.ir import names
     from symgen.ir.spec import DYNAMIC
     from symgen.model.structure import axial_treatment, slot_guide
 
@@ -310,7 +311,7 @@ def free_inertia_parameters(mech: Mechanism) -> tuple[int, ...]:
             return ()
         if slot_guide(sc, b.name) or axial_treatment(sc, b).treatment != DYNAMIC:
             return ()
-        name = f"nu_{b.name}"
+        name = names.bar_parameter("nu", b.name).text
         if name not in mech.info.params:
             return ()
         found.append(mech.info.params.index(name))
