@@ -31,7 +31,13 @@ lumped masses, torques and the Kelvin-Voigt time constant are the scene's number
   angular rates), the bars placed from the ground pins along the pins, undeformed, moving
   rigidly (the scene's default start; a scene with ``[initial] deformation`` is refused);
 * ``SolveDynamic`` (generalized-alpha, Exudyn's default spectral radius 0.9), a fixed step,
-  Newton's relative tolerance 1e-6 (see ``exudyn_models.NEWTON``).
+  Newton's relative tolerance 1e-6 (see ``exudyn_models.NEWTON``); its initial accelerations as
+  Exudyn's defaults compute them (``computeInitialAccelerations``, ``storeInitialAlgebraicCoordinates``).
+  The driver torque's first sample (t = 0) is then 0 at every mesh, 2 to 32 elements per bar
+  (Exudyn 1.13.6: the initial accelerations leave out what constraint user functions prescribe),
+  not the cable model's start; it is the continuum's value where no rigid inertia or load acts
+  on a driven body at t = 0 (an unstressed bar transmits nothing then), as on every validation
+  scene (tests/test_validation.py; benchmarks/RESULTS.md, "The start's joint forces").
 
 Outputs are computed from the node positions the way symgen defines them
 (``symgen/model/quantities.py``): ``chord_deflection``, ``deflection`` (pinned-pinned: the

@@ -281,3 +281,88 @@ def quasi_static_start(
     vs = vs.copy()
     vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
     return qs, vs
+
+
+# ---------------------------------------------------------------------- the start's joint forces
+#: the elastic bars' mass (nu) is scaled by these two factors to take the limit of the
+#: continuum start (``continuum_start_outputs``): the multipliers are rational in the
+#: factor, linear near 0, so the two values extrapolate to it with an error O(factor^2); the
+#: KKT matrix's condition grows as 1/factor (1e6: round-off ~1e-10 of the multipliers)
+FREE_INERTIA_FACTORS = (1e-6, 2e-6)
+
+
+def free_inertia_parameters(mech: Mechanism) -> tuple[int, ...]:
+    """The parameter indices of the masses (``nu_<bar>``) of the elastic bars whose distributed
+    inertia an unstressed start does not reach the joints with, or () when the start's
+    joint forces are the model's own (``continuum_start_outputs``): every elastic bar needs
+    dynamic axial functions and transverse functions (a bar without one family, or with
+    quasi-static or inextensible axial functions, is rigid in that direction: its inertia does
+    act on the joints at once), none of them quasi-static, and no slot guide (its support moves
+    with the bar)."""
+    from symgen.ir import names
+    from symgen.ir.spec import DYNAMIC
+    from symgen.model.structure import axial_treatment, slot_guide
+
+    sc = mech.scene
+    if mech.quasi or sc.initial.quasi_static or mech.info.inextensible_axial:
+        return ()
+    found = []
+    for b in sc.bodies:
+        if b.rigid:
+            continue
+        modes = mech.info.modes.get(b.name)
+        if modes is None or not modes.axial or not modes.transverse or not sc.effects.transverse:
+            return ()
+        if slot_guide(sc, b.name) or axial_treatment(sc, b).treatment != DYNAMIC:
+            return ()
+        name = names.bar_parameter("nu", b.name).text
+        if name not in mech.info.params:
+            return ()
+        found.append(mech.info.params.index(name))
+    return tuple(found)
+
+
+def continuum_start_outputs(
+    mech: Mechanism,
+    t0: float,
+    q: np.ndarray,
+    v: np.ndarray,
+    kinds: tuple[str, ...] = ("reaction", "driver_torque", "axial"),
+) -> dict[str, float] | None:
+    """The outputs of ``kinds`` (those read from the joint forces) at an unstressed start as a
+    continuum gives them (output -> value), or None where the model's own are kept
+    (``free_inertia_parameters``, or a deformed start).
+
+    At t0 an unstressed bar carries no stress, so each of its points accelerates on its own:
+    the joints feel none of its distributed inertia or loads until waves have left them
+    (axially a force rho A c times the velocity mismatch, growing from 0 with t; in bending
+    like t^(1/2)). A truncated basis cannot move all of the bar's mass alone: the part of the
+    frame's motion its functions cannot represent (about 1/N of the mass for N functions)
+    stays attached to the joints, so the model's joint forces at t0 carry that part's inertia,
+    which falls only as 1/N with the counts and is gone after the period of the highest
+    function (benchmarks/RESULTS.md, "The start's joint forces"). The continuum's are the
+    model's in the limit of no distributed mass on those bars (their nu -> 0; the rigid bars,
+    lumped masses and rotors keep theirs), which every complete basis reaches as N grows:
+    evaluated at two small factors of nu and extrapolated to 0."""
+    free = free_inertia_parameters(mech)
+    if not free:
+        return None
+    elastic = list(mech.info.elastic)
+    if np.any(np.asarray(q)[elastic] != 0.0) or np.any(np.asarray(v)[elastic] != 0.0):
+        return None
+    kind = {o.name: o.kind for o in mech.scene.outputs}
+    names = list(mech.info.outputs)
+    cols = [i for i, n in enumerate(names) if kind.get(n) in kinds]
+    if not cols:
+        return {}
+    z0n, z0m = np.zeros(mech.n), np.zeros(mech.m)
+    outs = []
+    for factor in FREE_INERTIA_FACTORS:
+        p = np.array(mech.p, dtype=float)
+        p[list(free)] *= factor
+        K, r = mech.kkt(t0, q, v, z0n, z0m, p)
+        sol = np.linalg.solve(np.array(K), -np.array(r).ravel())
+        outs.append(np.array(mech.f["out"](t0, q, v, sol[: mech.n], sol[mech.n :], p)).ravel())
+    e1, e2 = FREE_INERTIA_FACTORS
+    limit = (e2 * outs[0] - e1 * outs[1]) / (e2 - e1)
+    return {names[i]: float(limit[i]) for i in cols}
