@@ -34,14 +34,18 @@ output's change is the model's output function at q + dq minus at q, its maximum
 divided by the output's peak.
 
 Dynamics: the left-out terms harden each bar; its first bending frequency omega (the bar
-alone, pinned or clamped as its frame) moves by the fraction shift = (1/2) mean over the run of
-v^T H v / v^T (mu Kt) v, H the Hessian of dU (its second difference along v) and v the bar's
-first mode. The free vibration of the bar in an output (its amplitude within 25 % of omega in
-the output's spectrum) then drifts in phase by omega T shift over the run's length T (with
-Kelvin-Voigt damping c, at most its decay time 2 / (c omega^2)), and the output by that phase
-times the amplitude (at most twice it). Each output's estimate is its static change plus its
-drift, as a fraction of its peak; outputs that q does not move (a driver torque) have their
-drift only.
+alone, pinned or clamped as its frame) moves at each sample by the fraction
+shift(t) = (1/2) v^T H v / v^T (mu Kt) v, H the Hessian of dU (its second difference along v)
+and v the bar's first mode. The free vibration of the bar in an output (the envelope of its
+content within 25 % of omega, and no nearer another bar's frequency than the geometric mean of
+the two) then drifts in phase by omega times the integral of shift over the time it has rung:
+the run so far, with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
+by that phase times the envelope there (at most twice it), the largest along the run. Along the
+run, not the mean shift times the run's length times a mean amplitude: the vibration a start or
+a load step excites is largest, and its slopes with it, where a windowed spectrum of the whole
+run sees least of it (the five-bar's links: 0.38x of the true error with the mean, 0.93x along
+the run; benchmarks/RESULTS.md). Each output's estimate is its static change plus its drift, as
+a fraction of its peak; outputs that q does not move (a driver torque) have their drift only.
 
 What it leaves out: the strain's share (eps eta''^2 terms, the exact strain |r'| - 1 against von
 Karman's: of the order N/lambda, and the axial ringing averages them out: the slider-crank's
