@@ -39,10 +39,10 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
 
   Why the rerun is the default: ``benchmarks/bench_estimate.py`` (RESULTS.md, "Error estimate")
   compares both with the error measured against converged richer models on seven mechanisms.
-  The rerun lies within 0.75x-1.13x of it on every output checked (low-passed); measured as the
-  outputs are written, 0.82x-1.11x on the five cases of the default test suite. The linearised route is as
+  The rerun lies within 0.82x-1.11x of it on every output checked (15, measured as the outputs
+  are written; 0.75x-1.13x low-passed). The linearised route is as
   good where the motion forces the response (the slider-crank, the steel four-bar, the
-  deflections of the four-bar with a tool) but 4x to 20x low where the run rings freely
+  deflections of the four-bar with a tool) but 10x to 100x low where the run rings freely
   (a released double pendulum, a torque-driven arm, a driver reaction with a ringing coupler):
   there a changed frequency slips the phase over the run, which is not linear in the change.
   The projection of the loads by hand onto the omitted functions was not written: it would be
