@@ -606,6 +606,7 @@ _E6 = r"\mathcal{{E}}_{{{0},{1},{2},{3},{4},{5}}}"
 _G3 = r"\mathcal{{G}}_{{{0},{1},{2}}}"
 _C3 = r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)"
 _C5 = r"\mathcal{{C}}_{{{0},{1},{2},{3},{4}}}"
+_H4 = r"\mathcal{{H}}_{{{0},{1};{2},{3}}}"
 
 
 def _symmetric_form(t: IPTable, name: str, latex: str, head: tuple, order: int, g: list) -> tuple:
@@ -733,7 +734,23 @@ class _ExactBar:
                     [t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)]
                     for i in range(nt)
                 ]
-                el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
+                # Kelvin-Voigt on the rate of the exact curvature (the ANCF cable's bending damping acts on
+                # kappa_dot): D = (c mu / 2) g_dot^T (Kt + H(g)) g_dot, H_ab = sum_{c<=d} mult H4_abcd g_c g_d,
+                # to fourth order (kappa = eta'' (1 + eta'^2 / 2) where the strain vanishes)
+                pairs = list(combinations_with_replacement(range(nt), 2))
+                H = {}
+                for a, b in pairs:
+                    terms = []
+                    for cc, dd in pairs:
+                        v = t.tensor("H4", (a, b, cc, dd), _H4)
+                        if v != 0:
+                            terms.append(sp.Mul(_multiplicity((cc, dd)), v, g[cc], g[dd]))
+                    H[(a, b)] = sp.Add(*terms)
+                el_g = [
+                    el_g[i]
+                    + damping * mu * sp.Add(*[(Kt[i][j] + H[(min(i, j), max(i, j))]) * dg[j] for j in range(nt)])
+                    for i in range(nt)
+                ]
         return energy, el_f, el_g, bend
 
     def constraint_rows(self) -> tuple:

@@ -420,6 +420,11 @@ class InnerProducts:
         eta'^4 / 8 (with the sixth-order tables)."""
         return self._sixth().C5
 
+    @property
+    def H4(self) -> dict[tuple[int, ...], float]:
+        """The exact curvature rate's damping table (with the sixth-order tables)."""
+        return self._sixth().H4
+
     def _sixth(self) -> Any:
         if self.sixth is None:
             raise ValueError("these inner products have no sixth-order tables (join them with with_sixth_order)")

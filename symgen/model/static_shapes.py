@@ -518,6 +518,10 @@ class SixthOrderProducts:
     C5 : ``{(k, a, b, c, d): int phi'_k psi'_a psi'_b psi'_c psi'_d}`` over sorted (a, b, c, d), so
         that ``(phi'_k, eta'^4) = sum_sorted mult C5 g^4``: the exact strain's eta'^4 / 8 in the
         axial strain (DERIVE_VERSION 8)
+    H4 : ``{(a, b, c, d): F_ab|cd + (F_ac|bd + F_ad|bc + F_bc|ad + F_bd|ac) / 2}`` over a <= b, c <= d,
+        F_ab|cd = int psi''_a psi''_b psi'_c psi'_d: the Kelvin-Voigt damping of the exact curvature's
+        rate, D = (c mu / 2) int kappa_dot^2 = (c mu / 2) g_dot^T (Kt + sum H4 g_c g_d) g_dot to fourth
+        order (kappa = eta'' (1 + eta'^2 / 2) on a nearly inextensible bar)
 
     By Gauss-Legendre quadrature on each smooth piece (:func:`sixth_order_nodes` nodes per piece:
     the integrands are products of six sines, exponentials and polynomials, integrated to
@@ -531,6 +535,7 @@ class SixthOrderProducts:
     nt: int
     E6: dict[tuple[int, ...], float]
     C5: dict[tuple[int, ...], float] = field(default_factory=dict)
+    H4: dict[tuple[int, ...], float] = field(default_factory=dict)
 
 
 def sixth_order_nodes(nt: int) -> int:
@@ -583,4 +588,11 @@ def sixth_order_products(
             for k in range(na):
                 for j, idx in enumerate(quads):
                     C5[(k, *idx)] = float(table[k, j])
-    return SixthOrderProducts(na=na, nt=nt, E6=E6, C5=C5)
+    F = np.einsum("q,qa,qb,qc,qd->abcd", W, Bq, Bq, Aq, Aq)  # int psi''_a psi''_b psi'_c psi'_d
+    H4: dict[tuple[int, ...], float] = {}
+    for a, b in itertools.combinations_with_replacement(range(nt), 2):
+        for c, d in itertools.combinations_with_replacement(range(nt), 2):
+            H4[(a, b, c, d)] = float(
+                F[a, b, c, d] + (F[a, c, b, d] + F[a, d, b, c] + F[b, c, a, d] + F[b, d, a, c]) / 2
+            )
+    return SixthOrderProducts(na=na, nt=nt, E6=E6, C5=C5, H4=H4)
