@@ -762,12 +762,12 @@ class _ExactBar:
         g, dg, ddg = list(s.g), list(s.dg), list(s.ddg)
         if not self.axial:
             rows = tuple(sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) for k in range(na))
-            rates = tuple(
+            first = tuple(
                 (sp.Add(*[Ka[k][j] * df[j] for j in range(na)]), sp.Add(*[Ka[k][j] * ddf[j] for j in range(na)]))
                 for k in range(na)
             )
-            return rows, rates
-        rates = []
+            return rows, first
+        rates: list[tuple] = []
         pairs = list(combinations_with_replacement(range(nt), 2))
         for k in range(na):
             vel = sp.Add(*[Ka[k][j] * df[j] for j in range(na)]) + sp.Add(*[self.Jt[k][a] * dg[a] for a in range(nt)])
