@@ -353,11 +353,15 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
         if damp:
             left.append(rf"- {c}\,\mu_{{{B}}}\dot\eta_{{{B}}}''''")
+        # the virtual strain of eta': eta' (von Karman), eta' (1 + eta'^2 / 2) (the exact bar's strain)
+        deta = (
+            rf"\eta_{{{B}}}'\bigl(1 + \tfrac{{1}}{{2}}\eta_{{{B}}}'^{{2}}\bigr)" if ctx["exact"] else rf"\eta_{{{B}}}'"
+        )
         if gs_on and inext:
-            left.append(rf"+ \bigl(N_{{{B}}}\eta_{{{B}}}'\bigr)'")
+            left.append(rf"+ \bigl(N_{{{B}}}{deta}\bigr)'")
         elif gs_on:
             left.append(
-                rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}\eta_{{{B}}}'\bigr)'"
+                rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}{deta}\bigr)'"
                 if vk
                 else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'"
             )
