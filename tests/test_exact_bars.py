@@ -599,3 +599,15 @@ def test_latex_shows_the_exact_bar(tmp_path):
     assert "exact curvature to sixth order" in exact
     assert r"\eta'^4\eta''^2" in exact and r"\mathcal{E}_{1,1,1,1,1,1}" in exact
     assert r"\mathcal{E}" not in vk and "Exact bar" not in vk
+
+
+def test_tables_of_a_bar_without_axial_functions():
+    """A bar with transverse functions only (axial_modes = 0): E6 and H4 as with axial functions,
+    no strain table (tests/test_hard_cases.py's four-bar takes the exact bar with such a coupler)."""
+    bt = transverse_basis("pinned-pinned", "modes", 2)
+    none, some = (
+        compute_sixth_order([], bt.functions),
+        compute_sixth_order(axial_basis("complete", 1).functions, bt.functions),
+    )
+    assert none.C5 == {} and len(some.C5) == math.comb(2 + 3, 4)
+    assert none.E6 == pytest.approx(some.E6, rel=1e-13) and none.H4 == pytest.approx(some.H4, rel=1e-13)

@@ -564,9 +564,9 @@ def sixth_order_products(
             B.append([f.piece_at(mid).evaluate(xi, 2) for f in psi])
             F.append([f.piece_at(mid).evaluate(xi, 1) for f in phi])
     W = np.concatenate(ws)
-    Aq = np.array(A, dtype=float).reshape(-1, nt)
-    Bq = np.array(B, dtype=float).reshape(-1, nt)
-    Fq = np.array(F, dtype=float).reshape(-1, na)
+    Aq = np.array(A, dtype=float).reshape(len(W), nt)
+    Bq = np.array(B, dtype=float).reshape(len(W), nt)
+    Fq = np.array(F, dtype=float).reshape(len(W), na)  # no axial functions: (nodes, 0)
     pairs = list(itertools.combinations(range(6), 2))  # which two factors are psi''
     E6: dict[tuple[int, ...], float] = {}
     for idx in itertools.combinations_with_replacement(range(nt), 6):
