@@ -288,6 +288,8 @@ class BarEquations:
     xa_d: sp.Symbol
     ya_d: sp.Symbol
     constraint: tuple = ()  # inextensible bar: (phi'_k, eps) = 0, k = 1..na (multipliers N_k)
+    # the exact bar's: (d/dt, d2/dt2) of each constraint, from its tables (() : by the chain rule)
+    constraint_rates: tuple = ()
     eqbeta: sp.Expr | None = None  # guide of a slot: the equation of its support distance beta
     # the display form (``bar_equations``): the same fields with display symbols, and what they stand for
     display: BarEquations | None = field(default=None, compare=False, repr=False)
@@ -297,7 +299,7 @@ class BarEquations:
     loads: tuple = field(default=(), compare=False, repr=False)  # (beta-bar, gamma-bar) symbols, or ()
 
     #: the fields holding equations (``substitute`` replaces in these)
-    EXPRESSIONS = ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint", "eqbeta")
+    EXPRESSIONS = ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint", "constraint_rates", "eqbeta")
 
     def map(self, fn) -> BarEquations:
         """The same equations with ``fn`` applied to each expression."""
@@ -312,8 +314,10 @@ class BarEquations:
         return replace(self, **{k: each(getattr(self, k)) for k in self.EXPRESSIONS})
 
     def substitute(self, rule: dict) -> BarEquations:
-        """The same equations with ``rule`` applied by ``xreplace`` (nothing simplified)."""
-        return self.map(lambda e: e.xreplace(rule))
+        """The same equations with ``rule`` applied as ``xreplace`` would (nothing simplified), each
+        shared subexpression once (``shared_xreplace``)."""
+        memo: dict = {}
+        return self.map(lambda e: shared_xreplace(e, rule, memo))
 
     def generalized(self) -> dict:
         """Generalized forces in common units: 'XY' (ground axes), 'th', 'f', 'g'."""
@@ -444,110 +448,82 @@ def bar_equations(
     Kt = [[t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
     quad_a = sp.Add(*[Ka[i][j] * f[i] * f[j] for i in range(na) for j in range(na)]) / 2
     quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
-    coupling = sp.Integer(0)  # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
-    quartic = sp.Integer(0)  # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
-    c: list = []  # c_k = (phi'_k, eta'^2 / 2), von Karman and exact, dynamic bars
-    if effects.geometric_stiffening and na and nt:
-        for k in range(na):
-            for a, b in combinations_with_replacement(range(nt), 2):
-                c3 = t.tensor("C3", (k, a, b), r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)")
-                mult = 1 if a == b else 2
-                coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
-        if vk and not inext:
-            # the strain energy of the axial strain the basis can carry: lambda/2 ||P eps||^2 with P
-            # the projection onto span{phi'_k}, = lambda (f^T Ka f / 2 + f^T c + c^T Ka^-1 c / 2),
-            # c_k = (phi'_k, eta'^2 / 2). The full lambda/8 int eta'^4 adds lambda/2 ||(1-P) eta'^2/2||^2,
-            # a bending stiffness growing with lambda that no axial amplitude can relax: locking.
-            # Projected, raising lambda can only approach the inextensible limit (P eps = 0).
-            c = [sp.diff(coupling, f[k]) for k in range(na)]
-            quartic = sp.Add(*[t.ka_inv(k, j) * c[k] * c[j] for k in range(na) for j in range(na)]) / 2
-    if inext:
-        strain_energy = sp.Integer(0)  # the axial part is a constraint (no energy)
-    elif na and lam is not None:
-        strain_energy = lam * (quad_a + (coupling + quartic if vk else 0))
+    bend4: sp.Expr = sp.Integer(0)  # the exact bar's bending terms beyond mu eta''^2 / 2 (its energy)
+    if exact:
+        # the exact bar (docs/exact-bars.md): its forces from its tables, not differentiated
+        xb = _ExactBar(t, s, Ka, inext, effects.geometric_stiffening)
+        strain_energy, el_f, el_g, bend4 = xb.energy_and_forces(quad_a, quad_t, axial_force, damping)
+        constraint, constraint_rates = xb.constraint_rows() if inext else ((), ())
+        coupling = sp.Integer(0)
     else:
-        strain_energy = sp.Integer(0)
-    if nt and mu is not None:
-        strain_energy += mu * quad_t
-    bend4 = sp.Integer(0)  # the exact bar's fourth- and sixth-order bending terms (docs/exact-bars.md)
-    if exact and mu is not None:
-        # (mu/2) int eta'^2 eta''^2, over sorted index tuples of the fully symmetric E4
-        e4 = sp.Add(
-            *[
-                _multiplicity(idx)
-                * t.tensor("E4", idx, r"\mathcal{{E}}_{{{0},{1},{2},{3}}}")
-                * sp.Mul(*[g[i] for i in idx])
-                for idx in combinations_with_replacement(range(nt), 4)
-            ]
-        )
-        # (mu/2) int eta'^4 eta''^2: the sixth-order term of the inextensible bar's curvature,
-        # kappa^2 = eta''^2 / (1 - eta'^2) = eta''^2 (1 + eta'^2 + eta'^4 + ...), over sorted tuples of E6
-        e6 = sp.Add(
-            *[
-                _multiplicity(idx)
-                * t.tensor("E6", idx, r"\mathcal{{E}}_{{{0},{1},{2},{3},{4},{5}}}")
-                * sp.Mul(*[g[i] for i in idx])
-                for idx in combinations_with_replacement(range(nt), 6)
-            ]
-        )
-        bend4 = mu * (e4 + e6) / 2
-        if c and not inext:
-            # - mu int (eps eta''^2 + eps' eta' eta''), eps = P eps = sum_k e_k phi'_k the strain the
-            # basis carries: e = f + Ka^-1 c (zero on an inextensible or quasi-static bar)
-            e = [f[k] + sp.Add(*[t.ka_inv(k, j) * c[j] for j in range(na)]) for k in range(na)]
-            g3 = [
-                sp.Add(
-                    *[
-                        _multiplicity((a, b))
-                        * t.tensor("G3", (k, a, b), r"\mathcal{{G}}_{{{0},{1},{2}}}")
-                        * g[a]
-                        * g[b]
-                        for a, b in combinations_with_replacement(range(nt), 2)
-                    ]
-                )
+        constraint_rates = ()
+        coupling = sp.Integer(0)  # (1/2) sum C3 f g g  = (1/2) int zeta' eta'^2
+        quartic = sp.Integer(0)  # (1/2) c^T Ka^-1 c, the projected (1/8) int eta'^4 (below)
+        c: list = []  # c_k = (phi'_k, eta'^2 / 2), von Karman and exact, dynamic bars
+        if effects.geometric_stiffening and na and nt:
+            for k in range(na):
+                for a, b in combinations_with_replacement(range(nt), 2):
+                    c3 = t.tensor("C3", (k, a, b), r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)")
+                    mult = 1 if a == b else 2
+                    coupling += sp.Rational(mult, 2) * c3 * f[k] * g[a] * g[b]
+            if vk and not inext:
+                # the strain energy of the axial strain the basis can carry: lambda/2 ||P eps||^2 with P
+                # the projection onto span{phi'_k}, = lambda (f^T Ka f / 2 + f^T c + c^T Ka^-1 c / 2),
+                # c_k = (phi'_k, eta'^2 / 2). The full lambda/8 int eta'^4 adds lambda/2 ||(1-P) eta'^2/2||^2,
+                # a bending stiffness growing with lambda that no axial amplitude can relax: locking.
+                # Projected, raising lambda can only approach the inextensible limit (P eps = 0).
+                c = [sp.diff(coupling, f[k]) for k in range(na)]
+                quartic = sp.Add(*[t.ka_inv(k, j) * c[k] * c[j] for k in range(na) for j in range(na)]) / 2
+        if inext:
+            strain_energy = sp.Integer(0)  # the axial part is a constraint (no energy)
+        elif na and lam is not None:
+            strain_energy = lam * (quad_a + (coupling + quartic if vk else 0))
+        else:
+            strain_energy = sp.Integer(0)
+        if nt and mu is not None:
+            strain_energy += mu * quad_t
+        el_f = [sp.diff(strain_energy, fk) for fk in f]
+        el_g = [sp.diff(strain_energy, gk) for gk in g]
+        constraint = ()
+        if axial_force is not None:  # inext
+            # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
+            constraint = tuple(
+                sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) + (sp.diff(coupling, f[k]) if vk else 0)
                 for k in range(na)
+            )
+            el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
+            # (N eta', psi'_a) = sum_k N_k d(coupling)/d(f_k g_a): the coupling is (1/2) sum C3 f g g
+            el_g = [
+                el_g[a] + sp.Add(*[axial_force[k] * sp.diff(coupling, f[k], g[a]) for k in range(na)])
+                for a in range(nt)
             ]
-            bend4 -= mu * sp.Add(*[e[k] * g3[k] for k in range(na)])
-        strain_energy += bend4
-    el_f = [sp.diff(strain_energy, fk) for fk in f]
-    el_g = [sp.diff(strain_energy, gk) for gk in g]
-    constraint = ()
-    if axial_force is not None:  # inext
-        # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
-        constraint = tuple(
-            sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) + (sp.diff(coupling, f[k]) if vk else 0) for k in range(na)
-        )
-        el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
-        # (N eta', psi'_a) = sum_k N_k d(coupling)/d(f_k g_a): the coupling is (1/2) sum C3 f g g
-        el_g = [
-            el_g[a] + sp.Add(*[axial_force[k] * sp.diff(coupling, f[k], g[a]) for k in range(na)]) for a in range(nt)
-        ]
-    if effects.strain == "linear" and lam is not None and coupling != 0 and not inext:
-        # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
-        el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
-    if damping is not None:
-        if lam is not None and not inext and c and not var:
-            # Kelvin-Voigt on the strain the basis carries (von Karman, exact): the dissipation
-            # D = (damping lam / 2) ||P eps_dot||^2, eps_dot = zeta_dot' + eta' eta_dot', whose
-            # coefficients on phi'_k are e_dot = f_dot + Ka^-1 J g_dot, J_ka = d c_k / d g_a. Its
-            # forces: dD/df_dot = damping lam (Ka f_dot + J g_dot), dD/dg_dot = damping lam J^T e_dot.
-            # Damping zeta_dot' alone (the seed's linear strain, below) would damp the chord's
-            # shortening that bending makes, which is no strain: on a soft slider-crank at 6 % of
-            # its length deflection that over-damped the rod's vibration by about a third
-            # (benchmarks/validation, slider_crank_torque_soft, against Exudyn's ANCF cable, whose
-            # axial damping acts on the rate of |r'| - 1). A slot's guide (variable span psi(xi, beta))
-            # keeps the rate of zeta' alone: its strain rate has a beta_dot part too (not derived).
-            J = [[sp.diff(c[k], g[a]) for a in range(nt)] for k in range(na)]
-            jg = [sp.Add(*[J[k][a] * dg[a] for a in range(nt)]) for k in range(na)]
-            el_f = [
-                el_f[i] + damping * lam * (sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) + jg[i]) for i in range(na)
-            ]
-            e_dot = [df[k] + sp.Add(*[t.ka_inv(k, j) * jg[j] for j in range(na)]) for k in range(na)]
-            el_g = [el_g[a] + damping * lam * sp.Add(*[J[k][a] * e_dot[k] for k in range(na)]) for a in range(nt)]
-        elif lam is not None and not inext:
-            el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
-        if mu is not None:
-            el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
+        if effects.strain == "linear" and lam is not None and coupling != 0 and not inext:
+            # the seed's N = EA u': lambda (zeta' eta')' in (9) only, no counterpart in (8)
+            el_g = [el_g[a] + lam * sp.diff(coupling, g[a]) for a in range(nt)]
+        if damping is not None:
+            if lam is not None and not inext and c and not var:
+                # Kelvin-Voigt on the strain the basis carries (von Karman, exact): the dissipation
+                # D = (damping lam / 2) ||P eps_dot||^2, eps_dot = zeta_dot' + eta' eta_dot', whose
+                # coefficients on phi'_k are e_dot = f_dot + Ka^-1 J g_dot, J_ka = d c_k / d g_a. Its
+                # forces: dD/df_dot = damping lam (Ka f_dot + J g_dot), dD/dg_dot = damping lam J^T e_dot.
+                # Damping zeta_dot' alone (the seed's linear strain, below) would damp the chord's
+                # shortening that bending makes, which is no strain: on a soft slider-crank at 6 % of
+                # its length deflection that over-damped the rod's vibration by about a third
+                # (benchmarks/validation, slider_crank_torque_soft, against Exudyn's ANCF cable, whose
+                # axial damping acts on the rate of |r'| - 1). A slot's guide (variable span psi(xi, beta))
+                # keeps the rate of zeta' alone: its strain rate has a beta_dot part too (not derived).
+                J = [[sp.diff(c[k], g[a]) for a in range(nt)] for k in range(na)]
+                jg = [sp.Add(*[J[k][a] * dg[a] for a in range(nt)]) for k in range(na)]
+                el_f = [
+                    el_f[i] + damping * lam * (sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) + jg[i])
+                    for i in range(na)
+                ]
+                e_dot = [df[k] + sp.Add(*[t.ka_inv(k, j) * jg[j] for j in range(na)]) for k in range(na)]
+                el_g = [el_g[a] + damping * lam * sp.Add(*[J[k][a] * e_dot[k] for k in range(na)]) for a in range(nt)]
+            elif lam is not None and not inext:
+                el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
+            if mu is not None:
+                el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
 
     eq16 = []
     for k in range(na):
@@ -590,7 +566,9 @@ def bar_equations(
             )
             / 2
         )
-    if inext:
+    if exact:
+        elastic = strain_energy
+    elif inext:
         elastic = (mu * quad_t if (nt and mu is not None) else 0) + bend4
     elif effects.strain == "linear" or not effects.geometric_stiffening:
         elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
@@ -608,6 +586,7 @@ def bar_equations(
         xa_d=xa_d,
         ya_d=ya_d,
         constraint=constraint,
+        constraint_rates=constraint_rates,
         eqbeta=eqbeta,
     )
     display = display.map(t.finish)
@@ -620,6 +599,207 @@ def bar_equations(
         points=tuple(shown),
         loads=groups,
     )
+
+
+_E4 = r"\mathcal{{E}}_{{{0},{1},{2},{3}}}"
+_E6 = r"\mathcal{{E}}_{{{0},{1},{2},{3},{4},{5}}}"
+_G3 = r"\mathcal{{G}}_{{{0},{1},{2}}}"
+_C3 = r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)"
+_C5 = r"\mathcal{{C}}_{{{0},{1},{2},{3},{4}}}"
+_H4 = r"\mathcal{{H}}_{{{0},{1};{2},{3}}}"
+
+
+def _symmetric_form(t: IPTable, name: str, latex: str, head: tuple, order: int, g: list) -> tuple:
+    """(S, [dS/dg_a]) of S = sum over all index tuples i of T[head + i] g_i1 ... g_in, T fully
+    symmetric in i, written over **sorted** tuples (``_multiplicity``): dS/dg_a is
+    n sum over sorted (n-1)-tuples j of mult(j) T[head + sort(a, j)] g^j. Built from the table
+    directly: no symbolic differentiation (docs/exact-bars.md, "Derivation cost")."""
+    nt = len(g)
+    terms = []
+    for idx in combinations_with_replacement(range(nt), order):
+        v = t.tensor(name, head + idx, latex)
+        if v != 0:
+            terms.append(sp.Mul(_multiplicity(idx), v, *[g[i] for i in idx]))
+    grad = []
+    for a in range(nt):
+        parts = []
+        for j in combinations_with_replacement(range(nt), order - 1):
+            v = t.tensor(name, head + tuple(sorted((a, *j))), latex)
+            if v != 0:
+                parts.append(sp.Mul(order * _multiplicity(j), v, *[g[i] for i in j]))
+        grad.append(sp.Add(*parts))
+    return sp.Add(*terms), grad
+
+
+class _ExactBar:
+    """The exact bar's strain and bending terms of one bar (``effects.strain = "exact"``,
+    docs/exact-bars.md), with their generalized forces written from the tables.
+
+    The axial strain is the exact |r'| - 1 to fourth order on a nearly inextensible bar,
+    eps = zeta' + eta'^2 / 2 + eta'^4 / 8, projected onto span{phi'_k}: its Galerkin components
+    n_k = (phi'_k, eps) = (Ka f)_k + c_k + d_k, c_k = (1/2) sum C3 g g, d_k = (1/8) sum C5 g^4, and
+    the strain the basis carries P eps = sum_k e_k phi'_k, e = Ka^-1 n = f + Ka^-1 (c + d).
+    Jt_ka = d(c_k + d_k)/dg_a is the virtual strain of g_a (N eta' (1 + eta'^2 / 2) in the strong form).
+    """
+
+    def __init__(self, t: IPTable, s: BarSymbols, Ka: list, inext: bool, stiffening: bool) -> None:
+        self.t, self.s, self.Ka, self.inext = t, s, Ka, inext
+        f, g = list(s.f), list(s.g)
+        na, nt = len(f), len(g)
+        self.na, self.nt = na, nt
+        self.axial = bool(stiffening and na and nt)
+        self.c: list = []
+        self.d: list = []
+        self.Jt: list = []
+        if self.axial:
+            for k in range(na):
+                c2, j2 = _symmetric_form(t, "C3", _C3, (k,), 2, g)
+                c4, j4 = _symmetric_form(t, "C5", _C5, (k,), 4, g)
+                self.c.append(c2 / 2)
+                self.d.append(c4 / 8)
+                self.Jt.append([j2[a] / 2 + j4[a] / 8 for a in range(nt)])
+        # n_k = (phi'_k, eps)
+        self.n = [sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) + self.c[k] + self.d[k] for k in range(len(self.c))]
+        self.e = [
+            f[k] + sp.Add(*[t.ka_inv(k, j) * (self.c[j] + self.d[j]) for j in range(na)]) for k in range(len(self.c))
+        ]
+
+    def energy_and_forces(self, quad_a: sp.Expr, quad_t: sp.Expr, axial_force: tuple | None, damping) -> tuple:
+        """(strain energy, d/df, d/dg, the bending terms' energy) of the bar, all / nu alpha^3,
+        the Kelvin-Voigt forces and an inextensible / quasi-static bar's multiplier forces
+        included."""
+        t, s, Ka, na, nt = self.t, self.s, self.Ka, self.na, self.nt
+        f, g, df, dg = list(s.f), list(s.g), list(s.df), list(s.dg)
+        lam, mu = s.lam, s.mu
+        zero = sp.Integer(0)
+        energy: sp.Expr = zero
+        el_f = [zero] * na
+        el_g = [zero] * nt
+        dynamic = not self.inext and lam is not None and na > 0
+        if dynamic and self.axial:
+            # lambda/2 ||P eps||^2 = (lambda/2) e^T Ka e: d/df = lambda n, d/dg_a = lambda e^T Jt[:, a]
+            energy += lam * sp.Add(*[self.e[k] * self.n[k] for k in range(na)]) / 2
+            el_f = [lam * self.n[k] for k in range(na)]
+            el_g = [lam * sp.Add(*[self.e[k] * self.Jt[k][a] for k in range(na)]) for a in range(nt)]
+        elif dynamic:
+            energy += lam * quad_a
+            el_f = [lam * sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) for k in range(na)]
+        bend: sp.Expr = zero
+        if nt and mu is not None:
+            energy += mu * quad_t
+            Kt = [
+                [t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)] for i in range(nt)
+            ]
+            el_g = [el_g[a] + mu * sp.Add(*[Kt[a][b] * g[b] for b in range(nt)]) for a in range(nt)]
+            # (mu/2) int eta'^2 eta''^2 (E4) and (mu/2) int eta'^4 eta''^2 (E6): the inextensible bar's
+            # kappa^2 = eta''^2 / (1 - eta'^2) = eta''^2 (1 + eta'^2 + eta'^4 + ...)
+            e4, d4 = _symmetric_form(t, "E4", _E4, (), 4, g)
+            e6, d6 = _symmetric_form(t, "E6", _E6, (), 6, g)
+            bend = mu * (e4 + e6) / 2
+            el_g = [el_g[a] + mu * (d4[a] + d6[a]) / 2 for a in range(nt)]
+            if dynamic and self.axial:
+                # - mu int (eps eta''^2 + eps' eta' eta''), eps = P eps = sum_k e_k phi'_k (zero on an
+                # inextensible or quasi-static bar): - mu sum_k e_k g3_k, g3_k = sum G3_kab g_a g_b
+                g3, dg3 = zip(*[_symmetric_form(t, "G3", _G3, (k,), 2, g) for k in range(na)])
+                bend -= mu * sp.Add(*[self.e[k] * g3[k] for k in range(na)])
+                h = [sp.Add(*[t.ka_inv(j, k) * g3[k] for k in range(na)]) for j in range(na)]
+                el_f = [el_f[k] - mu * g3[k] for k in range(na)]
+                el_g = [
+                    el_g[a] - mu * sp.Add(*[self.e[k] * dg3[k][a] + h[k] * self.Jt[k][a] for k in range(na)])
+                    for a in range(nt)
+                ]
+            energy += bend
+        if axial_force is not None and na:
+            # the multipliers N_k of (phi'_k, eps) = 0 do the virtual work sum_k N_k d n_k
+            el_f = [el_f[j] + sp.Add(*[axial_force[k] * Ka[k][j] for k in range(na)]) for j in range(na)]
+            if self.axial:
+                el_g = [el_g[a] + sp.Add(*[axial_force[k] * self.Jt[k][a] for k in range(na)]) for a in range(nt)]
+        if damping is not None:
+            if dynamic and self.axial:
+                # Kelvin-Voigt on the rate of the strain the basis carries (as von Karman's, bar_equations):
+                # e_dot = f_dot + Ka^-1 Jt g_dot
+                jg = [sp.Add(*[self.Jt[k][a] * dg[a] for a in range(nt)]) for k in range(na)]
+                el_f = [
+                    el_f[i] + damping * lam * (sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) + jg[i])
+                    for i in range(na)
+                ]
+                e_dot = [df[k] + sp.Add(*[t.ka_inv(k, j) * jg[j] for j in range(na)]) for k in range(na)]
+                el_g = [
+                    el_g[a] + damping * lam * sp.Add(*[self.Jt[k][a] * e_dot[k] for k in range(na)]) for a in range(nt)
+                ]
+            elif dynamic:
+                el_f = [el_f[i] + damping * lam * sp.Add(*[Ka[i][j] * df[j] for j in range(na)]) for i in range(na)]
+            if nt and mu is not None:
+                Kt = [
+                    [t.mat("Kt", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j}}}\right)") for j in range(nt)]
+                    for i in range(nt)
+                ]
+                # Kelvin-Voigt on the rate of the exact curvature (the ANCF cable's bending damping acts on
+                # kappa_dot): D = (c mu / 2) g_dot^T (Kt + H(g)) g_dot, H_ab = sum_{c<=d} mult H4_abcd g_c g_d,
+                # to fourth order (kappa = eta'' (1 + eta'^2 / 2) where the strain vanishes)
+                pairs = list(combinations_with_replacement(range(nt), 2))
+                H = {}
+                for a, b in pairs:
+                    terms = []
+                    for cc, dd in pairs:
+                        v = t.tensor("H4", (a, b, cc, dd), _H4)
+                        if v != 0:
+                            terms.append(sp.Mul(_multiplicity((cc, dd)), v, g[cc], g[dd]))
+                    H[(a, b)] = sp.Add(*terms)
+                el_g = [
+                    el_g[i]
+                    + damping * mu * sp.Add(*[(Kt[i][j] + H[(min(i, j), max(i, j))]) * dg[j] for j in range(nt)])
+                    for i in range(nt)
+                ]
+        return energy, el_f, el_g, bend
+
+    def constraint_rows(self) -> tuple:
+        """((n_k), ((dn_k/dt, d2n_k/dt2))) of an inextensible or quasi-static bar: (phi'_k, eps) = 0
+        and its rates, n_dot = Ka f_dot + Jt g_dot, n_ddot = Ka f_ddot + Jt g_ddot +
+        sum C3 g_dot g_dot + (3/2) sum C5 g_dot g_dot g g."""
+        t, s, Ka, na, nt = self.t, self.s, self.Ka, self.na, self.nt
+        f, df, ddf = list(s.f), list(s.df), list(s.ddf)
+        g, dg, ddg = list(s.g), list(s.dg), list(s.ddg)
+        if not self.axial:
+            rows = tuple(sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) for k in range(na))
+            first = tuple(
+                (sp.Add(*[Ka[k][j] * df[j] for j in range(na)]), sp.Add(*[Ka[k][j] * ddf[j] for j in range(na)]))
+                for k in range(na)
+            )
+            return rows, first
+        rates: list[tuple] = []
+        pairs = list(combinations_with_replacement(range(nt), 2))
+        for k in range(na):
+            vel = sp.Add(*[Ka[k][j] * df[j] for j in range(na)]) + sp.Add(*[self.Jt[k][a] * dg[a] for a in range(nt)])
+            acc = [Ka[k][j] * ddf[j] for j in range(na)] + [self.Jt[k][a] * ddg[a] for a in range(nt)]
+            for a, b in pairs:
+                m = _multiplicity((a, b))
+                quad = [t.tensor("C3", (k, a, b), _C3)]
+                for cc, dd in pairs:
+                    v = t.tensor("C5", (k, *sorted((a, b, cc, dd))), _C5)
+                    if v != 0:
+                        quad.append(sp.Mul(sp.Rational(3, 2) * _multiplicity((cc, dd)), v, g[cc], g[dd]))
+                acc.append(sp.Mul(m, dg[a], dg[b], sp.Add(*quad)))
+            rates.append((vel, sp.Add(*acc)))
+        return tuple(self.n), tuple(rates)
+
+
+def shared_xreplace(expr: sp.Basic, rule: dict, memo: dict) -> sp.Basic:
+    """``expr.xreplace(rule)``, the same expression, with each distinct subexpression replaced
+    once: ``memo`` maps what was already replaced to its result (the exact bar's forces share
+    their strain components e_k, Jt_ka among many terms: xreplace rebuilds every copy)."""
+    out = memo.get(expr)
+    if out is not None:
+        return out
+    if expr in rule:
+        out = rule[expr]
+    elif not expr.args:
+        out = expr
+    else:
+        args = [shared_xreplace(a, rule, memo) for a in expr.args]
+        out = expr if all(a is b for a, b in zip(args, expr.args)) else expr.func(*args)
+    memo[expr] = out
+    return out
 
 
 def _multiplicity(idx: tuple) -> int:

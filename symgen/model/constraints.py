@@ -175,10 +175,14 @@ def inextensibility(cons: Constraints, topo: Topology, bars: dict, axial_force: 
         if name not in axial_force:
             continue
         s = bars[name].sym
+        eqs = bars[name].equations
         amp = [(x, dx, ddx) for x, dx, ddx in zip(s.f + s.g, s.df + s.dg, s.ddf + s.ddg)]
-        for k, c in enumerate(bars[name].equations.constraint):
-            grad = [sp.diff(c, x) for x, _, _ in amp]
-            cd = sp.Add(*[gi * dx for gi, (_, dx, _) in zip(grad, amp)])
-            cdd = sp.Add(*[gi * ddx for gi, (_, _, ddx) in zip(grad, amp)])
-            cdd += sp.Add(*[sp.diff(gi, y) * dx * dy for gi, (_, dx, _) in zip(grad, amp) for y, dy, _ in amp])
+        for k, c in enumerate(eqs.constraint):
+            if eqs.constraint_rates:  # the exact bar's, written from its tables (symgen.model.bars)
+                cd, cdd = eqs.constraint_rates[k]
+            else:
+                grad = [sp.diff(c, x) for x, _, _ in amp]
+                cd = sp.Add(*[gi * dx for gi, (_, dx, _) in zip(grad, amp)])
+                cdd = sp.Add(*[gi * ddx for gi, (_, _, ddx) in zip(grad, amp)])
+                cdd += sp.Add(*[sp.diff(gi, y) * dx * dy for gi, (_, dx, _) in zip(grad, amp) for y, dy, _ in amp])
             cons.add(c, cd, cdd, axial_force[name][k], ConstraintRow(name, RowKind.INEXTENSIBLE, (name,)))

@@ -414,6 +414,17 @@ class InnerProducts:
     def E6(self) -> dict[tuple[int, ...], float]:
         return self._sixth().E6
 
+    @property
+    def C5(self) -> dict[tuple[int, ...], float]:
+        """``(phi'_k, psi'_a psi'_b psi'_c psi'_d)`` over sorted (a, b, c, d): the exact strain's
+        eta'^4 / 8 (with the sixth-order tables)."""
+        return self._sixth().C5
+
+    @property
+    def H4(self) -> dict[tuple[int, ...], float]:
+        """The exact curvature rate's damping table (with the sixth-order tables)."""
+        return self._sixth().H4
+
     def _sixth(self) -> Any:
         if self.sixth is None:
             raise ValueError("these inner products have no sixth-order tables (join them with with_sixth_order)")

@@ -515,6 +515,13 @@ class SixthOrderProducts:
 
     E6 : ``{(a, b, c, d, e, f): the fully symmetric part of int psi'_a psi'_b psi'_c psi'_d psi''_e psi''_f}``,
         so that ``int eta'^4 eta''^2 = sum_sorted mult E6 g^6``
+    C5 : ``{(k, a, b, c, d): int phi'_k psi'_a psi'_b psi'_c psi'_d}`` over sorted (a, b, c, d), so
+        that ``(phi'_k, eta'^4) = sum_sorted mult C5 g^4``: the exact strain's eta'^4 / 8 in the
+        axial strain (DERIVE_VERSION 8)
+    H4 : ``{(a, b, c, d): F_ab|cd + (F_ac|bd + F_ad|bc + F_bc|ad + F_bd|ac) / 2}`` over a <= b, c <= d,
+        F_ab|cd = int psi''_a psi''_b psi'_c psi'_d: the Kelvin-Voigt damping of the exact curvature's
+        rate, D = (c mu / 2) int kappa_dot^2 = (c mu / 2) g_dot^T (Kt + sum H4 g_c g_d) g_dot to fourth
+        order (kappa = eta'' (1 + eta'^2 / 2) on a nearly inextensible bar)
 
     By Gauss-Legendre quadrature on each smooth piece (:func:`sixth_order_nodes` nodes per piece:
     the integrands are products of six sines, exponentials and polynomials, integrated to
@@ -527,6 +534,8 @@ class SixthOrderProducts:
     na: int
     nt: int
     E6: dict[tuple[int, ...], float]
+    C5: dict[tuple[int, ...], float] = field(default_factory=dict)
+    H4: dict[tuple[int, ...], float] = field(default_factory=dict)
 
 
 def sixth_order_nodes(nt: int) -> int:
@@ -540,11 +549,12 @@ def sixth_order_products(
 ) -> SixthOrderProducts:
     """:class:`SixthOrderProducts` of (possibly piecewise) bases (``axial`` counts only)."""
     psi = [Piecewise.of(f) for f in transverse]
-    nt = len(psi)
-    n = nodes or sixth_order_nodes(nt)
-    cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in psi)))
+    phi = [Piecewise.of(f) for f in axial]
+    nt, na = len(psi), len(phi)
+    n = nodes or sixth_order_nodes(max(nt, na))
+    cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in psi + phi)))
     z, w = np.polynomial.legendre.leggauss(n)
-    ws, A, B = [], [], []
+    ws, A, B, F = [], [], [], []
     for lo, hi in zip(cuts[:-1], cuts[1:]):
         mid = (lo + hi) / 2
         a, b = float(lo), float(hi)
@@ -552,9 +562,11 @@ def sixth_order_products(
         for xi in a + (b - a) * (z + 1) / 2:
             A.append([f.piece_at(mid).evaluate(xi, 1) for f in psi])
             B.append([f.piece_at(mid).evaluate(xi, 2) for f in psi])
+            F.append([f.piece_at(mid).evaluate(xi, 1) for f in phi])
     W = np.concatenate(ws)
-    Aq = np.array(A, dtype=float).reshape(-1, nt)
-    Bq = np.array(B, dtype=float).reshape(-1, nt)
+    Aq = np.array(A, dtype=float).reshape(len(W), nt)
+    Bq = np.array(B, dtype=float).reshape(len(W), nt)
+    Fq = np.array(F, dtype=float).reshape(len(W), na)  # no axial functions: (nodes, 0)
     pairs = list(itertools.combinations(range(6), 2))  # which two factors are psi''
     E6: dict[tuple[int, ...], float] = {}
     for idx in itertools.combinations_with_replacement(range(nt), 6):
@@ -566,4 +578,21 @@ def sixth_order_products(
                     term = term * Aq[:, idx[m]]
             total += term
         E6[idx] = float(W @ total) / len(pairs)
-    return SixthOrderProducts(na=len(axial), nt=nt, E6=E6)
+    # (phi'_k, psi'_a psi'_b psi'_c psi'_d): the weights times each sorted four-fold product, once
+    C5: dict[tuple[int, ...], float] = {}
+    if na:
+        quads = list(itertools.combinations_with_replacement(range(nt), 4))
+        P4 = np.stack([Aq[:, a] * Aq[:, b] * Aq[:, c] * Aq[:, d] for a, b, c, d in quads], axis=1) if quads else None
+        if P4 is not None:
+            table = Fq.T @ (W[:, None] * P4)
+            for k in range(na):
+                for j, idx in enumerate(quads):
+                    C5[(k, *idx)] = float(table[k, j])
+    F = np.einsum("q,qa,qb,qc,qd->abcd", W, Bq, Bq, Aq, Aq)  # int psi''_a psi''_b psi'_c psi'_d
+    H4: dict[tuple[int, ...], float] = {}
+    for a, b in itertools.combinations_with_replacement(range(nt), 2):
+        for c, d in itertools.combinations_with_replacement(range(nt), 2):
+            H4[(a, b, c, d)] = float(
+                F[a, b, c, d] + (F[a, c, b, d] + F[a, d, b, c] + F[b, c, a, d] + F[b, d, a, c]) / 2
+            )
+    return SixthOrderProducts(na=na, nt=nt, E6=E6, C5=C5, H4=H4)

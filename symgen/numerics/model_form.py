@@ -47,8 +47,11 @@ run sees least of it (the five-bar's links: 0.38x of the true error with the mea
 the run; benchmarks/RESULTS.md). Each output's estimate is its static change plus its drift, as
 a fraction of its peak; outputs that q does not move (a driver torque) have their drift only.
 
-What it leaves out: the strain's share (eps eta''^2 terms, the exact strain |r'| - 1 against von
-Karman's: of the order N/lambda, and the axial ringing averages them out: the slider-crank's
+The axial strain: von Karman keeps zeta' + eta'^2 / 2 of the exact |r'| - 1, the exact bar
+zeta' + eta'^2 / 2 + eta'^4 / 8 (``STRAIN_ORDER``); the next term (eta'^4 / 8, eta'^6 / 16) and
+the stretch's - eps eta'^2 / 2 enter as the work of the axial force (``_Bar.force``).
+
+What it leaves out: the strain's share of the curvature (eps eta''^2 terms: of the order N/lambda, and the axial ringing averages them out: the slider-crank's
 change is the same with and without them), resonance of the change itself, the response of the
 rigid coordinates of a closed loop to dq; slot guides (their span moves along the guide) are not
 estimated and the method text names them. Measured against von Karman vs exact runs in
@@ -86,9 +89,14 @@ AMPLIFICATION_CAP = 20.0
 #: the powers of s = eta'^2 the exact bar keeps in eta''^2 (1 + s + ...): 2 (sixth order in
 #: the amplitudes, symgen/model/bars.py: E4, E6); a longer expansion there raises it here
 EXACT_ORDER = 2
-#: both von Karman and the exact bar keep von Karman's axial strain: the exact strain's left-out
-#: part (its work with the axial force) is estimated too
+#: the exact strain's left-out part (its work with the axial force) is estimated too
 STRAIN_LEFT_OUT = True
+#: the powers of s = eta'^2 each strain keeps of the exact strain of a nearly inextensible bar,
+#: |r'| - 1 = zeta' + s/2 + s^2/8 + s^3/16 + ... (zeta' = sqrt(1 - s) - 1 + the stretch): von Karman
+#: 1 (s/2), the exact bar 2 (s/2 + s^2/8: symgen/model/bars.py, table C5, DERIVE_VERSION 8)
+STRAIN_ORDER = {"von_karman": 1, "exact": 2}
+#: the coefficients of s^n in 1 - sqrt(1 - s), n = 1, 2, 3, 4
+_STRAIN_SERIES = (0.5, 0.125, 0.0625, 0.0390625)
 #: the largest eta'^2 the series is evaluated at
 SLOPE2_MAX = 0.5
 
@@ -144,8 +152,10 @@ class _Bar:
         f_idx: tuple[int, ...],
         g_idx: tuple[int, ...],
         order: int,
+        strain_order: int = 1,
     ) -> None:
         self.name, self.f_idx, self.g_idx, self.order = name, list(f_idx), list(g_idx), order
+        self.strain_order = strain_order
         self.na, self.nt = len(f_idx), len(g_idx)
         w = np.asarray(samples.w)
         self.w = w
@@ -172,16 +182,20 @@ class _Bar:
 
     def force(self, g: np.ndarray, N: np.ndarray | None = None) -> np.ndarray:
         """dQ_a = d/dg_a of the left-out energy: the curvature's (mu/2) int eta''^2 h(eta'^2),
-        plus, where the axial force N(xi) is known (at the nodes), the exact strain's
-        int N (eps_x - eps_vK) = int N (eta'^4 / 8 - eps eta'^2 / 2), eps = N / lambda (N held:
-        the axial amplitudes re-equilibrate, to first order the energy changes by N's work)."""
+        plus, where the axial force N(xi) is known (at the nodes), the exact strain's left-out
+        int N (eps_x - eps) = int N (c_m s^m - eps eta'^2 / 2), s = eta'^2, m = ``STRAIN_ORDER`` + 1
+        the first power the bar's strain leaves out (von Karman: eta'^4 / 8; the exact bar:
+        eta'^6 / 16), eps = N / lambda (N held: the axial amplitudes re-equilibrate, to first order
+        the energy changes by N's work)."""
         e1, e2 = self.P1 @ g, self.P2 @ g
         h, dh = _residual(e1 * e1, self.order)
         wq = self.w * self.mu
         dQ: np.ndarray = self.P2.T @ (wq * e2 * h) + self.P1.T @ (wq * e2 * e2 * dh * e1)
         if N is not None and STRAIN_LEFT_OUT:
             soft = N * N / self.lam if self.lam > 0 else 0.0 * N
-            dQ = dQ + self.P1.T @ (self.w * (0.5 * N * e1**3 - soft * e1))
+            m = self.strain_order + 1
+            left = _STRAIN_SERIES[m - 1] * 2 * m * e1 ** (2 * m - 1)  # d/d eta' of c_m eta'^(2m)
+            dQ = dQ + self.P1.T @ (self.w * (N * left - soft * e1))
         return dQ
 
     def axial_force(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray | None:
@@ -193,6 +207,8 @@ class _Bar:
             return np.asarray(lam[self.n_rows])  # the multipliers N_k
         g = q[self.g_idx]
         c = 0.5 * np.einsum("kab,a,b->k", self.C3, g, g)
+        if self.strain_order >= 2:  # the exact bar's (phi'_k, eta'^4 / 8)
+            c = c + self.A1.T @ (self.w * (self.P1 @ g) ** 4) / 8
         return np.asarray(self.lam * (q[self.f_idx] + self.Ka_inv @ c))  # lambda P eps
 
     def change(self, q: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, float, float]:
@@ -245,11 +261,12 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             "stiffness, first order in the axial force"
         )
     order = EXACT_ORDER if eff.strain == "exact" else 0
+    strain_order = STRAIN_ORDER.get(eff.strain, 1)
     structure = mech.info.structure
     bodies = {b["name"]: b for b in structure["bodies"]}
     guides = _guides(structure)
     bars = [
-        _Bar(mech, name, _samples(bodies[name]), f_idx, g_idx, order)
+        _Bar(mech, name, _samples(bodies[name]), f_idx, g_idx, order, strain_order)
         for name, (f_idx, g_idx) in mech.amplitudes.items()
         if g_idx and not mech.scene.body(name).rigid and name not in guides
     ]
@@ -271,7 +288,10 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             dqs[r, b.g_idx] = dg
             if b.na:  # the axial amplitudes follow: the strain P eps (= N / lambda) stays, to first order
                 g = q[b.g_idx]
-                dqs[r, b.f_idx] = -b.Ka_inv @ np.einsum("kab,a,b->k", b.C3, g, dg)
+                dc = np.einsum("kab,a,b->k", b.C3, g, dg)
+                if b.strain_order >= 2:  # the exact bar's d(phi'_k, eta'^4 / 8) = (phi'_k, eta'^3 d eta') / 2
+                    dc = dc + b.A1.T @ (b.w * (b.P1 @ g) ** 3 * (b.P1 @ dg)) / 2
+                dqs[r, b.f_idx] = -b.Ka_inv @ dc
             tangent[b.name].append(tan)
             amplification[b.name] = max(amplification[b.name], amp)
     # the multipliers (driver torques, reactions, axial forces) change with the accelerations of

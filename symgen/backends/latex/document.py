@@ -153,7 +153,20 @@ def _driver_law_note(drv, i: int = 0) -> str:
 
 
 # --------------------------------------------------------------------------- inner products
-_IP_ORDER = {"gram": 0, "Pd": 1, "psid1": 2, "Ka": 3, "KaInv": 4, "Kt": 5, "C3": 6, "D4": 7, "E4": 8, "G3": 9, "E6": 10}
+_IP_ORDER = {
+    "gram": 0,
+    "Pd": 1,
+    "psid1": 2,
+    "Ka": 3,
+    "KaInv": 4,
+    "Kt": 5,
+    "C3": 6,
+    "D4": 7,
+    "E4": 8,
+    "G3": 9,
+    "E6": 10,
+    "C5": 11,
+}
 #: the exact bar's tables (``effects.strain = "exact"``): in their own shape-cache entry
 _CURVATURE = ("E4", "G3")
 #: strains whose axial strain is von Karman's (the exact bar adds the curvature terms)
@@ -161,7 +174,7 @@ VON_KARMAN = ("von_karman", "exact")
 STRAIN_TEXT = {
     "von_karman": "von K\\'arm\\'an",
     "linear": "linear (the seed's)",
-    "exact": "von K\\'arm\\'an, exact curvature to sixth order (docs/exact-bars.md)",
+    "exact": "exact strain to fourth order, exact curvature to sixth order (docs/exact-bars.md)",
 }
 
 
@@ -189,8 +202,8 @@ def _ip_table(bm, used: set) -> list[dict]:
         elif name in _CURVATURE:
             table: Any = curvature_products(bm.basis_a, bm.basis_t).exact[name]
             exact = table[idx]
-        elif name == "E6":  # the exact bar's sixth-order table: by quadrature (docs/exact-bars.md)
-            value = float(sixth_order_products(bm.basis_a, bm.basis_t).E6[idx])
+        elif name in ("E6", "C5", "H4"):  # the exact bar's quadrature tables (docs/exact-bars.md)
+            value = float(getattr(sixth_order_products(bm.basis_a, bm.basis_t), name)[idx])
             ex = sp.latex(sp.Float(value, 15))
             rows.append(
                 {
@@ -318,6 +331,8 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
     ctx["exact"] = bool(eff.strain == "exact" and nt and not body.rigid and not s.beta)
     ctx["exact_g"] = bool(ctx["exact"] and vk and na and "axial_force" not in bm.inputs)
     ctx["strain_def"] = rf"\varepsilon_{{{B}}} = \zeta_{{{B}}}' + \tfrac{{1}}{{2}}\,\eta_{{{B}}}'^{{2}}" if vk else ""
+    if vk and ctx["exact"]:  # the exact strain |r'| - 1 to fourth order (docs/exact-bars.md)
+        ctx["strain_def"] += rf" + \tfrac{{1}}{{8}}\,\eta_{{{B}}}'^{{4}}"
     pt_a = [rf"+ {b}\,\delta(\xi - {x})" for b, _, x in pts_tex]
     pt_t = [rf"+ {g}\,\delta(\xi - {x})" for _, g, x in pts_tex]
     strong = []
@@ -338,11 +353,15 @@ def _bar_context(scene, model, name: str, pr: Printer) -> dict:
         left = [rf"-\mu_{{{B}}}\eta_{{{B}}}''''"]
         if damp:
             left.append(rf"- {c}\,\mu_{{{B}}}\dot\eta_{{{B}}}''''")
+        # the virtual strain of eta': eta' (von Karman), eta' (1 + eta'^2 / 2) (the exact bar's strain)
+        deta = (
+            rf"\eta_{{{B}}}'\bigl(1 + \tfrac{{1}}{{2}}\eta_{{{B}}}'^{{2}}\bigr)" if ctx["exact"] else rf"\eta_{{{B}}}'"
+        )
         if gs_on and inext:
-            left.append(rf"+ \bigl(N_{{{B}}}\eta_{{{B}}}'\bigr)'")
+            left.append(rf"+ \bigl(N_{{{B}}}{deta}\bigr)'")
         elif gs_on:
             left.append(
-                rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}\eta_{{{B}}}'\bigr)'"
+                rf"+ \lambda_{{{B}}}\bigl(\varepsilon_{{{B}}}{deta}\bigr)'"
                 if vk
                 else rf"+ \lambda_{{{B}}}\bigl(\zeta_{{{B}}}'\eta_{{{B}}}'\bigr)'"
             )
