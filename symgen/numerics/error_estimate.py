@@ -249,7 +249,8 @@ def estimate_errors(
     """The error estimate of ``result``, a run of ``mech`` with the tolerances ``rtol``,
     ``atol`` (see the module docstring). ``model_form``: the model-form estimator (default: the
     one registered, if any: :data:`MODEL_FORM_ESTIMATORS`). ``richer``: the richer model of the
-    truncation part, when the caller has it already (else it is made: :func:`richer_mechanism`)."""
+    truncation part, when the caller has it already (else it is made: :func:`richer_mechanism`).
+    The reruns use the run's own solver (:func:`_same_solver_run`)."""
     names = list(result.output_names)
     peaks = _peaks(result)
     parts: dict[str, dict[str, float | None]] = {}
@@ -328,24 +329,14 @@ TIGHTER = 10.0
 
 def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> dict[str, float]:
     """output -> the difference of the run to the same run at ``TIGHTER`` times tighter
-    tolerances (max over the output samples, as a fraction of the output's peak), scaled to the run's own
+    tolerances (as a fraction of the peak), scaled to the run's own
     error: x 1 / (1 - TIGHTER^-0.7), the global error of a BDF run with local error control
-    taken as at least rtol^0.7 (orders 2 to 5: rtol^(p/(p+1)))."""
-    from symgen.numerics.simulate import simulate
-
+    taken as at least rtol^0.7 (orders 2 to 5: rtol^(p/(p+1)); Radau IIA's, order 5, is
+    rtol^(5/6), so the factor covers it too)."""
     tau = np.asarray(result.tau, dtype=float)
     if len(tau) < 2:
         return {}
-    backend = result.stats.get("backend")
-    tight = simulate(
-        mech,
-        t_end=float(tau[-1]),
-        output_step=float(tau[1] - tau[0]),
-        rtol=rtol / TIGHTER,
-        atol=atol / TIGHTER,
-        t0=float(tau[0]),
-        backend=backend if backend in ("compiled", "vm") else None,
-    )
+    tight = _same_solver_run(mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER)
     names = [n for n in result.output_names if n in _measured(mech, list(result.output_names))]
     k = min(len(tight.tau), len(tau))
     deltas = np.column_stack([tight.column(n)[:k] - result.column(n)[:k] for n in names])
@@ -581,13 +572,42 @@ def truncation_part(
     return values, counts, how
 
 
+def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
+    """``mech`` run over ``result``'s output grid with ``rtol``, ``atol`` by the run's own
+    solver: the emitted C Radau IIA solver after a ``--solver c`` run (``result.stats``'s
+    backend "c") (in this process; 7-15x
+    cheaper than IDAS on the steel slider-crank, benchmarks/RESULTS.md "symgen vs Exudyn"),
+    else IDAS on the backend the run was asked for. The C path starts at tau = 0 and needs a
+    C compiler; where either is missing the rerun is IDAS's."""
+    from symgen.errors import SceneError
+    from symgen.numerics.simulate import simulate
+
+    tau = np.asarray(result.tau, dtype=float)
+    if result.stats.get("backend") == "c" and float(tau[0]) == 0.0:
+        from symgen.numerics.csolver import simulate_c
+
+        try:
+            return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol)
+        except SceneError:  # no working C compiler, or a scene the C path refuses: IDAS below
+            pass
+    backend = result.stats.get("backend")
+    return simulate(
+        mech,
+        t_end=float(tau[-1]),
+        output_step=step,
+        rtol=rtol,
+        atol=atol,
+        t0=float(tau[0]),
+        backend=backend if backend in ("compiled", "vm") else None,
+    )
+
+
 def _rerun(
     mech: Mechanism, result: SimResult, richer: Mechanism | None
 ) -> tuple[dict[str, float], dict[str, list[int]], str]:
     """The truncation part by a second run of the richer model on the run's own output grid and
     tolerances."""
     from symgen.errors import SimulationError
-    from symgen.numerics.simulate import simulate
 
     counts: dict[str, list[int]]
     if richer is None:
@@ -600,18 +620,8 @@ def _rerun(
     if len(tau) < 2:
         raise TruncationNotEstimated("the run has fewer than two outputs")
     sim = mech.scene.simulation
-    step = float(tau[1] - tau[0])
-    backend = result.stats.get("backend")
     try:
-        rich = simulate(
-            richer,
-            t_end=float(tau[-1]),
-            output_step=step,
-            rtol=sim.rtol,
-            atol=sim.atol,
-            t0=float(tau[0]),
-            backend=backend if backend in ("compiled", "vm") else None,
-        )
+        rich = _same_solver_run(richer, result, float(tau[1] - tau[0]), sim.rtol, sim.atol)
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
@@ -623,9 +633,10 @@ def _rerun(
         n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
     }
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
+    by = "C solver" if rich.stats.get("backend") == "c" else "IDAS"
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
-        f"and tolerances ({rich.steps} IDAS steps): the largest difference of the two runs' outputs"
+        f"and tolerances ({rich.steps} {by} steps): the largest difference of the two runs' outputs"
     )
     return values, counts, how
 
