@@ -324,7 +324,7 @@ def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -
     tau = np.asarray(result.tau, dtype=float)
     if len(tau) < 2:
         return {}
-    backend = result.stats.get("backend")
+    backend = result.stats.get("backend_choice", result.stats.get("backend"))  # what the run was asked
     tight = simulate(
         mech,
         t_end=float(tau[-1]),
@@ -575,7 +575,7 @@ def _rerun(
         raise TruncationNotEstimated("the run has fewer than two outputs")
     sim = mech.scene.simulation
     step = float(tau[1] - tau[0])
-    backend = result.stats.get("backend")
+    backend = result.stats.get("backend_choice", result.stats.get("backend"))  # what the run was asked
     try:
         rich = simulate(
             richer,

@@ -103,7 +103,7 @@ class DaeRunner:
         self._integrators: dict[tuple[float, int], ca.Function] = {}
         self._xdot0: dict[tuple[float, int], list[float]] = {}
         self.vm_until: float | None = None  # a run that switched to the compiled library: where
-        choice = compiled.backend_choice(backend)
+        choice = self.choice = compiled.backend_choice(backend)
         if choice != "vm":
             self._use_compiled(choice, use_cache, background and choice == "auto")
         if self.backend == "vm":
@@ -566,7 +566,12 @@ class _Trajectory:
             partition=self.part,
             complete=stop is None,
             failure="" if stop is None else str(stop),
-            stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s},
+            stats={
+                "backend": self.run.backend,
+                "library": self.run.library,
+                "setup_s": setup_s,
+                "backend_choice": self.run.choice,
+            },
         )
 
 
