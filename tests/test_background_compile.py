@@ -171,3 +171,21 @@ def test_an_interrupted_first_run_cancels_its_background_compile(tmp_path, monke
         time.sleep(0.05)
     assert not any(map(_alive, sleepers))
     assert os.listdir(cache.compiled_dir()) == []
+
+
+def test_without_the_cache_a_run_does_not_wait_for_a_library_it_would_throw_away(monkeypatch, tmp_path):
+    """``use_cache=False`` (``--no-cache``): the library would be this run's only, so a run that
+    ends before it is built cancels it (no entry, no temporary folder), same numbers."""
+    import tempfile
+
+    mech = mechanism(FOUR_BAR)
+    private = tmp_path / "tmp"
+    private.mkdir()
+    with monkeypatch.context() as m:
+        m.setattr(tempfile, "tempdir", str(private))  # where a library outside the cache is built
+        m.setattr(simulate_mod.DaeRunner, "switch_when_built", lambda self, tau: None)  # not mid-run
+        m.setattr(compiled.PendingLibrary, "result", lambda self: pytest.fail("waited for a throw-away library"))
+        res = simulate(mech, t_end=0.3, use_cache=False)
+    assert res.stats["backend"] == "vm" and _entries() == []
+    assert os.listdir(private) == []  # its build folder (outside the cache) removed
+    _same(res, simulate(mech, t_end=0.3, backend="vm"))

@@ -99,6 +99,7 @@ class DaeRunner:
         self.library: str | None = None  # compiled: "built" for this run, or "cached"
         self._built: dict[str, ca.Function] = {}
         self._pending: compiled.PendingLibrary | None = None
+        self._store = use_cache
         self._maps: dict[tuple[str, int], ca.Function] = {}
         self._integrators: dict[tuple[float, int], ca.Function] = {}
         self._xdot0: dict[tuple[float, int], list[float]] = {}
@@ -150,8 +151,11 @@ class DaeRunner:
 
     def settle(self) -> None:
         """Wait for a background compile still running (its library is the next run's, from the
-        cache); a signal meanwhile cancels it."""
-        if self._pending is not None:
+        cache; a signal meanwhile cancels it); without the cache (``use_cache=False``: a library
+        for this run only) it is cancelled instead."""
+        if self._pending is not None and not self._store:
+            self.cancel()
+        elif self._pending is not None:
             self._settle()
 
     def cancel(self) -> None:
