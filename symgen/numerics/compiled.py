@@ -9,6 +9,11 @@ then evaluates them as machine code instead of in CasADi's virtual machine. The 
 very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
 multiply-adds), so both give the same numbers to the last bit.
 
+A run's library not in the cache (:func:`start_library`): its C is written, then the compilers
+run in a background thread (:class:`PendingLibrary`) while the run starts in the virtual
+machine and switches to the library between chunks once it is installed; an interrupt cancels
+the build (the compilers' groups killed, the temporary folder removed: nothing that loads is left).
+
 Cache: ``<cache root>/compiled/<entry>/`` with ``model.so`` and ``manifest.json`` (format,
 symgen and CasADi versions, the model's structure key and coordinate partition, the compiler's
 path and ``--version`` text, the flags, the Function names and the keyed hash of ``model.so``,
