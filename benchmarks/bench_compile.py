@@ -41,6 +41,17 @@ BARS = (2, 4, 6, 8, 10, 12)
 FLAGS = ("-O0", "-O1", "-O2")
 TARGET_S = 5.0
 PARTS = re.compile(r"derived ([\d.]+)s, compiled library built ([\d.]+)s, simulate ([\d.]+)s")
+#: the line of a first run that starts in the virtual machine while the library compiles
+PARTS_VM = re.compile(r"derived ([\d.]+)s, virtual machine[^,]*(?:, waited ([\d.]+)s for it)?, simulate ([\d.]+)s")
+#: the profiled parts of a first run: (label, module file suffix, function name)
+PROFILED = (
+    ("derive (SymPy, every model)", "symgen/model/derive.py", "derive"),
+    ("simulate (every run)", "symgen/numerics/simulate.py", "simulate"),
+    ("  waiting for a library", "symgen/numerics/simulate.py", "settle"),
+    ("error estimate", "symgen/numerics/error_estimate.py", "estimate_errors"),
+    ("  richer model: derive", "symgen/numerics/error_estimate.py", "richer_mechanism"),
+    ("  richer model: rerun", "symgen/numerics/error_estimate.py", "_rerun"),
+)
 
 
 def base_tree(dest: Path) -> bool:
@@ -67,7 +78,61 @@ def first_run(tree: Path, scene: Path, tmp: Path, cflags: str | None = None) -> 
         wall, cpu = time.perf_counter() - t0, _child_cpu() - c0
     m = PARTS.search(proc.stdout + proc.stderr)
     parts = dict(zip(("derive", "library", "simulate"), map(float, m.groups()))) if m else {}
+    v = None if m else PARTS_VM.search(proc.stdout + proc.stderr)
+    if v:  # started in the virtual machine: the library's build overlapped the run
+        parts = {"derive": float(v[1]), "library": float(v[2] or 0.0), "simulate": float(v[3])}
     return {"wall": wall, "cpu": cpu, **parts}
+
+
+def profiled_first_run(tree: Path, scene: Path, tmp: Path) -> dict[str, float]:
+    """A first run (empty cache) under cProfile: wall and CPU s of the whole process (compilers
+    included) and the main thread's seconds in each of :data:`PROFILED` (cumulative, every call)."""
+    import pstats
+
+    prof = tmp / "first.prof"
+    with tempfile.TemporaryDirectory(dir=tmp) as cache:
+        env = dict(os.environ, PYTHONPATH=str(tree), SYMGEN_CACHE_DIR=cache)
+        for name in ("SYMGEN_BACKEND", "SYMGEN_CFLAGS", "SYMGEN_CC"):
+            env.pop(name, None)
+        cmd = [sys.executable, "-m", "cProfile", "-o", str(prof), "-m", "symgen.cli", "simulate", str(scene)]
+        c0, t0 = _child_cpu(), time.perf_counter()
+        subprocess.run([*cmd, "-o", str(tmp / "out.csv")], cwd=tmp, env=env, capture_output=True, check=True)
+        out = {"wall": time.perf_counter() - t0, "cpu": _child_cpu() - c0}
+    stats = pstats.Stats(str(prof)).stats  # type: ignore[attr-defined]  # pstats keeps them there
+    for label, file, func in PROFILED:
+        out[label] = sum(st[3] for (f, _, name), st in stats.items() if f.endswith(file) and name == func)
+    return out
+
+
+def profile_table(base: str | None, bars: int, repeats: int) -> str:
+    """Markdown: where a first run's time goes (:func:`profiled_first_run`), the tree of commit
+    ``base`` (when given) against this checkout, interleaved run by run, medians."""
+    with tempfile.TemporaryDirectory(prefix="symgen-profile-") as tmp_s:
+        tmp = Path(tmp_s)
+        trees = {"after": ROOT}
+        if base:
+            (tmp / "base").mkdir()
+            if _lean_base_tree(tmp / "base", base):
+                trees = {"before": tmp / "base", "after": ROOT}
+        scene = tmp / f"chain{bars}.toml"
+        scene.write_text(scene_text("chain", bars, 2, 4))
+        runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
+        for _ in range(repeats):
+            for name, tree in trees.items():
+                runs[name].append(profiled_first_run(tree, scene, tmp))
+                print(f"(profile: {bars} bars, {name}: {runs[name][-1]})", file=sys.stderr, flush=True)
+    keys = ["wall", "cpu", *(label for label, *_ in PROFILED)]
+    med = {t: {k: statistics.median(r.get(k, float("nan")) for r in rs) for k in keys} for t, rs in runs.items()}
+    lines = [
+        f"Where a first run of the {bars}-bar chain goes (`symgen simulate CHAIN` under cProfile, empty cache, "
+        f"medians of {repeats}, interleaved{'' if base is None else f'; before = {base}'}): wall and CPU s of the "
+        "whole process (compilers included), then the main thread's seconds in each part (every call).",
+        "",
+        "| part | " + " | ".join(trees) + " |",
+        "|---|" + "---|" * len(trees),
+    ]
+    lines += [f"| {k} | " + " | ".join(_fmt(med[t][k]) for t in trees) + " |" for k in keys]
+    return "\n".join(lines)
 
 
 def _functions(scene: Path):
@@ -266,8 +331,11 @@ def render(rows_first, rows_alone, rows_flags, trees: list[str], cores: int) -> 
 
 
 if __name__ == "__main__":
-    # bench_compile.py [REPEATS]: the section; --first BASE REPEATS N [N ...]: the first-run table alone
-    if len(sys.argv) > 3 and sys.argv[1] == "--first":
+    # bench_compile.py [REPEATS]: the section; --first BASE REPEATS N [N ...]: the first-run table alone;
+    # --profile BASE|- REPEATS N: where the first run of the N-bar chain goes
+    if len(sys.argv) > 4 and sys.argv[1] == "--profile":
+        print(profile_table(None if sys.argv[2] == "-" else sys.argv[2], int(sys.argv[4]), int(sys.argv[3])))
+    elif len(sys.argv) > 3 and sys.argv[1] == "--first":
         print(first_runs(sys.argv[2], [int(a) for a in sys.argv[4:]], int(sys.argv[3])))
     else:
         print(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1))

@@ -204,7 +204,13 @@ def _backend_text(stats: dict) -> str:
     if stats.get("backend") == "c":
         how = "built" if stats.get("library") == "built" else "loaded"
         return f"C solver {how} {stats.get('setup_s', 0.0):.2f}s, "
+    wait = stats.get("library_wait_s") or 0.0
+    waited = f", waited {wait:.2f}s for it" if wait >= 0.01 else ""
+    if stats.get("vm_until") is not None:  # started in the virtual machine while the library compiled
+        return f"virtual machine to tau {stats['vm_until']:.4g} then the library compiled meanwhile, "
     if stats.get("backend") != "compiled":
+        if stats.get("backend_choice") == "auto" and wait:
+            return f"virtual machine while the library compiled{waited}, "
         return "virtual machine, "
     how = "built" if stats.get("library") == "built" else "loaded"
     return f"compiled library {how} {stats.get('setup_s', 0.0):.2f}s, "

@@ -31,6 +31,10 @@ COMPILE_BYTES_PER_S = 180e3
 LONG_COMPILE_S = 20.0
 
 
+class Cancelled(Exception):
+    """:func:`run_groups` stopped because its ``cancel`` event was set (its groups killed)."""
+
+
 def run_group(
     cmd: Sequence[str | os.PathLike[str]],
     *,
@@ -77,13 +81,16 @@ def run_groups(
     max_jobs: int,
     timeout: float | None = None,
     progress: str | None = None,
+    cancel: threading.Event | None = None,
 ) -> list[subprocess.CompletedProcess[str]]:
     """:func:`run_group` of several commands, at most ``max_jobs`` at once, started in the order
     given (put the longest first): each in a process group of its own, and every group still
     running killed and reaped when the wait ends by an exception (``KeyboardInterrupt``,
     ``subprocess.TimeoutExpired`` after ``timeout`` seconds in all, ...). A command that fails
     stops the rest (those running are killed, those waiting never start): the result then
-    ends with the failed one. ``progress``: what to show on a terminal, with the commands done."""
+    ends with the failed one. ``progress``: what to show on a terminal, with the commands done.
+    ``cancel``: set from another thread (the waiting one runs in a background thread, where no
+    signal arrives), every group is killed and reaped and :class:`Cancelled` raised."""
     todo = [[os.fspath(c) for c in cmd] for cmd in cmds]
     running: list[tuple[int, subprocess.Popen[bytes], IO[bytes], IO[bytes]]] = []  # (index, process, stdout, stderr)
     done: dict[int, subprocess.CompletedProcess[str]] = {}
@@ -94,6 +101,8 @@ def run_groups(
         with _ticker(label):
             nxt = 0
             while (nxt < len(todo) and failed is None) or running:
+                if cancel is not None and cancel.is_set():
+                    raise Cancelled("cancelled")
                 while nxt < len(todo) and failed is None and len(running) < max(1, max_jobs):
                     out: IO[bytes] = tempfile.TemporaryFile()  # files, not pipes: none blocks on a full pipe
                     err: IO[bytes] = tempfile.TemporaryFile()

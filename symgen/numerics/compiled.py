@@ -9,6 +9,11 @@ then evaluates them as machine code instead of in CasADi's virtual machine. The 
 very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
 multiply-adds), so both give the same numbers to the last bit.
 
+A run's library not in the cache (:func:`start_library`): its C is written, then the compilers
+run in a background thread (:class:`PendingLibrary`) while the run starts in the virtual
+machine and switches to the library between chunks once it is installed; an interrupt cancels
+the build (the compilers' groups killed, the temporary folder removed: nothing that loads is left).
+
 Cache: ``<cache root>/compiled/<entry>/`` with ``model.so`` and ``manifest.json`` (format,
 symgen and CasADi versions, the model's structure key and coordinate partition, the compiler's
 path and ``--version`` text, the flags, the Function names and the keyed hash of ``model.so``,
@@ -25,6 +30,8 @@ caller names cold), ``SYMGEN_BACKEND`` (auto, compiled, vm).
 
 from __future__ import annotations
 
+import atexit
+import contextlib
 import functools
 import hashlib
 import json
@@ -34,6 +41,8 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +51,7 @@ from typing import TypeAlias
 import casadi as ca
 
 from symgen import __version__, cache
-from symgen.processes import announce_compile, jobs, run_group, run_groups
+from symgen.processes import Cancelled, announce_compile, jobs, run_group, run_groups
 
 CC_ENV = "SYMGEN_CC"
 CFLAGS_ENV = "SYMGEN_CFLAGS"
@@ -179,6 +188,23 @@ def library_of(
     ``signatures`` (name and sizes, what the entry's key holds): ``build`` is called only when
     the library is not in the cache, so a cached run makes none of the symbolic Functions (their
     Jacobians are most of a runner's set-up). The Functions built must have these signatures."""
+    found = start_library(signatures, build, model_key, variant, store, cold, background=False)
+    assert not isinstance(found, PendingLibrary)
+    return found
+
+
+def start_library(
+    signatures: list[Signature],
+    build: Callable[[], list[ca.Function]],
+    model_key: str,
+    variant: str,
+    store: bool = True,
+    cold: tuple[str, ...] = (),
+    background: bool = True,
+) -> tuple[dict[str, ca.Function], bool] | PendingLibrary:
+    """:func:`library_of`, except that a library not in the cache is compiled in a background
+    thread (``background``): its C is written here, then a :class:`PendingLibrary` returned at
+    once while the compilers run, so the caller can start in the virtual machine meanwhile."""
     comp = compiler()
     key = {
         "format": FORMAT,
@@ -205,11 +231,124 @@ def library_of(
     made = [_signature(f) for f in funcs]
     if made != signatures:  # the caller's sizes and its Functions disagree: symgen's own error
         raise AssertionError(f"compiled.library_of: built {made}, announced {signatures}")
-    blob = _build(funcs, comp, where, key, store, replace, cold)
-    try:
-        return _load(blob, signatures), True
-    except cache.InvalidEntry as exc:
-        raise Unavailable(f"the library just built {exc.reason}") from None
+    pending = PendingLibrary(funcs, comp, where, key, store, replace, cold, signatures, background)
+    return pending if background else (pending.result(), True)
+
+
+#: The background builds not finished yet: cancelled at the interpreter's exit (a daemon thread's
+#: compilers would otherwise outlive the process).
+_LIVE: weakref.WeakSet[PendingLibrary] = weakref.WeakSet()
+
+
+@atexit.register
+def _cancel_live() -> None:
+    for pending in list(_LIVE):
+        pending.cancel()
+
+
+class PendingLibrary:
+    """A compiled library being built: its C written (in the calling thread: CasADi's symbolic
+    objects are not shared across threads), the compilers run and the entry installed in the
+    cache (atomically, by one rename) by a background thread when ``background``, else at once.
+
+    :meth:`done` says whether it finished; :meth:`result` waits and loads it (or raises
+    :class:`Unavailable`); :meth:`cancel` kills the compilers' process groups and waits for the
+    thread, which removes its temporary folder: an interrupted build leaves nothing that loads.
+    A signal while :meth:`result` waits cancels it too."""
+
+    def __init__(
+        self,
+        funcs: list[ca.Function],
+        comp: Compiler,
+        where: Path,
+        key: dict[str, object],
+        store: bool,
+        replace: bool,
+        cold: tuple[str, ...],
+        signatures: list[Signature],
+        background: bool,
+    ) -> None:
+        self.signatures = signatures
+        self._cancel = threading.Event()
+        self._outcome: bytes | BaseException | None = None
+        parent, store = build_folder(where, store)
+        stack = contextlib.ExitStack()
+        try:
+            tmp = stack.enter_context(cache.temp_dir(parent, where.name))
+            units = write_units(funcs, tmp)
+        except BaseException:
+            stack.close()
+            raise
+        slow = {tmp / f"{name}.c" for name in cold}
+
+        def work() -> None:
+            with stack:
+                try:
+                    blob = link_units(
+                        comp,
+                        units,
+                        [],
+                        tmp / LIBRARY,
+                        f"the model library in {len(units)} parts" + (" in the background" if background else ""),
+                        "--backend vm runs the model without compiling (slower per step)"
+                        if not background
+                        else "the run goes on in CasADi's virtual machine meanwhile",
+                        "",
+                        lambda c: cold_flags(comp) if c in slow else comp.flags,
+                        cancel=self._cancel if background else None,
+                    )
+                    if store:
+                        for path in tmp.iterdir():
+                            if path.name != LIBRARY:  # the C and the objects
+                                path.unlink()
+                        install(tmp, where, key, LIBRARY, blob, replace)
+                    self._outcome = blob
+                except BaseException as exc:  # handed to the waiting thread by result()
+                    self._outcome = exc
+
+        self._thread: threading.Thread | None = None
+        if background:
+            self._thread = threading.Thread(target=work, name=f"symgen-compile-{where.name}", daemon=True)
+            _LIVE.add(self)
+            self._thread.start()
+        else:
+            work()
+
+    def done(self) -> bool:
+        return self._thread is None or not self._thread.is_alive()
+
+    def wait(self) -> None:
+        """Until the build ends; a signal meanwhile cancels it and goes on."""
+        try:
+            while not self.done():
+                assert self._thread is not None
+                self._thread.join(0.05)
+        except BaseException:
+            self.cancel()
+            raise
+        _LIVE.discard(self)
+
+    def cancel(self) -> None:
+        """Kill the compilers and wait for the thread (its temporary folder removed)."""
+        self._cancel.set()
+        if self._thread is not None:
+            self._thread.join()
+        _LIVE.discard(self)
+
+    def result(self) -> dict[str, ca.Function]:
+        """The externals of the library (after :meth:`wait`); :class:`Unavailable` when the
+        compile failed or was cancelled."""
+        self.wait()
+        out = self._outcome
+        if isinstance(out, Cancelled):
+            raise Unavailable("the compile was cancelled")
+        if isinstance(out, BaseException):
+            raise out
+        assert out is not None
+        try:
+            return _load(out, self.signatures)
+        except cache.InvalidEntry as exc:
+            raise Unavailable(f"the library just built {exc.reason}") from None
 
 
 def report_rebuild(where: Path, reason: str) -> None:
@@ -267,37 +406,6 @@ def build_folder(where: Path, store: bool) -> tuple[Path, bool]:
     return Path(tempfile.gettempdir()), False
 
 
-def _build(
-    funcs: list[ca.Function],
-    comp: Compiler,
-    where: Path,
-    key: dict[str, object],
-    store: bool,
-    replace: bool,
-    cold: tuple[str, ...] = (),
-) -> bytes:
-    parent, store = build_folder(where, store)
-    with cache.temp_dir(parent, where.name) as tmp:
-        units = write_units(funcs, tmp)
-        slow = {tmp / f"{name}.c" for name in cold}
-        blob = link_units(
-            comp,
-            units,
-            [],
-            tmp / LIBRARY,
-            f"the model library in {len(units)} parts",
-            "--backend vm runs the model without compiling (slower per step)",
-            "",
-            lambda c: cold_flags(comp) if c in slow else comp.flags,
-        )
-        if store:
-            for path in tmp.iterdir():
-                if path.name != LIBRARY:  # the C and the objects
-                    path.unlink()
-            install(tmp, where, key, LIBRARY, blob, replace)
-    return blob
-
-
 def link_units(
     comp: Compiler,
     units: list[Path],
@@ -307,13 +415,16 @@ def link_units(
     instead: str,
     on: str,
     flags_of: Callable[[Path], tuple[str, ...]] | None = None,
+    cancel: threading.Event | None = None,
 ) -> bytes:
     """The bytes of the shared library ``out`` linked from the C files ``units``, compiled in
     parallel (as many at once as there are cores, the largest first; each compiler in a process
     group of its own: an interrupt kills cc1 too) with ``flags`` before the compiler's (those of
     ``flags_of(unit)`` when given); a progress line names ``what``, and a long compile is
     announced with ``instead`` (how to run without it). Raises :class:`Unavailable` when the
-    compiler cannot be run or fails (``on``: what it failed on, e.g. " on the emitted C")."""
+    compiler cannot be run or fails (``on``: what it failed on, e.g. " on the emitted C").
+    ``cancel``: run in a background thread, where no signal arrives: setting it from another
+    thread kills the compilers (:class:`symgen.processes.Cancelled`), and no progress line."""
     units = sorted(units, key=lambda c: -c.stat().st_size)
     objects = [c.with_suffix(".o") for c in units]
     of = flags_of or (lambda c: comp.flags)
@@ -323,7 +434,11 @@ def link_units(
     max_jobs = min(len(units), jobs())
     try:
         label = announce_compile(f"{what}, {max_jobs} at a time", sum(sizes), instead, max_jobs, max(sizes))
-        procs = run_groups(cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=label)
+        procs = run_groups(
+            cmds, max_jobs=max_jobs, timeout=COMPILE_TIMEOUT_S, progress=None if cancel else label, cancel=cancel
+        )
+        if cancel is not None and cancel.is_set():
+            raise Cancelled("cancelled")
         if all(p.returncode == 0 for p in procs):
             procs.append(run_group(link, timeout=COMPILE_TIMEOUT_S))
     except (OSError, subprocess.SubprocessError) as exc:

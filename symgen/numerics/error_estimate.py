@@ -590,7 +590,7 @@ def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: floa
             return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol)
         except SceneError:  # no working C compiler, or a scene the C path refuses: IDAS below
             pass
-    backend = result.stats.get("backend")
+    backend = result.stats.get("backend_choice", result.stats.get("backend"))  # what the run was asked
     return simulate(
         mech,
         t_end=float(tau[-1]),

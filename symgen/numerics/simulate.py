@@ -89,6 +89,7 @@ class DaeRunner:
         axial_atol: float | None = None,
         backend: str | None = None,
         use_cache: bool = True,
+        background: bool = False,
     ) -> None:
         self.mech, self.part = mech, part
         I, D = list(part.ind), list(part.dep)
@@ -97,19 +98,18 @@ class DaeRunner:
         self.backend: str = "vm"
         self.library: str | None = None  # compiled: "built" for this run, or "cached"
         self._built: dict[str, ca.Function] = {}
-        choice = compiled.backend_choice(backend)
-        if choice != "vm":
-            self._use_compiled(choice, use_cache)
-        if self.backend == "vm":
-            funcs = self._functions()
-            self.dae, self.g, self.split, self.rec = funcs["dae"], funcs["g"], funcs["split"], funcs["rec"]
-        # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
-        # the new Z and each column's residual norm cross into Python (not the k Jacobians)
-        tm, xm, zm, pm = (ca.MX.sym(nm, self.g.size1_in(i)) for i, nm in enumerate(("t", "x", "z", "p")))
-        gm, jm = self.g(tm, xm, zm, pm)
-        self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
+        self._pending: compiled.PendingLibrary | None = None
+        self._store = use_cache
         self._maps: dict[tuple[str, int], ca.Function] = {}
         self._integrators: dict[tuple[float, int], ca.Function] = {}
+        self._xdot0: dict[tuple[float, int], list[float]] = {}
+        self.vm_until: float | None = None  # a run that switched to the compiled library: where
+        choice = self.choice = compiled.backend_choice(backend)
+        if choice != "vm":
+            self._use_compiled(choice, use_cache, background and choice == "auto")
+        if self.backend == "vm":
+            funcs = self._functions()
+            self._bind(funcs["dae"], funcs["g"], funcs["split"], funcs["rec"])
         self.opts: dict[str, float | bool | str | list[float]] = {
             "abstol": atol,
             "reltol": rtol,
@@ -124,6 +124,57 @@ class DaeRunner:
             # a looser error control on the axial amplitudes and their rates (x = [q_I, v_I])
             ax = [axial_atol if mech.coords[i].kind is CoordKind.F else atol for i in I]
             self.opts["abstolv"] = ax + ax + [atol] * (2 * self.nD + mech.n + mech.m)
+
+    def _bind(self, dae: ca.Function, g: ca.Function, split: ca.Function, rec: ca.Function) -> None:
+        """Evaluate with these Functions (the virtual machine's or a compiled library's): the
+        integrators and maps made of the others are dropped."""
+        self.dae, self.g, self.split, self.rec = dae, g, split, rec
+        # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
+        # the new Z and each column's residual norm cross into Python (not the k Jacobians)
+        tm, xm, zm, pm = (ca.MX.sym(nm, self.g.size1_in(i)) for i, nm in enumerate(("t", "x", "z", "p")))
+        gm, jm = self.g(tm, xm, zm, pm)
+        self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
+        self._maps.clear()
+        self._integrators.clear()
+
+    def switch_when_built(self, tau: float) -> None:
+        """Between chunks of a run started in the virtual machine while its library compiles in
+        the background: from now on the compiled Functions, once the library is there (the same
+        operations in the same order: the same numbers to the last bit, so the switch does not
+        change the run); stays in the virtual machine, said once, when the compile failed."""
+        if self._pending is None or not self._pending.done():
+            return
+        ext = self._settle()
+        if ext is not None:
+            self._bind(ext["dae"], ext["g"], ext["split"], ext["rec"])
+            self.backend, self.library, self.vm_until = "compiled", "built", tau
+
+    def settle(self) -> None:
+        """Wait for a background compile still running (its library is the next run's, from the
+        cache; a signal meanwhile cancels it); without the cache (``use_cache=False``: a library
+        for this run only) it is cancelled instead."""
+        if self._pending is not None and not self._store:
+            self.cancel()
+        elif self._pending is not None:
+            self._settle()
+
+    def cancel(self) -> None:
+        """Kill a background compile still running (nothing of it is left in the cache)."""
+        if self._pending is not None:
+            self._pending.cancel()
+            self._pending = None
+
+    def _settle(self) -> dict[str, ca.Function] | None:
+        assert self._pending is not None
+        pending, self._pending = self._pending, None
+        try:
+            return pending.result()
+        except compiled.Unavailable as exc:
+            _notice(
+                f"{exc.reason}: running the model in CasADi's virtual machine (slower; "
+                f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)"
+            )
+            return None
 
     def _functions(self) -> dict[str, ca.Function]:
         """The runner's SX Functions, made on first use: ``dae`` (the index-1 DAE for IDAS, time
@@ -146,22 +197,29 @@ class DaeRunner:
             funcs["jac_dae"] = _dae_jacobian(dae, dae_in, dae.call(dae_in))
         return [funcs[name] for name in COMPILED]
 
-    def _use_compiled(self, choice: str, use_cache: bool) -> None:
+    def _use_compiled(self, choice: str, use_cache: bool, background: bool = False) -> None:
         """Run the Functions from a compiled library (built once, cached; when cached, the
         symbolic Functions are not even made); when no C compiler works, stay in the virtual
-        machine (said once on stderr) unless ``choice`` is "compiled"."""
+        machine (said once on stderr) unless ``choice`` is "compiled". ``background``: a
+        library not in the cache is compiled in a background thread while the run starts in the
+        virtual machine (:meth:`switch_when_built`)."""
         mech, part = self.mech, self.part
         build = self._compiled_functions
         signatures = _signatures(mech, part) if self.nI else [compiled._signature(f) for f in build()]
         try:
-            ext, built = compiled.library_of(
+            found = compiled.start_library(
                 signatures,
                 build,
                 mech.info.key,
                 f"ind={list(part.ind)} dep={list(part.dep)}" + (f" quasi={list(part.quasi)}" if part.quasi else ""),
                 store=use_cache,
                 cold=COLD,
+                background=background,
             )
+            if isinstance(found, compiled.PendingLibrary):
+                self._pending = found
+                return
+            ext, built = found
         except compiled.Unavailable as exc:
             if choice == "compiled":
                 raise SceneError(
@@ -175,7 +233,7 @@ class DaeRunner:
                 f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)"
             )
         else:
-            self.dae, self.g, self.split, self.rec = ext["dae"], ext["g"], ext["split"], ext["rec"]
+            self._bind(ext["dae"], ext["g"], ext["split"], ext["rec"])
             self.backend, self.library = "compiled", "built" if built else "cached"
 
     def pack(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -216,7 +274,9 @@ class DaeRunner:
         are close enough."""
         if (h, k) not in self._integrators:
             opts = dict(self.opts)
-            opts["init_xdot"] = [float(w) for w in self.xdot(x, z)]
+            # kept across a switch to the compiled Functions: the integrator remade for them
+            # starts as the first one did
+            opts["init_xdot"] = self._xdot0.setdefault((h, k), [float(w) for w in self.xdot(x, z)])
             opts["max_num_steps"] = self.max_steps(h)
             grid = [h * (i + 1) for i in range(k)]
             self._integrators[(h, k)] = ca.integrator("F", "idas", self.dae, 0.0, grid, opts)
@@ -357,6 +417,7 @@ def simulate(
             else:
                 _integrate(run, traj, settings, x, z)
     except BaseException as err:
+        run.cancel()  # a background compile of the library: nothing of it is kept
         stop = _stopped(err, traj, t0)
         if stop is None:
             raise
@@ -366,6 +427,18 @@ def simulate(
     if stop is not None:
         stop.partial = result  # symgen.errors does not declare the errors' partial
         raise stop
+    tic = time.perf_counter()
+    try:
+        run.settle()  # the library compiled in the background, for the next run
+    except BaseException as err:
+        signal = interrupt.interrupted(err, float(result.tau[-1]))
+        if signal is err:
+            raise
+        signal.partial = result  # type: ignore[attr-defined]  # symgen.errors does not declare it
+        raise signal from None
+    result.stats["library_wait_s"] = time.perf_counter() - tic
+    if run.vm_until is not None:
+        result.stats["vm_until"] = run.vm_until
     return result
 
 
@@ -379,9 +452,13 @@ def _start(
         q, v, a, lam, part = mech.initial_state(settings.t0) if initial is None else initial
         part = mech.run_partition(part)
         run, setup_s = _runner(mech, part, settings)
-        x, z = run.pack(q, v, a, lam)
-        if part.quasi:  # the quasi-static amplitudes: the solution of their rows at the start
-            z = run.quasi_start(settings.t0, x, z)
+        try:
+            x, z = run.pack(q, v, a, lam)
+            if part.quasi:  # the quasi-static amplitudes: the solution of their rows at the start
+                z = run.quasi_start(settings.t0, x, z)
+        except BaseException:
+            run.cancel()
+            raise
     except BaseException as err:
         stop = interrupt.interrupted(err, settings.t0)
         if stop is err:
@@ -393,7 +470,16 @@ def _start(
 def _runner(mech: Mechanism, part: Partition, settings: RunSettings) -> tuple[DaeRunner, float]:
     """The runner of a partition with the run's tolerances and backend, and the seconds it took."""
     tic = time.perf_counter()
-    run = DaeRunner(mech, part, settings.rtol, settings.atol, settings.axial_atol, settings.backend, settings.use_cache)
+    run = DaeRunner(
+        mech,
+        part,
+        settings.rtol,
+        settings.atol,
+        settings.axial_atol,
+        settings.backend,
+        settings.use_cache,
+        background=True,
+    )
     return run, time.perf_counter() - tic
 
 
@@ -484,7 +570,12 @@ class _Trajectory:
             partition=self.part,
             complete=stop is None,
             failure="" if stop is None else str(stop),
-            stats={"backend": self.run.backend, "library": self.run.library, "setup_s": setup_s},
+            stats={
+                "backend": self.run.backend,
+                "library": self.run.library,
+                "setup_s": setup_s,
+                "backend_choice": self.run.choice,
+            },
         )
 
 
@@ -557,6 +648,7 @@ def _integrate(
         t_start = t0 + done * h
         pfull[-1] = t_start
         interrupt.check(traj.taus[-1])
+        run.switch_when_built(t_start)
         try:
             F = run.integrator(h, k, x, z)
             sol = F(x0=x, z0=z, p=pfull)
