@@ -31,7 +31,7 @@ __all__ = ["decide", "recalled", "resolved", "run_with_strain_choice", "switchab
 R = TypeVar("R")
 
 #: the model-form estimator's version in the remembered decisions (a changed estimator decides again)
-ESTIMATOR_VERSION = "2"
+ESTIMATOR_VERSION = "3"  # 3: the phase drift along the run, the exact bar's strain to eta'^4/8
 #: output kinds that do not decide (zero to round-off in every model)
 NOT_DECIDING = ("closure_residual",)
 
