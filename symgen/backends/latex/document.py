@@ -166,6 +166,7 @@ _IP_ORDER = {
     "G3": 9,
     "E6": 10,
     "C5": 11,
+    "H4": 12,
 }
 #: the exact bar's tables (``effects.strain = "exact"``): in their own shape-cache entry
 _CURVATURE = ("E4", "G3")
