@@ -629,8 +629,8 @@ def report(r: dict, repeats: int) -> list[str]:
         sv = t["symgen"]
         out += [
             "",
-            f"The default error estimate (two reruns in the run's own solver: the richer model, and 10x tighter "
-            f"tolerances; then the model-form part) costs "
+            f"The default error estimate (two reruns: the richer model by IDAS, the run at 10x tighter "
+            f"tolerances by the run's own solver; then the model-form part) costs "
             f"{_ms(sv['default']['int'] - sv['estimate off']['int'])} ms of CPU after the IDAS run and "
             f"{_ms(sv['c']['int'] - sv['c, estimate off']['int'])} ms after the C run; the two reruns alone by the C "
             f"solver: {_ms(t['estimate_c'])} ms.",

@@ -314,6 +314,7 @@ def estimate_errors(
             }
             methods["time_integration"] += (
                 f", or where larger the run's difference to itself at {TIGHTER:g}x tighter tolerances "
+                f"({'the C solver' if result.stats.get('backend') == 'c' else 'IDAS'}) "
                 f"x {1 / (1 - TIGHTER**-0.7):.3g} (the global error grows with the periods a run rings through)"
             )
     outputs: dict[str, float | None] = {}
@@ -573,14 +574,14 @@ def truncation_part(
 
 
 def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
-    """``mech`` run over ``result``'s output grid with ``rtol``, ``atol`` by the run's own
-    solver: the emitted C Radau IIA solver after a ``--solver c`` run (``result.stats``'s
-    backend "c") (in this process; 7-15x
-    cheaper than IDAS on the steel slider-crank, benchmarks/RESULTS.md "symgen vs Exudyn"),
-    else IDAS on the backend the run was asked for. The C path starts at tau = 0 and needs a
-    C compiler; where either is missing the rerun is IDAS's."""
+    """``mech`` (the run's own model) run over ``result``'s output grid with ``rtol``, ``atol``
+    by the run's own solver, whose error the time-integration part measures: the emitted C
+    Radau IIA solver after a ``--solver c`` run (``result.stats``'s backend "c"; its library is
+    the run's, cached), else IDAS on the backend the run was asked for. The C path starts at
+    tau = 0; where it is refused the rerun is IDAS's. (The truncation part's richer model runs
+    in IDAS whatever the run's solver: it measures the model's difference, not the solver's, and
+    a C solver of the richer model would be one more library to compile on a first run.)"""
     from symgen.errors import SceneError
-    from symgen.numerics.simulate import simulate
 
     tau = np.asarray(result.tau, dtype=float)
     if result.stats.get("backend") == "c" and float(tau[0]) == 0.0:
@@ -590,6 +591,14 @@ def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: floa
             return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol)
         except SceneError:  # no working C compiler, or a scene the C path refuses: IDAS below
             pass
+    return _idas_run(mech, result, step, rtol, atol)
+
+
+def _idas_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
+    """``mech`` run by IDAS over ``result``'s output grid, on the backend the run was asked for."""
+    from symgen.numerics.simulate import simulate
+
+    tau = np.asarray(result.tau, dtype=float)
     backend = result.stats.get("backend_choice", result.stats.get("backend"))  # what the run was asked
     return simulate(
         mech,
@@ -621,7 +630,7 @@ def _rerun(
         raise TruncationNotEstimated("the run has fewer than two outputs")
     sim = mech.scene.simulation
     try:
-        rich = _same_solver_run(richer, result, float(tau[1] - tau[0]), sim.rtol, sim.atol)
+        rich = _idas_run(richer, result, float(tau[1] - tau[0]), sim.rtol, sim.atol)
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
@@ -633,10 +642,9 @@ def _rerun(
         n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
     }
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
-    by = "C solver" if rich.stats.get("backend") == "c" else "IDAS"
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
-        f"and tolerances ({rich.steps} {by} steps): the largest difference of the two runs' outputs"
+        f"and tolerances ({rich.steps} IDAS steps): the largest difference of the two runs' outputs"
     )
     return values, counts, how
 
