@@ -250,7 +250,8 @@ def estimate_errors(
     ``atol`` (see the module docstring). ``model_form``: the model-form estimator (default: the
     one registered, if any: :data:`MODEL_FORM_ESTIMATORS`). ``richer``: the richer model of the
     truncation part, when the caller has it already (else it is made: :func:`richer_mechanism`).
-    The reruns use the run's own solver (:func:`_same_solver_run`)."""
+    The time part's rerun uses the run's own solver (:func:`_same_solver_run`), the richer
+    model IDAS."""
     names = list(result.output_names)
     peaks = _peaks(result)
     parts: dict[str, dict[str, float | None]] = {}
@@ -314,7 +315,7 @@ def estimate_errors(
             }
             methods["time_integration"] += (
                 f", or where larger the run's difference to itself at {TIGHTER:g}x tighter tolerances "
-                f"({'the C solver' if result.stats.get('backend') == 'c' else 'IDAS'}) "
+                f"({'the C solver' if _ran_in_c(result) else 'IDAS'}) "
                 f"x {1 / (1 - TIGHTER**-0.7):.3g} (the global error grows with the periods a run rings through)"
             )
     outputs: dict[str, float | None] = {}
@@ -338,12 +339,9 @@ def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -
     if len(tau) < 2:
         return {}
     tight = _same_solver_run(mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER)
-    names = [n for n in result.output_names if n in _measured(mech, list(result.output_names))]
-    k = min(len(tight.tau), len(tau))
-    deltas = np.column_stack([tight.column(n)[:k] - result.column(n)[:k] for n in names])
-    peaks = _peaks(result)
+    names = list(result.output_names)
     scale = 1.0 / (1.0 - TIGHTER**-0.7)
-    return {n: scale * float(np.abs(deltas[:, j]).max()) / peaks[n] for j, n in enumerate(names) if peaks[n] > 0}
+    return {n: scale * v for n, v in _fractions_of_peak(mech, result, _difference(result, tight, names), names).items()}
 
 
 #: the truncation part's method text where the start's joint forces were estimated
@@ -558,12 +556,7 @@ def truncation_part(
     if method == "rerun":
         return _rerun(mech, result, richer)
     idx, deltas, counts = truncation_deltas(mech, result, richer)
-    names = list(result.output_names)
-    measured = _measured(mech, names)
-    peaks = _peaks(result)
-    values = {
-        n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
-    }
+    values = _fractions_of_peak(mech, result, deltas, list(result.output_names))
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
     how = (
         f"embedded richer model ({bars} axial+transverse functions) linearised along the run, "
@@ -571,6 +564,28 @@ def truncation_part(
         "(quasi-static above the output grid's resolution), through the loop"
     )
     return values, counts, how
+
+
+def _ran_in_c(result: SimResult) -> bool:
+    """Whether ``result`` is a run of the emitted C solver (``--solver c``)."""
+    return result.stats.get("backend") == "c"
+
+
+def _difference(result: SimResult, other: SimResult, names: list[str]) -> np.ndarray:
+    """``other``'s outputs ``names`` minus ``result``'s (samples x outputs), over the samples
+    both have."""
+    k = min(len(other.tau), len(result.tau))
+    return np.column_stack([other.column(n)[:k] - result.column(n)[:k] for n in names])
+
+
+def _fractions_of_peak(mech: Mechanism, result: SimResult, deltas: np.ndarray, names: list[str]) -> dict[str, float]:
+    """output -> its largest change in ``deltas`` (columns ``names``) as a fraction of its peak in
+    ``result``: the estimate's measure (the module docstring), for the outputs it estimates."""
+    measured = _measured(mech, list(result.output_names))
+    peaks = _peaks(result)
+    return {
+        n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
+    }
 
 
 def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
@@ -584,7 +599,7 @@ def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: floa
     from symgen.errors import SceneError
 
     tau = np.asarray(result.tau, dtype=float)
-    if result.stats.get("backend") == "c" and float(tau[0]) == 0.0:
+    if _ran_in_c(result) and float(tau[0]) == 0.0:
         from symgen.numerics.csolver import simulate_c
 
         try:
@@ -634,13 +649,7 @@ def _rerun(
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
-    k = min(len(rich.tau), len(tau))
-    deltas = np.column_stack([rich.column(n)[:k] - result.column(n)[:k] for n in names])
-    measured = _measured(mech, names)
-    peaks = _peaks(result)
-    values = {
-        n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
-    }
+    values = _fractions_of_peak(mech, result, _difference(result, rich, names), names)
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
