@@ -204,3 +204,19 @@ def test_simulate_sidecar_has_the_estimate(tmp_path, capsys):
     side = json.loads(off.with_suffix(".json").read_text())
     assert all(v is None for v in side["error_estimate"].values())
     assert "--estimate off" in side["error_estimate_detail"]["reasons"]["truncation"]
+
+
+def test_simulate_warns_when_the_estimate_exceeds_the_accuracy(tmp_path, capsys):
+    """A run whose estimate exceeds simulation.accuracy says so on stderr: the output, the parts
+    and what lowers the largest; within the accuracy it stays silent."""
+    steel = ["simulate", "benchmarks/validation/slider_crank_steel_rest.toml", "-o", str(tmp_path / "s.csv")]
+    assert main(steel) == 0  # its estimate is 5e-4 of peak (benchmarks/RESULTS.md)
+    assert "exceeds simulation.accuracy" not in capsys.readouterr().err
+    argv = ["simulate", "examples/slider_crank.toml", "--set", "simulation.cycles=0.5", "-o", str(tmp_path / "a.csv")]
+    assert main([*argv, "--set", "simulation.accuracy=1e-6"]) == 0
+    side = json.loads((tmp_path / "a.json").read_text())
+    est = {n: v for n, v in side["error_estimate"].items() if v is not None}
+    worst = max(est, key=lambda n: est[n])
+    err = capsys.readouterr().err
+    assert f"the error estimate of {worst}, {est[worst]:.1e} of peak (truncation" in err
+    assert "exceeds simulation.accuracy = 1e-06; its largest part, the truncation, is lowered by more shape" in err
