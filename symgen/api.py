@@ -19,15 +19,18 @@ from dataclasses import dataclass
 from typing import Any
 
 from symgen.numerics.mechanism import Mechanism, load_mechanism
-from symgen.numerics.simulate import SimResult
+from symgen.numerics.run_result import SimResult
 from symgen.scene import scene_of
 from symgen.scene.model import Scene
 
 
-def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), use_cache: bool = True) -> Mechanism:
+def mechanism(
+    scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), use_cache: bool = True, lazy: bool = False
+) -> Mechanism:
     """The compiled model of a scene with its parameter values, ready to run
-    (:func:`symgen.numerics.mechanism.load_mechanism`)."""
-    return load_mechanism(scene, overrides, use_cache)
+    (:func:`symgen.numerics.mechanism.load_mechanism`; ``lazy``: its CasADi Functions read on
+    first use)."""
+    return load_mechanism(scene, overrides, use_cache, lazy)
 
 
 def _emit_inputs(scene: Scene):
