@@ -26,6 +26,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
 import re
 import shutil
 import time
@@ -90,12 +91,31 @@ def templates_digest() -> str:
     from symgen.backends import templates
 
     runtime = resources.files("symgen.backends.c") / "runtime"  # emit.c.render.RUNTIME, without jinja2
+    items = [
+        item
+        for folder in (templates.folder("c"), runtime)
+        for item in sorted(folder.iterdir(), key=lambda e: e.name)
+        if item.is_file()
+    ]
+    # files on disk (not in an archive): their digest is remembered in this process while none of
+    # them changed (path, size, modification time, inode): a run's key without reading them again
+    stamp = None
+    if all(isinstance(item, Path) for item in items):
+        stats = [(str(item), os.stat(item)) for item in items]  # type: ignore[arg-type]
+        stamp = tuple((p, s.st_size, s.st_mtime_ns, s.st_ino) for p, s in stats)
+        if stamp in _TEMPLATES_DIGEST:
+            return _TEMPLATES_DIGEST[stamp]
     h = hashlib.sha256()
-    for folder in (templates.folder("c"), runtime):
-        for item in sorted(folder.iterdir(), key=lambda e: e.name):
-            if item.is_file():
-                h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
-    return h.hexdigest()
+    for item in items:
+        h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
+    digest = h.hexdigest()
+    if stamp is not None:
+        _TEMPLATES_DIGEST.clear()
+        _TEMPLATES_DIGEST[stamp] = digest
+    return digest
+
+
+_TEMPLATES_DIGEST: dict[tuple[tuple[str, int, int, int], ...], str] = {}
 
 
 def _key(mech: Mechanism, plan: StartPlan, comp: compiled.Compiler) -> dict[str, object]:
