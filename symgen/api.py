@@ -109,7 +109,7 @@ def simulate_scene(
         _no_files(plot, states, units)
         use_cache = kwargs.get("use_cache", True)
         _, result, failure = run_with_strain_choice(
-            mechanism(resolved(scene_of(scene, overrides)), use_cache=use_cache),
+            mechanism(resolved(scene_of(scene, overrides)), use_cache=use_cache, lazy=solver == "c"),
             lambda sc: mechanism(sc, use_cache=use_cache),
             lambda mech: attempt(lambda: run(mech, solver, **kwargs)),
         )
@@ -198,7 +198,7 @@ def _written_run(
 
         scene = resolved(scene_of(scene, overrides))  # effects.strain = "auto": a decision remembered
         choose_system(scene, units)
-        mech = mechanism(scene, use_cache=use_cache)
+        mech = mechanism(scene, use_cache=use_cache, lazy=solver == "c")  # C: CasADi's Functions if used
         failure: BaseException | None
         if solver == "quasi-static":
             result, failure = attempt(lambda: run(mech))

@@ -184,8 +184,8 @@ for step in json.loads(sys.argv[1]):
             main(step[1:])
         except SystemExit as exc:
             assert not exc.code, (step, exc.code)
-    else:
-        simulate_scene(step[1], [step[2]], out=step[3])
+    else:  # ["api", scene, override, out or None(, solver, estimate)]
+        simulate_scene(step[1], [step[2]], out=step[3], **dict(zip(("solver", "estimate"), step[4:])))
     report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules), "via": dict(first)}})
 print("REPORT " + json.dumps(report))
 """
@@ -244,7 +244,11 @@ def test_a_cached_c_solver_run_is_lean(tmp_path):
     scene = str(ROOT / "examples" / "slider_crank.toml")
     out = str(tmp_path / "c.csv")
     _lean(
-        [["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o", out]],
+        [
+            ["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o", out],
+            ["api", scene, short(scene), str(tmp_path / "api.csv"), "c", "off"],
+            ["api", scene, short(scene), None, "c"],
+        ],
         tmp_path,
         (*HEAVY, "casadi"),
     )
