@@ -698,8 +698,9 @@ def run(repeats: int, quick: bool = False) -> str:
     out += [
         "Whole process: what a fresh process pays before it runs anything (CPU ms, medians): "
         + ", ".join(f"{k} {_ms(v)}" for k, v in imports.items())
-        + ". A cached `--solver c` process loads its model through CasADi's functions (the consistent start, "
-        "the outputs), so casadi is among its imports.",
+        + ". A cached `--solver c` process reads its model's description and its remembered start plan "
+        "from the cache and runs the start, the steps and the outputs in the C library: it does not import "
+        "casadi (tests/test_lean_start.py).",
         "",
     ]
     for n in names:

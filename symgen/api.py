@@ -19,15 +19,18 @@ from dataclasses import dataclass
 from typing import Any
 
 from symgen.numerics.mechanism import Mechanism, load_mechanism
-from symgen.numerics.simulate import SimResult
+from symgen.numerics.run_result import SimResult
 from symgen.scene import scene_of
 from symgen.scene.model import Scene
 
 
-def mechanism(scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), use_cache: bool = True) -> Mechanism:
+def mechanism(
+    scene: Scene | str | os.PathLike, overrides: Sequence[str] = (), use_cache: bool = True, lazy: bool = False
+) -> Mechanism:
     """The compiled model of a scene with its parameter values, ready to run
-    (:func:`symgen.numerics.mechanism.load_mechanism`)."""
-    return load_mechanism(scene, overrides, use_cache)
+    (:func:`symgen.numerics.mechanism.load_mechanism`; ``lazy``: its CasADi Functions read on
+    first use)."""
+    return load_mechanism(scene, overrides, use_cache, lazy)
 
 
 def _emit_inputs(scene: Scene):
@@ -106,7 +109,7 @@ def simulate_scene(
         _no_files(plot, states, units)
         use_cache = kwargs.get("use_cache", True)
         _, result, failure = run_with_strain_choice(
-            mechanism(resolved(scene_of(scene, overrides)), use_cache=use_cache),
+            mechanism(resolved(scene_of(scene, overrides)), use_cache=use_cache, lazy=solver == "c"),
             lambda sc: mechanism(sc, use_cache=use_cache),
             lambda mech: attempt(lambda: run(mech, solver, **kwargs)),
         )
@@ -195,7 +198,7 @@ def _written_run(
 
         scene = resolved(scene_of(scene, overrides))  # effects.strain = "auto": a decision remembered
         choose_system(scene, units)
-        mech = mechanism(scene, use_cache=use_cache)
+        mech = mechanism(scene, use_cache=use_cache, lazy=solver == "c")  # C: CasADi's Functions if used
         failure: BaseException | None
         if solver == "quasi-static":
             result, failure = attempt(lambda: run(mech))

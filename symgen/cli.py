@@ -104,7 +104,8 @@ def _prepare_run(args):
     scene = resolved(_scene(args))  # effects.strain = "auto": a decision remembered for the scene
     choose_system(scene, args.units)  # before any work: --units SI needs an SI scene
     _say(args, f"loading the model of {scene.name} from the cache, or deriving it")
-    mech = mechanism(scene, use_cache=not args.no_cache)
+    # --solver c: the model's CasADi Functions read only if used (a cached C run never uses them)
+    mech = mechanism(scene, use_cache=not args.no_cache, lazy=getattr(args, "solver", "idas") == "c")
     _say(
         args,
         "model loaded from the cache" if mech.compiled.cached else f"model derived in {mech.compiled.derive_s:.2f} s",
@@ -156,7 +157,6 @@ def cmd_simulate(args) -> int:
 
 def _simulate(args, files) -> int:
     from symgen.numerics.results import attempt
-    from symgen.numerics.simulate import simulate
 
     mech = _prepare_run(args)
     sc = mech.scene
@@ -170,6 +170,8 @@ def _simulate(args, files) -> int:
             from symgen.numerics.csolver import simulate_c
 
             return attempt(lambda: simulate_c(m, use_cache=not args.no_cache, progress=True))
+        from symgen.numerics.simulate import simulate
+
         return attempt(lambda: simulate(m, backend=args.backend, use_cache=not args.no_cache, progress=True))
 
     # effects.strain = "auto": the von Karman run's model-form estimate may call for the exact bar

@@ -488,3 +488,35 @@ def test_read_bytes_refuses_a_folder_as_an_entry(tmp_path):
             cache.read_bytes("model.so", 1 << 20, dir_fd=fd)
     finally:
         os.close(fd)
+
+
+# ----------------------------------------------------------------------------- lazy Functions
+def test_lazy_functions_are_checked_when_read(root, capsys, reference):
+    """``compile_scene(lazy=True)`` (a ``--solver c`` run: its library holds the model) checks the
+    entry's keyed hashes at once and CasADi's reading of the Functions on first use: a flipped
+    bit is re-derived at the load, as without ``lazy``; a Function this CasADi does not read
+    (another CasADi's entry, the manifest's version) is a clear error naming the entry, which is
+    removed, and the next load derives it anew."""
+    from symgen.errors import SceneError
+
+    entry = _fill(root)
+    lazy = compile_scene(load_scene(SCENE), lazy=True)
+    assert lazy.cached and isinstance(lazy.funcs, casadi_io.LazyFunctions)
+    _assert_equal(lazy, reference)
+
+    _flip_bit(entry / "res.casadi")
+    S.clear_memory_cache()
+    compiled = compile_scene(load_scene(SCENE), lazy=True)
+    assert not compiled.cached and "res.casadi does not match the keyed hash" in capsys.readouterr().err
+    _assert_equal(compiled, reference)
+
+    manifest = json.loads((entry / "manifest.json").read_text())
+    (entry / "manifest.json").write_text(json.dumps(dict(manifest, casadi="0.0.1")))
+    stale = compile_scene(load_scene(SCENE), lazy=True)  # the version is read with the Functions
+    assert stale.cached
+    with pytest.raises(SceneError, match="written by CasADi '0.0.1'") as err:
+        stale.funcs["res"]
+    assert str(entry) in str(err.value) and not entry.exists()
+    again = compile_scene(load_scene(SCENE), lazy=True)
+    assert not again.cached
+    _assert_equal(again, reference)

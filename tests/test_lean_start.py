@@ -184,16 +184,16 @@ for step in json.loads(sys.argv[1]):
             main(step[1:])
         except SystemExit as exc:
             assert not exc.code, (step, exc.code)
-    else:
-        simulate_scene(step[1], [step[2]], out=step[3])
+    else:  # ["api", scene, override, out or None(, solver, estimate)]
+        simulate_scene(step[1], [step[2]], out=step[3], **dict(zip(("solver", "estimate"), step[4:])))
     report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules), "via": dict(first)}})
 print("REPORT " + json.dumps(report))
 """
 
 
-def _run(steps: list[list], cwd: Path) -> list[dict]:
+def _run(steps: list[list], cwd: Path, heavy: tuple[str, ...] = HEAVY) -> list[dict]:
     env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    code = DRIVER.format(heavy=HEAVY)
+    code = DRIVER.format(heavy=heavy)
     proc = subprocess.run(
         [sys.executable, "-c", code, json.dumps(steps)], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
     )
@@ -202,9 +202,9 @@ def _run(steps: list[list], cwd: Path) -> list[dict]:
     return list(json.loads(line[len("REPORT ") :]))
 
 
-def _lean(steps: list[list], cwd: Path) -> None:
-    _run(steps, cwd)  # fills the cache (derives what it does not hold)
-    for entry in _run(steps, cwd):
+def _lean(steps: list[list], cwd: Path, heavy: tuple[str, ...] = HEAVY) -> None:
+    _run(steps, cwd, heavy)  # fills the cache (derives what it does not hold)
+    for entry in _run(steps, cwd, heavy):
         assert entry["heavy"] == [], f"{entry['step']} imported {entry['heavy']} via {entry['via']}"
 
 
@@ -238,13 +238,41 @@ def test_cached_runs_with_user_expressions_import_no_sympy(text, tmp_path):
 
 
 def test_a_cached_c_solver_run_is_lean(tmp_path):
-    """``simulate --solver c`` from the cache (its model and its C solver) imports none of them:
-    the whole process Exudyn is measured against (benchmarks/bench_exudyn.py)."""
+    """``simulate --solver c`` from the cache (its model, its start plan and its C solver) imports
+    none of them, nor CasADi (the library holds the model, the start and the outputs): the whole
+    process Exudyn is measured against (benchmarks/bench_exudyn.py)."""
     scene = str(ROOT / "examples" / "slider_crank.toml")
     out = str(tmp_path / "c.csv")
     _lean(
-        [["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o", out]], tmp_path
+        [
+            ["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o", out],
+            ["api", scene, short(scene), str(tmp_path / "api.csv"), "c", "off"],
+            ["api", scene, short(scene), None, "c"],
+        ],
+        tmp_path,
+        (*HEAVY, "casadi"),
     )
+
+
+def test_a_cached_c_run_gives_the_first_runs_results(tmp_path, monkeypatch):
+    """The cached ``--solver c`` run (its start plan recalled, its model's Functions never read)
+    writes the same CSV as the first run (which planned the start through CasADi), and an IDAS
+    run of the same cache still reads the Functions; the watch sees casadi there. A cache of its
+    own: the first run plans."""
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    scene = str(ROOT / "examples" / "slider_crank.toml")
+    c1, c2, idas = (str(tmp_path / f"{k}.csv") for k in ("c1", "c2", "idas"))
+    run = ["cli", "simulate", scene, "--set", short(scene), "--solver", "c", "--estimate", "off", "-o"]
+    heavy = (*HEAVY, "casadi")
+    (first,) = _run([[*run, c1]], tmp_path, heavy)
+    assert "casadi" in first["heavy"]  # planned the start: CasADi's Functions
+    (again,) = _run([[*run, c2]], tmp_path, heavy)
+    assert again["heavy"] == []
+    assert Path(c1).read_text() == Path(c2).read_text()
+    (other,) = _run(
+        [["cli", "simulate", scene, "--set", short(scene), "--estimate", "off", "-o", idas]], tmp_path, heavy
+    )
+    assert "casadi" in other["heavy"]
 
 
 BLAS_CHECK = r"""

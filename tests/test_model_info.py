@@ -83,3 +83,25 @@ def test_start_plan_refuses_a_partition_that_does_not_split_the_coordinates():
             singular_cols=(1,),
             amplitudes=(),
         )
+
+
+def test_start_plan_round_trips_through_json_and_refuses_what_is_not_one(six_bar):
+    """The plan a cached ``--solver c`` run recalls (symgen.numerics.csolver._plan) is the plan
+    itself: every field back, its numbers to the bit; data that is not a plan is refused."""
+    plan = start_plan(six_bar)
+    data = plan.to_json()
+    again = StartPlan.from_json(json.loads(json.dumps(data)))
+    assert again == plan and again.amplitudes and all(isinstance(x, float) for x in again.q_guess)
+    bad = [
+        {k: v for k, v in data.items() if k != "accel"},  # a field missing
+        dict(data, extra=[]),  # a field more
+        dict(data, independent=[0.5]),  # not indices
+        dict(data, dependent=[True]),
+        dict(data, q_guess=[0] * len(data["q_guess"])),  # not numbers as written (ints)
+        dict(data, amplitudes=[{"body": "rod", "axial": []}]),  # a group without its transverse
+        dict(data, independent=list(plan.independent) + list(plan.dependent)),  # no partition
+        [],
+    ]
+    for d in bad:
+        with pytest.raises(ValueError):
+            StartPlan.from_json(d)

@@ -8,7 +8,8 @@ Indices are positions in q (coordinates) or in lam (multiplier rows) of the mode
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, fields
 
 
 @dataclass(frozen=True)
@@ -57,3 +58,47 @@ class StartPlan:
     @property
     def n(self) -> int:
         return len(self.q_guess)
+
+    def to_json(self) -> dict[str, object]:
+        """The plan as JSON data (:meth:`from_json` reads it back)."""
+        return {f.name: _plain(getattr(self, f.name)) for f in fields(self)}
+
+    @classmethod
+    def from_json(cls, data: object) -> StartPlan:
+        """The plan of :meth:`to_json`'s data; ValueError if a field is missing, extra, of the
+        wrong type, or the plan is inconsistent (``__post_init__``)."""
+        from symgen.ir.info import record_fields
+
+        d = record_fields(data, "the start plan", tuple(f.name for f in fields(cls)), ValueError)
+        ints = {f.name: _ints(d[f.name], f.name) for f in fields(cls) if f.name not in _NOT_INDICES}
+        floats = {k: _floats(d[k], k) for k in ("q_guess", "v_guess")}
+        groups = []
+        for k, g in enumerate(d["amplitudes"] if isinstance(d["amplitudes"], list) else [None]):
+            g = record_fields(g, f"amplitudes[{k}]", ("body", "axial", "transverse"), ValueError)
+            if not isinstance(g["body"], str):
+                raise ValueError(f"amplitudes[{k}].body is not a name")
+            groups.append(AmplitudeGroup(g["body"], _ints(g["axial"], "axial"), _ints(g["transverse"], "transverse")))
+        return cls(**ints, **floats, amplitudes=tuple(groups))  # type: ignore[arg-type]
+
+
+_NOT_INDICES = ("q_guess", "v_guess", "amplitudes")
+
+
+def _plain(x: object) -> object:
+    if isinstance(x, AmplitudeGroup):
+        return {"body": x.body, "axial": list(x.axial), "transverse": list(x.transverse)}
+    if isinstance(x, tuple):
+        return [_plain(e) for e in x]
+    return x
+
+
+def _ints(x: object, what: str) -> tuple[int, ...]:
+    if not isinstance(x, list) or not all(isinstance(e, int) and not isinstance(e, bool) and e >= 0 for e in x):
+        raise ValueError(f"the start plan's {what} is not a list of indices")
+    return tuple(x)
+
+
+def _floats(x: object, what: str) -> tuple[float, ...]:
+    if not isinstance(x, list) or not all(isinstance(e, float) and math.isfinite(e) for e in x):
+        raise ValueError(f"the start plan's {what} is not a list of finite numbers")
+    return tuple(x)

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -93,6 +92,8 @@ def divergent_deformation(
     E = [i for i in part.ind if mech.coords[i].elastic]
     if not E:
         return 0.0, ""
+    import casadi as ca  # here: a cached run of the C solver never imports CasADi
+
     I, D = list(part.ind), list(part.dep)
     nI, nD = len(I), len(D)
     sys_ = index1(mech.n, mech.m, part)

@@ -46,12 +46,13 @@ import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeAlias
-
-import casadi as ca
+from typing import TYPE_CHECKING, TypeAlias
 
 from symgen import __version__, cache
 from symgen.processes import Cancelled, announce_compile, jobs, run_group, run_groups
+
+if TYPE_CHECKING:
+    import casadi as ca  # imported where used: a cached run of the C solver never imports CasADi
 
 CC_ENV = "SYMGEN_CC"
 CFLAGS_ENV = "SYMGEN_CFLAGS"
@@ -205,6 +206,8 @@ def start_library(
     """:func:`library_of`, except that a library not in the cache is compiled in a background
     thread (``background``): its C is written here, then a :class:`PendingLibrary` returned at
     once while the compilers run, so the caller can start in the virtual machine meanwhile."""
+    import casadi as ca
+
     comp = compiler()
     key = {
         "format": FORMAT,
@@ -455,6 +458,8 @@ def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
     per Function (``<name>.c``, its internal symbols prefixed by its name, so the units link
     into one library), the largest first: the units are compiled in parallel, and each Function's
     C is what one unit holding them all would have (the same statements in the same order)."""
+    import casadi as ca
+
     units = []
     for f in funcs:
         gen = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
@@ -471,6 +476,8 @@ def _load(blob: bytes, signatures: list[Signature]) -> dict[str, ca.Function]:
 
 
 def _externals(path: Path, signatures: list[Signature]) -> dict[str, ca.Function]:
+    import casadi as ca
+
     try:
         importer = ca.Importer(str(path), "dll")
     except RuntimeError as exc:

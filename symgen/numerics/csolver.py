@@ -26,9 +26,11 @@ import dataclasses
 import hashlib
 import json
 import math
+import os
 import re
 import shutil
 import time
+import weakref
 from importlib import resources
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -41,7 +43,7 @@ from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
 from symgen.numerics.mechanism import Mechanism
-from symgen.numerics.simulate import SimResult
+from symgen.numerics.run_result import SimResult
 from symgen.numerics.solvers import check_solver
 
 if TYPE_CHECKING:
@@ -89,12 +91,31 @@ def templates_digest() -> str:
     from symgen.backends import templates
 
     runtime = resources.files("symgen.backends.c") / "runtime"  # emit.c.render.RUNTIME, without jinja2
+    items = [
+        item
+        for folder in (templates.folder("c"), runtime)
+        for item in sorted(folder.iterdir(), key=lambda e: e.name)
+        if item.is_file()
+    ]
+    # files on disk (not in an archive): their digest is remembered in this process while none of
+    # them changed (path, size, modification time, inode): a run's key without reading them again
+    stamp = None
+    if all(isinstance(item, Path) for item in items):
+        stats = [(str(item), os.stat(item)) for item in items]  # type: ignore[arg-type]
+        stamp = tuple((p, s.st_size, s.st_mtime_ns, s.st_ino) for p, s in stats)
+        if stamp in _TEMPLATES_DIGEST:
+            return _TEMPLATES_DIGEST[stamp]
     h = hashlib.sha256()
-    for folder in (templates.folder("c"), runtime):
-        for item in sorted(folder.iterdir(), key=lambda e: e.name):
-            if item.is_file():
-                h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
-    return h.hexdigest()
+    for item in items:
+        h.update(item.name.encode() + b"\0" + item.read_bytes() + b"\0")
+    digest = h.hexdigest()
+    if stamp is not None:
+        _TEMPLATES_DIGEST.clear()
+        _TEMPLATES_DIGEST[stamp] = digest
+    return digest
+
+
+_TEMPLATES_DIGEST: dict[tuple[tuple[str, int, int, int], ...], str] = {}
 
 
 def _key(mech: Mechanism, plan: StartPlan, comp: compiled.Compiler) -> dict[str, object]:
@@ -107,12 +128,18 @@ def _key(mech: Mechanism, plan: StartPlan, comp: compiled.Compiler) -> dict[str,
     from symgen.backends.c.build import STRICT_C
     from symgen.model.structure import structure_key, structure_of
 
+    known = _OF_MECHANISM.get(mech)
+    if known is not None and known[0] is mech.scene and known[1] is plan:
+        emitted, model = known[2], known[3]
+    else:
+        emitted, model = emitted_key(mech, plan), structure_key(structure_of(mech.scene))
+        _OF_MECHANISM[mech] = (mech.scene, plan, emitted, model)
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "symgen": __version__,
-        "emitted": emitted_key(mech, plan),
-        "model": structure_key(structure_of(mech.scene)),
+        "emitted": emitted,
+        "model": model,
         "templates": templates_digest(),
         "radau": json.loads(json.dumps(radau.constants())),  # as the manifest holds it (lists)
         "policy": POLICY.as_dict(),
@@ -121,22 +148,80 @@ def _key(mech: Mechanism, plan: StartPlan, comp: compiled.Compiler) -> dict[str,
     }
 
 
+#: the modules whose code makes the start plan (:func:`symgen.numerics.start.start_plan`): their
+#: bytes are part of the question a remembered plan answers (:func:`_plan`)
+PLAN_SOURCES = (
+    *("numerics/start.py", "numerics/mechanism.py", "numerics/index1.py", "numerics/checks.py"),
+    *("policy.py", "ir/plan.py", "ir/parameters.py"),
+)
+
+
+def _plan_question(mech: Mechanism) -> dict[str, object]:
+    """What a scene's start plan is a function of: the scene (its canonical hash, after the
+    overrides), its model (the structure key), symgen's version and the code that plans."""
+    root = Path(__file__).resolve().parent.parent
+    code = hashlib.sha256(b"".join((root / s).read_bytes() for s in PLAN_SOURCES)).hexdigest()
+    return {
+        "question": "c-start-plan",
+        "scene": mech.scene.hash,
+        "model": mech.info.key,
+        "symgen": __version__,
+        "code": code,
+    }
+
+
+#: mechanism -> (its scene, its start plan, the emitted key and the model key of that plan): a
+#: mechanism's later runs (the estimate's rerun, a benchmark's repeats) neither plan nor hash again
+_OF_MECHANISM: weakref.WeakKeyDictionary[Mechanism, tuple[object, StartPlan, str, str]] = weakref.WeakKeyDictionary()
+#: library folder -> the key (JSON) its bytes were verified for, and those bytes, in this process
+_VERIFIED: dict[Path, str] = {}
+_VERIFIED_BLOB: dict[Path, bytes] = {}
+
+
+def _plan(mech: Mechanism, use_cache: bool) -> StartPlan:
+    """The scene's start plan (the Python start: milliseconds, and CasADi's Functions), remembered
+    in the signed cache (``symgen.cache.remember``) for the same question (:func:`_plan_question`):
+    a cached run of the C solver neither plans again nor imports CasADi."""
+    from symgen.ir.plan import StartPlan
+
+    memo = _OF_MECHANISM.get(mech)
+    if memo is not None and memo[0] is mech.scene:
+        return memo[1]
+    question = _plan_question(mech) if use_cache and mech.scene.hash else None
+    if question is not None:
+        known, answer = cache.recall(question)
+        if known:
+            try:
+                return StartPlan.from_json(answer)
+            except (TypeError, ValueError, KeyError):
+                pass  # not a plan of this symgen's: planned again, and remembered anew
+    from symgen.numerics.start import start_plan
+
+    plan = start_plan(mech)  # a scene the Python start refuses is refused here
+    if question is not None:
+        cache.remember(question, plan.to_json())
+    return plan
+
+
 def library(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
     """The verified bytes of the scene's C solver library and whether it was built now.
     Raises SceneError (``--solver``) when no C compiler works."""
-    from symgen.numerics.start import start_plan
-
     try:
         comp = compiled.compiler()
     except compiled.Unavailable as exc:
         raise _no_compiler(exc.reason) from None
-    plan = start_plan(mech)  # the Python start (milliseconds): a scene it refuses is refused here
+    plan = _plan(mech, use_cache)
     key = _key(mech, plan, comp)
-    where = cache.compiled_dir() / ("c" + hashlib.sha256(json.dumps(key, sort_keys=True).encode()).hexdigest()[:19])
+    stated = json.dumps(key, sort_keys=True)
+    where = cache.compiled_dir() / ("c" + hashlib.sha256(stated.encode()).hexdigest()[:19])
     replace = False
+    if use_cache and _VERIFIED.get(where) == stated and where.exists():
+        return _VERIFIED_BLOB[where], False  # read and verified for this key before, in this process
     if use_cache and where.exists():
         try:
-            return compiled.read_verified(where, key, LIBRARY), False
+            blob = compiled.read_verified(where, key, LIBRARY)
+            _VERIFIED[where], _VERIFIED_BLOB[where] = stated, blob
+            return blob, False
         except cache.InvalidEntry as exc:
             compiled.report_rebuild(where, exc.reason)
             replace = True

@@ -12,10 +12,14 @@ size and the rows res_h (which no longer read a_h) determine q_h.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import casadi as ca
 import numpy as np
+
+if TYPE_CHECKING:
+    import casadi as ca  # imported where used: a cached run of the C solver never imports CasADi
 
 
 @dataclass(frozen=True)
@@ -43,14 +47,18 @@ class Index1:
     a: ca.SX
     lam: ca.SX
 
-    def alg(self, f: dict[str, ca.Function], t: ca.SX | float, p: ca.SX | np.ndarray) -> ca.SX:
+    def alg(self, f: Mapping[str, ca.Function], t: ca.SX | float, p: ca.SX | np.ndarray) -> ca.SX:
         """The algebraic equations [phi; phid; res; phidd] at time t with parameters p."""
+        import casadi as ca
+
         args = [t, self.q, self.v, self.a, self.lam, p]
         return ca.vertcat(*(f[k](*args) for k in ("phi", "phid", "res", "phidd")))
 
 
 def index1(n: int, m: int, part: Partition) -> Index1:
     """The split of (x, z) into coordinates, rates, accelerations and multipliers."""
+    import casadi as ca
+
     I, D = list(part.ind), list(part.dep)
     nI, nD = len(I), len(D)
     x = ca.SX.sym("x", 2 * nI)

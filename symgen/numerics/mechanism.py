@@ -15,11 +15,12 @@ index 1 as long as the rigid mechanism is not at a singular position (phi_qD reg
 
 from __future__ import annotations
 
+import functools
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -34,15 +35,21 @@ from symgen.ir.records import CoordKind, RowKind
 from symgen.numerics import checks, start
 from symgen.numerics.index1 import Partition
 
+if TYPE_CHECKING:
+    import casadi as ca  # imported where used: a cached run of the C solver never imports CasADi
+
 
 def load_mechanism(
-    scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = (), use_cache: bool = True
+    scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = (), use_cache: bool = True, lazy: bool = False
 ) -> Mechanism:
     """The compiled model of a scene (a loaded ``Scene``, or a scene file with its ``--set``
     overrides) with its parameter values, ready to run: load, derive or load from the model
-    cache, and wrap in a :class:`Mechanism`."""
+    cache, and wrap in a :class:`Mechanism`. ``lazy``: a cached model's CasADi Functions are read
+    on first use (a run of the C solver never uses them)."""
     scene = scene_of(scene, overrides)
     # pipeline.compile_scene looked up at the call: a test (or a tool) may wrap it for every caller
+    if lazy:
+        return Mechanism(pipeline.compile_scene(scene, use_cache=use_cache, lazy=True), scene)
     return Mechanism(pipeline.compile_scene(scene, use_cache=use_cache), scene)
 
 
@@ -51,23 +58,10 @@ class Mechanism:
         tic = time.perf_counter()
         self.scene = scene
         self.compiled = compiled  # its derivation and cache state go into a run's sidecar
-        self.f: dict[str, ca.Function] = compiled.funcs
         self.info = info = compiled.info
         self.coords = info.coords
         self.n, self.m = info.n, info.m
         self.p = parameter_values(scene, list(info.params))
-        t, q, v, a, lam, p = (
-            ca.SX.sym(k, s)
-            for k, s in (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m), ("p", len(self.p)))
-        )
-        args = [t, q, v, a, lam, p]
-        phi = self.f["phi"](*args)
-        self.phi_q = ca.Function("phi_q", args, [ca.jacobian(phi, q)])
-        res = self.f["res"](*args)
-        phidd = self.f["phidd"](*args)
-        self.kkt = ca.Function(
-            "kkt", args, [ca.jacobian(ca.vertcat(res, phidd), ca.vertcat(a, lam)), ca.vertcat(res, phidd)]
-        )
         self.rigid = list(info.rigid)
         # effects.axial = "inextensible": the axial amplitudes of those bars are dependent
         # coordinates of their inextensibility rows (kept apart from the loop rows)
@@ -79,9 +73,57 @@ class Mechanism:
         self.runner_functions: dict[Partition, dict[str, ca.Function]] = {}
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
-        self.quasi = quasi_static_amplitudes(self, ca.jacobian(phi, q))
+        if stated_quasi_static(scene):  # refused here, at the load, when inconsistent
+            _ = self.quasi
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)
+
+    # The CasADi parts are made on first use: a cached run of the C solver (which has them in its
+    # library) never uses them, and so never imports CasADi (symgen.numerics.csolver).
+    @property
+    def f(self) -> Mapping[str, ca.Function]:
+        """The model's Functions (phi, phid, phidd, res, out, energy, closure)."""
+        return self.compiled.funcs
+
+    @functools.cached_property
+    def _symbols(self) -> tuple[list[ca.SX], ca.SX]:
+        """The Functions' symbolic arguments [t, q, v, a, lam, p] and phi at them."""
+        import casadi as ca
+
+        args = [
+            ca.SX.sym(k, s)
+            for k, s in (("t", 1), ("q", self.n), ("v", self.n), ("a", self.n), ("lam", self.m), ("p", len(self.p)))
+        ]
+        return args, self.f["phi"](*args)
+
+    @functools.cached_property
+    def phi_q(self) -> ca.Function:
+        """The closure's Jacobian in q."""
+        import casadi as ca
+
+        args, phi = self._symbols
+        return ca.Function("phi_q", args, [ca.jacobian(phi, args[1])])
+
+    @functools.cached_property
+    def kkt(self) -> ca.Function:
+        """The dynamics and the acceleration-level closure, and their Jacobian in (a, lam)."""
+        import casadi as ca
+
+        args = self._symbols[0]
+        res, phidd = self.f["res"](*args), self.f["phidd"](*args)
+        al = ca.vertcat(args[3], args[4])
+        return ca.Function("kkt", args, [ca.jacobian(ca.vertcat(res, phidd), al), ca.vertcat(res, phidd)])
+
+    @functools.cached_property
+    def quasi(self) -> tuple[int, ...]:
+        """bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
+        (:func:`quasi_static_amplitudes`)."""
+        if not any(b.quasi_static_transverse for b in self.scene.bodies if not b.rigid):
+            return ()
+        import casadi as ca
+
+        args, phi = self._symbols
+        return quasi_static_amplitudes(self, ca.jacobian(phi, args[1]))
 
     def run_partition(self, part: Partition) -> Partition:
         """The partition a run integrates: ``part`` with the quasi-static amplitudes taken out
@@ -277,6 +319,17 @@ class Mechanism:
     def initial_state(self, t0: float = 0.0) -> start.State:
         """Consistent (q, v, a, lam) at t0 and the coordinate partition (``start.consistent_start``)."""
         return start.consistent_start(self, t0)
+
+
+def stated_quasi_static(scene: Scene) -> bool:
+    """Whether a bar of ``scene`` has quasi-static transverse functions symgen did not choose
+    (:func:`quasi_static_amplitudes` may refuse those; symgen's choice is never refused)."""
+    chosen = {c.bar: c.quasi for c in scene.bases if c.quasi}
+    return any(
+        b.quasi_static_transverse and chosen.get(b.name) != b.quasi_static_transverse
+        for b in scene.bodies
+        if not b.rigid
+    )
 
 
 def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:

@@ -192,7 +192,6 @@ def build_sidecar(
     from symgen.model.structure import axial_treatments
     from symgen.scene.motion import driver_record
     from symgen.scene.quasi import quasi_static_reasons
-    from symgen.numerics.quasistatic import QuasiStaticResult
 
     sim = scene.simulation
     info = compiled.info
@@ -272,6 +271,8 @@ def build_sidecar(
     if solver == "c":
         sidecar["solver"].update(name="radau-iia (emitted C, symgen emit-c; dense output)", backend="c")
     elif solver == "quasi-static":
+        from symgen.numerics.quasistatic import QuasiStaticResult  # here: a C run never imports CasADi
+
         if not isinstance(result, QuasiStaticResult):
             raise TypeError(f"a quasi-static sidecar needs a QuasiStaticResult, not {type(result).__name__}")
         sidecar["analysis"] = result.analysis
@@ -364,10 +365,10 @@ def error_estimate(
     other says why not."""
     from symgen.numerics.error_estimate import ErrorEstimate, estimate_errors
     from symgen.numerics.mechanism import Mechanism
-    from symgen.numerics.quasistatic import QuasiStaticResult
+    from symgen.numerics.run_result import SimResult  # a quasi-static result is not one
 
     names = list(result.output_names)
-    if isinstance(result, QuasiStaticResult) or solver == "quasi-static":
+    if not isinstance(result, SimResult) or solver == "quasi-static":
         return ErrorEstimate.not_estimated(names, "a quasi-static analysis: estimated for dynamic runs only"), None
     if failure is not None:
         return ErrorEstimate.not_estimated(names, "the run did not complete"), None

@@ -17,7 +17,7 @@ import re
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -31,6 +31,7 @@ from symgen.numerics import compiled, interrupt
 from symgen.numerics import checks
 from symgen.numerics.index1 import Partition, index1
 from symgen.numerics.mechanism import Mechanism
+from symgen.numerics.run_result import SimResult as SimResult  # its home; imported from here too
 from symgen.numerics.start import State
 
 CHUNK = 128  # output steps of the first integrator call; each next one covers twice as
@@ -49,27 +50,6 @@ LINEAR_SOLVER: str | None = "csparse"
 #: nothing at a near-singular position or a load singular there, and stops in seconds naming
 #: where, instead of grinding for minutes (IDAS_TOO_MUCH_WORK, reported by ``_lost``).
 MAX_STEPS_PER_DEGREE = 100_000
-
-
-@dataclass
-class SimResult:
-    tau: np.ndarray
-    outputs: np.ndarray  # (N, n_out)
-    output_names: list[str]
-    q: np.ndarray  # (N, n)
-    v: np.ndarray
-    lam: np.ndarray
-    closure_max: float
-    steps: int
-    simulate_s: float
-    partition: Partition | None  # None: the emitted C solver's run (symgen.numerics.csolver)
-    complete: bool = True
-    failure: str = ""
-    stats: dict[str, str | float | None] = field(default_factory=dict)  # backend, library, timings
-
-    def column(self, name: str) -> np.ndarray:
-        """The output called ``name`` (as in the scene's [outputs])."""
-        return self.outputs[:, self.output_names.index(name)]
 
 
 class DaeRunner:

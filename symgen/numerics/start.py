@@ -10,7 +10,6 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING, TypeAlias
 
-import casadi as ca
 import numpy as np
 
 from symgen.errors import SceneError, SimulationError
@@ -168,6 +167,8 @@ class StaticSystem:
     dependent accelerations)."""
 
     def __init__(self, mech: Mechanism, part: Partition) -> None:
+        import casadi as ca  # here: a cached run of the C solver never imports CasADi
+
         D = list(part.dep)
         self.E = [i for i in mech.info.elastic if i not in D]
         R = sorted(set(mech.rigid) | set(D))  # unknown accelerations

@@ -9,6 +9,7 @@ when they do not verify (:mod:`symgen.cache`, :mod:`symgen.backends.casadi.store
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,19 +25,20 @@ def cache_dir() -> Path:
 
 @dataclass
 class CompiledModel:
-    funcs: dict
+    funcs: Mapping  # name -> CasADi Function (store.LazyFunctions: read on first use)
     info: ModelInfo
     derive_s: float  # time the derivation took (when it was done)
     build_s: float  # CasADi build, or load from cache, in this process
     cached: bool
 
 
-def compile_scene(scene: Scene, use_cache: bool = True) -> CompiledModel:
-    """Derived model of ``scene`` as CasADi Functions (from the cache when possible)."""
+def compile_scene(scene: Scene, use_cache: bool = True, lazy: bool = False) -> CompiledModel:
+    """Derived model of ``scene`` as CasADi Functions (from the cache when possible; ``lazy``: a
+    cached model's Functions read by CasADi on first use, :func:`store.load_lazy`)."""
     from symgen.model.structure import structure_key, structure_of
 
     key = structure_key(structure_of(scene))
-    compiled, replace = _cached(key) if use_cache else (None, False)
+    compiled, replace = _cached(key, lazy) if use_cache else (None, False)
     if compiled is not None:
         return compiled
     from symgen.model.derive import derive
@@ -67,7 +69,7 @@ def compile_model(model, use_cache: bool = True) -> CompiledModel:
     return compiled if compiled is not None else _build(model, use_cache, replace)
 
 
-def _cached(key: str) -> tuple[CompiledModel | None, bool]:
+def _cached(key: str, lazy: bool = False) -> tuple[CompiledModel | None, bool]:
     """(the verified cache entry of ``key`` or None, whether a bad entry is to be replaced)."""
     from symgen.backends.casadi import store as casadi_io
 
@@ -76,7 +78,7 @@ def _cached(key: str) -> tuple[CompiledModel | None, bool]:
         return None, False
     t0 = time.perf_counter()
     try:
-        funcs, info = casadi_io.load(where, key)
+        funcs, info = casadi_io.load_lazy(where, key) if lazy else casadi_io.load(where, key)
         return CompiledModel(funcs, info, info.timings["derive_s"], time.perf_counter() - t0, True), False
     except cache.InvalidEntry as exc:
         cache.report_invalid(where, exc.reason)

@@ -19,13 +19,16 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-
-import casadi as ca
+from typing import TYPE_CHECKING, Any
 
 from symgen import __version__
 from symgen import cache
 from symgen.ir.info import InvalidModelInfo, ModelInfo
+
+if TYPE_CHECKING:
+    import casadi as ca
 
 FUNCTION_NAMES = ("phi", "phid", "phidd", "res", "out", "energy", "closure")
 INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
@@ -35,10 +38,18 @@ FORMAT = "symgen-model-cache"
 FORMAT_VERSION = 3  # 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
 MANIFEST = "manifest.json"
 META = "model.json"
-#: the CasADi a cache entry was built with (its stubs, casadi/__init__.pyi, omit the module's __version__)
-CASADI_VERSION: str = ca.__version__  # type: ignore[attr-defined]
 _MAX_MANIFEST = 1 << 16
 _MAX_FILE = 1 << 30
+
+
+def __getattr__(name: str) -> Any:
+    """``CASADI_VERSION``: the CasADi a cache entry is built with, read on first use (CasADi is
+    imported only where a Function is made or read: :func:`load_lazy`)."""
+    if name == "CASADI_VERSION":
+        import casadi as ca
+
+        return ca.__version__  # type: ignore[attr-defined]  # casadi.pyi omits the module's __version__
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _file_names() -> tuple[str, ...]:
@@ -63,7 +74,7 @@ def save(funcs: dict, info: ModelInfo, directory: str | os.PathLike, replace: bo
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "symgen": __version__,
-        "casadi": CASADI_VERSION,
+        "casadi": __getattr__("CASADI_VERSION"),
         "key": directory.name,
         "files": {name: cache.seal(f"models/{directory.name}/{name}", data) for name, data in files.items()},
     }
@@ -83,8 +94,69 @@ def load(directory: str | os.PathLike, key: str | None = None) -> tuple[dict, Mo
     key = directory.name if key is None else key
     if directory.name != key:
         raise cache.InvalidEntry(f"is in a folder not named after its structure key {key}")
-    data = _read_verified(directory, key)
+    data, _ = _read_verified(directory, key)
     info = _model_info(_parse_json(data[META], META), key)
+    return _functions(data, info), info
+
+
+def load_lazy(directory: str | os.PathLike, key: str) -> tuple[LazyFunctions, ModelInfo]:
+    """:func:`load` with the Functions read on first use (:class:`LazyFunctions`): every file's
+    keyed hash and ``model.json`` checked now, CasADi's version and its reading of the Functions
+    when a Function is first asked for. A cached run of the C solver never asks (its library
+    holds the model): it never imports CasADi."""
+    directory = Path(directory)
+    if directory.name != key:
+        raise cache.InvalidEntry(f"is in a folder not named after its structure key {key}")
+    data, made_by = _read_verified(directory, key, casadi=False)
+    info = _model_info(_parse_json(data[META], META), key)
+    return LazyFunctions(directory, data, info, made_by), info
+
+
+class LazyFunctions(Mapping[str, "ca.Function"]):
+    """The Functions of a verified entry, read by CasADi on first use (:func:`load_lazy`). An
+    entry this CasADi does not read is reported then (a SceneError naming the entry: run again,
+    and it is derived anew)."""
+
+    def __init__(self, where: Path, data: dict[str, bytes], info: ModelInfo, made_by: object) -> None:
+        self._where, self._data, self._info, self._made_by = where, data, info, made_by
+        self._funcs: dict[str, ca.Function] | None = None
+
+    def _loaded(self) -> dict[str, ca.Function]:
+        if self._funcs is None:
+            from symgen.errors import SceneError
+
+            try:
+                version = __getattr__("CASADI_VERSION")
+                if self._made_by != version:
+                    raise cache.InvalidEntry(f"was written by CasADi {self._made_by!r}, this is {version}")
+                self._funcs = _functions(self._data, self._info)
+            except cache.InvalidEntry as exc:
+                import shutil
+
+                shutil.rmtree(self._where, ignore_errors=True)
+                raise SceneError(
+                    "model cache",
+                    str(self._where),
+                    f"the cache entry {exc.reason}; it is removed",
+                    "run the command again: the model is derived anew",
+                ) from None
+            self._data = {}
+        return self._funcs
+
+    def __getitem__(self, name: str) -> ca.Function:
+        return self._loaded()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(FUNCTION_NAMES)
+
+    def __len__(self) -> int:
+        return len(FUNCTION_NAMES)
+
+
+def _functions(data: dict[str, bytes], info: ModelInfo) -> dict[str, ca.Function]:
+    """The Functions of an entry's verified files, each checked against ``info``."""
+    import casadi as ca
+
     funcs = {}
     for name in FUNCTION_NAMES:
         try:
@@ -93,11 +165,12 @@ def load(directory: str | os.PathLike, key: str | None = None) -> tuple[dict, Mo
             raise cache.InvalidEntry(f"{name}.casadi cannot be deserialized by this CasADi ({exc})") from None
         _check_function(f, name, info)
         funcs[name] = f
-    return funcs, info
+    return funcs
 
 
-def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
-    """Every file of the entry, each checked against the manifest's keyed hash."""
+def _read_verified(directory: Path, key: str, casadi: bool = True) -> tuple[dict[str, bytes], object]:
+    """Every file of the entry, each checked against the manifest's keyed hash, and the CasADi
+    version the manifest states (checked against this CasADi's unless ``casadi`` is False)."""
     use_fd = os.open in os.supports_dir_fd and hasattr(os, "O_DIRECTORY")
     dfd = os.open(directory, os.O_RDONLY | os.O_DIRECTORY) if use_fd else None
     try:
@@ -111,7 +184,7 @@ def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
             manifest = _parse_json(read(MANIFEST, _MAX_MANIFEST), MANIFEST)
         except FileNotFoundError:
             raise cache.InvalidEntry(f"has no {MANIFEST} (written by an older symgen, or incomplete)") from None
-        _check_manifest(manifest, key)
+        _check_manifest(manifest, key, casadi)
         data = {}
         for name in _file_names():
             try:
@@ -120,7 +193,7 @@ def _read_verified(directory: Path, key: str) -> dict[str, bytes]:
                 raise cache.InvalidEntry(f"has no {name}") from None
             cache.verify(f"models/{key}/{name}", blob, manifest["files"][name])
             data[name] = blob
-        return data
+        return data, manifest.get("casadi")
     finally:
         if dfd is not None:
             os.close(dfd)
@@ -136,15 +209,15 @@ def _parse_json(blob: bytes, name: str):
         raise cache.InvalidEntry(f"{name} is not valid JSON ({exc})") from None
 
 
-def _check_manifest(m, key: str) -> None:
+def _check_manifest(m, key: str, casadi: bool = True) -> None:
     if not isinstance(m, dict) or m.get("format") != FORMAT:
         raise cache.InvalidEntry(f"{MANIFEST} is not a symgen model-cache manifest")
     if m.get("format_version") != FORMAT_VERSION:
         raise cache.InvalidEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
     if m.get("symgen") != __version__:
         raise cache.InvalidEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
-    if m.get("casadi") != CASADI_VERSION:
-        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {CASADI_VERSION}")
+    if casadi and m.get("casadi") != (version := __getattr__("CASADI_VERSION")):
+        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {version}")
     if m.get("key") != key:
         raise cache.InvalidEntry(f"{MANIFEST} is for structure key {m.get('key')!r}, not {key}")
     files = m.get("files")
