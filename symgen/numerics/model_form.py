@@ -268,7 +268,16 @@ class _Bar:
 def _solve_positive(K: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(x, ok) with x_r = -K_r^-1 b_r for each row, ok_r where x_r is finite and K_r positive
     definite (its symmetric part); x_r is 0 where K_r is singular (not ok)."""
-    ok = np.all(np.linalg.eigvalsh((K + np.swapaxes(K, 1, 2)) / 2) > 0, axis=1)
+    sym = (K + np.swapaxes(K, 1, 2)) / 2
+    try:
+        ok = np.all(np.linalg.eigvalsh(sym) > 0, axis=1)
+    except np.linalg.LinAlgError:  # a K not finite among them: each alone
+        ok = np.zeros(len(K), dtype=bool)
+        for r in range(len(K)):
+            try:
+                ok[r] = bool(np.all(np.linalg.eigvalsh(sym[r]) > 0))
+            except np.linalg.LinAlgError:
+                pass
     try:
         x = -np.linalg.solve(K, b[:, :, None])[:, :, 0]
     except np.linalg.LinAlgError:  # a singular K among them: each alone
