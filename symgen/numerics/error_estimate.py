@@ -10,7 +10,9 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   run, in one of two ways (``TRUNCATION_METHODS``):
 
   - ``"rerun"`` (the default): a second run of the richer model on the run's own output grid
-    and tolerances; the estimate is the difference of the two runs.
+    and tolerances; the estimate is the difference of the two runs. The richer model runs in
+    IDAS, or after a ``--solver c`` run in its C solver when that library was built before
+    (never compiled for the estimate: :func:`_same_solver_run`).
   - ``"linearized"``: no second integration. At the run's outputs its state (q, v, a, lam) is
     carried into the richer model's amplitudes (by index where the families are hierarchical,
     else by a least-squares map of the shape functions: the tip-load shape and the static
