@@ -218,6 +218,7 @@ def _written_run(
             units=units,
             states=states,
             estimate=estimate,
+            mech=mech,
         )
         if written.plot is not None:
             plot_run(written.plot)

@@ -139,6 +139,7 @@ def _write_run(args, files, mech, result, failure, solver: str):
         units=args.units,
         states=getattr(args, "states", False),
         estimate=getattr(args, "estimate", "off"),
+        mech=mech,
     )
     if failure is not None:
         print(f"symgen: partial result kept in {written.csv} ({written.sidecar['status']})", file=sys.stderr)

@@ -105,13 +105,14 @@ def test_study_with_solver_c_runs_every_configuration_in_c(cache):
 
 def test_the_estimate_of_a_solver_c_run_measures_the_c_solvers_time_error(cache):
     """After a ``--solver c`` run the error estimate's time-integration part reruns the run at
-    tighter tolerances in the C solver (the error of the solver that made the run), the
-    truncation part's richer model in IDAS (a model difference; no second C library to build); the
-    truncation part is the IDAS run's to within the runs' tolerance (the same two models; the
-    oracle is the IDAS path's estimate)."""
+    tighter tolerances in the C solver (the error of the solver that made the run); the
+    truncation part's richer model runs in IDAS while its C library is not built (the estimate
+    never builds it: no second C library on the run's way), in its C solver once it is. The
+    truncation part is the IDAS run's to within the runs' tolerance either way (the same two
+    models; the oracle is the IDAS path's estimate)."""
     from symgen.api import mechanism
     from symgen.numerics.csolver import simulate_c
-    from symgen.numerics.error_estimate import estimate_errors
+    from symgen.numerics.error_estimate import estimate_errors, richer_mechanism
     from symgen.numerics.simulate import simulate
 
     mech = mechanism(SLIDER, SHORT)
@@ -123,11 +124,19 @@ def test_the_estimate_of_a_solver_c_run_measures_the_c_solvers_time_error(cache)
     assert "tighter tolerances (the C solver)" in c_est.methods["time_integration"]
     assert "tighter tolerances (IDAS)" in idas_est.methods["time_integration"]
     assert "IDAS steps" in c_est.methods["truncation"]
-    for name, value in idas_est.parts["truncation"].items():
-        got = c_est.parts["truncation"][name]
-        if value is None:
-            assert got is None
-            continue
-        assert got is not None and value > 0
-        print(f"{name}: truncation after C {got:.3e}, after IDAS {value:.3e}")
-        assert 0.8 < got / value < 1.25, name
+    assert len(_c_entries(cache)) == 1  # the run's library only: the richer one was not built
+    simulate_c(richer_mechanism(mech)[0])  # the richer model's C solver, built outside the estimate
+    assert len(_c_entries(cache)) == 2
+    c_rich_est = estimate_errors(mech, c_run, sim.rtol, sim.atol)
+    assert "Radau IIA (C) steps" in c_rich_est.methods["truncation"], c_rich_est.methods["truncation"]
+    assert "IDAS steps" in estimate_errors(mech, idas_run, sim.rtol, sim.atol).methods["truncation"]
+    assert len(_c_entries(cache)) == 2
+    for est in (c_est, c_rich_est):
+        for name, value in idas_est.parts["truncation"].items():
+            got = est.parts["truncation"][name]
+            if value is None:
+                assert got is None
+                continue
+            assert got is not None and value > 0
+            print(f"{name}: truncation after C {got:.3e}, after IDAS {value:.3e}")
+            assert 0.8 < got / value < 1.25, name

@@ -178,3 +178,31 @@ def test_estimate_on_a_cached_model_imports_no_sympy(tmp_path, strain):
         reports.append(json.loads(line[len("REPORT ") :]))
     assert reports[1]["sympy"] is False and reports[1]["scipy"] is False
     assert reports[1]["tip"] == reports[0]["tip"] > 0
+
+
+def test_stacked_solves_are_those_of_each_sample():
+    """The estimate solves all samples at once: each row as numpy alone solves it (the oracle),
+    a singular, non-finite or indefinite stiffness marked not ok, a rank-deficient least-squares
+    row as lstsq's minimum-norm answer."""
+    from symgen.numerics.model_form import _least_squares, _power, _solve_positive
+
+    rng = np.random.default_rng(3)
+    B = rng.normal(size=(6, 3, 3))
+    K = B @ np.swapaxes(B, 1, 2) + 3 * np.eye(3)  # positive definite
+    K[1] = 0.0  # singular
+    K[2, 0, 0] = np.nan
+    K[3] = -K[3]  # negative definite
+    b = rng.normal(size=(6, 3))
+    x, ok = _solve_positive(K, b)
+    assert ok.tolist() == [True, False, False, False, True, True]
+    for r in (0, 4, 5):
+        assert np.allclose(x[r], -np.linalg.solve(K[r], b[r]), rtol=1e-13, atol=0)
+    A = rng.normal(size=(5, 4, 4))
+    A[2, :, 0] = 0.0  # rank 3
+    rhs = rng.normal(size=(5, 4))
+    got = _least_squares(A, rhs)
+    for r in range(5):
+        want = np.linalg.lstsq(A[r], rhs[r], rcond=None)[0]
+        assert np.abs(got[r] - want).max() <= 1e-12 * max(1.0, np.abs(want).max()), r
+    s = np.array([1e-120, 0.3, -2.0])
+    assert np.allclose(_power(s, 5), s**5, rtol=1e-15, atol=0) and np.array_equal(_power(s, 0), np.ones(3))

@@ -203,9 +203,15 @@ def _plan(mech: Mechanism, use_cache: bool) -> StartPlan:
     return plan
 
 
-def library(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
+class NotBuilt(Exception):
+    """The scene's C solver library is not in the cache, and was not to be built (``build=False``:
+    the error estimate's richer model, whose compile must not hold up a run)."""
+
+
+def library(mech: Mechanism, use_cache: bool = True, build: bool = True) -> tuple[bytes, bool]:
     """The verified bytes of the scene's C solver library and whether it was built now.
-    Raises SceneError (``--solver``) when no C compiler works."""
+    Raises SceneError (``--solver``) when no C compiler works; :class:`NotBuilt` when the
+    library is not in the cache and ``build`` is False."""
     try:
         comp = compiled.compiler()
     except compiled.Unavailable as exc:
@@ -227,6 +233,8 @@ def library(mech: Mechanism, use_cache: bool = True) -> tuple[bytes, bool]:
             replace = True
         except FileNotFoundError:
             pass
+    if not build:
+        raise NotBuilt(f"the C solver of {mech.scene.name} is not built")
     return _build(mech, plan, comp, where, key, use_cache, replace), True
 
 
@@ -334,9 +342,10 @@ class Solver:
 _LOADED: dict[str, Solver] = {}  # keyed hash of the library's bytes -> the loaded library
 
 
-def solver(mech: Mechanism, use_cache: bool = True) -> tuple[Solver, bool]:
-    """The scene's C solver, loaded (once per process and library), and whether it was built now."""
-    blob, built = library(mech, use_cache)
+def solver(mech: Mechanism, use_cache: bool = True, build: bool = True) -> tuple[Solver, bool]:
+    """The scene's C solver, loaded (once per process and library), and whether it was built now
+    (``build=False``: :class:`NotBuilt` when it is not in the cache)."""
+    blob, built = library(mech, use_cache, build)
     digest = hashlib.sha256(blob).hexdigest()
     if digest not in _LOADED:
         from symgen.backends.c.names import c_prefix
@@ -357,12 +366,14 @@ def simulate_c(
     rtol: float | None = None,
     atol: float | None = None,
     progress: bool = False,
+    build: bool = True,
 ) -> SimResult:
     """The scene's run with the emitted C Radau IIA solver, in this process: outputs every
     ``output_step`` from 0 to ``t_end`` with tolerances ``rtol``, ``atol`` (None: the scene's),
     the states with them. A run that stops early (a failure of the C solver or of a check,
     ``SimulationError``; SIGINT/SIGTERM, ``Interrupted``) raises with ``.partial``, the
-    ``SimResult`` of the rows before it (``complete=False``)."""
+    ``SimResult`` of the rows before it (``complete=False``). ``build=False``: only with a
+    library already in the cache, else :class:`NotBuilt` before anything runs."""
     import ctypes
 
     sim = mech.scene.simulation
@@ -372,7 +383,7 @@ def simulate_c(
     atol = float(sim.atol if atol is None else atol)
     t_setup = time.perf_counter()
     try:
-        lib, built = solver(mech, use_cache)
+        lib, built = solver(mech, use_cache, build)
     except BaseException as err:
         cause = interrupt.interrupted(err, 0.0)
         if cause is err:

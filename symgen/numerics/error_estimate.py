@@ -10,7 +10,9 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   run, in one of two ways (``TRUNCATION_METHODS``):
 
   - ``"rerun"`` (the default): a second run of the richer model on the run's own output grid
-    and tolerances; the estimate is the difference of the two runs.
+    and tolerances; the estimate is the difference of the two runs. The richer model runs in
+    IDAS, or after a ``--solver c`` run in its C solver when that library was built before
+    (never compiled for the estimate: :func:`_same_solver_run`).
   - ``"linearized"``: no second integration. At the run's outputs its state (q, v, a, lam) is
     carried into the richer model's amplitudes (by index where the families are hierarchical,
     else by a least-squares map of the shape functions: the tip-load shape and the static
@@ -74,6 +76,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -250,8 +253,8 @@ def estimate_errors(
     ``atol`` (see the module docstring). ``model_form``: the model-form estimator (default: the
     one registered, if any: :data:`MODEL_FORM_ESTIMATORS`). ``richer``: the richer model of the
     truncation part, when the caller has it already (else it is made: :func:`richer_mechanism`).
-    The time part's rerun uses the run's own solver (:func:`_same_solver_run`), the richer
-    model IDAS."""
+    Both reruns use the run's own solver (:func:`_same_solver_run`); the richer model's C solver
+    only where it was built before (else IDAS)."""
     names = list(result.output_names)
     peaks = _peaks(result)
     parts: dict[str, dict[str, float | None]] = {}
@@ -454,12 +457,31 @@ def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
     return dataclasses.replace(scene, bodies=tuple(bodies)), counts
 
 
+#: the richer models loaded in this process: (cache root, richer scene) -> the mechanism; the
+#: latest ``RICHER_KEPT`` (a sweep or a benchmark estimates the same model's runs again)
+_RICHER: OrderedDict[tuple[str, Any], Mechanism] = OrderedDict()
+RICHER_KEPT = 4
+
+
 def richer_mechanism(mech: Mechanism) -> tuple[Mechanism, dict[str, list[int]]]:
-    """The embedded richer model of ``mech`` (derived once, then from the model cache)."""
+    """The embedded richer model of ``mech`` (derived once, then from the model cache; loaded
+    once per process and cache)."""
+    from symgen import cache
     from symgen.numerics.mechanism import load_mechanism
 
     scene, counts = richer_scene(mech.scene)
-    return load_mechanism(scene), counts
+    key = (str(cache.cache_root()), scene)
+    try:
+        hash(key)
+    except TypeError:  # a scene holding a mutable value: loaded each time
+        return load_mechanism(scene), counts
+    if key in _RICHER:
+        _RICHER.move_to_end(key)
+    else:
+        _RICHER[key] = load_mechanism(scene)
+        if len(_RICHER) > RICHER_KEPT:
+            _RICHER.popitem(last=False)
+    return _RICHER[key], counts
 
 
 def _bodies(info: Any) -> dict[str, dict[str, Any]]:
@@ -588,24 +610,33 @@ def _fractions_of_peak(mech: Mechanism, result: SimResult, deltas: np.ndarray, n
     }
 
 
-def _same_solver_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
-    """``mech`` (the run's own model) run over ``result``'s output grid with ``rtol``, ``atol``
-    by the run's own solver, whose error the time-integration part measures: the emitted C
-    Radau IIA solver after a ``--solver c`` run (``result.stats``'s backend "c"; its library is
-    the run's, cached), else IDAS on the backend the run was asked for. The C path starts at
-    tau = 0; where it is refused the rerun is IDAS's. (The truncation part's richer model runs
-    in IDAS whatever the run's solver: it measures the model's difference, not the solver's, and
-    a C solver of the richer model would be one more library to compile on a first run.)"""
-    from symgen.errors import SceneError
+def _same_solver_run(
+    mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float, build: bool = True
+) -> SimResult:
+    """``mech`` run over ``result``'s output grid with ``rtol``, ``atol`` by the run's own
+    solver: the emitted C Radau IIA solver after a ``--solver c`` run (``result.stats``'s
+    backend "c"), else IDAS on the backend the run was asked for. The C path starts at tau = 0;
+    where it is refused, or (``build=False``) its library is not in the cache or its run fails,
+    the rerun is IDAS's.
+
+    The time part's tighter rerun is of the run's own model, whose C library is the run's
+    (cached). The truncation part's richer model takes ``build=False``: its C solver is used
+    when it was built before, never compiled on the run's way (a richer exact bar's took 170 s),
+    so a first ``--solver c`` run measures its richer model with IDAS."""
+    from symgen.errors import SceneError, SimulationError
 
     tau = np.asarray(result.tau, dtype=float)
     if _ran_in_c(result) and float(tau[0]) == 0.0:
-        from symgen.numerics.csolver import simulate_c
+        from symgen.numerics.csolver import NotBuilt, simulate_c
 
         try:
-            return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol)
-        except SceneError:  # no working C compiler, or a scene the C path refuses: IDAS below
-            pass
+            return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol, build=build)
+        except (SceneError, NotBuilt):  # no working C compiler, a scene the C path refuses, a library
+            pass  # not built: IDAS below
+        except SimulationError:
+            if build:  # the run's own solver failed at tighter tolerances: said as such
+                raise
+            # the richer model's C run failed: IDAS below
     return _idas_run(mech, result, step, rtol, atol)
 
 
@@ -645,7 +676,7 @@ def _rerun(
         raise TruncationNotEstimated("the run has fewer than two outputs")
     sim = mech.scene.simulation
     try:
-        rich = _idas_run(richer, result, float(tau[1] - tau[0]), sim.rtol, sim.atol)
+        rich = _same_solver_run(richer, result, float(tau[1] - tau[0]), sim.rtol, sim.atol, build=False)
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
@@ -653,7 +684,8 @@ def _rerun(
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
-        f"and tolerances ({rich.steps} IDAS steps): the largest difference of the two runs' outputs"
+        f"and tolerances ({rich.steps} {'Radau IIA (C)' if _ran_in_c(rich) else 'IDAS'} steps): the largest "
+        "difference of the two runs' outputs"
     )
     return values, counts, how
 

@@ -60,6 +60,8 @@ docs/exact-bars.md and against the validation suite's references in benchmarks/R
 
 from __future__ import annotations
 
+import json
+from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -118,26 +120,50 @@ class ModelFormEstimate:
     skipped: tuple[str, ...] = ()
 
 
+#: the shape samples read in this process, by their question (a bar's samples are a function
+#: of it: every later estimate of a run of the bar reads them from here)
+_READ: dict[str, ShapeSamples] = {}
+
+
 def _samples(body: dict[str, Any]) -> ShapeSamples:
     """A bar's shape samples from the signed cache (taken when the model was derived), or sampled
-    now where the cache does not hold them (a model cache written by an older symgen)."""
-    known, answer = cache.recall(samples_question(body))
+    now where the cache does not hold them (a model cache written by an older symgen); once per
+    process."""
+    question = samples_question(body)
+    key = json.dumps(question, sort_keys=True)
+    if key in _READ:
+        return _READ[key]
+    known, answer = cache.recall(question)
+    samples = None
     if known:
         try:
-            return ShapeSamples.from_json(answer)
+            samples = ShapeSamples.from_json(answer)
         except ValueError:
             pass
-    from symgen.model.shape_samples import shape_samples
+    if samples is None:
+        from symgen.model.shape_samples import shape_samples
 
-    return shape_samples(body)
+        samples = shape_samples(body)
+    _READ[key] = samples
+    return samples
+
+
+def _power(x: np.ndarray, k: int) -> np.ndarray:
+    """x^k (k >= 0 an integer) by products: numpy's pow is 100x slower where the slopes are tiny
+    (a bar at rest: subnormal powers)."""
+    out = np.ones_like(x)
+    for _ in range(k):
+        out = out * x
+    return out
 
 
 def _residual(s: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
     """(h, dh/ds) of h(s) = s^(order+1) / (1 - s): the terms of 1 / (1 - s) after s^order."""
     s = np.minimum(s, SLOPE2_MAX)
     k = order + 1
-    h = s**k / (1.0 - s)
-    dh = (k * s ** (k - 1) * (1.0 - s) + s**k) / (1.0 - s) ** 2
+    sk = _power(s, k)
+    h = sk / (1.0 - s)
+    dh = (k * _power(s, k - 1) * (1.0 - s) + sk) / (1.0 - s) ** 2
     return h, dh
 
 
@@ -186,57 +212,83 @@ class _Bar:
         int N (eps_x - eps) = int N (c_m s^m - eps eta'^2 / 2), s = eta'^2, m = ``STRAIN_ORDER`` + 1
         the first power the bar's strain leaves out (von Karman: eta'^4 / 8; the exact bar:
         eta'^6 / 16), eps = N / lambda (N held: the axial amplitudes re-equilibrate, to first order
-        the energy changes by N's work)."""
-        e1, e2 = self.P1 @ g, self.P2 @ g
+        the energy changes by N's work). ``g``: one sample's amplitudes, or a stack of them (rows;
+        ``N`` likewise): dQ of each row."""
+        e1, e2 = g @ self.P1.T, g @ self.P2.T
         h, dh = _residual(e1 * e1, self.order)
         wq = self.w * self.mu
-        dQ: np.ndarray = self.P2.T @ (wq * e2 * h) + self.P1.T @ (wq * e2 * e2 * dh * e1)
+        dQ: np.ndarray = (wq * e2 * h) @ self.P2 + (wq * e2 * e2 * dh * e1) @ self.P1
         if N is not None and STRAIN_LEFT_OUT:
             soft = N * N / self.lam if self.lam > 0 else 0.0 * N
             m = self.strain_order + 1
-            left = _STRAIN_SERIES[m - 1] * 2 * m * e1 ** (2 * m - 1)  # d/d eta' of c_m eta'^(2m)
-            dQ = dQ + self.P1.T @ (self.w * (N * left - soft * e1))
+            left = _STRAIN_SERIES[m - 1] * 2 * m * _power(e1, 2 * m - 1)  # d/d eta' of c_m eta'^(2m)
+            dQ = dQ + (self.w * (N * left - soft * e1)) @ self.P1
         return dQ
 
-    def axial_force(self, q: np.ndarray, lam: np.ndarray) -> np.ndarray | None:
-        """(the multipliers N_k or lambda e_k, the axial force at the nodes) of one sample, or
-        None without axial functions."""
+    def axial_force(self, Q: np.ndarray, Lam: np.ndarray) -> np.ndarray | None:
+        """The multipliers N_k or lambda e_k, the axial force at the nodes, of each sample (rows of
+        the coordinates ``Q`` and multipliers ``Lam``), or None without axial functions."""
         if not self.na:
             return None
         if self.n_rows:
-            return np.asarray(lam[self.n_rows])  # the multipliers N_k
-        g = q[self.g_idx]
-        c = 0.5 * np.einsum("kab,a,b->k", self.C3, g, g)
+            return np.asarray(Lam[:, self.n_rows])  # the multipliers N_k
+        G = Q[:, self.g_idx]
+        c = 0.5 * np.einsum("kab,ra,rb->rk", self.C3, G, G)
         if self.strain_order >= 2:  # the exact bar's (phi'_k, eta'^4 / 8)
-            c = c + self.A1.T @ (self.w * (self.P1 @ g) ** 4) / 8
-        return np.asarray(self.lam * (q[self.f_idx] + self.Ka_inv @ c))  # lambda P eps
+            c = c + (self.w * _power(G @ self.P1.T, 4)) @ self.A1 / 8
+        return np.asarray(self.lam * (Q[:, self.f_idx] + c @ self.Ka_inv.T))  # lambda P eps
 
-    def change(self, q: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, float, float]:
-        """(dg, the relative change of the first mode's tangent stiffness, amplification) at one
-        sample."""
-        g = q[self.g_idx]
+    def change(self, Q: np.ndarray, Lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(dg, the relative change of the first mode's tangent stiffness, amplification) of each
+        sample (rows of the coordinates ``Q`` and multipliers ``Lam``)."""
+        G = Q[:, self.g_idx]
         mu = self.mu
-        n = self.axial_force(q, lam)
-        N = None if n is None else self.A1 @ n
-        dQ = self.force(g, N)
+        n = self.axial_force(Q, Lam)
+        N = None if n is None else n @ self.A1.T
+        dQ = self.force(G, N)
         v = self.mode
-        step = 1e-4 * max(float(np.abs(self.P1 @ g).max()), 1e-3) / max(float(np.abs(self.P1 @ v).max()), 1e-300)
-        vHv = float(v @ (self.force(g + step * v, N) - self.force(g - step * v, N))) / (2.0 * step)
+        slope = np.abs(G @ self.P1.T).max(axis=1)
+        step = 1e-4 * np.maximum(slope, 1e-3) / max(float(np.abs(self.P1 @ v).max()), 1e-300)
+        dv = step[:, None] * v
+        vHv = ((self.force(G + dv, N) - self.force(G - dv, N)) @ v) / (2.0 * step)
         tangent = vHv / float(v @ (mu * self.Kt) @ v)
         K0 = mu * self.Kt
-        K = K0 if n is None else K0 + np.einsum("k,kab->ab", n, self.C3)
-        dg0 = -np.linalg.solve(K0, dQ)
-        try:
-            dg = -np.linalg.solve(K, dQ)
-            ok = bool(np.all(np.isfinite(dg)) and np.all(np.linalg.eigvalsh((K + K.T) / 2) > 0))
-        except np.linalg.LinAlgError:
-            ok = False
-        size0 = float(np.linalg.norm(dg0))
-        amp = float(np.linalg.norm(dg)) / size0 if ok and size0 > 0 else 1.0
-        if not ok or amp > AMPLIFICATION_CAP:
-            amp = AMPLIFICATION_CAP
-            dg = AMPLIFICATION_CAP * dg0
+        K = np.broadcast_to(K0, (len(G), *K0.shape)) if n is None else K0 + np.einsum("rk,kab->rab", n, self.C3)
+        dg0 = -np.linalg.solve(K0, dQ.T).T
+        dg, ok = _solve_positive(K, dQ)
+        size0 = np.linalg.norm(dg0, axis=1)
+        size = np.linalg.norm(dg, axis=1)
+        amp = np.where(ok & (size0 > 0), size / np.where(size0 > 0, size0, 1.0), 1.0)
+        capped = ~ok | (amp > AMPLIFICATION_CAP)
+        amp = np.where(capped, AMPLIFICATION_CAP, amp)
+        dg = np.where(capped[:, None], AMPLIFICATION_CAP * dg0, dg)
         return dg, tangent, amp
+
+
+def _solve_positive(K: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(x, ok) with x_r = -K_r^-1 b_r for each row, ok_r where x_r is finite and K_r positive
+    definite (its symmetric part); x_r is 0 where K_r is singular (not ok)."""
+    sym = (K + np.swapaxes(K, 1, 2)) / 2
+    try:
+        ok = np.all(np.linalg.eigvalsh(sym) > 0, axis=1)
+    except np.linalg.LinAlgError:  # a K not finite among them: each alone
+        ok = np.zeros(len(K), dtype=bool)
+        for r in range(len(K)):
+            try:
+                ok[r] = bool(np.all(np.linalg.eigvalsh(sym[r]) > 0))
+            except np.linalg.LinAlgError:
+                pass
+    try:
+        x = -np.linalg.solve(K, b[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:  # a singular K among them: each alone
+        x = np.zeros_like(b)
+        for r in range(len(b)):
+            try:
+                x[r] = -np.linalg.solve(K[r], b[r])
+            except np.linalg.LinAlgError:
+                ok[r] = False
+    ok &= np.all(np.isfinite(x), axis=1)
+    return x, ok
 
 
 def _guides(structure: dict[str, Any]) -> set[str]:
@@ -277,49 +329,45 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             "no estimate of their curvature's left-out terms"
         )
     rows = np.unique(np.linspace(0, len(result.tau) - 1, min(samples, len(result.tau))).astype(int))
-    change = np.zeros((len(rows), len(names)))
-    tangent: dict[str, list[float]] = {b.name: [] for b in bars}
+    Q, V, Lam = (np.asarray(x, dtype=float)[rows] for x in (result.q, result.v, result.lam))
+    tau_rows = np.asarray(result.tau, dtype=float)[rows]
+    tangent: dict[str, np.ndarray] = {}
     amplification = {b.name: 1.0 for b in bars}
     dqs = np.zeros((len(rows), mech.n))
-    for r, i in enumerate(rows):
-        q, lam = result.q[i], result.lam[i]
-        for b in bars:
-            dg, tan, amp = b.change(q, lam)
-            dqs[r, b.g_idx] = dg
-            if b.na:  # the axial amplitudes follow: the strain P eps (= N / lambda) stays, to first order
-                g = q[b.g_idx]
-                dc = np.einsum("kab,a,b->k", b.C3, g, dg)
-                if b.strain_order >= 2:  # the exact bar's d(phi'_k, eta'^4 / 8) = (phi'_k, eta'^3 d eta') / 2
-                    dc = dc + b.A1.T @ (b.w * (b.P1 @ g) ** 3 * (b.P1 @ dg)) / 2
-                dqs[r, b.f_idx] = -b.Ka_inv @ dc
-            tangent[b.name].append(tan)
-            amplification[b.name] = max(amplification[b.name], amp)
+    for b in bars:
+        dg, tangent[b.name], amp = b.change(Q, Lam)
+        dqs[:, b.g_idx] = dg
+        if b.na:  # the axial amplitudes follow: the strain P eps (= N / lambda) stays, to first order
+            G = Q[:, b.g_idx]
+            dc = np.einsum("kab,ra,rb->rk", b.C3, G, dg)
+            if b.strain_order >= 2:  # the exact bar's d(phi'_k, eta'^4 / 8) = (phi'_k, eta'^3 d eta') / 2
+                dc = dc + (b.w * _power(G @ b.P1.T, 3) * (dg @ b.P1.T)) @ b.A1 / 2
+            dqs[:, b.f_idx] = -dc @ b.Ka_inv.T
+        amplification[b.name] = max(1.0, float(amp.max(initial=1.0)))
     # the multipliers (driver torques, reactions, axial forces) change with the accelerations of
     # the change: d2(dq)/dt2 on the elastic coordinates, the rigid accelerations and multipliers
     # re-solved from the rigid rows of the dynamics and the acceleration-level closure
-    ddq = _second_derivative(np.asarray(result.tau)[rows], dqs)
+    ddq = _second_derivative(tau_rows, dqs)
     elastic = sorted({i for b in bars for i in (*b.f_idx, *b.g_idx)})
     free = [i for i in range(mech.n) if i not in set(elastic)]
     eq_rows = free + list(range(mech.n, mech.n + mech.m))
     unknown = free + list(range(mech.n, mech.n + mech.m))
-    for r, i in enumerate(rows):
-        q, v, lam = result.q[i], result.v[i], result.lam[i]
-        t = float(result.tau[i])
-        dlam = np.zeros(mech.m)
-        if mech.m and elastic:
-            J = np.array(mech.kkt(t, q, v, np.zeros(mech.n), np.zeros(mech.m), mech.p)[0])
-            A = J[np.ix_(eq_rows, unknown)]
-            rhs = -J[np.ix_(eq_rows, elastic)] @ ddq[r, elastic]
-            try:
-                x = np.linalg.lstsq(A, rhs, rcond=None)[0]
-                dlam = x[len(free) :]
-            except np.linalg.LinAlgError:
-                dlam = np.zeros(mech.m)
-        change[r] = mech.call("out", t, q + dqs[r], v, None, lam + dlam) - mech.call("out", t, q, v, None, lam)
+    dlam = np.zeros((len(rows), mech.m))
+    if mech.m and elastic:
+        J = _mapped(mech.kkt, len(rows), tau_rows, Q, V, np.zeros_like(Q), np.zeros_like(Lam), mech.p)[0]
+        J = J.reshape(mech.n + mech.m, len(rows), mech.n + mech.m).transpose(1, 0, 2)
+        A = J[:, eq_rows][:, :, unknown]
+        rhs = -np.einsum("rij,rj->ri", J[:, eq_rows][:, :, elastic], ddq[:, elastic])
+        dlam = _least_squares(A, rhs)[:, len(free) :]
+    out_f = mech.f["out"]
+    zero = np.zeros_like(Q)
+    change = (
+        _mapped(out_f, len(rows), tau_rows, Q + dqs, V, zero, Lam + dlam, mech.p)[0]
+        - _mapped(out_f, len(rows), tau_rows, Q, V, zero, Lam, mech.p)[0]
+    ).T
     # the first bending frequency moves by half the relative change of its tangent stiffness
     # (the mean over the run, reported; the drift integrates it along the run)
     shift = {name: 0.5 * float(np.mean(t)) for name, t in tangent.items()}
-    tau_rows = np.asarray(result.tau, dtype=float)[rows]
     bands = _bands([b.omega for b in bars])
     stiff = {b.name: (shift[b.name], amplification[b.name]) for b in bars}
     peaks = np.abs(result.outputs).max(axis=0)
@@ -337,7 +385,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
                 result.tau,
                 result.outputs[:, j],
                 b.omega,
-                (tau_rows, 0.5 * np.asarray(tangent[b.name])),
+                (tau_rows, 0.5 * tangent[b.name]),
                 _ringing(span, b.omega, damping),
                 band,
             )
@@ -371,6 +419,52 @@ def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]
     """The model-form part of the error estimate (:func:`symgen.numerics.error_estimate.register_model_form`)."""
     est = model_form_estimate(mech, result)
     return est.outputs, est.method
+
+
+#: the maps of the model's Functions made in this process: (id of the Function, samples) -> (the
+#: Function, held so that its id stays its own, and its map); the latest ``MAPS_KEPT``
+_MAPS: OrderedDict[tuple[int, int], tuple[Any, Any]] = OrderedDict()
+MAPS_KEPT = 16
+
+
+def _map(f: Any, k: int) -> Any:
+    """``f.map(k)``, made once (the later estimates of the same model and run length reuse it)."""
+    key = (id(f), k)
+    if key in _MAPS:
+        _MAPS.move_to_end(key)
+    else:
+        _MAPS[key] = (f, f.map(k))
+        if len(_MAPS) > MAPS_KEPT:
+            _MAPS.popitem(last=False)
+    return _MAPS[key][1]
+
+
+def _mapped(f: Any, k: int, tau: np.ndarray, *args: np.ndarray) -> list[np.ndarray]:
+    """The model Function ``f(t, q, v, a, lam, p)`` at ``k`` samples in one call (its map: each
+    sample's numbers as alone): ``tau`` the times, the others rows per sample, ``p`` (the last)
+    the same for all; its outputs side by side (a column, or a block of columns, per sample)."""
+    *per_sample, p = args
+    got = _map(f, k)(tau.reshape(1, -1), *(np.asarray(x).T for x in per_sample), p)
+    return [np.array(x) for x in (got if isinstance(got, (list, tuple)) else [got])]
+
+
+def _least_squares(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.lstsq(A[r], b[r], rcond=None)[0]`` of each row r at once (by the SVD, with
+    lstsq's cutoff of the singular values); 0 where the SVD fails (as the run's estimate did)."""
+    try:
+        U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    except np.linalg.LinAlgError:
+        out = np.zeros((len(A), A.shape[2]))
+        for r in range(len(A)):
+            try:
+                out[r] = np.linalg.lstsq(A[r], b[r], rcond=None)[0]
+            except np.linalg.LinAlgError:
+                pass
+        return out
+    cut = np.finfo(float).eps * max(A.shape[1:]) * s[:, :1]
+    inv = np.divide(1.0, s, out=np.zeros_like(s), where=s > cut)
+    x: np.ndarray = np.einsum("rji,rj->ri", Vt, inv * np.einsum("rji,rj->ri", U, b))
+    return x
 
 
 def _second_derivative(tau: np.ndarray, y: np.ndarray) -> np.ndarray:

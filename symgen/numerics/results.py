@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from symgen.numerics.error_estimate import ErrorEstimate
     from symgen.scene.model import Scene
     from symgen.backends.casadi.pipeline import CompiledModel
+    from symgen.numerics.mechanism import Mechanism
     from symgen.numerics.quasistatic import QuasiStaticResult
     from symgen.numerics.simulate import SimResult
     from symgen.numerics.units import ResultUnits
@@ -357,12 +358,14 @@ def error_estimate(
     failure: BaseException | None,
     solver: str,
     estimate: str = "rerun",
+    mech: Mechanism | None = None,
 ) -> tuple[ErrorEstimate, Interrupted | None]:
     """The error estimate of a run's outputs (``symgen.numerics.error_estimate``; ``estimate``:
     its truncation method, "rerun" or "linearized", or "off"), and the interrupt that stopped it
     (the run itself is complete: its files are written, the estimate marked not estimated,
     then the interrupt is raised). Only a complete dynamic run is estimated; the record of any
-    other says why not."""
+    other says why not. ``mech``: the mechanism that made the run (of ``compiled`` and
+    ``scene``), whose set-up the reruns reuse; else one is made."""
     from symgen.numerics.error_estimate import ErrorEstimate, estimate_errors
     from symgen.numerics.mechanism import Mechanism
     from symgen.numerics.run_result import SimResult  # a quasi-static result is not one
@@ -376,7 +379,9 @@ def error_estimate(
         return ErrorEstimate.not_estimated(names, "not asked (--estimate off)"), None
     sim = scene.simulation
     try:
-        return estimate_errors(Mechanism(compiled, scene), result, sim.rtol, sim.atol, truncation=estimate), None
+        if mech is None or mech.compiled is not compiled or mech.scene is not scene:
+            mech = Mechanism(compiled, scene)
+        return estimate_errors(mech, result, sim.rtol, sim.atol, truncation=estimate), None
     except Interrupted as stop:
         return ErrorEstimate.not_estimated(names, f"interrupted while estimating: {stop}"), stop
 
@@ -392,13 +397,14 @@ def write_run(
     units: str | None = None,
     states: bool = False,
     estimate: str = "rerun",
+    mech: Mechanism | None = None,
 ) -> WrittenRun:
     """A run's CSV and JSON sidecar (partial when the run stopped: ``failure``), columns in the
     scene's units (SI for an SI scene unless ``units="dimensionless"``), with the coordinates as
     ``q.NAME`` columns when ``states`` (for ``symgen animate --from``); and the plot to draw when
     ``files`` has one. Raises ``failure`` (or a ``SimulationError``) when there is no output to
     write. ``solver``, ``compiled``, ``build_s``: as for :func:`build_sidecar`; ``estimate``: the
-    error estimate's truncation method (:func:`error_estimate`), in the sidecar as
+    error estimate's truncation method (:func:`error_estimate`, ``mech`` the run's mechanism), in the sidecar as
     ``error_estimate`` (output -> fraction of peak, null where not estimated) and
     ``error_estimate_detail`` (its parts, methods and reasons)."""
     from symgen.numerics.units import result_units
@@ -412,7 +418,7 @@ def write_run(
             )
         )
     sidecar = build_sidecar(scene, compiled, build_s, result, failure, solver)
-    record, stop = error_estimate(scene, compiled, result, failure, solver, estimate)
+    record, stop = error_estimate(scene, compiled, result, failure, solver, estimate, mech)
     sidecar["error_estimate"] = dict(record.outputs)
     sidecar["error_estimate_detail"] = record.to_json()
     in_units = result_units(scene, units)

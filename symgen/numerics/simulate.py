@@ -110,10 +110,18 @@ class DaeRunner:
         integrators and maps made of the others are dropped."""
         self.dae, self.g, self.split, self.rec = dae, g, split, rec
         # one Newton step of the output polish, solved inside CasADi: mapped over a chunk, only
-        # the new Z and each column's residual norm cross into Python (not the k Jacobians)
+        # the new Z and each column's residual norm cross into Python (not the k Jacobians);
+        # gstep_checked also gives the residual after the step: one call per Newton step, the
+        # test that ends it included (the outputs of IDAS take one step to the tolerance)
         tm, xm, zm, pm = (ca.MX.sym(nm, self.g.size1_in(i)) for i, nm in enumerate(("t", "x", "z", "p")))
         gm, jm = self.g(tm, xm, zm, pm)
-        self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [zm - ca.solve(jm, gm), ca.norm_inf(gm)])
+        znew = zm - ca.solve(jm, gm)
+        self.gstep = ca.Function("gstep", [tm, xm, zm, pm], [znew, ca.norm_inf(gm)])
+        self.gstep_checked = ca.Function(
+            "gstep_checked",
+            [tm, xm, zm, pm],
+            [znew, ca.norm_inf(gm), ca.norm_inf(self.g(tm, xm, znew, pm)[0])],
+        )
         self._maps.clear()
         self._integrators.clear()
 
@@ -287,9 +295,12 @@ class DaeRunner:
     ) -> np.ndarray:
         """``polish`` of every column of Z at once (one mapped Newton step per iteration, the
         same iteration per column: columns stop when their residual is below ``tol``; a column
-        whose step is not finite (singular Jacobian) keeps its last value). After the first
-        iteration only the columns still polished are evaluated (a map of the next power of two
-        of them, padded with the last one): each column gets the same numbers as alone."""
+        whose step is not finite (singular Jacobian) keeps its last value). Each call takes the
+        step of the columns whose residual is at least ``tol`` and returns the residual after it
+        (``gstep_checked``), so a column whose step reached ``tol`` needs no further call; the
+        later calls evaluate only the columns still polished (a map of the next power of two of
+        them, padded with the last one): each column gets the same numbers as alone (the
+        iteration of ``gstep``: the same steps, the same tests)."""
         k = X.shape[1]
         t = np.asarray(t, dtype=float).ravel()
         Z = np.array(Z, dtype=float)
@@ -297,17 +308,19 @@ class DaeRunner:
         for _ in range(POLICY.polish_maxit):
             width = k if len(cols) == k else 1 << (len(cols) - 1).bit_length()
             pick = np.concatenate([cols, np.full(width - len(cols), cols[-1])])
-            Znew, res = self._map("gstep", width)(t[pick].reshape(1, -1), X[:, pick], Z[:, pick], p)
-            keep = np.array(res).ravel()[: len(cols)] >= tol
+            Znew, before, after = self._map("gstep_checked", width)(t[pick].reshape(1, -1), X[:, pick], Z[:, pick], p)
+            keep = np.array(before).ravel()[: len(cols)] >= tol  # these take the step
             if not keep.any():
                 break
             Znew = np.array(Znew)[:, : len(cols)][:, keep]
+            after = np.array(after).ravel()[: len(cols)][keep]
             cols = cols[keep]
             finite = np.isfinite(Znew).all(axis=0)
             cols = cols[finite]
+            Z[:, cols] = Znew[:, finite]
+            cols = cols[after[finite] >= tol]  # a step that reached tol ends its column
             if not len(cols):
                 break
-            Z[:, cols] = Znew[:, finite]
         return Z
 
     def polish(
