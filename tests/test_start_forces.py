@@ -219,3 +219,19 @@ def test_the_estimate_charges_nothing_at_the_start(scene_path):
     _, deltas, _ = truncation_deltas(mech, res, richer)
     assert deltas[0, k] == 0.0
     assert np.abs(deltas[1:, k]).max() > 0.0
+
+
+def test_the_sidecar_says_what_the_first_sample_is(scene_path, tmp_path):
+    """The run's sidecar names the outputs whose first sample is the continuum's; a scene whose
+    bar is axially rigid at the start (quasi-static axial functions) records the model's own."""
+    import json
+
+    from symgen.api import simulate_scene
+
+    for overrides, forces in (((), ["torque", "RA"]), (('effects.axial="quasi_static"',), [])):
+        out = tmp_path / f"run{len(forces)}.csv"
+        res = simulate_scene(str(scene_path), list(overrides) + ["simulation.t_end=0.05"], out=out, estimate="off")
+        start = json.loads(out.with_suffix(".json").read_text())["start"]
+        assert list(res.start_forces) == start["outputs"] == forces
+        assert start["joint_forces"] == ("continuum" if forces else "model")
+        assert ("continuum's" in start["note"]) == bool(forces)

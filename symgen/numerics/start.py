@@ -3,7 +3,12 @@ and, when the scene asks for it (``initial.deformation = "quasi-static"``), the 
 deformation (18)-(19) with its range and divergence checks (``symgen.numerics.checks``).
 
 ``start_plan`` gives the same start as data (``symgen.ir.plan.StartPlan``) for the emitted C
-solver, which runs it again from the same guess with the same partitions."""
+solver, which runs it again from the same guess with the same partitions.
+
+The joint forces of an unstressed start as the continuum gives them
+(``continuum_start_outputs``): a run's first output of the driver torques and reactions, on
+every path (the IDAS run, ``symgen.numerics.simulate``; the C runtime's start from the plan's
+``free_inertia`` and ``start_forces`` and ``POLICY.free_inertia_factor``)."""
 
 from __future__ import annotations
 
@@ -106,7 +111,9 @@ def start_plan(mech: Mechanism) -> StartPlan:
     Quasi-static transverse functions (``bodies.<name>.quasi_static_transverse``) are refused:
     the emitted solver integrates every amplitude (docs/quasi-static-modes.md); those symgen
     chose itself (``symgen.scene.bases.quasi_choice``) are integrated as dynamic there, the
-    model its choice was checked against."""
+    model its choice was checked against. The index sets of the continuum's start joint forces
+    (``free_inertia_parameters``, ``start_force_outputs``) let the C start take the same limit
+    with the run's parameters."""
     chosen = {c.bar for c in mech.scene.bases if c.quasi}
     stated = [i for i in mech.quasi if mech.coords[i].body not in chosen]
     if stated:
