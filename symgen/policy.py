@@ -84,6 +84,13 @@ class SolverPolicy:
     #: A load beyond the buckling load by a relative d has the rate omega_1 sqrt(d): refused once
     #: d > (this * omega_max / omega_1)^2 (1e-10 at a highest-to-lowest frequency ratio of 1e4).
     divergence_rtol: float = 1e-9
+    #: The joint forces of an unstressed start as a continuum gives them (the first output of a
+    #: run: ``symgen.numerics.start.continuum_start_outputs``, the C runtime's
+    #: symgen_continuum_start_): the model's multipliers with the elastic bars' mass parameters
+    #: scaled by this factor and by twice it, extrapolated linearly to 0 (2 y(f) - y(2 f)). The
+    #: multipliers are rational in the factor, linear near 0, so the extrapolation's error is
+    #: O(f^2) = 1e-12; the KKT matrix's condition grows as 1/f (round-off ~1e-10 of them).
+    free_inertia_factor: float = 1e-6
 
     def as_dict(self) -> dict:
         return asdict(self)

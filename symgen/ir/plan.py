@@ -38,9 +38,23 @@ class StartPlan:
     singular_rows: tuple[int, ...]  # rows of the closure Jacobian that decide a singular position
     singular_cols: tuple[int, ...]  # ... and its columns (the dependent rigid coordinates)
     amplitudes: tuple[AmplitudeGroup, ...]
+    # the joint forces of an unstressed start as a continuum gives them (the first output of a
+    # run: symgen.numerics.start.continuum_start_outputs): the parameters scaled towards 0 (the
+    # elastic bars' masses) and the outputs replaced (driver torques, reactions); both empty
+    # where the run records the model's own
+    free_inertia: tuple[int, ...] = ()
+    start_forces: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         n = len(self.q_guess)
+        for what, idx in (("free_inertia", self.free_inertia), ("start_forces", self.start_forces)):
+            if len(set(idx)) != len(idx) or any(i < 0 for i in idx):
+                raise ValueError(f"a start plan whose {what} {idx} are not distinct indices")
+        if bool(self.free_inertia) != bool(self.start_forces):
+            raise ValueError(
+                f"a start plan with free_inertia {self.free_inertia} and start_forces {self.start_forces}: "
+                "both or neither"
+            )
         ind, dep = set(self.independent), set(self.dependent)
         if (
             len(self.v_guess) != n

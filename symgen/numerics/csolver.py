@@ -58,7 +58,7 @@ STEPS_PER_CALL = 400
 #: the counters of ``PREFIX_solver_counters``, in its order
 COUNTERS = (
     *("t", "steps", "accepted", "rejected", "jacobians", "factorizations", "residuals"),
-    *("closure_max", "divergence_rate", "status"),
+    *("closure_max", "divergence_rate", "status", "continuum_start"),
 )
 
 
@@ -376,6 +376,8 @@ def simulate_c(
     library already in the cache, else :class:`NotBuilt` before anything runs."""
     import ctypes
 
+    from symgen.numerics.start import start_force_outputs
+
     sim = mech.scene.simulation
     t_end = float(sim.t_end if t_end is None else t_end)
     h = float(sim.output_step if output_step is None else output_step)
@@ -435,6 +437,8 @@ def simulate_c(
         simulate_s=elapsed,
         partition=None,
         complete=stop is None and rc == 0,
+        # the first row's joint forces are the continuum's (the C start's symgen_continuum_start_)
+        start_forces=tuple(mech.info.outputs[i] for i in start_force_outputs(mech)) if stats["continuum_start"] else (),
         stats={
             "backend": "c",
             "library": "built" if built else "cached",

@@ -103,7 +103,6 @@ __all__ = [
     "InvalidEstimate",
     "estimate_errors",
     "register_model_form",
-    "start_part",
     "time_integration_part",
     "truncation_part",
 ]
@@ -263,10 +262,8 @@ def estimate_errors(
     counts: dict[str, list[int]] = {}
     try:
         trunc, counts, how = truncation_part(mech, result, richer, truncation)
-        start = start_part(mech, result)
-        trunc = {n: max(v, start[n]) if n in start else v for n, v in trunc.items()}
         parts["truncation"] = {n: trunc.get(n) for n in names}
-        methods["truncation"] = how + (START_TEXT if start else "")
+        methods["truncation"] = how + (START_TEXT if result.start_forces else "")
     except (TruncationNotEstimated, SymgenError) as why:
         parts["truncation"] = dict.fromkeys(names)
         methods["truncation"] = "not estimated"
@@ -347,43 +344,13 @@ def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -
     return {n: scale * v for n, v in _fractions_of_peak(mech, result, _difference(result, tight, names), names).items()}
 
 
-#: the truncation part's method text where the start's joint forces were estimated
+#: the truncation part's method text where the run's first sample of the joint forces is the
+#: continuum's (``SimResult.start_forces``)
 START_TEXT = (
-    "; driver torques and reactions at the unstressed start, where larger: their difference to the "
-    "continuum's (the bars' distributed inertia, which a truncated basis leaves partly on the joints, "
-    "taken off: symgen.numerics.start.continuum_start_outputs)"
+    "; the first sample's driver torques and reactions are the continuum's at the unstressed start "
+    "(symgen.numerics.start.continuum_start_outputs: exact whatever the counts, as the richer model's, "
+    "so the comparison charges nothing there)"
 )
-
-
-def start_part(mech: Mechanism, result: SimResult) -> dict[str, float]:
-    """output -> the error of the joint forces (driver torques, reactions, axial forces) at the
-    run's first output, an unstressed start, as a fraction of the output's peak: the model's
-    value against the continuum's (``symgen.numerics.start.continuum_start_outputs``); {} where
-    the start is not one or the model's own are kept (and where the limit's solve fails: the
-    rest of the truncation part stands).
-
-    The truncation part's comparison with the richer model misses it: the difference falls
-    only as 1/N - 1/(N+2) of an error that falls as 1/N with the counts (the error is gone
-    after the period of the highest function, far below the output step). Measured: six_bar_soft's driver torque
-    1.1 % of peak at tau = 0 and 0.2 % after it (benchmarks/RESULTS.md)."""
-    from symgen.numerics.start import continuum_start_outputs
-
-    tau = np.asarray(result.tau, dtype=float)
-    if len(tau) == 0 or len(result.q) == 0:
-        return {}
-    t0 = float(tau[0])
-    try:
-        cont = continuum_start_outputs(mech, t0, np.asarray(result.q[0]), np.asarray(result.v[0]))
-    except np.linalg.LinAlgError:  # the scaled masses made the KKT matrix singular (not seen)
-        return {}
-    if not cont:
-        return {}
-    peaks = _peaks(result)
-    first = dict(zip(result.output_names, np.asarray(result.outputs, dtype=float)[0]))
-    measured = _measured(mech, list(result.output_names))
-    return {
-        n: abs(float(first[n]) - y) / peaks[n] for n, y in cont.items() if n in first and n in measured and peaks[n] > 0
-    }
 
 
 def _peaks(result: SimResult) -> dict[str, float]:
@@ -795,4 +762,8 @@ def truncation_deltas(
         dq_prev, dv_prev = [*dq_prev[-1:], dq], [*dv_prev[-1:], dv]
         y1 = np.array(out_f(tk, qr + dq, vr + dv, ar + da, lr + dl, richer.p)).ravel()[cols]
         deltas[j] = y1 - np.asarray(result.outputs[k])
+        if k == 0:
+            # the run's first joint forces are the continuum's, the richer model's limit too
+            # (the rigid parts' alone, whatever the counts): no change there
+            deltas[j, [names.index(nm) for nm in result.start_forces]] = 0.0
     return idx, deltas, counts

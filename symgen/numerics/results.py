@@ -282,7 +282,18 @@ def build_sidecar(
         sidecar["t_end"] = float(result.tau[-1])
     elif result is not None:
         sidecar["solver"]["backend"] = result.stats.get("backend")
+    if result is not None and not isinstance(result, QuasiStaticResult):
+        sidecar["start"] = _start_note(result.start_forces)
     return sidecar
+
+
+def _start_note(forces: tuple[str, ...]) -> dict[str, Any]:
+    """The sidecar's ``start``: what the run's first sample of the joint forces is."""
+    from symgen.numerics.start import START_NOTE
+
+    if not forces:
+        return {"joint_forces": "model", "outputs": [], "note": "every output is the model's own, the first too"}
+    return {"joint_forces": "continuum", "outputs": list(forces), "note": START_NOTE}
 
 
 def states_block(scene: Scene, coordinates: list[str], model_key: str) -> dict[str, Any]:

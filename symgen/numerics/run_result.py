@@ -26,6 +26,9 @@ class SimResult:
     complete: bool = True
     failure: str = ""
     stats: dict[str, str | float | None] = field(default_factory=dict)  # backend, library, timings
+    #: the outputs whose first sample is the continuum's joint force at an unstressed start
+    #: (``symgen.numerics.start.continuum_start_outputs``), not the model's own: both solvers' runs
+    start_forces: tuple[str, ...] = ()
 
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""

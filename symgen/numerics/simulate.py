@@ -32,7 +32,7 @@ from symgen.numerics import checks
 from symgen.numerics.index1 import Partition, index1
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.run_result import SimResult as SimResult  # its home; imported from here too
-from symgen.numerics.start import State
+from symgen.numerics.start import State, continuum_start_outputs
 
 CHUNK = 128  # output steps of the first integrator call; each next one covers twice as
 CHUNK_MAX = 2048  # many, up to CHUNK_MAX, or all the rest when that is at most twice as many
@@ -401,6 +401,7 @@ def simulate(
     tic = time.perf_counter()
     try:
         traj.record(t0, x, z)
+        traj.continuum_start(t0)
         if run.nI == 0:
             _rigid_motion(run, traj, settings, x, z)
         else:
@@ -490,6 +491,7 @@ class _Trajectory:
         self.lams: list[np.ndarray] = []
         self.closure_max = 0.0
         self.steps = 0
+        self.start_forces: list[str] = []  # the first output's columns that are the continuum's
 
     def whole(self) -> int:
         """The outputs recorded whole (an interrupt may land between the appends of one output)."""
@@ -524,6 +526,24 @@ class _Trajectory:
                 f"of the {mech.loop_name(row)} loses rank (ratio {ratio:.2e})",
                 "the mechanism cannot pass this position as driven; shorten t_end or change the geometry",
             )
+
+    def continuum_start(self, t: float) -> None:
+        """The first output's joint forces (driver torques, reactions) as the continuum gives them
+        at an unstressed start (``symgen.numerics.start.continuum_start_outputs``; the emitted C
+        solver's first row alike); the model's own where it does not apply, or where the KKT
+        matrix with the bars' masses scaled is singular."""
+        try:
+            cont = continuum_start_outputs(self.mech, t, self.qs[0], self.vs[0])
+        except np.linalg.LinAlgError:
+            cont = None
+        if not cont:
+            return
+        names = list(self.mech.info.outputs)
+        out = np.array(self.outs[0], dtype=float)
+        for name, value in cont.items():
+            out[names.index(name)] = value
+        self.outs[0] = out
+        self.start_forces = list(cont)
 
     def record_many(self, ts: np.ndarray, rel: np.ndarray, X: np.ndarray, Z: np.ndarray, p: np.ndarray) -> None:
         """``record`` of a chunk's outputs with one mapped call (same values, same stop at the
@@ -569,6 +589,7 @@ class _Trajectory:
                 "setup_s": setup_s,
                 "backend_choice": self.run.choice,
             },
+            start_forces=tuple(self.start_forces),
         )
 
 

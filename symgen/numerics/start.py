@@ -3,7 +3,12 @@ and, when the scene asks for it (``initial.deformation = "quasi-static"``), the 
 deformation (18)-(19) with its range and divergence checks (``symgen.numerics.checks``).
 
 ``start_plan`` gives the same start as data (``symgen.ir.plan.StartPlan``) for the emitted C
-solver, which runs it again from the same guess with the same partitions."""
+solver, which runs it again from the same guess with the same partitions.
+
+The joint forces of an unstressed start as the continuum gives them
+(``continuum_start_outputs``): a run's first output of the driver torques and reactions, on
+every path (the IDAS run, ``symgen.numerics.simulate``; the C runtime's start from the plan's
+``free_inertia`` and ``start_forces`` and ``POLICY.free_inertia_factor``)."""
 
 from __future__ import annotations
 
@@ -105,7 +110,9 @@ def start_plan(mech: Mechanism) -> StartPlan:
     Quasi-static transverse functions (``bodies.<name>.quasi_static_transverse``) are refused:
     the emitted solver integrates every amplitude (docs/quasi-static-modes.md); those symgen
     chose itself (``symgen.scene.bases.quasi_choice``) are integrated as dynamic there, the
-    model its choice was checked against."""
+    model its choice was checked against. The index sets of the continuum's start joint forces
+    (``free_inertia_parameters``, ``start_force_outputs``) let the C start take the same limit
+    with the run's parameters."""
     chosen = {c.bar for c in mech.scene.bases if c.quasi}
     stated = [i for i in mech.quasi if mech.coords[i].body not in chosen]
     if stated:
@@ -121,6 +128,9 @@ def start_plan(mech: Mechanism) -> StartPlan:
     info = mech.info
     dep = set(part.dep)
     inext_rows, inext_axial = info.inextensible_rows, info.inextensible_axial
+    forces = start_force_outputs(mech)
+    # the dependent coordinates are rigid but with inextensible rows, where the start's are the model's
+    assert not (forces and set(info.elastic) & dep), "a continuum start with a dependent amplitude"
     return StartPlan(
         independent=tuple(part.ind),
         dependent=tuple(part.dep),
@@ -134,6 +144,10 @@ def start_plan(mech: Mechanism) -> StartPlan:
         singular_rows=tuple(i for i in range(info.m) if i not in inext_rows),
         singular_cols=tuple(i for i in part.dep if i not in inext_axial),
         amplitudes=tuple(AmplitudeGroup(body, f, g) for body, (f, g) in info.amplitudes.items()),
+        # the same index sets as continuum_start_outputs (the C runtime checks the start is
+        # unstressed on `elastic`: here every amplitude, the dependent ones being rigid)
+        free_inertia=free_inertia_parameters(mech) if forces else (),
+        start_forces=forces,
     )
 
 
@@ -285,11 +299,17 @@ def quasi_static_start(
 
 
 # ---------------------------------------------------------------------- the start's joint forces
-#: the elastic bars' mass (nu) is scaled by these two factors to take the limit of the
-#: continuum start (``continuum_start_outputs``): the multipliers are rational in the
-#: factor, linear near 0, so the two values extrapolate to it with an error O(factor^2); the
-#: KKT matrix's condition grows as 1/factor (1e6: round-off ~1e-10 of the multipliers)
-FREE_INERTIA_FACTORS = (1e-6, 2e-6)
+#: the output kinds read from the joint forces (the multipliers): the first output of a run
+#: records them as the continuum's (``continuum_start_outputs``). (The kind "axial" is the
+#: bar's axial displacement zeta, read from the coordinates: the same in both.)
+START_FORCE_KINDS = ("reaction", "driver_torque")
+#: what a run's first output of those kinds is, for the sidecar and the method texts
+START_NOTE = (
+    "joint forces at the unstressed start (driver torques, reactions): the continuum's, where every elastic "
+    "bar has dynamic axial and transverse functions (the bars' distributed inertia is not felt at an "
+    "unstressed start; a truncated basis would leave about 1/N of a bar's mass on its joints there); "
+    "the model's own at every later output"
+)
 
 
 def free_inertia_parameters(mech: Mechanism) -> tuple[int, ...]:
@@ -323,16 +343,29 @@ def free_inertia_parameters(mech: Mechanism) -> tuple[int, ...]:
     return tuple(found)
 
 
-def continuum_start_outputs(
-    mech: Mechanism,
-    t0: float,
-    q: np.ndarray,
-    v: np.ndarray,
-    kinds: tuple[str, ...] = ("reaction", "driver_torque", "axial"),
-) -> dict[str, float] | None:
-    """The outputs of ``kinds`` (those read from the joint forces) at an unstressed start as a
-    continuum gives them (output -> value), or None where the model's own are kept
-    (``free_inertia_parameters``, or a deformed start).
+def start_force_outputs(mech: Mechanism) -> tuple[int, ...]:
+    """The indices of the outputs (``mech.info.outputs``) whose value at an unstressed start is
+    the continuum's (``continuum_start_outputs``): those of ``START_FORCE_KINDS``, or () where
+    the start's joint forces are the model's own (``free_inertia_parameters``)."""
+    if not free_inertia_parameters(mech):
+        return ()
+    kind = {o.name: o.kind for o in mech.scene.outputs}
+    return tuple(i for i, n in enumerate(mech.info.outputs) if kind.get(n) in START_FORCE_KINDS)
+
+
+def unstressed(mech: Mechanism, q: np.ndarray, v: np.ndarray) -> bool:
+    """Whether (q, v) is an unstressed start: every deformation amplitude and its rate exactly 0
+    (the C runtime decides alike on its start)."""
+    elastic = list(mech.info.elastic)
+    return not (np.any(np.asarray(q)[elastic] != 0.0) or np.any(np.asarray(v)[elastic] != 0.0))
+
+
+def continuum_start_outputs(mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray) -> dict[str, float] | None:
+    """The outputs read from the joint forces (``start_force_outputs``) at an unstressed start
+    as a continuum gives them (output -> value), or None where the model's own are kept (no
+    such output, ``free_inertia_parameters``, or a deformed start). A run records them as its
+    first output (``symgen.numerics.simulate``; the emitted C solver computes the same limit in
+    its start, ``symgen_continuum_start_``, with the same ``StartPlan`` index sets and factor).
 
     At t0 an unstressed bar carries no stress, so each of its points accelerates on its own:
     the joints feel none of its distributed inertia or loads until waves have left them
@@ -344,26 +377,22 @@ def continuum_start_outputs(
     function (benchmarks/RESULTS.md, "The start's joint forces"). The continuum's are the
     model's in the limit of no distributed mass on those bars (their nu -> 0; the rigid bars,
     lumped masses and rotors keep theirs), which every complete basis reaches as N grows:
-    evaluated at two small factors of nu and extrapolated to 0."""
-    free = free_inertia_parameters(mech)
-    if not free:
+    evaluated with nu scaled by ``POLICY.free_inertia_factor`` f and by 2 f and extrapolated
+    to 0, 2 y(f) - y(2 f). A KKT matrix singular with the masses scaled raises
+    ``numpy.linalg.LinAlgError`` (not seen: the rigid parts' inertia and the constraints
+    determine it)."""
+    cols = start_force_outputs(mech)
+    if not cols or not unstressed(mech, q, v):
         return None
-    elastic = list(mech.info.elastic)
-    if np.any(np.asarray(q)[elastic] != 0.0) or np.any(np.asarray(v)[elastic] != 0.0):
-        return None
-    kind = {o.name: o.kind for o in mech.scene.outputs}
-    names = list(mech.info.outputs)
-    cols = [i for i, n in enumerate(names) if kind.get(n) in kinds]
-    if not cols:
-        return {}
+    free = list(free_inertia_parameters(mech))
     z0n, z0m = np.zeros(mech.n), np.zeros(mech.m)
     outs = []
-    for factor in FREE_INERTIA_FACTORS:
+    for factor in (POLICY.free_inertia_factor, 2.0 * POLICY.free_inertia_factor):
         p = np.array(mech.p, dtype=float)
-        p[list(free)] *= factor
+        p[free] *= factor
         K, r = mech.kkt(t0, q, v, z0n, z0m, p)
         sol = np.linalg.solve(np.array(K), -np.array(r).ravel())
         outs.append(np.array(mech.f["out"](t0, q, v, sol[: mech.n], sol[mech.n :], p)).ravel())
-    e1, e2 = FREE_INERTIA_FACTORS
-    limit = (e2 * outs[0] - e1 * outs[1]) / (e2 - e1)
+    limit = 2.0 * outs[0] - outs[1]
+    names = list(mech.info.outputs)
     return {names[i]: float(limit[i]) for i in cols}

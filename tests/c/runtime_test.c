@@ -137,7 +137,7 @@ static symgen_model model = {
     coordinate_names, parameter_names, parameter_range, parameter_defaults, m_valid,
     0, no_checks, unused,
     m_phi, m_phid, m_phidd, m_res, m_out, m_closure, m_phi_jac, m_phid_jac, m_phidd_jac, m_res_jac,
-    { 1e-13, 1e-10, 60, 1e-4, 0.5, 1e-7, 0.05, 1e-6, 1e-12, 1e-8, 1e-4, 50, 1e-13, 8, 1e-4, 0.25, 0.1, 1e-9 },
+    { 1e-13, 1e-10, 60, 1e-4, 0.5, 1e-7, 0.05, 1e-6, 1e-12, 1e-8, 1e-4, 50, 1e-13, 8, 1e-4, 0.25, 0.1, 1e-9, 1e-6 },
     { { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
       { { 0.0944387624889752414875, -0.141255295020954208428, -0.0300291941051474244919 },
         { 0.250213122965333311377, 0.204129352293799931996, 0.382942112757261937795 },
@@ -148,7 +148,8 @@ static symgen_model model = {
       { -10.0488093998274155625, 1.38214273316074889579, -0.333333333333333333333 },
       3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
       7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2 },
-    4   /* nout */
+    4,   /* nout */
+    0, NULL, 0, NULL   /* no continuum start (n_free, free_params, n_start_forces, start_forces) */
 };
 
 /* ------------------------------------------------------------------ checks */
@@ -326,7 +327,7 @@ static void test_singular_ratio(void)
 }
 
 static symgen_solver solver;
-static double work[SYMGEN_WORK_DOUBLES(2, 1, 1, 1, 0)];
+static double work[SYMGEN_WORK_DOUBLES(2, 1, 1, 1, 0, 1, 4)];
 static int iwork[SYMGEN_WORK_INTS(2, 1, 1, 1, 0)];
 static double p[1], y[SYMGEN_NY_(2, 1, 1, 1)];
 

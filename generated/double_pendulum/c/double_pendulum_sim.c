@@ -9,14 +9,14 @@
  *   double_pendulum_phi: 38 operations, 0 temporaries
  *   double_pendulum_phid: 44 operations, 0 temporaries
  *   double_pendulum_phidd: 80 operations, 0 temporaries
- *   double_pendulum_res: 528 operations, 79 temporaries
+ *   double_pendulum_res: 528 operations, 77 temporaries
  *   double_pendulum_out: 265 operations, 52 temporaries
  *   double_pendulum_energy: 260 operations, 52 temporaries
  *   double_pendulum_closure: 0 operations, 0 temporaries
  *   double_pendulum_phi_jac: 30 operations, 0 temporaries, 8 nonzeros of 2x32
  *   double_pendulum_phid_jac: 60 operations, 0 temporaries, 14 nonzeros of 2x32
  *   double_pendulum_phidd_jac: 90 operations, 0 temporaries, 20 nonzeros of 2x32
- *   double_pendulum_res_jac: 1333 operations, 403 temporaries, 286 nonzeros of 10x32
+ *   double_pendulum_res_jac: 1333 operations, 401 temporaries, 286 nonzeros of 10x32
  */
 
 /*

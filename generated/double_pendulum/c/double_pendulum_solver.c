@@ -9,14 +9,14 @@
  *   double_pendulum_phi: 38 operations, 0 temporaries
  *   double_pendulum_phid: 44 operations, 0 temporaries
  *   double_pendulum_phidd: 80 operations, 0 temporaries
- *   double_pendulum_res: 528 operations, 79 temporaries
+ *   double_pendulum_res: 528 operations, 77 temporaries
  *   double_pendulum_out: 265 operations, 52 temporaries
  *   double_pendulum_energy: 260 operations, 52 temporaries
  *   double_pendulum_closure: 0 operations, 0 temporaries
  *   double_pendulum_phi_jac: 30 operations, 0 temporaries, 8 nonzeros of 2x32
  *   double_pendulum_phid_jac: 60 operations, 0 temporaries, 14 nonzeros of 2x32
  *   double_pendulum_phidd_jac: 90 operations, 0 temporaries, 20 nonzeros of 2x32
- *   double_pendulum_res_jac: 1333 operations, 403 temporaries, 286 nonzeros of 10x32
+ *   double_pendulum_res_jac: 1333 operations, 401 temporaries, 286 nonzeros of 10x32
  */
 
 #include <string.h>
@@ -64,6 +64,10 @@ static const int double_pendulum_x_accel[4] = { 0, 1, 5, 6 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int double_pendulum_x_sing_rows[1] = { -1 };
 static const int double_pendulum_x_sing_cols[1] = { -1 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int double_pendulum_x_free_params[1] = { -1 };
+static const int double_pendulum_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -100,7 +104,8 @@ const symgen_model double_pendulum_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -110,7 +115,8 @@ const symgen_model double_pendulum_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    4      /* nout */
+    4,      /* nout */
+    0, double_pendulum_x_free_params, 0, double_pendulum_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -145,10 +151,9 @@ void double_pendulum_solver_state(const double_pendulum_solver *s, double *q, do
     symgen_model_state(&double_pendulum_model, s->y, q, v, a, lam);
 }
 
-void double_pendulum_solver_outputs(const double_pendulum_solver *s, double *out)
+void double_pendulum_solver_outputs(double_pendulum_solver *s, double *out)
 {
-    double q[10], v[10];
-    symgen_model_outputs(&double_pendulum_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(double_pendulum_x_core(s), s->t, s->y, out);
 }
 
 int double_pendulum_solver_dense(double_pendulum_solver *s, double t_out, double t_stop, double *y)
@@ -187,6 +192,7 @@ void double_pendulum_solver_counters(const double_pendulum_solver *s, double *st
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *double_pendulum_solver_message(const double_pendulum_solver *s)

@@ -9,14 +9,14 @@
  *   double_pendulum_phi: 38 operations, 0 temporaries
  *   double_pendulum_phid: 44 operations, 0 temporaries
  *   double_pendulum_phidd: 80 operations, 0 temporaries
- *   double_pendulum_res: 528 operations, 79 temporaries
+ *   double_pendulum_res: 528 operations, 77 temporaries
  *   double_pendulum_out: 265 operations, 52 temporaries
  *   double_pendulum_energy: 260 operations, 52 temporaries
  *   double_pendulum_closure: 0 operations, 0 temporaries
  *   double_pendulum_phi_jac: 30 operations, 0 temporaries, 8 nonzeros of 2x32
  *   double_pendulum_phid_jac: 60 operations, 0 temporaries, 14 nonzeros of 2x32
  *   double_pendulum_phidd_jac: 90 operations, 0 temporaries, 20 nonzeros of 2x32
- *   double_pendulum_res_jac: 1333 operations, 403 temporaries, 286 nonzeros of 10x32
+ *   double_pendulum_res_jac: 1333 operations, 401 temporaries, 286 nonzeros of 10x32
  */
 
 #ifndef SYMGEN_double_pendulum_SOLVER_H
@@ -87,7 +87,7 @@ typedef struct double_pendulum_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(10, 2, 8, 2, 6)];
+    double work[SYMGEN_WORK_DOUBLES(10, 2, 8, 2, 6, 12, 4)];
     int iwork[SYMGEN_WORK_INTS(10, 2, 8, 2, 6)];
 } double_pendulum_solver;
 
@@ -123,7 +123,8 @@ int double_pendulum_solver_dense(double_pendulum_solver *s, double t_out, double
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row double_pendulum_ROW_SIZE doubles at rec + (i -
  * first) double_pendulum_ROW_SIZE (first: *done at the call): tau, the outputs (double_pendulum_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int double_pendulum_solver_dense(double_pendulum_solver *s, double t_out, double
 int double_pendulum_solver_rows(double_pendulum_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                                 double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void double_pendulum_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void double_pendulum_outputs_of(const double_pendulum_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void double_pendulum_solver_counters(const double_pendulum_solver *s, double *stats);
 const char *double_pendulum_solver_message(const double_pendulum_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void double_pendulum_solver_state(const double_pendulum_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void double_pendulum_solver_outputs(const double_pendulum_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void double_pendulum_solver_outputs(double_pendulum_solver *s, double *out);
 
 /* sizeof(double_pendulum_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long double_pendulum_solver_sizeof(void);

@@ -9,7 +9,7 @@
  *   five_bar_phi: 38 operations, 4 temporaries
  *   five_bar_phid: 40 operations, 7 temporaries
  *   five_bar_phidd: 62 operations, 18 temporaries
- *   five_bar_res: 466 operations, 96 temporaries
+ *   five_bar_res: 466 operations, 94 temporaries
  *   five_bar_out: 265 operations, 61 temporaries
  *   five_bar_energy: 240 operations, 52 temporaries
  *   five_bar_closure: 32 operations, 4 temporaries

@@ -9,7 +9,7 @@
  *   five_bar_phi: 38 operations, 4 temporaries
  *   five_bar_phid: 40 operations, 7 temporaries
  *   five_bar_phidd: 62 operations, 18 temporaries
- *   five_bar_res: 466 operations, 96 temporaries
+ *   five_bar_res: 466 operations, 94 temporaries
  *   five_bar_out: 265 operations, 61 temporaries
  *   five_bar_energy: 240 operations, 52 temporaries
  *   five_bar_closure: 32 operations, 4 temporaries
@@ -64,6 +64,10 @@ static const int five_bar_x_accel[4] = { 0, 1, 2, 8 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int five_bar_x_sing_rows[4] = { 0, 1, 2, 3 };
 static const int five_bar_x_sing_cols[4] = { 0, 1, 8, 2 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int five_bar_x_free_params[1] = { -1 };
+static const int five_bar_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -96,7 +100,8 @@ const symgen_model five_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -106,7 +111,8 @@ const symgen_model five_bar_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    9      /* nout */
+    9,      /* nout */
+    0, five_bar_x_free_params, 0, five_bar_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -141,10 +147,9 @@ void five_bar_solver_state(const five_bar_solver *s, double *q, double *v, doubl
     symgen_model_state(&five_bar_model, s->y, q, v, a, lam);
 }
 
-void five_bar_solver_outputs(const five_bar_solver *s, double *out)
+void five_bar_solver_outputs(five_bar_solver *s, double *out)
 {
-    double q[9], v[9];
-    symgen_model_outputs(&five_bar_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(five_bar_x_core(s), s->t, s->y, out);
 }
 
 int five_bar_solver_dense(five_bar_solver *s, double t_out, double t_stop, double *y)
@@ -183,6 +188,7 @@ void five_bar_solver_counters(const five_bar_solver *s, double *stats)
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *five_bar_solver_message(const five_bar_solver *s)

@@ -9,7 +9,7 @@
  *   five_bar_phi: 38 operations, 4 temporaries
  *   five_bar_phid: 40 operations, 7 temporaries
  *   five_bar_phidd: 62 operations, 18 temporaries
- *   five_bar_res: 466 operations, 96 temporaries
+ *   five_bar_res: 466 operations, 94 temporaries
  *   five_bar_out: 265 operations, 61 temporaries
  *   five_bar_energy: 240 operations, 52 temporaries
  *   five_bar_closure: 32 operations, 4 temporaries
@@ -87,7 +87,7 @@ typedef struct five_bar_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(9, 4, 5, 4, 5)];
+    double work[SYMGEN_WORK_DOUBLES(9, 4, 5, 4, 5, 19, 9)];
     int iwork[SYMGEN_WORK_INTS(9, 4, 5, 4, 5)];
 } five_bar_solver;
 
@@ -123,7 +123,8 @@ int five_bar_solver_dense(five_bar_solver *s, double t_out, double t_stop, doubl
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row five_bar_ROW_SIZE doubles at rec + (i -
  * first) five_bar_ROW_SIZE (first: *done at the call): tau, the outputs (five_bar_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int five_bar_solver_dense(five_bar_solver *s, double t_out, double t_stop, doubl
 int five_bar_solver_rows(five_bar_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                          double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void five_bar_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void five_bar_outputs_of(const five_bar_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void five_bar_solver_counters(const five_bar_solver *s, double *stats);
 const char *five_bar_solver_message(const five_bar_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void five_bar_solver_state(const five_bar_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void five_bar_solver_outputs(const five_bar_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void five_bar_solver_outputs(five_bar_solver *s, double *out);
 
 /* sizeof(five_bar_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long five_bar_solver_sizeof(void);

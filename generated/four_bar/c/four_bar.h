@@ -9,14 +9,14 @@
  *   four_bar_phi: 44 operations, 6 temporaries
  *   four_bar_phid: 64 operations, 12 temporaries
  *   four_bar_phidd: 93 operations, 17 temporaries
- *   four_bar_res: 1972 operations, 274 temporaries
+ *   four_bar_res: 1972 operations, 270 temporaries
  *   four_bar_out: 66 operations, 10 temporaries
  *   four_bar_energy: 892 operations, 195 temporaries
  *   four_bar_closure: 41 operations, 6 temporaries
  *   four_bar_phi_jac: 47 operations, 15 temporaries, 21 nonzeros of 3x84
  *   four_bar_phid_jac: 92 operations, 30 temporaries, 41 nonzeros of 3x84
  *   four_bar_phidd_jac: 190 operations, 49 temporaries, 61 nonzeros of 3x84
- *   four_bar_res_jac: 3571 operations, 895 temporaries, 690 nonzeros of 27x84
+ *   four_bar_res_jac: 3571 operations, 891 temporaries, 690 nonzeros of 27x84
  */
 
 #ifndef SYMGEN_four_bar_H

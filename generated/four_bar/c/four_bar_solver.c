@@ -9,14 +9,14 @@
  *   four_bar_phi: 44 operations, 6 temporaries
  *   four_bar_phid: 64 operations, 12 temporaries
  *   four_bar_phidd: 93 operations, 17 temporaries
- *   four_bar_res: 1972 operations, 274 temporaries
+ *   four_bar_res: 1972 operations, 270 temporaries
  *   four_bar_out: 66 operations, 10 temporaries
  *   four_bar_energy: 892 operations, 195 temporaries
  *   four_bar_closure: 41 operations, 6 temporaries
  *   four_bar_phi_jac: 47 operations, 15 temporaries, 21 nonzeros of 3x84
  *   four_bar_phid_jac: 92 operations, 30 temporaries, 41 nonzeros of 3x84
  *   four_bar_phidd_jac: 190 operations, 49 temporaries, 61 nonzeros of 3x84
- *   four_bar_res_jac: 3571 operations, 895 temporaries, 690 nonzeros of 27x84
+ *   four_bar_res_jac: 3571 operations, 891 temporaries, 690 nonzeros of 27x84
  */
 
 #include <string.h>
@@ -64,6 +64,10 @@ static const int four_bar_x_accel[3] = { 0, 9, 18 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int four_bar_x_sing_rows[3] = { 0, 1, 2 };
 static const int four_bar_x_sing_cols[3] = { 0, 18, 9 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int four_bar_x_free_params[1] = { -1 };
+static const int four_bar_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -104,7 +108,8 @@ const symgen_model four_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -114,7 +119,8 @@ const symgen_model four_bar_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    7      /* nout */
+    7,      /* nout */
+    0, four_bar_x_free_params, 0, four_bar_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -149,10 +155,9 @@ void four_bar_solver_state(const four_bar_solver *s, double *q, double *v, doubl
     symgen_model_state(&four_bar_model, s->y, q, v, a, lam);
 }
 
-void four_bar_solver_outputs(const four_bar_solver *s, double *out)
+void four_bar_solver_outputs(four_bar_solver *s, double *out)
 {
-    double q[27], v[27];
-    symgen_model_outputs(&four_bar_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(four_bar_x_core(s), s->t, s->y, out);
 }
 
 int four_bar_solver_dense(four_bar_solver *s, double t_out, double t_stop, double *y)
@@ -191,6 +196,7 @@ void four_bar_solver_counters(const four_bar_solver *s, double *stats)
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *four_bar_solver_message(const four_bar_solver *s)

@@ -9,14 +9,14 @@
  *   four_bar_phi: 44 operations, 6 temporaries
  *   four_bar_phid: 64 operations, 12 temporaries
  *   four_bar_phidd: 93 operations, 17 temporaries
- *   four_bar_res: 1972 operations, 274 temporaries
+ *   four_bar_res: 1972 operations, 270 temporaries
  *   four_bar_out: 66 operations, 10 temporaries
  *   four_bar_energy: 892 operations, 195 temporaries
  *   four_bar_closure: 41 operations, 6 temporaries
  *   four_bar_phi_jac: 47 operations, 15 temporaries, 21 nonzeros of 3x84
  *   four_bar_phid_jac: 92 operations, 30 temporaries, 41 nonzeros of 3x84
  *   four_bar_phidd_jac: 190 operations, 49 temporaries, 61 nonzeros of 3x84
- *   four_bar_res_jac: 3571 operations, 895 temporaries, 690 nonzeros of 27x84
+ *   four_bar_res_jac: 3571 operations, 891 temporaries, 690 nonzeros of 27x84
  */
 
 #ifndef SYMGEN_four_bar_SOLVER_H
@@ -87,7 +87,7 @@ typedef struct four_bar_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(27, 3, 24, 3, 24)];
+    double work[SYMGEN_WORK_DOUBLES(27, 3, 24, 3, 24, 18, 7)];
     int iwork[SYMGEN_WORK_INTS(27, 3, 24, 3, 24)];
 } four_bar_solver;
 
@@ -123,7 +123,8 @@ int four_bar_solver_dense(four_bar_solver *s, double t_out, double t_stop, doubl
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row four_bar_ROW_SIZE doubles at rec + (i -
  * first) four_bar_ROW_SIZE (first: *done at the call): tau, the outputs (four_bar_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int four_bar_solver_dense(four_bar_solver *s, double t_out, double t_stop, doubl
 int four_bar_solver_rows(four_bar_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                          double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void four_bar_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void four_bar_outputs_of(const four_bar_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void four_bar_solver_counters(const four_bar_solver *s, double *stats);
 const char *four_bar_solver_message(const four_bar_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void four_bar_solver_state(const four_bar_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void four_bar_solver_outputs(const four_bar_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void four_bar_solver_outputs(four_bar_solver *s, double *out);
 
 /* sizeof(four_bar_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long four_bar_solver_sizeof(void);

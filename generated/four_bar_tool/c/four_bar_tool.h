@@ -9,7 +9,7 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_res: 1127 operations, 163 temporaries
  *   four_bar_tool_out: 516 operations, 88 temporaries
  *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries

@@ -9,7 +9,7 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_res: 1127 operations, 163 temporaries
  *   four_bar_tool_out: 516 operations, 88 temporaries
  *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries
@@ -64,6 +64,10 @@ static const int four_bar_tool_x_accel[3] = { 0, 1, 2 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int four_bar_tool_x_sing_rows[3] = { 0, 1, 2 };
 static const int four_bar_tool_x_sing_cols[3] = { 0, 2, 1 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int four_bar_tool_x_free_params[1] = { -1 };
+static const int four_bar_tool_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -96,7 +100,8 @@ const symgen_model four_bar_tool_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -106,7 +111,8 @@ const symgen_model four_bar_tool_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    6      /* nout */
+    6,      /* nout */
+    0, four_bar_tool_x_free_params, 0, four_bar_tool_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -141,10 +147,9 @@ void four_bar_tool_solver_state(const four_bar_tool_solver *s, double *q, double
     symgen_model_state(&four_bar_tool_model, s->y, q, v, a, lam);
 }
 
-void four_bar_tool_solver_outputs(const four_bar_tool_solver *s, double *out)
+void four_bar_tool_solver_outputs(four_bar_tool_solver *s, double *out)
 {
-    double q[11], v[11];
-    symgen_model_outputs(&four_bar_tool_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(four_bar_tool_x_core(s), s->t, s->y, out);
 }
 
 int four_bar_tool_solver_dense(four_bar_tool_solver *s, double t_out, double t_stop, double *y)
@@ -183,6 +188,7 @@ void four_bar_tool_solver_counters(const four_bar_tool_solver *s, double *stats)
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *four_bar_tool_solver_message(const four_bar_tool_solver *s)

@@ -9,7 +9,7 @@
  *   four_bar_tool_phi: 30 operations, 3 temporaries
  *   four_bar_tool_phid: 38 operations, 5 temporaries
  *   four_bar_tool_phidd: 60 operations, 14 temporaries
- *   four_bar_tool_res: 1127 operations, 165 temporaries
+ *   four_bar_tool_res: 1127 operations, 163 temporaries
  *   four_bar_tool_out: 516 operations, 88 temporaries
  *   four_bar_tool_energy: 483 operations, 81 temporaries
  *   four_bar_tool_closure: 27 operations, 3 temporaries
@@ -87,7 +87,7 @@ typedef struct four_bar_tool_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(11, 3, 8, 3, 8)];
+    double work[SYMGEN_WORK_DOUBLES(11, 3, 8, 3, 8, 18, 6)];
     int iwork[SYMGEN_WORK_INTS(11, 3, 8, 3, 8)];
 } four_bar_tool_solver;
 
@@ -123,7 +123,8 @@ int four_bar_tool_solver_dense(four_bar_tool_solver *s, double t_out, double t_s
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row four_bar_tool_ROW_SIZE doubles at rec + (i -
  * first) four_bar_tool_ROW_SIZE (first: *done at the call): tau, the outputs (four_bar_tool_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int four_bar_tool_solver_dense(four_bar_tool_solver *s, double t_out, double t_s
 int four_bar_tool_solver_rows(four_bar_tool_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                               double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void four_bar_tool_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void four_bar_tool_outputs_of(const four_bar_tool_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void four_bar_tool_solver_counters(const four_bar_tool_solver *s, double *stats);
 const char *four_bar_tool_solver_message(const four_bar_tool_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void four_bar_tool_solver_state(const four_bar_tool_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void four_bar_tool_solver_outputs(const four_bar_tool_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void four_bar_tool_solver_outputs(four_bar_tool_solver *s, double *out);
 
 /* sizeof(four_bar_tool_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long four_bar_tool_solver_sizeof(void);

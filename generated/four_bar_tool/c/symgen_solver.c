@@ -172,6 +172,11 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->dvwi = symgen_take_(&d, n2);
     s->dvx = symgen_take_(&d, n2);
     s->dvu = symgen_take_(&d, n2);
+    s->ct_p = symgen_take_(&d, model->np);
+    s->ct_a = symgen_take_(&d, n);
+    s->ct_lam = symgen_take_(&d, m);
+    s->start_out = symgen_take_(&d, model->nout);
+    s->ct_out = symgen_take_(&d, model->nout);
     s->pivz = symgen_itake_(&k, nz);
     s->zrow = symgen_itake_(&k, nz + 1);
     s->zmid = symgen_itake_(&k, nz);
@@ -377,8 +382,9 @@ static int symgen_velocities_(symgen_solver *s, double t, const double *q, doubl
     return 0;
 }
 
-/* accelerations and multipliers from [res; phidd] = 0 (Mechanism.accelerations) */
-static int symgen_accelerations_(symgen_solver *s, double t, const double *q, const double *v, double *a, double *lam)
+/* accelerations and multipliers from [res; phidd] = 0 with the parameters s->p: 0, or 1 when
+   the matrix is singular (nothing reported) */
+static int symgen_kkt_solve_(symgen_solver *s, double t, const double *q, const double *v, double *a, double *lam)
 {
     const int nk = SYMGEN_NQ(s) + SYMGEN_NL(s);
     int r, c;
@@ -390,14 +396,53 @@ static int symgen_accelerations_(symgen_solver *s, double t, const double *q, co
         for (c = 0; c < nk; ++c) s->sq[r * nk + c] = s->galg[(2 * SYMGEN_NL(s) + r) * SYMGEN_NW(s) + 2 * SYMGEN_NQ(s) + c];
         s->sv[r] = -s->sr[2 * SYMGEN_NL(s) + r];
     }
-    if (symgen_lu(s->sq, nk, s->sp)) {
-        return symgen_fail_(s, t, "the accelerations are not determined (singular mass / constraint matrix)", 0.0,
-                           "check masses and the driver");
-    }
+    if (symgen_lu(s->sq, nk, s->sp)) return 1;
     symgen_lu_solve(s->sq, nk, s->sp, s->sv);
     for (c = 0; c < SYMGEN_NQ(s); ++c) a[c] = s->sv[c];
     for (c = 0; c < SYMGEN_NL(s); ++c) lam[c] = s->sv[SYMGEN_NQ(s) + c];
     return 0;
+}
+
+/* accelerations and multipliers from [res; phidd] = 0 (Mechanism.accelerations) */
+static int symgen_accelerations_(symgen_solver *s, double t, const double *q, const double *v, double *a, double *lam)
+{
+    if (symgen_kkt_solve_(s, t, q, v, a, lam)) {
+        return symgen_fail_(s, t, "the accelerations are not determined (singular mass / constraint matrix)", 0.0,
+                           "check masses and the driver");
+    }
+    return 0;
+}
+
+/* The joint forces of the start (q, v) at t0 as a continuum gives them
+   (symgen.numerics.start.continuum_start_outputs): where the model lists start_forces and the
+   start is unstressed (every deformation amplitude and its rate exactly 0), the outputs with
+   the free_params (the elastic bars' masses) scaled by f = policy.free_inertia_factor and by
+   2 f, extrapolated to 0: 2 y(f) - y(2 f), into s->start_out, and s->continuum_start = 1. A KKT
+   matrix singular with the masses scaled keeps the model's own outputs (continuum_start 0). */
+static void symgen_continuum_start_(symgen_solver *s, double t0, const double *q, const double *v)
+{
+    const symgen_model *M = s->model;
+    double *p = s->p;
+    int k, pass, singular = 0;
+    s->continuum_start = 0;
+    s->t_start = t0;
+    if (M->n_start_forces == 0) return;
+    for (k = 0; k < SYMGEN_NE(s); ++k) {
+        if (q[M->elastic[k]] != 0.0 || v[M->elastic[k]] != 0.0) return;
+    }
+    for (pass = 0; pass < 2 && !singular; ++pass) {
+        const double f = pass ? 2.0 * M->policy.free_inertia_factor : M->policy.free_inertia_factor;
+        double *out = pass ? s->ct_out : s->start_out;
+        memcpy(s->ct_p, p, sizeof(double) * SYMGEN_NP(s));
+        for (k = 0; k < M->n_free; ++k) s->ct_p[M->free_params[k]] *= f;
+        s->p = s->ct_p;   /* the model functions read s->p */
+        singular = symgen_kkt_solve_(s, t0, q, v, s->ct_a, s->ct_lam);
+        s->p = p;
+        if (!singular) M->out(t0, q, v, s->ct_a, s->ct_lam, s->ct_p, out);
+    }
+    if (singular) return;
+    for (k = 0; k < M->nout; ++k) s->start_out[k] = 2.0 * s->start_out[k] - s->ct_out[k];
+    s->continuum_start = 1;
 }
 
 static int symgen_beyond_range_(symgen_solver *s, double t);
@@ -1219,6 +1264,7 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
         if (s->model->quasi_static && symgen_quasi_static_start_(s, t0, q0, v0)) return s->status;
         if (symgen_velocities_(s, t0, q0, v0)) return s->status;
         if (symgen_accelerations_(s, t0, q0, v0, a, lam)) return s->status;
+        symgen_continuum_start_(s, t0, q0, v0);
         for (k = 0; k < SYMGEN_NQ(s); ++k) {
             s->y[s->model->ypos_q[k]] = q0[k];
             s->y[s->model->ypos_v[k]] = v0[k];
@@ -1319,6 +1365,15 @@ SYMGEN_API int symgen_solver_dense(symgen_solver *s, double t_out, double t_stop
     return symgen_output_checks_(s, t_out, y_out);
 }
 
+/* at the start of a run from an unstressed state, the joint forces of the outputs `out` at t
+   := the continuum's (symgen_continuum_start_) */
+static void symgen_start_forces_(const symgen_solver *s, double t, double *out)
+{
+    int k;
+    if (!s->continuum_start || t != s->t_start) return;
+    for (k = 0; k < s->model->n_start_forces; ++k) out[s->model->start_forces[k]] = s->start_out[s->model->start_forces[k]];
+}
+
 SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long n_rows, long *done, long max_rows,
                                   long max_steps, double *rec)
 {
@@ -1338,6 +1393,7 @@ SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long
         if (rc && !(rc == SYMGEN_SOLVER_FAILED && s->t_dense == t)) break;
         row[0] = t;
         symgen_model_outputs(M, t, s->yd, s->p, row + 1 + M->nout, row + 1 + M->nout + M->n, row + 1);
+        symgen_start_forces_(s, t, row + 1);
         for (k = 0; k < M->m; ++k) row[1 + M->nout + 2 * M->n + k] = s->yd[SYMGEN_A0(s) + M->n + k];
         *done = i + 1;
         if (rc) break;
@@ -1367,4 +1423,10 @@ SYMGEN_API void symgen_model_outputs(const symgen_model *model, double t, const 
     const int a0 = SYMGEN_NX_(model->ni) + 2 * model->nd;
     symgen_model_state(model, y, q, v, NULL, NULL);
     model->out(t, q, v, y + a0, y + a0 + model->n, p, out);
+}
+
+SYMGEN_API void symgen_solver_outputs(symgen_solver *s, double t, const double *y, double *out)
+{
+    symgen_model_outputs(s->model, t, y, s->p, s->q, s->v, out);
+    symgen_start_forces_(s, t, out);
 }

@@ -9,14 +9,14 @@
  *   inverted_slider_crank_phi: 45 operations, 8 temporaries
  *   inverted_slider_crank_phid: 62 operations, 13 temporaries
  *   inverted_slider_crank_phidd: 90 operations, 19 temporaries
- *   inverted_slider_crank_res: 1027 operations, 191 temporaries
+ *   inverted_slider_crank_res: 1027 operations, 189 temporaries
  *   inverted_slider_crank_out: 75 operations, 18 temporaries
  *   inverted_slider_crank_energy: 505 operations, 113 temporaries
  *   inverted_slider_crank_closure: 42 operations, 8 temporaries
  *   inverted_slider_crank_phi_jac: 48 operations, 13 temporaries, 19 nonzeros of 3x36
  *   inverted_slider_crank_phid_jac: 99 operations, 25 temporaries, 37 nonzeros of 3x36
  *   inverted_slider_crank_phidd_jac: 203 operations, 53 temporaries, 55 nonzeros of 3x36
- *   inverted_slider_crank_res_jac: 2384 operations, 585 temporaries, 172 nonzeros of 11x36
+ *   inverted_slider_crank_res_jac: 2384 operations, 583 temporaries, 172 nonzeros of 11x36
  */
 
 #include <string.h>
@@ -64,6 +64,10 @@ static const int inverted_slider_crank_x_accel[3] = { 0, 7, 10 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int inverted_slider_crank_x_sing_rows[3] = { 0, 1, 2 };
 static const int inverted_slider_crank_x_sing_cols[3] = { 0, 10, 7 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int inverted_slider_crank_x_free_params[1] = { -1 };
+static const int inverted_slider_crank_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -98,7 +102,8 @@ const symgen_model inverted_slider_crank_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -108,7 +113,8 @@ const symgen_model inverted_slider_crank_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    8      /* nout */
+    8,      /* nout */
+    0, inverted_slider_crank_x_free_params, 0, inverted_slider_crank_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -143,10 +149,9 @@ void inverted_slider_crank_solver_state(const inverted_slider_crank_solver *s, d
     symgen_model_state(&inverted_slider_crank_model, s->y, q, v, a, lam);
 }
 
-void inverted_slider_crank_solver_outputs(const inverted_slider_crank_solver *s, double *out)
+void inverted_slider_crank_solver_outputs(inverted_slider_crank_solver *s, double *out)
 {
-    double q[11], v[11];
-    symgen_model_outputs(&inverted_slider_crank_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(inverted_slider_crank_x_core(s), s->t, s->y, out);
 }
 
 int inverted_slider_crank_solver_dense(inverted_slider_crank_solver *s, double t_out, double t_stop, double *y)
@@ -185,6 +190,7 @@ void inverted_slider_crank_solver_counters(const inverted_slider_crank_solver *s
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *inverted_slider_crank_solver_message(const inverted_slider_crank_solver *s)

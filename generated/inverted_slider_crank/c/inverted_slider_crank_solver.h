@@ -9,14 +9,14 @@
  *   inverted_slider_crank_phi: 45 operations, 8 temporaries
  *   inverted_slider_crank_phid: 62 operations, 13 temporaries
  *   inverted_slider_crank_phidd: 90 operations, 19 temporaries
- *   inverted_slider_crank_res: 1027 operations, 191 temporaries
+ *   inverted_slider_crank_res: 1027 operations, 189 temporaries
  *   inverted_slider_crank_out: 75 operations, 18 temporaries
  *   inverted_slider_crank_energy: 505 operations, 113 temporaries
  *   inverted_slider_crank_closure: 42 operations, 8 temporaries
  *   inverted_slider_crank_phi_jac: 48 operations, 13 temporaries, 19 nonzeros of 3x36
  *   inverted_slider_crank_phid_jac: 99 operations, 25 temporaries, 37 nonzeros of 3x36
  *   inverted_slider_crank_phidd_jac: 203 operations, 53 temporaries, 55 nonzeros of 3x36
- *   inverted_slider_crank_res_jac: 2384 operations, 585 temporaries, 172 nonzeros of 11x36
+ *   inverted_slider_crank_res_jac: 2384 operations, 583 temporaries, 172 nonzeros of 11x36
  */
 
 #ifndef SYMGEN_inverted_slider_crank_SOLVER_H
@@ -87,7 +87,7 @@ typedef struct inverted_slider_crank_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(11, 3, 8, 3, 8)];
+    double work[SYMGEN_WORK_DOUBLES(11, 3, 8, 3, 8, 14, 8)];
     int iwork[SYMGEN_WORK_INTS(11, 3, 8, 3, 8)];
 } inverted_slider_crank_solver;
 
@@ -123,7 +123,8 @@ int inverted_slider_crank_solver_dense(inverted_slider_crank_solver *s, double t
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row inverted_slider_crank_ROW_SIZE doubles at rec + (i -
  * first) inverted_slider_crank_ROW_SIZE (first: *done at the call): tau, the outputs (inverted_slider_crank_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int inverted_slider_crank_solver_dense(inverted_slider_crank_solver *s, double t
 int inverted_slider_crank_solver_rows(inverted_slider_crank_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                                       double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void inverted_slider_crank_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void inverted_slider_crank_outputs_of(const inverted_slider_crank_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void inverted_slider_crank_solver_counters(const inverted_slider_crank_solver *s, double *stats);
 const char *inverted_slider_crank_solver_message(const inverted_slider_crank_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void inverted_slider_crank_solver_state(const inverted_slider_crank_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void inverted_slider_crank_solver_outputs(const inverted_slider_crank_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void inverted_slider_crank_solver_outputs(inverted_slider_crank_solver *s, double *out);
 
 /* sizeof(inverted_slider_crank_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long inverted_slider_crank_solver_sizeof(void);

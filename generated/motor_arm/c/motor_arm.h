@@ -9,14 +9,14 @@
  *   motor_arm_phi: 0 operations, 0 temporaries
  *   motor_arm_phid: 0 operations, 0 temporaries
  *   motor_arm_phidd: 0 operations, 0 temporaries
- *   motor_arm_res: 414 operations, 72 temporaries
+ *   motor_arm_res: 414 operations, 70 temporaries
  *   motor_arm_out: 219 operations, 41 temporaries
  *   motor_arm_energy: 219 operations, 41 temporaries
  *   motor_arm_closure: 0 operations, 0 temporaries
  *   motor_arm_phi_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phid_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phidd_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
- *   motor_arm_res_jac: 1135 operations, 310 temporaries, 107 nonzeros of 6x18
+ *   motor_arm_res_jac: 1135 operations, 308 temporaries, 107 nonzeros of 6x18
  */
 
 #ifndef SYMGEN_motor_arm_H

@@ -9,14 +9,14 @@
  *   motor_arm_phi: 0 operations, 0 temporaries
  *   motor_arm_phid: 0 operations, 0 temporaries
  *   motor_arm_phidd: 0 operations, 0 temporaries
- *   motor_arm_res: 414 operations, 72 temporaries
+ *   motor_arm_res: 414 operations, 70 temporaries
  *   motor_arm_out: 219 operations, 41 temporaries
  *   motor_arm_energy: 219 operations, 41 temporaries
  *   motor_arm_closure: 0 operations, 0 temporaries
  *   motor_arm_phi_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phid_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phidd_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
- *   motor_arm_res_jac: 1135 operations, 310 temporaries, 107 nonzeros of 6x18
+ *   motor_arm_res_jac: 1135 operations, 308 temporaries, 107 nonzeros of 6x18
  */
 
 #include <string.h>
@@ -64,6 +64,10 @@ static const int motor_arm_x_accel[2] = { 0, 5 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int motor_arm_x_sing_rows[1] = { -1 };
 static const int motor_arm_x_sing_cols[1] = { -1 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int motor_arm_x_free_params[1] = { -1 };
+static const int motor_arm_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -96,7 +100,8 @@ const symgen_model motor_arm_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -106,7 +111,8 @@ const symgen_model motor_arm_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    3      /* nout */
+    3,      /* nout */
+    0, motor_arm_x_free_params, 0, motor_arm_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -141,10 +147,9 @@ void motor_arm_solver_state(const motor_arm_solver *s, double *q, double *v, dou
     symgen_model_state(&motor_arm_model, s->y, q, v, a, lam);
 }
 
-void motor_arm_solver_outputs(const motor_arm_solver *s, double *out)
+void motor_arm_solver_outputs(motor_arm_solver *s, double *out)
 {
-    double q[6], v[6];
-    symgen_model_outputs(&motor_arm_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(motor_arm_x_core(s), s->t, s->y, out);
 }
 
 int motor_arm_solver_dense(motor_arm_solver *s, double t_out, double t_stop, double *y)
@@ -183,6 +188,7 @@ void motor_arm_solver_counters(const motor_arm_solver *s, double *stats)
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *motor_arm_solver_message(const motor_arm_solver *s)

@@ -9,14 +9,14 @@
  *   motor_arm_phi: 0 operations, 0 temporaries
  *   motor_arm_phid: 0 operations, 0 temporaries
  *   motor_arm_phidd: 0 operations, 0 temporaries
- *   motor_arm_res: 414 operations, 72 temporaries
+ *   motor_arm_res: 414 operations, 70 temporaries
  *   motor_arm_out: 219 operations, 41 temporaries
  *   motor_arm_energy: 219 operations, 41 temporaries
  *   motor_arm_closure: 0 operations, 0 temporaries
  *   motor_arm_phi_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phid_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phidd_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
- *   motor_arm_res_jac: 1135 operations, 310 temporaries, 107 nonzeros of 6x18
+ *   motor_arm_res_jac: 1135 operations, 308 temporaries, 107 nonzeros of 6x18
  */
 
 #ifndef SYMGEN_motor_arm_SOLVER_H
@@ -87,7 +87,7 @@ typedef struct motor_arm_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(6, 0, 6, 0, 4)];
+    double work[SYMGEN_WORK_DOUBLES(6, 0, 6, 0, 4, 14, 3)];
     int iwork[SYMGEN_WORK_INTS(6, 0, 6, 0, 4)];
 } motor_arm_solver;
 
@@ -123,7 +123,8 @@ int motor_arm_solver_dense(motor_arm_solver *s, double t_out, double t_stop, dou
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row motor_arm_ROW_SIZE doubles at rec + (i -
  * first) motor_arm_ROW_SIZE (first: *done at the call): tau, the outputs (motor_arm_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int motor_arm_solver_dense(motor_arm_solver *s, double t_out, double t_stop, dou
 int motor_arm_solver_rows(motor_arm_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                           double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void motor_arm_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void motor_arm_outputs_of(const motor_arm_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void motor_arm_solver_counters(const motor_arm_solver *s, double *stats);
 const char *motor_arm_solver_message(const motor_arm_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void motor_arm_solver_state(const motor_arm_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void motor_arm_solver_outputs(const motor_arm_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void motor_arm_solver_outputs(motor_arm_solver *s, double *out);
 
 /* sizeof(motor_arm_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long motor_arm_solver_sizeof(void);

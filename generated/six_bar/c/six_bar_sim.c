@@ -9,7 +9,7 @@
  *   six_bar_phi: 67 operations, 13 temporaries
  *   six_bar_phid: 92 operations, 10 temporaries
  *   six_bar_phidd: 144 operations, 32 temporaries
- *   six_bar_res: 1116 operations, 186 temporaries
+ *   six_bar_res: 1116 operations, 183 temporaries
  *   six_bar_out: 87 operations, 15 temporaries
  *   six_bar_energy: 453 operations, 95 temporaries
  *   six_bar_closure: 64 operations, 13 temporaries

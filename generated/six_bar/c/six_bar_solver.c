@@ -9,7 +9,7 @@
  *   six_bar_phi: 67 operations, 13 temporaries
  *   six_bar_phid: 92 operations, 10 temporaries
  *   six_bar_phidd: 144 operations, 32 temporaries
- *   six_bar_res: 1116 operations, 186 temporaries
+ *   six_bar_res: 1116 operations, 183 temporaries
  *   six_bar_out: 87 operations, 15 temporaries
  *   six_bar_energy: 453 operations, 95 temporaries
  *   six_bar_closure: 64 operations, 13 temporaries
@@ -64,6 +64,10 @@ static const int six_bar_x_accel[5] = { 0, 1, 2, 3, 13 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int six_bar_x_sing_rows[5] = { 0, 1, 2, 3, 4 };
 static const int six_bar_x_sing_cols[5] = { 0, 13, 3, 2, 1 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int six_bar_x_free_params[1] = { -1 };
+static const int six_bar_x_start_forces[1] = { -1 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -96,7 +100,8 @@ const symgen_model six_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -106,7 +111,8 @@ const symgen_model six_bar_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    8      /* nout */
+    8,      /* nout */
+    0, six_bar_x_free_params, 0, six_bar_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -141,10 +147,9 @@ void six_bar_solver_state(const six_bar_solver *s, double *q, double *v, double 
     symgen_model_state(&six_bar_model, s->y, q, v, a, lam);
 }
 
-void six_bar_solver_outputs(const six_bar_solver *s, double *out)
+void six_bar_solver_outputs(six_bar_solver *s, double *out)
 {
-    double q[14], v[14];
-    symgen_model_outputs(&six_bar_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(six_bar_x_core(s), s->t, s->y, out);
 }
 
 int six_bar_solver_dense(six_bar_solver *s, double t_out, double t_stop, double *y)
@@ -183,6 +188,7 @@ void six_bar_solver_counters(const six_bar_solver *s, double *stats)
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *six_bar_solver_message(const six_bar_solver *s)

@@ -9,7 +9,7 @@
  *   six_bar_phi: 67 operations, 13 temporaries
  *   six_bar_phid: 92 operations, 10 temporaries
  *   six_bar_phidd: 144 operations, 32 temporaries
- *   six_bar_res: 1116 operations, 186 temporaries
+ *   six_bar_res: 1116 operations, 183 temporaries
  *   six_bar_out: 87 operations, 15 temporaries
  *   six_bar_energy: 453 operations, 95 temporaries
  *   six_bar_closure: 64 operations, 13 temporaries
@@ -87,7 +87,7 @@ typedef struct six_bar_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(14, 5, 9, 5, 9)];
+    double work[SYMGEN_WORK_DOUBLES(14, 5, 9, 5, 9, 20, 8)];
     int iwork[SYMGEN_WORK_INTS(14, 5, 9, 5, 9)];
 } six_bar_solver;
 
@@ -123,7 +123,8 @@ int six_bar_solver_dense(six_bar_solver *s, double t_out, double t_stop, double 
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row six_bar_ROW_SIZE doubles at rec + (i -
  * first) six_bar_ROW_SIZE (first: *done at the call): tau, the outputs (six_bar_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int six_bar_solver_dense(six_bar_solver *s, double t_out, double t_stop, double 
 int six_bar_solver_rows(six_bar_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                         double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void six_bar_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void six_bar_outputs_of(const six_bar_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void six_bar_solver_counters(const six_bar_solver *s, double *stats);
 const char *six_bar_solver_message(const six_bar_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void six_bar_solver_state(const six_bar_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void six_bar_solver_outputs(const six_bar_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void six_bar_solver_outputs(six_bar_solver *s, double *out);
 
 /* sizeof(six_bar_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long six_bar_solver_sizeof(void);

@@ -9,7 +9,7 @@
  *   slider_crank_phi: 24 operations, 2 temporaries
  *   slider_crank_phid: 28 operations, 4 temporaries
  *   slider_crank_phidd: 38 operations, 10 temporaries
- *   slider_crank_res: 164 operations, 38 temporaries
+ *   slider_crank_res: 164 operations, 37 temporaries
  *   slider_crank_out: 27 operations, 4 temporaries
  *   slider_crank_energy: 85 operations, 18 temporaries
  *   slider_crank_closure: 21 operations, 2 temporaries
@@ -215,52 +215,51 @@ void slider_crank_phidd(double t, const double *q, const double *v, const double
     out[1] = a[0];
 }
 
-/* slider_crank_res: 164 operations, 38 temporaries */
+/* slider_crank_res: 164 operations, 37 temporaries */
 void slider_crank_res(double t, const double *q, const double *v, const double *a, const double *lam, const double *p, double *out)
 {
     (void)t;
-    const double w0 = 0.0;
-    const double w1 = (p[0]*p[0]*p[0])*p[6]*(0.3333333333333333*a[0] + 0.5*w0);
-    const double w2 = (1.0/(p[1]));
-    const double w3 = q[0] - q[1];
-    const double w4 = sin(w3);
-    const double w5 = 1.0*p[0];
-    const double w6 = w5*a[0];
-    const double w7 = cos(w3);
-    const double w8 = w5*(v[0]*v[0]);
-    const double w9 = w2*(-w4*w6 - w7*w8);
-    const double w10 = w2*(-w4*w8 + w6*w7);
-    const double w11 = sin(q[1]);
-    const double w12 = cos(q[1]);
-    const double w13 = (v[1]*v[1]);
-    const double w14 = 0.5*w13;
-    const double w15 = a[1]*q[3];
-    const double w16 = w13*q[2];
-    const double w17 = 1.2732395447351628*v[1];
-    const double w18 = lam[0]*p[2];
-    const double w19 = lam[0]*p[3];
-    const double w20 = (p[1]*p[1]);
-    const double w21 = 1.0/(w20*p[7]);
-    const double w22 = w21*(w11*w18 - w12*w19);
-    const double w23 = -0.6366197723675814*w16 - w17*v[3] - w22 - w14 - 0.6366197723675814*w15 + 0.6366197723675814*a[2] + 1.0*w9;
-    const double w24 = a[1]*q[2];
-    const double w25 = w13*q[3];
-    const double w26 = w21*(w11*w19 + w18*w12);
-    const double w27 = w17*v[2] + 0.6366197723675814*w24 - 0.6366197723675814*w25 - w26 + 0.6366197723675814*a[3] + 0.5*a[1] + 1.0*w10;
-    const double w28 = w20*p[7];
-    const double w29 = w28*(-w11*w27 + w12*w23);
-    const double w30 = w28*(w11*w23 + w12*w27);
-    const double w31 = v[2]*v[1];
-    const double w32 = 0.6366197723675814*w10;
-    const double w33 = v[3]*v[1];
-    const double w34 = (p[1]*p[1]*p[1])*p[7];
-    const double w35 = w34*(0.8105694691387022*w24 - w26*(1.0*q[2] + 1.0) + 0.8105694691387022*w31 + w32*q[2] + 0.3183098861837907*a[3] + 0.3333333333333333*a[1] + 0.4244131815783876*q[2]*(-w25 + a[3]) + 0.5*q[2]*(w24 + 2.0*w31) - 0.6366197723675814*q[3]*w9 - 0.4244131815783876*q[3]*(-w16 + a[2]) - 0.5*q[3]*(-2.0*w33 - w15) + 0.5*w10);
-    const double w36 = w34*(-1.0*w22 - 0.8488263631567752*w33 - 0.4052847345693511*w13 - w14*q[2] - 0.4244131815783876*w15 + 0.5*a[2] + 1.2337005501361697*q[2]*p[4] + 0.6366197723675814*w9);
-    const double w37 = w34*(0.4244131815783876*w24 + 0.8488263631567752*w31 + w32 - w14*q[3] + 0.5*a[3] + 0.3183098861837907*a[1] + 4.605815387175034*q[2]*q[3]*p[4] + 48.70454551700122*q[3]*p[5]);
-    out[0] = -w5*w29*sin(q[0]) + w5*w30*cos(q[0]) + w1 - lam[1];
-    out[1] = w35;
-    out[2] = w36;
-    out[3] = w37;
+    const double w0 = (p[0]*p[0]*p[0])*p[6]*(0.3333333333333333*a[0] + 0.5*0.0);
+    const double w1 = (1.0/(p[1]));
+    const double w2 = q[0] - q[1];
+    const double w3 = sin(w2);
+    const double w4 = 1.0*p[0];
+    const double w5 = w4*a[0];
+    const double w6 = cos(w2);
+    const double w7 = w4*(v[0]*v[0]);
+    const double w8 = w1*(-w3*w5 - w6*w7);
+    const double w9 = w1*(-w3*w7 + w5*w6);
+    const double w10 = sin(q[1]);
+    const double w11 = cos(q[1]);
+    const double w12 = (v[1]*v[1]);
+    const double w13 = 0.5*w12;
+    const double w14 = a[1]*q[3];
+    const double w15 = w12*q[2];
+    const double w16 = 1.2732395447351628*v[1];
+    const double w17 = lam[0]*p[2];
+    const double w18 = lam[0]*p[3];
+    const double w19 = (p[1]*p[1]);
+    const double w20 = 1.0/(w19*p[7]);
+    const double w21 = w20*(w10*w17 - w11*w18);
+    const double w22 = -0.6366197723675814*w15 - w16*v[3] - w21 - w13 - 0.6366197723675814*w14 + 0.6366197723675814*a[2] + 1.0*w8;
+    const double w23 = a[1]*q[2];
+    const double w24 = w12*q[3];
+    const double w25 = w20*(w10*w18 + w17*w11);
+    const double w26 = w16*v[2] + 0.6366197723675814*w23 - 0.6366197723675814*w24 - w25 + 0.6366197723675814*a[3] + 0.5*a[1] + 1.0*w9;
+    const double w27 = w19*p[7];
+    const double w28 = w27*(-w10*w26 + w11*w22);
+    const double w29 = w27*(w10*w22 + w11*w26);
+    const double w30 = v[2]*v[1];
+    const double w31 = 0.6366197723675814*w9;
+    const double w32 = v[3]*v[1];
+    const double w33 = (p[1]*p[1]*p[1])*p[7];
+    const double w34 = w33*(0.8105694691387022*w23 - w25*(1.0*q[2] + 1.0) + 0.8105694691387022*w30 + w31*q[2] + 0.3183098861837907*a[3] + 0.3333333333333333*a[1] + 0.4244131815783876*q[2]*(-w24 + a[3]) + 0.5*q[2]*(w23 + 2.0*w30) - 0.6366197723675814*q[3]*w8 - 0.4244131815783876*q[3]*(-w15 + a[2]) - 0.5*q[3]*(-2.0*w32 - w14) + 0.5*w9);
+    const double w35 = w33*(-1.0*w21 - 0.8488263631567752*w32 - 0.4052847345693511*w12 - w13*q[2] - 0.4244131815783876*w14 + 0.5*a[2] + 1.2337005501361697*q[2]*p[4] + 0.6366197723675814*w8);
+    const double w36 = w33*(0.4244131815783876*w23 + 0.8488263631567752*w30 + w31 - w13*q[3] + 0.5*a[3] + 0.3183098861837907*a[1] + 4.605815387175034*q[2]*q[3]*p[4] + 48.70454551700122*q[3]*p[5]);
+    out[0] = -w4*w28*sin(q[0]) + w4*w29*cos(q[0]) + w0 - lam[1];
+    out[1] = w34;
+    out[2] = w35;
+    out[3] = w36;
 }
 
 /* slider_crank_out: 27 operations, 4 temporaries */

@@ -9,7 +9,7 @@
  *   slider_crank_phi: 24 operations, 2 temporaries
  *   slider_crank_phid: 28 operations, 4 temporaries
  *   slider_crank_phidd: 38 operations, 10 temporaries
- *   slider_crank_res: 164 operations, 38 temporaries
+ *   slider_crank_res: 164 operations, 37 temporaries
  *   slider_crank_out: 27 operations, 4 temporaries
  *   slider_crank_energy: 85 operations, 18 temporaries
  *   slider_crank_closure: 21 operations, 2 temporaries

@@ -9,7 +9,7 @@
  *   slider_crank_phi: 24 operations, 2 temporaries
  *   slider_crank_phid: 28 operations, 4 temporaries
  *   slider_crank_phidd: 38 operations, 10 temporaries
- *   slider_crank_res: 164 operations, 38 temporaries
+ *   slider_crank_res: 164 operations, 37 temporaries
  *   slider_crank_out: 27 operations, 4 temporaries
  *   slider_crank_energy: 85 operations, 18 temporaries
  *   slider_crank_closure: 21 operations, 2 temporaries
@@ -64,6 +64,10 @@ static const int slider_crank_x_accel[2] = { 0, 1 };
 /* rows / columns of the closure Jacobian that decide a singular position of the rigid mechanism */
 static const int slider_crank_x_sing_rows[2] = { 0, 1 };
 static const int slider_crank_x_sing_cols[2] = { 0, 1 };
+/* the joint forces of an unstressed start as a continuum gives them: the parameters scaled
+   towards 0 (the elastic bars' masses) and the outputs that take their limit */
+static const int slider_crank_x_free_params[1] = { 7 };
+static const int slider_crank_x_start_forces[1] = { 2 };
 
 /* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, the sum of the
    absolute transverse (axial) amplitudes, the coordinates listed here, within the limit */
@@ -96,7 +100,8 @@ const symgen_model slider_crank_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.25, 0.1, 1e-09
+        0.0001, 0.25, 0.1, 1e-09,
+        1e-06
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -106,7 +111,8 @@ const symgen_model slider_crank_model = {
         3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
-    4      /* nout */
+    4,      /* nout */
+    1, slider_crank_x_free_params, 1, slider_crank_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -141,10 +147,9 @@ void slider_crank_solver_state(const slider_crank_solver *s, double *q, double *
     symgen_model_state(&slider_crank_model, s->y, q, v, a, lam);
 }
 
-void slider_crank_solver_outputs(const slider_crank_solver *s, double *out)
+void slider_crank_solver_outputs(slider_crank_solver *s, double *out)
 {
-    double q[4], v[4];
-    symgen_model_outputs(&slider_crank_model, s->t, s->y, s->p, q, v, out);
+    symgen_solver_outputs(slider_crank_x_core(s), s->t, s->y, out);
 }
 
 int slider_crank_solver_dense(slider_crank_solver *s, double t_out, double t_stop, double *y)
@@ -183,6 +188,7 @@ void slider_crank_solver_counters(const slider_crank_solver *s, double *stats)
     stats[7] = s->closure_max;
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
+    stats[10] = (double)s->core.continuum_start;
 }
 
 const char *slider_crank_solver_message(const slider_crank_solver *s)

@@ -9,7 +9,7 @@
  *   slider_crank_phi: 24 operations, 2 temporaries
  *   slider_crank_phid: 28 operations, 4 temporaries
  *   slider_crank_phidd: 38 operations, 10 temporaries
- *   slider_crank_res: 164 operations, 38 temporaries
+ *   slider_crank_res: 164 operations, 37 temporaries
  *   slider_crank_out: 27 operations, 4 temporaries
  *   slider_crank_energy: 85 operations, 18 temporaries
  *   slider_crank_closure: 21 operations, 2 temporaries
@@ -87,7 +87,7 @@ typedef struct slider_crank_solver {
     char message[SYMGEN_MESSAGE_SIZE];
     /* the runtime's state and work arrays (the scalars above are copied from core after each call) */
     symgen_solver core;
-    double work[SYMGEN_WORK_DOUBLES(4, 2, 2, 2, 2)];
+    double work[SYMGEN_WORK_DOUBLES(4, 2, 2, 2, 2, 14, 4)];
     int iwork[SYMGEN_WORK_INTS(4, 2, 2, 2, 2)];
 } slider_crank_solver;
 
@@ -123,7 +123,8 @@ int slider_crank_solver_dense(slider_crank_solver *s, double t_out, double t_sto
  * The rows of a run on the output grid tau_i = t0 + i step, i = *done .. n_rows - 1, by dense
  * output, at most max_rows per call (<= 0: all), each row slider_crank_ROW_SIZE doubles at rec + (i -
  * first) slider_crank_ROW_SIZE (first: *done at the call): tau, the outputs (slider_crank_N_OUT), q, v (n each),
- * lam (m). *done counts the rows written (also a row that failed a check). max_steps > 0:
+ * lam (m); the outputs are _solver_outputs' (at the start, the continuum's joint forces where
+ * the start is unstressed). *done counts the rows written (also a row that failed a check). max_steps > 0:
  * return SYMGEN_SOLVER_PAUSED after that many more integrator steps (call again to go on: a
  * caller can react to an interrupt in between). 0 when the rows asked for are written.
  */
@@ -131,21 +132,28 @@ int slider_crank_solver_dense(slider_crank_solver *s, double t_out, double t_sto
 int slider_crank_solver_rows(slider_crank_solver *s, double t0, double step, long n_rows, long *done, long max_rows, long max_steps,
                              double *rec);
 
-/* q, v, a, lam of a state y (any pointer may be NULL); the scene's outputs at (t, y). */
+/* q, v, a, lam of a state y (any pointer may be NULL); the model's outputs at (t, y) (at the
+   start, the model's own joint forces: the run's first output is _solver_outputs'). */
 void slider_crank_state_of(const double *y, double *q, double *v, double *a, double *lam);
 void slider_crank_outputs_of(const slider_crank_solver *s, double t, const double *y, double *out);
 
 /* The public block as doubles (for a foreign-function interface): t, n_steps, n_accepted,
-   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status;
-   and the message. */
+   n_rejected, n_jacobians, n_factorizations, n_residuals, closure_max, divergence_rate, status,
+   and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
+   doubles; and the message. */
 void slider_crank_solver_counters(const slider_crank_solver *s, double *stats);
 const char *slider_crank_solver_message(const slider_crank_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */
 void slider_crank_solver_state(const slider_crank_solver *s, double *q, double *v, double *a, double *lam);
 
-/* The scene's outputs at the current state. */
-void slider_crank_solver_outputs(const slider_crank_solver *s, double *out);
+/* The scene's outputs at the current state: the model's, but at the start of a run from an
+   unstressed state (no deformation, no deformation rate) the joint forces (driver torques,
+   reactions) of a scene whose every elastic bar has dynamic axial and transverse functions are
+   the continuum's: the bars' distributed inertia is not felt at an unstressed start (a
+   truncated basis would leave about 1/N of a bar's mass on its joints there;
+   symgen.numerics.start.continuum_start_outputs, the same limit as symgen's other runs). */
+void slider_crank_solver_outputs(slider_crank_solver *s, double *out);
 
 /* sizeof(slider_crank_solver), for callers that allocate it through a foreign-function interface. */
 unsigned long slider_crank_solver_sizeof(void);

@@ -57,6 +57,7 @@ typedef struct symgen_policy {
     double polish_tol;
     int polish_maxit;
     double driver_step, deflection_limit, stretch_limit, divergence_rtol;
+    double free_inertia_factor;
 } symgen_policy;
 
 /* The 3-stage Radau IIA method and its step control (symgen/backends/c/radau.py) */
@@ -108,6 +109,14 @@ typedef struct symgen_model {
     symgen_policy policy;
     symgen_radau radau;
     int nout;                                /* values of `out` (a row of symgen_solver_rows) */
+    /* the joint forces of an unstressed start as a continuum gives them (the first output of a
+       run; symgen.numerics.start.continuum_start_outputs): the parameters scaled towards 0 (the
+       elastic bars' masses) and the outputs that take their limit (driver torques, reactions);
+       0 and NULL: every output is the model's own */
+    int n_free;
+    const int *free_params;                  /* [n_free] */
+    int n_start_forces;
+    const int *start_forces;                 /* [n_start_forces]: indices into out */
 } symgen_model;
 
 /* The sparse LU of an n x n matrix held in dense row-major storage (symgen_linalg.c): the
@@ -124,18 +133,18 @@ typedef struct symgen_splu {
 /*
  * The work arrays of a model, in doubles and in ints: the storage a solver needs beside its
  * struct (p and y are the caller's own arrays). The sizes in terms of the model's: n, m, ni, nd,
- * ne (nclosure <= m). symgen_bind carves the storage in this order.
+ * ne (nclosure <= m), np, nout. symgen_bind carves the storage in this order.
  */
 #define SYMGEN_NX_(ni) (2 * (ni))
 #define SYMGEN_NZ_(n, m, nd) (2 * (nd) + (n) + (m))
 #define SYMGEN_NY_(n, m, ni, nd) (SYMGEN_NX_(ni) + SYMGEN_NZ_(n, m, nd))
 #define SYMGEN_NALG_(n, m) (3 * (m) + (n))
 #define SYMGEN_NW_(n, m) (3 * (n) + (m))
-#define SYMGEN_WORK_DOUBLES(n, m, ni, nd, ne) \
+#define SYMGEN_WORK_DOUBLES(n, m, ni, nd, ne, np, nout) \
     (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
-     + 13 * (n) + 10 * (m) + 8 * (ne) * (ne) + 8 * (ne) + 1)
+     + 14 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
 #define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
     (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 2 * (ne) + 1 \
      + 2 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) + 6 * SYMGEN_NY_(n, m, ni, nd) + 1)
@@ -153,6 +162,9 @@ typedef struct symgen_solver {
                                    buckling load (the start is refused), else 0 */
     int status;                 /* 0 ok, else an error (see message) */
     char message[SYMGEN_MESSAGE_SIZE];
+    int continuum_start;        /* 1: the outputs at t_start of the model's start_forces are the
+                                   continuum's (start_out), the start being unstressed */
+    double t_start;             /* the run's start time */
     /* the integrator: the model, its sizes (nx = 2 ni, nz = 2 nd + n + m, ny = nx + nz,
        nalg = 3 m + n rows and nw = 3 n + m columns of the algebraic Jacobian, y[a0..]: a, lam) */
     const symgen_model *model;
@@ -173,6 +185,7 @@ typedef struct symgen_solver {
     double *start_q, *start_v, *start_a, *start_lam, *qs_u, *qs_a, *qs_lam, *dv_a, *dv_lam;
     double *as_r, *as_rt, *as_dq, *as_trial, *vel_r, *drv_r, *clo;
     double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;
+    double *ct_p, *ct_a, *ct_lam, *start_out, *ct_out;   /* the continuum start: [np], [n], [m], [nout], [nout] */
     int *pivz, *zrow, *zmid, *zcol, *piv1, *piv2, *sp, *qs_col, *dvpiv;
     /* the Newton matrices factored whole and sparse (the default; else by block elimination,
        dense): the pivots chosen once per Jacobian (analyzed 1; -1: none qualified, dense until
@@ -243,6 +256,11 @@ SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, d
 /* The model's outputs at tau = t, y, parameters p; q, v: n doubles of scratch. */
 SYMGEN_API void symgen_model_outputs(const symgen_model *model, double t, const double *y, const double *p, double *q,
                                      double *v, double *out);
+
+/* The run's outputs at tau = t, y (those of symgen_solver_rows): the model's, but at the start
+   of a run from an unstressed state (t = s->t_start, s->continuum_start), where the model's
+   start_forces (driver torques, reactions) are the continuum's (s->start_out). */
+SYMGEN_API void symgen_solver_outputs(symgen_solver *s, double t, const double *y, double *out);
 
 /* ------------------------------------------------------------------ dense linear algebra */
 /* LU with partial pivoting of the row-major n x n matrix A; 0, or k + 1 at a zero pivot k */

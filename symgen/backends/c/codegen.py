@@ -79,6 +79,11 @@ class _Emitter:
         expr = self._hoist_pow_bases(expr)
         if expr.is_Symbol and expr in self.names:
             self.names[sym] = self.names[expr]  # alias: no new variable
+        elif expr.is_Number:
+            # a constant (a derivative statement that is 0, say): printed where it is used, no
+            # variable (one its users simplified away would be unused: an error under -Werror)
+            text = self.printer.doprint(expr)
+            self.names[sym] = f"({text})" if expr.is_negative else text
         else:
             name = f"w{self.temps}"
             self.temps += 1

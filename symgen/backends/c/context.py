@@ -221,6 +221,8 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "atol": c_double(sim.atol),
         "policy": _policy(),
         "amplitude_checks": amplitude_checks,
+        "free_inertia": list(plan.free_inertia),
+        "start_forces": list(plan.start_forces),
         "radau": radau.constants(),
     }
 
