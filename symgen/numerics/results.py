@@ -282,8 +282,11 @@ def build_sidecar(
         sidecar["t_end"] = float(result.tau[-1])
     elif result is not None:
         sidecar["solver"]["backend"] = result.stats.get("backend")
-    if result is not None and not isinstance(result, QuasiStaticResult):
-        sidecar["start"] = _start_note(result.start_forces)
+    if result is not None and solver != "quasi-static":
+        from symgen.numerics.run_result import SimResult  # no CasADi: its lean home
+
+        if isinstance(result, SimResult):
+            sidecar["start"] = _start_note(result.start_forces)
     return sidecar
 
 
