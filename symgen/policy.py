@@ -149,5 +149,11 @@ def tolerances(accuracy: float, solver: str = "idas", rule: ToleranceRule | None
     """(rtol, atol) of ``solver`` ("idas" or "c") for a scene that asks ``accuracy`` of every
     output and states no tolerances (:class:`ToleranceRule`)."""
     rule = TOLERANCES if rule is None else rule
-    rtol = min(rule.rtol_max, max(rule.rtol_min, accuracy * rule.rtol_factor(solver)))
-    return rtol, rtol * rule.atol_factor(solver)
+    rtol = _round(min(rule.rtol_max, max(rule.rtol_min, accuracy * rule.rtol_factor(solver))))
+    return rtol, _round(rtol * rule.atol_factor(solver))
+
+
+def _round(x: float) -> float:
+    """``x`` to 12 significant digits: 3e-09, not the product's 3.0000000000000004e-09, in the
+    sidecar, ``symgen check`` and the emitted C."""
+    return float(f"{x:.12g}")
