@@ -194,6 +194,7 @@ def _simulate(args, files) -> int:
         + f"simulate {result.simulate_s:.2f}s)"
     )
     _say_estimate(written.sidecar, written.csv.with_suffix(".json").name, args.scene)
+    _time_part_warning(written.sidecar)
     return 0
 
 
@@ -239,6 +240,26 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
         f"exceeds simulation.accuracy = {accuracy:g}{advice}",
         file=sys.stderr,
     )
+
+
+def _time_part_warning(sidecar: dict) -> None:
+    """A line on stderr when the estimate's time-integration part of an output is more than a
+    tenth of simulation.accuracy (the share the tolerances from the accuracy are chosen to keep:
+    symgen.policy.tolerances): the run needs tighter tolerances than the rule gives it."""
+    detail = sidecar.get("error_estimate_detail") or {}
+    part = {n: v for n, v in (detail.get("parts", {}).get("time_integration") or {}).items() if v is not None}
+    accuracy = sidecar.get("accuracy")
+    if not part or not accuracy:
+        return
+    worst = max(part, key=lambda n: part[n])
+    if part[worst] > accuracy / 10:
+        solver = sidecar.get("solver", {})
+        print(
+            f"symgen: warning: the time integration's estimated error on {worst} is {part[worst]:.1e} of peak, "
+            f"more than a tenth of simulation.accuracy {accuracy:g} (rtol {solver.get('rtol')}, "
+            f"atol {solver.get('atol')}, {solver.get('tolerances')}): state a tighter simulation.rtol and atol",
+            file=sys.stderr,
+        )
 
 
 def _backend_text(stats: dict) -> str:

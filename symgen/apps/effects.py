@@ -69,7 +69,7 @@ from symgen.model.structure import axial_treatments, loop_stretch_share
 from symgen.scene.quasi import quasi_static_reasons
 from symgen.numerics import interrupt
 from symgen.scene import load_scene
-from symgen.scene.summary import describe_basis
+from symgen.scene.summary import describe_basis, describe_tolerances
 from symgen.scene.loader import read_toml
 from symgen.scene.overrides import apply_overrides
 
@@ -188,6 +188,7 @@ class EffectsReport:
     quasi: dict = field(default_factory=dict)  # bar -> (quasi-static transverse functions, why)
     strain: tuple[str, str] = ("", "")  # (effects.strain used, why: symgen.scene.strain)
     estimate: Any = None  # --measure: the ErrorEstimate of the scene's own measuring run
+    tolerances: str = ""  # the integrators' tolerances of the runs and why (symgen.scene.summary)
 
 
 # --------------------------------------------------------------------------- estimates
@@ -315,6 +316,7 @@ def estimate_effects(scene, tol: float = DEFAULT_TOL, outputs: Sequence[str] | N
         bases={c.bar: c for c in scene.bases},
         quasi=quasi_static_reasons(scene),
         strain=(scene.effects.strain, scene.strain_choice.reason if scene.strain_choice else "as the scene says"),
+        tolerances=describe_tolerances(scene.simulation),
     )
     recommend(report)
     return report
@@ -479,8 +481,8 @@ def _estimate(path: str, overrides: Sequence[str], res) -> Any:
     from symgen.numerics.mechanism import load_mechanism
 
     mech = load_mechanism(path, overrides)
-    sim = mech.scene.simulation
-    return estimate_errors(mech, res, sim.rtol, sim.atol)
+    rtol, atol = mech.scene.simulation.tolerances("c" if res.stats.get("backend") == "c" else "idas")  # the run's
+    return estimate_errors(mech, res, rtol, atol)
 
 
 def auto_effects(
@@ -650,6 +652,8 @@ def table(report: EffectsReport) -> str:
     lines += [f"quasi-static functions of {name}: {why}" for name, (_, why) in report.quasi.items()]
     if report.strain[0]:
         lines.append(f"strain: {report.strain[0]} ({report.strain[1]})")
+    if report.tolerances:
+        lines.append(f"tolerances: {report.tolerances}")
     if report.stopped:
         lines.append(f"PARTIAL: {report.stopped}; the rows not measured have no measured error")
     if report.reference:

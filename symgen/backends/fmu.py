@@ -145,7 +145,7 @@ def fmu_context(scene, ctx: dict) -> dict:
         "stop_time": c_double(sim.t_end * seconds),
         "step_size": c_double(sim.output_step * seconds),
         "units": [{"name": u, "base": UNIT_BASES[u]} for u in used],
-        "tolerance": c_double(sim.rtol),
+        "tolerance": c_double(sim.tolerances("c")[0]),  # the emitted C solver's
         "variables": variables,
         "input_flags": [1 if name in inputs else 0 for name in params],
         "output_indices": list(range(1, len(outputs) + 1)),

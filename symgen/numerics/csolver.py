@@ -369,7 +369,8 @@ def simulate_c(
     build: bool = True,
 ) -> SimResult:
     """The scene's run with the emitted C Radau IIA solver, in this process: outputs every
-    ``output_step`` from 0 to ``t_end`` with tolerances ``rtol``, ``atol`` (None: the scene's),
+    ``output_step`` from 0 to ``t_end`` with tolerances ``rtol``, ``atol`` (None: the scene's,
+    or the C solver's rule from its accuracy when it states none: ``Simulation.tolerances("c")``),
     the states with them. A run that stops early (a failure of the C solver or of a check,
     ``SimulationError``; SIGINT/SIGTERM, ``Interrupted``) raises with ``.partial``, the
     ``SimResult`` of the rows before it (``complete=False``). ``build=False``: only with a
@@ -381,8 +382,8 @@ def simulate_c(
     sim = mech.scene.simulation
     t_end = float(sim.t_end if t_end is None else t_end)
     h = float(sim.output_step if output_step is None else output_step)
-    rtol = float(sim.rtol if rtol is None else rtol)
-    atol = float(sim.atol if atol is None else atol)
+    rtol = float(sim.tolerances("c")[0] if rtol is None else rtol)
+    atol = float(sim.tolerances("c")[1] if atol is None else atol)
     t_setup = time.perf_counter()
     try:
         lib, built = solver(mech, use_cache, build)

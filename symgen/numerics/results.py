@@ -246,10 +246,13 @@ def build_sidecar(
             "dependent": [info.coords[i].name for i in result.partition.dep],
             "quasi_static": [info.coords[i].name for i in result.partition.quasi],
         },
+        # the tolerances of the solver that ran, and where they come from (stated, or from the
+        # accuracy by that solver's rule: symgen.policy.tolerances)
         "solver": {
             "name": "idas",
-            "rtol": sim.rtol,
-            "atol": sim.atol,
+            "rtol": sim.tolerances(_rule_of(solver))[0],
+            "atol": sim.tolerances(_rule_of(solver))[1],
+            "tolerances": sim.tolerances_reason(),
             "steps": None if result is None else result.steps,
         },
         # derive_s is this process's derivation (0 when the model came from the cache); the
@@ -365,6 +368,12 @@ class WrittenRun:
     plot: OutputsPlot | None
 
 
+def _rule_of(solver: str) -> str:
+    """The tolerance rule (``symgen.policy.tolerances``) of a run's solver: the emitted C
+    solver's for "c", else IDAS's."""
+    return "c" if solver == "c" else "idas"
+
+
 def error_estimate(
     scene: Scene,
     compiled: CompiledModel,
@@ -391,11 +400,11 @@ def error_estimate(
         return ErrorEstimate.not_estimated(names, "the run did not complete"), None
     if estimate == "off":
         return ErrorEstimate.not_estimated(names, "not asked (--estimate off)"), None
-    sim = scene.simulation
+    rtol, atol = scene.simulation.tolerances(_rule_of(solver))  # the run's own
     try:
         if mech is None or mech.compiled is not compiled or mech.scene is not scene:
             mech = Mechanism(compiled, scene)
-        return estimate_errors(mech, result, sim.rtol, sim.atol, truncation=estimate), None
+        return estimate_errors(mech, result, rtol, atol, truncation=estimate), None
     except Interrupted as stop:
         return ErrorEstimate.not_estimated(names, f"interrupted while estimating: {stop}"), stop
 

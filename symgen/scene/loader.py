@@ -23,6 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from symgen.errors import SceneError
+from symgen.policy import tolerances
 from symgen.scene.excitation import (
     check_driver_motion,
     check_expressions,
@@ -87,6 +88,10 @@ SIMULATION_KEYS = ("t_end", "cycles", "output_step", "rtol", "atol", "duration",
 #: [simulation] keys in seconds, for SI scenes only (t_end and output_step stay in tau in both systems)
 SECONDS_KEYS = ("duration", "output_interval")
 DEFAULT_OUTPUT_STEP = 2.0 * math.pi / 360.0
+#: the tolerance a scene leaves out when it states the other one (a scene that states neither
+#: takes both from simulation.accuracy: symgen.policy.tolerances)
+FIXED_RTOL = 1e-8
+FIXED_ATOL = 1e-10
 
 
 @dataclass(frozen=True)
@@ -313,7 +318,7 @@ def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: li
             f"{t_end:g} / {step:g} + 1, in tau), more than the limit {limit_value('rows'):g}",
             lift_hint("rows", "use a larger output step or a shorter run"),
         )
-    rtol = r.number(table, "simulation", "rtol", 1e-8, gt=0.0)
+    rtol = r.number(table, "simulation", "rtol", FIXED_RTOL, gt=0.0)
     if not RTOL_MIN <= rtol < RTOL_MAX:
         r.fail(
             "simulation.rtol",
@@ -328,7 +333,7 @@ def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: li
             ),
             stacklevel=2,
         )
-    atol = r.number(table, "simulation", "atol", 1e-10, gt=0.0)
+    atol = r.number(table, "simulation", "atol", FIXED_ATOL, gt=0.0)
     if not atol < ATOL_MAX:
         r.fail(
             "simulation.atol",
@@ -358,7 +363,14 @@ def read_simulation(r: Reader, raw: dict, drivers: tuple[Driver, ...], paths: li
             f"the accuracy is a fraction of each output's peak and must be < 1, got {accuracy:g}",
             "use e.g. 0.01 for 1 % of peak (0.001 for 0.1 %)",
         )
-    return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol, accuracy=accuracy)
+    if "rtol" in table or "atol" in table:
+        return Simulation(t_end=t_end, output_step=step, rtol=rtol, atol=atol, accuracy=accuracy)
+    # neither stated: from the accuracy (symgen.policy.tolerances; rtol, atol are IDAS's, the
+    # emitted C solver's follow from Simulation.tolerances("c"))
+    rtol, atol = tolerances(accuracy, "idas")
+    return Simulation(
+        t_end=t_end, output_step=step, rtol=rtol, atol=atol, accuracy=accuracy, tolerances_from="accuracy"
+    )
 
 
 def check_sizes(r: Reader, raw: dict) -> None:

@@ -22,6 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from symgen.policy import tolerances
+
 if TYPE_CHECKING:
     from symgen.scene.bases import BasisChoice
     from symgen.scene.strain import StrainChoice
@@ -170,6 +172,23 @@ class Simulation:
     rtol: float = 1e-8
     atol: float = 1e-10
     accuracy: float = 0.01  # fraction of each output's peak: chooses absent mode counts (symgen.scene.bases)
+    # "scene": rtol and atol as the scene states them (one of them stated: the other's former
+    # default); "accuracy": the scene states neither, both follow from the accuracy by the rule of
+    # the solver that runs it (symgen.policy.tolerances; rtol, atol above are IDAS's)
+    tolerances_from: str = "scene"
+
+    def tolerances(self, solver: str = "idas") -> tuple[float, float]:
+        """(rtol, atol) of a run by ``solver`` ("idas" or "c"): the scene's, or from the accuracy by
+        that solver's rule."""
+        if self.tolerances_from == "accuracy":
+            return tolerances(self.accuracy, solver)
+        return self.rtol, self.atol
+
+    def tolerances_reason(self) -> str:
+        """Why the run has its tolerances, as the sidecar, ``symgen check`` and ``effects`` say it."""
+        if self.tolerances_from == "accuracy":
+            return f"from simulation.accuracy {self.accuracy:g} (the scene states neither rtol nor atol)"
+        return "stated in [simulation] (one left out keeps its fixed default, rtol 1e-8 or atol 1e-10)"
 
 
 @dataclass(frozen=True)

@@ -29,12 +29,31 @@ from symgen.scene import outputs as _ou
 from symgen.scene.expressions import ALLOWED_FUNCTIONS
 from symgen.scene.model import OUTPUT_KINDS
 from symgen.scene.names import MAX_NAME_LENGTH
+from symgen.policy import SOLVERS, TOLERANCES, tolerances
+from symgen.scene.bases import DEFAULT_ACCURACY
 
 NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_]*$"
 NAME_RULE = (
     f"a C identifier: letters, digits and _, not starting with a digit, at most "
     f"{MAX_NAME_LENGTH} characters, no C/C++ keyword"
 )
+
+
+def _tolerance_default(key: str) -> str:
+    """The documented default of simulation.rtol / atol: the rule of ``symgen.policy`` (one home),
+    with its values at the default accuracy."""
+    rule = TOLERANCES
+    if key == "rtol":
+        how = ", ".join(f"{rule.rtol_factor(s):g} x accuracy ({SOLVER_NAMES[s]})" for s in SOLVERS)
+        how += f", within [{rule.rtol_min:g}, {rule.rtol_max:g}]"
+    else:
+        how = ", ".join(f"rtol x {rule.atol_factor(s):g} ({SOLVER_NAMES[s]})" for s in SOLVERS)
+    at = ", ".join(f"{tolerances(DEFAULT_ACCURACY, s)[key == 'atol']:g} ({SOLVER_NAMES[s]})" for s in SOLVERS)
+    return f"from simulation.accuracy (neither rtol nor atol stated): {how}; at accuracy {DEFAULT_ACCURACY:g}: {at}"
+
+
+#: how the documented defaults name the solvers of symgen.policy.SOLVERS
+SOLVER_NAMES = {"idas": "IDAS", "c": "--solver c"}
 
 
 @dataclass(frozen=True)
@@ -853,17 +872,24 @@ SIMULATION = Table(
         Key(
             "rtol",
             "number > 0",
-            "Relative tolerance of the integrator.",
+            "Relative tolerance of the integrator. A scene that states neither rtol nor atol takes both "
+            "from simulation.accuracy, by the rule of the solver that runs it (IDAS, or the emitted C "
+            "solver of --solver c): a time-integration error well below the accuracy. A scene that "
+            "states one of them keeps the other's fixed default (rtol "
+            f"{_ld.FIXED_RTOL:g}, atol {_ld.FIXED_ATOL:g}). `symgen check` and the run's sidecar "
+            "(solver.rtol, solver.tolerances) say which were used and why.",
             _num(exclusiveMinimum=0),
-            default="1e-08",
+            default=_tolerance_default("rtol"),
             example="1e-8",
         ),
         Key(
             "atol",
             "number > 0",
-            "Absolute tolerance of the integrator.",
+            "Absolute tolerance of the integrator, in the model's units (coordinates in units of a "
+            "bar's length, angles in rad; the elastic amplitudes of metal bars at speed are 1e-5 to "
+            "1e-3): from simulation.accuracy with rtol when the scene states neither (see rtol).",
             _num(exclusiveMinimum=0),
-            default="1e-10",
+            default=_tolerance_default("atol"),
             example="1e-10",
         ),
         Key(
@@ -871,7 +897,8 @@ SIMULATION = Table(
             "number, 0 < accuracy < 1",
             "The accuracy asked of every output, as a fraction of its peak over the run. It chooses the "
             "shape-function counts that a bar does not state (bodies.<name>.axial_modes, transverse_modes) "
-            "and is the threshold of the warning on stated counts.",
+            "and is the threshold of the warning on stated counts; when the scene states neither "
+            "rtol nor atol, it sets them too (see rtol).",
             _num(exclusiveMinimum=0, exclusiveMaximum=1),
             default="0.01",
             example="0.001",

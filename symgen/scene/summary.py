@@ -17,7 +17,18 @@ from __future__ import annotations
 import math
 
 from symgen.scene.quasi import quasi_static_reasons
-from symgen.scene.model import Scene
+from symgen.scene.model import Scene, Simulation
+
+
+def describe_tolerances(sim: Simulation) -> str:
+    """The integrators' tolerances of a run and why (``symgen check``, ``symgen effects``): the
+    scene's, or IDAS's and the emitted C solver's from the accuracy (``symgen.policy.tolerances``)."""
+    if sim.tolerances_from != "accuracy":
+        return f"rtol {sim.rtol:g}, atol {sim.atol:g} ({sim.tolerances_reason()})"
+    (rtol, atol), (c_rtol, c_atol) = sim.tolerances("idas"), sim.tolerances("c")
+    return (
+        f"rtol {rtol:g}, atol {atol:g} (IDAS); rtol {c_rtol:g}, atol {c_atol:g} (--solver c); {sim.tolerances_reason()}"
+    )
 
 
 def _bar(body, corrections: dict | None = None) -> str:
@@ -131,7 +142,6 @@ def summary(scene: Scene, corrections: dict | None = None) -> str:
         )
     else:
         run = f"t_end {sim.t_end:.6g} tau, output step {sim.output_step:.6g}"
-    lines.append(
-        f"  {'run':8} {run} ({rows} rows), rtol {sim.rtol:g}, atol {sim.atol:g}, accuracy {sim.accuracy:g} of peak"
-    )
+    lines.append(f"  {'run':8} {run} ({rows} rows), accuracy {sim.accuracy:g} of peak")
+    lines.append(f"  {'':8} {describe_tolerances(sim)}")
     return "\n".join(lines)

@@ -10,6 +10,7 @@ import tomllib
 import pytest
 
 from symgen.errors import SceneError
+from symgen.policy import tolerances
 from symgen.scene import GROUND, OUTPUT_KINDS, BodyDeformation, Effects, JointEnd, load_scene
 from symgen.scene.outputs import KIND_KEYS
 
@@ -205,7 +206,9 @@ def test_defaults_of_a_minimal_scene(write_scene):
     sim = scene.simulation
     assert sim.t_end == pytest.approx(2.0 * math.pi)  # no driver: cycles * 2 pi
     assert sim.output_step == pytest.approx(2.0 * math.pi / 360.0)
-    assert (sim.rtol, sim.atol) == (1e-8, 1e-10)
+    # no rtol, no atol: both from the default accuracy by IDAS's rule (symgen.policy.tolerances)
+    assert sim.accuracy == 0.01 and sim.tolerances_from == "accuracy"
+    assert (sim.rtol, sim.atol) == tolerances(0.01, "idas") == sim.tolerances("idas")
 
 
 def test_flexible_defaults_and_reference_length(write_scene):

@@ -51,8 +51,8 @@ extern const symgen_model motor_arm_model;
 /* Defaults of the scene's [simulation] section (tau). */
 #define motor_arm_T_END 6.0
 #define motor_arm_OUTPUT_STEP 0.05
-#define motor_arm_RTOL 1e-08
-#define motor_arm_ATOL 1e-10
+#define motor_arm_RTOL 3e-05
+#define motor_arm_ATOL 3e-09
 
 /* Limits of the run settings (symgen.scene.limits, the same as the Python loader's): the driver
    takes rtol in [_RTOL_MIN, _RTOL_MAX) and atol in [_ATOL_MIN, _ATOL_MAX); an rtol above

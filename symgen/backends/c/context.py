@@ -217,8 +217,9 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "quasi_static": bool(scene.initial.quasi_static),
         "t_end": c_double(sim.t_end),
         "output_step": c_double(sim.output_step),
-        "rtol": c_double(sim.rtol),
-        "atol": c_double(sim.atol),
+        # the C solver's own tolerances: the scene's, or from its accuracy by the C rule
+        "rtol": c_double(sim.tolerances("c")[0]),
+        "atol": c_double(sim.tolerances("c")[1]),
         "policy": _policy(),
         "amplitude_checks": amplitude_checks,
         "free_inertia": list(plan.free_inertia),
