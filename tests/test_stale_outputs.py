@@ -104,6 +104,8 @@ def test_sigterm_at_the_start_of_simulate_keeps_no_old_result(tmp_path):
                 "print('ready', flush=True); sys.exit(main(sys.argv[1:]))",
                 "simulate",
                 SLIDER,
+                "--set",
+                "simulation.cycles=20",  # a run that lasts past the signal (a cached 2 turns took < 0.45 s)
                 "-o",
                 str(out),
             ],

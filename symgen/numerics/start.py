@@ -332,6 +332,8 @@ def free_inertia_parameters(mech: Mechanism) -> tuple[int, ...]:
         if b.rigid:
             continue
         modes = mech.info.modes.get(b.name)
+        if modes is not None and not modes.axial and not modes.transverse:
+            continue  # 0 + 0 functions: a rigid bar (its inertia acts on the joints at once, kept)
         if modes is None or not modes.axial or not modes.transverse or not sc.effects.transverse:
             return ()
         if slot_guide(sc, b.name) or axial_treatment(sc, b).treatment != DYNAMIC:
