@@ -310,6 +310,13 @@ def test_strain_and_damping_tables_against_adaptive_quadrature(frame, n, tip, po
         ref = F(a, b, c, e) + (F(a, c, b, e) + F(a, e, b, c) + F(b, c, a, e) + F(b, e, a, c)) / 2
         assert value == pytest.approx(ref, abs=1e-9 * scale)
 
+    # Q4 = (phi'_k phi'_l, psi'_a psi'_b), k <= l, a <= b: the strain's -eps eta'^2 / 2 (DERIVE_VERSION 9)
+    scale = max(abs(v) for v in s6.Q4.values())
+    assert len(s6.Q4) == math.comb(len(ba) + 1, 2) * math.comb(len(bt) + 1, 2)
+    for (k, m, a, b), value in s6.Q4.items():
+        ref = q(lambda x: a1[k](x) * a1[m](x) * d[(a, 1)](x) * d[(b, 1)](x), scale)
+        assert value == pytest.approx(ref, abs=1e-9 * scale)
+
 
 # --------------------------------------------------------------------------- statics: the elastica
 def elastica_tip(p: float) -> tuple[float, float]:
@@ -411,6 +418,73 @@ def test_static_shortening_against_the_elastica(elastica):
     assert err[("exact", 0.2)] < 2e-5
     assert err[("exact", 0.4)] < 2e-4
     assert err[("exact", 0.8)] < 5e-4  # tip at 25 % of the length
+
+
+def extensible_elastica_tip(T: float, P: float, lam: float) -> float:
+    """y of the tip of a unit extensible cantilever (EI = 1, EA = lam) under the dead tip force
+    (T, P), the ANCF cable's constitutive laws (axial force lam (|r'| - 1) along the tangent,
+    moment theta' per undeformed length): theta'' = -(1 + eps)(P cos - T sin), eps = (T cos + P sin)
+    / lam, x' = (1 + eps) cos, y' = (1 + eps) sin, theta(0) = 0, theta'(1) = 0, shot with scipy."""
+
+    def rhs(s, u):
+        eps = (T * np.cos(u[0]) + P * np.sin(u[0])) / lam
+        c, sn = np.cos(u[0]), np.sin(u[0])
+        return [u[1], -(1 + eps) * (P * c - T * sn), (1 + eps) * c, (1 + eps) * sn]
+
+    def shoot(k):
+        return solve_ivp(rhs, (0.0, 1.0), [0.0, k, 0.0, 0.0], rtol=1e-12, atol=1e-14).y[:, -1]
+
+    k = brentq(lambda k: shoot(k)[1], 0.0, 5 * P + 1.0, xtol=1e-15)
+    return float(shoot(k)[3])
+
+
+def stretched_tip(T: float, P: float, lam: float, na: int = 3, nt: int = 6) -> float:
+    """y of the tip of the symgen exact cantilever bar (tangent frame held at theta = 0) under the
+    dead tip force (T, P) in its axes (mu = 1): Newton with load continuation."""
+    s = BarSymbols.make("bar", na, nt, elastic=True)
+    ba, bt = axial_basis("complete", na), transverse_basis("cantilever", "modes", nt, tip_joint=True)
+    eqs = bar_equations(
+        s, ba, bt, IPTable(inner_products(ba, bt)), Effects(strain="exact"), points=(PointForce(1.0, bar=(T, P)),)
+    )
+    rule = {x: 0 for x in (s.th, s.dth, s.ddth, s.xa_dd, s.ya_dd, *s.df, *s.ddf, *s.dg, *s.ddg)}
+    rule.update({s.lam: lam, s.mu: 1, s.nu: 1, s.alpha: 1})
+    res = sp.lambdify([list(s.f + s.g)], [e.xreplace(rule) for e in eqs.eq16 + eqs.eq17])
+    load = -np.array(res(np.zeros(na + nt)), float)  # the residual is K(y) - load
+    y = np.zeros(na + nt)
+    for scale in np.linspace(0.2, 1.0, 5):
+        for _ in range(50):
+            f0 = np.array(res(y), float) + (1 - scale) * load
+            J = np.column_stack(
+                [
+                    (np.array(res(y + 1e-7 * e), float) - np.array(res(y - 1e-7 * e), float)) / 2e-7
+                    for e in np.eye(na + nt)
+                ]
+            )
+            dy = np.linalg.solve(J, -f0)
+            y = y + dy
+            if np.abs(dy).max() < 1e-11:
+                break
+        else:
+            raise AssertionError("Newton did not converge")
+    return float(bt.values(1.0) @ y[na:])
+
+
+def test_stretched_cantilever_against_the_extensible_elastica():
+    """An axial force N stretches the bar by N/lambda; |r'| - 1 = eps (1 - eta'^2 / 2) + ..., and
+    without the -eps eta'^2 / 2 (DERIVE_VERSION 8) the axial force's transverse virtual work was
+    N sin(theta) (1 + N/lambda): the tension's stiffening too large by N/lambda (docs/exact-bars.md,
+    "Where converged symgen and converged Exudyn still differ"). A cantilever under the dead tip
+    force (T, 0.4), against the extensible elastica: DERIVE_VERSION 8 was 7.7e-3 off at T = 10,
+    lambda = 1e3 (eps = 1e-2), 8.0e-4 at lambda = 1e4, 2.6e-2 at T = 30 (first order in N/lambda);
+    with the term 1.2e-4, 2.2e-5 and 9.6e-4 (second order)."""
+    err = {}
+    for T, lam in ((10.0, 1e3), (10.0, 1e4), (30.0, 1e3)):
+        y_ref = extensible_elastica_tip(T, 0.4, lam)
+        err[(T, lam)] = abs(stretched_tip(T, 0.4, lam) - y_ref) / y_ref
+    assert err[(10.0, 1e3)] < 3e-4
+    assert err[(10.0, 1e4)] < 5e-5
+    assert err[(30.0, 1e3)] < 2e-3
+    assert err[(30.0, 1e3)] / err[(10.0, 1e3)] > 4  # eps^2: 9 x for 3 x the tension
 
 
 def test_exact_bar_without_locking_over_lambda(elastica):

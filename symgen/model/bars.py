@@ -607,6 +607,7 @@ _G3 = r"\mathcal{{G}}_{{{0},{1},{2}}}"
 _C3 = r"\left(\phi'_{{{0}}},\psi'_{{{1}}}\psi'_{{{2}}}\right)"
 _C5 = r"\mathcal{{C}}_{{{0},{1},{2},{3},{4}}}"
 _H4 = r"\mathcal{{H}}_{{{0},{1};{2},{3}}}"
+_Q4 = r"\mathcal{{Q}}_{{{0},{1};{2},{3}}}"
 
 
 def _symmetric_form(t: IPTable, name: str, latex: str, head: tuple, order: int, g: list) -> tuple:
@@ -681,6 +682,29 @@ class _ExactBar:
             energy += lam * sp.Add(*[self.e[k] * self.n[k] for k in range(na)]) / 2
             el_f = [lam * self.n[k] for k in range(na)]
             el_g = [lam * sp.Add(*[self.e[k] * self.Jt[k][a] for k in range(na)]) for a in range(nt)]
+            # the exact strain's next term (DERIVE_VERSION 9): |r'| - 1 = eps (1 - eta'^2 / 2) + O(eps^2 eta'^2,
+            # eta'^6), so lambda/2 int eps_x^2 = lambda/2 ||P eps||^2 - (lambda/2) int (P eps)^2 eta'^2
+            # = ... - (lambda/2) sum_kl e_k e_l W_kl, W_kl = sum Q4_klab g_a g_b. Without it the axial force's
+            # transverse virtual work is N sin(theta) (1 + N/lambda): a geometric stiffness too large by
+            # N/lambda (docs/exact-bars.md, "Where converged symgen and converged Exudyn still differ")
+            W: dict = {}
+            for k, m in combinations_with_replacement(range(na), 2):
+                W[(k, m)] = _symmetric_form(t, "Q4", _Q4, (k, m), 2, g)
+            e = self.e
+
+            def w(k: int, m: int) -> tuple:
+                return W[(min(k, m), max(k, m))]
+
+            u = [sp.Add(*[e[m] * w(k, m)[0] for m in range(na)]) for k in range(na)]  # u_k = sum_m W_km e_m
+            energy -= lam * sp.Add(*[e[k] * u[k] for k in range(na)]) / 2
+            el_f = [el_f[k] - lam * u[k] for k in range(na)]
+            ku = [sp.Add(*[t.ka_inv(j, k) * u[k] for k in range(na)]) for j in range(na)]  # Ka^-1 u
+            el_g = [
+                el_g[a]
+                - lam * sp.Add(*[ku[j] * self.Jt[j][a] for j in range(na)])
+                - lam * sp.Add(*[e[k] * e[m] * w(k, m)[1][a] for k in range(na) for m in range(na)]) / 2
+                for a in range(nt)
+            ]
         elif dynamic:
             energy += lam * quad_a
             el_f = [lam * sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) for k in range(na)]

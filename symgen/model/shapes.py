@@ -425,6 +425,12 @@ class InnerProducts:
         """The exact curvature rate's damping table (with the sixth-order tables)."""
         return self._sixth().H4
 
+    @property
+    def Q4(self) -> dict[tuple[int, ...], float]:
+        """``(phi'_k phi'_l, psi'_a psi'_b)`` over k <= l, a <= b: the exact strain's -eps eta'^2 / 2
+        (with the sixth-order tables)."""
+        return self._sixth().Q4
+
     def _sixth(self) -> Any:
         if self.sixth is None:
             raise ValueError("these inner products have no sixth-order tables (join them with with_sixth_order)")

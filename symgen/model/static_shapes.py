@@ -522,6 +522,9 @@ class SixthOrderProducts:
         F_ab|cd = int psi''_a psi''_b psi'_c psi'_d: the Kelvin-Voigt damping of the exact curvature's
         rate, D = (c mu / 2) int kappa_dot^2 = (c mu / 2) g_dot^T (Kt + sum H4 g_c g_d) g_dot to fourth
         order (kappa = eta'' (1 + eta'^2 / 2) on a nearly inextensible bar)
+    Q4 : ``{(k, l, a, b): int phi'_k phi'_l psi'_a psi'_b}`` over k <= l, a <= b: the exact strain's
+        next term, |r'| - 1 = eps (1 - eta'^2 / 2) + ..., in the strain energy
+        -(lambda / 2) int (P eps)^2 eta'^2 (DERIVE_VERSION 9)
 
     By Gauss-Legendre quadrature on each smooth piece (:func:`sixth_order_nodes` nodes per piece:
     the integrands are products of six sines, exponentials and polynomials, integrated to
@@ -536,6 +539,7 @@ class SixthOrderProducts:
     E6: dict[tuple[int, ...], float]
     C5: dict[tuple[int, ...], float] = field(default_factory=dict)
     H4: dict[tuple[int, ...], float] = field(default_factory=dict)
+    Q4: dict[tuple[int, ...], float] = field(default_factory=dict)
 
 
 def sixth_order_nodes(nt: int) -> int:
@@ -595,4 +599,10 @@ def sixth_order_products(
             H4[(a, b, c, d)] = float(
                 F[a, b, c, d] + (F[a, c, b, d] + F[a, d, b, c] + F[b, c, a, d] + F[b, d, a, c]) / 2
             )
-    return SixthOrderProducts(na=na, nt=nt, E6=E6, C5=C5, H4=H4)
+    Q = np.einsum("q,qk,ql,qa,qb->klab", W, Fq, Fq, Aq, Aq)  # int phi'_k phi'_l psi'_a psi'_b
+    Q4: dict[tuple[int, ...], float] = {
+        (k, m, a, b): float(Q[k, m, a, b])
+        for k, m in itertools.combinations_with_replacement(range(na), 2)
+        for a, b in itertools.combinations_with_replacement(range(nt), 2)
+    }
+    return SixthOrderProducts(na=na, nt=nt, E6=E6, C5=C5, H4=H4, Q4=Q4)

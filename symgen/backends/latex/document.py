@@ -167,6 +167,7 @@ _IP_ORDER = {
     "E6": 10,
     "C5": 11,
     "H4": 12,
+    "Q4": 13,
 }
 #: the exact bar's tables (``effects.strain = "exact"``): in their own shape-cache entry
 _CURVATURE = ("E4", "G3")
@@ -203,7 +204,7 @@ def _ip_table(bm, used: set) -> list[dict]:
         elif name in _CURVATURE:
             table: Any = curvature_products(bm.basis_a, bm.basis_t).exact[name]
             exact = table[idx]
-        elif name in ("E6", "C5", "H4"):  # the exact bar's quadrature tables (docs/exact-bars.md)
+        elif name in ("E6", "C5", "H4", "Q4"):  # the exact bar's quadrature tables (docs/exact-bars.md)
             value = float(getattr(sixth_order_products(bm.basis_a, bm.basis_t), name)[idx])
             ex = sp.latex(sp.Float(value, 15))
             rows.append(

@@ -53,8 +53,27 @@ def _split(expr: sp.Expr, unknowns: set) -> tuple[list, list, list]:
     return const, lin, nonlin
 
 
-def _row20(expr: sp.Expr, unknowns: set, pr, tag: str):
-    """``A y = B + [f(y)]`` for one residual row ``expr`` = 0."""
+def _split_compact(expr: sp.Expr, unknowns: set) -> tuple[list, list, bool]:
+    """The exact bar's rows (polynomials of degree 10 in the amplitudes: expanded they run to
+    hundreds of thousands of terms): (constant, linear, whether a nonlinear rest is left), the
+    constant and linear parts from the value and the derivatives at y = 0, the rest named."""
+    gens = sorted(unknowns, key=str)
+    zero = dict.fromkeys(gens, sp.S.Zero)
+    const = [t for t in sp.Add.make_args(sp.expand(expr.xreplace(zero))) if t != 0]
+    lin = [t for u in gens for t in sp.Add.make_args(sp.expand(u * sp.diff(expr, u).xreplace(zero))) if t != 0]
+    return const, lin, bool(expr.free_symbols & unknowns)
+
+
+def _row20(expr: sp.Expr, unknowns: set, pr, tag: str, compact: bool = False):
+    """``A y = B + [f(y)]`` for one residual row ``expr`` = 0; ``compact``: the exact bar's
+    nonlinear part named ``f(y)`` instead of written out (:func:`_split_compact`)."""
+    if compact:
+        const, lin, rest = _split_compact(expr, unknowns)
+        lhs = _signed(lin, pr) or ["0"]
+        rhs = _signed([-c for c in const], pr)
+        if rest:
+            rhs = rhs + [("+ " if rhs else "") + r"\Bigl[f(\mathbf{y})\Bigr]_{f}"]
+        return term_row(lhs, rhs or ["0"], tag)
     const, lin, nonlin = _split(expr, unknowns)
     lhs = _signed(lin, pr) or ["0"]
     rhs = _signed([-c for c in const], pr)
@@ -70,6 +89,7 @@ def quasi_static_context(scene, model, pr) -> dict:
     """Context of ``templates/latex/quasistatic.tex.jinja``."""
     prog = model.program
     assigned = dict(prog.assignments)
+    exact = scene.effects.strain == "exact"  # its nonlinear terms named, not expanded (_split_compact)
     zero_rates = {}
     for bm in model.bars.values():
         s = bm.sym
@@ -98,11 +118,11 @@ def quasi_static_context(scene, model, pr) -> dict:
         eqs = bm.equations.display.map(forces.show)
         unknowns = set(s.f) | set(s.g) | unknown_forces | set(bm.inputs.get("axial_force", ()))
         rows = [
-            _row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"18.{k + 1}, {tn}")
+            _row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"18.{k + 1}, {tn}", exact)
             for k, e in enumerate(eqs.eq16)
         ]
         rows += [
-            _row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"19.{k + 1}, {tn}")
+            _row20(e.xreplace(zero_rates).xreplace(star), unknowns, pr, f"19.{k + 1}, {tn}", exact)
             for k, e in enumerate(eqs.eq17)
         ]
         bars.append(
@@ -122,4 +142,5 @@ def quasi_static_context(scene, model, pr) -> dict:
         "n_amp": len(amps),
         "n_lam": len(model.lam),
         "has_lam": bool(model.lam),
+        "compact": exact,
     }
