@@ -194,7 +194,6 @@ def _simulate(args, files) -> int:
         + f"simulate {result.simulate_s:.2f}s)"
     )
     _say_estimate(written.sidecar, written.csv.with_suffix(".json").name, args.scene)
-    _time_part_warning(written.sidecar)
     return 0
 
 
@@ -207,57 +206,51 @@ _ESTIMATE_ADVICE = {
 
 
 def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
-    """The run's error estimate in one line; a warning on stderr where it exceeds the accuracy,
-    naming the output, the largest part and what lowers it."""
+    """The run's error estimate in one line; warnings on stderr where it exceeds the accuracy
+    (naming the output, the parts and what lowers the largest) and where its time-integration
+    part takes more than the tenth of the accuracy the tolerances from the accuracy are chosen
+    to keep (symgen.policy.tolerances)."""
     estimate = {n: v for n, v in sidecar["error_estimate"].items() if v is not None}
     if not estimate:
         return
     worst = max(estimate, key=lambda n: estimate[n])
-    detail = sidecar.get("error_estimate_detail") or {}
-    parts = {p: v.get(worst) for p, v in (detail.get("parts") or {}).items()}
+    parts_of = (sidecar.get("error_estimate_detail") or {}).get("parts") or {}
+    parts = {p: v.get(worst) for p, v in parts_of.items()}
     missing = sorted(p.replace("_", " ") for p, v in parts.items() if v is None)
     print(
         f"error estimate (fraction of peak, in {json_name}): largest {estimate[worst]:.1e} on {worst}"
         + (f" ({', '.join(missing)} not estimated)" if missing else "")
     )
     accuracy = sidecar.get("accuracy")
-    if accuracy is None or estimate[worst] <= accuracy:
+    if not accuracy:
         return
-    known = {p: v for p, v in parts.items() if v is not None}
-    split = ", ".join(f"{p.replace('_', ' ')} {v:.1e}" for p, v in known.items())
-    largest = max(known, key=lambda p: known[p]) if known else ""
-    if largest == "model_form" and (sidecar.get("strain") or {}).get("strain") == "exact":
-        advice = (
-            "; its largest part, the model form, is the exact bar's terms beyond fourth order in the slopes: "
-            "no key of the scene lowers it (a deflection at the edge of the model)"
+    if estimate[worst] > accuracy:
+        known = {p: v for p, v in parts.items() if v is not None}
+        split = ", ".join(f"{p.replace('_', ' ')} {v:.1e}" for p, v in known.items())
+        largest = max(known, key=lambda p: known[p]) if known else ""
+        if largest == "model_form" and (sidecar.get("strain") or {}).get("strain") == "exact":
+            advice = (
+                "; its largest part, the model form, is the exact bar's terms beyond fourth order in the slopes: "
+                "no key of the scene lowers it (a deflection at the edge of the model)"
+            )
+        elif largest in _ESTIMATE_ADVICE:
+            advice = f"; its largest part, the {largest.replace('_', ' ')}, is lowered by {_ESTIMATE_ADVICE[largest]}"
+        else:
+            advice = ""
+        print(
+            f"symgen: warning: {scene}: the error estimate of {worst}, {estimate[worst]:.1e} of peak ({split}), "
+            f"exceeds simulation.accuracy = {accuracy:g}{advice}",
+            file=sys.stderr,
         )
-    elif largest in _ESTIMATE_ADVICE:
-        advice = f"; its largest part, the {largest.replace('_', ' ')}, is lowered by {_ESTIMATE_ADVICE[largest]}"
-    else:
-        advice = ""
-    print(
-        f"symgen: warning: {scene}: the error estimate of {worst}, {estimate[worst]:.1e} of peak ({split}), "
-        f"exceeds simulation.accuracy = {accuracy:g}{advice}",
-        file=sys.stderr,
-    )
-
-
-def _time_part_warning(sidecar: dict) -> None:
-    """A line on stderr when the estimate's time-integration part of an output is more than a
-    tenth of simulation.accuracy (the share the tolerances from the accuracy are chosen to keep:
-    symgen.policy.tolerances): the run needs tighter tolerances than the rule gives it."""
-    detail = sidecar.get("error_estimate_detail") or {}
-    part = {n: v for n, v in (detail.get("parts", {}).get("time_integration") or {}).items() if v is not None}
-    accuracy = sidecar.get("accuracy")
-    if not part or not accuracy:
-        return
-    worst = max(part, key=lambda n: part[n])
-    if part[worst] > accuracy / 10:
+    timed = {n: v for n, v in (parts_of.get("time_integration") or {}).items() if v is not None}
+    slowest = max(timed, key=lambda n: timed[n]) if timed else None
+    if slowest is not None and timed[slowest] > accuracy / 10:
         solver = sidecar.get("solver", {})
         print(
-            f"symgen: warning: the time integration's estimated error on {worst} is {part[worst]:.1e} of peak, "
-            f"more than a tenth of simulation.accuracy {accuracy:g} (rtol {solver.get('rtol')}, "
-            f"atol {solver.get('atol')}, {solver.get('tolerances')}): state a tighter simulation.rtol and atol",
+            f"symgen: warning: {scene}: the time integration's estimated error on {slowest} is "
+            f"{timed[slowest]:.1e} of peak, more than a tenth of simulation.accuracy {accuracy:g} (rtol "
+            f"{solver.get('rtol')}, atol {solver.get('atol')}, {solver.get('tolerances')}): state a tighter "
+            "simulation.rtol and atol",
             file=sys.stderr,
         )
 

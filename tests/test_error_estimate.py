@@ -220,3 +220,17 @@ def test_simulate_warns_when_the_estimate_exceeds_the_accuracy(tmp_path, capsys)
     err = capsys.readouterr().err
     assert f"the error estimate of {worst}, {est[worst]:.1e} of peak (truncation" in err
     assert "exceeds simulation.accuracy = 1e-06; its largest part, the truncation, is lowered by more shape" in err
+
+
+def test_simulate_warns_when_the_time_part_takes_over_a_tenth_of_the_accuracy(tmp_path, capsys):
+    """Loose stated tolerances: the time-integration part exceeds a tenth of the accuracy (the
+    share symgen.policy.tolerances keeps) and the run says so, naming the tolerances."""
+    argv = ["simulate", "examples/slider_crank.toml", "--set", "simulation.cycles=0.5", "-o", str(tmp_path / "t.csv")]
+    assert main([*argv, "--set", "simulation.rtol=1e-3", "--set", "simulation.atol=1e-6"]) == 0
+    side = json.loads((tmp_path / "t.json").read_text())
+    timed = {n: v for n, v in side["error_estimate_detail"]["parts"]["time_integration"].items() if v is not None}
+    worst = max(timed, key=lambda n: timed[n])
+    assert timed[worst] > side["accuracy"] / 10
+    err = capsys.readouterr().err
+    assert f"the time integration's estimated error on {worst} is {timed[worst]:.1e} of peak" in err
+    assert "(rtol 0.001, atol 1e-06, stated in [simulation]" in err
