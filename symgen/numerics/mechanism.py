@@ -118,7 +118,9 @@ class Mechanism:
     def quasi(self) -> tuple[int, ...]:
         """bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
         (:func:`quasi_static_amplitudes`)."""
-        if not any(b.quasi_static_transverse for b in self.scene.bodies if not b.rigid):
+        if not any(b.quasi_static_transverse for b in self.scene.bodies if not b.rigid) and not any(
+            c.quasi_axial for c in self.scene.bases
+        ):
             return ()
         import casadi as ca
 
@@ -335,7 +337,8 @@ def stated_quasi_static(scene: Scene) -> bool:
 def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
     """The coordinate indices of the quasi-static transverse amplitudes of the scene's bars
     (``bodies.<name>.quasi_static_transverse``: the highest of each bar's standard transverse
-    functions, before its static correction functions). Refused (SceneError, exit 2) where the
+    functions, before its static correction functions) and of the axial amplitudes symgen chose
+    quasi-static (``BasisChoice.quasi_axial``: the highest of a bar's axial functions). Refused (SceneError, exit 2) where the
     treatment would be inconsistent: a function that moves a joint (its amplitude appears in the
     loop closure ``phi_q``: its rate and acceleration would be missing from the velocity and
     acceleration closure; an inextensibility row may read it: the axial shortening then follows
@@ -387,7 +390,24 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
                 "lower quasi_static_transverse to keep that function dynamic, or move the joint to an end of the bar",
             )
         out += idx
+    for c in scene.bases:  # symgen's choice of quasi-static axial functions (no key states them)
+        if c.quasi_axial:
+            out += _chosen_quasi_axial(mech, phi_q, c.bar, c.axial, c.quasi_axial)
     return tuple(sorted(out))
+
+
+def _chosen_quasi_axial(mech: Mechanism, phi_q: ca.SX, name: str, na: int, k: int) -> list[int]:
+    """The amplitudes of the highest ``k`` of bar ``name``'s ``na`` axial functions that symgen
+    chose quasi-static (``symgen.scene.bases.quasi_choice``), fewer where the closure reads one,
+    none where the bar's axial amplitudes are not the run's own (an inextensible or quasi-static
+    axial treatment makes them dependent): dynamic is always consistent."""
+    idx = list(mech.amplitudes[name][0][:na])
+    if any(i in mech.inext_f for i in idx):
+        return []
+    loops = [r for r in range(mech.m) if r not in mech.inext_rows]
+    while k and loops and any(phi_q[loops, i].nnz() > 0 for i in idx[na - k :]):
+        k -= 1
+    return idx[na - k :] if k else []
 
 
 def _chosen_quasi(mech: Mechanism, phi_q: ca.SX, name: str, nt: int, k: int) -> list[int]:

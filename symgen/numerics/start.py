@@ -114,7 +114,8 @@ def start_plan(mech: Mechanism) -> StartPlan:
     (``free_inertia_parameters``, ``start_force_outputs``) let the C start take the same limit
     with the run's parameters."""
     chosen = {c.bar for c in mech.scene.bases if c.quasi}
-    stated = [i for i in mech.quasi if mech.coords[i].body not in chosen]
+    axial = {i for c in mech.scene.bases if c.quasi_axial for i in mech.amplitudes[c.bar][0]}
+    stated = [i for i in mech.quasi if mech.coords[i].body not in chosen and i not in axial]
     if stated:
         body = mech.coords[stated[0]].body
         raise SceneError(

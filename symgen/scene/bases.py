@@ -99,7 +99,8 @@ class BasisChoice:
     ``start_rings``: the run starts undeformed and undamped (:func:`with_start`);
     ``quasi``: how many of the highest transverse functions symgen made quasi-static
     (:func:`quasi_choice`; 0 where none, or where the file states ``quasi_static_transverse``),
-    ``quasi_reason``: why (or why none)."""
+    ``quasi_reason``: why (or why none); ``quasi_axial``: how many of the highest axial functions
+    symgen made quasi-static (no key states them: symgen's choice only)."""
 
     bar: str
     axial: int
@@ -117,6 +118,7 @@ class BasisChoice:
     start_rings: bool = False
     quasi: int = 0
     quasi_reason: str = ""
+    quasi_axial: int = 0
 
     def as_dict(self) -> dict:
         """The sidecar's ``bases`` entry of this bar (JSON)."""
@@ -138,7 +140,11 @@ class BasisChoice:
             "reason": self.reason,
             "warning": self.warning,
             "start_rings": self.start_rings,
-            "quasi_static": {"functions": self.quasi, "reason": self.quasi_reason},
+            "quasi_static": {
+                "functions": self.quasi,
+                "axial_functions": self.quasi_axial,
+                "reason": self.quasi_reason,
+            },
         }
 
 
@@ -756,15 +762,16 @@ class CoupledCheck:
     """The coupled spectrum's verdict on a set of counts: ``estimate`` (fraction of peak), the
     mode that sets it (its frequency per unit tau, the Ritz frequency of the floating-frame
     model with the counts, its share of the outputs' peak) and what it measures; ``fastest``
-    (:meth:`_CoupledEstimate.quasi_check`): the fastest mode whose strain energy is mostly
-    bending, of the model with the quasi-static functions (the ringing BDF follows)."""
+    (:meth:`_CoupledEstimate.quasi_check`): the frequency of the fastest mode the run rings
+    above its tolerance, averaged over the run, of the model with the quasi-static functions
+    (the ringing BDF follows: its steps go as this)."""
 
     estimate: float
     omega: float = 0.0
     omega_ritz: float = 0.0
     share: float = 0.0
     what: str = ""
-    fastest: float = 0.0  # quasi_check: the fastest bending-dominated mode left dynamic (per unit tau)
+    fastest: float = 0.0  # quasi_check: the fastest mode the run rings, averaged over the run (per unit tau)
 
 
 class _CoupledEstimate:
@@ -953,23 +960,28 @@ class _CoupledEstimate:
                 best, out = missed, (name, kind)
         return out
 
-    def top_columns(self, counts: dict[str, tuple[int, int]], name: str, k: int) -> list[int]:
+    def top_columns(self, counts: dict[str, tuple[int, int]], name: str, k: int, axial: bool = False) -> list[int]:
         """The columns of :meth:`_Coupled.ritz` of bar ``name``'s highest ``k`` standard
-        transverse functions (before its static corrections)."""
+        transverse functions (before its static corrections), or with ``axial`` of its highest
+        ``k`` axial functions."""
         start = 0
         for n, p in self.model.parts.items():
             if n == name:
                 na, nt = counts[n]
                 U, std, _ = self.model._functions(n)
-                first = start + 3 + (min(na, U.shape[1]) if p.body.lam else 0)
-                last = first + min(nt, std.shape[1])
+                axial_count = min(na, U.shape[1]) if p.body.lam else 0
+                first = start + 3 + (0 if axial else axial_count)
+                last = first + (axial_count if axial else min(nt, std.shape[1]))
                 return list(range(max(last - k, first), last))
             start += self.model.local(n, *counts.get(n, (0, 0))).shape[1]
         return []
 
-    def quasi_check(self, counts: dict[str, tuple[int, int]], quasi: dict[str, int]) -> CoupledCheck | None:
-        """What making the highest ``quasi[bar]`` transverse functions of each bar quasi-static
-        changes (None: one of them moves a joint). The floating-frame model with ``counts`` and the
+    def quasi_check(
+        self, counts: dict[str, tuple[int, int]], quasi: dict[str, int], axial: dict[str, int] | None = None
+    ) -> CoupledCheck | None:
+        """What making the highest ``quasi[bar]`` transverse functions and the highest
+        ``axial[bar]`` axial functions of each bar quasi-static changes (None: one of them moves a
+        joint). The floating-frame model with ``counts`` and the
         same model with those functions' inertia dropped (static condensation: their amplitudes
         follow the others through the stiffness, h = -K_hh^-1 K_hd d) are compared mode by mode
         (each of the first model's modes with the second's of the largest mass-weighted overlap):
@@ -981,10 +993,15 @@ class _CoupledEstimate:
         m = self.model
         acc = m.scene.simulation.accuracy
         T = m.ritz(counts)
-        H = sorted({c for name, k in quasi.items() if k for c in self.top_columns(counts, name, k)})
+        H = sorted(
+            {c for name, k in quasi.items() if k for c in self.top_columns(counts, name, k)}
+            | {c for name, k in (axial or {}).items() if k for c in self.top_columns(counts, name, k, axial=True)}
+        )
         D = [c for c in range(T.shape[1]) if c not in set(H)]
         CT = m.C @ T
         if H and CT.shape[0] and np.abs(CT[:, H]).max() > QUASI_JOINT_TOL * max(float(np.abs(CT).max()), 1e-300):
+            return None
+        if any(self._axial_moves_joint(name, counts[name][0], k) for name, k in (axial or {}).items() if k):
             return None
         N = _null(CT[:, D])
         Bm = np.hstack([T[:, D] @ N, T[:, H]])
@@ -999,7 +1016,7 @@ class _CoupledEstimate:
         norm = np.sqrt(np.einsum("ij,ij->j", vq, Mr @ vq))
         overlap = np.abs(vd.T @ Mr @ vq) / norm[None, :]
         reference = np.argmax(np.abs((Bm @ vd).T @ m.M @ self.phi), axis=1)
-        total, worst = 0.0, CoupledCheck(0.0, fastest=self._fastest_bending(Bm @ vq, wq))
+        total, worst = 0.0, CoupledCheck(0.0, fastest=self._fastest_ringing(Bm @ vq, wq))
         for i, w in enumerate(wd):
             ref = int(reference[i])
             share = float(self.point_share[ref])
@@ -1016,21 +1033,50 @@ class _CoupledEstimate:
             else:
                 est = (share if self.rings else 0.0) + amp
                 what = "quasi-static: its ringing and dynamic amplification missing"
-            total += est
+            total += est * est
             if est > worst.estimate:
                 worst = CoupledCheck(float(est), float(w), float(wq[j]) if j >= 0 else 0.0, share, what, worst.fastest)
-        return replace(worst, estimate=float(total))
+        return replace(worst, estimate=math.sqrt(total))
 
-    def _fastest_bending(self, u: np.ndarray, w: np.ndarray) -> float:
-        """The largest of the frequencies ``w`` whose mode (columns of ``u``, dofs) stores more
-        than half its strain energy in bending."""
-        m = self.model
-        bend = np.zeros(u.shape[1])
-        for i, Kb in m.bending.values():
-            bend += np.einsum("ij,ij->j", u[i], Kb @ u[i])
-        total = np.einsum("ij,ij->j", u, m.K @ u)
-        fast = [float(x) for x, b, t in zip(w, bend, total, strict=True) if t > 0 and b > 0.5 * t]
-        return max(fast, default=0.0)
+    def _axial_moves_joint(self, name: str, na: int, k: int) -> bool:
+        """Whether one of bar ``name``'s highest ``k`` of ``na`` axial functions is not zero at a
+        joint of the bar: the closure reads it at some position of the cycle even where the start
+        position's constraints do not (an axial displacement along a slider's line)."""
+        p = self.model.parts[name]
+        U = self.model._functions(name)[0][:, :na]
+        top = U[:, max(na - k, 0) :]
+        ends = [e.xi for j in self.model.scene.joints for e in j.ends if e.body == name and e.xi is not None]
+        scale = max(float(np.abs(top).max(initial=0.0)), 1e-300)
+        return any(float(np.abs(top[_node(p.x, float(xi))]).max(initial=0.0)) > QUASI_JOINT_TOL * scale for xi in ends)
+
+    def _fastest_ringing(self, u: np.ndarray, w: np.ndarray) -> float:
+        """The frequency of the fastest mode the run rings, averaged over the run: BDF's steps
+        follow the fastest ringing above its tolerance and step over one below it, whatever the
+        mode's kind, so the run's steps go as the time integral of that frequency. A mode
+        (columns of ``u``, dofs; frequencies ``w``) rings while its ringing share (:attr:`share`
+        of the reference mode it overlaps most) decayed by the Kelvin-Voigt damping c,
+        ``share exp(-t c w^2 / 2)``, is at least IDAS's rtol (undamped: the whole run). The
+        slider-cranks' rods' axial modes (shares below 1e-13) cost nothing; the steel
+        crank-rocker's crank's axial functions (shares 2e-5 and 4e-5 at rtol 1e-8, at 4161 and
+        2407 per unit tau, undamped) set its step (benchmarks/RESULTS.md, "The steel
+        crank-rocker's IDAS steps"); the damped validation crank-rocker's modes above 2000 per
+        unit tau decay within 1e-4 of a turn and cost none."""
+        if not u.shape[1]:
+            return 0.0
+        sc = self.model.scene
+        rtol = sc.simulation.tolerances("idas")[0]
+        T, c = sc.simulation.t_end, sc.effects.damping
+        ref = np.argmax(np.abs(u.T @ self.model.M @ self.phi), axis=1)
+        rings = []
+        for x, r in zip(w, ref, strict=True):
+            share = float(self.share[r])
+            if x > 0 and share >= rtol:
+                rings.append((float(x), T if c <= 0 else min(T, 2.0 / (c * x * x) * math.log(share / rtol))))
+        total, covered = 0.0, 0.0
+        for x, t in sorted(rings, reverse=True):  # the fastest ringing mode at each instant
+            if t > covered:
+                total, covered = total + x * (t - covered), t
+        return total / T if T > 0 else 0.0
 
 
 # -- the choice -----------------------------------------------------------------------------------
@@ -1333,20 +1379,35 @@ def _not_checked(c: BasisChoice, note: str) -> str:
     return "" if c.given[1] is not None else f"every transverse function dynamic: {note}"
 
 
-def _quasi_candidates(scene: Scene, choices: dict[str, BasisChoice], stated: frozenset[str]) -> dict[str, int]:
-    """bar -> at most how many of its highest transverse functions may be quasi-static: those
-    above its dynamic band, where symgen chose its transverse count and the file does not state
-    ``quasi_static_transverse``; none on a slot's guide or with polynomial shapes (as
-    ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses)."""
-    out = {}
+def _quasi_candidates(
+    scene: Scene, choices: dict[str, BasisChoice], stated: frozenset[str], inextensible: set[str] | frozenset[str]
+) -> dict[tuple[str, str], int]:
+    """(bar, "transverse" | "axial") -> at most how many of its highest functions of that family
+    may be quasi-static: those above its dynamic band, where symgen chose the count. Transverse:
+    where the file does not state ``quasi_static_transverse``, none on a slot's guide or with
+    polynomial shapes (as ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses); axial:
+    where symgen chose the axial count too, of a bar that keeps its axial functions in the coupled
+    model (not inextensible). None on a bar whose file states its transverse treatment (the
+    count or ``quasi_static_transverse``: the scene runs as written) or on a slot's guide."""
+    out: dict[tuple[str, str], int] = {}
     for name, c in choices.items():
         body = scene.body(name)
         guide = any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
-        if c.given[1] is not None or name in stated or guide or body.transverse_shapes == "polynomial":
+        if c.given[1] is not None or name in stated or guide:
             continue
-        if c.transverse - c.dynamic[1] > 0:
-            out[name] = c.transverse - c.dynamic[1]
+        if body.transverse_shapes != "polynomial" and c.transverse - c.dynamic[1] > 0:
+            out[(name, "transverse")] = c.transverse - c.dynamic[1]
+        if c.given[0] is None and body.lam and name not in inextensible and c.axial - c.dynamic[0] > 0:
+            out[(name, "axial")] = c.axial - c.dynamic[0]
     return out
+
+
+def _split(quasi: dict[tuple[str, str], int]) -> tuple[dict[str, int], dict[str, int]]:
+    """(transverse, axial) counts per bar of a quasi-static set keyed by (bar, family)."""
+    return (
+        {n: k for (n, f), k in quasi.items() if f == "transverse" and k},
+        {n: k for (n, f), k in quasi.items() if f == "axial" and k},
+    )
 
 
 def quasi_choice(
@@ -1356,87 +1417,139 @@ def quasi_choice(
     counts: dict[str, tuple[int, int]],
     stated: frozenset[str] = frozenset(),
 ) -> dict[str, BasisChoice]:
-    """The highest transverse functions that may be quasi-static (residual flexibility,
-    docs/quasi-static-modes.md), chosen from the mechanism's coupled modes: one function at a
-    time (the bar whose next function changes the coupled estimate least), from the top of each
-    bar's functions above its dynamic band (:func:`_quasi_candidates`), while the change the
-    quasi-static functions make (:meth:`_CoupledEstimate.quasi_check`: every coupled mode's
-    shift and the ringing of the modes they remove) stays within what the accuracy leaves over
-    the bases' own estimate: ``accuracy - max(estimate)``. A function that moves a joint is not
-    taken (nor any below it). IDAS runs only: the emitted C solver integrates every function."""
+    """The highest transverse and axial functions that may be quasi-static (residual
+    flexibility, docs/quasi-static-modes.md), chosen from the mechanism's coupled modes: one
+    function at a time (the bar and family whose next function changes the coupled estimate
+    least), from the top of each bar's functions above its dynamic band
+    (:func:`_quasi_candidates`), while the change the quasi-static functions make
+    (:meth:`_CoupledEstimate.quasi_check`: every coupled mode's shift and the ringing of the
+    modes they remove) stays within what the accuracy leaves over the bases' own estimate:
+    ``accuracy - max(estimate)``. A function that moves a joint is not taken (nor any below it).
+    Kept only where it lowers the fastest mode the run rings (:attr:`CoupledCheck.fastest`) by
+    QUASI_GAIN. IDAS runs only: the emitted C solver integrates every function."""
     acc = scene.simulation.accuracy
-    limit = _quasi_candidates(scene, choices, stated)
-    budget = acc - max(c.estimate for c in choices.values())
-    quasi: dict[str, int] = {}
+    limit = _quasi_candidates(scene, choices, stated, model.model.inextensible)
+    budget = math.sqrt(max(acc * acc - max(c.estimate for c in choices.values()) ** 2, 0.0))
+    quasi: dict[tuple[str, str], int] = {}
     last: CoupledCheck | None = None
     dynamic = model.quasi_check(counts, {})
     fastest = dynamic.fastest if dynamic is not None else 0.0
-    steps: list[tuple[dict[str, int], CoupledCheck]] = []
+    steps: list[tuple[dict[tuple[str, str], int], CoupledCheck]] = []
     while True:
-        best: tuple[str, CoupledCheck] | None = None
-        for name in list(limit):
-            k = quasi.get(name, 0) + 1
-            if k > limit[name]:
+        best: tuple[tuple[str, str], CoupledCheck] | None = None
+        for key in list(limit):
+            k = quasi.get(key, 0) + 1
+            if k > limit[key]:
                 continue
-            check = model.quasi_check(counts, {**quasi, name: k})
+            check = model.quasi_check(counts, *_split({**quasi, key: k}))
             if check is None:  # moves a joint: so does every larger set of its highest functions
-                limit[name] = k - 1
+                limit[key] = k - 1
                 continue
             if check.estimate <= budget and (best is None or check.estimate < best[1].estimate):
-                best = (name, check)
+                best = (key, check)
         if best is None:
             break
         quasi[best[0]] = quasi.get(best[0], 0) + 1
         steps.append((dict(quasi), best[1]))
-    # only what lowers the fastest bending mode the run integrates saves steps (BDF follows that
-    # ringing): the shortest prefix that lowers it most, if by QUASI_GAIN at least
+    # only what lowers the fastest mode the run rings saves steps (BDF follows that ringing): the
+    # shortest prefix that lowers it most, if by QUASI_GAIN at least
     gain = ""
     quasi = {}
     if steps:
         low = min(c.fastest for _, c in steps)
         first = next(k for k, (_, c) in enumerate(steps) if c.fastest <= low)
         if fastest >= QUASI_GAIN * low:
-            quasi, last = steps[first]
+            quasi, last = _pruned(model, counts, *steps[first])
         else:
             gain = (
-                f"every transverse function dynamic: the quasi-static functions the accuracy allows would lower "
-                f"the fastest bending mode only from {fastest:.4g} to {low:.4g} per unit tau (less than "
-                f"{QUASI_GAIN:g}x: no steps saved)"
+                f"the quasi-static functions the accuracy allows would lower the fastest mode the run rings only "
+                f"from {fastest:.4g} to {low:.4g} per unit tau (less than {QUASI_GAIN:g}x: no steps saved)"
             )
     out = {}
     for name, c in choices.items():
-        k = quasi.get(name, 0)
-        if c.given[1] is not None or name in stated:
+        if c.given[1] is not None or name in stated:  # the file states the transverse treatment
             out[name] = c
             continue
-        if k and last is not None:
-            why = (
-                f"the highest {k} of its {c.transverse} transverse functions are quasi-static (IDAS runs): above its "
-                f"{c.dynamic[1]} dynamic, they change the coupled modes by {last.estimate:.2g} of peak "
-                f"(the most at {last.omega:.4g} per unit tau, {last.what}), within the {max(budget, 0.0):.2g} "
-                f"the accuracy {acc:g} leaves over the bases' estimate, and lower the fastest bending mode "
-                f"from {fastest:.4g} to {last.fastest:.4g} per unit tau"
-            )
-        elif gain and name in limit and limit[name]:
-            why = gain
-        elif steps and steps[-1][0].get(name, 0) > k:
-            why = (
-                "every transverse function dynamic: its highest quasi-static fits the accuracy but does not "
-                f"lower the fastest bending mode (from {fastest:.4g} per unit tau) further"
-            )
-        elif name not in limit:
-            why = "every transverse function dynamic: none above its dynamic band"
-        elif limit[name] == 0:
-            why = "every transverse function dynamic: its highest function moves a joint"
-        else:
-            alone = model.quasi_check(counts, {**quasi, name: 1})
-            change = f"{alone.estimate:.2g} of peak" if alone is not None else "a moved joint"
-            why = (
-                f"every transverse function dynamic: its highest quasi-static would change the coupled modes by "
-                f"{change}, more than the {max(budget, 0.0):.2g} the accuracy {acc:g} leaves over the bases' estimate"
-            )
-        out[name] = replace(c, quasi=k, quasi_reason=why)
+        whys = [
+            _quasi_reason((name, family), c, quasi, last, limit, steps, gain, fastest, budget, acc, model, counts)
+            for family in ("transverse", "axial")
+        ]
+        out[name] = replace(
+            c,
+            quasi=quasi.get((name, "transverse"), 0),
+            quasi_axial=quasi.get((name, "axial"), 0),
+            quasi_reason="; ".join(w for w in whys if w),
+        )
     return out
+
+
+def _pruned(
+    model: _CoupledEstimate, counts: dict[str, tuple[int, int]], quasi: dict[tuple[str, str], int], check: CoupledCheck
+) -> tuple[dict[tuple[str, str], int], CoupledCheck]:
+    """``quasi`` less the functions that do not lower the fastest mode the run rings: the greedy
+    takes the cheapest change first, which may be a function whose mode does not ring (the
+    slider-cranks' rods' axial functions); each family keeps the fewest of its highest functions
+    with which the fastest ringing mode stays at ``check.fastest``."""
+    quasi = dict(quasi)
+    for key in list(quasi):
+        while quasi[key]:
+            trial = model.quasi_check(counts, *_split({**quasi, key: quasi[key] - 1}))
+            if trial is None or trial.fastest > check.fastest * (1.0 + 1e-9):
+                break
+            quasi[key] -= 1
+            check = trial
+        if not quasi[key]:
+            del quasi[key]
+    return quasi, check
+
+
+def _quasi_reason(
+    key: tuple[str, str],
+    c: BasisChoice,
+    quasi: dict[tuple[str, str], int],
+    last: CoupledCheck | None,
+    limit: dict[tuple[str, str], int],
+    steps: list[tuple[dict[tuple[str, str], int], CoupledCheck]],
+    gain: str,
+    fastest: float,
+    budget: float,
+    acc: float,
+    model: _CoupledEstimate,
+    counts: dict[str, tuple[int, int]],
+) -> str:
+    """Why bar ``key[0]``'s functions of family ``key[1]`` are (or are not) quasi-static, in
+    words ("" for an axial family that was no candidate: nothing to say)."""
+    name, family = key
+    k = quasi.get(key, 0)
+    n, band = (c.transverse, c.dynamic[1]) if family == "transverse" else (c.axial, c.dynamic[0])
+    lead = "" if family == "transverse" else "axial: "
+    none = f"{lead}every {family} function dynamic: "
+    if k and last is not None:
+        return (
+            f"{lead}the highest {k} of its {n} {family} functions are quasi-static (IDAS runs): above its "
+            f"{band} dynamic, they change the coupled modes by {last.estimate:.2g} of peak "
+            f"(with the other quasi-static functions; the most at {last.omega:.4g} per unit tau, {last.what}), "
+            f"within the {max(budget, 0.0):.2g} the accuracy {acc:g} leaves over the bases' estimate, and lower "
+            f"the fastest mode the run rings from {fastest:.4g} to {last.fastest:.4g} per unit tau"
+        )
+    if key not in limit:
+        return "" if family == "axial" else none + "none above its dynamic band"
+    if limit[key] == 0:
+        return none + "its highest function moves a joint"
+    if steps and steps[-1][0].get(key, 0):  # within the accuracy, but saves no steps
+        if gain:
+            return none + gain
+        return (
+            none + "its highest quasi-static fits the accuracy but does not lower the fastest mode the run rings "
+            f"(from {fastest:.4g} per unit tau) further"
+        )
+    t, a = _split({**quasi, key: 1})
+    alone = model.quasi_check(counts, t, a)
+    change = f"{alone.estimate:.2g} of peak" if alone is not None else "a moved joint"
+    return none + (
+        f"its highest quasi-static would change the coupled modes by {change}, more than the "
+        f"{max(budget, 0.0):.2g} the accuracy {acc:g} leaves over the bases' estimate"
+    )
 
 
 #: what the start does, said where it rings

@@ -21,7 +21,7 @@ def quasi_static_reasons(scene: Scene) -> dict[str, tuple[int, str]]:
         k = body.quasi_static_transverse
         c = choices.get(body.name)
         if not body.rigid and c is not None and c.quasi_reason and c.quasi == k:  # symgen's choice
-            out[body.name] = (k, f"chosen: {c.quasi_reason}" + (f"; {C_PATH}" if k else ""))
+            out[body.name] = (k, f"chosen: {c.quasi_reason}" + (f"; {C_PATH}" if k or c.quasi_axial else ""))
             continue
         if body.rigid or not k:
             continue
