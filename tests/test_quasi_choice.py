@@ -165,14 +165,17 @@ def test_stated_keys_are_honoured(tmp_path):
 
 def test_coupled_mechanisms_keep_every_function_dynamic():
     """The steel crank-rocker (validation scene): the accuracy would allow the rocker's highest
-    function, but the crank's functions (which move joint A) keep the fastest bending mode: no steps
-    saved, none chosen; the released double pendulum: the upper cantilever's functions move the
-    lower's pin, the lower's would change the coupled modes beyond the accuracy."""
+    function, but its Kelvin-Voigt damping decays the modes it would remove within a fraction of a
+    turn, and the crank's functions (which move joint A) stay: the fastest mode the run rings
+    hardly moves, no steps saved (measured 7959 -> 8042 steps), none chosen, axial or transverse;
+    the released double pendulum: the upper cantilever's functions move the lower's pin, the
+    lower's would change the coupled modes beyond the accuracy."""
     rocker = _scene("benchmarks/validation/crank_rocker_steel.toml")
-    assert all(c.quasi == 0 for c in rocker.bases)
+    assert all(c.quasi == 0 and c.quasi_axial == 0 for c in rocker.bases)
     by = {c.bar: c for c in rocker.bases}
     assert "moves a joint" in by["crank"].quasi_reason
-    assert "fastest bending mode" in by["rocker"].quasi_reason
+    assert "fastest mode the run rings" in by["rocker"].quasi_reason
+    assert "no steps saved" in by["rocker"].quasi_reason
     pendulum = _scene("benchmarks/validation/double_pendulum_alu.toml")
     by = {c.bar: c for c in pendulum.bases}
     assert by["upper"].quasi == 0 and "moves a joint" in by["upper"].quasi_reason
