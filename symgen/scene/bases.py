@@ -425,10 +425,12 @@ QUASI_MATCH = 0.9
 #: coupler's top function quasi-static measured 1.5e-3 of peak over half a turn where the shift
 #: alone predicts 3e-4; benchmarks/RESULTS.md "Quasi-static transverse functions")
 QUASI_PHASE_SAFETY = 10.0
-#: quasi-static functions are chosen only where they lower the fastest bending mode the run
-#: integrates at least this much (BDF follows its ringing: the steel slider-crank's rod 2 of 3
-#: quasi-static, 9973 -> 1625 steps; the crank-rocker's rocker 1 of 4, its crank's functions
-#: still as fast, 7959 -> 8042)
+#: quasi-static functions are chosen only where they lower the fastest mode the run rings
+#: (:meth:`_CoupledEstimate._fastest_ringing`, averaged over the run) at least this much (BDF
+#: follows its ringing: the steel slider-crank's rod 2 of 3 transverse quasi-static, 9973 -> 1625
+#: steps; the steel crank-rocker at 900 rpm's crank 2 of 3 axial, 4161 -> 1392 per unit tau,
+#: 167835 -> 108419; the damped validation crank-rocker's rocker 1 of 4, its ringing decayed,
+#: 7959 -> 8042)
 QUASI_GAIN = 1.5
 
 
