@@ -766,7 +766,8 @@ class CoupledCheck:
     model with the counts, its share of the outputs' peak) and what it measures; ``fastest``
     (:meth:`_CoupledEstimate.quasi_check`): the frequency of the fastest mode the run rings
     above its tolerance, averaged over the run, of the model with the quasi-static functions
-    (the ringing BDF follows: its steps go as this)."""
+    (the ringing BDF follows: its steps go as this); from a quasi-static start the fastest
+    bending-dominated mode."""
 
     estimate: float
     omega: float = 0.0
@@ -1018,7 +1019,8 @@ class _CoupledEstimate:
         norm = np.sqrt(np.einsum("ij,ij->j", vq, Mr @ vq))
         overlap = np.abs(vd.T @ Mr @ vq) / norm[None, :]
         reference = np.argmax(np.abs((Bm @ vd).T @ m.M @ self.phi), axis=1)
-        total, worst = 0.0, CoupledCheck(0.0, fastest=self._fastest_ringing(Bm @ vq, wq))
+        fastest = self._fastest_ringing(Bm @ vq, wq) if self.rings else self._fastest_bending(Bm @ vq, wq)
+        total, worst = 0.0, CoupledCheck(0.0, fastest=fastest)
         for i, w in enumerate(wd):
             ref = int(reference[i])
             share = float(self.point_share[ref])
@@ -1050,6 +1052,22 @@ class _CoupledEstimate:
         ends = [e.xi for j in self.model.scene.joints for e in j.ends if e.body == name and e.xi is not None]
         scale = max(float(np.abs(top).max(initial=0.0)), 1e-300)
         return any(float(np.abs(top[_node(p.x, float(xi))]).max(initial=0.0)) > QUASI_JOINT_TOL * scale for xi in ends)
+
+    def _fastest_bending(self, u: np.ndarray, w: np.ndarray) -> float:
+        """Where the start does not ring (a quasi-static start): the largest of the frequencies
+        ``w`` whose mode (columns of ``u``, dofs) stores more than half its strain energy in
+        bending (the start sets no mode ringing, the shares of :meth:`_fastest_ringing` do not
+        apply; measured on the example slider-crank, 1607 -> 1118 steps; the crank-rocker at 900
+        rpm from its quasi-static start keeps every function dynamic: its crank's bending at 894
+        per unit tau stays, and the coupler's and rocker's functions the in-band estimate would
+        allow change its outputs by 13 %)."""
+        m = self.model
+        bend = np.zeros(u.shape[1])
+        for i, Kb in m.bending.values():
+            bend += np.einsum("ij,ij->j", u[i], Kb @ u[i])
+        total = np.einsum("ij,ij->j", u, m.K @ u)
+        fast = [float(x) for x, b, t in zip(w, bend, total, strict=True) if t > 0 and b > 0.5 * t]
+        return max(fast, default=0.0)
 
     def _fastest_ringing(self, u: np.ndarray, w: np.ndarray) -> float:
         """The frequency of the fastest mode the run rings, averaged over the run: BDF's steps
