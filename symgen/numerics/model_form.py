@@ -422,10 +422,14 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     out.update(moved)
     out.update(dict(still))
     left = (
-        "the eighth- and higher-order terms of the exact curvature (eta''^2 eta'^6 / (1 - eta'^2))"
+        "the eighth- and higher-order terms of the exact curvature (eta''^2 eta'^6 / (1 - eta'^2)) and the "
+        "exact strain's eta'^6 / 16"
         if order
-        else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2))"
+        else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2)) and the "
+        "exact strain's eta'^4 / 8 and -eps eta'^2 / 2"
     )
+    if order and any(not b.stretch_kept and b.na for b in bars):
+        left += " (and -eps eta'^2 / 2 where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
         f"plus the phase drift of its first bending mode hardened by them, at {len(rows)} outputs"
