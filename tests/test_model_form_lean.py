@@ -7,6 +7,8 @@
 * The record checks every field.
 * The left-out terms have the order they claim: von Karman's generalized force grows as the
   cube of the amplitude, the exact bar's (sixth-order energy) as the fifth power.
+* The stretch's -eps eta'^2 / 2 is charged (against its closed form on sines) only where the bar's
+  energy does not have it: not on the exact bar with dynamic axial amplitudes (DERIVE_VERSION 9).
 * A run's sidecar holds the model-form part: a number for von Karman and the exact bar, "not
   estimated" with the reason for the seed's linear strain; on a cached model, without SymPy.
 """
