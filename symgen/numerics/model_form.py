@@ -47,12 +47,24 @@ run sees least of it (the five-bar's links: 0.38x of the true error with the mea
 the run; benchmarks/RESULTS.md). Each output's estimate is its static change plus its drift, as
 a fraction of its peak; outputs that q does not move (a driver torque) have their drift only.
 
-The axial strain: von Karman keeps zeta' + eta'^2 / 2 of the exact |r'| - 1, the exact bar
-zeta' + eta'^2 / 2 + eta'^4 / 8 (``STRAIN_ORDER``); the next term (eta'^4 / 8, eta'^6 / 16) and
-the stretch's - eps eta'^2 / 2 enter as the work of the axial force (``_Bar.force``).
+The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
+|r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
+bar zeta' + eta'^2 / 2 + eta'^4 / 8 (``STRAIN_ORDER``) and, with dynamic axial amplitudes, the
+stretch's - eps eta'^2 / 2 (``STRETCH_KEPT``, DERIVE_VERSION 9). What each leaves out enters as the
+work of the axial force (``_Bar.force``): von Karman int N (eta'^4 / 8 - eps eta'^2 / 2); the
+exact bar int N eta'^6 / 16, and - eps eta'^2 / 2 only on a quasi-static or inextensible bar (whose
+strain is held at 0). Until the exact bar had the stretch's term this part charged it to the
+exact bar too: on the torque-driven soft slider-crank (dynamic axial, N/lambda ~ 1e-3, slopes
+~ 0.2) the part was 5.2e-3 of rod_mid's peak, that term alone 5.4e-3 (its static change 8.7e-4
+and the phase drift of the rod's first mode, softened by it, 4.5e-3), against a true model-form
+error, the converged exact bar against the converged ANCF reference, of 2.9e-4; without it the
+estimate is 5.4e-4 (the curvature's eta''^2 eta'^6 and the strain's eta'^6 / 16: static 1.7e-4,
+drift 3.7e-4).
 
-What it leaves out: the strain's share of the curvature (eps eta''^2 terms: of the order N/lambda, and the axial ringing averages them out: the slider-crank's
-change is the same with and without them), resonance of the change itself, the response of the
+What it leaves out: the strain's share of the curvature (eps eta''^2 terms: of the order N/lambda,
+and the axial ringing averages them out: the slider-crank's change is the same with and without
+them; the exact bar has them to fourth order with dynamic axial amplitudes), the strain's terms
+second order in eps (eps^2 eta'^2), resonance of the change itself, the response of the
 rigid coordinates of a closed loop to dq; slot guides (their span moves along the guide) are not
 estimated and the method text names them. Measured against von Karman vs exact runs in
 docs/exact-bars.md and against the validation suite's references in benchmarks/RESULTS.md.
@@ -97,6 +109,11 @@ STRAIN_LEFT_OUT = True
 #: |r'| - 1 = zeta' + s/2 + s^2/8 + s^3/16 + ... (zeta' = sqrt(1 - s) - 1 + the stretch): von Karman
 #: 1 (s/2), the exact bar 2 (s/2 + s^2/8: symgen/model/bars.py, table C5, DERIVE_VERSION 8)
 STRAIN_ORDER = {"von_karman": 1, "exact": 2}
+#: the strains whose energy keeps the stretch's -eps eta'^2 / 2 of the exact |r'| - 1 =
+#: eps (1 - eta'^2 / 2) + ... (the exact bar, DERIVE_VERSION 9: -(lambda/2) int (P eps)^2 eta'^2,
+#: table Q4 of symgen/model/bars.py), on a bar with dynamic axial amplitudes only: a quasi-static or
+#: inextensible bar holds P eps = 0 and has the term nowhere (the estimate charges it there)
+STRETCH_KEPT = {"von_karman": False, "exact": True}
 #: the coefficients of s^n in 1 - sqrt(1 - s), n = 1, 2, 3, 4
 _STRAIN_SERIES = (0.5, 0.125, 0.0625, 0.0390625)
 #: the largest eta'^2 the series is evaluated at
@@ -179,6 +196,7 @@ class _Bar:
         g_idx: tuple[int, ...],
         order: int,
         strain_order: int = 1,
+        stretch_kept: bool = False,
     ) -> None:
         self.name, self.f_idx, self.g_idx, self.order = name, list(f_idx), list(g_idx), order
         self.strain_order = strain_order
@@ -199,6 +217,8 @@ class _Bar:
         self.lam, self.mu = float(sc.lam or 0.0), float(sc.mu or 0.0)
         rows = [i for i, r in enumerate(mech.info.lam_rows) if r.kind is RowKind.INEXTENSIBLE and r.joint == name]
         self.n_rows = rows  # multipliers N_k of a constrained (quasi-static or inextensible) bar
+        # the bar's energy has the stretch's -eps eta'^2 / 2 (``STRETCH_KEPT``): dynamic axial amplitudes
+        self.stretch_kept = bool(stretch_kept and self.na and not rows)
         # the first bending mode of the bar alone and its frequency (per unit tau): where its free
         # vibration rings (mu Kt v = w^2 M v, by the Cholesky factor of M)
         L = np.linalg.cholesky(M)
@@ -212,14 +232,15 @@ class _Bar:
         int N (eps_x - eps) = int N (c_m s^m - eps eta'^2 / 2), s = eta'^2, m = ``STRAIN_ORDER`` + 1
         the first power the bar's strain leaves out (von Karman: eta'^4 / 8; the exact bar:
         eta'^6 / 16), eps = N / lambda (N held: the axial amplitudes re-equilibrate, to first order
-        the energy changes by N's work). ``g``: one sample's amplitudes, or a stack of them (rows;
+        the energy changes by N's work); the stretch's - eps eta'^2 / 2 only where the bar's energy
+        does not have it (``stretch_kept``). ``g``: one sample's amplitudes, or a stack of them (rows;
         ``N`` likewise): dQ of each row."""
         e1, e2 = g @ self.P1.T, g @ self.P2.T
         h, dh = _residual(e1 * e1, self.order)
         wq = self.w * self.mu
         dQ: np.ndarray = (wq * e2 * h) @ self.P2 + (wq * e2 * e2 * dh * e1) @ self.P1
         if N is not None and STRAIN_LEFT_OUT:
-            soft = N * N / self.lam if self.lam > 0 else 0.0 * N
+            soft = N * N / self.lam if self.lam > 0 and not self.stretch_kept else 0.0 * N
             m = self.strain_order + 1
             left = _STRAIN_SERIES[m - 1] * 2 * m * _power(e1, 2 * m - 1)  # d/d eta' of c_m eta'^(2m)
             dQ = dQ + (self.w * (N * left - soft * e1)) @ self.P1
@@ -314,11 +335,12 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         )
     order = EXACT_ORDER if eff.strain == "exact" else 0
     strain_order = STRAIN_ORDER.get(eff.strain, 1)
+    stretch_kept = STRETCH_KEPT.get(eff.strain, False)
     structure = mech.info.structure
     bodies = {b["name"]: b for b in structure["bodies"]}
     guides = _guides(structure)
     bars = [
-        _Bar(mech, name, _samples(bodies[name]), f_idx, g_idx, order, strain_order)
+        _Bar(mech, name, _samples(bodies[name]), f_idx, g_idx, order, strain_order, stretch_kept)
         for name, (f_idx, g_idx) in mech.amplitudes.items()
         if g_idx and not mech.scene.body(name).rigid and name not in guides
     ]
@@ -400,10 +422,14 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     out.update(moved)
     out.update(dict(still))
     left = (
-        "the eighth- and higher-order terms of the exact curvature (eta''^2 eta'^6 / (1 - eta'^2))"
+        "the eighth- and higher-order terms of the exact curvature (eta''^2 eta'^6 / (1 - eta'^2)) and the "
+        "exact strain's eta'^6 / 16"
         if order
-        else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2))"
+        else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2)) and the "
+        "exact strain's eta'^4 / 8 and -eps eta'^2 / 2"
     )
+    if order and any(not b.stretch_kept and b.na for b in bars):
+        left += " (and -eps eta'^2 / 2 where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
         f"plus the phase drift of its first bending mode hardened by them, at {len(rows)} outputs"
