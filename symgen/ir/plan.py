@@ -31,7 +31,7 @@ class StartPlan:
     assembly_dependent: tuple[int, ...]  # the dependent coordinates of the assembly Newton at the guess
     q_guess: tuple[float, ...]  # the raw guess the assembly starts from (initial.guess, deformation, driver)
     v_guess: tuple[float, ...]
-    elastic: tuple[int, ...]  # independent amplitudes: the unknowns of the quasi-static start
+    elastic: tuple[int, ...]  # amplitudes not dependent (quasi-static ones too): the quasi-static start's unknowns
     accel: tuple[int, ...]  # rigid and dependent coordinates: its unknown accelerations
     inextensible_rows: tuple[int, ...]  # inextensibility rows (left out of the singular-position check)
     inextensible_axial: tuple[int, ...]  # their axial amplitudes

@@ -5,7 +5,8 @@ Its inputs are data: the scene, the derived model (``DerivedModel``: the program
 the model's ``ModelInfo`` (names, sizes, the angle drivers' rows) and the ``StartPlan`` the numerics
 made (``symgen.numerics.start.start_plan``), so that the Python runner and the C solver
 handle the closure the same way: the partition of the coordinates into independent and
-dependent ones (chosen at the start and baked in), the dependent coordinates of the assembly,
+dependent ones (chosen at the start and baked in) and the quasi-static amplitudes (algebraic:
+q_h in the slot of a_h in y, no v_h; ``StartPlan.quasi``), the dependent coordinates of the assembly,
 the raw initial guess the assembly Newton starts from (the scene's ``[initial]`` guess and
 deformation, the driver's angle and rate), which coordinates are elastic / rigid for the
 quasi-static start, the rows and columns of the closure Jacobian that decide a singular
