@@ -230,7 +230,9 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
 
 /* Start a run at tau = t0 with parameters p (NULL: the model's defaults) and tolerances rtol,
    atol (<= 0: the model's): assembly, singular-position check, quasi-static start (range and
-   divergence checks), consistent velocities, accelerations and multipliers. s is bound. */
+   divergence checks), consistent velocities, accelerations and multipliers; then, with
+   quasi-static amplitudes (model->nh > 0), z by Newton at fixed x (their values, and a and lam
+   with them; refused when it does not converge). s is bound. */
 SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, double rtol, double atol);
 
 /* Integrate to tau = t_out (> s->t), landing exactly on it, polish z and run the checks. */
