@@ -95,6 +95,15 @@ class SolverPolicy:
     #: multipliers are rational in the factor, linear near 0, so the extrapolation's error is
     #: O(f^2) = 1e-12; the KKT matrix's condition grows as 1/f (round-off ~1e-10 of them).
     free_inertia_factor: float = 1e-6
+    #: Newton on the algebraic equations at the start of a run with quasi-static transverse
+    #: amplitudes (``bodies.<name>.quasi_static_transverse``; from the full model's consistent
+    #: start, where they are dynamic): converged when its step is below this fraction of
+    #: max(1, max |z|) (a few hundred ulps of the O(1) coordinates in z) ...
+    quasi_start_tol: float = 1e-13
+    #: ... else refused after this many iterations (Newton converges quadratically from the
+    #: dynamic start; a quasi-static function near buckling does not converge). The Python path
+    #: (``symgen.numerics.simulate``) and the C runtime (symgen_quasi_start_) read both.
+    quasi_start_maxit: int = 30
 
     def as_dict(self) -> dict:
         return asdict(self)

@@ -27,11 +27,11 @@ class StartPlan:
     of the run checks."""
 
     independent: tuple[int, ...]  # the partition at the assembled start: differential coordinates
-    dependent: tuple[int, ...]  # ... and the dependent rigid ones (one per multiplier row)
+    dependent: tuple[int, ...]  # ... the dependent rigid ones (one per multiplier row) ...
     assembly_dependent: tuple[int, ...]  # the dependent coordinates of the assembly Newton at the guess
     q_guess: tuple[float, ...]  # the raw guess the assembly starts from (initial.guess, deformation, driver)
     v_guess: tuple[float, ...]
-    elastic: tuple[int, ...]  # independent amplitudes: the unknowns of the quasi-static start
+    elastic: tuple[int, ...]  # amplitudes not dependent (quasi-static ones too): the quasi-static start's unknowns
     accel: tuple[int, ...]  # rigid and dependent coordinates: its unknown accelerations
     inextensible_rows: tuple[int, ...]  # inextensibility rows (left out of the singular-position check)
     inextensible_axial: tuple[int, ...]  # their axial amplitudes
@@ -44,10 +44,19 @@ class StartPlan:
     # where the run records the model's own
     free_inertia: tuple[int, ...] = ()
     start_forces: tuple[int, ...] = ()
+    # ... and the quasi-static amplitudes (``Mechanism.quasi``; algebraic, as in the Python
+    # path's ``symgen.numerics.index1.Partition.quasi``): the run's partition is
+    # independent | dependent | quasi; the start (assembly, quasi-static start, consistent
+    # state) is the full model's, every amplitude dynamic
+    quasi: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         n = len(self.q_guess)
-        for what, idx in (("free_inertia", self.free_inertia), ("start_forces", self.start_forces)):
+        for what, idx in (
+            ("free_inertia", self.free_inertia),
+            ("start_forces", self.start_forces),
+            ("quasi", self.quasi),
+        ):
             if len(set(idx)) != len(idx) or any(i < 0 for i in idx):
                 raise ValueError(f"a start plan whose {what} {idx} are not distinct indices")
         if bool(self.free_inertia) != bool(self.start_forces):
@@ -55,16 +64,18 @@ class StartPlan:
                 f"a start plan with free_inertia {self.free_inertia} and start_forces {self.start_forces}: "
                 "both or neither"
             )
-        ind, dep = set(self.independent), set(self.dependent)
+        ind, dep, quasi = set(self.independent), set(self.dependent), set(self.quasi)
         if (
             len(self.v_guess) != n
             or ind & dep
-            or ind | dep != set(range(n))
+            or quasi & (ind | dep)
+            or ind | dep | quasi != set(range(n))
             or len(ind) != len(self.independent)
             or len(dep) != len(self.dependent)
         ):
             raise ValueError(
-                f"a start plan whose partition {self.independent} | {self.dependent} does not split the {n} coordinates"
+                f"a start plan whose partition {self.independent} | {self.dependent} | {self.quasi} "
+                f"does not split the {n} coordinates"
             )
         if len(self.assembly_dependent) != len(self.dependent):
             raise ValueError("the assembly and the run have different numbers of dependent coordinates")

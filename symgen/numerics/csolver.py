@@ -76,7 +76,7 @@ def emitted_key(mech: Mechanism, plan: StartPlan) -> str:
     params = list(mech.info.params)
     data = {
         "prefix": c_prefix(scene),
-        "start": dataclasses.asdict(plan),
+        "start": dataclasses.asdict(plan),  # the partition, its quasi-static amplitudes included
         "quasi_static": bool(scene.initial.quasi_static),
         "parameters": [[r.name, r.valid.text(), r.key] for r in parameter_records(scene, params)],
         "outputs": list(mech.info.outputs),
@@ -158,15 +158,19 @@ PLAN_SOURCES = (
 
 def _plan_question(mech: Mechanism) -> dict[str, object]:
     """What a scene's start plan is a function of: the scene (its canonical hash, after the
-    overrides), its model (the structure key), symgen's version and the code that plans."""
+    overrides), its model (the structure key), symgen's version, the code that plans, and the
+    quasi-static functions the loaded scene holds (each bar's count and whether symgen chose it,
+    ``symgen.scene.bases.quasi_choice``: the choice's code is not in the scene's hash)."""
     root = Path(__file__).resolve().parent.parent
     code = hashlib.sha256(b"".join((root / s).read_bytes() for s in PLAN_SOURCES)).hexdigest()
+    chosen = {c.bar: c.quasi for c in mech.scene.bases if c.quasi}
     return {
         "question": "c-start-plan",
         "scene": mech.scene.hash,
         "model": mech.info.key,
         "symgen": __version__,
         "code": code,
+        "quasi": [[b.name, b.quasi_static_transverse, chosen.get(b.name, 0)] for b in mech.scene.bodies],
     }
 
 

@@ -237,7 +237,7 @@ class DaeRunner:
         does not converge (a quasi-static function near buckling: keep it dynamic)."""
         p = np.concatenate([self.mech.p, [t0]])
         z = np.array(z, dtype=float)
-        for _ in range(QUASI_START_MAXIT):
+        for _ in range(POLICY.quasi_start_maxit):
             g, J = self.g(0.0, x, z, p)
             try:
                 dz = np.linalg.solve(np.array(J), np.array(g).ravel())
@@ -246,7 +246,7 @@ class DaeRunner:
             z = z - dz
             if not np.all(np.isfinite(z)):
                 break
-            if np.abs(dz).max() <= QUASI_START_TOL * max(1.0, np.abs(z).max()):
+            if np.abs(dz).max() <= POLICY.quasi_start_tol * max(1.0, np.abs(z).max()):
                 return z
         raise SimulationError(
             t0,
@@ -738,10 +738,6 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
     exc = interrupt.interrupted(err, traj.taus[n - 1] if n else t0)
     return exc if isinstance(exc, (SimulationError, Interrupted)) else None
 
-
-#: Newton on the algebraic equations for the quasi-static amplitudes at the start: at most this
-#: many iterations, converged when the step is below this fraction of the largest |z|.
-QUASI_START_MAXIT, QUASI_START_TOL = 30, 1e-13
 
 #: The Functions of a runner that a compiled library holds, in its order.
 COMPILED = ("dae", "jac_dae", "g", "split", "rec")

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
-from symgen.errors import SceneError, SimulationError
+from symgen.errors import SimulationError
 from symgen.ir.plan import AmplitudeGroup, StartPlan
 from symgen.ir.records import CoordKind
 from symgen.numerics import checks
@@ -107,25 +107,15 @@ def start_plan(mech: Mechanism) -> StartPlan:
     this start chooses (at the guess, for the assembly, and at the assembled position, for the
     run), the guess itself, and the index sets of the quasi-static start and of the checks.
     Runs the whole start once, so a scene the Python start refuses is refused here too.
-    Quasi-static transverse functions (``bodies.<name>.quasi_static_transverse``) are refused:
-    the emitted solver integrates every amplitude (docs/quasi-static-modes.md); those symgen
-    chose itself (``symgen.scene.bases.quasi_choice``) are integrated as dynamic there, the
-    model its choice was checked against. The index sets of the continuum's start joint forces
+    The run's partition is the IDAS run's (``Mechanism.run_partition``): the quasi-static
+    transverse amplitudes (``Mechanism.quasi``: stated by ``bodies.<name>.quasi_static_transverse``
+    or chosen by ``symgen.scene.bases.quasi_choice``) are neither independent nor dependent, and
+    the C start solves them from their rows after the full model's start, as IDAS's does
+    (docs/quasi-static-modes.md). The index sets of the continuum's start joint forces
     (``free_inertia_parameters``, ``start_force_outputs``) let the C start take the same limit
     with the run's parameters."""
-    chosen = {c.bar for c in mech.scene.bases if c.quasi}
-    axial = {i for c in mech.scene.bases if c.quasi_axial for i in mech.amplitudes[c.bar][0]}
-    stated = [i for i in mech.quasi if mech.coords[i].body not in chosen and i not in axial]
-    if stated:
-        body = mech.coords[stated[0]].body
-        raise SceneError(
-            mech.scene.path,
-            f"bodies.{body}.quasi_static_transverse",
-            "the emitted C solver (--solver c, emit-c, emit-fmu) does not treat functions quasi-statically",
-            "leave out quasi_static_transverse (every function dynamic) for the C solver, or run with IDAS "
-            "(without --solver c)",
-        )
     _, _, _, _, part, (q0, v0), assembly = _start(mech, 0.0)
+    run = mech.run_partition(part)
     info = mech.info
     dep = set(part.dep)
     inext_rows, inext_axial = info.inextensible_rows, info.inextensible_axial
@@ -133,8 +123,8 @@ def start_plan(mech: Mechanism) -> StartPlan:
     # the dependent coordinates are rigid but with inextensible rows, where the start's are the model's
     assert not (forces and set(info.elastic) & dep), "a continuum start with a dependent amplitude"
     return StartPlan(
-        independent=tuple(part.ind),
-        dependent=tuple(part.dep),
+        independent=tuple(run.ind),
+        dependent=tuple(run.dep),
         assembly_dependent=tuple(assembly.dep),
         q_guess=tuple(float(x) for x in q0),
         v_guess=tuple(float(x) for x in v0),
@@ -149,6 +139,7 @@ def start_plan(mech: Mechanism) -> StartPlan:
         # unstressed on `elastic`: here every amplitude, the dependent ones being rigid)
         free_inertia=free_inertia_parameters(mech) if forces else (),
         start_forces=forces,
+        quasi=tuple(run.quasi),
     )
 
 

@@ -1446,7 +1446,7 @@ def quasi_choice(
     modes they remove) stays within what the accuracy leaves over the bases' own estimate:
     ``accuracy - max(estimate)``. A function that moves a joint is not taken (nor any below it).
     Kept only where it lowers the fastest mode the run rings (:attr:`CoupledCheck.fastest`) by
-    QUASI_GAIN. IDAS runs only: the emitted C solver integrates every function."""
+    QUASI_GAIN. IDAS and the emitted C solver treat them alike (StartPlan.quasi)."""
     acc = scene.simulation.accuracy
     limit = _quasi_candidates(scene, choices, stated, model.model.inextensible)
     budget = math.sqrt(max(acc * acc - max(c.estimate for c in choices.values()) ** 2, 0.0))
@@ -1546,7 +1546,7 @@ def _quasi_reason(
     none = f"{lead}every {family} function dynamic: "
     if k and last is not None:
         return (
-            f"{lead}the highest {k} of its {n} {family} functions are quasi-static (IDAS runs): above its "
+            f"{lead}the highest {k} of its {n} {family} functions are quasi-static: above its "
             f"{band} dynamic, they change the coupled modes by {last.estimate:.2g} of peak "
             f"(with the other quasi-static functions; the most at {last.omega:.4g} per unit tau, {last.what}), "
             f"within the {max(budget, 0.0):.2g} the accuracy {acc:g} leaves over the bases' estimate, and lower "

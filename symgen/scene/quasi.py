@@ -7,8 +7,8 @@ from __future__ import annotations
 from symgen.scene.model import Scene
 
 
-#: said of the functions symgen chose quasi-static
-C_PATH = "the emitted C solver (--solver c, emit-c, emit-fmu) integrates them as dynamic"
+#: said of every bar's quasi-static functions (symgen's choice or the file's): the paths that treat them
+C_PATH = "IDAS and the emitted C solver (--solver c, emit-c, emit-fmu) alike"
 
 
 def quasi_static_reasons(scene: Scene) -> dict[str, tuple[int, str]]:
@@ -21,7 +21,10 @@ def quasi_static_reasons(scene: Scene) -> dict[str, tuple[int, str]]:
         k = body.quasi_static_transverse
         c = choices.get(body.name)
         if not body.rigid and c is not None and c.quasi_reason and c.quasi == k:  # symgen's choice
-            out[body.name] = (k, f"chosen: {c.quasi_reason}" + (f"; {C_PATH}" if k or c.quasi_axial else ""))
+            out[body.name] = (
+                k,
+                f"chosen: {c.quasi_reason}" + (f"; quasi-static in {C_PATH}" if k or c.quasi_axial else ""),
+            )
             continue
         if body.rigid or not k:
             continue
@@ -30,7 +33,7 @@ def quasi_static_reasons(scene: Scene) -> dict[str, tuple[int, str]]:
             f"the highest {k} of its {nt} transverse functions are quasi-static "
             f"(bodies.{body.name}.quasi_static_transverse = {k}): their stiffness and every load on them, "
             "the inertia loads of the rigid motion and of the other functions included, but no inertia "
-            "of their own: algebraic amplitudes, no eigenvalues for IDAS to follow"
+            f"of their own: algebraic amplitudes, no eigenvalues for the integrator to follow ({C_PATH})"
         )
         if c is not None and c.omega_bending:
             dyn = c.dynamic[1]

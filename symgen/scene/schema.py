@@ -325,11 +325,10 @@ BODIES = Table(
             "rigid motion and of the other functions included, but not their own inertia, so their amplitudes "
             "are algebraic (solved at each instant) and add no eigenvalues for the integrator to follow "
             "(docs/quasi-static-modes.md). Their rates read 0. Refused where such a function moves a joint "
-            "(an interior pin of the bar), on a slot's guide and with polynomial transverse_shapes; "
-            "IDAS runs only (--solver c and the emitted C refuse it). Absent on a bar whose transverse_modes "
-            "symgen chooses: symgen chooses it from the mechanism's coupled modes where that saves integration "
-            "steps within simulation.accuracy (IDAS runs; the C solver integrates those functions as dynamic); "
-            "state 0 to keep every function dynamic.",
+            "(an interior pin of the bar), on a slot's guide and with polynomial transverse_shapes. "
+            "IDAS and the emitted C solver (--solver c, emit-c, emit-fmu) treat them alike. Absent on a bar "
+            "whose transverse_modes symgen chooses: symgen chooses it from the mechanism's coupled modes where "
+            "that saves integration steps within simulation.accuracy; state 0 to keep every function dynamic.",
             {"type": "integer", "minimum": 0},
             default="0 (every function dynamic); chosen by symgen where transverse_modes is absent",
             example="2",

@@ -137,7 +137,7 @@ static symgen_model model = {
     coordinate_names, parameter_names, parameter_range, parameter_defaults, m_valid,
     0, no_checks, unused,
     m_phi, m_phid, m_phidd, m_res, m_out, m_closure, m_phi_jac, m_phid_jac, m_phidd_jac, m_res_jac,
-    { 1e-13, 1e-10, 60, 1e-4, 0.5, 1e-7, 0.05, 1e-6, 1e-12, 1e-8, 1e-4, 50, 1e-13, 8, 1e-4, 0.25, 0.1, 1e-9, 1e-6 },
+    { 1e-13, 1e-10, 60, 1e-4, 0.5, 1e-7, 0.05, 1e-6, 1e-12, 1e-8, 1e-4, 50, 1e-13, 8, 1e-4, 0.25, 0.1, 1e-9, 1e-6, 1e-13, 30 },
     { { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
       { { 0.0944387624889752414875, -0.141255295020954208428, -0.0300291941051474244919 },
         { 0.250213122965333311377, 0.204129352293799931996, 0.382942112757261937795 },
@@ -149,7 +149,8 @@ static symgen_model model = {
       3.63783425274449573221, 2.6810828736277521339, 3.05043019924741056943,
       7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2 },
     4,   /* nout */
-    0, NULL, 0, NULL   /* no continuum start (n_free, free_params, n_start_forces, start_forces) */
+    0, NULL, 0, NULL,   /* no continuum start (n_free, free_params, n_start_forces, start_forces) */
+    0, NULL   /* no quasi-static amplitude (nh, quasi) */
 };
 
 /* ------------------------------------------------------------------ checks */
@@ -333,7 +334,7 @@ static double p[1], y[SYMGEN_NY_(2, 1, 1, 1)];
 
 static void test_radau(void)
 {
-    double out[4], q[2], v[2], worst = 0.0, clo = 0.0, lam = 0.0;
+    double out[4], q[2], v[2], a[2], worst = 0.0, clo = 0.0, lam = 0.0;
     long used = symgen_bind(&solver, &model, p, y, work, iwork);
     int k, rc;
     check(used == (long)(sizeof(work) / sizeof(double)), "symgen_bind uses SYMGEN_WORK_DOUBLES doubles", (double)used);
@@ -343,7 +344,7 @@ static void test_radau(void)
     for (k = 1; k <= 20 && rc == 0; ++k) {
         const double t = 0.5 * k;
         rc = symgen_solver_advance(&solver, t);
-        symgen_model_outputs(&model, solver.t, y, p, q, v, out);
+        symgen_model_outputs(&model, solver.t, y, p, q, v, a, out);
         worst = fmax(worst, fmax(fabs(out[0] - cos(t)), fabs(out[1] - cos(t))));
         worst = fmax(worst, fabs(out[2] + sin(t)));
         clo = fmax(clo, fabs(out[1] - out[0]));

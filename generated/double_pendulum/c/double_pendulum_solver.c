@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int double_pendulum_independent[8] = { 0, 2, 3, 4, 5, 7, 8, 9 };
 const int double_pendulum_dependent[2] = { 1, 6 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int double_pendulum_x_quasi[1] = { -1 };
 const double double_pendulum_q_guess[10] = { -1.2, 0.0, 0.0, 0.0, 0.0, -0.9, 0.0, 0.0, 0.0, 0.0 };
 const double double_pendulum_v_guess[10] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double double_pendulum_v_guess[10] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 
 static const int double_pendulum_x_angle_coords[1] = { -1 };
 static const int double_pendulum_x_angle_rows[1] = { -1 };
 static const int double_pendulum_x_assembly_dep[2] = { 1, 6 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int double_pendulum_x_ypos_q[10] = { 0, 16, 1, 2, 3, 4, 17, 5, 6, 7 };
 static const int double_pendulum_x_ypos_v[10] = { 8, 18, 9, 10, 11, 12, 19, 13, 14, 15 };
 static const int double_pendulum_x_ycol[32] = { 0, 16, 1, 2, 3, 4, 17, 5, 6, 7, 8, 18, 9, 10, 11, 12, 19, 13, 14, 15, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31 };
@@ -105,7 +108,7 @@ const symgen_model double_pendulum_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -116,7 +119,8 @@ const symgen_model double_pendulum_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     4,      /* nout */
-    0, double_pendulum_x_free_params, 0, double_pendulum_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    0, double_pendulum_x_free_params, 0, double_pendulum_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, double_pendulum_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -176,8 +180,8 @@ void double_pendulum_state_of(const double *y, double *q, double *v, double *a, 
 
 void double_pendulum_outputs_of(const double_pendulum_solver *s, double t, const double *y, double *out)
 {
-    double q[10], v[10];
-    symgen_model_outputs(&double_pendulum_model, t, y, s->p, q, v, out);
+    double q[10], v[10], a[10];
+    symgen_model_outputs(&double_pendulum_model, t, y, s->p, q, v, a, out);
 }
 
 void double_pendulum_solver_counters(const double_pendulum_solver *s, double *stats)

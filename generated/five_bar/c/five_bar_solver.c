@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int five_bar_independent[5] = { 3, 4, 5, 6, 7 };
 const int five_bar_dependent[4] = { 0, 1, 8, 2 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int five_bar_x_quasi[1] = { -1 };
 const double five_bar_q_guess[9] = { -0.0, 1.5707963267948966, 1.65, 0.0, 0.0, 0.0, 0.0, 0.0, 2.42 };
 const double five_bar_v_guess[9] = { 1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double five_bar_v_guess[9] = { 1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 static const int five_bar_x_angle_coords[2] = { 0, 1 };
 static const int five_bar_x_angle_rows[2] = { 2, 3 };
 static const int five_bar_x_assembly_dep[4] = { 0, 1, 8, 2 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int five_bar_x_ypos_q[9] = { 10, 11, 13, 0, 1, 2, 3, 4, 12 };
 static const int five_bar_x_ypos_v[9] = { 14, 15, 17, 5, 6, 7, 8, 9, 16 };
 static const int five_bar_x_ycol[31] = { 10, 11, 13, 0, 1, 2, 3, 4, 12, 14, 15, 17, 5, 6, 7, 8, 9, 16, 18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30 };
@@ -101,7 +104,7 @@ const symgen_model five_bar_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -112,7 +115,8 @@ const symgen_model five_bar_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     9,      /* nout */
-    0, five_bar_x_free_params, 0, five_bar_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    0, five_bar_x_free_params, 0, five_bar_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, five_bar_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -172,8 +176,8 @@ void five_bar_state_of(const double *y, double *q, double *v, double *a, double 
 
 void five_bar_outputs_of(const five_bar_solver *s, double t, const double *y, double *out)
 {
-    double q[9], v[9];
-    symgen_model_outputs(&five_bar_model, t, y, s->p, q, v, out);
+    double q[9], v[9], a[9];
+    symgen_model_outputs(&five_bar_model, t, y, s->p, q, v, a, out);
 }
 
 void five_bar_solver_counters(const five_bar_solver *s, double *stats)

@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int four_bar_independent[24] = { 1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 14, 15, 16, 17, 19, 20, 21, 22, 23, 24, 25, 26 };
 const int four_bar_dependent[3] = { 0, 18, 9 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int four_bar_x_quasi[1] = { -1 };
 const double four_bar_q_guess[27] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 const double four_bar_v_guess[27] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double four_bar_v_guess[27] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.
 static const int four_bar_x_angle_coords[1] = { 0 };
 static const int four_bar_x_angle_rows[1] = { 2 };
 static const int four_bar_x_assembly_dep[3] = { 0, 18, 9 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int four_bar_x_ypos_q[27] = { 48, 0, 1, 2, 3, 4, 5, 6, 7, 50, 8, 9, 10, 11, 12, 13, 14, 15, 49, 16, 17, 18, 19, 20, 21, 22, 23 };
 static const int four_bar_x_ypos_v[27] = { 51, 24, 25, 26, 27, 28, 29, 30, 31, 53, 32, 33, 34, 35, 36, 37, 38, 39, 52, 40, 41, 42, 43, 44, 45, 46, 47 };
 static const int four_bar_x_ycol[84] = { 48, 0, 1, 2, 3, 4, 5, 6, 7, 50, 8, 9, 10, 11, 12, 13, 14, 15, 49, 16, 17, 18, 19, 20, 21, 22, 23, 51, 24, 25, 26, 27, 28, 29, 30, 31, 53, 32, 33, 34, 35, 36, 37, 38, 39, 52, 40, 41, 42, 43, 44, 45, 46, 47, 54, 55, 56, 57, 58, 59, 60, 61, 62, 63, 64, 65, 66, 67, 68, 69, 70, 71, 72, 73, 74, 75, 76, 77, 78, 79, 80, 81, 82, 83 };
@@ -109,7 +112,7 @@ const symgen_model four_bar_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -120,7 +123,8 @@ const symgen_model four_bar_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     7,      /* nout */
-    0, four_bar_x_free_params, 0, four_bar_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    0, four_bar_x_free_params, 0, four_bar_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, four_bar_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -180,8 +184,8 @@ void four_bar_state_of(const double *y, double *q, double *v, double *a, double 
 
 void four_bar_outputs_of(const four_bar_solver *s, double t, const double *y, double *out)
 {
-    double q[27], v[27];
-    symgen_model_outputs(&four_bar_model, t, y, s->p, q, v, out);
+    double q[27], v[27], a[27];
+    symgen_model_outputs(&four_bar_model, t, y, s->p, q, v, a, out);
 }
 
 void four_bar_solver_counters(const four_bar_solver *s, double *stats)

@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int four_bar_tool_independent[8] = { 3, 4, 5, 6, 7, 8, 9, 10 };
 const int four_bar_tool_dependent[3] = { 0, 2, 1 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int four_bar_tool_x_quasi[1] = { -1 };
 const double four_bar_tool_q_guess[11] = { -0.0, 1.7, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 const double four_bar_tool_v_guess[11] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double four_bar_tool_v_guess[11] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.
 static const int four_bar_tool_x_angle_coords[1] = { 0 };
 static const int four_bar_tool_x_angle_rows[1] = { 2 };
 static const int four_bar_tool_x_assembly_dep[3] = { 0, 2, 1 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int four_bar_tool_x_ypos_q[11] = { 16, 18, 17, 0, 1, 2, 3, 4, 5, 6, 7 };
 static const int four_bar_tool_x_ypos_v[11] = { 19, 21, 20, 8, 9, 10, 11, 12, 13, 14, 15 };
 static const int four_bar_tool_x_ycol[36] = { 16, 18, 17, 0, 1, 2, 3, 4, 5, 6, 7, 19, 21, 20, 8, 9, 10, 11, 12, 13, 14, 15, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32, 33, 34, 35 };
@@ -101,7 +104,7 @@ const symgen_model four_bar_tool_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -112,7 +115,8 @@ const symgen_model four_bar_tool_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     6,      /* nout */
-    0, four_bar_tool_x_free_params, 0, four_bar_tool_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    0, four_bar_tool_x_free_params, 0, four_bar_tool_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, four_bar_tool_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -172,8 +176,8 @@ void four_bar_tool_state_of(const double *y, double *q, double *v, double *a, do
 
 void four_bar_tool_outputs_of(const four_bar_tool_solver *s, double t, const double *y, double *out)
 {
-    double q[11], v[11];
-    symgen_model_outputs(&four_bar_tool_model, t, y, s->p, q, v, out);
+    double q[11], v[11], a[11];
+    symgen_model_outputs(&four_bar_tool_model, t, y, s->p, q, v, a, out);
 }
 
 void four_bar_tool_solver_counters(const four_bar_tool_solver *s, double *stats)

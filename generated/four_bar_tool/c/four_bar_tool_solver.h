@@ -77,7 +77,7 @@ typedef struct four_bar_tool_solver {
     /* public, read-only between calls */
     double p[18];         /* parameter values used by this run */
     double t;                   /* current tau */
-    double y[36];               /* [q_I, v_I, q_D, v_D, a, lam] */
+    double y[36];               /* [q_I, v_I, q_D, v_D, a, lam]; a quasi-static amplitude q_h in the slot of a_h */
     double rtol, atol;          /* tolerances asked for */
     long n_steps, n_accepted, n_rejected, n_jacobians, n_factorizations, n_residuals;
     double closure_max;         /* max |loop closure| seen at the output times */

@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int motor_arm_independent[6] = { 0, 1, 2, 3, 4, 5 };
 const int motor_arm_dependent[1] = { -1 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int motor_arm_x_quasi[1] = { -1 };
 const double motor_arm_q_guess[6] = { -1.5707963267948966, 0.0, 0.0, 0.0, 0.0, -1.5707963267948966 };
 const double motor_arm_v_guess[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double motor_arm_v_guess[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 static const int motor_arm_x_angle_coords[1] = { -1 };
 static const int motor_arm_x_angle_rows[1] = { -1 };
 static const int motor_arm_x_assembly_dep[1] = { -1 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int motor_arm_x_ypos_q[6] = { 0, 1, 2, 3, 4, 5 };
 static const int motor_arm_x_ypos_v[6] = { 6, 7, 8, 9, 10, 11 };
 static const int motor_arm_x_ycol[18] = { 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17 };
@@ -101,7 +104,7 @@ const symgen_model motor_arm_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -112,7 +115,8 @@ const symgen_model motor_arm_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     3,      /* nout */
-    0, motor_arm_x_free_params, 0, motor_arm_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    0, motor_arm_x_free_params, 0, motor_arm_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, motor_arm_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -172,8 +176,8 @@ void motor_arm_state_of(const double *y, double *q, double *v, double *a, double
 
 void motor_arm_outputs_of(const motor_arm_solver *s, double t, const double *y, double *out)
 {
-    double q[6], v[6];
-    symgen_model_outputs(&motor_arm_model, t, y, s->p, q, v, out);
+    double q[6], v[6], a[6];
+    symgen_model_outputs(&motor_arm_model, t, y, s->p, q, v, a, out);
 }
 
 void motor_arm_solver_counters(const motor_arm_solver *s, double *stats)

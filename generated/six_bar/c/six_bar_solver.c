@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int six_bar_independent[9] = { 4, 5, 6, 7, 8, 9, 10, 11, 12 };
 const int six_bar_dependent[5] = { 0, 13, 3, 2, 1 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int six_bar_x_quasi[1] = { -1 };
 const double six_bar_q_guess[14] = { -0.0, 1.7, 0.12, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.52 };
 const double six_bar_v_guess[14] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double six_bar_v_guess[14] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 static const int six_bar_x_angle_coords[1] = { 0 };
 static const int six_bar_x_angle_rows[1] = { 4 };
 static const int six_bar_x_assembly_dep[5] = { 0, 13, 3, 2, 1 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int six_bar_x_ypos_q[14] = { 18, 22, 21, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 19 };
 static const int six_bar_x_ypos_v[14] = { 23, 27, 26, 25, 9, 10, 11, 12, 13, 14, 15, 16, 17, 24 };
 static const int six_bar_x_ycol[47] = { 18, 22, 21, 20, 0, 1, 2, 3, 4, 5, 6, 7, 8, 19, 23, 27, 26, 25, 9, 10, 11, 12, 13, 14, 15, 16, 17, 24, 28, 29, 30, 31, 32, 33, 34, 35, 36, 37, 38, 39, 40, 41, 42, 43, 44, 45, 46 };
@@ -101,7 +104,7 @@ const symgen_model six_bar_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -112,7 +115,8 @@ const symgen_model six_bar_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     8,      /* nout */
-    0, six_bar_x_free_params, 0, six_bar_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    0, six_bar_x_free_params, 0, six_bar_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, six_bar_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -172,8 +176,8 @@ void six_bar_state_of(const double *y, double *q, double *v, double *a, double *
 
 void six_bar_outputs_of(const six_bar_solver *s, double t, const double *y, double *out)
 {
-    double q[14], v[14];
-    symgen_model_outputs(&six_bar_model, t, y, s->p, q, v, out);
+    double q[14], v[14], a[14];
+    symgen_model_outputs(&six_bar_model, t, y, s->p, q, v, a, out);
 }
 
 void six_bar_solver_counters(const six_bar_solver *s, double *stats)

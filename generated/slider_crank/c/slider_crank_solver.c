@@ -47,6 +47,8 @@
 /* ------------------------------------------------------------------ the model's tables */
 const int slider_crank_independent[2] = { 2, 3 };
 const int slider_crank_dependent[2] = { 0, 1 };
+/* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
+static const int slider_crank_x_quasi[1] = { -1 };
 const double slider_crank_q_guess[4] = { -0.0, 0.0, 0.0, 0.0 };
 const double slider_crank_v_guess[4] = { 1.0, 0.0, 0.0, 0.0 };
 
@@ -54,7 +56,8 @@ const double slider_crank_v_guess[4] = { 1.0, 0.0, 0.0, 0.0 };
 static const int slider_crank_x_angle_coords[1] = { 0 };
 static const int slider_crank_x_angle_rows[1] = { 1 };
 static const int slider_crank_x_assembly_dep[2] = { 0, 1 };
-/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam] */
+/* position in y of q_i and of v_i; position in y of every Jacobian column w = [q; v; a; lam]
+   (-1: not in y, a quasi-static amplitude's v and a) */
 static const int slider_crank_x_ypos_q[4] = { 4, 5, 0, 1 };
 static const int slider_crank_x_ypos_v[4] = { 6, 7, 2, 3 };
 static const int slider_crank_x_ycol[14] = { 4, 5, 0, 1, 6, 7, 2, 3, 8, 9, 10, 11, 12, 13 };
@@ -101,7 +104,7 @@ const symgen_model slider_crank_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.25, 0.1, 1e-09,
-        1e-06
+        1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -112,7 +115,8 @@ const symgen_model slider_crank_model = {
         7, 0.001, 0.9, 5.0, 0.125, 1.0, 1.2
     },
     4,      /* nout */
-    1, slider_crank_x_free_params, 1, slider_crank_x_start_forces      /* n_free, free_params, n_start_forces, start_forces */
+    1, slider_crank_x_free_params, 1, slider_crank_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
+    0, slider_crank_x_quasi      /* nh, quasi */
 };
 
 /* ------------------------------------------------------------------ public */
@@ -172,8 +176,8 @@ void slider_crank_state_of(const double *y, double *q, double *v, double *a, dou
 
 void slider_crank_outputs_of(const slider_crank_solver *s, double t, const double *y, double *out)
 {
-    double q[4], v[4];
-    symgen_model_outputs(&slider_crank_model, t, y, s->p, q, v, out);
+    double q[4], v[4], a[4];
+    symgen_model_outputs(&slider_crank_model, t, y, s->p, q, v, a, out);
 }
 
 void slider_crank_solver_counters(const slider_crank_solver *s, double *stats)

@@ -5,7 +5,8 @@ Its inputs are data: the scene, the derived model (``DerivedModel``: the program
 the model's ``ModelInfo`` (names, sizes, the angle drivers' rows) and the ``StartPlan`` the numerics
 made (``symgen.numerics.start.start_plan``), so that the Python runner and the C solver
 handle the closure the same way: the partition of the coordinates into independent and
-dependent ones (chosen at the start and baked in), the dependent coordinates of the assembly,
+dependent ones (chosen at the start and baked in) and the quasi-static amplitudes (algebraic:
+q_h in the slot of a_h in y, no v_h; ``StartPlan.quasi``), the dependent coordinates of the assembly,
 the raw initial guess the assembly Newton starts from (the scene's ``[initial]`` guess and
 deformation, the driver's angle and rate), which coordinates are elastic / rigid for the
 quasi-static start, the rows and columns of the closure Jacobian that decide a singular
@@ -140,7 +141,13 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
     for k, i in enumerate(dep):
         ypos_q[i], ypos_v[i] = nx + k, nx + nD + k
     a0 = nx + 2 * nD
-    ycol = ypos_q + ypos_v + [a0 + i for i in range(n)] + [a0 + n + j for j in range(m)]
+    # a quasi-static amplitude h (symgen.numerics.index1): q_h in the slot of a_h, no v_h, no a_h
+    # (-1: the Jacobian's columns of v_h and a_h are dropped)
+    quasi = list(plan.quasi)
+    for i in quasi:
+        ypos_q[i], ypos_v[i] = a0 + i, -1
+    acol = [-1 if i in quasi else a0 + i for i in range(n)]
+    ycol = ypos_q + ypos_v + acol + [a0 + n + j for j in range(m)]
     params = list(info.params)
     p = parameter_values(scene, params)
     # every angle driver (the scene's order): its angle's coordinate and its row of phi
@@ -203,6 +210,7 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "jac_rows": {k: by_name[k].rows for k in ("phi", "phid", "phidd", "res")},
         "independent": ind,
         "dependent": dep,
+        "quasi": quasi,
         "assembly_dependent": list(plan.assembly_dependent),
         "ypos_q": ypos_q,
         "ypos_v": ypos_v,

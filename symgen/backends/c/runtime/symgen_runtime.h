@@ -58,6 +58,8 @@ typedef struct symgen_policy {
     int polish_maxit;
     double driver_step, deflection_limit, stretch_limit, divergence_rtol;
     double free_inertia_factor;
+    double quasi_start_tol;
+    int quasi_start_maxit;
 } symgen_policy;
 
 /* The 3-stage Radau IIA method and its step control (symgen/backends/c/radau.py) */
@@ -80,6 +82,12 @@ typedef struct symgen_amplitude_check {
  * partition into ni independent and nd dependent coordinates (y = [q_I, v_I, q_D, v_D, a, lam]);
  * ne deformation amplitudes the quasi-static start solves for, nr accelerations it solves for,
  * ns dependent rigid coordinates that decide a singular position.
+ *
+ * Quasi-static amplitudes h (nh of them, `quasi`; docs/quasi-static-modes.md, the Python path's
+ * symgen.numerics.index1): neither independent nor dependent, algebraic: their rates and
+ * accelerations are zero in every equation and the slot of a_h in y holds q_h (ypos_q[h] =
+ * a0 + h, ypos_v[h] = -1; in ycol the columns of v_h and a_h are -1, dropped), so y keeps its
+ * size and the rows res_h (which no longer read a_h) determine q_h.
  */
 typedef struct symgen_model {
     int n, m, np, nclosure, ni, nd, ne, nr, ns;
@@ -117,6 +125,9 @@ typedef struct symgen_model {
     const int *free_params;                  /* [n_free] */
     int n_start_forces;
     const int *start_forces;                 /* [n_start_forces]: indices into out */
+    /* the quasi-static amplitudes (0 and NULL: every amplitude dynamic) */
+    int nh;
+    const int *quasi;                        /* [nh]: indices into q */
 } symgen_model;
 
 /* The sparse LU of an n x n matrix held in dense row-major storage (symgen_linalg.c): the
@@ -144,9 +155,9 @@ typedef struct symgen_splu {
     (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
-     + 14 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
+     + 15 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
 #define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
-    (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 2 * (ne) + 1 \
+    (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 3 * (ne) + 1 \
      + 2 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) + 6 * SYMGEN_NY_(n, m, ni, nd) + 1)
 
 /*
@@ -186,7 +197,9 @@ typedef struct symgen_solver {
     double *as_r, *as_rt, *as_dq, *as_trial, *vel_r, *drv_r, *clo;
     double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;
     double *ct_p, *ct_a, *ct_lam, *start_out, *ct_out;   /* the continuum start: [np], [n], [m], [nout], [nout] */
+    double *ya;                 /* [n]: the accelerations of a state y, a_h = 0 (symgen_accel_) */
     int *pivz, *zrow, *zmid, *zcol, *piv1, *piv2, *sp, *qs_col, *dvpiv;
+    int *dvidx;                 /* [ne]: the dynamic amplitudes of the divergence check */
     /* the Newton matrices factored whole and sparse (the default; else by block elimination,
        dense): the pivots chosen once per Jacobian (analyzed 1; -1: none qualified, dense until
        the next Jacobian), kept while they hold; sparse: the last factorization was; reduced_x:
@@ -217,7 +230,9 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
 
 /* Start a run at tau = t0 with parameters p (NULL: the model's defaults) and tolerances rtol,
    atol (<= 0: the model's): assembly, singular-position check, quasi-static start (range and
-   divergence checks), consistent velocities, accelerations and multipliers. s is bound. */
+   divergence checks), consistent velocities, accelerations and multipliers; then, with
+   quasi-static amplitudes (model->nh > 0), z by Newton at fixed x (their values, and a and lam
+   with them; refused when it does not converge). s is bound. */
 SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, double rtol, double atol);
 
 /* Integrate to tau = t_out (> s->t), landing exactly on it, polish z and run the checks. */
@@ -249,13 +264,14 @@ SYMGEN_API int symgen_solver_dense(symgen_solver *s, double t_out, double t_stop
 SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long n_rows, long *done, long max_rows,
                                   long max_steps, double *rec);
 
-/* The q, v, a, lam of the solver vector y of a model (any pointer may be NULL). */
+/* The q, v, a, lam of the solver vector y of a model (any pointer may be NULL); a quasi-static
+   amplitude's v and a are 0. */
 SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, double *q, double *v, double *a,
                                    double *lam);
 
-/* The model's outputs at tau = t, y, parameters p; q, v: n doubles of scratch. */
+/* The model's outputs at tau = t, y, parameters p; q, v, a: n doubles of scratch. */
 SYMGEN_API void symgen_model_outputs(const symgen_model *model, double t, const double *y, const double *p, double *q,
-                                     double *v, double *out);
+                                     double *v, double *a, double *out);
 
 /* The run's outputs at tau = t, y (those of symgen_solver_rows): the model's, but at the start
    of a run from an unstressed state (t = s->t_start, s->continuum_start), where the model's

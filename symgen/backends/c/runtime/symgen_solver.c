@@ -7,6 +7,8 @@
  * conditioned); deformation amplitudes are independent. With x = [q_I, v_I] differential and
  * z = [q_D, v_D, a, lam] algebraic:
  *     x' = [v_I; a_I],    0 = [phi; phid; res; phidd](t, q, v, a, lam)
+ * Quasi-static amplitudes h (model->quasi) are algebraic, as in the Python path
+ * (symgen/numerics/index1.py): v_h = a_h = 0 in every equation, q_h in the slot of a_h in z.
  * y = [x; z] is integrated by the 3-stage Radau IIA method (order 5, L-stable, stiffly accurate:
  * every step ends on the algebraic equations) with simplified Newton iterations on the stage
  * equations using the analytic Jacobians of the model, and Hairer & Wanner's (RADAU5) error
@@ -177,6 +179,7 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->ct_lam = symgen_take_(&d, m);
     s->start_out = symgen_take_(&d, model->nout);
     s->ct_out = symgen_take_(&d, model->nout);
+    s->ya = symgen_take_(&d, n);
     s->pivz = symgen_itake_(&k, nz);
     s->zrow = symgen_itake_(&k, nz + 1);
     s->zmid = symgen_itake_(&k, nz);
@@ -186,6 +189,7 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->sp = symgen_itake_(&k, nalg);
     s->qs_col = symgen_itake_(&k, nalg);
     s->dvpiv = symgen_itake_(&k, n2);
+    s->dvidx = symgen_itake_(&k, s->ne);
     s->spa = symgen_take_(&d, ny * ny);
     s->spr = symgen_take_(&d, ny * ny);
     s->spi = symgen_take_(&d, ny * ny);
@@ -213,11 +217,41 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
 }
 
 /* ------------------------------------------------------------------ the model in y */
-/* q, v from y (a and lam are slices of y) */
+/* q, v from y (lam is a slice of y; a is, but for the quasi-static amplitudes: symgen_accel_) */
 static void symgen_unpack_(const symgen_solver *s, const double *y, double *q, double *v)
 {
     int i;
-    for (i = 0; i < SYMGEN_NQ(s); ++i) { q[i] = y[s->model->ypos_q[i]]; v[i] = y[s->model->ypos_v[i]]; }
+    for (i = 0; i < SYMGEN_NQ(s); ++i) {
+        const int iv = s->model->ypos_v[i];
+        q[i] = y[s->model->ypos_q[i]];
+        v[i] = iv >= 0 ? y[iv] : 0.0;      /* a quasi-static amplitude: no rate */
+    }
+}
+
+/* the accelerations a of y: its slice, or (quasi-static amplitudes, whose slots hold q_h) a copy
+   in s->ya with a_h = 0 */
+static const double *symgen_accel_(symgen_solver *s, const double *y)
+{
+    const symgen_model *M = s->model;
+    int k;
+    if (M->nh == 0) return y + SYMGEN_A0(s);
+    memcpy(s->ya, y + SYMGEN_A0(s), sizeof(double) * SYMGEN_NQ(s));
+    for (k = 0; k < M->nh; ++k) s->ya[M->quasi[k]] = 0.0;
+    return s->ya;
+}
+
+/* y of a state (q, v, a, lam): a quasi-static amplitude's q in the slot of its a (its v and a
+   are not in y) */
+static void symgen_pack_(const symgen_solver *s, const double *q, const double *v, const double *a, const double *lam,
+                         double *y)
+{
+    int k;
+    for (k = 0; k < SYMGEN_NQ(s); ++k) y[SYMGEN_A0(s) + k] = a[k];
+    for (k = 0; k < SYMGEN_NL(s); ++k) y[SYMGEN_A0(s) + SYMGEN_NQ(s) + k] = lam[k];
+    for (k = 0; k < SYMGEN_NQ(s); ++k) {
+        y[s->model->ypos_q[k]] = q[k];
+        if (s->model->ypos_v[k] >= 0) y[s->model->ypos_v[k]] = v[k];
+    }
 }
 
 /* algebraic equations g = [phi; phid; res; phidd] */
@@ -244,7 +278,7 @@ static void symgen_alg_jac_(symgen_solver *s, double t, const double *q, const d
 static void symgen_rhs_(symgen_solver *s, double t, const double *y, double *out)
 {
     int k;
-    const double *a = y + SYMGEN_A0(s);
+    const double *a = symgen_accel_(s, y);
     const double *lam = y + SYMGEN_A0(s) + SYMGEN_NQ(s);
     symgen_unpack_(s, y, s->q, s->v);
     for (k = 0; k < SYMGEN_NI(s); ++k) {
@@ -261,7 +295,7 @@ static void symgen_rhs_jac_(symgen_solver *s, double t, const double *y)
     int k, r, c;
     const int ny = SYMGEN_NY(s);
     symgen_unpack_(s, y, s->q, s->v);
-    symgen_alg_jac_(s, t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
+    symgen_alg_jac_(s, t, s->q, s->v, symgen_accel_(s, y), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
     memset(s->jac, 0, sizeof(double) * ny * ny);
     for (k = 0; k < SYMGEN_NI(s); ++k) {
         s->jac[k * ny + SYMGEN_NI(s) + k] = 1.0;
@@ -269,7 +303,8 @@ static void symgen_rhs_jac_(symgen_solver *s, double t, const double *y)
     }
     for (r = 0; r < SYMGEN_NALG(s); ++r) {
         for (c = 0; c < SYMGEN_NW(s); ++c) {
-            s->jac[(SYMGEN_NX(s) + r) * ny + s->model->ycol[c]] = s->galg[r * SYMGEN_NW(s) + c];
+            const int col = s->model->ycol[c];
+            if (col >= 0) s->jac[(SYMGEN_NX(s) + r) * ny + col] = s->galg[r * SYMGEN_NW(s) + c];
         }
     }
     s->n_jacobians++;
@@ -517,21 +552,22 @@ static void symgen_reduce_(symgen_solver *s);
    K = g_z^-1 g_x). A real eigenvalue s of A (|Im s| <= tol, tol = divergence_rtol max(1, max |s|))
    above tol is a divergence: the state is an unstable equilibrium, beyond a buckling load, and
    the start is refused, naming the largest such rate and the amplitude that dominates its
-   eigenvector (largest |component| among the q_E; by inverse iteration with A - s I). 0, or fail. */
+   eigenvector (largest |component| among the q_E; by inverse iteration with A - s I). 0, or fail.
+   The amplitudes E are the run's dynamic ones (in x): quasi-static amplitudes follow them in z,
+   their stiffness in K (the linearised motion of the DAE the solver integrates). */
 static int symgen_divergence_(symgen_solver *s, double t, const double *q, const double *v)
 {
-    const int ne = SYMGEN_NE(s), n2 = 2 * SYMGEN_NE(s), nx = SYMGEN_NX(s);
+    const int nx = SYMGEN_NX(s);
     double *a = s->dv_a, *lam = s->dv_lam, scale = 1.0, tol, rate = 0.0, big;
-    int i, j, k, it, coord = -1, regular = 0;
+    int *E = s->dvidx, ne = 0, n2, i, j, k, it, coord = -1, regular = 0;
     s->divergence_rate = 0.0;
+    for (k = 0; k < SYMGEN_NE(s); ++k) {
+        if (s->model->ypos_q[s->model->elastic[k]] < nx) E[ne++] = s->model->elastic[k];
+    }
+    n2 = 2 * ne;
     if (ne == 0) return 0;
     if (symgen_accelerations_(s, t, q, v, a, lam)) return 1;
-    for (k = 0; k < SYMGEN_NQ(s); ++k) {
-        s->y[s->model->ypos_q[k]] = q[k];
-        s->y[s->model->ypos_v[k]] = v[k];
-        s->y[SYMGEN_A0(s) + k] = a[k];
-    }
-    for (k = 0; k < SYMGEN_NL(s); ++k) s->y[SYMGEN_A0(s) + SYMGEN_NQ(s) + k] = lam[k];
+    symgen_pack_(s, q, v, a, lam, s->y);
     symgen_rhs_jac_(s, t, s->y);
     symgen_reduce_(s);
     if (s->gzz_singular) {
@@ -540,11 +576,11 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
     }
     memset(s->dva, 0, sizeof(double) * n2 * n2);
     for (i = 0; i < ne; ++i) {
-        const int row = 2 * SYMGEN_ND(s) + s->model->elastic[i];      /* a_E[i] in z */
+        const int row = 2 * SYMGEN_ND(s) + E[i];      /* a_E[i] in z */
         s->dva[i * n2 + ne + i] = 1.0;
         for (j = 0; j < ne; ++j) {
-            s->dva[(ne + i) * n2 + j] = -s->kzx[row * nx + s->model->ypos_q[s->model->elastic[j]]];
-            s->dva[(ne + i) * n2 + ne + j] = -s->kzx[row * nx + s->model->ypos_v[s->model->elastic[j]]];
+            s->dva[(ne + i) * n2 + j] = -s->kzx[row * nx + s->model->ypos_q[E[j]]];
+            s->dva[(ne + i) * n2 + ne + j] = -s->kzx[row * nx + s->model->ypos_v[E[j]]];
         }
     }
     if (!(symgen_max_abs(s->dva, n2 * n2) <= DBL_MAX)) {
@@ -581,7 +617,7 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
         for (k = 0; k < n2; ++k) s->dvx[k] = s->dvu[k] / big;
     }
     for (k = 0, big = -1.0; regular && k < ne; ++k) {       /* the q_E half: the amplitudes */
-        if (fabs(s->dvx[k]) > big) { big = fabs(s->dvx[k]); coord = s->model->elastic[k]; }
+        if (fabs(s->dvx[k]) > big) { big = fabs(s->dvx[k]); coord = E[k]; }
     }
     s->status = SYMGEN_SOLVER_FAILED;
     snprintf(s->message, SYMGEN_MESSAGE_SIZE, "at tau = %.6g: the quasi-static state is unstable: the deformation grows "
@@ -962,6 +998,10 @@ static int symgen_integrate_(symgen_solver *s, double t_out, double t_stop)
             s->scal[j] = atol + rtol * (j < nx ? fabs(s->y[j]) : s->ymax[j]);
             if (j >= SYMGEN_A0(s) && h < 1.0) s->scal[j] /= h;
         }
+        for (j = 0; j < s->model->nh; ++j) {       /* a quasi-static amplitude is a coordinate: not relaxed */
+            const int at = SYMGEN_A0(s) + s->model->quasi[j];
+            s->scal[at] = atol + rtol * s->ymax[at];
+        }
         memcpy(s->y0, s->y, sizeof(double) * ny);
         /* starting values: the previous step's collocation polynomial, or zero */
         if (s->first || !s->have_cont) {
@@ -1120,6 +1160,19 @@ static int symgen_integrate_(symgen_solver *s, double t_out, double t_stop)
     return 0;
 }
 
+/* g_z, the Jacobian of the algebraic equations in z, from s->galg (symgen_alg_jac_) into s->sq */
+static void symgen_gz_(symgen_solver *s)
+{
+    const int nz = SYMGEN_NZ(s);
+    int r, c;
+    for (r = 0; r < nz; ++r) {
+        for (c = 0; c < SYMGEN_NW(s); ++c) {
+            const int col = s->model->ycol[c];
+            if (col >= SYMGEN_NX(s)) s->sq[r * nz + col - SYMGEN_NX(s)] = s->galg[r * SYMGEN_NW(s) + c];
+        }
+    }
+}
+
 /* Newton on the algebraic equations in z at fixed x (DaeRunner.polish). The first iterations
    use the factored g_z of the integrator's last Jacobian (a chord step costs one solve, no
    Jacobian and no LU), kept while each contracts the residual at least tenfold; then Newton with
@@ -1127,11 +1180,11 @@ static int symgen_integrate_(symgen_solver *s, double t_out, double t_stop)
 static void symgen_polish_(symgen_solver *s, double t, double *y)
 {
     const int nz = SYMGEN_NZ(s);
-    int it, r, c, chord = s->have_jac && !s->gzz_singular;
+    int it, r, chord = s->have_jac && !s->gzz_singular;
     double rn, rn_old = HUGE_VAL;
     for (it = 0; it < s->model->policy.polish_maxit; ++it) {
         symgen_unpack_(s, y, s->q, s->v);
-        symgen_alg_(s, t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s), s->sr);
+        symgen_alg_(s, t, s->q, s->v, symgen_accel_(s, y), y + SYMGEN_A0(s) + SYMGEN_NQ(s), s->sr);
         rn = symgen_max_abs(s->sr, nz);
         if (rn < s->model->policy.polish_tol) break;
         if (chord && !(rn <= 0.1 * rn_old)) {
@@ -1150,17 +1203,39 @@ static void symgen_polish_(symgen_solver *s, double t, double *y)
             it--;                    /* chord steps are not counted against the Newton iterations */
             continue;
         }
-        symgen_alg_jac_(s, t, s->q, s->v, y + SYMGEN_A0(s), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
-        for (r = 0; r < nz; ++r) {
-            for (c = 0; c < SYMGEN_NW(s); ++c) {
-                const int col = s->model->ycol[c] - SYMGEN_NX(s);
-                if (col >= 0) s->sq[r * nz + col] = s->galg[r * SYMGEN_NW(s) + c];
-            }
-        }
+        symgen_alg_jac_(s, t, s->q, s->v, symgen_accel_(s, y), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
+        symgen_gz_(s);
         if (symgen_lu(s->sq, nz, s->sp)) break;
         symgen_lu_solve(s->sq, nz, s->sp, s->sr);
         for (r = 0; r < nz; ++r) y[SYMGEN_NX(s) + r] -= s->sr[r];
     }
+}
+
+/* The quasi-static amplitudes at the start (DaeRunner.quasi_start): z solved from the algebraic
+   equations by Newton at fixed x from the full model's consistent start in s->y, converged when
+   the step is below policy.quasi_start_tol of max(1, max |z|); refused when it does not
+   converge (a quasi-static function near buckling: keep it dynamic). 0, or fail. */
+static int symgen_quasi_start_(symgen_solver *s, double t)
+{
+    const int nz = SYMGEN_NZ(s);
+    double *y = s->y, *z = s->y + SYMGEN_NX(s);
+    int it, r;
+    for (it = 0; it < s->model->policy.quasi_start_maxit; ++it) {
+        double step, size;
+        symgen_unpack_(s, y, s->q, s->v);
+        symgen_alg_(s, t, s->q, s->v, symgen_accel_(s, y), y + SYMGEN_A0(s) + SYMGEN_NQ(s), s->sr);
+        symgen_alg_jac_(s, t, s->q, s->v, symgen_accel_(s, y), y + SYMGEN_A0(s) + SYMGEN_NQ(s));
+        symgen_gz_(s);
+        if (symgen_lu(s->sq, nz, s->sp)) break;
+        symgen_lu_solve(s->sq, nz, s->sp, s->sr);
+        for (r = 0; r < nz; ++r) z[r] -= s->sr[r];
+        size = symgen_max_abs(z, nz);
+        if (!(size <= DBL_MAX)) break;
+        step = symgen_max_abs(s->sr, nz);
+        if (step <= s->model->policy.quasi_start_tol * fmax(1.0, size)) return 0;
+    }
+    return symgen_fail_(s, t, "the quasi-static transverse amplitudes have no solution at the start (Newton does not converge)",
+                        0.0, "lower bodies.<name>.quasi_static_transverse (keep those functions dynamic)");
 }
 
 /* bars deformed beyond the range of the model (Mechanism.beyond_range) in s->q at t: 0, or fail */
@@ -1265,12 +1340,9 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
         if (symgen_velocities_(s, t0, q0, v0)) return s->status;
         if (symgen_accelerations_(s, t0, q0, v0, a, lam)) return s->status;
         symgen_continuum_start_(s, t0, q0, v0);
-        for (k = 0; k < SYMGEN_NQ(s); ++k) {
-            s->y[s->model->ypos_q[k]] = q0[k];
-            s->y[s->model->ypos_v[k]] = v0[k];
-            s->y[SYMGEN_A0(s) + k] = a[k];
-        }
-        for (k = 0; k < SYMGEN_NL(s); ++k) s->y[SYMGEN_A0(s) + SYMGEN_NQ(s) + k] = lam[k];
+        symgen_pack_(s, q0, v0, a, lam, s->y);
+        /* the quasi-static amplitudes: the solution of their rows at the start */
+        if (s->model->nh > 0 && symgen_quasi_start_(s, t0)) return s->status;
     }
     s->first = 1;
     s->need_jac = 1;
@@ -1392,7 +1464,7 @@ SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long
         rc = symgen_solver_dense(s, t, t_stop, s->yd);
         if (rc && !(rc == SYMGEN_SOLVER_FAILED && s->t_dense == t)) break;
         row[0] = t;
-        symgen_model_outputs(M, t, s->yd, s->p, row + 1 + M->nout, row + 1 + M->nout + M->n, row + 1);
+        symgen_model_outputs(M, t, s->yd, s->p, row + 1 + M->nout, row + 1 + M->nout + M->n, s->ya, row + 1);
         symgen_start_forces_(s, t, row + 1);
         for (k = 0; k < M->m; ++k) row[1 + M->nout + 2 * M->n + k] = s->yd[SYMGEN_A0(s) + M->n + k];
         *done = i + 1;
@@ -1408,9 +1480,10 @@ SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, d
     const int a0 = SYMGEN_NX_(model->ni) + 2 * model->nd;
     int k;
     for (k = 0; k < model->n; ++k) {
+        const int quasi = model->ypos_q[k] == a0 + k;      /* a quasi-static amplitude: no v, no a */
         if (q) q[k] = y[model->ypos_q[k]];
-        if (v) v[k] = y[model->ypos_v[k]];
-        if (a) a[k] = y[a0 + k];
+        if (v) v[k] = quasi ? 0.0 : y[model->ypos_v[k]];
+        if (a) a[k] = quasi ? 0.0 : y[a0 + k];
     }
     for (k = 0; k < model->m; ++k) {
         if (lam) lam[k] = y[a0 + model->n + k];
@@ -1418,15 +1491,15 @@ SYMGEN_API void symgen_model_state(const symgen_model *model, const double *y, d
 }
 
 SYMGEN_API void symgen_model_outputs(const symgen_model *model, double t, const double *y, const double *p, double *q,
-                                     double *v, double *out)
+                                     double *v, double *a, double *out)
 {
     const int a0 = SYMGEN_NX_(model->ni) + 2 * model->nd;
-    symgen_model_state(model, y, q, v, NULL, NULL);
-    model->out(t, q, v, y + a0, y + a0 + model->n, p, out);
+    symgen_model_state(model, y, q, v, a, NULL);
+    model->out(t, q, v, a, y + a0 + model->n, p, out);
 }
 
 SYMGEN_API void symgen_solver_outputs(symgen_solver *s, double t, const double *y, double *out)
 {
-    symgen_model_outputs(s->model, t, y, s->p, s->q, s->v, out);
+    symgen_model_outputs(s->model, t, y, s->p, s->q, s->v, s->ya, out);
     symgen_start_forces_(s, t, out);
 }
