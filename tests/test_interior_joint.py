@@ -229,6 +229,8 @@ def test_check_names_the_corrections_and_how_to_drop_them(tmp_path, capsys):
 
     assert main(["check", str(_point_load_scene(tmp_path, "on"))]) == 0
     on = capsys.readouterr().out
-    assert f"static corrections at xi = {A_LOAD:.6g} (transverse; bodies.beam.static_correction = false drops them)" in on
+    assert (
+        f"static corrections at xi = {A_LOAD:.6g} (transverse; bodies.beam.static_correction = false drops them)" in on
+    )
     assert main(["check", str(_point_load_scene(tmp_path, "off", sc=False))]) == 0
     assert "static corrections" not in capsys.readouterr().out
