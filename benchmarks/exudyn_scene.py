@@ -713,8 +713,8 @@ def run(
     tau = tau[tau <= n * step * (1 + 1e-12)]
     data = {}
     for k, d in raw.items():
-        tk, idx = np.unique(d[:, 0], return_index=True)
-        d = d[idx]
+        d = regular_rows(d, step)
+        tk = d[:, 0]
         data[k] = np.column_stack([tau] + [np.interp(tau, tk, d[:, c]) for c in range(1, d.shape[1])])
     out = {}
     for o, keys in wanted:
@@ -723,6 +723,28 @@ def run(
         else:
             out[o.name] = _evaluate(M, o, data, keys, start)
     return ExudynResult(tau, out, cpu, dict(M.counts), step, tuple(skipped), {"steps": n})
+
+
+#: the last step is a sliver when shorter than this fraction of the step
+SLIVER = 1e-3
+
+
+def regular_rows(d: np.ndarray, step: float) -> np.ndarray:
+    """The rows of a sensor's stored data ``d`` (time first) written by the steps the solver
+    took, without a repeated time and without the sliver step at the end: n steps of h reach
+    endTime short by ~1e-9 (round-off over ~1e6 steps) and Exudyn then takes one more step of
+    that size, whose constraint multipliers are meaningless (a steel slider-crank press over 20
+    turns at 128 steps per degree: the driver torque of that step 26 x the regular one's and of
+    the other sign, the reference's last sample 21 % of peak off). A last row later than the one
+    before it by less than ``SLIVER`` x ``step`` is dropped: the grid's last time then reads the
+    last regular row, ~1e-9 earlier. The times must not decrease (a time integration's)."""
+    t = d[:, 0]
+    if np.any(np.diff(t) < 0):
+        raise ValueError("sensor times decrease: not a time integration's record")
+    d = d[np.r_[True, np.diff(t) > 0]]
+    if len(d) > 1 and d[-1, 0] - d[-2, 0] < SLIVER * step:
+        d = d[:-1]
+    return d
 
 
 def to_result_units(scene, tau: np.ndarray, outputs: dict[str, np.ndarray]) -> tuple[np.ndarray, dict]:

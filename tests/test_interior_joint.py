@@ -219,3 +219,18 @@ def test_latex_prints_the_correction_factored(tmp_path):
     assert r"\chi_{0.25} = \frac{1}{t}\Bigl(w_{K}(\xi) - \sum_{k=1}^{4} c_k\,\psi_k(\xi)\Bigr)" in line
     shape = doc[doc.index(line) :].splitlines()[1]
     assert r"\begin{cases}" in shape and "t = " in shape and len(shape) < 600
+
+
+def test_check_names_the_corrections_and_how_to_drop_them(tmp_path, capsys):
+    """`symgen check` lists a bar's static corrections with the key that drops them, and lists
+    none when that key is false (it once read "static_correction = false: none" on a bar whose
+    corrections were on, as if they were off)."""
+    from symgen.cli import main
+
+    assert main(["check", str(_point_load_scene(tmp_path, "on"))]) == 0
+    on = capsys.readouterr().out
+    assert (
+        f"static corrections at xi = {A_LOAD:.6g} (transverse; bodies.beam.static_correction = false drops them)" in on
+    )
+    assert main(["check", str(_point_load_scene(tmp_path, "off", sc=False))]) == 0
+    assert "static corrections" not in capsys.readouterr().out

@@ -54,7 +54,9 @@ def _bar(body, corrections: dict | None = None) -> str:
         kinds = " and ".join(k for k in pts if k != "moment")
         if pts.get("moment"):  # a rigid body with a rotary inertia or an arm: a unit couple's too
             kinds += "; moment at xi = " + ", ".join(f"{x:.6g}" for x in pts["moment"])
-        extra = f" + static corrections at xi = {where} ({kinds}; static_correction = false: none)"
+        extra = (
+            f" + static corrections at xi = {where} ({kinds}; bodies.{body.name}.static_correction = false drops them)"
+        )
     return head + f"{body.frame}, {families} shape functions{extra}; {groups}"
 
 
