@@ -28,6 +28,7 @@ from symgen.ir.spec import (
 )
 from symgen.scene.bases import DRIVER_HARMONICS as DRIVER_HARMONICS  # home: symgen.scene.bases (re-exported)
 from symgen.scene.bases import POINT_TOL as POINT_TOL
+from symgen.scene.bases import axial_ringing
 from symgen.scene.bases import interior_points as interior_points
 from symgen.scene.model import GROUND, Scene
 
@@ -53,7 +54,9 @@ def overhang_modes(scene: Scene, body) -> int:
 
 
 #: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
-#: frequency is at least this many times the fastest motion the run must resolve: the quasi-static
+#: frequency is at least this many times the fastest motion the run must resolve (and the axial
+#: ringing a start that is not quasi-static excites is within the accuracy:
+#: :func:`symgen.scene.bases.axial_ringing`): the quasi-static
 #: axial response then misses the dynamic amplification 1 / (1 - r^2) - 1 ~ r^2 of the forcing at
 #: a frequency ratio r <= 1/10, i.e. <= 1 % of the axial response, and far less of the bending
 #: (tests/test_axial_default.py measures it against converged full-dynamics models).
@@ -130,6 +133,16 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
             f"auto: {detail}, but in a closed loop its stretch is "
             f"{share:.2g} of the compliance against the bending of {softest} (> {LOOP_SHARE_MAX:g}): "
             "axial dynamics kept",
+            w_axial,
+            w_run,
+        )
+    ring = axial_ringing(scene, body, scene.initial.quasi_static)
+    if ratio >= AXIAL_SEPARATION and ring.estimate > scene.simulation.accuracy:
+        return AxialTreatment(
+            body.name,
+            DYNAMIC,
+            f"auto: {detail} >= {AXIAL_SEPARATION:g}, but {ring.reason}, above simulation.accuracy "
+            f"{scene.simulation.accuracy:g}: axial dynamics kept",
             w_axial,
             w_run,
         )
