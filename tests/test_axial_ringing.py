@@ -40,8 +40,7 @@ def _rod(overrides: list[str]):
 def test_the_estimate_is_the_stretch_against_the_bending() -> None:
     """The start's stretch under a load of the bar's inertia, 1/(2 lambda), against its midspan
     deflection under the same load across it, 5/(384 mu) (pinned-pinned): the share in a chord
-    deflection; a driver torque reads the axial force itself (the whole jump); damping c leaves
-    exp(-T c w^2 / 2) of it, w = (pi/2) sqrt(lambda)."""
+    deflection; damping c leaves exp(-T c w^2 / 2) of it, w = (pi/2) sqrt(lambda)."""
     sc, rod = _rod(FINE)
     ring = axial_ringing(sc, rod, quasi_static_start=False)
     want = (1 / (2 * rod.lam)) / (5 / 384 / rod.mu)

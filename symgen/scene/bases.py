@@ -1483,14 +1483,40 @@ def with_start(choices: tuple[BasisChoice, ...], quasi_static_start: bool, dampi
 #: the bar's length, loads in its m_i l_i omega^2): u = 1 / (2 lambda), w = c / mu
 AXIAL_COMPLIANCE = 0.5
 BENDING_COMPLIANCE = {"pinned-pinned": 5.0 / 384.0, "cantilever": 1.0 / 8.0}
-#: output kinds that read a bar's axial force as it is (the stretch, a driver torque, a reaction):
-#: the axial ringing shows in them by its whole start value, of the order of their peak
-AXIAL_FORCE_OUTPUTS = ("chord_elongation", "axial", "driver_torque", "reaction")
-#: output kinds that read nothing of a bar's axial ringing
-AXIAL_BLIND_OUTPUTS = ("energy", "closure_residual")
+#: output kinds the axial ringing is not estimated for: those of the axial force (the stretch, a
+#: driver torque, a reaction), which an undeformed undamped start rings by its whole start value,
+#: of the order of their peak: keeping the axial dynamics for them costs the steps of the axial
+#: frequency (the stiff slider-crank of tests/test_axial_default.py, lambda = 1e5: 1517 -> 58419
+#: IDAS steps), so they keep the separation's choice and the error estimate says what they miss
+#: (docs/exact-bars.md); and those that read no bar's motion
+AXIAL_RINGING_UNREAD = ("chord_elongation", "axial", "driver_torque", "reaction", "energy", "closure_residual")
+#: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
+#: frequency is at least this many times the fastest motion the run must resolve (and the axial
+#: ringing a start that is not quasi-static excites is within the accuracy:
+#: :func:`symgen.scene.bases.axial_ringing`): the quasi-static
+#: axial response then misses the dynamic amplification 1 / (1 - r^2) - 1 ~ r^2 of the forcing at
+#: a frequency ratio r <= 1/10, i.e. <= 1 % of the axial response, and far less of the bending
+#: (tests/test_axial_default.py measures it against converged full-dynamics models).
+AXIAL_SEPARATION = 10.0
+#: first natural frequency / sqrt(group) of the standard bases: axial, any frame (phi(0) = 0, the
+#: far end free along the bar: (pi/2) sqrt(lambda)); bending, by frame (pinned-pinned
+#: pi^2 sqrt(mu), clamped-free 1.8751^2 sqrt(mu)); tau units (omega = 1).
+AXIAL_FIRST = 1.5707963267948966
+BENDING_FIRST = {"pinned-pinned": 9.869604401089358, "cantilever": 3.5160152028161017}
 #: positions over one turn of the angle driver where the coupled axial mode's frequency is
 #: compared (its phase drifts by the mean error over the cycle)
 RINGING_POSITIONS = 8
+
+
+def axial_separation(scene: Scene, body) -> tuple[float, float, float]:
+    """(first axial frequency, the fastest motion the run must resolve, first bending frequency)
+    of an elastic bar, per unit tau: what ``effects.axial = "auto"`` compares
+    (:func:`symgen.model.structure.axial_treatment`): the run's is the larger of 2 x the first
+    bending frequency and DRIVER_HARMONICS x the fastest driver rate (at least 1)."""
+    w_axial = AXIAL_FIRST * (body.lam or 0.0) ** 0.5
+    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu**0.5 if body.mu else 0.0
+    rate = max((abs(d.rate) for d in scene.drivers), default=0.0)
+    return w_axial, max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0)), w_bend
 
 
 @dataclass(frozen=True)
@@ -1506,7 +1532,7 @@ class AxialRinging:
     reason: str = ""
 
 
-def axial_ringing(scene: Scene, body, quasi_static_start: bool, forces: bool = True) -> AxialRinging:
+def axial_ringing(scene: Scene, body, quasi_static_start: bool) -> AxialRinging:
     """The axial ringing a start that is not quasi-static excites in ``body``.
 
     An undeformed start (or one whose axial amplitudes are given) is not on the quasi-static
@@ -1515,8 +1541,6 @@ def axial_ringing(scene: Scene, body, quasi_static_start: bool, forces: bool = T
     responses of the bar to a load of its own inertia of the same magnitude along and across it
     (the inertia loads of a driven mechanism turn over the cycle; a chain's gravity likewise):
 
-    * outputs of the bar's axial force (its stretch, a driver torque, a reaction,
-      ``AXIAL_FORCE_OUTPUTS``): the whole jump, 1 (the start's axial force is of the order of its peak);
     * a deflection or slope of an elastic bar o: the stretch against o's bending,
       (1 / (2 lambda)) / (c_o / mu_o) (``BENDING_COMPLIANCE`` c: 5/384 pinned-pinned, 1/8 cantilever;
       in the loads' physical units the lengths cancel), the share the ringing stretch moves the
@@ -1526,9 +1550,8 @@ def axial_ringing(scene: Scene, body, quasi_static_start: bool, forces: bool = T
 
     Kelvin-Voigt damping c decays the first axial mode (w = (pi/2) sqrt(lambda)) in 2 / (c w^2):
     the estimate is the amplitude left at the end of the run, exp(-T c w^2 / 2) times the jump.
-    0 where the run starts on its quasi-static deformation. ``forces = False``: the outputs of
-    the axial force left out (the coupled check at the start position counts the modes' shares
-    in them, :class:`_CoupledEstimate`)."""
+    0 where the run starts on its quasi-static deformation. The outputs of the axial force are not
+    counted (``AXIAL_RINGING_UNREAD``)."""
     if quasi_static_start:
         return AxialRinging(body.name, 0.0, "", "the run starts on its quasi-static deformation")
     if body.rigid or not body.lam:
@@ -1536,16 +1559,10 @@ def axial_ringing(scene: Scene, body, quasi_static_start: bool, forces: bool = T
     stretch = AXIAL_COMPLIANCE / body.lam
     best, which, how = 0.0, "", ""
     for o in scene.outputs:
-        if o.kind in AXIAL_BLIND_OUTPUTS:
+        if o.kind in AXIAL_RINGING_UNREAD:
             continue
         other = scene.body(o.body) if o.body not in (None, GROUND) else None
-        if o.kind in AXIAL_FORCE_OUTPUTS and (o.kind in ("driver_torque", "reaction") or o.body == body.name):
-            if not forces:
-                continue
-            share, why = 1.0, "it reads the axial force: the whole jump"
-        elif o.kind in AXIAL_FORCE_OUTPUTS:
-            continue  # another bar's stretch
-        elif o.kind in ("chord_deflection", "deflection", "slope", "elastic_displacement") and (
+        if o.kind in ("chord_deflection", "deflection", "slope", "elastic_displacement") and (
             other is not None and not other.rigid and other.mu
         ):
             c = BENDING_COMPLIANCE.get(other.frame, BENDING_COMPLIANCE["pinned-pinned"])
@@ -1653,9 +1670,10 @@ def ringing_choice(
     guess: dict[str, float],
     inextensible: set[str],
 ) -> tuple[dict[str, tuple[int, int]], dict[str, str], dict[str, float]]:
-    """(counts, bar -> what was found, bar -> estimate) for the bars whose axial dynamics the
-    start rings beyond the accuracy in the outputs that read deflections and positions
-    (:func:`axial_ringing` without the force outputs, which the coupled check counts): one more
+    """(counts, bar -> what was found, bar -> estimate) for the bars whose first axial frequency
+    is far above the run's band (:func:`axial_separation`, at least AXIAL_SEPARATION x) and
+    whose axial dynamics the start rings beyond the accuracy (:func:`axial_ringing`: the
+    bars ``effects.axial = "auto"`` keeps dynamic for it): one more
     axial or transverse function (of the families symgen chooses: the one that lowers the
     estimate more) while the ringing's phase over the run, ringing x min(PHASE_CAP, w T e)
     (:class:`_AxialRingingCheck`; T the run, or the mode's Kelvin-Voigt decay time), exceeds the
@@ -1670,7 +1688,10 @@ def ringing_choice(
         body = scene.body(name)
         if name in inextensible or not body.lam or not counts[name][0] or not body.mu or not counts[name][1]:
             continue
-        ring = axial_ringing(scene, body, quasi_static_start, forces=False)
+        w_axial, w_run, _ = axial_separation(scene, body)
+        if w_axial < AXIAL_SEPARATION * w_run:
+            continue  # its axial band is near the run's: its own estimate and the coupled check count it
+        ring = axial_ringing(scene, body, quasi_static_start)
         if ring.estimate <= acc:
             continue
         check = _AxialRingingCheck(scene, name, guess, inextensible)
