@@ -128,3 +128,28 @@ def test_the_papers_slider_crank_at_accuracy_0001_is_within_a_tenth_of_a_percent
 
     err = V.errors("slider_crank_paper", FINE)
     assert err and max(err.values()) <= 0.001, err
+
+
+def test_outputs_of_the_axial_force_do_not_keep_the_axial_dynamics(tmp_path: Path) -> None:
+    """A driver torque, a reaction or the bar's stretch read the axial ringing by its whole start
+    value; the rule leaves them to the separation's choice (keeping the axial frequency costs its
+    steps: ``AXIAL_RINGING_UNREAD``): the paper's rod with only such outputs stays quasi-static at
+    accuracy 0.001, with its chord deflection added it does not."""
+    text = PAPER.read_text()
+    line = 'eta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }'
+    assert line in text
+    forces = (
+        'torque = { kind = "driver_torque" }\n'
+        'stretch = { kind = "chord_elongation", body = "rod" }\n'
+        'force_B = { kind = "reaction", joint = "B", component = "y" }'
+    )
+    only = tmp_path / "forces.toml"
+    only.write_text(text.replace(line, forces))
+    both = tmp_path / "both.toml"
+    both.write_text(text.replace(line, f"{line}\n{forces}"))
+    sc = load_scene(only, FINE)
+    assert axial_ringing(sc, sc.body("rod"), False).estimate == 0.0
+    assert axial_treatments(sc)["rod"].treatment == "quasi_static"
+    sc = load_scene(both, FINE)
+    assert axial_ringing(sc, sc.body("rod"), False).output == "eta_mid"
+    assert axial_treatments(sc)["rod"].treatment == "dynamic"
