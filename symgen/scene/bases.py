@@ -49,6 +49,14 @@ torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 
 benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
 masses beside a bar (the reason says so; each bar's own choice stands), the preload and speed
 of the run (the model is linear about the undeformed start), other positions of the cycle.
+
+The start's axial ringing (:func:`axial_ringing`): a start that is not quasi-static rings a bar's
+first axial mode by the jump to its quasi-static stretch; where that exceeds the accuracy in the
+outputs, ``effects.axial = "auto"`` keeps the axial dynamics of a bar whose axial band is far
+above the run's (:func:`axial_separation`), and :func:`ringing_choice` adds functions until the
+coupled axial mode's frequency, over positions of the whole cycle, keeps the ringing's phase
+within the accuracy (the paper's slider-crank at accuracy 0.001: 3 + 5 quasi-static, 0.163 % of
+peak, -> 5 + 8 dynamic, 0.070 %; docs/exact-bars.md).
 """
 
 from __future__ import annotations
