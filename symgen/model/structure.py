@@ -28,6 +28,10 @@ from symgen.ir.spec import (
 )
 from symgen.scene.bases import DRIVER_HARMONICS as DRIVER_HARMONICS  # home: symgen.scene.bases (re-exported)
 from symgen.scene.bases import POINT_TOL as POINT_TOL
+from symgen.scene.bases import AXIAL_FIRST as AXIAL_FIRST
+from symgen.scene.bases import AXIAL_SEPARATION as AXIAL_SEPARATION
+from symgen.scene.bases import BENDING_FIRST as BENDING_FIRST
+from symgen.scene.bases import axial_ringing, axial_separation
 from symgen.scene.bases import interior_points as interior_points
 from symgen.scene.model import GROUND, Scene
 
@@ -52,24 +56,17 @@ def overhang_modes(scene: Scene, body) -> int:
     return sum(j.overhang_modes for j in scene.joints if j.kind == "slot" and j.ends[1].body == body.name)
 
 
-#: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
-#: frequency is at least this many times the fastest motion the run must resolve: the quasi-static
-#: axial response then misses the dynamic amplification 1 / (1 - r^2) - 1 ~ r^2 of the forcing at
-#: a frequency ratio r <= 1/10, i.e. <= 1 % of the axial response, and far less of the bending
-#: (tests/test_axial_default.py measures it against converged full-dynamics models).
-AXIAL_SEPARATION = 10.0
-#: ... and only when its stretch cannot strain a closed loop: the quasi-static treatment adds the
+#: ``effects.axial = "auto"`` eliminates a bar's axial dynamics when its first axial frequency is
+#: at least AXIAL_SEPARATION times the run's fastest motion (the frequencies and the constants:
+#: :func:`symgen.scene.bases.axial_separation`, re-exported here), when the start's axial ringing
+#: is within the accuracy (:func:`symgen.scene.bases.axial_ringing`), and only when its stretch
+#: cannot strain a closed loop: the quasi-static treatment adds the
 #: stretch N/lambda to the outputs but not to the loop's kinematics, so in a loop whose other
 #: bars bend, the share of this bar's axial compliance in the loop's (its end-to-end l/EA against
 #: the softest other bar's bending compliance under a joint force) must be negligible. Measured:
 #: the steel four-bar (shares 0.13-0.28 %) is 3-7 % off its full dynamics when quasi-static;
 #: the aluminium four-bar with 100x stiffer bars (shares <= 7.7e-5) 0.04 %.
 LOOP_SHARE_MAX = 1e-4
-#: first natural frequency / sqrt(group) of the standard bases: axial, any frame (phi(0) = 0, the
-#: far end free along the bar: (pi/2) sqrt(lambda)); bending, by frame (pinned-pinned
-#: pi^2 sqrt(mu), clamped-free 1.8751^2 sqrt(mu)); tau units (omega = 1).
-AXIAL_FIRST = 1.5707963267948966
-BENDING_FIRST = {"pinned-pinned": 9.869604401089358, "cantilever": 3.5160152028161017}
 
 
 @dataclass(frozen=True)
@@ -113,10 +110,7 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
         )
     if slot_guide(scene, body.name):
         return AxialTreatment(body.name, DYNAMIC, "auto: slot guide")
-    w_axial = AXIAL_FIRST * body.lam**0.5
-    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu**0.5 if body.mu else 0.0
-    rate = max((abs(d.rate) for d in scene.drivers), default=0.0)
-    w_run = max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0))
+    w_axial, w_run, w_bend = axial_separation(scene, body)
     ratio = w_axial / w_run
     detail = (
         f"first axial frequency {w_axial:.4g} = {ratio:.3g} x the fastest motion to resolve {w_run:.4g} "
@@ -130,6 +124,16 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
             f"auto: {detail}, but in a closed loop its stretch is "
             f"{share:.2g} of the compliance against the bending of {softest} (> {LOOP_SHARE_MAX:g}): "
             "axial dynamics kept",
+            w_axial,
+            w_run,
+        )
+    ring = axial_ringing(scene, body, scene.initial.quasi_static)
+    if ratio >= AXIAL_SEPARATION and ring.estimate > scene.simulation.accuracy:
+        return AxialTreatment(
+            body.name,
+            DYNAMIC,
+            f"auto: {detail} >= {AXIAL_SEPARATION:g}, but {ring.reason}, above simulation.accuracy "
+            f"{scene.simulation.accuracy:g}: axial dynamics kept",
             w_axial,
             w_run,
         )

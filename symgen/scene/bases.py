@@ -49,6 +49,14 @@ torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 
 benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
 masses beside a bar (the reason says so; each bar's own choice stands), the preload and speed
 of the run (the model is linear about the undeformed start), other positions of the cycle.
+
+The start's axial ringing (:func:`axial_ringing`): a start that is not quasi-static rings a bar's
+first axial mode by the jump to its quasi-static stretch; where that exceeds the accuracy in the
+outputs, ``effects.axial = "auto"`` keeps the axial dynamics of a bar whose axial band is far
+above the run's (:func:`axial_separation`), and :func:`ringing_choice` adds functions until the
+coupled axial mode's frequency, over positions of the whole cycle, keeps the ringing's phase
+within the accuracy (the paper's slider-crank at accuracy 0.001: 3 + 5 quasi-static, 0.163 % of
+peak, -> 5 + 8 dynamic, 0.070 %; docs/exact-bars.md).
 """
 
 from __future__ import annotations
@@ -1357,13 +1365,19 @@ def coupled_choice(
         counts[name] = (na + 1, nt) if kind == "axial" else (na, nt + 1)
         added[name] += 1
         check = model.check(counts)
+    before = dict(counts)
+    counts, ring_said, ring_est = ringing_choice(scene, choices, counts, not rings, guess, inextensible)
+    if counts != before:
+        for name in counts:
+            added[name] += sum(counts[name]) - sum(before[name])
+        check = model.check(counts)
     out = {}
     for name, c in choices.items():
         na, nt = counts[name]
         est_a, est_t = own[name]
-        estimate = max(_own_estimate(est_a, na), _own_estimate(est_t, nt), check.estimate)
+        estimate = max(_own_estimate(est_a, na), _own_estimate(est_t, nt), check.estimate, ring_est.get(name, 0.0))
         if not added[name]:
-            estimate = max(c.estimate, check.estimate)
+            estimate = max(c.estimate, check.estimate, ring_est.get(name, 0.0))
         said = (
             f"the coupled modes at the start position ({'ringing from the start' if rings else 'in the band'}): "
             f"{first.estimate:.2g} of peak with the bars' own counts, from the mode at {first.omega:.4g} per unit tau "
@@ -1372,11 +1386,19 @@ def coupled_choice(
         if any(added.values()):
             said += f"; {sum(added.values())} functions added ({', '.join(f'{k} +{v}' for k, v in added.items() if v)})"
             said += f": {check.estimate:.2g}"
+        if name in ring_said:
+            said += f"; {ring_said[name]}"
         warning = c.warning
         if check.estimate > acc and not warning:
             warning = (
                 f"bodies.{name}: the coupled modes leave an a-priori estimate of {check.estimate:.2g} of peak "
                 f"(> simulation.accuracy = {acc:g}; the mode at {check.omega:.4g} per unit tau, {check.what})"
+            )
+        if ring_est.get(name, 0.0) > acc and not warning:
+            warning = (
+                f"bodies.{name}: the phase of its axial ringing from the start leaves an a-priori estimate of "
+                f"{ring_est[name]:.2g} of peak (> simulation.accuracy = {acc:g}); start with "
+                'initial.deformation = "quasi-static", or damping, where the ringing is not wanted'
             )
         needed = (
             max(c.needed[0], na) if c.given[0] is None else c.needed[0],
@@ -1391,7 +1413,14 @@ def coupled_choice(
             reason=f"{c.reason}; {said}",
             warning=warning,
         )
-    return quasi_choice(scene, out, model, counts, quasi_stated)
+        if name in ring_said and c.given[1] is None and name not in quasi_stated:
+            out[name] = replace(
+                out[name],
+                quasi_reason="every transverse function dynamic: the frequency of its axial ringing from the start "
+                "needs them (the coupled check of quasi-static functions reads the start position only)",
+            )
+    # the bars whose axial ringing set their counts keep every transverse function dynamic
+    return quasi_choice(scene, out, model, counts, quasi_stated | frozenset(ring_said))
 
 
 def _not_checked(c: BasisChoice, note: str) -> str:
@@ -1586,3 +1615,249 @@ def with_start(choices: tuple[BasisChoice, ...], quasi_static_start: bool, dampi
     if quasi_static_start or damping > 0:
         return choices
     return tuple(replace(c, start_rings=True, reason=f"{c.reason}; {RINGING}") for c in choices)
+
+
+# -- the axial ringing of the start ----------------------------------------------------------------
+
+#: a bar's end stretch under a uniform axial load (u(0) = 0, far end free) and its largest bending
+#: deflection under a uniform transverse load, per unit load of the bar's own inertia (lengths in
+#: the bar's length, loads in its m_i l_i omega^2): u = 1 / (2 lambda), w = c / mu
+AXIAL_COMPLIANCE = 0.5
+BENDING_COMPLIANCE = {"pinned-pinned": 5.0 / 384.0, "cantilever": 1.0 / 8.0}
+#: output kinds the axial ringing is not estimated for: those of the axial force (the stretch, a
+#: driver torque, a reaction), which an undeformed undamped start rings by its whole start value,
+#: of the order of their peak: keeping the axial dynamics for them costs the steps of the axial
+#: frequency (the stiff slider-crank of tests/test_axial_default.py, lambda = 1e5: 1517 -> 58419
+#: IDAS steps), so they keep the separation's choice and the error estimate says what they miss
+#: (docs/exact-bars.md); and those that read no bar's motion
+AXIAL_RINGING_UNREAD = ("chord_elongation", "axial", "driver_torque", "reaction", "energy", "closure_residual")
+#: ``effects.axial = "auto"`` (the default) eliminates a bar's axial dynamics when its first axial
+#: frequency is at least this many times the fastest motion the run must resolve (and the axial
+#: ringing a start that is not quasi-static excites is within the accuracy:
+#: :func:`symgen.scene.bases.axial_ringing`): the quasi-static
+#: axial response then misses the dynamic amplification 1 / (1 - r^2) - 1 ~ r^2 of the forcing at
+#: a frequency ratio r <= 1/10, i.e. <= 1 % of the axial response, and far less of the bending
+#: (tests/test_axial_default.py measures it against converged full-dynamics models).
+AXIAL_SEPARATION = 10.0
+#: first natural frequency / sqrt(group) of the standard bases: axial, any frame (phi(0) = 0, the
+#: far end free along the bar: (pi/2) sqrt(lambda)); bending, by frame (pinned-pinned
+#: pi^2 sqrt(mu), clamped-free 1.8751^2 sqrt(mu)); tau units (omega = 1).
+AXIAL_FIRST = 1.5707963267948966
+BENDING_FIRST = {"pinned-pinned": 9.869604401089358, "cantilever": 3.5160152028161017}
+#: positions over one turn of the angle driver where the coupled axial mode's frequency is
+#: compared (its phase drifts by the mean error over the cycle)
+RINGING_POSITIONS = 8
+
+
+def axial_separation(scene: Scene, body) -> tuple[float, float, float]:
+    """(first axial frequency, the fastest motion the run must resolve, first bending frequency)
+    of an elastic bar, per unit tau: what ``effects.axial = "auto"`` compares
+    (:func:`symgen.model.structure.axial_treatment`): the run's is the larger of 2 x the first
+    bending frequency and DRIVER_HARMONICS x the fastest driver rate (at least 1)."""
+    w_axial = AXIAL_FIRST * (body.lam or 0.0) ** 0.5
+    w_bend = BENDING_FIRST.get(body.frame, BENDING_FIRST["pinned-pinned"]) * body.mu**0.5 if body.mu else 0.0
+    rate = max((abs(d.rate) for d in scene.drivers), default=0.0)
+    return w_axial, max(2.0 * w_bend, DRIVER_HARMONICS * max(rate, 1.0)), w_bend
+
+
+@dataclass(frozen=True)
+class AxialRinging:
+    """The axial ringing a run's start excites in one elastic bar (issue 19, the paper's
+    slider-crank at accuracy 0.001): ``estimate`` (fraction of the outputs' peak) is what a
+    quasi-static axial treatment leaves out, ``output`` the output that sets it, ``reason`` one
+    sentence."""
+
+    bar: str
+    estimate: float
+    output: str = ""
+    reason: str = ""
+
+
+def axial_ringing(scene: Scene, body, quasi_static_start: bool) -> AxialRinging:
+    """The axial ringing a start that is not quasi-static excites in ``body``.
+
+    An undeformed start (or one whose axial amplitudes are given) is not on the quasi-static
+    axial state: the axial mode rings, undamped for the whole run, with the jump between the two,
+    the start's quasi-static stretch. Its size relative to each output's peak, from the static
+    responses of the bar to a load of its own inertia of the same magnitude along and across it
+    (the inertia loads of a driven mechanism turn over the cycle; a chain's gravity likewise):
+
+    * a deflection or slope of an elastic bar o: the stretch against o's bending,
+      (1 / (2 lambda)) / (c_o / mu_o) (``BENDING_COMPLIANCE`` c: 5/384 pinned-pinned, 1/8 cantilever;
+      in the loads' physical units the lengths cancel), the share the ringing stretch moves the
+      points a deflection reads (measured on the paper's slider-crank: the estimate 1.0e-3,
+      the ringing in eta_mid 5.5e-4 to 8.8e-4 of its peak over the run);
+    * the positions and angles of the mechanism: the stretch against the bar's length, 1 / (2 lambda).
+
+    Kelvin-Voigt damping c decays the first axial mode (w = (pi/2) sqrt(lambda)) in 2 / (c w^2):
+    the estimate is the amplitude left at the end of the run, exp(-T c w^2 / 2) times the jump.
+    0 where the run starts on its quasi-static deformation. The outputs of the axial force are not
+    counted (``AXIAL_RINGING_UNREAD``)."""
+    if quasi_static_start:
+        return AxialRinging(body.name, 0.0, "", "the run starts on its quasi-static deformation")
+    if body.rigid or not body.lam:
+        return AxialRinging(body.name, 0.0, "", "no axial stiffness")
+    stretch = AXIAL_COMPLIANCE / body.lam
+    best, which, how = 0.0, "", ""
+    for o in scene.outputs:
+        if o.kind in AXIAL_RINGING_UNREAD:
+            continue
+        other = scene.body(o.body) if o.body not in (None, GROUND) else None
+        if o.kind in ("chord_deflection", "deflection", "slope", "elastic_displacement") and (
+            other is not None and not other.rigid and other.mu
+        ):
+            c = BENDING_COMPLIANCE.get(other.frame, BENDING_COMPLIANCE["pinned-pinned"])
+            share = stretch / (c / other.mu)
+            why = f"the start's stretch 1/(2 lambda) against the bending {c:.4g}/mu of {other.name}"
+        else:
+            share, why = stretch, "the start's stretch 1/(2 lambda) against the bar's length"
+        if share > best:
+            best, which, how = share, o.name, why
+    c = scene.effects.damping
+    if c > 0 and best > 0:
+        w = (math.pi / 2) * math.sqrt(body.lam)
+        decay = math.exp(-scene.simulation.t_end * c * w * w / 2)
+        return AxialRinging(
+            body.name,
+            best * decay,
+            which,
+            f"the start (not quasi-static) rings its first axial mode by {best:.3g} of the peak of {which} "
+            f"({how}), damped to {best * decay:.2g} by the end of the run (Kelvin-Voigt {c:g} at {w:.4g} per unit tau)",
+        )
+    return AxialRinging(
+        body.name,
+        best,
+        which,
+        f"the start (not quasi-static, undamped) rings its first axial mode for the whole run, by {best:.3g} "
+        f"of the peak of {which} ({how})"
+        if which
+        else "no output reads the axial ringing",
+    )
+
+
+class _AxialRingingCheck:
+    """The frequency of one bar's coupled axial mode over the cycle, against the floating-frame
+    model with given counts (the phase of the axial ringing the start excites, :func:`axial_ringing`).
+
+    At ``RINGING_POSITIONS`` positions over one turn of the angle drivers (the start alone without
+    one) the linear model of the whole mechanism (:class:`_Coupled`) gives the mode of the bar's
+    first axial frequency band with the most axial strain energy in the bar; away from a dead
+    centre the joints couple it to the bar's bending (the paper's slider-crank: 212.3 at the dead
+    centres, 210.2 per unit tau at 90 degrees), so its Ritz frequency converges with the
+    transverse functions as well as the axial ones. The floating-frame model's mode is the one of
+    the largest mass-weighted overlap; the ringing's phase drifts by the mean relative error over
+    the positions times w T."""
+
+    def __init__(self, scene: Scene, name: str, guess: dict[str, float], inextensible: set[str]):
+        self.name = name
+        self.t_end = scene.simulation.t_end
+        self.damping = scene.effects.damping
+        body = scene.body(name)
+        w_first = (math.pi / 2) * math.sqrt(body.lam or 0.0)
+        angle = [d for d in scene.drivers if d.kind == "angle" and d.initial is not None]
+        start = {d.body: float(d.initial or 0.0) for d in angle}
+        rate = max((abs(d.rate) for d in angle), default=0.0)
+        taus = [k * 2 * math.pi / rate / RINGING_POSITIONS for k in range(RINGING_POSITIONS)] if rate > 0 else [0.0]
+        self.positions: list[tuple[_Coupled, int, float, np.ndarray]] = []
+        prev = dict(guess)
+        for tau in taus:
+            drivers = tuple(
+                replace(d, initial=start[d.body] + d.rate * tau) if d in angle else d for d in scene.drivers
+            )
+            at = replace(scene, drivers=drivers)
+            place = _placement(at, prev)
+            if place is None:
+                continue
+            prev = {n: a for n, (_, a) in place.items()}
+            model = _Coupled(at, place, inextensible)
+            rigid, w, phi, _ = model.spectrum_and_modes()
+            i, Kb = model.bending[name]
+            axial = np.einsum("ij,ij->j", phi[i], (model.K[i, i] - Kb) @ phi[i])
+            total = np.einsum("ij,ij->j", phi, model.K @ phi)
+            frac = np.where(w < 2.0 * w_first, axial / np.maximum(total, 1e-300), 0.0)
+            j = int(np.argmax(frac))
+            if frac[j] > 0.5:
+                self.positions.append((model, rigid, float(w[j]), phi[:, j]))
+
+    def error(self, counts: dict[str, tuple[int, int]]) -> tuple[float, float]:
+        """(mean relative frequency error, mean frequency) of the coupled axial mode; (0, 0)
+        where no position has one."""
+        errors, omegas = [], []
+        for model, rigid, w, phi in self.positions:
+            T = model.ritz(counts)
+            Bm = T @ _null(model.C @ T)
+            wr, vr = _modes(Bm.T @ model.K @ Bm, Bm.T @ model.M @ Bm)
+            u = Bm @ vr[:, rigid:]
+            k = int(np.argmax(np.abs(u.T @ model.M @ phi)))
+            errors.append(abs(float(wr[rigid + k]) / w - 1.0))
+            omegas.append(w)
+        if not errors:
+            return 0.0, 0.0
+        return float(np.mean(errors)), float(np.mean(omegas))
+
+    def phase(self, counts: dict[str, tuple[int, int]], ringing: float) -> tuple[float, float, float]:
+        """(estimate, mean relative error, mean frequency): the ringing's part of the error,
+        ``ringing`` x min(PHASE_CAP, w T e), T the run or the mode's Kelvin-Voigt decay time."""
+        e, w = self.error(counts)
+        t = self.t_end if self.damping <= 0 or w <= 0 else min(self.t_end, 2.0 / (self.damping * w * w))
+        return ringing * min(PHASE_CAP, w * t * e), e, w
+
+
+def ringing_choice(
+    scene: Scene,
+    choices: dict[str, BasisChoice],
+    counts: dict[str, tuple[int, int]],
+    quasi_static_start: bool,
+    guess: dict[str, float],
+    inextensible: set[str],
+) -> tuple[dict[str, tuple[int, int]], dict[str, str], dict[str, float]]:
+    """(counts, bar -> what was found, bar -> estimate) for the bars whose first axial frequency
+    is far above the run's band (:func:`axial_separation`, at least AXIAL_SEPARATION x) and
+    whose axial dynamics the start rings beyond the accuracy (:func:`axial_ringing`: the
+    bars ``effects.axial = "auto"`` keeps dynamic for it): one more
+    axial or transverse function (of the families symgen chooses: the one that lowers the
+    estimate more) while the ringing's phase over the run, ringing x min(PHASE_CAP, w T e)
+    (:class:`_AxialRingingCheck`; T the run, or the mode's Kelvin-Voigt decay time), exceeds the
+    accuracy (at most COUPLED_STEPS functions, MAX_CHOSEN per family)."""
+    acc = scene.simulation.accuracy
+    said: dict[str, str] = {}
+    estimates: dict[str, float] = {}
+    if scene.effects.axial not in (True, "dynamic", "auto"):
+        return counts, said, estimates
+    counts = dict(counts)
+    for name, c in choices.items():
+        body = scene.body(name)
+        if name in inextensible or not body.lam or not counts[name][0] or not body.mu or not counts[name][1]:
+            continue
+        w_axial, w_run, _ = axial_separation(scene, body)
+        if w_axial < AXIAL_SEPARATION * w_run:
+            continue  # its axial band is near the run's: its own estimate and the coupled check count it
+        ring = axial_ringing(scene, body, quasi_static_start)
+        if ring.estimate <= acc:
+            continue
+        check = _AxialRingingCheck(scene, name, guess, inextensible)
+        est, e, w = first = check.phase(counts, ring.estimate)
+        start = counts[name]
+        for _ in range(COUPLED_STEPS):
+            if est <= acc:
+                break
+            na, nt = counts[name]
+            tries = []
+            if c.given[1] is None and nt < MAX_CHOSEN:
+                tries.append({**counts, name: (na, nt + 1)})
+            if c.given[0] is None and na < MAX_CHOSEN:
+                tries.append({**counts, name: (na + 1, nt)})
+            if not tries:
+                break
+            scored = [(check.phase(t, ring.estimate), t) for t in tries]
+            (est, e, w), counts = min(scored, key=lambda s: s[0][0])
+        estimates[name] = est
+        text = (
+            f"its axial dynamics ring from the start ({ring.reason}): the coupled axial mode over the cycle "
+            f"({len(check.positions)} positions, mean {first[2]:.4g} per unit tau) {first[1]:.2g} too high with "
+            f"{start[0]} axial + {start[1]} transverse functions, its phase over the run {first[0]:.2g} of peak"
+        )
+        if counts[name] != start:
+            text += f"; {counts[name][0]} + {counts[name][1]}: {e:.2g} too high, {est:.2g}"
+        said[name] = text
+    return counts, said, estimates

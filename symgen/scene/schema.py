@@ -562,7 +562,10 @@ EFFECTS = Table(
             "with von Karman strain, a bar whose first axial frequency (pi/2) sqrt(lambda) is at least 10 times "
             "the fastest motion the run must resolve (twice its first bending frequency, 4 times the driver "
             "rate), and whose stretch is at most 1e-4 of a closed loop's compliance (against the bending of "
-            "the softest other bar: the quasi-static stretch is not fed back into the loop), is quasi-static, "
+            "the softest other bar: the quasi-static stretch is not fed back into the loop), and whose axial "
+            "ringing from a start that is not quasi-static (the jump to the start's quasi-static stretch, "
+            "against the peaks of the outputs that read deflections, positions and angles, less what damping "
+            "takes over the run) is within simulation.accuracy, is quasi-static, "
             'else dynamic; with the seed\'s linear strain, dynamic. "dynamic" (= true): '
             "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
             'basis can carry (no locking at any lambda). "quasi_static": no axial vibration: the axial '
