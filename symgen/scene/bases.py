@@ -194,7 +194,12 @@ def run_frequency(scene: Scene) -> tuple[float, str]:
                 else (abs(d.rate), f"driver rate {abs(d.rate):.4g}")
             )
         else:
-            rates.append((max(abs(d.rate), 1.0), f"torque driver of {d.body} (rate {max(abs(d.rate), 1.0):.4g})"))
+            rate = abs(d.rate)
+            rates.append(
+                (rate, f"torque driver of {d.body} (rate {rate:.4g})")
+                if rate >= 1.0
+                else (1.0, f"torque driver of {d.body} (the speed it reaches is the run's: rate 1, the time unit's)")
+            )
     if any(isinstance(ld.axial, str) or isinstance(ld.transverse, str) for ld in scene.loads):
         rates.append((1.0, "loads given as expressions of tau (rate 1)"))
     g = math.hypot(*scene.effects.gravity)
