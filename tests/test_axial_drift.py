@@ -153,3 +153,40 @@ def test_the_warning_names_the_axial_part_and_its_key(capsys):
     assert (
         'its largest part, the axial, is lowered by keeping the bars\' axial dynamics: effects.axial = "dynamic"' in err
     )
+
+
+def test_auto_keeps_the_axial_dynamics_when_the_part_exceeds_the_accuracy(tmp_path, capsys, monkeypatch):
+    """effects.axial = "auto" on the arm spinning 60 tau (about 11 turns): the quasi-static run's
+    axial part (5 % of tip_x's peak) exceeds the accuracy, so the run is made again with the arm's
+    axial dynamics kept: the result is the run of effects.axial = "dynamic", the sidecar says why,
+    and the decision is remembered (a second run loads the decided model directly)."""
+    import json
+
+    from symgen.cli import main
+    from symgen.numerics import axial_choice
+    from symgen.numerics.strain_choice import resolved
+    from symgen.scene.loader import load_scene
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))  # nothing decided yet
+    path = tmp_path / "arm_long.toml"
+    text = ARM.replace("LAMBDA", repr(LAMBDA)).replace("t_end = 10.0", "t_end = 60.0")
+    path.write_text(text.replace('axial = "quasi_static"\n', ""))
+    assert main(["simulate", str(path), "-o", str(tmp_path / "a.csv"), "--estimate", "linearized", "-v"]) == 0
+    assert "arm: auto: the run's axial estimate" in capsys.readouterr().err
+    side = json.loads((tmp_path / "a.json").read_text())
+    why = side["axial_treatment"]["arm"]
+    assert why["treatment"] == "dynamic" and "the run's axial estimate" in why["reason"]
+    assert side["error_estimate_detail"]["parts"]["axial"]["tip_x"] == 0.0
+    dyn = tmp_path / "dyn.toml"
+    dyn.write_text(text.replace('axial = "quasi_static"', 'axial = "dynamic"'))
+    ran = load_scene(path)
+    assert resolved(ran).axial_kept and dict(resolved(ran).axial_kept)["arm"] == why["reason"]
+    assert main(["simulate", str(dyn), "-o", str(tmp_path / "d.csv"), "--estimate", "off"]) == 0
+    a = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)
+    d = np.loadtxt(tmp_path / "d.csv", delimiter=",", skiprows=1)
+    assert np.allclose(a, d, rtol=0, atol=1e-9 * np.abs(d).max())
+    monkeypatch.setattr(axial_choice, "decide", lambda *a: pytest.fail("decided again"))
+    capsys.readouterr()
+    assert main(["simulate", str(path), "-o", str(tmp_path / "b.csv"), "--estimate", "off", "-v"]) == 0
+    assert "running it" not in capsys.readouterr().err
+    assert json.loads((tmp_path / "b.json").read_text())["axial_treatment"]["arm"] == why
