@@ -349,8 +349,8 @@ def honesty(name: str, overrides: list[str] = (), estimate: str = "rerun") -> di
 def honesty_markdown(results: list[dict]) -> str:
     """The honesty table (RESULTS.md): estimate against true error per output."""
     lines = [
-        "| scene | strain used | output | true error | estimate | truncation | model form | time | ratio |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| scene | strain used | output | true error | estimate | truncation | model form | axial | time | ratio |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     counted = honest = 0
     for res in results:
@@ -370,7 +370,8 @@ def honesty_markdown(results: list[dict]) -> str:
                 verdict = f"{o['ratio']:.2f}" + ("" if o["honest"] else " **out**")
             lines.append(
                 f"| {res['scene']} | {res['strain']['strain']} | {k} | {o['true']:.2e} | {cell(o['estimate'])} | "
-                f"{cell(p.get('truncation'))} | {cell(p.get('model_form'))} | {cell(p.get('time_integration'))} | "
+                f"{cell(p.get('truncation'))} | {cell(p.get('model_form'))} | {cell(p.get('axial'))} | "
+                f"{cell(p.get('time_integration'))} | "
                 f"{verdict} |"
             )
     lines.append("")

@@ -201,6 +201,7 @@ def _simulate(args, files) -> int:
 _ESTIMATE_ADVICE = {
     "truncation": "more shape functions: remove the bars' mode counts to let symgen choose them, or raise them",
     "model_form": 'the bar formulation: effects.strain = "exact" (or "auto")',
+    "axial": 'keeping the bars\' axial dynamics: effects.axial = "dynamic" (the quasi-static stretch carries no inertia)',
     "time_integration": "tighter integrator tolerances (simulation.rtol, simulation.atol)",
 }
 

@@ -73,9 +73,10 @@ def _record() -> ErrorEstimate:
         parts={
             "truncation": {"tip": 2e-3, "closure": None},
             "model_form": {"tip": None, "closure": None},
+            "axial": {"tip": 0.0, "closure": None},
             "time_integration": {"tip": 1e-3, "closure": None},
         },
-        methods={"truncation": "rerun", "model_form": "not estimated", "time_integration": "bound"},
+        methods={"truncation": "rerun", "model_form": "not estimated", "axial": "none", "time_integration": "bound"},
         reasons={"model_form": "no estimator"},
         richer={"rod": [5, 6]},
     )
@@ -86,6 +87,22 @@ def test_record_round_trip():
     data = json.loads(json.dumps(rec.to_json()))
     assert ErrorEstimate.from_json(data) == rec
     assert "model form not estimated" in rec.text("tip")
+
+
+def test_record_written_before_the_axial_part():
+    """A record without the axial part (written before it existed) reads with that part not
+    estimated and the reason; one that drops it from the parts but keeps its method is refused."""
+    data = _record().to_json()
+    data["parts"].pop("axial")
+    data["methods"].pop("axial")
+    rec = ErrorEstimate.from_json(data)
+    assert rec.parts["axial"] == {"tip": None, "closure": None}
+    assert rec.methods["axial"] == "not estimated" and "before" in rec.reasons["axial"]
+    assert "axial not estimated" in rec.text("tip")
+    data = _record().to_json()
+    data["parts"].pop("axial")
+    with pytest.raises(InvalidEstimate):
+        ErrorEstimate.from_json(data)
 
 
 @pytest.mark.parametrize(

@@ -108,6 +108,9 @@ def axial_treatment(scene: Scene, body) -> AxialTreatment:
         return AxialTreatment(
             body.name, DYNAMIC, "auto: the seed's linear strain keeps its axial dynamics (the paper's model)"
         )
+    kept = dict(scene.axial_kept)
+    if body.name in kept:
+        return AxialTreatment(body.name, DYNAMIC, kept[body.name])
     if slot_guide(scene, body.name):
         return AxialTreatment(body.name, DYNAMIC, "auto: slot guide")
     w_axial, w_run, w_bend = axial_separation(scene, body)

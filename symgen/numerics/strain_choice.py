@@ -120,8 +120,11 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
 
 
 def resolved(scene: Scene) -> Scene:
-    """The scene with the decision remembered for it, else as it is."""
-    return recalled(scene) or scene
+    """The scene with the decisions remembered for it (the bar formulation, then the axial
+    dynamics a run kept: :mod:`symgen.numerics.axial_choice`), else as it is."""
+    from symgen.numerics import axial_choice
+
+    return axial_choice.resolved(recalled(scene) or scene)
 
 
 def run_with_strain_choice(
@@ -133,7 +136,21 @@ def run_with_strain_choice(
     """``run(mech)`` -> (mechanism, result, failure), with "auto" decided when the scene of
     ``mech`` may still switch (:func:`resolved` it first to use a remembered decision): after a
     complete von Karman run its model-form estimate decides, and the run is made again with the
-    exact bar (``load``-ed) when it says so. Any other scene is run once, as it is."""
+    exact bar (``load``-ed) when it says so. Then ``effects.axial = "auto"``'s run-time half
+    (:func:`symgen.numerics.axial_choice.run_with_axial_choice`) on the run it gave. Any other
+    scene is run once, as it is."""
+    from symgen.numerics.axial_choice import run_with_axial_choice
+
+    mech, result, failure = _run_with_strain_choice(mech, load, run, say)
+    return run_with_axial_choice(mech, result, failure, load, run, say)
+
+
+def _run_with_strain_choice(
+    mech: Mechanism,
+    load: Callable[[Scene], Mechanism],
+    run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
+    say: Callable[[str], None] | None = None,
+) -> tuple[Mechanism, R | None, BaseException | None]:
     result, failure = run(mech)
     if failure is not None or result is None or not switchable(mech.scene):
         return mech, result, failure

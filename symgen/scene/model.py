@@ -221,6 +221,9 @@ class Scene:
     # effects.strain as written ("auto", the default, or a value), the formulation used and why
     # (symgen.scene.strain; None for a Scene built in code: its effects.strain is used as it is)
     strain_choice: StrainChoice | None = None
+    # effects.axial = "auto": (bar, reason) of the bars whose axial dynamics a run's estimate kept
+    # (symgen.numerics.axial_choice: the quasi-static stretch's phase drift above the accuracy)
+    axial_kept: tuple[tuple[str, str], ...] = ()
 
     @property
     def driver(self) -> Driver | None:

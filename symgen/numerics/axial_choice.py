@@ -1,0 +1,139 @@
+"""The run-time half of ``effects.axial = "auto"`` for the bars its a-priori rule makes
+quasi-static (``symgen.model.structure.axial_treatment``): after a complete run, the error
+estimate's axial part (:mod:`symgen.numerics.axial_drift`: the phase drift of the free motion with
+the stretch's inertia the quasi-static treatment leaves out) decides whether the run is made again
+with those bars' axial dynamics kept: when it exceeds ``simulation.accuracy`` on any output
+(closure residuals aside). As ``effects.strain = "auto"`` (:mod:`symgen.numerics.strain_choice`)
+the decision is remembered in the signed cache, keyed by the scene's hash (after overrides), the
+bar formulation the run used and the version, so a rerun of the same scene loads the decided model
+directly; the kept bars travel on ``Scene.axial_kept`` and the sidecar's ``axial_treatment`` says
+why.
+
+Why after the run: the drift integrates over the run (a free rotation's phase: the soft arm
+spinning 11 turns is 5.4 % of peak off at a separation of 11.2 x its motion, where the a-priori
+rule's forced-response bound sees a fraction of a per cent).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from symgen import __version__, cache
+from symgen.ir.spec import QUASI_STATIC
+
+if TYPE_CHECKING:
+    from symgen.numerics.mechanism import Mechanism
+    from symgen.scene.model import Scene
+
+__all__ = ["decide", "recalled", "resolved", "run_with_axial_choice", "switchable"]
+
+R = TypeVar("R")
+
+#: the axial part's version in the remembered decisions (a changed estimate decides again)
+ESTIMATOR_VERSION = "1"
+#: output kinds that do not decide (zero to round-off in every model)
+NOT_DECIDING = ("closure_residual",)
+
+
+def _question(scene: Scene) -> dict[str, Any]:
+    return {
+        "check": "axial.auto",
+        "version": __version__,
+        "estimator": ESTIMATOR_VERSION,
+        "scene": scene.hash,
+        "strain": str(scene.effects.strain),
+    }
+
+
+def _auto_quasi_static(scene: Scene) -> list[str]:
+    """The bars the auto rule makes quasi-static in ``scene``."""
+    from symgen.model.structure import axial_treatments
+
+    if scene.effects.axial != "auto":
+        return []
+    return sorted(n for n, t in axial_treatments(scene).items() if t.treatment == QUASI_STATIC)
+
+
+def switchable(scene: Scene) -> bool:
+    """An ``effects.axial = "auto"`` scene whose run may still keep axial dynamics: some bar is
+    quasi-static by the auto rule and no run has decided yet."""
+    return not scene.axial_kept and bool(_auto_quasi_static(scene))
+
+
+def _kept(scene: Scene, bars: list[str], reason: str) -> Scene:
+    return replace(scene, axial_kept=tuple((b, reason) for b in bars))
+
+
+def recalled(scene: Scene) -> Scene | None:
+    """The scene with the bars a remembered decision kept dynamic, or None (nothing remembered,
+    or the decision kept none)."""
+    if not scene.hash or not switchable(scene):
+        return None
+    known, answer = cache.recall(_question(scene))
+    if not known or not isinstance(answer, dict):
+        return None
+    bars, reason = answer.get("bars"), answer.get("reason")
+    if not isinstance(bars, list) or not isinstance(reason, str) or not all(isinstance(b, str) for b in bars):
+        return None
+    quasi = set(_auto_quasi_static(scene))
+    if not bars or not set(bars) <= quasi:
+        return None
+    return _kept(scene, bars, reason)
+
+
+def resolved(scene: Scene) -> Scene:
+    """The scene with the decision remembered for it, else as it is."""
+    return recalled(scene) or scene
+
+
+def decide(mech: Mechanism, result: Any) -> Scene | None:
+    """After a complete run of ``mech`` whose scene is :func:`switchable`: the scene with the
+    auto rule's quasi-static bars kept dynamic when the run's axial part exceeds the accuracy,
+    else None (also when the part cannot be estimated). Remembered either way."""
+    from symgen.numerics.axial_drift import AxialNotEstimated, estimate
+
+    scene = mech.scene
+    try:
+        values, _ = estimate(mech, result)
+    except (AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
+        return None  # not estimated (the sidecar's error estimate says why): kept quasi-static
+    kinds = {o.name: o.kind for o in scene.outputs}
+    values = {n: v for n, v in values.items() if kinds.get(n) not in NOT_DECIDING}
+    accuracy = float(scene.simulation.accuracy)
+    worst = max(values, key=lambda n: values[n]) if values else ""
+    top = values.get(worst, 0.0)
+    bars = _auto_quasi_static(scene) if top > accuracy else []
+    reason = (
+        f"auto: the run's axial estimate (the phase drift of the free motion with the stretch's inertia the "
+        f"quasi-static treatment leaves out) is {top:.2e} of peak on {worst}, above simulation.accuracy "
+        f"{accuracy:g}: axial dynamics kept"
+    )
+    if scene.hash:
+        cache.remember(_question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst})
+    return _kept(scene, bars, reason) if bars else None
+
+
+def run_with_axial_choice(
+    mech: Mechanism,
+    result: R | None,
+    failure: BaseException | None,
+    load: Callable[[Scene], Mechanism],
+    run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
+    say: Callable[[str], None] | None = None,
+) -> tuple[Mechanism, R | None, BaseException | None]:
+    """After ``run(mech)`` gave (``result``, ``failure``): when the scene may still keep axial
+    dynamics and the complete run's axial part says so, the run made again with them kept
+    (``load``-ed); else the run as it is."""
+    if failure is not None or result is None or not switchable(mech.scene):
+        return mech, result, failure
+    decided = decide(mech, result)
+    if decided is None:
+        return mech, result, failure
+    if say is not None:
+        bars = ", ".join(b for b, _ in decided.axial_kept)
+        say(f"{bars}: {decided.axial_kept[0][1]}: running it")
+    mech = load(decided)
+    result, failure = run(mech)
+    return mech, result, failure
