@@ -215,6 +215,9 @@ class _Bar:
         self.Ka_inv = np.linalg.inv(Ka) if self.na else np.zeros((0, 0))
         sc = mech.scene.body(name)
         self.lam, self.mu = float(sc.lam or 0.0), float(sc.mu or 0.0)
+        # the model's generalized forces of the bar's amplitudes are its own times nu alpha^3
+        # (symgen/model/bars.py, BarEquations.generalized): the scale of H in the model's coordinates
+        self.scale = float(sc.nu) * float(sc.alpha) ** 3
         rows = [i for i, r in enumerate(mech.info.lam_rows) if r.kind is RowKind.INEXTENSIBLE and r.joint == name]
         self.n_rows = rows  # multipliers N_k of a constrained (quasi-static or inextensible) bar
         # the bar's energy has the stretch's -eps eta'^2 / 2 (``STRETCH_KEPT``): dynamic axial amplitudes
@@ -524,7 +527,7 @@ def _coupled_modes(
         w2 = np.array([omegas[s][k] ** 2 for s in near])
         vHv = np.zeros(len(rows))
         for b in bars:
-            vHv += b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
+            vHv += b.scale * b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
         out.append((mean[k], 0.5 * vHv / w2, band))
     return out
 
