@@ -466,6 +466,8 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
 MODE_SAMPLES = 24
 #: the coupled modes whose drift is looked for: the lowest ones, at most this many
 MODES_KEPT = 12
+#: a coupled mode with w^2 at most this fraction of the largest is a free motion of the mechanism
+FREE_MOTION = 1e-10
 
 
 def _coupled_modes(
@@ -489,32 +491,18 @@ def _coupled_modes(
     50 g tool: 5.5 against 15.3 per unit tau), and its drift is the model-form error there
     (docs/exact-bars.md). None where the problem has no modes (a mass matrix not positive
     definite on the closure's null space: quasi-static amplitudes)."""
-    import casadi as ca
-
     if not bars or len(rows) < 3:
         return None
-    args, phi = mech._symbols
-    res = mech.f["res"](*args)
-    modal = ca.Function(
-        "modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])]
-    )
+    modal = _modal_function(mech)
     tau = np.asarray(result.tau, dtype=float)
     at = np.unique(np.linspace(0, len(rows) - 1, min(MODE_SAMPLES, len(rows))).astype(int))
     omegas, shapes = [], []
     for i in at:
-        t, q, v = float(tau[rows[i]]), Q[i], V[i]
-        a, lam = mech.accelerations(t, q, v)
-        K, M, C = (np.array(x) for x in modal(t, q, v, a, lam, mech.p))
-        N = _null(C)
-        Kr, Mr = N.T @ K @ N, N.T @ M @ N
-        try:
-            Li = np.linalg.inv(np.linalg.cholesky((Mr + Mr.T) / 2))
-        except np.linalg.LinAlgError:
+        got = coupled_modes(mech, float(tau[rows[i]]), Q[i], V[i], modal)
+        if got is None:
             return None
-        w2, y = np.linalg.eigh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
-        keep = np.flatnonzero(w2 > 0)[:MODES_KEPT]
-        omegas.append(np.sqrt(w2[keep]))
-        shapes.append((N @ (Li.T @ y))[:, keep])
+        omegas.append(got[0][:MODES_KEPT])
+        shapes.append(got[1][:, :MODES_KEPT])
     count = min(len(w) for w in omegas)
     if count == 0:
         return None
@@ -530,6 +518,43 @@ def _coupled_modes(
             vHv += b.scale * b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
         out.append((mean[k], 0.5 * vHv / w2, band))
     return out
+
+
+def _modal_function(mech: Mechanism) -> Any:
+    """The CasADi Function (t, q, v, a, lam, p) -> (d res / dq, d res / da, d phi / dq) of the
+    model: its tangent stiffness, mass matrix and the closure's Jacobian."""
+    import casadi as ca
+
+    args, phi = mech._symbols
+    res = mech.f["res"](*args)
+    return ca.Function("modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])])
+
+
+def coupled_modes(
+    mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, modal: Any = None
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(frequencies per unit tau, ascending, and the mass-normalised modes as columns in q) of the
+    mechanism linear about the state (t, q, v) of a run of its model: K phi = w^2 M phi on the
+    closure's null space, K = d res / dq at the state's accelerations and multipliers (bending,
+    geometric stiffness of the axial forces, gravity and speed terms), M = d res / da (symmetric
+    parts). The free motions (w^2 <= ``FREE_MOTION`` of the largest) are left out. None where M
+    is not positive definite there (quasi-static amplitudes: no inertia)."""
+    modal = modal if modal is not None else _modal_function(mech)
+    z = np.zeros
+    J, r = mech.kkt(t, q, v, z(mech.n), z(mech.m), mech.p)
+    # least squares: at a toggle the closure's rows are dependent and the multipliers not unique
+    sol = np.linalg.lstsq(np.array(J), -np.array(r).ravel(), rcond=None)[0]
+    a, lam = sol[: mech.n], sol[mech.n :]
+    K, M, C = (np.array(x) for x in modal(t, q, v, a, lam, mech.p))
+    N = _null(C)
+    Kr, Mr = N.T @ K @ N, N.T @ M @ N
+    try:
+        Li = np.linalg.inv(np.linalg.cholesky((Mr + Mr.T) / 2))
+    except np.linalg.LinAlgError:
+        return None
+    w2, y = np.linalg.eigh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
+    keep = np.flatnonzero(w2 > FREE_MOTION * max(float(np.abs(w2).max(initial=0.0)), 1e-300))
+    return np.sqrt(w2[keep]), (N @ (Li.T @ y))[:, keep]
 
 
 def _null(C: np.ndarray) -> np.ndarray:
