@@ -33,19 +33,33 @@ amplification is capped at ``AMPLIFICATION_CAP`` (a bar at or beyond buckling in
 output's change is the model's output function at q + dq minus at q, its maximum over the run
 divided by the output's peak.
 
-Dynamics: the left-out terms harden each bar; its first bending frequency omega (the bar
-alone, pinned or clamped as its frame) moves at each sample by the fraction
-shift(t) = (1/2) v^T H v / v^T (mu Kt) v, H the Hessian of dU (its second difference along v)
-and v the bar's first mode. The free vibration of the bar in an output (the envelope of its
-content within 25 % of omega, and no nearer another bar's frequency than the geometric mean of
+Dynamics: the left-out terms harden the bars, and so move the modes the run rings: the
+mechanism's coupled modes (:func:`coupled_modes`: the run's own model linear about its state, the
+tangent of its dynamics on the closure's null space, at ``MODE_SAMPLES`` configurations along
+the run), not each bar alone. A mode phi (mass-normalised) moves at each sample by the fraction
+shift(t) = (1/2) phi^T H phi / omega^2, H the Hessian of the bars' left-out energy (each bar's
+second difference along its part of phi, times the model's scale of the bar's generalized
+forces, nu alpha^3); for a bar whose coupled mode is its own first mode this is
+(1/2) v^T H v / v^T (mu Kt) v. The free vibration of the mode in an output (the envelope of its
+content within 25 % of omega, and no nearer another mode's frequency than the geometric mean of
 the two) then drifts in phase by omega times the integral of shift over the time it has rung:
 the run so far, with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
-by that phase times the envelope there (at most twice it), the largest along the run. Along the
-run, not the mean shift times the run's length times a mean amplitude: the vibration a start or
-a load step excites is largest, and its slopes with it, where a windowed spectrum of the whole
-run sees least of it (the five-bar's links: 0.38x of the true error with the mean, 0.93x along
-the run; benchmarks/RESULTS.md). Each output's estimate is its static change plus its drift, as
-a fraction of its peak; outputs that q does not move (a driver torque) have their drift only.
+by that phase times the envelope there (at most twice it), the largest along the run. The
+coupled modes, because a tool on an overhang makes with the linkage a mode far below any bar's
+own (the four-bar with its rocker pinned to the coupler at xi = 0.6 and a 50 g tool at the
+coupler's end: 5.5 per unit tau against the coupler's own first bending at 15.3; von Karman vs
+the exact bar 2.6e-3 of the coupler's peak, growing turn by turn at 5.5; estimated 0.9e-3 with
+the bars' own modes, 3.8e-3 with the coupled ones: tests/test_model_form_drift.py), and because
+two bars at one frequency ring as two modes, not one band counted twice. Where the mass matrix
+is not positive definite on the null space (quasi-static amplitudes) the bars' own first modes
+are used. Along the run, not the mean shift times the run's length times a mean amplitude: the
+vibration a start or a load step excites is largest, and its slopes with it, where a windowed
+spectrum of the whole run sees least of it (the five-bar's links: 0.38x of the true error with
+the mean, 0.93x along the run; benchmarks/RESULTS.md). Each output's estimate is its static
+change plus its drift, as a fraction of its peak; outputs that q does not move (a driver torque)
+have their drift only. It over-states an output whose content in a mode's band is the response
+forced at the driver's harmonics rather than the mode's free vibration (the same four-bar's
+rocker_mid: 2.3e-3 against 5.3e-5, below the reference's noise).
 
 The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
 |r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
