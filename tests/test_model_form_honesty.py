@@ -24,45 +24,50 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import bench_validation as V  # noqa: E402
 
 #: ratios estimate / true error measured by ``bench_validation.py honesty`` (the outputs above
-#: noise), and the cause where outside [0.5, 2]
+#: noise), and the cause where outside [0.5, 2]; measured 2026-11-26 with the model-form part's
+#: drift at the mechanism's coupled modes (symgen.numerics.model_form.coupled_modes; before, each
+#: bar's own first mode: the five-bar 0.93 / 1.24 / 1.40 / 0.91, the six-bar 0.79 / 0.63 / 0.67 /
+#: 0.52 / 1.13, the crank-rocker 0.94 / 0.88 / 0.82 / 0.98; tests/test_model_form_drift.py)
 MEASURED: dict[str, dict[str, tuple[float, str]]] = {
     "slewing_arm": {
         # DERIVE_VERSION 8 (the exact strain's eta'^4 / 8): tip and mid fell to 3.4e-5 and 1.4e-4 of peak,
         # below the reference's noise (they were 7.7e-4, ratios 0.82 and 0.88)
         # the exact bar with the strain's eta'^4 / 8 (true 3.7e-4) and the estimate measured as written
-        "torque": (0.94, ""),
+        "torque": (0.92, ""),
     },
-    "double_pendulum_alu": {"upper_tip": (0.79, ""), "lower_tip": (0.92, "")},
+    "double_pendulum_alu": {"upper_tip": (0.75, ""), "lower_tip": (0.92, "")},
     "five_bar_elastic": {
-        "link_a_mid": (0.93, ""),
-        "link_b_mid": (1.24, ""),
-        "torque_a": (1.40, ""),
+        "link_a_mid": (0.64, ""),
+        "link_b_mid": (0.86, ""),
+        "torque_a": (1.08, ""),
         # the run's first sample of the joint forces is the continuum's (symgen.numerics.start):
         # torque_b's error fell from 0.19 % (its model's own sample at tau = 0) to 0.040 %
-        "torque_b": (0.91, ""),
+        "torque_b": (0.68, ""),
     },
-    "slider_crank_paper": {"eta_mid": (1.48, "")},
+    "slider_crank_paper": {"eta_mid": (1.49, "")},
     "six_bar_soft": {
-        "coupler_mid": (0.79, ""),
-        "rocker_mid": (0.63, ""),
-        "rocker_q3": (0.67, ""),
-        "link_mid": (0.52, ""),
+        "coupler_mid": (1.12, ""),
+        "rocker_mid": (1.22, ""),
+        "rocker_q3": (1.23, ""),
+        "link_mid": (1.03, ""),
         # the run's first sample of the joint forces is the continuum's (symgen.numerics.start):
         # the driver torque's error fell from 1.09 % (its model's own sample at tau = 0) to 0.196 %
-        "torque": (1.13, ""),
+        "torque": (1.64, ""),
     },
     # DERIVE_VERSION 9 (the strain's -eps eta'^2 / 2): the true error fell 1.06 % -> 0.383 % (rod_mid),
     # 6.4e-4 -> 2.1e-4 (xB); the truncation part alone is 0.97x / 1.00x of it. The model-form part
     # charged the exact bar that term until it stopped (5.2e-3 -> 5.4e-4 on rod_mid, 1.4e-4 -> 1.4e-5 on
     # xB; ratios 2.32 and 1.67 before): the converged exact bar is 2.9e-4 off (docs/exact-bars.md)
-    "slider_crank_torque_soft": {"rod_mid": (1.11, ""), "xB": (1.07, "")},
+    "slider_crank_torque_soft": {"rod_mid": (1.06, ""), "xB": (1.25, "")},
     "crank_rocker_steel": {
-        "crank_tip": (0.94, ""),
-        "coupler_mid": (0.88, ""),
-        "rocker_mid": (0.82, ""),
-        "torque": (0.98, ""),
+        "crank_tip": (1.13, ""),
+        "coupler_mid": (1.06, ""),
+        "rocker_mid": (0.91, ""),
+        "torque": (1.08, ""),
     },
-    "slider_crank_steel_rest": {"rod_mid": (0.85, "")},
+    # 1.49 before the coupled modes too (its model-form part is 1.6e-9: the change is the merged
+    # axial treatment's, measured 2026-11-26)
+    "slider_crank_steel_rest": {"rod_mid": (1.49, "")},
 }
 CHEAP = ("slewing_arm",)
 

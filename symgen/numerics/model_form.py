@@ -33,19 +33,33 @@ amplification is capped at ``AMPLIFICATION_CAP`` (a bar at or beyond buckling in
 output's change is the model's output function at q + dq minus at q, its maximum over the run
 divided by the output's peak.
 
-Dynamics: the left-out terms harden each bar; its first bending frequency omega (the bar
-alone, pinned or clamped as its frame) moves at each sample by the fraction
-shift(t) = (1/2) v^T H v / v^T (mu Kt) v, H the Hessian of dU (its second difference along v)
-and v the bar's first mode. The free vibration of the bar in an output (the envelope of its
-content within 25 % of omega, and no nearer another bar's frequency than the geometric mean of
+Dynamics: the left-out terms harden the bars, and so move the modes the run rings: the
+mechanism's coupled modes (:func:`coupled_modes`: the run's own model linear about its state, the
+tangent of its dynamics on the closure's null space, at ``MODE_SAMPLES`` configurations along
+the run), not each bar alone. A mode phi (mass-normalised) moves at each sample by the fraction
+shift(t) = (1/2) phi^T H phi / omega^2, H the Hessian of the bars' left-out energy (each bar's
+second difference along its part of phi, times the model's scale of the bar's generalized
+forces, nu alpha^3); for a bar whose coupled mode is its own first mode this is
+(1/2) v^T H v / v^T (mu Kt) v. The free vibration of the mode in an output (the envelope of its
+content within 25 % of omega, and no nearer another mode's frequency than the geometric mean of
 the two) then drifts in phase by omega times the integral of shift over the time it has rung:
 the run so far, with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
-by that phase times the envelope there (at most twice it), the largest along the run. Along the
-run, not the mean shift times the run's length times a mean amplitude: the vibration a start or
-a load step excites is largest, and its slopes with it, where a windowed spectrum of the whole
-run sees least of it (the five-bar's links: 0.38x of the true error with the mean, 0.93x along
-the run; benchmarks/RESULTS.md). Each output's estimate is its static change plus its drift, as
-a fraction of its peak; outputs that q does not move (a driver torque) have their drift only.
+by that phase times the envelope there (at most twice it), the largest along the run. The
+coupled modes, because a tool on an overhang makes with the linkage a mode far below any bar's
+own (the four-bar with its rocker pinned to the coupler at xi = 0.6 and a 50 g tool at the
+coupler's end: 5.5 per unit tau against the coupler's own first bending at 15.3; von Karman vs
+the exact bar 2.6e-3 of the coupler's peak, growing turn by turn at 5.5; estimated 0.9e-3 with
+the bars' own modes, 3.8e-3 with the coupled ones: tests/test_model_form_drift.py), and because
+two bars at one frequency ring as two modes, not one band counted twice. Where the mass matrix
+is not positive definite on the null space (quasi-static amplitudes) the bars' own first modes
+are used. Along the run, not the mean shift times the run's length times a mean amplitude: the
+vibration a start or a load step excites is largest, and its slopes with it, where a windowed
+spectrum of the whole run sees least of it (the five-bar's links: 0.38x of the true error with
+the mean, 0.93x along the run; benchmarks/RESULTS.md). Each output's estimate is its static
+change plus its drift, as a fraction of its peak; outputs that q does not move (a driver torque)
+have their drift only. It over-states an output whose content in a mode's band is the response
+forced at the driver's harmonics rather than the mode's free vibration (the same four-bar's
+rocker_mid: 2.3e-3 against 5.3e-5, below the reference's noise).
 
 The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
 |r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
@@ -215,6 +229,9 @@ class _Bar:
         self.Ka_inv = np.linalg.inv(Ka) if self.na else np.zeros((0, 0))
         sc = mech.scene.body(name)
         self.lam, self.mu = float(sc.lam or 0.0), float(sc.mu or 0.0)
+        # the model's generalized forces of the bar's amplitudes are its own times nu alpha^3
+        # (symgen/model/bars.py, BarEquations.generalized): the scale of H in the model's coordinates
+        self.scale = float(sc.nu) * float(sc.alpha) ** 3
         rows = [i for i, r in enumerate(mech.info.lam_rows) if r.kind is RowKind.INEXTENSIBLE and r.joint == name]
         self.n_rows = rows  # multipliers N_k of a constrained (quasi-static or inextensible) bar
         # the bar's energy has the stretch's -eps eta'^2 / 2 (``STRETCH_KEPT``): dynamic axial amplitudes
@@ -258,6 +275,18 @@ class _Bar:
         if self.strain_order >= 2:  # the exact bar's (phi'_k, eta'^4 / 8)
             c = c + (self.w * _power(G @ self.P1.T, 4)) @ self.A1 / 8
         return np.asarray(self.lam * (Q[:, self.f_idx] + c @ self.Ka_inv.T))  # lambda P eps
+
+    def curvature_along(self, Q: np.ndarray, Lam: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """v_r^T H_r v_r of each sample r: the second difference of the left-out energy along the
+        bar's amplitudes ``v`` (rows: a mode's part in this bar at each sample)."""
+        G = Q[:, self.g_idx]
+        n = self.axial_force(Q, Lam)
+        N = None if n is None else n @ self.A1.T
+        slope = np.abs(G @ self.P1.T).max(axis=1)
+        size = np.abs(v @ self.P1.T).max(axis=1)
+        step = 1e-4 * np.maximum(slope, 1e-3) / np.maximum(size, 1e-300)
+        dv = step[:, None] * v
+        return np.asarray(np.einsum("ra,ra->r", self.force(G + dv, N) - self.force(G - dv, N), v) / (2.0 * step))
 
     def change(self, Q: np.ndarray, Lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(dg, the relative change of the first mode's tangent stiffness, amplification) of each
@@ -396,6 +425,11 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     kinds = {o.name: o.kind for o in mech.scene.outputs}
     span = float(result.tau[-1] - result.tau[0])
     damping = float(eff.damping or 0.0)
+    # the modes the run rings: the mechanism's coupled modes along the run (each with its shift);
+    # the bars' own first modes where the coupled problem has no modes (a singular mass matrix)
+    ringing = _coupled_modes(mech, bars, result, rows, Q, V, Lam)
+    if ringing is None:
+        ringing = [(b.omega, 0.5 * tangent[b.name], band) for b, band in zip(bars, bands)]
     moved: dict[str, float] = {}
     still = []
     for j, name in enumerate(names):
@@ -406,12 +440,12 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             _drift(
                 result.tau,
                 result.outputs[:, j],
-                b.omega,
-                (tau_rows, 0.5 * tangent[b.name]),
-                _ringing(span, b.omega, damping),
+                omega,
+                (tau_rows, mode_shift),
+                _ringing(span, omega, damping),
                 band,
             )
-            for b, band in zip(bars, bands)
+            for omega, mode_shift, band in ringing
         ) / float(peaks[j])
         if size > 1e-12 * peaks[j]:
             moved[name] = size / float(peaks[j]) + drift
@@ -432,13 +466,118 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         left += " (and -eps eta'^2 / 2 where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
-        f"plus the phase drift of its first bending mode hardened by them, at {len(rows)} outputs"
+        f"plus the phase drift of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"
         if bars
         else "none: no bar bends (the rigid bodies are exact)"
     )
     if skipped:
         method += f"; slot guides not estimated: {', '.join(skipped)}"
     return ModelFormEstimate(out, stiff, method, skipped)
+
+
+#: the configurations along the run where the coupled modes are computed (their shapes and
+#: frequencies change slowly with the configuration: each output sample takes the nearest's)
+MODE_SAMPLES = 24
+#: the coupled modes whose drift is looked for: the lowest ones, at most this many
+MODES_KEPT = 12
+#: a coupled mode with w^2 at most this fraction of the largest is a free motion of the mechanism
+FREE_MOTION = 1e-10
+
+
+def _coupled_modes(
+    mech: Mechanism,
+    bars: list[_Bar],
+    result: SimResult,
+    rows: np.ndarray,
+    Q: np.ndarray,
+    V: np.ndarray,
+    Lam: np.ndarray,
+) -> list[tuple[float, np.ndarray, tuple[float, float]]] | None:
+    """The modes the run rings and how the left-out terms move them: (frequency per unit tau,
+    its relative shift at each of the output ``rows``, its band) of each of the lowest coupled
+    modes of the mechanism, linear about the run's state (the tangent K = d res / dq and mass
+    M = d res / da of the model's own dynamics on the closure's null space), computed at
+    ``MODE_SAMPLES`` configurations along the run. A mode phi (mass-normalised) moves by
+    shift = (1/2) phi^T H phi / omega^2, H the Hessian of the bars' left-out energy (its second
+    difference along phi's part in each bar): for a bar alone, its first bending mode's
+    (1/2) v^T H v / v^T (mu Kt) v. The mode a tool on an overhang makes with the linkage rings far
+    below the coupler's own first bending (the four-bar with its rocker pinned at xi = 0.6 and a
+    50 g tool: 5.5 against 15.3 per unit tau), and its drift is the model-form error there
+    (docs/exact-bars.md). None where the problem has no modes (a mass matrix not positive
+    definite on the closure's null space: quasi-static amplitudes)."""
+    if not bars or len(rows) < 3:
+        return None
+    modal = _modal_function(mech)
+    tau = np.asarray(result.tau, dtype=float)
+    at = np.unique(np.linspace(0, len(rows) - 1, min(MODE_SAMPLES, len(rows))).astype(int))
+    omegas, shapes = [], []
+    for i in at:
+        got = coupled_modes(mech, float(tau[rows[i]]), Q[i], V[i], modal)
+        if got is None:
+            return None
+        omegas.append(got[0][:MODES_KEPT])
+        shapes.append(got[1][:, :MODES_KEPT])
+    count = min(len(w) for w in omegas)
+    if count == 0:
+        return None
+    tau_rows = tau[rows]
+    near = np.abs(tau_rows[:, None] - tau_rows[at][None, :]).argmin(axis=1)
+    mean = [float(np.mean([w[k] for w in omegas])) for k in range(count)]
+    out = []
+    for k, band in zip(range(count), _bands(mean)):
+        phi_k = np.stack([shapes[s][:, k] for s in near])
+        w2 = np.array([omegas[s][k] ** 2 for s in near])
+        vHv = np.zeros(len(rows))
+        for b in bars:
+            vHv += b.scale * b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
+        out.append((mean[k], 0.5 * vHv / w2, band))
+    return out
+
+
+def _modal_function(mech: Mechanism) -> Any:
+    """The CasADi Function (t, q, v, a, lam, p) -> (d res / dq, d res / da, d phi / dq) of the
+    model: its tangent stiffness, mass matrix and the closure's Jacobian."""
+    import casadi as ca
+
+    args, phi = mech._symbols
+    res = mech.f["res"](*args)
+    return ca.Function("modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])])
+
+
+def coupled_modes(
+    mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, modal: Any = None
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(frequencies per unit tau, ascending, and the mass-normalised modes as columns in q) of the
+    mechanism linear about the state (t, q, v) of a run of its model: K phi = w^2 M phi on the
+    closure's null space, K = d res / dq at the state's accelerations and multipliers (bending,
+    geometric stiffness of the axial forces, gravity and speed terms), M = d res / da (symmetric
+    parts). The free motions (w^2 <= ``FREE_MOTION`` of the largest) are left out. None where M
+    is not positive definite there (quasi-static amplitudes: no inertia)."""
+    modal = modal if modal is not None else _modal_function(mech)
+    z = np.zeros
+    J, r = mech.kkt(t, q, v, z(mech.n), z(mech.m), mech.p)
+    # least squares: at a toggle the closure's rows are dependent and the multipliers not unique
+    sol = np.linalg.lstsq(np.array(J), -np.array(r).ravel(), rcond=None)[0]
+    a, lam = sol[: mech.n], sol[mech.n :]
+    K, M, C = (np.array(x) for x in modal(t, q, v, a, lam, mech.p))
+    N = _null(C)
+    Kr, Mr = N.T @ K @ N, N.T @ M @ N
+    try:
+        Li = np.linalg.inv(np.linalg.cholesky((Mr + Mr.T) / 2))
+    except np.linalg.LinAlgError:
+        return None
+    w2, y = np.linalg.eigh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
+    keep = np.flatnonzero(w2 > FREE_MOTION * max(float(np.abs(w2).max(initial=0.0)), 1e-300))
+    return np.sqrt(w2[keep]), (N @ (Li.T @ y))[:, keep]
+
+
+def _null(C: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the null space of ``C`` (rows: the closure's Jacobian)."""
+    if C.shape[0] == 0:
+        return np.eye(C.shape[1])
+    _, s, Vt = np.linalg.svd(C)
+    rank = int(np.sum(s > s[0] * max(C.shape) * np.finfo(float).eps)) if len(s) else 0
+    return np.asarray(Vt[rank:].T)
 
 
 def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
