@@ -206,6 +206,9 @@ RINGING_PERIODS = 5.0
 RINGING_DECAYS = 3.0
 #: output samples per period of the fastest first axial mode in the window
 RINGING_SAMPLES = 20
+#: the window is doubled until the largest difference has crossed its mean this many times (two
+#: periods of the ringing the window saw)
+RINGING_CROSSINGS = 4
 #: the window is not made longer than this many output samples (an undamped stiff bar: the
 #: amplitude of an undamped ringing is the same in every window)
 RINGING_MAX_SAMPLES = 2000
@@ -311,11 +314,17 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
         dyn = simulate(kept, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)
         steps += own.steps + dyn.steps
         k = min(len(own.tau), len(dyn.tau))
-        diff = np.column_stack([np.abs(dyn.column(n)[:k] - own.column(n)[:k]) for n in names])
+        signed = np.column_stack([dyn.column(n)[:k] - own.column(n)[:k] for n in names])
+        diff = np.abs(signed)
         # the coupled axial mode (a bar carrying a mass rings slower than its own first mode): the
-        # window is doubled while an output's largest difference lies in its second half
-        late = [j for j, p in enumerate(peaks) if p > 0 and np.isfinite(p) and int(np.argmax(diff[:, j])) > k // 2]
-        if not late or length >= t_run or 2 * length > RINGING_MAX_SAMPLES * step:
+        # window is doubled until the largest difference (relative to its output's peak) has
+        # crossed its mean RINGING_CROSSINGS times, i.e. the ringing has shown its amplitude (a
+        # later growth of an undamped run's difference is the two models' phases drifting apart,
+        # not the start's ringing: the paper's slider-crank)
+        rel = [float(diff[:, j].max()) / p if p > 0 and np.isfinite(p) else 0.0 for j, p in enumerate(peaks)]
+        worst = signed[:, int(np.argmax(rel))]
+        crossings = int(np.count_nonzero(np.diff(np.sign(worst - worst.mean())) != 0))
+        if crossings >= RINGING_CROSSINGS or length >= t_run or 2 * length > RINGING_MAX_SAMPLES * step:
             break
         length, doubled = min(2 * length, t_run), doubled + 1
     out = {
@@ -323,7 +332,7 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
         for j, n in enumerate(names)
     }
     if doubled:
-        window += f", doubled {doubled} x to {length:.3g} tau (the largest difference was in its second half)"
+        window += f", doubled {doubled} x to {length:.3g} tau (until the largest difference crossed its mean {RINGING_CROSSINGS} times)"
     how = (
         f"the start's axial ringing (the start is not on its quasi-static deformation; axial force jump "
         f"{bound:.2g} of its peak): a window of {window} from the start run with the axial dynamics of "
