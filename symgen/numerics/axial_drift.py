@@ -28,10 +28,14 @@ under gravity the stretch also lengthens the arm of its weight, which halves the
 of a uniform stretch: there the part is up to 2x high. Zero where the run has no free rigid
 coordinate (every rigid motion prescribed) or no quasi-static bar.
 
-Not charged: the start's axial ringing of force outputs (driver torques, reactions) at an
-undeformed start at speed (the auto rule keeps the axial dynamics where the ringing of
-deflections and positions exceeds the accuracy: ``symgen.scene.bases.axial_ringing``), and the
-stretch's own rate f' + N'/lambda in T (of the order of the axial force's rate over lambda).
+The start's axial ringing (:func:`ringing`): a run that does not start on its quasi-static
+deformation (an undeformed start at speed) rings the dynamic bar axially about the stretch the
+quasi-static bar has from the first instant; a window from the start run with the axial dynamics
+kept against the run's own model measures it (see :func:`ringing`). The part (:func:`estimate`) is
+the larger of the drift and the ringing per output.
+
+Not charged: the stretch's own rate f' + N'/lambda in T (of the order of the axial force's rate
+over lambda).
 """
 
 from __future__ import annotations
@@ -284,7 +288,10 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     """output -> the start's axial ringing the quasi-static treatment leaves out, as a fraction of
     the output's peak over the run, and how: a window from the start run with the quasi-static
     bars' axial dynamics kept and with the run's own model on the same fine output grid, the
-    largest difference. 0 where the run starts on its quasi-static deformation
+    largest difference (the window: :func:`ringing_window`, doubled until that difference has
+    crossed its mean ``RINGING_CROSSINGS`` times; where the ringing lasts the run, the force
+    outputs ``RINGING_FORCE_KINDS`` over the whole run on its output grid, the levers that read the
+    axial force turning). 0 where the run starts on its quasi-static deformation
     (``initial.deformation = "quasi-static"``) or the start's axial force jump
     (:func:`ringing_bound`) is below ``RINGING_SKIP`` x the accuracy."""
     from symgen.numerics.simulate import simulate
