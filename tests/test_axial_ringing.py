@@ -134,3 +134,26 @@ def test_a_start_from_rest_skips_the_window_by_its_a_priori_bound():
     ring, how = axial_drift.ringing(steel, res)
     assert set(ring.values()) == {0.0}
     assert "not run" in how
+
+
+def test_the_warning_names_the_start_ringing_and_its_keys(capsys):
+    from symgen.cli import _say_estimate
+
+    sidecar = {
+        "error_estimate": {"torque": 0.074},
+        "error_estimate_detail": {
+            "parts": {
+                "truncation": {"torque": 4e-5},
+                "axial": {"torque": 0.0736},
+                "time_integration": {"torque": 7e-7},
+            },
+            "methods": {
+                "axial": "the start's ringing on torque (the larger there; the phase drift on the others): ..."
+            },
+        },
+        "accuracy": 0.01,
+    }
+    _say_estimate(sidecar, "press.json", "press.toml")
+    err = capsys.readouterr().err
+    assert "the start's axial ringing" in err
+    assert 'initial.deformation = "quasi-static" removes it where' in err and 'effects.axial = "dynamic"' in err
