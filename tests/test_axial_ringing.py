@@ -157,3 +157,22 @@ def test_the_warning_names_the_start_ringing_and_its_keys(capsys):
     err = capsys.readouterr().err
     assert "the start's axial ringing" in err
     assert 'initial.deformation = "quasi-static" removes it where' in err and 'effects.axial = "dynamic"' in err
+
+
+def test_a_failed_window_leaves_the_drift_and_says_why(spun, monkeypatch):
+    """The window's runs failing (here: the axial-dynamic model's run raises) is no internal
+    error: the part is the drift alone and its method says the ringing was not estimated."""
+    from symgen.errors import SimulationError
+
+    mech, res = spun
+
+    def failing(*args, **kwargs):
+        raise SimulationError(0.01, "IDAS stopped")
+
+    monkeypatch.setattr("symgen.numerics.simulate.simulate", failing)
+    values, how = axial_drift.estimate(mech, res)
+    assert set(values.values()) == {0.0}  # driven: no drift
+    assert (
+        "not estimated (the window with the axial dynamics kept failed: SimulationError: at tau = 0.01: IDAS stopped)"
+        in how
+    )

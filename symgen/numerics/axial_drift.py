@@ -316,6 +316,8 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
             "the start's ringing not run"
         )
     tau = np.asarray(result.tau, dtype=float)
+    if len(tau) < 2:
+        raise AxialNotEstimated("the run has fewer than two output samples")
     t_run = float(tau[-1] - tau[0])
     length, step, window = ringing_window(mech, bars, t_run)
     kept = _kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
@@ -391,8 +393,17 @@ def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]
     the start's ringing (:func:`ringing`) the quasi-static axial treatment leaves out, as a
     fraction of the output's peak, and how (both, and which is larger on which outputs). Raises
     :class:`AxialNotEstimated` where the drift cannot be evaluated."""
+    from symgen.errors import SymgenError
+
     slow, slow_how = drift(mech, result)
-    ring, ring_how = ringing(mech, result)
+    try:
+        ring, ring_how = ringing(mech, result)
+    except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
+        # the window's runs (or the axial-dynamic model) failed: the drift alone, said as such
+        ring, ring_how = (
+            {},
+            f"not estimated (the window with the axial dynamics kept failed: {type(why).__name__}: {why})",
+        )
     out = {n: max(slow.get(n, 0.0), ring.get(n, 0.0)) for n in slow}
     by_ring = sorted(n for n in out if ring.get(n, 0.0) > slow.get(n, 0.0))
     if not by_ring:
