@@ -234,6 +234,15 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
                 "; its largest part, the model form, is the exact bar's terms beyond fourth order in the slopes: "
                 "no key of the scene lowers it (a deflection at the edge of the model)"
             )
+        elif largest == "axial" and str(
+            ((sidecar.get("error_estimate_detail") or {}).get("methods") or {}).get("axial", "")
+        ).startswith("the start's ringing"):
+            advice = (
+                "; its largest part, the axial, is the start's axial ringing (the run does not start on its "
+                'quasi-static deformation): effects.axial = "dynamic" runs it (at the cost of resolving the axial '
+                'mode); initial.deformation = "quasi-static" removes it where the mechanism is meant to start on '
+                "its quasi-static deformation (a different start)"
+            )
         elif largest in _ESTIMATE_ADVICE:
             advice = f"; its largest part, the {largest.replace('_', ' ')}, is lowered by {_ESTIMATE_ADVICE[largest]}"
         else:

@@ -44,7 +44,9 @@ MEASURED: dict[str, dict[str, tuple[float, str]]] = {
         # torque_b's error fell from 0.19 % (its model's own sample at tau = 0) to 0.040 %
         "torque_b": (0.68, ""),
     },
-    "slider_crank_paper": {"eta_mid": (1.49, "")},
+    # the start's axial ringing charged (the axial part: 5.2e-4 of peak, a window from the undeformed start
+    # with the axial dynamics kept): 1.48 -> 1.69
+    "slider_crank_paper": {"eta_mid": (1.69, "")},
     "six_bar_soft": {
         "coupler_mid": (1.12, ""),
         "rocker_mid": (1.22, ""),

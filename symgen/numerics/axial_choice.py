@@ -92,11 +92,11 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
     """After a complete run of ``mech`` whose scene is :func:`switchable`: the scene with the
     auto rule's quasi-static bars kept dynamic when the run's axial part exceeds the accuracy,
     else None (also when the part cannot be estimated). Remembered either way."""
-    from symgen.numerics.axial_drift import AxialNotEstimated, estimate
+    from symgen.numerics.axial_drift import AxialNotEstimated, drift
 
     scene = mech.scene
     try:
-        values, _ = estimate(mech, result)
+        values, _ = drift(mech, result)
     except (AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
         return None  # not estimated (the sidecar's error estimate says why): kept quasi-static
     kinds = {o.name: o.kind for o in scene.outputs}

@@ -28,15 +28,21 @@ under gravity the stretch also lengthens the arm of its weight, which halves the
 of a uniform stretch: there the part is up to 2x high. Zero where the run has no free rigid
 coordinate (every rigid motion prescribed) or no quasi-static bar.
 
-Not charged: the start's axial ringing of force outputs (driver torques, reactions) at an
-undeformed start at speed (the auto rule keeps the axial dynamics where the ringing of
-deflections and positions exceeds the accuracy: ``symgen.scene.bases.axial_ringing``), and the
-stretch's own rate f' + N'/lambda in T (of the order of the axial force's rate over lambda).
+The start's axial ringing (:func:`ringing`): a run that does not start on its quasi-static
+deformation (an undeformed start at speed) rings the dynamic bar axially about the stretch the
+quasi-static bar has from the first instant; a window from the start run with the axial dynamics
+kept against the run's own model measures it (see :func:`ringing`). The part (:func:`estimate`) is
+the larger of the drift and the ringing per output.
+
+Not charged: the stretch's own rate f' + N'/lambda in T (of the order of the axial force's rate
+over lambda).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,8 +53,18 @@ if TYPE_CHECKING:
     from symgen.numerics.index1 import Partition
     from symgen.numerics.mechanism import Mechanism
     from symgen.numerics.simulate import SimResult
+    from symgen.scene.model import Scene
 
-__all__ = ["KEY", "AxialNotEstimated", "estimate", "free_rates", "quasi_static_bars", "stretch_inertia"]
+__all__ = [
+    "KEY",
+    "AxialNotEstimated",
+    "drift",
+    "estimate",
+    "free_rates",
+    "quasi_static_bars",
+    "ringing",
+    "stretch_inertia",
+]
 
 #: bar -> (its axial amplitudes, the rows of its multipliers, the index of its lambda in the parameters)
 Bars = dict[str, tuple[list[int], list[int], int]]
@@ -141,7 +157,7 @@ def free_rates(
     return rates
 
 
-def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
+def drift(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     """output -> the drift of the free motion the quasi-static axial treatment leaves out, as a
     fraction of the output's peak, and how (see the module docstring). Raises
     :class:`AxialNotEstimated` where it cannot be evaluated."""
@@ -185,3 +201,214 @@ def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]
         f"lowered by {KEY}"
     )
     return out, how
+
+
+# ---------------------------------------------------------------------- the start's ringing
+#: the ringing's window: this many periods of the slowest quasi-static bar's first axial mode ...
+RINGING_PERIODS = 5.0
+#: ... or this many of its Kelvin-Voigt decay times 2 / (c w^2) where longer (light damping)
+RINGING_DECAYS = 3.0
+#: output samples per period of the fastest first axial mode in the window
+RINGING_SAMPLES = 20
+#: the window is doubled until the largest difference has crossed its mean this many times (two
+#: periods of the ringing the window saw)
+RINGING_CROSSINGS = 4
+#: output kinds that read the axial force through the mechanism's levers (charged over the whole
+#: run where the ringing lasts it)
+RINGING_FORCE_KINDS = ("driver_torque", "reaction", "axial", "chord_elongation")
+#: the whole run with the axial dynamics kept is not run for the force outputs beyond this many
+#: periods of the stiffest bar's first axial mode (the stiff slider-crank, 250 periods: 58419 IDAS
+#: steps, 0.5 s)
+RINGING_WHOLE_PERIODS = 1000.0
+#: the window is not made longer than this many output samples (an undamped stiff bar: the
+#: amplitude of an undamped ringing is the same in every window)
+RINGING_MAX_SAMPLES = 2000
+#: the a-priori bound below which the window is not run: the start's axial force jump |N(0)| as
+#: a fraction of its largest over the run, against this fraction of the accuracy
+RINGING_SKIP = 0.1
+
+#: the axial-dynamic models loaded in this process: (cache root, scene) -> the mechanism
+_KEPT: dict[tuple[str, Any], Mechanism] = {}
+
+
+def axial_dynamic_scene(scene: Scene, bars: list[str]) -> Scene:
+    """``scene`` with the axial dynamics of ``bars`` kept: the auto rule's quasi-static bars through
+    ``Scene.axial_kept`` (the model axial = "auto" would switch to: :mod:`symgen.numerics.axial_choice`),
+    else (``effects.axial = "quasi_static"`` written) every bar dynamic."""
+    if scene.effects.axial == "auto":
+        reason = "the error estimate's start-ringing window keeps the axial dynamics"
+        return replace(scene, axial_kept=(*scene.axial_kept, *((b, reason) for b in bars)))
+    return replace(scene, effects=replace(scene.effects, axial="dynamic"))
+
+
+def _kept_mechanism(scene: Scene) -> Mechanism:
+    from symgen import cache
+    from symgen.numerics.mechanism import load_mechanism
+
+    key = (str(cache.cache_root()), scene)
+    try:
+        hash(key)
+    except TypeError:
+        return load_mechanism(scene)
+    if key not in _KEPT:
+        _KEPT.clear()  # one model kept: a sweep estimates the same model's runs again
+        _KEPT[key] = load_mechanism(scene)
+    return _KEPT[key]
+
+
+def ringing_window(mech: Mechanism, bars: Bars, t_run: float) -> tuple[float, float, str]:
+    """(the window's length, its output step, how) in tau from the quasi-static bars' first axial
+    modes w = (pi/2) sqrt(lambda) per unit tau: ``RINGING_PERIODS`` periods of the slowest, longer
+    to ``RINGING_DECAYS`` decay times 2 / (c w^2) of Kelvin-Voigt damping c, at most the run;
+    ``RINGING_SAMPLES`` samples per period of the fastest."""
+    lams = [float(mech.p[k]) for _, _, k in bars.values()]
+    w_slow, w_fast = (math.pi / 2) * math.sqrt(min(lams)), (math.pi / 2) * math.sqrt(max(lams))
+    period = 2 * math.pi / w_slow
+    c = float(mech.scene.effects.damping)
+    decay = 2.0 / (c * w_slow**2) if c > 0 else math.inf
+    step = 2 * math.pi / w_fast / RINGING_SAMPLES
+    if c > 0 and RINGING_DECAYS * decay > RINGING_PERIODS * period:
+        length, why = RINGING_DECAYS * decay, f"{RINGING_DECAYS:g} decay times 2/(c w^2) = {decay:.3g} tau"
+    else:
+        length, why = RINGING_PERIODS * period, f"{RINGING_PERIODS:g} periods of the first axial mode"
+    length = min(length, t_run, RINGING_MAX_SAMPLES * step)
+    return length, step, f"{why} (w {w_slow:.4g} per unit tau), {length:.3g} tau"
+
+
+def ringing_bound(mech: Mechanism, result: SimResult, bars: Bars) -> float:
+    """The a-priori bound of the start's ringing: the largest jump of a quasi-static bar's axial
+    force at the start |N(0)| (the ringing's amplitude in the force; the dynamic bar starts
+    unstretched) as a fraction of that force's largest over the run."""
+    lam = np.asarray(result.lam, dtype=float)
+    worst = 0.0
+    for _, rows, _ in bars.values():
+        peak = float(np.max(np.abs(lam[:, rows])))
+        if peak > 0:
+            worst = max(worst, float(np.max(np.abs(lam[0, rows]))) / peak)
+    return worst
+
+
+def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
+    """output -> the start's axial ringing the quasi-static treatment leaves out, as a fraction of
+    the output's peak over the run, and how: a window from the start run with the quasi-static
+    bars' axial dynamics kept and with the run's own model on the same fine output grid, the
+    largest difference (the window: :func:`ringing_window`, doubled until that difference has
+    crossed its mean ``RINGING_CROSSINGS`` times; where the ringing lasts the run, the force
+    outputs ``RINGING_FORCE_KINDS`` over the whole run on its output grid, the levers that read the
+    axial force turning). 0 where the run starts on its quasi-static deformation
+    (``initial.deformation = "quasi-static"``) or the start's axial force jump
+    (:func:`ringing_bound`) is below ``RINGING_SKIP`` x the accuracy."""
+    from symgen.numerics.simulate import simulate
+
+    names = list(result.output_names)
+    zero = dict.fromkeys(names, 0.0)
+    bars = quasi_static_bars(mech)
+    scene = mech.scene
+    if not bars:
+        return zero, "no bar has quasi-static axial dynamics"
+    if scene.initial.quasi_static:
+        return zero, "the run starts on its quasi-static deformation: no start ringing"
+    accuracy = float(scene.simulation.accuracy)
+    bound = ringing_bound(mech, result, bars)
+    if bound < RINGING_SKIP * accuracy:
+        return zero, (
+            f"the start's axial force jump is {bound:.2g} of its peak (< {RINGING_SKIP:g} x simulation.accuracy): "
+            "the start's ringing not run"
+        )
+    tau = np.asarray(result.tau, dtype=float)
+    if len(tau) < 2:
+        raise AxialNotEstimated("the run has fewer than two output samples")
+    t_run = float(tau[-1] - tau[0])
+    length, step, window = ringing_window(mech, bars, t_run)
+    kept = _kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
+    sim = scene.simulation
+    t0 = float(tau[0])
+    peaks = [float(np.max(np.abs(np.asarray(result.column(n), dtype=float)))) for n in names]
+    steps, doubled = 0, 0
+    while True:
+        own = simulate(mech, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)
+        dyn = simulate(kept, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)
+        steps += own.steps + dyn.steps
+        k = min(len(own.tau), len(dyn.tau))
+        signed = np.column_stack([dyn.column(n)[:k] - own.column(n)[:k] for n in names])
+        diff = np.abs(signed)
+        # the coupled axial mode (a bar carrying a mass rings slower than its own first mode): the
+        # window is doubled until the largest difference (relative to its output's peak) has
+        # crossed its mean RINGING_CROSSINGS times, i.e. the ringing has shown its amplitude (a
+        # later growth of an undamped run's difference is the two models' phases drifting apart,
+        # not the start's ringing: the paper's slider-crank)
+        rel = [float(diff[:, j].max()) / p if p > 0 and np.isfinite(p) else 0.0 for j, p in enumerate(peaks)]
+        worst = signed[:, int(np.argmax(rel))]
+        crossings = int(np.count_nonzero(np.diff(np.sign(worst - worst.mean())) != 0))
+        if crossings >= RINGING_CROSSINGS or length >= t_run or 2 * length > RINGING_MAX_SAMPLES * step:
+            break
+        length, doubled = min(2 * length, t_run), doubled + 1
+    out = {
+        n: (float(diff[:, j].max() / peaks[j]) if peaks[j] > 0 and np.isfinite(peaks[j]) else 0.0)
+        for j, n in enumerate(names)
+    }
+    if doubled:
+        window += f", doubled {doubled} x to {length:.3g} tau (until the largest difference crossed its mean {RINGING_CROSSINGS} times)"
+    # an undamped ringing lasts the run, and the forces read the bar's axial force through the
+    # mechanism's levers, which turn (a crank started at its dead centre: the driver torque's
+    # ringing is 0.23 of its peak over the window, 2.4 over half a turn): for the force outputs the
+    # whole run with the axial dynamics kept, on the run's own output grid
+    c = float(scene.effects.damping)
+    lams = [float(mech.p[k]) for _, _, k in bars.values()]
+    decay = 2.0 / (c * (math.pi / 2) ** 2 * min(lams)) if c > 0 else math.inf
+    kinds = {o.name: o.kind for o in scene.outputs}
+    forces = [n for j, n in enumerate(names) if kinds.get(n) in RINGING_FORCE_KINDS and peaks[j] > 0]
+    periods = t_run * (math.pi / 2) * math.sqrt(max(lams)) / (2 * math.pi)
+    if forces and length < t_run and RINGING_DECAYS * decay > length and periods > RINGING_WHOLE_PERIODS:
+        window += (
+            f"; the force outputs ({', '.join(forces)}) over the window alone: the ringing lasts the run, whose "
+            f"{periods:.3g} axial periods (> {RINGING_WHOLE_PERIODS:g}) the axial dynamics are not run through "
+            "(a lower bound there)"
+        )
+    elif forces and length < t_run and RINGING_DECAYS * decay > length:
+        whole = simulate(
+            kept, t_end=float(tau[-1]), output_step=float(tau[1] - tau[0]), rtol=sim.rtol, atol=sim.atol, t0=t0
+        )
+        steps += whole.steps
+        m = min(len(whole.tau), len(tau))
+        for n in forces:
+            j = names.index(n)
+            late = float(np.max(np.abs(whole.column(n)[:m] - result.column(n)[:m]))) / peaks[j]
+            out[n] = max(out[n], late)
+        window += (
+            f"; the force outputs ({', '.join(forces)}) over the whole run on its output grid (the ringing "
+            f"{'is undamped' if c == 0 else f'decays in {decay:.3g} tau'}: it lasts the run)"
+        )
+    how = (
+        f"the start's axial ringing (the start is not on its quasi-static deformation; axial force jump "
+        f"{bound:.2g} of its peak): a window of {window} from the start run with the axial dynamics of "
+        f"{', '.join(sorted(bars))} kept against the run's own model, {k} samples "
+        f"({steps} IDAS steps in all), the largest difference"
+    )
+    return out, how
+
+
+def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
+    """The axial part: output -> the larger of the free motion's phase drift (:func:`drift`) and
+    the start's ringing (:func:`ringing`) the quasi-static axial treatment leaves out, as a
+    fraction of the output's peak, and how (both, and which is larger on which outputs). Raises
+    :class:`AxialNotEstimated` where the drift cannot be evaluated."""
+    from symgen.errors import SymgenError
+
+    slow, slow_how = drift(mech, result)
+    try:
+        ring, ring_how = ringing(mech, result)
+    except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
+        # the window's runs (or the axial-dynamic model) failed: the drift alone, said as such
+        ring, ring_how = (
+            {},
+            f"not estimated (the window with the axial dynamics kept failed: {type(why).__name__}: {why})",
+        )
+    out = {n: max(slow.get(n, 0.0), ring.get(n, 0.0)) for n in slow}
+    by_ring = sorted(n for n in out if ring.get(n, 0.0) > slow.get(n, 0.0))
+    if not by_ring:
+        return out, f"{slow_how}; the start's ringing (not larger on any output): {ring_how}"
+    return out, (
+        f"the start's ringing on {', '.join(by_ring)} (the larger there; the phase drift on the others): "
+        f'{ring_how}; the drift: {slow_how}; lowered by {KEY} or initial.deformation = "quasi-static"'
+    )

@@ -74,8 +74,10 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   out of the run that the other parts cannot see (the truncation rerun keeps the treatment): the
   stretch's inertia, whose phase drift of the free motion grows over the run
   (``symgen.numerics.axial_drift``; a freely spinning soft arm: 0.081 % per radian-time unit of
-  rate, 5.4 % of tip_x after 11 turns). 0 where no bar is quasi-static or every rigid motion is
-  driven.
+  rate, 5.4 % of tip_x after 11 turns; 0 where every rigid motion is driven), or the start's axial
+  ringing where the run does not start on its quasi-static deformation (a window from the start
+  with the axial dynamics kept: the press started at speed, its torque 7.4 %), the larger of the
+  two per output. 0 where no bar is quasi-static.
 
 The record (:class:`ErrorEstimate`) is typed, with ``to_json``/``from_json`` that check every
 field; a run's sidecar holds ``error_estimate: {output: fraction of peak}`` and the record as

@@ -1,0 +1,178 @@
+"""The error estimate's start-ringing charge (symgen.numerics.axial_drift.ringing): a bar whose
+axial dynamics are quasi-static, started undeformed at speed, against the closed form (a bar
+started undeformed under a steady inertia load rings axially with the amplitude of its static
+stretch) and against the run that keeps the axial dynamics (the oracle)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from symgen.numerics import axial_drift
+from symgen.numerics.error_estimate import estimate_errors
+from symgen.numerics.mechanism import load_mechanism
+from symgen.numerics.simulate import simulate
+
+#: a stiff cantilever arm (lambda 1e4) with a tip mass spun at a constant rate 1 from an undeformed
+#: start: the centrifugal load is steady, N(x) = M + (1 - x^2) / 2, its static tip stretch
+#: (M + 1/3) / lambda; the first axial mode ~80 per unit tau, 20 x the driver's harmonics
+ARM = """
+[scene]
+name = "spun_arm"
+units = "dimensionless"
+omega = 1.0
+reference_length = 1.0
+
+[[bodies]]
+name = "arm"
+length = 1.0
+lambda = LAMBDA
+mu = 1.0
+frame = "cantilever"
+
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "arm"]
+at = [[0.0, 0.0], 0.0]
+
+[[masses]]
+body = "arm"
+at = 1.0
+mass = TIP
+
+[driver]
+kind = "angle"
+body = "arm"
+initial = 0.0
+rate = 1.0
+
+[effects]
+strain = "von_karman"
+axial = "AXIAL"
+INITIAL
+[outputs]
+stretch = { kind = "axial", body = "arm", at = 1.0 }
+tip_x = { kind = "position", body = "arm", at = 1.0, component = "x" }
+Ox = { kind = "reaction", joint = "O", component = "x" }
+torque = { kind = "driver_torque" }
+
+[simulation]
+t_end = 0.6
+output_step = 0.002
+"""
+LAMBDA, TIP = 1.0e4, 1.0
+
+
+def _arm(tmp_path, axial: str = "auto", quasi_static_start: bool = False):
+    text = (
+        ARM.replace("LAMBDA", f"{LAMBDA:g}")
+        .replace("TIP", f"{TIP:g}")
+        .replace("AXIAL", axial)
+        .replace("INITIAL", '\n[initial]\ndeformation = "quasi-static"\n' if quasi_static_start else "")
+    )
+    path = tmp_path / f"arm_{axial}_{quasi_static_start}.toml"
+    path.write_text(text)
+    mech = load_mechanism(path)
+    return mech, simulate(mech)
+
+
+@pytest.fixture(scope="module")
+def spun(tmp_path_factory):
+    return _arm(tmp_path_factory.mktemp("spun"))
+
+
+def test_the_arm_is_quasi_static_by_the_auto_rule_and_stretched_as_the_closed_form(spun):
+    mech, res = spun
+    assert "arm" in axial_drift.quasi_static_bars(mech)
+    static = (TIP + 1.0 / 3.0) / LAMBDA
+    assert float(np.median(res.column("stretch"))) == pytest.approx(static, rel=0.02)
+
+
+def test_the_ringing_is_the_static_stretch_and_the_dynamic_runs_difference(spun, tmp_path):
+    """Closed form: started undeformed, the tip stretch rings about its static value with that
+    value as amplitude: the charge on the stretch is 1 of its peak (undamped, one mode dominant
+    with the tip mass). Oracle: the whole run with the axial dynamics kept (effects.axial =
+    "dynamic"), every output within [0.5, 2] of its largest difference to the run."""
+    mech, res = spun
+    ring, how = axial_drift.ringing(mech, res)
+    assert how.startswith("the start's axial ringing")
+    assert ring["stretch"] == pytest.approx(1.0, rel=0.1)
+    _, dyn = _arm(tmp_path, axial="dynamic")
+    # (the driver torque is 0 in the quasi-static run at a constant rate: no peak to charge against)
+    for name in ("stretch", "tip_x", "Ox"):
+        a, b = res.column(name), dyn.column(name)
+        true = float(np.max(np.abs(a - b)) / np.max(np.abs(a)))
+        assert true > 1e-5, name  # above the tolerances: the ringing is what differs
+        assert 0.5 <= ring[name] / true <= 2.0, f"{name}: charge {ring[name]:.3g}, dynamic run {true:.3g}"
+
+
+def test_the_axial_part_carries_the_ringing_through_the_estimate(spun):
+    """The driven arm has no free motion to drift: the axial part is the ringing, and says so."""
+    mech, res = spun
+    ring, _ = axial_drift.ringing(mech, res)
+    est = estimate_errors(mech, res, 1e-8, 1e-10, truncation="linearized")
+    assert est.methods["axial"].startswith("the start's ringing on")
+    assert 'initial.deformation = "quasi-static"' in est.methods["axial"]
+    for name, value in ring.items():
+        assert est.parts["axial"][name] == pytest.approx(value)
+
+
+def test_no_ringing_from_a_quasi_static_start(tmp_path):
+    mech, res = _arm(tmp_path, quasi_static_start=True)
+    assert "arm" in axial_drift.quasi_static_bars(mech)
+    ring, how = axial_drift.ringing(mech, res)
+    assert set(ring.values()) == {0.0}
+    assert "quasi-static deformation" in how
+
+
+def test_a_start_from_rest_skips_the_window_by_its_a_priori_bound():
+    """slider_crank_steel_rest spins up from rest: no axial force at the start, no window run."""
+    steel = load_mechanism("benchmarks/validation/slider_crank_steel_rest.toml", ["simulation.duration=0.05"])
+    res = simulate(steel)
+    assert axial_drift.ringing_bound(steel, res, axial_drift.quasi_static_bars(steel)) < 1e-3
+    ring, how = axial_drift.ringing(steel, res)
+    assert set(ring.values()) == {0.0}
+    assert "not run" in how
+
+
+def test_the_warning_names_the_start_ringing_and_its_keys(capsys):
+    from symgen.cli import _say_estimate
+
+    sidecar = {
+        "error_estimate": {"torque": 0.074},
+        "error_estimate_detail": {
+            "parts": {
+                "truncation": {"torque": 4e-5},
+                "axial": {"torque": 0.0736},
+                "time_integration": {"torque": 7e-7},
+            },
+            "methods": {
+                "axial": "the start's ringing on torque (the larger there; the phase drift on the others): ..."
+            },
+        },
+        "accuracy": 0.01,
+    }
+    _say_estimate(sidecar, "press.json", "press.toml")
+    err = capsys.readouterr().err
+    assert "the start's axial ringing" in err
+    assert 'initial.deformation = "quasi-static" removes it where' in err and 'effects.axial = "dynamic"' in err
+
+
+def test_a_failed_window_leaves_the_drift_and_says_why(spun, monkeypatch):
+    """The window's runs failing (here: the axial-dynamic model's run raises) is no internal
+    error: the part is the drift alone and its method says the ringing was not estimated."""
+    from symgen.errors import SimulationError
+
+    mech, res = spun
+
+    def failing(*args, **kwargs):
+        raise SimulationError(0.01, "IDAS stopped")
+
+    monkeypatch.setattr("symgen.numerics.simulate.simulate", failing)
+    values, how = axial_drift.estimate(mech, res)
+    assert set(values.values()) == {0.0}  # driven: no drift
+    assert (
+        "not estimated (the window with the axial dynamics kept failed: SimulationError: at tau = 0.01: IDAS stopped)"
+        in how
+    )
