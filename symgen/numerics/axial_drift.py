@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from symgen.ir.records import RowKind
+from symgen.ir.names import bar_parameter
 from symgen.numerics.model_form import _mapped
 
 if TYPE_CHECKING:
@@ -94,7 +95,7 @@ def quasi_static_bars(mech: Mechanism) -> Bars:
             continue
         rows = [i for i, r in enumerate(mech.info.lam_rows) if r.kind is RowKind.INEXTENSIBLE and r.joint == name]
         f_idx = list(mech.amplitudes.get(name, ((), ()))[0])
-        lam_name = f"lambda_{name}"
+        lam_name = bar_parameter("lambda", name).text
         if not rows or len(rows) != len(f_idx) or lam_name not in params:
             raise AxialNotEstimated(f"the quasi-static bar {name!r} has no multipliers matching its axial amplitudes")
         out[name] = (f_idx, rows, params.index(lam_name))
