@@ -293,53 +293,44 @@ def estimate_errors(
     methods: dict[str, str] = {}
     reasons: dict[str, str] = {}
     counts: dict[str, list[int]] = {}
+    measured = _measured(mech, names)
+
+    def not_estimated(part: str, reason: str) -> None:
+        parts[part] = dict.fromkeys(names)
+        methods[part] = "not estimated"
+        reasons[part] = reason
+
     try:
         trunc, counts, how = truncation_part(mech, result, richer, truncation)
         parts["truncation"] = {n: trunc.get(n) for n in names}
         methods["truncation"] = how + (START_TEXT if result.start_forces else "")
     except (TruncationNotEstimated, SymgenError) as why:
-        parts["truncation"] = dict.fromkeys(names)
-        methods["truncation"] = "not estimated"
-        reasons["truncation"] = str(why)
+        not_estimated("truncation", str(why))
     except (ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
         # the run is complete and stays so: its estimate says what stopped the richer model
-        parts["truncation"] = dict.fromkeys(names)
-        methods["truncation"] = "not estimated"
-        reasons["truncation"] = f"the richer model could not be evaluated ({type(why).__name__}: {why})"
+        not_estimated("truncation", f"the richer model could not be evaluated ({type(why).__name__}: {why})")
     estimator = model_form or (next(iter(MODEL_FORM_ESTIMATORS.values())) if MODEL_FORM_ESTIMATORS else None)
     if estimator is None:
-        parts["model_form"] = dict.fromkeys(names)
-        methods["model_form"] = "not estimated"
-        reasons["model_form"] = (
-            "no model-form estimator is connected (the curvature estimate: symgen.numerics.model_form)"
+        not_estimated(
+            "model_form", "no model-form estimator is connected (the curvature estimate: symgen.numerics.model_form)"
         )
     else:
         try:
             values, how = estimator(mech, result)
         except ModelFormNotEstimated as why:
-            parts["model_form"] = dict.fromkeys(names)
-            methods["model_form"] = "not estimated"
-            reasons["model_form"] = str(why)
+            not_estimated("model_form", str(why))
         except (ValueError, ArithmeticError, RuntimeError) as why:  # LinAlgError is a ValueError
             # the run is complete and stays so: its estimate says what stopped the estimator
-            parts["model_form"] = dict.fromkeys(names)
-            methods["model_form"] = "not estimated"
-            reasons["model_form"] = f"the model-form estimate could not be evaluated ({type(why).__name__}: {why})"
+            not_estimated("model_form", f"the model-form estimate could not be evaluated ({type(why).__name__}: {why})")
         else:
-            measured_mf = _measured(mech, names)
-            parts["model_form"] = {n: (float(values[n]) if n in values and n in measured_mf else None) for n in names}
+            parts["model_form"] = {n: (float(values[n]) if n in values and n in measured else None) for n in names}
             methods["model_form"] = how
-    measured = _measured(mech, names)
     try:
         values, how = _axial_drift.estimate(mech, result)
     except _axial_drift.AxialNotEstimated as why:
-        parts["axial"] = dict.fromkeys(names)
-        methods["axial"] = "not estimated"
-        reasons["axial"] = str(why)
+        not_estimated("axial", str(why))
     except (ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
-        parts["axial"] = dict.fromkeys(names)
-        methods["axial"] = "not estimated"
-        reasons["axial"] = f"the quasi-static axial part could not be evaluated ({type(why).__name__}: {why})"
+        not_estimated("axial", f"the quasi-static axial part could not be evaluated ({type(why).__name__}: {why})")
     else:
         parts["axial"] = {n: (float(values[n]) if n in values and n in measured else None) for n in names}
         methods["axial"] = how
