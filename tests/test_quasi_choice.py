@@ -95,7 +95,9 @@ def _estimate(scene):
 
 def test_condensation_against_the_clamped_free_beam(tmp_path):
     """The arm's second function quasi-static: the first mode stays at beta_1^2 sqrt(mu), the second
-    is gone and costs its amplification r^2 / (1 - r^2); the fastest bending mode left is the first."""
+    is gone and costs its amplification r^2 / (1 - r^2); the fastest bending mode left is the first.
+    Both quasi-static (the quasi-static start rings neither): each mode costs its amplification,
+    the two in quadrature, and no bending mode is left."""
     mu = 1e4
     scene = _scene(_arm(tmp_path, mu=mu))
     est, counts, omega_run = _estimate(scene)
@@ -108,11 +110,18 @@ def test_condensation_against_the_clamped_free_beam(tmp_path):
     assert check.omega == pytest.approx(w2, rel=1e-3)
     assert check.fastest == pytest.approx(w1, rel=1e-3)
     assert est.quasi_check(counts, {}).fastest == pytest.approx(w2, rel=1e-3)
-    # the choice: the second function quasi-static, said with the numbers
+    both = est.quasi_check(counts, {"arm": 2})
+    assert both is not None
+    r1 = (omega_run / w1) ** 2
+    assert both.estimate == pytest.approx(np.hypot(r1 / (1 - r1), r2 / (1 - r2)), rel=2e-3)
+    assert both.omega == pytest.approx(w1, rel=1e-3) and both.fastest == 0.0
+    # the choice: both functions quasi-static (the lowest mode is 88x the run's content 4), said
+    # with the numbers
     (c,) = scene.bases
-    assert c.quasi == 1 and scene.bodies[0].quasi_static_transverse == 1
-    assert "2203" in c.quasi_reason and "351.6" in c.quasi_reason
-    assert c.as_dict()["quasi_static"]["functions"] == 1
+    assert c.quasi == 2 and scene.bodies[0].quasi_static_transverse == 2
+    assert "all 2 of its transverse functions" in c.quasi_reason
+    assert "2203" in c.quasi_reason and "351.6" in c.quasi_reason and "no elastic mode rings" in c.quasi_reason
+    assert c.as_dict()["quasi_static"]["functions"] == 2
 
 
 def test_undeformed_start_counts_the_removed_ringing(tmp_path):
@@ -140,7 +149,7 @@ def test_chosen_arm_meets_the_closed_form_with_fewer_steps(tmp_path):
         warnings.simplefilter("ignore")
         mech = mechanism(file)
         dyn_mech = mechanism(file, ["bodies.arm.quasi_static_transverse=0"])
-    assert [mech.coords[i].name for i in mech.quasi] == ["g_arm_2"]
+    assert [mech.coords[i].name for i in mech.quasi] == ["g_arm_1", "g_arm_2"]
     assert dyn_mech.quasi == ()
     qs, dyn = simulate(mech), simulate(dyn_mech)
     exact = -g * np.cos(qs.column("angle")) / (8 * mu)
@@ -183,11 +192,15 @@ def test_coupled_mechanisms_keep_every_function_dynamic():
 
 
 def test_steel_slider_crank_against_its_reference_and_the_dynamic_run():
-    """benchmarks/validation/slider_crank_steel_rest.toml: symgen makes the rod's highest 2 of 3
-    functions quasi-static; against the converged Exudyn reference it stays as close as every
-    function dynamic (measured 3.3e-4 vs 3.9e-4 of peak) in a fraction of the steps (1625 vs
-    9973); the emitted C solver's start plan has the same partition (the dynamic model's, the
-    quasi-static amplitudes taken out of its independent coordinates: ``Mechanism.quasi``)."""
+    """benchmarks/validation/slider_crank_steel_rest.toml at the default accuracy 0.01: the rod's
+    lowest mode (147 per unit tau) is 37x the run's content (4), and the crank's ramp from rest
+    rings it at 4.6e-4 of a sudden start's: symgen makes all 3 of the rod's functions
+    quasi-static (issue 20's physical floor: no bending mode to follow). Against the converged
+    Exudyn reference it stays within the accuracy (measured 7.7e-4 of peak, every function dynamic
+    3.9e-4) with no IDAS step (every function dynamic: 10326); its a-priori change (9.7e-4) lies
+    within [0.5, 2] x the measured change from the dynamic run (6.0e-4); the emitted C solver's
+    start plan has the same partition (the dynamic model's, the quasi-static amplitudes taken out of
+    its independent coordinates: ``Mechanism.quasi``)."""
     import sys
 
     sys.path.insert(0, "benchmarks")
@@ -207,15 +220,88 @@ def test_steel_slider_crank_against_its_reference_and_the_dynamic_run():
         errors[label] = float(np.max(np.abs(y - r)) / np.max(np.abs(r)))
         steps[label] = res.steps
         runs[label] = (mech, y, np.max(np.abs(r)))
-    assert [runs["chosen"][0].coords[i].name for i in runs["chosen"][0].quasi] == ["g_rod_2", "g_rod_3"]
-    assert errors["chosen"] < 1e-3 and errors["dynamic"] < 1e-3
-    assert errors["chosen"] < errors["dynamic"] + 0.01
-    assert np.max(np.abs(runs["chosen"][1] - runs["dynamic"][1])) / runs["chosen"][2] < 1e-3
-    assert steps["chosen"] < steps["dynamic"] / 3
-    chosen, dynamic = start_plan(runs["chosen"][0]), start_plan(runs["dynamic"][0])
-    assert chosen.quasi == runs["chosen"][0].quasi and dynamic.quasi == ()
+    chosen_mech = runs["chosen"][0]
+    assert [chosen_mech.coords[i].name for i in chosen_mech.quasi] == ["g_rod_1", "g_rod_2", "g_rod_3"]
+    (c,) = chosen_mech.scene.bases
+    assert c.quasi == 3 and c.quasi_axial == 0 and "all 3 of its transverse functions" in c.quasi_reason
+    assert errors["chosen"] < 2e-3 and errors["dynamic"] < 1e-3
+    assert steps["chosen"] == 0 and steps["dynamic"] > 1000
+    # the a-priori change (the coupled check's) against the measured change from the dynamic run
+    est, counts, _ = _estimate(chosen_mech.scene)
+    check = est.quasi_check(counts, {"rod": 3})
+    assert check is not None
+    change = np.max(np.abs(runs["chosen"][1] - runs["dynamic"][1])) / runs["chosen"][2]
+    assert 0.5 <= check.estimate / change <= 2.0
+    chosen, dynamic = start_plan(chosen_mech), start_plan(runs["dynamic"][0])
+    assert chosen.quasi == chosen_mech.quasi and dynamic.quasi == ()
     assert set(chosen.independent) | set(chosen.quasi) == set(dynamic.independent)
     assert chosen.dependent == dynamic.dependent
+
+
+def test_paper_slider_crank_keeps_its_dynamic_band():
+    """The paper's slider-crank (benchmarks/validation/slider_crank_paper.toml: lambda 1.8e4, the rod's
+    lowest mode at 7.2 per unit tau, inside the run's content 4 x the crank rate): its 2 lowest
+    functions stay dynamic (all 3 quasi-static measured 26.6 % of peak off its reference,
+    benchmarks/RESULTS.md), the highest is quasi-static as before; the same from a quasi-static
+    start, where no ringing counts, by the amplification alone."""
+    for overrides in ([], ['initial.deformation="quasi-static"']):
+        scene = _scene("benchmarks/validation/slider_crank_paper.toml", overrides)
+        (c,) = scene.bases
+        assert c.transverse == 3 and c.dynamic[1] == 2 and B.in_band(c) == 2
+        assert c.quasi <= 1
+        est, counts, _ = _estimate(scene)
+        # a mode of the band quasi-static: its amplification alone exceeds the accuracy (the second
+        # mode at 27.8, r^2 / (1 - r^2) = 0.021; the lowest at 6.9: 0.50)
+        for k, least in ((2, 0.02), (3, 0.4)):
+            check = est.quasi_check(counts, {"rod": k})
+            assert check is not None and check.estimate > least
+
+
+def test_a_ramped_start_against_the_oscillator():
+    """:func:`symgen.scene.bases.start_onset` against the independent oracle, a single mode
+    x'' + w^2 x = w^2 s(tau) integrated (scipy, rtol 1e-10) under the loads of the crank's ramp
+    s = theta'' + theta'^2 (theta of symgen.scene.motion.ramp_law, differentiated by SymPy) from
+    rest: the largest |x - s| over the run, relative to the peak of s, is the ringing and lag the
+    quasi-static mode misses; start_onset bounds it within 2x (its kinks add in the worst
+    phase). Sudden starts (a rate from tau = 0, gravity, a law) give 1."""
+    import sympy as sp
+    from scipy.integrate import solve_ivp
+
+    from symgen.scene.motion import ramp_law
+
+    tau = sp.Symbol("tau")
+    path = "benchmarks/validation/slider_crank_steel_rest.toml"
+    scene = _scene(path)
+    (d,) = scene.drivers
+    rate, T, t_end = d.rate, d.ramp, scene.simulation.t_end
+    theta = ramp_law(tau, rate, T).args[0][0]  # the spin-up branch (tau < T)
+    acc = sp.lambdify(tau, sp.diff(theta, tau, 2))
+    vel = sp.lambdify(tau, sp.diff(theta, tau))
+
+    def load(t):
+        return acc(t) + vel(t) ** 2 if t < T else rate**2
+
+    for w in (30.0, 147.36, 600.0):
+        sol = solve_ivp(
+            lambda t, y: [y[1], w * w * (load(t) - y[0])],
+            (0.0, t_end),
+            [0.0, 0.0],
+            rtol=1e-10,
+            atol=1e-13,
+            max_step=min(0.2 / w, T / 50),
+            dense_output=True,
+        )
+        ts = np.linspace(0.0, t_end, 40001)
+        s = np.array([load(t) for t in ts])
+        missed = np.max(np.abs(sol.sol(ts)[0] - s)) / np.max(np.abs(s))
+        predicted = B.start_onset(scene, w)
+        assert missed <= predicted <= 2.0 * missed, (w, missed, predicted)
+    assert B.start_onset(scene, 147.36, deformed=True) == 1.0
+    assert B.start_onset(scene, 2.0) == 1.0  # slower than twice the ramp's frequency 2 pi / T
+    sudden = _scene("benchmarks/validation/slider_crank_paper.toml")
+    assert B.start_onset(sudden, 147.36) == 1.0
+    gravity = _scene(path, ["effects.gravity=[0.0, -9.81]"])
+    assert B.start_onset(gravity, 147.36) == 1.0
 
 
 @pytest.mark.slow

@@ -163,6 +163,50 @@ def amplification_error(omega_run: float, omega: float) -> float:
     return 1.0 if r2 >= 0.5 else r2 / (1.0 - r2)
 
 
+#: a ramped start is gentle for a mode at least this many times faster than the ramp's own
+#: frequency 2 pi / T (below, the asymptotic ringing of its kinks does not hold: a sudden start)
+ONSET_SEPARATION = 2.0
+
+
+def start_onset(scene: Scene, omega: float, deformed: bool = False) -> float:
+    """How much of a sudden start's ringing a mode of frequency ``omega`` (per unit tau) gets
+    from the run's undeformed start, as a fraction (1.0: all of it).
+
+    A start is sudden (1.0) where a load acts at once on the undeformed mechanism: a torque
+    driver, an angle driver at speed from tau = 0 or by a law, gravity, a load, stated initial
+    amplitudes (``deformed``). Where every driver is an angle driver spun up from rest by its
+    ``ramp`` T (theta'' = (rate/T)(1 - cos(a tau)), a = 2 pi / T, symgen.scene.motion.ramp_law)
+    and nothing else loads the bars, the inertia loads s = F theta'' + G theta'^2 start from
+    zero with zero slope, and a mode x'' + w^2 x = w^2 s rings only where a derivative of s
+    jumps: at tau = 0 by (rate/T) a^2 / (w^2 - a^2) (exact for the cosine ramp), at T (where
+    the run gets there) by as much plus the jump of the third derivative of G theta'^2,
+    2 rate^2 a^2 / (T w^3); while the ramp lasts the quasi-static lag is of the first's size.
+    Both kinks add in the worst phase; relative to the largest load of the run
+    (max |theta''|, theta'^2 over it: the shares of :class:`_CoupledEstimate` are relative to the
+    static response of unit fields). The largest over the drivers, at most 1."""
+    if deformed or not scene.drivers or scene.loads or math.hypot(*scene.effects.gravity) > 0:
+        return 1.0
+    worst = 0.0
+    t_end = scene.simulation.t_end
+    for d in scene.drivers:
+        if d.kind != "angle" or d.law is not None or d.ramp is None or not d.rate:
+            return 1.0
+        rate, T = abs(d.rate), float(d.ramp)
+        a = 2.0 * math.pi / T
+        if omega < ONSET_SEPARATION * a:
+            return 1.0
+        tau = np.linspace(0.0, min(t_end, T), 2001)
+        accel = rate / T * (1.0 - np.cos(a * tau))
+        speed = rate / T * (tau - np.sin(a * tau) / a)
+        peak = float(max(np.max(accel), np.max(speed**2), rate**2 if t_end > T else 0.0))
+        if peak <= 0.0:
+            return 1.0
+        kink = rate / T * a * a / (omega * omega - a * a)
+        ring = kink + ((kink + 2.0 * rate * rate * a * a / (T * omega**3)) if t_end > T else 0.0)
+        worst = max(worst, ring / peak)
+    return min(worst, 1.0)
+
+
 #: points closer than this (in xi) share one static correction function; nearer the ends than this
 #: they are not interior
 POINT_TOL = 1e-9
@@ -806,7 +850,7 @@ class _CoupledEstimate:
     a mode the counts do not have at all misses its whole share. Without a ringing start only
     the modes inside the run's band count, as for each bar's own: FREQUENCY_WEIGHT e_k."""
 
-    def __init__(self, model: _Coupled, rings: bool, omega_run: float):
+    def __init__(self, model: _Coupled, rings: bool, omega_run: float, deformed: bool = False):
         self.model = model
         sc = model.scene
         self.rigid, self.w, self.phi, self.mu = model.spectrum_and_modes()
@@ -816,6 +860,9 @@ class _CoupledEstimate:
         c = sc.effects.damping
         self.t_eff = np.array([T if c <= 0 else min(T, 2.0 / (c * w * w)) for w in self.w])
         self.share = self._shares()
+        # the fraction of a sudden start's ringing each mode gets (a ramped start from rest: less)
+        deformed = deformed or bool(sc.initial.deformation)
+        self.onset = np.array([start_onset(sc, float(w), deformed) for w in self.w])
 
     def _fields(self) -> list[np.ndarray]:
         """The start's loads: a chain without a driver starts at rest, loaded by gravity alone (along
@@ -1003,9 +1050,14 @@ class _CoupledEstimate:
         (each of the first model's modes with the second's of the largest mass-weighted overlap):
         a mode that keeps its shape (overlap at least QUASI_MATCH) rings at a shifted frequency,
         its error as :meth:`check`'s with the shift counted QUASI_PHASE_SAFETY times; a mode
-        that has none left (the functions' own modes) misses its ringing share, plus its static
-        amplification r^2 / (1 - r^2) in both cases. The estimate is the sum over the modes; the
-        shares read the deflections where the outputs read them (:attr:`point_share`)."""
+        that has none left (the functions' own modes, the bar's lowest too where every function
+        is quasi-static) misses its ringing share, plus its dynamic amplification r^2 / (1 - r^2)
+        at the run's fastest content (``omega_run``: the driver harmonics and the loads' rate),
+        counted as a fraction of the peak (the lowest mode carries about the whole deflection: for
+        it this is the quasi-static response's error, about (Omega / w)^2 of it). The ringing
+        shares are those of a sudden start times :func:`start_onset` (a ramped start from rest
+        rings the modes far less). The estimate is the root of the sum of squares over the modes;
+        the shares read the deflections where the outputs read them (:attr:`point_share`)."""
         m = self.model
         acc = m.scene.simulation.accuracy
         T = m.ritz(counts)
@@ -1036,7 +1088,7 @@ class _CoupledEstimate:
         total, worst = 0.0, CoupledCheck(0.0, fastest=fastest)
         for i, w in enumerate(wd):
             ref = int(reference[i])
-            share = float(self.point_share[ref])
+            share = float(self.point_share[ref] * self.onset[ref])  # the ringing the start gives it
             j = int(np.argmax(overlap[i])) if overlap.shape[1] else -1
             amp = amplification_error(self.omega_run, float(w)) if w > 0 else 1.0
             if j >= 0 and overlap[i, j] >= QUASI_MATCH:
@@ -1207,6 +1259,7 @@ def choose_bases(
     quasi_static_start: bool = False,
     guess: dict[str, float] | None = None,
     quasi_stated: frozenset[str] = frozenset(),
+    deformed_start: bool = False,
 ) -> dict[str, BasisChoice]:
     """Per elastic bar: its counts (``given`` where the file states them, else chosen) and why.
 
@@ -1214,7 +1267,9 @@ def choose_bases(
     ``given``: bar -> (axial_modes, transverse_modes) as written (None: absent); a bar not in
     it keeps the counts on its record as stated; ``quasi_static_start``: the run starts on its
     quasi-static deformation (``initial.deformation = "quasi-static"``), else undeformed: the
-    start rings the coupled modes; ``guess``: bar -> angle, the assembly guess (``initial.guess``).
+    start rings the coupled modes; ``guess``: bar -> angle, the assembly guess (``initial.guess``);
+    ``deformed_start``: the file states initial amplitudes (``initial.deformation`` as a table):
+    the start is not at rest undeformed (:func:`start_onset`).
 
     Each bar's counts come from its own spectrum first; where symgen chooses counts, the
     mechanism's coupled spectrum (:func:`coupled_choice`) then adds functions until its
@@ -1301,7 +1356,9 @@ def choose_bases(
             warning,
         )
     if any(None in c.given for c in out.values()):
-        out = coupled_choice(scene, out, own, not quasi_static_start, guess or {}, omega_run, quasi_stated)
+        out = coupled_choice(
+            scene, out, own, not quasi_static_start, guess or {}, omega_run, quasi_stated, deformed_start
+        )
     return out
 
 
@@ -1317,6 +1374,7 @@ def coupled_choice(
     guess: dict[str, float],
     omega_run: float,
     quasi_stated: frozenset[str] = frozenset(),
+    deformed_start: bool = False,
 ) -> dict[str, BasisChoice]:
     """The per-bar choices checked against the mechanism's coupled spectrum at its start
     position (:class:`_CoupledEstimate`): while its estimate exceeds the accuracy, one more
@@ -1344,7 +1402,7 @@ def coupled_choice(
             k: replace(c, reason=f"{c.reason}; {note}", quasi_reason=_not_checked(c, note)) for k, c in choices.items()
         }
     try:
-        model = _CoupledEstimate(_Coupled(scene, place, inextensible), rings, omega_run)
+        model = _CoupledEstimate(_Coupled(scene, place, inextensible), rings, omega_run, deformed_start)
     except np.linalg.LinAlgError:
         note = "the coupled modes are not checked (a massless part)"
         return {
@@ -1437,23 +1495,35 @@ def _quasi_candidates(
     scene: Scene, choices: dict[str, BasisChoice], stated: frozenset[str], inextensible: set[str] | frozenset[str]
 ) -> dict[tuple[str, str], int]:
     """(bar, "transverse" | "axial") -> at most how many of its highest functions of that family
-    may be quasi-static: those above its dynamic band, where symgen chose the count. Transverse:
-    where the file does not state ``quasi_static_transverse``, none on a slot's guide or with
-    polynomial shapes (as ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses); axial:
-    where symgen chose the axial count too, of a bar that keeps its axial functions in the coupled
-    model (not inextensible). None on a bar whose file states its transverse treatment (the
-    count or ``quasi_static_transverse``: the scene runs as written) or on a slot's guide."""
+    may be quasi-static, where symgen chose the count: those above the modes the bar's own
+    spectrum puts in the run's band (:func:`in_band`). Transverse: every function where no mode
+    is in the band (the lowest, which the bases keep dynamic because a start may ring it, too:
+    the coupled check counts that ringing and the lowest mode's amplification), where the file
+    does not state ``quasi_static_transverse``, none on a slot's guide or with polynomial shapes
+    (as ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses); axial: where symgen
+    chose the axial count too, of a bar that keeps its axial functions in the coupled model (not
+    inextensible). None on a bar whose file states its transverse treatment (the count or
+    ``quasi_static_transverse``: the scene runs as written) or on a slot's guide."""
     out: dict[tuple[str, str], int] = {}
     for name, c in choices.items():
         body = scene.body(name)
         guide = any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
         if c.given[1] is not None or name in stated or guide:
             continue
-        if body.transverse_shapes != "polynomial" and c.transverse - c.dynamic[1] > 0:
-            out[(name, "transverse")] = c.transverse - c.dynamic[1]
+        band = in_band(c)
+        if body.transverse_shapes != "polynomial" and c.transverse - band > 0:
+            out[(name, "transverse")] = c.transverse - band
         if c.given[0] is None and body.lam and name not in inextensible and c.axial - c.dynamic[0] > 0:
             out[(name, "axial")] = c.axial - c.dynamic[0]
     return out
+
+
+def in_band(c: BasisChoice) -> int:
+    """How many of the bar's own bending modes (:attr:`BasisChoice.omega_bending`, which holds
+    the dynamic band and one more) the run's content amplifies beyond the accuracy
+    (:func:`amplification_error`): ``dynamic[1]`` less the lowest mode the bases keep dynamic
+    for a start that may ring it."""
+    return min(c.dynamic[1], sum(amplification_error(c.omega_run, w) > c.accuracy for w in c.omega_bending))
 
 
 def _split(quasi: dict[tuple[str, str], int]) -> tuple[dict[str, int], dict[str, int]]:
@@ -1505,14 +1575,15 @@ def quasi_choice(
             break
         quasi[best[0]] = quasi.get(best[0], 0) + 1
         steps.append((dict(quasi), best[1]))
-    # only what lowers the fastest mode the run rings saves steps (BDF follows that ringing): the
-    # shortest prefix that lowers it most, if by QUASI_GAIN at least
+    # only what lowers the fastest mode the run rings saves steps (BDF follows that ringing, and
+    # at least the run's own content omega_run, where no elastic mode rings): the shortest prefix
+    # that lowers it most, if by QUASI_GAIN at least
     gain = ""
     quasi = {}
     if steps:
         low = min(c.fastest for _, c in steps)
         first = next(k for k, (_, c) in enumerate(steps) if c.fastest <= low)
-        if fastest >= QUASI_GAIN * low:
+        if max(fastest, model.omega_run) >= QUASI_GAIN * max(low, model.omega_run):
             quasi, last = _pruned(model, counts, *steps[first])
         else:
             gain = (
@@ -1579,12 +1650,27 @@ def _quasi_reason(
     lead = "" if family == "transverse" else "axial: "
     none = f"{lead}every {family} function dynamic: "
     if k and last is not None:
+        which = (
+            f"all {n} of its {family} functions are quasi-static (the bases' dynamic band of {band} included: "
+            "the run's content is far below its lowest mode):"
+            if k >= n and band
+            else f"the highest {k} of its {n} {family} functions are quasi-static: above its {band} dynamic,"
+        )
+        onset = ""
+        if model.rings and last.omega > 0:
+            f = float(model.onset[int(np.argmin(abs(model.w - last.omega)))])
+            if f < 1.0:
+                onset = f"; the start from rest (the drivers' ramp) rings that mode at {f:.2g} of a sudden start's"
+        low = (
+            f"to {last.fastest:.4g} per unit tau"
+            if last.fastest > 0
+            else f"to none (no elastic mode rings: the run's own content, {model.omega_run:.4g} per unit tau, sets the steps)"
+        )
         return (
-            f"{lead}the highest {k} of its {n} {family} functions are quasi-static: above its "
-            f"{band} dynamic, they change the coupled modes by {last.estimate:.2g} of peak "
-            f"(with the other quasi-static functions; the most at {last.omega:.4g} per unit tau, {last.what}), "
+            f"{lead}{which} they change the coupled modes by {last.estimate:.2g} of peak "
+            f"(with the other quasi-static functions; the most at {last.omega:.4g} per unit tau, {last.what}{onset}), "
             f"within the {max(budget, 0.0):.2g} the accuracy {acc:g} leaves over the bases' estimate, and lower "
-            f"the fastest mode the run rings from {fastest:.4g} to {last.fastest:.4g} per unit tau"
+            f"the fastest mode the run rings from {fastest:.4g} {low}"
         )
     if key not in limit:
         return "" if family == "axial" else none + "none above its dynamic band"

@@ -475,6 +475,7 @@ def parse_scene(raw: dict, file: str, digest: str = "") -> Scene:
         scene,
         {b.name: (b.axial_modes, b.transverse_modes) for b in bars if not b.rigid},
         quasi_static_start=table.get("deformation") == "quasi-static",
+        deformed_start=isinstance(table.get("deformation"), dict) and bool(table["deformation"]),
         quasi_stated=frozenset(
             t["name"]
             for t in (raw["bodies"] if isinstance(raw.get("bodies"), list) else [])
@@ -499,13 +500,14 @@ def with_bases(
     quasi_static_start: bool = False,
     guess: dict[str, float] | None = None,
     quasi_stated: frozenset[str] = frozenset(),
+    deformed_start: bool = False,
 ) -> Scene:
     """The scene with every elastic bar's counts: as written, or chosen from
     ``simulation.accuracy`` where absent (:func:`symgen.scene.bases.choose_bases`), and the
     choice recorded on ``Scene.bases``; the quasi-static functions symgen chooses
     (:func:`symgen.scene.bases.quasi_choice`) on the bars' ``quasi_static_transverse``. Stated counts whose a-priori estimate exceeds the
     accuracy warn (SceneWarning: stderr; the sidecar's ``bases`` carries it too)."""
-    choices = choose_bases(scene, given, quasi_static_start, guess, quasi_stated)
+    choices = choose_bases(scene, given, quasi_static_start, guess, quasi_stated, deformed_start)
     bodies = tuple(
         replace(
             b,
