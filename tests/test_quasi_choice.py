@@ -124,6 +124,19 @@ def test_condensation_against_the_clamped_free_beam(tmp_path):
     assert c.as_dict()["quasi_static"]["functions"] == 2
 
 
+def test_unbounded_content_keeps_the_lowest_mode_dynamic(tmp_path):
+    """The same arm driven by the law theta = tau (the same motion, but a law's content is not
+    bounded by a rate) keeps its lowest function dynamic, and says why; by the rate it takes both."""
+    by_rate = _scene(_arm(tmp_path))
+    file = tmp_path / "arm_law.toml"
+    file.write_text(open(_arm(tmp_path)).read().replace("rate = 1.0", 'law = "tau"'))
+    by_law = _scene(str(file))
+    assert B.known_content(by_rate, 0) == "" and "law" in B.known_content(by_law, 0)
+    assert by_rate.bases[0].quasi == 2
+    (c,) = by_law.bases
+    assert c.quasi == 1 and "its lowest mode stays dynamic whatever the accuracy: the law" in c.quasi_reason
+
+
 def test_undeformed_start_counts_the_removed_ringing(tmp_path):
     """From an undeformed start the removed mode's ringing share counts too: the estimate is larger
     than the amplification alone (and the choice still makes the function quasi-static: its share
@@ -238,7 +251,7 @@ def test_steel_slider_crank_against_its_reference_and_the_dynamic_run():
     assert chosen.dependent == dynamic.dependent
 
 
-def test_paper_slider_crank_keeps_its_dynamic_band():
+def test_paper_slider_crank_keeps_its_dynamic_band(tmp_path):
     """The paper's slider-crank (benchmarks/validation/slider_crank_paper.toml: lambda 1.8e4, the rod's
     lowest mode at 7.2 per unit tau, inside the run's content 4 x the crank rate): its 2 lowest
     functions stay dynamic (all 3 quasi-static measured 26.6 % of peak off its reference,
@@ -255,6 +268,15 @@ def test_paper_slider_crank_keeps_its_dynamic_band():
         for k, least in ((2, 0.02), (3, 0.4)):
             check = est.quasi_check(counts, {"rod": k})
             assert check is not None and check.estimate > least
+    # the seed's example (examples/slider_crank.toml, the same rod) without its counts, at its
+    # accuracy 0.07 and at the default: every function dynamic
+    text = "".join(
+        line for line in open("examples/slider_crank.toml") if not line.startswith(("axial_modes", "transverse_modes"))
+    )
+    (tmp_path / "seed.toml").write_text(text)
+    for overrides in ([], ["simulation.accuracy=0.01"]):
+        (c,) = _scene(str(tmp_path / "seed.toml"), overrides).bases
+        assert c.given == (None, None) and c.quasi == 0 and B.in_band(c) >= 1
 
 
 def test_a_ramped_start_against_the_oscillator():

@@ -1491,14 +1491,39 @@ def _not_checked(c: BasisChoice, note: str) -> str:
     return "" if c.given[1] is not None else f"every transverse function dynamic: {note}"
 
 
+def known_content(scene: Scene, rigid: int) -> str:
+    """Why the run's content may reach above ``omega_run`` ("" where it may not): the amplification
+    of a quasi-static bar's lowest mode is estimated at ``omega_run``, which the angle drivers'
+    rates bound (DRIVER_HARMONICS of them) only where every rigid motion is driven (``rigid``: the
+    coupled model's free rigid modes) by an angle driver at a rate or a ramp; a torque (the speed
+    it reaches), a law, a load given as an expression of tau or a free rigid motion (a swing) may
+    have content beyond it. There the bar's lowest mode stays dynamic."""
+    if rigid:
+        return "a rigid motion no driver prescribes"
+    for d in scene.drivers:
+        if d.kind != "angle":
+            return f"the torque driver of {d.body}"
+        if d.law is not None:
+            return f"the law of the driver of {d.body}"
+    if any(isinstance(ld.axial, str) or isinstance(ld.transverse, str) for ld in scene.loads):
+        return "a load given as an expression of tau"
+    return ""
+
+
 def _quasi_candidates(
-    scene: Scene, choices: dict[str, BasisChoice], stated: frozenset[str], inextensible: set[str] | frozenset[str]
+    scene: Scene,
+    choices: dict[str, BasisChoice],
+    stated: frozenset[str],
+    inextensible: set[str] | frozenset[str],
+    unknown: str = "",
 ) -> dict[tuple[str, str], int]:
     """(bar, "transverse" | "axial") -> at most how many of its highest functions of that family
     may be quasi-static, where symgen chose the count: those above the modes the bar's own
     spectrum puts in the run's band (:func:`in_band`). Transverse: every function where no mode
     is in the band (the lowest, which the bases keep dynamic because a start may ring it, too:
-    the coupled check counts that ringing and the lowest mode's amplification), where the file
+    the coupled check counts that ringing and the lowest mode's amplification), unless the run's
+    content is not bounded by its drivers' rates (``unknown``, :func:`known_content`: then
+    above the bases' dynamic band, as before), where the file
     does not state ``quasi_static_transverse``, none on a slot's guide or with polynomial shapes
     (as ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses); axial: where symgen
     chose the axial count too, of a bar that keeps its axial functions in the coupled model (not
@@ -1510,7 +1535,7 @@ def _quasi_candidates(
         guide = any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
         if c.given[1] is not None or name in stated or guide:
             continue
-        band = in_band(c)
+        band = c.dynamic[1] if unknown else in_band(c)
         if body.transverse_shapes != "polynomial" and c.transverse - band > 0:
             out[(name, "transverse")] = c.transverse - band
         if c.given[0] is None and body.lam and name not in inextensible and c.axial - c.dynamic[0] > 0:
@@ -1552,7 +1577,8 @@ def quasi_choice(
     Kept only where it lowers the fastest mode the run rings (:attr:`CoupledCheck.fastest`) by
     QUASI_GAIN. IDAS and the emitted C solver treat them alike (StartPlan.quasi)."""
     acc = scene.simulation.accuracy
-    limit = _quasi_candidates(scene, choices, stated, model.model.inextensible)
+    unknown = known_content(scene, model.rigid)
+    limit = _quasi_candidates(scene, choices, stated, model.model.inextensible, unknown)
     budget = math.sqrt(max(acc * acc - max(c.estimate for c in choices.values()) ** 2, 0.0))
     quasi: dict[tuple[str, str], int] = {}
     last: CoupledCheck | None = None
@@ -1599,6 +1625,12 @@ def quasi_choice(
             _quasi_reason((name, family), c, quasi, last, limit, steps, gain, fastest, budget, acc, model, counts)
             for family in ("transverse", "axial")
         ]
+        if unknown and (name, "transverse") in limit and in_band(c) < c.dynamic[1]:
+            whys.insert(
+                1,
+                f"its lowest mode stays dynamic whatever the accuracy: {unknown} may give the run content above "
+                f"{model.omega_run:.4g} per unit tau",
+            )
         out[name] = replace(
             c,
             quasi=quasi.get((name, "transverse"), 0),
