@@ -137,6 +137,24 @@ def test_unbounded_content_keeps_the_lowest_mode_dynamic(tmp_path):
     assert c.quasi == 1 and "its lowest mode stays dynamic whatever the accuracy: the law" in c.quasi_reason
 
 
+def test_no_ringing_left_saves_steps_only_against_a_ringing_run():
+    """The gain rule where every function is quasi-static and no elastic mode is left ringing
+    (fastest 0): the steps then follow the run's own content (omega_run = 4), so it gains against
+    the undamped steel slider-crank's ringing (1326 per unit tau -> none: all 3 quasi-static) but
+    not where Kelvin-Voigt damping (0.05) decays the ringing within a fraction of the run (its
+    time average 1.4 per unit tau, below the run's 4): every function stays dynamic."""
+    path = "benchmarks/validation/slider_crank_steel_rest.toml"
+    (c,) = _scene(path).bases
+    assert c.quasi == 3 and "from 1326 to none (no elastic mode rings" in c.quasi_reason
+    damped = _scene(path, ["effects.damping=0.05"])
+    est, counts, omega_run = _estimate(damped)
+    assert est.quasi_check(counts, {"rod": 3}).fastest == 0.0
+    assert 0.0 < est.quasi_check(counts, {}).fastest < omega_run / B.QUASI_GAIN
+    (c,) = damped.bases
+    assert c.quasi == 0 and c.quasi_axial == 0
+    assert "the steps follow at least the run's own content, 4 per unit tau: no steps saved" in c.quasi_reason
+
+
 def test_undeformed_start_counts_the_removed_ringing(tmp_path):
     """From an undeformed start the removed mode's ringing share counts too: the estimate is larger
     than the amplification alone (and the choice still makes the function quasi-static: its share

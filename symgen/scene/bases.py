@@ -1583,7 +1583,7 @@ def quasi_choice(
     quasi: dict[tuple[str, str], int] = {}
     last: CoupledCheck | None = None
     dynamic = model.quasi_check(counts, {})
-    fastest = dynamic.fastest if dynamic is not None else 0.0
+    fastest = float(dynamic.fastest) if dynamic is not None else 0.0
     steps: list[tuple[dict[tuple[str, str], int], CoupledCheck]] = []
     while True:
         best: tuple[tuple[str, str], CoupledCheck] | None = None
@@ -1612,9 +1612,14 @@ def quasi_choice(
         if max(fastest, model.omega_run) >= QUASI_GAIN * max(low, model.omega_run):
             quasi, last = _pruned(model, counts, *steps[first])
         else:
+            floor = (
+                f"; the steps follow at least the run's own content, {model.omega_run:.4g} per unit tau"
+                if min(fastest, low) < model.omega_run
+                else ""
+            )
             gain = (
                 f"the quasi-static functions the accuracy allows would lower the fastest mode the run rings only "
-                f"from {fastest:.4g} to {low:.4g} per unit tau (less than {QUASI_GAIN:g}x: no steps saved)"
+                f"from {fastest:.4g} to {low:.4g} per unit tau (less than {QUASI_GAIN:g}x{floor}: no steps saved)"
             )
     out = {}
     for name, c in choices.items():
