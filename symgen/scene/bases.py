@@ -487,7 +487,8 @@ QUASI_PHASE_SAFETY = 10.0
 #: follows its ringing: the steel slider-crank's rod 2 of 3 transverse quasi-static, 9973 -> 1625
 #: steps; the steel crank-rocker at 900 rpm's crank 2 of 3 axial, 4161 -> 1392 per unit tau,
 #: 167835 -> 108419; the damped validation crank-rocker's rocker 1 of 4, its ringing decayed,
-#: 7959 -> 8042)
+#: 7959 -> 8042); where none is left ringing the run's own content omega_run sets the steps (the
+#: steel slider-crank's rod 3 of 3: IDAS 0 steps, the C solver 57)
 QUASI_GAIN = 1.5
 
 
@@ -1575,7 +1576,9 @@ def quasi_choice(
     modes they remove) stays within what the accuracy leaves over the bases' own estimate:
     ``accuracy - max(estimate)``. A function that moves a joint is not taken (nor any below it).
     Kept only where it lowers the fastest mode the run rings (:attr:`CoupledCheck.fastest`) by
-    QUASI_GAIN. IDAS and the emitted C solver treat them alike (StartPlan.quasi)."""
+    QUASI_GAIN, both taken at least ``omega_run`` (where no elastic mode is left ringing, every
+    function quasi-static, the run's own content sets the steps). IDAS and the emitted C solver
+    treat them alike (StartPlan.quasi)."""
     acc = scene.simulation.accuracy
     unknown = known_content(scene, model.rigid)
     limit = _quasi_candidates(scene, choices, stated, model.model.inextensible, unknown)
