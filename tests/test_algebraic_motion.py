@@ -375,3 +375,19 @@ def test_a_cached_library_runs_an_algebraic_partition_without_symbolic_functions
     again = S.simulate(again_mech, backend="compiled")
     assert again.stats["library"] == "cached" and not again_mech.runner_functions
     assert np.array_equal(again.outputs, vm.outputs)
+
+
+def test_the_estimate_says_how_a_rerun_solved_its_outputs():
+    """The truncation part's method text names what its rerun took: integrator steps, or Newton
+    iterations where the richer model had no differential states either."""
+    from symgen.numerics.run_result import SimResult
+
+    def run(stats, steps):
+        empty = np.zeros((1, 1))
+        return SimResult(np.zeros(1), empty, ["y"], empty, empty, empty, 0.0, steps, 0.0, None, stats=stats)
+
+    assert error_estimate._steps_text(run({"differential_states": 0, "newton_iterations": 12}, 0)) == (
+        "no differential states: Newton at each output, 12 iterations"
+    )
+    assert error_estimate._steps_text(run({"differential_states": 4, "newton_iterations": None}, 77)) == "77 IDAS steps"
+    assert error_estimate._steps_text(run({"backend": "c"}, 57)) == "57 Radau IIA (C) steps"
