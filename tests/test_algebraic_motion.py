@@ -309,6 +309,22 @@ def test_an_interrupt_keeps_the_outputs_solved_before_it(monkeypatch, surfaces):
     assert part.stats["differential_states"] == 0 and part.stats["newton_iterations"] >= S.CHUNK
 
 
+def test_the_command_line_interrupted_writes_the_partial_result_and_its_sidecar(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(S.AlgebraicSweep, "solve", _signal_at(S.AlgebraicSweep.solve, 2))
+    out = tmp_path / "steel.csv"
+    sets = ["--set", STEEL_QS[0], "--set", "simulation.output_interval=0.005"]
+    code = main(["simulate", STEEL, "-o", str(out), "--estimate", "off", *sets])
+    err = capsys.readouterr().err
+    assert code == 130, err
+    assert "interrupted by SIGINT at tau =" in err and "Traceback" not in err
+    assert not out.exists()
+    meta = json.loads((tmp_path / "steel.partial.json").read_text())
+    assert meta["status"] == "interrupted" and meta["failure"].startswith("interrupted by SIGINT at tau =")
+    assert meta["solver"]["differential_states"] == 0 and meta["solver"]["newton_iterations"] >= S.CHUNK
+    rows = np.loadtxt(tmp_path / "steel.partial.csv", delimiter=",", skiprows=1)
+    assert len(rows) == 1 + S.CHUNK and rows[-1, 0] == pytest.approx(S.CHUNK * 0.005)
+
+
 def test_the_sidecar_and_the_command_line_say_what_solved_the_run(tmp_path, capsys):
     out = tmp_path / "qs.csv"
     code = main(["simulate", PAPER, "-o", str(out), "--estimate", "off", *sum((["--set", o] for o in PAPER_QS), [])])
