@@ -13,7 +13,7 @@ A run with no differential state (every rigid coordinate driven, every elastic a
 quasi-static: ``bodies.<name>.quasi_static_transverse`` with the axial ones quasi-static or
 constrained) has nothing to integrate: each output is the solution of the algebraic equations at
 its time, by Newton continued from the previous outputs (:class:`AlgebraicSweep`, one CasADi call
-per chunk of outputs); IDAS is not run.
+per block of outputs); IDAS is not run.
 """
 
 from __future__ import annotations
@@ -654,8 +654,8 @@ def _algebraic_motion(
 ) -> None:
     """No differential state (every rigid coordinate driven, every elastic amplitude quasi-static):
     the motion is the algebraic solution at each output time, by Newton from the previous two
-    solutions extrapolated (:class:`AlgebraicSweep`), in the chunks of outputs of ``_integrate``
-    (one CasADi call each), recorded per chunk with its checks (``record_many``). The first output
+    solutions extrapolated (:class:`AlgebraicSweep`: one CasADi call per block of outputs), in the
+    chunks of outputs of ``_integrate``, recorded per chunk with its checks (``record_many``). The first output
     whose closure has no solution near the last one ends the run there, the outputs before it kept."""
     t0, h, n_out = settings.t0, settings.h, settings.n_outputs
     mech = run.mech
