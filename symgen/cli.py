@@ -184,7 +184,7 @@ def _simulate(args, files) -> int:
     compiled = mech.compiled
     print(
         f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
-        f"{result.closure_max:.2e}; {'Radau IIA (C)' if args.solver == 'c' else 'IDAS'} steps {result.steps}; "
+        f"{result.closure_max:.2e}; {_steps_text(args.solver, result)}; "
         + (
             f"model loaded from cache {mech.build_s:.2f}s, "
             if compiled.cached
@@ -263,6 +263,13 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
             "simulation.rtol and atol",
             file=sys.stderr,
         )
+
+
+def _steps_text(solver: str, result) -> str:
+    """The run's steps: its integrator's, or Newton's where it had no differential states."""
+    if result.stats.get("differential_states") == 0 and solver != "c":
+        return f"no differential states: Newton at each output, {result.stats.get('newton_iterations')} iterations"
+    return f"{'Radau IIA (C)' if solver == 'c' else 'IDAS'} steps {result.steps}"
 
 
 def _backend_text(stats: dict) -> str:

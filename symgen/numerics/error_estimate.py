@@ -62,7 +62,10 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   "linearized" method, or a rerun that failed): that a-priori bound from the integrator's
   tolerances, ``TIME_FACTOR * rtol`` plus ``atol`` over the output's peak
   (``ALGEBRAIC_TIME_FACTOR`` for the outputs read from the multipliers, algebraic variables
-  that IDAS's error control leaves out: driver torques measured up to 30x rtol).
+  that IDAS's error control leaves out: driver torques measured up to 30x rtol). A run of
+  ``simulate`` with no differential states (every rigid coordinate driven, every elastic
+  amplitude quasi-static) integrated nothing: each output is the algebraic solution at its time
+  by Newton, its part 0 with that said (:data:`ALGEBRAIC_TIME_TEXT`), no rerun, no bound.
 * **model form** -- the gap between the bar model and a geometrically exact beam: the terms of
   the exact curvature the run's bar leaves out (von Karman: all beyond eta''^2; the exact bar:
   those beyond its fourth-order expansion), ``symgen.numerics.model_form``, numpy only on the
@@ -340,7 +343,12 @@ def estimate_errors(
         f"a-priori bound from the tolerances: {TIME_FACTOR:g} x rtol + atol / peak, {ALGEBRAIC_TIME_FACTOR:g} x rtol "
         f"for reactions, driver torques and axial forces (rtol {rtol:g}, atol {atol:g})"
     )
-    if truncation == "rerun":
+    if _algebraic(result):
+        # nothing was integrated: each output solves the algebraic equations at its time, which a
+        # rerun at tighter tolerances solves again to the same numbers (IDAS's rtol, atol unused)
+        parts["time_integration"] = {n: (0.0 if v is not None else None) for n, v in parts["time_integration"].items()}
+        methods["time_integration"] = ALGEBRAIC_TIME_TEXT.format(tol=_algebraic_tol())
+    elif truncation == "rerun":
         try:
             tight = _tighter_run(mech, result, rtol, atol)
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
@@ -368,6 +376,34 @@ def estimate_errors(
 
 #: the time-integration part's check run: this many times tighter tolerances
 TIGHTER = 10.0
+#: the time-integration part of a run with no differential states (``symgen.numerics.simulate``:
+#: every rigid coordinate driven, every elastic amplitude quasi-static; not the C solver's, whose
+#: Radau IIA steps and dense output do integrate and interpolate): 0, said how
+ALGEBRAIC_TIME_TEXT = (
+    "none: the run has no differential states (every rigid coordinate driven, every elastic amplitude "
+    "quasi-static), so nothing was integrated: each output is the solution of the algebraic equations at its "
+    "time, by Newton to |residual| < {tol:g}, exact to that tolerance (no rerun at tighter tolerances: it "
+    "would solve the same equations again)"
+)
+
+
+def _algebraic(result: SimResult) -> bool:
+    """Whether ``result`` is a run of ``simulate`` with no differential states (its outputs the
+    algebraic solutions, by Newton: ``stats["differential_states"]`` 0)."""
+    return result.stats.get("differential_states") == 0 and not _ran_in_c(result)
+
+
+def _algebraic_tol() -> float:
+    from symgen.numerics.simulate import ALGEBRAIC_TOL  # a run of simulate imported it already
+
+    return ALGEBRAIC_TOL
+
+
+def _steps_text(run: SimResult) -> str:
+    """What a rerun took: its integrator's steps, or its Newton iterations where it integrated nothing."""
+    if _algebraic(run):
+        return f"no differential states: Newton at each output, {run.stats.get('newton_iterations')} iterations"
+    return f"{run.steps} {'Radau IIA (C)' if _ran_in_c(run) else 'IDAS'} steps"
 
 
 def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> dict[str, float]:
@@ -692,7 +728,7 @@ def _rerun(
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "
-        f"and tolerances ({rich.steps} {'Radau IIA (C)' if _ran_in_c(rich) else 'IDAS'} steps): the largest "
+        f"and tolerances ({_steps_text(rich)}): the largest "
         "difference of the two runs' outputs"
     )
     return values, counts, how

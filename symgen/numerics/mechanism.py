@@ -38,6 +38,8 @@ from symgen.numerics.index1 import Partition
 if TYPE_CHECKING:
     import casadi as ca  # imported where used: a cached run of the C solver never imports CasADi
 
+    from symgen.numerics.simulate import AlgebraicSweep
+
 
 def load_mechanism(
     scene: Scene | str | os.PathLike[str], overrides: Sequence[str] = (), use_cache: bool = True, lazy: bool = False
@@ -71,6 +73,9 @@ class Mechanism:
         # the SX Functions of a simulation's runner per partition (symgen.numerics.simulate):
         # made on first use, shared by every later run of this mechanism (sweeps, studies)
         self.runner_functions: dict[Partition, dict[str, ca.Function]] = {}
+        # the Newton continuation of a run without differential states (every rigid coordinate
+        # driven, every elastic amplitude quasi-static) per partition and backend, likewise
+        self.algebraic_sweeps: dict[tuple[Partition, str], AlgebraicSweep] = {}
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
         if stated_quasi_static(scene):  # refused here, at the load, when inconsistent

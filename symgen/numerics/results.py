@@ -285,6 +285,10 @@ def build_sidecar(
         sidecar["t_end"] = float(result.tau[-1])
     elif result is not None:
         sidecar["solver"]["backend"] = result.stats.get("backend")
+        # x = [q_I, v_I] of the run's partition; none (every rigid coordinate driven, every elastic
+        # amplitude quasi-static): IDAS not run, each output solved by Newton (its iterations)
+        sidecar["solver"]["differential_states"] = result.stats.get("differential_states")
+        sidecar["solver"]["newton_iterations"] = result.stats.get("newton_iterations")
     if result is not None and solver != "quasi-static":
         from symgen.numerics.run_result import SimResult  # no CasADi: its lean home
 
