@@ -1,9 +1,9 @@
 """The run-time half of ``effects.axial = "auto"`` for the bars its a-priori rule makes
 quasi-static (``symgen.model.structure.axial_treatment``): after a complete run, the error
 estimate's axial part (:mod:`symgen.numerics.axial_drift`: the phase drift of the free motion with
-the stretch's inertia the quasi-static treatment leaves out) decides whether the run is made again
-with those bars' axial dynamics kept: when it exceeds ``simulation.accuracy`` on any output
-(closure residuals aside). As ``effects.strain = "auto"`` (:mod:`symgen.numerics.strain_choice`)
+the stretch's inertia the quasi-static treatment leaves out, and the start's axial ringing, force
+outputs included) decides whether the run is made again with those bars' axial dynamics kept: when
+either exceeds ``simulation.accuracy`` on any output (closure residuals aside). As ``effects.strain = "auto"`` (:mod:`symgen.numerics.strain_choice`)
 the decision is remembered in the signed cache, keyed by the scene's hash (after overrides), the
 bar formulation the run used and the version, so a rerun of the same scene loads the decided model
 directly; the kept bars travel on ``Scene.axial_kept`` and the sidecar's ``axial_treatment`` says
@@ -11,7 +11,14 @@ why.
 
 Why after the run: the drift integrates over the run (a free rotation's phase: the soft arm
 spinning 11 turns is 5.4 % of peak off at a separation of 11.2 x its motion, where the a-priori
-rule's forced-response bound sees a fraction of a per cent).
+rule's forced-response bound sees a fraction of a per cent), and the ringing of an undeformed start
+at speed shows most in the force outputs, which the a-priori rule leaves out
+(``symgen.scene.bases.AXIAL_RINGING_UNREAD``): a steel press started undeformed at 600 rpm has its
+driver torque 3.6 % of peak off in the first 0.02 s with the rod quasi-static, 0.003 % with its
+axial dynamics kept, at the same cost (Kelvin-Voigt damping ends the ringing); an undamped stiff
+slider-crank started so rings its torque by 2.4 x its peak for the whole run, and keeping the
+axial dynamics costs what resolving that ringing costs (``initial.deformation = "quasi-static"``
+starts without it).
 """
 
 from __future__ import annotations
@@ -22,6 +29,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from symgen import __version__, cache
 from symgen.ir.spec import QUASI_STATIC
+from symgen.numerics import axial_drift as _axial_drift
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -31,10 +39,19 @@ __all__ = ["decide", "recalled", "resolved", "run_with_axial_choice", "switchabl
 
 R = TypeVar("R")
 
-#: the axial part's version in the remembered decisions (a changed estimate decides again)
-ESTIMATOR_VERSION = "1"
+#: the axial part's version in the remembered decisions (a changed estimate decides again;
+#: "2": the start's ringing decides too)
+ESTIMATOR_VERSION = "2"
 #: output kinds that do not decide (zero to round-off in every model)
-NOT_DECIDING = ("closure_residual",)
+NOT_DECIDING = _axial_drift.NOT_DECIDING
+#: what each measure of the axial part is, in the reason
+MEASURES = {
+    "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
+    "ringing": (
+        "the start's axial ringing: a window from the start (not on its quasi-static deformation) run with the axial "
+        "dynamics kept, against the quasi-static run"
+    ),
+}
 
 
 def _question(scene: Scene) -> dict[str, Any]:
@@ -90,29 +107,34 @@ def resolved(scene: Scene) -> Scene:
 
 def decide(mech: Mechanism, result: Any) -> Scene | None:
     """After a complete run of ``mech`` whose scene is :func:`switchable`: the scene with the
-    auto rule's quasi-static bars kept dynamic when the run's axial part exceeds the accuracy,
-    else None (also when the part cannot be estimated). Remembered either way."""
-    from symgen.numerics.axial_drift import AxialNotEstimated, drift
-
+    auto rule's quasi-static bars kept dynamic when the run's axial part (the drift or the
+    start's ringing) exceeds the accuracy, else None (also when the part cannot be estimated).
+    Remembered either way; a run kept as it is keeps its measured part for its error estimate."""
     scene = mech.scene
+    accuracy = float(scene.simulation.accuracy)
     try:
-        values, _ = drift(mech, result)
-    except (AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
+        found = _axial_drift.parts(mech, result, enough=accuracy)
+    except (_axial_drift.AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
         return None  # not estimated (the sidecar's error estimate says why): kept quasi-static
     kinds = {o.name: o.kind for o in scene.outputs}
-    values = {n: v for n, v in values.items() if kinds.get(n) not in NOT_DECIDING}
-    accuracy = float(scene.simulation.accuracy)
-    worst = max(values, key=lambda n: values[n]) if values else ""
-    top = values.get(worst, 0.0)
+    top, worst, part = 0.0, "", "drift"
+    for measure, values in (("drift", found.drift), ("ringing", found.ringing)):
+        for n, v in values.items():
+            if kinds.get(n) not in NOT_DECIDING and v > top:
+                top, worst, part = float(v), n, measure
     bars = _auto_quasi_static(scene) if top > accuracy else []
     reason = (
-        f"auto: the run's axial estimate (the phase drift of the free motion with the stretch's inertia the "
-        f"quasi-static treatment leaves out) is {top:.2e} of peak on {worst}, above simulation.accuracy "
-        f"{accuracy:g}: axial dynamics kept"
+        f"auto: the run's axial estimate ({MEASURES[part]}) is {top:.2e} of peak on {worst}, above "
+        f"simulation.accuracy {accuracy:g}: axial dynamics kept"
     )
     if scene.hash:
-        cache.remember(_question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst})
-    return _kept(scene, bars, reason) if bars else None
+        cache.remember(
+            _question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst, "part": part}
+        )
+    if not bars:
+        _axial_drift.keep_parts(mech, result, found)
+        return None
+    return _kept(scene, bars, reason)
 
 
 def run_with_axial_choice(
