@@ -53,6 +53,13 @@ MEASURES = {
     ),
 }
 
+#: what a ringing start's user can do instead, said with the decision
+RINGING_ALTERNATIVE = (
+    "the run resolves the ringing: its steps follow the axial frequency where nothing damps it; "
+    'initial.deformation = "quasi-static" starts without it where the mechanism is meant to start on its '
+    "quasi-static deformation"
+)
+
 
 def _question(scene: Scene) -> dict[str, Any]:
     return {
@@ -127,6 +134,8 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
         f"auto: the run's axial estimate ({MEASURES[part]}) is {top:.2e} of peak on {worst}, above "
         f"simulation.accuracy {accuracy:g}: axial dynamics kept"
     )
+    if part == "ringing":
+        reason += f" ({RINGING_ALTERNATIVE})"
     if scene.hash:
         cache.remember(
             _question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst, "part": part}
