@@ -35,7 +35,7 @@ if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
     from symgen.scene.model import Scene
 
-__all__ = ["decide", "recalled", "resolved", "run_with_axial_choice", "switchable"]
+__all__ = ["decide", "kept_as_is", "recalled", "resolved", "run_with_axial_choice", "switchable"]
 
 R = TypeVar("R")
 
@@ -107,6 +107,15 @@ def recalled(scene: Scene) -> Scene | None:
     return _kept(scene, bars, reason)
 
 
+def kept_as_is(scene: Scene) -> bool:
+    """A remembered decision kept every bar of ``scene`` quasi-static (its run need not decide
+    again)."""
+    if not scene.hash or not switchable(scene):
+        return False
+    known, answer = cache.recall(_question(scene))
+    return known and isinstance(answer, dict) and answer.get("bars") == []
+
+
 def resolved(scene: Scene) -> Scene:
     """The scene with the decision remembered for it, else as it is."""
     return recalled(scene) or scene
@@ -156,8 +165,8 @@ def run_with_axial_choice(
 ) -> tuple[Mechanism, R | None, BaseException | None]:
     """After ``run(mech)`` gave (``result``, ``failure``): when the scene may still keep axial
     dynamics and the complete run's axial part says so, the run made again with them kept
-    (``load``-ed); else the run as it is."""
-    if failure is not None or result is None or not switchable(mech.scene):
+    (``load``-ed); else the run as it is (without deciding where a remembered decision kept it)."""
+    if failure is not None or result is None or not switchable(mech.scene) or kept_as_is(mech.scene):
         return mech, result, failure
     decided = decide(mech, result)
     if decided is None:
