@@ -197,7 +197,7 @@ def test_default_slider_crank_within_one_percent_of_the_converged_model(lam):
 def test_an_undeformed_undamped_start_keeps_the_axial_dynamics_for_its_ringing():
     """The stiff slider-crank (lambda = 1e5, quasi-static by the frequencies) started undeformed at
     full speed, undamped: the rod rings axially for the whole run, and the driver torque reads the
-    ringing through the crank (0.7 of its peak between the quasi-static and the dynamic rod). The
+    ringing through the crank (0.75 of its peak between the quasi-static and the dynamic rod). The
     run's axial estimate sees the ringing, so auto keeps the rod's axial dynamics and says why;
     the run is then the dynamic-axial model's: its torque within 0.5 % of its peak of the oracle,
     the dynamic-axial run (effects.axial = "dynamic") at tolerances 100x tighter; the quasi-static
