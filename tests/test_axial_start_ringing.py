@@ -176,3 +176,70 @@ def test_a_failed_window_leaves_the_drift_and_says_why(spun, monkeypatch):
         "not estimated (the window with the axial dynamics kept failed: SimulationError: at tau = 0.01: IDAS stopped)"
         in how
     )
+
+
+def _arm_text(axial: str, outputs: tuple[str, ...] = ("stretch", "tip_x", "Ox", "torque")) -> str:
+    text = (
+        ARM.replace("LAMBDA", f"{LAMBDA:g}").replace("TIP", f"{TIP:g}").replace("AXIAL", axial).replace("INITIAL", "")
+    )
+    lines = text.splitlines()
+    return "\n".join(ln for ln in lines if not ln.endswith("}") or ln.split(" = ")[0] in outputs) + "\n"
+
+
+def test_auto_keeps_the_axial_dynamics_for_the_start_ringing(tmp_path, monkeypatch):
+    """effects.axial = "auto" on the spun arm (quasi-static by the frequencies, started undeformed,
+    driven: nothing drifts): the start's ringing (about 1 of the stretch's peak) exceeds the
+    accuracy, so the run is made again with the arm's axial dynamics kept: the sidecar says why,
+    the axial part is then 0, and the result is the run of effects.axial = "dynamic" (the oracle
+    of the ringing: test_the_ringing_is_the_static_stretch_and_the_dynamic_runs_difference)."""
+    import json
+
+    from symgen.cli import main
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))  # nothing decided yet
+    auto, dyn = tmp_path / "auto.toml", tmp_path / "dyn.toml"
+    auto.write_text(_arm_text("auto", outputs=("stretch", "tip_x")))
+    dyn.write_text(_arm_text("dynamic", outputs=("stretch", "tip_x")))
+    assert main(["simulate", str(auto), "-o", str(tmp_path / "a.csv"), "--estimate", "linearized"]) == 0
+    side = json.loads((tmp_path / "a.json").read_text())
+    why = side["axial_treatment"]["arm"]
+    assert why["treatment"] == "dynamic", why
+    assert "the start's axial ringing" in why["reason"] and "of peak on stretch" in why["reason"]
+    assert "above simulation.accuracy 0.01" in why["reason"]
+    assert set(side["error_estimate_detail"]["parts"]["axial"].values()) == {0.0}
+    assert main(["simulate", str(dyn), "-o", str(tmp_path / "d.csv"), "--estimate", "off"]) == 0
+    a = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)
+    d = np.loadtxt(tmp_path / "d.csv", delimiter=",", skiprows=1)
+    assert np.allclose(a, d, rtol=0, atol=1e-9 * np.abs(d).max())
+
+
+def test_a_run_kept_quasi_static_is_estimated_from_the_windows_its_decision_ran(tmp_path, monkeypatch):
+    """The arm read at its tip's position alone: the ringing (the stretch, ~1e-4 of the tip's
+    travel) is within the accuracy, so auto keeps it quasi-static; the decision's windows serve
+    the run's error estimate: the ringing is measured once, and the sidecar carries it. A rerun
+    of the same scene does not decide again (remembered): without an estimate, no window."""
+    import json
+
+    from symgen.cli import main
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "tip.toml"
+    path.write_text(_arm_text("auto", outputs=("tip_x",)))
+    calls = []
+    measured = axial_drift.ringing
+
+    def counted(*args, **kwargs):
+        calls.append(args)
+        return measured(*args, **kwargs)
+
+    monkeypatch.setattr(axial_drift, "ringing", counted)
+    assert main(["simulate", str(path), "-o", str(tmp_path / "t.csv"), "--estimate", "linearized"]) == 0
+    side = json.loads((tmp_path / "t.json").read_text())
+    assert side["axial_treatment"]["arm"]["treatment"] == "quasi_static"
+    assert len(calls) == 1
+    ring = side["error_estimate_detail"]["parts"]["axial"]["tip_x"]
+    assert 0 < ring < 0.01
+    assert side["error_estimate_detail"]["methods"]["axial"].startswith("the start's ringing on tip_x")
+    assert main(["simulate", str(path), "-o", str(tmp_path / "u.csv"), "--estimate", "off"]) == 0
+    assert len(calls) == 1
+    assert json.loads((tmp_path / "u.json").read_text())["axial_treatment"]["arm"]["treatment"] == "quasi_static"

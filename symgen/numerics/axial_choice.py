@@ -1,9 +1,9 @@
 """The run-time half of ``effects.axial = "auto"`` for the bars its a-priori rule makes
 quasi-static (``symgen.model.structure.axial_treatment``): after a complete run, the error
 estimate's axial part (:mod:`symgen.numerics.axial_drift`: the phase drift of the free motion with
-the stretch's inertia the quasi-static treatment leaves out) decides whether the run is made again
-with those bars' axial dynamics kept: when it exceeds ``simulation.accuracy`` on any output
-(closure residuals aside). As ``effects.strain = "auto"`` (:mod:`symgen.numerics.strain_choice`)
+the stretch's inertia the quasi-static treatment leaves out, and the start's axial ringing, force
+outputs included) decides whether the run is made again with those bars' axial dynamics kept: when
+either exceeds ``simulation.accuracy`` on any output (closure residuals aside). As ``effects.strain = "auto"`` (:mod:`symgen.numerics.strain_choice`)
 the decision is remembered in the signed cache, keyed by the scene's hash (after overrides), the
 bar formulation the run used and the version, so a rerun of the same scene loads the decided model
 directly; the kept bars travel on ``Scene.axial_kept`` and the sidecar's ``axial_treatment`` says
@@ -11,7 +11,14 @@ why.
 
 Why after the run: the drift integrates over the run (a free rotation's phase: the soft arm
 spinning 11 turns is 5.4 % of peak off at a separation of 11.2 x its motion, where the a-priori
-rule's forced-response bound sees a fraction of a per cent).
+rule's forced-response bound sees a fraction of a per cent), and the ringing of an undeformed start
+at speed shows most in the force outputs, which the a-priori rule leaves out
+(``symgen.scene.bases.AXIAL_RINGING_UNREAD``): a steel press started undeformed at 600 rpm has its
+driver torque 3.6 % of peak off in the first 0.02 s with the rod quasi-static, 0.003 % with its
+axial dynamics kept, at the same cost (Kelvin-Voigt damping ends the ringing); an undamped stiff
+slider-crank started so rings its torque by 2.4 x its peak for the whole run, and keeping the
+axial dynamics costs what resolving that ringing costs (``initial.deformation = "quasi-static"``
+starts without it).
 """
 
 from __future__ import annotations
@@ -22,19 +29,36 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from symgen import __version__, cache
 from symgen.ir.spec import QUASI_STATIC
+from symgen.numerics import axial_drift as _axial_drift
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
     from symgen.scene.model import Scene
 
-__all__ = ["decide", "recalled", "resolved", "run_with_axial_choice", "switchable"]
+__all__ = ["decide", "kept_as_is", "recalled", "resolved", "run_with_axial_choice", "switchable"]
 
 R = TypeVar("R")
 
-#: the axial part's version in the remembered decisions (a changed estimate decides again)
-ESTIMATOR_VERSION = "1"
+#: the axial part's version in the remembered decisions (a changed estimate decides again;
+#: "2": the start's ringing decides too)
+ESTIMATOR_VERSION = "2"
 #: output kinds that do not decide (zero to round-off in every model)
-NOT_DECIDING = ("closure_residual",)
+NOT_DECIDING = _axial_drift.NOT_DECIDING
+#: what each measure of the axial part is, in the reason
+MEASURES = {
+    "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
+    "ringing": (
+        "the start's axial ringing: a window from the start (not on its quasi-static deformation) run with the axial "
+        "dynamics kept, against the quasi-static run"
+    ),
+}
+
+#: what a ringing start's user can do instead, said with the decision
+RINGING_ALTERNATIVE = (
+    "the run resolves the ringing: its steps follow the axial frequency where nothing damps it; "
+    'initial.deformation = "quasi-static" starts without it where the mechanism is meant to start on its '
+    "quasi-static deformation"
+)
 
 
 def _question(scene: Scene) -> dict[str, Any]:
@@ -83,6 +107,15 @@ def recalled(scene: Scene) -> Scene | None:
     return _kept(scene, bars, reason)
 
 
+def kept_as_is(scene: Scene) -> bool:
+    """A remembered decision kept every bar of ``scene`` quasi-static (its run need not decide
+    again)."""
+    if not scene.hash or not switchable(scene):
+        return False
+    known, answer = cache.recall(_question(scene))
+    return known and isinstance(answer, dict) and answer.get("bars") == []
+
+
 def resolved(scene: Scene) -> Scene:
     """The scene with the decision remembered for it, else as it is."""
     return recalled(scene) or scene
@@ -90,29 +123,36 @@ def resolved(scene: Scene) -> Scene:
 
 def decide(mech: Mechanism, result: Any) -> Scene | None:
     """After a complete run of ``mech`` whose scene is :func:`switchable`: the scene with the
-    auto rule's quasi-static bars kept dynamic when the run's axial part exceeds the accuracy,
-    else None (also when the part cannot be estimated). Remembered either way."""
-    from symgen.numerics.axial_drift import AxialNotEstimated, drift
-
+    auto rule's quasi-static bars kept dynamic when the run's axial part (the drift or the
+    start's ringing) exceeds the accuracy, else None (also when the part cannot be estimated).
+    Remembered either way; a run kept as it is keeps its measured part for its error estimate."""
     scene = mech.scene
+    accuracy = float(scene.simulation.accuracy)
     try:
-        values, _ = drift(mech, result)
-    except (AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
+        found = _axial_drift.parts(mech, result, enough=accuracy)
+    except (_axial_drift.AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
         return None  # not estimated (the sidecar's error estimate says why): kept quasi-static
     kinds = {o.name: o.kind for o in scene.outputs}
-    values = {n: v for n, v in values.items() if kinds.get(n) not in NOT_DECIDING}
-    accuracy = float(scene.simulation.accuracy)
-    worst = max(values, key=lambda n: values[n]) if values else ""
-    top = values.get(worst, 0.0)
+    top, worst, part = 0.0, "", "drift"
+    for measure, values in (("drift", found.drift), ("ringing", found.ringing)):
+        for n, v in values.items():
+            if kinds.get(n) not in NOT_DECIDING and v > top:
+                top, worst, part = float(v), n, measure
     bars = _auto_quasi_static(scene) if top > accuracy else []
     reason = (
-        f"auto: the run's axial estimate (the phase drift of the free motion with the stretch's inertia the "
-        f"quasi-static treatment leaves out) is {top:.2e} of peak on {worst}, above simulation.accuracy "
-        f"{accuracy:g}: axial dynamics kept"
+        f"auto: the run's axial estimate ({MEASURES[part]}) is {top:.2e} of peak on {worst}, above "
+        f"simulation.accuracy {accuracy:g}: axial dynamics kept"
     )
+    if part == "ringing":
+        reason += f" ({RINGING_ALTERNATIVE})"
     if scene.hash:
-        cache.remember(_question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst})
-    return _kept(scene, bars, reason) if bars else None
+        cache.remember(
+            _question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst, "part": part}
+        )
+    if not bars:
+        _axial_drift.keep_parts(mech, result, found)
+        return None
+    return _kept(scene, bars, reason)
 
 
 def run_with_axial_choice(
@@ -125,8 +165,8 @@ def run_with_axial_choice(
 ) -> tuple[Mechanism, R | None, BaseException | None]:
     """After ``run(mech)`` gave (``result``, ``failure``): when the scene may still keep axial
     dynamics and the complete run's axial part says so, the run made again with them kept
-    (``load``-ed); else the run as it is."""
-    if failure is not None or result is None or not switchable(mech.scene):
+    (``load``-ed); else the run as it is (without deciding where a remembered decision kept it)."""
+    if failure is not None or result is None or not switchable(mech.scene) or kept_as_is(mech.scene):
         return mech, result, failure
     decided = decide(mech, result)
     if decided is None:

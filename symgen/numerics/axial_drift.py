@@ -32,7 +32,9 @@ The start's axial ringing (:func:`ringing`): a run that does not start on its qu
 deformation (an undeformed start at speed) rings the dynamic bar axially about the stretch the
 quasi-static bar has from the first instant; a window from the start run with the axial dynamics
 kept against the run's own model measures it (see :func:`ringing`). The part (:func:`estimate`) is
-the larger of the drift and the ringing per output.
+the larger of the drift and the ringing per output. Both are measured once per run
+(:func:`parts`): ``effects.axial = "auto"`` decides on them after the run
+(:mod:`symgen.numerics.axial_choice`), and the run's error estimate reads the same numbers.
 
 Not charged: the stretch's own rate f' + N'/lambda in T (of the order of the axial force's rate
 over lambda).
@@ -41,7 +43,7 @@ over lambda).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -58,10 +60,14 @@ if TYPE_CHECKING:
 
 __all__ = [
     "KEY",
+    "NOT_DECIDING",
     "AxialNotEstimated",
+    "AxialParts",
     "drift",
     "estimate",
     "free_rates",
+    "keep_parts",
+    "parts",
     "quasi_static_bars",
     "ringing",
     "stretch_inertia",
@@ -228,6 +234,9 @@ RINGING_MAX_SAMPLES = 2000
 #: a fraction of its largest over the run, against this fraction of the accuracy
 RINGING_SKIP = 0.1
 
+#: output kinds no decision is taken on, nor a window cut short for (zero to round-off in every model)
+NOT_DECIDING = ("closure_residual",)
+
 #: the axial-dynamic models loaded in this process: (cache root, scene) -> the mechanism
 _KEPT: dict[tuple[str, Any], Mechanism] = {}
 
@@ -289,7 +298,7 @@ def ringing_bound(mech: Mechanism, result: SimResult, bars: Bars) -> float:
     return worst
 
 
-def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
+def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tuple[dict[str, float], str]:
     """output -> the start's axial ringing the quasi-static treatment leaves out, as a fraction of
     the output's peak over the run, and how: a window from the start run with the quasi-static
     bars' axial dynamics kept and with the run's own model on the same fine output grid, the
@@ -298,7 +307,11 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     outputs ``RINGING_FORCE_KINDS`` over the whole run on its output grid, the levers that read the
     axial force turning). 0 where the run starts on its quasi-static deformation
     (``initial.deformation = "quasi-static"``) or the start's axial force jump
-    (:func:`ringing_bound`) is below ``RINGING_SKIP`` x the accuracy."""
+    (:func:`ringing_bound`) is below ``RINGING_SKIP`` x the accuracy.
+
+    ``enough``: a decision's threshold (:mod:`symgen.numerics.axial_choice`): where the window
+    already shows more than it on some output, the whole run for the force outputs is not made
+    (it could only raise them) and the values are lower bounds there, as the how says."""
     from symgen.numerics.simulate import simulate
 
     names = list(result.output_names)
@@ -360,7 +373,13 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     kinds = {o.name: o.kind for o in scene.outputs}
     forces = [n for j, n in enumerate(names) if kinds.get(n) in RINGING_FORCE_KINDS and peaks[j] > 0]
     periods = t_run * (math.pi / 2) * math.sqrt(max(lams)) / (2 * math.pi)
-    if forces and length < t_run and RINGING_DECAYS * decay > length and periods > RINGING_WHOLE_PERIODS:
+    shown = max((v for n, v in out.items() if kinds.get(n) not in NOT_DECIDING), default=0.0)
+    if forces and length < t_run and RINGING_DECAYS * decay > length and shown > enough:
+        window += (
+            f"; the force outputs ({', '.join(forces)}) over the window alone: it already shows {shown:.3g} of a "
+            f"peak, above {enough:g} (the whole run is not made for a lower bound already enough to decide)"
+        )
+    elif forces and length < t_run and RINGING_DECAYS * decay > length and periods > RINGING_WHOLE_PERIODS:
         window += (
             f"; the force outputs ({', '.join(forces)}) over the window alone: the ringing lasts the run, whose "
             f"{periods:.3g} axial periods (> {RINGING_WHOLE_PERIODS:g}) the axial dynamics are not run through "
@@ -389,22 +408,63 @@ def ringing(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     return out, how
 
 
-def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
-    """The axial part: output -> the larger of the free motion's phase drift (:func:`drift`) and
-    the start's ringing (:func:`ringing`) the quasi-static axial treatment leaves out, as a
-    fraction of the output's peak, and how (both, and which is larger on which outputs). Raises
-    :class:`AxialNotEstimated` where the drift cannot be evaluated."""
+@dataclass(frozen=True)
+class AxialParts:
+    """The two measures of one run (output -> fraction of its peak, and how): the free motion's
+    phase drift (:func:`drift`) and the start's ringing (:func:`ringing`; empty where its window
+    failed, ``ringing_how`` saying why). ``complete``: False where the ringing's force outputs
+    are lower bounds (measured against a decision's threshold and above it)."""
+
+    drift: dict[str, float]
+    drift_how: str
+    ringing: dict[str, float]
+    ringing_how: str
+    complete: bool = True
+
+
+#: a run's parts measured for a decision that kept the run, for its error estimate to read
+#: (mechanism, result, parts), those very objects, used once: the windows are run once per run
+_KEPT_PARTS: list[tuple[Any, Any, AxialParts]] = []
+
+
+def keep_parts(mech: Mechanism, result: SimResult, found: AxialParts) -> None:
+    """Keep the complete ``found`` of this run for its error estimate (:func:`parts` reads it
+    once); the previous one is dropped."""
+    _KEPT_PARTS[:] = [(mech, result, found)] if found.complete else []
+
+
+def parts(mech: Mechanism, result: SimResult, enough: float = math.inf) -> AxialParts:
+    """The drift and the ringing of ``result`` (a run of ``mech``); those :func:`keep_parts` kept
+    for this very run are read instead (once). ``enough``: a decision's threshold (see
+    :func:`ringing`). Raises :class:`AxialNotEstimated` where the drift cannot be evaluated; a
+    failed ringing window leaves the ringing empty and says why."""
     from symgen.errors import SymgenError
 
+    if _KEPT_PARTS:
+        m, r, known = _KEPT_PARTS.pop()
+        if m is mech and r is result:
+            return known
     slow, slow_how = drift(mech, result)
     try:
-        ring, ring_how = ringing(mech, result)
+        ring, ring_how = ringing(mech, result, enough)
     except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
         # the window's runs (or the axial-dynamic model) failed: the drift alone, said as such
         ring, ring_how = (
             {},
             f"not estimated (the window with the axial dynamics kept failed: {type(why).__name__}: {why})",
         )
+    kinds = {o.name: o.kind for o in mech.scene.outputs}
+    shown = max((v for n, v in ring.items() if kinds.get(n) not in NOT_DECIDING), default=0.0)
+    return AxialParts(slow, slow_how, ring, ring_how, complete=shown <= enough)
+
+
+def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
+    """The axial part: output -> the larger of the free motion's phase drift (:func:`drift`) and
+    the start's ringing (:func:`ringing`) the quasi-static axial treatment leaves out, as a
+    fraction of the output's peak, and how (both, and which is larger on which outputs). Raises
+    :class:`AxialNotEstimated` where the drift cannot be evaluated."""
+    both = parts(mech, result)
+    slow, slow_how, ring, ring_how = both.drift, both.drift_how, both.ringing, both.ringing_how
     out = {n: max(slow.get(n, 0.0), ring.get(n, 0.0)) for n in slow}
     by_ring = sorted(n for n in out if ring.get(n, 0.0) > slow.get(n, 0.0))
     if not by_ring:
