@@ -206,6 +206,27 @@ _ESTIMATE_ADVICE = {
 }
 
 
+def _counts_all_chosen(sidecar: dict) -> bool:
+    """Every elastic bar's counts chosen by symgen (the scene states none): the sidecar's bases."""
+    bases = sidecar.get("bases") or {}
+    return bool(bases) and all(all(b.get("chosen") or [False]) for b in bases.values())
+
+
+def _richer_counts(sidecar: dict) -> str:
+    """The keys that state the richer model's counts the truncation estimate ran (the sidecar's
+    error_estimate_detail.richer: bar -> [axial, transverse]), else the keys to raise."""
+    richer = (sidecar.get("error_estimate_detail") or {}).get("richer") or {}
+    bases = sidecar.get("bases") or {}
+    keys = [
+        f"bodies.{bar}.axial_modes = {ax}, bodies.{bar}.transverse_modes = {tr}"
+        for bar, (ax, tr) in richer.items()
+        if bar in bases and (ax, tr) != (bases[bar].get("axial"), bases[bar].get("transverse"))
+    ]
+    if keys:
+        return "e.g. the richer model's the estimate ran: " + "; ".join(keys)
+    return "bodies.NAME.axial_modes and transverse_modes above the chosen ones (the sidecar's bases)"
+
+
 def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
     """The run's error estimate in one line; warnings on stderr where it exceeds the accuracy
     (naming the output, the parts and what lowers the largest) and where its time-integration
@@ -242,6 +263,12 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
                 'quasi-static deformation): effects.axial = "dynamic" runs it (at the cost of resolving the axial '
                 'mode); initial.deformation = "quasi-static" removes it where the mechanism is meant to start on '
                 "its quasi-static deformation (a different start)"
+            )
+        elif largest == "truncation" and _counts_all_chosen(sidecar):
+            advice = (
+                "; its largest part, the truncation, is lowered by more shape functions: symgen chose the counts "
+                "from simulation.accuracy (its a-priori estimate met it, this run's estimate does not): state more, "
+                + _richer_counts(sidecar)
             )
         elif largest in _ESTIMATE_ADVICE:
             advice = f"; its largest part, the {largest.replace('_', ' ')}, is lowered by {_ESTIMATE_ADVICE[largest]}"

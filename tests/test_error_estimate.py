@@ -239,6 +239,47 @@ def test_simulate_warns_when_the_estimate_exceeds_the_accuracy(tmp_path, capsys)
     assert "exceeds simulation.accuracy = 1e-06; its largest part, the truncation, is lowered by more shape" in err
 
 
+def _truncation_sidecar(chosen: bool) -> dict:
+    """A sidecar whose estimate (truncation its largest part) exceeds the accuracy: the soft free
+    double pendulum kept out of the repository (2026-11-26, no mode counts: 3 + 4 chosen, the
+    estimate's richer model 5 + 6 on both bars)."""
+    bar = {"axial": 3, "transverse": 4, "chosen": [chosen, chosen]}
+    return {
+        "error_estimate": {"lower_mid": 0.0161},
+        "error_estimate_detail": {
+            "parts": {
+                "truncation": {"lower_mid": 0.0085},
+                "model_form": {"lower_mid": 0.0076},
+                "axial": {"lower_mid": 0.0},
+                "time_integration": {"lower_mid": 3.8e-5},
+            },
+            "methods": {"axial": "the phase drift of the free motion ..."},
+            "richer": {"upper": [5, 6], "lower": [5, 6]},
+        },
+        "bases": {"upper": dict(bar), "lower": dict(bar)},
+        "accuracy": 0.01,
+    }
+
+
+def test_the_truncation_warning_of_chosen_counts_names_the_keys_to_state(capsys):
+    """Where symgen chose every bar's counts (the scene states none), the truncation warning does
+    not tell the user to remove counts the scene does not have: it says the counts were chosen and
+    names the keys of the richer model the estimate ran; with stated counts it says as before."""
+    from symgen.cli import _say_estimate
+
+    _say_estimate(_truncation_sidecar(chosen=True), "p.json", "p.toml")
+    err = capsys.readouterr().err
+    assert "its largest part, the truncation, is lowered by more shape functions: symgen chose the counts" in err
+    assert "remove the bars' mode counts" not in err
+    assert "bodies.upper.axial_modes = 5, bodies.upper.transverse_modes = 6" in err
+    assert "bodies.lower.axial_modes = 5, bodies.lower.transverse_modes = 6" in err
+
+    _say_estimate(_truncation_sidecar(chosen=False), "p.json", "p.toml")
+    err = capsys.readouterr().err
+    assert "remove the bars' mode counts to let symgen choose them, or raise them" in err
+    assert "symgen chose the counts" not in err
+
+
 def test_simulate_warns_when_the_time_part_takes_over_a_tenth_of_the_accuracy(tmp_path, capsys):
     """Loose stated tolerances: the time-integration part exceeds a tenth of the accuracy (the
     share symgen.policy.tolerances keeps) and the run says so, naming the tolerances."""
