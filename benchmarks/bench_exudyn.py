@@ -47,8 +47,10 @@ The floor (issue 20's acceptance): the steps needed to follow the first bending 
 (at the run's start and end, the higher), times the cost of one compiled step (the C solver's own
 CPU per step, ``solve_cpu_s / steps``, of the ``--solver c`` run at the same target). Each symgen
 time is printed with its ratio to the floor. "Why" rows (integration only): the same run with a
-looser rtol and with quasi-static transverse functions (``bodies.<bar>.quasi_static_transverse``,
-both solvers), to show which of steps, cost per step and per-run overhead sets a ratio.
+looser rtol, with the tolerances each solver's rule derives from the accuracy (the validation
+scenes state theirs: ``symgen.policy.tolerances``) and with quasi-static transverse functions
+(``bodies.<bar>.quasi_static_transverse``, both solvers), to show which of steps, cost per step
+and per-run overhead sets a ratio.
 """
 
 from __future__ import annotations
@@ -420,8 +422,11 @@ def import_costs(repeats: int) -> dict[str, float]:
 
 
 def why_rows(name: str, target: float, mech, repeats: int) -> list[dict]:
-    """The integration at ``target`` with a looser rtol, and with 1 .. all of each bar's transverse
-    functions quasi-static (both solvers): what sets the steps."""
+    """The integration at ``target`` with a looser rtol, with each solver's tolerances from the
+    accuracy, and with 1 .. all of each bar's transverse functions quasi-static (both solvers):
+    what sets the steps."""
+    from symgen.policy import tolerances
+
     bars = [b for b in mech.scene.bodies if getattr(b, "transverse_modes", 0)]
     configs: list[tuple[str, list[str], str]] = []
     for rtol in (1e-6, 1e-4):
@@ -429,6 +434,17 @@ def why_rows(name: str, target: float, mech, repeats: int) -> list[dict]:
             configs.append(
                 (f"rtol {rtol:g}", [f"simulation.rtol={rtol:g}", f"simulation.atol={rtol * 1e-2:g}"], solver)
             )
+    # the validation scenes state rtol and atol (1e-8 / 1e-10 on the slider-cranks): what each
+    # solver takes with the tolerances its rule derives from the accuracy, as if they stated none
+    for solver in ("c", "idas"):
+        r, a = tolerances(target, solver)
+        configs.append(
+            (
+                f"tolerances from the accuracy (rtol {r:g}, atol {a:g})",
+                [f"simulation.rtol={r!r}", f"simulation.atol={a!r}"],
+                solver,
+            )
+        )
     for b in bars:
         for qs in range(1, b.transverse_modes + 1):
             for solver in ("c", "idas"):

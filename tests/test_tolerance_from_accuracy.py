@@ -188,3 +188,29 @@ def test_time_part_of_the_estimate_is_honest_at_the_derived_tolerances(tmp_path,
     true = _closed_form_error(result)
     assert 0.5 * true <= est.parts["time_integration"]["mid"] <= 2.0 * true
     assert "10x tighter tolerances" in est.methods["time_integration"]
+
+
+@needs_cc
+def test_the_richer_rerun_after_a_c_run_takes_the_c_rule(tmp_path, monkeypatch):
+    """The truncation part's rerun of the richer model is on the run's own tolerances: after a
+    ``--solver c`` run of a scene that states none, the C rule's from the accuracy (not IDAS's,
+    15 x tighter at accuracy 0.01); the time part's rerun 10 x tighter than those."""
+    from symgen.numerics import error_estimate
+
+    mech = mechanism(_scene(tmp_path))
+    result = simulate_c(mech)
+    asked: list[tuple[int, float, float]] = []
+    real = error_estimate._same_solver_run
+
+    def spy(m, res, step, rtol, atol, build=True):
+        asked.append((m.info.n, rtol, atol))
+        return real(m, res, step, rtol, atol, build)
+
+    monkeypatch.setattr(error_estimate, "_same_solver_run", spy)
+    rtol, atol = mech.scene.simulation.tolerances("c")
+    error_estimate.estimate_errors(mech, result, rtol, atol)
+    richer = [(r, a) for n, r, a in asked if n > mech.info.n]
+    own = [(r, a) for n, r, a in asked if n == mech.info.n]
+    assert richer == [tolerances(0.01, "c")]
+    assert own == [(rtol / error_estimate.TIGHTER, atol / error_estimate.TIGHTER)]
+    assert tolerances(0.01, "c") != tolerances(0.01, "idas")

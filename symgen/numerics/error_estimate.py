@@ -304,7 +304,7 @@ def estimate_errors(
         reasons[part] = reason
 
     try:
-        trunc, counts, how = truncation_part(mech, result, richer, truncation)
+        trunc, counts, how = truncation_part(mech, result, richer, truncation, rtol, atol)
         parts["truncation"] = {n: trunc.get(n) for n in names}
         methods["truncation"] = how + (START_TEXT if result.start_forces else "")
     except (TruncationNotEstimated, SymgenError) as why:
@@ -612,15 +612,22 @@ def _state_map(base: Mechanism, rich: Mechanism) -> tuple[np.ndarray, np.ndarray
 
 
 def truncation_part(
-    mech: Mechanism, result: SimResult, richer: Mechanism | None = None, method: str = "rerun"
+    mech: Mechanism,
+    result: SimResult,
+    richer: Mechanism | None = None,
+    method: str = "rerun",
+    rtol: float | None = None,
+    atol: float | None = None,
 ) -> tuple[dict[str, float], dict[str, list[int]], str]:
     """(output -> fraction of peak, bar -> richer counts, method text) of the truncation part
-    (the module docstring). Raises :class:`TruncationNotEstimated` with the reason when the run
-    has no elastic functions to enrich or the richer model does not extend this one."""
+    (the module docstring). ``rtol``, ``atol``: the run's own tolerances, those of the richer
+    model's rerun (None: the scene's, IDAS's). Raises :class:`TruncationNotEstimated` with the
+    reason when the run has no elastic functions to enrich or the richer model does not extend
+    this one."""
     if method not in TRUNCATION_METHODS:
         raise ValueError(f"unknown truncation method {method!r}; expected one of {', '.join(TRUNCATION_METHODS)}")
     if method == "rerun":
-        return _rerun(mech, result, richer)
+        return _rerun(mech, result, richer, rtol, atol)
     idx, deltas, counts = truncation_deltas(mech, result, richer)
     values = _fractions_of_peak(mech, result, deltas, list(result.output_names))
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
@@ -702,10 +709,12 @@ def _idas_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol
 
 
 def _rerun(
-    mech: Mechanism, result: SimResult, richer: Mechanism | None
+    mech: Mechanism, result: SimResult, richer: Mechanism | None, rtol: float | None = None, atol: float | None = None
 ) -> tuple[dict[str, float], dict[str, list[int]], str]:
     """The truncation part by a second run of the richer model on the run's own output grid and
-    tolerances."""
+    tolerances (``rtol``, ``atol``; None: the scene's): after a ``--solver c`` run with the
+    tolerances from the accuracy, the C solver's (``Simulation.tolerances("c")``), not IDAS's
+    tighter ones."""
     from symgen.errors import SimulationError
 
     counts: dict[str, list[int]]
@@ -719,8 +728,10 @@ def _rerun(
     if len(tau) < 2:
         raise TruncationNotEstimated("the run has fewer than two outputs")
     sim = mech.scene.simulation
+    rtol = sim.rtol if rtol is None else rtol
+    atol = sim.atol if atol is None else atol
     try:
-        rich = _same_solver_run(richer, result, float(tau[1] - tau[0]), sim.rtol, sim.atol, build=False)
+        rich = _same_solver_run(richer, result, float(tau[1] - tau[0]), rtol, atol, build=False)
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)

@@ -302,6 +302,44 @@ static void test_sparse_lu(void)
     check(worst_re < 1e-12, "sparse LU with the kept pivots after new values (max residual)", worst_re);
     check(worst_c < 1e-12, "complex sparse LU with the kept pivots (max residual)", worst_c);
     check(fill_ok, "sparse LU of size 40: fill-in under the matrix's own entries, flops under n^3/20", (double)f.flops);
+    /* the analysed pattern (A's nonzeros and the fill-in): a matrix with a new nonzero at a
+       fill-in position is covered and factored exactly by the kept pivots (the solver keeps them
+       across Jacobians); one off the pattern is not covered (the solver chooses them again) */
+    {
+        int fill = -1, off = -1, covered_same, covered_fill, covered_off;
+        n = SPN;
+        f.n = n;
+        arrow(sp_A, n, &seed);
+        memcpy(sp_LU, sp_A, sizeof(double) * n * n);
+        rc = symgen_splu_analyze(&f, sp_LU, 0.1);
+        covered_same = symgen_splu_covers(&f, sp_A, n);
+        for (i = 0; i < n * n; ++i) {
+            if (fill < 0 && sp_A[i] == 0.0 && sp_mark[i]) fill = i;
+            if (off < 0 && !sp_mark[i]) off = i;
+        }
+        sp_A[fill] = 0.1 * uniform(&seed);
+        covered_fill = symgen_splu_covers(&f, sp_A, n);
+        symgen_splu_gather(&f, sp_A, 1.0, sp_LU);
+        rc = rc || symgen_splu_refactor(&f, sp_LU, 0.01);
+        memcpy(rhs, b, sizeof(double) * n);
+        if (rc == 0) { symgen_splu_pack(&f, sp_LU, sp_v); symgen_splu_solve(&f, sp_v, rhs, x); }
+        worst = rc == 0 ? residual(sp_A, NULL, n, b, NULL, x, NULL) : HUGE_VAL;
+        sp_A[off] = 1.0;
+        covered_off = symgen_splu_covers(&f, sp_A, 0);
+        sp_A[off] = 0.0;
+        check(fill >= 0 && off >= 0 && covered_same && covered_fill && !covered_off,
+              "sparse LU: the analysed pattern covers its matrix and a fill-in entry, not an entry off it", 0.0);
+        check(worst < 1e-12, "sparse LU with the kept pivots after a new entry at a fill-in position (max residual)",
+              worst);
+        /* the first nd diagonal entries are required on the pattern, zero or not */
+        memset(sp_LU, 0, sizeof(double) * 9);
+        sp_LU[0] = 1.0; sp_LU[5] = 2.0; sp_LU[7] = 3.0;   /* (1, 1) and (2, 2) off the pattern */
+        f.n = 3;
+        rc = symgen_splu_analyze(&f, sp_LU, 0.1);
+        memset(sp_A, 0, sizeof(double) * 9);
+        check(rc == 0 && symgen_splu_covers(&f, sp_A, 1) && !symgen_splu_covers(&f, sp_A, 2),
+              "sparse LU: a required diagonal entry off the pattern is not covered", 0.0);
+    }
     /* a kept pivot gone to zero: reported, k + 1 */
     n = 3;
     f.n = n;

@@ -201,8 +201,9 @@ typedef struct symgen_solver {
     int *pivz, *zrow, *zmid, *zcol, *piv1, *piv2, *sp, *qs_col, *dvpiv;
     int *dvidx;                 /* [ne]: the dynamic amplitudes of the divergence check */
     /* the Newton matrices factored whole and sparse (the default; else by block elimination,
-       dense): the pivots chosen once per Jacobian (analyzed 1; -1: none qualified, dense until
-       the next Jacobian), kept while they hold; sparse: the last factorization was; reduced_x:
+       dense): the pivots chosen once (analyzed 1; -1: none qualified, dense until the next
+       Jacobian), kept across step sizes and Jacobians while they hold and the Jacobian's
+       nonzeros lie on their pattern; sparse: the last factorization was; reduced_x:
        K and jred of the dense path are up to date; dense_newton: always the dense path (set
        after symgen_solver_init: the runtime's tests compare both) */
     symgen_splu lu;
@@ -291,6 +292,11 @@ SYMGEN_API void symgen_clu_solve(const double *ar, const double *ai, int n, cons
 /* Factor A in place choosing the pivots (Markowitz, threshold u in (0, 1]; the pattern: A's
    nonzeros) and record them in f: 0, or k + 1 when no entry of the active columns qualifies */
 SYMGEN_API int symgen_splu_analyze(symgen_splu *f, double *A, double u);
+/* 1 when every nonzero of A (n x n, row-major) and its first nd diagonal entries lie on the
+   pattern f's analysis recorded (A's nonzeros and the fill-in of its pivot sequence), else 0:
+   a matrix it covers is factored exactly by f's pivots (symgen_splu_refactor): the pattern
+   holds every entry the elimination reads or writes; an entry outside it would be dropped */
+SYMGEN_API int symgen_splu_covers(const symgen_splu *f, const double *A, int nd);
 /* A := alpha src on the pattern of f (fill-in positions included: src is 0 there) */
 SYMGEN_API void symgen_splu_gather(const symgen_splu *f, const double *src, double alpha, double *A);
 /* Factor A (values on f's pattern) in place with f's pivots: 0, or k + 1 when pivot k is zero,

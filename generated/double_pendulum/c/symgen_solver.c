@@ -762,7 +762,8 @@ static void symgen_reduce_(symgen_solver *s)
    c = (ALPHA + i BETA) / h), with M = diag(I, 0) and J = dF/dy of the last Jacobian: its pattern
    is fixed, and so are the pivots Markowitz's criterion chose on the first E1 (the fewest
    fill-in among entries of at least SYMGEN_SPLU_PIVOT of their column), kept for each new step
-   size while every pivot stays at least SYMGEN_SPLU_KEEP of its column (else chosen again). A
+   size and each new Jacobian (whose nonzeros lie on their pattern: symgen_splu_covers) while
+   every pivot stays at least SYMGEN_SPLU_KEEP of its column (else chosen again). A
    chain's Jacobian is block-sparse: the factors keep it so, and a step costs about linearly in
    the number of bars, where the dense path's reduced matrices are full (cubic). 0, or 1: the
    dense path factors this step size (also when the pivots of E2 do not hold). */
@@ -976,7 +977,13 @@ static int symgen_integrate_(symgen_solver *s, double t_out, double t_stop)
         if (s->need_jac) {
             symgen_rhs_jac_(s, s->t, s->y);
             symgen_reduce_z_(s);
-            s->analyzed = 0;
+            /* the pivots are kept across Jacobians too: chosen again only when an entry lies
+               off their pattern (or none qualified before); symgen_sparse_factor_ chooses them
+               again when one no longer holds. Choosing them (Markowitz) costs more than the
+               rest of a step: it was half the run's CPU when done at every Jacobian */
+            if (s->analyzed < 0 || (s->analyzed > 0 && !symgen_splu_covers(&s->lu, s->jac, SYMGEN_NX(s)))) {
+                s->analyzed = 0;
+            }
             s->have_jac = 1;
             s->need_jac = 0;
             s->jac_current = 1;

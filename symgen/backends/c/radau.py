@@ -34,13 +34,17 @@ DD = ("-10.0488093998274155625", "1.38214273316074889579", "-0.33333333333333333
 
 # Step control and Newton (RADAU5's names and meanings). THET: a new Jacobian is computed after
 # an accepted step whose Newton iterations contracted slower than this (RADAU5: 0.001 when the
-# Jacobian is cheap, about 0.1 when it is costly). The emitted solver's Jacobian costs one LU of
-# the algebraic block g_z and NX solves with it (the Newton matrices are reduced to NI x NI):
-# cheap; 0.03 and 0.1 were measured no faster on the benchmark scenes (within noise) and 0.03
-# slightly less accurate, so RADAU5's 0.001 stays. QUOT1, QUOT2: a step-size ratio in
-# [QUOT1, QUOT2] keeps h (and the LU).
+# Jacobian is cheap, about 0.1 when it is costly). The emitted solver's Jacobian costs the
+# model's Jacobian functions, the dense LU of the algebraic block g_z (the polish's) and a
+# refactorization of the sparse Newton matrices (their pivots kept: symgen_splu_covers), about
+# a step's Newton iterations: 0.03 takes 92 Jacobians instead of 713 on the paper's slider-crank
+# (benchmarks/validation, accuracy 0.01, 2653 steps instead of 2631 at its rtol 1e-8: 14.2 ms
+# instead of 16.3; 991 instead of 982 at the C rule's rtol 3e-5: 6.4 ms instead of 7.7) with the
+# same error against the Exudyn reference (0.269 %); 0.1 is no faster. QUOT1, QUOT2: a
+# step-size ratio in [QUOT1, QUOT2] keeps h (and the LU); RADAU5's (0.99, 2) for large systems
+# and (1, 1.5) were within the noise of (1, 1.2) there.
 NIT = 7  # at most NIT Newton iterations per step
-THET = "0.001"
+THET = "0.03"
 SAFE = "0.9"  # safety factor of the step-size choice
 FACL = "5.0"  # h_new / h in [1 / FACL, 1 / FACR]
 FACR = "0.125"
