@@ -566,7 +566,12 @@ EFFECTS = Table(
             "ringing from a start that is not quasi-static (the jump to the start's quasi-static stretch, "
             "against the peaks of the outputs that read deflections, positions and angles, less what damping "
             "takes over the run) is within simulation.accuracy, is quasi-static, "
-            'else dynamic; with the seed\'s linear strain, dynamic. "dynamic" (= true): '
+            "else dynamic; after a complete run with quasi-static bars, the run's own axial estimate decides "
+            "again (the free motion's phase drift from the stretch's inertia, and the start's axial ringing "
+            "measured by a window run with the axial dynamics kept, force outputs included): above "
+            "simulation.accuracy the run is made again with the axial dynamics kept, and the decision is "
+            "remembered for the scene; "
+            'with the seed\'s linear strain, dynamic. "dynamic" (= true): '
             "axial amplitudes with inertia and the strain energy lambda/2 ||P eps||^2 of the strain the axial "
             'basis can carry (no locking at any lambda). "quasi_static": no axial vibration: the axial '
             "amplitudes follow the bending through (phi'_k, eps) = 0, the axial force N is its multiplier, and "
