@@ -160,3 +160,49 @@ def test_six_bar_rigid_start_closes_both_loops_and_its_velocities():
     for k in ("coupler", "rocker", "link", "rocker2"):
         assert (plus["theta"][k] - minus["theta"][k]) / (2 * h) * omega == pytest.approx(g["w"][k], rel=1e-6)
     assert (plus["C"] - minus["C"]) / (2 * h) * omega == pytest.approx(g["vC"], rel=1e-6)
+
+
+def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows(monkeypatch, tmp_path):
+    """bench_validation.reference: a mesh doubled at a coarse step can meet the step's limit (the
+    shorter elements' fast modes against the step): its change grows. That run is not kept: the
+    step is converged on the coarser mesh, then the mesh again at the converged step (a kept-out
+    four-bar's reference was written from such a run, unconverged). A model whose error is
+    a/n^2 + b/k^2, plus an artefact where n >= 64 at k < 16, stands in for Exudyn."""
+    import types
+
+    import bench_validation as V
+
+    import symgen.numerics.mechanism as M
+    import symgen.scene as S
+
+    def fake_run(scene, mech, n, k, newton=None):
+        err = 2.0 / n**2 + 0.05 / k**2 + (1e-2 if n >= 64 and k < 16 else 0.0)
+        return types.SimpleNamespace(
+            elements={"bar": n},
+            cpu=1e-3 * n * k,
+            outputs={"y": np.array([1.0 + err, -1.0 - err])},
+            tau=np.array([0.0, 1.0]),
+            step=1.0 / k,
+            skipped=(),
+        )
+
+    fake_x = types.ModuleType("exudyn_scene")
+    fake_x.to_result_units = lambda scene, tau, outputs: (tau, outputs)
+    monkeypatch.setitem(sys.modules, "exudyn_scene", fake_x)
+    monkeypatch.setattr(V, "_exudyn", fake_run)
+    monkeypatch.setattr(V, "REF", tmp_path)
+    monkeypatch.setattr(V, "scene_path", lambda name: tmp_path / f"{name}.toml")
+    monkeypatch.setattr(S, "load_scene", lambda path: None)
+    monkeypatch.setattr(M, "load_mechanism", lambda scene: None)
+    monkeypatch.setitem(V.START, "ladder", (4, 4))
+    table = V.reference("ladder", log=lambda *a: None)
+    kept = [r for r in table["rows"] if r.get("change") and r.get("kept", True)]
+    dropped = [r for r in table["rows"] if r.get("kept") is False]
+    assert dropped and dropped[0]["elements"] == {"bar": 64} and dropped[0]["per_output"] == 4
+    assert table["converged_mesh"] and table["converged_step"]
+    final = table["final"]
+    assert final["per_output"] >= 16  # the step refined (before: the mesh ladder ended the reference at k = 4)
+    # the stored reference is within TOL of the exact answer (1.0) in each ladder: 2 TOL together
+    t, out = V.read_reference("ladder")
+    assert np.max(np.abs(np.abs(out["y"]) - 1.0)) < 2 * V.TOL
+    assert all(r["refined"] in ("mesh", "step") for r in kept)
