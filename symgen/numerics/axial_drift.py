@@ -155,7 +155,8 @@ def run_rates(result: SimResult) -> np.ndarray:
     and shifts with it: its whole rate is what a lead moves it by (the rate along the free rigid
     coordinates with the amplitudes held is zero for it). An output whose first sample is the
     continuum's joint force (``SimResult.start_forces``) is differentiated from its second sample
-    (its rate at the start taken as zero: the lead is zero there)."""
+    (its rate at the start taken as zero: the lead is zero there). Content faster than the output
+    step is not seen: the rate is that of the samples the user reads."""
     tau = np.asarray(result.tau, dtype=float)
     Y = np.asarray(result.outputs, dtype=float)
     rates = np.zeros_like(Y)
