@@ -35,7 +35,9 @@ MEASURED: dict[str, dict[str, tuple[float, str]]] = {
         # the exact bar with the strain's eta'^4 / 8 (true 3.7e-4) and the estimate measured as written
         "torque": (0.92, ""),
     },
-    "double_pendulum_alu": {"upper_tip": (0.75, ""), "lower_tip": (0.92, "")},
+    # the axial part's drift charges the deflections their whole rate along the run (0 before, the rate
+    # along the free rigid coordinates: 0.75 / 0.92): 3.9e-5 / 4.0e-5 of peak
+    "double_pendulum_alu": {"upper_tip": (0.93, ""), "lower_tip": (0.95, "")},
     "five_bar_elastic": {
         "link_a_mid": (0.64, ""),
         "link_b_mid": (0.86, ""),

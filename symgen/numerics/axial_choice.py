@@ -40,8 +40,8 @@ __all__ = ["decide", "kept_as_is", "recalled", "resolved", "run_with_axial_choic
 R = TypeVar("R")
 
 #: the axial part's version in the remembered decisions (a changed estimate decides again;
-#: "2": the start's ringing decides too)
-ESTIMATOR_VERSION = "2"
+#: "2": the start's ringing decides too; "3": the drift charges each output's whole rate along the run)
+ESTIMATOR_VERSION = "3"
 #: output kinds that do not decide (zero to round-off in every model)
 NOT_DECIDING = _axial_drift.NOT_DECIDING
 #: what each measure of the axial part is, in the reason
