@@ -169,3 +169,26 @@ def test_stated_counts_are_never_raised_and_estimate_off_never_decides(tmp_path,
     assert all(c["chosen"] == [False, False] and not c["raised"] for c in side["bases"].values())
     assert max(side["error_estimate_detail"]["parts"]["truncation"].values()) > ACCURACY
     assert "exceeds simulation.accuracy" in err
+
+
+def test_the_floor_keeps_the_counts_chosen_and_the_raises_stop_at_the_cap(tmp_path):
+    """The floor of a raise goes through the bases chooser (the counts still chosen, at least the
+    floor, the reason says why); after MAX_ROUNDS raises the scene is no longer switchable and the
+    CLI's note says the cap was reached; a bar whose counts are stated is never given a floor."""
+    from symgen.scene.loader import load_scene
+
+    scene = load_scene(_scene(tmp_path, "floor"))
+    assert counts_choice.switchable(scene) and not counts_choice.cap_text(scene)
+    once = counts_choice.raised(scene, {"upper": (5, 7), "lower": (4, 6)}, "a test's reason")
+    by = {c.bar: c for c in once.bases}
+    assert by["upper"].axial >= 5 and by["upper"].transverse >= 7
+    assert by["lower"].axial >= 4 and by["lower"].transverse >= 6
+    assert all(c.given == (None, None) and "a test's reason" in c.raised for c in by.values())
+    assert [b.transverse_modes for b in once.bodies] == [by["upper"].transverse, by["lower"].transverse]
+    twice = counts_choice.raised(once, {"upper": (7, 9), "lower": (6, 8)}, "again")
+    assert counts_choice.rounds(twice) == counts_choice.MAX_ROUNDS == 2
+    assert not counts_choice.switchable(twice) and "2 times (its cap)" in counts_choice.cap_text(twice)
+    stated = load_scene(_scene(tmp_path, "stated", {"upper": (3, 4)}))
+    assert counts_choice.chosen_bars(stated) == ["lower"]
+    up = counts_choice.raised(stated, {"lower": (6, 8)}, "why").body("upper")
+    assert (up.axial_modes, up.transverse_modes) == (3, 4)
