@@ -73,7 +73,7 @@ def describe_basis(choice) -> str:
     )
     warn = f"; WARNING: {choice.warning}" if choice.warning else ""
     if choice.raised:  # a run's truncation estimate raised the chosen counts (said in the reason too)
-        how = how.replace(" chosen", " chosen, raised by a run's estimate", 1)
+        how += " (raised by a run's truncation estimate)"
     return f"{how}; {split}; {choice.reason}{warn}"
 
 
