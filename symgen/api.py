@@ -204,7 +204,10 @@ def _written_run(
             result, failure = attempt(lambda: run(mech))
         else:  # "auto": the von Karman run's model-form estimate may call for the exact bar
             mech, result, failure = run_with_strain_choice(
-                mech, lambda sc: mechanism(sc, use_cache=use_cache), lambda m: attempt(lambda: run(m))
+                mech,
+                lambda sc: mechanism(sc, use_cache=use_cache),
+                lambda m: attempt(lambda: run(m)),
+                estimate=estimate,
             )
         scene = mech.scene
         written = write_run(

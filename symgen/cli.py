@@ -177,7 +177,11 @@ def _simulate(args, files) -> int:
 
     # effects.strain = "auto": the von Karman run's model-form estimate may call for the exact bar
     mech, result, failure = run_with_strain_choice(
-        mech, lambda sc: mechanism(sc, use_cache=not args.no_cache), run, lambda text: _say(args, text)
+        mech,
+        lambda sc: mechanism(sc, use_cache=not args.no_cache),
+        run,
+        lambda text: _say(args, text),
+        getattr(args, "estimate", "off"),
     )
     written = _write_run(args, files, mech, result, failure, args.solver)
     assert result is not None  # write_run raises when the run has no result
@@ -193,8 +197,25 @@ def _simulate(args, files) -> int:
         + _backend_text(result.stats)
         + f"simulate {result.simulate_s:.2f}s)"
     )
+    _say_raised(mech.scene)
     _say_estimate(written.sidecar, written.csv.with_suffix(".json").name, args.scene)
     return 0
+
+
+def _say_raised(scene) -> None:
+    """The chosen counts a run's truncation estimate raised (this run's or a remembered one's),
+    and the cap where it was reached."""
+    from symgen.numerics.counts_choice import cap_text
+
+    raised = [c for c in scene.bases if c.raised]
+    if not raised:
+        return
+    counts = ", ".join(f"{c.bar} {c.axial} + {c.transverse}" for c in raised)
+    why = scene.counts_raised.reason if scene.counts_raised is not None else raised[0].raised
+    print(f"chosen counts raised ({counts} axial + transverse functions): {why}")
+    cap = cap_text(scene)
+    if cap:
+        print(f"symgen: note: {cap}; no further raise (the error estimate says what remains)", file=sys.stderr)
 
 
 #: what lowers each part of the error estimate, for the warning of :func:`_say_estimate`
@@ -767,7 +788,10 @@ def build_parser() -> argparse.ArgumentParser:
         default="rerun",
         help="the error estimate in the JSON sidecar (error_estimate: output -> fraction of peak): its "
         "truncation part by a second run of a richer model (rerun, default), the richer model "
-        "linearised along the run (linearized: cheaper, low where the run rings freely), or off",
+        "linearised along the run (linearized: cheaper, low where the run rings freely), or off; where "
+        "the scene states no counts of a bar and the rerun's truncation part exceeds simulation.accuracy, "
+        "the run is made again with the richer counts (at most twice, remembered for the scene; only "
+        "rerun decides)",
     )
     p.add_argument("-v", "--verbose", action="store_true", help="say each stage on stderr")
     p.set_defaults(func=cmd_simulate)

@@ -119,6 +119,7 @@ __all__ = [
     "ErrorEstimate",
     "InvalidEstimate",
     "estimate_errors",
+    "keep_truncation",
     "register_model_form",
     "time_integration_part",
     "truncation_part",
@@ -611,6 +612,20 @@ def _state_map(base: Mechanism, rich: Mechanism) -> tuple[np.ndarray, np.ndarray
     return T, S
 
 
+#: the truncation part a decision measured on a run (:func:`keep_truncation`), read once by that
+#: run's estimate: (mechanism, result, method, part)
+_KEPT_TRUNCATION: list[tuple[Any, Any, str, tuple[dict[str, float], dict[str, list[int]], str]]] = []
+
+
+def keep_truncation(
+    mech: Mechanism, result: SimResult, method: str, part: tuple[dict[str, float], dict[str, list[int]], str]
+) -> None:
+    """Keep ``part``, :func:`truncation_part` of this run by ``method`` (the chosen counts'
+    decision measured it: :mod:`symgen.numerics.counts_choice`), for the run's own estimate (read
+    once; the previous one is dropped)."""
+    _KEPT_TRUNCATION[:] = [(mech, result, method, part)]
+
+
 def truncation_part(
     mech: Mechanism,
     result: SimResult,
@@ -623,9 +638,14 @@ def truncation_part(
     (the module docstring). ``rtol``, ``atol``: the run's own tolerances, those of the richer
     model's rerun (None: the scene's, IDAS's). Raises :class:`TruncationNotEstimated` with the
     reason when the run has no elastic functions to enrich or the richer model does not extend
-    this one."""
+    this one. The part :func:`keep_truncation` kept for this very run and method is read instead
+    (once)."""
     if method not in TRUNCATION_METHODS:
         raise ValueError(f"unknown truncation method {method!r}; expected one of {', '.join(TRUNCATION_METHODS)}")
+    if _KEPT_TRUNCATION and richer is None:
+        m, r, how, known = _KEPT_TRUNCATION.pop()
+        if m is mech and r is result and how == method:
+            return known
     if method == "rerun":
         return _rerun(mech, result, richer, rtol, atol)
     idx, deltas, counts = truncation_deltas(mech, result, richer)

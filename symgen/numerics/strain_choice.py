@@ -121,10 +121,11 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
 
 def resolved(scene: Scene) -> Scene:
     """The scene with the decisions remembered for it (the bar formulation, then the axial
-    dynamics a run kept: :mod:`symgen.numerics.axial_choice`), else as it is."""
-    from symgen.numerics import axial_choice
+    dynamics a run kept: :mod:`symgen.numerics.axial_choice`, then the chosen counts a run
+    raised: :mod:`symgen.numerics.counts_choice`), else as it is."""
+    from symgen.numerics import axial_choice, counts_choice
 
-    return axial_choice.resolved(recalled(scene) or scene)
+    return counts_choice.resolved(axial_choice.resolved(recalled(scene) or scene))
 
 
 def run_with_strain_choice(
@@ -132,17 +133,21 @@ def run_with_strain_choice(
     load: Callable[[Scene], Mechanism],
     run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
     say: Callable[[str], None] | None = None,
+    estimate: str = "off",
 ) -> tuple[Mechanism, R | None, BaseException | None]:
     """``run(mech)`` -> (mechanism, result, failure), with "auto" decided when the scene of
     ``mech`` may still switch (:func:`resolved` it first to use a remembered decision): after a
     complete von Karman run its model-form estimate decides, and the run is made again with the
     exact bar (``load``-ed) when it says so. Then ``effects.axial = "auto"``'s run-time half
-    (:func:`symgen.numerics.axial_choice.run_with_axial_choice`) on the run it gave. Any other
-    scene is run once, as it is."""
+    (:func:`symgen.numerics.axial_choice.run_with_axial_choice`) on the run it gave, then the
+    chosen counts' (:func:`symgen.numerics.counts_choice.run_with_counts_choice`, where
+    ``estimate``, the run's truncation method, is "rerun"). Any other scene is run once, as it is."""
     from symgen.numerics.axial_choice import run_with_axial_choice
+    from symgen.numerics.counts_choice import run_with_counts_choice
 
     mech, result, failure = _run_with_strain_choice(mech, load, run, say)
-    return run_with_axial_choice(mech, result, failure, load, run, say)
+    mech, result, failure = run_with_axial_choice(mech, result, failure, load, run, say)
+    return run_with_counts_choice(mech, result, failure, load, run, say, estimate)
 
 
 def _run_with_strain_choice(

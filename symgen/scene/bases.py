@@ -108,7 +108,10 @@ class BasisChoice:
     ``quasi``: how many of the highest transverse functions symgen made quasi-static
     (:func:`quasi_choice`; 0 where none, or where the file states ``quasi_static_transverse``),
     ``quasi_reason``: why (or why none); ``quasi_axial``: how many of the highest axial functions
-    symgen made quasi-static (no key states them: symgen's choice only)."""
+    symgen made quasi-static (no key states them: symgen's choice only); ``raised``: why a run's
+    truncation estimate raised the chosen counts to at least its floor (``Scene.counts_raised``,
+    :mod:`symgen.numerics.counts_choice`; "" where none); ``quasi_stated``: the file states the
+    bar's ``quasi_static_transverse`` (the chooser leaves it as stated)."""
 
     bar: str
     axial: int
@@ -127,6 +130,8 @@ class BasisChoice:
     quasi: int = 0
     quasi_reason: str = ""
     quasi_axial: int = 0
+    raised: str = ""
+    quasi_stated: bool = False
 
     def as_dict(self) -> dict:
         """The sidecar's ``bases`` entry of this bar (JSON)."""
@@ -148,6 +153,7 @@ class BasisChoice:
             "reason": self.reason,
             "warning": self.warning,
             "start_rings": self.start_rings,
+            "raised": self.raised,
             "quasi_static": {
                 "functions": self.quasi,
                 "axial_functions": self.quasi_axial,
@@ -1272,9 +1278,10 @@ def choose_bases(
     ``deformed_start``: the file states initial amplitudes (``initial.deformation`` as a table):
     the start is not at rest undeformed (:func:`start_onset`).
 
-    Each bar's counts come from its own spectrum first; where symgen chooses counts, the
-    mechanism's coupled spectrum (:func:`coupled_choice`) then adds functions until its
-    estimate meets the accuracy."""
+    Each bar's counts come from its own spectrum first, at least the floor a run's truncation
+    estimate raised them to (``scene.counts_raised``: a bar whose file states neither count);
+    where symgen chooses counts, the mechanism's coupled spectrum (:func:`coupled_choice`) then
+    adds functions until its estimate meets the accuracy."""
     acc = scene.simulation.accuracy
     omega_run, how = run_frequency(scene)
     out: dict[str, BasisChoice] = {}
@@ -1307,6 +1314,14 @@ def choose_bases(
             wa, dyn_a, est_a, need_a = np.zeros(0), 0, [], 0
         na = need_a if ga is None else ga
         nt = need_t if gt is None else gt
+        lifted = scene.counts_raised
+        floor = lifted.floor(body.name) if lifted is not None and (ga, gt) == (None, None) else None
+        raised = ""
+        if lifted is not None and floor is not None:
+            na = max(na, min(floor[0], MAX_CHOSEN)) if est_a else na
+            nt = max(nt, min(floor[1], MAX_CHOSEN)) if est_t else nt
+            if (na, nt) != (need_a, need_t):
+                raised = f"raised to {na} axial + {nt} transverse functions by a run: {lifted.reason}"
         estimate = max(
             est_a[na - 1] if 0 < na <= len(est_a) else (0.0 if na or not est_a else 1.0),
             est_t[nt - 1] if 0 < nt <= len(est_t) else (0.0 if nt or not est_t else 1.0),
@@ -1323,6 +1338,8 @@ def choose_bases(
             f"{dyn_t} bending and {dyn_a} axial modes dynamic; the rest static shape; "
             f"{need_a} axial + {need_t} transverse functions meet accuracy {acc:g}"
         )
+        if raised:
+            reason += f"; {raised}"
         warning = ""
         if estimate > acc and (ga is not None or gt is not None):
             short = []
@@ -1355,6 +1372,8 @@ def choose_bases(
             shown_a,
             reason,
             warning,
+            raised=raised,
+            quasi_stated=body.name in quasi_stated,
         )
     if any(None in c.given for c in out.values()):
         out = coupled_choice(

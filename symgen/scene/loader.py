@@ -59,7 +59,7 @@ from symgen.scene.mechanism import (
     si_inputs,
 )
 from symgen.scene.bases import DEFAULT_ACCURACY, choose_bases, with_start
-from symgen.scene.model import Body, Driver, Effects, Initial, Scene, Simulation
+from symgen.scene.model import Body, CountsRaised, Driver, Effects, Initial, Scene, Simulation
 from symgen.scene.outputs import read_outputs
 from symgen.scene.overrides import apply_overrides
 from symgen.scene.ranges import merge_inputs, check_body_groups, check_scaled_values, reference_inputs
@@ -523,6 +523,32 @@ def with_bases(
         if c.warning:
             warnings.warn(SceneWarning(f"{r.file}: {c.warning}"), stacklevel=3)
     return replace(scene, bodies=bodies, bases=tuple(choices.values()))
+
+
+def with_raised(scene: Scene, raised: CountsRaised) -> Scene:
+    """The loaded ``scene`` with its bases chosen again, the floors of ``raised`` on the chosen
+    counts (``Scene.counts_raised``: a run's truncation estimate raised them,
+    ``symgen.numerics.counts_choice``): the stated counts, the start and the stated quasi-static
+    functions as the file gave them (``Scene.bases``), the chooser's coupled and quasi-static
+    choices made again for the new counts. Its warnings were said when the file was loaded."""
+    stated = {c.bar: c for c in scene.bases}
+    bodies = tuple(
+        replace(b, quasi_static_transverse=0) if b.name in stated and not stated[b.name].quasi_stated else b
+        for b in scene.bodies
+    )
+    base = replace(scene, bodies=bodies, counts_raised=raised)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SceneWarning)
+        chosen = with_bases(
+            Reader(scene.path),
+            base,
+            {name: c.given for name, c in stated.items()},
+            quasi_static_start=scene.initial.quasi_static,
+            deformed_start=bool(scene.initial.deformation),
+            quasi_stated=frozenset(name for name, c in stated.items() if c.quasi_stated),
+            guess={k: float(v) for k, v in scene.initial.guess},
+        )
+    return replace(chosen, bases=with_start(chosen.bases, scene.initial.quasi_static, scene.effects.damping))
 
 
 def load_scene(path: str | os.PathLike, overrides: Sequence[str] = ()) -> Scene:

@@ -192,6 +192,22 @@ class Simulation:
 
 
 @dataclass(frozen=True)
+class CountsRaised:
+    """The chosen counts the runs' truncation estimates raised (``symgen.numerics.counts_choice``):
+    ``floors``: (bar, axial, transverse), at least these counts for the bar's chosen families
+    (``symgen.scene.bases.choose_bases``); ``reason``: why, as the latest raise said it;
+    ``rounds``: how many raises made them (at most ``counts_choice.MAX_ROUNDS``)."""
+
+    floors: tuple[tuple[str, int, int], ...]
+    reason: str
+    rounds: int = 1
+
+    def floor(self, bar: str) -> tuple[int, int] | None:
+        """The (axial, transverse) floor of ``bar``, or None."""
+        return next(((a, t) for b, a, t in self.floors if b == bar), None)
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     path: str
@@ -224,6 +240,9 @@ class Scene:
     # effects.axial = "auto": (bar, reason) of the bars whose axial dynamics a run's estimate kept
     # (symgen.numerics.axial_choice: the quasi-static stretch's phase drift above the accuracy)
     axial_kept: tuple[tuple[str, str], ...] = ()
+    # the chosen counts a run's truncation estimate raised (symgen.numerics.counts_choice): floors
+    # on the bases chooser's choice of the bars whose file states neither count (None: none raised)
+    counts_raised: CountsRaised | None = None
 
     @property
     def driver(self) -> Driver | None:

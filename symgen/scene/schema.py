@@ -261,7 +261,9 @@ BODIES = Table(
             "Number of axial shape functions (0: axially rigid). With von Karman strain use at least 3. "
             "Absent: chosen from simulation.accuracy (the bar's axial frequencies against the run's fastest "
             "content, and the static truncation of its axial loads; `symgen check`, `symgen effects` and the "
-            "sidecar's bases say what and why). Given: used as written, with a warning when the a-priori "
+            "sidecar's bases say what and why); raised after a run whose error estimate's truncation part "
+            "(`symgen simulate --estimate rerun`, the default) exceeds the accuracy (with transverse_modes, "
+            "when neither is given). Given: used as written, with a warning when the a-priori "
             "estimate of the count exceeds simulation.accuracy.",
             {"type": "integer", "minimum": 0},
             default="chosen from simulation.accuracy (0 without lambda, or area in SI)",
@@ -276,7 +278,9 @@ BODIES = Table(
             "truncation of the inertia loads and the frequencies of the dynamic modes meet the accuracy; "
             "then the mechanism's coupled modes at its start position add functions where an undeformed "
             "start rings them (their phase over the run, in deflections and driver torques) or their "
-            "frequencies miss. "
+            "frequencies miss. Where neither count of the bar is given, a run whose error estimate's truncation "
+            "part (a rerun with two more functions of each kind per bar) exceeds the accuracy is made again with "
+            "those counts (at most twice; remembered for the scene, said in the sidecar's bases.raised). "
             "Given: used as written, with a warning when the a-priori estimate exceeds the accuracy.",
             {"type": "integer", "minimum": 0},
             default="chosen from simulation.accuracy (0 without mu, or inertia in SI)",

@@ -72,6 +72,8 @@ def describe_basis(choice) -> str:
         f"a-priori estimate {choice.estimate:.2g} of peak (accuracy {choice.accuracy:g})"
     )
     warn = f"; WARNING: {choice.warning}" if choice.warning else ""
+    if choice.raised:  # a run's truncation estimate raised the chosen counts (said in the reason too)
+        how += " (raised by a run's truncation estimate)"
     return f"{how}; {split}; {choice.reason}{warn}"
 
 
