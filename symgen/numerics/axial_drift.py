@@ -57,6 +57,7 @@ import numpy as np
 
 from symgen.ir.records import RowKind
 from symgen.ir.names import bar_parameter
+from symgen.numerics.run_result import MeasuredOnce
 from symgen.numerics.model_form import _mapped
 
 if TYPE_CHECKING:
@@ -427,15 +428,18 @@ class AxialParts:
     complete: bool = True
 
 
-#: a run's parts measured for a decision that kept the run, for its error estimate to read
-#: (mechanism, result, parts), those very objects, used once: the windows are run once per run
-_KEPT_PARTS: list[tuple[Any, Any, AxialParts]] = []
+#: a run's parts measured for a decision that kept the run, for its error estimate to read once:
+#: the windows are run once per run
+_KEPT_PARTS: MeasuredOnce[AxialParts] = MeasuredOnce()
 
 
 def keep_parts(mech: Mechanism, result: SimResult, found: AxialParts) -> None:
     """Keep the complete ``found`` of this run for its error estimate (:func:`parts` reads it
     once); the previous one is dropped."""
-    _KEPT_PARTS[:] = [(mech, result, found)] if found.complete else []
+    if found.complete:
+        _KEPT_PARTS.keep(mech, result, found)
+    else:
+        _KEPT_PARTS.drop()
 
 
 def parts(mech: Mechanism, result: SimResult, enough: float = math.inf) -> AxialParts:
@@ -445,10 +449,9 @@ def parts(mech: Mechanism, result: SimResult, enough: float = math.inf) -> Axial
     failed ringing window leaves the ringing empty and says why."""
     from symgen.errors import SymgenError
 
-    if _KEPT_PARTS:
-        m, r, known = _KEPT_PARTS.pop()
-        if m is mech and r is result:
-            return known
+    known = _KEPT_PARTS.take(mech, result)
+    if known is not None:
+        return known
     slow, slow_how = drift(mech, result)
     try:
         ring, ring_how = ringing(mech, result, enough)

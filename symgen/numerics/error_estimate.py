@@ -106,6 +106,7 @@ from symgen.ir.records import CoordKind
 from symgen.numerics import axial_drift as _axial_drift
 from symgen.numerics import model_form as _model_form
 from symgen.numerics.model_form import ModelFormNotEstimated
+from symgen.numerics.run_result import MeasuredOnce
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -613,8 +614,8 @@ def _state_map(base: Mechanism, rich: Mechanism) -> tuple[np.ndarray, np.ndarray
 
 
 #: the truncation part a decision measured on a run (:func:`keep_truncation`), read once by that
-#: run's estimate: (mechanism, result, method, part)
-_KEPT_TRUNCATION: list[tuple[Any, Any, str, tuple[dict[str, float], dict[str, list[int]], str]]] = []
+#: run's estimate (keyed by the truncation method)
+_KEPT_TRUNCATION: MeasuredOnce[tuple[dict[str, float], dict[str, list[int]], str]] = MeasuredOnce()
 
 
 def keep_truncation(
@@ -623,7 +624,7 @@ def keep_truncation(
     """Keep ``part``, :func:`truncation_part` of this run by ``method`` (the chosen counts'
     decision measured it: :mod:`symgen.numerics.counts_choice`), for the run's own estimate (read
     once; the previous one is dropped)."""
-    _KEPT_TRUNCATION[:] = [(mech, result, method, part)]
+    _KEPT_TRUNCATION.keep(mech, result, part, method)
 
 
 def truncation_part(
@@ -642,9 +643,9 @@ def truncation_part(
     (once)."""
     if method not in TRUNCATION_METHODS:
         raise ValueError(f"unknown truncation method {method!r}; expected one of {', '.join(TRUNCATION_METHODS)}")
-    if _KEPT_TRUNCATION and richer is None:
-        m, r, how, known = _KEPT_TRUNCATION.pop()
-        if m is mech and r is result and how == method:
+    if richer is None:
+        known = _KEPT_TRUNCATION.take(mech, result, method)
+        if known is not None:
             return known
     if method == "rerun":
         return _rerun(mech, result, richer, rtol, atol)
