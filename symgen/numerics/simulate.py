@@ -22,7 +22,7 @@ import math
 import re
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import casadi as ca
@@ -644,6 +644,45 @@ def _singular_outputs(J: np.ndarray) -> np.ndarray:
     return np.nonzero(ratio < POLICY.singular_ratio)[0]
 
 
+@dataclass
+class _Chunk:
+    """One chunk of a run's outputs (``_chunks``): k outputs after t_start; ``replayed`` when the
+    runner went through it output by output (the next chunk is then not made longer)."""
+
+    k: int
+    t_start: float
+    replayed: bool = False
+
+
+def _chunks(
+    run: DaeRunner,
+    traj: _Trajectory,
+    settings: RunSettings,
+    pfull: np.ndarray,
+    advanced: Callable[[int], object],
+) -> Iterator[_Chunk]:
+    """The chunks of outputs of a run, one policy for every runner (``_integrate``,
+    ``_algebraic_motion``): ``CHUNK`` outputs first, each next chunk twice as many up to
+    ``CHUNK_MAX``, or all the rest when that is at most twice as many. Before each: the time
+    offset set in ``pfull[-1]``, the interrupt checked, the compiled library switched to when it
+    is built; after each: ``advanced(k)`` (the progress line)."""
+    t0, h, n_out = settings.t0, settings.h, settings.n_outputs
+    done, size = 0, CHUNK
+    while done < n_out:
+        remaining = n_out - done
+        k = remaining if remaining <= 2 * size else size
+        t_start = t0 + done * h
+        pfull[-1] = t_start
+        interrupt.check(traj.taus[-1])
+        run.switch_when_built(t_start)
+        chunk = _Chunk(k, t_start)
+        yield chunk
+        done += k
+        advanced(k)
+        if not chunk.replayed:
+            size = min(2 * size, CHUNK_MAX)
+
+
 def _algebraic_motion(
     run: DaeRunner,
     traj: _Trajectory,
@@ -657,19 +696,13 @@ def _algebraic_motion(
     solutions extrapolated (:class:`AlgebraicSweep`: one CasADi call per block of outputs), in the
     chunks of outputs of ``_integrate``, recorded per chunk with its checks (``record_many``). The first output
     whose closure has no solution near the last one ends the run there, the outputs before it kept."""
-    t0, h, n_out = settings.t0, settings.h, settings.n_outputs
+    h = settings.h
     mech = run.mech
-    pfull = np.concatenate([mech.p, [t0]])
+    pfull = np.concatenate([mech.p, [settings.t0]])
     nz = len(z)
     zz = np.concatenate([z, z])  # the last two solutions: the first guess is z itself
-    done, size = 0, CHUNK
-    while done < n_out:
-        remaining = n_out - done
-        k = remaining if remaining <= 2 * size else size
-        t_start = t0 + done * h
-        pfull[-1] = t_start
-        interrupt.check(traj.taus[-1])
-        run.switch_when_built(t_start)
+    for chunk in _chunks(run, traj, settings, pfull, advanced):
+        k, t_start = chunk.k, chunk.t_start
         rel = h * np.arange(1, k + 1)
         ZZ, good, its = run.algebraic().solve(zz, rel, x, pfull)
         stop = len(good) if good.all() else int(np.argmin(good))  # the first output without a solution
@@ -688,9 +721,6 @@ def _algebraic_motion(
                 limit=True,
             )
         zz = ZZ[:, -1]
-        done += k
-        advanced(k)
-        size = min(2 * size, CHUNK_MAX)
 
 
 class AlgebraicSweep:
@@ -779,16 +809,10 @@ def _integrate(
     ``CHUNK_MAX``, or all the rest when that is at most twice as many), the algebraic variables
     polished and the outputs recorded per chunk; a chunk that fails is replayed step by step
     (``_locate_failure``)."""
-    t0, h, n_out = settings.t0, settings.h, settings.n_outputs
-    pfull = np.concatenate([run.mech.p, [t0]])
-    done, size = 0, CHUNK
-    while done < n_out:
-        remaining = n_out - done
-        k = remaining if remaining <= 2 * size else size
-        t_start = t0 + done * h
-        pfull[-1] = t_start
-        interrupt.check(traj.taus[-1])
-        run.switch_when_built(t_start)
+    h = settings.h
+    pfull = np.concatenate([run.mech.p, [settings.t0]])
+    for chunk in _chunks(run, traj, settings, pfull, advanced):
+        k, t_start = chunk.k, chunk.t_start
         try:
             F = run.integrator(h, k, x, z)
             sol = F(x0=x, z0=z, p=pfull)
@@ -798,17 +822,13 @@ def _integrate(
             # interrupt, reported at once (no step-by-step retry)
             _raise_if_interrupted(err, traj.taus[-1])
             x, z = _locate_failure(run, traj, h, k, t_start, x, z, pfull, err)
-            done += k
-            advanced(k)
+            chunk.replayed = True
             continue
         X, Z = np.array(sol["xf"]), np.array(sol["zf"])
         rel = h * np.arange(1, k + 1)
         Z = run.polish_many(rel, X, Z, pfull)
         traj.record_many(t_start + rel, rel, X, Z, pfull)
         x, z = X[:, -1], Z[:, -1]
-        done += k
-        advanced(k)
-        size = min(2 * size, CHUNK_MAX)
 
 
 def _locate_failure(
