@@ -420,6 +420,27 @@ def test_static_shortening_against_the_elastica(elastica):
     assert err[("exact", 0.8)] < 5e-4  # tip at 25 % of the length
 
 
+def test_where_the_sixth_order_bar_leaves_a_tenth_of_a_percent():
+    """The exact bar's own model-form error against the elastica at large deflection (issue 19,
+    item 3; docs/exact-bars.md, "The range of the expansion"): the dead tip force that bends the
+    elastica's tip to 20 % and 30 % of the length (p = 0.6259, 0.9931; largest slope eta' 0.30
+    and 0.44). Converged in the counts (3 + 4 and 4 + 6 agree to 1e-6 of the deflection), the
+    sixth-order bar is 1.75e-4 and 1.72e-3 off in the deflection (0.1 % is crossed near 27 %,
+    largest slope 0.40), the shortening 2.9e-4 and 3.7e-4: the left-out eta'^6 eta''^2 grows as
+    slope^6 (x 2.6 from 25 % to 30 %, as (0.444 / 0.371)^6 = 2.9; here x 9.8 for x 1.49 in slope,
+    1.49^6 = 11)."""
+    err, short = {}, {}
+    for tip, p in ((0.2, 0.6258923107865125), (0.3, 0.9930978060477536)):
+        x_ref, y_ref = elastica_tip(p)
+        assert y_ref == pytest.approx(tip, abs=1e-9)
+        x, y = static_tip("exact", p)
+        err[tip], short[tip] = abs(y - y_ref) / y_ref, abs(x - x_ref) / (1.0 - x_ref)
+    assert 1.2e-4 < err[0.2] < 2.5e-4  # within 0.1 % at 20 %
+    assert 1.2e-3 < err[0.3] < 2.5e-3  # beyond 0.1 %, within 1 % at 30 %
+    assert 7 < err[0.3] / err[0.2] < 14  # ~slope^6
+    assert short[0.2] < 5e-4 and short[0.3] < 6e-4
+
+
 def extensible_elastica_tip(T: float, P: float, lam: float) -> float:
     """y of the tip of a unit extensible cantilever (EI = 1, EA = lam) under the dead tip force
     (T, P), the ANCF cable's constitutive laws (axial force lam (|r'| - 1) along the tangent,
