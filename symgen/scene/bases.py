@@ -1286,7 +1286,7 @@ def _canonical(x: object) -> str:
     """A text of ``x`` that is the same in every process: sets and dicts in sorted order (the
     ``repr`` of a set follows the process's string hashes), dataclasses field by field."""
     if hasattr(x, "__dataclass_fields__"):
-        fields = ",".join(f"{k}={_canonical(getattr(x, k))}" for k in x.__dataclass_fields__)  # type: ignore[attr-defined]
+        fields = ",".join(f"{k}={_canonical(getattr(x, k))}" for k in x.__dataclass_fields__)
         return f"{type(x).__name__}({fields})"
     if isinstance(x, (set, frozenset)):
         return "{" + ",".join(sorted(_canonical(v) for v in x)) + "}"
