@@ -1353,7 +1353,10 @@ def choose_bases(
     )
     question = _question(args)
     if question is not None:
-        known, answer = cache.recall(question)
+        try:
+            known, answer = cache.recall(question)
+        except (cache.InvalidEntry, OSError):  # e.g. a cache folder that is a file: choose
+            known, answer = False, None
         got = _recalled(answer) if known else None
         if got is not None:
             return got
