@@ -39,6 +39,9 @@ EXAMPLES = sorted(p.relative_to(ROOT).as_posix() for p in (ROOT / "examples").gl
 #: The folder the processes run in: not a checkout (``python -c`` and ``-m`` put it first on the path).
 WORK = Path(tempfile.gettempdir())
 LOOSE = {"rtol": 1e-4, "atol": 1e-6}
+#: The commit before the remembered basis choice (``symgen.scene.bases.remembered``).
+STEEL_BASE = "c67e386"
+STEEL = "benchmarks/validation/slider_crank_steel_rest.toml"
 
 # One process: the IDAS path of `simulate` repeated on one mechanism, its parts outside IDAS timed
 # by wrapping the functions that make them (the same names in both trees).
@@ -174,6 +177,56 @@ def idas_path(trees: dict[str, Path], cache: str, repeats: int) -> list[dict]:
     return rows
 
 
+def steel_whole(trees: dict[str, Path], cache: str, repeats: int, out: Path) -> list[dict]:
+    """Issue 20's steel slider-crank, whole process on a cached model, ``--estimate off``: with
+    ``--solver c`` and with the default (IDAS), before and after the remembered basis choice."""
+    rows = []
+    for label, extra in (("`--solver c`", ["--solver", "c"]), ("default", [])):
+        cmd = [sys.executable, "-m", "symgen.cli", "simulate", str(ROOT / STEEL), *extra, "--estimate", "off"]
+        cmd += ["-o", str(out)]
+        times: dict[str, list[float]] = {name: [] for name in trees}
+        for tree in trees.values():
+            process(cmd, tree, cache)  # warm: the model, the C solver, the remembered choices
+        for _ in range(max(7, repeats)):
+            for name, tree in trees.items():
+                times[name].append(process(cmd, tree, cache)[0])
+        rows.append({"case": label, "cpu": {k: _median(v) for k, v in times.items()}, "n": max(7, repeats)})
+    return rows
+
+
+def render_steel(rows: list[dict], trees: dict[str, Path]) -> str:
+    both = len(trees) == 2
+    out = [
+        "",
+        f"### Steel slider-crank (`{STEEL}`), whole process on a cached model, `--estimate off`",
+        "",
+        f"Before: commit `{STEEL_BASE}` (each run chose the bars' bases again); after: this checkout (the "
+        "choice recalled from the signed cache). Interleaved, medians of the CPU time (user + system), "
+        f"{rows[0]['n'] if rows else 0} runs each; `python -c pass` and `import numpy` for scale.",
+        "",
+        "| process | before ms | after ms | after / before |" if both else "| process | after ms |",
+        "|---|---|---|---|" if both else "|---|---|",
+    ]
+    for r in rows:
+        c = r["cpu"]
+        if both:
+            out.append(
+                f"| {r['case']} | {1e3 * c['before']:.0f} | {1e3 * c['after']:.0f} | {c['after'] / c['before']:.2f} |"
+            )
+        else:
+            out.append(f"| {r['case']} | {1e3 * c['after']:.0f} |")
+    return "\n".join(out) + "\n"
+
+
+def floor_processes(cache: str, repeats: int) -> str:
+    """CPU ms of an empty interpreter and of one that imports numpy (the floor of any process)."""
+    rows = []
+    for label, code in (("`python -c pass`", "pass"), ("`python -c 'import numpy'`", "import numpy")):
+        cpu = [process([sys.executable, "-c", code], ROOT, cache)[0] for _ in range(max(7, repeats))]
+        rows.append(f"| {label} | {1e3 * _median(cpu):.0f} |")
+    return "\n| floor | ms |\n|---|---|\n" + "\n".join(rows) + "\n"
+
+
 def render(whole: list[dict], path: list[dict], trees: dict[str, Path]) -> str:
     both = len(trees) == 2
     out = [
@@ -239,7 +292,17 @@ def run(repeats: int) -> str:
         print(f"(lean: cache warmed in {time.perf_counter() - t0:.0f} s)", file=sys.stderr)
         whole = whole_process(trees, cache, repeats, out)
         path = idas_path(trees, cache, repeats)
-    return render(whole, path, trees)
+        steel = steel_section(Path(tmp), cache, repeats, out)
+    return render(whole, path, trees) + steel
+
+
+def steel_section(tmp: Path, cache: str, repeats: int, out: Path) -> str:
+    trees = {"after": ROOT}
+    base = tmp / "steel-base"
+    base.mkdir()
+    if base_tree(base, STEEL_BASE):
+        trees = {"before": base, "after": ROOT}
+    return render_steel(steel_whole(trees, cache, repeats, out), trees) + floor_processes(cache, repeats)
 
 
 if __name__ == "__main__":

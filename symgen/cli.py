@@ -18,8 +18,10 @@ from symgen.numerics import interrupt
 
 def _scene(args):
     from symgen.scene import load_scene
+    from symgen.scene.bases import remembered
 
-    return load_scene(args.scene, args.set or [])
+    with remembered():  # a cached run's bases recalled, not chosen again
+        return load_scene(args.scene, args.set or [])
 
 
 def _check_out(path: str, suffixes: tuple, key: str, also=()) -> Path:

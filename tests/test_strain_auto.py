@@ -145,3 +145,27 @@ def _choice(name: str) -> tuple[str, float]:
 def test_validation_suite_choice(name):
     strain, estimate = _choice(name)
     assert strain == VALIDATION_CHOICE[name], f"{name}: {strain} (von Karman's model-form estimate {estimate:.2e})"
+
+
+def test_von_karman_run_before_the_decision_compiles_no_library(tmp_path, monkeypatch):
+    """Under the default backend the von Karman model that decides "auto" runs once on the
+    virtual machine (issue 20, a first run): when the exact bar is chosen, the cache holds the
+    exact model's library only, and the exact run's numbers are those of a run without the
+    choice (the scene written with the exact bar)."""
+    import shutil
+
+    from symgen.api import simulate_scene
+
+    if shutil.which("cc") is None and shutil.which("gcc") is None:
+        pytest.skip("no C compiler")
+    monkeypatch.delenv("SYMGEN_BACKEND", raising=False)
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    short = ["simulation.t_end=3.0"]
+    out = tmp_path / "arm.csv"
+    simulate_scene(ARM, short, out=out, estimate="off")
+    assert json.loads(out.with_suffix(".json").read_text())["effects"]["strain"] == "exact"
+    libraries = [p for p in (tmp_path / "cache" / "compiled").iterdir() if not p.name.startswith(".")]
+    assert len(libraries) == 1, libraries
+    exact = tmp_path / "exact.csv"
+    simulate_scene(ARM, [*short, "effects.strain=exact"], out=exact, estimate="off")
+    assert exact.read_bytes() == out.read_bytes()

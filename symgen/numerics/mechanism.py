@@ -76,6 +76,10 @@ class Mechanism:
         # the Newton continuation of a run without differential states (every rigid coordinate
         # driven, every elastic amplitude quasi-static) per partition and backend, likewise
         self.algebraic_sweeps: dict[tuple[Partition, str], AlgebraicSweep] = {}
+        # an "auto" scene's von Karman model run before its decision (symgen.numerics.strain_choice):
+        # evaluated once, then thrown away or remembered, so the runs of the default backend
+        # ("auto") use the virtual machine and compile no library for it (issue 20, a first run)
+        self.provisional = False
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
         if stated_quasi_static(scene):  # refused here, at the load, when inconsistent

@@ -102,7 +102,7 @@ class DaeRunner:
         self._xdot0: dict[tuple[float, int], list[float]] = {}
         self.vm_until: float | None = None  # a run that switched to the compiled library: where
         choice = self.choice = compiled.backend_choice(backend)
-        if choice != "vm":
+        if choice == "compiled" or (choice == "auto" and not mech.provisional):
             self._use_compiled(choice, use_cache, background and choice == "auto")
         if self.backend == "vm":
             funcs = self._functions()

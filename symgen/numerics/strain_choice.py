@@ -156,8 +156,17 @@ def _run_with_strain_choice(
     run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
     say: Callable[[str], None] | None = None,
 ) -> tuple[Mechanism, R | None, BaseException | None]:
-    result, failure = run(mech)
-    if failure is not None or result is None or not switchable(mech.scene):
+    if not switchable(mech.scene):
+        result, failure = run(mech)
+        return mech, result, failure
+    # the von Karman model before the decision: evaluated once (the exact bar's model replaces
+    # it, or the decision is remembered and the next run compiles it): no library for it
+    mech.provisional = True
+    try:
+        result, failure = run(mech)
+    finally:
+        mech.provisional = False
+    if failure is not None or result is None:
         return mech, result, failure
     choice = decide(mech, result)
     if choice is None:

@@ -61,8 +61,11 @@ peak, -> 5 + 8 dynamic, 0.070 %; docs/exact-bars.md).
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import hashlib
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -1260,7 +1263,110 @@ def _first_meeting(estimates: list[float], accuracy: float, least: int) -> int:
     return len(estimates)
 
 
+#: Whether :func:`choose_bases` recalls and remembers its choices in the signed cache
+#: (:func:`remembered`; the command line turns it on for the scene it runs).
+_REMEMBER = False
+
+
+@contextlib.contextmanager
+def remembered() -> Iterator[None]:
+    """Within it, :func:`choose_bases` answers a choice it made before for the same inputs from
+    the signed cache (``symgen.cache.recall``) instead of computing the bars' spectra again: a
+    cached run's start (issue 20). The question holds the inputs' text (:func:`_canonical`), symgen's version and
+    the hash of this module's source, so an edit of the chooser chooses again."""
+    global _REMEMBER
+    before, _REMEMBER = _REMEMBER, True
+    try:
+        yield
+    finally:
+        _REMEMBER = before
+
+
+def _canonical(x: object) -> str:
+    """A text of ``x`` that is the same in every process: sets and dicts in sorted order (the
+    ``repr`` of a set follows the process's string hashes), dataclasses field by field."""
+    if hasattr(x, "__dataclass_fields__"):
+        fields = ",".join(f"{k}={_canonical(getattr(x, k))}" for k in x.__dataclass_fields__)
+        return f"{type(x).__name__}({fields})"
+    if isinstance(x, (set, frozenset)):
+        return "{" + ",".join(sorted(_canonical(v) for v in x)) + "}"
+    if isinstance(x, dict):
+        return "{" + ",".join(sorted(f"{_canonical(k)}:{_canonical(v)}" for k, v in x.items())) + "}"
+    if isinstance(x, (tuple, list)):
+        return "(" + ",".join(_canonical(v) for v in x) + ")"
+    return repr(x)
+
+
+def _question(args: tuple) -> dict | None:
+    from symgen import __version__
+
+    text = _canonical(args)
+    if " at 0x" in text:  # an object without a value repr: not a key
+        return None
+    with open(__file__, "rb") as fh:
+        source = hashlib.sha256(fh.read()).hexdigest()
+    return {
+        "check": "scene.bases",
+        "version": __version__,
+        "chooser": source,
+        "inputs": hashlib.sha256(text.encode()).hexdigest(),
+    }
+
+
+def _recalled(answer: object) -> dict[str, BasisChoice] | None:
+    if not isinstance(answer, list):
+        return None
+    try:
+        out = {}
+        for d in answer:
+            for k in ("given", "needed", "dynamic", "omega_bending", "omega_axial"):
+                d[k] = tuple(d[k])
+            c = BasisChoice(**d)
+            out[c.bar] = c
+    except (TypeError, KeyError, ValueError):
+        return None
+    return out
+
+
 def choose_bases(
+    scene: Scene,
+    given: dict[str, tuple[int | None, int | None]],
+    quasi_static_start: bool = False,
+    guess: dict[str, float] | None = None,
+    quasi_stated: frozenset[str] = frozenset(),
+    deformed_start: bool = False,
+) -> dict[str, BasisChoice]:
+    """:func:`_choose_bases`, recalled from the signed cache within :func:`remembered`."""
+    if not _REMEMBER:
+        return _choose_bases(scene, given, quasi_static_start, guess, quasi_stated, deformed_start)
+    from dataclasses import asdict
+
+    from symgen import cache
+
+    args = (
+        scene,
+        sorted(given.items()),
+        quasi_static_start,
+        sorted((guess or {}).items()),
+        sorted(quasi_stated),
+        deformed_start,
+    )
+    question = _question(args)
+    if question is not None:
+        try:
+            known, answer = cache.recall(question)
+        except (cache.InvalidEntry, OSError):  # e.g. a cache folder that is a file: choose
+            known, answer = False, None
+        got = _recalled(answer) if known else None
+        if got is not None:
+            return got
+    chosen = _choose_bases(scene, given, quasi_static_start, guess, quasi_stated, deformed_start)
+    if question is not None:
+        cache.remember(question, [asdict(c) for c in chosen.values()])
+    return chosen
+
+
+def _choose_bases(
     scene: Scene,
     given: dict[str, tuple[int | None, int | None]],
     quasi_static_start: bool = False,
