@@ -683,7 +683,13 @@ def _fractions_of_peak(mech: Mechanism, result: SimResult, deltas: np.ndarray, n
 
 
 def _same_solver_run(
-    mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float, build: bool = True
+    mech: Mechanism,
+    result: SimResult,
+    step: float,
+    rtol: float,
+    atol: float,
+    build: bool = True,
+    idas_tolerances: tuple[float, float] | None = None,
 ) -> SimResult:
     """``mech`` run over ``result``'s output grid with ``rtol``, ``atol`` by the run's own
     solver: the emitted C Radau IIA solver after a ``--solver c`` run (``result.stats``'s
@@ -694,7 +700,9 @@ def _same_solver_run(
     The time part's tighter rerun is of the run's own model, whose C library is the run's
     (cached). The truncation part's richer model takes ``build=False``: its C solver is used
     when it was built before, never compiled on the run's way (a richer exact bar's took 170 s),
-    so a first ``--solver c`` run measures its richer model with IDAS."""
+    so a first ``--solver c`` run measures its richer model with IDAS: at ``idas_tolerances``
+    where given (the IDAS rule's from the accuracy: the C rule's looser ones would charge IDAS's
+    own time error to the truncation part), else at ``rtol``, ``atol``."""
     from symgen.errors import SceneError, SimulationError
 
     tau = np.asarray(result.tau, dtype=float)
@@ -709,6 +717,8 @@ def _same_solver_run(
             if build:  # the run's own solver failed at tighter tolerances: said as such
                 raise
             # the richer model's C run failed: IDAS below
+        if idas_tolerances is not None:
+            rtol, atol = idas_tolerances
     return _idas_run(mech, result, step, rtol, atol)
 
 
@@ -751,8 +761,13 @@ def _rerun(
     sim = mech.scene.simulation
     rtol = sim.rtol if rtol is None else rtol
     atol = sim.atol if atol is None else atol
+    # after a C run on the tolerances from the accuracy, a richer model without a built C solver
+    # runs by IDAS on IDAS's rule (tests/test_tolerance_from_accuracy.py)
+    fallback = sim.tolerances("idas") if sim.tolerances_from == "accuracy" else None
     try:
-        rich = _same_solver_run(richer, result, float(tau[1] - tau[0]), rtol, atol, build=False)
+        rich = _same_solver_run(
+            richer, result, float(tau[1] - tau[0]), rtol, atol, build=False, idas_tolerances=fallback
+        )
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
