@@ -188,6 +188,7 @@ def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows
 
     fake_x = types.ModuleType("exudyn_scene")
     fake_x.to_result_units = lambda scene, tau, outputs: (tau, outputs)
+    fake_x.element_counts = lambda scene, n: {"bar": n}
     monkeypatch.setitem(sys.modules, "exudyn_scene", fake_x)
     monkeypatch.setattr(V, "_exudyn", fake_run)
     monkeypatch.setattr(V, "REF", tmp_path)
@@ -206,3 +207,49 @@ def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows
     t, out = V.read_reference("ladder")
     assert np.max(np.abs(np.abs(out["y"]) - 1.0)) < 2 * V.TOL
     assert all(r["refined"] in ("mesh", "step") for r in kept)
+
+
+def test_the_reference_ladder_refines_the_mesh_it_runs(monkeypatch, tmp_path):
+    """bench_validation.reference: the output points round the elements per bar (0.3 and 0.5 ->
+    multiples of 10), so 4 and 8 elements are the same mesh of 10. A doubling that leaves the mesh
+    as it was is no refinement: its change of 0 must not end the mesh ladder (a kept-out pump's
+    reference had its mesh "converged" at 10 against 10 elements). A model whose error is
+    2/E^2 + 0.05/k^2 in the elements E it really runs stands in for Exudyn."""
+    import types
+
+    import bench_validation as V
+
+    import symgen.numerics.mechanism as M
+    import symgen.scene as S
+
+    def counts(scene, n):
+        return {"bar": max(10, -(-n // 10) * 10)}
+
+    def fake_run(scene, mech, n, k, newton=None):
+        e = counts(scene, n)["bar"]
+        err = 2.0 / e**2 + 0.05 / k**2
+        return types.SimpleNamespace(
+            elements={"bar": e},
+            cpu=1e-3 * e * k,
+            outputs={"y": np.array([1.0 + err, -1.0 - err])},
+            tau=np.array([0.0, 1.0]),
+            step=1.0 / k,
+            skipped=(),
+        )
+
+    fake_x = types.ModuleType("exudyn_scene")
+    fake_x.to_result_units = lambda scene, tau, outputs: (tau, outputs)
+    fake_x.element_counts = counts
+    monkeypatch.setitem(sys.modules, "exudyn_scene", fake_x)
+    monkeypatch.setattr(V, "_exudyn", fake_run)
+    monkeypatch.setattr(V, "REF", tmp_path)
+    monkeypatch.setattr(V, "scene_path", lambda name: tmp_path / f"{name}.toml")
+    monkeypatch.setattr(S, "load_scene", lambda path: None)
+    monkeypatch.setattr(M, "load_mechanism", lambda scene: None)
+    monkeypatch.setitem(V.START, "rounded", (4, 4))
+    table = V.reference("rounded", log=lambda *a: None)
+    mesh = [r for r in table["rows"] if r.get("refined") == "mesh"]
+    assert mesh and all(max(r["change"].values()) > 0 for r in mesh)  # every mesh run is a new mesh
+    assert table["final"]["elements"]["bar"] > 10
+    t, out = V.read_reference("rounded")
+    assert np.max(np.abs(np.abs(out["y"]) - 1.0)) < 2 * V.TOL
