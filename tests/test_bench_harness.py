@@ -162,6 +162,28 @@ def test_six_bar_rigid_start_closes_both_loops_and_its_velocities():
     assert (plus["C"] - minus["C"]) / (2 * h) * omega == pytest.approx(g["vC"], rel=1e-6)
 
 
+def _stand_in_exudyn(monkeypatch, tmp_path, fake_run, counts, name):
+    """bench_validation.reference on a stand-in for Exudyn (``fake_run``, ``counts``: the
+    elements per bar), the reference written to ``tmp_path``, the ladder started at (4, 4)."""
+    import types
+
+    import bench_validation as V
+
+    import symgen.numerics.mechanism as M
+    import symgen.scene as S
+
+    fake_x = types.ModuleType("exudyn_scene")
+    fake_x.to_result_units = lambda scene, tau, outputs: (tau, outputs)
+    fake_x.element_counts = counts
+    monkeypatch.setitem(sys.modules, "exudyn_scene", fake_x)
+    monkeypatch.setattr(V, "_exudyn", fake_run)
+    monkeypatch.setattr(V, "REF", tmp_path)
+    monkeypatch.setattr(V, "scene_path", lambda name: tmp_path / f"{name}.toml")
+    monkeypatch.setattr(S, "load_scene", lambda path: None)
+    monkeypatch.setattr(M, "load_mechanism", lambda scene: None)
+    monkeypatch.setitem(V.START, name, (4, 4))
+
+
 def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows(monkeypatch, tmp_path):
     """bench_validation.reference: a mesh doubled at a coarse step can meet the step's limit (the
     shorter elements' fast modes against the step): its change grows. That run is not kept: the
@@ -171,9 +193,6 @@ def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows
     import types
 
     import bench_validation as V
-
-    import symgen.numerics.mechanism as M
-    import symgen.scene as S
 
     def fake_run(scene, mech, n, k, newton=None):
         err = 2.0 / n**2 + 0.05 / k**2 + (1e-2 if n >= 64 and k < 16 else 0.0)
@@ -186,16 +205,7 @@ def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows
             skipped=(),
         )
 
-    fake_x = types.ModuleType("exudyn_scene")
-    fake_x.to_result_units = lambda scene, tau, outputs: (tau, outputs)
-    fake_x.element_counts = lambda scene, n: {"bar": n}
-    monkeypatch.setitem(sys.modules, "exudyn_scene", fake_x)
-    monkeypatch.setattr(V, "_exudyn", fake_run)
-    monkeypatch.setattr(V, "REF", tmp_path)
-    monkeypatch.setattr(V, "scene_path", lambda name: tmp_path / f"{name}.toml")
-    monkeypatch.setattr(S, "load_scene", lambda path: None)
-    monkeypatch.setattr(M, "load_mechanism", lambda scene: None)
-    monkeypatch.setitem(V.START, "ladder", (4, 4))
+    _stand_in_exudyn(monkeypatch, tmp_path, fake_run, lambda scene, n: {"bar": n}, "ladder")
     table = V.reference("ladder", log=lambda *a: None)
     kept = [r for r in table["rows"] if r.get("change") and r.get("kept", True)]
     dropped = [r for r in table["rows"] if r.get("kept") is False]
@@ -219,9 +229,6 @@ def test_the_reference_ladder_refines_the_mesh_it_runs(monkeypatch, tmp_path):
 
     import bench_validation as V
 
-    import symgen.numerics.mechanism as M
-    import symgen.scene as S
-
     def counts(scene, n):
         return {"bar": max(10, -(-n // 10) * 10)}
 
@@ -237,16 +244,7 @@ def test_the_reference_ladder_refines_the_mesh_it_runs(monkeypatch, tmp_path):
             skipped=(),
         )
 
-    fake_x = types.ModuleType("exudyn_scene")
-    fake_x.to_result_units = lambda scene, tau, outputs: (tau, outputs)
-    fake_x.element_counts = counts
-    monkeypatch.setitem(sys.modules, "exudyn_scene", fake_x)
-    monkeypatch.setattr(V, "_exudyn", fake_run)
-    monkeypatch.setattr(V, "REF", tmp_path)
-    monkeypatch.setattr(V, "scene_path", lambda name: tmp_path / f"{name}.toml")
-    monkeypatch.setattr(S, "load_scene", lambda path: None)
-    monkeypatch.setattr(M, "load_mechanism", lambda scene: None)
-    monkeypatch.setitem(V.START, "rounded", (4, 4))
+    _stand_in_exudyn(monkeypatch, tmp_path, fake_run, counts, "rounded")
     table = V.reference("rounded", log=lambda *a: None)
     mesh = [r for r in table["rows"] if r.get("refined") == "mesh"]
     assert mesh and all(max(r["change"].values()) > 0 for r in mesh)  # every mesh run is a new mesh
