@@ -671,15 +671,19 @@ HARMONICS_KEPT = 32
 
 
 def driver_rate(scene: Any) -> float | None:
-    """The one constant rate (per unit tau) at which the scene's drivers turn, whose harmonics
-    force the response, or None: a torque driver, a law, a ramp, or drivers at different rates."""
-    rates = {
-        abs(float(d.rate)) if d.kind == "angle" and d.law is None and d.ramp is None else None for d in scene.drivers
-    }
-    if len(rates) != 1:
+    """The rate (per unit tau) whose harmonics are every frequency the scene's drivers force:
+    the one constant rate of its angle drivers, the lowest where the others are whole multiples
+    of it (the five-bar's cranks at 1 and 2); None with a torque driver, a law, a ramp, or rates
+    not in whole ratios."""
+    rates = [
+        abs(float(d.rate)) if d.kind == "angle" and d.law is None and d.ramp is None else 0.0 for d in scene.drivers
+    ]
+    if not rates or min(rates) <= 0:
         return None
-    rate = rates.pop()
-    return rate if rate else None
+    base = min(rates)
+    if any(abs(r / base - round(r / base)) > 1e-9 for r in rates):
+        return None
+    return base
 
 
 def forced_harmonics(tau: np.ndarray, omega: float, band: tuple[float, float], rate: float | None) -> list[float]:
