@@ -60,14 +60,15 @@ change plus its drift, as a fraction of its peak; outputs that q does not move (
 have their drift only. The response forced at a constant driver's harmonics does not drift (a
 mode's shift changes it by shift x omega^2 / |omega^2 - (k rate)^2|, not growing with the time
 rung): each mode's band is read after the harmonics the run tells apart from its free vibration
-are fitted and taken out (:func:`forced_harmonics`, :func:`without_harmonics`: at least one beat
-over the time the vibration rings). Left in, a driver torque's large low harmonics (the rigid
-mechanism's inertia) leave their slope at the run's end as a kink of the mirrored signal whose
-broad spectrum read as free vibration where the drift is largest: a steel slider-crank pump's
-torque 12x the von Karman vs exact difference (tests/test_model_form_torque.py), 2.4x on issue
-19's kept-out pump. Harmonics within one beat of a mode stay in its band: the estimate still
-over-states an output whose content there is forced rather than free (the four-bar with a tool on
-an overhang, rocker_mid: 2.3e-3 against 5.3e-5, below the reference's noise).
+are fitted and taken out, those below the band (:func:`forced_harmonics`,
+:func:`without_harmonics`). Left in, a driver torque's large low harmonics (the rigid mechanism's
+inertia) leave their slope at the run's end as a kink of the mirrored signal whose broad spectrum
+read as free vibration where the drift is largest: a steel slider-crank pump's torque 12x the von
+Karman vs exact difference (tests/test_model_form_torque.py), 2.4x on issue 19's kept-out pump.
+Harmonics within a mode's band stay (a fit there also takes a short-lived free vibration): the
+estimate still over-states an output whose content there is forced rather than free (the
+four-bar with a tool on an overhang, rocker_mid: 2.3e-3 against 5.3e-5, below the reference's
+noise).
 
 The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
 |r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
@@ -677,6 +678,7 @@ def _bands(omegas: list[float]) -> list[tuple[float, float]]:
 
 
 #: the driver's harmonics taken out of the outputs before a mode's band is read: at most this many
+#: (the lowest: the largest forced content)
 HARMONICS_KEPT = 32
 
 
@@ -699,32 +701,33 @@ def driver_rate(scene: Any) -> float | None:
 def forced_harmonics(
     tau: np.ndarray, omega: float, band: tuple[float, float], rate: float | None, memory: float | None = None
 ) -> list[float]:
-    """The driver's harmonics k ``rate`` (angular frequencies per unit tau) up to just above
-    ``band`` that a run over ``tau`` tells apart from a free vibration at ``omega`` ringing for
-    ``memory`` (default the run; with damping its decay time, :func:`_ringing`): at least one beat
-    over that time, |k rate - omega| memory >= 2 pi (a harmonic fit would absorb a free vibration
-    nearer one: a vibration that decays within a turn has a spectrum that wide, the five-bar's
-    links' start ringing at 26-27 per unit tau, decay time 2.8); the ``HARMONICS_KEPT`` highest;
-    none without one constant driver rate."""
+    """The driver's harmonics k ``rate`` (angular frequencies per unit tau) below ``band`` that a
+    run over ``tau`` tells apart from a free vibration at ``omega`` ringing for ``memory`` (default
+    the run; with damping its decay time, :func:`_ringing`): at least one beat over that time,
+    |k rate - omega| memory >= 2 pi; the ``HARMONICS_KEPT`` lowest; none without one constant
+    driver rate. Not those within the band: there a fit cannot tell the forced response from a
+    free vibration that rings for a turn or less (the five-bar's links' start ringing at 26-27 per
+    unit tau, decay time 2.8: with harmonics 20-24 fitted too, torque_b's estimate fell from
+    0.68x to 0.40x the true error)."""
     span = float(tau[-1] - tau[0])
     if not rate or rate <= 0 or span <= 0:
         return []
     rung = min(span, memory) if memory and memory > 0 else span
-    top = int(np.floor((band[1] + 2 * np.pi / span) / rate))
+    top = int(np.ceil(band[0] / rate)) - 1
     ks = [k for k in range(1, top + 1) if abs(k * rate - omega) * rung >= 2 * np.pi]
-    return [k * rate for k in ks[-HARMONICS_KEPT:]]
+    return [k * rate for k in ks[:HARMONICS_KEPT]]
 
 
 def without_harmonics(tau: np.ndarray, y: np.ndarray, freqs: list[float]) -> np.ndarray:
     """``y`` (a column per output) less its least-squares fit of cosines and sines at ``freqs``
-    (and a constant) over the run: the response forced at the driver's harmonics. A mode's
-    frequency shift does not make it drift in phase (it changes it by shift x omega^2 /
-    |omega^2 - (k rate)^2|, a change that does not grow with the time rung), and the large forced
-    content of a driver torque or a reaction (the rigid mechanism's inertia, at the low harmonics)
-    leaves its slope at the run's end as a kink of the mirrored signal of :func:`_band_envelope`,
-    whose broad spectrum reads as a free vibration there, where the phase drift is largest (the
-    kept-out steel slider-crank pump: the driver torque's envelope in the rod's band 0.104 of its
-    peak at the run's end against 0.05-0.07 along the run; 0.058 without the harmonics)."""
+    (and a constant) over the run: the response forced at the driver's harmonics below a mode's
+    band. It does not drift (a mode's shift changes it by shift x omega^2 / |omega^2 - (k rate)^2|,
+    a change that does not grow with the time rung), but the large forced content of a driver
+    torque or a reaction (the rigid mechanism's inertia, at the low harmonics) leaves its slope at
+    the run's end as a kink of the mirrored signal of :func:`_band_envelope`, whose broad spectrum
+    reads as a free vibration there, where the phase drift is largest (the kept-out steel
+    slider-crank pump: the driver torque's envelope in the rod's band 0.104 of its peak at the
+    run's end against 0.05-0.07 along the run; 0.052 without harmonics 1-3)."""
     if not freqs:
         return y
     t = np.asarray(tau, dtype=float) - float(tau[0])
