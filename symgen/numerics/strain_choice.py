@@ -31,7 +31,9 @@ __all__ = ["decide", "recalled", "resolved", "run_with_strain_choice", "switchab
 R = TypeVar("R")
 
 #: the model-form estimator's version in the remembered decisions (a changed estimator decides again)
-ESTIMATOR_VERSION = "3"  # 3: the phase drift along the run, the exact bar's strain to eta'^4/8
+#: (3: the phase drift along the run, the exact bar's strain to eta'^4/8; 4: the drift without the
+#: response forced at a constant driver's harmonics)
+ESTIMATOR_VERSION = "4"
 #: output kinds that do not decide (zero to round-off in every model)
 NOT_DECIDING = ("closure_residual",)
 
