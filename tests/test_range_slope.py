@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -223,3 +224,20 @@ def test_both_solvers_give_the_same_range_verdict(tmp_path):
     assert [(w["bar"], w["tau"]) for w in ri["warnings"]] == [(w["bar"], w["tau"]) for w in rc["warnings"]]
     assert len(ri["warnings"]) == 1 and 0.4 < ri["warnings"][0]["tau"] < 0.7
     assert ri["largest_slope"]["arm"]["slope"] == pytest.approx(rc["largest_slope"]["arm"]["slope"], rel=1e-3)
+
+
+EXAMPLE_FILES = sorted((Path(__file__).resolve().parent.parent / "examples").glob("*.toml"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", EXAMPLE_FILES, ids=lambda p: p.stem)
+def test_examples_stay_well_inside_the_range(path, tmp_path):
+    """Every example as a user runs it: no range warning, and its bars' largest slopes below the
+    exact bar's warning limit at the example's accuracy, whatever bar it ran (measured: 1e-4 to
+    0.107, the six-bar's coupler, against 0.368), so the exact bar would not warn either."""
+    out = tmp_path / "run.csv"
+    simulate_scene(path, out=out)
+    record = json.loads(out.with_suffix(".json").read_text())
+    assert record["range"]["warnings"] == []
+    limit = RANGE.warning_limit(record["accuracy"])
+    assert all(v["slope"] < limit / 2 for v in record["range"]["largest_slope"].values()), record["range"]
