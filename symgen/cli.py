@@ -143,6 +143,7 @@ def _write_run(args, files, mech, result, failure, solver: str):
         estimate=getattr(args, "estimate", "off"),
         mech=mech,
     )
+    _say_range(written.sidecar, args.scene)
     if failure is not None:
         print(f"symgen: partial result kept in {written.csv} ({written.sidecar['status']})", file=sys.stderr)
     if written.plot is not None:
@@ -248,6 +249,13 @@ def _richer_counts(sidecar: dict) -> str:
     if keys:
         return "e.g. the richer model's the estimate ran: " + "; ".join(keys)
     return "bodies.NAME.axial_modes and transverse_modes above the chosen ones (the sidecar's bases)"
+
+
+def _say_range(sidecar: dict, scene: str) -> None:
+    """The exact bar's range warnings (the sidecar's ``range``, ``symgen.numerics.checks.range_record``):
+    a bar whose slope passed the accuracy's limit, and when, on stderr."""
+    for warning in (sidecar.get("range") or {}).get("warnings", []):
+        print(f"symgen: warning: {scene}: {warning['message']}", file=sys.stderr)
 
 
 def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:

@@ -19,7 +19,17 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-__all__ = ["SolverPolicy", "POLICY", "ToleranceRule", "TOLERANCES", "SOLVERS", "tolerances"]
+__all__ = [
+    "SolverPolicy",
+    "POLICY",
+    "RangeRule",
+    "RANGE",
+    "ToleranceRule",
+    "TOLERANCES",
+    "SOLVERS",
+    "tolerances",
+    "range_message",
+]
 
 
 @dataclass(frozen=True)
@@ -70,11 +80,15 @@ class SolverPolicy:
     #: Driver angle step (rad) of the central differences that give the quasi-static deformation
     #: rates at the start: truncation error O(h^2) = 1e-8 against round-off O(eps / h) = 2e-12.
     driver_step: float = 1e-4
-    #: Range of the bar models: the run stops when a bar's transverse amplitudes sum to more than
-    #: this fraction of its length. The shape functions are O(1) at their largest, so the sum
-    #: bounds the deflection; at 0.25 l the end slopes of a sine-shaped bar reach about 45 deg,
-    #: where the moderate-rotation (von Karman) strain is no longer a model of the bar.
-    deflection_limit: float = 0.25
+    #: Range of the bar models: the run stops when a bar's largest slope |eta'(xi)| (its transverse
+    #: amplitudes times the shape functions' first derivatives, at the points of
+    #: ``symgen.numerics.checks.slope_tables``) exceeds this. The exact bar's curvature keeps
+    #: kappa^2 = eta''^2 (1 + s + s^2), s = eta'^2, of eta''^2 / (1 - s): it leaves out s^3 = 0.12
+    #: of the local bending energy at 0.7, and its measured output error, about
+    #: ``RANGE.error_per_slope6`` s^3 of peak, reaches half the peak there: an expansion no longer
+    #: of the bar (docs/exact-bars.md, "The range of the expansion"). 0.7 is also a rotation of
+    #: 44 deg (eta' = sin of it), beyond the moderate rotations of the von Karman strain.
+    slope_limit: float = 0.7
     #: ... and when its axial amplitudes sum to more than this fraction of its length: 10 % strain
     #: is beyond any elastic metal (steel yields near 0.2 %); only a buckled or overloaded bar
     #: gets there, and the linear elastic law does not hold.
@@ -110,6 +124,55 @@ class SolverPolicy:
 
 
 POLICY = SolverPolicy()
+
+
+@dataclass(frozen=True)
+class RangeRule:
+    """Where a run of the exact bar (``effects.strain = "exact"``) leaves the accuracy its scene
+    asks for (``simulation.accuracy``), by the bars' slopes: the warning of
+    ``symgen.numerics.checks.range_record`` (the sidecar's ``range``, a line on stderr), made
+    from the run's coordinates after the run, the same for both solvers. The stop at the edge
+    of the model is ``SolverPolicy.slope_limit``, in both runners.
+
+    The sixth-order bar leaves out the curvature's eta'^6 eta''^2 and the strain's eta'^6 / 16:
+    a relative s^3 (s = eta'^2) of the local energy. Measured as a fraction of an output's peak,
+    with s the largest slope over the run (docs/exact-bars.md, "The range of the expansion"):
+    the static cantilever against the elastica 0.25 s^3 (tip 10-30 % of the length), the soft
+    double pendulum's whip (the terms' own effect: the run with them against the run without,
+    5 + 6 functions) 4.2 s^3 at slope 0.33, the dynamic case, where the tension works on the
+    left-out shortening through the run."""
+
+    #: an output's error, as a fraction of its peak, per s^3 = eta'^6 (the whip's 4.2, rounded)
+    error_per_slope6: float = 4.0
+
+    def warning_limit(self, accuracy: float) -> float:
+        """The largest slope whose estimated error, ``error_per_slope6 * slope^6``, is within
+        ``accuracy`` (0.37 at the default 0.01), never above the stop ``POLICY.slope_limit``."""
+        return min((accuracy / self.error_per_slope6) ** (1.0 / 6.0), POLICY.slope_limit)
+
+
+RANGE = RangeRule()
+
+
+def range_message(body: str, what: str, limit: float, size: str) -> str:
+    """The words of the stop at the edge of a bar model, shared by the Python runners
+    (``symgen.numerics.checks.beyond_range``) and the emitted C (``symgen.backends.c.context``):
+    ``what`` "slope" (``POLICY.slope_limit``) or the axial displacement (``stretch_limit``);
+    ``size``: the value in words (Python's run gives the number, the C's says "this" and its
+    runtime appends the number)."""
+    if what == "slope":
+        amount = "its largest slope |eta'| reaches"
+        rest = (
+            "the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the "
+            "von Karman strain holds for moderate rotations"
+        )
+    else:
+        amount = f"its {what} amplitudes sum to"
+        rest = "the bar equations hold for small strains"
+    return (
+        f"bar '{body}' is deformed beyond the range of the model: {amount} {size} (limit {limit:g}; {rest}): "
+        "a load beyond a buckling load, or forces the bar cannot carry"
+    )
 
 
 #: the integrators a rule is given for: IDAS (BDF, through CasADi) and the emitted C Radau IIA

@@ -50,10 +50,11 @@ def test_python_runners_read_the_policy_at_call_time(monkeypatch):
     q0, _ = mech.initial_guess()
     Q = np.tile(np.asarray(q0, dtype=float).reshape(-1, 1), (1, 3))
     body, (fi, gi) = next((b, ix) for b, ix in mech.amplitudes.items() if ix[1])
-    Q[gi[0], 2] = 0.5 * policy.POLICY.deflection_limit
+    # the first function at half the slope limit: its largest slope psi_1' times the amplitude
+    Q[gi[0], 2] = 0.5 * policy.POLICY.slope_limit / np.abs(checks.slope_tables(mech.info)[body][:, 0]).max()
     assert checks.beyond_range(mech, Q) is None
     monkeypatch.setattr(
-        checks, "POLICY", dataclasses.replace(policy.POLICY, deflection_limit=0.25 * policy.POLICY.deflection_limit)
+        checks, "POLICY", dataclasses.replace(policy.POLICY, slope_limit=0.25 * policy.POLICY.slope_limit)
     )
     column, reason = checks.beyond_range(mech, Q)
     assert column == 2 and body in reason

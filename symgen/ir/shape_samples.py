@@ -60,6 +60,14 @@ class ShapeSamples:
     def nt(self) -> int:
         return len(self.trans0[0]) if self.trans0 else 0
 
+    def slope_table(self) -> tuple[tuple[float, ...], ...]:
+        """psi_a'(xi_j) at the range check's points (``trans1``'s rows there): the first and last
+        node of every piece of the quadrature (``GAUSS_POINTS`` nodes each, in order), 0.0012 of
+        a piece from its ends: a grid no coarser than 1/16 of the bar, both ends of the bar
+        included to that distance, on which a slope's largest value is missed by less than 0.5 %
+        of it (``symgen.numerics.checks.beyond_range`` and the emitted C solver's range check)."""
+        return tuple(r for i, r in enumerate(self.trans1) if i % GAUSS_POINTS in (0, GAUSS_POINTS - 1))
+
     def to_json(self) -> dict[str, Any]:
         return {
             "bar": self.bar,

@@ -4,24 +4,27 @@ under the same policy, the C runtime's ``symgen/backends/c/runtime/symgen_solver
 * ``singular_ratio``: sigma_min / sigma_max of the closure Jacobian in the dependent rigid
   coordinates (a singular position: a toggle, a change point), compared with
   ``POLICY.singular_ratio`` / ``POLICY.near_singular_ratio`` by the runners;
-* ``beyond_range``: a bar deformed beyond the range of the bar model (``POLICY.deflection_limit``,
-  ``POLICY.stretch_limit``);
+* ``beyond_range``: a bar deformed beyond the range of the bar model (its largest slope beyond
+  ``POLICY.slope_limit``, its axial amplitudes beyond ``POLICY.stretch_limit``);
+* ``range_record``: where an exact bar's slopes pass the accuracy's limit (``RANGE``): a warning
+  made after the run from its coordinates, the same for both solvers;
 * ``divergent_deformation``: a quasi-static state beyond a buckling load (a real, positive
   eigenvalue of the linearised motion of the amplitudes, ``POLICY.divergence_rtol``).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from symgen.ir.records import RowKind
 from symgen.numerics.index1 import Partition, index1
-from symgen.policy import POLICY
+from symgen.policy import POLICY, RANGE, range_message
 
 if TYPE_CHECKING:
+    from symgen.ir.info import ModelInfo
     from symgen.numerics.mechanism import Mechanism
 
 
@@ -55,31 +58,104 @@ def loop_row(mech: Mechanism, weights: ArrayLike) -> int:
     return int(np.argmax(w))
 
 
+#: the slope tables read in this process, by the model's structure key
+_SLOPES: dict[str, dict[str, np.ndarray]] = {}
+
+
+def slope_tables(info: ModelInfo) -> dict[str, np.ndarray]:
+    """bar -> P (points x its transverse amplitudes): P[j, a] = psi_a'(xi_j), so that the bar's
+    slopes there are P @ g, at the points of :meth:`symgen.ir.shape_samples.ShapeSamples.slope_table`
+    (the model-form estimate's samples, from the signed cache). The emitted C solver's range
+    check reads the same tables (``symgen.backends.c.context``)."""
+    from symgen.numerics.model_form import _samples
+
+    if info.key in _SLOPES:
+        return _SLOPES[info.key]
+    bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
+    tables = {}
+    for body, (_, gi) in info.amplitudes.items():
+        if gi:
+            tables[body] = np.asarray(_samples(bodies[body]).slope_table(), dtype=float).reshape(-1, len(gi))
+    _SLOPES[info.key] = tables
+    return tables
+
+
+def slopes(info: ModelInfo, Q: ArrayLike) -> dict[str, np.ndarray]:
+    """bar -> its largest |eta'| over the points of :func:`slope_tables`, per column of Q
+    (coordinates x samples)."""
+    Q = np.asarray(Q, dtype=float).reshape(info.n, -1)
+    tables = slope_tables(info)
+    return {body: np.abs(P @ Q[list(info.amplitudes[body][1])]).max(axis=0) for body, P in tables.items()}
+
+
 def beyond_range(mech: Mechanism, Q: ArrayLike) -> tuple[int, str] | None:
-    """First column of Q (coordinates x outputs) where a bar is deformed beyond the range
-    of the model (``POLICY.deflection_limit``, ``POLICY.stretch_limit``), with the reason; None if none."""
+    """First column of Q (coordinates x outputs) where a bar is deformed beyond the range of the
+    model (its largest slope beyond ``POLICY.slope_limit``, its axial amplitudes beyond
+    ``POLICY.stretch_limit``), with the reason; None if none."""
     Q = np.asarray(Q, dtype=float).reshape(mech.n, -1)
     first = None
+    slope = slopes(mech.info, Q)
     for body, (fi, gi) in mech.amplitudes.items():
-        for idx, limit, what in (
-            (gi, POLICY.deflection_limit, "transverse deflection"),
-            (fi, POLICY.stretch_limit, "axial displacement"),
-        ):
-            if not idx:
-                continue
-            size = np.abs(Q[list(idx)]).sum(axis=0)
+        sizes = []
+        if gi:
+            sizes.append((slope[body], POLICY.slope_limit, "slope"))
+        if fi:
+            sizes.append((np.abs(Q[list(fi)]).sum(axis=0), POLICY.stretch_limit, "axial displacement"))
+        for size, limit, what in sizes:
             bad = np.nonzero(~(size <= limit))[0]  # NaN counts as beyond
             if len(bad) and (first is None or bad[0] < first[0]):
                 first = (int(bad[0]), body, what, float(size[bad[0]]), limit)
     if first is None:
         return None
-    k, body, what, size, limit = first
-    return k, (
-        f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes "
-        f"sum to {size:.3g} of its length (limit {limit:g}; the bar equations hold for moderate "
-        f"rotations and small strains): a load beyond a buckling load, or forces the bar "
-        f"cannot carry"
-    )
+    k, body, what, value, limit = first
+    return k, range_message(body, what, limit, f"{value:.3g}" + ("" if what == "slope" else " of its length"))
+
+
+def range_record(info: ModelInfo, tau: ArrayLike, Q: ArrayLike, accuracy: float) -> dict[str, Any]:
+    """The sidecar's ``range``: each bar's largest slope over the run and when; for the exact bar
+    (``effects.strain = "exact"``), the first time each bar's slope passed the accuracy's limit
+    (``RANGE.warning_limit``), a warning. The von Karman and linear bars' model form is the
+    error estimate's (``symgen.numerics.model_form``): no warning here. Q: samples x coordinates."""
+    tau = np.asarray(tau, dtype=float).ravel()
+    Q = np.asarray(Q, dtype=float).reshape(len(tau), info.n)
+    exact = (info.structure.get("effects") or {}).get("strain") == "exact"
+    limit = RANGE.warning_limit(accuracy)
+    record: dict[str, Any] = {
+        "slope_limit": POLICY.slope_limit,
+        "warning_limit": limit if exact else None,
+        "rule": (
+            f"the exact bar's left-out terms cost about {RANGE.error_per_slope6:g} slope^6 of an output's peak: "
+            f"a warning where a bar's largest slope passes (accuracy / {RANGE.error_per_slope6:g})^(1/6); "
+            f"the run stops at slope {POLICY.slope_limit:g}"
+            if exact
+            else "von Karman or linear bars: their model form is the error estimate's; the run stops at slope "
+            f"{POLICY.slope_limit:g}"
+        ),
+        "largest_slope": {},
+        "warnings": [],
+    }
+    if len(tau) == 0:
+        return record
+    for body, s in slopes(info, Q.T).items():
+        k = int(np.argmax(np.where(np.isfinite(s), s, -1.0)))
+        record["largest_slope"][body] = {"slope": float(s[k]), "tau": float(tau[k])}
+        over = np.nonzero(~(s <= limit))[0]
+        if exact and len(over):
+            j = int(over[0])
+            record["warnings"].append(
+                {
+                    "bar": body,
+                    "tau": float(tau[j]),
+                    "slope": float(s[j]),
+                    "message": (
+                        f"bar '{body}' passes slope {limit:.3g} at tau = {tau[j]:.6g} (largest {s[k]:.3g} at tau = "
+                        f"{tau[k]:.6g}): the exact bar's left-out terms (about {RANGE.error_per_slope6:g} slope^6 of "
+                        f"peak) exceed simulation.accuracy = {accuracy:g} from there on"
+                    ),
+                }
+            )
+    record["warnings"].sort(key=lambda w: w["tau"])
+    return record
 
 
 def divergent_deformation(

@@ -294,6 +294,10 @@ def build_sidecar(
 
         if isinstance(result, SimResult):
             sidecar["start"] = _start_note(result.start_forces)
+            # the bars' slopes over the run: the exact bar's range warning (the same for both solvers)
+            from symgen.numerics.checks import range_record
+
+            sidecar["range"] = range_record(info, result.tau, result.q, sim.accuracy)
     return sidecar
 
 

@@ -56,7 +56,7 @@ typedef struct symgen_policy {
     int quasi_static_maxit;
     double polish_tol;
     int polish_maxit;
-    double driver_step, deflection_limit, stretch_limit, divergence_rtol;
+    double driver_step, slope_limit, stretch_limit, divergence_rtol;
     double free_inertia_factor;
     double quasi_start_tol;
     int quasi_start_maxit;
@@ -69,10 +69,14 @@ typedef struct symgen_radau {
     double thet, safe, facl, facr, quot1, quot2;
 } symgen_radau;
 
-/* The range of a bar model: sum |q[index[start..start+count)]| <= limit, else `message` */
+/* The range of a bar model, over its amplitudes q_k = q[index[start + k]], k < count: points > 0,
+   its largest slope max_j |sum_k slopes[j * count + k] q_k| over the points j (slopes: psi_k'(xi_j));
+   points == 0, sum_k |q_k|; within limit, else `message` */
 typedef struct symgen_amplitude_check {
     int start, count;
     double limit;
+    int points;
+    const double *slopes;
     const char *message;
 } symgen_amplitude_check;
 

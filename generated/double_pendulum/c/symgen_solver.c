@@ -1253,7 +1253,18 @@ static int symgen_beyond_range_(symgen_solver *s, double t)
     for (g = 0; g < M->n_amplitude_checks; ++g) {
         const symgen_amplitude_check *c = &M->amplitude_checks[g];
         double size = 0.0;
-        for (k = 0; k < c->count; ++k) size += fabs(s->q[M->amplitude_index[c->start + k]]);
+        if (c->points > 0) {       /* the largest slope |eta'| over the bar's points */
+            int j;
+            for (j = 0; j < c->points; ++j) {
+                double slope = 0.0;
+                for (k = 0; k < c->count; ++k) slope += c->slopes[j * c->count + k] * s->q[M->amplitude_index[c->start + k]];
+                slope = fabs(slope);
+                if (slope != slope) { size = slope; break; }      /* NaN: beyond */
+                if (slope > size) size = slope;
+            }
+        } else {
+            for (k = 0; k < c->count; ++k) size += fabs(s->q[M->amplitude_index[c->start + k]]);
+        }
         if (!(size <= c->limit)) {
             return symgen_fail_(s, t, c->message, size,
                                 "check the loads, lumped masses and stiffness (lambda, mu) of that bar");

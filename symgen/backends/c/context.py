@@ -22,7 +22,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from symgen import __version__
-from symgen.policy import POLICY
+from symgen.policy import POLICY, range_message
 from symgen.backends.c import radau
 from symgen.backends.c.codegen import model_functions
 from symgen.backends.c.names import c_comment, c_prefix, c_string
@@ -158,7 +158,7 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
     }
     sim = scene.simulation
     by_name = {f.name: f for f in funcs}
-    amplitude_checks = _amplitude_checks(plan)
+    amplitude_checks = _amplitude_checks(plan, info)
     return {
         "prefix": prefix,
         "guard": f"SYMGEN_{prefix}_H",
@@ -242,27 +242,37 @@ def _policy() -> dict:
     return {k: (str(v) if isinstance(v, int) else c_double(v)) for k, v in POLICY.as_dict().items()}
 
 
-def _amplitude_checks(plan: StartPlan) -> list[dict]:
-    """The range of the bar models (``symgen.numerics.checks.beyond_range``): per bar, the sum of the absolute
-    transverse (axial) amplitudes may not exceed ``POLICY.deflection_limit`` (``stretch_limit``)."""
-    deflection, stretch = POLICY.deflection_limit, POLICY.stretch_limit
+def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
+    """The range of the bar models (``symgen.numerics.checks.beyond_range``): per bar, its largest
+    slope |eta'| over the points of the shape samples' ``slope_table`` (``psi_a'`` there, row-major
+    points x amplitudes) may not exceed ``POLICY.slope_limit``; the sum of its absolute axial
+    amplitudes not ``POLICY.stretch_limit``."""
+    from symgen.model.shape_samples import shape_samples
+
+    bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
     checks = []
     for group in plan.amplitudes:
         body = group.body
-        for idx, limit, what in (
-            (group.transverse, deflection, "transverse deflection"),
-            (group.axial, stretch, "axial displacement"),
-        ):
-            if not idx:
-                continue
+        if group.transverse:
+            table = shape_samples(bodies[body]).slope_table()
             checks.append(
                 {
-                    "indices": list(idx),
-                    "limit": c_double(limit),
+                    "indices": list(group.transverse),
+                    "limit": c_double(POLICY.slope_limit),
+                    "points": len(table),
+                    "slopes": [c_double(v) for row in table for v in row],
+                    "message": c_string(range_message(body, "slope", POLICY.slope_limit, "this")),
+                }
+            )
+        if group.axial:
+            checks.append(
+                {
+                    "indices": list(group.axial),
+                    "limit": c_double(POLICY.stretch_limit),
+                    "points": 0,
+                    "slopes": [],
                     "message": c_string(
-                        f"bar '{body}' is deformed beyond the range of the model: its {what} amplitudes sum to this "
-                        f"fraction of its length (limit {limit:g}; the bar equations hold for moderate rotations and "
-                        f"small strains): a load beyond a buckling load, or forces the bar cannot carry"
+                        range_message(body, "axial displacement", POLICY.stretch_limit, "this fraction of its length")
                     ),
                 }
             )

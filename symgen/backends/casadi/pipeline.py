@@ -51,14 +51,12 @@ def compile_scene(scene: Scene, use_cache: bool = True, lazy: bool = False) -> C
 
 def _sample_shapes(structure: dict) -> None:
     """The bars' shape functions at quadrature nodes, into the signed cache, where the
-    model-form estimate of the model's runs reads them without SymPy
-    (:mod:`symgen.model.shape_samples`): only where there is a curvature to estimate (von Karman
-    or the exact bar; the seed's linear strain has no model-form estimate)."""
+    model-form estimate and the range check (the bars' slopes,
+    ``symgen.numerics.checks.slope_tables``) of the model's runs read them without SymPy
+    (:mod:`symgen.model.shape_samples`): every bar that bends."""
     from symgen.model.shape_samples import remember_samples
 
-    effects = structure.get("effects", {})
-    if effects.get("strain") in ("von_karman", "exact") and effects.get("geometric_stiffening", True):
-        remember_samples(structure)
+    remember_samples(structure)
 
 
 def compile_model(model, use_cache: bool = True) -> CompiledModel:
