@@ -153,6 +153,7 @@ def run(repeats: int, quick: bool = False) -> str:
         ):
             r = measure(strain, nt, force, compile_c=not quick)
             rows.append((nt, label, r))
+            print(f"exact_nodes: nt = {nt}, {label}: {json.dumps(r)}", file=sys.stderr, flush=True)
     out = [
         "## Exact bar: sums over the tables against the node form (`bench_exact_nodes.py`)",
         "",
