@@ -49,6 +49,7 @@ SECTIONS = [
     "estimate",
     "estimate_cost",
     "rtol",
+    "exact_nodes",
 ]
 #: a section's last line: ``_(section `name` took N s)_``, or for a section run.py does not
 #: write (its numbers from a script of its own) ``_(section `name`: how it was made)_``

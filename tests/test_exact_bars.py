@@ -17,7 +17,7 @@ from scipy.optimize import brentq
 from symgen.model.bars import BarSymbols, IPTable, PointForce, bar_equations
 from symgen.model.shape_cache import curvature_products, inner_products, sixth_order_products
 from symgen.model.shapes import axial_basis, compute_curvature_products, transverse_basis
-from symgen.model.static_shapes import corrected_basis, sixth_order_nodes
+from symgen.model.static_shapes import corrected_basis, node_form_nodes, sixth_order_nodes
 from symgen.model.static_shapes import sixth_order_products as compute_sixth_order
 from symgen.scene.model import Effects
 
@@ -712,3 +712,121 @@ def test_tables_of_a_bar_without_axial_functions():
     )
     assert none.C5 == {} and len(some.C5) == math.comb(2 + 3, 4)
     assert none.E6 == pytest.approx(some.E6, rel=1e-13) and none.H4 == pytest.approx(some.H4, rel=1e-13)
+
+
+# --------------------------------------------------------------------------- the node form
+@pytest.mark.parametrize(
+    "frame, n, tip, points",
+    [("pinned-pinned", 12, False, ()), ("cantilever", 10, True, ()), ("pinned-pinned", 4, False, (0.4,))],
+)
+def test_node_form_nodes_integrate_the_tables(frame, n, tip, points):
+    """The node form's Gauss nodes (``node_form_nodes``, about half the tables') integrate the
+    tables' six- and five-fold products to round-off: E6 and C5 from them agree with the tables
+    to 1e-12 of the largest entry (sines up to 12, clamped-free eigenfunctions with the tip-load
+    shape, a piecewise static correction). The node form evaluates the same polynomials."""
+    ba = axial_basis("complete", 3)
+    bt = transverse_basis(frame, "modes", n, tip)
+    if points:
+        bt = corrected_basis(bt, points)
+    tables = sixth_order_products(ba, bt)
+    nodes = compute_sixth_order(ba.functions, bt.functions, nodes=node_form_nodes(max(len(ba), len(bt))))
+    for name in ("E6", "C5"):
+        ref, got = getattr(tables, name), getattr(nodes, name)
+        scale = max(abs(v) for v in ref.values())
+        assert max(abs(got[k] - ref[k]) for k in ref) < 1e-12 * scale
+
+
+NODE_SCENE = """
+[scene]
+name = "rod"
+reference_length = 1.0
+omega = 1.0
+units = "dimensionless"
+
+[[bodies]]
+name = "crank"
+length = 0.5
+rigid = true
+
+[[bodies]]
+name = "rod"
+length = 1.0
+lambda = 18246.0
+mu = 0.495
+frame = "pinned-pinned"
+axial_modes = 2
+transverse_modes = 3
+
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "crank"]
+at = [[0.0, 0.0], 0.0]
+
+[[joints]]
+name = "A"
+kind = "pin"
+bodies = ["crank", "rod"]
+at = [1.0, 0.0]
+
+[[joints]]
+name = "B"
+kind = "slider"
+bodies = ["rod", "ground"]
+at = [1.0, [0.0, 0.0]]
+direction = [1.0, 0.0]
+mass = 0.1
+
+[driver]
+kind = "angle"
+body = "crank"
+initial = 0.0
+rate = 1.0
+
+[effects]
+strain = "exact"
+axial = "{axial}"
+damping = 0.01
+
+[outputs]
+eta_mid = {{ kind = "chord_deflection", body = "rod", at = 0.5 }}
+torque = {{ kind = "driver_torque" }}
+
+[simulation]
+cycles = 1
+"""
+
+
+@pytest.mark.parametrize("axial", ["dynamic", "quasi_static"])
+def test_node_form_is_the_sums_over_the_tables(tmp_path, monkeypatch, axial):
+    """The exact bar's model with its sums over E6 and C5 at the nodes (forced here at 2 + 3
+    functions; symgen chooses it where it is cheaper) is the model with the sums, to round-off:
+    every CasADi Function at random arguments agrees to 1e-12 of its largest value, for a dynamic
+    bar (Jt^T y collected from the strain, Q4, G3, damping terms) and a quasi-static one (the
+    multipliers' forces, the constraint and its rates); the display form (symgen latex) is the
+    same expression."""
+    from symgen.backends.casadi import functions as casadi_emit
+    from symgen.model import bars
+    from symgen.model.derive import derive
+    from symgen.scene import load_scene
+
+    path = tmp_path / "rod.toml"
+    path.write_text(NODE_SCENE.format(axial=axial))
+    built = {}
+    for node in (False, True):
+        monkeypatch.setattr(bars, "_NODE_FORM", {"e6": node, "c5": node})
+        model = derive(load_scene(str(path)))
+        built[node] = (casadi_emit.build_functions(model), model.bars["rod"].equations)
+    (sums, eq_sums), (nodes, eq_nodes) = built[False], built[True]
+    assert nodes["res"].n_instructions() != sums["res"].n_instructions()  # not the same code
+    rng = np.random.default_rng(3)
+    for name in ("phi", "phid", "phidd", "res", "energy", "out"):
+        for _ in range(4):
+            args = [0.3 * rng.normal(size=sums[name].size_in(i)) for i in range(sums[name].n_in())]
+            a, b = np.array(nodes[name](*args)).ravel(), np.array(sums[name](*args)).ravel()
+            assert np.max(np.abs(a - b)) <= 1e-12 * max(np.max(np.abs(b)), 1e-300), name
+    shown, before = eq_nodes.display, eq_sums.display
+    for field in ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint"):
+        assert getattr(shown, field) == getattr(before, field), field
+    for (v1, a1), (v2, a2) in zip(shown.constraint_rates, before.constraint_rates):  # regrouped
+        assert v1 == v2 and sp.expand(a1 - a2) == 0

@@ -262,6 +262,7 @@ def clear_memory_cache() -> None:
     _cached_corrected.cache_clear()
     _cached_curvature.cache_clear()
     _cached_sixth.cache_clear()
+    _cached_nodes.cache_clear()
 
 
 def inner_products(axial: Basis, transverse: Basis) -> InnerProducts:
@@ -390,6 +391,45 @@ def _cached_sixth(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple, mpts: tupl
     ba = corrected_basis(basis_of_key(akey), apts)
     bt = corrected_basis(basis_of_key(tkey), tpts, mpts)
     return static_shapes.sixth_order_products(ba.functions, bt.functions)
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_nodes(akey: tuple, apts: tuple, tkey: tuple, tpts: tuple, mpts: tuple) -> tuple:
+    ba = corrected_basis(basis_of_key(akey), apts)
+    bt = corrected_basis(basis_of_key(tkey), tpts, mpts)
+    return _nodes_of(ba, bt)
+
+
+def _nodes_of(axial: Basis, transverse: Basis) -> tuple:
+    n = static_shapes.node_form_nodes(max(len(axial.functions), len(transverse.functions)))
+    return static_shapes.quadrature_nodes(axial.functions, transverse.functions, n)
+
+
+def node_form_nodes(axial: Basis, transverse: Basis) -> tuple:
+    """(W, A, B, F) of the exact bar's node form (:func:`static_shapes.quadrature_nodes` with
+    :func:`static_shapes.node_form_nodes` per piece) of one bar's bases, cached in memory."""
+    if not _is_keyed(axial, transverse):  # hand-made basis: nothing to key a cache on
+        return _nodes_of(axial, transverse)
+    return _cached_nodes(
+        axial.key, tuple(axial.points), transverse.key, tuple(transverse.points), tuple(transverse.moment_points)
+    )
+
+
+def _is_keyed(axial: Basis, transverse: Basis) -> bool:
+    """Whether both bases are what their keys rebuild (then cached by key)."""
+    try:
+        return all(
+            r is b or r == b
+            for r, b in (
+                (corrected_basis(basis_of_key(axial.key), axial.points), axial),
+                (
+                    corrected_basis(basis_of_key(transverse.key), transverse.points, transverse.moment_points),
+                    transverse,
+                ),
+            )
+        )
+    except ValueError:
+        return False
 
 
 def sixth_order_products(axial: Basis, transverse: Basis) -> SixthOrderProducts:

@@ -548,14 +548,22 @@ def sixth_order_nodes(nt: int) -> int:
     return 48 + 16 * nt
 
 
-def sixth_order_products(
-    axial: Sequence[Any], transverse: Sequence[Any], nodes: int | None = None
-) -> SixthOrderProducts:
-    """:class:`SixthOrderProducts` of (possibly piecewise) bases (``axial`` counts only)."""
+def node_form_nodes(n: int) -> int:
+    """Gauss-Legendre nodes per piece of the exact bar's node form (:func:`quadrature_nodes`,
+    ``bars._NodeForm``): the six-fold products of the first ``n`` functions' derivatives (highest
+    frequency ~6 n pi) integrate to round-off with about 8 n + 16 (``tests/test_exact_bars.py``
+    checks the node form against the tables, which :func:`sixth_order_nodes` computes with
+    twice as many)."""
+    return 24 + 8 * n
+
+
+def quadrature_nodes(axial: Sequence[Any], transverse: Sequence[Any], n: int) -> tuple:
+    """(W, A, B, F): the Gauss-Legendre weights of ``n`` nodes on each smooth piece of the bases
+    (split at the static corrections' points) and, at those nodes, the transverse functions'
+    first (A, nodes x nt) and second (B) derivatives and the axial functions' first (F, nodes x na)."""
     psi = [Piecewise.of(f) for f in transverse]
     phi = [Piecewise.of(f) for f in axial]
     nt, na = len(psi), len(phi)
-    n = nodes or sixth_order_nodes(max(nt, na))
     cuts = sorted(set().union({Fraction(0), Fraction(1)}, *(f.breaks for f in psi + phi)))
     z, w = np.polynomial.legendre.leggauss(n)
     ws, A, B, F = [], [], [], []
@@ -571,6 +579,15 @@ def sixth_order_products(
     Aq = np.array(A, dtype=float).reshape(len(W), nt)
     Bq = np.array(B, dtype=float).reshape(len(W), nt)
     Fq = np.array(F, dtype=float).reshape(len(W), na)  # no axial functions: (nodes, 0)
+    return W, Aq, Bq, Fq
+
+
+def sixth_order_products(
+    axial: Sequence[Any], transverse: Sequence[Any], nodes: int | None = None
+) -> SixthOrderProducts:
+    """:class:`SixthOrderProducts` of (possibly piecewise) bases (``axial`` counts only)."""
+    nt, na = len(transverse), len(axial)
+    W, Aq, Bq, Fq = quadrature_nodes(axial, transverse, nodes or sixth_order_nodes(max(nt, na)))
     pairs = list(itertools.combinations(range(6), 2))  # which two factors are psi''
     E6: dict[tuple[int, ...], float] = {}
     for idx in itertools.combinations_with_replacement(range(nt), 6):
