@@ -189,7 +189,7 @@ def _simulate(args, files) -> int:
     assert result is not None  # write_run raises when the run has no result
     compiled = mech.compiled
     print(
-        f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
+        f"wrote {written.csv} ({result.n_rows} rows; closure residual max "
         f"{result.closure_max:.2e}; {_steps_text(args.solver, result)}; "
         + (
             f"model loaded from cache {mech.build_s:.2f}s, "
