@@ -1,4 +1,4 @@
-"""numpy imported on first use, not at the import of the modules that use it (issue 20, a lean
+"""numpy (or another module: :class:`LazyModule`) imported on first use, not at the import of the modules that use it (issue 20, a lean
 process): a cached run of the C solver (``symgen simulate --solver c --estimate off``) loads its
 scene with the remembered bases, runs the library through ctypes and writes its CSV and sidecar
 without numpy (tests/test_lean_start.py), although the modules on its way compute with numpy
