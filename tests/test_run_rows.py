@@ -4,8 +4,10 @@ the arrays' path (``ResultUnits.convert``, ``csv_text``), to the bit."""
 
 from __future__ import annotations
 
+import copy
 import ctypes
 import dataclasses
+import pickle
 
 import numpy as np
 
@@ -51,9 +53,12 @@ def test_the_rows_and_the_arrays_of_a_c_run_are_its_records():
     assert list(res.rows(states=True)) == rows == list(table_rows(res.tau, res.outputs, res.q))
     res.outputs[0, 0] = 1.5  # a changed array is what the rows say from then on
     assert next(res.rows())[1] == 1.5
-    copy = dataclasses.replace(res, steps=8)
-    assert isinstance(copy, SimResult) and copy.steps == 8 and copy.n_rows == 5
-    np.testing.assert_array_equal(copy.q, res.q)
+    changed = dataclasses.replace(res, steps=8)
+    assert isinstance(changed, SimResult) and changed.steps == 8 and changed.n_rows == 5
+    np.testing.assert_array_equal(changed.q, res.q)
+    for again in (pickle.loads(pickle.dumps(_of_rows(buf, 5))), copy.deepcopy(_of_rows(buf, 5))):
+        assert type(again) is SimResult and again.n_rows == 5 and again.steps == 7
+        np.testing.assert_array_equal(again.lam, table[:, a + 2 * N :])
 
 
 def test_an_empty_c_run_has_no_rows():

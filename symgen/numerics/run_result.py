@@ -111,6 +111,11 @@ class _RowsResult(SimResult):
         self.__dict__.update(made)
         return made[name]
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled and copied as the plain :class:`SimResult` of its arrays (a ctypes buffer is not
+        picklable)."""
+        return SimResult, tuple(getattr(self, f.name) for f in dataclasses.fields(SimResult))
+
     def _arrays_made(self) -> bool:
         """The arrays were made (and may have been changed since), or given (``dataclasses.replace``)."""
         return "_record" not in self.__dict__ or any(k in self.__dict__ for k in ARRAYS)
