@@ -293,7 +293,7 @@ def run(repeats: int) -> str:
         whole = whole_process(trees, cache, repeats, out)
         path = idas_path(trees, cache, repeats)
         steel = steel_section(Path(tmp), cache, repeats, out)
-    return render(whole, path, trees) + steel
+    return render(whole, path, trees) + steel + c_process_section(repeats)
 
 
 def steel_section(tmp: Path, cache: str, repeats: int, out: Path) -> str:

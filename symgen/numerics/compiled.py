@@ -118,7 +118,9 @@ class Compiler:
 def _probe(path: str) -> str:
     """The ``--version`` text of the compiler at ``path``, remembered in the signed cache for the
     executable as it is on disk (its size, times, inode and device: a compiler replaced or
-    upgraded in place is asked again): a cached run starts no process for it."""
+    upgraded in place is asked again): a cached run starts no process for it. A wrapper (a script,
+    ccache) whose own file stays the same while the compiler behind it changes keeps its remembered
+    text: its libraries are not rebuilt for the new compiler (``symgen cache clear`` forgets it)."""
     try:
         st = os.stat(path)
     except OSError as exc:
