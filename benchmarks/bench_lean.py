@@ -293,7 +293,7 @@ def run(repeats: int) -> str:
         whole = whole_process(trees, cache, repeats, out)
         path = idas_path(trees, cache, repeats)
         steel = steel_section(Path(tmp), cache, repeats, out)
-    return render(whole, path, trees) + steel
+    return render(whole, path, trees) + steel + c_process_section(repeats)
 
 
 def steel_section(tmp: Path, cache: str, repeats: int, out: Path) -> str:
@@ -303,6 +303,66 @@ def steel_section(tmp: Path, cache: str, repeats: int, out: Path) -> str:
     if base_tree(base, STEEL_BASE):
         trees = {"before": base, "after": ROOT}
     return render_steel(steel_whole(trees, cache, repeats, out), trees) + floor_processes(cache, repeats)
+
+
+#: The commit before the numpy-free cached ``--solver c`` process (symgen.lazy, SimResult.of_rows).
+C_BASE = "678e63f"
+C_SCENES = (STEEL, "examples/slider_crank.toml")
+
+
+def c_process_section(repeats: int = 7) -> str:
+    """A cached ``symgen simulate SCENE --solver c`` process, ``--estimate off`` and the default
+    estimate, on the steel slider-crank and the paper's: before (:data:`C_BASE`) and after this
+    checkout, interleaved, medians of the CPU time (user + system, the children included), with
+    the floors. Its own cache, warmed first by both trees. Run alone::
+
+        python -c "import sys; sys.path.insert(0, 'benchmarks'); import bench_lean; print(bench_lean.c_process_section(7))"
+    """
+    repeats = max(7, repeats)
+    with tempfile.TemporaryDirectory(prefix="symgen-lean-c-") as tmp:
+        trees = {"after": ROOT}
+        base = Path(tmp) / "base"
+        base.mkdir()
+        if base_tree(base, C_BASE):
+            trees = {"before": base, "after": ROOT}
+        cache = str(Path(tmp) / "cache")
+        out = Path(tmp) / "out" / "run.csv"
+        out.parent.mkdir()
+        rows = []
+        for scene in C_SCENES:
+            for label, extra in (("`--estimate off`", ["--estimate", "off"]), ("default estimate", [])):
+                cmd = [sys.executable, "-m", "symgen.cli", "simulate", str(ROOT / scene), "--solver", "c", *extra]
+                cmd += ["-o", str(out)]
+                times: dict[str, list[float]] = {name: [] for name in trees}
+                for tree in trees.values():  # warm: the model, the C solvers, the remembered choices
+                    process(cmd, tree, cache)
+                    process(cmd, tree, cache)
+                for _ in range(repeats):
+                    for name, tree in trees.items():
+                        times[name].append(process(cmd, tree, cache)[0])
+                rows.append({"case": f"`{scene}`, {label}", "cpu": {k: _median(v) for k, v in times.items()}})
+        both = len(trees) == 2
+        text = [
+            "",
+            "### A cached `symgen simulate SCENE --solver c` process (issue 20: the whole process)",
+            "",
+            f"Before: commit `{C_BASE}`; after: this checkout (numpy imported on first use, `symgen.lazy`: "
+            "with `--estimate off` the process imports neither numpy nor subprocess, tests/test_lean_start.py). "
+            f"Interleaved, medians of the CPU time (user + system), {repeats} runs each; same CSV and sidecar.",
+            "",
+            "| process | before ms | after ms | after / before |" if both else "| process | after ms |",
+            "|---|---|---|---|" if both else "|---|---|",
+        ]
+        for r in rows:
+            c = r["cpu"]
+            if both:
+                text.append(
+                    f"| {r['case']} | {1e3 * c['before']:.0f} | {1e3 * c['after']:.0f} | "
+                    f"{c['after'] / c['before']:.2f} |"
+                )
+            else:
+                text.append(f"| {r['case']} | {1e3 * c['after']:.0f} |")
+        return "\n".join(text) + "\n" + floor_processes(cache, repeats)
 
 
 if __name__ == "__main__":

@@ -188,7 +188,6 @@ def _written_run(
     quasistatic): the files checked before any work, the CSV and its sidecar (partial when the
     run stopped early), the plot; no result of this name from an earlier run left looking
     complete when it fails. The result, or the run's failure raised (with ``.partial``)."""
-    from symgen.apps.plot import plot_run
     from symgen.numerics.results import attempt, run_files, write_run
     from symgen.numerics.units import choose_system
 
@@ -224,6 +223,8 @@ def _written_run(
             mech=mech,
         )
         if written.plot is not None:
+            from symgen.apps.plot import plot_run  # numpy and matplotlib: only to plot
+
             plot_run(written.plot)
         if failure is not None:
             raise failure

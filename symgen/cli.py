@@ -98,7 +98,7 @@ def cmd_check(args) -> int:
 
 def _prepare_run(args):
     """Load the scene, check --units against it, derive or load its model: the mechanism."""
-    from symgen.api import mechanism
+    from symgen.numerics.mechanism import load_mechanism as mechanism  # symgen.api's, without the API's module
     from symgen.numerics.units import choose_system
 
     from symgen.numerics.strain_choice import resolved
@@ -166,7 +166,7 @@ def _simulate(args, files) -> int:
     sc = mech.scene
     seconds = f" (t 0 -> {sc.simulation.t_end / sc.omega:.6g} s)" if sc.units == "SI" else ""
     _say(args, f"integrating tau 0 -> {sc.simulation.t_end:.6g}{seconds}")
-    from symgen.api import mechanism
+    from symgen.numerics.mechanism import load_mechanism as mechanism
     from symgen.numerics.strain_choice import run_with_strain_choice
 
     def run(m):
@@ -190,7 +190,7 @@ def _simulate(args, files) -> int:
     assert result is not None  # write_run raises when the run has no result
     compiled = mech.compiled
     print(
-        f"wrote {written.csv} ({len(result.tau)} rows; closure residual max "
+        f"wrote {written.csv} ({result.n_rows} rows; closure residual max "
         f"{result.closure_max:.2e}; {_steps_text(args.solver, result)}; "
         + (
             f"model loaded from cache {mech.build_s:.2f}s, "

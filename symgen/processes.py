@@ -14,14 +14,20 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import subprocess
 import sys
 import threading
 import time
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import subprocess
+else:
+    from symgen.lazy import LazyModule
+
+    subprocess = LazyModule("subprocess")  # imported when a process is started (symgen.lazy)
 
 #: Measured C compile speed of the emitted model code at the default flags (-O1), bytes of C per
 #: second: 64 kB in 0.41 s, 264 kB in 1.45 s on a loaded 2-core machine (2026-11-25). Used only to

@@ -254,6 +254,32 @@ def test_a_cached_c_solver_run_is_lean(tmp_path):
     )
 
 
+def test_a_cached_c_run_without_estimate_imports_no_numpy(tmp_path):
+    """``simulate --solver c --estimate off`` from the cache (with the states too) imports no
+    numpy: the scene with its remembered bases, the parameters as floats, the library's rows in a
+    ctypes buffer, the CSV and the sidecar written from them (``symgen.lazy``,
+    ``SimResult.of_rows``; the arrays made on first read: tests/test_run_rows.py), and starts no
+    process (the compiler's ``--version`` remembered: no subprocess). The error estimate (its
+    reruns, CasADi) and the Python API (its bases chosen again) do import numpy."""
+    scene = str(ROOT / "examples" / "slider_crank.toml")
+    over = short(scene)
+    c_off = ["--solver", "c", "--estimate", "off"]
+    heavy = (
+        *HEAVY,
+        "casadi",
+        "numpy",
+        "subprocess",
+    )  # subprocess: no process started (the compiler's version remembered)
+    _lean(
+        [
+            ["cli", "simulate", scene, "--set", over, *c_off, "-o", str(tmp_path / "c.csv")],
+            ["cli", "simulate", scene, "--set", over, *c_off, "--states", "-o", str(tmp_path / "s.csv")],
+        ],
+        tmp_path,
+        heavy,
+    )
+
+
 def test_a_cached_c_run_gives_the_first_runs_results(tmp_path, monkeypatch):
     """The cached ``--solver c`` run (its start plan recalled, its model's Functions never read)
     writes the same CSV as the first run (which planned the start through CasADi), and an IDAS

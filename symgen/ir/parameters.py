@@ -6,11 +6,16 @@ the FMU): ``parameter_records`` is the one statement of what each parameter is a
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.ir import names as symbol_names
 from symgen.ir.names import Name
@@ -146,7 +151,14 @@ def parameter_records(scene: Scene, names: Sequence[str] | None = None) -> list[
 
 
 def parameter_values(scene: Scene, names: Sequence[str]) -> np.ndarray:
-    """Numeric values, in ``names`` order, of a model's parameters for this scene.
+    """Numeric values, in ``names`` order, of a model's parameters for this scene (an array of
+    :func:`checked_values`)."""
+    return np.array(checked_values(scene, names), dtype=float)
+
+
+def checked_values(scene: Scene, names: Sequence[str]) -> list[float]:
+    """Numeric values, in ``names`` order, of a model's parameters for this scene, as floats
+    (without numpy: a cached run of the C solver passes them to its library as they are).
 
     Raises SceneError when a value (a dimensionless group computed from the file's numbers, e.g.
     lambda from E, area, density and omega) is not finite or outside its valid range.
@@ -162,4 +174,4 @@ def parameter_values(scene: Scene, names: Sequence[str]) -> np.ndarray:
                 f"the model parameter {r.name} computed from it is {r.value!r}; it must be {r.valid.text()}",
                 "check the magnitudes and units of the numbers this key depends on",
             )
-    return np.array([r.value for r in recs], dtype=float)
+    return [r.value for r in recs]

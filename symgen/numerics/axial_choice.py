@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from symgen import __version__, cache
 from symgen.ir.spec import QUASI_STATIC
-from symgen.numerics import axial_drift as _axial_drift
+from symgen.scene.model import CHECK_KINDS
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -42,8 +42,6 @@ R = TypeVar("R")
 #: the axial part's version in the remembered decisions (a changed estimate decides again;
 #: "2": the start's ringing decides too; "3": the drift charges each output's whole rate along the run)
 ESTIMATOR_VERSION = "3"
-#: output kinds that do not decide (zero to round-off in every model)
-NOT_DECIDING = _axial_drift.NOT_DECIDING
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
@@ -126,6 +124,8 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
     auto rule's quasi-static bars kept dynamic when the run's axial part (the drift or the
     start's ringing) exceeds the accuracy, else None (also when the part cannot be estimated).
     Remembered either way; a run kept as it is keeps its measured part for its error estimate."""
+    from symgen.numerics import axial_drift as _axial_drift  # the estimate: only to decide
+
     scene = mech.scene
     accuracy = float(scene.simulation.accuracy)
     try:
@@ -136,7 +136,7 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
     top, worst, part = 0.0, "", "drift"
     for measure, values in (("drift", found.drift), ("ringing", found.ringing)):
         for n, v in values.items():
-            if kinds.get(n) not in NOT_DECIDING and v > top:
+            if kinds.get(n) not in CHECK_KINDS and v > top:
                 top, worst, part = float(v), n, measure
     bars = _auto_quasi_static(scene) if top > accuracy else []
     reason = (

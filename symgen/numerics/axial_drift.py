@@ -53,11 +53,15 @@ import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.ir.records import RowKind
 from symgen.ir.names import bar_parameter
 from symgen.numerics.run_result import MeasuredOnce
+from symgen.scene.model import CHECK_KINDS
 from symgen.numerics.model_form import _mapped
 
 if TYPE_CHECKING:
@@ -68,7 +72,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "KEY",
-    "NOT_DECIDING",
     "AxialNotEstimated",
     "AxialParts",
     "drift",
@@ -240,8 +243,6 @@ RINGING_MAX_SAMPLES = 2000
 #: a fraction of its largest over the run, against this fraction of the accuracy
 RINGING_SKIP = 0.1
 
-#: output kinds no decision is taken on, nor a window cut short for (zero to round-off in every model)
-NOT_DECIDING = ("closure_residual",)
 
 #: the axial-dynamic models loaded in this process: (cache root, scene) -> the mechanism
 _KEPT: dict[tuple[str, Any], Mechanism] = {}
@@ -379,7 +380,7 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
     kinds = {o.name: o.kind for o in scene.outputs}
     forces = [n for j, n in enumerate(names) if kinds.get(n) in RINGING_FORCE_KINDS and peaks[j] > 0]
     periods = t_run * (math.pi / 2) * math.sqrt(max(lams)) / (2 * math.pi)
-    shown = max((v for n, v in out.items() if kinds.get(n) not in NOT_DECIDING), default=0.0)
+    shown = max((v for n, v in out.items() if kinds.get(n) not in CHECK_KINDS), default=0.0)
     if forces and length < t_run and RINGING_DECAYS * decay > length and shown > enough:
         window += (
             f"; the force outputs ({', '.join(forces)}) over the window alone: it already shows {shown:.3g} of a "
@@ -462,7 +463,7 @@ def parts(mech: Mechanism, result: SimResult, enough: float = math.inf) -> Axial
             f"not estimated (the window with the axial dynamics kept failed: {type(why).__name__}: {why})",
         )
     kinds = {o.name: o.kind for o in mech.scene.outputs}
-    shown = max((v for n, v in ring.items() if kinds.get(n) not in NOT_DECIDING), default=0.0)
+    shown = max((v for n, v in ring.items() if kinds.get(n) not in CHECK_KINDS), default=0.0)
     return AxialParts(slow, slow_how, ring, ring_how, complete=shown <= enough)
 
 

@@ -38,7 +38,6 @@ import json
 import os
 import shlex
 import shutil
-import subprocess
 import sys
 import tempfile
 import threading
@@ -117,6 +116,28 @@ class Compiler:
 
 @functools.cache
 def _probe(path: str) -> str:
+    """The ``--version`` text of the compiler at ``path``, remembered in the signed cache for the
+    executable as it is on disk (its size, times, inode and device: a compiler replaced or
+    upgraded in place is asked again): a cached run starts no process for it. A wrapper (a script,
+    ccache) whose own file stays the same while the compiler behind it changes keeps its remembered
+    text: its libraries are not rebuilt for the new compiler (``symgen cache clear`` forgets it)."""
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        raise Unavailable(f"the C compiler {path} cannot be run ({exc})") from None
+    disk = [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+    question = {"check": "compiler.version", "symgen": __version__, "path": path, "file": disk}
+    known, answer = cache.recall(question)
+    if known and isinstance(answer, str):
+        return answer
+    version = _ask_version(path)
+    cache.remember(question, version)
+    return version
+
+
+def _ask_version(path: str) -> str:
+    import subprocess
+
     try:
         proc = run_group([path, "--version"], timeout=60)
     except (OSError, subprocess.SubprocessError) as exc:
@@ -428,6 +449,8 @@ def link_units(
     compiler cannot be run or fails (``on``: what it failed on, e.g. " on the emitted C").
     ``cancel``: run in a background thread, where no signal arrives: setting it from another
     thread kills the compilers (:class:`symgen.processes.Cancelled`), and no progress line."""
+    import subprocess
+
     units = sorted(units, key=lambda c: -c.stat().st_size)
     objects = [c.with_suffix(".o") for c in units]
     of = flags_of or (lambda c: comp.flags)

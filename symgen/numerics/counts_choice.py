@@ -31,7 +31,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from symgen import __version__, cache
-from symgen.scene.model import CountsRaised
+from symgen.scene.model import CHECK_KINDS, CountsRaised
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -47,8 +47,6 @@ ESTIMATOR_VERSION = "1"
 MAX_ROUNDS = 2
 #: the only truncation method that decides (the module docstring)
 DECIDING_METHOD = "rerun"
-#: output kinds that do not decide (zero to round-off in every model)
-NOT_DECIDING = ("closure_residual",)
 
 
 def chosen_bars(scene: Scene) -> list[str]:
@@ -153,7 +151,7 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
         return None  # not estimated (the sidecar's error estimate says why): the counts as chosen
     values, richer, _ = part
     kinds = {o.name: o.kind for o in scene.outputs}
-    deciding = {n: v for n, v in values.items() if kinds.get(n) not in NOT_DECIDING}
+    deciding = {n: v for n, v in values.items() if kinds.get(n) not in CHECK_KINDS}
     worst = max(deciding, key=lambda n: deciding[n]) if deciding else ""
     top = float(deciding.get(worst, 0.0))
     floors = {b: (c[0], c[1]) for b, c in richer.items() if b in chosen_bars(scene)} if top > accuracy else {}

@@ -36,8 +36,6 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from symgen import __version__, cache
 from symgen.errors import Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY
@@ -398,28 +396,29 @@ def simulate_c(
         raise cause from None
     setup_s = time.perf_counter() - t_setup
     n_rows = int(math.floor(t_end / h + 1e-9)) + 1
-    rec = np.zeros((n_rows, lib.stride))
+    stride = lib.stride
+    rec = (ctypes.c_double * (n_rows * stride))()  # the rows, flat (zeros): no numpy on this path
     state = (ctypes.c_double * ((lib.size + 7) // 8))()
     done = ctypes.c_long(0)
-    p = np.ascontiguousarray(mech.p, dtype=float)
+    p = (ctypes.c_double * max(len(mech.p_values), 1))(*mech.p_values)
     DP = ctypes.POINTER(ctypes.c_double)
+    row_bytes = stride * ctypes.sizeof(ctypes.c_double)
     tic, cpu = time.perf_counter(), time.process_time()
     rc = 0
     stop: Interrupted | SimulationError | None = None  # what ended the run early
     try:
         with _progress(progress, n_rows) as advanced:
-            rc = lib.init(state, p.ctypes.data_as(DP), 0.0, rtol, atol)
+            rc = lib.init(state, ctypes.cast(p, DP), 0.0, rtol, atol)
             while rc == 0 and done.value < n_rows:
-                interrupt.check(float(rec[done.value - 1, 0]) if done.value else 0.0)
+                interrupt.check(rec[(done.value - 1) * stride] if done.value else 0.0)
                 before = done.value
-                rc = lib.rows(
-                    state, 0.0, h, n_rows, ctypes.byref(done), 0, STEPS_PER_CALL, rec[before:].ctypes.data_as(DP)
-                )
+                at = ctypes.cast(ctypes.addressof(rec) + before * row_bytes, DP)  # the first row not written
+                rc = lib.rows(state, 0.0, h, n_rows, ctypes.byref(done), 0, STEPS_PER_CALL, at)
                 advanced(done.value - before)
                 if rc == PAUSED:
                     rc = 0
     except BaseException as err:
-        cause = interrupt.interrupted(err, float(rec[done.value - 1, 0]) if done.value else 0.0)
+        cause = interrupt.interrupted(err, rec[(done.value - 1) * stride] if done.value else 0.0)
         if not isinstance(cause, Interrupted):
             raise
         stop = cause
@@ -428,15 +427,13 @@ def simulate_c(
     lib.counters(state, counts)
     stats = dict(zip(COUNTERS, counts))
     k = done.value
-    rows = rec[:k]
-    a = 1 + lib.nout
-    result = SimResult(
-        tau=rows[:, 0].copy(),
-        outputs=rows[:, 1:a].copy(),
+    result = SimResult.of_rows(  # its arrays made on first read (numpy), its CSV written from the rows
+        rec,
+        k,
+        lib.nout,
+        lib.n,
+        lib.m,
         output_names=list(mech.info.outputs),
-        q=rows[:, a : a + lib.n].copy(),
-        v=rows[:, a + lib.n : a + 2 * lib.n].copy(),
-        lam=rows[:, a + 2 * lib.n :].copy(),
         closure_max=float(stats["closure_max"]),
         steps=int(stats["steps"]),
         simulate_s=elapsed,
@@ -462,7 +459,7 @@ def simulate_c(
             raise SimulationError(None, f"the C solver refused the run: {msg}")
         msg = re.sub(r"^at tau = \S+: ", "", msg)
         stop = SimulationError(
-            float(rows[-1, 0]) if k else 0.0,
+            rec[(k - 1) * stride] if k else 0.0,
             f"the C solver stopped at tau = {stats['t']:.6g}: {msg}",
             "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)",
         )

@@ -97,16 +97,17 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen import __version__
 from symgen.errors import SymgenError
 from symgen.ir.info import record_fields
 from symgen.ir.records import CoordKind
-from symgen.numerics import axial_drift as _axial_drift
-from symgen.numerics import model_form as _model_form
-from symgen.numerics.model_form import ModelFormNotEstimated
 from symgen.numerics.run_result import MeasuredOnce
+from symgen.scene.model import CHECK_KINDS
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -162,9 +163,15 @@ def register_model_form(name: str, estimator: ModelFormEstimator) -> None:
     MODEL_FORM_ESTIMATORS[name] = estimator
 
 
-#: the curvature's left-out terms (von Karman's beyond eta''^2, the exact bar's beyond its
-#: expansion): symgen.numerics.model_form
-register_model_form("curvature", _model_form.estimate)
+def _curvature(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
+    """The curvature's left-out terms (von Karman's beyond eta''^2, the exact bar's beyond its
+    expansion): :func:`symgen.numerics.model_form.estimate`, imported when a run is estimated."""
+    from symgen.numerics.model_form import estimate
+
+    return estimate(mech, result)
+
+
+register_model_form("curvature", _curvature)
 
 
 class InvalidEstimate(ValueError):
@@ -314,6 +321,9 @@ def estimate_errors(
     except (ValueError, ArithmeticError, RuntimeError) as why:  # RuntimeError: CasADi's
         # the run is complete and stays so: its estimate says what stopped the richer model
         not_estimated("truncation", f"the richer model could not be evaluated ({type(why).__name__}: {why})")
+    from symgen.numerics import axial_drift as _axial_drift
+    from symgen.numerics.model_form import ModelFormNotEstimated
+
     estimator = model_form or (next(iter(MODEL_FORM_ESTIMATORS.values())) if MODEL_FORM_ESTIMATORS else None)
     if estimator is None:
         not_estimated(
@@ -476,7 +486,7 @@ def _measured(mech: Mechanism, names: list[str]) -> set[str]:
     """The outputs an estimate is given for: all but the closure residuals (zero to round-off in
     every model: not an approximation of anything)."""
     kinds = {o.name: o.kind for o in mech.scene.outputs}
-    return {n for n in names if kinds.get(n) != "closure_residual"}
+    return {n for n in names if kinds.get(n) not in CHECK_KINDS}
 
 
 class TruncationNotEstimated(Exception):

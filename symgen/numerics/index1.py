@@ -16,7 +16,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 if TYPE_CHECKING:
     import casadi as ca  # imported where used: a cached run of the C solver never imports CasADi

@@ -21,13 +21,16 @@ import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import ArrayLike
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.errors import SceneError, SimulationError
 from symgen.backends.casadi import pipeline
 from symgen.backends.casadi.pipeline import CompiledModel
-from symgen.ir.parameters import parameter_values
+from symgen.ir.parameters import checked_values
 from symgen.policy import POLICY
 from symgen.scene import scene_of
 from symgen.scene.model import Scene
@@ -63,7 +66,7 @@ class Mechanism:
         self.info = info = compiled.info
         self.coords = info.coords
         self.n, self.m = info.n, info.m
-        self.p = parameter_values(scene, list(info.params))
+        self.p_values = checked_values(scene, list(info.params))  # checked here, at the load
         self.rigid = list(info.rigid)
         # effects.axial = "inextensible": the axial amplitudes of those bars are dependent
         # coordinates of their inextensibility rows (kept apart from the loop rows)
@@ -86,6 +89,12 @@ class Mechanism:
             _ = self.quasi
         # the model's CasADi build (or load from the cache) and this set-up, in this process
         self.build_s = compiled.build_s + (time.perf_counter() - tic)
+
+    @functools.cached_property
+    def p(self) -> np.ndarray:
+        """The model's parameter values (:attr:`p_values`) as an array, made on first use: a cached
+        run of the C solver passes the floats to its library and never imports numpy."""
+        return np.array(self.p_values, dtype=float)
 
     # The CasADi parts are made on first use: a cached run of the C solver (which has them in its
     # library) never uses them, and so never imports CasADi (symgen.numerics.csolver).

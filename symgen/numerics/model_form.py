@@ -100,11 +100,15 @@ from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen import cache
 from symgen.ir.records import RowKind
 from symgen.ir.shape_samples import ShapeSamples, samples_question
+from symgen.scene.model import CHECK_KINDS
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -119,8 +123,6 @@ __all__ = [
     "model_form_estimate",
 ]
 
-#: output kinds the bar's constitutive law does not change (to round-off)
-UNAFFECTED = ("closure_residual",)
 #: the largest amplification of the static change by axial compression that is believed
 AMPLIFICATION_CAP = 20.0
 #: the powers of s = eta'^2 the exact bar keeps in eta''^2 (1 + s + ...): 2 (sixth order in
@@ -453,7 +455,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     moved: dict[str, float] = {}
     still = []
     for j, name in enumerate(names):
-        if kinds.get(name) in UNAFFECTED or peaks[j] == 0:
+        if kinds.get(name) in CHECK_KINDS or peaks[j] == 0:
             continue
         size = float(np.abs(change[:, j]).max())
         drift = sum(

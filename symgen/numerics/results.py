@@ -23,13 +23,17 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
-import numpy as np
-from numpy.typing import ArrayLike
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen import __version__
 from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.numerics.run_result import table_rows
 from symgen.outputs import atomic_write, check_file, remove
 
 if TYPE_CHECKING:
@@ -50,6 +54,7 @@ __all__ = [
     "attempt",
     "build_sidecar",
     "csv_text",
+    "rows_text",
     "error_estimate",
     "partial_paths",
     "run_files",
@@ -65,9 +70,14 @@ R = TypeVar("R")
 
 
 def csv_text(tau: np.ndarray, values: np.ndarray, names: list[str], time_name: str = "tau") -> str:
+    return rows_text(table_rows(tau, values), names, time_name)
+
+
+def rows_text(rows: Iterable[Sequence[float]], names: list[str], time_name: str = "tau") -> str:
+    """The CSV of ``rows`` ([time, values...] each): a header, then each number as ``repr``."""
     lines = [",".join([time_name, *names])]
-    for t, row in zip(tau, values):
-        lines.append(",".join(repr(float(x)) for x in (t, *row)))
+    for row in rows:
+        lines.append(",".join(repr(float(x)) for x in row))
     return "\n".join(lines) + "\n"
 
 
@@ -116,10 +126,22 @@ class ResultFiles:
         """CSV, then its JSON sidecar; return the CSV path. The first column is ``time_name``
         (``tau``, or ``t`` in seconds for SI results). Stale files of the other kind go first;
         if a write fails, neither file of this run is left."""
+        rows = table_rows(np.asarray(tau), np.asarray(values).reshape(len(tau), -1))
+        return self.write_rows(rows, names, sidecar, complete, time_name)
+
+    def write_rows(
+        self,
+        rows: Iterable[Sequence[float]],
+        names: list[str],
+        sidecar: Mapping[str, object],
+        complete: bool = True,
+        time_name: str = "tau",
+    ) -> Path:
+        """:meth:`write` of the CSV's ``rows`` ([time, values...] each)."""
         csv_path, json_path = self.csv_json(complete)
         remove(self.partial_paths() if complete else self.complete_paths())
         remove([json_path])
-        text = csv_text(np.asarray(tau), np.asarray(values).reshape(len(tau), -1), names, time_name)
+        text = rows_text(rows, names, time_name)
         try:
             atomic_write(csv_path, text)
             atomic_write(json_path, json.dumps(sidecar, indent=1, default=_jsonable) + "\n")
@@ -440,7 +462,10 @@ def write_run(
     ``error_estimate_detail`` (its parts, methods and reasons)."""
     from symgen.numerics.units import result_units
 
-    if result is None or len(result.tau) == 0:
+    from symgen.numerics.run_result import SimResult
+
+    count = 0 if result is None else result.n_rows if isinstance(result, SimResult) else len(result.tau)
+    if result is None or count == 0:
         raise (
             failure
             if failure is not None
@@ -453,10 +478,8 @@ def write_run(
     sidecar["error_estimate"] = dict(record.outputs)
     sidecar["error_estimate_detail"] = record.to_json()
     in_units = result_units(scene, units)
-    t_col, values = in_units.convert(result.tau, result.outputs)
     sidecar["units"] = in_units.as_dict()
     names = list(result.output_names)
-    columns = values
     if states:
         sidecar["states"] = states_block(scene, sidecar["coordinates"], sidecar["model_key"])
         clash = sorted(set(names) & set(sidecar["states"]["columns"]))
@@ -467,13 +490,19 @@ def write_run(
                 "an output has the name of a state column",
                 "rename the output, or leave out --states",
             )
-        columns = np.hstack([np.asarray(values).reshape(len(t_col), -1), np.asarray(result.q)[: len(t_col)]])
         names += sidecar["states"]["columns"]
     complete = failure is None
-    written = files.write(t_col, columns, names, sidecar, complete, time_name=in_units.time.name)
+    # the rows as the run holds them (a C run's record: no arrays made), in the results' units
+    rows = (
+        result.rows(states)
+        if isinstance(result, SimResult)
+        else table_rows(result.tau, result.outputs, result.q if states else None)
+    )
+    written = files.write_rows(in_units.convert_rows(rows), names, sidecar, complete, time_name=in_units.time.name)
     plot = None
     plot_path = files.plot_path(complete)
     if plot_path is not None and not isinstance(failure, Interrupted):  # stopping fast beats a plot
+        t_col, values = in_units.convert(result.tau, result.outputs)
         # the turns of the first angle driver turning at a constant rate (as simulation.cycles);
         # a law or a ramp: plotted against tau
         drv = next((d for d in scene.angle_drivers if d.law is None and d.rate), None)
@@ -496,6 +525,8 @@ def write_run(
 
 
 def _jsonable(x: object) -> object:
+    if type(x).__module__ != "numpy":  # without importing numpy
+        raise TypeError(f"not JSON serialisable: {type(x)}")
     if isinstance(x, (np.floating, np.integer)):
         return x.item()
     if isinstance(x, np.ndarray):

@@ -1,15 +1,25 @@
 """The record of one run (:class:`SimResult`), whichever solver made it: IDAS
 (:mod:`symgen.numerics.simulate`) or the emitted C solver (:mod:`symgen.numerics.csolver`). Its
-own module, light (numpy only), so that a cached run of the C solver never imports CasADi."""
+own module, light (numpy on first use only), so that a cached run of the C solver never imports
+CasADi, nor numpy: its result holds the library's rows (:meth:`SimResult.of_rows`) until an
+array is read, and its files are written from the rows (:meth:`SimResult.rows`)."""
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.numerics.index1 import Partition
+
+#: the array fields of a run, in the order of a row of the C solver's record
+ARRAYS = ("tau", "outputs", "q", "v", "lam")
 
 
 @dataclass
@@ -34,6 +44,92 @@ class SimResult:
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""
         return self.outputs[:, self.output_names.index(name)]
+
+    @property
+    def n_rows(self) -> int:
+        """The number of output rows (without reading the arrays of a C run)."""
+        return len(self.tau)
+
+    def rows(self, states: bool = False) -> Iterator[list[float]]:
+        """The rows [tau, outputs..., (q... when ``states``)] as floats (for the CSV)."""
+        return table_rows(self.tau, self.outputs, self.q if states else None)
+
+    @staticmethod
+    def of_rows(rows: Any, count: int, n_out: int, n: int, m: int, **fields: Any) -> SimResult:
+        """The run of the first ``count`` rows of the C solver's record ``rows`` (flat doubles, a
+        buffer, row after row: tau, the ``n_out`` outputs, q and v (``n`` each), lam (``m``)) and the
+        other ``fields``: its arrays made (by numpy) on first read, its rows read as they are."""
+        made = _RowsResult.__new__(_RowsResult)  # not through __init__: dataclasses.replace() calls that
+        made._hold(rows, count, (n_out, n, m), fields)
+        return made
+
+
+def table_rows(tau: Any, outputs: Any, q: Any = None) -> Iterator[list[float]]:
+    """The rows [tau, outputs..., (q...)] of arrays (or sequences) as lists of floats."""
+    tau_list = tau.tolist() if hasattr(tau, "tolist") else list(tau)
+    out_list = outputs.tolist() if hasattr(outputs, "tolist") else [list(r) for r in outputs]
+    if q is None:
+        return ([t, *o] for t, o in zip(tau_list, out_list))
+    q_list = q.tolist() if hasattr(q, "tolist") else [list(r) for r in q]
+    return ([t, *o, *x] for t, o, x in zip(tau_list, out_list, q_list))
+
+
+class _RowsResult(SimResult):
+    """A :class:`SimResult` that holds the C solver's flat record until an array is read
+    (:meth:`SimResult.of_rows`)."""
+
+    def _hold(self, rows: Any, count: int, sizes: tuple[int, int, int], fields: dict[str, Any]) -> None:
+        self._record = (rows, count, sizes)
+        for f in dataclasses.fields(SimResult):
+            if f.name in ARRAYS:
+                continue
+            if f.name in fields:
+                value = fields.pop(f.name)
+            elif f.default is not dataclasses.MISSING:
+                value = f.default
+            elif f.default_factory is not dataclasses.MISSING:
+                value = f.default_factory()
+            else:
+                raise TypeError(f"SimResult.of_rows() missing the field {f.name!r}")
+            setattr(self, f.name, value)
+        if fields:
+            raise TypeError(f"SimResult.of_rows() got unknown fields {sorted(fields)}")
+
+    def __getattr__(self, name: str) -> Any:  # an array field not made yet
+        if name not in ARRAYS or "_record" not in self.__dict__:
+            raise AttributeError(name)
+        rows, count, (n_out, n, m) = self._record
+        width, a = 1 + n_out + 2 * n + m, 1 + n_out
+        block = np.frombuffer(rows, dtype=float, count=count * width).reshape(count, width)
+        made = {
+            "tau": block[:, 0].copy(),
+            "outputs": block[:, 1:a].copy(),
+            "q": block[:, a : a + n].copy(),
+            "v": block[:, a + n : a + 2 * n].copy(),
+            "lam": block[:, a + 2 * n :].copy(),
+        }
+        self.__dict__.update(made)
+        return made[name]
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled and copied as the plain :class:`SimResult` of its arrays (a ctypes buffer is not
+        picklable)."""
+        return SimResult, tuple(getattr(self, f.name) for f in dataclasses.fields(SimResult))
+
+    def _arrays_made(self) -> bool:
+        """The arrays were made (and may have been changed since), or given (``dataclasses.replace``)."""
+        return "_record" not in self.__dict__ or any(k in self.__dict__ for k in ARRAYS)
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.tau) if self._arrays_made() else int(self._record[1])
+
+    def rows(self, states: bool = False) -> Iterator[list[float]]:
+        if self._arrays_made():
+            return super().rows(states)
+        rows, count, (n_out, n, m) = self._record
+        width, end = 1 + n_out + 2 * n + m, 1 + n_out + (n if states else 0)
+        return (list(rows[k * width : k * width + end]) for k in range(count))
 
 
 T = TypeVar("T")

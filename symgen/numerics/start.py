@@ -15,7 +15,10 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING, TypeAlias
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.errors import SimulationError
 from symgen.ir.plan import AmplitudeGroup, StartPlan
@@ -28,7 +31,7 @@ if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
 
 #: a consistent start: (q, v, a, lam, partition)
-State: TypeAlias = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition]
+State: TypeAlias = "tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition]"
 
 
 #: Seeds of the assembly branch search (initial.guess not given): angles of the free bars drawn

@@ -19,7 +19,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from symgen import __version__, cache
-from symgen.numerics.model_form import ModelFormNotEstimated, model_form_estimate
+from symgen.scene.model import CHECK_KINDS
 from symgen.scene.strain import AUTO, StrainChoice
 
 if TYPE_CHECKING:
@@ -34,8 +34,6 @@ R = TypeVar("R")
 #: (3: the phase drift along the run, the exact bar's strain to eta'^4/8; 4: the drift without the
 #: response forced at a constant driver's harmonics)
 ESTIMATOR_VERSION = "4"
-#: output kinds that do not decide (zero to round-off in every model)
-NOT_DECIDING = ("closure_residual",)
 
 
 def _question(scene: Scene) -> dict[str, Any]:
@@ -80,6 +78,8 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
     """The decision after a complete von Karman run ``result`` of the "auto" scene of ``mech``
     (remembered), or None when its model form cannot be estimated (the scene keeps von Karman,
     provisionally)."""
+    from symgen.numerics.model_form import ModelFormNotEstimated, model_form_estimate  # only to decide
+
     scene = mech.scene
     try:
         est = model_form_estimate(mech, result)
@@ -87,7 +87,7 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
         # not estimated (the reason is the sidecar's error estimate): von Karman, provisionally
         return None
     kinds = {o.name: o.kind for o in scene.outputs}
-    values = {n: v for n, v in est.outputs.items() if kinds.get(n) not in NOT_DECIDING}
+    values = {n: v for n, v in est.outputs.items() if kinds.get(n) not in CHECK_KINDS}
     accuracy = float(scene.simulation.accuracy)
     worst = max(values, key=lambda n: values[n]) if values else ""
     top = values.get(worst, 0.0)

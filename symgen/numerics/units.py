@@ -31,10 +31,14 @@ closure_residual       per l0 (a solver check)      1                        1
 from __future__ import annotations
 
 from dataclasses import dataclass
+from collections.abc import Iterable, Iterator
 from typing import TYPE_CHECKING
 
-import numpy as np
-from numpy.typing import ArrayLike
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.errors import SceneError
 from symgen.scene.units import OUTPUT_SCALE, output_factor
@@ -83,6 +87,16 @@ class ResultUnits:
         values = np.asarray(values, dtype=float).reshape(len(tau), -1)
         factors = np.array([c.factor for c in self.outputs], dtype=float)
         return np.asarray(tau, dtype=float) * self.time.factor, values * factors
+
+    def convert_rows(self, rows: Iterable[list[float]]) -> Iterator[list[float]]:
+        """:meth:`convert` of rows [tau, outputs..., more...] (floats, without numpy): the time and
+        the outputs times their factors (the same products, to the bit), the columns after the
+        outputs (a run's coordinates) as they are."""
+        factors = [self.time.factor, *(c.factor for c in self.outputs)]
+        k = len(factors)
+        if all(f == 1.0 for f in factors):  # x * 1.0 is x
+            return iter(rows)
+        return ([x * f for x, f in zip(row, factors)] + row[k:] for row in rows)
 
     def as_dict(self) -> dict[str, object]:
         return {

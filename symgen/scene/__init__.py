@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-from symgen.scene.expressions import parse_tau_expression, tau_symbol
 from symgen.scene.loader import load_scene, parse_scene, scene_hash, scene_of
 from symgen.scene.model import (
     GROUND,
@@ -24,6 +23,16 @@ from symgen.scene.model import (
     Simulation,
 )
 from symgen.scene.overrides import apply_overrides
+
+
+def __getattr__(name: str) -> object:
+    """The expressions' parser, imported on first use: a scene without expressions never needs it."""
+    if name in ("parse_tau_expression", "tau_symbol"):
+        from symgen.scene import expressions
+
+        return getattr(expressions, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "load_scene",

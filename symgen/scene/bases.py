@@ -61,6 +61,8 @@ peak, -> 5 + 8 dynamic, 0.070 %; docs/exact-bars.md).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import contextlib
 import functools
 import hashlib
@@ -68,7 +70,10 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+else:
+    from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen.scene.model import GROUND, Body, JointEnd, Scene
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from symgen.scene.expressions import EXPRESSION_HINT, SECONDS_HINT, splice_seconds
 from symgen.scene.mechanism import BarSpec
 from symgen.scene.model import GROUND, Body, BodyDeformation, Driver, Effects, Initial, Joint, Load
 from symgen.scene.reader import REQUIRED, Reader, describe, is_number, join
@@ -54,8 +53,20 @@ def expression_text(r: Reader, value: str, key: str, scales: Scales, unit: float
     error = seconds_error(value, scales.omega, unit) if scales.si else expression_error(value)
     if error is not None:
         shown = value if len(value) <= 80 else value[:60] + f"... ({len(value)} characters)"
-        r.fail(key, f"invalid expression {shown!r}: {error}", hint + (SECONDS_HINT if scales.si else EXPRESSION_HINT))
-    return splice_seconds(value, scales.omega, unit) if scales.si else value
+        r.fail(key, f"invalid expression {shown!r}: {error}", hint + _expression_hint(scales.si))
+    if not scales.si:
+        return value
+    from symgen.scene.expressions import splice_seconds
+
+    return splice_seconds(value, scales.omega, unit)
+
+
+def _expression_hint(si: bool) -> str:
+    """What an expression may hold (:mod:`symgen.scene.expressions`, imported here: a scene
+    without expressions never needs it)."""
+    from symgen.scene.expressions import EXPRESSION_HINT, SECONDS_HINT
+
+    return SECONDS_HINT if si else EXPRESSION_HINT
 
 
 def value_or_expression(
@@ -76,7 +87,7 @@ def value_or_expression(
         r.fail(
             join(path, key),
             f"must be a number or an expression of {of}, got {describe(value)}",
-            SECONDS_HINT if scales.si else EXPRESSION_HINT,
+            _expression_hint(scales.si),
         )
     return r.as_number(value, join(path, key))
 
@@ -218,7 +229,7 @@ def _law(r: Reader, table: dict, path: str, scales: Scales) -> str:
         r.fail(
             key,
             f"must be a string expression of {'t (in seconds)' if scales.si else 'tau'}, got {describe(value)}",
-            hint + (SECONDS_HINT if scales.si else EXPRESSION_HINT),
+            hint + _expression_hint(scales.si),
         )
     return expression_text(r, value, key, scales, 1.0, hint)
 

@@ -163,6 +163,9 @@ OUTPUT_KINDS = (
     "energy",
     "closure_residual",
 )
+#: output kinds that check the solver (zero to round-off in every model, not an approximation of
+#: anything): no error estimate is given for them and no run-time decision is taken on them
+CHECK_KINDS = ("closure_residual",)
 
 
 @dataclass(frozen=True)

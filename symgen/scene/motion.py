@@ -23,8 +23,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from symgen.scene.expressions import derivative, first_non_finite, parse_tau_expression, tau_symbol
-
 
 def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
     """theta - theta0 of the Kane-Ryan-Banerjee spin-up to ``rate`` over ``ramp`` (tau units).
@@ -44,6 +42,8 @@ def ramp_law(tau: Any, rate: Any, ramp: Any) -> Any:
 
 def user_law(text: str, tau: Any) -> Any:
     """The scene's ``law`` text as an expression of the given ``tau`` symbol."""
+    from symgen.scene.expressions import parse_tau_expression
+
     expr = parse_tau_expression(text)
     return expr.xreplace({s: tau for s in expr.free_symbols if getattr(s, "name", "") == "tau"})
 
@@ -91,6 +91,8 @@ def check_finite(driver: Any, t_end: float, samples: int = 64) -> tuple[float, s
     """First (tau, what) in [0, t_end] where theta, theta' or theta'' is not a finite real
     number, else None (:func:`symgen.scene.expressions.first_non_finite` of each: a pole counts
     even between the samples). ``driver`` has numeric ``initial``, ``rate``, ``ramp``."""
+    from symgen.scene.expressions import derivative, first_non_finite, tau_symbol
+
     tau = tau_symbol()
     theta = driver_angle(driver, tau, driver.initial or 0.0, driver.rate, driver.ramp)
     exprs = (
