@@ -321,15 +321,19 @@ def recall(question: dict[str, Any]) -> tuple[bool, Any]:
     does not verify is reported in one line and the check is made again."""
     try:
         path, text = _check_path(question)
-        data = read_bytes(path, _MAX_CHECK_BYTES)
-    except (FileNotFoundError, ValueError):  # ValueError: not a question JSON can hold
+    except ValueError:  # not a question JSON can hold
         return False, None
     try:
+        # an entry that cannot be opened (the cache folder a file, say) is checked again, as one
+        # that does not verify
+        data = read_bytes(path, _MAX_CHECK_BYTES)
         doc = json.loads(unpack(_CHECK_KIND, data))  # keyed hash checked before any parsing
         if not isinstance(doc, dict) or set(doc) != {"question", "answer"}:
             raise InvalidEntry("is not a remembered verdict")
         if json.dumps(doc["question"], sort_keys=True, separators=(",", ":")).encode() != text:
             raise InvalidEntry("holds the verdict of another question")
+    except FileNotFoundError:
+        return False, None
     except InvalidEntry as exc:
         print(f"symgen: warning: cache entry {path} {exc.reason}; checking again", file=sys.stderr)
         return False, None
