@@ -74,3 +74,23 @@ def test_a_four_bar_without_a_guess_assembles_and_says_which_branch(tmp_path, ca
     assert "assembled on branch 1 of 2 found" in note and "set initial.guess = {" in note, note
     ref = simulate(mechanism(ROOT / "examples" / "four_bar.toml", over), backend="vm")
     np.testing.assert_allclose(res.outputs, ref.outputs, rtol=1e-6, atol=1e-9 * np.abs(ref.outputs).max())
+
+
+def test_the_branch_note_is_told_once_per_run(tmp_path, capsys, monkeypatch):
+    """A run without initial.guess at a singular start told its branch note once per start it
+    computed: three times for one `symgen simulate` (the run, then the error estimate's reruns of
+    the run and of its richer model). Told once; the reruns still start on the same branch."""
+    from symgen.api import simulate_scene
+    from symgen.numerics import start
+    from symgen.scene import load_scene
+
+    monkeypatch.setattr(start, "_NOTES_TOLD", set())
+    text = SLIDER.read_text().replace("direction = [1.0, 0.0]", "direction = [0.0, 1.0]")
+    assert "direction = [0.0, 1.0]" in text
+    path = tmp_path / "vertical.toml"
+    path.write_text(text)
+    scene = load_scene(path, ["simulation.cycles=0.25"])
+    simulate_scene(scene, out=tmp_path / "vertical.csv")
+    err = capsys.readouterr().err
+    assert err.count("assembled on branch 1 of 2 found") == 1, err
+    assert "error_estimate" in (tmp_path / "vertical.json").read_text()

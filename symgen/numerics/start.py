@@ -37,6 +37,9 @@ State: TypeAlias = "tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partit
 #: Seeds of the assembly branch search (initial.guess not given): angles of the free bars drawn
 #: from this generator, this many; the first that assembles to a regular position is taken.
 BRANCH_SEED, BRANCH_TRIES = 20261125, 64
+#: the branch notes told on stderr in this process (each once: the estimate's reruns of the
+#: run and of its richer model start from the same guess)
+_NOTES_TOLD: set[str] = set()
 
 
 def _assembled(mech: Mechanism, t0: float, q: np.ndarray) -> tuple[Partition, np.ndarray, Partition]:
@@ -91,12 +94,14 @@ def _find_branch(
         return ", ".join(f"{mech.coords[i].body} = {float(np.angle(np.exp(1j * q[i]))):.4g}" for i in free)
 
     others = "; ".join(f"{{ {angles(r[1])} }}" for _, r in found[1:])
-    print(
+    note = (
         f"symgen: note: initial.guess is not given and the bars at angle 0 do not assemble "
         f"({failure.cause}); assembled on branch 1 of {len(found)} found: {{ {angles(found[0][1][1])} }}"
-        + (f"; for another, set initial.guess = {others}" if others else ""),
-        file=sys.stderr,
+        + (f"; for another, set initial.guess = {others}" if others else "")
     )
+    if note not in _NOTES_TOLD:  # once per process: the estimate's reruns start the same way
+        _NOTES_TOLD.add(note)
+        print(note, file=sys.stderr)
     return found[0]
 
 
