@@ -106,7 +106,7 @@ else:
     from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen import cache
-from symgen.ir.records import RowKind
+from symgen.ir.records import CoordKind, RowKind
 from symgen.ir.shape_samples import ShapeSamples, samples_question
 from symgen.scene.model import CHECK_KINDS
 
@@ -454,8 +454,9 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     ]
     moved: dict[str, float] = {}
     still = []
+    prescribed = _prescribed(mech, tau_rows, Q, V, Lam, peaks)
     for j, name in enumerate(names):
-        if kinds.get(name) in CHECK_KINDS or peaks[j] == 0:
+        if kinds.get(name) in CHECK_KINDS or peaks[j] == 0 or j in prescribed:
             continue
         size = float(np.abs(change[:, j]).max())
         drift = sum(
@@ -495,6 +496,34 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     if skipped:
         method += f"; slot guides not estimated: {', '.join(skipped)}"
     return ModelFormEstimate(out, stiff, method, skipped)
+
+
+def _prescribed(
+    mech: Mechanism, tau: np.ndarray, Q: np.ndarray, V: np.ndarray, Lam: np.ndarray, peaks: np.ndarray
+) -> set[int]:
+    """The columns of the outputs that are functions of the time alone (a driven crank's angle,
+    a point of a rigid driven crank): they read no coordinate, rate or multiplier but the angle
+    drivers' own angles, so no bar model changes them, and their model-form estimate is 0 (the
+    drift would read the prescribed motion's content in a mode's band as free vibration). Found by
+    moving every other coordinate, rate and multiplier at a few of the rows."""
+    driven = {d.body for d in mech.scene.drivers if d.kind == "angle"}
+    fixed = [i for i, c in enumerate(mech.coords) if c.kind is CoordKind.THETA and c.body in driven]
+    if not fixed:
+        return set()
+    rows = np.unique(np.linspace(0, len(tau) - 1, min(3, len(tau))).astype(int))
+    rng = np.random.default_rng(0)
+    q, v, lam = Q[rows], V[rows], Lam[rows]
+    dq = rng.uniform(-1e-3, 1e-3, q.shape)
+    dq[:, fixed] = 0.0
+    dv = rng.uniform(-1e-3, 1e-3, v.shape)
+    dv[:, fixed] = 0.0
+    dlam = rng.uniform(-1e-3, 1e-3, lam.shape) * (1.0 + np.abs(lam))
+    zero = np.zeros_like(q)
+    out = mech.f["out"]
+    base = _mapped(out, len(rows), tau[rows], q, v, zero, lam, mech.p)[0]
+    moved = _mapped(out, len(rows), tau[rows], q + dq, v + dv, zero, lam + dlam, mech.p)[0]
+    change = np.abs(moved - base).max(axis=1)
+    return {j for j in range(len(peaks)) if peaks[j] > 0 and change[j] <= 1e-12 * peaks[j]}
 
 
 #: the configurations along the run where the coupled modes are computed (their shapes and
