@@ -172,7 +172,12 @@ def run_with_axial_choice(
 
     if not decidable(result, failure) or not switchable(mech.scene) or kept_as_is(mech.scene):
         return mech, result, failure
-    decided = decide(mech, result)
+    try:
+        decided = decide(mech, result)
+    except Exception:
+        if failure is None:
+            raise
+        return mech, result, failure  # a partial run its estimate cannot judge: its own failure stands
     if decided is None:
         return mech, result, failure
     if say is not None:

@@ -173,7 +173,12 @@ def _run_with_strain_choice(
         mech.provisional = False
     if not decidable(result, failure):
         return mech, result, failure
-    choice = decide(mech, result)
+    try:
+        choice = decide(mech, result)
+    except Exception:
+        if failure is None:
+            raise
+        return mech, result, failure  # a partial run its estimate cannot judge: its own failure stands
     if choice is None:
         return mech, result, failure
     decided = with_choice(mech.scene, choice)
