@@ -1,5 +1,6 @@
 """The run-time half of ``effects.axial = "auto"`` for the bars its a-priori rule makes
-quasi-static (``symgen.model.structure.axial_treatment``): after a complete run, the error
+quasi-static (``symgen.model.structure.axial_treatment``): after a complete run (or one stopped
+early with a partial result, judged up to the stop), the error
 estimate's axial part (:mod:`symgen.numerics.axial_drift`: the phase drift of the free motion with
 the stretch's inertia the quasi-static treatment leaves out, and the start's axial ringing, force
 outputs included) decides whether the run is made again with those bars' axial dynamics kept: when
@@ -164,11 +165,19 @@ def run_with_axial_choice(
     say: Callable[[str], None] | None = None,
 ) -> tuple[Mechanism, R | None, BaseException | None]:
     """After ``run(mech)`` gave (``result``, ``failure``): when the scene may still keep axial
-    dynamics and the complete run's axial part says so, the run made again with them kept
+    dynamics and the run's axial part says so (a complete run, or one stopped early with a partial
+    result, judged up to the stop: :func:`symgen.numerics.results.decidable`), the run made again with them kept
     (``load``-ed); else the run as it is (without deciding where a remembered decision kept it)."""
-    if failure is not None or result is None or not switchable(mech.scene) or kept_as_is(mech.scene):
+    from symgen.numerics.results import decidable
+
+    if not decidable(result, failure) or not switchable(mech.scene) or kept_as_is(mech.scene):
         return mech, result, failure
-    decided = decide(mech, result)
+    try:
+        decided = decide(mech, result)
+    except Exception:
+        if failure is None:
+            raise
+        return mech, result, failure  # a partial run its estimate cannot judge: its own failure stands
     if decided is None:
         return mech, result, failure
     if say is not None:

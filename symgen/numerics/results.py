@@ -52,6 +52,7 @@ __all__ = [
     "WrittenRun",
     "atomic_write",
     "attempt",
+    "decidable",
     "build_sidecar",
     "csv_text",
     "rows_text",
@@ -196,6 +197,21 @@ def attempt(run: Callable[[], R]) -> tuple[R | None, SimulationError | Interrupt
         return run(), None
     except (SimulationError, Interrupted) as err:
         return getattr(err, "partial", None), err
+
+
+def decidable(result: Any, failure: BaseException | None) -> bool:
+    """A run whose outputs the run-time halves of the "auto" rules (the bar formulation, the
+    axial treatment: :mod:`symgen.numerics.strain_choice`, :mod:`symgen.numerics.axial_choice`)
+    may judge: a complete run, or one stopped early by a :class:`SimulationError` (the bars' range,
+    a solver failure) with its partial result of at least two output samples, which they judge up
+    to the stop (a run that whips beyond the model's range later must still get the model its
+    first part needs: the soft triple pendulum of docs/exact-bars.md, "A run that stops early").
+    Never an interrupted run (SIGINT/SIGTERM: the user stopped it)."""
+    if result is None or isinstance(failure, Interrupted):
+        return False
+    if failure is None:
+        return True
+    return isinstance(failure, SimulationError) and len(getattr(result, "tau", ())) >= 2
 
 
 def build_sidecar(

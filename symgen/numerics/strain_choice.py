@@ -140,7 +140,8 @@ def run_with_strain_choice(
 ) -> tuple[Mechanism, R | None, BaseException | None]:
     """``run(mech)`` -> (mechanism, result, failure), with "auto" decided when the scene of
     ``mech`` may still switch (:func:`resolved` it first to use a remembered decision): after a
-    complete von Karman run its model-form estimate decides, and the run is made again with the
+    complete von Karman run (or one stopped early with a partial result:
+    :func:`symgen.numerics.results.decidable`, judged up to the stop) its model-form estimate decides, and the run is made again with the
     exact bar (``load``-ed) when it says so. Then ``effects.axial = "auto"``'s run-time half
     (:func:`symgen.numerics.axial_choice.run_with_axial_choice`) on the run it gave, then the
     chosen counts' (:func:`symgen.numerics.counts_choice.run_with_counts_choice`, where
@@ -159,6 +160,8 @@ def _run_with_strain_choice(
     run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
     say: Callable[[str], None] | None = None,
 ) -> tuple[Mechanism, R | None, BaseException | None]:
+    from symgen.numerics.results import decidable
+
     if not switchable(mech.scene):
         result, failure = run(mech)
         return mech, result, failure
@@ -169,9 +172,14 @@ def _run_with_strain_choice(
         result, failure = run(mech)
     finally:
         mech.provisional = False
-    if failure is not None or result is None:
+    if not decidable(result, failure):
         return mech, result, failure
-    choice = decide(mech, result)
+    try:
+        choice = decide(mech, result)
+    except Exception:
+        if failure is None:
+            raise
+        return mech, result, failure  # a partial run its estimate cannot judge: its own failure stands
     if choice is None:
         return mech, result, failure
     decided = with_choice(mech.scene, choice)

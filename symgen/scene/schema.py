@@ -570,8 +570,8 @@ EFFECTS = Table(
             "ringing from a start that is not quasi-static (the jump to the start's quasi-static stretch, "
             "against the peaks of the outputs that read deflections, positions and angles, less what damping "
             "takes over the run) is within simulation.accuracy, is quasi-static, "
-            "else dynamic; after a complete run with quasi-static bars, the run's own axial estimate decides "
-            "again (the free motion's phase drift from the stretch's inertia, and the start's axial ringing "
+            "else dynamic; after a run with quasi-static bars (complete, or stopped early: judged up to the stop), "
+            "the run's own axial estimate decides again (the free motion's phase drift from the stretch's inertia, and the start's axial ringing "
             "measured by a window run with the axial dynamics kept, force outputs included): above "
             "simulation.accuracy the run is made again with the axial dynamics kept, and the decision is "
             "remembered for the scene; "
@@ -618,8 +618,8 @@ EFFECTS = Table(
             "strain",
             "string",
             '"auto" (the default): von Karman, or the exact bar where a run\'s model-form estimate of von '
-            "Karman (the curvature and strain terms it leaves out) exceeds simulation.accuracy on an output: symgen "
-            "simulate then runs the scene again with the exact bar, remembers the decision for the scene, and "
+            "Karman (the curvature and strain terms it leaves out) exceeds simulation.accuracy on an output (a "
+            "run stopped early is judged up to the stop): symgen simulate then runs the scene again with the exact bar, remembers the decision for the scene, and "
             "the sidecar (strain) says which and why; later runs, check, effects and latex use the decision a run "
             "remembered, derive and emit-c von Karman (scenes "
             'with a slot joint or geometric_stiffening = false keep it). "von_karman" (energy-consistent: '
