@@ -139,7 +139,8 @@ class RangeRule:
     """Where a run of the exact bar (``effects.strain = "exact"``) leaves the accuracy its scene
     asks for (``simulation.accuracy``), by the bars' slopes: the warning of
     ``symgen.numerics.checks.range_record`` (the sidecar's ``range``, a line on stderr), made
-    from the run's coordinates after the run, the same for both solvers. The stop at the edge
+    from the run's coordinates (IDAS) or the maxima the C library kept over the same rows, the
+    same for both solvers. The stop at the edge
     of the model is ``SolverPolicy.slope_limit``, in both runners.
 
     The sixth-order bar leaves out the curvature's eta'^6 eta''^2 and the strain's eta'^6 / 16:
