@@ -82,7 +82,7 @@ class SolverPolicy:
     driver_step: float = 1e-4
     #: Range of the bar models: the run stops when a bar's largest slope |eta'(xi)| (its transverse
     #: amplitudes times the shape functions' first derivatives, at the points of
-    #: ``symgen.numerics.checks.slope_tables``) exceeds this. The exact bar's curvature keeps
+    #: ``symgen.numerics.checks.range_tables``) exceeds this. The exact bar's curvature keeps
     #: kappa^2 = eta''^2 (1 + s + s^2), s = eta'^2, of eta''^2 / (1 - s): it leaves out s^3 = 0.12
     #: of the local bending energy at 0.7, and its measured output error, about
     #: ``RANGE.error_per_slope6`` s^3 of peak, reaches half the peak there: an expansion no longer
@@ -90,7 +90,7 @@ class SolverPolicy:
     #: 44 deg (eta' = sin of it), beyond the moderate rotations of the von Karman strain.
     slope_limit: float = 0.7
     #: ... and when its largest stretch ||r'| - 1| (r' = (1 + zeta', eta') its tangent from the axial
-    #: and transverse amplitudes, at the same points: ``checks.stretch_tables``) exceeds this: the
+    #: and transverse amplitudes, at the same points: ``checks.range_tables``) exceeds this: the
     #: bar's elastic law is the small-strain one, one lambda (EA) and one mu (EI) at every strain.
     #: Beyond a few percent it no longer says which bar it is: the strain measures it may be
     #: written in (engineering, Green-Lagrange, logarithmic) differ by eps / 2 in the axial force,
