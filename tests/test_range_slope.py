@@ -212,10 +212,14 @@ EXAMPLE_FILES = sorted((Path(__file__).resolve().parent.parent / "examples").glo
 def test_examples_stay_well_inside_the_range(path, tmp_path):
     """Every example as a user runs it: no range warning, and its bars' largest slopes below the
     exact bar's warning limit at the example's accuracy, whatever bar it ran (measured: 1e-4 to
-    0.107, the six-bar's coupler, against 0.368), so the exact bar would not warn either."""
+    0.107, the six-bar's coupler, against 0.368), so the exact bar would not warn either; their
+    largest stretches below a tenth of the stop."""
     out = tmp_path / "run.csv"
     simulate_scene(path, out=out)
     record = json.loads(out.with_suffix(".json").read_text())
     assert record["range"]["warnings"] == []
     limit = RANGE.warning_limit(record["accuracy"])
     assert all(v["slope"] < limit / 2 for v in record["range"]["largest_slope"].values()), record["range"]
+    # and their stretches (the strain, or the axial functions' truncation of the shortening) far
+    # inside the stop
+    assert all(v["stretch"] < POLICY.stretch_limit / 10 for v in record["range"]["largest_stretch"].values())
