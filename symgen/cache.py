@@ -247,7 +247,8 @@ def verify(label: str, data: bytes, recorded: object, name: str | None = None) -
 
 
 def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -> bytes:
-    """The bytes of a regular file of at most ``limit`` bytes (else :class:`InvalidEntry`).
+    """The bytes of a regular file of at most ``limit`` bytes (else :class:`InvalidEntry`, whose
+    reason does not name the file: the caller's report does, once, as the entry or its file).
 
     ``dir_fd``: read ``name`` relative to that open folder (a reader that opened an entry's
     folder keeps reading that folder even if a writer renames another one into its place).
@@ -258,20 +259,20 @@ def read_bytes(name: str | os.PathLike, limit: int, dir_fd: int | None = None) -
     except OSError as exc:
         if isinstance(exc, FileNotFoundError):
             raise
-        raise InvalidEntry(f"{os.fspath(name)} cannot be opened ({exc.strerror or exc})") from None
+        raise InvalidEntry(f"cannot be opened ({exc.strerror or exc})") from None
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):  # before fdopen, which refuses a folder with IsADirectoryError
-            raise InvalidEntry(f"{os.fspath(name)} is not a regular file")
+            raise InvalidEntry("is not a regular file")
     except BaseException:
         os.close(fd)
         raise
     with os.fdopen(fd, "rb") as fh:
         if st.st_size > limit:
-            raise InvalidEntry(f"{os.fspath(name)} is {st.st_size} bytes, more than the {limit} an entry may have")
+            raise InvalidEntry(f"is {st.st_size} bytes, more than the {limit} an entry may have")
         data = fh.read(limit + 1)
     if len(data) > limit:
-        raise InvalidEntry(f"{os.fspath(name)} grew beyond {limit} bytes while read")
+        raise InvalidEntry(f"grew beyond {limit} bytes while read")
     return data
 
 

@@ -82,17 +82,25 @@ class SolverPolicy:
     driver_step: float = 1e-4
     #: Range of the bar models: the run stops when a bar's largest slope |eta'(xi)| (its transverse
     #: amplitudes times the shape functions' first derivatives, at the points of
-    #: ``symgen.numerics.checks.slope_tables``) exceeds this. The exact bar's curvature keeps
+    #: ``symgen.numerics.checks.range_tables``) exceeds this. The exact bar's curvature keeps
     #: kappa^2 = eta''^2 (1 + s + s^2), s = eta'^2, of eta''^2 / (1 - s): it leaves out s^3 = 0.12
     #: of the local bending energy at 0.7, and its measured output error, about
     #: ``RANGE.error_per_slope6`` s^3 of peak, reaches half the peak there: an expansion no longer
     #: of the bar (docs/exact-bars.md, "The range of the expansion"). 0.7 is also a rotation of
     #: 44 deg (eta' = sin of it), beyond the moderate rotations of the von Karman strain.
     slope_limit: float = 0.7
-    #: ... and when its axial amplitudes sum to more than this fraction of its length: 10 % strain
-    #: is beyond any elastic metal (steel yields near 0.2 %); only a buckled or overloaded bar
-    #: gets there, and the linear elastic law does not hold.
-    stretch_limit: float = 0.1
+    #: ... and when its largest stretch ||r'| - 1| (r' = (1 + zeta', eta') its tangent from the axial
+    #: and transverse amplitudes, at the same points: ``checks.range_tables``) exceeds this: the
+    #: bar's elastic law is the small-strain one, one lambda (EA) and one mu (EI) at every strain.
+    #: Beyond a few percent it no longer says which bar it is: the strain measures it may be
+    #: written in (engineering, Green-Lagrange, logarithmic) differ by eps / 2 in the axial force,
+    #: 2.5 % at 0.05, and the cross-section's contraction (Poisson's nu = 0.3-0.5) changes the
+    #: bending stiffness by about 4 nu eps, 6-10 % there; and 5 % is beyond the elastic range of
+    #: the materials a bar is made of (metals yield at 0.2-0.5 %, stiff polymers at 1-4 %). Not
+    #: the axial amplitudes themselves: on a bent bar they carry its shortening (1/2 int eta'^2
+    #: and on, 0.1 of the length at a slope of 0.55), which is not a strain (docs/exact-bars.md,
+    #: "The range of the expansion").
+    stretch_limit: float = 0.05
     #: Divergence check of the quasi-static start (beyond a buckling load): an eigenvalue s of
     #: the linearised motion of the deformation amplitudes about the start is a divergence when
     #: |Im s| <= this * scale and Re s > this * scale, scale = max(1, max |s|). Eigenvalues from
@@ -131,7 +139,8 @@ class RangeRule:
     """Where a run of the exact bar (``effects.strain = "exact"``) leaves the accuracy its scene
     asks for (``simulation.accuracy``), by the bars' slopes: the warning of
     ``symgen.numerics.checks.range_record`` (the sidecar's ``range``, a line on stderr), made
-    from the run's coordinates after the run, the same for both solvers. The stop at the edge
+    from the run's coordinates (IDAS) or the maxima the C library kept over the same rows, the
+    same for both solvers. The stop at the edge
     of the model is ``SolverPolicy.slope_limit``, in both runners.
 
     The sixth-order bar leaves out the curvature's eta'^6 eta''^2 and the strain's eta'^6 / 16:
@@ -157,18 +166,23 @@ RANGE = RangeRule()
 def range_message(body: str, what: str, limit: float, size: str) -> str:
     """The words of the stop at the edge of a bar model, shared by the Python runners
     (``symgen.numerics.checks.beyond_range``) and the emitted C (``symgen.backends.c.context``):
-    ``what`` "slope" (``POLICY.slope_limit``) or the axial displacement (``stretch_limit``);
-    ``size``: the value in words (Python's run gives the number, the C's says "this" and its
-    runtime appends the number)."""
+    ``what`` "slope" (``POLICY.slope_limit``) or "stretch" (``POLICY.stretch_limit``); ``size``:
+    the value in words (Python's run gives the number, the C's says "this" and its runtime
+    appends the number)."""
     if what == "slope":
         amount = "its largest slope |eta'| reaches"
         rest = (
             "the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the "
             "von Karman strain holds for moderate rotations"
         )
+    elif what == "stretch":
+        amount = "its largest stretch ||r'| - 1| reaches"
+        rest = (
+            "the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff "
+            "bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch"
+        )
     else:
-        amount = f"its {what} amplitudes sum to"
-        rest = "the bar equations hold for small strains"
+        raise ValueError(f"no range check of {what!r} (slope or stretch)")
     return (
         f"bar '{body}' is deformed beyond the range of the model: {amount} {size} (limit {limit:g}; {rest}): "
         "a load beyond a buckling load, or forces the bar cannot carry"

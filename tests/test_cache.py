@@ -28,6 +28,7 @@ from symgen.backends.casadi import store as casadi_io
 from symgen.backends.casadi.pipeline import compile_scene
 from symgen.ir.parameters import parameter_values
 from symgen.scene import load_scene
+from symgen.numerics import compiled
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "examples" / "slider_crank.toml"
@@ -488,6 +489,22 @@ def test_read_bytes_refuses_a_folder_as_an_entry(tmp_path):
             cache.read_bytes("model.so", 1 << 20, dir_fd=fd)
     finally:
         os.close(fd)
+
+
+def test_a_cache_warning_names_the_entry_once(root, capsys):
+    """The reasons of ``read_bytes`` do not name the file: the warning that reports them does, once
+    (a remembered check that is a folder, a compiled entry's manifest that is one)."""
+    question = {"check": "names once", "version": 1}
+    path, _ = cache._check_path(question)
+    path.mkdir(parents=True)
+    assert cache.recall(question) == (False, None)
+    err = capsys.readouterr().err
+    assert err.count(path.name) == 1 and f"cache entry {path} is not a regular file" in err, err
+    where = root / "compiled" / "entry"
+    (where / compiled.MANIFEST).mkdir(parents=True)
+    with pytest.raises(cache.InvalidEntry) as exc:
+        compiled.read_verified(where, {})
+    assert exc.value.reason == f"{compiled.MANIFEST} is not a regular file"
 
 
 # ----------------------------------------------------------------------------- lazy Functions

@@ -254,22 +254,22 @@ def test_a_cached_c_solver_run_is_lean(tmp_path):
     )
 
 
-def test_a_cached_c_run_without_estimate_is_lean(tmp_path):
-    """``simulate --solver c --estimate off`` from the cache (with the states too) imports neither
-    CasADi nor subprocess. Numpy: nothing on the run's way needs it (the scene with its remembered bases, the parameters as floats, the library's rows in a
+def test_a_cached_c_run_without_estimate_imports_no_numpy(tmp_path):
+    """``simulate --solver c --estimate off`` from the cache (with the states too) imports no
+    numpy: the scene with its remembered bases, the parameters as floats, the library's rows in a
     ctypes buffer, the CSV and the sidecar written from them (``symgen.lazy``,
-    ``SimResult.of_rows``; the arrays made on first read: tests/test_run_rows.py), and starts no
-    process (the compiler's ``--version`` remembered: no subprocess). The error estimate (its
-    reruns, CasADi) and the Python API (its bases chosen again) do import numpy. So does, for now, the
-    sidecar's range record (each bar's largest slope over the run, ``checks.range_record``, from
-    the run's q after the run): a record made by the C library during the run would take numpy off
-    this path again."""
+    ``SimResult.of_rows``; the arrays made on first read: tests/test_run_rows.py), the sidecar's
+    range record from the maxima the C library kept during the run (``SimResult.range_maxima``,
+    ``checks.range_record``), and starts no process (the compiler's ``--version`` remembered: no
+    subprocess). The error estimate (its reruns, CasADi) and the Python API (its bases chosen
+    again) do import numpy."""
     scene = str(ROOT / "examples" / "slider_crank.toml")
     over = short(scene)
     c_off = ["--solver", "c", "--estimate", "off"]
     heavy = (
         *HEAVY,
         "casadi",
+        "numpy",
         "subprocess",
     )  # subprocess: no process started (the compiler's version remembered)
     _lean(

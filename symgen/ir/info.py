@@ -107,6 +107,14 @@ class ModelInfo:
                 groups.setdefault(c.body, ([], []))[c.kind is CoordKind.G].append(i)
         return {body: (tuple(f), tuple(g)) for body, (f, g) in groups.items()}
 
+    @property
+    def linear_strain(self) -> bool:
+        """The seed's linear strain (``effects.strain = "linear"``): its axis does not shorten as it
+        bends (zeta is not coupled to eta), so the tangent (1 + zeta', eta') of its amplitudes is
+        longer than the bar by about eta'^2 / 2 without a strain: the range check reads its own
+        strain zeta' (``symgen.numerics.checks.bar_ranges``, the C runtime's symgen_bar_range_)."""
+        return (self.structure.get("effects") or {}).get("strain") == "linear"
+
     @cached_property
     def inextensible_rows(self) -> tuple[int, ...]:
         """The inextensibility rows (effects.axial = "inextensible"), kept apart from the loop rows."""

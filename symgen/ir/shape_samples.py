@@ -60,13 +60,23 @@ class ShapeSamples:
     def nt(self) -> int:
         return len(self.trans0[0]) if self.trans0 else 0
 
+    def range_rows(self) -> tuple[int, ...]:
+        """The nodes of the range check: the first and last node of every piece of the quadrature
+        (``GAUSS_POINTS`` nodes each, in order), 0.0012 of a piece from its ends: a grid no
+        coarser than 1/16 of the bar, both ends of the bar included to that distance, on which a
+        slope's largest value is missed by less than 0.5 % of it."""
+        return tuple(i for i in range(len(self.xi)) if i % GAUSS_POINTS in (0, GAUSS_POINTS - 1))
+
     def slope_table(self) -> tuple[tuple[float, ...], ...]:
-        """psi_a'(xi_j) at the range check's points (``trans1``'s rows there): the first and last
-        node of every piece of the quadrature (``GAUSS_POINTS`` nodes each, in order), 0.0012 of
-        a piece from its ends: a grid no coarser than 1/16 of the bar, both ends of the bar
-        included to that distance, on which a slope's largest value is missed by less than 0.5 %
-        of it (``symgen.numerics.checks.beyond_range`` and the emitted C solver's range check)."""
-        return tuple(r for i, r in enumerate(self.trans1) if i % GAUSS_POINTS in (0, GAUSS_POINTS - 1))
+        """psi_a'(xi_j) at the range check's points (:meth:`range_rows` of ``trans1``): the bar's
+        slopes eta' there (``symgen.numerics.checks.beyond_range`` and the emitted C solver's
+        range check)."""
+        return tuple(self.trans1[i] for i in self.range_rows())
+
+    def stretch_table(self) -> tuple[tuple[float, ...], ...]:
+        """phi_k'(xi_j) at the same points (:meth:`range_rows` of ``axial1``): with the slopes, the
+        bar's tangent r' = (1 + zeta', eta') there and its stretch |r'| - 1."""
+        return tuple(self.axial1[i] for i in self.range_rows())
 
     def to_json(self) -> dict[str, Any]:
         return {

@@ -65,8 +65,9 @@ def shape_samples(body: dict[str, Any]) -> ShapeSamples:
 
 
 def remember_samples(structure: dict[str, Any]) -> None:
-    """Sample every bar of a derived model's ``structure`` that bends (its transverse count > 0)
-    into the cache, where the model-form estimate of its runs reads them."""
+    """Sample every elastic bar of a derived model's ``structure`` (its transverse or axial count
+    > 0) into the cache, where the model-form estimate and the range check of its runs read them
+    (an axially elastic bar that does not bend has a stretch check too)."""
     for body in structure.get("bodies", []):
-        if body.get("nt"):
+        if body.get("nt") or body.get("na"):
             shape_samples(body)

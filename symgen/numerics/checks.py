@@ -5,9 +5,10 @@ under the same policy, the C runtime's ``symgen/backends/c/runtime/symgen_solver
   coordinates (a singular position: a toggle, a change point), compared with
   ``POLICY.singular_ratio`` / ``POLICY.near_singular_ratio`` by the runners;
 * ``beyond_range``: a bar deformed beyond the range of the bar model (its largest slope beyond
-  ``POLICY.slope_limit``, its axial amplitudes beyond ``POLICY.stretch_limit``);
-* ``range_record``: where an exact bar's slopes pass the accuracy's limit (``RANGE``): a warning
-  made after the run from its coordinates, the same for both solvers;
+  ``POLICY.slope_limit``, its largest stretch ||r'| - 1| beyond ``POLICY.stretch_limit``);
+* ``range_record``: each bar's largest slope and stretch, and where an exact bar's slopes pass the
+  accuracy's limit (``RANGE``): a warning, from the run's coordinates (IDAS) or from the maxima
+  the C solver kept during its run over the same rows, the same for both solvers;
 * ``divergent_deformation``: a quasi-static state beyond a buckling load (a real, positive
   eigenvalue of the linearised motion of the amplitudes, ``POLICY.divergence_rtol``).
 """
@@ -61,99 +62,173 @@ def loop_row(mech: Mechanism, weights: ArrayLike) -> int:
     return int(np.argmax(w))
 
 
-#: the slope tables read in this process, by the model's structure key
-_SLOPES: dict[str, dict[str, np.ndarray]] = {}
+#: the range tables read in this process, by the model's structure key
+_TABLES: dict[str, dict[str, tuple[np.ndarray | None, np.ndarray | None]]] = {}
 
 
-def slope_tables(info: ModelInfo) -> dict[str, np.ndarray]:
-    """bar -> P (points x its transverse amplitudes): P[j, a] = psi_a'(xi_j), so that the bar's
-    slopes there are P @ g, at the points of :meth:`symgen.ir.shape_samples.ShapeSamples.slope_table`
-    (the model-form estimate's samples, from the signed cache). The emitted C solver's range
-    check reads the same tables (``symgen.backends.c.context``)."""
+def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
+    """bar -> (P, A): P[j, a] = psi_a'(xi_j) over its transverse amplitudes g, A[j, k] =
+    phi_k'(xi_j) over its axial amplitudes f (None: the bar has none), so that its slopes there
+    are P @ g and its tangent r' = (1 + A @ f, P @ g), at the points of
+    :meth:`symgen.ir.shape_samples.ShapeSamples.range_rows` (the model-form estimate's samples,
+    from the signed cache). The emitted C solver's range check reads the same tables
+    (``symgen.backends.c.context``)."""
     from symgen.numerics.model_form import _samples
 
-    if info.key in _SLOPES:
-        return _SLOPES[info.key]
+    if info.key in _TABLES:
+        return _TABLES[info.key]
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
     tables = {}
-    for body, (_, gi) in info.amplitudes.items():
-        if gi:
-            tables[body] = np.asarray(_samples(bodies[body]).slope_table(), dtype=float).reshape(-1, len(gi))
-    _SLOPES[info.key] = tables
+    for body, (fi, gi) in info.amplitudes.items():
+        samples = _samples(bodies[body])
+        P = np.asarray(samples.slope_table(), dtype=float).reshape(-1, len(gi)) if gi else None
+        A = np.asarray(samples.stretch_table(), dtype=float).reshape(-1, len(fi)) if fi else None
+        tables[body] = (P, A)
+    _TABLES[info.key] = tables
     return tables
 
 
+def slope_tables(info: ModelInfo) -> dict[str, np.ndarray]:
+    """bar -> P of :func:`range_tables`, the bars with transverse amplitudes."""
+    return {body: P for body, (P, _) in range_tables(info).items() if P is not None}
+
+
 def slopes(info: ModelInfo, Q: ArrayLike) -> dict[str, np.ndarray]:
-    """bar -> its largest |eta'| over the points of :func:`slope_tables`, per column of Q
+    """bar -> its largest |eta'| over the points of :func:`range_tables`, per column of Q
     (coordinates x samples)."""
+    return {body: s for body, (s, _) in bar_ranges(info, Q).items() if s is not None}
+
+
+def stretches(info: ModelInfo, Q: ArrayLike) -> dict[str, np.ndarray]:
+    """bar -> its largest stretch ||r'| - 1| over the points of :func:`range_tables`, per column
+    of Q (coordinates x samples), the bars with axial amplitudes."""
+    return {body: e for body, (_, e) in bar_ranges(info, Q).items() if e is not None}
+
+
+def stretch(axial: ArrayLike, slope: ArrayLike) -> np.ndarray:
+    """|r'| - 1 of the tangent r' = (1 + axial, slope) (zeta', eta'), as (2 zeta' + zeta'^2 +
+    eta'^2) / (1 + |r'|): no cancellation at small strains (the C runtime's symgen_bar_range_)."""
+    a, s = np.asarray(axial, dtype=float), np.asarray(slope, dtype=float)
+    e: np.ndarray = (2.0 * a + a * a + s * s) / (1.0 + np.sqrt((1.0 + a) * (1.0 + a) + s * s))
+    return e
+
+
+def bar_ranges(info: ModelInfo, Q: ArrayLike) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
+    """bar -> (its largest |eta'|, its largest ||r'| - 1|) over the points of
+    :func:`range_tables`, per column of Q (coordinates x samples); None where the bar has no
+    transverse (axial) amplitudes. A bar without axial amplitudes (``axial = false``) has no
+    stretch: its axis keeps its length by assumption, not by its amplitudes; the linear strain's
+    is zeta' (``ModelInfo.linear_strain``)."""
     Q = np.asarray(Q, dtype=float).reshape(info.n, -1)
-    tables = slope_tables(info)
-    return {body: np.abs(P @ Q[list(info.amplitudes[body][1])]).max(axis=0) for body, P in tables.items()}
+    linear = info.linear_strain
+    out = {}
+    for body, (P, A) in range_tables(info).items():
+        fi, gi = info.amplitudes[body]
+        eta = P @ Q[list(gi)] if P is not None else None
+        slope = np.abs(eta).max(axis=0) if eta is not None else None
+        size = None
+        if A is not None:
+            zeta = A @ Q[list(fi)]
+            size = np.abs(stretch(zeta, eta if eta is not None and not linear else 0.0)).max(axis=0)
+        out[body] = (slope, size)
+    return out
 
 
 def beyond_range(mech: Mechanism, Q: ArrayLike) -> tuple[int, str] | None:
     """First column of Q (coordinates x outputs) where a bar is deformed beyond the range of the
-    model (its largest slope beyond ``POLICY.slope_limit``, its axial amplitudes beyond
+    model (its largest slope beyond ``POLICY.slope_limit``, its largest stretch beyond
     ``POLICY.stretch_limit``), with the reason; None if none."""
     Q = np.asarray(Q, dtype=float).reshape(mech.n, -1)
     first = None
-    slope = slopes(mech.info, Q)
-    for body, (fi, gi) in mech.amplitudes.items():
-        sizes = []
-        if gi:
-            sizes.append((slope[body], POLICY.slope_limit, "slope"))
-        if fi:
-            sizes.append((np.abs(Q[list(fi)]).sum(axis=0), POLICY.stretch_limit, "axial displacement"))
-        for size, limit, what in sizes:
-            bad = np.nonzero(~(size <= limit))[0]  # NaN counts as beyond
+    for body, (slope, size) in bar_ranges(mech.info, Q).items():
+        for sizes, limit, what in ((slope, POLICY.slope_limit, "slope"), (size, POLICY.stretch_limit, "stretch")):
+            if sizes is None:
+                continue
+            bad = np.nonzero(~(sizes <= limit))[0]  # NaN counts as beyond
             if len(bad) and (first is None or bad[0] < first[0]):
-                first = (int(bad[0]), body, what, float(size[bad[0]]), limit)
+                first = (int(bad[0]), body, what, float(sizes[bad[0]]), limit)
     if first is None:
         return None
     k, body, what, value, limit = first
-    return k, range_message(body, what, limit, f"{value:.3g}" + ("" if what == "slope" else " of its length"))
+    return k, range_message(body, what, limit, f"{value:.3g}")
 
 
-def range_record(info: ModelInfo, tau: ArrayLike, Q: ArrayLike, accuracy: float) -> dict[str, Any]:
-    """The sidecar's ``range``: each bar's largest slope over the run and when; for the exact bar
-    (``effects.strain = "exact"``), the first time each bar's slope passed the accuracy's limit
-    (``RANGE.warning_limit``), a warning. The von Karman and linear bars' model form is the
-    error estimate's (``symgen.numerics.model_form``): no warning here. Q: samples x coordinates."""
-    tau = np.asarray(tau, dtype=float).ravel()
-    Q = np.asarray(Q, dtype=float).reshape(len(tau), info.n)
+#: the fields of one bar in the C solver's range record (``PREFIX_solver_range``), in its order
+C_RANGE_FIELDS = ("slope", "slope_tau", "over_tau", "over_slope", "stretch", "stretch_tau")
+
+
+def range_record(info: ModelInfo, tau: ArrayLike, Q: ArrayLike, accuracy: float, maxima: Any = None) -> dict[str, Any]:
+    """The sidecar's ``range``: each bar's largest slope and stretch over the run and when; for
+    the exact bar (``effects.strain = "exact"``), the first time each bar's slope passed the
+    accuracy's limit (``RANGE.warning_limit``), a warning. The von Karman and linear bars' model
+    form is the error estimate's (``symgen.numerics.model_form``): no warning here. Q: samples x
+    coordinates. ``maxima``: the same kept by the emitted C solver during its run over the same
+    rows (``symgen.numerics.csolver``: per bar in ``info.amplitudes``' order, the values of
+    :data:`C_RANGE_FIELDS`, with the run's warning limit), used instead of tau and Q: no numpy."""
     exact = (info.structure.get("effects") or {}).get("strain") == "exact"
     limit = RANGE.warning_limit(accuracy)
     record: dict[str, Any] = {
         "slope_limit": POLICY.slope_limit,
+        "stretch_limit": POLICY.stretch_limit,
         "warning_limit": limit if exact else None,
         "rule": (
             f"the exact bar's left-out terms cost about {RANGE.error_per_slope6:g} slope^6 of an output's peak: "
             f"a warning where a bar's largest slope passes (accuracy / {RANGE.error_per_slope6:g})^(1/6); "
-            f"the run stops at slope {POLICY.slope_limit:g}"
+            f"the run stops at slope {POLICY.slope_limit:g} or stretch {POLICY.stretch_limit:g}"
             if exact
             else "von Karman or linear bars: their model form is the error estimate's; the run stops at slope "
-            f"{POLICY.slope_limit:g}"
+            f"{POLICY.slope_limit:g} or stretch {POLICY.stretch_limit:g}"
         ),
         "largest_slope": {},
+        "largest_stretch": {},
         "warnings": [],
     }
-    if len(tau) == 0:
-        return record
-    for body, s in slopes(info, Q.T).items():
-        k = int(np.argmax(np.where(np.isfinite(s), s, -1.0)))
-        record["largest_slope"][body] = {"slope": float(s[k]), "tau": float(tau[k])}
-        over = np.nonzero(~(s <= limit))[0]
-        if exact and len(over):
-            j = int(over[0])
+    per_bar: list[tuple[str, tuple[float, float] | None, tuple[float, float] | None, tuple[float, float] | None]] = []
+    if maxima is not None:
+        for body, values in zip(info.amplitudes, maxima):
+            fi, gi = info.amplitudes[body]
+            s, s_tau, o_tau, o_s, e, e_tau = (float(v) for v in values)
+            per_bar.append(
+                (
+                    body,
+                    (s, s_tau) if gi and s_tau == s_tau else None,  # NaN tau: no rows
+                    (o_s, o_tau) if gi and o_tau == o_tau else None,
+                    (e, e_tau) if fi and e_tau == e_tau else None,
+                )
+            )
+    else:
+        tau = np.asarray(tau, dtype=float).ravel()
+        if len(tau) == 0:
+            return record
+        Q = np.asarray(Q, dtype=float).reshape(len(tau), info.n)
+        for body, (sl, st) in bar_ranges(info, Q.T).items():
+            largest = over = big = None
+            if sl is not None:
+                k = int(np.argmax(np.where(np.isfinite(sl), sl, -1.0)))
+                largest = (float(sl[k]), float(tau[k]))
+                beyond = np.nonzero(~(sl <= limit))[0]
+                if len(beyond):
+                    over = (float(sl[beyond[0]]), float(tau[beyond[0]]))
+            if st is not None:
+                k = int(np.argmax(np.where(np.isfinite(st), st, -1.0)))
+                big = (float(st[k]), float(tau[k]))
+            per_bar.append((body, largest, over, big))
+    for body, largest, over, big in per_bar:
+        if big is not None:
+            record["largest_stretch"][body] = {"stretch": big[0], "tau": big[1]}
+        if largest is None:
+            continue
+        record["largest_slope"][body] = {"slope": largest[0], "tau": largest[1]}
+        if exact and over is not None:
             record["warnings"].append(
                 {
                     "bar": body,
-                    "tau": float(tau[j]),
-                    "slope": float(s[j]),
+                    "tau": over[1],
+                    "slope": over[0],
                     "message": (
-                        f"bar '{body}' passes slope {limit:.3g} at tau = {tau[j]:.6g} (largest {s[k]:.3g} at tau = "
-                        f"{tau[k]:.6g}): the exact bar's left-out terms (about {RANGE.error_per_slope6:g} slope^6 of "
-                        f"peak) exceed simulation.accuracy = {accuracy:g} from there on"
+                        f"bar '{body}' passes slope {limit:.3g} at tau = {over[1]:.6g} (largest {largest[0]:.3g} at "
+                        f"tau = {largest[1]:.6g}): the exact bar's left-out terms (about {RANGE.error_per_slope6:g} "
+                        f"slope^6 of peak) exceed simulation.accuracy = {accuracy:g} from there on"
                     ),
                 }
             )

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 from symgen import __version__, cache
 from symgen.errors import Interrupted, SceneError, SimulationError
-from symgen.policy import POLICY
+from symgen.policy import POLICY, RANGE
 from symgen.numerics import compiled, interrupt
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.run_result import SimResult
@@ -53,6 +53,8 @@ LIBRARY = "solver.so"
 #: Integrator steps per call into the library: between calls a SIGINT/SIGTERM stops the run
 #: (a step costs 10-200 us: the run answers within tens of milliseconds)
 STEPS_PER_CALL = 400
+#: the values per bar of ``PREFIX_solver_range`` (``symgen.numerics.checks.C_RANGE_FIELDS``)
+RANGE_FIELDS = 6
 #: the counters of ``PREFIX_solver_counters``, in its order
 COUNTERS = (
     *("t", "steps", "accepted", "rejected", "jacobians", "factorizations", "residuals"),
@@ -326,6 +328,8 @@ class Solver:
         self.init = fn("solver_init", ctypes.c_int, P, DP, D, D, D)
         self.rows = fn("solver_rows", ctypes.c_int, P, D, D, L, ctypes.POINTER(L), L, L, DP)
         self.counters = fn("solver_counters", None, P, DP)
+        self.range = fn("solver_range", ctypes.c_int, P, DP)
+        self.range_warning = fn("solver_range_warning", None, P, D)
         self.message = fn("solver_message", ctypes.c_char_p, P)
         self.size = int(fn("solver_sizeof", ctypes.c_ulong)())
         try:
@@ -395,6 +399,7 @@ def simulate_c(
             raise
         raise cause from None
     setup_s = time.perf_counter() - t_setup
+    warning = RANGE.warning_limit(sim.accuracy)
     n_rows = int(math.floor(t_end / h + 1e-9)) + 1
     stride = lib.stride
     rec = (ctypes.c_double * (n_rows * stride))()  # the rows, flat (zeros): no numpy on this path
@@ -409,6 +414,7 @@ def simulate_c(
     try:
         with _progress(progress, n_rows) as advanced:
             rc = lib.init(state, ctypes.cast(p, DP), 0.0, rtol, atol)
+            lib.range_warning(state, warning)  # the slope whose first passing the range record keeps
             while rc == 0 and done.value < n_rows:
                 interrupt.check(rec[(done.value - 1) * stride] if done.value else 0.0)
                 before = done.value
@@ -426,6 +432,13 @@ def simulate_c(
     counts = (ctypes.c_double * len(COUNTERS))()
     lib.counters(state, counts)
     stats = dict(zip(COUNTERS, counts))
+    n_bars = len(mech.info.amplitudes)
+    bars = (ctypes.c_double * max(RANGE_FIELDS * n_bars, 1))()
+    range_maxima = (  # over the rows written (None: not the model's bars; made from q then)
+        (warning, tuple(tuple(bars[RANGE_FIELDS * g : RANGE_FIELDS * (g + 1)]) for g in range(n_bars)))
+        if lib.range(state, bars) == n_bars
+        else None
+    )
     k = done.value
     result = SimResult.of_rows(  # its arrays made on first read (numpy), its CSV written from the rows
         rec,
@@ -435,6 +448,7 @@ def simulate_c(
         lib.m,
         output_names=list(mech.info.outputs),
         closure_max=float(stats["closure_max"]),
+        range_maxima=range_maxima,
         steps=int(stats["steps"]),
         simulate_s=elapsed,
         partition=None,

@@ -334,8 +334,14 @@ def build_sidecar(
             sidecar["start"] = _start_note(result.start_forces)
             # the bars' slopes over the run: the exact bar's range warning (the same for both solvers)
             from symgen.numerics.checks import range_record
+            from symgen.policy import RANGE
 
-            sidecar["range"] = range_record(info, result.tau, result.q, sim.accuracy)
+            # (the C solver's record kept during its run: no numpy; else from the run's q)
+            maxima = result.range_maxima
+            if maxima is not None and maxima[0] == RANGE.warning_limit(sim.accuracy):
+                sidecar["range"] = range_record(info, (), (), sim.accuracy, maxima=maxima[1])
+            else:
+                sidecar["range"] = range_record(info, result.tau, result.q, sim.accuracy)
     return sidecar
 
 

@@ -40,6 +40,10 @@ class SimResult:
     #: the outputs whose first sample is the continuum's joint force at an unstressed start
     #: (``symgen.numerics.start.continuum_start_outputs``), not the model's own: both solvers' runs
     start_forces: tuple[str, ...] = ()
+    #: the emitted C solver's range record, kept during its run over the same rows: (the warning
+    #: slope it watched, per bar the values of ``checks.C_RANGE_FIELDS``); None: made from q
+    #: (``symgen.numerics.checks.range_record``)
+    range_maxima: tuple[float, tuple[tuple[float, ...], ...]] | None = None
 
     def column(self, name: str) -> np.ndarray:
         """The output called ``name`` (as in the scene's [outputs])."""

@@ -72,9 +72,11 @@ static const int double_pendulum_x_sing_cols[1] = { -1 };
 static const int double_pendulum_x_free_params[1] = { -1 };
 static const int double_pendulum_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int double_pendulum_x_amplitude_index[8] = { 2, 3, 4, 1, 7, 8, 9, 6 };
 static const double double_pendulum_x_slope_table[192] = {
     0.03539346225131478, 0.004359444460078082, -0.027262415650126555, 1.3852731963218914, 0.20630697314125132, -1.1522283153442339,
@@ -110,15 +112,28 @@ static const double double_pendulum_x_slope_table[192] = {
     1.3727662622772425, 4.650061393762226, 6.93699885687066, 1.3759836012064945, 4.76141862237403, 7.704904332920739,
     1.3760418156205045, 4.763537994631341, 7.720343154814959, 1.3765054807368602, 4.780778255805467, 7.848664837074008
 };
-static const symgen_amplitude_check double_pendulum_x_amplitude_checks[4] = {
-    { 0, 3, 0.7, 32, double_pendulum_x_slope_table + 0,
-      "bar 'upper' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 3, 1, 0.1, 0, double_pendulum_x_slope_table + 96,
-      "bar 'upper' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 4, 3, 0.7, 32, double_pendulum_x_slope_table + 96,
-      "bar 'lower' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 7, 1, 0.1, 0, double_pendulum_x_slope_table + 192,
-      "bar 'lower' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double double_pendulum_x_stretch_table[64] = {
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0
+};
+static const symgen_amplitude_check double_pendulum_x_amplitude_checks[2] = {
+    { 0, 3, 3, 1, 32, 0,
+      double_pendulum_x_slope_table + 0, double_pendulum_x_stretch_table + 0,
+      "bar 'upper' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'upper' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+    { 4, 3, 7, 1, 32, 0,
+      double_pendulum_x_slope_table + 96, double_pendulum_x_stretch_table + 32,
+      "bar 'lower' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'lower' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model double_pendulum_model = {
@@ -134,7 +149,7 @@ const symgen_model double_pendulum_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     double_pendulum_coordinate_names, double_pendulum_parameter_names, double_pendulum_parameter_range, double_pendulum_parameter_defaults,
     double_pendulum_parameter_valid,
-    4, double_pendulum_x_amplitude_checks, double_pendulum_x_amplitude_index,
+    2, double_pendulum_x_amplitude_checks, double_pendulum_x_amplitude_index,
     double_pendulum_phi, double_pendulum_phid, double_pendulum_phidd, double_pendulum_res, double_pendulum_out, double_pendulum_closure,
     double_pendulum_phi_jac, double_pendulum_phid_jac, double_pendulum_phidd_jac, double_pendulum_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -142,7 +157,7 @@ const symgen_model double_pendulum_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -232,6 +247,16 @@ void double_pendulum_solver_counters(const double_pendulum_solver *s, double *st
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int double_pendulum_solver_range(const double_pendulum_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void double_pendulum_solver_range_warning(double_pendulum_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *double_pendulum_solver_message(const double_pendulum_solver *s)

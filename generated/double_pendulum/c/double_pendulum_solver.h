@@ -142,6 +142,12 @@ void double_pendulum_outputs_of(const double_pendulum_solver *s, double t, const
    and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
    doubles; and the message. */
 void double_pendulum_solver_counters(const double_pendulum_solver *s, double *stats);
+/* The range record of the rows written so far (symgen_solver_range: per bar, the largest slope
+   and its tau, the first tau and slope beyond the warning slope, the largest stretch and its tau;
+   NaN taus: none), and the warning slope (after _solver_init, before the first row; init sets
+   the slope limit). */
+int double_pendulum_solver_range(const double_pendulum_solver *s, double *out);
+void double_pendulum_solver_range_warning(double_pendulum_solver *s, double slope);
 const char *double_pendulum_solver_message(const double_pendulum_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */

@@ -72,9 +72,11 @@ static const int five_bar_x_sing_cols[4] = { 0, 1, 8, 2 };
 static const int five_bar_x_free_params[1] = { -1 };
 static const int five_bar_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int five_bar_x_amplitude_index[5] = { 5, 6, 7, 3, 4 };
 static const double five_bar_x_slope_table[96] = {
     3.1415687797635483, 6.282994317295323, 9.424133373992008, 3.0835938000042824, 5.823477487005073, 7.897118776868033,
@@ -94,11 +96,24 @@ static const double five_bar_x_slope_table[96] = {
     -2.907118039810178, 4.4773889992731775, -3.70829520142722, -3.07881503312857, 5.785982218262675, -7.774642268653193,
     -3.0835938000042824, 5.823477487005073, -7.897118776868034, -3.1415687797635483, 6.282994317295323, -9.424133373992008
 };
-static const symgen_amplitude_check five_bar_x_amplitude_checks[2] = {
-    { 0, 3, 0.7, 32, five_bar_x_slope_table + 0,
-      "bar 'link_a' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 3, 2, 0.1, 0, five_bar_x_slope_table + 96,
-      "bar 'link_a' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double five_bar_x_stretch_table[64] = {
+    1.0, 3.1415687797635483, 1.0, 3.0835938000042824, 1.0, 3.07881503312857,
+    1.0, 2.907118039810178, 1.0, 2.8977441513898237, 1.0, 2.6189233636767475,
+    1.0, 2.605314586986808, 1.0, 2.2300849313863624, 1.0, 2.2127642440831425,
+    1.0, 1.7555455858288378, 1.0, 1.7351786122118462, 1.0, 1.2135416079292176,
+    1.0, 1.1909110393726254, 1.0, 0.6249019065988519, 1.0, 0.6008774231609197,
+    1.0, 0.012247575446918915, 1.0, -0.012247575446918915, 1.0, -0.6008774231609197,
+    1.0, -0.6249019065988519, 1.0, -1.1909110393726254, 1.0, -1.2135416079292176,
+    1.0, -1.7351786122118462, 1.0, -1.7555455858288378, 1.0, -2.2127642440831425,
+    1.0, -2.230084931386363, 1.0, -2.605314586986808, 1.0, -2.6189233636767475,
+    1.0, -2.897744151389823, 1.0, -2.907118039810178, 1.0, -3.07881503312857,
+    1.0, -3.0835938000042824, 1.0, -3.1415687797635483
+};
+static const symgen_amplitude_check five_bar_x_amplitude_checks[1] = {
+    { 0, 3, 3, 2, 32, 0,
+      five_bar_x_slope_table + 0, five_bar_x_stretch_table + 0,
+      "bar 'link_a' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'link_a' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model five_bar_model = {
@@ -114,7 +129,7 @@ const symgen_model five_bar_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     five_bar_coordinate_names, five_bar_parameter_names, five_bar_parameter_range, five_bar_parameter_defaults,
     five_bar_parameter_valid,
-    2, five_bar_x_amplitude_checks, five_bar_x_amplitude_index,
+    1, five_bar_x_amplitude_checks, five_bar_x_amplitude_index,
     five_bar_phi, five_bar_phid, five_bar_phidd, five_bar_res, five_bar_out, five_bar_closure,
     five_bar_phi_jac, five_bar_phid_jac, five_bar_phidd_jac, five_bar_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -122,7 +137,7 @@ const symgen_model five_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -212,6 +227,16 @@ void five_bar_solver_counters(const five_bar_solver *s, double *stats)
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int five_bar_solver_range(const five_bar_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void five_bar_solver_range_warning(five_bar_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *five_bar_solver_message(const five_bar_solver *s)

@@ -72,9 +72,11 @@ static const int four_bar_x_sing_cols[3] = { 0, 18, 9 };
 static const int four_bar_x_free_params[1] = { -1 };
 static const int four_bar_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int four_bar_x_amplitude_index[24] = { 5, 6, 7, 8, 1, 2, 3, 4, 14, 15, 16, 17, 10, 11, 12, 13, 23, 24, 25, 26, 19, 20, 21, 22 };
 static const double four_bar_x_slope_table[384] = {
     -0.05370013956494941, 0.004359444460078082, -0.027262415650126555, 0.07618981350613468, -1.8625545772227365, 0.20630697314125132,
@@ -142,19 +144,85 @@ static const double four_bar_x_slope_table[384] = {
     -3.07881503312857, 5.785982218262675, -7.774642268653193, 8.746125257311613, -3.0835938000042824, 5.823477487005073,
     -7.897118776868034, 9.023245724286001, -3.1415687797635483, 6.282994317295323, -9.424133373992008, 12.564842718507132
 };
-static const symgen_amplitude_check four_bar_x_amplitude_checks[6] = {
-    { 0, 4, 0.7, 32, four_bar_x_slope_table + 0,
-      "bar 'crank' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 4, 4, 0.1, 0, four_bar_x_slope_table + 128,
-      "bar 'crank' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 8, 4, 0.7, 32, four_bar_x_slope_table + 128,
-      "bar 'rocker' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 12, 4, 0.1, 0, four_bar_x_slope_table + 256,
-      "bar 'rocker' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 16, 4, 0.7, 32, four_bar_x_slope_table + 256,
-      "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 20, 4, 0.1, 0, four_bar_x_slope_table + 384,
-      "bar 'coupler' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double four_bar_x_stretch_table[384] = {
+    1.0, 3.1415687797635483, 6.282994317295323, 9.424133373992008, 1.0, 3.0835938000042824,
+    5.823477487005073, 7.897118776868033, 1.0, 3.07881503312857, 5.785982218262676, 7.774642268653194,
+    1.0, 2.907118039810178, 4.477388999273177, 3.7082952014272177, 1.0, 2.8977441513898237,
+    4.408106776558954, 3.504624211824095, 1.0, 2.6189233636767475, 2.4496586240342877, -1.7304492299998777,
+    1.0, 2.605314586986808, 2.3591370377115686, -1.946665199310207, 1.0, 2.2300849313863624,
+    0.04898992949690312, -6.58592710218169, 1.0, 2.2127642440831425, -0.048989929496904214, -6.741810128930727,
+    1.0, 1.7555455858288378, -2.3591370377115672, -9.221547278607792, 1.0, 1.7351786122118462,
+    -2.449658624034289, -9.264555308928598, 1.0, 1.2135416079292176, -4.408106776558954, -8.748945578965536,
+    1.0, 1.1909110393726254, -4.4773889992731775, -8.664582292809971, 1.0, 0.6249019065988519,
+    -5.785982218262675, -5.3274174985892895, 1.0, 0.6008774231609197, -5.823477487005073, -5.144118450603811,
+    1.0, 0.012247575446918915, -6.282994317295323, -0.110225945286129, 1.0, -0.012247575446918915,
+    -6.282994317295323, 0.110225945286129, 1.0, -0.6008774231609197, -5.823477487005073, 5.144118450603811,
+    1.0, -0.6249019065988519, -5.785982218262675, 5.3274174985892895, 1.0, -1.1909110393726254,
+    -4.4773889992731775, 8.664582292809971, 1.0, -1.2135416079292176, -4.408106776558954, 8.748945578965536,
+    1.0, -1.7351786122118462, -2.449658624034289, 9.264555308928598, 1.0, -1.7555455858288378,
+    -2.3591370377115672, 9.221547278607792, 1.0, -2.2127642440831425, -0.048989929496904214, 6.741810128930727,
+    1.0, -2.230084931386363, 0.048989929496904214, 6.585927102181688, 1.0, -2.605314586986808,
+    2.3591370377115672, 1.9466651993102095, 1.0, -2.6189233636767475, 2.449658624034289, 1.7304492299998753,
+    1.0, -2.897744151389823, 4.408106776558954, -3.5046242118240927, 1.0, -2.907118039810178,
+    4.4773889992731775, -3.70829520142722, 1.0, -3.07881503312857, 5.785982218262675, -7.774642268653193,
+    1.0, -3.0835938000042824, 5.823477487005073, -7.897118776868034, 1.0, -3.1415687797635483,
+    6.282994317295323, -9.424133373992008, 1.0, 3.1415687797635483, 6.282994317295323, 9.424133373992008,
+    1.0, 3.0835938000042824, 5.823477487005073, 7.897118776868033, 1.0, 3.07881503312857,
+    5.785982218262676, 7.774642268653194, 1.0, 2.907118039810178, 4.477388999273177, 3.7082952014272177,
+    1.0, 2.8977441513898237, 4.408106776558954, 3.504624211824095, 1.0, 2.6189233636767475,
+    2.4496586240342877, -1.7304492299998777, 1.0, 2.605314586986808, 2.3591370377115686, -1.946665199310207,
+    1.0, 2.2300849313863624, 0.04898992949690312, -6.58592710218169, 1.0, 2.2127642440831425,
+    -0.048989929496904214, -6.741810128930727, 1.0, 1.7555455858288378, -2.3591370377115672, -9.221547278607792,
+    1.0, 1.7351786122118462, -2.449658624034289, -9.264555308928598, 1.0, 1.2135416079292176,
+    -4.408106776558954, -8.748945578965536, 1.0, 1.1909110393726254, -4.4773889992731775, -8.664582292809971,
+    1.0, 0.6249019065988519, -5.785982218262675, -5.3274174985892895, 1.0, 0.6008774231609197,
+    -5.823477487005073, -5.144118450603811, 1.0, 0.012247575446918915, -6.282994317295323, -0.110225945286129,
+    1.0, -0.012247575446918915, -6.282994317295323, 0.110225945286129, 1.0, -0.6008774231609197,
+    -5.823477487005073, 5.144118450603811, 1.0, -0.6249019065988519, -5.785982218262675, 5.3274174985892895,
+    1.0, -1.1909110393726254, -4.4773889992731775, 8.664582292809971, 1.0, -1.2135416079292176,
+    -4.408106776558954, 8.748945578965536, 1.0, -1.7351786122118462, -2.449658624034289, 9.264555308928598,
+    1.0, -1.7555455858288378, -2.3591370377115672, 9.221547278607792, 1.0, -2.2127642440831425,
+    -0.048989929496904214, 6.741810128930727, 1.0, -2.230084931386363, 0.048989929496904214, 6.585927102181688,
+    1.0, -2.605314586986808, 2.3591370377115672, 1.9466651993102095, 1.0, -2.6189233636767475,
+    2.449658624034289, 1.7304492299998753, 1.0, -2.897744151389823, 4.408106776558954, -3.5046242118240927,
+    1.0, -2.907118039810178, 4.4773889992731775, -3.70829520142722, 1.0, -3.07881503312857,
+    5.785982218262675, -7.774642268653193, 1.0, -3.0835938000042824, 5.823477487005073, -7.897118776868034,
+    1.0, -3.1415687797635483, 6.282994317295323, -9.424133373992008, 1.0, 3.1415687797635483,
+    6.282994317295323, 9.424133373992008, 1.0, 3.0835938000042824, 5.823477487005073, 7.897118776868033,
+    1.0, 3.07881503312857, 5.785982218262676, 7.774642268653194, 1.0, 2.907118039810178,
+    4.477388999273177, 3.7082952014272177, 1.0, 2.8977441513898237, 4.408106776558954, 3.504624211824095,
+    1.0, 2.6189233636767475, 2.4496586240342877, -1.7304492299998777, 1.0, 2.605314586986808,
+    2.3591370377115686, -1.946665199310207, 1.0, 2.2300849313863624, 0.04898992949690312, -6.58592710218169,
+    1.0, 2.2127642440831425, -0.048989929496904214, -6.741810128930727, 1.0, 1.7555455858288378,
+    -2.3591370377115672, -9.221547278607792, 1.0, 1.7351786122118462, -2.449658624034289, -9.264555308928598,
+    1.0, 1.2135416079292176, -4.408106776558954, -8.748945578965536, 1.0, 1.1909110393726254,
+    -4.4773889992731775, -8.664582292809971, 1.0, 0.6249019065988519, -5.785982218262675, -5.3274174985892895,
+    1.0, 0.6008774231609197, -5.823477487005073, -5.144118450603811, 1.0, 0.012247575446918915,
+    -6.282994317295323, -0.110225945286129, 1.0, -0.012247575446918915, -6.282994317295323, 0.110225945286129,
+    1.0, -0.6008774231609197, -5.823477487005073, 5.144118450603811, 1.0, -0.6249019065988519,
+    -5.785982218262675, 5.3274174985892895, 1.0, -1.1909110393726254, -4.4773889992731775, 8.664582292809971,
+    1.0, -1.2135416079292176, -4.408106776558954, 8.748945578965536, 1.0, -1.7351786122118462,
+    -2.449658624034289, 9.264555308928598, 1.0, -1.7555455858288378, -2.3591370377115672, 9.221547278607792,
+    1.0, -2.2127642440831425, -0.048989929496904214, 6.741810128930727, 1.0, -2.230084931386363,
+    0.048989929496904214, 6.585927102181688, 1.0, -2.605314586986808, 2.3591370377115672, 1.9466651993102095,
+    1.0, -2.6189233636767475, 2.449658624034289, 1.7304492299998753, 1.0, -2.897744151389823,
+    4.408106776558954, -3.5046242118240927, 1.0, -2.907118039810178, 4.4773889992731775, -3.70829520142722,
+    1.0, -3.07881503312857, 5.785982218262675, -7.774642268653193, 1.0, -3.0835938000042824,
+    5.823477487005073, -7.897118776868034, 1.0, -3.1415687797635483, 6.282994317295323, -9.424133373992008
+};
+static const symgen_amplitude_check four_bar_x_amplitude_checks[3] = {
+    { 0, 4, 4, 4, 32, 0,
+      four_bar_x_slope_table + 0, four_bar_x_stretch_table + 0,
+      "bar 'crank' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'crank' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+    { 8, 4, 12, 4, 32, 0,
+      four_bar_x_slope_table + 128, four_bar_x_stretch_table + 128,
+      "bar 'rocker' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'rocker' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+    { 16, 4, 20, 4, 32, 0,
+      four_bar_x_slope_table + 256, four_bar_x_stretch_table + 256,
+      "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'coupler' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model four_bar_model = {
@@ -170,7 +238,7 @@ const symgen_model four_bar_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     four_bar_coordinate_names, four_bar_parameter_names, four_bar_parameter_range, four_bar_parameter_defaults,
     four_bar_parameter_valid,
-    6, four_bar_x_amplitude_checks, four_bar_x_amplitude_index,
+    3, four_bar_x_amplitude_checks, four_bar_x_amplitude_index,
     four_bar_phi, four_bar_phid, four_bar_phidd, four_bar_res, four_bar_out, four_bar_closure,
     four_bar_phi_jac, four_bar_phid_jac, four_bar_phidd_jac, four_bar_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -178,7 +246,7 @@ const symgen_model four_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -268,6 +336,16 @@ void four_bar_solver_counters(const four_bar_solver *s, double *stats)
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int four_bar_solver_range(const four_bar_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void four_bar_solver_range_warning(four_bar_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *four_bar_solver_message(const four_bar_solver *s)

@@ -142,6 +142,12 @@ void four_bar_outputs_of(const four_bar_solver *s, double t, const double *y, do
    and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
    doubles; and the message. */
 void four_bar_solver_counters(const four_bar_solver *s, double *stats);
+/* The range record of the rows written so far (symgen_solver_range: per bar, the largest slope
+   and its tau, the first tau and slope beyond the warning slope, the largest stretch and its tau;
+   NaN taus: none), and the warning slope (after _solver_init, before the first row; init sets
+   the slope limit). */
+int four_bar_solver_range(const four_bar_solver *s, double *out);
+void four_bar_solver_range_warning(four_bar_solver *s, double slope);
 const char *four_bar_solver_message(const four_bar_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */

@@ -72,9 +72,11 @@ static const int four_bar_tool_x_sing_cols[3] = { 0, 2, 1 };
 static const int four_bar_tool_x_free_params[1] = { -1 };
 static const int four_bar_tool_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int four_bar_tool_x_amplitude_index[8] = { 6, 7, 8, 9, 10, 3, 4, 5 };
 static const double four_bar_tool_x_slope_table[170] = {
     3.1415687797635483, 6.282994317295323, 9.424133373992008, -6.968048378223722, 0.2927496765969086, 3.0835938000042824,
@@ -107,11 +109,30 @@ static const double four_bar_tool_x_slope_table[170] = {
     -7.897118776868034, -6.1906801865199395, -0.11459737781621823, -3.1415687797635483, 6.282994317295323, -9.424133373992008,
     -8.157807242854664, -0.17021437203544335
 };
-static const symgen_amplitude_check four_bar_tool_x_amplitude_checks[2] = {
-    { 0, 5, 0.7, 34, four_bar_tool_x_slope_table + 0,
-      "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 5, 3, 0.1, 0, four_bar_tool_x_slope_table + 170,
-      "bar 'coupler' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double four_bar_tool_x_stretch_table[102] = {
+    1.0, 3.1415687797635483, -0.9598101507169101, 1.0, 3.0835938000042824, -0.6972427914580567,
+    1.0, 3.07881503312857, -0.6755998654185881, 1.0, 2.907118039810178, 0.10201189599112594,
+    1.0, 2.8977441513898237, 0.14446602255985902, 1.0, 2.6189233636767475, 1.4072390022191583,
+    1.0, 2.605314586986808, 1.4688728410416678, 1.0, 2.2300849313863624, 3.168279381513491,
+    1.0, 2.2127642440831425, 3.246724378728484, 1.0, 1.7555455858288378, 5.317457239700665,
+    1.0, 1.7351786122118462, 5.409698798057631, 1.0, 1.2135416079292176, 7.772180876963377,
+    1.0, 1.1977078746462966, 7.843891493380473, 1.0, 0.9754636034636124, 8.850430721805463,
+    1.0, 0.963813970297267, -11.799189118019342, 1.0, 0.6201000024279001, -10.242516407505493,
+    1.0, 0.6008774231609197, -10.155457785023293, 1.0, 0.012247575446918915, -7.489566648243648,
+    1.0, -0.012247575446918915, -7.378628669281884, 1.0, -0.6008774231609197, -4.7127375325022385,
+    1.0, -0.6249019065988519, -4.603931195698857, 1.0, -1.1909110393726254, -2.0404887602566797,
+    1.0, -1.2135416079292176, -1.9379954321157382, 1.0, -1.7351786122118462, 0.42448664679000775,
+    1.0, -1.7555455858288378, 0.5167282051469737, 1.0, -2.2127642440831425, 2.5874610661191544,
+    1.0, -2.230084931386363, 2.6659060633341483, 1.0, -2.605314586986808, 4.36531260380597,
+    1.0, -2.6189233636767475, 4.426946442628481, 1.0, -2.897744151389823, 5.689719422287779,
+    1.0, -2.907118039810178, 5.732173548856513, 1.0, -3.07881503312857, 6.509785310266226,
+    1.0, -3.0835938000042824, 6.531428236305695, 1.0, -3.1415687797635483, 6.793995595564549
+};
+static const symgen_amplitude_check four_bar_tool_x_amplitude_checks[1] = {
+    { 0, 5, 5, 3, 34, 0,
+      four_bar_tool_x_slope_table + 0, four_bar_tool_x_stretch_table + 0,
+      "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'coupler' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model four_bar_tool_model = {
@@ -127,7 +148,7 @@ const symgen_model four_bar_tool_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     four_bar_tool_coordinate_names, four_bar_tool_parameter_names, four_bar_tool_parameter_range, four_bar_tool_parameter_defaults,
     four_bar_tool_parameter_valid,
-    2, four_bar_tool_x_amplitude_checks, four_bar_tool_x_amplitude_index,
+    1, four_bar_tool_x_amplitude_checks, four_bar_tool_x_amplitude_index,
     four_bar_tool_phi, four_bar_tool_phid, four_bar_tool_phidd, four_bar_tool_res, four_bar_tool_out, four_bar_tool_closure,
     four_bar_tool_phi_jac, four_bar_tool_phid_jac, four_bar_tool_phidd_jac, four_bar_tool_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -135,7 +156,7 @@ const symgen_model four_bar_tool_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -225,6 +246,16 @@ void four_bar_tool_solver_counters(const four_bar_tool_solver *s, double *stats)
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int four_bar_tool_solver_range(const four_bar_tool_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void four_bar_tool_solver_range_warning(four_bar_tool_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *four_bar_tool_solver_message(const four_bar_tool_solver *s)

@@ -72,9 +72,11 @@ static const int inverted_slider_crank_x_sing_cols[3] = { 0, 10, 7 };
 static const int inverted_slider_crank_x_free_params[1] = { -1 };
 static const int inverted_slider_crank_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int inverted_slider_crank_x_amplitude_index[8] = { 4, 5, 6, 1, 2, 3, 8, 9 };
 static const double inverted_slider_crank_x_slope_table[160] = {
     0.03539346225131478, 0.004359444460078082, -0.027262415650126555, 1.3852731963218914, 0.20630697314125132, -1.1522283153442339,
@@ -105,13 +107,33 @@ static const double inverted_slider_crank_x_slope_table[160] = {
     -2.897744151389823, 4.408106776558954, -2.907118039810178, 4.4773889992731775, -3.07881503312857, 5.785982218262675,
     -3.0835938000042824, 5.823477487005073, -3.1415687797635483, 6.282994317295323
 };
-static const symgen_amplitude_check inverted_slider_crank_x_amplitude_checks[3] = {
-    { 0, 3, 0.7, 32, inverted_slider_crank_x_slope_table + 0,
-      "bar 'crank' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 3, 3, 0.1, 0, inverted_slider_crank_x_slope_table + 96,
-      "bar 'crank' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 6, 2, 0.7, 32, inverted_slider_crank_x_slope_table + 96,
-      "bar 'guide' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double inverted_slider_crank_x_stretch_table[96] = {
+    1.0, 3.1415687797635483, 6.282994317295323, 1.0, 3.0835938000042824, 5.823477487005073,
+    1.0, 3.07881503312857, 5.785982218262676, 1.0, 2.907118039810178, 4.477388999273177,
+    1.0, 2.8977441513898237, 4.408106776558954, 1.0, 2.6189233636767475, 2.4496586240342877,
+    1.0, 2.605314586986808, 2.3591370377115686, 1.0, 2.2300849313863624, 0.04898992949690312,
+    1.0, 2.2127642440831425, -0.048989929496904214, 1.0, 1.7555455858288378, -2.3591370377115672,
+    1.0, 1.7351786122118462, -2.449658624034289, 1.0, 1.2135416079292176, -4.408106776558954,
+    1.0, 1.1909110393726254, -4.4773889992731775, 1.0, 0.6249019065988519, -5.785982218262675,
+    1.0, 0.6008774231609197, -5.823477487005073, 1.0, 0.012247575446918915, -6.282994317295323,
+    1.0, -0.012247575446918915, -6.282994317295323, 1.0, -0.6008774231609197, -5.823477487005073,
+    1.0, -0.6249019065988519, -5.785982218262675, 1.0, -1.1909110393726254, -4.4773889992731775,
+    1.0, -1.2135416079292176, -4.408106776558954, 1.0, -1.7351786122118462, -2.449658624034289,
+    1.0, -1.7555455858288378, -2.3591370377115672, 1.0, -2.2127642440831425, -0.048989929496904214,
+    1.0, -2.230084931386363, 0.048989929496904214, 1.0, -2.605314586986808, 2.3591370377115672,
+    1.0, -2.6189233636767475, 2.449658624034289, 1.0, -2.897744151389823, 4.408106776558954,
+    1.0, -2.907118039810178, 4.4773889992731775, 1.0, -3.07881503312857, 5.785982218262675,
+    1.0, -3.0835938000042824, 5.823477487005073, 1.0, -3.1415687797635483, 6.282994317295323
+};
+static const symgen_amplitude_check inverted_slider_crank_x_amplitude_checks[2] = {
+    { 0, 3, 3, 3, 32, 0,
+      inverted_slider_crank_x_slope_table + 0, inverted_slider_crank_x_stretch_table + 0,
+      "bar 'crank' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'crank' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+    { 6, 2, 8, 0, 32, 0,
+      inverted_slider_crank_x_slope_table + 96, inverted_slider_crank_x_stretch_table + 96,
+      "bar 'guide' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'guide' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model inverted_slider_crank_model = {
@@ -127,7 +149,7 @@ const symgen_model inverted_slider_crank_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     inverted_slider_crank_coordinate_names, inverted_slider_crank_parameter_names, inverted_slider_crank_parameter_range, inverted_slider_crank_parameter_defaults,
     inverted_slider_crank_parameter_valid,
-    3, inverted_slider_crank_x_amplitude_checks, inverted_slider_crank_x_amplitude_index,
+    2, inverted_slider_crank_x_amplitude_checks, inverted_slider_crank_x_amplitude_index,
     inverted_slider_crank_phi, inverted_slider_crank_phid, inverted_slider_crank_phidd, inverted_slider_crank_res, inverted_slider_crank_out, inverted_slider_crank_closure,
     inverted_slider_crank_phi_jac, inverted_slider_crank_phid_jac, inverted_slider_crank_phidd_jac, inverted_slider_crank_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -135,7 +157,7 @@ const symgen_model inverted_slider_crank_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -225,6 +247,16 @@ void inverted_slider_crank_solver_counters(const inverted_slider_crank_solver *s
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int inverted_slider_crank_solver_range(const inverted_slider_crank_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void inverted_slider_crank_solver_range_warning(inverted_slider_crank_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *inverted_slider_crank_solver_message(const inverted_slider_crank_solver *s)

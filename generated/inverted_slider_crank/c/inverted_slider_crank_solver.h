@@ -142,6 +142,12 @@ void inverted_slider_crank_outputs_of(const inverted_slider_crank_solver *s, dou
    and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
    doubles; and the message. */
 void inverted_slider_crank_solver_counters(const inverted_slider_crank_solver *s, double *stats);
+/* The range record of the rows written so far (symgen_solver_range: per bar, the largest slope
+   and its tau, the first tau and slope beyond the warning slope, the largest stretch and its tau;
+   NaN taus: none), and the warning slope (after _solver_init, before the first row; init sets
+   the slope limit). */
+int inverted_slider_crank_solver_range(const inverted_slider_crank_solver *s, double *out);
+void inverted_slider_crank_solver_range_warning(inverted_slider_crank_solver *s, double slope);
 const char *inverted_slider_crank_solver_message(const inverted_slider_crank_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */

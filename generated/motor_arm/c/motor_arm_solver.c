@@ -72,9 +72,11 @@ static const int motor_arm_x_sing_cols[1] = { -1 };
 static const int motor_arm_x_free_params[1] = { -1 };
 static const int motor_arm_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int motor_arm_x_amplitude_index[4] = { 2, 3, 4, 1 };
 static const double motor_arm_x_slope_table[96] = {
     0.03539346225131478, 0.004359444460078082, -0.027262415650126555, 1.3852731963218914, 0.20630697314125132, -1.1522283153442339,
@@ -94,11 +96,19 @@ static const double motor_arm_x_slope_table[96] = {
     6.4333103921016175, 1.3727662622772425, 4.650061393762226, 8.827739773916974, 1.3759836012064945, 4.76141862237403,
     8.90529935856055, 1.3760418156205045, 4.763537994631341, 9.938921206419417, 1.3765054807368602, 4.780778255805467
 };
-static const symgen_amplitude_check motor_arm_x_amplitude_checks[2] = {
-    { 0, 3, 0.7, 32, motor_arm_x_slope_table + 0,
-      "bar 'arm' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 3, 1, 0.1, 0, motor_arm_x_slope_table + 96,
-      "bar 'arm' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double motor_arm_x_stretch_table[32] = {
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
+    1.0, 1.0
+};
+static const symgen_amplitude_check motor_arm_x_amplitude_checks[1] = {
+    { 0, 3, 3, 1, 32, 0,
+      motor_arm_x_slope_table + 0, motor_arm_x_stretch_table + 0,
+      "bar 'arm' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'arm' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model motor_arm_model = {
@@ -114,7 +124,7 @@ const symgen_model motor_arm_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     motor_arm_coordinate_names, motor_arm_parameter_names, motor_arm_parameter_range, motor_arm_parameter_defaults,
     motor_arm_parameter_valid,
-    2, motor_arm_x_amplitude_checks, motor_arm_x_amplitude_index,
+    1, motor_arm_x_amplitude_checks, motor_arm_x_amplitude_index,
     motor_arm_phi, motor_arm_phid, motor_arm_phidd, motor_arm_res, motor_arm_out, motor_arm_closure,
     motor_arm_phi_jac, motor_arm_phid_jac, motor_arm_phidd_jac, motor_arm_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -122,7 +132,7 @@ const symgen_model motor_arm_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -212,6 +222,16 @@ void motor_arm_solver_counters(const motor_arm_solver *s, double *stats)
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int motor_arm_solver_range(const motor_arm_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void motor_arm_solver_range_warning(motor_arm_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *motor_arm_solver_message(const motor_arm_solver *s)

@@ -69,15 +69,18 @@ typedef struct symgen_radau {
     double thet, safe, facl, facr, quot1, quot2;
 } symgen_radau;
 
-/* The range of a bar model, over its amplitudes q_k = q[index[start + k]], k < count: points > 0,
-   its largest slope max_j |sum_k slopes[j * count + k] q_k| over the points j (slopes: psi_k'(xi_j));
-   points == 0, sum_k |q_k|; within limit, else `message` */
+/* The range of a bar model, at its sample points j < points: its transverse amplitudes
+   g_k = q[index[start + k]], k < count, give its slopes eta'_j = sum_k slopes[j * count + k] g_k
+   (slopes: psi_k'(xi_j)); its axial amplitudes f_k = q[index[axial_start + k]], k < axial_count,
+   its zeta'_j = sum_k stretches[j * axial_count + k] f_k (phi_k'(xi_j)); its tangent
+   r' = (1 + zeta', eta'). The largest |eta'| within policy.slope_limit (else slope_message), the
+   largest ||r'| - 1| within policy.stretch_limit (else stretch_message; no axial amplitudes: not
+   checked). linear: the seed's linear strain, whose axis does not shorten as it bends: its
+   strain zeta' alone, r' = (1 + zeta', 0) */
 typedef struct symgen_amplitude_check {
-    int start, count;
-    double limit;
-    int points;
-    const double *slopes;
-    const char *message;
+    int start, count, axial_start, axial_count, points, linear;
+    const double *slopes, *stretches;
+    const char *slope_message, *stretch_message;
 } symgen_amplitude_check;
 
 /*
@@ -159,7 +162,7 @@ typedef struct symgen_splu {
     (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
-     + 15 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
+     + 21 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
 #define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
     (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 3 * (ne) + 1 \
      + 2 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) + 6 * SYMGEN_NY_(n, m, ni, nd) + 1)
@@ -202,6 +205,10 @@ typedef struct symgen_solver {
     double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;
     double *ct_p, *ct_a, *ct_lam, *start_out, *ct_out;   /* the continuum start: [np], [n], [m], [nout], [nout] */
     double *ya;                 /* [n]: the accelerations of a state y, a_h = 0 (symgen_accel_) */
+    /* the range record over the rows of symgen_solver_rows (symgen_solver_range): per amplitude
+       check, SYMGEN_RANGE_FIELDS doubles; range_warning: the slope whose first passing it keeps */
+    double *range_rec;          /* [SYMGEN_RANGE_FIELDS * n] */
+    double range_warning;
     int *pivz, *zrow, *zmid, *zcol, *piv1, *piv2, *sp, *qs_col, *dvpiv;
     int *dvidx;                 /* [ne]: the dynamic amplitudes of the divergence check */
     /* the Newton matrices factored whole and sparse (the default; else by block elimination,
@@ -268,6 +275,20 @@ SYMGEN_API int symgen_solver_dense(symgen_solver *s, double t_out, double t_stop
  */
 SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long n_rows, long *done, long max_rows,
                                   long max_steps, double *rec);
+
+/*
+ * The range record of the rows written so far by symgen_solver_rows (the sidecar's `range`, as
+ * symgen.numerics.checks.range_record makes it from the rows' q): per amplitude check g (one per
+ * bar, the model's order), SYMGEN_RANGE_FIELDS doubles at out + g * SYMGEN_RANGE_FIELDS: the
+ * largest slope |eta'| and its tau (the first row of the largest, a NaN slope counting as none),
+ * the first tau and slope where the slope passed s->range_warning (!(slope <= warning)), the
+ * largest stretch ||r'| - 1| and its tau; NaN taus: no such row. Returns the number of checks.
+ * symgen_solver_init sets range_warning to the policy's slope_limit; symgen_solver_range_warning
+ * sets it (after symgen_solver_init, before the first row).
+ */
+#define SYMGEN_RANGE_FIELDS 6
+SYMGEN_API int symgen_solver_range(const symgen_solver *s, double *out);
+SYMGEN_API void symgen_solver_range_warning(symgen_solver *s, double slope);
 
 /* The q, v, a, lam of the solver vector y of a model (any pointer may be NULL); a quasi-static
    amplitude's v and a are 0. */

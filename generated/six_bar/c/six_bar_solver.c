@@ -72,9 +72,11 @@ static const int six_bar_x_sing_cols[5] = { 0, 13, 3, 2, 1 };
 static const int six_bar_x_free_params[1] = { -1 };
 static const int six_bar_x_start_forces[1] = { -1 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int six_bar_x_amplitude_index[9] = { 8, 9, 10, 11, 12, 4, 5, 6, 7 };
 static const double six_bar_x_slope_table[160] = {
     3.1415687797635483, 6.282994317295323, 9.424133373992008, 12.564842718507132, 8.057911242294251, 3.0835938000042824,
@@ -105,11 +107,35 @@ static const double six_bar_x_slope_table[160] = {
     -3.0835938000042824, 5.823477487005073, -7.897118776868034, 9.023245724286001, -5.249009104956951, -3.1415687797635483,
     6.282994317295323, -9.424133373992008, 12.564842718507132, -8.057911242294251
 };
-static const symgen_amplitude_check six_bar_x_amplitude_checks[2] = {
-    { 0, 5, 0.7, 32, six_bar_x_slope_table + 0,
-      "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 5, 4, 0.1, 0, six_bar_x_slope_table + 160,
-      "bar 'coupler' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double six_bar_x_stretch_table[128] = {
+    1.0, 3.1415687797635483, 6.282994317295323, -2.5396404120116784, 1.0, 3.0835938000042824,
+    5.823477487005073, -2.3345565946961857, 1.0, 3.07881503312857, 5.785982218262676, -2.317582694026504,
+    1.0, 2.907118039810178, 4.477388999273177, -1.7007297002902768, 1.0, 2.8977441513898237,
+    4.408106776558954, -1.6666604270503336, 1.0, 2.6189233636767475, 2.4496586240342877, -0.6347388478919237,
+    1.0, 2.605314586986808, 2.3591370377115686, -0.5834537257520919, 1.0, 2.2300849313863624,
+    0.04898992949690312, 0.8642956962320083, 1.0, 2.2127642440831425, -0.048989929496904214, 0.9326938533305094,
+    1.0, 1.7555455858288378, -2.3591370377115672, 2.788308164022833, 1.0, 1.7351786122118462,
+    -2.449658624034289, 2.873212810102448, 1.0, 1.2135416079292176, -4.408106776558954, 5.113055036445739,
+    1.0, 1.1909110393726254, -4.4773889992731775, 5.213071378114288, 1.0, 0.6249019065988519,
+    -5.785982218262675, 7.7914810644504415, 1.0, 0.6008774231609197, -5.823477487005073, 7.904195269181382,
+    1.0, 0.012247575446918915, -6.282994317295323, 10.749090300868898, 1.0, -0.012247575446918915,
+    -6.282994317295323, -11.888296672163174, 1.0, -0.6008774231609197, -5.823477487005073, -8.876761217879677,
+    1.0, -0.6249019065988519, -5.785982218262675, -8.750449627771935, 1.0, -1.1909110393726254,
+    -4.4773889992731775, -5.697488167388888, 1.0, -1.2135416079292176, -4.408106776558954, -5.572347133629749,
+    1.0, -1.7351786122118462, -2.449658624034289, -2.622287987564746, 1.0, -1.7555455858288378,
+    -2.3591370377115672, -2.5045563492956417, 1.0, -2.2127642440831425, -0.048989929496904214, 0.18881593889799034,
+    1.0, -2.230084931386363, 0.048989929496904214, 0.2927457763014543, 1.0, -2.605314586986808,
+    2.3591370377115672, 2.578253175786862, 1.0, -2.6189233636767475, 2.449658624034289, 2.662365290116184,
+    1.0, -2.897744151389823, 4.408106776558954, 4.404503788996304, 1.0, -2.907118039810178,
+    4.4773889992731775, 4.46369775432684, 1.0, -3.07881503312857, 5.785982218262675, 5.5551025221099595,
+    1.0, -3.0835938000042824, 5.823477487005073, 5.585673808156444, 1.0, -3.1415687797635483,
+    6.282994317295323, 5.957398048067915
+};
+static const symgen_amplitude_check six_bar_x_amplitude_checks[1] = {
+    { 0, 5, 5, 4, 32, 0,
+      six_bar_x_slope_table + 0, six_bar_x_stretch_table + 0,
+      "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'coupler' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model six_bar_model = {
@@ -125,7 +151,7 @@ const symgen_model six_bar_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     six_bar_coordinate_names, six_bar_parameter_names, six_bar_parameter_range, six_bar_parameter_defaults,
     six_bar_parameter_valid,
-    2, six_bar_x_amplitude_checks, six_bar_x_amplitude_index,
+    1, six_bar_x_amplitude_checks, six_bar_x_amplitude_index,
     six_bar_phi, six_bar_phid, six_bar_phidd, six_bar_res, six_bar_out, six_bar_closure,
     six_bar_phi_jac, six_bar_phid_jac, six_bar_phidd_jac, six_bar_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -133,7 +159,7 @@ const symgen_model six_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -223,6 +249,16 @@ void six_bar_solver_counters(const six_bar_solver *s, double *stats)
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int six_bar_solver_range(const six_bar_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void six_bar_solver_range_warning(six_bar_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *six_bar_solver_message(const six_bar_solver *s)

@@ -142,6 +142,12 @@ void six_bar_outputs_of(const six_bar_solver *s, double t, const double *y, doub
    and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
    doubles; and the message. */
 void six_bar_solver_counters(const six_bar_solver *s, double *stats);
+/* The range record of the rows written so far (symgen_solver_range: per bar, the largest slope
+   and its tau, the first tau and slope beyond the warning slope, the largest stretch and its tau;
+   NaN taus: none), and the warning slope (after _solver_init, before the first row; init sets
+   the slope limit). */
+int six_bar_solver_range(const six_bar_solver *s, double *out);
+void six_bar_solver_range_warning(six_bar_solver *s, double slope);
 const char *six_bar_solver_message(const six_bar_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */

@@ -180,6 +180,7 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->start_out = symgen_take_(&d, model->nout);
     s->ct_out = symgen_take_(&d, model->nout);
     s->ya = symgen_take_(&d, n);
+    s->range_rec = symgen_take_(&d, SYMGEN_RANGE_FIELDS * n);
     s->pivz = symgen_itake_(&k, nz);
     s->zrow = symgen_itake_(&k, nz + 1);
     s->zmid = symgen_itake_(&k, nz);
@@ -1245,32 +1246,83 @@ static int symgen_quasi_start_(symgen_solver *s, double t)
                         0.0, "lower bodies.<name>.quasi_static_transverse (keep those functions dynamic)");
 }
 
+/* the largest |eta'| and the largest ||r'| - 1| over the points of amplitude check c in q
+   (symgen.numerics.checks.bar_ranges): a NaN at a point makes its value NaN; no axial
+   amplitudes: *stretch = 0 (not checked) */
+static void symgen_bar_range_(const symgen_model *M, const symgen_amplitude_check *c, const double *q,
+                              double *slope, double *stretch)
+{
+    int j, k;
+    *slope = 0.0;
+    *stretch = 0.0;
+    for (j = 0; j < c->points; ++j) {
+        double eta = 0.0, zeta = 0.0, e, a;
+        for (k = 0; k < c->count; ++k) eta += c->slopes[j * c->count + k] * q[M->amplitude_index[c->start + k]];
+        a = fabs(eta);
+        if (*slope == *slope && !(a <= *slope)) *slope = a;      /* a NaN stays */
+        if (c->axial_count == 0) continue;
+        for (k = 0; k < c->axial_count; ++k) {
+            zeta += c->stretches[j * c->axial_count + k] * q[M->amplitude_index[c->axial_start + k]];
+        }
+        /* |r'| - 1 of r' = (1 + zeta', eta'), without cancellation (checks.stretch) */
+        if (c->linear) eta = 0.0;
+        e = fabs((2.0 * zeta + zeta * zeta + eta * eta) / (1.0 + sqrt((1.0 + zeta) * (1.0 + zeta) + eta * eta)));
+        if (*stretch == *stretch && !(e <= *stretch)) *stretch = e;
+    }
+}
+
 /* bars deformed beyond the range of the model (Mechanism.beyond_range) in s->q at t: 0, or fail */
 static int symgen_beyond_range_(symgen_solver *s, double t)
 {
     const symgen_model *M = s->model;
-    int g, k;
+    int g;
     for (g = 0; g < M->n_amplitude_checks; ++g) {
         const symgen_amplitude_check *c = &M->amplitude_checks[g];
-        double size = 0.0;
-        if (c->points > 0) {       /* the largest slope |eta'| over the bar's points */
-            int j;
-            for (j = 0; j < c->points; ++j) {
-                double slope = 0.0;
-                for (k = 0; k < c->count; ++k) slope += c->slopes[j * c->count + k] * s->q[M->amplitude_index[c->start + k]];
-                slope = fabs(slope);
-                if (slope != slope) { size = slope; break; }      /* NaN: beyond */
-                if (slope > size) size = slope;
-            }
-        } else {
-            for (k = 0; k < c->count; ++k) size += fabs(s->q[M->amplitude_index[c->start + k]]);
+        double slope, stretch;
+        symgen_bar_range_(M, c, s->q, &slope, &stretch);
+        if (c->count > 0 && !(slope <= M->policy.slope_limit)) {
+            return symgen_fail_(s, t, c->slope_message, slope,
+                                "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
         }
-        if (!(size <= c->limit)) {
-            return symgen_fail_(s, t, c->message, size,
+        if (c->axial_count > 0 && !(stretch <= M->policy.stretch_limit)) {
+            return symgen_fail_(s, t, c->stretch_message, stretch,
                                 "check the loads, lumped masses and stiffness (lambda, mu) of that bar");
         }
     }
     return 0;
+}
+
+/* a NaN's rank below every value (numpy's argmax of where(isfinite(s), s, -1)) */
+static double symgen_rank_(double x)
+{
+    return fabs(x) <= DBL_MAX ? x : -1.0;
+}
+
+/* the range record (symgen_solver_range) after a row at t with coordinates q */
+static void symgen_record_range_(symgen_solver *s, double t, const double *q)
+{
+    const symgen_model *M = s->model;
+    int g;
+    for (g = 0; g < M->n_amplitude_checks; ++g) {
+        double *r = s->range_rec + SYMGEN_RANGE_FIELDS * g;
+        double slope, stretch;
+        symgen_bar_range_(M, &M->amplitude_checks[g], q, &slope, &stretch);
+        if (r[1] != r[1] || symgen_rank_(slope) > symgen_rank_(r[0])) r[0] = slope, r[1] = t;
+        if (r[2] != r[2] && !(slope <= s->range_warning)) r[2] = t, r[3] = slope;
+        if (r[5] != r[5] || symgen_rank_(stretch) > symgen_rank_(r[4])) r[4] = stretch, r[5] = t;
+    }
+}
+
+SYMGEN_API int symgen_solver_range(const symgen_solver *s, double *out)
+{
+    if (!s || !s->model || !out) return 0;
+    memcpy(out, s->range_rec, sizeof(double) * SYMGEN_RANGE_FIELDS * (size_t)s->model->n_amplitude_checks);
+    return s->model->n_amplitude_checks;
+}
+
+SYMGEN_API void symgen_solver_range_warning(symgen_solver *s, double slope)
+{
+    if (s) s->range_warning = slope;
 }
 
 /* at a good output (the start, each advance, each dense output) at t with state y: the largest
@@ -1319,6 +1371,8 @@ SYMGEN_API int symgen_solver_init(symgen_solver *s, const double *p, double t0, 
         memset(pp, 0, sizeof(double) * (size_t)s->np);
         memset(y, 0, sizeof(double) * (size_t)s->ny);
     }
+    s->range_warning = s->model->policy.slope_limit;
+    for (k = 0; k < SYMGEN_RANGE_FIELDS * s->model->n_amplitude_checks; ++k) s->range_rec[k] = NAN;
     if (!(fabs(t0) <= DBL_MAX)) return s->status = symgen_bad_argument_(s, "t0", t0, "finite");
     if (!(fabs(rtol) <= DBL_MAX) || (rtol > 0 && !(rtol < s->model->rtol_max))) {
         return s->status = symgen_bad_argument_(s, "rtol", rtol, s->model->rtol_rule);
@@ -1485,6 +1539,7 @@ SYMGEN_API int symgen_solver_rows(symgen_solver *s, double t0, double step, long
         symgen_model_outputs(M, t, s->yd, s->p, row + 1 + M->nout, row + 1 + M->nout + M->n, s->ya, row + 1);
         symgen_start_forces_(s, t, row + 1);
         for (k = 0; k < M->m; ++k) row[1 + M->nout + 2 * M->n + k] = s->yd[SYMGEN_A0(s) + M->n + k];
+        symgen_record_range_(s, t, row + 1 + M->nout);
         *done = i + 1;
         if (rc) break;
     }

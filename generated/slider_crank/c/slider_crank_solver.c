@@ -72,9 +72,11 @@ static const int slider_crank_x_sing_cols[2] = { 0, 1 };
 static const int slider_crank_x_free_params[1] = { 7 };
 static const int slider_crank_x_start_forces[1] = { 2 };
 
-/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, its largest slope
-   |eta'| = |sum_k psi_k'(xi_j) q_k| over the points j of its slope table (psi_k'(xi_j), row-major
-   points x amplitudes), and the sum of its absolute axial amplitudes, within the limits */
+/* the range of the bar models (symgen.numerics.checks.beyond_range): per bar, at the points j of
+   its range tables, its slopes eta'_j = sum_k psi_k'(xi_j) g_k (slope_table, row-major points x
+   transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
+   amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
+   linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
 static const int slider_crank_x_amplitude_index[2] = { 3, 2 };
 static const double slider_crank_x_slope_table[32] = {
     3.1415687797635483, 3.0835938000042824, 3.07881503312857, 2.907118039810178, 2.8977441513898237, 2.6189233636767475,
@@ -84,11 +86,19 @@ static const double slider_crank_x_slope_table[32] = {
     -2.230084931386363, -2.605314586986808, -2.6189233636767475, -2.897744151389823, -2.907118039810178, -3.07881503312857,
     -3.0835938000042824, -3.1415687797635483
 };
-static const symgen_amplitude_check slider_crank_x_amplitude_checks[2] = {
-    { 0, 1, 0.7, 32, slider_crank_x_slope_table + 0,
-      "bar 'rod' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 1, 1, 0.1, 0, slider_crank_x_slope_table + 32,
-      "bar 'rod' is deformed beyond the range of the model: its axial displacement amplitudes sum to this fraction of its length (limit 0.1; the bar equations hold for small strains): a load beyond a buckling load, or forces the bar cannot carry" }
+static const double slider_crank_x_stretch_table[32] = {
+    1.5707933425637812, 1.563529661928334, 1.5629294246273522, 1.541208335936262, 1.5400136419476298, 1.5040443311589464,
+    1.5022666860388605, 1.4523955572783045, 1.4500520807210309, 1.3867594202208988, 1.3838726811867588, 1.3077680318669542,
+    1.3043658312308986, 1.2161821224674045, 1.2122972252813906, 1.1128837143957182, 1.1085535343433481, 0.9988676277902798,
+    0.9941338668725751, 0.8752318998926323, 0.8701401468149673, 0.7431672103485939, 0.737766501476542, 0.6039454143123767,
+    0.5982877614247035, 0.45890729378618467, 0.45304718317298615, 0.3094496451565868, 0.3034435128865303, 0.15701182728174762,
+    0.15091751569187978, 0.0030618996787896095
+};
+static const symgen_amplitude_check slider_crank_x_amplitude_checks[1] = {
+    { 0, 1, 1, 1, 32, 1,
+      slider_crank_x_slope_table + 0, slider_crank_x_stretch_table + 0,
+      "bar 'rod' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'rod' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
 };
 
 const symgen_model slider_crank_model = {
@@ -104,7 +114,7 @@ const symgen_model slider_crank_model = {
     "in (0, 1.0), or <= 0 for the scene's",
     slider_crank_coordinate_names, slider_crank_parameter_names, slider_crank_parameter_range, slider_crank_parameter_defaults,
     slider_crank_parameter_valid,
-    2, slider_crank_x_amplitude_checks, slider_crank_x_amplitude_index,
+    1, slider_crank_x_amplitude_checks, slider_crank_x_amplitude_index,
     slider_crank_phi, slider_crank_phid, slider_crank_phidd, slider_crank_res, slider_crank_out, slider_crank_closure,
     slider_crank_phi_jac, slider_crank_phid_jac, slider_crank_phidd_jac, slider_crank_res_jac,
     {   /* policy (symgen/policy.py) */
@@ -112,7 +122,7 @@ const symgen_model slider_crank_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.1, 1e-09,
+        0.0001, 0.7, 0.05, 1e-09,
         1e-06, 1e-13, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
@@ -202,6 +212,16 @@ void slider_crank_solver_counters(const slider_crank_solver *s, double *stats)
     stats[8] = s->divergence_rate;
     stats[9] = (double)s->status;
     stats[10] = (double)s->core.continuum_start;
+}
+
+int slider_crank_solver_range(const slider_crank_solver *s, double *out)
+{
+    return symgen_solver_range(&s->core, out);
+}
+
+void slider_crank_solver_range_warning(slider_crank_solver *s, double slope)
+{
+    symgen_solver_range_warning(&s->core, slope);
 }
 
 const char *slider_crank_solver_message(const slider_crank_solver *s)

@@ -142,6 +142,12 @@ void slider_crank_outputs_of(const slider_crank_solver *s, double t, const doubl
    and whether the start's joint forces are the continuum's (1, see _solver_outputs; else 0): 11
    doubles; and the message. */
 void slider_crank_solver_counters(const slider_crank_solver *s, double *stats);
+/* The range record of the rows written so far (symgen_solver_range: per bar, the largest slope
+   and its tau, the first tau and slope beyond the warning slope, the largest stretch and its tau;
+   NaN taus: none), and the warning slope (after _solver_init, before the first row; init sets
+   the slope limit). */
+int slider_crank_solver_range(const slider_crank_solver *s, double *out);
+void slider_crank_solver_range_warning(slider_crank_solver *s, double slope);
 const char *slider_crank_solver_message(const slider_crank_solver *s);
 
 /* The current q, v, a, lam (any pointer may be NULL). */

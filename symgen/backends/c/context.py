@@ -243,37 +243,35 @@ def _policy() -> dict:
 
 
 def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
-    """The range of the bar models (``symgen.numerics.checks.beyond_range``): per bar, its largest
-    slope |eta'| over the points of the shape samples' ``slope_table`` (``psi_a'`` there, row-major
-    points x amplitudes) may not exceed ``POLICY.slope_limit``; the sum of its absolute axial
-    amplitudes not ``POLICY.stretch_limit``."""
+    """The range of the bar models (``symgen.numerics.checks.beyond_range``), one check per bar
+    (in the model's order, ``checks.range_tables``'): at the points of the shape samples'
+    ``range_rows``, its largest slope |eta'| (``slope_table``: ``psi_a'`` there, row-major points
+    x amplitudes) may not exceed ``POLICY.slope_limit``, its largest stretch ||r'| - 1|, r' =
+    (1 + zeta', eta') (``stretch_table``: ``phi_k'`` there; the linear strain's (1 + zeta', 0):
+    ``ModelInfo.linear_strain``), not ``POLICY.stretch_limit``."""
+
     from symgen.model.shape_samples import shape_samples
 
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
     checks = []
     for group in plan.amplitudes:
         body = group.body
-        if group.transverse:
-            table = shape_samples(bodies[body]).slope_table()
-            checks.append(
-                {
-                    "indices": list(group.transverse),
-                    "limit": c_double(POLICY.slope_limit),
-                    "points": len(table),
-                    "slopes": [c_double(v) for row in table for v in row],
-                    "message": c_string(range_message(body, "slope", POLICY.slope_limit, "this")),
-                }
-            )
-        if group.axial:
-            checks.append(
-                {
-                    "indices": list(group.axial),
-                    "limit": c_double(POLICY.stretch_limit),
-                    "points": 0,
-                    "slopes": [],
-                    "message": c_string(
-                        range_message(body, "axial displacement", POLICY.stretch_limit, "this fraction of its length")
-                    ),
-                }
-            )
+        samples = shape_samples(bodies[body])
+        slopes = samples.slope_table() if group.transverse else ()
+        stretches = samples.stretch_table() if group.axial else ()
+        for table, width in ((slopes, len(group.transverse)), (stretches, len(group.axial))):
+            if any(len(row) != width for row in table):
+                raise ValueError(f"bar {body!r}: the shape samples hold other functions than its amplitudes")
+        checks.append(
+            {
+                "indices": list(group.transverse),
+                "axial": list(group.axial),
+                "points": len(samples.range_rows()),
+                "linear": 1 if info.linear_strain else 0,
+                "slopes": [c_double(v) for row in slopes for v in row],
+                "stretches": [c_double(v) for row in stretches for v in row],
+                "slope_message": c_string(range_message(body, "slope", POLICY.slope_limit, "this")),
+                "stretch_message": c_string(range_message(body, "stretch", POLICY.stretch_limit, "this")),
+            }
+        )
     return checks

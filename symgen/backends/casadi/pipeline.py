@@ -51,9 +51,9 @@ def compile_scene(scene: Scene, use_cache: bool = True, lazy: bool = False) -> C
 
 def _sample_shapes(structure: dict) -> None:
     """The bars' shape functions at quadrature nodes, into the signed cache, where the
-    model-form estimate and the range check (the bars' slopes,
-    ``symgen.numerics.checks.slope_tables``) of the model's runs read them without SymPy
-    (:mod:`symgen.model.shape_samples`): every bar that bends."""
+    model-form estimate and the range check (the bars' slopes and stretches,
+    ``symgen.numerics.checks.range_tables``) of the model's runs read them without SymPy
+    (:mod:`symgen.model.shape_samples`): every elastic bar."""
     from symgen.model.shape_samples import remember_samples
 
     remember_samples(structure)

@@ -176,9 +176,12 @@ def _read_verified(directory: Path, key: str, casadi: bool = True) -> tuple[dict
     try:
 
         def read(name: str, limit: int) -> bytes:
-            if dfd is not None:
-                return cache.read_bytes(name, limit, dir_fd=dfd)
-            return cache.read_bytes(directory / name, limit)
+            try:
+                if dfd is not None:
+                    return cache.read_bytes(name, limit, dir_fd=dfd)
+                return cache.read_bytes(directory / name, limit)
+            except cache.InvalidEntry as exc:  # the entry is named by its report: the file here
+                raise cache.InvalidEntry(f"{name} {exc.reason}") from None
 
         try:
             manifest = _parse_json(read(MANIFEST, _MAX_MANIFEST), MANIFEST)
