@@ -830,3 +830,51 @@ def test_node_form_is_the_sums_over_the_tables(tmp_path, monkeypatch, axial):
         assert getattr(shown, field) == getattr(before, field), field
     for (v1, a1), (v2, a2) in zip(shown.constraint_rates, before.constraint_rates):  # regrouped
         assert v1 == v2 and sp.expand(a1 - a2) == 0
+
+
+@pytest.mark.parametrize("axial", ["dynamic", "quasi_static"])
+def test_runner_jacobian_by_reverse_mode_is_the_forward_one(tmp_path, monkeypatch, axial):
+    """The runner's Functions as a library compiles them (``jac_dae`` by reverse mode,
+    ``simulate.AD_WEIGHT``; each with its repeated operations made once, ``simulate._shared``) are
+    the Functions made before (CasADi's own choice of AD mode, no cse) to 1e-12 of their largest
+    value at random arguments, on the exact bar's node form (forced at 2 + 3 functions); and to the
+    last bit what the virtual machine evaluates (its ``dae``, and the Jacobian blocks its IDAS
+    makes from that ``dae``: a run switching to the library mid-way does not change)."""
+    import casadi as ca
+
+    from symgen.api import mechanism
+    from symgen.model import bars
+    from symgen.numerics import simulate
+    from symgen.scene import load_scene
+
+    monkeypatch.setattr(bars, "_NODE_FORM", {"e6": True, "c5": True})
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "rod.toml"
+    path.write_text(NODE_SCENE.format(axial=axial))
+    mech = mechanism(load_scene(str(path)))
+    *_, part = mech.initial_state(0.0)
+    new = simulate.DaeRunner(mech, part, 1e-6, 1e-8, backend="vm")._compiled_functions()
+    sym = simulate._symbolic(mech, part)
+    ins = sym["dae"].sx_in()
+    outs = sym["dae"].call(ins)
+    dae = ca.Function("dae", ins, outs, ca.dyn_in(), ca.dyn_out())
+    old = [dae, simulate._dae_jacobian(dae, ins, outs), sym["g"], sym["split"], sym["rec"]]
+    vm_blocks = sym["dae"].factory("blocks", ca.dyn_in(), ["jac:alg:x", "jac:alg:z"])
+    assert new[1].n_instructions() < old[1].n_instructions()  # not the same code
+    rng = np.random.default_rng(5)
+    for f_new, f_old in zip(new, old):
+        assert f_new.name() == f_old.name()
+        for _ in range(3):
+            args = [0.3 * rng.normal(size=f_old.sparsity_in(i).shape) for i in range(f_old.n_in())]
+            a = [np.array(x) for x in f_new(*args)]
+            b = [np.array(x) for x in f_old(*args)]
+            top = max([np.max(np.abs(x)) for x in b if x.size] + [1e-300])
+            for x, y in zip(a, b):
+                assert x.shape == y.shape and (not x.size or np.max(np.abs(x - y)) <= 1e-12 * top), f_new.name()
+            if f_new.name() == "dae":  # the same numbers as the virtual machine's dae, to the last bit
+                assert all(np.array_equal(x, np.array(y)) for x, y in zip(a, sym["dae"](*args)))
+            if f_new.name() == "jac_dae":
+                names = f_new.name_out()
+                blocks = [np.array(x) for x in vm_blocks(*args[:5])]
+                assert np.array_equal(a[names.index("jac_alg_x")], blocks[0])
+                assert np.array_equal(a[names.index("jac_alg_z")], blocks[1])

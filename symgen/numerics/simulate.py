@@ -205,13 +205,17 @@ class DaeRunner:
         return self._built
 
     def _compiled_functions(self) -> list[ca.Function]:
-        """The Functions ``COMPILED`` (with ``jac_dae``, which only a compiled ``dae`` needs)."""
+        """The Functions ``COMPILED`` (with ``jac_dae``, which only a compiled ``dae`` needs), each
+        with its repeated operations made once (``_shared``: the same numbers to the last bit)."""
         funcs = self._functions()
         if "jac_dae" not in funcs:
             dae = funcs["dae"]
             dae_in = dae.sx_in()
             funcs["jac_dae"] = _dae_jacobian(dae, dae_in, dae.call(dae_in))
-        return [funcs[name] for name in COMPILED]
+        for name in COMPILED:
+            if f"compiled:{name}" not in funcs:
+                funcs[f"compiled:{name}"] = _shared(funcs[name])
+        return [funcs[f"compiled:{name}"] for name in COMPILED]
 
     def _use_compiled(self, choice: str, use_cache: bool, background: bool = False) -> None:
         """Run the Functions from a compiled library (built once, cached; when cached, the
@@ -227,7 +231,9 @@ class DaeRunner:
                 signatures,
                 build,
                 mech.info.key,
-                f"ind={list(part.ind)} dep={list(part.dep)}" + (f" quasi={list(part.quasi)}" if part.quasi else ""),
+                f"ind={list(part.ind)} dep={list(part.dep)}"
+                + (f" quasi={list(part.quasi)}" if part.quasi else "")
+                + f" {JACOBIAN}",
                 store=use_cache,
                 cold=COLD,
                 background=background,
@@ -885,6 +891,15 @@ def _stopped(err: BaseException, traj: _Trajectory, t0: float) -> SimulationErro
     return exc if isinstance(exc, (SimulationError, Interrupted)) else None
 
 
+#: CasADi's ``ad_weight`` of the runner's ``dae``: 1 makes the Jacobian IDAS asks for (``jac:alg:x``,
+#: ``jac:alg:z``; the same factory in the virtual machine and in ``jac_dae``) by reverse mode, one
+#: adjoint sweep per residual row. Measured (``benchmarks/bench_exact_nodes.py``): the exact bar's
+#: node form at 3 + 10 functions 287 k operations by CasADi's own choice (forward) against 179 k;
+#: the examples' equal or smaller (inverted slider-crank 5.0 k -> 5.2 k).
+AD_WEIGHT = 1.0
+#: What a library's Jacobian is made by (part of its key: ``compiled.start_library``'s variant).
+JACOBIAN = f"jac=ad_weight {AD_WEIGHT}, cse"
+
 #: The Functions of a runner that a compiled library holds, in its order.
 COMPILED = ("dae", "jac_dae", "g", "split", "rec")
 #: Those evaluated rarely (once per IDAS Jacobian; once per polish iteration or chunk of outputs),
@@ -908,7 +923,14 @@ def _symbolic(mech: Mechanism, part: Partition) -> dict[str, ca.Function]:
     f = mech.f
     alg = sys_.alg(f, tt, p[:-1])
     ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
-    dae = ca.Function("dae", [t, x, z, p, u], [ode, alg, ca.SX(0, 1), ca.SX(0, 1)], ca.dyn_in(), ca.dyn_out())
+    dae = ca.Function(
+        "dae",
+        [t, x, z, p, u],
+        [ode, alg, ca.SX(0, 1), ca.SX(0, 1)],
+        ca.dyn_in(),
+        ca.dyn_out(),
+        {"ad_weight": AD_WEIGHT},
+    )
     phi_q = ca.jacobian(f["phi"](*args), q)
     # singular-position check on the loop and driver rows and the dependent rigid
     # coordinates only, as checks.singular_ratio (inextensibility rows left out)
@@ -924,6 +946,14 @@ def _symbolic(mech: Mechanism, part: Partition) -> dict[str, ca.Function]:
             [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
         ),
     }
+
+
+def _shared(f: ca.Function) -> ca.Function:
+    """``f`` with each repeated operation made once (``casadi.cse``: the same operation on the same
+    operands, hence the same value to the last bit): what a library compiles. CasADi's derivatives
+    repeat many (``jac_dae`` of the exact bar at 3 + 10 functions: 179 k -> 151 k operations)."""
+    ins = f.sx_in()
+    return ca.Function(f.name(), ins, ca.cse(f.call(ins)), f.name_in(), f.name_out())
 
 
 def _signatures(mech: Mechanism, part: Partition) -> list[compiled.Signature]:
