@@ -168,16 +168,11 @@ def run_with_axial_choice(
     dynamics and the run's axial part says so (a complete run, or one stopped early with a partial
     result, judged up to the stop: :func:`symgen.numerics.results.decidable`), the run made again with them kept
     (``load``-ed); else the run as it is (without deciding where a remembered decision kept it)."""
-    from symgen.numerics.results import decidable
+    from symgen.numerics.results import judged
 
-    if not decidable(result, failure) or not switchable(mech.scene) or kept_as_is(mech.scene):
+    if not switchable(mech.scene) or kept_as_is(mech.scene):
         return mech, result, failure
-    try:
-        decided = decide(mech, result)
-    except Exception:
-        if failure is None:
-            raise
-        return mech, result, failure  # a partial run its estimate cannot judge: its own failure stands
+    decided = judged(decide, mech, result, failure)
     if decided is None:
         return mech, result, failure
     if say is not None:

@@ -53,6 +53,7 @@ __all__ = [
     "atomic_write",
     "attempt",
     "decidable",
+    "judged",
     "build_sidecar",
     "csv_text",
     "rows_text",
@@ -212,6 +213,24 @@ def decidable(result: Any, failure: BaseException | None) -> bool:
     if failure is None:
         return True
     return isinstance(failure, SimulationError) and len(getattr(result, "tau", ())) >= 2
+
+
+D = TypeVar("D")
+
+
+def judged(decide: Callable[[Any, Any], D | None], mech: Any, result: Any, failure: BaseException | None) -> D | None:
+    """``decide(mech, result)``, the decision of an "auto" rule's run-time half, for a run it may
+    judge (:func:`decidable`); None for one it may not, and for a partial run whose estimate
+    cannot judge it (its own failure stands, not an internal error of the decision). A complete
+    run's error in deciding is raised."""
+    if not decidable(result, failure):
+        return None
+    try:
+        return decide(mech, result)
+    except Exception:
+        if failure is None:
+            raise
+        return None
 
 
 def build_sidecar(

@@ -160,7 +160,7 @@ def _run_with_strain_choice(
     run: Callable[[Mechanism], tuple[R | None, BaseException | None]],
     say: Callable[[str], None] | None = None,
 ) -> tuple[Mechanism, R | None, BaseException | None]:
-    from symgen.numerics.results import decidable
+    from symgen.numerics.results import judged
 
     if not switchable(mech.scene):
         result, failure = run(mech)
@@ -172,14 +172,7 @@ def _run_with_strain_choice(
         result, failure = run(mech)
     finally:
         mech.provisional = False
-    if not decidable(result, failure):
-        return mech, result, failure
-    try:
-        choice = decide(mech, result)
-    except Exception:
-        if failure is None:
-            raise
-        return mech, result, failure  # a partial run its estimate cannot judge: its own failure stands
+    choice = judged(decide, mech, result, failure)
     if choice is None:
         return mech, result, failure
     decided = with_choice(mech.scene, choice)
