@@ -315,6 +315,16 @@ def _check_path(question: dict[str, Any]) -> tuple[Path, bytes]:
     return checks_dir() / f"{sha256_hex(text)[:32]}.json", text
 
 
+def read_entry_file(where: Path, name: str, limit: int, dir_fd: int | None = None) -> bytes:
+    """:func:`read_bytes` of the file ``name`` of the entry folder ``where`` (relative to its open
+    ``dir_fd`` where given), with a reason that names the file (the caller's report names the
+    entry)."""
+    try:
+        return read_bytes(name if dir_fd is not None else where / name, limit, dir_fd=dir_fd)
+    except InvalidEntry as exc:
+        raise InvalidEntry(f"{name} {exc.reason}") from None
+
+
 def recall(question: dict[str, Any]) -> tuple[bool, Any]:
     """``(True, answer)`` when a verdict for ``question`` (plain JSON data that names the check,
     its inputs and the symgen version) was remembered by :func:`remember` and verifies (its keyed

@@ -383,7 +383,7 @@ def read_verified(where: Path, key: dict[str, object], name: str = LIBRARY) -> b
     """The bytes of the file ``name`` of the entry ``where``, after checking that its manifest
     holds every field of ``key`` and the file's keyed hash (else :class:`symgen.cache.InvalidEntry`)."""
     try:
-        manifest = json.loads(_read(where, MANIFEST, _MAX_MANIFEST).decode("utf-8"))
+        manifest = json.loads(cache.read_entry_file(where, MANIFEST, _MAX_MANIFEST).decode("utf-8"))
     except FileNotFoundError:
         raise cache.InvalidEntry(f"has no {MANIFEST}") from None
     except (UnicodeDecodeError, ValueError, RecursionError) as exc:
@@ -392,20 +392,11 @@ def read_verified(where: Path, key: dict[str, object], name: str = LIBRARY) -> b
         raise cache.InvalidEntry(f"{MANIFEST} is not for this model, symgen, CasADi, compiler and flags")
     mac = manifest["files"].get(name) if isinstance(manifest.get("files"), dict) else None
     try:
-        blob = _read(where, name, _MAX_LIBRARY)
+        blob = cache.read_entry_file(where, name, _MAX_LIBRARY)
     except FileNotFoundError:
         raise cache.InvalidEntry(f"has no {name}") from None
     cache.verify(_label(where, name), blob, mac)  # before a byte reaches the loader
     return blob
-
-
-def _read(where: Path, name: str, limit: int) -> bytes:
-    """The bytes of the file ``name`` of the entry ``where``; a reason that names the file (the
-    report names the entry)."""
-    try:
-        return cache.read_bytes(where / name, limit)
-    except cache.InvalidEntry as exc:
-        raise cache.InvalidEntry(f"{name} {exc.reason}") from None
 
 
 def _label(where: Path, name: str) -> str:

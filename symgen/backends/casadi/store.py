@@ -176,12 +176,7 @@ def _read_verified(directory: Path, key: str, casadi: bool = True) -> tuple[dict
     try:
 
         def read(name: str, limit: int) -> bytes:
-            try:
-                if dfd is not None:
-                    return cache.read_bytes(name, limit, dir_fd=dfd)
-                return cache.read_bytes(directory / name, limit)
-            except cache.InvalidEntry as exc:  # the entry is named by its report: the file here
-                raise cache.InvalidEntry(f"{name} {exc.reason}") from None
+            return cache.read_entry_file(directory, name, limit, dir_fd=dfd)
 
         try:
             manifest = _parse_json(read(MANIFEST, _MAX_MANIFEST), MANIFEST)
