@@ -830,6 +830,29 @@ def test_node_form_is_the_sums_over_the_tables(tmp_path, monkeypatch, axial):
         assert getattr(shown, field) == getattr(before, field), field
     for (v1, a1), (v2, a2) in zip(shown.constraint_rates, before.constraint_rates):  # regrouped
         assert v1 == v2 and sp.expand(a1 - a2) == 0
+    # the display form's sums are made on first use, their table entries with them: the same tables
+    assert eq_nodes.inner_products == eq_sums.inner_products
+    assert eq_nodes.values == eq_sums.values
+
+
+def test_display_form_is_made_on_first_use(tmp_path, monkeypatch):
+    """The node form's display sums (E6, C5 over their tables) are not built by the derivation
+    (issue 20: they were most of it at 3 + 10 functions); reading ``values`` or ``inner_products``
+    makes them, with their table entries."""
+    from symgen.model import bars
+    from symgen.model.derive import derive
+    from symgen.scene import load_scene
+
+    path = tmp_path / "rod.toml"
+    path.write_text(NODE_SCENE.format(axial="quasi_static"))
+    monkeypatch.setattr(bars, "_NODE_FORM", {"e6": True, "c5": True})
+    eq = derive(load_scene(str(path))).bars["rod"].equations
+    assert callable(eq.display_form)
+    assert not any(kind in ("E6", "C5") for kind, _ in eq.inner_product_table.values())
+    table = eq.inner_products
+    assert not callable(eq.display_form)
+    assert {kind for kind, _ in table.values()} >= {"E6", "C5"}
+    assert set(table) <= set(eq.values)  # (values: the point forces' symbols too)
 
 
 @pytest.mark.parametrize("axial", ["dynamic", "quasi_static"])

@@ -25,6 +25,7 @@ with the force rotated to ground axes.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 import math
 from dataclasses import dataclass, field, replace
 from itertools import combinations_with_replacement
@@ -292,12 +293,35 @@ class BarEquations:
     # the exact bar's: (d/dt, d2/dt2) of each constraint, from its tables (() : by the chain rule)
     constraint_rates: tuple = ()
     eqbeta: sp.Expr | None = None  # guide of a slot: the equation of its support distance beta
-    # the display form (``bar_equations``): the same fields with display symbols, and what they stand for
-    display: BarEquations | None = field(default=None, compare=False, repr=False)
-    values: dict = field(default_factory=dict, compare=False, repr=False)  # display symbol -> value
-    inner_products: dict = field(default_factory=dict, compare=False, repr=False)  # symbol -> (kind, index)
+    # the display form (``bar_equations``): the same fields with display symbols, and what they stand for;
+    # made on first use (``display``) where it is not the model's own expression (the exact bar's node form)
+    display_form: BarEquations | Callable[[], BarEquations] | None = field(default=None, compare=False, repr=False)
+    # display symbol -> value, symbol -> (kind, index): complete once the display form is made (``values``)
+    value_table: dict = field(default_factory=dict, compare=False, repr=False)
+    inner_product_table: dict = field(default_factory=dict, compare=False, repr=False)
     points: tuple = field(default=(), compare=False, repr=False)  # (B, Gamma) shown for each point force
     loads: tuple = field(default=(), compare=False, repr=False)  # (beta-bar, gamma-bar) symbols, or ()
+
+    @property
+    def display(self) -> BarEquations | None:
+        """The display form (``symgen latex``), made on first use and kept."""
+        form = self.display_form
+        if callable(form):
+            form = form()
+            object.__setattr__(self, "display_form", form)
+        return form
+
+    @property
+    def values(self) -> dict:
+        """Each display symbol's value (those of the display form's own sums too)."""
+        _ = self.display
+        return self.value_table
+
+    @property
+    def inner_products(self) -> dict:
+        """Each display symbol -> (kind, index) (those of the display form's own sums too)."""
+        _ = self.display
+        return self.inner_product_table
 
     #: the fields holding equations (``substitute`` replaces in these)
     EXPRESSIONS = ("force", "moment", "eq16", "eq17", "kinetic", "elastic", "constraint", "constraint_rates", "eqbeta")
@@ -592,17 +616,27 @@ def bar_equations(
     )
     display = display.map(t.finish)
     values.update(t.values)
+    inner = dict(t.used)
     model = display
+    form: BarEquations | Callable[[], BarEquations] = display
     if exact:
         # the exact bar's quadrature-table terms: shown expanded over their tables, evaluated at the
-        # Gauss nodes in the model (the same polynomials: docs/exact-bars.md, "The node form")
+        # Gauss nodes in the model (the same polynomials: docs/exact-bars.md, "The node form"); the
+        # display form's sums are made on first use (``symgen latex``), their table entries with them:
+        # at 3 + 10 functions they were most of the derivation (docs/exact-bars.md, "The first run's cost")
         model = display.substitute(xb.nodes)
-        display = display.substitute(xb.shown)
+
+        def form(shown: BarEquations = display) -> BarEquations:
+            out = shown.substitute(xb.shown)
+            values.update(t.values)
+            inner.update(t.used)
+            return out
+
     return replace(
         model.substitute(values),
-        display=display,
-        values=values,
-        inner_products=dict(t.used),
+        display_form=form,
+        value_table=values,
+        inner_product_table=inner,
         points=tuple(shown),
         loads=groups,
     )
@@ -670,23 +704,29 @@ class _ExactBar:
         # against about 3 nodes' work each; each of the C5 part's Jt entries (nt + 2 choose 3)
         self.six_nodes = _NODE_FORM.get("e6", math.comb(nt + 3, 4) > 3 * nq)
         self.c5_nodes = _NODE_FORM.get("c5", math.comb(nt + 2, 3) > nq)
-        self.shown: dict = {}
+        self._shown_raw: dict = {}
+        self._shown: dict | None = None
         self.nodes: dict = {}
-        self._memo_shown: dict = {}
         self._memo_nodes: dict = {}
         self.c: list = []
         self.d: list = []
         self.J2: list = []  # Jt's C3 part
-        self.Jt: list = []  # as shown
+        self._Jt: list | None = None  # as shown
         self._right: dict = {}
+        # C5's sums over its table: in the model's expression, or (node form) in the display form only,
+        # made on first use (``shown``): at 5 + 13 functions they were most of the derivation
+        c5 = [functools.cache(lambda k=k: _symmetric_form(t, "C5", _C5, (k,), 4, g)) for k in range(na)]
+        self._c5 = c5
         if self.axial:
             for k in range(na):
                 c2, j2 = _symmetric_form(t, "C3", _C3, (k,), 2, g)
-                c4, j4 = _symmetric_form(t, "C5", _C5, (k,), 4, g)
                 self.c.append(c2 / 2)
-                self.d.append(self._stand_in(c4 / 8, lambda k=k: self.node_form.quartic(k) / 8, self.c5_nodes))
+                if not self.c5_nodes:
+                    c5[k]()
+                self.d.append(
+                    self._stand_in(lambda k=k: c5[k]()[0] / 8, lambda k=k: self.node_form.quartic(k) / 8, self.c5_nodes)
+                )
                 self.J2.append([j2[a] / 2 for a in range(nt)])
-                self.Jt.append([j2[a] / 2 + j4[a] / 8 for a in range(nt)])
         # n_k = (phi'_k, eps)
         self.n = [sp.Add(*[Ka[k][j] * f[j] for j in range(na)]) + self.c[k] + self.d[k] for k in range(len(self.c))]
         self.e = [
@@ -697,16 +737,38 @@ class _ExactBar:
         self._left_other: list = [[] for _ in range(nt)]
         self._left_y: list = [sp.Integer(0)] * na
 
-    def _stand_in(self, shown: sp.Expr, node, use: bool) -> sp.Expr:
-        """``shown`` itself, or (``use``) a placeholder for it: ``shown`` in the display form,
-        ``node()`` (the same polynomial at the nodes) in the model. The placeholders inside
-        either are replaced here, so that one pass of each map replaces everything."""
-        if not use or shown == 0:
-            return shown
+    @property
+    def Jt(self) -> list:
+        """Jt_ka = d(c_k + d_k)/dg_a from the tables (C3 and C5's sums): in the model, or (node form)
+        in the display form only."""
+        if self._Jt is None:
+            nt = self.nt
+            self._Jt = [[self.J2[k][a] + self._c5[k]()[1][a] / 8 for a in range(nt)] for k in range(len(self.J2))]
+        return self._Jt
+
+    def _stand_in(self, shown, node, use: bool) -> sp.Expr:
+        """``shown()`` itself, or (``use``) a placeholder for it: ``shown()`` in the display form
+        (made on first use: ``shown``), ``node()`` (the same polynomial at the nodes) in the model.
+        The placeholders inside either are replaced, so that one pass of each map replaces
+        everything."""
+        if not use:
+            return shown()
         p = sp.Dummy("exact")
-        self.shown[p] = shared_xreplace(shown, self.shown, self._memo_shown)
+        self._shown_raw[p] = shown
         self.nodes[p] = shared_xreplace(node(), self.nodes, self._memo_nodes)
         return p
+
+    @property
+    def shown(self) -> dict:
+        """Each placeholder -> its sum over the table, the placeholders inside replaced (those made
+        before it): made on first use, for the display form only."""
+        if self._shown is None:
+            memo: dict = {}
+            out: dict = {}
+            for p, e in self._shown_raw.items():
+                out[p] = shared_xreplace(e(), out, memo)
+            self._shown = out
+        return self._shown
 
     def right(self, x: list) -> list:
         """[sum_a Jt_ka x_a]_k."""
@@ -715,7 +777,7 @@ class _ExactBar:
             nt = self.nt
             self._right[key] = [
                 self._stand_in(
-                    sp.Add(*[self.Jt[k][a] * x[a] for a in range(nt)]),
+                    lambda k=k: sp.Add(*[self.Jt[k][a] * x[a] for a in range(nt)]),
                     lambda k=k: sp.Add(*[self.J2[k][a] * x[a] for a in range(nt)]) + self.node_form.right(k, x),
                     self.c5_nodes,
                 )
@@ -728,11 +790,14 @@ class _ExactBar:
         collected into one Jt^T y per force (``_left``)."""
         na, nt = self.na, self.nt
         other = other or [sp.Integer(0)] * nt
-        pieces = [scale * (other[a] + sp.Add(*[y[k] * self.Jt[k][a] for k in range(na)])) for a in range(nt)]
+
+        def piece(a: int) -> sp.Expr:
+            return scale * (other[a] + sp.Add(*[y[k] * self.Jt[k][a] for k in range(na)]))
+
         if not self.c5_nodes:
-            return [el_g[a] + pieces[a] for a in range(nt)]
+            return [el_g[a] + piece(a) for a in range(nt)]
         for a in range(nt):
-            self._left_shown[a].append(pieces[a])
+            self._left_shown[a].append(functools.partial(piece, a))
             self._left_other[a].append(scale * other[a])
         self._left_y = [self._left_y[k] + scale * y[k] for k in range(na)]
         return el_g
@@ -747,7 +812,7 @@ class _ExactBar:
         return [
             el_g[a]
             + self._stand_in(
-                sp.Add(*self._left_shown[a]),
+                lambda a=a: sp.Add(*[piece() for piece in self._left_shown[a]]),
                 lambda a=a: (
                     sp.Add(*self._left_other[a]) + sp.Add(*[y[k] * self.J2[k][a] for k in range(na)]) + node()[a]
                 ),
@@ -808,10 +873,12 @@ class _ExactBar:
             # (mu/2) int eta'^2 eta''^2 (E4) and (mu/2) int eta'^4 eta''^2 (E6): the inextensible bar's
             # kappa^2 = eta''^2 / (1 - eta'^2) = eta''^2 (1 + eta'^2 + eta'^4 + ...)
             e4, d4 = _symmetric_form(t, "E4", _E4, (), 4, g)
-            e6, d6 = _symmetric_form(t, "E6", _E6, (), 6, g)
+            sums6 = functools.cache(lambda: _symmetric_form(t, "E6", _E6, (), 6, g))  # (node form) display only
             sixth = functools.cache(self.node_form.sixth)
-            e6 = self._stand_in(e6, lambda: sixth()[0], self.six_nodes)
-            d6 = [self._stand_in(d6[a], lambda a=a: sixth()[1][a], self.six_nodes) for a in range(nt)]
+            e6 = self._stand_in(lambda: sums6()[0], lambda: sixth()[0], self.six_nodes)
+            d6 = [
+                self._stand_in(lambda a=a: sums6()[1][a], lambda a=a: sixth()[1][a], self.six_nodes) for a in range(nt)
+            ]
             bend = mu * (e4 + e6) / 2
             el_g = [el_g[a] + mu * (d4[a] + d6[a]) / 2 for a in range(nt)]
             if dynamic and self.axial:
@@ -887,21 +954,30 @@ class _ExactBar:
         for k in range(na):
             vel = sp.Add(*[Ka[k][j] * df[j] for j in range(na)]) + jdg[k]
             acc = [Ka[k][j] * ddf[j] for j in range(na)] + [jddg[k]]
-            quartic = []  # (3/2) sum C5 g_dot g_dot g g = (3/2) (phi'_k, eta_dot'^2 eta'^2)
-            for a, b in pairs:
-                m = _multiplicity((a, b))
-                quad = [t.tensor("C3", (k, a, b), _C3)] if not self.c5_nodes else []
+
+            def quad(k: int, a: int, b: int) -> list:  # (3/2) sum C5 g g at (k, a, b)
+                out = []
                 for cc, dd in pairs:
                     v = t.tensor("C5", (k, *sorted((a, b, cc, dd))), _C5)
                     if v != 0:
-                        quad.append(sp.Mul(sp.Rational(3, 2) * _multiplicity((cc, dd)), v, g[cc], g[dd]))
-                if self.c5_nodes:  # C3's part here, C5's at the nodes
+                        out.append(sp.Mul(sp.Rational(3, 2) * _multiplicity((cc, dd)), v, g[cc], g[dd]))
+                return out
+
+            def quartic(k: int) -> sp.Expr:  # (3/2) sum C5 g_dot g_dot g g = (3/2) (phi'_k, eta_dot'^2 eta'^2)
+                return sp.Add(*[sp.Mul(_multiplicity((a, b)), dg[a], dg[b], sp.Add(*quad(k, a, b))) for a, b in pairs])
+
+            for a, b in pairs:
+                m = _multiplicity((a, b))
+                if self.c5_nodes:  # C3's part here, C5's at the nodes (its sums in the display form only)
                     acc.append(sp.Mul(m, dg[a], dg[b], t.tensor("C3", (k, a, b), _C3)))
-                    quartic.append(sp.Mul(m, dg[a], dg[b], sp.Add(*quad)))
                 else:
-                    acc.append(sp.Mul(m, dg[a], dg[b], sp.Add(*quad)))
-            if quartic:
-                acc.append(self._stand_in(sp.Add(*quartic), lambda k=k: self.node_form.quartic_rate(k), True))
+                    acc.append(sp.Mul(m, dg[a], dg[b], sp.Add(t.tensor("C3", (k, a, b), _C3), *quad(k, a, b))))
+            if self.c5_nodes and pairs:
+                acc.append(
+                    self._stand_in(
+                        functools.partial(quartic, k), functools.partial(self.node_form.quartic_rate, k), True
+                    )
+                )
             rates.append((vel, sp.Add(*acc)))
         return tuple(self.n), tuple(rates)
 
@@ -921,6 +997,7 @@ class _NodeForm:
         self._dg = tuple(s.dg)
         self._sl: list | None = None
         self._cu: list | None = None
+        self._at: dict = {}
 
     @property
     def sl(self) -> list:  # eta' at the nodes
@@ -933,6 +1010,14 @@ class _NodeForm:
         if self._cu is None:
             self._cu = [_lin(self.B[q], self.g) for q in range(self.nq)]
         return self._cu
+
+    def at_nodes(self, x: list) -> list:
+        """x' = sum_a psi'_a(xi_q) x_a at each node, made once per x (``right`` asks for it once per
+        axial function: at 5 + 13 functions this was a quarter of the derivation)."""
+        key = tuple(x)
+        if key not in self._at:
+            self._at[key] = [_lin(self.A[q], x) for q in range(self.nq)]
+        return self._at[key]
 
     def sixth(self) -> tuple:
         """(int eta'^4 eta''^2, [its derivative in g_a]): E6's sums (``_symmetric_form``)."""
@@ -953,8 +1038,8 @@ class _NodeForm:
 
     def right(self, k: int, x: list) -> sp.Expr:
         """sum_a x_a d/dg_a (phi'_k, eta'^4) / 8 = (phi'_k, eta'^3 x') / 2, x' = sum_a psi'_a x_a."""
-        W, A, F, sl = self.W, self.A, self.F, self.sl
-        return sp.Add(*[_f(W[q] * F[q, k] / 2) * sl[q] ** 3 * _lin(A[q], x) for q in range(self.nq)])
+        W, F, sl, xq = self.W, self.F, self.sl, self.at_nodes(x)
+        return sp.Add(*[_f(W[q] * F[q, k] / 2) * sl[q] ** 3 * xq[q] for q in range(self.nq)])
 
     def left(self, y: list) -> list:
         """[sum_k y_k d/dg_a (phi'_k, eta'^4) / 8]_a = [(y . phi' eta'^3, psi'_a) / 2]_a."""
@@ -964,9 +1049,8 @@ class _NodeForm:
 
     def quartic_rate(self, k: int) -> sp.Expr:
         """(3/2) (phi'_k, eta'^2 eta_dot'^2): C5's sum in the constraint's second rate (at g_dot)."""
-        W, A, F, sl = self.W, self.A, self.F, self.sl
-        dg = list(self._dg)
-        return sp.Add(*[_f(1.5 * W[q] * F[q, k]) * sl[q] ** 2 * _lin(A[q], dg) ** 2 for q in range(self.nq)])
+        W, F, sl, dq = self.W, self.F, self.sl, self.at_nodes(list(self._dg))
+        return sp.Add(*[_f(1.5 * W[q] * F[q, k]) * sl[q] ** 2 * dq[q] ** 2 for q in range(self.nq)])
 
 
 #: benchmarks only (``bench_exact_nodes``): {"e6": bool, "c5": bool} forces the choice of ``_ExactBar``
