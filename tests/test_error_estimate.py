@@ -292,3 +292,22 @@ def test_simulate_warns_when_the_time_part_takes_over_a_tenth_of_the_accuracy(tm
     err = capsys.readouterr().err
     assert f"the time integration's estimated error on {worst} is {timed[worst]:.1e} of peak" in err
     assert "(rtol 0.001, atol 1e-06, stated in [simulation]" in err
+
+
+def test_richer_scene_adds_quasi_static_axial_functions_only_from_a_quasi_static_start():
+    """The richer model's added axial functions are quasi-static from a quasi-static start (the
+    four-bar: nothing rings from its start) and dynamic where the start rings (the seed's
+    slider-crank, whose torque's truncation is the added functions' ringing) or is undeformed
+    (the validation five-bar: quasi-static there, its torque_b's estimate was 6x its true error);
+    the added transverse functions stay dynamic (error_estimate.richer_scene)."""
+    from symgen.scene import load_scene
+
+    four = load_scene(ROOT / "examples" / "four_bar.toml")
+    richer, counts = error_estimate.richer_scene(four)
+    assert counts == {b: [6, 6] for b in ("crank", "coupler", "rocker")}
+    assert {c.bar: (c.axial, c.quasi_axial) for c in richer.bases} == {b: (6, 2) for b in counts}
+    assert all(b.quasi_static_transverse == 0 for b in richer.bodies if not b.rigid)
+    for path in (ROOT / "examples" / "slider_crank.toml", ROOT / "benchmarks" / "validation" / "five_bar_elastic.toml"):
+        scene = load_scene(path)
+        richer, _ = error_estimate.richer_scene(scene)
+        assert [c.quasi_axial for c in richer.bases] == [c.quasi_axial for c in scene.bases]

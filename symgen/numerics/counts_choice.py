@@ -42,7 +42,7 @@ __all__ = ["MAX_ROUNDS", "decide", "raised", "recalled", "resolved", "run_with_c
 R = TypeVar("R")
 
 #: the decision's version in the remembered decisions (a changed estimate decides again)
-ESTIMATOR_VERSION = "1"
+ESTIMATOR_VERSION = "2"
 #: at most this many raises of a scene's chosen counts (each a run and its richer rerun more)
 MAX_ROUNDS = 2
 #: the only truncation method that decides (the module docstring)
