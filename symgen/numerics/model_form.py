@@ -851,24 +851,6 @@ def _ringing(span: float, omega: float, damping: float) -> float:
     return min(span, 1.0 / sigma) if sigma > 0 else span
 
 
-def _drift(
-    tau: np.ndarray,
-    y: np.ndarray,
-    omega: float,
-    shift: tuple[np.ndarray, np.ndarray],
-    memory: float,
-    band: tuple[float, float] | None = None,
-) -> float:
-    """The phase drift of a bar's free vibration in an output: with its frequency moved by the
-    fraction ``shift`` = (sample times, shift there), the vibration's phase moves by
-    omega int shift dtau over the time it has rung (``memory``: the run, or its decay time), the
-    output by that phase times the vibration's amplitude there (its envelope, at most twice it:
-    opposite phase); the largest along the run. Integrated along the run rather than the mean
-    shift times the run's length times the run's mean amplitude: the free vibration is largest
-    where a start or a load step excites it, and so are the slopes that shift its frequency."""
-    return float(np.max(_drift_along(tau, y, omega, shift, memory, band), initial=0.0))
-
-
 def _drift_along(
     tau: np.ndarray,
     y: np.ndarray,
@@ -877,7 +859,13 @@ def _drift_along(
     memory: float,
     band: tuple[float, float] | None = None,
 ) -> np.ndarray:
-    """:func:`_drift` at each sample of the run (zeros where nothing rings)."""
+    """The phase drift of a bar's free vibration in an output: with its frequency moved by the
+    fraction ``shift`` = (sample times, shift there), the vibration's phase moves by
+    omega int shift dtau over the time it has rung (``memory``: the run, or its decay time), the
+    output by that phase times the vibration's amplitude there (its envelope, at most twice it:
+    opposite phase); at each sample of the run (zeros where nothing rings). Integrated along the run rather than the mean
+    shift times the run's length times the run's mean amplitude: the free vibration is largest
+    where a start or a load step excites it, and so are the slopes that shift its frequency."""
     tau = np.asarray(tau, dtype=float)
     env = _band_envelope(tau, y, omega, band)
     t_s, s = shift
