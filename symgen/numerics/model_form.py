@@ -632,16 +632,22 @@ def backbone(along: np.ndarray, rest: np.ndarray) -> np.ndarray:
 
 def without_band(tau: np.ndarray, X: np.ndarray, band: tuple[float, float]) -> np.ndarray:
     """The columns of ``X`` (rows at ``tau``, evenly spaced) less their content within ``band``
-    (angular frequencies; the signal mirrored first, as :func:`_band_envelope`)."""
+    (angular frequencies; mirrored first: :func:`_mirrored_spectrum`)."""
     n = len(tau)
-    span = float(tau[-1] - tau[0])
-    if n < 8 or span <= 0 or X.shape[1] == 0:
+    if n < 8 or float(tau[-1] - tau[0]) <= 0 or X.shape[1] == 0:
         return X
-    ext = np.concatenate([X, X[::-1]], axis=0)
-    freq = np.abs(2 * np.pi * np.fft.fftfreq(2 * n, span / (n - 1)))
-    spectrum = np.fft.fft(ext, axis=0)
+    spectrum, freq = _mirrored_spectrum(tau, X)
+    freq = np.abs(freq)
     spectrum[(freq > band[0]) & (freq < band[1])] = 0.0
     return np.asarray(np.real(np.fft.ifft(spectrum, axis=0))[:n])
+
+
+def _mirrored_spectrum(tau: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The spectrum (along axis 0) of ``X`` (rows at ``tau``, evenly spaced) mirrored first, so that
+    it is continuous when made periodic, and its angular frequencies."""
+    n = len(tau)
+    ext = np.concatenate([X, X[::-1]], axis=0)
+    return np.fft.fft(ext, axis=0), 2 * np.pi * np.fft.fftfreq(2 * n, float(tau[-1] - tau[0]) / (n - 1))
 
 
 def _modal_function(mech: Mechanism) -> Any:
@@ -837,10 +843,9 @@ def _band_envelope(tau: np.ndarray, y: np.ndarray, omega: float, band: tuple[flo
         return np.zeros(n)
     lo, hi = band or (0.75 * omega, 1.25 * omega)
     y = np.asarray(y, dtype=float)
-    ext = np.concatenate([y - y.mean(), (y - y.mean())[::-1]])
-    freq = 2 * np.pi * np.fft.fftfreq(2 * n, span / (n - 1))
+    spectrum, freq = _mirrored_spectrum(tau, y - y.mean())
     keep = (freq > lo) & (freq < hi)
-    analytic = np.fft.ifft(np.where(keep, 2.0 * np.fft.fft(ext), 0.0))
+    analytic = np.fft.ifft(np.where(keep, 2.0 * spectrum, 0.0))
     return np.asarray(np.abs(analytic[:n]))
 
 
