@@ -471,22 +471,24 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         if kinds.get(name) in CHECK_KINDS or peaks[j] == 0 or j in prescribed:
             continue
         size = float(np.abs(change[:, j]).max())
-        # the modes' drifts at the same instant, the largest along the run
+        # the modes' drifts as signals at the same instant (each at its own phase), the largest along the run
         drift = float(
             np.max(
-                sum(
-                    (
-                        _drift_along(
-                            result.tau,
-                            y[:, j],
-                            omega,
-                            (tau_rows, mode_shift),
-                            _ringing(span, omega, damping),
-                            band,
-                        )
-                        for (omega, mode_shift, band), y in zip(ringing, unforced)
-                    ),
-                    np.zeros(len(result.tau)),
+                np.abs(
+                    sum(
+                        (
+                            _drift_along(
+                                result.tau,
+                                y[:, j],
+                                omega,
+                                (tau_rows, mode_shift),
+                                _ringing(span, omega, damping),
+                                band,
+                            )
+                            for (omega, mode_shift, band), y in zip(ringing, unforced)
+                        ),
+                        np.zeros(len(result.tau)),
+                    )
                 ),
                 initial=0.0,
             )
@@ -832,21 +834,26 @@ def without_harmonics(tau: np.ndarray, y: np.ndarray, freqs: list[float]) -> np.
     return np.asarray(y - A[:, 1:] @ c[1:])
 
 
-def _band_envelope(tau: np.ndarray, y: np.ndarray, omega: float, band: tuple[float, float] | None = None) -> np.ndarray:
-    """The envelope along the run of the content of ``y(tau)`` within ``band`` (angular
-    frequencies; default within 25 % of ``omega``): the magnitude of its analytic signal (the
-    signal mirrored first, so that it is continuous when made periodic); zeros when the run is
-    shorter than two periods of ``omega``."""
+def _band_signal(tau: np.ndarray, y: np.ndarray, omega: float, band: tuple[float, float] | None = None) -> np.ndarray:
+    """The analytic signal (complex) along the run of the content of ``y(tau)`` within ``band``
+    (angular frequencies; default within 25 % of ``omega``): its magnitude is the content's
+    envelope, its angle the content's phase (the signal mirrored first, so that it is continuous
+    when made periodic); zeros when the run is shorter than two periods of ``omega``."""
     n = len(y)
     span = float(tau[-1] - tau[0])
     if n < 8 or omega <= 0 or omega * span < 4 * np.pi:
-        return np.zeros(n)
+        return np.zeros(n, dtype=complex)
     lo, hi = band or (0.75 * omega, 1.25 * omega)
     y = np.asarray(y, dtype=float)
     spectrum, freq = _mirrored_spectrum(tau, y - y.mean())
     keep = (freq > lo) & (freq < hi)
-    analytic = np.fft.ifft(np.where(keep, 2.0 * spectrum, 0.0))
-    return np.asarray(np.abs(analytic[:n]))
+    return np.asarray(np.fft.ifft(np.where(keep, 2.0 * spectrum, 0.0))[:n])
+
+
+def _band_envelope(tau: np.ndarray, y: np.ndarray, omega: float, band: tuple[float, float] | None = None) -> np.ndarray:
+    """The envelope along the run of the content of ``y(tau)`` within ``band``: the magnitude of
+    :func:`_band_signal`."""
+    return np.asarray(np.abs(_band_signal(tau, y, omega, band)))
 
 
 def _ringing(span: float, omega: float, damping: float) -> float:
@@ -864,20 +871,26 @@ def _drift_along(
     memory: float,
     band: tuple[float, float] | None = None,
 ) -> np.ndarray:
-    """The phase drift of a bar's free vibration in an output: with its frequency moved by the
-    fraction ``shift`` = (sample times, shift there), the vibration's phase moves by
-    omega int shift dtau over the time it has rung (``memory``: the run, or its decay time), the
-    output by that phase times the vibration's amplitude there (its envelope, at most twice it:
-    opposite phase); at each sample of the run (zeros where nothing rings). Integrated along the run rather than the mean
-    shift times the run's length times the run's mean amplitude: the free vibration is largest
-    where a start or a load step excites it, and so are the slopes that shift its frequency."""
+    """The phase drift of a mode's free vibration in an output, as a signal along the run: with
+    its frequency moved by the fraction ``shift`` = (sample times, shift there), the vibration's
+    phase moves by phi = omega int shift dtau over the time it has rung (``memory``: the run, or
+    its decay time), so that the vibration a (its analytic signal in the band, :func:`_band_signal`)
+    becomes a exp(i phi): the output changes by Re(a (exp(i phi) - 1)) at each sample (zeros where
+    nothing rings). Integrated along the run rather than the mean shift times the run's length
+    times the run's mean amplitude: the free vibration is largest where a start or a load step
+    excites it, and so are the slopes that shift its frequency. A signal, not its size |a| |phi|:
+    the phase of each mode's vibration is the run's own and the sign of phi the shift's (the
+    left-out terms harden), so the modes' drifts add as signals, each at its own phase
+    (examples/four_bar.toml: the predicted drift signal of each of its three lowest coupled modes
+    correlates 0.6-0.9 with the measured von Karman vs exact change in its band;
+    tests/test_model_form_drift.py)."""
     tau = np.asarray(tau, dtype=float)
-    env = _band_envelope(tau, y, omega, band)
+    a = _band_signal(tau, y, omega, band)
     t_s, s = shift
-    if not env.any() or len(t_s) == 0:
+    if not a.any() or len(t_s) == 0:
         return np.zeros(len(tau))
     rate = np.interp(tau, t_s, s)
     acc = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
     before = np.interp(tau - memory, tau, acc, left=0.0)
-    phase = omega * np.abs(acc - before)  # signed: a shift that changes sign along the run unwinds
-    return np.asarray(env * np.minimum(phase, 2.0))
+    phase = omega * (acc - before)  # signed: a shift that changes sign along the run unwinds
+    return np.asarray(np.real(a * (np.exp(1j * phase) - 1.0)))
