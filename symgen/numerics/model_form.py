@@ -47,7 +47,9 @@ Karman vs the exact bar move its frequency by 1.01e-3, the tangent by 2.11e-3, t
 1.08e-3). The free vibration of the mode in an output (the envelope of its
 content within 25 % of omega, and no nearer another mode's frequency than the geometric mean of
 the two) then drifts in phase by omega times the integral of shift over the time it has rung:
-the run so far, with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
+since its content came in (the increments of its envelope's running maximum: a start's ringing
+from the start, a vibration a load step or a passage through a resonance builds up from then,
+:func:`_aged`), with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
 by that phase times the envelope there (at most twice it), the largest along the run. The
 coupled modes, because a tool on an overhang makes with the linkage a mode far below any bar's
 own (the four-bar with its rocker pinned to the coupler at xi = 0.6 and a 50 g tool at the
