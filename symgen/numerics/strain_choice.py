@@ -33,8 +33,9 @@ R = TypeVar("R")
 #: the model-form estimator's version in the remembered decisions (a changed estimator decides again)
 #: (3: the phase drift along the run, the exact bar's strain to eta'^4/8; 4: the drift without the
 #: response forced at a constant driver's harmonics; 5: outputs that read only the angle drivers'
-#: angles estimated 0; 6: a mode's own vibration moves it by half its tangent's stiffening, the backbone)
-ESTIMATOR_VERSION = "6"
+#: angles estimated 0; 6: a mode's own vibration moves it by half its tangent's stiffening, the backbone;
+#: 7: a vibration drifts from when its content came in, not from the run's start)
+ESTIMATOR_VERSION = "7"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
