@@ -2,12 +2,14 @@
 
 A run's Functions (the DAE residual and its Jacobian for IDAS, the algebraic polish, the
 record of an output) are written as C by CasADi's code generator, one translation unit per
-Function, compiled once by the system C compiler (the units in parallel, as many at once as there
-are cores, each compiler in a process group of its own that an interrupt kills) and linked into
-one shared library, loaded with ``casadi.external``; IDAS (``ca.integrator``)
-then evaluates them as machine code instead of in CasADi's virtual machine. The C performs the
-very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
-multiply-adds), so both give the same numbers to the last bit.
+Function (one of more operations than ``policy.UNITS`` allows in parts of its output rows, each a
+unit of its own, :func:`parts`: the compiler's memory bounded, the same numbers), compiled once by
+the system C compiler (the units in parallel, as many at once as there are cores, each compiler
+in a process group of its own that an interrupt kills) and linked into one shared library,
+loaded with ``casadi.external``; IDAS (``ca.integrator``) then evaluates them as machine code
+instead of in CasADi's virtual machine. The C performs the very operations of the virtual
+machine in the same order (``-ffp-contract=off``: no fused multiply-adds), so both give the
+same numbers to the last bit.
 
 A run's library not in the cache (:func:`start_library`): its C is written, then the compilers
 run in a background thread (:class:`PendingLibrary`) while the run starts in the virtual
