@@ -126,11 +126,11 @@ units = {{}}
 for name, fs in variants.items():
     where = Path({tmp!r}) / name
     where.mkdir()
-    units[name] = compiled.write_units(fs, where)
+    units[name] = compiled.write_units(fs, where, S.COLD)
     out[name] = {{
         "ops": {{f.name(): int(f.n_instructions()) for f in fs}},
         "kB": sum(u.stat().st_size for u in units[name]) / 1e3,
-        "jac_kB": sum(u.stat().st_size for u in units[name] if u.stem == "jac_dae") / 1e3,
+        "jac_kB": sum(u.stat().st_size for u in units[name] if compiled.unit_of(u) == "jac_dae") / 1e3,
     }}
 if {repeats!r}:
     comp = compiled.compiler()
@@ -142,13 +142,13 @@ if {repeats!r}:
         for name in variants:  # interleaved
             total = 0.0
             for u in units[name]:
-                flags = cold if u.stem in S.COLD else hot
+                flags = cold if compiled.unit_of(u) in S.COLD else hot
                 c0 = os.times()
                 subprocess.run(["nice", "-n", "5", comp.path, *flags, "-fPIC", "-c", str(u), "-o", str(u.with_suffix(".o"))], check=True)
                 c1 = os.times()
                 dt = c1.children_user + c1.children_system - c0.children_user - c0.children_system
                 total += dt
-                if u.stem == "jac_dae":
+                if compiled.unit_of(u) == "jac_dae":
                     jac_times[name].append(dt)
             times[name].append(total)
     for name in variants:

@@ -5,9 +5,11 @@ per process, on an empty cache, as a first run meets it.
 Phases, each with its CPU seconds and the process's peak RSS so far: ``derive`` (SymPy, the
 shape tables included when the cache lacks them), ``casadi_build`` (the model's Functions), the
 runner's Functions (``dae``, ``g``, ``split``, ``rec``), ``jac_dae`` (CasADi's AD of ``dae``),
-``cse`` (``simulate._shared`` on every compiled unit), the C emission (``compiled.write_units``),
-then each unit compiled alone with the flags of a first run (``/usr/bin/time``: CPU s, peak RSS of
-the compiler): ``-O1`` for ``dae``, ``-O0`` for the cold units.
+``cse`` (``simulate._shared`` on every compiled unit), the C emission (``compiled.write_units``:
+a Function larger than ``policy.UNITS`` allows is written as parts, ``<name>_part<k>``, and a unit
+that calls them), then each unit compiled alone with the flags of a first run (``/usr/bin/time``:
+CPU s, peak RSS of the compiler): ``-O1`` for ``dae``, ``-O0`` for the cold units; ``gcc_sum``
+adds each Function's units (CPU s in all, the largest unit's peak).
 
     SYMGEN_CACHE_DIR=$(mktemp -d) python benchmarks/bench_first_run.py SCENE.toml [--no-gcc]
 
@@ -64,14 +66,14 @@ def main(argv: list[str]) -> dict:
     funcs = run._compiled_functions()
     phase("cse")
     with tempfile.TemporaryDirectory() as tmp:
-        units = compiled.write_units(funcs, Path(tmp))
+        units = compiled.write_units(funcs, Path(tmp), S.COLD)
         phase("C")
         out["ops"] = {f.name(): int(f.n_instructions()) for f in funcs}
         out["C_MB"] = {u.stem: round(u.stat().st_size / 1e6, 2) for u in units}
         if "--no-gcc" not in argv:
             comp = compiled.compiler()
             for u in units:
-                flags = list(compiled.cold_flags(comp)) if u.stem in S.COLD else list(comp.flags)
+                flags = list(compiled.cold_flags(comp)) if compiled.unit_of(u) in S.COLD else list(comp.flags)
                 cmd = ["/usr/bin/time", "-f", "%U %S %M", comp.path, *flags, "-fPIC", "-c", str(u), "-o", f"{u}.o"]
                 r = subprocess.run(cmd, capture_output=True, text=True, check=True)
                 user, system, kb = r.stderr.strip().splitlines()[-1].split()
@@ -82,6 +84,9 @@ def main(argv: list[str]) -> dict:
                 }
                 out.setdefault("gcc", {})[u.stem] = gcc
                 print(u.stem, gcc, file=sys.stderr, flush=True)
+                whole = out.setdefault("gcc_sum", {}).setdefault(compiled.unit_of(u), {"cpu_s": 0.0, "peak_MB": 0})
+                whole["cpu_s"] = round(whole["cpu_s"] + gcc["cpu_s"], 1)
+                whole["peak_MB"] = max(whole["peak_MB"], gcc["peak_MB"])
     print(json.dumps(out))
     return out
 

@@ -29,6 +29,8 @@ __all__ = [
     "SOLVERS",
     "tolerances",
     "range_message",
+    "UnitRule",
+    "UNITS",
 ]
 
 
@@ -187,6 +189,32 @@ def range_message(body: str, what: str, limit: float, size: str) -> str:
         f"bar '{body}' is deformed beyond the range of the model: {amount} {size} (limit {limit:g}; {rest}): "
         "a load beyond a buckling load, or forces the bar cannot carry"
     )
+
+
+@dataclass(frozen=True)
+class UnitRule:
+    """How large one translation unit of a compiled library may be (``symgen.numerics.compiled``:
+    CasADi's C of the runner's Functions; the emitted C solver's own C is not cut). The C
+    compiler's memory grows with the operations of a unit, its time faster than they: gcc at
+    -O0 takes about 4.5 kB and 50-75 us per CasADi operation (the exact four-bar's richer model,
+    ``jac_dae`` at 322 k operations: 1.45 GB, 23 s), at -O1 about 9 kB (its ``dae``, 66 k: 615
+    MB, 28 s). A Function of more operations than its bound is computed by parts of its output
+    rows, each a unit of its own (compiled in parallel), and a small unit that calls them
+    (``compiled.parts``): each entry is the same operations on the same operands, so the same
+    number to the last bit; the values several rows share are computed in each part that needs
+    them. Measured (``benchmarks/bench_first_run.py``, docs/exact-bars.md "The first run's
+    cost"): that ``jac_dae`` in 13 parts, at most 196 MB and 22 s in all; that ``dae`` in 3
+    parts, at most 234 MB and 18 s in all, 3-6 % slower per call."""
+
+    #: the operations of one unit of a Function evaluated rarely (compiled at -O0: IDAS's
+    #: Jacobian, the algebraic polish, the outputs): gcc's peak about 200 MB ...
+    cold_ops: int = 50_000
+    #: ... and of the residual ``dae`` (-O1, evaluated at every Newton iteration): gcc's peak
+    #: about 250 MB
+    hot_ops: int = 40_000
+
+
+UNITS = UnitRule()
 
 
 #: the integrators a rule is given for: IDAS (BDF, through CasADi) and the emitted C Radau IIA

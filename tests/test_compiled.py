@@ -334,6 +334,56 @@ def test_the_library_split_in_parallel_units_computes_what_one_unit_computes(tmp
                 assert np.array_equal(np.asarray(g), np.asarray(w))
 
 
+def test_a_function_compiled_in_parts_computes_what_it_computes_whole(tmp_path, monkeypatch, pairs):
+    """A Function larger than ``policy.UNITS`` allows is compiled as parts by its output rows, each
+    a unit of its own, and a unit that calls them (``compiled.parts``, ``compiled.caller_c``): here
+    the four-bar's ``jac_dae``, ``g`` and ``dae`` with a bound a third of ``jac_dae``'s operations.
+    Every entry is in exactly one part, each part within the bound; the library's ``dae``, its
+    Jacobian blocks as IDAS asks for them (the ``jac_dae`` of parts), ``g`` and ``rec`` give the
+    virtual machine's numbers to the last bit, and so does a whole run on it (the same IDAS steps)."""
+    from symgen.policy import UnitRule
+
+    mech = mechanism(FOUR_BAR)
+    q, v, a, lam, part = mech.initial_state(0.0)
+    run = simulate_mod.DaeRunner(mech, part, 1e-6, 1e-8, backend="vm")
+    funcs = run._compiled_functions()
+    byname = {f.name(): f for f in funcs}
+    bound = int(byname["jac_dae"].n_instructions()) // 3
+    assert byname["dae"].n_instructions() > bound and byname["g"].n_instructions() > bound
+    for name in ("jac_dae", "g", "dae"):
+        f = byname[name]
+        cut = compiled.parts(f, bound)
+        assert cut is not None and len(cut) >= 2
+        assert all(p.n_instructions() <= bound for p, _ in cut)
+        entries = sorted(e for _, where in cut for e in where)
+        assert entries == sorted((k, j) for k in range(f.n_out()) for j in range(f.sparsity_out(k).nnz()))
+
+    monkeypatch.setattr(compiled, "UNITS", UnitRule(cold_ops=bound, hot_ops=bound))
+    units = compiled.write_units(funcs, tmp_path, simulate_mod.COLD)
+    stems = {u.stem for u in units}
+    assert {"jac_dae", "jac_dae_part0", "jac_dae_part1", "g_part1", "dae_part1"} <= stems
+    assert {compiled.unit_of(u) for u in units} == set(simulate_mod.COMPILED)
+
+    ext, built = compiled.library(funcs, mech.info.key, "test parts", store=False, cold=simulate_mod.COLD)
+    assert built
+    raw = run._functions()["dae"]
+    blocks = ["jac:ode:x", "jac:alg:x", "jac:ode:z", "jac:alg:z"]
+    want_jac = raw.factory("blocks", casadi.dyn_in(), blocks)
+    got_jac = ext["dae"].factory("blocks", casadi.dyn_in(), blocks)
+    rng = np.random.default_rng(21)
+    for _ in range(3):
+        for got, want in ((got_jac, want_jac), (ext["dae"], raw), (ext["g"], byname["g"]), (ext["rec"], byname["rec"])):
+            args = [rng.uniform(-1.0, 1.0, want.size_in(i)) for i in range(want.n_in())]
+            for g, w in zip(got.call(args), want.call(args)):
+                assert np.array_equal(np.asarray(g), np.asarray(w)), want.name()
+
+    vm = pairs["four_bar"][0]
+    parts_run = simulate(mech, t_end=SHORT["four_bar"][1], backend="compiled", use_cache=False)
+    assert parts_run.stats["backend"] == "compiled" and parts_run.steps == vm.steps
+    for what in ("outputs", "q", "v", "lam"):
+        assert np.array_equal(getattr(vm, what), getattr(parts_run, what)), what
+
+
 def test_a_scene_without_multipliers_runs_on_every_path(tmp_path):
     """tests/data/pendulum_tool.toml (one coordinate, no constraint, no multiplier): the compiled
     IDAS library once failed its own signature check on it (the empty multiplier vector sliced

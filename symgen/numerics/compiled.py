@@ -2,12 +2,14 @@
 
 A run's Functions (the DAE residual and its Jacobian for IDAS, the algebraic polish, the
 record of an output) are written as C by CasADi's code generator, one translation unit per
-Function, compiled once by the system C compiler (the units in parallel, as many at once as there
-are cores, each compiler in a process group of its own that an interrupt kills) and linked into
-one shared library, loaded with ``casadi.external``; IDAS (``ca.integrator``)
-then evaluates them as machine code instead of in CasADi's virtual machine. The C performs the
-very operations of the virtual machine in the same order (``-ffp-contract=off``: no fused
-multiply-adds), so both give the same numbers to the last bit.
+Function (one of more operations than ``policy.UNITS`` allows in parts of its output rows, each a
+unit of its own, :func:`parts`: the compiler's memory bounded, the same numbers), compiled once by
+the system C compiler (the units in parallel, as many at once as there are cores, each compiler
+in a process group of its own that an interrupt kills) and linked into one shared library,
+loaded with ``casadi.external``; IDAS (``ca.integrator``) then evaluates them as machine code
+instead of in CasADi's virtual machine. The C performs the very operations of the virtual
+machine in the same order (``-ffp-contract=off``: no fused multiply-adds), so both give the
+same numbers to the last bit.
 
 A run's library not in the cache (:func:`start_library`): its C is written, then the compilers
 run in a background thread (:class:`PendingLibrary`) while the run starts in the virtual
@@ -48,6 +50,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, TypeAlias
 
 from symgen import __version__, cache
+from symgen.policy import UNITS
 from symgen.processes import Cancelled, announce_compile, jobs, run_group, run_groups
 
 if TYPE_CHECKING:
@@ -299,11 +302,10 @@ class PendingLibrary:
         stack = contextlib.ExitStack()
         try:
             tmp = stack.enter_context(cache.temp_dir(parent, where.name))
-            units = write_units(funcs, tmp)
+            units = write_units(funcs, tmp, cold)
         except BaseException:
             stack.close()
             raise
-        slow = {tmp / f"{name}.c" for name in cold}
 
         def work() -> None:
             with stack:
@@ -318,7 +320,7 @@ class PendingLibrary:
                         if not background
                         else "the run goes on in CasADi's virtual machine meanwhile",
                         "",
-                        lambda c: cold_flags(comp) if c in slow else comp.flags,
+                        lambda c: cold_flags(comp) if unit_of(c) in cold else comp.flags,
                         cancel=self._cancel if background else None,
                     )
                     if store:
@@ -476,20 +478,179 @@ def link_units(
     return out.read_bytes()
 
 
-def write_units(funcs: list[ca.Function], folder: Path) -> list[Path]:
+def write_units(funcs: list[ca.Function], folder: Path, cold: tuple[str, ...] = ()) -> list[Path]:
     """The C of ``funcs`` written by CasADi's code generator into ``folder``, one translation unit
     per Function (``<name>.c``, its internal symbols prefixed by its name, so the units link
     into one library), the largest first: the units are compiled in parallel, and each Function's
-    C is what one unit holding them all would have (the same statements in the same order)."""
+    C is what one unit holding them all would have (the same statements in the same order).
+
+    A Function of more operations than ``policy.UNITS`` allows (``cold_ops`` for those named in
+    ``cold``, else ``hot_ops``) is written as parts (:func:`parts`), each a unit
+    ``<name>_part<k>.c`` of its own, and a unit ``<name>.c`` that calls them (:func:`caller_c`):
+    the compiler's memory is then bounded by the largest part."""
     import casadi as ca
 
     units = []
-    for f in funcs:
+
+    def write(f: ca.Function) -> None:
         gen = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
         gen.add(f)
         gen.generate(str(folder) + os.sep)
         units.append(folder / f"{f.name()}.c")
+
+    for f in funcs:
+        bound = UNITS.cold_ops if f.name() in cold else UNITS.hot_ops
+        split = parts(f, bound) if f.is_a("SXFunction") and f.n_instructions() > bound else None
+        if split is None:
+            write(f)
+            continue
+        for part, _ in split:
+            write(part)
+        (folder / f"{f.name()}.c").write_text(caller_c(f, split))
+        units.append(folder / f"{f.name()}.c")
     return sorted(units, key=lambda c: -c.stat().st_size)
+
+
+def unit_of(unit: Path) -> str:
+    """The name of the Function whose C (or one of whose parts) the unit ``unit`` holds."""
+    return unit.stem.split(PART)[0]
+
+
+#: What separates a Function's name and a part's number in the part's name (``jac_dae_part3``)
+PART = "_part"
+
+#: A part: the SX Function of some of a Function's output entries (one output: their nonzeros,
+#: in order) and, for each, [output index, nonzero index] in the Function's outputs.
+Part: TypeAlias = tuple["ca.Function", list[tuple[int, int]]]
+
+
+def parts(f: ca.Function, bound: int) -> list[Part] | None:
+    """``f`` (an SX Function) cut into parts by its output rows, each of at most ``bound``
+    operations where one row allows it: the rows (of all outputs together) are halved, by their
+    nonzeros, until each part is small enough. Each entry of a part is the very expression it
+    is in ``f`` (the same operations on the same operands: the same number to the last bit);
+    values several rows share are computed in each part that needs them. ``None`` when ``f``
+    cannot be cut (one row)."""
+    import casadi as ca
+
+    ins = f.sx_in()
+    outs = f.call(ins)
+    entries: dict[int, list[tuple[int, int]]] = {}
+    for k, out in enumerate(outs):
+        for j, row in enumerate(out.sparsity().row()):
+            entries.setdefault(int(row), []).append((k, j))
+    rows = sorted(entries)
+    if len(rows) < 2:
+        return None
+
+    def part(group: list[int], n: int) -> Part:
+        where = [e for r in group for e in entries[r]]
+        expr = ca.vertcat(*[outs[k].nz[j] for k, j in where]) if where else ca.SX(0, 1)
+        return ca.Function(f"{f.name()}{PART}{n}", ins, [expr], f.name_in(), ["nz"]), where
+
+    made: list[Part] = []
+
+    def cut(group: list[int]) -> None:
+        p = part(group, len(made))
+        if p[0].n_instructions() <= bound or len(group) == 1:
+            made.append(p)
+            return
+        sizes = [len(entries[r]) for r in group]
+        half = next(i for i in range(1, len(group)) if 2 * sum(sizes[:i]) >= sum(sizes) or i == len(group) - 1)
+        cut(group[:half])
+        cut(group[half:])
+
+    cut(rows)
+    return [p for p in made if p[1]] or None
+
+
+def caller_c(f: ca.Function, split: list[Part]) -> str:
+    """The C of ``f`` (CasADi's external interface: ``<name>``, ``<name>_work``,
+    ``<name>_sparsity_in``, ...) computed by calling its ``split`` parts, each in a unit of its
+    own, and copying each part's nonzeros into ``f``'s outputs (an output not asked for, a null
+    pointer, skipped as CasADi's C skips it)."""
+    name, n_in, n_out = f.name(), f.n_in(), f.n_out()
+    sp = [f.sparsity_in(i) for i in range(n_in)] + [f.sparsity_out(i) for i in range(n_out)]
+    most = max(len(where) for _, where in split)
+    sz_arg = max([n_in] + [int(p.sz_arg()) for p, _ in split])
+    sz_res = n_out + max(int(p.sz_res()) for p, _ in split)
+    sz_iw = max(int(p.sz_iw()) for p, _ in split)
+    sz_w = most + max(int(p.sz_w()) for p, _ in split)
+
+    def ints(xs: list[int]) -> str:
+        return "{" + ", ".join(map(str, xs)) + "}" if xs else "{0}"
+
+    def switch(values: list[str]) -> str:
+        return "".join(f"    case {i}: return {v};\n" for i, v in enumerate(values))
+
+    proto = "(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem)"
+    c = [
+        f"/* symgen: {name} computed by its {len(split)} parts {name}{PART}0 ... (compiled.parts), each a",
+        " * translation unit of its own, generated by CasADi: the same entries to the last bit. */",
+        "#ifdef __cplusplus",
+        'extern "C" {',
+        "#endif",
+        "#define casadi_real double",
+        "#define casadi_int long long int",
+    ]
+    for i, s in enumerate(sp):
+        comp = [int(v) for v in s.compress()]
+        c.append(f"static const casadi_int {name}_s{i}[{len(comp)}] = {ints(comp)};")
+    for n, (p, where) in enumerate(split):
+        c.append(f"int {p.name()}{proto};")
+        c.append(f"static const casadi_int {name}_k{n}[{len(where)}] = {ints([k for k, _ in where])};")
+        c.append(f"static const casadi_int {name}_j{n}[{len(where)}] = {ints([j for _, j in where])};")
+    c.append(f"int {name}{proto} {{")
+    c.append(f"  casadi_real** r = res + {n_out};")
+    c.append("  casadi_int i;")
+    for n, (p, where) in enumerate(split):
+        c.append("  r[0] = w;")
+        c.append(f"  if ({p.name()}(arg, r, iw, w + {most}, mem)) return 1;")
+        c.append(f"  for (i = 0; i < {len(where)}; ++i)")
+        c.append(f"    if (res[{name}_k{n}[i]]) res[{name}_k{n}[i]][{name}_j{n}[i]] = w[i];")
+    c.append("  return 0;")
+    c.append("}")
+    names_in = ", ".join(f'"{f.name_in(i)}"' for i in range(n_in))
+    names_out = ", ".join(f'"{f.name_out(i)}"' for i in range(n_out))
+    c += [
+        f"int {name}_checkout(void) {{ return 0; }}",
+        f"void {name}_release(int mem) {{ (void) mem; }}",
+        f"void {name}_incref(void) {{}}",
+        f"void {name}_decref(void) {{}}",
+        f"casadi_int {name}_n_in(void) {{ return {n_in}; }}",
+        f"casadi_int {name}_n_out(void) {{ return {n_out}; }}",
+        f"casadi_real {name}_default_in(casadi_int i) {{ (void) i; return 0; }}",
+        f"const char* {name}_name_in(casadi_int i) {{",
+        f"  static const char* names[{n_in}] = {{{names_in}}};",
+        f"  return i >= 0 && i < {n_in} ? names[i] : 0;",
+        "}",
+        f"const char* {name}_name_out(casadi_int i) {{",
+        f"  static const char* names[{n_out}] = {{{names_out}}};",
+        f"  return i >= 0 && i < {n_out} ? names[i] : 0;",
+        "}",
+        f"const casadi_int* {name}_sparsity_in(casadi_int i) {{",
+        "  switch (i) {",
+        switch([f"{name}_s{i}" for i in range(n_in)]) + "    default: return 0;",
+        "  }",
+        "}",
+        f"const casadi_int* {name}_sparsity_out(casadi_int i) {{",
+        "  switch (i) {",
+        switch([f"{name}_s{n_in + i}" for i in range(n_out)]) + "    default: return 0;",
+        "  }",
+        "}",
+        f"int {name}_work(casadi_int* sz_arg, casadi_int* sz_res, casadi_int* sz_iw, casadi_int* sz_w) {{",
+        f"  if (sz_arg) *sz_arg = {sz_arg};",
+        f"  if (sz_res) *sz_res = {sz_res};",
+        f"  if (sz_iw) *sz_iw = {sz_iw};",
+        f"  if (sz_w) *sz_w = {sz_w};",
+        "  return 0;",
+        "}",
+        "#ifdef __cplusplus",
+        '} /* extern "C" */',
+        "#endif",
+        "",
+    ]
+    return "\n".join(c)
 
 
 def _load(blob: bytes, signatures: list[Signature]) -> dict[str, ca.Function]:
