@@ -311,3 +311,31 @@ def test_richer_scene_adds_quasi_static_axial_functions_only_from_a_quasi_static
         scene = load_scene(path)
         richer, _ = error_estimate.richer_scene(scene)
         assert [c.quasi_axial for c in richer.bases] == [c.quasi_axial for c in scene.bases]
+
+
+@pytest.mark.parametrize(
+    ("strain", "expected"),
+    [
+        ({"requested": "auto", "strain": "von_karman"}, '"auto" kept von Karman because its model-form estimate alone'),
+        (
+            {"requested": "von_karman", "strain": "von_karman"},
+            'lowered by the bar formulation: effects.strain = "exact"',
+        ),
+        ({"requested": "auto", "strain": "exact"}, "no key of the scene lowers it"),
+    ],
+)
+def test_model_form_warning_says_what_lowers_it(strain, expected, capsys):
+    """The warning names what lowers the model-form part from what the scene asked and got: under
+    "auto" that kept von Karman it does not advise "auto" (already in effect) but the exact bar."""
+    from symgen.cli import _say_estimate
+
+    sidecar = {
+        "error_estimate": {"tip": 1.2e-2},
+        "error_estimate_detail": {"parts": {"truncation": {"tip": 2e-3}, "model_form": {"tip": 9.5e-3}}},
+        "accuracy": 0.01,
+        "strain": strain,
+    }
+    _say_estimate(sidecar, "out.json", "scene.toml")
+    err = capsys.readouterr().err
+    assert "exceeds simulation.accuracy = 0.01" in err and expected in err
+    assert 'or "auto"' not in err
