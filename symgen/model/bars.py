@@ -710,7 +710,7 @@ def _structure(
         basis_t,
         (effects.strain, effects.coriolis, effects.geometric_stiffening, effects.rotary_inertia),
         bool(loads),
-        tuple(float(p.xi) for p in points),
+        tuple(p.xi for p in points),
         gravity,
         damping,
         None if axial_force is None else len(axial_force),
@@ -762,6 +762,9 @@ def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -
         own.update(zip(shown[-1], point_force_groups(s, *p.ground)))
     table0 = eq.value_table
     back = {v: k for k, v in rule.items()}
+    targets = set(back)
+    if any(sp.sympify(v).free_symbols & targets for v in table0.values()):
+        return None  # the first bar's values hold a symbol of this bar: a rename would not be one to one
     if any(ren(table0[back[x]]) != v for x, v in own.items()):
         return None
     values = {ren(k): ren(v) for k, v in table0.items()}
