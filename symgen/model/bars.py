@@ -657,8 +657,10 @@ class SharedBarEquations:
     the effects' flags, which loads and point forces act where, gravity, damping. Two bars of the
     same structure get the same equations up to their own symbols, so the first is derived
     (``bar_equations``) and the others are its equations with its symbols replaced by theirs
-    (``xreplace``, each shared subexpression once): the same expressions as their own derivation
-    gives (SymPy's sums and products are canonical whatever the symbols' names; tested).
+    (``renamed``: ``xreplace``, each shared subexpression once): the same expressions as their own
+    derivation gives (SymPy's sums and products are canonical whatever the symbols' names; tested
+    against it, ``tests/test_shared_bars.py``). The display form of a shared bar is renamed on first
+    use (``symgen latex``), as the exact bar's own is made.
 
     What is substituted for a bar's display symbols (its load groups, the groups of point forces
     given in ground axes) is checked: only where the other bar's values are the first one's with
