@@ -642,6 +642,156 @@ def bar_equations(
     )
 
 
+#: tests and benchmarks only: False derives every bar's equations itself (``SharedBarEquations``)
+_SHARE: dict = {"on": True}
+
+#: the fields of ``BarSymbols`` that name one bar's own symbols (a slot guide's beta is not shared)
+_OWN = ("th", "dth", "ddth", "f", "df", "ddf", "g", "dg", "ddg", "xa_dd", "ya_dd", "alpha", "nu", "lam", "mu")
+
+
+class SharedBarEquations:
+    """``bar_equations`` of the bars of one derivation, each bar structure derived once.
+
+    A bar's equations depend on its own symbols (coordinates, rates, accelerations, parameters:
+    parameters stay symbols) and on its structure: function counts, bases (hence inner products),
+    the effects' flags, which loads and point forces act where, gravity, damping. Two bars of the
+    same structure get the same equations up to their own symbols, so the first is derived
+    (``bar_equations``) and the others are its equations with its symbols replaced by theirs
+    (``renamed``: ``xreplace``, each shared subexpression once): the same expressions as their own
+    derivation gives (SymPy's sums and products are canonical whatever the symbols' names; tested
+    against it, ``tests/test_shared_bars.py``). The display form of a shared bar is renamed on first
+    use (``symgen latex``), as the exact bar's own is made.
+
+    What is substituted for a bar's display symbols (its load groups, the groups of point forces
+    given in ground axes) is checked: only where the other bar's values are the first one's with
+    its symbols replaced (gravity: yes; a joint's reaction or a scene load: no) are the equations
+    shared, otherwise that bar is derived itself. A slot's guide and a point load given in bar
+    axes are always derived themselves.
+    """
+
+    def __init__(self) -> None:
+        self._made: dict = {}  # structure key -> (equations, inner products, inputs)
+
+    def __call__(self, s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, **inputs) -> BarEquations:
+        key = _structure(s, basis_a, basis_t, t, effects, **inputs) if _SHARE["on"] else None
+        made = self._made.get(key) if key is not None else None
+        if made is not None and (made[1] is t.ip or _same_tables(made[1], t.ip)):
+            out = _instantiate(made[0], made[2], s, inputs)
+            if out is not None:
+                return out
+        eq = bar_equations(s, basis_a, basis_t, t, effects, **inputs)
+        if key is not None and made is None:
+            self._made[key] = (eq, t.ip, inputs)
+        return eq
+
+
+def _structure(
+    s: BarSymbols,
+    basis_a: Basis,
+    basis_t: Basis,
+    t: IPTable,
+    effects,
+    *,
+    loads: tuple = (),
+    points: tuple = (),
+    gravity: tuple | None = None,
+    damping: sp.Expr | None = None,
+    axial_force: tuple | None = None,
+) -> tuple | None:
+    """What a bar's equations depend on besides its own symbols; None: not shared."""
+    if s.beta or type(t) is not IPTable or any(p.ground is None for p in points):
+        return None
+    if axial_force is not None and not all(isinstance(x, sp.Symbol) for x in axial_force):
+        return None
+    return (
+        len(s.f),
+        len(s.g),
+        s.lam is None,
+        s.mu is None,
+        basis_a,
+        basis_t,
+        (effects.strain, effects.coriolis, effects.geometric_stiffening, effects.rotary_inertia),
+        bool(loads),
+        tuple(p.xi for p in points),
+        gravity,
+        damping,
+        None if axial_force is None else len(axial_force),
+    )
+
+
+def _same_tables(a: InnerProducts, b: InnerProducts) -> bool:
+    """The same inner products (the numbers the equations hold)."""
+    names_ = ("gram", "Ka", "Kt", "Pd", "psid1", "C3", "D4")
+    return all(np.array_equal(getattr(a, n), getattr(b, n)) for n in names_)
+
+
+def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -> BarEquations | None:
+    """``eq`` (another bar's equations, derived with ``inputs0``) for bar ``s`` with ``inputs``:
+    its symbols replaced by those of ``s``; None where what ``bar_equations`` substitutes for the
+    display symbols of ``s`` is not the replaced one of ``eq``'s bar."""
+    s0 = eq.sym
+    rule: dict = {}
+
+    def pair(a, b) -> None:
+        if isinstance(a, tuple):
+            for x, y in zip(a, b):
+                pair(x, y)
+        elif a is not None:
+            rule[a] = b
+
+    for name in _OWN:
+        pair(getattr(s0, name), getattr(s, name))
+    xa_d, ya_d = (names.origin_velocity(ax, s.name).symbol() for ax in "xy")  # recorded, as bar_equations does
+    pair((eq.xa_d, eq.ya_d), (xa_d, ya_d))
+    if inputs0.get("axial_force") is not None:
+        pair(tuple(inputs0["axial_force"]), tuple(inputs["axial_force"]))
+    memo: dict = {}
+
+    def ren(e):
+        return renamed(sp.sympify(e), rule, memo)
+
+    # the display symbols of s and what bar_equations would substitute for them
+    own: dict = {}
+    groups: tuple = ()
+    if eq.loads:
+        groups = load_symbols(s)
+        pair(eq.loads, groups)
+        own.update(zip(groups, distributed_groups(s, inputs.get("loads", ()), inputs.get("gravity"))))
+    shown = []
+    for k, p in enumerate(inputs.get("points", ())):
+        shown.append(point_symbols(s, k))
+        pair(eq.points[k], shown[-1])
+        own.update(zip(shown[-1], point_force_groups(s, *p.ground)))
+    table0 = eq.value_table
+    back = {v: k for k, v in rule.items()}
+    targets = set(back)
+    if any(sp.sympify(v).free_symbols & targets for v in table0.values()):
+        return None  # the first bar's values hold a symbol of this bar: a rename would not be one to one
+    if any(ren(table0[back[x]]) != v for x, v in own.items()):
+        return None
+    values = {ren(k): ren(v) for k, v in table0.items()}
+    inner = {ren(k): v for k, v in eq.inner_product_table.items()}
+
+    def form() -> BarEquations:
+        shown_form = eq.display  # the first bar's, made on first use (its tables complete then)
+        assert shown_form is not None  # bar_equations always gives one
+        values.update({ren(k): ren(v) for k, v in eq.value_table.items()})
+        inner.update({ren(k): v for k, v in eq.inner_product_table.items()})
+        return replace(shown_form.map(ren), sym=s, xa_d=xa_d, ya_d=ya_d)
+
+    return replace(
+        eq.map(ren),
+        sym=s,
+        xa_d=xa_d,
+        ya_d=ya_d,
+        display_form=form,
+        value_table=values,
+        inner_product_table=inner,
+        points=tuple(shown),
+        loads=groups,
+    )
+
+
 _E4 = r"\mathcal{{E}}_{{{0},{1},{2},{3}}}"
 _E6 = r"\mathcal{{E}}_{{{0},{1},{2},{3},{4},{5}}}"
 _G3 = r"\mathcal{{G}}_{{{0},{1},{2}}}"
@@ -1080,6 +1230,38 @@ def shared_xreplace(expr: sp.Basic, rule: dict, memo: dict) -> sp.Basic:
     else:
         args = [shared_xreplace(a, rule, memo) for a in expr.args]
         out = expr if all(a is b for a, b in zip(args, expr.args)) else expr.func(*args)
+    memo[expr] = out
+    return out
+
+
+_CANONICAL = functools.cmp_to_key(sp.Basic.compare)  # the order of the terms of SymPy's sums and products
+
+
+def renamed(expr: sp.Basic, rule: dict, memo: dict) -> sp.Basic:
+    """``expr.xreplace(rule)`` for a ``rule`` that renames symbols one to one (each to a symbol of
+    the same assumptions, none to one already in ``expr``), each distinct subexpression once.
+
+    Renaming leaves a canonical expression canonical up to the order of the terms of its sums and
+    products (no two terms or factors become alike, no number appears), so those are rebuilt by
+    sorting their terms as SymPy's ``Add.flatten`` / ``Mul.flatten`` do (the number coefficient
+    first) rather than by flattening them again: the same expression as ``xreplace`` gives, at a
+    fraction of its cost on the large sums of a bar's equations (tested: ``test_shared_bars``)."""
+    out = memo.get(expr)
+    if out is not None:
+        return out
+    if expr in rule:
+        out = rule[expr]
+    elif not expr.args:
+        out = expr
+    else:
+        args = [renamed(a, rule, memo) for a in expr.args]
+        if all(a is b for a, b in zip(args, expr.args)):
+            out = expr
+        elif type(expr) in (sp.Add, sp.Mul) and expr.is_commutative:
+            head = 1 if args[0].is_Number else 0
+            out = type(expr)._from_args(args[:head] + sorted(args[head:], key=_CANONICAL), True)
+        else:
+            out = expr.func(*args)
     memo[expr] = out
     return out
 

@@ -14,7 +14,7 @@ summing these brackets along the tree from ground gives (10) for every bar
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from collections.abc import Callable
 
 import numpy as np
@@ -30,14 +30,28 @@ from symgen.scene.model import GROUND
 
 @dataclass(frozen=True)
 class BarKinematics:
+    """The points of one bar. Each quantity is made once per abscissa and kept (``_memo``): the
+    tree's origins (10) sum the brackets of every bar before a bar, the residuals take the partials
+    of each coordinate, so the same (bar, xi) is asked for many times (the shape values are
+    50-digit sums). Matrices are handed out as copies."""
+
     sym: BarSymbols
     basis_a: Basis
     basis_t: Basis
+    _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def _kept(self, key: tuple, make: Callable[[], object]):
+        out = self._memo.get(key)
+        if out is None:
+            out = self._memo[key] = make()
+        return out
 
     def _vals(self, basis: Basis, xi: float, deriv: int = 0) -> list:
         if len(basis) == 0:
             return []
-        return [_num(v) for v in np.atleast_1d(basis.values(xi, deriv))]
+        return self._kept(
+            ("vals", basis.direction, xi, deriv), lambda: [_num(v) for v in np.atleast_1d(basis.values(xi, deriv))]
+        )
 
     def zeta(self, xi: float, deriv: int = 0, amp: tuple | None = None) -> sp.Expr:
         amp = self.sym.f if amp is None else amp
@@ -49,43 +63,57 @@ class BarKinematics:
 
     def local(self, xi: float) -> tuple:
         """(xi + zeta, eta) at xi, in bar axes / l_i."""
-        return sp.Float(xi) + self.zeta(xi), self.eta(xi)
+        return self._kept(("local", xi), lambda: (sp.Float(xi) + self.zeta(xi), self.eta(xi)))
 
     def rho(self, xi: float) -> sp.Matrix:
-        s = self.sym
-        lx, ly = self.local(xi)
-        return s.alpha * rot(s.th) * sp.Matrix([lx, ly])
+        def make() -> sp.Matrix:
+            s = self.sym
+            lx, ly = self.local(xi)
+            return s.alpha * rot(s.th) * sp.Matrix([lx, ly])
+
+        return self._kept(("rho", xi), make).copy()
 
     def rho_d(self, xi: float) -> sp.Matrix:
-        s = self.sym
-        lx, ly = self.local(xi)
-        vx = self.zeta(xi, amp=s.df) - s.dth * ly
-        vy = self.eta(xi, amp=s.dg) + s.dth * lx
-        return s.alpha * rot(s.th) * sp.Matrix([vx, vy])
+        def make() -> sp.Matrix:
+            s = self.sym
+            lx, ly = self.local(xi)
+            vx = self.zeta(xi, amp=s.df) - s.dth * ly
+            vy = self.eta(xi, amp=s.dg) + s.dth * lx
+            return s.alpha * rot(s.th) * sp.Matrix([vx, vy])
+
+        return self._kept(("rho_d", xi), make).copy()
 
     def bracket_dd(self, xi: float) -> sp.Matrix:
         """alpha times the bracket of (10) at xi: rho'' in the bar's own axes."""
-        s = self.sym
-        lx, ly = self.local(xi)
-        dz, de = self.zeta(xi, amp=s.df), self.eta(xi, amp=s.dg)
-        ax = self.zeta(xi, amp=s.ddf) - 2 * s.dth * de - s.ddth * ly - s.dth**2 * lx
-        ay = self.eta(xi, amp=s.ddg) + 2 * s.dth * dz + s.ddth * lx - s.dth**2 * ly
-        return s.alpha * sp.Matrix([ax, ay])
+
+        def make() -> sp.Matrix:
+            s = self.sym
+            lx, ly = self.local(xi)
+            dz, de = self.zeta(xi, amp=s.df), self.eta(xi, amp=s.dg)
+            ax = self.zeta(xi, amp=s.ddf) - 2 * s.dth * de - s.ddth * ly - s.dth**2 * lx
+            ay = self.eta(xi, amp=s.ddg) + 2 * s.dth * dz + s.ddth * lx - s.dth**2 * ly
+            return s.alpha * sp.Matrix([ax, ay])
+
+        return self._kept(("bracket_dd", xi), make).copy()
 
     def rho_dd(self, xi: float) -> sp.Matrix:
-        return rot(self.sym.th) * self.bracket_dd(xi)
+        return self._kept(("rho_dd", xi), lambda: rot(self.sym.th) * self.bracket_dd(xi)).copy()
 
     def partials(self, xi: float) -> dict:
         """d rho(xi) / d coordinate, ground axes, for theta and every amplitude."""
-        s = self.sym
-        lx, ly = self.local(xi)
-        R = rot(s.th)
-        out = {s.th: s.alpha * R * sp.Matrix([-ly, lx])}
-        for k, fk in enumerate(s.f):
-            out[fk] = s.alpha * R * sp.Matrix([_num(self.basis_a.values(xi)[k]), 0])
-        for k, gk in enumerate(s.g):
-            out[gk] = s.alpha * R * sp.Matrix([0, _num(self.basis_t.values(xi)[k])])
-        return out
+
+        def make() -> dict:
+            s = self.sym
+            lx, ly = self.local(xi)
+            R = rot(s.th)
+            out = {s.th: s.alpha * R * sp.Matrix([-ly, lx])}
+            for fk, v in zip(s.f, self._vals(self.basis_a, xi)):
+                out[fk] = s.alpha * R * sp.Matrix([v, 0])
+            for gk, v in zip(s.g, self._vals(self.basis_t, xi)):
+                out[gk] = s.alpha * R * sp.Matrix([0, v])
+            return out
+
+        return {k: m.copy() for k, m in self._kept(("partials", xi), make).items()}
 
 
 #: the bar kinematics' methods giving rho, rho', rho'' (derivative order 0, 1, 2)
@@ -106,6 +134,7 @@ class TreeKinematics:
     def __init__(self, topology: Topology, kins: dict, param: Callable[[Name], sp.Expr], slider_s: dict) -> None:
         self.topo, self.kins, self.param, self.slider_s = topology, kins, param, slider_s
         self._paths: dict[str, list] = {}
+        self._origins: dict[tuple, sp.Matrix] = {}  # (bar, order) -> r_A, r_A', r_A'' (made once)
 
     def ground_point(self, joint: str) -> sp.Matrix:
         """The ground end (px, py) of ``joint``."""
@@ -145,6 +174,11 @@ class TreeKinematics:
         return p0 if order == 0 else sp.zeros(2, 1)
 
     def _origin(self, name: str, order: int) -> sp.Matrix:
+        if (name, order) not in self._origins:
+            self._origins[name, order] = self._origin_sum(name, order)
+        return self._origins[name, order].copy()
+
+    def _origin_sum(self, name: str, order: int) -> sp.Matrix:
         r = sp.zeros(2, 1)
         for term in self.path(name):
             if isinstance(term[0], str):
@@ -161,6 +195,10 @@ class TreeKinematics:
     def position(self, name: str) -> sp.Matrix:
         """r_A of bar ``name``: the position level of :meth:`origin`."""
         return self._origin(name, 0)
+
+    def velocity(self, name: str) -> sp.Matrix:
+        """r_A' of bar ``name``: the velocity level of :meth:`origin`."""
+        return self._origin(name, 1)
 
     def origin_acc_local(self, name: str) -> sp.Matrix:
         """[r_A'']_i of (10): the origin's acceleration in bar ``name``'s axes / alpha_i."""

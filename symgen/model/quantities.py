@@ -35,7 +35,7 @@ def energy(bars: dict, topo: Topology, tree: TreeKinematics, loads: Loads, rotor
     for name in topo.order:
         bm = bars[name]
         s, eq = bm.sym, bm.equations
-        rA, vA, _ = tree.origin(name)
+        rA, vA = tree.position(name), tree.velocity(name)
         R = rot(s.th)
         vb = R.T * vA / s.alpha
         k3 = s.nu * s.alpha**3

@@ -21,7 +21,7 @@ import sympy as sp
 
 from symgen.ir import names
 from symgen.ir.records import GENERALIZED_FORCE, ORIGIN_ACCELERATION, SUBTREE_FORCE, CoordKind, Coordinate, Program
-from symgen.model.bars import bar_equations
+from symgen.model.bars import SharedBarEquations
 from symgen.model.constraints import Constraints
 from symgen.model.kinematics import TreeKinematics
 from symgen.model.loads import Loads
@@ -65,6 +65,7 @@ def generalized_forces(
     """bar -> :class:`BarForces`: (10) and the bar equations of every bar, in tree order,
     assigned in ``prog``; each ``BarModel`` keeps its ``equations`` and their ``inputs``."""
     E: dict[str, BarForces] = {}
+    bar_equations = SharedBarEquations()  # bars of one structure: derived once
     for name in topo.order:
         bm = bars[name]
         s = bm.sym
