@@ -22,7 +22,7 @@ INSTANTIATE = B._instantiate
 
 
 def _derive(scene, share: bool, monkeypatch):
-    monkeypatch.setitem(B._SHARE, "on", share)
+    monkeypatch.setattr(B, "SHARE_BARS", share)
     made = {"shared": 0, "own": 0}
 
     def counted(*args):

@@ -642,8 +642,8 @@ def bar_equations(
     )
 
 
-#: tests and benchmarks only: False derives every bar's equations itself (``SharedBarEquations``)
-_SHARE: dict = {"on": True}
+#: False derives every bar's equations itself (``SharedBarEquations``; tests compare the two)
+SHARE_BARS = True
 
 #: the fields of ``BarSymbols`` that name one bar's own symbols (a slot guide's beta is not shared)
 _OWN = ("th", "dth", "ddth", "f", "df", "ddf", "g", "dg", "ddg", "xa_dd", "ya_dd", "alpha", "nu", "lam", "mu")
@@ -673,7 +673,7 @@ class SharedBarEquations:
         self._made: dict = {}  # structure key -> (equations, inner products, inputs)
 
     def __call__(self, s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, **inputs) -> BarEquations:
-        key = _structure(s, basis_a, basis_t, t, effects, **inputs) if _SHARE["on"] else None
+        key = _structure(s, basis_a, basis_t, t, effects, **inputs) if SHARE_BARS else None
         made = self._made.get(key) if key is not None else None
         if made is not None and (made[1] is t.ip or _same_tables(made[1], t.ip)):
             out = _instantiate(made[0], made[2], s, inputs)
