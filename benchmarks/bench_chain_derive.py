@@ -24,21 +24,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
-from bench_derivation import scene_text  # noqa: E402
-
-MEASURE = """
-import json, sys, time
-from symgen.scene import load_scene
-from symgen.model.derive import derive
-from symgen.backends.casadi import functions as casadi_emit
-scene = load_scene({path!r}, {sets!r})
-c0 = time.process_time()
-model = derive(scene)
-c1 = time.process_time()
-funcs = casadi_emit.build_functions(model)
-c2 = time.process_time()
-print(json.dumps({{"derive": c1 - c0, "build": c2 - c1, "n": len(model.coords)}}))
-"""
+from bench_derivation import measure, scene_text  # noqa: E402
 
 CASES = (  # label, (bars, axial, transverse) or an example, --set
     ("chain 2 (2+4)", (2, 2, 4), []),
@@ -48,21 +34,6 @@ CASES = (  # label, (bars, axial, transverse) or an example, --set
     ("chain 12 (2+4) exact", (12, 2, 4), ["effects.strain=exact"]),
     ("four_bar", "four_bar", []),
 )
-
-
-def measure(tree: Path, path: Path, sets: list, shapes: Path | None) -> dict:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, PYTHONPATH=str(tree))
-        env.pop("PYTHONDONTWRITEBYTECODE", None)
-        env["SYMGEN_CACHE_DIR"] = cache
-        if shapes is not None:  # the shape tables' cache kept warm: a copy of it
-            subprocess.run(["cp", "-a", f"{shapes}/.", cache], check=True)
-        code = MEASURE.format(path=str(path), sets=list(sets))
-        # cwd: not a tree (``python -c`` puts the working directory before PYTHONPATH)
-        out = subprocess.run(
-            [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True, cwd=cache
-        )
-    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main() -> None:
@@ -85,16 +56,16 @@ def main() -> None:
             path.write_text(scene_text("chain", *what))
         if shapes is not None:
             env = dict(os.environ, PYTHONPATH=str(ROOT), SYMGEN_CACHE_DIR=str(shapes))
-            code = MEASURE.format(path=str(path), sets=list(sets))
-            subprocess.run([sys.executable, "-c", code], capture_output=True, env=env, check=True, cwd=work)
+            fill = f"from symgen.scene import load_scene; from symgen.model.derive import derive; derive(load_scene({str(path)!r}, {list(sets)!r}))"
+            subprocess.run([sys.executable, "-c", fill], capture_output=True, env=env, check=True, cwd=work)
             for sub in shapes.iterdir():  # keep the shape tables only, not the derived models
                 if sub.name == "models":
                     subprocess.run(["rm", "-rf", str(sub)], check=True)
         runs: dict[str, list] = {"before": [], "after": []}
         for _ in range(args.repeats):
-            runs["before"].append(measure(args.base, path, sets, shapes))
-            runs["after"].append(measure(ROOT, path, sets, shapes))
-        med = {k: {x: statistics.median(r[x] for r in v) for x in ("derive", "build")} for k, v in runs.items()}
+            runs["before"].append(measure(path, sets, args.base, shapes))
+            runs["after"].append(measure(path, sets, ROOT, shapes))
+        med = {k: {x: statistics.median(r[x] for r in v) for x in ("derive_s", "build_s")} for k, v in runs.items()}
         rows.append((label, runs["after"][0]["n"], med))
         print(label, json.dumps(med), flush=True)
     print("\n| scene | coordinates | before derive | after derive | ratio | before build | after build |")
@@ -102,8 +73,8 @@ def main() -> None:
     for label, n, m in rows:
         b, a = m["before"], m["after"]
         print(
-            f"| {label} | {n} | {b['derive']:.2f} | {a['derive']:.2f} | {b['derive'] / a['derive']:.1f}x "
-            f"| {b['build']:.2f} | {a['build']:.2f} |"
+            f"| {label} | {n} | {b['derive_s']:.2f} | {a['derive_s']:.2f} | {b['derive_s'] / a['derive_s']:.1f}x "
+            f"| {b['build_s']:.2f} | {a['build_s']:.2f} |"
         )
 
 

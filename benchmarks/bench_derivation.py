@@ -2,9 +2,11 @@
 (open chains and closed loops of 2-6 bars) and the modes per bar (1-8).
 
 Every measurement runs in a fresh process with an empty symgen cache (SymPy's caches and the
-closed-form inner products cold): ``derive`` is the SymPy derivation (``symgen.model.derive.derive``),
-``build`` the conversion to CasADi SX Functions, ``ops`` the instruction count of the
-residual function after CasADi's CSE (``res``) and of all seven functions (``all``).
+closed-form inner products cold): ``derive`` is the CPU time of the SymPy derivation
+(``symgen.model.derive.derive``), ``build`` of the conversion to CasADi SX Functions, ``ops`` the
+instruction count of the residual function after CasADi's CSE (``res``) and of all seven functions
+(``all``). ``measure`` is the one measuring script of the derivation benchmarks
+(``bench_chain_derive.py`` runs it on two trees).
 Growth rates are least-squares slopes of log(cost) against log(bars) or log(modes).
 """
 
@@ -29,19 +31,18 @@ CHAIN_MODES = (2, 4)  # (axial, transverse) per bar in the bar sweeps
 TARGET_S = 10.0
 
 MEASURE = """
-import json, sys, time
-sys.path.insert(0, {root!r})
+import json, time
 from symgen.scene import load_scene
 from symgen.model.derive import derive
 from symgen.backends.casadi import functions as casadi_emit
 scene = load_scene({path!r}, {sets!r})
-t0 = time.perf_counter()
+c0 = time.process_time()
 model = derive(scene)
-t1 = time.perf_counter()
+c1 = time.process_time()
 funcs = casadi_emit.build_functions(model)
-t2 = time.perf_counter()
+c2 = time.process_time()
 ops = {{k: int(f.n_instructions()) for k, f in funcs.items()}}
-print(json.dumps({{"derive_s": t1 - t0, "build_s": t2 - t1, "ops": ops, "n": len(model.coords)}}))
+print(json.dumps({{"derive_s": c1 - c0, "build_s": c2 - c1, "ops": ops, "n": len(model.coords)}}))
 """
 
 
@@ -90,11 +91,20 @@ def scene_text(kind: str, n: int, na: int, nt: int) -> str:
     return "".join(out)
 
 
-def measure(path: Path, sets: list[str]) -> dict:
+def measure(path: Path, sets: list[str], tree: Path = ROOT, shapes: Path | None = None) -> dict:
+    """CPU s of ``derive`` and ``build`` and the Functions' operation counts of one scene, in a fresh
+    process importing symgen from ``tree`` with an empty model cache (a copy of the cache folder
+    ``shapes`` when given: the shape tables warm)."""
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, SYMGEN_CACHE_DIR=cache)
-        code = MEASURE.format(root=str(ROOT), path=str(path), sets=list(sets))
-        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+        env = dict(os.environ, PYTHONPATH=str(tree), SYMGEN_CACHE_DIR=cache)
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        if shapes is not None:
+            subprocess.run(["cp", "-a", f"{shapes}/.", cache], check=True)
+        code = MEASURE.format(path=str(path.resolve()), sets=list(sets))
+        # cwd: not a tree (``python -c`` puts the working directory before PYTHONPATH)
+        out = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True, cwd=cache
+        ).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -140,7 +150,7 @@ def run(repeats: int) -> str:
     out = [
         "## Derivation: time and operation count vs bars and modes",
         "",
-        "Fresh process, empty caches, medians of repeats. `derive`: SymPy derivation; `build`: CasADi SX "
+        "Fresh process, empty caches, medians of repeats, CPU s. `derive`: SymPy derivation; `build`: CasADi SX "
         "Functions; `res ops`: instructions of the residual after CasADi CSE; `all ops`: all seven functions.",
         "",
         f"**Target**: `examples/four_bar.toml` with 3 elastic bars x (2 axial + 4 transverse): derive "

@@ -339,3 +339,58 @@ def test_model_form_warning_says_what_lowers_it(strain, expected, capsys):
     err = capsys.readouterr().err
     assert "exceeds simulation.accuracy = 0.01" in err and expected in err
     assert 'or "auto"' not in err
+
+
+SLOT_ONLY = """
+[scene]
+name = "slot_only"
+[[bodies]]
+name = "crank"
+length = 0.2
+rigid = true
+[[bodies]]
+name = "lever"
+length = 1.0
+mu = 50.0
+frame = "pinned-pinned"
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "crank"]
+at = [[0.0, 0.3], 0.0]
+[[joints]]
+name = "P"
+kind = "pin"
+bodies = ["ground", "lever"]
+at = [[0.0, 0.0], 0.0]
+[[joints]]
+name = "A"
+kind = "slot"
+bodies = ["crank", "lever"]
+at = [1.0, "variable"]
+[driver]
+kind = "angle"
+body = "crank"
+rate = 1.0
+[initial]
+guess = { lever = 1.2, A = 0.35 }
+[outputs]
+lever_mid = { kind = "deflection", body = "lever", at = 0.5 }
+[simulation]
+cycles = 1
+"""
+
+
+def test_the_truncation_part_says_why_a_slot_guide_gets_no_richer_model(tmp_path):
+    """A mechanism whose only elastic bar is a slot's guide: the richer model adds nothing (the
+    guide keeps its counts), and the reason names the guide instead of saying the model has no
+    elastic functions (it has: the guide's)."""
+    from symgen.scene import load_scene
+
+    path = tmp_path / "slot_only.toml"
+    path.write_text(SLOT_ONLY)
+    scene = load_scene(str(path), [])
+    richer, counts = error_estimate.richer_scene(scene)
+    assert counts == {} and [b.transverse_modes for b in richer.bodies] == [b.transverse_modes for b in scene.bodies]
+    why = error_estimate.nothing_to_add(scene)
+    assert "lever is a slot's guide" in why and "no elastic functions" not in why

@@ -545,6 +545,21 @@ _RICHER: OrderedDict[tuple[str, Any], Mechanism] = OrderedDict()
 RICHER_KEPT = 4
 
 
+def nothing_to_add(scene: Any) -> str:
+    """Why the richer model of ``scene`` (:func:`richer_scene`) adds no function: its elastic bars
+    are slot guides, whose span and overhang functions move with the support, or it has none."""
+    from symgen.model.structure import slot_guide
+
+    guides = [b.name for b in scene.bodies if not b.rigid and slot_guide(scene, b.name)]
+    if not guides:
+        return "the model has no elastic functions to add to"
+    which = f"{guides[0]} is a slot's guide" if len(guides) == 1 else f"{', '.join(guides)} are slots' guides"
+    return (
+        f"the richer model adds functions to no bar: {which}, whose span and overhang functions move "
+        "with the support (compare a run with its transverse_modes raised by hand)"
+    )
+
+
 def richer_mechanism(mech: Mechanism) -> tuple[Mechanism, dict[str, list[int]]]:
     """The embedded richer model of ``mech`` (derived once, then from the model cache; loaded
     once per process and cache)."""
@@ -790,7 +805,7 @@ def _rerun(
     else:
         counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
     if richer.info.n == mech.info.n:
-        raise TruncationNotEstimated("the model has no elastic functions to add to")
+        raise TruncationNotEstimated(nothing_to_add(mech.scene))
     tau = np.asarray(result.tau, dtype=float)
     if len(tau) < 2:
         raise TruncationNotEstimated("the run has fewer than two outputs")
@@ -830,7 +845,7 @@ def truncation_deltas(
     else:
         counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
     if not any(mech.info.amplitudes.values()) or richer.info.n == mech.info.n:
-        raise TruncationNotEstimated("the model has no elastic functions to add to")
+        raise TruncationNotEstimated(nothing_to_add(mech.scene))
     T, S = _state_map(mech, richer)
     ri = richer.info
     tau = np.asarray(result.tau, dtype=float)
