@@ -62,9 +62,8 @@ are used. Along the run, not the mean shift times the run's length times a mean 
 vibration a start or a load step excites is largest, and its slopes with it, where a windowed
 spectrum of the whole run sees least of it (the five-bar's links: 0.38x of the true error with
 the mean, 0.93x along the run; benchmarks/RESULTS.md). Each output's estimate is its static
-change plus its drift, the modes' drifts and the static change summed as sizes at each instant, the
-largest along the run (not each one's largest, reached at other times: :func:`combined`), as a
-fraction of its peak; outputs that q does not move (a driver torque)
+change plus its drift (the modes' drifts summed at each instant, the largest along the run: not
+each mode's largest, reached at other times), as a fraction of its peak; outputs that q does not move (a driver torque)
 have their drift only. The response forced at a constant driver's harmonics does not drift (a
 mode's shift changes it by shift x omega^2 / |omega^2 - (k rate)^2|, not growing with the time
 rung): each mode's band is read after the harmonics the run tells apart from its free vibration
@@ -474,24 +473,28 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         if kinds.get(name) in CHECK_KINDS or peaks[j] == 0 or j in prescribed:
             continue
         size = float(np.abs(change[:, j]).max())
-        # the modes' drifts at the same instant
-        drifts = sum(
-            (
-                _drift_along(
-                    result.tau,
-                    y[:, j],
-                    omega,
-                    (tau_rows, mode_shift),
-                    _ringing(span, omega, damping),
-                    band,
-                )
-                for (omega, mode_shift, band), y in zip(ringing, unforced)
-            ),
-            np.zeros(len(result.tau)),
-        )
-        drift = float(np.max(drifts, initial=0.0)) / float(peaks[j])
+        # the modes' drifts at the same instant, the largest along the run
+        drift = float(
+            np.max(
+                sum(
+                    (
+                        _drift_along(
+                            result.tau,
+                            y[:, j],
+                            omega,
+                            (tau_rows, mode_shift),
+                            _ringing(span, omega, damping),
+                            band,
+                        )
+                        for (omega, mode_shift, band), y in zip(ringing, unforced)
+                    ),
+                    np.zeros(len(result.tau)),
+                ),
+                initial=0.0,
+            )
+        ) / float(peaks[j])
         if size > 1e-12 * peaks[j]:
-            moved[name] = combined(result.tau, tau_rows, change[:, j], drifts) / float(peaks[j])
+            moved[name] = size / float(peaks[j]) + drift
         else:
             still.append((name, drift))
     # outputs that q does not move (a driver torque): their own drift only
@@ -516,26 +519,6 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     if skipped:
         method += f"; slot guides not estimated: {', '.join(skipped)}"
     return ModelFormEstimate(out, stiff, method, skipped)
-
-
-def combined(tau: np.ndarray, at: np.ndarray, change: np.ndarray, drifts: np.ndarray) -> float:
-    """An output's model-form estimate from its static change ``change`` (samples at the times ``at``,
-    ascending, within ``tau``) and its modes' drifts ``drifts`` (summed, at each of ``tau``): the two
-    added as sizes at the same instant, the largest along the run (estimator version 8). Not each
-    one's largest added: the static change is largest where the deflection is, the drift where a
-    vibration has rung long, and the two need not meet (the kept-out damped aluminium crank-rocker
-    with a mass on its coupler: the drift's largest at its start's ringing, 3.1e-4 of peak, the
-    static change's 7.6e-5 elsewhere; von Karman vs the exact bar 3.0e-4, estimated 3.8e-4 as the
-    largest of each added, 3.2e-4 at the same instant). Still no cancellation credited at any
-    instant (sizes, not signals: docs/exact-bars.md, estimator version 7). Between two samples of
-    the static change the larger of the two is taken (an upper envelope: an interpolation would
-    take a peak between them lower)."""
-    tau = np.asarray(tau, dtype=float)
-    at = np.asarray(at, dtype=float)
-    size = np.abs(np.asarray(change, dtype=float))
-    above = np.clip(np.searchsorted(at, tau, side="left"), 0, len(at) - 1)
-    below = np.clip(np.searchsorted(at, tau, side="right") - 1, 0, len(at) - 1)
-    return float(np.max(np.maximum(size[above], size[below]) + drifts, initial=0.0))
 
 
 def _prescribed(
