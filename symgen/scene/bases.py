@@ -42,8 +42,10 @@ equations) give each coupled mode's frequency error e_k. An undeformed start tha
 quasi-static rings every coupled mode with its static share of the start's loads, and the
 driver torque and the reactions read that share undiminished at high frequency (a deflection
 reads it relative to its peak); the mode's phase drifts by w_k T e_k over the run (or over its
-Kelvin-Voigt decay time), a mode the counts lack misses its whole share
-(:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
+Kelvin-Voigt decay time), a mode the counts lack misses its whole share, each as far as the
+outputs' rows can see it: its amplitude decayed to the first row (:meth:`_CoupledEstimate.seen`).
+The floating-frame model carries each bar's static corrections at its interior points,
+transverse and axial, as the derived model does (:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
 represented until the estimate meets the accuracy (measured: a steel crank-rocker's driver
 torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 % -> 0.27 %;
 benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
@@ -879,7 +881,8 @@ class _CoupledEstimate:
     the same loads. The floating-frame model rings at its Ritz frequency w_k (1 + e_k): over the
     run (or while the mode rings: Kelvin-Voigt damping c decays it in 2 / (c w_k^2)) its phase
     drifts by w_k T e_k, so the mode's part of the error is share_k min(PHASE_CAP, w_k T e_k);
-    a mode the counts do not have at all misses its whole share. Without a ringing start only
+    a mode the counts do not have at all misses its whole share; both as the outputs' rows see
+    them (:meth:`seen`: a damped ringing decayed to the first row). Without a ringing start only
     the modes inside the run's band count, as for each bar's own: FREQUENCY_WEIGHT e_k."""
 
     def __init__(self, model: _Coupled, rings: bool, omega_run: float, deformed: bool = False):
