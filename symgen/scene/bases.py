@@ -42,8 +42,13 @@ equations) give each coupled mode's frequency error e_k. An undeformed start tha
 quasi-static rings every coupled mode with its static share of the start's loads, and the
 driver torque and the reactions read that share undiminished at high frequency (a deflection
 reads it relative to its peak); the mode's phase drifts by w_k T e_k over the run (or over its
-Kelvin-Voigt decay time), a mode the counts lack misses its whole share
-(:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
+Kelvin-Voigt decay time), a mode the counts lack misses its whole share, each as far as the
+outputs' rows can see it: its amplitude decayed to the first row (:meth:`_CoupledEstimate.seen`,
+:func:`ringing_left`; the quasi-static functions' check counts its modes so too). Each reference
+mode is compared with the Ritz mode of its shape (mass-weighted overlap at least MODE_MATCH),
+not of its index.
+The floating-frame model carries each bar's static corrections at its interior points,
+transverse and axial, as the derived model does (:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
 represented until the estimate meets the accuracy (measured: a steel crank-rocker's driver
 torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 % -> 0.27 %;
 benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
@@ -224,6 +229,28 @@ def start_onset(scene: Scene, omega: float, deformed: bool = False) -> float:
 #: points closer than this (in xi) share one static correction function; nearer the ends than this
 #: they are not interior
 POINT_TOL = 1e-9
+
+
+def ringing_left(c: float, w: float, t: float) -> float:
+    """The most a mode's free response to a sudden load keeps of its initial offset from the
+    static response at time ``t``, as a fraction: the mode (frequency ``w`` per unit tau,
+    Kelvin-Voigt c: x'' + c w^2 x' + w^2 x = 0, zeta = c w / 2) starts off by 1 at rest. Below
+    critical damping x = e^(-s t) (cos(w_d t) + (s / w_d) sin(w_d t)), s = zeta w: at most
+    e^(-s t) min(1 + s t, 1 / sqrt(1 - zeta^2)); above it the slow root s = 2 w / (c w +
+    sqrt(c^2 w^2 - 4)), which tends to 1 / c (an overdamped mode creeps to its static shape, it
+    does not vanish at once): x = e^(-s t) (1 + s (1 - e^(-(s2 - s) t)) / (s2 - s)) (s2 = w^2 / s
+    the fast root), at most e^(-s t) (1 + s min(t, 1 / (s2 - s))). Undamped (c <= 0): 1."""
+    if c <= 0.0 or t <= 0.0:
+        return 1.0
+    zeta = c * w / 2.0
+    if zeta < 1.0:
+        s = zeta * w
+        bound = min(1.0 + s * t, 1.0 / math.sqrt(1.0 - zeta * zeta))
+    else:
+        s = 2.0 * w / (c * w + math.sqrt((c * w) ** 2 - 4.0))
+        fast = w * w / s  # the other root (their product w^2)
+        bound = 1.0 + s * min(t, 1.0 / (fast - s)) if fast > s else 1.0 + s * t
+    return min(1.0, bound * math.exp(-s * t))
 
 
 def interior_points(scene: Scene, name: str) -> tuple[float, ...]:
@@ -487,9 +514,11 @@ COUPLED_STEPS = 16
 #: a quasi-static function moves a joint when the closure reads it above this fraction of the
 #: largest closure entry (sines at a node of theirs read about 1e-16)
 QUASI_JOINT_TOL = 1e-9
-#: a mode keeps its shape when a quasi-static function is condensed out if the mass-weighted overlap
-#: of its old and new shape is at least this
-QUASI_MATCH = 0.9
+#: a mode of one model is the same as a mode of another (the reference's and the floating-frame
+#: model's in :meth:`_CoupledEstimate.check`, the dynamic and the quasi-static model's in
+#: :meth:`_CoupledEstimate.quasi_check`) if the mass-weighted overlap of the two mass-normalised
+#: shapes is at least this
+MODE_MATCH = 0.9
 #: the frequency shift quasi-static functions cause counts this many times: the coupled model is
 #: linear about the undeformed start, and the run's own linearisation can amplify the shift (the
 #: steel crank-rocker's coupled mode at 14 per unit tau is negatively damped along the run: its
@@ -817,7 +846,24 @@ class _Coupled:
         for F in (std[:, : min(nt, std.shape[1])], corr) if nt else ():
             for k in range(F.shape[1]):
                 put(w=F[0::2, k], dw=F[1::2, k])
+        if na and b.lam:  # after every other column: top_columns counts from the bar's first
+            for k in range(self._axial_corrections(name).shape[1]):
+                put(u=self._axial_corrections(name)[:, k])
         return np.array(cols).T
+
+    def _axial_corrections(self, name: str) -> np.ndarray:
+        """A bar's axial static correction functions on its nodes (columns): the static stretch
+        of a unit axial point force at each interior point, u = min(xi, xi_k) (as the derived
+        model's, symgen.model.static_shapes.static_polynomials "axial", which has them where the
+        bar keeps its axial dynamics and ``static_correction`` is not false). Without them a
+        lumped mass part-way along a bar rings axially at a Ritz frequency the run's basis does
+        not have (the kept-out aluminium crank-rocker's 0.2 kg at xi 0.4: 3.6 % high with 3
+        axial functions, against 0.14 % with the correction)."""
+        p = self.parts[name]
+        if p.body.static_correction is False:
+            return np.zeros((len(p.x), 0))
+        pts = interior_points(self.scene, name)
+        return np.array([np.minimum(p.x, xi) for xi in pts]).T if pts else np.zeros((len(p.x), 0))
 
     def ritz(self, counts: dict[str, tuple[int, int]]) -> np.ndarray:
         """The floating-frame model with ``counts`` (bar -> (axial, transverse)) as columns of
@@ -862,7 +908,9 @@ class _CoupledEstimate:
     the same loads. The floating-frame model rings at its Ritz frequency w_k (1 + e_k): over the
     run (or while the mode rings: Kelvin-Voigt damping c decays it in 2 / (c w_k^2)) its phase
     drifts by w_k T e_k, so the mode's part of the error is share_k min(PHASE_CAP, w_k T e_k);
-    a mode the counts do not have at all misses its whole share. Without a ringing start only
+    a mode the counts do not have at all (no Ritz mode of its shape, :meth:`partners`) misses
+    its whole share; both as the outputs' rows see them (:meth:`seen`: a damped ringing decayed
+    to the first row). Without a ringing start only
     the modes inside the run's band count, as for each bar's own: FREQUENCY_WEIGHT e_k."""
 
     def __init__(self, model: _Coupled, rings: bool, omega_run: float, deformed: bool = False):
@@ -998,25 +1046,70 @@ class _CoupledEstimate:
             share = np.maximum(share, np.max(np.array(ring_f), axis=0) / max(ref_f))
         return share
 
+    def partners(self, counts: dict[str, tuple[int, int]]) -> np.ndarray:
+        """Each reference mode's partner in the floating-frame model with ``counts``: the Ritz
+        frequency of the Ritz mode of the largest mass-weighted overlap with it (both
+        mass-normalised) where that overlap is at least MODE_MATCH, else 0 (the counts have no
+        such mode). Pairing by index would compare two close modes the Ritz model reorders (one
+        of them carried less well) each with the other's frequency, and a mode the counts miss
+        with the next one's. (An overlap above 1 / sqrt(2) makes the pairing one to one.)"""
+        m = self.model
+        T = m.ritz(counts)
+        B = T @ _null(m.C @ T)
+        wr, v = _modes(B.T @ m.K @ B, B.T @ m.M @ B)
+        wr, psi = wr[self.rigid :], (B @ v)[:, self.rigid :]
+        out = np.zeros(len(self.w))
+        if not len(wr):
+            return out
+        overlap = self.phi.T @ (m.M @ psi)
+        best = np.argmax(np.abs(overlap), axis=1)
+        for k, j in enumerate(best):
+            # a repeated Ritz frequency's modes are any basis of their space: the overlap with it
+            same = np.abs(wr - wr[j]) <= 1e-9 * max(float(wr[j]), 1.0)
+            if math.sqrt(float(np.sum(overlap[k, same] ** 2))) >= MODE_MATCH:
+                out[k] = wr[j]
+        return out
+
     def check(self, counts: dict[str, tuple[int, int]]) -> CoupledCheck:
         acc = self.model.scene.simulation.accuracy
-        ritz = self.model.spectrum(self.model.ritz(counts))[self.rigid :]
+        partner = self.partners(counts)
         worst = CoupledCheck(0.0)
         for k, w in enumerate(self.w):
-            if k < len(ritz):
-                e = abs(ritz[k] / w - 1.0)
+            if partner[k] > 0:
+                e = abs(partner[k] / w - 1.0)
                 if self.rings:
-                    est = self.share[k] * min(PHASE_CAP, w * self.t_eff[k] * e)
+                    est = self.share[k] * self.seen(k, w * e)
                     what = "its phase over the run"
                 else:
                     est = FREQUENCY_WEIGHT * e if amplification_error(self.omega_run, w) > acc else 0.0
                     what = "its frequency, in the run's band"
-                wr = float(ritz[k])
+                wr = float(partner[k])
             else:
-                est, what, wr = (self.share[k] if self.rings else 0.0), "missing: the counts have no such mode", 0.0
+                est = self.share[k] * self.seen(k) if self.rings else 0.0
+                what, wr = "missing: the counts have no such mode", 0.0
             if est > worst.estimate:
                 worst = CoupledCheck(float(est), float(w), wr, float(self.share[k]), what)
         return worst
+
+    def seen(self, k: int, drift: float | None = None) -> float:
+        """How much of mode ``k``'s ringing share the outputs' rows can see wrong: the one rule
+        for :meth:`check` and :meth:`quasi_check`. At tau = 0 every model starts alike; the
+        outputs read the ringing at their rows tau = output_step, 2 output_step, ..., where at
+        most :func:`ringing_left` of it is left (Kelvin-Voigt c; undamped: all of it). A mode
+        the counts have (``drift``: its phase drift rate w_k e_k) drifts by at most
+        drift max(t_eff, output_step) while it rings (t_eff: 2 / (c w_k^2), at most the run), a
+        bound of drift t exp(-t / t_d) at every row; a mode the counts do not have at all (or
+        quasi-static functions take away) misses its whole amplitude there. (The kept-out damped
+        aluminium crank-rocker's coupled modes above 1000 per unit tau are gone within 1e-3 tau,
+        its output step 0.026 tau: counted whole they asked for 16 more functions; the run with
+        the bars' own counts differs from a rich one by 2.5e-4 of peak.)"""
+        sc = self.model.scene
+        T, step = sc.simulation.t_end, sc.simulation.output_step
+        first = min(step, T) if step > 0 else 0.0
+        amplitude = ringing_left(sc.effects.damping, float(self.w[k]), first)
+        if drift is None:
+            return amplitude
+        return min(PHASE_CAP, drift * min(T, max(float(self.t_eff[k]), first))) * amplitude
 
     def culprit(
         self, check: CoupledCheck, refinable: list[tuple[str, str]], counts: dict[str, tuple[int, int]]
@@ -1063,13 +1156,14 @@ class _CoupledEstimate:
         same model with those functions' inertia dropped (static condensation: their amplitudes
         follow the others through the stiffness, h = -K_hh^-1 K_hd d) are compared mode by mode
         (each of the first model's modes with the second's of the largest mass-weighted overlap):
-        a mode that keeps its shape (overlap at least QUASI_MATCH) rings at a shifted frequency,
+        a mode that keeps its shape (overlap at least MODE_MATCH) rings at a shifted frequency,
         its error as :meth:`check`'s with the shift counted QUASI_PHASE_SAFETY times; a mode
         that has none left (the functions' own modes, the bar's lowest too where every function
         is quasi-static) misses its ringing share, plus its dynamic amplification r^2 / (1 - r^2)
         at the run's fastest content (``omega_run``: the driver harmonics and the loads' rate),
         counted as a fraction of the peak (the lowest mode carries about the whole deflection: for
-        it this is the quasi-static response's error, about (Omega / w)^2 of it). The ringing
+        it this is the quasi-static response's error, about (Omega / w)^2 of it). Both ringing
+        parts as the outputs' rows see them (:meth:`seen`, the rule :meth:`check` applies). The ringing
         shares are those of a sudden start times :func:`start_onset` (a ramped start from rest
         rings the modes far less). The estimate is the root of the sum of squares over the modes;
         the shares read the deflections where the outputs read them (:attr:`point_share`)."""
@@ -1106,16 +1200,16 @@ class _CoupledEstimate:
             share = float(self.point_share[ref] * self.onset[ref])  # the ringing the start gives it
             j = int(np.argmax(overlap[i])) if overlap.shape[1] else -1
             amp = amplification_error(self.omega_run, float(w)) if w > 0 else 1.0
-            if j >= 0 and overlap[i, j] >= QUASI_MATCH:
+            if j >= 0 and overlap[i, j] >= MODE_MATCH:
                 e = abs(wq[j] / w - 1.0)
                 if self.rings:
-                    est = share * min(PHASE_CAP, QUASI_PHASE_SAFETY * w * self.t_eff[ref] * e)
+                    est = share * self.seen(ref, QUASI_PHASE_SAFETY * w * e)
                     what = "its phase over the run"
                 else:
                     est = QUASI_PHASE_SAFETY * FREQUENCY_WEIGHT * e if amp > acc else 0.0
                     what = "its frequency, in the run's band"
             else:
-                est = (share if self.rings else 0.0) + amp
+                est = (share * self.seen(ref) if self.rings else 0.0) + amp
                 what = "quasi-static: its ringing and dynamic amplification missing"
             total += est * est
             if est > worst.estimate:
