@@ -7,7 +7,9 @@ bar_S(X_k(w)) and
 
     dR/dw = R_w + R_E . blockdiag(J_S(X_k)) . dX/dw,
 
-one call of ``bar_S`` and one of its Jacobian ``jac_bar_S`` per bar and evaluation."""
+one call of ``bar_S`` and one of its Jacobian ``jac_bar_S`` per bar and evaluation. ``same_jacobian``:
+the virtual machine's IDAS gets that Jacobian too (an MX oracle calling ``dae``, whose
+``custom_jacobian`` is ``jac_dae``), as the compiled library's ``external`` does."""
 
 from __future__ import annotations
 
@@ -153,7 +155,7 @@ def split_functions(model):
     return out, uniq, len(E_syms)
 
 
-def runner(model, mech, part) -> dict:
+def runner(model, mech, part, same_jacobian: bool = False) -> dict:
     """dae, jac_dae, g of ``simulate._symbolic`` / ``_dae_jacobian`` by the chain rule (split, rec
     as there)."""
     from symgen.numerics import simulate as sim
@@ -209,10 +211,28 @@ def runner(model, mech, part) -> dict:
     jac = ca.Function("jac_dae", dae_in + nominal, jb, ca.dyn_in() + [f"out_{k}" for k in ca.dyn_out()], names)
     alg_z = jb[names.index("jac_alg_z")]
     base = sim._symbolic(mech, part)
-    return {
+    out = {
         "dae": dae,
         "jac_dae": jac,
         "g": ca.Function("g", [t, x, z, p], [alg_f, alg_z]),
         "split": base["split"],
         "rec": base["rec"],
     }
+    if same_jacobian:
+        # the virtual machine's IDAS with the library's Jacobian: an MX oracle calling ``dae``, whose
+        # Jacobian is ``jac_dae`` (CasADi's factory of an SX oracle would differentiate it itself)
+        for name in sim.COMPILED:
+            out[f"compiled:{name}"] = sim._shared(out[name])
+        cj = out["compiled:jac_dae"]
+        opts = {"custom_jacobian": cj, "jac_penalty": 0, "never_inline": True, "ad_weight": sim.AD_WEIGHT}
+        inner = ca.Function(
+            "dae",
+            out["compiled:dae"].sx_in(),
+            out["compiled:dae"].call(out["compiled:dae"].sx_in()),
+            ca.dyn_in(),
+            ca.dyn_out(),
+            opts,
+        )
+        mx = [ca.MX.sym(n, inner.sparsity_in(i)) for i, n in enumerate(ca.dyn_in())]
+        out["dae"] = ca.Function("dae_vm", mx, inner.call(mx), ca.dyn_in(), ca.dyn_out())
+    return out

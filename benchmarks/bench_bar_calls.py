@@ -1,7 +1,8 @@
 """The runner with each bar structure's generalized forces as one CasADi Function called per bar
 (``bar_calls_chain.build_functions``: call nodes of a Function made ``never_inline``; "calls": the
 runner's Jacobians by CasADi's AD through the calls, "chain": by the chain rule over each bar
-structure's own Jacobian Function, ``bar_calls_chain.runner``)
+structure's own Jacobian Function, ``bar_calls_chain.runner``; "chainvm": and the virtual machine's
+IDAS given that Jacobian too, as the compiled library's is)
 against the inline runner (issue 20, items 4-5): the C of the compiled library (kB, compile CPU s of
 its units one at a time with a first run's flags: -O0 the cold units, -O1 ``dae``), the virtual
 machine's and the compiled library's CPU per IDAS step (the integration alone: ``simulate._integrate``), the steps, and the states after the run
@@ -57,8 +58,8 @@ mech = Mechanism(cm, scene)
 q, v, a, lam, part = mech.initial_state(0.0)
 part = mech.run_partition(part)
 c3 = time.process_time()
-if {calls!r} == "chain":
-    mech.runner_functions[part] = bar_calls_chain.runner(model, mech, part)
+if {calls!r} in ("chain", "chainvm"):
+    mech.runner_functions[part] = bar_calls_chain.runner(model, mech, part, {calls!r} == "chainvm")
 run = sim.DaeRunner(mech, part, 1e-6, 1e-6, backend="vm", use_cache=False)
 funcs = run._compiled_functions()
 c4 = time.process_time()
