@@ -250,7 +250,8 @@ def test_latex_of_the_elastic_overhang_shows_and_gives_back_the_model(tmp_path):
     scene = load_scene(SCENE, ["joints.A.overhang=elastic"])
     model = derive(scene)
     doc = latex_document(scene, model)
-    assert r"($\chi_1, \dots, \chi_{4}$" in doc and r"\psi_{6}(\xi, \beta)" in doc
+    assert r"($\chi_1, \dots, \chi_{4}$" in doc and r"\psi_{7}(\xi, \beta)" in doc
+    assert r"$\psi_{3} = \chi_0$ is the" in doc  # the contact-slope function after the 2 span functions
     assert "does not bend" not in doc
     test_guide_equations_give_back_the_model((scene, model, doc))
     if shutil.which("pdflatex"):
@@ -280,3 +281,30 @@ def test_short_span_functions_quasi_static_keep_the_guide_frequencies(beta):
     assert w_rest[:2] == pytest.approx(ref[:2], rel=5e-3)
     w_span = np.sqrt(sl.eigh(K[span, span], M[span, span], eigvals_only=True))
     assert w_span[0] > 10 * ref[1]
+
+
+@pytest.mark.slow
+def test_stated_span_amplitudes_keep_their_meaning_with_the_contact_slope_function():
+    """An explicit initial g on a guide lists the span's sines with their tangent continuation
+    (as with a rigid overhang): with the elastic overhang the start puts sum_k g_k psi_k'(beta)
+    on the contact-slope function chi_0 (beta at its guess), so the start's shape is the same
+    function of xi; the overhang's own functions start at zero."""
+    from symgen.api import mechanism
+    from symgen.ir.records import CoordKind
+
+    g = [0.01, -0.004]
+    mech = mechanism(
+        SCENE,
+        ["joints.A.overhang=elastic", "joints.A.overhang_modes=2", f"initial.deformation={{guide = {{g = {g}}}}}"],
+    )
+    q, _ = mech.initial_guess()
+    beta = next(q[i] for i, c in enumerate(mech.coords) if c.kind is CoordKind.BETA)
+    amp = [q[i] for i in mech.amplitudes["guide"][1]]
+    assert amp[:2] == pytest.approx(g, abs=0)
+    assert amp[2] == pytest.approx(sum(gk * (-1) ** k * k * np.pi / beta for k, gk in enumerate(g, start=1)), rel=1e-12)
+    assert amp[3:] == [0.0, 0.0]
+    basis, rigid = SlotBasis(5, BETA, 3), SlotBasis(2, BETA, 0)
+    for xi in (0.3 * beta, 0.9 * beta, beta + 0.4 * (1 - beta), 1.0):
+        el = sum(a * float(basis.expr(k, xi).xreplace({BETA: beta})) for k, a in enumerate(amp))
+        seed = sum(a * float(rigid.expr(k, xi).xreplace({BETA: beta})) for k, a in enumerate(g))
+        assert el == pytest.approx(seed, rel=1e-12, abs=1e-15)
