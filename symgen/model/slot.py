@@ -27,9 +27,11 @@ Craig-Bampton form of a beam with an interior support; ``nover`` = 1 + ``overhan
 
     s_k   = sin(k pi xi / beta) - psi_k'(beta) C  on [0, beta],  0 on [beta, 1]   (k = 1..nspan)
     chi_0 = C                                      on [0, beta],  xi - beta on [beta, 1]
-    chi_m = 0                                      on [0, beta],  (2 (xi - beta))^(m+1) on [beta, 1]  (m = 1..no)
+    chi_m = 0                                      on [0, beta],  4 (1 - beta)^2 P_m(v) on [beta, 1]  (m = 1..no)
 
-with C = xi (xi^2 - beta^2) / (2 beta^2), the span's static shape under a moment at the contact
+with v = (xi - beta) / (1 - beta), P_m the polynomials of v^2 .. v^(m+1) orthogonal on [0, 1] with
+P_m(1) = 1 (``_overhang_polynomial``: the powers themselves are nearly dependent), and
+C = xi (xi^2 - beta^2) / (2 beta^2), the span's static shape under a moment at the contact
 (zero moment at the pin, unit slope at the contact). The span functions have zero value and slope
 at the contact and vanish on the overhang; the overhang's own functions vanish on the span; chi_0
 (the contact-slope function) carries the overhang's rotation. The seed's functions are
@@ -72,7 +74,7 @@ def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None, nover: int = 0) -
     (zero value and slope at the contact, zero on the overhang); k = nspan + 1: the contact-slope
     function S = C on the span, xi - beta on the overhang (C = xi (xi^2 - beta^2) / (2 beta^2), the
     span's static shape under a moment at the contact, unit slope there); k > nspan + 1: the
-    overhang's own function chi_m = (2 (xi - beta))^(m+1), m = k - nspan - 1 (zero value and slope
+    overhang's own function chi_m = 4 (1 - beta)^2 P_m((xi - beta) / (1 - beta)), m = k - nspan - 1 (zero value and slope
     at the contact, zero on the span)."""
     if nover and nspan is not None and k > nspan:
         m = k - nspan - 1
@@ -80,7 +82,10 @@ def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None, nover: int = 0) -
             span = XI * (XI**2 - beta**2) / (2 * beta**2)
             over = XI - beta
         else:
-            span, over = sp.Integer(0), (2 * (XI - beta)) ** (m + 1)
+            span, over = (
+                sp.Integer(0),
+                4 * (1 - beta) ** 2 * _overhang_polynomial(m).xreplace({_V: (XI - beta) / (1 - beta)}),
+            )
         return (
             (span, sp.diff(span, beta), sp.diff(span, beta, 2)),
             (over, sp.diff(over, beta), sp.diff(over, beta, 2)),
@@ -93,6 +98,22 @@ def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None, nover: int = 0) -
     else:
         over = slope * (XI - beta)
     return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)), (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+
+
+@cache
+def _overhang_polynomial(m: int) -> sp.Expr:
+    """P_m(v), m >= 1: v^(m+1) less its projections on P_1, ..., P_(m-1) in the mass inner
+    product int_0^1 f g dv (exact rationals), scaled to P_m(1) = 1: zero value and slope at
+    v = 0. The overhang's own functions 4 (1 - beta)^2 P_m((xi - beta) / (1 - beta)) span the same
+    functions as the powers (xi - beta)^2 .. (xi - beta)^(m+1) at each beta, mass-orthogonal to
+    each other: the powers themselves grow nearly dependent (the mass matrix's condition ~40x
+    per function)."""
+    basis = [_overhang_polynomial(j) for j in range(1, m)]
+    p = _V ** (m + 1)
+    for q in basis:
+        p -= sp.integrate(p * q, (_V, 0, 1)) / sp.integrate(q * q, (_V, 0, 1)) * q
+    p = sp.expand(p)
+    return sp.expand(p / p.xreplace({_V: 1}))
 
 
 def _span_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:

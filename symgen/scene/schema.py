@@ -414,7 +414,7 @@ JOINTS = Table(
             "string",
             'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it turns with the '
             "contact's slope (the contact-slope function: the span's static shape under a moment at the contact, "
-            "straight beyond) and bends with overhang_modes functions of its own ((2 (xi - beta))^(m+1), zero value "
+            "straight beyond) and bends with overhang_modes functions of its own (the powers (xi - beta)^2 .. (xi - beta)^(m+1) made mass-orthogonal, zero value "
             "and slope at the moving contact); the span functions then vanish beyond the contact (zero slope there: "
             "they may be quasi-static), stiffness over span and overhang; the contact must stay short of the far "
             "end (beta < 1). "
