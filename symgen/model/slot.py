@@ -39,7 +39,7 @@ psi_k = s_k + psi_k'(beta) chi_0 and the former static tip-load function is 2 be
 so the basis spans the former one and more (one function more). The bending stiffness is block
 diagonal: chi_0 is K-orthogonal to the span functions (C is the static solution: by parts, the
 boundary terms vanish) and to the overhang's (straight there); the blocks couple through the mass
-only. A span function is then a span's own mode shape: its frequency goes as 1/beta^2 and it may
+only. A span function is then the span's own shape: its frequencies go as 1/beta^2 and it may
 be quasi-static (``quasi_static_transverse``) without dropping the overhang's inertia.
 Every function is C1 at the contact (chi_0 and the s_k have a curvature jump there: the support
 takes the moment's change as a kink of the shear), so psi_beta is continuous and eta' has no jump
