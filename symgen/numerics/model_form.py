@@ -94,19 +94,10 @@ error, the converged exact bar against the converged ANCF reference, of 2.9e-4; 
 estimate is 5.4e-4 (the curvature's eta''^2 eta'^6 and the strain's eta'^6 / 16: static 1.7e-4,
 drift 3.7e-4).
 
-The stretch's share of the curvature (``STRETCH_CURVATURE``): the exact curvature per undeformed
-length is kappa ~ eta'' / (1 + eps), whose -mu int (eps eta''^2 + eps' eta' eta''), eps = N / lambda
-(eps' at the nodes from each quadrature piece's polynomial), the exact bar has with dynamic axial
-amplitudes and von Karman lacks: a compressed bar bends 2 |eps| stiffer. It is charged where the
-stretch's term is (``stretch_kept``). It was left out as "of the order N/lambda, averaged out by
-the axial ringing"; a closed loop's quasi-static axial force is neither: on the five-bar
-(benchmarks/validation/five_bar_elastic.toml, link_a compressed to eps = -1.7e-4, 2 |eps| as large
-as the slopes' terms) it is half the start's static change, and the estimate of von Karman against
-the exact bar at the same bases went 0.54x -> 1.08x on link_a_mid (docs/exact-bars.md, "The
-five-bar's start, found").
-
-What it leaves out: the strain's terms second order in eps (eps^2 eta'^2 beyond the stretch's),
-resonance of the change itself, the response of the
+What it leaves out: the strain's share of the curvature (eps eta''^2 terms: of the order N/lambda,
+and the axial ringing averages them out: the slider-crank's change is the same with and without
+them; the exact bar has them to fourth order with dynamic axial amplitudes), the strain's terms
+second order in eps (eps^2 eta'^2), resonance of the change itself, the response of the
 rigid coordinates of a closed loop to dq; slot guides (their span moves along the guide) are not
 estimated and the method text names them. Measured against von Karman vs exact runs in
 docs/exact-bars.md and against the validation suite's references in benchmarks/RESULTS.md.
@@ -126,7 +117,7 @@ else:
 
 from symgen import cache
 from symgen.ir.records import CoordKind, RowKind
-from symgen.ir.shape_samples import GAUSS_POINTS, ShapeSamples, samples_question
+from symgen.ir.shape_samples import ShapeSamples, samples_question
 from symgen.scene.model import CHECK_KINDS
 
 if TYPE_CHECKING:
@@ -158,9 +149,6 @@ STRAIN_ORDER = {"von_karman": 1, "exact": 2}
 #: table Q4 of symgen/model/bars.py), on a bar with dynamic axial amplitudes only: a quasi-static or
 #: inextensible bar holds P eps = 0 and has the term nowhere (the estimate charges it there)
 STRETCH_KEPT = {"von_karman": False, "exact": True}
-#: the stretch's share of the curvature, -mu int (eps eta''^2 + eps' eta' eta'') (kappa per undeformed
-#: length ~ eta'' / (1 + eps)), charged where the bar's energy lacks it (as the stretch's term)
-STRETCH_CURVATURE = True
 #: the coefficients of s^n in 1 - sqrt(1 - s), n = 1, 2, 3, 4
 _STRAIN_SERIES = (0.5, 0.125, 0.0625, 0.0390625)
 #: the largest eta'^2 the series is evaluated at
@@ -255,7 +243,6 @@ class _Bar:
         )
         A1 = np.asarray(samples.axial1).reshape(len(w), -1) if self.na else np.zeros((len(w), 0))
         self.A1 = A1
-        self.D = _piece_derivative(np.asarray(samples.xi, dtype=float))  # d/dxi at the nodes, piece by piece
         self.Kt = self.P2.T @ (w[:, None] * self.P2)
         M = self.P0.T @ (w[:, None] * self.P0)
         self.C3 = np.einsum("i,ik,ia,ib->kab", w, A1, self.P1, self.P1)
@@ -295,12 +282,6 @@ class _Bar:
             m = self.strain_order + 1
             left = _STRAIN_SERIES[m - 1] * 2 * m * _power(e1, 2 * m - 1)  # d/d eta' of c_m eta'^(2m)
             dQ = dQ + (self.w * (N * left - soft * e1)) @ self.P1
-            if STRETCH_CURVATURE and self.lam > 0 and not self.stretch_kept:
-                # the stretch's share of the curvature per undeformed length, kappa ~ eta'' / (1 + eps):
-                # d/dg_a of -mu int (eps eta''^2 + eps' eta' eta''), eps = N / lambda
-                eps = N / self.lam
-                deps = eps @ self.D.T
-                dQ = dQ - (wq * (2.0 * eps * e2 + deps * e1)) @ self.P2 - (wq * deps * e2) @ self.P1
         return dQ
 
     def axial_force(self, Q: np.ndarray, Lam: np.ndarray) -> np.ndarray | None:
@@ -357,24 +338,6 @@ class _Bar:
         amp = np.where(capped, AMPLIFICATION_CAP, amp)
         dg = np.where(capped[:, None], AMPLIFICATION_CAP * dg0, dg)
         return dg, tangent, amp
-
-
-def _piece_derivative(xi: np.ndarray) -> np.ndarray:
-    """The derivative at the nodes ``xi`` of the polynomial through each piece's ``GAUSS_POINTS``
-    nodes (:class:`symgen.ir.shape_samples.ShapeSamples`: the bar's functions are smooth within a
-    piece): a block-diagonal matrix."""
-    n = len(xi)
-    D = np.zeros((n, n))
-    for s0 in range(0, n, GAUSS_POINTS):
-        x = xi[s0 : s0 + GAUSS_POINTS]
-        m = len(x)
-        diff = x[:, None] - x[None, :] + np.eye(m)
-        c = np.prod(diff, axis=1)  # barycentric: prod_{k != j} (x_j - x_k)
-        B = (c[:, None] / c[None, :]) / diff
-        np.fill_diagonal(B, 0.0)
-        np.fill_diagonal(B, -B.sum(axis=1))
-        D[s0 : s0 + m, s0 : s0 + m] = B
-    return D
 
 
 def _solve_positive(K: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -543,10 +506,10 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         "exact strain's eta'^6 / 16"
         if order
         else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2)) and the "
-        "exact strain's eta'^4 / 8 and -eps eta'^2 / 2, and the stretch's share of the curvature -eps eta''^2"
+        "exact strain's eta'^4 / 8 and -eps eta'^2 / 2"
     )
     if order and any(not b.stretch_kept and b.na for b in bars):
-        left += " (and -eps eta'^2 / 2 and -eps eta''^2 where the axial strain is held at 0)"
+        left += " (and -eps eta'^2 / 2 where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
         f"plus the phase drift of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"

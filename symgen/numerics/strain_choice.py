@@ -34,9 +34,8 @@ R = TypeVar("R")
 #: (3: the phase drift along the run, the exact bar's strain to eta'^4/8; 4: the drift without the
 #: response forced at a constant driver's harmonics; 5: outputs that read only the angle drivers'
 #: angles estimated 0; 6: a mode's own vibration moves it by half its tangent's stiffening, the backbone;
-#: 7: a vibration drifts from when its content came in, not from the run's start; 9: the stretch's
-#: share of the curvature, -mu int eps eta''^2 (8 was the same-instant addition, reverted))
-ESTIMATOR_VERSION = "9"
+#: 7: a vibration drifts from when its content came in, not from the run's start)
+ESTIMATOR_VERSION = "7"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
