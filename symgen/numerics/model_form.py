@@ -454,7 +454,9 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     # the bars' own first modes where the coupled problem has no modes (a singular mass matrix)
     ringing = _coupled_modes(mech, bars, result, rows, Q, V, Lam)
     if ringing is None:
-        ringing = [(b.omega, 0.5 * tangent[b.name], band) for b, band in zip(bars, bands)]
+        ringing = [
+            (b.omega, 0.5 * tangent[b.name], band, np.full(len(rows), b.omega)) for b, band in zip(bars, bands)
+        ]
     # the outputs less the response forced at a constant driver's harmonics, which does not drift
     # (each mode's: the harmonics a run tells apart from its free vibration)
     rate = driver_rate(mech.scene)
@@ -464,7 +466,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             np.asarray(result.outputs, dtype=float),
             forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping)),
         )
-        for w, _, band in ringing
+        for w, _, band, _ in ringing
     ]
     moved: dict[str, float] = {}
     still = []
@@ -478,15 +480,8 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             np.max(
                 sum(
                     (
-                        _drift_along(
-                            result.tau,
-                            y[:, j],
-                            omega,
-                            (tau_rows, mode_shift),
-                            _ringing(span, omega, damping),
-                            band,
-                        )
-                        for (omega, mode_shift, band), y in zip(ringing, unforced)
+                        perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
+                        for (_, mode_shift, band, mode_w), y in zip(ringing, unforced)
                     ),
                     np.zeros(len(result.tau)),
                 ),
@@ -549,9 +544,11 @@ def _prescribed(
     return {j for j in range(len(peaks)) if peaks[j] > 0 and change[j] <= 1e-12 * peaks[j]}
 
 
-#: the configurations along the run where the coupled modes are computed (their shapes and
-#: frequencies change slowly with the configuration: each output sample takes the nearest's)
-MODE_SAMPLES = 24
+#: the configurations along the run where the coupled modes are computed, at most (each output sample
+#: the estimate reads takes the nearest's): every one of the estimate's 400, since a mode's phase
+#: follows its frequency (:func:`perturbed_along`), which sweeps within a turn (c_alu_long's rod:
+#: 4.1-7.2 per unit tau; 24 along its 30 turns missed the sweep)
+MODE_SAMPLES = 400
 #: the coupled modes whose drift is looked for: the lowest ones, at most this many
 MODES_KEPT = 12
 #: a coupled mode with w^2 at most this fraction of the largest is a free motion of the mechanism
@@ -566,9 +563,10 @@ def _coupled_modes(
     Q: np.ndarray,
     V: np.ndarray,
     Lam: np.ndarray,
-) -> list[tuple[float, np.ndarray, tuple[float, float]]] | None:
+) -> list[tuple[float, np.ndarray, tuple[float, float], np.ndarray]] | None:
     """The modes the run rings and how the left-out terms move them: (frequency per unit tau,
-    its relative shift at each of the output ``rows``, its band) of each of the lowest coupled
+    its relative shift at each of the output ``rows``, its band, its frequency at each of the
+    ``rows``) of each of the lowest coupled
     modes of the mechanism, linear about the run's state (the tangent K = d res / dq and mass
     M = d res / da of the model's own dynamics on the closure's null space), computed at
     ``MODE_SAMPLES`` configurations along the run. A mode phi (mass-normalised) moves by
@@ -610,7 +608,7 @@ def _coupled_modes(
         for b in bars:
             vHv += b.scale * b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
             vHv_rest += b.scale * b.curvature_along(rest, Lam, phi_k[:, b.g_idx], axial=Q)
-        out.append((mean[k], 0.5 * backbone(vHv, vHv_rest) / w2, band))
+        out.append((mean[k], 0.5 * backbone(vHv, vHv_rest) / w2, band, np.sqrt(w2)))
     return out
 
 
@@ -858,51 +856,80 @@ def _ringing(span: float, omega: float, damping: float) -> float:
     return min(span, 1.0 / sigma) if sigma > 0 else span
 
 
-def _drift_along(
+def _band_signal(tau: np.ndarray, y: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """The analytic signal of the content of ``y(tau)`` (evenly spaced) within ``band`` (angular
+    frequencies; the signal mirrored first, :func:`_mirrored_spectrum`): complex, its magnitude the
+    envelope of :func:`_band_envelope`."""
+    n = len(y)
+    y = np.asarray(y, dtype=float)
+    spectrum, freq = _mirrored_spectrum(tau, y - y.mean())
+    keep = (freq > band[0]) & (freq < band[1])
+    return np.asarray(np.fft.ifft(np.where(keep, 2.0 * spectrum, 0.0))[:n])
+
+
+#: the largest decay (in e-folds) of the recursion of :func:`perturbed_along` summed in one piece
+_DECAY_PIECE = 300.0
+
+
+def perturbed_along(
     tau: np.ndarray,
     y: np.ndarray,
-    omega: float,
-    shift: tuple[np.ndarray, np.ndarray],
-    memory: float,
-    band: tuple[float, float] | None = None,
+    mode: tuple[np.ndarray, np.ndarray, np.ndarray],
+    damping: float,
+    band: tuple[float, float],
 ) -> np.ndarray:
-    """The phase drift of a mode's free vibration in an output: with its frequency moved by the
-    fraction ``shift`` = (sample times, shift there), the vibration's phase moves by
-    omega int shift dtau over the time it has rung (its age, :func:`_aged`: since the content came in,
-    at most ``memory``: the run, or its decay time), the output by that phase times the vibration's
-    amplitude there (its envelope, at most twice it: opposite phase); at each sample of the run
-    (zeros where nothing rings). Integrated along the run rather than the mean shift times the run's
-    length times the run's mean amplitude: the free vibration is largest where a start or a load step
-    excites it, and so are the slopes that shift its frequency."""
+    """How much a mode's content in an output changes when the mode's frequency moves by the
+    fraction shift: the envelope of the first-order change of the mode's oscillator, at each
+    sample of the run (zeros where nothing rings or the run is shorter than two periods).
+
+    ``mode`` = (sample times, the mode's frequency W there, its shift there). The mode's content
+    z (the analytic signal of ``y``'s content within ``band``) is the response of
+    x'' + c W^2 x' + W^2 x = f; the shift adds the stiffness 2 shift W^2, whose first-order change
+    dx obeys the same oscillator forced by -2 shift W^2 z. With dx = v e^{i Theta}, Theta = int W
+    (the mode's own phase along the run, its frequency sweeping as the mechanism moves), slowly
+    varying v:
+
+        v' = -sigma v + i shift W z e^{-i Theta},   sigma = c W^2 / 2,
+
+    |v| the change's envelope (at most twice z's: opposite phase). A free vibration
+    z = a e^{i Theta - sigma t} gives v = i a W int shift: the phase drift omega int shift dtau since
+    it came in (a start's ringing from the start, a kick from the kick, a vibration a passage
+    through a resonance builds up from then), decaying with it; a response forced at a frequency w
+    that the mode's phase does not follow gives, steady, |v| = shift W |z| / |W - w + i sigma| (the
+    receptance's change, W^2 shift |d/dW^2 (1 / (W^2 - w^2 + i c W^2 w))| near resonance), which
+    does not grow with the time rung. The drift rule of estimator versions 5-9 charged all of a
+    band's content as free vibration: the driver's harmonics within a mode's band (the kept-out
+    aluminium slider-crank c_alu_long, its rod's first coupled mode sweeping 4.1-7.2 per unit tau
+    along a turn, harmonics 5-7 inside its band 4.2-6.9) drifted 4e-3 to 9e-3 rad after the start's
+    ringing had decayed, against a measured von Karman vs exact phase difference under 5e-4
+    (docs/exact-bars.md, "Forced content within a band")."""
     tau = np.asarray(tau, dtype=float)
-    env = _band_envelope(tau, y, omega, band)
-    t_s, s = shift
-    if not env.any() or len(t_s) == 0:
-        return np.zeros(len(tau))
-    rate = np.interp(tau, t_s, s)
-    acc = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
-    phase = omega * np.abs(_aged(tau, env, acc, memory))  # signed: a shift that changes sign unwinds
-    return np.asarray(env * np.minimum(phase, 2.0))
-
-
-def _aged(tau: np.ndarray, env: np.ndarray, acc: np.ndarray, memory: float) -> np.ndarray:
-    """The integral of the shift over the age of a vibration at each sample: the mean, over its
-    content, of acc(t) - acc(max(t_i, t - memory)) (``acc`` the integral of the shift from the
-    run's start), the content weighted by when it came in: the increments dM_i at t_i of the
-    running maximum M of its envelope ``env`` (a start's ringing at the start, a vibration a load
-    step or a passage through a resonance builds up at those times). A vibration drifts in phase
-    only from its excitation: charged from the run's start, the vibration the four-bar
-    (examples/four_bar.toml) builds up turn by turn in its coupled modes' bands (the third's envelope
-    0.02 of the output's peak at the start, 0.5 at the end) drifted 2.2x the measured von Karman vs
-    exact change in that band. The running maximum, not the envelope: a beat of two components, or
-    a vibration cancelled and excited again, keeps its first content's age (the larger phase)."""
-    M = np.maximum.accumulate(env)
-    dM = np.diff(M, prepend=0.0)
-    c1, c2 = np.cumsum(dM), np.cumsum(dM * acc)
-    start = tau - memory
-    j = np.searchsorted(tau, start, side="right") - 1  # the content in before t - memory: up to j
-    old1 = np.where(j >= 0, c1[np.clip(j, 0, None)], 0.0)
-    old2 = np.where(j >= 0, c2[np.clip(j, 0, None)], 0.0)
-    acc_start = np.interp(start, tau, acc, left=0.0)
-    total = old1 * (acc - acc_start) + (c1 - old1) * acc - (c2 - old2)
-    return np.asarray(np.divide(total, M, out=np.zeros_like(total), where=M > 0))
+    n = len(tau)
+    t_s, w_s, s_s = (np.asarray(x, dtype=float) for x in mode)
+    span = float(tau[-1] - tau[0]) if n else 0.0
+    if n < 8 or len(t_s) == 0 or span <= 0 or float(np.min(w_s)) * span < 4 * np.pi:
+        return np.zeros(n)
+    z = _band_signal(tau, y, band)
+    if not np.any(z):
+        return np.zeros(n)
+    W = np.interp(tau, t_s, w_s)
+    shift = np.interp(tau, t_s, s_s)
+    h = np.diff(tau)
+    theta = np.concatenate([[0.0], np.cumsum(0.5 * (W[1:] + W[:-1]) * h)])
+    g = 1j * shift * W * z * np.exp(-1j * theta)
+    sigma = 0.5 * damping * W**2
+    decay = np.minimum(sigma[:-1] * h, _DECAY_PIECE)  # e-folds over each step (beyond: nothing left)
+    # v[k+1] = e^{-decay_k} v[k] + (h_k / 2) (e^{-decay_k} g[k] + g[k+1]) (trapezoid), summed in
+    # pieces of at most _DECAY_PIECE e-folds (the partial products stay finite)
+    b = 0.5 * h * (np.exp(-decay) * g[:-1] + g[1:])
+    L = np.concatenate([[0.0], np.cumsum(decay)])  # e-folds from the start to each sample
+    v = np.zeros(n, dtype=complex)
+    start = 0
+    while start < n - 1:
+        stop = int(np.searchsorted(L, L[start] + _DECAY_PIECE, side="right"))
+        stop = min(max(stop, start + 2), n)  # samples start..stop-1
+        Lp = L[start:stop] - L[start]
+        acc = np.concatenate([[0.0], np.cumsum(np.exp(Lp[1:]) * b[start : stop - 1])])
+        v[start:stop] = np.exp(-Lp) * (v[start] + acc)
+        start = stop - 1
+    return np.asarray(np.minimum(np.abs(v), 2.0 * np.abs(z)))
