@@ -455,7 +455,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     ringing = _coupled_modes(mech, bars, result, rows, Q, V, Lam)
     if ringing is None:
         ringing = [
-            (b.omega, 0.5 * tangent[b.name], band, np.full(len(rows), b.omega)) for b, band in zip(bars, bands)
+            (b.omega, 0.5 * tangent[b.name], band, np.full(len(rows), b.omega), None) for b, band in zip(bars, bands)
         ]
     # the outputs less the response forced at a constant driver's harmonics, which does not drift
     # (each mode's: the harmonics a run tells apart from its free vibration)
@@ -466,7 +466,24 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             np.asarray(result.outputs, dtype=float),
             forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping)),
         )
-        for w, _, band, _ in ringing
+        for w, _, band, _, _ in ringing
+    ]
+    # each mode's coordinate's change along the run (from its modal velocity's content in its band,
+    # less the harmonics below it); each output's by its participation in the mode
+    coordinate = [
+        None
+        if own is None
+        else perturbed_along(
+            result.tau,
+            without_harmonics(
+                result.tau, own[0][:, None], forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping))
+            )[:, 0],
+            (tau_rows, mode_w, mode_shift),
+            damping,
+            band,
+        )
+        / np.interp(result.tau, tau_rows, mode_w)
+        for w, mode_shift, band, mode_w, own in ringing
     ]
     moved: dict[str, float] = {}
     still = []
@@ -480,8 +497,12 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             np.max(
                 sum(
                     (
-                        perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
-                        for (_, mode_shift, band, mode_w), y in zip(ringing, unforced)
+                        (
+                            perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
+                            if dx is None
+                            else np.abs(own[1][:, j]) * dx
+                        )
+                        for (_, mode_shift, band, mode_w, own), y, dx in zip(ringing, unforced, coordinate)
                     ),
                     np.zeros(len(result.tau)),
                 ),
@@ -563,10 +584,10 @@ def _coupled_modes(
     Q: np.ndarray,
     V: np.ndarray,
     Lam: np.ndarray,
-) -> list[tuple[float, np.ndarray, tuple[float, float], np.ndarray]] | None:
+) -> list[tuple[float, np.ndarray, tuple[float, float], np.ndarray, np.ndarray | None]] | None:
     """The modes the run rings and how the left-out terms move them: (frequency per unit tau,
     its relative shift at each of the output ``rows``, its band, its frequency at each of the
-    ``rows``) of each of the lowest coupled
+    ``rows``, its modal velocity phi^T M v at each of the run's samples) of each of the lowest coupled
     modes of the mechanism, linear about the run's state (the tangent K = d res / dq and mass
     M = d res / da of the model's own dynamics on the closure's null space), computed at
     ``MODE_SAMPLES`` configurations along the run. A mode phi (mass-normalised) moves by
@@ -582,16 +603,38 @@ def _coupled_modes(
     modal = _modal_function(mech)
     tau = np.asarray(result.tau, dtype=float)
     at = np.unique(np.linspace(0, len(rows) - 1, min(MODE_SAMPLES, len(rows))).astype(int))
-    omegas, shapes = [], []
+    omegas, shapes, rows_of, forces = [], [], [], []
     for i in at:
-        got = coupled_modes(mech, float(tau[rows[i]]), Q[i], V[i], modal)
+        got = _modes_at(mech, float(tau[rows[i]]), Q[i], V[i], modal)
         if got is None:
             return None
         omegas.append(got[0][:MODES_KEPT])
         shapes.append(got[1][:, :MODES_KEPT])
+        rows_of.append(got[2][:, :MODES_KEPT])
+        forces.append(got[3][:, :MODES_KEPT])
     count = min(len(w) for w in omegas)
     if count == 0:
         return None
+    # the modes' signs made continuous along the run (each sample's as the previous one's)
+    for s in range(1, len(at)):
+        flip = np.einsum("ik,ik->k", shapes[s][:, :count], rows_of[s - 1][:, :count]) < 0
+        shapes[s][:, :count][:, flip] *= -1.0
+        rows_of[s][:, :count][:, flip] *= -1.0
+        forces[s][:, :count][:, flip] *= -1.0
+    # each output's change per unit of each mode's coordinate (its participation) at the samples:
+    # the output at q + e phi, lam + e dlam (central differences)
+    out_f = mech.f["out"]
+    t_at = tau[rows][at]
+    n_at = len(at)
+    Qa = np.repeat(Q[at], count, axis=0)
+    step = 1e-6 * (1.0 + float(np.abs(Q[at]).max()))
+    dQ = np.concatenate([shapes[s][:, :count].T for s in range(n_at)]) * step
+    dL = np.concatenate([forces[s][:, :count].T for s in range(n_at)]) * step
+    Va, La = np.repeat(V[at], count, axis=0), np.repeat(Lam[at], count, axis=0)
+    ta, zero = np.repeat(t_at, count), np.zeros_like(Qa)
+    plus = _mapped(out_f, len(ta), ta, Qa + dQ, Va, zero, La + dL, mech.p)[0]
+    minus = _mapped(out_f, len(ta), ta, Qa - dQ, Va, zero, La - dL, mech.p)[0]
+    part = ((plus - minus) / (2 * step)).reshape(-1, n_at, count)  # (outputs, samples, modes)
     tau_rows = tau[rows]
     near = np.abs(tau_rows[:, None] - tau_rows[at][None, :]).argmin(axis=1)
     mean = [float(np.mean([w[k] for w in omegas])) for k in range(count)]
@@ -608,7 +651,14 @@ def _coupled_modes(
         for b in bars:
             vHv += b.scale * b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
             vHv_rest += b.scale * b.curvature_along(rest, Lam, phi_k[:, b.g_idx], axial=Q)
-        out.append((mean[k], 0.5 * backbone(vHv, vHv_rest) / w2, band, np.sqrt(w2)))
+        # the mode's velocity phi^T M v at every output sample (M phi interpolated between the samples)
+        proj = np.stack([r[:, k] for r in rows_of])
+        velocity = np.zeros(len(tau))
+        V_all = np.asarray(result.v, dtype=float)
+        for i in range(proj.shape[1]):
+            velocity += np.interp(tau, t_at, proj[:, i]) * V_all[:, i]
+        share = np.column_stack([np.interp(tau, t_at, part[j, :, k]) for j in range(part.shape[0])])
+        out.append((mean[k], 0.5 * backbone(vHv, vHv_rest) / w2, band, np.sqrt(w2), (velocity, share)))
     return out
 
 
@@ -669,11 +719,22 @@ def coupled_modes(
     geometric stiffness of the axial forces, gravity and speed terms), M = d res / da (symmetric
     parts). The free motions (w^2 <= ``FREE_MOTION`` of the largest) are left out. None where M
     is not positive definite there (quasi-static amplitudes: no inertia)."""
+    got = _modes_at(mech, t, q, v, modal)
+    return None if got is None else (got[0], got[1])
+
+
+def _modes_at(
+    mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, modal: Any = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`coupled_modes`, M phi (columns: phi^T M v is the mode's modal velocity) and the
+    multipliers' change with each mode (columns): the constraint forces (d res / d lam) dlam that
+    hold the mode on the closure, (K - w^2 M) phi + (d res / d lam) dlam = 0."""
     modal = modal if modal is not None else _modal_function(mech)
     z = np.zeros
     J, r = mech.kkt(t, q, v, z(mech.n), z(mech.m), mech.p)
+    J = np.array(J)
     # least squares: at a toggle the closure's rows are dependent and the multipliers not unique
-    sol = np.linalg.lstsq(np.array(J), -np.array(r).ravel(), rcond=None)[0]
+    sol = np.linalg.lstsq(J, -np.array(r).ravel(), rcond=None)[0]
     a, lam = sol[: mech.n], sol[mech.n :]
     K, M, C = (np.array(x) for x in modal(t, q, v, a, lam, mech.p))
     N = _null(C)
@@ -684,7 +745,11 @@ def coupled_modes(
         return None
     w2, y = np.linalg.eigh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
     keep = np.flatnonzero(w2 > FREE_MOTION * max(float(np.abs(w2).max(initial=0.0)), 1e-300))
-    return np.sqrt(w2[keep]), (N @ (Li.T @ y))[:, keep]
+    phi = (N @ (Li.T @ y))[:, keep]
+    Ms, Ks = (M + M.T) / 2, (K + K.T) / 2
+    held = -(Ks @ phi - (Ms @ phi) * w2[keep])
+    dlam = np.linalg.lstsq(J[: mech.n, mech.n :], held, rcond=None)[0] if mech.m else np.zeros((0, len(keep)))
+    return np.sqrt(w2[keep]), phi, Ms @ phi, dlam
 
 
 def _null(C: np.ndarray) -> np.ndarray:
@@ -933,3 +998,23 @@ def perturbed_along(
         v[start:stop] = np.exp(-Lp) * (v[start] + acc)
         start = stop - 1
     return np.asarray(np.minimum(np.abs(v), 2.0 * np.abs(z)))
+
+
+def relative_change(
+    tau: np.ndarray,
+    y: np.ndarray,
+    mode: tuple[np.ndarray, np.ndarray, np.ndarray],
+    damping: float,
+    band: tuple[float, float],
+) -> np.ndarray:
+    """The relative change |dx| / |x| (at most 2) along the run of a mode's coordinate x, whose
+    content within ``band`` is that of ``y`` (its modal velocity phi^T M v: the content of x times
+    i W), when the mode's frequency moves by its shift (:func:`perturbed_along`). An output sees the
+    mode through a participation that changes with the configuration (a driver torque's through
+    the crank's angle, changing sign along a turn): its content in the band changes by this
+    fraction of itself, not by the envelope equation of its own content (which would integrate
+    the participation too: d_alu_mass_long's torque 0.32x of the von Karman vs exact change in the
+    band, its coupler, whose participation stays, 1.02x)."""
+    change = perturbed_along(tau, y, mode, damping, band)
+    size = np.abs(_band_signal(tau, y, band))
+    return np.asarray(np.divide(change, size, out=np.zeros_like(change), where=size > 0))
