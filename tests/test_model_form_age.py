@@ -4,11 +4,12 @@ of version 7 before), against directly integrated
 oscillators hardened by a known fraction of their frequency (scipy, no phase formula): the change of
 the output between the hardened and the original oscillator is what the estimate must match.
 
-* released at the start: the whole run's drift (0.97x; version 6 1.08x);
-* kicked late in the run: the drift since the kick (0.99x; charged from the run's start, version 6,
-  3.05x);
+* released at the start: the whole run's drift (version 10 1.00x; version 7 0.97x; version 6 1.08x);
+* kicked late in the run: the drift since the kick (1.01x; 0.99x; charged from the run's start,
+  version 6, 3.05x);
 * built up by a load sweeping through the resonance, as the four-bar's coupled modes are by the
-  driver's harmonics that cross their bands along a turn (examples/four_bar.toml): 1.13x (2.17x);
+  driver's harmonics that cross their bands along a turn (examples/four_bar.toml): 1.03x; 1.13x
+  (2.17x);
 * damped: at most the decay time (1.00x, as before).
 """
 

@@ -6,7 +6,7 @@ runs, the estimate the largest of its envelope of the first-order change.
 
 The cases: a steady load far from the resonance (0.8 W), near it (0.95 W), at it, each with the
 start's transient (both runs start at rest: the free ringing the load's onset excites), and a free
-ringing released at the start with a small forced part on top. The drift rule of versions 5-9
+ringing released at the start with a forced part of about its size. The drift rule of versions 5-7
 charged all of the band's content the free vibration's phase drift, omega x shift x its age (at most
 the decay time 2 / (c W^2)): 2.8x the measured change at 0.8 W, 1.8x at 0.95 W, 1.2x at the
 resonance, 4.0x the ringing with a forced part at 0.85 W (the first and the last checked below
@@ -54,7 +54,7 @@ def test_forced_content_is_charged_its_change_not_a_drift(case):
     got = float(model_form.perturbed_along(TAU, y, mode, C, BAND).max())
     ratio = got / measured
     assert 0.5 <= ratio <= 2.0, (case, ratio)
-    # the drift rule (versions 5-9): the band's envelope times W SHIFT times its age, at most the
+    # the drift rule (versions 5-7): the band's envelope times W SHIFT times its age, at most the
     # decay time; off the resonance it charges the forced response as a free vibration's drift
     env = np.abs(model_form._band_signal(TAU, y, BAND))
     drift = float((env * np.minimum(W * SHIFT * np.minimum(TAU, 1.0 / (ZETA * W)), 2.0)).max())

@@ -44,13 +44,25 @@ forces, nu alpha^3); for a bar whose coupled mode is its own first mode this is
 half its share of that, the backbone of a hardening oscillator (:func:`backbone`: the tangent's
 mean over a cycle is twice it; the tests/data slewing arm undamped, ringing after the slew: von
 Karman vs the exact bar move its frequency by 1.01e-3, the tangent by 2.11e-3, the backbone by
-1.08e-3). The free vibration of the mode in an output (the envelope of its
-content within 25 % of omega, and no nearer another mode's frequency than the geometric mean of
-the two) then drifts in phase by omega times the integral of shift over the time it has rung:
-since its content came in (the increments of its envelope's running maximum: a start's ringing
-from the start, a vibration a load step or a passage through a resonance builds up from then,
-:func:`_aged`), with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
-by that phase times the envelope there (at most twice it), the largest along the run. The
+1.08e-3). The mode's own coordinate then changes by its oscillator's first-order response to the
+shift (:func:`perturbed_along`, estimator version 10): its content within 25 % of omega (and no
+nearer another mode's frequency than the geometric mean of the two), read from its modal velocity
+phi^T M v along the run, drives x'' + c W^2 x' + W^2 x = -2 shift W^2 x, solved as the envelope
+of the change along the mode's own phase int W (W(t) the mode's frequency along the run: a
+crank-driven bar's sweeps within a turn). A free vibration so drifts in phase by omega times the
+integral of shift since it came in (a start's ringing from the start, a vibration a load step
+or a passage through a resonance builds up from then), decaying with it (Kelvin-Voigt damping
+c); a response the driver forces at frequencies the mode's phase does not follow changes by its
+receptance's change, shift W / |W - w + i c W^2 / 2|, which does not grow with the time rung.
+Each output changes by its participation in the mode (the output at q + e phi and the multipliers
+that hold phi on the closure, lam + e dlam) times the coordinate's change, the modes' sum at
+each instant, the largest along the run. Version 7's drift charged each output's whole content
+in the band, by its envelope, the free vibration's phase since the envelope's running maximum
+rose: the driver's harmonics within a band drifted as free vibration (the kept-out aluminium
+slider-crank c_alu_long: its rod's mode sweeping 4.1-7.2 per unit tau, harmonics 5-7 in its band,
+1.42x the von Karman vs exact change), and an output that sees a mode through a participation
+changing along a turn was charged the envelope's age, not the mode's (docs/exact-bars.md,
+"Forced content within a band"). The
 coupled modes, because a tool on an overhang makes with the linkage a mode far below any bar's
 own (the four-bar with its rocker pinned to the coupler at xi = 0.6 and a 50 g tool at the
 coupler's end: 5.5 per unit tau against the coupler's own first bending at 15.3; von Karman vs
@@ -64,21 +76,14 @@ spectrum of the whole run sees least of it (the five-bar's links: 0.38x of the t
 the mean, 0.93x along the run; benchmarks/RESULTS.md). Each output's estimate is its static
 change plus its drift (the modes' drifts summed at each instant, the largest along the run: not
 each mode's largest, reached at other times), as a fraction of its peak; outputs that q does not move (a driver torque)
-have their drift only. The response forced at a constant driver's harmonics does not drift (a
-mode's shift changes it by shift x omega^2 / |omega^2 - (k rate)^2|, not growing with the time
-rung): each mode's band is read after the harmonics the run tells apart from its free vibration
-are fitted and taken out, those below the band (:func:`forced_harmonics`,
-:func:`without_harmonics`). Left in, a driver torque's large low harmonics (the rigid mechanism's
-inertia) leave their slope at the run's end as a kink of the mirrored signal whose broad spectrum
-read as free vibration where the drift is largest: a steel slider-crank pump's torque 12x the von
-Karman vs exact difference (tests/test_model_form_torque.py), 2.4x on issue 19's kept-out pump.
-Harmonics within a mode's band stay (a fit there also takes a short-lived free vibration): the
-estimate still over-states an output whose content there is forced rather than free (the
-four-bar with a tool on an overhang, rocker_mid: 2.3e-3 against 5.3e-5, below the reference's
-noise). No fit tells them apart where the mode's frequency sweeps its band along a turn
-(examples/four_bar.toml: its lowest coupled mode 5.5-7.5 per unit tau, band 4.8-7.5; fitting the
-harmonics within the bands took the five-bar's torque_b to 0.38x of the von Karman vs exact change,
-docs/exact-bars.md).
+have their drift only. The driver's harmonics below a mode's band that the run tells apart from
+its free vibration are fitted and taken out of the modal velocity first (:func:`forced_harmonics`,
+:func:`without_harmonics`): left in, large low harmonics leave their slope at the run's end as a
+kink of the mirrored signal whose broad spectrum reads as content in the band (a steel
+slider-crank pump's torque 12x the von Karman vs exact difference with version 3's drift,
+tests/test_model_form_torque.py). Those within the band stay: the oscillator tells them apart.
+Where the problem has no coupled modes (quasi-static amplitudes) each output's own content in each
+bar's band is taken as the mode's coordinate.
 
 The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
 |r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
@@ -457,8 +462,8 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         ringing = [
             (b.omega, 0.5 * tangent[b.name], band, np.full(len(rows), b.omega), None) for b, band in zip(bars, bands)
         ]
-    # the outputs less the response forced at a constant driver's harmonics, which does not drift
-    # (each mode's: the harmonics a run tells apart from its free vibration)
+    # without coupled modes, each output less the driver's harmonics below each bar's band (those a
+    # run tells apart from its free vibration: :func:`forced_harmonics`) is taken as the mode's content
     rate = driver_rate(mech.scene)
     unforced = [
         without_harmonics(
@@ -466,23 +471,28 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             np.asarray(result.outputs, dtype=float),
             forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping)),
         )
-        for w, _, band, _, _ in ringing
+        if own is None
+        else np.zeros((0, 0))
+        for w, _, band, _, own in ringing
     ]
     # each mode's coordinate's change along the run (from its modal velocity's content in its band,
     # less the harmonics below it); each output's by its participation in the mode
     coordinate = [
         None
         if own is None
-        else perturbed_along(
-            result.tau,
-            without_harmonics(
-                result.tau, own[0][:, None], forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping))
-            )[:, 0],
-            (tau_rows, mode_w, mode_shift),
-            damping,
-            band,
+        else (
+            perturbed_along(
+                result.tau,
+                without_harmonics(
+                    result.tau, own[0][:, None], forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping))
+                )[:, 0],
+                (tau_rows, mode_w, mode_shift),
+                damping,
+                band,
+            )
+            / np.interp(result.tau, tau_rows, mode_w),
+            own[1],
         )
-        / np.interp(result.tau, tau_rows, mode_w)
         for w, mode_shift, band, mode_w, own in ringing
     ]
     moved: dict[str, float] = {}
@@ -499,10 +509,10 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
                     (
                         (
                             perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
-                            if dx is None
-                            else np.abs(own[1][:, j]) * dx
+                            if c is None
+                            else np.abs(c[1][:, j]) * c[0]
                         )
-                        for (_, mode_shift, band, mode_w, own), y, dx in zip(ringing, unforced, coordinate)
+                        for (_, mode_shift, band, mode_w, _), y, c in zip(ringing, unforced, coordinate)
                     ),
                     np.zeros(len(result.tau)),
                 ),
@@ -528,7 +538,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         left += " (and -eps eta'^2 / 2 where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
-        f"plus the phase drift of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"
+        f"plus the first-order change of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"
         if bars
         else "none: no bar bends (the rigid bodies are exact)"
     )
@@ -584,7 +594,7 @@ def _coupled_modes(
     Q: np.ndarray,
     V: np.ndarray,
     Lam: np.ndarray,
-) -> list[tuple[float, np.ndarray, tuple[float, float], np.ndarray, np.ndarray | None]] | None:
+) -> list[tuple[float, np.ndarray, tuple[float, float], np.ndarray, tuple[np.ndarray, np.ndarray] | None]] | None:
     """The modes the run rings and how the left-out terms move them: (frequency per unit tau,
     its relative shift at each of the output ``rows``, its band, its frequency at each of the
     ``rows``, its modal velocity phi^T M v at each of the run's samples) of each of the lowest coupled
@@ -639,7 +649,7 @@ def _coupled_modes(
     near = np.abs(tau_rows[:, None] - tau_rows[at][None, :]).argmin(axis=1)
     mean = [float(np.mean([w[k] for w in omegas])) for k in range(count)]
     bending = sorted({i for b in bars for i in b.g_idx})
-    out = []
+    out: list[tuple[float, np.ndarray, tuple[float, float], np.ndarray, tuple[np.ndarray, np.ndarray] | None]] = []
     for k, band in zip(range(count), _bands(mean)):
         phi_k = np.stack([shapes[s][:, k] for s in near])
         w2 = np.array([omegas[s][k] ** 2 for s in near])
@@ -960,14 +970,16 @@ def perturbed_along(
     z = a e^{i Theta - sigma t} gives v = i a W int shift: the phase drift omega int shift dtau since
     it came in (a start's ringing from the start, a kick from the kick, a vibration a passage
     through a resonance builds up from then), decaying with it; a response forced at a frequency w
-    that the mode's phase does not follow gives, steady, |v| = shift W |z| / |W - w + i sigma| (the
-    receptance's change, W^2 shift |d/dW^2 (1 / (W^2 - w^2 + i c W^2 w))| near resonance), which
-    does not grow with the time rung. The drift rule of estimator versions 5-9 charged all of a
+    that the mode's phase does not follow gives, steady, |v| = shift W |z| / |W - w + i sigma| (near the
+    resonance the relative change of the receptance 1 / (W^2 - w^2 + i c W^2 w) with the stiffness
+    2 shift W^2 added, 2 shift W^2 / |W^2 - w^2 + i c W^2 w|), which does not grow with the time
+    rung. The drift rule of estimator versions 3-7 charged all of a
     band's content as free vibration: the driver's harmonics within a mode's band (the kept-out
     aluminium slider-crank c_alu_long, its rod's first coupled mode sweeping 4.1-7.2 per unit tau
     along a turn, harmonics 5-7 inside its band 4.2-6.9) drifted 4e-3 to 9e-3 rad after the start's
     ringing had decayed, against a measured von Karman vs exact phase difference under 5e-4
-    (docs/exact-bars.md, "Forced content within a band")."""
+    (docs/exact-bars.md, "Forced content within a band"). Oracles: tests/test_model_form_inband.py,
+    tests/test_model_form_age.py (integrated oscillators, forced and free: 0.87-1.03x)."""
     tau = np.asarray(tau, dtype=float)
     n = len(tau)
     t_s, w_s, s_s = (np.asarray(x, dtype=float) for x in mode)
@@ -998,23 +1010,3 @@ def perturbed_along(
         v[start:stop] = np.exp(-Lp) * (v[start] + acc)
         start = stop - 1
     return np.asarray(np.minimum(np.abs(v), 2.0 * np.abs(z)))
-
-
-def relative_change(
-    tau: np.ndarray,
-    y: np.ndarray,
-    mode: tuple[np.ndarray, np.ndarray, np.ndarray],
-    damping: float,
-    band: tuple[float, float],
-) -> np.ndarray:
-    """The relative change |dx| / |x| (at most 2) along the run of a mode's coordinate x, whose
-    content within ``band`` is that of ``y`` (its modal velocity phi^T M v: the content of x times
-    i W), when the mode's frequency moves by its shift (:func:`perturbed_along`). An output sees the
-    mode through a participation that changes with the configuration (a driver torque's through
-    the crank's angle, changing sign along a turn): its content in the band changes by this
-    fraction of itself, not by the envelope equation of its own content (which would integrate
-    the participation too: d_alu_mass_long's torque 0.32x of the von Karman vs exact change in the
-    band, its coupler, whose participation stays, 1.02x)."""
-    change = perturbed_along(tau, y, mode, damping, band)
-    size = np.abs(_band_signal(tau, y, band))
-    return np.asarray(np.divide(change, size, out=np.zeros_like(change), where=size > 0))
