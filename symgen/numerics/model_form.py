@@ -55,8 +55,9 @@ or a passage through a resonance builds up from then), decaying with it (Kelvin-
 c); a response the driver forces at frequencies the mode's phase does not follow changes by its
 receptance's change, shift W / |W - w + i c W^2 / 2|, which does not grow with the time rung.
 Each output changes by its participation in the mode (the output at q + e phi and the multipliers
-that hold phi on the closure, lam + e dlam) times the coordinate's change, the modes' sum at
-each instant, the largest along the run. Version 7's drift charged each output's whole content
+that hold phi on the closure, lam + e dlam) times the coordinate's change, the modes' changes
+summed as the signals they are (their analytic signals: two modes an output sees in opposite
+phase cancel there), the largest along the run. Version 7's drift charged each output's whole content
 in the band, by its envelope, the free vibration's phase since the envelope's running maximum
 rose: the driver's harmonics within a band drifted as free vibration (the kept-out aluminium
 slider-crank c_alu_long: its rod's mode sweeping 4.1-7.2 per unit tau, harmonics 5-7 in its band,
@@ -481,7 +482,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         None
         if own is None
         else (
-            perturbed_along(
+            _perturbed(
                 result.tau,
                 without_harmonics(
                     result.tau, own[0][:, None], forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping))
@@ -503,16 +504,16 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             continue
         size = float(np.abs(change[:, j]).max())
         # the modes' drifts at the same instant, the largest along the run
+        # (the coupled modes' changes as the signals they are, each its participation times its
+        # coordinate's: two modes the output sees in opposite phase cancel there as they do)
         drift = float(
             np.max(
-                sum(
+                np.abs(sum((c[1][:, j] * c[0] for c in coordinate if c is not None), np.zeros(len(result.tau))))
+                + sum(
                     (
-                        (
-                            perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
-                            if c is None
-                            else np.abs(c[1][:, j]) * c[0]
-                        )
+                        perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
                         for (_, mode_shift, band, mode_w, _), y, c in zip(ringing, unforced, coordinate)
+                        if c is None
                     ),
                     np.zeros(len(result.tau)),
                 ),
@@ -953,6 +954,17 @@ def perturbed_along(
     damping: float,
     band: tuple[float, float],
 ) -> np.ndarray:
+    """The envelope |v| of :func:`_perturbed`'s change (below)."""
+    return np.asarray(np.abs(_perturbed(tau, y, mode, damping, band)))
+
+
+def _perturbed(
+    tau: np.ndarray,
+    y: np.ndarray,
+    mode: tuple[np.ndarray, np.ndarray, np.ndarray],
+    damping: float,
+    band: tuple[float, float],
+) -> np.ndarray:
     """How much a mode's content in an output changes when the mode's frequency moves by the
     fraction shift: the envelope of the first-order change of the mode's oscillator, at each
     sample of the run (zeros where nothing rings or the run is shorter than two periods).
@@ -985,10 +997,10 @@ def perturbed_along(
     t_s, w_s, s_s = (np.asarray(x, dtype=float) for x in mode)
     span = float(tau[-1] - tau[0]) if n else 0.0
     if n < 8 or len(t_s) == 0 or span <= 0 or float(np.min(w_s)) * span < 4 * np.pi:
-        return np.zeros(n)
+        return np.zeros(n, dtype=complex)
     z = _band_signal(tau, y, band)
     if not np.any(z):
-        return np.zeros(n)
+        return np.zeros(n, dtype=complex)
     W = np.interp(tau, t_s, w_s)
     shift = np.interp(tau, t_s, s_s)
     h = np.diff(tau)
@@ -1009,4 +1021,7 @@ def perturbed_along(
         acc = np.concatenate([[0.0], np.cumsum(np.exp(Lp[1:]) * b[start : stop - 1])])
         v[start:stop] = np.exp(-Lp) * (v[start] + acc)
         start = stop - 1
-    return np.asarray(np.minimum(np.abs(v), 2.0 * np.abs(z)))
+    # at most twice z (opposite phase); the change as a signal, v e^{i Theta}
+    size = np.abs(v)
+    v = v * np.divide(np.minimum(size, 2.0 * np.abs(z)), size, out=np.zeros(n), where=size > 0)
+    return np.asarray(v * np.exp(1j * theta))
