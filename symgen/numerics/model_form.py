@@ -638,9 +638,10 @@ def _coupled_modes(
     t_at = tau[rows][at]
     n_at = len(at)
     Qa = np.repeat(Q[at], count, axis=0)
-    step = 1e-6 * (1.0 + float(np.abs(Q[at]).max()))
-    dQ = np.concatenate([shapes[s][:, :count].T for s in range(n_at)]) * step
-    dL = np.concatenate([forces[s][:, :count].T for s in range(n_at)]) * step
+    dQ = np.concatenate([shapes[s][:, :count].T for s in range(n_at)])
+    dL = np.concatenate([forces[s][:, :count].T for s in range(n_at)])
+    step = 1e-6 / np.maximum(np.abs(dQ).max(axis=1), 1e-300)  # each mode moves q by at most 1e-6
+    dQ, dL = dQ * step[:, None], dL * step[:, None]
     Va, La = np.repeat(V[at], count, axis=0), np.repeat(Lam[at], count, axis=0)
     ta, zero = np.repeat(t_at, count), np.zeros_like(Qa)
     plus = _mapped(out_f, len(ta), ta, Qa + dQ, Va, zero, La + dL, mech.p)[0]
