@@ -36,8 +36,9 @@ R = TypeVar("R")
 #: angles estimated 0; 6: a mode's own vibration moves it by half its tangent's stiffening, the backbone;
 #: 7: a vibration drifts from when its content came in, not from the run's start; 8 and 9 on branches,
 #: not merged; 10: each coupled mode's own coordinate changes by its oscillator's first-order response
-#: to its shift, along its own phase, and each output by its participation in the mode)
-ESTIMATOR_VERSION = "10"
+#: to its shift, along its own phase, and each output by its participation in the mode; 10a: a
+#: torque-driven crank's timing, the drift of its angle the static change's forcing builds up)
+ESTIMATOR_VERSION = "10a"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
