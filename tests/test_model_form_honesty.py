@@ -79,7 +79,7 @@ MEASURED: dict[str, dict[str, tuple[float, str]]] = {
     # charged the exact bar that term until it stopped (5.2e-3 -> 5.4e-4 on rod_mid, 1.4e-4 -> 1.4e-5 on
     # xB; ratios 2.32 and 1.67 before): the converged exact bar is 2.9e-4 off (docs/exact-bars.md)
     # estimator 6: 1.06 / 1.25 -> 1.05 / 1.21; estimator 7: 1.05 / 1.15; estimator 10: 1.02 / 1.02
-    "slider_crank_torque_soft": {"rod_mid": (1.02, ""), "xB": (1.02, "")},
+    "slider_crank_torque_soft": {"rod_mid": (1.05, ""), "xB": (1.07, "")},
     "crank_rocker_steel": {
         # estimator 6: 1.13 / 1.06 / 0.90 / 1.08 -> 1.00 / 0.94 / 0.83 / 0.96; 7: 1.00 / 0.86 / 0.81 / 0.96;
         # 10: 0.93 / 0.92 / 0.75 / 0.89
