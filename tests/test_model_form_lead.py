@@ -10,11 +10,10 @@ crank's timing").
 
 Oracle: the exact bar's run at the same bases (tests/data/four_bar_torque_spinup.toml: a steel
 crank-rocker, 3 + 4 functions per bar, every amplitude dynamic, IDAS 1e-8). The charge is the
-first-order drift of the static change's forcing, without the change of the bars' ringing that
-also pushes the crank (measured: the true elastic difference at equal crank angle, put through the
-same rows, gives a drift 3x the true one on the kept-out four-bar with its bars twice as stiff,
-the static change alone 0.15x): here it lifts the estimate from 0.01-0.22x to 0.24-0.70x of von
-Karman vs exact, short of [0.5, 2] on the crank angle and the rocker's deflection (open).
+first-order drift of the static change's forcing alone; with the kept-out four-bar's bars twice as
+stiff it gives 0.15 of the crank's drift, and what else pushes the crank is not found
+(docs/exact-bars.md): here it lifts the estimate from 0.01-0.22x to 0.24-0.70x of von Karman vs
+exact, short of [0.5, 2] on the crank angle and the rocker's deflection (open).
 """
 
 from __future__ import annotations

@@ -92,8 +92,9 @@ with the static change's accelerations builds up, integrated twice, into a drift
 grows with the time run; each output runs ahead by its rate times the lead, drift / speed. On the
 kept-out torque-driven aluminium four-bar with von Karman forced that timing was most of the error
 (the coupler's deflection 9.0e-2 of peak at equal times, 3.3e-2 at equal crank angles) and version
-10 read 0.04-0.37 of it; with the lead 0.63-1.70. The ringing's change pushes the crank too and is
-not charged (docs/exact-bars.md, "A torque-driven crank's timing").
+10 read 0.04-0.37 of it; with the lead 0.63-1.70. With its bars twice as stiff the static change's
+forcing gives 0.15 of the crank's drift; what else pushes the crank is not found (docs/exact-bars.md,
+"A torque-driven crank's timing").
 
 The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
 |r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
@@ -114,8 +115,8 @@ and the axial ringing averages them out: the slider-crank's change is the same w
 them; the exact bar has them to fourth order with dynamic axial amplitudes), the strain's terms
 second order in eps (eps^2 eta'^2), resonance of the change itself, the response of the
 rigid coordinates of a closed loop to dq, the timing of a free motion other than one torque
-driver's crank (a pendulum's swing, two torque drivers) and the drift the ringing's change gives a
-torque-driven crank; slot guides (their span moves along the guide) are not
+driver's crank (a pendulum's swing, two torque drivers) and the part of a torque-driven crank's
+drift that the static change's forcing does not give; slot guides (their span moves along the guide) are not
 estimated and the method text names them. Measured against von Karman vs exact runs in
 docs/exact-bars.md and against the validation suite's references in benchmarks/RESULTS.md.
 """
