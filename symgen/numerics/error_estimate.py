@@ -1,8 +1,7 @@
 """An a-posteriori error estimate of every output of a finished run (issue 19, item 2).
 
-The estimate of an output is a fraction of its peak, the parts that were estimated added as
-sizes at the same instant where their sizes along the run are known, else their largest values
-(:func:`same_instant`; a part that was not is ``None`` with its reason, never 0):
+The estimate of an output is a fraction of its peak, the sum of the parts that were estimated
+(a part that was not is ``None`` with its reason, never 0):
 
 * **truncation** -- how much the output would change with more functions per bar. An
   *embedded richer model* -- the same scene with ``EXTRA_AXIAL`` more axial and
@@ -174,21 +173,6 @@ def _curvature(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], st
 
 
 register_model_form("curvature", _curvature)
-
-#: part -> the sizes of the part along the run (output -> |change| / peak at each of the run's
-#: output samples) its estimator measured on the run (:func:`keep_sizes`), read once by that
-#: run's estimate to add the parts at the same instant (:func:`same_instant`)
-PART_SIZES: dict[str, MeasuredOnce[dict[str, np.ndarray]]] = {
-    "truncation": MeasuredOnce(),
-    "model_form": MeasuredOnce(),
-    "time_integration": MeasuredOnce(),
-}
-
-
-def keep_sizes(part: str, mech: Mechanism, result: SimResult, sizes: dict[str, np.ndarray]) -> None:
-    """Keep the sizes of ``part`` along the run ``result`` of ``mech`` (output -> |change| / peak at
-    each output sample, whose largest is the part's value), for the run's estimate (read once)."""
-    PART_SIZES[part].keep(mech, result, sizes)
 
 
 class InvalidEstimate(ValueError):
@@ -396,36 +380,11 @@ def estimate_errors(
                 f"periods a run rings through, beyond any fixed multiple of rtol); where it is not measured, "
                 + methods["time_integration"]
             )
-    sizes = {p: slot.take(mech, result) for p, slot in PART_SIZES.items()}
     outputs: dict[str, float | None] = {}
     for n in names:
-        outputs[n] = same_instant({p: parts[p][n] for p in PARTS}, {p: s[n] for p, s in sizes.items() if s and n in s})
+        vals = [parts[p][n] for p in PARTS if parts[p][n] is not None]
+        outputs[n] = float(sum(v for v in vals if v is not None)) if vals else None
     return ErrorEstimate(outputs, parts, methods, reasons, counts)
-
-
-def same_instant(values: Mapping[str, float | None], sizes: Mapping[str, np.ndarray]) -> float | None:
-    """An output's estimate from its parts' ``values`` (part -> its largest over the run, None: not
-    estimated) and, where known, their ``sizes`` along the run (part -> |change| / peak at each
-    output sample): the parts whose sizes are known added as sizes at the same instant, the largest
-    along the run, plus the others' largest values (None when no part was estimated).
-
-    Each part estimates a signed difference of the output (the richer model's, the tighter run's,
-    the exact bar's), and to first order the output's error is their sum at each instant, so its
-    largest is at most the largest of the sum of their sizes at the same instant, which is at most
-    the sum of each one's largest: the parts need not be largest together (the kept-out damped
-    aluminium crank-rocker d_alu_mass_long: its truncation part's largest in the start's ringing,
-    the time integration's near the end). Sizes, not signals: the model-form drift is an envelope
-    with no phase against the other parts, and the reruns' differences each carry the other runs'
-    errors, so no cancellation between parts is credited (docs/exact-bars.md, "The parts at the same
-    instant")."""
-    known = {p: v for p, v in values.items() if v is not None}
-    if not known:
-        return None
-    series = [np.asarray(sizes[p], dtype=float) for p in known if p in sizes]
-    if len(series) < 2 or len({len(x) for x in series}) != 1 or not len(series[0]):
-        return float(sum(known.values()))
-    scalars = sum(v for p, v in known.items() if p not in sizes)
-    return float(np.max(sum(series))) + float(scalars)
 
 
 #: the time-integration part's check run: this many times tighter tolerances
@@ -472,18 +431,7 @@ def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -
     tight = _same_solver_run(mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER)
     names = list(result.output_names)
     scale = 1.0 / (1.0 - TIGHTER**-0.7)
-    deltas = scale * _difference(result, tight, names)
-    values = _fractions_of_peak(mech, result, deltas, names)
-    keep_sizes("time_integration", mech, result, _sizes_of(result, deltas, names, values))
-    return values
-
-
-def _sizes_of(
-    result: SimResult, deltas: np.ndarray, names: list[str], values: Mapping[str, float]
-) -> dict[str, np.ndarray]:
-    """output -> |delta| / peak at each sample (``deltas``' columns ``names``), for the outputs of ``values``."""
-    peaks = _peaks(result)
-    return {n: np.abs(deltas[:, j]) / peaks[n] for j, n in enumerate(names) if n in values}
+    return {n: scale * v for n, v in _fractions_of_peak(mech, result, _difference(result, tight, names), names).items()}
 
 
 #: the truncation part's method text where the run's first sample of the joint forces is the
@@ -874,9 +822,7 @@ def _rerun(
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     names = list(result.output_names)
-    deltas = _difference(result, rich, names)
-    values = _fractions_of_peak(mech, result, deltas, names)
-    keep_sizes("truncation", mech, result, _sizes_of(result, deltas, names, values))
+    values = _fractions_of_peak(mech, result, _difference(result, rich, names), names)
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
     how = (
         f"second run of the embedded richer model ({bars} axial+transverse functions) on the run's output grid "

@@ -126,7 +126,7 @@ from __future__ import annotations
 
 import json
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -192,9 +192,6 @@ class ModelFormEstimate:
     bars: dict[str, tuple[float, float]]
     method: str = "static response of each bar's stiffness to the curvature's left-out terms"
     skipped: tuple[str, ...] = ()
-    #: output -> the estimate's size along the run (a fraction of the peak at each of the run's
-    #: samples: its largest is the output's estimate), for adding the parts at the same instant
-    sizes: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 #: the shape samples read in this process, by their question (a bar's samples are a function
@@ -542,7 +539,6 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     ]
     moved: dict[str, float] = {}
     still = []
-    sizes: dict[str, np.ndarray] = {}
     prescribed = _prescribed(mech, tau_rows, Q, V, Lam, peaks)
     for j, name in enumerate(names):
         if kinds.get(name) in CHECK_KINDS or peaks[j] == 0 or j in prescribed:
@@ -562,10 +558,8 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         drift = float(np.max(drifts, initial=0.0)) / float(peaks[j])
         if size > 1e-12 * peaks[j]:
             # the static change and the drifts as sizes at the same instant, the largest along the run
-            sizes[name] = (static_envelope(result.tau, tau_rows, change[:, j]) + drifts) / float(peaks[j])
-            moved[name] = float(np.max(sizes[name], initial=0.0))
+            moved[name] = combined(result.tau, tau_rows, change[:, j], drifts) / float(peaks[j])
         else:
-            sizes[name] = drifts / float(peaks[j])
             still.append((name, drift))
     # outputs that q does not move (a driver torque): their own drift only
     out = {name: 0.0 for name in names}
@@ -590,7 +584,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     )
     if skipped:
         method += f"; slot guides not estimated: {', '.join(skipped)}"
-    return ModelFormEstimate(out, stiff, method, skipped, sizes)
+    return ModelFormEstimate(out, stiff, method, skipped)
 
 
 def combined(tau: np.ndarray, at: np.ndarray, change: np.ndarray, drifts: np.ndarray) -> float:
@@ -846,10 +840,7 @@ def _null(C: np.ndarray) -> np.ndarray:
 
 def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     """The model-form part of the error estimate (:func:`symgen.numerics.error_estimate.register_model_form`)."""
-    from symgen.numerics.error_estimate import keep_sizes
-
     est = model_form_estimate(mech, result)
-    keep_sizes("model_form", mech, result, est.sizes)
     return est.outputs, est.method
 
 
