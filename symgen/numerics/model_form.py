@@ -75,8 +75,9 @@ are used. Along the run, not the mean shift times the run's length times a mean 
 vibration a start or a load step excites is largest, and its slopes with it, where a windowed
 spectrum of the whole run sees least of it (the five-bar's links: 0.38x of the true error with
 the mean, 0.93x along the run; benchmarks/RESULTS.md). Each output's estimate is its static
-change plus its drift (the modes' drifts summed at each instant, the largest along the run: not
-each mode's largest, reached at other times), as a fraction of its peak; outputs that q does not move (a driver torque)
+change plus its drift, the modes' drifts and the static change summed as sizes at each instant, the
+largest along the run (not each one's largest, reached at other times: :func:`combined`), as a
+fraction of its peak; outputs that q does not move (a driver torque)
 have their drift only. The driver's harmonics below a mode's band that the run tells apart from
 its free vibration are fitted and taken out of the modal velocity first (:func:`forced_harmonics`,
 :func:`without_harmonics`): left in, large low harmonics leave their slope at the run's end as a
@@ -86,7 +87,7 @@ tests/test_model_form_torque.py). Those within the band stay: the oscillator tel
 Where the problem has no coupled modes (quasi-static amplitudes) each output's own content in each
 bar's band is taken as the mode's coordinate.
 
-A torque-driven crank's timing (estimator version 10a, :func:`_free_lead`): a crank a torque
+A torque-driven crank's timing (estimator version 11; measured as 10a on its branch, :func:`_free_lead`): a crank a torque
 driver turns is a free coordinate, and the change of its acceleration that the rigid rows give
 with the static change's accelerations builds up, integrated twice, into a drift of its angle that
 grows with the time run; each output runs ahead by its rate times the lead, drift / speed. On the
@@ -110,10 +111,22 @@ error, the converged exact bar against the converged ANCF reference, of 2.9e-4; 
 estimate is 5.4e-4 (the curvature's eta''^2 eta'^6 and the strain's eta'^6 / 16: static 1.7e-4,
 drift 3.7e-4).
 
-What it leaves out: the strain's share of the curvature (eps eta''^2 terms: of the order N/lambda,
-and the axial ringing averages them out: the slider-crank's change is the same with and without
-them; the exact bar has them to fourth order with dynamic axial amplitudes), the strain's terms
-second order in eps (eps^2 eta'^2), resonance of the change itself, the response of the
+The stretch's share of the curvature (``STRETCH_CURVATURE``, off): the exact curvature per
+undeformed length is kappa ~ eta'' / (1 + eps), whose -mu int (eps eta''^2 + eps' eta' eta''),
+eps = N / lambda (eps' at the nodes from each quadrature piece's polynomial), the exact bar has with
+dynamic axial amplitudes and von Karman lacks: a compressed bar bends 2 |eps| stiffer. On, it is
+charged where the stretch's term is (``stretch_kept``): on the five-bar
+(benchmarks/validation/five_bar_elastic.toml, link_a compressed to eps = -1.7e-4) it is half the
+start's static change (docs/exact-bars.md, "The five-bar's start, found"). It is off because, with
+it, the estimate of the five-bar's stretched link_b reads 2.50x its true error as users run it
+(the model-form part alone 2.04x: its static change 1.4e-4 -> 4.7e-4 of peak, its drift in the
+links' modes 6.1e-4 -> 9.1e-4), outside [0.5, 2] (docs/exact-bars.md, "The parts at the same
+instant"); the force itself is checked against the exact bar's derivation
+(tests/test_model_form_stretch.py).
+
+What it leaves out: the stretch's share of the curvature (above), the strain's terms second order
+in eps (eps^2 eta'^2 beyond the stretch's),
+resonance of the change itself, the response of the
 rigid coordinates of a closed loop to dq, the timing of a free motion other than one torque
 driver's crank (a pendulum's swing, two torque drivers) and the part of a torque-driven crank's
 drift that the static change's forcing does not give; slot guides (their span moves along the guide) are not
@@ -135,7 +148,7 @@ else:
 
 from symgen import cache
 from symgen.ir.records import CoordKind, RowKind
-from symgen.ir.shape_samples import ShapeSamples, samples_question
+from symgen.ir.shape_samples import GAUSS_POINTS, ShapeSamples, samples_question
 from symgen.scene.model import CHECK_KINDS
 
 if TYPE_CHECKING:
@@ -167,6 +180,9 @@ STRAIN_ORDER = {"von_karman": 1, "exact": 2}
 #: table Q4 of symgen/model/bars.py), on a bar with dynamic axial amplitudes only: a quasi-static or
 #: inextensible bar holds P eps = 0 and has the term nowhere (the estimate charges it there)
 STRETCH_KEPT = {"von_karman": False, "exact": True}
+#: the stretch's share of the curvature, -mu int (eps eta''^2 + eps' eta' eta'') (kappa per undeformed
+#: length ~ eta'' / (1 + eps)), charged where the bar's energy lacks it (as the stretch's term)
+STRETCH_CURVATURE = False
 #: the coefficients of s^n in 1 - sqrt(1 - s), n = 1, 2, 3, 4
 _STRAIN_SERIES = (0.5, 0.125, 0.0625, 0.0390625)
 #: the largest eta'^2 the series is evaluated at
@@ -261,6 +277,7 @@ class _Bar:
         )
         A1 = np.asarray(samples.axial1).reshape(len(w), -1) if self.na else np.zeros((len(w), 0))
         self.A1 = A1
+        self.D = _piece_derivative(np.asarray(samples.xi, dtype=float))  # d/dxi at the nodes, piece by piece
         self.Kt = self.P2.T @ (w[:, None] * self.P2)
         M = self.P0.T @ (w[:, None] * self.P0)
         self.C3 = np.einsum("i,ik,ia,ib->kab", w, A1, self.P1, self.P1)
@@ -300,6 +317,12 @@ class _Bar:
             m = self.strain_order + 1
             left = _STRAIN_SERIES[m - 1] * 2 * m * _power(e1, 2 * m - 1)  # d/d eta' of c_m eta'^(2m)
             dQ = dQ + (self.w * (N * left - soft * e1)) @ self.P1
+            if STRETCH_CURVATURE and self.lam > 0 and not self.stretch_kept:
+                # the stretch's share of the curvature per undeformed length, kappa ~ eta'' / (1 + eps):
+                # d/dg_a of -mu int (eps eta''^2 + eps' eta' eta''), eps = N / lambda
+                eps = N / self.lam
+                deps = eps @ self.D.T
+                dQ = dQ - (wq * (2.0 * eps * e2 + deps * e1)) @ self.P2 - (wq * deps * e2) @ self.P1
         return dQ
 
     def axial_force(self, Q: np.ndarray, Lam: np.ndarray) -> np.ndarray | None:
@@ -356,6 +379,24 @@ class _Bar:
         amp = np.where(capped, AMPLIFICATION_CAP, amp)
         dg = np.where(capped[:, None], AMPLIFICATION_CAP * dg0, dg)
         return dg, tangent, amp
+
+
+def _piece_derivative(xi: np.ndarray) -> np.ndarray:
+    """The derivative at the nodes ``xi`` of the polynomial through each piece's ``GAUSS_POINTS``
+    nodes (:class:`symgen.ir.shape_samples.ShapeSamples`: the bar's functions are smooth within a
+    piece): a block-diagonal matrix."""
+    n = len(xi)
+    D = np.zeros((n, n))
+    for s0 in range(0, n, GAUSS_POINTS):
+        x = xi[s0 : s0 + GAUSS_POINTS]
+        m = len(x)
+        diff = x[:, None] - x[None, :] + np.eye(m)
+        c = np.prod(diff, axis=1)  # barycentric: prod_{k != j} (x_j - x_k)
+        B = (c[:, None] / c[None, :]) / diff
+        np.fill_diagonal(B, 0.0)
+        np.fill_diagonal(B, -B.sum(axis=1))
+        D[s0 : s0 + m, s0 : s0 + m] = B
+    return D
 
 
 def _solve_positive(K: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -519,28 +560,24 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         if kinds.get(name) in CHECK_KINDS or peaks[j] == 0 or j in prescribed:
             continue
         size = float(np.abs(change[:, j]).max())
-        # the modes' drifts at the same instant, the largest along the run
-        # (the coupled modes' changes as the signals they are, each its participation times its
-        # coordinate's: two modes the output sees in opposite phase cancel there as they do)
-        drift = float(
-            np.max(
-                np.abs(sum((c[1][:, j] * c[0] for c in coordinate if c is not None), np.zeros(len(result.tau))))
-                + sum(
-                    (
-                        perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
-                        for (_, mode_shift, band, mode_w, _), y, c in zip(ringing, unforced, coordinate)
-                        if c is None
-                    ),
-                    np.zeros(len(result.tau)),
-                ),
-                initial=0.0,
-            )
-        ) / float(peaks[j])
+        # the modes' drifts at the same instant (the coupled modes' changes as the signals they are,
+        # each its participation times its coordinate's: two modes the output sees in opposite phase
+        # cancel there as they do)
+        drifts = np.abs(sum((c[1][:, j] * c[0] for c in coordinate if c is not None), np.zeros(len(result.tau)))) + sum(
+            (
+                perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
+                for (_, mode_shift, band, mode_w, _), y, c in zip(ringing, unforced, coordinate)
+                if c is None
+            ),
+            np.zeros(len(result.tau)),
+        )
         # the free coordinate's timing: the output runs ahead by its rate times the lead
         if lead is not None:
-            drift += float(np.max(np.abs(rates[:, j] * lead))) / float(peaks[j])
+            drifts = drifts + np.abs(rates[:, j] * lead)
+        drift = float(np.max(drifts, initial=0.0)) / float(peaks[j])
         if size > 1e-12 * peaks[j]:
-            moved[name] = size / float(peaks[j]) + drift
+            # the static change and the drifts as sizes at the same instant, the largest along the run
+            moved[name] = combined(result.tau, tau_rows, change[:, j], drifts) / float(peaks[j])
         else:
             still.append((name, drift))
     # outputs that q does not move (a driver torque): their own drift only
@@ -553,9 +590,11 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         if order
         else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2)) and the "
         "exact strain's eta'^4 / 8 and -eps eta'^2 / 2"
+        + (", and the stretch's share of the curvature -eps eta''^2" if STRETCH_CURVATURE else "")
     )
     if order and any(not b.stretch_kept and b.na for b in bars):
-        left += " (and -eps eta'^2 / 2 where the axial strain is held at 0)"
+        curvature = " and -eps eta''^2" if STRETCH_CURVATURE else ""
+        left += f" (and -eps eta'^2 / 2{curvature} where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
         f"plus the first-order change of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"
@@ -605,6 +644,32 @@ def _free_lead(
     if floor == 0:
         return None
     return np.asarray(np.interp(tau, t_r, angle) * speed / (speed**2 + floor**2))
+
+
+def combined(tau: np.ndarray, at: np.ndarray, change: np.ndarray, drifts: np.ndarray) -> float:
+    """An output's model-form estimate from its static change ``change`` (samples at the times ``at``,
+    ascending, within ``tau``) and its modes' drifts ``drifts`` (their size at each of ``tau``): the
+    two added as sizes at the same instant, the largest along the run (estimator version 8, kept in
+    11). Not each one's largest added: the static change is largest where the deflection is, the
+    drift where a vibration has rung long, and the two need not meet (the kept-out damped aluminium
+    crank-rocker with a mass on its coupler: the drift's largest at its start's ringing, 3.1e-4 of
+    peak, the static change's 7.6e-5 elsewhere; von Karman vs the exact bar 3.0e-4, estimated 3.8e-4
+    as the largest of each added, 3.2e-4 at the same instant). Sizes, not signals: the drift of a
+    free vibration is an envelope whose phase against the static change is not known, so no
+    cancellation between the two is credited. Between two samples of the static change the larger
+    of the two is taken (an upper envelope: an interpolation would take a peak between them lower)."""
+    return float(np.max(static_envelope(tau, at, change) + drifts, initial=0.0))
+
+
+def static_envelope(tau: np.ndarray, at: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """The size of the static change ``change`` (samples at the times ``at``) at each of ``tau``:
+    between two samples the larger of the two (:func:`combined`)."""
+    tau = np.asarray(tau, dtype=float)
+    at = np.asarray(at, dtype=float)
+    size = np.abs(np.asarray(change, dtype=float))
+    above = np.clip(np.searchsorted(at, tau, side="left"), 0, len(at) - 1)
+    below = np.clip(np.searchsorted(at, tau, side="right") - 1, 0, len(at) - 1)
+    return np.asarray(np.maximum(size[above], size[below]))
 
 
 def _prescribed(

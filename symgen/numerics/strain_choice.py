@@ -36,9 +36,11 @@ R = TypeVar("R")
 #: angles estimated 0; 6: a mode's own vibration moves it by half its tangent's stiffening, the backbone;
 #: 7: a vibration drifts from when its content came in, not from the run's start; 8 and 9 on branches,
 #: not merged; 10: each coupled mode's own coordinate changes by its oscillator's first-order response
-#: to its shift, along its own phase, and each output by its participation in the mode; 10a: a
-#: torque-driven crank's timing, the drift of its angle the static change's forcing builds up)
-ESTIMATOR_VERSION = "10a"
+#: to its shift, along its own phase, and each output by its participation in the mode; 11: 8's static
+#: change and drifts added as sizes at the same instant; 9's stretch's share of the curvature ported
+#: but off, model_form.STRETCH_CURVATURE; a torque-driven crank's timing, the drift of its angle the
+#: static change's forcing builds up, model_form._free_lead)
+ESTIMATOR_VERSION = "11"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
