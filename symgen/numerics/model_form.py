@@ -137,6 +137,7 @@ docs/exact-bars.md and against the validation suite's references in benchmarks/R
 from __future__ import annotations
 
 import json
+import weakref
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -738,15 +739,11 @@ def _coupled_modes(
     modal = _modal_function(mech)
     tau = np.asarray(result.tau, dtype=float)
     at = np.unique(np.linspace(0, len(rows) - 1, min(MODE_SAMPLES, len(rows))).astype(int))
-    omegas, shapes, rows_of, forces = [], [], [], []
-    for i in at:
-        got = _modes_at(mech, float(tau[rows[i]]), Q[i], V[i], modal)
-        if got is None:
-            return None
-        omegas.append(got[0][:MODES_KEPT])
-        shapes.append(got[1][:, :MODES_KEPT])
-        rows_of.append(got[2][:, :MODES_KEPT])
-        forces.append(got[3][:, :MODES_KEPT])
+    along = _modes_along(mech, tau[rows][at], Q[at], V[at], modal)
+    if along is None:
+        return None
+    # each sample's (views of the stacks)
+    omegas, shapes, rows_of, forces = (list(x) for x in along)
     count = min(len(w) for w in omegas)
     if count == 0:
         return None
@@ -836,14 +833,22 @@ def _mirrored_spectrum(tau: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.n
     return np.fft.fft(ext, axis=0), 2 * np.pi * np.fft.fftfreq(2 * n, float(tau[-1] - tau[0]) / (n - 1))
 
 
+#: each mechanism's :func:`_modal_function`, made once (the later estimates of its runs reuse it)
+_MODAL: weakref.WeakKeyDictionary[Mechanism, Any] = weakref.WeakKeyDictionary()
+
+
 def _modal_function(mech: Mechanism) -> Any:
     """The CasADi Function (t, q, v, a, lam, p) -> (d res / dq, d res / da, d phi / dq) of the
     model: its tangent stiffness, mass matrix and the closure's Jacobian."""
     import casadi as ca
 
-    args, phi = mech._symbols
-    res = mech.f["res"](*args)
-    return ca.Function("modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])])
+    if mech not in _MODAL:
+        args, phi = mech._symbols
+        res = mech.f["res"](*args)
+        _MODAL[mech] = ca.Function(
+            "modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])]
+        )
+    return _MODAL[mech]
 
 
 def coupled_modes(
@@ -886,6 +891,78 @@ def _modes_at(
     held = -(Ks @ phi - (Ms @ phi) * w2[keep])
     dlam = np.linalg.lstsq(J[: mech.n, mech.n :], held, rcond=None)[0] if mech.m else np.zeros((0, len(keep)))
     return np.sqrt(w2[keep]), phi, Ms @ phi, dlam
+
+
+def _modes_along(
+    mech: Mechanism, t: np.ndarray, Q: np.ndarray, V: np.ndarray, modal: Any, kept: int = MODES_KEPT
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_modes_at` at each sample (``t[s]``, ``Q[s]``, ``V[s]``) at once, its lowest ``count``
+    modes (the fewest any sample keeps, at most ``kept``): the stacks (frequencies (S, count),
+    phi (S, n, count), M phi (S, n, count), dlam (S, m, count)) of the same numbers, from one mapped
+    call of the KKT system and of ``modal`` and stacked factorizations (issue 20: a Python loop of
+    two CasADi calls and eight small factorizations per sample was most of the model-form part).
+    None where a sample's M is not positive definite on the closure's null space (as
+    :func:`_modes_at`). Samples whose closure Jacobians differ in rank take :func:`_modes_at`
+    one at a time."""
+    S, n, m = len(t), mech.n, mech.m
+    J, r = _mapped(mech.kkt, S, t, Q, V, np.zeros((S, n)), np.zeros((S, m)), mech.p)
+    J = J.reshape(n + m, S, n + m).transpose(1, 0, 2)
+    # least squares, as _modes_at: at a toggle the closure's rows are dependent
+    sol = _lstsq_each(J, -r.T)
+    K, M, C = _mapped(modal, S, t, Q, V, sol[:, :n], sol[:, n:], mech.p)
+    K, M = (x.reshape(n, S, n).transpose(1, 0, 2) for x in (K, M))
+    if m:
+        C = C.reshape(-1, S, n).transpose(1, 0, 2)
+        _, s, Vt = np.linalg.svd(C)
+        rank = np.sum(s > s[:, :1] * max(C.shape[1:]) * np.finfo(float).eps, axis=1)
+        if np.any(rank != rank[0]):
+            return _modes_one_by_one(mech, t, Q, V, modal, kept)
+        N = Vt[:, int(rank[0]) :].transpose(0, 2, 1)
+    else:
+        N = np.broadcast_to(np.eye(n), (S, n, n))
+    Nt = N.transpose(0, 2, 1)
+    Kr, Mr = Nt @ K @ N, Nt @ M @ N
+    try:
+        Li = np.linalg.inv(np.linalg.cholesky((Mr + Mr.transpose(0, 2, 1)) / 2))
+    except np.linalg.LinAlgError:
+        return None
+    Lit = Li.transpose(0, 2, 1)
+    w2, y = np.linalg.eigh(Li @ ((Kr + Kr.transpose(0, 2, 1)) / 2) @ Lit)
+    # eigh's frequencies ascend: the kept (w^2 above FREE_MOTION of the largest) are the last ones
+    limit = FREE_MOTION * np.maximum(np.abs(w2).max(axis=1, initial=0.0), 1e-300)
+    first = np.sum(w2 <= limit[:, None], axis=1)
+    count = min(int(np.min(w2.shape[1] - first)), kept)
+    cols = first[:, None] + np.arange(count)
+    w2 = np.take_along_axis(w2, cols, axis=1)
+    phi = N @ (Lit @ np.take_along_axis(y, cols[:, None, :], axis=2))
+    Ms, Ks = (M + M.transpose(0, 2, 1)) / 2, (K + K.transpose(0, 2, 1)) / 2
+    Mphi = Ms @ phi
+    held = -(Ks @ phi - Mphi * w2[:, None, :])
+    dlam = _lstsq_each(J[:, :n, n:], held) if m else np.zeros((S, 0, count))
+    return np.sqrt(w2), phi, Mphi, dlam
+
+
+def _modes_one_by_one(
+    mech: Mechanism, t: np.ndarray, Q: np.ndarray, V: np.ndarray, modal: Any, kept: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_modes_along` by :func:`_modes_at` at each sample."""
+    got = []
+    for s in range(len(t)):
+        g = _modes_at(mech, float(t[s]), Q[s], V[s], modal)
+        if g is None:
+            return None
+        got.append(g)
+    count = min(min(len(g[0]) for g in got), kept)
+    w = np.stack([g[0][:count] for g in got])
+    phi, Mphi, dlam = (np.stack([g[i][:, :count] for g in got]) for i in (1, 2, 3))
+    return w, phi, Mphi, dlam
+
+
+def _lstsq_each(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``np.linalg.lstsq(A[r], B[r], rcond=None)[0]`` of each r (lstsq itself, one at a time: a
+    stacked SVD's rounding differs from it, and two close modes' shapes turn it into 4e-12 of
+    the five-bar's)."""
+    return np.stack([np.linalg.lstsq(a, b, rcond=None)[0] for a, b in zip(A, B)])
 
 
 def _null(C: np.ndarray) -> np.ndarray:
