@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import casadi as ca
 
-from symgen.backends.casadi.functions import SympyToCasadi
-from symgen.backends.casadi.store import FUNCTION_NAMES, INPUT_NAMES
+from symgen.backends.casadi.functions import SympyToCasadi, input_symbols, output_functions
+from symgen.backends.casadi.store import INPUT_NAMES
 from symgen.numerics.index1 import index1
 
 #: the options of a bar structure's Function
@@ -27,11 +27,7 @@ def build_functions(model) -> dict:
     """``functions.build_functions`` with each bar structure's generalized forces as one Function
     called per bar (a call node)."""
     prog = model.program
-    sx = {name: ca.SX.sym(name, len(prog.inputs[name])) for name in INPUT_NAMES}
-    env = {}
-    for name in INPUT_NAMES:
-        for k, s in enumerate(prog.inputs[name]):
-            env[s] = sx[name][k]
+    sx, env = input_symbols(prog)
     conv = SympyToCasadi(env)
     shared = bar_calls(model)
     for sym, expr in prog.assignments:
@@ -43,13 +39,7 @@ def build_functions(model) -> dict:
                     conv.env[e] = outs[k]
             continue
         conv.env[sym] = conv(expr)
-    args = [sx[n] for n in INPUT_NAMES]
-    funcs = {}
-    for fname in FUNCTION_NAMES:
-        exprs = prog.outputs[fname]
-        vec = ca.vertcat(*[conv(e) for e in exprs]) if exprs else ca.SX(0, 1)
-        funcs[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
-    return funcs
+    return output_functions(prog, sx, conv)
 
 
 class _Call:
@@ -144,14 +134,9 @@ def split_functions(model):
     for sym, expr in prog.assignments:
         if sym not in calls:
             conv.env[sym] = conv(expr)
-    args = [sx[n] for n in INPUT_NAMES]
-    out = {}
-    for fname in FUNCTION_NAMES:
-        exprs = prog.outputs[fname]
-        vec = ca.vertcat(*[conv(e) for e in exprs]) if exprs else ca.SX(0, 1)
-        out[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
+    out = output_functions(prog, sx, conv)
     X = ca.vertcat(*[conv.env[x] for c in uniq for x in c.args])
-    out["xin"] = ca.Function("xin", args, [X])
+    out["xin"] = ca.Function("xin", [sx[n] for n in INPUT_NAMES], [X])
     return out, uniq, len(E_syms)
 
 

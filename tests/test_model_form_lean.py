@@ -130,7 +130,7 @@ def test_left_out_terms_have_their_order():
 
 
 @pytest.mark.parametrize("strain_order", [1, 2])
-def test_stretch_term_charged_only_where_the_bar_leaves_it_out(strain_order):
+def test_stretch_term_charged_only_where_the_bar_leaves_it_out(strain_order, monkeypatch):
     """The strain's - eps eta'^2 / 2 (eps = N / lambda): its generalized force is
     -(N^2 / lambda) int eta' psi'_a, on sines -(N^2 / lambda) (a pi)^2 / 2 g_a at a constant N, and
     the stretch's share of the curvature -mu int eps eta''^2: -mu (N / lambda) (a pi)^4 g_a (the
@@ -153,6 +153,7 @@ def test_stretch_term_charged_only_where_the_bar_leaves_it_out(strain_order):
         b.D = model_form._piece_derivative(np.asarray(s.xi))
         return b
 
+    monkeypatch.setattr(model_form, "STRETCH_CURVATURE", True)  # the term, whether charged or not
     g = np.array([0.05, -0.02, 0.01, 0.004])
     N = np.full(len(s.w), -3.0)
     ap = np.arange(1, 5) * np.pi

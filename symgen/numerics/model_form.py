@@ -44,13 +44,26 @@ forces, nu alpha^3); for a bar whose coupled mode is its own first mode this is
 half its share of that, the backbone of a hardening oscillator (:func:`backbone`: the tangent's
 mean over a cycle is twice it; the tests/data slewing arm undamped, ringing after the slew: von
 Karman vs the exact bar move its frequency by 1.01e-3, the tangent by 2.11e-3, the backbone by
-1.08e-3). The free vibration of the mode in an output (the envelope of its
-content within 25 % of omega, and no nearer another mode's frequency than the geometric mean of
-the two) then drifts in phase by omega times the integral of shift over the time it has rung:
-since its content came in (the increments of its envelope's running maximum: a start's ringing
-from the start, a vibration a load step or a passage through a resonance builds up from then,
-:func:`_aged`), with Kelvin-Voigt damping c at most its decay time 2 / (c omega^2); the output
-by that phase times the envelope there (at most twice it), the largest along the run. The
+1.08e-3). The mode's own coordinate then changes by its oscillator's first-order response to the
+shift (:func:`perturbed_along`, estimator version 10): its content within 25 % of omega (and no
+nearer another mode's frequency than the geometric mean of the two), read from its modal velocity
+phi^T M v along the run, drives x'' + c W^2 x' + W^2 x = -2 shift W^2 x, solved as the envelope
+of the change along the mode's own phase int W (W(t) the mode's frequency along the run: a
+crank-driven bar's sweeps within a turn). A free vibration so drifts in phase by omega times the
+integral of shift since it came in (a start's ringing from the start, a vibration a load step
+or a passage through a resonance builds up from then), decaying with it (Kelvin-Voigt damping
+c); a response the driver forces at frequencies the mode's phase does not follow changes by its
+receptance's change, shift W / |W - w + i c W^2 / 2|, which does not grow with the time rung.
+Each output changes by its participation in the mode (the output at q + e phi and the multipliers
+that hold phi on the closure, lam + e dlam) times the coordinate's change, the modes' changes
+summed as the signals they are (their analytic signals: two modes an output sees in opposite
+phase cancel there), the largest along the run. Version 7's drift charged each output's whole content
+in the band, by its envelope, the free vibration's phase since the envelope's running maximum
+rose: the driver's harmonics within a band drifted as free vibration (the kept-out aluminium
+slider-crank c_alu_long: its rod's mode sweeping 4.1-7.2 per unit tau, harmonics 5-7 in its band,
+1.42x the von Karman vs exact change), and an output that sees a mode through a participation
+changing along a turn was charged the envelope's age, not the mode's (docs/exact-bars.md,
+"Forced content within a band"). The
 coupled modes, because a tool on an overhang makes with the linkage a mode far below any bar's
 own (the four-bar with its rocker pinned to the coupler at xi = 0.6 and a 50 g tool at the
 coupler's end: 5.5 per unit tau against the coupler's own first bending at 15.3; von Karman vs
@@ -62,23 +75,27 @@ are used. Along the run, not the mean shift times the run's length times a mean 
 vibration a start or a load step excites is largest, and its slopes with it, where a windowed
 spectrum of the whole run sees least of it (the five-bar's links: 0.38x of the true error with
 the mean, 0.93x along the run; benchmarks/RESULTS.md). Each output's estimate is its static
-change plus its drift (the modes' drifts summed at each instant, the largest along the run: not
-each mode's largest, reached at other times), as a fraction of its peak; outputs that q does not move (a driver torque)
-have their drift only. The response forced at a constant driver's harmonics does not drift (a
-mode's shift changes it by shift x omega^2 / |omega^2 - (k rate)^2|, not growing with the time
-rung): each mode's band is read after the harmonics the run tells apart from its free vibration
-are fitted and taken out, those below the band (:func:`forced_harmonics`,
-:func:`without_harmonics`). Left in, a driver torque's large low harmonics (the rigid mechanism's
-inertia) leave their slope at the run's end as a kink of the mirrored signal whose broad spectrum
-read as free vibration where the drift is largest: a steel slider-crank pump's torque 12x the von
-Karman vs exact difference (tests/test_model_form_torque.py), 2.4x on issue 19's kept-out pump.
-Harmonics within a mode's band stay (a fit there also takes a short-lived free vibration): the
-estimate still over-states an output whose content there is forced rather than free (the
-four-bar with a tool on an overhang, rocker_mid: 2.3e-3 against 5.3e-5, below the reference's
-noise). No fit tells them apart where the mode's frequency sweeps its band along a turn
-(examples/four_bar.toml: its lowest coupled mode 5.5-7.5 per unit tau, band 4.8-7.5; fitting the
-harmonics within the bands took the five-bar's torque_b to 0.38x of the von Karman vs exact change,
-docs/exact-bars.md).
+change plus its drift, the modes' drifts and the static change summed as sizes at each instant, the
+largest along the run (not each one's largest, reached at other times: :func:`combined`), as a
+fraction of its peak; outputs that q does not move (a driver torque)
+have their drift only. The driver's harmonics below a mode's band that the run tells apart from
+its free vibration are fitted and taken out of the modal velocity first (:func:`forced_harmonics`,
+:func:`without_harmonics`): left in, large low harmonics leave their slope at the run's end as a
+kink of the mirrored signal whose broad spectrum reads as content in the band (a steel
+slider-crank pump's torque 12x the von Karman vs exact difference with version 3's drift,
+tests/test_model_form_torque.py). Those within the band stay: the oscillator tells them apart.
+Where the problem has no coupled modes (quasi-static amplitudes) each output's own content in each
+bar's band is taken as the mode's coordinate.
+
+A torque-driven crank's timing (estimator version 11; measured as 10a on its branch, :func:`_free_lead`): a crank a torque
+driver turns is a free coordinate, and the change of its acceleration that the rigid rows give
+with the static change's accelerations builds up, integrated twice, into a drift of its angle that
+grows with the time run; each output runs ahead by its rate times the lead, drift / speed. On the
+kept-out torque-driven aluminium four-bar with von Karman forced that timing was most of the error
+(the coupler's deflection 9.0e-2 of peak at equal times, 3.3e-2 at equal crank angles) and version
+10 read 0.04-0.37 of it; with the lead 0.63-1.70. With its bars twice as stiff the static change's
+forcing gives 0.15 of the crank's drift; what else pushes the crank is not found (docs/exact-bars.md,
+"A torque-driven crank's timing").
 
 The axial strain: von Karman keeps eps = zeta' + eta'^2 / 2 of the exact
 |r'| - 1 = eps (1 - eta'^2 / 2) + eta'^4 / 8 + eta'^6 / 16 + ... (nearly inextensible), the exact
@@ -94,20 +111,25 @@ error, the converged exact bar against the converged ANCF reference, of 2.9e-4; 
 estimate is 5.4e-4 (the curvature's eta''^2 eta'^6 and the strain's eta'^6 / 16: static 1.7e-4,
 drift 3.7e-4).
 
-The stretch's share of the curvature (``STRETCH_CURVATURE``): the exact curvature per undeformed
-length is kappa ~ eta'' / (1 + eps), whose -mu int (eps eta''^2 + eps' eta' eta''), eps = N / lambda
-(eps' at the nodes from each quadrature piece's polynomial), the exact bar has with dynamic axial
-amplitudes and von Karman lacks: a compressed bar bends 2 |eps| stiffer. It is charged where the
-stretch's term is (``stretch_kept``). It was left out as "of the order N/lambda, averaged out by
-the axial ringing"; a closed loop's quasi-static axial force is neither: on the five-bar
-(benchmarks/validation/five_bar_elastic.toml, link_a compressed to eps = -1.7e-4, 2 |eps| as large
-as the slopes' terms) it is half the start's static change, and the estimate of von Karman against
-the exact bar at the same bases went 0.54x -> 1.08x on link_a_mid (docs/exact-bars.md, "The
-five-bar's start, found").
+The stretch's share of the curvature (``STRETCH_CURVATURE``, off): the exact curvature per
+undeformed length is kappa ~ eta'' / (1 + eps), whose -mu int (eps eta''^2 + eps' eta' eta''),
+eps = N / lambda (eps' at the nodes from each quadrature piece's polynomial), the exact bar has with
+dynamic axial amplitudes and von Karman lacks: a compressed bar bends 2 |eps| stiffer. On, it is
+charged where the stretch's term is (``stretch_kept``): on the five-bar
+(benchmarks/validation/five_bar_elastic.toml, link_a compressed to eps = -1.7e-4) it is half the
+start's static change (docs/exact-bars.md, "The five-bar's start, found"). It is off because, with
+it, the estimate of the five-bar's stretched link_b reads 2.50x its true error as users run it
+(the model-form part alone 2.04x: its static change 1.4e-4 -> 4.7e-4 of peak, its drift in the
+links' modes 6.1e-4 -> 9.1e-4), outside [0.5, 2] (docs/exact-bars.md, "The parts at the same
+instant"); the force itself is checked against the exact bar's derivation
+(tests/test_model_form_stretch.py).
 
-What it leaves out: the strain's terms second order in eps (eps^2 eta'^2 beyond the stretch's),
+What it leaves out: the stretch's share of the curvature (above), the strain's terms second order
+in eps (eps^2 eta'^2 beyond the stretch's),
 resonance of the change itself, the response of the
-rigid coordinates of a closed loop to dq; slot guides (their span moves along the guide) are not
+rigid coordinates of a closed loop to dq, the timing of a free motion other than one torque
+driver's crank (a pendulum's swing, two torque drivers) and the part of a torque-driven crank's
+drift that the static change's forcing does not give; slot guides (their span moves along the guide) are not
 estimated and the method text names them. Measured against von Karman vs exact runs in
 docs/exact-bars.md and against the validation suite's references in benchmarks/RESULTS.md.
 """
@@ -115,6 +137,7 @@ docs/exact-bars.md and against the validation suite's references in benchmarks/R
 from __future__ import annotations
 
 import json
+import weakref
 from collections import OrderedDict
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -160,7 +183,7 @@ STRAIN_ORDER = {"von_karman": 1, "exact": 2}
 STRETCH_KEPT = {"von_karman": False, "exact": True}
 #: the stretch's share of the curvature, -mu int (eps eta''^2 + eps' eta' eta'') (kappa per undeformed
 #: length ~ eta'' / (1 + eps)), charged where the bar's energy lacks it (as the stretch's term)
-STRETCH_CURVATURE = True
+STRETCH_CURVATURE = False
 #: the coefficients of s^n in 1 - sqrt(1 - s), n = 1, 2, 3, 4
 _STRAIN_SERIES = (0.5, 0.125, 0.0625, 0.0390625)
 #: the largest eta'^2 the series is evaluated at
@@ -466,12 +489,15 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     eq_rows = free + list(range(mech.n, mech.n + mech.m))
     unknown = free + list(range(mech.n, mech.n + mech.m))
     dlam = np.zeros((len(rows), mech.m))
+    dacc = np.zeros((len(rows), len(free)))
     if mech.m and elastic:
         J = _mapped(mech.kkt, len(rows), tau_rows, Q, V, np.zeros_like(Q), np.zeros_like(Lam), mech.p)[0]
         J = J.reshape(mech.n + mech.m, len(rows), mech.n + mech.m).transpose(1, 0, 2)
         A = J[:, eq_rows][:, :, unknown]
         rhs = -np.einsum("rij,rj->ri", J[:, eq_rows][:, :, elastic], ddq[:, elastic])
-        dlam = _least_squares(A, rhs)[:, len(free) :]
+        solved = _least_squares(A, rhs)
+        dlam, dacc = solved[:, len(free) :], solved[:, : len(free)]
+    lead = _free_lead(mech, result, rows, free, dacc)
     out_f = mech.f["out"]
     zero = np.zeros_like(Q)
     change = (
@@ -491,9 +517,11 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     # the bars' own first modes where the coupled problem has no modes (a singular mass matrix)
     ringing = _coupled_modes(mech, bars, result, rows, Q, V, Lam)
     if ringing is None:
-        ringing = [(b.omega, 0.5 * tangent[b.name], band) for b, band in zip(bars, bands)]
-    # the outputs less the response forced at a constant driver's harmonics, which does not drift
-    # (each mode's: the harmonics a run tells apart from its free vibration)
+        ringing = [
+            (b.omega, 0.5 * tangent[b.name], band, np.full(len(rows), b.omega), None) for b, band in zip(bars, bands)
+        ]
+    # without coupled modes, each output less the driver's harmonics below each bar's band (those a
+    # run tells apart from its free vibration: :func:`forced_harmonics`) is taken as the mode's content
     rate = driver_rate(mech.scene)
     unforced = [
         without_harmonics(
@@ -501,37 +529,56 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
             np.asarray(result.outputs, dtype=float),
             forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping)),
         )
-        for w, _, band in ringing
+        if own is None
+        else np.zeros((0, 0))
+        for w, _, band, _, own in ringing
+    ]
+    # each mode's coordinate's change along the run (from its modal velocity's content in its band,
+    # less the harmonics below it); each output's by its participation in the mode
+    coordinate = [
+        None
+        if own is None
+        else (
+            _perturbed(
+                result.tau,
+                without_harmonics(
+                    result.tau, own[0][:, None], forced_harmonics(result.tau, w, band, rate, _ringing(span, w, damping))
+                )[:, 0],
+                (tau_rows, mode_w, mode_shift),
+                damping,
+                band,
+            )
+            / np.interp(result.tau, tau_rows, mode_w),
+            own[1],
+        )
+        for w, mode_shift, band, mode_w, own in ringing
     ]
     moved: dict[str, float] = {}
     still = []
+    rates = np.gradient(np.asarray(result.outputs, dtype=float), np.asarray(result.tau, dtype=float), axis=0)
     prescribed = _prescribed(mech, tau_rows, Q, V, Lam, peaks)
     for j, name in enumerate(names):
         if kinds.get(name) in CHECK_KINDS or peaks[j] == 0 or j in prescribed:
             continue
         size = float(np.abs(change[:, j]).max())
-        # the modes' drifts at the same instant, the largest along the run
-        drift = float(
-            np.max(
-                sum(
-                    (
-                        _drift_along(
-                            result.tau,
-                            y[:, j],
-                            omega,
-                            (tau_rows, mode_shift),
-                            _ringing(span, omega, damping),
-                            band,
-                        )
-                        for (omega, mode_shift, band), y in zip(ringing, unforced)
-                    ),
-                    np.zeros(len(result.tau)),
-                ),
-                initial=0.0,
-            )
-        ) / float(peaks[j])
+        # the modes' drifts at the same instant (the coupled modes' changes as the signals they are,
+        # each its participation times its coordinate's: two modes the output sees in opposite phase
+        # cancel there as they do)
+        drifts = np.abs(sum((c[1][:, j] * c[0] for c in coordinate if c is not None), np.zeros(len(result.tau)))) + sum(
+            (
+                perturbed_along(result.tau, y[:, j], (tau_rows, mode_w, mode_shift), damping, band)
+                for (_, mode_shift, band, mode_w, _), y, c in zip(ringing, unforced, coordinate)
+                if c is None
+            ),
+            np.zeros(len(result.tau)),
+        )
+        # the free coordinate's timing: the output runs ahead by its rate times the lead
+        if lead is not None:
+            drifts = drifts + np.abs(rates[:, j] * lead)
+        drift = float(np.max(drifts, initial=0.0)) / float(peaks[j])
         if size > 1e-12 * peaks[j]:
-            moved[name] = size / float(peaks[j]) + drift
+            # the static change and the drifts as sizes at the same instant, the largest along the run
+            moved[name] = combined(result.tau, tau_rows, change[:, j], drifts) / float(peaks[j])
         else:
             still.append((name, drift))
     # outputs that q does not move (a driver torque): their own drift only
@@ -543,19 +590,87 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         "exact strain's eta'^6 / 16"
         if order
         else "the exact curvature's terms beyond von Karman's eta''^2 (eta''^2 eta'^2 / (1 - eta'^2)) and the "
-        "exact strain's eta'^4 / 8 and -eps eta'^2 / 2, and the stretch's share of the curvature -eps eta''^2"
+        "exact strain's eta'^4 / 8 and -eps eta'^2 / 2"
+        + (", and the stretch's share of the curvature -eps eta''^2" if STRETCH_CURVATURE else "")
     )
     if order and any(not b.stretch_kept and b.na for b in bars):
-        left += " (and -eps eta'^2 / 2 and -eps eta''^2 where the axial strain is held at 0)"
+        curvature = " and -eps eta''^2" if STRETCH_CURVATURE else ""
+        left += f" (and -eps eta'^2 / 2{curvature} where the axial strain is held at 0)"
     method = (
         f"static response of each bar's stiffness (bending and its axial force) to {left}, "
-        f"plus the phase drift of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"
+        f"plus the first-order change of the mechanism's coupled modes hardened by them, at {len(rows)} outputs"
         if bars
         else "none: no bar bends (the rigid bodies are exact)"
     )
     if skipped:
         method += f"; slot guides not estimated: {', '.join(skipped)}"
     return ModelFormEstimate(out, stiff, method, skipped)
+
+
+#: the speed below which a torque-driven crank's timing is not read from its angle's change, as a
+#: fraction of its top speed (a start from rest, where the change has not built up yet)
+LEAD_SPEED_FLOOR = 1e-2
+
+
+def _free_lead(
+    mech: Mechanism, result: SimResult, rows: np.ndarray, free: list[int], dacc: np.ndarray
+) -> np.ndarray | None:
+    """How far ahead in time (at each output sample) the run of a mechanism whose one free motion a
+    torque driver makes would be with the bars' left-out terms: a torque-driven crank is a free
+    coordinate, so the change of its acceleration (``dacc``, from the rigid rows re-solved with the
+    change's accelerations, at ``rows``) builds up into a drift of its angle, d theta = int int
+    d theta'', which grows with the time run (the static change and the modes' drifts do not see
+    it). The drift is read as a time lead, d theta / theta' (regularised below
+    ``LEAD_SPEED_FLOOR`` of the top speed: a start from rest), which moves every output by its
+    rate times the lead. None without exactly one torque driver on a free coordinate (a pendulum's
+    free swing, or two torque drivers, are not a timing along one path).
+
+    The first-order response without the feedback of the crank's own dynamics (its reduced inertia
+    along a turn): on the kept-out torque-driven aluminium four-bar (von Karman vs the exact bar at
+    the same bases, docs/exact-bars.md "A torque-driven crank's timing") it follows the measured
+    angle difference between the toggles (0.77x) and misses its spikes at them (0.56x of its peak)."""
+    torque = [d.body for d in mech.scene.drivers if d.kind == "torque"]
+    if len(torque) != 1 or len(mech.scene.drivers) != 1:
+        return None
+    at = [k for k, i in enumerate(free) if mech.coords[i].kind is CoordKind.THETA and mech.coords[i].body == torque[0]]
+    if not at or len(rows) < 3:
+        return None
+    i = free[at[0]]
+    tau = np.asarray(result.tau, dtype=float)
+    t_r = tau[rows]
+    rate = np.cumsum(np.concatenate([[0.0], 0.5 * (dacc[1:, at[0]] + dacc[:-1, at[0]]) * np.diff(t_r)]))
+    angle = np.cumsum(np.concatenate([[0.0], 0.5 * (rate[1:] + rate[:-1]) * np.diff(t_r)]))
+    speed = np.asarray(result.v, dtype=float)[:, i]
+    floor = LEAD_SPEED_FLOOR * float(np.max(np.abs(speed), initial=0.0))
+    if floor == 0:
+        return None
+    return np.asarray(np.interp(tau, t_r, angle) * speed / (speed**2 + floor**2))
+
+
+def combined(tau: np.ndarray, at: np.ndarray, change: np.ndarray, drifts: np.ndarray) -> float:
+    """An output's model-form estimate from its static change ``change`` (samples at the times ``at``,
+    ascending, within ``tau``) and its modes' drifts ``drifts`` (their size at each of ``tau``): the
+    two added as sizes at the same instant, the largest along the run (estimator version 8, kept in
+    11). Not each one's largest added: the static change is largest where the deflection is, the
+    drift where a vibration has rung long, and the two need not meet (the kept-out damped aluminium
+    crank-rocker with a mass on its coupler: the drift's largest at its start's ringing, 3.1e-4 of
+    peak, the static change's 7.6e-5 elsewhere; von Karman vs the exact bar 3.0e-4, estimated 3.8e-4
+    as the largest of each added, 3.2e-4 at the same instant). Sizes, not signals: the drift of a
+    free vibration is an envelope whose phase against the static change is not known, so no
+    cancellation between the two is credited. Between two samples of the static change the larger
+    of the two is taken (an upper envelope: an interpolation would take a peak between them lower)."""
+    return float(np.max(static_envelope(tau, at, change) + drifts, initial=0.0))
+
+
+def static_envelope(tau: np.ndarray, at: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """The size of the static change ``change`` (samples at the times ``at``) at each of ``tau``:
+    between two samples the larger of the two (:func:`combined`)."""
+    tau = np.asarray(tau, dtype=float)
+    at = np.asarray(at, dtype=float)
+    size = np.abs(np.asarray(change, dtype=float))
+    above = np.clip(np.searchsorted(at, tau, side="left"), 0, len(at) - 1)
+    below = np.clip(np.searchsorted(at, tau, side="right") - 1, 0, len(at) - 1)
+    return np.asarray(np.maximum(size[above], size[below]))
 
 
 def _prescribed(
@@ -586,9 +701,11 @@ def _prescribed(
     return {j for j in range(len(peaks)) if peaks[j] > 0 and change[j] <= 1e-12 * peaks[j]}
 
 
-#: the configurations along the run where the coupled modes are computed (their shapes and
-#: frequencies change slowly with the configuration: each output sample takes the nearest's)
-MODE_SAMPLES = 24
+#: the configurations along the run where the coupled modes are computed, at most (each output sample
+#: the estimate reads takes the nearest's): every one of the estimate's 400, since a mode's phase
+#: follows its frequency (:func:`perturbed_along`), which sweeps within a turn (c_alu_long's rod:
+#: 4.1-7.2 per unit tau; 24 along its 30 turns missed the sweep)
+MODE_SAMPLES = 400
 #: the coupled modes whose drift is looked for: the lowest ones, at most this many
 MODES_KEPT = 12
 #: a coupled mode with w^2 at most this fraction of the largest is a free motion of the mechanism
@@ -603,9 +720,10 @@ def _coupled_modes(
     Q: np.ndarray,
     V: np.ndarray,
     Lam: np.ndarray,
-) -> list[tuple[float, np.ndarray, tuple[float, float]]] | None:
+) -> list[tuple[float, np.ndarray, tuple[float, float], np.ndarray, tuple[np.ndarray, np.ndarray] | None]] | None:
     """The modes the run rings and how the left-out terms move them: (frequency per unit tau,
-    its relative shift at each of the output ``rows``, its band) of each of the lowest coupled
+    its relative shift at each of the output ``rows``, its band, its frequency at each of the
+    ``rows``, its modal velocity phi^T M v at each of the run's samples) of each of the lowest coupled
     modes of the mechanism, linear about the run's state (the tangent K = d res / dq and mass
     M = d res / da of the model's own dynamics on the closure's null space), computed at
     ``MODE_SAMPLES`` configurations along the run. A mode phi (mass-normalised) moves by
@@ -621,21 +739,40 @@ def _coupled_modes(
     modal = _modal_function(mech)
     tau = np.asarray(result.tau, dtype=float)
     at = np.unique(np.linspace(0, len(rows) - 1, min(MODE_SAMPLES, len(rows))).astype(int))
-    omegas, shapes = [], []
-    for i in at:
-        got = coupled_modes(mech, float(tau[rows[i]]), Q[i], V[i], modal)
-        if got is None:
-            return None
-        omegas.append(got[0][:MODES_KEPT])
-        shapes.append(got[1][:, :MODES_KEPT])
+    along = _modes_along(mech, tau[rows][at], Q[at], V[at], modal)
+    if along is None:
+        return None
+    # each sample's (views of the stacks)
+    omegas, shapes, rows_of, forces = (list(x) for x in along)
     count = min(len(w) for w in omegas)
     if count == 0:
         return None
+    # the modes' signs made continuous along the run (each sample's as the previous one's)
+    for s in range(1, len(at)):
+        flip = np.einsum("ik,ik->k", shapes[s][:, :count], rows_of[s - 1][:, :count]) < 0
+        shapes[s][:, :count][:, flip] *= -1.0
+        rows_of[s][:, :count][:, flip] *= -1.0
+        forces[s][:, :count][:, flip] *= -1.0
+    # each output's change per unit of each mode's coordinate (its participation) at the samples:
+    # the output at q + e phi, lam + e dlam (central differences)
+    out_f = mech.f["out"]
+    t_at = tau[rows][at]
+    n_at = len(at)
+    Qa = np.repeat(Q[at], count, axis=0)
+    dQ = np.concatenate([shapes[s][:, :count].T for s in range(n_at)])
+    dL = np.concatenate([forces[s][:, :count].T for s in range(n_at)])
+    step = 1e-6 / np.maximum(np.abs(dQ).max(axis=1), 1e-300)  # each mode moves q by at most 1e-6
+    dQ, dL = dQ * step[:, None], dL * step[:, None]
+    Va, La = np.repeat(V[at], count, axis=0), np.repeat(Lam[at], count, axis=0)
+    ta, zero = np.repeat(t_at, count), np.zeros_like(Qa)
+    plus = _mapped(out_f, len(ta), ta, Qa + dQ, Va, zero, La + dL, mech.p)[0]
+    minus = _mapped(out_f, len(ta), ta, Qa - dQ, Va, zero, La - dL, mech.p)[0]
+    part = ((plus - minus) / (2 * step)).reshape(-1, n_at, count)  # (outputs, samples, modes)
     tau_rows = tau[rows]
     near = np.abs(tau_rows[:, None] - tau_rows[at][None, :]).argmin(axis=1)
     mean = [float(np.mean([w[k] for w in omegas])) for k in range(count)]
     bending = sorted({i for b in bars for i in b.g_idx})
-    out = []
+    out: list[tuple[float, np.ndarray, tuple[float, float], np.ndarray, tuple[np.ndarray, np.ndarray] | None]] = []
     for k, band in zip(range(count), _bands(mean)):
         phi_k = np.stack([shapes[s][:, k] for s in near])
         w2 = np.array([omegas[s][k] ** 2 for s in near])
@@ -647,7 +784,14 @@ def _coupled_modes(
         for b in bars:
             vHv += b.scale * b.curvature_along(Q, Lam, phi_k[:, b.g_idx])
             vHv_rest += b.scale * b.curvature_along(rest, Lam, phi_k[:, b.g_idx], axial=Q)
-        out.append((mean[k], 0.5 * backbone(vHv, vHv_rest) / w2, band))
+        # the mode's velocity phi^T M v at every output sample (M phi interpolated between the samples)
+        proj = np.stack([r[:, k] for r in rows_of])
+        velocity = np.zeros(len(tau))
+        V_all = np.asarray(result.v, dtype=float)
+        for i in range(proj.shape[1]):
+            velocity += np.interp(tau, t_at, proj[:, i]) * V_all[:, i]
+        share = np.column_stack([np.interp(tau, t_at, part[j, :, k]) for j in range(part.shape[0])])
+        out.append((mean[k], 0.5 * backbone(vHv, vHv_rest) / w2, band, np.sqrt(w2), (velocity, share)))
     return out
 
 
@@ -689,14 +833,22 @@ def _mirrored_spectrum(tau: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, np.n
     return np.fft.fft(ext, axis=0), 2 * np.pi * np.fft.fftfreq(2 * n, float(tau[-1] - tau[0]) / (n - 1))
 
 
+#: each mechanism's :func:`_modal_function`, made once (the later estimates of its runs reuse it)
+_MODAL: weakref.WeakKeyDictionary[Mechanism, Any] = weakref.WeakKeyDictionary()
+
+
 def _modal_function(mech: Mechanism) -> Any:
     """The CasADi Function (t, q, v, a, lam, p) -> (d res / dq, d res / da, d phi / dq) of the
     model: its tangent stiffness, mass matrix and the closure's Jacobian."""
     import casadi as ca
 
-    args, phi = mech._symbols
-    res = mech.f["res"](*args)
-    return ca.Function("modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])])
+    if mech not in _MODAL:
+        args, phi = mech._symbols
+        res = mech.f["res"](*args)
+        _MODAL[mech] = ca.Function(
+            "modal", args, [ca.jacobian(res, args[1]), ca.jacobian(res, args[3]), ca.jacobian(phi, args[1])]
+        )
+    return _MODAL[mech]
 
 
 def coupled_modes(
@@ -708,11 +860,22 @@ def coupled_modes(
     geometric stiffness of the axial forces, gravity and speed terms), M = d res / da (symmetric
     parts). The free motions (w^2 <= ``FREE_MOTION`` of the largest) are left out. None where M
     is not positive definite there (quasi-static amplitudes: no inertia)."""
+    got = _modes_at(mech, t, q, v, modal)
+    return None if got is None else (got[0], got[1])
+
+
+def _modes_at(
+    mech: Mechanism, t: float, q: np.ndarray, v: np.ndarray, modal: Any = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`coupled_modes`, M phi (columns: phi^T M v is the mode's modal velocity) and the
+    multipliers' change with each mode (columns): the constraint forces (d res / d lam) dlam that
+    hold the mode on the closure, (K - w^2 M) phi + (d res / d lam) dlam = 0."""
     modal = modal if modal is not None else _modal_function(mech)
     z = np.zeros
     J, r = mech.kkt(t, q, v, z(mech.n), z(mech.m), mech.p)
+    J = np.array(J)
     # least squares: at a toggle the closure's rows are dependent and the multipliers not unique
-    sol = np.linalg.lstsq(np.array(J), -np.array(r).ravel(), rcond=None)[0]
+    sol = np.linalg.lstsq(J, -np.array(r).ravel(), rcond=None)[0]
     a, lam = sol[: mech.n], sol[mech.n :]
     K, M, C = (np.array(x) for x in modal(t, q, v, a, lam, mech.p))
     N = _null(C)
@@ -723,7 +886,83 @@ def coupled_modes(
         return None
     w2, y = np.linalg.eigh(Li @ ((Kr + Kr.T) / 2) @ Li.T)
     keep = np.flatnonzero(w2 > FREE_MOTION * max(float(np.abs(w2).max(initial=0.0)), 1e-300))
-    return np.sqrt(w2[keep]), (N @ (Li.T @ y))[:, keep]
+    phi = (N @ (Li.T @ y))[:, keep]
+    Ms, Ks = (M + M.T) / 2, (K + K.T) / 2
+    held = -(Ks @ phi - (Ms @ phi) * w2[keep])
+    dlam = np.linalg.lstsq(J[: mech.n, mech.n :], held, rcond=None)[0] if mech.m else np.zeros((0, len(keep)))
+    return np.sqrt(w2[keep]), phi, Ms @ phi, dlam
+
+
+def _modes_along(
+    mech: Mechanism, t: np.ndarray, Q: np.ndarray, V: np.ndarray, modal: Any, kept: int = MODES_KEPT
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_modes_at` at each sample (``t[s]``, ``Q[s]``, ``V[s]``) at once, its lowest ``count``
+    modes (the fewest any sample keeps, at most ``kept``): the stacks (frequencies (S, count),
+    phi (S, n, count), M phi (S, n, count), dlam (S, m, count)) of the same numbers, from one mapped
+    call of the KKT system and of ``modal`` and stacked factorizations (issue 20: a Python loop of
+    two CasADi calls and eight small factorizations per sample was most of the model-form part).
+    None where a sample's M is not positive definite on the closure's null space (as
+    :func:`_modes_at`). Samples whose closure Jacobians differ in rank take :func:`_modes_at`
+    one at a time."""
+    S, n, m = len(t), mech.n, mech.m
+    J, r = _mapped(mech.kkt, S, t, Q, V, np.zeros((S, n)), np.zeros((S, m)), mech.p)
+    J = J.reshape(n + m, S, n + m).transpose(1, 0, 2)
+    # least squares, as _modes_at: at a toggle the closure's rows are dependent
+    sol = _lstsq_each(J, -r.T)
+    K, M, C = _mapped(modal, S, t, Q, V, sol[:, :n], sol[:, n:], mech.p)
+    K, M = (x.reshape(n, S, n).transpose(1, 0, 2) for x in (K, M))
+    if m:
+        C = C.reshape(-1, S, n).transpose(1, 0, 2)
+        _, s, Vt = np.linalg.svd(C)
+        rank = np.sum(s > s[:, :1] * max(C.shape[1:]) * np.finfo(float).eps, axis=1)
+        if np.any(rank != rank[0]):
+            return _modes_one_by_one(mech, t, Q, V, modal, kept)
+        N = Vt[:, int(rank[0]) :].transpose(0, 2, 1)
+    else:
+        N = np.broadcast_to(np.eye(n), (S, n, n))
+    Nt = N.transpose(0, 2, 1)
+    Kr, Mr = Nt @ K @ N, Nt @ M @ N
+    try:
+        Li = np.linalg.inv(np.linalg.cholesky((Mr + Mr.transpose(0, 2, 1)) / 2))
+    except np.linalg.LinAlgError:
+        return None
+    Lit = Li.transpose(0, 2, 1)
+    w2, y = np.linalg.eigh(Li @ ((Kr + Kr.transpose(0, 2, 1)) / 2) @ Lit)
+    # eigh's frequencies ascend: the kept (w^2 above FREE_MOTION of the largest) are the last ones
+    limit = FREE_MOTION * np.maximum(np.abs(w2).max(axis=1, initial=0.0), 1e-300)
+    first = np.sum(w2 <= limit[:, None], axis=1)
+    count = min(int(np.min(w2.shape[1] - first)), kept)
+    cols = first[:, None] + np.arange(count)
+    w2 = np.take_along_axis(w2, cols, axis=1)
+    phi = N @ (Lit @ np.take_along_axis(y, cols[:, None, :], axis=2))
+    Ms, Ks = (M + M.transpose(0, 2, 1)) / 2, (K + K.transpose(0, 2, 1)) / 2
+    Mphi = Ms @ phi
+    held = -(Ks @ phi - Mphi * w2[:, None, :])
+    dlam = _lstsq_each(J[:, :n, n:], held) if m else np.zeros((S, 0, count))
+    return np.sqrt(w2), phi, Mphi, dlam
+
+
+def _modes_one_by_one(
+    mech: Mechanism, t: np.ndarray, Q: np.ndarray, V: np.ndarray, modal: Any, kept: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`_modes_along` by :func:`_modes_at` at each sample."""
+    got = []
+    for s in range(len(t)):
+        g = _modes_at(mech, float(t[s]), Q[s], V[s], modal)
+        if g is None:
+            return None
+        got.append(g)
+    count = min(min(len(g[0]) for g in got), kept)
+    w = np.stack([g[0][:count] for g in got])
+    phi, Mphi, dlam = (np.stack([g[i][:, :count] for g in got]) for i in (1, 2, 3))
+    return w, phi, Mphi, dlam
+
+
+def _lstsq_each(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``np.linalg.lstsq(A[r], B[r], rcond=None)[0]`` of each r (lstsq itself, one at a time: a
+    stacked SVD's rounding differs from it, and two close modes' shapes turn it into 4e-12 of
+    the five-bar's)."""
+    return np.stack([np.linalg.lstsq(a, b, rcond=None)[0] for a, b in zip(A, B)])
 
 
 def _null(C: np.ndarray) -> np.ndarray:
@@ -895,51 +1134,96 @@ def _ringing(span: float, omega: float, damping: float) -> float:
     return min(span, 1.0 / sigma) if sigma > 0 else span
 
 
-def _drift_along(
+def _band_signal(tau: np.ndarray, y: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """The analytic signal of the content of ``y(tau)`` (evenly spaced) within ``band`` (angular
+    frequencies; the signal mirrored first, :func:`_mirrored_spectrum`): complex, its magnitude the
+    envelope of :func:`_band_envelope`."""
+    n = len(y)
+    y = np.asarray(y, dtype=float)
+    spectrum, freq = _mirrored_spectrum(tau, y - y.mean())
+    keep = (freq > band[0]) & (freq < band[1])
+    return np.asarray(np.fft.ifft(np.where(keep, 2.0 * spectrum, 0.0))[:n])
+
+
+#: the largest decay (in e-folds) of the recursion of :func:`perturbed_along` summed in one piece
+_DECAY_PIECE = 300.0
+
+
+def perturbed_along(
     tau: np.ndarray,
     y: np.ndarray,
-    omega: float,
-    shift: tuple[np.ndarray, np.ndarray],
-    memory: float,
-    band: tuple[float, float] | None = None,
+    mode: tuple[np.ndarray, np.ndarray, np.ndarray],
+    damping: float,
+    band: tuple[float, float],
 ) -> np.ndarray:
-    """The phase drift of a mode's free vibration in an output: with its frequency moved by the
-    fraction ``shift`` = (sample times, shift there), the vibration's phase moves by
-    omega int shift dtau over the time it has rung (its age, :func:`_aged`: since the content came in,
-    at most ``memory``: the run, or its decay time), the output by that phase times the vibration's
-    amplitude there (its envelope, at most twice it: opposite phase); at each sample of the run
-    (zeros where nothing rings). Integrated along the run rather than the mean shift times the run's
-    length times the run's mean amplitude: the free vibration is largest where a start or a load step
-    excites it, and so are the slopes that shift its frequency."""
+    """The envelope |v| of :func:`_perturbed`'s change (below)."""
+    return np.asarray(np.abs(_perturbed(tau, y, mode, damping, band)))
+
+
+def _perturbed(
+    tau: np.ndarray,
+    y: np.ndarray,
+    mode: tuple[np.ndarray, np.ndarray, np.ndarray],
+    damping: float,
+    band: tuple[float, float],
+) -> np.ndarray:
+    """How much a mode's content in an output changes when the mode's frequency moves by the
+    fraction shift: the envelope of the first-order change of the mode's oscillator, at each
+    sample of the run (zeros where nothing rings or the run is shorter than two periods).
+
+    ``mode`` = (sample times, the mode's frequency W there, its shift there). The mode's content
+    z (the analytic signal of ``y``'s content within ``band``) is the response of
+    x'' + c W^2 x' + W^2 x = f; the shift adds the stiffness 2 shift W^2, whose first-order change
+    dx obeys the same oscillator forced by -2 shift W^2 z. With dx = v e^{i Theta}, Theta = int W
+    (the mode's own phase along the run, its frequency sweeping as the mechanism moves), slowly
+    varying v:
+
+        v' = -sigma v + i shift W z e^{-i Theta},   sigma = c W^2 / 2,
+
+    |v| the change's envelope (at most twice z's: opposite phase). A free vibration
+    z = a e^{i Theta - sigma t} gives v = i a W int shift: the phase drift omega int shift dtau since
+    it came in (a start's ringing from the start, a kick from the kick, a vibration a passage
+    through a resonance builds up from then), decaying with it; a response forced at a frequency w
+    that the mode's phase does not follow gives, steady, |v| = shift W |z| / |W - w + i sigma| (near the
+    resonance the relative change of the receptance 1 / (W^2 - w^2 + i c W^2 w) with the stiffness
+    2 shift W^2 added, 2 shift W^2 / |W^2 - w^2 + i c W^2 w|), which does not grow with the time
+    rung. The drift rule of estimator versions 3-7 charged all of a
+    band's content as free vibration: the driver's harmonics within a mode's band (the kept-out
+    aluminium slider-crank c_alu_long, its rod's first coupled mode sweeping 4.1-7.2 per unit tau
+    along a turn, harmonics 5-7 inside its band 4.2-6.9) drifted 4e-3 to 9e-3 rad after the start's
+    ringing had decayed, against a measured von Karman vs exact phase difference under 5e-4
+    (docs/exact-bars.md, "Forced content within a band"). Oracles: tests/test_model_form_inband.py,
+    tests/test_model_form_age.py (integrated oscillators, forced and free: 0.87-1.03x)."""
     tau = np.asarray(tau, dtype=float)
-    env = _band_envelope(tau, y, omega, band)
-    t_s, s = shift
-    if not env.any() or len(t_s) == 0:
-        return np.zeros(len(tau))
-    rate = np.interp(tau, t_s, s)
-    acc = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(tau))])
-    phase = omega * np.abs(_aged(tau, env, acc, memory))  # signed: a shift that changes sign unwinds
-    return np.asarray(env * np.minimum(phase, 2.0))
-
-
-def _aged(tau: np.ndarray, env: np.ndarray, acc: np.ndarray, memory: float) -> np.ndarray:
-    """The integral of the shift over the age of a vibration at each sample: the mean, over its
-    content, of acc(t) - acc(max(t_i, t - memory)) (``acc`` the integral of the shift from the
-    run's start), the content weighted by when it came in: the increments dM_i at t_i of the
-    running maximum M of its envelope ``env`` (a start's ringing at the start, a vibration a load
-    step or a passage through a resonance builds up at those times). A vibration drifts in phase
-    only from its excitation: charged from the run's start, the vibration the four-bar
-    (examples/four_bar.toml) builds up turn by turn in its coupled modes' bands (the third's envelope
-    0.02 of the output's peak at the start, 0.5 at the end) drifted 2.2x the measured von Karman vs
-    exact change in that band. The running maximum, not the envelope: a beat of two components, or
-    a vibration cancelled and excited again, keeps its first content's age (the larger phase)."""
-    M = np.maximum.accumulate(env)
-    dM = np.diff(M, prepend=0.0)
-    c1, c2 = np.cumsum(dM), np.cumsum(dM * acc)
-    start = tau - memory
-    j = np.searchsorted(tau, start, side="right") - 1  # the content in before t - memory: up to j
-    old1 = np.where(j >= 0, c1[np.clip(j, 0, None)], 0.0)
-    old2 = np.where(j >= 0, c2[np.clip(j, 0, None)], 0.0)
-    acc_start = np.interp(start, tau, acc, left=0.0)
-    total = old1 * (acc - acc_start) + (c1 - old1) * acc - (c2 - old2)
-    return np.asarray(np.divide(total, M, out=np.zeros_like(total), where=M > 0))
+    n = len(tau)
+    t_s, w_s, s_s = (np.asarray(x, dtype=float) for x in mode)
+    span = float(tau[-1] - tau[0]) if n else 0.0
+    if n < 8 or len(t_s) == 0 or span <= 0 or float(np.min(w_s)) * span < 4 * np.pi:
+        return np.zeros(n, dtype=complex)
+    z = _band_signal(tau, y, band)
+    if not np.any(z):
+        return np.zeros(n, dtype=complex)
+    W = np.interp(tau, t_s, w_s)
+    shift = np.interp(tau, t_s, s_s)
+    h = np.diff(tau)
+    theta = np.concatenate([[0.0], np.cumsum(0.5 * (W[1:] + W[:-1]) * h)])
+    g = 1j * shift * W * z * np.exp(-1j * theta)
+    sigma = 0.5 * damping * W**2
+    decay = np.minimum(sigma[:-1] * h, _DECAY_PIECE)  # e-folds over each step (beyond: nothing left)
+    # v[k+1] = e^{-decay_k} v[k] + (h_k / 2) (e^{-decay_k} g[k] + g[k+1]) (trapezoid), summed in
+    # pieces of at most _DECAY_PIECE e-folds (the partial products stay finite)
+    b = 0.5 * h * (np.exp(-decay) * g[:-1] + g[1:])
+    L = np.concatenate([[0.0], np.cumsum(decay)])  # e-folds from the start to each sample
+    v = np.zeros(n, dtype=complex)
+    start = 0
+    while start < n - 1:
+        stop = int(np.searchsorted(L, L[start] + _DECAY_PIECE, side="right"))
+        stop = min(max(stop, start + 2), n)  # samples start..stop-1
+        Lp = L[start:stop] - L[start]
+        acc = np.concatenate([[0.0], np.cumsum(np.exp(Lp[1:]) * b[start : stop - 1])])
+        v[start:stop] = np.exp(-Lp) * (v[start] + acc)
+        start = stop - 1
+    # at most twice z (opposite phase); the change as a signal, v e^{i Theta}
+    size = np.abs(v)
+    v = v * np.divide(np.minimum(size, 2.0 * np.abs(z)), size, out=np.zeros(n), where=size > 0)
+    return np.asarray(v * np.exp(1j * theta))

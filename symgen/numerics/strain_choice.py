@@ -34,9 +34,13 @@ R = TypeVar("R")
 #: (3: the phase drift along the run, the exact bar's strain to eta'^4/8; 4: the drift without the
 #: response forced at a constant driver's harmonics; 5: outputs that read only the angle drivers'
 #: angles estimated 0; 6: a mode's own vibration moves it by half its tangent's stiffening, the backbone;
-#: 7: a vibration drifts from when its content came in, not from the run's start; 9: the stretch's
-#: share of the curvature, -mu int eps eta''^2 (8 was the same-instant addition, reverted))
-ESTIMATOR_VERSION = "9"
+#: 7: a vibration drifts from when its content came in, not from the run's start; 8 and 9 on branches,
+#: not merged; 10: each coupled mode's own coordinate changes by its oscillator's first-order response
+#: to its shift, along its own phase, and each output by its participation in the mode; 11: 8's static
+#: change and drifts added as sizes at the same instant; 9's stretch's share of the curvature ported
+#: but off, model_form.STRETCH_CURVATURE; a torque-driven crank's timing, the drift of its angle the
+#: static change's forcing builds up, model_form._free_lead)
+ESTIMATOR_VERSION = "11"
 
 
 def _question(scene: Scene) -> dict[str, Any]:

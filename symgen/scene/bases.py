@@ -847,8 +847,8 @@ class _Coupled:
             for k in range(F.shape[1]):
                 put(w=F[0::2, k], dw=F[1::2, k])
         if na and b.lam:  # after every other column: top_columns counts from the bar's first
-            for k in range(self._axial_corrections(name).shape[1]):
-                put(u=self._axial_corrections(name)[:, k])
+            for col in self._axial_corrections(name).T:
+                put(u=col)
         return np.array(cols).T
 
     def _axial_corrections(self, name: str) -> np.ndarray:

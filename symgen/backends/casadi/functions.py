@@ -142,17 +142,20 @@ class SympyToCasadi:
         raise NotImplementedError(f"cannot convert condition {c}")
 
 
-def build_functions(model) -> dict:
-    """CasADi Functions of a ``DerivedModel`` (see module docstring)."""
-    prog = model.program
+def input_symbols(prog) -> tuple[dict, dict]:
+    """The Functions' SX inputs (name -> vector) and the program's input symbols bound to their
+    entries (the environment a :class:`SympyToCasadi` starts from)."""
     sx = {name: ca.SX.sym(name, len(prog.inputs[name])) for name in INPUT_NAMES}
     env = {}
     for name in INPUT_NAMES:
         for k, s in enumerate(prog.inputs[name]):
             env[s] = sx[name][k]
-    conv = SympyToCasadi(env)
-    for sym, expr in prog.assignments:
-        conv.env[sym] = conv(expr)
+    return sx, env
+
+
+def output_functions(prog, sx: dict, conv: SympyToCasadi) -> dict:
+    """The Functions ``FUNCTION_NAMES`` of the program's outputs, converted by ``conv`` (its
+    environment holding the assignments), of the inputs ``sx``."""
     args = [sx[n] for n in INPUT_NAMES]
     funcs = {}
     for fname in FUNCTION_NAMES:
@@ -160,3 +163,13 @@ def build_functions(model) -> dict:
         vec = ca.vertcat(*[conv(e) for e in exprs]) if exprs else ca.SX(0, 1)
         funcs[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
     return funcs
+
+
+def build_functions(model) -> dict:
+    """CasADi Functions of a ``DerivedModel`` (see module docstring)."""
+    prog = model.program
+    sx, env = input_symbols(prog)
+    conv = SympyToCasadi(env)
+    for sym, expr in prog.assignments:
+        conv.env[sym] = conv(expr)
+    return output_functions(prog, sx, conv)
