@@ -131,3 +131,23 @@ def test_the_stiff_shaper_quasi_static_run_is_within_the_accuracy_of_the_dynamic
         a, b = np.asarray(q[name]), np.asarray(d[name])
         assert np.abs(a - b).max() <= acc * np.abs(b).max(), name
     assert out["quasi"][1] < 0.6 * out["dynamic"][1], (out["quasi"][1], out["dynamic"][1])
+
+
+def test_the_contact_range_over_the_turn_and_the_overhang_warning():
+    """The shaper's contact over the turn in closed form: the crank's pin 0.08 m about O, 0.15 m
+    above the lever's pivot: from (0.15 - 0.08) / 0.5 = 0.14 (crank down) to (0.15 + 0.08) / 0.5 =
+    0.46 (up), both among the eight positions sampled; at 0.14 the overhang is 6.14 spans, beyond
+    the six the overhang's functions were checked for (tests/test_slot_overhang.py): a warning
+    names the slot joint. The aluminium overhang reference (0.32 to 0.98 spans) has none."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        scene = load_scene(SHAPER)
+    lo, hi = B.contact_range(scene, dict(scene.initial.guess))["A"]
+    assert abs(lo - 0.14) < 1e-9 and abs(hi - 0.46) < 1e-9
+    assert any("joints.A" in str(w.message) and "6.14 spans" in str(w.message) for w in said)
+    scene = load_scene(OVERHANG)
+    lo, hi = B.contact_range(scene, dict(scene.initial.guess))["A"]
+    assert (1 - hi) / hi > 0.3 and (1 - lo) / lo < 1.0
+    assert not any("spans" in c.warning for c in scene.bases)

@@ -666,6 +666,58 @@ def _guide_slots(scene: Scene) -> dict[str, Joint]:
     return out
 
 
+#: a guide's elastic-overhang functions are checked up to an overhang of this many spans
+#: (tests/test_slot_overhang.py: the frozen guide's first three frequencies within 2.5 % of the
+#: finite-element beam's up to six spans, within 0.4 % up to one)
+OVERHANG_SPANS_CHECKED = 6.0
+
+
+def contact_range(scene: Scene, guess: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Slot joint -> (least, largest) contact beta over one turn of the angle drivers
+    (``RINGING_POSITIONS`` positions of the rigid mechanism, each placed from the previous one;
+    the start alone without a driver at a rate): the range the guide's basis must carry."""
+    slots = [j for j in scene.joints if j.kind == "slot"]
+    if not slots:
+        return {}
+    angle = [d for d in scene.drivers if d.kind == "angle" and d.initial is not None and d.law is None]
+    rate = max((abs(d.rate) for d in angle), default=0.0)
+    taus = [k * 2 * math.pi / rate / RINGING_POSITIONS for k in range(RINGING_POSITIONS)] if rate > 0 else [0.0]
+    seen: dict[str, list[float]] = {j.name: [] for j in slots}
+    prev = dict(guess)
+    for tau in taus:
+        drivers = tuple(
+            replace(d, initial=float(d.initial or 0.0) + d.rate * tau) if d in angle else d for d in scene.drivers
+        )
+        place = _placement(replace(scene, drivers=drivers), prev)
+        if place is None:
+            continue
+        prev = {n: a for n, (_, a) in place.items()}
+        for j in slots:
+            seen[j.name].append(place[j.name][1])
+    return {n: (min(b), max(b)) for n, b in seen.items() if b}
+
+
+def _overhang_warning(scene: Scene, name: str, guess: dict[str, float]) -> str:
+    """A warning where guide ``name``'s elastic overhang exceeds OVERHANG_SPANS_CHECKED spans at a
+    position of the turn ("" otherwise)."""
+    joints = [j for j in scene.joints if j.kind == "slot" and j.ends[1].body == name and j.overhang_modes]
+    if not joints:
+        return ""
+    ranges = contact_range(scene, guess)
+    for j in joints:
+        if j.name not in ranges:
+            continue
+        lo = ranges[j.name][0]
+        if 0.0 < lo < 1.0 and (1.0 - lo) / lo > OVERHANG_SPANS_CHECKED:
+            return (
+                f"joints.{j.name}: the contact reaches beta = {lo:.3g} of {name} over the turn: its overhang is "
+                f"{(1.0 - lo) / lo:.3g} spans, beyond the {OVERHANG_SPANS_CHECKED:g} the overhang's "
+                f"{j.overhang_modes} functions were checked for (the guide's frequencies within 2.5 %); "
+                f"compare a run with joints.{j.name}.overhang_modes raised"
+            )
+    return ""
+
+
 def _coupled_supported(scene: Scene) -> str:
     """'' when the coupled model covers the scene, else what it does not cover. A slot's guide
     is covered with an elastic overhang (its span functions, the contact-slope function and
@@ -1648,6 +1700,9 @@ def _choose_bases(
                 f"bodies.{body.name}: even {MAX_CHOSEN} functions per family leave an a-priori estimate of "
                 f"{estimate:.2g} of peak (> simulation.accuracy = {acc:g})"
             )
+        if guide:
+            over = _overhang_warning(scene, body.name, guess or {})
+            warning = f"{warning}; {over}" if warning and over else warning or over
         own[body.name] = (est_a, est_t)
         out[body.name] = BasisChoice(
             body.name,
