@@ -386,7 +386,7 @@ def test_the_truncation_part_says_why_a_slot_guide_gets_no_richer_model(tmp_path
     model adds nothing (each span function carries the overhang: the guide keeps its counts), and
     the reason names the guide instead of saying the model has no elastic functions (it has: the
     guide's). With the default elastic overhang the richer guide has one more span function and
-    one more overhang function (the richer basis spans the run's)."""
+    one more overhang function (the richer basis spans the run's), but for the linearized part."""
     from symgen.scene import load_scene
 
     path = tmp_path / "slot_only.toml"
@@ -404,3 +404,6 @@ def test_the_truncation_part_says_why_a_slot_guide_gets_no_richer_model(tmp_path
     assert [j.overhang_modes for j in richer.joints if j.kind == "slot"] == [
         j.overhang_modes + 1 for j in scene.joints if j.kind == "slot"
     ]
+    # the linearized part's richer model keeps the guide (its state map follows functions by place)
+    richer, counts = error_estimate.richer_scene(scene, guides=False)
+    assert counts == {} and richer.body("lever").transverse_modes == nt

@@ -501,13 +501,14 @@ class TruncationNotEstimated(Exception):
 
 
 # ---------------------------------------------------------------------- truncation
-def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
+def richer_scene(scene: Any, guides: bool = True) -> tuple[Any, dict[str, list[int]]]:
     """The scene with ``EXTRA_AXIAL`` / ``EXTRA_TRANSVERSE`` more functions on every elastic bar
     that has functions of that kind (a slot's guide with an elastic overhang ``EXTRA_GUIDE`` more
     span functions and as many more of its overhang's own: the richer basis spans the run's, the
     span functions being the span's own and the overhang's polynomials hierarchical; with a rigid
     overhang the guide keeps its counts), and bar -> [axial, transverse] counts as written (a
-    guide's transverse count: its span functions).
+    guide's transverse count: its span functions). ``guides=False``: every guide keeps its counts
+    (the linearized truncation part, whose state map follows the functions by their places).
 
     The added axial functions are quasi-static (the bar's ``BasisChoice.quasi_axial`` raised by
     their number: the run's own quasi-static axial functions stay so, a function the closure
@@ -534,7 +535,9 @@ def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
     for b in scene.bodies:
         if not b.rigid and slot_guide(scene, b.name):
             slots = [i for i, j in enumerate(joints) if j.kind == "slot" and j.ends[1].body == b.name]
-            if not (eff.transverse and b.transverse_modes) or not all(joints[i].overhang_modes for i in slots):
+            if not (guides and eff.transverse and b.transverse_modes) or not all(
+                joints[i].overhang_modes for i in slots
+            ):
                 bodies.append(b)  # a rigid overhang: each span function carries it (kept)
                 continue
             for i in slots:
@@ -581,13 +584,13 @@ def nothing_to_add(scene: Any) -> str:
     )
 
 
-def richer_mechanism(mech: Mechanism) -> tuple[Mechanism, dict[str, list[int]]]:
+def richer_mechanism(mech: Mechanism, guides: bool = True) -> tuple[Mechanism, dict[str, list[int]]]:
     """The embedded richer model of ``mech`` (derived once, then from the model cache; loaded
-    once per process and cache)."""
+    once per process and cache); ``guides``: as :func:`richer_scene`."""
     from symgen import cache
     from symgen.numerics.mechanism import load_mechanism
 
-    scene, counts = richer_scene(mech.scene)
+    scene, counts = richer_scene(mech.scene, guides)
     key = (str(cache.cache_root()), scene)
     try:
         hash(key)
@@ -860,20 +863,25 @@ def truncation_deltas(
     richer counts): what the richer model changes along the run (:func:`truncation_part`)."""
     import casadi as ca
 
-    counts: dict[str, list[int]]
-    if richer is None:
-        richer, counts = richer_mechanism(mech)
-    else:
-        counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
-    if not any(mech.info.amplitudes.values()) or richer.info.n == mech.info.n:
-        raise TruncationNotEstimated(nothing_to_add(mech.scene))
     from symgen.model.structure import slot_guide
 
-    if any(not b.rigid and slot_guide(mech.scene, b.name) for b in mech.scene.bodies):
-        raise TruncationNotEstimated(
-            "the linearized truncation part does not map a slot guide's functions (its span, contact-slope "
-            'and overhang functions change places with the counts): truncation_method = "rerun" estimates it'
-        )
+    counts: dict[str, list[int]]
+    if richer is None:  # a guide keeps its counts: the state map follows the functions by their places
+        richer, counts = richer_mechanism(mech, guides=False)
+    else:
+        counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
+        if any(
+            not b.rigid
+            and slot_guide(mech.scene, b.name)
+            and len(richer.info.amplitudes[b.name][1]) != len(mech.info.amplitudes[b.name][1])
+            for b in mech.scene.bodies
+        ):
+            raise TruncationNotEstimated(
+                "the linearized truncation part does not map a richer slot guide's functions (its span, "
+                'contact-slope and overhang functions change places with the counts): truncation_method = "rerun"'
+            )
+    if not any(mech.info.amplitudes.values()) or richer.info.n == mech.info.n:
+        raise TruncationNotEstimated(nothing_to_add(mech.scene))
     T, S = _state_map(mech, richer)
     ri = richer.info
     tau = np.asarray(result.tau, dtype=float)
