@@ -388,6 +388,7 @@ def estimate_errors(
                 f"periods a run rings through, beyond any fixed multiple of rtol); where it is not measured, "
                 + methods["time_integration"]
             )
+    _TIGHT.clear()  # both parts have read it: not kept past the estimate
     outputs: dict[str, float | None] = {}
     for n in names:
         vals = [parts[p][n] for p in PARTS if parts[p][n] is not None]
@@ -870,7 +871,8 @@ def _rerun(
             rtol, atol = rtol / TIGHTER, atol / TIGHTER
             fallback = None if fallback is None else (fallback[0] / TIGHTER, fallback[1] / TIGHTER)
             against = (
-                f"the run's model at the same tolerances (the time part's rerun, {_steps_text(base)}): "
+                f"the run's model at {TIGHTER:g}x tighter tolerances than the run's (the time part's rerun, "
+                f"{_steps_text(base)}): "
                 "against the run itself, the difference would carry the run's own time error, which the "
                 "time part charges"
             )
