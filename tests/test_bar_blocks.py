@@ -5,6 +5,7 @@ own Jacobian Function (``functions.chain_jacobian``) is CasADi's AD Jacobian of 
 
 from __future__ import annotations
 
+import shutil
 import sys
 from pathlib import Path
 
@@ -99,3 +100,106 @@ def test_calls_residual_and_chain_rule_jacobian(tmp_path, case):
         scale = max(1.0, np.abs(j0).max())
         assert np.abs(j1 - j0).max() <= 1e-12 * scale, np.abs(j1 - j0).max()
         assert np.abs(j0).max() > 0
+
+
+# --- the runner (numerics.simulate): the Jacobian by the chain rule, the same in both backends ---
+
+
+def _exact_chain(tmp_path, bars: int = 3) -> Path:
+    path = tmp_path / f"chain{bars}_exact.toml"
+    path.write_text(scene_text("chain", bars, 2, 3) + '\n[effects]\nstrain = "exact"\n')
+    return path
+
+
+def test_runner_dae_and_chain_rule_jacobian_equal_the_inline_ones(tmp_path):
+    """The runner of a model whose blocks are calls: its ``dae`` the inline runner's, its ``jac_dae``
+    (chain rule) CasADi's AD Jacobian of the inline ``dae`` to 1e-12 of its largest entry, and the
+    virtual machine's ``dae`` (an MX oracle) the library's ``dae`` bit for bit."""
+    from symgen.backends.casadi.pipeline import CompiledModel
+    from symgen.ir.info import ModelInfo
+    from symgen.numerics import simulate as sim
+    from symgen.numerics.mechanism import Mechanism
+
+    scene = load_scene(_exact_chain(tmp_path), [])
+    model = derive(scene)
+    funcs = F.build_functions(model)
+    assert set(F.CALL_NAMES) <= set(funcs)
+    inline = {k: funcs[k] for k in F.FUNCTION_NAMES}
+    info = ModelInfo.of(model)
+    mc = Mechanism(CompiledModel(funcs, info, 0.0, 0.0, False), scene)
+    mi = Mechanism(CompiledModel(inline, info, 0.0, 0.0, False), scene)
+    *_, part = mi.initial_state(0.0)
+    part = mi.run_partition(part)
+    fc, fi = sim._symbolic(mc, part), sim._symbolic(mi, part)
+    assert "jac_dae" in fc and "jac_dae" not in fi
+    dae = fi["dae"]
+    ji = sim._dae_jacobian(dae, dae.sx_in(), dae.call(dae.sx_in()))
+    jc = fc["jac_dae"]
+    rng = np.random.default_rng(3)
+    p = np.concatenate([mi.p_values, [0.0]])
+    for _ in range(3):
+        ins = [rng.uniform(-0.5, 0.5), *(rng.uniform(-0.3, 0.3, dae.size1_in(k)) for k in (1, 2)), p, np.zeros(0)]
+        oi, oc = dae(*ins), fc["compiled:dae"](*ins)
+        assert all(np.array_equal(np.asarray(a), np.asarray(b)) for a, b in zip(oi, oc))
+        ovm = fc["dae"](*ins)
+        assert all(np.array_equal(np.asarray(a), np.asarray(b)) for a, b in zip(ovm, oc))
+        nominal = [np.asarray(x) for x in oi]
+        for name in ("jac_alg_x", "jac_alg_z", "jac_alg_p", "jac_ode_x", "jac_ode_z"):
+            a = np.asarray(ji(*ins, *nominal)[ji.index_out(name)].full())
+            b = np.asarray(jc(*ins, *nominal)[jc.index_out(name)].full())
+            assert np.abs(a - b).max() <= 1e-12 * max(1.0, np.abs(a).max()), name
+        gi, gc = fi["g"](*ins[:4]), fc["g"](*ins[:4])
+        assert np.array_equal(np.asarray(gi[0]), np.asarray(gc[0]))
+        assert np.abs(np.asarray(gi[1]) - np.asarray(gc[1])).max() <= 1e-12 * np.abs(np.asarray(gi[1])).max()
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+def test_a_first_run_with_calls_switches_to_its_library_bit_for_bit(tmp_path, monkeypatch):
+    """An exact chain (blocks as calls): a first run switching from the virtual machine to the
+    library mid-run gives the second (compiled, cached) run's numbers to the last bit, and the
+    virtual machine's alone; within the tolerance of the inline runner's."""
+    from symgen.api import mechanism
+    from symgen.numerics import compiled
+    from symgen.numerics import simulate as sim
+
+    for name in (compiled.CC_ENV, compiled.CFLAGS_ENV, compiled.BACKEND_ENV):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(sim, "_noticed", set())
+    compiled._probe.cache_clear()
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    path = _exact_chain(tmp_path)
+    mech = mechanism(path)
+    assert "res_E" in mech.f
+    checks = {"n": 0}
+    done = compiled.PendingLibrary.done
+
+    def held(self):
+        checks["n"] += 1
+        if checks["n"] < 2:
+            return False
+        if self._thread is not None:
+            self._thread.join()
+        return done(self)
+
+    monkeypatch.setattr(compiled.PendingLibrary, "done", held)
+    first = sim.simulate(mech, t_end=T_END)
+    monkeypatch.setattr(compiled.PendingLibrary, "done", done)
+    assert first.stats["backend"] == "compiled" and first.stats["library"] == "built"
+    assert 0.0 < first.stats["vm_until"] < T_END
+    second = sim.simulate(mech, t_end=T_END)
+    assert second.stats["library"] == "cached"
+    vm = sim.simulate(mech, t_end=T_END, backend="vm")
+    for a, b in ((first, second), (first, vm)):
+        assert a.steps == b.steps and len(a.tau) == len(b.tau) > 10
+        for what in ("tau", "outputs", "q", "v", "lam"):
+            assert np.array_equal(getattr(a, what), getattr(b, what)), what
+    # the inline runner (blocks inline: another model cache), the same run to the tolerance
+    monkeypatch.setattr(F, "CALL_STRAINS", ())
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache-inline"))
+    inline = sim.simulate(mechanism(path), t_end=T_END, backend="vm")
+    assert "res_E" not in mechanism(path).f
+    scale = np.abs(inline.q).max()
+    assert np.abs(inline.q[-1] - vm.q[-1]).max() <= 1e-4 * scale
+
+
+T_END = 5.0  # 286 outputs: two chunks (simulate.CHUNK = 128), the switch between them

@@ -166,13 +166,64 @@ def output_functions(prog, sx: dict, conv: SympyToCasadi) -> dict:
 
 
 def build_functions(model) -> dict:
-    """CasADi Functions of a ``DerivedModel`` (see module docstring)."""
+    """CasADi Functions of a ``DerivedModel`` (see module docstring); where the bars' blocks pay
+    (:func:`paying_blocks`), with the Functions ``CALL_NAMES`` of :func:`call_functions` too."""
     prog = model.program
     sx, env = input_symbols(prog)
     conv = SympyToCasadi(env)
     for sym, expr in prog.assignments:
         conv.env[sym] = conv(expr)
-    return output_functions(prog, sx, conv)
+    out = output_functions(prog, sx, conv)
+    blocks = paying_blocks(model)
+    if blocks:
+        out.update(call_functions(model, blocks))
+    return out
+
+
+#: The strains whose bar blocks a runner evaluates as calls (:func:`paying_blocks`)
+CALL_STRAINS = ("exact",)
+#: The Functions of a model with bar blocks (:func:`call_functions`; ``store.CALL_NAMES``)
+CALL_NAMES = ("res_E", "out_E", "xin", "bars", "jac_bars")
+
+
+def paying_blocks(model) -> list:
+    """The program's blocks a runner evaluates as calls: those of 2+ bars of the exact strain.
+    Measured (benchmarks/RESULTS.md, "One Function per bar structure"): exact chains, 12 bars, the
+    library's C -40 %, its compile CPU -50 %, the runner's construction -45..-60 %, the step the
+    inline one's; von Karman chains gain nothing by 12 bars (the chain rule's kinematic products
+    dominate), so their blocks stay inline."""
+    effects = model.structure.get("effects", {}) if isinstance(model.structure, dict) else {}
+    if effects.get("strain") not in CALL_STRAINS:
+        return []
+    return [b for b in model.program.blocks if len(b.calls) >= 2]
+
+
+def call_functions(model, blocks) -> dict:
+    """The Functions ``CALL_NAMES``: ``res_E`` and ``out_E`` of (t, q, v, a, lam, p, E) (the
+    blocks' outputs E as an input, stacked as ``BlockFunctions.outputs``), ``xin`` of (t, q, v, a,
+    lam, p) (the calls' stacked inputs X), ``bars`` (E of X: each call one call node of its block's
+    Function) and ``jac_bars`` (dE/dX, block diagonal: one call of each block's Jacobian per call).
+    So res = res_E(w, bars(xin(w))) and its Jacobian is the chain rule
+    res_E_w + res_E_E . jac_bars . xin_w (``numerics.simulate``)."""
+    split, bf = split_functions(model, blocks)
+    prog = model.program
+    ins = [ca.SX.sym(n, len(prog.inputs[n])) for n in INPUT_NAMES]
+    E = ca.SX.sym("E", len(bf.outputs))
+    out = {}
+    for name in ("res", "out"):
+        expr = split[name](*ins[:5], ca.vertcat(ins[5], E))
+        out[f"{name}_E"] = ca.Function(f"{name}_E", [*ins, E], [expr], [*INPUT_NAMES, "E"], [name], {"cse": True})
+    out["xin"] = split["xin"]
+    X = ca.SX.sym("X", split["xin"].size1_out(0))
+    Ek, Jk, o = [], [], 0
+    for k, c in bf.calls:
+        n = len(c.inputs)
+        Ek.append(bf.functions[k](X[o : o + n]))
+        Jk.append(bf.jacobians[k](X[o : o + n]))
+        o += n
+    out["bars"] = ca.Function("bars", [X], [ca.vertcat(*Ek)], ["X"], ["E"])
+    out["jac_bars"] = ca.Function("jac_bars", [X], [ca.diagcat(*Jk)], ["X"], ["jac_E_X"])
+    return out
 
 
 #: the options of a block's Function and its Jacobian's: call nodes, never inlined into the caller
