@@ -203,3 +203,24 @@ def test_a_first_run_with_calls_switches_to_its_library_bit_for_bit(tmp_path, mo
 
 
 T_END = 5.0  # 286 outputs: two chunks (simulate.CHUNK = 128), the switch between them
+
+
+def test_the_model_cache_keeps_the_call_functions(tmp_path):
+    """A cache entry of a model with calls holds ``CALL_NAMES`` (read back, lazily too, the same
+    Functions); one without holds none."""
+    from symgen.backends.casadi import store
+    from symgen.ir.info import ModelInfo
+
+    model = derive(load_scene(_exact_chain(tmp_path), []))
+    funcs = F.build_functions(model)
+    info = ModelInfo.of(model)
+    where = tmp_path / "models" / info.key
+    assert store.save(funcs, info, where)
+    loaded, _ = store.load(where)
+    lazy, _ = store.load_lazy(where, info.key)
+    assert set(loaded) == set(lazy) == set(F.FUNCTION_NAMES + F.CALL_NAMES)
+    assert "bars" in lazy and lazy["bars"].serialize() == funcs["bars"].serialize()
+    plain = tmp_path / "plain" / info.key
+    assert store.save({k: funcs[k] for k in F.FUNCTION_NAMES}, info, plain)
+    lazy, _ = store.load_lazy(plain, info.key)
+    assert "res_E" not in lazy and list(lazy) == list(F.FUNCTION_NAMES)

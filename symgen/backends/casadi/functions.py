@@ -19,7 +19,7 @@ from __future__ import annotations
 import casadi as ca
 import sympy as sp
 
-from symgen.backends.casadi.store import FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (re-exported)
+from symgen.backends.casadi.store import CALL_NAMES, FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (re-exported)
 
 _UNARY = {
     sp.sin: ca.sin,
@@ -182,8 +182,6 @@ def build_functions(model) -> dict:
 
 #: The strains whose bar blocks a runner evaluates as calls (:func:`paying_blocks`)
 CALL_STRAINS = ("exact",)
-#: The Functions of a model with bar blocks (:func:`call_functions`; ``store.CALL_NAMES``)
-CALL_NAMES = ("res_E", "out_E", "xin", "bars", "jac_bars")
 
 
 def paying_blocks(model) -> list:

@@ -154,15 +154,18 @@ class LazyFunctions(Mapping[str, "ca.Function"]):
 
     def __contains__(self, name: object) -> bool:
         """Whether the entry holds the Function ``name`` (from its files: nothing read by CasADi)."""
-        return name in FUNCTION_NAMES + CALL_NAMES and (
-            f"{name}.casadi" in self._data or (self._funcs is not None and name in self._funcs)
+        return name in FUNCTION_NAMES or (
+            name in CALL_NAMES and (f"{name}.casadi" in self._data or (self._funcs is not None and name in self._funcs))
         )
 
+    def _names(self) -> tuple[str, ...]:
+        return tuple(n for n in FUNCTION_NAMES + CALL_NAMES if n in self)
+
     def __iter__(self) -> Iterator[str]:
-        return iter(FUNCTION_NAMES)
+        return iter(self._names())
 
     def __len__(self) -> int:
-        return len(FUNCTION_NAMES)
+        return len(self._names())
 
 
 def _functions(data: dict[str, bytes], info: ModelInfo) -> dict[str, ca.Function]:
