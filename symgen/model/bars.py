@@ -760,22 +760,8 @@ def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -
     """``eq`` (another bar's equations, derived with ``inputs0``) for bar ``s`` with ``inputs``:
     its symbols replaced by those of ``s``; None where what ``bar_equations`` substitutes for the
     display symbols of ``s`` is not the replaced one of ``eq``'s bar."""
-    s0 = eq.sym
-    rule: dict = {}
-
-    def pair(a, b) -> None:
-        if isinstance(a, tuple):
-            for x, y in zip(a, b):
-                pair(x, y)
-        elif a is not None:
-            rule[a] = b
-
-    for name in _OWN:
-        pair(getattr(s0, name), getattr(s, name))
+    rule = renaming(eq, inputs0, s, inputs)
     xa_d, ya_d = (names.origin_velocity(ax, s.name).symbol() for ax in "xy")  # recorded, as bar_equations does
-    pair((eq.xa_d, eq.ya_d), (xa_d, ya_d))
-    if inputs0.get("axial_force") is not None:
-        pair(tuple(inputs0["axial_force"]), tuple(inputs["axial_force"]))
     memo: dict = {}
 
     def ren(e):
@@ -786,12 +772,10 @@ def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -
     groups: tuple = ()
     if eq.loads:
         groups = load_symbols(s)
-        pair(eq.loads, groups)
         own.update(zip(groups, distributed_groups(s, inputs.get("loads", ()), inputs.get("gravity"))))
     shown = []
     for k, p in enumerate(inputs.get("points", ())):
         shown.append(point_symbols(s, k))
-        pair(eq.points[k], shown[-1])
         own.update(zip(shown[-1], point_force_groups(s, *p.ground)))
     table0 = eq.value_table
     back = {v: k for k, v in rule.items()}

@@ -213,12 +213,7 @@ def call_functions(model, blocks) -> dict:
         out[f"{name}_E"] = ca.Function(f"{name}_E", [*ins, E], [expr], [*INPUT_NAMES, "E"], [name], {"cse": True})
     out["xin"] = split["xin"]
     X = ca.SX.sym("X", split["xin"].size1_out(0))
-    Ek, Jk, o = [], [], 0
-    for k, c in bf.calls:
-        n = len(c.inputs)
-        Ek.append(bf.functions[k](X[o : o + n]))
-        Jk.append(bf.jacobians[k](X[o : o + n]))
-        o += n
+    Ek, Jk = _called(bf, X)
     out["bars"] = ca.Function("bars", [X], [ca.vertcat(*Ek)], ["X"], ["E"])
     out["jac_bars"] = ca.Function("jac_bars", [X], [ca.diagcat(*Jk)], ["X"], ["jac_E_X"])
     return out
@@ -301,18 +296,25 @@ def split_functions(model, blocks=None) -> tuple[dict, BlockFunctions]:
     return out, bf
 
 
-def chain_jacobian(split: dict, bf: BlockFunctions, name: str, args: list, wrt: ca.SX) -> tuple:
-    """(F, dF/d wrt) of the Function ``name`` of :func:`split_functions` at the SX ``args``
-    (t, q, v, a, lam, p: expressions of ``wrt``), the blocks as calls: F_E and the kinematics'
-    dX/dw inline, each call's Jacobian one call of its block's ``jac_bar``."""
-    X = split["xin"](*args)
-    Es = ca.SX.sym("E", len(bf.outputs))
+def _called(bf: BlockFunctions, X: ca.SX) -> tuple[list, list]:
+    """Each bar's E and its Jacobian, as calls of its block's Functions on its slice of the
+    stacked callee inputs ``X`` (``xin``)."""
     Ek, Jk, o = [], [], 0
     for k, c in bf.calls:
         n = len(c.inputs)
         Ek.append(bf.functions[k](X[o : o + n]))
         Jk.append(bf.jacobians[k](X[o : o + n]))
         o += n
+    return Ek, Jk
+
+
+def chain_jacobian(split: dict, bf: BlockFunctions, name: str, args: list, wrt: ca.SX) -> tuple:
+    """(F, dF/d wrt) of the Function ``name`` of :func:`split_functions` at the SX ``args``
+    (t, q, v, a, lam, p: expressions of ``wrt``), the blocks as calls: F_E and the kinematics'
+    dX/dw inline, each call's Jacobian one call of its block's ``jac_bar``."""
+    X = split["xin"](*args)
+    Es = ca.SX.sym("E", len(bf.outputs))
+    Ek, Jk = _called(bf, X)
     inner = split[name](*args[:5], ca.vertcat(args[5], Es))
     J = ca.jacobian(inner, wrt) + ca.mtimes(ca.jacobian(inner, Es), ca.mtimes(ca.diagcat(*Jk), ca.jacobian(X, wrt)))
     E = ca.vertcat(*Ek) if Ek else ca.SX(0, 1)
