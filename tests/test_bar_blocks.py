@@ -21,6 +21,7 @@ from symgen.scene import load_scene
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_derivation import scene_text  # noqa: E402
+from held_build import build_held_to_second_chunk  # noqa: E402
 
 pytestmark = pytest.mark.filterwarnings("ignore::symgen.scene.limits.SceneWarning")
 
@@ -170,20 +171,8 @@ def test_a_first_run_with_calls_switches_to_its_library_bit_for_bit(tmp_path, mo
     path = _exact_chain(tmp_path)
     mech = mechanism(path)
     assert "res_E" in mech.f
-    checks = {"n": 0}
-    done = compiled.PendingLibrary.done
-
-    def held(self):
-        checks["n"] += 1
-        if checks["n"] < 2:
-            return False
-        if self._thread is not None:
-            self._thread.join()
-        return done(self)
-
-    monkeypatch.setattr(compiled.PendingLibrary, "done", held)
-    first = sim.simulate(mech, t_end=T_END)
-    monkeypatch.setattr(compiled.PendingLibrary, "done", done)
+    with build_held_to_second_chunk(monkeypatch):
+        first = sim.simulate(mech, t_end=T_END)
     assert first.stats["backend"] == "compiled" and first.stats["library"] == "built"
     assert 0.0 < first.stats["vm_until"] < T_END
     second = sim.simulate(mech, t_end=T_END)
