@@ -231,11 +231,11 @@ def _check_manifest(m, key: str, casadi: bool = True) -> None:
     if not isinstance(m, dict) or m.get("format") != FORMAT:
         raise cache.InvalidEntry(f"{MANIFEST} is not a symgen model-cache manifest")
     if m.get("format_version") != FORMAT_VERSION:
-        raise cache.InvalidEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
+        raise cache.StaleEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
     if m.get("symgen") != __version__:
-        raise cache.InvalidEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
+        raise cache.StaleEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
     if casadi and m.get("casadi") != (version := __getattr__("CASADI_VERSION")):
-        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {version}")
+        raise cache.StaleEntry(f"was written by CasADi {m.get('casadi')!r}, this is {version}")
     if m.get("key") != key:
         raise cache.InvalidEntry(f"{MANIFEST} is for structure key {m.get('key')!r}, not {key}")
     files = m.get("files")
