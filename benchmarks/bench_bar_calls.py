@@ -2,8 +2,9 @@
 (``bar_calls_chain.build_functions``: call nodes of a Function made ``never_inline``; "calls": the
 runner's Jacobians by CasADi's AD through the calls, "chain": by the chain rule over each bar
 structure's own Jacobian Function, ``bar_calls_chain.runner``; "chainvm": and the virtual machine's
-IDAS given that Jacobian too, as the compiled library's is)
-against the inline runner (issue 20, items 4-5): the C of the compiled library (kB, compile CPU s of
+IDAS given that Jacobian too, as the compiled library's is; "landed": symgen's own runner, whose
+exact-strain bar blocks are calls with the chain rule and the VM given the same Jacobian,
+``functions.call_functions`` / ``simulate._chain_rule``) against the inline runner (issue 20, items 4-5): the C of the compiled library (kB, compile CPU s of
 its units one at a time with a first run's flags: -O0 the cold units, -O1 ``dae``), the virtual
 machine's and the compiled library's CPU per IDAS step (the integration alone: ``simulate._integrate``), the steps, and the states after the run
 (max relative difference, bit-identical or not).
@@ -36,7 +37,9 @@ from pathlib import Path
 sys.path.insert(0, {bench!r})
 import bar_calls_chain
 from symgen.backends.casadi import functions
-if {calls!r} != "inline":
+if {calls!r} != "landed":  # symgen's own runner with the bar blocks as calls (exact strain)
+    functions.CALL_STRAINS = ()  # every block inline
+if {calls!r} not in ("inline", "landed"):
     functions.build_functions = bar_calls_chain.build_functions
 from symgen.scene import load_scene
 from symgen.model.derive import derive

@@ -57,6 +57,7 @@ __all__ = [
     "CACHE_ENV",
     "STALE_TEMP_S",
     "InvalidEntry",
+    "StaleEntry",
     "KeyUnavailable",
     "cache_root",
     "models_dir",
@@ -107,6 +108,11 @@ class InvalidEntry(Exception):
     def __init__(self, reason: str) -> None:
         super().__init__(reason)
         self.reason = reason
+
+
+class StaleEntry(InvalidEntry):
+    """An entry written by another symgen, cache format or CasADi: not damage, so it is re-derived
+    and overwritten without a warning (an upgrade is not the user's problem)."""
 
 
 # ----------------------------------------------------------------------------- location
@@ -295,8 +301,13 @@ def unpack(kind: str, data: bytes) -> bytes:
     return payload
 
 
-def report_invalid(entry: os.PathLike | str, reason: str) -> None:
-    """The one stderr line for an entry that did not verify (it is re-derived and overwritten)."""
+def report_invalid(entry: os.PathLike | str, reason: str | InvalidEntry) -> None:
+    """The one stderr line for an entry that did not verify (it is re-derived and overwritten);
+    none for a :class:`StaleEntry`, which an upgrade leaves behind."""
+    if isinstance(reason, StaleEntry):
+        return
+    if isinstance(reason, InvalidEntry):
+        reason = reason.reason
     print(f"symgen: warning: cache entry {os.fspath(entry)} {reason}; re-deriving it", file=sys.stderr)
 
 

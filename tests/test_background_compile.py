@@ -20,6 +20,8 @@ from symgen.api import mechanism
 from symgen.numerics import compiled, simulate as simulate_mod
 from symgen.numerics.simulate import simulate
 
+from held_build import build_held_to_second_chunk
+
 ROOT = Path(__file__).resolve().parent.parent
 FOUR_BAR = ROOT / "examples" / "four_bar.toml"
 #: the four-bar's outputs are a degree apart: 286 outputs, two chunks (simulate.CHUNK = 128)
@@ -55,20 +57,8 @@ def test_a_first_run_switches_to_the_library_mid_run_and_equals_the_compiled_sec
     the luck of timing): the first run is part virtual machine, part compiled; the second loads
     the library from the cache; a run on the virtual machine alone agrees too."""
     mech = mechanism(FOUR_BAR)
-    checks = {"n": 0}
-    done = compiled.PendingLibrary.done
-
-    def held(self):
-        checks["n"] += 1
-        if checks["n"] < 2:
-            return False
-        if self._thread is not None:
-            self._thread.join()
-        return done(self)
-
-    monkeypatch.setattr(compiled.PendingLibrary, "done", held)
-    first = simulate(mech, t_end=T_END)  # two chunks: 128 outputs, then the rest
-    monkeypatch.setattr(compiled.PendingLibrary, "done", done)
+    with build_held_to_second_chunk(monkeypatch):
+        first = simulate(mech, t_end=T_END)  # two chunks: 128 outputs, then the rest
     assert first.stats["backend"] == "compiled" and first.stats["library"] == "built"
     assert 0.0 < first.stats["vm_until"] < T_END  # started in the virtual machine, switched mid-run
     assert len(_entries()) == 1  # installed for the next run

@@ -308,6 +308,24 @@ def test_entry_of_another_structure_is_rederived(root, capsys, reference):
         _assert_equal(compiled, reference)
 
 
+# ----------------------------------------------------------------------------- entries of another version
+@pytest.mark.parametrize("field, value", [("format_version", 3), ("symgen", "0.0.1"), ("casadi", "0.0.1")])
+def test_an_entry_an_upgrade_left_behind_is_rederived_quietly(root, capsys, reference, field, value):
+    """An entry written by an older cache format, symgen or CasADi is not damage: it is derived
+    anew and overwritten with no warning (a user's first run after an upgrade writes a clean
+    stderr, which the CLI's tests assert), and the next run reads the new entry."""
+    entry = _fill(root)
+    manifest = json.loads((entry / "manifest.json").read_text())
+    (entry / "manifest.json").write_text(json.dumps(dict(manifest, **{field: value})))
+    compiled = _recompile(capsys, None)
+    assert not compiled.cached
+    _assert_equal(compiled, reference)
+    assert json.loads((entry / "manifest.json").read_text())[field] == manifest[field]
+    again = _recompile(capsys, None)
+    assert again.cached
+    _assert_equal(again, reference)
+
+
 # ----------------------------------------------------------------------------- swapped functions
 def test_swapped_function_files_are_rederived(root, capsys, reference):
     entry = _fill(root)

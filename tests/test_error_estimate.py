@@ -407,3 +407,36 @@ def test_the_truncation_part_says_why_a_slot_guide_gets_no_richer_model(tmp_path
     # the linearized part's richer model keeps the guide (its state map follows functions by place)
     richer, counts = error_estimate.richer_scene(scene, guides=False)
     assert counts == {} and richer.body("lever").transverse_modes == nt
+
+
+def test_truncation_part_leaves_out_the_runs_time_errors():
+    """A run at loose tolerances (rtol 1e-4: its own time error comparable to its truncation
+    error): the truncation part against the oracle of truncation alone, the converged model
+    (9 + 10) minus the run's model (3 + 4), both at rtol 1e-10. Measured against the run itself
+    at its tolerances, the richer model's difference carries both runs' time errors (eps_ax
+    4.6x, eta_mid 1.6x of the oracle); the richer model against the run's model, both at the
+    time part's tighter tolerances, is within 0.9x-1.2x (eta_mid, eps_ax). The torque, a
+    multiplier outside IDAS's error control, keeps its tighter runs' time error (6.7x) and is
+    not asserted."""
+    from symgen.numerics.mechanism import load_mechanism
+    from symgen.numerics.simulate import simulate
+
+    case = next(c for c in CASES if c.name.startswith("slider-crank 6.1, von Karman"))
+    small = load_mechanism(case.scene, list(case.small))
+    conv = load_mechanism(case.scene, list(case.converged))
+    t_end = 2 * math.pi / abs(small.scene.turning_driver.rate)
+    step = small.scene.simulation.output_step
+    rtol, atol = 1e-4, 1e-6
+    run = simulate(small, t_end=t_end, output_step=step, rtol=rtol, atol=atol)
+    est = error_estimate.estimate_errors(small, run, rtol, atol)
+    assert "the time part's rerun" in est.methods["truncation"]
+    small_tight = simulate(small, t_end=t_end, output_step=step, rtol=1e-10, atol=1e-12)
+    conv_tight = simulate(conv, t_end=t_end, output_step=step, rtol=1e-10, atol=1e-12)
+    for name in ("eta_mid", "eps_ax"):
+        k = min(len(run.tau), len(small_tight.tau), len(conv_tight.tau))
+        peak = np.abs(run.column(name)[:k]).max()
+        oracle = float(np.abs(conv_tight.column(name)[:k] - small_tight.column(name)[:k]).max() / peak)
+        time_error = float(np.abs(small_tight.column(name)[:k] - run.column(name)[:k]).max() / peak)
+        assert time_error > 0.5 * oracle  # the case tests something: the run's time error is not small
+        part = est.parts["truncation"][name]
+        assert 0.5 * oracle <= part <= 2.0 * oracle, f"{name}: part {part:.3g} vs truncation alone {oracle:.3g}"

@@ -28,6 +28,9 @@ import bench_validation as V  # noqa: E402
 #: drift at the mechanism's coupled modes (symgen.numerics.model_form.coupled_modes; before, each
 #: bar's own first mode: the five-bar 0.93 / 1.24 / 1.40 / 0.91, the six-bar 0.79 / 0.63 / 0.67 /
 #: 0.52 / 1.13, the crank-rocker 0.94 / 0.88 / 0.82 / 0.98; tests/test_model_form_drift.py)
+#: The truncation part against the run's model at the time part's tighter tolerances (wt-truncref,
+#: 2026-11-27): every ratio below the same to two digits, but slider_crank_torque_soft's, measured
+#: 1.02 / 1.06 there (stored: its branch's 1.05 / 1.07); the suite's runs have small time errors.
 MEASURED: dict[str, dict[str, tuple[float, str]]] = {
     "slewing_arm": {
         # DERIVE_VERSION 8 (the exact strain's eta'^4 / 8): tip and mid fell to 3.4e-5 and 1.4e-4 of peak,

@@ -54,6 +54,7 @@ def generated_payload(scene: Scene) -> dict:
 
     model = derive(scene)
     funcs = casadi_emit.build_functions(model)
+    funcs = {name: funcs[name] for name in casadi_emit.FUNCTION_NAMES}  # the model's (bar blocks inline)
     info = ModelInfo.of(model)
     record = info.to_json()
     record.pop("timings", None)

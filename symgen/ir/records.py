@@ -19,17 +19,42 @@ if TYPE_CHECKING:  # a cached run reads these records without SymPy (tests/test_
     import sympy as sp
 
 
+@dataclass(frozen=True)
+class BlockCall:
+    """One bar of a :class:`Block`: the program symbols ``assigns`` are the block's outputs with
+    the block's input symbols replaced by ``inputs`` (the same order)."""
+
+    bar: str
+    inputs: tuple[sp.Symbol, ...]
+    assigns: tuple[sp.Symbol, ...]
+
+
+@dataclass(frozen=True)
+class Block:
+    """The generalized forces E of the bars of one structure (``bars.SharedBarEquations``): the
+    expressions ``outputs`` of the first bar's symbols ``inputs``, which every bar of ``calls``
+    assigns with its own symbols. The assignments hold each bar's E as well (what the LaTeX and C
+    backends write); a backend may make the block one function called per bar instead."""
+
+    bar: str  # the bar whose equations the others share (its symbols are ``inputs``)
+    inputs: tuple[sp.Symbol, ...]
+    outputs: tuple[sp.Expr, ...]  # E: X, Y, theta, the f_k, the g_k
+    calls: tuple[BlockCall, ...]
+
+
 @dataclass
 class Program:
     """Ordered assignments (intermediate symbol = expression of earlier symbols) and named output
     vectors over the inputs t, q, v, a, lam, p. Each intermediate belongs to a ``group``
     ("origin acceleration", "generalized force", "subtree force"), which the LaTeX backend
-    reads to place it."""
+    reads to place it. ``blocks``: the generalized forces of bars that share their structure's
+    equations, as a template and its calls (:class:`Block`); beside the assignments, not instead."""
 
     inputs: dict[str, tuple[sp.Symbol, ...]]  # name -> its symbols
     assignments: list[tuple[sp.Symbol, sp.Expr]] = field(default_factory=list)  # [(symbol, expr)]
     outputs: dict[str, list[sp.Expr]] = field(default_factory=dict)  # name -> its exprs
     groups: dict[sp.Symbol, str] = field(default_factory=dict)  # symbol -> its group
+    blocks: list[Block] = field(default_factory=list)  # bar structures of 2+ bars (E as calls)
 
     def assign(self, name: Name, expr: sp.Expr, group: str) -> sp.Symbol:
         import sympy as sp

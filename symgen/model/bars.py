@@ -671,6 +671,10 @@ class SharedBarEquations:
 
     def __init__(self) -> None:
         self._made: dict = {}  # structure key -> (equations, inner products, inputs)
+        #: bar -> its equations, for each bar derived itself whose equations others may share
+        self.derived: dict[str, BarEquations] = {}
+        #: bar -> (the bar whose equations it shares, the renaming {that bar's symbol: this bar's})
+        self.shared: dict[str, tuple[str, dict]] = {}
 
     def __call__(self, s: BarSymbols, basis_a: Basis, basis_t: Basis, t: IPTable, effects, **inputs) -> BarEquations:
         key = _structure(s, basis_a, basis_t, t, effects, **inputs) if SHARE_BARS else None
@@ -678,10 +682,12 @@ class SharedBarEquations:
         if made is not None and (made[1] is t.ip or _same_tables(made[1], t.ip)):
             out = _instantiate(made[0], made[2], s, inputs)
             if out is not None:
+                self.shared[s.name] = (made[0].sym.name, renaming(made[0], made[2], s, inputs))
                 return out
         eq = bar_equations(s, basis_a, basis_t, t, effects, **inputs)
         if key is not None and made is None:
             self._made[key] = (eq, t.ip, inputs)
+            self.derived[s.name] = eq
         return eq
 
 
@@ -725,11 +731,10 @@ def _same_tables(a: InnerProducts, b: InnerProducts) -> bool:
     return all(np.array_equal(getattr(a, n), getattr(b, n)) for n in names_)
 
 
-def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -> BarEquations | None:
-    """``eq`` (another bar's equations, derived with ``inputs0``) for bar ``s`` with ``inputs``:
-    its symbols replaced by those of ``s``; None where what ``bar_equations`` substitutes for the
-    display symbols of ``s`` is not the replaced one of ``eq``'s bar."""
-    s0 = eq.sym
+def renaming(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -> dict:
+    """{symbol of ``eq``'s bar: the symbol of bar ``s``} that makes ``eq`` (derived with ``inputs0``)
+    the equations of ``s`` with ``inputs`` (where ``_instantiate`` gives them): the bars' own
+    symbols, origin velocities, axial forces and display symbols of loads and point forces."""
     rule: dict = {}
 
     def pair(a, b) -> None:
@@ -740,11 +745,23 @@ def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -
             rule[a] = b
 
     for name in _OWN:
-        pair(getattr(s0, name), getattr(s, name))
-    xa_d, ya_d = (names.origin_velocity(ax, s.name).symbol() for ax in "xy")  # recorded, as bar_equations does
-    pair((eq.xa_d, eq.ya_d), (xa_d, ya_d))
+        pair(getattr(eq.sym, name), getattr(s, name))
+    pair((eq.xa_d, eq.ya_d), tuple(names.origin_velocity(ax, s.name).symbol() for ax in "xy"))
     if inputs0.get("axial_force") is not None:
         pair(tuple(inputs0["axial_force"]), tuple(inputs["axial_force"]))
+    if eq.loads:
+        pair(eq.loads, load_symbols(s))
+    for k in range(len(inputs.get("points", ()))):
+        pair(eq.points[k], point_symbols(s, k))
+    return rule
+
+
+def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -> BarEquations | None:
+    """``eq`` (another bar's equations, derived with ``inputs0``) for bar ``s`` with ``inputs``:
+    its symbols replaced by those of ``s``; None where what ``bar_equations`` substitutes for the
+    display symbols of ``s`` is not the replaced one of ``eq``'s bar."""
+    rule = renaming(eq, inputs0, s, inputs)
+    xa_d, ya_d = (names.origin_velocity(ax, s.name).symbol() for ax in "xy")  # recorded, as bar_equations does
     memo: dict = {}
 
     def ren(e):
@@ -755,12 +772,10 @@ def _instantiate(eq: BarEquations, inputs0: dict, s: BarSymbols, inputs: dict) -
     groups: tuple = ()
     if eq.loads:
         groups = load_symbols(s)
-        pair(eq.loads, groups)
         own.update(zip(groups, distributed_groups(s, inputs.get("loads", ()), inputs.get("gravity"))))
     shown = []
     for k, p in enumerate(inputs.get("points", ())):
         shown.append(point_symbols(s, k))
-        pair(eq.points[k], shown[-1])
         own.update(zip(shown[-1], point_force_groups(s, *p.ground)))
     table0 = eq.value_table
     back = {v: k for k, v in rule.items()}

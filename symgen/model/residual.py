@@ -20,7 +20,16 @@ from dataclasses import dataclass
 import sympy as sp
 
 from symgen.ir import names
-from symgen.ir.records import GENERALIZED_FORCE, ORIGIN_ACCELERATION, SUBTREE_FORCE, CoordKind, Coordinate, Program
+from symgen.ir.records import (
+    GENERALIZED_FORCE,
+    ORIGIN_ACCELERATION,
+    SUBTREE_FORCE,
+    Block,
+    BlockCall,
+    CoordKind,
+    Coordinate,
+    Program,
+)
 from symgen.model.bars import SharedBarEquations
 from symgen.model.constraints import Constraints
 from symgen.model.kinematics import TreeKinematics
@@ -66,6 +75,7 @@ def generalized_forces(
     assigned in ``prog``; each ``BarModel`` keeps its ``equations`` and their ``inputs``."""
     E: dict[str, BarForces] = {}
     bar_equations = SharedBarEquations()  # bars of one structure: derived once
+    plain: set[str] = set()  # the bars whose E are their equations' own (no slot force, no lumped inertia)
     for name in topo.order:
         bm = bars[name]
         s = bm.sym
@@ -82,6 +92,8 @@ def generalized_forces(
             bm.inputs["axial_force"] = axial_force[name]
         bm.equations = bar_equations(s, bm.basis_a, bm.basis_t, bm.ipt, effects, **bm.inputs)
         gen = bm.equations.generalized()
+        if name not in cons.slot_force and not loads.rotary[name]:
+            plain.add(name)
         if name in cons.slot_force:
             gen = contact_force(gen, bm.kin, cons.slot_force[name])
         gen = add_lumped_rotary(gen, s, bm.kin, loads.rotary[name])
@@ -103,7 +115,36 @@ def generalized_forces(
                 else None
             ),
         )
+    prog.blocks = bar_blocks(bar_equations, E, plain)
     return E
+
+
+def _flat(E: BarForces) -> tuple:
+    return (*E.XY, E.th, *E.f, *E.g)
+
+
+def bar_blocks(shared: SharedBarEquations, E: dict, plain: set) -> list[Block]:
+    """A :class:`Block` per bar structure whose equations 2+ bars (``plain``: their E are the
+    equations' own) share: the first bar's E and the bars' renamed inputs. The renamed equations are
+    the shared ones by construction (``SharedBarEquations``), so each call's E is the block's outputs
+    with its inputs (tested: tests/test_bar_blocks.py)."""
+    members: dict[str, list] = {first: [(first, None)] if first in plain else [] for first in shared.derived}
+    for bar, (first, rule) in shared.shared.items():
+        if bar in plain:
+            members[first].append((bar, rule))
+    blocks = []
+    for first, bars in members.items():
+        if len(bars) < 2:
+            continue
+        gen = shared.derived[first].generalized()
+        outputs = tuple(sp.sympify(e) for e in (*gen["XY"], gen["th"], *gen["f"], *gen["g"]))
+        inputs = tuple(sorted(set().union(*[e.free_symbols for e in outputs]), key=str))
+        calls = tuple(
+            BlockCall(bar, inputs if rule is None else tuple(rule.get(x, x) for x in inputs), _flat(E[bar]))
+            for bar, rule in bars
+        )
+        blocks.append(Block(first, inputs, outputs, calls))
+    return blocks
 
 
 def contact_force(gen: dict, kin, force: tuple) -> dict:

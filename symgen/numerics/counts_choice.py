@@ -41,8 +41,9 @@ __all__ = ["MAX_ROUNDS", "decide", "raised", "recalled", "resolved", "run_with_c
 
 R = TypeVar("R")
 
-#: the decision's version in the remembered decisions (a changed estimate decides again)
-ESTIMATOR_VERSION = "2"
+#: the decision's version in the remembered decisions (a changed estimate decides again; 3: the
+#: truncation part's richer rerun against the run's model, both at the time part's tighter tolerances)
+ESTIMATOR_VERSION = "3"
 #: at most this many raises of a scene's chosen counts (each a run and its richer rerun more)
 MAX_ROUNDS = 2
 #: the only truncation method that decides (the module docstring)

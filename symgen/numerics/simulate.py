@@ -22,8 +22,9 @@ import math
 import re
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -35,7 +36,7 @@ from symgen.ir.records import CoordKind
 from symgen.policy import POLICY
 from symgen.numerics import compiled, interrupt
 from symgen.numerics import checks
-from symgen.numerics.index1 import Partition, index1
+from symgen.numerics.index1 import Index1, Partition, index1
 from symgen.numerics.mechanism import Mechanism
 from symgen.numerics.run_result import SimResult as SimResult  # its home; imported from here too
 from symgen.numerics.start import State, continuum_start_outputs
@@ -233,7 +234,8 @@ class DaeRunner:
                 mech.info.key,
                 f"ind={list(part.ind)} dep={list(part.dep)}"
                 + (f" quasi={list(part.quasi)}" if part.quasi else "")
-                + f" {JACOBIAN}",
+                + f" {JACOBIAN}"
+                + (" bar calls" if _calls(mech) else ""),
                 store=use_cache,
                 cold=COLD,
                 background=background,
@@ -925,31 +927,94 @@ def _symbolic(mech: Mechanism, part: Partition) -> dict[str, ca.Function]:
     tt = t + p[-1]  # time offset: one integrator serves every chunk
     args = [tt, q, v, a, lam, p[:-1]]
     f = mech.f
-    alg = sys_.alg(f, tt, p[:-1])
     ode = ca.vertcat(x[nI:], a[I] if I else ca.SX(0, 1))
+    dae_in = [t, x, z, p, u]
+    calls = _calls(mech)
+    if calls:
+        alg, out, jac, alg_z = _chain_rule(f, sys_, args, dae_in, ode)
+    else:
+        alg, out = sys_.alg(f, tt, p[:-1]), f["out"](*args)
     dae = ca.Function(
-        "dae",
-        [t, x, z, p, u],
-        [ode, alg, ca.SX(0, 1), ca.SX(0, 1)],
-        ca.dyn_in(),
-        ca.dyn_out(),
-        {"ad_weight": AD_WEIGHT},
+        "dae", dae_in, [ode, alg, ca.SX(0, 1), ca.SX(0, 1)], ca.dyn_in(), ca.dyn_out(), {"ad_weight": AD_WEIGHT}
     )
     phi_q = ca.jacobian(f["phi"](*args), q)
     # singular-position check on the loop and driver rows and the dependent rigid
     # coordinates only, as checks.singular_ratio (inextensibility rows left out)
     rows = [i for i in range(m) if i not in mech.inext_rows]
     Ds = [i for i in D if i not in mech.inext_f]
-    return {
+    funcs = {
         "dae": dae,
-        "g": ca.Function("g", [t, x, z, p], [alg, ca.jacobian(alg, z)]),
+        "g": ca.Function("g", [t, x, z, p], [alg, alg_z if calls else ca.jacobian(alg, z)]),
         "split": ca.Function("split", [x, z], [q, v, a, lam]),
         "rec": ca.Function(
             "rec",
             [t, x, z, p],
-            [q, v, lam, f["out"](*args), f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
+            [q, v, lam, out, f["closure"](*args), phi_q[rows, Ds] if Ds else ca.SX(len(rows), 0)],
         ),
     }
+    if calls:
+        funcs["jac_dae"] = jac
+        _same_jacobian(funcs)
+    return funcs
+
+
+def _calls(mech: Mechanism) -> bool:
+    """Whether the model's bar blocks are calls (its Functions hold ``store.CALL_NAMES``)."""
+    from symgen.backends.casadi.store import CALL_NAMES
+
+    return CALL_NAMES[0] in mech.f  # a cached entry's file names: nothing deserialized
+
+
+def _chain_rule(
+    f: Mapping[str, ca.Function], sys_: Index1, args: list[ca.SX], dae_in: list[ca.SX], ode: ca.SX
+) -> tuple[ca.SX, ca.SX, ca.Function, ca.SX]:
+    """(alg, out, jac_dae, jac_alg_z) of a model whose bar blocks are calls: E = bars(X), X =
+    xin(args), res = res_E(args, E), and every Jacobian block of the DAE by the chain rule over the
+    blocks' own Jacobians, alg_w + alg_E . jac_bars(X) . X_w (one call of each block's Function and
+    of its Jacobian per bar; CasADi's AD through the call nodes would call the callee's adjoint
+    once per row colour per bar: benchmarks/RESULTS.md, "One Function per bar structure")."""
+    X = f["xin"](*args)
+    Es = ca.SX.sym("E", f["bars"].size1_out(0))
+
+    def res(*a: ca.SX) -> ca.SX:
+        return f["res_E"](*a, Es)
+
+    alg = ca.vertcat(*(({"res": res}.get(k) or f[k])(*args) for k in ("phi", "phid", "res", "phidd")))
+    out = f["out_E"](*args, Es)
+    JE = ca.mtimes(ca.jacobian(alg, Es), f["jac_bars"](X))
+    dae_out = [ode, alg, ca.SX(0, 1), ca.SX(0, 1)]
+    blocks, names = [], []
+    for ko, e in zip(ca.dyn_out(), dae_out):
+        for ki, w in zip(ca.dyn_in(), dae_in):
+            J = ca.jacobian(e, w)
+            if ko == "alg" and w.numel():
+                J = J + ca.mtimes(JE, ca.jacobian(X, w))
+            blocks.append(J)
+            names.append(f"jac_{ko}_{ki}")
+    E = f["bars"](X)
+    alg, out, *jb = ca.substitute([alg, out, *blocks], [Es], [E])
+    nominal = [ca.SX.sym(f"out_{k}", e.shape) for k, e in zip(ca.dyn_out(), dae_out)]
+    jac = ca.Function("jac_dae", dae_in + nominal, jb, ca.dyn_in() + [f"out_{k}" for k in ca.dyn_out()], names)
+    return alg, out, jac, jb[names.index("jac_alg_z")]
+
+
+def _same_jacobian(funcs: dict[str, ca.Function]) -> None:
+    """The virtual machine's IDAS given the library's Jacobian: ``dae`` an MX oracle calling the
+    library's SX ``dae``, whose Jacobian is ``jac_dae`` (``custom_jacobian``; CasADi's factory of an
+    SX oracle would differentiate it itself, through the calls). The library's Functions are made
+    here (``compiled:<name>``): the virtual machine and the library evaluate the same operations."""
+    for name in COMPILED:
+        funcs[f"compiled:{name}"] = _shared(funcs[name])
+    inner = funcs["compiled:dae"]
+    opts: dict[str, Any] = {
+        "custom_jacobian": funcs["compiled:jac_dae"],
+        "jac_penalty": 0,
+        "never_inline": True,
+        "ad_weight": AD_WEIGHT,
+    }
+    inner = ca.Function("dae", inner.sx_in(), inner.call(inner.sx_in()), ca.dyn_in(), ca.dyn_out(), opts)
+    mx = [ca.MX.sym(n, inner.sparsity_in(i)) for i, n in enumerate(ca.dyn_in())]
+    funcs["dae"] = ca.Function("dae", mx, inner.call(mx), ca.dyn_in(), ca.dyn_out())
 
 
 def _shared(f: ca.Function) -> ca.Function:

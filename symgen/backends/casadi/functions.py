@@ -19,7 +19,7 @@ from __future__ import annotations
 import casadi as ca
 import sympy as sp
 
-from symgen.backends.casadi.store import FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (re-exported)
+from symgen.backends.casadi.store import CALL_NAMES, FUNCTION_NAMES, INPUT_NAMES, load, save  # noqa: F401  (re-exported)
 
 _UNARY = {
     sp.sin: ca.sin,
@@ -166,10 +166,157 @@ def output_functions(prog, sx: dict, conv: SympyToCasadi) -> dict:
 
 
 def build_functions(model) -> dict:
-    """CasADi Functions of a ``DerivedModel`` (see module docstring)."""
+    """CasADi Functions of a ``DerivedModel`` (see module docstring); where the bars' blocks pay
+    (:func:`paying_blocks`), with the Functions ``CALL_NAMES`` of :func:`call_functions` too."""
     prog = model.program
     sx, env = input_symbols(prog)
     conv = SympyToCasadi(env)
     for sym, expr in prog.assignments:
         conv.env[sym] = conv(expr)
+    out = output_functions(prog, sx, conv)
+    blocks = paying_blocks(model)
+    if blocks:
+        out.update(call_functions(model, blocks))
+    return out
+
+
+#: The strains whose bar blocks a runner evaluates as calls (:func:`paying_blocks`)
+CALL_STRAINS = ("exact",)
+
+
+def paying_blocks(model) -> list:
+    """The program's blocks a runner evaluates as calls: those of 2+ bars of the exact strain.
+    Measured (benchmarks/RESULTS.md, "One Function per bar structure"): exact chains, 12 bars, the
+    library's C -40 %, its compile CPU -50 %, the runner's construction -45..-60 %, the step the
+    inline one's; von Karman chains gain nothing by 12 bars (the chain rule's kinematic products
+    dominate), so their blocks stay inline."""
+    effects = model.structure.get("effects", {}) if isinstance(model.structure, dict) else {}
+    if effects.get("strain") not in CALL_STRAINS:
+        return []
+    return [b for b in model.program.blocks if len(b.calls) >= 2]
+
+
+def call_functions(model, blocks) -> dict:
+    """The Functions ``CALL_NAMES``: ``res_E`` and ``out_E`` of (t, q, v, a, lam, p, E) (the
+    blocks' outputs E as an input, stacked as ``BlockFunctions.outputs``), ``xin`` of (t, q, v, a,
+    lam, p) (the calls' stacked inputs X), ``bars`` (E of X: each call one call node of its block's
+    Function) and ``jac_bars`` (dE/dX, block diagonal: one call of each block's Jacobian per call).
+    So res = res_E(w, bars(xin(w))) and its Jacobian is the chain rule
+    res_E_w + res_E_E . jac_bars . xin_w (``numerics.simulate``)."""
+    split, bf = split_functions(model, blocks)
+    prog = model.program
+    ins = [ca.SX.sym(n, len(prog.inputs[n])) for n in INPUT_NAMES]
+    E = ca.SX.sym("E", len(bf.outputs))
+    out = {}
+    for name in ("res", "out"):
+        expr = split[name](*ins[:5], ca.vertcat(ins[5], E))
+        out[f"{name}_E"] = ca.Function(f"{name}_E", [*ins, E], [expr], [*INPUT_NAMES, "E"], [name], {"cse": True})
+    out["xin"] = split["xin"]
+    X = ca.SX.sym("X", split["xin"].size1_out(0))
+    Ek, Jk = _called(bf, X)
+    out["bars"] = ca.Function("bars", [X], [ca.vertcat(*Ek)], ["X"], ["E"])
+    out["jac_bars"] = ca.Function("jac_bars", [X], [ca.diagcat(*Jk)], ["X"], ["jac_E_X"])
+    return out
+
+
+#: the options of a block's Function and its Jacobian's: call nodes, never inlined into the caller
+BLOCK_OPTS: dict = {"never_inline": True, "cse": True}
+
+
+class BlockFunctions:
+    """A program's blocks (``Program.blocks``) as CasADi Functions: per block ``bar_<k>`` (the
+    block's outputs of its stacked inputs) and its Jacobian ``jac_bar_<k>``, and per call the
+    program symbols it assigns and those it reads."""
+
+    def __init__(self, blocks) -> None:
+        self.blocks = list(blocks)
+        self.functions: list[ca.Function] = []
+        self.jacobians: list[ca.Function] = []
+        for k, b in enumerate(self.blocks):
+            xin = ca.SX.sym(f"in_{k}", len(b.inputs))
+            conv = SympyToCasadi({x: xin[i] for i, x in enumerate(b.inputs)})
+            out = ca.vertcat(*[conv(e) for e in b.outputs])
+            self.functions.append(ca.Function(f"bar_{k}", [xin], [out], dict(BLOCK_OPTS)))
+            self.jacobians.append(ca.Function(f"jac_bar_{k}", [xin], [ca.jacobian(out, xin)], dict(BLOCK_OPTS)))
+        #: (block index, call) in the blocks' order
+        self.calls = [(k, c) for k, b in enumerate(self.blocks) for c in b.calls]
+        self.assigned = {x: (k, c) for k, c in self.calls for x in c.assigns}
+
+    @property
+    def outputs(self) -> list:
+        """The program symbols the calls assign, stacked in the calls' order."""
+        return [x for _, c in self.calls for x in c.assigns]
+
+
+def build_functions_with_calls(model, blocks=None) -> dict:
+    """``build_functions`` with the generalized forces of each block's bars as calls of the
+    block's Function (``BlockFunctions``; ``blocks``: the program's by default): the same
+    expressions converted, so the same values, with each block's terms written once."""
+    prog = model.program
+    bf = BlockFunctions(prog.blocks if blocks is None else blocks)
+    sx, env = input_symbols(prog)
+    conv = SympyToCasadi(env)
+    for sym, expr in prog.assignments:
+        hit = bf.assigned.get(sym)
+        if hit is None:
+            conv.env[sym] = conv(expr)
+        elif sym not in conv.env:
+            k, c = hit
+            outs = bf.functions[k](ca.vertcat(*[conv.env[x] for x in c.inputs]))
+            for i, x in enumerate(c.assigns):
+                conv.env[x] = outs[i]
     return output_functions(prog, sx, conv)
+
+
+def split_functions(model, blocks=None) -> tuple[dict, BlockFunctions]:
+    """The Functions ``FUNCTION_NAMES`` with the blocks' outputs E as inputs: of (t, q, v, a, lam,
+    [p; E]) (E stacked as ``BlockFunctions.outputs``), and ``xin`` of (t, q, v, a, lam, p): the
+    calls' stacked inputs X. With these a Jacobian is the chain rule over the blocks' own
+    Jacobians: dF/dw = F_w + F_E . blockdiag(jac_bar(X_c)) . dX/dw (:func:`chain_jacobian`)."""
+    prog = model.program
+    bf = BlockFunctions(prog.blocks if blocks is None else blocks)
+    E = bf.outputs
+    n_p = len(prog.inputs["p"])
+    sx = {name: ca.SX.sym(name, len(prog.inputs[name])) for name in INPUT_NAMES if name != "p"}
+    p0 = ca.SX.sym("p", n_p)
+    sx["p"] = ca.vertcat(p0, ca.SX.sym("E", len(E)))
+    env = {}
+    for name in INPUT_NAMES:
+        for k, s in enumerate(prog.inputs[name]):
+            env[s] = sx[name][k]
+    env.update({x: sx["p"][n_p + k] for k, x in enumerate(E)})
+    conv = SympyToCasadi(env)
+    for sym, expr in prog.assignments:
+        if sym not in bf.assigned:
+            conv.env[sym] = conv(expr)
+    out = output_functions(prog, sx, conv)
+    X = ca.vertcat(*[conv.env[x] for _, c in bf.calls for x in c.inputs])
+    xin_args = [sx[n] for n in INPUT_NAMES[:-1]] + [p0]  # X is kinematics: of the model's p, not of E
+    out["xin"] = ca.Function("xin", xin_args, [X], list(INPUT_NAMES), ["xin"], {"cse": True})
+    return out, bf
+
+
+def _called(bf: BlockFunctions, X: ca.SX) -> tuple[list, list]:
+    """Each bar's E and its Jacobian, as calls of its block's Functions on its slice of the
+    stacked callee inputs ``X`` (``xin``)."""
+    Ek, Jk, o = [], [], 0
+    for k, c in bf.calls:
+        n = len(c.inputs)
+        Ek.append(bf.functions[k](X[o : o + n]))
+        Jk.append(bf.jacobians[k](X[o : o + n]))
+        o += n
+    return Ek, Jk
+
+
+def chain_jacobian(split: dict, bf: BlockFunctions, name: str, args: list, wrt: ca.SX) -> tuple:
+    """(F, dF/d wrt) of the Function ``name`` of :func:`split_functions` at the SX ``args``
+    (t, q, v, a, lam, p: expressions of ``wrt``), the blocks as calls: F_E and the kinematics'
+    dX/dw inline, each call's Jacobian one call of its block's ``jac_bar``."""
+    X = split["xin"](*args)
+    Es = ca.SX.sym("E", len(bf.outputs))
+    Ek, Jk = _called(bf, X)
+    inner = split[name](*args[:5], ca.vertcat(args[5], Es))
+    J = ca.jacobian(inner, wrt) + ca.mtimes(ca.jacobian(inner, Es), ca.mtimes(ca.diagcat(*Jk), ca.jacobian(X, wrt)))
+    E = ca.vertcat(*Ek) if Ek else ca.SX(0, 1)
+    F, dF = ca.substitute([inner, J], [Es], [E])
+    return F, dF

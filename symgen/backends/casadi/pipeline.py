@@ -79,7 +79,7 @@ def _cached(key: str, lazy: bool = False) -> tuple[CompiledModel | None, bool]:
         funcs, info = casadi_io.load_lazy(where, key) if lazy else casadi_io.load(where, key)
         return CompiledModel(funcs, info, info.timings["derive_s"], time.perf_counter() - t0, True), False
     except cache.InvalidEntry as exc:
-        cache.report_invalid(where, exc.reason)
+        cache.report_invalid(where, exc)
         return None, True
     except FileNotFoundError:  # removed meanwhile (symgen cache clear): derive it
         return None, False

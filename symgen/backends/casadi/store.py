@@ -3,7 +3,9 @@
 An entry is a folder (see :mod:`symgen.cache`)::
 
     <fname>.casadi    one per name in FUNCTION_NAMES: CasADi's serialized text
-                      (``Function.serialize()``; read back with ``casadi.Function.deserialize``)
+                      (``Function.serialize()``; read back with ``casadi.Function.deserialize``),
+                      and one per name in CALL_NAMES for a model whose bar blocks are calls
+                      (``functions.call_functions``): all of them or none
     model.json        the model's description (``symgen.ir.info.ModelInfo.to_json``)
     manifest.json     format, format_version, symgen and casadi versions, the structure key,
                       and the keyed hash (``symgen.cache.seal``: HMAC-SHA256 with this user's
@@ -32,10 +34,12 @@ if TYPE_CHECKING:
 
 FUNCTION_NAMES = ("phi", "phid", "phidd", "res", "out", "energy", "closure")
 INPUT_NAMES = ("t", "q", "v", "a", "lam", "p")
+#: The Functions of a model whose bar blocks a runner evaluates as calls (``functions.call_functions``)
+CALL_NAMES = ("res_E", "out_E", "xin", "bars", "jac_bars")
 
 FORMAT = "symgen-model-cache"
 #: Bump when the layout of an entry changes (older entries are then re-derived).
-FORMAT_VERSION = 3  # 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
+FORMAT_VERSION = 4  # 4: the Functions CALL_NAMES of a model with bar blocks; 3: keyed hashes (HMAC-SHA256 with the user's key); model.json is ModelInfo.to_json
 MANIFEST = "manifest.json"
 META = "model.json"
 _MAX_MANIFEST = 1 << 16
@@ -52,8 +56,9 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def _file_names() -> tuple[str, ...]:
-    return tuple(f"{n}.casadi" for n in FUNCTION_NAMES) + (META,)
+def _file_names(calls: bool = False) -> tuple[str, ...]:
+    names = FUNCTION_NAMES + (CALL_NAMES if calls else ())
+    return tuple(f"{n}.casadi" for n in names) + (META,)
 
 
 def save(funcs: dict, info: ModelInfo, directory: str | os.PathLike, replace: bool = False) -> bool:
@@ -68,7 +73,8 @@ def save(funcs: dict, info: ModelInfo, directory: str | os.PathLike, replace: bo
     directory = Path(directory)
     if info.key != directory.name:
         raise ValueError(f"model cache entry {directory} for a model with key {info.key!r}")
-    files = {f"{name}.casadi": funcs[name].serialize().encode("ascii") for name in FUNCTION_NAMES}
+    names = FUNCTION_NAMES + (CALL_NAMES if CALL_NAMES[0] in funcs else ())
+    files = {f"{name}.casadi": funcs[name].serialize().encode("ascii") for name in names}
     files[META] = json.dumps(info.to_json(), indent=1, sort_keys=True, allow_nan=False).encode()
     manifest = {
         "format": FORMAT,
@@ -146,11 +152,20 @@ class LazyFunctions(Mapping[str, "ca.Function"]):
     def __getitem__(self, name: str) -> ca.Function:
         return self._loaded()[name]
 
+    def __contains__(self, name: object) -> bool:
+        """Whether the entry holds the Function ``name`` (from its files: nothing read by CasADi)."""
+        return name in FUNCTION_NAMES or (
+            name in CALL_NAMES and (f"{name}.casadi" in self._data or (self._funcs is not None and name in self._funcs))
+        )
+
+    def _names(self) -> tuple[str, ...]:
+        return tuple(n for n in FUNCTION_NAMES + CALL_NAMES if n in self)
+
     def __iter__(self) -> Iterator[str]:
-        return iter(FUNCTION_NAMES)
+        return iter(self._names())
 
     def __len__(self) -> int:
-        return len(FUNCTION_NAMES)
+        return len(self._names())
 
 
 def _functions(data: dict[str, bytes], info: ModelInfo) -> dict[str, ca.Function]:
@@ -158,12 +173,17 @@ def _functions(data: dict[str, bytes], info: ModelInfo) -> dict[str, ca.Function
     import casadi as ca
 
     funcs = {}
-    for name in FUNCTION_NAMES:
+    calls = f"{CALL_NAMES[0]}.casadi" in data
+    for name in FUNCTION_NAMES + (CALL_NAMES if calls else ()):
         try:
             f = ca.Function.deserialize(data[f"{name}.casadi"].decode("ascii"))
         except (UnicodeDecodeError, RuntimeError) as exc:
             raise cache.InvalidEntry(f"{name}.casadi cannot be deserialized by this CasADi ({exc})") from None
-        _check_function(f, name, info)
+        if name in CALL_NAMES:
+            if f.name() != name:
+                raise cache.InvalidEntry(f"{name}.casadi holds the function {f.name()!r}")
+        else:
+            _check_function(f, name, info)
         funcs[name] = f
     return funcs
 
@@ -184,7 +204,7 @@ def _read_verified(directory: Path, key: str, casadi: bool = True) -> tuple[dict
             raise cache.InvalidEntry(f"has no {MANIFEST} (written by an older symgen, or incomplete)") from None
         _check_manifest(manifest, key, casadi)
         data = {}
-        for name in _file_names():
+        for name in _file_names(f"{CALL_NAMES[0]}.casadi" in manifest["files"]):
             try:
                 blob = read(name, _MAX_FILE)
             except FileNotFoundError:
@@ -211,17 +231,17 @@ def _check_manifest(m, key: str, casadi: bool = True) -> None:
     if not isinstance(m, dict) or m.get("format") != FORMAT:
         raise cache.InvalidEntry(f"{MANIFEST} is not a symgen model-cache manifest")
     if m.get("format_version") != FORMAT_VERSION:
-        raise cache.InvalidEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
+        raise cache.StaleEntry(f"has cache format {m.get('format_version')!r}, this symgen reads {FORMAT_VERSION}")
     if m.get("symgen") != __version__:
-        raise cache.InvalidEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
+        raise cache.StaleEntry(f"was written by symgen {m.get('symgen')!r}, this is {__version__}")
     if casadi and m.get("casadi") != (version := __getattr__("CASADI_VERSION")):
-        raise cache.InvalidEntry(f"was written by CasADi {m.get('casadi')!r}, this is {version}")
+        raise cache.StaleEntry(f"was written by CasADi {m.get('casadi')!r}, this is {version}")
     if m.get("key") != key:
         raise cache.InvalidEntry(f"{MANIFEST} is for structure key {m.get('key')!r}, not {key}")
     files = m.get("files")
     if (
         not isinstance(files, dict)
-        or set(files) != set(_file_names())
+        or set(files) not in (set(_file_names()), set(_file_names(True)))
         or not all(isinstance(h, str) and len(h) == 64 for h in files.values())
     ):
         raise cache.InvalidEntry(f"{MANIFEST} does not list the keyed hash of exactly {', '.join(_file_names())}")
