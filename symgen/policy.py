@@ -124,6 +124,11 @@ class SolverPolicy:
     #: start, where they are dynamic): converged when its step is below this fraction of
     #: max(1, max |z|) (a few hundred ulps of the O(1) coordinates in z) ...
     quasi_start_tol: float = 1e-13
+    #: ... or, once the step is below this fraction, when it no longer halves: Newton converges
+    #: quadratically, so a step that stops shrinking is the round-off of an ill-conditioned
+    #: Jacobian (a slot guide's overhang functions, nearly dependent polynomials, make the
+    #: accelerations' round-off ~1e-10 of max |z|: measured on a stiff crank-shaper's lever) ...
+    quasi_start_floor: float = 1e-8
     #: ... else refused after this many iterations (Newton converges quadratically from the
     #: dynamic start; a quasi-static function near buckling does not converge). The Python path
     #: (``symgen.numerics.simulate``) and the C runtime (symgen_quasi_start_) read both.

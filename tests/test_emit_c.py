@@ -566,3 +566,23 @@ def test_emit_c_derives_once_and_chooses_the_partition_once(cached, tmp_path, mo
     out = write_c(scene, tmp_path / "c")
     assert calls == {"derive": 1, "choose_partition": 2}
     assert (out / "slider_crank_solver.c").is_file()
+
+
+def test_printer_writes_no_posix_math_macros():
+    """SymPy's C printer writes pi/4, pi/2, sqrt(2), 1/pi as M_PI_4, M_PI_2, M_SQRT2, M_1_PI (POSIX,
+    not C99: the emitted C of a slot guide's contact-slope inner products failed to compile with
+    -std=c99). symgen's printer writes double literals and libm calls."""
+    import sympy as sp
+
+    from symgen.backends.c.printer import CPrinter
+
+    x = sp.Symbol("x")
+    pi = "3.141592653589793"
+    for expr, text in (
+        (sp.pi / 4 * x, f"(0.25)*{pi}*x"),
+        (sp.pi / 2, f"(0.5)*{pi}"),
+        (sp.sqrt(2) * x, "sqrt(2.0)*x"),
+        (x / sp.pi, f"x/{pi}"),
+        (2 / sp.sqrt(sp.pi), f"2.0/sqrt({pi})"),
+    ):
+        assert CPrinter({x: "x"}).doprint(expr) == text

@@ -382,18 +382,31 @@ cycles = 1
 
 
 def test_the_truncation_part_says_why_a_slot_guide_gets_no_richer_model(tmp_path):
-    """A mechanism whose only elastic bar is a slot's guide: the richer model adds nothing (the
-    guide keeps its counts), and the reason names the guide instead of saying the model has no
-    elastic functions (it has: the guide's)."""
+    """A mechanism whose only elastic bar is a slot's guide with a rigid overhang: the richer
+    model adds nothing (each span function carries the overhang: the guide keeps its counts), and
+    the reason names the guide instead of saying the model has no elastic functions (it has: the
+    guide's). With the default elastic overhang the richer guide has one more span function and
+    one more overhang function (the richer basis spans the run's), but for the linearized part."""
     from symgen.scene import load_scene
 
     path = tmp_path / "slot_only.toml"
-    path.write_text(SLOT_ONLY)
+    path.write_text(SLOT_ONLY.replace('at = [1.0, "variable"]', 'at = [1.0, "variable"]\noverhang = "rigid"'))
     scene = load_scene(str(path), [])
     richer, counts = error_estimate.richer_scene(scene)
     assert counts == {} and [b.transverse_modes for b in richer.bodies] == [b.transverse_modes for b in scene.bodies]
     why = error_estimate.nothing_to_add(scene)
     assert "lever is a slot's guide" in why and "no elastic functions" not in why
+    path.write_text(SLOT_ONLY)
+    scene = load_scene(str(path), [])
+    richer, counts = error_estimate.richer_scene(scene)
+    nt = scene.body("lever").transverse_modes
+    assert counts == {"lever": [0, nt + 1]} and richer.body("lever").transverse_modes == nt + 1
+    assert [j.overhang_modes for j in richer.joints if j.kind == "slot"] == [
+        j.overhang_modes + 1 for j in scene.joints if j.kind == "slot"
+    ]
+    # the linearized part's richer model keeps the guide (its state map follows functions by place)
+    richer, counts = error_estimate.richer_scene(scene, guides=False)
+    assert counts == {} and richer.body("lever").transverse_modes == nt
 
 
 def test_truncation_part_leaves_out_the_runs_time_errors():

@@ -8,7 +8,8 @@ converged Exudyn model (ANCF cable guide and crank, ``ObjectJointSliding2D`` slo
 only the last test needs Exudyn.
 
 Acceptance: symgen's default model (elastic overhang) gives the guide's far-end deflection and
-the crank-tip deflection within 2 % of their peaks (max |y - y_ref| / max |y_ref| on the
+the crank-tip deflection within 1 % of their peaks (2 % before DERIVE_VERSION 11; measured over two
+turns 0.45 % and 0.20 %) (max |y - y_ref| / max |y_ref| on the
 one-degree grid); the seed's rigid overhang does not.
 """
 
@@ -26,7 +27,7 @@ SCENE = ROOT / "benchmarks" / "scenes" / "inverted_slider_crank_overhang.toml"
 CSV = ROOT / "tests" / "data" / "inverted_slider_crank_overhang_exudyn.csv"
 ACCEPT = ("guide_end", "crank_tip")
 OUTPUTS = ACCEPT + ("guide_slope",)
-TARGET = 0.02
+TARGET = 0.01
 
 
 def _reference(degrees: int) -> dict:
@@ -69,20 +70,42 @@ def test_stored_reference_is_the_scene():
     assert 0.003 < np.abs(ref["crank_tip"]).max() / 0.12 < 0.02
 
 
-def test_default_quarter_turn_within_two_percent():
+def test_default_quarter_turn_within_one_percent():
     """The first quarter turn (the default suite's short check), peaks of that quarter."""
     ref = _reference(90)
     err = _errors(_symgen([], 90), ref)
     assert all(err[k] <= TARGET for k in ACCEPT), err
 
 
+def test_top_span_function_quasi_static_quarter_turn_within_one_percent():
+    """The guide's second span function quasi-static (``quasi_static_transverse = 1``: with the
+    elastic overhang the span functions vanish beyond the contact, so the key is accepted on a
+    guide; refused before DERIVE_VERSION 11): within 1 % of the reference as the default is (two
+    turns, measured: guide_end 0.47 %, crank_tip 0.21 %, guide_slope 0.55 % against the default's
+    0.45, 0.20, 0.57 %). Both span functions quasi-static are not: the span's first mode (38 per
+    unit tau) is not far above the guide's first (11) and guide_slope reads it (18.8 %)."""
+    ref = _reference(90)
+    err = _errors(_symgen(["bodies.guide.quasi_static_transverse=1"], 90), ref)
+    assert all(err[k] <= TARGET for k in ACCEPT), err
+
+
+def test_quasi_static_span_functions_are_refused_on_a_rigid_overhang():
+    """The seed's rigid overhang moves with every span function's end slope: the key is refused,
+    naming it."""
+    from symgen.api import mechanism
+    from symgen.errors import SceneError
+
+    with pytest.raises(SceneError, match="quasi_static_transverse"):
+        mechanism(SCENE, ['joints.A.overhang="rigid"', "bodies.guide.quasi_static_transverse=1"])
+
+
 @pytest.mark.slow
-def test_default_two_turns_within_two_percent_rigid_overhang_not():
+def test_default_two_turns_within_one_percent_rigid_overhang_not():
     ref = _reference(720)
     err = _errors(_symgen([], 720), ref)
     assert all(err[k] <= TARGET for k in ACCEPT), err
     rigid = _errors(_symgen(['joints.A.overhang="rigid"'], 720), ref)
-    assert rigid["guide_end"] > 10 * TARGET, rigid
+    assert rigid["guide_end"] > 0.2, rigid
 
 
 @pytest.mark.slow
@@ -103,3 +126,26 @@ def test_exudyn_reproduces_the_stored_reference():
     assert (idx >= 0).all()
     err = _errors({name: np.asarray(out[name])[idx] for name in OUTPUTS}, ref)
     assert max(err.values()) < 3e-3, err
+
+
+@pytest.mark.slow
+def test_the_truncation_part_is_estimated_on_the_guide():
+    """The error estimate's truncation part reruns a richer guide (one more span function and one
+    more overhang function: 3 + chi_0 + 5, the crank 5 + 5) instead of saying "not estimated".
+    Measured over two turns: the richer model changes guide_end by 3.5e-6, crank_tip 6.4e-6 and
+    guide_slope 2.5e-3 of peak (the guide's basis is converged in guide_end and crank_tip), while
+    the true errors against the Exudyn reference are 0.45 %, 0.20 % and 0.57 %: the difference is
+    not the truncation (nor the time integration, 4e-6), and the model-form part does not estimate
+    slot guides: the total estimate is 0.002x, 0.02x and 0.45x the true error there (open)."""
+    from symgen.api import mechanism
+    from symgen.numerics import error_estimate
+    from symgen.numerics.simulate import simulate
+
+    mech = mechanism(SCENE, ["simulation.cycles=0.25"])
+    res = simulate(mech)
+    assert res.complete, res.failure
+    sim = mech.scene.simulation
+    est = error_estimate.estimate_errors(mech, res, sim.rtol, sim.atol)
+    assert est.methods["truncation"] != "not estimated", est.reasons
+    assert est.richer["guide"] == [0, mech.scene.body("guide").transverse_modes + 1]
+    assert all(isinstance(est.parts["truncation"][k], float) for k in OUTPUTS)

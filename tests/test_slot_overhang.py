@@ -27,7 +27,10 @@ SCENE = "examples/inverted_slider_crank.toml"
 
 
 def _matrices(nspan: int, nover: int, beta: float):
-    basis = SlotBasis(nspan + nover, BETA, nover)
+    """The guide's matrices with ``nover`` overhang functions of its own (``overhang_modes``; 0:
+    the rigid overhang): the basis adds the contact-slope function chi_0 to them."""
+    nfun = nover + 1 if nover else 0
+    basis = SlotBasis(nspan + nfun, BETA, nfun)
     ipt = SlotIPTable(basis)
     nt = basis.nt
     at = {BETA: beta}
@@ -115,17 +118,56 @@ def test_frequencies_match_finite_elements(beta):
 
 
 def test_functions_are_admissible_at_the_moving_contact():
-    """Every function (span and overhang) is 0 at the contact with continuous value and slope
-    there (eta stays C1) and continuous curvature (so psi_beta keeps a continuous slope);
-    psi_betabeta is continuous (eta'' stays square-integrable with no point mass at the contact)."""
-    basis = SlotBasis(5, BETA, 3)
-    assert [f.label for f in basis.functions][2:] == [r"\chi_{1}", r"\chi_{2}", r"\chi_{3}"]
+    """Every function (span, contact slope, overhang) is 0 at the contact with continuous value
+    and slope there (eta stays C1: admissible for bending), and psi_beta is continuous there, so
+    the velocity g'^T psi + beta' g^T psi_beta is continuous in time at a point the contact passes
+    and the acceleration has no impulse (no point mass at the contact). The span functions and the
+    overhang's own are zero beyond / before the contact; the contact-slope function chi_0 has unit
+    slope there and the curvature of the span's static shape under a moment at the contact (a
+    curvature jump: the support takes the moment's change as a kink of the shear, not of eta)."""
+    basis = SlotBasis(6, BETA, 4)
+    assert [f.label for f in basis.functions] == ["s_{1}", "s_{2}", r"\chi_{0}", r"\chi_{1}", r"\chi_{2}", r"\chi_{3}"]
+    at = {XI: BETA}
     for fn in basis.functions:
-        assert sp.simplify(fn.span.xreplace({XI: BETA})) == 0
+        assert sp.simplify(fn.span.xreplace(at)) == 0
+        for d in range(2):
+            assert sp.simplify((sp.diff(fn.span, XI, d) - sp.diff(fn.overhang, XI, d)).xreplace(at)) == 0
+        s, o = sp.diff(fn.span, BETA), sp.diff(fn.overhang, BETA)
+        assert sp.simplify((s - o).xreplace(at)) == 0
+    s1, s2, c0 = basis.functions[:3]
+    assert s1.overhang == 0 and s2.overhang == 0 and all(f.span == 0 for f in basis.functions[3:])
+    assert sp.simplify(sp.diff(c0.span, XI).xreplace(at) - 1) == 0
+    assert sp.simplify(sp.diff(c0.span, XI, 2).xreplace({XI: 0})) == 0  # no moment at the pin
+    assert sp.simplify(sp.diff(c0.span, XI, 4)) == 0  # unloaded: a cubic
+    rigid = SlotBasis(2, BETA, 0)  # the seed's form: C2 at the contact
+    for fn in rigid.functions:
         for order in range(3):
             s, o = sp.diff(fn.span, BETA, order), sp.diff(fn.overhang, BETA, order)
             for d in range(3 - order):
-                assert sp.simplify((sp.diff(s, XI, d) - sp.diff(o, XI, d)).xreplace({XI: BETA})) == 0
+                assert sp.simplify((sp.diff(s, XI, d) - sp.diff(o, XI, d)).xreplace(at)) == 0
+
+
+def test_the_elastic_layout_contains_the_tangent_continuation_and_decouples_the_stiffness():
+    """The seed's functions psi_k (sine with its tangent continuation) are s_k + psi_k'(beta) chi_0
+    (the basis of the elastic overhang spans them: it is richer, not different), and the bending
+    stiffness is block diagonal in (span, chi_0, overhang): chi_0 is the span's static shape for
+    its end slope (K-orthogonal to the span functions by parts) and straight on the overhang."""
+    beta = sp.Rational(3, 10)
+    el, rigid = SlotBasis(5, BETA, 3), SlotBasis(2, BETA, 0)
+    for k in range(2):
+        slope = (-1) ** (k + 1) * (k + 1) * sp.pi / BETA
+        for part in ("span", "overhang"):
+            diff = (
+                getattr(rigid.functions[k], part)
+                - getattr(el.functions[k], part)
+                - slope * getattr(el.functions[2], part)
+            )
+            assert sp.simplify(diff) == 0
+    K = np.array(SlotIPTable(el).Kt.xreplace({BETA: beta}).evalf(), dtype=float)
+    scale = np.sqrt(np.outer(np.diag(K), np.diag(K)))
+    off = np.abs(K / scale)
+    assert off[:2, 2:].max() < 1e-12 and off[2, 3:].max() < 1e-12
+    assert off[0, 1] > 1e-3 and off[3:, 3:].min() > 1e-3  # coupled within the span and the overhang
 
 
 def test_rigid_overhang_keeps_the_seed_matrices():
@@ -149,18 +191,18 @@ def test_elastic_overhang_is_the_default(tmp_path):
     scene = load_scene(str(write_scene(tmp_path / "s.toml", text)))
     slot = next(j for j in scene.joints if j.kind == "slot")
     assert (slot.overhang, slot.overhang_modes) == ("elastic", 4)
-    assert effective_modes(scene, scene.body("guide")) == (0, 3 + 4)
+    assert effective_modes(scene, scene.body("guide")) == (0, 3 + 1 + 4)  # span, contact slope, overhang
 
 
 def test_scene_keys_default_and_rigid():
     scene = load_scene(SCENE, ["joints.A.overhang=elastic"])  # the example sets the seed's form
     guide = scene.body("guide")
-    assert overhang_modes(scene, guide) == 4
-    assert effective_modes(scene, guide) == (0, guide.transverse_modes + 4)
+    assert overhang_modes(scene, guide) == 1 + 4  # the contact-slope function and the overhang's own
+    assert effective_modes(scene, guide) == (0, guide.transverse_modes + 1 + 4)
     rigid = load_scene(SCENE)
     assert effective_modes(rigid, rigid.body("guide")) == (0, guide.transverse_modes)
     assert structure_of(rigid) != structure_of(scene)
-    assert overhang_modes(load_scene(SCENE, ["joints.A.overhang=elastic", "joints.A.overhang_modes=5"]), guide) == 5
+    assert overhang_modes(load_scene(SCENE, ["joints.A.overhang=elastic", "joints.A.overhang_modes=5"]), guide) == 6
 
 
 @pytest.mark.parametrize(
@@ -208,7 +250,8 @@ def test_latex_of_the_elastic_overhang_shows_and_gives_back_the_model(tmp_path):
     scene = load_scene(SCENE, ["joints.A.overhang=elastic"])
     model = derive(scene)
     doc = latex_document(scene, model)
-    assert r"($\chi_1, \dots, \chi_{4}$" in doc and r"\psi_{6}(\xi, \beta)" in doc
+    assert r"($\chi_1, \dots, \chi_{4}$" in doc and r"\psi_{7}(\xi, \beta)" in doc
+    assert r"$\psi_{3} = \chi_0$ is the" in doc  # the contact-slope function after the 2 span functions
     assert "does not bend" not in doc
     test_guide_equations_give_back_the_model((scene, model, doc))
     if shutil.which("pdflatex"):
@@ -220,3 +263,48 @@ def test_latex_of_the_elastic_overhang_shows_and_gives_back_the_model(tmp_path):
             timeout=300,
         )
         assert run.returncode == 0
+
+
+@pytest.mark.parametrize("beta", [0.14, 0.2])
+def test_short_span_functions_quasi_static_keep_the_guide_frequencies(beta):
+    """With the span short (the overhang 4-6 spans: a crank-shaper's lever at its quick return)
+    the span functions' own frequencies go as 1/beta^2, far above the guide's first ones: without
+    their inertia (quasi-static: stiffness kept, mass dropped; their stiffness does not couple to
+    the other functions, so they only lose their mass) the first two frequencies stay within
+    0.5 % of the finite-element beam's, and the span functions' lowest own frequency is more
+    than 10x the guide's second."""
+    ref = _fe_frequencies(beta)
+    K, M, _, _ = _matrices(4, 4, beta)
+    span, rest = slice(0, 4), slice(4, None)
+    assert np.abs(K[span, rest]).max() < 1e-9 * np.abs(K).max()
+    w_rest = np.sqrt(sl.eigh(K[rest, rest], M[rest, rest], eigvals_only=True))
+    assert w_rest[:2] == pytest.approx(ref[:2], rel=5e-3)
+    w_span = np.sqrt(sl.eigh(K[span, span], M[span, span], eigvals_only=True))
+    assert w_span[0] > 10 * ref[1]
+
+
+@pytest.mark.slow
+def test_stated_span_amplitudes_keep_their_meaning_with_the_contact_slope_function():
+    """An explicit initial g on a guide lists the span's sines with their tangent continuation
+    (as with a rigid overhang): with the elastic overhang the start puts sum_k g_k psi_k'(beta)
+    on the contact-slope function chi_0 (beta at its guess), so the start's shape is the same
+    function of xi; the overhang's own functions start at zero."""
+    from symgen.api import mechanism
+    from symgen.ir.records import CoordKind
+
+    g = [0.01, -0.004]
+    mech = mechanism(
+        SCENE,
+        ["joints.A.overhang=elastic", "joints.A.overhang_modes=2", f"initial.deformation={{guide = {{g = {g}}}}}"],
+    )
+    q, _ = mech.initial_guess()
+    beta = next(q[i] for i, c in enumerate(mech.coords) if c.kind is CoordKind.BETA)
+    amp = [q[i] for i in mech.amplitudes["guide"][1]]
+    assert amp[:2] == pytest.approx(g, abs=0)
+    assert amp[2] == pytest.approx(sum(gk * (-1) ** k * k * np.pi / beta for k, gk in enumerate(g, start=1)), rel=1e-12)
+    assert amp[3:] == [0.0, 0.0]
+    basis, rigid = SlotBasis(5, BETA, 3), SlotBasis(2, BETA, 0)
+    for xi in (0.3 * beta, 0.9 * beta, beta + 0.4 * (1 - beta), 1.0):
+        el = sum(a * float(basis.expr(k, xi).xreplace({BETA: beta})) for k, a in enumerate(amp))
+        seed = sum(a * float(rigid.expr(k, xi).xreplace({BETA: beta})) for k, a in enumerate(g))
+        assert el == pytest.approx(seed, rel=1e-12, abs=1e-15)

@@ -332,8 +332,10 @@ class ModelSpec:
         b = self.body(name)
         if b.rigid or not b.nt:
             return 0
-        return sum(
-            j.overhang[1] for j in self.joints if j.kind == "slot" and j.overhang is not None and j.ends[1].body == name
+        return sum(  # the contact-slope function chi_0 and the overhang's own (symgen.model.structure.overhang_modes)
+            j.overhang[1] + 1
+            for j in self.joints
+            if j.kind == "slot" and j.overhang is not None and j.overhang[1] and j.ends[1].body == name
         )
 
     def to_json(self) -> dict[str, Any]:

@@ -21,20 +21,34 @@ the overhang integrals are polynomials). The guide is axially rigid (a frictionl
 transmits no axial force to it).
 
 Bending overhang (the default when the guide overhangs): the tangent continuation carries no
-bending of its own, so the basis is extended by ``no`` overhang functions
+bending of its own, and it ties the overhang's rotation to every span function. The basis is
+therefore split at the contact, whose slope is the interface of the span and the overhang (the
+Craig-Bampton form of a beam with an interior support; ``nover`` = 1 + ``overhang_modes``):
 
-    chi_m = 0  on [0, beta],   chi_m = (2 (xi - beta))^(m+1)  on [beta, 1]        (m = 2..no)
+    s_k   = sin(k pi xi / beta) - psi_k'(beta) C  on [0, beta],  0 on [beta, 1]   (k = 1..nspan)
+    chi_0 = C                                      on [0, beta],  xi - beta on [beta, 1]
+    chi_m = 0                                      on [0, beta],  4 (1 - beta)^2 P_m(v) on [beta, 1]  (m = 1..no)
 
-and chi_1 = the exact static deflection under a far-end load: on the span the end-moment shape
-xi (xi^2 - beta^2) / beta, on the overhang its tangent continuation plus 3 (xi - beta)^2 (the
-factors keep the functions of order 1 at the far end for overhangs near half the guide, so the
-amplitudes measure the deflection). Zero value and continuous slope at the contact: eta stays
-C1 there, eta(beta) = 0 still holds.
-They are appended to psi (psi_{nt+m} = chi_m), so their beta derivatives enter eta' and eta''
-exactly as above, and every inner product stays a closed form in beta (polynomial on the overhang; beta < 1: with no
-overhang left its functions vanish). The
-bending stiffness (psi'', psi'') covers the span and the overhang (the tangent continuation
-contributes nothing there, so the seed's rigid-overhang form, ``no = 0``, is unchanged).
+with v = (xi - beta) / (1 - beta), P_m the polynomials of v^2 .. v^(m+1) orthogonal on [0, 1] with
+P_m(1) = 1 (``_overhang_polynomial``: the powers themselves are nearly dependent), and
+C = xi (xi^2 - beta^2) / (2 beta^2), the span's static shape under a moment at the contact
+(zero moment at the pin, unit slope at the contact). The span functions have zero value and slope
+at the contact and vanish on the overhang; the overhang's own functions vanish on the span; chi_0
+(the contact-slope function) carries the overhang's rotation. The seed's functions are
+psi_k = s_k + psi_k'(beta) chi_0 and the former static tip-load function is 2 beta chi_0 + 3/4 chi_1,
+so the basis spans the former one and more (one function more). The bending stiffness is block
+diagonal: chi_0 is K-orthogonal to the span functions (C is the static solution: by parts, the
+boundary terms vanish) and to the overhang's (straight there); the blocks couple through the mass
+only. A span function is then the span's own shape: its frequencies go as 1/beta^2 and it may
+be quasi-static (``quasi_static_transverse``) without dropping the overhang's inertia.
+Every function is C1 at the contact (chi_0 and the s_k have a curvature jump there: the support
+takes the moment's change as a kink of the shear), so psi_beta is continuous and eta' has no jump
+in time where the contact passes a point (no impulse in eta''). They are appended to the span's
+(psi_{nspan+1+m} = chi_m), so their beta derivatives enter eta' and eta'' exactly as above, and
+every inner product stays a closed form in beta (polynomial on the overhang; beta < 1: with no
+overhang left its functions vanish). The bending stiffness (psi'', psi'') covers the span and the
+overhang (the tangent continuation contributes nothing there, so the seed's rigid-overhang form,
+``no = 0``, is unchanged).
 """
 
 from __future__ import annotations
@@ -51,24 +65,55 @@ _U = sp.Symbol("u", real=True)
 _V = sp.Symbol("v", real=True)
 
 
-def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None) -> tuple:
-    """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi; k > nspan:
-    the overhang function chi_{k - nspan} (zero value and slope at the contact)."""
-    if nspan is not None and k > nspan:
-        m = k - nspan
-        if m == 1:  # with the span's end-moment shape: the exact static tip-load deflection
-            span = XI * (XI**2 - beta**2) / beta
-            over = 2 * beta * (XI - beta) + 3 * (XI - beta) ** 2
+def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None, nover: int = 0) -> tuple:
+    """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi.
+
+    ``nover = 0`` (the seed's rigid overhang): psi_k = sin(k pi xi / beta) with its tangent
+    continuation. ``nover > 0`` (elastic overhang, the contact's slope as the interface of the
+    span and the overhang): k <= nspan: the span function s_k = sin(k pi xi / beta) - psi_k'(beta) C
+    (zero value and slope at the contact, zero on the overhang); k = nspan + 1: the contact-slope
+    function S = C on the span, xi - beta on the overhang (C = xi (xi^2 - beta^2) / (2 beta^2), the
+    span's static shape under a moment at the contact, unit slope there); k > nspan + 1: the
+    overhang's own function chi_m = 4 (1 - beta)^2 P_m((xi - beta) / (1 - beta)), m = k - nspan - 1 (zero value and slope
+    at the contact, zero on the span)."""
+    if nover and nspan is not None and k > nspan:
+        m = k - nspan - 1
+        if m == 0:
+            span = XI * (XI**2 - beta**2) / (2 * beta**2)
+            over = XI - beta
         else:
-            span, over = sp.Integer(0), (2 * (XI - beta)) ** (m + 1)
+            span, over = (
+                sp.Integer(0),
+                4 * (1 - beta) ** 2 * _overhang_polynomial(m).xreplace({_V: (XI - beta) / (1 - beta)}),
+            )
         return (
             (span, sp.diff(span, beta), sp.diff(span, beta, 2)),
             (over, sp.diff(over, beta), sp.diff(over, beta, 2)),
         )
     span = sp.sin(k * sp.pi * XI / beta)
     slope = (-1) ** k * k * sp.pi / beta  # d psi_k / d xi at xi = beta
-    over = slope * (XI - beta)
+    if nover:
+        span = span - slope * XI * (XI**2 - beta**2) / (2 * beta**2)
+        over = sp.Integer(0)
+    else:
+        over = slope * (XI - beta)
     return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)), (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+
+
+@cache
+def _overhang_polynomial(m: int) -> sp.Expr:
+    """P_m(v), m >= 1: v^(m+1) less its projections on P_1, ..., P_(m-1) in the mass inner
+    product int_0^1 f g dv (exact rationals), scaled to P_m(1) = 1: zero value and slope at
+    v = 0. The overhang's own functions 4 (1 - beta)^2 P_m((xi - beta) / (1 - beta)) span the same
+    functions as the powers (xi - beta)^2 .. (xi - beta)^(m+1) at each beta, mass-orthogonal to
+    each other: the powers themselves grow nearly dependent (the mass matrix's condition ~40x
+    per function)."""
+    basis = [_overhang_polynomial(j) for j in range(1, m)]
+    p = _V ** (m + 1)
+    for q in basis:
+        p -= sp.integrate(p * q, (_V, 0, 1)) / sp.integrate(q * q, (_V, 0, 1)) * q
+    p = sp.expand(p)
+    return sp.expand(p / p.xreplace({_V: 1}))
 
 
 def _span_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
@@ -123,7 +168,7 @@ def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     blocks_s: list = [[], [], []]
     blocks_o: list = [[], [], []]
     for k in range(1, nt + 1):
-        s, o = _pieces(k, beta, nt - nover)
+        s, o = _pieces(k, beta, nt - nover, nover)
         for b in range(3):
             blocks_s[b].append(s[b])
             blocks_o[b].append(o[b])
@@ -169,8 +214,11 @@ class SlotBasis:
             raise ValueError(f"nover = {self.nover} overhang functions of nt = {self.nt}")
         fs = []
         for k in range(1, self.nt + 1):
-            (s, _, _), (o, _, _) = _pieces(k, self.beta, self.nspan)
-            label = rf"\sin({k}\pi\xi/\beta)" if k <= self.nspan else rf"\chi_{{{k - self.nspan}}}"
+            (s, _, _), (o, _, _) = _pieces(k, self.beta, self.nspan, self.nover)
+            if k > self.nspan:  # chi_0: the contact-slope function, chi_m: the overhang's own
+                label = rf"\chi_{{{k - self.nspan - 1}}}"
+            else:
+                label = rf"s_{{{k}}}" if self.nover else rf"\sin({k}\pi\xi/\beta)"
             fs.append(SlotFunction(label, s, o))
         self.functions = tuple(fs)
 
@@ -184,7 +232,7 @@ class SlotBasis:
 
     def expr(self, k: int, xi, deriv: int = 0, dbeta: int = 0) -> sp.Expr:
         """d^deriv/dxi^deriv d^dbeta/dbeta^dbeta psi_k at xi (a number or a symbol)."""
-        (s, _, _), (o, _, _) = _pieces(k + 1, self.beta, self.nspan)
+        (s, _, _), (o, _, _) = _pieces(k + 1, self.beta, self.nspan, self.nover)
         s = sp.diff(s, XI, deriv) if deriv else s
         o = sp.diff(o, XI, deriv) if deriv else o
         if dbeta:
@@ -193,6 +241,8 @@ class SlotBasis:
         s, o = s.xreplace({XI: xi}), o.xreplace({XI: xi})
         if xi.is_Symbol and xi == self.beta:
             return s
+        if self.nover and xi.is_number and xi >= 1:  # the far end: beyond the contact (beta < 1), where the
+            return o  # span functions vanish (a joint there does not read them: they may be quasi-static)
         return sp.Piecewise((s, xi <= self.beta), (o, True))
 
     def values(self, xi, deriv: int = 0) -> list:

@@ -35,7 +35,7 @@ from symgen.scene.bases import axial_ringing, axial_separation
 from symgen.scene.bases import interior_points as interior_points
 from symgen.scene.model import GROUND, Scene
 
-DERIVE_VERSION = "10"  # 10: the exact bar's sums over E6 and C5 at Gauss nodes where that is cheaper (the same polynomials); 9: the exact bar's strain energy with -(lambda/2) int (P eps)^2 eta'^2 (|r'| - 1 = eps (1 - eta'^2/2), table Q4); 8: the exact bar's strain to fourth order (eta'^4/8, table C5) and the damping of its curvature rate (H4); 7: the exact bar to sixth order (curvature eta'^4 eta''^2, strain eta'^4/8); 6: Kelvin-Voigt damping on the von Karman strain rate; 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
+DERIVE_VERSION = "11"  # 11: a slot guide with an elastic overhang: span functions zero beyond the contact (zero slope there) and the contact-slope function chi_0 (symgen.model.slot); 10: the exact bar's sums over E6 and C5 at Gauss nodes where that is cheaper (the same polynomials); 9: the exact bar's strain energy with -(lambda/2) int (P eps)^2 eta'^2 (|r'| - 1 = eps (1 - eta'^2/2), table Q4); 8: the exact bar's strain to fourth order (eta'^4/8, table C5) and the damping of its curvature rate (H4); 7: the exact bar to sixth order (curvature eta'^4 eta''^2, strain eta'^4/8); 6: Kelvin-Voigt damping on the von Karman strain rate; 5: coordinate records carry their joint; 4: projected von Karman strain energy, per-bar axial treatment, rotary inertia
 
 
 def effective_modes(scene: Scene, body) -> tuple[int, int]:
@@ -49,11 +49,16 @@ def effective_modes(scene: Scene, body) -> tuple[int, int]:
 
 
 def overhang_modes(scene: Scene, body) -> int:
-    """Number of the overhang's own bending functions of a slot guide (0: rigid overhang, the
-    seed's form, no bending, or not a guide)."""
+    """Number of a slot guide's functions after its span functions: with an elastic overhang the
+    contact-slope function chi_0 and the overhang's ``overhang_modes`` own bending functions (0:
+    rigid overhang, the seed's form, no bending, or not a guide; ``symgen.model.slot``)."""
     if body.rigid or not (scene.effects.transverse and body.transverse_modes):
         return 0
-    return sum(j.overhang_modes for j in scene.joints if j.kind == "slot" and j.ends[1].body == body.name)
+    return sum(
+        j.overhang_modes + 1
+        for j in scene.joints
+        if j.kind == "slot" and j.ends[1].body == body.name and j.overhang_modes
+    )
 
 
 #: ``effects.axial = "auto"`` eliminates a bar's axial dynamics when its first axial frequency is

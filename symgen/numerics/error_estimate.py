@@ -6,7 +6,8 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
 * **truncation** -- how much the output would change with more functions per bar. An
   *embedded richer model* -- the same scene with ``EXTRA_AXIAL`` more axial and
   ``EXTRA_TRANSVERSE`` more transverse functions on every elastic bar that has them (a slot's
-  guide keeps its counts), derived once and cached like any model (its added axial functions
+  guide with an elastic overhang ``EXTRA_GUIDE`` more span functions and as many more overhang
+  functions; with a rigid overhang it keeps its counts), derived once and cached like any model (its added axial functions
   quasi-static from a quasi-static start, else dynamic: :func:`richer_scene`) -- is evaluated
   against the run, in one of two ways (``TRUNCATION_METHODS``):
 
@@ -139,6 +140,11 @@ __all__ = [
 #: the richer model of the truncation part: this many more functions per elastic bar
 EXTRA_TRANSVERSE = 2
 EXTRA_AXIAL = 2
+#: a slot guide's richer model (elastic overhang): this many more span functions and this many more
+#: of the overhang's own (the guide's derivation grows steeply with its functions: 2 + 1 + 4 of the
+#: overhang reference take minutes; its true error against Exudyn and the estimate:
+#: tests/test_overhang_reference.py)
+EXTRA_GUIDE = 1
 #: sampled outputs of the truncation part (all of them when the run has fewer)
 MAX_SAMPLES = 2000
 #: how the truncation part is computed: "rerun" (a second run of the richer model: honest also
@@ -533,10 +539,14 @@ class TruncationNotEstimated(Exception):
 
 
 # ---------------------------------------------------------------------- truncation
-def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
+def richer_scene(scene: Any, guides: bool = True) -> tuple[Any, dict[str, list[int]]]:
     """The scene with ``EXTRA_AXIAL`` / ``EXTRA_TRANSVERSE`` more functions on every elastic bar
-    that has functions of that kind (a slot's guide keeps its counts: its span and overhang
-    functions move with the support), and bar -> [axial, transverse] counts as written.
+    that has functions of that kind (a slot's guide with an elastic overhang ``EXTRA_GUIDE`` more
+    span functions and as many more of its overhang's own: the richer basis spans the run's, the
+    span functions being the span's own and the overhang's polynomials hierarchical; with a rigid
+    overhang the guide keeps its counts), and bar -> [axial, transverse] counts as written (a
+    guide's transverse count: its span functions). ``guides=False``: every guide keeps its counts
+    (the linearized truncation part, whose state map follows the functions by their places).
 
     The added axial functions are quasi-static (the bar's ``BasisChoice.quasi_axial`` raised by
     their number: the run's own quasi-static axial functions stay so, a function the closure
@@ -559,8 +569,22 @@ def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
     choices = {c.bar: c for c in scene.bases}
     quasi_static_start = bool(scene.initial.quasi_static)
     bases = []
+    joints = list(scene.joints)
     for b in scene.bodies:
-        if b.rigid or slot_guide(scene, b.name):
+        if not b.rigid and slot_guide(scene, b.name):
+            slots = [i for i, j in enumerate(joints) if j.kind == "slot" and j.ends[1].body == b.name]
+            if not (guides and eff.transverse and b.transverse_modes) or not all(
+                joints[i].overhang_modes for i in slots
+            ):
+                bodies.append(b)  # a rigid overhang: each span function carries it (kept)
+                continue
+            for i in slots:
+                joints[i] = dataclasses.replace(joints[i], overhang_modes=joints[i].overhang_modes + EXTRA_GUIDE)
+            nt = b.transverse_modes + EXTRA_GUIDE
+            bodies.append(dataclasses.replace(b, transverse_modes=nt))
+            counts[b.name] = [b.axial_modes, nt]
+            continue
+        if b.rigid:
             bodies.append(b)
             continue
         na = b.axial_modes + (EXTRA_AXIAL if eff.axial is not False and b.axial_modes else 0)
@@ -574,7 +598,7 @@ def richer_scene(scene: Any) -> tuple[Any, dict[str, list[int]]]:
         if c is not None:
             bases.append(c)
     bases += choices.values()
-    return dataclasses.replace(scene, bodies=tuple(bodies), bases=tuple(bases)), counts
+    return dataclasses.replace(scene, bodies=tuple(bodies), joints=tuple(joints), bases=tuple(bases)), counts
 
 
 #: the richer models loaded in this process: (cache root, richer scene) -> the mechanism; the
@@ -585,7 +609,7 @@ RICHER_KEPT = 4
 
 def nothing_to_add(scene: Any) -> str:
     """Why the richer model of ``scene`` (:func:`richer_scene`) adds no function: its elastic bars
-    are slot guides, whose span and overhang functions move with the support, or it has none."""
+    are slot guides with a rigid overhang, whose span functions carry the overhang, or it has none."""
     from symgen.model.structure import slot_guide
 
     guides = [b.name for b in scene.bodies if not b.rigid and slot_guide(scene, b.name)]
@@ -593,18 +617,18 @@ def nothing_to_add(scene: Any) -> str:
         return "the model has no elastic functions to add to"
     which = f"{guides[0]} is a slot's guide" if len(guides) == 1 else f"{', '.join(guides)} are slots' guides"
     return (
-        f"the richer model adds functions to no bar: {which}, whose span and overhang functions move "
-        "with the support (compare a run with its transverse_modes raised by hand)"
+        f"the richer model adds functions to no bar: {which} with a rigid overhang, whose span functions "
+        'carry the overhang (compare a run with its transverse_modes raised by hand, or overhang = "elastic")'
     )
 
 
-def richer_mechanism(mech: Mechanism) -> tuple[Mechanism, dict[str, list[int]]]:
+def richer_mechanism(mech: Mechanism, guides: bool = True) -> tuple[Mechanism, dict[str, list[int]]]:
     """The embedded richer model of ``mech`` (derived once, then from the model cache; loaded
-    once per process and cache)."""
+    once per process and cache); ``guides``: as :func:`richer_scene`."""
     from symgen import cache
     from symgen.numerics.mechanism import load_mechanism
 
-    scene, counts = richer_scene(mech.scene)
+    scene, counts = richer_scene(mech.scene, guides)
     key = (str(cache.cache_root()), scene)
     try:
         hash(key)
@@ -900,11 +924,23 @@ def truncation_deltas(
     richer counts): what the richer model changes along the run (:func:`truncation_part`)."""
     import casadi as ca
 
+    from symgen.model.structure import slot_guide
+
     counts: dict[str, list[int]]
-    if richer is None:
-        richer, counts = richer_mechanism(mech)
+    if richer is None:  # a guide keeps its counts: the state map follows the functions by their places
+        richer, counts = richer_mechanism(mech, guides=False)
     else:
         counts = {b: [md.axial, md.transverse] for b, md in richer.info.modes.items()}
+        if any(
+            not b.rigid
+            and slot_guide(mech.scene, b.name)
+            and len(richer.info.amplitudes[b.name][1]) != len(mech.info.amplitudes[b.name][1])
+            for b in mech.scene.bodies
+        ):
+            raise TruncationNotEstimated(
+                "the linearized truncation part does not map a richer slot guide's functions (its span, "
+                'contact-slope and overhang functions change places with the counts): truncation_method = "rerun"'
+            )
     if not any(mech.info.amplitudes.values()) or richer.info.n == mech.info.n:
         raise TruncationNotEstimated(nothing_to_add(mech.scene))
     T, S = _state_map(mech, richer)

@@ -334,7 +334,28 @@ class Mechanism:
                     q[i] = vals[c.index]
                 if c.index < len(rates):
                     v[i] = rates[c.index]
+        self._guide_slope_start(q, v)
         return q, v
+
+    def _guide_slope_start(self, q: np.ndarray, v: np.ndarray) -> None:
+        """A guide with an elastic overhang whose file states its span amplitudes g (the sines
+        sin(k pi xi / beta) with their tangent continuation, as written): the span functions s_k
+        have zero slope at the contact, so the contact-slope function chi_0 starts at
+        sum_k g_k psi_k'(beta) (and its rate likewise), beta at its guess (``symgen.model.slot``)."""
+        sc = self.scene
+        for j in sc.joints:
+            if j.kind != "slot" or not j.overhang_modes:
+                continue
+            name = j.ends[1].body
+            d = dict(sc.initial.deformation).get(name)
+            if d is None or not (d.g or d.gdot):
+                continue
+            idx = self.amplitudes[name][1]
+            nspan = len(idx) - j.overhang_modes - 1
+            b = next(q[i] for i, c in enumerate(self.coords) if c.kind is CoordKind.BETA and c.joint == j.name)
+            slope = np.array([(-1) ** k * k * np.pi / b for k in range(1, nspan + 1)])
+            q[idx[nspan]] = float(slope @ q[list(idx[:nspan])])
+            v[idx[nspan]] = float(slope @ v[list(idx[:nspan])])
 
     def initial_state(self, t0: float = 0.0) -> start.State:
         """Consistent (q, v, a, lam) at t0 and the coordinate partition (``start.consistent_start``)."""
@@ -360,7 +381,8 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
     treatment would be inconsistent: a function that moves a joint (its amplitude appears in the
     loop closure ``phi_q``: its rate and acceleration would be missing from the velocity and
     acceleration closure; an inextensibility row may read it: the axial shortening then follows
-    the quasi-static amplitude's value, its rate only the dynamic ones'), a slot's guide (its overhang's functions follow the span's), polynomial
+    the quasi-static amplitude's value, its rate only the dynamic ones'), a slot's guide with a rigid overhang (its span functions carry the overhang's rotation; with an elastic
+    overhang the span functions s_k are zero beyond the contact, ``symgen.model.slot``), polynomial
     shapes (not ordered by frequency), more functions than the bar has."""
     scene = mech.scene
     chosen = {c.bar: c.quasi for c in scene.bases if c.quasi}
@@ -381,12 +403,16 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
                 'quasi-static functions need transverse_shapes ordered by frequency, not "polynomial"',
                 'use transverse_shapes = "modes" or "eigen", or leave out quasi_static_transverse',
             )
-        if any(j.kind == "slot" and any(e.body == body.name and e.variable for e in j.ends) for j in scene.joints):
+        if any(
+            j.kind == "slot" and not j.overhang_modes and any(e.body == body.name and e.variable for e in j.ends)
+            for j in scene.joints
+        ):
             raise SceneError(
                 scene.path,
                 key,
-                "a slot's guide cannot have quasi-static functions (its overhang's functions follow the span's)",
-                "leave out quasi_static_transverse on the guide",
+                "a slot's guide with a rigid overhang cannot have quasi-static functions (each span function "
+                "carries the overhang's rotation with its end slope)",
+                'leave out quasi_static_transverse on the guide, or set the slot\'s overhang = "elastic"',
             )
         if k > nt:
             raise SceneError(

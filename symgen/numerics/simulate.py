@@ -269,10 +269,12 @@ class DaeRunner:
 
     def quasi_start(self, t0: float, x: np.ndarray, z: np.ndarray) -> np.ndarray:
         """z at t0 with the quasi-static amplitudes (and with them a, lam) solved from the
-        algebraic equations by Newton from the full model's consistent start; refused when it
-        does not converge (a quasi-static function near buckling: keep it dynamic)."""
+        algebraic equations by Newton from the full model's consistent start (converged as
+        ``POLICY.quasi_start_tol`` and ``quasi_start_floor`` say); refused when it does not
+        converge (a quasi-static function near buckling: keep it dynamic)."""
         p = np.concatenate([self.mech.p, [t0]])
         z = np.array(z, dtype=float)
+        last = np.inf
         for _ in range(POLICY.quasi_start_maxit):
             g, J = self.g(0.0, x, z, p)
             try:
@@ -282,8 +284,10 @@ class DaeRunner:
             z = z - dz
             if not np.all(np.isfinite(z)):
                 break
-            if np.abs(dz).max() <= POLICY.quasi_start_tol * max(1.0, np.abs(z).max()):
+            step, size = np.abs(dz).max(), max(1.0, np.abs(z).max())
+            if step <= POLICY.quasi_start_tol * size or (step <= POLICY.quasi_start_floor * size and step > 0.5 * last):
                 return z
+            last = step
         raise SimulationError(
             t0,
             "the quasi-static transverse amplitudes have no solution at the start (Newton does not converge)",

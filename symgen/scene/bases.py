@@ -51,9 +51,14 @@ The floating-frame model carries each bar's static corrections at its interior p
 transverse and axial, as the derived model does (:class:`_CoupledEstimate`). Functions are added where the worst mode's shape is least
 represented until the estimate meets the accuracy (measured: a steel crank-rocker's driver
 torque 4.6 % -> 1.4 % of 6 + 8 functions, a released double pendulum's tips 3.8 % -> 0.27 %;
-benchmarks/RESULTS.md "Accuracy-driven bases"). Not covered: slots, sliders between two bars,
+benchmarks/RESULTS.md "Accuracy-driven bases"). A slot's guide with an elastic overhang is
+frozen at the start's contact beta0 (its span functions, the contact-slope function and the
+overhang's own functions on its nodes, :func:`_guide_functions`; the slot keeps the pin's point
+on the guide's line); its span functions may be quasi-static above the span's band
+(:func:`guide_band`). Not covered: a guide with a rigid overhang, sliders between two bars,
 masses beside a bar (the reason says so; each bar's own choice stands), the preload and speed
-of the run (the model is linear about the undeformed start), other positions of the cycle.
+of the run (the model is linear about the undeformed start), other positions of the cycle (a
+guide's other contacts).
 
 The start's axial ringing (:func:`axial_ringing`): a start that is not quasi-static rings a bar's
 first axial mode by the jump to its quasi-static stretch; where that exceeds the accuracy in the
@@ -80,7 +85,7 @@ if TYPE_CHECKING:
 else:
     from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
-from symgen.scene.model import GROUND, Body, JointEnd, Scene
+from symgen.scene.model import GROUND, Body, Joint, JointEnd, Scene
 
 #: harmonics of the driver rate in the inertia loads of a mechanism (a slider-crank's piston
 #: force has its 2nd and 4th harmonics): the run must resolve up to this multiple of the rate.
@@ -506,6 +511,12 @@ def _ritz_error(bar: _Bar, B: np.ndarray, reference: np.ndarray, count: int) -> 
 #: bending modes within 1.2e-4 of the closed form; the Ritz model is compared with it on the same
 #: elements, so its frequency errors are those of the functions)
 COUPLED_ELEMENTS = 16
+#: elements on a slot guide's span [0, beta] of the coupled model (besides COUPLED_ELEMENTS over
+#: the whole guide): its span functions are sin(k pi xi / beta), up to MAX_CHOSEN half waves
+GUIDE_SPAN_ELEMENTS = 3 * MAX_CHOSEN
+#: a guide's contact at the start within this of an end of the guide: not checked (no span or
+#: no overhang left for the functions)
+CONTACT_MARGIN = 0.02
 #: a ringing mode's phase error saturates: the run's and the reference's ringing then differ by up to
 #: twice its amplitude
 PHASE_CAP = 2.0
@@ -535,6 +546,29 @@ QUASI_PHASE_SAFETY = 10.0
 QUASI_GAIN = 1.5
 
 
+def _guide_functions(x: np.ndarray, beta: float, nspan: int, nover: int) -> tuple[np.ndarray, np.ndarray]:
+    """A guide's transverse functions with an elastic overhang at the contact ``beta`` as dofs
+    (w, dw/dxi) on nodes ``x`` (columns; ``symgen.model.slot``): (its ``nspan`` span functions
+    s_k = sin(k pi xi / beta) - psi_k'(beta) C, zero beyond the contact; the contact-slope function
+    chi_0 and the overhang's ``nover`` own functions). The overhang's functions as the powers
+    v^2 .. v^(m+1), v = (xi - beta) / (1 - beta): the same span as the derived model's orthogonal
+    polynomials (only the span enters a Ritz model)."""
+    on = x <= beta
+    C = np.where(on, x * (x * x - beta * beta) / (2 * beta * beta), x - beta)
+    dC = np.where(on, (3 * x * x - beta * beta) / (2 * beta * beta), 1.0)
+    span = []
+    for k in range(1, nspan + 1):
+        slope = (-1) ** k * k * np.pi / beta
+        w = np.where(on, np.sin(k * np.pi * x / beta) - slope * C, 0.0)
+        dw = np.where(on, k * np.pi / beta * np.cos(k * np.pi * x / beta) - slope * dC, 0.0)
+        span.append(np.ravel(np.column_stack([w, dw])))
+    v = np.where(on, 0.0, (x - beta) / (1 - beta))
+    over = [np.ravel(np.column_stack([C, dC]))]
+    for m in range(1, nover + 1):
+        over.append(np.ravel(np.column_stack([v ** (m + 1), (m + 1) * v**m / (1 - beta)])))
+    return np.array(span).T, np.array(over).T
+
+
 @dataclass(frozen=True)
 class _Part:
     """One body of the coupled model: its dofs in the global vector, its nodes (elastic bars:
@@ -548,21 +582,27 @@ class _Part:
 
 
 def _placement(scene: Scene, guess: dict[str, float]) -> dict[str, tuple[np.ndarray, float]] | None:
-    """Each bar's end xi = 0 and its angle at the start: the loop closure (pins, sliders, angle
-    drivers at their initial angles) solved by Gauss-Newton from the guess (None: not closed)."""
+    """Each bar's end xi = 0 and its angle at the start: the loop closure (pins, sliders, slots,
+    angle drivers at their initial angles) solved by Gauss-Newton from the guess (None: not
+    closed). A slot joint's entry (its name) holds its contact beta in place of an angle (the
+    guess's key for it too)."""
     names = [b.name for b in scene.bodies]
     alpha = {b.name: b.alpha for b in scene.bodies}
     fixed = {d.body: float(d.initial) for d in scene.drivers if d.kind == "angle" and d.initial is not None}
-    z = np.zeros(3 * len(names))
+    slots = [j for j in scene.joints if j.kind == "slot"]
+    z = np.zeros(3 * len(names) + len(slots))
     for i, n in enumerate(names):
         z[3 * i + 2] = fixed.get(n, guess.get(n, 0.0))
+    for k, j in enumerate(slots):
+        z[3 * len(names) + k] = guess.get(j.name, 0.5)
 
-    def point(z, end):
+    def point(z, end, joint=None):
         if end.body == GROUND:
             return np.array(end.point, dtype=float)
         i = names.index(end.body)
         th = z[3 * i + 2]
-        return z[3 * i : 3 * i + 2] + float(end.xi) * alpha[end.body] * np.array([math.cos(th), math.sin(th)])
+        xi = z[3 * len(names) + slots.index(joint)] if end.variable else float(end.xi)
+        return z[3 * i : 3 * i + 2] + xi * alpha[end.body] * np.array([math.cos(th), math.sin(th)])
 
     def residual(z):
         out = []
@@ -570,6 +610,8 @@ def _placement(scene: Scene, guess: dict[str, float]) -> dict[str, tuple[np.ndar
             a, b = j.ends
             if j.kind == "pin":
                 out += list(point(z, a) - point(z, b))
+            elif j.kind == "slot":  # the pin's point at the guide's contact beta
+                out += list(point(z, a, j) - point(z, b, j))
             else:  # slider: the bar's point on the ground's line
                 bar, ground = (a, b) if b.body == GROUND else (b, a)
                 line = np.array(j.direction, dtype=float)
@@ -609,13 +651,83 @@ def _placement(scene: Scene, guess: dict[str, float]) -> dict[str, tuple[np.ndar
         z = z - np.linalg.lstsq(J, r, rcond=None)[0]
     if np.max(abs(residual(z)), initial=0.0) > 1e-8:
         return None
-    return {n: (z[3 * i : 3 * i + 2], float(z[3 * i + 2])) for i, n in enumerate(names)}
+    out = {n: (z[3 * i : 3 * i + 2], float(z[3 * i + 2])) for i, n in enumerate(names)}
+    for k, j in enumerate(slots):
+        out[j.name] = (np.zeros(2), float(z[3 * len(names) + k]))
+    return out
+
+
+def _guide_slots(scene: Scene) -> dict[str, Joint]:
+    """Elastic guide bar -> its slot joint (the guide is the slot's second end, ``variable``)."""
+    out: dict[str, Joint] = {}
+    for j in scene.joints:
+        if j.kind == "slot" and not scene.body(j.ends[1].body).rigid:
+            out.setdefault(j.ends[1].body, j)
+    return out
+
+
+#: a guide's elastic-overhang functions are checked up to an overhang of this many spans
+#: (tests/test_slot_overhang.py: the frozen guide's first three frequencies within 2.5 % of the
+#: finite-element beam's up to six spans, within 0.4 % up to one)
+OVERHANG_SPANS_CHECKED = 6.0
+
+
+def contact_range(scene: Scene, guess: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """Slot joint -> (least, largest) contact beta over one turn of the angle drivers
+    (``RINGING_POSITIONS`` positions of the rigid mechanism, each placed from the previous one;
+    the start alone without a driver at a rate): the range the guide's basis must carry."""
+    slots = [j for j in scene.joints if j.kind == "slot"]
+    if not slots:
+        return {}
+    angle = [d for d in scene.drivers if d.kind == "angle" and d.initial is not None and d.law is None]
+    rate = max((abs(d.rate) for d in angle), default=0.0)
+    taus = [k * 2 * math.pi / rate / RINGING_POSITIONS for k in range(RINGING_POSITIONS)] if rate > 0 else [0.0]
+    seen: dict[str, list[float]] = {j.name: [] for j in slots}
+    prev = dict(guess)
+    for tau in taus:
+        drivers = tuple(
+            replace(d, initial=float(d.initial or 0.0) + d.rate * tau) if d in angle else d for d in scene.drivers
+        )
+        place = _placement(replace(scene, drivers=drivers), prev)
+        if place is None:
+            continue
+        prev = {n: a for n, (_, a) in place.items()}
+        for j in slots:
+            seen[j.name].append(place[j.name][1])
+    return {n: (min(b), max(b)) for n, b in seen.items() if b}
+
+
+def _overhang_warning(scene: Scene, name: str, guess: dict[str, float]) -> str:
+    """A warning where guide ``name``'s elastic overhang exceeds OVERHANG_SPANS_CHECKED spans at a
+    position of the turn ("" otherwise)."""
+    joints = [j for j in scene.joints if j.kind == "slot" and j.ends[1].body == name and j.overhang_modes]
+    if not joints:
+        return ""
+    ranges = contact_range(scene, guess)
+    for j in joints:
+        if j.name not in ranges:
+            continue
+        lo = ranges[j.name][0]
+        if 0.0 < lo < 1.0 and (1.0 - lo) / lo > OVERHANG_SPANS_CHECKED:
+            return (
+                f"joints.{j.name}: the contact reaches beta = {lo:.3g} of {name} over the turn: its overhang is "
+                f"{(1.0 - lo) / lo:.3g} spans, beyond the {OVERHANG_SPANS_CHECKED:g} the overhang's "
+                f"{j.overhang_modes} functions were checked for (the guide's frequencies within 2.5 %); "
+                f"compare a run with joints.{j.name}.overhang_modes raised"
+            )
+    return ""
 
 
 def _coupled_supported(scene: Scene) -> str:
-    """'' when the coupled model covers the scene, else what it does not cover."""
-    if any(j.kind == "slot" for j in scene.joints):
-        return "slots"
+    """'' when the coupled model covers the scene, else what it does not cover. A slot's guide
+    is covered with an elastic overhang (its span functions, the contact-slope function and
+    the overhang's own functions at the start's contact, ``symgen.model.slot``); with a rigid
+    overhang (each span function carries the overhang's rotation) it is not."""
+    guides = [j.ends[1].body for j in scene.joints if j.kind == "slot" and not scene.body(j.ends[1].body).rigid]
+    if len(set(guides)) < len(guides):
+        return "a guide with two slots"
+    if any(j.kind == "slot" and j.ends[1].body in guides and not j.overhang_modes for j in scene.joints):
+        return "a slot's guide with a rigid overhang"
     if any(m.offset is not None for m in scene.masses):
         return "masses beside a bar (offset)"
     if any(j.kind == "slider" and all(e.body != GROUND for e in j.ends) for j in scene.joints):
@@ -652,12 +764,17 @@ class _Coupled:
         self.scene = scene
         self.inextensible = inextensible
         self.parts: dict[str, _Part] = {}
+        #: guide -> (its slot joint, the contact beta at the start)
+        self.guides = {g: (j, float(place[j.name][1])) for g, j in _guide_slots(scene).items()}
         start = 0
         for body in scene.bodies:
             if body.rigid:
                 x = np.zeros(1)
             else:
                 x = _reference_bar(scene, body, interior_points(scene, body.name), True, COUPLED_ELEMENTS).x
+                if body.name in self.guides:  # the span's functions (sin(k pi xi / beta)) need its own elements
+                    b0 = self.guides[body.name][1]
+                    x = np.unique(np.concatenate([x, np.linspace(0.0, b0, GUIDE_SPAN_ELEMENTS + 1)]).round(12))
             origin, theta = place[body.name]
             self.parts[body.name] = _Part(body, start, x, theta, origin)
             start += 3 * len(x)
@@ -672,11 +789,14 @@ class _Coupled:
 
     # dofs ---------------------------------------------------------------------------------------
     def translation(self, end) -> np.ndarray:
-        """2 x n: the global displacement of a joint end's point (zero for ground)."""
+        """2 x n: the global displacement of a joint end's point (zero for ground; a slot's
+        guide end: its material point at the start's contact)."""
         row = np.zeros((2, self.n))
         if end.body == GROUND:
             return row
         p = self.parts[end.body]
+        if end.xi is None:
+            end = JointEnd(end.body, self.guides[end.body][1])
         c, s = math.cos(p.theta), math.sin(p.theta)
         if p.body.rigid:
             arm = float(end.xi) * p.body.alpha
@@ -693,6 +813,10 @@ class _Coupled:
             row[p.start + 2] = 1.0
         elif p.body.frame == "cantilever":
             row[p.start + 3 * _node(p.x, xi) + 2] = 1.0 / p.body.alpha
+        elif body in self.guides:  # a guide's frame: the chord from its pin to the contact
+            k = _node(p.x, self.guides[body][1])
+            a, b = p.start, p.start + 3 * k
+            row[b + 1], row[a + 1] = 1.0 / (p.body.alpha * p.x[k]), -1.0 / (p.body.alpha * p.x[k])
         else:  # the chord's rotation
             a, b = p.start, p.start + 3 * (len(p.x) - 1)
             row[b + 1], row[a + 1] = 1.0 / p.body.alpha, -1.0 / p.body.alpha
@@ -756,6 +880,10 @@ class _Coupled:
             self.rows[j.name] = [len(rows), len(rows) + 1] if j.kind == "pin" else [len(rows)]
             if j.kind == "pin":
                 rows += list(self.translation(a) - self.translation(b))
+            elif j.kind == "slot":  # the pin's point stays on the guide's line (it slides along it)
+                th = self.parts[b.body].theta if b.body != GROUND else 0.0
+                normal = np.array([-math.sin(th), math.cos(th)])
+                rows.append(normal @ (self.translation(a) - self.translation(b)))
             else:
                 bar = a if b.body == GROUND else b
                 line = np.array(j.direction, dtype=float)
@@ -812,6 +940,10 @@ class _Coupled:
     def _build_functions(self, name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         p = self.parts[name]
         b = p.body
+        if name in self.guides:
+            joint, b0 = self.guides[name]
+            std, corr = _guide_functions(p.x, b0, MAX_CHOSEN, joint.overhang_modes)
+            return np.zeros((len(p.x), 0)), std, corr
         U, _ = _axial_functions(b.axial_shapes or "complete", MAX_CHOSEN, p.x)
         bar = _reference_bar(
             self.scene, b, interior_points(self.scene, name), b.static_correction is not False, COUPLED_ELEMENTS
@@ -976,6 +1108,9 @@ class _CoupledEstimate:
             if p.body.frame == "cantilever":
                 dw = v[p.start + 2]
                 rel = w - w[0] - np.outer(p.x, dw)
+            elif p.body.name in self.model.guides:  # the frame: the chord to the contact
+                k = _node(p.x, self.model.guides[p.body.name][1])
+                rel = w - w[0] - np.outer(p.x / p.x[k], w[k] - w[0])
             else:
                 rel = w - w[0] - np.outer(p.x, w[-1] - w[0])
             out.append(np.max(abs(rel), axis=0))
@@ -1007,6 +1142,9 @@ class _CoupledEstimate:
         k = _node(p.x, xi)
         if p.body.frame == "cantilever":
             return w[k] - w[0] - p.x[k] * v[p.start + 2]
+        if p.body.name in self.model.guides:  # the frame: the chord to the contact
+            c = _node(p.x, self.model.guides[p.body.name][1])
+            return w[k] - w[0] - p.x[k] / p.x[c] * (w[c] - w[0])
         return w[k] - w[0] - p.x[k] * (w[-1] - w[0])
 
     @functools.cached_property
@@ -1562,6 +1700,9 @@ def _choose_bases(
                 f"bodies.{body.name}: even {MAX_CHOSEN} functions per family leave an a-priori estimate of "
                 f"{estimate:.2g} of peak (> simulation.accuracy = {acc:g})"
             )
+        if guide:
+            over = _overhang_warning(scene, body.name, guess or {})
+            warning = f"{warning}; {over}" if warning and over else warning or over
         own[body.name] = (est_a, est_t)
         out[body.name] = BasisChoice(
             body.name,
@@ -1610,6 +1751,10 @@ def coupled_choice(
     acc = scene.simulation.accuracy
     missing = _coupled_supported(scene)
     place = None if missing else _placement(scene, guess)
+    if place is not None and any(
+        not CONTACT_MARGIN < place[j.name][1] < 1 - CONTACT_MARGIN for j in _guide_slots(scene).values()
+    ):
+        place, missing = None, "the slot's contact at the start is at an end of its guide"
     if place is None:
         note = f"the coupled modes are not checked ({missing or 'the start position did not close'})"
         return {
@@ -1636,6 +1781,7 @@ def coupled_choice(
     check = model.check(counts)
     first = check
     added = dict.fromkeys(counts, 0)
+    stuck: set[str] = set()
     for _ in range(COUPLED_STEPS):
         if check.estimate <= acc:
             break
@@ -1643,7 +1789,10 @@ def coupled_choice(
             (name, kind)
             for name, c in choices.items()
             for kind, i in (("axial", 0), ("transverse", 1))
-            if c.given[i] is None and 0 < counts[name][i] < MAX_CHOSEN and not (i == 0 and name in inextensible)
+            if c.given[i] is None
+            and 0 < counts[name][i] < MAX_CHOSEN
+            and not (i == 0 and name in inextensible)
+            and name not in stuck
         ]
         pick = model.culprit(check, refinable, counts)
         if pick is None:
@@ -1651,8 +1800,15 @@ def coupled_choice(
         name, kind = pick
         na, nt = counts[name]
         counts[name] = (na + 1, nt) if kind == "axial" else (na, nt + 1)
+        trial = model.check(counts)
+        if name in model.model.guides and trial.estimate >= check.estimate:
+            # a guide's transverse count adds span functions: a mode of its overhang (its own
+            # functions, the slot's overhang_modes) or of another part they do not carry
+            counts[name] = (na, nt)
+            stuck.add(name)
+            continue
         added[name] += 1
-        check = model.check(counts)
+        check = trial
     before = dict(counts)
     counts, ring_said, ring_est = ringing_choice(scene, choices, counts, not rings, guess, inextensible)
     if counts != before:
@@ -1753,14 +1909,17 @@ def _quasi_candidates(
     (as ``symgen.numerics.mechanism.quasi_static_amplitudes`` refuses); axial: where symgen
     chose the axial count too, of a bar that keeps its axial functions in the coupled model (not
     inextensible). None on a bar whose file states its transverse treatment (the count or
-    ``quasi_static_transverse``: the scene runs as written) or on a slot's guide."""
+    ``quasi_static_transverse``: the scene runs as written) or on a slot's guide with a rigid
+    overhang; on a guide with an elastic overhang its span functions above the span's band
+    (:func:`guide_band`)."""
     out: dict[tuple[str, str], int] = {}
+    guides = _guide_slots(scene)
     for name, c in choices.items():
         body = scene.body(name)
         guide = any(j.kind == "slot" and any(e.body == name and e.variable for e in j.ends) for j in scene.joints)
-        if c.given[1] is not None or name in stated or guide:
+        if c.given[1] is not None or name in stated or (guide and not (name in guides and guides[name].overhang_modes)):
             continue
-        band = c.dynamic[1] if unknown else in_band(c)
+        band = c.dynamic[1] if unknown else (guide_band(c) if guide else in_band(c))
         if body.transverse_shapes != "polynomial" and c.transverse - band > 0:
             out[(name, "transverse")] = c.transverse - band
         if c.given[0] is None and body.lam and name not in inextensible and c.axial - c.dynamic[0] > 0:
@@ -1774,6 +1933,22 @@ def in_band(c: BasisChoice) -> int:
     (:func:`amplification_error`): ``dynamic[1]`` less the lowest mode the bases keep dynamic
     for a start that may ring it."""
     return min(c.dynamic[1], sum(amplification_error(c.omega_run, w) > c.accuracy for w in c.omega_bending))
+
+
+def guide_band(c: BasisChoice) -> int:
+    """How many of a guide's span functions the run's content may amplify beyond the accuracy:
+    the span's modes (pinned at the pivot, clamped at the contact: the span functions have zero
+    value and slope there, ``symgen.model.slot``) over the run are at least those of the whole
+    length pinned-clamped (beta <= 1; their frequencies go as 1 / beta^2), the k-th
+    ((k + 1/4) / k)^2 times the pinned-pinned bar's k-th (:attr:`BasisChoice.omega_bending`,
+    the bar's own spectrum; the roots of tan x = tanh x are (k + 1/4) pi within 3e-4). The
+    aluminium overhang reference's first: 1.562 x 7.31 = 11.4 per unit tau against its content
+    4: in the band (its two span functions quasi-static were 3.4-18.8 % off its Exudyn
+    reference)."""
+    return sum(
+        amplification_error(c.omega_run, w * ((k + 0.25) / k) ** 2) > c.accuracy
+        for k, w in enumerate(c.omega_bending, 1)
+    )
 
 
 def _split(quasi: dict[tuple[str, str], int]) -> tuple[dict[str, int], dict[str, int]]:
@@ -1813,7 +1988,7 @@ def quasi_choice(
     fastest = float(dynamic.fastest) if dynamic is not None else 0.0
     steps: list[tuple[dict[tuple[str, str], int], CoupledCheck]] = []
     while True:
-        best: tuple[tuple[str, str], CoupledCheck] | None = None
+        best: tuple[tuple[str, str], CoupledCheck, int] | None = None
         for key in list(limit):
             k = quasi.get(key, 0) + 1
             if k > limit[key]:
@@ -1823,10 +1998,10 @@ def quasi_choice(
                 limit[key] = k - 1
                 continue
             if check.estimate <= budget and (best is None or check.estimate < best[1].estimate):
-                best = (key, check)
+                best = (key, check, k)
         if best is None:
             break
-        quasi[best[0]] = quasi.get(best[0], 0) + 1
+        quasi[best[0]] = best[2]
         steps.append((dict(quasi), best[1]))
     # only what lowers the fastest mode the run rings saves steps (BDF follows that ringing, and
     # at least the run's own content omega_run, where no elastic mode rings): the shortest prefix
@@ -1914,12 +2089,19 @@ def _quasi_reason(
     lead = "" if family == "transverse" else "axial: "
     none = f"{lead}every {family} function dynamic: "
     if k and last is not None:
-        which = (
-            f"all {n} of its {family} functions are quasi-static (the bases' dynamic band of {band} included: "
-            "the run's content is far below its lowest mode):"
-            if k >= n and band
-            else f"the highest {k} of its {n} {family} functions are quasi-static: above its {band} dynamic,"
-        )
+        if name in model.model.guides and family == "transverse":
+            which = (
+                f"{'all' if k >= n else f'the highest {k} of'} {n} span functions of the guide are quasi-static "
+                f"(the contact-slope and overhang functions dynamic; {guide_band(c)} span modes in the run's "
+                "band, those of the whole length pinned-clamped bounding the span's over the run):"
+            )
+        else:
+            which = (
+                f"all {n} of its {family} functions are quasi-static (the bases' dynamic band of {band} included: "
+                "the run's content is far below its lowest mode):"
+                if k >= n and band
+                else f"the highest {k} of its {n} {family} functions are quasi-static: above its {band} dynamic,"
+            )
         onset = ""
         if model.rings and last.omega > 0:
             f = float(model.onset[int(np.argmin(abs(model.w - last.omega)))])

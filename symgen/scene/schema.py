@@ -412,10 +412,12 @@ JOINTS = Table(
         Key(
             "overhang",
             "string",
-            'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it bends '
-            "with overhang_modes functions of its own (the static deflection under a far-end load, then "
-            "(2 (xi - beta))^(m+1)), zero value and slope at the moving contact, stiffness over span and "
-            "overhang; the contact must stay short of the far end (beta < 1). "
+            'Slots only: the guide beyond the contact (xi in [beta, 1]). "elastic": it turns with the '
+            "contact's slope (the contact-slope function: the span's static shape under a moment at the contact, "
+            "straight beyond) and bends with overhang_modes functions of its own (the powers (xi - beta)^2 .. (xi - beta)^(m+1) made mass-orthogonal, zero value "
+            "and slope at the moving contact); the span functions then vanish beyond the contact (zero slope there: "
+            "they may be quasi-static), stiffness over span and overhang; the contact must stay short of the far "
+            "end (beta < 1). "
             "\"rigid\": it moves with the span's end slope (the seed's form, for its reproduction).",
             {"enum": list(_me.OVERHANG_FORMS)},
             default='"elastic"',
@@ -426,9 +428,11 @@ JOINTS = Table(
             "overhang_modes",
             "integer 1 to 5",
             "Slots with an elastic overhang: number of the overhang's own bending "
-            "functions, appended to the guide's transverse_modes span functions (an explicit initial g lists the "
-            "span's; the overhang's start at zero). 4 give the first three frequencies of a guide whose overhang "
-            "is up to its span within 0.5 %; at most 5 (beyond, the polynomial functions are nearly dependent).",
+            "functions, appended after the guide's transverse_modes span functions and the contact-slope function "
+            "(an explicit initial g lists the span's sines with their tangent continuation, as for a rigid "
+            "overhang; the overhang's own start at zero). 4 give the first three frequencies of a guide whose "
+            "overhang is up to six spans within 2.5 % (up to one span within 0.5 %); at most 5 (beyond, the "
+            "polynomial functions are nearly dependent).",
             {"type": "integer", "minimum": 1, "maximum": _me.OVERHANG_MODES_MAX},
             default=str(_me.OVERHANG_MODES_DEFAULT),
             example="4",

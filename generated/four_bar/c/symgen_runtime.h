@@ -58,7 +58,7 @@ typedef struct symgen_policy {
     int polish_maxit;
     double driver_step, slope_limit, stretch_limit, divergence_rtol;
     double free_inertia_factor;
-    double quasi_start_tol;
+    double quasi_start_tol, quasi_start_floor;
     int quasi_start_maxit;
 } symgen_policy;
 

@@ -160,7 +160,7 @@ const symgen_model six_bar_model = {
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
         0.0001, 0.7, 0.05, 1e-09,
-        1e-06, 1e-13, 30
+        1e-06, 1e-13, 1e-08, 30
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },

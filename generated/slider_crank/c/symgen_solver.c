@@ -1221,13 +1221,15 @@ static void symgen_polish_(symgen_solver *s, double t, double *y)
 
 /* The quasi-static amplitudes at the start (DaeRunner.quasi_start): z solved from the algebraic
    equations by Newton at fixed x from the full model's consistent start in s->y, converged when
-   the step is below policy.quasi_start_tol of max(1, max |z|); refused when it does not
+   the step is below policy.quasi_start_tol of max(1, max |z|), or below quasi_start_floor of it
+   and no longer halving (round-off of an ill-conditioned Jacobian); refused when it does not
    converge (a quasi-static function near buckling: keep it dynamic). 0, or fail. */
 static int symgen_quasi_start_(symgen_solver *s, double t)
 {
     const int nz = SYMGEN_NZ(s);
     double *y = s->y, *z = s->y + SYMGEN_NX(s);
     int it, r;
+    double last = DBL_MAX;
     for (it = 0; it < s->model->policy.quasi_start_maxit; ++it) {
         double step, size;
         symgen_unpack_(s, y, s->q, s->v);
@@ -1241,6 +1243,8 @@ static int symgen_quasi_start_(symgen_solver *s, double t)
         if (!(size <= DBL_MAX)) break;
         step = symgen_max_abs(s->sr, nz);
         if (step <= s->model->policy.quasi_start_tol * fmax(1.0, size)) return 0;
+        if (step <= s->model->policy.quasi_start_floor * fmax(1.0, size) && step > 0.5 * last) return 0;
+        last = step;
     }
     return symgen_fail_(s, t, "the quasi-static transverse amplitudes have no solution at the start (Newton does not converge)",
                         0.0, "lower bodies.<name>.quasi_static_transverse (keep those functions dynamic)");

@@ -33,7 +33,9 @@ class CPrinter(C99CodePrinter):
     """C99 printer with an explicit symbol map and exact double literals."""
 
     def __init__(self, names: dict, settings: dict | None = None) -> None:
-        super().__init__(settings or {})
+        # no math macros: SymPy prints pi/4, sqrt(2), 1/pi ... as M_PI_4, M_SQRT2, M_1_PI (POSIX,
+        # not C99: a strict -std=c99 build has none); they are folded to double literals here
+        super().__init__({"math_macros": {}, **(settings or {})})
         self._names = names
 
     # ------------------------------------------------------------------ atoms
