@@ -70,6 +70,9 @@ def test_impasse_stops_with_the_keys_named_and_the_mass_measured():
     flips_ratio = [k for k in range(1, len(ratios)) if np.sign(ratios[k]) != np.sign(ratios[k - 1])]
     flips_det = [k for k in range(1, len(signs)) if signs[k] != signs[k - 1]]
     assert flips_ratio == flips_det and len(flips_ratio) == 1
+    # the C solver's path (symgen.numerics.csolver) measures the same at its last row
+    c_err = sim_mod.quasi_failure_at(mech, part.tau[-1], part.q[-1], part.v[-1], part.lam[-1], "stopped")
+    assert f"smallest eigenvalue was {ratios[-1]:.3g} " in str(c_err) and "lower" in c_err.hint
     # at the start the quasi-static amplitudes hardly feed back: the full model's mass
     x, z = run.pack(q0, v0, a0, lam0)
     p = np.concatenate([mech.p, [0.0]])

@@ -1172,12 +1172,29 @@ def _quasi_failure(
         f"loads of the dynamic amplitudes' accelerations and the dynamic rows do not take theirs, so "
         f"the mass of the quasi-static form is not the model's: at tau = {float(p[-1]):.6g} its "
         f"smallest eigenvalue was {ratio:.3g} of the full model's on the closure's motions (at 0 "
-        f"the accelerations have no solution and IDAS cannot step on)",
+        f"the accelerations have no solution and neither IDAS nor the C solver steps on)",
         "lower "
         + (" and ".join(f"bodies.{b}.quasi_static_transverse" for b in bars) or "the quasi-static functions")
         + (f" (state bodies.{axial[0]}.axial_modes to keep symgen's axial choice out)" if axial else "")
         + " to keep those functions dynamic",
     )
+
+
+def quasi_failure_at(
+    mech: Mechanism, tau: float, q: np.ndarray, v: np.ndarray, lam: np.ndarray, cause: str
+) -> SimulationError:
+    """``_quasi_failure`` of a run that is not this module's (the emitted C solver's: the same
+    DAE, its rows' states q, v, lam at the last output ``tau``): a runner of the mechanism's
+    partition at tau (the virtual machine), z solved from the row's state; a singular position
+    of the rigid mechanism there (``_singular``) keeps its own message."""
+    part = mech.run_partition(mech.choose_partition(tau, np.asarray(q, dtype=float)))
+    singular = _singular(mech, part, tau, np.asarray(q, dtype=float), tau, cause)
+    if singular is not None:  # a singular position of the rigid mechanism: its own message
+        return singular
+    run = DaeRunner(mech, part, 1e-8, 1e-10, backend="vm")
+    x, z = run.pack(np.asarray(q, dtype=float), np.asarray(v, dtype=float), np.zeros(mech.n), np.asarray(lam))
+    p = np.concatenate([mech.p, [tau]])
+    return _quasi_failure(run, tau, x, run.polish(0.0, x, z, p), p, cause)
 
 
 def _stalled(run: DaeRunner, tau: float, h: float, traj: _Trajectory) -> SimulationError:
