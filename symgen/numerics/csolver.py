@@ -477,6 +477,13 @@ def simulate_c(
             f"the C solver stopped at tau = {stats['t']:.6g}: {msg}",
             "tighten or loosen simulation.rtol/atol, or use the IDAS path (leave out --solver c)",
         )
+        if mech.quasi and k:  # the quasi-static form's mass at the last row (CasADi, at a failure only)
+            from symgen.numerics.simulate import quasi_failure_at
+
+            last = k - 1
+            stop = quasi_failure_at(
+                mech, rec[last * stride], result.q[last], result.v[last], result.lam[last], stop.cause
+            )
     if stop is not None:
         result.failure = str(stop)
         stop.partial = result  # symgen.errors does not declare the errors' partial

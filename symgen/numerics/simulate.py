@@ -868,9 +868,13 @@ def _locate_failure(
             cause = _idas_cause(err1)
             if cause.startswith("IDA_TOO_MUCH_WORK"):
                 raise _stalled(run, t_start + i * h, h, traj) from None
-            raise _lost(
-                run.mech, run.part, t_start + i * h, traj.qs[-1], traj.taus[-1], f"IDAS failed: {cause}"
-            ) from None
+            tau = t_start + i * h
+            cause = f"IDAS failed: {cause}"
+            if run.part.quasi:
+                raise _singular(run.mech, run.part, tau, traj.qs[-1], traj.taus[-1], cause) or _quasi_failure(
+                    run, tau, x, z, pfull, cause
+                ) from None
+            raise _lost(run.mech, run.part, tau, traj.qs[-1], traj.taus[-1], cause) from None
         traj.steps += int(F1.stats()["nsteps"])
         x = np.array(sol["xf"]).ravel()
         z = run.polish(h, x, np.array(sol["zf"]).ravel(), pfull)
@@ -1115,6 +1119,86 @@ def _lost(
     return _singular(mech, part, tau, q_last, tau_last, cause, limit) or SimulationError(
         tau, cause, "tighten or loosen simulation.rtol/atol, or check the scene near this tau"
     )
+
+
+def quasi_mass_ratio(run: DaeRunner, x: np.ndarray, z: np.ndarray, p: np.ndarray) -> float:
+    """The smallest eigenvalue of the quasi-static form's mass against the full model's on the
+    motions the closure allows, at the state (x, z) (time offset in ``p[-1]``, t = 0).
+
+    The rows of the dynamic coordinates d lose ``M_dh a_h`` but read ``q_h``, which the rows h
+    set from the inertia loads ``M_hd a_d`` (docs/quasi-static-modes.md, "The equations"): the
+    accelerations see the mass ``M_c = M_dd - R_dh R_hh^-1 M_hd`` (``R``: the residual's
+    Jacobian in ``q_h``), not symmetric. On the null space ``N`` of the closure's rows this
+    returns the smallest real part of the eigenvalues of ``(N^T M_dd N)^-1 N^T M_c N``: 1 where
+    the loads through ``q_h`` do not feed back; at 0 the accelerations have no solution (an
+    impasse of the DAE: its Jacobian in z is singular and BDF's corrector fails at any step),
+    below 0 a motion of the closure has a negative mass. The blocks are those of the runner's
+    ``g`` (rows [phi; phid; res; phidd], z = [q_D, v_D, a with q_h in the slots of a_h, lam])."""
+    part, n, m = run.part, run.mech.n, run.mech.m
+    J = np.array(run.g(0.0, x, z, p)[1])
+    Q = list(part.quasi)
+    d = [i for i in range(n) if i not in part.quasi]
+    rows = [2 * m + i for i in d]
+    cols = [2 * run.nD + i for i in d]
+    hr, hc = [2 * m + i for i in Q], [2 * run.nD + i for i in Q]
+    M = J[np.ix_(rows, cols)]
+    Mc = M - J[np.ix_(rows, hc)] @ np.linalg.solve(J[np.ix_(hr, hc)], J[np.ix_(hr, cols)])
+    phi_q = J[np.ix_([2 * m + n + r for r in range(m)], cols)]  # phidd's Jacobian in a_d
+    _, s, vt = np.linalg.svd(phi_q)
+    rank = int(np.sum(s > 1e-9 * s[0])) if len(s) and s[0] > 0 else 0
+    N = vt[rank:].T
+    ev = np.linalg.eigvals(np.linalg.solve(N.T @ M @ N, N.T @ Mc @ N))
+    return float(ev.real.min())
+
+
+def _quasi_failure(
+    run: DaeRunner, tau: float, x: np.ndarray, z: np.ndarray, p: np.ndarray, cause: str
+) -> SimulationError:
+    """The error of a step that failed in a run with quasi-static amplitudes, at the last good
+    output (x, z): the failure, the keys of those amplitudes and the mass of the quasi-static
+    form there (``quasi_mass_ratio``: near 0 or below, the form itself has no solution)."""
+    mech = run.mech
+    bars, axial = [], []
+    for name, (fi, gi) in mech.amplitudes.items():
+        if any(i in run.part.quasi for i in gi):
+            bars.append(name)
+        if any(i in run.part.quasi for i in fi):
+            axial.append(name)
+    keys = [f"bodies.{b}.quasi_static_transverse" for b in bars]
+    keys += [f"the axial functions of {b} symgen chose quasi-static" for b in axial]
+    try:
+        ratio = quasi_mass_ratio(run, x, z, p)
+    except np.linalg.LinAlgError:
+        ratio = float("nan")
+    return SimulationError(
+        tau,
+        f"{cause}; the run has quasi-static functions ({', '.join(keys)}): their rows take the inertia "
+        f"loads of the dynamic amplitudes' accelerations and the dynamic rows do not take theirs, so "
+        f"the mass of the quasi-static form is not the model's: at tau = {float(p[-1]):.6g} its "
+        f"smallest eigenvalue was {ratio:.3g} of the full model's on the closure's motions (at 0 "
+        f"the accelerations have no solution and neither IDAS nor the C solver steps on)",
+        "lower "
+        + (" and ".join(f"bodies.{b}.quasi_static_transverse" for b in bars) or "the quasi-static functions")
+        + (f" (state bodies.{axial[0]}.axial_modes to keep symgen's axial choice out)" if axial else "")
+        + " to keep those functions dynamic",
+    )
+
+
+def quasi_failure_at(
+    mech: Mechanism, tau: float, q: np.ndarray, v: np.ndarray, lam: np.ndarray, cause: str
+) -> SimulationError:
+    """``_quasi_failure`` of a run that is not this module's (the emitted C solver's: the same
+    DAE, its rows' states q, v, lam at the last output ``tau``): a runner of the mechanism's
+    partition at tau (the virtual machine), z solved from the row's state; a singular position
+    of the rigid mechanism there (``_singular``) keeps its own message."""
+    part = mech.run_partition(mech.choose_partition(tau, np.asarray(q, dtype=float)))
+    singular = _singular(mech, part, tau, np.asarray(q, dtype=float), tau, cause)
+    if singular is not None:  # a singular position of the rigid mechanism: its own message
+        return singular
+    run = DaeRunner(mech, part, 1e-8, 1e-10, backend="vm")
+    x, z = run.pack(np.asarray(q, dtype=float), np.asarray(v, dtype=float), np.zeros(mech.n), np.asarray(lam))
+    p = np.concatenate([mech.p, [tau]])
+    return _quasi_failure(run, tau, x, run.polish(0.0, x, z, p), p, cause)
 
 
 def _stalled(run: DaeRunner, tau: float, h: float, traj: _Trajectory) -> SimulationError:
