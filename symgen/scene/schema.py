@@ -329,8 +329,10 @@ BODIES = Table(
             "rigid motion and of the other functions included, but not their own inertia, so their amplitudes "
             "are algebraic (solved at each instant) and add no eigenvalues for the integrator to follow "
             "(docs/quasi-static-modes.md). Their rates read 0. Refused where such a function moves a joint "
-            "(an interior pin of the bar), on a slot's guide and with polynomial transverse_shapes. "
-            "IDAS and the emitted C solver (--solver c, emit-c, emit-fmu) treat them alike. Absent on a bar "
+            "(an interior pin of the bar), on a slot's guide with a rigid overhang and with polynomial "
+            "transverse_shapes. IDAS and the emitted C solver (--solver c, emit-c, emit-fmu) treat them alike. "
+            "A run stops (exit 2, naming this key) where a bar deflects so far that the quasi-static form's mass "
+            "turns singular (docs/quasi-static-modes.md, the impasse); lower the count then. Absent on a bar "
             "whose transverse_modes symgen chooses: symgen chooses it from the mechanism's coupled modes where "
             "that saves integration steps within simulation.accuracy; state 0 to keep every function dynamic.",
             {"type": "integer", "minimum": 0},
