@@ -2,8 +2,9 @@
 quasi-static (``symgen.model.structure.axial_treatment``): after a complete run (or one stopped
 early with a partial result, judged up to the stop), the error
 estimate's axial part (:mod:`symgen.numerics.axial_drift`: the phase drift of the free motion with
-the stretch's inertia the quasi-static treatment leaves out, and the start's axial ringing, force
-outputs included) decides whether the run is made again with those bars' axial dynamics kept: when
+the stretch's inertia the quasi-static treatment leaves out, the start's axial ringing, force
+outputs included, and the stretch's own inertia: a bar spinning at a rate near its first axial
+frequency stretches more than its quasi-static stretch) decides whether the run is made again with those bars' axial dynamics kept: when
 either exceeds ``simulation.accuracy`` on any output (closure residuals aside). As ``effects.strain = "auto"`` (:mod:`symgen.numerics.strain_choice`)
 the decision is remembered in the signed cache, keyed by the scene's hash (after overrides), the
 bar formulation the run used and the version, so a rerun of the same scene loads the decided model
@@ -41,14 +42,19 @@ __all__ = ["decide", "kept_as_is", "recalled", "resolved", "run_with_axial_choic
 R = TypeVar("R")
 
 #: the axial part's version in the remembered decisions (a changed estimate decides again;
-#: "2": the start's ringing decides too; "3": the drift charges each output's whole rate along the run)
-ESTIMATOR_VERSION = "3"
+#: "2": the start's ringing decides too; "3": the drift charges each output's whole rate along the run;
+#: "4": the stretch's own inertia decides too)
+ESTIMATOR_VERSION = "4"
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
     "ringing": (
         "the start's axial ringing: a window from the start (not on its quasi-static deformation) run with the axial "
         "dynamics kept, against the quasi-static run"
+    ),
+    "own": (
+        "the stretch's own inertia: the inertia of the stretch N/lambda (a spinning bar's centrifugal load on its "
+        "stretch included) over the bar's axial stiffness"
     ),
 }
 
@@ -122,8 +128,8 @@ def resolved(scene: Scene) -> Scene:
 
 def decide(mech: Mechanism, result: Any) -> Scene | None:
     """After a complete run of ``mech`` whose scene is :func:`switchable`: the scene with the
-    auto rule's quasi-static bars kept dynamic when the run's axial part (the drift or the
-    start's ringing) exceeds the accuracy, else None (also when the part cannot be estimated).
+    auto rule's quasi-static bars kept dynamic when the run's axial part (the drift, the start's
+    ringing or the stretch's own inertia) exceeds the accuracy, else None (also when the part cannot be estimated).
     Remembered either way; a run kept as it is keeps its measured part for its error estimate."""
     from symgen.numerics import axial_drift as _axial_drift  # the estimate: only to decide
 
@@ -135,7 +141,7 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
         return None  # not estimated (the sidecar's error estimate says why): kept quasi-static
     kinds = {o.name: o.kind for o in scene.outputs}
     top, worst, part = 0.0, "", "drift"
-    for measure, values in (("drift", found.drift), ("ringing", found.ringing)):
+    for measure, values in (("drift", found.drift), ("ringing", found.ringing), ("own", found.own)):
         for n, v in values.items():
             if kinds.get(n) not in CHECK_KINDS and v > top:
                 top, worst, part = float(v), n, measure

@@ -577,8 +577,9 @@ EFFECTS = Table(
             "against the peaks of the outputs that read deflections, positions and angles, less what damping "
             "takes over the run) is within simulation.accuracy, is quasi-static, "
             "else dynamic; after a run with quasi-static bars (complete, or stopped early: judged up to the stop), "
-            "the run's own axial estimate decides again (the free motion's phase drift from the stretch's inertia, and the start's axial ringing "
-            "measured by a window run with the axial dynamics kept, force outputs included): above "
+            "the run's own axial estimate decides again (the free motion's phase drift from the stretch's inertia, the start's axial ringing "
+            "measured by a window run with the axial dynamics kept, force outputs included, and the stretch's own "
+            "inertia, its centrifugal load on a spinning bar included): above "
             "simulation.accuracy the run is made again with the axial dynamics kept, and the decision is "
             "remembered for the scene; "
             'with the seed\'s linear strain, dynamic. "dynamic" (= true): '
