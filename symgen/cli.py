@@ -289,8 +289,8 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
         elif largest == "model_form" and (sidecar.get("strain") or {}).get("requested") == "auto":
             advice = (
                 '; its largest part, the model form, is lowered by the exact bar: effects.strain = "exact" '
-                '("auto" kept von Karman because its model-form estimate alone is within the accuracy; the other '
-                "parts add the rest)"
+                '("auto" kept von Karman because its model-form estimate was within what the accuracy leaves beside '
+                "the bases' a-priori truncation estimate and the time bound; the run's measured parts add more)"
             )
         elif largest == "axial" and str(
             ((sidecar.get("error_estimate_detail") or {}).get("methods") or {}).get("axial", "")

@@ -106,7 +106,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections import OrderedDict
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -133,6 +133,7 @@ __all__ = [
     "PARTS",
     "ErrorEstimate",
     "InvalidEstimate",
+    "combined",
     "estimate_errors",
     "keep_truncation",
     "register_model_form",
@@ -398,11 +399,16 @@ def estimate_errors(
                 + methods["time_integration"]
             )
     _TIGHT.clear()  # both parts have read it: not kept past the estimate
-    outputs: dict[str, float | None] = {}
-    for n in names:
-        vals = [parts[p][n] for p in PARTS if parts[p][n] is not None]
-        outputs[n] = float(sum(v for v in vals if v is not None)) if vals else None
+    outputs = {n: combined([parts[p][n] for p in PARTS]) for n in names}
     return ErrorEstimate(outputs, parts, methods, reasons, counts)
+
+
+def combined(values: Iterable[float | None]) -> float | None:
+    """One output's estimate from its parts (fractions of its peak; None: not estimated): their
+    sum, None when none was estimated. The one rule both the run's estimate and the choices made
+    before it (:func:`symgen.numerics.strain_choice.decide`: what the accuracy leaves) use."""
+    known = [float(v) for v in values if v is not None]
+    return float(sum(known)) if known else None
 
 
 #: the time-integration part's check run: this many times tighter tolerances

@@ -1,8 +1,10 @@
 """The run-time half of ``effects.strain = "auto"`` (:mod:`symgen.scene.strain` has the loaded
 half): after a complete von Karman run of an "auto" scene, its model-form estimate
 (:func:`symgen.numerics.model_form.model_form_estimate`) decides whether the run is made again
-with the exact bar: when it exceeds ``simulation.accuracy`` on any output (closure residuals
-aside). The decision is remembered in the signed cache, keyed by the scene's hash (the scene
+with the exact bar: when it exceeds, on any output (closure residuals aside), what
+``simulation.accuracy`` leaves beside the other parts of the run's error estimate known before
+it (the bases' a-priori truncation estimate, the time part's bound from the tolerances), the
+parts summed as the estimate sums them (:func:`others_before`). The decision is remembered in the signed cache, keyed by the scene's hash (the scene
 after overrides) and the version, so a rerun of the same scene loads the decided model directly.
 
 Why after the run, not from the scene alone: the error is ~ (pi^2 / 2) (slope)^2, amplified by
@@ -26,7 +28,16 @@ if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
     from symgen.scene.model import Scene
 
-__all__ = ["decide", "recalled", "resolved", "run_with_strain_choice", "switchable", "with_choice"]
+__all__ = [
+    "decide",
+    "judge",
+    "others_before",
+    "recalled",
+    "resolved",
+    "run_with_strain_choice",
+    "switchable",
+    "with_choice",
+]
 
 R = TypeVar("R")
 
@@ -39,8 +50,9 @@ R = TypeVar("R")
 #: to its shift, along its own phase, and each output by its participation in the mode; 11: 8's static
 #: change and drifts added as sizes at the same instant; 9's stretch's share of the curvature ported
 #: but off, model_form.STRETCH_CURVATURE; a torque-driven crank's timing, the drift of its angle the
-#: static change's forcing builds up, model_form._free_lead)
-ESTIMATOR_VERSION = "11"
+#: static change's forcing builds up, model_form._free_lead; 12: von Karman kept only within what the
+#: accuracy leaves beside the bases' a-priori truncation and the time bound, :func:`others_before`)
+ESTIMATOR_VERSION = "12"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
@@ -81,29 +93,80 @@ def recalled(scene: Scene) -> Scene | None:
     return with_choice(scene, choice)
 
 
+def others_before(mech: Mechanism, result: Any) -> dict[str, float]:
+    """output -> the parts of the run's error estimate beside the model form that are known
+    before its own estimate is made, combined as that estimate combines parts
+    (:func:`symgen.numerics.error_estimate.combined`): the bases' a-priori truncation estimate
+    (the largest over the bars, :class:`symgen.scene.bases.BasisChoice`, as the quasi-static
+    choice reads it) and the time-integration part's a-priori bound from the run's tolerances
+    (:func:`symgen.numerics.error_estimate.time_integration_part`). The axial part is decided
+    after the bar (:mod:`symgen.numerics.axial_choice`): not counted."""
+    from symgen.numerics.error_estimate import combined, time_integration_part
+
+    scene = mech.scene
+    truncation = max((float(c.estimate) for c in scene.bases), default=0.0)
+    solver = "c" if getattr(result, "stats", {}).get("backend") == "c" else "idas"
+    rtol, atol = scene.simulation.tolerances(solver)  # the run's own
+    kinds = {o.name: o.kind for o in scene.outputs}
+    time = time_integration_part(result, rtol, atol, kinds=kinds)
+    return {n: combined([truncation, t]) or 0.0 for n, t in time.items()}
+
+
+#: the least share of the accuracy von Karman's model form is left, however much the other parts
+#: take (the tenth the time part is kept to, symgen.policy.tolerances): where the bases' a-priori
+#: truncation estimate alone takes (nearly) all of it, the exact bar would not bring the run
+#: within it and a model form of a few thousandths of the accuracy (examples/four_bar_tool.toml:
+#: 1.6e-4 beside 9.8e-3 at 0.01) is no reason for its cost
+LEAST_SHARE = 0.1
+
+
+def judge(model_form: dict[str, float], others: dict[str, float], accuracy: float) -> tuple[bool, str, float, float]:
+    """(the exact bar?, the output that decides, its model-form estimate, what the accuracy
+    leaves it) from von Karman's model-form estimate and the other parts known before the run's
+    estimate (:func:`others_before`), output -> fraction of peak. What the accuracy leaves an
+    output's model form is ``accuracy - others``, the parts summed as the run's estimate sums
+    them (:func:`symgen.numerics.error_estimate.combined`), at least ``LEAST_SHARE * accuracy``;
+    the exact bar where the model form exceeds it on any output. The output that decides is the
+    one furthest over (or nearest to) what is left."""
+    from symgen.numerics.error_estimate import combined
+
+    if not model_form:
+        return False, "", 0.0, accuracy
+    room = {n: max(accuracy - (combined([others.get(n)]) or 0.0), LEAST_SHARE * accuracy) for n in model_form}
+    worst = max(model_form, key=lambda n: model_form[n] - room[n])
+    return model_form[worst] > room[worst], worst, float(model_form[worst]), room[worst]
+
+
 def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
     """The decision after a complete von Karman run ``result`` of the "auto" scene of ``mech``
     (remembered), or None when its model form cannot be estimated (the scene keeps von Karman,
-    provisionally)."""
+    provisionally). Von Karman is kept where, on every output (closure residuals aside), its
+    model-form estimate fits in what the accuracy leaves beside the other parts the run's
+    estimate will carry (:func:`others_before`): ``accuracy - others``, the parts summed as the
+    estimate sums them; else the exact bar."""
     from symgen.numerics.model_form import ModelFormNotEstimated, model_form_estimate  # only to decide
 
     scene = mech.scene
     try:
         est = model_form_estimate(mech, result)
+        others = others_before(mech, result)
     except (ModelFormNotEstimated, ValueError, ArithmeticError, RuntimeError):
         # not estimated (the reason is the sidecar's error estimate): von Karman, provisionally
         return None
     kinds = {o.name: o.kind for o in scene.outputs}
     values = {n: v for n, v in est.outputs.items() if kinds.get(n) not in CHECK_KINDS}
     accuracy = float(scene.simulation.accuracy)
-    worst = max(values, key=lambda n: values[n]) if values else ""
-    top = values.get(worst, 0.0)
-    if top > accuracy:
+    exact, worst, top, room = judge(values, others, accuracy)
+    beside = (
+        f"what simulation.accuracy {accuracy:g} leaves beside the bases' a-priori truncation and the time bound "
+        f"({accuracy - room:.1e}), {room:.2e}"
+    )
+    if exact:
         choice = StrainChoice(
             AUTO,
             "exact",
             f"auto: the exact bar, because the model-form estimate of von Karman (the curvature and strain terms it "
-            f"leaves out) is {top:.2e} of peak on {worst}, above simulation.accuracy {accuracy:g}",
+            f"leaves out) is {top:.2e} of peak on {worst}, above {beside}",
             False,
             top,
             worst,
@@ -114,7 +177,7 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
             AUTO,
             "von_karman",
             f"auto: von Karman, its model-form estimate (the curvature and strain terms it leaves out) is "
-            f"{top:.2e} of peak{f' on {worst}' if worst else ''}, within simulation.accuracy {accuracy:g}",
+            f"{top:.2e} of peak{f' on {worst}' if worst else ''}, within {beside}",
             False,
             top,
             worst,
