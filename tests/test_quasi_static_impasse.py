@@ -90,3 +90,52 @@ def test_fewer_quasi_static_functions_complete_near_the_dynamic_run():
     for j, name in enumerate(full.output_names):
         a, b = np.asarray(qs.outputs)[:, j], np.asarray(full.outputs)[:, j]
         assert np.abs(a - b).max() < accuracy * np.abs(b).max(), name
+
+
+def _chosen(mech):
+    """``mech``'s scene with its stated quasi-static functions recorded as symgen's choice (the
+    bases chooser's record: ``quasi`` as the bar's count, not ``quasi_stated``): no cheap scene
+    is known where the chooser itself picks functions that meet the impasse, so the test forces
+    the record the chooser would leave (symgen.scene.bases.quasi_choice)."""
+    from dataclasses import replace
+
+    from symgen.numerics.quasi_fallback import chosen_quasi_bars
+
+    k = {b.name: b.quasi_static_transverse for b in mech.scene.bodies}
+    bases = tuple(
+        replace(c, quasi=k[c.bar], quasi_stated=False, quasi_reason="forced by the test") if k.get(c.bar) else c
+        for c in mech.scene.bases
+    )
+    scene = replace(mech.scene, bases=bases)
+    assert chosen_quasi_bars(scene) == ["coupler", "rocker"]
+    return mechanism(scene)
+
+
+@pytest.mark.slow
+def test_chosen_quasi_static_functions_at_the_impasse_rerun_dynamic():
+    """Quasi-static functions symgen chose (forced record, ``_chosen``) that meet the impasse:
+    the run is made again with them dynamic (one warning line naming the bars, the tau and the
+    quasi-static form), completes, and equals the all-dynamic run of the same model bit for bit;
+    the stated key's own failure (the first test) keeps its exit-2 error."""
+    from symgen.numerics.csolver import run as run_solver
+    from symgen.numerics.mechanism import load_mechanism
+    from symgen.numerics.results import attempt
+    from symgen.numerics.strain_choice import run_with_strain_choice
+    from symgen.scene.limits import SceneWarning
+
+    def go(mech):
+        return run_with_strain_choice(mech, load_mechanism, lambda m: attempt(lambda: run_solver(m, "idas")))
+
+    forced = _chosen(mechanism(SCENE, EXACT + _quasi(3)))
+    with pytest.warns(SceneWarning) as said:
+        mech, result, failure = go(forced)
+    lines = [str(w.message) for w in said if "quasi-static form had no solution" in str(w.message)]
+    assert len(lines) == 1, lines
+    tau = float(lines[0].split("at tau = ")[1].split()[0])
+    assert 19.0 < tau < 19.6 and "coupler, rocker" in lines[0] and "dynamic" in lines[0]
+    assert failure is None and result is not None and result.complete
+    assert not mech.quasi and all(b.quasi_static_transverse == 0 for b in mech.scene.bodies)
+    assert all("no solution" in c.quasi_reason for c in mech.scene.bases if c.bar in ("coupler", "rocker"))
+    _, full, full_failure = go(mechanism(SCENE, EXACT))
+    assert full_failure is None and full is not None
+    np.testing.assert_array_equal(np.asarray(result.outputs), np.asarray(full.outputs))

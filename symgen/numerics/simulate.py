@@ -1164,13 +1164,18 @@ def _quasi_failure(
             bars.append(name)
         if any(i in run.part.quasi for i in fi):
             axial.append(name)
-    keys = [f"bodies.{b}.quasi_static_transverse" for b in bars]
+    from symgen.numerics.quasi_fallback import chosen_quasi_bars
+
+    chosen = set(chosen_quasi_bars(mech.scene))
+    stated = [b for b in bars if b not in chosen]
+    keys = [f"bodies.{b}.quasi_static_transverse" for b in stated]
+    keys += [f"the transverse functions of {b} symgen chose quasi-static" for b in bars if b in chosen]
     keys += [f"the axial functions of {b} symgen chose quasi-static" for b in axial]
     try:
         ratio = quasi_mass_ratio(run, x, z, p)
     except np.linalg.LinAlgError:
         ratio = float("nan")
-    return SimulationError(
+    err = SimulationError(
         tau,
         f"{cause}; the run has quasi-static functions ({', '.join(keys)}): their rows take the inertia "
         f"loads of the dynamic amplitudes' accelerations and the dynamic rows do not take theirs, so "
@@ -1178,10 +1183,14 @@ def _quasi_failure(
         f"smallest eigenvalue was {ratio:.3g} of the full model's on the closure's motions (at 0 "
         f"the accelerations have no solution and neither IDAS nor the C solver steps on)",
         "lower "
-        + (" and ".join(f"bodies.{b}.quasi_static_transverse" for b in bars) or "the quasi-static functions")
+        + (" and ".join(f"bodies.{b}.quasi_static_transverse" for b in stated) or "the quasi-static functions")
         + (f" (state bodies.{axial[0]}.axial_modes to keep symgen's axial choice out)" if axial else "")
         + " to keep those functions dynamic",
     )
+    # the bars whose quasi-static functions this failure is about: where symgen chose them, the run
+    # is made again with them dynamic (symgen.numerics.quasi_fallback)
+    err.quasi_bars = tuple(dict.fromkeys(bars + axial))  # type: ignore[attr-defined]
+    return err
 
 
 def quasi_failure_at(

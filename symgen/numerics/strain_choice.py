@@ -214,13 +214,22 @@ def run_with_strain_choice(
     exact bar (``load``-ed) when it says so. Then ``effects.axial = "auto"``'s run-time half
     (:func:`symgen.numerics.axial_choice.run_with_axial_choice`) on the run it gave, then the
     chosen counts' (:func:`symgen.numerics.counts_choice.run_with_counts_choice`, where
-    ``estimate``, the run's truncation method, is "rerun"). Any other scene is run once, as it is."""
+    ``estimate``, the run's truncation method, is "rerun"). A run stopped at the quasi-static
+    form's impasse with functions symgen chose quasi-static is made again with them dynamic
+    (:func:`symgen.numerics.quasi_fallback.run_with_quasi_fallback`). Any other scene is run once, as it is."""
     from symgen.numerics.axial_choice import run_with_axial_choice
     from symgen.numerics.counts_choice import run_with_counts_choice
 
+    from symgen.numerics.quasi_fallback import run_with_quasi_fallback
+
     mech, result, failure = _run_with_strain_choice(mech, load, run, say)
+    # a run stopped at the quasi-static form's impasse with functions symgen chose quasi-static:
+    # made again with them dynamic, before the next rules judge it (and after the last: the chosen
+    # counts' rerun chooses its quasi-static functions again)
+    mech, result, failure = run_with_quasi_fallback(mech, result, failure, load, run)
     mech, result, failure = run_with_axial_choice(mech, result, failure, load, run, say)
-    return run_with_counts_choice(mech, result, failure, load, run, say, estimate)
+    mech, result, failure = run_with_counts_choice(mech, result, failure, load, run, say, estimate)
+    return run_with_quasi_fallback(mech, result, failure, load, run)
 
 
 def _run_with_strain_choice(
