@@ -77,13 +77,15 @@ def run_with_quasi_fallback(
         return mech, result, failure
     tau = getattr(failure, "tau", None)
     where = f"tau = {tau:.6g}" if tau is not None else "the start"
-    why = f"the quasi-static form had no solution at {where}"
+    ratio = getattr(failure, "quasi_ratio", float("nan"))
+    why = f"the quasi-static form met its impasse at {where}"
     from symgen.scene.limits import SceneWarning
 
     warnings.warn(
         SceneWarning(
             f"{mech.scene.path}: {why} with the quasi-static functions symgen chose on {', '.join(bars)} "
-            f"(its mass lost definiteness: docs/quasi-static-modes.md); running again with them dynamic"
+            f"(its mass {ratio:.2g} of the model's at the last output: docs/quasi-static-modes.md, the "
+            f"impasse); running again with them dynamic"
         ),
         stacklevel=2,
     )

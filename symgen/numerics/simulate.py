@@ -1121,6 +1121,14 @@ def _lost(
     )
 
 
+#: the quasi-static form's mass ratio (:func:`quasi_mass_ratio`) at the last output before a failed
+#: step at or below which the failure is put down to the form's impasse (symgen's own quasi-static
+#: choice is then run again dynamic: a cost, never a wrong number, so generous: the ratio falls
+#: fast near the impasse, 0.31 / 0.084 / 0.013 at 0.02 / 0.01 / 0.005 before it on
+#: tests/data/four_bar_torque_spinup.toml, and the last output may be a step before it)
+IMPASSE_RATIO = 0.5
+
+
 def quasi_mass_ratio(run: DaeRunner, x: np.ndarray, z: np.ndarray, p: np.ndarray) -> float:
     """The smallest eigenvalue of the quasi-static form's mass against the full model's on the
     motions the closure allows, at the state (x, z) (time offset in ``p[-1]``, t = 0).
@@ -1187,9 +1195,13 @@ def _quasi_failure(
         + (f" (state bodies.{axial[0]}.axial_modes to keep symgen's axial choice out)" if axial else "")
         + " to keep those functions dynamic",
     )
-    # the bars whose quasi-static functions this failure is about: where symgen chose them, the run
-    # is made again with them dynamic (symgen.numerics.quasi_fallback)
-    err.quasi_bars = tuple(dict.fromkeys(bars + axial))  # type: ignore[attr-defined]
+    # the bars whose quasi-static functions this failure is about, where the form's mass is at (or
+    # near, or cannot be measured at) its impasse: where symgen chose them, the run is made again
+    # with them dynamic (symgen.numerics.quasi_fallback); a failure with the mass well away from
+    # it has another cause, which a dynamic rerun would not cure
+    if not ratio > IMPASSE_RATIO:  # NaN too
+        err.quasi_bars = tuple(dict.fromkeys(bars + axial))  # type: ignore[attr-defined]
+        err.quasi_ratio = ratio  # type: ignore[attr-defined]
     return err
 
 
