@@ -40,6 +40,7 @@ from symgen.api import mechanism, simulate_scene
 from symgen.cli import main
 from symgen.errors import SimulationError
 from symgen.ir.records import CoordKind, RowKind
+from tests.oracles import imperfect_elastica_midspan
 from tests.test_cli import FOUR_BAR_TOGGLE
 from tests.test_rigid_limit import rigid_four_bar
 from tests.test_rigid_limit import write_scene as write_rigid_limit_scene
@@ -466,13 +467,23 @@ def beam_column_midspan(P: float) -> float:
 @pytest.mark.parametrize("ratio", [0.5, 0.9, 0.99])
 def test_near_buckling_runs_accurately(tmp_path, ratio, axial, na):
     """Below the Euler load the static deflection is amplified by 1/(1 - P/P_cr) (x100 at 0.99)
-    and symgen's quasi-static state, kept by the dynamic run, matches the beam-column series
-    (measured 3e-6 .. 1.4e-4 with 3 transverse functions; the full model needs na >= 2 nt + 1)."""
+    and symgen's quasi-static state, kept by the dynamic run, matches the large-deflection
+    elastica (oracles.imperfect_elastica_midspan; the full model needs na >= 2 nt + 1). At 0.99
+    the elastica is 2.0 % below the linear beam-column series (the deflected shape's geometric
+    stiffening, slope^2 ~ 1.6e-3, amplified 100x): symgen's choice of the bar (effects.strain
+    auto: the exact bar there) is within 9.9e-4 of it with 3 transverse functions; at 0.5 and 0.9
+    within 3e-6 .. 1.4e-4. Von Karman, stated, is the linear series' model (its own closed form):
+    within 5e-4 of the series, 2 % off the elastica."""
     res = simulate_scene(write_column(tmp_path, ratio, na), [f"effects.axial={axial}"])
     mid = res.column("mid")
-    exact = beam_column_midspan(ratio * P_CR)
-    assert abs(mid[0] - exact) / exact < 5e-4
+    exact = imperfect_elastica_midspan(ratio * P_CR, MU, GAMMA)
+    assert abs(mid[0] - exact) / exact < (2e-3 if ratio > 0.95 else 5e-4)
     assert np.abs(mid - mid[0]).max() < 1e-6 * abs(exact)
+    if ratio > 0.95 and axial == "inextensible":
+        vk = simulate_scene(write_column(tmp_path, ratio, na), [f"effects.axial={axial}", "effects.strain=von_karman"])
+        series = beam_column_midspan(ratio * P_CR)
+        assert abs(vk.column("mid")[0] - series) / series < 5e-4
+        assert abs(vk.column("mid")[0] - exact) / exact > 0.015
 
 
 @pytest.mark.parametrize("axial", ["true", "inextensible"])
