@@ -64,7 +64,12 @@ def test_solver_c_matches_idas_to_the_accuracy_target(scene):
     try:
         oracle = simulate(mech, t_end=t_end, rtol=min(sim.rtol * 1e-3, 1e-10), atol=sim.atol * 1e-3)
     except SimulationError:  # IDAS's corrector at its limit (see the module docstring)
-        oracle = simulate(mech, t_end=t_end, rtol=sim.rtol * 1e-3, atol=sim.atol * 1e-3)
+        try:
+            oracle = simulate(mech, t_end=t_end, rtol=sim.rtol * 1e-3, atol=sim.atol * 1e-3)
+        except SimulationError:  # the stiff crank-shaper's guide: its overhang functions' round-off
+            # in the accelerations, ~1e-10 of max |z| (symgen.policy.quasi_start_floor), is above
+            # the corrector's tolerance at its first output step: the oracle 100 times tighter
+            oracle = simulate(mech, t_end=t_end, rtol=sim.rtol * 1e-2, atol=sim.atol * 1e-2)
     assert c.complete and idas.complete and oracle.complete
     assert c.outputs.shape == idas.outputs.shape == oracle.outputs.shape
     np.testing.assert_allclose(c.tau, oracle.tau, rtol=0, atol=1e-12)
