@@ -12,7 +12,17 @@ with ``quasi_bars``) then makes the run again, once, with the quasi-static funct
 dynamic (the bars' ``quasi_static_transverse`` 0 and their record's ``quasi``/``quasi_axial``
 0, its ``quasi_reason`` saying why), with one warning line. Functions the file states
 (``bodies.<name>.quasi_static_transverse``) stay: their failure is the user's to change (exit 2,
-the hint names the key). Not remembered: the next run of the scene meets the impasse again.
+the hint names the key). Each family on its own: a bar whose axial functions symgen chose
+quasi-static and whose transverse ones the file states keeps the stated ones (only the chosen
+family is made dynamic).
+
+The fallback is remembered in the signed cache, as the other run-time decisions are
+(:mod:`symgen.numerics.strain_choice`, :mod:`symgen.numerics.counts_choice`): keyed by the
+scene's hash (after overrides), the decisions before it (the bar formulation, the axial dynamics
+kept, the counts' floors) and the quasi-static functions symgen chose, so the next run of the same
+scene loads the all-dynamic model directly (:func:`resolved`, its record's ``quasi_reason`` saying
+it was remembered) instead of meeting the impasse first. A changed choice (another symgen, another
+chooser's answer) is another question: decided again.
 """
 
 from __future__ import annotations
@@ -20,44 +30,102 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from dataclasses import replace
-from typing import TYPE_CHECKING, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
+
+from symgen import __version__, cache
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
     from symgen.scene.model import Scene
 
-__all__ = ["chosen_quasi_bars", "run_with_quasi_fallback", "without_chosen_quasi"]
+__all__ = [
+    "chosen_quasi",
+    "chosen_quasi_bars",
+    "recalled",
+    "resolved",
+    "run_with_quasi_fallback",
+    "without_chosen_quasi",
+]
 
 R = TypeVar("R")
 
+#: the fallback's version in the remembered decisions
+FALLBACK_VERSION = "1"
 
-def chosen_quasi_bars(scene: Scene) -> list[str]:
-    """The bars with quasi-static functions symgen chose (transverse: the record's ``quasi``
-    where the file does not state ``quasi_static_transverse``; axial: ``quasi_axial``)."""
+
+def chosen_quasi(scene: Scene) -> dict[str, tuple[bool, bool]]:
+    """bar -> (its transverse, its axial quasi-static functions are symgen's choice), for the bars
+    with any: transverse, the record's ``quasi`` where the file does not state
+    ``quasi_static_transverse``; axial, ``quasi_axial`` (no key states those)."""
     bodies = {b.name: b for b in scene.bodies}
-    out = []
+    out = {}
     for c in scene.bases:
         body = bodies.get(c.bar)
         transverse = (
             bool(c.quasi) and not c.quasi_stated and body is not None and body.quasi_static_transverse == c.quasi
         )
         if transverse or c.quasi_axial:
-            out.append(c.bar)
+            out[c.bar] = (transverse, bool(c.quasi_axial))
     return out
 
 
+def chosen_quasi_bars(scene: Scene) -> list[str]:
+    """The bars with quasi-static functions symgen chose, of either family (:func:`chosen_quasi`)."""
+    return list(chosen_quasi(scene))
+
+
 def without_chosen_quasi(scene: Scene, why: str) -> Scene:
-    """``scene`` with the quasi-static functions symgen chose dynamic (:func:`chosen_quasi_bars`);
-    ``why`` goes into their record's ``quasi_reason``."""
-    bars = set(chosen_quasi_bars(scene))
-    bodies = tuple(replace(b, quasi_static_transverse=0) if b.name in bars else b for b in scene.bodies)
-    bases = tuple(
-        replace(c, quasi=0, quasi_axial=0, quasi_reason=f"{why}: all dynamic (was: {c.quasi_reason})")
-        if c.bar in bars
-        else c
-        for c in scene.bases
+    """``scene`` with the quasi-static functions symgen chose dynamic, each family on its own
+    (:func:`chosen_quasi`: stated ones stay); ``why`` goes into their record's ``quasi_reason``."""
+    chosen = chosen_quasi(scene)
+    bodies = tuple(
+        replace(b, quasi_static_transverse=0) if chosen.get(b.name, (False, False))[0] else b for b in scene.bodies
     )
-    return replace(scene, bodies=bodies, bases=bases)
+    bases = []
+    for c in scene.bases:
+        transverse, axial = chosen.get(c.bar, (False, False))
+        if transverse or axial:
+            families = " and ".join(f for f, on in (("transverse", transverse), ("axial", axial)) if on)
+            c = replace(
+                c,
+                quasi=0 if transverse else c.quasi,
+                quasi_axial=0 if axial else c.quasi_axial,
+                quasi_reason=f"{why}: the {families} functions symgen chose quasi-static made dynamic "
+                f"(was: {c.quasi_reason})",
+            )
+        bases.append(c)
+    return replace(scene, bodies=tuple(bodies), bases=tuple(bases))
+
+
+def _question(scene: Scene) -> dict[str, Any]:
+    raised = scene.counts_raised
+    return {
+        "check": "quasi.fallback",
+        "version": __version__,
+        "fallback": FALLBACK_VERSION,
+        "scene": scene.hash,
+        "strain": str(scene.effects.strain),
+        "axial_kept": sorted(b for b, _ in scene.axial_kept),
+        "floors": [] if raised is None else [list(f) for f in raised.floors],
+        "chosen": {b: list(f) for b, f in sorted(chosen_quasi(scene).items())},
+        "counts": [[c.bar, c.axial, c.transverse, c.quasi, c.quasi_axial] for c in scene.bases],
+    }
+
+
+def recalled(scene: Scene) -> Scene | None:
+    """The scene with a fallback remembered for it made (its chosen quasi-static functions
+    dynamic), or None (nothing chosen, or nothing remembered)."""
+    if not scene.hash or not chosen_quasi(scene):
+        return None
+    known, answer = cache.recall(_question(scene))
+    if not known or not isinstance(answer, dict) or not isinstance(answer.get("why"), str):
+        return None
+    return without_chosen_quasi(scene, f"{answer['why']} (remembered from an earlier run)")
+
+
+def resolved(scene: Scene) -> Scene:
+    """The scene with a fallback remembered for it, else as it is."""
+    return recalled(scene) or scene
 
 
 def run_with_quasi_fallback(
@@ -69,7 +137,8 @@ def run_with_quasi_fallback(
 ) -> tuple[Mechanism, R | None, BaseException | None]:
     """After ``run(mech)`` gave (``result``, ``failure``): when the failure is the quasi-static
     form's (``quasi_bars`` set by ``_quasi_failure``) and some of those functions are symgen's
-    choice, one warning line and the run made again with them dynamic (``load``-ed); else as it is."""
+    choice, one warning line and the run made again with them dynamic (``load``-ed; remembered for
+    the scene: :func:`resolved`); else as it is."""
     if failure is None or not getattr(failure, "quasi_bars", None):
         return mech, result, failure
     bars = chosen_quasi_bars(mech.scene)
@@ -89,6 +158,10 @@ def run_with_quasi_fallback(
         ),
         stacklevel=2,
     )
+    if mech.scene.hash:
+        cache.remember(
+            _question(mech.scene), {"why": why, "ratio": float(ratio) if ratio == ratio else None, "bars": bars}
+        )
     mech = load(without_chosen_quasi(mech.scene, why))
     result, failure = run(mech)
     return mech, result, failure

@@ -1172,12 +1172,12 @@ def _quasi_failure(
             bars.append(name)
         if any(i in run.part.quasi for i in fi):
             axial.append(name)
-    from symgen.numerics.quasi_fallback import chosen_quasi_bars
+    from symgen.numerics.quasi_fallback import chosen_quasi
 
-    chosen = set(chosen_quasi_bars(mech.scene))
-    stated = [b for b in bars if b not in chosen]
+    chosen = chosen_quasi(mech.scene)  # bar -> (transverse, axial) symgen's choice
+    stated = [b for b in bars if not chosen.get(b, (False, False))[0]]
     keys = [f"bodies.{b}.quasi_static_transverse" for b in stated]
-    keys += [f"the transverse functions of {b} symgen chose quasi-static" for b in bars if b in chosen]
+    keys += [f"the transverse functions of {b} symgen chose quasi-static" for b in bars if b not in stated]
     keys += [f"the axial functions of {b} symgen chose quasi-static" for b in axial]
     try:
         ratio = quasi_mass_ratio(run, x, z, p)

@@ -194,10 +194,12 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
 def resolved(scene: Scene) -> Scene:
     """The scene with the decisions remembered for it (the bar formulation, then the axial
     dynamics a run kept: :mod:`symgen.numerics.axial_choice`, then the chosen counts a run
-    raised: :mod:`symgen.numerics.counts_choice`), else as it is."""
-    from symgen.numerics import axial_choice, counts_choice
+    raised: :mod:`symgen.numerics.counts_choice`, then the chosen quasi-static functions a run
+    made dynamic at the quasi-static form's impasse: :mod:`symgen.numerics.quasi_fallback`), else
+    as it is."""
+    from symgen.numerics import axial_choice, counts_choice, quasi_fallback
 
-    return counts_choice.resolved(axial_choice.resolved(recalled(scene) or scene))
+    return quasi_fallback.resolved(counts_choice.resolved(axial_choice.resolved(recalled(scene) or scene)))
 
 
 def run_with_strain_choice(
