@@ -36,7 +36,11 @@ large-deflection elastica's difference from von Karman's closed form at 0.5 .. 0
 K is not positive definite the bar is at or beyond its Euler load at that instant: a static change
 about a state that is no stable equilibrium is not an estimate, so each output the bar moves there
 (its unamplified change not zero) is charged ``BEYOND_BUCKLING`` of its peak, a value that cannot
-flatter, and the method text names the bar and the instants. Each
+flatter, and the method text names the bar and the instants. K has bending and the axial force's
+geometric stiffness only (the axial amplitudes follow the change at a constant strain, below): a
+bar buckled into a stable equilibrium that its kept nonlinear terms hold (a von Karman bar between
+fixed ends held by its stretching, the exact bar's own eta''^2 eta'^2) reads not positive definite
+too, so it is charged the whole peak, an over-estimate (not measured). Each
 output's change is the model's output function at q + dq minus at q, its maximum over the run
 divided by the output's peak.
 
