@@ -30,9 +30,11 @@ so that dg = -K^-1 dQ: the static change of the deflection (the axial amplitudes
 df = -Ka^-1 dc, so that the strain the axial basis carries stays). Compression lowers K towards zero at
 the bar's Euler load, which amplifies dg by 1 / (1 - P/P_cr) with no separate factor, however
 large: while K is positive definite the amplification is real (the near-buckling column of
-tests/test_model_form_euler.py, pinned on a slider at 0.5 .. 0.99 P_cr: the estimate is 1.00x the
-large-deflection elastica's difference from von Karman's closed form at 0.5 .. 0.97 and 1.07x at
-0.99, amplification 99; until estimator version 13 it was capped at 20 and read 0.18x there). Where
+tests/test_model_form_euler.py, pinned on a slider at 0.5 .. 0.99 P_cr, lambda 1e8: the estimate
+is 1.00x the large-deflection elastica's difference from von Karman's closed form at 0.5 .. 0.97
+and 1.07x at 0.99, amplification 99; until estimator version 13 it was capped at 20 and read 0.19x
+there; at lambda 1e4 and below the stretch's share of the curvature, not charged, matters: see
+``STRETCH_CURVATURE`` and docs/exact-bars.md, "Near the Euler load"). Where
 K is not positive definite the bar is at or beyond its Euler load at that instant: a static change
 about a state that is no stable equilibrium is not an estimate, so each output the bar moves there
 (its unamplified change not zero) is charged ``BEYOND_BUCKLING`` of its peak, a value that cannot
