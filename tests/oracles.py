@@ -194,20 +194,28 @@ def hanging_chain_frequencies(
     return np.sqrt(w2)
 
 
-def imperfect_elastica_midspan(P: float, mu: float, gamma: float) -> float:
+def imperfect_elastica_midspan(P: float, mu: float, gamma: float, lam: float | None = None) -> float:
     """The midspan deflection of an inextensible pinned-pinned elastica (bending stiffness mu,
     unit length) under the compressive end load P along the chord and a uniform dead lateral load
     gamma per unit length, by collocation (scipy's solve_bvp) of the large-deflection equations:
     x' = cos th, y' = sin th, mu th' = -M, M(s) = P y + R0 x - gamma (s x - int_0^s x), the
     reaction R0 at the pin s = 0 an unknown fixed by M(1) = 0 (the pin at s = 1 on the chord).
     Linear beam-column theory is its limit of small slopes; near the Euler load the geometric
-    stiffening of the deflected shape (of order slope^2) is amplified by 1/(1 - P/P_cr)."""
+    stiffening of the deflected shape (of order slope^2) is amplified by 1/(1 - P/P_cr).
+
+    ``lam``: extensible (Reissner's elastica, axial stiffness lam): x' = (1 + e) cos th,
+    y' = (1 + e) sin th, e = -P cos th / lam the strain of the end load's tangential component (the
+    shear force's share, of order gamma th, is left out: 2e-5 of P on the near-buckling column),
+    mu th' = -M with th' the curvature per undeformed length; the deflection of the material
+    midpoint s = 1/2. The bar shortens, so it buckles at mu pi^2 / (1 + e): a compressed bar is
+    stiffer in bending by about 2 |e| (the stretch's share of the curvature, eta'' / (1 + e))."""
     from scipy.integrate import solve_bvp
 
     def f(s, u, p):
         x, y, th, X = u
         M = P * y + p[0] * x - gamma * (s * x - X)
-        return np.vstack([np.cos(th), np.sin(th), -M / mu, x])
+        stretch = 1.0 if lam is None else 1.0 - P * np.cos(th) / lam
+        return np.vstack([stretch * np.cos(th), stretch * np.sin(th), -M / mu, x])
 
     def bc(a, b, p):
         return np.array([a[0], a[1], a[3], b[1], P * b[1] + p[0] * b[0] - gamma * (b[0] - b[3])])

@@ -28,8 +28,21 @@ of its axial force N,
 
 so that dg = -K^-1 dQ: the static change of the deflection (the axial amplitudes follow it,
 df = -Ka^-1 dc, so that the strain the axial basis carries stays). Compression lowers K towards zero at
-the bar's Euler load, which amplifies dg by 1 / (1 - P/P_cr) with no separate factor; the
-amplification is capped at ``AMPLIFICATION_CAP`` (a bar at or beyond buckling in the run). Each
+the bar's Euler load, which amplifies dg by 1 / (1 - P/P_cr) with no separate factor, however
+large: while K is positive definite the amplification is real (the near-buckling column of
+tests/test_model_form_euler.py, pinned on a slider at 0.5 .. 0.99 P_cr, lambda 1e8: the estimate
+is 1.00x the large-deflection elastica's difference from von Karman's closed form at 0.5 .. 0.97
+and 1.07x at 0.99, amplification 99; until estimator version 13 it was capped at 20 and read 0.19x
+there; at lambda 1e4 and below the stretch's share of the curvature, not charged, matters: see
+``STRETCH_CURVATURE`` and docs/exact-bars.md, "Near the Euler load"). Where
+K is not positive definite the bar is at or beyond its Euler load at that instant: a static change
+about a state that is no stable equilibrium is not an estimate, so each output the bar moves there
+(its unamplified change not zero) is charged ``BEYOND_BUCKLING`` of its peak, a value that cannot
+flatter, and the method text names the bar and the instants. K has bending and the axial force's
+geometric stiffness only (the axial amplitudes follow the change at a constant strain, below): a
+bar buckled into a stable equilibrium that its kept nonlinear terms hold (a von Karman bar between
+fixed ends held by its stretching, the exact bar's own eta''^2 eta'^2) reads not positive definite
+too, so it is charged the whole peak, an over-estimate (not measured). Each
 output's change is the model's output function at q + dq minus at q, its maximum over the run
 divided by the output's peak.
 
@@ -157,7 +170,7 @@ if TYPE_CHECKING:
     from symgen.numerics.simulate import SimResult
 
 __all__ = [
-    "AMPLIFICATION_CAP",
+    "BEYOND_BUCKLING",
     "EXACT_ORDER",
     "ModelFormEstimate",
     "ModelFormNotEstimated",
@@ -165,8 +178,11 @@ __all__ = [
     "model_form_estimate",
 ]
 
-#: the largest amplification of the static change by axial compression that is believed
-AMPLIFICATION_CAP = 20.0
+#: the estimate (fraction of peak) of an output a bar moves at an instant when the bar's tangent
+#: stiffness is not positive definite (at or beyond its Euler load): no static change is an estimate
+#: there; the whole peak, which cannot flatter (until estimator version 13 the amplification was
+#: capped at 20 instead, 0.18x of the true error at 0.99 P_cr)
+BEYOND_BUCKLING = 1.0
 #: the powers of s = eta'^2 the exact bar keeps in eta''^2 (1 + s + ...): 2 (sixth order in
 #: the amplitudes, symgen/model/bars.py: E4, E6); a longer expansion there raises it here
 EXACT_ORDER = 2
@@ -355,9 +371,13 @@ class _Bar:
         dv = step[:, None] * v
         return np.asarray(np.einsum("ra,ra->r", self.force(G + dv, N) - self.force(G - dv, N), v) / (2.0 * step))
 
-    def change(self, Q: np.ndarray, Lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(dg, the relative change of the first mode's tangent stiffness, amplification) of each
-        sample (rows of the coordinates ``Q`` and multipliers ``Lam``)."""
+    def change(
+        self, Q: np.ndarray, Lam: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(dg, the relative change of the first mode's tangent stiffness, amplification, dg0, beyond)
+        of each sample (rows of the coordinates ``Q`` and multipliers ``Lam``): dg = -K^-1 dQ, however
+        large the amplification where K is positive definite, 0 where it is not (``beyond``: at or
+        beyond the bar's Euler load, no estimate); dg0 = -(mu Kt)^-1 dQ, without the axial force."""
         G = Q[:, self.g_idx]
         mu = self.mu
         n = self.axial_force(Q, Lam)
@@ -376,10 +396,9 @@ class _Bar:
         size0 = np.linalg.norm(dg0, axis=1)
         size = np.linalg.norm(dg, axis=1)
         amp = np.where(ok & (size0 > 0), size / np.where(size0 > 0, size0, 1.0), 1.0)
-        capped = ~ok | (amp > AMPLIFICATION_CAP)
-        amp = np.where(capped, AMPLIFICATION_CAP, amp)
-        dg = np.where(capped[:, None], AMPLIFICATION_CAP * dg0, dg)
-        return dg, tangent, amp
+        amp = np.where(ok, amp, np.inf)
+        dg = np.where(ok[:, None], dg, 0.0)
+        return dg, tangent, amp, dg0, ~ok
 
 
 def _piece_derivative(xi: np.ndarray) -> np.ndarray:
@@ -470,16 +489,21 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     tangent: dict[str, np.ndarray] = {}
     amplification = {b.name: 1.0 for b in bars}
     dqs = np.zeros((len(rows), mech.n))
+    beyond: dict[str, np.ndarray] = {}  # each bar's samples at or beyond its Euler load, and dg0 there
+    dq_beyond = np.zeros((len(rows), mech.n))
     for b in bars:
-        dg, tangent[b.name], amp = b.change(Q, Lam)
+        dg, tangent[b.name], amp, dg0, not_pd = b.change(Q, Lam)
         dqs[:, b.g_idx] = dg
+        if not_pd.any():
+            beyond[b.name] = not_pd
+            dq_beyond[:, b.g_idx] = np.where(not_pd[:, None], dg0, 0.0)
         if b.na:  # the axial amplitudes follow: the strain P eps (= N / lambda) stays, to first order
             G = Q[:, b.g_idx]
             dc = np.einsum("kab,ra,rb->rk", b.C3, G, dg)
             if b.strain_order >= 2:  # the exact bar's d(phi'_k, eta'^4 / 8) = (phi'_k, eta'^3 d eta') / 2
                 dc = dc + (b.w * _power(G @ b.P1.T, 3) * (dg @ b.P1.T)) @ b.A1 / 2
             dqs[:, b.f_idx] = -dc @ b.Ka_inv.T
-        amplification[b.name] = max(1.0, float(amp.max(initial=1.0)))
+        amplification[b.name] = max(1.0, float(amp.max(initial=1.0)))  # inf: at or beyond buckling
     # the multipliers (driver torques, reactions, axial forces) change with the accelerations of
     # the change: d2(dq)/dt2 on the elastic coordinates, the rigid accelerations and multipliers
     # re-solved from the rigid rows of the dynamics and the acceleration-level closure
@@ -504,6 +528,16 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
         _mapped(out_f, len(rows), tau_rows, Q + dqs, V, zero, Lam + dlam, mech.p)[0]
         - _mapped(out_f, len(rows), tau_rows, Q, V, zero, Lam, mech.p)[0]
     ).T
+    # outputs a bar at or beyond its Euler load moves there (its unamplified change): not estimated
+    moved_beyond = np.zeros(len(names))
+    if beyond:
+        moved_beyond = np.nan_to_num(
+            np.abs(
+                _mapped(out_f, len(rows), tau_rows, Q + dq_beyond, V, zero, Lam, mech.p)[0]
+                - _mapped(out_f, len(rows), tau_rows, Q, V, zero, Lam, mech.p)[0]
+            ).max(axis=1),
+            nan=np.inf,
+        )
     # the first bending frequency moves by half the relative change of its tangent stiffness
     # (the mean over the run, reported; the drift integrates it along the run)
     shift = {name: 0.5 * float(np.mean(t)) for name, t in tangent.items()}
@@ -585,6 +619,10 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     out = {name: 0.0 for name in names}
     out.update(moved)
     out.update(dict(still))
+    # outputs a bar at or beyond its Euler load moves: no static change is an estimate there
+    for j, name in enumerate(names):
+        if kinds.get(name) not in CHECK_KINDS and peaks[j] > 0 and moved_beyond[j] > 1e-12 * peaks[j]:
+            out[name] = max(out[name], BEYOND_BUCKLING)
     left = (
         "the eighth- and higher-order terms of the exact curvature (eta''^2 eta'^6 / (1 - eta'^2)) and the "
         "exact strain's eta'^6 / 16"
@@ -604,6 +642,13 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     )
     if skipped:
         method += f"; slot guides not estimated: {', '.join(skipped)}"
+    for name, at in beyond.items():
+        t = tau_rows[at]
+        method += (
+            f"; bar {name!r} at or beyond its Euler load (its tangent stiffness not positive definite) at "
+            f"{int(at.sum())} of {len(at)} samples, tau {t.min():.6g} .. {t.max():.6g}: no static change is an "
+            f"estimate there, the outputs it moves charged {BEYOND_BUCKLING:g} of their peak"
+        )
     return ModelFormEstimate(out, stiff, method, skipped)
 
 

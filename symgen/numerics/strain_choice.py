@@ -51,8 +51,11 @@ R = TypeVar("R")
 #: change and drifts added as sizes at the same instant; 9's stretch's share of the curvature ported
 #: but off, model_form.STRETCH_CURVATURE; a torque-driven crank's timing, the drift of its angle the
 #: static change's forcing builds up, model_form._free_lead; 12: von Karman kept only within what the
-#: accuracy leaves beside the bases' a-priori truncation and the time bound, :func:`others_before`)
-ESTIMATOR_VERSION = "12"
+#: accuracy leaves beside the bases' a-priori truncation and the time bound, :func:`others_before`;
+#: 13: the static change's amplification by axial compression uncapped while the bar's tangent
+#: stiffness is positive definite, the outputs a bar at or beyond its Euler load moves charged
+#: model_form.BEYOND_BUCKLING)
+ESTIMATOR_VERSION = "13"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
