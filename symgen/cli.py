@@ -305,7 +305,7 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
             advice = (
                 "; its largest part, the axial, is the start's axial ringing: the quasi-static start solves the "
                 "deformation with its rates zero, so the dynamic bar starts off the stretch that the loads of the "
-                'rates the start then sets carry (docs/quasi-static-modes.md): effects.axial = "dynamic" runs it (at '
+                'rates the start then sets carry (docs/exact-bars.md): effects.axial = "dynamic" runs it (at '
                 "the cost of resolving the axial mode)"
             )
         elif largest == "axial" and _axial_method(sidecar).startswith("the start's ringing"):
