@@ -230,6 +230,11 @@ _ESTIMATE_ADVICE = {
 }
 
 
+def _axial_method(sidecar: dict) -> str:
+    """How the run's error estimate measured its axial part (the sidecar's text; empty without)."""
+    return str(((sidecar.get("error_estimate_detail") or {}).get("methods") or {}).get("axial", ""))
+
+
 def _counts_all_chosen(sidecar: dict) -> bool:
     """Every elastic bar's counts chosen by symgen (the scene states none): the sidecar's bases."""
     bases = sidecar.get("bases") or {}
@@ -292,9 +297,18 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
                 '("auto" kept von Karman because its model-form estimate was within what the accuracy leaves beside '
                 "the bases' a-priori truncation estimate and the time bound; the run's measured parts add more)"
             )
-        elif largest == "axial" and str(
-            ((sidecar.get("error_estimate_detail") or {}).get("methods") or {}).get("axial", "")
-        ).startswith("the start's ringing"):
+        elif (
+            largest == "axial"
+            and _axial_method(sidecar).startswith("the start's ringing")
+            and "the quasi-static start's axial force" in _axial_method(sidecar)
+        ):
+            advice = (
+                "; its largest part, the axial, is the start's axial ringing: the quasi-static start solves the "
+                "deformation with its rates zero, so the dynamic bar starts off the stretch that the loads of the "
+                'rates the start then sets carry (docs/exact-bars.md): effects.axial = "dynamic" runs it (at '
+                "the cost of resolving the axial mode)"
+            )
+        elif largest == "axial" and _axial_method(sidecar).startswith("the start's ringing"):
             advice = (
                 "; its largest part, the axial, is the start's axial ringing (the run does not start on its "
                 'quasi-static deformation): effects.axial = "dynamic" runs it (at the cost of resolving the axial '

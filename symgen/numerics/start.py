@@ -224,6 +224,22 @@ def quasi_static(
     maxit: int = POLICY.quasi_static_maxit,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
+    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit)
+    return qn, vn, it
+
+
+def quasi_static_state(
+    mech: Mechanism,
+    t: float,
+    q: np.ndarray,
+    v: np.ndarray,
+    part: Partition,
+    tol: float = POLICY.quasi_static_tol,
+    maxit: int = POLICY.quasi_static_maxit,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """:func:`quasi_static` with the multipliers of that state: (q, v, lam, iterations). The
+    deformation rates and accelerations are zero in it (the loads of the deformation rates, the
+    Coriolis load of a bending rate on a turning bar's axial force, are not in lam)."""
     system = static_system(mech, part)
     fun = system.fun
     E, D = system.E, list(part.dep)
@@ -254,7 +270,8 @@ def quasi_static(
                 "the mechanism may be near buckling or a singular position",
             )
     _, _, qn, vn = fun(t, q, v, u)
-    return np.array(qn).ravel(), np.array(vn).ravel(), it
+    lam = np.asarray(u[len(E) + 2 * len(D) + system.nR :], dtype=float)
+    return np.array(qn).ravel(), np.array(vn).ravel(), lam, it
 
 
 def quasi_static_start(

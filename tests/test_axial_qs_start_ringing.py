@@ -1,0 +1,117 @@
+"""The error estimate's axial part charges the ringing of a quasi-static start under a varying
+axial load (symgen.numerics.axial_drift.ringing, issue 19): an arm whose angle driver oscillates,
+bar axially quasi-static, started on its quasi-static deformation, against the same scene with the
+axial dynamics kept (5 axial functions, tolerances 1e-10 / 1e-13: the oracle).
+
+The quasi-static start solves the deformation with its rates zero, then sets the rates the
+quasi-static motion has; the loads of those rates (the Coriolis load 2 theta' w' of the bending
+rate on the turning bar) are in the run's axial force N(0) but not in the dynamic bar's start,
+which rings about the stretch: measured 2.94 % of tip_u's peak, 1.46 % of the torque's at lambda
+1e3 (0.031 % and 0.017 % at 1e5), charged 0 before (``ringing`` returned 0 for any quasi-static
+start)."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from symgen.cli import main
+from symgen.numerics.mechanism import load_mechanism
+from symgen.numerics.simulate import simulate
+
+#: a soft cantilever arm with a tip mass whose angle oscillates, sin(tau + 0.6): theta' and
+#: theta'' are both nonzero at the start, the centrifugal axial load varies at 2 per unit tau
+ARM = """
+[scene]
+name = "osc_arm"
+units = "dimensionless"
+omega = 1.0
+reference_length = 1.0
+
+[[bodies]]
+name = "arm"
+length = 1.0
+lambda = LAMBDA
+mu = 4.0
+frame = "cantilever"
+axial_modes = AXIAL_MODES
+transverse_modes = 4
+
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "arm"]
+at = [[0.0, 0.0], 0.0]
+
+[[masses]]
+body = "arm"
+at = 1.0
+mass = 0.5
+
+[driver]
+kind = "angle"
+body = "arm"
+initial = 0.0
+law = "sin(tau + 0.6)"
+
+[initial]
+deformation = "quasi-static"
+
+[effects]
+axial = "AXIAL"
+strain = "von_karman"
+
+[outputs]
+tip_u = { kind = "axial", body = "arm", at = 1.0 }
+tip = { kind = "deflection", body = "arm", at = 1.0 }
+torque = { kind = "driver_torque" }
+
+[simulation]
+t_end = 12.566370614359172
+output_step = 0.01
+"""
+OUTPUTS = ("tip_u", "tip", "torque")
+
+
+def _scene(tmp_path, lam: float, axial: str, modes: int):
+    path = tmp_path / f"osc_{lam:g}_{axial}_{modes}.toml"
+    text = ARM.replace("LAMBDA", repr(lam)).replace("AXIAL_MODES", str(modes)).replace("AXIAL", axial)
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("lam", [1e3, 1e5])
+def test_the_axial_part_charges_a_quasi_static_starts_ringing(tmp_path, lam):
+    """As a user runs it (``symgen simulate``, the default estimate): the quasi-static run against
+    the axial-dynamic oracle, and the axial part within [0.5, 3] of that true error on every
+    output (measured 1.02 / 1.00 / 1.00 at 1e3, 0.96 / 0.84 / 0.79 at 1e5), from the start's
+    ringing."""
+    oracle = simulate(load_mechanism(str(_scene(tmp_path, lam, "dynamic", 5))), rtol=1e-10, atol=1e-13)
+    path = _scene(tmp_path, lam, "quasi_static", 3)
+    out = tmp_path / "run.csv"
+    assert main(["simulate", str(path), "-o", str(out)]) == 0
+    side = json.loads(out.with_suffix(".json").read_text())
+    rows = list(csv.reader(out.read_text().splitlines()))
+    data = np.array(rows[1:], dtype=float)
+    detail = side["error_estimate_detail"]
+    assert detail["methods"]["axial"].startswith("the start's ringing on")
+    assert "the quasi-static start's axial force" in detail["methods"]["axial"]
+    for name in OUTPUTS:
+        run = data[:, rows[0].index(name)]
+        exact = np.asarray(oracle.column(name))
+        n = min(len(run), len(exact))
+        # the first sample of the torque is the continuum's joint force in both: from the second
+        true = float(np.max(np.abs(run[1:n] - exact[1:n])) / np.max(np.abs(exact)))
+        part = detail["parts"]["axial"][name]
+        assert 0.5 <= part / true <= 3.0, f"{name}: part {part:.3g}, true {true:.3g}"
+        assert side["error_estimate"][name] >= part
+    if lam == 1e3:
+        tip_u = data[:, rows[0].index("tip_u")]
+        exact = np.asarray(oracle.column("tip_u"))
+        n = min(len(tip_u), len(exact))
+        # the error is real: above the accuracy on tip_u (2.9 %), where the stretch's own inertia
+        # charges 1e-3 and the drift 0 (every rigid motion driven)
+        assert np.max(np.abs(tip_u[1:n] - exact[1:n])) / np.max(np.abs(exact)) > 0.02
