@@ -587,7 +587,7 @@ def share_callees(text: str, bodies: dict[str, str]) -> str:
         sig = _BODY_SIGNATURE.rstrip(" {\n")
         return (
             f"/* {name}: compiled once, in the unit {name}.c */\n"
-            f"#if defined(__GNUC__)\n__attribute__((visibility(\"hidden\")))\n#endif\n"
+            f'#if defined(__GNUC__)\n__attribute__((visibility("hidden")))\n#endif\n'
             f"int {name}{sig};\n"
             f"static int {m['fn']}{_BODY_SIGNATURE}  return {name}(arg, res, iw, w, mem);\n}}\n"
         )
