@@ -153,12 +153,12 @@ def input_symbols(prog) -> tuple[dict, dict]:
     return sx, env
 
 
-def output_functions(prog, sx: dict, conv: SympyToCasadi) -> dict:
-    """The Functions ``FUNCTION_NAMES`` of the program's outputs, converted by ``conv`` (its
-    environment holding the assignments), of the inputs ``sx``."""
+def output_functions(prog, sx: dict, conv: SympyToCasadi, names: tuple = FUNCTION_NAMES) -> dict:
+    """The Functions ``names`` (of ``FUNCTION_NAMES``) of the program's outputs, converted by
+    ``conv`` (its environment holding the assignments), of the inputs ``sx``."""
     args = [sx[n] for n in INPUT_NAMES]
     funcs = {}
-    for fname in FUNCTION_NAMES:
+    for fname in names:
         exprs = prog.outputs[fname]
         vec = ca.vertcat(*[conv(e) for e in exprs]) if exprs else ca.SX(0, 1)
         funcs[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
@@ -205,7 +205,7 @@ def call_functions(model, blocks, inline: tuple[dict, dict] | None = None) -> di
     res_E_w + res_E_E . jac_bars . xin_w (``numerics.simulate``). ``inline``: the inline
     conversion's (input symbols, environment), whose assignments free of E are reused
     (:func:`split_functions`)."""
-    split, bf = split_functions(model, blocks, inline)
+    split, bf = split_functions(model, blocks, inline, ("res", "out"))
     prog = model.program
     ins = [ca.SX.sym(n, len(prog.inputs[n])) for n in INPUT_NAMES]
     E = ca.SX.sym("E", len(bf.outputs))
@@ -270,7 +270,9 @@ def build_functions_with_calls(model, blocks=None) -> dict:
     return output_functions(prog, sx, conv)
 
 
-def split_functions(model, blocks=None, inline: tuple[dict, dict] | None = None) -> tuple[dict, BlockFunctions]:
+def split_functions(
+    model, blocks=None, inline: tuple[dict, dict] | None = None, names: tuple = FUNCTION_NAMES
+) -> tuple[dict, BlockFunctions]:
     """The Functions ``FUNCTION_NAMES`` with the blocks' outputs E as inputs: of (t, q, v, a, lam,
     [p; E]) (E stacked as ``BlockFunctions.outputs``), and ``xin`` of (t, q, v, a, lam, p): the
     calls' stacked inputs X. With these a Jacobian is the chain rule over the blocks' own
@@ -279,7 +281,8 @@ def split_functions(model, blocks=None, inline: tuple[dict, dict] | None = None)
     ``inline``: the input symbols and the environment of the inline conversion
     (:func:`build_functions`): its symbols are these Functions' (p those of the model's p), and
     each assignment that reads no E, directly or through others, is its conversion there (the same
-    expression: converted once; measured in benchmarks/RESULTS.md, "Callees compiled once")."""
+    expression: converted once; measured in benchmarks/RESULTS.md, "Callees compiled once").
+    ``names``: the Functions wanted (``call_functions`` uses ``res`` and ``out`` alone)."""
     prog = model.program
     bf = BlockFunctions(prog.blocks if blocks is None else blocks)
     E = bf.outputs
@@ -306,7 +309,7 @@ def split_functions(model, blocks=None, inline: tuple[dict, dict] | None = None)
             continue
         reads_e.add(sym)
         conv.env[sym] = conv(expr)
-    out = output_functions(prog, sx, conv)
+    out = output_functions(prog, sx, conv, names)
     X = ca.vertcat(*[conv.env[x] for _, c in bf.calls for x in c.inputs])
     xin_args = [sx[n] for n in INPUT_NAMES[:-1]] + [p0]  # X is kinematics: of the model's p, not of E
     out["xin"] = ca.Function("xin", xin_args, [X], list(INPUT_NAMES), ["xin"], {"cse": True})
