@@ -73,8 +73,9 @@ units = compiled.write_units(funcs, folder, cold=sim.COLD)
 out["kB"] = sum(u.stat().st_size for u in units) / 1e3
 cc = compiled.compiler()
 comp = 0.0
+cold = compiled.cold_units(funcs, sim.COLD) if hasattr(compiled, "cold_units") else sim.COLD
 for u in units:
-    flags = shlex.split(compiled.COLD_CFLAGS if compiled.unit_of(u) in sim.COLD else compiled.DEFAULT_CFLAGS)
+    flags = shlex.split(compiled.COLD_CFLAGS if compiled.unit_of(u) in cold else compiled.DEFAULT_CFLAGS)
     b = child_cpu()
     subprocess.run([cc.path, *flags, "-fPIC", "-c", str(u), "-o", str(u.with_suffix(".o"))], check=True)
     comp += child_cpu() - b
@@ -142,7 +143,7 @@ def main() -> None:
             for r in range(args.repeats):
                 for calls in args.runners:
                     runs[calls].append(measure(path, sets, calls, args.t_end, work / f"{n}-{strain}-{calls}-{r}"))
-            x0 = np.load(work / f"{n}-{strain}-inline-0" / "q.npy")
+            x0 = np.load(work / f"{n}-{strain}-{args.runners[0]}-0" / "q.npy")  # the reference: the first runner
             for calls in args.runners:
                 m = runs[calls]
                 x1 = np.load(work / f"{n}-{strain}-{calls}-0" / "q.npy")
@@ -181,7 +182,7 @@ def main() -> None:
     for r in rows:
         o = r["ops"]
         print(
-            f"| {r['scene']} | {r['runner']} | {o['dae']} / {o['jac_dae']} / {o['g']} | {r['kB']:.0f} | {r['compile']:.1f} "
+            f"| {r['scene']} | {r['runner']} | {o['dae']} / {o['jac_dae']} / {o.get('g', '-')} | {r['kB']:.0f} | {r['compile']:.1f} "
             f"| {r['build']:.2f} | {r['runner_s']:.2f} | {r['steps']} | {r['vm_us']:.0f} | {r['c_us']:.0f} "
             f"| {r['rel']:.1e} | {'yes' if r['identical'] else 'no'} | {'yes' if r['c_vs_vm_identical'] else 'no'} |"
         )

@@ -63,9 +63,11 @@ def _child_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def first_run(tree: Path, scene: Path, tmp: Path, cflags: str | None = None) -> dict[str, float]:
+def first_run(
+    tree: Path, scene: Path, tmp: Path, cflags: str | None = None, extra: tuple[str, ...] = ()
+) -> dict[str, float]:
     """Wall and CPU s of a first run (empty cache) of ``scene`` with ``tree`` first on the path
-    (``cflags``: ``$SYMGEN_CFLAGS``, else the default)."""
+    (``cflags``: ``$SYMGEN_CFLAGS``, else the default; ``extra``: more arguments of ``simulate``, e.g. ``--set KEY=VALUE``)."""
     with tempfile.TemporaryDirectory(dir=tmp) as cache:
         env = dict(os.environ, PYTHONPATH=str(tree), SYMGEN_CACHE_DIR=cache)
         for name in ("SYMGEN_BACKEND", "SYMGEN_CFLAGS", "SYMGEN_CC"):
@@ -73,6 +75,7 @@ def first_run(tree: Path, scene: Path, tmp: Path, cflags: str | None = None) -> 
         if cflags is not None:
             env["SYMGEN_CFLAGS"] = cflags
         cmd = [sys.executable, "-m", "symgen.cli", "simulate", str(scene), "-o", str(tmp / "out.csv")]
+        cmd += extra
         c0, t0 = _child_cpu(), time.perf_counter()
         proc = subprocess.run(cmd, cwd=tmp, env=env, capture_output=True, text=True, check=True)
         wall, cpu = time.perf_counter() - t0, _child_cpu() - c0
@@ -225,9 +228,10 @@ def _fmt(x: float) -> str:
     return f"{x:.2f}"
 
 
-def first_runs(base: str, bars: list[int], repeats: int) -> str:
+def first_runs(base: str, bars: list[int], repeats: int, extra: tuple[str, ...] = ()) -> str:
     """Markdown: the first run of the chains of ``bars`` bars, the tree of commit ``base``
-    against this checkout, interleaved run by run, medians (wall, CPU and the reported parts)."""
+    against this checkout, interleaved run by run, medians (wall, CPU and the reported parts);
+    ``extra``: more arguments of ``simulate`` (``--set KEY=VALUE``, ``--estimate off``)."""
     global BASE
     rows = []
     with tempfile.TemporaryDirectory(prefix="symgen-first-") as tmp_s:
@@ -246,7 +250,7 @@ def first_runs(base: str, bars: list[int], repeats: int) -> str:
             runs: dict[str, list[dict[str, float]]] = {name: [] for name in trees}
             for _ in range(repeats):
                 for name, tree in trees.items():
-                    runs[name].append(first_run(tree, scene, tmp))
+                    runs[name].append(first_run(tree, scene, tmp, extra=extra))
                     print(f"(first run: {n} bars, {name}: {runs[name][-1]})", file=sys.stderr, flush=True)
             rows.append(
                 (
@@ -260,8 +264,8 @@ def first_runs(base: str, bars: list[int], repeats: int) -> str:
     keys = ("wall", "cpu", "derive", "library", "simulate")
     out = [
         f"First run (`symgen simulate CHAIN`, empty cache, {os.cpu_count()} cores, medians of {repeats}, "
-        f"interleaved): before = {base}, after = this tree. Wall and CPU s of the whole process (compilers "
-        "included) and the parts it reports.",
+        f"interleaved{', `' + ' '.join(extra) + '`' if extra else ''}): before = {base}, after = this tree. Wall and CPU s "
+        "of the whole process (compilers included) and the parts it reports.",
         "",
         "| bars | " + " | ".join(f"{t} {k}" for t in runs for k in keys) + " | under 5 s |",
         "|---|" + "---|" * (len(runs) * len(keys) + 1),
@@ -331,11 +335,15 @@ def render(rows_first, rows_alone, rows_flags, trees: list[str], cores: int) -> 
 
 
 if __name__ == "__main__":
-    # bench_compile.py [REPEATS]: the section; --first BASE REPEATS N [N ...]: the first-run table alone;
+    # bench_compile.py [REPEATS]: the section; --first BASE REPEATS N [N ...] [--set KEY=VALUE ...]
+    # [--estimate E]: the first-run table alone (the options passed to simulate: --set effects.strain=exact);
     # --profile BASE|- REPEATS N: where the first run of the N-bar chain goes
     if len(sys.argv) > 4 and sys.argv[1] == "--profile":
         print(profile_table(None if sys.argv[2] == "-" else sys.argv[2], int(sys.argv[4]), int(sys.argv[3])))
     elif len(sys.argv) > 3 and sys.argv[1] == "--first":
-        print(first_runs(sys.argv[2], [int(a) for a in sys.argv[4:]], int(sys.argv[3])))
+        rest = sys.argv[4:]
+        n_bars = next((i for i, a in enumerate(rest) if not a.isdigit()), len(rest))
+        bars, extra = [int(a) for a in rest[:n_bars]], tuple(rest[n_bars:])
+        print(first_runs(sys.argv[2], bars, int(sys.argv[3]), extra))
     else:
         print(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1))

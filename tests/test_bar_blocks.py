@@ -216,3 +216,52 @@ def test_the_model_cache_keeps_the_call_functions(tmp_path):
     assert store.save({k: funcs[k] for k in F.FUNCTION_NAMES}, info, plain)
     lazy, _ = store.load_lazy(plain, info.key)
     assert "res_E" not in lazy and list(lazy) == list(F.FUNCTION_NAMES)
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+def test_the_library_compiles_each_block_once(tmp_path, monkeypatch):
+    """The library of an exact chain (blocks as calls), its ``jac_dae`` cut into parts: each
+    block's Function and its Jacobian are a unit of their own (``compiled.share_callees``), every
+    other unit calls them without carrying their C, a block only the cold Functions call is
+    compiled cold; the library holds no ``g`` (``simulate._library_g``: made of ``dae`` and
+    ``jac_dae``), and gives the virtual machine's numbers to the last bit."""
+    from symgen.api import mechanism
+    from symgen.numerics import compiled
+    from symgen.numerics import simulate as sim
+    from symgen.policy import UnitRule
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    mech = mechanism(_exact_chain(tmp_path))
+    *_, part = mech.initial_state(0.0)
+    part = mech.run_partition(part)
+    run = sim.DaeRunner(mech, part, 1e-6, 1e-8, backend="vm")
+    funcs = run._compiled_functions()
+    shared = compiled.callees(funcs)
+    assert shared and {n.removeprefix("jac_") for n in shared} == {n for n in shared if not n.startswith("jac_")}
+    cold = compiled.cold_units(funcs, sim.COLD)
+    assert {n for n in shared if n.startswith("jac_")} <= set(cold)  # called by jac_dae and g only
+    assert not {n for n in shared if not n.startswith("jac_")} & set(cold)  # dae calls them
+    bound = int(next(f for f in funcs if f.name() == "jac_dae").n_instructions()) // 2
+    monkeypatch.setattr(compiled, "UNITS", UnitRule(cold_ops=bound, hot_ops=10**9))
+    (tmp_path / "c").mkdir()
+    units = compiled.write_units(funcs, tmp_path / "c", sim.COLD)
+    stems = {u.stem for u in units}
+    assert set(shared) <= stems and "jac_dae_part1" in stems
+    for u in units:
+        text = u.read_text()
+        for name in shared:
+            # a callee's C (CasADi's comment of its body) is in its own unit alone
+            own = f"/* {name}:(" in text
+            assert own == (u.stem == name), (u.stem, name)
+    ext, built = compiled.library(funcs, mech.info.key, "test shared callees", store=False, cold=sim.COLD)
+    assert built and "g" not in ext  # made of dae and jac_dae (simulate._library_g)
+    rng = np.random.default_rng(5)
+    plain = run._functions()
+    p = np.concatenate([mech.p_values, [0.0]])
+    for _ in range(2):
+        t, x, z = rng.uniform(-0.5, 0.5), *(rng.uniform(-0.3, 0.3, plain["dae"].size1_in(k)) for k in (1, 2))
+        for name, args in (("dae", (t, x, z, p, np.zeros(0))), ("g", (t, x, z, p)), ("rec", (t, x, z, p))):
+            want = plain[f"compiled:{name}"](*args)
+            got = (sim._library_g(ext) if name == "g" else ext[name])(*args)
+            for a, b in zip(want, got):
+                assert np.array_equal(np.asarray(ca.densify(a)), np.asarray(ca.densify(b))), name

@@ -38,6 +38,7 @@ import functools
 import hashlib
 import json
 import os
+import re
 import shlex
 import shutil
 import sys
@@ -303,6 +304,7 @@ class PendingLibrary:
         try:
             tmp = stack.enter_context(cache.temp_dir(parent, where.name))
             units = write_units(funcs, tmp, cold)
+            cold = cold_units(funcs, cold)
         except BaseException:
             stack.close()
             raise
@@ -487,16 +489,26 @@ def write_units(funcs: list[ca.Function], folder: Path, cold: tuple[str, ...] = 
     A Function of more operations than ``policy.UNITS`` allows (``cold_ops`` for those named in
     ``cold``, else ``hot_ops``) is written as parts (:func:`parts`), each a unit
     ``<name>_part<k>.c`` of its own, and a unit ``<name>.c`` that calls them (:func:`caller_c`):
-    the compiler's memory is then bounded by the largest part."""
+    the compiler's memory is then bounded by the largest part.
+
+    The Functions the units call (``never_inline`` call nodes: the bar blocks,
+    ``functions.BlockFunctions``) are compiled once (:func:`share_callees`): each a unit
+    ``<callee>.c`` of its own, which the callers' units call instead of carrying its C."""
     import casadi as ca
 
     units = []
+    shared = callees(funcs)
+    bodies = {name: _write_callee(f, folder) for name, f in shared.items()}
+    units += [folder / f"{name}.c" for name in bodies]
 
     def write(f: ca.Function) -> None:
         gen = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
         gen.add(f)
         gen.generate(str(folder) + os.sep)
-        units.append(folder / f"{f.name()}.c")
+        path = folder / f"{f.name()}.c"
+        if bodies:
+            path.write_text(share_callees(path.read_text(), bodies))
+        units.append(path)
 
     for f in funcs:
         bound = UNITS.cold_ops if f.name() in cold else UNITS.hot_ops
@@ -509,6 +521,78 @@ def write_units(funcs: list[ca.Function], folder: Path, cold: tuple[str, ...] = 
         (folder / f"{f.name()}.c").write_text(caller_c(f, split))
         units.append(folder / f"{f.name()}.c")
     return sorted(units, key=lambda c: -c.stat().st_size)
+
+
+def callees(funcs: list[ca.Function]) -> dict[str, ca.Function]:
+    """The Functions that ``funcs`` call (their call nodes: ``casadi.Function.find_functions``),
+    by name; none of them named as one of ``funcs`` (their units would collide)."""
+    found: dict[str, ca.Function] = {}
+    names = {f.name() for f in funcs}
+    for f in funcs:
+        if not f.is_a("SXFunction"):
+            continue
+        for g in f.find_functions():
+            if g.name() not in names and g.is_a("SXFunction"):
+                found.setdefault(g.name(), g)
+    return found
+
+
+def cold_units(funcs: list[ca.Function], cold: tuple[str, ...]) -> tuple[str, ...]:
+    """``cold`` and the callees (:func:`callees`) that only cold Functions call: the units that
+    :data:`COLD_CFLAGS` compiles (a callee of a hot Function is compiled hot, once)."""
+    hot = {g.name() for f in funcs if f.name() not in cold and f.is_a("SXFunction") for g in f.find_functions()}
+    return tuple(cold) + tuple(sorted(name for name in callees(funcs) if name not in hot))
+
+
+#: The signature of a Function's body in CasADi's C (``casadi_f<k>``)
+_BODY_SIGNATURE = "(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {\n"
+#: A Function's body in CasADi's C: its comment naming it, its static definition, its statements
+#: (indented: the first line that is a lone ``}`` closes it)
+_BODY = re.compile(
+    r"/\* (?P<name>[A-Za-z_][A-Za-z0-9_]*):\([^\n]*\) \*/\n"
+    r"static int (?P<fn>casadi_f[0-9]+)" + re.escape(_BODY_SIGNATURE) + r"(?P<body>(?:[^\n]*\n)*?)\}\n"
+)
+
+
+def _write_callee(f: ca.Function, folder: Path) -> str:
+    """Write the unit ``<name>.c`` of the callee ``f`` (its entry ``<name>`` of hidden
+    visibility: the library's callers link to it, nothing outside the library does) and return
+    its body's statements, as CasADi's C of a caller holds them."""
+    import casadi as ca
+
+    gen = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
+    gen.add(f)
+    gen.generate(str(folder) + os.sep)
+    path = folder / f"{f.name()}.c"
+    text = path.read_text()
+    found = [m for m in _BODY.finditer(text) if m["name"] == f.name()]
+    if len(found) != 1:  # CasADi's C is not laid out as this module reads it: symgen's own error
+        raise AssertionError(f"compiled: the C of {f.name()} has {len(found)} bodies named so")
+    hidden = '#if defined(__GNUC__)\n#define CASADI_SYMBOL_EXPORT __attribute__((visibility("hidden")))\n#endif\n'
+    path.write_text(hidden + text)
+    return found[0]["body"]
+
+
+def share_callees(text: str, bodies: dict[str, str]) -> str:
+    """The C ``text`` of a caller with the body of each callee of ``bodies`` (name -> statements
+    as :func:`_write_callee` returned them) replaced by a call of the callee's own entry, compiled
+    once in its unit. Replaced only where the caller's statements are the callee's own to the
+    character (the same operations in the same order: the same numbers to the last bit); a body
+    that differs stays in the caller."""
+
+    def swap(m: re.Match[str]) -> str:
+        name = m["name"]
+        if bodies.get(name) != m["body"]:
+            return m[0]
+        sig = _BODY_SIGNATURE.rstrip(" {\n")
+        return (
+            f"/* {name}: compiled once, in the unit {name}.c */\n"
+            f'#if defined(__GNUC__)\n__attribute__((visibility("hidden")))\n#endif\n'
+            f"int {name}{sig};\n"
+            f"static int {m['fn']}{_BODY_SIGNATURE}  return {name}(arg, res, iw, w, mem);\n}}\n"
+        )
+
+    return _BODY.sub(swap, text)
 
 
 def unit_of(unit: Path) -> str:

@@ -163,7 +163,7 @@ class DaeRunner:
             return
         ext = self._settle()
         if ext is not None:
-            self._bind(ext["dae"], ext["g"], ext["split"], ext["rec"])
+            self._bind(ext["dae"], _library_g(ext), ext["split"], ext["rec"])
             self.backend, self.library, self.vm_until = "compiled", "built", tau
 
     def settle(self) -> None:
@@ -206,17 +206,19 @@ class DaeRunner:
         return self._built
 
     def _compiled_functions(self) -> list[ca.Function]:
-        """The Functions ``COMPILED`` (with ``jac_dae``, which only a compiled ``dae`` needs), each
-        with its repeated operations made once (``_shared``: the same numbers to the last bit)."""
+        """The Functions ``COMPILED`` (with ``jac_dae``, which only a compiled ``dae`` needs; without
+        ``g`` where the model has calls, :func:`_library_names`), each with its repeated operations
+        made once (``_shared``: the same numbers to the last bit)."""
         funcs = self._functions()
         if "jac_dae" not in funcs:
             dae = funcs["dae"]
             dae_in = dae.sx_in()
             funcs["jac_dae"] = _dae_jacobian(dae, dae_in, dae.call(dae_in))
-        for name in COMPILED:
+        names = _library_names(self.mech)
+        for name in names:
             if f"compiled:{name}" not in funcs:
                 funcs[f"compiled:{name}"] = _shared(funcs[name])
-        return [funcs[f"compiled:{name}"] for name in COMPILED]
+        return [funcs[f"compiled:{name}"] for name in names]
 
     def _use_compiled(self, choice: str, use_cache: bool, background: bool = False) -> None:
         """Run the Functions from a compiled library (built once, cached; when cached, the
@@ -257,7 +259,7 @@ class DaeRunner:
                 f"--backend vm or ${compiled.BACKEND_ENV}=vm chooses it quietly)"
             )
         else:
-            self._bind(ext["dae"], ext["g"], ext["split"], ext["rec"])
+            self._bind(ext["dae"], _library_g(ext), ext["split"], ext["rec"])
             self.backend, self.library = "compiled", "built" if built else "cached"
 
     def pack(self, q: np.ndarray, v: np.ndarray, a: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -1012,6 +1014,31 @@ def _chain_rule(
     return alg, out, jac, jb[names.index("jac_alg_z")]
 
 
+def _library_names(mech: Mechanism) -> tuple[str, ...]:
+    """The Functions of ``COMPILED`` a library of ``mech`` holds: all but ``g`` where the model's bar
+    blocks are calls (there ``g`` is the DAE's algebraic rows and their ``jac_alg_z``, which ``dae``
+    and ``jac_dae`` compute already: :func:`_library_g`). ``g`` is evaluated per output (the
+    polish), not per step; its own C was a quarter of a 12-bar chain's library (benchmarks/RESULTS.md,
+    "Callees compiled once")."""
+    return tuple(n for n in COMPILED if n != "g") if _calls(mech) else COMPILED
+
+
+def _library_g(ext: Mapping[str, ca.Function]) -> ca.Function:
+    """The library's ``g`` (t, x, z, p) -> (alg, jac_alg_z): its own where it holds one, else made of
+    the library's ``dae`` and its Jacobian ``jac_dae`` (:func:`_library_names`): the same operations
+    on the same operands as the virtual machine's ``g`` (``_chain_rule``: alg and jac_alg_z are
+    those of ``dae`` and ``jac_dae``), so the same numbers to the last bit."""
+    if "g" in ext:
+        return ext["g"]
+    dae = ext["dae"]
+    jac = dae.jacobian()  # the library's jac_dae (CasADi's external finds it by name)
+    ins = [ca.MX.sym(n, dae.sparsity_in(i)) for i, n in enumerate(("t", "x", "z", "p"))]
+    u = ca.MX(dae.sparsity_in(4))
+    outs = dae(*ins, u)
+    blocks = jac(*ins, u, *outs)
+    return ca.Function("g", ins, [outs[1], blocks[jac.index_out("jac_alg_z")]], ["t", "x", "z", "p"], ["g", "jac_g_z"])
+
+
 def _same_jacobian(funcs: dict[str, ca.Function]) -> None:
     """The virtual machine's IDAS given the library's Jacobian: ``dae`` an MX oracle calling the
     library's SX ``dae``, whose Jacobian is ``jac_dae`` (``custom_jacobian``; CasADi's factory of an
@@ -1040,7 +1067,7 @@ def _shared(f: ca.Function) -> ca.Function:
 
 
 def _signatures(mech: Mechanism, part: Partition) -> list[compiled.Signature]:
-    """The signatures (names and sizes) of the Functions ``COMPILED`` of a partition (one without
+    """The signatures (names and sizes) of the Functions of a partition's library (:func:`_library_names`) (one without
     independent coordinates too: x and the DAE's ode are then 0 x 1), from the sizes alone: what
     a cached library is found and checked by, without making the Functions
     (:func:`compiled.library_of` checks them against the Functions whenever it builds)."""
@@ -1056,7 +1083,7 @@ def _signatures(mech: Mechanism, part: Partition) -> list[compiled.Signature]:
     ins = [col(1), col(2 * nI), col(nz), col(len(mech.p) + 1), col(0)]
     outs = [col(2 * nI), col(n_alg), col(0), col(0)]
     jac_outs = [[o[0], i[0]] for o in outs for i in ins]
-    return [
+    sigs: list[compiled.Signature] = [
         ["dae", ins, outs],
         ["jac_dae", ins + outs, jac_outs],
         ["g", ins[:4], [col(n_alg), [n_alg, nz]]],
@@ -1074,6 +1101,8 @@ def _signatures(mech: Mechanism, part: Partition) -> list[compiled.Signature]:
             ],
         ],
     ]
+    names = _library_names(mech)
+    return [sig for sig in sigs if sig[0] in names]
 
 
 def _dae_jacobian(dae: ca.Function, dae_in: list[ca.SX], dae_out: list[ca.SX]) -> ca.Function:

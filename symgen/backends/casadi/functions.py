@@ -153,12 +153,12 @@ def input_symbols(prog) -> tuple[dict, dict]:
     return sx, env
 
 
-def output_functions(prog, sx: dict, conv: SympyToCasadi) -> dict:
-    """The Functions ``FUNCTION_NAMES`` of the program's outputs, converted by ``conv`` (its
-    environment holding the assignments), of the inputs ``sx``."""
+def output_functions(prog, sx: dict, conv: SympyToCasadi, names: tuple = FUNCTION_NAMES) -> dict:
+    """The Functions ``names`` (of ``FUNCTION_NAMES``) of the program's outputs, converted by
+    ``conv`` (its environment holding the assignments), of the inputs ``sx``."""
     args = [sx[n] for n in INPUT_NAMES]
     funcs = {}
-    for fname in FUNCTION_NAMES:
+    for fname in names:
         exprs = prog.outputs[fname]
         vec = ca.vertcat(*[conv(e) for e in exprs]) if exprs else ca.SX(0, 1)
         funcs[fname] = ca.Function(fname, args, [vec], list(INPUT_NAMES), [fname], {"cse": True})
@@ -176,7 +176,7 @@ def build_functions(model) -> dict:
     out = output_functions(prog, sx, conv)
     blocks = paying_blocks(model)
     if blocks:
-        out.update(call_functions(model, blocks))
+        out.update(call_functions(model, blocks, (sx, conv.env)))
     return out
 
 
@@ -196,14 +196,16 @@ def paying_blocks(model) -> list:
     return [b for b in model.program.blocks if len(b.calls) >= 2]
 
 
-def call_functions(model, blocks) -> dict:
+def call_functions(model, blocks, inline: tuple[dict, dict] | None = None) -> dict:
     """The Functions ``CALL_NAMES``: ``res_E`` and ``out_E`` of (t, q, v, a, lam, p, E) (the
     blocks' outputs E as an input, stacked as ``BlockFunctions.outputs``), ``xin`` of (t, q, v, a,
     lam, p) (the calls' stacked inputs X), ``bars`` (E of X: each call one call node of its block's
     Function) and ``jac_bars`` (dE/dX, block diagonal: one call of each block's Jacobian per call).
     So res = res_E(w, bars(xin(w))) and its Jacobian is the chain rule
-    res_E_w + res_E_E . jac_bars . xin_w (``numerics.simulate``)."""
-    split, bf = split_functions(model, blocks)
+    res_E_w + res_E_E . jac_bars . xin_w (``numerics.simulate``). ``inline``: the inline
+    conversion's (input symbols, environment), whose assignments free of E are reused
+    (:func:`split_functions`)."""
+    split, bf = split_functions(model, blocks, inline, ("res", "out"))
     prog = model.program
     ins = [ca.SX.sym(n, len(prog.inputs[n])) for n in INPUT_NAMES]
     E = ca.SX.sym("E", len(bf.outputs))
@@ -268,17 +270,29 @@ def build_functions_with_calls(model, blocks=None) -> dict:
     return output_functions(prog, sx, conv)
 
 
-def split_functions(model, blocks=None) -> tuple[dict, BlockFunctions]:
+def split_functions(
+    model, blocks=None, inline: tuple[dict, dict] | None = None, names: tuple = FUNCTION_NAMES
+) -> tuple[dict, BlockFunctions]:
     """The Functions ``FUNCTION_NAMES`` with the blocks' outputs E as inputs: of (t, q, v, a, lam,
     [p; E]) (E stacked as ``BlockFunctions.outputs``), and ``xin`` of (t, q, v, a, lam, p): the
     calls' stacked inputs X. With these a Jacobian is the chain rule over the blocks' own
-    Jacobians: dF/dw = F_w + F_E . blockdiag(jac_bar(X_c)) . dX/dw (:func:`chain_jacobian`)."""
+    Jacobians: dF/dw = F_w + F_E . blockdiag(jac_bar(X_c)) . dX/dw (:func:`chain_jacobian`).
+
+    ``inline``: the input symbols and the environment of the inline conversion
+    (:func:`build_functions`): its symbols are these Functions' (p those of the model's p), and
+    each assignment that reads no E, directly or through others, is its conversion there (the same
+    expression: converted once; measured in benchmarks/RESULTS.md, "Callees compiled once").
+    ``names``: the Functions wanted (``call_functions`` uses ``res`` and ``out`` alone)."""
     prog = model.program
     bf = BlockFunctions(prog.blocks if blocks is None else blocks)
     E = bf.outputs
     n_p = len(prog.inputs["p"])
-    sx = {name: ca.SX.sym(name, len(prog.inputs[name])) for name in INPUT_NAMES if name != "p"}
-    p0 = ca.SX.sym("p", n_p)
+    if inline is None:
+        sx = {name: ca.SX.sym(name, len(prog.inputs[name])) for name in INPUT_NAMES if name != "p"}
+        p0 = ca.SX.sym("p", n_p)
+    else:
+        sx = {name: v for name, v in inline[0].items() if name != "p"}
+        p0 = inline[0]["p"]
     sx["p"] = ca.vertcat(p0, ca.SX.sym("E", len(E)))
     env = {}
     for name in INPUT_NAMES:
@@ -286,10 +300,16 @@ def split_functions(model, blocks=None) -> tuple[dict, BlockFunctions]:
             env[s] = sx[name][k]
     env.update({x: sx["p"][n_p + k] for k, x in enumerate(E)})
     conv = SympyToCasadi(env)
+    reads_e = set(E)  # the assignments that read an E, directly or through others
     for sym, expr in prog.assignments:
-        if sym not in bf.assigned:
-            conv.env[sym] = conv(expr)
-    out = output_functions(prog, sx, conv)
+        if sym in bf.assigned:
+            continue
+        if inline is not None and sym in inline[1] and reads_e.isdisjoint(expr.free_symbols):
+            conv.env[sym] = inline[1][sym]
+            continue
+        reads_e.add(sym)
+        conv.env[sym] = conv(expr)
+    out = output_functions(prog, sx, conv, names)
     X = ca.vertcat(*[conv.env[x] for _, c in bf.calls for x in c.inputs])
     xin_args = [sx[n] for n in INPUT_NAMES[:-1]] + [p0]  # X is kinematics: of the model's p, not of E
     out["xin"] = ca.Function("xin", xin_args, [X], list(INPUT_NAMES), ["xin"], {"cse": True})
