@@ -117,3 +117,16 @@ def test_extensible_elastica_tends_to_the_inextensible():
     inext = imperfect_elastica_midspan(P, MU, GAMMA)
     assert abs(imperfect_elastica_midspan(P, MU, GAMMA, 1e12) / inext - 1) < 1e-11
     assert imperfect_elastica_midspan(P, MU, GAMMA, 1e3) / inext - 1 == pytest.approx(-9.2e-3, rel=0.02)
+
+
+def test_auto_says_why_where_a_bar_is_beyond_its_euler_load(tmp_path, monkeypatch):
+    """effects.strain = "auto" on the column at 1.1 P_cr: von Karman's model form is charged the whole
+    peak there, so the exact bar is taken, and the sidecar's reason names the bar beyond its Euler
+    load (a number alone, 1.00e+00 of peak, would not say why)."""
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))  # nothing decided yet
+    scene = write_column(tmp_path, 1.1, 3, quasi_static=False, t_end=3.0)
+    out = tmp_path / "auto.csv"
+    simulate_scene(scene, ["effects.axial=inextensible", "bodies.col.lambda=1e4"], out=out, estimate="linearized")
+    strain = json.loads(out.with_suffix(".json").read_text())["strain"]
+    assert strain["strain"] == "exact" and strain["von_karman_model_form"] == model_form.BEYOND_BUCKLING
+    assert "col at or beyond its Euler load in the run" in strain["reason"]

@@ -164,12 +164,21 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
         f"what simulation.accuracy {accuracy:g} leaves beside the bases' a-priori truncation and the time bound "
         f"({accuracy - room:.1e}), {room:.2e}"
     )
+    # bars at or beyond their Euler load somewhere in the run (model_form.BEYOND_BUCKLING charged):
+    # the reason says so, a number alone (1.0 of peak) would not tell why
+    buckled = sorted(b for b, (_, amp) in est.bars.items() if amp == float("inf"))
+    why = (
+        f" ({', '.join(buckled)} at or beyond {'its' if len(buckled) == 1 else 'their'} Euler load in the run: "
+        "no static change is an estimate there, the outputs it moves charged their whole peak)"
+        if buckled
+        else ""
+    )
     if exact:
         choice = StrainChoice(
             AUTO,
             "exact",
             f"auto: the exact bar, because the model-form estimate of von Karman (the curvature and strain terms it "
-            f"leaves out) is {top:.2e} of peak on {worst}, above {beside}",
+            f"leaves out) is {top:.2e} of peak on {worst}{why}, above {beside}",
             False,
             top,
             worst,
