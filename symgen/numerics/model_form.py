@@ -761,6 +761,9 @@ def _prescribed(
 #: follows its frequency (:func:`perturbed_along`), which sweeps within a turn (c_alu_long's rod:
 #: 4.1-7.2 per unit tau; 24 along its 30 turns missed the sweep)
 MODE_SAMPLES = 400
+#: a mode's modal velocity from the velocity less the rigid coordinates' motion the closure gives it
+#: (:func:`_coordinate_rows`, estimator version 14); off: phi^T M v (versions 10-13)
+COORDINATE_RIGID_OUT = True
 #: the coupled modes whose drift is looked for: the lowest ones, at most this many
 MODES_KEPT = 12
 #: a coupled mode with w^2 at most this fraction of the largest is a free motion of the mechanism
@@ -945,7 +948,24 @@ def _modes_at(
     Ms, Ks = (M + M.T) / 2, (K + K.T) / 2
     held = -(Ks @ phi - (Ms @ phi) * w2[keep])
     dlam = np.linalg.lstsq(J[: mech.n, mech.n :], held, rcond=None)[0] if mech.m else np.zeros((0, len(keep)))
-    return np.sqrt(w2[keep]), phi, Ms @ phi, dlam
+    return np.sqrt(w2[keep]), phi, _coordinate_rows(mech, C[None], (Ms @ phi)[None])[0] if COORDINATE_RIGID_OUT else Ms @ phi, dlam
+
+
+def _coordinate_rows(mech: Mechanism, C: np.ndarray, Mphi: np.ndarray) -> np.ndarray:
+    """The rows (columns per mode, stacked over samples: (S, n, count)) whose product with a
+    velocity v is each mode's modal velocity: phi^T M (v - v_rigid), v_rigid the motion of the rigid
+    coordinates alone that the closure's rows ``C`` (S, m, n) give v's (C v_rigid = C v, its
+    elastic amplitudes zero; least squares). v less it is on the closure's null space, where phi^T M
+    is the mode's coordinate; phi^T M v itself also projects the rigid mechanism's motion, whose
+    inertia M couples to the mode along the run (on the five-bar 4-7x the modes' own content in
+    their bands: docs/exact-bars.md, "The drift's modal coordinate"). On the null space the rows are
+    M phi's (phi^T M phi_other unchanged)."""
+    rigid = [i for i, c in enumerate(mech.coords) if not c.kind.elastic]
+    if C.shape[1] == 0 or not rigid:
+        return Mphi
+    E = np.zeros((C.shape[0], C.shape[2], C.shape[2]))
+    E[:, rigid, :] = np.stack([np.linalg.lstsq(c[:, rigid], c, rcond=None)[0] for c in C])
+    return np.asarray(Mphi - E.transpose(0, 2, 1) @ Mphi)
 
 
 def _modes_along(
@@ -994,7 +1014,7 @@ def _modes_along(
     Mphi = Ms @ phi
     held = -(Ks @ phi - Mphi * w2[:, None, :])
     dlam = _lstsq_each(J[:, :n, n:], held) if m else np.zeros((S, 0, count))
-    return np.sqrt(w2), phi, Mphi, dlam
+    return np.sqrt(w2), phi, _coordinate_rows(mech, C if m else np.zeros((S, 0, n)), Mphi) if COORDINATE_RIGID_OUT else Mphi, dlam
 
 
 def _modes_one_by_one(
