@@ -948,7 +948,12 @@ def _modes_at(
     Ms, Ks = (M + M.T) / 2, (K + K.T) / 2
     held = -(Ks @ phi - (Ms @ phi) * w2[keep])
     dlam = np.linalg.lstsq(J[: mech.n, mech.n :], held, rcond=None)[0] if mech.m else np.zeros((0, len(keep)))
-    return np.sqrt(w2[keep]), phi, _coordinate_rows(mech, C[None], (Ms @ phi)[None])[0] if COORDINATE_RIGID_OUT else Ms @ phi, dlam
+    return (
+        np.sqrt(w2[keep]),
+        phi,
+        _coordinate_rows(mech, C[None], (Ms @ phi)[None])[0] if COORDINATE_RIGID_OUT else Ms @ phi,
+        dlam,
+    )
 
 
 def _coordinate_rows(mech: Mechanism, C: np.ndarray, Mphi: np.ndarray) -> np.ndarray:
@@ -1014,7 +1019,12 @@ def _modes_along(
     Mphi = Ms @ phi
     held = -(Ks @ phi - Mphi * w2[:, None, :])
     dlam = _lstsq_each(J[:, :n, n:], held) if m else np.zeros((S, 0, count))
-    return np.sqrt(w2), phi, _coordinate_rows(mech, C if m else np.zeros((S, 0, n)), Mphi) if COORDINATE_RIGID_OUT else Mphi, dlam
+    return (
+        np.sqrt(w2),
+        phi,
+        _coordinate_rows(mech, C if m else np.zeros((S, 0, n)), Mphi) if COORDINATE_RIGID_OUT else Mphi,
+        dlam,
+    )
 
 
 def _modes_one_by_one(
