@@ -18,16 +18,16 @@ With a finite lambda the bar also shortens (eps = -P / lambda), and the oracle i
 (Reissner) elastica, ``imperfect_elastica_midspan(..., lam)``, whose curvature is per undeformed
 length: a compressed bar is about 2 |eps| stiffer in bending, a hardening amplified as the rest is.
 The estimate charges the stretch's -eps eta'^2 / 2 that an inextensible bar leaves out, a softening,
-but not the stretch's share of the curvature (``model_form.STRETCH_CURVATURE``, off since the
-five-bar's link_b read 2.50x with it): measured against the extensible elastica at lambda 1e4 it
-reads 0.30 / 0.42 / 0.04 / 0.46 / 0.98 at 0.5 / 0.9 / 0.95 / 0.97 / 0.99, at lambda 1e3 0.33 / 0.77 /
+and, since estimator version 14, the stretch's share of the curvature (``model_form.STRETCH_CURVATURE``,
+off until then since the five-bar's link_b read 2.50x with it): without it, measured against the
+extensible elastica at lambda 1e4 it reads 0.30 / 0.42 / 0.04 / 0.46 / 0.98 at 0.5 / 0.9 / 0.95 / 0.97 / 0.99, at lambda 1e3 0.33 / 0.77 /
 0.74 / 0.55 / 0.41; with ``STRETCH_CURVATURE`` on 1.00 / 1.00 / 1.00 / 1.00 / 1.07 and 1.00 / 1.00 /
-1.00 / 1.01 / 1.08 (docs/exact-bars.md, "Near the Euler load"). The cases outside [0.5, 2] are
-strict xfails with that cause. The term is right on the five-bar too (its static change and the
-links' mode shifts against the exact bar's run: tests/test_model_form_stretch.py); it stays off
-because the drift of the five-bar's coupled modes over-reads with it in the second turn (link_b_mid
-2.50x of its true error as users run it; docs/exact-bars.md, "The five-bar's over-estimate with the
-stretch's curvature, located").
+1.00 / 1.01 / 1.08 (docs/exact-bars.md, "Near the Euler load"). The three cases outside [0.5, 2]
+without it were strict xfails until version 14; they pass with it. The term is right on the five-bar
+too (its static change and the links' mode shifts against the exact bar's run:
+tests/test_model_form_stretch.py); its over-read there with it was the drift's modal coordinate
+(link_b_mid 2.50x as users run it with version 13, 1.80x with 14: docs/exact-bars.md, "The drift's
+modal coordinate").
 
 At or beyond the Euler load K is not positive definite and no static change is an estimate: the
 outputs the bar moves are charged ``model_form.BEYOND_BUCKLING`` of their peak, the method text
@@ -58,14 +58,6 @@ def _run(tmp_path, ratio: float, lam: float, **kw):
     return np.asarray(res.column("mid")), detail
 
 
-STRETCH = pytest.mark.xfail(
-    strict=True,
-    reason="the stretch's share of the curvature is not charged (model_form.STRETCH_CURVATURE off until the "
-    "five-bar's drift over-read with it is fixed): the estimate's stretch term softens where the extensible "
-    "bar hardens",
-)
-
-
 @pytest.mark.parametrize(
     "ratio, lam",
     [
@@ -76,9 +68,9 @@ STRETCH = pytest.mark.xfail(
         (0.99, 1e8),
         (0.99, 1e6),
         (0.99, 1e4),
-        pytest.param(0.9, 1e4, marks=STRETCH),  # 0.42
-        pytest.param(0.95, 1e4, marks=STRETCH),  # 0.04: the curvature's part and the stretch's cancel
-        pytest.param(0.99, 1e3, marks=STRETCH),  # 0.41
+        (0.9, 1e4),  # 0.42 without the stretch's share of the curvature
+        (0.95, 1e4),  # 0.04 without it: the curvature's part and the stretch's cancel
+        (0.99, 1e3),  # 0.41 without it
     ],
 )
 def test_model_form_part_carries_the_amplification(tmp_path, ratio, lam):

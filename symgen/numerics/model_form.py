@@ -33,7 +33,7 @@ large: while K is positive definite the amplification is real (the near-buckling
 tests/test_model_form_euler.py, pinned on a slider at 0.5 .. 0.99 P_cr, lambda 1e8: the estimate
 is 1.00x the large-deflection elastica's difference from von Karman's closed form at 0.5 .. 0.97
 and 1.07x at 0.99, amplification 99; until estimator version 13 it was capped at 20 and read 0.19x
-there; at lambda 1e4 and below the stretch's share of the curvature, not charged, matters: see
+there; at lambda 1e4 and below the stretch's share of the curvature matters, charged since version 14: see
 ``STRETCH_CURVATURE`` and docs/exact-bars.md, "Near the Euler load"). Where
 K is not positive definite the bar is at or beyond its Euler load at that instant: a static change
 about a state that is no stable equilibrium is not an estimate, so each output the bar moves there
@@ -60,7 +60,9 @@ Karman vs the exact bar move its frequency by 1.01e-3, the tangent by 2.11e-3, t
 1.08e-3). The mode's own coordinate then changes by its oscillator's first-order response to the
 shift (:func:`perturbed_along`, estimator version 10): its content within 25 % of omega (and no
 nearer another mode's frequency than the geometric mean of the two), read from its modal velocity
-phi^T M v along the run, drives x'' + c W^2 x' + W^2 x = -2 shift W^2 x, solved as the envelope
+phi^T M (v - v_rigid) along the run (v_rigid the rigid coordinates' motion the closure gives v:
+:func:`_coordinate_rows`, version 14; phi^T M v also carried the rigid mechanism's motion, 5-6x
+the five-bar's links' own content in the modes' bands), drives x'' + c W^2 x' + W^2 x = -2 shift W^2 x, solved as the envelope
 of the change along the mode's own phase int W (W(t) the mode's frequency along the run: a
 crank-driven bar's sweeps within a turn). A free vibration so drifts in phase by omega times the
 integral of shift since it came in (a start's ringing from the start, a vibration a load step
@@ -124,30 +126,22 @@ error, the converged exact bar against the converged ANCF reference, of 2.9e-4; 
 estimate is 5.4e-4 (the curvature's eta''^2 eta'^6 and the strain's eta'^6 / 16: static 1.7e-4,
 drift 3.7e-4).
 
-The stretch's share of the curvature (``STRETCH_CURVATURE``, off): the exact curvature per
-undeformed length is kappa ~ eta'' / (1 + eps), whose -mu int (eps eta''^2 + eps' eta' eta''),
-eps = N / lambda (eps' at the nodes from each quadrature piece's polynomial), the exact bar has with
-dynamic axial amplitudes and von Karman lacks: a compressed bar bends 2 |eps| stiffer. On, it is
-charged where the stretch's term is (``stretch_kept``): on the five-bar
+The stretch's share of the curvature (``STRETCH_CURVATURE``, on since estimator version 14): the
+exact curvature per undeformed length is kappa ~ eta'' / (1 + eps), whose -mu int (eps eta''^2 +
+eps' eta' eta''), eps = N / lambda (eps' at the nodes from each quadrature piece's polynomial), the
+exact bar has with dynamic axial amplitudes and von Karman lacks: a compressed bar bends 2 |eps|
+stiffer. It is charged where the stretch's term is (``stretch_kept``): on the five-bar
 (benchmarks/validation/five_bar_elastic.toml, link_a compressed to eps = -1.7e-4) it is half the
-start's static change (docs/exact-bars.md, "The five-bar's start, found"). It is off because, with
-it, the estimate of the five-bar's stretched link_b reads 2.50x its true error as users run it
-(the model-form part alone 2.04x: its static change 1.4e-4 -> 4.7e-4 of peak, its drift in the
-links' modes 6.1e-4 -> 9.1e-4), outside [0.5, 2] (docs/exact-bars.md, "The parts at the same
-instant"); the force itself is checked against the exact bar's derivation
-(tests/test_model_form_stretch.py). That over-read is not the term's (docs/exact-bars.md, "The
-five-bar's over-estimate with the stretch's curvature, located"): against the exact bar's run at the
-same bases (3 + 4, dynamic axial, IDAS 1e-9) the model-form part reads 0.95 / 1.72 / 1.28 / 1.17x of
-von Karman vs exact on link_a_mid / link_b_mid / torque_a / torque_b with it, 0.66 / 0.91 / 0.79 /
-0.68x without; its static change matches the difference's content below the links' modes (scale
-1.00 and 0.89 on the two links with it, 2.65 and 2.26 without) and the links' coupled-mode shifts
-match the exact model's own frequencies (correlation 1.00 and 0.93; without it the 27.1 mode's
-shift has the wrong sign): tests/test_model_form_stretch.py. The excess is the modes' drift in the
-second turn (link_b_mid 2.0-2.4x the whole difference above 15 per unit tau there; 1.4x without the
-term), the parts added as sizes, and the truncation part on top; the drift's response to a shift
-that swings with the loop's load within a turn is open, and the term stays off until it is fixed.
+start's static change (docs/exact-bars.md, "The five-bar's start, found"); on the near-buckling
+column at lambda 1e4 and 1e3 without it the estimate read 0.04-0.46x (tests/test_model_form_euler.py),
+with it 1.00-1.08x. Its static change and the five-bar's coupled-mode shifts match the exact bar's
+run (tests/test_model_form_stretch.py). Until version 14 it was off: with it the five-bar's link_b
+read 2.50x its true error as users run it, an over-read of the modes' drift that was the modal
+coordinate's (phi^T M v, above), not the term's nor the oscillator's (a shift swinging with the
+loop's load within each turn is followed: tests/test_model_form_inband.py); with version 14's
+coordinate 1.80x (docs/exact-bars.md, "The drift's modal coordinate").
 
-What it leaves out: the stretch's share of the curvature (above), the strain's terms second order
+What it leaves out: the strain's terms second order
 in eps (eps^2 eta'^2 beyond the stretch's),
 resonance of the change itself, the response of the
 rigid coordinates of a closed loop to dq, the timing of a free motion other than one torque
@@ -208,8 +202,10 @@ STRAIN_ORDER = {"von_karman": 1, "exact": 2}
 #: inextensible bar holds P eps = 0 and has the term nowhere (the estimate charges it there)
 STRETCH_KEPT = {"von_karman": False, "exact": True}
 #: the stretch's share of the curvature, -mu int (eps eta''^2 + eps' eta' eta'') (kappa per undeformed
-#: length ~ eta'' / (1 + eps)), charged where the bar's energy lacks it (as the stretch's term)
-STRETCH_CURVATURE = False
+#: length ~ eta'' / (1 + eps)), charged where the bar's energy lacks it (as the stretch's term); on
+#: since estimator version 14 (off until then: the five-bar's drift over-read with it, the modal
+#: coordinate's, :func:`_coordinate_rows`)
+STRETCH_CURVATURE = True
 #: the coefficients of s^n in 1 - sqrt(1 - s), n = 1, 2, 3, 4
 _STRAIN_SERIES = (0.5, 0.125, 0.0625, 0.0390625)
 #: the largest eta'^2 the series is evaluated at
@@ -761,6 +757,9 @@ def _prescribed(
 #: follows its frequency (:func:`perturbed_along`), which sweeps within a turn (c_alu_long's rod:
 #: 4.1-7.2 per unit tau; 24 along its 30 turns missed the sweep)
 MODE_SAMPLES = 400
+#: a mode's modal velocity from the velocity less the rigid coordinates' motion the closure gives it
+#: (:func:`_coordinate_rows`, estimator version 14); off: phi^T M v (versions 10-13)
+COORDINATE_RIGID_OUT = True
 #: the coupled modes whose drift is looked for: the lowest ones, at most this many
 MODES_KEPT = 12
 #: a coupled mode with w^2 at most this fraction of the largest is a free motion of the mechanism
@@ -945,7 +944,29 @@ def _modes_at(
     Ms, Ks = (M + M.T) / 2, (K + K.T) / 2
     held = -(Ks @ phi - (Ms @ phi) * w2[keep])
     dlam = np.linalg.lstsq(J[: mech.n, mech.n :], held, rcond=None)[0] if mech.m else np.zeros((0, len(keep)))
-    return np.sqrt(w2[keep]), phi, Ms @ phi, dlam
+    return (
+        np.sqrt(w2[keep]),
+        phi,
+        _coordinate_rows(mech, C[None], (Ms @ phi)[None])[0] if COORDINATE_RIGID_OUT else Ms @ phi,
+        dlam,
+    )
+
+
+def _coordinate_rows(mech: Mechanism, C: np.ndarray, Mphi: np.ndarray) -> np.ndarray:
+    """The rows (columns per mode, stacked over samples: (S, n, count)) whose product with a
+    velocity v is each mode's modal velocity: phi^T M (v - v_rigid), v_rigid the motion of the rigid
+    coordinates alone that the closure's rows ``C`` (S, m, n) give v's (C v_rigid = C v, its
+    elastic amplitudes zero; least squares). v less it is on the closure's null space, where phi^T M
+    is the mode's coordinate; phi^T M v itself also projects the rigid mechanism's motion, whose
+    inertia M couples to the mode along the run (on the five-bar 4-7x the modes' own content in
+    their bands: docs/exact-bars.md, "The drift's modal coordinate"). On the null space the rows are
+    M phi's (phi^T M phi_other unchanged)."""
+    rigid = [i for i, c in enumerate(mech.coords) if not c.kind.elastic]
+    if C.shape[1] == 0 or not rigid:
+        return Mphi
+    E = np.zeros((C.shape[0], C.shape[2], C.shape[2]))
+    E[:, rigid, :] = np.stack([np.linalg.lstsq(c[:, rigid], c, rcond=None)[0] for c in C])
+    return np.asarray(Mphi - E.transpose(0, 2, 1) @ Mphi)
 
 
 def _modes_along(
@@ -994,7 +1015,12 @@ def _modes_along(
     Mphi = Ms @ phi
     held = -(Ks @ phi - Mphi * w2[:, None, :])
     dlam = _lstsq_each(J[:, :n, n:], held) if m else np.zeros((S, 0, count))
-    return np.sqrt(w2), phi, Mphi, dlam
+    return (
+        np.sqrt(w2),
+        phi,
+        _coordinate_rows(mech, C if m else np.zeros((S, 0, n)), Mphi) if COORDINATE_RIGID_OUT else Mphi,
+        dlam,
+    )
 
 
 def _modes_one_by_one(

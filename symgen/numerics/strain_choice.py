@@ -54,8 +54,10 @@ R = TypeVar("R")
 #: accuracy leaves beside the bases' a-priori truncation and the time bound, :func:`others_before`;
 #: 13: the static change's amplification by axial compression uncapped while the bar's tangent
 #: stiffness is positive definite, the outputs a bar at or beyond its Euler load moves charged
-#: model_form.BEYOND_BUCKLING)
-ESTIMATOR_VERSION = "13"
+#: model_form.BEYOND_BUCKLING; 14: a coupled mode's modal velocity from the velocity less the rigid
+#: coordinates' motion the closure gives it, model_form._coordinate_rows: phi^T M v also projected the
+#: rigid mechanism's motion, 4-7x the five-bar's modes' own content in their bands)
+ESTIMATOR_VERSION = "14"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
