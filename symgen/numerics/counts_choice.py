@@ -37,7 +37,16 @@ if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
     from symgen.scene.model import Scene
 
-__all__ = ["MAX_ROUNDS", "decide", "raised", "recalled", "resolved", "run_with_counts_choice", "switchable"]
+__all__ = [
+    "MAX_ROUNDS",
+    "decide",
+    "decisions",
+    "raised",
+    "recalled",
+    "resolved",
+    "run_with_counts_choice",
+    "switchable",
+]
 
 R = TypeVar("R")
 
@@ -66,17 +75,22 @@ def switchable(scene: Scene) -> bool:
     return bool(chosen_bars(scene)) and rounds(scene) < MAX_ROUNDS
 
 
-def _question(scene: Scene) -> dict[str, Any]:
+def decisions(scene: Scene) -> dict[str, Any]:
+    """What a remembered run-time decision about ``scene`` is keyed by beside its own check: the
+    scene's hash (after overrides) and the decisions made before it (the bar formulation, the
+    bars whose axial dynamics a run kept, the counts' floors). The chosen counts' and the
+    quasi-static fallback's questions (:mod:`symgen.numerics.quasi_fallback`)."""
     raised = scene.counts_raised
     return {
-        "check": "counts.auto",
-        "version": __version__,
-        "estimator": ESTIMATOR_VERSION,
         "scene": scene.hash,
         "strain": str(scene.effects.strain),
         "axial_kept": sorted(b for b, _ in scene.axial_kept),
         "floors": [] if raised is None else [list(f) for f in raised.floors],
     }
+
+
+def _question(scene: Scene) -> dict[str, Any]:
+    return {"check": "counts.auto", "version": __version__, "estimator": ESTIMATOR_VERSION, **decisions(scene)}
 
 
 def raised(scene: Scene, floors: dict[str, tuple[int, int]], reason: str) -> Scene:

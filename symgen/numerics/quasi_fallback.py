@@ -98,15 +98,13 @@ def without_chosen_quasi(scene: Scene, why: str) -> Scene:
 
 
 def _question(scene: Scene) -> dict[str, Any]:
-    raised = scene.counts_raised
+    from symgen.numerics.counts_choice import decisions
+
     return {
         "check": "quasi.fallback",
         "version": __version__,
         "fallback": FALLBACK_VERSION,
-        "scene": scene.hash,
-        "strain": str(scene.effects.strain),
-        "axial_kept": sorted(b for b, _ in scene.axial_kept),
-        "floors": [] if raised is None else [list(f) for f in raised.floors],
+        **decisions(scene),
         "chosen": {b: list(f) for b, f in sorted(chosen_quasi(scene).items())},
         "counts": [[c.bar, c.axial, c.transverse, c.quasi, c.quasi_axial] for c in scene.bases],
     }
