@@ -831,7 +831,13 @@ OUTPUTS = Table(
     ),
     example='[outputs]\neta_mid = { kind = "chord_deflection", body = "rod", at = 0.5 }\n'
     'eps_ax = { kind = "chord_elongation", body = "rod" }',
-    notes=tuple(f"`{k}` ({_kind_keys_text(k)}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS),
+    notes=(
+        *(f"`{k}` ({_kind_keys_text(k)}): {OUTPUT_KIND_TEXT[k]}" for k in OUTPUT_KINDS),
+        "the values above are the model's (dimensionless); an SI scene's columns are each that value times one "
+        "factor (symgen/numerics/units.py; the sidecar's `units` states each column's unit and factor): lengths "
+        "per bar length times l_i, those per l0 times l0, in m (so chord_elongation is |chord| - length in m), "
+        "forces in N, moments in N m, energy in J, angles in rad; `--units dimensionless` writes them as listed",
+    ),
 )
 
 SIMULATION = Table(
