@@ -265,3 +265,35 @@ def test_the_library_compiles_each_block_once(tmp_path, monkeypatch):
             got = (sim._library_g(ext) if name == "g" else ext[name])(*args)
             for a, b in zip(want, got):
                 assert np.array_equal(np.asarray(ca.densify(a)), np.asarray(ca.densify(b))), name
+
+
+def test_callees_not_read_stay_in_their_callers(tmp_path, monkeypatch):
+    """Where CasADi's C is not laid out as ``compiled`` reads it (another CasADi: here a pattern
+    that matches nothing), no callee gets a unit of its own and every caller keeps its copy, as
+    before the callees were shared: the library builds and gives the virtual machine's numbers."""
+    import re
+
+    from symgen.api import mechanism
+    from symgen.numerics import compiled
+    from symgen.numerics import simulate as sim
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(compiled, "_BODY", re.compile(r"(?!x)x(?P<name>)(?P<fn>)(?P<body>)"))
+    mech = mechanism(_exact_chain(tmp_path))
+    *_, part = mech.initial_state(0.0)
+    part = mech.run_partition(part)
+    run = sim.DaeRunner(mech, part, 1e-6, 1e-8, backend="vm")
+    funcs = run._compiled_functions()
+    shared = compiled.callees(funcs)
+    assert shared
+    (tmp_path / "c").mkdir()
+    units = compiled.write_units(funcs, tmp_path / "c", sim.COLD)
+    assert not {u.stem for u in units} & set(shared) and not any((tmp_path / "c" / f"{n}.c").exists() for n in shared)
+    ext, built = compiled.library(funcs, mech.info.key, "test callees kept", store=False, cold=sim.COLD)
+    assert built
+    plain = run._functions()
+    rng = np.random.default_rng(6)
+    t, x, z = rng.uniform(-0.5, 0.5), *(rng.uniform(-0.3, 0.3, plain["dae"].size1_in(k)) for k in (1, 2))
+    p = np.concatenate([mech.p_values, [0.0]])
+    for a, b in zip(plain["compiled:dae"](t, x, z, p, np.zeros(0)), ext["dae"](t, x, z, p, np.zeros(0))):
+        assert np.array_equal(np.asarray(ca.densify(a)), np.asarray(ca.densify(b)))

@@ -498,7 +498,8 @@ def write_units(funcs: list[ca.Function], folder: Path, cold: tuple[str, ...] = 
 
     units = []
     shared = callees(funcs)
-    bodies = {name: _write_callee(f, folder) for name, f in shared.items()}
+    written = {name: _write_callee(f, folder) for name, f in shared.items()}
+    bodies = {name: body for name, body in written.items() if body is not None}
     units += [folder / f"{name}.c" for name in bodies]
 
     def write(f: ca.Function) -> None:
@@ -554,10 +555,12 @@ _BODY = re.compile(
 )
 
 
-def _write_callee(f: ca.Function, folder: Path) -> str:
+def _write_callee(f: ca.Function, folder: Path) -> str | None:
     """Write the unit ``<name>.c`` of the callee ``f`` (its entry ``<name>`` of hidden
     visibility: the library's callers link to it, nothing outside the library does) and return
-    its body's statements, as CasADi's C of a caller holds them."""
+    its body's statements, as CasADi's C of a caller holds them; None (no unit) where CasADi's C
+    is not laid out as this module reads it (another CasADi): the callers then keep its body, as
+    before the callees were shared."""
     import casadi as ca
 
     gen = ca.CodeGenerator(f"{f.name()}.c", {"with_header": False})
@@ -566,8 +569,9 @@ def _write_callee(f: ca.Function, folder: Path) -> str:
     path = folder / f"{f.name()}.c"
     text = path.read_text()
     found = [m for m in _BODY.finditer(text) if m["name"] == f.name()]
-    if len(found) != 1:  # CasADi's C is not laid out as this module reads it: symgen's own error
-        raise AssertionError(f"compiled: the C of {f.name()} has {len(found)} bodies named so")
+    if len(found) != 1:  # not laid out as read here: not shared (each caller keeps its copy)
+        path.unlink()
+        return None
     hidden = '#if defined(__GNUC__)\n#define CASADI_SYMBOL_EXPORT __attribute__((visibility("hidden")))\n#endif\n'
     path.write_text(hidden + text)
     return found[0]["body"]
