@@ -530,18 +530,13 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) 
     lead = _free_lead(mech, result, rows, free, dacc)
     out_f = mech.f["out"]
     zero = np.zeros_like(Q)
-    change = (
-        _mapped(out_f, len(rows), tau_rows, Q + dqs, V, zero, Lam + dlam, mech.p)[0]
-        - _mapped(out_f, len(rows), tau_rows, Q, V, zero, Lam, mech.p)[0]
-    ).T
+    at_run = _mapped(out_f, len(rows), tau_rows, Q, V, zero, Lam, mech.p)[0]  # the outputs the run has
+    change = (_mapped(out_f, len(rows), tau_rows, Q + dqs, V, zero, Lam + dlam, mech.p)[0] - at_run).T
     # outputs a bar at or beyond its Euler load moves there (its unamplified change): not estimated
     moved_beyond = np.zeros(len(names))
     if beyond:
         moved_beyond = np.nan_to_num(
-            np.abs(
-                _mapped(out_f, len(rows), tau_rows, Q + dq_beyond, V, zero, Lam, mech.p)[0]
-                - _mapped(out_f, len(rows), tau_rows, Q, V, zero, Lam, mech.p)[0]
-            ).max(axis=1),
+            np.abs(_mapped(out_f, len(rows), tau_rows, Q + dq_beyond, V, zero, Lam, mech.p)[0] - at_run).max(axis=1),
             nan=np.inf,
         )
     # the first bending frequency moves by half the relative change of its tangent stiffness
