@@ -12,34 +12,14 @@ from symgen.numerics import axial_drift
 from symgen.numerics.error_estimate import estimate_errors
 from symgen.numerics.mechanism import load_mechanism
 from symgen.numerics.simulate import simulate
+from tests.scenes import pinned_arm
 
 #: a soft cantilever arm (lambda 3000, mu 1.2, tip mass 0.5), spun up from rest by a smooth torque
 #: pulse to about 1.19 rad/tau, then spinning freely (the kept-out scene of issue 19)
-ARM = """
-[scene]
-name = "soft_arm_pulse"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = LAMBDA
-mu = 1.2
-frame = "cantilever"
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
-[[masses]]
-body = "arm"
-at = 1.0
-mass = 0.5
-
+ARM = pinned_arm(
+    "soft_arm_pulse",
+    "lambda = LAMBDA\nmu = 1.2",
+    """
 [driver]
 kind = "torque"
 body = "arm"
@@ -60,7 +40,9 @@ tip_x = { kind = "position", body = "arm", at = 1.0, component = "x" }
 [simulation]
 t_end = 10.0
 output_step = 0.01
-"""
+""",
+    tip_mass="0.5",
+)
 LAMBDA, TIP_MASS = 3000.0, 0.5
 
 

@@ -21,36 +21,14 @@ import pytest
 from symgen.cli import main
 from symgen.numerics.mechanism import load_mechanism
 from symgen.numerics.simulate import simulate
+from tests.scenes import pinned_arm
 
 #: a soft cantilever arm with a tip mass whose angle oscillates, sin(tau + 0.6): theta' and
 #: theta'' are both nonzero at the start, the centrifugal axial load varies at 2 per unit tau
-ARM = """
-[scene]
-name = "osc_arm"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = LAMBDA
-mu = 4.0
-frame = "cantilever"
-axial_modes = AXIAL_MODES
-transverse_modes = 4
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
-[[masses]]
-body = "arm"
-at = 1.0
-mass = 0.5
-
+ARM = pinned_arm(
+    "osc_arm",
+    "lambda = LAMBDA\nmu = 4.0\naxial_modes = AXIAL_MODES\ntransverse_modes = 4",
+    """
 [driver]
 kind = "angle"
 body = "arm"
@@ -72,7 +50,9 @@ torque = { kind = "driver_torque" }
 [simulation]
 t_end = 12.566370614359172
 output_step = 0.01
-"""
+""",
+    tip_mass="0.5",
+)
 OUTPUTS = ("tip_u", "tip", "torque")
 
 

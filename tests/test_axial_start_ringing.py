@@ -12,35 +12,15 @@ from symgen.numerics import axial_drift
 from symgen.numerics.error_estimate import estimate_errors
 from symgen.numerics.mechanism import load_mechanism
 from symgen.numerics.simulate import simulate
+from tests.scenes import pinned_arm
 
 #: a stiff cantilever arm (lambda 1e4) with a tip mass spun at a constant rate 1 from an undeformed
 #: start: the centrifugal load is steady, N(x) = M + (1 - x^2) / 2, its static tip stretch
 #: (M + 1/3) / lambda; the first axial mode ~80 per unit tau, 20 x the driver's harmonics
-ARM = """
-[scene]
-name = "spun_arm"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = LAMBDA
-mu = 1.0
-frame = "cantilever"
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
-[[masses]]
-body = "arm"
-at = 1.0
-mass = TIP
-
+ARM = pinned_arm(
+    "spun_arm",
+    "lambda = LAMBDA\nmu = 1.0",
+    """
 [driver]
 kind = "angle"
 body = "arm"
@@ -60,7 +40,9 @@ torque = { kind = "driver_torque" }
 [simulation]
 t_end = 0.6
 output_step = 0.002
-"""
+""",
+    tip_mass="TIP",
+)
 LAMBDA, TIP = 1.0e4, 1.0
 
 

@@ -24,36 +24,16 @@ import numpy as np
 import pytest
 
 from symgen.errors import SimulationError
+from tests.scenes import pinned_arm
 
 LAMBDA, MU, TIP_MASS = 3000.0, 1.2, 0.5
 #: the pulse 0.8 exp(-((tau - 1.5)/0.7)^2), then a torque rising smoothly to 40 around tau = STOP
 #: (tanh) that bends the arm beyond the range of the model within a fraction of a tau
 STOP = 40.0
-SCENE = f"""
-[scene]
-name = "soft_arm_stops"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = {LAMBDA!r}
-mu = {MU!r}
-frame = "cantilever"
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
-[[masses]]
-body = "arm"
-at = 1.0
-mass = {TIP_MASS!r}
-
+SCENE = pinned_arm(
+    "soft_arm_stops",
+    f"lambda = {LAMBDA!r}\nmu = {MU!r}",
+    f"""
 [driver]
 kind = "torque"
 body = "arm"
@@ -74,7 +54,9 @@ tip_x = {{ kind = "position", body = "arm", at = 1.0, component = "x" }}
 [simulation]
 t_end = 60.0
 output_step = 0.01
-"""
+""",
+    tip_mass=repr(TIP_MASS),
+)
 
 
 def _closed_form_rate() -> tuple[float, float]:

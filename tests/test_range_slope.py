@@ -24,29 +24,12 @@ from symgen.errors import SimulationError
 from symgen.numerics import checks
 from symgen.policy import POLICY, RANGE
 from c_support import EXAMPLES
+from tests.scenes import pinned_arm
 
-CANTILEVER = """
-[scene]
-name = "cantilever_weight"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = 1e6
-mu = 1.0
-frame = "cantilever"
-axial_modes = 3
-transverse_modes = 4
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
+CANTILEVER = pinned_arm(
+    "cantilever_weight",
+    "lambda = 1e6\nmu = 1.0\naxial_modes = 3\ntransverse_modes = 4",
+    """
 [driver]
 kind = "angle"
 body = "arm"
@@ -66,7 +49,8 @@ tip = { kind = "deflection", body = "arm", at = 1.0 }
 [simulation]
 t_end = 0.01
 output_step = 0.01
-"""
+""",
+)
 
 
 def elastica_weight(w: float) -> tuple[float, float]:
@@ -160,33 +144,10 @@ def test_stop_at_the_slope_limit_names_the_bar():
     assert s[:-1].max() <= POLICY.slope_limit < s[-1] < 1.5 * POLICY.slope_limit
 
 
-PENDULUM = """
-[scene]
-name = "soft_pendulum"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = 1e4
-mu = 0.1
-frame = "cantilever"
-axial_modes = 2
-transverse_modes = 3
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
-[[masses]]
-body = "arm"
-at = 1.0
-mass = 1.0
-
+PENDULUM = pinned_arm(
+    "soft_pendulum",
+    "lambda = 1e4\nmu = 0.1\naxial_modes = 2\ntransverse_modes = 3",
+    """
 [initial]
 guess = { arm = 0.0 }
 
@@ -201,7 +162,9 @@ tip = { kind = "deflection", body = "arm", at = 1.0 }
 [simulation]
 t_end = 4.0
 output_step = 0.01
-"""
+""",
+    tip_mass="1.0",
+)
 
 
 EXAMPLE_FILES = sorted((Path(__file__).resolve().parent.parent / "examples").glob("*.toml"))

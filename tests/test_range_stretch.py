@@ -27,6 +27,7 @@ from symgen.numerics import checks
 from symgen.policy import POLICY, RANGE
 from c_support import needs_cc
 from test_range_slope import CANTILEVER, PENDULUM, elastica_weight
+from tests.scenes import pinned_arm
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -78,28 +79,10 @@ def test_a_bent_cantilever_is_not_a_stretched_one(cantilever):
     assert error < min(RANGE.error_per_slope6 * slope**6, 1e-2)
 
 
-SPUN = """
-[scene]
-name = "spun_bar"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = 100.0
-mu = 100.0
-frame = "cantilever"
-axial_modes = 6
-transverse_modes = 3
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
+SPUN = pinned_arm(
+    "spun_bar",
+    "lambda = 100.0\nmu = 100.0\naxial_modes = 6\ntransverse_modes = 3",
+    """
 [driver]
 kind = "angle"
 body = "arm"
@@ -119,7 +102,8 @@ tip = { kind = "axial", body = "arm", at = 1.0 }
 [simulation]
 t_end = 8.0
 output_step = 0.01
-"""
+""",
+)
 
 LAMBDA, SPIN_UP = 100.0, 0.5  # the bar's lambda and d Omega / d tau of SPUN
 
