@@ -191,6 +191,36 @@ def _partition(mech: Mechanism, result: SimResult) -> Partition:
     return result.partition or mech.choose_partition(float(result.tau[0]), np.asarray(result.q[0]))
 
 
+#: what a part says where no bar is axially quasi-static
+NOTHING = "no bar has quasi-static axial dynamics: nothing to charge"
+
+
+def _charged(mech: Mechanism, result: SimResult) -> tuple[list[str], Bars]:
+    """The run's output names and the quasi-static axial bars a part charges; raises
+    :class:`AxialNotEstimated` where the run's outputs are not the model's."""
+    names = list(result.output_names)
+    if names != list(mech.info.outputs):
+        raise AxialNotEstimated("the run's outputs are not the model's output function's")
+    return names, quasi_static_bars(mech)
+
+
+def _sampled(result: SimResult, fewest: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """At most ``MAX_SAMPLES`` of the run's output samples, evenly spread: their indices, tau, q, v
+    and multipliers. Raises :class:`AxialNotEstimated` where the run has fewer than ``fewest``."""
+    tau = np.asarray(result.tau, dtype=float)
+    if len(tau) < fewest:
+        raise AxialNotEstimated(f"the run has fewer than {fewest} output samples")
+    idx = np.unique(np.linspace(0, len(tau) - 1, min(len(tau), MAX_SAMPLES)).round().astype(int))
+    Q, V, Lam = (np.asarray(x, dtype=float)[idx] for x in (result.q, result.v, result.lam))
+    return idx, tau[idx], Q, V, Lam
+
+
+def _peak(result: SimResult, name: str) -> float:
+    """The largest |value| of an output over the run; 0 where it is not finite (nothing charged)."""
+    peak = float(np.max(np.abs(np.asarray(result.column(name), dtype=float))))
+    return peak if np.isfinite(peak) else 0.0
+
+
 def run_rates(result: SimResult) -> np.ndarray:
     """Each output's rate along the run (rows per output sample, columns per output): the time
     derivative of its recorded history, second-order differences on the run's output grid. A
@@ -216,12 +246,9 @@ def drift(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     """output -> the drift of the free motion the quasi-static axial treatment leaves out, as a
     fraction of the output's peak, and how (see the module docstring). Raises
     :class:`AxialNotEstimated` where it cannot be evaluated."""
-    names = list(result.output_names)
-    if names != list(mech.info.outputs):
-        raise AxialNotEstimated("the run's outputs are not the model's output function's")
-    bars = quasi_static_bars(mech)
+    names, bars = _charged(mech, result)
     if not bars:
-        return dict.fromkeys(names, 0.0), "no bar has quasi-static axial dynamics: nothing to charge"
+        return dict.fromkeys(names, 0.0), NOTHING
     part = _partition(mech, result)
     free = [i for i in part.ind if i in mech.rigid]
     listed = ", ".join(sorted(bars))
@@ -229,26 +256,18 @@ def drift(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
         return dict.fromkeys(names, 0.0), (
             f"the quasi-static axial bars ({listed}) change no prescribed motion: every rigid coordinate is driven"
         )
-    tau = np.asarray(result.tau, dtype=float)
-    if len(tau) < 3:
-        raise AxialNotEstimated("the run has fewer than three output samples")
-    idx = np.unique(np.linspace(0, len(tau) - 1, min(len(tau), MAX_SAMPLES)).round().astype(int))
-    Q, V, Lam = (np.asarray(x, dtype=float)[idx] for x in (result.q, result.v, result.lam))
-    T, dT = stretch_inertia(mech, tau[idx], Q, V, Lam, bars)
+    idx, ts, Q, V, Lam = _sampled(result, 3)
+    T, dT = stretch_inertia(mech, ts, Q, V, Lam, bars)
     rates = run_rates(result)[idx]
     if not np.all(np.isfinite(T)) or not np.all(np.isfinite(dT)):
         raise AxialNotEstimated("the kinetic energy is not finite along the run")
     moving = T > REST * max(float(np.max(np.abs(T))), 1e-300)
     share = np.where(moving, np.abs(dT) / np.where(moving, T, 1.0), 0.0)
-    ts = tau[idx]
     ahead = np.concatenate(([0.0], np.cumsum(0.5 * (share[1:] + share[:-1]) * np.diff(ts))))
     out: dict[str, float] = {}
     for k, n in enumerate(names):
-        peak = float(np.max(np.abs(np.asarray(result.column(n), dtype=float))))
-        if peak == 0.0 or not np.isfinite(peak):
-            out[n] = 0.0
-            continue
-        out[n] = float(np.max(np.abs(rates[:, k]) * ahead) / peak)
+        peak = _peak(result, n)
+        out[n] = float(np.max(np.abs(rates[:, k]) * ahead) / peak) if peak > 0.0 else 0.0
     how = (
         f"the phase drift of the free motion ({len(free)} free rigid coordinate(s)) with the stretch's inertia that "
         f"the quasi-static axial treatment of {listed} leaves out: the time the run is ahead, int dT/T "
@@ -277,18 +296,10 @@ def own_inertia(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], s
     ds = -K^-1 dR_f / lambda that the dynamic bar's stiffness lambda K (K: the bar's
     inextensibility rows in its axial amplitudes) gives it, and each output's change when it reads
     ds too. Raises :class:`AxialNotEstimated` where it cannot be evaluated."""
-    names = list(result.output_names)
-    if names != list(mech.info.outputs):
-        raise AxialNotEstimated("the run's outputs are not the model's output function's")
-    bars = quasi_static_bars(mech)
+    names, bars = _charged(mech, result)
     if not bars:
-        return dict.fromkeys(names, 0.0), "no bar has quasi-static axial dynamics: nothing to charge"
-    tau_all = np.asarray(result.tau, dtype=float)
-    if len(tau_all) < 2:
-        raise AxialNotEstimated("the run has fewer than two output samples")
-    idx = np.unique(np.linspace(0, len(tau_all) - 1, min(len(tau_all), MAX_SAMPLES)).round().astype(int))
-    tau = tau_all[idx]
-    Q, V, Lam = (np.asarray(x, dtype=float)[idx] for x in (result.q, result.v, result.lam))
+        return dict.fromkeys(names, 0.0), NOTHING
+    _, tau, Q, V, Lam = _sampled(result, 2)
     A = _rates(tau, V)
     S = np.zeros_like(Q)
     for f_idx, rows, k in bars.values():
@@ -313,8 +324,8 @@ def own_inertia(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], s
     first = {nm: 1 if nm in result.start_forces else 0 for nm in names}
     out: dict[str, float] = {}
     for j, nm in enumerate(names):
-        peak = float(np.max(np.abs(np.asarray(result.column(nm), dtype=float))))
-        out[nm] = float(np.max(change[first[nm] :, j]) / peak) if peak > 0 and np.isfinite(peak) else 0.0
+        peak = _peak(result, nm)
+        out[nm] = float(np.max(change[first[nm] :, j]) / peak) if peak > 0.0 else 0.0
     amp = [float(np.max(np.abs(D[:, f]))) / max(float(np.max(np.abs(S[:, f]))), 1e-300) for f, _, _ in bars.values()]
     how = (
         f"the stretch's own inertia that the quasi-static axial treatment of {', '.join(sorted(bars))} leaves out: "
