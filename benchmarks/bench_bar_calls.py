@@ -1,15 +1,17 @@
-"""The runner with each bar structure's generalized forces as one CasADi Function called per bar
-(``bar_calls_chain.build_functions``: call nodes of a Function made ``never_inline``; "calls": the
-runner's Jacobians by CasADi's AD through the calls, "chain": by the chain rule over each bar
-structure's own Jacobian Function, ``bar_calls_chain.runner``; "chainvm": and the virtual machine's
-IDAS given that Jacobian too, as the compiled library's is; "landed": symgen's own runner, whose
-exact-strain bar blocks are calls with the chain rule and the VM given the same Jacobian,
-``functions.call_functions`` / ``simulate._chain_rule``) against the inline runner (issue 20, items 4-5): the C of the compiled library (kB, compile CPU s of
+"""symgen's runner with each bar structure's generalized forces as one CasADi Function called per
+bar ("landed": the exact-strain bar blocks as call nodes, the runner's Jacobian by the chain rule
+over each block's own Jacobian Function, the virtual machine's IDAS given the same Jacobian,
+``functions.call_functions`` / ``simulate._chain_rule``) against the inline runner ("inline":
+``functions.CALL_STRAINS = ()``, every block inline) (issue 20, items 4-5): the C of the compiled library (kB, compile CPU s of
 its units one at a time with a first run's flags: -O0 the cold units, -O1 ``dae``), the virtual
 machine's and the compiled library's CPU per IDAS step (the integration alone: ``simulate._integrate``), the steps, and the states after the run
 (max relative difference, bit-identical or not).
 
     python benchmarks/bench_bar_calls.py [--bars 4 12] [--strain exact von_karman] [--repeats 3] [--t-end 1]
+
+The variants measured before the calls landed ("calls": CasADi's AD through the call nodes; "chain",
+"chainvm": the chain rule in a prototype) are in benchmarks/RESULTS.md's history; their prototype
+was removed once symgen's own runner did the same.
 
 Each (scene, runner) in a fresh process with an empty cache of its own; the two runners
 interleaved; medians of the repeats for the timings.
@@ -34,13 +36,9 @@ MEASURE = r"""
 import json, os, resource, subprocess, sys, time, shlex
 import numpy as np
 from pathlib import Path
-sys.path.insert(0, {bench!r})
-import bar_calls_chain
 from symgen.backends.casadi import functions
-if {calls!r} != "landed":  # symgen's own runner with the bar blocks as calls (exact strain)
+if {calls!r} == "inline":  # else symgen's own runner with the bar blocks as calls (exact strain)
     functions.CALL_STRAINS = ()  # every block inline
-if {calls!r} not in ("inline", "landed"):
-    functions.build_functions = bar_calls_chain.build_functions
 from symgen.scene import load_scene
 from symgen.model.derive import derive
 from symgen.backends.casadi import pipeline
@@ -61,8 +59,6 @@ mech = Mechanism(cm, scene)
 q, v, a, lam, part = mech.initial_state(0.0)
 part = mech.run_partition(part)
 c3 = time.process_time()
-if {calls!r} in ("chain", "chainvm"):
-    mech.runner_functions[part] = bar_calls_chain.runner(model, mech, part, {calls!r} == "chainvm")
 run = sim.DaeRunner(mech, part, 1e-6, 1e-6, backend="vm", use_cache=False)
 funcs = run._compiled_functions()
 c4 = time.process_time()
@@ -113,9 +109,7 @@ def measure(path: Path, sets: list, calls: str, t_end: float, work: Path) -> dic
         env = dict(os.environ, PYTHONPATH=str(ROOT), SYMGEN_CACHE_DIR=cache, OPENBLAS_NUM_THREADS="1")
         env.pop("PYTHONDONTWRITEBYTECODE", None)
         work.mkdir(parents=True, exist_ok=True)
-        code = MEASURE.format(
-            bench=str(ROOT / "benchmarks"), calls=calls, path=str(path), sets=list(sets), work=str(work), t_end=t_end
-        )
+        code = MEASURE.format(calls=calls, path=str(path), sets=list(sets), work=str(work), t_end=t_end)
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=cache)
         if proc.returncode:
             raise SystemExit(proc.stderr[-3000:])
@@ -130,7 +124,7 @@ def main() -> None:
     ap.add_argument("--strain", nargs="+", default=["exact", "von_karman"])
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--t-end", type=float, default=1.0)
-    ap.add_argument("--runners", nargs="+", default=["inline", "calls", "chain"])
+    ap.add_argument("--runners", nargs="+", choices=["inline", "landed"], default=["inline", "landed"])
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bar-calls-"))
     rows = []
