@@ -51,6 +51,12 @@ PROFILED = (
     ("error estimate", "symgen/numerics/error_estimate.py", "estimate_errors"),
     ("  richer model: derive", "symgen/numerics/error_estimate.py", "richer_mechanism"),
     ("  richer model: rerun", "symgen/numerics/error_estimate.py", "_rerun"),
+    ("  the run's model at tighter tolerances", "symgen/numerics/error_estimate.py", "_tight"),
+    (
+        "model-form estimate (the strain decision's and the estimate's)",
+        "symgen/numerics/model_form.py",
+        "model_form_estimate",
+    ),
 )
 
 

@@ -243,3 +243,34 @@ def test_von_karman_run_before_the_decision_compiles_no_library(tmp_path, monkey
     exact = tmp_path / "exact.csv"
     simulate_scene(ARM, [*short, "effects.strain=exact"], out=exact, estimate="off")
     assert exact.read_bytes() == out.read_bytes()
+
+
+def test_kept_von_karman_run_estimates_its_model_form_once(tmp_path, monkeypatch):
+    """The decision's model-form estimate of the run von Karman keeps is that run's error
+    estimate's model-form part: made once (issue 20, a first run: 3.5-10 s of the 12-bar chain's
+    CPU made twice before), the same numbers as made again."""
+    from symgen.api import simulate_scene
+    from symgen.numerics import model_form
+
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    made = []
+    original = model_form.model_form_estimate
+
+    def counted(*args, **kwargs):
+        made.append(args[:2])
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(model_form, "model_form_estimate", counted)
+    out = tmp_path / "arm.csv"
+    simulate_scene(ARM, ["simulation.t_end=3.0", "simulation.accuracy=0.2"], out=out, estimate="linearized")
+    side = json.loads(out.with_suffix(".json").read_text())
+    assert side["effects"]["strain"] == "von_karman"
+    assert len(made) == 1  # twice before: the decision's, then the estimate's
+    part = side["error_estimate_detail"]["parts"]["model_form"]
+    assert side["strain"]["von_karman_model_form"] == pytest.approx(max(v for v in part.values() if v is not None))
+    mech, result = made[0]  # the run kept, its scene now the decided one: made again, the same numbers
+    again = original(mech, result).outputs
+    for name, value in part.items():
+        if value is not None:
+            assert value == pytest.approx(again[name], rel=1e-12, abs=1e-300)
+    assert model_form._KEPT.take(mech, result) is None  # read once: nothing left kept

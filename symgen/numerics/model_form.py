@@ -167,11 +167,13 @@ else:
 from symgen import cache
 from symgen.ir.records import CoordKind, RowKind
 from symgen.ir.shape_samples import GAUSS_POINTS, ShapeSamples, samples_question
+from symgen.numerics.run_result import MeasuredOnce
 from symgen.scene.model import CHECK_KINDS
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
     from symgen.numerics.simulate import SimResult
+    from symgen.scene.model import Scene
 
 __all__ = [
     "BEYOND_BUCKLING",
@@ -1050,9 +1052,30 @@ def _null(C: np.ndarray) -> np.ndarray:
     return np.asarray(Vt[rank:].T)
 
 
+#: the estimate ``effects.strain = "auto"``'s decision made on the run it keeps (von Karman kept:
+#: the same mechanism and result), read once by that run's error estimate instead of made again
+#: (the 12-bar chain: 3.5-10 s of CPU); the key holds what the estimate reads of the scene that
+#: the decision may change (``with_choice`` replaces the effects and the choice's record)
+_KEPT: MeasuredOnce[ModelFormEstimate] = MeasuredOnce()
+
+
+def _kept_key(scene: Scene, samples: int) -> tuple[object, ...]:
+    return (samples, scene.effects, list(scene.outputs), list(scene.drivers))
+
+
+def keep_for_estimate(mech: Mechanism, scene: Scene, result: SimResult, est: ModelFormEstimate) -> None:
+    """Keep ``est`` (:func:`model_form_estimate` of ``mech``, ``result``, the default samples) for
+    the run's error estimate (:func:`estimate`) to read once, when ``mech.scene`` is then ``scene``
+    (equal effects, outputs and drivers: the estimate reads nothing else of it)."""
+    _KEPT.keep(mech, result, est, _kept_key(scene, 400))
+
+
 def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
-    """The model-form part of the error estimate (:func:`symgen.numerics.error_estimate.register_model_form`)."""
-    est = model_form_estimate(mech, result)
+    """The model-form part of the error estimate (:func:`symgen.numerics.error_estimate.register_model_form`):
+    the one kept for this very run (:func:`keep_for_estimate`), else made."""
+    est = _KEPT.take(mech, result, _kept_key(mech.scene, 400))
+    if est is None:
+        est = model_form_estimate(mech, result)
     return est.outputs, est.method
 
 

@@ -149,7 +149,11 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
     model-form estimate fits in what the accuracy leaves beside the other parts the run's
     estimate will carry (:func:`others_before`): ``accuracy - others``, the parts summed as the
     estimate sums them; else the exact bar."""
-    from symgen.numerics.model_form import ModelFormNotEstimated, model_form_estimate  # only to decide
+    from symgen.numerics.model_form import (  # only to decide
+        ModelFormNotEstimated,
+        keep_for_estimate,
+        model_form_estimate,
+    )
 
     scene = mech.scene
     try:
@@ -197,6 +201,8 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
             worst,
             accuracy,
         )
+        # von Karman kept: this run is the run, and its error estimate reads this estimate
+        keep_for_estimate(mech, with_choice(scene, choice), result, est)
     if scene.hash:
         cache.remember(
             _question(scene),
