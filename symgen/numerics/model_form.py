@@ -457,7 +457,11 @@ def _guides(structure: dict[str, Any]) -> set[str]:
     return {j["ends"][1][0] for j in structure.get("joints", []) if j.get("kind") == "slot"}
 
 
-def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = 400) -> ModelFormEstimate:
+#: the output rows the estimate reads at most (evenly spaced)
+SAMPLES = 400
+
+
+def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = SAMPLES) -> ModelFormEstimate:
     """The estimate of a finished run ``result`` (:class:`symgen.numerics.simulate.SimResult`) of
     ``mech`` (:class:`symgen.numerics.mechanism.Mechanism`), at up to ``samples`` evenly spaced
     output rows. Raises :class:`ModelFormNotEstimated` with the reason for a run of the seed's
@@ -1067,13 +1071,13 @@ def keep_for_estimate(mech: Mechanism, scene: Scene, result: SimResult, est: Mod
     """Keep ``est`` (:func:`model_form_estimate` of ``mech``, ``result``, the default samples) for
     the run's error estimate (:func:`estimate`) to read once, when ``mech.scene`` is then ``scene``
     (equal effects, outputs and drivers: the estimate reads nothing else of it)."""
-    _KEPT.keep(mech, result, est, _kept_key(scene, 400))
+    _KEPT.keep(mech, result, est, _kept_key(scene, SAMPLES))
 
 
 def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     """The model-form part of the error estimate (:func:`symgen.numerics.error_estimate.register_model_form`):
     the one kept for this very run (:func:`keep_for_estimate`), else made."""
-    est = _KEPT.take(mech, result, _kept_key(mech.scene, 400))
+    est = _KEPT.take(mech, result, _kept_key(mech.scene, SAMPLES))
     if est is None:
         est = model_form_estimate(mech, result)
     return est.outputs, est.method
