@@ -193,8 +193,7 @@ class StaticSystem:
         v0 = ca.SX.sym("v0", mech.n)
         q, v, a = ca.SX(q0), ca.SX(v0), ca.SX.zeros(mech.n)
         for k, i in enumerate(self.E):
-            q[i] = u[k]
-            v[i] = 0
+            q[i] = u[k]  # v[i]: the rate given in v0 (zero, or held: quasi_static_state)
         for k, i in enumerate(D):
             q[i] = u[nE + k]
             v[i] = u[nE + nD + k]
@@ -222,9 +221,10 @@ def quasi_static(
     part: Partition,
     tol: float = POLICY.quasi_static_tol,
     maxit: int = POLICY.quasi_static_maxit,
+    rates: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
-    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit)
+    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit, rates)
     return qn, vn, it
 
 
@@ -236,13 +236,18 @@ def quasi_static_state(
     part: Partition,
     tol: float = POLICY.quasi_static_tol,
     maxit: int = POLICY.quasi_static_maxit,
+    rates: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """:func:`quasi_static` with the multipliers of that state: (q, v, lam, iterations). The
-    deformation rates and accelerations are zero in it (the loads of the deformation rates, the
-    Coriolis load of a bending rate on a turning bar's axial force, are not in lam)."""
+    deformation accelerations are zero in it; the deformation rates too, or, given ``rates``
+    (length n, read at the independent amplitudes), held at those: the loads of the deformation
+    rates (the Coriolis load 2 theta' w' of a bending rate on a turning bar's axial force) are then
+    in the state and in lam (the consistent quasi-static start, :func:`quasi_static_start`)."""
     system = static_system(mech, part)
     fun = system.fun
     E, D = system.E, list(part.dep)
+    v = np.array(v, dtype=float)
+    v[E] = 0.0 if rates is None else np.asarray(rates, dtype=float)[E]
     u = np.concatenate([q[E], q[D], v[D], np.zeros(system.nR), np.zeros(mech.m)])
     for it in range(1, maxit + 1):  # noqa: B007 - the count of iterations is returned
         F, J, _, _ = fun(t, q, v, u)
@@ -312,6 +317,7 @@ def quasi_static_start(
         ends.append(quasi_static(mech, t0 + dt, qq, vv, part)[0])
     vs = vs.copy()
     vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
+    qs, vs, _ = quasi_static(mech, t0, qs, vs, part, rates=vs)
     return qs, vs
 
 
