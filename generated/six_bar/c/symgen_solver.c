@@ -674,6 +674,7 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
             else v[i] = (s->qs[i] - s->qe[i]) / (2 * h);
         }
     }
+    for (k = 0; k < s->model->nh; ++k) v[s->model->quasi[k]] = 0.0;   /* no rate in the run */
     return symgen_quasi_static_(s, t0, q, v, 1);
 }
 
