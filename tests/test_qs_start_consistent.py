@@ -22,6 +22,7 @@ import pytest
 
 from symgen.numerics.mechanism import load_mechanism
 from symgen.numerics.simulate import simulate
+from tests.scenes import pinned_arm
 
 from test_axial_qs_start_ringing import ARM as OSCILLATING
 
@@ -29,33 +30,10 @@ needs_cc = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc")
 
 #: a cantilever arm with a tip mass spun at the constant rate 1, its axial dynamics kept (3
 #: functions), started on its quasi-static deformation
-SPUN = """
-[scene]
-name = "spun_qs"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = LAMBDA
-mu = 1.0
-frame = "cantilever"
-axial_modes = 3
-transverse_modes = 3
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
-[[masses]]
-body = "arm"
-at = 1.0
-mass = 0.5
-
+SPUN = pinned_arm(
+    "spun_qs",
+    "lambda = LAMBDA\nmu = 1.0\naxial_modes = 3\ntransverse_modes = 3",
+    """
 [driver]
 kind = "angle"
 body = "arm"
@@ -75,7 +53,9 @@ stretch = { kind = "axial", body = "arm", at = 1.0 }
 [simulation]
 t_end = 3.0
 output_step = 0.005
-"""
+""",
+    tip_mass="0.5",
+)
 
 
 def _spun(tmp_path, lam: float):
