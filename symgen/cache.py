@@ -12,6 +12,9 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
 ``shapes/v<version>__<bases>.json``
     closed-form inner products of one bar's shape bases: one file, a header line with the sha256
     of the JSON payload that follows; see :mod:`symgen.model.shapes`.
+``code/<interpreter>-<bytecode magic>.bin``
+    the methods :mod:`dataclasses` compiles for symgen's record classes, as code objects by their
+    text (:mod:`symgen.classcode`): one :func:`pack` file, verified before it is unmarshalled.
 ``checks/<hash of the question>.json``
     remembered verdicts of checks that need SymPy (is a scene's expression finite over the run?):
     one :func:`pack` file holding the question and its answer (:func:`recall`, :func:`remember`),
@@ -90,6 +93,7 @@ TEMP_PREFIX = ".tmp-"
 
 _MODEL_ENTRY = re.compile(r"[0-9a-f]{20}")
 _CHECK_ENTRY = re.compile(r"[0-9a-f]{32}\.json")
+_CODE_ENTRY = re.compile(r"[0-9A-Za-z_.-]+-[0-9a-f]{8}\.bin")
 #: The kind of a remembered verdict's file (:func:`pack`) and the most bytes it may have.
 _CHECK_KIND = "check"
 _MAX_CHECK_BYTES = 1 << 20
@@ -136,6 +140,10 @@ def compiled_dir() -> Path:
 
 def checks_dir() -> Path:
     return cache_root() / "checks"
+
+
+def code_dir() -> Path:
+    return cache_root() / "code"
 
 
 class KeyUnavailable(OSError):
@@ -513,6 +521,7 @@ def _owned() -> list[_Item]:
         (compiled_dir(), _MODEL_ENTRY),
         (shapes_dir(), _SHAPE_ENTRY),
         (checks_dir(), _CHECK_ENTRY),
+        (code_dir(), _CODE_ENTRY),
     )
     for sub, entry in dirs:
         try:
@@ -526,7 +535,9 @@ def _owned() -> list[_Item]:
             if _is_temp(name):
                 kind = "temp"
             elif entry.fullmatch(name):
-                kind = {"models": "model", "compiled": "compiled", "checks": "checks"}.get(sub.name, "shapes")
+                kind = {"models": "model", "compiled": "compiled", "checks": "checks", "code": "code"}.get(
+                    sub.name, "shapes"
+                )
             elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
                 kind = "old"  # a pickle from an older symgen: never loaded
             else:
@@ -558,12 +569,13 @@ def info() -> str:
         "compiled": ("compiled", "compiled model libraries"),
         "shapes": ("shapes", "shape inner products"),
         "checks": ("checks", "verdicts of scene checks that need SymPy"),
+        "code": ("code", "compiled methods of symgen's record classes"),
         "temp": ("temporary", "unfinished writes"),
         "old": ("old", "pickles of an older symgen, never loaded"),
     }
     for kind, (label, what) in labels.items():
         sel = [i for i in items if i.kind == kind]
-        if not sel and kind in ("temp", "old", "compiled", "checks"):
+        if not sel and kind in ("temp", "old", "compiled", "checks", "code"):
             continue
         lines.append(f"  {label:<10} {_count(len(sel))} {_human(sum(i.size for i in sel)):>10}  ({what})")
     total = sum(i.size for i in items)
@@ -580,14 +592,14 @@ def clear() -> tuple[int, int]:
     items = _owned()
     for it in items:
         _remove(it.path)
-    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir(), code_dir()):
         if os.path.islink(sub):
             print(
                 f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
                 f"removed; remove the link by hand if the cache should own that folder",
                 file=sys.stderr,
             )
-    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir(), code_dir()):
         with contextlib.suppress(OSError):
             if stat.S_ISDIR(os.lstat(sub).st_mode):
                 sub.rmdir()  # only when empty
