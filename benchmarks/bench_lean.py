@@ -353,7 +353,8 @@ def c_process_section(repeats: int = 7, python: str | None = None, scenes: tuple
                 cmd += ["-o", str(out)]
                 times: dict[str, list[float]] = {name: [] for name in variants}
                 for tree, env in variants.values():  # warm: the model, the C solvers, the remembered choices
-                    _process_env(cmd, tree, cache, env)
+                    for exe in dict.fromkeys([sys.executable, py]):  # this one derives (SymPy, CasADi)
+                        _process_env([exe, *cmd[1:]], tree, cache, env)
                     _process_env(cmd, tree, cache, env)
                 for _ in range(repeats):
                     for name, (tree, env) in variants.items():

@@ -37,8 +37,10 @@ MAX_TEXTS = 4000
 #: A file larger than this is not read.
 MAX_BYTES = 8 << 20
 
-_codes: dict[str, CodeType] | None = None  # None: not read yet
-_used: dict[str, CodeType] = {}  # this process's texts (kept first when the file is rewritten)
+# the file's table: each text's code object, marshalled on its own (unmarshalled when a class
+# asks for it: a process uses ~2/3 of the texts the file holds)
+_codes: dict[str, bytes] | None = None  # None: not read yet
+_used: dict[str, bytes] = {}  # this process's texts (kept first when the file is rewritten)
 _new = 0
 _loading = False
 _stats = {"recalled": 0, "compiled": 0}
@@ -58,8 +60,9 @@ def path() -> str:
     return os.path.join(os.fspath(code_dir()), f"{tag}-{_magic().hex()}.bin")
 
 
-def _read() -> dict[str, CodeType]:
-    """The verified file's code objects by text; {} when there is none or it does not verify."""
+def _read() -> dict[str, bytes]:
+    """The verified file's marshalled code objects by text; {} when there is none or it does not
+    verify."""
     from symgen import cache
 
     where = path()
@@ -81,7 +84,7 @@ def _read() -> dict[str, CodeType]:
         table = marshal.loads(payload[len(magic) :])
     except (EOFError, ValueError, TypeError):
         table = None
-    if not isinstance(table, dict) or not all(type(k) is str and type(v) is CodeType for k, v in table.items()):
+    if not isinstance(table, dict) or not all(type(k) is str and type(v) is bytes for k, v in table.items()):
         print(
             f"symgen: warning: cache entry {where} is not a table of code; compiling the classes again", file=sys.stderr
         )
@@ -99,22 +102,31 @@ def _recall(text: str) -> CodeType:
             _codes = _read()
         finally:
             _loading = False
-    code = _codes.get(text)
-    if code is None:
+    blob = _codes.get(text)
+    code = None
+    if blob is not None:
+        try:
+            code = marshal.loads(blob)  # verified with the file
+        except (EOFError, ValueError, TypeError):
+            code = None
+    if type(code) is CodeType and blob is not None:
+        _stats["recalled"] += 1
+    else:
         code = compile(text, "<string>", "exec", dont_inherit=True)
-        _codes[text] = code
+        blob = marshal.dumps(code)
+        _codes[text] = blob
         _new += 1
         _stats["compiled"] += 1
-    else:
-        _stats["recalled"] += 1
-    _used[text] = code
+    _used[text] = blob
     return code
 
 
 def _exec(source: object, globals: dict | None = None, locals: object = None) -> None:
     """``exec`` as :mod:`dataclasses` calls it; a symgen class's text runs its recalled code."""
-    if type(source) is str and globals is not None and str(globals.get("__name__", "")).startswith("symgen"):
-        source = _recall(source)
+    if type(source) is str and globals is not None:
+        module = str(globals.get("__name__", ""))
+        if module == "symgen" or module.startswith("symgen."):
+            source = _recall(source)
     builtins.exec(source, globals, locals)  # type: ignore[arg-type]  # noqa: S102 (dataclasses' own exec)
 
 
@@ -129,8 +141,8 @@ def _write() -> None:
 
         from symgen import cache
 
-        # only into a cache that a run made, with a key that exists: a command that uses no cache
-        # (--no-cache, schema, ...) makes neither
+        # only into a cache folder that exists, with a key that exists: a command that uses no
+        # cache (schema, a --no-cache run on a fresh machine, ...) makes neither
         if not os.path.isdir(cache.cache_root()) or not os.path.isfile(cache.key_path()):
             return
         table = dict(_used)
