@@ -91,14 +91,14 @@ STALE_TEMP_S = 15 * 60
 #: Prefix of every temporary file or folder a writer makes.
 TEMP_PREFIX = ".tmp-"
 
-_MODEL_ENTRY = re.compile(r"[0-9a-f]{20}")
-_CHECK_ENTRY = re.compile(r"[0-9a-f]{32}\.json")
-_CODE_ENTRY = re.compile(r"[0-9A-Za-z_.-]+-[0-9a-f]{8}\.bin")
+_MODEL_ENTRY = r"[0-9a-f]{20}"
+_CHECK_ENTRY = r"[0-9a-f]{32}\.json"
+_CODE_ENTRY = r"[0-9A-Za-z_.-]+-[0-9a-f]{8}\.bin"
 #: The kind of a remembered verdict's file (:func:`pack`) and the most bytes it may have.
 _CHECK_KIND = "check"
 _MAX_CHECK_BYTES = 1 << 20
-_SHAPE_ENTRY = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json")
-_SHAPE_OLD = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?")
+_SHAPE_ENTRY = r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json"
+_SHAPE_OLD = r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?"
 _HEADER = re.compile(rb"symgen-cache ([a-z-]+) hmac-sha256=([0-9a-f]{64})\n")
 #: The per-user key of the cache's keyed hashes: 64 hex digits in a file of its own.
 _KEY = re.compile(rb"[0-9a-f]{64}\n?")
@@ -472,7 +472,7 @@ def _remove(path: Path) -> None:
 
 
 def _is_temp(name: str) -> bool:
-    return name.startswith(TEMP_PREFIX) or (name.endswith(".tmp") and _SHAPE_OLD.fullmatch(name) is not None)
+    return name.startswith(TEMP_PREFIX) or (name.endswith(".tmp") and re.fullmatch(_SHAPE_OLD, name) is not None)
 
 
 def sweep_stale(parent: Path, max_age: float = STALE_TEMP_S) -> int:
@@ -534,11 +534,11 @@ def _owned() -> list[_Item]:
             path = sub / name
             if _is_temp(name):
                 kind = "temp"
-            elif entry.fullmatch(name):
+            elif re.fullmatch(entry, name):
                 kind = {"models": "model", "compiled": "compiled", "checks": "checks", "code": "code"}.get(
                     sub.name, "shapes"
                 )
-            elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
+            elif sub.name == "shapes" and re.fullmatch(_SHAPE_OLD, name):
                 kind = "old"  # a pickle from an older symgen: never loaded
             else:
                 continue
