@@ -45,7 +45,6 @@ import hmac
 import json
 import os
 import re
-import secrets
 import shutil
 import stat
 import sys
@@ -209,6 +208,8 @@ def _user_key() -> bytes:
             _check_private(os.stat(path.parent), "folder", path.parent, 0o022)
             fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)  # mode 0600
             try:
+                import secrets  # here: only a first use makes a key
+
                 os.write(fd, secrets.token_hex(32).encode() + b"\n")
                 os.close(fd)
                 with contextlib.suppress(FileExistsError):  # another process made it first

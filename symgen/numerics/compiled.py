@@ -39,7 +39,6 @@ import hashlib
 import json
 import os
 import re
-import shlex
 import shutil
 import sys
 import tempfile
@@ -165,7 +164,7 @@ def compiler() -> Compiler:
             raise Unavailable("no C compiler (cc, gcc or clang) on PATH")
     path = os.path.realpath(found)
     try:
-        flags = tuple(shlex.split(os.environ.get(CFLAGS_ENV, DEFAULT_CFLAGS)))
+        flags = _split(os.environ.get(CFLAGS_ENV, DEFAULT_CFLAGS))
     except ValueError as exc:
         raise Unavailable(f"${CFLAGS_ENV} cannot be split into flags ({exc})") from None
     return Compiler(path, _probe(path), flags)
@@ -199,7 +198,18 @@ def library(
 
 def cold_flags(comp: Compiler) -> tuple[str, ...]:
     """The flags of a cold Function: :data:`COLD_CFLAGS` under the default flags, else the user's."""
-    return tuple(shlex.split(COLD_CFLAGS)) if comp.flags == tuple(shlex.split(DEFAULT_CFLAGS)) else comp.flags
+    return _split(COLD_CFLAGS) if comp.flags == _split(DEFAULT_CFLAGS) else comp.flags
+
+
+def _split(text: str) -> tuple[str, ...]:
+    """``shlex.split(text)``: of a text of letters, digits, ``-_=.,+/:@%`` and blanks (no quote,
+    backslash or other whitespace), that is a split at the blanks (a cached run's flags without
+    importing shlex)."""
+    if text.isascii() and all(c.isalnum() or c in "-_=.,+/:@% \t\r\n" for c in text):
+        return tuple(text.split())
+    import shlex
+
+    return tuple(shlex.split(text))
 
 
 def library_of(
