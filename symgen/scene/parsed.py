@@ -4,7 +4,7 @@ regular expressions compiled at import, ``datetime``: ~40 M of the ~430 M instru
 cached ``simulate --solver c`` process; benchmarks/RESULTS.md).
 
 The parse is remembered as a sealed JSON verdict (:func:`symgen.cache.remember`; its question is
-the text's sha256 and the symgen version, checked with the keyed hash on recall), and only when
+the text's sha256, the symgen and Python versions, checked with the keyed hash on recall), and only when
 JSON holds it exactly: tables, arrays, strings, booleans, integers and finite floats (a text with
 a date or time, ``inf`` or ``nan`` is parsed every time). A text that does not parse is never
 remembered: its error comes from ``tomllib``, as before. What is recalled is checked as a parse
@@ -14,6 +14,7 @@ is (``symgen.scene.limits.check_structure``, then the scene's own checks).
 from __future__ import annotations
 
 import math
+import sys
 from typing import Any
 
 from symgen import __version__
@@ -50,6 +51,7 @@ def loads(text: str) -> dict[str, Any]:
         "check": "toml",
         "sha256": cache.sha256_hex(text.encode("utf-8", "surrogatepass")),
         "symgen": __version__,
+        "python": list(sys.version_info[:2]),  # tomllib's version
     }
     found, answer = cache.recall(question)
     if found and type(answer) is dict:
