@@ -13,6 +13,7 @@ is (``symgen.scene.limits.check_structure``, then the scene's own checks).
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 from typing import Any
@@ -54,14 +55,21 @@ def loads(text: str) -> dict[str, Any]:
         "python": list(sys.version_info[:2]),  # tomllib's version
     }
     found, answer = cache.recall(question)
-    if found and type(answer) is dict:
-        return answer
+    if found and type(answer) is str:
+        try:
+            recalled = json.loads(answer)  # verified with its verdict
+        except (ValueError, RecursionError):
+            recalled = None
+        if type(recalled) is dict:
+            return recalled
     import tomllib
 
     raw = tomllib.loads(text)
     if _plain(raw):
         try:
-            cache.remember(question, raw)
-        except RecursionError:  # nested deeper than JSON writes: parsed again next time
+            # the JSON text, in the TOML's order (a verdict's answer is written with sorted keys;
+            # the order of a table's keys is the scene's: outputs, bodies, ...)
+            cache.remember(question, json.dumps(raw, allow_nan=False))
+        except (RecursionError, ValueError):  # nested deeper than JSON writes: parsed again next time
             pass
     return raw

@@ -29,6 +29,9 @@ TEXT = """
 name = "x"
 big = 123456789012345678901234567890
 [[bodies]]
+zeta = 1
+alpha = 2
+[[bodies]]
 length = 1.0
 lambda = 1e10
 neg = -0.0
@@ -42,8 +45,11 @@ def test_a_text_is_parsed_once_and_recalled_equal(calls):
     again = parsed.loads(TEXT)
     assert calls == [TEXT]  # the second from the cache
     assert again == first == tomllib.loads(TEXT)
+    # in the text's order (a scene's outputs are columns in the order given)
+    assert list(again) == ["scene", "bodies"] and list(again["scene"]) == ["name", "big"]
+    assert list(again["bodies"][0]) == ["zeta", "alpha"]
     # the same types, not only equal values (1.0 stays a float, 3 an int, True a bool)
-    body = again["bodies"][0]
+    body = again["bodies"][1]
     assert type(body["length"]) is float and type(body["flags"][2]) is int and body["flags"][0] is True
     assert str(body["neg"]) == "-0.0" and again["scene"]["big"] == 123456789012345678901234567890
 
