@@ -18,10 +18,12 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
 ``checks/<hash of the question>.json``
     remembered verdicts of checks that need SymPy (is a scene's expression finite over the run?):
     one :func:`pack` file holding the question and its answer (:func:`recall`, :func:`remember`),
-    so that a run on a cached model checks its scene without importing SymPy.
+    so that a run on a cached model checks its scene without importing SymPy; also the parses of
+    scene texts (:mod:`symgen.scene.parsed`: no tomllib on a cached run).
 
 The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
-unpickled or evaluated, and every entry is checked against the keyed hashes (HMAC-SHA256)
+unpickled or evaluated (but ``code/``'s code objects, which run only once their file verifies,
+as a compiled library is loaded only then), and every entry is checked against the keyed hashes (HMAC-SHA256)
 recorded when it was written *before* any of its bytes reach a parser, CasADi's deserializer
 or the dynamic loader. The key is this user's secret (:func:`key_path`, outside the cache
 folder, mode 0600, made on first use): whoever can write the cache folder but cannot read the
@@ -569,7 +571,7 @@ def info() -> str:
         "model": ("models", "derived models"),
         "compiled": ("compiled", "compiled model libraries"),
         "shapes": ("shapes", "shape inner products"),
-        "checks": ("checks", "verdicts of scene checks that need SymPy"),
+        "checks": ("checks", "verdicts of scene checks that need SymPy, parsed scene texts"),
         "code": ("code", "compiled methods of symgen's record classes"),
         "temp": ("temporary", "unfinished writes"),
         "old": ("old", "pickles of an older symgen, never loaded"),
