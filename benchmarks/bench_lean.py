@@ -305,64 +305,92 @@ def steel_section(tmp: Path, cache: str, repeats: int, out: Path) -> str:
     return render_steel(steel_whole(trees, cache, repeats, out), trees) + floor_processes(cache, repeats)
 
 
-#: The commit before the numpy-free cached ``--solver c`` process (symgen.lazy, SimResult.of_rows).
-C_BASE = "678e63f"
+#: The commit before the lean-to-the-bone cached ``--solver c`` process (symgen.classcode, one
+#: command's parser, the templates' digest without importlib.resources).
+C_BASE = "793b723"
 C_SCENES = (STEEL, "examples/slider_crank.toml")
 
 
-def c_process_section(repeats: int = 7) -> str:
+def _process_env(cmd: list[str], tree: Path, cache: str, extra: dict[str, str]) -> float:
+    c0 = _child_cpu()
+    env = {**_env(tree, cache), **extra}
+    subprocess.run(cmd, cwd=WORK, env=env, capture_output=True, text=True, check=True)
+    return _child_cpu() - c0
+
+
+def c_process_section(repeats: int = 7, python: str | None = None, scenes: tuple[str, ...] = C_SCENES) -> str:
     """A cached ``symgen simulate SCENE --solver c`` process, ``--estimate off`` and the default
-    estimate, on the steel slider-crank and the paper's: before (:data:`C_BASE`) and after this
-    checkout, interleaved, medians of the CPU time (user + system, the children included), with
-    the floors. Its own cache, warmed first by both trees. Run alone::
+    estimate, on the steel slider-crank and the paper's: before (:data:`C_BASE`), after this
+    checkout, and after without the recalled dataclass methods (``SYMGEN_NO_CLASS_CODE=1``,
+    symgen.classcode), interleaved, medians of the CPU time (user + system, the children
+    included), with the floors. Its own cache, warmed first by every variant. ``python``: the
+    interpreter (default this one; one without symgen's editable install models a wheel: no
+    editable finder at start-up; it runs ``--estimate off`` only when it has no numpy). Run alone::
 
         python -c "import sys; sys.path.insert(0, 'benchmarks'); import bench_lean; print(bench_lean.c_process_section(7))"
     """
     repeats = max(7, repeats)
+    py = python or sys.executable
     with tempfile.TemporaryDirectory(prefix="symgen-lean-c-") as tmp:
-        trees = {"after": ROOT}
+        variants: dict[str, tuple[Path, dict[str, str]]] = {}
         base = Path(tmp) / "base"
         base.mkdir()
         if base_tree(base, C_BASE):
-            trees = {"before": base, "after": ROOT}
+            variants["before"] = (base, {})
+        variants["after"] = (ROOT, {})
+        variants["after, no classcode"] = (ROOT, {"SYMGEN_NO_CLASS_CODE": "1"})
         cache = str(Path(tmp) / "cache")
         out = Path(tmp) / "out" / "run.csv"
         out.parent.mkdir()
+        has_numpy = subprocess.run([py, "-c", "import numpy"], capture_output=True).returncode == 0
+        estimates = [("`--estimate off`", ["--estimate", "off"])]
+        if has_numpy:
+            estimates.append(("default estimate", []))
         rows = []
-        for scene in C_SCENES:
-            for label, extra in (("`--estimate off`", ["--estimate", "off"]), ("default estimate", [])):
-                cmd = [sys.executable, "-m", "symgen.cli", "simulate", str(ROOT / scene), "--solver", "c", *extra]
+        for scene in scenes:
+            for label, extra in estimates:
+                cmd = [py, "-m", "symgen.cli", "simulate", str(ROOT / scene), "--solver", "c", *extra]
                 cmd += ["-o", str(out)]
-                times: dict[str, list[float]] = {name: [] for name in trees}
-                for tree in trees.values():  # warm: the model, the C solvers, the remembered choices
-                    process(cmd, tree, cache)
-                    process(cmd, tree, cache)
+                times: dict[str, list[float]] = {name: [] for name in variants}
+                for tree, env in variants.values():  # warm: the model, the C solvers, the remembered choices
+                    for exe in dict.fromkeys([sys.executable, py]):  # this one derives (SymPy, CasADi)
+                        _process_env([exe, *cmd[1:]], tree, cache, env)
+                    _process_env(cmd, tree, cache, env)
                 for _ in range(repeats):
-                    for name, tree in trees.items():
-                        times[name].append(process(cmd, tree, cache)[0])
+                    for name, (tree, env) in variants.items():
+                        times[name].append(_process_env(cmd, tree, cache, env))
                 rows.append({"case": f"`{scene}`, {label}", "cpu": {k: _median(v) for k, v in times.items()}})
-        both = len(trees) == 2
+        names = list(variants)
+        ref = "before" if "before" in variants else None
         text = [
             "",
             "### A cached `symgen simulate SCENE --solver c` process (issue 20: the whole process)",
             "",
-            f"Before: commit `{C_BASE}`; after: this checkout (numpy imported on first use, `symgen.lazy`: "
-            "with `--estimate off` the process imports neither numpy nor subprocess, tests/test_lean_start.py). "
-            f"Interleaved, medians of the CPU time (user + system), {repeats} runs each; same CSV and sidecar.",
+            f"Interpreter `{py}`; before: commit `{C_BASE}`; after: this checkout; interleaved, medians of "
+            f"the CPU time (user + system), {repeats} runs each; same CSV and sidecar.",
             "",
-            "| process | before ms | after ms | after / before |" if both else "| process | after ms |",
-            "|---|---|---|---|" if both else "|---|---|",
+            "| process | " + " | ".join(f"{n} ms" for n in names) + (" | after / before |" if ref else " |"),
+            "|---|" + "---|" * (len(names) + (1 if ref else 0)),
         ]
         for r in rows:
             c = r["cpu"]
-            if both:
-                text.append(
-                    f"| {r['case']} | {1e3 * c['before']:.0f} | {1e3 * c['after']:.0f} | "
-                    f"{c['after'] / c['before']:.2f} |"
-                )
-            else:
-                text.append(f"| {r['case']} | {1e3 * c['after']:.0f} |")
-        return "\n".join(text) + "\n" + floor_processes(cache, repeats)
+            cells = " | ".join(f"{1e3 * c[n]:.0f}" for n in names)
+            ratio = f" | {c['after'] / c['before']:.2f} |" if ref else " |"
+            text.append(f"| {r['case']} | {cells}{ratio}")
+        floors = []
+        for flabel, code in (
+            ("`python -c pass`", ["-c", "pass"]),
+            ("`python -I -S -c pass`", ["-I", "-S", "-c", "pass"]),
+        ):
+            cpu = [_process_env([py, *code], ROOT, cache, {}) for _ in range(repeats)]
+            floors.append(f"| {flabel} | {1e3 * _median(cpu):.0f} |")
+        load = os.getloadavg()
+        return (
+            "\n".join(text)
+            + "\n\n| floor | ms |\n|---|---|\n"
+            + "\n".join(floors)
+            + f"\n\nLoad average at the end: {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (1 / 5 / 15 min).\n"
+        )
 
 
 if __name__ == "__main__":

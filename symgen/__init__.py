@@ -8,3 +8,7 @@ Data flows one way through these stages::
 """
 
 __version__ = "0.1.0"
+
+from symgen import classcode as _classcode
+
+_classcode.install()  # symgen's dataclasses' methods recalled compiled (symgen.classcode)

@@ -12,13 +12,18 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
 ``shapes/v<version>__<bases>.json``
     closed-form inner products of one bar's shape bases: one file, a header line with the sha256
     of the JSON payload that follows; see :mod:`symgen.model.shapes`.
+``code/<interpreter>-<bytecode magic>.bin``
+    the methods :mod:`dataclasses` compiles for symgen's record classes, as code objects by their
+    text (:mod:`symgen.classcode`): one :func:`pack` file, verified before it is unmarshalled.
 ``checks/<hash of the question>.json``
     remembered verdicts of checks that need SymPy (is a scene's expression finite over the run?):
     one :func:`pack` file holding the question and its answer (:func:`recall`, :func:`remember`),
-    so that a run on a cached model checks its scene without importing SymPy.
+    so that a run on a cached model checks its scene without importing SymPy; also the parses of
+    scene texts (:mod:`symgen.scene.parsed`: no tomllib on a cached run).
 
 The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
-unpickled or evaluated, and every entry is checked against the keyed hashes (HMAC-SHA256)
+unpickled or evaluated (but ``code/``'s code objects, which run only once their file verifies,
+as a compiled library is loaded only then), and every entry is checked against the keyed hashes (HMAC-SHA256)
 recorded when it was written *before* any of its bytes reach a parser, CasADi's deserializer
 or the dynamic loader. The key is this user's secret (:func:`key_path`, outside the cache
 folder, mode 0600, made on first use): whoever can write the cache folder but cannot read the
@@ -42,7 +47,6 @@ import hmac
 import json
 import os
 import re
-import secrets
 import shutil
 import stat
 import sys
@@ -88,13 +92,14 @@ STALE_TEMP_S = 15 * 60
 #: Prefix of every temporary file or folder a writer makes.
 TEMP_PREFIX = ".tmp-"
 
-_MODEL_ENTRY = re.compile(r"[0-9a-f]{20}")
-_CHECK_ENTRY = re.compile(r"[0-9a-f]{32}\.json")
+_MODEL_ENTRY = r"[0-9a-f]{20}"
+_CHECK_ENTRY = r"[0-9a-f]{32}\.json"
+_CODE_ENTRY = r"[0-9A-Za-z_.-]+-[0-9a-f]{8}\.bin"
 #: The kind of a remembered verdict's file (:func:`pack`) and the most bytes it may have.
 _CHECK_KIND = "check"
 _MAX_CHECK_BYTES = 1 << 20
-_SHAPE_ENTRY = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json")
-_SHAPE_OLD = re.compile(r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?")
+_SHAPE_ENTRY = r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.json"
+_SHAPE_OLD = r"v[0-9A-Za-z.]+__[0-9A-Za-z_.-]+\.pkl(\.[0-9A-Za-z_]+\.tmp)?"
 _HEADER = re.compile(rb"symgen-cache ([a-z-]+) hmac-sha256=([0-9a-f]{64})\n")
 #: The per-user key of the cache's keyed hashes: 64 hex digits in a file of its own.
 _KEY = re.compile(rb"[0-9a-f]{64}\n?")
@@ -136,6 +141,10 @@ def compiled_dir() -> Path:
 
 def checks_dir() -> Path:
     return cache_root() / "checks"
+
+
+def code_dir() -> Path:
+    return cache_root() / "code"
 
 
 class KeyUnavailable(OSError):
@@ -201,6 +210,8 @@ def _user_key() -> bytes:
             _check_private(os.stat(path.parent), "folder", path.parent, 0o022)
             fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)  # mode 0600
             try:
+                import secrets  # here: only a first use makes a key
+
                 os.write(fd, secrets.token_hex(32).encode() + b"\n")
                 os.close(fd)
                 with contextlib.suppress(FileExistsError):  # another process made it first
@@ -464,7 +475,7 @@ def _remove(path: Path) -> None:
 
 
 def _is_temp(name: str) -> bool:
-    return name.startswith(TEMP_PREFIX) or (name.endswith(".tmp") and _SHAPE_OLD.fullmatch(name) is not None)
+    return name.startswith(TEMP_PREFIX) or (name.endswith(".tmp") and re.fullmatch(_SHAPE_OLD, name) is not None)
 
 
 def sweep_stale(parent: Path, max_age: float = STALE_TEMP_S) -> int:
@@ -513,6 +524,7 @@ def _owned() -> list[_Item]:
         (compiled_dir(), _MODEL_ENTRY),
         (shapes_dir(), _SHAPE_ENTRY),
         (checks_dir(), _CHECK_ENTRY),
+        (code_dir(), _CODE_ENTRY),
     )
     for sub, entry in dirs:
         try:
@@ -525,9 +537,11 @@ def _owned() -> list[_Item]:
             path = sub / name
             if _is_temp(name):
                 kind = "temp"
-            elif entry.fullmatch(name):
-                kind = {"models": "model", "compiled": "compiled", "checks": "checks"}.get(sub.name, "shapes")
-            elif sub.name == "shapes" and _SHAPE_OLD.fullmatch(name):
+            elif re.fullmatch(entry, name):
+                kind = {"models": "model", "compiled": "compiled", "checks": "checks", "code": "code"}.get(
+                    sub.name, "shapes"
+                )
+            elif sub.name == "shapes" and re.fullmatch(_SHAPE_OLD, name):
                 kind = "old"  # a pickle from an older symgen: never loaded
             else:
                 continue
@@ -557,13 +571,14 @@ def info() -> str:
         "model": ("models", "derived models"),
         "compiled": ("compiled", "compiled model libraries"),
         "shapes": ("shapes", "shape inner products"),
-        "checks": ("checks", "verdicts of scene checks that need SymPy"),
+        "checks": ("checks", "verdicts of scene checks that need SymPy, parsed scene texts"),
+        "code": ("code", "compiled methods of symgen's record classes"),
         "temp": ("temporary", "unfinished writes"),
         "old": ("old", "pickles of an older symgen, never loaded"),
     }
     for kind, (label, what) in labels.items():
         sel = [i for i in items if i.kind == kind]
-        if not sel and kind in ("temp", "old", "compiled", "checks"):
+        if not sel and kind in ("temp", "old", "compiled", "checks", "code"):
             continue
         lines.append(f"  {label:<10} {_count(len(sel))} {_human(sum(i.size for i in sel)):>10}  ({what})")
     total = sum(i.size for i in items)
@@ -580,14 +595,14 @@ def clear() -> tuple[int, int]:
     items = _owned()
     for it in items:
         _remove(it.path)
-    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir(), code_dir()):
         if os.path.islink(sub):
             print(
                 f"symgen: warning: {sub} is a link (to {os.readlink(sub)}): not followed, nothing there "
                 f"removed; remove the link by hand if the cache should own that folder",
                 file=sys.stderr,
             )
-    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir()):
+    for sub in (models_dir(), compiled_dir(), shapes_dir(), checks_dir(), code_dir()):
         with contextlib.suppress(OSError):
             if stat.S_ISDIR(os.lstat(sub).st_mode):
                 sub.rmdir()  # only when empty

@@ -766,7 +766,51 @@ def _solver_option(p: argparse.ArgumentParser, what: str) -> None:
     p.add_argument("--solver", choices=SOLVERS, default="idas", help=SOLVER_HELP + what)
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: The commands, in the order of ``symgen --help`` (tests/test_cli.py checks it against the parser).
+COMMANDS = (
+    "check",
+    "simulate",
+    "latex",
+    "derive",
+    "study",
+    "sweep",
+    "effects",
+    "quasistatic",
+    "animate",
+    "modes",
+    "schema",
+    "reproduce",
+    "emit-c",
+    "emit-fmu",
+    "cache",
+)
+
+
+class _Unbuilt:
+    """The parser of a command that was not asked for: its arguments are not made (each of the
+    ~15 sub-parsers costs ~1 ms of a process that runs one command)."""
+
+    def __getattr__(self, name: str):
+        return self._ignore
+
+    def _ignore(self, *args, **kwargs):
+        return self
+
+
+def _asked(argv: list[str] | None) -> str | None:
+    """The command ``argv`` asks for, when only its parser is needed: the first word, after any
+    ``--debug``, is a command; None (all parsers) for anything else (``-h``, ``--version``, a
+    mistyped command: the full parser answers, with every command listed)."""
+    for word in argv or ():
+        if word != "--debug":
+            return word if word in COMMANDS else None
+    return None
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser; given ``argv``, the parser of the command it asks for only
+    (the other commands named, their arguments not made: the same parse of ``argv``)."""
+    only = _asked(argv)
     ap = argparse.ArgumentParser(
         prog="symgen",
         description="Planar mechanisms with elastic bars: "
@@ -774,10 +818,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     ap.add_argument("--version", action="version", version=f"symgen {__version__}")
     ap.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
-    sub = ap.add_subparsers(dest="command", required=True)
+    # one command's parser: its usage still lists every command (the full parser's own metavar)
+    metavar = None if only is None else "{" + ",".join(COMMANDS) + "}"
+    sub = ap.add_subparsers(dest="command", required=True, metavar=metavar)
+
+    def command(name: str, **kwargs):
+        return sub.add_parser(name, **kwargs) if only in (None, name) else _Unbuilt()
 
     def scene_cmd(name: str, help_: str):
-        p = sub.add_parser(name, help=help_)
+        p = command(name, help=help_)
         p.add_argument("scene", help="scene file (TOML)")
         p.add_argument(
             "--set", action="append", metavar="KEY=VALUE", help="override a scene value by dotted path (repeatable)"
@@ -829,7 +878,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help=".tex file to write")
     p.set_defaults(func=cmd_latex)
 
-    p = sub.add_parser("derive", help="write the derived artefacts of scenes (the generated/ folder)")
+    p = command("derive", help="write the derived artefacts of scenes (the generated/ folder)")
     p.add_argument("scenes", nargs="+")
     p.add_argument("-o", "--output", default="generated", help="folder (default: generated)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE")
@@ -999,12 +1048,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-cache", action="store_true", help="derive again, ignoring the model cache")
     p.set_defaults(func=cmd_modes)
 
-    p = sub.add_parser("schema", help="the scene-file schema: JSON Schema for editors, or the Markdown reference")
+    p = command("schema", help="the scene-file schema: JSON Schema for editors, or the Markdown reference")
     p.add_argument("-o", "--output", help="JSON file to write (default: print the JSON Schema)")
     p.add_argument("--markdown", metavar="FILE.md", help="write the scene reference (docs/scene-format.md)")
     p.set_defaults(func=cmd_schema)
 
-    p = sub.add_parser("reproduce", help="the paper's figures G.1-G.12 as PNGs, with a README")
+    p = command("reproduce", help="the paper's figures G.1-G.12 as PNGs, with a README")
     p.add_argument("-o", "--output", required=True, help="folder to write")
     p.add_argument("--quick", action="store_true", help="coarse output step (a smoke run)")
     p.add_argument("--examples", default=None, help="folder of the example scenes (default: examples/)")
@@ -1019,7 +1068,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, help=".fmu file to write")
     p.set_defaults(func=cmd_emit_fmu)
 
-    p = sub.add_parser(
+    p = command(
         "cache",
         help="the derived-model and shape caches ($SYMGEN_CACHE_DIR, default "
         "~/.cache/symgen): info shows location, entries, sizes; clear removes them",
@@ -1049,7 +1098,7 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 with contextlib.ExitStack() as stack:
                     with interrupt.deferred():  # ... once the command's outputs are known
-                        args = build_parser().parse_args(argv)
+                        args = build_parser(sys.argv[1:] if argv is None else argv).parse_args(argv)
                         stack.enter_context(_scene_warnings())
                         stack.enter_context(stale_removed_on_failure(_output_files(args)))
                     interrupt.check()  # a signal while the command line was read

@@ -181,3 +181,41 @@ def test_verbose_says_whether_the_model_was_derived_or_loaded(tmp_path, capsys, 
     assert main(args) == 0
     second = capsys.readouterr().err
     assert "model derived in" in first and "model loaded from the cache" in second, (first, second)
+
+
+# ----------------------------------------------------------------------------- one command's parser
+def _parsers(ap) -> dict:
+    import argparse
+
+    (sub,) = (a for a in ap._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "s.toml", "-o", "o.csv", "--solver", "c", "--estimate", "off", "--set", "a=1", "--states"],
+        ["--debug", "check", "s.toml"],
+        ["cache", "clear"],
+        ["sweep", "s.toml", "-o", "o.csv", "--vary", "bodies.crank.lambda=1e3,1e4"],
+        ["emit-c", "s.toml", "-o", "out"],
+    ],
+)
+def test_the_asked_commands_parser_alone_parses_as_the_full_one(argv):
+    """``symgen CMD ...`` builds only CMD's parser (the others not made: ~1 ms each of a cached
+    run's process) and parses ``argv`` as the full parser does."""
+    from symgen.cli import COMMANDS, build_parser
+
+    full, lean = build_parser(), build_parser(argv)
+    assert tuple(_parsers(full)) == COMMANDS  # the list the lean parser's usage names
+    cmd = next(w for w in argv if w != "--debug")
+    assert list(_parsers(lean)) == [cmd]
+    assert vars(lean.parse_args(argv)) == vars(full.parse_args(argv))
+    assert lean.format_usage() == full.format_usage()
+
+
+@pytest.mark.parametrize("argv", [[], ["--help"], ["--version"], ["bogus"], ["--help", "simulate"], ["-x", "check"]])
+def test_anything_but_a_command_first_gets_the_full_parser(argv):
+    from symgen.cli import COMMANDS, build_parser
+
+    assert tuple(_parsers(build_parser(argv))) == COMMANDS

@@ -186,7 +186,9 @@ for step in json.loads(sys.argv[1]):
             assert not exc.code, (step, exc.code)
     else:  # ["api", scene, override, out or None(, solver, estimate)]
         simulate_scene(step[1], [step[2]], out=step[3], **dict(zip(("solver", "estimate"), step[4:])))
-    report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules), "via": dict(first)}})
+    import symgen.classcode
+    report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules), "via": dict(first),
+                   "compiled": symgen.classcode.stats()["compiled"]}})
 print("REPORT " + json.dumps(report))
 """
 
@@ -206,6 +208,8 @@ def _lean(steps: list[list], cwd: Path, heavy: tuple[str, ...] = HEAVY) -> None:
     _run(steps, cwd, heavy)  # fills the cache (derives what it does not hold)
     for entry in _run(steps, cwd, heavy):
         assert entry["heavy"] == [], f"{entry['step']} imported {entry['heavy']} via {entry['via']}"
+        # symgen's dataclasses' methods recalled compiled, none compiled again (symgen.classcode)
+        assert entry["compiled"] == 0, entry
 
 
 @pytest.mark.parametrize("scene", EXAMPLES, ids=lambda p: Path(p).stem)
@@ -261,7 +265,10 @@ def test_a_cached_c_run_without_estimate_imports_no_numpy(tmp_path):
     ``SimResult.of_rows``; the arrays made on first read: tests/test_run_rows.py), the sidecar's
     range record from the maxima the C library kept during the run (``SimResult.range_maxima``,
     ``checks.range_record``), and starts no process (the compiler's ``--version`` remembered: no
-    subprocess). The error estimate (its reruns, CasADi) and the Python API (its bases chosen
+    subprocess); the library's key digests the C templates and runtime from the package's folder,
+    without importlib.resources (``templates.package_files``), the scene's TOML and the ``--set``
+    value are recalled parsed (``symgen.scene.parsed``: no tomllib), and symgen's dataclasses'
+    methods are recalled compiled (``symgen.classcode``; every ``_lean`` case checks that). The error estimate (its reruns, CasADi) and the Python API (its bases chosen
     again) do import numpy."""
     scene = str(ROOT / "examples" / "slider_crank.toml")
     over = short(scene)
@@ -270,8 +277,13 @@ def test_a_cached_c_run_without_estimate_imports_no_numpy(tmp_path):
         *HEAVY,
         "casadi",
         "numpy",
-        "subprocess",
-    )  # subprocess: no process started (the compiler's version remembered)
+        "subprocess",  # no process started (the compiler's version remembered)
+        "importlib.resources",  # the templates' digest reads the package's folder (on disk)
+        "zipfile",
+        "tomllib",  # the scene's text and the --set value recalled parsed (symgen.scene.parsed)
+        "shlex",  # the default compiler flags split without it (compiled._split)
+        "secrets",  # only a first use makes a cache key
+    )
     _lean(
         [
             ["cli", "simulate", scene, "--set", over, *c_off, "-o", str(tmp_path / "c.csv")],

@@ -39,7 +39,6 @@ import hashlib
 import json
 import os
 import re
-import shlex
 import shutil
 import sys
 import tempfile
@@ -165,7 +164,7 @@ def compiler() -> Compiler:
             raise Unavailable("no C compiler (cc, gcc or clang) on PATH")
     path = os.path.realpath(found)
     try:
-        flags = tuple(shlex.split(os.environ.get(CFLAGS_ENV, DEFAULT_CFLAGS)))
+        flags = _split(os.environ.get(CFLAGS_ENV, DEFAULT_CFLAGS))
     except ValueError as exc:
         raise Unavailable(f"${CFLAGS_ENV} cannot be split into flags ({exc})") from None
     return Compiler(path, _probe(path), flags)
@@ -199,7 +198,18 @@ def library(
 
 def cold_flags(comp: Compiler) -> tuple[str, ...]:
     """The flags of a cold Function: :data:`COLD_CFLAGS` under the default flags, else the user's."""
-    return tuple(shlex.split(COLD_CFLAGS)) if comp.flags == tuple(shlex.split(DEFAULT_CFLAGS)) else comp.flags
+    return _split(COLD_CFLAGS) if comp.flags == _split(DEFAULT_CFLAGS) else comp.flags
+
+
+def _split(text: str) -> tuple[str, ...]:
+    """``shlex.split(text)``: of a text of letters, digits, ``-_=.,+/:@%`` and blanks (no quote,
+    backslash or other whitespace), that is a split at the blanks (a cached run's flags without
+    importing shlex)."""
+    if text.isascii() and all(c.isalnum() or c in "-_=.,+/:@% \t\r\n" for c in text):
+        return tuple(text.split())
+    import shlex
+
+    return tuple(shlex.split(text))
 
 
 def library_of(
@@ -548,8 +558,9 @@ def cold_units(funcs: list[ca.Function], cold: tuple[str, ...]) -> tuple[str, ..
 #: The signature of a Function's body in CasADi's C (``casadi_f<k>``)
 _BODY_SIGNATURE = "(const casadi_real** arg, casadi_real** res, casadi_int* iw, casadi_real* w, int mem) {\n"
 #: A Function's body in CasADi's C: its comment naming it, its static definition, its statements
-#: (indented: the first line that is a lone ``}`` closes it)
-_BODY = re.compile(
+#: (indented: the first line that is a lone ``}`` closes it). A pattern's text: compiled (and kept
+#: by ``re``) where a library is built, not by every process that imports this module.
+_BODY = (
     r"/\* (?P<name>[A-Za-z_][A-Za-z0-9_]*):\([^\n]*\) \*/\n"
     r"static int (?P<fn>casadi_f[0-9]+)" + re.escape(_BODY_SIGNATURE) + r"(?P<body>(?:[^\n]*\n)*?)\}\n"
 )
@@ -568,7 +579,7 @@ def _write_callee(f: ca.Function, folder: Path) -> str | None:
     gen.generate(str(folder) + os.sep)
     path = folder / f"{f.name()}.c"
     text = path.read_text()
-    found = [m for m in _BODY.finditer(text) if m["name"] == f.name()]
+    found = [m for m in re.finditer(_BODY, text) if m["name"] == f.name()]
     if len(found) != 1:  # not laid out as read here: not shared (each caller keeps its copy)
         path.unlink()
         return None
@@ -596,7 +607,7 @@ def share_callees(text: str, bodies: dict[str, str]) -> str:
             f"static int {m['fn']}{_BODY_SIGNATURE}  return {name}(arg, res, iw, w, mem);\n}}\n"
         )
 
-    return _BODY.sub(swap, text)
+    return re.sub(_BODY, swap, text)
 
 
 def unit_of(unit: Path) -> str:

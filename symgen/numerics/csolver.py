@@ -31,7 +31,6 @@ import re
 import shutil
 import time
 import weakref
-from importlib import resources
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -90,7 +89,7 @@ def templates_digest() -> str:
     runtime file is another executable."""
     from symgen.backends import templates
 
-    runtime = resources.files("symgen.backends.c") / "runtime"  # emit.c.render.RUNTIME, without jinja2
+    runtime = templates.package_files("symgen.backends.c") / "runtime"  # emit.c.render.RUNTIME, without jinja2
     items = [
         item
         for folder in (templates.folder("c"), runtime)

@@ -98,7 +98,8 @@ class _SolverNoiseFilter:
     solver setup failed unrecoverably.", written in pieces) is dropped -- symgen says
     "interrupted by SIGINT at tau = ..." instead. Everything else passes unchanged."""
 
-    _NOISE = re.compile(
+    # a pattern's text (compiled by ``re`` at its first use: once a signal is pending)
+    _NOISE = (
         r"^(\w+ failed: |KeyboardInterrupt|Interrupted|interrupted by SIG\w+( at tau = \S+)?"
         r"|(At t = [^,]*, the|The) [\w ]+ failed unrecoverably\. ?)$"
     )
@@ -108,7 +109,7 @@ class _SolverNoiseFilter:
         self._dropped = False
 
     def write(self, text: str) -> int:
-        if _pending and (self._NOISE.match(text) or (self._dropped and text == "\n")):
+        if _pending and (re.match(self._NOISE, text) or (self._dropped and text == "\n")):
             self._dropped = text != "\n"
             return len(text)
         self._dropped = False

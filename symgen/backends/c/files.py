@@ -9,7 +9,6 @@ the target so that ``os.replace`` onto it is atomic.
 from __future__ import annotations
 
 import os
-import secrets
 from pathlib import Path
 
 _ATTEMPTS = 100
@@ -17,6 +16,8 @@ _ATTEMPTS = 100
 
 def new_file(folder: Path, prefix: str) -> Path:
     """A new empty file ``folder/<prefix><random>`` (mode 0666 & ~umask)."""
+    import secrets  # here: a cached run that writes no C imports none of it
+
     for _ in range(_ATTEMPTS):
         path = Path(folder) / f"{prefix}{secrets.token_hex(6)}"
         try:
@@ -30,6 +31,8 @@ def new_file(folder: Path, prefix: str) -> Path:
 
 def new_dir(folder: Path, prefix: str) -> Path:
     """A new empty folder ``folder/<prefix><random>`` (mode 0777 & ~umask)."""
+    import secrets
+
     for _ in range(_ATTEMPTS):
         path = Path(folder) / f"{prefix}{secrets.token_hex(6)}"
         try:
