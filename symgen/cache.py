@@ -18,8 +18,7 @@ Three caches live under :func:`cache_root` (``$SYMGEN_CACHE_DIR``, default ``~/.
 ``checks/<hash of the question>.json``
     remembered verdicts of checks that need SymPy (is a scene's expression finite over the run?):
     one :func:`pack` file holding the question and its answer (:func:`recall`, :func:`remember`),
-    so that a run on a cached model checks its scene without importing SymPy; also the parses of
-    scene texts (:mod:`symgen.scene.parsed`: no tomllib on a cached run).
+    so that a run on a cached model checks its scene without importing SymPy.
 
 The cache is data from elsewhere (a shared home, a copied folder): nothing in it is ever
 unpickled or evaluated (but ``code/``'s code objects, which run only once their file verifies,
@@ -571,7 +570,7 @@ def info() -> str:
         "model": ("models", "derived models"),
         "compiled": ("compiled", "compiled model libraries"),
         "shapes": ("shapes", "shape inner products"),
-        "checks": ("checks", "verdicts of scene checks that need SymPy, parsed scene texts"),
+        "checks": ("checks", "verdicts of scene checks that need SymPy"),
         "code": ("code", "compiled methods of symgen's record classes"),
         "temp": ("temporary", "unfinished writes"),
         "old": ("old", "pickles of an older symgen, never loaded"),

@@ -266,8 +266,7 @@ def test_a_cached_c_run_without_estimate_imports_no_numpy(tmp_path):
     range record from the maxima the C library kept during the run (``SimResult.range_maxima``,
     ``checks.range_record``), and starts no process (the compiler's ``--version`` remembered: no
     subprocess); the library's key digests the C templates and runtime from the package's folder,
-    without importlib.resources (``templates.package_files``), the scene's TOML and the ``--set``
-    value are recalled parsed (``symgen.scene.parsed``: no tomllib), and symgen's dataclasses'
+    without importlib.resources (``templates.package_files``), and symgen's dataclasses'
     methods are recalled compiled (``symgen.classcode``; every ``_lean`` case checks that). The error estimate (its reruns, CasADi) and the Python API (its bases chosen
     again) do import numpy."""
     scene = str(ROOT / "examples" / "slider_crank.toml")
@@ -280,7 +279,6 @@ def test_a_cached_c_run_without_estimate_imports_no_numpy(tmp_path):
         "subprocess",  # no process started (the compiler's version remembered)
         "importlib.resources",  # the templates' digest reads the package's folder (on disk)
         "zipfile",
-        "tomllib",  # the scene's text and the --set value recalled parsed (symgen.scene.parsed)
         "shlex",  # the default compiler flags split without it (compiled._split)
         "secrets",  # only a first use makes a cache key
     )

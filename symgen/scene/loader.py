@@ -17,12 +17,12 @@ import hashlib
 import json
 import math
 import os
+import tomllib
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from symgen.errors import SceneError
-from symgen.scene import parsed
 from symgen.policy import tolerances
 from symgen.scene.excitation import (
     check_driver_motion,
@@ -130,13 +130,10 @@ def read_toml(file: str) -> dict:
             "a scene file is TOML text in UTF-8; save it as UTF-8, or check that this is the scene file",
         ) from None
     try:
-        raw = parsed.loads(text)  # recalled when parsed before (no tomllib import)
-    except ValueError as exc:
-        import tomllib  # imported: it raised
-
-        if isinstance(exc, tomllib.TOMLDecodeError):
-            raise SceneError(file, "", f"TOML syntax error: {exc}", "fix the TOML syntax") from None
-        # e.g. an integer of more than 4300 digits
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(file, "", f"TOML syntax error: {exc}", "fix the TOML syntax") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
         raise SceneError(file, "", f"cannot read a value: {str(exc).split(';')[0]}", "fix the value") from None
     except RecursionError:
         deep = nesting_line(text)

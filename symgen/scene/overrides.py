@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import copy
 import re
+import tomllib
 from collections.abc import Sequence
 from typing import Any
 
 from symgen.errors import SceneError
-from symgen.scene import parsed
 from symgen.scene.limits import MAX_DEPTH, short_key, structure_problem
 
 NAMED_ARRAYS = {"bodies": "body", "joints": "joint"}
@@ -33,13 +33,9 @@ EXAMPLE = "e.g. --set bodies.rod.transverse_modes=3 or --set simulation.rtol=1e-
 def parse_value(text: str) -> Any:
     """A ``--set`` value: a TOML value if it parses as one, else the text as a string."""
     try:
-        return parsed.loads(f"v = {text}")["v"]  # recalled when parsed before (no tomllib import)
-    except ValueError as exc:
-        import tomllib  # imported: it raised
-
-        if isinstance(exc, tomllib.TOMLDecodeError):
-            return text.strip()
-        raise
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text.strip()
 
 
 def _split_key(key: str, file: str, item: str) -> list[str | int]:
