@@ -114,8 +114,24 @@ def test_a_truncation_above_the_accuracy_raises_the_chosen_counts(tmp_path, caps
     chosen = {b: (c["axial"], c["transverse"]) for b, c in first["bases"].items()}
     assert all(c["chosen"] == [True, True] and not c["raised"] for c in first["bases"].values())
 
+    from symgen.numerics import simulate as sim_module
+
+    runs: list[tuple[str, float, float]] = []  # every IDAS run of the raise: (model, rtol, atol)
+    real_simulate = sim_module.simulate
+
+    def counted(m, *a, **k):
+        sim = m.scene.simulation
+        rtol, atol = k.get("rtol"), k.get("atol")
+        runs.append((m.info.key, sim.rtol if rtol is None else rtol, sim.atol if atol is None else atol))
+        return real_simulate(m, *a, **k)
+
+    monkeypatch.setattr(sim_module, "simulate", counted)
     assert main(["simulate", str(path), "-o", str(tmp_path / "raised.csv"), "-v"]) == 0
+    monkeypatch.setattr(sim_module, "simulate", real_simulate)
     out, err = capsys.readouterr()
+    # the raised scene's model is the first run's richer model: its run at the tighter tolerances,
+    # the first truncation part's, is the raised run's time part's rerun too, made once
+    assert len(runs) == len(set(runs)), runs
     assert "the run's truncation estimate" in err and "running it" in err
     assert "chosen counts raised (" in out
     side = json.loads((tmp_path / "raised.json").read_text())

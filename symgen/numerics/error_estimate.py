@@ -468,22 +468,75 @@ def _tighter_run(mech: Mechanism, result: SimResult, rtol: float, atol: float) -
 _TIGHT: list[tuple[object, object, float, float, SimResult | BaseException]] = []
 
 
+#: the richer models' IDAS runs of the truncation part, the latest ``RICH_RUNS_KEPT``, by what
+#: makes a run (:func:`_run_identity`): the chosen counts' raise (:mod:`symgen.numerics.counts_choice`)
+#: runs the richer model as the raised scene's, whose time part's tighter rerun is then that very run
+#: (the same model, parameters, quasi-static functions, start, output grid, tolerances and backend:
+#: the kept-out crank_pendulum_nylon's 5 + 6 strip, 216 405 IDAS steps, 181 s CPU, made twice before)
+_RICH_RUNS: list[tuple[tuple[Any, ...], SimResult]] = []
+RICH_RUNS_KEPT = 2
+
+
+def _run_identity(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> tuple[Any, ...] | None:
+    """What an IDAS run of ``mech`` over ``result``'s output grid at ``rtol``, ``atol`` on the
+    backend ``result`` was asked for depends on (:func:`_idas_run`): the model (its key and
+    parameter values), the amplitudes it treats quasi-statically, the scene beside its bases'
+    reasons and the raises' record (the start, the drivers, the outputs, the simulation), the
+    grid, the tolerances and the backend. None after a C run (its reruns are the C solver's)."""
+    if _ran_in_c(result):
+        return None
+    tau = np.asarray(result.tau, dtype=float)
+    if len(tau) < 2:
+        return None
+    backend = result.stats.get("backend_choice", result.stats.get("backend"))
+    scene = dataclasses.replace(mech.scene, bases=(), counts_raised=None)
+    return (
+        mech.info.key,
+        tuple(float(v) for v in mech.p_values),
+        tuple(mech.quasi),
+        scene,
+        float(tau[0]),
+        float(tau[-1]),
+        float(tau[1] - tau[0]),
+        float(rtol),
+        float(atol),
+        backend if backend in ("compiled", "vm") else None,
+    )
+
+
+def _keep_rich_run(identity: tuple[Any, ...] | None, run: SimResult) -> None:
+    if identity is None or _ran_in_c(run):
+        return
+    _RICH_RUNS[:] = [(i, r) for i, r in _RICH_RUNS if i != identity][-(RICH_RUNS_KEPT - 1) :] + [(identity, run)]
+
+
+def _made_before(identity: tuple[Any, ...] | None) -> SimResult | None:
+    """The richer model's run of an earlier truncation part that is this run (:data:`_RICH_RUNS`)."""
+    if identity is None:
+        return None
+    for i, run in _RICH_RUNS:
+        if i == identity:
+            return run
+    return None
+
+
 def _tight(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> SimResult:
     """``mech`` run again over ``result``'s output grid at ``TIGHTER`` times tighter tolerances
     than ``rtol``, ``atol`` by the run's own solver (:func:`_same_solver_run`), made once per run
-    and tolerances (the last one kept); raises what stopped it."""
+    and tolerances (the last one kept; an earlier truncation part's richer run that is this run,
+    :data:`_RICH_RUNS`, is taken); raises what stopped it."""
     for m, r, rt, at, tight in _TIGHT:
         if m is mech and r is result and rt == rtol and at == atol:
             if isinstance(tight, BaseException):
                 raise tight
             return tight
     tau = np.asarray(result.tau, dtype=float)
-    try:
-        made: SimResult | BaseException = _same_solver_run(
-            mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER
-        )
-    except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
-        made = why
+    made: SimResult | BaseException | None = _made_before(_run_identity(mech, result, rtol / TIGHTER, atol / TIGHTER))
+    if made is None:
+        try:
+            made = _same_solver_run(mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER)
+        except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
+            made = why
     _TIGHT[:] = [(mech, result, rtol, atol, made)]
     if isinstance(made, BaseException):
         raise made
@@ -918,6 +971,8 @@ def _rerun(
         )
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
+    if base is not result and rich.complete:  # at the tighter tolerances: a raised scene's time part
+        _keep_rich_run(_run_identity(richer, result, rtol, atol), rich)
     names = list(result.output_names)
     values = _fractions_of_peak(mech, result, _difference(base, rich, names), names)
     bars = ", ".join(f"{b} {c[0]}+{c[1]}" for b, c in counts.items())
