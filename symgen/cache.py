@@ -386,17 +386,24 @@ def remember(question: dict[str, Any], answer: Any) -> None:
         blob = pack(_CHECK_KIND, payload)
         path.parent.mkdir(parents=True, exist_ok=True)
         sweep_stale(path.parent)
-        fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(blob)
-            os.replace(tmp, path)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
+        write_atomic(path, blob)
     except (OSError, ValueError):  # KeyUnavailable included; ValueError: not JSON data
         return
+
+
+def write_atomic(path: Path, blob: bytes) -> None:
+    """``blob`` to ``path`` through a temporary file of the same folder (mode 0600) renamed over
+    it: a reader sees the old file or the whole new one, never part of it; the temporary file is
+    removed if the write fails (the error raised)."""
+    fd, tmp = tempfile.mkstemp(prefix=TEMP_PREFIX, dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(blob)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 def load_private(blob: bytes, name: str, loader: Callable[[Path], T]) -> T:

@@ -136,8 +136,7 @@ def _write() -> None:
     if not _new or _codes is None:
         return
     try:
-        import contextlib
-        import tempfile
+        from pathlib import Path
 
         from symgen import cache
 
@@ -151,18 +150,9 @@ def _write() -> None:
                 break
             table.setdefault(text, code)
         blob = cache.pack(KIND, _magic() + marshal.dumps(table))
-        where = path()
-        folder = os.path.dirname(where)
-        os.makedirs(folder, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=cache.TEMP_PREFIX, dir=folder)
-        try:
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(blob)
-            os.replace(tmp, where)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
+        where = Path(path())
+        where.parent.mkdir(parents=True, exist_ok=True)
+        cache.write_atomic(where, blob)
     except Exception:  # a cache that cannot be written: compiled next time, nothing said
         return
 
