@@ -164,6 +164,9 @@ output_interval = 0.005
 DRIVER = r"""
 import json, sys, traceback
 HEAVY = {heavy!r}
+# what the interpreter's start already loaded (a site .pth file may import importlib.resources or
+# zipfile before any symgen code runs) is not symgen's import
+BEFORE = {{m for m in HEAVY if m in sys.modules}}
 first = {{}}
 
 class Watch:
@@ -187,7 +190,7 @@ for step in json.loads(sys.argv[1]):
     else:  # ["api", scene, override, out or None(, solver, estimate)]
         simulate_scene(step[1], [step[2]], out=step[3], **dict(zip(("solver", "estimate"), step[4:])))
     import symgen.classcode
-    report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules), "via": dict(first),
+    report.append({{"step": step, "heavy": sorted(m for m in HEAVY if m in sys.modules and m not in BEFORE), "via": dict(first),
                    "compiled": symgen.classcode.stats()["compiled"]}})
 print("REPORT " + json.dumps(report))
 """
