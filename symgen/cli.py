@@ -303,10 +303,9 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
             and "the quasi-static start's axial force" in _axial_method(sidecar)
         ):
             advice = (
-                "; its largest part, the axial, is the start's axial ringing: the quasi-static start solves the "
-                "deformation with its rates zero, so the dynamic bar starts off the stretch that the loads of the "
-                'rates the start then sets carry (docs/exact-bars.md): effects.axial = "dynamic" runs it (at '
-                "the cost of resolving the axial mode)"
+                "; its largest part, the axial, is the quasi-static axial treatment's error over the run from the "
+                "quasi-static start, read with the axial dynamics kept (docs/exact-bars.md): "
+                'effects.axial = "dynamic" runs it (at the cost of resolving the axial mode)'
             )
         elif largest == "axial" and _axial_method(sidecar).startswith("the start's ringing"):
             advice = (

@@ -98,7 +98,11 @@ def test_the_axial_part_charges_a_spinning_arms_own_stretch_inertia(tmp_path, la
     part = side["error_estimate_detail"]["parts"]["axial"]["tip_u"]
     assert 0.5 <= part / true <= 2.0, f"part {part:.3g}, true {true:.3g}"
     assert side["error_estimate"]["tip_u"] >= part
-    assert "the stretch's own inertia on tip_u (the larger there" in side["error_estimate_detail"]["methods"]["axial"]
+    method = side["error_estimate_detail"]["methods"]["axial"]
+    # from its quasi-static start (no axial force jump) the whole run with the axial dynamics kept is
+    # read too: the same stretch's inertia, measured; either may be the larger on tip_u
+    assert "the stretch's own inertia" in method
+    assert "on tip_u (the larger there" in method
 
 
 def test_the_stretch_inertia_with_a_tip_mass(tmp_path):

@@ -102,15 +102,19 @@ def test_the_axial_part_carries_the_ringing_through_the_estimate(spun):
 
 def test_no_ringing_from_a_quasi_static_start(tmp_path):
     """At a steady spin the quasi-static start sets no deformation rate: its axial force is the
-    run's N(0) (the a-priori bound ~0), the window is not run. (Under a varying load it is not:
-    tests/test_axial_qs_start_ringing.py.)"""
+    run's N(0) (the a-priori bound ~0), the window is not run; the whole run with the axial
+    dynamics kept reads the quasi-static treatment's steady error instead, the stretch's own
+    centrifugal load: relative w^2 / lambda (1e-4) of the stretch, and as little on the others.
+    (Under a varying load: tests/test_axial_qs_start_ringing.py.)"""
     mech, res = _arm(tmp_path, quasi_static_start=True)
     bars = axial_drift.quasi_static_bars(mech)
     assert "arm" in bars
     assert axial_drift.ringing_bound(mech, res, bars) < 1e-6
     ring, how = axial_drift.ringing(mech, res)
-    assert set(ring.values()) == {0.0}
+    # (the driver torque is 0 at a constant rate in both runs, to round-off: no peak to charge against)
+    assert max(v for n, v in ring.items() if n != "torque") < 1e-3
     assert "the quasi-static start's axial force" in how and "the start's ringing not run" in how
+    assert "the whole run with the axial dynamics of arm kept" in how
 
 
 def test_a_start_from_rest_skips_the_window_by_its_a_priori_bound():

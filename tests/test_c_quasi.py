@@ -57,9 +57,12 @@ def test_c_and_idas_agree_on_stated_quasi_static_functions_and_the_closed_form(t
     """The turning cantilever, its highest 2 of 4 transverse functions quasi-static, from its
     quasi-static start: the C run's tip deflection is the closed form's (the bound of
     tests/test_quasi_static_modes.py) and IDAS's; the quasi-static amplitudes follow the load
-    with zero rates in both, the same values at the start; and the C solver takes fewer steps
-    than with every function dynamic (lambda = 1e4, where the axial mode is slow enough to couple:
-    measured 35485 steps dynamic, 11570 with 2 quasi-static; at lambda = 1e6 1349 and 1169)."""
+    with zero rates in both, the same values at the start. (Steps: with the start's deformation
+    solved at zero rates, the C solver took 35485 steps with every function dynamic and 11575
+    with 2 quasi-static at lambda = 1e4, 1366 and 1166 at 1e6: the dynamic run rang axially from
+    the start. With the consistent start, the deformation solved again with its rates held
+    (tests/test_qs_start_consistent.py), 2677 and 3519 at 1e4, 2789 and 3515 at 1e6: the
+    quasi-static functions no longer save steps on this arm; not a claim of this test.)"""
     mu, g, lam = 1e4, 10.0, 1e4
     kw = dict(lam=lam, mu=mu, g=g, nt=4, t_end=1.6, rtol=1e-7)
     mech = _mech(_arm(tmp_path, qs=2, **kw))
@@ -80,7 +83,6 @@ def test_c_and_idas_agree_on_stated_quasi_static_functions_and_the_closed_form(t
     assert np.abs(c.q[:, h] - idas.q[:, h]).max() < 1e-5 * scale
     dynamic = simulate_c(_mech(_arm(tmp_path, qs=0, **kw)))
     assert _peak_error(dynamic.column("tip"), exact) < 1.5e-4 + 2.0 / lam
-    assert c.steps < dynamic.steps / 2
 
 
 def test_unstressed_start_keeps_the_models_own_joint_forces_as_idas_does():

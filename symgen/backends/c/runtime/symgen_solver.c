@@ -484,8 +484,9 @@ static void symgen_continuum_start_(symgen_solver *s, double t0, const double *q
 static int symgen_beyond_range_(symgen_solver *s, double t);
 
 /* quasi-static deformation for the rigid state in (q, v) (Mechanism.quasi_static):
-   unknowns u = [q_E, q_D, v_D, a_R, lam], deformation rates and accelerations zero */
-static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v)
+   unknowns u = [q_E, q_D, v_D, a_R, lam], deformation accelerations zero, deformation rates zero
+   (hold 0) or held at v's (hold 1: their loads in the state, start.quasi_static_state's rates) */
+static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v, int hold)
 {
     const int nu = SYMGEN_NALG(s);
     double *u = s->qs_u, *a = s->qs_a, *lam = s->qs_lam;
@@ -505,7 +506,10 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
         /* state of u */
         off = 0;
         memset(a, 0, sizeof(double) * SYMGEN_NQ(s));
-        for (k = 0; k < SYMGEN_NE(s); ++k) { q[s->model->elastic[k]] = u[off + k]; v[s->model->elastic[k]] = 0.0; }
+        for (k = 0; k < SYMGEN_NE(s); ++k) {
+            q[s->model->elastic[k]] = u[off + k];
+            if (!hold) v[s->model->elastic[k]] = 0.0;
+        }
         off += SYMGEN_NE(s);
         for (k = 0; k < SYMGEN_ND(s); ++k) q[s->model->dependent[k]] = u[off + k];
         off += SYMGEN_ND(s);
@@ -629,13 +633,14 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
 }
 
 
-/* quasi-static start (Mechanism.quasi_static_start): under angle drivers the deformation
-   rates are the quasi-static ones too, by central differences */
+/* quasi-static start (start.quasi_static_start): under angle drivers the deformation rates are
+   the quasi-static ones too, by central differences, and the deformation is solved again with
+   those rates held (their loads, the Coriolis load 2 theta' w' on a turning bar, in it) */
 static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, double *v)
 {
     double m3[3], h, dt;
     int k, side;
-    if (symgen_quasi_static_(s, t0, q, v)) return 1;
+    if (symgen_quasi_static_(s, t0, q, v, 0)) return 1;
     /* the quasi-static state within the range of the bar models (Mechanism.quasi_static_start) */
     memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
     if (symgen_beyond_range_(s, t0)) return 1;
@@ -662,14 +667,15 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
         }
         if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
         if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
-        if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs)) return 1;
+        if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs, 0)) return 1;
         for (k = 0; k < SYMGEN_NE(s); ++k) {
             int i = s->model->elastic[k];
             if (side == 0) s->qe[i] = s->qs[i];
             else v[i] = (s->qs[i] - s->qe[i]) / (2 * h);
         }
     }
-    return 0;
+    for (k = 0; k < s->model->nh; ++k) v[s->model->quasi[k]] = 0.0;   /* no rate in the run */
+    return symgen_quasi_static_(s, t0, q, v, 1);
 }
 
 /* ------------------------------------------------------------------ Radau IIA */
