@@ -418,9 +418,9 @@ def start_multipliers(mech: Mechanism, result: SimResult) -> np.ndarray:
     """The multipliers the dynamic bar starts with, in the run's model: zero from an undeformed
     start; from a quasi-static start (``initial.deformation = "quasi-static"``,
     :func:`symgen.numerics.start.quasi_static_start`) those of the quasi-static state at the run's
-    first sample with the deformation accelerations zero and its rates held at the run's first
-    sample, as the start solves it: the axial loads of those rates (the Coriolis load
-    2 theta' w' of a bending rate on a turning bar) are in them, as in the run's N(0)."""
+    first sample with its deformation rates and accelerations held at the run's first sample's,
+    as the start solves it: the axial loads of those rates (the Coriolis load 2 theta' w' of a
+    bending rate on a turning bar) and accelerations are in them, as in the run's N(0)."""
     lam = np.asarray(result.lam, dtype=float)
     if not mech.scene.initial.quasi_static:
         return np.zeros(lam.shape[1])
@@ -428,7 +428,9 @@ def start_multipliers(mech: Mechanism, result: SimResult) -> np.ndarray:
 
     part = _partition(mech, result)
     q0, v0 = (np.asarray(x, dtype=float)[0] for x in (result.q, result.v))
-    return quasi_static_state(mech, float(result.tau[0]), q0, v0, part, rates=v0)[2]
+    t0 = float(result.tau[0])
+    a0 = mech.accelerations(t0, q0, v0)[0]
+    return quasi_static_state(mech, t0, q0, v0, part, rates=v0, accels=a0)[2]
 
 
 def ringing_bound(mech: Mechanism, result: SimResult, bars: Bars) -> float:

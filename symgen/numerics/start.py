@@ -175,8 +175,9 @@ def _start(
 
 
 class StaticSystem:
-    """Newton system of the quasi-static state (18)-(19) for one partition: deformation rates
-    and accelerations zero, rigid kinematics consistent with closure at all three levels.
+    """Newton system of the quasi-static state (18)-(19) for one partition: the independent
+    amplitudes' rates and accelerations given (v0, a0: zero in (18)-(19), held at the start's in
+    :func:`quasi_static_start`), rigid kinematics consistent with closure at all three levels.
     Unknowns u = [q_E, q_D, v_D, a_R, lam] (E: the independent amplitudes, R: the rigid and
     dependent accelerations)."""
 
@@ -191,9 +192,10 @@ class StaticSystem:
         t = ca.SX.sym("t")
         q0 = ca.SX.sym("q0", mech.n)
         v0 = ca.SX.sym("v0", mech.n)
-        q, v, a = ca.SX(q0), ca.SX(v0), ca.SX.zeros(mech.n)
+        a0 = ca.SX.sym("a0", mech.n)
+        q, v, a = ca.SX(q0), ca.SX(v0), ca.SX(a0)
         for k, i in enumerate(self.E):
-            q[i] = u[k]  # v[i]: the rate given in v0 (zero, or held: quasi_static_state)
+            q[i] = u[k]  # v[i], a[i]: the rate and acceleration given (zero, or held: quasi_static_state)
         for k, i in enumerate(D):
             q[i] = u[nE + k]
             v[i] = u[nE + nD + k]
@@ -202,7 +204,7 @@ class StaticSystem:
         lam = u[nE + 2 * nD + self.nR :]
         args: list[ca.SX | np.ndarray] = [t, q, v, a, lam, mech.p]
         F = ca.vertcat(mech.f["phi"](*args), mech.f["phid"](*args), mech.f["res"](*args), mech.f["phidd"](*args))
-        self.fun = ca.Function("static", [t, q0, v0, u], [F, ca.jacobian(F, u), q, v])
+        self.fun = ca.Function("static", [t, q0, v0, a0, u], [F, ca.jacobian(F, u), q, v])
 
 
 def static_system(mech: Mechanism, part: Partition) -> StaticSystem:
@@ -222,9 +224,10 @@ def quasi_static(
     tol: float = POLICY.quasi_static_tol,
     maxit: int = POLICY.quasi_static_maxit,
     rates: np.ndarray | None = None,
+    accels: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
-    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit, rates)
+    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit, rates, accels)
     return qn, vn, it
 
 
@@ -237,26 +240,34 @@ def quasi_static_state(
     tol: float = POLICY.quasi_static_tol,
     maxit: int = POLICY.quasi_static_maxit,
     rates: np.ndarray | None = None,
+    accels: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """:func:`quasi_static` with the multipliers of that state: (q, v, lam, iterations). The
     deformation accelerations are zero in it; the deformation rates too, or, given ``rates``
     (length n, read at the independent amplitudes), held at those: the loads of the deformation
     rates (the Coriolis load 2 theta' w' of a bending rate on a turning bar's axial force) are then
-    in the state and in lam (the consistent quasi-static start, :func:`quasi_static_start`)."""
+    in the state and in lam; given ``accels`` too (length n, read at the independent amplitudes),
+    the accelerations are held at those: the loads of the deformation's accelerations (its own
+    inertia, and the foreshortening's acceleration a dependent axial amplitude has under an
+    inextensible or quasi-static axial treatment) are in them (the consistent quasi-static start,
+    :func:`quasi_static_start`)."""
     system = static_system(mech, part)
     fun = system.fun
     E, D = system.E, list(part.dep)
     v = np.array(v, dtype=float)
     v[E] = 0.0 if rates is None else np.asarray(rates, dtype=float)[E]
+    a = np.zeros(mech.n)
+    if accels is not None:
+        a[E] = np.asarray(accels, dtype=float)[E]
     u = np.concatenate([q[E], q[D], v[D], np.zeros(system.nR), np.zeros(mech.m)])
     for it in range(1, maxit + 1):  # noqa: B007 - the count of iterations is returned
-        F, J, _, _ = fun(t, q, v, u)
+        F, J, _, _ = fun(t, q, v, a, u)
         F = np.array(F).ravel()
         if np.abs(F).max() < tol:
             break
         u = u - np.linalg.solve(np.array(J), F)
     else:
-        F0, _, q_last, _ = fun(t, q, v, u)
+        F0, _, q_last, _ = fun(t, q, v, a, u)
         F = np.array(F0).ravel()
         if np.abs(F).max() > POLICY.quasi_static_accept:
             # the real cause first: Newton stagnates near a state beyond the range of the bar
@@ -274,7 +285,7 @@ def quasi_static_state(
                 f"the quasi-static state did not converge (residual {np.abs(F).max():.3g})",
                 "the mechanism may be near buckling or a singular position",
             )
-    _, _, qn, vn = fun(t, q, v, u)
+    _, _, qn, vn = fun(t, q, v, a, u)
     lam = np.asarray(u[len(E) + 2 * len(D) + system.nR :], dtype=float)
     return np.array(qn).ravel(), np.array(vn).ravel(), lam, it
 
@@ -283,11 +294,15 @@ def quasi_static_start(
     mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray, part: Partition
 ) -> tuple[np.ndarray, np.ndarray]:
     """Initial deformation = quasi-static state; under angle drivers the deformation
-    rates are the quasi-static ones too (central difference), and the deformation is solved again
-    with those rates held, so that the loads of the rates (the Coriolis load 2 theta' w' of a
-    bending rate on a turning bar's axial force) are in it as in the run's first instant: the
-    start rings little (an oscillating arm at lambda 1e3 with its axial dynamics kept: its axial
-    ringing 8.3e-3 of tip_u's peak from the deformation at zero rates, 3.9e-4 so).
+    rates and accelerations are the quasi-static ones too (central first and second differences
+    of the quasi-static states at t0 - h, t0, t0 + h), and the deformation is solved again with
+    both held, so that their loads are in it as in the run's first instant: the rates' (the
+    Coriolis load 2 theta' w' of a bending rate on a turning bar's axial force) and the
+    accelerations' (the deformation's own inertia, first order in it; the foreshortening's
+    acceleration, which an inextensible or quasi-static axial amplitude has from its rows and a
+    dynamic one only so). The run then starts with the quasi-static motion's accelerations: it
+    rings little, and a dynamic axial bar's start tends to its inextensible limit's like 1/lambda
+    (docs/exact-bars.md, "A consistent quasi-static start").
     An unstable quasi-static state (beyond a buckling load) is refused: the run would sit on
     an equilibrium the bar leaves at the first disturbance."""
     qs, vs, _ = quasi_static(mech, t0, q, v, part)
@@ -321,10 +336,13 @@ def quasi_static_start(
         ends.append(quasi_static(mech, t0 + dt, qq, vv, part)[0])
     vs = vs.copy()
     vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
-    # the deformation again with those rates held (their loads in it, as in the run's first
-    # instant); a quasi-static amplitude has no rate in the run (docs/quasi-static-modes.md)
+    acc = np.zeros(mech.n)
+    acc[E] = (ends[1][E] - 2.0 * qs[E] + ends[0][E]) / (h * h)
+    # the deformation again with those rates and accelerations held (their loads in it, as in the
+    # run's first instant); a quasi-static amplitude has neither in the run (docs/quasi-static-modes.md)
     vs[list(mech.quasi)] = 0.0
-    qs, vs, _ = quasi_static(mech, t0, qs, vs, part, rates=vs)
+    acc[list(mech.quasi)] = 0.0
+    qs, vs, _ = quasi_static(mech, t0, qs, vs, part, rates=vs, accels=acc)
     return qs, vs
 
 

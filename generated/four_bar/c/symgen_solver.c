@@ -156,6 +156,7 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->start_v = symgen_take_(&d, n);
     s->start_a = symgen_take_(&d, n);
     s->qs_a = symgen_take_(&d, n);
+    s->qs_ah = symgen_take_(&d, n);     /* the accelerations a quasi-static re-solve holds */
     s->dv_a = symgen_take_(&d, n);
     s->as_trial = symgen_take_(&d, n);
     s->zeros = symgen_take_(&d, n + m);      /* stands for inputs a model function does not read */
@@ -484,8 +485,9 @@ static void symgen_continuum_start_(symgen_solver *s, double t0, const double *q
 static int symgen_beyond_range_(symgen_solver *s, double t);
 
 /* quasi-static deformation for the rigid state in (q, v) (Mechanism.quasi_static):
-   unknowns u = [q_E, q_D, v_D, a_R, lam], deformation accelerations zero, deformation rates zero
-   (hold 0) or held at v's (hold 1: their loads in the state, start.quasi_static_state's rates) */
+   unknowns u = [q_E, q_D, v_D, a_R, lam], deformation rates and accelerations zero (hold 0) or
+   held, the rates at v's and the accelerations at s->qs_ah's (hold 1: their loads in the state,
+   start.quasi_static_state's rates and accels) */
 static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v, int hold)
 {
     const int nu = SYMGEN_NALG(s);
@@ -507,8 +509,10 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
         off = 0;
         memset(a, 0, sizeof(double) * SYMGEN_NQ(s));
         for (k = 0; k < SYMGEN_NE(s); ++k) {
-            q[s->model->elastic[k]] = u[off + k];
-            if (!hold) v[s->model->elastic[k]] = 0.0;
+            const int i = s->model->elastic[k];
+            q[i] = u[off + k];
+            if (hold) a[i] = s->qs_ah[i];
+            else v[i] = 0.0;
         }
         off += SYMGEN_NE(s);
         for (k = 0; k < SYMGEN_ND(s); ++k) q[s->model->dependent[k]] = u[off + k];
@@ -633,9 +637,10 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
 }
 
 
-/* quasi-static start (start.quasi_static_start): under angle drivers the deformation rates are
-   the quasi-static ones too, by central differences, and the deformation is solved again with
-   those rates held (their loads, the Coriolis load 2 theta' w' on a turning bar, in it) */
+/* quasi-static start (start.quasi_static_start): under angle drivers the deformation rates and
+   accelerations are the quasi-static ones too, by central first and second differences, and the
+   deformation is solved again with both held (their loads in it: the Coriolis load 2 theta' w' on
+   a turning bar, the deformation's own inertia, the foreshortening's acceleration) */
 static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, double *v)
 {
     double m3[3], h, dt;
@@ -671,10 +676,16 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
         for (k = 0; k < SYMGEN_NE(s); ++k) {
             int i = s->model->elastic[k];
             if (side == 0) s->qe[i] = s->qs[i];
-            else v[i] = (s->qs[i] - s->qe[i]) / (2 * h);
+            else {
+                v[i] = (s->qs[i] - s->qe[i]) / (2 * h);
+                s->qs_ah[i] = (s->qs[i] - 2.0 * q[i] + s->qe[i]) / (h * h);
+            }
         }
     }
-    for (k = 0; k < s->model->nh; ++k) v[s->model->quasi[k]] = 0.0;   /* no rate in the run */
+    for (k = 0; k < s->model->nh; ++k) {   /* no rate nor acceleration in the run */
+        v[s->model->quasi[k]] = 0.0;
+        s->qs_ah[s->model->quasi[k]] = 0.0;
+    }
     return symgen_quasi_static_(s, t0, q, v, 1);
 }
 

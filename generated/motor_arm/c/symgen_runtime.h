@@ -162,7 +162,7 @@ typedef struct symgen_splu {
     (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
-     + 21 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
+     + 22 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
 #define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
     (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 3 * (ne) + 1 \
      + 2 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) + 6 * SYMGEN_NY_(n, m, ni, nd) + 1)
@@ -200,7 +200,7 @@ typedef struct symgen_solver {
     double *jac, *gzz, *kzx, *jred, *e1, *e2r, *e2i, *uz, *uzi;
     double *galg, *sq, *sv, *sr;
     double *q, *v, *qs, *vs, *qe, *q_last, *zeros;
-    double *start_q, *start_v, *start_a, *start_lam, *qs_u, *qs_a, *qs_lam, *dv_a, *dv_lam;
+    double *start_q, *start_v, *start_a, *start_lam, *qs_u, *qs_a, *qs_ah, *qs_lam, *dv_a, *dv_lam;
     double *as_r, *as_rt, *as_dq, *as_trial, *vel_r, *drv_r, *clo;
     double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;
     double *ct_p, *ct_a, *ct_lam, *start_out, *ct_out;   /* the continuum start: [np], [n], [m], [nout], [nout] */
