@@ -8,15 +8,22 @@ strain and basis family). Every run starts on the quasi-static state (``[initial
 use a short window (0.05 crank turn, 31 outputs) so that lambda = 1e9 costs seconds.
 The limit model is ``effects.axial = "inextensible"`` (the lambda -> oo limit: the strain is
 held to (phi'_k, eps) = 0, the axial force is its multiplier; no lambda, no axial vibration).
-Measured (0.05 turn, rtol 1e-8):
+The sweeps run at rtol 1e-10, atol 1e-13 (``TIGHT``): the stretch is 3e-10 at lambda 1e9, and at
+the scene's atol 1e-10 IDAS's error on the axial amplitudes reaches eta_mid above lambda 1e7
+(2.1e-6 at 1e7 over this window) once the start does not ring (the quasi-static start holds the
+loads of its deformation's rates and accelerations: docs/exact-bars.md, "A consistent
+quasi-static start"). Measured (0.05 turn):
 
     lambda      1e3     1e4     1e5     1e6     1e7     1e8      1e9     inextensible
-    5+2 diff    3.8e-4  4.1e-5  3.9e-6  2.0e-7  3.8e-7  4.1e-7   4.1e-7  (reference)
-    5+2 steps   718     1803    4187    8589    29775   99659    319654  59
-    3+4 diff    4.5e-4  3.9e-5  4.0e-6  3.9e-7  1.5e-8  4.3e-8   4.5e-8
-    3+4 steps   503     1268    3320    6876    14505   51478    172810  72
+    5+2 diff    3.05e-4 3.05e-5 3.05e-6 3.05e-7 3.1e-8  2.9e-9   1.4e-8  (reference)
+    5+2 steps   272     968     2859    8511    16886   81216    198     110
+    3+4 diff    3.06e-4         3.06e-6         3.05e-8
+    3+4 steps   272             1651            14792                    201
 
-(diff: max |eta_mid - eta_mid(inextensible, same basis)| / its peak). Both bases converge to the
+(diff: max |eta_mid - eta_mid(inextensible, same basis)| / its peak; at 1e9 IDAS steps past the
+axial period, its amplitudes within atol of themselves). Earlier, from a start whose axial
+accelerations missed the foreshortening's and rang, at rtol 1e-8: 5 + 2 diff 3.8e-4 ... 4.1e-7
+at 1e9 in 718 ... 319654 steps. Both bases converge to the
 inextensible model like 1/lambda down to the solver's tolerance: the strain energy is that of
 the axial strain the basis can carry, lambda/2 ||P eps||^2 (P the projection onto span{phi'_k}),
 so no part of eta'^2 is penalised by lambda. (With the full lambda/8 int eta'^4 the 3 + 4 model
@@ -24,7 +31,8 @@ locked: 0.4 % here at lambda >= 1e6, 1-2 % over a turn.) The inextensible model 
 with any basis (3 + 4 within 2.3e-4 of 9 + 8 over a turn).
 IDAS steps grow like sqrt(lambda) (the axial frequency) although the axial modes hardly move:
 BDF orders above 2 are not stable on undamped stiff oscillations, so IDAS keeps the step near
-1/omega_axial. The inextensible model costs the same at every lambda (and the default axial
+1/omega_axial where they ring (at 1e9 over this window, from the start that does not ring, it
+steps past the axial period: 198 steps). The inextensible model costs the same at every lambda (and the default axial
 treatment, "auto", eliminates the axial dynamics of such stiff bars: tests/test_axial_default.py).
 """
 
@@ -86,13 +94,14 @@ def sweep(na: int, nt: int, window: list, lambdas=LAMBDAS, torque: dict | None =
 def test_lambda_sweep_converges_to_the_inextensible_model():
     """Locking-free basis (5 axial for 2 transverse): every run completes, the distance to the
     inextensible model falls like 1/lambda to the solver's tolerance, steps grow no faster
-    than sqrt(lambda) and the inextensible model is cheaper than any of them."""
-    diff, steps, ref = sweep(5, 2, WINDOW)
+    than sqrt(lambda) and the inextensible model is cheaper than any of them (110 steps against
+    272 at lambda 1e3, where the start no longer rings: 718 from the earlier start)."""
+    diff, steps, ref = sweep(5, 2, WINDOW + TIGHT)
     for lam in LAMBDAS:
         assert diff[lam] < 0.5 / lam + 1e-6
     assert diff[1e3] > diff[1e4] > diff[1e5]
     assert steps[1e9] / steps[1e3] < math.sqrt(1e9 / 1e3)
-    assert ref.steps < steps[1e3] / 5
+    assert ref.steps < min(steps.values())
 
 
 def test_no_basis_locks_raising_lambda_only_approaches_the_inextensible_limit():
@@ -101,7 +110,7 @@ def test_no_basis_locks_raising_lambda_only_approaches_the_inextensible_limit():
     inextensible one (no locking), and the inextensible 3 + 4 model is within 5e-4 of the
     inextensible 9 + 8 one (mixed form: the axial force lives in span{phi'})."""
     lams = [1e3, 1e5, 1e7]
-    diff, steps, ref = sweep(3, 4, WINDOW, lambdas=lams)
+    diff, steps, ref = sweep(3, 4, WINDOW + TIGHT, lambdas=lams)
     for lo, hi in zip(lams, lams[1:]):
         assert diff[hi] < diff[lo] / 20, (lo, hi, diff)
     assert diff[1e7] < 1e-6
