@@ -119,14 +119,18 @@ def test_static_shape_is_the_closed_form_and_costs_fewer_steps(tmp_path, lam):
 @pytest.mark.parametrize("mu", [1.0, 4.0])
 def test_highest_amplitude_differs_by_twice_its_amplification(tmp_path, mu):
     """2 transverse functions, the second quasi-static: its amplitude differs from the dynamic
-    one by about 2 r^2 of its peak (r = 1 / (beta_2^2 sqrt(mu)), the forcing at frequency 1)."""
+    one by its amplification, r^2 of its peak (r = 1 / (beta_2^2 sqrt(mu)), the forcing at
+    frequency 1: the forced response is the static one over 1 - r^2). Measured 0.999 / 1.043 r^2
+    at mu 1 / 4 from the quasi-static start that holds its deformation's rates and accelerations
+    (docs/exact-bars.md); 1.85 / 1.89 r^2 from the start with both zero, whose ringing the dynamic
+    run added."""
     kw = dict(lam=1e4, mu=mu, g=1e-3, nt=2, t_end=6.3, rtol=1e-9)
     mech, dyn = _run(_arm(tmp_path, qs=0, **kw))
     _, qs = _run(_arm(tmp_path, qs=1, **kw))
     i = [c.name for c in mech.coords].index("g_arm_2")
     rel = np.abs(qs.q[:, i] - dyn.q[:, i]).max() / np.abs(dyn.q[:, i]).max()
     r2 = 1.0 / (BETA2_SQ**2 * mu)
-    assert 1.0 * r2 < rel < 3.0 * r2
+    assert 0.9 * r2 < rel < 1.3 * r2
 
 
 def test_count_beyond_the_functions_is_refused_with_exit_2(tmp_path, capsys):
