@@ -34,7 +34,13 @@ tests/test_model_form_euler.py, pinned on a slider at 0.5 .. 0.99 P_cr, lambda 1
 is 1.00x the large-deflection elastica's difference from von Karman's closed form at 0.5 .. 0.97
 and 1.07x at 0.99, amplification 99; until estimator version 13 it was capped at 20 and read 0.19x
 there; at lambda 1e4 and below the stretch's share of the curvature matters, charged since version 14: see
-``STRETCH_CURVATURE`` and docs/exact-bars.md, "Near the Euler load"). Where
+``STRETCH_CURVATURE`` and docs/exact-bars.md, "Near the Euler load"). The axial force K and dQ
+take is the bar's slow one (``SLOW_AXIAL``, :meth:`_Bar.slow_axial_force`, estimator version 15):
+its content below the bar's first bending frequency, which the bending follows quasi-statically; a
+faster part (a slider's mass ringing on the bar's axial stiffness) it does not follow, and taken at
+each instant its peaks were amplified (the kept-out heavy steel slider-crank's rod at 0.72 P_cr for
+an instant against 0.42 slow: its static change 2.5x von Karman vs the exact bar's slow part;
+tests/test_model_form_fastaxial.py, the column with a fast end load: 3.4-5.8x, 0.99-1.08x since). Where
 K is not positive definite the bar is at or beyond its Euler load at that instant: a static change
 about a state that is no stable equilibrium is not an estimate, so each output the bar moves there
 (its unamplified change not zero) is charged ``BEYOND_BUCKLING`` of its peak, a value that cannot
