@@ -387,8 +387,9 @@ class _Bar:
         against 5.5e-4 for von Karman vs the exact bar's slow part there: docs/exact-bars.md, "A
         fast axial force")."""
         n = self.axial_force(Q, Lam)
-        if n is None or not SLOW_AXIAL or self.omega <= 0:
-            return n
+        span = float(tau[-1] - tau[0]) if len(tau) else 0.0
+        if n is None or not SLOW_AXIAL or self.omega * span < 4 * np.pi:
+            return n  # a run shorter than two bending periods tells no slow part from a fast one: as it is
         return without_band(tau, n, (self.omega, np.inf))
 
     def curvature_along(
