@@ -40,7 +40,7 @@ its content below the bar's first bending frequency, which the bending follows q
 faster part (a slider's mass ringing on the bar's axial stiffness) it does not follow, and taken at
 each instant its peaks were amplified (the kept-out heavy steel slider-crank's rod at 0.72 P_cr for
 an instant against 0.42 slow: its static change 2.5x von Karman vs the exact bar's slow part;
-tests/test_model_form_fastaxial.py, the column with a fast end load: 3.4-5.8x, 0.99-1.08x since). Where
+tests/test_model_form_fastaxial.py, the column with a fast end load: 3.4-5.8x, 1.00-1.10x since). Where
 K is not positive definite the bar is at or beyond its Euler load at that instant: a static change
 about a state that is no stable equilibrium is not an estimate, so each output the bar moves there
 (its unamplified change not zero) is charged ``BEYOND_BUCKLING`` of its peak, a value that cannot
