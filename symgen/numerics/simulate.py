@@ -427,8 +427,8 @@ def simulate(
     ``use_cache=False``: a compiled library is built for this run only. ``progress``: a progress
     bar of tau on stderr while it runs, when stderr is a terminal (the command line's runs).
     ``max_steps``: a check run's budget of IDAS steps (the error estimate's reruns:
-    ``symgen.policy.rerun_budget``): checked after each chunk of outputs, at most ``CHUNK``
-    outputs then (so it overshoots by at most one such chunk); past it the run stops with
+    ``symgen.policy.rerun_budget``): checked before each chunk of outputs (the chunks as any run's:
+    it overshoots by at most one chunk, and its steps are a run's without a budget); past it the run stops with
     ``BudgetExceeded`` (a ``SimulationError``, its ``.partial`` the outputs before).
 
     A run that stops early (``SimulationError``: a solver failure, a singular position, a bar
@@ -701,7 +701,7 @@ def _chunks(
         yield chunk
         done += k
         advanced(k)
-        if not chunk.replayed and settings.max_steps is None:  # a budgeted run: CHUNK at a time
+        if not chunk.replayed:
             size = min(2 * size, CHUNK_MAX)
 
 
