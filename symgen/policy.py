@@ -17,6 +17,7 @@ BDF and the emitted C Radau IIA leave different global errors at the same rtol).
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 __all__ = [
@@ -31,6 +32,8 @@ __all__ = [
     "range_message",
     "UnitRule",
     "UNITS",
+    "RERUN_BUDGET",
+    "rerun_budget",
 ]
 
 
@@ -283,3 +286,24 @@ def _round(x: float) -> float:
     """``x`` to 12 significant digits: 3e-09, not the product's 3.0000000000000004e-09, in the
     sidecar, ``symgen check`` and the emitted C."""
     return float(f"{x:.12g}")
+
+
+#: The error estimate's reruns (its time part's run at 10x tighter tolerances, its truncation part's
+#: run of the richer model; the chosen counts' decision is that truncation part) may take at most
+#: this many times the integrator steps of the run they check (at least one step per output: a run
+#: of few steps still gets a rerun of this many per output), by the rerun's own solver (IDAS's BDF
+#: steps, the C solver's Radau IIA steps: ``symgen.numerics.simulate``, ``symgen.numerics.csolver``).
+#: Past it the rerun is stopped and its part is "not estimated (budget: ...)". Steps, not CPU:
+#: deterministic (the same decision on a loaded machine), counted the same way by both solvers.
+#: Measured: the richer model's rerun at the run's tolerances takes up to 6.3x the run's steps (the
+#: steel slider-crank's two added undamped bending functions, benchmarks/RESULTS.md "The error
+#: estimate's cost"), and 10x tighter tolerances 1.3x-2x more (crank_pendulum_nylon's 5 + 6 exact
+#: strip: 4761 -> 6208 steps): up to about 12x; 25 leaves 2x beside that. What it cuts: the
+#: kept-out crank_pendulum_nylon's richer rerun at 55x (216 405 steps; benchmarks/validation/README.md).
+RERUN_BUDGET = 25.0
+
+
+def rerun_budget(run_steps: int, outputs: int, factor: float | None = None) -> int:
+    """The step budget of a rerun checking a run of ``run_steps`` steps over ``outputs`` output
+    steps: ``RERUN_BUDGET`` (or ``factor``) times the larger of the two."""
+    return int(math.ceil((RERUN_BUDGET if factor is None else factor) * max(int(run_steps), int(outputs), 1)))

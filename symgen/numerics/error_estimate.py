@@ -97,6 +97,17 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   the closed form, charged 3.35e-4), the largest of the three per output. 0 where no bar is
   quasi-static.
 
+**The reruns' budget.** Each rerun (the time part's run at tighter tolerances, the truncation
+part's run of the richer model) may take at most ``symgen.policy.RERUN_BUDGET`` times the steps of
+the run it checks (:func:`symgen.policy.rerun_budget`, its solver's steps, IDAS's or the C
+solver's). Past it the rerun is stopped and its part is not estimated, its reason beginning
+``BUDGET_PREFIX`` ("budget: ... stopped after N steps, beyond its budget of B"): the truncation part
+when either of its runs was stopped, the time part when its run was (not the a-priori bound: on a
+run whose steps grow that much it would be a small number that looks like an estimate), and then
+no output gets a total (``outputs`` all None; the CLI warns and says what to do). The kept-out
+crank_pendulum_nylon (benchmarks/validation/README.md) is what it is for: its richer rerun took
+216 405 IDAS steps, 55x its run's.
+
 The record (:class:`ErrorEstimate`) is typed, with ``to_json``/``from_json`` that check every
 field; a run's sidecar holds ``error_estimate: {output: fraction of peak}`` and the record as
 ``error_estimate_detail`` (``symgen.numerics.results.write_run``). Closure residuals are not
@@ -118,7 +129,7 @@ else:
     from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen import __version__
-from symgen.errors import SymgenError
+from symgen.errors import BudgetExceeded, SymgenError
 from symgen.ir.info import record_fields
 from symgen.ir.records import CoordKind
 from symgen.numerics.run_result import MeasuredOnce
@@ -384,6 +395,10 @@ def estimate_errors(
     elif truncation == "rerun":
         try:
             tight = _tighter_run(mech, result, rtol, atol)
+        except BudgetExceeded as why:
+            # stopped at its budget: not estimated (the a-priori bound is no measure of a run whose
+            # steps grow this much: it would be a small number that looks like an estimate)
+            not_estimated("time_integration", _budget_text(why, "the run at tighter tolerances", result))
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
             reasons["time_integration"] = f"the run at tighter tolerances failed ({why}): the bound alone"
         else:
@@ -401,7 +416,9 @@ def estimate_errors(
                 + methods["time_integration"]
             )
     _TIGHT.clear()  # both parts have read it: not kept past the estimate
-    outputs = {n: combined([parts[p][n] for p in PARTS]) for n in names}
+    # a part stopped at its rerun's budget leaves no total: the others' sum would look like one
+    stopped = any(r.startswith(BUDGET_PREFIX) for r in reasons.values())
+    outputs = {n: None if stopped else combined([parts[p][n] for p in PARTS]) for n in names}
     return ErrorEstimate(outputs, parts, methods, reasons, counts)
 
 
@@ -415,6 +432,30 @@ def combined(values: Iterable[float | None]) -> float | None:
 
 #: the time-integration part's check run: this many times tighter tolerances
 TIGHTER = 10.0
+#: how the reason of a part whose rerun was stopped at its budget (``symgen.policy.RERUN_BUDGET``)
+#: begins: the part is not estimated, and no output gets a total (the CLI warns and says what to do)
+BUDGET_PREFIX = "budget: "
+
+
+def _budget(result: SimResult) -> int:
+    """The step budget of a rerun checking ``result`` (:func:`symgen.policy.rerun_budget`)."""
+    from symgen.policy import rerun_budget
+
+    return rerun_budget(int(result.steps), max(len(result.tau) - 1, 1))
+
+
+def _budget_text(err: BudgetExceeded, what: str, result: SimResult) -> str:
+    """The reason of a part whose rerun ``what`` was stopped at its budget (begins ``BUDGET_PREFIX``)."""
+    from symgen.policy import RERUN_BUDGET
+
+    at = "" if err.tau is None else f" at tau = {err.tau:.4g}"
+    return (
+        f"{BUDGET_PREFIX}{what} was stopped{at} after {err.steps} steps, beyond its budget of {err.budget} "
+        f"({RERUN_BUDGET:g}x the run's {result.steps} steps, symgen.policy.RERUN_BUDGET): state the counts "
+        "(bodies.NAME.axial_modes and transverse_modes) or run with --estimate linearized or off"
+    )
+
+
 #: the time-integration part of a run with no differential states (``symgen.numerics.simulate``:
 #: every rigid coordinate driven, every elastic amplitude quasi-static; not the C solver's, whose
 #: Radau IIA steps and dense output do integrate and interpolate): 0, said how
@@ -533,7 +574,9 @@ def _tight(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> SimR
     made: SimResult | BaseException | None = _made_before(_run_identity(mech, result, rtol / TIGHTER, atol / TIGHTER))
     if made is None:
         try:
-            made = _same_solver_run(mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER)
+            made = _same_solver_run(
+                mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER, max_steps=_budget(result)
+            )
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
             made = why
     _TIGHT[:] = [(mech, result, rtol, atol, made)]
@@ -792,15 +835,21 @@ def _state_map(base: Mechanism, rich: Mechanism) -> tuple[np.ndarray, np.ndarray
 
 #: the truncation part a decision measured on a run (:func:`keep_truncation`), read once by that
 #: run's estimate (keyed by the truncation method)
-_KEPT_TRUNCATION: MeasuredOnce[tuple[dict[str, float], dict[str, list[int]], str]] = MeasuredOnce()
+_KEPT_TRUNCATION: MeasuredOnce[tuple[dict[str, float], dict[str, list[int]], str] | TruncationNotEstimated] = (
+    MeasuredOnce()
+)
 
 
 def keep_truncation(
-    mech: Mechanism, result: SimResult, method: str, part: tuple[dict[str, float], dict[str, list[int]], str]
+    mech: Mechanism,
+    result: SimResult,
+    method: str,
+    part: tuple[dict[str, float], dict[str, list[int]], str] | TruncationNotEstimated,
 ) -> None:
     """Keep ``part``, :func:`truncation_part` of this run by ``method`` (the chosen counts'
     decision measured it: :mod:`symgen.numerics.counts_choice`), for the run's own estimate (read
-    once; the previous one is dropped)."""
+    once; the previous one is dropped); or why it was not estimated (a rerun stopped at its
+    budget: the estimate says so instead of paying the rerun again)."""
     _KEPT_TRUNCATION.keep(mech, result, part, method)
 
 
@@ -822,6 +871,8 @@ def truncation_part(
         raise ValueError(f"unknown truncation method {method!r}; expected one of {', '.join(TRUNCATION_METHODS)}")
     if richer is None:
         known = _KEPT_TRUNCATION.take(mech, result, method)
+        if isinstance(known, TruncationNotEstimated):
+            raise known
         if known is not None:
             return known
     if method == "rerun":
@@ -867,6 +918,7 @@ def _same_solver_run(
     atol: float,
     build: bool = True,
     idas_tolerances: tuple[float, float] | None = None,
+    max_steps: int | None = None,
 ) -> SimResult:
     """``mech`` run over ``result``'s output grid with ``rtol``, ``atol`` by the run's own
     solver: the emitted C Radau IIA solver after a ``--solver c`` run (``result.stats``'s
@@ -879,7 +931,8 @@ def _same_solver_run(
     when it was built before, never compiled on the run's way (a richer exact bar's took 170 s),
     so a first ``--solver c`` run measures its richer model with IDAS: at ``idas_tolerances``
     where given (the IDAS rule's from the accuracy: the C rule's looser ones would charge IDAS's
-    own time error to the truncation part), else at ``rtol``, ``atol``."""
+    own time error to the truncation part), else at ``rtol``, ``atol``. ``max_steps``: the rerun's
+    budget of its solver's steps (:func:`_budget`; ``BudgetExceeded`` past it)."""
     from symgen.errors import SceneError, SimulationError
 
     tau = np.asarray(result.tau, dtype=float)
@@ -887,19 +940,24 @@ def _same_solver_run(
         from symgen.numerics.csolver import NotBuilt, simulate_c
 
         try:
-            return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol, build=build)
+            return simulate_c(
+                mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol, build=build, max_steps=max_steps
+            )
         except (SceneError, NotBuilt):  # no working C compiler, a scene the C path refuses, a library
             pass  # not built: IDAS below
-        except SimulationError:
-            if build:  # the run's own solver failed at tighter tolerances: said as such
+        except SimulationError as err:
+            # the run's own solver failed at tighter tolerances, or a rerun past its budget: said as such
+            if build or isinstance(err, BudgetExceeded):
                 raise
             # the richer model's C run failed: IDAS below
         if idas_tolerances is not None:
             rtol, atol = idas_tolerances
-    return _idas_run(mech, result, step, rtol, atol)
+    return _idas_run(mech, result, step, rtol, atol, max_steps)
 
 
-def _idas_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
+def _idas_run(
+    mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float, max_steps: int | None = None
+) -> SimResult:
     """``mech`` run by IDAS over ``result``'s output grid, on the backend the run was asked for."""
     from symgen.numerics.simulate import simulate
 
@@ -913,6 +971,7 @@ def _idas_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol
         atol=atol,
         t0=float(tau[0]),
         backend=backend if backend in ("compiled", "vm") else None,
+        max_steps=max_steps,
     )
 
 
@@ -953,6 +1012,11 @@ def _rerun(
     else:
         try:
             base = _tight(mech, result, rtol, atol)
+        except BudgetExceeded as why:
+            # the richer model at the run's tolerances would cost as much: not estimated
+            raise TruncationNotEstimated(
+                _budget_text(why, "the run's model at tighter tolerances (the richer model's reference)", result)
+            ) from None
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
             against += f", it failed: {why})"
         else:
@@ -966,8 +1030,17 @@ def _rerun(
             )
     try:
         rich = _same_solver_run(
-            richer, result, float(tau[1] - tau[0]), rtol, atol, build=False, idas_tolerances=fallback
+            richer,
+            result,
+            float(tau[1] - tau[0]),
+            rtol,
+            atol,
+            build=False,
+            idas_tolerances=fallback,
+            max_steps=_budget(result),
         )
+    except BudgetExceeded as err:
+        raise TruncationNotEstimated(_budget_text(err, "the richer model's run", result)) from None
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     if base is not result and rich.complete:  # at the tighter tolerances: a raised scene's time part
