@@ -271,18 +271,18 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
     from symgen.numerics.error_estimate import BUDGET_PREFIX
 
     reasons = (sidecar.get("error_estimate_detail") or {}).get("reasons") or {}
-    for part, reason in reasons.items():
-        if isinstance(reason, str) and reason.startswith(BUDGET_PREFIX):
-            # a rerun stopped at its budget: the part (and so every total) is not estimated
-            print(
-                f"symgen: warning: {scene}: the error estimate's {part.replace('_', ' ')} part is not estimated, "
-                f"its rerun too dear ({reason[len(BUDGET_PREFIX) :]}); the counts as chosen were kept, the results "
-                f"are written; the error estimate has no total (see {json_name})",
-                file=sys.stderr,
-            )
+    # the parts whose rerun was stopped at its budget: not estimated, and so no total
+    stopped = {p: r for p, r in reasons.items() if isinstance(r, str) and r.startswith(BUDGET_PREFIX)}
+    for part, reason in stopped.items():
+        print(
+            f"symgen: warning: {scene}: the error estimate's {part.replace('_', ' ')} part is not estimated, "
+            f"its rerun too dear ({reason[len(BUDGET_PREFIX) :]}); the counts as chosen were kept, the results "
+            f"are written; the error estimate has no total (see {json_name})",
+            file=sys.stderr,
+        )
     estimate = {n: v for n, v in sidecar["error_estimate"].items() if v is not None}
     if not estimate:
-        if any(isinstance(r, str) and r.startswith(BUDGET_PREFIX) for r in reasons.values()):
+        if stopped:
             print(f"error estimate (fraction of peak, in {json_name}): not estimated (a rerun's budget)")
         return
     worst = max(estimate, key=lambda n: estimate[n])
