@@ -279,7 +279,8 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
         listed = ", ".join(f"{n} (peak {p:.1e})" for n, p in zero.items())
         print(
             f"symgen: note: {scene}: zero to round-off over the run (at most {ZERO_PEAK:g} of its unit): {listed}; "
-            "no error estimate is given for it and no choice was made on it",
+            f"no error estimate is given for {'it' if len(zero) == 1 else 'them'} and no choice was made on "
+            f"{'it' if len(zero) == 1 else 'them'}",
             file=sys.stderr,
         )
     # the parts whose rerun was stopped at its budget: not estimated, and so no total
