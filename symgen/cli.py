@@ -270,7 +270,19 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
     to keep (symgen.policy.tolerances)."""
     from symgen.numerics.error_estimate import BUDGET_PREFIX
 
-    reasons = (sidecar.get("error_estimate_detail") or {}).get("reasons") or {}
+    detail = sidecar.get("error_estimate_detail") or {}
+    reasons = detail.get("reasons") or {}
+    zero = detail.get("zero") or {}
+    if zero:
+        from symgen.policy import ZERO_PEAK
+
+        listed = ", ".join(f"{n} (peak {p:.1e})" for n, p in zero.items())
+        print(
+            f"symgen: note: {scene}: zero to round-off over the run (at most {ZERO_PEAK:g} of its unit): {listed}; "
+            f"no error estimate is given for {'it' if len(zero) == 1 else 'them'} and no choice was made on "
+            f"{'it' if len(zero) == 1 else 'them'}",
+            file=sys.stderr,
+        )
     # the parts whose rerun was stopped at its budget: not estimated, and so no total
     stopped = {p: r for p, r in reasons.items() if isinstance(r, str) and r.startswith(BUDGET_PREFIX)}
     for part, reason in stopped.items():

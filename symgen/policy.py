@@ -34,6 +34,7 @@ __all__ = [
     "UNITS",
     "RERUN_BUDGET",
     "rerun_budget",
+    "ZERO_PEAK",
 ]
 
 
@@ -307,3 +308,19 @@ def rerun_budget(run_steps: int, outputs: int, factor: float | None = None) -> i
     """The step budget of a rerun checking a run of ``run_steps`` steps over ``outputs`` output
     steps: ``RERUN_BUDGET`` (or ``factor``) times the larger of the two."""
     return int(math.ceil((RERUN_BUDGET if factor is None else factor) * max(int(run_steps), int(outputs), 1)))
+
+
+#: An output whose largest |value| over a run is at or below this, in the model's unit of its kind
+#: (a deflection, slope or stretch per its bar's length, a position per l0, an angle in rad, a
+#: force per m_ref l0^2 omega^2, a moment or an energy per m_ref l0^3 omega^2: symgen.numerics.units),
+#: is zero to round-off: no error estimate is a fraction of its peak and no run-time decision (the
+#: counts, the strain, the axial treatment) or warning is taken on it
+#: (:meth:`symgen.numerics.run_result.SimResult.peaks`). Measured: a uniform arm spun at constant
+#: speed has its tip's deflection 1e-20 (exactly 0 in the physics: the centrifugal load is axial);
+#: read as a fraction of that peak, its estimate was 2.6 "of peak", which raised the arm's counts
+#: twice to their cap and warned for tighter tolerances (tests/test_zero_peak.py). 1e-12 is far
+#: below what any output a user asks for carries (a deflection of 1e-12 of a bar's length is below
+#: an atom's size on a bar under 100 m; the stiffest bars tested, lambda 1e10, deflect 1e-10 and
+#: stretch 3e-11 of their length under unit loads) and above the round-off of O(1) coordinates
+#: (eps = 2.2e-16) carried through the run and the closure's Newton (``assembly_tol`` 1e-13).
+ZERO_PEAK = 1e-12

@@ -44,8 +44,9 @@ R = TypeVar("R")
 #: the axial part's version in the remembered decisions (a changed estimate decides again;
 #: "2": the start's ringing decides too; "3": the drift charges each output's whole rate along the run;
 #: "4": the stretch's own inertia decides too; "5": the start's ringing is measured from a quasi-static
-#: start too, where the loads of its deformation rates move the axial force)
-ESTIMATOR_VERSION = "5"
+#: start too, where the loads of its deformation rates move the axial force; "6": an output zero to
+#: round-off over the run decides nothing, SimResult.peaks)
+ESTIMATOR_VERSION = "6"
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",

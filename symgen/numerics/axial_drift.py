@@ -216,8 +216,9 @@ def _sampled(result: SimResult, fewest: int) -> tuple[np.ndarray, np.ndarray, np
 
 
 def _peak(result: SimResult, name: str) -> float:
-    """The largest |value| of an output over the run; 0 where it is not finite (nothing charged)."""
-    peak = float(np.max(np.abs(np.asarray(result.column(name), dtype=float))))
+    """The largest |value| of an output over the run; 0 where it is not finite or zero to round-off
+    (:meth:`SimResult.peaks`: nothing charged)."""
+    peak = result.peaks()[name]
     return peak if np.isfinite(peak) else 0.0
 
 
@@ -483,7 +484,8 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
     kept = _kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
     sim = scene.simulation
     t0 = float(tau[0])
-    peaks = [float(np.max(np.abs(np.asarray(result.column(n), dtype=float)))) for n in names]
+    every = result.peaks()  # 0 where an output is zero to round-off
+    peaks = [every[n] for n in names]
     steps, doubled = 0, 0
     while True:
         own = simulate(mech, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)

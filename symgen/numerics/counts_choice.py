@@ -56,8 +56,9 @@ __all__ = [
 R = TypeVar("R")
 
 #: the decision's version in the remembered decisions (a changed estimate decides again; 3: the
-#: truncation part's richer rerun against the run's model, both at the time part's tighter tolerances)
-ESTIMATOR_VERSION = "3"
+#: truncation part's richer rerun against the run's model, both at the time part's tighter tolerances;
+#: 4: an output zero to round-off over the run decides nothing, SimResult.peaks)
+ESTIMATOR_VERSION = "4"
 #: at most this many raises of a scene's chosen counts (each a run and its richer rerun more)
 MAX_ROUNDS = 2
 #: the only truncation method that decides (the module docstring)

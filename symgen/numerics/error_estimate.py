@@ -218,13 +218,16 @@ class ErrorEstimate:
     ``outputs``: output -> the sum of its estimated parts (None when no part was estimated).
     ``parts``: part -> output -> value, or None for "not estimated" (``reasons[part]`` says why).
     ``methods``: part -> how it was estimated. ``richer``: bar -> [axial, transverse] counts of
-    the richer model of the truncation part."""
+    the richer model of the truncation part. ``zero``: output -> its largest |value|, for the
+    outputs that are zero to round-off over the run (:meth:`SimResult.peaks`): not estimated, no
+    decision taken on them."""
 
     outputs: dict[str, float | None]
     parts: dict[str, dict[str, float | None]]
     methods: dict[str, str]
     reasons: dict[str, str] = field(default_factory=dict)
     richer: dict[str, list[int]] = field(default_factory=dict)
+    zero: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -233,12 +236,15 @@ class ErrorEstimate:
             "methods": dict(self.methods),
             "reasons": dict(self.reasons),
             "richer": {b: list(c) for b, c in self.richer.items()},
+            "zero": dict(self.zero),
         }
 
     @classmethod
     def from_json(cls, data: object) -> ErrorEstimate:
         """The record of ``to_json``'s data; :class:`InvalidEstimate` on anything malformed."""
-        keys = ("outputs", "parts", "methods", "reasons", "richer")
+        keys = ("outputs", "parts", "methods", "reasons", "richer", "zero")
+        if isinstance(data, dict) and "zero" not in data:
+            data = {**data, "zero": {}}  # a record written before the zero outputs were told apart
         data = record_fields(data, "the error estimate", keys, InvalidEstimate)
         outputs = _values(data["outputs"], "outputs")
         parts_raw = data["parts"]
@@ -275,7 +281,17 @@ class ErrorEstimate:
             for b, c in richer.items()
         ):
             raise InvalidEstimate("'richer' is not an object of [axial, transverse] counts")
-        return cls(outputs, parts, methods, reasons, {b: list(c) for b, c in richer.items()})
+        zero = _values(data["zero"], "zero")
+        if not set(zero) <= set(outputs) or any(v is None for v in zero.values()):
+            raise InvalidEstimate("'zero' is not an object of the outputs' peaks")
+        return cls(
+            outputs,
+            parts,
+            methods,
+            reasons,
+            {b: list(c) for b, c in richer.items()},
+            {n: float(v) for n, v in zero.items() if v is not None},
+        )
 
     @classmethod
     def not_estimated(cls, names: list[str], reason: str) -> ErrorEstimate:
@@ -290,6 +306,8 @@ class ErrorEstimate:
     def text(self, name: str) -> str:
         """One output's estimate as text: the total and its parts ("not estimated" for a part
         that was not)."""
+        if name in self.zero:
+            return f"not estimated: zero to round-off (peak {self.zero[name]:.1e})"
         total = self.outputs.get(name)
         cells = []
         for p in PARTS:
@@ -332,12 +350,12 @@ def estimate_errors(
     Both reruns use the run's own solver (:func:`_same_solver_run`); the richer model's C solver
     only where it was built before (else IDAS)."""
     names = list(result.output_names)
-    peaks = _peaks(result)
+    peaks = result.peaks()
     parts: dict[str, dict[str, float | None]] = {}
     methods: dict[str, str] = {}
     reasons: dict[str, str] = {}
     counts: dict[str, list[int]] = {}
-    measured = _measured(mech, names)
+    measured = _measured(mech, result, names)
 
     def not_estimated(part: str, reason: str) -> None:
         parts[part] = dict.fromkeys(names)
@@ -419,7 +437,9 @@ def estimate_errors(
     # a part stopped at its rerun's budget leaves no total: the others' sum would look like one
     stopped = any(r.startswith(BUDGET_PREFIX) for r in reasons.values())
     outputs = {n: None if stopped else combined([parts[p][n] for p in PARTS]) for n in names}
-    return ErrorEstimate(outputs, parts, methods, reasons, counts)
+    kinds = {o.name: o.kind for o in mech.scene.outputs}
+    zero = {n: p for n, p in result.zero_outputs().items() if kinds.get(n) not in CHECK_KINDS}
+    return ErrorEstimate(outputs, parts, methods, reasons, counts, zero)
 
 
 def combined(values: Iterable[float | None]) -> float | None:
@@ -594,11 +614,6 @@ START_TEXT = (
 )
 
 
-def _peaks(result: SimResult) -> dict[str, float]:
-    out = np.asarray(result.outputs, dtype=float)
-    return {n: float(np.max(np.abs(out[:, k]))) if len(out) else 0.0 for k, n in enumerate(result.output_names)}
-
-
 def time_integration_part(
     result: SimResult,
     rtol: float,
@@ -609,7 +624,7 @@ def time_integration_part(
     """output -> ``TIME_FACTOR * rtol + atol / peak`` (``ALGEBRAIC_TIME_FACTOR`` for the outputs
     of ``kinds`` (output -> kind) read from the multipliers; None for an output that is zero over
     the run: it has no peak to be a fraction of)."""
-    peaks = _peaks(result) if peaks is None else peaks
+    peaks = result.peaks() if peaks is None else peaks
     kinds = kinds or {}
 
     def factor(n: str) -> float:
@@ -634,11 +649,13 @@ def _free_at_start(mech: Mechanism, result: SimResult, T: np.ndarray) -> list[in
     return [i for i in range(T.shape[0]) if i not in held]
 
 
-def _measured(mech: Mechanism, names: list[str]) -> set[str]:
+def _measured(mech: Mechanism, result: SimResult, names: list[str]) -> set[str]:
     """The outputs an estimate is given for: all but the closure residuals (zero to round-off in
-    every model: not an approximation of anything)."""
+    every model: not an approximation of anything) and the outputs that are zero to round-off over
+    this run (:meth:`SimResult.peaks`: no peak to be a fraction of)."""
     kinds = {o.name: o.kind for o in mech.scene.outputs}
-    return {n for n in names if kinds.get(n) not in CHECK_KINDS}
+    zero = result.zero_outputs()
+    return {n for n in names if kinds.get(n) not in CHECK_KINDS and n not in zero}
 
 
 class TruncationNotEstimated(Exception):
@@ -903,8 +920,8 @@ def _difference(result: SimResult, other: SimResult, names: list[str]) -> np.nda
 def _fractions_of_peak(mech: Mechanism, result: SimResult, deltas: np.ndarray, names: list[str]) -> dict[str, float]:
     """output -> its largest change in ``deltas`` (columns ``names``) as a fraction of its peak in
     ``result``: the estimate's measure (the module docstring), for the outputs it estimates."""
-    measured = _measured(mech, list(result.output_names))
-    peaks = _peaks(result)
+    measured = _measured(mech, result, list(result.output_names))
+    peaks = result.peaks()
     return {
         n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
     }

@@ -584,7 +584,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = SAMPL
     shift = {name: 0.5 * float(np.mean(t)) for name, t in tangent.items()}
     bands = _bands([b.omega for b in bars])
     stiff = {b.name: (shift[b.name], amplification[b.name]) for b in bars}
-    peaks = np.abs(result.outputs).max(axis=0)
+    peaks = np.array(list(result.peaks().values()))  # 0 where an output is zero to round-off
     kinds = {o.name: o.kind for o in mech.scene.outputs}
     span = float(result.tau[-1] - result.tau[0])
     damping = float(eff.damping or 0.0)
