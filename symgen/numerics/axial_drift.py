@@ -215,11 +215,10 @@ def _sampled(result: SimResult, fewest: int) -> tuple[np.ndarray, np.ndarray, np
     return idx, tau[idx], Q, V, Lam
 
 
-def _peak(result: SimResult, name: str) -> float:
-    """The largest |value| of an output over the run; 0 where it is not finite or zero to round-off
+def _peaks(result: SimResult) -> dict[str, float]:
+    """Each output's largest |value| over the run; 0 where it is not finite or zero to round-off
     (:meth:`SimResult.peaks`: nothing charged)."""
-    peak = result.peaks()[name]
-    return peak if np.isfinite(peak) else 0.0
+    return {n: (p if np.isfinite(p) else 0.0) for n, p in result.peaks().items()}
 
 
 def run_rates(result: SimResult) -> np.ndarray:
@@ -266,8 +265,9 @@ def drift(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     share = np.where(moving, np.abs(dT) / np.where(moving, T, 1.0), 0.0)
     ahead = np.concatenate(([0.0], np.cumsum(0.5 * (share[1:] + share[:-1]) * np.diff(ts))))
     out: dict[str, float] = {}
+    peaks = _peaks(result)
     for k, n in enumerate(names):
-        peak = _peak(result, n)
+        peak = peaks[n]
         out[n] = float(np.max(np.abs(rates[:, k]) * ahead) / peak) if peak > 0.0 else 0.0
     how = (
         f"the phase drift of the free motion ({len(free)} free rigid coordinate(s)) with the stretch's inertia that "
@@ -324,8 +324,9 @@ def own_inertia(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], s
     change = np.abs(out1 - out0)
     first = {nm: 1 if nm in result.start_forces else 0 for nm in names}
     out: dict[str, float] = {}
+    peaks = _peaks(result)
     for j, nm in enumerate(names):
-        peak = _peak(result, nm)
+        peak = peaks[nm]
         out[nm] = float(np.max(change[first[nm] :, j]) / peak) if peak > 0.0 else 0.0
     amp = [float(np.max(np.abs(D[:, f]))) / max(float(np.max(np.abs(S[:, f]))), 1e-300) for f, _, _ in bars.values()]
     how = (
