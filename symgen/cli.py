@@ -268,8 +268,34 @@ def _say_estimate(sidecar: dict, json_name: str, scene: str) -> None:
     (naming the output, the parts and what lowers the largest) and where its time-integration
     part takes more than the tenth of the accuracy the tolerances from the accuracy are chosen
     to keep (symgen.policy.tolerances)."""
+    from symgen.numerics.error_estimate import BUDGET_PREFIX
+
+    detail = sidecar.get("error_estimate_detail") or {}
+    reasons = detail.get("reasons") or {}
+    zero = detail.get("zero") or {}
+    if zero:
+        from symgen.policy import ZERO_PEAK
+
+        listed = ", ".join(f"{n} (peak {p:.1e})" for n, p in zero.items())
+        print(
+            f"symgen: note: {scene}: zero to round-off over the run (at most {ZERO_PEAK:g} of its unit): {listed}; "
+            f"no error estimate is given for {'it' if len(zero) == 1 else 'them'} and no choice was made on "
+            f"{'it' if len(zero) == 1 else 'them'}",
+            file=sys.stderr,
+        )
+    # the parts whose rerun was stopped at its budget: not estimated, and so no total
+    stopped = {p: r for p, r in reasons.items() if isinstance(r, str) and r.startswith(BUDGET_PREFIX)}
+    for part, reason in stopped.items():
+        print(
+            f"symgen: warning: {scene}: the error estimate's {part.replace('_', ' ')} part is not estimated, "
+            f"its rerun too dear ({reason[len(BUDGET_PREFIX) :]}); the counts as chosen were kept, the results "
+            f"are written; the error estimate has no total (see {json_name})",
+            file=sys.stderr,
+        )
     estimate = {n: v for n, v in sidecar["error_estimate"].items() if v is not None}
     if not estimate:
+        if stopped:
+            print(f"error estimate (fraction of peak, in {json_name}): not estimated (a rerun's budget)")
         return
     worst = max(estimate, key=lambda n: estimate[n])
     parts_of = (sidecar.get("error_estimate_detail") or {}).get("parts") or {}

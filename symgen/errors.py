@@ -43,6 +43,17 @@ class SimulationError(SymgenError):
         super().__init__(text)
 
 
+class BudgetExceeded(SimulationError):
+    """A check run (the error estimate's reruns, which also decide the chosen counts) took more
+    integrator steps than its budget (``symgen.policy.RERUN_BUDGET`` times the run it checks):
+    stopped there, with what it computed before in ``partial``; the part it served is then
+    reported not estimated, with this text as its reason."""
+
+    def __init__(self, tau: float | None, steps: int, budget: int, what: str = "") -> None:
+        self.steps, self.budget = steps, budget
+        super().__init__(tau, f"budget: {what}stopped after {steps} steps, beyond its budget of {budget}")
+
+
 class Interrupted(KeyboardInterrupt):
     """The run was stopped by SIGINT (Ctrl-C) or SIGTERM: exit code 130 or 143.
 

@@ -17,6 +17,7 @@ BDF and the emitted C Radau IIA leave different global errors at the same rtol).
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 __all__ = [
@@ -31,6 +32,9 @@ __all__ = [
     "range_message",
     "UnitRule",
     "UNITS",
+    "RERUN_BUDGET",
+    "rerun_budget",
+    "ZERO_PEAK",
 ]
 
 
@@ -283,3 +287,40 @@ def _round(x: float) -> float:
     """``x`` to 12 significant digits: 3e-09, not the product's 3.0000000000000004e-09, in the
     sidecar, ``symgen check`` and the emitted C."""
     return float(f"{x:.12g}")
+
+
+#: The error estimate's reruns (its time part's run at 10x tighter tolerances, its truncation part's
+#: run of the richer model; the chosen counts' decision is that truncation part) may take at most
+#: this many times the integrator steps of the run they check (at least one step per output: a run
+#: of few steps still gets a rerun of this many per output), by the rerun's own solver (IDAS's BDF
+#: steps, the C solver's Radau IIA steps: ``symgen.numerics.simulate``, ``symgen.numerics.csolver``).
+#: Past it the rerun is stopped and its part is "not estimated (budget: ...)". Steps, not CPU:
+#: deterministic (the same decision on a loaded machine), counted the same way by both solvers.
+#: Measured: the richer model's rerun at the run's tolerances takes up to 6.3x the run's steps (the
+#: steel slider-crank's two added undamped bending functions, benchmarks/RESULTS.md "The error
+#: estimate's cost"), and 10x tighter tolerances 1.3x-2x more (crank_pendulum_nylon's 5 + 6 exact
+#: strip: 4761 -> 6208 steps): up to about 12x; 25 leaves 2x beside that. What it cuts: the
+#: kept-out crank_pendulum_nylon's richer rerun at 55x (216 405 steps; benchmarks/validation/README.md).
+RERUN_BUDGET = 25.0
+
+
+def rerun_budget(run_steps: int, outputs: int, factor: float | None = None) -> int:
+    """The step budget of a rerun checking a run of ``run_steps`` steps over ``outputs`` output
+    steps: ``RERUN_BUDGET`` (or ``factor``) times the larger of the two."""
+    return int(math.ceil((RERUN_BUDGET if factor is None else factor) * max(int(run_steps), int(outputs), 1)))
+
+
+#: An output whose largest |value| over a run is at or below this, in the model's unit of its kind
+#: (a deflection, slope or stretch per its bar's length, a position per l0, an angle in rad, a
+#: force per m_ref l0^2 omega^2, a moment or an energy per m_ref l0^3 omega^2: symgen.numerics.units),
+#: is zero to round-off: no error estimate is a fraction of its peak and no run-time decision (the
+#: counts, the strain, the axial treatment) or warning is taken on it
+#: (:meth:`symgen.numerics.run_result.SimResult.peaks`). Measured: a uniform arm spun at constant
+#: speed has its tip's deflection 1e-20 (exactly 0 in the physics: the centrifugal load is axial);
+#: read as a fraction of that peak, its estimate was 2.6 "of peak", which raised the arm's counts
+#: twice to their cap and warned for tighter tolerances (tests/test_zero_peak.py). 1e-12 is far
+#: below what any output a user asks for carries (a deflection of 1e-12 of a bar's length is below
+#: an atom's size on a bar under 100 m; the stiffest bars tested, lambda 1e10, deflect 1e-10 and
+#: stretch 3e-11 of their length under unit loads) and above the round-off of O(1) coordinates
+#: (eps = 2.2e-16) carried through the run and the closure's Newton (``assembly_tol`` 1e-13).
+ZERO_PEAK = 1e-12

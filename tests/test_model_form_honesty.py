@@ -37,7 +37,9 @@ MEASURED: dict[str, dict[str, tuple[float, str]]] = {
         # below the reference's noise (they were 7.7e-4, ratios 0.82 and 0.88)
         # the exact bar with the strain's eta'^4 / 8 (true 3.7e-4) and the estimate measured as written
         # (estimator 10: 0.92; 11: the same)
-        "torque": (0.92, ""),
+        # estimator 15 (the static change with the arm's slow axial force, model_form.SLOW_AXIAL): 1.02
+        # (model-form part 8.0e-5 -> 1.2e-4)
+        "torque": (1.02, ""),
     },
     # the axial part's drift charges the deflections their whole rate along the run (0 before, the rate
     # along the free rigid coordinates: 0.75 / 0.92): 3.9e-5 / 4.0e-5 of peak (estimator 10: the same)
@@ -93,9 +95,14 @@ MEASURED: dict[str, dict[str, tuple[float, str]]] = {
     "slider_crank_torque_soft": {"rod_mid": (1.02, ""), "xB": (1.06, "")},
     "crank_rocker_steel": {
         # estimator 6: 1.13 / 1.06 / 0.90 / 1.08 -> 1.00 / 0.94 / 0.83 / 0.96; 7: 1.00 / 0.86 / 0.81 / 0.96;
-        # 10: 0.93 / 0.92 / 0.75 / 0.89; 11: 0.85 / 0.92 / 0.74 / 0.81; 14: 0.76 / 0.80 / 0.78 / 0.71
+        # 10: 0.93 / 0.92 / 0.75 / 0.89; 11: 0.85 / 0.92 / 0.74 / 0.81; 14: 0.76 / 0.80 / 0.78 / 0.71;
+        # 15 (the static change with the links' slow axial force): 0.76 / 0.77 / 0.78 / 0.71: coupler_mid's
+        # static change 6.3e-5 -> 3.4e-5 against the 2.0e-5 of von Karman vs exact below 10 per unit tau
+        # (the tool's axial ringing from the start amplified before); that difference is the start's
+        # ringing, 3.2e-4 in the links' bending band and 2.7e-4 above 50 per unit tau, which the drift
+        # reads at 1.6e-4 (docs/exact-bars.md, "A fast axial force")
         "crank_tip": (0.76, ""),
-        "coupler_mid": (0.80, ""),
+        "coupler_mid": (0.77, ""),
         "rocker_mid": (0.78, ""),  # 0.91 before the driver's harmonics were taken out (2026-11-27)
         "torque": (0.71, ""),
     },

@@ -203,9 +203,9 @@ def test_the_richer_rerun_after_a_c_run_takes_the_c_rule(tmp_path, monkeypatch):
     asked: list[tuple[int, float, float]] = []
     real = error_estimate._same_solver_run
 
-    def spy(m, res, step, rtol, atol, build=True, idas_tolerances=None):
+    def spy(m, res, step, rtol, atol, build=True, idas_tolerances=None, max_steps=None):
         asked.append((m.info.n, rtol, atol))
-        return real(m, res, step, rtol, atol, build, idas_tolerances)
+        return real(m, res, step, rtol, atol, build, idas_tolerances, max_steps)
 
     monkeypatch.setattr(error_estimate, "_same_solver_run", spy)
     rtol, atol = mech.scene.simulation.tolerances("c")
@@ -232,9 +232,9 @@ def test_the_richer_rerun_by_idas_after_a_c_run_takes_the_idas_rule(tmp_path, mo
     asked: list[tuple[int, float, float]] = []
     real = error_estimate._idas_run
 
-    def spy(m, res, step, rtol, atol):
+    def spy(m, res, step, rtol, atol, max_steps=None):
         asked.append((m.info.n, rtol, atol))
-        return real(m, res, step, rtol, atol)
+        return real(m, res, step, rtol, atol, max_steps)
 
     from symgen.numerics import csolver
 

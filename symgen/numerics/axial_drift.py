@@ -223,10 +223,10 @@ def _sampled(result: SimResult, fewest: int) -> tuple[np.ndarray, np.ndarray, np
     return idx, tau[idx], Q, V, Lam
 
 
-def _peak(result: SimResult, name: str) -> float:
-    """The largest |value| of an output over the run; 0 where it is not finite (nothing charged)."""
-    peak = float(np.max(np.abs(np.asarray(result.column(name), dtype=float))))
-    return peak if np.isfinite(peak) else 0.0
+def _peaks(result: SimResult) -> dict[str, float]:
+    """Each output's largest |value| over the run; 0 where it is not finite or zero to round-off
+    (:meth:`SimResult.peaks`: nothing charged)."""
+    return {n: (p if np.isfinite(p) else 0.0) for n, p in result.peaks().items()}
 
 
 def run_rates(result: SimResult) -> np.ndarray:
@@ -273,8 +273,9 @@ def drift(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]:
     share = np.where(moving, np.abs(dT) / np.where(moving, T, 1.0), 0.0)
     ahead = np.concatenate(([0.0], np.cumsum(0.5 * (share[1:] + share[:-1]) * np.diff(ts))))
     out: dict[str, float] = {}
+    peaks = _peaks(result)
     for k, n in enumerate(names):
-        peak = _peak(result, n)
+        peak = peaks[n]
         out[n] = float(np.max(np.abs(rates[:, k]) * ahead) / peak) if peak > 0.0 else 0.0
     how = (
         f"the phase drift of the free motion ({len(free)} free rigid coordinate(s)) with the stretch's inertia that "
@@ -331,8 +332,9 @@ def own_inertia(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], s
     change = np.abs(out1 - out0)
     first = {nm: 1 if nm in result.start_forces else 0 for nm in names}
     out: dict[str, float] = {}
+    peaks = _peaks(result)
     for j, nm in enumerate(names):
-        peak = _peak(result, nm)
+        peak = peaks[nm]
         out[nm] = float(np.max(change[first[nm] :, j]) / peak) if peak > 0.0 else 0.0
     amp = [float(np.max(np.abs(D[:, f]))) / max(float(np.max(np.abs(S[:, f]))), 1e-300) for f, _, _ in bars.values()]
     how = (
@@ -522,7 +524,8 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
     length, step, window = ringing_window(mech, bars, t_run)
     kept = _kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
     t0 = float(tau[0])
-    peaks = [float(np.max(np.abs(np.asarray(result.column(n), dtype=float)))) for n in names]
+    every = result.peaks()  # 0 where an output is zero to round-off
+    peaks = [every[n] for n in names]
     steps, doubled = 0, 0
     while True:
         own = simulate(mech, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)

@@ -14,6 +14,11 @@ version, so a rerun of the same scene loads the decided counts directly
 coupled and quasi-static choices still apply (:func:`symgen.scene.loader.with_raised`), and the
 sidecar's ``bases`` (``raised``), ``symgen effects`` and ``symgen check`` say why.
 
+A truncation part whose rerun was stopped at its budget (``symgen.policy.RERUN_BUDGET``,
+:mod:`symgen.numerics.error_estimate`) decides nothing: the counts as chosen are kept (nothing
+remembered: a later run tries again), and the run's own estimate reads that part as not estimated
+instead of paying the rerun again.
+
 Only the "rerun" truncation decides (``symgen simulate --estimate rerun``, the default): the
 linearised one is 10x to 100x low where the run rings freely (the module docstring of
 :mod:`symgen.numerics.error_estimate`), and ``--estimate off`` asks for no estimate; both use a
@@ -51,8 +56,9 @@ __all__ = [
 R = TypeVar("R")
 
 #: the decision's version in the remembered decisions (a changed estimate decides again; 3: the
-#: truncation part's richer rerun against the run's model, both at the time part's tighter tolerances)
-ESTIMATOR_VERSION = "3"
+#: truncation part's richer rerun against the run's model, both at the time part's tighter tolerances;
+#: 4: an output zero to round-off over the run decides nothing, SimResult.peaks)
+ESTIMATOR_VERSION = "4"
 #: at most this many raises of a scene's chosen counts (each a run and its richer rerun more)
 MAX_ROUNDS = 2
 #: the only truncation method that decides (the module docstring)
@@ -162,7 +168,11 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
     accuracy = float(scene.simulation.accuracy)
     try:
         part = ee.truncation_part(mech, result, method=DECIDING_METHOD)
-    except (ee.TruncationNotEstimated, SymgenError, ValueError, ArithmeticError, RuntimeError):
+    except ee.TruncationNotEstimated as why:
+        if str(why).startswith(ee.BUDGET_PREFIX):  # its rerun stopped at its budget: not paid again
+            ee.keep_truncation(mech, result, DECIDING_METHOD, why)
+        return None  # not estimated (the sidecar's error estimate says why): the counts as chosen
+    except (SymgenError, ValueError, ArithmeticError, RuntimeError):
         return None  # not estimated (the sidecar's error estimate says why): the counts as chosen
     values, richer, _ = part
     kinds = {o.name: o.kind for o in scene.outputs}

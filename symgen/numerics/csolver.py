@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from symgen import __version__, cache
-from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.errors import BudgetExceeded, Interrupted, SceneError, SimulationError
 from symgen.policy import POLICY, RANGE
 from symgen.numerics import compiled, interrupt
 from symgen.numerics.mechanism import Mechanism
@@ -372,6 +372,7 @@ def simulate_c(
     atol: float | None = None,
     progress: bool = False,
     build: bool = True,
+    max_steps: int | None = None,
 ) -> SimResult:
     """The scene's run with the emitted C Radau IIA solver, in this process: outputs every
     ``output_step`` from 0 to ``t_end`` with tolerances ``rtol``, ``atol`` (None: the scene's,
@@ -379,7 +380,9 @@ def simulate_c(
     the states with them. A run that stops early (a failure of the C solver or of a check,
     ``SimulationError``; SIGINT/SIGTERM, ``Interrupted``) raises with ``.partial``, the
     ``SimResult`` of the rows before it (``complete=False``). ``build=False``: only with a
-    library already in the cache, else :class:`NotBuilt` before anything runs."""
+    library already in the cache, else :class:`NotBuilt` before anything runs. ``max_steps``: a
+    check run's budget of steps (``symgen.policy.rerun_budget``), checked every ``STEPS_PER_CALL``
+    steps: past it the run stops with ``BudgetExceeded`` (its ``.partial`` the rows before)."""
     import ctypes
 
     from symgen.numerics.start import start_force_outputs
@@ -410,6 +413,7 @@ def simulate_c(
     tic, cpu = time.perf_counter(), time.process_time()
     rc = 0
     stop: Interrupted | SimulationError | None = None  # what ended the run early
+    counts = (ctypes.c_double * len(COUNTERS))()
     try:
         with _progress(progress, n_rows) as advanced:
             rc = lib.init(state, ctypes.cast(p, DP), 0.0, rtol, atol)
@@ -422,13 +426,20 @@ def simulate_c(
                 advanced(done.value - before)
                 if rc == PAUSED:
                     rc = 0
+                    if max_steps is not None and done.value < n_rows:
+                        lib.counters(state, counts)
+                        taken = int(dict(zip(COUNTERS, counts))["steps"])
+                        if taken > max_steps:  # a check run past its budget
+                            stop = BudgetExceeded(
+                                rec[(done.value - 1) * stride] if done.value else 0.0, taken, max_steps
+                            )
+                            break
     except BaseException as err:
         cause = interrupt.interrupted(err, rec[(done.value - 1) * stride] if done.value else 0.0)
         if not isinstance(cause, Interrupted):
             raise
         stop = cause
     elapsed, cpu = time.perf_counter() - tic, time.process_time() - cpu
-    counts = (ctypes.c_double * len(COUNTERS))()
     lib.counters(state, counts)
     stats = dict(zip(COUNTERS, counts))
     n_bars = len(mech.info.amplitudes)

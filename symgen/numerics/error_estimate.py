@@ -99,6 +99,17 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   the closed form, charged 3.35e-4), the largest of the three per output. 0 where no bar is
   quasi-static.
 
+**The reruns' budget.** Each rerun (the time part's run at tighter tolerances, the truncation
+part's run of the richer model) may take at most ``symgen.policy.RERUN_BUDGET`` times the steps of
+the run it checks (:func:`symgen.policy.rerun_budget`, its solver's steps, IDAS's or the C
+solver's). Past it the rerun is stopped and its part is not estimated, its reason beginning
+``BUDGET_PREFIX`` ("budget: ... stopped after N steps, beyond its budget of B"): the truncation part
+when either of its runs was stopped, the time part when its run was (not the a-priori bound: on a
+run whose steps grow that much it would be a small number that looks like an estimate), and then
+no output gets a total (``outputs`` all None; the CLI warns and says what to do). The kept-out
+crank_pendulum_nylon (benchmarks/validation/README.md) is what it is for: its richer rerun took
+216 405 IDAS steps, 55x its run's.
+
 The record (:class:`ErrorEstimate`) is typed, with ``to_json``/``from_json`` that check every
 field; a run's sidecar holds ``error_estimate: {output: fraction of peak}`` and the record as
 ``error_estimate_detail`` (``symgen.numerics.results.write_run``). Closure residuals are not
@@ -120,7 +131,7 @@ else:
     from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
 from symgen import __version__
-from symgen.errors import SymgenError
+from symgen.errors import BudgetExceeded, SymgenError
 from symgen.ir.info import record_fields
 from symgen.ir.records import CoordKind
 from symgen.numerics.run_result import MeasuredOnce
@@ -209,13 +220,16 @@ class ErrorEstimate:
     ``outputs``: output -> the sum of its estimated parts (None when no part was estimated).
     ``parts``: part -> output -> value, or None for "not estimated" (``reasons[part]`` says why).
     ``methods``: part -> how it was estimated. ``richer``: bar -> [axial, transverse] counts of
-    the richer model of the truncation part."""
+    the richer model of the truncation part. ``zero``: output -> its largest |value|, for the
+    outputs that are zero to round-off over the run (:meth:`SimResult.peaks`): not estimated, no
+    decision taken on them."""
 
     outputs: dict[str, float | None]
     parts: dict[str, dict[str, float | None]]
     methods: dict[str, str]
     reasons: dict[str, str] = field(default_factory=dict)
     richer: dict[str, list[int]] = field(default_factory=dict)
+    zero: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -224,12 +238,15 @@ class ErrorEstimate:
             "methods": dict(self.methods),
             "reasons": dict(self.reasons),
             "richer": {b: list(c) for b, c in self.richer.items()},
+            "zero": dict(self.zero),
         }
 
     @classmethod
     def from_json(cls, data: object) -> ErrorEstimate:
         """The record of ``to_json``'s data; :class:`InvalidEstimate` on anything malformed."""
-        keys = ("outputs", "parts", "methods", "reasons", "richer")
+        keys = ("outputs", "parts", "methods", "reasons", "richer", "zero")
+        if isinstance(data, dict) and "zero" not in data:
+            data = {**data, "zero": {}}  # a record written before the zero outputs were told apart
         data = record_fields(data, "the error estimate", keys, InvalidEstimate)
         outputs = _values(data["outputs"], "outputs")
         parts_raw = data["parts"]
@@ -266,7 +283,17 @@ class ErrorEstimate:
             for b, c in richer.items()
         ):
             raise InvalidEstimate("'richer' is not an object of [axial, transverse] counts")
-        return cls(outputs, parts, methods, reasons, {b: list(c) for b, c in richer.items()})
+        zero = _values(data["zero"], "zero")
+        if not set(zero) <= set(outputs) or any(v is None for v in zero.values()):
+            raise InvalidEstimate("'zero' is not an object of the outputs' peaks")
+        return cls(
+            outputs,
+            parts,
+            methods,
+            reasons,
+            {b: list(c) for b, c in richer.items()},
+            {n: float(v) for n, v in zero.items() if v is not None},
+        )
 
     @classmethod
     def not_estimated(cls, names: list[str], reason: str) -> ErrorEstimate:
@@ -281,6 +308,8 @@ class ErrorEstimate:
     def text(self, name: str) -> str:
         """One output's estimate as text: the total and its parts ("not estimated" for a part
         that was not)."""
+        if name in self.zero:
+            return f"not estimated: zero to round-off (peak {self.zero[name]:.1e})"
         total = self.outputs.get(name)
         cells = []
         for p in PARTS:
@@ -323,12 +352,12 @@ def estimate_errors(
     Both reruns use the run's own solver (:func:`_same_solver_run`); the richer model's C solver
     only where it was built before (else IDAS)."""
     names = list(result.output_names)
-    peaks = _peaks(result)
+    peaks = result.peaks()
     parts: dict[str, dict[str, float | None]] = {}
     methods: dict[str, str] = {}
     reasons: dict[str, str] = {}
     counts: dict[str, list[int]] = {}
-    measured = _measured(mech, names)
+    measured = _measured(mech, result, names)
 
     def not_estimated(part: str, reason: str) -> None:
         parts[part] = dict.fromkeys(names)
@@ -386,6 +415,10 @@ def estimate_errors(
     elif truncation == "rerun":
         try:
             tight = _tighter_run(mech, result, rtol, atol)
+        except BudgetExceeded as why:
+            # stopped at its budget: not estimated (the a-priori bound is no measure of a run whose
+            # steps grow this much: it would be a small number that looks like an estimate)
+            not_estimated("time_integration", _budget_text(why, "the run at tighter tolerances", result))
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
             reasons["time_integration"] = f"the run at tighter tolerances failed ({why}): the bound alone"
         else:
@@ -403,8 +436,12 @@ def estimate_errors(
                 + methods["time_integration"]
             )
     _TIGHT.clear()  # both parts have read it: not kept past the estimate
-    outputs = {n: combined([parts[p][n] for p in PARTS]) for n in names}
-    return ErrorEstimate(outputs, parts, methods, reasons, counts)
+    # a part stopped at its rerun's budget leaves no total: the others' sum would look like one
+    stopped = any(r.startswith(BUDGET_PREFIX) for r in reasons.values())
+    outputs = {n: None if stopped else combined([parts[p][n] for p in PARTS]) for n in names}
+    kinds = {o.name: o.kind for o in mech.scene.outputs}
+    zero = {n: p for n, p in result.zero_outputs().items() if kinds.get(n) not in CHECK_KINDS}
+    return ErrorEstimate(outputs, parts, methods, reasons, counts, zero)
 
 
 def combined(values: Iterable[float | None]) -> float | None:
@@ -417,6 +454,30 @@ def combined(values: Iterable[float | None]) -> float | None:
 
 #: the time-integration part's check run: this many times tighter tolerances
 TIGHTER = 10.0
+#: how the reason of a part whose rerun was stopped at its budget (``symgen.policy.RERUN_BUDGET``)
+#: begins: the part is not estimated, and no output gets a total (the CLI warns and says what to do)
+BUDGET_PREFIX = "budget: "
+
+
+def _budget(result: SimResult) -> int:
+    """The step budget of a rerun checking ``result`` (:func:`symgen.policy.rerun_budget`)."""
+    from symgen.policy import rerun_budget
+
+    return rerun_budget(int(result.steps), max(len(result.tau) - 1, 1))
+
+
+def _budget_text(err: BudgetExceeded, what: str, result: SimResult) -> str:
+    """The reason of a part whose rerun ``what`` was stopped at its budget (begins ``BUDGET_PREFIX``)."""
+    from symgen.policy import RERUN_BUDGET
+
+    at = "" if err.tau is None else f" at tau = {err.tau:.4g}"
+    return (
+        f"{BUDGET_PREFIX}{what} was stopped{at} after {err.steps} steps, beyond its budget of {err.budget} "
+        f"({RERUN_BUDGET:g}x the run's {result.steps} steps, symgen.policy.RERUN_BUDGET): state the counts "
+        "(bodies.NAME.axial_modes and transverse_modes) or run with --estimate linearized or off"
+    )
+
+
 #: the time-integration part of a run with no differential states (``symgen.numerics.simulate``:
 #: every rigid coordinate driven, every elastic amplitude quasi-static; not the C solver's, whose
 #: Radau IIA steps and dense output do integrate and interpolate): 0, said how
@@ -535,7 +596,9 @@ def _tight(mech: Mechanism, result: SimResult, rtol: float, atol: float) -> SimR
     made: SimResult | BaseException | None = _made_before(_run_identity(mech, result, rtol / TIGHTER, atol / TIGHTER))
     if made is None:
         try:
-            made = _same_solver_run(mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER)
+            made = _same_solver_run(
+                mech, result, float(tau[1] - tau[0]), rtol / TIGHTER, atol / TIGHTER, max_steps=_budget(result)
+            )
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
             made = why
     _TIGHT[:] = [(mech, result, rtol, atol, made)]
@@ -553,11 +616,6 @@ START_TEXT = (
 )
 
 
-def _peaks(result: SimResult) -> dict[str, float]:
-    out = np.asarray(result.outputs, dtype=float)
-    return {n: float(np.max(np.abs(out[:, k]))) if len(out) else 0.0 for k, n in enumerate(result.output_names)}
-
-
 def time_integration_part(
     result: SimResult,
     rtol: float,
@@ -568,7 +626,7 @@ def time_integration_part(
     """output -> ``TIME_FACTOR * rtol + atol / peak`` (``ALGEBRAIC_TIME_FACTOR`` for the outputs
     of ``kinds`` (output -> kind) read from the multipliers; None for an output that is zero over
     the run: it has no peak to be a fraction of)."""
-    peaks = _peaks(result) if peaks is None else peaks
+    peaks = result.peaks() if peaks is None else peaks
     kinds = kinds or {}
 
     def factor(n: str) -> float:
@@ -593,11 +651,13 @@ def _free_at_start(mech: Mechanism, result: SimResult, T: np.ndarray) -> list[in
     return [i for i in range(T.shape[0]) if i not in held]
 
 
-def _measured(mech: Mechanism, names: list[str]) -> set[str]:
+def _measured(mech: Mechanism, result: SimResult, names: list[str]) -> set[str]:
     """The outputs an estimate is given for: all but the closure residuals (zero to round-off in
-    every model: not an approximation of anything)."""
+    every model: not an approximation of anything) and the outputs that are zero to round-off over
+    this run (:meth:`SimResult.peaks`: no peak to be a fraction of)."""
     kinds = {o.name: o.kind for o in mech.scene.outputs}
-    return {n for n in names if kinds.get(n) not in CHECK_KINDS}
+    zero = result.zero_outputs()
+    return {n for n in names if kinds.get(n) not in CHECK_KINDS and n not in zero}
 
 
 class TruncationNotEstimated(Exception):
@@ -794,15 +854,21 @@ def _state_map(base: Mechanism, rich: Mechanism) -> tuple[np.ndarray, np.ndarray
 
 #: the truncation part a decision measured on a run (:func:`keep_truncation`), read once by that
 #: run's estimate (keyed by the truncation method)
-_KEPT_TRUNCATION: MeasuredOnce[tuple[dict[str, float], dict[str, list[int]], str]] = MeasuredOnce()
+_KEPT_TRUNCATION: MeasuredOnce[tuple[dict[str, float], dict[str, list[int]], str] | TruncationNotEstimated] = (
+    MeasuredOnce()
+)
 
 
 def keep_truncation(
-    mech: Mechanism, result: SimResult, method: str, part: tuple[dict[str, float], dict[str, list[int]], str]
+    mech: Mechanism,
+    result: SimResult,
+    method: str,
+    part: tuple[dict[str, float], dict[str, list[int]], str] | TruncationNotEstimated,
 ) -> None:
     """Keep ``part``, :func:`truncation_part` of this run by ``method`` (the chosen counts'
     decision measured it: :mod:`symgen.numerics.counts_choice`), for the run's own estimate (read
-    once; the previous one is dropped)."""
+    once; the previous one is dropped); or why it was not estimated (a rerun stopped at its
+    budget: the estimate says so instead of paying the rerun again)."""
     _KEPT_TRUNCATION.keep(mech, result, part, method)
 
 
@@ -824,6 +890,8 @@ def truncation_part(
         raise ValueError(f"unknown truncation method {method!r}; expected one of {', '.join(TRUNCATION_METHODS)}")
     if richer is None:
         known = _KEPT_TRUNCATION.take(mech, result, method)
+        if isinstance(known, TruncationNotEstimated):
+            raise known
         if known is not None:
             return known
     if method == "rerun":
@@ -854,8 +922,8 @@ def _difference(result: SimResult, other: SimResult, names: list[str]) -> np.nda
 def _fractions_of_peak(mech: Mechanism, result: SimResult, deltas: np.ndarray, names: list[str]) -> dict[str, float]:
     """output -> its largest change in ``deltas`` (columns ``names``) as a fraction of its peak in
     ``result``: the estimate's measure (the module docstring), for the outputs it estimates."""
-    measured = _measured(mech, list(result.output_names))
-    peaks = _peaks(result)
+    measured = _measured(mech, result, list(result.output_names))
+    peaks = result.peaks()
     return {
         n: float(np.abs(deltas[:, j]).max() / peaks[n]) for j, n in enumerate(names) if n in measured and peaks[n] > 0
     }
@@ -869,6 +937,7 @@ def _same_solver_run(
     atol: float,
     build: bool = True,
     idas_tolerances: tuple[float, float] | None = None,
+    max_steps: int | None = None,
 ) -> SimResult:
     """``mech`` run over ``result``'s output grid with ``rtol``, ``atol`` by the run's own
     solver: the emitted C Radau IIA solver after a ``--solver c`` run (``result.stats``'s
@@ -881,7 +950,8 @@ def _same_solver_run(
     when it was built before, never compiled on the run's way (a richer exact bar's took 170 s),
     so a first ``--solver c`` run measures its richer model with IDAS: at ``idas_tolerances``
     where given (the IDAS rule's from the accuracy: the C rule's looser ones would charge IDAS's
-    own time error to the truncation part), else at ``rtol``, ``atol``."""
+    own time error to the truncation part), else at ``rtol``, ``atol``. ``max_steps``: the rerun's
+    budget of its solver's steps (:func:`_budget`; ``BudgetExceeded`` past it)."""
     from symgen.errors import SceneError, SimulationError
 
     tau = np.asarray(result.tau, dtype=float)
@@ -889,19 +959,24 @@ def _same_solver_run(
         from symgen.numerics.csolver import NotBuilt, simulate_c
 
         try:
-            return simulate_c(mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol, build=build)
+            return simulate_c(
+                mech, t_end=float(tau[-1]), output_step=step, rtol=rtol, atol=atol, build=build, max_steps=max_steps
+            )
         except (SceneError, NotBuilt):  # no working C compiler, a scene the C path refuses, a library
             pass  # not built: IDAS below
-        except SimulationError:
-            if build:  # the run's own solver failed at tighter tolerances: said as such
+        except SimulationError as err:
+            # the run's own solver failed at tighter tolerances, or a rerun past its budget: said as such
+            if build or isinstance(err, BudgetExceeded):
                 raise
             # the richer model's C run failed: IDAS below
         if idas_tolerances is not None:
             rtol, atol = idas_tolerances
-    return _idas_run(mech, result, step, rtol, atol)
+    return _idas_run(mech, result, step, rtol, atol, max_steps)
 
 
-def _idas_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float) -> SimResult:
+def _idas_run(
+    mech: Mechanism, result: SimResult, step: float, rtol: float, atol: float, max_steps: int | None = None
+) -> SimResult:
     """``mech`` run by IDAS over ``result``'s output grid, on the backend the run was asked for."""
     from symgen.numerics.simulate import simulate
 
@@ -915,6 +990,7 @@ def _idas_run(mech: Mechanism, result: SimResult, step: float, rtol: float, atol
         atol=atol,
         t0=float(tau[0]),
         backend=backend if backend in ("compiled", "vm") else None,
+        max_steps=max_steps,
     )
 
 
@@ -955,6 +1031,11 @@ def _rerun(
     else:
         try:
             base = _tight(mech, result, rtol, atol)
+        except BudgetExceeded as why:
+            # the richer model at the run's tolerances would cost as much: not estimated
+            raise TruncationNotEstimated(
+                _budget_text(why, "the run's model at tighter tolerances (the richer model's reference)", result)
+            ) from None
         except (SymgenError, ValueError, ArithmeticError, RuntimeError) as why:
             against += f", it failed: {why})"
         else:
@@ -968,8 +1049,17 @@ def _rerun(
             )
     try:
         rich = _same_solver_run(
-            richer, result, float(tau[1] - tau[0]), rtol, atol, build=False, idas_tolerances=fallback
+            richer,
+            result,
+            float(tau[1] - tau[0]),
+            rtol,
+            atol,
+            build=False,
+            idas_tolerances=fallback,
+            max_steps=_budget(result),
         )
+    except BudgetExceeded as err:
+        raise TruncationNotEstimated(_budget_text(err, "the richer model's run", result)) from None
     except SimulationError as err:
         raise TruncationNotEstimated(f"the richer model's run failed: {err}") from None
     if base is not result and rich.complete:  # at the tighter tolerances: a raised scene's time part

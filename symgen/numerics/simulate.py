@@ -30,7 +30,7 @@ import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike
 
-from symgen.errors import Interrupted, SceneError, SimulationError
+from symgen.errors import BudgetExceeded, Interrupted, SceneError, SimulationError
 from symgen.progress import progress_bar
 from symgen.ir.records import CoordKind
 from symgen.policy import POLICY
@@ -393,6 +393,8 @@ class RunSettings:
     axial_atol: float | None
     backend: str | None
     use_cache: bool
+    #: a check run's step budget (``symgen.policy.rerun_budget``): stopped past it (``BudgetExceeded``)
+    max_steps: int | None = None
 
     @property
     def n_outputs(self) -> int:
@@ -412,6 +414,7 @@ def simulate(
     backend: str | None = None,
     use_cache: bool = True,
     progress: bool = False,
+    max_steps: int | None = None,
 ) -> SimResult:
     """Integrate the scene's DAE from t0 to t_end, output every output_step (in tau).
 
@@ -423,6 +426,10 @@ def simulate(
     ``backend``: "auto" (default, or ``$SYMGEN_BACKEND``), "compiled" or "vm" (see ``DaeRunner``);
     ``use_cache=False``: a compiled library is built for this run only. ``progress``: a progress
     bar of tau on stderr while it runs, when stderr is a terminal (the command line's runs).
+    ``max_steps``: a check run's budget of IDAS steps (the error estimate's reruns:
+    ``symgen.policy.rerun_budget``): checked before each chunk of outputs (the chunks as any run's:
+    it overshoots by at most one chunk, and its steps are a run's without a budget); past it the run stops with
+    ``BudgetExceeded`` (a ``SimulationError``, its ``.partial`` the outputs before).
 
     A run that stops early (``SimulationError``: a solver failure, a singular position, a bar
     beyond its range; ``Interrupted``: SIGINT/SIGTERM) raises with ``.partial``, the
@@ -437,6 +444,7 @@ def simulate(
         axial_atol=axial_atol,
         backend=backend,
         use_cache=use_cache,
+        max_steps=max_steps,
     )
     run, x, z, setup_s = _start(mech, settings, initial)
     traj = _Trajectory(run)
@@ -827,6 +835,9 @@ def _integrate(
     pfull = np.concatenate([run.mech.p, [settings.t0]])
     for chunk in _chunks(run, traj, settings, pfull, advanced):
         k, t_start = chunk.k, chunk.t_start
+        if settings.max_steps is not None and traj.steps > settings.max_steps:
+            # a check run past its budget (a run that ends within its last chunk is kept)
+            raise BudgetExceeded(float(traj.taus[-1]), traj.steps, settings.max_steps)
         try:
             F = run.integrator(h, k, x, z)
             sol = F(x0=x, z0=z, p=pfull)

@@ -56,8 +56,11 @@ R = TypeVar("R")
 #: stiffness is positive definite, the outputs a bar at or beyond its Euler load moves charged
 #: model_form.BEYOND_BUCKLING; 14: a coupled mode's modal velocity from the velocity less the rigid
 #: coordinates' motion the closure gives it, model_form._coordinate_rows: phi^T M v also projected the
-#: rigid mechanism's motion, 4-7x the five-bar's modes' own content in their bands)
-ESTIMATOR_VERSION = "14"
+#: rigid mechanism's motion, 4-7x the five-bar's modes' own content in their bands; 15: the static
+#: change with each bar's axial force less its content at and above the bar's first bending
+#: frequency, model_form._Bar.slow_axial_force: a slider's axial ringing's peaks were amplified; 16: an
+#: output zero to round-off over the run decides nothing, SimResult.peaks)
+ESTIMATOR_VERSION = "16"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
