@@ -53,8 +53,9 @@ class SimResult:
         """output -> its largest |value| over the run, 0.0 where that is zero to round-off (at or
         below :data:`symgen.policy.ZERO_PEAK` in the model's unit of the output's kind): the one
         peak every estimate is a fraction of and every decision reads (not finite: as it is)."""
-        zero = self.zero_outputs()
-        return {n: (0.0 if n in zero else p) for n, p in self._largest().items()}
+        from symgen.policy import ZERO_PEAK
+
+        return {n: (0.0 if p <= ZERO_PEAK else p) for n, p in self._largest().items()}
 
     def zero_outputs(self) -> dict[str, float]:
         """output -> its largest |value|, for the outputs that are zero to round-off over the run
