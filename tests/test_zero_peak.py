@@ -18,29 +18,14 @@ from symgen.cli import main
 from symgen.numerics.error_estimate import ErrorEstimate
 from symgen.numerics.run_result import SimResult
 from symgen.policy import ZERO_PEAK
+from tests.scenes import pinned_arm
 
 LAMBDA = 2000.0
 
-SPIN_ARM = f"""
-[scene]
-name = "spin_arm"
-units = "dimensionless"
-omega = 1.0
-reference_length = 1.0
-
-[[bodies]]
-name = "arm"
-length = 1.0
-lambda = {LAMBDA}
-mu = 1.0
-frame = "cantilever"
-
-[[joints]]
-name = "O"
-kind = "pin"
-bodies = ["ground", "arm"]
-at = [[0.0, 0.0], 0.0]
-
+SPIN_ARM = pinned_arm(
+    "spin_arm",
+    f"lambda = {LAMBDA}\nmu = 1.0",
+    """
 [driver]
 kind = "angle"
 body = "arm"
@@ -51,14 +36,15 @@ rate = 1.0
 deformation = "quasi-static"
 
 [outputs]
-u_tip = {{ kind = "axial", body = "arm", at = 1.0 }}
-u_mid = {{ kind = "axial", body = "arm", at = 0.5 }}
-tip = {{ kind = "deflection", body = "arm", at = 1.0 }}
+u_tip = { kind = "axial", body = "arm", at = 1.0 }
+u_mid = { kind = "axial", body = "arm", at = 0.5 }
+tip = { kind = "deflection", body = "arm", at = 1.0 }
 
 [simulation]
 t_end = 6.283185307179586
 output_step = 0.01
-"""
+""",
+)
 
 
 def _stretch(x: float) -> float:

@@ -53,8 +53,9 @@ class SimResult:
         """output -> its largest |value| over the run, 0.0 where that is zero to round-off (at or
         below :data:`symgen.policy.ZERO_PEAK` in the model's unit of the output's kind): the one
         peak every estimate is a fraction of and every decision reads (not finite: as it is)."""
-        zero = self.zero_outputs()
-        return {n: (0.0 if n in zero else p) for n, p in self._largest().items()}
+        from symgen.policy import ZERO_PEAK
+
+        return {n: (0.0 if p <= ZERO_PEAK else p) for n, p in self._largest().items()}
 
     def zero_outputs(self) -> dict[str, float]:
         """output -> its largest |value|, for the outputs that are zero to round-off over the run
@@ -143,29 +144,6 @@ class _RowsResult(SimResult):
     def _arrays_made(self) -> bool:
         """The arrays were made (and may have been changed since), or given (``dataclasses.replace``)."""
         return "_record" not in self.__dict__ or any(k in self.__dict__ for k in ARRAYS)
-
-    def peaks(self) -> dict[str, float]:
-        """output -> its largest |value| over the run, 0.0 where that is zero to round-off (at or
-        below :data:`symgen.policy.ZERO_PEAK` in the model's unit of the output's kind): the one
-        peak every estimate is a fraction of and every decision reads (not finite: as it is)."""
-        from symgen.policy import ZERO_PEAK
-
-        out = np.asarray(self.outputs, dtype=float)
-        if not len(out):
-            return dict.fromkeys(self.output_names, 0.0)
-        largest = np.max(np.abs(out), axis=0)
-        return {n: (0.0 if float(p) <= ZERO_PEAK else float(p)) for n, p in zip(self.output_names, largest)}
-
-    def zero_outputs(self) -> dict[str, float]:
-        """output -> its largest |value|, for the outputs that are zero to round-off over the run
-        (:meth:`peaks`), in the output order."""
-        from symgen.policy import ZERO_PEAK
-
-        out = np.asarray(self.outputs, dtype=float)
-        if not len(out):
-            return dict.fromkeys(self.output_names, 0.0)
-        largest = np.max(np.abs(out), axis=0)
-        return {n: float(p) for n, p in zip(self.output_names, largest) if float(p) <= ZERO_PEAK}
 
     @property
     def n_rows(self) -> int:
