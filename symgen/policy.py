@@ -84,8 +84,15 @@ class SolverPolicy:
     #: ... or after this many iterations (it converges quadratically from the integrator's value).
     polish_maxit: int = 8
     #: Driver angle step (rad) of the central differences that give the quasi-static deformation
-    #: rates at the start: truncation error O(h^2) = 1e-8 against round-off O(eps / h) = 2e-12.
-    driver_step: float = 1e-4
+    #: rates and accelerations at the start: truncation O(h^2) ~ 1e-6 of them against the
+    #: round-off of the second differences, O(tol / h^2) of a state solved to ``quasi_static_tol``,
+    #: which a stiff bar's loads multiply by lambda (at 1e-4 rad a lambda-1e9 start is 1e-4 of
+    #: peak off its inextensible limit, at 3e-3 below 3e-9; docs/exact-bars.md, "The consistent
+    #: start").
+    driver_step: float = 3e-3
+    #: The start's passes of the axial amplitudes' rates and accelerations along the bending's held
+    #: motion (``start.quasi_static_start``): each changes the held axial acceleration ~200x less.
+    start_axial_passes: int = 4
     #: Range of the bar models: the run stops when a bar's largest slope |eta'(xi)| (its transverse
     #: amplitudes times the shape functions' first derivatives, at the points of
     #: ``symgen.numerics.checks.range_tables``) exceeds this. The exact bar's curvature keeps

@@ -49,6 +49,11 @@ class StartPlan:
     # independent | dependent | quasi; the start (assembly, quasi-static start, consistent
     # state) is the full model's, every amplitude dynamic
     quasi: tuple[int, ...] = ()
+    # the quasi-static start's axial amplitudes whose rates and accelerations it takes along the
+    # held motion of the bending amplitudes ``moving`` (``start.following_axial``): both empty
+    # where there is none of either
+    follow: tuple[int, ...] = ()
+    moving: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         n = len(self.q_guess)
@@ -56,6 +61,8 @@ class StartPlan:
             ("free_inertia", self.free_inertia),
             ("start_forces", self.start_forces),
             ("quasi", self.quasi),
+            ("follow", self.follow),
+            ("moving", self.moving),
         ):
             if len(set(idx)) != len(idx) or any(i < 0 for i in idx):
                 raise ValueError(f"a start plan whose {what} {idx} are not distinct indices")

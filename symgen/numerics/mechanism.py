@@ -72,7 +72,7 @@ class Mechanism:
         # coordinates of their inextensibility rows (kept apart from the loop rows)
         self.inext_rows = list(info.inextensible_rows)
         self.inext_f = list(info.inextensible_axial)
-        self.static_systems: dict[Partition, start.StaticSystem] = {}  # built on first use
+        self.static_systems: dict[tuple[Partition, tuple[int, ...]], start.StaticSystem] = {}  # built on first use
         # the SX Functions of a simulation's runner per partition (symgen.numerics.simulate):
         # made on first use, shared by every later run of this mechanism (sweeps, studies)
         self.runner_functions: dict[Partition, dict[str, ca.Function]] = {}

@@ -128,6 +128,7 @@ def start_plan(mech: Mechanism) -> StartPlan:
     dep = set(part.dep)
     inext_rows, inext_axial = info.inextensible_rows, info.inextensible_axial
     forces = start_force_outputs(mech)
+    follow, moving = following_axial(mech, part) if mech.scene.initial.quasi_static else ((), ())
     # the dependent coordinates are rigid but with inextensible rows, where the start's are the model's
     assert not (forces and set(info.elastic) & dep), "a continuum start with a dependent amplitude"
     return StartPlan(
@@ -148,6 +149,8 @@ def start_plan(mech: Mechanism) -> StartPlan:
         free_inertia=free_inertia_parameters(mech) if forces else (),
         start_forces=forces,
         quasi=tuple(run.quasi),
+        follow=follow,
+        moving=moving,
     )
 
 
@@ -178,14 +181,18 @@ class StaticSystem:
     """Newton system of the quasi-static state (18)-(19) for one partition: the independent
     amplitudes' rates and accelerations given (v0, a0: zero in (18)-(19), held at the start's in
     :func:`quasi_static_start`), rigid kinematics consistent with closure at all three levels.
-    Unknowns u = [q_E, q_D, v_D, a_R, lam] (E: the independent amplitudes, R: the rigid and
-    dependent accelerations)."""
+    Unknowns u = [u_E, q_D, v_D, a_R, lam] (E: the independent amplitudes, R: the rigid and
+    dependent accelerations); u_E holds each amplitude's position, or, for those in ``moving``
+    (the bending a start holds on its quasi-static motion while the axial amplitudes follow it:
+    :func:`quasi_static_start`), its acceleration, their position and rate given (q0, v0): the
+    system keeps its size and its rows."""
 
-    def __init__(self, mech: Mechanism, part: Partition) -> None:
+    def __init__(self, mech: Mechanism, part: Partition, moving: tuple[int, ...] = ()) -> None:
         import casadi as ca  # here: a cached run of the C solver never imports CasADi
 
         D = list(part.dep)
         self.E = [i for i in mech.info.elastic if i not in D]
+        self.moving = moving
         R = sorted(set(mech.rigid) | set(D))  # unknown accelerations
         nE, nD, self.nR = len(self.E), len(D), len(R)
         u = ca.SX.sym("u", nE + 2 * nD + self.nR + mech.m)
@@ -195,7 +202,10 @@ class StaticSystem:
         a0 = ca.SX.sym("a0", mech.n)
         q, v, a = ca.SX(q0), ca.SX(v0), ca.SX(a0)
         for k, i in enumerate(self.E):
-            q[i] = u[k]  # v[i], a[i]: the rate and acceleration given (zero, or held: quasi_static_state)
+            if i in moving:
+                a[i] = u[k]  # q[i], v[i]: on the held motion
+            else:
+                q[i] = u[k]  # v[i], a[i]: the rate and acceleration given (zero, or held: quasi_static_state)
         for k, i in enumerate(D):
             q[i] = u[nE + k]
             v[i] = u[nE + nD + k]
@@ -207,12 +217,25 @@ class StaticSystem:
         self.fun = ca.Function("static", [t, q0, v0, a0, u], [F, ca.jacobian(F, u), q, v])
 
 
-def static_system(mech: Mechanism, part: Partition) -> StaticSystem:
-    """The mechanism's quasi-static system for ``part``, built once per partition."""
+def static_system(mech: Mechanism, part: Partition, moving: tuple[int, ...] = ()) -> StaticSystem:
+    """The mechanism's quasi-static system for ``part`` (and ``moving``), built once per partition."""
     cache = mech.static_systems
-    if part not in cache:
-        cache[part] = StaticSystem(mech, part)
-    return cache[part]
+    key = (part, moving)
+    if key not in cache:
+        cache[key] = StaticSystem(mech, part, moving)
+    return cache[key]
+
+
+def following_axial(mech: Mechanism, part: Partition) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(axial, moving): the independent axial amplitudes (not quasi-static) whose rates and
+    accelerations the quasi-static start takes along the bending's held motion, and that bending
+    (the independent transverse amplitudes, not quasi-static); ((), ()) where there is none of
+    either (:func:`quasi_static_start`; the C runtime's ``follow`` from ``StartPlan.follow``)."""
+    dep, quasi = set(part.dep), set(mech.quasi)
+    free = [i for i in mech.info.elastic if i not in dep and i not in quasi]
+    axial = tuple(i for i in free if mech.coords[i].kind is CoordKind.F)
+    moving = tuple(i for i in free if mech.coords[i].kind is CoordKind.G)
+    return (axial, moving) if axial and moving else ((), ())
 
 
 def quasi_static(
@@ -225,9 +248,10 @@ def quasi_static(
     maxit: int = POLICY.quasi_static_maxit,
     rates: np.ndarray | None = None,
     accels: np.ndarray | None = None,
+    moving: tuple[int, ...] = (),
 ) -> tuple[np.ndarray, np.ndarray, int]:
     """Quasi-static deformation at t for the rigid state in (q, v): returns (q, v, iterations)."""
-    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit, rates, accels)
+    qn, vn, _, it = quasi_static_state(mech, t, q, v, part, tol, maxit, rates, accels, moving)
     return qn, vn, it
 
 
@@ -241,6 +265,7 @@ def quasi_static_state(
     maxit: int = POLICY.quasi_static_maxit,
     rates: np.ndarray | None = None,
     accels: np.ndarray | None = None,
+    moving: tuple[int, ...] = (),
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """:func:`quasi_static` with the multipliers of that state: (q, v, lam, iterations). The
     deformation accelerations are zero in it; the deformation rates too, or, given ``rates``
@@ -250,16 +275,19 @@ def quasi_static_state(
     the accelerations are held at those: the loads of the deformation's accelerations (its own
     inertia, and the foreshortening's acceleration a dependent axial amplitude has under an
     inextensible or quasi-static axial treatment) are in them (the consistent quasi-static start,
-    :func:`quasi_static_start`)."""
-    system = static_system(mech, part)
+    :func:`quasi_static_start`). The amplitudes in ``moving`` keep the position and rate of (q, v)
+    and their accelerations are solved for instead (:class:`StaticSystem`)."""
+    system = static_system(mech, part, moving)
     fun = system.fun
     E, D = system.E, list(part.dep)
+    held = [i for i in E if i not in moving]
     v = np.array(v, dtype=float)
-    v[E] = 0.0 if rates is None else np.asarray(rates, dtype=float)[E]
+    v[held] = 0.0 if rates is None else np.asarray(rates, dtype=float)[held]
     a = np.zeros(mech.n)
     if accels is not None:
-        a[E] = np.asarray(accels, dtype=float)[E]
-    u = np.concatenate([q[E], q[D], v[D], np.zeros(system.nR), np.zeros(mech.m)])
+        a[held] = np.asarray(accels, dtype=float)[held]
+    uE = np.array([0.0 if i in moving else q[i] for i in E])
+    u = np.concatenate([uE, q[D], v[D], np.zeros(system.nR), np.zeros(mech.m)])
     for it in range(1, maxit + 1):  # noqa: B007 - the count of iterations is returned
         F, J, _, _ = fun(t, q, v, a, u)
         F = np.array(F).ravel()
@@ -342,8 +370,28 @@ def quasi_static_start(
     # run's first instant); a quasi-static amplitude has neither in the run (docs/quasi-static-modes.md)
     vs[list(mech.quasi)] = 0.0
     acc[list(mech.quasi)] = 0.0
-    qs, vs, _ = quasi_static(mech, t0, qs, vs, part, rates=vs, accels=acc)
-    return qs, vs
+    q1, v1, _ = quasi_static(mech, t0, qs, vs, part, rates=vs, accels=acc)
+    # the axial amplitudes' rates and accelerations along the bending's held motion through the
+    # state just solved (q1): axial-only quasi-static solves at t0 - h, t0, t0 + h with the bending
+    # on g1 + dt g' + dt^2/2 g'' (its accelerations free), their central differences held, the state
+    # solved again; POLICY.start_axial_passes times (docs/exact-bars.md, "The consistent start")
+    axial, moving = following_axial(mech, part)
+    for _ in range(POLICY.start_axial_passes if axial else 0):
+        fs = []
+        for dt in (-h, 0.0, h):
+            qq = q1.copy()
+            for body, motion in mech.driver_motions(t0 + dt).items():
+                qq[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
+            qq[list(moving)] = q1[list(moving)] + dt * vs[list(moving)] + 0.5 * dt * dt * acc[list(moving)]
+            qq = mech.assemble(t0 + dt, qq, part)
+            vv = v1.copy()
+            vv[list(moving)] = vs[list(moving)] + dt * acc[list(moving)]
+            vv = mech.velocities(t0 + dt, qq, vv, part)
+            fs.append(quasi_static(mech, t0 + dt, qq, vv, part, moving=moving)[0][list(axial)])
+        vs[list(axial)] = (fs[2] - fs[0]) / (2 * h)
+        acc[list(axial)] = (fs[2] - 2.0 * fs[1] + fs[0]) / (h * h)
+        q1, v1, _ = quasi_static(mech, t0, q1, vs, part, rates=vs, accels=acc)
+    return q1, v1
 
 
 # ---------------------------------------------------------------------- the start's joint forces

@@ -49,6 +49,9 @@ const int double_pendulum_independent[8] = { 0, 2, 3, 4, 5, 7, 8, 9 };
 const int double_pendulum_dependent[2] = { 1, 6 };
 /* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
 static const int double_pendulum_x_quasi[1] = { -1 };
+/* the quasi-static start's axial amplitudes that follow the bending's held motion, and that bending */
+static const int double_pendulum_x_follow[1] = { -1 };
+static const int double_pendulum_x_moving[1] = { -1 };
 const double double_pendulum_q_guess[10] = { -1.2, 0.0, 0.0, 0.0, 0.0, -0.9, 0.0, 0.0, 0.0, 0.0 };
 const double double_pendulum_v_guess[10] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -157,8 +160,9 @@ const symgen_model double_pendulum_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.05, 1e-09,
-        1e-06, 1e-13, 1e-08, 30
+        0.003, 0.7, 0.05, 1e-09,
+        1e-06, 1e-13, 1e-08, 30,
+        4
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -170,7 +174,8 @@ const symgen_model double_pendulum_model = {
     },
     4,      /* nout */
     0, double_pendulum_x_free_params, 0, double_pendulum_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
-    0, double_pendulum_x_quasi      /* nh, quasi */
+    0, double_pendulum_x_quasi,      /* nh, quasi */
+    0, 0, double_pendulum_x_follow, double_pendulum_x_moving      /* nfollow, nmoving, follow, moving */
 };
 
 /* ------------------------------------------------------------------ public */

@@ -49,6 +49,9 @@ const int five_bar_independent[5] = { 3, 4, 5, 6, 7 };
 const int five_bar_dependent[4] = { 0, 1, 8, 2 };
 /* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
 static const int five_bar_x_quasi[1] = { -1 };
+/* the quasi-static start's axial amplitudes that follow the bending's held motion, and that bending */
+static const int five_bar_x_follow[2] = { 3, 4 };
+static const int five_bar_x_moving[3] = { 5, 6, 7 };
 const double five_bar_q_guess[9] = { -0.0, 1.5707963267948966, 1.65, 0.0, 0.0, 0.0, 0.0, 0.0, 2.42 };
 const double five_bar_v_guess[9] = { 1.0, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -137,8 +140,9 @@ const symgen_model five_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.05, 1e-09,
-        1e-06, 1e-13, 1e-08, 30
+        0.003, 0.7, 0.05, 1e-09,
+        1e-06, 1e-13, 1e-08, 30,
+        4
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -150,7 +154,8 @@ const symgen_model five_bar_model = {
     },
     9,      /* nout */
     0, five_bar_x_free_params, 0, five_bar_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
-    0, five_bar_x_quasi      /* nh, quasi */
+    0, five_bar_x_quasi,      /* nh, quasi */
+    2, 3, five_bar_x_follow, five_bar_x_moving      /* nfollow, nmoving, follow, moving */
 };
 
 /* ------------------------------------------------------------------ public */

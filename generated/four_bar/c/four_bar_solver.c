@@ -49,6 +49,9 @@ const int four_bar_independent[24] = { 1, 2, 3, 4, 5, 6, 7, 8, 10, 11, 12, 13, 1
 const int four_bar_dependent[3] = { 0, 18, 9 };
 /* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
 static const int four_bar_x_quasi[1] = { -1 };
+/* the quasi-static start's axial amplitudes that follow the bending's held motion, and that bending */
+static const int four_bar_x_follow[12] = { 1, 2, 3, 4, 10, 11, 12, 13, 19, 20, 21, 22 };
+static const int four_bar_x_moving[12] = { 5, 6, 7, 8, 14, 15, 16, 17, 23, 24, 25, 26 };
 const double four_bar_q_guess[27] = { -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.7, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 const double four_bar_v_guess[27] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -246,8 +249,9 @@ const symgen_model four_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.05, 1e-09,
-        1e-06, 1e-13, 1e-08, 30
+        0.003, 0.7, 0.05, 1e-09,
+        1e-06, 1e-13, 1e-08, 30,
+        4
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -259,7 +263,8 @@ const symgen_model four_bar_model = {
     },
     7,      /* nout */
     0, four_bar_x_free_params, 0, four_bar_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
-    0, four_bar_x_quasi      /* nh, quasi */
+    0, four_bar_x_quasi,      /* nh, quasi */
+    12, 12, four_bar_x_follow, four_bar_x_moving      /* nfollow, nmoving, follow, moving */
 };
 
 /* ------------------------------------------------------------------ public */

@@ -151,6 +151,7 @@ SYMGEN_API long symgen_bind(symgen_solver *s, const symgen_model *model, double 
     s->qs = symgen_take_(&d, n);
     s->vs = symgen_take_(&d, n);
     s->qe = symgen_take_(&d, n);
+    s->qf = symgen_take_(&d, n);
     s->q_last = symgen_take_(&d, n);
     s->start_q = symgen_take_(&d, n);
     s->start_v = symgen_take_(&d, n);
@@ -484,10 +485,22 @@ static void symgen_continuum_start_(symgen_solver *s, double t0, const double *q
 
 static int symgen_beyond_range_(symgen_solver *s, double t);
 
-/* quasi-static deformation for the rigid state in (q, v) (Mechanism.quasi_static):
-   unknowns u = [q_E, q_D, v_D, a_R, lam], deformation rates and accelerations zero (hold 0) or
-   held, the rates at v's and the accelerations at s->qs_ah's (hold 1: their loads in the state,
-   start.quasi_static_state's rates and accels) */
+/* is coordinate i one of the model's `moving` amplitudes (StartPlan.moving)? */
+static int symgen_moving_(const symgen_solver *s, int i)
+{
+    int k;
+    for (k = 0; k < s->model->nmoving; ++k)
+        if (s->model->moving[k] == i) return 1;
+    return 0;
+}
+
+/* quasi-static deformation for the rigid state in (q, v) (start.quasi_static_state):
+   unknowns u = [u_E, q_D, v_D, a_R, lam], u_E the amplitudes' positions; their rates and
+   accelerations zero (hold 0) or held, the rates at v's and the accelerations at s->qs_ah's
+   (hold 1: their loads in the state, quasi_static_state's rates and accels); hold 2: the
+   `moving` amplitudes keep the position and rate of (q, v) and u_E holds their accelerations
+   instead, the others' rates and accelerations zero (quasi_static_state's moving: the axial
+   amplitudes following the bending's held motion, start.quasi_static_start) */
 static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v, int hold)
 {
     const int nu = SYMGEN_NALG(s);
@@ -495,7 +508,12 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
     double Fmax = 0.0;
     int it, k, r, *col = s->qs_col, converged = 0;
     int off = 0;
-    for (k = 0; k < SYMGEN_NE(s); ++k) { u[off + k] = q[s->model->elastic[k]]; col[off + k] = s->model->elastic[k]; }
+    for (k = 0; k < SYMGEN_NE(s); ++k) {
+        const int i = s->model->elastic[k];
+        const int moves = hold == 2 && symgen_moving_(s, i);
+        u[off + k] = moves ? 0.0 : q[i];
+        col[off + k] = moves ? 2 * SYMGEN_NQ(s) + i : i;
+    }
     off += SYMGEN_NE(s);
     for (k = 0; k < SYMGEN_ND(s); ++k) { u[off + k] = q[s->model->dependent[k]]; col[off + k] = s->model->dependent[k]; }
     off += SYMGEN_ND(s);
@@ -510,9 +528,12 @@ static int symgen_quasi_static_(symgen_solver *s, double t, double *q, double *v
         memset(a, 0, sizeof(double) * SYMGEN_NQ(s));
         for (k = 0; k < SYMGEN_NE(s); ++k) {
             const int i = s->model->elastic[k];
-            q[i] = u[off + k];
-            if (hold) a[i] = s->qs_ah[i];
-            else v[i] = 0.0;
+            if (hold == 2 && col[off + k] != i) a[i] = u[off + k];   /* moving: on its held motion */
+            else {
+                q[i] = u[off + k];
+                if (hold == 1) a[i] = s->qs_ah[i];
+                else v[i] = 0.0;
+            }
         }
         off += SYMGEN_NE(s);
         for (k = 0; k < SYMGEN_ND(s); ++k) q[s->model->dependent[k]] = u[off + k];
@@ -644,7 +665,7 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
 static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, double *v)
 {
     double m3[3], h, dt;
-    int k, side;
+    int k, side, pass;
     if (symgen_quasi_static_(s, t0, q, v, 0)) return 1;
     /* the quasi-static state within the range of the bar models (Mechanism.quasi_static_start) */
     memcpy(s->q, q, sizeof(double) * SYMGEN_NQ(s));
@@ -686,7 +707,41 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
         v[s->model->quasi[k]] = 0.0;
         s->qs_ah[s->model->quasi[k]] = 0.0;
     }
-    return symgen_quasi_static_(s, t0, q, v, 1);
+    if (symgen_quasi_static_(s, t0, q, v, 1)) return 1;
+    /* the axial amplitudes' rates and accelerations along the bending's held motion through the
+       state just solved: axial-only quasi-static solves at t0 - h, t0, t0 + h (hold 2), their
+       central differences held, the state solved again; policy.start_axial_passes times
+       (start.quasi_static_start) */
+    for (pass = 0; s->model->nfollow > 0 && pass < s->model->policy.start_axial_passes; ++pass) {
+        for (side = -1; side <= 1; ++side) {
+            dt = side * h;
+            memcpy(s->qs, q, sizeof(double) * SYMGEN_NQ(s));
+            memcpy(s->vs, v, sizeof(double) * SYMGEN_NQ(s));
+            for (k = 0; k < s->model->n_angle; ++k) {
+                symgen_driver_motion_(s, k, t0 + dt, m3);
+                s->qs[s->model->angle_coords[k]] = m3[0];
+            }
+            for (k = 0; k < s->model->nmoving; ++k) {
+                const int i = s->model->moving[k];
+                s->qs[i] = q[i] + dt * v[i] + 0.5 * dt * dt * s->qs_ah[i];
+                s->vs[i] = v[i] + dt * s->qs_ah[i];
+            }
+            if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
+            if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
+            if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs, 2)) return 1;
+            for (k = 0; k < s->model->nfollow; ++k) {
+                const int i = s->model->follow[k];
+                if (side == -1) s->qe[i] = s->qs[i];
+                else if (side == 0) s->qf[i] = s->qs[i];
+                else {
+                    v[i] = (s->qs[i] - s->qe[i]) / (2 * h);
+                    s->qs_ah[i] = (s->qs[i] - 2.0 * s->qf[i] + s->qe[i]) / (h * h);
+                }
+            }
+        }
+        if (symgen_quasi_static_(s, t0, q, v, 1)) return 1;
+    }
+    return 0;
 }
 
 /* ------------------------------------------------------------------ Radau IIA */

@@ -49,6 +49,9 @@ const int six_bar_independent[9] = { 4, 5, 6, 7, 8, 9, 10, 11, 12 };
 const int six_bar_dependent[5] = { 0, 13, 3, 2, 1 };
 /* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
 static const int six_bar_x_quasi[1] = { -1 };
+/* the quasi-static start's axial amplitudes that follow the bending's held motion, and that bending */
+static const int six_bar_x_follow[4] = { 4, 5, 6, 7 };
+static const int six_bar_x_moving[5] = { 8, 9, 10, 11, 12 };
 const double six_bar_q_guess[14] = { -0.0, 1.7, 0.12, 0.97, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.52 };
 const double six_bar_v_guess[14] = { 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
 
@@ -159,8 +162,9 @@ const symgen_model six_bar_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.05, 1e-09,
-        1e-06, 1e-13, 1e-08, 30
+        0.003, 0.7, 0.05, 1e-09,
+        1e-06, 1e-13, 1e-08, 30,
+        4
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -172,7 +176,8 @@ const symgen_model six_bar_model = {
     },
     8,      /* nout */
     0, six_bar_x_free_params, 0, six_bar_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
-    0, six_bar_x_quasi      /* nh, quasi */
+    0, six_bar_x_quasi,      /* nh, quasi */
+    4, 5, six_bar_x_follow, six_bar_x_moving      /* nfollow, nmoving, follow, moving */
 };
 
 /* ------------------------------------------------------------------ public */

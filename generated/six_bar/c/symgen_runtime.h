@@ -60,6 +60,7 @@ typedef struct symgen_policy {
     double free_inertia_factor;
     double quasi_start_tol, quasi_start_floor;
     int quasi_start_maxit;
+    int start_axial_passes;
 } symgen_policy;
 
 /* The 3-stage Radau IIA method and its step control (symgen/backends/c/radau.py) */
@@ -135,6 +136,10 @@ typedef struct symgen_model {
     /* the quasi-static amplitudes (0 and NULL: every amplitude dynamic) */
     int nh;
     const int *quasi;                        /* [nh]: indices into q */
+    /* the quasi-static start's axial amplitudes whose rates and accelerations it takes along the
+       held motion of the bending amplitudes `moving` (StartPlan.follow, .moving; 0 and NULL: none) */
+    int nfollow, nmoving;
+    const int *follow, *moving;              /* [nfollow], [nmoving]: indices into q */
 } symgen_model;
 
 /* The sparse LU of an n x n matrix held in dense row-major storage (symgen_linalg.c): the
@@ -162,7 +167,7 @@ typedef struct symgen_splu {
     (28 * SYMGEN_NY_(n, m, ni, nd) + 7 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) \
      + SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + SYMGEN_NX_(ni) + 2) + SYMGEN_NX_(ni) * SYMGEN_NX_(ni) \
      + 3 * (ni) * (ni) + SYMGEN_NALG_(n, m) * (SYMGEN_NW_(n, m) + SYMGEN_NALG_(n, m) + 3) \
-     + 22 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
+     + 23 * (n) + 11 * (m) + 8 * (ne) * (ne) + 8 * (ne) + (np) + 2 * (nout) + 1)
 #define SYMGEN_WORK_INTS(n, m, ni, nd, ne) \
     (SYMGEN_NZ_(n, m, nd) * (SYMGEN_NZ_(n, m, nd) + 3) + 1 + 2 * (ni) + 2 * SYMGEN_NALG_(n, m) + 3 * (ne) + 1 \
      + 2 * SYMGEN_NY_(n, m, ni, nd) * SYMGEN_NY_(n, m, ni, nd) + 6 * SYMGEN_NY_(n, m, ni, nd) + 1)
@@ -199,7 +204,7 @@ typedef struct symgen_solver {
     double *y0, *f0, *scal, *ymax, *z, *w, *f, *dw, *cont, *tmp, *tmp2, *tmp3;
     double *jac, *gzz, *kzx, *jred, *e1, *e2r, *e2i, *uz, *uzi;
     double *galg, *sq, *sv, *sr;
-    double *q, *v, *qs, *vs, *qe, *q_last, *zeros;
+    double *q, *v, *qs, *vs, *qe, *qf, *q_last, *zeros;
     double *start_q, *start_v, *start_a, *start_lam, *qs_u, *qs_a, *qs_ah, *qs_lam, *dv_a, *dv_lam;
     double *as_r, *as_rt, *as_dq, *as_trial, *vel_r, *drv_r, *clo;
     double *dva, *dvh, *dvwr, *dvwi, *dvx, *dvu;

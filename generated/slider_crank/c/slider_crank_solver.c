@@ -49,6 +49,9 @@ const int slider_crank_independent[2] = { 2, 3 };
 const int slider_crank_dependent[2] = { 0, 1 };
 /* quasi-static amplitudes: algebraic, q_h in the slot of a_h in y (no v_h, no a_h) */
 static const int slider_crank_x_quasi[1] = { -1 };
+/* the quasi-static start's axial amplitudes that follow the bending's held motion, and that bending */
+static const int slider_crank_x_follow[1] = { -1 };
+static const int slider_crank_x_moving[1] = { -1 };
 const double slider_crank_q_guess[4] = { -0.0, 0.0, 0.0, 0.0 };
 const double slider_crank_v_guess[4] = { 1.0, 0.0, 0.0, 0.0 };
 
@@ -122,8 +125,9 @@ const symgen_model slider_crank_model = {
         1e-07, 0.05, 1e-06,
         1e-12, 1e-08, 0.0001, 50,
         1e-13, 8,
-        0.0001, 0.7, 0.05, 1e-09,
-        1e-06, 1e-13, 1e-08, 30
+        0.003, 0.7, 0.05, 1e-09,
+        1e-06, 1e-13, 1e-08, 30,
+        4
     },
     {   /* Radau IIA, 3 stages, and its step control (symgen/backends/c/radau.py) */
         { 0.15505102572168219018, 0.64494897427831780982, 1.0 },
@@ -135,7 +139,8 @@ const symgen_model slider_crank_model = {
     },
     4,      /* nout */
     1, slider_crank_x_free_params, 1, slider_crank_x_start_forces,      /* n_free, free_params, n_start_forces, start_forces */
-    0, slider_crank_x_quasi      /* nh, quasi */
+    0, slider_crank_x_quasi,      /* nh, quasi */
+    0, 0, slider_crank_x_follow, slider_crank_x_moving      /* nfollow, nmoving, follow, moving */
 };
 
 /* ------------------------------------------------------------------ public */

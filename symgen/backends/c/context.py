@@ -211,6 +211,8 @@ def c_context(scene, model, plan: StartPlan, info: ModelInfo | None = None) -> d
         "independent": ind,
         "dependent": dep,
         "quasi": quasi,
+        "follow": list(plan.follow),
+        "moving": list(plan.moving),
         "assembly_dependent": list(plan.assembly_dependent),
         "ypos_q": ypos_q,
         "ypos_v": ypos_v,
