@@ -4,8 +4,10 @@ deformation is solved again with the start's deformation rates and accelerations
 loads of those rates (the Coriolis load 2 theta' w' of the bending rate on a turning bar) and
 accelerations (the deformation's own inertia, the foreshortening's acceleration) are in the
 start's deformation as they are in the run's axial force N(0), and a dynamic axial bar does not
-ring about its stretch (issue 19), nor about its inextensible limit's (at a dead point; a bent
-start is not yet consistent with the limit: docs/exact-bars.md).
+ring about its stretch (issue 19), nor about its inextensible limit's: at a dead point, and at a
+bent start, where the axial amplitudes' held rates and accelerations are the foreshortening's along
+the bending's held motion through the state the start solves (``start.following_axial``;
+docs/exact-bars.md, "The consistent start").
 
 Oracles: a bar spinning at a constant rate with a tip mass, whose centrifugal stretch is the
 closed form u(1) = (w^2 / lambda)(M + 1/3) (N(x) = M w^2 + w^2 (1 - x^2) / 2 over the axial

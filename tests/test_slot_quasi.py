@@ -110,10 +110,15 @@ def test_the_stiff_shaper_chooses_quasi_static_span_functions_from_its_quasi_sta
 @pytest.mark.slow
 def test_the_stiff_shaper_quasi_static_run_is_within_the_accuracy_of_the_dynamic_run():
     """Measured (a quarter turn from the quasi-static start, 4 of 4 span functions quasi-static):
-    lever_mid 2.4e-8, lever_q3 1.8e-8, torque 3.8e-7 of peak against the all-dynamic run; 40925
-    against 97331 IDAS steps (the start's deformation rates and accelerations held, their loads in
-    it; with both zero: 1.2e-6, 1.1e-6, 9.8e-6, 40159 against 93781 steps; with the rates alone
-    held, session 8: 40702 against 56978, docs/exact-bars.md)."""
+    lever_mid 1.2e-6, lever_q3 3.5e-6, torque 7.4e-6 of peak against the all-dynamic run, 40181
+    against 56595 IDAS steps. The
+    start is consistent (the deformation's rates and accelerations held, the axial amplitudes'
+    along the bending's held motion): the all-dynamic run no longer rings from it, so the
+    quasi-static functions save what their own frequencies cost, not a start-up ringing (with the
+    axial rates from the states at zero rates, session 9: lever_mid 2.4e-8, lever_q3 1.8e-8,
+    torque 3.8e-7 of peak, 40925 against 97331 steps; with the rates and accelerations zero:
+    1.2e-6, 1.1e-6, 9.8e-6, 40159 against 93781; with the rates alone held, session 8: 40702
+    against 56978, docs/exact-bars.md)."""
     import warnings
 
     from symgen.api import mechanism, results_table
@@ -132,7 +137,7 @@ def test_the_stiff_shaper_quasi_static_run_is_within_the_accuracy_of_the_dynamic
     for name in ("lever_mid", "lever_q3", "ram_x", "torque"):
         a, b = np.asarray(q[name]), np.asarray(d[name])
         assert np.abs(a - b).max() <= acc * np.abs(b).max(), name
-    assert out["quasi"][1] < 0.6 * out["dynamic"][1], (out["quasi"][1], out["dynamic"][1])
+    assert out["quasi"][1] < 0.8 * out["dynamic"][1], (out["quasi"][1], out["dynamic"][1])
 
 
 def test_the_contact_range_over_the_turn_and_the_overhang_warning():
