@@ -192,7 +192,6 @@ class StaticSystem:
 
         D = list(part.dep)
         self.E = [i for i in mech.info.elastic if i not in D]
-        self.moving = moving
         R = sorted(set(mech.rigid) | set(D))  # unknown accelerations
         nE, nD, self.nR = len(self.E), len(D), len(R)
         u = ca.SX.sym("u", nE + 2 * nD + self.nR + mech.m)
@@ -354,18 +353,11 @@ def quasi_static_start(
         return qs, vs  # angle drivers at rest (constant angles), or none: the quasi-static rates are zero
     E = static_system(mech, part).E
     h = mech.driver_step(t0)
-    ends = []
-    for dt in (-h, h):
-        qq = qs.copy()
-        for body, motion in mech.driver_motions(t0 + dt).items():
-            qq[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
-        qq = mech.assemble(t0 + dt, qq, part)
-        vv = mech.velocities(t0 + dt, qq, vs, part)
-        ends.append(quasi_static(mech, t0 + dt, qq, vv, part)[0])
+    ends = [_shifted(mech, t0, dt, qs, vs, part)[E] for dt in (-h, h)]
     vs = vs.copy()
-    vs[E] = (ends[1][E] - ends[0][E]) / (2 * h)
+    vs[E] = (ends[1] - ends[0]) / (2 * h)
     acc = np.zeros(mech.n)
-    acc[E] = (ends[1][E] - 2.0 * qs[E] + ends[0][E]) / (h * h)
+    acc[E] = (ends[1] - 2.0 * qs[E] + ends[0]) / (h * h)
     # the deformation again with those rates and accelerations held (their loads in it, as in the
     # run's first instant); a quasi-static amplitude has neither in the run (docs/quasi-static-modes.md)
     vs[list(mech.quasi)] = 0.0
@@ -374,24 +366,43 @@ def quasi_static_start(
     # the axial amplitudes' rates and accelerations along the bending's held motion through the
     # state just solved (q1): axial-only quasi-static solves at t0 - h, t0, t0 + h with the bending
     # on g1 + dt g' + dt^2/2 g'' (its accelerations free), their central differences held, the state
-    # solved again; POLICY.start_axial_passes times (docs/exact-bars.md, "The consistent start")
+    # solved again; POLICY.start_axial_passes times (docs/exact-bars.md, "The consistent start, landed")
     axial, moving = following_axial(mech, part)
     for _ in range(POLICY.start_axial_passes if axial else 0):
-        fs = []
-        for dt in (-h, 0.0, h):
-            qq = q1.copy()
-            for body, motion in mech.driver_motions(t0 + dt).items():
-                qq[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
-            qq[list(moving)] = q1[list(moving)] + dt * vs[list(moving)] + 0.5 * dt * dt * acc[list(moving)]
-            qq = mech.assemble(t0 + dt, qq, part)
-            vv = v1.copy()
-            vv[list(moving)] = vs[list(moving)] + dt * acc[list(moving)]
-            vv = mech.velocities(t0 + dt, qq, vv, part)
-            fs.append(quasi_static(mech, t0 + dt, qq, vv, part, moving=moving)[0][list(axial)])
+        fs = [_shifted(mech, t0, dt, q1, v1, part, moving, vs, acc)[list(axial)] for dt in (-h, 0.0, h)]
         vs[list(axial)] = (fs[2] - fs[0]) / (2 * h)
         acc[list(axial)] = (fs[2] - 2.0 * fs[1] + fs[0]) / (h * h)
         q1, v1, _ = quasi_static(mech, t0, q1, vs, part, rates=vs, accels=acc)
     return q1, v1
+
+
+def _shifted(
+    mech: Mechanism,
+    t0: float,
+    dt: float,
+    q: np.ndarray,
+    v: np.ndarray,
+    part: Partition,
+    moving: tuple[int, ...] = (),
+    rates: np.ndarray | None = None,
+    accels: np.ndarray | None = None,
+) -> np.ndarray:
+    """The quasi-static state at t0 + dt from (q, v) at t0 (:func:`quasi_static_start`'s
+    differences): the driven angles moved, the ``moving`` amplitudes on their held motion
+    q + dt rates + dt^2/2 accels (their rate rates + dt accels, their accelerations the unknowns),
+    the closure assembled and its velocities made consistent; its q (the C runtime's
+    ``symgen_shifted_`` alike)."""
+    qq, vv = q.copy(), v.copy()
+    for body, motion in mech.driver_motions(t0 + dt).items():
+        qq[mech.info.coordinate(CoordKind.THETA, body)] = motion[0]
+    if moving:
+        assert rates is not None and accels is not None
+        m = list(moving)
+        qq[m] = q[m] + dt * rates[m] + 0.5 * dt * dt * accels[m]
+        vv[m] = rates[m] + dt * accels[m]
+    qq = mech.assemble(t0 + dt, qq, part)
+    vv = mech.velocities(t0 + dt, qq, vv, part)
+    return quasi_static(mech, t0 + dt, qq, vv, part, moving=moving)[0]
 
 
 # ---------------------------------------------------------------------- the start's joint forces

@@ -662,9 +662,37 @@ static int symgen_divergence_(symgen_solver *s, double t, const double *q, const
    accelerations are the quasi-static ones too, by central first and second differences, and the
    deformation is solved again with both held (their loads in it: the Coriolis load 2 theta' w' on
    a turning bar, the deformation's own inertia, the foreshortening's acceleration) */
+/* the quasi-static state at t0 + dt from (q, v) at t0, in s->qs (start._shifted): the driven angles
+   moved, under hold 2 the `moving` amplitudes on their held motion q + dt v + dt^2/2 qs_ah (their
+   rate v + dt qs_ah, their accelerations the unknowns), the closure assembled and its velocities
+   made consistent (in s->vs), the deformation solved (symgen_quasi_static_ with hold 0 or 2) */
+static int symgen_shifted_(symgen_solver *s, double t0, double dt, const double *q, const double *v, int hold)
+{
+    double m3[3];
+    int k;
+    memcpy(s->qs, q, sizeof(double) * SYMGEN_NQ(s));
+    memcpy(s->vs, v, sizeof(double) * SYMGEN_NQ(s));
+    for (k = 0; k < s->model->n_angle; ++k) {
+        symgen_driver_motion_(s, k, t0 + dt, m3);
+        s->qs[s->model->angle_coords[k]] = m3[0];
+    }
+    for (k = 0; hold == 2 && k < s->model->nmoving; ++k) {
+        const int i = s->model->moving[k];
+        s->qs[i] = q[i] + dt * v[i] + 0.5 * dt * dt * s->qs_ah[i];
+        s->vs[i] = v[i] + dt * s->qs_ah[i];
+    }
+    if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
+    if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
+    return symgen_quasi_static_(s, t0 + dt, s->qs, s->vs, hold);
+}
+
+/* quasi-static start (start.quasi_static_start): under angle drivers the deformation rates and
+   accelerations are the quasi-static ones too, by central first and second differences, and the
+   deformation is solved again with both held (their loads in it: the Coriolis load 2 theta' w' on
+   a turning bar, the deformation's own inertia, the foreshortening's acceleration) */
 static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, double *v)
 {
-    double m3[3], h, dt;
+    double m3[3], h;
     int k, side, pass;
     if (symgen_quasi_static_(s, t0, q, v, 0)) return 1;
     /* the quasi-static state within the range of the bar models (Mechanism.quasi_static_start) */
@@ -684,16 +712,7 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
         h = rate > 0.0 ? s->model->policy.driver_step / rate : s->model->policy.driver_step;
     }
     for (side = 0; side < 2; ++side) {
-        dt = side == 0 ? -h : h;
-        memcpy(s->qs, q, sizeof(double) * SYMGEN_NQ(s));
-        memcpy(s->vs, v, sizeof(double) * SYMGEN_NQ(s));
-        for (k = 0; k < s->model->n_angle; ++k) {
-            symgen_driver_motion_(s, k, t0 + dt, m3);
-            s->qs[s->model->angle_coords[k]] = m3[0];
-        }
-        if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
-        if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
-        if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs, 0)) return 1;
+        if (symgen_shifted_(s, t0, side == 0 ? -h : h, q, v, 0)) return 1;
         for (k = 0; k < SYMGEN_NE(s); ++k) {
             int i = s->model->elastic[k];
             if (side == 0) s->qe[i] = s->qs[i];
@@ -714,21 +733,7 @@ static int symgen_quasi_static_start_(symgen_solver *s, double t0, double *q, do
        (start.quasi_static_start) */
     for (pass = 0; s->model->nfollow > 0 && pass < s->model->policy.start_axial_passes; ++pass) {
         for (side = -1; side <= 1; ++side) {
-            dt = side * h;
-            memcpy(s->qs, q, sizeof(double) * SYMGEN_NQ(s));
-            memcpy(s->vs, v, sizeof(double) * SYMGEN_NQ(s));
-            for (k = 0; k < s->model->n_angle; ++k) {
-                symgen_driver_motion_(s, k, t0 + dt, m3);
-                s->qs[s->model->angle_coords[k]] = m3[0];
-            }
-            for (k = 0; k < s->model->nmoving; ++k) {
-                const int i = s->model->moving[k];
-                s->qs[i] = q[i] + dt * v[i] + 0.5 * dt * dt * s->qs_ah[i];
-                s->vs[i] = v[i] + dt * s->qs_ah[i];
-            }
-            if (symgen_assemble_(s, t0 + dt, s->qs, s->model->dependent)) return 1;
-            if (symgen_velocities_(s, t0 + dt, s->qs, s->vs)) return 1;
-            if (symgen_quasi_static_(s, t0 + dt, s->qs, s->vs, 2)) return 1;
+            if (symgen_shifted_(s, t0, side * h, q, v, 2)) return 1;
             for (k = 0; k < s->model->nfollow; ++k) {
                 const int i = s->model->follow[k];
                 if (side == -1) s->qe[i] = s->qs[i];
