@@ -88,7 +88,7 @@ class SolverPolicy:
     #: round-off of the second differences, O(tol / h^2) of a state solved to ``quasi_static_tol``,
     #: which a stiff bar's loads multiply by lambda (at 1e-4 rad a lambda-1e9 start is 1e-4 of
     #: peak off its inextensible limit, at 3e-3 below 3e-9; docs/exact-bars.md, "The consistent
-    #: start").
+    #: start, landed").
     driver_step: float = 3e-3
     #: The start's passes of the axial amplitudes' rates and accelerations along the bending's held
     #: motion (``start.quasi_static_start``): each changes the held axial acceleration ~200x less.

@@ -46,8 +46,9 @@ R = TypeVar("R")
 #: "4": the stretch's own inertia decides too; "5": the start's ringing is measured from a quasi-static
 #: start too, where the loads of its deformation rates move the axial force; "6": an output zero to
 #: round-off over the run decides nothing, SimResult.peaks; "7": a quasi-static start is consistent
-#: (its rates' loads in): where it leaves no axial force jump the whole run is read instead)
-ESTIMATOR_VERSION = "7"
+#: (its rates' loads in): where it leaves no axial force jump the whole run is read instead; "8": that
+#: whole run reads SimResult.peaks, an output zero to round-off charged nothing there too)
+ESTIMATOR_VERSION = "8"
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",

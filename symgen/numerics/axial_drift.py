@@ -57,11 +57,12 @@ transverse loads of the stretched bar are the likely one). Since, the start is c
 solves the deformation again with its rates and accelerations held
 (:func:`symgen.numerics.start.quasi_static_start`), the start's axial force jump is gone (~1e-16
 of the peak) and the dynamic bar's axial ringing fell from 8.3e-3 to 7.9e-4 of tip_u's peak (3.9e-4
-with the rates alone held); what is left, 0.68 % on tip_u, 0.46 % on the tip, 0.57 % on the
-torque, is at the driver's harmonics: from a quasi-static start where the jump is below the skip
-the whole run with the axial dynamics kept reads it (1.00x on all three; at lambda 1e5 0.99x /
-0.96x / 0.96x of 5.2e-4 / 2.4e-4 / 2.9e-4, most of it the bent start's offset to the
-inextensible limit that the start does not yet remove: docs/exact-bars.md).
+with the rates alone held); with the axial amplitudes' rates and accelerations taken along the
+bending's held motion too (session 11) what is left, 0.47 % on tip_u, 0.42 % on the tip, 0.46 % on
+the torque, is at the driver's harmonics: from a quasi-static start where the jump is below the
+skip the whole run with the axial dynamics kept reads it (0.997x / 0.996x / 0.998x; at lambda 1e5
+0.86x / 0.82x / 0.91x of 5.4e-5 / 5.1e-5 / 5.1e-5: docs/exact-bars.md, "The consistent start,
+landed").
 
 The stretch's own inertia (:func:`own_inertia`): the quasi-static stretch s = N/lambda balances
 the axial loads of the inextensible motion alone; the dynamic bar's stretch also carries the
@@ -106,7 +107,7 @@ else:
 from symgen.ir.records import RowKind
 from symgen.ir.names import bar_parameter
 from symgen.numerics.run_result import MeasuredOnce
-from symgen.scene.model import CHECK_KINDS
+from symgen.scene.model import CHECK_KINDS, Simulation
 from symgen.numerics.model_form import _mapped
 
 if TYPE_CHECKING:
@@ -419,6 +420,24 @@ def ringing_window(mech: Mechanism, bars: Bars, t_run: float) -> tuple[float, fl
     return length, step, f"{why} (w {w_slow:.4g} per unit tau), {length:.3g} tau"
 
 
+def _axial_periods(mech: Mechanism, bars: Bars, t_run: float) -> float:
+    """The periods of the fastest quasi-static bar's first axial mode, (pi/2) sqrt(lambda) per unit
+    tau, over ``t_run`` (the whole run with the axial dynamics kept is made up to
+    ``RINGING_WHOLE_PERIODS``)."""
+    lams = [float(mech.p[k]) for _, _, k in bars.values()]
+    return t_run * (math.pi / 2) * math.sqrt(max(lams)) / (2 * math.pi)
+
+
+def _whole_run(kept: Mechanism, tau: np.ndarray, sim: Simulation) -> SimResult:
+    """The run again from its first output to its last, on its output grid and tolerances, with the
+    axial dynamics kept (``kept``)."""
+    from symgen.numerics.simulate import simulate
+
+    return simulate(
+        kept, t_end=float(tau[-1]), output_step=float(tau[1] - tau[0]), rtol=sim.rtol, atol=sim.atol, t0=float(tau[0])
+    )
+
+
 def start_multipliers(mech: Mechanism, result: SimResult) -> np.ndarray:
     """The multipliers the dynamic bar starts with, in the run's model: zero from an undeformed
     start; from a quasi-static start (``initial.deformation = "quasi-static"``,
@@ -493,23 +512,19 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
         # a consistent quasi-static start rings little, but the quasi-static treatment still moves
         # every output over the run (the oscillating arm's 0.4-0.65 %, at the driver's harmonics):
         # the whole run with the axial dynamics kept reads it, as after a window
-        lams = [float(mech.p[k]) for _, _, k in bars.values()]
-        periods = float(tau[-1] - tau[0]) * (math.pi / 2) * math.sqrt(max(lams)) / (2 * math.pi)
+        periods = _axial_periods(mech, bars, float(tau[-1] - tau[0]))
         if periods > RINGING_WHOLE_PERIODS:
             return zero, (
                 f"{skipped}; the whole run with the axial dynamics kept not made either: its {periods:.3g} "
                 f"axial periods exceed {RINGING_WHOLE_PERIODS:g}"
             )
-        kept = _kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
-        t0 = float(tau[0])
-        whole = simulate(
-            kept, t_end=float(tau[-1]), output_step=float(tau[1] - tau[0]), rtol=sim.rtol, atol=sim.atol, t0=t0
-        )
+        whole = _whole_run(_kept_mechanism(axial_dynamic_scene(scene, sorted(bars))), tau, sim)
         m = min(len(whole.tau), len(tau))
         out = dict(zero)
         kinds = {o.name: o.kind for o in scene.outputs}
+        every = result.peaks()  # 0 where an output is zero to round-off
         for n in names:
-            peak = float(np.max(np.abs(np.asarray(result.column(n), dtype=float))))
+            peak = every[n]
             ok = peak > 0 and np.isfinite(peak) and kinds.get(n) not in CHECK_KINDS
             # the first sample of a force output may be the continuum's in one run alone: from the second
             diff = np.abs(np.asarray(whole.column(n))[1:m] - np.asarray(result.column(n))[1:m])
@@ -568,7 +583,7 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
         if (kinds.get(n) not in CHECK_KINDS if qs_start else kinds.get(n) in RINGING_FORCE_KINDS) and peaks[j] > 0
     ]
     which = "the outputs" if qs_start else "the force outputs"
-    periods = t_run * (math.pi / 2) * math.sqrt(max(lams)) / (2 * math.pi)
+    periods = _axial_periods(mech, bars, t_run)
     shown = max((v for n, v in out.items() if kinds.get(n) not in CHECK_KINDS), default=0.0)
     if forces and length < t_run and RINGING_DECAYS * decay > length and shown > enough:
         window += (
@@ -582,9 +597,7 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
             "(a lower bound there)"
         )
     elif forces and length < t_run and RINGING_DECAYS * decay > length:
-        whole = simulate(
-            kept, t_end=float(tau[-1]), output_step=float(tau[1] - tau[0]), rtol=sim.rtol, atol=sim.atol, t0=t0
-        )
+        whole = _whole_run(kept, tau, sim)
         steps += whole.steps
         m = min(len(whole.tau), len(tau))
         for n in forces:

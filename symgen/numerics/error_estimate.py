@@ -92,8 +92,8 @@ The estimate of an output is a fraction of its peak, the sum of the parts that w
   with the axial dynamics kept: the press started at speed, its torque 7.4 %) or starts on it
   under a varying load (the start's equilibrium left out the loads of the deformation rates: an
   oscillating arm at lambda 1e3, tip_u 2.94 % off, charged 2.99 %; the start now holds them and
-  the accelerations' loads, 0.68 % off, read over the whole run with the axial dynamics kept,
-  0.67 %), or the stretch's
+  the accelerations' loads, the axial amplitudes' along the bending's motion, 0.47 % off, read
+  over the whole run with the axial dynamics kept, 0.47 %), or the stretch's
   own inertia (its centrifugal load on a spinning bar, its acceleration under a varying load: a
   steel arm at lambda 1189 driven at a constant rate, its tip stretch 3.4e-4 of itself short of
   the closed form, charged 3.35e-4), the largest of the three per output. 0 where no bar is
