@@ -248,6 +248,78 @@ def test_every_scene_has_a_converged_reference() -> None:
         assert set(MEASURED[name]) == set(ref), name
 
 
+def test_every_references_first_sample_was_judged_on_its_own() -> None:
+    """Each committed reference's first sample went through ``bench_validation.first_sample``
+    (the ladder judges its runs by their largest change over the whole run, which may be another
+    instant's): three meshes each, and no output's first sample left TOL of its peak or more
+    from its limit (replaced where it was). Measured: every in-repo first sample is converged
+    (0 at every mesh, or within 6e-8 of peak: crank_rocker_steel's torque, second order)."""
+    for name in V.scenes():
+        record = json.loads((V.REF / f"{name}.json").read_text())["first_sample"]
+        assert len(record["meshes"]) == len(V.FIRST_MESHES), name
+        t, ref = V.read_reference(name)
+        for k, o in record["outputs"].items():
+            assert len(o["values"]) == len(V.FIRST_MESHES), (name, k)
+            if o["limit"] is None:  # no asymptotic range: its last change must be below TOL
+                assert o["left"] < V.TOL, (name, k, o)
+            else:
+                peak = np.abs(ref[k]).max()
+                assert abs(ref[k][0] - o["limit"]) < V.TOL * peak, (name, k, o)
+
+
+def test_a_first_order_first_sample_is_replaced_by_its_limit(tmp_path, monkeypatch) -> None:
+    """``bench_validation.first_sample`` on a synthetic ladder (its Exudyn runs replaced): a first
+    sample that converges at first order in the mesh, L + C / n (an ANCF joint force at an
+    unstressed start under gravity: 0.072 of one element's weight on the pin at every mesh,
+    README.md), is replaced by L to round-off; one within TOL of its limit (second order, B / n^2
+    small) and one the same at every mesh are kept; the later rows are untouched."""
+    import types
+
+    import exudyn_scene as X
+
+    import symgen.numerics.mechanism as M
+    from symgen.scene import load_scene
+
+    name = "slewing_arm"
+    scene = load_scene(V.scene_path(name))
+    n, per_output, h = 8, 4, scene.simulation.output_step
+    names = [o.name for o in scene.outputs]  # tip, mid, torque
+    big, small, flat = names[2], names[1], names[0]
+    L, C, A, B = 0.3, 0.8, 0.05, 0.005
+
+    def first(m: int) -> dict[str, float]:
+        return {big: L + C / m, small: A + B / m**2, flat: 0.0}
+
+    def fake(scene_, mech, m, per, t_end=None, newton=None):
+        tau = h * np.arange(3.0)
+        outs = {k: np.array([v, 1.0, -1.0]) for k, v in first(m).items()}
+        return types.SimpleNamespace(tau=tau, outputs=outs, elements=X.element_counts(scene_, m))
+
+    monkeypatch.setattr(V, "REF", tmp_path)
+    monkeypatch.setattr(V, "_exudyn", fake)
+    monkeypatch.setattr(M, "load_mechanism", lambda scene_: None)
+    run = fake(scene, None, n, per_output)
+    t, out = X.to_result_units(scene, run.tau, run.outputs)
+    V.write_reference(tmp_path / f"{name}.csv.gz", t, out)
+    final = {"elements": X.element_counts(scene, n), "per_output": per_output}
+    (tmp_path / f"{name}.json").write_text(json.dumps({"final": final}))
+
+    record = V.first_sample(name, log=lambda *a: None)
+
+    t2, ref = V.read_reference(name)
+    _, limit = X.to_result_units(scene, run.tau[:1], {k: np.array([L if k == big else 0.0]) for k in names})
+    assert record["outputs"][big]["replaced"] and abs(record["outputs"][big]["ratio"] - 2.0) < 1e-9
+    assert abs(ref[big][0] - limit[big][0]) < 1e-8 * abs(limit[big][0])
+    assert abs(ref[big][0] - out[big][0]) > 0.1 * abs(out[big][0])  # it was C / 8 off: 0.1 / 0.4
+    assert not record["outputs"][small]["replaced"] and not record["outputs"][flat]["replaced"]
+    for k in names:
+        assert np.array_equal(ref[k][1:], out[k][1:]), k
+        if k != big:
+            assert ref[k][0] == out[k][0], k
+    assert np.array_equal(t2, t)
+    assert json.loads((tmp_path / f"{name}.json").read_text())["first_sample"] == record
+
+
 def test_converter_agrees_with_the_hand_written_model() -> None:
     """The general converter (``exudyn_scene``) and the hand-written Exudyn slider-crank of
     ``exudyn_models`` (same element count and step) give the same rod deflection. (The
