@@ -73,6 +73,9 @@ class Mechanism:
         self.inext_rows = list(info.inextensible_rows)
         self.inext_f = list(info.inextensible_axial)
         self.static_systems: dict[tuple[Partition, tuple[int, ...]], start.StaticSystem] = {}  # built on first use
+        # the consistent start per t0 (start._start), solved on first use: the same for every
+        # run of this mechanism (the parameters are fixed at the load), whatever its tolerances
+        self.starts: dict[float, start.SolvedStart] = {}
         # the SX Functions of a simulation's runner per partition (symgen.numerics.simulate):
         # made on first use, shared by every later run of this mechanism (sweeps, studies)
         self.runner_functions: dict[Partition, dict[str, ca.Function]] = {}

@@ -30,6 +30,12 @@ from symgen.policy import POLICY
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
 
+    #: a solved start (:func:`_start`): q, v, a, lam, the partition, the guess (q, v), the
+    #: assembly's partition
+    SolvedStart: TypeAlias = tuple[
+        np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition, tuple[np.ndarray, np.ndarray], Partition
+    ]
+
 #: a consistent start: (q, v, a, lam, partition)
 State: TypeAlias = "tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition]"
 
@@ -154,10 +160,21 @@ def start_plan(mech: Mechanism) -> StartPlan:
     )
 
 
-def _start(
-    mech: Mechanism, t0: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Partition, tuple[np.ndarray, np.ndarray], Partition]:
-    """(q, v, a, lam, partition, (q, v) guessed, partition of the assembly) at t0."""
+def _start(mech: Mechanism, t0: float) -> SolvedStart:
+    """(q, v, a, lam, partition, (q, v) guessed, partition of the assembly) at t0: made once per
+    mechanism and t0 (``Mechanism.starts``; a start that fails is not kept), copies returned. The
+    start is a function of the model, its parameters and t0 alone (not of a run's tolerances), so
+    the error estimate's reruns of the run's own model (the time part's tighter run) and the C
+    path's start plan after an IDAS run take the run's start instead of solving it again."""
+    key = float(t0)
+    if key not in mech.starts:
+        mech.starts[key] = _solve_start(mech, key)
+    q, v, a, lam, part, (q0, v0), assembly = mech.starts[key]
+    return q.copy(), v.copy(), a.copy(), lam.copy(), part, (q0.copy(), v0.copy()), assembly
+
+
+def _solve_start(mech: Mechanism, t0: float) -> SolvedStart:
+    """:func:`_start`, solved."""
     sc = mech.scene
     q, v = mech.initial_guess(t0)
     try:
