@@ -267,13 +267,13 @@ def first_sample(name: str, log=print) -> dict:
             raise ValueError(f"{name}.{k}: first sample {runs[n][k]!r} at the reference's mesh is not its {yr[0]!r}")
         c1, c2 = abs(v[1] - v[0]) / peak, abs(v[2] - v[1]) / peak
         ratio = c1 / c2 if c2 > 0 else float("inf")
-        if c1 == 0.0 or ratio == float("inf"):
-            limit, left = v[2], c2
+        if c2 == 0.0:  # the same at the two finest meshes: that value
+            limit: float | None = v[2]
         elif ratio >= FIRST_RATIO:
             limit = v[2] + (v[2] - v[1]) / (ratio - 1.0)
-            left = abs(yr[0] - limit) / peak
-        else:  # not in its asymptotic range: no limit, the last change as what is left
-            limit, left = None, max(c1, c2)
+        else:  # not in its asymptotic range: no limit, its larger change as what is left
+            limit = None
+        left = max(c1, c2) if limit is None else abs(yr[0] - limit) / peak
         replace = bool(limit is not None and left >= TOL)
         record[k] = {
             "values": v,
