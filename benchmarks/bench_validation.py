@@ -481,6 +481,7 @@ def honesty_markdown(results: list[dict]) -> str:
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     counted = honest = 0
+    ratios: list[float] = []
     for res in results:
         for k, o in res["outputs"].items():
             p = o["parts"]
@@ -495,6 +496,7 @@ def honesty_markdown(results: list[dict]) -> str:
             else:
                 counted += 1
                 honest += bool(o["honest"])
+                ratios.append(o["ratio"])
                 verdict = f"{o['ratio']:.2f}" + ("" if o["honest"] else " **out**")
             lines.append(
                 f"| {res['scene']} | {res['strain']['strain']} | {k} | {o['true']:.2e} | {cell(o['estimate'])} | "
@@ -503,7 +505,10 @@ def honesty_markdown(results: list[dict]) -> str:
                 f"{verdict} |"
             )
     lines.append("")
-    lines.append(f"{honest} of {counted} outputs above noise within [{HONEST[0]:g}, {HONEST[1]:g}] x the true error.")
+    spread = f" (ratios {min(ratios):.2f}-{max(ratios):.2f})" if ratios else ""
+    lines.append(
+        f"{honest} of {counted} outputs above noise within [{HONEST[0]:g}, {HONEST[1]:g}] x the true error{spread}."
+    )
     lines.append("")
     lines += [f"* {r['scene']}: {r['strain']['reason']}" for r in results]
     return "\n".join(lines) + "\n"
