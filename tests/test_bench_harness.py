@@ -179,7 +179,9 @@ def _stand_in_exudyn(monkeypatch, tmp_path, fake_run, counts, name):
     monkeypatch.setattr(V, "_exudyn", fake_run)
     monkeypatch.setattr(V, "REF", tmp_path)
     monkeypatch.setattr(V, "scene_path", lambda name: tmp_path / f"{name}.toml")
-    monkeypatch.setattr(S, "load_scene", lambda path: None)
+    # the first sample's judgement (bench_validation.first_sample) reads the scene's output step
+    scene = types.SimpleNamespace(simulation=types.SimpleNamespace(output_step=1.0))
+    monkeypatch.setattr(S, "load_scene", lambda path: scene)
     monkeypatch.setattr(M, "load_mechanism", lambda scene: None)
     monkeypatch.setitem(V.START, name, (4, 4))
 
@@ -194,7 +196,7 @@ def test_the_reference_ladder_does_not_keep_a_mesh_refinement_whose_change_grows
 
     import bench_validation as V
 
-    def fake_run(scene, mech, n, k, newton=None):
+    def fake_run(scene, mech, n, k, t_end=None, newton=None):
         err = 2.0 / n**2 + 0.05 / k**2 + (1e-2 if n >= 64 and k < 16 else 0.0)
         return types.SimpleNamespace(
             elements={"bar": n},
@@ -232,7 +234,7 @@ def test_the_reference_ladder_refines_the_mesh_it_runs(monkeypatch, tmp_path):
     def counts(scene, n):
         return {"bar": max(10, -(-n // 10) * 10)}
 
-    def fake_run(scene, mech, n, k, newton=None):
+    def fake_run(scene, mech, n, k, t_end=None, newton=None):
         e = counts(scene, n)["bar"]
         err = 2.0 / e**2 + 0.05 / k**2
         return types.SimpleNamespace(
@@ -249,5 +251,7 @@ def test_the_reference_ladder_refines_the_mesh_it_runs(monkeypatch, tmp_path):
     mesh = [r for r in table["rows"] if r.get("refined") == "mesh"]
     assert mesh and all(max(r["change"].values()) > 0 for r in mesh)  # every mesh run is a new mesh
     assert table["final"]["elements"]["bar"] > 10
+    # its first sample judged on its own after the ladder (three meshes from the final one)
+    assert sorted(table["first_sample"]["meshes"]) == [table["final"]["elements"]["bar"] * f for f in (1, 2, 4)]
     t, out = V.read_reference("rounded")
     assert np.max(np.abs(np.abs(out["y"]) - 1.0)) < 2 * V.TOL
