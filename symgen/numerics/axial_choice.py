@@ -25,13 +25,14 @@ starts without it).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from symgen import __version__, cache
 from symgen.ir.spec import QUASI_STATIC
-from symgen.scene.model import CHECK_KINDS
+from symgen.scene.model import CHECK_KINDS, AxialSwitch
 
 if TYPE_CHECKING:
     from symgen.numerics.mechanism import Mechanism
@@ -48,7 +49,8 @@ R = TypeVar("R")
 #: round-off over the run decides nothing, SimResult.peaks; "7": a quasi-static start is consistent
 #: (its rates' loads in): where it leaves no axial force jump the whole run is read instead; "8": that
 #: whole run reads SimResult.peaks, an output zero to round-off charged nothing there too)
-ESTIMATOR_VERSION = "8"
+#: "9": a damped start ringing keeps the axial dynamics only until it has ended (Scene.axial_switch)
+ESTIMATOR_VERSION = "9"
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
@@ -61,6 +63,10 @@ MEASURES = {
         "stretch included) over the bar's axial stiffness"
     ),
 }
+
+#: a damped start ringing ends the axial dynamics early (``Scene.axial_switch``) only where the run's
+#: other axial measures (the drift, the stretch's own inertia) are within this share of the accuracy
+SWITCH_OTHERS = 0.5
 
 #: what a ringing start's user can do instead, said with the decision
 RINGING_ALTERNATIVE = (
@@ -95,8 +101,27 @@ def switchable(scene: Scene) -> bool:
     return not scene.axial_kept and bool(_auto_quasi_static(scene))
 
 
-def _kept(scene: Scene, bars: list[str], reason: str) -> Scene:
-    return replace(scene, axial_kept=tuple((b, reason) for b in bars))
+def _kept(scene: Scene, bars: list[str], reason: str, switch: AxialSwitch | None = None) -> Scene:
+    return replace(scene, axial_kept=tuple((b, reason) for b in bars), axial_switch=switch)
+
+
+def _switch_of(answer: dict[str, Any]) -> tuple[bool, AxialSwitch | None]:
+    """(valid, the switch) of a remembered decision (no "switch": valid, None)."""
+    got = answer.get("switch")
+    if got is None:
+        return True, None
+    if not isinstance(got, dict):
+        return False, None
+    t, charge, how = got.get("tau"), got.get("charge"), got.get("how")
+    if (
+        not isinstance(t, float)
+        or not math.isfinite(t)
+        or not isinstance(how, str)
+        or not isinstance(charge, dict)
+        or not all(isinstance(k, str) and isinstance(v, float) and math.isfinite(v) for k, v in charge.items())
+    ):
+        return False, None
+    return True, AxialSwitch(t, tuple(sorted(charge.items())), how)
 
 
 def recalled(scene: Scene) -> Scene | None:
@@ -113,7 +138,10 @@ def recalled(scene: Scene) -> Scene | None:
     quasi = set(_auto_quasi_static(scene))
     if not bars or not set(bars) <= quasi:
         return None
-    return _kept(scene, bars, reason)
+    valid, switch = _switch_of(answer)
+    if not valid:
+        return None
+    return _kept(scene, bars, reason, switch)
 
 
 def kept_as_is(scene: Scene) -> bool:
@@ -154,16 +182,59 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
         f"auto: the run's axial estimate ({MEASURES[part]}) is {top:.2e} of peak on {worst}, above "
         f"simulation.accuracy {accuracy:g}: axial dynamics kept"
     )
-    if part == "ringing":
+    switch = _damped_switch(mech, result, found, kinds) if bars and part == "ringing" else None
+    if switch is not None:
+        left = max((v for _, v in switch.charge), default=0.0)
+        reason += (
+            f" until tau {switch.tau:.6g}, quasi-static after it: {switch.how} (the switch and the quasi-static "
+            f"treatment after it: {left:.2e} of peak at most, the error estimate's axial part)"
+        )
+    elif part == "ringing":
         reason += f" ({RINGING_ALTERNATIVE})"
     if scene.hash:
-        cache.remember(
-            _question(scene), {"bars": bars, "reason": reason, "estimate": top, "output": worst, "part": part}
-        )
+        answer: dict[str, Any] = {"bars": bars, "reason": reason, "estimate": top, "output": worst, "part": part}
+        if switch is not None:
+            answer["switch"] = {"tau": switch.tau, "charge": dict(switch.charge), "how": switch.how}
+        cache.remember(_question(scene), answer)
     if not bars:
         _axial_drift.keep_parts(mech, result, found)
         return None
-    return _kept(scene, bars, reason)
+    return _kept(scene, bars, reason, switch)
+
+
+def _damped_switch(mech: Mechanism, result: Any, found: Any, kinds: dict[str, str]) -> AxialSwitch | None:
+    """Where the axial part that keeps the axial dynamics is the start's ringing alone (the drift
+    and the stretch's own inertia within ``SWITCH_OTHERS`` of the accuracy) and Kelvin-Voigt
+    damping ends it early in the run (:func:`symgen.numerics.axial_drift.ringing_end`, every
+    output within ``SWITCH_SHARE`` of the accuracy after it): the switch to the quasi-static
+    treatment there, charging each output the larger of the difference the window left after it
+    and the quasi-static run's drift and own inertia. None otherwise (the axial dynamics kept for
+    the whole run), also where the two models' coordinates or rows do not match."""
+    from symgen.numerics import axial_drift as _axial_drift
+    from symgen.numerics.simulate import switched_rows
+
+    accuracy = float(mech.scene.simulation.accuracy)
+    others = [
+        float(v) for values in (found.drift, found.own) for n, v in values.items() if kinds.get(n) not in CHECK_KINDS
+    ]
+    if max(others, default=0.0) > SWITCH_OTHERS * accuracy:
+        return None
+    try:
+        end = _axial_drift.ringing_end(mech, result, _axial_drift.SWITCH_SHARE * accuracy)
+    except (_axial_drift.AxialNotEstimated, ValueError, ArithmeticError, RuntimeError):
+        return None  # the window failed: kept for the whole run
+    if end is None:
+        return None
+    bars = sorted(_axial_drift.quasi_static_bars(mech))
+    kept = _axial_drift.kept_mechanism(_axial_drift.axial_dynamic_scene(mech.scene, bars))
+    if switched_rows(kept, mech, bars) is None:
+        return None
+    charge = {
+        n: max(end.charge.get(n, 0.0), float(found.drift.get(n, 0.0)), float(found.own.get(n, 0.0)))
+        for n in end.charge
+        if kinds.get(n) not in CHECK_KINDS
+    }
+    return AxialSwitch(float(end.tau), tuple(sorted(charge.items())), end.how)
 
 
 def run_with_axial_choice(

@@ -127,6 +127,7 @@ __all__ = [
     "parts",
     "quasi_static_bars",
     "ringing",
+    "ringing_end",
     "run_rates",
     "start_multipliers",
     "stretch_inertia",
@@ -386,7 +387,7 @@ def axial_dynamic_scene(scene: Scene, bars: list[str]) -> Scene:
     return replace(scene, effects=replace(scene.effects, axial="dynamic"))
 
 
-def _kept_mechanism(scene: Scene) -> Mechanism:
+def kept_mechanism(scene: Scene) -> Mechanism:
     from symgen import cache
     from symgen.numerics.mechanism import load_mechanism
 
@@ -518,7 +519,7 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
                 f"{skipped}; the whole run with the axial dynamics kept not made either: its {periods:.3g} "
                 f"axial periods exceed {RINGING_WHOLE_PERIODS:g}"
             )
-        whole = _whole_run(_kept_mechanism(axial_dynamic_scene(scene, sorted(bars))), tau, sim)
+        whole = _whole_run(kept_mechanism(axial_dynamic_scene(scene, sorted(bars))), tau, sim)
         m = min(len(whole.tau), len(tau))
         out = dict(zero)
         kinds = {o.name: o.kind for o in scene.outputs}
@@ -537,7 +538,7 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
         raise AxialNotEstimated("the run has fewer than two output samples")
     t_run = float(tau[-1] - tau[0])
     length, step, window = ringing_window(mech, bars, t_run)
-    kept = _kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
+    kept = kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
     t0 = float(tau[0])
     every = result.peaks()  # 0 where an output is zero to round-off
     peaks = [every[n] for n in names]
@@ -616,6 +617,96 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
     return out, how
 
 
+# ---------------------------------------------------------------------- the start's ringing's end
+#: a damped start ringing ends the axial dynamics' phase (``Scene.axial_switch``) where the
+#: difference between the runs with and without them stays below this share of the accuracy ...
+SWITCH_SHARE = 0.25
+#: ... for at least this many Kelvin-Voigt decay times 2 / (c w^2) of the slowest bar's first
+#: axial mode after it (a coupled mode slower than the bar's own shows there, where it lasts)
+SWITCH_DECAYS = 3.0
+#: the switch is made only where it leaves at least this share of the run quasi-static (the window
+#: runs are made to at most this share of the run)
+SWITCH_RUN_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class RingingEnd:
+    """Where a damped start ringing has ended (:func:`ringing_end`): ``tau`` on the run's output
+    grid, ``charge`` output -> the largest difference after it (fraction of the output's peak),
+    ``how`` one sentence."""
+
+    tau: float
+    charge: dict[str, float]
+    how: str
+
+
+def ringing_end(mech: Mechanism, result: SimResult, level: float) -> RingingEnd | None:
+    """Where the start's axial ringing of ``mech``'s quasi-static bars (Kelvin-Voigt damped) has
+    ended: a window from the start run with their axial dynamics kept and with the run's own model
+    (as :func:`ringing`'s), each output's difference as a fraction of its peak over ``result``;
+    the first sample of the run's output grid after which every output's difference stays below
+    ``level`` for at least ``SWITCH_DECAYS`` decay times to the window's end (the window doubled
+    until it does, up to ``SWITCH_RUN_SHARE`` of the run). None without damping, without a
+    quasi-static bar, or where the ringing does not end within that share of the run."""
+    from symgen.numerics.simulate import simulate
+
+    scene = mech.scene
+    c = float(scene.effects.damping)
+    bars = quasi_static_bars(mech)
+    tau = np.asarray(result.tau, dtype=float)
+    if c <= 0 or not bars or len(tau) < 2:
+        return None
+    t0, h = float(tau[0]), float(tau[1] - tau[0])
+    t_run = float(tau[-1] - t0)
+    lams = [float(mech.p[k]) for _, _, k in bars.values()]
+    w_slow, w_fast = (math.pi / 2) * math.sqrt(min(lams)), (math.pi / 2) * math.sqrt(max(lams))
+    decay = 2.0 / (c * w_slow**2)
+    step = min(h, 2 * math.pi / w_fast / RINGING_SAMPLES)
+    names = list(result.output_names)
+    kinds = {o.name: o.kind for o in scene.outputs}
+    every = result.peaks()
+    read = [(j, n, every[n]) for j, n in enumerate(names) if every[n] > 0 and kinds.get(n) not in CHECK_KINDS]
+    if not read:
+        return None
+    kept = kept_mechanism(axial_dynamic_scene(scene, sorted(bars)))
+    sim = scene.simulation
+    cap = SWITCH_RUN_SHARE * t_run
+    length = min(cap, decay * (math.log(1.0 / level) + SWITCH_DECAYS))
+    steps = 0
+    while True:
+        own = simulate(mech, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)
+        dyn = simulate(kept, t_end=t0 + length, output_step=step, rtol=sim.rtol, atol=sim.atol, t0=t0)
+        steps += own.steps + dyn.steps
+        k = min(len(own.tau), len(dyn.tau))
+        t = np.asarray(own.tau[:k], dtype=float)
+        # the first sample of a force output may be the continuum's in one run alone: from the second
+        rel = np.column_stack(
+            [np.abs(dyn.column(n)[1:k] - own.column(n)[1:k]) / p for _, n, p in read]
+        )  # (k - 1, outputs)
+        above = np.flatnonzero(rel.max(axis=1) > level)
+        settled = float(t[1 + above[-1]]) if len(above) else t0
+        if float(t[k - 1]) - settled >= SWITCH_DECAYS * decay:
+            break
+        if length >= cap:
+            return None
+        length = min(2 * length, cap)
+    # on the run's output grid, at or after the ringing's end
+    switch = t0 + math.ceil((settled - t0) / h - 1e-9) * h
+    if switch >= t0 + cap:
+        return None
+    after = t[1:k] >= switch - 1e-12
+    charge = dict.fromkeys(names, 0.0)
+    for i, (_, n, _) in enumerate(read):
+        charge[n] = float(rel[after, i].max()) if after.any() else 0.0
+    how = (
+        f"the start's axial ringing (Kelvin-Voigt {c:g}, decay time 2/(c w^2) = {decay:.3g} tau at w {w_slow:.4g}): "
+        f"a window of {float(t[k - 1]) - t0:.3g} tau from the start run with the axial dynamics of "
+        f"{', '.join(sorted(bars))} kept against the run's own model ({steps} IDAS steps): every output within "
+        f"{level:.3g} of its peak from tau {settled - t0:.4g} on"
+    )
+    return RingingEnd(switch, charge, how)
+
+
 @dataclass(frozen=True)
 class AxialParts:
     """The three measures of one run (output -> fraction of its peak, and how): the free motion's
@@ -676,7 +767,22 @@ def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]
     start's ringing (:func:`ringing`) and the stretch's own inertia (:func:`own_inertia`) the
     quasi-static axial treatment leaves out, as a fraction of the output's peak, and how (each,
     and which is the largest on which outputs). Raises :class:`AxialNotEstimated` where the drift
-    or the stretch's inertia cannot be evaluated."""
+    or the stretch's inertia cannot be evaluated.
+
+    A run that switched to the quasi-static treatment after its damped start ringing
+    (``Scene.axial_switch``; the run's stats say where) is charged what the decision measured:
+    each output the larger of the window's difference after the switch and the quasi-static
+    run's drift and the stretch's own inertia."""
+    switch = mech.scene.axial_switch
+    at = result.stats.get("axial_switch")
+    if switch is not None and isinstance(at, float):
+        charge = dict(switch.charge)
+        bars = ", ".join(b for b, _ in mech.scene.axial_kept)
+        return {n: float(charge.get(n, 0.0)) for n in result.output_names}, (
+            f"the axial dynamics of {bars} kept until tau {at:.6g}, quasi-static after it: {switch.how}; each "
+            "output charged the larger of that difference after the switch and the quasi-static run's phase drift "
+            "and the stretch's own inertia, as the decision measured them"
+        )
     both = parts(mech, result)
     measures = {"drift": both.drift, "ringing": both.ringing, "own": both.own}
     out = {n: max(m.get(n, 0.0) for m in measures.values()) for n in both.drift}

@@ -87,12 +87,15 @@ def decisions(scene: Scene) -> dict[str, Any]:
     bars whose axial dynamics a run kept, the counts' floors). The chosen counts' and the
     quasi-static fallback's questions (:mod:`symgen.numerics.quasi_fallback`)."""
     raised = scene.counts_raised
-    return {
+    out: dict[str, Any] = {
         "scene": scene.hash,
         "strain": str(scene.effects.strain),
         "axial_kept": sorted(b for b, _ in scene.axial_kept),
         "floors": [] if raised is None else [list(f) for f in raised.floors],
     }
+    if scene.axial_switch is not None:  # kept only until the start's ringing has ended
+        out["axial_switch"] = scene.axial_switch.tau
+    return out
 
 
 def _question(scene: Scene) -> dict[str, Any]:

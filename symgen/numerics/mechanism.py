@@ -86,6 +86,9 @@ class Mechanism:
         # evaluated once, then thrown away or remembered, so the runs of the default backend
         # ("auto") use the virtual machine and compile no library for it (issue 20, a first run)
         self.provisional = False
+        # the quasi-static model a run continues with after the scene's axial switch
+        # (Scene.axial_switch; symgen.numerics.simulate.after_switch), loaded on first use
+        self.after_switch: Mechanism | None = None
         self.amplitudes = info.amplitudes  # body -> (axial indices, transverse indices)
         # bodies.<name>.quasi_static_transverse: the amplitudes the runs treat quasi-statically
         if stated_quasi_static(scene):  # refused here, at the load, when inconsistent

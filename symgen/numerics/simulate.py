@@ -433,12 +433,131 @@ def simulate(
 
     A run that stops early (``SimulationError``: a solver failure, a singular position, a bar
     beyond its range; ``Interrupted``: SIGINT/SIGTERM) raises with ``.partial``, the
-    ``SimResult`` of the outputs recorded before it (``complete=False``)."""
+    ``SimResult`` of the outputs recorded before it (``complete=False``).
+
+    A scene whose axial dynamics are kept only while a damped start ringing lasts
+    (``Scene.axial_switch``, :mod:`symgen.numerics.axial_choice`) is run in two parts when the
+    switch falls inside the run: with ``mech`` to the first output at or after it, then with
+    the quasi-static model from the state reached (:func:`_switched`), one result."""
+    sim = mech.scene.simulation
+    switch = mech.scene.axial_switch
+    end = sim.t_end if t_end is None else t_end
+    h = sim.output_step if output_step is None else output_step
+    args: dict[str, Any] = dict(
+        rtol=rtol, atol=atol, axial_atol=axial_atol, backend=backend, use_cache=use_cache, progress=progress
+    )
+    if switch is not None:
+        t_switch = t0 + math.ceil((switch.tau - t0) / h - 1e-9) * h  # on this run's output grid
+        if t0 < t_switch < end - 1e-9 * h:
+            return _switched(mech, t_switch, end, h, t0, initial, max_steps, args)
+        if t_switch <= t0 and initial is None:  # the run starts after the switch: the quasi-static model's own start
+            return _simulate(after_switch(mech), end, h, t0=t0, max_steps=max_steps, **args)
+    return _simulate(mech, end, h, t0=t0, initial=initial, max_steps=max_steps, **args)
+
+
+def after_switch(mech: Mechanism) -> Mechanism:
+    """The model a run of ``mech`` continues with after its axial switch (``Scene.axial_switch``):
+    the scene's bars kept dynamic for the start's ringing quasi-static, loaded once per mechanism."""
+    from dataclasses import replace
+
+    from symgen.numerics.mechanism import load_mechanism
+
+    if mech.after_switch is None:
+        mech.after_switch = load_mechanism(replace(mech.scene, axial_kept=(), axial_switch=None))
+    return mech.after_switch
+
+
+def switched_rows(before: Mechanism, after: Mechanism, bars: list[str]) -> list[int] | None:
+    """The columns of ``after``'s multipliers that are ``before``'s, in ``before``'s order, where
+    ``after`` is ``before`` with the axial dynamics of ``bars`` quasi-static (their inextensibility
+    rows added); None where the two models' coordinates or other rows differ."""
+    from symgen.ir.records import RowKind
+
+    if [c.name for c in before.coords] != [c.name for c in after.coords]:
+        return None
+    keep = [i for i, r in enumerate(after.info.lam_rows) if not (r.kind is RowKind.INEXTENSIBLE and r.joint in bars)]
+    mine = [(r.kind, r.joint) for r in before.info.lam_rows]
+    if mine != [(after.info.lam_rows[i].kind, after.info.lam_rows[i].joint) for i in keep]:
+        return None
+    return keep
+
+
+def _switched(
+    mech: Mechanism,
+    t_switch: float,
+    t_end: float,
+    h: float,
+    t0: float,
+    initial: State | None,
+    max_steps: int | None,
+    args: dict[str, Any],
+) -> SimResult:
+    """A run of ``mech`` to ``t_switch`` (an output), continued to ``t_end`` with its quasi-static
+    model (:func:`after_switch`) from the state reached (``start.continued_start``): one result on
+    ``mech``'s coordinates and multipliers (those of the quasi-static bars' inextensibility rows
+    left out), its stats saying where it switched. A stop in the second part keeps the first."""
+    from symgen.numerics.start import continued_start
+
+    first = _simulate(mech, t_switch, h, t0=t0, initial=initial, max_steps=max_steps, **args)
+    after = after_switch(mech)
+    bars = [b for b, _ in mech.scene.axial_kept]
+    keep = switched_rows(mech, after, bars)
+    if keep is None:  # axial_choice checks it before it decides a switch
+        raise RuntimeError(f"the models before and after the axial switch of {', '.join(bars)} do not match")
+    budget = None if max_steps is None else max(max_steps - first.steps, 0)
+    try:
+        state = continued_start(after, t_switch, first.q[-1], first.v[-1])
+        second = _simulate(after, t_end, h, t0=t_switch, initial=state, max_steps=budget, **args)
+    except (SimulationError, Interrupted) as err:
+        part = getattr(err, "partial", None)
+        err.partial = _joined(first, part, keep, t_switch) if part is not None else first
+        raise
+    return _joined(first, second, keep, t_switch)
+
+
+def _joined(first: SimResult, second: SimResult, keep: list[int], t_switch: float) -> SimResult:
+    """The two parts of a switched run as one result (the second's first output is the first's last)."""
+    lam2 = np.asarray(second.lam, dtype=float).reshape(len(second.tau), -1)[1:, keep]
+    stats = dict(second.stats)
+    stats.update(axial_switch=t_switch, steps_before_switch=first.steps, steps_after_switch=second.steps)
+    return SimResult(
+        tau=np.concatenate([first.tau, second.tau[1:]]),
+        outputs=np.vstack([first.outputs, second.outputs[1:]]),
+        output_names=list(first.output_names),
+        q=np.vstack([first.q, second.q[1:]]),
+        v=np.vstack([first.v, second.v[1:]]),
+        lam=np.vstack([np.asarray(first.lam, dtype=float).reshape(len(first.tau), -1), lam2]),
+        closure_max=max(first.closure_max, second.closure_max),
+        steps=first.steps + second.steps,
+        simulate_s=first.simulate_s + second.simulate_s,
+        partition=first.partition,
+        complete=second.complete,
+        failure=second.failure,
+        stats=stats,
+        start_forces=first.start_forces,
+    )
+
+
+def _simulate(
+    mech: Mechanism,
+    t_end: float,
+    output_step: float,
+    rtol: float | None = None,
+    atol: float | None = None,
+    t0: float = 0.0,
+    initial: State | None = None,
+    axial_atol: float | None = None,
+    backend: str | None = None,
+    use_cache: bool = True,
+    progress: bool = False,
+    max_steps: int | None = None,
+) -> SimResult:
+    """:func:`simulate`, one model."""
     sim = mech.scene.simulation
     settings = RunSettings(
         t0=t0,
-        t_end=sim.t_end if t_end is None else t_end,
-        h=sim.output_step if output_step is None else output_step,
+        t_end=t_end,
+        h=output_step,
         rtol=sim.rtol if rtol is None else rtol,
         atol=sim.atol if atol is None else atol,
         axial_atol=axial_atol,

@@ -116,6 +116,17 @@ def consistent_start(mech: Mechanism, t0: float = 0.0) -> State:
     return _start(mech, t0)[:5]
 
 
+def continued_start(mech: Mechanism, t0: float, q: np.ndarray, v: np.ndarray) -> State:
+    """A consistent state of ``mech`` at t0 from the (q, v) another model of the same coordinates
+    reached there (a run continued with another axial treatment: ``Scene.axial_switch``): q
+    assembled (the dependent coordinates, and the amplitudes ``mech``'s rows fix: a quasi-static
+    bar's axial amplitudes), the velocities from v, the accelerations and multipliers of ``mech``."""
+    _, q, part = _assembled(mech, t0, np.asarray(q, dtype=float).copy())
+    v = mech.velocities(t0, q, np.asarray(v, dtype=float).copy(), part)
+    a, lam = mech.accelerations(t0, q, v)
+    return q, v, a, lam, part
+
+
 def start_plan(mech: Mechanism) -> StartPlan:
     """The start of the scene's run at tau = 0 as data for the emitted C solver: the partitions
     this start chooses (at the guess, for the assembly, and at the assembled position, for the

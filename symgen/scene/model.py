@@ -211,6 +211,20 @@ class CountsRaised:
 
 
 @dataclass(frozen=True)
+class AxialSwitch:
+    """``effects.axial = "auto"`` for a damped start ringing (``symgen.numerics.axial_choice``):
+    the bars of ``Scene.axial_kept`` keep their axial dynamics from the start to ``tau`` (on the
+    run's output grid), while the start's ringing lasts, and are quasi-static after it, the run
+    continued from the state reached (``symgen.numerics.simulate``). ``charge``: (output, fraction
+    of its peak) the switch and the quasi-static treatment after it leave out, as the decision
+    measured them (the error estimate's axial part of a run that switched); ``how``: how."""
+
+    tau: float
+    charge: tuple[tuple[str, float], ...]
+    how: str
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     path: str
@@ -243,6 +257,8 @@ class Scene:
     # effects.axial = "auto": (bar, reason) of the bars whose axial dynamics a run's estimate kept
     # (symgen.numerics.axial_choice: the quasi-static stretch's phase drift above the accuracy)
     axial_kept: tuple[tuple[str, str], ...] = ()
+    # ... and where their start's ringing is damped, until when (None: the whole run)
+    axial_switch: AxialSwitch | None = None
     # the chosen counts a run's truncation estimate raised (symgen.numerics.counts_choice): floors
     # on the bases chooser's choice of the bars whose file states neither count (None: none raised)
     counts_raised: CountsRaised | None = None
