@@ -629,6 +629,20 @@ SWITCH_DECAYS = 3.0
 SWITCH_RUN_SHARE = 0.5
 
 
+#: the window is not made longer than this many samples (the ringing does not end early then)
+SWITCH_MAX_SAMPLES = 8000
+
+
+def decay_time(c: float, w: float) -> float:
+    """The time in which Kelvin-Voigt damping c decays a mode of frequency w by e: 2 / (c w^2)
+    underdamped (c w < 2); overdamped, that of the slower root of s^2 + c w^2 s + w^2 (about c
+    where c w >> 2: the stiffer the bar, the closer the decay to c itself)."""
+    if c * w < 2:
+        return 2.0 / (c * w * w)
+    slow = 2 * w * w / (c * w * w + math.sqrt((c * w * w) ** 2 - 4 * w * w))  # without cancellation
+    return 1.0 / slow
+
+
 @dataclass(frozen=True)
 class RingingEnd:
     """Where a damped start ringing has ended (:func:`ringing_end`): ``tau`` on the run's output
@@ -660,8 +674,9 @@ def ringing_end(mech: Mechanism, result: SimResult, level: float) -> RingingEnd 
     t_run = float(tau[-1] - t0)
     lams = [float(mech.p[k]) for _, _, k in bars.values()]
     w_slow, w_fast = (math.pi / 2) * math.sqrt(min(lams)), (math.pi / 2) * math.sqrt(max(lams))
-    decay = 2.0 / (c * w_slow**2)
-    step = min(h, 2 * math.pi / w_fast / RINGING_SAMPLES)
+    decay = decay_time(c, w_slow)
+    # an underdamped ringing sampled along its period, an overdamped one along its decay
+    step = min(h, 2 * math.pi / w_fast / RINGING_SAMPLES if c * w_fast < 2 else decay / RINGING_SAMPLES)
     names = list(result.output_names)
     kinds = {o.name: o.kind for o in scene.outputs}
     every = result.peaks()
@@ -687,7 +702,7 @@ def ringing_end(mech: Mechanism, result: SimResult, level: float) -> RingingEnd 
         settled = float(t[1 + above[-1]]) if len(above) else t0
         if float(t[k - 1]) - settled >= SWITCH_DECAYS * decay:
             break
-        if length >= cap:
+        if length >= cap or 2 * length > SWITCH_MAX_SAMPLES * step:
             return None
         length = min(2 * length, cap)
     # on the run's output grid, at or after the ringing's end
@@ -699,7 +714,7 @@ def ringing_end(mech: Mechanism, result: SimResult, level: float) -> RingingEnd 
     for i, (_, n, _) in enumerate(read):
         charge[n] = float(rel[after, i].max()) if after.any() else 0.0
     how = (
-        f"the start's axial ringing (Kelvin-Voigt {c:g}, decay time 2/(c w^2) = {decay:.3g} tau at w {w_slow:.4g}): "
+        f"the start's axial ringing (Kelvin-Voigt {c:g}, its decay time {decay:.3g} tau at w {w_slow:.4g}): "
         f"a window of {float(t[k - 1]) - t0:.3g} tau from the start run with the axial dynamics of "
         f"{', '.join(sorted(bars))} kept against the run's own model ({steps} IDAS steps): every output within "
         f"{level:.3g} of its peak from tau {settled - t0:.4g} on"

@@ -351,6 +351,22 @@ def build_sidecar(
 
         if isinstance(result, SimResult):
             sidecar["start"] = _start_note(result.start_forces)
+            if scene.axial_switch is not None:  # effects.axial = "auto", a damped start ringing
+                at = result.stats.get("axial_switch")
+                sidecar["axial_switch"] = {
+                    "bars": [b for b, _ in scene.axial_kept],
+                    "tau": at,
+                    "decided": scene.axial_switch.tau,
+                    "steps": [result.stats.get("steps_before_switch"), result.stats.get("steps_after_switch")],
+                    "note": (
+                        "axial dynamics kept to tau, quasi-static after it (the run continued from the state reached)"
+                        if at is not None
+                        else "the run kept the axial dynamics for its whole length (the emitted C solver starts "
+                        "only from the scene's start)"
+                        if solver == "c"
+                        else "the run ended before the switch: axial dynamics kept for its whole length"
+                    ),
+                }
             # the bars' slopes over the run: the exact bar's range warning (the same for both solvers)
             from symgen.numerics.checks import range_record
             from symgen.policy import RANGE

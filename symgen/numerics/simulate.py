@@ -510,23 +510,37 @@ def _switched(
         second = _simulate(after, t_end, h, t0=t_switch, initial=state, max_steps=budget, **args)
     except (SimulationError, Interrupted) as err:
         part = getattr(err, "partial", None)
-        err.partial = _joined(first, part, keep, t_switch) if part is not None else first
+        err.partial = _joined(first, part, after, keep, t_switch) if part is not None else first
         raise
-    return _joined(first, second, keep, t_switch)
+    return _joined(first, second, after, keep, t_switch)
 
 
-def _joined(first: SimResult, second: SimResult, keep: list[int], t_switch: float) -> SimResult:
-    """The two parts of a switched run as one result (the second's first output is the first's last)."""
-    lam2 = np.asarray(second.lam, dtype=float).reshape(len(second.tau), -1)[1:, keep]
+def _joined(first: SimResult, second: SimResult, after: Mechanism, keep: list[int], t_switch: float) -> SimResult:
+    """The two parts of a switched run as one result (the second's first output is the first's
+    last). The second part's states as the kept model reads them: a quasi-static bar's axial
+    amplitudes f + N / lambda (the stretch its outputs add; ``axial_drift``'s stretched bar) and
+    their rates with the stretch's rate along the outputs, so what reads the run's states after it
+    with the kept model (the error estimate's model-form and truncation parts, the animation)
+    sees the stretched bar."""
+    from symgen.numerics.axial_drift import quasi_static_bars
+
+    n2 = len(second.tau)
+    lam_all = np.asarray(second.lam, dtype=float).reshape(n2, -1)
+    q2, v2 = np.array(second.q, dtype=float), np.array(second.v, dtype=float)
+    for f_idx, rows, k in quasi_static_bars(after).values():
+        stretch = lam_all[:, rows] / after.p[k]
+        q2[:, f_idx] += stretch
+        if n2 > 1:
+            v2[:, f_idx] += np.gradient(stretch, np.asarray(second.tau, dtype=float), axis=0)
     stats = dict(second.stats)
     stats.update(axial_switch=t_switch, steps_before_switch=first.steps, steps_after_switch=second.steps)
     return SimResult(
         tau=np.concatenate([first.tau, second.tau[1:]]),
         outputs=np.vstack([first.outputs, second.outputs[1:]]),
         output_names=list(first.output_names),
-        q=np.vstack([first.q, second.q[1:]]),
-        v=np.vstack([first.v, second.v[1:]]),
-        lam=np.vstack([np.asarray(first.lam, dtype=float).reshape(len(first.tau), -1), lam2]),
+        q=np.vstack([first.q, q2[1:]]),
+        v=np.vstack([first.v, v2[1:]]),
+        lam=np.vstack([np.asarray(first.lam, dtype=float).reshape(len(first.tau), -1), lam_all[1:, keep]]),
         closure_max=max(first.closure_max, second.closure_max),
         steps=first.steps + second.steps,
         simulate_s=first.simulate_s + second.simulate_s,
