@@ -1,12 +1,15 @@
 """Experiment (issue 19, the cost of a run that keeps the axial dynamics for its start's ringing):
 the axial dynamics kept only while a damped start ringing lasts, then the axial quasi-static
-model from the state reached. Not symgen's behaviour (yet): a measurement for its design.
+model from the state reached, at a switch time given by hand. Since session 13 symgen does this
+itself where ``effects.axial = "auto"`` finds the ringing damped (``Scene.axial_switch``, the switch
+time measured by ``symgen.numerics.axial_drift.ringing_end``); this script runs it at any time.
 
     python benchmarks/two_phase_axial.py SCENE T_SWITCH [--set KEY=VALUE ...] [--ref REF.csv.gz]
 
 Runs the scene with ``effects.axial = "dynamic"`` from 0 to T_SWITCH (tau, rounded to the output
-grid), then with ``effects.axial = "quasi_static"`` from that state (the run's q and v at
-T_SWITCH as the start's guess: the quasi-static axial amplitudes re-solved there), and the whole
+grid), then with ``effects.axial = "quasi_static"`` from that state
+(``symgen.numerics.start.continued_start`` of the run's q and v at T_SWITCH: the quasi-static
+axial amplitudes re-solved there), and the whole
 run with the axial dynamics kept; prints IDAS steps, CPU s and, given a reference CSV (the
 columns of symgen's result, e.g. ``benchmarks/validation/ref/*.csv.gz``), each output's max
 |error| / peak for both, and their difference to each other.
@@ -22,6 +25,7 @@ import numpy as np
 
 from symgen.numerics.mechanism import load_mechanism
 from symgen.numerics.simulate import simulate
+from symgen.numerics.start import continued_start
 from symgen.numerics.units import result_units
 from symgen.scene.loader import load_scene
 
@@ -39,9 +43,7 @@ def two_phase(path: str, t_switch: float, sets: list[str]) -> tuple[object, obje
     first = simulate(dyn, t_end=t_s)
     names = [c.name for c in dyn.coords]
     assert [c.name for c in qs.coords] == names, "the two models' coordinates differ"
-    q0, v0 = first.q[-1].copy(), first.v[-1].copy()
-    qs.initial_guess = lambda t0: (q0.copy(), v0.copy())  # type: ignore[method-assign]
-    second = simulate(qs, t0=t_s, initial=qs.initial_state(t_s))
+    second = simulate(qs, t0=t_s, initial=continued_start(qs, t_s, first.q[-1], first.v[-1]))
     split_s = time.process_time() - tic
     tau = np.concatenate([first.tau, second.tau[1:]])
     out = np.vstack([first.outputs, second.outputs[1:]])

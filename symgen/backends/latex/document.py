@@ -663,6 +663,13 @@ def latex_document(scene, model) -> str:
             if not eff.axial
             else ", ".join(
                 f"{tex_escape(n)}: {tex_escape(t.treatment.replace('_', '-'))}"
+                + (
+                    f" to $\\tau = {scene.axial_switch.tau:.6g}$, quasi-static after it (the start's damped "
+                    "ringing ended: the equations below are the first part's; the second's are those of the "
+                    "quasi-static axial response, as without the switch)"
+                    if scene.axial_switch is not None and n in dict(scene.axial_kept)
+                    else ""
+                )
                 for n, t in treatments.items()
                 if t.treatment != "off"
             )
