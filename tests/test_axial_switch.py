@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -97,18 +98,18 @@ def test_a_stop_after_the_switch_keeps_both_parts_as_a_partial_result(tmp_path, 
     mech = load_mechanism(resolved(load_scene(tmp_path / "arm_auto.toml")))
     assert mech.scene.axial_switch is not None
     whole = simulate_module.simulate(mech)
-    one = simulate_module._simulate
+    one = simulate_module._run
 
-    def failing(m, t_end, h, **kw):
+    def failing(m, settings, initial, progress):
         if m is mech:
-            return one(m, t_end, h, **kw)
-        partial = one(m, 0.4, h, **kw)
+            return one(m, settings, initial, progress)
+        partial = one(m, replace(settings, t_end=0.4), initial, progress)
         partial.complete = False
         err = SimulationError(0.4, "stopped here")
         err.partial = partial
         raise err
 
-    monkeypatch.setattr(simulate_module, "_simulate", failing)
+    monkeypatch.setattr(simulate_module, "_run", failing)
     with pytest.raises(SimulationError) as got:
         simulate_module.simulate(mech)
     part = got.value.partial

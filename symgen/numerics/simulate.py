@@ -440,19 +440,26 @@ def simulate(
     switch falls inside the run: with ``mech`` to the first output at or after it, then with
     the quasi-static model from the state reached (:func:`_switched`), one result."""
     sim = mech.scene.simulation
-    switch = mech.scene.axial_switch
-    end = sim.t_end if t_end is None else t_end
-    h = sim.output_step if output_step is None else output_step
-    args: dict[str, Any] = dict(
-        rtol=rtol, atol=atol, axial_atol=axial_atol, backend=backend, use_cache=use_cache, progress=progress
+    settings = RunSettings(
+        t0=t0,
+        t_end=sim.t_end if t_end is None else t_end,
+        h=sim.output_step if output_step is None else output_step,
+        rtol=sim.rtol if rtol is None else rtol,
+        atol=sim.atol if atol is None else atol,
+        axial_atol=axial_atol,
+        backend=backend,
+        use_cache=use_cache,
+        max_steps=max_steps,
     )
+    switch = mech.scene.axial_switch
     if switch is not None:
+        h = settings.h
         t_switch = t0 + math.ceil((switch.tau - t0) / h - 1e-9) * h  # on this run's output grid
-        if t0 < t_switch < end - 1e-9 * h:
-            return _switched(mech, t_switch, end, h, t0, initial, max_steps, args)
+        if t0 < t_switch < settings.t_end - 1e-9 * h:
+            return _switched(mech, settings, t_switch, initial, progress)
         if t_switch <= t0 and initial is None:  # the run starts after the switch: the quasi-static model's own start
-            return _simulate(after_switch(mech), end, h, t0=t0, max_steps=max_steps, **args)
-    return _simulate(mech, end, h, t0=t0, initial=initial, max_steps=max_steps, **args)
+            return _run(after_switch(mech), settings, None, progress)
+    return _run(mech, settings, initial, progress)
 
 
 def after_switch(mech: Mechanism) -> Mechanism:
@@ -483,31 +490,27 @@ def switched_rows(before: Mechanism, after: Mechanism, bars: list[str]) -> list[
 
 
 def _switched(
-    mech: Mechanism,
-    t_switch: float,
-    t_end: float,
-    h: float,
-    t0: float,
-    initial: State | None,
-    max_steps: int | None,
-    args: dict[str, Any],
+    mech: Mechanism, settings: RunSettings, t_switch: float, initial: State | None, progress: bool
 ) -> SimResult:
-    """A run of ``mech`` to ``t_switch`` (an output), continued to ``t_end`` with its quasi-static
-    model (:func:`after_switch`) from the state reached (``start.continued_start``): one result on
-    ``mech``'s coordinates and multipliers (those of the quasi-static bars' inextensibility rows
-    left out), its stats saying where it switched. A stop in the second part keeps the first."""
+    """A run of ``mech`` to ``t_switch`` (an output), continued to the run's end with its
+    quasi-static model (:func:`after_switch`) from the state reached (``start.continued_start``):
+    one result on ``mech``'s coordinates and multipliers (those of the quasi-static bars'
+    inextensibility rows left out), its stats saying where it switched. A stop in the second part
+    keeps the first."""
+    from dataclasses import replace
+
     from symgen.numerics.start import continued_start
 
-    first = _simulate(mech, t_switch, h, t0=t0, initial=initial, max_steps=max_steps, **args)
+    first = _run(mech, replace(settings, t_end=t_switch), initial, progress)
     after = after_switch(mech)
     bars = [b for b, _ in mech.scene.axial_kept]
     keep = switched_rows(mech, after, bars)
     if keep is None:  # axial_choice checks it before it decides a switch
         raise RuntimeError(f"the models before and after the axial switch of {', '.join(bars)} do not match")
-    budget = None if max_steps is None else max(max_steps - first.steps, 0)
+    budget = None if settings.max_steps is None else max(settings.max_steps - first.steps, 0)
     try:
         state = continued_start(after, t_switch, first.q[-1], first.v[-1])
-        second = _simulate(after, t_end, h, t0=t_switch, initial=state, max_steps=budget, **args)
+        second = _run(after, replace(settings, t0=t_switch, max_steps=budget), state, progress)
     except (SimulationError, Interrupted) as err:
         part = getattr(err, "partial", None)
         err.partial = _joined(first, part, after, keep, t_switch) if part is not None else first
@@ -552,33 +555,9 @@ def _joined(first: SimResult, second: SimResult, after: Mechanism, keep: list[in
     )
 
 
-def _simulate(
-    mech: Mechanism,
-    t_end: float,
-    output_step: float,
-    rtol: float | None = None,
-    atol: float | None = None,
-    t0: float = 0.0,
-    initial: State | None = None,
-    axial_atol: float | None = None,
-    backend: str | None = None,
-    use_cache: bool = True,
-    progress: bool = False,
-    max_steps: int | None = None,
-) -> SimResult:
-    """:func:`simulate`, one model."""
-    sim = mech.scene.simulation
-    settings = RunSettings(
-        t0=t0,
-        t_end=t_end,
-        h=output_step,
-        rtol=sim.rtol if rtol is None else rtol,
-        atol=sim.atol if atol is None else atol,
-        axial_atol=axial_atol,
-        backend=backend,
-        use_cache=use_cache,
-        max_steps=max_steps,
-    )
+def _run(mech: Mechanism, settings: RunSettings, initial: State | None, progress: bool) -> SimResult:
+    """:func:`simulate` with one model."""
+    t0 = settings.t0
     run, x, z, setup_s = _start(mech, settings, initial)
     traj = _Trajectory(run)
     tic = time.perf_counter()
