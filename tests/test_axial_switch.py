@@ -24,21 +24,23 @@ from tests.test_axial_start_ringing import ARM
 #: underdamped at lambda 1e4 (c w = 1.6), overdamped from 1e6 on (its slow root decays in ~ c)
 DAMPING = 1e-2
 ACCURACY = 0.01
-OUTPUTS = ("stretch", "tip_x", "Ox")
+OUTPUTS = ("tip_x", "Ox")
 
 
-def _text(lam: float, axial: str) -> str:
+def _text(lam: float, axial: str, outputs: tuple[str, ...] = OUTPUTS, damping: float = DAMPING) -> str:
     text = ARM.replace("LAMBDA", f"{lam:g}").replace("TIP", "1").replace("AXIAL", axial).replace("INITIAL", "")
-    text = text.replace('strain = "von_karman"', f'strain = "von_karman"\ndamping = {DAMPING}')
+    text = text.replace('strain = "von_karman"', f'strain = "von_karman"\ndamping = {damping}')
     lines = text.splitlines()
-    return "\n".join(ln for ln in lines if not ln.endswith("}") or ln.split(" = ")[0] in OUTPUTS) + "\n"
+    return "\n".join(ln for ln in lines if not ln.endswith("}") or ln.split(" = ")[0] in outputs) + "\n"
 
 
-def _run(tmp_path, lam: float, axial: str, *extra: str) -> tuple[np.ndarray, dict]:
+def _run(
+    tmp_path, lam: float, axial: str, outputs: tuple[str, ...] = OUTPUTS, damping: float = DAMPING
+) -> tuple[np.ndarray, dict]:
     path = tmp_path / f"arm_{axial}.toml"
-    path.write_text(_text(lam, axial))
+    path.write_text(_text(lam, axial, outputs, damping))
     out = tmp_path / f"arm_{axial}.csv"
-    assert main(["simulate", str(path), "-o", str(out), "--estimate", "off", *extra]) == 0
+    assert main(["simulate", str(path), "-o", str(out), "--estimate", "off"]) == 0
     return np.loadtxt(out, delimiter=",", skiprows=1), json.loads(out.with_suffix(".json").read_text())
 
 
@@ -55,16 +57,19 @@ def test_the_decay_time_is_the_damped_modes_closed_form():
     )
 
 
-@pytest.mark.parametrize("lam", [1e4, 1e6, 1e8, 1e10])
-def test_a_damped_start_ringing_keeps_the_axial_dynamics_until_it_has_ended(tmp_path, monkeypatch, lam):
-    """The spun arm started undeformed (its stretch rings by its whole peak: the quasi-static run
-    is 100 % off at the start), damped: auto keeps the arm's axial dynamics to the output where
-    the ringing has ended (the sidecar says where and why), then quasi-static; every output is
-    within twice its charge and half the accuracy of the run that keeps the axial
-    dynamics throughout, in no more IDAS steps (but the restart's). The decision is remembered with its switch."""
+@pytest.mark.parametrize(
+    ("lam", "outputs"), [(1e4, ("stretch", *OUTPUTS)), (1e6, OUTPUTS), (1e8, OUTPUTS), (1e10, OUTPUTS)]
+)
+def test_a_damped_start_ringing_keeps_the_axial_dynamics_until_it_has_ended(tmp_path, monkeypatch, lam, outputs):
+    """The spun arm started undeformed (its pin force and stretch ring by their whole peaks: the
+    quasi-static run is 100 % off at the start), damped: auto keeps the arm's axial dynamics to
+    the output where the ringing has ended (the sidecar says where and why), then quasi-static;
+    every output is within twice its charge and a fifth of the accuracy of the run that keeps the
+    axial dynamics throughout (the charge: at most a tenth), in no more IDAS steps (but the
+    restart's). The decision is remembered with its switch."""
     monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
-    auto, side = _run(tmp_path, lam, "auto")
-    dyn, side_dyn = _run(tmp_path, lam, "dynamic")
+    auto, side = _run(tmp_path, lam, "auto", outputs)
+    dyn, side_dyn = _run(tmp_path, lam, "dynamic", outputs)
     why = side["axial_treatment"]["arm"]
     assert why["treatment"] == "dynamic" and "quasi-static after it" in why["reason"], why
     switch = side["axial_switch"]
@@ -74,15 +79,16 @@ def test_a_damped_start_ringing_keeps_the_axial_dynamics_until_it_has_ended(tmp_
     assert decided is not None and decided.tau == pytest.approx(switch["tau"])
     charge = dict(decided.charge)
     assert auto.shape == dyn.shape
-    for j, name in enumerate(OUTPUTS, start=1):
+    assert max(charge.values()) <= ACCURACY / 10
+    for j, name in enumerate(outputs, start=1):
         diff = float(np.abs(auto[:, j] - dyn[:, j]).max() / np.abs(dyn[:, j]).max())
-        assert diff <= ACCURACY / 2, (name, diff)
+        assert diff <= ACCURACY / 5, (name, diff)
         assert diff <= 2 * charge[name] + 1e-9, (name, diff, charge[name])
     assert side["solver"]["steps"] <= side_dyn["solver"]["steps"] + 30  # at most a restart's ramp of the order
     assert sum(switch["steps"]) == side["solver"]["steps"]
     # remembered: a second run switches at the same output without deciding again
     monkeypatch.setattr(axial_choice, "decide", lambda *a: pytest.fail("decided again"))
-    again, side2 = _run(tmp_path, lam, "auto")
+    again, side2 = _run(tmp_path, lam, "auto", outputs)
     assert side2["axial_switch"]["tau"] == switch["tau"]
     assert np.array_equal(again, auto)
 
@@ -117,3 +123,15 @@ def test_a_stop_after_the_switch_keeps_both_parts_as_a_partial_result(tmp_path, 
     k = len(part.tau)
     assert np.allclose(part.outputs, whole.outputs[:k], rtol=0, atol=1e-6)  # the second part run to 0.4 alone
     assert part.lam.shape[1] == mech.m and part.q.shape[1] == mech.n
+
+
+def test_no_switch_without_damping(tmp_path, monkeypatch):
+    """Undamped, the start's ringing lasts the run: the axial dynamics are kept for the whole run
+    (no switch, nothing in the sidecar about one), the run of effects.axial = "dynamic"."""
+    monkeypatch.setenv("SYMGEN_CACHE_DIR", str(tmp_path / "cache"))
+    auto, side = _run(tmp_path, 1e6, "auto", damping=0.0)
+    dyn, _ = _run(tmp_path, 1e6, "dynamic", damping=0.0)
+    why = side["axial_treatment"]["arm"]
+    assert why["treatment"] == "dynamic" and "quasi-static after it" not in why["reason"], why
+    assert "axial_switch" not in side
+    assert np.allclose(auto, dyn, rtol=0, atol=1e-9 * np.abs(dyn).max())

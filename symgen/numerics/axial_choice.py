@@ -49,8 +49,9 @@ R = TypeVar("R")
 #: round-off over the run decides nothing, SimResult.peaks; "7": a quasi-static start is consistent
 #: (its rates' loads in): where it leaves no axial force jump the whole run is read instead; "8": that
 #: whole run reads SimResult.peaks, an output zero to round-off charged nothing there too)
-#: "9": a damped start ringing keeps the axial dynamics only until it has ended (Scene.axial_switch)
-ESTIMATOR_VERSION = "9"
+#: "9": a damped start ringing keeps the axial dynamics only until it has ended (Scene.axial_switch);
+#: "10": only where all it leaves out is within a tenth of the accuracy)
+ESTIMATOR_VERSION = "10"
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
@@ -63,10 +64,6 @@ MEASURES = {
         "stretch included) over the bar's axial stiffness"
     ),
 }
-
-#: a damped start ringing ends the axial dynamics early (``Scene.axial_switch``) only where the run's
-#: other axial measures (the drift, the stretch's own inertia) are within this share of the accuracy
-SWITCH_OTHERS = 0.5
 
 #: what a ringing start's user can do instead, said with the decision
 RINGING_ALTERNATIVE = (
@@ -204,9 +201,9 @@ def decide(mech: Mechanism, result: Any) -> Scene | None:
 
 def _damped_switch(mech: Mechanism, result: Any, found: Any, kinds: dict[str, str]) -> AxialSwitch | None:
     """Where the axial part that keeps the axial dynamics is the start's ringing alone (the drift
-    and the stretch's own inertia within ``SWITCH_OTHERS`` of the accuracy) and Kelvin-Voigt
-    damping ends it early in the run (:func:`symgen.numerics.axial_drift.ringing_end`, every
-    output within ``SWITCH_SHARE`` of the accuracy after it): the switch to the quasi-static
+    and the stretch's own inertia within ``axial_drift.SWITCH_SHARE`` of the accuracy) and
+    Kelvin-Voigt damping ends it early in the run (:func:`symgen.numerics.axial_drift.ringing_end`,
+    every output within that share of the accuracy after it): the switch to the quasi-static
     treatment there, charging each output the larger of the difference the window left after it
     and the quasi-static run's drift and own inertia. None otherwise (the axial dynamics kept for
     the whole run), also where the two models' coordinates or rows do not match."""
@@ -217,7 +214,7 @@ def _damped_switch(mech: Mechanism, result: Any, found: Any, kinds: dict[str, st
     others = [
         float(v) for values in (found.drift, found.own) for n, v in values.items() if kinds.get(n) not in CHECK_KINDS
     ]
-    if max(others, default=0.0) > SWITCH_OTHERS * accuracy:
+    if max(others, default=0.0) > _axial_drift.SWITCH_SHARE * accuracy:
         return None
     try:
         end = _axial_drift.ringing_end(mech, result, _axial_drift.SWITCH_SHARE * accuracy)

@@ -582,7 +582,7 @@ EFFECTS = Table(
             "inertia, its centrifugal load on a spinning bar included): above "
             "simulation.accuracy the run is made again with the axial dynamics kept, and the decision is "
             "remembered for the scene; where that is the start's ringing alone and Kelvin-Voigt damping ends it "
-            "within the first half of the run, only until then (every output within a quarter of the accuracy of "
+            "within the first half of the run, only until then (every output within a tenth of the accuracy of "
             "the run that keeps them, measured by a window run), the run continued quasi-static from the state "
             "reached (the sidecar's axial_switch; the emitted C solver keeps them for the whole run); "
             'with the seed\'s linear strain, dynamic. "dynamic" (= true): '
