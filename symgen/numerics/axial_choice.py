@@ -50,8 +50,9 @@ R = TypeVar("R")
 #: (its rates' loads in): where it leaves no axial force jump the whole run is read instead; "8": that
 #: whole run reads SimResult.peaks, an output zero to round-off charged nothing there too)
 #: "9": a damped start ringing keeps the axial dynamics only until it has ended (Scene.axial_switch);
-#: "10": only where all it leaves out is within a tenth of the accuracy)
-ESTIMATOR_VERSION = "10"
+#: "10": only where all it leaves out is within a tenth of the accuracy; "11": the switch charged by
+#: the run's own model continued from the kept run's state at it)
+ESTIMATOR_VERSION = "11"
 #: what each measure of the axial part is, in the reason
 MEASURES = {
     "drift": "the phase drift of the free motion with the stretch's inertia the quasi-static treatment leaves out",
