@@ -204,9 +204,9 @@ def _damped_switch(mech: Mechanism, result: Any, found: Any, kinds: dict[str, st
     """Where the axial part that keeps the axial dynamics is the start's ringing alone (the drift
     and the stretch's own inertia within ``axial_drift.SWITCH_SHARE`` of the accuracy) and
     Kelvin-Voigt damping ends it early in the run (:func:`symgen.numerics.axial_drift.ringing_end`,
-    every output within that share of the accuracy after it): the switch to the quasi-static
-    treatment there, charging each output the larger of the difference the window left after it
-    and the quasi-static run's drift and own inertia. None otherwise (the axial dynamics kept for
+    every output within that share of the accuracy after it, the quasi-static model continued
+    from there too): the switch to the quasi-static treatment there, charging each output the
+    larger of that continued run's difference and the quasi-static run's drift and own inertia. None otherwise (the axial dynamics kept for
     the whole run), also where the two models' coordinates or rows do not match."""
     from symgen.numerics import axial_drift as _axial_drift
     from symgen.numerics.simulate import switched_rows

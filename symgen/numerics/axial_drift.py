@@ -622,11 +622,11 @@ def ringing(mech: Mechanism, result: SimResult, enough: float = math.inf) -> tup
 #: difference between the runs with and without them stays below this share of the accuracy
 #: (the switch is to cost the run little accuracy: at a quarter, the kept-out steel slider-crank
 #: at 2400 rpm switched at tau 1.8 and its torque went from 1.8e-4 to 1.9e-3 of peak off its
-#: converged reference, in as many IDAS steps: 10 466 against 11 098; at a tenth it is not
-#: switched, the quasi-static treatment's own torque error, 2.3e-3, staying above it) ...
+#: converged reference, in as many IDAS steps: 10 466 against 11 098; at a tenth, with the charge
+#: measured by the continued run, at tau 2.02 to 8.0e-4, estimated 1.33x) ...
 SWITCH_SHARE = 0.1
-#: ... for at least this many Kelvin-Voigt decay times 2 / (c w^2) of the slowest bar's first
-#: axial mode after it (a coupled mode slower than the bar's own shows there, where it lasts)
+#: ... for at least this many decay times (:func:`decay_time`) of the slowest bar's first axial
+#: mode after it (a coupled mode slower than the bar's own shows there, where it lasts)
 SWITCH_DECAYS = 3.0
 #: the switch is made only where it leaves at least this share of the run quasi-static (the window
 #: runs are made to at most this share of the run)
@@ -810,8 +810,8 @@ def estimate(mech: Mechanism, result: SimResult) -> tuple[dict[str, float], str]
 
     A run that switched to the quasi-static treatment after its damped start ringing
     (``Scene.axial_switch``; the run's stats say where) is charged what the decision measured:
-    each output the larger of the window's difference after the switch and the quasi-static
-    run's drift and the stretch's own inertia."""
+    each output the larger of the continued run's difference after the switch
+    (:func:`ringing_end`) and the quasi-static run's drift and the stretch's own inertia."""
     switch = mech.scene.axial_switch
     at = result.stats.get("axial_switch")
     if switch is not None and isinstance(at, float):
