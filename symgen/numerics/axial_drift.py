@@ -131,6 +131,7 @@ __all__ = [
     "run_rates",
     "start_multipliers",
     "stretch_inertia",
+    "stretched",
 ]
 
 #: bar -> (its axial amplitudes, the rows of its multipliers, the index of its lambda in the parameters)
@@ -168,7 +169,7 @@ def quasi_static_bars(mech: Mechanism) -> Bars:
     return out
 
 
-def _stretched(mech: Mechanism, Q: np.ndarray, Lam: np.ndarray, bars: Bars) -> np.ndarray:
+def stretched(mech: Mechanism, Q: np.ndarray, Lam: np.ndarray, bars: Bars) -> np.ndarray:
     """The coordinates (rows per sample) with every quasi-static bar's axial amplitudes reading
     f + N/lambda."""
     Q2 = np.array(Q, dtype=float)
@@ -194,7 +195,7 @@ def stretch_inertia(
     quasi-static bar's axial amplitudes carry their stretch N/lambda (``bars`` from
     :func:`quasi_static_bars`)."""
     T = _kinetic(mech, tau, Q, V, Lam)
-    return T, _kinetic(mech, tau, _stretched(mech, Q, Lam, bars), V, Lam) - T
+    return T, _kinetic(mech, tau, stretched(mech, Q, Lam, bars), V, Lam) - T
 
 
 def _partition(mech: Mechanism, result: SimResult) -> Partition:

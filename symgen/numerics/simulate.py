@@ -525,16 +525,15 @@ def _joined(first: SimResult, second: SimResult, after: Mechanism, keep: list[in
     their rates with the stretch's rate along the outputs, so what reads the run's states after it
     with the kept model (the error estimate's model-form and truncation parts, the animation)
     sees the stretched bar."""
-    from symgen.numerics.axial_drift import quasi_static_bars
+    from symgen.numerics.axial_drift import quasi_static_bars, stretched
 
     n2 = len(second.tau)
     lam_all = np.asarray(second.lam, dtype=float).reshape(n2, -1)
-    q2, v2 = np.array(second.q, dtype=float), np.array(second.v, dtype=float)
-    for f_idx, rows, k in quasi_static_bars(after).values():
-        stretch = lam_all[:, rows] / after.p[k]
-        q2[:, f_idx] += stretch
-        if n2 > 1:
-            v2[:, f_idx] += np.gradient(stretch, np.asarray(second.tau, dtype=float), axis=0)
+    q = np.asarray(second.q, dtype=float)
+    q2 = stretched(after, q, lam_all, quasi_static_bars(after))
+    v2 = np.array(second.v, dtype=float)
+    if n2 > 1:
+        v2 += np.gradient(q2 - q, np.asarray(second.tau, dtype=float), axis=0)
     stats = dict(second.stats)
     stats.update(axial_switch=t_switch, steps_before_switch=first.steps, steps_after_switch=second.steps)
     return SimResult(
