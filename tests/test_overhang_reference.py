@@ -149,3 +149,57 @@ def test_the_truncation_part_is_estimated_on_the_guide():
     assert est.methods["truncation"] != "not estimated", est.reasons
     assert est.richer["guide"] == [0, mech.scene.body("guide").transverse_modes + 1]
     assert all(isinstance(est.parts["truncation"][k], float) for k in OUTPUTS)
+
+
+@pytest.fixture(scope="module")
+def user_run(tmp_path_factory) -> tuple[dict, dict]:
+    """The scene without its function counts and tolerances (symgen chooses them from the default
+    accuracy), run by ``symgen simulate`` with the default error estimate over two turns: (outputs on
+    the one-degree grid, the sidecar)."""
+    import json
+    import re
+
+    from symgen.cli import main
+
+    tmp = tmp_path_factory.mktemp("user_run")
+    text = re.sub(r"(?m)^(axial_modes|transverse_modes|rtol|atol)\s*=.*$", "", SCENE.read_text(encoding="utf-8"))
+    scene = tmp / SCENE.name
+    scene.write_text(text, encoding="utf-8")
+    out = tmp / "run.csv"
+    assert main(["simulate", str(scene), "-o", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    names = lines[0].split(",")
+    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
+    cols = {k: data[:, names.index(k)] for k in ("t",) + OUTPUTS}
+    assert np.allclose(cols["t"], np.arange(721) * math.pi / 180 / 22.0, rtol=0, atol=1e-9)
+    return cols, json.loads(out.with_suffix(".json").read_text())
+
+
+@pytest.mark.slow
+def test_within_one_percent_as_a_user_runs_the_scene(user_run):
+    """Issue 19's acceptance for the slot-with-overhang class, run as a user runs it (no counts,
+    the tolerances from the accuracy, the default estimate): every output within 1 % of peak of
+    the Exudyn reference over two turns (measured 0.45 %, 0.20 %, 0.53 %)."""
+    err = _errors(user_run[0], _reference(720))
+    assert all(e <= TARGET for e in err.values()), err
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured 2026-11-28 (no counts: crank 3 + 3, guide 0 + 4 chosen): true error 0.45 % / 0.20 % / "
+    "0.53 % of peak (guide_end / crank_tip / guide_slope), the sidecar's estimate 4.4e-6 / 1.9e-5 / 3.4e-4, "
+    "ratios 0.001 / 0.01 / 0.06: the gap to the reference is neither truncation (the richer guide moves the "
+    "outputs by < 3.4e-4), nor time (< 1e-5), nor the curvature (slopes ~1e-2), nor the slider's mass or the "
+    "damping's rate (the same d/d(damping) as Exudyn's to 0.2 % of peak); it grows as omega^2 on guide_end "
+    "(0.096 % at half speed) and stays 0.49 % on guide_slope: a physics difference of the slot guide not yet "
+    "found, which no part of the estimate measures (issue 19)",
+)
+def test_the_error_estimate_is_honest_as_a_user_runs_the_scene(user_run):
+    """The sidecar's ``error_estimate`` within [0.5, 2] x the true error (issue 19, item 2) on the
+    slot-with-overhang class: does not hold today (the xfail's reason)."""
+    y, side = user_run
+    err = _errors(y, _reference(720))
+    est = side["error_estimate"]
+    ratios = {k: est[k] / err[k] for k in OUTPUTS}
+    assert all(0.5 <= r <= 2.0 for r in ratios.values()), (err, est, ratios)
