@@ -57,6 +57,8 @@ from dataclasses import dataclass, field
 from functools import cache
 
 import sympy as sp
+from sympy.polys.domains import QQ
+from sympy.polys.rings import PolyElement, ring
 
 from symgen.model.bars import ZERO_TOL, rot
 
@@ -116,25 +118,52 @@ def _overhang_polynomial(m: int) -> sp.Expr:
     return sp.expand(p / p.xreplace({_V: 1}))
 
 
-def _span_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
-    """int_0^beta expr d xi in closed form, by xi = beta u (trig arguments become k pi u),
-    then term by term: c u^m exp(i k pi u) integrates exactly over [0, 1]."""
-    integrand = sp.expand((expr.xreplace({XI: beta * _U}) * beta).rewrite(sp.exp))
-    total = sp.Integer(0)
-    for term in sp.Add.make_args(integrand):
-        coeff, m, rate = sp.Integer(1), 0, sp.Integer(0)
-        for f in sp.Mul.make_args(term):
-            if f == _U:
-                m += 1
-            elif f.is_Pow and f.base == _U:
-                m += int(f.exp)
-            elif isinstance(f, sp.exp) or (f.is_Pow and isinstance(f.base, sp.exp)):
-                arg = f.args[0] if isinstance(f, sp.exp) else f.base.args[0] * f.exp
-                rate += sp.expand(arg / _U)
-            else:
-                coeff *= f
-        total += coeff * _int_pow_exp(m, sp.expand(rate))
-    return sp.expand(sp.expand_complex(total))
+class _Span:
+    """The span's integrals int_0^beta f g d xi in closed form: by xi = beta u each piece is a sum
+    of terms c u^m exp(r u) (its trig arguments k pi u rewritten as exponentials), split once per
+    piece; a product's terms pair those of its factors, and each integrates exactly over [0, 1]
+    (``_int_pow_exp``). The same numbers, in the same form, as expanding every product anew."""
+
+    def __init__(self, beta: sp.Symbol) -> None:
+        self.beta = beta
+
+    def piece(self, expr: sp.Expr) -> dict[tuple[int, sp.Expr], list[sp.Expr]]:
+        """``expr`` (in xi and beta) as {(m, r): coefficients} of c u^m exp(r u)."""
+        terms: dict[tuple[int, sp.Expr], list[sp.Expr]] = {}
+        integrand = sp.expand(expr.xreplace({XI: self.beta * _U}).rewrite(sp.exp))
+        for term in sp.Add.make_args(integrand):
+            if term == 0:
+                continue
+            coeff, m, rate = sp.Integer(1), 0, sp.Integer(0)
+            for f in sp.Mul.make_args(term):
+                if f == _U:
+                    m += 1
+                elif f.is_Pow and f.base == _U:
+                    m += int(f.exp)
+                elif isinstance(f, sp.exp) or (f.is_Pow and isinstance(f.base, sp.exp)):
+                    arg = f.args[0] if isinstance(f, sp.exp) else f.base.args[0] * f.exp
+                    rate += sp.expand(arg / _U)
+                else:
+                    coeff *= f
+            if coeff.has(_U):
+                raise ValueError(f"the span's integrand is not of the form c u^m exp(r u): {term}")
+            terms.setdefault((m, sp.expand(rate)), []).append(coeff)
+        return terms
+
+    def integral(
+        self, f: dict[tuple[int, sp.Expr], list[sp.Expr]], g: dict[tuple[int, sp.Expr], list[sp.Expr]]
+    ) -> sp.Expr:
+        """int_0^beta f g d xi, expanded."""
+        paired: dict[tuple[int, sp.Expr], list[sp.Expr]] = {}
+        for (m1, r1), c1 in f.items():
+            for (m2, r2), c2 in g.items():
+                paired.setdefault((m1 + m2, sp.expand(r1 + r2)), []).append(sp.Add(*c1) * sp.Add(*c2))
+        if not paired:
+            return sp.Integer(0)
+        total = sp.Add(*[self.beta * sp.Add(*cs) * _int_pow_exp(m, r) for (m, r), cs in paired.items()])
+        expanded = sp.expand(total)
+        # the imaginary parts cancel in the expansion; where one is left, the complex expansion
+        return expanded if not expanded.has(sp.I) else sp.expand(sp.expand_complex(total))
 
 
 @cache
@@ -149,14 +178,35 @@ def _int_pow_exp(m: int, a: sp.Expr) -> sp.Expr:
     return sp.expand(val)
 
 
-def _overhang_integral(expr: sp.Expr, beta: sp.Symbol) -> sp.Expr:
-    """int_beta^1 expr d xi in closed form, by xi = beta + (1 - beta) v: a polynomial in v
-    whose coefficients are rational in beta, integrated term by term over [0, 1]."""
-    if expr == 0:
-        return sp.Integer(0)
-    poly = sp.Poly(sp.expand(expr.xreplace({XI: beta + (1 - beta) * _V}) * (1 - beta)), _V)
-    total = sp.Add(*[c / (m[0] + 1) for m, c in poly.terms()])
-    return sp.factor(sp.cancel(total))
+class _Overhang:
+    """The overhang's integrals int_beta^1 f g d xi in closed form: by xi = beta + (1 - beta) v each
+    piece is a polynomial in v whose coefficients are rational in beta (and pi), kept as an element
+    of that ring once per piece; a product's integral is then the sum of its coefficients over
+    m + 1, times 1 - beta. The same numbers as a SymPy ``Poly`` of each expanded product, which
+    cost 3 of the 4 minutes of a slot scene's first run (the product's expansion and the
+    coefficients' domain, built again for every pair)."""
+
+    def __init__(self, beta: sp.Symbol) -> None:
+        self.field = QQ.frac_field(beta, sp.pi)
+        self.ring, _ = ring([_V], self.field)
+        self.beta = beta
+        self.length = self.field.from_sympy(1 - beta)
+
+    def piece(self, expr: sp.Expr) -> PolyElement:
+        """``expr`` (in xi and beta) as a polynomial in v."""
+        if expr == 0:
+            return self.ring.zero
+        return self.ring.from_expr(sp.expand(expr.xreplace({XI: self.beta + (1 - self.beta) * _V})))
+
+    def integral(self, f: PolyElement, g: PolyElement) -> sp.Expr:
+        """int_beta^1 f g d xi, in the form of ``factor(cancel(.))``."""
+        product = f * g
+        if not product:
+            return sp.Integer(0)
+        total = self.field.zero
+        for (m,), c in product.terms():
+            total += c / (m + 1)
+        return sp.factor(sp.cancel(self.field.to_sympy(total * self.length)))
 
 
 @cache
@@ -175,17 +225,18 @@ def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     span += blocks_s[0] + blocks_s[1] + blocks_s[2]
     over += blocks_o[0] + blocks_o[1] + blocks_o[2]
     n = len(span)
+    sh, oh = _Span(beta), _Overhang(beta)
+    span_u, over_v = [sh.piece(e) for e in span], [oh.piece(e) for e in over]
     G = sp.zeros(n, n)
     for i in range(n):
         for j in range(i, n):
-            val = _span_integral(span[i] * span[j], beta) + _overhang_integral(over[i] * over[j], beta)
-            G[i, j] = G[j, i] = val
+            G[i, j] = G[j, i] = sh.integral(span_u[i], span_u[j]) + oh.integral(over_v[i], over_v[j])
+    curv_u = [sh.piece(sp.diff(e, XI, 2)) for e in blocks_s[0]]
+    curv_v = [oh.piece(sp.diff(e, XI, 2)) for e in blocks_o[0]]
     Kt = sp.zeros(nt, nt)
     for i in range(nt):
         for j in range(nt):
-            Kt[i, j] = _span_integral(
-                sp.diff(blocks_s[0][i], XI, 2) * sp.diff(blocks_s[0][j], XI, 2), beta
-            ) + _overhang_integral(sp.diff(blocks_o[0][i], XI, 2) * sp.diff(blocks_o[0][j], XI, 2), beta)
+            Kt[i, j] = sh.integral(curv_u[i], curv_u[j]) + oh.integral(curv_v[i], curv_v[j])
     return beta, G, Kt
 
 
