@@ -67,6 +67,7 @@ _U = sp.Symbol("u", real=True)
 _V = sp.Symbol("v", real=True)
 
 
+@cache
 def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None, nover: int = 0) -> tuple:
     """(span, overhang) expressions of psi_k, psi_k,beta, psi_k,betabeta in xi.
 
@@ -100,6 +101,17 @@ def _pieces(k: int, beta: sp.Symbol, nspan: int | None = None, nover: int = 0) -
     else:
         over = slope * (XI - beta)
     return ((span, sp.diff(span, beta), sp.diff(span, beta, 2)), (over, sp.diff(over, beta), sp.diff(over, beta, 2)))
+
+
+@cache
+def _derivative(k: int, beta: sp.Symbol, nspan: int, nover: int, deriv: int, dbeta: int) -> tuple[sp.Expr, sp.Expr]:
+    """(span, overhang) of d^deriv/dxi^deriv d^dbeta/dbeta^dbeta psi_k (``_pieces``), made once."""
+    (s, _, _), (o, _, _) = _pieces(k, beta, nspan, nover)
+    s = sp.diff(s, XI, deriv) if deriv else s
+    o = sp.diff(o, XI, deriv) if deriv else o
+    if dbeta:
+        s, o = sp.diff(s, beta, dbeta), sp.diff(o, beta, dbeta)
+    return s, o
 
 
 @cache
@@ -283,11 +295,7 @@ class SlotBasis:
 
     def expr(self, k: int, xi, deriv: int = 0, dbeta: int = 0) -> sp.Expr:
         """d^deriv/dxi^deriv d^dbeta/dbeta^dbeta psi_k at xi (a number or a symbol)."""
-        (s, _, _), (o, _, _) = _pieces(k + 1, self.beta, self.nspan, self.nover)
-        s = sp.diff(s, XI, deriv) if deriv else s
-        o = sp.diff(o, XI, deriv) if deriv else o
-        if dbeta:
-            s, o = sp.diff(s, self.beta, dbeta), sp.diff(o, self.beta, dbeta)
+        s, o = _derivative(k + 1, self.beta, self.nspan, self.nover, deriv, dbeta)
         xi = sp.sympify(xi)
         s, o = s.xreplace({XI: xi}), o.xreplace({XI: xi})
         if xi.is_Symbol and xi == self.beta:
