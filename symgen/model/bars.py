@@ -550,6 +550,26 @@ def bar_equations(
             if mu is not None:
                 el_g = [el_g[i] + damping * mu * sp.Add(*[Kt[i][j] * dg[j] for j in range(nt)]) for i in range(nt)]
 
+    tension: sp.Expr = sp.Integer(0)
+    if var and nt and effects.geometric_stiffening:
+        # An axially rigid guide (slot.py) has no axial amplitudes whose constraint force would
+        # stiffen its bending: its tension is the rigid-body one, N = int_xi^1 (beta_bar - a_x) with
+        # a_x = x_A'' - theta'^2 xi (its far end free: a frictionless slot carries no axial force),
+        # N = (beta_bar - x_A'') (1 - xi) + theta'^2 (1 - xi^2) / 2. Its virtual work (N eta', d eta')
+        # enters (17) and the beta equation as the derivatives of (1/2) (N eta', eta') at fixed N.
+        # Without it the guide kept the centrifugal softening theta'^2 eta^2 of its kinetic energy
+        # but not the tension's stiffening (the ANCF cable's, and every inextensible bar's here).
+        T1 = [[t.mat("T1", i, j, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
+        T2 = [
+            [t.mat("T2", i, j, r"\left(\psi'_{{{i}}},\tfrac{{1-\xi^2}}{{2}}\,\psi'_{{{j}}}\right)") for j in range(nt)]
+            for i in range(nt)
+        ]
+        n1, n2 = beta - s.xa_dd, dth**2
+        tension = (
+            sp.Add(*[(n1 * T1[i][j] + n2 * T2[i][j]) * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
+        )
+        el_g = [el_g[a] + sp.diff(tension, g[a]) for a in range(nt)]
+
     eq16 = []
     for k in range(na):
         e = unit(2 + k)
@@ -571,7 +591,7 @@ def bar_equations(
         vy += [g[k] * db for k in range(nt)] + [0] * nt
         # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
         w = [0] * (2 + na + nt) + g + [0] * nt
-        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy, b) - gamma * _ip(t, w, one)
+        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) - gamma * _ip(t, w, one)
         for _xi, _B, G, _ph, ps in pts:
             eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
     kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2

@@ -252,6 +252,29 @@ def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     return beta, G, Kt
 
 
+#: the guide's tension weights (``_tension_gram``): N = (beta_bar - x_A'') (1 - xi) + theta'^2 (1 - xi^2) / 2
+TENSION_WEIGHTS = {"T1": 1 - XI, "T2": (1 - XI**2) / 2}
+
+
+@cache
+def _tension_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """(beta, {name: (w psi'_a, psi'_b) over [0, 1]}) for the weights of ``TENSION_WEIGHTS``, in
+    closed form (span and overhang): the geometric stiffness of an axially rigid guide's tension."""
+    beta = sp.Symbol(beta_name, positive=True)
+    sh, oh = _Span(beta), _Overhang(beta)
+    slopes = [_derivative(k, beta, nt - nover, nover, 1, 0) for k in range(1, nt + 1)]
+    plain = [(sh.piece(s), oh.piece(o)) for s, o in slopes]
+    out = {}
+    for name, w in TENSION_WEIGHTS.items():
+        weighted = [(sh.piece(sp.expand(w * s)), oh.piece(sp.expand(w * o))) for s, o in slopes]
+        W = sp.zeros(nt, nt)
+        for i in range(nt):
+            for j in range(i, nt):
+                W[i, j] = W[j, i] = sh.integral(weighted[i][0], plain[j][0]) + oh.integral(weighted[i][1], plain[j][1])
+        out[name] = W
+    return beta, out
+
+
 @dataclass(frozen=True)
 class SlotFunction:
     label: str
@@ -318,6 +341,7 @@ class SlotIPTable:
         sub = {beta0: basis.beta}
         self.G = G.xreplace(sub)
         self.Kt = Kt.xreplace(sub)
+        self._tension: dict | None = None
         nt = basis.nt
         self._labels = (
             ["1", r"\xi"]
@@ -335,10 +359,20 @@ class SlotIPTable:
             return sp.Symbol(rf"\left({self._labels[i]},{self._labels[j]}\right)")
         return value
 
-    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
-        if name != "Kt":
+    def matrix(self, name: str) -> sp.Matrix:
+        """The guide's matrix ``name``: "Kt" (psi''_a, psi''_b), or a tension weight's (w psi'_a,
+        psi'_b) ("T1", "T2": ``TENSION_WEIGHTS``, made on first use)."""
+        if name == "Kt":
+            return self.Kt
+        if name not in TENSION_WEIGHTS:
             raise KeyError(f"a guide bar has no {name} inner products")
-        value = self.Kt[i, j]
+        if self._tension is None:
+            beta0, mats = _tension_gram(self.nt, str(self.basis.beta), self.basis.nover)
+            self._tension = {k: m.xreplace({beta0: self.basis.beta}) for k, m in mats.items()}
+        return self._tension[name]
+
+    def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
+        value = self.matrix(name)[i, j]
         if value == 0:
             return sp.Integer(0)
         return sp.Symbol(latex.format(i=i + 1, j=j + 1)) if self.symbolic else value
@@ -383,13 +417,11 @@ class SlotDisplayIPTable:
         return sym
 
     def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
-        if name != "Kt":
-            raise KeyError(f"a guide bar has no {name} inner products")
         i, j = min(i, j), max(i, j)
-        if self.numeric.Kt[i, j] == 0:
+        if self.numeric.matrix(name)[i, j] == 0:
             return sp.Integer(0)
         f = sp.Function(latex.format(i=i + 1, j=j + 1))(self.beta)
-        self._funcs[f] = (i, j)
+        self._funcs[f] = (name, i, j)
         return f
 
     def vec(self, name: str, i: int, latex: str) -> sp.Expr:
@@ -399,18 +431,19 @@ class SlotDisplayIPTable:
         return sp.Integer(0)
 
     def finish(self, expr: sp.Expr) -> sp.Expr:
-        """(psi''_i, psi''_j)(beta) -> a symbol, its beta derivative -> a symbol of its own."""
+        """A matrix entry (beta) -> a symbol, its beta derivative -> a symbol of its own."""
         rep = {}
-        for f, (i, j) in self._funcs.items():
+        for f, (mat, i, j) in self._funcs.items():
             name = f.func.__name__
+            entry = self.numeric.matrix(mat)[i, j]
             for key, sym, kind, value in (
                 (
                     sp.Derivative(f, self.beta),
                     sp.Symbol(r"\partial_{\beta}" + name),
-                    "dKt",
-                    lambda i=i, j=j: sp.diff(self.numeric.Kt[i, j], self.beta),
+                    "d" + mat,
+                    lambda e=entry: sp.diff(e, self.beta),
                 ),
-                (f, sp.Symbol(name), "Kt", lambda i=i, j=j: self.numeric.Kt[i, j]),
+                (f, sp.Symbol(name), mat, lambda e=entry: e),
             ):
                 rep[key] = sym
                 if sym not in self.used and expr.has(key):

@@ -84,7 +84,7 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
     return min(forms, key=lambda x: (len(sp.latex(x)), forms.index(x)))
 
 
-_KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2}
+_KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2, "T1": 3, "dT1": 4, "T2": 5, "dT2": 6}
 
 
 def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
@@ -107,7 +107,7 @@ def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict
                 "decimal": num_text(val),
                 "kind": "constant"
                 if const
-                else ("derivative in $\\beta$" if kind == "dKt" else "function of $\\beta$"),
+                else ("derivative in $\\beta$" if kind.startswith("d") else "function of $\\beta$"),
                 "key": (_KIND_ORDER[kind], idx),
             }
         )
