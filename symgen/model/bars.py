@@ -535,8 +535,8 @@ def bar_equations(
                 # shortening that bending makes, which is no strain: on a soft slider-crank at 6 % of
                 # its length deflection that over-damped the rod's vibration by about a third
                 # (benchmarks/validation, slider_crank_torque_soft, against Exudyn's ANCF cable, whose
-                # axial damping acts on the rate of |r'| - 1). A slot's guide (variable span psi(xi, beta))
-                # keeps the rate of zeta' alone: its strain rate has a beta_dot part too (not derived).
+                # axial damping acts on the rate of |r'| - 1). A slot's guide has no axial functions; its
+                # curvature rate's beta_dot part is damped below.
                 J = [[sp.diff(c[k], g[a]) for a in range(nt)] for k in range(na)]
                 jg = [sp.Add(*[J[k][a] * dg[a] for a in range(nt)]) for k in range(na)]
                 el_f = [
@@ -559,16 +559,38 @@ def bar_equations(
         # enters (17) and the beta equation as the derivatives of (1/2) (N eta', eta') at fixed N.
         # Without it the guide kept the centrifugal softening theta'^2 eta^2 of its kinetic energy
         # but not the tension's stiffening (the ANCF cable's, and every inextensible bar's here).
-        T1 = [[t.mat("T1", i, j, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)") for j in range(nt)] for i in range(nt)]
+        T1 = [
+            [t.mat("T1", i, j, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)") for j in range(nt)]
+            for i in range(nt)
+        ]
         T2 = [
             [t.mat("T2", i, j, r"\left(\psi'_{{{i}}},\tfrac{{1-\xi^2}}{{2}}\,\psi'_{{{j}}}\right)") for j in range(nt)]
             for i in range(nt)
         ]
         n1, n2 = beta - s.xa_dd, dth**2
-        tension = (
-            sp.Add(*[(n1 * T1[i][j] + n2 * T2[i][j]) * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
-        )
+        tension = sp.Add(*[(n1 * T1[i][j] + n2 * T2[i][j]) * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
         el_g = [el_g[a] + sp.diff(tension, g[a]) for a in range(nt)]
+    rate_beta: sp.Expr = sp.Integer(0)  # a guide's dD/d(beta_dot): the beta equation's damping
+    if var and nt and damping is not None and mu is not None:
+        # The guide's material curvature rate has a beta_dot part: kappa_dot = g_dot^T psi'' +
+        # beta_dot g^T psi''_beta. Kelvin-Voigt, D = (damping mu / 2) int kappa_dot^2: above its
+        # g_dot part, dD/dg_dot_a gains damping mu beta_dot (psi''_a, psi''_b,beta) g_b and the beta
+        # equation dD/dbeta_dot = damping mu g_a (psi''_a,beta, kappa_dot) (what an ANCF cable's
+        # bending damping acts on: the rate of its material curvature).
+        Kb = [
+            [t.mat("Kb", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j},\beta}}\right)") for j in range(nt)]
+            for i in range(nt)
+        ]
+        Kbb = [
+            [t.mat("Kbb", i, j, r"\left(\psi''_{{{i},\beta}},\psi''_{{{j},\beta}}\right)") for j in range(nt)]
+            for i in range(nt)
+        ]
+        el_g = [el_g[a] + damping * mu * db * sp.Add(*[Kb[a][c] * g[c] for c in range(nt)]) for a in range(nt)]
+        rate_beta = (
+            damping
+            * mu
+            * sp.Add(*[g[a] * (Kb[c][a] * dg[c] + db * Kbb[a][c] * g[c]) for a in range(nt) for c in range(nt)])
+        )
 
     eq16 = []
     for k in range(na):
@@ -591,7 +613,7 @@ def bar_equations(
         vy += [g[k] * db for k in range(nt)] + [0] * nt
         # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
         w = [0] * (2 + na + nt) + g + [0] * nt
-        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) - gamma * _ip(t, w, one)
+        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) + rate_beta - gamma * _ip(t, w, one)
         for _xi, _B, G, _ph, ps in pts:
             eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
     kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2

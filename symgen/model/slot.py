@@ -254,6 +254,8 @@ def _gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
 
 #: the guide's tension weights (``_tension_gram``): N = (beta_bar - x_A'') (1 - xi) + theta'^2 (1 - xi^2) / 2
 TENSION_WEIGHTS = {"T1": 1 - XI, "T2": (1 - XI**2) / 2}
+#: the guide's curvature-rate matrices (``_rate_gram``); "Kb" is not symmetric
+RATE_MATRICES = ("Kb", "Kbb")
 
 
 @cache
@@ -273,6 +275,31 @@ def _tension_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
                 W[i, j] = W[j, i] = sh.integral(weighted[i][0], plain[j][0]) + oh.integral(weighted[i][1], plain[j][1])
         out[name] = W
     return beta, out
+
+
+@cache
+def _rate_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """(beta, {"Kb": (psi''_a, psi''_b,beta), "Kbb": (psi''_a,beta, psi''_b,beta)}) over [0, 1] in
+    closed form: the beta_dot part of the guide's curvature rate (its Kelvin-Voigt damping).
+    "Kb" is not symmetric; d/dbeta of (psi''_a, psi''_b) is not its symmetric part (the span
+    functions' curvature jumps at the contact)."""
+    beta = sp.Symbol(beta_name, positive=True)
+    sh, oh = _Span(beta), _Overhang(beta)
+    curv, curv_b = [], []
+    for k in range(1, nt + 1):
+        s, o = _derivative(k, beta, nt - nover, nover, 2, 0)
+        curv.append((sh.piece(s), oh.piece(o)))
+        s, o = _derivative(k, beta, nt - nover, nover, 2, 1)
+        curv_b.append((sh.piece(s), oh.piece(o)))
+    Kb, Kbb = sp.zeros(nt, nt), sp.zeros(nt, nt)
+    for i in range(nt):
+        for j in range(nt):
+            Kb[i, j] = sh.integral(curv[i][0], curv_b[j][0]) + oh.integral(curv[i][1], curv_b[j][1])
+            if j >= i:
+                Kbb[i, j] = Kbb[j, i] = sh.integral(curv_b[i][0], curv_b[j][0]) + oh.integral(
+                    curv_b[i][1], curv_b[j][1]
+                )
+    return beta, {"Kb": Kb, "Kbb": Kbb}
 
 
 @dataclass(frozen=True)
@@ -341,7 +368,7 @@ class SlotIPTable:
         sub = {beta0: basis.beta}
         self.G = G.xreplace(sub)
         self.Kt = Kt.xreplace(sub)
-        self._tension: dict | None = None
+        self._extra: dict[str, sp.Matrix] = {}
         nt = basis.nt
         self._labels = (
             ["1", r"\xi"]
@@ -360,16 +387,18 @@ class SlotIPTable:
         return value
 
     def matrix(self, name: str) -> sp.Matrix:
-        """The guide's matrix ``name``: "Kt" (psi''_a, psi''_b), or a tension weight's (w psi'_a,
-        psi'_b) ("T1", "T2": ``TENSION_WEIGHTS``, made on first use)."""
+        """The guide's matrix ``name``: "Kt" (psi''_a, psi''_b), a tension weight's (w psi'_a,
+        psi'_b) ("T1", "T2": ``TENSION_WEIGHTS``) or the curvature rate's ("Kb", "Kbb":
+        ``_rate_gram``), those made on first use."""
         if name == "Kt":
             return self.Kt
-        if name not in TENSION_WEIGHTS:
+        if name not in TENSION_WEIGHTS and name not in RATE_MATRICES:
             raise KeyError(f"a guide bar has no {name} inner products")
-        if self._tension is None:
-            beta0, mats = _tension_gram(self.nt, str(self.basis.beta), self.basis.nover)
-            self._tension = {k: m.xreplace({beta0: self.basis.beta}) for k, m in mats.items()}
-        return self._tension[name]
+        if name not in self._extra:
+            made = _tension_gram if name in TENSION_WEIGHTS else _rate_gram
+            beta0, mats = made(self.nt, str(self.basis.beta), self.basis.nover)
+            self._extra.update({k: m.xreplace({beta0: self.basis.beta}) for k, m in mats.items()})
+        return self._extra[name]
 
     def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
         value = self.matrix(name)[i, j]
@@ -417,7 +446,8 @@ class SlotDisplayIPTable:
         return sym
 
     def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
-        i, j = min(i, j), max(i, j)
+        if name != "Kb":
+            i, j = min(i, j), max(i, j)
         if self.numeric.matrix(name)[i, j] == 0:
             return sp.Integer(0)
         f = sp.Function(latex.format(i=i + 1, j=j + 1))(self.beta)

@@ -84,7 +84,7 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
     return min(forms, key=lambda x: (len(sp.latex(x)), forms.index(x)))
 
 
-_KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2, "T1": 3, "dT1": 4, "T2": 5, "dT2": 6}
+_KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2, "T1": 3, "dT1": 4, "T2": 5, "dT2": 6, "Kb": 7, "Kbb": 8}
 
 
 def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
