@@ -559,6 +559,8 @@ def bar_equations(
         # enters (17) and the beta equation as the derivatives of (1/2) (N eta', eta') at fixed N.
         # Without it the guide kept the centrifugal softening theta'^2 eta^2 of its kinetic energy
         # but not the tension's stiffening (the ANCF cable's, and every inextensible bar's here).
+        # The axial point forces add theirs (below); the slot's own force on the guide is normal to
+        # the chord up to its chord-wise part ~ eta'(beta) times it: its tension is left out.
         T1 = [
             [t.mat("T1", i, j, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)") for j in range(nt)]
             for i in range(nt)
@@ -567,8 +569,20 @@ def bar_equations(
             [t.mat("T2", i, j, r"\left(\psi'_{{{i}}},\tfrac{{1-\xi^2}}{{2}}\,\psi'_{{{j}}}\right)") for j in range(nt)]
             for i in range(nt)
         ]
+        from symgen.model.slot import point_tension_name  # slot.py builds on this module
+
         n1, n2 = beta - s.xa_dd, dth**2
-        tension = sp.Add(*[(n1 * T1[i][j] + n2 * T2[i][j]) * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
+        weights = [[n1 * T1[i][j] + n2 * T2[i][j] for j in range(nt)] for i in range(nt)]
+        for xi, B, _G, _ph, _ps in pts:
+            # an axial point force (a joint's reaction, a joint's mass, a point load) at xi_p pulls on
+            # [0, xi_p]: N gains B H(xi_p - xi), weight int_0^xi_p psi'_a psi'_b (slot.point_tension_name)
+            if xi > ZERO_TOL:
+                name = point_tension_name(xi)
+                label = r"\left(\psi'_{{{i}}},\psi'_{{{j}}}\right)_{{[0,XI]}}".replace("XI", f"{xi:g}")
+                for i in range(nt):
+                    for j in range(nt):
+                        weights[i][j] += B * t.mat(name, i, j, label)
+        tension = sp.Add(*[weights[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
         el_g = [el_g[a] + sp.diff(tension, g[a]) for a in range(nt)]
     rate_beta: sp.Expr = sp.Integer(0)  # a guide's dD/d(beta_dot): the beta equation's damping
     if var and nt and damping is not None and mu is not None:

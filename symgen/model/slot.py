@@ -163,16 +163,24 @@ class _Span:
         return terms
 
     def integral(
-        self, f: dict[tuple[int, sp.Expr], list[sp.Expr]], g: dict[tuple[int, sp.Expr], list[sp.Expr]]
+        self,
+        f: dict[tuple[int, sp.Expr], list[sp.Expr]],
+        g: dict[tuple[int, sp.Expr], list[sp.Expr]],
+        upper: sp.Expr | None = None,
     ) -> sp.Expr:
-        """int_0^beta f g d xi, expanded."""
+        """int_0^beta f g d xi (or int_0^(beta upper), ``upper`` a fraction of the span), expanded."""
         paired: dict[tuple[int, sp.Expr], list[sp.Expr]] = {}
         for (m1, r1), c1 in f.items():
             for (m2, r2), c2 in g.items():
                 paired.setdefault((m1 + m2, sp.expand(r1 + r2)), []).append(sp.Add(*c1) * sp.Add(*c2))
         if not paired:
             return sp.Integer(0)
-        total = sp.Add(*[self.beta * sp.Add(*cs) * _int_pow_exp(m, r) for (m, r), cs in paired.items()])
+        total = sp.Add(
+            *[
+                self.beta * sp.Add(*cs) * (_int_pow_exp(m, r) if upper is None else _int_pow_exp_to(m, r, upper))
+                for (m, r), cs in paired.items()
+            ]
+        )
         expanded = sp.expand(total)
         # the imaginary parts cancel in the expansion; where one is left, the complex expansion
         return expanded if not expanded.has(sp.I) else sp.expand(sp.expand_complex(total))
@@ -210,11 +218,14 @@ class _Overhang:
             return self.ring.zero
         return self.ring.from_expr(sp.expand(expr.xreplace({XI: self.beta + (1 - self.beta) * _V})))
 
-    def integral(self, f: PolyElement, g: PolyElement) -> sp.Expr:
-        """int_beta^1 f g d xi, in the form of ``factor(cancel(.))``."""
+    def integral(self, f: PolyElement, g: PolyElement, upper: sp.Expr | None = None) -> sp.Expr:
+        """int_beta^1 f g d xi (or up to v = ``upper``), in the form of ``factor(cancel(.))``."""
         product = f * g
         if not product:
             return sp.Integer(0)
+        if upper is not None:
+            terms = [self.field.to_sympy(c) * upper ** (m + 1) / (m + 1) for (m,), c in product.terms()]
+            return sp.factor(sp.cancel(sp.Add(*terms) * (1 - self.beta)))
         total = self.field.zero
         for (m,), c in product.terms():
             total += c / (m + 1)
@@ -275,6 +286,50 @@ def _tension_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
                 W[i, j] = W[j, i] = sh.integral(weighted[i][0], plain[j][0]) + oh.integral(weighted[i][1], plain[j][1])
         out[name] = W
     return beta, out
+
+
+def point_tension_name(xi: float) -> str:
+    """The name of (H(xi_p - xi) psi'_a, psi'_b) = int_0^xi_p psi'_a psi'_b, the tension weight of
+    an axial point force at xi_p (``_point_tension_gram``)."""
+    return f"H{float(xi)!r}"
+
+
+def _int_pow_exp_to(m: int, a: sp.Expr, upper: sp.Expr) -> sp.Expr:
+    """int_0^upper u^m exp(a u) du, exact."""
+    if a == 0:
+        return upper ** (m + 1) / (m + 1)
+    eau = sp.exp(a * upper)
+    val = (eau - 1) / a
+    for j in range(1, m + 1):
+        val = upper**j * eau / a - j * val / a
+    return val
+
+
+@cache
+def _point_tension_gram(nt: int, beta_name: str, nover: int, xi_p: float) -> tuple:
+    """(beta, {point_tension_name(xi_p): int_0^xi_p psi'_a psi'_b}) in closed form: the weight of
+    an axial point force at xi_p in the guide's tension (it pulls on [0, xi_p]). Piecewise in beta
+    for an interior xi_p (the span alone while the contact is beyond it); the whole guide at
+    xi_p = 1."""
+    beta = sp.Symbol(beta_name, positive=True)
+    sh, oh = _Span(beta), _Overhang(beta)
+    x = sp.nsimplify(xi_p, rational=True)
+    slopes = [_derivative(k, beta, nt - nover, nover, 1, 0) for k in range(1, nt + 1)]
+    span = [sh.piece(a) for a, _ in slopes]
+    over = [oh.piece(b) for _, b in slopes]
+    W = sp.zeros(nt, nt)
+    for i in range(nt):
+        for j in range(i, nt):
+            whole_span = sh.integral(span[i], span[j])
+            if x >= 1:
+                value = whole_span + oh.integral(over[i], over[j])
+            else:
+                value = sp.Piecewise(
+                    (sh.integral(span[i], span[j], upper=x / beta), beta >= x),
+                    (whole_span + oh.integral(over[i], over[j], upper=(x - beta) / (1 - beta)), True),
+                )
+            W[i, j] = W[j, i] = value
+    return beta, {point_tension_name(xi_p): W}
 
 
 @cache
@@ -388,15 +443,19 @@ class SlotIPTable:
 
     def matrix(self, name: str) -> sp.Matrix:
         """The guide's matrix ``name``: "Kt" (psi''_a, psi''_b), a tension weight's (w psi'_a,
-        psi'_b) ("T1", "T2": ``TENSION_WEIGHTS``) or the curvature rate's ("Kb", "Kbb":
-        ``_rate_gram``), those made on first use."""
+        psi'_b) ("T1", "T2": ``TENSION_WEIGHTS``; "H<xi_p>": ``point_tension_name``) or the
+        curvature rate's ("Kb", "Kbb": ``_rate_gram``), those made on first use."""
         if name == "Kt":
             return self.Kt
-        if name not in TENSION_WEIGHTS and name not in RATE_MATRICES:
+        point = name.startswith("H")
+        if name not in TENSION_WEIGHTS and name not in RATE_MATRICES and not point:
             raise KeyError(f"a guide bar has no {name} inner products")
         if name not in self._extra:
-            made = _tension_gram if name in TENSION_WEIGHTS else _rate_gram
-            beta0, mats = made(self.nt, str(self.basis.beta), self.basis.nover)
+            if point:
+                beta0, mats = _point_tension_gram(self.nt, str(self.basis.beta), self.basis.nover, float(name[1:]))
+            else:
+                made = _tension_gram if name in TENSION_WEIGHTS else _rate_gram
+                beta0, mats = made(self.nt, str(self.basis.beta), self.basis.nover)
             self._extra.update({k: m.xreplace({beta0: self.basis.beta}) for k, m in mats.items()})
         return self._extra[name]
 

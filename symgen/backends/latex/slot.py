@@ -108,7 +108,7 @@ def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict
                 "kind": "constant"
                 if const
                 else ("derivative in $\\beta$" if kind.startswith("d") else "function of $\\beta$"),
-                "key": (_KIND_ORDER[kind], idx),
+                "key": (_KIND_ORDER.get(kind, len(_KIND_ORDER)), kind, idx),
             }
         )
     rows.sort(key=lambda r: r["key"])
@@ -305,6 +305,7 @@ def guide_context(scene, model, name: str, pr) -> dict:
     ctx["eq17"] = eq_block(rows(eqs["eq17"], [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
     ctx["eqbeta"] = eq_block(rows([eqs["eqbeta"]], [rf"17.$\beta$, {tn}"]))
     ctx["ip_table"] = _ip_rows(bm.equations, b, used, pr, beta0, pos)
+    ctx["tension"] = _tension_text(scene, model, name, pr) if eff.geometric_stiffening and nt else ""
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
@@ -431,3 +432,33 @@ def slot_notes(scene, model) -> list[dict]:
             }
         )
     return out
+
+
+def _tension_text(scene, model, name: str, pr) -> str:
+    """The guide's tension (``bars.bar_equations``, ``residual.guide_tension_of_children``): what
+    its N is made of and where it enters."""
+    B = rm(name)
+    s = model.bars[name].sym
+    th, al = pr(s.th), pr(s.alpha)
+    text = (
+        rf"The axially rigid guide's tension $N(\xi) = \bigl(\bar\beta_{{{B}}} - [\ddot x_A]_{{{B}}}\bigr)(1-\xi)"
+        rf" + \dot\theta_{{{B}}}^{{2}}(1-\xi^2)/2 + \sum_p B_p\,H(\xi_p - \xi)$ (its own axial inertia and load "
+        r"and the axial point forces $B_p$ at $\xi_p$; its far end free, the slot carrying no axial force) stiffens "
+        r"its bending: its virtual work $-(N\eta', \delta\eta')$ is in (17) and in the equation of $\beta$ above, "
+        r"through $(\psi'_j,(1-\xi)\,\psi'_k)$, $(\psi'_j,\tfrac{1-\xi^2}{2}\,\psi'_k)$ and "
+        r"$(\psi'_j,\psi'_k)_{[0,\xi_p]} = \int_0^{\xi_p}\psi'_j\psi'_k\,d\xi$ (the kinetic energy's "
+        rf"$-\dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}$ is the spin's softening, this its stiffening)."
+    )
+    for ch in model.topology.children.get(name, ()):
+        if ch.parent_xi is None or ch.parent_xi <= 1e-12:
+            continue
+        C, x = rm(ch.body), num_text(ch.parent_xi)
+        text += (
+            rf" The bar {tex_escape(ch.body)} hangs from it at $\xi = {x}$ (tree joint {tex_escape(ch.joint)}, whose "
+            rf"force is the subtree resultant $\mathbf S_{{{C}}}$) and pulls on $[0, {x}]$ with "
+            rf"$N_{{{C}}} = -\mathbf S_{{{C}}}\cdot(\cos {th}, \sin {th})$: the assembled equation of "
+            rf"$g_{{{B},k}}$ gains ${al}\,N_{{{C}}}\sum_j (\psi'_j,\psi'_k)_{{[0,{x}]}}\,g_{{{B},j}}$ and that "
+            rf"of $\beta$ gains $\tfrac12 {al}\,N_{{{C}}}\sum_{{j,k}} g_{{{B},j}} g_{{{B},k}}\,"
+            rf"\partial_\beta(\psi'_j,\psi'_k)_{{[0,{x}]}}$."
+        )
+    return text
