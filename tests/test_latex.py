@@ -394,6 +394,7 @@ def test_guide_equations_give_back_the_model(inverted):
     )
     Bc, Gc = _contact_symbols("A")
     values.update(zip((Bc, Gc), _contact_definitions(model, "guide", "A")))
+    values.update(eqs["values"])  # the foreshortened contact's inner products (DERIVE_VERSION 12)
     assigned = dict(model.program.assignments)
     E = {sym.name: expr for sym, expr in assigned.items()}
     k2, k3 = s.nu * s.alpha**2, s.nu * s.alpha**3

@@ -9,8 +9,9 @@ only the last test needs Exudyn.
 
 Acceptance: symgen's default model (elastic overhang) gives the guide's far-end deflection and
 the crank-tip deflection within 1 % of their peaks (2 % before DERIVE_VERSION 11; measured over two
-turns 0.45 % and 0.20 % before DERIVE_VERSION 12, 0.032 % and 0.019 % since: the guide's tension
-stiffens its bending, and its damping acts on its whole curvature rate) (max |y - y_ref| / max |y_ref|
+turns 0.45 % and 0.20 % before DERIVE_VERSION 12, 0.026 % and 0.018 % since: the guide's tension
+stiffens its bending, it keeps its length as it bends, and its damping acts on its whole curvature
+rate) (max |y - y_ref| / max |y_ref|
 on the one-degree grid); the seed's rigid overhang does not.
 """
 
@@ -29,6 +30,8 @@ CSV = ROOT / "tests" / "data" / "inverted_slider_crank_overhang_exudyn.csv"
 ACCEPT = ("guide_end", "crank_tip")
 OUTPUTS = ACCEPT + ("guide_slope",)
 TARGET = 0.01
+#: the reference's own convergence: half its steps move it by up to 0.034 % of peak (its CSV header)
+REFERENCE_NOISE = 3.4e-4
 
 
 def _reference(degrees: int) -> dict:
@@ -188,30 +191,32 @@ def test_within_one_percent_as_a_user_runs_the_scene(user_run):
 @pytest.mark.slow
 def test_the_guide_matches_the_ancf_cable_to_a_tenth_of_a_percent(user_run):
     """The physics of the slot guide against the ANCF cable: within 0.1 % of peak on every output
-    (issue 19 Deliver 3's bar for converged models; measured 0.032 / 0.019 / 0.074 %, the first two
-    at the reference's own step convergence, 0.034 %). Before DERIVE_VERSION 12 the axially rigid
-    guide kept the centrifugal softening of its kinetic energy but not its tension's stiffening,
-    and its Kelvin-Voigt damping missed the beta_dot part of its curvature rate: 0.45 / 0.20 /
-    0.53 % (the tension alone: 0.10 / 0.026 / 0.35 %), converged in functions and time."""
+    (issue 19 Deliver 3's bar for converged models; measured 0.026 / 0.018 / 0.064 %, the first two
+    below the reference's own step convergence, 0.034 %). Before DERIVE_VERSION 12 the axially rigid
+    guide kept the centrifugal softening of its kinetic energy but not its tension's stiffening nor
+    its length's shortening, and its Kelvin-Voigt damping missed the beta_dot part of its curvature
+    rate: 0.45 / 0.20 / 0.53 % (the tension alone: 0.10 / 0.026 / 0.35 %; with the damping's
+    beta_dot part 0.032 / 0.019 / 0.074 %), converged in functions and time."""
     err = _errors(user_run[0], _reference(720))
     assert all(e <= 0.001 for e in err.values()), err
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="measured 2026-11-29, DERIVE_VERSION 12 (no counts: crank 3 + 3, guide 0 + 4 chosen): true error "
-    "3.2e-4 / 1.9e-4 / 7.4e-4 of peak (guide_end / crank_tip / guide_slope), the sidecar's estimate 7.5e-6 / "
-    "1.8e-5 / 3.5e-4, ratios 0.02 / 0.10 / 0.47. The first two true errors are at the reference's own step "
-    "convergence (half the steps: 3.4e-4) and its two sliding-joint formulations differ by up to 1.2e-3, so "
-    "they measure the reference; guide_slope's truncation part (one guide function more) sees 3.5e-4 of it, "
-    "and 5 -> 6 guide functions move it 1.5e-4 more (issue 19)",
-)
 def test_the_error_estimate_is_honest_as_a_user_runs_the_scene(user_run):
     """The sidecar's ``error_estimate`` within [0.5, 2] x the true error (issue 19, item 2) on the
-    slot-with-overhang class: does not hold today (the xfail's reason)."""
+    slot-with-overhang class, for the outputs whose true error is above the reference's own
+    convergence (``REFERENCE_NOISE``: half its steps move it by 0.034 % of peak; the validation
+    suite's rule, tests/test_model_form_honesty.py). Measured 2026-11-29 (DERIVE_VERSION 12; no
+    counts: crank 3 + 3, guide 4 span + chi_0 + 4 overhang functions chosen): true 2.6e-4 / 1.8e-4 /
+    6.4e-4 of peak (guide_end / crank_tip / guide_slope), the estimate 1.4e-5 / 2.3e-5 / 3.5e-4:
+    guide_slope 0.56 (its truncation part: one span function more moves it 3.2e-4; with 5 and 6 span
+    functions it is 0.042 and 0.057 % off the reference), the others below the noise. Before
+    DERIVE_VERSION 12 the guide's missing tension, shortening and damping made the true errors
+    0.45 / 0.20 / 0.53 %, which no part estimated (ratios 0.001 / 0.01 / 0.06)."""
     y, side = user_run
     err = _errors(y, _reference(720))
     est = side["error_estimate"]
-    ratios = {k: est[k] / err[k] for k in OUTPUTS}
+    above = [k for k in OUTPUTS if err[k] > REFERENCE_NOISE]
+    assert above == ["guide_slope"], err  # the others are at the reference's own convergence
+    ratios = {k: est[k] / err[k] for k in above}
     assert all(0.5 <= r <= 2.0 for r in ratios.values()), (err, est, ratios)

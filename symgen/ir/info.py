@@ -107,6 +107,14 @@ class ModelInfo:
                 groups.setdefault(c.body, ([], []))[c.kind is CoordKind.G].append(i)
         return {body: (tuple(f), tuple(g)) for body, (f, g) in groups.items()}
 
+    @cached_property
+    def slot_guides(self) -> frozenset[str]:
+        """The guides of slot joints: their functions psi(xi, beta) move with the contact, so the
+        range check's fixed samples (``symgen.numerics.checks.range_tables``) do not describe them."""
+        return frozenset(
+            j["ends"][1][0] for j in self.structure.get("joints", []) if j.get("kind") == "slot" and len(j["ends"]) == 2
+        )
+
     @property
     def linear_strain(self) -> bool:
         """The seed's linear strain (``effects.strain = "linear"``): its axis does not shorten as it

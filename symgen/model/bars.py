@@ -559,8 +559,8 @@ def bar_equations(
         # enters (17) and the beta equation as the derivatives of (1/2) (N eta', eta') at fixed N.
         # Without it the guide kept the centrifugal softening theta'^2 eta^2 of its kinetic energy
         # but not the tension's stiffening (the ANCF cable's, and every inextensible bar's here).
-        # The axial point forces add theirs (below); the slot's own force on the guide is normal to
-        # the chord up to its chord-wise part ~ eta'(beta) times it: its tension is left out.
+        # The point forces given on it add theirs (below); the forces of the joints and bars it carries
+        # and of the slot do virtual work on its shortening (slot.SlotBarKinematics: foreshortening).
         T1 = [
             [t.mat("T1", i, j, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)") for j in range(nt)]
             for i in range(nt)

@@ -50,7 +50,7 @@ from symgen.model.constraints import angle_drivers, axial_forces, inextensibilit
 from symgen.model.kinematics import BarKinematics, TreeKinematics
 from symgen.model.loads import applied_loads
 from symgen.model.quantities import BAR_SHAPE_OUTPUTS, energy, scene_outputs
-from symgen.model.residual import generalized_forces, guide_tension_of_children, residuals, subtree_resultants
+from symgen.model.residual import generalized_forces, residuals, subtree_resultants
 from symgen.model.rotary import driver_rotors
 from symgen.model.shape_cache import inner_products
 from symgen.model.shapes import Basis, axial_basis
@@ -131,8 +131,7 @@ def _derive(scene: Scene) -> DerivedModel:
     S = subtree_resultants(prog, topo, E)
     # each driven bar's applied moment: a torque driver's torque, an angle driver's multiplier
     moments = dict(loads.torques) | {body: cons.lam[row] for body, row in cons.driver_rows.items()}
-    tension = guide_tension_of_children(topo, bars, S, spec.effects.geometric_stiffening)
-    res = residuals(coords, q, topo, bars, tree, E, S, moments, rotors, tension)
+    res = residuals(coords, q, topo, bars, tree, E, S, moments, rotors)
 
     prog.inputs = {"t": (TAU,), "q": q, "v": v, "a": a, "lam": tuple(cons.lam)}
     prog.outputs.update(phi=cons.phi, phid=cons.phid, phidd=cons.phidd, res=res)
@@ -192,7 +191,8 @@ def _bars(spec: ModelSpec, path: str, treatment: dict, param: Parameters) -> tup
             basis = SlotBasis(nt, beta[0], spec.overhang_modes(b.name))
             param.add(sym.alpha, sym.nu, sym.mu)
             ba = axial_basis("complete", 0)
-            bars[b.name] = BarModel(b.name, sym, ba, basis, SlotBarKinematics(sym, basis, beta), SlotIPTable(basis))
+            kin = SlotBarKinematics(sym, basis, beta, foreshortening=spec.effects.geometric_stiffening)
+            bars[b.name] = BarModel(b.name, sym, ba, basis, kin, SlotIPTable(basis))
             continue
         param.add(sym.alpha, sym.nu, sym.lam, sym.mu)
         ba, bt = bar_bases(b)

@@ -139,7 +139,7 @@ def output(
                 on_child = S[name][comp]
                 return on_child if j.ends[1].body == name else -on_child
         rows = [i for i, r in enumerate(cons.rows) if r.joint == j.name]
-        if j.kind == "pin":
+        if j.kind in ("pin", "slot"):  # a slot's rows are its force's ground components, as a pin's
             return -cons.lam[rows[comp]]  # lam is the force on ends[0] from ends[1]
         d = tree.slider_dir(j.name)
         n = (-d[1], d[0])

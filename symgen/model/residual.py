@@ -158,6 +158,8 @@ def contact_force(gen: dict, kin, force: tuple) -> dict:
     out["XY"] = (gen["XY"][0] - F[0], gen["XY"][1] - F[1])
     out["th"] = gen["th"] - arms[s.th].dot(F)
     out["beta"] = gen["beta"] - arms[s.beta[0]].dot(F)
+    if any(gk in arms for gk in s.g):  # the foreshortened contact (slot.SlotBarKinematics)
+        out["g"] = tuple(e - arms[gk].dot(F) if gk in arms else e for e, gk in zip(gen["g"], s.g))
     return out
 
 
@@ -175,39 +177,6 @@ def subtree_resultants(prog: Program, topo: Topology, E: dict) -> dict:
     return S
 
 
-def guide_tension_of_children(topo: Topology, bars: dict, S: dict, stiffening: bool) -> dict:
-    """(guide, coordinate kind, index) -> the generalized force of the tension that the bars hanging
-    from a slot guide (tree joints at xi_c > 0, e.g. a crank-shaper's link on its lever's end) pull
-    it with: N_c = -S_c . e (e the guide's chord direction; S_c the force the guide exerts on the
-    child), acting on [0, xi_c], virtual work -alpha N_c (H_c g, delta g) with H_c = int_0^xi_c
-    psi'_a psi'_b (``slot.point_tension_name``): on each amplitude alpha N_c (H_c g)_a, on beta
-    alpha N_c g^T (dH_c/dbeta) g / 2. The guide's own inertia, loads and cut joints' forces are in
-    its equation (17) (``bars.bar_equations``); these are the rest of its tension. Empty with
-    ``geometric_stiffening`` off."""
-    from symgen.model.slot import SlotIPTable, point_tension_name
-
-    out: dict = {}
-    if not stiffening:
-        return out
-    for name, bm in bars.items():
-        s = bm.sym
-        hanging = [ch for ch in topo.children.get(name, ()) if ch.parent_xi is not None and ch.parent_xi > 1e-12]
-        if not s.beta or not s.g or not hanging:
-            continue
-        table = SlotIPTable(bm.kin.basis_t)
-        g, b = list(s.g), s.beta[0]
-        work = sp.Integer(0)
-        for ch in hanging:
-            N = -(sp.cos(s.th) * S[ch.body][0] + sp.sin(s.th) * S[ch.body][1])
-            H = table.matrix(point_tension_name(ch.parent_xi))
-            work += N * sp.Add(*[H[i, j] * g[i] * g[j] for i in range(len(g)) for j in range(len(g))]) / 2
-        work = s.alpha * work
-        for k, gk in enumerate(g):
-            out[(name, CoordKind.G, k)] = sp.diff(work, gk)
-        out[(name, CoordKind.BETA, 0)] = sp.diff(work, b)
-    return out
-
-
 def residuals(
     coords: list,
     q: tuple,
@@ -218,13 +187,10 @@ def residuals(
     S: dict,
     moments: dict,
     rotors: dict,
-    tension: dict | None = None,
 ) -> list:
     """One residual per coordinate (virtual work through the tree). ``moments``: driven bar ->
     applied moment (a torque driver's torque, or an angle driver's multiplier); ``rotors``:
-    driven bar -> J of its rotor; ``tension``: a guide's tension from the bars hanging from it
-    (:func:`guide_tension_of_children`)."""
-    tension = tension or {}
+    driven bar -> J of its rotor."""
     res = []
     for c, var in zip(coords, q):
         if c.kind is CoordKind.S:
@@ -240,8 +206,5 @@ def residuals(
             r -= moments[c.body]  # applied moment
             if c.body in rotors:
                 r += rotors[c.body] * bm.sym.ddth  # the rotor's inertial moment J theta''
-        key = (c.body, c.kind, c.index if c.kind is CoordKind.G else 0)
-        if key in tension:
-            r += tension[key]
         res.append(r)
     return res

@@ -332,6 +332,24 @@ def _point_tension_gram(nt: int, beta_name: str, nover: int, xi_p: float) -> tup
     return beta, {point_tension_name(xi_p): W}
 
 
+#: the name of (psi'_a, psi'_b) over the span [0, beta]: the weight of the slot force's chord-wise
+#: part in the guide's tension (``_span_slope_gram``)
+SPAN_TENSION = "Hspan"
+
+
+@cache
+def _span_slope_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """(beta, {SPAN_TENSION: int_0^beta psi'_a psi'_b}) in closed form."""
+    beta = sp.Symbol(beta_name, positive=True)
+    sh = _Span(beta)
+    span = [sh.piece(_derivative(k, beta, nt - nover, nover, 1, 0)[0]) for k in range(1, nt + 1)]
+    W = sp.zeros(nt, nt)
+    for i in range(nt):
+        for j in range(i, nt):
+            W[i, j] = W[j, i] = sh.integral(span[i], span[j])
+    return beta, {SPAN_TENSION: W}
+
+
 @cache
 def _rate_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     """(beta, {"Kb": (psi''_a, psi''_b,beta), "Kbb": (psi''_a,beta, psi''_b,beta)}) over [0, 1] in
@@ -447,14 +465,16 @@ class SlotIPTable:
         curvature rate's ("Kb", "Kbb": ``_rate_gram``), those made on first use."""
         if name == "Kt":
             return self.Kt
-        point = name.startswith("H")
-        if name not in TENSION_WEIGHTS and name not in RATE_MATRICES and not point:
+        point = name.startswith("H") and name != SPAN_TENSION
+        if name not in TENSION_WEIGHTS and name not in RATE_MATRICES and name != SPAN_TENSION and not point:
             raise KeyError(f"a guide bar has no {name} inner products")
         if name not in self._extra:
             if point:
                 beta0, mats = _point_tension_gram(self.nt, str(self.basis.beta), self.basis.nover, float(name[1:]))
             else:
-                made = _tension_gram if name in TENSION_WEIGHTS else _rate_gram
+                made = {SPAN_TENSION: _span_slope_gram}.get(
+                    name, _tension_gram if name in TENSION_WEIGHTS else _rate_gram
+                )
                 beta0, mats = made(self.nt, str(self.basis.beta), self.basis.nover)
             self._extra.update({k: m.xreplace({beta0: self.basis.beta}) for k, m in mats.items()})
         return self._extra[name]
@@ -543,21 +563,71 @@ class SlotDisplayIPTable:
 
 class SlotBarKinematics:
     """Points of a guide bar: the same interface as ``kinematics.BarKinematics``, with the
-    time derivatives taken through beta(tau) as well (generic chain rule on the local point)."""
+    time derivatives taken through beta(tau) as well (generic chain rule on the local point).
 
-    def __init__(self, sym, basis: SlotBasis, beta: tuple) -> None:
+    ``foreshortening`` (``effects.geometric_stiffening``): the guide keeps its length as it bends,
+    its point xi at u(xi) = -1/2 int_0^xi eta'^2 = -1/2 g^T H(xi) g along the chord
+    (``point_tension_name``), the contact at beta + u(beta) (H over the span); the joints on it, the
+    bars hanging from it and the slot force then do the virtual work of an axial force on the
+    chord's shortening: the tension they pull the guide with (DERIVE_VERSION 12). Only at the
+    points the model reads (numbers xi; a symbol xi, the geometry's drawing, keeps the chord's
+    xi)."""
+
+    def __init__(self, sym, basis: SlotBasis, beta: tuple, foreshortening: bool = False) -> None:
         self.sym, self.basis_t, self.beta = sym, basis, beta  # beta = (b, db, ddb)
         self.basis_a = None
+        self.foreshortening = foreshortening
+
+    def _shortening(self, name: str) -> sp.Expr:
+        """-1/2 g^T H g of the matrix ``name`` (a closed form in beta)."""
+        H = SlotIPTable(self.basis_t).matrix(name)
+        g = self.sym.g
+        return -sp.Add(*[H[i, j] * g[i] * g[j] for i in range(len(g)) for j in range(len(g)) if H[i, j] != 0]) / 2
 
     def zeta(self, xi, deriv: int = 0, amp=None) -> sp.Expr:
-        return sp.Integer(0)
+        """u(xi) (``foreshortening``), at the coordinates' values; 0 otherwise."""
+        xi = sp.sympify(xi)
+        if not self.foreshortening or deriv or amp is not None or not xi.is_number or xi <= 0 or not self.sym.g:
+            return sp.Integer(0)
+        return self._shortening(point_tension_name(float(xi)))
 
     def eta(self, xi, deriv: int = 0, amp=None) -> sp.Expr:
         amp = self.sym.g if amp is None else amp
         return sp.Add(*[self.basis_t.expr(k, xi, deriv) * a for k, a in enumerate(amp)])
 
     def local(self, xi) -> tuple:
-        return sp.sympify(xi), self.eta(xi)
+        return sp.sympify(xi) + self.zeta(xi), self.eta(xi)
+
+    def contact_display(self) -> tuple[sp.Expr, dict, dict]:
+        """u(beta) for the LaTeX: -1/2 sum g_j g_k F_jk(beta) with each (psi'_j, psi'_k)_[0,beta] a
+        function F_jk of beta (so that u's derivatives keep theirs), the rule turning those and their
+        beta derivatives into display symbols, and those symbols' closed forms; (0, {}, {}) without
+        ``foreshortening``."""
+        s = self.sym
+        if not self.foreshortening or not s.g:
+            return sp.Integer(0), {}, {}
+        b = s.beta[0]
+        H = SlotIPTable(self.basis_t).matrix(SPAN_TENSION)
+        u = sp.Integer(0)
+        rep: dict = {}
+        values: dict = {}
+        for i in range(len(s.g)):
+            for j in range(i, len(s.g)):
+                if H[i, j] == 0:
+                    continue
+                label = rf"\left(\psi'_{{{i + 1}}},\psi'_{{{j + 1}}}\right)_{{[0,\beta]}}"
+                f = sp.Function(label)(b)
+                u -= (1 if i == j else 2) * f * s.g[i] * s.g[j] / 2
+                rep[sp.Derivative(f, b)] = d = sp.Symbol(r"\partial_{\beta}" + label)
+                rep[f] = sym = sp.Symbol(label)
+                values[sym], values[d] = H[i, j], sp.diff(H[i, j], b)
+        return u, rep, values
+
+    def contact_shortening(self) -> sp.Expr:
+        """u(beta) = -1/2 int_0^beta eta'^2 (``foreshortening``), else 0."""
+        if not self.foreshortening or not self.sym.g:
+            return sp.Integer(0)
+        return self._shortening(SPAN_TENSION)
 
     def _coords(self) -> tuple:
         s, (b, db, ddb) = self.sym, self.beta
@@ -606,10 +676,20 @@ class SlotBarKinematics:
         return out
 
     def contact(self) -> tuple:
-        """(rho, rho', rho'') of the contact point xi = beta (where eta = 0), ground axes."""
+        """(rho, rho', rho'') of the contact point xi = beta (where eta = 0; along the chord at
+        beta + u(beta)), ground axes."""
         s, (b, db, ddb) = self.sym, self.beta
         R = rot(s.th)
-        l, ld, ldd = sp.Matrix([b, 0]), sp.Matrix([db, 0]), sp.Matrix([ddb, 0])
+        u = self.contact_shortening()
+        if u == 0:
+            l, ld, ldd = sp.Matrix([b, 0]), sp.Matrix([db, 0]), sp.Matrix([ddb, 0])
+        else:
+            c, dc, ddc = self._coords()
+            grad = [sp.diff(u, x) for x in c]
+            ud = sp.Add(*[gx * dx for gx, dx in zip(grad, dc)])
+            udd = sp.Add(*[gx * ax for gx, ax in zip(grad, ddc)])
+            udd += sp.Add(*[sp.diff(grad[i], cj) * dc[i] * dc[j] for i in range(len(c)) for j, cj in enumerate(c)])
+            l, ld, ldd = sp.Matrix([b + u, 0]), sp.Matrix([db + ud, 0]), sp.Matrix([ddb + udd, 0])
         J = lambda v: sp.Matrix([-v[1], v[0]])
         return (
             s.alpha * R * l,
@@ -618,10 +698,15 @@ class SlotBarKinematics:
         )
 
     def contact_partials(self) -> dict:
-        """d rho(contact) / d coordinate: the slot force's lever arms (theta, beta)."""
+        """d rho(contact) / d coordinate: the slot force's lever arms (theta, beta and, with the
+        foreshortening, the amplitudes)."""
         s, (b, _, _) = self.sym, self.beta
         R = rot(s.th)
-        return {s.th: s.alpha * R * sp.Matrix([0, b]), b: s.alpha * R * sp.Matrix([1, 0])}
+        u = self.contact_shortening()
+        out = {s.th: s.alpha * R * sp.Matrix([0, b + u]), b: s.alpha * R * sp.Matrix([1 + sp.diff(u, b), 0])}
+        if u != 0:
+            out.update({gk: s.alpha * R * sp.Matrix([sp.diff(u, gk), 0]) for gk in s.g})
+        return out
 
 
 def is_zero(value) -> bool:

@@ -6,17 +6,17 @@
  * DO NOT EDIT: regenerate with  symgen emit-c inverted_slider_crank.toml -o DIR
  *
  * Operation counts of the model functions (after common-subexpression elimination):
- *   inverted_slider_crank_phi: 45 operations, 8 temporaries
- *   inverted_slider_crank_phid: 62 operations, 13 temporaries
- *   inverted_slider_crank_phidd: 90 operations, 19 temporaries
- *   inverted_slider_crank_res: 1154 operations, 199 temporaries
- *   inverted_slider_crank_out: 75 operations, 18 temporaries
+ *   inverted_slider_crank_phi: 54 operations, 10 temporaries
+ *   inverted_slider_crank_phid: 90 operations, 20 temporaries
+ *   inverted_slider_crank_phidd: 149 operations, 34 temporaries
+ *   inverted_slider_crank_res: 1181 operations, 213 temporaries
+ *   inverted_slider_crank_out: 86 operations, 21 temporaries
  *   inverted_slider_crank_energy: 505 operations, 113 temporaries
- *   inverted_slider_crank_closure: 42 operations, 8 temporaries
- *   inverted_slider_crank_phi_jac: 48 operations, 13 temporaries, 19 nonzeros of 3x36
- *   inverted_slider_crank_phid_jac: 99 operations, 25 temporaries, 37 nonzeros of 3x36
- *   inverted_slider_crank_phidd_jac: 203 operations, 53 temporaries, 55 nonzeros of 3x36
- *   inverted_slider_crank_res_jac: 2648 operations, 625 temporaries, 172 nonzeros of 11x36
+ *   inverted_slider_crank_closure: 51 operations, 10 temporaries
+ *   inverted_slider_crank_phi_jac: 86 operations, 24 temporaries, 19 nonzeros of 3x36
+ *   inverted_slider_crank_phid_jac: 202 operations, 55 temporaries, 37 nonzeros of 3x36
+ *   inverted_slider_crank_phidd_jac: 435 operations, 103 temporaries, 55 nonzeros of 3x36
+ *   inverted_slider_crank_res_jac: 2719 operations, 659 temporaries, 172 nonzeros of 11x36
  */
 
 #ifndef SYMGEN_inverted_slider_crank_H

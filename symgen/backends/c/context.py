@@ -258,6 +258,20 @@ def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
     checks = []
     for group in plan.amplitudes:
         body = group.body
+        if body in info.slot_guides:  # not checked (checks.GUIDE_UNCHECKED): an empty check keeps the order
+            checks.append(
+                {
+                    "indices": [],
+                    "axial": [],
+                    "points": 0,
+                    "linear": 0,
+                    "slopes": [],
+                    "stretches": [],
+                    "slope_message": c_string(""),
+                    "stretch_message": c_string(""),
+                }
+            )
+            continue
         samples = shape_samples(bodies[body])
         slopes = samples.slope_table() if group.transverse else ()
         stretches = samples.stretch_table() if group.axial else ()

@@ -19,6 +19,7 @@ amplitudes (psi(beta, beta) = 0).
 
 from __future__ import annotations
 
+from types import SimpleNamespace
 from typing import Any
 
 import sympy as sp
@@ -38,6 +39,7 @@ from symgen.backends.latex.printing import (
 from symgen.ir import names
 from symgen.ir.records import CoordKind, find_coordinate
 from symgen.model.bars import point_force_groups
+from symgen.model.slot import SPAN_TENSION
 from symgen.scene.model import GROUND
 
 __all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes", "beta_positive"]
@@ -192,13 +194,26 @@ def guide_display_equations(scene, model, name: str, relabel: dict | None = None
     eqs = model.bars[name].equations.display.map(lambda e: e.xreplace(relabel or {}))
     Bc, Gc = _contact_symbols(_slot_of(scene, name).name)
     b = s.beta[0]
+    u, rep, values = _contact_shortening(model, name)
     return {
         "fx": eqs.force[0] - Bc,
         "fy": eqs.force[1] - Gc,
-        "mom": eqs.moment - b * Gc,  # arm: the contact is at (beta, 0)
-        "eq17": list(eqs.eq17),  # psi_k(beta) = 0: no work on g
-        "eqbeta": eqs.eqbeta - Bc,
-    }  # d r_contact / d beta = alpha R e_x
+        "mom": eqs.moment - (b + u.xreplace(rep)) * Gc,  # arm: the contact is at (beta + u(beta), 0)
+        # psi_k(beta) = 0: the slot force does work on g only through the chord's shortening u(beta)
+        "eq17": [e - Bc * sp.diff(u, gk).xreplace(rep) for e, gk in zip(eqs.eq17, s.g)],
+        "eqbeta": eqs.eqbeta - Bc * (1 + sp.diff(u, b).xreplace(rep)),
+        "values": values,
+    }  # d r_contact / d beta = alpha R e_x (1 + du/dbeta)
+
+
+def _contact_shortening(model, name: str) -> tuple[sp.Expr, dict, dict]:
+    """The foreshortened contact's display form (``slot.SlotBarKinematics.contact_display``);
+    (0, {}, {}) without."""
+    kin = model.bars[name].kin
+    if not hasattr(kin, "contact_display"):
+        return sp.Integer(0), {}, {}
+    u, rep, values = kin.contact_display()
+    return u, rep, values
 
 
 def guide_context(scene, model, name: str, pr) -> dict:
@@ -304,7 +319,14 @@ def guide_context(scene, model, name: str, pr) -> dict:
     ctx["rb"] = eq_block(rows([eqs["fx"], eqs["fy"], eqs["mom"]], [f"RB.x, {tn}", f"RB.y, {tn}", f"RB.M, {tn}"]))
     ctx["eq17"] = eq_block(rows(eqs["eq17"], [f"17.{k + 1}, {tn}" for k in range(nt)])) if nt else ""
     ctx["eqbeta"] = eq_block(rows([eqs["eqbeta"]], [rf"17.$\beta$, {tn}"]))
-    ctx["ip_table"] = _ip_rows(bm.equations, b, used, pr, beta0, pos)
+    # the inner products of the equations and of the foreshortened contact (its own symbols)
+    short = {
+        sym: ("d" + SPAN_TENSION if sym.name.startswith(r"\partial") else SPAN_TENSION, (0, 0)) for sym in eqs["values"]
+    }
+    table = SimpleNamespace(
+        inner_products={**bm.equations.inner_products, **short}, values={**bm.equations.values, **eqs["values"]}
+    )
+    ctx["ip_table"] = _ip_rows(table, b, used, pr, beta0, pos)
     ctx["tension"] = _tension_text(scene, model, name, pr) if eff.geometric_stiffening and nt else ""
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
@@ -335,7 +357,8 @@ def _at(model, bar: str, xi: float) -> tuple[str, str, str]:
     one = abs(xi - 1.0) < 1e-12
     zero = abs(xi) < 1e-12
     x = "1" if one else num_text(xi)
-    z = "" if (not s.f or zero) else (rf"\hat\zeta_{{{B}}}" if one else rf"\zeta_{{{B}}}({x})")
+    shortened = getattr(model.bars[bar].kin, "foreshortening", False) and bool(s.g)  # a guide: u(xi)
+    z = "" if (not (s.f or shortened) or zero) else (rf"\hat\zeta_{{{B}}}" if one else rf"\zeta_{{{B}}}({x})")
     e = "0" if (not s.g or zero) else (rf"\hat\eta_{{{B}}}" if one else rf"\eta_{{{B}}}({x})")
     return x, z, e
 
@@ -435,30 +458,20 @@ def slot_notes(scene, model) -> list[dict]:
 
 
 def _tension_text(scene, model, name: str, pr) -> str:
-    """The guide's tension (``bars.bar_equations``, ``residual.guide_tension_of_children``): what
-    its N is made of and where it enters."""
+    """The guide's tension (``bars.bar_equations``) and its foreshortening
+    (``slot.SlotBarKinematics``): what its N is made of and where it enters."""
     B = rm(name)
-    s = model.bars[name].sym
-    th, al = pr(s.th), pr(s.alpha)
     text = (
-        rf"The axially rigid guide's tension $N(\xi) = \bigl(\bar\beta_{{{B}}} - [\ddot x_A]_{{{B}}}\bigr)(1-\xi)"
-        rf" + \dot\theta_{{{B}}}^{{2}}(1-\xi^2)/2 + \sum_p B_p\,H(\xi_p - \xi)$ (its own axial inertia and load "
-        r"and the axial point forces $B_p$ at $\xi_p$; its far end free, the slot carrying no axial force) stiffens "
-        r"its bending: its virtual work $-(N\eta', \delta\eta')$ is in (17) and in the equation of $\beta$ above, "
-        r"through $(\psi'_j,(1-\xi)\,\psi'_k)$, $(\psi'_j,\tfrac{1-\xi^2}{2}\,\psi'_k)$ and "
-        r"$(\psi'_j,\psi'_k)_{[0,\xi_p]} = \int_0^{\xi_p}\psi'_j\psi'_k\,d\xi$ (the kinetic energy's "
-        rf"$-\dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}$ is the spin's softening, this its stiffening)."
+        rf"The axially rigid guide keeps its length as it bends: its point $\xi$ lies at $\xi + \zeta_{{{B}}}(\xi)$ "
+        rf"along the chord, $\zeta_{{{B}}}(\xi) = -\tfrac12\int_0^\xi \eta'^2_{{{B}}}\,d\xi = -\tfrac12\sum_{{j,k}} "
+        rf"g_{{{B},j}} g_{{{B},k}}\,(\psi'_j,\psi'_k)_{{[0,\xi]}}$, at the joints and bars it carries (their "
+        rf"positions above, $\hat\zeta_{{{B}}} = \zeta_{{{B}}}(1)$) and at the contact ($\beta + \zeta_{{{B}}}(\beta)$: "
+        r"the terms of $B$ in (17) and in the equation of $\beta$). The forces there do virtual work on that "
+        r"shortening: the tension they pull the guide with. Its own tension $N(\xi) = "
+        rf"\bigl(\bar\beta_{{{B}}} - [\ddot x_A]_{{{B}}}\bigr)(1-\xi) + \dot\theta_{{{B}}}^{{2}}(1-\xi^2)/2 + "
+        r"\sum_p B_p\,H(\xi_p - \xi)$ (its axial inertia and load, the point forces $B_p$ at $\xi_p$ given on it; its "
+        r"far end free) does the same in (17) and the equation of $\beta$, through $(\psi'_j,(1-\xi)\,\psi'_k)$, "
+        r"$(\psi'_j,\tfrac{1-\xi^2}{2}\,\psi'_k)$ and $(\psi'_j,\psi'_k)_{[0,\xi_p]} = \int_0^{\xi_p}\psi'_j\psi'_k\,d\xi$ "
+        rf"(the kinetic energy's $-\dot\theta_{{{B}}}^{{2}}\eta_{{{B}}}$ is the spin's softening, this its stiffening)."
     )
-    for ch in model.topology.children.get(name, ()):
-        if ch.parent_xi is None or ch.parent_xi <= 1e-12:
-            continue
-        C, x = rm(ch.body), num_text(ch.parent_xi)
-        text += (
-            rf" The bar {tex_escape(ch.body)} hangs from it at $\xi = {x}$ (tree joint {tex_escape(ch.joint)}, whose "
-            rf"force is the subtree resultant $\mathbf S_{{{C}}}$) and pulls on $[0, {x}]$ with "
-            rf"$N_{{{C}}} = -\mathbf S_{{{C}}}\cdot(\cos {th}, \sin {th})$: the assembled equation of "
-            rf"$g_{{{B},k}}$ gains ${al}\,N_{{{C}}}\sum_j (\psi'_j,\psi'_k)_{{[0,{x}]}}\,g_{{{B},j}}$ and that "
-            rf"of $\beta$ gains $\tfrac12 {al}\,N_{{{C}}}\sum_{{j,k}} g_{{{B},j}} g_{{{B},k}}\,"
-            rf"\partial_\beta(\psi'_j,\psi'_k)_{{[0,{x}]}}$."
-        )
     return text
