@@ -87,6 +87,27 @@ def _hermite_matrices(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return K, M
 
 
+def hermite_geometric_stiffness(x: np.ndarray, tension) -> np.ndarray:
+    """Geometric stiffness (the work of an axial force N on the chord's shortening, N int w'^2 / 2)
+    of Hermite cubic elements on the nodes ``x``, each element at ``tension`` (a function of xi) at
+    its mid-point; the unknowns as ``_hermite_matrices``'. Independent of symgen's code."""
+    N = len(x)
+    G = np.zeros((2 * N, 2 * N))
+    for e in range(N - 1):
+        h = x[e + 1] - x[e]
+        g = np.array(
+            [
+                [36, 3 * h, -36, 3 * h],
+                [3 * h, 4 * h * h, -3 * h, -h * h],
+                [-36, -3 * h, 36, -3 * h],
+                [3 * h, -h * h, -3 * h, 4 * h * h],
+            ]
+        )
+        d = [2 * e, 2 * e + 1, 2 * e + 2, 2 * e + 3]
+        G[np.ix_(d, d)] += tension((x[e] + x[e + 1]) / 2) / (30 * h) * g
+    return G
+
+
 def cantilever_mass_frequencies(
     a: float, mass: float, inertia: float, offset: tuple[float, float], ne: int, count: int = 3
 ) -> np.ndarray:

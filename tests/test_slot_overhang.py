@@ -19,7 +19,7 @@ from symgen.errors import SceneError
 from symgen.scene.loader import load_scene
 from symgen.model.slot import XI, SlotBasis, SlotIPTable, _derivative
 from symgen.model.structure import effective_modes, overhang_modes, structure_of
-from tests.oracles import write_scene
+from tests.oracles import _hermite_matrices, hermite_geometric_stiffness, write_scene
 from tests.test_slot import FROZEN, frozen_frequencies
 
 BETA = sp.Symbol("beta_A", real=True)
@@ -49,42 +49,7 @@ def _tip_deflections(nspan: int, nover: int, beta: float) -> tuple[float, float]
 
 def _fe_frequencies(beta: float, n: int = 120) -> np.ndarray:
     """First three frequencies of the pinned / supported-at-beta / free beam (EI = m = 1)."""
-    xs = np.unique(
-        np.concatenate([np.linspace(0.0, beta, round(n * beta) + 1), np.linspace(beta, 1.0, round(n * (1 - beta)) + 1)])
-    )
-    N = len(xs)
-    K, M = np.zeros((2 * N, 2 * N)), np.zeros((2 * N, 2 * N))
-    for e in range(N - 1):
-        L = xs[e + 1] - xs[e]
-        k = (
-            np.array(
-                [
-                    [12, 6 * L, -12, 6 * L],
-                    [6 * L, 4 * L * L, -6 * L, 2 * L * L],
-                    [-12, -6 * L, 12, -6 * L],
-                    [6 * L, 2 * L * L, -6 * L, 4 * L * L],
-                ]
-            )
-            / L**3
-        )
-        m = (
-            L
-            / 420
-            * np.array(
-                [
-                    [156, 22 * L, 54, -13 * L],
-                    [22 * L, 4 * L * L, 13 * L, -3 * L * L],
-                    [54, 13 * L, 156, -22 * L],
-                    [-13 * L, -3 * L * L, -22 * L, 4 * L * L],
-                ]
-            )
-        )
-        idx = np.arange(2 * e, 2 * e + 4)
-        K[np.ix_(idx, idx)] += k
-        M[np.ix_(idx, idx)] += m
-    support = int(np.argmin(abs(xs - beta)))
-    free = [i for i in range(2 * N) if i not in (0, 2 * support)]
-    return np.sqrt(sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)[:3])
+    return _fe_frequencies_in_tension(beta, 0.0, 0.0, n)
 
 
 def _frequencies(nspan: int, nover: int, beta: float) -> np.ndarray:
@@ -316,64 +281,22 @@ def _fe_frequencies_in_tension(
     """First three frequencies of the pinned / supported-at-beta / free beam (EI = m = 1) turning at
     w about its pin, with the tension N = c1 (1 - xi) + w^2 (1 - xi^2) / 2 (an axial load c1 per
     unit length and the centrifugal one, plus P on [0, xi_p] of an axial point force ``point`` =
-    (P, xi_p)) and the spin's softening -w^2 (eta, eta): consistent Hermite elements, each
-    element's geometric stiffness at its mid-point tension (a node at xi_p)."""
+    (P, xi_p)) and the spin's softening -w^2 (eta, eta): Hermite cubic elements (tests/oracles.py),
+    each element's geometric stiffness at its mid-point tension, nodes at beta and xi_p."""
     P, xp = point
     xs = np.unique(
         np.concatenate(
-            [
-                np.linspace(0.0, beta, round(n * beta) + 1),
-                np.linspace(beta, 1.0, round(n * (1 - beta)) + 1),
-                [xp],
-            ]
+            [np.linspace(0.0, beta, round(n * beta) + 1), np.linspace(beta, 1.0, round(n * (1 - beta)) + 1), [xp]]
         ).round(12)
     )
-    N = len(xs)
-    K, M = np.zeros((2 * N, 2 * N)), np.zeros((2 * N, 2 * N))
-    for e in range(N - 1):
-        L = xs[e + 1] - xs[e]
-        mid = (xs[e] + xs[e + 1]) / 2
-        ten = c1 * (1 - mid) + w**2 * (1 - mid**2) / 2 + (P if mid < xp else 0.0)
-        k = (
-            np.array(
-                [
-                    [12, 6 * L, -12, 6 * L],
-                    [6 * L, 4 * L * L, -6 * L, 2 * L * L],
-                    [-12, -6 * L, 12, -6 * L],
-                    [6 * L, 2 * L * L, -6 * L, 4 * L * L],
-                ]
-            )
-            / L**3
-        )
-        kg = (
-            ten
-            / (30 * L)
-            * np.array(
-                [
-                    [36, 3 * L, -36, 3 * L],
-                    [3 * L, 4 * L * L, -3 * L, -L * L],
-                    [-36, -3 * L, 36, -3 * L],
-                    [3 * L, -L * L, -3 * L, 4 * L * L],
-                ]
-            )
-        )
-        m = (
-            L
-            / 420
-            * np.array(
-                [
-                    [156, 22 * L, 54, -13 * L],
-                    [22 * L, 4 * L * L, 13 * L, -3 * L * L],
-                    [54, 13 * L, 156, -22 * L],
-                    [-13 * L, -3 * L * L, -22 * L, 4 * L * L],
-                ]
-            )
-        )
-        idx = np.arange(2 * e, 2 * e + 4)
-        K[np.ix_(idx, idx)] += k + kg - w**2 * m
-        M[np.ix_(idx, idx)] += m
+    K, M = _hermite_matrices(xs)
+    K = (
+        K
+        + hermite_geometric_stiffness(xs, lambda x: c1 * (1 - x) + w**2 * (1 - x**2) / 2 + (P if x < xp else 0.0))
+        - w**2 * M
+    )
     support = int(np.argmin(abs(xs - beta)))
-    free = [i for i in range(2 * N) if i not in (0, 2 * support)]
+    free = [i for i in range(2 * len(xs)) if i not in (0, 2 * support)]
     return np.sqrt(sl.eigh(K[np.ix_(free, free)], M[np.ix_(free, free)], eigvals_only=True)[:3])
 
 

@@ -561,14 +561,8 @@ def bar_equations(
         # but not the tension's stiffening (the ANCF cable's, and every inextensible bar's here).
         # The point forces given on it add theirs (below); the forces of the joints and bars it carries
         # and of the slot do virtual work on its shortening (slot.SlotBarKinematics: foreshortening).
-        T1 = [
-            [t.mat("T1", i, j, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)") for j in range(nt)]
-            for i in range(nt)
-        ]
-        T2 = [
-            [t.mat("T2", i, j, r"\left(\psi'_{{{i}}},\tfrac{{1-\xi^2}}{{2}}\,\psi'_{{{j}}}\right)") for j in range(nt)]
-            for i in range(nt)
-        ]
+        T1 = _square(t, "T1", nt, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)")
+        T2 = _square(t, "T2", nt, r"\left(\psi'_{{{i}}},\tfrac{{1-\xi^2}}{{2}}\,\psi'_{{{j}}}\right)")
         from symgen.model.slot import point_tension_name  # slot.py builds on this module
 
         n1, n2 = beta - s.xa_dd, dth**2
@@ -579,9 +573,8 @@ def bar_equations(
             if xi > ZERO_TOL:
                 name = point_tension_name(xi)
                 label = r"\left(\psi'_{{{i}}},\psi'_{{{j}}}\right)_{{[0,XI]}}".replace("XI", f"{xi:g}")
-                for i in range(nt):
-                    for j in range(nt):
-                        weights[i][j] += B * t.mat(name, i, j, label)
+                H = _square(t, name, nt, label)
+                weights = [[weights[i][j] + B * H[i][j] for j in range(nt)] for i in range(nt)]
         tension = sp.Add(*[weights[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
         el_g = [el_g[a] + sp.diff(tension, g[a]) for a in range(nt)]
     rate_beta: sp.Expr = sp.Integer(0)  # a guide's dD/d(beta_dot): the beta equation's damping
@@ -591,14 +584,8 @@ def bar_equations(
         # g_dot part, dD/dg_dot_a gains damping mu beta_dot (psi''_a, psi''_b,beta) g_b and the beta
         # equation dD/dbeta_dot = damping mu g_a (psi''_a,beta, kappa_dot) (what an ANCF cable's
         # bending damping acts on: the rate of its material curvature).
-        Kb = [
-            [t.mat("Kb", i, j, r"\left(\psi''_{{{i}}},\psi''_{{{j},\beta}}\right)") for j in range(nt)]
-            for i in range(nt)
-        ]
-        Kbb = [
-            [t.mat("Kbb", i, j, r"\left(\psi''_{{{i},\beta}},\psi''_{{{j},\beta}}\right)") for j in range(nt)]
-            for i in range(nt)
-        ]
+        Kb = _square(t, "Kb", nt, r"\left(\psi''_{{{i}}},\psi''_{{{j},\beta}}\right)")
+        Kbb = _square(t, "Kbb", nt, r"\left(\psi''_{{{i},\beta}},\psi''_{{{j},\beta}}\right)")
         el_g = [el_g[a] + damping * mu * db * sp.Add(*[Kb[a][c] * g[c] for c in range(nt)]) for a in range(nt)]
         rate_beta = (
             damping
@@ -696,6 +683,11 @@ def bar_equations(
         points=tuple(shown),
         loads=groups,
     )
+
+
+def _square(t, name: str, n: int, latex: str) -> list:
+    """The n x n entries of the table's matrix ``name`` (``t.mat``), as rows."""
+    return [[t.mat(name, i, j, latex) for j in range(n)] for i in range(n)]
 
 
 #: False derives every bar's equations itself (``SharedBarEquations``; tests compare the two)
