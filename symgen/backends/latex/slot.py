@@ -414,7 +414,13 @@ def slot_closure(scene, model, joint: str) -> dict:
     bt = pr_beta(model, g.body)
     lhs = " + ".join(ta) + " - " + " - ".join(tb)
     K = rf"\mathbf K_{{{J}}} = {sb} - {sa}"
-    star = rf"\zeta^*_{{{G}}} = 0,\quad \eta^*_{{{G}}} = \eta_{{{G}}}({bt}) = 0"
+    short = getattr(model.bars[g.body].kin, "foreshortening", False) and bool(model.bars[g.body].sym.g)
+    zstar = (
+        rf"\zeta_{{{G}}}({bt}) = -\tfrac12\sum_{{j,k}} g_{{{G},j}} g_{{{G},k}}\,(\psi'_j,\psi'_k)_{{[0,\beta]}}"
+        if short
+        else "0"
+    )
+    star = rf"\zeta^*_{{{G}}} = {zstar},\quad \eta^*_{{{G}}} = \eta_{{{G}}}({bt}) = 0"
     text = (
         rf"Slot {tex_escape(joint)} (cut joint, multipliers $\Lambda_{{x,{J}}}$, $\Lambda_{{y,{J}}}$ = the slot "
         rf"force on {tex_escape(a.body)}), loop "
@@ -422,8 +428,13 @@ def slot_closure(scene, model, joint: str) -> dict:
         + rf": the point $\xi = {num_text(a.xi)}$ of {tex_escape(a.body)} stays on {tex_escape(g.body)} at "
         rf"its support distance ${bt}(\tau)$. In (11) the guide's $[1 + \hat\zeta, \hat\eta]$ is replaced "
         rf"by $[{bt} + \zeta^*, \eta^*]$ with $\zeta^* = \zeta({bt})$, $\eta^* = \eta({bt})$; here "
-        rf"$\zeta^* = 0$ (axially rigid guide) and $\eta^* = 0$ (the guide's frame is the chord from its "
-        rf"pin to the slot)"
+        + (
+            r"$\zeta^*$ the chord's shortening as the guide bends (its length kept; the paragraph ``Tension'' of "
+            r"its section)"
+            if short
+            else r"$\zeta^* = 0$ (an axially rigid guide)"
+        )
+        + r" and $\eta^* = 0$ (the guide's frame is the chord from its pin to the slot)"
     )
     return {"text": text, "sym": rf"{lhs} = {K}", "star": star}
 
