@@ -332,8 +332,8 @@ def _point_tension_gram(nt: int, beta_name: str, nover: int, xi_p: float) -> tup
     return beta, {point_tension_name(xi_p): W}
 
 
-#: the name of (psi'_a, psi'_b) over the span [0, beta]: the weight of the slot force's chord-wise
-#: part in the guide's tension (``_span_slope_gram``)
+#: the name of (psi'_a, psi'_b) over the span [0, beta] (``_span_slope_gram``): the contact's
+#: shortening u(beta) = -1/2 g^T H g (``SlotBarKinematics``)
 SPAN_TENSION = "Hspan"
 
 
@@ -373,6 +373,14 @@ def _rate_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
                     curv_b[i][1], curv_b[j][1]
                 )
     return beta, {"Kb": Kb, "Kbb": Kbb}
+
+
+#: the guide's matrices beyond Kt, by the function that makes them (with their siblings)
+_MADE_BY = {
+    **{name: _tension_gram for name in TENSION_WEIGHTS},
+    **{name: _rate_gram for name in RATE_MATRICES},
+    SPAN_TENSION: _span_slope_gram,
+}
 
 
 @dataclass(frozen=True)
@@ -465,17 +473,14 @@ class SlotIPTable:
         curvature rate's ("Kb", "Kbb": ``_rate_gram``), those made on first use."""
         if name == "Kt":
             return self.Kt
-        point = name.startswith("H") and name != SPAN_TENSION
-        if name not in TENSION_WEIGHTS and name not in RATE_MATRICES and name != SPAN_TENSION and not point:
-            raise KeyError(f"a guide bar has no {name} inner products")
         if name not in self._extra:
-            if point:
-                beta0, mats = _point_tension_gram(self.nt, str(self.basis.beta), self.basis.nover, float(name[1:]))
+            args = (self.nt, str(self.basis.beta), self.basis.nover)
+            if name in _MADE_BY:
+                beta0, mats = _MADE_BY[name](*args)
+            elif name.startswith("H"):  # point_tension_name
+                beta0, mats = _point_tension_gram(*args, float(name[1:]))
             else:
-                made = {SPAN_TENSION: _span_slope_gram}.get(
-                    name, _tension_gram if name in TENSION_WEIGHTS else _rate_gram
-                )
-                beta0, mats = made(self.nt, str(self.basis.beta), self.basis.nover)
+                raise KeyError(f"a guide bar has no {name} inner products")
             self._extra.update({k: m.xreplace({beta0: self.basis.beta}) for k, m in mats.items()})
         return self._extra[name]
 
