@@ -17,10 +17,10 @@ seed's rigid overhang (``joints.A.overhang = "rigid"``), and variations (overhan
 span functions, rtol) to show what the error is made of. Measured (Exudyn 1.13.6) before
 DERIVE_VERSION 12: the default was 0.57 % (guide end) and 0.24 % (crank tip) off the reference, and
 stayed there with more span, overhang or crank functions and a 100x tighter rtol: the axially
-rigid guide had no tension to stiffen its bending (the ANCF cable keeps its centrifugal tension)
-and its damping missed the beta_dot part of its curvature rate. With both (README, "Slots"), the
-scene run as a user runs it (no counts) is within 0.032 / 0.019 / 0.074 % (2026-11-29; this
-section's table not rerun since). The rigid overhang is 66 % / 14 % off, one overhang function 25 % / 6 %. Six overhang functions
+rigid guide had no tension to stiffen its bending (the ANCF cable keeps its centrifugal tension),
+did not keep its length as it bent, and its damping missed the beta_dot part of its curvature
+rate. With these (README, "Slots"), the default is 0.024 / 0.018 / 0.23 % off (2026-11-29, this
+section's table), the scene run as a user runs it (no counts) 0.026 / 0.018 / 0.064 %. The rigid overhang is 66 % / 14 % off, one overhang function 25 % / 6 %. Six overhang functions
 (degree-7 monomials on the overhang) make IDAS fail within the first output step
 (IDA_CONV_FAIL; presumably the near-dependent monomials' ill-conditioned mass matrix).
 
