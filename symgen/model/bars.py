@@ -563,13 +563,11 @@ def bar_equations(
         # and of the slot do virtual work on its shortening (slot.SlotBarKinematics: foreshortening).
         T1 = _square(t, "T1", nt, r"\left(\psi'_{{{i}}},(1-\xi)\,\psi'_{{{j}}}\right)")
         T2 = _square(t, "T2", nt, r"\left(\psi'_{{{i}}},\tfrac{{1-\xi^2}}{{2}}\,\psi'_{{{j}}}\right)")
-        from symgen.model.slot import point_tension_name  # slot.py builds on this module
-
         n1, n2 = beta - s.xa_dd, dth**2
         weights = [[n1 * T1[i][j] + n2 * T2[i][j] for j in range(nt)] for i in range(nt)]
         for xi, B, _G, _ph, _ps in pts:
             # an axial point force (a joint's reaction, a joint's mass, a point load) at xi_p pulls on
-            # [0, xi_p]: N gains B H(xi_p - xi), weight int_0^xi_p psi'_a psi'_b (slot.point_tension_name)
+            # [0, xi_p]: N gains B H(xi_p - xi), weight int_0^xi_p psi'_a psi'_b (point_tension_name)
             if xi > ZERO_TOL:
                 name = point_tension_name(xi)
                 label = r"\left(\psi'_{{{i}}},\psi'_{{{j}}}\right)_{{[0,XI]}}".replace("XI", f"{xi:g}")
@@ -683,6 +681,13 @@ def bar_equations(
         points=tuple(shown),
         loads=groups,
     )
+
+
+def point_tension_name(xi: float) -> str:
+    """The name of a slot guide's (H(xi_p - xi) psi'_a, psi'_b) = int_0^xi_p psi'_a psi'_b
+    (``slot._point_tension_gram``): the tension weight of an axial point force at xi_p, and the
+    shortening of the guide's point xi_p."""
+    return f"H{float(xi)!r}"
 
 
 def _square(t, name: str, n: int, latex: str) -> list:

@@ -60,7 +60,7 @@ import sympy as sp
 from sympy.polys.domains import QQ
 from sympy.polys.rings import PolyElement, ring
 
-from symgen.model.bars import ZERO_TOL, rot
+from symgen.model.bars import ZERO_TOL, point_tension_name, rot
 
 XI = sp.Symbol("xi", real=True)
 _U = sp.Symbol("u", real=True)
@@ -286,12 +286,6 @@ def _tension_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
                 W[i, j] = W[j, i] = sh.integral(weighted[i][0], plain[j][0]) + oh.integral(weighted[i][1], plain[j][1])
         out[name] = W
     return beta, out
-
-
-def point_tension_name(xi: float) -> str:
-    """The name of (H(xi_p - xi) psi'_a, psi'_b) = int_0^xi_p psi'_a psi'_b, the tension weight of
-    an axial point force at xi_p (``_point_tension_gram``)."""
-    return f"H{float(xi)!r}"
 
 
 def _int_pow_exp_to(m: int, a: sp.Expr, upper: sp.Expr) -> sp.Expr:

@@ -149,7 +149,17 @@ class Mechanism:
         import casadi as ca
 
         args, phi = self._symbols
-        return quasi_static_amplitudes(self, ca.jacobian(phi, args[1]))
+        q = args[1]
+        elastic = list(self.info.elastic)
+        # the closure's first-order dependence on each amplitude: a slot guide's points shorten with
+        # its amplitudes squared (symgen.model.slot.SlotBarKinematics), which moves no joint at first
+        # order (its rate terms, g_h g_h' H, are dropped with a quasi-static amplitude's rate)
+        phi_q = (
+            ca.substitute(ca.jacobian(phi, q), q[elastic], ca.DM.zeros(len(elastic)))
+            if elastic
+            else ca.jacobian(phi, q)
+        )
+        return quasi_static_amplitudes(self, phi_q)
 
     def run_partition(self, part: Partition) -> Partition:
         """The partition a run integrates: ``part`` with the quasi-static amplitudes taken out
@@ -430,7 +440,7 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
             )
         idx = list(mech.amplitudes[body.name][1][nt - k : nt])
         loops = [r for r in range(mech.m) if r not in mech.inext_rows]
-        moving = [i for i in idx if loops and phi_q[loops, i].nnz() > 0]
+        moving = [i for i in idx if _reads(phi_q, loops, i)]
         if moving:
             raise SceneError(
                 scene.path,
@@ -446,6 +456,12 @@ def quasi_static_amplitudes(mech: Mechanism, phi_q: ca.SX) -> tuple[int, ...]:
     return tuple(sorted(out))
 
 
+def _reads(phi_q: ca.SX, rows: list[int], i: int) -> bool:
+    """Whether the closure rows ``rows`` of ``phi_q`` read coordinate ``i`` (an entry that is not
+    the constant zero)."""
+    return any(not phi_q[r, i].is_zero() for r in rows)
+
+
 def _chosen_quasi_axial(mech: Mechanism, phi_q: ca.SX, name: str, na: int, k: int) -> list[int]:
     """The amplitudes of the highest ``k`` of bar ``name``'s ``na`` axial functions that symgen
     chose quasi-static (``symgen.scene.bases.quasi_choice``), fewer where the closure reads one,
@@ -455,7 +471,7 @@ def _chosen_quasi_axial(mech: Mechanism, phi_q: ca.SX, name: str, na: int, k: in
     if any(i in mech.inext_f for i in idx):
         return []
     loops = [r for r in range(mech.m) if r not in mech.inext_rows]
-    while k and loops and any(phi_q[loops, i].nnz() > 0 for i in idx[na - k :]):
+    while k and any(_reads(phi_q, loops, i) for i in idx[na - k :]):
         k -= 1
     return idx[na - k :] if k else []
 
@@ -466,6 +482,6 @@ def _chosen_quasi(mech: Mechanism, phi_q: ca.SX, name: str, nt: int, k: int) -> 
     none: a sine at a node of its own reads about 1e-16 here): dynamic is always consistent."""
     loops = [r for r in range(mech.m) if r not in mech.inext_rows]
     idx = list(mech.amplitudes[name][1][:nt])
-    while k and loops and any(phi_q[loops, i].nnz() > 0 for i in idx[nt - k :]):
+    while k and any(_reads(phi_q, loops, i) for i in idx[nt - k :]):
         k -= 1
     return idx[nt - k :] if k else []
