@@ -556,3 +556,51 @@ def test_a_guide_driving_a_dyad_runs_its_turn_and_its_range_is_not_read_with_oth
     along, normal = col["Ax"] * c + col["Ay"] * s, -col["Ax"] * s + col["Ay"] * c
     assert np.abs(normal).max() > 1.0  # newtons: the slot carries the guide's load
     assert np.abs(along).max() < 0.05 * np.abs(normal).max()
+
+
+@pytest.mark.parametrize("nspan, nover", [(3, 0), (2, 4), (4, 2)])
+def test_curvature_table_matches_quadrature(nspan, nover):
+    """The guide's curvature to fourth order (DERIVE_VERSION 13, slot._curvature_gram):
+    E4[(a, b), (c, d)] = int_0^1 psi'_a psi'_b psi''_c psi''_d, a power of beta on the span and of
+    1 - beta on the overhang times a number, against Gauss quadrature of the functions' own
+    derivatives at two contact positions (span and overhang apart: the curvature jumps there)."""
+    from symgen.model.slot import CURVATURE, curvature_pairs
+
+    basis = SlotBasis(nspan + nover, BETA, nover)
+    E4 = SlotIPTable(basis).matrix(CURVATURE)
+    pairs = curvature_pairs(basis.nt)
+    x, wq = np.polynomial.legendre.leggauss(120)
+    for beta in (0.41, 0.66):
+        at = {BETA: beta}
+
+        def d(k: int, n: int, piece: int) -> tuple[np.ndarray, np.ndarray]:
+            lo, hi = ((0.0, beta), (beta, 1.0))[piece]
+            xi = lo + (hi - lo) * (x + 1) / 2
+            f = sp.lambdify(XI, _derivative(k + 1, BETA, nspan, nover, n, 0)[piece].xreplace(at), "numpy")
+            return np.broadcast_to(np.asarray(f(xi), dtype=float), xi.shape), wq * (hi - lo) / 2
+
+        got = np.array(E4.xreplace(at).evalf(), dtype=float)
+        want = np.zeros_like(got)
+        for piece in (0, 1):
+            s1 = [d(k, 1, piece) for k in range(basis.nt)]
+            s2 = [d(k, 2, piece)[0] for k in range(basis.nt)]
+            for i, (a, b) in enumerate(pairs):
+                for j, (c, e) in enumerate(pairs):
+                    want[i, j] += np.sum(s1[a][1] * s1[a][0] * s1[b][0] * s2[c] * s2[e])
+        assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
+        assert np.abs(want).max() > 1.0
+
+
+def test_guide_curvature_is_generated_only_where_called_for():
+    """The guide's fourth-order curvature (E4) goes with the effects that bend the guide beyond
+    the seed's linear model: there by default, absent with the seed's linear strain or without
+    geometric stiffening (a switched-off term is never generated)."""
+    from symgen.model.derive import derive
+
+    def kinds(overrides: list[str]) -> set:
+        model = derive(load_scene(SCENE, overrides))
+        return {kind for kind, _ in model.bars["guide"].equations.inner_products.values()}
+
+    assert "E4" in kinds([])
+    assert "E4" not in kinds(["effects.strain=linear"])
+    assert "E4" not in kinds(["effects.geometric_stiffening=false"])

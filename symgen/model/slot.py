@@ -369,12 +369,84 @@ def _rate_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     return beta, {"Kb": Kb, "Kbb": Kbb}
 
 
+#: the name of the guide's curvature table (``_curvature_gram``): (psi'_a psi'_b, psi''_c psi''_d)
+#: over [0, 1], rows and columns the pairs a <= b, c <= d (``curvature_pairs``)
+CURVATURE = "E4"
+
+
+def curvature_pairs(nt: int) -> tuple[tuple[int, int], ...]:
+    """The index pairs (a, b), a <= b, of the guide's curvature table's rows and columns."""
+    return tuple((a, b) for a in range(nt) for b in range(a, nt))
+
+
+def _scalings(k: int, nspan: int, nover: int) -> tuple[int | None, int | None]:
+    """(e, o) of psi_k (1-based): psi_k = beta^e f_k(xi / beta) on the span and
+    (1 - beta)^o h_k((xi - beta) / (1 - beta)) on the overhang, None where it vanishes or (the
+    seed's rigid overhang) is straight: the span functions e = 0, chi_0 e = o = 1, chi_m o = 2."""
+    if not nover:
+        return 0, None
+    if k <= nspan:
+        return 0, None
+    return (1, 1) if k == nspan + 1 else (None, 2)
+
+
+@cache
+def _curvature_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """(beta, {CURVATURE: E4}) with E4[(a, b), (c, d)] = int_0^1 psi'_a psi'_b psi''_c psi''_d d xi
+    (pairs of ``curvature_pairs``): the inextensible guide's bending energy beyond mu eta''^2 / 2,
+    (mu / 2) int eta'^2 eta''^2 (its curvature kappa = eta'' / sqrt(1 - eta'^2) to fourth order in
+    the amplitudes).
+
+    Each function is a power of beta times a fixed function of u = xi / beta on the span, and a
+    power of 1 - beta times one of v = (xi - beta) / (1 - beta) on the overhang (``_scalings``), so
+    each entry is c_s beta^(e_a + e_b + e_c + e_d - 5) + c_o (1 - beta)^(o_a + o_b + o_c + o_d - 5):
+    the constants are integrals over [0, 1] of the functions at beta = 1 (span) and 0 (overhang),
+    by Gauss-Legendre quadrature exact to round-off (polynomials on the overhang; on the span
+    sines of frequency up to 4 nspan pi, resolved by the nodes' count), as the exact bar's E6."""
+    import numpy as np
+
+    beta = sp.Symbol(beta_name, positive=True)
+    nspan = nt - nover
+    nodes, weights = np.polynomial.legendre.leggauss(max(64, 12 * nspan + 24))
+    x, w = (nodes + 1) / 2, weights / 2
+
+    def samples(piece: int, at: float, k: int) -> tuple:
+        """(psi'_k, psi''_k) of the fixed function of u (v) at the nodes: the piece at beta = at."""
+        expr = _pieces(k, beta, nspan, nover)[piece][0].xreplace({beta: sp.Float(at)})
+        d1, d2 = (sp.lambdify(XI, sp.diff(expr, XI, n), "numpy") for n in (1, 2))
+        return np.broadcast_to(d1(x), x.shape), np.broadcast_to(d2(x), x.shape)
+
+    pairs = curvature_pairs(nt)
+    E4 = sp.zeros(len(pairs), len(pairs))
+    for piece, at, scaled in ((0, 1.0, beta), (1, 0.0, 1 - beta)):
+        # the functions living on this piece: k -> (exponent, slopes, curvatures)
+        on = {}
+        for k in range(nt):
+            e = _scalings(k + 1, nspan, nover)[piece]
+            if e is not None:
+                on[k] = (e, *samples(piece, at, k + 1))
+        for i, (a, b) in enumerate(pairs):
+            if a not in on or b not in on:
+                continue
+            slopes = w * on[a][1] * on[b][1]
+            for j, (c, d) in enumerate(pairs):
+                if c not in on or d not in on:
+                    continue
+                const = float(slopes @ (on[c][2] * on[d][2]))
+                if abs(const) > 1e-14:
+                    E4[i, j] += sp.Float(const) * scaled ** (on[a][0] + on[b][0] + on[c][0] + on[d][0] - 5)
+    return beta, {CURVATURE: E4}
+
+
 #: the guide's matrices beyond Kt, by the function that makes them (with their siblings)
 _MADE_BY = {
     **{name: _tension_gram for name in TENSION_WEIGHTS},
     **{name: _rate_gram for name in RATE_MATRICES},
     SPAN_TENSION: _span_slope_gram,
+    CURVATURE: _curvature_gram,
 }
+#: the guide's matrices that are not symmetric
+NONSYMMETRIC = ("Kb", CURVATURE)
 
 
 @dataclass(frozen=True)
@@ -524,7 +596,7 @@ class SlotDisplayIPTable:
         return sym
 
     def mat(self, name: str, i: int, j: int, latex: str) -> sp.Expr:
-        if name != "Kb":
+        if name not in NONSYMMETRIC:
             i, j = min(i, j), max(i, j)
         if self.numeric.matrix(name)[i, j] == 0:
             return sp.Integer(0)

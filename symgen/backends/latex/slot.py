@@ -39,7 +39,7 @@ from symgen.backends.latex.printing import (
 from symgen.ir import names
 from symgen.ir.records import CoordKind, find_coordinate
 from symgen.model.bars import point_force_groups
-from symgen.model.slot import SPAN_TENSION
+from symgen.model.slot import CURVATURE, SPAN_TENSION
 from symgen.scene.model import GROUND
 
 __all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes", "beta_positive"]
@@ -86,7 +86,19 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
     return min(forms, key=lambda x: (len(sp.latex(x)), forms.index(x)))
 
 
-_KIND_ORDER = {"gram": 0, "Kt": 1, "dKt": 2, "T1": 3, "dT1": 4, "T2": 5, "dT2": 6, "Kb": 7, "Kbb": 8}
+_KIND_ORDER = {
+    "gram": 0,
+    "Kt": 1,
+    "dKt": 2,
+    "T1": 3,
+    "dT1": 4,
+    "T2": 5,
+    "dT2": 6,
+    "Kb": 7,
+    "Kbb": 8,
+    CURVATURE: 9,
+    "d" + CURVATURE: 10,
+}
 
 
 def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
@@ -328,6 +340,8 @@ def guide_context(scene, model, name: str, pr) -> dict:
     )
     ctx["ip_table"] = _ip_rows(table, b, used, pr, beta0, pos)
     ctx["tension"] = _tension_text(scene, model, name, pr) if eff.geometric_stiffening and nt else ""
+    if ctx["tension"] and any(kind == CURVATURE for kind, _ in bm.equations.inner_products.values()):
+        ctx["tension"] += _CURVATURE_TEXT
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
@@ -466,6 +480,17 @@ def slot_notes(scene, model) -> list[dict]:
             }
         )
     return out
+
+
+#: the guide's bending beyond mu eta''^2 / 2 (``bars._guide_curvature``)
+_CURVATURE_TEXT = (
+    r" Being inextensible, the guide bends with its exact curvature $\eta''/\sqrt{1-\eta'^2}$ to fourth order "
+    r"in the amplitudes (the order of its shortening): its strain energy has "
+    r"$\tfrac12\mu\int_0^1\eta'^2\eta''^2\,d\xi = \tfrac12\mu\sum g_a g_b g_c g_d\,"
+    r"(\psi'_a\psi'_b,\psi''_c\psi''_d)$ beyond $\tfrac12\mu\,(\eta'',\eta'')$, in (17) and, by its "
+    r"$\beta$ derivative, in the equation of $\beta$ (the closed forms below: each a power of $\beta$ on "
+    r"the span and of $1-\beta$ on the overhang, times a number)."
+)
 
 
 def _tension_text(scene, model, name: str, pr) -> str:

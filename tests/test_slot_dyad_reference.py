@@ -1,0 +1,88 @@
+"""Issue 19: a slot guide at large deflection against a converged ANCF reference.
+
+``benchmarks/scenes/slot_dyad.toml``: the overhang scene's aluminium guide, swung through its slot by
+a rigid crank, drives a heavy rigid dyad from its far end; the guide's end deflects up to 5 % of its
+length (slopes to ~0.15) while the guide + dyad mode rings near 3 omega. The reference
+(``tests/data/slot_dyad_exudyn.csv``, made by ``benchmarks/exudyn_slot_dyad.py``: ANCF cable guide,
+80 elements, 23040 steps per turn; its header says how converged) needs no Exudyn here.
+
+Measured (DERIVE_VERSION 13, no counts, max |y - y_ref| / max |y_ref| over the turn on the
+one-degree grid): 0.17 % (guide_end) / 0.45 % (guide_mid); converged in functions and time
+0.155 % / 0.41 %. Before the guide's curvature to fourth order (``slot._curvature_gram``, the run
+with ``effects.strain = "linear"``, which is that model exactly here: the other bars are rigid)
+1.6 % / 4.0 %.
+"""
+
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCENE = ROOT / "benchmarks" / "scenes" / "slot_dyad.toml"
+CSV = ROOT / "tests" / "data" / "slot_dyad_exudyn.csv"
+OUTPUTS = ("guide_end", "guide_mid")
+OMEGA = 22.0
+
+
+def _reference() -> dict:
+    lines = [ln for ln in CSV.read_text().splitlines() if ln and not ln.startswith("#")]
+    names = lines[0].split(",")
+    data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
+    return {k: data[:, names.index(k)] for k in ("t",) + OUTPUTS}
+
+
+def _symgen(overrides: list[str]) -> dict:
+    from symgen.api import mechanism, results_table
+    from symgen.numerics.simulate import simulate
+
+    mech = mechanism(SCENE, overrides)
+    res = simulate(mech)
+    assert res.complete, res.failure
+    cols = results_table(res, mech.scene)
+    return {k: np.asarray(cols[k]) for k in ("t",) + OUTPUTS}
+
+
+def _errors(y: dict, ref: dict) -> dict:
+    assert len(y["t"]) == len(ref["t"]) and np.allclose(y["t"], ref["t"], rtol=0, atol=1e-9)
+    return {k: float(np.abs(y[k] - ref[k]).max() / np.abs(ref[k]).max()) for k in OUTPUTS}
+
+
+def test_stored_reference_is_the_scene():
+    """One turn on the one-degree grid at 22 rad/s, at large deflection (the end 5 % of the
+    guide's 0.95 m)."""
+    ref = _reference()
+    assert len(ref["t"]) == 361
+    assert np.allclose(ref["t"], np.arange(361) * math.pi / 180 / OMEGA, rtol=0, atol=1e-9)
+    assert 0.04 < np.abs(ref["guide_end"]).max() / 0.95 < 0.06
+    assert 0.005 < np.abs(ref["guide_mid"]).max() / 0.95 < 0.012
+
+
+@pytest.mark.slow
+def test_large_deflection_guide_within_half_a_percent_without_counts():
+    """No counts, default accuracy: within 1 % of peak (measured 0.17 % / 0.45 %); the guide
+    without its curvature's fourth order (strain "linear") is 1.6 % / 4.0 % off: the reference
+    tells the two apart."""
+    ref = _reference()
+    err = _errors(_symgen(["simulation.rtol=1e-8", "simulation.atol=1e-11"]), ref)
+    assert max(err.values()) < 0.006, err
+    without = _errors(
+        _symgen(["effects.strain=linear", "simulation.rtol=1e-8", "simulation.atol=1e-11"]),
+        ref,
+    )
+    assert min(without.values()) > 0.012, without
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="converged symgen is 0.155 % / 0.41 % off the reference: a model difference "
+    "at 5 % deflection not yet found (the ringing's phase after the largest excursion)",
+)
+def test_converged_within_a_tenth_of_a_percent():
+    ref = _reference()
+    err = _errors(_symgen(["simulation.rtol=1e-9", "simulation.atol=1e-12"]), ref)
+    assert max(err.values()) < 0.001, err
