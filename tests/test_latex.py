@@ -387,11 +387,11 @@ def test_guide_equations_give_back_the_model(inverted):
     values = dict(bm.equations.values)
     kinds = {kind for kind, _ in bm.equations.inner_products.values()}
     # the tension's (T1, T2) since DERIVE_VERSION 12; the curvature rate's (Kb, Kbb) where damped;
-    # the curvature to fourth order (E4) since 13
+    # the curvature to fourth order (E4) since 13, the shortening's kinetic energy (Z) since 14
     assert (
-        {"gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "E4", "dE4"}
+        {"gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "E4", "dE4", "Z", "dZ"}
         <= kinds
-        <= {"gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "Kb", "Kbb", "E4", "dE4"}
+        <= {"gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "Kb", "Kbb", "E4", "dE4", "Z", "dZ"}
     )
     Bc, Gc = _contact_symbols("A")
     values.update(zip((Bc, Gc), _contact_definitions(model, "guide", "A")))

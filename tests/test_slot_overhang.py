@@ -592,15 +592,52 @@ def test_curvature_table_matches_quadrature(nspan, nover):
 
 
 def test_guide_curvature_is_generated_only_where_called_for():
-    """The guide's fourth-order curvature (E4) goes with the effects that bend the guide beyond
-    the seed's linear model: there by default, absent with the seed's linear strain or without
-    geometric stiffening (a switched-off term is never generated)."""
+    """The guide's fourth-order curvature (E4) and its shortening's kinetic energy (Z) go with the
+    effects that bend the guide beyond the seed's linear model: there by default, absent with the
+    seed's linear strain or without geometric stiffening (a switched-off term is never
+    generated)."""
     from symgen.model.derive import derive
 
     def kinds(overrides: list[str]) -> set:
         model = derive(load_scene(SCENE, overrides))
         return {kind for kind, _ in model.bars["guide"].equations.inner_products.values()}
 
-    assert "E4" in kinds([])
-    assert "E4" not in kinds(["effects.strain=linear"])
-    assert "E4" not in kinds(["effects.geometric_stiffening=false"])
+    assert {"E4", "Z"} <= kinds([])
+    assert not {"E4", "Z"} & kinds(["effects.strain=linear"])
+    assert not {"E4", "Z"} & kinds(["effects.geometric_stiffening=false"])
+
+
+@pytest.mark.parametrize("nspan, nover", [(3, 0), (2, 4)])
+def test_shortening_table_matches_quadrature(nspan, nover):
+    """The kinetic energy of the guide's shortening (DERIVE_VERSION 14, slot._shortening_gram):
+    Z[(a, b), (c, d)] = int_0^1 H_ab H_cd, H_ab(xi) = int_0^xi psi'_a psi'_b, a sum of numbers times
+    powers of beta and 1 - beta, against H integrated cumulatively (Simpson on a fine grid, the
+    contact a grid point) from the functions' own slopes at two contact positions."""
+    from symgen.model.slot import SHORTENING, curvature_pairs
+
+    basis = SlotBasis(nspan + nover, BETA, nover)
+    Z = SlotIPTable(basis).matrix(SHORTENING)
+    pairs = curvature_pairs(basis.nt)
+    for beta in (0.4, 0.7):
+        at = {BETA: beta}
+        n = 4000  # intervals per piece
+        xi = np.concatenate([np.linspace(0.0, beta, n + 1), np.linspace(beta, 1.0, n + 1)[1:]])
+        slopes = []
+        for k in range(basis.nt):
+            s_, o_ = (sp.lambdify(XI, e.xreplace(at), "numpy") for e in _derivative(k + 1, BETA, nspan, nover, 1, 0))
+            span, over = xi <= beta, xi > beta
+            v = np.zeros_like(xi)
+            v[span] = np.broadcast_to(s_(xi[span]), xi[span].shape)
+            v[over] = np.broadcast_to(o_(xi[over]), xi[over].shape)
+            slopes.append(v)
+
+        def cumulative(f: np.ndarray) -> np.ndarray:
+            out = np.zeros_like(f)
+            out[1:] = np.cumsum((f[1:] + f[:-1]) / 2 * np.diff(xi))
+            return out
+
+        H = [cumulative(slopes[a] * slopes[b]) for a, b in pairs]
+        got = np.array(Z.xreplace(at).evalf(), dtype=float)
+        want = np.array([[np.trapezoid(Hp * Hq, xi) for Hq in H] for Hp in H])
+        assert np.abs(got - want).max() <= 1e-6 * np.abs(want).max()
+        assert np.abs(want).max() > 1.0

@@ -593,6 +593,17 @@ def bar_equations(
             * sp.Add(*[g[a] * (Kb[c][a] * dg[c] + db * Kbb[a][c] * g[c]) for a in range(nt) for c in range(nt)])
         )
 
+    short_g = [sp.Integer(0)] * nt  # the guide's shortening's inertia in (17): d/dt dT/dg_dot - dT/dg
+    short_beta: sp.Expr = sp.Integer(0)  # and in the beta equation: -dT/dbeta
+    short_kinetic: sp.Expr = sp.Integer(0)
+    if var and nt and effects.geometric_stiffening and effects.strain != "linear":
+        short_kinetic = _guide_shortening(t, g, dg)
+        for k in range(nt):
+            p_k = sp.diff(short_kinetic, dg[k])
+            rate = sp.Add(*[sp.diff(p_k, g[j]) * dg[j] + sp.diff(p_k, dg[j]) * ddg[j] for j in range(nt)])
+            short_g[k] = rate + sp.diff(p_k, b) * db - sp.diff(short_kinetic, g[k])
+        short_beta = -sp.diff(short_kinetic, b)
+
     eq16 = []
     for k in range(na):
         e = unit(2 + k)
@@ -602,7 +613,7 @@ def bar_equations(
     for k in range(nt):
         e = unit(2 + na + k)
         r = _ip(t, e, ay) + el_g[k] - gamma * _ip(t, e, one) - sp.Add(*[G * ps[k] for _, _, G, _, ps in pts])
-        eq17.append(r)
+        eq17.append(r + short_g[k])
 
     # kinetic energy / nu alpha^3 (bar-axis velocity of A over l_i w: xa_d, ya_d)
     xa_d, ya_d = (names.origin_velocity(ax, s.name).symbol() for ax in "xy")
@@ -614,10 +625,10 @@ def bar_equations(
         vy += [g[k] * db for k in range(nt)] + [0] * nt
         # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
         w = [0] * (2 + na + nt) + g + [0] * nt
-        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) + rate_beta - gamma * _ip(t, w, one)
+        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) + rate_beta + short_beta - gamma * _ip(t, w, one)
         for _xi, _B, G, _ph, ps in pts:
             eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
-    kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2
+    kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2 + short_kinetic
 
     if effects.rotary_inertia and nt and lam is not None and mu is not None:
         rho = mu / lam
@@ -685,6 +696,21 @@ def bar_equations(
     )
 
 
+#: the name of the guide's curvature table (``_curvature_gram``): (psi'_a psi'_b, psi''_c psi''_d)
+#: over [0, 1], rows and columns the pairs a <= b, c <= d (``curvature_pairs``)
+CURVATURE = "E4"
+
+
+def curvature_pairs(nt: int) -> tuple[tuple[int, int], ...]:
+    """The index pairs (a, b), a <= b, of the guide's curvature table's rows and columns."""
+    return tuple((a, b) for a in range(nt) for b in range(a, nt))
+
+
+#: the name of the guide's shortening table (``_shortening_gram``): (H_ab, H_cd) over [0, 1],
+#: H_ab(xi) = int_0^xi psi'_a psi'_b, rows and columns the pairs of ``curvature_pairs``
+SHORTENING = "Z"
+
+
 def point_tension_name(xi: float) -> str:
     """The name of a slot guide's (H(xi_p - xi) psi'_a, psi'_b) = int_0^xi_p psi'_a psi'_b
     (``slot._point_tension_gram``): the tension weight of an axial point force at xi_p, and the
@@ -699,8 +725,6 @@ def _guide_curvature(t, g: list) -> sp.Expr:
     eta''^2 (1 + eta'^2) to fourth order in the amplitudes, the order of its shortening
     (slot.SlotBarKinematics) and of its tension's stiffening. Without it the guide bent about 0.2 %
     of peak too far at end slopes ~0.08 (a slot guide driving a heavy dyad, against ANCF cables)."""
-    from symgen.model.slot import CURVATURE, curvature_pairs
-
     pairs = curvature_pairs(len(g))
     total = []
     for i, (a, b) in enumerate(pairs):
@@ -711,6 +735,29 @@ def _guide_curvature(t, g: list) -> sp.Expr:
             entry = t.mat(CURVATURE, i, j, label)
             if entry != 0:
                 total.append((1 if a == b else 2) * (1 if c == d else 2) * entry * g[a] * g[b] * g[c] * g[d])
+    return sp.Add(*total) / 2
+
+
+def _guide_shortening(t, g: list, dg: list) -> sp.Expr:
+    """(1/2) int (sum_ab g_a g_b' H_ab)^2 of an axially rigid guide (slot.py, ``_shortening_gram``):
+    the kinetic energy of its shortening u = -1/2 g^T H(xi) g (slot.SlotBarKinematics) at the rate
+    of its amplitudes, u' = -sum_ab g_a g_b' H_ab, per unit mass. Its points move along the chord as
+    it bends and unbends: their axial inertia acts on the shortening (its tension N keeps the
+    rigid-body part, theta'^2 and x_A''). Without it a guide ringing at 5 % deflection drifted in
+    phase, 0.4 % of peak after a turn (benchmarks/validation/README.md, slot_dyad). Left out: the
+    part of u' from beta' at fixed amplitudes and the Coriolis couplings theta' int (eta' u - eta u'),
+    smaller there (docs/exact-bars.md, "Slot guides")."""
+    pairs = curvature_pairs(len(g))
+    # the coefficient of H_P in sum_ab g_a g_b' H_ab, by unordered pair
+    rate = [g[a] * dg[a] if a == b else g[a] * dg[b] + g[b] * dg[a] for a, b in pairs]
+    total = []
+    for i, (a, b) in enumerate(pairs):
+        for j in range(i, len(pairs)):
+            c, d = pairs[j]
+            label = rf"\left(H_{{{{{a + 1}{b + 1}}}}},H_{{{{{c + 1}{d + 1}}}}}\right)"
+            entry = t.mat(SHORTENING, i, j, label)
+            if entry != 0:
+                total.append((1 if i == j else 2) * entry * rate[i] * rate[j])
     return sp.Add(*total) / 2
 
 

@@ -56,11 +56,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cache
 
+import numpy as np
 import sympy as sp
 from sympy.polys.domains import QQ
 from sympy.polys.rings import PolyElement, ring
 
-from symgen.model.bars import ZERO_TOL, point_tension_name, rot
+from symgen.model.bars import CURVATURE, SHORTENING, ZERO_TOL, curvature_pairs, point_tension_name, rot
 
 XI = sp.Symbol("xi", real=True)
 _U = sp.Symbol("u", real=True)
@@ -369,16 +370,6 @@ def _rate_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     return beta, {"Kb": Kb, "Kbb": Kbb}
 
 
-#: the name of the guide's curvature table (``_curvature_gram``): (psi'_a psi'_b, psi''_c psi''_d)
-#: over [0, 1], rows and columns the pairs a <= b, c <= d (``curvature_pairs``)
-CURVATURE = "E4"
-
-
-def curvature_pairs(nt: int) -> tuple[tuple[int, int], ...]:
-    """The index pairs (a, b), a <= b, of the guide's curvature table's rows and columns."""
-    return tuple((a, b) for a in range(nt) for b in range(a, nt))
-
-
 def _scalings(k: int, nspan: int, nover: int) -> tuple[int | None, int | None]:
     """(e, o) of psi_k (1-based): psi_k = beta^e f_k(xi / beta) on the span and
     (1 - beta)^o h_k((xi - beta) / (1 - beta)) on the overhang, None where it vanishes or (the
@@ -388,6 +379,17 @@ def _scalings(k: int, nspan: int, nover: int) -> tuple[int | None, int | None]:
     if k <= nspan:
         return 0, None
     return (1, 1) if k == nspan + 1 else (None, 2)
+
+
+def _slope_scalings(k: int, nspan: int, nover: int) -> tuple[tuple[int, int] | None, tuple[int, int] | None]:
+    """((p, 0), (p', o)) of psi_k (1-based) for its slopes: psi_k = beta^p f_k(xi / beta) on the span and
+    beta^p' (1 - beta)^o h_k((xi - beta) / (1 - beta)) on the overhang, None where it vanishes. As
+    ``_scalings`` but for the seed's rigid overhang, straight and sloped: psi'_k(beta) (xi - beta) =
+    (-1)^k k pi (1 - beta) / beta v (p' = -1, o = 1)."""
+    if not nover:
+        return (0, 0), (-1, 1)
+    e, o = _scalings(k, nspan, nover)
+    return (None if e is None else (e, 0)), (None if o is None else (0, o))
 
 
 @cache
@@ -403,8 +405,6 @@ def _curvature_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     the constants are integrals over [0, 1] of the functions at beta = 1 (span) and 0 (overhang),
     by Gauss-Legendre quadrature exact to round-off (polynomials on the overhang; on the span
     sines of frequency up to 4 nspan pi, resolved by the nodes' count), as the exact bar's E6."""
-    import numpy as np
-
     beta = sp.Symbol(beta_name, positive=True)
     nspan = nt - nover
     nodes, weights = np.polynomial.legendre.leggauss(max(64, 12 * nspan + 24))
@@ -438,12 +438,96 @@ def _curvature_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     return beta, {CURVATURE: E4}
 
 
+def _cumulative(f, x: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """int_0^s f at each node s of ``x`` (Gauss-Legendre on [0, s], the same nodes scaled)."""
+    return np.array([s * np.sum(w * f(s * x)) for s in x])
+
+
+@cache
+def _shortening_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
+    """(beta, {SHORTENING: Z}) with Z[(a, b), (c, d)] = int_0^1 H_ab H_cd d xi: the kinetic energy
+    of the guide's shortening u = -1/2 g^T H(xi) g at the rate of its amplitudes,
+    (1/2) int (sum_ab g_a g_b' H_ab)^2 (``bars._guide_shortening``).
+
+    On the span H_ab = beta^(e_a + e_b - 1) h_ab(xi / beta), h_ab(s) = int_0^s f'_a f'_b (the fixed
+    functions of ``_scalings``); on the overhang H_ab = H_ab(beta) + B_ab k_ab(v), B_ab a product of
+    powers of beta and 1 - beta (``_slope_scalings``: the seed's rigid overhang is straight but
+    sloped), so each entry is a sum of numbers times beta^i (1 - beta)^j; the numbers by
+    Gauss-Legendre quadrature (nested for h and k) exact to round-off, as E4's."""
+    beta = sp.Symbol(beta_name, positive=True)
+    nspan = nt - nover
+    nodes, weights = np.polynomial.legendre.leggauss(max(64, 12 * nspan + 24))
+    x, w = (nodes + 1) / 2, weights / 2
+    b0 = 0.5  # any contact position: the fixed functions do not depend on it
+
+    def slope(piece: int, k: int, scale: tuple[int, int]):
+        """d/ds of the fixed function of the local coordinate s (u on the span, v beyond)."""
+        expr = sp.diff(_pieces(k, beta, nspan, nover)[piece][0], XI).xreplace({beta: sp.Float(b0)})
+        f = sp.lambdify(XI, expr, "numpy")
+        p, o = scale
+        if piece == 0:  # psi = beta^p f(u): f'(u) = beta^(1 - p) psi'(beta u)
+            return lambda s: np.broadcast_to(f(b0 * s), np.shape(s)) * b0 ** (1 - p)
+        # psi = beta^p (1 - beta)^o h(v): h'(v) = (1 - beta)^(1 - o) beta^(-p) psi'(beta + (1 - beta) v)
+        return lambda s: np.broadcast_to(f(b0 + (1 - b0) * s), np.shape(s)) * (1 - b0) ** (1 - o) / b0**p
+
+    pairs = curvature_pairs(nt)
+    # per piece: pair -> ((beta, 1 - beta) exponents of H's scale, its fixed cumulative function at
+    # the nodes, its value at 1)
+    cum: list[dict[int, tuple]] = []
+    for piece in (0, 1):
+        on = {}
+        for k in range(nt):
+            sc = _slope_scalings(k + 1, nspan, nover)[piece]
+            if sc is not None:
+                on[k] = (sc, slope(piece, k + 1, sc))
+        table = {}
+        for P, (a, b) in enumerate(pairs):
+            if a in on and b in on:
+                (pa, oa), fa = on[a]
+                (pb, ob), fb = on[b]
+                exps = (pa + pb - 1, 0) if piece == 0 else (pa + pb, oa + ob - 1)
+                table[P] = (
+                    exps,
+                    _cumulative(lambda s, fa=fa, fb=fb: fa(s) * fb(s), x, w),
+                    float(w @ (fa(x) * fb(x))),
+                )
+        cum.append(table)
+    span, over = cum
+    n = len(pairs)
+    Z = sp.zeros(n, n)
+
+    def scale(exps: tuple[int, int]) -> sp.Expr:
+        return beta ** exps[0] * (1 - beta) ** exps[1]
+
+    for P in range(n):
+        for Q in range(P, n):
+            value = sp.Integer(0)
+            if P in span and Q in span:
+                value += beta * scale(span[P][0]) * scale(span[Q][0]) * sp.Float(float(w @ (span[P][1] * span[Q][1])))
+            # the overhang: H = A + B k(v), A = H(beta) (a pair on the span), B its scale there
+            A = {R: scale(span[R][0]) * sp.Float(span[R][2]) for R in (P, Q) if R in span}
+            B = {R: scale(over[R][0]) for R in (P, Q) if R in over}
+            mean = {R: sp.Float(float(w @ over[R][1])) for R in B}
+            over_part = sp.Integer(0)
+            if P in A and Q in A:
+                over_part += A[P] * A[Q]
+            if P in A and Q in B:
+                over_part += A[P] * B[Q] * mean[Q]
+            if Q in A and P in B:
+                over_part += A[Q] * B[P] * mean[P]
+            if P in B and Q in B:
+                over_part += B[P] * B[Q] * sp.Float(float(w @ (over[P][1] * over[Q][1])))
+            Z[P, Q] = Z[Q, P] = value + (1 - beta) * over_part
+    return beta, {SHORTENING: Z}
+
+
 #: the guide's matrices beyond Kt, by the function that makes them (with their siblings)
 _MADE_BY = {
     **{name: _tension_gram for name in TENSION_WEIGHTS},
     **{name: _rate_gram for name in RATE_MATRICES},
     SPAN_TENSION: _span_slope_gram,
     CURVATURE: _curvature_gram,
+    SHORTENING: _shortening_gram,
 }
 #: the guide's matrices that are not symmetric
 NONSYMMETRIC = ("Kb", CURVATURE)

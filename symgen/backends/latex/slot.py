@@ -39,7 +39,7 @@ from symgen.backends.latex.printing import (
 from symgen.ir import names
 from symgen.ir.records import CoordKind, find_coordinate
 from symgen.model.bars import point_force_groups
-from symgen.model.slot import CURVATURE, SPAN_TENSION
+from symgen.model.slot import CURVATURE, SHORTENING, SPAN_TENSION
 from symgen.scene.model import GROUND
 
 __all__ = ["is_guide", "guide_context", "guide_display_equations", "slot_closure", "slot_notes", "beta_positive"]
@@ -87,17 +87,11 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
 
 
 _KIND_ORDER = {
-    "gram": 0,
-    "Kt": 1,
-    "dKt": 2,
-    "T1": 3,
-    "dT1": 4,
-    "T2": 5,
-    "dT2": 6,
-    "Kb": 7,
-    "Kbb": 8,
-    CURVATURE: 9,
-    "d" + CURVATURE: 10,
+    name: i
+    for i, name in enumerate(
+        ["gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "Kb", "Kbb", CURVATURE, "d" + CURVATURE]
+        + [SHORTENING, "d" + SHORTENING]
+    )
 }
 
 
@@ -489,7 +483,11 @@ _CURVATURE_TEXT = (
     r"$\tfrac12\mu\int_0^1\eta'^2\eta''^2\,d\xi = \tfrac12\mu\sum g_a g_b g_c g_d\,"
     r"(\psi'_a\psi'_b,\psi''_c\psi''_d)$ beyond $\tfrac12\mu\,(\eta'',\eta'')$, in (17) and, by its "
     r"$\beta$ derivative, in the equation of $\beta$ (the closed forms below: each a power of $\beta$ on "
-    r"the span and of $1-\beta$ on the overhang, times a number)."
+    r"the span and of $1-\beta$ on the overhang, times a number). Its points move along the chord as it "
+    r"bends: its kinetic energy has that motion's, "
+    r"$\tfrac12\int_0^1\bigl(\sum_{a,b} g_a\dot g_b H_{ab}\bigr)^2 d\xi = \tfrac12\sum (H_{ab},H_{cd})\,"
+    r"g_a\dot g_b\,g_c\dot g_d$, $H_{ab}(\xi) = \int_0^\xi\psi'_a\psi'_b\,d\xi$, whose Lagrange terms "
+    r"enter (17) and the equation of $\beta$ (the rigid-body part of its axial inertia is its tension's)."
 )
 
 
