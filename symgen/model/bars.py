@@ -474,6 +474,9 @@ def bar_equations(
     quad_a = sp.Add(*[Ka[i][j] * f[i] * f[j] for i in range(na) for j in range(na)]) / 2
     quad_t = sp.Add(*[Kt[i][j] * g[i] * g[j] for i in range(nt) for j in range(nt)]) / 2
     bend4: sp.Expr = sp.Integer(0)  # the exact bar's bending terms beyond mu eta''^2 / 2 (its energy)
+    # a slot guide's: its energy and its term in the beta equation (its forces go into el_g)
+    bend_guide: sp.Expr = sp.Integer(0)
+    bend_beta: sp.Expr = sp.Integer(0)
     if exact:
         # the exact bar (docs/exact-bars.md): its forces from its tables, not differentiated
         xb = _ExactBar(t, s, Ka, inext, effects.geometric_stiffening, node_form_nodes(basis_a, basis_t))
@@ -507,10 +510,12 @@ def bar_equations(
             strain_energy = sp.Integer(0)
         if nt and mu is not None:
             strain_energy += mu * quad_t
-            if var and effects.geometric_stiffening and effects.strain != "linear":
-                strain_energy += mu * _guide_curvature(t, g)
         el_f = [sp.diff(strain_energy, fk) for fk in f]
         el_g = [sp.diff(strain_energy, gk) for gk in g]
+        if var and nt and mu is not None and effects.geometric_stiffening and effects.strain != "linear":
+            bend_guide, bend_forces, bend_beta = _guide_curvature(t, g, s.beta[0])
+            bend_guide, bend_beta = mu * bend_guide, mu * bend_beta
+            el_g = [el_g[k] + mu * bend_forces[k] for k in range(nt)]
         constraint = ()
         if axial_force is not None:  # inext
             # (phi'_k, eps) = Ka f + (1/2) (phi'_k, eta'^2) (von Karman, stiffening on); N_k its multiplier
@@ -593,16 +598,11 @@ def bar_equations(
             * sp.Add(*[g[a] * (Kb[c][a] * dg[c] + db * Kbb[a][c] * g[c]) for a in range(nt) for c in range(nt)])
         )
 
-    short_g = [sp.Integer(0)] * nt  # the guide's shortening's inertia in (17): d/dt dT/dg_dot - dT/dg
-    short_beta: sp.Expr = sp.Integer(0)  # and in the beta equation: -dT/dbeta
+    short_g: list = [sp.Integer(0)] * nt  # the guide's shortening's inertia in (17) and the beta equation
+    short_beta: sp.Expr = sp.Integer(0)
     short_kinetic: sp.Expr = sp.Integer(0)
     if var and nt and effects.geometric_stiffening and effects.strain != "linear":
-        short_kinetic = _guide_shortening(t, g, dg)
-        for k in range(nt):
-            p_k = sp.diff(short_kinetic, dg[k])
-            rate = sp.Add(*[sp.diff(p_k, g[j]) * dg[j] + sp.diff(p_k, dg[j]) * ddg[j] for j in range(nt)])
-            short_g[k] = rate + sp.diff(p_k, b) * db - sp.diff(short_kinetic, g[k])
-        short_beta = -sp.diff(short_kinetic, b)
+        short_kinetic, short_g, short_beta = _guide_shortening(t, g, dg, ddg, b, db)
 
     eq16 = []
     for k in range(na):
@@ -625,7 +625,8 @@ def bar_equations(
         vy += [g[k] * db for k in range(nt)] + [0] * nt
         # d eta' / d beta' = g^T psi_beta: the weight of the support distance's equation
         w = [0] * (2 + na + nt) + g + [0] * nt
-        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) + rate_beta + short_beta - gamma * _ip(t, w, one)
+        eqbeta = _ip(t, w, ay) + sp.diff(strain_energy + tension, b) - gamma * _ip(t, w, one)
+        eqbeta += bend_beta + rate_beta + short_beta
         for _xi, _B, G, _ph, ps in pts:
             eqbeta -= G * sp.Add(*[g[k] * sp.diff(ps[k], b) for k in range(nt)])
     kinetic = (_ip(t, vx, vx) + _ip(t, vy, vy)) / 2 + short_kinetic
@@ -653,7 +654,7 @@ def bar_equations(
         elastic = (lam * quad_a if (na and lam is not None) else 0) + (mu * quad_t if (nt and mu is not None) else 0)
         elastic += bend4
     else:
-        elastic = strain_energy
+        elastic = strain_energy + bend_guide
     display = BarEquations(
         sym=s,
         force=(fx, fy),
@@ -718,15 +719,21 @@ def point_tension_name(xi: float) -> str:
     return f"H{float(xi)!r}"
 
 
-def _guide_curvature(t, g: list) -> sp.Expr:
-    """(1/2) int eta'^2 eta''^2 of an axially rigid guide (slot.py, ``_curvature_gram``): its
-    bending energy beyond eta''^2 / 2, per mu. The guide is inextensible, xi its material
-    coordinate: its exact curvature is eta'' / sqrt(1 - eta'^2), whose square is
+def _guide_curvature(t, g: list, beta: sp.Symbol) -> tuple:
+    """(V, [dV/dg_k], dV/dbeta) of V = (1/2) int eta'^2 eta''^2, an axially rigid guide's bending
+    energy beyond eta''^2 / 2 per mu (slot.py, ``_curvature_gram``). The guide is inextensible, xi
+    its material coordinate: its exact curvature is eta'' / sqrt(1 - eta'^2), whose square is
     eta''^2 (1 + eta'^2) to fourth order in the amplitudes, the order of its shortening
-    (slot.SlotBarKinematics) and of its tension's stiffening. Without it the guide bent about 0.2 %
-    of peak too far at end slopes ~0.08 (a slot guide driving a heavy dyad, against ANCF cables)."""
+    (slot.SlotBarKinematics) and of its tension's stiffening. Without it a guide at 5 % deflection
+    driving a heavy dyad bent 1.6 % of peak off a converged ANCF reference (0.17 % with it).
+
+    V = (1/2) s^T E s, s_P = m_P g_a g_b (P = (a, b), a <= b, m_P = 2 off the diagonal),
+    E = (psi'_a psi'_b, psi''_c psi''_d); its forces written from that structure, not
+    differentiated: dV/dg_k = sum_{P ni k} g_other(P, k) ((E s)_P + (E^T s)_P)."""
     pairs = curvature_pairs(len(g))
-    total = []
+    n = len(pairs)
+    sq = [(1 if a == b else 2) * g[a] * g[b] for a, b in pairs]
+    E: dict = {}
     for i, (a, b) in enumerate(pairs):
         for j, (c, d) in enumerate(pairs):
             label = (
@@ -734,31 +741,60 @@ def _guide_curvature(t, g: list) -> sp.Expr:
             )
             entry = t.mat(CURVATURE, i, j, label)
             if entry != 0:
-                total.append((1 if a == b else 2) * (1 if c == d else 2) * entry * g[a] * g[b] * g[c] * g[d])
-    return sp.Add(*total) / 2
+                E[i, j] = entry
+    both = [
+        sp.Add(*[E[i, j] * sq[j] for j in range(n) if (i, j) in E], *[E[j, i] * sq[j] for j in range(n) if (j, i) in E])
+        for i in range(n)
+    ]
+    forces = [
+        sp.Add(*[g[b if a == k else a] * both[i] for i, (a, b) in enumerate(pairs) if k in (a, b)])
+        for k in range(len(g))
+    ]
+    energy = sp.Add(*[e * sq[i] * sq[j] for (i, j), e in E.items()]) / 2
+    beta_term = sp.Add(*[sp.diff(e, beta) * sq[i] * sq[j] for (i, j), e in E.items()]) / 2
+    return energy, forces, beta_term
 
 
-def _guide_shortening(t, g: list, dg: list) -> sp.Expr:
-    """(1/2) int (sum_ab g_a g_b' H_ab)^2 of an axially rigid guide (slot.py, ``_shortening_gram``):
-    the kinetic energy of its shortening u = -1/2 g^T H(xi) g (slot.SlotBarKinematics) at the rate
-    of its amplitudes, u' = -sum_ab g_a g_b' H_ab, per unit mass. Its points move along the chord as
-    it bends and unbends: their axial inertia acts on the shortening (its tension N keeps the
-    rigid-body part, theta'^2 and x_A''). Without it a guide ringing at 5 % deflection drifted in
-    phase, 0.4 % of peak after a turn (benchmarks/validation/README.md, slot_dyad). Left out: the
-    part of u' from beta' at fixed amplitudes and the Coriolis couplings theta' int (eta' u - eta u'),
-    smaller there (docs/exact-bars.md, "Slot guides")."""
+def _guide_shortening(t, g: list, dg: list, ddg: list, beta: sp.Symbol, dbeta: sp.Expr) -> tuple:
+    """(T, [its Lagrange terms in (17)], its term in the beta equation) of the kinetic energy of an
+    axially rigid guide's shortening (slot.py, ``_shortening_gram``), per unit mass:
+
+        T = (1/2) int (sum_ab g_a g_b' H_ab)^2 = (1/2) sum_PQ Z_PQ w_P w_Q,   Z_PQ = (H_P, H_Q),
+
+    w_P the coefficient of H_P (P = (a, b), a <= b) in sum_ab g_a g_b' H_ab. Its points move along
+    the chord by u = -1/2 g^T H(xi) g (slot.SlotBarKinematics) as it bends and unbends; its tension
+    N keeps the rigid-body part of their axial inertia (theta'^2, x_A''), this is the rest at the
+    rate of the amplitudes. Without it a guide ringing at 5 % deflection drifted in phase, 0.4 % of
+    peak after a turn (benchmarks/validation/README.md, slot_dyad).
+
+    Lagrange's terms written from the structure, not differentiated: with J_Pk = dw_P/dg'_k (the
+    other amplitude of P) and dJ_Pk/dt = dw_P/dg_k, d/dt dT/dg'_k - dT/dg_k = sum_P J_Pk d(Z w)_P/dt,
+    d(Z w)/dt = Z w' + beta' Z_beta w; the beta equation has -dT/dbeta = -(1/2) w^T Z_beta w. (The
+    differentiated form had nt^2 derivatives of an nt^4-term energy: 5x the first run of a slot
+    scene.) Left out: the part of u' from beta' at fixed amplitudes and the Coriolis couplings
+    theta' int (eta' u - eta u'), smaller there (docs/exact-bars.md, "Slot guides")."""
     pairs = curvature_pairs(len(g))
-    # the coefficient of H_P in sum_ab g_a g_b' H_ab, by unordered pair
-    rate = [g[a] * dg[a] if a == b else g[a] * dg[b] + g[b] * dg[a] for a, b in pairs]
-    total = []
+    n = len(pairs)
+    w = [g[a] * dg[a] if a == b else g[a] * dg[b] + g[b] * dg[a] for a, b in pairs]
+    w_rate = [
+        dg[a] ** 2 + g[a] * ddg[a] if a == b else 2 * dg[a] * dg[b] + g[a] * ddg[b] + g[b] * ddg[a] for a, b in pairs
+    ]
+    Z: dict = {}
     for i, (a, b) in enumerate(pairs):
-        for j in range(i, len(pairs)):
+        for j in range(i, n):
             c, d = pairs[j]
             label = rf"\left(H_{{{{{a + 1}{b + 1}}}}},H_{{{{{c + 1}{d + 1}}}}}\right)"
             entry = t.mat(SHORTENING, i, j, label)
             if entry != 0:
-                total.append((1 if i == j else 2) * entry * rate[i] * rate[j])
-    return sp.Add(*total) / 2
+                Z[i, j] = Z[j, i] = entry
+    dZ = {key: sp.diff(z, beta) for key, z in Z.items()}
+    rate = [sp.Add(*[Z[i, j] * w_rate[j] + dbeta * dZ[i, j] * w[j] for j in range(n) if (i, j) in Z]) for i in range(n)]
+    forces = []
+    for k in range(len(g)):
+        forces.append(sp.Add(*[g[b if a == k else a] * rate[i] for i, (a, b) in enumerate(pairs) if k in (a, b)]))
+    kinetic = sp.Add(*[Z[i, j] * w[i] * w[j] for (i, j) in Z]) / 2
+    beta_term = -sp.Add(*[dZ[i, j] * w[i] * w[j] for (i, j) in dZ]) / 2
+    return kinetic, forces, beta_term
 
 
 def _square(t, name: str, n: int, latex: str) -> list:

@@ -697,6 +697,9 @@ class SlotDisplayIPTable:
     def finish(self, expr: sp.Expr) -> sp.Expr:
         """A matrix entry (beta) -> a symbol, its beta derivative -> a symbol of its own."""
         rep = {}
+        # the entries and derivatives the expression holds, found once (a has() per entry was most
+        # of a slot scene's derivation once the guide's tables had a thousand entries)
+        present = expr.atoms(sp.Function) | expr.atoms(sp.Derivative)
         for f, (mat, i, j) in self._funcs.items():
             name = f.func.__name__
             entry = self.numeric.matrix(mat)[i, j]
@@ -710,7 +713,7 @@ class SlotDisplayIPTable:
                 (f, sp.Symbol(name), mat, lambda e=entry: e),
             ):
                 rep[key] = sym
-                if sym not in self.used and expr.has(key):
+                if sym not in self.used and key in present:
                     self.used[sym] = (kind, (i, j))
                     self.values[sym] = value()
         return expr.xreplace(rep)  # top down: a derivative is replaced before its function
