@@ -21,14 +21,16 @@ Outputs at every degree of crank (t_k = k (pi/180) / omega, k = 0..360*turns):
 plus the link1 pin force at E (global, and its component along link1).
 
 Usage (OPENBLAS_NUM_THREADS=1):
-    python benchmarks/exudyn_slot_dyad.py        # the study: 20/5760, 40/11520, 40/23040, 80/23040 (~60 s CPU);
-                                                 # writes tests/data/slot_dyad_exudyn.csv (the last)
+    python benchmarks/exudyn_slot_dyad.py        # the study (~160 s CPU): writes tests/data/slot_dyad_exudyn.csv,
+                                                 # the step's Richardson extrapolation at 40 elements
     python benchmarks/exudyn_slot_dyad.py run ELEMENTS STEPS_PER_TURN [TURNS]   # one run, print peaks
 
 Measured (Exudyn 1.13.6): 20 el / 5760 vs 40 / 11520 steps per turn 0.042 % / 0.120 % of peak
 (guide_end / guide_mid); 40 / 11520 vs 40 / 23040 0.019 % / 0.058 %; 40 / 23040 vs 80 / 23040
-0.0005 % / 0.0024 %; 40 / 23040 vs 40 / 46080 0.0097 % / 0.029 %: the step dominates, first order
-(generalized-alpha, rho_inf 0.9), so the reference keeps ~0.01 % / 0.03 % of time error.
+0.0005 % / 0.0024 %; at 40 elements 23040 -> 46080 -> 92160 steps per turn 0.0097 / 0.0049 % (guide_end)
+and 0.029 / 0.0145 % (guide_mid): first order (ratio 2.00; generalized-alpha, rho_inf 0.9), so the
+reference is the step's Richardson extrapolation 2 x (92160) - (46080); the finest run alone is
+0.005 % / 0.015 % from it, 80 elements at 23040 0.019 % / 0.056 %.
 """
 
 from __future__ import annotations
@@ -247,7 +249,9 @@ def study():
     geo = geometry(raw)
     print("assembly: B =", geo["B"], "th1 =", geo["th1"], "th2 =", geo["th2"], "(side", geo["side"], ")")
     print("velocities: wg =", geo["wg"], "vE =", geo["vE"], "w1 =", geo["w1"], "w2 =", geo["w2"])
-    cases = [(20, 5760), (40, 11520), (40, 23040), (80, 23040)]  # the last: the reference CSV
+    # the mesh: 40 vs 80 elements at 23040 steps; the step: 40 elements at 23040, 46080, 92160 steps per
+    # turn, first order (generalized-alpha, rho_inf 0.9): the reference is their Richardson extrapolation
+    cases = [(20, 5760), (40, 11520), (40, 23040), (80, 23040), (40, 46080), (40, 92160)]
     res = {}
     for ne, spt in cases:
         t, out, ex, cpu = run(ne, spt)
@@ -259,21 +263,26 @@ def study():
             f"  (axial min {ex['fE_axial'].min():.4f} max {ex['fE_axial'].max():.4f})",
             flush=True,
         )
-    fine = cases[-1]
+
+    def change(a: tuple, b: tuple) -> dict:
+        x, y = res[a][1], res[b][1]
+        return {k: float(np.abs(x[k] - y[k]).max() / np.abs(y[k]).max()) for k in x}
+
     lines = []
-    for i in range(len(cases)):
-        for j in range(i + 1, len(cases)):
-            a_, b_ = res[cases[i]][1], res[cases[j]][1]
-            rel = {k: np.abs(a_[k] - b_[k]).max() / np.abs(b_[k]).max() for k in a_}
-            s = f"{cases[i][0]}el/{cases[i][1]} vs {cases[j][0]}el/{cases[j][1]}: " + ", ".join(
-                f"{k} {100 * v:.4f}%" for k, v in rel.items()
-            )
-            lines.append(s)
-            print("max|diff|/max|value|", s)
-    t, out, _, cpu = res[fine]
+    for a, b in zip(cases, cases[1:]):
+        rel = change(a, b)
+        lines.append(f"{a[0]}el/{a[1]} vs {b[0]}el/{b[1]}: " + ", ".join(f"{k} {100 * v:.4f}%" for k, v in rel.items()))
+        print("max|diff|/max|value|", lines[-1])
+    coarse, fine = res[(40, 46080)][1], res[(40, 92160)][1]
+    ratio = {k: change((40, 23040), (40, 46080))[k] / change((40, 46080), (40, 92160))[k] for k in fine}
+    print("step convergence ratio (first order: 2):", ratio)
+    t = res[(40, 92160)][0]
+    out = {k: 2 * fine[k] - coarse[k] for k in fine}
     comment = (
-        f"Exudyn {__import__('exudyn').__version__} ANCF Cable2D, {fine[0]} elements, {fine[1]} steps/turn "
-        f"(generalized-alpha rho_inf 0.9), kv = {raw['effects']['damping']}/omega; peaks |guide_end| "
+        f"Exudyn {__import__('exudyn').__version__} ANCF Cable2D, Richardson extrapolation 2 x (40 elements, 92160 "
+        f"steps/turn) - (40 elements, 46080) (generalized-alpha rho_inf 0.9, first order: change ratios "
+        + ", ".join(f"{k} {v:.3f}" for k, v in ratio.items())
+        + f"), kv = {raw['effects']['damping']}/omega; peaks |guide_end| "
         f"{np.abs(out['guide_end']).max():.6e} m, |guide_mid| {np.abs(out['guide_mid']).max():.6e} m; "
         "convergence max|diff|/max|value|: " + "; ".join(lines)
     )
