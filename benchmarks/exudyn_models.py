@@ -278,6 +278,28 @@ def four_bar(elements: int, steps_per_turn: int, turns: float, name: str = "four
     return t, out, cpu
 
 
+def slot_joint(mbs, marker: int, elements: list, length: float, s0: float) -> None:
+    """A frictionless slot: ``marker`` (a point) slides along the chain of cable ``elements`` of a bar
+    of ``length``, starting at arc length ``s0`` (``ObjectJointSliding2D``, classical formulation; a
+    data node holds the current element and the sliding coordinate)."""
+    from exudyn.itemInterface import MarkerBodyCable2DCoordinates, NodeGenericData, ObjectJointSliding2D
+
+    n = len(elements)
+    le = length / n
+    cable_markers = [mbs.AddMarker(MarkerBodyCable2DCoordinates(bodyNumber=e)) for e in elements]
+    first = min(int(s0 // le), n - 1)
+    data = mbs.AddNode(NodeGenericData(initialCoordinates=[first, s0], numberOfDataCoordinates=2))
+    mbs.AddObject(
+        ObjectJointSliding2D(
+            markerNumbers=[marker, cable_markers[first]],
+            slidingMarkerNumbers=cable_markers,
+            slidingMarkerOffsets=[i * le for i in range(n)],
+            nodeNumber=data,
+            useClassicalFormulation=True,
+        )
+    )
+
+
 def inverted_slider_crank(
     elements: int,
     steps_per_turn: int,
@@ -299,13 +321,10 @@ def inverted_slider_crank(
     from exudyn.itemInterface import (
         CoordinateConstraint,
         GenericJoint,
-        MarkerBodyCable2DCoordinates,
         MarkerBodyRigid,
         MarkerNodeCoordinate,
         MarkerNodePosition,
-        NodeGenericData,
         NodePoint2D,
-        ObjectJointSliding2D,
         ObjectMassPoint2D,
         SensorNode,
     )
@@ -345,20 +364,7 @@ def inverted_slider_crank(
     mbs.AddObject(ObjectMassPoint2D(mass=slider_mass, nodeNumber=block))
     m_block = mbs.AddMarker(MarkerNodePosition(nodeNumber=block))
     _pin_nodes(mbs, cnodes[-1], block)
-    # the slot
-    le = L / elements
-    cable_markers = [mbs.AddMarker(MarkerBodyCable2DCoordinates(bodyNumber=e)) for e in gelems]
-    first = min(int(s0 // le), elements - 1)
-    data = mbs.AddNode(NodeGenericData(initialCoordinates=[first, s0], numberOfDataCoordinates=2))
-    mbs.AddObject(
-        ObjectJointSliding2D(
-            markerNumbers=[m_block, cable_markers[first]],
-            slidingMarkerNumbers=cable_markers,
-            slidingMarkerOffsets=[i * le for i in range(elements)],
-            nodeNumber=data,
-            useClassicalFormulation=True,
-        )
-    )
+    slot_joint(mbs, m_block, gelems, L, s0)
     sensors = {
         "root": _sensor(mbs, cnodes[0]),
         "tip": _sensor(mbs, cnodes[-1]),

@@ -102,15 +102,12 @@ def run(elements: int, steps_per_turn: int, turns: float = 1.0, at: float | None
     import exudyn as exu
     from exudyn.itemInterface import (
         CoordinateConstraint,
-        MarkerBodyCable2DCoordinates,
         MarkerBodyPosition,
         MarkerNodeCoordinate,
         MarkerNodePosition,
-        NodeGenericData,
         NodePoint2D,
         NodeRigidBody2D,
         ObjectGround,
-        ObjectJointSliding2D,
         ObjectMassPoint2D,
         ObjectRigidBody2D,
         RevoluteJoint2D,
@@ -160,20 +157,7 @@ def run(elements: int, steps_per_turn: int, turns: float = 1.0, at: float | None
     m_tip = mbs.AddMarker(MarkerBodyPosition(bodyNumber=fly, localPosition=[a, 0, 0]))
     mbs.AddObject(RevoluteJoint2D(markerNumbers=[m_tip, m_block]))
 
-    # the slot: sliding joint along the chain of cable elements (data node: element index, arc length)
-    le = L / elements
-    cable_markers = [mbs.AddMarker(MarkerBodyCable2DCoordinates(bodyNumber=e)) for e in gelems]
-    first = min(int(s0 // le), elements - 1)
-    data = mbs.AddNode(NodeGenericData(initialCoordinates=[first, s0], numberOfDataCoordinates=2))
-    mbs.AddObject(
-        ObjectJointSliding2D(
-            markerNumbers=[m_block, cable_markers[first]],
-            slidingMarkerNumbers=cable_markers,
-            slidingMarkerOffsets=[i * le for i in range(elements)],
-            nodeNumber=data,
-            useClassicalFormulation=True,
-        )
-    )
+    X.slot_joint(mbs, m_block, gelems, L, s0)  # the slot
 
     # the dyad: rigid uniform bars, initial velocities of the rigid mechanism
     def rigid(bar, p0, v0, ang, w):

@@ -370,26 +370,35 @@ def _rate_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     return beta, {"Kb": Kb, "Kbb": Kbb}
 
 
-def _scalings(k: int, nspan: int, nover: int) -> tuple[int | None, int | None]:
-    """(e, o) of psi_k (1-based): psi_k = beta^e f_k(xi / beta) on the span and
-    (1 - beta)^o h_k((xi - beta) / (1 - beta)) on the overhang, None where it vanishes or (the
-    seed's rigid overhang) is straight: the span functions e = 0, chi_0 e = o = 1, chi_m o = 2."""
-    if not nover:
-        return 0, None
-    if k <= nspan:
-        return 0, None
-    return (1, 1) if k == nspan + 1 else (None, 2)
-
-
-def _slope_scalings(k: int, nspan: int, nover: int) -> tuple[tuple[int, int] | None, tuple[int, int] | None]:
-    """((p, 0), (p', o)) of psi_k (1-based) for its slopes: psi_k = beta^p f_k(xi / beta) on the span and
-    beta^p' (1 - beta)^o h_k((xi - beta) / (1 - beta)) on the overhang, None where it vanishes. As
-    ``_scalings`` but for the seed's rigid overhang, straight and sloped: psi'_k(beta) (xi - beta) =
-    (-1)^k k pi (1 - beta) / beta v (p' = -1, o = 1)."""
+def _scalings(k: int, nspan: int, nover: int) -> tuple[tuple[int, int] | None, tuple[int, int] | None]:
+    """((p, 0), (p', o)) of psi_k (1-based): psi_k = beta^p f_k(xi / beta) on the span and
+    beta^p' (1 - beta)^o h_k((xi - beta) / (1 - beta)) on the overhang, None where it vanishes: the
+    span functions p = 0; chi_0 p = 1, o = 1; chi_m o = 2; the seed's rigid overhang, straight and
+    sloped, psi'_k(beta) (xi - beta) = (-1)^k k pi (1 - beta) / beta v (p' = -1, o = 1)."""
     if not nover:
         return (0, 0), (-1, 1)
-    e, o = _scalings(k, nspan, nover)
-    return (None if e is None else (e, 0)), (None if o is None else (0, o))
+    if k <= nspan:
+        return (0, 0), None
+    return ((1, 0), (0, 1)) if k == nspan + 1 else (None, (0, 2))
+
+
+#: the contact position at which the fixed functions of ``_fixed_derivative`` are read (any: they
+#: do not depend on it)
+_B0 = 0.5
+
+
+def _fixed_derivative(k: int, nspan: int, nover: int, piece: int, n: int, scale: tuple[int, int]):
+    """d^n/ds^n of psi_k's fixed function of its piece's local coordinate s (u = xi / beta on the
+    span, v = (xi - beta) / (1 - beta) beyond; ``scale`` its powers (p, o) of beta and 1 - beta,
+    ``_scalings``), as a numpy function of s: f^(n)(u) = beta^(n - p) psi^(n)(beta u),
+    h^(n)(v) = (1 - beta)^(n - o) beta^(-p) psi^(n)(beta + (1 - beta) v), read at beta = _B0."""
+    beta = sp.Symbol("beta_fixed", positive=True)
+    expr = sp.diff(_pieces(k, beta, nspan, nover)[piece][0], XI, n).xreplace({beta: sp.Float(_B0)})
+    f = sp.lambdify(XI, expr, "numpy")
+    p, o = scale
+    if piece == 0:
+        return lambda s: np.broadcast_to(f(_B0 * s), np.shape(s)) * _B0 ** (n - p)
+    return lambda s: np.broadcast_to(f(_B0 + (1 - _B0) * s), np.shape(s)) * (1 - _B0) ** (n - o) / _B0**p
 
 
 @cache
@@ -401,8 +410,8 @@ def _curvature_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
 
     Each function is a power of beta times a fixed function of u = xi / beta on the span, and a
     power of 1 - beta times one of v = (xi - beta) / (1 - beta) on the overhang (``_scalings``), so
-    each entry is c_s beta^(e_a + e_b + e_c + e_d - 5) + c_o (1 - beta)^(o_a + o_b + o_c + o_d - 5):
-    the constants are integrals over [0, 1] of the functions at beta = 1 (span) and 0 (overhang),
+    each entry is c_s beta^(sum p - 5) + c_o (1 - beta)^(sum o - 5) (the rigid overhang is straight:
+    no c_o): the constants are integrals over [0, 1] of the fixed functions (``_fixed_derivative``),
     by Gauss-Legendre quadrature exact to round-off (polynomials on the overhang; on the span
     sines of frequency up to 4 nspan pi, resolved by the nodes' count), as the exact bar's E6."""
     beta = sp.Symbol(beta_name, positive=True)
@@ -410,21 +419,15 @@ def _curvature_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     nodes, weights = np.polynomial.legendre.leggauss(max(64, 12 * nspan + 24))
     x, w = (nodes + 1) / 2, weights / 2
 
-    def samples(piece: int, at: float, k: int) -> tuple:
-        """(psi'_k, psi''_k) of the fixed function of u (v) at the nodes: the piece at beta = at."""
-        expr = _pieces(k, beta, nspan, nover)[piece][0].xreplace({beta: sp.Float(at)})
-        d1, d2 = (sp.lambdify(XI, sp.diff(expr, XI, n), "numpy") for n in (1, 2))
-        return np.broadcast_to(d1(x), x.shape), np.broadcast_to(d2(x), x.shape)
-
     pairs = curvature_pairs(nt)
     E4 = sp.zeros(len(pairs), len(pairs))
-    for piece, at, scaled in ((0, 1.0, beta), (1, 0.0, 1 - beta)):
-        # the functions living on this piece: k -> (exponent, slopes, curvatures)
+    for piece in (0, 1):
+        # the functions living on this piece: k -> ((p, o), slopes, curvatures at the nodes)
         on = {}
         for k in range(nt):
-            e = _scalings(k + 1, nspan, nover)[piece]
-            if e is not None:
-                on[k] = (e, *samples(piece, at, k + 1))
+            sc = _scalings(k + 1, nspan, nover)[piece]
+            if sc is not None:
+                on[k] = (sc, *(_fixed_derivative(k + 1, nspan, nover, piece, n, sc)(x) for n in (1, 2)))
         for i, (a, b) in enumerate(pairs):
             if a not in on or b not in on:
                 continue
@@ -434,7 +437,10 @@ def _curvature_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
                     continue
                 const = float(slopes @ (on[c][2] * on[d][2]))
                 if abs(const) > 1e-14:
-                    E4[i, j] += sp.Float(const) * scaled ** (on[a][0] + on[b][0] + on[c][0] + on[d][0] - 5)
+                    p = sum(on[m][0][0] for m in (a, b, c, d))
+                    o = sum(on[m][0][1] for m in (a, b, c, d))
+                    # span: beta^(p - 5); overhang: beta^p (1 - beta)^(o - 5)
+                    E4[i, j] += sp.Float(const) * (beta ** (p - 5) if piece == 0 else beta**p * (1 - beta) ** (o - 5))
     return beta, {CURVATURE: E4}
 
 
@@ -451,25 +457,13 @@ def _shortening_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
 
     On the span H_ab = beta^(e_a + e_b - 1) h_ab(xi / beta), h_ab(s) = int_0^s f'_a f'_b (the fixed
     functions of ``_scalings``); on the overhang H_ab = H_ab(beta) + B_ab k_ab(v), B_ab a product of
-    powers of beta and 1 - beta (``_slope_scalings``: the seed's rigid overhang is straight but
+    powers of beta and 1 - beta (``_scalings``: the seed's rigid overhang is straight but
     sloped), so each entry is a sum of numbers times beta^i (1 - beta)^j; the numbers by
     Gauss-Legendre quadrature (nested for h and k) exact to round-off, as E4's."""
     beta = sp.Symbol(beta_name, positive=True)
     nspan = nt - nover
     nodes, weights = np.polynomial.legendre.leggauss(max(64, 12 * nspan + 24))
     x, w = (nodes + 1) / 2, weights / 2
-    b0 = 0.5  # any contact position: the fixed functions do not depend on it
-
-    def slope(piece: int, k: int, scale: tuple[int, int]):
-        """d/ds of the fixed function of the local coordinate s (u on the span, v beyond)."""
-        expr = sp.diff(_pieces(k, beta, nspan, nover)[piece][0], XI).xreplace({beta: sp.Float(b0)})
-        f = sp.lambdify(XI, expr, "numpy")
-        p, o = scale
-        if piece == 0:  # psi = beta^p f(u): f'(u) = beta^(1 - p) psi'(beta u)
-            return lambda s: np.broadcast_to(f(b0 * s), np.shape(s)) * b0 ** (1 - p)
-        # psi = beta^p (1 - beta)^o h(v): h'(v) = (1 - beta)^(1 - o) beta^(-p) psi'(beta + (1 - beta) v)
-        return lambda s: np.broadcast_to(f(b0 + (1 - b0) * s), np.shape(s)) * (1 - b0) ** (1 - o) / b0**p
-
     pairs = curvature_pairs(nt)
     # per piece: pair -> ((beta, 1 - beta) exponents of H's scale, its fixed cumulative function at
     # the nodes, its value at 1)
@@ -477,9 +471,9 @@ def _shortening_gram(nt: int, beta_name: str, nover: int = 0) -> tuple:
     for piece in (0, 1):
         on = {}
         for k in range(nt):
-            sc = _slope_scalings(k + 1, nspan, nover)[piece]
+            sc = _scalings(k + 1, nspan, nover)[piece]
             if sc is not None:
-                on[k] = (sc, slope(piece, k + 1, sc))
+                on[k] = (sc, _fixed_derivative(k + 1, nspan, nover, piece, 1, sc))
         table = {}
         for P, (a, b) in enumerate(pairs):
             if a in on and b in on:
