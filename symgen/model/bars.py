@@ -477,6 +477,8 @@ def bar_equations(
     # a slot guide's: its energy and its term in the beta equation (its forces go into el_g)
     bend_guide: sp.Expr = sp.Integer(0)
     bend_beta: sp.Expr = sp.Integer(0)
+    # a slot guide's geometry to fourth order: its curvature (E4) and its shortening's kinetic energy (Z)
+    guide_fourth = var and nt > 0 and effects.geometric_stiffening and effects.strain != "linear"
     if exact:
         # the exact bar (docs/exact-bars.md): its forces from its tables, not differentiated
         xb = _ExactBar(t, s, Ka, inext, effects.geometric_stiffening, node_form_nodes(basis_a, basis_t))
@@ -512,7 +514,7 @@ def bar_equations(
             strain_energy += mu * quad_t
         el_f = [sp.diff(strain_energy, fk) for fk in f]
         el_g = [sp.diff(strain_energy, gk) for gk in g]
-        if var and nt and mu is not None and effects.geometric_stiffening and effects.strain != "linear":
+        if guide_fourth and mu is not None:
             bend_guide, bend_forces, bend_beta = _guide_curvature(t, g, s.beta[0])
             bend_guide, bend_beta = mu * bend_guide, mu * bend_beta
             el_g = [el_g[k] + mu * bend_forces[k] for k in range(nt)]
@@ -601,7 +603,7 @@ def bar_equations(
     short_g: list = [sp.Integer(0)] * nt  # the guide's shortening's inertia in (17) and the beta equation
     short_beta: sp.Expr = sp.Integer(0)
     short_kinetic: sp.Expr = sp.Integer(0)
-    if var and nt and effects.geometric_stiffening and effects.strain != "linear":
+    if guide_fourth:
         short_kinetic, short_g, short_beta = _guide_shortening(t, g, dg, ddg, b, db)
 
     eq16 = []
