@@ -447,8 +447,8 @@ def six_bar_geometry(raw: dict, crank_angle: float = 0.0) -> dict:
     }
 
 
-def _rigid_bar(mbs, bar: dict, pivot: np.ndarray, angle: float, w: float):
-    """A rigid uniform bar from ``pivot`` (at rest) along ``angle`` turning at w: (body, marker at
+def _rigid_bar(mbs, bar: dict, pivot: np.ndarray, angle: float, w: float, velocity=(0.0, 0.0)):
+    """A rigid uniform bar from ``pivot`` (moving at ``velocity``) along ``angle`` turning at w: (body, marker at
     the pivot end, marker at the far end)."""
     from exudyn.itemInterface import MarkerBodyPosition, NodeRigidBody2D, ObjectRigidBody2D
 
@@ -456,7 +456,7 @@ def _rigid_bar(mbs, bar: dict, pivot: np.ndarray, angle: float, w: float):
     m = bar["mass_per_length"] * length
     e = np.array([math.cos(angle), math.sin(angle)])
     G = pivot + 0.5 * length * e
-    vG = w * 0.5 * length * np.array([-e[1], e[0]])
+    vG = np.asarray(velocity, dtype=float) + w * 0.5 * length * np.array([-e[1], e[0]])
     node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[G[0], G[1], angle], initialVelocities=[vG[0], vG[1], w]))
     body = mbs.AddObject(ObjectRigidBody2D(mass=m, inertia=m * length**2 / 12, nodeNumber=node))
     return (

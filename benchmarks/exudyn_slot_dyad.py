@@ -106,10 +106,8 @@ def run(elements: int, steps_per_turn: int, turns: float = 1.0, at: float | None
         MarkerNodeCoordinate,
         MarkerNodePosition,
         NodePoint2D,
-        NodeRigidBody2D,
         ObjectGround,
         ObjectMassPoint2D,
-        ObjectRigidBody2D,
         RevoluteJoint2D,
         SensorNode,
         SensorObject,
@@ -160,22 +158,10 @@ def run(elements: int, steps_per_turn: int, turns: float = 1.0, at: float | None
     X.slot_joint(mbs, m_block, gelems, L, s0)  # the slot
 
     # the dyad: rigid uniform bars, initial velocities of the rigid mechanism
-    def rigid(bar, p0, v0, ang, w):
-        length = bar["length"]
-        m = bar["mass_per_length"] * length
-        e = np.array([math.cos(ang), math.sin(ang)])
-        G = p0 + 0.5 * length * e
-        vG = v0 + w * 0.5 * length * np.array([-e[1], e[0]])
-        node = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=[G[0], G[1], ang], initialVelocities=[vG[0], vG[1], w]))
-        body = mbs.AddObject(ObjectRigidBody2D(mass=m, inertia=m * length**2 / 12, nodeNumber=node))
-        return (
-            node,
-            mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[-0.5 * length, 0, 0])),
-            mbs.AddMarker(MarkerBodyPosition(bodyNumber=body, localPosition=[0.5 * length, 0, 0])),
-        )
-
-    n1, m1a, m1b = rigid(bars["link1"], geo["E"], geo["vE"], geo["th1"], geo["w1"])  # E -> B
-    n2, m2a, m2b = rigid(bars["link2"], Q, np.zeros(2), geo["th2"], geo["w2"])  # Q -> B
+    # the dyad: rigid uniform bars (exudyn_models._rigid_bar), initial velocities of the rigid mechanism
+    body1, m1a, m1b = X._rigid_bar(mbs, bars["link1"], geo["E"], geo["th1"], geo["w1"], geo["vE"])  # E -> B
+    _, m2a, m2b = X._rigid_bar(mbs, bars["link2"], Q, geo["th2"], geo["w2"])  # Q -> B
+    n1 = mbs.GetObject(body1)["nodeNumber"]
     ground = mbs.AddObject(ObjectGround())
     m_Q = mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=[Q[0], Q[1], 0]))
     j_E = mbs.AddObject(RevoluteJoint2D(markerNumbers=[mbs.AddMarker(MarkerNodePosition(nodeNumber=gnodes[-1])), m1a]))
