@@ -526,7 +526,9 @@ def test_a_guide_driving_a_dyad_runs_its_turn_and_its_range_is_not_read_with_oth
     functions (a guide's psi(xi, beta) move with the contact): with 4 span functions this dyad
     scene stopped at 254 deg on "slope 0.70" while its guide's end deflects 2 % of its length
     (Exudyn's ANCF guide runs the turn, benchmarks/validation/README.md "session 15"). A guide's
-    range is now not checked, and the sidecar says so. The slot's reaction (an internal error
+    slopes are now read at the contact (``checks.guide_tables``, tests/test_guide_range.py): the
+    record's largest is the model's own slope outputs' (at the far end and mid-span) or more, by
+    at most the range points' spacing, and far below the stop. The slot's reaction (an internal error
     before: read as a ground slider's) is the slot force, normal to the guide but for the
     guide's slope at the contact: its chord-wise part stays below 5 % of its normal part."""
     import json
@@ -541,17 +543,20 @@ def test_a_guide_driving_a_dyad_runs_its_turn_and_its_range_is_not_read_with_oth
     text = text.replace(
         "[outputs]",
         '[outputs]\nAx = { kind = "reaction", joint = "A", component = "x" }\n'
-        'Ay = { kind = "reaction", joint = "A", component = "y" }\nth = { kind = "angle", body = "guide" }',
+        'Ay = { kind = "reaction", joint = "A", component = "y" }\nth = { kind = "angle", body = "guide" }\n'
+        'sl_end = { kind = "slope", body = "guide", at = 1.0 }\nsl_mid = { kind = "slope", body = "guide", at = 0.4 }',
     )
     scene = write_scene(tmp_path / "dyad4.toml", text)
     out = tmp_path / "dyad4.csv"
     assert main(["simulate", str(scene), "-o", str(out), "--estimate", "off"]) == 0
     side = json.loads(out.with_suffix(".json").read_text())
-    assert "guide" in side["range"]["not_checked"] and "guide" not in side["range"]["largest_slope"]
     lines = out.read_text().splitlines()
     names = lines[0].split(",")
     data = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])
-    col = {k: data[:, names.index(k)] for k in ("Ax", "Ay", "th")}
+    col = {k: data[:, names.index(k)] for k in ("Ax", "Ay", "th", "sl_end", "sl_mid")}
+    own = max(np.abs(col["sl_end"]).max(), np.abs(col["sl_mid"]).max())
+    largest = side["range"]["largest_slope"]["guide"]["slope"]
+    assert "not_checked" not in side["range"] and 0.995 * own <= largest < 0.2
     c, s = np.cos(col["th"]), np.sin(col["th"])
     along, normal = col["Ax"] * c + col["Ay"] * s, -col["Ax"] * s + col["Ay"] * c
     assert np.abs(normal).max() > 1.0  # newtons: the slot carries the guide's load

@@ -110,7 +110,8 @@ class ModelInfo:
     @cached_property
     def slot_guides(self) -> frozenset[str]:
         """The guides of slot joints: their functions psi(xi, beta) move with the contact, so the
-        range check's fixed samples (``symgen.numerics.checks.range_tables``) do not describe them."""
+        range check reads their slopes scaled by the contact (``symgen.numerics.checks.guide_tables``),
+        not fixed samples of xi (``range_tables``)."""
         return frozenset(
             j["ends"][1][0] for j in self.structure.get("joints", []) if j.get("kind") == "slot" and len(j["ends"]) == 2
         )

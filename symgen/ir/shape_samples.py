@@ -23,7 +23,15 @@ from typing import Any
 from symgen import __version__
 from symgen.ir.info import record_fields
 
-__all__ = ["GAUSS_POINTS", "SEGMENTS", "InvalidShapeSamples", "ShapeSamples", "samples_question"]
+__all__ = [
+    "GAUSS_POINTS",
+    "SEGMENTS",
+    "GuideSlopes",
+    "InvalidShapeSamples",
+    "ShapeSamples",
+    "guide_question",
+    "samples_question",
+]
 
 #: Gauss-Legendre points per segment and equal segments of [0, 1] (before the split at the
 #: correction points): 16 x 8 nodes integrate the sine and clamped-free families' products of
@@ -140,3 +148,101 @@ def _table(x: object, what: str, rows: int) -> tuple[tuple[float, ...], ...]:
     if len({len(r) for r in table}) != 1 or not table[0]:
         raise InvalidShapeSamples(f"{what!r} is not a table of equal rows")
     return table
+
+
+@dataclass(frozen=True)
+class GuideSlopes:
+    """A slot guide's slopes at the range check's points (its functions psi(xi, beta) move with the
+    contact, so no fixed samples of xi describe them: :mod:`symgen.model.slot`). Each function is a
+    power of beta times a fixed function of u = xi / beta on the span [0, beta] and a power of
+    beta and of 1 - beta times a fixed function of v = (xi - beta) / (1 - beta) on the overhang, so
+    its slope is
+
+        psi_k'(xi) = beta^a (1 - beta)^b F_k(s)
+
+    with (a, b) = ``span_powers[k]`` at the span's points s = u (``span``, tables ``span_slopes``)
+    and ``over_powers[k]`` at the overhang's points s = v (``over``, ``over_slopes``): the guide's
+    slopes at a contact beta are ``slopes(beta) @ g`` (``symgen.numerics.checks.bar_ranges`` and the
+    C runtime's ``symgen_bar_range_``, which read the same rows, span first)."""
+
+    guide: str
+    span: tuple[float, ...]
+    over: tuple[float, ...]
+    span_slopes: tuple[tuple[float, ...], ...]
+    over_slopes: tuple[tuple[float, ...], ...]
+    span_powers: tuple[tuple[int, int], ...]
+    over_powers: tuple[tuple[int, int], ...]
+
+    @property
+    def nt(self) -> int:
+        return len(self.span_powers)
+
+    @property
+    def rows(self) -> tuple[tuple[float, ...], ...]:
+        """The fixed slopes F_k(s) of every point, the span's first."""
+        return self.span_slopes + self.over_slopes
+
+    def scalings(self, beta: Any) -> tuple[Any, Any]:
+        """(span, overhang) factors beta^a (1 - beta)^b of each function (k x len(beta) for an
+        array of contact positions)."""
+        import numpy as np
+
+        b = np.atleast_1d(np.asarray(beta, dtype=float))
+        one = 1.0 - b
+
+        def factors(powers: tuple[tuple[int, int], ...]) -> Any:
+            return np.array([b**a * one**c for a, c in powers]).reshape(len(powers), len(b))
+
+        return factors(self.span_powers), factors(self.over_powers)
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "guide": self.guide,
+            "span": list(self.span),
+            "over": list(self.over),
+            "span_slopes": [list(r) for r in self.span_slopes],
+            "over_slopes": [list(r) for r in self.over_slopes],
+            "span_powers": [list(p) for p in self.span_powers],
+            "over_powers": [list(p) for p in self.over_powers],
+        }
+
+    @classmethod
+    def from_json(cls, data: object) -> GuideSlopes:
+        keys = ("guide", "span", "over", "span_slopes", "over_slopes", "span_powers", "over_powers")
+        data = record_fields(data, "the guide-slopes record", keys, InvalidShapeSamples)
+        guide = data["guide"]
+        if not isinstance(guide, str) or not guide:
+            raise InvalidShapeSamples("'guide' is not a bar name")
+        span, over = _row(data["span"], "span"), _row(data["over"], "over")
+        if not span or not over or any(not 0.0 <= s <= 1.0 for s in (*span, *over)):
+            raise InvalidShapeSamples("'span' and 'over' are not points of [0, 1]")
+        powers = {k: _powers(data[k], k) for k in ("span_powers", "over_powers")}
+        nt = len(powers["span_powers"])
+        if not nt or len(powers["over_powers"]) != nt:
+            raise InvalidShapeSamples("'span_powers' and 'over_powers' do not hold the same functions")
+        tables = {k: _table(data[k], k, len(pts)) for k, pts in (("span_slopes", span), ("over_slopes", over))}
+        if any(len(t[0]) != nt for t in tables.values()):
+            raise InvalidShapeSamples("'span_slopes' and 'over_slopes' do not hold one column per function")
+        return cls(guide, span, over, tables["span_slopes"], tables["over_slopes"], *powers.values())
+
+
+def _powers(x: object, what: str) -> tuple[tuple[int, int], ...]:
+    if not isinstance(x, list) or not all(
+        isinstance(p, list) and len(p) == 2 and all(isinstance(v, int) and not isinstance(v, bool) for v in p)
+        for p in x
+    ):
+        raise InvalidShapeSamples(f"{what!r} is not a list of integer pairs")
+    return tuple((int(p[0]), int(p[1])) for p in x)
+
+
+def guide_question(body: dict[str, Any], joint: dict[str, Any]) -> dict[str, Any]:
+    """The cache question of a slot guide's slopes: its structure record and its slot joint's
+    (``ModelInfo.structure``: the counts and the overhang), the points, the version."""
+    return {
+        "check": "slot.guide_slopes",
+        "version": __version__,
+        "samples": SAMPLES_VERSION,
+        "nodes": [SEGMENTS, GAUSS_POINTS],
+        "body": body,
+        "joint": joint,
+    }

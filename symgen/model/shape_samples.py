@@ -10,10 +10,18 @@ from typing import Any
 import numpy as np
 
 from symgen import cache
-from symgen.ir.shape_samples import GAUSS_POINTS, SEGMENTS, ShapeSamples, samples_question
+from symgen.ir.shape_samples import (
+    GAUSS_POINTS,
+    SEGMENTS,
+    GuideSlopes,
+    InvalidShapeSamples,
+    ShapeSamples,
+    guide_question,
+    samples_question,
+)
 from symgen.model.static_shapes import bar_bases
 
-__all__ = ["remember_samples", "sample_bar", "shape_samples"]
+__all__ = ["guide_samples", "remember_samples", "sample_bar", "shape_samples"]
 
 
 def _nodes(breaks: tuple[float, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -79,6 +87,35 @@ def remember_samples(structure: dict[str, Any]) -> None:
     """Sample every elastic bar of a derived model's ``structure`` (its transverse or axial count
     > 0) into the cache, where the model-form estimate and the range check of its runs read them
     (an axially elastic bar that does not bend has a stretch check too)."""
-    for body in structure.get("bodies", []):
+    bodies = {body["name"]: body for body in structure.get("bodies", [])}
+    for body in bodies.values():
         if body.get("nt") or body.get("na"):
             shape_samples(body)
+    for joint in structure.get("joints", []):
+        if joint.get("kind") == "slot" and len(joint["ends"]) == 2 and bodies.get(joint["ends"][1][0], {}).get("nt"):
+            guide_samples(bodies[joint["ends"][1][0]], joint)
+
+
+def range_points() -> np.ndarray:
+    """The range check's points of [0, 1] (:meth:`ShapeSamples.range_rows` of a bar without
+    correction points): both ends of each of the ``SEGMENTS`` pieces, 0.0012 of a piece inside."""
+    xi, _ = _nodes(())
+    return np.array([x for i, x in enumerate(xi) if i % GAUSS_POINTS in (0, GAUSS_POINTS - 1)])
+
+
+def guide_samples(body: dict[str, Any], joint: dict[str, Any]) -> GuideSlopes:
+    """A slot guide's slopes at the range check's points of its span and its overhang
+    (:func:`symgen.model.slot.guide_slopes`), from the cache of checks or sampled now (and
+    remembered): ``body`` and ``joint`` are the guide's and its slot's structure records."""
+    question = guide_question(body, joint)
+    known, answer = cache.recall(question)
+    if known:
+        try:
+            return GuideSlopes.from_json(answer)
+        except InvalidShapeSamples:
+            pass
+    from symgen.model.slot import guide_slopes, overhang_count
+
+    slopes = guide_slopes(body["name"], int(body["nt"]), overhang_count(joint), range_points())
+    cache.remember(question, slopes.to_json())
+    return slopes

@@ -61,6 +61,7 @@ import sympy as sp
 from sympy.polys.domains import QQ
 from sympy.polys.rings import PolyElement, ring
 
+from symgen.ir.shape_samples import GuideSlopes
 from symgen.model.bars import CURVATURE, SHORTENING, ZERO_TOL, curvature_pairs, point_tension_name, rot
 
 XI = sp.Symbol("xi", real=True)
@@ -399,6 +400,41 @@ def _fixed_derivative(k: int, nspan: int, nover: int, piece: int, n: int, scale:
     if piece == 0:
         return lambda s: np.broadcast_to(f(_B0 * s), np.shape(s)) * _B0 ** (n - p)
     return lambda s: np.broadcast_to(f(_B0 + (1 - _B0) * s), np.shape(s)) * (1 - _B0) ** (n - o) / _B0**p
+
+
+def overhang_count(joint: dict) -> int:
+    """``nover`` of a slot joint's structure record (``ModelInfo.structure``'s ``joints`` entry, its
+    ``overhang`` = [kind, overhang_modes]): the contact-slope function and the overhang's own
+    functions (``symgen.model.structure.overhang_modes``), 0 for the seed's rigid overhang."""
+    modes = int(joint["overhang"][1]) if joint.get("overhang") else 0
+    return modes + 1 if modes else 0
+
+
+def guide_slopes(guide: str, nt: int, nover: int, points: np.ndarray) -> GuideSlopes:
+    """The slopes of a guide's functions at ``points`` of the span (u = xi / beta) and of the
+    overhang (v = (xi - beta) / (1 - beta)), as fixed numbers and powers of beta and 1 - beta
+    (:class:`symgen.ir.shape_samples.GuideSlopes`): psi_k' = beta^(p - 1) f_k'(u) on the span and
+    beta^p (1 - beta)^(o - 1) h_k'(v) beyond (``_scalings``, ``_fixed_derivative``); a function
+    that vanishes on a piece has zero slopes there. The seed's rigid overhang is straight: one
+    point of it."""
+    nspan = nt - nover
+    tables, powers, at = [], [], (points, points if nover else points[-1:])
+    for piece in (0, 1):
+        x = at[piece]
+        columns, exps = [], []
+        for k in range(1, nt + 1):
+            sc = _scalings(k, nspan, nover)[piece]
+            if sc is None:
+                columns.append(np.zeros(len(x)))
+                exps.append((0, 0))
+                continue
+            columns.append(np.asarray(_fixed_derivative(k, nspan, nover, piece, 1, sc)(x), dtype=float))
+            p, o = sc
+            exps.append((p - 1, 0) if piece == 0 else (p, o - 1))
+        tables.append(tuple(tuple(float(v) for v in row) for row in np.array(columns).T))
+        powers.append(tuple(exps))
+    span, over = (tuple(float(x) for x in pts) for pts in at)
+    return GuideSlopes(guide, span, over, tables[0], tables[1], powers[0], powers[1])
 
 
 @cache

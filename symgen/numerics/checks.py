@@ -23,12 +23,14 @@ if TYPE_CHECKING:
 else:
     from symgen.lazy import numpy as np  # imported at its first use (symgen.lazy)
 
-from symgen.ir.records import RowKind
+from symgen import cache
+from symgen.ir.records import CoordKind, RowKind
 from symgen.numerics.index1 import Partition, index1
 from symgen.policy import POLICY, RANGE, range_message
 
 if TYPE_CHECKING:
     from symgen.ir.info import ModelInfo
+    from symgen.ir.shape_samples import GuideSlopes
     from symgen.numerics.mechanism import Mechanism
 
 
@@ -64,6 +66,7 @@ def loop_row(mech: Mechanism, weights: ArrayLike) -> int:
 
 #: the range tables read in this process, by the model's structure key
 _TABLES: dict[str, dict[str, tuple[np.ndarray | None, np.ndarray | None]]] = {}
+_GUIDES: dict[str, dict[str, tuple[GuideSlopes, int]]] = {}
 
 
 def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
@@ -72,7 +75,8 @@ def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarr
     are P @ g and its tangent r' = (1 + A @ f, P @ g), at the points of
     :meth:`symgen.ir.shape_samples.ShapeSamples.range_rows` (the model-form estimate's samples,
     from the signed cache). The emitted C solver's range check reads the same tables
-    (``symgen.backends.c.context``)."""
+    (``symgen.backends.c.context``). A slot guide's functions move with the contact: (None, None)
+    here, its slopes from :func:`guide_tables`."""
     from symgen.numerics.model_form import _samples
 
     if info.key in _TABLES:
@@ -80,7 +84,7 @@ def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarr
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
     tables: dict[str, tuple[np.ndarray | None, np.ndarray | None]] = {}
     for body, (fi, gi) in info.amplitudes.items():
-        if body in info.slot_guides:  # its functions move with the contact: not these samples' (GUIDE_UNCHECKED)
+        if body in info.slot_guides:  # its functions move with the contact: guide_tables
             tables[body] = (None, None)
             continue
         samples = _samples(bodies[body])
@@ -89,6 +93,52 @@ def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarr
         tables[body] = (P, A)
     _TABLES[info.key] = tables
     return tables
+
+
+def guide_tables(info: ModelInfo) -> dict[str, tuple[GuideSlopes, int]]:
+    """slot guide (with transverse amplitudes) -> (its slopes at the range check's points of its
+    span and its overhang, :class:`symgen.ir.shape_samples.GuideSlopes`, taken when the model was
+    derived and read from the signed cache; the index of its contact beta in q)."""
+    if info.key in _GUIDES:
+        return _GUIDES[info.key]
+    from symgen.ir.shape_samples import GuideSlopes, InvalidShapeSamples, guide_question
+
+    bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
+    guides: dict[str, tuple[GuideSlopes, int]] = {}
+    for joint in info.structure.get("joints", []):
+        if joint.get("kind") != "slot" or len(joint["ends"]) != 2:
+            continue
+        body = joint["ends"][1][0]
+        if body not in info.amplitudes or not info.amplitudes[body][1]:
+            continue
+        known, answer = cache.recall(guide_question(bodies[body], joint))
+        slopes = None
+        if known:
+            try:
+                slopes = GuideSlopes.from_json(answer)
+            except InvalidShapeSamples:
+                pass
+        if slopes is None:  # a model cache written before the guides' samples: sampled now
+            from symgen.model.shape_samples import guide_samples
+
+            slopes = guide_samples(bodies[body], joint)
+        if slopes.nt != len(info.amplitudes[body][1]):
+            raise ValueError(f"bar {body!r}: the guide's slope samples hold other functions than its amplitudes")
+        guides[body] = (slopes, info.coordinate(CoordKind.BETA, body))
+    _GUIDES[info.key] = guides
+    return guides
+
+
+def guide_slopes(slopes: GuideSlopes, g: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """A guide's slopes eta' at its range points (rows, the span's first) per column of its
+    amplitudes ``g`` (functions x samples) at contacts ``beta`` (one per sample)."""
+    span, over = slopes.scalings(beta)
+    return np.vstack(
+        [
+            np.asarray(slopes.span_slopes, dtype=float) @ (span * g),
+            np.asarray(slopes.over_slopes, dtype=float) @ (over * g),
+        ]
+    )
 
 
 def slope_tables(info: ModelInfo) -> dict[str, np.ndarray]:
@@ -124,9 +174,14 @@ def bar_ranges(info: ModelInfo, Q: ArrayLike) -> dict[str, tuple[np.ndarray | No
     is zeta' (``ModelInfo.linear_strain``)."""
     Q = np.asarray(Q, dtype=float).reshape(info.n, -1)
     linear = info.linear_strain
-    out = {}
+    out: dict[str, tuple[np.ndarray | None, np.ndarray | None]] = {}
+    guides = guide_tables(info)
     for body, (P, A) in range_tables(info).items():
         fi, gi = info.amplitudes[body]
+        if body in guides:  # its functions move with the contact (no axial amplitudes: axially rigid)
+            slopes, beta = guides[body]
+            out[body] = (np.abs(guide_slopes(slopes, Q[list(gi)], Q[beta])).max(axis=0), None)
+            continue
         eta = P @ Q[list(gi)] if P is not None else None
         slope = np.abs(eta).max(axis=0) if eta is not None else None
         size = None
@@ -155,15 +210,6 @@ def beyond_range(mech: Mechanism, Q: ArrayLike) -> tuple[int, str] | None:
     k, body, what, value, limit = first
     return k, range_message(body, what, limit, f"{value:.3g}")
 
-
-#: why a slot guide's range is not checked (``range_tables``, the C solver's checks): the samples
-#: are of fixed functions of xi, a guide's psi(xi, beta) move with the contact (its span functions
-#: scale with beta); read with those tables its slopes were meaningless, and a run could stop at
-#: a slope its guide never had (a dyad on a guide's far end, 4 span functions: "slope 0.7" at 1.9 %
-#: deflection, Exudyn's ANCF guide through the turn)
-GUIDE_UNCHECKED = (
-    "a slot guide: its functions psi(xi, beta) move with the contact; its slope and stretch are not checked"
-)
 
 #: the fields of one bar in the C solver's range record (``PREFIX_solver_range``), in its order
 C_RANGE_FIELDS = ("slope", "slope_tau", "over_tau", "over_slope", "stretch", "stretch_tau")
@@ -195,13 +241,14 @@ def range_record(info: ModelInfo, tau: ArrayLike, Q: ArrayLike, accuracy: float,
         "largest_stretch": {},
         "warnings": [],
     }
-    if info.slot_guides & set(info.amplitudes):
-        record["not_checked"] = {body: GUIDE_UNCHECKED for body in sorted(info.slot_guides & set(info.amplitudes))}
+    if exact and info.slot_guides & set(info.amplitudes):
+        record["rule"] += (
+            "; a slot guide's curvature is kept to fourth order whatever the strain (symgen.model.slot): its slope "
+            "is recorded and checked, not warned"
+        )
     per_bar: list[tuple[str, tuple[float, float] | None, tuple[float, float] | None, tuple[float, float] | None]] = []
     if maxima is not None:
         for body, values in zip(info.amplitudes, maxima):
-            if body in info.slot_guides:  # the C solver's check of a guide is empty (backends.c.context)
-                continue
             fi, gi = info.amplitudes[body]
             s, s_tau, o_tau, o_s, e, e_tau = (float(v) for v in values)
             per_bar.append(
@@ -235,7 +282,7 @@ def range_record(info: ModelInfo, tau: ArrayLike, Q: ArrayLike, accuracy: float,
         if largest is None:
             continue
         record["largest_slope"][body] = {"slope": largest[0], "tau": largest[1]}
-        if exact and over is not None:
+        if exact and over is not None and body not in info.slot_guides:
             record["warnings"].append(
                 {
                     "bar": body,

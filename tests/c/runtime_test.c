@@ -127,7 +127,7 @@ static const char *const coordinate_names[2] = { "x", "y" };
 static const char *const parameter_names[1] = { "k" };
 static const char *const parameter_range[1] = { "finite" };
 static const double parameter_defaults[1] = { 1.0 };
-static const symgen_amplitude_check no_checks[1] = { { 0, 0, 0, 0, 0, 0, NULL, NULL, "", "" } };
+static const symgen_amplitude_check no_checks[1] = { { 0, 0, 0, 0, 0, 0, NULL, NULL, "", "", 0, -1, 0, NULL } };
 
 static symgen_model model = {
     2, 1, 1, 1,  1, 1, 0, 2, 1,

@@ -128,15 +128,18 @@ static const double double_pendulum_x_stretch_table[64] = {
     1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
     1.0, 1.0, 1.0, 1.0
 };
+static const int double_pendulum_x_guide_powers[1] = { 0 };
 static const symgen_amplitude_check double_pendulum_x_amplitude_checks[2] = {
     { 0, 3, 3, 1, 32, 0,
       double_pendulum_x_slope_table + 0, double_pendulum_x_stretch_table + 0,
       "bar 'upper' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'upper' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+      "bar 'upper' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, double_pendulum_x_guide_powers + 0 },
     { 4, 3, 7, 1, 32, 0,
       double_pendulum_x_slope_table + 96, double_pendulum_x_stretch_table + 32,
       "bar 'lower' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'lower' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
+      "bar 'lower' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, double_pendulum_x_guide_powers + 0 }
 };
 
 const symgen_model double_pendulum_model = {

@@ -82,6 +82,12 @@ typedef struct symgen_amplitude_check {
     int start, count, axial_start, axial_count, points, linear;
     const double *slopes, *stretches;
     const char *slope_message, *stretch_message;
+    /* a slot guide (guide = 1): its functions move with the contact q[beta], so the slope of
+       function k at point j is slopes[j * count + k] * beta^a (1 - beta)^b, (a, b) =
+       powers[4 k], powers[4 k + 1] at the span's first span_points points and powers[4 k + 2],
+       powers[4 k + 3] at the overhang's (symgen.ir.shape_samples.GuideSlopes) */
+    int guide, beta, span_points;
+    const int *powers;
 } symgen_amplitude_check;
 
 /*

@@ -112,11 +112,13 @@ static const double five_bar_x_stretch_table[64] = {
     1.0, -2.897744151389823, 1.0, -2.907118039810178, 1.0, -3.07881503312857,
     1.0, -3.0835938000042824, 1.0, -3.1415687797635483
 };
+static const int five_bar_x_guide_powers[1] = { 0 };
 static const symgen_amplitude_check five_bar_x_amplitude_checks[1] = {
     { 0, 3, 3, 2, 32, 0,
       five_bar_x_slope_table + 0, five_bar_x_stretch_table + 0,
       "bar 'link_a' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'link_a' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
+      "bar 'link_a' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, five_bar_x_guide_powers + 0 }
 };
 
 const symgen_model five_bar_model = {

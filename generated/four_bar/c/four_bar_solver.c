@@ -213,19 +213,23 @@ static const double four_bar_x_stretch_table[384] = {
     1.0, -3.07881503312857, 5.785982218262675, -7.774642268653193, 1.0, -3.0835938000042824,
     5.823477487005073, -7.897118776868034, 1.0, -3.1415687797635483, 6.282994317295323, -9.424133373992008
 };
+static const int four_bar_x_guide_powers[1] = { 0 };
 static const symgen_amplitude_check four_bar_x_amplitude_checks[3] = {
     { 0, 4, 4, 4, 32, 0,
       four_bar_x_slope_table + 0, four_bar_x_stretch_table + 0,
       "bar 'crank' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'crank' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+      "bar 'crank' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, four_bar_x_guide_powers + 0 },
     { 8, 4, 12, 4, 32, 0,
       four_bar_x_slope_table + 128, four_bar_x_stretch_table + 128,
       "bar 'rocker' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'rocker' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
+      "bar 'rocker' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, four_bar_x_guide_powers + 0 },
     { 16, 4, 20, 4, 32, 0,
       four_bar_x_slope_table + 256, four_bar_x_stretch_table + 256,
       "bar 'coupler' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'coupler' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
+      "bar 'coupler' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, four_bar_x_guide_powers + 0 }
 };
 
 const symgen_model four_bar_model = {

@@ -80,8 +80,8 @@ static const int inverted_slider_crank_x_start_forces[1] = { -1 };
    transverse amplitudes) and zeta'_j = sum_k phi_k'(xi_j) f_k (stretch_table, points x axial
    amplitudes): its largest |eta'| and its largest ||r'| - 1|, r' = (1 + zeta', eta') (the
    linear strain's: (1 + zeta', 0)), within the policy's slope_limit and stretch_limit */
-static const int inverted_slider_crank_x_amplitude_index[6] = { 4, 5, 6, 1, 2, 3 };
-static const double inverted_slider_crank_x_slope_table[96] = {
+static const int inverted_slider_crank_x_amplitude_index[8] = { 4, 5, 6, 1, 2, 3, 8, 9 };
+static const double inverted_slider_crank_x_slope_table[162] = {
     0.03539346225131478, 0.004359444460078082, -0.027262415650126555, 1.3852731963218914, 0.20630697314125132, -1.1522283153442339,
     1.425867957876504, 0.2142826414346599, -1.1905908338604452, 2.0462279662034764, 0.39808492052154015, -1.9225758315250825,
     2.0572401456179645, 0.40531084009552004, -1.9448199239738326, 1.9921126793513855, 0.5710149472334032, -2.2938608890592636,
@@ -97,7 +97,18 @@ static const double inverted_slider_crank_x_slope_table[96] = {
     0.5884570124823253, 1.3475022363788918, 3.9031408020790743, 3.316615496471715, 1.363551854475598, 4.359088369635082,
     3.436218243336952, 1.36404481402719, 4.3739718100584515, 6.319087839922377, 1.3725402990565245, 4.64251963450743,
     6.4333103921016175, 1.3727662622772425, 4.650061393762226, 8.827739773916974, 1.3759836012064945, 4.76141862237403,
-    8.90529935856055, 1.3760418156205045, 4.763537994631341, 9.938921206419417, 1.3765054807368602, 4.780778255805467
+    8.90529935856055, 1.3760418156205045, 4.763537994631341, 9.938921206419417, 1.3765054807368602, 4.780778255805467,
+    3.1415687797635483, 6.282994317295323, 3.0835938000042824, 5.823477487005073, 3.07881503312857, 5.785982218262676,
+    2.907118039810178, 4.477388999273177, 2.897744151389823, 4.408106776558954, 2.6189233636767475, 2.4496586240342877,
+    2.605314586986808, 2.359137037711569, 2.2300849313863624, 0.048989929496903, 2.2127642440831425, -0.048989929496903624,
+    1.7555455858288378, -2.3591370377115672, 1.7351786122118462, -2.449658624034288, 1.2135416079292176, -4.408106776558953,
+    1.1909110393726254, -4.477388999273177, 0.6249019065988519, -5.785982218262675, 0.6008774231609199, -5.823477487005073,
+    0.012247575446919056, -6.282994317295323, -0.01224757544691867, -6.282994317295323, -0.6008774231609195, -5.823477487005074,
+    -0.6249019065988516, -5.785982218262676, -1.1909110393726252, -4.4773889992731775, -1.2135416079292174, -4.408106776558954,
+    -1.7351786122118458, -2.44965862403429, -1.7555455858288378, -2.3591370377115686, -2.2127642440831417, -0.048989929496907954,
+    -2.230084931386363, 0.04898992949690564, -2.6053145869868075, 2.3591370377115664, -2.6189233636767475, 2.4496586240342872,
+    -2.8977441513898228, 4.408106776558951, -2.907118039810178, 4.477388999273178, -3.0788150331285697, 5.785982218262674,
+    -3.0835938000042824, 5.823477487005072, -3.1415687797635483, 6.282994317295323, -3.141592653589793, 6.283185307179586
 };
 static const double inverted_slider_crank_x_stretch_table[96] = {
     1.0, 3.1415687797635483, 6.282994317295323, 1.0, 3.0835938000042824, 5.823477487005073,
@@ -117,15 +128,18 @@ static const double inverted_slider_crank_x_stretch_table[96] = {
     1.0, -2.907118039810178, 4.4773889992731775, 1.0, -3.07881503312857, 5.785982218262675,
     1.0, -3.0835938000042824, 5.823477487005073, 1.0, -3.1415687797635483, 6.282994317295323
 };
+static const int inverted_slider_crank_x_guide_powers[8] = { -1, 0, -1, 0, -1, 0, -1, 0 };
 static const symgen_amplitude_check inverted_slider_crank_x_amplitude_checks[2] = {
     { 0, 3, 3, 3, 32, 0,
       inverted_slider_crank_x_slope_table + 0, inverted_slider_crank_x_stretch_table + 0,
       "bar 'crank' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'crank' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" },
-    { 6, 0, 6, 0, 0, 0,
+      "bar 'crank' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, inverted_slider_crank_x_guide_powers + 0 },
+    { 6, 2, 8, 0, 33, 0,
       inverted_slider_crank_x_slope_table + 96, inverted_slider_crank_x_stretch_table + 96,
-      "",
-      "" }
+      "bar 'guide' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
+      "bar 'guide' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      1, 10, 32, inverted_slider_crank_x_guide_powers + 0 }
 };
 
 const symgen_model inverted_slider_crank_model = {

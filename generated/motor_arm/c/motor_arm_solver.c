@@ -107,11 +107,13 @@ static const double motor_arm_x_stretch_table[32] = {
     1.0, 1.0, 1.0, 1.0, 1.0, 1.0,
     1.0, 1.0
 };
+static const int motor_arm_x_guide_powers[1] = { 0 };
 static const symgen_amplitude_check motor_arm_x_amplitude_checks[1] = {
     { 0, 3, 3, 1, 32, 0,
       motor_arm_x_slope_table + 0, motor_arm_x_stretch_table + 0,
       "bar 'arm' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'arm' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
+      "bar 'arm' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, motor_arm_x_guide_powers + 0 }
 };
 
 const symgen_model motor_arm_model = {

@@ -97,11 +97,13 @@ static const double slider_crank_x_stretch_table[32] = {
     0.5982877614247035, 0.45890729378618467, 0.45304718317298615, 0.3094496451565868, 0.3034435128865303, 0.15701182728174762,
     0.15091751569187978, 0.0030618996787896095
 };
+static const int slider_crank_x_guide_powers[1] = { 0 };
 static const symgen_amplitude_check slider_crank_x_amplitude_checks[1] = {
     { 0, 1, 1, 1, 32, 1,
       slider_crank_x_slope_table + 0, slider_crank_x_stretch_table + 0,
       "bar 'rod' is deformed beyond the range of the model: its largest slope |eta'| reaches this (limit 0.7; the exact bar's expansion leaves out s^3 of the local bending energy, s = eta'^2, and the von Karman strain holds for moderate rotations): a load beyond a buckling load, or forces the bar cannot carry",
-      "bar 'rod' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry" }
+      "bar 'rod' is deformed beyond the range of the model: its largest stretch ||r'| - 1| reaches this (limit 0.05; the bar's elastic law, one lambda and one mu at every strain, holds for small strains; on a stiff bar, too few axial functions to follow the bent bar's shortening (axial_modes) show as a stretch): a load beyond a buckling load, or forces the bar cannot carry",
+      0, -1, 0, slider_crank_x_guide_powers + 0 }
 };
 
 const symgen_model slider_crank_model = {

@@ -1338,7 +1338,17 @@ static void symgen_bar_range_(const symgen_model *M, const symgen_amplitude_chec
     *stretch = 0.0;
     for (j = 0; j < c->points; ++j) {
         double eta = 0.0, zeta = 0.0, e, a;
-        for (k = 0; k < c->count; ++k) eta += c->slopes[j * c->count + k] * q[M->amplitude_index[c->start + k]];
+        if (c->guide) {
+            /* a slot guide: its functions scaled by the contact (checks.guide_slopes) */
+            const double beta = q[c->beta];
+            const int *pw = c->powers + (j < c->span_points ? 0 : 2);
+            for (k = 0; k < c->count; ++k) {
+                eta += c->slopes[j * c->count + k] * pow(beta, pw[4 * k]) * pow(1.0 - beta, pw[4 * k + 1]) *
+                       q[M->amplitude_index[c->start + k]];
+            }
+        } else {
+            for (k = 0; k < c->count; ++k) eta += c->slopes[j * c->count + k] * q[M->amplitude_index[c->start + k]];
+        }
         a = fabs(eta);
         if (*slope == *slope && !(a <= *slope)) *slope = a;      /* a NaN stays */
         if (c->axial_count == 0) continue;

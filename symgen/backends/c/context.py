@@ -250,31 +250,39 @@ def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
     ``range_rows``, its largest slope |eta'| (``slope_table``: ``psi_a'`` there, row-major points
     x amplitudes) may not exceed ``POLICY.slope_limit``, its largest stretch ||r'| - 1|, r' =
     (1 + zeta', eta') (``stretch_table``: ``phi_k'`` there; the linear strain's (1 + zeta', 0):
-    ``ModelInfo.linear_strain``), not ``POLICY.stretch_limit``."""
+    ``ModelInfo.linear_strain``), not ``POLICY.stretch_limit``. A slot guide's functions move with
+    the contact: its slopes are beta^a (1 - beta)^b times fixed numbers at the points of its span
+    and its overhang (``GuideSlopes``: ``guide``, its contact's coordinate ``beta``, ``span_points``,
+    ``powers`` a, b on the span and a, b on the overhang per function), read with q's beta."""
 
-    from symgen.model.shape_samples import shape_samples
+    from symgen.model.shape_samples import guide_samples, shape_samples
 
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
+    slots = {
+        j["ends"][1][0]: j for j in info.structure.get("joints", []) if j.get("kind") == "slot" and len(j["ends"]) == 2
+    }
     checks = []
     for group in plan.amplitudes:
         body = group.body
-        if body in info.slot_guides:  # not checked (checks.GUIDE_UNCHECKED): an empty check keeps the order
-            checks.append(
-                {
-                    "indices": [],
-                    "axial": [],
-                    "points": 0,
-                    "linear": 0,
-                    "slopes": [],
-                    "stretches": [],
-                    "slope_message": c_string(""),
-                    "stretch_message": c_string(""),
-                }
-            )
-            continue
-        samples = shape_samples(bodies[body])
-        slopes = samples.slope_table() if group.transverse else ()
-        stretches = samples.stretch_table() if group.axial else ()
+        guide: dict = {"guide": 0, "beta": -1, "span_points": 0, "powers": []}
+        if body in slots and group.transverse:
+            # its functions move with the contact: the slopes beta^a (1 - beta)^b F_k at the span's and
+            # the overhang's points (GuideSlopes, checks.guide_tables), no axial amplitudes
+            g = guide_samples(bodies[body], slots[body])
+            slopes: tuple[tuple[float, ...], ...] = g.rows
+            stretches: tuple[tuple[float, ...], ...] = ()
+            guide = {
+                "guide": 1,
+                "beta": info.coordinate(CoordKind.BETA, body),
+                "span_points": len(g.span),
+                "powers": [v for k in range(g.nt) for v in (*g.span_powers[k], *g.over_powers[k])],
+            }
+            points = len(g.span) + len(g.over)
+        else:
+            samples = shape_samples(bodies[body])
+            slopes = samples.slope_table() if group.transverse else ()
+            stretches = samples.stretch_table() if group.axial else ()
+            points = len(samples.range_rows())
         for table, width in ((slopes, len(group.transverse)), (stretches, len(group.axial))):
             if any(len(row) != width for row in table):
                 raise ValueError(f"bar {body!r}: the shape samples hold other functions than its amplitudes")
@@ -282,12 +290,13 @@ def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
             {
                 "indices": list(group.transverse),
                 "axial": list(group.axial),
-                "points": len(samples.range_rows()),
+                "points": points,
                 "linear": 1 if info.linear_strain else 0,
                 "slopes": [c_double(v) for row in slopes for v in row],
                 "stretches": [c_double(v) for row in stretches for v in row],
                 "slope_message": c_string(range_message(body, "slope", POLICY.slope_limit, "this")),
                 "stretch_message": c_string(range_message(body, "stretch", POLICY.stretch_limit, "this")),
+                **guide,
             }
         )
     return checks

@@ -1,0 +1,197 @@
+"""The range check of a slot guide (its largest slope |eta'|, ``symgen.numerics.checks``): a guide's
+functions psi(xi, beta) move with the contact, so its slopes are read as powers of beta and
+1 - beta times fixed numbers at points of its span and its overhang
+(:class:`symgen.ir.shape_samples.GuideSlopes`), by the Python runners and the emitted C solver
+alike. Until then a guide's range was not checked at all (read with fixed samples of xi it had
+stopped a run at a slope its guide never had).
+
+Oracles: the functions' own derivatives (SymPy, at two contacts); the closed form of a simply
+supported beam with an overhang under an end load (Euler-Bernoulli, small deflection); the
+model's own slope outputs (its symbolic output function, not the range tables)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from symgen.api import mechanism, simulate_scene
+from symgen.ir.shape_samples import GuideSlopes, InvalidShapeSamples
+from symgen.model.shape_samples import range_points
+from symgen.model.slot import XI, _derivative, guide_slopes
+from symgen.numerics import checks
+from tests.oracles import write_scene
+
+BETA = sp.Symbol("beta_A", real=True)
+
+
+@pytest.mark.parametrize("nspan, nover", [(3, 0), (2, 4), (4, 2)])
+def test_guide_slopes_are_the_functions_slopes(nspan, nover):
+    """psi_k'(xi, beta) of every function at the span's and the overhang's points, at two contacts,
+    against the derivative of the function itself (the rigid overhang's too: straight, sloped)."""
+    nt = nspan + nover
+    slopes = guide_slopes("guide", nt, nover, range_points())
+    rng = np.random.default_rng(3)
+    g = rng.normal(size=(nt, 1))
+    for beta in (0.41, 0.66):
+        got = checks.guide_slopes(slopes, g, np.array([beta]))[:, 0]
+        u, v = np.asarray(slopes.span), np.asarray(slopes.over)
+        want = np.zeros(len(u) + len(v))
+        for k in range(nt):
+            span, over = _derivative(k + 1, BETA, nspan, nover, 1, 0)
+            for expr, xi, rows in (
+                (span, beta * u, slice(0, len(u))),
+                (over, beta + (1 - beta) * v, slice(len(u), None)),
+            ):
+                f = sp.lambdify(XI, expr.xreplace({BETA: beta}), "numpy")
+                want[rows] += g[k, 0] * np.broadcast_to(np.asarray(f(xi), dtype=float), xi.shape)
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+
+
+def test_guide_slopes_record_round_trip_and_refusal():
+    slopes = guide_slopes("guide", 4, 2, range_points())
+    assert GuideSlopes.from_json(json.loads(json.dumps(slopes.to_json()))) == slopes
+    bad = slopes.to_json()
+    bad["over_powers"] = bad["over_powers"][:-1]
+    with pytest.raises(InvalidShapeSamples, match="same functions"):
+        GuideSlopes.from_json(bad)
+    bad = dict(slopes.to_json(), span_powers=[[0.5, 0]] * 4)
+    with pytest.raises(InvalidShapeSamples, match="integer pairs"):
+        GuideSlopes.from_json(bad)
+
+
+#: a guide pinned at the origin along x, held at xi = 0.6 by a slot on a crank at rest, an end load P
+#: across it: a simply supported beam (span a = 0.6) with an overhang c = 0.4 loaded at its end
+STATIC_GUIDE = """
+[scene]
+name = "static_guide"
+units = "dimensionless"
+omega = 1.0
+reference_length = 1.0
+
+[[bodies]]
+name = "crank"
+length = 0.3
+rigid = true
+mass_per_length = 1.0
+
+[[bodies]]
+name = "guide"
+length = 1.0
+lambda = 1e6
+mu = 1.0
+frame = "pinned-pinned"
+axial_modes = 0
+transverse_modes = {nt}
+
+[[joints]]
+name = "O"
+kind = "pin"
+bodies = ["ground", "crank"]
+at = [[0.6, -0.3], 0.0]
+
+[[joints]]
+name = "P"
+kind = "pin"
+bodies = ["ground", "guide"]
+at = [[0.0, 0.0], 0.0]
+
+[[joints]]
+name = "A"
+kind = "slot"
+bodies = ["crank", "guide"]
+at = [1.0, "variable"]
+{overhang}
+
+[[loads]]
+body = "guide"
+kind = "point"
+at = 1.0
+transverse = -{load}
+axial = 0.0
+
+[driver]
+kind = "angle"
+body = "crank"
+initial = 1.5707963267948966
+rate = 0.0
+
+[initial]
+deformation = "quasi-static"
+guess = {{ guide = 0.0, A = 0.6 }}
+
+[outputs]
+tip = {{ kind = "deflection", body = "guide", at = 1.0 }}
+tip_slope = {{ kind = "slope", body = "guide", at = 1.0 }}
+support_slope = {{ kind = "slope", body = "guide", at = 0.6 }}
+pin_slope = {{ kind = "slope", body = "guide", at = 0.0 }}
+
+[simulation]
+t_end = 0.01
+output_step = 0.01
+accuracy = 0.05
+"""
+
+A, C, LOAD = 0.6, 0.4, 0.1
+
+
+def _static(tmp_path, overhang: str, nt: int, solver: str = "idas"):
+    path = write_scene(tmp_path / f"static_{solver}.toml", STATIC_GUIDE.format(nt=nt, overhang=overhang, load=LOAD))
+    mech = mechanism(path)
+    if solver == "c":
+        from symgen.numerics.csolver import simulate_c
+
+        return mech, simulate_c(mech)
+    return mech, simulate_scene(path)
+
+
+def test_elastic_overhang_slopes_against_the_closed_form(tmp_path):
+    """Elastic overhang (2 span functions, the contact-slope function, 2 of the overhang's own: the
+    static shapes exactly). Euler-Bernoulli (EI = mu = 1): slope at the pin -P c a / 6, at the
+    support P c a / 3, at the loaded end P c a / 3 + P c^2 / 2 = 0.016 (the largest), the end's
+    deflection P c^2 (a + c) / 3. The range check's largest slope is the end's to 2e-4 (its points
+    0.0012 of a sixteenth inside the end; the slope's nonlinear part ~ slope^2); the model's slope
+    outputs are the closed form's to 5e-4."""
+    mech, res = _static(tmp_path, "overhang_modes = 2", 2)
+    closed = {
+        "pin_slope": -LOAD * C * A / 6,
+        "support_slope": LOAD * C * A / 3,
+        "tip_slope": LOAD * C * A / 3 + LOAD * C**2 / 2,
+        "tip": LOAD * C**2 * (A + C) / 3,
+    }
+    for name, value in closed.items():
+        assert abs(float(res.column(name)[0])) == pytest.approx(abs(value), rel=5e-4), name
+    record = checks.range_record(mech.info, res.tau, res.q, 0.01)
+    assert record["largest_slope"]["guide"]["slope"] == pytest.approx(closed["tip_slope"], rel=2e-4)
+    assert "not_checked" not in record
+
+
+def test_rigid_overhang_slope_is_the_models_own(tmp_path):
+    """The seed's rigid overhang (straight along the span's end slope, 6 sines on the span): the
+    largest slope is the span's end slope, which the overhang keeps; the range check reads the
+    model's own slope output there (its symbolic output function) to 1e-9. The sines' truncation
+    of the span under the overhang's end moment leaves it 9 % short of the closed form's P c a / 3
+    (the form's, not the check's)."""
+    mech, res = _static(tmp_path, 'overhang = "rigid"', 6)
+    record = checks.range_record(mech.info, res.tau, res.q, 0.01)
+    own = abs(float(res.column("tip_slope")[0]))
+    assert own == pytest.approx(abs(float(res.column("support_slope")[0])), rel=1e-9)
+    assert record["largest_slope"]["guide"]["slope"] == pytest.approx(own, rel=1e-9)
+    assert 0.85 < own / (LOAD * C * A / 3) < 0.95
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+def test_the_c_solver_reads_the_guide_alike(tmp_path):
+    """The emitted C solver's range check of a guide (``symgen_bar_range_``: the same rows and
+    powers) gives the Python record's largest slope to round-off."""
+    mech, res = _static(tmp_path, "overhang_modes = 2", 2)
+    _, res_c = _static(tmp_path, "overhang_modes = 2", 2, solver="c")
+    assert res_c.range_maxima is not None
+    record = checks.range_record(mech.info, res.tau, res.q, 0.01)
+    record_c = checks.range_record(mech.info, (), (), 0.01, maxima=res_c.range_maxima[1])
+    assert record_c["largest_slope"]["guide"]["slope"] == pytest.approx(
+        record["largest_slope"]["guide"]["slope"], rel=1e-9
+    )
