@@ -1,7 +1,7 @@
 """The range check of a slot guide (its largest slope |eta'|, ``symgen.numerics.checks``): a guide's
 functions psi(xi, beta) move with the contact, so its slopes are read as powers of beta and
 1 - beta times fixed numbers at points of its span and its overhang
-(:class:`symgen.ir.shape_samples.GuideSlopes`), by the Python runners and the emitted C solver
+(:class:`symgen.ir.shape_samples.GuideSamples`), by the Python runners and the emitted C solver
 alike. Until then a guide's range was not checked at all (read with fixed samples of xi it had
 stopped a run at a slope its guide never had).
 
@@ -19,48 +19,65 @@ import pytest
 import sympy as sp
 
 from symgen.api import mechanism, simulate_scene
-from symgen.ir.shape_samples import GuideSlopes, InvalidShapeSamples
-from symgen.model.shape_samples import range_points
-from symgen.model.slot import XI, _derivative, guide_slopes
+from symgen.ir.shape_samples import GuideSamples, InvalidShapeSamples
+from symgen.model.shape_samples import _nodes
+from symgen.model.slot import XI, _derivative, guide_samples
 from symgen.numerics import checks
 from tests.oracles import write_scene
 
 BETA = sp.Symbol("beta_A", real=True)
 
 
+def _samples(nt: int, nover: int) -> GuideSamples:
+    x, w = _nodes(())
+    return guide_samples("guide", nt, nover, x, w)
+
+
 @pytest.mark.parametrize("nspan, nover", [(3, 0), (2, 4), (4, 2)])
-def test_guide_slopes_are_the_functions_slopes(nspan, nover):
-    """psi_k'(xi, beta) of every function at the span's and the overhang's points, at two contacts,
-    against the derivative of the function itself (the rigid overhang's too: straight, sloped)."""
+def test_guide_samples_are_the_functions_and_their_derivatives(nspan, nover):
+    """d^n psi_k(xi, beta) / dxi^n, n = 0, 1, 2, of every function at the span's and the overhang's
+    nodes, at two contacts, against the derivatives of the function itself (the rigid overhang's
+    too: straight, sloped); the range check's slopes (``checks.guide_slopes``) are those at its
+    rows."""
     nt = nspan + nover
-    slopes = guide_slopes("guide", nt, nover, range_points())
+    samples = _samples(nt, nover)
     rng = np.random.default_rng(3)
     g = rng.normal(size=(nt, 1))
+    x = np.asarray(samples.x)
     for beta in (0.41, 0.66):
-        got = checks.guide_slopes(slopes, g, np.array([beta]))[:, 0]
-        u, v = np.asarray(slopes.span), np.asarray(slopes.over)
-        want = np.zeros(len(u) + len(v))
-        for k in range(nt):
-            span, over = _derivative(k + 1, BETA, nspan, nover, 1, 0)
-            for expr, xi, rows in (
-                (span, beta * u, slice(0, len(u))),
-                (over, beta + (1 - beta) * v, slice(len(u), None)),
-            ):
-                f = sp.lambdify(XI, expr.xreplace({BETA: beta}), "numpy")
-                want[rows] += g[k, 0] * np.broadcast_to(np.asarray(f(xi), dtype=float), xi.shape)
-        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+        for n in (0, 1, 2):
+            span, over = samples.scalings(np.array([beta]), n)
+            got = np.concatenate([np.asarray(samples.span[n]) @ (span * g), np.asarray(samples.over[n]) @ (over * g)])[
+                :, 0
+            ]
+            want = np.zeros(2 * len(x))
+            for k in range(nt):
+                pieces = _derivative(k + 1, BETA, nspan, nover, n, 0)
+                for piece, xi in ((0, beta * x), (1, beta + (1 - beta) * x)):
+                    f = sp.lambdify(XI, pieces[piece].xreplace({BETA: beta}), "numpy")
+                    rows = slice(piece * len(x), (piece + 1) * len(x))
+                    want[rows] += g[k, 0] * np.broadcast_to(np.asarray(f(xi), dtype=float), xi.shape)
+            assert np.abs(got - want).max() <= 1e-11 * max(np.abs(want).max(), 1.0), (beta, n)
+        span_rows, over_rows = samples.range_rows()
+        slopes = checks.guide_slopes(samples, g, np.array([beta]))[:, 0]
+        span, over = samples.scalings(np.array([beta]), 1)
+        whole = np.concatenate([np.asarray(samples.span[1]) @ (span * g), np.asarray(samples.over[1]) @ (over * g)])
+        assert np.array_equal(slopes, whole[[*span_rows, *(len(x) + i for i in over_rows)], 0])
 
 
-def test_guide_slopes_record_round_trip_and_refusal():
-    slopes = guide_slopes("guide", 4, 2, range_points())
-    assert GuideSlopes.from_json(json.loads(json.dumps(slopes.to_json()))) == slopes
-    bad = slopes.to_json()
+def test_guide_samples_record_round_trip_and_refusal():
+    samples = _samples(4, 2)
+    assert GuideSamples.from_json(json.loads(json.dumps(samples.to_json()))) == samples
+    bad = samples.to_json()
     bad["over_powers"] = bad["over_powers"][:-1]
     with pytest.raises(InvalidShapeSamples, match="same functions"):
-        GuideSlopes.from_json(bad)
-    bad = dict(slopes.to_json(), span_powers=[[0.5, 0]] * 4)
-    with pytest.raises(InvalidShapeSamples, match="integer pairs"):
-        GuideSlopes.from_json(bad)
+        GuideSamples.from_json(bad)
+    bad = dict(samples.to_json(), span_powers=[0.5] * 4)
+    with pytest.raises(InvalidShapeSamples, match="list of integers"):
+        GuideSamples.from_json(bad)
+    bad = dict(samples.to_json(), span=samples.to_json()["span"][:2])
+    with pytest.raises(InvalidShapeSamples, match="three tables"):
+        GuideSamples.from_json(bad)
 
 
 #: a guide pinned at the origin along x, held at xi = 0.6 by a slot on a crank at rest, an end load P

@@ -26,7 +26,7 @@ from symgen.ir.info import record_fields
 __all__ = [
     "GAUSS_POINTS",
     "SEGMENTS",
-    "GuideSlopes",
+    "GuideSamples",
     "InvalidShapeSamples",
     "ShapeSamples",
     "guide_question",
@@ -151,40 +151,58 @@ def _table(x: object, what: str, rows: int) -> tuple[tuple[float, ...], ...]:
 
 
 @dataclass(frozen=True)
-class GuideSlopes:
-    """A slot guide's slopes at the range check's points (its functions psi(xi, beta) move with the
+class GuideSamples:
+    """A slot guide's functions at quadrature nodes (its functions psi(xi, beta) move with the
     contact, so no fixed samples of xi describe them: :mod:`symgen.model.slot`). Each function is a
-    power of beta times a fixed function of u = xi / beta on the span [0, beta] and a power of
-    beta and of 1 - beta times a fixed function of v = (xi - beta) / (1 - beta) on the overhang, so
-    its slope is
+    power of beta times a fixed function of u = xi / beta on the span [0, beta], and a power of beta
+    and of 1 - beta times a fixed function of v = (xi - beta) / (1 - beta) on the overhang:
 
-        psi_k'(xi) = beta^a (1 - beta)^b F_k(s)
+        d^n psi_k / dxi^n = beta^(p - n) f_k^(n)(u)                 (span, p = ``span_powers[k]``)
+                          = beta^p (1 - beta)^(o - n) h_k^(n)(v)     (overhang, (p, o) = ``over_powers[k]``)
 
-    with (a, b) = ``span_powers[k]`` at the span's points s = u (``span``, tables ``span_slopes``)
-    and ``over_powers[k]`` at the overhang's points s = v (``over``, ``over_slopes``): the guide's
-    slopes at a contact beta are ``slopes(beta) @ g`` (``symgen.numerics.checks.bar_ranges`` and the
-    C runtime's ``symgen_bar_range_``, which read the same rows, span first)."""
+    ``x``, ``w``: Gauss-Legendre nodes and weights of [0, 1] (``SEGMENTS`` pieces of
+    ``GAUSS_POINTS``), the same for u and v (an integral over the span is beta sum w f(x), over the
+    overhang (1 - beta) sum w h(x)); ``span[n]`` / ``over[n]`` (n = 0, 1, 2) the fixed functions'
+    n-th derivatives there (nodes x functions; zero where a function vanishes on that piece, its
+    powers then 0). ``nover``: the overhang's functions (0: the seed's rigid overhang, straight, so
+    its slope is one value). Read by the range check (:meth:`slope_rows`: the Python runners and
+    the C runtime's ``symgen_bar_range_``) and the model-form estimate
+    (``symgen.numerics.model_form``)."""
 
     guide: str
-    span: tuple[float, ...]
-    over: tuple[float, ...]
-    span_slopes: tuple[tuple[float, ...], ...]
-    over_slopes: tuple[tuple[float, ...], ...]
-    span_powers: tuple[tuple[int, int], ...]
-    over_powers: tuple[tuple[int, int], ...]
+    nover: int
+    x: tuple[float, ...]
+    w: tuple[float, ...]
+    span: tuple[tuple[tuple[float, ...], ...], ...]
+    over: tuple[tuple[tuple[float, ...], ...], ...]
+    span_powers: tuple[int | None, ...]
+    over_powers: tuple[tuple[int, int] | None, ...]
 
     @property
     def nt(self) -> int:
         return len(self.span_powers)
 
-    @property
-    def rows(self) -> tuple[tuple[float, ...], ...]:
-        """The fixed slopes F_k(s) of every point, the span's first."""
-        return self.span_slopes + self.over_slopes
+    def range_rows(self) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """(span, overhang) nodes of the range check: the first and last node of every piece
+        (:meth:`ShapeSamples.range_rows`); one node of the rigid overhang (straight)."""
+        rows = tuple(i for i in range(len(self.x)) if i % GAUSS_POINTS in (0, GAUSS_POINTS - 1))
+        return rows, rows if self.nover else rows[-1:]
 
-    def scalings(self, beta: Any) -> tuple[Any, Any]:
-        """(span, overhang) factors beta^a (1 - beta)^b of each function (k x len(beta) for an
-        array of contact positions)."""
+    def slope_rows(self) -> tuple[tuple[tuple[float, ...], ...], tuple[tuple[float, ...], ...]]:
+        """The fixed slopes f_k'(u), h_k'(v) at the range check's (span, overhang) nodes."""
+        span, over = self.range_rows()
+        return tuple(self.span[1][i] for i in span), tuple(self.over[1][i] for i in over)
+
+    def powers(self, n: int) -> tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int], ...]]:
+        """(span, overhang) powers (a, b) of beta and 1 - beta of each function's n-th derivative:
+        (p - n, 0) on the span, (p, o - n) on the overhang ((0, 0) where it vanishes: zero samples)."""
+        span = tuple((0, 0) if p is None else (p - n, 0) for p in self.span_powers)
+        over = tuple((0, 0) if po is None else (po[0], po[1] - n) for po in self.over_powers)
+        return span, over
+
+    def scalings(self, beta: Any, n: int) -> tuple[Any, Any]:
+        """(span, overhang) factors beta^a (1 - beta)^b of each function's n-th derivative
+        (``powers``), functions x len(beta) for an array of contacts."""
         import numpy as np
 
         b = np.atleast_1d(np.asarray(beta, dtype=float))
@@ -193,53 +211,66 @@ class GuideSlopes:
         def factors(powers: tuple[tuple[int, int], ...]) -> Any:
             return np.array([b**a * one**c for a, c in powers]).reshape(len(powers), len(b))
 
-        return factors(self.span_powers), factors(self.over_powers)
+        span, over = self.powers(n)
+        return factors(span), factors(over)
 
     def to_json(self) -> dict[str, Any]:
         return {
             "guide": self.guide,
-            "span": list(self.span),
-            "over": list(self.over),
-            "span_slopes": [list(r) for r in self.span_slopes],
-            "over_slopes": [list(r) for r in self.over_slopes],
-            "span_powers": [list(p) for p in self.span_powers],
-            "over_powers": [list(p) for p in self.over_powers],
+            "nover": self.nover,
+            "x": list(self.x),
+            "w": list(self.w),
+            "span": [[list(r) for r in t] for t in self.span],
+            "over": [[list(r) for r in t] for t in self.over],
+            "span_powers": list(self.span_powers),
+            "over_powers": [None if p is None else list(p) for p in self.over_powers],
         }
 
     @classmethod
-    def from_json(cls, data: object) -> GuideSlopes:
-        keys = ("guide", "span", "over", "span_slopes", "over_slopes", "span_powers", "over_powers")
-        data = record_fields(data, "the guide-slopes record", keys, InvalidShapeSamples)
-        guide = data["guide"]
+    def from_json(cls, data: object) -> GuideSamples:
+        keys = ("guide", "nover", "x", "w", "span", "over", "span_powers", "over_powers")
+        data = record_fields(data, "the guide-samples record", keys, InvalidShapeSamples)
+        guide, nover = data["guide"], data["nover"]
         if not isinstance(guide, str) or not guide:
             raise InvalidShapeSamples("'guide' is not a bar name")
-        span, over = _row(data["span"], "span"), _row(data["over"], "over")
-        if not span or not over or any(not 0.0 <= s <= 1.0 for s in (*span, *over)):
-            raise InvalidShapeSamples("'span' and 'over' are not points of [0, 1]")
-        powers = {k: _powers(data[k], k) for k in ("span_powers", "over_powers")}
-        nt = len(powers["span_powers"])
-        if not nt or len(powers["over_powers"]) != nt:
+        if not isinstance(nover, int) or isinstance(nover, bool) or nover < 0:
+            raise InvalidShapeSamples("'nover' is not a count")
+        x, w = _row(data["x"], "x"), _row(data["w"], "w")
+        if not x or len(w) != len(x) or any(not 0.0 <= v <= 1.0 for v in x) or abs(sum(w) - 1.0) > 1e-9:
+            raise InvalidShapeSamples("'x' and 'w' are not a quadrature of [0, 1]")
+        sp = data["span_powers"]
+        if not isinstance(sp, list) or not sp or not all(_power_or_none(v) for v in sp):
+            raise InvalidShapeSamples("'span_powers' is not a list of integers")
+        op = data["over_powers"]
+        if not isinstance(op, list) or not all(
+            v is None or (isinstance(v, list) and len(v) == 2 and all(_power_or_none(u) and u is not None for u in v))
+            for v in op
+        ):
+            raise InvalidShapeSamples("'over_powers' is not a list of integer pairs")
+        if len(op) != len(sp):
             raise InvalidShapeSamples("'span_powers' and 'over_powers' do not hold the same functions")
-        tables = {k: _table(data[k], k, len(pts)) for k, pts in (("span_slopes", span), ("over_slopes", over))}
-        if any(len(t[0]) != nt for t in tables.values()):
-            raise InvalidShapeSamples("'span_slopes' and 'over_slopes' do not hold one column per function")
-        return cls(guide, span, over, tables["span_slopes"], tables["over_slopes"], *powers.values())
+        over_powers = tuple(None if v is None else (int(v[0]), int(v[1])) for v in op)
+        tables = {}
+        for key in ("span", "over"):
+            t = data[key]
+            if not isinstance(t, list) or len(t) != 3:
+                raise InvalidShapeSamples(f"{key!r} is not three tables")
+            tables[key] = tuple(_table(table, key, len(x)) for table in t)
+            if any(not table or len(table[0]) != len(sp) for table in tables[key]):
+                raise InvalidShapeSamples(f"{key!r} does not hold one column per function")
+        span_powers = tuple(None if v is None else int(v) for v in sp)
+        return cls(guide, nover, x, w, tables["span"], tables["over"], span_powers, over_powers)
 
 
-def _powers(x: object, what: str) -> tuple[tuple[int, int], ...]:
-    if not isinstance(x, list) or not all(
-        isinstance(p, list) and len(p) == 2 and all(isinstance(v, int) and not isinstance(v, bool) for v in p)
-        for p in x
-    ):
-        raise InvalidShapeSamples(f"{what!r} is not a list of integer pairs")
-    return tuple((int(p[0]), int(p[1])) for p in x)
+def _power_or_none(v: object) -> bool:
+    return v is None or (isinstance(v, int) and not isinstance(v, bool))
 
 
 def guide_question(body: dict[str, Any], joint: dict[str, Any]) -> dict[str, Any]:
-    """The cache question of a slot guide's slopes: its structure record and its slot joint's
+    """The cache question of a slot guide's samples: its structure record and its slot joint's
     (``ModelInfo.structure``: the counts and the overhang), the points, the version."""
     return {
-        "check": "slot.guide_slopes",
+        "check": "slot.guide_samples",
         "version": __version__,
         "samples": SAMPLES_VERSION,
         "nodes": [SEGMENTS, GAUSS_POINTS],

@@ -13,7 +13,7 @@ from symgen import cache
 from symgen.ir.shape_samples import (
     GAUSS_POINTS,
     SEGMENTS,
-    GuideSlopes,
+    GuideSamples,
     InvalidShapeSamples,
     ShapeSamples,
     guide_question,
@@ -96,26 +96,20 @@ def remember_samples(structure: dict[str, Any]) -> None:
             guide_samples(bodies[joint["ends"][1][0]], joint)
 
 
-def range_points() -> np.ndarray:
-    """The range check's points of [0, 1] (:meth:`ShapeSamples.range_rows` of a bar without
-    correction points): both ends of each of the ``SEGMENTS`` pieces, 0.0012 of a piece inside."""
-    xi, _ = _nodes(())
-    return np.array([x for i, x in enumerate(xi) if i % GAUSS_POINTS in (0, GAUSS_POINTS - 1)])
-
-
-def guide_samples(body: dict[str, Any], joint: dict[str, Any]) -> GuideSlopes:
-    """A slot guide's slopes at the range check's points of its span and its overhang
-    (:func:`symgen.model.slot.guide_slopes`), from the cache of checks or sampled now (and
-    remembered): ``body`` and ``joint`` are the guide's and its slot's structure records."""
+def guide_samples(body: dict[str, Any], joint: dict[str, Any]) -> GuideSamples:
+    """A slot guide's samples (:func:`symgen.model.slot.guide_samples`) at the nodes of a bar
+    without correction points, from the cache of checks or sampled now (and remembered): ``body``
+    and ``joint`` are the guide's and its slot's structure records."""
     question = guide_question(body, joint)
     known, answer = cache.recall(question)
     if known:
         try:
-            return GuideSlopes.from_json(answer)
+            return GuideSamples.from_json(answer)
         except InvalidShapeSamples:
             pass
-    from symgen.model.slot import guide_slopes, overhang_count
+    from symgen.model.slot import guide_samples as sample_guide, overhang_count
 
-    slopes = guide_slopes(body["name"], int(body["nt"]), overhang_count(joint), range_points())
-    cache.remember(question, slopes.to_json())
-    return slopes
+    x, w = _nodes(())
+    samples = sample_guide(body["name"], int(body["nt"]), overhang_count(joint), x, w)
+    cache.remember(question, samples.to_json())
+    return samples

@@ -61,7 +61,7 @@ import sympy as sp
 from sympy.polys.domains import QQ
 from sympy.polys.rings import PolyElement, ring
 
-from symgen.ir.shape_samples import GuideSlopes
+from symgen.ir.shape_samples import GuideSamples
 from symgen.model.bars import CURVATURE, SHORTENING, ZERO_TOL, curvature_pairs, point_tension_name, rot
 
 XI = sp.Symbol("xi", real=True)
@@ -410,31 +410,35 @@ def overhang_count(joint: dict) -> int:
     return modes + 1 if modes else 0
 
 
-def guide_slopes(guide: str, nt: int, nover: int, points: np.ndarray) -> GuideSlopes:
-    """The slopes of a guide's functions at ``points`` of the span (u = xi / beta) and of the
-    overhang (v = (xi - beta) / (1 - beta)), as fixed numbers and powers of beta and 1 - beta
-    (:class:`symgen.ir.shape_samples.GuideSlopes`): psi_k' = beta^(p - 1) f_k'(u) on the span and
-    beta^p (1 - beta)^(o - 1) h_k'(v) beyond (``_scalings``, ``_fixed_derivative``); a function
-    that vanishes on a piece has zero slopes there. The seed's rigid overhang is straight: one
-    point of it."""
+def guide_samples(guide: str, nt: int, nover: int, x: np.ndarray, w: np.ndarray) -> GuideSamples:
+    """A guide's functions and their first two derivatives at the quadrature nodes ``x`` (weights
+    ``w``) of its span (u = xi / beta) and its overhang (v = (xi - beta) / (1 - beta)), as fixed
+    numbers and powers of beta and 1 - beta (:class:`symgen.ir.shape_samples.GuideSamples`):
+    d^n psi_k = beta^(p - n) f_k^(n)(u) on the span and beta^p (1 - beta)^(o - n) h_k^(n)(v) beyond
+    (``_scalings``, ``_fixed_derivative``); a function that vanishes on a piece is zero there."""
     nspan = nt - nover
-    tables, powers, at = [], [], (points, points if nover else points[-1:])
+    tables, powers = [], []
     for piece in (0, 1):
-        x = at[piece]
-        columns, exps = [], []
-        for k in range(1, nt + 1):
-            sc = _scalings(k, nspan, nover)[piece]
-            if sc is None:
-                columns.append(np.zeros(len(x)))
-                exps.append((0, 0))
-                continue
-            columns.append(np.asarray(_fixed_derivative(k, nspan, nover, piece, 1, sc)(x), dtype=float))
-            p, o = sc
-            exps.append((p - 1, 0) if piece == 0 else (p, o - 1))
-        tables.append(tuple(tuple(float(v) for v in row) for row in np.array(columns).T))
-        powers.append(tuple(exps))
-    span, over = (tuple(float(x) for x in pts) for pts in at)
-    return GuideSlopes(guide, span, over, tables[0], tables[1], powers[0], powers[1])
+        derivs = []
+        for n in (0, 1, 2):
+            columns = []
+            for k in range(1, nt + 1):
+                sc = _scalings(k, nspan, nover)[piece]
+                f = None if sc is None else _fixed_derivative(k, nspan, nover, piece, n, sc)
+                columns.append(np.zeros(len(x)) if f is None else np.asarray(f(x), dtype=float))
+            derivs.append(tuple(tuple(float(v) for v in row) for row in np.array(columns).T))
+        tables.append(tuple(derivs))
+        powers.append([_scalings(k, nspan, nover)[piece] for k in range(1, nt + 1)])
+    return GuideSamples(
+        guide,
+        nover,
+        tuple(float(v) for v in x),
+        tuple(float(v) for v in w),
+        tables[0],
+        tables[1],
+        tuple(None if sc is None else sc[0] for sc in powers[0]),
+        tuple(powers[1]),
+    )
 
 
 @cache

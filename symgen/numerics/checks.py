@@ -30,7 +30,7 @@ from symgen.policy import POLICY, RANGE, range_message
 
 if TYPE_CHECKING:
     from symgen.ir.info import ModelInfo
-    from symgen.ir.shape_samples import GuideSlopes
+    from symgen.ir.shape_samples import GuideSamples
     from symgen.numerics.mechanism import Mechanism
 
 
@@ -66,7 +66,7 @@ def loop_row(mech: Mechanism, weights: ArrayLike) -> int:
 
 #: the range tables read in this process, by the model's structure key
 _TABLES: dict[str, dict[str, tuple[np.ndarray | None, np.ndarray | None]]] = {}
-_GUIDES: dict[str, dict[str, tuple[GuideSlopes, int]]] = {}
+_GUIDES: dict[str, dict[str, tuple[GuideSamples, int]]] = {}
 
 
 def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
@@ -95,50 +95,52 @@ def range_tables(info: ModelInfo) -> dict[str, tuple[np.ndarray | None, np.ndarr
     return tables
 
 
-def guide_tables(info: ModelInfo) -> dict[str, tuple[GuideSlopes, int]]:
+def guide_tables(info: ModelInfo) -> dict[str, tuple[GuideSamples, int]]:
     """slot guide (with transverse amplitudes) -> (its slopes at the range check's points of its
-    span and its overhang, :class:`symgen.ir.shape_samples.GuideSlopes`, taken when the model was
+    span and its overhang, :class:`symgen.ir.shape_samples.GuideSamples`, taken when the model was
     derived and read from the signed cache; the index of its contact beta in q)."""
     if info.key in _GUIDES:
         return _GUIDES[info.key]
-    from symgen.ir.shape_samples import GuideSlopes, InvalidShapeSamples, guide_question
-
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
-    guides: dict[str, tuple[GuideSlopes, int]] = {}
+    guides: dict[str, tuple[GuideSamples, int]] = {}
     for joint in info.structure.get("joints", []):
         if joint.get("kind") != "slot" or len(joint["ends"]) != 2:
             continue
         body = joint["ends"][1][0]
         if body not in info.amplitudes or not info.amplitudes[body][1]:
             continue
-        known, answer = cache.recall(guide_question(bodies[body], joint))
-        slopes = None
-        if known:
-            try:
-                slopes = GuideSlopes.from_json(answer)
-            except InvalidShapeSamples:
-                pass
-        if slopes is None:  # a model cache written before the guides' samples: sampled now
-            from symgen.model.shape_samples import guide_samples
-
-            slopes = guide_samples(bodies[body], joint)
+        slopes = read_guide(bodies[body], joint)
         if slopes.nt != len(info.amplitudes[body][1]):
-            raise ValueError(f"bar {body!r}: the guide's slope samples hold other functions than its amplitudes")
+            raise ValueError(f"bar {body!r}: the guide's samples hold other functions than its amplitudes")
         guides[body] = (slopes, info.coordinate(CoordKind.BETA, body))
     _GUIDES[info.key] = guides
     return guides
 
 
-def guide_slopes(slopes: GuideSlopes, g: np.ndarray, beta: np.ndarray) -> np.ndarray:
-    """A guide's slopes eta' at its range points (rows, the span's first) per column of its
-    amplitudes ``g`` (functions x samples) at contacts ``beta`` (one per sample)."""
-    span, over = slopes.scalings(beta)
-    return np.vstack(
-        [
-            np.asarray(slopes.span_slopes, dtype=float) @ (span * g),
-            np.asarray(slopes.over_slopes, dtype=float) @ (over * g),
-        ]
-    )
+def read_guide(body: dict[str, Any], joint: dict[str, Any]) -> GuideSamples:
+    """A slot guide's samples (its and its slot's structure records), taken when the model was
+    derived and read from the signed cache; sampled now where the cache does not hold them (a
+    model cache written before them)."""
+    from symgen.ir.shape_samples import GuideSamples, InvalidShapeSamples, guide_question
+
+    known, answer = cache.recall(guide_question(body, joint))
+    if known:
+        try:
+            return GuideSamples.from_json(answer)
+        except InvalidShapeSamples:
+            pass
+    from symgen.model.shape_samples import guide_samples
+
+    return guide_samples(body, joint)
+
+
+def guide_slopes(samples: GuideSamples, g: np.ndarray, beta: np.ndarray) -> np.ndarray:
+    """A guide's slopes eta' at its range check's nodes (rows, the span's first:
+    :meth:`GuideSamples.slope_rows`) per column of its amplitudes ``g`` (functions x samples) at
+    contacts ``beta`` (one per sample)."""
+    span_rows, over_rows = samples.slope_rows()
+    span, over = samples.scalings(beta, 1)
+    return np.vstack([np.asarray(span_rows, dtype=float) @ (span * g), np.asarray(over_rows, dtype=float) @ (over * g)])
 
 
 def slope_tables(info: ModelInfo) -> dict[str, np.ndarray]:

@@ -252,7 +252,7 @@ def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
     (1 + zeta', eta') (``stretch_table``: ``phi_k'`` there; the linear strain's (1 + zeta', 0):
     ``ModelInfo.linear_strain``), not ``POLICY.stretch_limit``. A slot guide's functions move with
     the contact: its slopes are beta^a (1 - beta)^b times fixed numbers at the points of its span
-    and its overhang (``GuideSlopes``: ``guide``, its contact's coordinate ``beta``, ``span_points``,
+    and its overhang (``GuideSamples.slope_rows``: ``guide``, its contact's coordinate ``beta``, ``span_points``,
     ``powers`` a, b on the span and a, b on the overhang per function), read with q's beta."""
 
     from symgen.model.shape_samples import guide_samples, shape_samples
@@ -267,17 +267,19 @@ def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
         guide: dict = {"guide": 0, "beta": -1, "span_points": 0, "powers": []}
         if body in slots and group.transverse:
             # its functions move with the contact: the slopes beta^a (1 - beta)^b F_k at the span's and
-            # the overhang's points (GuideSlopes, checks.guide_tables), no axial amplitudes
+            # the overhang's points (GuideSamples, checks.guide_tables), no axial amplitudes
             g = guide_samples(bodies[body], slots[body])
-            slopes: tuple[tuple[float, ...], ...] = g.rows
+            span_rows, over_rows = g.slope_rows()
+            span_powers, over_powers = g.powers(1)
+            slopes: tuple[tuple[float, ...], ...] = span_rows + over_rows
             stretches: tuple[tuple[float, ...], ...] = ()
             guide = {
                 "guide": 1,
                 "beta": info.coordinate(CoordKind.BETA, body),
-                "span_points": len(g.span),
-                "powers": [v for k in range(g.nt) for v in (*g.span_powers[k], *g.over_powers[k])],
+                "span_points": len(span_rows),
+                "powers": [v for k in range(g.nt) for v in (*span_powers[k], *over_powers[k])],
             }
-            points = len(g.span) + len(g.over)
+            points = len(slopes)
         else:
             samples = shape_samples(bodies[body])
             slopes = samples.slope_table() if group.transverse else ()
