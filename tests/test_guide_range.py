@@ -1,13 +1,18 @@
-"""The range check of a slot guide (its largest slope |eta'|, ``symgen.numerics.checks``): a guide's
+"""The range check and the model-form estimate of a slot guide. The range check (its largest slope
+|eta'|, ``symgen.numerics.checks``): a guide's
 functions psi(xi, beta) move with the contact, so its slopes are read as powers of beta and
 1 - beta times fixed numbers at points of its span and its overhang
 (:class:`symgen.ir.shape_samples.GuideSamples`), by the Python runners and the emitted C solver
 alike. Until then a guide's range was not checked at all (read with fixed samples of xi it had
 stopped a run at a slope its guide never had).
 
+The model-form estimate (``symgen.numerics.model_form._Guide``) charges a guide the curvature's
+terms beyond its fourth order at each contact.
+
 Oracles: the functions' own derivatives (SymPy, at two contacts); the closed form of a simply
-supported beam with an overhang under an end load (Euler-Bernoulli, small deflection); the
-model's own slope outputs (its symbolic output function, not the range tables)."""
+supported beam with an overhang under an end load (Euler-Bernoulli, small deflection) and its
+first-order change by the left-out energy; the model's own slope outputs (its symbolic output
+function, not the range tables)."""
 
 from __future__ import annotations
 
@@ -155,8 +160,8 @@ accuracy = 0.05
 A, C, LOAD = 0.6, 0.4, 0.1
 
 
-def _static(tmp_path, overhang: str, nt: int, solver: str = "idas"):
-    path = write_scene(tmp_path / f"static_{solver}.toml", STATIC_GUIDE.format(nt=nt, overhang=overhang, load=LOAD))
+def _static(tmp_path, overhang: str, nt: int, solver: str = "idas", load: float = LOAD):
+    path = write_scene(tmp_path / f"static_{solver}.toml", STATIC_GUIDE.format(nt=nt, overhang=overhang, load=load))
     mech = mechanism(path)
     if solver == "c":
         from symgen.numerics.csolver import simulate_c
@@ -212,3 +217,28 @@ def test_the_c_solver_reads_the_guide_alike(tmp_path):
     assert record_c["largest_slope"]["guide"]["slope"] == pytest.approx(
         record["largest_slope"]["guide"]["slope"], rel=1e-9
     )
+
+
+@pytest.mark.parametrize("load", [0.25, 0.5])
+def test_model_form_of_a_guide_against_the_first_order_change(tmp_path, load):
+    """The guide's model keeps its curvature to fourth order, eta''^2 (1 + eta'^2); what it leaves
+    out begins with (mu/2) int eta''^2 eta'^4. Its first-order effect on the loaded end's deflection
+    (the load's work: the end's influence function is the linear deflection / P) is
+    -(mu / P) int (eta''^2 2 eta'^3 eta' + eta'' eta'^4 eta'') = -3 int eta''^2 eta'^4 / P with the
+    closed-form linear shape (cubic on the span, the overhang's cantilever beyond): 9.55e-7 and
+    1.53e-5 of the end's deflection at end slopes 0.040 and 0.080. The estimate's model-form part
+    on the end deflection is that to 1 % and 2 % (its h = s^2 / (1 - s) and the deflected state's
+    own slopes add the next order), and grows as the load^4."""
+    mech, res = _static(tmp_path, "overhang_modes = 2", 2, load=load)
+    from symgen.numerics.model_form import model_form_estimate
+
+    est = model_form_estimate(mech, res)
+    x, w = np.polynomial.legendre.leggauss(40)
+    xs, ws = (x + 1) / 2 * A, w * A / 2  # the span: eta' = P c (3 x^2 - a^2) / (6 a), eta'' = P c x / a
+    integral = np.sum(ws * (load * C * xs / A) ** 2 * (load * C / (6 * A) * (3 * xs**2 - A**2)) ** 4)
+    u, wu = (x + 1) / 2 * C, w * C / 2  # the overhang: eta' = P c a / 3 + P (c u - u^2 / 2), eta'' = P (c - u)
+    integral += np.sum(wu * (load * (C - u)) ** 2 * (load * C * A / 3 + load * (C * u - u**2 / 2)) ** 4)
+    tip = load * C**2 * (A + C) / 3
+    closed = 3 * integral / (load * tip)
+    assert est.outputs["tip"] == pytest.approx(closed, rel=0.01 if load < 0.3 else 0.02)
+    assert est.guides == ("guide",) and "slot guide guide" in est.method

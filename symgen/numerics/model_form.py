@@ -235,15 +235,13 @@ class ModelFormNotEstimated(Exception):
 class ModelFormEstimate:
     """The estimate of a run: ``outputs`` maps each output to its estimated change with the exact
     curvature as a fraction of its peak; ``bars`` each elastic bar to (the shift of its first
-    bending frequency, max amplification by its axial compression); ``method`` how; ``skipped``
-    the bars not estimated (slot guides, where left out: ``with_guides``); ``guides`` the slot
-    guides estimated."""
+    bending frequency, max amplification by its axial compression); ``method`` how; ``guides``
+    the slot guides (:class:`_Guide`)."""
 
     outputs: dict[str, float]
     bars: dict[str, tuple[float, float]]
     method: str = "static response of each bar's stiffness to the curvature's left-out terms"
-    skipped: tuple[str, ...] = ()
-    guides: tuple[str, ...] = ()  # the slot guides estimated
+    guides: tuple[str, ...] = ()  # the slot guides estimated (model_form._Guide)
 
 
 #: the shape samples read in this process, by their question (a bar's samples are a function
@@ -610,15 +608,11 @@ def _guides(structure: dict[str, Any]) -> set[str]:
 SAMPLES = 400
 
 
-def model_form_estimate(
-    mech: Mechanism, result: SimResult, samples: int = SAMPLES, with_guides: bool = True
-) -> ModelFormEstimate:
+def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = SAMPLES) -> ModelFormEstimate:
     """The estimate of a finished run ``result`` (:class:`symgen.numerics.simulate.SimResult`) of
     ``mech`` (:class:`symgen.numerics.mechanism.Mechanism`), at up to ``samples`` evenly spaced
     output rows. Raises :class:`ModelFormNotEstimated` with the reason for a run of the seed's
-    linear strain or without geometric stiffening. ``with_guides=False``: the slot guides left
-    out (what the exact bar would change: a guide's curvature is the same whatever the strain,
-    :mod:`symgen.numerics.strain_choice`)."""
+    linear strain or without geometric stiffening."""
     names = list(result.output_names)
     eff = mech.scene.effects
     if eff.strain == "linear":
@@ -643,21 +637,15 @@ def model_form_estimate(
         if g_idx and not mech.scene.body(name).rigid and name not in slots
     ]
     guides = [name for name, (_, g_idx) in mech.amplitudes.items() if g_idx and name in slots]
-    skipped = () if with_guides else tuple(guides)
-    if with_guides:
+    if guides:
         from symgen.numerics.checks import read_guide
 
         joints = {j["ends"][1][0]: j for j in structure.get("joints", []) if j.get("kind") == "slot"}
         q_all = np.asarray(result.q, dtype=float)
         for name in guides:
             beta = mech.info.coordinate(CoordKind.BETA, name)
-            g_idx = mech.amplitudes[name][1]
             read = read_guide(bodies[name], joints[name])
-            bars.append(_Guide(mech, name, read, g_idx, beta, float(np.mean(q_all[:, beta]))))
-    if skipped and not bars:
-        raise ModelFormNotEstimated(
-            f"the bending bars are slot guides ({', '.join(skipped)}), left out of this estimate"
-        )
+            bars.append(_Guide(mech, name, read, mech.amplitudes[name][1], beta, float(np.mean(q_all[:, beta]))))
     rows = np.unique(np.linspace(0, len(result.tau) - 1, min(samples, len(result.tau))).astype(int))
     Q, V, Lam = (np.asarray(x, dtype=float)[rows] for x in (result.q, result.v, result.lam))
     tau_rows = np.asarray(result.tau, dtype=float)[rows]
@@ -807,7 +795,7 @@ def model_form_estimate(
     if order and any(not b.stretch_kept and b.na for b in bars):
         curvature = " and -eps eta''^2" if STRETCH_CURVATURE else ""
         left += f" (and -eps eta'^2 / 2{curvature} where the axial strain is held at 0)"
-    if guides and with_guides:
+    if guides:
         on_guides = (
             f"the curvature's terms of the slot guide{'s' if len(guides) > 1 else ''} {', '.join(guides)} beyond its "
             "fourth-order eta''^2 (1 + eta'^2) (eta''^2 eta'^4 / (1 - eta'^2)), against its bending stiffness at the "
@@ -821,8 +809,6 @@ def model_form_estimate(
         if bars
         else "none: no bar bends (the rigid bodies are exact)"
     )
-    if skipped:
-        method += f"; slot guides not estimated: {', '.join(skipped)}"
     for name, at in beyond.items():
         t = tau_rows[at]
         method += (
@@ -830,7 +816,7 @@ def model_form_estimate(
             f"{int(at.sum())} of {len(at)} samples, tau {t.min():.6g} .. {t.max():.6g}: no static change is an "
             f"estimate there, the outputs it moves charged {BEYOND_BUCKLING:g} of their peak"
         )
-    return ModelFormEstimate(out, stiff, method, skipped, tuple(guides) if with_guides else ())
+    return ModelFormEstimate(out, stiff, method, tuple(guides))
 
 
 #: the speed below which a torque-driven crank's timing is not read from its angle's change, as a

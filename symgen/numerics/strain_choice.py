@@ -59,9 +59,10 @@ R = TypeVar("R")
 #: rigid mechanism's motion, 4-7x the five-bar's modes' own content in their bands; 15: the static
 #: change with each bar's axial force less its content at and above the bar's first bending
 #: frequency, model_form._Bar.slow_axial_force: a slider's axial ringing's peaks were amplified; 16: an
-#: output zero to round-off over the run decides nothing, SimResult.peaks; 17: slot guides' curvature
-#: estimated, model_form._Guide, and left out of the decision: the exact bar does not change a guide)
-ESTIMATOR_VERSION = "17"
+#: output zero to round-off over the run decides nothing, SimResult.peaks; a scene with a slot guide,
+#: whose model form model_form._Guide estimates since the estimator's 17, is never decided: the exact bar
+#: is refused there, symgen.scene.strain.exact_refused)
+ESTIMATOR_VERSION = "16"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
@@ -166,18 +167,8 @@ def decide(mech: Mechanism, result: Any) -> StrainChoice | None:
     except (ModelFormNotEstimated, ValueError, ArithmeticError, RuntimeError):
         # not estimated (the reason is the sidecar's error estimate): von Karman, provisionally
         return None
-    # a slot guide's curvature is the same whatever the strain (symgen.model.slot): the decision reads
-    # the estimate without the guides, what the exact bar would change
-    decisive = est
-    if est.guides:
-        try:
-            decisive = model_form_estimate(mech, result, with_guides=False)
-        except ModelFormNotEstimated:  # the guides are the only bars that bend: nothing to change
-            decisive = replace(est, outputs={n: 0.0 for n in est.outputs})
-        except (ValueError, ArithmeticError, RuntimeError):
-            return None
     kinds = {o.name: o.kind for o in scene.outputs}
-    values = {n: v for n, v in decisive.outputs.items() if kinds.get(n) not in CHECK_KINDS}
+    values = {n: v for n, v in est.outputs.items() if kinds.get(n) not in CHECK_KINDS}
     accuracy = float(scene.simulation.accuracy)
     exact, worst, top, room = judge(values, others, accuracy)
     beside = (

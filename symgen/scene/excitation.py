@@ -374,8 +374,9 @@ def read_effects(r: Reader, raw: dict, scales: Scales) -> Effects:
         if slots:
             r.fail(
                 "effects.strain",
-                f'"exact" is not available with a slot joint ({", ".join(map(str, slots))}): the guide\'s '
-                "variable span psi(xi, beta) has no closed-form fourth-order curvature tables",
+                f'"exact" is not available with a slot joint ({", ".join(map(str, slots))}): the exact bar '
+                "has no slot-guide form (the guide's functions psi(xi, beta) move with the contact; its curvature is "
+                "kept to fourth order whatever the strain)",
                 'use strain = "von_karman" for this scene',
             )
     gx, gy = defaults.gravity

@@ -58,7 +58,10 @@ def exact_refused(geometric_stiffening: bool, slots: list[str]) -> str:
     if not geometric_stiffening:
         return "geometric_stiffening = false (the exact curvature and the von Karman strain are one expansion)"
     if slots:
-        return f"a slot joint ({', '.join(slots)}): it has no slot guide"
+        return (
+            f"a slot joint ({', '.join(slots)}): the exact bar has no slot-guide form (a guide's curvature is kept to "
+            "fourth order whatever the strain)"
+        )
     return ""
 
 
