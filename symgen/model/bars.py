@@ -515,7 +515,7 @@ def bar_equations(
         el_f = [sp.diff(strain_energy, fk) for fk in f]
         el_g = [sp.diff(strain_energy, gk) for gk in g]
         if guide_fourth and mu is not None:
-            bend_guide, bend_forces, bend_beta = _guide_curvature(t, g, s.beta[0])
+            bend_guide, bend_forces, bend_beta = _shown_as(values, "E", *_guide_curvature(t.numeric, g, s.beta[0]))
             bend_guide, bend_beta = mu * bend_guide, mu * bend_beta
             el_g = [el_g[k] + mu * bend_forces[k] for k in range(nt)]
         constraint = ()
@@ -604,7 +604,7 @@ def bar_equations(
     short_beta: sp.Expr = sp.Integer(0)
     short_kinetic: sp.Expr = sp.Integer(0)
     if guide_fourth:
-        short_kinetic, short_g, short_beta = _guide_shortening(t, g, dg, ddg, b, db)
+        short_kinetic, short_g, short_beta = _shown_as(values, "Z", *_guide_shortening(t.numeric, g, dg, ddg, b, db))
 
     eq16 = []
     for k in range(na):
@@ -719,6 +719,24 @@ def point_tension_name(xi: float) -> str:
     (``slot._point_tension_gram``): the tension weight of an axial point force at xi_p, and the
     shortening of the guide's point xi_p."""
     return f"H{float(xi)!r}"
+
+
+def _shown_as(values: dict, letter: str, energy: sp.Expr, forces: list, beta_term: sp.Expr) -> tuple:
+    r"""A guide's fourth-order terms (``_guide_curvature``, ``_guide_shortening``: made with the
+    closed-form tables) as display symbols, the terms their ``values``: the energy
+    ``\mathcal{letter}``, its term in (17) k ``\mathcal{letter}_k``, in the beta equation
+    ``\mathcal{letter}_\beta``. Shown expanded over their tables (nt(nt+1)/2 squared entries
+    each) they were most of a guide's document (a guide of 9 functions: 150 pages); the LaTeX states
+    what they are (``backends.latex.slot``)."""
+    name = rf"\mathcal{{{letter}}}"
+    shown = (
+        sp.Symbol(name),
+        [sp.Symbol(rf"{name}_{{{k + 1}}}") for k in range(len(forces))],
+        sp.Symbol(rf"{name}_{{\beta}}"),
+    )
+    values[shown[0]], values[shown[2]] = energy, beta_term
+    values.update(zip(shown[1], forces))
+    return shown
 
 
 def _guide_curvature(t, g: list, beta: sp.Symbol) -> tuple:

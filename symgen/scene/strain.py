@@ -59,7 +59,7 @@ def exact_refused(geometric_stiffening: bool, slots: list[str]) -> str:
         return "geometric_stiffening = false (the exact curvature and the von Karman strain are one expansion)"
     if slots:
         return (
-            f"a slot joint ({', '.join(slots)}): the exact bar has no slot-guide form (a guide's curvature is kept to "
+            f"a slot joint ({', '.join(slots)}): it has no slot-guide form (a guide's curvature is kept to "
             "fourth order whatever the strain)"
         )
     return ""

@@ -189,6 +189,26 @@ def _strain_reason(scene) -> str:
     return tex_escape(choice.reason)
 
 
+#: a generalized force of more operations than this is not written out in the assembled section:
+#: a slot guide of 9 functions has rows of 4000-11000 (its fourth-order geometry expanded over its
+#: tables), 5000 lines of LaTeX that pdflatex cannot hold in one display; its bar's section above
+#: shows it with the tables as symbols
+ASSEMBLED_OPS_MAX = 2000
+
+
+def _assembled_row(pr, sym, expr) -> Row:
+    """``sym = expr`` of the assembled section, or a note where ``expr`` is too long to read."""
+    ops = sp.count_ops(expr)
+    if ops <= ASSEMBLED_OPS_MAX:
+        return eq_row(pr, pr(sym), expr)
+    return Row(
+        pr(sym),
+        [
+            rf"\text{{its bar's equation above, with the tables' values, scaled back: {ops} operations, not written out}}"
+        ],
+    )
+
+
 def _ip_table(bm, used: set) -> list[dict]:
     """Rows (symbol, exact value, decimal, kind) of the inner products of bar ``bm``'s display
     form that the shown equations use."""
@@ -838,7 +858,7 @@ def latex_document(scene, model) -> str:
     joint_eqs = _joints_context(scene, model, pr)
 
     # ---- assembled
-    defs_e = [eq_row(pr, pr(sym), expr) for sym, expr in prog.group(GENERALIZED_FORCE)]
+    defs_e = [_assembled_row(pr, sym, expr) for sym, expr in prog.group(GENERALIZED_FORCE)]
     defs_s = [eq_row(pr, pr(sym), expr) for sym, expr in prog.group(SUBTREE_FORCE)]
     residuals = []
     for k, (x, r) in enumerate(zip(model.q, prog.outputs["res"])):

@@ -334,8 +334,8 @@ def guide_context(scene, model, name: str, pr) -> dict:
     )
     ctx["ip_table"] = _ip_rows(table, b, used, pr, beta0, pos)
     ctx["tension"] = _tension_text(scene, model, name, pr) if eff.geometric_stiffening and nt else ""
-    if ctx["tension"] and any(kind == CURVATURE for kind, _ in bm.equations.inner_products.values()):
-        ctx["tension"] += _CURVATURE_TEXT
+    if ctx["tension"] and sp.Symbol(r"\mathcal{E}") in bm.equations.values:
+        ctx["tension"] += _curvature_text(bm.ipt)
     topo = model.topology
     tj = [topo.edges[name].joint] + [e.joint for e in topo.children.get(name, ())]
     ctx["tree_joints"] = ", ".join(tex_escape(x) for x in tj)
@@ -476,19 +476,32 @@ def slot_notes(scene, model) -> list[dict]:
     return out
 
 
-#: the guide's bending beyond mu eta''^2 / 2 (``bars._guide_curvature``)
-_CURVATURE_TEXT = (
-    r" Being inextensible, the guide bends with its exact curvature $\eta''/\sqrt{1-\eta'^2}$ to fourth order "
-    r"in the amplitudes (the order of its shortening): its strain energy has "
-    r"$\tfrac12\mu\int_0^1\eta'^2\eta''^2\,d\xi = \tfrac12\mu\sum g_a g_b g_c g_d\,"
-    r"(\psi'_a\psi'_b,\psi''_c\psi''_d)$ beyond $\tfrac12\mu\,(\eta'',\eta'')$, in (17) and, by its "
-    r"$\beta$ derivative, in the equation of $\beta$ (the closed forms below: each a power of $\beta$ on "
-    r"the span and of $1-\beta$ on the overhang, times a number). Its points move along the chord as it "
-    r"bends: its kinetic energy has that motion's, "
-    r"$\tfrac12\int_0^1\bigl(\sum_{a,b} g_a\dot g_b H_{ab}\bigr)^2 d\xi = \tfrac12\sum (H_{ab},H_{cd})\,"
-    r"g_a\dot g_b\,g_c\dot g_d$, $H_{ab}(\xi) = \int_0^\xi\psi'_a\psi'_b\,d\xi$, whose Lagrange terms "
-    r"enter (17) and the equation of $\beta$ (the rigid-body part of its axial inertia is its tension's)."
-)
+def _curvature_text(ipt) -> str:
+    """The guide's fourth-order geometry (``bars._guide_curvature``, ``bars._guide_shortening``),
+    shown as the symbols of ``bars._shown_as``: what they are, and how many entries their tables
+    have (not listed)."""
+    count = {name: sum(1 for e in ipt.matrix(name) if e != 0) for name in (CURVATURE, SHORTENING)}
+    return (
+        r" Being inextensible, the guide bends with its exact curvature $\eta''/\sqrt{1-\eta'^2}$ to fourth order "
+        r"in the amplitudes (the order of its shortening): its strain energy has $\mu\,\mathcal{E}$ beyond "
+        r"$\tfrac12\mu\,(\eta'',\eta'')$, $\mathcal{E} = \tfrac12\int_0^1\eta'^2\eta''^2\,d\xi = "
+        r"\tfrac12\sum g_a g_b g_c g_d\,(\psi'_a\psi'_b,\psi''_c\psi''_d)$, in (17) as "
+        r"$\mu\,\mathcal{E}_k = \mu\,\partial\mathcal{E}/\partial g_k$ and in the equation of $\beta$ as "
+        r"$\mu\,\mathcal{E}_\beta = \mu\,\partial\mathcal{E}/\partial\beta$. Its points move along the chord "
+        r"as it bends: its kinetic energy has that motion's, $\mathcal{Z} = \tfrac12\int_0^1\bigl(\sum_{a,b} "
+        r"g_a\dot g_b H_{ab}\bigr)^2 d\xi = \tfrac12\sum (H_{ab},H_{cd})\,g_a\dot g_b\,g_c\dot g_d$, "
+        r"$H_{ab}(\xi) = \int_0^\xi\psi'_a\psi'_b\,d\xi$, whose Lagrange terms enter (17) as "
+        r"$\mathcal{Z}_k = \frac{d}{d\tau}\frac{\partial\mathcal{Z}}{\partial\dot g_k} - "
+        r"\frac{\partial\mathcal{Z}}{\partial g_k}$ and the equation of $\beta$ as "
+        r"$\mathcal{Z}_\beta = -\partial\mathcal{Z}/\partial\beta$ (the rigid-body part of its axial inertia is "
+        r"its tension's). Their tables, "
+        + f"{count[CURVATURE]} entries $(\\psi'_a\\psi'_b,\\psi''_c\\psi''_d)$ and {count[SHORTENING]} "
+        + r"$(H_{ab},H_{cd})$ over the pairs $a \le b$, $c \le d$, are not listed: each is a number times a power "
+        r"of $\beta$ on the span plus one times a power of $1-\beta$ on the overhang (every function is a power "
+        r"of $\beta$ times a fixed function of $\xi/\beta$ there, and of $1-\beta$ times one of "
+        r"$(\xi-\beta)/(1-\beta)$ beyond), the numbers integrals of the fixed functions "
+        r"(\texttt{symgen.model.slot}); the emitted model holds them."
+    )
 
 
 def _tension_text(scene, model, name: str, pr) -> str:
