@@ -108,13 +108,20 @@ class ModelInfo:
         return {body: (tuple(f), tuple(g)) for body, (f, g) in groups.items()}
 
     @cached_property
+    def slot_joints(self) -> dict[str, dict[str, Any]]:
+        """guide -> its slot joint's structure record (one slot per guide)."""
+        return {
+            j["ends"][1][0]: j
+            for j in self.structure.get("joints", [])
+            if j.get("kind") == "slot" and len(j["ends"]) == 2
+        }
+
+    @cached_property
     def slot_guides(self) -> frozenset[str]:
         """The guides of slot joints: their functions psi(xi, beta) move with the contact, so the
         range check reads their slopes scaled by the contact (``symgen.numerics.checks.guide_tables``),
         not fixed samples of xi (``range_tables``)."""
-        return frozenset(
-            j["ends"][1][0] for j in self.structure.get("joints", []) if j.get("kind") == "slot" and len(j["ends"]) == 2
-        )
+        return frozenset(self.slot_joints)
 
     @property
     def linear_strain(self) -> bool:

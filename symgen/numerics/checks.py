@@ -103,10 +103,7 @@ def guide_tables(info: ModelInfo) -> dict[str, tuple[GuideSamples, int]]:
         return _GUIDES[info.key]
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
     guides: dict[str, tuple[GuideSamples, int]] = {}
-    for joint in info.structure.get("joints", []):
-        if joint.get("kind") != "slot" or len(joint["ends"]) != 2:
-            continue
-        body = joint["ends"][1][0]
+    for body, joint in info.slot_joints.items():
         if body not in info.amplitudes or not info.amplitudes[body][1]:
             continue
         slopes = read_guide(bodies[body], joint)

@@ -600,10 +600,6 @@ def _solve_positive(K: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return x, ok
 
 
-def _guides(structure: dict[str, Any]) -> set[str]:
-    return {j["ends"][1][0] for j in structure.get("joints", []) if j.get("kind") == "slot"}
-
-
 #: the output rows the estimate reads at most (evenly spaced)
 SAMPLES = 400
 
@@ -630,7 +626,7 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = SAMPL
     stretch_kept = STRETCH_KEPT.get(eff.strain, False)
     structure = mech.info.structure
     bodies = {b["name"]: b for b in structure["bodies"]}
-    slots = _guides(structure)
+    slots = mech.info.slot_guides
     bars: list[_Bar] = [
         _Bar(mech, name, _samples(bodies[name]), f_idx, g_idx, order, strain_order, stretch_kept)
         for name, (f_idx, g_idx) in mech.amplitudes.items()
@@ -640,11 +636,10 @@ def model_form_estimate(mech: Mechanism, result: SimResult, samples: int = SAMPL
     if guides:
         from symgen.numerics.checks import read_guide
 
-        joints = {j["ends"][1][0]: j for j in structure.get("joints", []) if j.get("kind") == "slot"}
         q_all = np.asarray(result.q, dtype=float)
         for name in guides:
             beta = mech.info.coordinate(CoordKind.BETA, name)
-            read = read_guide(bodies[name], joints[name])
+            read = read_guide(bodies[name], mech.info.slot_joints[name])
             bars.append(_Guide(mech, name, read, mech.amplitudes[name][1], beta, float(np.mean(q_all[:, beta]))))
     rows = np.unique(np.linspace(0, len(result.tau) - 1, min(samples, len(result.tau))).astype(int))
     Q, V, Lam = (np.asarray(x, dtype=float)[rows] for x in (result.q, result.v, result.lam))

@@ -258,9 +258,7 @@ def _amplitude_checks(plan: StartPlan, info: ModelInfo) -> list[dict]:
     from symgen.model.shape_samples import guide_samples, shape_samples
 
     bodies = {b["name"]: b for b in info.structure.get("bodies", [])}
-    slots = {
-        j["ends"][1][0]: j for j in info.structure.get("joints", []) if j.get("kind") == "slot" and len(j["ends"]) == 2
-    }
+    slots = info.slot_joints
     checks = []
     for group in plan.amplitudes:
         body = group.body
