@@ -753,15 +753,8 @@ def _guide_curvature(t, g: list, beta: sp.Symbol) -> tuple:
     pairs = curvature_pairs(len(g))
     n = len(pairs)
     sq = [(1 if a == b else 2) * g[a] * g[b] for a, b in pairs]
-    E: dict = {}
-    for i, (a, b) in enumerate(pairs):
-        for j, (c, d) in enumerate(pairs):
-            label = (
-                rf"\left(\psi'_{{{{{a + 1}}}}}\psi'_{{{{{b + 1}}}}},\psi''_{{{{{c + 1}}}}}\psi''_{{{{{d + 1}}}}}\right)"
-            )
-            entry = t.mat(CURVATURE, i, j, label)
-            if entry != 0:
-                E[i, j] = entry
+    table = t.matrix(CURVATURE)  # the closed forms (shown as symbols: ``_shown_as``)
+    E = {(i, j): table[i, j] for i in range(n) for j in range(n) if table[i, j] != 0}
     both = [
         sp.Add(*[E[i, j] * sq[j] for j in range(n) if (i, j) in E], *[E[j, i] * sq[j] for j in range(n) if (j, i) in E])
         for i in range(n)
@@ -799,14 +792,12 @@ def _guide_shortening(t, g: list, dg: list, ddg: list, beta: sp.Symbol, dbeta: s
     w_rate = [
         dg[a] ** 2 + g[a] * ddg[a] if a == b else 2 * dg[a] * dg[b] + g[a] * ddg[b] + g[b] * ddg[a] for a, b in pairs
     ]
+    table = t.matrix(SHORTENING)  # the closed forms, symmetric (shown as symbols: ``_shown_as``)
     Z: dict = {}
-    for i, (a, b) in enumerate(pairs):
+    for i in range(n):
         for j in range(i, n):
-            c, d = pairs[j]
-            label = rf"\left(H_{{{{{a + 1}{b + 1}}}}},H_{{{{{c + 1}{d + 1}}}}}\right)"
-            entry = t.mat(SHORTENING, i, j, label)
-            if entry != 0:
-                Z[i, j] = Z[j, i] = entry
+            if table[i, j] != 0:
+                Z[i, j] = Z[j, i] = table[i, j]
     dZ = {key: sp.diff(z, beta) for key, z in Z.items()}
     rate = [sp.Add(*[Z[i, j] * w_rate[j] + dbeta * dZ[i, j] * w[j] for j in range(n) if (i, j) in Z]) for i in range(n)]
     forces = []

@@ -86,13 +86,7 @@ def _shortest(expr: sp.Expr, pos: dict) -> sp.Expr:
     return min(forms, key=lambda x: (len(sp.latex(x)), forms.index(x)))
 
 
-_KIND_ORDER = {
-    name: i
-    for i, name in enumerate(
-        ["gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "Kb", "Kbb", CURVATURE, "d" + CURVATURE]
-        + [SHORTENING, "d" + SHORTENING]
-    )
-}
+_KIND_ORDER = {name: i for i, name in enumerate(["gram", "Kt", "dKt", "T1", "dT1", "T2", "dT2", "Kb", "Kbb"])}
 
 
 def _ip_rows(eqs, beta: sp.Symbol, used: set, pr, beta0: float | None, pos: dict) -> list[dict]:
