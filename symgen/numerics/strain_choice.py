@@ -61,8 +61,9 @@ R = TypeVar("R")
 #: frequency, model_form._Bar.slow_axial_force: a slider's axial ringing's peaks were amplified; 16: an
 #: output zero to round-off over the run decides nothing, SimResult.peaks; a scene with a slot guide,
 #: whose model form model_form._Guide estimates since the estimator's 17, is never decided: the exact bar
-#: is refused there, symgen.scene.strain.exact_refused)
-ESTIMATOR_VERSION = "16"
+#: is refused there, symgen.scene.strain.exact_refused; 17: a coupled mode's drift read in a band
+#: spanning its frequency's sweep along the run, model_form.swept_bands)
+ESTIMATOR_VERSION = "17"
 
 
 def _question(scene: Scene) -> dict[str, Any]:
