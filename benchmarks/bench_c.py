@@ -118,6 +118,7 @@ def _one(path: str, repeats: int) -> dict:
     comp = {}
     for key, file in (
         ("model", src / f"{name}.c"),
+        ("jac", src / f"{name}_jac.c"),
         ("solver", src / f"{name}_solver.c"),
         ("casadi_res", work / "cas_res.c"),
     ):
@@ -144,6 +145,7 @@ def _one(path: str, repeats: int) -> dict:
             f"-I{work}",
             str(work / "bench.c"),
             str(work / "model.o"),
+            str(work / "jac.o"),
             str(work / "casadi_res.o"),
             "-o",
             str(work / "bench"),
@@ -169,6 +171,7 @@ def _one(path: str, repeats: int) -> dict:
             *CFLAGS,
             f"-I{src}",
             str(src / f"{name}.c"),
+            str(src / f"{name}_jac.c"),
             str(src / f"{name}_solver.c"),
             str(src / f"{name}_sim.c"),
             "-o",

@@ -100,7 +100,9 @@ def library(name: str) -> ctypes.CDLL:
     from symgen.backends.c.build import compile_shared
 
     src = sources(name)
-    so = compile_shared([src / f"{name}.c", src / f"{name}_solver.c"], WORK / f"lib{name}.so", include=[src])
+    so = compile_shared(
+        [src / f"{name}.c", src / f"{name}_jac.c", src / f"{name}_solver.c"], WORK / f"lib{name}.so", include=[src]
+    )
     return ctypes.CDLL(str(so))
 
 
@@ -110,7 +112,9 @@ def simulator(name: str) -> Path:
 
     src = sources(name)
     return compile_executable(
-        [src / f"{name}.c", src / f"{name}_solver.c", src / f"{name}_sim.c"], WORK / f"{name}_sim", include=[src]
+        [src / f"{name}.c", src / f"{name}_jac.c", src / f"{name}_solver.c", src / f"{name}_sim.c"],
+        WORK / f"{name}_sim",
+        include=[src],
     )
 
 

@@ -169,7 +169,7 @@ def test_emit_c_compiles_strict_and_runs_the_quasi_static_functions(tmp_path):
     scene = mech.scene
     out = write_c(scene, tmp_path / "c")
     n = scene.name
-    files = [str(out / f) for f in (f"{n}.c", f"{n}_solver.c", f"{n}_sim.c")]
+    files = [str(out / f) for f in (f"{n}.c", f"{n}_jac.c", f"{n}_solver.c", f"{n}_sim.c")]
     for cmd in (["gcc", "-std=c99"], ["g++", "-x", "c++"]):
         flags = ["-Wall", "-Wextra", "-pedantic", "-Werror", "-O1", f"-I{out}"]
         proc = subprocess.run(

@@ -140,3 +140,34 @@ def test_the_estimate_of_a_solver_c_run_measures_the_c_solvers_time_error(cache)
             assert got is not None and value > 0
             print(f"{name}: truncation after C {got:.3e}, after IDAS {value:.3e}")
             assert 0.8 < got / value < 1.25, name
+
+
+def test_a_first_run_with_solver_c_derives_its_scene_once(cache, monkeypatch):
+    """The emitted C solver's first build takes the model the run derived for its CasADi
+    Functions (``CompiledModel.take_derived``) instead of deriving the scene again; a later
+    build (the model from the cache) derives it (the C is emitted from SymPy)."""
+    from symgen.api import simulate_scene
+    from symgen.model import derive as derive_module
+    from symgen.model.structure import structure_key, structure_of
+
+    keys: list[str] = []
+    real = derive_module.derive
+
+    def counted(scene):
+        keys.append(structure_key(structure_of(scene)))
+        return real(scene)
+
+    monkeypatch.setattr(derive_module, "derive", counted)
+    sets = [*SHORT, "effects.strain=von_karman"]
+    first = simulate_scene(SLIDER, sets, solver="c")
+    assert keys and len(keys) == len(set(keys)), keys  # each model derived once
+    # the C library is cached now: a run with another tolerance builds nothing and derives nothing
+    keys.clear()
+    again = simulate_scene(SLIDER, sets, solver="c")
+    assert keys == []
+    np.testing.assert_array_equal(np.asarray(first.outputs), np.asarray(again.outputs))
+    # the library removed, the model cached: the C build derives the scene itself, once
+    for entry in _c_entries(cache):
+        shutil.rmtree(entry)
+    simulate_scene(SLIDER, sets, solver="c")
+    assert len(keys) == 1

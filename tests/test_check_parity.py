@@ -42,7 +42,9 @@ def _executable(path, over, folder):
     src = write_c(path, folder / "c", over)
     name = mechanism(path, over).scene.name
     return compile_executable(
-        [src / f"{name}.c", src / f"{name}_solver.c", src / f"{name}_sim.c"], folder / f"{name}_sim", include=[src]
+        [src / f"{name}.c", src / f"{name}_jac.c", src / f"{name}_solver.c", src / f"{name}_sim.c"],
+        folder / f"{name}_sim",
+        include=[src],
     )
 
 
@@ -192,7 +194,7 @@ def _c_probe(column, ratio):
         d, src = column["folder"], column["src"]
         (d / "probe.c").write_text(PROBE)
         column["probe"] = compile_executable(
-            [src / "column.c", src / "column_solver.c", d / "probe.c"], d / "probe", include=[src]
+            [src / "column.c", src / "column_jac.c", src / "column_solver.c", d / "probe.c"], d / "probe", include=[src]
         )
     out = subprocess.run(
         [str(column["probe"]), *_load(ratio).split("=")], capture_output=True, text=True, timeout=60

@@ -66,7 +66,8 @@ def test_preamble_and_symbols(name):
     scene_hash = mechanism(name).scene.hash
     folder = sources(name)
     files = sorted(p.name for p in folder.iterdir())
-    generated = ["CMakeLists.txt", f"{name}.h", f"{name}.c", f"{name}_solver.h", f"{name}_solver.c", f"{name}_sim.c"]
+    generated = ["CMakeLists.txt", f"{name}.h", f"{name}.c", f"{name}_jac.c", f"{name}_solver.h", f"{name}_solver.c"]
+    generated.append(f"{name}_sim.c")
     assert files == sorted(generated + list(RUNTIME_FILES))
     for runtime_file, text in runtime_files().items():  # the runtime: copied, not rendered
         assert (folder / runtime_file).read_text() == text
@@ -93,7 +94,7 @@ def test_preamble_and_symbols(name):
 @pytest.mark.parametrize("name", NAMES)
 def test_compiles_strict_c99_and_cxx(name):
     folder = sources(name)
-    for src in (f"{name}.c", f"{name}_solver.c", f"{name}_sim.c"):
+    for src in (f"{name}.c", f"{name}_jac.c", f"{name}_solver.c", f"{name}_sim.c"):
         for cmd in (
             ["gcc", "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
             ["g++", "-x", "c++", "-Wall", "-Wextra", "-pedantic", "-Werror", "-O1"],
@@ -316,7 +317,7 @@ def test_edge_scenes_compile_and_match_python(build, tmp_path):
     scene = load_scene(path, overrides)
     out = write_c(scene, tmp_path / "c")
     n = scene.name
-    files = [str(out / f) for f in (f"{n}.c", f"{n}_solver.c", f"{n}_sim.c")]
+    files = [str(out / f) for f in (f"{n}.c", f"{n}_jac.c", f"{n}_solver.c", f"{n}_sim.c")]
     for cmd in (["gcc", "-std=c99"], ["g++", "-x", "c++"]):
         proc = subprocess.run(
             [
@@ -372,7 +373,7 @@ def test_both_examples_link_into_one_program():
     src = {n: sources(n) for n in NAMES}
     main = WORK / "both_main.c"
     main.write_text(MAIN_BOTH)
-    files = [main] + [src[n] / f for n in NAMES for f in (f"{n}.c", f"{n}_solver.c")]
+    files = [main] + [src[n] / f for n in NAMES for f in (f"{n}.c", f"{n}_jac.c", f"{n}_solver.c")]
     exe = WORK / "both"
     cmd = [
         "gcc",

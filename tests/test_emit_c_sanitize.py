@@ -76,7 +76,7 @@ def _objects(name: str) -> tuple:
     out = WORK / f"san_{name}"
     out.mkdir(exist_ok=True)
     objs = []
-    for unit in (name, f"{name}_solver"):
+    for unit in (name, f"{name}_jac", f"{name}_solver"):
         _compile(["-c", src / f"{unit}.c", f"-I{src}"], out / f"{unit}.o")
         objs.append(out / f"{unit}.o")
     return tuple(objs)

@@ -51,6 +51,7 @@ def test_fmpy_validates_the_fmu(name):
     assert {
         f"binaries/linux64/{name}.so",
         f"sources/{name}_fmi2.c",
+        f"sources/{name}_jac.c",
         f"sources/{name}_solver.c",
         "sources/fmi2Functions.h",
         "modelDescription.xml",

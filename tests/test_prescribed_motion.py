@@ -433,7 +433,7 @@ def test_emitted_c_follows_the_law(case, tmp_path):
     model_c = (out / f"{n}.c").read_text()
     if case == "ramp":
         assert "?" in model_c and "cos(" in model_c  # Piecewise -> ternary, cos of the ramp
-    files = [str(out / f) for f in (f"{n}.c", f"{n}_solver.c", f"{n}_sim.c")]
+    files = [str(out / f) for f in (f"{n}.c", f"{n}_jac.c", f"{n}_solver.c", f"{n}_sim.c")]
     proc = subprocess.run(
         [
             "gcc",

@@ -294,7 +294,9 @@ def test_emitted_c_with_rotary_inertias_matches_python(tmp_path):
         render_files(c_context(mech.scene, derive(mech.scene), start_plan(mech), mech.info)), tmp_path / "c"
     )
     exe = compile_executable(
-        [src / "c_rotor.c", src / "c_rotor_solver.c", src / "c_rotor_sim.c"], tmp_path / "c_rotor_sim", include=[src]
+        [src / "c_rotor.c", src / "c_rotor_jac.c", src / "c_rotor_solver.c", src / "c_rotor_sim.c"],
+        tmp_path / "c_rotor_sim",
+        include=[src],
     )
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr

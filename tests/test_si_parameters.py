@@ -119,7 +119,9 @@ def _simulator(scene_path, out, overrides=()):
 
     src = write_c(scene_path, out, list(overrides))
     return compile_executable(
-        [src / "si_arm.c", src / "si_arm_solver.c", src / "si_arm_sim.c"], out / "si_arm_sim", include=[src]
+        [src / "si_arm.c", src / "si_arm_jac.c", src / "si_arm_solver.c", src / "si_arm_sim.c"],
+        out / "si_arm_sim",
+        include=[src],
     )
 
 

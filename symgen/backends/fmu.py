@@ -149,7 +149,7 @@ def fmu_context(scene, ctx: dict) -> dict:
         "variables": variables,
         "input_flags": [1 if name in inputs else 0 for name in params],
         "output_indices": list(range(1, len(outputs) + 1)),
-        "sources": [f"{prefix}.c", f"{prefix}_solver.c", f"{prefix}_fmi2.c"],
+        "sources": ctx_sources(prefix),
     }
 
 
@@ -189,6 +189,7 @@ def fmu_files(scene, ctx: dict) -> dict:
         {
             "{p}.h": "model.h.jinja",
             "{p}.c": "model.c.jinja",
+            "{p}_jac.c": "model_jac.c.jinja",
             "{p}_solver.h": "solver.h.jinja",
             "{p}_solver.c": "solver.c.jinja",
             "{p}_fmi2.c": "fmi2.c.jinja",
@@ -262,4 +263,7 @@ def write_fmu(scene, path: Path, ctx: dict, cc: str | None = None) -> Path:
 
 
 def ctx_sources(prefix: str) -> list[str]:
-    return [f"{prefix}.c", f"{prefix}_solver.c", f"{prefix}_fmi2.c"]
+    """The C sources of an FMU of the model ``prefix`` (its ``sources/`` folder)."""
+    from symgen.backends.c.render import library_sources
+
+    return [*library_sources(prefix), f"{prefix}_fmi2.c"]

@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     from symgen.ir.plan import StartPlan
 
 FORMAT = "symgen-c-solver-cache"
-FORMAT_VERSION = 3  # 2: keyed hashes (HMAC-SHA256 with the user's key); 3: a shared library, not an executable
+FORMAT_VERSION = 4  # 4: the Jacobians in a unit of their own (PREFIX_jac.c) at the cold flags; 2: keyed hashes (HMAC-SHA256 with the user's key); 3: a shared library, not an executable
 LIBRARY = "solver.so"
 #: Integrator steps per call into the library: between calls a SIGINT/SIGTERM stops the run
 #: (a step costs 10-200 us: the run answers within tens of milliseconds)
@@ -259,15 +259,20 @@ def _build(
     store: bool,
     replace: bool,
 ) -> bytes:
-    """Emit the scene's C and compile the model and the solver (two units, in parallel, each
-    compiler in a process group of its own) into one shared library."""
-    from symgen.model.derive import derive
+    """Emit the scene's C and compile the model, its Jacobians (at the cold flags) and the solver
+    (three units, in parallel, each compiler in a process group of its own) into one shared
+    library."""
     from symgen.backends.c import c_context
+    from symgen.backends.casadi import pipeline
+    from symgen.model.derive import derive
+    from symgen.model.structure import structure_key, structure_of
     from symgen.backends.c.build import STRICT_C
-    from symgen.backends.c.render import render_files
+    from symgen.backends.c.render import library_sources, render_files
 
     scene = mech.scene
-    ctx = c_context(scene, derive(scene), plan, info=mech.info)
+    # the model this process derived for the run (a first run), else derived now
+    model = pipeline.take_derived(scene, structure_key(structure_of(scene))) or derive(scene)
+    ctx = c_context(scene, model, plan, info=mech.info)
     files = render_files(ctx)
     prefix = ctx["prefix"]
     parent, store = compiled.build_folder(where, store)
@@ -277,7 +282,11 @@ def _build(
         for name, text in files.items():
             (src / name).parent.mkdir(parents=True, exist_ok=True)
             (src / name).write_text(text)
-        units = [src / f"{prefix}{s}.c" for s in ("", "_solver")]
+        units = [src / name for name in library_sources(prefix)]
+        # the Jacobians (evaluated once per Jacobian update, a few dozen times a run) at the cold
+        # flags: slot_dyad's 0.74 MB of them took gcc 2+ minutes and 1.8 GB at -O1, 3.4 s at -O0
+        jac = units[1]
+        cold = compiled.cold_flags(comp)
         try:
             blob = compiled.link_units(
                 comp,
@@ -287,6 +296,7 @@ def _build(
                 f"the C solver in {len(units)} parts",
                 "leave out --solver c to run with IDAS without compiling it",
                 " on the emitted C",
+                flags_of=lambda unit: cold if unit == jac else comp.flags,
             )
         except compiled.Unavailable as exc:
             raise _no_compiler(exc.reason) from None

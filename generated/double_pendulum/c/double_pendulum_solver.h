@@ -16,7 +16,7 @@
  *   double_pendulum_phi_jac: 30 operations, 0 temporaries, 8 nonzeros of 2x32
  *   double_pendulum_phid_jac: 60 operations, 0 temporaries, 14 nonzeros of 2x32
  *   double_pendulum_phidd_jac: 90 operations, 0 temporaries, 20 nonzeros of 2x32
- *   double_pendulum_res_jac: 1333 operations, 401 temporaries, 286 nonzeros of 10x32
+ *   double_pendulum_res_jac: 1336 operations, 401 temporaries, 286 nonzeros of 10x32
  */
 
 #ifndef SYMGEN_double_pendulum_SOLVER_H

@@ -15,8 +15,8 @@
  *   five_bar_closure: 32 operations, 4 temporaries
  *   five_bar_phi_jac: 29 operations, 7 temporaries, 12 nonzeros of 4x31
  *   five_bar_phid_jac: 47 operations, 17 temporaries, 22 nonzeros of 4x31
- *   five_bar_phidd_jac: 101 operations, 34 temporaries, 32 nonzeros of 4x31
- *   five_bar_res_jac: 1017 operations, 323 temporaries, 128 nonzeros of 9x31
+ *   five_bar_phidd_jac: 105 operations, 33 temporaries, 32 nonzeros of 4x31
+ *   five_bar_res_jac: 1021 operations, 321 temporaries, 128 nonzeros of 9x31
  */
 
 /*

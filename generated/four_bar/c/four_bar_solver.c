@@ -15,8 +15,8 @@
  *   four_bar_closure: 41 operations, 6 temporaries
  *   four_bar_phi_jac: 47 operations, 15 temporaries, 21 nonzeros of 3x84
  *   four_bar_phid_jac: 92 operations, 30 temporaries, 41 nonzeros of 3x84
- *   four_bar_phidd_jac: 190 operations, 49 temporaries, 61 nonzeros of 3x84
- *   four_bar_res_jac: 3571 operations, 891 temporaries, 690 nonzeros of 27x84
+ *   four_bar_phidd_jac: 195 operations, 48 temporaries, 61 nonzeros of 3x84
+ *   four_bar_res_jac: 3534 operations, 885 temporaries, 690 nonzeros of 27x84
  */
 
 #include <string.h>

@@ -15,8 +15,8 @@
  *   four_bar_tool_closure: 27 operations, 3 temporaries
  *   four_bar_tool_phi_jac: 28 operations, 7 temporaries, 11 nonzeros of 3x36
  *   four_bar_tool_phid_jac: 50 operations, 17 temporaries, 21 nonzeros of 3x36
- *   four_bar_tool_phidd_jac: 108 operations, 31 temporaries, 31 nonzeros of 3x36
- *   four_bar_tool_res_jac: 4411 operations, 890 temporaries, 304 nonzeros of 11x36
+ *   four_bar_tool_phidd_jac: 108 operations, 30 temporaries, 31 nonzeros of 3x36
+ *   four_bar_tool_res_jac: 4649 operations, 906 temporaries, 304 nonzeros of 11x36
  */
 
 #include <string.h>

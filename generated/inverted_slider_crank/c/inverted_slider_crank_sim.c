@@ -15,8 +15,8 @@
  *   inverted_slider_crank_closure: 51 operations, 10 temporaries
  *   inverted_slider_crank_phi_jac: 86 operations, 24 temporaries, 19 nonzeros of 3x36
  *   inverted_slider_crank_phid_jac: 202 operations, 55 temporaries, 37 nonzeros of 3x36
- *   inverted_slider_crank_phidd_jac: 435 operations, 103 temporaries, 55 nonzeros of 3x36
- *   inverted_slider_crank_res_jac: 3407 operations, 773 temporaries, 172 nonzeros of 11x36
+ *   inverted_slider_crank_phidd_jac: 435 operations, 105 temporaries, 55 nonzeros of 3x36
+ *   inverted_slider_crank_res_jac: 3494 operations, 804 temporaries, 172 nonzeros of 11x36
  */
 
 /*

@@ -16,7 +16,7 @@
  *   motor_arm_phi_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phid_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
  *   motor_arm_phidd_jac: 0 operations, 0 temporaries, 0 nonzeros of 0x18
- *   motor_arm_res_jac: 1135 operations, 308 temporaries, 107 nonzeros of 6x18
+ *   motor_arm_res_jac: 1107 operations, 300 temporaries, 107 nonzeros of 6x18
  */
 
 /*

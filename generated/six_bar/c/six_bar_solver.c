@@ -15,8 +15,8 @@
  *   six_bar_closure: 64 operations, 13 temporaries
  *   six_bar_phi_jac: 63 operations, 16 temporaries, 31 nonzeros of 5x47
  *   six_bar_phid_jac: 115 operations, 38 temporaries, 61 nonzeros of 5x47
- *   six_bar_phidd_jac: 240 operations, 69 temporaries, 91 nonzeros of 5x47
- *   six_bar_res_jac: 2448 operations, 541 temporaries, 256 nonzeros of 14x47
+ *   six_bar_phidd_jac: 241 operations, 68 temporaries, 91 nonzeros of 5x47
+ *   six_bar_res_jac: 2789 operations, 550 temporaries, 256 nonzeros of 14x47
  */
 
 #include <string.h>

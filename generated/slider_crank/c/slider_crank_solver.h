@@ -15,8 +15,8 @@
  *   slider_crank_closure: 21 operations, 2 temporaries
  *   slider_crank_phi_jac: 24 operations, 5 temporaries, 4 nonzeros of 2x14
  *   slider_crank_phid_jac: 47 operations, 11 temporaries, 7 nonzeros of 2x14
- *   slider_crank_phidd_jac: 97 operations, 22 temporaries, 10 nonzeros of 2x14
- *   slider_crank_res_jac: 391 operations, 130 temporaries, 48 nonzeros of 4x14
+ *   slider_crank_phidd_jac: 99 operations, 23 temporaries, 10 nonzeros of 2x14
+ *   slider_crank_res_jac: 393 operations, 130 temporaries, 48 nonzeros of 4x14
  */
 
 #ifndef SYMGEN_slider_crank_SOLVER_H

@@ -18,7 +18,9 @@ plain C99) beside them, ``fmu`` packs and compiles.
 Files written by ``write_c`` (prefix = the scene name):
 
 =====================  =========================================================
-``PREFIX.h/.c``        model functions (residual, closure, outputs, Jacobians), names, defaults
+``PREFIX.h/.c``        model functions (residual, closure, outputs), names, defaults
+``PREFIX_jac.c``       their Jacobians (a unit of their own: evaluated once per Jacobian
+                       update, compiled with cold flags by ``symgen simulate --solver c``)
 ``PREFIX_solver.h/.c`` the model descriptor; includes the runtime (internal linkage)
 ``symgen_*.h/.c``      the C runtime: consistent start, Radau IIA, closure polish, checks
 ``PREFIX_sim.c``       driver: prints ``tau,<outputs>`` CSV like ``symgen simulate``

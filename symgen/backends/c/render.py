@@ -15,11 +15,24 @@ TEMPLATES = templates.folder("c")
 C_FILES = {
     "{p}.h": "model.h.jinja",
     "{p}.c": "model.c.jinja",
+    "{p}_jac.c": "model_jac.c.jinja",
     "{p}_solver.h": "solver.h.jinja",
     "{p}_solver.c": "solver.c.jinja",
     "{p}_sim.c": "sim.c.jinja",
     "CMakeLists.txt": "CMakeLists.txt.jinja",
 }
+
+
+#: the model library's translation units (after the prefix): the model functions, their Jacobians
+#: (a unit of their own: compiled with cold flags by the in-process build, ``symgen.numerics.csolver``)
+#: and the solver (which includes the C runtime)
+LIBRARY_UNITS = ("", "_jac", "_solver")
+
+
+def library_sources(prefix: str) -> list[str]:
+    """The C files of the model library ``prefix`` (the driver ``PREFIX_sim.c`` and an FMU's
+    ``PREFIX_fmi2.c`` link with them)."""
+    return [f"{prefix}{unit}.c" for unit in LIBRARY_UNITS]
 
 
 def environment() -> jinja2.Environment:

@@ -10,12 +10,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from symgen import cache
 from symgen.ir.info import ModelInfo
 from symgen.scene.model import Scene
+
+if TYPE_CHECKING:
+    from symgen.ir.records import DerivedModel  # SymPy: not imported on a cached run
 
 
 def cache_dir() -> Path:
@@ -46,7 +51,24 @@ def compile_scene(scene: Scene, use_cache: bool = True, lazy: bool = False) -> C
     model = derive(scene)
     if use_cache:
         _sample_shapes(model.structure)
+    _DERIVED[(scene.hash, key)] = model
+    while len(_DERIVED) > DERIVED_KEPT:
+        _DERIVED.popitem(last=False)
     return _build(model, use_cache, replace)
+
+
+#: the models :func:`compile_scene` derived last in this process, by (the scene's hash, the model's
+#: structure key), at most ``DERIVED_KEPT``, until :func:`take_derived` takes one: the emitted C
+#: solver's first build (``symgen.numerics.csolver``) renders its C from the model the run derived,
+#: instead of deriving the scene again (slot_dyad: 12.6 s twice; "derive once")
+_DERIVED: OrderedDict[tuple[str, str], DerivedModel] = OrderedDict()
+DERIVED_KEPT = 2
+
+
+def take_derived(scene: Scene, key: str) -> DerivedModel | None:
+    """The model of ``scene`` (structure ``key``) that :func:`compile_scene` derived in this
+    process, once (it is then dropped), or None."""
+    return _DERIVED.pop((scene.hash, key), None)
 
 
 def _sample_shapes(structure: dict) -> None:
