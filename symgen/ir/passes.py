@@ -103,9 +103,10 @@ def partials(expr: sp.Expr, targets: set[sp.Symbol]) -> dict[sp.Symbol, sp.Expr]
     entries), in one pass over the expression's tree with each shared subexpression
     differentiated once: sums, products, powers and functions by their rules (a function's
     derivative along its argument is SymPy's own ``fdiff``), anything else by ``sympy.diff``.
-    The same derivatives as ``sympy.diff(expr, y)`` for each y, whose every call walks the whole
-    tree and asks each node for its free symbols: slot_dyad's Jacobians took 186 s of the C
-    emission that way."""
+    The same derivatives as ``sympy.diff(expr, y)`` for each y (their forms may differ:
+    tests/test_passes.py, and the C Jacobians against CasADi's in tests/test_emit_c.py), whose every
+    call walks the whole tree and asks each node for its free symbols: slot_dyad's Jacobians took
+    186 s of the C emission that way (42 s in all since)."""
     memo: dict[sp.Basic, dict[sp.Symbol, sp.Expr]] = {}
 
     def add(into: dict[sp.Symbol, sp.Expr], y: sp.Symbol, d: sp.Expr) -> None:
