@@ -295,7 +295,7 @@ def _dense(repeats: int) -> list[str]:
             "gcc",
             *CFLAGS,
             f"-I{src}",
-            *(str(src / f"{name}{x}.c") for x in ("", "_solver", "_sim")),
+            *(str(src / f"{name}{x}.c") for x in ("", "_jac", "_solver", "_sim")),
             "-o",
             str(exe),
             "-lm",

@@ -254,7 +254,7 @@ def test_emitted_c_of_the_five_bar_agrees_with_python(tmp_path):
     mech = mechanism(FIVE_BAR, ["simulation.cycles=0.5"])
     src = write_c(FIVE_BAR, tmp_path / "c", ["simulation.cycles=0.5"])
     exe = compile_executable(
-        [src / f"five_bar{x}.c" for x in ("", "_solver", "_sim")], tmp_path / "five_bar_sim", include=[src]
+        [src / f"five_bar{x}.c" for x in ("", "_jac", "_solver", "_sim")], tmp_path / "five_bar_sim", include=[src]
     )
     proc = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
