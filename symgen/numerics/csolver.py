@@ -284,7 +284,7 @@ def _build(
             (src / name).write_text(text)
         units = [src / name for name in library_sources(prefix)]
         # the Jacobians (evaluated once per Jacobian update, a few dozen times a run) at the cold
-        # flags: slot_dyad's 0.74 MB of them took gcc 2+ minutes and 1.8 GB at -O1, 3.4 s at -O0
+        # flags: slot_dyad's 0.74 MB of them took gcc 73 s of CPU and 1.8 GB at -O1, 3.4 s at -O0
         jac = units[1]
         cold = compiled.cold_flags(comp)
         try:
