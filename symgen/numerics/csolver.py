@@ -267,7 +267,7 @@ def _build(
     from symgen.model.derive import derive
     from symgen.model.structure import structure_key, structure_of
     from symgen.backends.c.build import STRICT_C
-    from symgen.backends.c.render import library_sources, render_files
+    from symgen.backends.c.render import JAC_UNIT, library_sources, render_files
 
     scene = mech.scene
     # the model this process derived for the run (a first run), else derived now
@@ -285,7 +285,7 @@ def _build(
         units = [src / name for name in library_sources(prefix)]
         # the Jacobians (evaluated once per Jacobian update, a few dozen times a run) at the cold
         # flags: slot_dyad's 0.74 MB of them took gcc 73 s of CPU and 1.8 GB at -O1, 3.4 s at -O0
-        jac = units[1]
+        jac = src / f"{prefix}{JAC_UNIT}.c"
         cold = compiled.cold_flags(comp)
         try:
             blob = compiled.link_units(

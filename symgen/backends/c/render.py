@@ -26,7 +26,8 @@ C_FILES = {
 #: the model library's translation units (after the prefix): the model functions, their Jacobians
 #: (a unit of their own: compiled with cold flags by the in-process build, ``symgen.numerics.csolver``)
 #: and the solver (which includes the C runtime)
-LIBRARY_UNITS = ("", "_jac", "_solver")
+JAC_UNIT = "_jac"
+LIBRARY_UNITS = ("", JAC_UNIT, "_solver")
 
 
 def library_sources(prefix: str) -> list[str]:
